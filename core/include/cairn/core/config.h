@@ -1,0 +1,54 @@
+// Configuration files (YAML, parsed by yaml-cpp) with validation that names the file, field, value and rule.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace cairn::core {
+
+/// A configuration file or value is invalid. The message names the file, the field, the value and the rule.
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Read-only view of one YAML mapping (a config file or a section of it). Unknown keys are an error, so a
+/// typo such as `lock_keep_sec` is reported instead of silently ignored.
+class ConfigSection {
+ public:
+  /// Parses `path`. @throws ConfigError when the file is missing, unreadable, not YAML, or not a mapping.
+  static ConfigSection LoadFile(const std::string& path);
+  /// Parses YAML text (for tests); `origin` names it in errors.
+  static ConfigSection LoadText(const std::string& text, const std::string& origin);
+
+  ConfigSection(const ConfigSection&);
+  ConfigSection& operator=(const ConfigSection&);
+  ~ConfigSection();
+
+  /// The sub-mapping `key`, or an empty section when absent. @throws ConfigError if present but not a map.
+  ConfigSection Section(const std::string& key) const;
+
+  /// Reads `key` as a finite number, keeping `*value` when absent. @throws ConfigError (non-number, NaN, inf).
+  void ReadDouble(const std::string& key, double* value) const;
+  void ReadInt(const std::string& key, int* value) const;
+  void ReadBool(const std::string& key, bool* value) const;
+  void ReadString(const std::string& key, std::string* value) const;
+
+  /// Throws ConfigError when a key other than `known` is present.
+  void RejectUnknownKeys(const std::vector<std::string>& known) const;
+
+  /// "file.yaml: agent.lock_keep_s" — the dotted path of `key` for error messages.
+  std::string Where(const std::string& key) const;
+
+  struct Impl;  ///< yaml-cpp state, kept out of this header.
+
+ private:
+  explicit ConfigSection(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cairn::core

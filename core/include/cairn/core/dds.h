@@ -1,0 +1,209 @@
+// DDS plumbing shared by every Cairn process: participants created only from the shipped XML profiles,
+// typed writers and readers over fastddsgen types, and a checked entity chain with clear errors.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+#include <fastdds/dds/core/status/LivelinessChangedStatus.hpp>
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/DataWriterListener.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+#include <fastrtps/types/TypesBase.h>
+
+namespace cairn::core {
+
+/// A DDS entity could not be created or configured. The message names the entity, profile and cause.
+class DdsError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Largest domain id Fast DDS 2.9.1 accepts (port 7400 + 250·d must fit in 16 bits); beyond it the library
+/// calls exit(1), so every id is checked here first.
+inline constexpr long kMaxDomainId = 232;
+
+/// Checks a domain id given as text (CLI flag, config) and returns it.
+/// @throws std::invalid_argument naming `field` and the value when it is not an integer in [0, 232].
+int ParseDomainId(const std::string& text, const std::string& field = "--domain");
+
+/// Default location of the shipped profiles file (config/dds_profiles.xml of the source tree), overridable
+/// with the environment variable CAIRN_DDS_PROFILES.
+std::string DefaultProfilesFile();
+
+/// How a participant is created.
+struct ParticipantOptions {
+  int domain_id = 0;                                    ///< DDS domain, [0, 232].
+  std::string profiles_file = DefaultProfilesFile();    ///< Fast DDS XML profiles file.
+  std::string participant_profile = "cairn.loopback";  ///< participant profile name in that file.
+  std::string name = "cairn";                           ///< participant name seen by peers.
+  /// Profiles other than loopback-only are refused unless this is set (network safety, DESIGN.md).
+  bool allow_network = false;
+};
+
+/// One DomainParticipant with one publisher and one subscriber, built from an XML profile.
+///
+/// The participant is never created with Fast DDS default transports: the profile must load, must exist,
+/// and unless `allow_network` it must disable built-in transports and whitelist only 127.0.0.1.
+/// Destruction deletes every contained entity and the participant (no /dev/shm or port leftovers).
+class Participant {
+ public:
+  /// @throws DdsError naming the profiles file, profile or entity that failed; std::invalid_argument for a
+  ///         domain id out of range.
+  explicit Participant(const ParticipantOptions& options);
+  ~Participant();
+  Participant(const Participant&) = delete;
+  Participant& operator=(const Participant&) = delete;
+
+  eprosima::fastdds::dds::DomainParticipant* get() const { return participant_; }
+  eprosima::fastdds::dds::Publisher* publisher() const { return publisher_; }
+  eprosima::fastdds::dds::Subscriber* subscriber() const { return subscriber_; }
+  const ParticipantOptions& options() const { return options_; }
+
+  /// Registers `type` (once per type name) and returns the topic `topic_name`, creating it on first use.
+  /// @throws DdsError when registration or creation fails.
+  eprosima::fastdds::dds::Topic* GetTopic(const std::string& topic_name,
+                                          eprosima::fastdds::dds::TypeSupport type);
+
+ private:
+  ParticipantOptions options_;
+  eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
+  eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
+  eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
+  std::mutex mutex_;
+};
+
+/// Typed writer for a fastddsgen type. `PubSubT` is the generated `XPubSubType`; `PubSubT::type` is X.
+/// QoS comes from the XML profile "<qos_class>.writer" (e.g. "cairn.command.writer").
+template <class PubSubT>
+class Writer : private eprosima::fastdds::dds::DataWriterListener {
+ public:
+  using Msg = typename PubSubT::type;
+
+  /// @throws DdsError when the profile is missing or the writer cannot be created.
+  Writer(Participant& participant, const std::string& topic_name, const std::string& qos_class)
+      : participant_(participant) {
+    topic_ = participant.GetTopic(topic_name, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
+    writer_ = participant.publisher()->create_datawriter_with_profile(topic_, qos_class + ".writer", this);
+    if (writer_ == nullptr) {
+      throw DdsError("cannot create writer on topic '" + topic_name + "' with QoS profile '" + qos_class +
+                     ".writer' from " + participant.options().profiles_file);
+    }
+  }
+  ~Writer() override {
+    participant_.publisher()->delete_datawriter(writer_);
+  }
+  Writer(const Writer&) = delete;
+  Writer& operator=(const Writer&) = delete;
+
+  /// Publishes one sample; false when Fast DDS refuses it (history full of unacknowledged samples, etc.).
+  bool Write(const Msg& msg) { return writer_->write(const_cast<Msg*>(&msg)); }
+
+  /// Number of matched readers.
+  int matched() const { return matched_.load(); }
+
+  /// Waits until at least `count` readers matched; false on timeout.
+  bool WaitForMatched(int count, std::chrono::milliseconds timeout) const {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (matched_.load() < count) {
+      if (std::chrono::steady_clock::now() > deadline) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return true;
+  }
+
+  eprosima::fastdds::dds::DataWriter* get() const { return writer_; }
+
+ private:
+  void on_publication_matched(eprosima::fastdds::dds::DataWriter*,
+                              const eprosima::fastdds::dds::PublicationMatchedStatus& status) override {
+    matched_.store(status.current_count);
+  }
+
+  Participant& participant_;
+  eprosima::fastdds::dds::Topic* topic_ = nullptr;
+  eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
+  std::atomic<int> matched_{0};
+};
+
+/// Typed reader for a fastddsgen type, calling `on_sample` on the DDS listener thread for each valid sample
+/// and `on_liveliness` when a matched writer's liveliness changes. QoS from "<qos_class>.reader".
+/// Callbacks must be thread-safe with respect to the owner's state.
+template <class PubSubT>
+class Reader : private eprosima::fastdds::dds::DataReaderListener {
+ public:
+  using Msg = typename PubSubT::type;
+  using SampleCallback = std::function<void(const Msg&, const eprosima::fastdds::dds::SampleInfo&)>;
+  using LivelinessCallback = std::function<void(const eprosima::fastdds::dds::LivelinessChangedStatus&)>;
+
+  /// @throws DdsError when the profile is missing or the reader cannot be created.
+  Reader(Participant& participant, const std::string& topic_name, const std::string& qos_class,
+         SampleCallback on_sample, LivelinessCallback on_liveliness = nullptr)
+      : participant_(participant), on_sample_(std::move(on_sample)), on_liveliness_(std::move(on_liveliness)) {
+    topic_ = participant.GetTopic(topic_name, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
+    reader_ = participant.subscriber()->create_datareader_with_profile(topic_, qos_class + ".reader", this);
+    if (reader_ == nullptr) {
+      throw DdsError("cannot create reader on topic '" + topic_name + "' with QoS profile '" + qos_class +
+                     ".reader' from " + participant.options().profiles_file);
+    }
+  }
+  ~Reader() override {
+    reader_->set_listener(nullptr);
+    participant_.subscriber()->delete_datareader(reader_);
+  }
+  Reader(const Reader&) = delete;
+  Reader& operator=(const Reader&) = delete;
+
+  int matched() const { return matched_.load(); }
+
+  /// Waits until at least `count` writers matched; false on timeout.
+  bool WaitForMatched(int count, std::chrono::milliseconds timeout) const {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (matched_.load() < count) {
+      if (std::chrono::steady_clock::now() > deadline) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return true;
+  }
+
+  eprosima::fastdds::dds::DataReader* get() const { return reader_; }
+
+ private:
+  void on_data_available(eprosima::fastdds::dds::DataReader* reader) override {
+    Msg msg;
+    eprosima::fastdds::dds::SampleInfo info;
+    while (reader->take_next_sample(&msg, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
+      if (info.valid_data && on_sample_) on_sample_(msg, info);
+    }
+  }
+  void on_liveliness_changed(eprosima::fastdds::dds::DataReader*,
+                             const eprosima::fastdds::dds::LivelinessChangedStatus& status) override {
+    if (on_liveliness_) on_liveliness_(status);
+  }
+  void on_subscription_matched(eprosima::fastdds::dds::DataReader*,
+                               const eprosima::fastdds::dds::SubscriptionMatchedStatus& status) override {
+    matched_.store(status.current_count);
+  }
+
+  Participant& participant_;
+  SampleCallback on_sample_;
+  LivelinessCallback on_liveliness_;
+  eprosima::fastdds::dds::Topic* topic_ = nullptr;
+  eprosima::fastdds::dds::DataReader* reader_ = nullptr;
+  std::atomic<int> matched_{0};
+};
+
+}  // namespace cairn::core

@@ -1,0 +1,134 @@
+#include "cairn/core/dds.h"
+
+#include <cstdlib>
+#include <fstream>
+
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+
+#ifndef CAIRN_CONFIG_DIR
+#error "CAIRN_CONFIG_DIR must be defined by the build"
+#endif
+
+namespace cairn::core {
+
+namespace dds = eprosima::fastdds::dds;
+using eprosima::fastrtps::types::ReturnCode_t;
+
+int ParseDomainId(const std::string& text, const std::string& field) {
+  std::size_t used = 0;
+  long value = -1;
+  try {
+    value = std::stol(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size()) {
+    throw std::invalid_argument(field + " '" + text + "' is not an integer (valid DDS domain ids: 0..232)");
+  }
+  if (value < 0 || value > kMaxDomainId) {
+    throw std::invalid_argument(field + " " + text + " is out of range: DDS domain ids are 0..232");
+  }
+  return static_cast<int>(value);
+}
+
+std::string DefaultProfilesFile() {
+  if (const char* env = std::getenv("CAIRN_DDS_PROFILES"); env != nullptr && *env != '\0') return env;
+  return std::string(CAIRN_CONFIG_DIR) + "/dds_profiles.xml";
+}
+
+namespace {
+
+// A participant QoS is loopback-only when built-in transports are off and every user transport is UDPv4
+// whitelisted to 127.0.0.1 only.
+bool IsLoopbackOnly(const dds::DomainParticipantQos& qos, std::string* why) {
+  if (qos.transport().use_builtin_transports) {
+    *why = "it keeps Fast DDS built-in transports (UDP on every interface, multicast)";
+    return false;
+  }
+  if (qos.transport().user_transports.empty()) {
+    *why = "it defines no user transport";
+    return false;
+  }
+  for (const auto& transport : qos.transport().user_transports) {
+    const auto* udp = dynamic_cast<const eprosima::fastdds::rtps::UDPv4TransportDescriptor*>(transport.get());
+    if (udp == nullptr) {
+      *why = "it uses a transport other than UDPv4";
+      return false;
+    }
+    if (udp->interfaceWhiteList.empty()) {
+      *why = "its UDPv4 transport has no interface whitelist";
+      return false;
+    }
+    for (const auto& address : udp->interfaceWhiteList) {
+      if (address != "127.0.0.1") {
+        *why = "its UDPv4 whitelist contains " + address;
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+Participant::Participant(const ParticipantOptions& options) : options_(options) {
+  if (options.domain_id < 0 || options.domain_id > kMaxDomainId) {
+    throw std::invalid_argument("domain id " + std::to_string(options.domain_id) +
+                                " is out of range: DDS domain ids are 0..232");
+  }
+  if (!std::ifstream(options.profiles_file).good()) {
+    throw DdsError("DDS profiles file '" + options.profiles_file + "' cannot be read");
+  }
+  auto* factory = dds::DomainParticipantFactory::get_instance();
+  if (factory->load_XML_profiles_file(options.profiles_file) != ReturnCode_t::RETCODE_OK) {
+    throw DdsError("DDS profiles file '" + options.profiles_file + "' is not valid Fast DDS XML");
+  }
+  dds::DomainParticipantQos qos;
+  if (factory->get_participant_qos_from_profile(options.participant_profile, qos) != ReturnCode_t::RETCODE_OK) {
+    throw DdsError("participant profile '" + options.participant_profile + "' is not defined in " +
+                   options.profiles_file);
+  }
+  std::string why;
+  if (!options.allow_network && !IsLoopbackOnly(qos, &why)) {
+    throw DdsError("participant profile '" + options.participant_profile + "' is not loopback-only: " + why +
+                   "; refusing to start without allow_network");
+  }
+  qos.name(options.name);
+  participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options.domain_id), qos);
+  if (participant_ == nullptr) {
+    throw DdsError("cannot create DDS participant '" + options.name + "' in domain " +
+                   std::to_string(options.domain_id) + " with profile '" + options.participant_profile + "'");
+  }
+  publisher_ = participant_->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
+  subscriber_ = participant_->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);
+  if (publisher_ == nullptr || subscriber_ == nullptr) {
+    participant_->delete_contained_entities();
+    factory->delete_participant(participant_);
+    throw DdsError("cannot create the publisher/subscriber of participant '" + options.name + "'");
+  }
+}
+
+Participant::~Participant() {
+  if (participant_ == nullptr) return;
+  participant_->delete_contained_entities();
+  dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+}
+
+dds::Topic* Participant::GetTopic(const std::string& topic_name, dds::TypeSupport type) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (participant_->find_type(type.get_type_name()).empty()) {
+    if (type.register_type(participant_) != ReturnCode_t::RETCODE_OK) {
+      throw DdsError("cannot register DDS type '" + type.get_type_name() + "'");
+    }
+  }
+  if (auto* existing = dynamic_cast<dds::Topic*>(participant_->lookup_topicdescription(topic_name))) {
+    return existing;
+  }
+  dds::Topic* topic = participant_->create_topic(topic_name, type.get_type_name(), dds::TOPIC_QOS_DEFAULT);
+  if (topic == nullptr) throw DdsError("cannot create DDS topic '" + topic_name + "'");
+  return topic;
+}
+
+}  // namespace cairn::core

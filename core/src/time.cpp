@@ -1,0 +1,12 @@
+#include "cairn/core/time.h"
+
+namespace cairn::core {
+
+WallStamp WallNow() {
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                      std::chrono::system_clock::now().time_since_epoch())
+                      .count();
+  return WallStamp{static_cast<int32_t>(ns / 1000000000LL), static_cast<uint32_t>(ns % 1000000000LL)};
+}
+
+}  // namespace cairn::core
