@@ -69,7 +69,7 @@ ConfigSection ConfigSection::Section(const std::string& key) const {
   return ConfigSection(std::move(impl));
 }
 
-void ConfigSection::ReadDouble(const std::string& key, double* value) const {
+void ConfigSection::ReadDouble(const std::string& key, double* value, bool allow_infinity) const {
   const YAML::Node child = impl_->node[key];
   if (!child) return;
   double parsed = 0.0;
@@ -79,7 +79,10 @@ void ConfigSection::ReadDouble(const std::string& key, double* value) const {
   } catch (const YAML::Exception&) {
     throw ConfigError(Where(key) + " = '" + text + "' is not a number");
   }
-  if (!std::isfinite(parsed)) throw ConfigError(Where(key) + " = '" + text + "' must be finite");
+  if (std::isnan(parsed) || (std::isinf(parsed) && !(allow_infinity && parsed > 0))) {
+    throw ConfigError(Where(key) + " = '" + text + "' must be a finite number" +
+                      (allow_infinity ? " or .inf" : ""));
+  }
   *value = parsed;
 }
 

@@ -32,8 +32,9 @@ class ConfigSection {
   /// The sub-mapping `key`, or an empty section when absent. @throws ConfigError if present but not a map.
   ConfigSection Section(const std::string& key) const;
 
-  /// Reads `key` as a finite number, keeping `*value` when absent. @throws ConfigError (non-number, NaN, inf).
-  void ReadDouble(const std::string& key, double* value) const;
+  /// Reads `key` as a finite number, keeping `*value` when absent. @throws ConfigError (non-number, NaN, and
+  /// inf unless `allow_infinity`; YAML spells infinity `.inf`).
+  void ReadDouble(const std::string& key, double* value, bool allow_infinity = false) const;
   void ReadInt(const std::string& key, int* value) const;
   void ReadBool(const std::string& key, bool* value) const;
   void ReadString(const std::string& key, std::string* value) const;

@@ -1,0 +1,88 @@
+// The basestation's view of the fleet and its command channel to robots: host discovery (agent info with
+// liveliness), robot and behavior-tree state, and commands answered by the robots' command interfaces.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cairn/core/time.h"
+#include "cairn_msgs.h"
+
+namespace cairn::base {
+
+/// What the basestation knows about one robot.
+struct RobotView {
+  std::string robot_id;
+  std::string platform;
+  std::vector<std::string> capabilities;
+  std::optional<cairn_msgs::RobotState> state;         ///< latest state, if any arrived
+  std::optional<cairn_msgs::BehaviorTreeState> tree;   ///< latest behavior-tree state
+  core::SteadyTime last_seen{};                        ///< last agent info or state
+  bool lost = false;                                   ///< liveliness lost or state silent > lost_after_s
+  std::string lost_reason;
+};
+
+/// Outcome of one command as seen by the operator.
+struct CommandOutcome {
+  bool ok = false;           ///< accepted by the robot
+  std::string result;        ///< "accepted" | "denied" | "discarded" | "timeout" | "error"
+  std::string reason;        ///< the robot's reason, or the local error
+  std::string holder_id;     ///< control holder reported by the robot
+  std::string mode;          ///< robot mode after the command
+  double round_trip_ms = 0;  ///< command -> acknowledgement
+  uint32_t request_id = 0;   ///< id the command was sent with (a waypoint's goal id)
+};
+
+/// Options of the fleet client.
+struct FleetClientOptions {
+  std::string base_id;                 ///< required; [A-Za-z0-9_-]{1,64}
+  int domain_id = 0;                   ///< [0, 232]
+  std::string dds_profiles_file;       ///< "" = shipped loopback-only profiles
+  double command_timeout_s = 3.0;      ///< give up waiting for an acknowledgement, (0, 60]
+  double command_retry_s = 0.5;        ///< resend an unacknowledged command (robots de-duplicate), (0, 10]
+  double lost_after_s = 3.0;           ///< a robot whose state is silent this long is shown lost, (0, 60]
+};
+
+/// DDS client of one basestation. Thread-safe.
+class FleetClient {
+ public:
+  /// @throws core::DdsError / std::invalid_argument naming the field at fault.
+  explicit FleetClient(const FleetClientOptions& options);
+  ~FleetClient();
+
+  const std::string& base_id() const;
+
+  /// Snapshot of every robot seen so far, sorted by id (staleness applied at `now`).
+  std::vector<RobotView> Robots() const;
+  /// One robot, if seen.
+  std::optional<RobotView> Robot(const std::string& robot_id) const;
+
+  /// Waits up to `timeout_s` until `robot_id` is known and alive. false on timeout.
+  bool WaitForRobot(const std::string& robot_id, double timeout_s) const;
+
+  /// Waits up to `timeout_s` until `predicate(view)` holds for `robot_id` (evaluated on every update).
+  /// Returns the view that satisfied it, or nullopt on timeout.
+  std::optional<RobotView> WaitUntil(const std::string& robot_id, double timeout_s,
+                                     const std::function<bool(const RobotView&)>& predicate) const;
+
+  CommandOutcome RequestControl(const std::string& robot_id);
+  CommandOutcome ReleaseControl(const std::string& robot_id);
+  CommandOutcome RequestMode(const std::string& robot_id, const std::string& mode);
+  CommandOutcome SendWaypoint(const std::string& robot_id, double x_m, double y_m, double tolerance_m = 0.0);
+  /// Publishes one teleop twist (best effort, no acknowledgement). false if it could not be written.
+  bool PublishTeleop(const std::string& robot_id, double linear_x_mps, double angular_z_radps);
+
+  class Impl;  ///< DDS entities and the fleet model, kept out of this header.
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cairn::base

@@ -1,0 +1,348 @@
+#include "cairn/base/command_shell.h"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+namespace cairn::base {
+
+namespace msgs = cairn_msgs;
+using nlohmann::json;
+
+namespace {
+
+std::vector<std::string> Tokenize(const std::string& line) {
+  std::vector<std::string> tokens;
+  std::istringstream in(line);
+  std::string token;
+  while (in >> token) {
+    if (token[0] == '#') break;
+    tokens.push_back(token);
+  }
+  return tokens;
+}
+
+// Parses a finite number; on failure sets `error` naming the argument and the value.
+bool ParseNumber(const std::string& text, const char* name, double* value, std::string* error) {
+  std::size_t used = 0;
+  try {
+    *value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(*value)) {
+    *error = std::string(name) + " '" + text + "' is not a finite number";
+    return false;
+  }
+  return true;
+}
+
+const char* NavStatusName(msgs::NavStatus s) {
+  switch (s) {
+    case msgs::NAV_STATUS_NONE:
+      return "none";
+    case msgs::NAV_STATUS_ACTIVE:
+      return "active";
+    case msgs::NAV_STATUS_ARRIVED:
+      return "arrived";
+    case msgs::NAV_STATUS_FAILED:
+      return "failed";
+  }
+  return "?";
+}
+
+double YawOf(const msgs::Quaternion& q) {
+  return std::atan2(2.0 * (q.w() * q.z() + q.x() * q.y()), 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z()));
+}
+
+json ViewJson(const RobotView& v) {
+  json j = {{"robot", v.robot_id},
+            {"platform", v.platform},
+            {"lost", v.lost},
+            {"seen_s_ago", core::SecondsBetween(v.last_seen, core::SteadyClock::now())}};
+  if (v.lost) j["lost_reason"] = v.lost_reason;
+  if (v.state) {
+    const auto& s = *v.state;
+    j["mode"] = s.mode();
+    j["holder"] = s.holder_id();
+    j["holder_alive"] = s.holder_alive();
+    j["x_m"] = s.pose_MB().position().x_m();
+    j["y_m"] = s.pose_MB().position().y_m();
+    j["z_m"] = s.pose_MB().position().z_m();
+    j["yaw_rad"] = YawOf(s.pose_MB().orientation());
+    j["linear_x_mps"] = s.twist_B().linear_x_mps();
+    j["angular_z_radps"] = s.twist_B().angular_z_radps();
+    j["active_channel"] = s.active_channel();
+    j["mux_reason"] = s.mux_reason();
+    j["discarded_commands"] = s.discarded_commands();
+    j["nav_status"] = NavStatusName(s.nav_status());
+    j["nav_reason"] = s.nav_reason();
+    j["nav_goal_id"] = s.nav_goal_id();
+    j["nav_distance_left_m"] = s.nav_distance_left_m();
+    j["in_contact"] = s.in_contact();
+  }
+  if (v.tree) {
+    j["valid_modes"] = v.tree->valid_modes();
+    j["last_refusal"] = v.tree->last_refusal();
+  }
+  return j;
+}
+
+std::string Fixed(double value, int digits) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(digits) << value;
+  return out.str();
+}
+
+}  // namespace
+
+CommandShell::CommandShell(FleetClient& client, bool json_output, std::ostream& out)
+    : client_(client), json_(json_output), out_(out), created_(core::SteadyClock::now()) {}
+
+const std::vector<std::string>& CommandShell::CommandNames() {
+  static const std::vector<std::string> kNames = {"robots", "status", "request-control", "release", "mode",
+                                                  "goto",   "teleop", "stop",            "wait",    "sleep",
+                                                  "help"};
+  return kNames;
+}
+
+std::string CommandShell::Help() {
+  return "commands:\n"
+         "  robots                              every robot: id, platform, mode, holder, pose, last seen\n"
+         "  status R                            full state of robot R (mux channel, valid modes, navigation)\n"
+         "  request-control R                   ask for R's control lock (denied if another basestation holds it)\n"
+         "  release R                           give R's control lock back (the robot stops)\n"
+         "  mode R MODE                         switch R to idle | manual | waypoint\n"
+         "  goto R X Y [TOL]                    drive R to (X, Y) metres in the map frame\n"
+         "  teleop R VX_MPS WZ_RADPS DURATION_S drive R manually for DURATION_S, then stop sending\n"
+         "  stop R                              switch R to idle (zero twist)\n"
+         "  wait R arrived|idle|mode=M|online|lost [TIMEOUT_S]  block until R reaches that state (default 60 s)\n"
+         "  sleep S                             pause a script for S seconds\n"
+         "  help                                this text\n"
+         "Refusals print the robot's reason; a refused or failed command exits non-zero.";
+}
+
+int CommandShell::UsageError(const std::string& command, const std::string& message) {
+  if (json_) {
+    out_ << json{{"command", command}, {"ok", false}, {"result", "usage"}, {"reason", message}}.dump() << std::endl;
+  } else {
+    out_ << command << ": " << message << std::endl;
+  }
+  return kUsage;
+}
+
+int CommandShell::Report(const std::string& command, const std::string& robot, const CommandOutcome& o) {
+  if (json_) {
+    out_ << json{{"command", command},       {"robot", robot},   {"ok", o.ok},
+                 {"result", o.result},       {"reason", o.reason}, {"holder", o.holder_id},
+                 {"mode", o.mode},           {"round_trip_ms", o.round_trip_ms},
+                 {"request_id", o.request_id}}
+                .dump()
+         << std::endl;
+  } else {
+    out_ << command << " " << robot << ": " << o.result;
+    if (!o.reason.empty()) out_ << ": " << o.reason;
+    if (o.ok) out_ << " (mode " << o.mode << ", holder " << (o.holder_id.empty() ? "none" : o.holder_id) << ")";
+    out_ << std::endl;
+  }
+  return o.ok ? kOk : kRefused;
+}
+
+int CommandShell::Execute(const std::string& line) {
+  const std::vector<std::string> t = Tokenize(line);
+  if (t.empty()) return kOk;
+  const std::string& cmd = t[0];
+  const std::vector<std::string> args(t.begin() + 1, t.end());
+  auto need = [&](std::size_t n, const char* usage) -> bool {
+    if (args.size() == n) return true;
+    UsageError(cmd, std::string("usage: ") + usage);
+    return false;
+  };
+  if (cmd == "help") {
+    if (json_) {
+      out_ << json{{"command", "help"}, {"ok", true}, {"text", Help()}}.dump() << std::endl;
+    } else {
+      out_ << Help() << std::endl;
+    }
+    return kOk;
+  }
+  if (cmd == "robots") return args.empty() ? Robots() : UsageError(cmd, "usage: robots");
+  if (cmd == "status") return need(1, "status R") ? Status(args) : kUsage;
+  if (cmd == "request-control") return need(1, "request-control R") ? Control(args, true) : kUsage;
+  if (cmd == "release") return need(1, "release R") ? Control(args, false) : kUsage;
+  if (cmd == "mode") return need(2, "mode R MODE") ? Mode(args) : kUsage;
+  if (cmd == "stop") return need(1, "stop R") ? Mode({args[0], "idle"}) : kUsage;
+  if (cmd == "goto") return Goto(args);
+  if (cmd == "teleop") return need(4, "teleop R VX_MPS WZ_RADPS DURATION_S") ? Teleop(args) : kUsage;
+  if (cmd == "wait") return Wait(args);
+  if (cmd == "sleep") return need(1, "sleep S") ? Sleep(args) : kUsage;
+  return UsageError(cmd, "unknown command '" + cmd + "' (try help)");
+}
+
+int CommandShell::Robots() {
+  // A fresh basestation needs a moment of discovery before its list means anything.
+  std::this_thread::sleep_until(created_ + std::chrono::milliseconds(1500));
+  const auto views = client_.Robots();
+  if (json_) {
+    json list = json::array();
+    for (const auto& v : views) list.push_back(ViewJson(v));
+    out_ << json{{"command", "robots"}, {"ok", true}, {"robots", list}}.dump() << std::endl;
+    return kOk;
+  }
+  out_ << std::left << std::setw(10) << "ROBOT" << std::setw(9) << "PLATFORM" << std::setw(10) << "MODE"
+       << std::setw(10) << "HOLDER" << std::setw(26) << "POSE (x, y, yaw)" << "LAST SEEN" << std::endl;
+  for (const auto& v : views) {
+    std::string mode = "?", holder = "-", pose = "?";
+    if (v.state) {
+      mode = v.state->mode();
+      holder = v.state->holder_id().empty() ? "-" : v.state->holder_id();
+      if (!v.state->holder_alive()) holder += "(lost)";
+      pose = "(" + Fixed(v.state->pose_MB().position().x_m(), 2) + ", " +
+             Fixed(v.state->pose_MB().position().y_m(), 2) + ", " + Fixed(YawOf(v.state->pose_MB().orientation()), 2) +
+             ")";
+    }
+    const std::string seen = v.lost ? "LOST (" + v.lost_reason + ")"
+                                    : Fixed(core::SecondsBetween(v.last_seen, core::SteadyClock::now()), 1) + " s ago";
+    out_ << std::left << std::setw(10) << v.robot_id << std::setw(9) << v.platform << std::setw(10) << mode
+         << std::setw(10) << holder << std::setw(26) << pose << seen << std::endl;
+  }
+  if (views.empty()) out_ << "(no robots discovered yet)" << std::endl;
+  return kOk;
+}
+
+int CommandShell::Status(const std::vector<std::string>& args) {
+  client_.WaitForRobot(args[0], 3.0);
+  const auto view = client_.Robot(args[0]);
+  if (!view) {
+    CommandOutcome o;
+    o.result = "error";
+    o.reason = "unknown robot '" + args[0] + "'";
+    return Report("status", args[0], o);
+  }
+  const json j = ViewJson(*view);
+  if (json_) {
+    json out = j;
+    out["command"] = "status";
+    out["ok"] = !view->lost;
+    out_ << out.dump() << std::endl;
+  } else {
+    for (const auto& [key, value] : j.items()) out_ << "  " << std::left << std::setw(20) << key << value << std::endl;
+  }
+  return view->lost ? kRefused : kOk;
+}
+
+int CommandShell::Control(const std::vector<std::string>& args, bool request) {
+  return Report(request ? "request-control" : "release", args[0],
+                request ? client_.RequestControl(args[0]) : client_.ReleaseControl(args[0]));
+}
+
+int CommandShell::Mode(const std::vector<std::string>& args) {
+  return Report("mode", args[0], client_.RequestMode(args[0], args[1]));
+}
+
+int CommandShell::Goto(const std::vector<std::string>& args) {
+  if (args.size() != 3 && args.size() != 4) return UsageError("goto", "usage: goto R X Y [TOL]");
+  double x = 0, y = 0, tolerance = 0;
+  std::string error;
+  if (!ParseNumber(args[1], "X", &x, &error) || !ParseNumber(args[2], "Y", &y, &error) ||
+      (args.size() == 4 && !ParseNumber(args[3], "TOL", &tolerance, &error))) {
+    return UsageError("goto", error);
+  }
+  const CommandOutcome o = client_.SendWaypoint(args[0], x, y, tolerance);
+  if (o.ok) last_goal_id_[args[0]] = o.request_id;
+  return Report("goto", args[0], o);
+}
+
+int CommandShell::Teleop(const std::vector<std::string>& args) {
+  double vx = 0, wz = 0, duration = 0;
+  std::string error;
+  if (!ParseNumber(args[1], "VX_MPS", &vx, &error) || !ParseNumber(args[2], "WZ_RADPS", &wz, &error) ||
+      !ParseNumber(args[3], "DURATION_S", &duration, &error)) {
+    return UsageError("teleop", error);
+  }
+  if (duration <= 0 || duration > 600) {
+    return UsageError("teleop", "DURATION_S '" + args[3] + "' must be in (0, 600]");
+  }
+  const std::string& robot = args[0];
+  const auto view = client_.WaitForRobot(robot, 3.0) ? client_.Robot(robot) : std::nullopt;
+  if (!view || !view->state || view->state->mode() != "manual") {
+    const CommandOutcome o = client_.RequestMode(robot, "manual");
+    if (!o.ok) return Report("teleop", robot, o);
+  }
+  // Stream at 10 Hz for the duration, then fall silent: the robot's mux stops it after teleop_timeout_s.
+  const auto start = core::SteadyClock::now();
+  int sent = 0;
+  while (core::SecondsBetween(start, core::SteadyClock::now()) < duration) {
+    if (client_.PublishTeleop(robot, vx, wz)) ++sent;
+    std::this_thread::sleep_until(start + std::chrono::milliseconds(100 * (sent + 1)));
+  }
+  CommandOutcome o;
+  o.ok = true;
+  o.result = "accepted";
+  o.reason = "sent " + std::to_string(sent) + " twists over " + Fixed(duration, 1) + " s";
+  o.mode = "manual";
+  if (const auto v = client_.Robot(robot); v && v->state) o.holder_id = v->state->holder_id();
+  return Report("teleop", robot, o);
+}
+
+int CommandShell::Wait(const std::vector<std::string>& args) {
+  if (args.size() != 2 && args.size() != 3) {
+    return UsageError("wait", "usage: wait R arrived|idle|mode=M|online|lost [TIMEOUT_S]");
+  }
+  const std::string& robot = args[0];
+  const std::string& what = args[1];
+  double timeout = 60;
+  std::string error;
+  if (args.size() == 3 && (!ParseNumber(args[2], "TIMEOUT_S", &timeout, &error) || timeout < 0)) {
+    return UsageError("wait", error.empty() ? "TIMEOUT_S '" + args[2] + "' must be >= 0" : error);
+  }
+  std::function<bool(const RobotView&)> done;
+  std::string failure;
+  const uint32_t goal_id = last_goal_id_.count(robot) ? last_goal_id_[robot] : 0;
+  if (what == "arrived") {
+    done = [&](const RobotView& v) {
+      if (!v.state || (goal_id != 0 && v.state->nav_goal_id() != goal_id)) return false;
+      if (v.state->nav_status() == msgs::NAV_STATUS_FAILED) failure = "navigation failed: " + v.state->nav_reason();
+      if (v.lost) failure = "robot lost (" + v.lost_reason + ")";
+      return v.state->nav_status() == msgs::NAV_STATUS_ARRIVED || !failure.empty();
+    };
+  } else if (what == "idle" || what.rfind("mode=", 0) == 0) {
+    const std::string mode = what == "idle" ? "idle" : what.substr(5);
+    done = [mode](const RobotView& v) { return v.state && !v.lost && v.state->mode() == mode; };
+  } else if (what == "online") {
+    done = [](const RobotView& v) { return !v.lost; };
+  } else if (what == "lost") {
+    done = [](const RobotView& v) { return v.lost; };
+  } else {
+    return UsageError("wait", "condition '" + what + "' is not one of arrived, idle, mode=M, online, lost");
+  }
+  const auto start = core::SteadyClock::now();
+  const auto view = client_.WaitUntil(robot, timeout, done);
+  CommandOutcome o;
+  o.ok = view.has_value() && failure.empty();
+  o.result = o.ok ? "accepted" : (view ? "failed" : "timeout");
+  o.reason = !failure.empty() ? failure
+             : view         ? what + " after " + Fixed(core::SecondsBetween(start, core::SteadyClock::now()), 2) + " s"
+                            : "robot " + robot + " not " + what + " within " + Fixed(timeout, 1) + " s";
+  if (view && view->state) {
+    o.mode = view->state->mode();
+    o.holder_id = view->state->holder_id();
+  }
+  o.round_trip_ms = core::SecondsBetween(start, core::SteadyClock::now()) * 1000.0;
+  return Report("wait", robot, o);
+}
+
+int CommandShell::Sleep(const std::vector<std::string>& args) {
+  double seconds = 0;
+  std::string error;
+  if (!ParseNumber(args[0], "S", &seconds, &error) || seconds < 0 || seconds > 3600) {
+    return UsageError("sleep", error.empty() ? "S '" + args[0] + "' must be in [0, 3600]" : error);
+  }
+  std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+  return kOk;
+}
+
+}  // namespace cairn::base

@@ -1,0 +1,112 @@
+// cairn_base: one operator's basestation. Interactive REPL on a terminal, line-by-line commands otherwise,
+// or one command after `--`. See --help.
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+#include <editline/readline.h>
+#include <spdlog/spdlog.h>
+
+#include "cairn/base/command_shell.h"
+#include "cairn/base/fleet_client.h"
+#include "cairn/core/dds.h"
+#include "cairn/core/shutdown.h"
+
+namespace {
+
+// Reads lines from a terminal with history (libedit), until EOF, "quit" or shutdown.
+int RunInteractive(cairn::base::CommandShell& shell, const std::string& base_id) {
+  const char* home = std::getenv("HOME");
+  const std::string history = std::string(home ? home : ".") + "/.cairn_base_history";
+  read_history(history.c_str());
+  std::cout << "cairn_base " << base_id << ": type help for commands, quit or Ctrl-D to leave." << std::endl;
+  const std::string prompt = base_id + "> ";
+  int last = cairn::base::kOk;
+  while (!cairn::core::ShutdownRequested()) {
+    char* raw = readline(prompt.c_str());
+    if (raw == nullptr) break;
+    std::string line(raw);
+    std::free(raw);
+    if (line == "quit" || line == "exit") break;
+    if (line.find_first_not_of(" \t") == std::string::npos) continue;
+    add_history(line.c_str());
+    last = shell.Execute(line);
+  }
+  write_history(history.c_str());
+  return last;
+}
+
+// Runs every line of `in`; the exit code is the first failure's (scripts stop at the first failure).
+int RunScript(cairn::base::CommandShell& shell, std::istream& in, bool keep_going) {
+  std::string line;
+  int first_failure = cairn::base::kOk;
+  while (!cairn::core::ShutdownRequested() && std::getline(in, line)) {
+    if (line == "quit" || line == "exit") break;
+    const int code = shell.Execute(line);
+    if (code != cairn::base::kOk && first_failure == cairn::base::kOk) {
+      first_failure = code;
+      if (!keep_going) break;
+    }
+  }
+  return first_failure;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cairn::core::InstallShutdownHandler();
+  cairn::base::FleetClientOptions options;
+  std::string domain_text = "0", script;
+  bool json = false, keep_going = false;
+  std::vector<std::string> command;
+
+  CLI::App app{"cairn_base: a Cairn basestation. Commands come from the terminal (REPL), from stdin line by "
+               "line, from --script FILE, or as one command after --.\n\n" +
+               cairn::base::CommandShell::Help()};
+  app.add_option("--base-id", options.base_id, "basestation id, unique in the fleet ([A-Za-z0-9_-]{1,64})")
+      ->required();
+  app.add_option("--domain", domain_text, "DDS domain id, 0..232")->capture_default_str();
+  app.add_flag("--json", json, "print one JSON object per command");
+  app.add_option("--script", script, "run the commands of FILE, stop at the first failure");
+  app.add_flag("--keep-going", keep_going, "with a script or stdin: run every line even after a failure");
+  app.add_option("--dds-profiles", options.dds_profiles_file, "Fast DDS XML profiles file (default: shipped "
+                                                              "loopback-only config/dds_profiles.xml)");
+  app.add_option("--command-timeout", options.command_timeout_s, "seconds to wait for a robot's answer")
+      ->capture_default_str();
+  app.add_option("command", command, "one command to run, after --");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+
+  try {
+    options.domain_id = cairn::core::ParseDomainId(domain_text);
+    if (!(options.command_timeout_s > 0 && options.command_timeout_s <= 60)) {
+      throw std::invalid_argument("--command-timeout " + std::to_string(options.command_timeout_s) +
+                                  " must be in (0, 60]");
+    }
+    std::ifstream script_file;
+    if (!script.empty()) {
+      script_file.open(script);
+      if (!script_file) throw std::invalid_argument("--script '" + script + "' cannot be read");
+    }
+    cairn::base::FleetClient client(options);
+    cairn::base::CommandShell shell(client, json, std::cout);
+    if (!command.empty()) {
+      std::string line;
+      for (const auto& word : command) line += (line.empty() ? "" : " ") + word;
+      return shell.Execute(line);
+    }
+    if (!script.empty()) return RunScript(shell, script_file, keep_going);
+    if (isatty(STDIN_FILENO)) return RunInteractive(shell, options.base_id);
+    return RunScript(shell, std::cin, /*keep_going=*/true);
+  } catch (const std::exception& e) {
+    spdlog::error("cairn_base {}: {}", options.base_id, e.what());
+    return cairn::base::kUsage;
+  }
+}

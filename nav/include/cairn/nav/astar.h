@@ -1,0 +1,95 @@
+// Copyright Cairn authors.
+//
+// A* path planning on a TraversabilityGrid (Hart, Nilsson & Raphael, "A Formal Basis for the Heuristic
+// Determination of Minimum Cost Paths", IEEE TSSC 1968): 8-connected cells, octile-distance heuristic
+// (admissible: every move costs at least its length), optional line-of-sight shortcutting.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "cairn/nav/traversability.h"
+
+namespace cairn::nav {
+
+/// Options of PlanPath().
+struct AStarOptions {
+  /// Extra cost per metre of ground height change between neighbouring cells, metres of path per metre of
+  /// height, range [0, 100]. Prefers flat routes.
+  double step_height_cost = 2.0;
+  /// Cells with a clearance (distance to the nearest lethal cell) below this cost more, metres, range
+  /// [0, 10]; 0 = off. Keeps paths away from walls so a tracker cutting corners does not touch them.
+  double preferred_clearance_m = 0.8;
+  /// Largest extra cost factor for a move into a cell at zero clearance (falls linearly to 0 at
+  /// preferred_clearance_m), range [0, 100]; 0 = shortest paths.
+  double clearance_cost = 1.0;
+  /// When the start cell is not traversable but the robot body there is free (see
+  /// start_footprint_radius_m), the search starts from the nearest traversable cell within this radius,
+  /// metres, range [0, 5]; 0 = never.
+  double start_escape_radius_m = 1.0;
+  /// Radius of the body disk that must be free (TraversabilityGrid::IsFootprintFree) for the start escape,
+  /// metres, range [0, 5]. Use the simulated body radius (cairn::sim::Unicycle default 0.25 m), so that a
+  /// robot allowed to leave can also move.
+  double start_footprint_radius_m = 0.25;
+  /// Replace the cell path by line-of-sight shortcuts through traversable cells whose clearance is at least
+  /// min(preferred_clearance_m, the least clearance of the replaced cells).
+  bool simplify_path = true;
+
+  /// True when every field is in range; otherwise false and, if `why` is not null, a message naming the
+  /// field, its value and the rule.
+  bool IsValid(std::string* why) const;
+};
+
+/// Result of PlanPath().
+struct PlanResult {
+  /// How the planning ended.
+  enum class Status {
+    kSuccess,       ///< path_W holds a path from start to goal.
+    kInvalidGoal,   ///< The goal has a NaN or infinite coordinate.
+    kInvalidStart,  ///< The start has a NaN or infinite coordinate.
+    kOutOfMap,      ///< The start or the goal lies outside the grid.
+    kGoalBlocked,   ///< The goal cell is not traversable.
+    kStartBlocked,  ///< The start cell is not traversable and no start escape applies.
+    kUnreachable,   ///< No traversable path joins start and goal.
+  };
+  Status status = Status::kUnreachable;
+  /// Human-readable outcome naming the values at fault, e.g. "goal (120.0, 3.0) is outside the map
+  /// x in [-8.00, 30.96], y in [-7.52, 7.44]".
+  std::string message;
+  /// Waypoints (metres, frame W), z = ground height: the start (x, y), cell centres (after the escape cell if
+  /// any; shortcut if simplify_path), the goal (x, y). Empty unless kSuccess.
+  std::vector<Eigen::Vector3d> path_W;
+  /// Planar (x-y) length of path_W, metres.
+  double length_m = 0.0;
+  /// Cells expanded by the search.
+  int expansions = 0;
+  /// True if the search started from an escape cell (see AStarOptions::start_escape_radius_m).
+  bool used_start_escape = false;
+  /// Wall-clock planning time, seconds.
+  double planning_time_s = 0.0;
+
+  /// True when status is kSuccess.
+  bool IsUsable() const { return status == Status::kSuccess; }
+};
+
+/// Name of a status, e.g. "kGoalBlocked".
+const char* ToString(PlanResult::Status status);
+
+/// Plans a path on `grid` from start_W to goal_W ((x, y), metres, frame W). Bad start or goal values are
+/// statuses with a message, never exceptions; invalid `options` (a configuration error) throw
+/// std::invalid_argument with the IsValid() message. Diagonal moves may not cut the corner of a
+/// non-traversable cell. The path only crosses traversable cells, except the start point itself when the
+/// start escape is used.
+PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start_W,
+                    const Eigen::Vector2d& goal_W, const AStarOptions& options = {});
+
+/// Planar length of a polyline (x-y only), metres.
+double PathLength2D(const std::vector<Eigen::Vector3d>& path_W);
+
+/// True if the segment from a_W to b_W ((x, y), metres, frame W) passes only through traversable cells
+/// (every cell the segment touches, corners included) whose clearance is at least min_clearance_m.
+bool SegmentTraversable(const TraversabilityGrid& grid, const Eigen::Vector2d& a_W,
+                        const Eigen::Vector2d& b_W, double min_clearance_m = 0.0);
+
+}  // namespace cairn::nav

@@ -1,0 +1,340 @@
+// Copyright Cairn authors.
+#include "cairn/nav/astar.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <limits>
+#include <queue>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+namespace cairn::nav {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kSqrt2 = 1.41421356237309504880;
+
+std::string FormatPoint(const Eigen::Vector2d& p) {
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), "(%.2f, %.2f)", p.x(), p.y());
+  return buf;
+}
+
+std::string MapExtent(const TraversabilityGrid& grid) {
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), "x in [%.2f, %.2f], y in [%.2f, %.2f]", grid.p_W_min().x(),
+                grid.p_W_max().x(), grid.p_W_min().y(), grid.p_W_max().y());
+  return buf;
+}
+
+std::string DescribeCell(const TraversabilityGrid& grid, int ix, int iy) {
+  std::ostringstream out;
+  out.precision(2);
+  out << std::fixed << "cell state " << ToString(grid.State(ix, iy));
+  if (grid.State(ix, iy) == CellState::kFree) {
+    if (grid.IsLethal(ix, iy)) {
+      out << ", top of a step higher than max_step_m " << grid.options().max_step_m << " m";
+    } else {
+      out << ", clearance " << grid.ClearanceM(ix, iy) << " m <= robot_radius_m "
+          << grid.options().robot_radius_m << " m";
+    }
+  }
+  return out.str();
+}
+
+double Octile(int dx, int dy) {
+  const int a = std::abs(dx);
+  const int b = std::abs(dy);
+  return std::max(a, b) + (kSqrt2 - 1.0) * std::min(a, b);
+}
+
+}  // namespace
+
+const char* ToString(PlanResult::Status status) {
+  switch (status) {
+    case PlanResult::Status::kSuccess:
+      return "kSuccess";
+    case PlanResult::Status::kInvalidGoal:
+      return "kInvalidGoal";
+    case PlanResult::Status::kInvalidStart:
+      return "kInvalidStart";
+    case PlanResult::Status::kOutOfMap:
+      return "kOutOfMap";
+    case PlanResult::Status::kGoalBlocked:
+      return "kGoalBlocked";
+    case PlanResult::Status::kStartBlocked:
+      return "kStartBlocked";
+    case PlanResult::Status::kUnreachable:
+      return "kUnreachable";
+  }
+  return "?";
+}
+
+bool AStarOptions::IsValid(std::string* why) const {
+  std::ostringstream msg;
+  auto range = [&msg](const char* field, double value, double lo, double hi) {
+    if (std::isfinite(value) && value >= lo && value <= hi) return true;
+    msg << "AStarOptions::" << field << " = " << value << " must be finite and in [" << lo << ", " << hi
+        << "]";
+    return false;
+  };
+  const bool ok = range("step_height_cost", step_height_cost, 0.0, 100.0) &&
+                  range("preferred_clearance_m", preferred_clearance_m, 0.0, 10.0) &&
+                  range("clearance_cost", clearance_cost, 0.0, 100.0) &&
+                  range("start_escape_radius_m", start_escape_radius_m, 0.0, 5.0) &&
+                  range("start_footprint_radius_m", start_footprint_radius_m, 0.0, 5.0);
+  if (!ok && why != nullptr) *why = msg.str();
+  return ok;
+}
+
+double PathLength2D(const std::vector<Eigen::Vector3d>& path_W) {
+  double length = 0.0;
+  for (std::size_t i = 1; i < path_W.size(); ++i) length += (path_W[i] - path_W[i - 1]).head<2>().norm();
+  return length;
+}
+
+bool SegmentTraversable(const TraversabilityGrid& grid, const Eigen::Vector2d& a_W,
+                        const Eigen::Vector2d& b_W, double min_clearance_m) {
+  int ix = 0;
+  int iy = 0;
+  int jx = 0;
+  int jy = 0;
+  if (!grid.CellOf(a_W.x(), a_W.y(), &ix, &iy) || !grid.CellOf(b_W.x(), b_W.y(), &jx, &jy)) return false;
+  auto ok = [&](int cx, int cy) {
+    return grid.InGrid(cx, cy) && grid.IsTraversable(cx, cy) && grid.ClearanceM(cx, cy) >= min_clearance_m;
+  };
+  // Grid traversal of Amanatides & Woo, "A Fast Voxel Traversal Algorithm for Ray Tracing" (Eurographics
+  // 1987), extended to visit both side cells when the segment passes exactly through a cell corner.
+  const double c = grid.cell_size_m();
+  const Eigen::Vector2d d = b_W - a_W;
+  const int step_x = d.x() > 0 ? 1 : (d.x() < 0 ? -1 : 0);
+  const int step_y = d.y() > 0 ? 1 : (d.y() < 0 ? -1 : 0);
+  const double x_min = grid.p_W_min().x();
+  const double y_min = grid.p_W_min().y();
+  double t_max_x = step_x != 0 ? ((ix + (step_x > 0 ? 1 : 0)) * c + x_min - a_W.x()) / d.x() : kInf;
+  double t_max_y = step_y != 0 ? ((iy + (step_y > 0 ? 1 : 0)) * c + y_min - a_W.y()) / d.y() : kInf;
+  const double t_delta_x = step_x != 0 ? c / std::abs(d.x()) : kInf;
+  const double t_delta_y = step_y != 0 ? c / std::abs(d.y()) : kInf;
+  if (!ok(jx, jy)) return false;
+  const int max_steps = std::abs(jx - ix) + std::abs(jy - iy) + 2;
+  for (int n = 0; n <= max_steps; ++n) {
+    if (!ok(ix, iy)) return false;
+    if (ix == jx && iy == jy) return true;
+    if (std::min(t_max_x, t_max_y) >= 1.0 - 1e-12) return true;  // The segment ends on this cell's boundary.
+    if (std::abs(t_max_x - t_max_y) < 1e-12) {
+      if (!ok(ix + step_x, iy) || !ok(ix, iy + step_y)) return false;
+      ix += step_x;
+      iy += step_y;
+      t_max_x += t_delta_x;
+      t_max_y += t_delta_y;
+    } else if (t_max_x < t_max_y) {
+      ix += step_x;
+      t_max_x += t_delta_x;
+    } else {
+      iy += step_y;
+      t_max_y += t_delta_y;
+    }
+  }
+  return false;  // Rounding made the walk miss the end cell: be conservative.
+}
+
+PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start_W,
+                    const Eigen::Vector2d& goal_W, const AStarOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  const auto t0 = std::chrono::steady_clock::now();
+  PlanResult result;
+  auto finish = [&](PlanResult::Status status, std::string message) {
+    result.status = status;
+    result.message = std::move(message);
+    result.planning_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return result;
+  };
+  using Status = PlanResult::Status;
+  if (!start_W.allFinite())
+    return finish(Status::kInvalidStart, "start " + FormatPoint(start_W) + " is not finite");
+  if (!goal_W.allFinite())
+    return finish(Status::kInvalidGoal, "goal " + FormatPoint(goal_W) + " is not finite");
+  int sx = 0;
+  int sy = 0;
+  int gx = 0;
+  int gy = 0;
+  if (!grid.CellOf(start_W.x(), start_W.y(), &sx, &sy)) {
+    return finish(Status::kOutOfMap,
+                  "start " + FormatPoint(start_W) + " is outside the map " + MapExtent(grid));
+  }
+  if (!grid.CellOf(goal_W.x(), goal_W.y(), &gx, &gy)) {
+    return finish(Status::kOutOfMap,
+                  "goal " + FormatPoint(goal_W) + " is outside the map " + MapExtent(grid));
+  }
+  if (!grid.IsTraversable(gx, gy)) {
+    return finish(Status::kGoalBlocked,
+                  "goal " + FormatPoint(goal_W) + " is not traversable (" + DescribeCell(grid, gx, gy) + ")");
+  }
+  const double c = grid.cell_size_m();
+  if (!grid.IsTraversable(sx, sy)) {
+    const bool body_free = grid.IsFootprintFree(start_W.x(), start_W.y(), options.start_footprint_radius_m);
+    int best_x = -1;
+    int best_y = -1;
+    if (body_free && options.start_escape_radius_m > 0.0) {
+      const double r = options.start_escape_radius_m;
+      const int span = static_cast<int>(std::ceil(r / c)) + 1;
+      double best_d = kInf;
+      for (int cx = sx - span; cx <= sx + span; ++cx) {
+        for (int cy = sy - span; cy <= sy + span; ++cy) {
+          if (!grid.InGrid(cx, cy) || !grid.IsTraversable(cx, cy)) continue;
+          const double dist = (grid.CellCenter(cx, cy) - start_W).norm();
+          if (dist <= r && dist < best_d) {
+            best_d = dist;
+            best_x = cx;
+            best_y = cy;
+          }
+        }
+      }
+    }
+    if (best_x < 0) {
+      std::ostringstream msg;
+      msg << "start " << FormatPoint(start_W) << " is not traversable (" << DescribeCell(grid, sx, sy)
+          << ") and ";
+      if (!body_free) {
+        msg << "the robot body (radius " << options.start_footprint_radius_m << " m) there is not free";
+      } else {
+        msg << "no traversable cell lies within start_escape_radius_m " << options.start_escape_radius_m
+            << " m";
+      }
+      return finish(Status::kStartBlocked, msg.str());
+    }
+    result.used_start_escape = true;
+    sx = best_x;
+    sy = best_y;
+  }
+
+  // ---- A* search. ----
+  const int nx = grid.nx();
+  const std::size_t n = static_cast<std::size_t>(nx) * grid.ny();
+  std::vector<double> g(n, kInf);
+  std::vector<int> parent(n, -1);
+  std::vector<std::uint8_t> closed(n, 0);
+  using Entry = std::pair<double, int>;  // (f, linear index)
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
+  auto heuristic = [&](int cx, int cy) { return Octile(cx - gx, cy - gy) * c; };
+  auto penalty = [&](int cx, int cy) {
+    if (options.preferred_clearance_m <= 0.0 || options.clearance_cost <= 0.0) return 0.0;
+    const double deficit =
+        (options.preferred_clearance_m - grid.ClearanceM(cx, cy)) / options.preferred_clearance_m;
+    return options.clearance_cost * std::clamp(deficit, 0.0, 1.0);
+  };
+  const int start_index = static_cast<int>(grid.Index(sx, sy));
+  const int goal_index = static_cast<int>(grid.Index(gx, gy));
+  g[static_cast<std::size_t>(start_index)] = 0.0;
+  open.emplace(heuristic(sx, sy), start_index);
+  static const int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1};
+  static const int kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+  bool found = false;
+  while (!open.empty()) {
+    const auto [f, index] = open.top();
+    open.pop();
+    const auto ui = static_cast<std::size_t>(index);
+    if (closed[ui]) continue;
+    closed[ui] = 1;
+    ++result.expansions;
+    if (index == goal_index) {
+      found = true;
+      break;
+    }
+    const int cx = index % nx;
+    const int cy = index / nx;
+    for (int k = 0; k < 8; ++k) {
+      const int mx = cx + kDx[k];
+      const int my = cy + kDy[k];
+      if (!grid.InGrid(mx, my) || !grid.IsTraversable(mx, my)) continue;
+      const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
+      if (diagonal && (!grid.IsTraversable(cx + kDx[k], cy) || !grid.IsTraversable(cx, cy + kDy[k])))
+        continue;
+      const std::size_t mi = grid.Index(mx, my);
+      if (closed[mi]) continue;
+      const double move = (diagonal ? kSqrt2 : 1.0) * c;
+      const double cost = move * (1.0 + penalty(mx, my)) +
+                          options.step_height_cost * std::abs(grid.Ground(mx, my) - grid.Ground(cx, cy));
+      const double candidate = g[ui] + cost;
+      if (candidate < g[mi]) {
+        g[mi] = candidate;
+        parent[mi] = index;
+        open.emplace(candidate + heuristic(mx, my), static_cast<int>(mi));
+      }
+    }
+  }
+  if (!found) {
+    std::ostringstream msg;
+    msg << "goal " << FormatPoint(goal_W) << " is unreachable from start " << FormatPoint(start_W)
+        << ": no traversable path (" << result.expansions
+        << " cells expanded; they lie in different regions)";
+    return finish(Status::kUnreachable, msg.str());
+  }
+
+  // ---- Path: start point, cell centres, goal point. ----
+  std::vector<int> cells;
+  for (int i = goal_index; i >= 0; i = parent[static_cast<std::size_t>(i)]) cells.push_back(i);
+  std::reverse(cells.begin(), cells.end());
+  auto vertex = [&](int index) {
+    const int cx = index % nx;
+    const int cy = index / nx;
+    const Eigen::Vector2d p = grid.CellCenter(cx, cy);
+    return Eigen::Vector3d(p.x(), p.y(), grid.Ground(cx, cy));
+  };
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> clearance;  // Per point: clearance of its cell.
+  for (const int index : cells) {
+    points.push_back(vertex(index));
+    clearance.push_back(grid.ClearanceM(index % nx, index / nx));
+  }
+  // The exact start replaces the first cell centre, unless the search started from an escape cell (then the
+  // start is prepended); the exact goal replaces the last cell centre.
+  const double start_z = grid.GroundHeight(start_W.x(), start_W.y()).value_or(points.front().z());
+  const Eigen::Vector3d start_point(start_W.x(), start_W.y(), start_z);
+  if (result.used_start_escape) {
+    points.insert(points.begin(), start_point);
+    clearance.insert(clearance.begin(), 0.0);
+  } else {
+    points.front() = start_point;
+  }
+  if (points.size() == 1) {
+    points.push_back(points.front());
+    clearance.push_back(clearance.front());
+  }
+  points.back() = Eigen::Vector3d(goal_W.x(), goal_W.y(), grid.Ground(gx, gy));
+
+  if (options.simplify_path && points.size() > 2) {
+    // Greedy line-of-sight shortcutting: from each kept point, jump to the farthest following point reachable
+    // in a straight line before the first failure.
+    std::vector<Eigen::Vector3d> simplified = {points.front()};
+    std::size_t anchor = 0;
+    while (anchor + 1 < points.size()) {
+      std::size_t best = anchor + 1;
+      double least = clearance[anchor + 1];
+      for (std::size_t j = anchor + 2; j < points.size(); ++j) {
+        least = std::min(least, clearance[j]);
+        const double need = std::min(options.preferred_clearance_m, least) - 1e-9;
+        if (!SegmentTraversable(grid, points[anchor].head<2>(), points[j].head<2>(), need)) break;
+        best = j;
+      }
+      simplified.push_back(points[best]);
+      anchor = best;
+    }
+    points = std::move(simplified);
+  }
+  result.path_W = std::move(points);
+  result.length_m = PathLength2D(result.path_W);
+  std::ostringstream msg;
+  msg.precision(2);
+  msg << std::fixed << "path from " << FormatPoint(start_W) << " to " << FormatPoint(goal_W) << ": "
+      << result.length_m << " m, " << result.path_W.size() << " waypoints, " << result.expansions
+      << " cells expanded" << (result.used_start_escape ? " (started from an escape cell)" : "");
+  return finish(Status::kSuccess, msg.str());
+}
+
+}  // namespace cairn::nav

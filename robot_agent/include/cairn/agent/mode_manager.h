@@ -1,0 +1,76 @@
+// Mode selection through the behavior tree (Sriganesh et al. 2024, § Behavior Tree and Mux): validates mode
+// requests against conditions and selects the mux channel. The tree is a BehaviorTree.CPP v4 XML file.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cairn/bt/behavior_tree.h"
+
+namespace cairn::agent {
+
+/// Facts the mode tree's conditions read. Filled by the agent before each tick.
+struct ModeConditions {
+  std::string holder_id;          ///< basestation holding the control lock ("" = free)
+  bool holder_alive = false;      ///< the holder's liveliness is alive
+  bool localized = false;         ///< the pose estimate is valid
+  bool has_waypoint_goal = false; ///< an accepted, unfinished waypoint goal exists
+};
+
+/// Result of a mode request or re-check.
+struct ModeDecision {
+  bool accepted = false;
+  std::string mode;     ///< mode after the decision
+  std::string channel;  ///< mux channel after the decision
+  std::string reason;   ///< failed condition when refused; why the mode changed on a re-check
+};
+
+/// Owns the mode tree and the current mode. Not thread-safe (the agent calls it under its lock).
+class ModeManager {
+ public:
+  /// Loads the tree. @throws bt::TreeError (file, line, node) when the XML is invalid, or when the tree has
+  /// no branch for "idle" (the fail-safe mode).
+  explicit ModeManager(const std::string& tree_file);
+
+  /// Asks for `mode`. On acceptance the mode and channel switch; on refusal they stay and `reason` names
+  /// the failed condition, or says the mode is unknown and lists the valid ones.
+  ModeDecision Request(const std::string& mode, const ModeConditions& conditions);
+
+  /// Re-checks that the current mode is still allowed; if not, switches to idle and says why.
+  /// `accepted` is false exactly when the mode changed.
+  ModeDecision Recheck(const ModeConditions& conditions);
+
+  /// Modes whose conditions hold now (dry-run ticks; nothing switches): the operator's valid actions.
+  std::vector<std::string> ValidModes(const ModeConditions& conditions);
+
+  const std::string& mode() const { return mode_; }
+  const std::string& channel() const { return channel_; }
+  const std::vector<std::string>& known_modes() const { return known_modes_; }
+  const bt::Tree& tree() const { return tree_; }
+  uint64_t tick_count() const { return tick_count_; }
+  const std::string& last_refusal() const { return last_refusal_; }
+  /// What `node` returned in the last Request/Recheck tick (the root and leaves; kIdle if not ticked).
+  bt::NodeStatus LastTickStatus(const bt::TreeNode& node) const;
+
+ private:
+  // Ticks the tree once for `mode`. Returns true when a branch accepted; fills selection and failure.
+  bool Evaluate(const std::string& mode, const ModeConditions& conditions, std::string* channel,
+                std::string* failure);
+
+  void KeepTrace();
+
+  struct Context;
+  std::shared_ptr<Context> context_;
+  bt::Tree tree_;
+  std::vector<std::string> known_modes_;
+  std::string mode_ = "idle";
+  std::string channel_ = "none";
+  std::string last_refusal_;
+  uint64_t tick_count_ = 0;
+  bt::NodeStatus last_root_status_ = bt::NodeStatus::kIdle;
+  std::map<const bt::TreeNode*, bt::NodeStatus> last_trace_;
+};
+
+}  // namespace cairn::agent

@@ -1,0 +1,170 @@
+#include "cairn/agent/mode_manager.h"
+
+#include <algorithm>
+#include <map>
+
+namespace cairn::agent {
+
+using bt::NodeStatus;
+
+// State shared between the manager and the node callbacks registered with the factory.
+struct ModeManager::Context {
+  ModeConditions conditions;
+  std::string failure;           // first failed condition of the matching branch
+  std::string selected_mode;
+  std::string selected_channel;
+  std::map<const bt::TreeNode*, NodeStatus> trace;  // leaf results of the current tick
+};
+
+namespace {
+
+NodeStatus Fail(std::string* failure, std::string text) {
+  if (failure->empty()) *failure = std::move(text);
+  return NodeStatus::kFailure;
+}
+
+// Wraps a leaf callback so that its result is recorded in the tick's trace (control nodes reset their
+// children when they finish, so the tree itself no longer shows what each leaf returned).
+template <class Context>
+std::function<NodeStatus(bt::TreeNode&)> Traced(std::shared_ptr<Context> ctx,
+                                                std::function<NodeStatus(bt::TreeNode&)> tick) {
+  return [ctx, tick = std::move(tick)](bt::TreeNode& node) {
+    const NodeStatus status = tick(node);
+    ctx->trace[&node] = status;
+    return status;
+  };
+}
+
+}  // namespace
+
+ModeManager::ModeManager(const std::string& tree_file) : context_(std::make_shared<Context>()) {
+  bt::TreeFactory factory;
+  std::shared_ptr<Context> ctx = context_;
+  factory.RegisterSimpleCondition(
+      "IsModeRequested",
+      Traced(ctx, [](bt::TreeNode& node) {
+        const auto wanted = node.GetInput<std::string>("mode");
+        const auto requested = node.GetInput<std::string>("requested_mode");
+        return (wanted && requested && *wanted == *requested) ? NodeStatus::kSuccess : NodeStatus::kFailure;
+      }),
+      {bt::InputPort("mode", "mode this branch implements"),
+       bt::InputPort("requested_mode", "{requested_mode}", "mode being asked for")});
+  factory.RegisterSimpleCondition("IsControlHeld", Traced(ctx, [ctx](bt::TreeNode&) {
+    const ModeConditions& c = ctx->conditions;
+    if (c.holder_id.empty()) return Fail(&ctx->failure, "IsControlHeld: no basestation holds the control lock");
+    if (!c.holder_alive) {
+      return Fail(&ctx->failure, "IsControlHeld: liveliness of control holder " + c.holder_id + " is lost");
+    }
+    return NodeStatus::kSuccess;
+  }));
+  factory.RegisterSimpleCondition("IsLocalized", Traced(ctx, [ctx](bt::TreeNode&) {
+    return ctx->conditions.localized ? NodeStatus::kSuccess
+                                     : Fail(&ctx->failure, "IsLocalized: no valid pose estimate");
+  }));
+  factory.RegisterSimpleCondition("HasWaypointGoal", Traced(ctx, [ctx](bt::TreeNode&) {
+    return ctx->conditions.has_waypoint_goal
+               ? NodeStatus::kSuccess
+               : Fail(&ctx->failure, "HasWaypointGoal: no accepted waypoint goal (send goto first)");
+  }));
+  factory.RegisterSimpleAction(
+      "SelectMode",
+      Traced(ctx, [ctx](bt::TreeNode& node) {
+        const auto mode = node.GetInput<std::string>("mode");
+        const auto channel = node.GetInput<std::string>("channel");
+        if (!mode || !channel) return Fail(&ctx->failure, "SelectMode: missing mode or channel port");
+        ctx->selected_mode = *mode;
+        ctx->selected_channel = *channel;
+        return NodeStatus::kSuccess;
+      }),
+      {bt::InputPort("mode", "mode to commit"), bt::InputPort("channel", "mux channel of that mode")});
+
+  tree_ = factory.CreateTreeFromFile(tree_file, bt::Blackboard::Create());
+  tree_.ForEachNode([this](const bt::TreeNode& node, int) {
+    if (node.registration_id() != "IsModeRequested") return;
+    if (auto mode = node.GetInput<std::string>("mode")) {
+      if (std::find(known_modes_.begin(), known_modes_.end(), *mode) == known_modes_.end()) {
+        known_modes_.push_back(*mode);
+      }
+    }
+  });
+  if (std::find(known_modes_.begin(), known_modes_.end(), "idle") == known_modes_.end()) {
+    throw bt::TreeError(tree_file + ": the mode tree has no branch for the fail-safe mode 'idle'");
+  }
+}
+
+bool ModeManager::Evaluate(const std::string& mode, const ModeConditions& conditions, std::string* channel, std::string* failure) {
+  context_->conditions = conditions;
+  context_->failure.clear();
+  context_->selected_mode.clear();
+  context_->selected_channel.clear();
+  context_->trace.clear();
+  tree_.blackboard()->Set<std::string>("requested_mode", mode);
+  const NodeStatus status = tree_.TickOnce();
+  ++tick_count_;
+  last_root_status_ = status;
+  tree_.HaltTree();  // every evaluation starts fresh; no node keeps running between mode decisions
+  if (status == NodeStatus::kSuccess && context_->selected_mode == mode) {
+    *channel = context_->selected_channel;
+    return true;
+  }
+  if (!context_->failure.empty()) {
+    *failure = context_->failure;
+  } else {
+    std::string list;
+    for (const auto& m : known_modes_) list += (list.empty() ? "" : ", ") + m;
+    *failure = "unknown mode '" + mode + "' (valid: " + list + ")";
+  }
+  return false;
+}
+
+ModeDecision ModeManager::Request(const std::string& mode, const ModeConditions& conditions) {
+  std::string channel, failure;
+  const bool accepted = Evaluate(mode, conditions, &channel, &failure);
+  KeepTrace();
+  if (accepted) {
+    mode_ = mode;
+    channel_ = channel;
+    last_refusal_.clear();
+    return {true, mode_, channel_, ""};
+  }
+  last_refusal_ = failure;
+  return {false, mode_, channel_, failure};
+}
+
+ModeDecision ModeManager::Recheck(const ModeConditions& conditions) {
+  std::string channel, failure;
+  const bool still_allowed = Evaluate(mode_, conditions, &channel, &failure);
+  KeepTrace();
+  if (still_allowed) {
+    channel_ = channel;
+    return {true, mode_, channel_, ""};
+  }
+  const std::string previous = mode_;
+  std::string idle_channel, idle_failure;
+  Evaluate("idle", conditions, &idle_channel, &idle_failure);
+  KeepTrace();
+  mode_ = "idle";
+  channel_ = idle_channel.empty() ? "none" : idle_channel;
+  return {false, mode_, channel_, previous + " no longer allowed: " + failure};
+}
+
+void ModeManager::KeepTrace() {
+  last_trace_ = context_->trace;
+  last_trace_[&tree_.root()] = last_root_status_;
+}
+
+NodeStatus ModeManager::LastTickStatus(const bt::TreeNode& node) const {
+  auto it = last_trace_.find(&node);
+  return it == last_trace_.end() ? NodeStatus::kIdle : it->second;
+}
+
+std::vector<std::string> ModeManager::ValidModes(const ModeConditions& conditions) {
+  std::vector<std::string> valid;
+  for (const auto& mode : known_modes_) {
+    std::string channel, failure;
+    if (Evaluate(mode, conditions, &channel, &failure)) valid.push_back(mode);
+  }
+  return valid;
+}
+
+}  // namespace cairn::agent

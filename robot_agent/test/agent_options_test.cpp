@@ -1,0 +1,80 @@
+#include "cairn/agent/agent_options.h"
+
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "cairn/core/config.h"
+
+namespace cairn::agent {
+namespace {
+
+std::string Write(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + "/" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+TEST(AgentOptions, DefaultsAndShippedConfigAreValid) {
+  AgentOptions options;
+  options.robot_id = "r1";
+  std::string why;
+  EXPECT_TRUE(options.IsValid(&why)) << why;
+  options.LoadConfigFile(std::string(CAIRN_SOURCE_DIR) + "/config/agent.yaml");
+  EXPECT_TRUE(std::isinf(options.lock.lock_keep_s));
+  EXPECT_DOUBLE_EQ(options.teleop_timeout_s, 0.5);
+}
+
+TEST(AgentOptions, ConfigErrorsNameFileFieldAndValue) {
+  AgentOptions options;
+  options.robot_id = "r1";
+  try {
+    options.LoadConfigFile(Write("bad1.yaml", "mux:\n  teleop_timeout_s: -2\n"));
+    FAIL();
+  } catch (const core::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("mux.teleop_timeout_s = -2 must be in (0, 60]"), std::string::npos)
+        << e.what();
+  }
+  try {
+    options.LoadConfigFile(Write("bad2.yaml", "navigation:\n  cruise_speed: 1\n"));
+    FAIL();
+  } catch (const core::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("navigation.cruise_speed is not a known setting"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(options.LoadConfigFile(Write("bad3.yaml", "command_interface:\n  lock_keep_s: soon\n")),
+               core::ConfigError);
+}
+
+TEST(AgentOptions, IdsAndPlatformsAreChecked) {
+  AgentOptions options;
+  std::string why;
+  options.robot_id = "";
+  EXPECT_FALSE(options.IsValid(&why));
+  options.robot_id = "r 1";
+  EXPECT_FALSE(options.IsValid(&why));
+  options.robot_id = "r1";
+  options.platform = "tracked";
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("tracked"), std::string::npos);
+}
+
+TEST(StartPose, ParsesAndRejects) {
+  const sim::PlanarPose p = ParseStartPose("1.5,-2");
+  EXPECT_DOUBLE_EQ(p.x_m, 1.5);
+  EXPECT_DOUBLE_EQ(p.y_m, -2.0);
+  EXPECT_DOUBLE_EQ(ParseStartPose("1,2,0.5").yaw_rad, 0.5);
+  for (const char* bad : {"", "1", "1,2,3,4", "a,b", "1,nan", "1,2,", "1,inf"}) {
+    EXPECT_THROW(ParseStartPose(bad), std::invalid_argument) << bad;
+  }
+  AgentOptions options;
+  ParseStart("slot:2", &options);
+  EXPECT_EQ(options.start_slot, 2);
+  EXPECT_FALSE(options.start_W.has_value());
+  for (const char* bad : {"slot:", "slot:-1", "slot:100", "slot:x"}) {
+    EXPECT_THROW(ParseStart(bad, &options), std::invalid_argument) << bad;
+  }
+}
+
+}  // namespace
+}  // namespace cairn::agent

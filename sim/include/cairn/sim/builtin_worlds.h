@@ -1,0 +1,59 @@
+// Copyright Cairn authors.
+//
+// Procedurally generated built-in worlds (seeded, deterministic) and their suggested start poses and goals.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "cairn/sim/world.h"
+
+namespace cairn::sim {
+
+/// A planar pose on the floor of a world: position (metres, frame W) and heading (radians, about +z of W,
+/// 0 = facing +x).
+struct PlanarPose {
+  double x_m = 0.0;
+  double y_m = 0.0;
+  double yaw_rad = 0.0;
+};
+
+/// Description of one built-in world.
+struct BuiltinWorldInfo {
+  /// Name without the "builtin:" prefix, e.g. "tunnels".
+  std::string name;
+  /// One-line description of the layout.
+  std::string description;
+  /// Voxel edge, metres.
+  double resolution_m = 0.1;
+  /// Height of the floor surface (top of the floor voxels), metres, frame W.
+  double floor_z_m = 0.0;
+  /// Free start poses on the floor, at least 3, pairwise >= 2 m apart, all in one connected region, valid for
+  /// any seed and for a wheeled robot of radius <= 0.35 m.
+  std::vector<PlanarPose> suggested_starts;
+  /// A far goal on the floor reachable from every suggested start (yaw unused).
+  PlanarPose far_goal;
+};
+
+/// Names of the built-in worlds, without the "builtin:" prefix: {"tunnels", "arena"}.
+///  - "tunnels": about 60 x 40 m (x in [0, 60], y in [0, 40], z in [-0.3, 3.8]) at 0.1 m: tunnels ~3 m wide
+///    and ~3 m high with rough walls and ceilings, an X junction at (30, 20), two L bends at (30, 5) and
+///    (30, 35), a 10 x 10 m room (x in [46, 56], y in [15, 25], 3.5 m high) with a staircase (5 steps of
+///    0.2 m rise, 0.5 m run, x in [50, 52.5], y in [22.5, 25]) up to a 1.0 m platform (x in [52.5, 56]);
+///    floor surface at z = 0; floor, walls and ceiling are occupied shells (0.2-0.3 m thick).
+///  - "arena": 20 x 14 m walled yard at 0.1 m (x in [0, 20], y in [0, 14], z in [-0.2, 1.5]), no ceiling,
+///    walls 1.5 m high, three 1 x 1 m pillars and a 0.1 m high plate (x in [3, 6], y in [2, 5]); floor
+///    surface at z = 0.
+std::vector<std::string> BuiltinWorldNames();
+
+/// Description, suggested starts and far goal of built-in world `name` (without prefix).
+/// Throws WorldError listing the valid names if `name` is unknown.
+const BuiltinWorldInfo& GetBuiltinWorldInfo(const std::string& name);
+
+/// Builds built-in world `name` (without prefix) with generator seed `seed` (the seed changes the wall and
+/// ceiling roughness only; the layout, starts and goal stay valid). Deterministic.
+/// Throws WorldError listing the valid names if `name` is unknown.
+World MakeBuiltinWorld(const std::string& name, std::uint32_t seed = 1);
+
+}  // namespace cairn::sim

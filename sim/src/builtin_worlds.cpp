@@ -1,0 +1,224 @@
+// Copyright Cairn authors.
+#include "cairn/sim/builtin_worlds.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+
+namespace cairn::sim {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// ---- Seeded value noise ---------------------------------------------------------------------------------
+// Lattice values from a SplitMix64 hash of (i, j, seed, channel), blended with a smoothstep: smooth,
+// deterministic on every platform, in [-1, 1].
+
+std::uint64_t SplitMix64(std::uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+double LatticeValue(std::int64_t i, std::int64_t j, std::uint32_t seed, std::uint32_t channel) {
+  const std::uint64_t h = SplitMix64(
+      static_cast<std::uint64_t>(i) * 0x1F1F1F1Full ^
+      SplitMix64(static_cast<std::uint64_t>(j) ^ (static_cast<std::uint64_t>(seed) << 32 | channel)));
+  return static_cast<double>(h >> 11) * (2.0 / 9007199254740992.0) - 1.0;
+}
+
+double ValueNoise(double x_m, double y_m, double scale_m, std::uint32_t seed, std::uint32_t channel) {
+  const double u = x_m / scale_m;
+  const double v = y_m / scale_m;
+  const double fu = std::floor(u);
+  const double fv = std::floor(v);
+  const auto i = static_cast<std::int64_t>(fu);
+  const auto j = static_cast<std::int64_t>(fv);
+  auto smooth = [](double t) { return t * t * (3.0 - 2.0 * t); };
+  const double su = smooth(u - fu);
+  const double sv = smooth(v - fv);
+  const double a = LatticeValue(i, j, seed, channel);
+  const double b = LatticeValue(i + 1, j, seed, channel);
+  const double c = LatticeValue(i, j + 1, seed, channel);
+  const double d = LatticeValue(i + 1, j + 1, seed, channel);
+  return (a * (1 - su) + b * su) * (1 - sv) + (c * (1 - su) + d * su) * sv;
+}
+
+double DistanceToSegment(double x, double y, double ax, double ay, double bx, double by) {
+  const double dx = bx - ax;
+  const double dy = by - ay;
+  const double len2 = dx * dx + dy * dy;
+  const double t = len2 > 0 ? std::clamp(((x - ax) * dx + (y - ay) * dy) / len2, 0.0, 1.0) : 0.0;
+  return std::hypot(x - (ax + t * dx), y - (ay + t * dy));
+}
+
+// ---- Column-based builder --------------------------------------------------------------------------------
+// Both worlds are described per (x, y) column: a carved free column has a floor slab below the floor
+// surface, optional solid steps, free space up to its ceiling and rock above; a column within the wall
+// thickness of a free column is solid from the floor slab to the top of the grid; other columns are empty.
+
+struct Column {
+  bool free = false;       // Carved (walkable) column.
+  double solid_top_m = 0;  // Top of the solid floor/steps, metres (>= floor surface).
+  double ceiling_m = 1e9;  // Bottom of the rock above, metres (1e9: none).
+};
+
+World BuildFromColumns(const std::string& name, const Eigen::Vector3d& p_W_min, double res,
+                       const Eigen::Vector3i& dims, double floor_bottom_m, double wall_thickness_m,
+                       const std::function<Column(double, double)>& column_at) {
+  World world(name, p_W_min, res, dims);
+  const int nx = dims.x();
+  const int ny = dims.y();
+  const int nz = dims.z();
+  std::vector<Column> columns(static_cast<std::size_t>(nx) * ny);
+  for (int ix = 0; ix < nx; ++ix) {
+    for (int iy = 0; iy < ny; ++iy) {
+      const Eigen::Vector3d c = world.CenterOf({ix, iy, 0});
+      columns[static_cast<std::size_t>(ix) * ny + iy] = column_at(c.x(), c.y());
+    }
+  }
+  auto z_index = [&](double z_m) { return static_cast<int>(std::lround((z_m - p_W_min.z()) / res)); };
+  const int iz_floor_bottom = std::clamp(z_index(floor_bottom_m), 0, nz);
+  const int wall_cells = static_cast<int>(std::ceil(wall_thickness_m / res - 1e-9));
+  for (int ix = 0; ix < nx; ++ix) {
+    for (int iy = 0; iy < ny; ++iy) {
+      const Column& col = columns[static_cast<std::size_t>(ix) * ny + iy];
+      int iz_solid_end = 0;    // Voxels [iz_floor_bottom, iz_solid_end) are solid.
+      int iz_rock_begin = nz;  // Voxels [iz_rock_begin, nz) are solid.
+      if (col.free) {
+        iz_solid_end = std::clamp(z_index(col.solid_top_m), 0, nz);
+        iz_rock_begin = col.ceiling_m > 1e8 ? nz : std::clamp(z_index(col.ceiling_m), 0, nz);
+      } else {
+        bool near_free = false;
+        for (int dx = -wall_cells; dx <= wall_cells && !near_free; ++dx) {
+          for (int dy = -wall_cells; dy <= wall_cells && !near_free; ++dy) {
+            const int jx = ix + dx;
+            const int jy = iy + dy;
+            if (jx < 0 || jy < 0 || jx >= nx || jy >= ny) continue;
+            if (std::hypot(dx, dy) * res > wall_thickness_m + 1e-9) continue;
+            near_free = columns[static_cast<std::size_t>(jx) * ny + jy].free;
+          }
+        }
+        if (!near_free) continue;
+        iz_solid_end = nz;  // Wall: solid from the floor slab to the top of the grid.
+      }
+      for (int iz = iz_floor_bottom; iz < iz_solid_end; ++iz) world.SetOccupied({ix, iy, iz});
+      for (int iz = std::max(iz_rock_begin, iz_solid_end); iz < nz; ++iz) world.SetOccupied({ix, iy, iz});
+    }
+  }
+  return world;
+}
+
+// ---- "tunnels" -------------------------------------------------------------------------------------------
+
+struct Segment {
+  double ax, ay, bx, by;
+};
+
+World MakeTunnels(std::uint32_t seed) {
+  // Tunnel centre lines: main W-E tunnel into the room, an X junction at (30, 20) and two L bends.
+  static const Segment kSegments[] = {
+      {2.0, 20.0, 46.0, 20.0},   // Main tunnel, west end to the room.
+      {30.0, 20.0, 30.0, 5.0},   // South branch.
+      {30.0, 20.0, 30.0, 35.0},  // North branch.
+      {30.0, 5.0, 55.0, 5.0},    // South branch bends east (L).
+      {30.0, 35.0, 12.0, 35.0},  // North branch bends west (L).
+  };
+  constexpr double kHalfWidth = 1.5;  // Mean tunnel half width, metres.
+  constexpr double kCeiling = 3.0;    // Mean tunnel height, metres.
+  constexpr double kRoomCeiling = 3.5;
+  auto column_at = [seed](double x, double y) {
+    Column col;
+    double d = 1e9;
+    for (const Segment& s : kSegments) d = std::min(d, DistanceToSegment(x, y, s.ax, s.ay, s.bx, s.by));
+    const double half_width =
+        kHalfWidth + 0.22 * ValueNoise(x, y, 1.5, seed, 1) + 0.06 * ValueNoise(x, y, 0.35, seed, 2);
+    const bool in_tunnel = d <= half_width;
+    // Room x in [46, 56], y in [15, 25] with walls rough by up to 0.12 m.
+    const double inside = std::min({x - 46.0, 56.0 - x, y - 15.0, 25.0 - y});
+    const bool in_room = inside > 0.12 * (1.0 + ValueNoise(x, y, 0.8, seed, 3));
+    if (!in_tunnel && !in_room) return col;
+    col.free = true;
+    col.solid_top_m = 0.0;
+    col.ceiling_m = in_room ? kRoomCeiling : kCeiling + 0.25 * ValueNoise(x, y, 2.0, seed, 4);
+    if (in_room && y >= 22.5) {
+      if (x >= 52.5) {
+        col.solid_top_m = 1.0;  // Platform.
+      } else if (x >= 50.0) {
+        col.solid_top_m = 0.2 * (std::floor((x - 50.0) / 0.5) + 1.0);  // Steps of 0.2 m rise, 0.5 m run.
+      }
+    }
+    return col;
+  };
+  return BuildFromColumns("builtin:tunnels", Eigen::Vector3d(0.0, 0.0, -0.3), 0.1,
+                          Eigen::Vector3i(600, 400, 41),
+                          /*floor_bottom_m=*/-0.2, /*wall_thickness_m=*/0.3, column_at);
+}
+
+// ---- "arena" ---------------------------------------------------------------------------------------------
+
+World MakeArena() {
+  auto column_at = [](double x, double y) {
+    Column col;
+    if (x < 0.2 || y < 0.2 || x > 19.8 || y > 13.8) return col;  // Wall ring (built from the free columns).
+    static const double kPillars[][2] = {{10.0, 7.0}, {5.0, 10.0}, {15.0, 4.0}};
+    for (const auto& p : kPillars) {
+      if (std::abs(x - p[0]) < 0.5 && std::abs(y - p[1]) < 0.5) return col;
+    }
+    col.free = true;
+    col.solid_top_m = (x >= 3.0 && x < 6.0 && y >= 2.0 && y < 5.0) ? 0.1 : 0.0;
+    return col;
+  };
+  return BuildFromColumns("builtin:arena", Eigen::Vector3d(0.0, 0.0, -0.2), 0.1,
+                          Eigen::Vector3i(200, 140, 17),
+                          /*floor_bottom_m=*/-0.2, /*wall_thickness_m=*/0.2, column_at);
+}
+
+const std::vector<BuiltinWorldInfo>& Infos() {
+  static const std::vector<BuiltinWorldInfo> kInfos = {
+      {"tunnels",
+       "60 x 40 m tunnels (3 m wide, 3 m high, rough walls), X junction, two L bends, 10 x 10 m room with a "
+       "staircase to a 1 m platform",
+       0.1,
+       0.0,
+       {{4.0, 20.0, 0.0}, {14.0, 20.0, 0.0}, {30.0, 12.0, kPi / 2}, {20.0, 35.0, 0.0}, {40.0, 5.0, kPi}},
+       {50.0, 18.0, 0.0}},
+      {"arena",
+       "20 x 14 m walled yard without ceiling, three pillars and a 0.1 m plate",
+       0.1,
+       0.0,
+       {{2.0, 7.0, 0.0}, {18.0, 7.0, kPi}, {10.0, 2.0, kPi / 2}},
+       {17.0, 12.0, 0.0}},
+  };
+  return kInfos;
+}
+
+std::string ValidNames() {
+  std::string names;
+  for (const BuiltinWorldInfo& info : Infos()) names += (names.empty() ? "" : ", ") + info.name;
+  return names;
+}
+
+}  // namespace
+
+std::vector<std::string> BuiltinWorldNames() {
+  std::vector<std::string> names;
+  for (const BuiltinWorldInfo& info : Infos()) names.push_back(info.name);
+  return names;
+}
+
+const BuiltinWorldInfo& GetBuiltinWorldInfo(const std::string& name) {
+  for (const BuiltinWorldInfo& info : Infos()) {
+    if (info.name == name) return info;
+  }
+  throw WorldError("unknown builtin world 'builtin:" + name + "'; valid names: " + ValidNames());
+}
+
+World MakeBuiltinWorld(const std::string& name, std::uint32_t seed) {
+  GetBuiltinWorldInfo(name);  // Throws for unknown names.
+  if (name == "tunnels") return MakeTunnels(seed);
+  return MakeArena();
+}
+
+}  // namespace cairn::sim

@@ -1,0 +1,192 @@
+// Copyright Cairn authors.
+#include "cairn/sim/world.h"
+
+#include <sys/stat.h>
+
+#include <bitset>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "cairn/sim/builtin_worlds.h"
+#include "world_loaders.h"
+
+namespace cairn::sim {
+namespace {
+
+bool EndsWith(const std::string& s, const std::string& suffix) {
+  if (s.size() < suffix.size()) return false;
+  for (std::size_t i = 0; i < suffix.size(); ++i) {
+    const char a =
+        static_cast<char>(std::tolower(static_cast<unsigned char>(s[s.size() - suffix.size() + i])));
+    if (a != suffix[i]) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool WorldLoadOptions::IsValid(std::string* why) const {
+  std::ostringstream msg;
+  if (!std::isfinite(pcd_resolution_m) || pcd_resolution_m < 0.02 || pcd_resolution_m > 2.0) {
+    msg << "WorldLoadOptions::pcd_resolution_m = " << pcd_resolution_m << " must be in [0.02, 2] m";
+  } else if (max_voxels < 1 || max_voxels > 2'000'000'000) {
+    msg << "WorldLoadOptions::max_voxels = " << max_voxels << " must be in [1, 2e9]";
+  } else {
+    return true;
+  }
+  if (why != nullptr) *why = msg.str();
+  return false;
+}
+
+World::World(std::string name, const Eigen::Vector3d& p_W_min, double resolution_m,
+             const Eigen::Vector3i& dims, std::int64_t max_voxels)
+    : name_(std::move(name)), p_W_min_(p_W_min), resolution_m_(resolution_m), dims_(dims), num_voxels_(0) {
+  if (!std::isfinite(resolution_m) || resolution_m <= 0.0) {
+    throw WorldError("world '" + name_ + "': resolution_m = " + std::to_string(resolution_m) +
+                     " must be finite and > 0");
+  }
+  if (!p_W_min.allFinite()) {
+    throw WorldError("world '" + name_ + "': p_W_min must be finite");
+  }
+  if (dims.minCoeff() < 1) {
+    std::ostringstream msg;
+    msg << "world '" << name_ << "': dims (" << dims.x() << ", " << dims.y() << ", " << dims.z()
+        << ") must all be >= 1";
+    throw WorldError(msg.str());
+  }
+  const double n = static_cast<double>(dims.x()) * dims.y() * dims.z();
+  if (n > static_cast<double>(max_voxels)) {
+    std::ostringstream msg;
+    msg << "world '" << name_ << "': grid of " << dims.x() << " x " << dims.y() << " x " << dims.z() << " = "
+        << n << " voxels is too large (limit " << max_voxels << " voxels, WorldLoadOptions::max_voxels)";
+    throw WorldError(msg.str());
+  }
+  num_voxels_ = static_cast<std::int64_t>(dims.x()) * dims.y() * dims.z();
+  bits_.assign(static_cast<std::size_t>((num_voxels_ + 63) / 64), 0u);
+}
+
+std::optional<Eigen::Vector3i> World::IndexOf(const Eigen::Vector3d& p_W) const {
+  if (!p_W.allFinite()) return std::nullopt;
+  const Eigen::Vector3d q = (p_W - p_W_min_) / resolution_m_;
+  if ((q.array() < 0.0).any() || (q.array() >= dims_.cast<double>().array()).any()) return std::nullopt;
+  Eigen::Vector3i index(static_cast<int>(std::floor(q.x())), static_cast<int>(std::floor(q.y())),
+                        static_cast<int>(std::floor(q.z())));
+  if (!Contains(index)) return std::nullopt;  // Guards rounding at the max faces.
+  return index;
+}
+
+bool World::IsOccupied(const Eigen::Vector3d& p_W) const {
+  const auto index = IndexOf(p_W);
+  return index.has_value() && IsOccupiedIndex(*index);
+}
+
+void World::SetOccupied(const Eigen::Vector3i& index, bool occupied) {
+  if (!Contains(index)) {
+    std::ostringstream msg;
+    msg << "World::SetOccupied: index (" << index.x() << ", " << index.y() << ", " << index.z()
+        << ") is outside the grid " << dims_.x() << " x " << dims_.y() << " x " << dims_.z();
+    throw std::out_of_range(msg.str());
+  }
+  const std::int64_t i = LinearIndex(index);
+  const std::uint64_t mask = std::uint64_t{1} << (i & 63);
+  if (occupied) {
+    bits_[static_cast<std::size_t>(i >> 6)] |= mask;
+  } else {
+    bits_[static_cast<std::size_t>(i >> 6)] &= ~mask;
+  }
+}
+
+bool World::SetOccupiedAt(const Eigen::Vector3d& p_W, bool occupied) {
+  const auto index = IndexOf(p_W);
+  if (!index) return false;
+  SetOccupied(*index, occupied);
+  return true;
+}
+
+std::int64_t World::CountOccupied() const {
+  std::int64_t n = 0;
+  for (const std::uint64_t word : bits_) n += static_cast<std::int64_t>(std::bitset<64>(word).count());
+  return n;
+}
+
+namespace internal {
+
+void CheckReadableFile(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    throw WorldError("world file '" + path + "' does not exist");
+  }
+  if (!S_ISREG(st.st_mode)) {
+    throw WorldError("world file '" + path + "' is not a regular file");
+  }
+  if (FILE* f = std::fopen(path.c_str(), "rb")) {
+    std::fclose(f);
+  } else {
+    throw WorldError("world file '" + path + "' cannot be opened for reading");
+  }
+}
+
+World MakeGridCovering(const std::string& name, const std::string& source, const Eigen::Vector3d& lo,
+                       const Eigen::Vector3d& hi, double resolution_m, std::int64_t max_voxels) {
+  // Snap to multiples of the resolution (the OctoMap voxel lattice); the small epsilon absorbs rounding of
+  // coordinates that already are voxel centres or faces.
+  constexpr double kEps = 1e-6;
+  Eigen::Vector3d p_min;
+  Eigen::Vector3d dims_d;
+  for (int k = 0; k < 3; ++k) {
+    const double i_lo = std::floor(lo[k] / resolution_m + kEps);
+    const double i_hi = std::ceil(hi[k] / resolution_m - kEps);
+    p_min[k] = i_lo * resolution_m;
+    dims_d[k] = std::max(1.0, i_hi - i_lo);
+  }
+  const double n = dims_d.prod();
+  if (!(n <= static_cast<double>(max_voxels)) || dims_d.maxCoeff() > 2e9) {
+    std::ostringstream msg;
+    msg << source << ": occupied extent [" << lo.x() << ", " << hi.x() << "] x [" << lo.y() << ", " << hi.y()
+        << "] x [" << lo.z() << ", " << hi.z() << "] m at " << resolution_m << " m needs a grid of "
+        << dims_d.x() << " x " << dims_d.y() << " x " << dims_d.z() << " = " << n
+        << " voxels: too large (limit " << max_voxels << " voxels, WorldLoadOptions::max_voxels)";
+    throw WorldError(msg.str());
+  }
+  return World(name, p_min, resolution_m, dims_d.cast<int>(), max_voxels);
+}
+
+}  // namespace internal
+
+World LoadWorld(const std::string& spec, const WorldLoadOptions& options, WorldLoadReport* report) {
+  std::string why;
+  if (!options.IsValid(&why)) throw WorldError("LoadWorld('" + spec + "'): " + why);
+  WorldLoadReport local_report;
+  WorldLoadReport* out = report != nullptr ? report : &local_report;
+  *out = WorldLoadReport{};
+
+  const std::string kBuiltin = "builtin:";
+  if (spec.compare(0, kBuiltin.size(), kBuiltin) == 0) {
+    out->kind = "builtin";
+    World world = MakeBuiltinWorld(spec.substr(kBuiltin.size()), options.builtin_seed);
+    if (world.num_voxels() > options.max_voxels) {
+      throw WorldError("world '" + spec + "' has " + std::to_string(world.num_voxels()) +
+                       " voxels: too large (limit " + std::to_string(options.max_voxels) +
+                       " voxels, WorldLoadOptions::max_voxels)");
+    }
+    return world;
+  }
+  if (EndsWith(spec, ".bt")) {
+    out->kind = "bt";
+    return internal::LoadOctomapFile(spec, /*binary=*/true, options, out);
+  }
+  if (EndsWith(spec, ".ot")) {
+    out->kind = "ot";
+    return internal::LoadOctomapFile(spec, /*binary=*/false, options, out);
+  }
+  if (EndsWith(spec, ".pcd")) {
+    out->kind = "pcd";
+    return internal::LoadPcdFile(spec, options, out);
+  }
+  throw WorldError("world spec '" + spec +
+                   "' is not understood: expected 'builtin:NAME' or a file ending in .bt, .ot or .pcd");
+}
+
+}  // namespace cairn::sim

@@ -1,0 +1,326 @@
+// Copyright Cairn authors.
+#include "cairn/sim/world.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <set>
+
+#include "cairn/sim/builtin_worlds.h"
+#include "test_util.h"
+
+namespace cairn::sim {
+namespace {
+
+using testing::MakeTempDir;
+using testing::ReadFile;
+using testing::WriteFile;
+
+// Returns the message of the WorldError thrown by `f`, or "" if none was thrown.
+template <typename F>
+std::string WorldErrorOf(F&& f) {
+  try {
+    f();
+  } catch (const WorldError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(WorldLoadOptionsTest, DefaultsAreValid) {
+  std::string why;
+  EXPECT_TRUE(WorldLoadOptions{}.IsValid(&why)) << why;
+}
+
+TEST(WorldLoadOptionsTest, InvalidFieldsAreNamed) {
+  for (const double bad : {0.01, 2.5, std::nan("")}) {
+    WorldLoadOptions options;
+    options.pcd_resolution_m = bad;
+    std::string why;
+    EXPECT_FALSE(options.IsValid(&why));
+    EXPECT_CONTAINS(why, "pcd_resolution_m");
+    EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld("builtin:arena", options); }), "pcd_resolution_m");
+  }
+  WorldLoadOptions options;
+  options.max_voxels = 0;
+  std::string why;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_CONTAINS(why, "max_voxels = 0");
+}
+
+TEST(WorldTest, IndexHelpersAndOccupancy) {
+  World world("test", Eigen::Vector3d(-1.0, 2.0, 0.0), 0.5, Eigen::Vector3i(4, 2, 3));
+  EXPECT_EQ(world.name(), "test");
+  EXPECT_EQ(world.num_voxels(), 24);
+  EXPECT_TRUE(world.p_W_max().isApprox(Eigen::Vector3d(1.0, 3.0, 1.5)));
+  EXPECT_TRUE(world.bounds().min().isApprox(Eigen::Vector3d(-1.0, 2.0, 0.0)));
+  EXPECT_EQ(world.CountOccupied(), 0);
+
+  const auto index = world.IndexOf(Eigen::Vector3d(0.2, 2.9, 1.4));
+  ASSERT_TRUE(index.has_value());
+  EXPECT_EQ(*index, Eigen::Vector3i(2, 1, 2));
+  EXPECT_TRUE(world.CenterOf(*index).isApprox(Eigen::Vector3d(0.25, 2.75, 1.25)));
+  EXPECT_FALSE(world.IndexOf(Eigen::Vector3d(1.0, 2.5, 0.5)).has_value());  // On the max face: outside.
+  EXPECT_FALSE(world.IndexOf(Eigen::Vector3d(std::nan(""), 2.5, 0.5)).has_value());
+
+  world.SetOccupied(*index);
+  EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(0.4, 2.6, 1.1)));
+  EXPECT_FALSE(world.IsOccupied(Eigen::Vector3d(-0.4, 2.6, 1.1)));
+  EXPECT_FALSE(world.IsOccupied(Eigen::Vector3d(50.0, 2.6, 1.1)));  // Outside: free.
+  EXPECT_TRUE(world.SetOccupiedAt(Eigen::Vector3d(-0.9, 2.1, 0.1)));
+  EXPECT_FALSE(world.SetOccupiedAt(Eigen::Vector3d(-9.0, 2.1, 0.1)));
+  EXPECT_EQ(world.CountOccupied(), 2);
+  world.SetOccupied(*index, false);
+  EXPECT_EQ(world.CountOccupied(), 1);
+  EXPECT_THROW(world.SetOccupied(Eigen::Vector3i(4, 0, 0)), std::out_of_range);
+}
+
+TEST(WorldTest, RejectsBadGrids) {
+  EXPECT_CONTAINS(WorldErrorOf([] { World("w", Eigen::Vector3d::Zero(), 0.0, Eigen::Vector3i(1, 1, 1)); }),
+                  "resolution_m");
+  EXPECT_CONTAINS(WorldErrorOf([] { World("w", Eigen::Vector3d::Zero(), 0.1, Eigen::Vector3i(0, 1, 1)); }),
+                  "dims");
+  EXPECT_CONTAINS(
+      WorldErrorOf([] { World("w", Eigen::Vector3d::Zero(), 0.1, Eigen::Vector3i(1000, 1000, 1000)); }),
+      "too large");
+}
+
+TEST(BuiltinWorldTest, NamesAndInfo) {
+  const std::vector<std::string> names = BuiltinWorldNames();
+  EXPECT_EQ(names, (std::vector<std::string>{"tunnels", "arena"}));
+  for (const std::string& name : names) {
+    const BuiltinWorldInfo& info = GetBuiltinWorldInfo(name);
+    EXPECT_EQ(info.name, name);
+    ASSERT_GE(info.suggested_starts.size(), 3u) << name;
+    for (std::size_t i = 0; i < info.suggested_starts.size(); ++i) {
+      for (std::size_t j = i + 1; j < info.suggested_starts.size(); ++j) {
+        const PlanarPose& a = info.suggested_starts[i];
+        const PlanarPose& b = info.suggested_starts[j];
+        EXPECT_GE(std::hypot(a.x_m - b.x_m, a.y_m - b.y_m), 2.0) << name << " starts " << i << ", " << j;
+      }
+    }
+  }
+}
+
+TEST(BuiltinWorldTest, UnknownNameListsValidOnes) {
+  const std::string message = WorldErrorOf([] { LoadWorld("builtin:caves"); });
+  EXPECT_CONTAINS(message, "'builtin:caves'");
+  EXPECT_CONTAINS(message, "valid names: tunnels, arena");
+}
+
+TEST(BuiltinWorldTest, TunnelsLayout) {
+  WorldLoadReport report;
+  const World world = LoadWorld("builtin:tunnels", {}, &report);
+  EXPECT_EQ(report.kind, "builtin");
+  EXPECT_EQ(world.name(), "builtin:tunnels");
+  EXPECT_DOUBLE_EQ(world.resolution_m(), 0.1);
+  EXPECT_EQ(world.dims(), Eigen::Vector3i(600, 400, 41));
+  EXPECT_TRUE(world.p_W_min().isApprox(Eigen::Vector3d(0.0, 0.0, -0.3)));
+  EXPECT_TRUE(world.p_W_max().isApprox(Eigen::Vector3d(60.0, 40.0, 3.8)));
+  const std::int64_t occupied = world.CountOccupied();
+  EXPECT_GT(occupied, 500'000);
+  EXPECT_LT(occupied, 2'000'000);
+
+  const BuiltinWorldInfo& info = GetBuiltinWorldInfo("tunnels");
+  std::vector<PlanarPose> probes = info.suggested_starts;
+  probes.push_back(info.far_goal);
+  for (const PlanarPose& p : probes) {
+    // Floor under the pose, free body space above it, ceiling above that.
+    EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(p.x_m, p.y_m, -0.05))) << p.x_m << ", " << p.y_m;
+    for (double z = 0.05; z < 2.4; z += 0.1) {
+      EXPECT_FALSE(world.IsOccupied(Eigen::Vector3d(p.x_m, p.y_m, z))) << p.x_m << ", " << p.y_m << ", " << z;
+    }
+    EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(p.x_m, p.y_m, 3.7))) << p.x_m << ", " << p.y_m;
+  }
+  // Rough walls 1.5 +- 0.3 m from the main tunnel's centre line (y = 20), at least 0.25 m thick.
+  for (double x = 5.05; x < 25.0; x += 1.0) {
+    double wall_y = 0.0;
+    for (double y = 20.05; y < 23.0 && wall_y == 0.0; y += 0.1) {
+      if (world.IsOccupied(Eigen::Vector3d(x, y, 1.0))) wall_y = y;
+    }
+    EXPECT_GT(wall_y, 21.15) << x;
+    EXPECT_LT(wall_y, 21.85) << x;
+    EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(x, wall_y + 0.2, 1.0))) << x;
+  }
+  // Room wall at x = 56.
+  EXPECT_FALSE(world.IsOccupied(Eigen::Vector3d(55.5, 17.0, 1.0)));
+  EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(56.15, 17.0, 1.0)));
+  // Staircase: third step (0.6 m) and platform (1.0 m) in the room.
+  EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(51.25, 24.0, 0.55)));
+  EXPECT_FALSE(world.IsOccupied(Eigen::Vector3d(51.25, 24.0, 0.65)));
+  EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(54.0, 24.0, 0.95)));
+  EXPECT_FALSE(world.IsOccupied(Eigen::Vector3d(54.0, 24.0, 1.05)));
+}
+
+TEST(BuiltinWorldTest, SeededAndDeterministic) {
+  const World a = MakeBuiltinWorld("tunnels", 7);
+  const World b = MakeBuiltinWorld("tunnels", 7);
+  const World c = MakeBuiltinWorld("tunnels", 8);
+  EXPECT_EQ(a.CountOccupied(), b.CountOccupied());
+  int differences_ab = 0;
+  int differences_ac = 0;
+  for (double x = 0.05; x < 60.0; x += 0.1) {
+    const Eigen::Vector3d p(x, 21.55, 1.0);
+    differences_ab += a.IsOccupied(p) != b.IsOccupied(p);
+    differences_ac += a.IsOccupied(p) != c.IsOccupied(p);
+  }
+  EXPECT_EQ(differences_ab, 0);
+  EXPECT_GT(differences_ac, 0);  // Another seed roughens the walls differently.
+}
+
+TEST(BuiltinWorldTest, Arena) {
+  const World world = LoadWorld("builtin:arena");
+  EXPECT_EQ(world.dims(), Eigen::Vector3i(200, 140, 17));
+  EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(0.1, 7.0, 1.0)));    // West wall.
+  EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(10.45, 7.0, 1.0)));  // Pillar side.
+  EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(4.0, 3.0, 0.05)));   // Plate.
+  EXPECT_FALSE(world.IsOccupied(Eigen::Vector3d(4.0, 3.0, 0.15)));
+  EXPECT_FALSE(world.IsOccupied(Eigen::Vector3d(2.0, 7.0, 0.05)));  // Free above the floor.
+}
+
+class WorldFileTest : public ::testing::Test {
+ protected:
+  std::string dir_ = MakeTempDir();
+};
+
+TEST_F(WorldFileTest, BtRoundTrip) {
+  const World arena = MakeBuiltinWorld("arena");
+  const std::string path = dir_ + "/arena.bt";
+  SaveWorldAsBt(arena, path);
+  WorldLoadReport report;
+  const World loaded = LoadWorld(path, {}, &report);
+  EXPECT_EQ(report.kind, "bt");
+  EXPECT_GT(report.leaves_occupied, 0);
+  EXPECT_EQ(loaded.name(), path);
+  EXPECT_DOUBLE_EQ(loaded.resolution_m(), 0.1);
+  EXPECT_EQ(loaded.dims(), arena.dims());
+  EXPECT_TRUE(loaded.p_W_min().isApprox(arena.p_W_min(), 1e-9));
+  EXPECT_EQ(loaded.CountOccupied(), arena.CountOccupied());
+  int mismatches = 0;
+  for (int ix = 0; ix < arena.dims().x(); ++ix) {
+    for (int iy = 0; iy < arena.dims().y(); ++iy) {
+      for (int iz = 0; iz < arena.dims().z(); ++iz) {
+        mismatches += arena.IsOccupiedIndex({ix, iy, iz}) != loaded.IsOccupiedIndex({ix, iy, iz});
+      }
+    }
+  }
+  EXPECT_EQ(mismatches, 0);
+}
+
+TEST_F(WorldFileTest, MissingFile) {
+  const std::string path = dir_ + "/nope.bt";
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(path); }), "'" + path + "' does not exist");
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(dir_ + "/nope.pcd"); }), "does not exist");
+}
+
+TEST_F(WorldFileTest, GarbageAndTruncatedBt) {
+  const std::string garbage = dir_ + "/garbage.bt";
+  WriteFile(garbage, "this is not an octree\n\x01\x02\x03 at all");
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(garbage); }),
+                  "'" + garbage + "' is not a valid OctoMap binary (.bt) file");
+
+  const std::string full = dir_ + "/full.bt";
+  SaveWorldAsBt(MakeBuiltinWorld("arena"), full);
+  const std::string bytes = ReadFile(full);
+  const std::string truncated = dir_ + "/truncated.bt";
+  WriteFile(truncated, bytes.substr(0, bytes.size() / 2));
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(truncated); }), "is not a valid OctoMap binary (.bt) file");
+
+  const std::string garbage_ot = dir_ + "/garbage.ot";
+  WriteFile(garbage_ot, "# Octomap OcTree file\nnonsense\n");
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(garbage_ot); }), "is not a valid OctoMap (.ot) file");
+}
+
+TEST_F(WorldFileTest, EmptyBt) {
+  const std::string path = dir_ + "/empty.bt";
+  SaveWorldAsBt(World("empty", Eigen::Vector3d::Zero(), 0.1, Eigen::Vector3i(2, 2, 2)), path);
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(path); }), "'" + path + "' is an empty map");
+}
+
+TEST_F(WorldFileTest, TooLargeGrid) {
+  const std::string bt = dir_ + "/arena.bt";
+  SaveWorldAsBt(MakeBuiltinWorld("arena"), bt);
+  WorldLoadOptions options;
+  options.max_voxels = 1000;
+  const std::string message = WorldErrorOf([&] { LoadWorld(bt, options); });
+  EXPECT_CONTAINS(message, "too large");
+  EXPECT_CONTAINS(message, "200 x 140 x 17");
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld("builtin:arena", options); }), "too large");
+
+  // Two points 40 m apart at 0.02 m: 2001^3 voxels, over the default 500 M limit.
+  const std::string pcd = dir_ + "/far.pcd";
+  WriteFile(pcd,
+            "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 2\nHEIGHT 1\n"
+            "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\nDATA ascii\n0 0 0\n40 40 40\n");
+  options = WorldLoadOptions{};
+  options.pcd_resolution_m = 0.02;
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(pcd, options); }), "too large (limit 500000000 voxels");
+}
+
+TEST_F(WorldFileTest, UnknownExtension) {
+  const std::string message = WorldErrorOf([&] { LoadWorld(dir_ + "/map.ply"); });
+  EXPECT_CONTAINS(message, "map.ply' is not understood");
+  EXPECT_CONTAINS(message, ".bt, .ot or .pcd");
+}
+
+std::string AsciiPcd(const std::vector<std::string>& rows) {
+  std::string text = "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " +
+                     std::to_string(rows.size()) + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " +
+                     std::to_string(rows.size()) + "\nDATA ascii\n";
+  for (const std::string& row : rows) text += row + "\n";
+  return text;
+}
+
+TEST_F(WorldFileTest, PcdVoxelizedAndNonFiniteDropped) {
+  const std::string path = dir_ + "/cloud.pcd";
+  WriteFile(path, AsciiPcd({"0.05 0.05 0.05", "0.06 0.04 0.02", "1.05 0.55 0.25", "nan 1 1", "2 inf 0",
+                            "0.95 0.05 0.05"}));
+  WorldLoadReport report;
+  WorldLoadOptions options;
+  options.pcd_resolution_m = 0.1;
+  const World world = LoadWorld(path, options, &report);
+  EXPECT_EQ(report.kind, "pcd");
+  EXPECT_EQ(report.points_total, 6);
+  EXPECT_EQ(report.points_dropped_non_finite, 2);
+  EXPECT_EQ(world.CountOccupied(), 3);  // The first two points share a voxel.
+  EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(0.05, 0.05, 0.05)));
+  EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(1.05, 0.55, 0.25)));
+  EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(0.95, 0.05, 0.05)));
+  EXPECT_FALSE(world.IsOccupied(Eigen::Vector3d(0.5, 0.3, 0.1)));
+  EXPECT_NEAR(world.p_W_min().x(), 0.0, 1e-9);
+  EXPECT_GE(world.p_W_max().x(), 1.1 - 1e-9);
+}
+
+TEST_F(WorldFileTest, PcdErrors) {
+  const std::string all_nan = dir_ + "/nan.pcd";
+  WriteFile(all_nan, AsciiPcd({"nan nan nan", "inf 0 0"}));
+  const std::string message = WorldErrorOf([&] { LoadWorld(all_nan); });
+  EXPECT_CONTAINS(message, "'" + all_nan + "' is an empty map: no finite point");
+  EXPECT_CONTAINS(message, "2 dropped as NaN/inf");
+
+  const std::string garbage = dir_ + "/garbage.pcd";
+  WriteFile(garbage, "hello, I am not a point cloud\n");
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(garbage); }), "'" + garbage + "' is not a valid PCD file");
+}
+
+TEST(Geb079Test, LoadsRealScan) {
+  CAIRN_SKIP_WITHOUT_GEB079();
+  WorldLoadReport report;
+  const World world = LoadWorld(testing::Geb079Path(), {}, &report);
+  EXPECT_EQ(report.kind, "bt");
+  EXPECT_EQ(report.leaves_occupied, 143729);
+  EXPECT_DOUBLE_EQ(world.resolution_m(), 0.08);
+  EXPECT_TRUE(world.bounds().min().isApprox(Eigen::Vector3d(-8.0, -7.52, -0.32), 1e-6));
+  EXPECT_TRUE(world.bounds().max().isApprox(Eigen::Vector3d(30.96, 7.44, 2.8), 1e-6));
+  EXPECT_EQ(world.dims(), Eigen::Vector3i(487, 187, 39));
+  // 137745 single-voxel leaves + 5983 leaves of 2^3 voxels + 1 leaf of 4^3 voxels.
+  EXPECT_EQ(world.CountOccupied(), 185673);
+  // The corridor floor near the origin is occupied; the corridor above it is free.
+  EXPECT_TRUE(world.IsOccupied(Eigen::Vector3d(0.0, 0.0, -0.04)) ||
+              world.IsOccupied(Eigen::Vector3d(0.0, 0.0, -0.12)));
+  EXPECT_FALSE(world.IsOccupied(Eigen::Vector3d(0.0, 0.0, 1.0)));
+}
+
+}  // namespace
+}  // namespace cairn::sim

@@ -1,0 +1,301 @@
+// Multi-process integration test of the walking skeleton: 2 cairn_agent processes, 2 cairn_base processes
+// and this test as a DDS observer, all in this test's private network namespace (tests/netns_run.sh).
+#include <signal.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "cairn/core/dds.h"
+#include "cairn/nav/astar.h"
+#include "cairn/nav/sampling.h"
+#include "cairn/nav/traversability.h"
+#include "cairn/sim/world.h"
+#include "cairn_msgsPubSubTypes.h"
+#include "process.h"
+
+namespace cairn {
+namespace {
+
+using namespace std::chrono_literals;
+using nlohmann::json;
+using testing::ChildProcess;
+using Clock = std::chrono::steady_clock;
+
+const std::string kAgent = std::string(CAIRN_BINARY_DIR) + "/robot_agent/cairn_agent";
+const std::string kBase = std::string(CAIRN_BINARY_DIR) + "/basestation/cairn_base";
+
+double WallSeconds(const cairn_msgs::Time& t) { return t.sec() + 1e-9 * t.nanosec(); }
+
+// Watches robot states and operator teleop over DDS, and can inject raw messages.
+class Observer {
+ public:
+  explicit Observer(int domain) {
+    core::ParticipantOptions options;
+    options.domain_id = domain;
+    options.name = "test-observer";
+    participant_ = std::make_unique<core::Participant>(options);
+    states_ = std::make_unique<core::Reader<cairn_msgs::RobotStatePubSubType>>(
+        *participant_, "cairn/robot_state", "cairn.state", [this](const cairn_msgs::RobotState& s, const auto&) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          latest_[s.robot_id()] = s;
+          history_[s.robot_id()].push_back(s);
+        });
+    teleop_ = std::make_unique<core::Reader<cairn_msgs::TeleopTwistPubSubType>>(
+        *participant_, "cairn/teleop", "cairn.teleop", [this](const cairn_msgs::TeleopTwist& t, const auto&) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          last_teleop_[t.robot_id()] = t;
+        });
+    goals_ = std::make_unique<core::Writer<cairn_msgs::WaypointGoalPubSubType>>(*participant_, "cairn/waypoint_goal",
+                                                                               "cairn.command");
+  }
+  std::optional<cairn_msgs::RobotState> Latest(const std::string& robot) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = latest_.find(robot);
+    if (it == latest_.end()) return std::nullopt;
+    return it->second;
+  }
+  std::vector<cairn_msgs::RobotState> History(const std::string& robot) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return history_[robot];
+  }
+  std::optional<cairn_msgs::TeleopTwist> LastTeleop(const std::string& robot) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = last_teleop_.find(robot);
+    if (it == last_teleop_.end()) return std::nullopt;
+    return it->second;
+  }
+  // A fresh state of `robot` (received after this call).
+  cairn_msgs::RobotState FreshState(const std::string& robot) {
+    std::size_t seen = History(robot).size();
+    const auto deadline = Clock::now() + 3s;
+    while (Clock::now() < deadline) {
+      auto h = History(robot);
+      if (h.size() > seen) return h.back();
+      std::this_thread::sleep_for(10ms);
+    }
+    ADD_FAILURE() << "no state from " << robot;
+    return {};
+  }
+  core::Writer<cairn_msgs::WaypointGoalPubSubType>& goals() { return *goals_; }
+
+ private:
+  std::unique_ptr<core::Participant> participant_;
+  std::unique_ptr<core::Reader<cairn_msgs::RobotStatePubSubType>> states_;
+  std::unique_ptr<core::Reader<cairn_msgs::TeleopTwistPubSubType>> teleop_;
+  std::unique_ptr<core::Writer<cairn_msgs::WaypointGoalPubSubType>> goals_;
+  std::mutex mutex_;
+  std::map<std::string, cairn_msgs::RobotState> latest_;
+  std::map<std::string, std::vector<cairn_msgs::RobotState>> history_;
+  std::map<std::string, cairn_msgs::TeleopTwist> last_teleop_;
+};
+
+// A basestation process driven line by line in --json mode.
+class Base {
+ public:
+  Base(const std::string& id, int domain, const std::string& log_dir)
+      : process_({kBase, "--base-id", id, "--domain", std::to_string(domain), "--json"},
+                 log_dir + "/" + id + ".log") {}
+  json Run(const std::string& command, std::chrono::milliseconds timeout = 30s) {
+    process_.WriteLine(command);
+    const auto line = process_.ReadLine(timeout);
+    if (!line) {
+      ADD_FAILURE() << "no answer to '" << command << "'";
+      return json{{"ok", false}, {"result", "no answer"}};
+    }
+    return json::parse(*line);
+  }
+
+ private:
+  ChildProcess process_;
+};
+
+double Distance(const cairn_msgs::RobotState& a, const cairn_msgs::RobotState& b) {
+  return std::hypot(a.pose_MB().position().x_m() - b.pose_MB().position().x_m(),
+                    a.pose_MB().position().y_m() - b.pose_MB().position().y_m());
+}
+
+struct WorldCase {
+  std::string name;
+  std::string spec;  // world spec; a path relative to the repository root for shared data
+  int domain;
+};
+
+class FleetIntegration : public ::testing::TestWithParam<WorldCase> {};
+
+TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
+  const WorldCase& world_case = GetParam();
+  std::string spec = world_case.spec;
+  if (spec.rfind("builtin:", 0) != 0) {
+    spec = std::string(CAIRN_SOURCE_DIR) + "/" + spec;
+    if (!std::filesystem::exists(spec)) GTEST_SKIP() << spec << " is absent (no ../shared); builtin worlds cover this";
+  }
+  const int domain = world_case.domain;
+  const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/" + world_case.name;
+  std::filesystem::create_directories(logs);
+  // State at 50 Hz so that the stop after teleop silence is timed to 20 ms.
+  const std::string config = logs + "/agent.yaml";
+  std::ofstream(config) << "telemetry:\n  state_rate_hz: 50\n";
+
+  // The same traversability the agents use (their defaults) to pick a goal 10-25 m away by path.
+  const sim::World world = sim::LoadWorld(spec);
+  const nav::TraversabilityGrid grid(world, nav::TraversabilityOptions{});
+
+  Observer observer(domain);
+  std::vector<std::unique_ptr<ChildProcess>> agents;
+  for (int i = 1; i <= 2; ++i) {
+    const std::string id = "r" + std::to_string(i);
+    agents.push_back(std::make_unique<ChildProcess>(
+        std::vector<std::string>{kAgent, "--robot-id", id, "--world", spec, "--start", "slot:" + std::to_string(i - 1),
+                                 "--domain", std::to_string(domain), "--config", config},
+        logs + "/" + id + ".log"));
+  }
+  for (auto& agent : agents) ASSERT_TRUE(agent->WaitForLine("READY", 60s)) << "agent did not start; see " << logs;
+
+  // Discovery: a fresh basestation sees both robots within 2 s of its start.
+  const auto base_start = Clock::now();
+  Base opA("opA", domain, logs);
+  ASSERT_TRUE(opA.Run("wait r1 online 2")["ok"]);
+  ASSERT_TRUE(opA.Run("wait r2 online 2")["ok"]);
+  const double discovery_s = std::chrono::duration<double>(Clock::now() - base_start).count();
+  EXPECT_LT(discovery_s, 2.0);
+  RecordProperty("discovery_s", std::to_string(discovery_s));
+  Base opB("opB", domain, logs);
+  ASSERT_TRUE(opB.Run("wait r1 online 2")["ok"]);
+
+  const cairn_msgs::RobotState start = observer.FreshState("r1");
+  const Eigen::Vector2d p_start(start.pose_MB().position().x_m(), start.pose_MB().position().y_m());
+  std::optional<Eigen::Vector2d> goal;
+  for (const auto& c : nav::SampleFreeStarts(grid, 40, 2.0, 1234)) {
+    const nav::PlanResult plan = nav::PlanPath(grid, p_start, c.head<2>(), nav::AStarOptions{});
+    if (plan.status == nav::PlanResult::Status::kSuccess && plan.length_m >= 10 && plan.length_m <= 25) {
+      goal = c.head<2>();
+      break;
+    }
+  }
+  ASSERT_TRUE(goal) << "no goal 10-25 m from the start in " << spec;
+
+  // Arbitration: opA gets control; opB is denied and told the holder.
+  json r = opA.Run("request-control r1");
+  EXPECT_TRUE(r["ok"]) << r;
+  r = opB.Run("request-control r1");
+  EXPECT_FALSE(r["ok"]);
+  EXPECT_EQ(r["result"], "denied");
+  EXPECT_EQ(r["holder"], "opA");
+  EXPECT_NE(r["reason"].get<std::string>().find("locked by basestation opA"), std::string::npos) << r;
+
+  // opB's goto and teleop are discarded and the robot does not move.
+  char gx[32], gy[32];
+  std::snprintf(gx, sizeof(gx), "%.2f", goal->x());
+  std::snprintf(gy, sizeof(gy), "%.2f", goal->y());
+  r = opB.Run(std::string("goto r1 ") + gx + " " + gy);
+  EXPECT_EQ(r["result"], "discarded") << r;
+  r = opB.Run("teleop r1 0.5 0 1.0");
+  EXPECT_FALSE(r["ok"]) << r;
+  std::this_thread::sleep_for(500ms);
+  const cairn_msgs::RobotState after_b = observer.FreshState("r1");
+  EXPECT_LT(Distance(start, after_b), 0.01);
+  EXPECT_GE(after_b.discarded_commands(), 2u);
+  EXPECT_EQ(after_b.mode(), "idle");
+
+  // opA's goto arrives within 0.3 m.
+  r = opA.Run(std::string("goto r1 ") + gx + " " + gy);
+  ASSERT_TRUE(r["ok"]) << r;
+  r = opA.Run("wait r1 arrived 120", 130s);
+  EXPECT_TRUE(r["ok"]) << r;
+  const cairn_msgs::RobotState arrived = observer.FreshState("r1");
+  const double miss_m = std::hypot(arrived.pose_MB().position().x_m() - goal->x(),
+                                   arrived.pose_MB().position().y_m() - goal->y());
+  EXPECT_LT(miss_m, 0.3);
+  RecordProperty("goal_miss_m", std::to_string(miss_m));
+  for (const auto& s : observer.History("r1")) EXPECT_FALSE(s.in_contact()) << "r1 touched occupied space";
+
+  // opA releases; opB gets control.
+  EXPECT_TRUE(opA.Run("release r1")["ok"]);
+  r = opB.Run("request-control r1");
+  EXPECT_TRUE(r["ok"]) << r;
+
+  // Bad goals are refused with a reason, and the robot does not move.
+  const cairn_msgs::RobotState before_bad = observer.FreshState("r1");
+  r = opB.Run("goto r1 1000 1000");
+  EXPECT_EQ(r["result"], "denied") << r;
+  EXPECT_NE(r["reason"].get<std::string>().find("outside"), std::string::npos) << r;
+  r = opB.Run("goto r1 nan 3");
+  EXPECT_EQ(r["result"], "usage") << r;
+  EXPECT_NE(r["reason"].get<std::string>().find("X 'nan' is not a finite number"), std::string::npos) << r;
+  std::optional<Eigen::Vector2d> blocked;
+  for (int ix = 0; ix < grid.nx() && !blocked; ++ix) {
+    for (int iy = 0; iy < grid.ny() && !blocked; ++iy) {
+      if (grid.State(ix, iy) == nav::CellState::kObstacle) blocked = grid.CellCenter(ix, iy);
+    }
+  }
+  ASSERT_TRUE(blocked);
+  char bx[64];
+  std::snprintf(bx, sizeof(bx), "goto r1 %.3f %.3f", blocked->x(), blocked->y());
+  r = opB.Run(bx);
+  EXPECT_EQ(r["result"], "denied") << r;
+  // A NaN goal straight on DDS (bypassing the CLI's checks) is refused by the robot itself.
+  cairn_msgs::WaypointGoal nan_goal;
+  nan_goal.robot_id("r1");
+  nan_goal.base_id("opB");
+  nan_goal.request_id(900000);
+  nan_goal.frame_id("map");
+  nan_goal.x_m(std::nan(""));
+  nan_goal.y_m(1.0);
+  observer.goals().Write(nan_goal);
+  std::this_thread::sleep_for(300ms);
+  const cairn_msgs::RobotState after_bad = observer.FreshState("r1");
+  EXPECT_LT(Distance(before_bad, after_bad), 0.01);
+  EXPECT_EQ(after_bad.mode(), "idle");
+
+  // Teleop followed by silence: the mux zeroes the command within 0.6 s of the last twist, and the robot is
+  // at rest by then plus its braking time at the platform's deceleration limit.
+  r = opB.Run("teleop r1 0.3 0 1.0");
+  ASSERT_TRUE(r["ok"]) << r;
+  const auto last = observer.LastTeleop("r1");
+  ASSERT_TRUE(last);
+  const double last_twist_s = WallSeconds(last->stamp());
+  std::this_thread::sleep_for(1500ms);
+  double moved_m = 0, zero_cmd_s = -1, rest_s = -1;
+  const auto history = observer.History("r1");
+  for (std::size_t i = 1; i < history.size(); ++i) {
+    if (WallSeconds(history[i].stamp()) < last_twist_s - 0.9) continue;
+    moved_m += Distance(history[i - 1], history[i]);
+    const double t = WallSeconds(history[i].stamp()) - last_twist_s;
+    if (t > 0 && zero_cmd_s < 0 && history[i].cmd_twist_B().linear_x_mps() == 0.0) zero_cmd_s = t;
+    if (t > 0 && rest_s < 0 && std::abs(history[i].twist_B().linear_x_mps()) < 1e-6) rest_s = t;
+  }
+  EXPECT_GT(moved_m, 0.1) << "teleop did not move the robot";
+  ASSERT_GT(zero_cmd_s, 0);
+  EXPECT_LE(zero_cmd_s, 0.6);
+  ASSERT_GT(rest_s, 0);
+  EXPECT_LE(rest_s, 0.6 + 0.3 / 1.0 + 0.02);  // 0.3 m/s at the wheeled limit of 1 m/s^2, one 20 ms cycle
+  RecordProperty("stop_command_after_silence_s", std::to_string(zero_cmd_s));
+  RecordProperty("at_rest_after_silence_s", std::to_string(rest_s));
+
+  // An agent killed with SIGKILL is shown lost within 3 s.
+  agents[1]->Signal(SIGKILL);
+  const auto killed = Clock::now();
+  r = opA.Run("wait r2 lost 3");
+  EXPECT_TRUE(r["ok"]) << r;
+  EXPECT_LT(std::chrono::duration<double>(Clock::now() - killed).count(), 3.0);
+  r = opA.Run("robots");
+  bool listed_lost = false;
+  for (const auto& robot : r["robots"]) {
+    if (robot["robot"] == "r2") listed_lost = robot["lost"].get<bool>();
+  }
+  EXPECT_TRUE(listed_lost) << r;
+}
+
+INSTANTIATE_TEST_SUITE_P(Worlds, FleetIntegration,
+                         ::testing::Values(WorldCase{"geb079", "../shared/data/geb079.bt", 61},
+                                           WorldCase{"tunnels", "builtin:tunnels", 62}),
+                         [](const auto& info) { return info.param.name; });
+
+}  // namespace
+}  // namespace cairn

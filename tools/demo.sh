@@ -1,0 +1,86 @@
+#!/usr/bin/env bash
+# The Cairn demo: N simulated robots (cairn_agent) and one basestation (cairn_base), on loopback only.
+# Called by `./cairn demo` inside a private network namespace. Ctrl-C stops every process it started.
+#   demo.sh BUILD_DIR [--world SPEC] [--robots N] [--domain D] [--headless --script FILE] [--json]
+set -euo pipefail
+BUILD="$1"; shift
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+WORLD="builtin:tunnels"; ROBOTS=3; DOMAIN=7; HEADLESS=0; SCRIPT=""; JSON=""; PLATFORM="wheeled"
+
+usage() {
+  cat <<USAGE
+usage: ./cairn demo [--world builtin:NAME|FILE.bt|FILE.pcd] [--robots N] [--platform wheeled|legged]
+                    [--domain D] [--headless --script FILE] [--json]
+  Starts N robots (r1..rN, default 3) at distinct free starts and a basestation 'op1'.
+  Interactive by default; --headless --script FILE runs the command file, prints the outcome and exits
+  non-zero if any command fails. Example: ./cairn demo --headless --script examples/geb079_mission.cairn
+USAGE
+}
+
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --world) WORLD="${2:?--world needs a value}"; shift 2 ;;
+    --robots) ROBOTS="${2:?--robots needs a value}"; shift 2 ;;
+    --platform) PLATFORM="${2:?--platform needs a value}"; shift 2 ;;
+    --domain) DOMAIN="${2:?--domain needs a value}"; shift 2 ;;
+    --headless) HEADLESS=1; shift ;;
+    --script) SCRIPT="${2:?--script needs a file}"; shift 2 ;;
+    --json) JSON="--json"; shift ;;
+    -h|--help) usage; exit 0 ;;
+    *) echo "demo: unknown option '$1'" >&2; usage >&2; exit 2 ;;
+  esac
+done
+if ! [[ "$ROBOTS" =~ ^[0-9]+$ ]] || [ "$ROBOTS" -lt 1 ] || [ "$ROBOTS" -gt 20 ]; then
+  echo "demo: --robots '$ROBOTS' must be an integer in 1..20" >&2; exit 2
+fi
+if [ "$HEADLESS" = 1 ] && [ -z "$SCRIPT" ]; then echo "demo: --headless needs --script FILE" >&2; exit 2; fi
+if [ -n "$SCRIPT" ] && [ ! -r "$SCRIPT" ]; then echo "demo: --script '$SCRIPT' cannot be read" >&2; exit 2; fi
+# A mission script may name the world it was written for in a line '# world: PATH' (relative to the repo).
+if [ -n "$SCRIPT" ]; then
+  wanted=$(sed -n 's/^# world: *//p' "$SCRIPT" | head -1)
+  if [ -n "$wanted" ] && [ "$WORLD" = "builtin:tunnels" ]; then
+    case "$wanted" in builtin:*|/*) WORLD="$wanted" ;; *) WORLD="$ROOT/$wanted" ;; esac
+  fi
+fi
+case "$WORLD" in
+  builtin:*) ;;
+  *) [ -r "$WORLD" ] || { echo "demo: world file '$WORLD' cannot be read" >&2; exit 2; } ;;
+esac
+
+LOGS="$BUILD/demo-logs"; mkdir -p "$LOGS"
+PIDS=()
+cleanup() {
+  for pid in "${PIDS[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
+  for pid in "${PIDS[@]}"; do wait "$pid" 2>/dev/null || true; done
+}
+trap cleanup EXIT
+trap 'exit 130' INT TERM
+
+echo "demo: world $WORLD, $ROBOTS robots, DDS domain $DOMAIN (loopback only); logs in $LOGS"
+for i in $(seq 1 "$ROBOTS"); do
+  "$BUILD/robot_agent/cairn_agent" --robot-id "r$i" --world "$WORLD" --start "slot:$((i - 1))" \
+    --platform "$PLATFORM" --domain "$DOMAIN" >"$LOGS/r$i.log" 2>&1 &
+  PIDS+=($!)
+done
+# Wait until every agent has loaded its world and is on DDS.
+for i in $(seq 1 "$ROBOTS"); do
+  for _ in $(seq 1 600); do
+    grep -q "^READY" "$LOGS/r$i.log" 2>/dev/null && break
+    if ! kill -0 "${PIDS[$((i - 1))]}" 2>/dev/null; then
+      echo "demo: robot r$i failed to start:" >&2; tail -5 "$LOGS/r$i.log" >&2; exit 1
+    fi
+    sleep 0.1
+  done
+done
+echo "demo: robots ready: $(seq -s ' ' -f 'r%g' 1 "$ROBOTS")"
+
+BASE="$BUILD/basestation/cairn_base"
+if [ -n "$SCRIPT" ]; then
+  set +e
+  "$BASE" --base-id op1 --domain "$DOMAIN" $JSON --script "$SCRIPT"
+  status=$?
+  set -e
+  if [ $status -eq 0 ]; then echo "demo: mission succeeded"; else echo "demo: mission FAILED (exit $status)"; fi
+  exit $status
+fi
+"$BASE" --base-id op1 --domain "$DOMAIN" $JSON
