@@ -214,7 +214,8 @@ int CommandShell::Robots() {
 }
 
 int CommandShell::Status(const std::vector<std::string>& args) {
-  client_.WaitForRobot(args[0], 3.0);
+  // A fresh basestation may know the robot before its first state arrives: give the state a moment.
+  client_.WaitUntil(args[0], 3.0, [](const RobotView& v) { return v.state.has_value(); });
   const auto view = client_.Robot(args[0]);
   if (!view) {
     CommandOutcome o;
@@ -275,9 +276,9 @@ int CommandShell::Teleop(const std::vector<std::string>& args) {
   // Stream at 10 Hz for the duration, then fall silent: the robot's mux stops it after teleop_timeout_s.
   const auto start = core::SteadyClock::now();
   int sent = 0;
-  while (core::SecondsBetween(start, core::SteadyClock::now()) < duration) {
+  for (int tick = 0; core::SecondsBetween(start, core::SteadyClock::now()) < duration; ++tick) {
     if (client_.PublishTeleop(robot, vx, wz)) ++sent;
-    std::this_thread::sleep_until(start + std::chrono::milliseconds(100 * (sent + 1)));
+    std::this_thread::sleep_until(start + std::chrono::milliseconds(100 * (tick + 1)));
   }
   CommandOutcome o;
   o.ok = true;
