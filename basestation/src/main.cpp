@@ -9,6 +9,7 @@
 
 #include <CLI/CLI.hpp>
 #include <editline/readline.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "cairn/base/command_shell.h"
@@ -59,6 +60,8 @@ int RunScript(cairn::base::CommandShell& shell, std::istream& in, bool keep_goin
 
 int main(int argc, char** argv) {
   cairn::core::InstallShutdownHandler();
+  // Logs go to stderr: stdout carries command output (cairn_base) and the READY line (cairn_agent).
+  spdlog::set_default_logger(spdlog::stderr_color_mt("cairn"));
   cairn::base::FleetClientOptions options;
   std::string domain_text = "0", script;
   bool json = false, keep_going = false;

@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include <CLI/CLI.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "cairn/agent/robot_agent.h"
@@ -11,6 +12,8 @@
 
 int main(int argc, char** argv) {
   cairn::core::InstallShutdownHandler();
+  // Logs go to stderr: stdout carries command output (cairn_base) and the READY line (cairn_agent).
+  spdlog::set_default_logger(spdlog::stderr_color_mt("cairn"));
   cairn::agent::AgentOptions options;
   std::string start_text, domain_text = "0", config_file;
   std::string worlds;

@@ -297,7 +297,7 @@ void RobotAgent::Impl::Respond(const std::string& base_id, uint32_t request_id, 
   response_writer_->Write(r);
   responses_.emplace_back(base_id + "/" + std::to_string(kind) + "/" + std::to_string(request_id), r);
   if (responses_.size() > kResponseCacheSize) responses_.pop_front();
-  PublishTreeStateIfChanged();
+  // The behavior-tree state follows from the control loop (<= 20 ms), off the command path.
 }
 
 void RobotAgent::Impl::OnControlRequest(const msgs::ControlRequest& msg) {
