@@ -101,6 +101,7 @@ class Base {
   Base(const std::string& id, int domain, const std::string& log_dir)
       : process_({kBase, "--base-id", id, "--domain", std::to_string(domain), "--json"},
                  log_dir + "/" + id + ".log") {}
+  void Kill() { process_.Signal(SIGKILL); }
   json Run(const std::string& command, std::chrono::milliseconds timeout = 30s) {
     process_.WriteLine(command);
     const auto line = process_.ReadLine(timeout);
@@ -114,6 +115,13 @@ class Base {
  private:
   ChildProcess process_;
 };
+
+// Records a measured figure in the test report and prints it (for docs and closing notes).
+void Figure(const std::string& name, double value) {
+  ::testing::Test::RecordProperty(name, std::to_string(value));
+  std::printf("FIGURE %s %s = %.3f\n", ::testing::UnitTest::GetInstance()->current_test_info()->name(),
+              name.c_str(), value);
+}
 
 double Distance(const cairn_msgs::RobotState& a, const cairn_msgs::RobotState& b) {
   return std::hypot(a.pose_MB().position().x_m() - b.pose_MB().position().x_m(),
@@ -164,7 +172,7 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   ASSERT_TRUE(opA.Run("wait r2 online 2")["ok"]);
   const double discovery_s = std::chrono::duration<double>(Clock::now() - base_start).count();
   EXPECT_LT(discovery_s, 2.0);
-  RecordProperty("discovery_s", std::to_string(discovery_s));
+  Figure("discovery_s", discovery_s);
   Base opB("opB", domain, logs);
   ASSERT_TRUE(opB.Run("wait r1 online 2")["ok"]);
 
@@ -212,7 +220,7 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   const double miss_m = std::hypot(arrived.pose_MB().position().x_m() - goal->x(),
                                    arrived.pose_MB().position().y_m() - goal->y());
   EXPECT_LT(miss_m, 0.3);
-  RecordProperty("goal_miss_m", std::to_string(miss_m));
+  Figure("goal_miss_m", miss_m);
   for (const auto& s : observer.History("r1")) EXPECT_FALSE(s.in_contact()) << "r1 touched occupied space";
 
   // opA releases; opB gets control.
@@ -275,21 +283,44 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   EXPECT_LE(zero_cmd_s, 0.6);
   ASSERT_GT(rest_s, 0);
   EXPECT_LE(rest_s, 0.6 + 0.3 / 1.0 + 0.02);  // 0.3 m/s at the wheeled limit of 1 m/s^2, one 20 ms cycle
-  RecordProperty("stop_command_after_silence_s", std::to_string(zero_cmd_s));
-  RecordProperty("at_rest_after_silence_s", std::to_string(rest_s));
+  Figure("stop_command_after_silence_s", zero_cmd_s);
+  Figure("at_rest_after_silence_s", rest_s);
 
   // An agent killed with SIGKILL is shown lost within 3 s.
   agents[1]->Signal(SIGKILL);
   const auto killed = Clock::now();
   r = opA.Run("wait r2 lost 3");
   EXPECT_TRUE(r["ok"]) << r;
-  EXPECT_LT(std::chrono::duration<double>(Clock::now() - killed).count(), 3.0);
+  const double lost_after_s = std::chrono::duration<double>(Clock::now() - killed).count();
+  EXPECT_LT(lost_after_s, 3.0);
+  Figure("sigkill_to_lost_s", lost_after_s);
   r = opA.Run("robots");
   bool listed_lost = false;
   for (const auto& robot : r["robots"]) {
     if (robot["robot"] == "r2") listed_lost = robot["lost"].get<bool>();
   }
   EXPECT_TRUE(listed_lost) << r;
+
+  // The holder's basestation dies (SIGKILL) while r1 is in manual mode: the robot stops (idle, zero twist)
+  // and keeps the lock (lock_keep_s defaults to forever, as in the paper), so opA is still denied.
+  r = opB.Run("mode r1 manual");
+  ASSERT_TRUE(r["ok"]) << r;
+  opB.Kill();
+  const auto lost_holder = Clock::now();
+  bool stopped = false;
+  while (Clock::now() - lost_holder < 5s && !stopped) {
+    const auto s = observer.FreshState("r1");
+    stopped = !s.holder_alive() && s.mode() == "idle" && s.cmd_twist_B().linear_x_mps() == 0.0;
+  }
+  EXPECT_TRUE(stopped) << "r1 did not stop after its holder's liveliness was lost";
+  Figure("holder_loss_to_stop_s", std::chrono::duration<double>(Clock::now() - lost_holder).count());
+  const auto after_loss = observer.FreshState("r1");
+  EXPECT_EQ(after_loss.holder_id(), "opB");
+  r = opA.Run("request-control r1");
+  EXPECT_EQ(r["result"], "denied") << r;
+  EXPECT_EQ(r["holder"], "opB");
+  r = opA.Run("mode r1 manual");
+  EXPECT_EQ(r["result"], "discarded") << r;
 }
 
 INSTANTIATE_TEST_SUITE_P(Worlds, FleetIntegration,

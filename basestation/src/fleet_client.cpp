@@ -5,6 +5,7 @@
 #include <regex>
 
 #include "cairn/core/dds.h"
+#include "cairn/msgs/stamp.h"
 #include "cairn_msgsPubSubTypes.h"
 
 namespace cairn::base {
@@ -24,14 +25,6 @@ const char* ResultName(msgs::CommandResult result) {
       return "discarded";
   }
   return "error";
-}
-
-msgs::Time StampNow() {
-  const auto now = core::WallNow();
-  msgs::Time t;
-  t.sec(now.sec);
-  t.nanosec(now.nanosec);
-  return t;
 }
 
 }  // namespace
@@ -93,7 +86,7 @@ class FleetClient::Impl {
     info.kind(msgs::AGENT_KIND_BASESTATION);
     info.platform("basestation");
     info.version("0.1.0");
-    info.stamp(StampNow());
+    info.stamp(cairn::msgs::WallStampNow());
     info_writer_->Write(info);
   }
 
@@ -119,7 +112,7 @@ class FleetClient::Impl {
   }
 
   void OnLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status) {
-    if (status.not_alive_count_change <= 0) return;
+    if (!core::IsLivelinessLoss(status)) return;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       auto it = robot_by_writer_.find(status.last_publication_handle);
@@ -330,7 +323,7 @@ bool FleetClient::PublishTeleop(const std::string& robot_id, double linear_x_mps
   m.robot_id(robot_id);
   m.base_id(base_id());
   m.sequence_number(++impl_->teleop_sequence_);
-  m.stamp(StampNow());
+  m.stamp(cairn::msgs::WallStampNow());
   m.twist().linear_x_mps(linear_x_mps);
   m.twist().angular_z_radps(angular_z_radps);
   return impl_->teleop_writer_->Write(m);

@@ -1,5 +1,6 @@
 // cairn_base: one operator's basestation. Interactive REPL on a terminal, line-by-line commands otherwise,
 // or one command after `--`. See --help.
+#include <poll.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -19,26 +20,48 @@
 
 namespace {
 
-// Reads lines from a terminal with history (libedit), until EOF, "quit" or shutdown.
+// Interactive session state for libedit's callback interface (the handler has no user pointer).
+struct Interactive {
+  cairn::base::CommandShell* shell = nullptr;
+  int last = cairn::base::kOk;
+  bool done = false;
+};
+Interactive g_interactive;
+
+void OnLine(char* raw) {
+  if (raw == nullptr) {  // Ctrl-D
+    g_interactive.done = true;
+    return;
+  }
+  std::string line(raw);
+  std::free(raw);
+  if (line == "quit" || line == "exit") {
+    g_interactive.done = true;
+    return;
+  }
+  if (line.find_first_not_of(" \t") == std::string::npos) return;
+  add_history(line.c_str());
+  g_interactive.last = g_interactive.shell->Execute(line);
+}
+
+// Reads lines from a terminal with history (libedit) until Ctrl-D, "quit", or SIGINT/SIGTERM. Input is polled
+// so that Ctrl-C ends the session at once instead of after the next Enter.
 int RunInteractive(cairn::base::CommandShell& shell, const std::string& base_id) {
   const char* home = std::getenv("HOME");
   const std::string history = std::string(home ? home : ".") + "/.cairn_base_history";
   read_history(history.c_str());
   std::cout << "cairn_base " << base_id << ": type help for commands, quit or Ctrl-D to leave." << std::endl;
   const std::string prompt = base_id + "> ";
-  int last = cairn::base::kOk;
-  while (!cairn::core::ShutdownRequested()) {
-    char* raw = readline(prompt.c_str());
-    if (raw == nullptr) break;
-    std::string line(raw);
-    std::free(raw);
-    if (line == "quit" || line == "exit") break;
-    if (line.find_first_not_of(" \t") == std::string::npos) continue;
-    add_history(line.c_str());
-    last = shell.Execute(line);
+  g_interactive.shell = &shell;
+  rl_callback_handler_install(prompt.c_str(), OnLine);
+  while (!g_interactive.done && !cairn::core::ShutdownRequested()) {
+    pollfd input{STDIN_FILENO, POLLIN, 0};
+    if (poll(&input, 1, 100) > 0) rl_callback_read_char();
   }
+  rl_callback_handler_remove();
+  std::cout << std::endl;
   write_history(history.c_str());
-  return last;
+  return g_interactive.last;
 }
 
 // Runs every line of `in`; the exit code is the first failure's (scripts stop at the first failure).

@@ -33,6 +33,15 @@ int ParseDomainId(const std::string& text, const std::string& field) {
   return static_cast<int>(value);
 }
 
+bool WaitForCount(const std::atomic<int>& value, int count, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (value.load() < count) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return true;
+}
+
 std::string DefaultProfilesFile() {
   if (const char* env = std::getenv("CAIRN_DDS_PROFILES"); env != nullptr && *env != '\0') return env;
   return std::string(CAIRN_CONFIG_DIR) + "/dds_profiles.xml";

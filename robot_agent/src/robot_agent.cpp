@@ -14,6 +14,7 @@
 #include "cairn/agent/twist_mux.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/shutdown.h"
+#include "cairn/msgs/stamp.h"
 #include "cairn/nav/astar.h"
 #include "cairn/nav/path_tracker.h"
 #include "cairn/nav/sampling.h"
@@ -38,14 +39,6 @@ namespace {
 constexpr double kLoopPeriodS = 0.02;  // 50 Hz: mux staleness is acted on within 20 ms
 constexpr const char* kVersion = "0.1.0";
 constexpr std::size_t kResponseCacheSize = 256;
-
-msgs::Time WallStampMsg() {
-  const auto now = core::WallNow();
-  msgs::Time t;
-  t.sec(now.sec);
-  t.nanosec(now.nanosec);
-  return t;
-}
 
 std::string Format(const char* fmt, double a, double b) {
   char text[128];
@@ -233,7 +226,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
   info.capabilities(modes_.known_modes());
   info.version(kVersion);
   info.world(options.world);
-  info.stamp(WallStampMsg());
+  info.stamp(cairn::msgs::WallStampNow());
   info_writer_->Write(info);
   spdlog::info("robot {} ({}) ready in {} at ({:.2f}, {:.2f}, yaw {:.2f}) on DDS domain {}", options.robot_id,
                options.platform, options.world, state.x_m, state.y_m, state.yaw_rad, options.domain_id);
@@ -422,7 +415,7 @@ void RobotAgent::Impl::OnAgentLiveliness(const eprosima::fastdds::dds::Livelines
   std::lock_guard<std::mutex> guard(mutex_);
   auto it = base_by_writer_.find(status.last_publication_handle);
   if (it == base_by_writer_.end()) return;
-  if (status.not_alive_count_change > 0) {
+  if (core::IsLivelinessLoss(status)) {
     if (lock_.IsHolder(it->second)) {
       spdlog::warn("robot {}: liveliness of control holder {} lost: stopping", options_.robot_id, it->second);
     }
@@ -490,7 +483,7 @@ void RobotAgent::Impl::PublishState(SteadyTime) {
   const auto& s = platform_.state();
   msgs::RobotState m;
   m.robot_id(options_.robot_id);
-  m.stamp(WallStampMsg());
+  m.stamp(cairn::msgs::WallStampNow());
   m.platform(options_.platform);
   m.frame_id("map");
   msgs::Pose pose;
@@ -531,7 +524,7 @@ void RobotAgent::Impl::PublishTreeStateIfChanged() {
   modes_.Recheck(conditions);
   msgs::BehaviorTreeState t;
   t.robot_id(options_.robot_id);
-  t.stamp(WallStampMsg());
+  t.stamp(cairn::msgs::WallStampNow());
   t.mode(modes_.mode());
   t.active_channel(modes_.channel());
   t.last_refusal(modes_.last_refusal());

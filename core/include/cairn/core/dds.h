@@ -86,6 +86,17 @@ class Participant {
   std::mutex mutex_;
 };
 
+/// True when a liveliness change means the writer `status.last_publication_handle` is gone: its liveliness
+/// lapsed (not_alive +1), or it was unmatched while alive (alive -1, not_alive unchanged), which is how Fast
+/// DDS 2.9 reports a participant whose lease expired. Seen in tests with five participants on one host:
+/// the writer-liveliness path alone did not fire after a SIGKILL, the participant lease did.
+inline bool IsLivelinessLoss(const eprosima::fastdds::dds::LivelinessChangedStatus& status) {
+  return status.not_alive_count_change > 0 || (status.alive_count_change < 0 && status.not_alive_count_change == 0);
+}
+
+/// Polls `value` every 5 ms until it reaches `count`; false after `timeout`.
+bool WaitForCount(const std::atomic<int>& value, int count, std::chrono::milliseconds timeout);
+
 /// Typed writer for a fastddsgen type. `PubSubT` is the generated `XPubSubType`; `PubSubT::type` is X.
 /// QoS comes from the XML profile "<qos_class>.writer" (e.g. "cairn.command.writer").
 template <class PubSubT>
@@ -117,12 +128,7 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
 
   /// Waits until at least `count` readers matched; false on timeout.
   bool WaitForMatched(int count, std::chrono::milliseconds timeout) const {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (matched_.load() < count) {
-      if (std::chrono::steady_clock::now() > deadline) return false;
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
-    return true;
+    return WaitForCount(matched_, count, timeout);
   }
 
   eprosima::fastdds::dds::DataWriter* get() const { return writer_; }
@@ -171,12 +177,7 @@ class Reader : private eprosima::fastdds::dds::DataReaderListener {
 
   /// Waits until at least `count` writers matched; false on timeout.
   bool WaitForMatched(int count, std::chrono::milliseconds timeout) const {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (matched_.load() < count) {
-      if (std::chrono::steady_clock::now() > deadline) return false;
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
-    return true;
+    return WaitForCount(matched_, count, timeout);
   }
 
   eprosima::fastdds::dds::DataReader* get() const { return reader_; }

@@ -1,0 +1,106 @@
+// Bad input at the process boundary: flags, config and world files. Each must end the process with a
+// non-zero exit code and a message naming the value, and never start a robot.
+#include <sys/wait.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "process.h"
+
+namespace cairn {
+namespace {
+
+using namespace std::chrono_literals;
+
+const std::string kAgent = std::string(CAIRN_BINARY_DIR) + "/robot_agent/cairn_agent";
+const std::string kBase = std::string(CAIRN_BINARY_DIR) + "/basestation/cairn_base";
+
+struct Outcome {
+  int exit_code = -1;
+  std::string stdout_text;
+  std::string stderr_text;
+};
+
+Outcome RunProcess(std::vector<std::string> argv) {
+  const std::string err = ::testing::TempDir() + "/cli_stderr.txt";
+  testing::ChildProcess child(argv, err);
+  child.CloseStdin();
+  Outcome outcome;
+  while (auto line = child.ReadLine(20s)) outcome.stdout_text += *line + "\n";
+  const auto status = child.Wait(20s);
+  if (status && WIFEXITED(*status)) outcome.exit_code = WEXITSTATUS(*status);
+  std::ifstream in(err);
+  std::stringstream text;
+  text << in.rdbuf();
+  outcome.stderr_text = text.str();
+  return outcome;
+}
+
+std::string WriteFile(const std::string& name, const std::string& bytes) {
+  const std::string path = ::testing::TempDir() + "/" + name;
+  std::ofstream(path, std::ios::binary) << bytes;
+  return path;
+}
+
+void ExpectRefused(const Outcome& o, const std::string& needle) {
+  EXPECT_NE(o.exit_code, 0);
+  EXPECT_EQ(o.stdout_text.find("READY"), std::string::npos) << "the agent started despite bad input";
+  EXPECT_NE((o.stderr_text + o.stdout_text).find(needle), std::string::npos)
+      << "expected '" << needle << "' in:\n" << o.stderr_text << o.stdout_text;
+}
+
+TEST(AgentCli, RefusesBadFlagsNamingTheValue) {
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", "300"}), "--domain 300 is out of range");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", "x1"}), "--domain 'x1' is not an integer");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--start", "1,nan"}), "'nan' is not a finite number");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--platform", "hover"}), "platform 'hover' is not supported");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r 1"}), "robot id 'r 1'");
+  ExpectRefused(RunProcess({kAgent}), "--robot-id is required");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--start", "-50,-50", "--domain", "71"}),
+                "is not free ground");
+}
+
+TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "/nonexistent/map.bt"}), "/nonexistent/map.bt");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:atlantis"}), "atlantis");
+  const std::string corrupt = WriteFile("corrupt.bt", "# Octomap OcTree binary file\nthis is not a tree\n");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", corrupt}), corrupt);
+  const std::string config = WriteFile("bad.yaml", "mux:\n  teleop_timeout_s: fast\n");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--config", config}),
+                "mux.teleop_timeout_s = 'fast' is not a number");
+  const std::string tree = WriteFile("tree.xml", "<root BTCPP_format=\"4\"><BehaviorTree ID=\"T\"><Nope/>"
+                                                 "</BehaviorTree></root>");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--mode-tree", tree}), "Nope");
+  const std::string profiles = WriteFile("wide.xml",
+                                         "<?xml version=\"1.0\"?><dds xmlns=\"http://www.eprosima.com/XMLSchemas/"
+                                         "fastRTPS_Profiles\"><profiles><participant profile_name=\"cairn.loopback\">"
+                                         "<rtps></rtps></participant></profiles></dds>");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--dds-profiles", profiles}),
+                "not loopback-only");
+}
+
+TEST(BaseCli, RefusesBadFlagsAndCommands) {
+  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "233", "--", "robots"}), "--domain 233 is out of range");
+  ExpectRefused(RunProcess({kBase, "--base-id", "op A", "--domain", "72", "--", "robots"}), "--base-id 'op A'");
+  Outcome o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--", "goto", "r1", "1", "inf"});
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_NE(o.stdout_text.find("Y 'inf' is not a finite number"), std::string::npos) << o.stdout_text;
+  o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--", "teleop", "r1", "0.5", "0", "-3"});
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_NE(o.stdout_text.find("DURATION_S '-3' must be in (0, 600]"), std::string::npos) << o.stdout_text;
+  o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--", "warp", "r1"});
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_NE(o.stdout_text.find("unknown command 'warp'"), std::string::npos) << o.stdout_text;
+  o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--command-timeout", "1", "--", "request-control", "r9"});
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_NE(o.stdout_text.find("unknown robot 'r9'"), std::string::npos) << o.stdout_text;
+  o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--", "help"});
+  EXPECT_EQ(o.exit_code, 0);
+  EXPECT_NE(o.stdout_text.find("request-control R"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace cairn
