@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 #include <CLI/CLI.hpp>
 #include <editline/readline.h>
@@ -22,8 +23,7 @@ namespace {
 
 // Interactive session state for libedit's callback interface (the handler has no user pointer).
 struct Interactive {
-  cairn::base::CommandShell* shell = nullptr;
-  int last = cairn::base::kOk;
+  std::optional<std::string> pending;  // a complete line, run outside the line handler
   bool done = false;
 };
 Interactive g_interactive;
@@ -41,7 +41,7 @@ void OnLine(char* raw) {
   }
   if (line.find_first_not_of(" \t") == std::string::npos) return;
   add_history(line.c_str());
-  g_interactive.last = g_interactive.shell->Execute(line);
+  g_interactive.pending = std::move(line);
 }
 
 // Reads lines from a terminal with history (libedit) until Ctrl-D, "quit", or SIGINT/SIGTERM. Input is polled
@@ -52,16 +52,23 @@ int RunInteractive(cairn::base::CommandShell& shell, const std::string& base_id)
   read_history(history.c_str());
   std::cout << "cairn_base " << base_id << ": type help for commands, quit or Ctrl-D to leave." << std::endl;
   const std::string prompt = base_id + "> ";
-  g_interactive.shell = &shell;
+  int last = cairn::base::kOk;
   rl_callback_handler_install(prompt.c_str(), OnLine);
   while (!g_interactive.done && !cairn::core::ShutdownRequested()) {
     pollfd input{STDIN_FILENO, POLLIN, 0};
     if (poll(&input, 1, 100) > 0) rl_callback_read_char();
+    if (g_interactive.pending) {
+      // Without the handler installed the output is not interleaved with a redrawn prompt.
+      rl_callback_handler_remove();
+      last = shell.Execute(*g_interactive.pending);
+      g_interactive.pending.reset();
+      rl_callback_handler_install(prompt.c_str(), OnLine);
+    }
   }
   rl_callback_handler_remove();
   std::cout << std::endl;
   write_history(history.c_str());
-  return g_interactive.last;
+  return last;
 }
 
 // Runs every line of `in`; the exit code is the first failure's (scripts stop at the first failure).
