@@ -27,6 +27,11 @@ const char* ResultName(msgs::CommandResult result) {
   return "error";
 }
 
+// Identifies one command to one robot, to match its acknowledgement.
+std::string ResponseKey(const std::string& robot_id, msgs::CommandKind kind, uint32_t request_id) {
+  return robot_id + "/" + std::to_string(kind) + "/" + std::to_string(request_id);
+}
+
 }  // namespace
 
 class FleetClient::Impl {
@@ -129,7 +134,7 @@ class FleetClient::Impl {
     if (m.base_id() != options_.base_id) return;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      responses_[m.robot_id() + "/" + std::to_string(m.kind()) + "/" + std::to_string(m.request_id())] = m;
+      responses_[ResponseKey(m.robot_id(), m.kind(), m.request_id())] = m;
     }
     cv_.notify_all();
   }
@@ -154,7 +159,7 @@ class FleetClient::Impl {
       outcome.reason = UnknownRobotReason(robot_id);
       return outcome;
     }
-    const std::string key = robot_id + "/" + std::to_string(kind) + "/" + std::to_string(request_id);
+    const std::string key = ResponseKey(robot_id, kind, request_id);
     const auto start = SteadyClock::now();
     const auto deadline = start + std::chrono::duration_cast<SteadyClock::duration>(
                                       std::chrono::duration<double>(options_.command_timeout_s));

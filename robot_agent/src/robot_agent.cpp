@@ -4,7 +4,6 @@
 #include <deque>
 #include <map>
 #include <mutex>
-#include <set>
 #include <thread>
 
 #include <spdlog/spdlog.h>
@@ -265,8 +264,17 @@ void RobotAgent::Impl::FinishGoal(msgs::NavStatus status, const std::string& rea
                                                        nav_goal_id_, reason);
 }
 
+namespace {
+
+// Identifies one command of one basestation, for de-duplicating retries.
+std::string ResponseKey(const std::string& base_id, msgs::CommandKind kind, uint32_t request_id) {
+  return base_id + "/" + std::to_string(kind) + "/" + std::to_string(request_id);
+}
+
+}  // namespace
+
 bool RobotAgent::Impl::ReplayIfDuplicate(const std::string& base_id, msgs::CommandKind kind, uint32_t request_id) {
-  const std::string key = base_id + "/" + std::to_string(kind) + "/" + std::to_string(request_id);
+  const std::string key = ResponseKey(base_id, kind, request_id);
   for (const auto& [k, response] : responses_) {
     if (k == key) {
       response_writer_->Write(response);
@@ -288,7 +296,7 @@ void RobotAgent::Impl::Respond(const std::string& base_id, uint32_t request_id, 
   r.holder_id(lock_.holder_id());
   r.mode(modes_.mode());
   response_writer_->Write(r);
-  responses_.emplace_back(base_id + "/" + std::to_string(kind) + "/" + std::to_string(request_id), r);
+  responses_.emplace_back(ResponseKey(base_id, kind, request_id), r);
   if (responses_.size() > kResponseCacheSize) responses_.pop_front();
   // The behavior-tree state follows from the control loop (<= 20 ms), off the command path.
 }
@@ -369,10 +377,7 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg) {
     goal_ = previous;
     return deny(d.reason);
   }
-  if (previous) {
-    nav_status_ = msgs::NAV_STATUS_FAILED;  // superseded; the new goal takes over below
-  }
-  ApplyMode(d);
+  ApplyMode(d);  // a previous goal is simply superseded by this one
   auto tracker_options = TrackerFrom(options_);
   tracker_options.goal_tolerance_m = goal.tolerance_m;
   tracker_ = nav::PathTracker(tracker_options);
@@ -520,8 +525,7 @@ void RobotAgent::Impl::PublishTreeStateIfChanged() {
   for (const auto& v : valid) signature += "|" + v;
   if (signature == last_tree_signature_) return;
   last_tree_signature_ = signature;
-  // Tick once more for the real mode so that node statuses describe it (ValidModes ticked others).
-  modes_.Recheck(conditions);
+  // Node statuses come from the last Request/Recheck trace (Step's), which ValidModes does not overwrite.
   msgs::BehaviorTreeState t;
   t.robot_id(options_.robot_id);
   t.stamp(cairn::msgs::WallStampNow());
