@@ -1,0 +1,137 @@
+// Copyright Cairn authors.
+//
+// Global planner: the system-wide path service of Sriganesh et al. 2024 (§ Navigation Layer, § System-wide
+// services). Any component, or another robot over DDS, asks for a path (start, goal, platform) and gets a
+// path or a failure with its reason. Plans with A* (astar.h) on a 2.5D traversability grid derived from the
+// 3D map per platform (ground cells, step limit, inflation by the robot radius), so a legged robot uses
+// stairs and a wheeled one is refused with the step that stops it.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "cairn/nav/astar.h"
+#include "cairn/nav/platform.h"
+#include "cairn/nav/traversability.h"
+#include "cairn/sim/world.h"
+
+namespace cairn::nav {
+
+/// Options of GlobalPlanner.
+struct GlobalPlannerOptions {
+  /// Search options (costs, start escape, shortcutting). start_footprint_radius_m is replaced by the
+  /// requesting platform's footprint radius.
+  AStarOptions astar;
+  /// When a goal is unreachable for a platform, the planner tries again allowing steps up to this height
+  /// (metres, [0, 2]) to tell the operator which step stops the platform (e.g. a staircase); 0 = off.
+  double diagnose_max_step_m = 0.5;
+
+  /// True when every field is in range; otherwise false and, if `why` is not null, a message naming the
+  /// field, its value and the rule.
+  bool IsValid(std::string* why) const;
+};
+
+/// A path request. Points are metres in the map frame (W of the simulated world).
+struct GlobalPlanRequest {
+  Eigen::Vector2d start_W = Eigen::Vector2d::Zero();  ///< Start (x, y), metres, frame W.
+  Eigen::Vector2d goal_W = Eigen::Vector2d::Zero();   ///< Goal (x, y), metres, frame W.
+  std::string platform = "wheeled";                   ///< A GetPlatformProfile() name.
+};
+
+/// Answer of GlobalPlanner::Plan().
+struct GlobalPlan {
+  /// The A* result: status, path_W (x, y, ground z; metres, frame W), length, timing. Empty (status
+  /// kUnreachable) when the platform is unknown, see `platform_known`.
+  PlanResult result;
+  /// False if the request named an unknown platform (then `reason` lists the valid ones and result is
+  /// empty).
+  bool platform_known = true;
+  /// Why the plan failed, for the operator: the A* message, extended for unreachable goals with the step
+  /// that blocks the platform when a route exists for a climbing platform, e.g. "unreachable for platform
+  /// wheeled: the only route climbs a 0.20 m step at (50.05, 23.65), above its max_step_m 0.15 m (platform
+  /// legged climbs up to 0.25 m)". Empty on success.
+  std::string reason;
+  /// Map version the plan was made on (see GlobalPlanner::map_version()).
+  std::uint64_t map_version = 0;
+  /// Wall-clock time of the whole request (including a lazy grid build), seconds.
+  double total_time_s = 0.0;
+
+  /// True when result.status is kSuccess.
+  bool IsUsable() const { return platform_known && result.IsUsable(); }
+};
+
+/// Result of GlobalPlanner::CheckPath().
+struct PathCheck {
+  bool valid = true;              ///< True when every remaining segment is still traversable.
+  int first_blocked_segment = -1; ///< Index i of the first blocked segment (path_W[i] -> path_W[i+1]).
+  std::string message;            ///< Names the blocked segment and why, empty when valid.
+};
+
+/// The global path service over one 3D world (the robot's map). Thread-safe: Plan(), CheckPath() and
+/// UpdateWorld() may be called from any thread (one mutex; a plan on geb079.bt takes a few ms).
+///
+/// Traversability grids are built lazily per platform on first use and rebuilt after UpdateWorld().
+class GlobalPlanner {
+ public:
+  /// @param world the map (shared, never modified). @param profiles the platforms served (at least one;
+  ///        names unique). @throws std::invalid_argument for invalid options or profiles (message from
+  ///        IsValid()), a null world or duplicate names.
+  GlobalPlanner(std::shared_ptr<const sim::World> world, std::vector<PlatformProfile> profiles,
+                const GlobalPlannerOptions& options = {});
+
+  /// Plans from request.start_W to request.goal_W for request.platform. Never throws for bad request
+  /// values: NaN or out-of-map points, goals inside obstacles and unreachable goals are statuses with a
+  /// reason (see GlobalPlan::reason).
+  GlobalPlan Plan(const GlobalPlanRequest& request);
+
+  /// Checks that the part of `path_W` from `from_segment` on is still traversable for `platform` on the
+  /// current map (every segment through traversable cells). An unknown platform or an empty path is
+  /// reported as not valid.
+  PathCheck CheckPath(const std::vector<Eigen::Vector3d>& path_W, const std::string& platform,
+                      int from_segment = 0);
+
+  /// Replaces the map (e.g. after new obstacles were seen); increments map_version() and drops the grids.
+  /// @throws std::invalid_argument for a null world.
+  void UpdateWorld(std::shared_ptr<const sim::World> world);
+
+  /// Number of map updates so far (0 for the map given at construction).
+  std::uint64_t map_version() const;
+
+  /// The traversability grid of `platform` on the current map (built if needed); nullptr if the platform
+  /// is unknown. The grid stays valid while the caller holds the pointer.
+  std::shared_ptr<const TraversabilityGrid> Grid(const std::string& platform);
+
+  /// The profile of `platform`, or nullptr if unknown.
+  const PlatformProfile* Profile(const std::string& platform) const;
+
+  /// Names of the platforms served, comma separated, for messages.
+  std::string PlatformList() const;
+
+ private:
+  std::shared_ptr<const TraversabilityGrid> GridLocked(const std::string& platform, bool diagnose);
+  std::string DiagnoseUnreachable(const PlatformProfile& profile, const GlobalPlanRequest& request,
+                                  const AStarOptions& astar);
+
+  GlobalPlannerOptions options_;
+  std::vector<PlatformProfile> profiles_;
+  mutable std::mutex mutex_;
+  std::shared_ptr<const sim::World> world_;
+  std::uint64_t map_version_ = 0;
+  std::map<std::string, std::shared_ptr<const TraversabilityGrid>> grids_;            // by platform
+  std::map<std::string, std::shared_ptr<const TraversabilityGrid>> diagnose_grids_;  // by platform
+};
+
+/// Obstacle points for the local planner from a traversability grid, standing in for a sensor until the
+/// perception issue: the centres of lethal cells (no ground, walls, the top of a step the platform cannot
+/// climb) within `range_m` (metres, > 0) of the body, expressed in the body frame B of pose (x_WB_m,
+/// y_WB_m, yaw_WB_rad) at z = 0 (the body's height). Cells outside the grid count as lethal, as in
+/// TraversabilityGrid::IsFootprintFree(). Clears `points_B`, then fills it.
+void LethalCellsNear(const TraversabilityGrid& grid, double x_WB_m, double y_WB_m, double yaw_WB_rad,
+                     double range_m, std::vector<Eigen::Vector3f>* points_B);
+
+}  // namespace cairn::nav

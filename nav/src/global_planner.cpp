@@ -1,0 +1,275 @@
+// Copyright Cairn authors.
+#include "cairn/nav/global_planner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+namespace cairn::nav {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+bool InRange(const std::string& field, double value, double lo, double hi, bool lo_open, std::string* why) {
+  const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
+  if (!ok && why != nullptr) {
+    std::ostringstream out;
+    out << field << " = " << value << " must be finite and in " << (lo_open ? "(" : "[") << lo << ", " << hi
+        << "]";
+    *why = out.str();
+  }
+  return ok;
+}
+
+std::string Fixed2(double value) {
+  char buf[48];
+  std::snprintf(buf, sizeof(buf), "%.2f", value);
+  return buf;
+}
+
+}  // namespace
+
+bool PlatformProfile::IsValid(std::string* why) const {
+  const std::string p = "platform " + (name.empty() ? std::string("''") : name) + ": ";
+  if (name.empty()) {
+    if (why != nullptr) *why = "platform name is empty";
+    return false;
+  }
+  std::string inner;
+  if (!limits.IsValid(&inner)) {
+    if (why != nullptr) *why = p + inner;
+    return false;
+  }
+  if (!traversability.IsValid(&inner)) {
+    if (why != nullptr) *why = p + inner;
+    return false;
+  }
+  return InRange(p + "footprint_radius_m", footprint_radius_m, 0.0, 2.0, true, why) &&
+         InRange(p + "cruise_speed_mps", cruise_speed_mps, 0.0, limits.max_speed_mps, true, why) &&
+         InRange(p + "local_heading_range_rad", local_heading_range_rad, 0.0, kPi + 1e-9, true, why);
+}
+
+PlatformProfile GetPlatformProfile(const std::string& name) {
+  PlatformProfile p;
+  p.name = name;
+  p.footprint_radius_m = 0.3;
+  p.traversability.robot_radius_m = 0.3;
+  p.traversability.robot_height_m = 0.8;
+  if (name == "wheeled") {
+    p.limits = sim::UnicycleLimits::Wheeled();
+    p.limits.max_speed_mps = 1.5;
+    p.cruise_speed_mps = 1.0;
+    p.traversability.max_step_m = 0.15;
+    p.local_heading_range_rad = 100.0 * kPi / 180.0;
+    return p;
+  }
+  if (name == "legged") {
+    p.limits = sim::UnicycleLimits::Legged();
+    p.cruise_speed_mps = 0.5;
+    p.traversability.max_step_m = 0.25;
+    p.local_heading_range_rad = kPi;
+    return p;
+  }
+  std::string names;
+  for (const auto& n : PlatformNames()) names += (names.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("platform '" + name + "' is not supported (valid: " + names + ")");
+}
+
+std::vector<std::string> PlatformNames() { return {"wheeled", "legged"}; }
+
+bool GlobalPlannerOptions::IsValid(std::string* why) const {
+  std::string inner;
+  if (!astar.IsValid(&inner)) {
+    if (why != nullptr) *why = "GlobalPlannerOptions::astar: " + inner;
+    return false;
+  }
+  return InRange("GlobalPlannerOptions::diagnose_max_step_m", diagnose_max_step_m, 0.0, 2.0, false, why);
+}
+
+GlobalPlanner::GlobalPlanner(std::shared_ptr<const sim::World> world, std::vector<PlatformProfile> profiles,
+                             const GlobalPlannerOptions& options)
+    : options_(options), profiles_(std::move(profiles)), world_(std::move(world)) {
+  std::string why;
+  if (!options_.IsValid(&why)) throw std::invalid_argument(why);
+  if (!world_) throw std::invalid_argument("GlobalPlanner: world is null");
+  if (profiles_.empty()) throw std::invalid_argument("GlobalPlanner: no platform profile given");
+  std::set<std::string> names;
+  for (const auto& p : profiles_) {
+    if (!p.IsValid(&why)) throw std::invalid_argument(why);
+    if (!names.insert(p.name).second) throw std::invalid_argument("GlobalPlanner: platform '" + p.name +
+                                                                   "' given twice");
+  }
+}
+
+const PlatformProfile* GlobalPlanner::Profile(const std::string& platform) const {
+  for (const auto& p : profiles_) {
+    if (p.name == platform) return &p;
+  }
+  return nullptr;
+}
+
+std::string GlobalPlanner::PlatformList() const {
+  std::string names;
+  for (const auto& p : profiles_) names += (names.empty() ? "" : ", ") + p.name;
+  return names;
+}
+
+std::uint64_t GlobalPlanner::map_version() const {
+  std::lock_guard<std::mutex> guard(mutex_);
+  return map_version_;
+}
+
+void GlobalPlanner::UpdateWorld(std::shared_ptr<const sim::World> world) {
+  if (!world) throw std::invalid_argument("GlobalPlanner::UpdateWorld: world is null");
+  std::lock_guard<std::mutex> guard(mutex_);
+  world_ = std::move(world);
+  ++map_version_;
+  grids_.clear();
+  diagnose_grids_.clear();
+}
+
+std::shared_ptr<const TraversabilityGrid> GlobalPlanner::Grid(const std::string& platform) {
+  std::lock_guard<std::mutex> guard(mutex_);
+  return GridLocked(platform, false);
+}
+
+std::shared_ptr<const TraversabilityGrid> GlobalPlanner::GridLocked(const std::string& platform, bool diagnose) {
+  const PlatformProfile* profile = Profile(platform);
+  if (profile == nullptr) return nullptr;
+  auto& cache = diagnose ? diagnose_grids_ : grids_;
+  auto it = cache.find(platform);
+  if (it != cache.end()) return it->second;
+  TraversabilityOptions t = profile->traversability;
+  if (diagnose) t.max_step_m = std::max(t.max_step_m, options_.diagnose_max_step_m);
+  auto grid = std::make_shared<const TraversabilityGrid>(*world_, t);
+  cache.emplace(platform, grid);
+  return grid;
+}
+
+GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
+  const auto t0 = std::chrono::steady_clock::now();
+  GlobalPlan plan;
+  std::lock_guard<std::mutex> guard(mutex_);
+  plan.map_version = map_version_;
+  const PlatformProfile* profile = Profile(request.platform);
+  if (profile == nullptr) {
+    plan.platform_known = false;
+    plan.reason = "platform '" + request.platform + "' is not served by this planner (valid: " + PlatformList() +
+                  ")";
+    plan.result.message = plan.reason;
+    return plan;
+  }
+  AStarOptions astar = options_.astar;
+  astar.start_footprint_radius_m = profile->footprint_radius_m;
+  const auto grid = GridLocked(request.platform, false);
+  plan.result = PlanPath(*grid, request.start_W, request.goal_W, astar);
+  if (!plan.result.IsUsable()) {
+    plan.reason = plan.result.message;
+    if (plan.result.status == PlanResult::Status::kUnreachable ||
+        plan.result.status == PlanResult::Status::kGoalBlocked) {
+      const std::string diagnosis = DiagnoseUnreachable(*profile, request, astar);
+      if (!diagnosis.empty()) plan.reason = diagnosis;
+    }
+  }
+  plan.total_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return plan;
+}
+
+std::string GlobalPlanner::DiagnoseUnreachable(const PlatformProfile& profile, const GlobalPlanRequest& request,
+                                               const AStarOptions& astar) {
+  if (options_.diagnose_max_step_m <= profile.traversability.max_step_m) return "";
+  const auto relaxed = GridLocked(profile.name, true);
+  const PlanResult r = PlanPath(*relaxed, request.start_W, request.goal_W, astar);
+  if (!r.IsUsable()) return "";
+  // The largest ground height change between neighbouring cells along the relaxed route.
+  const double step_m = relaxed->cell_size_m() * 0.5;
+  double worst_step = 0.0;
+  Eigen::Vector2d worst_at = request.start_W;
+  double previous = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t i = 1; i < r.path_W.size(); ++i) {
+    const Eigen::Vector2d a = r.path_W[i - 1].head<2>();
+    const Eigen::Vector2d b = r.path_W[i].head<2>();
+    const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / step_m)));
+    for (int k = (i == 1 ? 0 : 1); k <= n; ++k) {
+      const Eigen::Vector2d p = a + (b - a) * (static_cast<double>(k) / n);
+      const auto ground = relaxed->GroundHeight(p.x(), p.y());
+      if (!ground) continue;
+      if (std::isfinite(previous) && std::abs(*ground - previous) > worst_step) {
+        worst_step = std::abs(*ground - previous);
+        worst_at = p;
+      }
+      previous = *ground;
+    }
+  }
+  if (worst_step <= profile.traversability.max_step_m + 1e-9) return "";
+  std::string text = "unreachable for platform " + profile.name + ": the only route climbs a " +
+                     Fixed2(worst_step) + " m step at (" + Fixed2(worst_at.x()) + ", " + Fixed2(worst_at.y()) +
+                     "), above its max_step_m " + Fixed2(profile.traversability.max_step_m) + " m";
+  for (const auto& other : profiles_) {
+    if (other.name != profile.name && other.traversability.max_step_m + 1e-9 >= worst_step) {
+      text += " (platform " + other.name + " climbs up to " + Fixed2(other.traversability.max_step_m) + " m)";
+      break;
+    }
+  }
+  return text;
+}
+
+PathCheck GlobalPlanner::CheckPath(const std::vector<Eigen::Vector3d>& path_W, const std::string& platform,
+                                   int from_segment) {
+  PathCheck check;
+  std::lock_guard<std::mutex> guard(mutex_);
+  const auto grid = GridLocked(platform, false);
+  if (grid == nullptr) {
+    check.valid = false;
+    check.message = "platform '" + platform + "' is not served by this planner (valid: " + PlatformList() + ")";
+    return check;
+  }
+  if (path_W.empty()) {
+    check.valid = false;
+    check.message = "path is empty";
+    return check;
+  }
+  for (std::size_t i = static_cast<std::size_t>(std::max(0, from_segment)); i + 1 < path_W.size(); ++i) {
+    if (!SegmentTraversable(*grid, path_W[i].head<2>(), path_W[i + 1].head<2>())) {
+      check.valid = false;
+      check.first_blocked_segment = static_cast<int>(i);
+      check.message = "path segment " + std::to_string(i) + " from (" + Fixed2(path_W[i].x()) + ", " +
+                      Fixed2(path_W[i].y()) + ") to (" + Fixed2(path_W[i + 1].x()) + ", " +
+                      Fixed2(path_W[i + 1].y()) + ") is no longer traversable";
+      return check;
+    }
+  }
+  return check;
+}
+
+void LethalCellsNear(const TraversabilityGrid& grid, double x_WB_m, double y_WB_m, double yaw_WB_rad,
+                     double range_m, std::vector<Eigen::Vector3f>* points_B) {
+  points_B->clear();
+  if (!(range_m > 0.0) || !std::isfinite(x_WB_m) || !std::isfinite(y_WB_m) || !std::isfinite(yaw_WB_rad)) return;
+  const double c = grid.cell_size_m();
+  const int x_lo = static_cast<int>(std::floor((x_WB_m - range_m - grid.p_W_min().x()) / c));
+  const int x_hi = static_cast<int>(std::floor((x_WB_m + range_m - grid.p_W_min().x()) / c));
+  const int y_lo = static_cast<int>(std::floor((y_WB_m - range_m - grid.p_W_min().y()) / c));
+  const int y_hi = static_cast<int>(std::floor((y_WB_m + range_m - grid.p_W_min().y()) / c));
+  const double cos_yaw = std::cos(yaw_WB_rad);
+  const double sin_yaw = std::sin(yaw_WB_rad);
+  const double r2 = range_m * range_m;
+  for (int ix = x_lo; ix <= x_hi; ++ix) {
+    for (int iy = y_lo; iy <= y_hi; ++iy) {
+      const Eigen::Vector2d p_W = grid.CellCenter(ix, iy);
+      const double dx = p_W.x() - x_WB_m;
+      const double dy = p_W.y() - y_WB_m;
+      if (dx * dx + dy * dy > r2) continue;
+      if (grid.InGrid(ix, iy) && !grid.IsLethal(ix, iy)) continue;
+      // p_B = R_WB^T (p_W - p_WB).
+      points_B->emplace_back(static_cast<float>(cos_yaw * dx + sin_yaw * dy),
+                             static_cast<float>(-sin_yaw * dx + cos_yaw * dy), 0.0f);
+    }
+  }
+}
+
+}  // namespace cairn::nav
