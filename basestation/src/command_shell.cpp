@@ -82,6 +82,9 @@ json ViewJson(const RobotView& v) {
     j["nav_reason"] = s.nav_reason();
     j["nav_goal_id"] = s.nav_goal_id();
     j["nav_distance_left_m"] = s.nav_distance_left_m();
+    j["nav_eta_s"] = s.nav_eta_s();
+    j["nav_replans"] = s.nav_replans();
+    j["local_planner_status"] = s.local_planner_status();
     j["in_contact"] = s.in_contact();
   }
   if (v.tree) {
@@ -104,8 +107,8 @@ CommandShell::CommandShell(FleetClient& client, bool json_output, std::ostream& 
 
 const std::vector<std::string>& CommandShell::CommandNames() {
   static const std::vector<std::string> kNames = {"robots", "status", "request-control", "release", "mode",
-                                                  "goto",   "teleop", "stop",            "wait",    "sleep",
-                                                  "help"};
+                                                  "goto",   "path",   "plan",            "teleop",  "stop",
+                                                  "wait",   "sleep",  "help"};
   return kNames;
 }
 
@@ -115,9 +118,15 @@ std::string CommandShell::Help() {
          "  status R                            full state of robot R (mux channel, valid modes, navigation)\n"
          "  request-control R                   ask for R's control lock (denied if another basestation holds it)\n"
          "  release R                           give R's control lock back (the robot stops)\n"
-         "  mode R MODE                         switch R to idle | manual | waypoint\n"
-         "  goto R X Y [TOL]                    drive R to (X, Y) metres in the map frame\n"
-         "  teleop R VX_MPS WZ_RADPS DURATION_S drive R manually for DURATION_S, then stop sending\n"
+         "  mode R MODE                         switch R to idle | manual | smart_joystick | waypoint\n"
+         "  goto R X Y [TOL] [--wait [TIMEOUT_S]]  drive R to (X, Y) metres in the map frame; --wait prints\n"
+         "                                      progress (distance left, ETA) until it arrives or fails\n"
+         "  path R                              the global path R is following (waypoints, length)\n"
+         "  plan R X Y [--from X,Y] [--platform P]  ask R's global planner for a path (from R's pose, for\n"
+         "                                      R's platform by default); prints the path or the reason\n"
+         "  teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]  drive R for DURATION_S, then stop sending: manual\n"
+         "                                      mode unless R is in smart_joystick, where the twist is the\n"
+         "                                      direction the local planner follows\n"
          "  stop R                              switch R to idle (zero twist)\n"
          "  wait R arrived|idle|mode=M|online|lost [TIMEOUT_S]  block until R reaches that state (default 60 s)\n"
          "  sleep S                             pause a script for S seconds\n"
@@ -176,7 +185,12 @@ int CommandShell::Execute(const std::string& line) {
   if (cmd == "mode") return need(2, "mode R MODE") ? Mode(args) : kUsage;
   if (cmd == "stop") return need(1, "stop R") ? Mode({args[0], "idle"}) : kUsage;
   if (cmd == "goto") return Goto(args);
-  if (cmd == "teleop") return need(4, "teleop R VX_MPS WZ_RADPS DURATION_S") ? Teleop(args) : kUsage;
+  if (cmd == "teleop") {
+    return (args.size() == 4 || args.size() == 5) ? Teleop(args)
+                                                  : UsageError(cmd, "usage: teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]");
+  }
+  if (cmd == "path") return need(1, "path R") ? Path(args) : kUsage;
+  if (cmd == "plan") return Plan(args);
   if (cmd == "wait") return Wait(args);
   if (cmd == "sleep") return need(1, "sleep S") ? Sleep(args) : kUsage;
   return UsageError(cmd, "unknown command '" + cmd + "' (try help)");
@@ -244,24 +258,204 @@ int CommandShell::Mode(const std::vector<std::string>& args) {
   return Report("mode", args[0], client_.RequestMode(args[0], args[1]));
 }
 
-int CommandShell::Goto(const std::vector<std::string>& args) {
-  if (args.size() != 3 && args.size() != 4) return UsageError("goto", "usage: goto R X Y [TOL]");
-  double x = 0, y = 0, tolerance = 0;
+int CommandShell::Goto(const std::vector<std::string>& all_args) {
+  static const char* kUsageText = "usage: goto R X Y [TOL] [--wait [TIMEOUT_S]]";
+  std::vector<std::string> args;
+  bool wait = false;
+  double timeout = 600;
   std::string error;
+  for (std::size_t i = 0; i < all_args.size(); ++i) {
+    if (all_args[i] != "--wait") {
+      args.push_back(all_args[i]);
+      continue;
+    }
+    wait = true;
+    if (i + 1 < all_args.size()) {
+      if (!ParseNumber(all_args[i + 1], "TIMEOUT_S", &timeout, &error) || timeout <= 0) {
+        return UsageError("goto", error.empty() ? "TIMEOUT_S '" + all_args[i + 1] + "' must be > 0" : error);
+      }
+      if (i + 2 != all_args.size()) return UsageError("goto", kUsageText);
+      break;
+    }
+  }
+  if (args.size() != 3 && args.size() != 4) return UsageError("goto", kUsageText);
+  double x = 0, y = 0, tolerance = 0;
   if (!ParseNumber(args[1], "X", &x, &error) || !ParseNumber(args[2], "Y", &y, &error) ||
       (args.size() == 4 && !ParseNumber(args[3], "TOL", &tolerance, &error))) {
     return UsageError("goto", error);
   }
   const CommandOutcome o = client_.SendWaypoint(args[0], x, y, tolerance);
   if (o.ok) last_goal_id_[args[0]] = o.request_id;
-  return Report("goto", args[0], o);
+  const int code = Report("goto", args[0], o);
+  if (!o.ok || !wait) return code;
+  return WaitArrived("goto", args[0], timeout);
+}
+
+int CommandShell::WaitArrived(const std::string& command, const std::string& robot, double timeout_s) {
+  const uint32_t goal_id = last_goal_id_.count(robot) ? last_goal_id_[robot] : 0;
+  std::string failure;
+  auto last_print = core::SteadyClock::now();
+  const auto start = last_print;
+  auto done = [&](const RobotView& v) {
+    if (!v.state || (goal_id != 0 && v.state->nav_goal_id() != goal_id)) return false;
+    const auto& s = *v.state;
+    if (s.nav_status() == msgs::NAV_STATUS_FAILED) failure = "navigation failed: " + s.nav_reason();
+    if (v.lost) failure = "robot lost (" + v.lost_reason + ")";
+    const bool finished = s.nav_status() == msgs::NAV_STATUS_ARRIVED || !failure.empty();
+    const auto now = core::SteadyClock::now();
+    if (!finished && s.nav_status() == msgs::NAV_STATUS_ACTIVE && core::SecondsBetween(last_print, now) >= 2.0) {
+      last_print = now;
+      const std::string eta = s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "unknown";
+      if (json_) {
+        out_ << json{{"command", command}, {"robot", robot}, {"progress", true},
+                     {"distance_left_m", s.nav_distance_left_m()}, {"eta_s", s.nav_eta_s()},
+                     {"local_planner", s.local_planner_status()}, {"replans", s.nav_replans()}}
+                    .dump()
+             << std::endl;
+      } else {
+        out_ << command << " " << robot << ": " << Fixed(s.nav_distance_left_m(), 1) << " m left, ETA " << eta;
+        if (!s.local_planner_status().empty() && s.local_planner_status() != "path") {
+          out_ << " (" << s.local_planner_status() << ")";
+        }
+        if (s.nav_replans() > 0) out_ << ", " << s.nav_replans() << " replans";
+        out_ << std::endl;
+      }
+    }
+    return finished;
+  };
+  const auto view = client_.WaitUntil(robot, timeout_s, done);
+  CommandOutcome o;
+  o.ok = view.has_value() && failure.empty();
+  o.result = o.ok ? "accepted" : (view ? "failed" : "timeout");
+  o.reason = !failure.empty() ? failure
+             : view ? "arrived after " + Fixed(core::SecondsBetween(start, core::SteadyClock::now()), 2) + " s"
+                    : "robot " + robot + " not arrived within " + Fixed(timeout_s, 1) + " s";
+  if (view && view->state) {
+    o.mode = view->state->mode();
+    o.holder_id = view->state->holder_id();
+  }
+  o.round_trip_ms = core::SecondsBetween(start, core::SteadyClock::now()) * 1000.0;
+  return Report(command == "goto" ? "goto" : "wait", robot, o);
+}
+
+namespace {
+
+json PointsJson(const std::vector<msgs::Point>& points) {
+  json list = json::array();
+  for (const auto& p : points) list.push_back({p.x_m(), p.y_m(), p.z_m()});
+  return list;
+}
+
+std::string PointsText(const std::vector<msgs::Point>& points) {
+  std::string text;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    text += "  " + std::to_string(i) + ": (" + Fixed(points[i].x_m(), 2) + ", " + Fixed(points[i].y_m(), 2) + ", " +
+            Fixed(points[i].z_m(), 2) + ")\n";
+  }
+  return text;
+}
+
+}  // namespace
+
+int CommandShell::Path(const std::vector<std::string>& args) {
+  const std::string& robot = args[0];
+  // The path is latched: a fresh basestation receives it shortly after discovery.
+  const auto view = client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return v.global_path.has_value(); });
+  if (!view) {
+    CommandOutcome o;
+    o.result = "error";
+    o.reason = client_.Robot(robot) ? "robot " + robot + " has published no global path" : "unknown robot '" + robot + "'";
+    return Report("path", robot, o);
+  }
+  const auto& p = *view->global_path;
+  if (json_) {
+    out_ << json{{"command", "path"},        {"robot", robot},       {"ok", true},
+                 {"goal_id", p.goal_id()},   {"platform", p.platform()}, {"frame_id", p.frame_id()},
+                 {"length_m", p.length_m()}, {"map_version", p.map_version()}, {"replans", p.replans()},
+                 {"path", PointsJson(p.path_M())}}
+                .dump()
+         << std::endl;
+    return kOk;
+  }
+  if (p.path_M().empty()) {
+    out_ << "path " << robot << ": none (no active goal)" << std::endl;
+    return kOk;
+  }
+  out_ << "path " << robot << ": goal " << p.goal_id() << ", " << Fixed(p.length_m(), 1) << " m, "
+       << p.path_M().size() << " waypoints (frame " << p.frame_id() << ", platform " << p.platform()
+       << ", map version " << p.map_version() << ", " << p.replans() << " replans)" << std::endl
+       << PointsText(p.path_M());
+  return kOk;
+}
+
+int CommandShell::Plan(const std::vector<std::string>& args) {
+  static const char* kUsageText = "usage: plan R X Y [--from X,Y] [--platform P]";
+  std::vector<std::string> positional;
+  std::string platform, from;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if ((args[i] == "--from" || args[i] == "--platform") && i + 1 < args.size()) {
+      (args[i] == "--from" ? from : platform) = args[i + 1];
+      ++i;
+    } else if (args[i].rfind("--", 0) == 0) {
+      return UsageError("plan", "unknown or incomplete option '" + args[i] + "'; " + kUsageText);
+    } else {
+      positional.push_back(args[i]);
+    }
+  }
+  if (positional.size() != 3) return UsageError("plan", kUsageText);
+  const std::string& robot = positional[0];
+  double gx = 0, gy = 0, sx = 0, sy = 0;
+  std::string error;
+  if (!ParseNumber(positional[1], "X", &gx, &error) || !ParseNumber(positional[2], "Y", &gy, &error)) {
+    return UsageError("plan", error);
+  }
+  if (!from.empty()) {
+    const auto comma = from.find(',');
+    if (comma == std::string::npos || !ParseNumber(from.substr(0, comma), "--from X", &sx, &error) ||
+        !ParseNumber(from.substr(comma + 1), "--from Y", &sy, &error)) {
+      return UsageError("plan", error.empty() ? "--from '" + from + "' must be X,Y" : error);
+    }
+  } else {
+    const auto view = client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return v.state.has_value(); });
+    if (!view) {
+      CommandOutcome o;
+      o.result = "error";
+      o.reason = "no state from robot '" + robot + "' to plan from (give --from X,Y)";
+      return Report("plan", robot, o);
+    }
+    sx = view->state->pose_MB().position().x_m();
+    sy = view->state->pose_MB().position().y_m();
+  }
+  const PathAnswer a = client_.RequestPath(robot, platform, sx, sy, gx, gy);
+  if (json_) {
+    json j = {{"command", "plan"}, {"robot", robot}, {"ok", a.ok}, {"result", a.result}, {"reason", a.reason},
+              {"round_trip_ms", a.round_trip_ms}};
+    if (a.result == "path" || a.result == "refused") {
+      j["status"] = a.response.status();
+      j["length_m"] = a.response.length_m();
+      j["planning_time_s"] = a.response.planning_time_s();
+      j["map_version"] = a.response.map_version();
+      j["path"] = PointsJson(a.response.path_M());
+    }
+    out_ << j.dump() << std::endl;
+  } else if (a.ok) {
+    out_ << "plan " << robot << ": path " << Fixed(a.response.length_m(), 1) << " m, "
+         << a.response.path_M().size() << " waypoints, planned in "
+         << Fixed(a.response.planning_time_s() * 1000.0, 1) << " ms (map version " << a.response.map_version() << ")"
+         << std::endl
+         << PointsText(a.response.path_M());
+  } else {
+    out_ << "plan " << robot << ": " << a.result << ": " << a.reason << std::endl;
+  }
+  return a.ok ? kOk : kRefused;
 }
 
 int CommandShell::Teleop(const std::vector<std::string>& args) {
-  double vx = 0, wz = 0, duration = 0;
+  double vx = 0, wz = 0, duration = 0, vy = 0;
   std::string error;
   if (!ParseNumber(args[1], "VX_MPS", &vx, &error) || !ParseNumber(args[2], "WZ_RADPS", &wz, &error) ||
-      !ParseNumber(args[3], "DURATION_S", &duration, &error)) {
+      !ParseNumber(args[3], "DURATION_S", &duration, &error) ||
+      (args.size() == 5 && !ParseNumber(args[4], "VY_MPS", &vy, &error))) {
     return UsageError("teleop", error);
   }
   if (duration <= 0 || duration > 600) {
@@ -269,7 +463,10 @@ int CommandShell::Teleop(const std::vector<std::string>& args) {
   }
   const std::string& robot = args[0];
   const auto view = client_.WaitForRobot(robot, 3.0) ? client_.Robot(robot) : std::nullopt;
-  if (!view || !view->state || view->state->mode() != "manual") {
+  std::string mode = "manual";
+  if (view && view->state && view->state->mode() == "smart_joystick") {
+    mode = "smart_joystick";
+  } else if (!view || !view->state || view->state->mode() != "manual") {
     const CommandOutcome o = client_.RequestMode(robot, "manual");
     if (!o.ok) return Report("teleop", robot, o);
   }
@@ -277,14 +474,14 @@ int CommandShell::Teleop(const std::vector<std::string>& args) {
   const auto start = core::SteadyClock::now();
   int sent = 0;
   for (int tick = 0; core::SecondsBetween(start, core::SteadyClock::now()) < duration; ++tick) {
-    if (client_.PublishTeleop(robot, vx, wz)) ++sent;
+    if (client_.PublishTeleop(robot, vx, wz, vy)) ++sent;
     std::this_thread::sleep_until(start + std::chrono::milliseconds(100 * (tick + 1)));
   }
   CommandOutcome o;
   o.ok = true;
   o.result = "accepted";
   o.reason = "sent " + std::to_string(sent) + " twists over " + Fixed(duration, 1) + " s";
-  o.mode = "manual";
+  o.mode = mode;
   if (const auto v = client_.Robot(robot); v && v->state) o.holder_id = v->state->holder_id();
   return Report("teleop", robot, o);
 }
@@ -302,14 +499,8 @@ int CommandShell::Wait(const std::vector<std::string>& args) {
   }
   std::function<bool(const RobotView&)> done;
   std::string failure;
-  const uint32_t goal_id = last_goal_id_.count(robot) ? last_goal_id_[robot] : 0;
   if (what == "arrived") {
-    done = [&](const RobotView& v) {
-      if (!v.state || (goal_id != 0 && v.state->nav_goal_id() != goal_id)) return false;
-      if (v.state->nav_status() == msgs::NAV_STATUS_FAILED) failure = "navigation failed: " + v.state->nav_reason();
-      if (v.lost) failure = "robot lost (" + v.lost_reason + ")";
-      return v.state->nav_status() == msgs::NAV_STATUS_ARRIVED || !failure.empty();
-    };
+    return WaitArrived("wait", robot, timeout);
   } else if (what == "idle" || what.rfind("mode=", 0) == 0) {
     const std::string mode = what == "idle" ? "idle" : what.substr(5);
     done = [mode](const RobotView& v) { return v.state && !v.lost && v.state->mode() == mode; };

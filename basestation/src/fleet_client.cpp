@@ -66,6 +66,23 @@ class FleetClient::Impl {
             v.platform = m.platform();
           });
         });
+    path_request_writer_ = std::make_unique<core::Writer<msgs::PathRequestPubSubType>>(
+        *participant_, "cairn/path_request", "cairn.command");
+    path_response_reader_ = std::make_unique<core::Reader<msgs::PathResponsePubSubType>>(
+        *participant_, "cairn/path_response", "cairn.command", [this](const msgs::PathResponse& m, const auto&) {
+          if (m.requester_id() != options_.base_id) return;
+          {
+            std::lock_guard<std::mutex> lock(mutex_);
+            path_responses_[m.request_id()] = m;
+          }
+          cv_.notify_all();
+        });
+    global_path_reader_ = std::make_unique<core::Reader<msgs::GlobalPathPubSubType>>(
+        *participant_, "cairn/global_path", "cairn.latched",
+        [this](const msgs::GlobalPath& m, const auto&) { Update(m.robot_id(), [&](RobotView& v) { v.global_path = m; }); });
+    local_plan_reader_ = std::make_unique<core::Reader<msgs::LocalPlanPubSubType>>(
+        *participant_, "cairn/local_plan", "cairn.state",
+        [this](const msgs::LocalPlan& m, const auto&) { Update(m.robot_id(), [&](RobotView& v) { v.local_plan = m; }); });
     tree_reader_ = std::make_unique<core::Reader<msgs::BehaviorTreeStatePubSubType>>(
         *participant_, "cairn/bt_state", "cairn.latched",
         [this](const msgs::BehaviorTreeState& m, const auto&) {
@@ -90,6 +107,7 @@ class FleetClient::Impl {
     info.agent_id(options.base_id);
     info.kind(msgs::AGENT_KIND_BASESTATION);
     info.platform("basestation");
+    info.capabilities(options.capabilities);
     info.version("0.1.0");
     info.stamp(cairn::msgs::WallStampNow());
     info_writer_->Write(info);
@@ -97,6 +115,9 @@ class FleetClient::Impl {
 
   ~Impl() {
     response_reader_.reset();
+    path_response_reader_.reset();
+    global_path_reader_.reset();
+    local_plan_reader_.reset();
     state_reader_.reset();
     tree_reader_.reset();
     info_reader_.reset();
@@ -148,36 +169,45 @@ class FleetClient::Impl {
     return v;
   }
 
-  // Sends with `send(request_id)` until the robot answers or the timeout passes (robots de-duplicate).
+  // Sends with `send(request_id)` every command_retry_s until `answered()` holds (checked under mutex_) or
+  // command_timeout_s passes. Returns false on timeout (and sets *reason). The lock is held on return.
+  bool SendUntil(const std::string& robot_id, uint32_t request_id, const std::function<bool(uint32_t)>& send,
+                 const std::function<bool()>& answered, std::unique_lock<std::mutex>* lock, std::string* reason) {
+    const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                                   std::chrono::duration<double>(options_.command_timeout_s));
+    const auto retry = std::chrono::duration_cast<SteadyClock::duration>(
+        std::chrono::duration<double>(options_.command_retry_s));
+    while (true) {
+      lock->unlock();
+      send(request_id);
+      lock->lock();
+      const auto resend_at = std::min(deadline, SteadyClock::now() + retry);
+      if (cv_.wait_until(*lock, resend_at, answered)) return true;
+      if (SteadyClock::now() >= deadline) {
+        *reason = "robot " + robot_id + " did not acknowledge within " +
+                  std::to_string(options_.command_timeout_s).substr(0, 4) + " s";
+        return false;
+      }
+    }
+  }
+
+  // Sends a command until the robot answers or the timeout passes (robots de-duplicate).
   CommandOutcome Call(const std::string& robot_id, msgs::CommandKind kind,
                       const std::function<bool(uint32_t)>& send) {
     CommandOutcome outcome;
     outcome.request_id = next_request_id_++;
-    const uint32_t request_id = outcome.request_id;
     if (!WaitForRobot(robot_id, options_.command_timeout_s)) {
       outcome.result = "error";
       outcome.reason = UnknownRobotReason(robot_id);
       return outcome;
     }
-    const std::string key = ResponseKey(robot_id, kind, request_id);
+    const std::string key = ResponseKey(robot_id, kind, outcome.request_id);
     const auto start = SteadyClock::now();
-    const auto deadline = start + std::chrono::duration_cast<SteadyClock::duration>(
-                                      std::chrono::duration<double>(options_.command_timeout_s));
-    const auto retry = std::chrono::duration_cast<SteadyClock::duration>(
-        std::chrono::duration<double>(options_.command_retry_s));
     std::unique_lock<std::mutex> lock(mutex_);
-    while (true) {
-      lock.unlock();
-      send(request_id);
-      lock.lock();
-      const auto resend_at = std::min(deadline, SteadyClock::now() + retry);
-      if (cv_.wait_until(lock, resend_at, [&] { return responses_.count(key) > 0; })) break;
-      if (SteadyClock::now() >= deadline) {
-        outcome.result = "timeout";
-        outcome.reason = "robot " + robot_id + " did not acknowledge within " +
-                         std::to_string(options_.command_timeout_s).substr(0, 4) + " s";
-        return outcome;
-      }
+    if (!SendUntil(robot_id, outcome.request_id, send, [&] { return responses_.count(key) > 0; }, &lock,
+                   &outcome.reason)) {
+      outcome.result = "timeout";
+      return outcome;
     }
     const msgs::CommandResponse r = responses_[key];
     responses_.erase(key);
@@ -215,6 +245,7 @@ class FleetClient::Impl {
   std::map<std::string, RobotView> robots_;
   std::map<eprosima::fastrtps::rtps::InstanceHandle_t, std::string> robot_by_writer_;
   std::map<std::string, msgs::CommandResponse> responses_;
+  std::map<uint32_t, msgs::PathResponse> path_responses_;
   std::atomic<uint32_t> next_request_id_{1};
   std::atomic<uint64_t> teleop_sequence_{0};
 
@@ -224,7 +255,11 @@ class FleetClient::Impl {
   std::unique_ptr<core::Writer<msgs::ModeRequestPubSubType>> mode_writer_;
   std::unique_ptr<core::Writer<msgs::WaypointGoalPubSubType>> goal_writer_;
   std::unique_ptr<core::Writer<msgs::TeleopTwistPubSubType>> teleop_writer_;
+  std::unique_ptr<core::Writer<msgs::PathRequestPubSubType>> path_request_writer_;
   std::unique_ptr<core::Reader<msgs::CommandResponsePubSubType>> response_reader_;
+  std::unique_ptr<core::Reader<msgs::PathResponsePubSubType>> path_response_reader_;
+  std::unique_ptr<core::Reader<msgs::GlobalPathPubSubType>> global_path_reader_;
+  std::unique_ptr<core::Reader<msgs::LocalPlanPubSubType>> local_plan_reader_;
   std::unique_ptr<core::Reader<msgs::RobotStatePubSubType>> state_reader_;
   std::unique_ptr<core::Reader<msgs::BehaviorTreeStatePubSubType>> tree_reader_;
   std::unique_ptr<core::Reader<msgs::AgentInfoPubSubType>> info_reader_;
@@ -323,15 +358,55 @@ CommandOutcome FleetClient::SendWaypoint(const std::string& robot_id, double x_m
   });
 }
 
-bool FleetClient::PublishTeleop(const std::string& robot_id, double linear_x_mps, double angular_z_radps) {
+bool FleetClient::PublishTeleop(const std::string& robot_id, double linear_x_mps, double angular_z_radps,
+                                double linear_y_mps) {
   msgs::TeleopTwist m;
   m.robot_id(robot_id);
   m.base_id(base_id());
   m.sequence_number(++impl_->teleop_sequence_);
   m.stamp(cairn::msgs::WallStampNow());
   m.twist().linear_x_mps(linear_x_mps);
+  m.twist().linear_y_mps(linear_y_mps);
   m.twist().angular_z_radps(angular_z_radps);
   return impl_->teleop_writer_->Write(m);
+}
+
+PathAnswer FleetClient::RequestPath(const std::string& robot_id, const std::string& platform, double start_x_m,
+                                    double start_y_m, double goal_x_m, double goal_y_m) {
+  PathAnswer answer;
+  const uint32_t request_id = impl_->next_request_id_++;
+  if (!impl_->WaitForRobot(robot_id, impl_->options_.command_timeout_s)) {
+    answer.result = "error";
+    answer.reason = impl_->UnknownRobotReason(robot_id);
+    return answer;
+  }
+  const auto start = SteadyClock::now();
+  std::unique_lock<std::mutex> lock(impl_->mutex_);
+  auto send = [&](uint32_t id) {
+    msgs::PathRequest m;
+    m.request_id(id);
+    m.requester_id(base_id());
+    m.robot_id(robot_id);
+    m.platform(platform);
+    m.frame_id("map");
+    m.start_M().x_m(start_x_m);
+    m.start_M().y_m(start_y_m);
+    m.goal_M().x_m(goal_x_m);
+    m.goal_M().y_m(goal_y_m);
+    return impl_->path_request_writer_->Write(m);
+  };
+  if (!impl_->SendUntil(robot_id, request_id, send, [&] { return impl_->path_responses_.count(request_id) > 0; },
+                        &lock, &answer.reason)) {
+    answer.result = "timeout";
+    return answer;
+  }
+  answer.response = impl_->path_responses_[request_id];
+  impl_->path_responses_.erase(request_id);
+  answer.round_trip_ms = std::chrono::duration<double, std::milli>(SteadyClock::now() - start).count();
+  answer.ok = answer.response.success();
+  answer.result = answer.ok ? "path" : "refused";
+  answer.reason = answer.response.reason();
+  return answer;
 }
 
 }  // namespace cairn::base

@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
   spdlog::set_default_logger(spdlog::stderr_color_mt("cairn"));
   cairn::base::FleetClientOptions options;
   std::string domain_text = "0", script;
-  bool json = false, keep_going = false;
+  bool json = false, keep_going = false, no_joystick = false;
   std::vector<std::string> command;
 
   CLI::App app{"cairn_base: a Cairn basestation. Commands come from the terminal (REPL), from stdin line by "
@@ -110,6 +110,8 @@ int main(int argc, char** argv) {
                                                               "loopback-only config/dds_profiles.xml)");
   app.add_option("--command-timeout", options.command_timeout_s, "seconds to wait for a robot's answer")
       ->capture_default_str();
+  app.add_flag("--no-joystick", no_joystick,
+               "do not advertise a joystick: robots then refuse smart_joystick mode from this basestation");
   app.add_option("command", command, "one command to run, after --");
   try {
     app.parse(argc, argv);
@@ -119,6 +121,7 @@ int main(int argc, char** argv) {
 
   try {
     options.domain_id = cairn::core::ParseDomainId(domain_text);
+    if (no_joystick) options.capabilities.clear();
     if (!(options.command_timeout_s > 0 && options.command_timeout_s <= 60)) {
       throw std::invalid_argument("--command-timeout " + std::to_string(options.command_timeout_s) +
                                   " must be in (0, 60]");

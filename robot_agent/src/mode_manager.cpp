@@ -66,6 +66,16 @@ ModeManager::ModeManager(const std::string& tree_file) : context_(std::make_shar
                ? NodeStatus::kSuccess
                : Fail(&ctx->failure, "HasWaypointGoal: no accepted waypoint goal (send goto first)");
   }));
+  factory.RegisterSimpleCondition("IsJoystickAlive", Traced(ctx, [ctx](bt::TreeNode&) {
+    return ctx->conditions.joystick_alive
+               ? NodeStatus::kSuccess
+               : Fail(&ctx->failure, "IsJoystickAlive: the control holder has no live joystick");
+  }));
+  factory.RegisterSimpleCondition("IsLocalPlannerHealthy", Traced(ctx, [ctx](bt::TreeNode&) {
+    const ModeConditions& c = ctx->conditions;
+    return c.local_planner_healthy ? NodeStatus::kSuccess
+                                   : Fail(&ctx->failure, "IsLocalPlannerHealthy: " + c.local_planner_problem);
+  }));
   factory.RegisterSimpleAction(
       "SelectMode",
       Traced(ctx, [ctx](bt::TreeNode& node) {

@@ -38,6 +38,11 @@ class CommandShell {
   int Goto(const std::vector<std::string>& args);
   int Teleop(const std::vector<std::string>& args);
   int Wait(const std::vector<std::string>& args);
+  int Path(const std::vector<std::string>& args);
+  int Plan(const std::vector<std::string>& args);
+  // Waits for the last goal of `robot` to arrive or fail, printing progress (distance left, ETA) every
+  // 2 s; `command` names the output lines. Returns the exit code.
+  int WaitArrived(const std::string& command, const std::string& robot, double timeout_s);
   int Sleep(const std::vector<std::string>& args);
   int Report(const std::string& command, const std::string& robot, const CommandOutcome& outcome);
   int UsageError(const std::string& command, const std::string& message);

@@ -24,6 +24,8 @@ struct RobotView {
   std::vector<std::string> capabilities;
   std::optional<cairn_msgs::RobotState> state;         ///< latest state, if any arrived
   std::optional<cairn_msgs::BehaviorTreeState> tree;   ///< latest behavior-tree state
+  std::optional<cairn_msgs::GlobalPath> global_path;   ///< global path being followed (latched)
+  std::optional<cairn_msgs::LocalPlan> local_plan;     ///< latest local planner output (2 Hz)
   core::SteadyTime last_seen{};                        ///< last agent info or state
   bool lost = false;                                   ///< liveliness lost or state silent > lost_after_s
   std::string lost_reason;
@@ -48,6 +50,18 @@ struct FleetClientOptions {
   double command_timeout_s = 3.0;      ///< give up waiting for an acknowledgement, (0, 60]
   double command_retry_s = 0.5;        ///< resend an unacknowledged command (robots de-duplicate), (0, 10]
   double lost_after_s = 3.0;           ///< a robot whose state is silent this long is shown lost, (0, 60]
+  /// Advertised in this basestation's agent info. "joystick": it can stream teleop twists, which the
+  /// robots' IsJoystickAlive condition requires for smart joystick mode.
+  std::vector<std::string> capabilities = {"joystick"};
+};
+
+/// Answer of the global path service (FleetClient::RequestPath()).
+struct PathAnswer {
+  bool ok = false;              ///< a path was found
+  std::string result;           ///< "path" | "refused" | "timeout" | "error"
+  std::string reason;           ///< the planner's reason, or the local error
+  cairn_msgs::PathResponse response;  ///< the full answer when one arrived
+  double round_trip_ms = 0;
 };
 
 /// DDS client of one basestation. Thread-safe.
@@ -76,8 +90,14 @@ class FleetClient {
   CommandOutcome ReleaseControl(const std::string& robot_id);
   CommandOutcome RequestMode(const std::string& robot_id, const std::string& mode);
   CommandOutcome SendWaypoint(const std::string& robot_id, double x_m, double y_m, double tolerance_m = 0.0);
-  /// Publishes one teleop twist (best effort, no acknowledgement). false if it could not be written.
-  bool PublishTeleop(const std::string& robot_id, double linear_x_mps, double angular_z_radps);
+  /// Publishes one teleop twist (best effort, no acknowledgement), frame B of the robot: forward and
+  /// left speed (m/s) and yaw rate (rad/s). false if it could not be written.
+  bool PublishTeleop(const std::string& robot_id, double linear_x_mps, double angular_z_radps,
+                     double linear_y_mps = 0.0);
+  /// Asks robot `robot_id`'s global planner for a path from start to goal ((x, y) metres, frame map) for
+  /// `platform` ("" = the robot's own). Retries until answered or command_timeout_s passes.
+  PathAnswer RequestPath(const std::string& robot_id, const std::string& platform, double start_x_m,
+                         double start_y_m, double goal_x_m, double goal_y_m);
 
   class Impl;  ///< DDS entities and the fleet model, kept out of this header.
 

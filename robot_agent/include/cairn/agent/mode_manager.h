@@ -17,6 +17,11 @@ struct ModeConditions {
   bool holder_alive = false;      ///< the holder's liveliness is alive
   bool localized = false;         ///< the pose estimate is valid
   bool has_waypoint_goal = false; ///< an accepted, unfinished waypoint goal exists
+  /// The control holder has a joystick: it advertises the "joystick" capability and is alive.
+  bool joystick_alive = false;
+  /// The local planner ran on fresh obstacle input recently; when false, local_planner_problem says why.
+  bool local_planner_healthy = false;
+  std::string local_planner_problem;  ///< e.g. "no obstacle input for 0.8 s"
 };
 
 /// Result of a mode request or re-check.

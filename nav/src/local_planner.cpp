@@ -1,0 +1,789 @@
+// Copyright Cairn authors.
+#include "cairn/nav/local_planner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+namespace cairn::nav {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kSqrtHalf = 0.70710678118654752440;
+constexpr int kMaxSamples = 250;        // Sample indices fit a byte, with room for "none" markers.
+constexpr int kMaxNodes = 65535;        // Path tree node ids fit 16 bits.
+constexpr int kMaxGridSize = 1000;      // Voxels per grid side.
+constexpr std::uint8_t kNoBucket = 255;  // "Nothing in the clearance band".
+constexpr int kBuckets = 254;           // Clearance buckets 0..253 over [0, clearance_band_m).
+constexpr std::size_t kMessageCapacity = 320;  // Longest LocalPlanResult::message (snprintf truncates).
+
+double WrapAngle(double a) {
+  a = std::remainder(a, 2.0 * kPi);  // [-pi, pi]
+  return a <= -kPi ? a + 2.0 * kPi : a;
+}
+
+// Sizes derived from valid-range options, shared by IsValid() (limits) and the constructor.
+struct Geometry {
+  int samples = 0;
+  double spacing_m = 0.0;
+  double half_diagonal_m = 0.0;
+  double point_block_m = 0.0;  // collision + spacing / 2
+  double voxel_block_m = 0.0;  // point_block + half voxel diagonal
+  double band_reach_m = 0.0;   // collision + half diagonal + band: voxel centres nearer than this are in the band
+  double reach_m = 0.0;        // max(voxel_block, band_reach)
+  int grid_half = 0;           // Voxels from the origin to a grid edge.
+};
+
+Geometry ComputeGeometry(const TrajectoryLibraryOptions& o) {
+  Geometry g;
+  const double n = std::round(o.path_length_m / o.sample_spacing_m);
+  g.samples = static_cast<int>(std::clamp(n, 1.0, 1e6));
+  g.spacing_m = o.path_length_m / g.samples;
+  g.half_diagonal_m = o.voxel_size_m * kSqrtHalf;
+  g.point_block_m = o.collision_radius_m + 0.5 * g.spacing_m;
+  g.voxel_block_m = g.point_block_m + g.half_diagonal_m;
+  g.band_reach_m = o.collision_radius_m + g.half_diagonal_m + o.clearance_band_m;
+  g.reach_m = std::max(g.voxel_block_m, g.band_reach_m);
+  // Samples lie within path_length_m of the origin (arc length >= chord).
+  g.grid_half = static_cast<int>(std::ceil((o.path_length_m + g.reach_m) / o.voxel_size_m - 1e-9));
+  return g;
+}
+
+int IntSqrt(int v) {
+  int k = static_cast<int>(std::lround(std::sqrt(static_cast<double>(std::max(v, 0)))));
+  return k * k == v ? k : -1;
+}
+
+// Heading change of choice `i` of `count` evenly spread over [-max, max].
+double Turn(int i, int count, double max_turn_rad) {
+  return count <= 1 ? 0.0 : max_turn_rad * (2.0 * i / (count - 1) - 1.0);
+}
+
+// The same squared distance everywhere (build and brute force), so their classifications agree bit for bit.
+inline double SquaredDistance(double ax, double ay, double bx, double by) {
+  const double dx = ax - bx;
+  const double dy = ay - by;
+  return dx * dx + dy * dy;
+}
+
+inline std::uint8_t ClearanceBucket(double min_d2, double half_diagonal_m, double collision_m, double band_m) {
+  const double clearance = std::sqrt(min_d2) - half_diagonal_m - collision_m;
+  const double b = std::floor(clearance / band_m * kBuckets);
+  return static_cast<std::uint8_t>(std::clamp(b, 0.0, static_cast<double>(kBuckets - 1)));
+}
+
+inline bool InZBand(const Eigen::Vector3f& p, const TrajectoryLibraryOptions& o) {
+  return p.z() >= o.obstacle_min_z_m && p.z() <= o.obstacle_max_z_m;
+}
+
+inline bool IsFinite(const Eigen::Vector3f& p) {
+  return std::isfinite(p.x()) && std::isfinite(p.y()) && std::isfinite(p.z());
+}
+
+// Samples required for a free length (metres), in [0, samples].
+int RequiredSamples(double required_m, double spacing_m, int samples) {
+  if (!(required_m > 0.0)) return 0;
+  const double k = std::ceil(required_m / spacing_m - 1e-6);
+  return static_cast<int>(std::clamp(k, 0.0, static_cast<double>(samples)));
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------------
+// TrajectoryLibraryOptions
+
+bool TrajectoryLibraryOptions::IsValid(std::string* why) const {
+  std::ostringstream msg;
+  auto range = [&msg](const char* field, double value, double lo, double hi) {
+    if (std::isfinite(value) && value >= lo && value <= hi) return true;
+    msg << "TrajectoryLibraryOptions::" << field << " = " << value << " must be finite and in [" << lo << ", "
+        << hi << "]";
+    return false;
+  };
+  auto int_range = [&msg](const char* field, int value, int lo, int hi) {
+    if (value >= lo && value <= hi) return true;
+    msg << "TrajectoryLibraryOptions::" << field << " = " << value << " must be in [" << lo << ", " << hi << "]";
+    return false;
+  };
+  bool ok = range("path_length_m", path_length_m, 0.1, 10.0) && int_range("num_groups", num_groups, 1, 63) &&
+            int_range("paths_per_group", paths_per_group, 1, 225);
+  if (ok && IntSqrt(paths_per_group) < 1) {
+    msg << "TrajectoryLibraryOptions::paths_per_group = " << paths_per_group
+        << " must be a square k * k (k choices for each of the second and third arcs)";
+    ok = false;
+  }
+  ok = ok && int_range("num_headings", num_headings, 1, 360) &&
+       range("heading_range_rad", heading_range_rad, 0.0, kPi) &&
+       range("max_segment_turn_rad", max_segment_turn_rad, 0.0, kPi / 2.0) &&
+       range("sample_spacing_m", sample_spacing_m, 0.005, 1.0) && range("voxel_size_m", voxel_size_m, 0.02, 1.0) &&
+       range("collision_radius_m", collision_radius_m, 0.0, 5.0) &&
+       range("clearance_band_m", clearance_band_m, 0.0, 5.0);
+  if (ok && (!std::isfinite(obstacle_min_z_m) || !std::isfinite(obstacle_max_z_m) ||
+             !(obstacle_min_z_m < obstacle_max_z_m))) {
+    msg << "TrajectoryLibraryOptions::obstacle_min_z_m = " << obstacle_min_z_m
+        << " must be finite and < obstacle_max_z_m = " << obstacle_max_z_m << " (finite)";
+    ok = false;
+  }
+  if (ok) {
+    const double n = std::round(path_length_m / sample_spacing_m);
+    if (n > kMaxSamples) {
+      msg << "TrajectoryLibraryOptions::sample_spacing_m = " << sample_spacing_m << " gives " << n
+          << " samples on path_length_m = " << path_length_m << "; at most " << kMaxSamples << " allowed";
+      ok = false;
+    }
+  }
+  if (ok) {
+    int kept = 0;
+    for (int k = 0; k < num_headings; ++k) {
+      if (std::abs(WrapAngle(2.0 * kPi * k / num_headings)) <= heading_range_rad + 1e-9) ++kept;
+    }
+    const long long k = IntSqrt(paths_per_group);
+    const long long nodes = static_cast<long long>(kept) * num_groups * (1 + k + k * k);
+    if (nodes > kMaxNodes) {
+      msg << "TrajectoryLibraryOptions::num_headings = " << num_headings << " (" << kept
+          << " kept) x num_groups = " << num_groups << " x (1 + k + paths_per_group = " << paths_per_group
+          << ") = " << nodes << " path tree nodes; at most " << kMaxNodes << " allowed";
+      ok = false;
+    }
+  }
+  if (ok) {
+    const Geometry g = ComputeGeometry(*this);
+    if (2 * g.grid_half > kMaxGridSize) {
+      msg << "TrajectoryLibraryOptions::voxel_size_m = " << voxel_size_m << " gives a grid of " << 2 * g.grid_half
+          << " voxels per side (path_length_m + collision_radius_m + clearance_band_m = "
+          << path_length_m + collision_radius_m + clearance_band_m << " m each way); at most " << kMaxGridSize
+          << " allowed";
+      ok = false;
+    }
+  }
+  if (!ok && why != nullptr) *why = msg.str();
+  return ok;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// TrajectoryLibrary
+
+TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options) : options_(options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  const auto t0 = std::chrono::steady_clock::now();
+  const Geometry geo = ComputeGeometry(options);
+  samples_per_path_ = geo.samples;
+  spacing_m_ = geo.spacing_m;
+  point_blocking_radius_m_ = geo.point_block_m;
+  voxel_blocking_radius_m_ = geo.voxel_block_m;
+  grid_size_ = 2 * geo.grid_half;
+  grid_min_m_ = -geo.grid_half * options.voxel_size_m;
+  inv_voxel_size_ = 1.0 / options.voxel_size_m;
+
+  // Paths of heading 0: a tree of three arcs of equal length.
+  const int k = IntSqrt(options.paths_per_group);
+  paths_per_heading_ = options.num_groups * options.paths_per_group;
+  const int n = samples_per_path_;
+  const double arc_m = options.path_length_m / 3.0;
+  std::vector<Eigen::Vector2d> base(static_cast<std::size_t>(paths_per_heading_) * n);
+  std::vector<double> base_turn(static_cast<std::size_t>(paths_per_heading_));
+  std::vector<int> base_group(static_cast<std::size_t>(paths_per_heading_));
+  int b = 0;
+  for (int g = 0; g < options.num_groups; ++g) {
+    for (int i2 = 0; i2 < k; ++i2) {
+      for (int i3 = 0; i3 < k; ++i3, ++b) {
+        const double turns[3] = {Turn(g, options.num_groups, options.max_segment_turn_rad),
+                                 Turn(i2, k, options.max_segment_turn_rad),
+                                 Turn(i3, k, options.max_segment_turn_rad)};
+        // Start pose of each arc.
+        double x0[3];
+        double y0[3];
+        double th0[3];
+        x0[0] = y0[0] = th0[0] = 0.0;
+        auto arc_point = [&](int j, double s, double* x, double* y) {
+          const double kappa = turns[j] / arc_m;
+          if (std::abs(turns[j]) < 1e-12) {
+            *x = x0[j] + s * std::cos(th0[j]);
+            *y = y0[j] + s * std::sin(th0[j]);
+          } else {
+            *x = x0[j] + (std::sin(th0[j] + kappa * s) - std::sin(th0[j])) / kappa;
+            *y = y0[j] + (std::cos(th0[j]) - std::cos(th0[j] + kappa * s)) / kappa;
+          }
+        };
+        for (int j = 1; j < 3; ++j) {
+          arc_point(j - 1, arc_m, &x0[j], &y0[j]);
+          th0[j] = th0[j - 1] + turns[j - 1];
+        }
+        for (int i = 0; i < n; ++i) {
+          const double sigma = (i + 1) * spacing_m_;
+          const int j = std::min(2, static_cast<int>(sigma / arc_m));
+          double x = 0.0;
+          double y = 0.0;
+          arc_point(j, sigma - j * arc_m, &x, &y);
+          base[static_cast<std::size_t>(b) * n + i] = Eigen::Vector2d(x, y);
+        }
+        base_turn[static_cast<std::size_t>(b)] = turns[0] + turns[1] + turns[2];
+        base_group[static_cast<std::size_t>(b)] = g;
+      }
+    }
+  }
+
+  // Rotations.
+  for (int h = 0; h < options.num_headings; ++h) {
+    const double angle = WrapAngle(2.0 * kPi * h / options.num_headings);
+    if (std::abs(angle) > options.heading_range_rad + 1e-9) continue;
+    ++num_kept_headings_;
+    const double c = std::cos(angle);
+    const double s = std::sin(angle);
+    for (int p = 0; p < paths_per_heading_; ++p) {
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Vector2d& q = base[static_cast<std::size_t>(p) * n + i];
+        samples_B_.emplace_back(static_cast<float>(c * q.x() - s * q.y()), static_cast<float>(s * q.x() + c * q.y()));
+      }
+      TrajectoryInfo info;
+      info.group = base_group[static_cast<std::size_t>(p)];
+      info.heading_index = h;
+      info.heading_rad = static_cast<float>(angle);
+      info.end_B = samples_B_.back();
+      info.end_bearing_rad = std::atan2(info.end_B.y(), info.end_B.x());
+      info.end_heading_rad = static_cast<float>(WrapAngle(angle + base_turn[static_cast<std::size_t>(p)]));
+      info.length_m = static_cast<float>(options.path_length_m);
+      info_.push_back(info);
+    }
+  }
+
+  // Path tree nodes: the paths of a group share their first arc (level 0 node), those that also share the
+  // second arc share a level 1 node, and each path owns its third arc (level 2 node). Samples of arc j depend
+  // only on the turns of arcs 0..j, so they are bitwise equal for all paths under a node.
+  const int kept = num_kept_headings_;
+  const int groups = options.num_groups;
+  level_first_node_[0] = 0;
+  level_first_node_[1] = kept * groups;
+  level_first_node_[2] = level_first_node_[1] + kept * groups * k;
+  num_nodes_ = level_first_node_[2] + static_cast<int>(info_.size());
+  for (int i = 0; i < n; ++i) {
+    const int j = std::min(2, static_cast<int>((i + 1) * spacing_m_ / arc_m));
+    level_end_sample_[j] = i + 1;
+  }
+  level_end_sample_[1] = std::max(level_end_sample_[1], level_end_sample_[0]);
+  level_end_sample_[2] = n;
+  node_of_path_.resize(info_.size() * 3);
+  for (int p = 0; p < static_cast<int>(info_.size()); ++p) {
+    const int hs = p / paths_per_heading_;
+    const int within = p % paths_per_heading_;
+    const int g = within / (k * k);
+    const int a = (within / k) % k;
+    node_of_path_[static_cast<std::size_t>(p) * 3 + 0] = static_cast<std::uint16_t>(level_first_node_[0] + hs * groups + g);
+    node_of_path_[static_cast<std::size_t>(p) * 3 + 1] =
+        static_cast<std::uint16_t>(level_first_node_[1] + (hs * groups + g) * k + a);
+    node_of_path_[static_cast<std::size_t>(p) * 3 + 2] = static_cast<std::uint16_t>(level_first_node_[2] + p);
+  }
+  // For each node: a representative path and the node's samples [i0, i1).
+  struct NodeSpan {
+    int path = 0;
+    int i0 = 0;
+    int i1 = 0;
+  };
+  std::vector<NodeSpan> node_spans(static_cast<std::size_t>(num_nodes_));
+  for (int p = static_cast<int>(info_.size()) - 1; p >= 0; --p) {  // Lowest path id last: representative.
+    for (int level = 0; level < 3; ++level) {
+      NodeSpan& span = node_spans[node_of_path_[static_cast<std::size_t>(p) * 3 + level]];
+      span.path = p;
+      span.i0 = level == 0 ? 0 : level_end_sample_[level - 1];
+      span.i1 = level_end_sample_[level];
+    }
+  }
+
+  // Correspondence: per node, every voxel within reach of one of its samples, with the first blocked sample,
+  // or else the nearest sample and the clearance bucket.
+  const int nv = num_voxels();
+  const double voxel_m = options.voxel_size_m;
+  const double block2 = geo.voxel_block_m * geo.voxel_block_m;
+  const double band2 = geo.band_reach_m * geo.band_reach_m;
+  std::vector<std::vector<BlockingEntry>> block_lists(static_cast<std::size_t>(nv));
+  std::vector<std::vector<BandEntry>> band_lists(static_cast<std::size_t>(nv));
+  std::vector<int> stamp(static_cast<std::size_t>(nv), -1);
+  std::vector<std::uint8_t> first_block(static_cast<std::size_t>(nv));
+  std::vector<std::uint8_t> argmin(static_cast<std::size_t>(nv));
+  std::vector<double> min_d2(static_cast<std::size_t>(nv));
+  std::vector<int> touched;
+  touched.reserve(static_cast<std::size_t>(nv));
+  for (int node = 0; node < num_nodes_; ++node) {
+    touched.clear();
+    const NodeSpan& span = node_spans[static_cast<std::size_t>(node)];
+    const Eigen::Vector2f* samples = samples_B(span.path);
+    for (int i = span.i0; i < span.i1; ++i) {
+      const double sx = samples[i].x();
+      const double sy = samples[i].y();
+      const int ix0 = std::max(0, static_cast<int>(std::floor((sx - geo.reach_m - grid_min_m_) / voxel_m)));
+      const int ix1 =
+          std::min(grid_size_ - 1, static_cast<int>(std::floor((sx + geo.reach_m - grid_min_m_) / voxel_m)));
+      const int iy0 = std::max(0, static_cast<int>(std::floor((sy - geo.reach_m - grid_min_m_) / voxel_m)));
+      const int iy1 =
+          std::min(grid_size_ - 1, static_cast<int>(std::floor((sy + geo.reach_m - grid_min_m_) / voxel_m)));
+      for (int iy = iy0; iy <= iy1; ++iy) {
+        const double cy = grid_min_m_ + (iy + 0.5) * voxel_m;
+        for (int ix = ix0; ix <= ix1; ++ix) {
+          const double cx = grid_min_m_ + (ix + 0.5) * voxel_m;
+          const double d2 = SquaredDistance(cx, cy, sx, sy);
+          if (d2 > block2 && d2 >= band2) continue;
+          const std::size_t v = static_cast<std::size_t>(ix + grid_size_ * iy);
+          if (stamp[v] != node) {
+            stamp[v] = node;
+            touched.push_back(static_cast<int>(v));
+            first_block[v] = kNoBucket;
+            min_d2[v] = d2;
+            argmin[v] = static_cast<std::uint8_t>(i);
+          } else if (d2 < min_d2[v]) {
+            min_d2[v] = d2;
+            argmin[v] = static_cast<std::uint8_t>(i);
+          }
+          if (d2 <= block2 && first_block[v] == kNoBucket) first_block[v] = static_cast<std::uint8_t>(i);
+        }
+      }
+    }
+    for (int v : touched) {
+      const std::size_t vi = static_cast<std::size_t>(v);
+      if (first_block[vi] != kNoBucket) {
+        BlockingEntry e;
+        e.node = static_cast<std::uint16_t>(node);
+        e.first_sample = first_block[vi];
+        block_lists[vi].push_back(e);
+      } else if (min_d2[vi] < band2) {
+        BandEntry e;
+        e.node = static_cast<std::uint16_t>(node);
+        e.closest_sample = argmin[vi];
+        e.clearance_bucket =
+            ClearanceBucket(min_d2[vi], geo.half_diagonal_m, options.collision_radius_m, options.clearance_band_m);
+        band_lists[vi].push_back(e);
+      }
+    }
+  }
+  std::size_t total_block = 0;
+  std::size_t total_band = 0;
+  for (int v = 0; v < nv; ++v) {
+    total_block += block_lists[static_cast<std::size_t>(v)].size();
+    total_band += band_lists[static_cast<std::size_t>(v)].size();
+  }
+  blocking_.reserve(total_block);
+  band_.reserve(total_band);
+  blocking_offsets_.reserve(static_cast<std::size_t>(nv) + 1);
+  band_offsets_.reserve(static_cast<std::size_t>(nv) + 1);
+  blocking_offsets_.push_back(0);
+  band_offsets_.push_back(0);
+  for (int v = 0; v < nv; ++v) {
+    std::vector<BlockingEntry>& bl = block_lists[static_cast<std::size_t>(v)];
+    std::vector<BandEntry>& bd = band_lists[static_cast<std::size_t>(v)];
+    blocking_.insert(blocking_.end(), bl.begin(), bl.end());
+    band_.insert(band_.end(), bd.begin(), bd.end());
+    blocking_offsets_.push_back(static_cast<std::uint32_t>(blocking_.size()));
+    band_offsets_.push_back(static_cast<std::uint32_t>(band_.size()));
+    std::vector<BlockingEntry>().swap(bl);
+    std::vector<BandEntry>().swap(bd);
+  }
+  build_time_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+double TrajectoryLibrary::BucketClearanceM(std::uint8_t bucket) const {
+  if (bucket == kNoBucket) return options_.clearance_band_m;
+  return bucket * options_.clearance_band_m / kBuckets;
+}
+
+int TrajectoryLibrary::VoxelIndex(float x_m, float y_m) const {
+  const double fx = (static_cast<double>(x_m) - grid_min_m_) * inv_voxel_size_;
+  const double fy = (static_cast<double>(y_m) - grid_min_m_) * inv_voxel_size_;
+  // Also rejects NaN (comparisons false).
+  if (!(fx >= 0.0 && fy >= 0.0 && fx < grid_size_ && fy < grid_size_)) return -1;
+  const int ix = std::min(grid_size_ - 1, static_cast<int>(fx));
+  const int iy = std::min(grid_size_ - 1, static_cast<int>(fy));
+  return ix + grid_size_ * iy;
+}
+
+Eigen::Vector2d TrajectoryLibrary::VoxelCenter(int index) const {
+  const int ix = index % grid_size_;
+  const int iy = index / grid_size_;
+  return Eigen::Vector2d(grid_min_m_ + (ix + 0.5) * options_.voxel_size_m,
+                         grid_min_m_ + (iy + 0.5) * options_.voxel_size_m);
+}
+
+ConstSpan<BlockingEntry> TrajectoryLibrary::blocking_entries(int index) const {
+  const std::size_t v = static_cast<std::size_t>(index);
+  return {blocking_.data() + blocking_offsets_[v], blocking_.data() + blocking_offsets_[v + 1]};
+}
+
+ConstSpan<BandEntry> TrajectoryLibrary::band_entries(int index) const {
+  const std::size_t v = static_cast<std::size_t>(index);
+  return {band_.data() + band_offsets_[v], band_.data() + band_offsets_[v + 1]};
+}
+
+std::size_t TrajectoryLibrary::memory_bytes() const {
+  return sizeof(*this) + info_.capacity() * sizeof(TrajectoryInfo) + samples_B_.capacity() * sizeof(Eigen::Vector2f) +
+         blocking_offsets_.capacity() * sizeof(std::uint32_t) + blocking_.capacity() * sizeof(BlockingEntry) + node_of_path_.capacity() * sizeof(std::uint16_t) +
+         band_offsets_.capacity() * sizeof(std::uint32_t) + band_.capacity() * sizeof(BandEntry);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// LocalPlannerOptions, names
+
+bool LocalPlannerOptions::IsValid(std::string* why) const {
+  std::ostringstream msg;
+  auto range = [&msg](const char* field, double value, double lo, double hi) {
+    if (std::isfinite(value) && value >= lo && value <= hi) return true;
+    msg << "LocalPlannerOptions::" << field << " = " << value << " must be finite and in [" << lo << ", " << hi
+        << "]";
+    return false;
+  };
+  const bool ok = range("goal_direction_weight", goal_direction_weight, 0.0, 100.0) &&
+                  range("heading_change_weight", heading_change_weight, 0.0, 100.0) &&
+                  range("clearance_weight", clearance_weight, 0.0, 100.0) &&
+                  range("hysteresis_weight", hysteresis_weight, 0.0, 100.0) &&
+                  range("min_free_length_m", min_free_length_m, 0.0, 100.0) &&
+                  range("max_joystick_deviation_rad", max_joystick_deviation_rad, 0.0, kPi);
+  if (!ok && why != nullptr) *why = msg.str();
+  return ok;
+}
+
+const char* ToString(LocalPlanMode mode) {
+  switch (mode) {
+    case LocalPlanMode::kGoal:
+      return "kGoal";
+    case LocalPlanMode::kJoystick:
+      return "kJoystick";
+  }
+  return "?";
+}
+
+const char* ToString(LocalPlanResult::Status status) {
+  switch (status) {
+    case LocalPlanResult::Status::kPathFound:
+      return "kPathFound";
+    case LocalPlanResult::Status::kBoxedIn:
+      return "kBoxedIn";
+    case LocalPlanResult::Status::kInvalidInput:
+      return "kInvalidInput";
+  }
+  return "?";
+}
+
+bool LocalPlanResult::IsFree(int path_id) const {
+  if (path_id < 0 || static_cast<std::size_t>(path_id) / 64 >= free_mask.size()) return false;
+  return (free_mask[static_cast<std::size_t>(path_id) / 64] >> (path_id % 64)) & 1u;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// LocalPlanner
+
+LocalPlanner::LocalPlanner(std::shared_ptr<const TrajectoryLibrary> library, const LocalPlannerOptions& options)
+    : library_(std::move(library)), options_(options) {
+  if (library_ == nullptr) throw std::invalid_argument("LocalPlanner: library must not be null");
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  const std::size_t num_paths = static_cast<std::size_t>(library_->num_paths());
+  voxel_stamp_.assign(static_cast<std::size_t>(library_->num_voxels()), 0);
+  occupied_.reserve(static_cast<std::size_t>(library_->num_voxels()));
+  first_blocked_.assign(num_paths, static_cast<std::uint8_t>(library_->samples_per_path()));
+  clearance_bucket_.assign(num_paths, kNoBucket);
+  node_first_blocked_.assign(static_cast<std::size_t>(library_->num_nodes()), 0);
+  node_bucket_.assign(static_cast<std::size_t>(library_->num_nodes()), kNoBucket);
+  heading_dir_.resize(num_paths);
+  end_dir_.resize(num_paths);
+  for (std::size_t p = 0; p < num_paths; ++p) {
+    const TrajectoryInfo& info = library_->info(static_cast<int>(p));
+    heading_dir_[p] = Eigen::Vector2f(std::cos(info.heading_rad), std::sin(info.heading_rad));
+    end_dir_[p] = Eigen::Vector2f(std::cos(info.end_bearing_rad), std::sin(info.end_bearing_rad));
+  }
+}
+
+double LocalPlanner::free_length_m(int path_id) const {
+  return first_blocked_[static_cast<std::size_t>(path_id)] * library_->sample_spacing_m();
+}
+
+double LocalPlanner::clearance_m(int path_id) const {
+  return library_->BucketClearanceM(clearance_bucket_[static_cast<std::size_t>(path_id)]);
+}
+
+LocalPlanResult LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const LocalPlanRequest& request) {
+  LocalPlanResult result;
+  Plan(obstacles_B, request, &result);
+  return result;
+}
+
+void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const LocalPlanRequest& request,
+                        LocalPlanResult* result) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const TrajectoryLibrary& lib = *library_;
+  const TrajectoryLibraryOptions& lo = lib.options();
+  const int num_paths = lib.num_paths();
+  const int n = lib.samples_per_path();
+  LocalPlanResult& r = *result;
+  using Status = LocalPlanResult::Status;
+  // Reset, keeping buffers.
+  r.status = Status::kInvalidInput;
+  r.path_id = -1;
+  r.path_B.clear();
+  r.free_length_m = 0.0;
+  r.required_free_length_m = 0.0;
+  r.score = 0.0;
+  r.clearance_m = 0.0;
+  r.num_free_paths = 0;
+  r.num_candidate_paths = 0;
+  r.free_mask.assign((static_cast<std::size_t>(num_paths) + 63) / 64, 0);
+  // Grow the buffers once to their largest size, so that later cycles do not allocate.
+  r.path_B.reserve(static_cast<std::size_t>(n) + 1);
+  r.message.reserve(kMessageCapacity);
+  r.num_points_used = 0;
+  r.num_points_outside_grid = 0;
+  r.num_points_outside_z_band = 0;
+  r.num_points_non_finite = 0;
+  r.num_occupied_voxels = 0;
+  r.nearest_obstacle_m = std::numeric_limits<double>::infinity();
+  char buf[kMessageCapacity];
+  auto finish = [&](Status status) {
+    r.status = status;
+    r.message.assign(buf);
+    r.planning_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+
+  // Request.
+  const Eigen::Vector2d& goal = request.goal_B;
+  if (!std::isfinite(goal.x()) || !std::isfinite(goal.y())) {
+    std::snprintf(buf, sizeof(buf), "invalid input: goal_B (%g, %g) must be finite", goal.x(), goal.y());
+    return finish(Status::kInvalidInput);
+  }
+  const double goal_distance_m = goal.norm();
+  if (!(goal_distance_m > 1e-6)) {
+    std::snprintf(buf, sizeof(buf), "invalid input: goal_B (%g, %g) must be longer than 1e-6 m (it sets the %s)",
+                  goal.x(), goal.y(), request.mode == LocalPlanMode::kGoal ? "goal direction" : "joystick direction");
+    return finish(Status::kInvalidInput);
+  }
+  if (!(request.max_required_free_length_m > 0.0)) {
+    std::snprintf(buf, sizeof(buf), "invalid input: max_required_free_length_m = %g must be > 0",
+                  request.max_required_free_length_m);
+    return finish(Status::kInvalidInput);
+  }
+  if (request.previous_path_id < -1 || request.previous_path_id >= num_paths) {
+    std::snprintf(buf, sizeof(buf), "invalid input: previous_path_id = %d must be -1 or in [0, %d]",
+                  request.previous_path_id, num_paths - 1);
+    return finish(Status::kInvalidInput);
+  }
+  if (request.mode != LocalPlanMode::kGoal && request.mode != LocalPlanMode::kJoystick) {
+    std::snprintf(buf, sizeof(buf), "invalid input: mode = %d is not kGoal or kJoystick",
+                  static_cast<int>(request.mode));
+    return finish(Status::kInvalidInput);
+  }
+  const bool joystick = request.mode == LocalPlanMode::kJoystick;
+  const double length_m = lo.path_length_m;
+  double required_m = request.max_required_free_length_m;
+  if (!joystick) required_m = std::min(required_m, goal_distance_m);
+  required_m = std::min(std::max(required_m, options_.min_free_length_m), length_m);
+  const int required_samples = RequiredSamples(required_m, lib.sample_spacing_m(), n);
+  r.required_free_length_m = required_m;
+
+  // Points -> distinct occupied voxels.
+  if (++cycle_ == 0) {
+    std::fill(voxel_stamp_.begin(), voxel_stamp_.end(), 0u);
+    cycle_ = 1;
+  }
+  occupied_.clear();
+  float nearest2 = std::numeric_limits<float>::infinity();
+  for (const Eigen::Vector3f& p : obstacles_B) {
+    if (!IsFinite(p)) {
+      ++r.num_points_non_finite;
+      continue;
+    }
+    if (!InZBand(p, lo)) {
+      ++r.num_points_outside_z_band;
+      continue;
+    }
+    nearest2 = std::min(nearest2, p.x() * p.x() + p.y() * p.y());
+    const int v = lib.VoxelIndex(p.x(), p.y());
+    if (v < 0) {
+      ++r.num_points_outside_grid;
+      continue;
+    }
+    ++r.num_points_used;
+    std::uint32_t& stamp = voxel_stamp_[static_cast<std::size_t>(v)];
+    if (stamp != cycle_) {
+      stamp = cycle_;
+      occupied_.push_back(v);
+    }
+  }
+  r.num_occupied_voxels = static_cast<int>(occupied_.size());
+  r.nearest_obstacle_m = std::sqrt(static_cast<double>(nearest2));
+
+  // Voxels -> path tree nodes -> paths.
+  std::fill(node_first_blocked_.begin(), node_first_blocked_.end(), static_cast<std::uint8_t>(n));
+  std::fill(node_bucket_.begin(), node_bucket_.end(), kNoBucket);
+  std::uint8_t* const node_first = node_first_blocked_.data();
+  std::uint8_t* const node_bucket = node_bucket_.data();
+  const int req = required_samples;
+  for (int v : occupied_) {
+    for (const BlockingEntry& e : lib.blocking_entries(v)) {
+      std::uint8_t& f = node_first[e.node];
+      f = std::min(f, e.first_sample);
+    }
+    for (const BandEntry& e : lib.band_entries(v)) {
+      const std::uint8_t value = e.closest_sample < req ? e.clearance_bucket : kNoBucket;
+      std::uint8_t& c = node_bucket[e.node];
+      c = std::min(c, value);
+    }
+  }
+  std::uint8_t* const first_blocked = first_blocked_.data();
+  std::uint8_t* const bucket = clearance_bucket_.data();
+  const std::uint16_t* nodes = lib.path_nodes(0);
+  for (int p = 0; p < num_paths; ++p, nodes += 3) {
+    first_blocked[p] = std::min({node_first[nodes[0]], node_first[nodes[1]], node_first[nodes[2]]});
+    bucket[p] = std::min({node_bucket[nodes[0]], node_bucket[nodes[1]], node_bucket[nodes[2]]});
+  }
+
+  // Scoring.
+  const Eigen::Vector2f target = goal.normalized().cast<float>();
+  const float cos_limit = static_cast<float>(std::cos(options_.max_joystick_deviation_rad)) - 1e-6f;
+  const bool has_previous = request.previous_path_id >= 0;
+  const Eigen::Vector2f previous_dir =
+      has_previous ? end_dir_[static_cast<std::size_t>(request.previous_path_id)] : Eigen::Vector2f::Zero();
+  const float band = static_cast<float>(lo.clearance_band_m);
+  const float bucket_to_term = 1.0f / kBuckets;  // bucket -> clearance / band
+  const float wg = static_cast<float>(options_.goal_direction_weight) * 0.5f;
+  const float wh = static_cast<float>(options_.heading_change_weight) * 0.5f;
+  const float wc = static_cast<float>(options_.clearance_weight);
+  const float wp = has_previous ? static_cast<float>(options_.hysteresis_weight) * 0.5f : 0.0f;
+  int best = -1;
+  float best_score = -std::numeric_limits<float>::infinity();
+  for (int p = 0; p < num_paths; ++p) {
+    const std::size_t pi = static_cast<std::size_t>(p);
+    if (first_blocked[pi] < req) continue;
+    ++r.num_free_paths;
+    r.free_mask[pi / 64] |= std::uint64_t{1} << (pi % 64);
+    const float goal_dot = end_dir_[pi].dot(target);
+    if (joystick && (goal_dot < cos_limit || heading_dir_[pi].dot(target) < cos_limit)) continue;
+    ++r.num_candidate_paths;
+    const float clearance_term = (band <= 0.0f || bucket[pi] == kNoBucket) ? 1.0f : bucket[pi] * bucket_to_term;
+    const float score = wg * (1.0f + goal_dot) + wh * (1.0f + heading_dir_[pi].x()) + wc * clearance_term +
+                        wp * (1.0f + end_dir_[pi].dot(previous_dir));
+    if (score > best_score) {
+      best_score = score;
+      best = p;
+    }
+  }
+
+  char nearest[48];
+  if (std::isfinite(r.nearest_obstacle_m)) {
+    std::snprintf(nearest, sizeof(nearest), "nearest obstacle %.2f m", r.nearest_obstacle_m);
+  } else {
+    std::snprintf(nearest, sizeof(nearest), "no obstacles");
+  }
+  if (best < 0) {
+    if (joystick) {
+      std::snprintf(buf, sizeof(buf),
+                    "boxed in: 0 of %d paths free for %.2f m within %.0f deg of the joystick direction %.0f deg "
+                    "(%d free elsewhere), %s",
+                    num_paths, required_m, options_.max_joystick_deviation_rad * 180.0 / kPi,
+                    std::atan2(goal.y(), goal.x()) * 180.0 / kPi, r.num_free_paths, nearest);
+    } else {
+      std::snprintf(buf, sizeof(buf), "boxed in: 0 of %d paths free for %.2f m, %s", num_paths, required_m, nearest);
+    }
+    return finish(Status::kBoxedIn);
+  }
+  const std::size_t bi = static_cast<std::size_t>(best);
+  r.path_id = best;
+  r.score = best_score;
+  r.free_length_m = first_blocked[bi] * lib.sample_spacing_m();
+  r.clearance_m = lib.BucketClearanceM(bucket[bi]);
+  const Eigen::Vector2f* samples = lib.samples_B(best);
+  r.path_B.emplace_back(0.0f, 0.0f, 0.0f);
+  for (int i = 0; i < first_blocked[bi]; ++i) r.path_B.emplace_back(samples[i].x(), samples[i].y(), 0.0f);
+  const TrajectoryInfo& info = lib.info(best);
+  std::snprintf(buf, sizeof(buf),
+                "path %d (heading %.0f deg, group %d, end bearing %.0f deg): free %.2f m (%.2f m required), "
+                "clearance %.2f m, %d of %d paths free, %s",
+                best, info.heading_rad * 180.0 / kPi, info.group, info.end_bearing_rad * 180.0 / kPi,
+                r.free_length_m, required_m, r.clearance_m, r.num_free_paths, num_paths, nearest);
+  finish(Status::kPathFound);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Brute force
+
+std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
+                                          const std::vector<Eigen::Vector3f>& obstacles_B,
+                                          double required_free_length_m, std::vector<double>* clearance_m) {
+  const TrajectoryLibraryOptions& o = library.options();
+  const int n = library.samples_per_path();
+  const double voxel_m = o.voxel_size_m;
+  const double grid_min = library.grid_min_m();
+  const double half_diagonal = voxel_m * kSqrtHalf;
+  const double block2 = library.voxel_blocking_radius_m() * library.voxel_blocking_radius_m();
+  const double band_reach = o.collision_radius_m + half_diagonal + o.clearance_band_m;
+  const double band2 = band_reach * band_reach;
+  const double reach = std::max(library.voxel_blocking_radius_m(), band_reach);
+  const int req = RequiredSamples(std::isnan(required_free_length_m) ? 0.0 : required_free_length_m,
+                                  library.sample_spacing_m(), n);
+
+  // Voxel centres of the obstacle points (the grid's voxels, extended beyond it).
+  std::vector<Eigen::Vector2d> centres;
+  centres.reserve(obstacles_B.size());
+  for (const Eigen::Vector3f& p : obstacles_B) {
+    if (!IsFinite(p) || !InZBand(p, o)) continue;
+    // The same quantisation as TrajectoryLibrary::VoxelIndex().
+    const double ix = std::floor((static_cast<double>(p.x()) - grid_min) * (1.0 / voxel_m));
+    const double iy = std::floor((static_cast<double>(p.y()) - grid_min) * (1.0 / voxel_m));
+    centres.emplace_back(grid_min + (ix + 0.5) * voxel_m, grid_min + (iy + 0.5) * voxel_m);
+  }
+
+  const int num_paths = library.num_paths();
+  std::vector<double> free_m(static_cast<std::size_t>(num_paths));
+  if (clearance_m != nullptr) clearance_m->assign(static_cast<std::size_t>(num_paths), 0.0);
+  for (int p = 0; p < num_paths; ++p) {
+    const Eigen::Vector2f* s = library.samples_B(p);
+    // Bounding box of the samples, grown by the reach (a cull only: the distance test below decides).
+    double x_lo = s[0].x();
+    double x_hi = x_lo;
+    double y_lo = s[0].y();
+    double y_hi = y_lo;
+    for (int i = 1; i < n; ++i) {
+      x_lo = std::min(x_lo, static_cast<double>(s[i].x()));
+      x_hi = std::max(x_hi, static_cast<double>(s[i].x()));
+      y_lo = std::min(y_lo, static_cast<double>(s[i].y()));
+      y_hi = std::max(y_hi, static_cast<double>(s[i].y()));
+    }
+    x_lo -= reach;
+    x_hi += reach;
+    y_lo -= reach;
+    y_hi += reach;
+    int first_blocked = n;
+    int bucket = kNoBucket;
+    for (const Eigen::Vector2d& c : centres) {
+      if (c.x() < x_lo || c.x() > x_hi || c.y() < y_lo || c.y() > y_hi) continue;
+      // Each arc of the path on its own (the clearance is defined per arc, see LocalPlannerOptions).
+      for (int level = 0; level < 3; ++level) {
+        const int i0 = level == 0 ? 0 : library.level_end_sample(level - 1);
+        const int i1 = library.level_end_sample(level);
+        int block = -1;
+        int closest = 0;
+        double min_d2 = std::numeric_limits<double>::infinity();
+        for (int i = i0; i < i1; ++i) {
+          const double d2 = SquaredDistance(c.x(), c.y(), s[i].x(), s[i].y());
+          if (d2 < min_d2) {
+            min_d2 = d2;
+            closest = i;
+          }
+          if (block < 0 && d2 <= block2) block = i;
+        }
+        if (block >= 0) {
+          first_blocked = std::min(first_blocked, block);
+        } else if (min_d2 < band2 && closest < req) {
+          bucket =
+              std::min<int>(bucket, ClearanceBucket(min_d2, half_diagonal, o.collision_radius_m, o.clearance_band_m));
+        }
+      }
+    }
+    free_m[static_cast<std::size_t>(p)] = first_blocked * library.sample_spacing_m();
+    if (clearance_m != nullptr) {
+      (*clearance_m)[static_cast<std::size_t>(p)] = library.BucketClearanceM(static_cast<std::uint8_t>(bucket));
+    }
+  }
+  return free_m;
+}
+
+}  // namespace cairn::nav

@@ -1,0 +1,170 @@
+// Navigation component of cairn_agent (Sriganesh et al. 2024, § Navigation Layer): the global planner
+// service, the FALCO trajectory-library local planner and the iLQR controller, chained behind the mux.
+// Waypoint mode: global path -> carrot -> local planner -> iLQR -> twist. Smart joystick mode: the
+// operator's direction -> local planner (closest free path) -> iLQR -> twist. DDS-free: the agent feeds it
+// poses, obstacle points and times (seconds on any monotonic clock), so it runs in tests faster than real
+// time.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cairn/nav/global_planner.h"
+#include "cairn/nav/ilqr.h"
+#include "cairn/nav/local_planner.h"
+#include "cairn/nav/platform.h"
+#include "cairn/sim/unicycle.h"
+
+namespace cairn::agent {
+
+/// Options of Navigation (config file sections navigation, local_planner, controller).
+struct NavigationOptions {
+  /// The platform: limits, footprint, traversability, cruise speed, local planner headings.
+  nav::PlatformProfile platform = nav::GetPlatformProfile("wheeled");
+  /// Local planner scoring.
+  nav::LocalPlannerOptions local_planner;
+  /// iLQR controller (horizon, weights).
+  nav::IlqrOptions controller;
+  /// Default arrival radius when a goal gives 0, metres, (0, 5].
+  double goal_tolerance_m = 0.2;
+  /// No progress toward the goal for this long -> the goal fails ("blocked: ..."), seconds, (0, 600].
+  double blocked_timeout_s = 10.0;
+  /// The local planner aims at the point this far along the global path, metres, (0, 10].
+  double carrot_distance_m = 2.5;
+  /// Waypoint mode: a local path must be free for this long (or to the goal if nearer); a path blocked
+  /// further on is driven to its free end, braking, and re-chosen every cycle. Metres, (0, 10].
+  double required_free_length_m = 1.5;
+  /// Obstacles within this range of the body feed the local planner, metres, (0, 20].
+  double sensor_range_m = 3.5;
+  /// Local planner cycle period (the sensor rate), seconds, (0, 1].
+  double local_planner_period_s = 0.1;
+  /// The local planner is unhealthy when its obstacle input is older than this, seconds, (0, 10].
+  double obstacle_timeout_s = 0.5;
+  /// How often the global path is checked against the current map, seconds, (0, 60].
+  double replan_check_period_s = 0.5;
+  /// Farther than this from the global path -> replan from the current pose, metres, (0, 20].
+  double max_path_deviation_m = 1.5;
+  /// Smart joystick: the yaw rate bends the joystick direction by wz * this (capped at 90 deg), seconds,
+  /// [0, 5].
+  double joystick_turn_lookahead_s = 1.0;
+
+  /// @return false and sets `*why` (field, value, rule) when a field is invalid.
+  bool IsValid(std::string* why) const;
+};
+
+/// Output of one Navigation step.
+struct NavigationStep {
+  double linear_x_mps = 0.0;   ///< Twist to send through the mux, frame B.
+  double angular_z_radps = 0.0;
+  bool arrived = false;        ///< The goal was reached this step (the goal is cleared).
+  bool failed = false;         ///< The goal failed this step (the goal is cleared); see reason.
+  std::string reason;          ///< Why it failed.
+};
+
+/// The navigation stack of one robot. Not thread-safe (the agent calls it under its lock); the global
+/// planner it shares is thread-safe and may also serve path requests from other threads.
+class Navigation {
+ public:
+  /// @throws std::invalid_argument for invalid options or null planner/library, or a library whose
+  ///         heading range does not match the platform.
+  Navigation(const NavigationOptions& options, std::shared_ptr<nav::GlobalPlanner> planner,
+             std::shared_ptr<const nav::TrajectoryLibrary> library);
+
+  /// Plans a global path from `state` to the goal (x_m, y_m) (metres, frame map). On success the goal
+  /// becomes active (replacing any other) and the plan is returned; otherwise the previous goal is kept and
+  /// the plan's reason says why. tolerance_m 0 = options.goal_tolerance_m.
+  nav::GlobalPlan SetGoal(const sim::UnicycleState& state, double x_m, double y_m, double tolerance_m,
+                          double now_s);
+  /// Drops the goal (the robot will be stopped by the caller's mode switch).
+  void ClearGoal();
+  bool has_goal() const { return goal_.has_value(); }
+
+  /// New obstacle points (frame B of `state`, metres) sensed at now_s.
+  void SetObstacles(const std::vector<Eigen::Vector3f>& points_B, const sim::UnicycleState& state, double now_s);
+
+  /// One control step in waypoint mode (call at the control rate). Without a goal: a zero twist.
+  NavigationStep StepWaypoint(const sim::UnicycleState& state, double now_s);
+  /// One control step in smart joystick mode: `joystick` is the operator's twist (frame B: forward,
+  /// left m/s; yaw rate rad/s); zero means stop. The direction is atan2(vy, vx) bent by wz *
+  /// joystick_turn_lookahead_s; the speed is |(vx, vy)| capped at the platform's max speed. A pure yaw rate
+  /// turns in place (a disk footprint cannot collide by turning).
+  NavigationStep StepJoystick(const sim::UnicycleState& state, double vx_mps, double vy_mps, double wz_radps,
+                              double now_s);
+
+  /// True when the local planner has fresh obstacle input (age <= obstacle_timeout_s); else false and `why`.
+  bool LocalPlannerHealthy(double now_s, std::string* why) const;
+
+  /// The active (or last) global plan; empty path when none.
+  const nav::GlobalPlan& global_plan() const { return plan_; }
+  /// Waypoint goal id-independent progress: distance left along the global path, metres.
+  double distance_left_m() const { return distance_left_m_; }
+  /// Estimated time to arrival, seconds (distance left / recent mean speed); -1 without a goal.
+  double eta_s() const { return goal_ ? eta_s_ : -1.0; }
+  /// Global replans of the current goal.
+  int replans() const { return replans_; }
+  /// Bumped whenever the global path changes (new goal, replan, clear), to republish it.
+  std::uint64_t path_revision() const { return path_revision_; }
+  /// Last local planner result (frame B of local_pose()).
+  const nav::LocalPlanResult& local_result() const { return local_result_; }
+  /// Pose the last local plan was made from.
+  const sim::UnicycleState& local_pose() const { return local_pose_; }
+  /// "" (not run), "path", "boxed in: ..." or "invalid input: ...".
+  const std::string& local_status() const { return local_status_; }
+  /// Last controller solution.
+  const nav::IlqrSolution& controller_solution() const { return solution_; }
+  const NavigationOptions& options() const { return options_; }
+
+ private:
+  struct Goal {
+    Eigen::Vector2d p_W = Eigen::Vector2d::Zero();
+    double tolerance_m = 0.2;
+    double best_distance_m = 0.0;
+    double best_time_s = 0.0;
+  };
+  // Re-plans from `state` to the goal; false (and the reason) if no path remains.
+  bool Replan(const sim::UnicycleState& state, std::string* reason);
+  // Progress along the global path: updates path_segment_ and distance_left_m_; returns the distance from
+  // the robot to the path.
+  double UpdateProgress(const Eigen::Vector2d& p_W);
+  // Point carrot_distance_m ahead of the robot's projection on the global path.
+  Eigen::Vector2d Carrot() const;
+  // Runs the local planner if its period elapsed; fills track_W_ and track_stop_at_end_.
+  void RunLocalPlanner(const sim::UnicycleState& state, const nav::LocalPlanRequest& request, double now_s,
+                       const std::optional<Eigen::Vector2d>& goal_W);
+  // iLQR on track_W_; zero twist (braking) when there is no track.
+  NavigationStep Control(const sim::UnicycleState& state, double cruise_mps, double now_s);
+  NavigationStep Fail(const std::string& reason);
+
+  NavigationOptions options_;
+  std::shared_ptr<nav::GlobalPlanner> planner_;
+  nav::LocalPlanner local_planner_;
+  nav::IlqrController controller_;
+
+  std::optional<Goal> goal_;
+  nav::GlobalPlan plan_;
+  std::size_t path_segment_ = 0;
+  double projection_along_m_ = 0.0;  // arc length of the robot's projection on the global path
+  double distance_left_m_ = 0.0;
+  double eta_s_ = -1.0;
+  double mean_speed_mps_ = 0.0;
+  int replans_ = 0;
+  std::uint64_t path_revision_ = 0;
+  double last_replan_check_s_ = -1e9;
+
+  std::vector<Eigen::Vector3f> obstacles_B_;
+  double obstacles_time_s_ = -1e9;
+  double last_local_time_s_ = -1e9;
+  nav::LocalPlanResult local_result_;
+  sim::UnicycleState local_pose_;
+  std::string local_status_;
+  std::vector<Eigen::Vector2d> track_W_;  // path for the controller, frame W
+  bool track_stop_at_end_ = true;
+
+  nav::IlqrSolution solution_;
+  double last_solve_time_s_ = -1.0;
+};
+
+}  // namespace cairn::agent

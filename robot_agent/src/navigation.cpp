@@ -1,0 +1,384 @@
+#include "cairn/agent/navigation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <stdexcept>
+
+namespace cairn::agent {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+bool InRange(const char* field, double value, double lo, double hi, bool lo_open, std::string* why) {
+  const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
+  if (!ok) {
+    std::ostringstream out;
+    out << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
+    *why = out.str();
+  }
+  return ok;
+}
+
+std::string Fixed(double value, int digits) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.*f", digits, value);
+  return buf;
+}
+
+nav::IlqrLimits IlqrLimitsOf(const sim::UnicycleLimits& l) {
+  nav::IlqrLimits out;
+  out.max_speed_mps = l.max_speed_mps;
+  out.max_reverse_speed_mps = l.max_reverse_speed_mps;
+  out.max_accel_mps2 = l.max_accel_mps2;
+  out.max_yaw_rate_radps = l.max_yaw_rate_radps;
+  out.max_yaw_accel_radps2 = l.max_yaw_accel_radps2;
+  return out;
+}
+
+// p_W = R(yaw) p_B + p_WB.
+Eigen::Vector2d ToWorld(const sim::UnicycleState& s, const Eigen::Vector2d& p_B) {
+  const double c = std::cos(s.yaw_rad), n = std::sin(s.yaw_rad);
+  return {s.x_m + c * p_B.x() - n * p_B.y(), s.y_m + n * p_B.x() + c * p_B.y()};
+}
+
+// p_B = R(yaw)^T (p_W - p_WB).
+Eigen::Vector2d ToBody(const sim::UnicycleState& s, const Eigen::Vector2d& p_W) {
+  const double c = std::cos(s.yaw_rad), n = std::sin(s.yaw_rad);
+  const double dx = p_W.x() - s.x_m, dy = p_W.y() - s.y_m;
+  return {c * dx + n * dy, -n * dx + c * dy};
+}
+
+}  // namespace
+
+bool NavigationOptions::IsValid(std::string* why) const {
+  if (!platform.IsValid(why)) return false;
+  std::string inner;
+  if (!local_planner.IsValid(&inner)) {
+    *why = "local_planner: " + inner;
+    return false;
+  }
+  if (!controller.IsValid(&inner)) {
+    *why = "controller: " + inner;
+    return false;
+  }
+  return InRange("navigation.goal_tolerance_m", goal_tolerance_m, 0, 5, true, why) &&
+         InRange("navigation.blocked_timeout_s", blocked_timeout_s, 0, 600, true, why) &&
+         InRange("navigation.carrot_distance_m", carrot_distance_m, 0, 10, true, why) &&
+         InRange("navigation.required_free_length_m", required_free_length_m, 0, 10, true, why) &&
+         InRange("navigation.sensor_range_m", sensor_range_m, 0, 20, true, why) &&
+         InRange("navigation.local_planner_period_s", local_planner_period_s, 0, 1, true, why) &&
+         InRange("navigation.obstacle_timeout_s", obstacle_timeout_s, 0, 10, true, why) &&
+         InRange("navigation.replan_check_period_s", replan_check_period_s, 0, 60, true, why) &&
+         InRange("navigation.max_path_deviation_m", max_path_deviation_m, 0, 20, true, why) &&
+         InRange("navigation.joystick_turn_lookahead_s", joystick_turn_lookahead_s, 0, 5, false, why);
+}
+
+namespace {
+
+const NavigationOptions& Validated(const NavigationOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  return options;
+}
+
+}  // namespace
+
+Navigation::Navigation(const NavigationOptions& options, std::shared_ptr<nav::GlobalPlanner> planner,
+                       std::shared_ptr<const nav::TrajectoryLibrary> library)
+    : options_(Validated(options)),
+      planner_(std::move(planner)),
+      local_planner_(library, options.local_planner),
+      controller_(options.controller, IlqrLimitsOf(options.platform.limits)) {
+  if (!planner_) throw std::invalid_argument("Navigation: global planner is null");
+  if (planner_->Profile(options_.platform.name) == nullptr) {
+    throw std::invalid_argument("Navigation: the global planner does not serve platform '" +
+                                options_.platform.name + "'");
+  }
+  plan_.result.status = nav::PlanResult::Status::kUnreachable;
+}
+
+nav::GlobalPlan Navigation::SetGoal(const sim::UnicycleState& state, double x_m, double y_m, double tolerance_m,
+                                    double now_s) {
+  nav::GlobalPlanRequest request;
+  request.start_W = {state.x_m, state.y_m};
+  request.goal_W = {x_m, y_m};
+  request.platform = options_.platform.name;
+  nav::GlobalPlan plan = planner_->Plan(request);
+  if (!plan.IsUsable()) return plan;
+  Goal goal;
+  goal.p_W = request.goal_W;
+  goal.tolerance_m = tolerance_m > 0 ? tolerance_m : options_.goal_tolerance_m;
+  goal.best_distance_m = plan.result.length_m;
+  goal.best_time_s = now_s;
+  goal_ = goal;
+  plan_ = plan;
+  path_segment_ = 0;
+  projection_along_m_ = 0.0;
+  distance_left_m_ = plan.result.length_m;
+  mean_speed_mps_ = options_.platform.cruise_speed_mps;
+  eta_s_ = distance_left_m_ / mean_speed_mps_;
+  replans_ = 0;
+  ++path_revision_;
+  last_replan_check_s_ = now_s;
+  track_W_.clear();
+  last_local_time_s_ = -1e9;  // plan locally at once
+  controller_.Reset();
+  return plan;
+}
+
+void Navigation::ClearGoal() {
+  if (!goal_) return;
+  goal_.reset();
+  plan_.result.path_W.clear();
+  plan_.result.length_m = 0.0;
+  ++path_revision_;
+  track_W_.clear();
+}
+
+void Navigation::SetObstacles(const std::vector<Eigen::Vector3f>& points_B, const sim::UnicycleState& state,
+                              double now_s) {
+  obstacles_B_ = points_B;
+  // Kept in frame B of `state`; RunLocalPlanner re-expresses them if the robot moved since.
+  local_pose_ = state;
+  obstacles_time_s_ = now_s;
+}
+
+bool Navigation::LocalPlannerHealthy(double now_s, std::string* why) const {
+  const double age = now_s - obstacles_time_s_;
+  if (age <= options_.obstacle_timeout_s) return true;
+  if (why != nullptr) {
+    *why = obstacles_time_s_ < -1e8 ? "no obstacle input yet"
+                                    : "obstacle input is " + Fixed(age, 2) + " s old (limit " +
+                                          Fixed(options_.obstacle_timeout_s, 2) + " s)";
+  }
+  return false;
+}
+
+NavigationStep Navigation::Fail(const std::string& reason) {
+  NavigationStep step;
+  step.failed = true;
+  step.reason = reason;
+  ClearGoal();
+  return step;
+}
+
+double Navigation::UpdateProgress(const Eigen::Vector2d& p_W) {
+  const auto& path = plan_.result.path_W;
+  if (path.size() < 2) {
+    distance_left_m_ = goal_ ? (goal_->p_W - p_W).norm() : 0.0;
+    return distance_left_m_;
+  }
+  // Project on the segments from the current one on (a short window ahead), keep the nearest.
+  double best_d = 1e18, best_along = projection_along_m_;
+  std::size_t best_seg = path_segment_;
+  double along_start = 0.0;
+  for (std::size_t i = 0; i < path_segment_; ++i) along_start += (path[i + 1] - path[i]).head<2>().norm();
+  double along = along_start;
+  for (std::size_t i = path_segment_; i + 1 < path.size() && along - along_start < 10.0; ++i) {
+    const Eigen::Vector2d a = path[i].head<2>(), b = path[i + 1].head<2>();
+    const double len = (b - a).norm();
+    const double t = len > 1e-9 ? std::clamp((p_W - a).dot(b - a) / (len * len), 0.0, 1.0) : 0.0;
+    const double d = (a + t * (b - a) - p_W).norm();
+    if (d < best_d - 1e-9) {
+      best_d = d;
+      best_seg = i;
+      best_along = along + t * len;
+    }
+    along += len;
+  }
+  path_segment_ = best_seg;
+  projection_along_m_ = best_along;
+  distance_left_m_ = std::max(0.0, plan_.result.length_m - best_along) + best_d;
+  return best_d;
+}
+
+Eigen::Vector2d Navigation::Carrot() const {
+  const auto& path = plan_.result.path_W;
+  if (path.size() < 2) return goal_ ? goal_->p_W : Eigen::Vector2d::Zero();
+  double target = projection_along_m_ + options_.carrot_distance_m;
+  double along = 0.0;
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+    const Eigen::Vector2d a = path[i].head<2>(), b = path[i + 1].head<2>();
+    const double len = (b - a).norm();
+    if (along + len >= target && len > 1e-9) return a + (b - a) * ((target - along) / len);
+    along += len;
+  }
+  return path.back().head<2>();
+}
+
+bool Navigation::Replan(const sim::UnicycleState& state, std::string* reason) {
+  nav::GlobalPlanRequest request;
+  request.start_W = {state.x_m, state.y_m};
+  request.goal_W = goal_->p_W;
+  request.platform = options_.platform.name;
+  nav::GlobalPlan plan = planner_->Plan(request);
+  if (!plan.IsUsable()) {
+    *reason = plan.reason;
+    return false;
+  }
+  plan_ = plan;
+  path_segment_ = 0;
+  projection_along_m_ = 0.0;
+  ++replans_;
+  ++path_revision_;
+  return true;
+}
+
+void Navigation::RunLocalPlanner(const sim::UnicycleState& state, const nav::LocalPlanRequest& request,
+                                 double now_s, const std::optional<Eigen::Vector2d>& goal_W) {
+  if (now_s - last_local_time_s_ < options_.local_planner_period_s - 1e-9) return;
+  last_local_time_s_ = now_s;
+  // Re-express the latest obstacles in the current body frame.
+  std::vector<Eigen::Vector3f> points_B;
+  points_B.reserve(obstacles_B_.size());
+  const bool moved = std::abs(local_pose_.x_m - state.x_m) > 1e-9 || std::abs(local_pose_.y_m - state.y_m) > 1e-9 ||
+                     std::abs(local_pose_.yaw_rad - state.yaw_rad) > 1e-9;
+  for (const auto& p : obstacles_B_) {
+    if (!moved) {
+      points_B.push_back(p);
+      continue;
+    }
+    const Eigen::Vector2d q = ToBody(state, ToWorld(local_pose_, p.head<2>().cast<double>()));
+    points_B.emplace_back(static_cast<float>(q.x()), static_cast<float>(q.y()), p.z());
+  }
+  obstacles_B_ = points_B;
+  local_pose_ = state;
+  nav::LocalPlanRequest r = request;
+  r.previous_path_id = local_result_.IsUsable() ? local_result_.path_id : -1;
+  local_planner_.Plan(points_B, r, &local_result_);
+  track_W_.clear();
+  if (!local_result_.IsUsable()) {
+    local_status_ = local_result_.status == nav::LocalPlanResult::Status::kBoxedIn ? local_result_.message
+                                                                                   : "invalid input: " +
+                                                                                         local_result_.message;
+    return;
+  }
+  local_status_ = "path";
+  for (const auto& p : local_result_.path_B) track_W_.push_back(ToWorld(state, p.head<2>().cast<double>()));
+  const double full = local_planner_.library().options().path_length_m;
+  track_stop_at_end_ = local_result_.free_length_m < full - 1e-6;
+  if (goal_W) {
+    // The goal lies within reach of this path: follow it to its sample nearest the goal, then to the goal.
+    std::size_t nearest = 0;
+    double nearest_d = 1e18;
+    for (std::size_t i = 0; i < track_W_.size(); ++i) {
+      const double d = (track_W_[i] - *goal_W).norm();
+      if (d < nearest_d) {
+        nearest_d = d;
+        nearest = i;
+      }
+    }
+    if (nearest_d < 0.5 * full && (*goal_W - track_W_.front()).norm() <= local_result_.free_length_m + 0.3) {
+      track_W_.resize(nearest + 1);
+      if (nearest_d > 1e-3) track_W_.push_back(*goal_W);
+      track_stop_at_end_ = true;
+    }
+  }
+  if (track_W_.size() < 2) track_W_.clear();
+}
+
+NavigationStep Navigation::Control(const sim::UnicycleState& state, double cruise_mps, double now_s) {
+  nav::IlqrState x0;
+  x0 << state.x_m, state.y_m, state.yaw_rad, state.v_mps, state.w_radps;
+  const double elapsed = last_solve_time_s_ < 0 ? 0.0 : std::max(0.0, now_s - last_solve_time_s_);
+  last_solve_time_s_ = now_s;
+  solution_ = controller_.Solve(x0, track_W_, cruise_mps, track_stop_at_end_, elapsed);
+  NavigationStep step;
+  if (solution_.IsUsable()) {
+    step.linear_x_mps = solution_.command_v_mps;
+    step.angular_z_radps = solution_.command_w_radps;
+  }
+  return step;
+}
+
+NavigationStep Navigation::StepWaypoint(const sim::UnicycleState& state, double now_s) {
+  if (!goal_) return {};
+  const Eigen::Vector2d p_W(state.x_m, state.y_m);
+  const double to_goal = (goal_->p_W - p_W).norm();
+  if (to_goal <= goal_->tolerance_m) {
+    NavigationStep step;
+    step.arrived = true;
+    ClearGoal();
+    return step;
+  }
+  double off_path = UpdateProgress(p_W);
+  // The map changed under the path, or the robot is far off it: plan again from here.
+  if (now_s - last_replan_check_s_ >= options_.replan_check_period_s) {
+    last_replan_check_s_ = now_s;
+    const bool map_changed = planner_->map_version() != plan_.map_version;
+    std::string why;
+    if (map_changed && !planner_->CheckPath(plan_.result.path_W, options_.platform.name,
+                                            static_cast<int>(path_segment_)).valid) {
+      if (!Replan(state, &why)) return Fail("the map changed under the path and no new path exists: " + why);
+      off_path = UpdateProgress(p_W);
+    } else if (map_changed) {
+      plan_.map_version = planner_->map_version();  // still valid on the new map
+    } else if (off_path > options_.max_path_deviation_m) {
+      if (!Replan(state, &why)) return Fail(Fixed(off_path, 1) + " m off the path and no new path: " + why);
+      off_path = UpdateProgress(p_W);
+    }
+  }
+  // Progress bookkeeping: ETA from a slow mean of the speed, blocked when no progress.
+  mean_speed_mps_ += 0.02 * (std::abs(state.v_mps) - mean_speed_mps_);
+  eta_s_ = distance_left_m_ / std::max(mean_speed_mps_, 0.2 * options_.platform.cruise_speed_mps);
+  if (distance_left_m_ < goal_->best_distance_m - 0.05) {
+    goal_->best_distance_m = distance_left_m_;
+    goal_->best_time_s = now_s;
+  } else if (now_s - goal_->best_time_s > options_.blocked_timeout_s) {
+    return Fail("blocked: no progress for " + Fixed(options_.blocked_timeout_s, 0) + " s (" +
+                Fixed(distance_left_m_, 1) + " m left" +
+                (local_status_ != "path" && !local_status_.empty() ? "; local planner " + local_status_ : "") + ")");
+  }
+  // Local planner toward the carrot (the goal itself when near).
+  const Eigen::Vector2d carrot = Carrot();
+  nav::LocalPlanRequest request;
+  request.mode = nav::LocalPlanMode::kGoal;
+  request.goal_B = ToBody(state, carrot);
+  request.max_required_free_length_m = options_.required_free_length_m;
+  if (request.goal_B.norm() < 1e-3) request.goal_B = ToBody(state, goal_->p_W);
+  const bool goal_near = to_goal <= local_planner_.library().options().path_length_m;
+  if (!LocalPlannerHealthy(now_s, nullptr)) {
+    track_W_.clear();
+    local_status_ = "stopped: no fresh obstacle input";
+  } else {
+    RunLocalPlanner(state, request, now_s, goal_near ? std::optional<Eigen::Vector2d>(goal_->p_W) : std::nullopt);
+  }
+  return Control(state, options_.platform.cruise_speed_mps, now_s);
+}
+
+NavigationStep Navigation::StepJoystick(const sim::UnicycleState& state, double vx_mps, double vy_mps,
+                                        double wz_radps, double now_s) {
+  NavigationStep stop;
+  if (!std::isfinite(vx_mps) || !std::isfinite(vy_mps) || !std::isfinite(wz_radps)) {
+    track_W_.clear();
+    local_status_ = "stopped: joystick twist not finite";
+    return Control(state, 0.0, now_s);
+  }
+  const double speed = std::min(std::hypot(vx_mps, vy_mps), options_.platform.limits.max_speed_mps);
+  if (speed < 0.05) {
+    // Turn in place (or stop): a disk footprint cannot collide by turning.
+    track_W_.clear();
+    controller_.Reset();
+    local_status_ = "";
+    stop.angular_z_radps = std::clamp(wz_radps, -options_.platform.limits.max_yaw_rate_radps,
+                                      options_.platform.limits.max_yaw_rate_radps);
+    if (std::abs(state.v_mps) > 0.05) stop.angular_z_radps = 0.0;  // brake first
+    return stop;
+  }
+  if (!LocalPlannerHealthy(now_s, nullptr)) {
+    track_W_.clear();
+    local_status_ = "stopped: no fresh obstacle input";
+    return Control(state, 0.0, now_s);
+  }
+  const double bend = std::clamp(wz_radps * options_.joystick_turn_lookahead_s, -kPi / 2, kPi / 2);
+  const double direction = std::atan2(vy_mps, vx_mps) + bend;
+  nav::LocalPlanRequest request;
+  request.mode = nav::LocalPlanMode::kJoystick;
+  request.goal_B = Eigen::Vector2d(std::cos(direction), std::sin(direction));
+  RunLocalPlanner(state, request, now_s, std::nullopt);
+  return Control(state, speed, now_s);
+}
+
+}  // namespace cairn::agent

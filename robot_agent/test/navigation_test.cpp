@@ -1,0 +1,272 @@
+// Closed-loop tests of the navigation component (global planner -> FALCO local planner -> iLQR) on the
+// simulated platform, faster than real time and without DDS: waypoint missions on the real scan geb079.bt and
+// the built-in tunnels, the staircase for legged and wheeled robots, smart joystick at a wall and an
+// off-centre doorway, and replanning when the map changes under the path.
+#include "cairn/agent/navigation.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+
+#include "../../nav/test/nav_test_util.h"
+#include "../../sim/test/test_util.h"
+#include "cairn/sim/builtin_worlds.h"
+
+namespace cairn::agent {
+namespace {
+
+using nav::testing::FillBox;
+using nav::testing::FlatWorld;
+
+constexpr double kDt = 0.02;  // the agent's 50 Hz control loop
+
+// Library per heading range, built once per process (about a second each).
+std::shared_ptr<const nav::TrajectoryLibrary> LibraryFor(const nav::PlatformProfile& platform) {
+  static std::map<double, std::shared_ptr<const nav::TrajectoryLibrary>> cache;
+  auto& entry = cache[platform.local_heading_range_rad];
+  if (!entry) {
+    nav::TrajectoryLibraryOptions o;
+    o.heading_range_rad = platform.local_heading_range_rad;
+    o.collision_radius_m = platform.footprint_radius_m + 0.03;
+    o.voxel_size_m = 0.05;
+    entry = std::make_shared<const nav::TrajectoryLibrary>(o);
+  }
+  return entry;
+}
+
+// One robot: navigation + platform + stand-in obstacle sensor on the planner's grid.
+struct SimRobot {
+  SimRobot(std::shared_ptr<const sim::World> world, const std::string& platform_name, double x, double y,
+           double yaw)
+      : planner(std::make_shared<nav::GlobalPlanner>(
+            world, std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled"),
+                                                     nav::GetPlatformProfile("legged")})),
+        options(MakeOptions(platform_name)),
+        navigation(options, planner, LibraryFor(options.platform)),
+        platform(options.platform.limits, options.platform.footprint_radius_m) {
+    sim::UnicycleState s;
+    s.x_m = x;
+    s.y_m = y;
+    s.yaw_rad = yaw;
+    s.z_m = planner->Grid(platform_name)->GroundHeight(x, y).value_or(0.0);
+    platform.set_state(s);
+  }
+
+  static NavigationOptions MakeOptions(const std::string& platform_name) {
+    NavigationOptions o;
+    o.platform = nav::GetPlatformProfile(platform_name);
+    return o;
+  }
+
+  // Senses every 0.1 s, then runs one control step of `step` and the platform.
+  template <class StepFn>
+  NavigationStep Tick(StepFn&& step) {
+    const auto grid = planner->Grid(options.platform.name);
+    if (std::fmod(t_s + 1e-9, 0.1) < kDt) {
+      const auto& s = platform.state();
+      nav::LethalCellsNear(*grid, s.x_m, s.y_m, s.yaw_rad, options.sensor_range_m, &points_B);
+      navigation.SetObstacles(points_B, s, t_s);
+    }
+    const NavigationStep out = step();
+    const sim::UnicycleStepResult r = platform.Step(out.linear_x_mps, out.angular_z_radps, kDt, *grid);
+    contacts += r.contact ? 1 : 0;
+    const auto& s = platform.state();
+    min_clearance_m = std::min(min_clearance_m, ClearanceOf(*grid, s.x_m, s.y_m));
+    max_speed_mps = std::max(max_speed_mps, std::abs(s.v_mps));
+    t_s += kDt;
+    return out;
+  }
+
+  // Distance from (x, y) to the nearest lethal cell centre (searched within 1 m), metres.
+  static double ClearanceOf(const nav::TraversabilityGrid& grid, double x, double y) {
+    double best = 1.0;
+    int ix = 0, iy = 0;
+    if (!grid.CellOf(x, y, &ix, &iy)) return 0.0;
+    const int r = static_cast<int>(std::ceil(1.0 / grid.cell_size_m()));
+    for (int dx = -r; dx <= r; ++dx) {
+      for (int dy = -r; dy <= r; ++dy) {
+        if (grid.InGrid(ix + dx, iy + dy) && !grid.IsLethal(ix + dx, iy + dy)) continue;
+        best = std::min(best, (grid.CellCenter(ix + dx, iy + dy) - Eigen::Vector2d(x, y)).norm());
+      }
+    }
+    return best;
+  }
+
+  // Drives to (x, y) in waypoint mode; returns the final step (arrived or failed) or a timeout step.
+  NavigationStep DriveTo(double x, double y, double max_time_s) {
+    const nav::GlobalPlan plan = navigation.SetGoal(platform.state(), x, y, 0.0, t_s);
+    EXPECT_TRUE(plan.IsUsable()) << plan.reason;
+    if (!plan.IsUsable()) return {};
+    while (t_s < max_time_s) {
+      NavigationStep out = Tick([&] { return navigation.StepWaypoint(platform.state(), t_s); });
+      if (out.arrived || out.failed) return out;
+    }
+    NavigationStep timeout;
+    timeout.failed = true;
+    timeout.reason = "test timeout; distance left " + std::to_string(navigation.distance_left_m()) +
+                     ", local: " + navigation.local_status();
+    return timeout;
+  }
+
+  std::shared_ptr<nav::GlobalPlanner> planner;
+  NavigationOptions options;
+  Navigation navigation;
+  sim::Unicycle platform;
+  std::vector<Eigen::Vector3f> points_B;
+  double t_s = 0.0;
+  int contacts = 0;
+  double min_clearance_m = 1.0;
+  double max_speed_mps = 0.0;
+};
+
+TEST(NavigationOptionsTest, DefaultsAreValidAndBadValuesAreNamed) {
+  std::string why;
+  EXPECT_TRUE(NavigationOptions{}.IsValid(&why)) << why;
+  NavigationOptions o;
+  o.carrot_distance_m = -1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("navigation.carrot_distance_m = -1"), std::string::npos) << why;
+  o = NavigationOptions{};
+  o.controller.horizon_steps = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("controller: "), std::string::npos) << why;
+  EXPECT_NE(why.find("horizon_steps"), std::string::npos) << why;
+}
+
+TEST(NavigationTest, WaypointMissionInTheTunnelsArrivesWithoutContact) {
+  auto world = std::make_shared<const sim::World>(sim::LoadWorld("builtin:tunnels"));
+  SimRobot robot(world, "wheeled", 4.0, 20.0, 0.0);
+  // Along the main tunnel, through the X junction, down the south branch.
+  const NavigationStep out = robot.DriveTo(30.0, 8.0, 120.0);
+  EXPECT_TRUE(out.arrived) << out.reason;
+  EXPECT_EQ(robot.contacts, 0);
+  EXPECT_GT(robot.min_clearance_m, robot.options.platform.footprint_radius_m);
+  EXPECT_GT(robot.max_speed_mps, 0.8);  // cruises at ~1 m/s
+  EXPECT_LE(robot.max_speed_mps, robot.options.platform.limits.max_speed_mps + 1e-9);
+  std::printf("FIGURE tunnels_mission_time_s %.1f min_clearance_m %.2f max_speed_mps %.2f\n", robot.t_s,
+              robot.min_clearance_m, robot.max_speed_mps);
+}
+
+TEST(NavigationTest, WaypointMissionsAcrossGeb079ArriveWithoutContact) {
+  CAIRN_SKIP_WITHOUT_GEB079();
+  auto world = std::make_shared<const sim::World>(sim::LoadWorld(sim::testing::Geb079Path()));
+  SimRobot robot(world, "wheeled", -4.0, 0.0, 0.0);
+  NavigationStep out = robot.DriveTo(24.0, 0.0, 120.0);
+  EXPECT_TRUE(out.arrived) << out.reason;
+  out = robot.DriveTo(2.0, 0.0, 240.0);
+  EXPECT_TRUE(out.arrived) << out.reason;
+  EXPECT_EQ(robot.contacts, 0);
+  EXPECT_GT(robot.min_clearance_m, robot.options.platform.footprint_radius_m);
+  std::printf("FIGURE geb079_missions_time_s %.1f min_clearance_m %.2f\n", robot.t_s, robot.min_clearance_m);
+}
+
+TEST(NavigationTest, LeggedRobotClimbsTheStaircaseAndWheeledIsRefused) {
+  auto world = std::make_shared<const sim::World>(sim::LoadWorld("builtin:tunnels"));
+  SimRobot legged(world, "legged", 48.0, 20.0, 0.0);
+  const NavigationStep out = legged.DriveTo(54.5, 23.8, 120.0);
+  EXPECT_TRUE(out.arrived) << out.reason;
+  EXPECT_NEAR(legged.platform.state().z_m, 1.0, 0.11);  // on top of the 1 m platform
+  EXPECT_EQ(legged.contacts, 0);
+
+  SimRobot wheeled(world, "wheeled", 48.0, 20.0, 0.0);
+  const nav::GlobalPlan plan = wheeled.navigation.SetGoal(wheeled.platform.state(), 54.5, 23.8, 0.0, 0.0);
+  EXPECT_FALSE(plan.IsUsable());
+  EXPECT_NE(plan.reason.find("unreachable for platform wheeled"), std::string::npos) << plan.reason;
+  EXPECT_FALSE(wheeled.navigation.has_goal());
+}
+
+// A 10 x 8 m yard with a wall across x in [5, 5.2].
+sim::World WallWorld(bool with_doorway) {
+  sim::World w = FlatWorld(10, 8, 0.1, 1.5);
+  FillBox(&w, {5.0, 0.0, 0.0}, {5.2, 8.0, 1.6});
+  if (with_doorway) FillBox(&w, {5.0, 4.3, 0.0}, {5.2, 5.5, 1.6}, false);  // 1.2 m door, centre y = 4.9
+  return w;
+}
+
+TEST(NavigationTest, SmartJoystickStraightAtAWallNeverTouchesIt) {
+  auto world = std::make_shared<const sim::World>(WallWorld(false));
+  SimRobot robot(world, "wheeled", 2.0, 4.0, 0.0);
+  double max_x = 0;
+  for (int i = 0; i < 500; ++i) {  // 10 s of full stick straight at the wall
+    robot.Tick([&] { return robot.navigation.StepJoystick(robot.platform.state(), 1.0, 0.0, 0.0, robot.t_s); });
+    max_x = std::max(max_x, robot.platform.state().x_m);
+  }
+  EXPECT_EQ(robot.contacts, 0);
+  EXPECT_LT(max_x, 5.0 - robot.options.platform.footprint_radius_m);
+  EXPECT_GT(robot.min_clearance_m, robot.options.platform.footprint_radius_m);
+  EXPECT_GT(max_x, 3.5);  // it did drive toward the wall
+  std::printf("FIGURE joystick_wall_min_clearance_m %.2f closest_x %.2f\n", robot.min_clearance_m, max_x);
+}
+
+TEST(NavigationTest, SmartJoystickTakesAnOffCentreDoorway) {
+  auto world = std::make_shared<const sim::World>(WallWorld(true));
+  // Aimed straight ahead, 0.6 m to the side of the doorway centre: plain teleop would hit the frame.
+  SimRobot robot(world, "wheeled", 2.0, 4.3, 0.0);
+  for (int i = 0; i < 400 && robot.platform.state().x_m < 7.0; ++i) {
+    robot.Tick([&] { return robot.navigation.StepJoystick(robot.platform.state(), 0.8, 0.0, 0.0, robot.t_s); });
+  }
+  EXPECT_GT(robot.platform.state().x_m, 6.0) << "did not pass the doorway; local: " << robot.navigation.local_status();
+  EXPECT_EQ(robot.contacts, 0);
+
+  // The same stick on plain teleop (no local planner) hits the frame.
+  sim::Unicycle raw(robot.options.platform.limits, robot.options.platform.footprint_radius_m);
+  sim::UnicycleState s;
+  s.x_m = 2.0;
+  s.y_m = 4.3;
+  raw.set_state(s);
+  int raw_contacts = 0;
+  const auto grid = robot.planner->Grid("wheeled");
+  for (int i = 0; i < 400; ++i) raw_contacts += raw.Step(0.8, 0.0, kDt, *grid).contact ? 1 : 0;
+  EXPECT_GT(raw_contacts, 0);
+}
+
+TEST(NavigationTest, ReplansWhenTheMapChangesUnderThePath) {
+  sim::World w = FlatWorld(16, 8, 0.1, 1.5);
+  auto world = std::make_shared<const sim::World>(w);
+  SimRobot robot(world, "wheeled", 1.0, 4.0, 0.0);
+  const nav::GlobalPlan plan = robot.navigation.SetGoal(robot.platform.state(), 15.0, 4.0, 0.0, 0.0);
+  ASSERT_TRUE(plan.IsUsable()) << plan.reason;
+  for (int i = 0; i < 100; ++i) robot.Tick([&] { return robot.navigation.StepWaypoint(robot.platform.state(), robot.t_s); });
+  // A rockfall across the straight route ahead.
+  FillBox(&w, {9.0, 2.0, 0.0}, {9.4, 8.0, 1.6});
+  robot.planner->UpdateWorld(std::make_shared<const sim::World>(w));
+  NavigationStep out;
+  while (robot.t_s < 60.0 && !out.arrived && !out.failed) {
+    out = robot.Tick([&] { return robot.navigation.StepWaypoint(robot.platform.state(), robot.t_s); });
+  }
+  EXPECT_TRUE(out.arrived) << out.reason;
+  EXPECT_GE(robot.navigation.replans(), 1);
+  EXPECT_EQ(robot.contacts, 0);
+}
+
+TEST(NavigationTest, FailsWhenTheMapChangeLeavesNoPath) {
+  sim::World w = FlatWorld(16, 8, 0.1, 1.5);
+  SimRobot robot(std::make_shared<const sim::World>(w), "wheeled", 1.0, 4.0, 0.0);
+  ASSERT_TRUE(robot.navigation.SetGoal(robot.platform.state(), 15.0, 4.0, 0.0, 0.0).IsUsable());
+  FillBox(&w, {9.0, 0.0, 0.0}, {9.4, 8.0, 1.6});
+  robot.planner->UpdateWorld(std::make_shared<const sim::World>(w));
+  NavigationStep out;
+  while (robot.t_s < 5.0 && !out.failed) {
+    out = robot.Tick([&] { return robot.navigation.StepWaypoint(robot.platform.state(), robot.t_s); });
+  }
+  EXPECT_TRUE(out.failed);
+  EXPECT_NE(out.reason.find("the map changed under the path and no new path exists"), std::string::npos)
+      << out.reason;
+  EXPECT_FALSE(robot.navigation.has_goal());
+}
+
+TEST(NavigationTest, StopsWithoutObstacleInput) {
+  auto world = std::make_shared<const sim::World>(FlatWorld(10, 6));
+  SimRobot robot(world, "legged", 2.0, 3.0, 0.0);
+  ASSERT_TRUE(robot.navigation.SetGoal(robot.platform.state(), 8.0, 3.0, 0.0, 0.0).IsUsable());
+  std::string why;
+  EXPECT_FALSE(robot.navigation.LocalPlannerHealthy(0.0, &why));
+  EXPECT_EQ(why, "no obstacle input yet");
+  const NavigationStep out = robot.navigation.StepWaypoint(robot.platform.state(), 0.0);
+  EXPECT_NEAR(out.linear_x_mps, 0.0, 1e-9);
+  EXPECT_EQ(robot.navigation.local_status(), "stopped: no fresh obstacle input");
+}
+
+}  // namespace
+}  // namespace cairn::agent
