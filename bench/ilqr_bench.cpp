@@ -1,7 +1,7 @@
 // iLQR tracking benchmark: solve time of cairn::nav::IlqrController (horizon 30, dt 0.1 s) warm-started in a
 // closed loop along a path, against the baseline of cold solves of the same problems (same initial states, a
-// second controller reset before each solve), measured in the same run. Prints medians, 90th percentiles,
-// iteration counts and the ratio warm/cold. Usage: cairn_bench_ilqr [--laps N]
+// second controller reset before each solve), measured in the same run. Prints medians, means, 90th
+// percentiles, iteration counts and the ratios warm/cold. Usage: cairn_bench_ilqr [--laps N]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -22,6 +22,7 @@ using cairn::nav::IlqrState;
 constexpr double kPi = 3.14159265358979323846;
 
 struct Stats {
+  double mean_ms = 0.0;
   double median_ms = 0.0;
   double p90_ms = 0.0;
   double max_ms = 0.0;
@@ -33,6 +34,9 @@ Stats Summarize(std::vector<double> samples_ms) {
   s.median_ms = samples_ms[samples_ms.size() / 2];
   s.p90_ms = samples_ms[std::min(samples_ms.size() - 1, samples_ms.size() * 9 / 10)];
   s.max_ms = samples_ms.back();
+  double sum = 0.0;
+  for (double v : samples_ms) sum += v;
+  s.mean_ms = sum / static_cast<double>(samples_ms.size());
   return s;
 }
 
@@ -65,7 +69,9 @@ void Apply(const IlqrLimits& lim, double v_cmd, double w_cmd, IlqrState* x) {
   }
 }
 
-double Ms(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
+double Ms(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
 
 }  // namespace
 
@@ -112,7 +118,8 @@ int main(int argc, char** argv) {
         warm_iterations += w.iterations;
         cold_iterations += k.iterations;
         warm_started += w.warm_started ? 1 : 0;
-        not_converged += (w.status != IlqrSolution::Status::kConverged) + (k.status != IlqrSolution::Status::kConverged);
+        not_converged +=
+            (w.status != IlqrSolution::Status::kConverged) + (k.status != IlqrSolution::Status::kConverged);
         max_command_diff_v = std::max(max_command_diff_v, std::abs(w.command_v_mps - k.command_v_mps));
         max_command_diff_w = std::max(max_command_diff_w, std::abs(w.command_w_radps - k.command_w_radps));
       }
@@ -124,18 +131,24 @@ int main(int argc, char** argv) {
   const Stats ws = Summarize(warm_ms);
   const Stats cs = Summarize(cold_ms);
   const double n = static_cast<double>(warm_ms.size());
-  std::printf("iLQR tracking, horizon 30 x 0.1 s, closed loop on a 15 m course at %.1f m/s, %d laps x %d solves\n",
-              cruise_mps, laps, cycles);
-  std::printf("  cold (baseline): median %.4f ms  p90 %.4f ms  max %.4f ms  mean iterations %.2f\n", cs.median_ms,
-              cs.p90_ms, cs.max_ms, cold_iterations / n);
-  std::printf("  warm:            median %.4f ms  p90 %.4f ms  max %.4f ms  mean iterations %.2f  (%.1f %% warm-started)\n",
-              ws.median_ms, ws.p90_ms, ws.max_ms, warm_iterations / n, 100.0 * warm_started / n);
-  std::printf("  ratio warm/cold: median time %.3f, iterations %.3f\n", ws.median_ms / cs.median_ms,
+  std::printf(
+      "iLQR tracking, horizon 30 x 0.1 s, closed loop on a 15 m course at %.1f m/s, %d laps x %d solves\n",
+      cruise_mps, laps, cycles);
+  std::printf(
+      "  cold (baseline): median %.4f ms  mean %.4f ms  p90 %.4f ms  max %.4f ms  mean iterations %.2f\n",
+      cs.median_ms, cs.mean_ms, cs.p90_ms, cs.max_ms, cold_iterations / n);
+  std::printf(
+      "  warm:            median %.4f ms  mean %.4f ms  p90 %.4f ms  max %.4f ms  mean iterations %.2f"
+      "  (%.1f %% warm-started)\n",
+      ws.median_ms, ws.mean_ms, ws.p90_ms, ws.max_ms, warm_iterations / n, 100.0 * warm_started / n);
+  std::printf("  ratio warm/cold: median time %.3f, mean time %.3f, p90 time %.3f, iterations %.3f\n",
+              ws.median_ms / cs.median_ms, ws.mean_ms / cs.mean_ms, ws.p90_ms / cs.p90_ms,
               static_cast<double>(warm_iterations) / static_cast<double>(cold_iterations));
-  std::printf("  goals: warm median <= 0.3 ms %s, cold median <= 1 ms %s\n", ws.median_ms <= 0.3 ? "met" : "MISSED",
-              cs.median_ms <= 1.0 ? "met" : "MISSED");
-  std::printf("  checks: %d solves not kConverged, largest warm/cold command difference %.4f m/s %.4f rad/s, "
-              "final distance to goal %.3f m\n",
-              not_converged, max_command_diff_v, max_command_diff_w, final_error_m);
+  std::printf("  goals: warm median <= 0.3 ms %s, cold median <= 1 ms %s\n",
+              ws.median_ms <= 0.3 ? "met" : "MISSED", cs.median_ms <= 1.0 ? "met" : "MISSED");
+  std::printf(
+      "  checks: %d solves not kConverged, largest warm/cold command difference %.4f m/s %.4f rad/s, "
+      "final distance to goal %.3f m\n",
+      not_converged, max_command_diff_v, max_command_diff_w, final_error_m);
   return 0;
 }

@@ -98,22 +98,39 @@ class Observer {
 // A basestation process driven line by line in --json mode.
 class Base {
  public:
-  Base(const std::string& id, int domain, const std::string& log_dir)
-      : process_({kBase, "--base-id", id, "--domain", std::to_string(domain), "--json"},
-                 log_dir + "/" + id + ".log") {}
+  Base(const std::string& id, int domain, const std::string& log_dir, const std::vector<std::string>& extra = {})
+      : process_(Args(id, domain, extra), log_dir + "/" + id + ".log") {}
   void Kill() { process_.Signal(SIGKILL); }
+  /// Progress lines seen so far (distance left, ETA).
+  const std::vector<json>& progress_lines() const { return progress_lines_; }
   json Run(const std::string& command, std::chrono::milliseconds timeout = 30s) {
     process_.WriteLine(command);
-    const auto line = process_.ReadLine(timeout);
-    if (!line) {
-      ADD_FAILURE() << "no answer to '" << command << "'";
-      return json{{"ok", false}, {"result", "no answer"}};
+    const auto deadline = Clock::now() + timeout;
+    while (true) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+      const auto line = process_.ReadLine(std::max(left, std::chrono::milliseconds(1)));
+      if (!line) {
+        ADD_FAILURE() << "no answer to '" << command << "'";
+        return json{{"ok", false}, {"result", "no answer"}};
+      }
+      json j = json::parse(*line);
+      if (j.contains("progress")) {  // goto --wait / wait arrived progress lines precede the answer
+        progress_lines_.push_back(j);
+        continue;
+      }
+      return j;
     }
-    return json::parse(*line);
   }
 
  private:
   ChildProcess process_;
+  std::vector<json> progress_lines_;
+
+  static std::vector<std::string> Args(const std::string& id, int domain, const std::vector<std::string>& extra) {
+    std::vector<std::string> args = {kBase, "--base-id", id, "--domain", std::to_string(domain), "--json"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  }
 };
 
 // Records a measured figure in the test report and prints it (for docs and closing notes).
@@ -211,11 +228,23 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   EXPECT_GE(after_b.discarded_commands(), 2u);
   EXPECT_EQ(after_b.mode(), "idle");
 
-  // opA's goto arrives within 0.3 m.
+  // opA's goto arrives within 0.3 m; the global path is published and progress is reported on the way.
   r = opA.Run(std::string("goto r1 ") + gx + " " + gy);
   ASSERT_TRUE(r["ok"]) << r;
+  EXPECT_NE(r["reason"].get<std::string>().find("ETA"), std::string::npos) << r;
+  const auto goal_request_id = r["request_id"];
+  r = opA.Run("path r1");
+  EXPECT_TRUE(r["ok"]) << r;
+  EXPECT_GE(r["path"].size(), 2u) << r;
+  EXPECT_GT(r["length_m"].get<double>(), 9.0) << r;
+  EXPECT_EQ(r["goal_id"], goal_request_id) << r;
   r = opA.Run("wait r1 arrived 120", 130s);
   EXPECT_TRUE(r["ok"]) << r;
+  const auto& progress = opA.progress_lines();
+  ASSERT_FALSE(progress.empty()) << "no progress lines while driving";
+  EXPECT_GT(progress.front()["eta_s"].get<double>(), 0.0);
+  EXPECT_LT(progress.back()["distance_left_m"].get<double>(), progress.front()["distance_left_m"].get<double>());
+  Figure("progress_lines", static_cast<double>(progress.size()));
   const cairn_msgs::RobotState arrived = observer.FreshState("r1");
   const double miss_m = std::hypot(arrived.pose_MB().position().x_m() - goal->x(),
                                    arrived.pose_MB().position().y_m() - goal->y());
@@ -321,6 +350,82 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   EXPECT_EQ(r["holder"], "opB");
   r = opA.Run("mode r1 manual");
   EXPECT_EQ(r["result"], "discarded") << r;
+}
+
+// The navigation layer over DDS in the built-in tunnels' room: the global path service (any platform), a
+// legged robot up the staircase, a wheeled one refused with the step, smart joystick at a wall.
+TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
+  const int domain = 63;
+  const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/navigation";
+  std::filesystem::create_directories(logs);
+  Observer observer(domain);
+  ChildProcess legged({kAgent, "--robot-id", "leg1", "--platform", "legged", "--start", "48,20,0", "--domain",
+                       std::to_string(domain)},
+                      logs + "/leg1.log");
+  ChildProcess wheeled({kAgent, "--robot-id", "whl1", "--platform", "wheeled", "--start", "52,18,0", "--domain",
+                        std::to_string(domain)},
+                       logs + "/whl1.log");
+  ASSERT_TRUE(legged.WaitForLine("READY", 60s)) << "see " << logs;
+  ASSERT_TRUE(wheeled.WaitForLine("READY", 60s)) << "see " << logs;
+  Base op("op", domain, logs);
+  ASSERT_TRUE(op.Run("wait leg1 online 3")["ok"]);
+  ASSERT_TRUE(op.Run("wait whl1 online 3")["ok"]);
+
+  // Path service: the wheeled robot's planner refuses its own platform with the step, and plans for a legged
+  // one when asked.
+  json r = op.Run("plan whl1 54.5 23.8 --from 48,20");
+  EXPECT_FALSE(r["ok"]) << r;
+  EXPECT_EQ(r["result"], "refused") << r;
+  EXPECT_NE(r["reason"].get<std::string>().find("unreachable for platform wheeled"), std::string::npos) << r;
+  EXPECT_NE(r["reason"].get<std::string>().find("0.20 m step"), std::string::npos) << r;
+  r = op.Run("plan whl1 54.5 23.8 --from 48,20 --platform legged");
+  EXPECT_TRUE(r["ok"]) << r;
+  EXPECT_NEAR(r["path"].back()[2].get<double>(), 1.0, 0.11) << r;  // ends on the 1 m platform
+  Figure("plan_round_trip_ms", r["round_trip_ms"].get<double>());
+  r = op.Run("plan whl1 54.5 23.8 --platform hovercraft");
+  EXPECT_FALSE(r["ok"]) << r;
+  EXPECT_NE(r["reason"].get<std::string>().find("'hovercraft'"), std::string::npos) << r;
+
+  // The wheeled robot is refused the stairs with the reason and does not move.
+  ASSERT_TRUE(op.Run("request-control whl1")["ok"]);
+  const auto before = observer.FreshState("whl1");
+  r = op.Run("goto whl1 54.5 23.8");
+  EXPECT_EQ(r["result"], "denied") << r;
+  EXPECT_NE(r["reason"].get<std::string>().find("unreachable for platform wheeled"), std::string::npos) << r;
+  EXPECT_LT(Distance(before, observer.FreshState("whl1")), 0.01);
+
+  // The legged robot climbs to the top.
+  ASSERT_TRUE(op.Run("request-control leg1")["ok"]);
+  r = op.Run("goto leg1 54.5 23.8 --wait 90", 100s);
+  EXPECT_TRUE(r["ok"]) << r;
+  const auto top = observer.FreshState("leg1");
+  EXPECT_NEAR(top.pose_MB().position().z_m(), 1.0, 0.11);
+  for (const auto& s : observer.History("leg1")) EXPECT_FALSE(s.in_contact()) << "leg1 touched occupied space";
+  Figure("stairs_top_z_m", top.pose_MB().position().z_m());
+
+  // Smart joystick: full stick at the room's east wall (x ~ 56) for 8 s never touches it.
+  r = op.Run("mode whl1 smart_joystick");
+  ASSERT_TRUE(r["ok"]) << r;
+  r = op.Run("teleop whl1 0.8 0 8", 20s);
+  EXPECT_TRUE(r["ok"]) << r;
+  EXPECT_EQ(r["mode"], "smart_joystick") << r;
+  double max_x = 0;
+  for (const auto& s : observer.History("whl1")) {
+    EXPECT_FALSE(s.in_contact()) << "whl1 touched occupied space at x " << s.pose_MB().position().x_m();
+    max_x = std::max(max_x, s.pose_MB().position().x_m());
+  }
+  EXPECT_GT(max_x, 53.0) << "smart joystick did not drive";
+  Figure("joystick_wall_closest_x_m", max_x);
+  r = op.Run("status whl1");
+  EXPECT_EQ(r["mode"], "smart_joystick") << r;
+
+  // A basestation without a joystick cannot enter smart joystick mode.
+  ASSERT_TRUE(op.Run("release whl1")["ok"]);
+  Base no_stick("opNoStick", domain, logs, {"--no-joystick"});
+  ASSERT_TRUE(no_stick.Run("request-control whl1")["ok"]);
+  r = no_stick.Run("mode whl1 smart_joystick");
+  EXPECT_EQ(r["result"], "denied") << r;
+  EXPECT_NE(r["reason"].get<std::string>().find("IsJoystickAlive"), std::string::npos) << r;
 }
 
 INSTANTIATE_TEST_SUITE_P(Worlds, FleetIntegration,

@@ -286,8 +286,16 @@ int CommandShell::Goto(const std::vector<std::string>& all_args) {
   }
   const CommandOutcome o = client_.SendWaypoint(args[0], x, y, tolerance);
   if (o.ok) last_goal_id_[args[0]] = o.request_id;
-  const int code = Report("goto", args[0], o);
-  if (!o.ok || !wait) return code;
+  if (!o.ok || !wait) return Report("goto", args[0], o);
+  // With --wait, one result line ends the command (JSON: the acceptance is a progress line before it).
+  if (json_) {
+    out_ << json{{"command", "goto"}, {"robot", args[0]}, {"progress", true}, {"accepted", true},
+                 {"reason", o.reason}, {"request_id", o.request_id}}
+                .dump()
+         << std::endl;
+  } else {
+    Report("goto", args[0], o);
+  }
   return WaitArrived("goto", args[0], timeout);
 }
 
@@ -359,8 +367,16 @@ std::string PointsText(const std::vector<msgs::Point>& points) {
 
 int CommandShell::Path(const std::vector<std::string>& args) {
   const std::string& robot = args[0];
-  // The path is latched: a fresh basestation receives it shortly after discovery.
-  const auto view = client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return v.global_path.has_value(); });
+  // The path is latched: a fresh basestation receives it shortly after discovery. After this shell's own
+  // goto, wait for that goal's path.
+  const uint32_t goal_id = last_goal_id_.count(robot) ? last_goal_id_[robot] : 0;
+  auto view = client_.WaitUntil(robot, 3.0, [goal_id](const RobotView& v) {
+    return v.global_path.has_value() && (goal_id == 0 || v.global_path->goal_id() == goal_id ||
+                                         (v.state && v.state->nav_goal_id() == goal_id &&
+                                          v.state->nav_status() != msgs::NAV_STATUS_ACTIVE));
+  });
+  if (!view) view = client_.Robot(robot);
+  if (view && !view->global_path) view.reset();
   if (!view) {
     CommandOutcome o;
     o.result = "error";
@@ -462,7 +478,12 @@ int CommandShell::Teleop(const std::vector<std::string>& args) {
     return UsageError("teleop", "DURATION_S '" + args[3] + "' must be in (0, 600]");
   }
   const std::string& robot = args[0];
-  const auto view = client_.WaitForRobot(robot, 3.0) ? client_.Robot(robot) : std::nullopt;
+  // A mode switch made just before may not show in the state yet (10 Hz): give it half a second.
+  const auto driving = [](const RobotView& v) {
+    return v.state && (v.state->mode() == "manual" || v.state->mode() == "smart_joystick");
+  };
+  auto view = client_.WaitForRobot(robot, 3.0) ? client_.WaitUntil(robot, 0.5, driving) : std::nullopt;
+  if (!view) view = client_.Robot(robot);
   std::string mode = "manual";
   if (view && view->state && view->state->mode() == "smart_joystick") {
     mode = "smart_joystick";

@@ -17,7 +17,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 // Consecutive path points closer than this are merged, metres.
 constexpr double kMinSegment_m = 1e-9;
-// Regularization schedule (Tassa, Erez & Todorov 2012, sec. II-F): mu grows by factors of at least
+// Regularization schedule (Tassa, Erez & Todorov 2012): mu grows by factors of at least
 // kRegFactor when a backward pass or line search fails and shrinks after a success; below kRegMin it is 0.
 constexpr double kRegFactor = 1.6;
 constexpr double kRegMin = 1e-6;
@@ -207,7 +207,8 @@ void Linearize(const IlqrState& x, const IlqrControl& u, double dt, Mat55* A, Ma
 }
 
 // State part l(x, r) of the cost (see IlqrOptions) times `scale`; with kDerivatives also its gradient and
-// Gauss-Newton Hessian (exact: l is a sum of squares of errors linear in x, the heading error up to wrapping).
+// Gauss-Newton Hessian (exact: l is a sum of squares of errors linear in x, the heading error up to
+// wrapping).
 template <bool kDerivatives>
 double StateCost(const IlqrState& x, const IlqrReferencePoint& r, const Eigen::Vector2d& dir,
                  const IlqrOptions& o, double scale, Vec5* lx, Mat55* lxx) {
@@ -338,10 +339,15 @@ IlqrState IlqrModelStep(const IlqrState& x, const IlqrControl& u, double dt_s) {
   return n;
 }
 
+void IlqrModelJacobians(const IlqrState& x, const IlqrControl& u, double dt_s, Eigen::Matrix<double, 5, 5>* A,
+                        Eigen::Matrix<double, 5, 2>* B) {
+  Linearize(x, u, dt_s, A, B);
+}
+
 std::vector<IlqrReferencePoint> BuildIlqrReference(const std::vector<Eigen::Vector2d>& path_F,
                                                    const Eigen::Vector2d& p0_F, double v0_mps,
-                                                   double cruise_speed_mps, bool stop_at_end, double accel_mps2,
-                                                   int steps, double dt_s) {
+                                                   double cruise_speed_mps, bool stop_at_end,
+                                                   double accel_mps2, int steps, double dt_s) {
   for (std::size_t i = 0; i < path_F.size(); ++i) {
     if (!path_F[i].allFinite()) {
       throw std::invalid_argument("BuildIlqrReference: path_F[" + std::to_string(i) + "] = (" +
@@ -360,7 +366,8 @@ std::vector<IlqrReferencePoint> BuildIlqrReference(const std::vector<Eigen::Vect
     throw std::invalid_argument("BuildIlqrReference: accel_mps2 = " + Num(accel_mps2) +
                                 " must be finite and > 0");
   }
-  if (steps < 1) throw std::invalid_argument("BuildIlqrReference: steps = " + std::to_string(steps) + " must be >= 1");
+  if (steps < 1)
+    throw std::invalid_argument("BuildIlqrReference: steps = " + std::to_string(steps) + " must be >= 1");
   if (!std::isfinite(dt_s) || dt_s <= 0.0) {
     throw std::invalid_argument("BuildIlqrReference: dt_s = " + Num(dt_s) + " must be finite and > 0");
   }
@@ -369,7 +376,7 @@ std::vector<IlqrReferencePoint> BuildIlqrReference(const std::vector<Eigen::Vect
   CleanPath(path_F, &path, &cum);
   if (path.size() < 2) {
     throw std::invalid_argument("BuildIlqrReference: path_F has " + std::to_string(path.size()) +
-                                " distinct points, needs at least 2");
+                                " distinct point(s), needs at least 2");
   }
   std::vector<IlqrReferencePoint> ref(static_cast<std::size_t>(steps) + 1);
   FillReference(path, cum, p0_F, v0_mps, cruise_speed_mps, stop_at_end, accel_mps2, steps, dt_s, ref.data());
@@ -381,33 +388,33 @@ std::vector<IlqrReferencePoint> BuildIlqrReference(const std::vector<Eigen::Vect
 struct IlqrController::Impl {
   IlqrOptions options;
   IlqrLimits limits;
-  int n = 0;         // Horizon steps.
-  double dt = 0.0;   // Step, seconds.
-  Mat22 luu;         // Control Hessian of the running cost (constant, diagonal).
+  int n = 0;        // Horizon steps.
+  double dt = 0.0;  // Step, seconds.
+  Mat22 luu;        // Control Hessian of the running cost (constant, diagonal).
 
   // Path and reference (reused between solves; capacity kept).
   std::vector<Eigen::Vector2d> path;
   std::vector<double> cum;
-  std::vector<IlqrReferencePoint> ref;  // n + 1
+  std::vector<IlqrReferencePoint> ref;   // n + 1
   std::vector<Eigen::Vector2d> ref_dir;  // n + 1: (cos, sin) of the reference heading.
 
   // Nominal and candidate trajectories.
   IlqrState x0;
-  std::vector<IlqrState> x, x_new;      // n + 1
-  std::vector<IlqrControl> u, u_new;    // n
+  std::vector<IlqrState> x, x_new;    // n + 1
+  std::vector<IlqrControl> u, u_new;  // n
   // Per-step derivatives at the nominal trajectory.
-  std::vector<Mat55> A;                 // n
-  std::vector<Mat52> B;                 // n
-  std::vector<Vec5> lx;                 // n + 1
-  std::vector<Mat55> lxx;               // n + 1
-  std::vector<IlqrControl> lu;          // n
-  std::vector<ControlBox> box;          // n
+  std::vector<Mat55> A;         // n
+  std::vector<Mat52> B;         // n
+  std::vector<Vec5> lx;         // n + 1
+  std::vector<Mat55> lxx;       // n + 1
+  std::vector<IlqrControl> lu;  // n
+  std::vector<ControlBox> box;  // n
   // Feedforward and feedback gains of the last backward pass.
-  std::vector<IlqrControl> kff;         // n
-  std::vector<Mat25> Kfb;               // n
+  std::vector<IlqrControl> kff;  // n
+  std::vector<Mat25> Kfb;        // n
 
   // Warm start: controls of the previous solution.
-  std::vector<IlqrControl> prev_u;      // n
+  std::vector<IlqrControl> prev_u;  // n
   bool has_prev = false;
 
   Impl(const IlqrOptions& o, const IlqrLimits& l) : options(o), limits(l), n(o.horizon_steps), dt(o.dt_s) {
@@ -463,7 +470,7 @@ struct IlqrController::Impl {
       const double dx = target.x_m - xk[kPx];
       const double dy = target.y_m - xk[kPy];
       const double err = (dx * dx + dy * dy > 0.05 * 0.05) ? Wrap(std::atan2(dy, dx) - xk[kYaw])
-                                                            : Wrap(ref[k].yaw_rad - xk[kYaw]);
+                                                           : Wrap(ref[k].yaw_rad - xk[kYaw]);
       const double v_target = ref[k + 1].v_mps * std::max(0.0, std::cos(err));
       const double w_target = kGuessTurnGain_per_s * err;
       IlqrControl uk((v_target - xk[kV]) / dt, (w_target - xk[kW]) / dt);
@@ -473,7 +480,8 @@ struct IlqrController::Impl {
     }
   }
 
-  // Previous controls shifted by `shift_steps` (>= 0, < n), linearly interpolated, padded with zeros, into u_new.
+  // Previous controls shifted by `shift_steps` (>= 0, < n), linearly interpolated, padded with zeros, into
+  // u_new.
   void WarmGuess(double shift_steps) {
     for (int k = 0; k < n; ++k) {
       const double t = k + shift_steps;
@@ -497,7 +505,8 @@ struct IlqrController::Impl {
   }
 
   // Backward pass with control regularization mu (Quu + mu I). Fills kff, Kfb and the expected decrease terms
-  // (decrease of a step alpha = -(alpha dv1 + alpha^2 dv2)). False if a regularized Quu is not positive definite.
+  // (decrease of a step alpha = -(alpha dv1 + alpha^2 dv2)). False if a regularized Quu is not positive
+  // definite.
   bool Backward(double mu, double* dv1, double* dv2) {
     Vec5 Vx = lx[n];
     Mat55 Vxx = lxx[n];
@@ -554,8 +563,8 @@ struct IlqrController::Impl {
       kff[k] = d;
       Kfb[k] = K;
 
-      // Value function (Tassa et al. 2012, eq. 11, with the general K of the box-constrained pass):
-      // Vx = Qx + K' (Quu d + Qu) + Qux' d,  Vxx = Qxx + K' (Quu K + Qux) + Qux' K.
+      // Value function update (Tassa, Erez & Todorov 2012), valid for the general K of the box-constrained
+      // pass: Vx = Qx + K' (Quu d + Qu) + Qux' d,  Vxx = Qxx + K' (Quu K + Qux) + Qux' K.
       const IlqrControl Quu_d = Quu * d;
       const IlqrControl g = Qu + Quu_d;
       *dv1 += d.dot(Qu);
@@ -565,10 +574,15 @@ struct IlqrController::Impl {
       Vx = Qx;
       Vx.noalias() += K.transpose() * g;
       Vx.noalias() += Qux.transpose() * d;
-      Vxx = Qxx;
-      Vxx.noalias() += K.transpose() * M;
-      Vxx.noalias() += Qux.transpose() * K;
-      Vxx = 0.5 * (Vxx + Vxx.transpose()).eval();
+      // Two rank-2 updates, symmetrized; written out, as they profiled faster than Eigen's lazy products
+      // here.
+      for (int i = 0; i < 5; ++i) {
+        for (int j = i; j < 5; ++j) {
+          const double ij = K(0, i) * M(0, j) + K(1, i) * M(1, j) + Qux(0, i) * K(0, j) + Qux(1, i) * K(1, j);
+          const double ji = K(0, j) * M(0, i) + K(1, j) * M(1, i) + Qux(0, j) * K(0, i) + Qux(1, j) * K(1, i);
+          Vxx(i, j) = Vxx(j, i) = 0.5 * (Qxx(i, j) + Qxx(j, i) + ij + ji);
+        }
+      }
     }
     return true;
   }
@@ -608,7 +622,8 @@ const IlqrOptions& IlqrController::options() const { return impl_->options; }
 const IlqrLimits& IlqrController::limits() const { return impl_->limits; }
 
 IlqrSolution IlqrController::Solve(const IlqrState& x0_F, const std::vector<Eigen::Vector2d>& path_F,
-                                   double cruise_speed_mps, bool stop_at_end, double elapsed_since_last_solve_s) {
+                                   double cruise_speed_mps, bool stop_at_end,
+                                   double elapsed_since_last_solve_s) {
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
   Impl& m = *impl_;
@@ -634,15 +649,16 @@ IlqrSolution IlqrController::Solve(const IlqrState& x0_F, const std::vector<Eige
   }
   for (std::size_t i = 0; i < path_F.size(); ++i) {
     if (!path_F[i].allFinite()) {
-      return invalid("path_F[" + std::to_string(i) + "] = (" + Num(path_F[i].x()) + ", " + Num(path_F[i].y()) +
-                     ") is not finite");
+      return invalid("path_F[" + std::to_string(i) + "] = (" + Num(path_F[i].x()) + ", " +
+                     Num(path_F[i].y()) + ") is not finite");
     }
   }
   if (!std::isfinite(cruise_speed_mps) || cruise_speed_mps < 0.0) {
     return invalid("cruise_speed_mps = " + Num(cruise_speed_mps) + " must be finite and >= 0");
   }
   if (!std::isfinite(elapsed_since_last_solve_s) || elapsed_since_last_solve_s < 0.0) {
-    return invalid("elapsed_since_last_solve_s = " + Num(elapsed_since_last_solve_s) + " must be finite and >= 0");
+    return invalid("elapsed_since_last_solve_s = " + Num(elapsed_since_last_solve_s) +
+                   " must be finite and >= 0");
   }
 
   const int n = m.n;
@@ -658,7 +674,7 @@ IlqrSolution IlqrController::Solve(const IlqrState& x0_F, const std::vector<Eige
     m.has_prev = false;
     sol.status = IlqrSolution::Status::kNoPath;
     sol.message = "path_F has " + std::to_string(m.path.size()) +
-                  " distinct points (needs at least 2): braking to rest";
+                  " distinct point(s) (needs at least 2): braking to rest";
     sol.states.resize(static_cast<std::size_t>(n) + 1);
     sol.controls.resize(static_cast<std::size_t>(n));
     IlqrState xk = m.x0;
@@ -677,7 +693,8 @@ IlqrSolution IlqrController::Solve(const IlqrState& x0_F, const std::vector<Eige
   const double cruise = std::min(cruise_speed_mps, lim.max_speed_mps);
   FillReference(m.path, m.cum, m.x0.head<2>(), m.x0[kV], cruise, stop_at_end,
                 m.options.reference_accel_fraction * lim.max_accel_mps2, n, dt, m.ref.data());
-  for (int k = 0; k <= n; ++k) m.ref_dir[k] = Eigen::Vector2d(std::cos(m.ref[k].yaw_rad), std::sin(m.ref[k].yaw_rad));
+  for (int k = 0; k <= n; ++k)
+    m.ref_dir[k] = Eigen::Vector2d(std::cos(m.ref[k].yaw_rad), std::sin(m.ref[k].yaw_rad));
 
   // Initial guess: the cheaper of the cold guess and the shifted previous controls.
   m.ColdGuess();
@@ -702,7 +719,7 @@ IlqrSolution IlqrController::Solve(const IlqrState& x0_F, const std::vector<Eige
   sol.cost_history.reserve(static_cast<std::size_t>(max_iterations) + 1);
   sol.cost_history.push_back(cost);
 
-  // iLQR iterations (Tassa, Erez & Todorov 2012, sec. II).
+  // iLQR iterations (Li & Todorov 2004; regularization and line search of Tassa, Erez & Todorov 2012).
   const double tol = m.options.tolerance;
   double mu = 0.0;
   double mu_factor = 1.0;
@@ -780,8 +797,8 @@ IlqrSolution IlqrController::Solve(const IlqrState& x0_F, const std::vector<Eige
   sol.command_v_mps = m.x[1][kV];
   sol.command_w_radps = m.x[1][kW];
   char buf[160];
-  std::snprintf(buf, sizeof(buf), "%s after %d iterations (%s): cost %.6g -> %.6g", ToString(status), iterations,
-                sol.warm_started ? "warm start" : "cold start", sol.initial_cost, cost);
+  std::snprintf(buf, sizeof(buf), "%s after %d iterations (%s): cost %.6g -> %.6g", ToString(status),
+                iterations, sol.warm_started ? "warm start" : "cold start", sol.initial_cost, cost);
   sol.message = buf;
   return finish();
 }

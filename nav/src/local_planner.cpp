@@ -14,11 +14,11 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kSqrtHalf = 0.70710678118654752440;
-constexpr int kMaxSamples = 250;        // Sample indices fit a byte, with room for "none" markers.
-constexpr int kMaxNodes = 65535;        // Path tree node ids fit 16 bits.
-constexpr int kMaxGridSize = 1000;      // Voxels per grid side.
-constexpr std::uint8_t kNoBucket = 255;  // "Nothing in the clearance band".
-constexpr int kBuckets = 254;           // Clearance buckets 0..253 over [0, clearance_band_m).
+constexpr int kMaxSamples = 250;               // Sample indices fit a byte, with room for "none" markers.
+constexpr int kMaxNodes = 65535;               // Path tree node ids fit 16 bits.
+constexpr int kMaxGridSize = 1000;             // Voxels per grid side.
+constexpr std::uint8_t kNone = 255;            // "No blocked sample" (build) / "nothing in the band".
+constexpr int kBuckets = 254;                  // Clearance buckets 0..253 over [0, clearance_band_m).
 constexpr std::size_t kMessageCapacity = 320;  // Longest LocalPlanResult::message (snprintf truncates).
 
 double WrapAngle(double a) {
@@ -26,16 +26,17 @@ double WrapAngle(double a) {
   return a <= -kPi ? a + 2.0 * kPi : a;
 }
 
-// Sizes derived from valid-range options, shared by IsValid() (limits) and the constructor.
+// Sizes derived from in-range options, shared by IsValid() (limits), the constructor and the brute force.
 struct Geometry {
   int samples = 0;
   double spacing_m = 0.0;
-  double half_diagonal_m = 0.0;
-  double point_block_m = 0.0;  // collision + spacing / 2
-  double voxel_block_m = 0.0;  // point_block + half voxel diagonal
-  double band_reach_m = 0.0;   // collision + half diagonal + band: voxel centres nearer than this are in the band
-  double reach_m = 0.0;        // max(voxel_block, band_reach)
-  int grid_half = 0;           // Voxels from the origin to a grid edge.
+  double block_half_diagonal_m = 0.0;  // Of a blocking voxel.
+  double band_half_diagonal_m = 0.0;   // Of a clearance voxel.
+  double point_block_m = 0.0;          // collision + spacing / 2
+  double voxel_block_m = 0.0;          // point_block + blocking half diagonal
+  double band_reach_m = 0.0;  // collision + clearance half diagonal + band: clearance voxel centres within it
+  int block_grid_half = 0;    // Voxels from the origin to an edge of the blocking grid.
+  int band_grid_half = 0;     // ... of the clearance grid.
 };
 
 Geometry ComputeGeometry(const TrajectoryLibraryOptions& o) {
@@ -43,18 +44,21 @@ Geometry ComputeGeometry(const TrajectoryLibraryOptions& o) {
   const double n = std::round(o.path_length_m / o.sample_spacing_m);
   g.samples = static_cast<int>(std::clamp(n, 1.0, 1e6));
   g.spacing_m = o.path_length_m / g.samples;
-  g.half_diagonal_m = o.voxel_size_m * kSqrtHalf;
+  g.block_half_diagonal_m = o.voxel_size_m * kSqrtHalf;
+  g.band_half_diagonal_m = o.clearance_voxel_size_m * kSqrtHalf;
   g.point_block_m = o.collision_radius_m + 0.5 * g.spacing_m;
-  g.voxel_block_m = g.point_block_m + g.half_diagonal_m;
-  g.band_reach_m = o.collision_radius_m + g.half_diagonal_m + o.clearance_band_m;
-  g.reach_m = std::max(g.voxel_block_m, g.band_reach_m);
+  g.voxel_block_m = g.point_block_m + g.block_half_diagonal_m;
+  g.band_reach_m = o.collision_radius_m + g.band_half_diagonal_m + o.clearance_band_m;
   // Samples lie within path_length_m of the origin (arc length >= chord).
-  g.grid_half = static_cast<int>(std::ceil((o.path_length_m + g.reach_m) / o.voxel_size_m - 1e-9));
+  g.block_grid_half =
+      static_cast<int>(std::ceil((o.path_length_m + g.voxel_block_m) / o.voxel_size_m - 1e-9));
+  g.band_grid_half =
+      static_cast<int>(std::ceil((o.path_length_m + g.band_reach_m) / o.clearance_voxel_size_m - 1e-9));
   return g;
 }
 
 int IntSqrt(int v) {
-  int k = static_cast<int>(std::lround(std::sqrt(static_cast<double>(std::max(v, 0)))));
+  const int k = static_cast<int>(std::lround(std::sqrt(static_cast<double>(std::max(v, 0)))));
   return k * k == v ? k : -1;
 }
 
@@ -63,16 +67,17 @@ double Turn(int i, int count, double max_turn_rad) {
   return count <= 1 ? 0.0 : max_turn_rad * (2.0 * i / (count - 1) - 1.0);
 }
 
-// The same squared distance everywhere (build and brute force), so their classifications agree bit for bit.
+// The same squared distance everywhere (build and brute force), so that their classifications agree bit
+// for bit.
 inline double SquaredDistance(double ax, double ay, double bx, double by) {
   const double dx = ax - bx;
   const double dy = ay - by;
   return dx * dx + dy * dy;
 }
 
-inline std::uint8_t ClearanceBucket(double min_d2, double half_diagonal_m, double collision_m, double band_m) {
-  const double clearance = std::sqrt(min_d2) - half_diagonal_m - collision_m;
-  const double b = std::floor(clearance / band_m * kBuckets);
+inline std::uint8_t ClearanceBucket(double min_d2, const Geometry& g, const TrajectoryLibraryOptions& o) {
+  const double clearance = std::sqrt(min_d2) - g.band_half_diagonal_m - o.collision_radius_m;
+  const double b = std::floor(clearance / o.clearance_band_m * kBuckets);
   return static_cast<std::uint8_t>(std::clamp(b, 0.0, static_cast<double>(kBuckets - 1)));
 }
 
@@ -91,6 +96,28 @@ int RequiredSamples(double required_m, double spacing_m, int samples) {
   return static_cast<int>(std::clamp(k, 0.0, static_cast<double>(samples)));
 }
 
+// Centre of the voxel containing coordinate v of a grid with lower edge min_m (any v, the grid extended).
+inline double VoxelCentreCoordinate(float v, double min_m, double voxel_m) {
+  const double i = std::floor((static_cast<double>(v) - min_m) * (1.0 / voxel_m));
+  return min_m + (i + 0.5) * voxel_m;
+}
+
+// Compressed rows (offsets, entries) from per-voxel lists; frees the lists as it goes.
+template <typename Entry>
+void Compress(std::vector<std::vector<Entry>>* lists, std::vector<std::uint32_t>* offsets,
+              std::vector<Entry>* entries) {
+  std::size_t total = 0;
+  for (const auto& list : *lists) total += list.size();
+  entries->reserve(total);
+  offsets->reserve(lists->size() + 1);
+  offsets->push_back(0);
+  for (auto& list : *lists) {
+    entries->insert(entries->end(), list.begin(), list.end());
+    offsets->push_back(static_cast<std::uint32_t>(entries->size()));
+    std::vector<Entry>().swap(list);
+  }
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------------
@@ -106,7 +133,8 @@ bool TrajectoryLibraryOptions::IsValid(std::string* why) const {
   };
   auto int_range = [&msg](const char* field, int value, int lo, int hi) {
     if (value >= lo && value <= hi) return true;
-    msg << "TrajectoryLibraryOptions::" << field << " = " << value << " must be in [" << lo << ", " << hi << "]";
+    msg << "TrajectoryLibraryOptions::" << field << " = " << value << " must be in [" << lo << ", " << hi
+        << "]";
     return false;
   };
   bool ok = range("path_length_m", path_length_m, 0.1, 10.0) && int_range("num_groups", num_groups, 1, 63) &&
@@ -119,7 +147,9 @@ bool TrajectoryLibraryOptions::IsValid(std::string* why) const {
   ok = ok && int_range("num_headings", num_headings, 1, 360) &&
        range("heading_range_rad", heading_range_rad, 0.0, kPi) &&
        range("max_segment_turn_rad", max_segment_turn_rad, 0.0, kPi / 2.0) &&
-       range("sample_spacing_m", sample_spacing_m, 0.005, 1.0) && range("voxel_size_m", voxel_size_m, 0.02, 1.0) &&
+       range("sample_spacing_m", sample_spacing_m, 0.005, 1.0) &&
+       range("voxel_size_m", voxel_size_m, 0.02, 1.0) &&
+       range("clearance_voxel_size_m", clearance_voxel_size_m, 0.02, 2.0) &&
        range("collision_radius_m", collision_radius_m, 0.0, 5.0) &&
        range("clearance_band_m", clearance_band_m, 0.0, 5.0);
   if (ok && (!std::isfinite(obstacle_min_z_m) || !std::isfinite(obstacle_max_z_m) ||
@@ -152,11 +182,14 @@ bool TrajectoryLibraryOptions::IsValid(std::string* why) const {
   }
   if (ok) {
     const Geometry g = ComputeGeometry(*this);
-    if (2 * g.grid_half > kMaxGridSize) {
-      msg << "TrajectoryLibraryOptions::voxel_size_m = " << voxel_size_m << " gives a grid of " << 2 * g.grid_half
-          << " voxels per side (path_length_m + collision_radius_m + clearance_band_m = "
-          << path_length_m + collision_radius_m + clearance_band_m << " m each way); at most " << kMaxGridSize
-          << " allowed";
+    if (2 * g.block_grid_half > kMaxGridSize) {
+      msg << "TrajectoryLibraryOptions::voxel_size_m = " << voxel_size_m << " gives a blocking grid of "
+          << 2 * g.block_grid_half << " voxels per side; at most " << kMaxGridSize << " allowed";
+      ok = false;
+    } else if (2 * g.band_grid_half > kMaxGridSize) {
+      msg << "TrajectoryLibraryOptions::clearance_voxel_size_m = " << clearance_voxel_size_m
+          << " gives a clearance grid of " << 2 * g.band_grid_half << " voxels per side; at most "
+          << kMaxGridSize << " allowed";
       ok = false;
     }
   }
@@ -176,77 +209,92 @@ TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options) : 
   spacing_m_ = geo.spacing_m;
   point_blocking_radius_m_ = geo.point_block_m;
   voxel_blocking_radius_m_ = geo.voxel_block_m;
-  grid_size_ = 2 * geo.grid_half;
-  grid_min_m_ = -geo.grid_half * options.voxel_size_m;
-  inv_voxel_size_ = 1.0 / options.voxel_size_m;
+  auto make_grid = [](double voxel_m, int half) {
+    Grid grid;
+    grid.voxel_m = voxel_m;
+    grid.inv_voxel = 1.0 / voxel_m;
+    grid.min_m = -half * voxel_m;
+    grid.size = 2 * half;
+    return grid;
+  };
+  block_grid_ = make_grid(options.voxel_size_m, geo.block_grid_half);
+  band_grid_ = make_grid(options.clearance_voxel_size_m, geo.band_grid_half);
 
   // Paths of heading 0: a tree of three arcs of equal length.
   const int k = IntSqrt(options.paths_per_group);
   paths_per_heading_ = options.num_groups * options.paths_per_group;
   const int n = samples_per_path_;
   const double arc_m = options.path_length_m / 3.0;
-  std::vector<Eigen::Vector2d> base(static_cast<std::size_t>(paths_per_heading_) * n);
-  std::vector<double> base_turn(static_cast<std::size_t>(paths_per_heading_));
-  std::vector<int> base_group(static_cast<std::size_t>(paths_per_heading_));
-  int b = 0;
+  auto arc_of_sample = [&](int i) { return std::min(2, static_cast<int>((i + 1) * spacing_m_ / arc_m)); };
+  const std::size_t pph = static_cast<std::size_t>(paths_per_heading_);
+  std::vector<Eigen::Vector2d> base(pph * static_cast<std::size_t>(n));
+  std::vector<double> base_turn(pph);
+  std::vector<double> base_abs_turn(pph);
+  std::vector<int> base_group(pph);
+  std::size_t b = 0;
   for (int g = 0; g < options.num_groups; ++g) {
     for (int i2 = 0; i2 < k; ++i2) {
       for (int i3 = 0; i3 < k; ++i3, ++b) {
         const double turns[3] = {Turn(g, options.num_groups, options.max_segment_turn_rad),
                                  Turn(i2, k, options.max_segment_turn_rad),
                                  Turn(i3, k, options.max_segment_turn_rad)};
-        // Start pose of each arc.
-        double x0[3];
-        double y0[3];
-        double th0[3];
-        x0[0] = y0[0] = th0[0] = 0.0;
-        auto arc_point = [&](int j, double s, double* x, double* y) {
-          const double kappa = turns[j] / arc_m;
+        // Start pose (x0, y0, th0) of each arc; point at arc length s along arc j.
+        double x0[3] = {0.0, 0.0, 0.0};
+        double y0[3] = {0.0, 0.0, 0.0};
+        double th0[3] = {0.0, 0.0, 0.0};
+        auto arc_point = [&](int j, double s) {
           if (std::abs(turns[j]) < 1e-12) {
-            *x = x0[j] + s * std::cos(th0[j]);
-            *y = y0[j] + s * std::sin(th0[j]);
-          } else {
-            *x = x0[j] + (std::sin(th0[j] + kappa * s) - std::sin(th0[j])) / kappa;
-            *y = y0[j] + (std::cos(th0[j]) - std::cos(th0[j] + kappa * s)) / kappa;
+            return Eigen::Vector2d(x0[j] + s * std::cos(th0[j]), y0[j] + s * std::sin(th0[j]));
           }
+          const double kappa = turns[j] / arc_m;
+          return Eigen::Vector2d(x0[j] + (std::sin(th0[j] + kappa * s) - std::sin(th0[j])) / kappa,
+                                 y0[j] + (std::cos(th0[j]) - std::cos(th0[j] + kappa * s)) / kappa);
         };
         for (int j = 1; j < 3; ++j) {
-          arc_point(j - 1, arc_m, &x0[j], &y0[j]);
+          const Eigen::Vector2d end = arc_point(j - 1, arc_m);
+          x0[j] = end.x();
+          y0[j] = end.y();
           th0[j] = th0[j - 1] + turns[j - 1];
         }
         for (int i = 0; i < n; ++i) {
-          const double sigma = (i + 1) * spacing_m_;
-          const int j = std::min(2, static_cast<int>(sigma / arc_m));
-          double x = 0.0;
-          double y = 0.0;
-          arc_point(j, sigma - j * arc_m, &x, &y);
-          base[static_cast<std::size_t>(b) * n + i] = Eigen::Vector2d(x, y);
+          const int j = arc_of_sample(i);
+          base[b * n + i] = arc_point(j, (i + 1) * spacing_m_ - j * arc_m);
         }
-        base_turn[static_cast<std::size_t>(b)] = turns[0] + turns[1] + turns[2];
-        base_group[static_cast<std::size_t>(b)] = g;
+        base_turn[b] = turns[0] + turns[1] + turns[2];
+        base_abs_turn[b] = std::abs(turns[0]) + std::abs(turns[1]) + std::abs(turns[2]);
+        base_group[b] = g;
       }
     }
   }
 
-  // Rotations.
+  // Rotations to the kept headings.
+  std::vector<int> kept_headings;
   for (int h = 0; h < options.num_headings; ++h) {
+    if (std::abs(WrapAngle(2.0 * kPi * h / options.num_headings)) <= options.heading_range_rad + 1e-9) {
+      kept_headings.push_back(h);
+    }
+  }
+  num_kept_headings_ = static_cast<int>(kept_headings.size());
+  info_.reserve(kept_headings.size() * pph);
+  samples_B_.reserve(kept_headings.size() * pph * static_cast<std::size_t>(n));
+  for (int h : kept_headings) {
     const double angle = WrapAngle(2.0 * kPi * h / options.num_headings);
-    if (std::abs(angle) > options.heading_range_rad + 1e-9) continue;
-    ++num_kept_headings_;
     const double c = std::cos(angle);
     const double s = std::sin(angle);
-    for (int p = 0; p < paths_per_heading_; ++p) {
+    for (std::size_t p = 0; p < pph; ++p) {
       for (int i = 0; i < n; ++i) {
-        const Eigen::Vector2d& q = base[static_cast<std::size_t>(p) * n + i];
-        samples_B_.emplace_back(static_cast<float>(c * q.x() - s * q.y()), static_cast<float>(s * q.x() + c * q.y()));
+        const Eigen::Vector2d& q = base[p * n + i];
+        samples_B_.emplace_back(static_cast<float>(c * q.x() - s * q.y()),
+                                static_cast<float>(s * q.x() + c * q.y()));
       }
       TrajectoryInfo info;
-      info.group = base_group[static_cast<std::size_t>(p)];
+      info.group = base_group[p];
       info.heading_index = h;
       info.heading_rad = static_cast<float>(angle);
       info.end_B = samples_B_.back();
       info.end_bearing_rad = std::atan2(info.end_B.y(), info.end_B.x());
-      info.end_heading_rad = static_cast<float>(WrapAngle(angle + base_turn[static_cast<std::size_t>(p)]));
+      info.end_heading_rad = static_cast<float>(WrapAngle(angle + base_turn[p]));
+      info.total_turn_rad = static_cast<float>(base_abs_turn[p]);
       info.length_m = static_cast<float>(options.path_length_m);
       info_.push_back(info);
     }
@@ -254,156 +302,131 @@ TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options) : 
 
   // Path tree nodes: the paths of a group share their first arc (level 0 node), those that also share the
   // second arc share a level 1 node, and each path owns its third arc (level 2 node). Samples of arc j depend
-  // only on the turns of arcs 0..j, so they are bitwise equal for all paths under a node.
-  const int kept = num_kept_headings_;
+  // only on the turns of arcs 0..j (computed by the same operations), so they are bitwise equal for all paths
+  // under a node.
+  const int num_paths = static_cast<int>(info_.size());
   const int groups = options.num_groups;
-  level_first_node_[0] = 0;
-  level_first_node_[1] = kept * groups;
-  level_first_node_[2] = level_first_node_[1] + kept * groups * k;
-  num_nodes_ = level_first_node_[2] + static_cast<int>(info_.size());
-  for (int i = 0; i < n; ++i) {
-    const int j = std::min(2, static_cast<int>((i + 1) * spacing_m_ / arc_m));
-    level_end_sample_[j] = i + 1;
-  }
+  const int level1_base = num_kept_headings_ * groups;
+  const int level2_base = level1_base + num_kept_headings_ * groups * k;
+  num_nodes_ = level2_base + num_paths;
+  for (int i = 0; i < n; ++i) level_end_sample_[arc_of_sample(i)] = i + 1;
   level_end_sample_[1] = std::max(level_end_sample_[1], level_end_sample_[0]);
   level_end_sample_[2] = n;
-  node_of_path_.resize(info_.size() * 3);
-  for (int p = 0; p < static_cast<int>(info_.size()); ++p) {
-    const int hs = p / paths_per_heading_;
+  node_of_path_.resize(static_cast<std::size_t>(num_paths) * 3);
+  for (int p = 0; p < num_paths; ++p) {
+    const int heading_slot = p / paths_per_heading_;
     const int within = p % paths_per_heading_;
     const int g = within / (k * k);
     const int a = (within / k) % k;
-    node_of_path_[static_cast<std::size_t>(p) * 3 + 0] = static_cast<std::uint16_t>(level_first_node_[0] + hs * groups + g);
-    node_of_path_[static_cast<std::size_t>(p) * 3 + 1] =
-        static_cast<std::uint16_t>(level_first_node_[1] + (hs * groups + g) * k + a);
-    node_of_path_[static_cast<std::size_t>(p) * 3 + 2] = static_cast<std::uint16_t>(level_first_node_[2] + p);
+    std::uint16_t* nodes = node_of_path_.data() + static_cast<std::size_t>(p) * 3;
+    nodes[0] = static_cast<std::uint16_t>(heading_slot * groups + g);
+    nodes[1] = static_cast<std::uint16_t>(level1_base + (heading_slot * groups + g) * k + a);
+    nodes[2] = static_cast<std::uint16_t>(level2_base + p);
   }
-  // For each node: a representative path and the node's samples [i0, i1).
-  struct NodeSpan {
+  // Each node's samples [i0, i1), taken from its lowest-id path.
+  struct NodeSamples {
     int path = 0;
     int i0 = 0;
     int i1 = 0;
   };
-  std::vector<NodeSpan> node_spans(static_cast<std::size_t>(num_nodes_));
-  for (int p = static_cast<int>(info_.size()) - 1; p >= 0; --p) {  // Lowest path id last: representative.
+  std::vector<NodeSamples> node_samples(static_cast<std::size_t>(num_nodes_));
+  for (int p = num_paths - 1; p >= 0; --p) {
     for (int level = 0; level < 3; ++level) {
-      NodeSpan& span = node_spans[node_of_path_[static_cast<std::size_t>(p) * 3 + level]];
-      span.path = p;
-      span.i0 = level == 0 ? 0 : level_end_sample_[level - 1];
-      span.i1 = level_end_sample_[level];
+      NodeSamples& ns = node_samples[node_of_path_[static_cast<std::size_t>(p) * 3 + level]];
+      ns.path = p;
+      ns.i0 = level == 0 ? 0 : level_end_sample_[level - 1];
+      ns.i1 = level_end_sample_[level];
     }
   }
 
-  // Correspondence: per node, every voxel within reach of one of its samples, with the first blocked sample,
-  // or else the nearest sample and the clearance bucket.
-  const int nv = num_voxels();
-  const double voxel_m = options.voxel_size_m;
-  const double block2 = geo.voxel_block_m * geo.voxel_block_m;
-  const double band2 = geo.band_reach_m * geo.band_reach_m;
-  std::vector<std::vector<BlockingEntry>> block_lists(static_cast<std::size_t>(nv));
-  std::vector<std::vector<BandEntry>> band_lists(static_cast<std::size_t>(nv));
-  std::vector<int> stamp(static_cast<std::size_t>(nv), -1);
-  std::vector<std::uint8_t> first_block(static_cast<std::size_t>(nv));
-  std::vector<std::uint8_t> argmin(static_cast<std::size_t>(nv));
-  std::vector<double> min_d2(static_cast<std::size_t>(nv));
+  // Correspondence. For each node and grid: visit every voxel whose centre lies within `reach` of one of the
+  // node's samples (d2 = squared distance) and keep per voxel what the entry needs.
+  std::vector<int> stamp;
   std::vector<int> touched;
-  touched.reserve(static_cast<std::size_t>(nv));
-  for (int node = 0; node < num_nodes_; ++node) {
-    touched.clear();
-    const NodeSpan& span = node_spans[static_cast<std::size_t>(node)];
-    const Eigen::Vector2f* samples = samples_B(span.path);
-    for (int i = span.i0; i < span.i1; ++i) {
+  auto for_each_near = [&](const Grid& grid, double reach, int node, auto&& visit) {
+    const double reach2 = reach * reach;
+    const NodeSamples& ns = node_samples[static_cast<std::size_t>(node)];
+    const Eigen::Vector2f* samples = samples_B(ns.path);
+    for (int i = ns.i0; i < ns.i1; ++i) {
       const double sx = samples[i].x();
       const double sy = samples[i].y();
-      const int ix0 = std::max(0, static_cast<int>(std::floor((sx - geo.reach_m - grid_min_m_) / voxel_m)));
+      const int ix0 = std::max(0, static_cast<int>(std::floor((sx - reach - grid.min_m) * grid.inv_voxel)));
       const int ix1 =
-          std::min(grid_size_ - 1, static_cast<int>(std::floor((sx + geo.reach_m - grid_min_m_) / voxel_m)));
-      const int iy0 = std::max(0, static_cast<int>(std::floor((sy - geo.reach_m - grid_min_m_) / voxel_m)));
+          std::min(grid.size - 1, static_cast<int>(std::floor((sx + reach - grid.min_m) * grid.inv_voxel)));
+      const int iy0 = std::max(0, static_cast<int>(std::floor((sy - reach - grid.min_m) * grid.inv_voxel)));
       const int iy1 =
-          std::min(grid_size_ - 1, static_cast<int>(std::floor((sy + geo.reach_m - grid_min_m_) / voxel_m)));
+          std::min(grid.size - 1, static_cast<int>(std::floor((sy + reach - grid.min_m) * grid.inv_voxel)));
       for (int iy = iy0; iy <= iy1; ++iy) {
-        const double cy = grid_min_m_ + (iy + 0.5) * voxel_m;
+        const double cy = grid.min_m + (iy + 0.5) * grid.voxel_m;
         for (int ix = ix0; ix <= ix1; ++ix) {
-          const double cx = grid_min_m_ + (ix + 0.5) * voxel_m;
-          const double d2 = SquaredDistance(cx, cy, sx, sy);
-          if (d2 > block2 && d2 >= band2) continue;
-          const std::size_t v = static_cast<std::size_t>(ix + grid_size_ * iy);
-          if (stamp[v] != node) {
-            stamp[v] = node;
-            touched.push_back(static_cast<int>(v));
-            first_block[v] = kNoBucket;
-            min_d2[v] = d2;
-            argmin[v] = static_cast<std::uint8_t>(i);
-          } else if (d2 < min_d2[v]) {
-            min_d2[v] = d2;
-            argmin[v] = static_cast<std::uint8_t>(i);
+          const double d2 = SquaredDistance(grid.min_m + (ix + 0.5) * grid.voxel_m, cy, sx, sy);
+          if (d2 > reach2) continue;
+          const int v = ix + grid.size * iy;
+          if (stamp[static_cast<std::size_t>(v)] != node) {
+            stamp[static_cast<std::size_t>(v)] = node;
+            touched.push_back(v);
+            visit(v, i, d2, true);
+          } else {
+            visit(v, i, d2, false);
           }
-          if (d2 <= block2 && first_block[v] == kNoBucket) first_block[v] = static_cast<std::uint8_t>(i);
         }
       }
     }
-    for (int v : touched) {
-      const std::size_t vi = static_cast<std::size_t>(v);
-      if (first_block[vi] != kNoBucket) {
+  };
+
+  {  // Blocking: first sample whose distance is within voxel_block_m.
+    const std::size_t nv = static_cast<std::size_t>(num_voxels());
+    std::vector<std::vector<BlockingEntry>> lists(nv);
+    std::vector<std::uint8_t> first(nv);
+    stamp.assign(nv, -1);
+    for (int node = 0; node < num_nodes_; ++node) {
+      touched.clear();
+      // Samples come in increasing order, so the first visit of a voxel is its first blocked sample.
+      for_each_near(block_grid_, geo.voxel_block_m, node, [&](int v, int i, double, bool first_visit) {
+        if (first_visit) first[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(i);
+      });
+      for (int v : touched) {
         BlockingEntry e;
         e.node = static_cast<std::uint16_t>(node);
-        e.first_sample = first_block[vi];
-        block_lists[vi].push_back(e);
-      } else if (min_d2[vi] < band2) {
-        BandEntry e;
-        e.node = static_cast<std::uint16_t>(node);
-        e.closest_sample = argmin[vi];
-        e.clearance_bucket =
-            ClearanceBucket(min_d2[vi], geo.half_diagonal_m, options.collision_radius_m, options.clearance_band_m);
-        band_lists[vi].push_back(e);
+        e.first_sample = first[static_cast<std::size_t>(v)];
+        lists[static_cast<std::size_t>(v)].push_back(e);
       }
     }
+    Compress(&lists, &blocking_offsets_, &blocking_);
   }
-  std::size_t total_block = 0;
-  std::size_t total_band = 0;
-  for (int v = 0; v < nv; ++v) {
-    total_block += block_lists[static_cast<std::size_t>(v)].size();
-    total_band += band_lists[static_cast<std::size_t>(v)].size();
-  }
-  blocking_.reserve(total_block);
-  band_.reserve(total_band);
-  blocking_offsets_.reserve(static_cast<std::size_t>(nv) + 1);
-  band_offsets_.reserve(static_cast<std::size_t>(nv) + 1);
-  blocking_offsets_.push_back(0);
-  band_offsets_.push_back(0);
-  for (int v = 0; v < nv; ++v) {
-    std::vector<BlockingEntry>& bl = block_lists[static_cast<std::size_t>(v)];
-    std::vector<BandEntry>& bd = band_lists[static_cast<std::size_t>(v)];
-    blocking_.insert(blocking_.end(), bl.begin(), bl.end());
-    band_.insert(band_.end(), bd.begin(), bd.end());
-    blocking_offsets_.push_back(static_cast<std::uint32_t>(blocking_.size()));
-    band_offsets_.push_back(static_cast<std::uint32_t>(band_.size()));
-    std::vector<BlockingEntry>().swap(bl);
-    std::vector<BandEntry>().swap(bd);
+  {  // Clearance band: nearest sample (first if tied) and the clearance bucket.
+    const std::size_t nv = static_cast<std::size_t>(num_clearance_voxels());
+    std::vector<std::vector<BandEntry>> lists(nv);
+    std::vector<double> min_d2(nv);
+    std::vector<std::uint8_t> closest(nv);
+    stamp.assign(nv, -1);
+    for (int node = 0; node < num_nodes_ && options.clearance_band_m > 0.0; ++node) {
+      touched.clear();
+      for_each_near(band_grid_, geo.band_reach_m, node, [&](int v, int i, double d2, bool first_visit) {
+        const std::size_t vi = static_cast<std::size_t>(v);
+        if (first_visit || d2 < min_d2[vi]) {
+          min_d2[vi] = d2;
+          closest[vi] = static_cast<std::uint8_t>(i);
+        }
+      });
+      for (int v : touched) {
+        const std::size_t vi = static_cast<std::size_t>(v);
+        if (!(min_d2[vi] < geo.band_reach_m * geo.band_reach_m)) continue;  // Clearance must be < band.
+        BandEntry e;
+        e.node = static_cast<std::uint16_t>(node);
+        e.closest_sample = closest[vi];
+        e.clearance_bucket = ClearanceBucket(min_d2[vi], geo, options);
+        lists[vi].push_back(e);
+      }
+    }
+    Compress(&lists, &band_offsets_, &band_);
   }
   build_time_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 double TrajectoryLibrary::BucketClearanceM(std::uint8_t bucket) const {
-  if (bucket == kNoBucket) return options_.clearance_band_m;
+  if (bucket == kNone) return options_.clearance_band_m;
   return bucket * options_.clearance_band_m / kBuckets;
-}
-
-int TrajectoryLibrary::VoxelIndex(float x_m, float y_m) const {
-  const double fx = (static_cast<double>(x_m) - grid_min_m_) * inv_voxel_size_;
-  const double fy = (static_cast<double>(y_m) - grid_min_m_) * inv_voxel_size_;
-  // Also rejects NaN (comparisons false).
-  if (!(fx >= 0.0 && fy >= 0.0 && fx < grid_size_ && fy < grid_size_)) return -1;
-  const int ix = std::min(grid_size_ - 1, static_cast<int>(fx));
-  const int iy = std::min(grid_size_ - 1, static_cast<int>(fy));
-  return ix + grid_size_ * iy;
-}
-
-Eigen::Vector2d TrajectoryLibrary::VoxelCenter(int index) const {
-  const int ix = index % grid_size_;
-  const int iy = index / grid_size_;
-  return Eigen::Vector2d(grid_min_m_ + (ix + 0.5) * options_.voxel_size_m,
-                         grid_min_m_ + (iy + 0.5) * options_.voxel_size_m);
 }
 
 ConstSpan<BlockingEntry> TrajectoryLibrary::blocking_entries(int index) const {
@@ -417,8 +440,9 @@ ConstSpan<BandEntry> TrajectoryLibrary::band_entries(int index) const {
 }
 
 std::size_t TrajectoryLibrary::memory_bytes() const {
-  return sizeof(*this) + info_.capacity() * sizeof(TrajectoryInfo) + samples_B_.capacity() * sizeof(Eigen::Vector2f) +
-         blocking_offsets_.capacity() * sizeof(std::uint32_t) + blocking_.capacity() * sizeof(BlockingEntry) + node_of_path_.capacity() * sizeof(std::uint16_t) +
+  return sizeof(*this) + info_.capacity() * sizeof(TrajectoryInfo) +
+         samples_B_.capacity() * sizeof(Eigen::Vector2f) + node_of_path_.capacity() * sizeof(std::uint16_t) +
+         blocking_offsets_.capacity() * sizeof(std::uint32_t) + blocking_.capacity() * sizeof(BlockingEntry) +
          band_offsets_.capacity() * sizeof(std::uint32_t) + band_.capacity() * sizeof(BandEntry);
 }
 
@@ -429,12 +453,13 @@ bool LocalPlannerOptions::IsValid(std::string* why) const {
   std::ostringstream msg;
   auto range = [&msg](const char* field, double value, double lo, double hi) {
     if (std::isfinite(value) && value >= lo && value <= hi) return true;
-    msg << "LocalPlannerOptions::" << field << " = " << value << " must be finite and in [" << lo << ", " << hi
-        << "]";
+    msg << "LocalPlannerOptions::" << field << " = " << value << " must be finite and in [" << lo << ", "
+        << hi << "]";
     return false;
   };
   const bool ok = range("goal_direction_weight", goal_direction_weight, 0.0, 100.0) &&
                   range("heading_change_weight", heading_change_weight, 0.0, 100.0) &&
+                  range("turning_weight", turning_weight, 0.0, 100.0) &&
                   range("clearance_weight", clearance_weight, 0.0, 100.0) &&
                   range("hysteresis_weight", hysteresis_weight, 0.0, 100.0) &&
                   range("min_free_length_m", min_free_length_m, 0.0, 100.0) &&
@@ -473,7 +498,8 @@ bool LocalPlanResult::IsFree(int path_id) const {
 // ---------------------------------------------------------------------------------------------------------
 // LocalPlanner
 
-LocalPlanner::LocalPlanner(std::shared_ptr<const TrajectoryLibrary> library, const LocalPlannerOptions& options)
+LocalPlanner::LocalPlanner(std::shared_ptr<const TrajectoryLibrary> library,
+                           const LocalPlannerOptions& options)
     : library_(std::move(library)), options_(options) {
   if (library_ == nullptr) throw std::invalid_argument("LocalPlanner: library must not be null");
   std::string why;
@@ -481,16 +507,24 @@ LocalPlanner::LocalPlanner(std::shared_ptr<const TrajectoryLibrary> library, con
   const std::size_t num_paths = static_cast<std::size_t>(library_->num_paths());
   voxel_stamp_.assign(static_cast<std::size_t>(library_->num_voxels()), 0);
   occupied_.reserve(static_cast<std::size_t>(library_->num_voxels()));
+  band_stamp_.assign(static_cast<std::size_t>(library_->num_clearance_voxels()), 0);
+  occupied_band_.reserve(static_cast<std::size_t>(library_->num_clearance_voxels()));
   first_blocked_.assign(num_paths, static_cast<std::uint8_t>(library_->samples_per_path()));
-  clearance_bucket_.assign(num_paths, kNoBucket);
+  clearance_bucket_.assign(num_paths, kNone);
   node_first_blocked_.assign(static_cast<std::size_t>(library_->num_nodes()), 0);
-  node_bucket_.assign(static_cast<std::size_t>(library_->num_nodes()), kNoBucket);
-  heading_dir_.resize(num_paths);
-  end_dir_.resize(num_paths);
+  node_bucket_.assign(static_cast<std::size_t>(library_->num_nodes()), kNone);
+  heading_rad_.resize(num_paths);
+  end_bearing_rad_.resize(num_paths);
+  static_score_.resize(num_paths);
+  const double max_total_turn = 3.0 * library_->options().max_segment_turn_rad;
   for (std::size_t p = 0; p < num_paths; ++p) {
     const TrajectoryInfo& info = library_->info(static_cast<int>(p));
-    heading_dir_[p] = Eigen::Vector2f(std::cos(info.heading_rad), std::sin(info.heading_rad));
-    end_dir_[p] = Eigen::Vector2f(std::cos(info.end_bearing_rad), std::sin(info.end_bearing_rad));
+    heading_rad_[p] = info.heading_rad;
+    end_bearing_rad_[p] = info.end_bearing_rad;
+    const double straightness = max_total_turn > 0.0 ? 1.0 - info.total_turn_rad / max_total_turn : 1.0;
+    static_score_[p] =
+        static_cast<float>(options_.heading_change_weight * (1.0 - std::abs(info.heading_rad) / kPi) +
+                           options_.turning_weight * straightness);
   }
 }
 
@@ -502,7 +536,8 @@ double LocalPlanner::clearance_m(int path_id) const {
   return library_->BucketClearanceM(clearance_bucket_[static_cast<std::size_t>(path_id)]);
 }
 
-LocalPlanResult LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const LocalPlanRequest& request) {
+LocalPlanResult LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B,
+                                   const LocalPlanRequest& request) {
   LocalPlanResult result;
   Plan(obstacles_B, request, &result);
   return result;
@@ -536,6 +571,7 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
   r.num_points_outside_z_band = 0;
   r.num_points_non_finite = 0;
   r.num_occupied_voxels = 0;
+  r.num_occupied_clearance_voxels = 0;
   r.nearest_obstacle_m = std::numeric_limits<double>::infinity();
   char buf[kMessageCapacity];
   auto finish = [&](Status status) {
@@ -547,27 +583,28 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
   // Request.
   const Eigen::Vector2d& goal = request.goal_B;
   if (!std::isfinite(goal.x()) || !std::isfinite(goal.y())) {
-    std::snprintf(buf, sizeof(buf), "invalid input: goal_B (%g, %g) must be finite", goal.x(), goal.y());
+    std::snprintf(buf, sizeof(buf), "LocalPlanRequest::goal_B (%g, %g) must be finite", goal.x(), goal.y());
     return finish(Status::kInvalidInput);
   }
   const double goal_distance_m = goal.norm();
   if (!(goal_distance_m > 1e-6)) {
-    std::snprintf(buf, sizeof(buf), "invalid input: goal_B (%g, %g) must be longer than 1e-6 m (it sets the %s)",
-                  goal.x(), goal.y(), request.mode == LocalPlanMode::kGoal ? "goal direction" : "joystick direction");
+    std::snprintf(buf, sizeof(buf),
+                  "LocalPlanRequest::goal_B (%g, %g) must be longer than 1e-6 m (it sets the %s)", goal.x(),
+                  goal.y(), request.mode == LocalPlanMode::kGoal ? "goal direction" : "joystick direction");
     return finish(Status::kInvalidInput);
   }
   if (!(request.max_required_free_length_m > 0.0)) {
-    std::snprintf(buf, sizeof(buf), "invalid input: max_required_free_length_m = %g must be > 0",
+    std::snprintf(buf, sizeof(buf), "LocalPlanRequest::max_required_free_length_m = %g must be > 0",
                   request.max_required_free_length_m);
     return finish(Status::kInvalidInput);
   }
   if (request.previous_path_id < -1 || request.previous_path_id >= num_paths) {
-    std::snprintf(buf, sizeof(buf), "invalid input: previous_path_id = %d must be -1 or in [0, %d]",
+    std::snprintf(buf, sizeof(buf), "LocalPlanRequest::previous_path_id = %d must be -1 or in [0, %d]",
                   request.previous_path_id, num_paths - 1);
     return finish(Status::kInvalidInput);
   }
   if (request.mode != LocalPlanMode::kGoal && request.mode != LocalPlanMode::kJoystick) {
-    std::snprintf(buf, sizeof(buf), "invalid input: mode = %d is not kGoal or kJoystick",
+    std::snprintf(buf, sizeof(buf), "LocalPlanRequest::mode = %d is not kGoal or kJoystick",
                   static_cast<int>(request.mode));
     return finish(Status::kInvalidInput);
   }
@@ -579,12 +616,14 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
   const int required_samples = RequiredSamples(required_m, lib.sample_spacing_m(), n);
   r.required_free_length_m = required_m;
 
-  // Points -> distinct occupied voxels.
+  // Points -> distinct occupied voxels of both grids (no allocation: stamps and lists are preallocated).
   if (++cycle_ == 0) {
     std::fill(voxel_stamp_.begin(), voxel_stamp_.end(), 0u);
+    std::fill(band_stamp_.begin(), band_stamp_.end(), 0u);
     cycle_ = 1;
   }
   occupied_.clear();
+  occupied_band_.clear();
   float nearest2 = std::numeric_limits<float>::infinity();
   for (const Eigen::Vector3f& p : obstacles_B) {
     if (!IsFinite(p)) {
@@ -597,23 +636,28 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
     }
     nearest2 = std::min(nearest2, p.x() * p.x() + p.y() * p.y());
     const int v = lib.VoxelIndex(p.x(), p.y());
-    if (v < 0) {
+    const int w = lib.ClearanceVoxelIndex(p.x(), p.y());
+    if (v < 0 && w < 0) {
       ++r.num_points_outside_grid;
       continue;
     }
     ++r.num_points_used;
-    std::uint32_t& stamp = voxel_stamp_[static_cast<std::size_t>(v)];
-    if (stamp != cycle_) {
-      stamp = cycle_;
+    if (v >= 0 && voxel_stamp_[static_cast<std::size_t>(v)] != cycle_) {
+      voxel_stamp_[static_cast<std::size_t>(v)] = cycle_;
       occupied_.push_back(v);
+    }
+    if (w >= 0 && band_stamp_[static_cast<std::size_t>(w)] != cycle_) {
+      band_stamp_[static_cast<std::size_t>(w)] = cycle_;
+      occupied_band_.push_back(w);
     }
   }
   r.num_occupied_voxels = static_cast<int>(occupied_.size());
+  r.num_occupied_clearance_voxels = static_cast<int>(occupied_band_.size());
   r.nearest_obstacle_m = std::sqrt(static_cast<double>(nearest2));
 
   // Voxels -> path tree nodes -> paths.
   std::fill(node_first_blocked_.begin(), node_first_blocked_.end(), static_cast<std::uint8_t>(n));
-  std::fill(node_bucket_.begin(), node_bucket_.end(), kNoBucket);
+  std::fill(node_bucket_.begin(), node_bucket_.end(), kNone);
   std::uint8_t* const node_first = node_first_blocked_.data();
   std::uint8_t* const node_bucket = node_bucket_.data();
   const int req = required_samples;
@@ -622,8 +666,10 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
       std::uint8_t& f = node_first[e.node];
       f = std::min(f, e.first_sample);
     }
-    for (const BandEntry& e : lib.band_entries(v)) {
-      const std::uint8_t value = e.closest_sample < req ? e.clearance_bucket : kNoBucket;
+  }
+  for (int w : occupied_band_) {
+    for (const BandEntry& e : lib.band_entries(w)) {
+      const std::uint8_t value = e.closest_sample < req ? e.clearance_bucket : kNone;
       std::uint8_t& c = node_bucket[e.node];
       c = std::min(c, value);
     }
@@ -636,18 +682,23 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
     bucket[p] = std::min({node_bucket[nodes[0]], node_bucket[nodes[1]], node_bucket[nodes[2]]});
   }
 
-  // Scoring.
-  const Eigen::Vector2f target = goal.normalized().cast<float>();
-  const float cos_limit = static_cast<float>(std::cos(options_.max_joystick_deviation_rad)) - 1e-6f;
+  // Scoring (see LocalPlannerOptions).
+  const float pi_f = static_cast<float>(kPi);
+  // |a - b| wrapped to [0, pi], for a, b in [-pi, pi].
+  auto angle_between = [pi_f](float a, float b) {
+    const float d = std::abs(a - b);
+    return d > pi_f ? 2.0f * pi_f - d : d;
+  };
+  const float target = static_cast<float>(std::atan2(goal.y(), goal.x()));
+  const float limit = static_cast<float>(options_.max_joystick_deviation_rad) + 1e-6f;
   const bool has_previous = request.previous_path_id >= 0;
-  const Eigen::Vector2f previous_dir =
-      has_previous ? end_dir_[static_cast<std::size_t>(request.previous_path_id)] : Eigen::Vector2f::Zero();
+  const float previous_bearing =
+      has_previous ? end_bearing_rad_[static_cast<std::size_t>(request.previous_path_id)] : 0.0f;
   const float band = static_cast<float>(lo.clearance_band_m);
   const float bucket_to_term = 1.0f / kBuckets;  // bucket -> clearance / band
-  const float wg = static_cast<float>(options_.goal_direction_weight) * 0.5f;
-  const float wh = static_cast<float>(options_.heading_change_weight) * 0.5f;
+  const float wg = static_cast<float>(options_.goal_direction_weight);
   const float wc = static_cast<float>(options_.clearance_weight);
-  const float wp = has_previous ? static_cast<float>(options_.hysteresis_weight) * 0.5f : 0.0f;
+  const float wp = has_previous ? static_cast<float>(options_.hysteresis_weight) : 0.0f;
   int best = -1;
   float best_score = -std::numeric_limits<float>::infinity();
   for (int p = 0; p < num_paths; ++p) {
@@ -655,12 +706,12 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
     if (first_blocked[pi] < req) continue;
     ++r.num_free_paths;
     r.free_mask[pi / 64] |= std::uint64_t{1} << (pi % 64);
-    const float goal_dot = end_dir_[pi].dot(target);
-    if (joystick && (goal_dot < cos_limit || heading_dir_[pi].dot(target) < cos_limit)) continue;
+    const float goal_off = angle_between(end_bearing_rad_[pi], target);
+    if (joystick && (goal_off > limit || angle_between(heading_rad_[pi], target) > limit)) continue;
     ++r.num_candidate_paths;
-    const float clearance_term = (band <= 0.0f || bucket[pi] == kNoBucket) ? 1.0f : bucket[pi] * bucket_to_term;
-    const float score = wg * (1.0f + goal_dot) + wh * (1.0f + heading_dir_[pi].x()) + wc * clearance_term +
-                        wp * (1.0f + end_dir_[pi].dot(previous_dir));
+    const float clearance_term = (band <= 0.0f || bucket[pi] == kNone) ? 1.0f : bucket[pi] * bucket_to_term;
+    float score = static_score_[pi] + wg * (1.0f - goal_off / pi_f) + wc * clearance_term;
+    if (has_previous) score += wp * (1.0f - angle_between(end_bearing_rad_[pi], previous_bearing) / pi_f);
     if (score > best_score) {
       best_score = score;
       best = p;
@@ -675,13 +726,15 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
   }
   if (best < 0) {
     if (joystick) {
-      std::snprintf(buf, sizeof(buf),
-                    "boxed in: 0 of %d paths free for %.2f m within %.0f deg of the joystick direction %.0f deg "
-                    "(%d free elsewhere), %s",
-                    num_paths, required_m, options_.max_joystick_deviation_rad * 180.0 / kPi,
-                    std::atan2(goal.y(), goal.x()) * 180.0 / kPi, r.num_free_paths, nearest);
+      std::snprintf(
+          buf, sizeof(buf),
+          "boxed in: 0 of %d paths free for %.2f m within %.0f deg of the joystick direction %.0f deg "
+          "(%d free elsewhere), %s",
+          num_paths, required_m, options_.max_joystick_deviation_rad * 180.0 / kPi,
+          std::atan2(goal.y(), goal.x()) * 180.0 / kPi, r.num_free_paths, nearest);
     } else {
-      std::snprintf(buf, sizeof(buf), "boxed in: 0 of %d paths free for %.2f m, %s", num_paths, required_m, nearest);
+      std::snprintf(buf, sizeof(buf), "boxed in: 0 of %d paths free for %.2f m, %s", num_paths, required_m,
+                    nearest);
     }
     return finish(Status::kBoxedIn);
   }
@@ -709,57 +762,76 @@ std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
                                           const std::vector<Eigen::Vector3f>& obstacles_B,
                                           double required_free_length_m, std::vector<double>* clearance_m) {
   const TrajectoryLibraryOptions& o = library.options();
+  const Geometry geo = ComputeGeometry(o);
   const int n = library.samples_per_path();
-  const double voxel_m = o.voxel_size_m;
-  const double grid_min = library.grid_min_m();
-  const double half_diagonal = voxel_m * kSqrtHalf;
-  const double block2 = library.voxel_blocking_radius_m() * library.voxel_blocking_radius_m();
-  const double band_reach = o.collision_radius_m + half_diagonal + o.clearance_band_m;
-  const double band2 = band_reach * band_reach;
-  const double reach = std::max(library.voxel_blocking_radius_m(), band_reach);
+  const double block2 = geo.voxel_block_m * geo.voxel_block_m;
+  const double band2 = geo.band_reach_m * geo.band_reach_m;
+  const bool with_band = o.clearance_band_m > 0.0;
   const int req = RequiredSamples(std::isnan(required_free_length_m) ? 0.0 : required_free_length_m,
                                   library.sample_spacing_m(), n);
 
-  // Voxel centres of the obstacle points (the grid's voxels, extended beyond it).
-  std::vector<Eigen::Vector2d> centres;
-  centres.reserve(obstacles_B.size());
+  // Blocking and clearance voxel centres of the obstacle points (the grids extended beyond their edges),
+  // sorted by x so that each arc only scans the points in the x range of its bounding box.
+  std::vector<Eigen::Vector2d> block_centres;
+  std::vector<Eigen::Vector2d> band_centres;
+  block_centres.reserve(obstacles_B.size());
+  band_centres.reserve(obstacles_B.size());
   for (const Eigen::Vector3f& p : obstacles_B) {
     if (!IsFinite(p) || !InZBand(p, o)) continue;
-    // The same quantisation as TrajectoryLibrary::VoxelIndex().
-    const double ix = std::floor((static_cast<double>(p.x()) - grid_min) * (1.0 / voxel_m));
-    const double iy = std::floor((static_cast<double>(p.y()) - grid_min) * (1.0 / voxel_m));
-    centres.emplace_back(grid_min + (ix + 0.5) * voxel_m, grid_min + (iy + 0.5) * voxel_m);
+    block_centres.emplace_back(VoxelCentreCoordinate(p.x(), library.grid_min_m(), o.voxel_size_m),
+                               VoxelCentreCoordinate(p.y(), library.grid_min_m(), o.voxel_size_m));
+    band_centres.emplace_back(
+        VoxelCentreCoordinate(p.x(), library.clearance_grid_min_m(), o.clearance_voxel_size_m),
+        VoxelCentreCoordinate(p.y(), library.clearance_grid_min_m(), o.clearance_voxel_size_m));
   }
+  auto by_x = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() < b.x(); };
+  std::sort(block_centres.begin(), block_centres.end(), by_x);
+  std::sort(band_centres.begin(), band_centres.end(), by_x);
+
+  // Calls visit(centre) for the centres within the bounding box of samples [i0, i1) grown by `reach` (a cull
+  // only: the distance tests decide).
+  auto for_each_near_box = [](const std::vector<Eigen::Vector2d>& centres, const Eigen::Vector2f* s, int i0,
+                              int i1, double reach, auto&& visit) {
+    if (i0 >= i1) return;
+    double x_lo = std::numeric_limits<double>::infinity();
+    double x_hi = -x_lo;
+    double y_lo = x_lo;
+    double y_hi = -x_lo;
+    for (int i = i0; i < i1; ++i) {
+      x_lo = std::min(x_lo, static_cast<double>(s[i].x()));
+      x_hi = std::max(x_hi, static_cast<double>(s[i].x()));
+      y_lo = std::min(y_lo, static_cast<double>(s[i].y()));
+      y_hi = std::max(y_hi, static_cast<double>(s[i].y()));
+    }
+    const double grow = reach + 1e-6;
+    auto it = std::lower_bound(centres.begin(), centres.end(), x_lo - grow,
+                               [](const Eigen::Vector2d& c, double x) { return c.x() < x; });
+    for (; it != centres.end() && it->x() <= x_hi + grow; ++it) {
+      if (it->y() >= y_lo - grow && it->y() <= y_hi + grow) visit(*it);
+    }
+  };
 
   const int num_paths = library.num_paths();
   std::vector<double> free_m(static_cast<std::size_t>(num_paths));
   if (clearance_m != nullptr) clearance_m->assign(static_cast<std::size_t>(num_paths), 0.0);
   for (int p = 0; p < num_paths; ++p) {
     const Eigen::Vector2f* s = library.samples_B(p);
-    // Bounding box of the samples, grown by the reach (a cull only: the distance test below decides).
-    double x_lo = s[0].x();
-    double x_hi = x_lo;
-    double y_lo = s[0].y();
-    double y_hi = y_lo;
-    for (int i = 1; i < n; ++i) {
-      x_lo = std::min(x_lo, static_cast<double>(s[i].x()));
-      x_hi = std::max(x_hi, static_cast<double>(s[i].x()));
-      y_lo = std::min(y_lo, static_cast<double>(s[i].y()));
-      y_hi = std::max(y_hi, static_cast<double>(s[i].y()));
-    }
-    x_lo -= reach;
-    x_hi += reach;
-    y_lo -= reach;
-    y_hi += reach;
     int first_blocked = n;
-    int bucket = kNoBucket;
-    for (const Eigen::Vector2d& c : centres) {
-      if (c.x() < x_lo || c.x() > x_hi || c.y() < y_lo || c.y() > y_hi) continue;
-      // Each arc of the path on its own (the clearance is defined per arc, see LocalPlannerOptions).
-      for (int level = 0; level < 3; ++level) {
-        const int i0 = level == 0 ? 0 : library.level_end_sample(level - 1);
-        const int i1 = library.level_end_sample(level);
-        int block = -1;
+    int bucket = kNone;
+    // Each arc on its own, as the correspondence (the clearance is defined per arc).
+    for (int level = 0; level < 3; ++level) {
+      const int i0 = level == 0 ? 0 : library.level_end_sample(level - 1);
+      const int i1 = library.level_end_sample(level);
+      for_each_near_box(block_centres, s, i0, i1, geo.voxel_block_m, [&](const Eigen::Vector2d& c) {
+        for (int i = i0; i < i1 && i < first_blocked; ++i) {
+          if (SquaredDistance(c.x(), c.y(), s[i].x(), s[i].y()) <= block2) {
+            first_blocked = i;
+            break;
+          }
+        }
+      });
+      if (!with_band || clearance_m == nullptr) continue;
+      for_each_near_box(band_centres, s, i0, i1, geo.band_reach_m, [&](const Eigen::Vector2d& c) {
         int closest = 0;
         double min_d2 = std::numeric_limits<double>::infinity();
         for (int i = i0; i < i1; ++i) {
@@ -768,19 +840,14 @@ std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
             min_d2 = d2;
             closest = i;
           }
-          if (block < 0 && d2 <= block2) block = i;
         }
-        if (block >= 0) {
-          first_blocked = std::min(first_blocked, block);
-        } else if (min_d2 < band2 && closest < req) {
-          bucket =
-              std::min<int>(bucket, ClearanceBucket(min_d2, half_diagonal, o.collision_radius_m, o.clearance_band_m));
-        }
-      }
+        if (min_d2 < band2 && closest < req) bucket = std::min<int>(bucket, ClearanceBucket(min_d2, geo, o));
+      });
     }
     free_m[static_cast<std::size_t>(p)] = first_blocked * library.sample_spacing_m();
     if (clearance_m != nullptr) {
-      (*clearance_m)[static_cast<std::size_t>(p)] = library.BucketClearanceM(static_cast<std::uint8_t>(bucket));
+      (*clearance_m)[static_cast<std::size_t>(p)] =
+          library.BucketClearanceM(static_cast<std::uint8_t>(bucket));
     }
   }
   return free_m;

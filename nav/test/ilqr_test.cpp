@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <random>
 #include <string>
@@ -20,8 +19,9 @@ constexpr double kTol = 1e-9;
 
 using Path = std::vector<Eigen::Vector2d>;
 
-#define EXPECT_HAS(haystack, needle) \
-  EXPECT_NE(std::string(haystack).find(needle), std::string::npos) << "'" << (haystack) << "' lacks '" << (needle) << "'"
+#define EXPECT_HAS(haystack, needle)                               \
+  EXPECT_NE(std::string(haystack).find(needle), std::string::npos) \
+      << "'" << (haystack) << "' lacks '" << (needle) << "'"
 
 IlqrState State(double x_m, double y_m, double yaw_rad, double v_mps = 0.0, double w_radps = 0.0) {
   IlqrState x;
@@ -29,9 +29,9 @@ IlqrState State(double x_m, double y_m, double yaw_rad, double v_mps = 0.0, doub
   return x;
 }
 
-// Platform stand-in: a velocity-commanded unicycle with the same limits as the controller, integrated at a finer
-// step than the controller's model (velocities slew towards the command at the acceleration limits, then the
-// pose advances at the mid-step heading).
+// Platform stand-in: a velocity-commanded unicycle with the same limits as the controller, integrated at a
+// finer step than the controller's model (velocities slew towards the command at the acceleration limits,
+// then the pose advances at the mid-step heading).
 class Platform {
  public:
   Platform(const IlqrLimits& limits, const IlqrState& x) : limits_(limits), x_(x) {}
@@ -101,7 +101,8 @@ DriveStats Drive(IlqrController* controller, const Path& path, const IlqrState& 
     if (sol.warm_started) ++stats.warm_solves;
     if (!sol.IsUsable()) ++stats.unusable;
     platform.Apply(sol.command_v_mps, sol.command_w_radps);
-    stats.max_cross_track_m = std::max(stats.max_cross_track_m, DistanceToPath(path, platform.state().head<2>()));
+    stats.max_cross_track_m =
+        std::max(stats.max_cross_track_m, DistanceToPath(path, platform.state().head<2>()));
   }
   stats.final_state = platform.state();
   return stats;
@@ -217,6 +218,34 @@ TEST(IlqrReferenceTest, StartsAtProjectionRampsUpAndStopsAtTheEnd) {
   EXPECT_THROW(BuildIlqrReference(path, {0, 0}, 0, -0.5, true, 0.5, 10, 0.1), std::invalid_argument);
 }
 
+TEST(IlqrModelTest, JacobiansMatchFiniteDifferences) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> value(-2.0, 2.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    const IlqrState x = State(value(rng), value(rng), 3.0 * value(rng), value(rng), value(rng));
+    const IlqrControl u(value(rng), value(rng));
+    const double dt = 0.1;
+    Eigen::Matrix<double, 5, 5> A;
+    Eigen::Matrix<double, 5, 2> B;
+    IlqrModelJacobians(x, u, dt, &A, &B);
+    const double h = 1e-6;
+    for (int i = 0; i < 5; ++i) {
+      const IlqrState e = IlqrState::Unit(i) * h;
+      const IlqrState column = (IlqrModelStep(x + e, u, dt) - IlqrModelStep(x - e, u, dt)) / (2.0 * h);
+      EXPECT_LT((column - A.col(i)).cwiseAbs().maxCoeff(), 1e-8) << "trial " << trial << " d/dx" << i;
+    }
+    for (int i = 0; i < 2; ++i) {
+      const IlqrControl e = IlqrControl::Unit(i) * h;
+      const IlqrState column = (IlqrModelStep(x, u + e, dt) - IlqrModelStep(x, u - e, dt)) / (2.0 * h);
+      EXPECT_LT((column - B.col(i)).cwiseAbs().maxCoeff(), 1e-8) << "trial " << trial << " d/du" << i;
+    }
+  }
+  // Straight drive: 1 m/s for 0.1 s with 1 m/s^2 moves 0.105 m (mean speed 1.05 m/s).
+  const IlqrState next = IlqrModelStep(State(0, 0, 0, 1.0, 0.0), IlqrControl(1.0, 0.0), 0.1);
+  EXPECT_NEAR(next[0], 0.105, 1e-12);
+  EXPECT_NEAR(next[3], 1.1, 1e-12);
+}
+
 TEST(IlqrControllerTest, ConvergesOnAStraightLineFromRest) {
   IlqrController controller;
   const IlqrSolution sol = controller.Solve(State(0, 0, 0), {{0.0, 0.0}, {5.0, 0.0}}, 0.6, true, 0.0);
@@ -232,8 +261,8 @@ TEST(IlqrControllerTest, ConvergesOnAStraightLineFromRest) {
 
   // A harder start (off the path, facing away from it, moving): more iterations, still monotone.
   controller.Reset();
-  const IlqrSolution hard = controller.Solve(State(1.0, 1.0, 2.5, 0.4, -0.5), {{0.0, 0.0}, {5.0, 0.0}}, 0.6,
-                                             true, 0.0);
+  const IlqrSolution hard =
+      controller.Solve(State(1.0, 1.0, 2.5, 0.4, -0.5), {{0.0, 0.0}, {5.0, 0.0}}, 0.6, true, 0.0);
   ExpectWellFormed(hard, controller.options(), controller.limits());
   EXPECT_EQ(hard.status, IlqrSolution::Status::kConverged) << hard.message;
   EXPECT_GE(hard.cost_history.size(), 3u);
@@ -340,7 +369,6 @@ TEST(IlqrControllerTest, WarmStartsNeedFewerIterationsAndGiveCloseCommands) {
     }
     EXPECT_GE(warm_started, cycles * 9 / 10);
     EXPECT_LT(warm_iterations, cold_iterations);
-    std::printf("warm %d cold %d started %d\n", warm_iterations, cold_iterations, warm_started);
   }
 }
 

@@ -1,6 +1,6 @@
 // Copyright Cairn authors.
 //
-// Test helpers for nav: hand-made worlds and a closed-loop drive (unicycle + pure pursuit).
+// Test helpers for nav: hand-made worlds.
 #pragma once
 
 #include <Eigen/Core>
@@ -8,7 +8,6 @@
 #include <vector>
 
 #include "../../sim/test/test_util.h"
-#include "cairn/nav/path_tracker.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/sim/unicycle.h"
 #include "cairn/sim/world.h"
@@ -43,38 +42,6 @@ inline void FillBox(sim::World* world, const Eigen::Vector3d& lo, const Eigen::V
       }
     }
   }
-}
-
-/// Outcome of DriveClosedLoop().
-struct DriveResult {
-  bool arrived = false;           ///< The tracker reported arrival.
-  int contacts = 0;               ///< Steps that ended in contact.
-  double final_distance_m = 0.0;  ///< Planar distance from the final pose to the path end.
-  double time_s = 0.0;            ///< Simulated time.
-  sim::UnicycleState final_state;
-};
-
-/// Drives a wheeled unicycle (footprint 0.25 m) from `start` along `path_W` with a PathTracker at dt_s until
-/// arrival or max_time_s.
-inline DriveResult DriveClosedLoop(const TraversabilityGrid& grid, const std::vector<Eigen::Vector3d>& path_W,
-                                   const sim::UnicycleState& start, double max_time_s = 300.0,
-                                   double dt_s = 0.05, const PathTrackerOptions& tracker_options = {}) {
-  PathTracker tracker(tracker_options);
-  tracker.SetPath(path_W);
-  sim::Unicycle robot(sim::UnicycleLimits::Wheeled(), 0.25, start);
-  DriveResult result;
-  for (; result.time_s < max_time_s; result.time_s += dt_s) {
-    const TrackerCommand cmd = tracker.Compute(robot.state().x_m, robot.state().y_m, robot.state().yaw_rad);
-    if (cmd.arrived) {
-      result.arrived = true;
-      break;
-    }
-    result.contacts += robot.Step(cmd.vx_mps, cmd.wz_radps, dt_s, grid).contact ? 1 : 0;
-  }
-  result.final_state = robot.state();
-  result.final_distance_m =
-      (Eigen::Vector2d(robot.state().x_m, robot.state().y_m) - path_W.back().head<2>()).norm();
-  return result;
 }
 
 }  // namespace cairn::nav::testing

@@ -10,9 +10,28 @@
 
 namespace cairn::agent {
 
+nav::TrajectoryLibraryOptions AgentOptions::DefaultLibraryOptions() {
+  nav::TrajectoryLibraryOptions o;
+  o.voxel_size_m = 0.05;
+  return o;
+}
+
+void AgentOptions::SetPlatform(const std::string& name) {
+  navigation.platform = nav::GetPlatformProfile(name);
+  platform = name;
+}
+
+nav::TrajectoryLibraryOptions AgentOptions::LibraryForPlatform() const {
+  nav::TrajectoryLibraryOptions o = library;
+  o.heading_range_rad = navigation.platform.local_heading_range_rad;
+  o.collision_radius_m = navigation.platform.footprint_radius_m + collision_margin_m;
+  return o;
+}
+
 void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto config = core::ConfigSection::LoadFile(path);
-  config.RejectUnknownKeys({"command_interface", "mux", "navigation", "platform", "traversability", "telemetry"});
+  config.RejectUnknownKeys({"command_interface", "mux", "navigation", "local_planner", "controller", "platform",
+                            "traversability", "telemetry"});
   const auto ci = config.Section("command_interface");
   ci.RejectUnknownKeys({"lock_keep_s"});
   ci.ReadDouble("lock_keep_s", &lock.lock_keep_s, /*allow_infinity=*/true);
@@ -20,18 +39,49 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   mux.RejectUnknownKeys({"teleop_timeout_s", "waypoint_timeout_s"});
   mux.ReadDouble("teleop_timeout_s", &teleop_timeout_s);
   mux.ReadDouble("waypoint_timeout_s", &waypoint_timeout_s);
+  NavigationOptions& n = navigation;
   const auto nav = config.Section("navigation");
-  nav.RejectUnknownKeys(
-      {"cruise_speed_mps", "goal_tolerance_m", "lookahead_m", "blocked_timeout_s", "contact_timeout_s"});
-  nav.ReadDouble("cruise_speed_mps", &cruise_speed_mps);
-  nav.ReadDouble("goal_tolerance_m", &goal_tolerance_m);
-  nav.ReadDouble("lookahead_m", &lookahead_m);
-  nav.ReadDouble("blocked_timeout_s", &blocked_timeout_s);
+  nav.RejectUnknownKeys({"cruise_speed_mps", "goal_tolerance_m", "blocked_timeout_s", "contact_timeout_s",
+                         "carrot_distance_m", "required_free_length_m", "sensor_range_m", "local_planner_period_s",
+                         "obstacle_timeout_s", "replan_check_period_s", "max_path_deviation_m",
+                         "joystick_turn_lookahead_s"});
+  nav.ReadDouble("cruise_speed_mps", &n.platform.cruise_speed_mps);
+  nav.ReadDouble("goal_tolerance_m", &n.goal_tolerance_m);
+  nav.ReadDouble("blocked_timeout_s", &n.blocked_timeout_s);
   nav.ReadDouble("contact_timeout_s", &contact_timeout_s);
+  nav.ReadDouble("carrot_distance_m", &n.carrot_distance_m);
+  nav.ReadDouble("required_free_length_m", &n.required_free_length_m);
+  nav.ReadDouble("sensor_range_m", &n.sensor_range_m);
+  nav.ReadDouble("local_planner_period_s", &n.local_planner_period_s);
+  nav.ReadDouble("obstacle_timeout_s", &n.obstacle_timeout_s);
+  nav.ReadDouble("replan_check_period_s", &n.replan_check_period_s);
+  nav.ReadDouble("max_path_deviation_m", &n.max_path_deviation_m);
+  nav.ReadDouble("joystick_turn_lookahead_s", &n.joystick_turn_lookahead_s);
+  const auto local = config.Section("local_planner");
+  local.RejectUnknownKeys({"collision_margin_m", "clearance_band_m", "voxel_size_m", "goal_direction_weight",
+                           "heading_change_weight", "clearance_weight", "hysteresis_weight", "min_free_length_m"});
+  local.ReadDouble("collision_margin_m", &collision_margin_m);
+  local.ReadDouble("clearance_band_m", &library.clearance_band_m);
+  local.ReadDouble("voxel_size_m", &library.voxel_size_m);
+  local.ReadDouble("goal_direction_weight", &n.local_planner.goal_direction_weight);
+  local.ReadDouble("heading_change_weight", &n.local_planner.heading_change_weight);
+  local.ReadDouble("clearance_weight", &n.local_planner.clearance_weight);
+  local.ReadDouble("hysteresis_weight", &n.local_planner.hysteresis_weight);
+  local.ReadDouble("min_free_length_m", &n.local_planner.min_free_length_m);
+  const auto controller = config.Section("controller");
+  controller.RejectUnknownKeys({"horizon_steps", "dt_s", "max_iterations", "cross_track_weight", "heading_weight",
+                                "speed_weight"});
+  controller.ReadInt("horizon_steps", &n.controller.horizon_steps);
+  controller.ReadDouble("dt_s", &n.controller.dt_s);
+  controller.ReadInt("max_iterations", &n.controller.max_iterations);
+  controller.ReadDouble("cross_track_weight", &n.controller.cross_track_weight);
+  controller.ReadDouble("heading_weight", &n.controller.heading_weight);
+  controller.ReadDouble("speed_weight", &n.controller.speed_weight);
+  auto& limits = n.platform.limits;
   const auto platform_section = config.Section("platform");
   platform_section.RejectUnknownKeys({"footprint_radius_m", "max_speed_mps", "max_reverse_speed_mps",
                                       "max_accel_mps2", "max_yaw_rate_radps", "max_yaw_accel_radps2"});
-  platform_section.ReadDouble("footprint_radius_m", &footprint_radius_m);
+  platform_section.ReadDouble("footprint_radius_m", &n.platform.footprint_radius_m);
   platform_section.ReadDouble("max_speed_mps", &limits.max_speed_mps);
   platform_section.ReadDouble("max_reverse_speed_mps", &limits.max_reverse_speed_mps);
   platform_section.ReadDouble("max_accel_mps2", &limits.max_accel_mps2);
@@ -39,12 +89,13 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   platform_section.ReadDouble("max_yaw_accel_radps2", &limits.max_yaw_accel_radps2);
   const auto trav = config.Section("traversability");
   trav.RejectUnknownKeys({"robot_radius_m", "robot_height_m", "max_step_m"});
-  trav.ReadDouble("robot_radius_m", &robot_radius_m);
-  trav.ReadDouble("robot_height_m", &robot_height_m);
-  trav.ReadDouble("max_step_m", &max_step_m);
+  trav.ReadDouble("robot_radius_m", &n.platform.traversability.robot_radius_m);
+  trav.ReadDouble("robot_height_m", &n.platform.traversability.robot_height_m);
+  trav.ReadDouble("max_step_m", &n.platform.traversability.max_step_m);
   const auto telemetry = config.Section("telemetry");
-  telemetry.RejectUnknownKeys({"state_rate_hz"});
+  telemetry.RejectUnknownKeys({"state_rate_hz", "local_plan_rate_hz"});
   telemetry.ReadDouble("state_rate_hz", &state_rate_hz);
+  telemetry.ReadDouble("local_plan_rate_hz", &local_plan_rate_hz);
   std::string why;
   if (!IsValid(&why)) throw core::ConfigError(path + ": " + why);
 }
@@ -69,28 +120,31 @@ bool AgentOptions::IsValid(std::string* why) const {
     *why = "robot id '" + robot_id + "' must be 1-64 characters of A-Z a-z 0-9 _ -";
     return false;
   }
-  if (platform != "wheeled" && platform != "legged") {
-    *why = "platform '" + platform + "' is not supported (valid: wheeled, legged)";
+  if (platform != navigation.platform.name) {
+    try {
+      nav::GetPlatformProfile(platform);
+      *why = "platform '" + platform + "' was not selected with SetPlatform()";
+    } catch (const std::invalid_argument& e) {
+      *why = e.what();
+    }
     return false;
   }
   if (!lock.IsValid(why)) return false;
-  std::string limits_why;
-  if (!limits.IsValid(&limits_why)) {
-    *why = "platform." + limits_why;
+  if (!navigation.IsValid(why)) return false;
+  const auto& fp = navigation.platform;
+  std::string inner;
+  if (!LibraryForPlatform().IsValid(&inner)) {
+    *why = "local_planner: " + inner;
     return false;
   }
   return InRange("mux.teleop_timeout_s", teleop_timeout_s, 0, 60, true, why) &&
          InRange("mux.waypoint_timeout_s", waypoint_timeout_s, 0, 60, true, why) &&
-         InRange("navigation.cruise_speed_mps", cruise_speed_mps, 0, limits.max_speed_mps, true, why) &&
-         InRange("navigation.goal_tolerance_m", goal_tolerance_m, 0, 5, true, why) &&
-         InRange("navigation.lookahead_m", lookahead_m, 0, 5, true, why) &&
-         InRange("navigation.blocked_timeout_s", blocked_timeout_s, 0, 600, true, why) &&
          InRange("navigation.contact_timeout_s", contact_timeout_s, 0, 60, true, why) &&
-         InRange("platform.footprint_radius_m", footprint_radius_m, 0, 2, true, why) &&
-         InRange("traversability.robot_radius_m", robot_radius_m, footprint_radius_m, 2, false, why) &&
-         InRange("traversability.robot_height_m", robot_height_m, 0, 5, true, why) &&
-         InRange("traversability.max_step_m", max_step_m, 0, 1, false, why) &&
+         InRange("traversability.robot_radius_m", fp.traversability.robot_radius_m, fp.footprint_radius_m, 2, false,
+                 why) &&
+         InRange("local_planner.collision_margin_m", collision_margin_m, 0, 1, false, why) &&
          InRange("telemetry.state_rate_hz", state_rate_hz, 0, 100, true, why) &&
+         InRange("telemetry.local_plan_rate_hz", local_plan_rate_hz, 0, 20, true, why) &&
          InRange("--pcd-resolution", pcd_resolution_m, 0.02, 2, false, why);
 }
 

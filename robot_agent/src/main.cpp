@@ -15,7 +15,7 @@ int main(int argc, char** argv) {
   // Logs go to stderr: stdout carries command output (cairn_base) and the READY line (cairn_agent).
   spdlog::set_default_logger(spdlog::stderr_color_mt("cairn"));
   cairn::agent::AgentOptions options;
-  std::string start_text, domain_text = "0", config_file;
+  std::string start_text, domain_text = "0", config_file, platform = "wheeled";
   std::string worlds;
   for (const auto& name : cairn::sim::BuiltinWorldNames()) worlds += (worlds.empty() ? "" : ", ") + name;
 
@@ -28,7 +28,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--start", start_text, "start pose X,Y[,YAW] in metres/radians, frame map, or slot:K for the "
                                         "K-th free start of the world (default: chosen from the robot id)");
-  app.add_option("--platform", options.platform, "wheeled | legged")->capture_default_str();
+  app.add_option("--platform", platform, "wheeled | legged (limits, step height, local planner headings)")
+      ->capture_default_str();
   app.add_option("--domain", domain_text, "DDS domain id, 0..232")->capture_default_str();
   app.add_option("--config", config_file, "YAML config file (see config/agent.yaml)");
   app.add_option("--pcd-resolution", options.pcd_resolution_m, "voxel size for .pcd worlds, metres")
@@ -45,8 +46,7 @@ int main(int argc, char** argv) {
   try {
     options.domain_id = cairn::core::ParseDomainId(domain_text);
     if (!start_text.empty()) cairn::agent::ParseStart(start_text, &options);
-    options.limits = options.platform == "legged" ? cairn::sim::UnicycleLimits::Legged()
-                                                  : cairn::sim::UnicycleLimits::Wheeled();
+    options.SetPlatform(platform);
     if (!config_file.empty()) options.LoadConfigFile(config_file);
     std::string why;
     if (!options.IsValid(&why)) throw std::invalid_argument(why);

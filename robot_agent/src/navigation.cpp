@@ -10,6 +10,7 @@ namespace cairn::agent {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr double kArrivalSpeedMps = 0.1;  // arrival needs the robot at most this fast
 
 bool InRange(const char* field, double value, double lo, double hi, bool lo_open, std::string* why) {
   const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
@@ -297,7 +298,8 @@ NavigationStep Navigation::StepWaypoint(const sim::UnicycleState& state, double 
   if (!goal_) return {};
   const Eigen::Vector2d p_W(state.x_m, state.y_m);
   const double to_goal = (goal_->p_W - p_W).norm();
-  if (to_goal <= goal_->tolerance_m) {
+  // Arrived: within the tolerance and (nearly) at rest, so the robot stops where it reports arriving.
+  if (to_goal <= goal_->tolerance_m && std::abs(state.v_mps) <= kArrivalSpeedMps) {
     NavigationStep step;
     step.arrived = true;
     ClearGoal();
@@ -377,6 +379,7 @@ NavigationStep Navigation::StepJoystick(const sim::UnicycleState& state, double 
   nav::LocalPlanRequest request;
   request.mode = nav::LocalPlanMode::kJoystick;
   request.goal_B = Eigen::Vector2d(std::cos(direction), std::sin(direction));
+  request.max_required_free_length_m = options_.required_free_length_m;
   RunLocalPlanner(state, request, now_s, std::nullopt);
   return Control(state, speed, now_s);
 }

@@ -1,21 +1,23 @@
 #include "cairn/agent/robot_agent.h"
 
+#include <algorithm>
 #include <cmath>
 #include <deque>
 #include <map>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include <spdlog/spdlog.h>
 
 #include "cairn/agent/control_lock.h"
 #include "cairn/agent/mode_manager.h"
+#include "cairn/agent/navigation.h"
 #include "cairn/agent/twist_mux.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/shutdown.h"
 #include "cairn/msgs/stamp.h"
-#include "cairn/nav/astar.h"
-#include "cairn/nav/path_tracker.h"
+#include "cairn/nav/global_planner.h"
 #include "cairn/nav/sampling.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/sim/builtin_worlds.h"
@@ -54,14 +56,17 @@ class RobotAgent::Impl {
   void Run();
 
  private:
-  // Waypoint goal being driven.
+  // Waypoint goal being driven (navigation_ holds its path and progress).
   struct Goal {
     uint32_t request_id = 0;
-    double x_m = 0, y_m = 0, tolerance_m = 0;
-    double best_distance_m = 0;
-    SteadyTime best_time{};
+    double x_m = 0, y_m = 0;
     SteadyTime contact_since{};
     bool in_contact = false;
+  };
+  // Latest operator twist for smart joystick mode.
+  struct Joystick {
+    double vx_mps = 0, vy_mps = 0, wz_radps = 0;
+    SteadyTime stamp{};
   };
 
   // DDS callbacks (listener threads); each takes mutex_.
@@ -69,6 +74,7 @@ class RobotAgent::Impl {
   void OnModeRequest(const msgs::ModeRequest& msg);
   void OnWaypointGoal(const msgs::WaypointGoal& msg);
   void OnTeleop(const msgs::TeleopTwist& msg);
+  void OnPathRequest(const msgs::PathRequest& msg);
   void OnAgentInfo(const msgs::AgentInfo& msg, const eprosima::fastdds::dds::SampleInfo& info);
   void OnAgentLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status);
 
@@ -82,16 +88,25 @@ class RobotAgent::Impl {
   void Step(SteadyTime now);
   void PublishState(SteadyTime now);
   void PublishTreeStateIfChanged();
+  void PublishGlobalPathIfChanged();
+  void PublishLocalPlan();
+  double NowS(SteadyTime t) const { return core::SecondsBetween(start_time_, t); }
 
   AgentOptions options_;
-  sim::World world_;
-  std::unique_ptr<nav::TraversabilityGrid> grid_;
+  SteadyTime start_time_ = SteadyClock::now();
+  std::shared_ptr<nav::GlobalPlanner> planner_;  // thread-safe; also serves path requests
+  std::shared_ptr<const nav::TraversabilityGrid> grid_;
   sim::Unicycle platform_;
   ControlLock lock_;
   TwistMux mux_;
   ModeManager modes_;
-  nav::PathTracker tracker_;
+  Navigation navigation_;
   std::optional<Goal> goal_;
+  Joystick joystick_;
+  std::map<std::string, bool> base_has_joystick_;  // by basestation id, from its agent info
+  std::vector<Eigen::Vector3f> obstacles_B_;
+  double last_sense_s_ = -1e9;
+  std::uint64_t published_path_revision_ = ~0ull;
   msgs::NavStatus nav_status_ = msgs::NAV_STATUS_NONE;
   std::string nav_reason_;
   uint32_t nav_goal_id_ = 0;
@@ -108,6 +123,10 @@ class RobotAgent::Impl {
   std::unique_ptr<core::Writer<msgs::RobotStatePubSubType>> state_writer_;
   std::unique_ptr<core::Writer<msgs::BehaviorTreeStatePubSubType>> tree_writer_;
   std::unique_ptr<core::Writer<msgs::CommandResponsePubSubType>> response_writer_;
+  std::unique_ptr<core::Writer<msgs::PathResponsePubSubType>> path_response_writer_;
+  std::unique_ptr<core::Writer<msgs::GlobalPathPubSubType>> global_path_writer_;
+  std::unique_ptr<core::Writer<msgs::LocalPlanPubSubType>> local_plan_writer_;
+  std::unique_ptr<core::Reader<msgs::PathRequestPubSubType>> path_request_reader_;
   std::unique_ptr<core::Reader<msgs::ControlRequestPubSubType>> control_reader_;
   std::unique_ptr<core::Reader<msgs::ModeRequestPubSubType>> mode_reader_;
   std::unique_ptr<core::Reader<msgs::WaypointGoalPubSubType>> goal_reader_;
@@ -117,21 +136,16 @@ class RobotAgent::Impl {
 
 namespace {
 
-nav::TraversabilityOptions TraversabilityFrom(const AgentOptions& o) {
-  nav::TraversabilityOptions t;
-  t.robot_radius_m = o.robot_radius_m;
-  t.robot_height_m = o.robot_height_m;
-  t.max_step_m = o.max_step_m;
-  return t;
-}
-
-nav::PathTrackerOptions TrackerFrom(const AgentOptions& o) {
-  nav::PathTrackerOptions t;
-  t.cruise_speed_mps = o.cruise_speed_mps;
-  t.goal_tolerance_m = o.goal_tolerance_m;
-  t.lookahead_m = o.lookahead_m;
-  t.max_yaw_rate_radps = std::min(t.max_yaw_rate_radps, o.limits.max_yaw_rate_radps);
-  return t;
+std::shared_ptr<nav::GlobalPlanner> MakePlanner(const AgentOptions& options) {
+  sim::WorldLoadOptions w;
+  w.pcd_resolution_m = options.pcd_resolution_m;
+  auto world = std::make_shared<const sim::World>(sim::LoadWorld(options.world, w));
+  // Serves its own (possibly re-configured) platform and the other built-in ones, for peers that ask.
+  std::vector<nav::PlatformProfile> profiles = {options.navigation.platform};
+  for (const auto& name : nav::PlatformNames()) {
+    if (name != options.navigation.platform.name) profiles.push_back(nav::GetPlatformProfile(name));
+  }
+  return std::make_shared<nav::GlobalPlanner>(world, profiles);
 }
 
 std::string DefaultTreeFile() { return std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml"; }
@@ -140,23 +154,23 @@ std::string DefaultTreeFile() { return std::string(CAIRN_CONFIG_DIR) + "/mode_tr
 
 RobotAgent::Impl::Impl(const AgentOptions& options)
     : options_(options),
-      world_(sim::LoadWorld(options.world, [&] {
-        sim::WorldLoadOptions w;
-        w.pcd_resolution_m = options.pcd_resolution_m;
-        return w;
-      }())),
-      platform_(options.limits, options.footprint_radius_m),
+      planner_(MakePlanner(options)),
+      grid_(planner_->Grid(options.navigation.platform.name)),
+      platform_(options.navigation.platform.limits, options.navigation.platform.footprint_radius_m),
       lock_(options.robot_id, options.lock),
-      mux_({{"teleop", options.teleop_timeout_s}, {"waypoint", options.waypoint_timeout_s}}),
+      mux_({{"teleop", options.teleop_timeout_s},
+            {"smart_joystick", options.waypoint_timeout_s},
+            {"waypoint", options.waypoint_timeout_s}}),
       modes_(options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file),
-      tracker_(TrackerFrom(options)) {
-  grid_ = std::make_unique<nav::TraversabilityGrid>(world_, TraversabilityFrom(options));
+      navigation_(options.navigation, planner_,
+                  std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform())) {
+  const double footprint_m = options.navigation.platform.footprint_radius_m;
 
   // Start pose: given, or chosen deterministically from the robot id among free cells.
   sim::PlanarPose start;
   if (options.start_W) {
     start = *options.start_W;
-    if (!grid_->IsFootprintFree(start.x_m, start.y_m, options.footprint_radius_m) ||
+    if (!grid_->IsFootprintFree(start.x_m, start.y_m, footprint_m) ||
         !grid_->GroundHeight(start.x_m, start.y_m)) {
       throw std::invalid_argument("--start " + Format("%.2f,%.2f", start.x_m, start.y_m) +
                                   " is not free ground in world " + options.world +
@@ -202,6 +216,15 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
       *participant_, "cairn/bt_state", "cairn.latched");
   response_writer_ = std::make_unique<core::Writer<msgs::CommandResponsePubSubType>>(
       *participant_, "cairn/command_response", "cairn.command");
+  path_response_writer_ = std::make_unique<core::Writer<msgs::PathResponsePubSubType>>(
+      *participant_, "cairn/path_response", "cairn.command");
+  global_path_writer_ = std::make_unique<core::Writer<msgs::GlobalPathPubSubType>>(
+      *participant_, "cairn/global_path", "cairn.latched");
+  local_plan_writer_ = std::make_unique<core::Writer<msgs::LocalPlanPubSubType>>(*participant_, "cairn/local_plan",
+                                                                                 "cairn.state");
+  path_request_reader_ = std::make_unique<core::Reader<msgs::PathRequestPubSubType>>(
+      *participant_, "cairn/path_request", "cairn.command",
+      [this](const msgs::PathRequest& m, const auto&) { OnPathRequest(m); });
   info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
       *participant_, "cairn/agent_info", "cairn.latched",
       [this](const msgs::AgentInfo& m, const auto& info) { OnAgentInfo(m, info); },
@@ -227,12 +250,14 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
   info.world(options.world);
   info.stamp(cairn::msgs::WallStampNow());
   info_writer_->Write(info);
+  PublishGlobalPathIfChanged();  // an empty path: late joiners see "no goal"
   spdlog::info("robot {} ({}) ready in {} at ({:.2f}, {:.2f}, yaw {:.2f}) on DDS domain {}", options.robot_id,
                options.platform, options.world, state.x_m, state.y_m, state.yaw_rad, options.domain_id);
 }
 
 RobotAgent::Impl::~Impl() {
   // Readers first so that no callback runs while the rest is torn down.
+  path_request_reader_.reset();
   control_reader_.reset();
   mode_reader_.reset();
   goal_reader_.reset();
@@ -246,6 +271,9 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   c.holder_alive = lock_.holder_alive();
   c.localized = true;  // the simulated platform knows its pose; SLAM health comes with perception
   c.has_waypoint_goal = goal_.has_value();
+  const auto joystick = base_has_joystick_.find(c.holder_id);
+  c.joystick_alive = c.holder_alive && joystick != base_has_joystick_.end() && joystick->second;
+  c.local_planner_healthy = navigation_.LocalPlannerHealthy(NowS(SteadyClock::now()), &c.local_planner_problem);
   return c;
 }
 
@@ -260,6 +288,7 @@ void RobotAgent::Impl::FinishGoal(msgs::NavStatus status, const std::string& rea
   nav_status_ = status;
   nav_reason_ = reason;
   goal_.reset();
+  navigation_.ClearGoal();
   if (status == msgs::NAV_STATUS_FAILED) spdlog::warn("robot {}: waypoint {} failed: {}", options_.robot_id,
                                                        nav_goal_id_, reason);
 }
@@ -356,42 +385,43 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg) {
   if (!std::isfinite(msg.tolerance_m()) || msg.tolerance_m() < 0 || msg.tolerance_m() > 5) {
     return deny("goal tolerance_m = " + std::to_string(msg.tolerance_m()) + " must be in [0, 5]");
   }
-  const auto& s = platform_.state();
-  nav::AStarOptions astar;
-  astar.start_footprint_radius_m = options_.footprint_radius_m;
-  const nav::PlanResult plan =
-      nav::PlanPath(*grid_, Eigen::Vector2d(s.x_m, s.y_m), Eigen::Vector2d(msg.x_m(), msg.y_m()), astar);
-  if (plan.status != nav::PlanResult::Status::kSuccess) return deny("no path: " + plan.message);
-
-  const std::optional<Goal> previous = goal_;
+  const ModeConditions with_goal = [&] {
+    ModeConditions c = Conditions();
+    c.has_waypoint_goal = true;
+    return c;
+  }();
+  // Refuse before planning when the mode could not be entered anyway (e.g. no fresh obstacle input).
+  if (const auto valid = modes_.ValidModes(with_goal);
+      std::find(valid.begin(), valid.end(), "waypoint") == valid.end()) {
+    const ModeDecision probe = modes_.Request("waypoint", with_goal);  // refused: nothing switches
+    return deny(probe.reason);
+  }
+  const nav::GlobalPlan plan = navigation_.SetGoal(platform_.state(), msg.x_m(), msg.y_m(), msg.tolerance_m(),
+                                                   NowS(SteadyClock::now()));
+  if (!plan.IsUsable()) return deny("no path: " + plan.reason);
   Goal goal;
   goal.request_id = msg.request_id();
   goal.x_m = msg.x_m();
   goal.y_m = msg.y_m();
-  goal.tolerance_m = msg.tolerance_m() > 0 ? msg.tolerance_m() : options_.goal_tolerance_m;
-  goal.best_distance_m = plan.length_m;
-  goal.best_time = SteadyClock::now();
   goal_ = goal;
   const ModeDecision d = modes_.Request("waypoint", Conditions());
   if (!d.accepted) {
-    goal_ = previous;
+    goal_.reset();
+    navigation_.ClearGoal();
     return deny(d.reason);
   }
   ApplyMode(d);  // a previous goal is simply superseded by this one
-  auto tracker_options = TrackerFrom(options_);
-  tracker_options.goal_tolerance_m = goal.tolerance_m;
-  tracker_ = nav::PathTracker(tracker_options);
-  tracker_.SetPath(plan.path_W);
   nav_status_ = msgs::NAV_STATUS_ACTIVE;
   nav_reason_.clear();
   nav_goal_id_ = msg.request_id();
   nav_goal_x_m_ = msg.x_m();
   nav_goal_y_m_ = msg.y_m();
-  nav_distance_left_m_ = plan.length_m;
+  nav_distance_left_m_ = plan.result.length_m;
   spdlog::info("robot {}: waypoint {} to ({:.2f}, {:.2f}) accepted, path {:.1f} m", options_.robot_id,
-               msg.request_id(), msg.x_m(), msg.y_m(), plan.length_m);
+               msg.request_id(), msg.x_m(), msg.y_m(), plan.result.length_m);
+  PublishGlobalPathIfChanged();  // before the acknowledgement, so `path R` right after `goto` shows it
   Respond(msg.base_id(), msg.request_id(), kind, msgs::COMMAND_RESULT_ACCEPTED,
-          Format("path %.1f m, %.0f waypoints", plan.length_m, static_cast<double>(plan.path_W.size())));
+          Format("path %.1f m, ETA %.0f s", plan.result.length_m, navigation_.eta_s()));
 }
 
 void RobotAgent::Impl::OnTeleop(const msgs::TeleopTwist& msg) {
@@ -401,18 +431,65 @@ void RobotAgent::Impl::OnTeleop(const msgs::TeleopTwist& msg) {
     lock_.CountDiscarded();
     return;
   }
-  if (modes_.mode() != "manual") return;  // teleop drives only in manual mode
   const Twist2 twist{msg.twist().linear_x_mps(), msg.twist().angular_z_radps()};
-  if (!mux_.Submit("teleop", twist, SteadyClock::now())) {
-    spdlog::warn("robot {}: teleop twist ({}, {}) from {} dropped: not finite", options_.robot_id,
-                 twist.linear_x_mps, twist.angular_z_radps, msg.base_id());
+  if (!std::isfinite(msg.twist().linear_x_mps()) || !std::isfinite(msg.twist().linear_y_mps()) ||
+      !std::isfinite(msg.twist().angular_z_radps())) {
+    spdlog::warn("robot {}: teleop twist ({}, {}, {}) from {} dropped: not finite", options_.robot_id,
+                 msg.twist().linear_x_mps(), msg.twist().linear_y_mps(), msg.twist().angular_z_radps(), msg.base_id());
+    return;
   }
+  if (modes_.mode() == "smart_joystick") {
+    joystick_ = Joystick{msg.twist().linear_x_mps(), msg.twist().linear_y_mps(), msg.twist().angular_z_radps(),
+                         SteadyClock::now()};
+    return;
+  }
+  if (modes_.mode() != "manual") return;  // teleop drives only in manual and smart joystick modes
+  mux_.Submit("teleop", twist, SteadyClock::now());
+}
+
+void RobotAgent::Impl::OnPathRequest(const msgs::PathRequest& msg) {
+  if (msg.robot_id() != options_.robot_id) return;
+  // The planner is thread-safe: no agent lock, so a long plan never delays the control loop.
+  msgs::PathResponse r;
+  r.request_id(msg.request_id());
+  r.requester_id(msg.requester_id());
+  r.robot_id(options_.robot_id);
+  r.frame_id("map");
+  if (msg.frame_id() != "map") {
+    r.success(false);
+    r.status("kInvalidFrame");
+    r.reason("frame_id '" + msg.frame_id() + "' is not supported (use 'map')");
+  } else {
+    nav::GlobalPlanRequest request;
+    request.start_W = {msg.start_M().x_m(), msg.start_M().y_m()};
+    request.goal_W = {msg.goal_M().x_m(), msg.goal_M().y_m()};
+    request.platform = msg.platform().empty() ? options_.navigation.platform.name : msg.platform();
+    const nav::GlobalPlan plan = planner_->Plan(request);
+    r.success(plan.IsUsable());
+    r.status(plan.platform_known ? nav::ToString(plan.result.status) : "kUnknownPlatform");
+    r.reason(plan.reason);
+    for (const auto& p : plan.result.path_W) {
+      msgs::Point q;
+      q.x_m(p.x());
+      q.y_m(p.y());
+      q.z_m(p.z());
+      r.path_M().push_back(q);
+    }
+    r.length_m(plan.result.length_m);
+    r.map_version(plan.map_version);
+    r.planning_time_s(plan.total_time_s);
+    spdlog::info("robot {}: path request {} from {} ({}): {}", options_.robot_id, msg.request_id(),
+                 msg.requester_id(), request.platform, plan.IsUsable() ? "path" : plan.reason);
+  }
+  path_response_writer_->Write(r);
 }
 
 void RobotAgent::Impl::OnAgentInfo(const msgs::AgentInfo& msg, const eprosima::fastdds::dds::SampleInfo& info) {
   if (msg.kind() != msgs::AGENT_KIND_BASESTATION) return;
   std::lock_guard<std::mutex> guard(mutex_);
   base_by_writer_[info.publication_handle] = msg.agent_id();
+  base_has_joystick_[msg.agent_id()] = std::find(msg.capabilities().begin(), msg.capabilities().end(), "joystick") !=
+                                       msg.capabilities().end();
   lock_.OnLivelinessRegained(msg.agent_id());
 }
 
@@ -443,28 +520,38 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     ApplyMode(recheck);
   }
 
+  const double now_s = NowS(now);
   const auto& s = platform_.state();
+  // Stand-in obstacle sensor at the local planner's rate: lethal cells of the map near the robot (frame B).
+  if (now_s - last_sense_s_ >= options_.navigation.local_planner_period_s - 1e-6) {
+    last_sense_s_ = now_s;
+    nav::LethalCellsNear(*grid_, s.x_m, s.y_m, s.yaw_rad, options_.navigation.sensor_range_m, &obstacles_B_);
+    navigation_.SetObstacles(obstacles_B_, s, now_s);
+  }
   if (goal_ && modes_.mode() == "waypoint") {
-    const nav::TrackerCommand cmd = tracker_.Compute(s.x_m, s.y_m, s.yaw_rad);
-    nav_distance_left_m_ = cmd.distance_left_m;
-    if (cmd.arrived) {
+    const NavigationStep step = navigation_.StepWaypoint(s, now_s);
+    nav_distance_left_m_ = navigation_.distance_left_m();
+    if (step.arrived) {
       spdlog::info("robot {}: waypoint {} arrived ({:.2f} m from the goal)", options_.robot_id, goal_->request_id,
                    std::hypot(s.x_m - goal_->x_m, s.y_m - goal_->y_m));
+      nav_distance_left_m_ = 0.0;
       FinishGoal(msgs::NAV_STATUS_ARRIVED, "");
       ApplyMode(modes_.Request("idle", Conditions()));
+    } else if (step.failed) {
+      FinishGoal(msgs::NAV_STATUS_FAILED, step.reason);
+      ApplyMode(modes_.Request("idle", Conditions()));
     } else {
-      mux_.Submit("waypoint", Twist2{cmd.vx_mps, cmd.wz_radps}, now);
-      if (cmd.distance_left_m < goal_->best_distance_m - 0.05) {
-        goal_->best_distance_m = cmd.distance_left_m;
-        goal_->best_time = now;
-      } else if (core::SecondsBetween(goal_->best_time, now) > options_.blocked_timeout_s) {
-        FinishGoal(msgs::NAV_STATUS_FAILED,
-                   Format("blocked: no progress for %.0f s (%.1f m left)", options_.blocked_timeout_s,
-                          cmd.distance_left_m));
-        ApplyMode(modes_.Request("idle", Conditions()));
-      }
+      mux_.Submit("waypoint", Twist2{step.linear_x_mps, step.angular_z_radps}, now);
     }
+  } else if (modes_.mode() == "smart_joystick") {
+    // A silent joystick is a zero stick: the robot brakes (the mux would zero it after its timeout anyway).
+    const bool fresh = core::SecondsBetween(joystick_.stamp, now) <= options_.teleop_timeout_s;
+    const NavigationStep step = navigation_.StepJoystick(s, fresh ? joystick_.vx_mps : 0.0,
+                                                         fresh ? joystick_.vy_mps : 0.0,
+                                                         fresh ? joystick_.wz_radps : 0.0, now_s);
+    mux_.Submit("smart_joystick", Twist2{step.linear_x_mps, step.angular_z_radps}, now);
   }
+  PublishGlobalPathIfChanged();
 
   last_mux_ = mux_.Compute(now);
   const sim::UnicycleStepResult step =
@@ -514,6 +601,9 @@ void RobotAgent::Impl::PublishState(SteadyTime) {
   m.nav_goal_M().x_m(nav_goal_x_m_);
   m.nav_goal_M().y_m(nav_goal_y_m_);
   m.nav_distance_left_m(nav_distance_left_m_);
+  m.nav_eta_s(navigation_.eta_s());
+  m.nav_replans(static_cast<uint32_t>(navigation_.replans()));
+  m.local_planner_status(navigation_.local_status());
   m.in_contact(in_contact_);
   state_writer_->Write(m);
 }
@@ -545,9 +635,76 @@ void RobotAgent::Impl::PublishTreeStateIfChanged() {
   tree_writer_->Write(t);
 }
 
+namespace {
+
+msgs::Point PointOf(double x, double y, double z) {
+  msgs::Point p;
+  p.x_m(x);
+  p.y_m(y);
+  p.z_m(z);
+  return p;
+}
+
+}  // namespace
+
+void RobotAgent::Impl::PublishGlobalPathIfChanged() {
+  if (navigation_.path_revision() == published_path_revision_) return;
+  published_path_revision_ = navigation_.path_revision();
+  const nav::GlobalPlan& plan = navigation_.global_plan();
+  msgs::GlobalPath m;
+  m.robot_id(options_.robot_id);
+  m.stamp(cairn::msgs::WallStampNow());
+  m.goal_id(goal_ ? goal_->request_id : 0);
+  m.platform(options_.navigation.platform.name);
+  m.frame_id("map");
+  if (goal_) {
+    for (const auto& p : plan.result.path_W) m.path_M().push_back(PointOf(p.x(), p.y(), p.z()));
+    m.length_m(plan.result.length_m);
+  }
+  m.map_version(plan.map_version);
+  m.replans(static_cast<uint32_t>(navigation_.replans()));
+  global_path_writer_->Write(m);
+}
+
+void RobotAgent::Impl::PublishLocalPlan() {
+  const std::string& mode = modes_.mode();
+  if (mode != "waypoint" && mode != "smart_joystick") return;
+  const nav::LocalPlanResult& r = navigation_.local_result();
+  const sim::UnicycleState& pose = navigation_.local_pose();
+  msgs::LocalPlan m;
+  m.robot_id(options_.robot_id);
+  m.stamp(cairn::msgs::WallStampNow());
+  m.mode(mode);
+  m.status(r.status == nav::LocalPlanResult::Status::kPathFound  ? "path"
+           : r.status == nav::LocalPlanResult::Status::kBoxedIn ? "boxed in"
+                                                                  : "invalid input");
+  m.reason(navigation_.local_status());
+  m.free_paths(static_cast<uint32_t>(r.num_free_paths));
+  m.total_paths(static_cast<uint32_t>(navigation_.library().num_paths()));
+  m.pose_MB().position(PointOf(pose.x_m, pose.y_m, pose.z_m));
+  m.pose_MB().orientation().z(std::sin(pose.yaw_rad / 2));
+  m.pose_MB().orientation().w(std::cos(pose.yaw_rad / 2));
+  for (const auto& p : r.path_B) m.chosen_path_B().push_back(PointOf(p.x(), p.y(), 0.0));
+  // End points of free paths, thinned to one per 0.5 m cell, to keep the message small (~1 kB).
+  std::set<std::pair<int, int>> cells;
+  for (int id = 0; id < navigation_.library().num_paths(); ++id) {
+    if (!r.IsFree(id)) continue;
+    const Eigen::Vector2f end = navigation_.library().info(id).end_B;
+    if (cells.emplace(static_cast<int>(std::floor(end.x() / 0.5f)), static_cast<int>(std::floor(end.y() / 0.5f)))
+            .second) {
+      m.free_path_ends_B().push_back(PointOf(end.x(), end.y(), 0.0));
+    }
+  }
+  m.obstacle_points(static_cast<uint32_t>(r.num_points_used));
+  m.cycle_time_ms(r.planning_time_s * 1000.0);
+  local_plan_writer_->Write(m);
+}
+
 void RobotAgent::Impl::Run() {
   const auto period = std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(kLoopPeriodS));
   const int state_every = std::max(1, static_cast<int>(std::lround(1.0 / (options_.state_rate_hz * kLoopPeriodS))));
+  const int local_plan_every =
+      std::max(1, static_cast<int>(std::lround(1.0 / (options_.local_plan_rate_hz * kLoopPeriodS))));
   SteadyTime next = SteadyClock::now();
   for (uint64_t cycle = 0; !core::ShutdownRequested(); ++cycle) {
     {
@@ -555,6 +712,7 @@ void RobotAgent::Impl::Run() {
       const SteadyTime now = SteadyClock::now();
       Step(now);
       if (cycle % state_every == 0) PublishState(now);
+      if (cycle % local_plan_every == 0) PublishLocalPlan();
       PublishTreeStateIfChanged();
     }
     next += period;

@@ -14,6 +14,7 @@ ModeConditions Held() {
   c.holder_id = "opA";
   c.holder_alive = true;
   c.localized = true;
+  c.local_planner_healthy = true;
   return c;
 }
 
@@ -21,7 +22,7 @@ TEST(ModeManager, ShippedTreeLoadsWithItsModes) {
   ModeManager modes(kTree);
   EXPECT_EQ(modes.mode(), "idle");
   EXPECT_EQ(modes.channel(), "none");
-  EXPECT_EQ(modes.known_modes(), (std::vector<std::string>{"idle", "manual", "waypoint"}));
+  EXPECT_EQ(modes.known_modes(), (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint"}));
 }
 
 TEST(ModeManager, AcceptsManualWhenConditionsHoldAndSelectsTeleop) {
@@ -48,7 +49,7 @@ TEST(ModeManager, RefusalNamesTheFailedConditionAndKeepsTheMode) {
 
   d = modes.Request("warp", Held());
   EXPECT_FALSE(d.accepted);
-  EXPECT_EQ(d.reason, "unknown mode 'warp' (valid: idle, manual, waypoint)");
+  EXPECT_EQ(d.reason, "unknown mode 'warp' (valid: idle, manual, smart_joystick, waypoint)");
 }
 
 TEST(ModeManager, RecheckFallsBackToIdleWhenHolderIsLost) {
@@ -70,7 +71,33 @@ TEST(ModeManager, ValidModesAreTheOperatorsValidActions) {
   ModeConditions with_goal = Held();
   with_goal.has_waypoint_goal = true;
   EXPECT_EQ(modes.ValidModes(with_goal), (std::vector<std::string>{"idle", "manual", "waypoint"}));
+  with_goal.joystick_alive = true;
+  EXPECT_EQ(modes.ValidModes(with_goal),
+            (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint"}));
   EXPECT_EQ(modes.mode(), "idle") << "ValidModes must not switch";
+}
+
+TEST(ModeManager, SmartJoystickNeedsAJoystickAndAHealthyLocalPlanner) {
+  ModeManager modes(kTree);
+  ModeConditions c = Held();
+  ModeDecision d = modes.Request("smart_joystick", c);
+  EXPECT_FALSE(d.accepted);
+  EXPECT_EQ(d.reason, "IsJoystickAlive: the control holder has no live joystick");
+  c.joystick_alive = true;
+  c.local_planner_healthy = false;
+  c.local_planner_problem = "obstacle input is 0.80 s old (limit 0.50 s)";
+  d = modes.Request("smart_joystick", c);
+  EXPECT_FALSE(d.accepted);
+  EXPECT_EQ(d.reason, "IsLocalPlannerHealthy: obstacle input is 0.80 s old (limit 0.50 s)");
+  c.local_planner_healthy = true;
+  d = modes.Request("smart_joystick", c);
+  EXPECT_TRUE(d.accepted) << d.reason;
+  EXPECT_EQ(modes.channel(), "smart_joystick");
+  // The local planner going stale drops the robot to idle (zero twist).
+  c.local_planner_healthy = false;
+  d = modes.Recheck(c);
+  EXPECT_FALSE(d.accepted);
+  EXPECT_EQ(modes.mode(), "idle");
 }
 
 TEST(ModeManager, RejectsTreesWithoutIdleOrBroken) {

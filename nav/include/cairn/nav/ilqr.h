@@ -1,13 +1,13 @@
 // Copyright Cairn authors.
 //
-// Iterative LQR (iLQR) trajectory tracking for a unicycle platform whose forward speed and yaw rate are states
-// driven by accelerations. Method: iLQR (Li & Todorov, "Iterative Linear Quadratic Regulator Design for
-// Nonlinear Biological Movement Systems", ICINCO 2004), a Gauss-Newton member of the differential dynamic
+// Iterative LQR (iLQR) trajectory tracking for a unicycle platform whose forward speed and yaw rate are
+// states driven by accelerations. Method: iLQR (Li & Todorov, "Iterative Linear Quadratic Regulator Design
+// for Nonlinear Biological Movement Systems", ICINCO 2004), a Gauss-Newton member of the differential dynamic
 // programming family (Mayne, "Differential Dynamic Programming - A Unified Approach to the Optimization of
 // Dynamic Systems", 1973), with the regularization schedule, backtracking line search and clamped control
-// limits of Tassa, Erez & Todorov, "Synthesis and Stabilization of Complex Behaviors through Online Trajectory
-// Optimization", IROS 2012 (box-constrained backward pass as in Tassa, Mansard & Todorov, "Control-Limited
-// Differential Dynamic Programming", ICRA 2014). Eigen only, no middleware.
+// limits of Tassa, Erez & Todorov, "Synthesis and Stabilization of Complex Behaviors through Online
+// Trajectory Optimization", IROS 2012 (box-constrained backward pass as in Tassa, Mansard & Todorov,
+// "Control-Limited Differential Dynamic Programming", ICRA 2014). Eigen only, no middleware.
 //
 // Model (step dt_s, velocities ramp linearly within a step, pose integrated at the mid-step heading):
 //   v_bar = v + a dt / 2,  w_bar = w + alpha dt / 2,  yaw_mid = yaw + w_bar dt / 2
@@ -96,8 +96,8 @@ struct IlqrOptions {
   double yaw_accel_weight = 0.05;
   /// Terminal cost: l(x_N, r_N) counted as this many seconds of running cost, seconds, range [0, 1000].
   double terminal_weight_s = 1.0;
-  /// The reference speed profile accelerates and brakes at this fraction of IlqrLimits::max_accel_mps2, leaving
-  /// the rest for corrections, unitless, range (0, 1].
+  /// The reference speed profile accelerates and brakes at this fraction of IlqrLimits::max_accel_mps2,
+  /// leaving the rest for corrections, unitless, range (0, 1].
   double reference_accel_fraction = 0.7;
 
   /// True when every field is finite and in range; otherwise false and, if `why` is not null, a message
@@ -116,21 +116,26 @@ struct IlqrReferencePoint {
 };
 
 /// Builds the reference of steps + 1 points (times 0, dt_s, ..., steps dt_s) along the polyline `path_F`
-/// ((x, y) points, metres, frame F; consecutive duplicates ignored). Progress starts at the projection of p0_F
-/// (metres, frame F) on the polyline (the nearest point; the earliest one on ties). The speed starts at v0_mps
-/// (m/s; negative taken as 0) and moves towards cruise_speed_mps (m/s) at most by accel_mps2 (m/s^2); with
-/// stop_at_end (the path ends at a goal) it also stays below sqrt(2 accel_mps2 d), d the path length left, so
-/// the reference brakes to rest at the last point; otherwise the path is taken to continue straight beyond its
-/// last point along the last segment. Heading = tangent of the segment holding the point (the segment ahead at
-/// a vertex). Throws std::invalid_argument if a value is not finite, the path has fewer than 2 distinct
-/// points, cruise_speed_mps < 0, accel_mps2 <= 0, steps < 1 or dt_s <= 0.
+/// ((x, y) points, metres, frame F; consecutive duplicates ignored). Progress starts at the projection of
+/// p0_F (metres, frame F) on the polyline (the nearest point; the earliest one on ties). The speed starts at
+/// v0_mps (m/s; negative taken as 0) and moves towards cruise_speed_mps (m/s) at most by accel_mps2 (m/s^2);
+/// with stop_at_end (the path ends at a goal) it also stays below sqrt(2 accel_mps2 d), d the path length
+/// left, so the reference brakes to rest at the last point; otherwise the path is taken to continue straight
+/// beyond its last point along the last segment. Heading = tangent of the segment holding the point (the
+/// segment ahead at a vertex). Throws std::invalid_argument if a value is not finite, the path has fewer than
+/// 2 distinct points, cruise_speed_mps < 0, accel_mps2 <= 0, steps < 1 or dt_s <= 0.
 std::vector<IlqrReferencePoint> BuildIlqrReference(const std::vector<Eigen::Vector2d>& path_F,
                                                    const Eigen::Vector2d& p0_F, double v0_mps,
-                                                   double cruise_speed_mps, bool stop_at_end, double accel_mps2,
-                                                   int steps, double dt_s);
+                                                   double cruise_speed_mps, bool stop_at_end,
+                                                   double accel_mps2, int steps, double dt_s);
 
 /// One step of the discrete model of the file comment (no limits applied), state and result in frame F.
 IlqrState IlqrModelStep(const IlqrState& x, const IlqrControl& u, double dt_s);
+
+/// Jacobians of IlqrModelStep(x, u, dt_s): A = d x' / d x (5x5), B = d x' / d u (5x2), the linearization the
+/// solver uses. A and B must not be null.
+void IlqrModelJacobians(const IlqrState& x, const IlqrControl& u, double dt_s, Eigen::Matrix<double, 5, 5>* A,
+                        Eigen::Matrix<double, 5, 2>* B);
 
 /// Result of IlqrController::Solve().
 struct IlqrSolution {
@@ -138,8 +143,8 @@ struct IlqrSolution {
   enum class Status {
     kConverged,      ///< The relative cost decrease fell below IlqrOptions::tolerance.
     kMaxIterations,  ///< The iteration limit was hit; the best trajectory found is returned (usable).
-    kStalled,        ///< No cost decrease even at the largest regularization; best trajectory returned (usable).
-    kNoPath,         ///< The path has fewer than 2 distinct points: a braking trajectory to rest is returned.
+    kStalled,        ///< No decrease found even at the largest regularization; best one kept (usable).
+    kNoPath,         ///< The path has fewer than 2 distinct points: a braking trajectory is returned.
     kInvalidInput,   ///< A NaN/inf or out-of-range argument; zero command, empty trajectory.
   };
   Status status = Status::kInvalidInput;
@@ -177,12 +182,13 @@ struct IlqrSolution {
 const char* ToString(IlqrSolution::Status status);
 
 /// Receding-horizon iLQR tracker of a polyline path, warm-started from its previous solution. Not
-/// thread-safe. Buffers are sized at construction; the iteration loop does not allocate.
+/// thread-safe. Buffers are sized at construction; the iteration loop does not allocate. Movable, not
+/// copyable; a moved-from controller may only be destroyed or assigned to.
 ///
-/// Frames: the controller is frame-agnostic. x0 and path_F must be expressed in the same planar frame F, which
-/// may change from one call to the next (e.g. the robot body frame B of the current cycle, or the world frame
-/// W). The warm start therefore reuses only the previous controls (accelerations, frame-independent), shifted
-/// by the elapsed time and re-rolled out from the new x0; previous states are never reused.
+/// Frames: the controller is frame-agnostic. x0 and path_F must be expressed in the same planar frame F,
+/// which may change from one call to the next (e.g. the robot body frame B of the current cycle, or the world
+/// frame W). The warm start therefore reuses only the previous controls (accelerations, frame-independent),
+/// shifted by the elapsed time and re-rolled out from the new x0; previous states are never reused.
 class IlqrController {
  public:
   /// `options` and `limits` must be valid; throws std::invalid_argument with the IsValid() message otherwise.
@@ -193,8 +199,8 @@ class IlqrController {
   IlqrController(const IlqrController&) = delete;
   IlqrController& operator=(const IlqrController&) = delete;
 
-  /// Optimizes the next horizon_steps controls from x0_F (frame F; v and w are clamped to the limits first, as
-  /// the platform cannot exceed them) to track `path_F` ((x, y) points, metres, frame F) at
+  /// Optimizes the next horizon_steps controls from x0_F (frame F; v and w are clamped to the limits first,
+  /// as the platform cannot exceed them) to track `path_F` ((x, y) points, metres, frame F) at
   /// cruise_speed_mps (m/s, >= 0; clamped to max_speed_mps), braking to rest at the last point if
   /// `stop_at_end`, else cruising on (see BuildIlqrReference()).
   ///
@@ -208,8 +214,8 @@ class IlqrController {
   /// elapsed_since_last_solve_s, a negative speed or elapsed time give kInvalidInput with a zero command, and
   /// drop the warm start. A path with fewer than 2 distinct points gives kNoPath and a trajectory braking to
   /// rest (holding the position as well as the limits allow) and drops the warm start.
-  IlqrSolution Solve(const IlqrState& x0_F, const std::vector<Eigen::Vector2d>& path_F, double cruise_speed_mps,
-                     bool stop_at_end, double elapsed_since_last_solve_s);
+  IlqrSolution Solve(const IlqrState& x0_F, const std::vector<Eigen::Vector2d>& path_F,
+                     double cruise_speed_mps, bool stop_at_end, double elapsed_since_last_solve_s);
 
   /// Forgets the previous solution: the next Solve() starts cold.
   void Reset();

@@ -49,8 +49,13 @@ struct TrajectoryLibraryOptions {
   /// Arc length between path samples, metres, range [0.005, 1]; rounded so that path_length_m is a whole
   /// number (1..250) of samples.
   double sample_spacing_m = 0.05;
-  /// Edge of the square voxels of the correspondence grid (x-y), metres, range [0.02, 1].
+  /// Edge of the square voxels (x-y) of the blocking grid, metres, range [0.02, 1]. Blocking is conservative
+  /// by up to a voxel diagonal (see TrajectoryLibrary): 0.1 m voxels may block at up to 0.14 m beyond
+  /// collision_radius_m + sample_spacing_m / 2; smaller voxels cost memory and time (~4x per halving).
   double voxel_size_m = 0.1;
+  /// Edge of the voxels of the coarser clearance grid (the clearance band only affects the score), metres,
+  /// range [0.02, 2].
+  double clearance_voxel_size_m = 0.2;
   /// Robot radius plus safety margin, metres, range [0, 5]: an obstacle point closer than this (in x-y) to a
   /// path blocks the path from there on.
   double collision_radius_m = 0.35;
@@ -64,34 +69,35 @@ struct TrajectoryLibraryOptions {
   double obstacle_max_z_m = 1.5;
 
   /// True when every field is in range (and the library stays within 65,535 path tree nodes, see
-  /// TrajectoryLibrary, and 1,000 x 1,000 voxels);
-  /// otherwise false and, if `why` is not null, a message naming the field, its value and the rule.
+  /// TrajectoryLibrary, and 1,000 x 1,000 voxels per grid); otherwise false and, if `why` is not null, a
+  /// message naming the field, its value and the rule.
   bool IsValid(std::string* why) const;
 };
 
 /// Description of one path of a TrajectoryLibrary.
 struct TrajectoryInfo {
-  int group = 0;               ///< First-arc choice, 0..num_groups-1 (0 = hardest right turn).
-  int heading_index = 0;       ///< Rotation k of the path set, angle k * 2 pi / num_headings.
-  float heading_rad = 0.0f;    ///< Start direction (tangent at the origin), radians, frame B, (-pi, pi].
+  int group = 0;                 ///< First-arc choice, 0..num_groups-1 (0 = hardest right turn).
+  int heading_index = 0;         ///< Rotation k of the path set, angle k * 2 pi / num_headings.
+  float heading_rad = 0.0f;      ///< Start direction (tangent at the origin), radians, frame B, (-pi, pi].
   float end_bearing_rad = 0.0f;  ///< Direction from the origin to the end point, radians, frame B.
   float end_heading_rad = 0.0f;  ///< Tangent direction at the end point, radians, frame B, (-pi, pi].
-  float length_m = 0.0f;       ///< Arc length, metres.
+  float total_turn_rad = 0.0f;   ///< Sum of the absolute heading changes of the three arcs, radians.
+  float length_m = 0.0f;         ///< Arc length, metres.
   Eigen::Vector2f end_B = Eigen::Vector2f::Zero();  ///< End point (x, y), metres, frame B.
 };
 
-/// One (voxel, path tree node) pair of the correspondence where the voxel blocks the node's arc.
+/// One (blocking voxel, path tree node) pair of the correspondence: the voxel blocks the node's arc.
 struct BlockingEntry {
-  std::uint16_t node = 0;          ///< Path tree node id (see TrajectoryLibrary).
-  std::uint8_t first_sample = 0;   ///< First sample of the node's arc the voxel blocks (0-based path sample).
+  std::uint16_t node = 0;         ///< Path tree node id (see TrajectoryLibrary).
+  std::uint8_t first_sample = 0;  ///< First sample of the node's arc the voxel blocks (0-based path sample).
   std::uint8_t unused = 0;
 };
 
-/// One (voxel, path tree node) pair where the voxel lies in the clearance band of the node's arc (and does
-/// not block it).
+/// One (clearance voxel, path tree node) pair of the correspondence: the voxel has a clearance below
+/// clearance_band_m to the node's arc.
 struct BandEntry {
-  std::uint16_t node = 0;             ///< Path tree node id.
-  std::uint8_t closest_sample = 0;    ///< Sample of the node's arc nearest to the voxel centre (first if tied).
+  std::uint16_t node = 0;           ///< Path tree node id.
+  std::uint8_t closest_sample = 0;  ///< Sample of the node's arc nearest to the voxel centre (first if tied).
   std::uint8_t clearance_bucket = 0;  ///< Clearance, see TrajectoryLibrary::BucketClearanceM().
 };
 
@@ -113,29 +119,33 @@ struct ConstSpan {
 /// samples_per_path(); the last one is the end point. The origin itself is not a sample: an obstacle already
 /// within collision_radius_m of the robot's position does not block paths that lead away from it.
 ///
-/// Blocking is conservative, so that it holds for every point and for the continuous path, not just for
-/// voxel centres and samples: a voxel blocks a path from sample i on if its centre is within
-/// voxel_blocking_radius_m() = collision_radius_m + sample_spacing_m() / 2 + voxel_size_m * sqrt(2) / 2 of
-/// sample i. So a point that does not block a path is farther than collision_radius_m + sample_spacing_m() / 2
-/// from each of its samples, hence farther than collision_radius_m from every point of the path after
-/// arc length sample_spacing_m() / 2.
+/// Blocking grid (voxel_size_m) and blocking entries: a voxel blocks a path from sample i on if its centre is
+/// within voxel_blocking_radius_m() = collision_radius_m + sample_spacing_m() / 2 + voxel_size_m * sqrt(2) /
+/// 2 of sample i. This is conservative, so it holds for every point and for the continuous path, not just for
+/// voxel centres and samples: a point that does not block a path is farther than collision_radius_m +
+/// sample_spacing_m() / 2 from each of its samples, hence farther than collision_radius_m from every point of
+/// the path after arc length sample_spacing_m() / 2. The price: a point may block at up to collision_radius_m
+/// + sample_spacing_m() / 2 + voxel_size_m * sqrt(2) (0.52 m with the defaults, 0.375 m at best).
 ///
-/// Clearance of a voxel to an arc: (distance from the voxel centre to the arc's nearest sample) - voxel_size_m
-/// * sqrt(2) / 2 - collision_radius_m, a lower bound of how far any point in the voxel stays outside the
-/// collision radius. A voxel that does not block an arc and has a clearance below clearance_band_m to it is a
-/// band entry of the arc, with the clearance quantised down to a bucket of clearance_band_m / 254.
+/// Clearance grid (clearance_voxel_size_m) and band entries: the clearance of a voxel to an arc is (distance
+/// from the voxel centre to the arc's nearest sample) - clearance_voxel_size_m * sqrt(2) / 2 -
+/// collision_radius_m, a lower bound of how far any point in the voxel stays outside the collision radius.
+/// Voxels with a clearance below clearance_band_m to an arc are its band entries, the clearance quantised
+/// down to a bucket of clearance_band_m / 254 (0 if negative). A coarser grid suffices since the clearance
+/// only feeds the score, and it keeps the band (the larger area) cheap.
 ///
 /// Path tree: the correspondence is stored per arc, not per path, as the paths of one heading share arcs:
 /// the paths of a group share their first arc (a level 0 node, samples [0, level_end_sample(0))), those that
 /// also share the second arc share a level 1 node (samples [level_end_sample(0), level_end_sample(1))), and
 /// each path owns its third arc (level 2 node, up to the end). A path's first blocked sample is the least of
 /// its three nodes'. This is exact (shared samples are bitwise equal) and stores a voxel near the robot once
-/// per group instead of once per path: with the defaults 14,364 nodes, ~2.5x fewer entries than per-path
-/// lists, and a voxel next to the robot costs 252 entries per cycle instead of 12,348.
+/// per group instead of once per path: with the defaults 14,364 nodes, and a voxel next to the robot costs
+/// 252 entries per cycle instead of 12,348.
 ///
-/// The grid is square, centred on the origin, with the origin on a voxel corner; it covers every voxel that
-/// blocks or is in the band of some path, so points outside it can be ignored. Costs with the defaults:
-/// 12,348 paths, 80 x 80 voxels, see build_time_s() and memory_bytes().
+/// Both grids are square, centred on the origin, with the origin on a voxel corner; each covers every voxel
+/// that has an entry, so points outside both can be ignored. Costs with the defaults (12,348 paths; see
+/// build_time_s() and memory_bytes()): ~0.4 s and 22 MB (2.2 M blocking + 1.8 M band entries of 4 bytes,
+/// 5.9 MB of samples) on a 2-core x86-64 VM; with voxel_size_m = 0.05, ~0.5 s and 42 MB.
 class TrajectoryLibrary {
  public:
   /// Builds the library. Throws std::invalid_argument with the IsValid() message if `options` is invalid.
@@ -157,7 +167,8 @@ class TrajectoryLibrary {
   const TrajectoryInfo& info(int path_id) const { return info_[static_cast<std::size_t>(path_id)]; }
   /// The samples_per_path() samples of path `path_id` ((x, y), metres, frame B), unchecked id.
   const Eigen::Vector2f* samples_B(int path_id) const {
-    return samples_B_.data() + static_cast<std::size_t>(path_id) * static_cast<std::size_t>(samples_per_path_);
+    return samples_B_.data() +
+           static_cast<std::size_t>(path_id) * static_cast<std::size_t>(samples_per_path_);
   }
 
   /// Number of path tree nodes (ids 0..num_nodes()-1: level 0 nodes, then level 1, then level 2 = one per
@@ -171,32 +182,43 @@ class TrajectoryLibrary {
   /// samples_per_path().
   int level_end_sample(int level) const { return level_end_sample_[level]; }
 
-  /// Distance from a sample within which a point blocks the path: collision_radius_m + sample_spacing_m() / 2,
-  /// metres.
+  /// collision_radius_m + sample_spacing_m() / 2, metres: a point this near a sample always blocks the path
+  /// (one farther than it from every sample keeps collision_radius_m from the path).
   double point_blocking_radius_m() const { return point_blocking_radius_m_; }
-  /// Distance from a sample within which a voxel centre blocks the path: point_blocking_radius_m() + half the
-  /// voxel diagonal, metres.
+  /// Distance from a sample within which a blocking voxel's centre blocks the path: point_blocking_radius_m()
+  /// + half the voxel diagonal, metres.
   double voxel_blocking_radius_m() const { return voxel_blocking_radius_m_; }
   /// Clearance (metres) that a band entry's clearance_bucket stands for: a lower bound, bucket *
   /// clearance_band_m / 254; bucket 255 stands for "nothing in the band" and returns clearance_band_m.
   double BucketClearanceM(std::uint8_t bucket) const;
 
-  /// Voxels per grid side.
-  int grid_size() const { return grid_size_; }
-  /// Number of voxels, grid_size()^2.
-  int num_voxels() const { return grid_size_ * grid_size_; }
-  /// Lower (x and y) edge of the grid, metres, frame B; the grid spans [grid_min_m(), -grid_min_m()).
-  double grid_min_m() const { return grid_min_m_; }
-  /// Index ix + grid_size() * iy of the voxel containing (x_m, y_m) (metres, frame B), or -1 if outside the
-  /// grid or not finite.
-  int VoxelIndex(float x_m, float y_m) const;
-  /// Centre (x, y) of voxel `index` (0 <= index < num_voxels(), unchecked), metres, frame B.
-  Eigen::Vector2d VoxelCenter(int index) const;
-  /// Path tree nodes whose arcs voxel `index` blocks, ascending node ids (unchecked index).
+  /// Voxels per side of the blocking grid.
+  int grid_size() const { return block_grid_.size; }
+  /// Number of blocking voxels, grid_size()^2.
+  int num_voxels() const { return block_grid_.size * block_grid_.size; }
+  /// Lower (x and y) edge of the blocking grid, metres, frame B; it spans [grid_min_m(), -grid_min_m()).
+  double grid_min_m() const { return block_grid_.min_m; }
+  /// Index ix + grid_size() * iy of the blocking voxel containing (x_m, y_m) (metres, frame B), or -1 if
+  /// outside the grid or not finite.
+  int VoxelIndex(float x_m, float y_m) const { return block_grid_.Index(x_m, y_m); }
+  /// Centre (x, y) of blocking voxel `index` (0 <= index < num_voxels(), unchecked), metres, frame B.
+  Eigen::Vector2d VoxelCenter(int index) const { return block_grid_.Center(index); }
+  /// Path tree nodes whose arcs blocking voxel `index` blocks, ascending node ids (unchecked index).
   ConstSpan<BlockingEntry> blocking_entries(int index) const;
-  /// Path tree nodes whose arcs have voxel `index` in their clearance band (and that it does not block),
-  /// ascending node ids.
+
+  /// Voxels per side of the clearance grid.
+  int clearance_grid_size() const { return band_grid_.size; }
+  /// Number of clearance voxels, clearance_grid_size()^2.
+  int num_clearance_voxels() const { return band_grid_.size * band_grid_.size; }
+  /// Lower (x and y) edge of the clearance grid, metres, frame B.
+  double clearance_grid_min_m() const { return band_grid_.min_m; }
+  /// Index of the clearance voxel containing (x_m, y_m) (metres, frame B), or -1 if outside or not finite.
+  int ClearanceVoxelIndex(float x_m, float y_m) const { return band_grid_.Index(x_m, y_m); }
+  /// Centre (x, y) of clearance voxel `index` (unchecked), metres, frame B.
+  Eigen::Vector2d ClearanceVoxelCenter(int index) const { return band_grid_.Center(index); }
+  /// Path tree nodes whose arcs have clearance voxel `index` in their band, ascending node ids (unchecked).
   ConstSpan<BandEntry> band_entries(int index) const;
+
   /// Total blocking entries.
   std::size_t num_blocking_entries() const { return blocking_.size(); }
   /// Total band entries.
@@ -208,6 +230,25 @@ class TrajectoryLibrary {
   double build_time_s() const { return build_time_s_; }
 
  private:
+  // A square grid centred on the origin.
+  struct Grid {
+    double voxel_m = 1.0;
+    double inv_voxel = 1.0;  // 1 / voxel_m
+    double min_m = 0.0;      // Lower edge (x and y).
+    int size = 0;            // Voxels per side.
+    int Index(float x_m, float y_m) const {
+      const double fx = (static_cast<double>(x_m) - min_m) * inv_voxel;
+      const double fy = (static_cast<double>(y_m) - min_m) * inv_voxel;
+      if (!(fx >= 0.0 && fy >= 0.0 && fx < size && fy < size)) return -1;  // Also NaN.
+      const int ix = static_cast<int>(fx) < size ? static_cast<int>(fx) : size - 1;
+      const int iy = static_cast<int>(fy) < size ? static_cast<int>(fy) : size - 1;
+      return ix + size * iy;
+    }
+    Eigen::Vector2d Center(int index) const {
+      return Eigen::Vector2d(min_m + (index % size + 0.5) * voxel_m, min_m + (index / size + 0.5) * voxel_m);
+    }
+  };
+
   TrajectoryLibraryOptions options_;
   int num_kept_headings_ = 0;
   int paths_per_heading_ = 0;
@@ -215,11 +256,9 @@ class TrajectoryLibrary {
   double spacing_m_ = 0.0;
   double point_blocking_radius_m_ = 0.0;
   double voxel_blocking_radius_m_ = 0.0;
-  int grid_size_ = 0;
-  double grid_min_m_ = 0.0;
-  double inv_voxel_size_ = 0.0;  // 1 / voxel_size_m
+  Grid block_grid_;
+  Grid band_grid_;
   int num_nodes_ = 0;
-  int level_first_node_[3] = {0, 0, 0};
   int level_end_sample_[3] = {0, 0, 0};
   std::vector<TrajectoryInfo> info_;
   std::vector<std::uint16_t> node_of_path_;  // 3 per path.
@@ -235,22 +274,33 @@ class TrajectoryLibrary {
 /// Options of LocalPlanner: the scoring of free paths.
 ///
 /// Score of a usable path p (higher is better), every term in [0, 1]:
-///   score = goal_direction_weight * (1 + cos(end_bearing_p - target_direction)) / 2
-///         + heading_change_weight * (1 + cos(heading_p)) / 2
+///   score = goal_direction_weight * (1 - |end_bearing_p - target_direction| / pi)
+///         + heading_change_weight * (1 - |heading_p| / pi)
+///         + turning_weight        * (1 - total_turn_p / (3 * max_segment_turn_rad))   (1 if that is 0)
 ///         + clearance_weight      * clearance_p / clearance_band_m   (1 when clearance_band_m is 0)
-///         + hysteresis_weight     * (1 + cos(end_bearing_p - end_bearing_previous)) / 2   (0 without one)
-/// where target_direction is the direction of LocalPlanRequest::goal_B, heading_p the path's start direction
-/// (the turn the robot needs from its current heading, +x of B), end_bearing the direction from the origin to
-/// the path's end, and clearance_p the least clearance (TrajectoryLibrary) of the occupied voxels whose closest
-/// approach to the path lies within its evaluated part (the first required_free_length_m). Ties go to the
-/// lowest path id.
+///         + hysteresis_weight     * (1 - |end_bearing_p - end_bearing_previous| / pi)   (0 without one)
+/// where angle differences are wrapped to [0, pi]; target_direction is the direction of
+/// LocalPlanRequest::goal_B; heading_p the path's start direction (the turn the robot needs from its current
+/// heading, +x of B); end_bearing the direction from the origin to the path's end; total_turn_p the sum of
+/// the absolute heading changes of its arcs (of two paths ending in the same direction the straighter one
+/// wins); and clearance_p the least clearance (TrajectoryLibrary) over the occupied clearance voxels and the
+/// path's three arcs for which the arc's sample nearest to the voxel lies within the required free length
+/// (obstacles beside the path beyond that do not count). Ties go to the lowest path id.
+///
+/// The angle terms are linear, and with the default weights the goal term dominates: a degree of goal
+/// alignment outweighs five degrees of initial turn, so the heading change and turning terms mostly break
+/// ties between paths ending in about the same direction. clearance_weight trades alignment for room: 0.15 is
+/// worth 27 deg of goal alignment when the clearance goes from 0 to the full band. The goal term follows
+/// FALCO's idea of scoring a path by its direction to the goal; the formula is ours.
 struct LocalPlannerOptions {
   /// Weight of the goal (or joystick) direction term, range [0, 100].
   double goal_direction_weight = 1.0;
   /// Weight of the heading change term (prefers paths that start straight ahead), range [0, 100].
   double heading_change_weight = 0.2;
+  /// Weight of the turning term (prefers paths that turn less), range [0, 100].
+  double turning_weight = 0.05;
   /// Weight of the clearance term (prefers paths away from obstacles), range [0, 100].
-  double clearance_weight = 0.2;
+  double clearance_weight = 0.15;
   /// Weight of the hysteresis term (prefers paths like the previous choice), range [0, 100].
   double hysteresis_weight = 0.1;
   /// Smallest free length a usable path needs, even when the goal is nearer (room to brake), metres, range
@@ -297,7 +347,8 @@ struct LocalPlanResult {
   enum class Status {
     kPathFound,     ///< path_id holds the best usable path.
     kBoxedIn,       ///< No usable path (or none within the joystick limit): stop; message says why.
-    kInvalidInput,  ///< The request is invalid (e.g. NaN goal); message says which field. Nothing else is set.
+    kInvalidInput,  ///< The request is invalid (e.g. NaN goal); message says which field. Nothing else is
+                    ///< set.
   };
   Status status = Status::kInvalidInput;
   /// Outcome naming the values, e.g. "boxed in: 0 of 12348 paths free for 3.00 m, nearest obstacle 0.21 m".
@@ -321,16 +372,18 @@ struct LocalPlanResult {
   int num_candidate_paths = 0;
   /// Bit i % 64 of word i / 64 is set when path i is free for the required length, for display.
   std::vector<std::uint64_t> free_mask;
-  /// Points used as obstacles (finite, in the z band, inside the grid).
+  /// Points used as obstacles (finite, in the z band, inside the blocking or the clearance grid).
   int num_points_used = 0;
-  /// Finite points in the z band but outside the grid (too far to matter).
+  /// Finite points in the z band but outside both grids (too far to matter).
   int num_points_outside_grid = 0;
   /// Finite points outside the z band.
   int num_points_outside_z_band = 0;
   /// Points with a NaN or infinite coordinate (skipped).
   int num_points_non_finite = 0;
-  /// Distinct occupied voxels.
+  /// Distinct occupied voxels of the blocking grid.
   int num_occupied_voxels = 0;
+  /// Distinct occupied voxels of the clearance grid.
+  int num_occupied_clearance_voxels = 0;
   /// Planar distance from the origin to the nearest finite point in the z band, metres; +inf if none.
   double nearest_obstacle_m = std::numeric_limits<double>::infinity();
   /// Wall-clock time of the cycle, seconds.
@@ -351,7 +404,8 @@ const char* ToString(LocalPlanResult::Status status);
 class LocalPlanner {
  public:
   /// Throws std::invalid_argument if `library` is null or `options` is invalid (IsValid() message).
-  explicit LocalPlanner(std::shared_ptr<const TrajectoryLibrary> library, const LocalPlannerOptions& options = {});
+  explicit LocalPlanner(std::shared_ptr<const TrajectoryLibrary> library,
+                        const LocalPlannerOptions& options = {});
 
   /// One cycle: obstacles_B (N points, metres, frame B, any N; NaN/inf points are counted and skipped) and
   /// the request give `*result` (buffers reused). Invalid requests give kInvalidInput, never exceptions.
@@ -373,26 +427,31 @@ class LocalPlanner {
  private:
   std::shared_ptr<const TrajectoryLibrary> library_;
   LocalPlannerOptions options_;
-  std::vector<std::uint32_t> voxel_stamp_;  // Cycle number that last occupied each voxel.
   std::uint32_t cycle_ = 0;
-  std::vector<int> occupied_;                // Occupied voxels of this cycle.
-  std::vector<std::uint8_t> first_blocked_;  // Per path: first blocked sample, samples_per_path() if none.
+  std::vector<std::uint32_t> voxel_stamp_;      // Per blocking voxel: the cycle that last occupied it.
+  std::vector<int> occupied_;                   // Occupied blocking voxels of this cycle.
+  std::vector<std::uint32_t> band_stamp_;       // Per clearance voxel: the cycle that last occupied it.
+  std::vector<int> occupied_band_;              // Occupied clearance voxels of this cycle.
+  std::vector<std::uint8_t> first_blocked_;     // Per path: first blocked sample, samples_per_path() if none.
   std::vector<std::uint8_t> clearance_bucket_;  // Per path: least counted clearance bucket, 255 if none.
   std::vector<std::uint8_t> node_first_blocked_;  // Per path tree node, as first_blocked_.
   std::vector<std::uint8_t> node_bucket_;         // Per path tree node, as clearance_bucket_.
-  std::vector<Eigen::Vector2f> heading_dir_;    // Per path: unit start direction, frame B.
-  std::vector<Eigen::Vector2f> end_dir_;        // Per path: unit end bearing, frame B.
+  std::vector<float> heading_rad_;                // Per path: TrajectoryInfo::heading_rad.
+  std::vector<float> end_bearing_rad_;            // Per path: TrajectoryInfo::end_bearing_rad.
+  std::vector<float> static_score_;  // Per path: the heading change and turning terms of the score.
 };
 
-/// Reference classification without the correspondence, for tests and benchmarks: for every path, every
-/// obstacle point (finite, z in the band; taken at the centre of its voxel, extended beyond the grid) and
-/// every sample, the same conservative distance test as LocalPlanner (voxel_blocking_radius_m()). Returns the
-/// free length of each path (metres: arc length before the first blocked sample, path length if none). If
-/// `clearance_m` is not null it receives each path's clearance as LocalPlanner::clearance_m() defines it for
-/// the required free length `required_free_length_m` (metres, clamped to [0, path length]).
-std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
-                                          const std::vector<Eigen::Vector3f>& obstacles_B,
-                                          double required_free_length_m = std::numeric_limits<double>::infinity(),
-                                          std::vector<double>* clearance_m = nullptr);
+/// Reference classification without the correspondence, for tests and benchmarks: for every path and each
+/// of its arcs, every obstacle point (finite, z in the band) near the arc's bounding box, and every sample of
+/// the arc, the same distance tests as the correspondence, applied to the point's voxel centres (the grids
+/// extended beyond their edges): the blocking voxel centre within voxel_blocking_radius_m() blocks; the
+/// clearance voxel centre gives a clearance (TrajectoryLibrary). Returns the free length of each path
+/// (metres: arc length before the first blocked sample, path length if none). If `clearance_m` is not null it
+/// receives each path's clearance as LocalPlanner::clearance_m() defines it for the required free length
+/// `required_free_length_m` (metres, clamped to [0, path length]).
+std::vector<double> BruteForceFreeLengths(
+    const TrajectoryLibrary& library, const std::vector<Eigen::Vector3f>& obstacles_B,
+    double required_free_length_m = std::numeric_limits<double>::infinity(),
+    std::vector<double>* clearance_m = nullptr);
 
 }  // namespace cairn::nav

@@ -5,6 +5,8 @@
 #include <string>
 
 #include "cairn/agent/control_lock.h"
+#include "cairn/agent/navigation.h"
+#include "cairn/nav/local_planner.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/unicycle.h"
 
@@ -19,7 +21,7 @@ struct AgentOptions {
   /// Start slot K (when no start_W): the K-th suggested start of a builtin world, or the K-th of a fixed
   /// seeded sample of free starts >= 2 m apart in other worlds. None = a free cell chosen from the robot id.
   std::optional<int> start_slot;
-  std::string platform = "wheeled";               ///< "wheeled" | "legged"
+  std::string platform = "wheeled";               ///< "wheeled" | "legged"; set with SetPlatform()
   int domain_id = 0;                              ///< DDS domain [0, 232]
   std::string dds_profiles_file;                  ///< "" = core::DefaultProfilesFile()
   std::string mode_tree_file;                     ///< "" = config/mode_tree.xml of the source tree
@@ -28,18 +30,26 @@ struct AgentOptions {
   // From the config file.
   ControlLockOptions lock;
   double teleop_timeout_s = 0.5;      ///< (0, 60]
-  double waypoint_timeout_s = 0.5;    ///< (0, 60]
-  double cruise_speed_mps = 0.6;      ///< (0, platform max speed]
-  double goal_tolerance_m = 0.2;      ///< (0, 5]
-  double lookahead_m = 0.6;           ///< (0, 5]
-  double blocked_timeout_s = 10.0;    ///< (0, 600]
+  double waypoint_timeout_s = 0.5;    ///< (0, 60]; also the smart_joystick channel's staleness
   double contact_timeout_s = 1.0;     ///< (0, 60]
-  double footprint_radius_m = 0.3;    ///< collision disk of the body, (0, 2]
-  double robot_radius_m = 0.3;        ///< planning inflation, [footprint_radius_m, 2]
-  double robot_height_m = 0.8;        ///< (0, 5]
-  double max_step_m = 0.15;           ///< [0, 1]
   double state_rate_hz = 10.0;        ///< (0, 100]
-  sim::UnicycleLimits limits;         ///< platform preset, then overridden by the config file
+  double local_plan_rate_hz = 2.0;    ///< local plan display messages, (0, 20]
+  /// Navigation: platform profile (set from `platform` by SetPlatform(), then overridden by the config
+  /// file's platform and traversability sections), local planner scoring, iLQR, mission timing.
+  NavigationOptions navigation;
+  /// Local planner library: collision radius = footprint + collision_margin_m; the heading range comes
+  /// from the platform profile.
+  nav::TrajectoryLibraryOptions library = DefaultLibraryOptions();
+  double collision_margin_m = 0.03;   ///< [0, 1], metres added to the footprint for the local planner
+
+  /// Library options used by default: 0.05 m correspondence voxels (the conservative voxel test then adds
+  /// only 0.035 m to the collision radius, so the robot still threads 0.8 m gaps).
+  static nav::TrajectoryLibraryOptions DefaultLibraryOptions();
+  /// Selects the built-in profile of `name` ("wheeled" | "legged") into `platform` and navigation.platform.
+  /// @throws std::invalid_argument naming the value and the valid names.
+  void SetPlatform(const std::string& name);
+  /// Library options for the current platform (heading range, collision radius filled in).
+  nav::TrajectoryLibraryOptions LibraryForPlatform() const;
 
   /// Reads a YAML config file over the current values. @throws core::ConfigError naming file, field, value.
   void LoadConfigFile(const std::string& path);

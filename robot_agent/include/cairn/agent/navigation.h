@@ -85,7 +85,9 @@ class Navigation {
   /// New obstacle points (frame B of `state`, metres) sensed at now_s.
   void SetObstacles(const std::vector<Eigen::Vector3f>& points_B, const sim::UnicycleState& state, double now_s);
 
-  /// One control step in waypoint mode (call at the control rate). Without a goal: a zero twist.
+  /// One control step in waypoint mode (call at the control rate). Without a goal: a zero twist. The goal
+  /// is reached when the robot is within its tolerance moving at most 0.1 m/s (the controller brakes to
+  /// rest at the goal).
   NavigationStep StepWaypoint(const sim::UnicycleState& state, double now_s);
   /// One control step in smart joystick mode: `joystick` is the operator's twist (frame B: forward,
   /// left m/s; yaw rate rad/s); zero means stop. The direction is atan2(vy, vx) bent by wz *
@@ -116,6 +118,8 @@ class Navigation {
   /// Last controller solution.
   const nav::IlqrSolution& controller_solution() const { return solution_; }
   const NavigationOptions& options() const { return options_; }
+  /// The local planner's trajectory library (path geometry for display).
+  const nav::TrajectoryLibrary& library() const { return local_planner_.library(); }
 
  private:
   struct Goal {
