@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <string>
 #include <memory>
 #include <random>
 #include <vector>
@@ -111,6 +112,7 @@ int main(int argc, char** argv) {
   int runs = 300;
   int brute_runs = 3;
   double range_m = 10.0;
+  cairn::nav::TrajectoryLibraryOptions library_options;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) {
       runs = std::max(1, std::atoi(argv[++i]));
@@ -118,13 +120,23 @@ int main(int argc, char** argv) {
       brute_runs = std::max(1, std::atoi(argv[++i]));
     } else if (!std::strcmp(argv[i], "--range") && i + 1 < argc) {
       range_m = std::atof(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--voxel") && i + 1 < argc) {
+      library_options.voxel_size_m = std::atof(argv[++i]);  // the agent ships 0.05 m (config/agent.yaml)
+    } else if (!std::strcmp(argv[i], "--collision-radius") && i + 1 < argc) {
+      library_options.collision_radius_m = std::atof(argv[++i]);  // the agent: footprint 0.3 + margin 0.03
     } else {
-      std::fprintf(stderr, "usage: %s [--runs N] [--brute-runs M] [--range R_m]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--runs N] [--brute-runs M] [--range R_m] [--voxel M] [--collision-radius M]\n",
+                   argv[0]);
       return 2;
     }
   }
 
-  auto library = std::make_shared<const TrajectoryLibrary>();
+  std::string why;
+  if (!library_options.IsValid(&why)) {
+    std::fprintf(stderr, "%s\n", why.c_str());
+    return 2;
+  }
+  auto library = std::make_shared<const TrajectoryLibrary>(library_options);
   std::printf(
       "library: %d paths (%d headings x %d), %d samples each, %d tree nodes, %d x %d voxels of %.2f m\n",
       library->num_paths(), library->num_kept_headings(), library->paths_per_heading(),
