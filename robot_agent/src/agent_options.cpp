@@ -132,6 +132,7 @@ bool AgentOptions::IsValid(std::string* why) const {
   if (!lock.IsValid(why)) return false;
   if (!navigation.IsValid(why)) return false;
   const auto& fp = navigation.platform;
+  if (!InRange("local_planner.collision_margin_m", collision_margin_m, 0, 1, false, why)) return false;
   std::string inner;
   if (!LibraryForPlatform().IsValid(&inner)) {
     *why = "local_planner: " + inner;
@@ -142,7 +143,6 @@ bool AgentOptions::IsValid(std::string* why) const {
          InRange("navigation.contact_timeout_s", contact_timeout_s, 0, 60, true, why) &&
          InRange("traversability.robot_radius_m", fp.traversability.robot_radius_m, fp.footprint_radius_m, 2, false,
                  why) &&
-         InRange("local_planner.collision_margin_m", collision_margin_m, 0, 1, false, why) &&
          InRange("telemetry.state_rate_hz", state_rate_hz, 0, 100, true, why) &&
          InRange("telemetry.local_plan_rate_hz", local_plan_rate_hz, 0, 20, true, why) &&
          InRange("--pcd-resolution", pcd_resolution_m, 0.02, 2, false, why);

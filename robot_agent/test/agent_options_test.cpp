@@ -46,6 +46,44 @@ TEST(AgentOptions, ConfigErrorsNameFileFieldAndValue) {
                core::ConfigError);
 }
 
+TEST(AgentOptions, NavigationConfigErrorsNameTheField) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"controller:\n  horizon_steps: 0\n", "horizon_steps = 0"},
+      {"controller:\n  dt_s: -0.1\n", "dt_s = -0.1"},
+      {"local_planner:\n  voxel_size_m: 5\n", "voxel_size_m = 5"},
+      {"local_planner:\n  collision_margin_m: -1\n", "local_planner.collision_margin_m = -1"},
+      {"navigation:\n  carrot_distance_m: 0\n", "navigation.carrot_distance_m = 0"},
+      {"navigation:\n  cruise_speed_mps: 9\n", "cruise_speed_mps = 9"},
+      {"traversability:\n  max_step_m: -0.1\n", "max_step_m = -0.1"},
+      {"local_planner:\n  speed: 1\n", "local_planner.speed is not a known setting"},
+  };
+  for (const auto& [yaml, expected] : cases) {
+    AgentOptions options;
+    options.robot_id = "r1";
+    try {
+      options.LoadConfigFile(Write("nav_bad.yaml", yaml));
+      ADD_FAILURE() << "accepted: " << yaml;
+    } catch (const core::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << yaml << " -> " << e.what();
+    }
+  }
+}
+
+TEST(AgentOptions, PlatformProfilesSetLimitsAndStairs) {
+  AgentOptions options;
+  options.robot_id = "r1";
+  options.SetPlatform("legged");
+  std::string why;
+  EXPECT_TRUE(options.IsValid(&why)) << why;
+  EXPECT_GE(options.navigation.platform.traversability.max_step_m, 0.2);
+  EXPECT_DOUBLE_EQ(options.LibraryForPlatform().heading_range_rad, options.navigation.platform.local_heading_range_rad);
+  // The shipped config keeps the profile's platform values (it only comments them).
+  options.LoadConfigFile(std::string(CAIRN_SOURCE_DIR) + "/config/agent.yaml");
+  EXPECT_GE(options.navigation.platform.traversability.max_step_m, 0.2);
+  EXPECT_DOUBLE_EQ(options.navigation.platform.limits.max_speed_mps, 0.6);
+  EXPECT_THROW(options.SetPlatform("hovercraft"), std::invalid_argument);
+}
+
 TEST(AgentOptions, IdsAndPlatformsAreChecked) {
   AgentOptions options;
   std::string why;
