@@ -121,6 +121,7 @@ std::string CommandShell::Help() {
          "  mode R MODE                         switch R to idle | manual | smart_joystick | waypoint\n"
          "  goto R X Y [TOL] [--wait [TIMEOUT_S]]  drive R to (X, Y) metres in the map frame; --wait prints\n"
          "                                      progress (distance left, ETA) until it arrives or fails\n"
+         "                                      (default 600 s)\n"
          "  path R                              the global path R is following (waypoints, length)\n"
          "  plan R X Y [--from X,Y] [--platform P]  ask R's global planner for a path (from R's pose, for\n"
          "                                      R's platform by default); prints the path or the reason\n"
@@ -271,8 +272,8 @@ int CommandShell::Goto(const std::vector<std::string>& all_args) {
     }
     wait = true;
     if (i + 1 < all_args.size()) {
-      if (!ParseNumber(all_args[i + 1], "TIMEOUT_S", &timeout, &error) || timeout <= 0) {
-        return UsageError("goto", error.empty() ? "TIMEOUT_S '" + all_args[i + 1] + "' must be > 0" : error);
+      if (!ParseNumber(all_args[i + 1], "TIMEOUT_S", &timeout, &error) || timeout <= 0 || timeout > 86400) {
+        return UsageError("goto", error.empty() ? "TIMEOUT_S '" + all_args[i + 1] + "' must be in (0, 86400]" : error);
       }
       if (i + 2 != all_args.size()) return UsageError("goto", kUsageText);
       break;
@@ -302,36 +303,52 @@ int CommandShell::Goto(const std::vector<std::string>& all_args) {
 int CommandShell::WaitArrived(const std::string& command, const std::string& robot, double timeout_s) {
   const uint32_t goal_id = last_goal_id_.count(robot) ? last_goal_id_[robot] : 0;
   std::string failure;
-  auto last_print = core::SteadyClock::now();
-  const auto start = last_print;
+  bool seen_goal = false;
+  // Evaluated under the fleet client's lock: decide only, print nothing here.
   auto done = [&](const RobotView& v) {
-    if (!v.state || (goal_id != 0 && v.state->nav_goal_id() != goal_id)) return false;
-    const auto& s = *v.state;
-    if (s.nav_status() == msgs::NAV_STATUS_FAILED) failure = "navigation failed: " + s.nav_reason();
     if (v.lost) failure = "robot lost (" + v.lost_reason + ")";
-    const bool finished = s.nav_status() == msgs::NAV_STATUS_ARRIVED || !failure.empty();
-    const auto now = core::SteadyClock::now();
-    if (!finished && s.nav_status() == msgs::NAV_STATUS_ACTIVE && core::SecondsBetween(last_print, now) >= 2.0) {
-      last_print = now;
-      const std::string eta = s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "unknown";
-      if (json_) {
-        out_ << json{{"command", command}, {"robot", robot}, {"progress", true},
-                     {"distance_left_m", s.nav_distance_left_m()}, {"eta_s", s.nav_eta_s()},
-                     {"local_planner", s.local_planner_status()}, {"replans", s.nav_replans()}}
-                    .dump()
-             << std::endl;
-      } else {
-        out_ << command << " " << robot << ": " << Fixed(s.nav_distance_left_m(), 1) << " m left, ETA " << eta;
-        if (!s.local_planner_status().empty() && s.local_planner_status() != "path") {
-          out_ << " (" << s.local_planner_status() << ")";
-        }
-        if (s.nav_replans() > 0) out_ << ", " << s.nav_replans() << " replans";
-        out_ << std::endl;
+    if (!v.state) return !failure.empty();
+    const auto& s = *v.state;
+    if (goal_id != 0 && s.nav_goal_id() != goal_id) {
+      // Once our goal was seen, another id means another goto replaced it.
+      if (seen_goal && s.nav_status() != msgs::NAV_STATUS_NONE) {
+        failure = "goal " + std::to_string(goal_id) + " superseded by goal " + std::to_string(s.nav_goal_id());
       }
+      return !failure.empty();
     }
-    return finished;
+    seen_goal = true;
+    if (s.nav_status() == msgs::NAV_STATUS_FAILED) failure = "navigation failed: " + s.nav_reason();
+    return s.nav_status() == msgs::NAV_STATUS_ARRIVED || !failure.empty();
   };
-  const auto view = client_.WaitUntil(robot, timeout_s, done);
+  const auto start = core::SteadyClock::now();
+  std::optional<RobotView> view;
+  while (true) {
+    const double left = timeout_s - core::SecondsBetween(start, core::SteadyClock::now());
+    if (left <= 0) break;
+    view = client_.WaitUntil(robot, std::min(2.0, left), done);
+    if (view) break;
+    const auto now_view = client_.Robot(robot);  // progress, printed outside the client's lock
+    if (!now_view || !now_view->state || now_view->state->nav_status() != msgs::NAV_STATUS_ACTIVE ||
+        (goal_id != 0 && now_view->state->nav_goal_id() != goal_id)) {
+      continue;
+    }
+    const auto& s = *now_view->state;
+    const std::string eta = s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "unknown";
+    if (json_) {
+      out_ << json{{"command", command}, {"robot", robot}, {"progress", true},
+                   {"distance_left_m", s.nav_distance_left_m()}, {"eta_s", s.nav_eta_s()},
+                   {"local_planner", s.local_planner_status()}, {"replans", s.nav_replans()}}
+                  .dump()
+           << std::endl;
+    } else {
+      out_ << command << " " << robot << ": " << Fixed(s.nav_distance_left_m(), 1) << " m left, ETA " << eta;
+      if (!s.local_planner_status().empty() && s.local_planner_status() != "path") {
+        out_ << " (" << s.local_planner_status() << ")";
+      }
+      if (s.nav_replans() > 0) out_ << ", " << s.nav_replans() << " replans";
+      out_ << std::endl;
+    }
+  }
   CommandOutcome o;
   o.ok = view.has_value() && failure.empty();
   o.result = o.ok ? "accepted" : (view ? "failed" : "timeout");
@@ -342,6 +359,7 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
     o.mode = view->state->mode();
     o.holder_id = view->state->holder_id();
   }
+  o.request_id = goal_id;
   o.round_trip_ms = core::SecondsBetween(start, core::SteadyClock::now()) * 1000.0;
   return Report(command == "goto" ? "goto" : "wait", robot, o);
 }
@@ -515,8 +533,8 @@ int CommandShell::Wait(const std::vector<std::string>& args) {
   const std::string& what = args[1];
   double timeout = 60;
   std::string error;
-  if (args.size() == 3 && (!ParseNumber(args[2], "TIMEOUT_S", &timeout, &error) || timeout < 0)) {
-    return UsageError("wait", error.empty() ? "TIMEOUT_S '" + args[2] + "' must be >= 0" : error);
+  if (args.size() == 3 && (!ParseNumber(args[2], "TIMEOUT_S", &timeout, &error) || timeout < 0 || timeout > 86400)) {
+    return UsageError("wait", error.empty() ? "TIMEOUT_S '" + args[2] + "' must be in [0, 86400]" : error);
   }
   std::function<bool(const RobotView&)> done;
   std::string failure;

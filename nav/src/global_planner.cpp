@@ -118,10 +118,7 @@ std::string GlobalPlanner::PlatformList() const {
   return names;
 }
 
-std::uint64_t GlobalPlanner::map_version() const {
-  std::lock_guard<std::mutex> guard(mutex_);
-  return map_version_;
-}
+std::uint64_t GlobalPlanner::map_version() const { return map_version_.load(); }
 
 void GlobalPlanner::UpdateWorld(std::shared_ptr<const sim::World> world) {
   if (!world) throw std::invalid_argument("GlobalPlanner::UpdateWorld: world is null");

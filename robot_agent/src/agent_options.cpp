@@ -132,7 +132,22 @@ bool AgentOptions::IsValid(std::string* why) const {
   if (!lock.IsValid(why)) return false;
   if (!navigation.IsValid(why)) return false;
   const auto& fp = navigation.platform;
+  if (!InRange("local_planner.path_length_m", library.path_length_m, 0.1, 10, false, why)) return false;
   if (!InRange("local_planner.collision_margin_m", collision_margin_m, 0, 1, false, why)) return false;
+  // Combinations: fresh obstacle input must be possible, and the sensor must see as far as a local path.
+  if (navigation.obstacle_timeout_s <= navigation.local_planner_period_s + 0.02) {
+    *why = "navigation.obstacle_timeout_s = " + std::to_string(navigation.obstacle_timeout_s) +
+           " must exceed navigation.local_planner_period_s (" + std::to_string(navigation.local_planner_period_s) +
+           ") plus one 0.02 s control cycle, or the input is always stale";
+    return false;
+  }
+  const double reach_m = library.path_length_m + fp.footprint_radius_m + collision_margin_m;
+  if (navigation.sensor_range_m < reach_m) {
+    *why = "navigation.sensor_range_m = " + std::to_string(navigation.sensor_range_m) +
+           " must be at least the local path length plus the collision radius (" + std::to_string(reach_m) +
+           " m), or obstacles at the end of a path are unseen";
+    return false;
+  }
   std::string inner;
   if (!LibraryForPlatform().IsValid(&inner)) {
     *why = "local_planner: " + inner;

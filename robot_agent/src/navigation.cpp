@@ -11,6 +11,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kArrivalSpeedMps = 0.1;  // arrival needs the robot at most this fast
+constexpr double kGoalSnapM = 0.25;        // largest hop from a free local path sample to the goal
 
 bool InRange(const char* field, double value, double lo, double hi, bool lo_open, std::string* why) {
   const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
@@ -142,7 +143,7 @@ void Navigation::SetObstacles(const std::vector<Eigen::Vector3f>& points_B, cons
                               double now_s) {
   obstacles_B_ = points_B;
   // Kept in frame B of `state`; RunLocalPlanner re-expresses them if the robot moved since.
-  local_pose_ = state;
+  obstacles_pose_ = state;
   obstacles_time_s_ = now_s;
 }
 
@@ -177,7 +178,9 @@ double Navigation::UpdateProgress(const Eigen::Vector2d& p_W) {
   double along_start = 0.0;
   for (std::size_t i = 0; i < path_segment_; ++i) along_start += (path[i + 1] - path[i]).head<2>().norm();
   double along = along_start;
-  for (std::size_t i = path_segment_; i + 1 < path.size() && along - along_start < 10.0; ++i) {
+  // Window: the current and next segment, and on up to 10 m beyond the current projection.
+  for (std::size_t i = path_segment_;
+       i + 1 < path.size() && (i <= path_segment_ + 1 || along - projection_along_m_ < 10.0); ++i) {
     const Eigen::Vector2d a = path[i].head<2>(), b = path[i + 1].head<2>();
     const double len = (b - a).norm();
     const double t = len > 1e-9 ? std::clamp((p_W - a).dot(b - a) / (len * len), 0.0, 1.0) : 0.0;
@@ -209,7 +212,7 @@ Eigen::Vector2d Navigation::Carrot() const {
   return path.back().head<2>();
 }
 
-bool Navigation::Replan(const sim::UnicycleState& state, std::string* reason) {
+bool Navigation::Replan(const sim::UnicycleState& state, double now_s, std::string* reason) {
   nav::GlobalPlanRequest request;
   request.start_W = {state.x_m, state.y_m};
   request.goal_W = goal_->p_W;
@@ -222,6 +225,8 @@ bool Navigation::Replan(const sim::UnicycleState& state, std::string* reason) {
   plan_ = plan;
   path_segment_ = 0;
   projection_along_m_ = 0.0;
+  goal_->best_distance_m = plan.result.length_m;  // a detour is not a lack of progress
+  goal_->best_time_s = now_s;
   ++replans_;
   ++path_revision_;
   return true;
@@ -234,17 +239,19 @@ void Navigation::RunLocalPlanner(const sim::UnicycleState& state, const nav::Loc
   // Re-express the latest obstacles in the current body frame.
   std::vector<Eigen::Vector3f> points_B;
   points_B.reserve(obstacles_B_.size());
-  const bool moved = std::abs(local_pose_.x_m - state.x_m) > 1e-9 || std::abs(local_pose_.y_m - state.y_m) > 1e-9 ||
-                     std::abs(local_pose_.yaw_rad - state.yaw_rad) > 1e-9;
+  const bool moved = std::abs(obstacles_pose_.x_m - state.x_m) > 1e-9 ||
+                     std::abs(obstacles_pose_.y_m - state.y_m) > 1e-9 ||
+                     std::abs(obstacles_pose_.yaw_rad - state.yaw_rad) > 1e-9;
   for (const auto& p : obstacles_B_) {
     if (!moved) {
       points_B.push_back(p);
       continue;
     }
-    const Eigen::Vector2d q = ToBody(state, ToWorld(local_pose_, p.head<2>().cast<double>()));
+    const Eigen::Vector2d q = ToBody(state, ToWorld(obstacles_pose_, p.head<2>().cast<double>()));
     points_B.emplace_back(static_cast<float>(q.x()), static_cast<float>(q.y()), p.z());
   }
   obstacles_B_ = points_B;
+  obstacles_pose_ = state;
   local_pose_ = state;
   nav::LocalPlanRequest r = request;
   r.previous_path_id = local_result_.IsUsable() ? local_result_.path_id : -1;
@@ -271,7 +278,9 @@ void Navigation::RunLocalPlanner(const sim::UnicycleState& state, const nav::Loc
         nearest = i;
       }
     }
-    if (nearest_d < 0.5 * full && (*goal_W - track_W_.front()).norm() <= local_result_.free_length_m + 0.3) {
+    // Only when the goal is next to the free part of this path and no farther along the global path than
+    // that free part: a short hop from a checked sample to a goal the global planner found traversable.
+    if (nearest_d <= kGoalSnapM && distance_left_m_ <= local_result_.free_length_m + kGoalSnapM) {
       track_W_.resize(nearest + 1);
       if (nearest_d > 1e-3) track_W_.push_back(*goal_W);
       track_stop_at_end_ = true;
@@ -313,12 +322,12 @@ NavigationStep Navigation::StepWaypoint(const sim::UnicycleState& state, double 
     std::string why;
     if (map_changed && !planner_->CheckPath(plan_.result.path_W, options_.platform.name,
                                             static_cast<int>(path_segment_)).valid) {
-      if (!Replan(state, &why)) return Fail("the map changed under the path and no new path exists: " + why);
+      if (!Replan(state, now_s, &why)) return Fail("the map changed under the path and no new path exists: " + why);
       off_path = UpdateProgress(p_W);
     } else if (map_changed) {
       plan_.map_version = planner_->map_version();  // still valid on the new map
     } else if (off_path > options_.max_path_deviation_m) {
-      if (!Replan(state, &why)) return Fail(Fixed(off_path, 1) + " m off the path and no new path: " + why);
+      if (!Replan(state, now_s, &why)) return Fail(Fixed(off_path, 1) + " m off the path and no new path: " + why);
       off_path = UpdateProgress(p_W);
     }
   }
@@ -329,7 +338,7 @@ NavigationStep Navigation::StepWaypoint(const sim::UnicycleState& state, double 
     goal_->best_distance_m = distance_left_m_;
     goal_->best_time_s = now_s;
   } else if (now_s - goal_->best_time_s > options_.blocked_timeout_s) {
-    return Fail("blocked: no progress for " + Fixed(options_.blocked_timeout_s, 0) + " s (" +
+    return Fail("blocked: no progress for " + Fixed(options_.blocked_timeout_s, 1) + " s (" +
                 Fixed(distance_left_m_, 1) + " m left" +
                 (local_status_ != "path" && !local_status_.empty() ? "; local planner " + local_status_ : "") + ")");
   }
@@ -344,8 +353,25 @@ NavigationStep Navigation::StepWaypoint(const sim::UnicycleState& state, double 
   if (!LocalPlannerHealthy(now_s, nullptr)) {
     track_W_.clear();
     local_status_ = "stopped: no fresh obstacle input";
-  } else {
-    RunLocalPlanner(state, request, now_s, goal_near ? std::optional<Eigen::Vector2d>(goal_->p_W) : std::nullopt);
+    return Control(state, options_.platform.cruise_speed_mps, now_s);
+  }
+  RunLocalPlanner(state, request, now_s, goal_near ? std::optional<Eigen::Vector2d>(goal_->p_W) : std::nullopt);
+  // Turn in place toward the path when no library path can start that way (a forward-looking platform with
+  // the path behind it, e.g. at a dead end), or when boxed in with the path well to the side. A disk
+  // footprint cannot collide by turning.
+  const double bearing = std::atan2(request.goal_B.y(), request.goal_B.x());
+  const bool behind = std::abs(bearing) > options_.platform.local_heading_range_rad * 0.9;
+  const bool boxed_in = local_result_.status == nav::LocalPlanResult::Status::kBoxedIn;
+  if (behind || (boxed_in && std::abs(bearing) > kPi / 4)) {
+    track_W_.clear();
+    controller_.Reset();
+    local_status_ = std::string("turning in place toward the path") + (boxed_in ? " (boxed in ahead)" : "");
+    NavigationStep turn;
+    if (std::abs(state.v_mps) <= 0.05) {  // brake first, then turn
+      const double max_w = options_.platform.limits.max_yaw_rate_radps;
+      turn.angular_z_radps = std::clamp(1.5 * bearing, -max_w, max_w);
+    }
+    return turn;
   }
   return Control(state, options_.platform.cruise_speed_mps, now_s);
 }
@@ -375,7 +401,14 @@ NavigationStep Navigation::StepJoystick(const sim::UnicycleState& state, double 
     return Control(state, 0.0, now_s);
   }
   const double bend = std::clamp(wz_radps * options_.joystick_turn_lookahead_s, -kPi / 2, kPi / 2);
-  const double direction = std::atan2(vy_mps, vx_mps) + bend;
+  const double direction = std::remainder(std::atan2(vy_mps, vx_mps) + bend, 2 * kPi);
+  if (std::abs(direction) > options_.platform.local_heading_range_rad) {
+    // E.g. stick pulled back on a forward-looking platform: brake rather than swerve sideways.
+    track_W_.clear();
+    local_status_ = "stopped: joystick direction " + Fixed(direction * 180 / kPi, 0) +
+                    " deg is outside the platform's local planner headings";
+    return Control(state, 0.0, now_s);
+  }
   nav::LocalPlanRequest request;
   request.mode = nav::LocalPlanMode::kJoystick;
   request.goal_B = Eigen::Vector2d(std::cos(direction), std::sin(direction));

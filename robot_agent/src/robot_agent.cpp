@@ -396,9 +396,10 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg) {
     const ModeDecision probe = modes_.Request("waypoint", with_goal);  // refused: nothing switches
     return deny(probe.reason);
   }
+  const bool had_goal = goal_.has_value();
   const nav::GlobalPlan plan = navigation_.SetGoal(platform_.state(), msg.x_m(), msg.y_m(), msg.tolerance_m(),
                                                    NowS(SteadyClock::now()));
-  if (!plan.IsUsable()) return deny("no path: " + plan.reason);
+  if (!plan.IsUsable()) return deny("no path: " + plan.reason);  // the previous goal, if any, goes on
   Goal goal;
   goal.request_id = msg.request_id();
   goal.x_m = msg.x_m();
@@ -406,8 +407,13 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg) {
   goal_ = goal;
   const ModeDecision d = modes_.Request("waypoint", Conditions());
   if (!d.accepted) {
-    goal_.reset();
-    navigation_.ClearGoal();
+    // Navigation already holds the new goal, so the previous one ends here, with a status.
+    if (had_goal) {
+      FinishGoal(msgs::NAV_STATUS_FAILED, "cancelled: a new goal was refused: " + d.reason);
+    } else {
+      goal_.reset();
+      navigation_.ClearGoal();
+    }
     return deny(d.reason);
   }
   ApplyMode(d);  // a previous goal is simply superseded by this one
@@ -449,7 +455,8 @@ void RobotAgent::Impl::OnTeleop(const msgs::TeleopTwist& msg) {
 
 void RobotAgent::Impl::OnPathRequest(const msgs::PathRequest& msg) {
   if (msg.robot_id() != options_.robot_id) return;
-  // The planner is thread-safe: no agent lock, so a long plan never delays the control loop.
+  // The planner is thread-safe: no agent lock here. The control loop reads the planner's map version without
+  // its lock; only its rare path checks and replans (after map changes) wait for a plan running here.
   msgs::PathResponse r;
   r.request_id(msg.request_id());
   r.requester_id(msg.requester_id());
@@ -675,10 +682,9 @@ void RobotAgent::Impl::PublishLocalPlan() {
   m.robot_id(options_.robot_id);
   m.stamp(cairn::msgs::WallStampNow());
   m.mode(mode);
-  m.status(r.status == nav::LocalPlanResult::Status::kPathFound  ? "path"
-           : r.status == nav::LocalPlanResult::Status::kBoxedIn ? "boxed in"
-                                                                  : "invalid input");
-  m.reason(navigation_.local_status());
+  const std::string& status = navigation_.local_status();
+  m.status(status == "path" ? "path" : status.rfind("boxed in", 0) == 0 ? "boxed in" : "stopped");
+  m.reason(status);
   m.free_paths(static_cast<uint32_t>(r.num_free_paths));
   m.total_paths(static_cast<uint32_t>(navigation_.library().num_paths()));
   m.pose_MB().position(PointOf(pose.x_m, pose.y_m, pose.z_m));

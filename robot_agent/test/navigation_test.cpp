@@ -161,6 +161,19 @@ TEST(NavigationTest, WaypointMissionsAcrossGeb079ArriveWithoutContact) {
   std::printf("FIGURE geb079_missions_time_s %.1f min_clearance_m %.2f\n", robot.t_s, robot.min_clearance_m);
 }
 
+TEST(NavigationTest, WheeledRobotTurnsAroundAtADeadEnd) {
+  // A 2.4 m wide dead-end corridor; the robot faces the dead end and its goal is behind it. Its
+  // forward-looking library has no path that way: it must turn in place, then drive.
+  sim::World w = FlatWorld(12, 4, 0.1, 1.5);
+  FillBox(&w, {0.0, 0.0, 0.0}, {12.0, 0.8, 1.6});
+  FillBox(&w, {0.0, 3.2, 0.0}, {12.0, 4.0, 1.6});
+  FillBox(&w, {11.0, 0.0, 0.0}, {12.0, 4.0, 1.6});
+  SimRobot robot(std::make_shared<const sim::World>(std::move(w)), "wheeled", 10.0, 2.0, 0.0);
+  const NavigationStep out = robot.DriveTo(2.0, 2.0, 60.0);
+  EXPECT_TRUE(out.arrived) << out.reason;
+  EXPECT_EQ(robot.contacts, 0);
+}
+
 TEST(NavigationTest, LeggedRobotClimbsTheStaircaseAndWheeledIsRefused) {
   auto world = std::make_shared<const sim::World>(sim::LoadWorld("builtin:tunnels"));
   SimRobot legged(world, "legged", 48.0, 20.0, 0.0);
@@ -219,6 +232,18 @@ TEST(NavigationTest, SmartJoystickTakesAnOffCentreDoorway) {
   const auto grid = robot.planner->Grid("wheeled");
   for (int i = 0; i < 400; ++i) raw_contacts += raw.Step(0.8, 0.0, kDt, *grid).contact ? 1 : 0;
   EXPECT_GT(raw_contacts, 0);
+}
+
+TEST(NavigationTest, SmartJoystickPulledBackOnAWheeledRobotBrakesInsteadOfSwerving) {
+  auto world = std::make_shared<const sim::World>(FlatWorld(10, 8));
+  SimRobot robot(world, "wheeled", 5.0, 4.0, 0.0);
+  for (int i = 0; i < 100; ++i) {
+    robot.Tick([&] { return robot.navigation.StepJoystick(robot.platform.state(), -0.5, 0.0, 0.0, robot.t_s); });
+  }
+  const auto& s = robot.platform.state();
+  EXPECT_LT(std::hypot(s.x_m - 5.0, s.y_m - 4.0), 0.02);
+  EXPECT_NE(robot.navigation.local_status().find("outside the platform's local planner headings"), std::string::npos)
+      << robot.navigation.local_status();
 }
 
 TEST(NavigationTest, ReplansWhenTheMapChangesUnderThePath) {

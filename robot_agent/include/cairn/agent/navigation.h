@@ -68,8 +68,9 @@ struct NavigationStep {
 /// planner it shares is thread-safe and may also serve path requests from other threads.
 class Navigation {
  public:
-  /// @throws std::invalid_argument for invalid options or null planner/library, or a library whose
-  ///         heading range does not match the platform.
+  /// @throws std::invalid_argument for invalid options, a null planner or library, or a planner that does
+  ///         not serve the platform. The library should be built for the platform (heading range, collision
+  ///         radius), see AgentOptions::LibraryForPlatform().
   Navigation(const NavigationOptions& options, std::shared_ptr<nav::GlobalPlanner> planner,
              std::shared_ptr<const nav::TrajectoryLibrary> library);
 
@@ -129,7 +130,7 @@ class Navigation {
     double best_time_s = 0.0;
   };
   // Re-plans from `state` to the goal; false (and the reason) if no path remains.
-  bool Replan(const sim::UnicycleState& state, std::string* reason);
+  bool Replan(const sim::UnicycleState& state, double now_s, std::string* reason);
   // Progress along the global path: updates path_segment_ and distance_left_m_; returns the distance from
   // the robot to the path.
   double UpdateProgress(const Eigen::Vector2d& p_W);
@@ -162,7 +163,8 @@ class Navigation {
   double obstacles_time_s_ = -1e9;
   double last_local_time_s_ = -1e9;
   nav::LocalPlanResult local_result_;
-  sim::UnicycleState local_pose_;
+  sim::UnicycleState local_pose_;      // pose of the last local plan
+  sim::UnicycleState obstacles_pose_;  // pose the obstacle points are expressed from
   std::string local_status_;
   std::vector<Eigen::Vector2d> track_W_;  // path for the controller, frame W
   bool track_stop_at_end_ = true;
