@@ -277,18 +277,6 @@ void SolveBoxQp2(const Mat22& H, const IlqrControl& g, const IlqrControl& lo, co
 
 }  // namespace
 
-bool IlqrLimits::IsValid(std::string* why) const {
-  std::ostringstream msg;
-  const char* p = "IlqrLimits::";
-  const bool ok = CheckRange(p, "max_speed_mps", max_speed_mps, 0.0, true, 20.0, &msg) &&
-                  CheckRange(p, "max_reverse_speed_mps", max_reverse_speed_mps, 0.0, false, 20.0, &msg) &&
-                  CheckRange(p, "max_accel_mps2", max_accel_mps2, 0.0, true, 50.0, &msg) &&
-                  CheckRange(p, "max_yaw_rate_radps", max_yaw_rate_radps, 0.0, true, 20.0, &msg) &&
-                  CheckRange(p, "max_yaw_accel_radps2", max_yaw_accel_radps2, 0.0, true, 100.0, &msg);
-  if (!ok && why != nullptr) *why = msg.str();
-  return ok;
-}
-
 bool IlqrOptions::IsValid(std::string* why) const {
   std::ostringstream msg;
   const char* p = "IlqrOptions::";

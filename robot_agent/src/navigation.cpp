@@ -29,16 +29,6 @@ std::string Fixed(double value, int digits) {
   return buf;
 }
 
-nav::IlqrLimits IlqrLimitsOf(const sim::UnicycleLimits& l) {
-  nav::IlqrLimits out;
-  out.max_speed_mps = l.max_speed_mps;
-  out.max_reverse_speed_mps = l.max_reverse_speed_mps;
-  out.max_accel_mps2 = l.max_accel_mps2;
-  out.max_yaw_rate_radps = l.max_yaw_rate_radps;
-  out.max_yaw_accel_radps2 = l.max_yaw_accel_radps2;
-  return out;
-}
-
 // p_W = R(yaw) p_B + p_WB.
 Eigen::Vector2d ToWorld(const sim::UnicycleState& s, const Eigen::Vector2d& p_B) {
   const double c = std::cos(s.yaw_rad), n = std::sin(s.yaw_rad);
@@ -92,7 +82,7 @@ Navigation::Navigation(const NavigationOptions& options, std::shared_ptr<nav::Gl
     : options_(Validated(options)),
       planner_(std::move(planner)),
       local_planner_(library, options.local_planner),
-      controller_(options.controller, IlqrLimitsOf(options.platform.limits)) {
+      controller_(options.controller, options.platform.limits) {
   if (!planner_) throw std::invalid_argument("Navigation: global planner is null");
   if (planner_->Profile(options_.platform.name) == nullptr) {
     throw std::invalid_argument("Navigation: the global planner does not serve platform '" +

@@ -27,6 +27,8 @@
 #include <string>
 #include <vector>
 
+#include "cairn/sim/unicycle.h"
+
 namespace cairn::nav {
 
 /// State of the iLQR model, in a planar frame F chosen by the caller: (x_m, y_m) position (metres, frame F),
@@ -36,25 +38,10 @@ using IlqrState = Eigen::Matrix<double, 5, 1>;
 /// Control of the iLQR model: (a_mps2 forward acceleration, m/s^2; alpha_radps2 yaw acceleration, rad/s^2).
 using IlqrControl = Eigen::Matrix<double, 2, 1>;
 
-/// Velocity and acceleration limits of the platform (same meaning and ranges as cairn::sim::UnicycleLimits;
-/// defined here so that the controller does not depend on the simulator). Defaults: a small wheeled robot.
-struct IlqrLimits {
-  /// Largest forward speed, m/s, range (0, 20].
-  double max_speed_mps = 1.0;
-  /// Largest reverse speed (a magnitude), m/s, range [0, 20]; 0 = never reverse.
-  double max_reverse_speed_mps = 0.5;
-  /// Largest forward acceleration or deceleration (a magnitude), m/s^2, range (0, 50].
-  double max_accel_mps2 = 1.0;
-  /// Largest yaw rate (a magnitude), rad/s, range (0, 20].
-  double max_yaw_rate_radps = 1.5;
-  /// Largest yaw acceleration (a magnitude), rad/s^2, range (0, 100].
-  double max_yaw_accel_radps2 = 3.0;
-
-  /// True when every field is finite and in range; otherwise false and, if `why` is not null, a message
-  /// naming the field, its value and the rule, e.g. "IlqrLimits::max_speed_mps = 0 must be finite and in
-  /// (0, 20]".
-  bool IsValid(std::string* why) const;
-};
+/// Velocity and acceleration limits of the platform: the simulated platform's limits type (fields
+/// max_speed_mps, max_reverse_speed_mps, max_accel_mps2, max_yaw_rate_radps, max_yaw_accel_radps2, with
+/// IsValid()), so the controller and the platform it drives share one definition.
+using IlqrLimits = sim::UnicycleLimits;
 
 /// Options of IlqrController. The cost of a trajectory (states x_0..x_N, controls u_0..u_N-1, reference
 /// r_0..r_N from BuildIlqrReference()) is
