@@ -537,7 +537,6 @@ int CommandShell::Wait(const std::vector<std::string>& args) {
     return UsageError("wait", error.empty() ? "TIMEOUT_S '" + args[2] + "' must be in [0, 86400]" : error);
   }
   std::function<bool(const RobotView&)> done;
-  std::string failure;
   if (what == "arrived") {
     return WaitArrived("wait", robot, timeout);
   } else if (what == "idle" || what.rfind("mode=", 0) == 0) {
@@ -553,11 +552,10 @@ int CommandShell::Wait(const std::vector<std::string>& args) {
   const auto start = core::SteadyClock::now();
   const auto view = client_.WaitUntil(robot, timeout, done);
   CommandOutcome o;
-  o.ok = view.has_value() && failure.empty();
-  o.result = o.ok ? "accepted" : (view ? "failed" : "timeout");
-  o.reason = !failure.empty() ? failure
-             : view         ? what + " after " + Fixed(core::SecondsBetween(start, core::SteadyClock::now()), 2) + " s"
-                            : "robot " + robot + " not " + what + " within " + Fixed(timeout, 1) + " s";
+  o.ok = view.has_value();
+  o.result = o.ok ? "accepted" : "timeout";
+  o.reason = view ? what + " after " + Fixed(core::SecondsBetween(start, core::SteadyClock::now()), 2) + " s"
+                  : "robot " + robot + " not " + what + " within " + Fixed(timeout, 1) + " s";
   if (view && view->state) {
     o.mode = view->state->mode();
     o.holder_id = view->state->holder_id();

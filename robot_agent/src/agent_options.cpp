@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "cairn/core/config.h"
+#include "range_check.h"
 
 namespace cairn::agent {
 
@@ -100,19 +101,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   if (!IsValid(&why)) throw core::ConfigError(path + ": " + why);
 }
 
-namespace {
-
-bool InRange(const char* field, double value, double lo, double hi, bool lo_open, std::string* why) {
-  const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
-  if (!ok) {
-    std::ostringstream out;
-    out << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
-    *why = out.str();
-  }
-  return ok;
-}
-
-}  // namespace
+using internal::InRange;
 
 bool AgentOptions::IsValid(std::string* why) const {
   static const std::regex kIdPattern("[A-Za-z0-9_-]{1,64}");

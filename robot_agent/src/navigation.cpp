@@ -1,5 +1,7 @@
 #include "cairn/agent/navigation.h"
 
+#include "range_check.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -9,19 +11,11 @@
 namespace cairn::agent {
 namespace {
 
+using internal::InRange;
+
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kArrivalSpeedMps = 0.1;  // arrival needs the robot at most this fast
 constexpr double kGoalSnapM = 0.25;        // largest hop from a free local path sample to the goal
-
-bool InRange(const char* field, double value, double lo, double hi, bool lo_open, std::string* why) {
-  const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
-  if (!ok) {
-    std::ostringstream out;
-    out << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
-    *why = out.str();
-  }
-  return ok;
-}
 
 std::string Fixed(double value, int digits) {
   char buf[64];
@@ -107,6 +101,7 @@ nav::GlobalPlan Navigation::SetGoal(const sim::UnicycleState& state, double x_m,
   goal_ = goal;
   plan_ = plan;
   path_segment_ = 0;
+  segment_start_along_m_ = 0.0;
   projection_along_m_ = 0.0;
   distance_left_m_ = plan.result.length_m;
   mean_speed_mps_ = options_.platform.cruise_speed_mps;
@@ -163,11 +158,9 @@ double Navigation::UpdateProgress(const Eigen::Vector2d& p_W) {
     return distance_left_m_;
   }
   // Project on the segments from the current one on (a short window ahead), keep the nearest.
-  double best_d = 1e18, best_along = projection_along_m_;
+  double best_d = 1e18, best_along = projection_along_m_, best_seg_start = segment_start_along_m_;
   std::size_t best_seg = path_segment_;
-  double along_start = 0.0;
-  for (std::size_t i = 0; i < path_segment_; ++i) along_start += (path[i + 1] - path[i]).head<2>().norm();
-  double along = along_start;
+  double along = segment_start_along_m_;
   // Window: the current and next segment, and on up to 10 m beyond the current projection.
   for (std::size_t i = path_segment_;
        i + 1 < path.size() && (i <= path_segment_ + 1 || along - projection_along_m_ < 10.0); ++i) {
@@ -178,11 +171,13 @@ double Navigation::UpdateProgress(const Eigen::Vector2d& p_W) {
     if (d < best_d - 1e-9) {
       best_d = d;
       best_seg = i;
+      best_seg_start = along;
       best_along = along + t * len;
     }
     along += len;
   }
   path_segment_ = best_seg;
+  segment_start_along_m_ = best_seg_start;
   projection_along_m_ = best_along;
   distance_left_m_ = std::max(0.0, plan_.result.length_m - best_along) + best_d;
   return best_d;
@@ -191,9 +186,9 @@ double Navigation::UpdateProgress(const Eigen::Vector2d& p_W) {
 Eigen::Vector2d Navigation::Carrot() const {
   const auto& path = plan_.result.path_W;
   if (path.size() < 2) return goal_ ? goal_->p_W : Eigen::Vector2d::Zero();
-  double target = projection_along_m_ + options_.carrot_distance_m;
-  double along = 0.0;
-  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+  const double target = projection_along_m_ + options_.carrot_distance_m;
+  double along = segment_start_along_m_;
+  for (std::size_t i = path_segment_; i + 1 < path.size(); ++i) {
     const Eigen::Vector2d a = path[i].head<2>(), b = path[i + 1].head<2>();
     const double len = (b - a).norm();
     if (along + len >= target && len > 1e-9) return a + (b - a) * ((target - along) / len);
@@ -214,6 +209,7 @@ bool Navigation::Replan(const sim::UnicycleState& state, double now_s, std::stri
   }
   plan_ = plan;
   path_segment_ = 0;
+  segment_start_along_m_ = 0.0;
   projection_along_m_ = 0.0;
   goal_->best_distance_m = plan.result.length_m;  // a detour is not a lack of progress
   goal_->best_time_s = now_s;
@@ -226,26 +222,22 @@ void Navigation::RunLocalPlanner(const sim::UnicycleState& state, const nav::Loc
                                  double now_s, const std::optional<Eigen::Vector2d>& goal_W) {
   if (now_s - last_local_time_s_ < options_.local_planner_period_s - 1e-9) return;
   last_local_time_s_ = now_s;
-  // Re-express the latest obstacles in the current body frame.
-  std::vector<Eigen::Vector3f> points_B;
-  points_B.reserve(obstacles_B_.size());
+  // Re-express the latest obstacles in the current body frame (in place).
   const bool moved = std::abs(obstacles_pose_.x_m - state.x_m) > 1e-9 ||
                      std::abs(obstacles_pose_.y_m - state.y_m) > 1e-9 ||
                      std::abs(obstacles_pose_.yaw_rad - state.yaw_rad) > 1e-9;
-  for (const auto& p : obstacles_B_) {
-    if (!moved) {
-      points_B.push_back(p);
-      continue;
+  if (moved) {
+    for (auto& p : obstacles_B_) {
+      const Eigen::Vector2d q = ToBody(state, ToWorld(obstacles_pose_, p.head<2>().cast<double>()));
+      p.x() = static_cast<float>(q.x());
+      p.y() = static_cast<float>(q.y());
     }
-    const Eigen::Vector2d q = ToBody(state, ToWorld(obstacles_pose_, p.head<2>().cast<double>()));
-    points_B.emplace_back(static_cast<float>(q.x()), static_cast<float>(q.y()), p.z());
+    obstacles_pose_ = state;
   }
-  obstacles_B_ = points_B;
-  obstacles_pose_ = state;
   local_pose_ = state;
   nav::LocalPlanRequest r = request;
   r.previous_path_id = local_result_.IsUsable() ? local_result_.path_id : -1;
-  local_planner_.Plan(points_B, r, &local_result_);
+  local_planner_.Plan(obstacles_B_, r, &local_result_);
   track_W_.clear();
   if (!local_result_.IsUsable()) {
     local_status_ = local_result_.status == nav::LocalPlanResult::Status::kBoxedIn ? local_result_.message

@@ -295,6 +295,22 @@ void RobotAgent::Impl::FinishGoal(msgs::NavStatus status, const std::string& rea
 
 namespace {
 
+msgs::Point PointOf(double x, double y, double z) {
+  msgs::Point p;
+  p.x_m(x);
+  p.y_m(y);
+  p.z_m(z);
+  return p;
+}
+
+// A path (metres, frame map; z = ground height) as IDL points.
+std::vector<msgs::Point> PathPoints(const std::vector<Eigen::Vector3d>& path_W) {
+  std::vector<msgs::Point> points;
+  points.reserve(path_W.size());
+  for (const auto& p : path_W) points.push_back(PointOf(p.x(), p.y(), p.z()));
+  return points;
+}
+
 // Identifies one command of one basestation, for de-duplicating retries.
 std::string ResponseKey(const std::string& base_id, msgs::CommandKind kind, uint32_t request_id) {
   return base_id + "/" + std::to_string(kind) + "/" + std::to_string(request_id);
@@ -475,13 +491,7 @@ void RobotAgent::Impl::OnPathRequest(const msgs::PathRequest& msg) {
     r.success(plan.IsUsable());
     r.status(plan.platform_known ? nav::ToString(plan.result.status) : "kUnknownPlatform");
     r.reason(plan.reason);
-    for (const auto& p : plan.result.path_W) {
-      msgs::Point q;
-      q.x_m(p.x());
-      q.y_m(p.y());
-      q.z_m(p.z());
-      r.path_M().push_back(q);
-    }
+    r.path_M(PathPoints(plan.result.path_W));
     r.length_m(plan.result.length_m);
     r.map_version(plan.map_version);
     r.planning_time_s(plan.total_time_s);
@@ -642,18 +652,6 @@ void RobotAgent::Impl::PublishTreeStateIfChanged() {
   tree_writer_->Write(t);
 }
 
-namespace {
-
-msgs::Point PointOf(double x, double y, double z) {
-  msgs::Point p;
-  p.x_m(x);
-  p.y_m(y);
-  p.z_m(z);
-  return p;
-}
-
-}  // namespace
-
 void RobotAgent::Impl::PublishGlobalPathIfChanged() {
   if (navigation_.path_revision() == published_path_revision_) return;
   published_path_revision_ = navigation_.path_revision();
@@ -665,7 +663,7 @@ void RobotAgent::Impl::PublishGlobalPathIfChanged() {
   m.platform(options_.navigation.platform.name);
   m.frame_id("map");
   if (goal_) {
-    for (const auto& p : plan.result.path_W) m.path_M().push_back(PointOf(p.x(), p.y(), p.z()));
+    m.path_M(PathPoints(plan.result.path_W));
     m.length_m(plan.result.length_m);
   }
   m.map_version(plan.map_version);

@@ -150,7 +150,8 @@ class Navigation {
 
   std::optional<Goal> goal_;
   nav::GlobalPlan plan_;
-  std::size_t path_segment_ = 0;
+  std::size_t path_segment_ = 0;       // segment of the global path the robot projects on
+  double segment_start_along_m_ = 0.0;  // arc length at the start of path_segment_
   double projection_along_m_ = 0.0;  // arc length of the robot's projection on the global path
   double distance_left_m_ = 0.0;
   double eta_s_ = -1.0;

@@ -1,0 +1,22 @@
+// Range check of one configuration value, shared by the agent's options and its navigation component.
+#pragma once
+
+#include <cmath>
+#include <sstream>
+#include <string>
+
+namespace cairn::agent::internal {
+
+/// True if `value` is finite and in [lo, hi] ((lo, hi] when lo_open); otherwise false and `*why` =
+/// "FIELD = VALUE must be in [LO, HI]".
+inline bool InRange(const char* field, double value, double lo, double hi, bool lo_open, std::string* why) {
+  const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
+  if (!ok) {
+    std::ostringstream out;
+    out << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
+    *why = out.str();
+  }
+  return ok;
+}
+
+}  // namespace cairn::agent::internal
