@@ -1,6 +1,7 @@
 #include "cairn/base/command_shell.h"
 
 #include <cmath>
+#include <fstream>
 #include <iomanip>
 #include <sstream>
 #include <thread>
@@ -108,7 +109,8 @@ CommandShell::CommandShell(FleetClient& client, bool json_output, std::ostream& 
 const std::vector<std::string>& CommandShell::CommandNames() {
   static const std::vector<std::string> kNames = {"robots", "status", "request-control", "release", "mode",
                                                   "goto",   "path",   "plan",            "teleop",  "stop",
-                                                  "wait",   "sleep",  "help"};
+                                                  "wait",   "sleep",  "map",             "snapshot", "stairs",
+                                                  "help"};
   return kNames;
 }
 
@@ -130,9 +132,14 @@ std::string CommandShell::Help() {
          "                                      direction the local planner follows\n"
          "  stop R                              switch R to idle (zero twist)\n"
          "  wait R arrived|idle|mode=M|online|lost [TIMEOUT_S]  block until R reaches that state (default 60 s)\n"
+         "  map R|fleet --save FILE.bt          save R's coarse map (or the fleet map merged from every robot) as\n"
+         "                                      an OctoMap .bt; asks for a snapshot first if it is incomplete\n"
+         "  snapshot R FILE.jpg [TIMEOUT_S]     save R's next camera frame (JPEG) to FILE.jpg (default 5 s)\n"
+         "  stairs                              staircases found by the fleet (merged across robots)\n"
          "  sleep S                             pause a script for S seconds\n"
          "  help                                this text\n"
-         "Refusals print the robot's reason; a refused or failed command exits non-zero.";
+         "Refusals print the robot's reason; a refused or failed command exits non-zero.\n"
+         "Events (a new staircase) print as they arrive between commands, once each.";
 }
 
 int CommandShell::UsageError(const std::string& command, const std::string& message) {
@@ -162,6 +169,37 @@ int CommandShell::Report(const std::string& command, const std::string& robot, c
 }
 
 int CommandShell::Execute(const std::string& line) {
+  PrintEvents();
+  const int code = Run(line);
+  PrintEvents();
+  return code;
+}
+
+void CommandShell::PrintEvents() {
+  for (const FleetEvent& event : client_.perception().TakeEvents()) {
+    if (json_) {
+      const perception::Staircase& s = event.staircase.staircase;
+      out_ << json{{"event", event.kind},
+                   {"message", event.message},
+                   {"id", event.staircase.id},
+                   {"x_m", s.p_W_first_step.x()},
+                   {"y_m", s.p_W_first_step.y()},
+                   {"z_m", s.p_W_first_step.z()},
+                   {"yaw_rad", s.yaw_rad},
+                   {"num_steps", s.num_steps},
+                   {"rise_m", s.rise_m},
+                   {"run_m", s.run_m},
+                   {"width_m", s.width_m},
+                   {"sources", event.staircase.sources}}
+                  .dump()
+           << std::endl;
+    } else {
+      out_ << "event: " << event.message << std::endl;
+    }
+  }
+}
+
+int CommandShell::Run(const std::string& line) {
   const std::vector<std::string> t = Tokenize(line);
   if (t.empty()) return kOk;
   const std::string& cmd = t[0];
@@ -194,6 +232,14 @@ int CommandShell::Execute(const std::string& line) {
   if (cmd == "plan") return Plan(args);
   if (cmd == "wait") return Wait(args);
   if (cmd == "sleep") return need(1, "sleep S") ? Sleep(args) : kUsage;
+  if (cmd == "map") {
+    return (args.size() == 3 && args[1] == "--save") ? Map(args) : UsageError(cmd, "usage: map R|fleet --save FILE.bt");
+  }
+  if (cmd == "snapshot") {
+    return (args.size() == 2 || args.size() == 3) ? Snapshot(args)
+                                                  : UsageError(cmd, "usage: snapshot R FILE.jpg [TIMEOUT_S]");
+  }
+  if (cmd == "stairs") return args.empty() ? Stairs() : UsageError(cmd, "usage: stairs");
   return UsageError(cmd, "unknown command '" + cmd + "' (try help)");
 }
 
@@ -382,6 +428,106 @@ std::string PointsText(const std::vector<msgs::Point>& points) {
 }
 
 }  // namespace
+
+int CommandShell::Map(const std::vector<std::string>& args) {
+  const std::string& target = args[0];
+  const std::string& path = args[2];
+  if (path.size() < 4 || path.substr(path.size() - 3) != ".bt") {
+    return UsageError("map", "FILE '" + path + "' must end in .bt (OctoMap binary)");
+  }
+  const MapSaveResult r = client_.perception().SaveMap(target, path, /*sync_timeout_s=*/10.0);
+  if (json_) {
+    json j = {{"command", "map"}, {"target", target}, {"ok", r.ok}, {"file", path}};
+    if (r.ok) {
+      j["voxels"] = r.voxels;
+      j["occupied"] = r.occupied;
+      j["resolution_m"] = r.resolution_m;
+    } else {
+      j["reason"] = r.error;
+    }
+    out_ << j.dump() << std::endl;
+  } else if (r.ok) {
+    out_ << "map " << target << ": " << r.voxels << " voxels (" << r.occupied << " occupied) at "
+         << Fixed(r.resolution_m, 2) << " m saved to " << path << std::endl;
+  } else {
+    out_ << "map " << target << ": failed: " << r.error << std::endl;
+  }
+  return r.ok ? kOk : kRefused;
+}
+
+int CommandShell::Snapshot(const std::vector<std::string>& args) {
+  const std::string& robot = args[0];
+  const std::string& path = args[1];
+  double timeout_s = 5.0;
+  std::string error;
+  if (args.size() == 3 && (!ParseNumber(args[2], "TIMEOUT_S", &timeout_s, &error) || timeout_s <= 0 ||
+                           timeout_s > 600)) {
+    return UsageError("snapshot", error.empty() ? "TIMEOUT_S '" + args[2] + "' must be in (0, 600]" : error);
+  }
+  // The next frame, so that the picture is from now, not from whenever the last one arrived.
+  const auto latest = client_.perception().LatestFrame(robot);
+  const auto view = client_.perception().WaitForFrame(robot, latest ? latest->frame.seq() : 0, timeout_s);
+  auto fail = [&](const std::string& reason) {
+    CommandOutcome o;
+    o.result = "error";
+    o.reason = reason;
+    return Report("snapshot", robot, o);
+  };
+  if (!view) {
+    return fail("no camera frame from robot " + robot + " within " + Fixed(timeout_s, 1) +
+                " s (unknown robot, camera off, or frames dropped on a saturated link)");
+  }
+  std::ofstream file(path, std::ios::binary);
+  const auto& data = view->frame.data();
+  file.write(reinterpret_cast<const char*>(data.data()), static_cast<std::streamsize>(data.size()));
+  file.close();
+  if (!file) return fail("cannot write '" + path + "'");
+  const auto& p = view->frame.pose_MC().position();
+  if (json_) {
+    out_ << json{{"command", "snapshot"}, {"robot", robot}, {"ok", true}, {"file", path},
+                 {"bytes", data.size()}, {"width_px", view->frame.width_px()}, {"height_px", view->frame.height_px()},
+                 {"seq", view->frame.seq()}, {"frames_missed", view->frames_missed},
+                 {"x_m", p.x_m()}, {"y_m", p.y_m()}, {"z_m", p.z_m()}}
+                .dump()
+         << std::endl;
+  } else {
+    out_ << "snapshot " << robot << ": frame " << view->frame.seq() << ", " << view->frame.width_px() << "x"
+         << view->frame.height_px() << " JPEG, " << data.size() << " bytes, camera at (" << Fixed(p.x_m(), 2) << ", "
+         << Fixed(p.y_m(), 2) << ", " << Fixed(p.z_m(), 2) << ") saved to " << path << std::endl;
+  }
+  return kOk;
+}
+
+int CommandShell::Stairs() {
+  const auto entries = client_.perception().Staircases();
+  if (json_) {
+    json list = json::array();
+    for (const auto& e : entries) {
+      const perception::Staircase& s = e.staircase;
+      list.push_back({{"id", e.id}, {"x_m", s.p_W_first_step.x()}, {"y_m", s.p_W_first_step.y()},
+                      {"z_m", s.p_W_first_step.z()}, {"yaw_rad", s.yaw_rad}, {"num_steps", s.num_steps},
+                      {"rise_m", s.rise_m}, {"run_m", s.run_m}, {"width_m", s.width_m},
+                      {"confidence", s.confidence}, {"sources", e.sources}});
+    }
+    out_ << json{{"command", "stairs"}, {"ok", true}, {"staircases", list}}.dump() << std::endl;
+    return kOk;
+  }
+  if (entries.empty()) {
+    out_ << "stairs: none found" << std::endl;
+    return kOk;
+  }
+  for (const auto& e : entries) {
+    const perception::Staircase& s = e.staircase;
+    std::string sources;
+    for (const auto& src : e.sources) sources += (sources.empty() ? "" : ", ") + src;
+    out_ << "staircase " << e.id << ": " << s.num_steps << " steps at (" << Fixed(s.p_W_first_step.x(), 2) << ", "
+         << Fixed(s.p_W_first_step.y(), 2) << ", " << Fixed(s.p_W_first_step.z(), 2) << ") heading "
+         << Fixed(s.yaw_rad * 180.0 / M_PI, 0) << " deg, rise " << Fixed(s.rise_m, 3) << " m, run "
+         << Fixed(s.run_m, 3) << " m, width " << Fixed(s.width_m, 2) << " m, confidence " << Fixed(s.confidence, 2)
+         << ", seen by " << sources << std::endl;
+  }
+  return kOk;
+}
 
 int CommandShell::Path(const std::vector<std::string>& args) {
   const std::string& robot = args[0];

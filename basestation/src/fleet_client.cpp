@@ -48,6 +48,7 @@ class FleetClient::Impl {
     participant_ = std::make_unique<core::Participant>(p);
     info_writer_ =
         std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/agent_info", "cairn.latched");
+    perception_ = std::make_unique<FleetPerception>(*participant_, options.base_id);
     control_writer_ = std::make_unique<core::Writer<msgs::ControlRequestPubSubType>>(
         *participant_, "cairn/control_request", "cairn.command");
     mode_writer_ = std::make_unique<core::Writer<msgs::ModeRequestPubSubType>>(*participant_, "cairn/mode_request",
@@ -100,6 +101,7 @@ class FleetClient::Impl {
             v.platform = m.platform();
             v.capabilities = m.capabilities();
           });
+          perception_->OnRobotSeen(m.agent_id());
         },
         [this](const eprosima::fastdds::dds::LivelinessChangedStatus& status) { OnLiveliness(status); });
 
@@ -114,6 +116,7 @@ class FleetClient::Impl {
   }
 
   ~Impl() {
+    perception_.reset();
     response_reader_.reset();
     path_response_reader_.reset();
     global_path_reader_.reset();
@@ -251,6 +254,7 @@ class FleetClient::Impl {
 
   std::unique_ptr<core::Participant> participant_;
   std::unique_ptr<core::Writer<msgs::AgentInfoPubSubType>> info_writer_;
+  std::unique_ptr<FleetPerception> perception_;
   std::unique_ptr<core::Writer<msgs::ControlRequestPubSubType>> control_writer_;
   std::unique_ptr<core::Writer<msgs::ModeRequestPubSubType>> mode_writer_;
   std::unique_ptr<core::Writer<msgs::WaypointGoalPubSubType>> goal_writer_;
@@ -269,6 +273,8 @@ FleetClient::FleetClient(const FleetClientOptions& options) : impl_(std::make_un
 FleetClient::~FleetClient() = default;
 
 const std::string& FleetClient::base_id() const { return impl_->options_.base_id; }
+
+FleetPerception& FleetClient::perception() { return *impl_->perception_; }
 
 std::vector<RobotView> FleetClient::Robots() const {
   std::lock_guard<std::mutex> lock(impl_->mutex_);

@@ -46,7 +46,7 @@ void OnLine(char* raw) {
 
 // Reads lines from a terminal with history (libedit) until Ctrl-D, "quit", or SIGINT/SIGTERM. Input is polled
 // so that Ctrl-C ends the session at once instead of after the next Enter.
-int RunInteractive(cairn::base::CommandShell& shell, const std::string& base_id) {
+int RunInteractive(cairn::base::CommandShell& shell, cairn::base::FleetClient& client, const std::string& base_id) {
   const char* home = std::getenv("HOME");
   const std::string history = std::string(home ? home : ".") + "/.cairn_base_history";
   read_history(history.c_str());
@@ -57,6 +57,12 @@ int RunInteractive(cairn::base::CommandShell& shell, const std::string& base_id)
   while (!g_interactive.done && !cairn::core::ShutdownRequested()) {
     pollfd input{STDIN_FILENO, POLLIN, 0};
     if (poll(&input, 1, 100) > 0) rl_callback_read_char();
+    if (!g_interactive.pending && client.perception().HasEvents()) {
+      // Events (a new staircase) between commands: print them above a redrawn prompt.
+      rl_callback_handler_remove();
+      shell.PrintEvents();
+      rl_callback_handler_install(prompt.c_str(), OnLine);
+    }
     if (g_interactive.pending) {
       // Without the handler installed the output is not interleaved with a redrawn prompt.
       rl_callback_handler_remove();
@@ -139,7 +145,7 @@ int main(int argc, char** argv) {
       return shell.Execute(line);
     }
     if (!script.empty()) return RunScript(shell, script_file, keep_going);
-    if (isatty(STDIN_FILENO)) return RunInteractive(shell, options.base_id);
+    if (isatty(STDIN_FILENO)) return RunInteractive(shell, client, options.base_id);
     return RunScript(shell, std::cin, /*keep_going=*/true);
   } catch (const std::exception& e) {
     spdlog::error("cairn_base {}: {}", options.base_id, e.what());

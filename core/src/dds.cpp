@@ -1,10 +1,13 @@
 #include "cairn/core/dds.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
+#include <fastdds/rtps/flowcontrol/FlowControllerDescriptor.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 
 #ifndef CAIRN_CONFIG_DIR
@@ -105,6 +108,27 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
                    "; refusing to start without allow_network");
   }
   qos.name(options.name);
+  for (const FlowControllerOptions& flow : options.flow_controllers) {
+    if (flow.name.empty() || FlowControllerName(flow.name) != nullptr) {
+      throw DdsError("flow controller name '" + flow.name + "' is empty or used twice");
+    }
+    if (!(flow.budget_bits_per_s > 0.0) || !std::isfinite(flow.budget_bits_per_s)) {
+      throw std::invalid_argument("flow controller '" + flow.name + "': budget_bits_per_s " +
+                                  std::to_string(flow.budget_bits_per_s) + " must be > 0 and finite");
+    }
+    if (flow.period_ms < 1 || flow.period_ms > 10000) {
+      throw std::invalid_argument("flow controller '" + flow.name + "': period_ms " +
+                                  std::to_string(flow.period_ms) + " must be in [1, 10000]");
+    }
+    flow_controller_names_.push_back(flow.name);
+    auto descriptor = std::make_shared<eprosima::fastdds::rtps::FlowControllerDescriptor>();
+    descriptor->name = flow_controller_names_.back().c_str();
+    descriptor->scheduler = eprosima::fastdds::rtps::FlowControllerSchedulerPolicy::FIFO;
+    const double bytes = flow.budget_bits_per_s / 8.0 * flow.period_ms / 1000.0;
+    descriptor->max_bytes_per_period = static_cast<int32_t>(std::clamp(bytes, 1.0, 2.0e9));
+    descriptor->period_ms = static_cast<uint64_t>(flow.period_ms);
+    qos.flow_controllers().push_back(descriptor);
+  }
   participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options.domain_id), qos);
   if (participant_ == nullptr) {
     throw DdsError("cannot create DDS participant '" + options.name + "' in domain " +
@@ -123,6 +147,13 @@ Participant::~Participant() {
   if (participant_ == nullptr) return;
   participant_->delete_contained_entities();
   dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+}
+
+const char* Participant::FlowControllerName(const std::string& name) const {
+  for (const std::string& registered : flow_controller_names_) {
+    if (registered == name) return registered.c_str();
+  }
+  return nullptr;
 }
 
 dds::Topic* Participant::GetTopic(const std::string& topic_name, dds::TypeSupport type) {

@@ -32,7 +32,7 @@ nav::TrajectoryLibraryOptions AgentOptions::LibraryForPlatform() const {
 void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto config = core::ConfigSection::LoadFile(path);
   config.RejectUnknownKeys({"command_interface", "mux", "navigation", "local_planner", "controller", "platform",
-                            "traversability", "telemetry"});
+                            "traversability", "telemetry", "perception"});
   const auto ci = config.Section("command_interface");
   ci.RejectUnknownKeys({"lock_keep_s"});
   ci.ReadDouble("lock_keep_s", &lock.lock_keep_s, /*allow_infinity=*/true);
@@ -97,6 +97,34 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   telemetry.RejectUnknownKeys({"state_rate_hz", "local_plan_rate_hz"});
   telemetry.ReadDouble("state_rate_hz", &state_rate_hz);
   telemetry.ReadDouble("local_plan_rate_hz", &local_plan_rate_hz);
+  PerceptionOptions& pe = perception;
+  const auto per = config.Section("perception");
+  per.RejectUnknownKeys({"enabled", "lidar_rate_hz", "lidar_beams", "lidar_points_per_beam", "lidar_max_range_m",
+                         "lidar_range_noise_m", "lidar_height_m", "slam_position_drift_per_sqrt_m",
+                         "slam_yaw_drift_rad_per_sqrt_m", "map_resolution_m", "map_insert_period_s",
+                         "staircase_period_s", "map_coarse_levels", "map_budget_bits_per_s", "map_period_s",
+                         "camera_rate_hz", "camera_width_px", "camera_height_px", "jpeg_quality",
+                         "camera_budget_bits_per_s"});
+  per.ReadBool("enabled", &pe.enabled);
+  per.ReadDouble("lidar_rate_hz", &pe.lidar.rate_hz);
+  per.ReadInt("lidar_beams", &pe.lidar.num_beams);
+  per.ReadInt("lidar_points_per_beam", &pe.lidar.points_per_beam);
+  per.ReadDouble("lidar_max_range_m", &pe.lidar.max_range_m);
+  per.ReadDouble("lidar_range_noise_m", &pe.lidar.range_noise_stddev_m);
+  per.ReadDouble("lidar_height_m", &pe.lidar_height_m);
+  per.ReadDouble("slam_position_drift_per_sqrt_m", &pe.slam.position_drift_per_sqrt_m);
+  per.ReadDouble("slam_yaw_drift_rad_per_sqrt_m", &pe.slam.yaw_drift_rad_per_sqrt_m);
+  per.ReadDouble("map_resolution_m", &pe.map.resolution_m);
+  per.ReadDouble("map_insert_period_s", &pe.map_insert_period_s);
+  per.ReadDouble("staircase_period_s", &pe.staircase_period_s);
+  per.ReadInt("map_coarse_levels", &pe.map_coarse_levels);
+  per.ReadDouble("map_budget_bits_per_s", &pe.telemetry.budget_bits_per_s);
+  per.ReadDouble("map_period_s", &pe.telemetry.period_s);
+  per.ReadDouble("camera_rate_hz", &pe.camera_rate_hz);
+  per.ReadInt("camera_width_px", &pe.camera.width_px);
+  per.ReadInt("camera_height_px", &pe.camera.height_px);
+  per.ReadInt("jpeg_quality", &pe.jpeg_quality);
+  per.ReadDouble("camera_budget_bits_per_s", &pe.camera_budget_bits_per_s);
   std::string why;
   if (!IsValid(&why)) throw core::ConfigError(path + ": " + why);
 }
@@ -137,6 +165,7 @@ bool AgentOptions::IsValid(std::string* why) const {
            " m), or obstacles at the end of a path are unseen";
     return false;
   }
+  if (!perception.IsValid(why)) return false;
   std::string inner;
   if (!LibraryForPlatform().IsValid(&inner)) {
     *why = "local_planner: " + inner;

@@ -36,6 +36,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--dds-profiles", options.dds_profiles_file, "Fast DDS XML profiles file (default: shipped "
                                                               "loopback-only config/dds_profiles.xml)");
+  app.add_option("--map-save", options.map_save_path,
+                 "save the robot's map (OctoMap .bt, full resolution, SLAM frame) to this file at exit");
   app.add_option("--mode-tree", options.mode_tree_file, "mode tree XML (default: config/mode_tree.xml)");
   try {
     app.parse(argc, argv);

@@ -1,6 +1,7 @@
 #include "cairn/agent/robot_agent.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <deque>
 #include <map>
@@ -13,6 +14,7 @@
 #include "cairn/agent/control_lock.h"
 #include "cairn/agent/mode_manager.h"
 #include "cairn/agent/navigation.h"
+#include "cairn/agent/perception_pipeline.h"
 #include "cairn/agent/twist_mux.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/shutdown.h"
@@ -90,10 +92,14 @@ class RobotAgent::Impl {
   void PublishTreeStateIfChanged();
   void PublishGlobalPathIfChanged();
   void PublishLocalPlan();
+  // Perception thread: scans, maps, detects and publishes telemetry at the lidar rate, off the control loop.
+  void PerceptionLoop();
+  void PublishPerception(const PerceptionOutput& out);
   double NowS(SteadyTime t) const { return core::SecondsBetween(start_time_, t); }
 
   AgentOptions options_;
   SteadyTime start_time_ = SteadyClock::now();
+  std::shared_ptr<const sim::World> world_;  // the simulated world (sensed by the lidar and camera)
   std::shared_ptr<nav::GlobalPlanner> planner_;  // thread-safe; also serves path requests
   std::shared_ptr<const nav::TraversabilityGrid> grid_;
   sim::Unicycle platform_;
@@ -116,6 +122,8 @@ class RobotAgent::Impl {
   std::map<eprosima::fastrtps::rtps::InstanceHandle_t, std::string> base_by_writer_;
   std::deque<std::pair<std::string, msgs::CommandResponse>> responses_;
   std::string last_tree_signature_;
+  std::unique_ptr<PerceptionPipeline> perception_;  // used by the perception thread only
+  std::atomic<bool> map_snapshot_requested_{false};
 
   std::mutex mutex_;
   std::unique_ptr<core::Participant> participant_;
@@ -126,6 +134,10 @@ class RobotAgent::Impl {
   std::unique_ptr<core::Writer<msgs::PathResponsePubSubType>> path_response_writer_;
   std::unique_ptr<core::Writer<msgs::GlobalPathPubSubType>> global_path_writer_;
   std::unique_ptr<core::Writer<msgs::LocalPlanPubSubType>> local_plan_writer_;
+  std::unique_ptr<core::Writer<msgs::MapUpdatePubSubType>> map_writer_;
+  std::unique_ptr<core::Writer<msgs::CompressedImagePubSubType>> camera_writer_;
+  std::unique_ptr<core::Writer<msgs::StaircaseDetectionPubSubType>> staircase_writer_;
+  std::unique_ptr<core::Reader<msgs::MapSyncRequestPubSubType>> map_sync_reader_;
   std::unique_ptr<core::Reader<msgs::PathRequestPubSubType>> path_request_reader_;
   std::unique_ptr<core::Reader<msgs::ControlRequestPubSubType>> control_reader_;
   std::unique_ptr<core::Reader<msgs::ModeRequestPubSubType>> mode_reader_;
@@ -136,10 +148,14 @@ class RobotAgent::Impl {
 
 namespace {
 
-std::shared_ptr<nav::GlobalPlanner> MakePlanner(const AgentOptions& options) {
+std::shared_ptr<const sim::World> LoadAgentWorld(const AgentOptions& options) {
   sim::WorldLoadOptions w;
   w.pcd_resolution_m = options.pcd_resolution_m;
-  auto world = std::make_shared<const sim::World>(sim::LoadWorld(options.world, w));
+  return std::make_shared<const sim::World>(sim::LoadWorld(options.world, w));
+}
+
+std::shared_ptr<nav::GlobalPlanner> MakePlanner(const AgentOptions& options,
+                                                std::shared_ptr<const sim::World> world) {
   // Serves its own (possibly re-configured) platform and the other built-in ones, for peers that ask.
   std::vector<nav::PlatformProfile> profiles = {options.navigation.platform};
   for (const auto& name : nav::PlatformNames()) {
@@ -154,7 +170,8 @@ std::string DefaultTreeFile() { return std::string(CAIRN_CONFIG_DIR) + "/mode_tr
 
 RobotAgent::Impl::Impl(const AgentOptions& options)
     : options_(options),
-      planner_(MakePlanner(options)),
+      world_(LoadAgentWorld(options)),
+      planner_(MakePlanner(options, world_)),
       grid_(planner_->Grid(options.navigation.platform.name)),
       platform_(options.navigation.platform.limits, options.navigation.platform.footprint_radius_m),
       lock_(options.robot_id, options.lock),
@@ -207,6 +224,10 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
   p.domain_id = options.domain_id;
   if (!options.dds_profiles_file.empty()) p.profiles_file = options.dds_profiles_file;
   p.name = "cairn_agent/" + options.robot_id;
+  // Map telemetry budgets itself (PerceptionOptions::telemetry); the flow controller is a backstop 25 % above
+  // it. Camera frames rely on theirs: a frame that cannot go out in time is replaced by the next.
+  p.flow_controllers = {{"cairn.map", options.perception.telemetry.budget_bits_per_s * 1.25, 100},
+                        {"cairn.camera", options.perception.camera_budget_bits_per_s, 100}};
   participant_ = std::make_unique<core::Participant>(p);
   info_writer_ = std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/agent_info",
                                                                            "cairn.latched");
@@ -222,6 +243,18 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
       *participant_, "cairn/global_path", "cairn.latched");
   local_plan_writer_ = std::make_unique<core::Writer<msgs::LocalPlanPubSubType>>(*participant_, "cairn/local_plan",
                                                                                  "cairn.state");
+  map_writer_ = std::make_unique<core::Writer<msgs::MapUpdatePubSubType>>(*participant_, "cairn/map_update",
+                                                                           "cairn.map", "cairn.map");
+  camera_writer_ = std::make_unique<core::Writer<msgs::CompressedImagePubSubType>>(*participant_, "cairn/camera",
+                                                                                   "cairn.camera", "cairn.camera");
+  staircase_writer_ = std::make_unique<core::Writer<msgs::StaircaseDetectionPubSubType>>(
+      *participant_, "cairn/staircase", "cairn.latched");
+  map_sync_reader_ = std::make_unique<core::Reader<msgs::MapSyncRequestPubSubType>>(
+      *participant_, "cairn/map_sync_request", "cairn.command", [this](const msgs::MapSyncRequest& m, const auto&) {
+        if (m.robot_id() != options_.robot_id) return;
+        spdlog::info("robot {}: map snapshot requested by {}", options_.robot_id, m.requester_id());
+        map_snapshot_requested_ = true;
+      });
   path_request_reader_ = std::make_unique<core::Reader<msgs::PathRequestPubSubType>>(
       *participant_, "cairn/path_request", "cairn.command",
       [this](const msgs::PathRequest& m, const auto&) { OnPathRequest(m); });
@@ -250,6 +283,8 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
   info.world(options.world);
   info.stamp(cairn::msgs::WallStampNow());
   info_writer_->Write(info);
+  perception_ = std::make_unique<PerceptionPipeline>(
+      options.perception, world_, options.robot_id, static_cast<uint32_t>(std::hash<std::string>{}(options.robot_id)));
   PublishGlobalPathIfChanged();  // an empty path: late joiners see "no goal"
   spdlog::info("robot {} ({}) ready in {} at ({:.2f}, {:.2f}, yaw {:.2f}) on DDS domain {}", options.robot_id,
                options.platform, options.world, state.x_m, state.y_m, state.yaw_rad, options.domain_id);
@@ -257,6 +292,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
 
 RobotAgent::Impl::~Impl() {
   // Readers first so that no callback runs while the rest is torn down.
+  map_sync_reader_.reset();
   path_request_reader_.reset();
   control_reader_.reset();
   mode_reader_.reset();
@@ -709,6 +745,8 @@ void RobotAgent::Impl::Run() {
   const int state_every = std::max(1, static_cast<int>(std::lround(1.0 / (options_.state_rate_hz * kLoopPeriodS))));
   const int local_plan_every =
       std::max(1, static_cast<int>(std::lround(1.0 / (options_.local_plan_rate_hz * kLoopPeriodS))));
+  std::thread perception_thread;
+  if (options_.perception.enabled) perception_thread = std::thread([this] { PerceptionLoop(); });
   SteadyTime next = SteadyClock::now();
   for (uint64_t cycle = 0; !core::ShutdownRequested(); ++cycle) {
     {
@@ -724,10 +762,121 @@ void RobotAgent::Impl::Run() {
     if (next < now) next = now;  // overrun: do not try to catch up
     core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
   }
-  std::lock_guard<std::mutex> guard(mutex_);
-  ApplyMode(modes_.Request("idle", Conditions()));
-  PublishState(SteadyClock::now());
-  spdlog::info("robot {}: shutting down", options_.robot_id);
+  {
+    std::lock_guard<std::mutex> guard(mutex_);
+    ApplyMode(modes_.Request("idle", Conditions()));
+    PublishState(SteadyClock::now());
+  }
+  if (perception_thread.joinable()) perception_thread.join();
+  if (!options_.map_save_path.empty()) {
+    try {
+      perception_->map()->SaveBt(options_.map_save_path);
+      spdlog::info("robot {}: map saved to {}", options_.robot_id, options_.map_save_path);
+    } catch (const std::exception& e) {
+      spdlog::error("robot {}: cannot save the map: {}", options_.robot_id, e.what());
+    }
+  }
+  const PerceptionStats& ps = perception_->stats();
+  spdlog::info("robot {}: shutting down; perception: {} scans ({:.1f} ms lidar, {:.1f} ms map per inserted scan), "
+               "{} staircase runs ({:.1f} ms each), {} camera frames, SLAM error {:.2f} m after {:.1f} m",
+               options_.robot_id, ps.scans, ps.scans ? ps.lidar_ms_total / ps.scans : 0.0,
+               ps.scans_inserted ? ps.map_ms_total / ps.scans_inserted : 0.0, ps.staircase_runs,
+               ps.staircase_runs ? ps.staircase_ms_total / ps.staircase_runs : 0.0, ps.camera_frames, ps.slam_error_m,
+               ps.distance_m);
+}
+
+namespace {
+
+msgs::Pose PoseOf(const Eigen::Isometry3d& T) {
+  msgs::Pose pose;
+  pose.position(PointOf(T.translation().x(), T.translation().y(), T.translation().z()));
+  const Eigen::Quaterniond q(T.rotation());
+  pose.orientation().x(q.x());
+  pose.orientation().y(q.y());
+  pose.orientation().z(q.z());
+  pose.orientation().w(q.w());
+  return pose;
+}
+
+}  // namespace
+
+void RobotAgent::Impl::PublishPerception(const PerceptionOutput& out) {
+  for (const perception::MapUpdate& update : out.map_messages) {
+    msgs::MapUpdate m;
+    m.robot_id(options_.robot_id);
+    m.stamp(cairn::msgs::WallStampNow());
+    m.kind(static_cast<uint8_t>(update.kind));
+    m.seq(update.seq);
+    m.base_seq(update.base_seq);
+    m.snapshot_id(update.snapshot_id);
+    m.chunk_index(update.chunk_index);
+    m.chunk_count(update.chunk_count);
+    m.resolution_m(update.resolution_m);
+    m.encoding("cairn-coarse-zstd-v1");
+    m.data(update.data);
+    if (!map_writer_->Write(m)) {
+      spdlog::warn("robot {}: map update seq {} not written (history full)", options_.robot_id, update.seq);
+    }
+  }
+  for (const perception::StaircaseRegistry::Entry& entry : out.staircases) {
+    const perception::Staircase& s = entry.staircase;
+    msgs::StaircaseDetection m;
+    m.robot_id(options_.robot_id);
+    m.staircase_id(static_cast<uint32_t>(entry.id));
+    m.stamp(cairn::msgs::WallStampNow());
+    m.p_M_first_step(PointOf(s.p_W_first_step.x(), s.p_W_first_step.y(), s.p_W_first_step.z()));
+    m.yaw_rad(s.yaw_rad);
+    m.rise_m(s.rise_m);
+    m.run_m(s.run_m);
+    m.width_m(s.width_m);
+    m.num_steps(static_cast<uint16_t>(s.num_steps));
+    m.confidence(s.confidence);
+    m.detections(static_cast<uint32_t>(entry.detections));
+    staircase_writer_->Write(m);
+    spdlog::info("robot {}: staircase {} at ({:.2f}, {:.2f}, {:.2f}) yaw {:.2f}: {} steps, rise {:.3f} m, run {:.3f} m, "
+                 "width {:.2f} m ({} detections)", options_.robot_id, entry.id, s.p_W_first_step.x(),
+                 s.p_W_first_step.y(), s.p_W_first_step.z(), s.yaw_rad, s.num_steps, s.rise_m, s.run_m, s.width_m,
+                 entry.detections);
+  }
+  if (out.camera) {
+    msgs::CompressedImage m;
+    m.robot_id(options_.robot_id);
+    m.stamp(cairn::msgs::WallStampNow());
+    m.seq(out.camera->seq);
+    m.frame_id("camera");
+    m.format("jpeg");
+    m.width_px(static_cast<uint16_t>(out.camera->width_px));
+    m.height_px(static_cast<uint16_t>(out.camera->height_px));
+    m.pose_MC(PoseOf(out.camera->T_W_C));
+    m.data(out.camera->jpeg);
+    camera_writer_->Write(m);  // keep-last 1: an unsent frame is replaced by this one (dropped, never queued)
+  }
+}
+
+void RobotAgent::Impl::PerceptionLoop() {
+  const auto period = std::chrono::duration_cast<SteadyClock::duration>(
+      std::chrono::duration<double>(1.0 / options_.perception.lidar.rate_hz));
+  SteadyTime next = SteadyClock::now();
+  while (!core::ShutdownRequested()) {
+    Eigen::Isometry3d T_W_B = Eigen::Isometry3d::Identity();
+    {
+      std::lock_guard<std::mutex> guard(mutex_);
+      const sim::UnicycleState& s = platform_.state();
+      T_W_B.translation() = Eigen::Vector3d(s.x_m, s.y_m, s.z_m);
+      T_W_B.linear() = Eigen::AngleAxisd(s.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    }
+    if (map_snapshot_requested_.exchange(false)) perception_->RequestMapSnapshot();
+    try {
+      PublishPerception(perception_->Tick(NowS(SteadyClock::now()), T_W_B));
+    } catch (const std::exception& e) {
+      // Perception must never take the robot down; navigation does not depend on it yet.
+      spdlog::error("robot {}: perception tick failed: {}", options_.robot_id, e.what());
+    }
+    next += period;
+    const auto now = SteadyClock::now();
+    if (next < now) next = now;  // over budget: the next scan comes late, never a burst
+    core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
+  }
 }
 
 RobotAgent::RobotAgent(const AgentOptions& options) : impl_(std::make_unique<Impl>(options)) {}

@@ -15,8 +15,8 @@ namespace cairn::base {
 enum ExitCode : int { kOk = 0, kRefused = 1, kUsage = 2 };
 
 /// Executes one command line against a fleet client and prints the outcome (text, or one JSON object per
-/// line with `json`). Commands: robots, status, request-control, release, mode, goto, teleop, stop, wait,
-/// sleep, help (see Help()).
+/// line with `json`). Commands: robots, status, request-control, release, mode, goto, path, plan, teleop,
+/// stop, wait, sleep, map, snapshot, stairs, help (see Help()).
 class CommandShell {
  public:
   CommandShell(FleetClient& client, bool json, std::ostream& out);
@@ -25,12 +25,20 @@ class CommandShell {
   /// failed; its reason is printed) or kUsage (malformed command: the message names the argument and value).
   int Execute(const std::string& line);
 
+  /// Prints events not yet shown (a new staircase), once each. Execute() calls it before and after each
+  /// command; an interactive loop also calls it while idle.
+  void PrintEvents();
+
   /// Help text listing every command.
   static std::string Help();
   /// Command names (for completion).
   static const std::vector<std::string>& CommandNames();
 
  private:
+  int Run(const std::string& line);
+  int Map(const std::vector<std::string>& args);
+  int Snapshot(const std::vector<std::string>& args);
+  int Stairs();
   int Robots();
   int Status(const std::vector<std::string>& args);
   int Control(const std::vector<std::string>& args, bool request);

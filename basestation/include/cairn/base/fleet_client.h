@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "cairn/base/fleet_perception.h"
 #include "cairn/core/time.h"
 #include "cairn_msgs.h"
 
@@ -98,6 +99,9 @@ class FleetClient {
   /// `platform` ("" = the robot's own). Retries until answered or command_timeout_s passes.
   PathAnswer RequestPath(const std::string& robot_id, const std::string& platform, double start_x_m,
                          double start_y_m, double goal_x_m, double goal_y_m);
+
+  /// Fleet map, camera frames and staircases (perception telemetry).
+  FleetPerception& perception();
 
   class Impl;  ///< DDS entities and the fleet model, kept out of this header.
 

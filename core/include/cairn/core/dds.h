@@ -4,18 +4,21 @@
 
 #include <atomic>
 #include <chrono>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <fastdds/dds/core/status/LivelinessChangedStatus.hpp>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/DataWriterListener.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
@@ -44,6 +47,14 @@ int ParseDomainId(const std::string& text, const std::string& field = "--domain"
 /// with the environment variable CAIRN_DDS_PROFILES.
 std::string DefaultProfilesFile();
 
+/// A flow controller the participant registers (DESIGN.md: map and camera writers are flow-controlled so
+/// that they never starve commands). Writers opt in by name (Writer's `flow_controller` argument).
+struct FlowControllerOptions {
+  std::string name;                ///< e.g. "cairn.map"; unique per participant
+  double budget_bits_per_s = 0.0;  ///< bytes on the wire per second * 8, > 0
+  int period_ms = 100;             ///< budget window, [1, 10000]
+};
+
 /// How a participant is created.
 struct ParticipantOptions {
   int domain_id = 0;                                    ///< DDS domain, [0, 232].
@@ -52,6 +63,8 @@ struct ParticipantOptions {
   std::string name = "cairn";                           ///< participant name seen by peers.
   /// Profiles other than loopback-only are refused unless this is set (network safety, DESIGN.md).
   bool allow_network = false;
+  /// Flow controllers to register; names must be unique. @see FlowControllerOptions.
+  std::vector<FlowControllerOptions> flow_controllers;
 };
 
 /// One DomainParticipant with one publisher and one subscriber, built from an XML profile.
@@ -78,12 +91,17 @@ class Participant {
   eprosima::fastdds::dds::Topic* GetTopic(const std::string& topic_name,
                                           eprosima::fastdds::dds::TypeSupport type);
 
+  /// The registered flow controller's name as Fast DDS holds it, or nullptr if none has that name.
+  const char* FlowControllerName(const std::string& name) const;
+
  private:
   ParticipantOptions options_;
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   std::mutex mutex_;
+  // Fast DDS keeps `const char*` names of flow controllers: the strings live here, as long as the participant.
+  std::deque<std::string> flow_controller_names_;
 };
 
 /// True when a liveliness change means the writer `status.last_publication_handle` is gone: its liveliness
@@ -104,11 +122,31 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
  public:
   using Msg = typename PubSubT::type;
 
-  /// @throws DdsError when the profile is missing or the writer cannot be created.
-  Writer(Participant& participant, const std::string& topic_name, const std::string& qos_class)
+  /// `flow_controller`: name of a flow controller registered on the participant (ParticipantOptions), or
+  /// "" for none. With one, the writer publishes asynchronously within that controller's budget.
+  /// @throws DdsError when the profile or flow controller is missing or the writer cannot be created.
+  Writer(Participant& participant, const std::string& topic_name, const std::string& qos_class,
+         const std::string& flow_controller = "")
       : participant_(participant) {
     topic_ = participant.GetTopic(topic_name, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
-    writer_ = participant.publisher()->create_datawriter_with_profile(topic_, qos_class + ".writer", this);
+    if (flow_controller.empty()) {
+      writer_ = participant.publisher()->create_datawriter_with_profile(topic_, qos_class + ".writer", this);
+    } else {
+      eprosima::fastdds::dds::DataWriterQos qos;
+      if (participant.publisher()->get_datawriter_qos_from_profile(qos_class + ".writer", qos) !=
+          eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
+        throw DdsError("writer QoS profile '" + qos_class + ".writer' is not defined in " +
+                       participant.options().profiles_file);
+      }
+      const char* name = participant.FlowControllerName(flow_controller);
+      if (name == nullptr) {
+        throw DdsError("flow controller '" + flow_controller + "' is not registered on participant '" +
+                       participant.options().name + "'");
+      }
+      qos.publish_mode().kind = eprosima::fastdds::dds::ASYNCHRONOUS_PUBLISH_MODE;
+      qos.publish_mode().flow_controller_name = name;
+      writer_ = participant.publisher()->create_datawriter(topic_, qos, this);
+    }
     if (writer_ == nullptr) {
       throw DdsError("cannot create writer on topic '" + topic_name + "' with QoS profile '" + qos_class +
                      ".writer' from " + participant.options().profiles_file);

@@ -6,6 +6,7 @@
 
 #include "cairn/agent/control_lock.h"
 #include "cairn/agent/navigation.h"
+#include "cairn/agent/perception_pipeline.h"
 #include "cairn/nav/local_planner.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/unicycle.h"
@@ -26,6 +27,7 @@ struct AgentOptions {
   std::string dds_profiles_file;                  ///< "" = core::DefaultProfilesFile()
   std::string mode_tree_file;                     ///< "" = config/mode_tree.xml of the source tree
   double pcd_resolution_m = 0.1;                  ///< voxel size when the world is a PCD cloud, (0.02, 2]
+  std::string map_save_path;                      ///< "" = none; else the robot's map is saved here (.bt) at exit
 
   // From the config file.
   ControlLockOptions lock;
@@ -41,6 +43,8 @@ struct AgentOptions {
   /// from the platform profile.
   nav::TrajectoryLibraryOptions library = DefaultLibraryOptions();
   double collision_margin_m = 0.03;   ///< [0, 1], metres added to the footprint for the local planner
+  /// Perception: lidar, SLAM drift, mapping, staircases, map telemetry and camera (section `perception`).
+  PerceptionOptions perception;
 
   /// Library options used by default: 0.05 m correspondence voxels (the conservative voxel test then adds
   /// only 0.035 m to the collision radius, so the robot still threads 0.8 m gaps).

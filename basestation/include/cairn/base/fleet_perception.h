@@ -1,0 +1,94 @@
+// The basestation's perception view of the fleet: the merged fleet map built from every robot's map
+// telemetry, the latest camera frame of each robot, and the fleet's staircases (Sriganesh et al. 2024,
+// "Command Interface": downsampled map and camera streams to the operator).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cairn/core/time.h"
+#include "cairn/perception/map_telemetry.h"
+#include "cairn/perception/staircase.h"
+#include "cairn_msgs.h"
+
+namespace cairn::core {
+class Participant;
+}
+
+namespace cairn::base {
+
+/// Latest camera frame of one robot.
+struct CameraView {
+  cairn_msgs::CompressedImage frame;  ///< JPEG bytes in frame.data()
+  core::SteadyTime received{};
+  std::uint64_t frames_received = 0;
+  std::uint64_t frames_missed = 0;  ///< gaps in the frame counter (dropped under load or lost)
+};
+
+/// Something the operator should be told about once (printed by the shell between commands).
+struct FleetEvent {
+  std::string kind;     ///< "staircase"
+  std::string message;  ///< one line for people
+  perception::StaircaseRegistry::Entry staircase;  ///< kind "staircase": the new fleet staircase
+};
+
+/// Outcome of FleetPerception::SaveMap().
+struct MapSaveResult {
+  bool ok = false;
+  std::string error;         ///< why not ok (names the robot, path or reason)
+  std::size_t voxels = 0;    ///< known coarse voxels written
+  std::size_t occupied = 0;  ///< of which occupied
+  double resolution_m = 0;   ///< coarse voxel edge
+};
+
+/// DDS readers and writers of the perception topics on a basestation's participant, and the fleet model
+/// built from them. Thread-safe. Malformed map updates are dropped and counted (FleetMapStats::drops),
+/// never applied.
+class FleetPerception {
+ public:
+  /// @throws core::DdsError when an entity cannot be created.
+  FleetPerception(core::Participant& participant, const std::string& base_id);
+  ~FleetPerception();
+  FleetPerception(const FleetPerception&) = delete;
+  FleetPerception& operator=(const FleetPerception&) = delete;
+
+  /// A robot's agent info arrived (once per robot session): restart its map stream and ask it for a
+  /// snapshot (late joiners, restarted robots).
+  void OnRobotSeen(const std::string& robot_id);
+
+  /// Saves the coarse map of `target` (a robot id, or "fleet" for the merged map) as an OctoMap .bt. A robot
+  /// whose map is incomplete (joined late, missed a delta) is asked for a snapshot and waited for up to
+  /// `sync_timeout_s`. Fails with a reason for an unknown robot, an empty map or an unwritable path.
+  MapSaveResult SaveMap(const std::string& target, const std::string& path, double sync_timeout_s);
+
+  /// Waits up to `timeout_s` until the map of `robot_id` is complete (has a base, no snapshot pending).
+  bool WaitForMapSync(const std::string& robot_id, double timeout_s);
+
+  /// Latest frame of `robot_id`, if any.
+  std::optional<CameraView> LatestFrame(const std::string& robot_id) const;
+  /// Waits up to `timeout_s` for a frame of `robot_id` with seq > `after_seq`.
+  std::optional<CameraView> WaitForFrame(const std::string& robot_id, std::uint32_t after_seq,
+                                         double timeout_s) const;
+
+  /// Fleet staircases: every robot's latest estimates merged (same staircase seen by several robots = one).
+  std::vector<perception::StaircaseRegistry::Entry> Staircases() const;
+
+  /// True if TakeEvents() would return something.
+  bool HasEvents() const;
+  /// Events not yet taken, oldest first.
+  std::vector<FleetEvent> TakeEvents();
+
+  perception::FleetMapStats MapStats() const;
+  /// false if no map message of `robot_id` was accepted yet.
+  bool RobotMapStats(const std::string& robot_id, perception::RobotMapStats* out) const;
+
+  class Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cairn::base

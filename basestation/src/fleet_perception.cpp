@@ -1,0 +1,305 @@
+#include "cairn/base/fleet_perception.h"
+
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <map>
+#include <mutex>
+
+#include <spdlog/spdlog.h>
+
+#include "cairn/core/dds.h"
+#include "cairn/msgs/stamp.h"
+#include "cairn_msgsPubSubTypes.h"
+
+namespace cairn::base {
+
+namespace msgs = cairn_msgs;
+using core::SteadyClock;
+
+namespace {
+
+constexpr double kSyncRequestPeriodS = 1.0;  // at most one snapshot request per robot per second
+
+std::string Describe(const perception::Staircase& s) {
+  char text[256];
+  std::snprintf(text, sizeof(text),
+                "%d steps at (%.2f, %.2f, %.2f) heading %.0f deg, rise %.3f m, run %.3f m, width %.2f m", s.num_steps,
+                s.p_W_first_step.x(), s.p_W_first_step.y(), s.p_W_first_step.z(), s.yaw_rad * 180.0 / M_PI,
+                s.rise_m, s.run_m, s.width_m);
+  return text;
+}
+
+// A robot's detection, checked: false (and a reason) if a field is not finite or out of its physical range.
+bool ToStaircase(const msgs::StaircaseDetection& m, perception::Staircase* s, std::string* why) {
+  const double values[] = {m.p_M_first_step().x_m(), m.p_M_first_step().y_m(), m.p_M_first_step().z_m(),
+                           m.yaw_rad(), m.rise_m(), m.run_m(), m.width_m(), m.confidence()};
+  for (double v : values) {
+    if (!std::isfinite(v)) {
+      *why = "a field is not finite";
+      return false;
+    }
+  }
+  if (m.rise_m() <= 0 || m.rise_m() > 1 || m.run_m() <= 0 || m.run_m() > 2 || m.width_m() <= 0 ||
+      m.width_m() > 20 || m.num_steps() < 1 || m.num_steps() > 500 || m.confidence() < 0 || m.confidence() > 1) {
+    *why = "rise, run, width, steps or confidence out of range";
+    return false;
+  }
+  s->p_W_first_step = {m.p_M_first_step().x_m(), m.p_M_first_step().y_m(), m.p_M_first_step().z_m()};
+  s->yaw_rad = m.yaw_rad();
+  s->rise_m = m.rise_m();
+  s->run_m = m.run_m();
+  s->width_m = m.width_m();
+  s->num_steps = m.num_steps();
+  s->confidence = m.confidence();
+  s->support_points = static_cast<int>(std::min<uint32_t>(m.detections(), 1000000));
+  return true;
+}
+
+}  // namespace
+
+class FleetPerception::Impl {
+ public:
+  Impl(core::Participant& participant, const std::string& base_id) : base_id_(base_id) {
+    sync_writer_ = std::make_unique<core::Writer<msgs::MapSyncRequestPubSubType>>(
+        participant, "cairn/map_sync_request", "cairn.command");
+    map_reader_ = std::make_unique<core::Reader<msgs::MapUpdatePubSubType>>(
+        participant, "cairn/map_update", "cairn.map", [this](const msgs::MapUpdate& m, const auto&) { OnMap(m); });
+    camera_reader_ = std::make_unique<core::Reader<msgs::CompressedImagePubSubType>>(
+        participant, "cairn/camera", "cairn.camera",
+        [this](const msgs::CompressedImage& m, const auto&) { OnCamera(m); });
+    staircase_reader_ = std::make_unique<core::Reader<msgs::StaircaseDetectionPubSubType>>(
+        participant, "cairn/staircase", "cairn.latched",
+        [this](const msgs::StaircaseDetection& m, const auto&) { OnStaircase(m); });
+  }
+
+  ~Impl() {
+    map_reader_.reset();
+    camera_reader_.reset();
+    staircase_reader_.reset();
+  }
+
+  void OnMap(const msgs::MapUpdate& m) {
+    perception::MapUpdate update;
+    update.robot_id = m.robot_id();
+    update.kind = m.kind() == 1 ? perception::MapUpdateKind::kSnapshot : perception::MapUpdateKind::kDelta;
+    update.seq = m.seq();
+    update.base_seq = m.base_seq();
+    update.snapshot_id = m.snapshot_id();
+    update.chunk_index = m.chunk_index();
+    update.chunk_count = m.chunk_count();
+    update.resolution_m = m.resolution_m();
+    update.data = m.data();
+    std::string error;
+    if (m.kind() > 1) {
+      // Counted by FleetMap as a bad header only if it reaches it; an unknown kind never does.
+      spdlog::warn("map update from {} dropped: kind {} is neither DELTA (0) nor SNAPSHOT (1)", m.robot_id(),
+                   static_cast<int>(m.kind()));
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++unknown_kind_drops_;
+      return;
+    }
+    if (m.encoding() != "cairn-coarse-zstd-v1") {
+      spdlog::warn("map update from {} dropped: encoding '{}' is not cairn-coarse-zstd-v1", m.robot_id(),
+                   m.encoding());
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++unknown_kind_drops_;
+      return;
+    }
+    if (!map_.Apply(m.robot_id(), update, &error)) {
+      spdlog::warn("map update from {} (seq {}, kind {}) dropped: {}", m.robot_id(), m.seq(),
+                   static_cast<int>(m.kind()), error);
+    }
+    if (map_.NeedsSnapshot(m.robot_id())) MaybeRequestSync(m.robot_id());
+    cv_.notify_all();
+  }
+
+  void MaybeRequestSync(const std::string& robot_id) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const auto now = SteadyClock::now();
+      auto it = last_sync_request_.find(robot_id);
+      if (it != last_sync_request_.end() && core::SecondsBetween(it->second, now) < kSyncRequestPeriodS) return;
+      last_sync_request_[robot_id] = now;
+    }
+    msgs::MapSyncRequest request;
+    request.robot_id(robot_id);
+    request.requester_id(base_id_);
+    request.stamp(cairn::msgs::WallStampNow());
+    sync_writer_->Write(request);
+    spdlog::info("basestation {}: asked {} for a map snapshot", base_id_, robot_id);
+  }
+
+  bool HasBase(const std::string& robot_id) const {
+    perception::RobotMapStats stats;
+    return map_.GetRobotStats(robot_id, &stats) && stats.has_base && !stats.needs_snapshot;
+  }
+
+  void OnCamera(const msgs::CompressedImage& m) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      CameraView& view = frames_[m.robot_id()];
+      if (view.frames_received > 0 && m.seq() > view.frame.seq() + 1) {
+        view.frames_missed += m.seq() - view.frame.seq() - 1;
+      }
+      view.frame = m;
+      view.received = SteadyClock::now();
+      ++view.frames_received;
+    }
+    cv_.notify_all();
+  }
+
+  void OnStaircase(const msgs::StaircaseDetection& m) {
+    perception::Staircase staircase;
+    std::string why;
+    if (!ToStaircase(m, &staircase, &why)) {
+      spdlog::warn("staircase {} from {} dropped: {}", m.staircase_id(), m.robot_id(), why);
+      return;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    latest_[{m.robot_id(), m.staircase_id()}] = staircase;
+    // The fleet view is every robot's latest estimate merged afresh (so a robot's repeated updates of one
+    // staircase do not outweigh another robot's); `notified_` remembers which fleet staircases the operator
+    // has been told about, so each is announced once.
+    fleet_ = std::make_unique<perception::StaircaseRegistry>();
+    for (const auto& [key, s] : latest_) fleet_->Add(s, key.first);
+    for (const auto& entry : fleet_->Entries()) {
+      if (!notified_.Add(entry.staircase, "fleet").is_new) continue;
+      FleetEvent event;
+      event.kind = "staircase";
+      event.staircase = entry;
+      std::string sources;
+      for (const auto& s : entry.sources) sources += (sources.empty() ? "" : ", ") + s;
+      event.message = "new staircase: " + Describe(entry.staircase) + ", seen by " + sources;
+      events_.push_back(event);
+      spdlog::info("basestation {}: {}", base_id_, event.message);
+    }
+  }
+
+  const std::string base_id_;
+  perception::FleetMap map_;  // thread-safe
+  mutable std::mutex mutex_;
+  mutable std::condition_variable cv_;
+  std::map<std::string, core::SteadyTime> last_sync_request_;
+  std::map<std::string, CameraView> frames_;
+  std::map<std::pair<std::string, uint32_t>, perception::Staircase> latest_;
+  std::unique_ptr<perception::StaircaseRegistry> fleet_ = std::make_unique<perception::StaircaseRegistry>();
+  perception::StaircaseRegistry notified_;
+  std::deque<FleetEvent> events_;
+  std::uint64_t unknown_kind_drops_ = 0;
+
+  std::unique_ptr<core::Writer<msgs::MapSyncRequestPubSubType>> sync_writer_;
+  std::unique_ptr<core::Reader<msgs::MapUpdatePubSubType>> map_reader_;
+  std::unique_ptr<core::Reader<msgs::CompressedImagePubSubType>> camera_reader_;
+  std::unique_ptr<core::Reader<msgs::StaircaseDetectionPubSubType>> staircase_reader_;
+};
+
+FleetPerception::FleetPerception(core::Participant& participant, const std::string& base_id)
+    : impl_(std::make_unique<Impl>(participant, base_id)) {}
+FleetPerception::~FleetPerception() = default;
+
+void FleetPerception::OnRobotSeen(const std::string& robot_id) {
+  // A robot's agent info arrives once per session: a restarted robot numbers its deltas from 1 again, so its
+  // stream starts afresh (the voxels stay until the new session overwrites them).
+  impl_->map_.ResetRobot(robot_id);
+  impl_->MaybeRequestSync(robot_id);
+}
+
+bool FleetPerception::WaitForMapSync(const std::string& robot_id, double timeout_s) {
+  const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                                 std::chrono::duration<double>(timeout_s));
+  while (!impl_->HasBase(robot_id)) {
+    impl_->MaybeRequestSync(robot_id);
+    std::unique_lock<std::mutex> lock(impl_->mutex_);
+    if (impl_->cv_.wait_until(lock, std::min(deadline, SteadyClock::now() + std::chrono::milliseconds(100))) ==
+            std::cv_status::timeout &&
+        SteadyClock::now() >= deadline) {
+      return impl_->HasBase(robot_id);
+    }
+  }
+  return true;
+}
+
+MapSaveResult FleetPerception::SaveMap(const std::string& target, const std::string& path, double sync_timeout_s) {
+  MapSaveResult result;
+  const bool fleet = target == "fleet";
+  std::vector<std::string> robots = impl_->map_.Robots();
+  if (!fleet && std::find(robots.begin(), robots.end(), target) == robots.end()) {
+    // Nothing from it yet: ask (it may have joined before any change), then wait.
+    impl_->MaybeRequestSync(target);
+  }
+  if (fleet) {
+    for (const auto& robot : robots) {
+      if (!WaitForMapSync(robot, sync_timeout_s)) {
+        result.error = "the map of robot " + robot + " is incomplete (snapshot not received within " +
+                       std::to_string(sync_timeout_s).substr(0, 4) + " s)";
+        return result;
+      }
+    }
+  } else if (!WaitForMapSync(target, sync_timeout_s)) {
+    result.error = "no complete map of robot " + target + " within " + std::to_string(sync_timeout_s).substr(0, 4) +
+                   " s (unknown robot, or its snapshot has not arrived)";
+    return result;
+  }
+  const std::vector<perception::CoarseVoxel> voxels = impl_->map_.Voxels(fleet ? "" : target);
+  if (voxels.empty()) {
+    result.error = std::string("the ") + (fleet ? "fleet map" : "map of robot " + target) + " is empty";
+    return result;
+  }
+  std::string error;
+  if (!impl_->map_.SaveBt(path, fleet ? "" : target, &error)) {
+    result.error = error;
+    return result;
+  }
+  result.ok = true;
+  result.voxels = voxels.size();
+  for (const auto& v : voxels) result.occupied += v.state == perception::CoarseState::kOccupied;
+  result.resolution_m = impl_->map_.resolution_m();
+  return result;
+}
+
+std::optional<CameraView> FleetPerception::LatestFrame(const std::string& robot_id) const {
+  std::lock_guard<std::mutex> lock(impl_->mutex_);
+  auto it = impl_->frames_.find(robot_id);
+  if (it == impl_->frames_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::optional<CameraView> FleetPerception::WaitForFrame(const std::string& robot_id, std::uint32_t after_seq,
+                                                        double timeout_s) const {
+  std::unique_lock<std::mutex> lock(impl_->mutex_);
+  std::optional<CameraView> found;
+  impl_->cv_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] {
+    auto it = impl_->frames_.find(robot_id);
+    if (it == impl_->frames_.end() || it->second.frame.seq() <= after_seq) return false;
+    found = it->second;
+    return true;
+  });
+  return found;
+}
+
+std::vector<perception::StaircaseRegistry::Entry> FleetPerception::Staircases() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex_);
+  return impl_->fleet_->Entries();
+}
+
+bool FleetPerception::HasEvents() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex_);
+  return !impl_->events_.empty();
+}
+
+std::vector<FleetEvent> FleetPerception::TakeEvents() {
+  std::lock_guard<std::mutex> lock(impl_->mutex_);
+  std::vector<FleetEvent> events(impl_->events_.begin(), impl_->events_.end());
+  impl_->events_.clear();
+  return events;
+}
+
+perception::FleetMapStats FleetPerception::MapStats() const { return impl_->map_.Stats(); }
+
+bool FleetPerception::RobotMapStats(const std::string& robot_id, perception::RobotMapStats* out) const {
+  return impl_->map_.GetRobotStats(robot_id, out);
+}
+
+}  // namespace cairn::base

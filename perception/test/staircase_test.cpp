@@ -1,0 +1,656 @@
+// Copyright Cairn authors.
+//
+// Staircase detection on simulated lidar scans (cairn::sim::SimulatedLidar) accumulated in a LocalCloud, as
+// the robot agent does: the staircase of builtin:tunnels seen from its foot (straight and at 30 deg) and from
+// its top, a rotated narrow staircase; no staircase in stair-free stretches of builtin:tunnels and of the
+// real scan geb079.bt, on the 0.1 m plate of builtin:arena, a ramp, a curb, a two-step podium and a table;
+// bad input; the local cloud's bounds; registry merging. Prints FIGURE lines (errors, detection times).
+#include "cairn/perception/staircase.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cairn/sim/builtin_worlds.h"
+#include "cairn/sim/lidar.h"
+#include "cairn/sim/world.h"
+
+namespace cairn::perception {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;
+
+// Sensor pose on the robot: position (metres, frame W), heading (radians about +z of W) and pitch (radians,
+// positive looking down).
+struct SensorPose {
+  double x_m, y_m, z_m, yaw_rad, pitch_rad = 0.0;
+};
+
+Eigen::Isometry3d ToIsometry(const SensorPose& p) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(p.x_m, p.y_m, p.z_m);
+  T.linear() = (Eigen::AngleAxisd(p.yaw_rad, Eigen::Vector3d::UnitZ()) *
+                Eigen::AngleAxisd(p.pitch_rad, Eigen::Vector3d::UnitY()))
+                   .toRotationMatrix();
+  return T;
+}
+
+// Scans `world` with a VLP-16-like SimulatedLidar (1 cm range noise) from each true pose (one scan every
+// 0.5 s) and feeds each scan to `cloud` with the pose as SLAM would give it: the true pose plus a seeded
+// random-walk drift (3 mm and 0.05 deg of yaw per scan in each axis). Returns the last true sensor position.
+Eigen::Vector3d AccumulateScans(const sim::World& world, const std::vector<SensorPose>& poses,
+                                std::uint32_t seed, LocalCloud* cloud) {
+  sim::SimulatedLidar lidar(sim::LidarOptions{}, seed);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> step_m(0.0, 0.003), step_yaw_rad(0.0, 0.05 * kDeg);
+  sim::LidarScan scan;
+  double stamp_s = 100.0;
+  SensorPose drift{0.0, 0.0, 0.0, 0.0};
+  for (const SensorPose& pose : poses) {
+    lidar.Scan(world, ToIsometry(pose), &scan);
+    drift.x_m += step_m(rng);
+    drift.y_m += step_m(rng);
+    drift.z_m += step_m(rng);
+    drift.yaw_rad += step_yaw_rad(rng);
+    SensorPose slam = pose;
+    slam.x_m += drift.x_m;
+    slam.y_m += drift.y_m;
+    slam.z_m += drift.z_m;
+    slam.yaw_rad += drift.yaw_rad;
+    cloud->AddScan(scan.points_S, ToIsometry(slam), stamp_s);
+    stamp_s += 0.5;
+  }
+  return Eigen::Vector3d(poses.back().x_m, poses.back().y_m, poses.back().z_m);
+}
+
+// Poses from (x0, y0) to (x1, y1), `n` of them, heading along the segment, sensor at `z_m` pitched down by
+// `pitch_rad`.
+std::vector<SensorPose> Line(double x0, double y0, double x1, double y1, int n, double z_m = 0.5,
+                             double pitch_rad = 0.0) {
+  std::vector<SensorPose> poses;
+  const double yaw = std::atan2(y1 - y0, x1 - x0);
+  for (int i = 0; i < n; ++i) {
+    const double a = n == 1 ? 1.0 : static_cast<double>(i) / (n - 1);
+    poses.push_back({x0 + a * (x1 - x0), y0 + a * (y1 - y0), z_m, yaw, pitch_rad});
+  }
+  return poses;
+}
+
+double AngleError(double a, double b) { return std::abs(std::remainder(a - b, 2.0 * kPi)); }
+
+const sim::World& Tunnels() {
+  static const sim::World* world = new sim::World(sim::MakeBuiltinWorld("tunnels"));
+  return *world;
+}
+
+// Ground truth of the builtin:tunnels staircase: risers at x = 50, 50.5, ..., 52 (0.2 m rise, 0.5 m run),
+// from the open drop-off at y = 22.5 to the rough room wall. The width is measured on the World: for every
+// column x in [50, 52.5) the run of free columns (free at z = 1.5 m, above the steps) from y = 22.5 on.
+struct StairsTruth {
+  double width_m = 0;
+  double centre_y_m = 0;
+};
+
+StairsTruth TunnelsStairsTruth() {
+  const sim::World& w = Tunnels();
+  const double res = w.resolution_m();
+  double sum = 0;
+  int n = 0;
+  for (double x = 50.0 + 0.5 * res; x < 52.5; x += res) {
+    double y = 22.5 + 0.5 * res;
+    while (!w.IsOccupied(Eigen::Vector3d(x, y, 1.5)) && y < 26.0) y += res;
+    sum += (y - 0.5 * res) - 22.5;
+    ++n;
+  }
+  StairsTruth t;
+  t.width_m = sum / n;
+  t.centre_y_m = 22.5 + 0.5 * t.width_m;
+  return t;
+}
+
+void PrintFigure(const char* name, const Staircase& s, const StairsTruth& truth, const DetectStats& stats) {
+  std::printf(
+      "FIGURE %s rise_err_m %.4f run_err_m %.4f width_err_m %.4f first_step_err_m %.4f yaw_err_deg %.2f "
+      "num_steps %d confidence %.2f points %lld detect_ms %.2f (filter %.2f projection %.2f fit %.2f)\n",
+      name, s.rise_m - 0.2, s.run_m - 0.5, s.width_m - truth.width_m,
+      (s.p_W_first_step - Eigen::Vector3d(50.0, truth.centre_y_m, 0.0)).norm(),
+      AngleError(s.yaw_rad, 0.0) / kDeg, s.num_steps, s.confidence, static_cast<long long>(stats.points_in),
+      stats.total_ms, stats.filter_ms, stats.projection_ms, stats.fit_ms);
+}
+
+void ExpectTunnelsStairs(const std::vector<Staircase>& found, const StairsTruth& truth) {
+  ASSERT_EQ(found.size(), 1u);
+  const Staircase& s = found[0];
+  EXPECT_EQ(s.num_steps, 5);
+  EXPECT_NEAR(s.rise_m, 0.2, 0.01);
+  EXPECT_NEAR(s.run_m, 0.5, 0.01);
+  EXPECT_NEAR(s.width_m, truth.width_m, 0.05);
+  EXPECT_NEAR(s.p_W_first_step.x(), 50.0, 0.02);
+  EXPECT_NEAR(s.p_W_first_step.y(), truth.centre_y_m, 0.05);
+  EXPECT_NEAR(s.p_W_first_step.z(), 0.0, 0.01);
+  EXPECT_LT(AngleError(s.yaw_rad, 0.0), 1.0 * kDeg);
+  EXPECT_GT(s.confidence, 0.3);
+  EXPECT_LE(s.confidence, 1.0);
+  EXPECT_GT(s.support_points, 500);
+}
+
+// ---- Options ---------------------------------------------------------------------------------------------
+
+TEST(StaircaseOptionsTest, DefaultsAreValid) {
+  std::string why;
+  EXPECT_TRUE(StaircaseDetectorOptions{}.IsValid(&why)) << why;
+  EXPECT_TRUE(LocalCloudOptions{}.IsValid(&why)) << why;
+  EXPECT_TRUE(StaircaseRegistryOptions{}.IsValid(&why)) << why;
+}
+
+TEST(StaircaseOptionsTest, InvalidOptionsNameTheField) {
+  std::string why;
+  StaircaseDetectorOptions o;
+  o.min_rise_m = 0.3;  // Above max_rise_m.
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("min_rise_m = 0.3"), std::string::npos) << why;
+  EXPECT_THROW(StaircaseDetector{o}, std::invalid_argument);
+  o = StaircaseDetectorOptions{};
+  o.fit_voxel_m = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("fit_voxel_m = nan"), std::string::npos) << why;
+  o = StaircaseDetectorOptions{};
+  o.min_steps = 1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("min_steps = 1"), std::string::npos) << why;
+  EXPECT_FALSE(o.IsValid(nullptr));
+
+  LocalCloudOptions l;
+  l.window_s = 0.0;
+  EXPECT_FALSE(l.IsValid(&why));
+  EXPECT_NE(why.find("LocalCloudOptions::window_s = 0"), std::string::npos) << why;
+  EXPECT_THROW(LocalCloud{l}, std::invalid_argument);
+
+  StaircaseRegistryOptions r;
+  r.min_overlap_fraction = 1.5;
+  EXPECT_FALSE(r.IsValid(&why));
+  EXPECT_NE(why.find("min_overlap_fraction = 1.5"), std::string::npos) << why;
+  EXPECT_THROW(StaircaseRegistry{r}, std::invalid_argument);
+}
+
+// ---- Bad input -------------------------------------------------------------------------------------------
+
+TEST(StaircaseDetectorTest, EmptyAndNonFiniteCloudsGiveNoDetection) {
+  const StaircaseDetector detector;
+  DetectStats stats;
+  EXPECT_TRUE(detector.Detect({}, Eigen::Vector3d(0, 0, 0.5), &stats).empty());
+  EXPECT_EQ(stats.points_in, 0);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  const std::vector<Eigen::Vector3f> all_nan(1000, Eigen::Vector3f(nan, nan, nan));
+  EXPECT_TRUE(detector.Detect(all_nan, Eigen::Vector3d(0, 0, 0.5), &stats).empty());
+  EXPECT_EQ(stats.points_non_finite, 1000);
+  EXPECT_EQ(stats.points_filtered, 0);
+  std::vector<Eigen::Vector3f> mixed;
+  for (int i = 0; i < 3000; ++i) {
+    mixed.emplace_back(0.01f * (i % 100), 0.01f * (i / 100), 0.0f);  // A floor patch.
+    if (i % 3 == 0) mixed.emplace_back(nan, 1.0f, 0.0f);
+    if (i % 5 == 0) mixed.emplace_back(1.0f, -inf, 0.0f);
+  }
+  EXPECT_TRUE(detector.Detect(mixed, Eigen::Vector3d(0, 0, 0.5), &stats).empty());
+  EXPECT_EQ(stats.points_non_finite, 1000 + 600);
+  EXPECT_EQ(stats.points_cropped, 3000);
+  // A non-finite robot position: nothing to crop around.
+  EXPECT_TRUE(detector.Detect(mixed, Eigen::Vector3d(nan, 0, 0), nullptr).empty());
+}
+
+// ---- The staircase of builtin:tunnels ---------------------------------------------------------------------
+
+class TunnelsStairsTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { truth_ = TunnelsStairsTruth(); }
+  static StairsTruth truth_;
+  const StaircaseDetector detector_;
+};
+StairsTruth TunnelsStairsTest::truth_;
+
+TEST_F(TunnelsStairsTest, TruthIsSane) {
+  EXPECT_GT(truth_.width_m, 2.2);
+  EXPECT_LT(truth_.width_m, 2.5);
+}
+
+TEST_F(TunnelsStairsTest, StraightApproach) {
+  LocalCloud cloud;
+  const Eigen::Vector3d p = AccumulateScans(Tunnels(), Line(46.5, 23.5, 49.0, 23.5, 6), 11, &cloud);
+  DetectStats stats;
+  const std::vector<Staircase> found = detector_.Detect(cloud.Points(), p, &stats);
+  ExpectTunnelsStairs(found, truth_);
+  if (!found.empty()) PrintFigure("stairs_straight", found[0], truth_, stats);
+}
+
+TEST_F(TunnelsStairsTest, ApproachAtThirtyDegrees) {
+  LocalCloud cloud;
+  const double yaw = 30.0 * kDeg;
+  const Eigen::Vector3d p = AccumulateScans(
+      Tunnels(), Line(46.8, 21.5, 46.8 + 2.6 * std::cos(yaw), 21.5 + 2.6 * std::sin(yaw), 6), 12, &cloud);
+  DetectStats stats;
+  const std::vector<Staircase> found = detector_.Detect(cloud.Points(), p, &stats);
+  ExpectTunnelsStairs(found, truth_);
+  if (!found.empty()) PrintFigure("stairs_yaw30", found[0], truth_, stats);
+}
+
+// Seen from the 1 m platform, walking towards the top of the stairs (-x). A level VLP-16 sees nothing of
+// stairs going down (their 22 deg slope is steeper than its lowest beam, -15 deg): as on a legged robot about
+// to descend, the sensor is pitched 30 deg down.
+std::vector<SensorPose> TopApproach() { return Line(54.0, 23.7, 52.6, 23.7, 5, 1.5, 30.0 * kDeg); }
+
+TEST_F(TunnelsStairsTest, SeenFromTheTopIsDescribedAscending) {
+  LocalCloud cloud;
+  const Eigen::Vector3d p = AccumulateScans(Tunnels(), TopApproach(), 13, &cloud);
+  DetectStats stats;
+  const std::vector<Staircase> found = detector_.Detect(cloud.Points(), p, &stats);
+  ASSERT_EQ(found.size(), 1u) << stats.last_rejection;
+  const Staircase& s = found[0];
+  PrintFigure("stairs_from_top", s, truth_, stats);
+  EXPECT_EQ(s.num_steps, 5);
+  EXPECT_LT(AngleError(s.yaw_rad, 0.0), 2.0 * kDeg);
+  EXPECT_NEAR(s.rise_m, 0.2, 0.015);
+  EXPECT_NEAR(s.run_m, 0.5, 0.02);
+  EXPECT_NEAR(s.p_W_first_step.x(), 50.0, 0.05);
+  EXPECT_NEAR(s.p_W_first_step.z(), 0.0, 0.02);
+  EXPECT_NEAR(s.width_m, truth_.width_m,
+              0.2);  // The pitched beams reach the far sides of the lower treads only partly.
+}
+
+// Another staircase, not axis-aligned, on a 2 cm voxel floor: 7 steps of 0.18 m rise and 0.28 m run, 1.2 m
+// wide, ascending towards yaw 45 deg from (4, 4), then a 1 m landing; open on both sides.
+TEST(StaircaseDetectorTest, RotatedNarrowStaircase) {
+  constexpr double kRes = 0.02, kRise = 0.18, kRun = 0.28, kWidth = 1.2, kYaw = 45.0 * kDeg;
+  constexpr int kSteps = 7;
+  sim::World world("rotated_stairs", Eigen::Vector3d(0.0, 0.0, -0.1), kRes, Eigen::Vector3i(400, 400, 75));
+  const Eigen::Vector2d origin(4.0, 4.0), u(std::cos(kYaw), std::sin(kYaw)), v(-u.y(), u.x());
+  for (int ix = 0; ix < world.dims().x(); ++ix) {
+    for (int iy = 0; iy < world.dims().y(); ++iy) {
+      const Eigen::Vector2d d = world.CenterOf({ix, iy, 0}).head<2>() - origin;
+      const double s = u.dot(d);
+      double top = 0.0;
+      if (std::abs(v.dot(d)) <= 0.5 * kWidth && s >= 0.0 && s < kSteps * kRun + 1.0) {
+        top = s < kSteps * kRun ? kRise * (std::floor(s / kRun) + 1.0) : kSteps * kRise;
+      }
+      for (int iz = 0; iz < world.dims().z() && world.CenterOf({ix, iy, iz}).z() < top; ++iz) {
+        world.SetOccupied({ix, iy, iz});
+      }
+    }
+  }
+  std::vector<SensorPose> poses;
+  for (int i = 0; i < 6; ++i) {  // From 4 m to 2 m before the first riser, 0.2 m off its centre line.
+    const Eigen::Vector2d p = origin - (4.0 - 0.4 * i) * u + 0.2 * v;
+    poses.push_back({p.x(), p.y(), 0.5, kYaw});
+  }
+  LocalCloud cloud;
+  const Eigen::Vector3d p = AccumulateScans(world, poses, 31, &cloud);
+  DetectStats stats;
+  const std::vector<Staircase> found = StaircaseDetector().Detect(cloud.Points(), p, &stats);
+  ASSERT_EQ(found.size(), 1u) << stats.last_rejection;
+  const Staircase& s = found[0];
+  std::printf(
+      "FIGURE stairs_rotated45 rise_err_m %.4f run_err_m %.4f width_err_m %.4f first_step_err_m %.4f "
+      "yaw_err_deg %.2f num_steps %d detect_ms %.2f\n",
+      s.rise_m - kRise, s.run_m - kRun, s.width_m - kWidth,
+      (s.p_W_first_step - Eigen::Vector3d(4.0, 4.0, 0.0)).norm(), AngleError(s.yaw_rad, kYaw) / kDeg,
+      s.num_steps, stats.total_ms);
+  EXPECT_EQ(s.num_steps, kSteps);
+  EXPECT_NEAR(s.rise_m, kRise, 0.01);
+  EXPECT_NEAR(s.run_m, kRun, 0.01);
+  EXPECT_NEAR(s.width_m, kWidth, 0.05);
+  EXPECT_LT((s.p_W_first_step - Eigen::Vector3d(4.0, 4.0, 0.0)).norm(), 0.03);
+  EXPECT_LT(AngleError(s.yaw_rad, kYaw), 1.0 * kDeg);
+}
+
+// ---- No staircase -----------------------------------------------------------------------------------------
+
+// Accumulates scans along each stretch and expects no detection; prints the slowest detection.
+void ExpectNoStairs(const sim::World& world, const std::vector<std::vector<SensorPose>>& stretches,
+                    const char* figure) {
+  const StaircaseDetector detector;
+  double worst_ms = 0;
+  std::uint32_t seed = 100;
+  for (const std::vector<SensorPose>& stretch : stretches) {
+    LocalCloud cloud;
+    const Eigen::Vector3d p = AccumulateScans(world, stretch, ++seed, &cloud);
+    DetectStats stats;
+    const std::vector<Staircase> found = detector.Detect(cloud.Points(), p, &stats);
+    worst_ms = std::max(worst_ms, stats.total_ms);
+    EXPECT_TRUE(found.empty()) << "false staircase near (" << p.x() << ", " << p.y()
+                               << "): " << found[0].num_steps << " steps, rise " << found[0].rise_m
+                               << ", run " << found[0].run_m << ", at ("
+                               << found[0].p_W_first_step.transpose() << ")";
+    EXPECT_GT(stats.points_filtered, 1000) << "nothing seen at (" << p.x() << ", " << p.y() << ")";
+  }
+  std::printf("FIGURE %s stretches %zu false_detections checked, worst_detect_ms %.2f\n", figure,
+              stretches.size(), worst_ms);
+}
+
+TEST(StaircaseFalsePositiveTest, TunnelsWithoutStairs) {
+  ExpectNoStairs(Tunnels(),
+                 {Line(8.0, 20.0, 11.0, 20.0, 4),    // Straight tunnel.
+                  Line(27.0, 20.0, 30.0, 20.0, 4),   // Into the X junction.
+                  Line(30.0, 14.0, 30.0, 17.5, 4),   // X junction from the south.
+                  Line(30.0, 8.0, 30.0, 5.0, 4),     // Into the south L bend.
+                  Line(30.0, 32.0, 29.0, 35.0, 4),   // North L bend.
+                  Line(43.0, 20.0, 47.0, 18.0, 4)},  // Into the room, away from the stairs.
+                 "tunnels_no_stairs");
+}
+
+TEST(StaircaseFalsePositiveTest, ArenaPlateIsNotAStaircase) {
+  const sim::World arena = sim::MakeBuiltinWorld("arena");
+  ExpectNoStairs(arena,
+                 {Line(1.0, 3.5, 2.5, 3.5, 4), Line(4.5, 7.0, 4.5, 5.6, 4), Line(7.5, 1.0, 6.4, 2.0, 4)},
+                 "arena_plate_no_stairs");
+}
+
+// An open floor (no walls) at 2 cm voxels with things that are not staircases: a 15 deg ramp up to 0.8 m, a
+// 0.15 m curb, a podium of two 0.15 m steps and a table (0.75 m top on four legs).
+sim::World MakeClutterWorld() {
+  constexpr double kRes = 0.02;
+  sim::World world("clutter", Eigen::Vector3d(0.0, 0.0, -0.1), kRes, Eigen::Vector3i(400, 300, 100));
+  auto fill = [&world](double x0, double x1, double y0, double y1, double z0, double z1) {
+    for (double x = x0 + 0.5 * kRes; x < x1; x += kRes) {
+      for (double y = y0 + 0.5 * kRes; y < y1; y += kRes) {
+        for (double z = z0 + 0.5 * kRes; z < z1; z += kRes) world.SetOccupiedAt(Eigen::Vector3d(x, y, z));
+      }
+    }
+  };
+  fill(0.0, 8.0, 0.0, 6.0, -0.1, 0.0);        // Floor, surface at z = 0.
+  for (double x = 3.0; x < 6.0; x += kRes) {  // Ramp along +x, 1.5 m wide.
+    fill(x, x + kRes, 0.5, 2.0, 0.0, (x + 0.5 * kRes - 3.0) * std::tan(15.0 * kDeg));
+  }
+  fill(3.0, 3.2, 3.5, 5.5, 0.0, 0.15);  // Curb.
+  fill(5.0, 5.8, 3.5, 5.0, 0.0, 0.15);  // Podium: two steps.
+  fill(5.4, 5.8, 3.5, 5.0, 0.15, 0.30);
+  fill(4.0, 5.0, 2.3, 2.9, 0.72, 0.76);  // Table top and legs.
+  for (double lx : {4.0, 4.96}) {
+    for (double ly : {2.3, 2.86}) fill(lx, lx + 0.04, ly, ly + 0.04, 0.0, 0.72);
+  }
+  return world;
+}
+
+TEST(StaircaseFalsePositiveTest, RampCurbPodiumAndTableAreNotStaircases) {
+  const sim::World world = MakeClutterWorld();
+  ExpectNoStairs(world,
+                 {Line(0.8, 3.0, 2.3, 3.0, 4), Line(1.5, 1.2, 2.5, 1.2, 4), Line(7.5, 4.2, 6.5, 4.2, 4)},
+                 "clutter_no_stairs");
+}
+
+std::string Geb079Path() {
+#ifdef CAIRN_SOURCE_DIR
+  return std::string(CAIRN_SOURCE_DIR) + "/../shared/data/geb079.bt";
+#else
+  return "../shared/data/geb079.bt";
+#endif
+}
+
+TEST(StaircaseFalsePositiveTest, Geb079CorridorWithoutStairs) {
+  const std::string path = Geb079Path();
+  if (!std::ifstream(path).good()) {
+    GTEST_SKIP() << "real scan " << path << " is absent (it lives in ../shared/data beside the repository)";
+  }
+  const sim::World world = sim::LoadWorld(path);
+  // The corridor runs along x at y ~ 0 with its floor surface at z = 0 (see nav/test/geb079_nav_test.cpp).
+  // Stretches of 1.5 m every 3 m, alternating directions, on free floor cells (floor voxel below, free
+  // above).
+  auto free_floor = [&world](double x, double y) {
+    return world.IsOccupied(Eigen::Vector3d(x, y, -0.04)) && !world.IsOccupied(Eigen::Vector3d(x, y, 0.3)) &&
+           !world.IsOccupied(Eigen::Vector3d(x, y, 1.0));
+  };
+  std::vector<std::vector<SensorPose>> stretches;
+  for (double x = -4.0; x <= 24.0; x += 3.0) {
+    double y = std::numeric_limits<double>::quiet_NaN();
+    for (int i = 0; i < 24 && std::isnan(y); ++i) {  // y = 0, 0.08, -0.08, 0.16, ...
+      const double candidate = (i % 2 == 0 ? 1.0 : -1.0) * 0.08 * ((i + 1) / 2);
+      if (free_floor(x, candidate) && free_floor(x + 1.5, candidate)) y = candidate;
+    }
+    ASSERT_FALSE(std::isnan(y)) << "no free floor near x = " << x;
+    const bool east = static_cast<int>(std::lround(x / 3.0)) % 2 == 0;
+    stretches.push_back(east ? Line(x, y, x + 1.5, y, 4) : Line(x + 1.5, y, x, y, 4));
+  }
+  ExpectNoStairs(world, stretches, "geb079_no_stairs");
+}
+
+// ---- LocalCloud ------------------------------------------------------------------------------------------
+
+TEST(LocalCloudTest, DeduplicatesAndStaysBounded) {
+  LocalCloudOptions o;
+  o.voxel_size_m = 0.025;
+  o.radius_m = 8.0;
+  o.window_s = 3.0;
+  LocalCloud cloud(o);
+  sim::SimulatedLidar lidar(sim::LidarOptions{}, 5);
+  sim::LidarScan scan;
+  std::size_t first = 0;
+  double worst_ms = 0;
+  for (int i = 0; i < 12; ++i) {  // The same pose 12 times: same surfaces, no growth beyond noise.
+    lidar.Scan(Tunnels(), ToIsometry({10.0, 20.0, 0.5, 0.0}), &scan);
+    const auto t0 = std::chrono::steady_clock::now();
+    cloud.AddScan(scan.points_S, ToIsometry({10.0, 20.0, 0.5, 0.0}), 0.1 * i);
+    worst_ms = std::max(
+        worst_ms, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    if (i == 0) first = cloud.size();
+  }
+  EXPECT_GT(first, 5000u);
+  EXPECT_LT(cloud.size(), first * 2);  // Range noise spills into neighbouring voxels, nothing more.
+  for (const Eigen::Vector3f& p : cloud.Points()) {
+    EXPECT_LE((p.cast<double>() - Eigen::Vector3d(10.0, 20.0, 0.5)).norm(), 8.0 + 0.05);
+  }
+  EXPECT_EQ(cloud.p_W_latest_sensor(), Eigen::Vector3d(10.0, 20.0, 0.5));
+  const std::size_t static_size = cloud.size();
+  // Driving 20 m down the tunnel at 10 m/s (a scan per metre): only the last 8 m are kept.
+  std::size_t largest = 0;
+  for (int i = 1; i <= 20; ++i) {
+    const Eigen::Isometry3d T_W_S = ToIsometry({10.0 + i, 20.0, 0.5, 0.0});
+    lidar.Scan(Tunnels(), T_W_S, &scan);
+    const auto t0 = std::chrono::steady_clock::now();
+    cloud.AddScan(scan.points_S, T_W_S, 1.1 + 0.1 * i);
+    worst_ms = std::max(
+        worst_ms, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    largest = std::max(largest, cloud.size());
+  }
+  for (const Eigen::Vector3f& p : cloud.Points()) {
+    EXPECT_LE((p.cast<double>() - Eigen::Vector3d(30.0, 20.0, 0.5)).norm(), 8.0 + 0.05);
+  }
+  // 16 m of tunnel lie within the radius: about 105k voxels of 2.5 cm are seen; the 28 m driven would give
+  // about 185k without the radius rule.
+  EXPECT_LT(largest, 130000u);
+  std::printf("FIGURE local_cloud_points static %zu driving_max %zu scan_points %zu worst_add_scan_ms %.2f\n",
+              static_size, largest, scan.points_S.size(), worst_ms);
+}
+
+TEST(LocalCloudTest, ForgetsOldAndFarPointsAndSkipsNonFinite) {
+  LocalCloud cloud;  // window 3 s, radius 8 m.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const Eigen::Isometry3d origin = Eigen::Isometry3d::Identity();
+  cloud.AddScan({{1, 0, 0}, {2, 0, 0}, {nan, 0, 0}, {0, 0, std::numeric_limits<float>::infinity()}}, origin,
+                0.0);
+  EXPECT_EQ(cloud.size(), 2u);
+  cloud.AddScan({{1, 0, 0}}, origin, 2.0);  // Refreshes (1, 0, 0) only.
+  EXPECT_EQ(cloud.size(), 2u);
+  cloud.AddScan({{3, 0, 0}}, origin, 3.5);  // (2, 0, 0) last seen at 0.0: expired.
+  EXPECT_EQ(cloud.size(), 2u);
+  Eigen::Isometry3d far = Eigen::Isometry3d::Identity();
+  far.translation() = Eigen::Vector3d(20.0, 0.0, 0.0);
+  cloud.AddScan({{0, 0, 0}}, far, 3.6);  // Points near the origin are now 17+ m away.
+  ASSERT_EQ(cloud.size(), 1u);
+  EXPECT_NEAR(cloud.Points()[0].x(), 20.0, 1e-5);
+  cloud.Clear();
+  EXPECT_EQ(cloud.size(), 0u);
+}
+
+// ---- Registry --------------------------------------------------------------------------------------------
+
+Staircase Noisy(const Staircase& s, std::mt19937* rng, double scale) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Staircase out = s;
+  out.p_W_first_step += scale * Eigen::Vector3d(0.03 * n(*rng), 0.05 * n(*rng), 0.01 * n(*rng));
+  out.yaw_rad += scale * 1.5 * kDeg * n(*rng);
+  out.rise_m += scale * 0.005 * n(*rng);
+  out.run_m += scale * 0.01 * n(*rng);
+  out.width_m += scale * 0.05 * n(*rng);
+  return out;
+}
+
+Staircase TunnelsStairs() {
+  Staircase s;
+  s.p_W_first_step = Eigen::Vector3d(50.0, 23.7, 0.0);
+  s.yaw_rad = 0.0;
+  s.rise_m = 0.2;
+  s.run_m = 0.5;
+  s.width_m = 2.4;
+  s.num_steps = 5;
+  s.confidence = 0.6;
+  s.support_points = 2000;
+  return s;
+}
+
+TEST(StaircaseRegistryTest, SameStairsMergeOtherStairsGetNewIds) {
+  StaircaseRegistry registry;
+  std::mt19937 rng(3);
+  const Staircase truth = TunnelsStairs();
+  const auto first = registry.Add(Noisy(truth, &rng, 1.0), "r1");
+  EXPECT_TRUE(first.is_new);
+  EXPECT_TRUE(first.changed);
+  EXPECT_EQ(first.id, 1);
+  for (int i = 0; i < 20; ++i) {
+    const auto again = registry.Add(Noisy(truth, &rng, 1.0), i % 2 == 0 ? "r1" : "r2");
+    EXPECT_FALSE(again.is_new);
+    EXPECT_EQ(again.id, first.id);
+  }
+  // Partial views of the same stairs: the lower 3 steps, and the upper 3 steps (first riser 2 steps up, as
+  // seen from the top): merged, re-indexed onto the entry's first riser; num_steps stays 5.
+  Staircase lower = truth;
+  lower.num_steps = 3;
+  lower.support_points = 300;
+  EXPECT_EQ(registry.Add(lower, "r3").id, first.id);
+  Staircase upper = truth;
+  upper.p_W_first_step += Eigen::Vector3d(2 * 0.5, 0.0, 2 * 0.2);
+  upper.num_steps = 3;
+  upper.support_points = 300;
+  EXPECT_EQ(registry.Add(upper, "r3").id, first.id);
+  // Elsewhere: a new staircase.
+  Staircase other = truth;
+  other.p_W_first_step = Eigen::Vector3d(10.0, 5.0, -3.0);
+  other.yaw_rad = kPi / 2;
+  const auto second = registry.Add(other, "r2");
+  EXPECT_TRUE(second.is_new);
+  EXPECT_EQ(second.id, 2);
+  // Same place, one floor up: new.
+  Staircase upstairs = truth;
+  upstairs.p_W_first_step.z() += 3.0;
+  EXPECT_TRUE(registry.Add(upstairs, "r1").is_new);
+
+  const std::vector<StaircaseRegistry::Entry> entries = registry.Entries();
+  ASSERT_EQ(entries.size(), 3u);
+  const StaircaseRegistry::Entry& e = entries[0];
+  EXPECT_EQ(e.detections, 23);
+  EXPECT_EQ(e.sources, (std::vector<std::string>{"r1", "r2", "r3"}));
+  EXPECT_EQ(e.staircase.num_steps, 5);
+  EXPECT_NEAR(e.staircase.p_W_first_step.x(), 50.0, 0.03);
+  EXPECT_NEAR(e.staircase.p_W_first_step.y(), 23.7, 0.05);
+  EXPECT_NEAR(e.staircase.rise_m, 0.2, 0.003);
+  EXPECT_NEAR(e.staircase.run_m, 0.5, 0.005);
+  EXPECT_LT(AngleError(e.staircase.yaw_rad, 0.0), 1.0 * kDeg);
+  EXPECT_NEAR(e.staircase.p_W_first_step.z(), 0.0, 0.01);
+  EXPECT_EQ(e.staircase.support_points, 21 * 2000 + 2 * 300);
+  std::printf("FIGURE registry_merged_error x_m %.4f y_m %.4f rise_m %.4f run_m %.4f yaw_deg %.2f\n",
+              e.staircase.p_W_first_step.x() - 50.0, e.staircase.p_W_first_step.y() - 23.7,
+              e.staircase.rise_m - 0.2, e.staircase.run_m - 0.5, AngleError(e.staircase.yaw_rad, 0.0) / kDeg);
+}
+
+TEST(StaircaseRegistryTest, UpperPartFirstThenWholeFlight) {
+  // A robot at the top sees only the upper 3 steps; another at the foot then sees all 5: one entry, described
+  // from the real first riser.
+  StaircaseRegistry registry;
+  const Staircase whole = TunnelsStairs();
+  Staircase upper = whole;
+  upper.p_W_first_step += Eigen::Vector3d(2 * 0.5, 0.0, 2 * 0.2);
+  upper.num_steps = 3;
+  const auto a = registry.Add(upper, "r1");
+  const auto b = registry.Add(whole, "r2");
+  EXPECT_TRUE(a.is_new);
+  EXPECT_FALSE(b.is_new);
+  EXPECT_TRUE(b.changed);
+  ASSERT_EQ(registry.size(), 1u);
+  const Staircase merged = registry.Entries()[0].staircase;
+  EXPECT_EQ(merged.num_steps, 5);
+  EXPECT_NEAR((merged.p_W_first_step - whole.p_W_first_step).norm(), 0.0, 1e-9);
+}
+
+TEST(StaircaseRegistryTest, OppositeDirectionsAtTheSamePlaceStayApart) {
+  // Detections are always described ascending (a view from the top gives the same yaw as one from the
+  // foot, see SeenFromTheTopIsDescribedAscending), so opposite yaws at one place contradict each other: they
+  // are kept as two entries and the consumer sees the conflict.
+  StaircaseRegistry registry;
+  const Staircase up = TunnelsStairs();
+  Staircase down = up;
+  down.yaw_rad = kPi;
+  down.p_W_first_step.x() = 52.5;  // Same footprint, described from the other end.
+  EXPECT_TRUE(registry.Add(up, "r1").is_new);
+  const auto r = registry.Add(down, "r2");
+  EXPECT_TRUE(r.is_new);
+  EXPECT_EQ(registry.size(), 2u);
+  // Re-adding the same detection changes nothing worth republishing.
+  const auto same = registry.Add(up, "r1");
+  EXPECT_FALSE(same.is_new);
+  EXPECT_FALSE(same.changed);
+}
+
+TEST(StaircaseRegistryTest, RejectsUnusableDetections) {
+  StaircaseRegistry registry;
+  Staircase bad = TunnelsStairs();
+  bad.rise_m = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(registry.Add(bad, "r1").id, 0);
+  bad = TunnelsStairs();
+  bad.num_steps = 0;
+  EXPECT_EQ(registry.Add(bad, "r1").id, 0);
+  EXPECT_EQ(registry.size(), 0u);
+}
+
+TEST(StaircaseRegistryTest, BottomAndTopViewsOfTheTunnelsStairsMerge) {
+  const StaircaseDetector detector;
+  StaircaseRegistry registry;
+  LocalCloud bottom, top;
+  const Eigen::Vector3d pb = AccumulateScans(Tunnels(), Line(46.5, 23.5, 49.0, 23.5, 6), 21, &bottom);
+  const Eigen::Vector3d pt = AccumulateScans(Tunnels(), TopApproach(), 22, &top);
+  const std::vector<Staircase> from_bottom = detector.Detect(bottom.Points(), pb);
+  const std::vector<Staircase> from_top = detector.Detect(top.Points(), pt);
+  ASSERT_EQ(from_bottom.size(), 1u);
+  ASSERT_EQ(from_top.size(), 1u);
+  const auto a = registry.Add(from_bottom[0], "r1");
+  const auto b = registry.Add(from_top[0], "r2");
+  EXPECT_TRUE(a.is_new);
+  EXPECT_FALSE(b.is_new);
+  EXPECT_EQ(a.id, b.id);
+  EXPECT_EQ(registry.Entries()[0].staircase.num_steps, 5);
+}
+
+TEST(StaircaseRegistryTest, ConcurrentAddsAreSafe) {
+  StaircaseRegistry registry;
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 4; ++t) {
+    threads.emplace_back([&registry, t] {
+      std::mt19937 rng(40 + t);
+      for (int i = 0; i < 200; ++i) registry.Add(Noisy(TunnelsStairs(), &rng, 1.0), "r" + std::to_string(t));
+    });
+  }
+  for (std::thread& th : threads) th.join();
+  const auto entries = registry.Entries();
+  ASSERT_EQ(entries.size(), 1u);
+  EXPECT_EQ(entries[0].detections, 800);
+  EXPECT_EQ(entries[0].sources.size(), 4u);
+}
+
+}  // namespace
+}  // namespace cairn::perception

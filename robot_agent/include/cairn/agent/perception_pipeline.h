@@ -1,0 +1,124 @@
+// The robot's perception component, DDS-free: simulated lidar and SLAM pose, OctoMap mapping, staircase
+// detection and merging, map telemetry and camera frames, each at its own rate (Sriganesh et al. 2024,
+// "System-wide services" and "Command Interface"). The agent runs Tick() on its perception thread and
+// publishes what it returns; tests drive it faster than real time.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cairn/perception/map_telemetry.h"
+#include "cairn/perception/occupancy_map.h"
+#include "cairn/perception/staircase.h"
+#include "cairn/sim/camera.h"
+#include "cairn/sim/lidar.h"
+#include "cairn/sim/slam_drift.h"
+#include "cairn/sim/world.h"
+
+namespace cairn::agent {
+
+/// Options of the perception component (config section `perception`). Defaults are valid (tested).
+struct PerceptionOptions {
+  bool enabled = true;                       ///< false: no lidar, map, stairs, telemetry or camera
+  sim::LidarOptions lidar;                   ///< VLP-16-like: 16 x 1800 rays at 10 Hz, 30 m, 1 cm noise
+  double lidar_height_m = 0.5;               ///< sensor above the ground under the robot, [0, 3]
+  sim::SlamDriftOptions slam;                ///< drift of the simulated SLAM pose
+  perception::OccupancyMapOptions map;       ///< OctoMap at 0.1 m
+  double map_insert_period_s = 0.2;          ///< insert one scan per period, [0.05, 10]
+  double staircase_period_s = 1.0;           ///< run the detector this often, [0.1, 60]
+  perception::StaircaseDetectorOptions staircase;
+  int map_coarse_levels = 1;                 ///< telemetry voxels are 2^levels x the map's, [0, 6]
+  perception::MapTelemetryOptions telemetry; ///< budget (default 100 kbit/s) and period
+  double camera_rate_hz = 1.0;               ///< frames per second, [0, 30]; 0 = no camera
+  sim::CameraOptions camera;                 ///< 320 x 240, 90 deg
+  int jpeg_quality = 75;                     ///< [1, 100]
+  double camera_budget_bits_per_s = 400000;  ///< DDS flow-controller budget of camera frames, > 0
+
+  /// Coarse telemetry voxel edge, metres.
+  double coarse_resolution_m() const { return map.resolution_m * (1 << map_coarse_levels); }
+  /// @return false and sets `*why` (field, value, rule) when a field is invalid.
+  bool IsValid(std::string* why) const;
+};
+
+/// A compressed camera frame ready to publish.
+struct CameraFrame {
+  std::uint32_t seq = 0;
+  int width_px = 0;
+  int height_px = 0;
+  Eigen::Isometry3d T_W_C = Eigen::Isometry3d::Identity();  ///< camera pose (SLAM estimate), frame W
+  std::vector<std::uint8_t> jpeg;
+};
+
+/// What one Tick() produced.
+struct PerceptionOutput {
+  std::vector<perception::MapUpdate> map_messages;    ///< in order
+  std::vector<perception::StaircaseRegistry::Entry> staircases;  ///< new or changed merged staircases
+  std::optional<CameraFrame> camera;
+};
+
+/// Counters and timings, for logs, telemetry and the CPU budget (PERFORMANCE.md).
+struct PerceptionStats {
+  std::int64_t scans = 0;
+  std::int64_t scans_inserted = 0;
+  std::int64_t points_dropped_non_finite = 0;
+  std::int64_t staircase_runs = 0;
+  std::int64_t camera_frames = 0;
+  double lidar_ms_total = 0, local_cloud_ms_total = 0, map_ms_total = 0, staircase_ms_total = 0,
+         camera_ms_total = 0, telemetry_ms_total = 0;
+  /// Travelled distance and current SLAM position error (simulation knows the truth), metres.
+  double distance_m = 0, slam_error_m = 0;
+};
+
+/// Runs the robot's perception. Not thread-safe except map(), which is (the map is a shared service).
+class PerceptionPipeline {
+ public:
+  /// @throws std::invalid_argument naming the field when `options` is invalid.
+  /// `robot_id` names the map telemetry; `seed` seeds the lidar noise and the SLAM drift.
+  PerceptionPipeline(const PerceptionOptions& options, std::shared_ptr<const sim::World> world,
+                     const std::string& robot_id, std::uint32_t seed);
+
+  /// Does what is due at `now_s` (seconds, monotonic): a lidar scan at the lidar rate (from the true body
+  /// pose `T_W_B_true`, frame W; the scan is registered with the drifting SLAM estimate), map insertion,
+  /// staircase detection, telemetry and camera at their periods. A late tick does each due thing once (no
+  /// catch-up bursts).
+  PerceptionOutput Tick(double now_s, const Eigen::Isometry3d& T_W_B_true);
+
+  /// Map telemetry only (no scan, no insertion): takes the map's changes and returns what the budget lets out
+  /// at `now_s`. For shutdown (the last changes), and for tests that need the map to stand still.
+  std::vector<perception::MapUpdate> FlushMapTelemetry(double now_s);
+
+  /// A basestation asked for the full map: the next telemetry messages carry a snapshot.
+  void RequestMapSnapshot();
+
+  /// The robot's map (thread-safe queries: occupancy, ray cast, bounding box).
+  std::shared_ptr<const perception::OccupancyMap> map() const { return map_; }
+  /// Latest SLAM pose estimate of the body, frame W.
+  const Eigen::Isometry3d& T_W_B_estimate() const { return T_W_B_estimate_; }
+  const PerceptionStats& stats() const { return stats_; }
+  const perception::MapTelemetrySender& telemetry() const { return sender_; }
+  const PerceptionOptions& options() const { return options_; }
+
+ private:
+  Eigen::Isometry3d SensorPose(const Eigen::Isometry3d& T_W_B) const;
+
+  PerceptionOptions options_;
+  std::shared_ptr<const sim::World> world_;
+  sim::SimulatedLidar lidar_;
+  sim::SlamDrift slam_;
+  std::shared_ptr<perception::OccupancyMap> map_;
+  perception::StaircaseDetector detector_;
+  perception::StaircaseRegistry registry_;
+  perception::LocalCloud local_cloud_;
+  perception::MapTelemetrySender sender_;
+  sim::LidarScan scan_;
+  Eigen::Isometry3d T_W_B_estimate_ = Eigen::Isometry3d::Identity();
+  double next_scan_s_ = 0, next_insert_s_ = 0, next_staircase_s_ = 0, next_telemetry_s_ = 0, next_camera_s_ = 0;
+  std::uint32_t camera_seq_ = 0;
+  PerceptionStats stats_;
+};
+
+}  // namespace cairn::agent
