@@ -17,134 +17,16 @@
 #include "cairn/nav/traversability.h"
 #include "cairn/sim/world.h"
 #include "cairn_msgsPubSubTypes.h"
+#include "integration_util.h"
 #include "process.h"
 
 namespace cairn {
 namespace {
 
 using namespace std::chrono_literals;
+using namespace testing_util;
 using nlohmann::json;
-using testing::ChildProcess;
 using Clock = std::chrono::steady_clock;
-
-const std::string kAgent = std::string(CAIRN_BINARY_DIR) + "/robot_agent/cairn_agent";
-const std::string kBase = std::string(CAIRN_BINARY_DIR) + "/basestation/cairn_base";
-
-double WallSeconds(const cairn_msgs::Time& t) { return t.sec() + 1e-9 * t.nanosec(); }
-
-// Watches robot states and operator teleop over DDS, and can inject raw messages.
-class Observer {
- public:
-  explicit Observer(int domain) {
-    core::ParticipantOptions options;
-    options.domain_id = domain;
-    options.name = "test-observer";
-    participant_ = std::make_unique<core::Participant>(options);
-    states_ = std::make_unique<core::Reader<cairn_msgs::RobotStatePubSubType>>(
-        *participant_, "cairn/robot_state", "cairn.state", [this](const cairn_msgs::RobotState& s, const auto&) {
-          std::lock_guard<std::mutex> lock(mutex_);
-          latest_[s.robot_id()] = s;
-          history_[s.robot_id()].push_back(s);
-        });
-    teleop_ = std::make_unique<core::Reader<cairn_msgs::TeleopTwistPubSubType>>(
-        *participant_, "cairn/teleop", "cairn.teleop", [this](const cairn_msgs::TeleopTwist& t, const auto&) {
-          std::lock_guard<std::mutex> lock(mutex_);
-          last_teleop_[t.robot_id()] = t;
-        });
-    goals_ = std::make_unique<core::Writer<cairn_msgs::WaypointGoalPubSubType>>(*participant_, "cairn/waypoint_goal",
-                                                                               "cairn.command");
-  }
-  std::optional<cairn_msgs::RobotState> Latest(const std::string& robot) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    auto it = latest_.find(robot);
-    if (it == latest_.end()) return std::nullopt;
-    return it->second;
-  }
-  std::vector<cairn_msgs::RobotState> History(const std::string& robot) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return history_[robot];
-  }
-  std::optional<cairn_msgs::TeleopTwist> LastTeleop(const std::string& robot) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    auto it = last_teleop_.find(robot);
-    if (it == last_teleop_.end()) return std::nullopt;
-    return it->second;
-  }
-  // A fresh state of `robot` (received after this call).
-  cairn_msgs::RobotState FreshState(const std::string& robot) {
-    std::size_t seen = History(robot).size();
-    const auto deadline = Clock::now() + 3s;
-    while (Clock::now() < deadline) {
-      auto h = History(robot);
-      if (h.size() > seen) return h.back();
-      std::this_thread::sleep_for(10ms);
-    }
-    ADD_FAILURE() << "no state from " << robot;
-    return {};
-  }
-  core::Writer<cairn_msgs::WaypointGoalPubSubType>& goals() { return *goals_; }
-
- private:
-  std::unique_ptr<core::Participant> participant_;
-  std::unique_ptr<core::Reader<cairn_msgs::RobotStatePubSubType>> states_;
-  std::unique_ptr<core::Reader<cairn_msgs::TeleopTwistPubSubType>> teleop_;
-  std::unique_ptr<core::Writer<cairn_msgs::WaypointGoalPubSubType>> goals_;
-  std::mutex mutex_;
-  std::map<std::string, cairn_msgs::RobotState> latest_;
-  std::map<std::string, std::vector<cairn_msgs::RobotState>> history_;
-  std::map<std::string, cairn_msgs::TeleopTwist> last_teleop_;
-};
-
-// A basestation process driven line by line in --json mode.
-class Base {
- public:
-  Base(const std::string& id, int domain, const std::string& log_dir, const std::vector<std::string>& extra = {})
-      : process_(Args(id, domain, extra), log_dir + "/" + id + ".log") {}
-  void Kill() { process_.Signal(SIGKILL); }
-  /// Progress lines seen so far (distance left, ETA).
-  const std::vector<json>& progress_lines() const { return progress_lines_; }
-  json Run(const std::string& command, std::chrono::milliseconds timeout = 30s) {
-    process_.WriteLine(command);
-    const auto deadline = Clock::now() + timeout;
-    while (true) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
-      const auto line = process_.ReadLine(std::max(left, std::chrono::milliseconds(1)));
-      if (!line) {
-        ADD_FAILURE() << "no answer to '" << command << "'";
-        return json{{"ok", false}, {"result", "no answer"}};
-      }
-      json j = json::parse(*line);
-      if (j.contains("progress")) {  // goto --wait / wait arrived progress lines precede the answer
-        progress_lines_.push_back(j);
-        continue;
-      }
-      return j;
-    }
-  }
-
- private:
-  ChildProcess process_;
-  std::vector<json> progress_lines_;
-
-  static std::vector<std::string> Args(const std::string& id, int domain, const std::vector<std::string>& extra) {
-    std::vector<std::string> args = {kBase, "--base-id", id, "--domain", std::to_string(domain), "--json"};
-    args.insert(args.end(), extra.begin(), extra.end());
-    return args;
-  }
-};
-
-// Records a measured figure in the test report and prints it (for docs and closing notes).
-void Figure(const std::string& name, double value) {
-  ::testing::Test::RecordProperty(name, std::to_string(value));
-  std::printf("FIGURE %s %s = %.3f\n", ::testing::UnitTest::GetInstance()->current_test_info()->name(),
-              name.c_str(), value);
-}
-
-double Distance(const cairn_msgs::RobotState& a, const cairn_msgs::RobotState& b) {
-  return std::hypot(a.pose_MB().position().x_m() - b.pose_MB().position().x_m(),
-                    a.pose_MB().position().y_m() - b.pose_MB().position().y_m());
-}
-
 struct WorldCase {
   std::string name;
   std::string spec;  // world spec; a path relative to the repository root for shared data

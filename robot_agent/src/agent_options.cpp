@@ -102,6 +102,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   per.RejectUnknownKeys({"enabled", "lidar_rate_hz", "lidar_beams", "lidar_points_per_beam", "lidar_max_range_m",
                          "lidar_range_noise_m", "lidar_height_m", "slam_position_drift_per_sqrt_m",
                          "slam_yaw_drift_rad_per_sqrt_m", "map_resolution_m", "map_insert_period_s",
+                         "map_keyframe_distance_m", "map_keyframe_angle_rad",
                          "staircase_period_s", "map_coarse_levels", "map_budget_bits_per_s", "map_period_s",
                          "camera_rate_hz", "camera_width_px", "camera_height_px", "jpeg_quality",
                          "camera_budget_bits_per_s"});
@@ -116,6 +117,8 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   per.ReadDouble("slam_yaw_drift_rad_per_sqrt_m", &pe.slam.yaw_drift_rad_per_sqrt_m);
   per.ReadDouble("map_resolution_m", &pe.map.resolution_m);
   per.ReadDouble("map_insert_period_s", &pe.map_insert_period_s);
+  per.ReadDouble("map_keyframe_distance_m", &pe.map_keyframe_distance_m);
+  per.ReadDouble("map_keyframe_angle_rad", &pe.map_keyframe_angle_rad);
   per.ReadDouble("staircase_period_s", &pe.staircase_period_s);
   per.ReadInt("map_coarse_levels", &pe.map_coarse_levels);
   per.ReadDouble("map_budget_bits_per_s", &pe.telemetry.budget_bits_per_s);

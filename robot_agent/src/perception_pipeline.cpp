@@ -1,6 +1,7 @@
 #include "cairn/agent/perception_pipeline.h"
 
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 
 #include "cairn/perception/jpeg.h"
@@ -34,6 +35,8 @@ bool PerceptionOptions::IsValid(std::string* why) const {
   if (!InRange("lidar_height_m", lidar_height_m, 0.0, 3.0, false, &inner) ||
       !InRange("map_insert_period_s", map_insert_period_s, 0.05, 10.0, false, &inner) ||
       !InRange("staircase_period_s", staircase_period_s, 0.1, 60.0, false, &inner) ||
+      !InRange("map_keyframe_distance_m", map_keyframe_distance_m, 0.0, 10.0, false, &inner) ||
+      !InRange("map_keyframe_angle_rad", map_keyframe_angle_rad, 0.0, M_PI, false, &inner) ||
       !InRange("camera_rate_hz", camera_rate_hz, 0.0, 30.0, false, &inner) ||
       !InRange("camera_budget_bits_per_s", camera_budget_bits_per_s, 1000.0, 1e9, false, &inner)) {
     return fail(inner);
@@ -101,8 +104,15 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const Eigen::Isometry3d&
     start = Clock::now();
     local_cloud_.AddScan(scan_.points_S, T_W_S_estimate, now_s);
     stats_.local_cloud_ms_total += MsSince(start);
-    if (now_s >= next_insert_s_) {
+    const bool keyframe =
+        !T_W_S_last_keyframe_ ||
+        (T_W_S_estimate.translation() - T_W_S_last_keyframe_->translation()).norm() >=
+            options_.map_keyframe_distance_m ||
+        Eigen::AngleAxisd(T_W_S_last_keyframe_->linear().transpose() * T_W_S_estimate.linear()).angle() >=
+            options_.map_keyframe_angle_rad;
+    if (now_s >= next_insert_s_ && keyframe) {
       next_insert_s_ = std::max(next_insert_s_ + options_.map_insert_period_s, now_s);
+      T_W_S_last_keyframe_ = T_W_S_estimate;
       start = Clock::now();
       const perception::InsertStats inserted = map_->InsertScan(scan_.points_S, T_W_S_estimate);
       stats_.map_ms_total += MsSince(start);

@@ -29,6 +29,11 @@ struct PerceptionOptions {
   sim::SlamDriftOptions slam;                ///< drift of the simulated SLAM pose
   perception::OccupancyMapOptions map;       ///< OctoMap at 0.1 m
   double map_insert_period_s = 0.2;          ///< insert one scan per period, [0.05, 10]
+  /// Keyframes: a scan goes into the map only once the sensor moved this far or turned this much since the
+  /// last inserted one (as LIO-SAM-style mappers do), so a robot at rest leaves its map unchanged. [0, 10] m,
+  /// [0, pi] rad; 0 and 0 insert every period.
+  double map_keyframe_distance_m = 0.05;
+  double map_keyframe_angle_rad = 0.05;
   double staircase_period_s = 1.0;           ///< run the detector this often, [0.1, 60]
   perception::StaircaseDetectorOptions staircase;
   int map_coarse_levels = 1;                 ///< telemetry voxels are 2^levels x the map's, [0, 6]
@@ -116,6 +121,7 @@ class PerceptionPipeline {
   perception::MapTelemetrySender sender_;
   sim::LidarScan scan_;
   Eigen::Isometry3d T_W_B_estimate_ = Eigen::Isometry3d::Identity();
+  std::optional<Eigen::Isometry3d> T_W_S_last_keyframe_;
   double next_scan_s_ = 0, next_insert_s_ = 0, next_staircase_s_ = 0, next_telemetry_s_ = 0, next_camera_s_ = 0;
   std::uint32_t camera_seq_ = 0;
   PerceptionStats stats_;
