@@ -466,7 +466,7 @@ int CommandShell::Snapshot(const std::vector<std::string>& args) {
   }
   // The next frame, so that the picture is from now, not from whenever the last one arrived.
   const auto latest = client_.perception().LatestFrame(robot);
-  const auto view = client_.perception().WaitForFrame(robot, latest ? latest->frame.seq() : 0, timeout_s);
+  const auto view = client_.perception().WaitForFrame(robot, latest ? latest->frames_received : 0, timeout_s);
   auto fail = [&](const std::string& reason) {
     CommandOutcome o;
     o.result = "error";

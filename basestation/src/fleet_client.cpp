@@ -116,7 +116,6 @@ class FleetClient::Impl {
   }
 
   ~Impl() {
-    perception_.reset();
     response_reader_.reset();
     path_response_reader_.reset();
     global_path_reader_.reset();
@@ -124,6 +123,7 @@ class FleetClient::Impl {
     state_reader_.reset();
     tree_reader_.reset();
     info_reader_.reset();
+    perception_.reset();  // after info_reader_, whose callback uses it
   }
 
   // Applies `change` to the view of `robot_id` (creating it), marks it seen and wakes waiters.

@@ -6,6 +6,8 @@
 #include <deque>
 #include <map>
 #include <mutex>
+#include <set>
+#include <thread>
 
 #include <spdlog/spdlog.h>
 
@@ -21,6 +23,7 @@ using core::SteadyClock;
 namespace {
 
 constexpr double kSyncRequestPeriodS = 1.0;  // at most one snapshot request per robot per second
+constexpr std::size_t kMaxStaircaseInstances = 4096;  // (robot, staircase) pairs kept from peers
 
 std::string Describe(const perception::Staircase& s) {
   char text[256];
@@ -72,9 +75,30 @@ class FleetPerception::Impl {
     staircase_reader_ = std::make_unique<core::Reader<msgs::StaircaseDetectionPubSubType>>(
         participant, "cairn/staircase", "cairn.latched",
         [this](const msgs::StaircaseDetection& m, const auto&) { OnStaircase(m); });
+    // Requests can be lost before discovery completes (the command QoS is volatile) and a robot at rest sends
+    // no deltas that would reveal the gap: keep asking, once a second, until every seen robot's map is whole.
+    sync_thread_ = std::thread([this] {
+      std::unique_lock<std::mutex> lock(mutex_);
+      while (!stop_) {
+        cv_.wait_for(lock, std::chrono::seconds(1));
+        if (stop_) break;
+        const std::set<std::string> robots = seen_robots_;
+        lock.unlock();
+        for (const auto& robot : robots) {
+          if (!HasBase(robot)) MaybeRequestSync(robot);
+        }
+        lock.lock();
+      }
+    });
   }
 
   ~Impl() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    sync_thread_.join();
     map_reader_.reset();
     camera_reader_.reset();
     staircase_reader_.reset();
@@ -158,7 +182,13 @@ class FleetPerception::Impl {
       return;
     }
     std::lock_guard<std::mutex> lock(mutex_);
-    latest_[{m.robot_id(), m.staircase_id()}] = staircase;
+    const std::pair<std::string, uint32_t> key{m.robot_id(), m.staircase_id()};
+    if (latest_.count(key) == 0 && latest_.size() >= kMaxStaircaseInstances) {
+      spdlog::warn("staircase {} from {} dropped: {} staircases already kept", m.staircase_id(), m.robot_id(),
+                   kMaxStaircaseInstances);
+      return;
+    }
+    latest_[key] = staircase;
     // The fleet view is every robot's latest estimate merged afresh (so a robot's repeated updates of one
     // staircase do not outweigh another robot's); `notified_` remembers which fleet staircases the operator
     // has been told about, so each is announced once.
@@ -188,6 +218,9 @@ class FleetPerception::Impl {
   perception::StaircaseRegistry notified_;
   std::deque<FleetEvent> events_;
   std::uint64_t unknown_kind_drops_ = 0;
+  std::set<std::string> seen_robots_;
+  bool stop_ = false;
+  std::thread sync_thread_;
 
   std::unique_ptr<core::Writer<msgs::MapSyncRequestPubSubType>> sync_writer_;
   std::unique_ptr<core::Reader<msgs::MapUpdatePubSubType>> map_reader_;
@@ -203,6 +236,10 @@ void FleetPerception::OnRobotSeen(const std::string& robot_id) {
   // A robot's agent info arrives once per session: a restarted robot numbers its deltas from 1 again, so its
   // stream starts afresh (the voxels stay until the new session overwrites them).
   impl_->map_.ResetRobot(robot_id);
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex_);
+    impl_->seen_robots_.insert(robot_id);
+  }
   impl_->MaybeRequestSync(robot_id);
 }
 
@@ -266,13 +303,13 @@ std::optional<CameraView> FleetPerception::LatestFrame(const std::string& robot_
   return it->second;
 }
 
-std::optional<CameraView> FleetPerception::WaitForFrame(const std::string& robot_id, std::uint32_t after_seq,
+std::optional<CameraView> FleetPerception::WaitForFrame(const std::string& robot_id, std::uint64_t after_received,
                                                         double timeout_s) const {
   std::unique_lock<std::mutex> lock(impl_->mutex_);
   std::optional<CameraView> found;
   impl_->cv_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] {
     auto it = impl_->frames_.find(robot_id);
-    if (it == impl_->frames_.end() || it->second.frame.seq() <= after_seq) return false;
+    if (it == impl_->frames_.end() || it->second.frames_received <= after_received) return false;
     found = it->second;
     return true;
   });

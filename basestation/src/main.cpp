@@ -57,8 +57,9 @@ int RunInteractive(cairn::base::CommandShell& shell, cairn::base::FleetClient& c
   while (!g_interactive.done && !cairn::core::ShutdownRequested()) {
     pollfd input{STDIN_FILENO, POLLIN, 0};
     if (poll(&input, 1, 100) > 0) rl_callback_read_char();
-    if (!g_interactive.pending && client.perception().HasEvents()) {
-      // Events (a new staircase) between commands: print them above a redrawn prompt.
+    if (!g_interactive.pending && client.perception().HasEvents() &&
+        (rl_line_buffer == nullptr || rl_line_buffer[0] == '\0')) {
+      // Events (a new staircase) between commands, while nothing is typed: print them above a new prompt.
       rl_callback_handler_remove();
       shell.PrintEvents();
       rl_callback_handler_install(prompt.c_str(), OnLine);

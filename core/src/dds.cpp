@@ -124,9 +124,16 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
     auto descriptor = std::make_shared<eprosima::fastdds::rtps::FlowControllerDescriptor>();
     descriptor->name = flow_controller_names_.back().c_str();
     descriptor->scheduler = eprosima::fastdds::rtps::FlowControllerSchedulerPolicy::FIFO;
-    const double bytes = flow.budget_bits_per_s / 8.0 * flow.period_ms / 1000.0;
-    descriptor->max_bytes_per_period = static_cast<int32_t>(std::clamp(bytes, 1.0, 2.0e9));
-    descriptor->period_ms = static_cast<uint64_t>(flow.period_ms);
+    // A period must carry at least one full RTPS message (~1.5 kB): tight budgets get longer periods.
+    constexpr double kMinBytesPerPeriod = 1500.0;
+    double period_ms = flow.period_ms;
+    double bytes = flow.budget_bits_per_s / 8.0 * period_ms / 1000.0;
+    if (bytes < kMinBytesPerPeriod) {
+      period_ms = std::ceil(kMinBytesPerPeriod * 8000.0 / flow.budget_bits_per_s);
+      bytes = flow.budget_bits_per_s / 8.0 * period_ms / 1000.0;
+    }
+    descriptor->max_bytes_per_period = static_cast<int32_t>(std::clamp(bytes, kMinBytesPerPeriod, 2.0e9));
+    descriptor->period_ms = static_cast<uint64_t>(period_ms);
     qos.flow_controllers().push_back(descriptor);
   }
   participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options.domain_id), qos);

@@ -747,6 +747,16 @@ void RobotAgent::Impl::Run() {
       std::max(1, static_cast<int>(std::lround(1.0 / (options_.local_plan_rate_hz * kLoopPeriodS))));
   std::thread perception_thread;
   if (options_.perception.enabled) perception_thread = std::thread([this] { PerceptionLoop(); });
+  // Joins the perception thread however Run() ends (an exception would otherwise terminate the process).
+  struct JoinOnExit {
+    std::thread& thread;
+    ~JoinOnExit() {
+      if (thread.joinable()) {
+        core::RequestShutdown();
+        thread.join();
+      }
+    }
+  } join_on_exit{perception_thread};
   SteadyTime next = SteadyClock::now();
   for (uint64_t cycle = 0; !core::ShutdownRequested(); ++cycle) {
     {
@@ -768,6 +778,13 @@ void RobotAgent::Impl::Run() {
     PublishState(SteadyClock::now());
   }
   if (perception_thread.joinable()) perception_thread.join();
+  if (options_.perception.enabled) {
+    // The last changes (within the budget), and a moment for the asynchronous writer to deliver them.
+    PerceptionOutput last;
+    last.map_messages = perception_->FlushMapTelemetry(NowS(SteadyClock::now()));
+    PublishPerception(last);
+    map_writer_->get()->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(1, 0));
+  }
   if (!options_.map_save_path.empty()) {
     try {
       perception_->map()->SaveBt(options_.map_save_path);

@@ -69,8 +69,9 @@ class FleetPerception {
 
   /// Latest frame of `robot_id`, if any.
   std::optional<CameraView> LatestFrame(const std::string& robot_id) const;
-  /// Waits up to `timeout_s` for a frame of `robot_id` with seq > `after_seq`.
-  std::optional<CameraView> WaitForFrame(const std::string& robot_id, std::uint32_t after_seq,
+  /// Waits up to `timeout_s` for a frame of `robot_id` received after the first `after_received` (counted by
+  /// arrival, not by the robot's frame counter, which restarts with the robot).
+  std::optional<CameraView> WaitForFrame(const std::string& robot_id, std::uint64_t after_received,
                                          double timeout_s) const;
 
   /// Fleet staircases: every robot's latest estimates merged (same staircase seen by several robots = one).
