@@ -116,19 +116,15 @@ class FleetPerception::Impl {
     update.resolution_m = m.resolution_m();
     update.data = m.data();
     std::string error;
+    // Wire-level checks FleetMap cannot see (it only gets the decoded enum and the payload): logged drops.
     if (m.kind() > 1) {
-      // Counted by FleetMap as a bad header only if it reaches it; an unknown kind never does.
       spdlog::warn("map update from {} dropped: kind {} is neither DELTA (0) nor SNAPSHOT (1)", m.robot_id(),
                    static_cast<int>(m.kind()));
-      std::lock_guard<std::mutex> lock(mutex_);
-      ++unknown_kind_drops_;
       return;
     }
     if (m.encoding() != "cairn-coarse-zstd-v1") {
       spdlog::warn("map update from {} dropped: encoding '{}' is not cairn-coarse-zstd-v1", m.robot_id(),
                    m.encoding());
-      std::lock_guard<std::mutex> lock(mutex_);
-      ++unknown_kind_drops_;
       return;
     }
     if (!map_.Apply(m.robot_id(), update, &error)) {
@@ -217,7 +213,6 @@ class FleetPerception::Impl {
   std::unique_ptr<perception::StaircaseRegistry> fleet_ = std::make_unique<perception::StaircaseRegistry>();
   perception::StaircaseRegistry notified_;
   std::deque<FleetEvent> events_;
-  std::uint64_t unknown_kind_drops_ = 0;
   std::set<std::string> seen_robots_;
   bool stop_ = false;
   std::thread sync_thread_;
