@@ -101,6 +101,15 @@ std::string Fixed(double value, int digits) {
   return out.str();
 }
 
+// One fleet staircase as JSON (the `stairs` list and the staircase event share it).
+json StaircaseJson(const perception::StaircaseRegistry::Entry& e) {
+  const perception::Staircase& s = e.staircase;
+  return {{"id", e.id},           {"x_m", s.p_W_first_step.x()}, {"y_m", s.p_W_first_step.y()},
+          {"z_m", s.p_W_first_step.z()}, {"yaw_rad", s.yaw_rad},      {"num_steps", s.num_steps},
+          {"rise_m", s.rise_m},   {"run_m", s.run_m},             {"width_m", s.width_m},
+          {"confidence", s.confidence}, {"sources", e.sources}};
+}
+
 }  // namespace
 
 CommandShell::CommandShell(FleetClient& client, bool json_output, std::ostream& out)
@@ -178,21 +187,10 @@ int CommandShell::Execute(const std::string& line) {
 void CommandShell::PrintEvents() {
   for (const FleetEvent& event : client_.perception().TakeEvents()) {
     if (json_) {
-      const perception::Staircase& s = event.staircase.staircase;
-      out_ << json{{"event", event.kind},
-                   {"message", event.message},
-                   {"id", event.staircase.id},
-                   {"x_m", s.p_W_first_step.x()},
-                   {"y_m", s.p_W_first_step.y()},
-                   {"z_m", s.p_W_first_step.z()},
-                   {"yaw_rad", s.yaw_rad},
-                   {"num_steps", s.num_steps},
-                   {"rise_m", s.rise_m},
-                   {"run_m", s.run_m},
-                   {"width_m", s.width_m},
-                   {"sources", event.staircase.sources}}
-                  .dump()
-           << std::endl;
+      json j = StaircaseJson(event.staircase);
+      j["event"] = event.kind;
+      j["message"] = event.message;
+      out_ << j.dump() << std::endl;
     } else {
       out_ << "event: " << event.message << std::endl;
     }
@@ -502,13 +500,7 @@ int CommandShell::Stairs() {
   const auto entries = client_.perception().Staircases();
   if (json_) {
     json list = json::array();
-    for (const auto& e : entries) {
-      const perception::Staircase& s = e.staircase;
-      list.push_back({{"id", e.id}, {"x_m", s.p_W_first_step.x()}, {"y_m", s.p_W_first_step.y()},
-                      {"z_m", s.p_W_first_step.z()}, {"yaw_rad", s.yaw_rad}, {"num_steps", s.num_steps},
-                      {"rise_m", s.rise_m}, {"run_m", s.run_m}, {"width_m", s.width_m},
-                      {"confidence", s.confidence}, {"sources", e.sources}});
-    }
+    for (const auto& e : entries) list.push_back(StaircaseJson(e));
     out_ << json{{"command", "stairs"}, {"ok", true}, {"staircases", list}}.dump() << std::endl;
     return kOk;
   }
@@ -517,14 +509,8 @@ int CommandShell::Stairs() {
     return kOk;
   }
   for (const auto& e : entries) {
-    const perception::Staircase& s = e.staircase;
-    std::string sources;
-    for (const auto& src : e.sources) sources += (sources.empty() ? "" : ", ") + src;
-    out_ << "staircase " << e.id << ": " << s.num_steps << " steps at (" << Fixed(s.p_W_first_step.x(), 2) << ", "
-         << Fixed(s.p_W_first_step.y(), 2) << ", " << Fixed(s.p_W_first_step.z(), 2) << ") heading "
-         << Fixed(s.yaw_rad * 180.0 / M_PI, 0) << " deg, rise " << Fixed(s.rise_m, 3) << " m, run "
-         << Fixed(s.run_m, 3) << " m, width " << Fixed(s.width_m, 2) << " m, confidence " << Fixed(s.confidence, 2)
-         << ", seen by " << sources << std::endl;
+    out_ << "staircase " << e.id << ": " << DescribeStaircase(e) << ", confidence " << Fixed(e.staircase.confidence, 2)
+         << std::endl;
   }
   return kOk;
 }

@@ -25,15 +25,6 @@ namespace {
 constexpr double kSyncRequestPeriodS = 1.0;  // at most one snapshot request per robot per second
 constexpr std::size_t kMaxStaircaseInstances = 4096;  // (robot, staircase) pairs kept from peers
 
-std::string Describe(const perception::Staircase& s) {
-  char text[256];
-  std::snprintf(text, sizeof(text),
-                "%d steps at (%.2f, %.2f, %.2f) heading %.0f deg, rise %.3f m, run %.3f m, width %.2f m", s.num_steps,
-                s.p_W_first_step.x(), s.p_W_first_step.y(), s.p_W_first_step.z(), s.yaw_rad * 180.0 / M_PI,
-                s.rise_m, s.run_m, s.width_m);
-  return text;
-}
-
 // A robot's detection, checked: false (and a reason) if a field is not finite or out of its physical range.
 bool ToStaircase(const msgs::StaircaseDetection& m, perception::Staircase* s, std::string* why) {
   const double values[] = {m.p_M_first_step().x_m(), m.p_M_first_step().y_m(), m.p_M_first_step().z_m(),
@@ -61,6 +52,18 @@ bool ToStaircase(const msgs::StaircaseDetection& m, perception::Staircase* s, st
 }
 
 }  // namespace
+
+std::string DescribeStaircase(const perception::StaircaseRegistry::Entry& entry) {
+  const perception::Staircase& s = entry.staircase;
+  char text[256];
+  std::snprintf(text, sizeof(text),
+                "%d steps at (%.2f, %.2f, %.2f) heading %.0f deg, rise %.3f m, run %.3f m, width %.2f m", s.num_steps,
+                s.p_W_first_step.x(), s.p_W_first_step.y(), s.p_W_first_step.z(), s.yaw_rad * 180.0 / M_PI,
+                s.rise_m, s.run_m, s.width_m);
+  std::string sources;
+  for (const auto& source : entry.sources) sources += (sources.empty() ? "" : ", ") + source;
+  return std::string(text) + ", seen by " + sources;
+}
 
 class FleetPerception::Impl {
  public:
@@ -195,9 +198,7 @@ class FleetPerception::Impl {
       FleetEvent event;
       event.kind = "staircase";
       event.staircase = entry;
-      std::string sources;
-      for (const auto& s : entry.sources) sources += (sources.empty() ? "" : ", ") + s;
-      event.message = "new staircase: " + Describe(entry.staircase) + ", seen by " + sources;
+      event.message = "new staircase: " + DescribeStaircase(entry);
       events_.push_back(event);
       spdlog::info("basestation {}: {}", base_id_, event.message);
     }

@@ -339,6 +339,26 @@ msgs::Point PointOf(double x, double y, double z) {
   return p;
 }
 
+msgs::Pose PoseOf(const Eigen::Isometry3d& T) {
+  msgs::Pose pose;
+  pose.position(PointOf(T.translation().x(), T.translation().y(), T.translation().z()));
+  const Eigen::Quaterniond q(T.rotation());
+  pose.orientation().x(q.x());
+  pose.orientation().y(q.y());
+  pose.orientation().z(q.z());
+  pose.orientation().w(q.w());
+  return pose;
+}
+
+// A planar pose (metres; yaw about +z, radians) as an IDL pose.
+msgs::Pose PoseOf(double x_m, double y_m, double z_m, double yaw_rad) {
+  msgs::Pose pose;
+  pose.position(PointOf(x_m, y_m, z_m));
+  pose.orientation().z(std::sin(yaw_rad / 2));
+  pose.orientation().w(std::cos(yaw_rad / 2));
+  return pose;
+}
+
 // A path (metres, frame map; z = ground height) as IDL points.
 std::vector<msgs::Point> PathPoints(const std::vector<Eigen::Vector3d>& path_W) {
   std::vector<msgs::Point> points;
@@ -631,13 +651,7 @@ void RobotAgent::Impl::PublishState(SteadyTime) {
   m.stamp(cairn::msgs::WallStampNow());
   m.platform(options_.platform);
   m.frame_id("map");
-  msgs::Pose pose;
-  pose.position().x_m(s.x_m);
-  pose.position().y_m(s.y_m);
-  pose.position().z_m(s.z_m);
-  pose.orientation().z(std::sin(s.yaw_rad / 2));
-  pose.orientation().w(std::cos(s.yaw_rad / 2));
-  m.pose_MB(pose);
+  m.pose_MB(PoseOf(s.x_m, s.y_m, s.z_m, s.yaw_rad));
   m.twist_B().linear_x_mps(s.v_mps);
   m.twist_B().angular_z_radps(s.w_radps);
   m.cmd_twist_B().linear_x_mps(last_mux_.twist_B.linear_x_mps);
@@ -721,9 +735,7 @@ void RobotAgent::Impl::PublishLocalPlan() {
   m.reason(status);
   m.free_paths(static_cast<uint32_t>(r.num_free_paths));
   m.total_paths(static_cast<uint32_t>(navigation_.library().num_paths()));
-  m.pose_MB().position(PointOf(pose.x_m, pose.y_m, pose.z_m));
-  m.pose_MB().orientation().z(std::sin(pose.yaw_rad / 2));
-  m.pose_MB().orientation().w(std::cos(pose.yaw_rad / 2));
+  m.pose_MB(PoseOf(pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad));
   for (const auto& p : r.path_B) m.chosen_path_B().push_back(PointOf(p.x(), p.y(), 0.0));
   // End points of free paths, thinned to one per 0.5 m cell, to keep the message small (~1 kB).
   std::set<std::pair<int, int>> cells;
@@ -801,21 +813,6 @@ void RobotAgent::Impl::Run() {
                ps.staircase_runs ? ps.staircase_ms_total / ps.staircase_runs : 0.0, ps.camera_frames, ps.slam_error_m,
                ps.distance_m);
 }
-
-namespace {
-
-msgs::Pose PoseOf(const Eigen::Isometry3d& T) {
-  msgs::Pose pose;
-  pose.position(PointOf(T.translation().x(), T.translation().y(), T.translation().z()));
-  const Eigen::Quaterniond q(T.rotation());
-  pose.orientation().x(q.x());
-  pose.orientation().y(q.y());
-  pose.orientation().z(q.z());
-  pose.orientation().w(q.w());
-  return pose;
-}
-
-}  // namespace
 
 void RobotAgent::Impl::PublishPerception(const PerceptionOutput& out) {
   for (const perception::MapUpdate& update : out.map_messages) {

@@ -44,6 +44,10 @@ struct MapSaveResult {
   double resolution_m = 0;   ///< coarse voxel edge
 };
 
+/// One line for people: "5 steps at (50.00, 23.72, 0.00) heading 0 deg, rise 0.201 m, run 0.500 m, width
+/// 2.38 m, seen by r1, r2".
+std::string DescribeStaircase(const perception::StaircaseRegistry::Entry& entry);
+
 /// DDS readers and writers of the perception topics on a basestation's participant, and the fleet model
 /// built from them. Thread-safe. Malformed map updates are dropped and counted (FleetMapStats::drops),
 /// never applied.
