@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -74,6 +75,17 @@ TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
   const std::string tree = WriteFile("tree.xml", "<root BTCPP_format=\"4\"><BehaviorTree ID=\"T\"><Nope/>"
                                                  "</BehaviorTree></root>");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--mode-tree", tree}), "Nope");
+  // Issue 9: a branch naming a channel the mux does not have is refused at load, naming branch and channel
+  // (it used to load, and `stop` then left the twist on).
+  std::ifstream shipped(std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml");
+  std::string xml((std::istreambuf_iterator<char>(shipped)), std::istreambuf_iterator<char>());
+  const std::string teleop = R"(channel="teleop")";
+  ASSERT_NE(xml.find(teleop), std::string::npos);
+  xml.replace(xml.find(teleop), teleop.size(), R"(channel="warp")");
+  const std::string warp = WriteFile("warp_tree.xml", xml);
+  const Outcome refused = RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--mode-tree", warp});
+  ExpectRefused(refused, "branch 'manual'");
+  ExpectRefused(refused, "mux channel 'warp', which the mux does not have");
   const std::string profiles = WriteFile("wide.xml",
                                          "<?xml version=\"1.0\"?><dds xmlns=\"http://www.eprosima.com/XMLSchemas/"
                                          "fastRTPS_Profiles\"><profiles><participant profile_name=\"cairn.loopback\">"

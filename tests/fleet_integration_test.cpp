@@ -114,12 +114,13 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   r = opA.Run(std::string("goto r1 ") + gx + " " + gy);
   ASSERT_TRUE(r["ok"]) << r;
   EXPECT_NE(r["reason"].get<std::string>().find("ETA"), std::string::npos) << r;
-  const auto goal_request_id = r["request_id"];
+  const auto goal_id = r["goal_id"];
+  EXPECT_GT(goal_id.get<uint32_t>(), 0u) << r;
   r = opA.Run("path r1");
   EXPECT_TRUE(r["ok"]) << r;
   EXPECT_GE(r["path"].size(), 2u) << r;
   EXPECT_GT(r["length_m"].get<double>(), 9.0) << r;
-  EXPECT_EQ(r["goal_id"], goal_request_id) << r;
+  EXPECT_EQ(r["goal_id"], goal_id) << r;
   r = opA.Run("wait r1 arrived 120", 130s);
   EXPECT_TRUE(r["ok"]) << r;
   const auto& progress = opA.progress_lines();

@@ -70,6 +70,8 @@ json ViewJson(const RobotView& v) {
     j["mode"] = s.mode();
     j["holder"] = s.holder_id();
     j["holder_alive"] = s.holder_alive();
+    j["holder_participant"] = s.holder_participant();
+    j["holder_participants"] = s.holder_participants();
     j["x_m"] = s.pose_MB().position().x_m();
     j["y_m"] = s.pose_MB().position().y_m();
     j["z_m"] = s.pose_MB().position().z_m();
@@ -139,7 +141,8 @@ std::string CommandShell::Help() {
          "  teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]  drive R for DURATION_S, then stop sending: manual\n"
          "                                      mode unless R is in smart_joystick, where the twist is the\n"
          "                                      direction the local planner follows\n"
-         "  stop R                              switch R to idle (zero twist)\n"
+         "  stop R                              stop R now: zero twist, mode idle, goal cancelled; from any\n"
+         "                                      basestation, without the control lock (the lock stays)\n"
          "  wait R arrived|idle|mode=M|online|lost [TIMEOUT_S]  block until R reaches that state (default 60 s)\n"
          "  map R|fleet --save FILE.bt          save R's coarse map (or the fleet map merged from every robot) as\n"
          "                                      an OctoMap .bt; asks for a snapshot first if it is incomplete\n"
@@ -165,7 +168,7 @@ int CommandShell::Report(const std::string& command, const std::string& robot, c
     out_ << json{{"command", command},       {"robot", robot},   {"ok", o.ok},
                  {"result", o.result},       {"reason", o.reason}, {"holder", o.holder_id},
                  {"mode", o.mode},           {"round_trip_ms", o.round_trip_ms},
-                 {"request_id", o.request_id}}
+                 {"request_id", o.request_id}, {"goal_id", o.goal_id}}
                 .dump()
          << std::endl;
   } else {
@@ -220,7 +223,7 @@ int CommandShell::Run(const std::string& line) {
   if (cmd == "request-control") return need(1, "request-control R") ? Control(args, true) : kUsage;
   if (cmd == "release") return need(1, "release R") ? Control(args, false) : kUsage;
   if (cmd == "mode") return need(2, "mode R MODE") ? Mode(args) : kUsage;
-  if (cmd == "stop") return need(1, "stop R") ? Mode({args[0], "idle"}) : kUsage;
+  if (cmd == "stop") return need(1, "stop R") ? Report("stop", args[0], client_.Stop(args[0])) : kUsage;
   if (cmd == "goto") return Goto(args);
   if (cmd == "teleop") {
     return (args.size() == 4 || args.size() == 5) ? Teleop(args)
@@ -330,12 +333,12 @@ int CommandShell::Goto(const std::vector<std::string>& all_args) {
     return UsageError("goto", error);
   }
   const CommandOutcome o = client_.SendWaypoint(args[0], x, y, tolerance);
-  if (o.ok) last_goal_id_[args[0]] = o.request_id;
+  if (o.ok) last_goal_id_[args[0]] = o.goal_id;
   if (!o.ok || !wait) return Report("goto", args[0], o);
   // With --wait, one result line ends the command (JSON: the acceptance is a progress line before it).
   if (json_) {
     out_ << json{{"command", "goto"}, {"robot", args[0]}, {"progress", true}, {"accepted", true},
-                 {"reason", o.reason}, {"request_id", o.request_id}}
+                 {"reason", o.reason}, {"request_id", o.request_id}, {"goal_id", o.goal_id}}
                 .dump()
          << std::endl;
   } else {
@@ -403,7 +406,7 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
     o.mode = view->state->mode();
     o.holder_id = view->state->holder_id();
   }
-  o.request_id = goal_id;
+  o.goal_id = goal_id;
   o.round_trip_ms = core::SecondsBetween(start, core::SteadyClock::now()) * 1000.0;
   return Report(command == "goto" ? "goto" : "wait", robot, o);
 }

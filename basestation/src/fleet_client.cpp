@@ -46,6 +46,7 @@ class FleetClient::Impl {
     if (!options.dds_profiles_file.empty()) p.profiles_file = options.dds_profiles_file;
     p.name = "cairn_base/" + options.base_id;
     participant_ = std::make_unique<core::Participant>(p);
+    participant_id_ = participant_->participant_id();
     info_writer_ =
         std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/agent_info", "cairn.latched");
     perception_ = std::make_unique<FleetPerception>(*participant_, options.base_id);
@@ -55,6 +56,8 @@ class FleetClient::Impl {
                                                                               "cairn.command");
     goal_writer_ = std::make_unique<core::Writer<msgs::WaypointGoalPubSubType>>(
         *participant_, "cairn/waypoint_goal", "cairn.command");
+    stop_writer_ = std::make_unique<core::Writer<msgs::StopRequestPubSubType>>(*participant_, "cairn/stop_request",
+                                                                              "cairn.command");
     teleop_writer_ =
         std::make_unique<core::Writer<msgs::TeleopTwistPubSubType>>(*participant_, "cairn/teleop", "cairn.teleop");
     response_reader_ = std::make_unique<core::Reader<msgs::CommandResponsePubSubType>>(
@@ -71,7 +74,8 @@ class FleetClient::Impl {
         *participant_, "cairn/path_request", "cairn.command");
     path_response_reader_ = std::make_unique<core::Reader<msgs::PathResponsePubSubType>>(
         *participant_, "cairn/path_response", "cairn.command", [this](const msgs::PathResponse& m, const auto&) {
-          if (m.requester_id() != options_.base_id) return;
+          // Answers to another process with this base id (same request ids) are not ours.
+          if (m.requester_id() != options_.base_id || m.requester_participant() != participant_id_) return;
           {
             std::lock_guard<std::mutex> lock(mutex_);
             path_responses_[m.request_id()] = m;
@@ -96,6 +100,7 @@ class FleetClient::Impl {
           {
             std::lock_guard<std::mutex> lock(mutex_);
             robot_by_writer_[info.publication_handle] = m.agent_id();
+            current_writer_[m.agent_id()] = info.publication_handle;
           }
           Update(m.agent_id(), [&](RobotView& v) {
             v.platform = m.platform();
@@ -146,7 +151,12 @@ class FleetClient::Impl {
       std::lock_guard<std::mutex> lock(mutex_);
       auto it = robot_by_writer_.find(status.last_publication_handle);
       if (it == robot_by_writer_.end()) return;
-      auto robot = robots_.find(it->second);
+      const std::string robot_id = it->second;
+      if (status.not_alive_count_change == 0) robot_by_writer_.erase(it);  // unmatched: that process is gone
+      // An old process of a robot that has restarted (a new writer announces its id) does not make it lost.
+      auto current = current_writer_.find(robot_id);
+      if (current == current_writer_.end() || !(current->second == status.last_publication_handle)) return;
+      auto robot = robots_.find(robot_id);
       if (robot == robots_.end()) return;
       robot->second.lost = true;
       robot->second.lost_reason = "liveliness lost";
@@ -155,7 +165,8 @@ class FleetClient::Impl {
   }
 
   void OnResponse(const msgs::CommandResponse& m) {
-    if (m.base_id() != options_.base_id) return;
+    // Replies to another process with this base id (it numbers its requests from 1 too) are not ours.
+    if (m.base_id() != options_.base_id || m.requester_participant() != participant_id_) return;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       responses_[ResponseKey(m.robot_id(), m.kind(), m.request_id())] = m;
@@ -220,6 +231,7 @@ class FleetClient::Impl {
     outcome.reason = r.reason();
     outcome.holder_id = r.holder_id();
     outcome.mode = r.mode();
+    outcome.goal_id = r.goal_id();
     return outcome;
   }
 
@@ -243,10 +255,12 @@ class FleetClient::Impl {
   }
 
   FleetClientOptions options_;
+  std::string participant_id_;
   mutable std::mutex mutex_;
   mutable std::condition_variable cv_;
   std::map<std::string, RobotView> robots_;
   std::map<eprosima::fastrtps::rtps::InstanceHandle_t, std::string> robot_by_writer_;
+  std::map<std::string, eprosima::fastrtps::rtps::InstanceHandle_t> current_writer_;  // newest agent-info writer
   std::map<std::string, msgs::CommandResponse> responses_;
   std::map<uint32_t, msgs::PathResponse> path_responses_;
   std::atomic<uint32_t> next_request_id_{1};
@@ -258,6 +272,7 @@ class FleetClient::Impl {
   std::unique_ptr<core::Writer<msgs::ControlRequestPubSubType>> control_writer_;
   std::unique_ptr<core::Writer<msgs::ModeRequestPubSubType>> mode_writer_;
   std::unique_ptr<core::Writer<msgs::WaypointGoalPubSubType>> goal_writer_;
+  std::unique_ptr<core::Writer<msgs::StopRequestPubSubType>> stop_writer_;
   std::unique_ptr<core::Writer<msgs::TeleopTwistPubSubType>> teleop_writer_;
   std::unique_ptr<core::Writer<msgs::PathRequestPubSubType>> path_request_writer_;
   std::unique_ptr<core::Reader<msgs::CommandResponsePubSubType>> response_reader_;
@@ -273,6 +288,8 @@ FleetClient::FleetClient(const FleetClientOptions& options) : impl_(std::make_un
 FleetClient::~FleetClient() = default;
 
 const std::string& FleetClient::base_id() const { return impl_->options_.base_id; }
+
+const std::string& FleetClient::participant_id() const { return impl_->participant_id_; }
 
 FleetPerception& FleetClient::perception() { return *impl_->perception_; }
 
@@ -361,6 +378,16 @@ CommandOutcome FleetClient::SendWaypoint(const std::string& robot_id, double x_m
     m.y_m(y_m);
     m.tolerance_m(tolerance_m);
     return impl_->goal_writer_->Write(m);
+  });
+}
+
+CommandOutcome FleetClient::Stop(const std::string& robot_id) {
+  return impl_->Call(robot_id, msgs::COMMAND_KIND_STOP, [&](uint32_t id) {
+    msgs::StopRequest m;
+    m.robot_id(robot_id);
+    m.base_id(base_id());
+    m.request_id(id);
+    return impl_->stop_writer_->Write(m);
   });
 }
 

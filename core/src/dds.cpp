@@ -45,6 +45,45 @@ bool WaitForCount(const std::atomic<int>& value, int count, std::chrono::millise
   return true;
 }
 
+namespace {
+
+std::string DottedHex(const unsigned char* bytes, std::size_t n) {
+  static const char* kHex = "0123456789abcdef";
+  std::string text;
+  text.reserve(3 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i > 0) text += '.';
+    text += kHex[bytes[i] >> 4];
+    text += kHex[bytes[i] & 0xf];
+  }
+  return text;
+}
+
+}  // namespace
+
+std::string ParticipantIdOf(const eprosima::fastrtps::rtps::InstanceHandle_t& handle) {
+  if (!handle.isDefined()) return "";
+  eprosima::fastrtps::rtps::GUID_t guid;
+  eprosima::fastrtps::rtps::iHandle2GUID(guid, handle);
+  return ParticipantIdOf(guid);
+}
+
+std::string ParticipantIdOf(const eprosima::fastrtps::rtps::GUID_t& guid) {
+  return DottedHex(guid.guidPrefix.value, eprosima::fastrtps::rtps::GuidPrefix_t::size);
+}
+
+std::string WriterIdOf(const eprosima::fastrtps::rtps::InstanceHandle_t& handle) {
+  if (!handle.isDefined()) return "";
+  eprosima::fastrtps::rtps::GUID_t guid;
+  eprosima::fastrtps::rtps::iHandle2GUID(guid, handle);
+  unsigned char bytes[16];
+  std::copy(guid.guidPrefix.value, guid.guidPrefix.value + 12, bytes);
+  std::copy(guid.entityId.value, guid.entityId.value + 4, bytes + 12);
+  return DottedHex(bytes, sizeof(bytes));
+}
+
+std::string Participant::participant_id() const { return ParticipantIdOf(participant_->guid()); }
+
 std::string DefaultProfilesFile() {
   if (const char* env = std::getenv("CAIRN_DDS_PROFILES"); env != nullptr && *env != '\0') return env;
   return std::string(CAIRN_CONFIG_DIR) + "/dds_profiles.xml";

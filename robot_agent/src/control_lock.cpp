@@ -15,11 +15,13 @@ bool ControlLockOptions::IsValid(std::string* why) const {
 ControlLock::ControlLock(std::string robot_id, ControlLockOptions options)
     : robot_id_(std::move(robot_id)), options_(options) {}
 
-LockDecision ControlLock::Request(const std::string& base_id, core::SteadyTime /*now*/) {
+LockDecision ControlLock::Request(const std::string& base_id, const std::string& participant,
+                                  core::SteadyTime /*now*/) {
   if (base_id.empty()) return {false, "a control request needs a basestation id", holder_};
+  if (participant.empty()) return {false, "a control request needs a sending participant", holder_};
   if (holder_.empty() || holder_ == base_id) {
     holder_ = base_id;
-    holder_alive_ = true;
+    speaker_ = participant;  // it just spoke, so it is alive
     return {true, "", holder_};
   }
   return {false, "robot " + robot_id_ + " is locked by basestation " + holder_, holder_};
@@ -32,31 +34,50 @@ LockDecision ControlLock::Release(const std::string& base_id) {
             holder_};
   }
   holder_.clear();
-  holder_alive_ = true;
+  speaker_.clear();
   return {true, "", holder_};
 }
 
-void ControlLock::OnLivelinessLost(const std::string& base_id, core::SteadyTime now) {
-  if (!IsHolder(base_id) || !holder_alive_) return;
-  holder_alive_ = false;
+void ControlLock::NoteHolderCommand(const std::string& participant) {
+  if (!holder_.empty() && !participant.empty()) speaker_ = participant;
+}
+
+void ControlLock::OnParticipantAlive(const std::string& base_id, const std::string& participant) {
+  if (participant.empty()) return;
+  live_[participant] = base_id;
+  if (!holder_.empty() && base_id == holder_ && speaker_.empty()) speaker_ = participant;
+}
+
+void ControlLock::OnParticipantLost(const std::string& participant, core::SteadyTime now) {
+  live_.erase(participant);
+  if (holder_.empty() || participant != speaker_) return;
+  // The speaker is gone: another live process with the holder's id takes over, else the holder is lost.
+  speaker_.clear();
+  for (const auto& [other, base_id] : live_) {
+    if (base_id == holder_) {
+      speaker_ = other;
+      return;
+    }
+  }
   lost_since_ = now;
 }
 
-void ControlLock::OnLivelinessRegained(const std::string& base_id) {
-  if (IsHolder(base_id)) holder_alive_ = true;
+uint32_t ControlLock::holder_participants() const {
+  uint32_t n = 0;
+  for (const auto& [participant, base_id] : live_) n += (!holder_.empty() && base_id == holder_) ? 1 : 0;
+  return n;
 }
 
 bool ControlLock::Update(core::SteadyTime now) {
-  if (holder_.empty() || holder_alive_ || std::isinf(options_.lock_keep_s)) return false;
+  if (holder_.empty() || holder_alive() || std::isinf(options_.lock_keep_s)) return false;
   if (core::SecondsBetween(lost_since_, now) < options_.lock_keep_s) return false;
   holder_.clear();
-  holder_alive_ = true;
   return true;
 }
 
 std::string ControlLock::Describe() const {
   if (holder_.empty()) return "free";
-  return "locked by basestation " + holder_ + (holder_alive_ ? "" : " (liveliness lost)");
+  return "locked by basestation " + holder_ + (holder_alive() ? "" : " (liveliness lost)");
 }
 
 std::string ControlLock::NotHolderReason(const std::string& base_id) const {

@@ -37,7 +37,8 @@ std::function<NodeStatus(bt::TreeNode&)> Traced(std::shared_ptr<Context> ctx,
 
 }  // namespace
 
-ModeManager::ModeManager(const std::string& tree_file) : context_(std::make_shared<Context>()) {
+ModeManager::ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels)
+    : context_(std::make_shared<Context>()) {
   bt::TreeFactory factory;
   std::shared_ptr<Context> ctx = context_;
   factory.RegisterSimpleCondition(
@@ -50,12 +51,16 @@ ModeManager::ModeManager(const std::string& tree_file) : context_(std::make_shar
       {bt::InputPort("mode", "mode this branch implements"),
        bt::InputPort("requested_mode", "{requested_mode}", "mode being asked for")});
   factory.RegisterSimpleCondition("IsControlHeld", Traced(ctx, [ctx](bt::TreeNode&) {
+    return ctx->conditions.holder_id.empty()
+               ? Fail(&ctx->failure, "IsControlHeld: no basestation holds the control lock")
+               : NodeStatus::kSuccess;
+  }));
+  factory.RegisterSimpleCondition("IsHolderAlive", Traced(ctx, [ctx](bt::TreeNode&) {
     const ModeConditions& c = ctx->conditions;
-    if (c.holder_id.empty()) return Fail(&ctx->failure, "IsControlHeld: no basestation holds the control lock");
-    if (!c.holder_alive) {
-      return Fail(&ctx->failure, "IsControlHeld: liveliness of control holder " + c.holder_id + " is lost");
-    }
-    return NodeStatus::kSuccess;
+    if (c.holder_id.empty()) return Fail(&ctx->failure, "IsHolderAlive: no basestation holds the control lock");
+    return c.holder_alive ? NodeStatus::kSuccess
+                          : Fail(&ctx->failure, "IsHolderAlive: liveliness of control holder " + c.holder_id +
+                                                    " is lost (no live process speaks for it)");
   }));
   factory.RegisterSimpleCondition("IsLocalized", Traced(ctx, [ctx](bt::TreeNode&) {
     return ctx->conditions.localized ? NodeStatus::kSuccess
@@ -100,6 +105,38 @@ ModeManager::ModeManager(const std::string& tree_file) : context_(std::make_shar
   if (std::find(known_modes_.begin(), known_modes_.end(), "idle") == known_modes_.end()) {
     throw bt::TreeError(tree_file + ": the mode tree has no branch for the fail-safe mode 'idle'");
   }
+  CheckChannels(tree_file, mux_channels);
+}
+
+void ModeManager::CheckChannels(const std::string& tree_file, const std::vector<std::string>& mux_channels) const {
+  std::string list = "none";
+  for (const auto& c : mux_channels) list += ", " + c;
+  std::vector<std::string> ancestors;  // names of the nodes above the one visited (pre-order)
+  tree_.ForEachNode([&](const bt::TreeNode& node, int depth) {
+    ancestors.resize(static_cast<std::size_t>(depth));
+    const std::string branch = ancestors.empty() ? node.name() : ancestors.back();
+    ancestors.push_back(node.name());
+    if (node.registration_id() != "SelectMode") return;
+    const auto& ports = node.config().port_values;
+    const auto channel = ports.find("channel");
+    const auto mode = ports.find("mode");
+    const std::string where = tree_file + ":" + std::to_string(node.config().xml_line) + ": branch '" + branch +
+                              "' (SelectMode mode=\"" + (mode == ports.end() ? "" : mode->second) + "\")";
+    if (channel == ports.end()) throw bt::TreeError(where + " has no channel port (mux channels: " + list + ")");
+    const std::string& name = channel->second;
+    if (name.find('{') != std::string::npos) {
+      throw bt::TreeError(where + " takes its channel '" + name +
+                          "' from the blackboard: a channel must be a literal mux channel (" + list + ")");
+    }
+    if (name != "none" && std::find(mux_channels.begin(), mux_channels.end(), name) == mux_channels.end()) {
+      throw bt::TreeError(where + " names mux channel '" + name + "', which the mux does not have (channels: " +
+                          list + ")");
+    }
+    if (mode != ports.end() && mode->second == "idle" && name != "none") {
+      throw bt::TreeError(where + ": the fail-safe mode 'idle' must select channel 'none' (zero twist), not '" +
+                          name + "'");
+    }
+  });
 }
 
 bool ModeManager::Evaluate(const std::string& mode, const ModeConditions& conditions, std::string* channel, std::string* failure) {
@@ -156,6 +193,13 @@ ModeDecision ModeManager::Recheck(const ModeConditions& conditions) {
   mode_ = "idle";
   channel_ = idle_channel.empty() ? "none" : idle_channel;
   return {false, mode_, channel_, previous + " no longer allowed: " + failure};
+}
+
+ModeDecision ModeManager::ForceIdle(const std::string& reason) {
+  mode_ = "idle";
+  channel_ = "none";
+  if (!reason.empty()) last_refusal_ = reason;
+  return {true, mode_, channel_, reason};
 }
 
 void ModeManager::KeepTrace() {

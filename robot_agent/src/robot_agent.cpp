@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <deque>
 #include <map>
 #include <mutex>
+#include <random>
 #include <set>
 #include <thread>
 
@@ -15,6 +15,7 @@
 #include "cairn/agent/mode_manager.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
+#include "cairn/agent/reply_cache.h"
 #include "cairn/agent/twist_mux.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/shutdown.h"
@@ -60,7 +61,7 @@ class RobotAgent::Impl {
  private:
   // Waypoint goal being driven (navigation_ holds its path and progress).
   struct Goal {
-    uint32_t request_id = 0;
+    uint32_t goal_id = 0;  // robot-assigned (CommandResponse.goal_id, RobotState.nav_goal_id)
     double x_m = 0, y_m = 0;
     SteadyTime contact_since{};
     bool in_contact = false;
@@ -71,21 +72,40 @@ class RobotAgent::Impl {
     SteadyTime stamp{};
   };
 
+  // Who sent a command: the operator (base id, owner of the lock), the process (participant) and the writer.
+  struct Sender {
+    std::string base_id;
+    std::string participant;  // core::ParticipantIdOf the sending writer
+    std::string writer;       // core::WriterIdOf the sending writer
+  };
+  using SampleInfo = eprosima::fastdds::dds::SampleInfo;
+
   // DDS callbacks (listener threads); each takes mutex_.
-  void OnControlRequest(const msgs::ControlRequest& msg);
-  void OnModeRequest(const msgs::ModeRequest& msg);
-  void OnWaypointGoal(const msgs::WaypointGoal& msg);
+  void OnControlRequest(const msgs::ControlRequest& msg, const SampleInfo& info);
+  void OnModeRequest(const msgs::ModeRequest& msg, const SampleInfo& info);
+  void OnWaypointGoal(const msgs::WaypointGoal& msg, const SampleInfo& info);
+  void OnStopRequest(const msgs::StopRequest& msg, const SampleInfo& info);
   void OnTeleop(const msgs::TeleopTwist& msg);
-  void OnPathRequest(const msgs::PathRequest& msg);
-  void OnAgentInfo(const msgs::AgentInfo& msg, const eprosima::fastdds::dds::SampleInfo& info);
+  void OnPathRequest(const msgs::PathRequest& msg, const SampleInfo& info);
+  void OnAgentInfo(const msgs::AgentInfo& msg, const SampleInfo& info);
   void OnAgentLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status);
 
   // All below run with mutex_ held.
-  bool ReplayIfDuplicate(const std::string& base_id, msgs::CommandKind kind, uint32_t request_id);
-  void Respond(const std::string& base_id, uint32_t request_id, msgs::CommandKind kind, msgs::CommandResult result,
-               const std::string& reason);
+  // Answers a retry (same writer, kind and request id) from the cache. true when it was one.
+  bool ReplayIfDuplicate(const Sender& sender, msgs::CommandKind kind, uint32_t request_id);
+  void Respond(const Sender& sender, uint32_t request_id, msgs::CommandKind kind, msgs::CommandResult result,
+               const std::string& reason, uint32_t goal_id = 0);
   ModeConditions Conditions() const;
-  void ApplyMode(const ModeDecision& decision);
+  // Switches the mux to the decision's channel and ends a goal the new mode does not drive. A channel the
+  // mux lacks (impossible with a checked tree) is never ignored: the robot stops. false then.
+  bool ApplyMode(const ModeDecision& decision);
+  // Stop whatever the tree and the mux say: mode idle, no channel (zero twist), goal cancelled.
+  void Stop(const std::string& reason);
+  // Idle after a goal ends: through the tree, or a Stop if the tree refuses idle.
+  void GoIdle();
+  static Sender SenderOf(const std::string& base_id, const SampleInfo& info) {
+    return Sender{base_id, core::ParticipantIdOf(info.publication_handle), core::WriterIdOf(info.publication_handle)};
+  }
   void FinishGoal(msgs::NavStatus status, const std::string& reason);
   void Step(SteadyTime now);
   void PublishState(SteadyTime now);
@@ -109,18 +129,24 @@ class RobotAgent::Impl {
   Navigation navigation_;
   std::optional<Goal> goal_;
   Joystick joystick_;
-  std::map<std::string, bool> base_has_joystick_;  // by basestation id, from its agent info
+  // Basestation processes from their agent info: writer handle -> participant and base id.
+  struct BaseParticipant {
+    std::string participant;
+    std::string base_id;
+    bool has_joystick = false;  // advertises the "joystick" capability
+  };
+  std::map<eprosima::fastrtps::rtps::InstanceHandle_t, BaseParticipant> base_by_writer_;
   std::vector<Eigen::Vector3f> obstacles_B_;
   double last_sense_s_ = -1e9;
   std::uint64_t published_path_revision_ = ~0ull;
   msgs::NavStatus nav_status_ = msgs::NAV_STATUS_NONE;
   std::string nav_reason_;
   uint32_t nav_goal_id_ = 0;
+  uint32_t next_goal_id_ = 1;  // seeded at random: goal ids of a restarted robot do not repeat old ones
   double nav_goal_x_m_ = 0, nav_goal_y_m_ = 0, nav_distance_left_m_ = 0;
   bool in_contact_ = false;
   MuxOutput last_mux_;
-  std::map<eprosima::fastrtps::rtps::InstanceHandle_t, std::string> base_by_writer_;
-  std::deque<std::pair<std::string, msgs::CommandResponse>> responses_;
+  ReplyCache<msgs::CommandResponse> replies_{kResponseCacheSize};
   std::string last_tree_signature_;
   std::unique_ptr<PerceptionPipeline> perception_;  // used by the perception thread only
   std::atomic<bool> map_snapshot_requested_{false};
@@ -142,6 +168,7 @@ class RobotAgent::Impl {
   std::unique_ptr<core::Reader<msgs::ControlRequestPubSubType>> control_reader_;
   std::unique_ptr<core::Reader<msgs::ModeRequestPubSubType>> mode_reader_;
   std::unique_ptr<core::Reader<msgs::WaypointGoalPubSubType>> goal_reader_;
+  std::unique_ptr<core::Reader<msgs::StopRequestPubSubType>> stop_reader_;
   std::unique_ptr<core::Reader<msgs::TeleopTwistPubSubType>> teleop_reader_;
   std::unique_ptr<core::Reader<msgs::AgentInfoPubSubType>> info_reader_;
 };
@@ -178,10 +205,12 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
       mux_({{"teleop", options.teleop_timeout_s},
             {"smart_joystick", options.waypoint_timeout_s},
             {"waypoint", options.waypoint_timeout_s}}),
-      modes_(options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file),
+      modes_(options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file, mux_.channel_names()),
       navigation_(options.navigation, planner_,
                   std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform())) {
   const double footprint_m = options.navigation.platform.footprint_radius_m;
+  std::random_device entropy;
+  next_goal_id_ = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
 
   // Start pose: given, or chosen deterministically from the robot id among free cells.
   sim::PlanarPose start;
@@ -257,20 +286,23 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
       });
   path_request_reader_ = std::make_unique<core::Reader<msgs::PathRequestPubSubType>>(
       *participant_, "cairn/path_request", "cairn.command",
-      [this](const msgs::PathRequest& m, const auto&) { OnPathRequest(m); });
+      [this](const msgs::PathRequest& m, const auto& info) { OnPathRequest(m, info); });
   info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
       *participant_, "cairn/agent_info", "cairn.latched",
       [this](const msgs::AgentInfo& m, const auto& info) { OnAgentInfo(m, info); },
       [this](const auto& status) { OnAgentLiveliness(status); });
   control_reader_ = std::make_unique<core::Reader<msgs::ControlRequestPubSubType>>(
       *participant_, "cairn/control_request", "cairn.command",
-      [this](const msgs::ControlRequest& m, const auto&) { OnControlRequest(m); });
+      [this](const msgs::ControlRequest& m, const auto& info) { OnControlRequest(m, info); });
   mode_reader_ = std::make_unique<core::Reader<msgs::ModeRequestPubSubType>>(
       *participant_, "cairn/mode_request", "cairn.command",
-      [this](const msgs::ModeRequest& m, const auto&) { OnModeRequest(m); });
+      [this](const msgs::ModeRequest& m, const auto& info) { OnModeRequest(m, info); });
   goal_reader_ = std::make_unique<core::Reader<msgs::WaypointGoalPubSubType>>(
       *participant_, "cairn/waypoint_goal", "cairn.command",
-      [this](const msgs::WaypointGoal& m, const auto&) { OnWaypointGoal(m); });
+      [this](const msgs::WaypointGoal& m, const auto& info) { OnWaypointGoal(m, info); });
+  stop_reader_ = std::make_unique<core::Reader<msgs::StopRequestPubSubType>>(
+      *participant_, "cairn/stop_request", "cairn.command",
+      [this](const msgs::StopRequest& m, const auto& info) { OnStopRequest(m, info); });
   teleop_reader_ = std::make_unique<core::Reader<msgs::TeleopTwistPubSubType>>(
       *participant_, "cairn/teleop", "cairn.teleop", [this](const msgs::TeleopTwist& m, const auto&) { OnTeleop(m); });
 
@@ -297,6 +329,7 @@ RobotAgent::Impl::~Impl() {
   control_reader_.reset();
   mode_reader_.reset();
   goal_reader_.reset();
+  stop_reader_.reset();
   teleop_reader_.reset();
   info_reader_.reset();
 }
@@ -307,17 +340,44 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   c.holder_alive = lock_.holder_alive();
   c.localized = true;  // the simulated platform knows its pose; SLAM health comes with perception
   c.has_waypoint_goal = goal_.has_value();
-  const auto joystick = base_has_joystick_.find(c.holder_id);
-  c.joystick_alive = c.holder_alive && joystick != base_has_joystick_.end() && joystick->second;
+  // The joystick is the one of the process speaking for the holder.
+  c.joystick_alive = false;
+  for (const auto& [handle, base] : base_by_writer_) {
+    if (c.holder_alive && base.participant == lock_.holder_participant()) c.joystick_alive = base.has_joystick;
+  }
   c.local_planner_healthy = navigation_.LocalPlannerHealthy(NowS(SteadyClock::now()), &c.local_planner_problem);
   return c;
 }
 
-void RobotAgent::Impl::ApplyMode(const ModeDecision& decision) {
-  mux_.Select(decision.channel);
+bool RobotAgent::Impl::ApplyMode(const ModeDecision& decision) {
+  if (!mux_.Select(decision.channel)) {
+    const std::string reason = "mode " + decision.mode + " selects mux channel '" + decision.channel +
+                               "', which the mux does not have: stopped";
+    spdlog::error("robot {}: {}", options_.robot_id, reason);
+    Stop(reason);
+    return false;
+  }
   if (decision.mode != "waypoint" && goal_) {
     FinishGoal(msgs::NAV_STATUS_FAILED, "cancelled: mode switched to " + decision.mode);
   }
+  return true;
+}
+
+void RobotAgent::Impl::GoIdle() {
+  const ModeDecision d = modes_.Request("idle", Conditions());
+  if (!d.accepted) {
+    Stop("the mode tree refused idle: " + d.reason);
+  } else {
+    ApplyMode(d);
+  }
+}
+
+void RobotAgent::Impl::Stop(const std::string& reason) {
+  modes_.ForceIdle(reason);
+  mux_.Select("none");  // always succeeds: no channel, zero twist
+  joystick_ = Joystick{};
+  if (goal_) FinishGoal(msgs::NAV_STATUS_FAILED, "cancelled: " + reason);
+  last_mux_ = mux_.Compute(SteadyClock::now());  // the state shows the zero command at once
 }
 
 void RobotAgent::Impl::FinishGoal(msgs::NavStatus status, const std::string& reason) {
@@ -367,88 +427,101 @@ std::vector<msgs::Point> PathPoints(const std::vector<Eigen::Vector3d>& path_W) 
   return points;
 }
 
-// Identifies one command of one basestation, for de-duplicating retries.
-std::string ResponseKey(const std::string& base_id, msgs::CommandKind kind, uint32_t request_id) {
-  return base_id + "/" + std::to_string(kind) + "/" + std::to_string(request_id);
-}
-
 }  // namespace
 
-bool RobotAgent::Impl::ReplayIfDuplicate(const std::string& base_id, msgs::CommandKind kind, uint32_t request_id) {
-  const std::string key = ResponseKey(base_id, kind, request_id);
-  for (const auto& [k, response] : responses_) {
-    if (k == key) {
-      response_writer_->Write(response);
-      return true;
-    }
-  }
-  return false;
+bool RobotAgent::Impl::ReplayIfDuplicate(const Sender& sender, msgs::CommandKind kind, uint32_t request_id) {
+  const msgs::CommandResponse* cached = replies_.Find(CommandKey{sender.writer, kind, request_id});
+  if (cached == nullptr) return false;
+  spdlog::debug("robot {}: retry of request {} from {} ({}) answered from the cache", options_.robot_id, request_id,
+                sender.base_id, sender.participant);
+  response_writer_->Write(*cached);
+  return true;
 }
 
-void RobotAgent::Impl::Respond(const std::string& base_id, uint32_t request_id, msgs::CommandKind kind,
-                               msgs::CommandResult result, const std::string& reason) {
+void RobotAgent::Impl::Respond(const Sender& sender, uint32_t request_id, msgs::CommandKind kind,
+                               msgs::CommandResult result, const std::string& reason, uint32_t goal_id) {
   msgs::CommandResponse r;
   r.robot_id(options_.robot_id);
-  r.base_id(base_id);
+  r.base_id(sender.base_id);
   r.request_id(request_id);
   r.kind(kind);
   r.result(result);
   r.reason(reason);
   r.holder_id(lock_.holder_id());
   r.mode(modes_.mode());
+  r.requester_participant(sender.participant);
+  r.goal_id(goal_id);
   response_writer_->Write(r);
-  responses_.emplace_back(ResponseKey(base_id, kind, request_id), r);
-  if (responses_.size() > kResponseCacheSize) responses_.pop_front();
+  replies_.Insert(CommandKey{sender.writer, kind, request_id}, r);
   // The behavior-tree state follows from the control loop (<= 20 ms), off the command path.
 }
 
-void RobotAgent::Impl::OnControlRequest(const msgs::ControlRequest& msg) {
+void RobotAgent::Impl::OnControlRequest(const msgs::ControlRequest& msg, const SampleInfo& info) {
   if (msg.robot_id() != options_.robot_id) return;
+  const Sender sender = SenderOf(msg.base_id(), info);
   std::lock_guard<std::mutex> guard(mutex_);
   const bool release = msg.action() == msgs::CONTROL_ACTION_RELEASE;
   const auto kind = release ? msgs::COMMAND_KIND_CONTROL_RELEASE : msgs::COMMAND_KIND_CONTROL_REQUEST;
-  if (ReplayIfDuplicate(msg.base_id(), kind, msg.request_id())) return;
-  const LockDecision d = release ? lock_.Release(msg.base_id()) : lock_.Request(msg.base_id(), SteadyClock::now());
+  if (ReplayIfDuplicate(sender, kind, msg.request_id())) return;
+  const LockDecision d =
+      release ? lock_.Release(sender.base_id) : lock_.Request(sender.base_id, sender.participant, SteadyClock::now());
   if (d.accepted) {
-    spdlog::info("robot {}: control {} by {}", options_.robot_id, release ? "released" : "granted", msg.base_id());
+    spdlog::info("robot {}: control {} by {} (participant {})", options_.robot_id, release ? "released" : "granted",
+                 sender.base_id, sender.participant);
     const ModeDecision m = modes_.Recheck(Conditions());  // a release stops the robot (idle)
     if (!m.accepted) ApplyMode(m);
   }
-  Respond(msg.base_id(), msg.request_id(), kind, d.accepted ? msgs::COMMAND_RESULT_ACCEPTED : msgs::COMMAND_RESULT_DENIED,
+  Respond(sender, msg.request_id(), kind, d.accepted ? msgs::COMMAND_RESULT_ACCEPTED : msgs::COMMAND_RESULT_DENIED,
           d.reason);
 }
 
-void RobotAgent::Impl::OnModeRequest(const msgs::ModeRequest& msg) {
+void RobotAgent::Impl::OnModeRequest(const msgs::ModeRequest& msg, const SampleInfo& info) {
   if (msg.robot_id() != options_.robot_id) return;
+  const Sender sender = SenderOf(msg.base_id(), info);
   std::lock_guard<std::mutex> guard(mutex_);
-  if (ReplayIfDuplicate(msg.base_id(), msgs::COMMAND_KIND_MODE, msg.request_id())) return;
-  if (!lock_.IsHolder(msg.base_id())) {
+  if (ReplayIfDuplicate(sender, msgs::COMMAND_KIND_MODE, msg.request_id())) return;
+  if (!lock_.IsHolder(sender.base_id)) {
     lock_.CountDiscarded();
-    Respond(msg.base_id(), msg.request_id(), msgs::COMMAND_KIND_MODE, msgs::COMMAND_RESULT_DISCARDED,
-            lock_.NotHolderReason(msg.base_id()));
+    Respond(sender, msg.request_id(), msgs::COMMAND_KIND_MODE, msgs::COMMAND_RESULT_DISCARDED,
+            lock_.NotHolderReason(sender.base_id));
     return;
   }
-  const ModeDecision d = modes_.Request(msg.mode(), Conditions());
-  if (d.accepted) {
-    ApplyMode(d);
-    spdlog::info("robot {}: mode {} (by {})", options_.robot_id, d.mode, msg.base_id());
-  }
-  Respond(msg.base_id(), msg.request_id(), msgs::COMMAND_KIND_MODE,
+  lock_.NoteHolderCommand(sender.participant);
+  ModeDecision d = modes_.Request(msg.mode(), Conditions());
+  if (d.accepted && !ApplyMode(d)) d = ModeDecision{false, modes_.mode(), modes_.channel(), modes_.last_refusal()};
+  if (d.accepted) spdlog::info("robot {}: mode {} (by {})", options_.robot_id, d.mode, sender.base_id);
+  Respond(sender, msg.request_id(), msgs::COMMAND_KIND_MODE,
           d.accepted ? msgs::COMMAND_RESULT_ACCEPTED : msgs::COMMAND_RESULT_DENIED, d.reason);
 }
 
-void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg) {
+void RobotAgent::Impl::OnStopRequest(const msgs::StopRequest& msg, const SampleInfo& info) {
   if (msg.robot_id() != options_.robot_id) return;
+  const Sender sender = SenderOf(msg.base_id(), info);
+  std::lock_guard<std::mutex> guard(mutex_);
+  if (ReplayIfDuplicate(sender, msgs::COMMAND_KIND_STOP, msg.request_id())) return;
+  // An e-stop: honoured from any basestation, holder or not; the lock stays where it is.
+  const std::string previous = modes_.mode();
+  Stop("stopped by " + sender.base_id);
+  spdlog::warn("robot {}: stopped by {} (participant {}) in mode {}", options_.robot_id, sender.base_id,
+               sender.participant, previous);
+  Respond(sender, msg.request_id(), msgs::COMMAND_KIND_STOP, msgs::COMMAND_RESULT_ACCEPTED,
+          "stopped (was " + previous + "): zero twist, mode idle");
+}
+
+void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg, const SampleInfo& info) {
+  if (msg.robot_id() != options_.robot_id) return;
+  const Sender sender = SenderOf(msg.base_id(), info);
   std::lock_guard<std::mutex> guard(mutex_);
   const auto kind = msgs::COMMAND_KIND_WAYPOINT;
-  if (ReplayIfDuplicate(msg.base_id(), kind, msg.request_id())) return;
-  if (!lock_.IsHolder(msg.base_id())) {
+  if (ReplayIfDuplicate(sender, kind, msg.request_id())) return;
+  if (!lock_.IsHolder(sender.base_id)) {
     lock_.CountDiscarded();
-    Respond(msg.base_id(), msg.request_id(), kind, msgs::COMMAND_RESULT_DISCARDED, lock_.NotHolderReason(msg.base_id()));
+    Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DISCARDED, lock_.NotHolderReason(sender.base_id));
     return;
   }
+  lock_.NoteHolderCommand(sender.participant);
   auto deny = [&](const std::string& reason) {
-    Respond(msg.base_id(), msg.request_id(), kind, msgs::COMMAND_RESULT_DENIED, reason);
+    Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DENIED, reason);
   };
   if (msg.frame_id() != "map") return deny("goal frame_id '" + msg.frame_id() + "' is not supported (use 'map')");
   if (!std::isfinite(msg.x_m()) || !std::isfinite(msg.y_m())) {
@@ -473,7 +546,7 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg) {
                                                    NowS(SteadyClock::now()));
   if (!plan.IsUsable()) return deny("no path: " + plan.reason);  // the previous goal, if any, goes on
   Goal goal;
-  goal.request_id = msg.request_id();
+  goal.goal_id = next_goal_id_++;
   goal.x_m = msg.x_m();
   goal.y_m = msg.y_m();
   goal_ = goal;
@@ -488,18 +561,19 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg) {
     }
     return deny(d.reason);
   }
-  ApplyMode(d);  // a previous goal is simply superseded by this one
+  if (!ApplyMode(d)) return deny(modes_.last_refusal());  // stopped; the goal was cancelled
+  // A previous goal is simply superseded by this one.
   nav_status_ = msgs::NAV_STATUS_ACTIVE;
   nav_reason_.clear();
-  nav_goal_id_ = msg.request_id();
+  nav_goal_id_ = goal_->goal_id;
   nav_goal_x_m_ = msg.x_m();
   nav_goal_y_m_ = msg.y_m();
   nav_distance_left_m_ = plan.result.length_m;
-  spdlog::info("robot {}: waypoint {} to ({:.2f}, {:.2f}) accepted, path {:.1f} m", options_.robot_id,
-               msg.request_id(), msg.x_m(), msg.y_m(), plan.result.length_m);
+  spdlog::info("robot {}: waypoint {} to ({:.2f}, {:.2f}) from {} accepted, path {:.1f} m", options_.robot_id,
+               goal_->goal_id, msg.x_m(), msg.y_m(), sender.base_id, plan.result.length_m);
   PublishGlobalPathIfChanged();  // before the acknowledgement, so `path R` right after `goto` shows it
-  Respond(msg.base_id(), msg.request_id(), kind, msgs::COMMAND_RESULT_ACCEPTED,
-          Format("path %.1f m, ETA %.0f s", plan.result.length_m, navigation_.eta_s()));
+  Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_ACCEPTED,
+          Format("path %.1f m, ETA %.0f s", plan.result.length_m, navigation_.eta_s()), goal_->goal_id);
 }
 
 void RobotAgent::Impl::OnTeleop(const msgs::TeleopTwist& msg) {
@@ -525,13 +599,14 @@ void RobotAgent::Impl::OnTeleop(const msgs::TeleopTwist& msg) {
   mux_.Submit("teleop", twist, SteadyClock::now());
 }
 
-void RobotAgent::Impl::OnPathRequest(const msgs::PathRequest& msg) {
+void RobotAgent::Impl::OnPathRequest(const msgs::PathRequest& msg, const SampleInfo& info) {
   if (msg.robot_id() != options_.robot_id) return;
   // The planner is thread-safe: no agent lock here. The control loop reads the planner's map version without
   // its lock; only its rare path checks and replans (after map changes) wait for a plan running here.
   msgs::PathResponse r;
   r.request_id(msg.request_id());
   r.requester_id(msg.requester_id());
+  r.requester_participant(core::ParticipantIdOf(info.publication_handle));
   r.robot_id(options_.robot_id);
   r.frame_id("map");
   if (msg.frame_id() != "map") {
@@ -557,28 +632,38 @@ void RobotAgent::Impl::OnPathRequest(const msgs::PathRequest& msg) {
   path_response_writer_->Write(r);
 }
 
-void RobotAgent::Impl::OnAgentInfo(const msgs::AgentInfo& msg, const eprosima::fastdds::dds::SampleInfo& info) {
+void RobotAgent::Impl::OnAgentInfo(const msgs::AgentInfo& msg, const SampleInfo& info) {
   if (msg.kind() != msgs::AGENT_KIND_BASESTATION) return;
   std::lock_guard<std::mutex> guard(mutex_);
-  base_by_writer_[info.publication_handle] = msg.agent_id();
-  base_has_joystick_[msg.agent_id()] = std::find(msg.capabilities().begin(), msg.capabilities().end(), "joystick") !=
-                                       msg.capabilities().end();
-  lock_.OnLivelinessRegained(msg.agent_id());
+  BaseParticipant& base = base_by_writer_[info.publication_handle];
+  base.participant = core::ParticipantIdOf(info.publication_handle);
+  base.base_id = msg.agent_id();
+  base.has_joystick =
+      std::find(msg.capabilities().begin(), msg.capabilities().end(), "joystick") != msg.capabilities().end();
+  lock_.OnParticipantAlive(base.base_id, base.participant);
 }
 
 void RobotAgent::Impl::OnAgentLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status) {
   std::lock_guard<std::mutex> guard(mutex_);
   auto it = base_by_writer_.find(status.last_publication_handle);
   if (it == base_by_writer_.end()) return;
+  const BaseParticipant base = it->second;
   if (core::IsLivelinessLoss(status)) {
-    if (lock_.IsHolder(it->second)) {
-      spdlog::warn("robot {}: liveliness of control holder {} lost: stopping", options_.robot_id, it->second);
+    const bool was_alive = lock_.IsHolder(base.base_id) && lock_.holder_alive();
+    lock_.OnParticipantLost(base.participant, SteadyClock::now());
+    if (status.not_alive_count_change == 0) base_by_writer_.erase(it);  // unmatched: that process is gone
+    if (was_alive && !lock_.holder_alive()) {
+      spdlog::warn("robot {}: liveliness of control holder {} lost (its last process {} is gone): modes that need "
+                   "a live operator stop",
+                   options_.robot_id, base.base_id, base.participant);
+    } else if (lock_.IsHolder(base.base_id)) {
+      spdlog::info("robot {}: process {} of holder {} is gone; {} speaks for it", options_.robot_id, base.participant,
+                   base.base_id, lock_.holder_participant());
     }
-    lock_.OnLivelinessLost(it->second, SteadyClock::now());
     const ModeDecision m = modes_.Recheck(Conditions());
     if (!m.accepted) ApplyMode(m);
   } else if (status.alive_count_change > 0) {
-    lock_.OnLivelinessRegained(it->second);
+    lock_.OnParticipantAlive(base.base_id, base.participant);
   }
 }
 
@@ -605,14 +690,14 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     const NavigationStep step = navigation_.StepWaypoint(s, now_s);
     nav_distance_left_m_ = navigation_.distance_left_m();
     if (step.arrived) {
-      spdlog::info("robot {}: waypoint {} arrived ({:.2f} m from the goal)", options_.robot_id, goal_->request_id,
+      spdlog::info("robot {}: waypoint {} arrived ({:.2f} m from the goal)", options_.robot_id, goal_->goal_id,
                    std::hypot(s.x_m - goal_->x_m, s.y_m - goal_->y_m));
       nav_distance_left_m_ = 0.0;
       FinishGoal(msgs::NAV_STATUS_ARRIVED, "");
-      ApplyMode(modes_.Request("idle", Conditions()));
+      GoIdle();
     } else if (step.failed) {
       FinishGoal(msgs::NAV_STATUS_FAILED, step.reason);
-      ApplyMode(modes_.Request("idle", Conditions()));
+      GoIdle();
     } else {
       mux_.Submit("waypoint", Twist2{step.linear_x_mps, step.angular_z_radps}, now);
     }
@@ -639,7 +724,7 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     } else if (core::SecondsBetween(goal_->contact_since, now) > options_.contact_timeout_s) {
       FinishGoal(msgs::NAV_STATUS_FAILED, Format("blocked: in contact with occupied space at (%.2f, %.2f)",
                                                  platform_.state().x_m, platform_.state().y_m));
-      ApplyMode(modes_.Request("idle", Conditions()));
+      GoIdle();
     }
   }
 }
@@ -661,6 +746,8 @@ void RobotAgent::Impl::PublishState(SteadyTime) {
   m.mux_reason(last_mux_.reason);
   m.holder_id(lock_.holder_id());
   m.holder_alive(lock_.holder_alive());
+  m.holder_participant(lock_.holder_participant());
+  m.holder_participants(lock_.holder_participants());
   m.discarded_commands(lock_.discarded());
   m.nav_status(nav_status_);
   m.nav_reason(nav_reason_);
@@ -709,7 +796,7 @@ void RobotAgent::Impl::PublishGlobalPathIfChanged() {
   msgs::GlobalPath m;
   m.robot_id(options_.robot_id);
   m.stamp(cairn::msgs::WallStampNow());
-  m.goal_id(goal_ ? goal_->request_id : 0);
+  m.goal_id(goal_ ? goal_->goal_id : 0);
   m.platform(options_.navigation.platform.name);
   m.frame_id("map");
   if (goal_) {
@@ -786,7 +873,7 @@ void RobotAgent::Impl::Run() {
   }
   {
     std::lock_guard<std::mutex> guard(mutex_);
-    ApplyMode(modes_.Request("idle", Conditions()));
+    Stop("agent shutting down");
     PublishState(SteadyClock::now());
   }
   if (perception_thread.joinable()) perception_thread.join();

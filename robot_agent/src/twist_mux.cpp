@@ -43,6 +43,12 @@ bool TwistMux::Select(const std::string& channel) {
   return true;
 }
 
+std::vector<std::string> TwistMux::channel_names() const {
+  std::vector<std::string> names;
+  for (const auto& [name, channel] : channels_) names.push_back(name);
+  return names;
+}
+
 MuxOutput TwistMux::Compute(core::SteadyTime now) const {
   MuxOutput out;
   out.active_channel = selected_;

@@ -1,6 +1,7 @@
 #include "cairn/agent/mode_manager.h"
 
 #include <fstream>
+#include <iterator>
 
 #include <gtest/gtest.h>
 
@@ -8,6 +9,8 @@ namespace cairn::agent {
 namespace {
 
 const std::string kTree = std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml";
+// The agent's mux channels.
+const std::vector<std::string> kChannels = {"teleop", "smart_joystick", "waypoint"};
 
 ModeConditions Held() {
   ModeConditions c;
@@ -19,14 +22,14 @@ ModeConditions Held() {
 }
 
 TEST(ModeManager, ShippedTreeLoadsWithItsModes) {
-  ModeManager modes(kTree);
+  ModeManager modes(kTree, kChannels);
   EXPECT_EQ(modes.mode(), "idle");
   EXPECT_EQ(modes.channel(), "none");
   EXPECT_EQ(modes.known_modes(), (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint"}));
 }
 
 TEST(ModeManager, AcceptsManualWhenConditionsHoldAndSelectsTeleop) {
-  ModeManager modes(kTree);
+  ModeManager modes(kTree, kChannels);
   const ModeDecision d = modes.Request("manual", Held());
   EXPECT_TRUE(d.accepted) << d.reason;
   EXPECT_EQ(modes.mode(), "manual");
@@ -34,7 +37,7 @@ TEST(ModeManager, AcceptsManualWhenConditionsHoldAndSelectsTeleop) {
 }
 
 TEST(ModeManager, RefusalNamesTheFailedConditionAndKeepsTheMode) {
-  ModeManager modes(kTree);
+  ModeManager modes(kTree, kChannels);
   ModeConditions free;  // nobody holds the lock
   free.localized = true;
   ModeDecision d = modes.Request("manual", free);
@@ -53,7 +56,7 @@ TEST(ModeManager, RefusalNamesTheFailedConditionAndKeepsTheMode) {
 }
 
 TEST(ModeManager, RecheckFallsBackToIdleWhenHolderIsLost) {
-  ModeManager modes(kTree);
+  ModeManager modes(kTree, kChannels);
   ASSERT_TRUE(modes.Request("manual", Held()).accepted);
   EXPECT_TRUE(modes.Recheck(Held()).accepted);
   ModeConditions lost = Held();
@@ -62,11 +65,29 @@ TEST(ModeManager, RecheckFallsBackToIdleWhenHolderIsLost) {
   EXPECT_FALSE(d.accepted);
   EXPECT_EQ(modes.mode(), "idle");
   EXPECT_EQ(modes.channel(), "none");
-  EXPECT_NE(d.reason.find("liveliness of control holder opA is lost"), std::string::npos) << d.reason;
+  EXPECT_NE(d.reason.find("IsHolderAlive: liveliness of control holder opA is lost"), std::string::npos) << d.reason;
+}
+
+// A waypoint goal goes on through a comms drop (the lock stays held); modes driven by a live operator stop.
+TEST(ModeManager, WaypointGoesOnWhenTheHoldersLinkDropsManualDoesNot) {
+  ModeManager modes(kTree, kChannels);
+  ModeConditions c = Held();
+  c.has_waypoint_goal = true;
+  ASSERT_TRUE(modes.Request("waypoint", c).accepted);
+  c.holder_alive = false;
+  EXPECT_TRUE(modes.Recheck(c).accepted);
+  EXPECT_EQ(modes.mode(), "waypoint");
+  EXPECT_EQ(modes.ValidModes(c), (std::vector<std::string>{"idle", "waypoint"}));
+  const ModeDecision manual = modes.Request("manual", c);
+  EXPECT_FALSE(manual.accepted);
+  EXPECT_NE(manual.reason.find("IsHolderAlive"), std::string::npos) << manual.reason;
+  c.holder_id.clear();  // the lock freed (lock_keep_s): the goal stops
+  EXPECT_FALSE(modes.Recheck(c).accepted);
+  EXPECT_EQ(modes.mode(), "idle");
 }
 
 TEST(ModeManager, ValidModesAreTheOperatorsValidActions) {
-  ModeManager modes(kTree);
+  ModeManager modes(kTree, kChannels);
   EXPECT_EQ(modes.ValidModes(ModeConditions{}), (std::vector<std::string>{"idle"}));
   ModeConditions with_goal = Held();
   with_goal.has_waypoint_goal = true;
@@ -78,7 +99,7 @@ TEST(ModeManager, ValidModesAreTheOperatorsValidActions) {
 }
 
 TEST(ModeManager, SmartJoystickNeedsAJoystickAndAHealthyLocalPlanner) {
-  ModeManager modes(kTree);
+  ModeManager modes(kTree, kChannels);
   ModeConditions c = Held();
   ModeDecision d = modes.Request("smart_joystick", c);
   EXPECT_FALSE(d.accepted);
@@ -104,8 +125,67 @@ TEST(ModeManager, RejectsTreesWithoutIdleOrBroken) {
   const std::string path = ::testing::TempDir() + "/no_idle.xml";
   std::ofstream(path) << R"(<root BTCPP_format="4"><BehaviorTree ID="T"><Sequence>
       <IsModeRequested mode="manual"/><SelectMode mode="manual" channel="teleop"/></Sequence></BehaviorTree></root>)";
-  EXPECT_THROW(ModeManager{path}, bt::TreeError);
-  EXPECT_THROW(ModeManager{"/nonexistent/tree.xml"}, bt::TreeError);
+  EXPECT_THROW((ModeManager{path, kChannels}), bt::TreeError);
+  EXPECT_THROW((ModeManager{"/nonexistent/tree.xml", kChannels}), bt::TreeError);
+}
+
+// Issue 9, defect 3: a branch naming a channel the mux lacks loaded, and `stop` then left the twist on.
+TEST(ModeManager, RefusesABranchWhoseChannelIsNotAMuxChannelNamingBranchAndChannel) {
+  std::ifstream in(kTree);
+  std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string good = R"(<SelectMode mode="manual" channel="teleop"/>)";
+  ASSERT_NE(xml.find(good), std::string::npos);
+  auto write_variant = [&](const std::string& name, const std::string& select) {
+    std::string variant = xml;
+    variant.replace(variant.find(good), good.size(), select);
+    const std::string path = ::testing::TempDir() + "/" + name;
+    std::ofstream(path) << variant;
+    return path;
+  };
+  auto message = [](const std::string& path, const std::vector<std::string>& channels) -> std::string {
+    try {
+      ModeManager modes(path, channels);
+    } catch (const bt::TreeError& e) {
+      return e.what();
+    }
+    return "(loaded)";
+  };
+  const std::string warp = message(write_variant("warp.xml", R"(<SelectMode mode="manual" channel="warp"/>)"),
+                                   kChannels);
+  EXPECT_NE(warp.find("branch 'manual'"), std::string::npos) << warp;
+  EXPECT_NE(warp.find("mux channel 'warp'"), std::string::npos) << warp;
+  EXPECT_NE(warp.find("channels: none, teleop, smart_joystick, waypoint"), std::string::npos) << warp;
+  EXPECT_NE(warp.find("warp.xml:"), std::string::npos) << "the file and line are named: " << warp;
+
+  const std::string from_blackboard =
+      message(write_variant("bb.xml", R"(<SelectMode mode="manual" channel="{channel}"/>)"), kChannels);
+  EXPECT_NE(from_blackboard.find("must be a literal mux channel"), std::string::npos) << from_blackboard;
+
+  // The shipped tree against a mux without the waypoint channel: the waypoint branch is named.
+  const std::string no_waypoint = message(kTree, {"teleop", "smart_joystick"});
+  EXPECT_NE(no_waypoint.find("branch 'waypoint'"), std::string::npos) << no_waypoint;
+
+  std::string idle_xml = xml;
+  const std::string idle = R"(<SelectMode mode="idle" channel="none"/>)";
+  ASSERT_NE(idle_xml.find(idle), std::string::npos);
+  idle_xml.replace(idle_xml.find(idle), idle.size(), R"(<SelectMode mode="idle" channel="teleop"/>)");
+  const std::string idle_path = ::testing::TempDir() + "/idle_teleop.xml";
+  std::ofstream(idle_path) << idle_xml;
+  const std::string idle_message = message(idle_path, kChannels);
+  EXPECT_NE(idle_message.find("fail-safe mode 'idle' must select channel 'none'"), std::string::npos)
+      << idle_message;
+}
+
+TEST(ModeManager, ForceIdleStopsWhateverTheTreeSays) {
+  ModeManager modes(kTree, kChannels);
+  ASSERT_TRUE(modes.Request("manual", Held()).accepted);
+  const ModeDecision d = modes.ForceIdle("stopped by opB");
+  EXPECT_EQ(d.mode, "idle");
+  EXPECT_EQ(d.channel, "none");
+  EXPECT_EQ(modes.mode(), "idle");
+  EXPECT_EQ(modes.channel(), "none");
+  EXPECT_TRUE(modes.Recheck(Held()).accepted) << "idle stays valid after a forced stop";
+  EXPECT_EQ(modes.channel(), "none");
 }
 
 }  // namespace

@@ -40,7 +40,8 @@ struct CommandOutcome {
   std::string holder_id;     ///< control holder reported by the robot
   std::string mode;          ///< robot mode after the command
   double round_trip_ms = 0;  ///< command -> acknowledgement
-  uint32_t request_id = 0;   ///< id the command was sent with (a waypoint's goal id)
+  uint32_t request_id = 0;   ///< id the command was sent with (unique within this process only)
+  uint32_t goal_id = 0;      ///< accepted waypoint: the robot's id for the goal (RobotState::nav_goal_id)
 };
 
 /// Options of the fleet client.
@@ -73,6 +74,9 @@ class FleetClient {
   ~FleetClient();
 
   const std::string& base_id() const;
+  /// This process's DDS participant id (core::ParticipantIdOf): robots answer it, and show it as the
+  /// participant speaking for the holder (RobotState::holder_participant).
+  const std::string& participant_id() const;
 
   /// Snapshot of every robot seen so far, sorted by id (staleness applied at `now`).
   std::vector<RobotView> Robots() const;
@@ -91,6 +95,9 @@ class FleetClient {
   CommandOutcome ReleaseControl(const std::string& robot_id);
   CommandOutcome RequestMode(const std::string& robot_id, const std::string& mode);
   CommandOutcome SendWaypoint(const std::string& robot_id, double x_m, double y_m, double tolerance_m = 0.0);
+  /// Stops `robot_id` now: zero twist, mode idle, goal cancelled. Honoured by the robot from any basestation,
+  /// with or without its control lock (an e-stop); the lock stays with its holder.
+  CommandOutcome Stop(const std::string& robot_id);
   /// Publishes one teleop twist (best effort, no acknowledgement), frame B of the robot: forward and
   /// left speed (m/s) and yaw rate (rad/s). false if it could not be written.
   bool PublishTeleop(const std::string& robot_id, double linear_x_mps, double angular_z_radps,

@@ -94,6 +94,9 @@ class Participant {
   /// The registered flow controller's name as Fast DDS holds it, or nullptr if none has that name.
   const char* FlowControllerName(const std::string& name) const;
 
+  /// This participant's identity (ParticipantIdOf its GUID): what peers see as the sender of its samples.
+  std::string participant_id() const;
+
  private:
   ParticipantOptions options_;
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
@@ -111,6 +114,18 @@ class Participant {
 inline bool IsLivelinessLoss(const eprosima::fastdds::dds::LivelinessChangedStatus& status) {
   return status.not_alive_count_change > 0 || (status.alive_count_change < 0 && status.not_alive_count_change == 0);
 }
+
+/// Identity of the process behind a DDS entity: its participant's GUID prefix as 12 dotted hex bytes
+/// ("01.0f.3a.7c.10.2b.00.00.01.00.00.00"), as Fast DDS tools print it. Two live processes never share
+/// one; a restarted process gets a new one. `handle` is a writer's or reader's instance handle (for
+/// example SampleInfo::publication_handle or LivelinessChangedStatus::last_publication_handle); "" when
+/// the handle is unset.
+std::string ParticipantIdOf(const eprosima::fastrtps::rtps::InstanceHandle_t& handle);
+/// The same for a participant's own GUID (DomainParticipant::guid()).
+std::string ParticipantIdOf(const eprosima::fastrtps::rtps::GUID_t& guid);
+/// Identity of one writer (its whole GUID, 16 dotted hex bytes): what a retry from the same process shares
+/// and a command from any other process does not. "" when the handle is unset.
+std::string WriterIdOf(const eprosima::fastrtps::rtps::InstanceHandle_t& handle);
 
 /// Polls `value` every 5 ms until it reaches `count`; false after `timeout`.
 bool WaitForCount(const std::atomic<int>& value, int count, std::chrono::milliseconds timeout);

@@ -1,9 +1,17 @@
 // The command interface's control lock (Sriganesh et al. 2024, § Command Interface; lesson L3: exactly one
 // operator commands a robot at a time). Pure logic, no DDS: the agent feeds it requests and liveliness.
+//
+// Two identities meet here:
+//  - a basestation id ("opA") names an operator. The lock belongs to it, so a holder that crashes and comes
+//    back with the same id finds its robots still locked to it (a robot is never orphaned by a restart);
+//  - a participant id (the DDS participant's GUID prefix) names one process. Liveliness is per process: the
+//    holder is alive while at least one live process announces its id, so a short-lived second process with
+//    the same id (a one-shot CLI call) that exits cannot make the holder look lost.
 #pragma once
 
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <string>
 
 #include "cairn/core/time.h"
@@ -12,7 +20,7 @@ namespace cairn::agent {
 
 /// Options of the control lock.
 struct ControlLockOptions {
-  /// How long the lock stays with a holder whose liveliness is lost before it is freed, in seconds.
+  /// How long the lock stays with a holder that no live process speaks for before it is freed, in seconds.
   /// Range [0, inf]; inf (the default) keeps it forever, as in the paper.
   double lock_keep_s = std::numeric_limits<double>::infinity();
 
@@ -27,22 +35,32 @@ struct LockDecision {
   std::string holder_id;  ///< holder after the decision ("" = free)
 };
 
-/// Control lock keyed by basestation id. A request is granted when nobody holds the lock (or the requester
-/// already does), otherwise denied naming the holder. Only the holder releases. While the holder's
-/// liveliness is lost the lock is kept for `lock_keep_s`, then freed.
+/// Control lock keyed by basestation id, with liveliness per participant (process).
+///
+/// A request is granted when nobody holds the lock (or the requester's id already does), otherwise denied
+/// naming the holder. Only the holder's id releases. The holder is alive while some participant "speaks for"
+/// it: the participant that last sent it a command, or, when that one is lost, another live participant that
+/// announced the same id. With none left, the lock is kept for `lock_keep_s`, then freed.
 class ControlLock {
  public:
   ControlLock(std::string robot_id, ControlLockOptions options);
 
-  LockDecision Request(const std::string& base_id, core::SteadyTime now);
+  /// Request from basestation `base_id` sent by participant `participant` (which then speaks for it).
+  LockDecision Request(const std::string& base_id, const std::string& participant, core::SteadyTime now);
   LockDecision Release(const std::string& base_id);
 
   /// True when `base_id` holds the lock (commands from anyone else are to be discarded).
   bool IsHolder(const std::string& base_id) const { return !holder_.empty() && holder_ == base_id; }
 
-  /// Liveliness of basestation `base_id` was lost / regained (ignored unless it is the holder).
-  void OnLivelinessLost(const std::string& base_id, core::SteadyTime now);
-  void OnLivelinessRegained(const std::string& base_id);
+  /// The holder accepted a command sent by `participant`: that process now speaks for the holder.
+  void NoteHolderCommand(const std::string& participant);
+
+  /// Participant `participant` announced basestation id `base_id` and is alive (its agent info arrived or
+  /// its liveliness came back).
+  void OnParticipantAlive(const std::string& base_id, const std::string& participant);
+  /// Participant `participant`'s liveliness was lost (it exited, crashed, or its link dropped). The holder
+  /// is lost only when no other live participant speaks for it.
+  void OnParticipantLost(const std::string& participant, core::SteadyTime now);
 
   /// Frees the lock once the holder has been lost for longer than lock_keep_s. @return true if it freed it.
   bool Update(core::SteadyTime now);
@@ -51,7 +69,11 @@ class ControlLock {
   void CountDiscarded() { ++discarded_; }
 
   const std::string& holder_id() const { return holder_; }
-  bool holder_alive() const { return holder_alive_; }
+  bool holder_alive() const { return !holder_.empty() && !speaker_.empty(); }
+  /// Participant speaking for the holder now ("" when none: lock free or holder lost).
+  const std::string& holder_participant() const { return speaker_; }
+  /// Live participants that announced the holder's id.
+  uint32_t holder_participants() const;
   uint32_t discarded() const { return discarded_; }
   /// "locked by basestation opA" / "free" — for messages.
   std::string Describe() const;
@@ -62,8 +84,9 @@ class ControlLock {
   std::string robot_id_;
   ControlLockOptions options_;
   std::string holder_;
-  bool holder_alive_ = true;
+  std::string speaker_;  // participant speaking for holder_; "" = holder lost (or no holder)
   core::SteadyTime lost_since_{};
+  std::map<std::string, std::string> live_;  // live participant -> the basestation id it announced
   uint32_t discarded_ = 0;
 };
 

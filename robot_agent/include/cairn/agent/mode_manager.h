@@ -35,9 +35,16 @@ struct ModeDecision {
 /// Owns the mode tree and the current mode. Not thread-safe (the agent calls it under its lock).
 class ModeManager {
  public:
-  /// Loads the tree. @throws bt::TreeError (file, line, node) when the XML is invalid, or when the tree has
-  /// no branch for "idle" (the fail-safe mode).
-  explicit ModeManager(const std::string& tree_file);
+  /// Loads the tree and checks it against the mux it drives.
+  /// `mux_channels`: the channels the mux has ("none", no channel, is always allowed).
+  /// @throws bt::TreeError (file, line, node) when the XML is invalid; when the tree has no branch for "idle"
+  ///         (the fail-safe mode) or its idle branch selects a channel other than "none"; when a SelectMode
+  ///         names a channel that is not a literal mux channel (the branch, line and channel are named).
+  ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels);
+
+  /// Stop: mode idle and channel "none" now, whatever the tree says (an operator's stop, or a failed
+  /// channel switch). `reason` is kept as the last refusal shown to operators when not empty.
+  ModeDecision ForceIdle(const std::string& reason);
 
   /// Asks for `mode`. On acceptance the mode and channel switch; on refusal they stay and `reason` names
   /// the failed condition, or says the mode is unknown and lists the valid ones.
@@ -65,6 +72,8 @@ class ModeManager {
                 std::string* failure);
 
   void KeepTrace();
+  // Throws bt::TreeError when a SelectMode names a channel the mux does not have (see the constructor).
+  void CheckChannels(const std::string& tree_file, const std::vector<std::string>& mux_channels) const;
 
   struct Context;
   std::shared_ptr<Context> context_;

@@ -45,6 +45,8 @@ class TwistMux {
   bool Select(const std::string& channel);
 
   const std::string& selected() const { return selected_; }
+  /// The channels this mux was built with (not "none"), in name order.
+  std::vector<std::string> channel_names() const;
   MuxOutput Compute(core::SteadyTime now) const;
 
  private:

@@ -1,0 +1,455 @@
+// Command identity across basestation processes (issue 9), through real cairn_agent and cairn_base processes
+// in this test's private network namespace:
+//  - a command is identified by its sending DDS writer, not by base id + request id: one-shot CLI calls with
+//    one base id (each numbering its requests from 1) all run, and a restarted basestation's commands run;
+//  - a genuine retry (same writer, same request id) is answered from the cache and applied once;
+//  - liveliness is per participant: a short-lived second process with the holder's id leaves it alive;
+//  - stop always ends in a zero twist and mode idle, even with a 60 s teleop timeout.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "cairn/core/dds.h"
+#include "cairn/msgs/stamp.h"
+#include "cairn/nav/astar.h"
+#include "cairn/nav/sampling.h"
+#include "cairn/nav/traversability.h"
+#include "cairn/sim/world.h"
+#include "cairn_msgsPubSubTypes.h"
+#include "integration_util.h"
+#include "process.h"
+
+namespace cairn {
+namespace {
+
+using namespace std::chrono_literals;
+using namespace testing_util;
+using nlohmann::json;
+namespace msgs = cairn_msgs;
+
+const std::string kWorld = "builtin:tunnels";
+
+std::string Logs(const std::string& test) {
+  const std::string dir = std::string(CAIRN_BINARY_DIR) + "/test-logs/command_identity/" + test;
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+std::unique_ptr<ChildProcess> StartAgent(const std::string& id, int domain, const std::string& logs,
+                                         const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> argv = {
+      kAgent, "--robot-id", id, "--world", kWorld, "--start", "slot:0", "--domain", std::to_string(domain)};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  auto agent = std::make_unique<ChildProcess>(argv, logs + "/" + id + ".log");
+  if (!agent->WaitForLine("READY", 60s)) ADD_FAILURE() << "agent " << id << " did not start; see " << logs;
+  return agent;
+}
+
+// One `cairn_base --json -- COMMAND` process, run to its end.
+struct OneShot {
+  int exit_code = -1;
+  json answer;  // the result line (progress and event lines skipped)
+};
+
+OneShot RunOneShot(const std::string& base_id, int domain, const std::string& command,
+                   const std::string& log) {
+  std::vector<std::string> argv = {kBase,    "--base-id", base_id, "--domain", std::to_string(domain),
+                                   "--json", "--"};
+  std::istringstream words(command);
+  for (std::string w; words >> w;) argv.push_back(w);
+  ChildProcess child(argv, log);
+  child.CloseStdin();
+  OneShot out;
+  while (auto line = child.ReadLine(60s)) {
+    const json j = json::parse(*line, nullptr, /*allow_exceptions=*/false);
+    if (j.is_object() && !j.contains("progress") && !j.contains("event")) out.answer = j;
+  }
+  const auto status = child.Wait(20s);
+  if (status && WIFEXITED(*status)) out.exit_code = WEXITSTATUS(*status);
+  return out;
+}
+
+double DistanceTo(const msgs::RobotState& s, const Eigen::Vector2d& p) {
+  return std::hypot(s.pose_MB().position().x_m() - p.x(), s.pose_MB().position().y_m() - p.y());
+}
+
+std::string GotoCommand(const std::string& robot, const Eigen::Vector2d& goal) {
+  char text[96];
+  std::snprintf(text, sizeof(text), "goto %s %.2f %.2f", robot.c_str(), goal.x(), goal.y());
+  return text;
+}
+
+// A free goal whose path from the robot's start is between min_m and max_m long, on the agent's own grid.
+Eigen::Vector2d GoalAtPathLength(const msgs::RobotState& start, double min_m, double max_m) {
+  static const sim::World world = sim::LoadWorld(kWorld);
+  static const nav::TraversabilityGrid grid(world, nav::TraversabilityOptions{});
+  const Eigen::Vector2d p_start(start.pose_MB().position().x_m(), start.pose_MB().position().y_m());
+  for (const auto& c : nav::SampleFreeStarts(grid, 80, 1.0, 4321)) {
+    const nav::PlanResult plan = nav::PlanPath(grid, p_start, c.head<2>(), nav::AStarOptions{});
+    if (plan.status == nav::PlanResult::Status::kSuccess && plan.length_m >= min_m &&
+        plan.length_m <= max_m) {
+      return c.head<2>();
+    }
+  }
+  ADD_FAILURE() << "no goal " << min_m << "-" << max_m << " m from the start";
+  return p_start;
+}
+
+// Waits until `robot` is at rest with a zero command in mode idle; returns the seconds it took (-1: never).
+double SecondsToRest(Observer& observer, const std::string& robot, std::chrono::milliseconds timeout) {
+  const auto start = Clock::now();
+  while (Clock::now() - start < timeout) {
+    const msgs::RobotState s = observer.FreshState(robot);
+    if (s.mode() == "idle" && s.cmd_twist_B().linear_x_mps() == 0.0 &&
+        s.cmd_twist_B().angular_z_radps() == 0.0 && std::abs(s.twist_B().linear_x_mps()) < 1e-6) {
+      return std::chrono::duration<double>(Clock::now() - start).count();
+    }
+  }
+  return -1;
+}
+
+// Issue 9, defect 1: the README's one-shot form. Each process numbers its requests from 1; the second goal
+// used to get the first goal's cached denial and never ran.
+TEST(CommandIdentity, OneShotCommandsWithOneBaseIdAllRun) {
+  const int domain = 71;
+  const std::string logs = Logs("one_shot");
+  Observer observer(domain);
+  auto agent = StartAgent("r1", domain, logs);
+  const msgs::RobotState start = observer.FreshState("r1");
+  const Eigen::Vector2d goal = GoalAtPathLength(start, 15, 30);
+
+  OneShot r = RunOneShot("opA", domain, "request-control r1", logs + "/opA-1.log");
+  EXPECT_EQ(r.exit_code, 0) << r.answer;
+  EXPECT_TRUE(r.answer.value("ok", false)) << r.answer;
+  r = RunOneShot("opA", domain, "goto r1 500 500", logs + "/opA-2.log");
+  EXPECT_EQ(r.exit_code, 1) << r.answer;
+  EXPECT_EQ(r.answer.value("result", ""), "denied") << r.answer;
+  const std::string denial = r.answer.value("reason", "");
+  EXPECT_NE(denial.find("outside"), std::string::npos) << r.answer;
+
+  r = RunOneShot("opA", domain, GotoCommand("r1", goal), logs + "/opA-3.log");
+  EXPECT_EQ(r.exit_code, 0) << r.answer;
+  EXPECT_EQ(r.answer.value("result", ""), "accepted") << r.answer;
+  EXPECT_NE(r.answer.value("reason", ""), denial) << "the second goal got the first goal's reply";
+  EXPECT_EQ(r.answer.value("request_id", 0u), 1u) << "each process numbers its requests from 1";
+  const uint32_t goal_id = r.answer.value("goal_id", 0u);
+  EXPECT_GT(goal_id, 0u) << r.answer;
+
+  // The robot drives toward the second goal.
+  const double d0 = DistanceTo(observer.FreshState("r1"), goal);
+  std::this_thread::sleep_for(4s);
+  const msgs::RobotState moving = observer.FreshState("r1");
+  EXPECT_EQ(moving.mode(), "waypoint");
+  EXPECT_EQ(moving.nav_goal_id(), goal_id);
+  EXPECT_EQ(moving.nav_status(), msgs::NAV_STATUS_ACTIVE);
+  const double progress_m = d0 - DistanceTo(moving, goal);
+  EXPECT_GT(progress_m, 1.5) << "the robot did not move toward the goal";
+  Figure("progress_in_4s_m", progress_m);
+
+  // A one-shot stop stops it.
+  r = RunOneShot("opA", domain, "stop r1", logs + "/opA-4.log");
+  EXPECT_EQ(r.exit_code, 0) << r.answer;
+  const double rest_s = SecondsToRest(observer, "r1", 3s);
+  EXPECT_GE(rest_s, 0.0) << "r1 did not stop";
+  EXPECT_EQ(observer.FreshState("r1").nav_status(), msgs::NAV_STATUS_FAILED) << "the goal is cancelled";
+  Figure("one_shot_stop_to_rest_s", rest_s);
+}
+
+// Issue 9, defect 1 with a restarted basestation: its goto used to be answered "arrived after 0.02 s" (an old
+// goal's id) and its stop "ok, mode idle" (an old reply) while the robot kept driving.
+TEST(CommandIdentity, RestartedBasestationsGotoAndStopTakeEffect) {
+  const int domain = 72;
+  const std::string logs = Logs("restart");
+  Observer observer(domain);
+  auto agent = StartAgent("r1", domain, logs);
+  const msgs::RobotState start = observer.FreshState("r1");
+  const Eigen::Vector2d near_goal = GoalAtPathLength(start, 3, 6);
+
+  std::string first_participant;
+  {
+    Base op1("op1", domain, logs);
+    ASSERT_TRUE(op1.Run("request-control r1")["ok"]);
+    json r = op1.Run(GotoCommand("r1", near_goal) + " --wait 60", 70s);
+    ASSERT_TRUE(r["ok"]) << r;  // an arrived goal, as the old process leaves it
+    ASSERT_TRUE(op1.Run("mode r1 manual")["ok"]);
+    ASSERT_TRUE(op1.Run("mode r1 idle")["ok"]);
+    first_participant = observer.FreshState("r1").holder_participant();
+    EXPECT_FALSE(first_participant.empty());
+    op1.Kill();
+  }
+  Base op1("op1", domain, logs);
+  json r = op1.Run("request-control r1");
+  EXPECT_TRUE(r["ok"]) << r;
+  const Eigen::Vector2d far_goal = GoalAtPathLength(observer.FreshState("r1"), 15, 30);
+  r = op1.Run(GotoCommand("r1", far_goal) + " --wait 3", 10s);
+  EXPECT_EQ(r["result"], "timeout") << "the new goal cannot have arrived in 3 s: " << r;
+  EXPECT_GT(r["goal_id"].get<uint32_t>(), 0u) << r;
+  const msgs::RobotState driving = observer.FreshState("r1");
+  EXPECT_EQ(driving.mode(), "waypoint");
+  EXPECT_EQ(driving.nav_status(), msgs::NAV_STATUS_ACTIVE);
+  EXPECT_EQ(driving.nav_goal_id(), r["goal_id"].get<uint32_t>());
+  EXPECT_GT(driving.twist_B().linear_x_mps(), 0.3) << "the robot is not driving";
+  EXPECT_NE(driving.holder_participant(), first_participant) << "the new process speaks for op1";
+  EXPECT_TRUE(driving.holder_alive());
+
+  std::this_thread::sleep_for(2s);
+  r = op1.Run("stop r1");
+  EXPECT_TRUE(r["ok"]) << r;
+  const double rest_s = SecondsToRest(observer, "r1", 3s);
+  EXPECT_GE(rest_s, 0.0) << "r1 did not stop";
+  const msgs::RobotState stopped = observer.FreshState("r1");
+  std::this_thread::sleep_for(1s);
+  EXPECT_LT(Distance(stopped, observer.FreshState("r1")), 0.01) << "r1 moves after stop";
+  Figure("restarted_stop_to_rest_s", rest_s);
+}
+
+// Raw DDS commands from this test process (one participant = one "basestation process").
+class RawBasestation {
+ public:
+  RawBasestation(int domain, const std::string& base_id) : base_id_(base_id) {
+    core::ParticipantOptions options;
+    options.domain_id = domain;
+    options.name = "test-raw-" + base_id;
+    participant_ = std::make_unique<core::Participant>(options);
+    id_ = participant_->participant_id();
+    info_ = std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/agent_info",
+                                                                      "cairn.latched");
+    control_ = std::make_unique<core::Writer<msgs::ControlRequestPubSubType>>(
+        *participant_, "cairn/control_request", "cairn.command");
+    goals_ = std::make_unique<core::Writer<msgs::WaypointGoalPubSubType>>(
+        *participant_, "cairn/waypoint_goal", "cairn.command");
+    responses_ = std::make_unique<core::Reader<msgs::CommandResponsePubSubType>>(
+        *participant_, "cairn/command_response", "cairn.command",
+        [this](const msgs::CommandResponse& m, const auto&) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          received_.push_back(m);
+        });
+    msgs::AgentInfo info;
+    info.agent_id(base_id);
+    info.kind(msgs::AGENT_KIND_BASESTATION);
+    info.platform("basestation");
+    info.stamp(cairn::msgs::WallStampNow());
+    info_->Write(info);
+    EXPECT_TRUE(control_->WaitForMatched(1, 10s));
+    EXPECT_TRUE(goals_->WaitForMatched(1, 10s));
+    EXPECT_TRUE(responses_->WaitForMatched(1, 10s));
+  }
+  const std::string& participant_id() const { return id_; }
+  void RequestControl(const std::string& robot, uint32_t request_id) {
+    msgs::ControlRequest m;
+    m.robot_id(robot);
+    m.base_id(base_id_);
+    m.request_id(request_id);
+    m.action(msgs::CONTROL_ACTION_REQUEST);
+    control_->Write(m);
+  }
+  void SendGoal(const std::string& robot, uint32_t request_id, const Eigen::Vector2d& goal) {
+    msgs::WaypointGoal m;
+    m.robot_id(robot);
+    m.base_id(base_id_);
+    m.request_id(request_id);
+    m.frame_id("map");
+    m.x_m(goal.x());
+    m.y_m(goal.y());
+    goals_->Write(m);
+  }
+  // Replies meant for this participant (requester_participant) to `kind` request `request_id`, after waiting
+  // until `count` of them arrived or 3 s passed.
+  std::vector<msgs::CommandResponse> RepliesTo(msgs::CommandKind kind, uint32_t request_id,
+                                               std::size_t count) {
+    std::vector<msgs::CommandResponse> mine;
+    const auto deadline = Clock::now() + 3s;
+    do {
+      mine.clear();
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        for (const auto& m : received_) {
+          if (m.kind() == kind && m.request_id() == request_id && m.requester_participant() == id_) {
+            mine.push_back(m);
+          }
+        }
+      }
+      if (mine.size() >= count) break;
+      std::this_thread::sleep_for(10ms);
+    } while (Clock::now() < deadline);
+    return mine;
+  }
+
+ private:
+  std::string base_id_;
+  std::string id_;
+  std::unique_ptr<core::Participant> participant_;
+  std::unique_ptr<core::Writer<msgs::AgentInfoPubSubType>> info_;
+  std::unique_ptr<core::Writer<msgs::ControlRequestPubSubType>> control_;
+  std::unique_ptr<core::Writer<msgs::WaypointGoalPubSubType>> goals_;
+  std::unique_ptr<core::Reader<msgs::CommandResponsePubSubType>> responses_;
+  std::mutex mutex_;
+  std::vector<msgs::CommandResponse> received_;
+};
+
+// A retry whose reply was lost (same writer, same request id) is answered again, identically, and applied
+// once; the same request id from another process is a new command.
+TEST(CommandIdentity, AGenuineRetryIsAnsweredFromTheCacheAndAppliedOnce) {
+  const int domain = 73;
+  const std::string logs = Logs("retry");
+  Observer observer(domain);
+  auto agent = StartAgent("r1", domain, logs);
+  const msgs::RobotState start = observer.FreshState("r1");
+  const Eigen::Vector2d goal = GoalAtPathLength(start, 15, 30);
+
+  RawBasestation first(domain, "opT");
+  first.RequestControl("r1", 1);
+  ASSERT_EQ(first.RepliesTo(msgs::COMMAND_KIND_CONTROL_REQUEST, 1, 1).size(), 1u);
+  first.SendGoal("r1", 2, goal);
+  const auto one = first.RepliesTo(msgs::COMMAND_KIND_WAYPOINT, 2, 1);
+  ASSERT_EQ(one.size(), 1u);
+  ASSERT_EQ(one[0].result(), msgs::COMMAND_RESULT_ACCEPTED) << one[0].reason();
+  const uint32_t goal_id = one[0].goal_id();
+  std::this_thread::sleep_for(300ms);
+  first.SendGoal("r1", 2, goal);  // the retry: the reply "was lost"
+  const auto two = first.RepliesTo(msgs::COMMAND_KIND_WAYPOINT, 2, 2);
+  ASSERT_EQ(two.size(), 2u) << "the retry was not answered";
+  EXPECT_EQ(two[1].goal_id(), goal_id) << "the retry was applied again (a new goal)";
+  EXPECT_EQ(two[1].reason(), two[0].reason());
+  EXPECT_EQ(observer.FreshState("r1").nav_goal_id(), goal_id);
+
+  // Another process with the same base id and the same request id: a new command, a new goal.
+  RawBasestation second(domain, "opT");
+  ASSERT_NE(second.participant_id(), first.participant_id());
+  const Eigen::Vector2d other_goal = GoalAtPathLength(start, 8, 14);
+  second.SendGoal("r1", 2, other_goal);
+  const auto fresh = second.RepliesTo(msgs::COMMAND_KIND_WAYPOINT, 2, 1);
+  ASSERT_EQ(fresh.size(), 1u);
+  EXPECT_EQ(fresh[0].result(), msgs::COMMAND_RESULT_ACCEPTED) << fresh[0].reason();
+  EXPECT_NE(fresh[0].goal_id(), goal_id);
+  EXPECT_EQ(observer.FreshState("r1").nav_goal_id(), fresh[0].goal_id());
+  EXPECT_EQ(first.RepliesTo(msgs::COMMAND_KIND_WAYPOINT, 2, 3).size(), 2u)
+      << "a reply meant for the second process is addressed to the first";
+
+  // The agent's log shows each goal accepted exactly once.
+  agent.reset();
+  std::ifstream log(logs + "/r1.log");
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  auto count = [&](const std::string& needle) {
+    std::size_t n = 0;
+    for (auto at = text.find(needle); at != std::string::npos; at = text.find(needle, at + 1)) ++n;
+    return n;
+  };
+  EXPECT_EQ(count("waypoint " + std::to_string(goal_id) + " to"), 1u) << text;
+}
+
+// Issue 9, defect 2: a one-shot process with the holder's id that starts and exits used to make the robot
+// mark the holder lost for 8 s and refuse the live REPL's commands.
+TEST(CommandIdentity, AShortLivedSecondProcessWithTheHoldersIdLeavesTheHolderAlive) {
+  const int domain = 74;
+  const std::string logs = Logs("short_lived");
+  Observer observer(domain);
+  auto agent = StartAgent("r1", domain, logs);
+  Base repl("op1", domain, logs);
+  ASSERT_TRUE(repl.Run("request-control r1")["ok"]);
+  ASSERT_TRUE(repl.Run("mode r1 manual")["ok"]);
+  const std::string repl_participant = observer.FreshState("r1").holder_participant();
+  ASSERT_FALSE(repl_participant.empty());
+
+  const std::size_t from = observer.History("r1").size();
+  OneShot r = RunOneShot("op1", domain, "status r1", logs + "/op1-status.log");
+  EXPECT_EQ(r.exit_code, 0) << r.answer;
+  EXPECT_TRUE(r.answer.value("holder_alive", false)) << r.answer;
+  // A one-shot that speaks as the holder (a mode command) and exits hands the holder back to the REPL.
+  r = RunOneShot("op1", domain, "mode r1 manual", logs + "/op1-mode.log");
+  EXPECT_EQ(r.exit_code, 0) << r.answer;
+  std::this_thread::sleep_for(5s);  // past the liveliness lease (1 s) and the participant lease (2 s)
+
+  int not_alive = 0, not_manual = 0;
+  const auto history = observer.History("r1");
+  for (std::size_t i = from; i < history.size(); ++i) {
+    not_alive += history[i].holder_alive() ? 0 : 1;
+    not_manual += history[i].mode() == "manual" ? 0 : 1;
+  }
+  EXPECT_EQ(not_alive, 0) << "the holder was shown lost";
+  EXPECT_EQ(not_manual, 0) << "the robot left manual mode";
+  const msgs::RobotState after = observer.FreshState("r1");
+  EXPECT_EQ(after.holder_participant(), repl_participant);
+  EXPECT_EQ(after.holder_participants(), 1u);
+  json reply = repl.Run("mode r1 idle");
+  EXPECT_TRUE(reply["ok"]) << reply;
+  reply = repl.Run(GotoCommand("r1", GoalAtPathLength(observer.FreshState("r1"), 5, 10)));
+  EXPECT_TRUE(reply["ok"]) << reply;
+  Figure("holder_not_alive_samples", not_alive);
+}
+
+// Issue 9, defect 3: with a 60 s teleop timeout the last twist stays fresh for a minute; stop must still
+// zero it within one control period, and from a basestation without the lock too (an e-stop).
+TEST(CommandIdentity, StopHaltsATeleoperatedRobotWithinOneControlPeriod) {
+  const int domain = 75;
+  const std::string logs = Logs("stop");
+  const std::string config = logs + "/agent.yaml";
+  std::ofstream(config) << "mux:\n  teleop_timeout_s: 60\ntelemetry:\n  state_rate_hz: 50\n";
+  Observer observer(domain);
+  auto agent = StartAgent("r1", domain, logs, {"--config", config});
+  Base op1("op1", domain, logs);
+  Base opB("opB", domain, logs);
+  ASSERT_TRUE(op1.Run("request-control r1")["ok"]);
+
+  for (Base* stopper : {&op1, &opB}) {
+    ASSERT_TRUE(op1.Run("mode r1 manual")["ok"]);
+    ASSERT_TRUE(op1.Run("teleop r1 0.4 0 1.0", 10s)["ok"]);
+    std::this_thread::sleep_for(300ms);
+    const msgs::RobotState before = observer.FreshState("r1");
+    ASSERT_NEAR(before.cmd_twist_B().linear_x_mps(), 0.4, 1e-9) << "the last twist is no longer fresh";
+    const double sent_s =
+        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    const json r = stopper->Run("stop r1");
+    EXPECT_TRUE(r["ok"]) << r;
+    const double round_trip_s = r["round_trip_ms"].get<double>() / 1000.0;
+    std::this_thread::sleep_for(1s);
+    double zero_after_s = -1, rest_after_s = -1;
+    for (const auto& s : observer.History("r1")) {
+      const double t = WallSeconds(s.stamp()) - sent_s;
+      if (t < 0) continue;
+      if (zero_after_s < 0 && s.cmd_twist_B().linear_x_mps() == 0.0 && s.mode() == "idle") zero_after_s = t;
+      if (rest_after_s < 0 && std::abs(s.twist_B().linear_x_mps()) < 1e-6) rest_after_s = t;
+    }
+    ASSERT_GE(zero_after_s, 0.0) << "no zero command after stop";
+    // One control period (20 ms) after the stop reaches the robot, plus one state period (20 ms) to be seen.
+    EXPECT_LE(zero_after_s, round_trip_s + 0.02 + 0.02);
+    ASSERT_GE(rest_after_s, 0.0);
+    EXPECT_LE(rest_after_s, round_trip_s + 0.02 + 0.4 / 1.0 + 0.04);  // braking at the wheeled 1 m/s^2
+    const msgs::RobotState after = observer.FreshState("r1");
+    EXPECT_EQ(after.mode(), "idle");
+    EXPECT_EQ(after.holder_id(), "op1") << "the lock stays with its holder";
+    const std::string who = stopper == &op1 ? "holder" : "non_holder";
+    Figure(who + "_stop_zero_command_s", zero_after_s);
+    Figure(who + "_stop_round_trip_s", round_trip_s);
+    Figure(who + "_stop_at_rest_s", rest_after_s);
+  }
+}
+
+// The same defect on the basestation's side: robot loss was keyed by robot id, so the old process of a
+// restarted robot, lost after the new one announced itself, showed the live robot as lost.
+TEST(CommandIdentity, TheOldProcessOfARestartedRobotDoesNotShowItLost) {
+  const int domain = 76;
+  const std::string logs = Logs("robot_restart");
+  auto old_process = StartAgent("r1", domain, logs);
+  Base op1("op1", domain, logs);
+  ASSERT_TRUE(op1.Run("wait r1 online 5")["ok"]);
+  auto new_process = std::make_unique<ChildProcess>(
+      std::vector<std::string>{kAgent, "--robot-id", "r1", "--world", kWorld, "--start", "slot:1", "--domain",
+                               std::to_string(domain)},
+      logs + "/r1-new.log");
+  ASSERT_TRUE(new_process->WaitForLine("READY", 60s));
+  std::this_thread::sleep_for(1s);  // the new process's agent info reaches the basestation
+  old_process->Signal(SIGKILL);
+  const json r = op1.Run("wait r1 lost 5", 10s);
+  EXPECT_EQ(r["result"], "timeout") << "the live r1 was shown lost by its old process: " << r;
+  EXPECT_TRUE(op1.Run("status r1")["ok"]);
+}
+
+}  // namespace
+}  // namespace cairn
