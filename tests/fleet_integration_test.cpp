@@ -92,7 +92,7 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   EXPECT_TRUE(r["ok"]) << r;
   r = opB.Run("request-control r1");
   EXPECT_FALSE(r["ok"]);
-  EXPECT_EQ(r["result"], "denied");
+  EXPECT_EQ(r["result"], "refused");
   EXPECT_EQ(r["holder"], "opA");
   EXPECT_NE(r["reason"].get<std::string>().find("locked by basestation opA"), std::string::npos) << r;
 
@@ -101,7 +101,8 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   std::snprintf(gx, sizeof(gx), "%.2f", goal->x());
   std::snprintf(gy, sizeof(gy), "%.2f", goal->y());
   r = opB.Run(std::string("goto r1 ") + gx + " " + gy);
-  EXPECT_EQ(r["result"], "discarded") << r;
+  EXPECT_EQ(r["result"], "refused") << r;
+  EXPECT_EQ(r["condition"], "lock") << r;
   r = opB.Run("teleop r1 0.5 0 1.0");
   EXPECT_FALSE(r["ok"]) << r;
   std::this_thread::sleep_for(500ms);
@@ -143,10 +144,10 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   // Bad goals are refused with a reason, and the robot does not move.
   const cairn_msgs::RobotState before_bad = observer.FreshState("r1");
   r = opB.Run("goto r1 1000 1000");
-  EXPECT_EQ(r["result"], "denied") << r;
+  EXPECT_EQ(r["result"], "refused") << r;
   EXPECT_NE(r["reason"].get<std::string>().find("outside"), std::string::npos) << r;
   r = opB.Run("goto r1 nan 3");
-  EXPECT_EQ(r["result"], "usage") << r;
+  EXPECT_EQ(r["result"], "invalid") << r;
   EXPECT_NE(r["reason"].get<std::string>().find("X 'nan' is not a finite number"), std::string::npos) << r;
   std::optional<Eigen::Vector2d> blocked;
   for (int ix = 0; ix < grid.nx() && !blocked; ++ix) {
@@ -158,7 +159,7 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   char bx[64];
   std::snprintf(bx, sizeof(bx), "goto r1 %.3f %.3f", blocked->x(), blocked->y());
   r = opB.Run(bx);
-  EXPECT_EQ(r["result"], "denied") << r;
+  EXPECT_EQ(r["result"], "refused") << r;
   // A NaN goal straight on DDS (bypassing the CLI's checks) is refused by the robot itself.
   cairn_msgs::WaypointGoal nan_goal;
   nan_goal.robot_id("r1");
@@ -229,10 +230,11 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   const auto after_loss = observer.FreshState("r1");
   EXPECT_EQ(after_loss.holder_id(), "opB");
   r = opA.Run("request-control r1");
-  EXPECT_EQ(r["result"], "denied") << r;
+  EXPECT_EQ(r["result"], "refused") << r;
   EXPECT_EQ(r["holder"], "opB");
   r = opA.Run("mode r1 manual");
-  EXPECT_EQ(r["result"], "discarded") << r;
+  EXPECT_EQ(r["result"], "refused") << r;
+  EXPECT_EQ(r["condition"], "lock") << r;
 }
 
 // The navigation layer over DDS in the built-in tunnels' room: the global path service (any platform), a
@@ -273,7 +275,7 @@ TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
   ASSERT_TRUE(op.Run("request-control whl1")["ok"]);
   const auto before = observer.FreshState("whl1");
   r = op.Run("goto whl1 54.5 23.8");
-  EXPECT_EQ(r["result"], "denied") << r;
+  EXPECT_EQ(r["result"], "refused") << r;
   EXPECT_NE(r["reason"].get<std::string>().find("unreachable for platform wheeled"), std::string::npos) << r;
   EXPECT_LT(Distance(before, observer.FreshState("whl1")), 0.01);
 
@@ -307,8 +309,9 @@ TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
   Base no_stick("opNoStick", domain, logs, {"--no-joystick"});
   ASSERT_TRUE(no_stick.Run("request-control whl1")["ok"]);
   r = no_stick.Run("mode whl1 smart_joystick");
-  EXPECT_EQ(r["result"], "denied") << r;
-  EXPECT_NE(r["reason"].get<std::string>().find("IsJoystickAlive"), std::string::npos) << r;
+  EXPECT_EQ(r["result"], "refused") << r;
+  EXPECT_EQ(r["condition"], "IsJoystickAlive") << r;
+  EXPECT_NE(r["reason"].get<std::string>().find("smart joystick needs a joystick"), std::string::npos) << r;
 }
 
 INSTANTIATE_TEST_SUITE_P(Worlds, FleetIntegration,

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The Cairn demo: N simulated robots (cairn_agent) and one basestation (cairn_base), on loopback only.
-# Called by `./cairn demo` inside a private network namespace. Ctrl-C stops every process it started.
+# Called by `./cairn demo` inside a private network namespace. The robots run in their own session, so a
+# Ctrl-C in the console cancels the console's wait and never reaches them; when the console ends, the demo
+# asks before stopping them (a console attached with `./cairn console` meanwhile keeps working).
 #   demo.sh BUILD_DIR [--world SPEC] [--robots N] [--domain D] [--headless --script FILE] [--json]
 set -euo pipefail
 BUILD="$1"; shift
@@ -47,9 +49,11 @@ case "$WORLD" in
   *) [ -r "$WORLD" ] || { echo "demo: world file '$WORLD' cannot be read" >&2; exit 2; } ;;
 esac
 
-LOGS="$BUILD/demo-logs"; mkdir -p "$LOGS"
+LOGS="${CAIRN_DEMO_LOGS:-$BUILD/demo-logs}"; mkdir -p "$LOGS"
+ENV_FILE="$LOGS/demo.env"
 PIDS=()
 cleanup() {
+  rm -f "$ENV_FILE"
   for pid in "${PIDS[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
   for pid in "${PIDS[@]}"; do wait "$pid" 2>/dev/null || true; done
 }
@@ -58,8 +62,8 @@ trap 'exit 130' INT TERM
 
 echo "demo: world $WORLD, $ROBOTS robots, DDS domain $DOMAIN (loopback only); logs in $LOGS"
 for i in $(seq 1 "$ROBOTS"); do
-  "$BUILD/robot_agent/cairn_agent" --robot-id "r$i" --world "$WORLD" --start "slot:$((i - 1))" \
-    --platform "$PLATFORM" --domain "$DOMAIN" >"$LOGS/r$i.log" 2>&1 &
+  setsid "$BUILD/robot_agent/cairn_agent" --robot-id "r$i" --world "$WORLD" --start "slot:$((i - 1))" \
+    --platform "$PLATFORM" --domain "$DOMAIN" >"$LOGS/r$i.log" 2>&1 </dev/null &
   PIDS+=($!)
 done
 # Wait until every agent has loaded its world and is on DDS.
@@ -72,15 +76,41 @@ for i in $(seq 1 "$ROBOTS"); do
     sleep 0.1
   done
 done
-echo "demo: robots ready: $(seq -s ' ' -f 'r%g' 1 "$ROBOTS")"
+ROBOT_IDS="$(seq -s ' ' -f 'r%g' 1 "$ROBOTS")"
+echo "demo: robots ready: $ROBOT_IDS"
+
+# Named places, one file per world: the built-in world's landmarks on first use, then what operators add.
+world_name="$(basename "${WORLD#builtin:}")"
+PLACES="$LOGS/places-${world_name%.*}.yaml"
+if [ ! -f "$PLACES" ] && [ -f "$ROOT/config/places/${WORLD#builtin:}.yaml" ]; then
+  cp "$ROOT/config/places/${WORLD#builtin:}.yaml" "$PLACES"
+fi
+# What `./cairn console` needs to attach another operator to this demo (this shell is in the demo's netns).
+printf 'CAIRN_DEMO_PID=%s\nCAIRN_DEMO_DOMAIN=%s\nCAIRN_DEMO_PLACES=%s\n' "$$" "$DOMAIN" "$PLACES" >"$ENV_FILE"
 
 BASE="$BUILD/basestation/cairn_base"
 if [ -n "$SCRIPT" ]; then
   set +e
-  "$BASE" --base-id op1 --domain "$DOMAIN" $JSON --script "$SCRIPT"
+  "$BASE" --base-id op1 --domain "$DOMAIN" --places "$PLACES" $JSON --script "$SCRIPT"
   status=$?
   set -e
   if [ $status -eq 0 ]; then echo "demo: mission succeeded"; else echo "demo: mission FAILED (exit $status)"; fi
   exit $status
 fi
-"$BASE" --base-id op1 --domain "$DOMAIN" $JSON
+echo "demo: another operator can attach with: ./cairn console --base-id op2"
+# Ctrl-C belongs to the console while it runs (it cancels a wait or clears the line): the demo only notes it.
+trap 'true' INT
+set +e
+"$BASE" --base-id op1 --domain "$DOMAIN" --places "$PLACES" $JSON
+set -e
+trap 'exit 130' INT TERM
+if [ -t 0 ]; then
+  read -r -p "demo: console closed. Stop robots $ROBOT_IDS and end the demo? [y/N] " answer || answer=y
+  case "$answer" in
+    y|Y|yes)
+      ;;
+    *)
+      echo "demo: robots $ROBOT_IDS keep running. Attach with ./cairn console; Ctrl-C here stops them."
+      wait "${PIDS[@]}" 2>/dev/null || true ;;
+  esac
+fi

@@ -1,17 +1,23 @@
 #include "cairn/base/command_shell.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
-#include <fstream>
-#include <iomanip>
+#include <ctime>
 #include <sstream>
 #include <thread>
 
-#include <nlohmann/json.hpp>
+#include "cairn/base/operator_text.h"
+#include "shell_util.h"
 
 namespace cairn::base {
 
 namespace msgs = cairn_msgs;
 using nlohmann::json;
+using shell::Fixed;
+using shell::ParseNumber;
+using shell::StaircaseJson;
+using shell::YawOf;
 
 namespace {
 
@@ -24,21 +30,6 @@ std::vector<std::string> Tokenize(const std::string& line) {
     tokens.push_back(token);
   }
   return tokens;
-}
-
-// Parses a finite number; on failure sets `error` naming the argument and the value.
-bool ParseNumber(const std::string& text, const char* name, double* value, std::string* error) {
-  std::size_t used = 0;
-  try {
-    *value = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || !std::isfinite(*value)) {
-    *error = std::string(name) + " '" + text + "' is not a finite number";
-    return false;
-  }
-  return true;
 }
 
 const char* NavStatusName(msgs::NavStatus s) {
@@ -55,16 +46,15 @@ const char* NavStatusName(msgs::NavStatus s) {
   return "?";
 }
 
-double YawOf(const msgs::Quaternion& q) {
-  return std::atan2(2.0 * (q.w() * q.z() + q.x() * q.y()), 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z()));
-}
-
-json ViewJson(const RobotView& v) {
+// Every field of a view (`status --json`, `robots --json`): machines read these, people read the summary.
+json ViewJson(const RobotView& v, const std::string& base_id) {
   json j = {{"robot", v.robot_id},
             {"platform", v.platform},
             {"lost", v.lost},
-            {"seen_s_ago", core::SecondsBetween(v.last_seen, core::SteadyClock::now())}};
+            {"seen_s_ago", core::SecondsBetween(v.last_seen, core::SteadyClock::now())},
+            {"valid_actions", ValidActions(v, base_id)}};
   if (v.lost) j["lost_reason"] = v.lost_reason;
+  if (v.max_speed_mps > 0) j["max_speed_mps"] = v.max_speed_mps;
   if (v.state) {
     const auto& s = *v.state;
     j["mode"] = s.mode();
@@ -89,92 +79,184 @@ json ViewJson(const RobotView& v) {
     j["nav_replans"] = s.nav_replans();
     j["local_planner_status"] = s.local_planner_status();
     j["in_contact"] = s.in_contact();
+    j["stops"] = s.stops();
+    j["stopped_by"] = s.stopped_by();
   }
   if (v.tree) {
     j["valid_modes"] = v.tree->valid_modes();
-    j["last_refusal"] = v.tree->last_refusal();
+    j["goal_acceptable"] = v.tree->goal_acceptable();
+    const OperatorReason why = ExplainReason(v.robot_id, v.tree->last_refusal());
+    j["last_refusal"] = why.text;
+    j["last_refusal_condition"] = why.condition;
   }
   return j;
 }
 
-std::string Fixed(double value, int digits) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(digits) << value;
-  return out.str();
+std::string ClockText(std::chrono::system_clock::time_point t) {
+  const std::time_t seconds = std::chrono::system_clock::to_time_t(t);
+  std::tm local{};
+  localtime_r(&seconds, &local);
+  char text[16];
+  std::strftime(text, sizeof(text), "%H:%M:%S", &local);
+  return text;
 }
 
-// One fleet staircase as JSON (the `stairs` list and the staircase event share it).
-json StaircaseJson(const perception::StaircaseRegistry::Entry& e) {
-  const perception::Staircase& s = e.staircase;
-  return {{"id", e.id},           {"x_m", s.p_W_first_step.x()}, {"y_m", s.p_W_first_step.y()},
-          {"z_m", s.p_W_first_step.z()}, {"yaw_rad", s.yaw_rad},      {"num_steps", s.num_steps},
-          {"rise_m", s.rise_m},   {"run_m", s.run_m},             {"width_m", s.width_m},
-          {"confidence", s.confidence}, {"sources", e.sources}};
+json EventJson(const OperatorEvent& e) {
+  json j = e.staircase ? StaircaseJson(*e.staircase) : json::object();
+  j["event"] = e.kind;
+  j["robot"] = e.robot_id;
+  j["message"] = e.message;
+  j["time"] = ClockText(e.time);
+  if (!e.other.empty()) j["other"] = e.other;
+  if (!e.reason.empty()) j["reason"] = e.reason;
+  if (e.kind == "proximity") j["distance_m"] = e.distance_m;
+  return j;
+}
+
+// Prints rows as columns separated by two spaces, each as wide as its widest cell.
+void PrintTable(std::ostream& out, const std::vector<std::vector<std::string>>& rows) {
+  std::vector<std::size_t> widths;
+  for (const auto& row : rows) {
+    widths.resize(std::max(widths.size(), row.size()));
+    for (std::size_t c = 0; c < row.size(); ++c) widths[c] = std::max(widths[c], row[c].size());
+  }
+  for (const auto& row : rows) {
+    std::string line;
+    for (std::size_t c = 0; c < row.size(); ++c) {
+      line += row[c];
+      if (c + 1 < row.size()) line += std::string(widths[c] - row[c].size() + 2, ' ');
+    }
+    out << line << "\n";
+  }
+  out.flush();
+}
+
+std::string Truncate(const std::string& text, std::size_t n) {
+  return text.size() <= n ? text : text.substr(0, n - 3) + "...";
 }
 
 }  // namespace
 
-CommandShell::CommandShell(FleetClient& client, bool json_output, std::ostream& out)
-    : client_(client), json_(json_output), out_(out), created_(core::SteadyClock::now()) {}
+CommandShell::CommandShell(FleetClient& client, ShellOptions options, std::ostream& out)
+    : client_(client),
+      options_(std::move(options)),
+      json_(options_.json),
+      out_(out),
+      created_(core::SteadyClock::now()),
+      places_(Places::Load(options_.places_file)) {}
+
+CommandShell::CommandShell(FleetClient& client, bool json, std::ostream& out)
+    : CommandShell(client, ShellOptions{json, "", nullptr, nullptr}, out) {}
 
 const std::vector<std::string>& CommandShell::CommandNames() {
-  static const std::vector<std::string> kNames = {"robots", "status", "request-control", "release", "mode",
-                                                  "goto",   "path",   "plan",            "teleop",  "stop",
-                                                  "wait",   "sleep",  "map",             "snapshot", "stairs",
-                                                  "help"};
+  static const std::vector<std::string> kNames = {
+      "robots", "watch", "status", "request-control", "release", "mode",   "goto",  "path",   "plan",
+      "teleop", "stop",  "wait",   "sleep",           "map",     "snapshot", "stairs", "events", "place",
+      "places", "help"};
   return kNames;
 }
 
 std::string CommandShell::Help() {
-  return "commands:\n"
-         "  robots                              every robot: id, platform, mode, holder, pose, last seen\n"
-         "  status R                            full state of robot R (mux channel, valid modes, navigation)\n"
-         "  request-control R                   ask for R's control lock (denied if another basestation holds it)\n"
+  return "commands (R: a robot id; a point is X Y, X,Y or a place name, metres, frame map):\n"
+         "  robots                              the fleet: mode, holder, goal status, distance left, ETA, last\n"
+         "                                      heard, last refusal\n"
+         "  watch [PERIOD_S] [--count N]        the robots table refreshed in place until a key is pressed\n"
+         "                                      (in scripts: N times, default 1)\n"
+         "  status R                            R at a glance: pose, control, goal, refusal, valid actions\n"
+         "  help R                              what you may do with R now, and how\n"
+         "  request-control R                   ask for R's control lock (refused if another basestation holds it)\n"
          "  release R                           give R's control lock back (the robot stops)\n"
-         "  mode R MODE                         switch R to idle | manual | smart_joystick | waypoint\n"
-         "  goto R X Y [TOL] [--wait [TIMEOUT_S]]  drive R to (X, Y) metres in the map frame; --wait prints\n"
-         "                                      progress (distance left, ETA) until it arrives or fails\n"
-         "                                      (default 600 s)\n"
+         "  mode R MODE                         switch R to idle | manual | smart_joystick (waypoint: use goto)\n"
+         "  goto R POINT [TOL] [--wait [TIMEOUT_S]]  drive R to POINT; --wait prints progress (distance left,\n"
+         "                                      ETA) until it arrives or fails (default 600 s)\n"
          "  path R                              the global path R is following (waypoints, length)\n"
-         "  plan R X Y [--from X,Y] [--platform P]  ask R's global planner for a path (from R's pose, for\n"
+         "  plan R POINT [--from POINT] [--platform P]  ask R's global planner for a path (from R's pose, for\n"
          "                                      R's platform by default); prints the path or the reason\n"
          "  teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]  drive R for DURATION_S, then stop sending: manual\n"
          "                                      mode unless R is in smart_joystick, where the twist is the\n"
-         "                                      direction the local planner follows\n"
-         "  stop R                              stop R now: zero twist, mode idle, goal cancelled; from any\n"
+         "                                      direction the local planner follows; speeds beyond R's limits\n"
+         "                                      are clamped, with a notice\n"
+         "  stop R|all                          stop now: zero twist, mode idle, goal cancelled; from any\n"
          "                                      basestation, without the control lock (the lock stays)\n"
          "  wait R arrived|idle|mode=M|online|lost [TIMEOUT_S]  block until R reaches that state (default 60 s)\n"
+         "  events [N]                          the last N events (default 20)\n"
+         "  place add NAME POINT [Z] | place remove NAME   name a point (saved to the --places file)\n"
+         "  places                              the named places\n"
          "  map R|fleet --save FILE.bt          save R's coarse map (or the fleet map merged from every robot) as\n"
          "                                      an OctoMap .bt; asks for a snapshot first if it is incomplete\n"
-         "  snapshot R FILE.jpg [TIMEOUT_S]     save R's next camera frame (JPEG) to FILE.jpg (default 5 s)\n"
+         "  snapshot R FILE.jpg|FILE.png [TIMEOUT_S]  save R's next camera frame (default 5 s)\n"
          "  stairs                              staircases found by the fleet (merged across robots)\n"
          "  sleep S                             pause a script for S seconds\n"
          "  help                                this text\n"
-         "Refusals print the robot's reason; a refused or failed command exits non-zero.\n"
-         "Events (a new staircase) print as they arrive between commands, once each.";
+         "Outcomes: accepted, refused, failed, timed out, invalid (a malformed command), cancelled (Ctrl-C).\n"
+         "Refusals say why and what is valid now; a refused, failed, timed-out or cancelled command exits 1,\n"
+         "an invalid one 2. Events (arrivals, failures, losses, locks, stops, staircases, robots close to each\n"
+         "other) print as they happen.";
+}
+
+bool CommandShell::Cancelled() {
+  return options_.cancel != nullptr && options_.cancel->exchange(false);
 }
 
 int CommandShell::UsageError(const std::string& command, const std::string& message) {
   if (json_) {
-    out_ << json{{"command", command}, {"ok", false}, {"result", "usage"}, {"reason", message}}.dump() << std::endl;
+    out_ << json{{"command", command}, {"ok", false}, {"result", outcome::kInvalid}, {"reason", message}}.dump()
+         << std::endl;
   } else {
-    out_ << command << ": " << message << std::endl;
+    out_ << command << ": " << outcome::kInvalid << ": " << message << std::endl;
   }
   return kUsage;
 }
 
-int CommandShell::Report(const std::string& command, const std::string& robot, const CommandOutcome& o) {
+std::optional<RobotView> CommandShell::FreshView(const std::string& robot) {
+  const auto answered = last_answer_.find(robot);
+  if (answered == last_answer_.end()) return client_.Robot(robot);
+  const core::SteadyTime after = answered->second;
+  auto view = client_.WaitUntil(robot, 0.5, [after](const RobotView& v) {
+    return v.state.has_value() && v.state_received > after;
+  });
+  return view ? view : client_.Robot(robot);
+}
+
+int CommandShell::Report(const std::string& command, const std::string& robot, const CommandOutcome& o,
+                         const std::string& notice) {
+  if (o.answered) last_answer_[robot] = core::SteadyClock::now();
+  // A refusal says what is valid now (lesson L4), from the robot's latest behavior-tree state.
+  std::string valid_text;
+  std::vector<std::string> valid;
+  if (!o.ok && o.result == outcome::kRefused) {
+    if (auto view = client_.Robot(robot)) {
+      if (o.answered) {
+        // The robot's answer is newer than its last state: its holder and valid modes right after this command.
+        if (!view->state) view->state = cairn_msgs::RobotState{};
+        view->state->holder_id(o.holder_id);
+        view->state->mode(o.mode);
+        if (!view->tree) view->tree = cairn_msgs::BehaviorTreeState{};
+        view->tree->valid_modes(o.valid_modes);
+        view->tree->goal_acceptable(o.goal_acceptable);
+      }
+      valid = ValidActions(*view, client_.base_id());
+      valid_text = ValidActionsText(*view, client_.base_id());
+    }
+  }
   if (json_) {
-    out_ << json{{"command", command},       {"robot", robot},   {"ok", o.ok},
-                 {"result", o.result},       {"reason", o.reason}, {"holder", o.holder_id},
-                 {"mode", o.mode},           {"round_trip_ms", o.round_trip_ms},
-                 {"request_id", o.request_id}, {"goal_id", o.goal_id}}
-                .dump()
-         << std::endl;
+    json j = {{"command", command},     {"robot", robot},          {"ok", o.ok},
+              {"result", o.result},     {"reason", o.reason},      {"holder", o.holder_id},
+              {"mode", o.mode},         {"round_trip_ms", o.round_trip_ms},
+              {"request_id", o.request_id}, {"goal_id", o.goal_id}};
+    if (!o.condition.empty()) j["condition"] = o.condition;
+    if (!o.robot_reason.empty() && o.robot_reason != o.reason) j["robot_reason"] = o.robot_reason;
+    if (!valid_text.empty()) j["valid_actions"] = valid;
+    if (!notice.empty()) j["notice"] = notice;
+    out_ << j.dump() << std::endl;
   } else {
+    if (!notice.empty()) out_ << command << " " << robot << ": note: " << notice << std::endl;
     out_ << command << " " << robot << ": " << o.result;
     if (!o.reason.empty()) out_ << ": " << o.reason;
-    if (o.ok) out_ << " (mode " << o.mode << ", holder " << (o.holder_id.empty() ? "none" : o.holder_id) << ")";
+    if (o.ok && !o.mode.empty()) {
+      out_ << " (mode " << o.mode << ", holder " << (o.holder_id.empty() ? "none" : o.holder_id) << ")";
+    }
+    if (!valid_text.empty()) out_ << "; " << valid_text;
     out_ << std::endl;
   }
   return o.ok ? kOk : kRefused;
@@ -188,16 +270,48 @@ int CommandShell::Execute(const std::string& line) {
 }
 
 void CommandShell::PrintEvents() {
-  for (const FleetEvent& event : client_.perception().TakeEvents()) {
+  for (const OperatorEvent& event : client_.TakeEvents()) {
     if (json_) {
-      json j = StaircaseJson(event.staircase);
-      j["event"] = event.kind;
-      j["message"] = event.message;
-      out_ << j.dump() << std::endl;
+      out_ << EventJson(event).dump() << std::endl;
     } else {
-      out_ << "event: " << event.message << std::endl;
+      out_ << "[" << ClockText(event.time) << "] " << event.message << std::endl;
     }
   }
+}
+
+std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& before,
+                                                const std::string& prefix) const {
+  std::vector<std::string> pool;
+  if (before.empty()) {
+    pool = CommandNames();
+  } else {
+    const std::string& cmd = before[0];
+    const std::size_t arg = before.size();  // index of the word being completed, 1-based after the command
+    static const std::vector<std::string> kRobotFirst = {"status", "request-control", "release", "mode", "goto",
+                                                         "path",   "plan",            "teleop",  "stop", "wait",
+                                                         "map",    "snapshot",        "help"};
+    if (arg == 1 && std::find(kRobotFirst.begin(), kRobotFirst.end(), cmd) != kRobotFirst.end()) {
+      pool = client_.RobotIds();
+      if (cmd == "stop") pool.push_back("all");
+      if (cmd == "map") pool.push_back("fleet");
+    } else if (cmd == "mode" && arg == 2) {
+      pool = {"idle", "manual", "smart_joystick"};
+      if (const auto view = client_.Robot(before[1]); view && view->tree) pool = view->tree->valid_modes();
+    } else if ((cmd == "goto" || cmd == "plan") && arg == 2) {
+      pool = places_.Names();
+    } else if (cmd == "wait" && arg == 2) {
+      pool = {"arrived", "idle", "online", "lost", "mode="};
+    } else if (cmd == "place" && arg == 1) {
+      pool = {"add", "remove"};
+    } else if (cmd == "place" && arg == 2 && before[1] == "remove") {
+      pool = places_.Names();
+    }
+  }
+  std::vector<std::string> matches;
+  for (const auto& word : pool) {
+    if (word.rfind(prefix, 0) == 0) matches.push_back(word);
+  }
+  return matches;
 }
 
 int CommandShell::Run(const std::string& line) {
@@ -211,90 +325,258 @@ int CommandShell::Run(const std::string& line) {
     return false;
   };
   if (cmd == "help") {
+    if (args.size() == 1) return HelpFor(args[0]);
     if (json_) {
-      out_ << json{{"command", "help"}, {"ok", true}, {"text", Help()}}.dump() << std::endl;
+      out_ << json{{"command", "help"}, {"ok", true}, {"result", outcome::kAccepted}, {"text", Help()}}.dump()
+           << std::endl;
     } else {
       out_ << Help() << std::endl;
     }
     return kOk;
   }
   if (cmd == "robots") return args.empty() ? Robots() : UsageError(cmd, "usage: robots");
+  if (cmd == "watch") return Watch(args);
+  if (cmd == "events") return Events(args);
   if (cmd == "status") return need(1, "status R") ? Status(args) : kUsage;
   if (cmd == "request-control") return need(1, "request-control R") ? Control(args, true) : kUsage;
   if (cmd == "release") return need(1, "release R") ? Control(args, false) : kUsage;
   if (cmd == "mode") return need(2, "mode R MODE") ? Mode(args) : kUsage;
-  if (cmd == "stop") return need(1, "stop R") ? Report("stop", args[0], client_.Stop(args[0])) : kUsage;
+  if (cmd == "stop") return need(1, "stop R|all") ? Stop(args) : kUsage;
   if (cmd == "goto") return Goto(args);
   if (cmd == "teleop") {
-    return (args.size() == 4 || args.size() == 5) ? Teleop(args)
-                                                  : UsageError(cmd, "usage: teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]");
+    return (args.size() == 4 || args.size() == 5)
+               ? Teleop(args)
+               : UsageError(cmd, "usage: teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]");
   }
   if (cmd == "path") return need(1, "path R") ? Path(args) : kUsage;
   if (cmd == "plan") return Plan(args);
   if (cmd == "wait") return Wait(args);
   if (cmd == "sleep") return need(1, "sleep S") ? Sleep(args) : kUsage;
+  if (cmd == "place") return Place(args);
+  if (cmd == "places") return args.empty() ? ListPlaces() : UsageError(cmd, "usage: places");
   if (cmd == "map") {
-    return (args.size() == 3 && args[1] == "--save") ? Map(args) : UsageError(cmd, "usage: map R|fleet --save FILE.bt");
+    return (args.size() == 3 && args[1] == "--save") ? Map(args)
+                                                     : UsageError(cmd, "usage: map R|fleet --save FILE.bt");
   }
   if (cmd == "snapshot") {
     return (args.size() == 2 || args.size() == 3) ? Snapshot(args)
-                                                  : UsageError(cmd, "usage: snapshot R FILE.jpg [TIMEOUT_S]");
+                                                  : UsageError(cmd, "usage: snapshot R FILE.jpg|FILE.png [TIMEOUT_S]");
   }
   if (cmd == "stairs") return args.empty() ? Stairs() : UsageError(cmd, "usage: stairs");
-  return UsageError(cmd, "unknown command '" + cmd + "' (try help)");
+  return UsageError(cmd, "unknown command '" + cmd + "'" + DidYouMeanText(cmd, CommandNames()) + " (try help)");
+}
+
+void CommandShell::PrintRobotsTable() {
+  const auto views = client_.Robots();
+  std::vector<std::vector<std::string>> rows = {
+      {"ROBOT", "PLATFORM", "MODE", "HOLDER", "NAV", "LEFT", "ETA", "HEARD", "LAST REFUSAL"}};
+  for (const auto& v : views) {
+    std::string mode = "?", holder = "-", nav = "-", left = "-", eta = "-", refusal = "-";
+    if (v.state) {
+      const auto& s = *v.state;
+      mode = s.mode();
+      holder = s.holder_id().empty() ? "-" : s.holder_id() + (s.holder_alive() ? "" : " (lost)");
+      nav = NavStatusName(s.nav_status());
+      if (s.nav_status() == msgs::NAV_STATUS_ACTIVE) {
+        left = Fixed(s.nav_distance_left_m(), 1) + " m";
+        eta = s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "?";
+      }
+    }
+    if (v.tree && !v.tree->last_refusal().empty()) {
+      refusal = Truncate(ExplainReason(v.robot_id, v.tree->last_refusal()).text, 60);
+    }
+    const std::string heard = v.lost ? "LOST (" + v.lost_reason + ")"
+                                     : Fixed(core::SecondsBetween(v.last_seen, core::SteadyClock::now()), 1) + " s ago";
+    rows.push_back({v.robot_id, v.platform.empty() ? "?" : v.platform, mode, holder, nav, left, eta, heard, refusal});
+  }
+  PrintTable(out_, rows);
+  if (views.empty()) out_ << "(no robots discovered yet)" << std::endl;
 }
 
 int CommandShell::Robots() {
   // A fresh basestation needs a moment of discovery before its list means anything.
   std::this_thread::sleep_until(created_ + std::chrono::milliseconds(1500));
-  const auto views = client_.Robots();
   if (json_) {
     json list = json::array();
-    for (const auto& v : views) list.push_back(ViewJson(v));
-    out_ << json{{"command", "robots"}, {"ok", true}, {"robots", list}}.dump() << std::endl;
+    for (const auto& v : client_.Robots()) list.push_back(ViewJson(v, client_.base_id()));
+    out_ << json{{"command", "robots"}, {"ok", true}, {"result", outcome::kAccepted}, {"robots", list}}.dump()
+         << std::endl;
     return kOk;
   }
-  out_ << std::left << std::setw(10) << "ROBOT" << std::setw(9) << "PLATFORM" << std::setw(10) << "MODE"
-       << std::setw(10) << "HOLDER" << std::setw(26) << "POSE (x, y, yaw)" << "LAST SEEN" << std::endl;
-  for (const auto& v : views) {
-    std::string mode = "?", holder = "-", pose = "?";
-    if (v.state) {
-      mode = v.state->mode();
-      holder = v.state->holder_id().empty() ? "-" : v.state->holder_id();
-      if (!v.state->holder_alive()) holder += "(lost)";
-      pose = "(" + Fixed(v.state->pose_MB().position().x_m(), 2) + ", " +
-             Fixed(v.state->pose_MB().position().y_m(), 2) + ", " + Fixed(YawOf(v.state->pose_MB().orientation()), 2) +
-             ")";
+  PrintRobotsTable();
+  return kOk;
+}
+
+int CommandShell::Watch(const std::vector<std::string>& args) {
+  static const char* kUsageText = "usage: watch [PERIOD_S] [--count N]";
+  double period_s = 1.0, count = options_.key_pressed ? 0 : 1;  // 0: until a key is pressed
+  std::string error;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--count" && i + 1 < args.size()) {
+      if (!ParseNumber(args[++i], "N", &count, &error) || count < 1 || count > 100000 || count != std::floor(count)) {
+        return UsageError("watch", error.empty() ? "N '" + args[i] + "' must be a whole number in [1, 100000]" : error);
+      }
+    } else if (i == 0 && args[i].rfind("--", 0) != 0) {
+      if (!ParseNumber(args[i], "PERIOD_S", &period_s, &error) || period_s < 0.1 || period_s > 60) {
+        return UsageError("watch", error.empty() ? "PERIOD_S '" + args[i] + "' must be in [0.1, 60]" : error);
+      }
+    } else {
+      return UsageError("watch", kUsageText);
     }
-    const std::string seen = v.lost ? "LOST (" + v.lost_reason + ")"
-                                    : Fixed(core::SecondsBetween(v.last_seen, core::SteadyClock::now()), 1) + " s ago";
-    out_ << std::left << std::setw(10) << v.robot_id << std::setw(9) << v.platform << std::setw(10) << mode
-         << std::setw(10) << holder << std::setw(26) << pose << seen << std::endl;
   }
-  if (views.empty()) out_ << "(no robots discovered yet)" << std::endl;
+  std::this_thread::sleep_until(created_ + std::chrono::milliseconds(1500));
+  const bool in_place = options_.key_pressed != nullptr && !json_;
+  for (int n = 0; count == 0 || n < count; ++n) {
+    if (in_place) out_ << "\033[H\033[2J";  // home and clear: the table is redrawn in place
+    if (json_) {
+      json list = json::array();
+      for (const auto& v : client_.Robots()) list.push_back(ViewJson(v, client_.base_id()));
+      out_ << json{{"command", "watch"}, {"progress", true}, {"robots", list}}.dump() << std::endl;
+    } else {
+      PrintRobotsTable();
+      const auto recent = client_.RecentEvents();
+      for (std::size_t i = recent.size() > 5 ? recent.size() - 5 : 0; i < recent.size(); ++i) {
+        out_ << "[" << ClockText(recent[i].time) << "] " << recent[i].message << "\n";
+      }
+      if (in_place) out_ << "(watching every " << Fixed(period_s, 1) << " s: press any key to stop)" << std::endl;
+    }
+    if (count != 0 && n + 1 >= count) break;
+    // Wait for the next refresh, a key, or Ctrl-C.
+    const auto next = core::SteadyClock::now() + std::chrono::duration_cast<core::SteadyClock::duration>(
+                                                      std::chrono::duration<double>(period_s));
+    bool stop = false;
+    while (core::SteadyClock::now() < next && !stop) {
+      stop = (options_.key_pressed && options_.key_pressed()) || Cancelled();
+      if (!stop) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    if (stop) break;
+  }
+  if (json_) {
+    out_ << json{{"command", "watch"}, {"ok", true}, {"result", outcome::kAccepted}}.dump() << std::endl;
+  }
+  return kOk;
+}
+
+int CommandShell::Events(const std::vector<std::string>& args) {
+  double n = 20;
+  std::string error;
+  if (args.size() > 1) return UsageError("events", "usage: events [N]");
+  if (args.size() == 1 && (!ParseNumber(args[0], "N", &n, &error) || n < 1 || n > 100000 || n != std::floor(n))) {
+    return UsageError("events", error.empty() ? "N '" + args[0] + "' must be a whole number in [1, 100000]" : error);
+  }
+  const auto recent = client_.RecentEvents();
+  const std::size_t from = recent.size() > static_cast<std::size_t>(n) ? recent.size() - static_cast<std::size_t>(n) : 0;
+  if (json_) {
+    json list = json::array();
+    for (std::size_t i = from; i < recent.size(); ++i) list.push_back(EventJson(recent[i]));
+    out_ << json{{"command", "events"}, {"ok", true}, {"result", outcome::kAccepted}, {"events", list}}.dump()
+         << std::endl;
+    return kOk;
+  }
+  if (recent.empty()) out_ << "events: none yet" << std::endl;
+  for (std::size_t i = from; i < recent.size(); ++i) {
+    out_ << "[" << ClockText(recent[i].time) << "] " << recent[i].message << std::endl;
+  }
   return kOk;
 }
 
 int CommandShell::Status(const std::vector<std::string>& args) {
+  const std::string& robot = args[0];
   // A fresh basestation may know the robot before its first state arrives: give the state a moment.
-  client_.WaitUntil(args[0], 3.0, [](const RobotView& v) { return v.state.has_value(); });
-  const auto view = client_.Robot(args[0]);
+  if (client_.WaitForRobot(robot, 3.0)) {
+    client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return v.state.has_value(); });
+  }
+  const auto view = FreshView(robot);
   if (!view) {
     CommandOutcome o;
-    o.result = "error";
-    o.reason = "unknown robot '" + args[0] + "'";
-    return Report("status", args[0], o);
+    o.result = outcome::kRefused;
+    o.reason = "unknown robot '" + robot + "'" + DidYouMeanText(robot, client_.RobotIds());
+    return Report("status", robot, o);
   }
-  const json j = ViewJson(*view);
   if (json_) {
-    json out = j;
+    json out = ViewJson(*view, client_.base_id());
     out["command"] = "status";
     out["ok"] = !view->lost;
+    out["result"] = view->lost ? outcome::kFailed : outcome::kAccepted;
     out_ << out.dump() << std::endl;
-  } else {
-    for (const auto& [key, value] : j.items()) out_ << "  " << std::left << std::setw(20) << key << value << std::endl;
+    return view->lost ? kRefused : kOk;
   }
-  return view->lost ? kRefused : kOk;
+  const RobotView& v = *view;
+  out_ << v.robot_id << " (" << (v.platform.empty() ? "?" : v.platform) << ")";
+  if (v.lost) out_ << ": LOST (" << v.lost_reason << ")";
+  out_ << "\n";
+  if (v.state) {
+    const auto& s = *v.state;
+    const auto& p = s.pose_MB().position();
+    out_ << "  mode      " << s.mode() << " (" << s.mux_reason() << ")\n";
+    out_ << "  pose      (" << Fixed(p.x_m(), 2) << ", " << Fixed(p.y_m(), 2) << ", " << Fixed(p.z_m(), 2) << ") m, heading "
+         << Fixed(YawOf(s.pose_MB().orientation()) * 180.0 / M_PI, 0) << " deg, speed "
+         << Fixed(s.twist_B().linear_x_mps(), 2) << " m/s" << (s.in_contact() ? ", IN CONTACT" : "") << "\n";
+    out_ << "  control   ";
+    if (s.holder_id().empty()) {
+      out_ << "free";
+    } else {
+      out_ << "held by " << s.holder_id() << (s.holder_id() == client_.base_id() ? " (this basestation)" : "")
+           << (s.holder_alive() ? ", connected" : ", NOT CONNECTED") << " (" << s.holder_participants()
+           << " process" << (s.holder_participants() == 1 ? "" : "es") << ")";
+    }
+    if (s.discarded_commands() > 0) out_ << "; " << s.discarded_commands() << " commands from others discarded";
+    out_ << "\n";
+    out_ << "  goal      ";
+    if (s.nav_status() == msgs::NAV_STATUS_NONE) {
+      out_ << "none";
+    } else {
+      out_ << s.nav_goal_id() << " to (" << Fixed(s.nav_goal_M().x_m(), 2) << ", " << Fixed(s.nav_goal_M().y_m(), 2)
+           << "): " << NavStatusName(s.nav_status());
+      if (s.nav_status() == msgs::NAV_STATUS_ACTIVE) {
+        out_ << ", " << Fixed(s.nav_distance_left_m(), 1) << " m left, ETA "
+             << (s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "unknown") << ", " << s.nav_replans()
+             << " replans";
+        if (!s.local_planner_status().empty()) out_ << "; local planner: " << s.local_planner_status();
+      } else if (s.nav_status() == msgs::NAV_STATUS_FAILED) {
+        out_ << " (" << s.nav_reason() << ")";
+      }
+    }
+    out_ << "\n";
+    if (s.stops() > 0) out_ << "  stops     " << s.stops() << ", last by " << s.stopped_by() << "\n";
+  }
+  if (v.tree && !v.tree->last_refusal().empty()) {
+    out_ << "  refusal   " << ExplainReason(v.robot_id, v.tree->last_refusal()).text << "\n";
+  }
+  out_ << "  " << ValidActionsText(v, client_.base_id()) << "\n";
+  out_ << "  heard     " << Fixed(core::SecondsBetween(v.last_seen, core::SteadyClock::now()), 1) << " s ago"
+       << std::endl;
+  return v.lost ? kRefused : kOk;
+}
+
+int CommandShell::HelpFor(const std::string& robot) {
+  if (!client_.WaitForRobot(robot, 3.0)) {
+    CommandOutcome o;
+    o.result = outcome::kRefused;
+    o.reason = "unknown robot '" + robot + "'" + DidYouMeanText(robot, client_.RobotIds());
+    return Report("help", robot, o);
+  }
+  client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return v.state.has_value() && v.tree.has_value(); });
+  const auto view = FreshView(robot);
+  const std::vector<std::string> actions = ValidActions(*view, client_.base_id());
+  if (json_) {
+    out_ << json{{"command", "help"}, {"robot", robot}, {"ok", true}, {"result", outcome::kAccepted},
+                 {"valid_actions", actions}}
+                .dump()
+         << std::endl;
+    return kOk;
+  }
+  out_ << robot << ": " << ValidActionsText(*view, client_.base_id()) << "\n";
+  static const std::map<std::string, std::string> kUsage = {
+      {"request-control", "request-control R"}, {"release", "release R"},
+      {"mode", "mode R MODE"},                  {"goto", "goto R POINT [TOL] [--wait [TIMEOUT_S]]"},
+      {"teleop", "teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]"}, {"stop", "stop R|all"}};
+  for (const auto& action : actions) {
+    const std::string verb = action.substr(0, action.find(' '));
+    if (auto it = kUsage.find(verb); it != kUsage.end()) out_ << "  " << it->second << "\n";
+  }
+  out_.flush();
+  return kOk;
 }
 
 int CommandShell::Control(const std::vector<std::string>& args, bool request) {
@@ -306,8 +588,86 @@ int CommandShell::Mode(const std::vector<std::string>& args) {
   return Report("mode", args[0], client_.RequestMode(args[0], args[1]));
 }
 
+int CommandShell::Stop(const std::vector<std::string>& args) {
+  if (args[0] != "all") return Report("stop", args[0], client_.Stop(args[0]));
+  std::this_thread::sleep_until(created_ + std::chrono::milliseconds(1500));  // discovery
+  std::vector<std::string> robots;
+  for (const auto& v : client_.Robots()) {
+    if (!v.lost) robots.push_back(v.robot_id);
+  }
+  // Every stop at once: a fleet stop must not wait for one robot's round trip before the next.
+  std::vector<CommandOutcome> outcomes(robots.size());
+  std::vector<std::thread> senders;
+  for (std::size_t i = 0; i < robots.size(); ++i) {
+    senders.emplace_back([&, i] { outcomes[i] = client_.Stop(robots[i]); });
+  }
+  for (auto& t : senders) t.join();
+  bool all_ok = true;
+  json results = json::array();
+  for (std::size_t i = 0; i < robots.size(); ++i) {
+    all_ok = all_ok && outcomes[i].ok;
+    if (json_) {
+      results.push_back({{"robot", robots[i]}, {"ok", outcomes[i].ok}, {"result", outcomes[i].result},
+                         {"reason", outcomes[i].reason}});
+    } else {
+      out_ << "stop " << robots[i] << ": " << outcomes[i].result << ": " << outcomes[i].reason << "\n";
+    }
+  }
+  if (json_) {
+    out_ << json{{"command", "stop"}, {"robot", "all"}, {"ok", all_ok && !robots.empty()},
+                 {"result", all_ok && !robots.empty() ? outcome::kAccepted : outcome::kFailed},
+                 {"robots", results}}
+                .dump()
+         << std::endl;
+  } else if (robots.empty()) {
+    out_ << "stop all: " << outcome::kFailed << ": no live robot known" << std::endl;
+  }
+  out_.flush();
+  return all_ok && !robots.empty() ? kOk : kRefused;
+}
+
+bool CommandShell::ParsePoint(const std::vector<std::string>& args, std::size_t first, double* x_m, double* y_m,
+                              std::size_t* used, std::string* error) const {
+  if (first >= args.size()) {
+    *error = "missing point (X Y, X,Y or a place name)";
+    return false;
+  }
+  const std::string& word = args[first];
+  if (const auto comma = word.find(','); comma != std::string::npos) {
+    *used = 1;
+    return ParseNumber(word.substr(0, comma), "X", x_m, error) && ParseNumber(word.substr(comma + 1), "Y", y_m, error);
+  }
+  // A word that reads as a number (nan and inf included, refused below as not finite) is X; else a place.
+  std::size_t numeric = 0;
+  try {
+    std::stod(word, &numeric);
+  } catch (const std::exception&) {
+    numeric = 0;
+  }
+  if (numeric != word.size()) {
+    const char first_char = word.empty() ? '\0' : word[0];
+    if (!std::isalpha(static_cast<unsigned char>(first_char))) return ParseNumber(word, "X", x_m, error);
+    const auto place = places_.Find(word);
+    if (!place) {
+      *error = "unknown place '" + word + "'" + DidYouMeanText(word, places_.Names()) +
+               " (places: add one with place add NAME X Y)";
+      return false;
+    }
+    *x_m = place->x_m;
+    *y_m = place->y_m;
+    *used = 1;
+    return true;
+  }
+  *used = 2;
+  if (first + 1 >= args.size()) {
+    *error = "missing Y after X '" + word + "' (give X Y, X,Y or a place name)";
+    return false;
+  }
+  return ParseNumber(word, "X", x_m, error) && ParseNumber(args[first + 1], "Y", y_m, error);
+}
+
 int CommandShell::Goto(const std::vector<std::string>& all_args) {
-  static const char* kUsageText = "usage: goto R X Y [TOL] [--wait [TIMEOUT_S]]";
+  static const char* kUsageText = "usage: goto R X Y|X,Y|PLACE [TOL] [--wait [TIMEOUT_S]]";
   std::vector<std::string> args;
   bool wait = false;
   double timeout = 600;
@@ -326,18 +686,19 @@ int CommandShell::Goto(const std::vector<std::string>& all_args) {
       break;
     }
   }
-  if (args.size() != 3 && args.size() != 4) return UsageError("goto", kUsageText);
+  if (args.size() < 2) return UsageError("goto", kUsageText);
   double x = 0, y = 0, tolerance = 0;
-  if (!ParseNumber(args[1], "X", &x, &error) || !ParseNumber(args[2], "Y", &y, &error) ||
-      (args.size() == 4 && !ParseNumber(args[3], "TOL", &tolerance, &error))) {
-    return UsageError("goto", error);
-  }
+  std::size_t used = 0;
+  if (!ParsePoint(args, 1, &x, &y, &used, &error)) return UsageError("goto", error);
+  const std::size_t rest = 1 + used;
+  if (args.size() > rest + 1) return UsageError("goto", kUsageText);
+  if (args.size() == rest + 1 && !ParseNumber(args[rest], "TOL", &tolerance, &error)) return UsageError("goto", error);
   const CommandOutcome o = client_.SendWaypoint(args[0], x, y, tolerance);
   if (o.ok) last_goal_id_[args[0]] = o.goal_id;
   if (!o.ok || !wait) return Report("goto", args[0], o);
   // With --wait, one result line ends the command (JSON: the acceptance is a progress line before it).
   if (json_) {
-    out_ << json{{"command", "goto"}, {"robot", args[0]}, {"progress", true}, {"accepted", true},
+    out_ << json{{"command", "goto"}, {"robot", args[0]},        {"progress", true},   {"accepted", true},
                  {"reason", o.reason}, {"request_id", o.request_id}, {"goal_id", o.goal_id}}
                 .dump()
          << std::endl;
@@ -368,12 +729,21 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
     return s.nav_status() == msgs::NAV_STATUS_ARRIVED || !failure.empty();
   };
   const auto start = core::SteadyClock::now();
+  auto last_progress = start;
   std::optional<RobotView> view;
+  bool cancelled = false;
   while (true) {
     const double left = timeout_s - core::SecondsBetween(start, core::SteadyClock::now());
     if (left <= 0) break;
-    view = client_.WaitUntil(robot, std::min(2.0, left), done);
+    view = client_.WaitUntil(robot, std::min(0.1, left), done);
     if (view) break;
+    if (Cancelled()) {
+      cancelled = true;
+      break;
+    }
+    PrintEvents();  // news about the rest of the fleet while this robot drives
+    if (core::SecondsBetween(last_progress, core::SteadyClock::now()) < 2.0) continue;
+    last_progress = core::SteadyClock::now();
     const auto now_view = client_.Robot(robot);  // progress, printed outside the client's lock
     if (!now_view || !now_view->state || now_view->state->nav_status() != msgs::NAV_STATUS_ACTIVE ||
         (goal_id != 0 && now_view->state->nav_goal_id() != goal_id)) {
@@ -382,9 +752,13 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
     const auto& s = *now_view->state;
     const std::string eta = s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "unknown";
     if (json_) {
-      out_ << json{{"command", command}, {"robot", robot}, {"progress", true},
-                   {"distance_left_m", s.nav_distance_left_m()}, {"eta_s", s.nav_eta_s()},
-                   {"local_planner", s.local_planner_status()}, {"replans", s.nav_replans()}}
+      out_ << json{{"command", command},
+                   {"robot", robot},
+                   {"progress", true},
+                   {"distance_left_m", s.nav_distance_left_m()},
+                   {"eta_s", s.nav_eta_s()},
+                   {"local_planner", s.local_planner_status()},
+                   {"replans", s.nav_replans()}}
                   .dump()
            << std::endl;
     } else {
@@ -398,10 +772,16 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
   }
   CommandOutcome o;
   o.ok = view.has_value() && failure.empty();
-  o.result = o.ok ? "accepted" : (view ? "failed" : "timeout");
-  o.reason = !failure.empty() ? failure
-             : view ? "arrived after " + Fixed(core::SecondsBetween(start, core::SteadyClock::now()), 2) + " s"
-                    : "robot " + robot + " not arrived within " + Fixed(timeout_s, 1) + " s";
+  o.result = o.ok ? outcome::kAccepted
+             : cancelled ? "cancelled"
+             : view      ? outcome::kFailed
+                         : outcome::kTimedOut;
+  const std::string elapsed = Fixed(core::SecondsBetween(start, core::SteadyClock::now()), 2);
+  o.reason = cancelled            ? "stopped waiting after " + elapsed + " s (Ctrl-C); " + robot +
+                             " drives on: stop " + robot + " to stop it"
+             : !failure.empty() ? failure
+             : view             ? "arrived after " + elapsed + " s"
+                                : "robot " + robot + " not arrived within " + Fixed(timeout_s, 1) + " s";
   if (view && view->state) {
     o.mode = view->state->mode();
     o.holder_id = view->state->holder_id();
@@ -409,214 +789,6 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
   o.goal_id = goal_id;
   o.round_trip_ms = core::SecondsBetween(start, core::SteadyClock::now()) * 1000.0;
   return Report(command == "goto" ? "goto" : "wait", robot, o);
-}
-
-namespace {
-
-json PointsJson(const std::vector<msgs::Point>& points) {
-  json list = json::array();
-  for (const auto& p : points) list.push_back({p.x_m(), p.y_m(), p.z_m()});
-  return list;
-}
-
-std::string PointsText(const std::vector<msgs::Point>& points) {
-  std::string text;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    text += "  " + std::to_string(i) + ": (" + Fixed(points[i].x_m(), 2) + ", " + Fixed(points[i].y_m(), 2) + ", " +
-            Fixed(points[i].z_m(), 2) + ")\n";
-  }
-  return text;
-}
-
-}  // namespace
-
-int CommandShell::Map(const std::vector<std::string>& args) {
-  const std::string& target = args[0];
-  const std::string& path = args[2];
-  if (path.size() < 4 || path.substr(path.size() - 3) != ".bt") {
-    return UsageError("map", "FILE '" + path + "' must end in .bt (OctoMap binary)");
-  }
-  const MapSaveResult r = client_.perception().SaveMap(target, path, /*sync_timeout_s=*/10.0);
-  if (json_) {
-    json j = {{"command", "map"}, {"target", target}, {"ok", r.ok}, {"file", path}};
-    if (r.ok) {
-      j["voxels"] = r.voxels;
-      j["occupied"] = r.occupied;
-      j["resolution_m"] = r.resolution_m;
-    } else {
-      j["reason"] = r.error;
-    }
-    out_ << j.dump() << std::endl;
-  } else if (r.ok) {
-    out_ << "map " << target << ": " << r.voxels << " voxels (" << r.occupied << " occupied) at "
-         << Fixed(r.resolution_m, 2) << " m saved to " << path << std::endl;
-  } else {
-    out_ << "map " << target << ": failed: " << r.error << std::endl;
-  }
-  return r.ok ? kOk : kRefused;
-}
-
-int CommandShell::Snapshot(const std::vector<std::string>& args) {
-  const std::string& robot = args[0];
-  const std::string& path = args[1];
-  double timeout_s = 5.0;
-  std::string error;
-  if (args.size() == 3 && (!ParseNumber(args[2], "TIMEOUT_S", &timeout_s, &error) || timeout_s <= 0 ||
-                           timeout_s > 600)) {
-    return UsageError("snapshot", error.empty() ? "TIMEOUT_S '" + args[2] + "' must be in (0, 600]" : error);
-  }
-  // The next frame, so that the picture is from now, not from whenever the last one arrived.
-  const auto latest = client_.perception().LatestFrame(robot);
-  const auto view = client_.perception().WaitForFrame(robot, latest ? latest->frames_received : 0, timeout_s);
-  auto fail = [&](const std::string& reason) {
-    CommandOutcome o;
-    o.result = "error";
-    o.reason = reason;
-    return Report("snapshot", robot, o);
-  };
-  if (!view) {
-    return fail("no camera frame from robot " + robot + " within " + Fixed(timeout_s, 1) +
-                " s (unknown robot, camera off, or frames dropped on a saturated link)");
-  }
-  std::ofstream file(path, std::ios::binary);
-  const auto& data = view->frame.data();
-  file.write(reinterpret_cast<const char*>(data.data()), static_cast<std::streamsize>(data.size()));
-  file.close();
-  if (!file) return fail("cannot write '" + path + "'");
-  const auto& p = view->frame.pose_MC().position();
-  if (json_) {
-    out_ << json{{"command", "snapshot"}, {"robot", robot}, {"ok", true}, {"file", path},
-                 {"bytes", data.size()}, {"width_px", view->frame.width_px()}, {"height_px", view->frame.height_px()},
-                 {"seq", view->frame.seq()}, {"frames_missed", view->frames_missed},
-                 {"x_m", p.x_m()}, {"y_m", p.y_m()}, {"z_m", p.z_m()}}
-                .dump()
-         << std::endl;
-  } else {
-    out_ << "snapshot " << robot << ": frame " << view->frame.seq() << ", " << view->frame.width_px() << "x"
-         << view->frame.height_px() << " JPEG, " << data.size() << " bytes, camera at (" << Fixed(p.x_m(), 2) << ", "
-         << Fixed(p.y_m(), 2) << ", " << Fixed(p.z_m(), 2) << ") saved to " << path << std::endl;
-  }
-  return kOk;
-}
-
-int CommandShell::Stairs() {
-  const auto entries = client_.perception().Staircases();
-  if (json_) {
-    json list = json::array();
-    for (const auto& e : entries) list.push_back(StaircaseJson(e));
-    out_ << json{{"command", "stairs"}, {"ok", true}, {"staircases", list}}.dump() << std::endl;
-    return kOk;
-  }
-  if (entries.empty()) {
-    out_ << "stairs: none found" << std::endl;
-    return kOk;
-  }
-  for (const auto& e : entries) {
-    out_ << "staircase " << e.id << ": " << DescribeStaircase(e) << ", confidence " << Fixed(e.staircase.confidence, 2)
-         << std::endl;
-  }
-  return kOk;
-}
-
-int CommandShell::Path(const std::vector<std::string>& args) {
-  const std::string& robot = args[0];
-  // The path is latched: a fresh basestation receives it shortly after discovery. After this shell's own
-  // goto, wait for that goal's path.
-  const uint32_t goal_id = last_goal_id_.count(robot) ? last_goal_id_[robot] : 0;
-  auto view = client_.WaitUntil(robot, 3.0, [goal_id](const RobotView& v) {
-    return v.global_path.has_value() && (goal_id == 0 || v.global_path->goal_id() == goal_id ||
-                                         (v.state && v.state->nav_goal_id() == goal_id &&
-                                          v.state->nav_status() != msgs::NAV_STATUS_ACTIVE));
-  });
-  if (!view) view = client_.Robot(robot);
-  if (view && !view->global_path) view.reset();
-  if (!view) {
-    CommandOutcome o;
-    o.result = "error";
-    o.reason = client_.Robot(robot) ? "robot " + robot + " has published no global path" : "unknown robot '" + robot + "'";
-    return Report("path", robot, o);
-  }
-  const auto& p = *view->global_path;
-  if (json_) {
-    out_ << json{{"command", "path"},        {"robot", robot},       {"ok", true},
-                 {"goal_id", p.goal_id()},   {"platform", p.platform()}, {"frame_id", p.frame_id()},
-                 {"length_m", p.length_m()}, {"map_version", p.map_version()}, {"replans", p.replans()},
-                 {"path", PointsJson(p.path_M())}}
-                .dump()
-         << std::endl;
-    return kOk;
-  }
-  if (p.path_M().empty()) {
-    out_ << "path " << robot << ": none (no active goal)" << std::endl;
-    return kOk;
-  }
-  out_ << "path " << robot << ": goal " << p.goal_id() << ", " << Fixed(p.length_m(), 1) << " m, "
-       << p.path_M().size() << " waypoints (frame " << p.frame_id() << ", platform " << p.platform()
-       << ", map version " << p.map_version() << ", " << p.replans() << " replans)" << std::endl
-       << PointsText(p.path_M());
-  return kOk;
-}
-
-int CommandShell::Plan(const std::vector<std::string>& args) {
-  static const char* kUsageText = "usage: plan R X Y [--from X,Y] [--platform P]";
-  std::vector<std::string> positional;
-  std::string platform, from;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    if ((args[i] == "--from" || args[i] == "--platform") && i + 1 < args.size()) {
-      (args[i] == "--from" ? from : platform) = args[i + 1];
-      ++i;
-    } else if (args[i].rfind("--", 0) == 0) {
-      return UsageError("plan", "unknown or incomplete option '" + args[i] + "'; " + kUsageText);
-    } else {
-      positional.push_back(args[i]);
-    }
-  }
-  if (positional.size() != 3) return UsageError("plan", kUsageText);
-  const std::string& robot = positional[0];
-  double gx = 0, gy = 0, sx = 0, sy = 0;
-  std::string error;
-  if (!ParseNumber(positional[1], "X", &gx, &error) || !ParseNumber(positional[2], "Y", &gy, &error)) {
-    return UsageError("plan", error);
-  }
-  if (!from.empty()) {
-    const auto comma = from.find(',');
-    if (comma == std::string::npos || !ParseNumber(from.substr(0, comma), "--from X", &sx, &error) ||
-        !ParseNumber(from.substr(comma + 1), "--from Y", &sy, &error)) {
-      return UsageError("plan", error.empty() ? "--from '" + from + "' must be X,Y" : error);
-    }
-  } else {
-    const auto view = client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return v.state.has_value(); });
-    if (!view) {
-      CommandOutcome o;
-      o.result = "error";
-      o.reason = "no state from robot '" + robot + "' to plan from (give --from X,Y)";
-      return Report("plan", robot, o);
-    }
-    sx = view->state->pose_MB().position().x_m();
-    sy = view->state->pose_MB().position().y_m();
-  }
-  const PathAnswer a = client_.RequestPath(robot, platform, sx, sy, gx, gy);
-  if (json_) {
-    json j = {{"command", "plan"}, {"robot", robot}, {"ok", a.ok}, {"result", a.result}, {"reason", a.reason},
-              {"round_trip_ms", a.round_trip_ms}};
-    if (a.result == "path" || a.result == "refused") {
-      j["status"] = a.response.status();
-      j["length_m"] = a.response.length_m();
-      j["planning_time_s"] = a.response.planning_time_s();
-      j["map_version"] = a.response.map_version();
-      j["path"] = PointsJson(a.response.path_M());
-    }
-    out_ << j.dump() << std::endl;
-  } else if (a.ok) {
-    out_ << "plan " << robot << ": path " << Fixed(a.response.length_m(), 1) << " m, "
-         << a.response.path_M().size() << " waypoints, planned in "
-         << Fixed(a.response.planning_time_s() * 1000.0, 1) << " ms (map version " << a.response.map_version() << ")"
-         << std::endl
-         << PointsText(a.response.path_M());
-  } else {
-    out_ << "plan " << robot << ": " << a.result << ": " << a.reason << std::endl;
-  }
-  return a.ok ? kOk : kRefused;
 }
 
 int CommandShell::Teleop(const std::vector<std::string>& args) {
@@ -631,33 +803,62 @@ int CommandShell::Teleop(const std::vector<std::string>& args) {
     return UsageError("teleop", "DURATION_S '" + args[3] + "' must be in (0, 600]");
   }
   const std::string& robot = args[0];
+  if (!client_.WaitForRobot(robot, 3.0)) {
+    CommandOutcome o;
+    o.result = outcome::kRefused;
+    o.reason = "unknown robot '" + robot + "'" + DidYouMeanText(robot, client_.RobotIds());
+    return Report("teleop", robot, o);
+  }
   // A mode switch made just before may not show in the state yet (10 Hz): give it half a second.
   const auto driving = [](const RobotView& v) {
     return v.state && (v.state->mode() == "manual" || v.state->mode() == "smart_joystick");
   };
-  auto view = client_.WaitForRobot(robot, 3.0) ? client_.WaitUntil(robot, 0.5, driving) : std::nullopt;
+  auto view = client_.WaitUntil(robot, 0.5, driving);
   if (!view) view = client_.Robot(robot);
+  // Limits applied with a notice: a value typed in the wrong unit (80 for 0.8) is not silently clamped.
+  std::string notice;
+  auto clamp = [&](double* value, double low, double high, const char* what, const char* unit) {
+    if (high <= 0 || (*value >= low && *value <= high)) return;
+    const double asked = *value;
+    *value = std::clamp(*value, low, high);
+    notice += (notice.empty() ? "" : "; ") + Fixed(std::abs(*value), 2) + " " + unit + " is " + robot + "'s " +
+              what + ": sent " + Fixed(*value, 2) + " (asked " + Fixed(asked, 2) + ")";
+  };
+  if (view) {
+    clamp(&vx, -view->max_reverse_speed_mps, view->max_speed_mps,
+          vx < 0 ? "largest reverse speed" : "largest speed", "m/s");
+    clamp(&vy, -view->max_speed_mps, view->max_speed_mps, "largest speed", "m/s");
+    clamp(&wz, -view->max_yaw_rate_radps, view->max_yaw_rate_radps, "largest yaw rate", "rad/s");
+  }
   std::string mode = "manual";
   if (view && view->state && view->state->mode() == "smart_joystick") {
     mode = "smart_joystick";
   } else if (!view || !view->state || view->state->mode() != "manual") {
     const CommandOutcome o = client_.RequestMode(robot, "manual");
-    if (!o.ok) return Report("teleop", robot, o);
+    if (!o.ok) return Report("teleop", robot, o, notice);
   }
   // Stream at 10 Hz for the duration, then fall silent: the robot's mux stops it after teleop_timeout_s.
   const auto start = core::SteadyClock::now();
   int sent = 0;
+  bool cancelled = false;
   for (int tick = 0; core::SecondsBetween(start, core::SteadyClock::now()) < duration; ++tick) {
+    if (Cancelled()) {
+      cancelled = true;
+      client_.PublishTeleop(robot, 0.0, 0.0, 0.0);  // a zero stick: the robot brakes now
+      break;
+    }
     if (client_.PublishTeleop(robot, vx, wz, vy)) ++sent;
     std::this_thread::sleep_until(start + std::chrono::milliseconds(100 * (tick + 1)));
   }
   CommandOutcome o;
-  o.ok = true;
-  o.result = "accepted";
-  o.reason = "sent " + std::to_string(sent) + " twists over " + Fixed(duration, 1) + " s";
+  o.ok = !cancelled;
+  o.result = cancelled ? "cancelled" : outcome::kAccepted;
+  o.reason = "sent " + std::to_string(sent) + " twists over " +
+             Fixed(core::SecondsBetween(start, core::SteadyClock::now()), 1) + " s" +
+             (cancelled ? " (Ctrl-C: a zero twist followed)" : "");
   o.mode = mode;
   if (const auto v = client_.Robot(robot); v && v->state) o.holder_id = v->state->holder_id();
-  return Report("teleop", robot, o);
+  return Report("teleop", robot, o, notice);
 }
 
 int CommandShell::Wait(const std::vector<std::string>& args) {
@@ -682,15 +883,29 @@ int CommandShell::Wait(const std::vector<std::string>& args) {
   } else if (what == "lost") {
     done = [](const RobotView& v) { return v.lost; };
   } else {
-    return UsageError("wait", "condition '" + what + "' is not one of arrived, idle, mode=M, online, lost");
+    return UsageError("wait", "condition '" + what + "' is not one of arrived, idle, mode=M, online, lost" +
+                                  DidYouMeanText(what, {"arrived", "idle", "online", "lost"}));
   }
   const auto start = core::SteadyClock::now();
-  const auto view = client_.WaitUntil(robot, timeout, done);
+  std::optional<RobotView> view;
+  bool cancelled = false;
+  while (!view) {
+    const double left = timeout - core::SecondsBetween(start, core::SteadyClock::now());
+    view = client_.WaitUntil(robot, std::max(0.0, std::min(0.1, left)), done);
+    if (view || left <= 0.1) break;
+    if (Cancelled()) {
+      cancelled = true;
+      break;
+    }
+    PrintEvents();
+  }
   CommandOutcome o;
   o.ok = view.has_value();
-  o.result = o.ok ? "accepted" : "timeout";
-  o.reason = view ? what + " after " + Fixed(core::SecondsBetween(start, core::SteadyClock::now()), 2) + " s"
-                  : "robot " + robot + " not " + what + " within " + Fixed(timeout, 1) + " s";
+  o.result = o.ok ? outcome::kAccepted : cancelled ? "cancelled" : outcome::kTimedOut;
+  const std::string elapsed = Fixed(core::SecondsBetween(start, core::SteadyClock::now()), 2);
+  o.reason = view        ? what + " after " + elapsed + " s"
+             : cancelled ? "stopped waiting after " + elapsed + " s (Ctrl-C)"
+                         : "robot " + robot + " not " + what + " within " + Fixed(timeout, 1) + " s";
   if (view && view->state) {
     o.mode = view->state->mode();
     o.holder_id = view->state->holder_id();
@@ -705,7 +920,88 @@ int CommandShell::Sleep(const std::vector<std::string>& args) {
   if (!ParseNumber(args[0], "S", &seconds, &error) || seconds < 0 || seconds > 3600) {
     return UsageError("sleep", error.empty() ? "S '" + args[0] + "' must be in [0, 3600]" : error);
   }
-  std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+  const auto until = core::SteadyClock::now() + std::chrono::duration_cast<core::SteadyClock::duration>(
+                                                     std::chrono::duration<double>(seconds));
+  bool cancelled = false;
+  while (core::SteadyClock::now() < until && !cancelled) {
+    std::this_thread::sleep_for(std::min<core::SteadyClock::duration>(std::chrono::milliseconds(50),
+                                                                       until - core::SteadyClock::now()));
+    cancelled = Cancelled();
+  }
+  if (json_) {  // one JSON object per command, so that a program driving --json never waits for nothing
+    out_ << json{{"command", "sleep"}, {"ok", !cancelled}, {"result", cancelled ? "cancelled" : outcome::kAccepted}}
+                .dump()
+         << std::endl;
+  }
+  return cancelled ? kRefused : kOk;
+}
+
+int CommandShell::Place(const std::vector<std::string>& args) {
+  static const char* kUsageText = "usage: place add NAME X Y|X,Y [Z] | place remove NAME";
+  if (args.empty()) return UsageError("place", kUsageText);
+  std::string message;
+  if (args[0] == "add" && args.size() >= 3) {
+    base::Place place;
+    place.name = args[1];
+    std::string error;
+    if (!Places::IsValidName(place.name, &error)) return UsageError("place", error);
+    std::size_t used = 0;
+    double probe = 0;
+    if (!ParseNumber(args[2], "X", &probe, &error) && args[2].find(',') == std::string::npos) {
+      return UsageError("place", error);
+    }
+    if (!ParsePoint(args, 2, &place.x_m, &place.y_m, &used, &error)) return UsageError("place", error);
+    if (args.size() > 2 + used + 1) return UsageError("place", kUsageText);
+    if (args.size() == 2 + used + 1 && !ParseNumber(args[2 + used], "Z", &place.z_m, &error)) {
+      return UsageError("place", error);
+    }
+    places_.Add(place);
+    message = "place " + place.name + " = (" + Fixed(place.x_m, 2) + ", " + Fixed(place.y_m, 2) + ", " +
+              Fixed(place.z_m, 2) + ")";
+  } else if (args[0] == "remove" && args.size() == 2) {
+    if (!places_.Remove(args[1])) {
+      return UsageError("place", "unknown place '" + args[1] + "'" + DidYouMeanText(args[1], places_.Names()));
+    }
+    message = "place " + args[1] + " removed";
+  } else {
+    return UsageError("place", kUsageText);
+  }
+  std::string where = options_.places_file.empty() ? " (this session only: start cairn_base with --places FILE "
+                                                     "to keep places)"
+                                                   : " (saved to " + options_.places_file + ")";
+  try {
+    places_.Save();
+  } catch (const std::exception& e) {
+    CommandOutcome o;
+    o.result = outcome::kFailed;
+    o.reason = message + " but not saved: " + e.what();
+    return Report("place", args[1], o);
+  }
+  if (json_) {
+    out_ << json{{"command", "place"}, {"ok", true}, {"result", outcome::kAccepted}, {"reason", message + where}}.dump()
+         << std::endl;
+  } else {
+    out_ << "place: " << outcome::kAccepted << ": " << message << where << std::endl;
+  }
+  return kOk;
+}
+
+int CommandShell::ListPlaces() {
+  const auto all = places_.All();
+  if (json_) {
+    json list = json::array();
+    for (const auto& p : all) list.push_back({{"name", p.name}, {"x_m", p.x_m}, {"y_m", p.y_m}, {"z_m", p.z_m}});
+    out_ << json{{"command", "places"}, {"ok", true}, {"result", outcome::kAccepted}, {"places", list}}.dump()
+         << std::endl;
+    return kOk;
+  }
+  if (all.empty()) {
+    out_ << "places: none (add one with place add NAME X Y)" << std::endl;
+    return kOk;
+  }
+  std::vector<std::vector<std::string>> rows = {{"PLACE", "X_M", "Y_M", "Z_M"}};
+  for (const auto& p : all) rows.push_back({p.name, Fixed(p.x_m, 2), Fixed(p.y_m, 2), Fixed(p.z_m, 2)});
+  PrintTable(out_, rows);
   return kOk;
 }
 

@@ -1,8 +1,14 @@
 #include "cairn/base/fleet_client.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <deque>
 #include <regex>
+#include <set>
+#include <thread>
+
+#include "cairn/base/operator_text.h"
 
 #include "cairn/core/dds.h"
 #include "cairn/msgs/stamp.h"
@@ -14,18 +20,6 @@ namespace msgs = cairn_msgs;
 using core::SteadyClock;
 
 namespace {
-
-const char* ResultName(msgs::CommandResult result) {
-  switch (result) {
-    case msgs::COMMAND_RESULT_ACCEPTED:
-      return "accepted";
-    case msgs::COMMAND_RESULT_DENIED:
-      return "denied";
-    case msgs::COMMAND_RESULT_DISCARDED:
-      return "discarded";
-  }
-  return "error";
-}
 
 // Identifies one command to one robot, to match its acknowledgement.
 std::string ResponseKey(const std::string& robot_id, msgs::CommandKind kind, uint32_t request_id) {
@@ -41,6 +35,15 @@ class FleetClient::Impl {
     if (!std::regex_match(options.base_id, kIdPattern)) {
       throw std::invalid_argument("--base-id '" + options.base_id + "' must be 1-64 characters of A-Z a-z 0-9 _ -");
     }
+    std::string why;
+    if (!options.events.IsValid(&why)) throw std::invalid_argument("events: " + why);
+    if (!(options.discovery_s > 0 && options.discovery_s <= 60)) {
+      throw std::invalid_argument("discovery_s = " + std::to_string(options.discovery_s) + " must be in (0, 60]");
+    }
+    if (options.events_kept < 1 || options.events_kept > 100000) {
+      throw std::invalid_argument("events_kept = " + std::to_string(options.events_kept) + " must be in [1, 100000]");
+    }
+    detector_ = FleetEventDetector(options.events);
     core::ParticipantOptions p;
     p.domain_id = options.domain_id;
     if (!options.dds_profiles_file.empty()) p.profiles_file = options.dds_profiles_file;
@@ -68,6 +71,7 @@ class FleetClient::Impl {
           Update(m.robot_id(), [&](RobotView& v) {
             v.state = m;
             v.platform = m.platform();
+            v.state_received = SteadyClock::now();
           });
         });
     path_request_writer_ = std::make_unique<core::Writer<msgs::PathRequestPubSubType>>(
@@ -78,6 +82,7 @@ class FleetClient::Impl {
           if (m.requester_id() != options_.base_id || m.requester_participant() != participant_id_) return;
           {
             std::lock_guard<std::mutex> lock(mutex_);
+            if (awaited_paths_.count(m.request_id()) == 0) return;  // a late duplicate of an answered request
             path_responses_[m.request_id()] = m;
           }
           cv_.notify_all();
@@ -105,6 +110,10 @@ class FleetClient::Impl {
           Update(m.agent_id(), [&](RobotView& v) {
             v.platform = m.platform();
             v.capabilities = m.capabilities();
+            v.max_speed_mps = std::isfinite(m.max_speed_mps()) ? std::max(0.0, m.max_speed_mps()) : 0.0;
+            v.max_reverse_speed_mps =
+                std::isfinite(m.max_reverse_speed_mps()) ? std::max(0.0, m.max_reverse_speed_mps()) : 0.0;
+            v.max_yaw_rate_radps = std::isfinite(m.max_yaw_rate_radps()) ? std::max(0.0, m.max_yaw_rate_radps()) : 0.0;
           });
           perception_->OnRobotSeen(m.agent_id());
         },
@@ -118,9 +127,16 @@ class FleetClient::Impl {
     info.version("0.1.0");
     info.stamp(cairn::msgs::WallStampNow());
     info_writer_->Write(info);
+    monitor_ = std::thread([this] { MonitorLoop(); });
   }
 
   ~Impl() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_monitor_ = true;
+    }
+    cv_.notify_all();
+    if (monitor_.joinable()) monitor_.join();
     response_reader_.reset();
     path_response_reader_.reset();
     global_path_reader_.reset();
@@ -146,13 +162,19 @@ class FleetClient::Impl {
   }
 
   void OnLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status) {
+    if (status.alive_count_change == 0 && status.not_alive_count_change < 0) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      robot_by_writer_.erase(status.last_publication_handle);  // a lapsed writer unmatched: gone for good
+      return;
+    }
     if (!core::IsLivelinessLoss(status)) return;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       auto it = robot_by_writer_.find(status.last_publication_handle);
       if (it == robot_by_writer_.end()) return;
       const std::string robot_id = it->second;
-      if (status.not_alive_count_change == 0) robot_by_writer_.erase(it);  // unmatched: that process is gone
+      // Unmatched while alive (alive -1, not_alive 0): that process is gone for good.
+      if (status.not_alive_count_change == 0) robot_by_writer_.erase(it);
       // An old process of a robot that has restarted (a new writer announces its id) does not make it lost.
       auto current = current_writer_.find(robot_id);
       if (current == current_writer_.end() || !(current->second == status.last_publication_handle)) return;
@@ -169,7 +191,9 @@ class FleetClient::Impl {
     if (m.base_id() != options_.base_id || m.requester_participant() != participant_id_) return;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      responses_[ResponseKey(m.robot_id(), m.kind(), m.request_id())] = m;
+      const std::string key = ResponseKey(m.robot_id(), m.kind(), m.request_id());
+      if (awaited_.count(key) == 0) return;  // a replayed answer to a request already answered
+      responses_[key] = m;
     }
     cv_.notify_all();
   }
@@ -211,36 +235,84 @@ class FleetClient::Impl {
     CommandOutcome outcome;
     outcome.request_id = next_request_id_++;
     if (!WaitForRobot(robot_id, options_.command_timeout_s)) {
-      outcome.result = "error";
+      outcome.result = outcome::kRefused;
       outcome.reason = UnknownRobotReason(robot_id);
       return outcome;
     }
     const std::string key = ResponseKey(robot_id, kind, outcome.request_id);
     const auto start = SteadyClock::now();
     std::unique_lock<std::mutex> lock(mutex_);
-    if (!SendUntil(robot_id, outcome.request_id, send, [&] { return responses_.count(key) > 0; }, &lock,
-                   &outcome.reason)) {
-      outcome.result = "timeout";
+    awaited_.insert(key);
+    const bool answered =
+        SendUntil(robot_id, outcome.request_id, send, [&] { return responses_.count(key) > 0; }, &lock,
+                  &outcome.reason);
+    awaited_.erase(key);
+    if (!answered) {
+      outcome.result = outcome::kTimedOut;
       return outcome;
     }
     const msgs::CommandResponse r = responses_[key];
     responses_.erase(key);
     outcome.round_trip_ms = std::chrono::duration<double, std::milli>(SteadyClock::now() - start).count();
     outcome.ok = r.result() == msgs::COMMAND_RESULT_ACCEPTED;
-    outcome.result = ResultName(r.result());
-    outcome.reason = r.reason();
+    outcome.result = outcome.ok ? outcome::kAccepted : outcome::kRefused;
+    const OperatorReason why = ExplainReason(robot_id, r.reason());
+    outcome.reason = why.text;
+    outcome.robot_reason = r.reason();
+    outcome.condition = r.result() == msgs::COMMAND_RESULT_DISCARDED ? "lock" : why.condition;
     outcome.holder_id = r.holder_id();
     outcome.mode = r.mode();
     outcome.goal_id = r.goal_id();
+    outcome.answered = true;
+    outcome.valid_modes = r.valid_modes();
+    outcome.goal_acceptable = r.goal_acceptable();
     return outcome;
   }
 
+  // Watches the fleet at 10 Hz: staleness and proximity change without a message, so polling it is.
+  void MonitorLoop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!stop_monitor_) {
+      std::vector<RobotView> views;
+      const auto now = SteadyClock::now();
+      for (const auto& [id, view] : robots_) views.push_back(WithStaleness(view, now));
+      std::vector<OperatorEvent> events = detector_.Observe(views);
+      lock.unlock();
+      for (const FleetEvent& f : perception_->TakeEvents()) {
+        OperatorEvent e;
+        e.kind = f.kind;
+        e.message = f.message;
+        e.staircase = f.staircase;
+        events.push_back(e);
+      }
+      lock.lock();
+      for (auto& e : events) {
+        pending_events_.push_back(e);
+        recent_events_.push_back(std::move(e));
+        if (recent_events_.size() > options_.events_kept) recent_events_.pop_front();
+        if (pending_events_.size() > options_.events_kept) pending_events_.pop_front();
+      }
+      if (!events.empty()) cv_.notify_all();
+      cv_.wait_for(lock, std::chrono::milliseconds(100), [this] { return stop_monitor_; });
+    }
+  }
+
+  // Waits up to `timeout_s` for `robot_id` to be known and alive. A robot still unknown once discovery_s has
+  // passed since this client started is refused at once (no 3 s wait for a typo).
   bool WaitForRobot(const std::string& robot_id, double timeout_s) const {
     std::unique_lock<std::mutex> lock(mutex_);
-    return cv_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] {
+    const auto discovered_by = created_ + std::chrono::duration_cast<SteadyClock::duration>(
+                                              std::chrono::duration<double>(options_.discovery_s));
+    const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                                   std::chrono::duration<double>(timeout_s));
+    while (true) {
       auto it = robots_.find(robot_id);
-      return it != robots_.end() && !WithStaleness(it->second, SteadyClock::now()).lost;
-    });
+      const auto now = SteadyClock::now();
+      if (it != robots_.end() && !WithStaleness(it->second, now).lost) return true;
+      if (it == robots_.end() && now >= discovered_by) return false;
+      if (now >= deadline) return false;
+      cv_.wait_until(lock, std::min(deadline, now + std::chrono::milliseconds(100)));
+    }
   }
 
   std::string UnknownRobotReason(const std::string& robot_id) const {
@@ -250,19 +322,32 @@ class FleetClient::Impl {
       return "robot " + robot_id + " is lost (" + WithStaleness(it->second, SteadyClock::now()).lost_reason + ")";
     }
     std::string known;
-    for (const auto& [id, view] : robots_) known += (known.empty() ? "" : ", ") + id;
-    return "unknown robot '" + robot_id + "' (known: " + (known.empty() ? "none" : known) + ")";
+    std::vector<std::string> ids;
+    for (const auto& [id, view] : robots_) {
+      known += (known.empty() ? "" : ", ") + id;
+      ids.push_back(id);
+    }
+    return "unknown robot '" + robot_id + "'" + DidYouMeanText(robot_id, ids) +
+           " (known: " + (known.empty() ? "none" : known) + ")";
   }
 
   FleetClientOptions options_;
   std::string participant_id_;
+  const core::SteadyTime created_ = SteadyClock::now();
   mutable std::mutex mutex_;
+  FleetEventDetector detector_;
+  std::deque<OperatorEvent> pending_events_;
+  std::deque<OperatorEvent> recent_events_;
+  bool stop_monitor_ = false;
+  std::thread monitor_;
   mutable std::condition_variable cv_;
   std::map<std::string, RobotView> robots_;
   std::map<eprosima::fastrtps::rtps::InstanceHandle_t, std::string> robot_by_writer_;
   std::map<std::string, eprosima::fastrtps::rtps::InstanceHandle_t> current_writer_;  // newest agent-info writer
-  std::map<std::string, msgs::CommandResponse> responses_;
-  std::map<uint32_t, msgs::PathResponse> path_responses_;
+  std::map<std::string, msgs::CommandResponse> responses_;  // answers to awaited_ requests only
+  std::map<uint32_t, msgs::PathResponse> path_responses_;    // answers to awaited_paths_ only
+  std::set<std::string> awaited_;
+  std::set<uint32_t> awaited_paths_;
   std::atomic<uint32_t> next_request_id_{1};
   std::atomic<uint64_t> teleop_sequence_{0};
 
@@ -292,6 +377,30 @@ const std::string& FleetClient::base_id() const { return impl_->options_.base_id
 const std::string& FleetClient::participant_id() const { return impl_->participant_id_; }
 
 FleetPerception& FleetClient::perception() { return *impl_->perception_; }
+
+std::vector<OperatorEvent> FleetClient::TakeEvents() {
+  std::lock_guard<std::mutex> lock(impl_->mutex_);
+  std::vector<OperatorEvent> events(impl_->pending_events_.begin(), impl_->pending_events_.end());
+  impl_->pending_events_.clear();
+  return events;
+}
+
+bool FleetClient::HasEvents() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex_);
+  return !impl_->pending_events_.empty();
+}
+
+std::vector<OperatorEvent> FleetClient::RecentEvents() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex_);
+  return {impl_->recent_events_.begin(), impl_->recent_events_.end()};
+}
+
+std::vector<std::string> FleetClient::RobotIds() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex_);
+  std::vector<std::string> ids;
+  for (const auto& [id, view] : impl_->robots_) ids.push_back(id);
+  return ids;
+}
 
 std::vector<RobotView> FleetClient::Robots() const {
   std::lock_guard<std::mutex> lock(impl_->mutex_);
@@ -409,7 +518,7 @@ PathAnswer FleetClient::RequestPath(const std::string& robot_id, const std::stri
   PathAnswer answer;
   const uint32_t request_id = impl_->next_request_id_++;
   if (!impl_->WaitForRobot(robot_id, impl_->options_.command_timeout_s)) {
-    answer.result = "error";
+    answer.result = outcome::kRefused;
     answer.reason = impl_->UnknownRobotReason(robot_id);
     return answer;
   }
@@ -428,16 +537,20 @@ PathAnswer FleetClient::RequestPath(const std::string& robot_id, const std::stri
     m.goal_M().y_m(goal_y_m);
     return impl_->path_request_writer_->Write(m);
   };
-  if (!impl_->SendUntil(robot_id, request_id, send, [&] { return impl_->path_responses_.count(request_id) > 0; },
-                        &lock, &answer.reason)) {
-    answer.result = "timeout";
+  impl_->awaited_paths_.insert(request_id);
+  const bool answered = impl_->SendUntil(
+      robot_id, request_id, send, [&] { return impl_->path_responses_.count(request_id) > 0; }, &lock,
+      &answer.reason);
+  impl_->awaited_paths_.erase(request_id);
+  if (!answered) {
+    answer.result = outcome::kTimedOut;
     return answer;
   }
   answer.response = impl_->path_responses_[request_id];
   impl_->path_responses_.erase(request_id);
   answer.round_trip_ms = std::chrono::duration<double, std::milli>(SteadyClock::now() - start).count();
   answer.ok = answer.response.success();
-  answer.result = answer.ok ? "path" : "refused";
+  answer.result = answer.ok ? outcome::kAccepted : outcome::kRefused;
   answer.reason = answer.response.reason();
   return answer;
 }

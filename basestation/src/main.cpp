@@ -1,13 +1,18 @@
 // cairn_base: one operator's basestation. Interactive REPL on a terminal, line-by-line commands otherwise,
 // or one command after `--`. See --help.
 #include <poll.h>
+#include <signal.h>
+#include <termios.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <optional>
+#include <sstream>
 
 #include <CLI/CLI.hpp>
 #include <editline/readline.h>
@@ -25,8 +30,14 @@ namespace {
 struct Interactive {
   std::optional<std::string> pending;  // a complete line, run outside the line handler
   bool done = false;
+  cairn::base::CommandShell* shell = nullptr;  // for completion
 };
 Interactive g_interactive;
+
+// Ctrl-C in the REPL: cancels the running wait, or clears the line being typed. It never ends the session
+// (quit or Ctrl-D do); SIGTERM still does.
+std::atomic<bool> g_interrupt{false};
+void OnInterrupt() { g_interrupt.store(true); }
 
 void OnLine(char* raw) {
   if (raw == nullptr) {  // Ctrl-D
@@ -44,30 +55,101 @@ void OnLine(char* raw) {
   g_interactive.pending = std::move(line);
 }
 
-// Reads lines from a terminal with history (libedit) until Ctrl-D, "quit", or SIGINT/SIGTERM. Input is polled
-// so that Ctrl-C ends the session at once instead of after the next Enter.
+// Completion of commands, robot ids, modes and places (Tab).
+char* CompletionGenerator(const char* text, int state) {
+  static std::vector<std::string> matches;
+  static std::size_t next = 0;
+  if (state == 0) {
+    std::istringstream words(std::string(rl_line_buffer, static_cast<std::size_t>(std::max(0, rl_point))));
+    std::vector<std::string> before;
+    for (std::string w; words >> w;) before.push_back(w);
+    const std::string prefix(text);
+    if (!before.empty() && !prefix.empty() && before.back() == prefix) before.pop_back();
+    matches = g_interactive.shell ? g_interactive.shell->Complete(before, prefix) : std::vector<std::string>{};
+    next = 0;
+  }
+  if (next >= matches.size()) return nullptr;
+  return strdup(matches[next++].c_str());
+}
+
+char** Complete(const char* text, int, int) {
+  rl_attempted_completion_over = 1;  // no file-name completion
+  return rl_completion_matches(text, CompletionGenerator);
+}
+
+// Terminal in non-canonical, no-echo mode while a command runs, so that `watch` sees a single key press at
+// once; Ctrl-C still raises SIGINT. Restored on scope exit.
+class KeysWhileRunning {
+ public:
+  KeysWhileRunning() : active_(tcgetattr(STDIN_FILENO, &saved_) == 0) {
+    if (!active_) return;
+    termios raw = saved_;
+    raw.c_lflag &= static_cast<tcflag_t>(~(ICANON | ECHO));
+    raw.c_cc[VMIN] = 0;
+    raw.c_cc[VTIME] = 0;
+    tcsetattr(STDIN_FILENO, TCSANOW, &raw);
+  }
+  ~KeysWhileRunning() {
+    if (active_) tcsetattr(STDIN_FILENO, TCSANOW, &saved_);
+  }
+  KeysWhileRunning(const KeysWhileRunning&) = delete;
+  KeysWhileRunning& operator=(const KeysWhileRunning&) = delete;
+
+ private:
+  termios saved_{};
+  bool active_;
+};
+
+bool KeyPressed() {
+  pollfd input{STDIN_FILENO, POLLIN, 0};
+  if (poll(&input, 1, 0) <= 0) return false;
+  char c = 0;
+  return read(STDIN_FILENO, &c, 1) == 1;
+}
+
+// Prints events above the line being typed, then has libedit redraw its prompt and line (its buffer is
+// untouched: the handler stays installed).
+void PrintEventsKeepingLine(cairn::base::CommandShell& shell) {
+  std::cout << "\r\033[K" << std::flush;
+  shell.PrintEvents();
+  rl_forced_update_display();
+}
+
+// Reads lines from a terminal with history (libedit) until Ctrl-D, "quit", or SIGTERM. Input is polled so
+// that events print while nothing is being run, above the line being typed.
 int RunInteractive(cairn::base::CommandShell& shell, cairn::base::FleetClient& client, const std::string& base_id) {
   const char* home = std::getenv("HOME");
   const std::string history = std::string(home ? home : ".") + "/.cairn_base_history";
   read_history(history.c_str());
-  std::cout << "cairn_base " << base_id << ": type help for commands, quit or Ctrl-D to leave." << std::endl;
+  cairn::core::SetInterruptHandler(OnInterrupt);
+  std::cout << "cairn_base " << base_id
+            << ": type help for commands, Tab to complete, Ctrl-C to cancel a wait or clear the line, quit or "
+               "Ctrl-D to leave (robots keep running)."
+            << std::endl;
   const std::string prompt = base_id + "> ";
   int last = cairn::base::kOk;
+  g_interactive.shell = &shell;
+  rl_catch_signals = 0;  // libedit must not take SIGINT: Ctrl-C is ours (cancel, clear the line)
+  rl_attempted_completion_function = Complete;
+  rl_completion_append_character = ' ';
   rl_callback_handler_install(prompt.c_str(), OnLine);
   while (!g_interactive.done && !cairn::core::ShutdownRequested()) {
     pollfd input{STDIN_FILENO, POLLIN, 0};
     if (poll(&input, 1, 100) > 0) rl_callback_read_char();
-    if (!g_interactive.pending && client.perception().HasEvents() &&
-        (rl_line_buffer == nullptr || rl_line_buffer[0] == '\0')) {
-      // Events (a new staircase) between commands, while nothing is typed: print them above a new prompt.
+    if (g_interrupt.exchange(false)) {  // Ctrl-C at the prompt: drop the line being typed
       rl_callback_handler_remove();
-      shell.PrintEvents();
+      std::cout << "^C" << std::endl;
       rl_callback_handler_install(prompt.c_str(), OnLine);
     }
+    if (!g_interactive.pending && client.HasEvents()) PrintEventsKeepingLine(shell);
     if (g_interactive.pending) {
       // Without the handler installed the output is not interleaved with a redrawn prompt.
       rl_callback_handler_remove();
-      last = shell.Execute(*g_interactive.pending);
+      {
+        KeysWhileRunning keys;
+        last = shell.Execute(*g_interactive.pending);
+      }
+      g_interrupt.store(false);
       g_interactive.pending.reset();
       rl_callback_handler_install(prompt.c_str(), OnLine);
     }
@@ -100,8 +182,9 @@ int main(int argc, char** argv) {
   // Logs go to stderr: stdout carries command output (cairn_base) and the READY line (cairn_agent).
   spdlog::set_default_logger(spdlog::stderr_color_mt("cairn"));
   cairn::base::FleetClientOptions options;
+  cairn::base::ShellOptions shell_options;
   std::string domain_text = "0", script;
-  bool json = false, keep_going = false, no_joystick = false;
+  bool keep_going = false, no_joystick = false;
   std::vector<std::string> command;
 
   CLI::App app{"cairn_base: a Cairn basestation. Commands come from the terminal (REPL), from stdin line by "
@@ -110,7 +193,7 @@ int main(int argc, char** argv) {
   app.add_option("--base-id", options.base_id, "basestation id, unique in the fleet ([A-Za-z0-9_-]{1,64})")
       ->required();
   app.add_option("--domain", domain_text, "DDS domain id, 0..232")->capture_default_str();
-  app.add_flag("--json", json, "print one JSON object per command");
+  app.add_flag("--json", shell_options.json, "print one JSON object per command, progress line and event");
   app.add_option("--script", script, "run the commands of FILE, stop at the first failure");
   app.add_flag("--keep-going", keep_going, "with a script or stdin: run every line even after a failure");
   app.add_option("--dds-profiles", options.dds_profiles_file, "Fast DDS XML profiles file (default: shipped "
@@ -119,6 +202,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--no-joystick", no_joystick,
                "do not advertise a joystick: robots then refuse smart_joystick mode from this basestation");
+  app.add_option("--places", shell_options.places_file,
+                 "named places file (YAML), read at start and written by `place add`");
+  app.add_option("--proximity-m", options.events.proximity_m,
+                 "event when two robots are closer than this, metres (centre to centre)")
+      ->capture_default_str();
   app.add_option("command", command, "one command to run, after --");
   try {
     app.parse(argc, argv);
@@ -133,20 +221,31 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("--command-timeout " + std::to_string(options.command_timeout_s) +
                                   " must be in (0, 60]");
     }
+    if (!(options.events.proximity_m > 0 && options.events.proximity_m <= 100)) {
+      throw std::invalid_argument("--proximity-m " + std::to_string(options.events.proximity_m) +
+                                  " must be in (0, 100]");
+    }
+    options.events.proximity_clear_m = std::max(options.events.proximity_clear_m, options.events.proximity_m + 1.0);
     std::ifstream script_file;
     if (!script.empty()) {
       script_file.open(script);
       if (!script_file) throw std::invalid_argument("--script '" + script + "' cannot be read");
     }
+    const bool interactive = command.empty() && script.empty() && isatty(STDIN_FILENO);
+    if (interactive) {
+      spdlog::set_level(spdlog::level::warn);  // the terminal is the operator's: only what needs attention
+      shell_options.key_pressed = KeyPressed;
+      shell_options.cancel = &g_interrupt;
+    }
     cairn::base::FleetClient client(options);
-    cairn::base::CommandShell shell(client, json, std::cout);
+    cairn::base::CommandShell shell(client, shell_options, std::cout);
     if (!command.empty()) {
       std::string line;
       for (const auto& word : command) line += (line.empty() ? "" : " ") + word;
       return shell.Execute(line);
     }
     if (!script.empty()) return RunScript(shell, script_file, keep_going);
-    if (isatty(STDIN_FILENO)) return RunInteractive(shell, client, options.base_id);
+    if (interactive) return RunInteractive(shell, client, options.base_id);
     return RunScript(shell, std::cin, /*keep_going=*/true);
   } catch (const std::exception& e) {
     spdlog::error("cairn_base {}: {}", options.base_id, e.what());

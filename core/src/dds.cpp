@@ -175,7 +175,9 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
     descriptor->period_ms = static_cast<uint64_t>(period_ms);
     qos.flow_controllers().push_back(descriptor);
   }
-  participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options.domain_id), qos);
+  // The listener hears participant discovery only (StatusMask::none: entity callbacks stay with the entities).
+  participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options.domain_id), qos, this,
+                                             dds::StatusMask::none());
   if (participant_ == nullptr) {
     throw DdsError("cannot create DDS participant '" + options.name + "' in domain " +
                    std::to_string(options.domain_id) + " with profile '" + options.participant_profile + "'");
@@ -191,8 +193,18 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
 
 Participant::~Participant() {
   if (participant_ == nullptr) return;
+  participant_->set_listener(nullptr);
   participant_->delete_contained_entities();
   dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+}
+
+void Participant::on_participant_discovery(dds::DomainParticipant*,
+                                           eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) {
+  using Status = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
+  if (!options_.on_participant_gone) return;
+  if (info.status == Status::REMOVED_PARTICIPANT || info.status == Status::DROPPED_PARTICIPANT) {
+    options_.on_participant_gone(ParticipantIdOf(info.info.m_guid));
+  }
 }
 
 const char* Participant::FlowControllerName(const std::string& name) const {

@@ -12,6 +12,7 @@ namespace cairn::core {
 namespace {
 
 std::atomic<bool> g_requested{false};
+std::atomic<void (*)()> g_on_interrupt{nullptr};
 std::mutex g_mutex;
 std::condition_variable g_cv;
 
@@ -20,18 +21,30 @@ std::condition_variable g_cv;
 void InstallShutdownHandler() {
   static std::once_flag once;
   std::call_once(once, [] {
+    // A parent that ignores SIGINT (a shell script running a console) would make it vanish before sigwait.
+    signal(SIGINT, SIG_DFL);
+    signal(SIGTERM, SIG_DFL);
     sigset_t set;
     sigemptyset(&set);
     sigaddset(&set, SIGINT);
     sigaddset(&set, SIGTERM);
     pthread_sigmask(SIG_BLOCK, &set, nullptr);
     std::thread([set] {
-      int signal_number = 0;
-      sigwait(&set, &signal_number);
-      RequestShutdown();
+      while (true) {
+        int signal_number = 0;
+        if (sigwait(&set, &signal_number) != 0) continue;
+        void (*on_interrupt)() = g_on_interrupt.load();
+        if (signal_number == SIGINT && on_interrupt != nullptr) {
+          on_interrupt();
+          continue;
+        }
+        RequestShutdown();
+      }
     }).detach();
   });
 }
+
+void SetInterruptHandler(void (*on_interrupt)()) { g_on_interrupt.store(on_interrupt); }
 
 bool ShutdownRequested() { return g_requested.load(); }
 

@@ -1,5 +1,8 @@
 // Copyright Cairn authors.
 #include "cairn/perception/jpeg.h"
+#include "cairn/perception/png.h"
+
+#include <algorithm>
 
 #include <gtest/gtest.h>
 
@@ -50,6 +53,30 @@ TEST(JpegTest, BadInputNamesTheField) {
   std::vector<std::uint8_t> truncated = EncodeGrayJpeg(Gradient(64, 64));
   truncated.resize(truncated.size() / 2);
   EXPECT_THROW(DecodeGrayJpeg(truncated), JpegError);
+}
+
+// A snapshot saved as .png: a real PNG (signature, IHDR size and 8-bit grayscale), lossless against the
+// decoded frame's size; bad frames are refused naming the field.
+TEST(Png, EncodesAGrayFrameAsPng) {
+  const GrayFrame frame = Gradient(320, 240);
+  const std::vector<std::uint8_t> png = EncodeGrayPng(frame);
+  ASSERT_GT(png.size(), 33u);
+  const std::uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  EXPECT_TRUE(std::equal(kSignature, kSignature + 8, png.begin()));
+  auto be32 = [&](std::size_t at) {
+    return (static_cast<uint32_t>(png[at]) << 24) | (static_cast<uint32_t>(png[at + 1]) << 16) |
+           (static_cast<uint32_t>(png[at + 2]) << 8) | png[at + 3];
+  };
+  EXPECT_EQ(std::string(png.begin() + 12, png.begin() + 16), "IHDR");
+  EXPECT_EQ(be32(16), 320u);
+  EXPECT_EQ(be32(20), 240u);
+  EXPECT_EQ(png[24], 8) << "bit depth";
+  EXPECT_EQ(png[25], 0) << "grayscale";
+  EXPECT_EQ(std::string(png.end() - 8, png.end() - 4), "IEND");
+  GrayFrame bad = frame;
+  bad.pixels.pop_back();
+  EXPECT_THROW(EncodeGrayPng(bad), JpegError);
+  EXPECT_THROW(EncodeGrayPng(GrayFrame{0, 4, {}}), JpegError);
 }
 
 }  // namespace

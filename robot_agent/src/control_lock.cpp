@@ -21,7 +21,8 @@ LockDecision ControlLock::Request(const std::string& base_id, const std::string&
   if (participant.empty()) return {false, "a control request needs a sending participant", holder_};
   if (holder_.empty() || holder_ == base_id) {
     holder_ = base_id;
-    speaker_ = participant;  // it just spoke, so it is alive
+    live_[participant] = base_id;  // it just spoke, so it is alive; its departure is reported like any other
+    speaker_ = participant;
     return {true, "", holder_};
   }
   return {false, "robot " + robot_id_ + " is locked by basestation " + holder_, holder_};
@@ -39,7 +40,9 @@ LockDecision ControlLock::Release(const std::string& base_id) {
 }
 
 void ControlLock::NoteHolderCommand(const std::string& participant) {
-  if (!holder_.empty() && !participant.empty()) speaker_ = participant;
+  if (holder_.empty() || participant.empty()) return;
+  live_[participant] = holder_;
+  speaker_ = participant;
 }
 
 void ControlLock::OnParticipantAlive(const std::string& base_id, const std::string& participant) {

@@ -123,6 +123,10 @@ void ModeManager::CheckChannels(const std::string& tree_file, const std::vector<
     const std::string where = tree_file + ":" + std::to_string(node.config().xml_line) + ": branch '" + branch +
                               "' (SelectMode mode=\"" + (mode == ports.end() ? "" : mode->second) + "\")";
     if (channel == ports.end()) throw bt::TreeError(where + " has no channel port (mux channels: " + list + ")");
+    if (mode == ports.end() || mode->second.empty() || mode->second.find('{') != std::string::npos) {
+      throw bt::TreeError(where + ": a SelectMode's mode must be a literal mode name (checked against its channel "
+                                  "at load), not empty or a blackboard entry");
+    }
     const std::string& name = channel->second;
     if (name.find('{') != std::string::npos) {
       throw bt::TreeError(where + " takes its channel '" + name +
@@ -195,11 +199,11 @@ ModeDecision ModeManager::Recheck(const ModeConditions& conditions) {
   return {false, mode_, channel_, previous + " no longer allowed: " + failure};
 }
 
-ModeDecision ModeManager::ForceIdle(const std::string& reason) {
+ModeDecision ModeManager::ForceIdle(const std::string& refusal) {
   mode_ = "idle";
   channel_ = "none";
-  if (!reason.empty()) last_refusal_ = reason;
-  return {true, mode_, channel_, reason};
+  if (!refusal.empty()) last_refusal_ = refusal;
+  return {true, mode_, channel_, refusal};
 }
 
 void ModeManager::KeepTrace() {

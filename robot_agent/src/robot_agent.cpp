@@ -89,6 +89,11 @@ class RobotAgent::Impl {
   void OnPathRequest(const msgs::PathRequest& msg, const SampleInfo& info);
   void OnAgentInfo(const msgs::AgentInfo& msg, const SampleInfo& info);
   void OnAgentLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status);
+  // A remote participant left or was dropped (participant discovery): it speaks for no holder any more.
+  void OnParticipantGone(const std::string& participant);
+  // With mutex_ held: the process `participant` is gone or silent; re-check the mode (a holder without a
+  // live process stops modes that need a live operator).
+  void LoseParticipant(const std::string& participant, const std::string& why);
 
   // All below run with mutex_ held.
   // Answers a retry (same writer, kind and request id) from the cache. true when it was one.
@@ -96,11 +101,14 @@ class RobotAgent::Impl {
   void Respond(const Sender& sender, uint32_t request_id, msgs::CommandKind kind, msgs::CommandResult result,
                const std::string& reason, uint32_t goal_id = 0);
   ModeConditions Conditions() const;
+  // Modes valid now, and whether a goal would be accepted now (the operator's valid actions).
+  std::vector<std::string> ValidNow(bool* goal_acceptable);
   // Switches the mux to the decision's channel and ends a goal the new mode does not drive. A channel the
   // mux lacks (impossible with a checked tree) is never ignored: the robot stops. false then.
   bool ApplyMode(const ModeDecision& decision);
-  // Stop whatever the tree and the mux say: mode idle, no channel (zero twist), goal cancelled.
-  void Stop(const std::string& reason);
+  // Stop whatever the tree and the mux say: mode idle, no channel (zero twist), goal cancelled with
+  // `reason`. A `fault` (a failed channel switch) is also kept as the tree's last refusal for operators.
+  void Stop(const std::string& reason, bool fault = false);
   // Idle after a goal ends: through the tree, or a Stop if the tree refuses idle.
   void GoIdle();
   static Sender SenderOf(const std::string& base_id, const SampleInfo& info) {
@@ -134,6 +142,7 @@ class RobotAgent::Impl {
     std::string participant;
     std::string base_id;
     bool has_joystick = false;  // advertises the "joystick" capability
+    bool alive = true;          // its agent-info writer's liveliness
   };
   std::map<eprosima::fastrtps::rtps::InstanceHandle_t, BaseParticipant> base_by_writer_;
   std::vector<Eigen::Vector3f> obstacles_B_;
@@ -145,6 +154,9 @@ class RobotAgent::Impl {
   uint32_t next_goal_id_ = 1;  // seeded at random: goal ids of a restarted robot do not repeat old ones
   double nav_goal_x_m_ = 0, nav_goal_y_m_ = 0, nav_distance_left_m_ = 0;
   bool in_contact_ = false;
+  uint32_t stops_ = 0;      // operator stops honoured
+  std::string stopped_by_;  // base id of the last one
+  msgs::Time stopped_at_;   // when it was received (wall clock)
   MuxOutput last_mux_;
   ReplyCache<msgs::CommandResponse> replies_{kResponseCacheSize};
   std::string last_tree_signature_;
@@ -253,6 +265,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
   p.domain_id = options.domain_id;
   if (!options.dds_profiles_file.empty()) p.profiles_file = options.dds_profiles_file;
   p.name = "cairn_agent/" + options.robot_id;
+  p.on_participant_gone = [this](const std::string& participant) { OnParticipantGone(participant); };
   // Map telemetry budgets itself (PerceptionOptions::telemetry); the flow controller is a backstop 25 % above
   // it. Camera frames rely on theirs: a frame that cannot go out in time is replaced by the next.
   p.flow_controllers = {{"cairn.map", options.perception.telemetry.budget_bits_per_s * 1.25, 100},
@@ -313,6 +326,9 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
   info.capabilities(modes_.known_modes());
   info.version(kVersion);
   info.world(options.world);
+  info.max_speed_mps(options.navigation.platform.limits.max_speed_mps);
+  info.max_reverse_speed_mps(options.navigation.platform.limits.max_reverse_speed_mps);
+  info.max_yaw_rate_radps(options.navigation.platform.limits.max_yaw_rate_radps);
   info.stamp(cairn::msgs::WallStampNow());
   info_writer_->Write(info);
   perception_ = std::make_unique<PerceptionPipeline>(
@@ -340,25 +356,33 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   c.holder_alive = lock_.holder_alive();
   c.localized = true;  // the simulated platform knows its pose; SLAM health comes with perception
   c.has_waypoint_goal = goal_.has_value();
-  // The joystick is the one of the process speaking for the holder.
+  // A joystick is alive when a live process with the holder's id advertises one.
   c.joystick_alive = false;
   for (const auto& [handle, base] : base_by_writer_) {
-    if (c.holder_alive && base.participant == lock_.holder_participant()) c.joystick_alive = base.has_joystick;
+    if (c.holder_alive && base.alive && base.base_id == c.holder_id && base.has_joystick) c.joystick_alive = true;
   }
   c.local_planner_healthy = navigation_.LocalPlannerHealthy(NowS(SteadyClock::now()), &c.local_planner_problem);
   return c;
 }
 
 bool RobotAgent::Impl::ApplyMode(const ModeDecision& decision) {
+  if (decision.mode == "idle" && decision.channel != "none") {
+    const std::string reason = "the mode tree's idle selects mux channel '" + decision.channel + "': stopped";
+    spdlog::error("robot {}: {}", options_.robot_id, reason);
+    Stop(reason, /*fault=*/true);
+    return false;
+  }
   if (!mux_.Select(decision.channel)) {
     const std::string reason = "mode " + decision.mode + " selects mux channel '" + decision.channel +
                                "', which the mux does not have: stopped";
     spdlog::error("robot {}: {}", options_.robot_id, reason);
-    Stop(reason);
+    Stop(reason, /*fault=*/true);
     return false;
   }
   if (decision.mode != "waypoint" && goal_) {
-    FinishGoal(msgs::NAV_STATUS_FAILED, "cancelled: mode switched to " + decision.mode);
+    // A re-check says why the mode had to go (e.g. stale obstacle input); an operator's switch says which.
+    FinishGoal(msgs::NAV_STATUS_FAILED, decision.reason.empty() ? "cancelled: mode switched to " + decision.mode
+                                                                : "cancelled: " + decision.reason);
   }
   return true;
 }
@@ -366,14 +390,14 @@ bool RobotAgent::Impl::ApplyMode(const ModeDecision& decision) {
 void RobotAgent::Impl::GoIdle() {
   const ModeDecision d = modes_.Request("idle", Conditions());
   if (!d.accepted) {
-    Stop("the mode tree refused idle: " + d.reason);
+    Stop("the mode tree refused idle: " + d.reason, /*fault=*/true);
   } else {
     ApplyMode(d);
   }
 }
 
-void RobotAgent::Impl::Stop(const std::string& reason) {
-  modes_.ForceIdle(reason);
+void RobotAgent::Impl::Stop(const std::string& reason, bool fault) {
+  modes_.ForceIdle(fault ? reason : "");
   mux_.Select("none");  // always succeeds: no channel, zero twist
   joystick_ = Joystick{};
   if (goal_) FinishGoal(msgs::NAV_STATUS_FAILED, "cancelled: " + reason);
@@ -451,6 +475,9 @@ void RobotAgent::Impl::Respond(const Sender& sender, uint32_t request_id, msgs::
   r.mode(modes_.mode());
   r.requester_participant(sender.participant);
   r.goal_id(goal_id);
+  bool goal_acceptable = false;
+  r.valid_modes(ValidNow(&goal_acceptable));
+  r.goal_acceptable(goal_acceptable);
   response_writer_->Write(r);
   replies_.Insert(CommandKey{sender.writer, kind, request_id}, r);
   // The behavior-tree state follows from the control loop (<= 20 ms), off the command path.
@@ -486,10 +513,12 @@ void RobotAgent::Impl::OnModeRequest(const msgs::ModeRequest& msg, const SampleI
             lock_.NotHolderReason(sender.base_id));
     return;
   }
-  lock_.NoteHolderCommand(sender.participant);
   ModeDecision d = modes_.Request(msg.mode(), Conditions());
   if (d.accepted && !ApplyMode(d)) d = ModeDecision{false, modes_.mode(), modes_.channel(), modes_.last_refusal()};
-  if (d.accepted) spdlog::info("robot {}: mode {} (by {})", options_.robot_id, d.mode, sender.base_id);
+  if (d.accepted) {
+    lock_.NoteHolderCommand(sender.participant);  // an accepted command: this process speaks for the holder
+    spdlog::info("robot {}: mode {} (by {})", options_.robot_id, d.mode, sender.base_id);
+  }
   Respond(sender, msg.request_id(), msgs::COMMAND_KIND_MODE,
           d.accepted ? msgs::COMMAND_RESULT_ACCEPTED : msgs::COMMAND_RESULT_DENIED, d.reason);
 }
@@ -502,6 +531,9 @@ void RobotAgent::Impl::OnStopRequest(const msgs::StopRequest& msg, const SampleI
   // An e-stop: honoured from any basestation, holder or not; the lock stays where it is.
   const std::string previous = modes_.mode();
   Stop("stopped by " + sender.base_id);
+  ++stops_;
+  stopped_by_ = sender.base_id;
+  stopped_at_ = cairn::msgs::WallStampNow();
   spdlog::warn("robot {}: stopped by {} (participant {}) in mode {}", options_.robot_id, sender.base_id,
                sender.participant, previous);
   Respond(sender, msg.request_id(), msgs::COMMAND_KIND_STOP, msgs::COMMAND_RESULT_ACCEPTED,
@@ -519,7 +551,6 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg, const Sampl
     Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DISCARDED, lock_.NotHolderReason(sender.base_id));
     return;
   }
-  lock_.NoteHolderCommand(sender.participant);
   auto deny = [&](const std::string& reason) {
     Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DENIED, reason);
   };
@@ -561,13 +592,14 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg, const Sampl
     }
     return deny(d.reason);
   }
-  if (!ApplyMode(d)) return deny(modes_.last_refusal());  // stopped; the goal was cancelled
-  // A previous goal is simply superseded by this one.
+  // A previous goal is simply superseded by this one; the status below is this goal's.
   nav_status_ = msgs::NAV_STATUS_ACTIVE;
   nav_reason_.clear();
   nav_goal_id_ = goal_->goal_id;
   nav_goal_x_m_ = msg.x_m();
   nav_goal_y_m_ = msg.y_m();
+  if (!ApplyMode(d)) return deny(modes_.last_refusal());  // stopped; this goal was cancelled
+  lock_.NoteHolderCommand(sender.participant);  // an accepted goal: this process speaks for the holder
   nav_distance_left_m_ = plan.result.length_m;
   spdlog::info("robot {}: waypoint {} to ({:.2f}, {:.2f}) from {} accepted, path {:.1f} m", options_.robot_id,
                goal_->goal_id, msg.x_m(), msg.y_m(), sender.base_id, plan.result.length_m);
@@ -648,23 +680,41 @@ void RobotAgent::Impl::OnAgentLiveliness(const eprosima::fastdds::dds::Livelines
   auto it = base_by_writer_.find(status.last_publication_handle);
   if (it == base_by_writer_.end()) return;
   const BaseParticipant base = it->second;
+  // Unmatched (the writer is gone for good): alive -1 while alive, or not_alive -1 after its lease lapsed.
+  const bool unmatched = (status.alive_count_change < 0 && status.not_alive_count_change == 0) ||
+                         (status.alive_count_change == 0 && status.not_alive_count_change < 0);
+  if (unmatched) base_by_writer_.erase(it);
   if (core::IsLivelinessLoss(status)) {
-    const bool was_alive = lock_.IsHolder(base.base_id) && lock_.holder_alive();
-    lock_.OnParticipantLost(base.participant, SteadyClock::now());
-    if (status.not_alive_count_change == 0) base_by_writer_.erase(it);  // unmatched: that process is gone
-    if (was_alive && !lock_.holder_alive()) {
-      spdlog::warn("robot {}: liveliness of control holder {} lost (its last process {} is gone): modes that need "
-                   "a live operator stop",
-                   options_.robot_id, base.base_id, base.participant);
-    } else if (lock_.IsHolder(base.base_id)) {
-      spdlog::info("robot {}: process {} of holder {} is gone; {} speaks for it", options_.robot_id, base.participant,
-                   base.base_id, lock_.holder_participant());
-    }
-    const ModeDecision m = modes_.Recheck(Conditions());
-    if (!m.accepted) ApplyMode(m);
+    if (!unmatched) it->second.alive = false;
+    LoseParticipant(base.participant, "its liveliness lapsed or it left");
   } else if (status.alive_count_change > 0) {
+    it->second.alive = true;
     lock_.OnParticipantAlive(base.base_id, base.participant);
   }
+}
+
+void RobotAgent::Impl::OnParticipantGone(const std::string& participant) {
+  std::lock_guard<std::mutex> guard(mutex_);
+  for (auto it = base_by_writer_.begin(); it != base_by_writer_.end();) {
+    it = it->second.participant == participant ? base_by_writer_.erase(it) : std::next(it);
+  }
+  LoseParticipant(participant, "it left the DDS domain");
+}
+
+void RobotAgent::Impl::LoseParticipant(const std::string& participant, const std::string& why) {
+  const std::string holder = lock_.holder_id();
+  const bool was_speaker = !holder.empty() && lock_.holder_participant() == participant;
+  lock_.OnParticipantLost(participant, SteadyClock::now());
+  if (was_speaker && !lock_.holder_alive()) {
+    spdlog::warn("robot {}: control holder {} lost: its last process {} is gone ({}); modes that need a live "
+                 "operator stop",
+                 options_.robot_id, holder, participant, why);
+  } else if (was_speaker) {
+    spdlog::info("robot {}: process {} of holder {} is gone ({}); {} speaks for it", options_.robot_id, participant,
+                 holder, why, lock_.holder_participant());
+  }
+  const ModeDecision m = modes_.Recheck(Conditions());
+  if (!m.accepted) ApplyMode(m);
 }
 
 void RobotAgent::Impl::Step(SteadyTime now) {
@@ -759,13 +809,26 @@ void RobotAgent::Impl::PublishState(SteadyTime) {
   m.nav_replans(static_cast<uint32_t>(navigation_.replans()));
   m.local_planner_status(navigation_.local_status());
   m.in_contact(in_contact_);
+  m.stops(stops_);
+  m.stopped_by(stopped_by_);
+  m.stopped_at(stopped_at_);
   state_writer_->Write(m);
 }
 
-void RobotAgent::Impl::PublishTreeStateIfChanged() {
+std::vector<std::string> RobotAgent::Impl::ValidNow(bool* goal_acceptable) {
   const ModeConditions conditions = Conditions();
-  const std::vector<std::string> valid = modes_.ValidModes(conditions);
-  std::string signature = modes_.mode() + "|" + modes_.channel() + "|" + modes_.last_refusal();
+  ModeConditions with_goal = conditions;
+  with_goal.has_waypoint_goal = true;
+  const std::vector<std::string> valid_with_goal = modes_.ValidModes(with_goal);
+  *goal_acceptable = std::find(valid_with_goal.begin(), valid_with_goal.end(), "waypoint") != valid_with_goal.end();
+  return modes_.ValidModes(conditions);
+}
+
+void RobotAgent::Impl::PublishTreeStateIfChanged() {
+  bool goal_acceptable = false;
+  const std::vector<std::string> valid = ValidNow(&goal_acceptable);
+  std::string signature = modes_.mode() + "|" + modes_.channel() + "|" + modes_.last_refusal() + "|" +
+                          (goal_acceptable ? "goal" : "");
   for (const auto& v : valid) signature += "|" + v;
   if (signature == last_tree_signature_) return;
   last_tree_signature_ = signature;
@@ -777,6 +840,7 @@ void RobotAgent::Impl::PublishTreeStateIfChanged() {
   t.active_channel(modes_.channel());
   t.last_refusal(modes_.last_refusal());
   t.valid_modes(valid);
+  t.goal_acceptable(goal_acceptable);
   t.tick_count(modes_.tick_count());
   modes_.tree().ForEachNode([&](const bt::TreeNode& node, int depth) {
     msgs::BtNodeState n;

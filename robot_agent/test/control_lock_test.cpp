@@ -103,6 +103,24 @@ TEST(ControlLock, SurvivesARestartOfTheHolder) {
   EXPECT_EQ(lock.holder_participant(), kRestartedA);
 }
 
+// A process that speaks without ever announcing itself (its agent info not yet seen, or a tool that sends
+// none) is live while it speaks and lost when it goes: the holder is not kept alive by it forever.
+TEST(ControlLock, AnUnannouncedSpeakerIsLostWhenItGoes) {
+  ControlLockOptions options;
+  options.lock_keep_s = 5.0;
+  ControlLock lock("r1", options);
+  const auto t0 = core::SteadyClock::now();
+  lock.OnParticipantAlive("opA", kReplA);
+  lock.Request("opA", kReplA, t0);
+  lock.NoteHolderCommand(kOneShotA);  // never announced
+  EXPECT_EQ(lock.holder_participants(), 2u);
+  lock.OnParticipantLost(kReplA, t0 + 1s);
+  EXPECT_TRUE(lock.holder_alive());
+  lock.OnParticipantLost(kOneShotA, t0 + 2s);  // participant discovery reports it gone
+  EXPECT_FALSE(lock.holder_alive());
+  EXPECT_TRUE(lock.Update(t0 + 7s + 1ms)) << "the lock is freed lock_keep_s after the last speaker left";
+}
+
 TEST(ControlLock, FreesAfterLockKeepWhenConfigured) {
   ControlLockOptions options;
   options.lock_keep_s = 5.0;

@@ -160,6 +160,10 @@ TEST(ModeManager, RefusesABranchWhoseChannelIsNotAMuxChannelNamingBranchAndChann
   const std::string from_blackboard =
       message(write_variant("bb.xml", R"(<SelectMode mode="manual" channel="{channel}"/>)"), kChannels);
   EXPECT_NE(from_blackboard.find("must be a literal mux channel"), std::string::npos) << from_blackboard;
+  // An idle branch that takes its mode from the blackboard cannot hide a channel behind it.
+  const std::string mode_from_blackboard =
+      message(write_variant("bb_mode.xml", R"(<SelectMode mode="{requested_mode}" channel="teleop"/>)"), kChannels);
+  EXPECT_NE(mode_from_blackboard.find("must be a literal mode name"), std::string::npos) << mode_from_blackboard;
 
   // The shipped tree against a mux without the waypoint channel: the waypoint branch is named.
   const std::string no_waypoint = message(kTree, {"teleop", "smart_joystick"});

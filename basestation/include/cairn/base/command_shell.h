@@ -2,37 +2,60 @@
 // and the one-shot form `cairn_base --base-id opA -- <command>`.
 #pragma once
 
+#include <atomic>
+#include <functional>
 #include <map>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
 
 #include "cairn/base/fleet_client.h"
+#include "cairn/base/places.h"
 
 namespace cairn::base {
 
-/// Exit codes of a command (and of cairn_base).
+/// Exit codes of a command (and of cairn_base): accepted 0; refused, failed, timed out, cancelled 1;
+/// invalid input 2.
 enum ExitCode : int { kOk = 0, kRefused = 1, kUsage = 2 };
 
+/// How the shell prints and what it may use.
+struct ShellOptions {
+  bool json = false;         ///< one JSON object per line (results, progress, events)
+  std::string places_file;   ///< named places (Places); "" = places live only in this session
+  /// Interactive terminal hooks (nullptr in scripts): true once a key was pressed (ends `watch`); the key is
+  /// consumed.
+  std::function<bool()> key_pressed;
+  /// Set (e.g. by SIGINT in the REPL) to cancel the running wait, teleop or watch; the shell clears it.
+  std::atomic<bool>* cancel = nullptr;
+};
+
 /// Executes one command line against a fleet client and prints the outcome (text, or one JSON object per
-/// line with `json`). Commands: robots, status, request-control, release, mode, goto, path, plan, teleop,
-/// stop, wait, sleep, map, snapshot, stairs, help (see Help()).
+/// line). Outcomes use one vocabulary (operator_text.h): accepted, refused, failed, timed out, invalid, and
+/// cancelled (the operator's Ctrl-C). Commands: see Help().
 class CommandShell {
  public:
+  /// @throws std::invalid_argument when the places file is malformed (names file, place and field).
+  CommandShell(FleetClient& client, ShellOptions options, std::ostream& out);
+  /// The pre-issue-10 form: no places file, no terminal hooks.
   CommandShell(FleetClient& client, bool json, std::ostream& out);
 
-  /// Runs `line` ("" and "# comment" do nothing). @return kOk, kRefused (the robot refused, timed out or
-  /// failed; its reason is printed) or kUsage (malformed command: the message names the argument and value).
+  /// Runs `line` ("" and "# comment" do nothing). @return kOk, kRefused (refused, failed, timed out or
+  /// cancelled; the reason is printed) or kUsage (malformed command: the message names the argument and
+  /// value, with "did you mean" for commands and robot ids).
   int Execute(const std::string& line);
 
-  /// Prints events not yet shown (a new staircase), once each. Execute() calls it before and after each
-  /// command; an interactive loop also calls it while idle.
+  /// Prints events not yet shown (arrivals, failures, losses, locks, stops, staircases, proximity), once
+  /// each. Execute() calls it before and after each command and during waits; an interactive loop also
+  /// calls it while idle.
   void PrintEvents();
 
   /// Help text listing every command.
   static std::string Help();
-  /// Command names (for completion).
+  /// Command names (for completion and "did you mean").
   static const std::vector<std::string>& CommandNames();
+  /// Completions of the word being typed, given the words before it (robot ids, modes, places, options).
+  std::vector<std::string> Complete(const std::vector<std::string>& words_before, const std::string& prefix) const;
 
  private:
   int Run(const std::string& line);
@@ -40,26 +63,46 @@ class CommandShell {
   int Snapshot(const std::vector<std::string>& args);
   int Stairs();
   int Robots();
+  int Watch(const std::vector<std::string>& args);
+  int Events(const std::vector<std::string>& args);
   int Status(const std::vector<std::string>& args);
+  int HelpFor(const std::string& robot);
   int Control(const std::vector<std::string>& args, bool request);
   int Mode(const std::vector<std::string>& args);
   int Goto(const std::vector<std::string>& args);
+  int Stop(const std::vector<std::string>& args);
   int Teleop(const std::vector<std::string>& args);
   int Wait(const std::vector<std::string>& args);
   int Path(const std::vector<std::string>& args);
   int Plan(const std::vector<std::string>& args);
+  int Place(const std::vector<std::string>& args);
+  int ListPlaces();
   // Waits for the last goal of `robot` to arrive or fail, printing progress (distance left, ETA) every
-  // 2 s; `command` names the output lines. Returns the exit code.
+  // 2 s and events as they come; `command` names the output lines. Returns the exit code.
   int WaitArrived(const std::string& command, const std::string& robot, double timeout_s);
   int Sleep(const std::vector<std::string>& args);
-  int Report(const std::string& command, const std::string& robot, const CommandOutcome& outcome);
+  int Report(const std::string& command, const std::string& robot, const CommandOutcome& outcome,
+             const std::string& notice = "");
   int UsageError(const std::string& command, const std::string& message);
+  // The robots table (`robots`, `watch`).
+  void PrintRobotsTable();
+  // Reads a point: "X Y", "X,Y" or a place name from args[first...]; sets *used to the words consumed.
+  // false with *error naming the argument on failure.
+  bool ParsePoint(const std::vector<std::string>& args, std::size_t first, double* x_m, double* y_m,
+                  std::size_t* used, std::string* error) const;
+  bool Cancelled();
+  // The view of `robot` with a state received after this shell's last answer from it (waits up to 0.5 s),
+  // so that what it shows follows from the commands just sent.
+  std::optional<RobotView> FreshView(const std::string& robot);
 
   FleetClient& client_;
+  ShellOptions options_;
   bool json_;
   std::ostream& out_;
   core::SteadyTime created_;
+  Places places_;
   std::map<std::string, uint32_t> last_goal_id_;  // per robot, the last waypoint this shell sent
+  std::map<std::string, core::SteadyTime> last_answer_;  // per robot, when it last answered this shell
 };
 
 }  // namespace cairn::base

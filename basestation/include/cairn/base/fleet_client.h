@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "cairn/base/fleet_events.h"
 #include "cairn/base/fleet_perception.h"
 #include "cairn/core/time.h"
 #include "cairn_msgs.h"
@@ -23,11 +24,15 @@ struct RobotView {
   std::string robot_id;
   std::string platform;
   std::vector<std::string> capabilities;
+  double max_speed_mps = 0.0;          ///< from its agent info: largest forward speed (0 = unknown)
+  double max_reverse_speed_mps = 0.0;  ///< largest reverse speed, a magnitude (0 = unknown)
+  double max_yaw_rate_radps = 0.0;     ///< largest yaw rate, a magnitude (0 = unknown)
   std::optional<cairn_msgs::RobotState> state;         ///< latest state, if any arrived
   std::optional<cairn_msgs::BehaviorTreeState> tree;   ///< latest behavior-tree state
   std::optional<cairn_msgs::GlobalPath> global_path;   ///< global path being followed (latched)
   std::optional<cairn_msgs::LocalPlan> local_plan;     ///< latest local planner output (2 Hz)
   core::SteadyTime last_seen{};                        ///< last agent info or state
+  core::SteadyTime state_received{};                   ///< when `state` arrived
   bool lost = false;                                   ///< liveliness lost or state silent > lost_after_s
   std::string lost_reason;
 };
@@ -35,13 +40,19 @@ struct RobotView {
 /// Outcome of one command as seen by the operator.
 struct CommandOutcome {
   bool ok = false;           ///< accepted by the robot
-  std::string result;        ///< "accepted" | "denied" | "discarded" | "timeout" | "error"
-  std::string reason;        ///< the robot's reason, or the local error
+  std::string result;        ///< outcome::kAccepted | kRefused | kFailed | kTimedOut (operator_text.h)
+  std::string reason;        ///< why, in operator words (ExplainReason of the robot's reason), or the local error
+  std::string robot_reason;  ///< the robot's own reason, unchanged ("" when the robot did not answer)
+  std::string condition;     ///< mode-tree condition id that refused ("HasWaypointGoal"), "lock" when the sender
+                             ///< does not hold the control lock, "" otherwise
   std::string holder_id;     ///< control holder reported by the robot
   std::string mode;          ///< robot mode after the command
   double round_trip_ms = 0;  ///< command -> acknowledgement
   uint32_t request_id = 0;   ///< id the command was sent with (unique within this process only)
   uint32_t goal_id = 0;      ///< accepted waypoint: the robot's id for the goal (RobotState::nav_goal_id)
+  bool answered = false;     ///< the robot answered (holder_id, mode, valid_modes are its own, right after)
+  std::vector<std::string> valid_modes;  ///< modes valid right after the command (answered only)
+  bool goal_acceptable = false;          ///< a goto would be accepted right after the command (answered only)
 };
 
 /// Options of the fleet client.
@@ -55,12 +66,16 @@ struct FleetClientOptions {
   /// Advertised in this basestation's agent info. "joystick": it can stream teleop twists, which the
   /// robots' IsJoystickAlive condition requires for smart joystick mode.
   std::vector<std::string> capabilities = {"joystick"};
+  /// A robot not seen this long after start is unknown: commands to it are refused at once, (0, 60].
+  double discovery_s = 1.5;
+  FleetEventOptions events;            ///< what raises operator events (proximity distances)
+  std::size_t events_kept = 200;       ///< recent events kept for RecentEvents(), [1, 100000]
 };
 
 /// Answer of the global path service (FleetClient::RequestPath()).
 struct PathAnswer {
   bool ok = false;              ///< a path was found
-  std::string result;           ///< "path" | "refused" | "timeout" | "error"
+  std::string result;           ///< outcome::kAccepted (a path) | kRefused | kTimedOut
   std::string reason;           ///< the planner's reason, or the local error
   cairn_msgs::PathResponse response;  ///< the full answer when one arrived
   double round_trip_ms = 0;
@@ -109,6 +124,17 @@ class FleetClient {
 
   /// Fleet map, camera frames and staircases (perception telemetry).
   FleetPerception& perception();
+
+  /// Events not yet taken (arrivals, failures, losses, locks, stops, staircases, proximity), oldest first.
+  /// Detected by a monitor thread at 10 Hz (FleetEventDetector) for every operator, whoever caused them.
+  std::vector<OperatorEvent> TakeEvents();
+  /// True if TakeEvents() would return something.
+  bool HasEvents() const;
+  /// The last events_kept events, oldest first (taken or not).
+  std::vector<OperatorEvent> RecentEvents() const;
+
+  /// Robot ids seen so far (for completion and "did you mean").
+  std::vector<std::string> RobotIds() const;
 
   class Impl;  ///< DDS entities and the fleet model, kept out of this header.
 

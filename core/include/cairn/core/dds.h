@@ -15,6 +15,7 @@
 
 #include <fastdds/dds/core/status/LivelinessChangedStatus.hpp>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/DataWriterListener.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
@@ -65,6 +66,9 @@ struct ParticipantOptions {
   bool allow_network = false;
   /// Flow controllers to register; names must be unique. @see FlowControllerOptions.
   std::vector<FlowControllerOptions> flow_controllers;
+  /// Called (on a Fast DDS thread) with the ParticipantIdOf a remote participant that left (a clean exit) or
+  /// was dropped (its lease expired: a crash or a lost link). Sees every process, announced or not.
+  std::function<void(const std::string& participant_id)> on_participant_gone;
 };
 
 /// One DomainParticipant with one publisher and one subscriber, built from an XML profile.
@@ -72,12 +76,12 @@ struct ParticipantOptions {
 /// The participant is never created with Fast DDS default transports: the profile must load, must exist,
 /// and unless `allow_network` it must disable built-in transports and whitelist only 127.0.0.1.
 /// Destruction deletes every contained entity and the participant (no /dev/shm or port leftovers).
-class Participant {
+class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
  public:
   /// @throws DdsError naming the profiles file, profile or entity that failed; std::invalid_argument for a
   ///         domain id out of range.
   explicit Participant(const ParticipantOptions& options);
-  ~Participant();
+  ~Participant() override;
   Participant(const Participant&) = delete;
   Participant& operator=(const Participant&) = delete;
 
@@ -98,6 +102,9 @@ class Participant {
   std::string participant_id() const;
 
  private:
+  void on_participant_discovery(eprosima::fastdds::dds::DomainParticipant* participant,
+                                eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override;
+
   ParticipantOptions options_;
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;

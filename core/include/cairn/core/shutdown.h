@@ -10,7 +10,12 @@ namespace cairn::core {
 /// thread that waits for them. Call once at the top of main(), before any DDS entity exists.
 void InstallShutdownHandler();
 
-/// True once SIGINT or SIGTERM arrived (or RequestShutdown() was called).
+/// Makes SIGINT call `on_interrupt` (on the waiter thread; it must be async-safe with respect to the
+/// caller's state, e.g. set an atomic flag) instead of requesting shutdown: an interactive console's Ctrl-C
+/// cancels the running wait or clears the line. nullptr restores the default. SIGTERM always shuts down.
+void SetInterruptHandler(void (*on_interrupt)());
+
+/// True once SIGTERM arrived, or SIGINT without an interrupt handler (or RequestShutdown() was called).
 bool ShutdownRequested();
 
 /// Marks shutdown as requested and wakes every waiter (used by tests and by commands that end the process).

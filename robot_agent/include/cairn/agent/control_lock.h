@@ -5,8 +5,10 @@
 //  - a basestation id ("opA") names an operator. The lock belongs to it, so a holder that crashes and comes
 //    back with the same id finds its robots still locked to it (a robot is never orphaned by a restart);
 //  - a participant id (the DDS participant's GUID prefix) names one process. Liveliness is per process: the
-//    holder is alive while at least one live process announces its id, so a short-lived second process with
-//    the same id (a one-shot CLI call) that exits cannot make the holder look lost.
+//    holder is alive while some live process speaks for it (one that announced the holder's id or sent a
+//    command as the holder), so a short-lived second process with the same id (a one-shot CLI call) that
+//    exits cannot make the holder look lost. The agent reports every process's departure (agent-info
+//    liveliness, and participant discovery for processes that never announced themselves).
 #pragma once
 
 #include <cstdint>
@@ -45,14 +47,17 @@ class ControlLock {
  public:
   ControlLock(std::string robot_id, ControlLockOptions options);
 
-  /// Request from basestation `base_id` sent by participant `participant` (which then speaks for it).
+  /// Request from basestation `base_id` sent by participant `participant` (live: it just spoke; it then
+  /// speaks for the holder until it is lost).
   LockDecision Request(const std::string& base_id, const std::string& participant, core::SteadyTime now);
   LockDecision Release(const std::string& base_id);
 
   /// True when `base_id` holds the lock (commands from anyone else are to be discarded).
   bool IsHolder(const std::string& base_id) const { return !holder_.empty() && holder_ == base_id; }
 
-  /// The holder accepted a command sent by `participant`: that process now speaks for the holder.
+  /// The holder's command (mode, goal) sent through `participant` was accepted: that process is live and
+  /// now speaks for the holder until it is lost. (A refused command changes nothing: a process is not made
+  /// the holder's voice by a malformed or refused message.)
   void NoteHolderCommand(const std::string& participant);
 
   /// Participant `participant` announced basestation id `base_id` and is alive (its agent info arrived or

@@ -43,8 +43,8 @@ class ModeManager {
   ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels);
 
   /// Stop: mode idle and channel "none" now, whatever the tree says (an operator's stop, or a failed
-  /// channel switch). `reason` is kept as the last refusal shown to operators when not empty.
-  ModeDecision ForceIdle(const std::string& reason);
+  /// channel switch). `refusal`, when not empty, is kept as the last refusal shown to operators (a fault).
+  ModeDecision ForceIdle(const std::string& refusal);
 
   /// Asks for `mode`. On acceptance the mode and channel switch; on refusal they stay and `reason` names
   /// the failed condition, or says the mode is unknown and lists the valid ones.

@@ -1,0 +1,76 @@
+// News without asking (Sriganesh et al. 2024, § Operator interface: notifications): what changed in the
+// fleet, told once to every operator as it happens. Pure logic over successive robot views, no DDS;
+// FleetClient feeds it and queues what it says.
+#pragma once
+
+#include <chrono>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cairn/perception/staircase.h"
+#include "cairn_msgs.h"
+
+namespace cairn::base {
+
+struct RobotView;
+
+/// One thing an operator should hear about.
+struct OperatorEvent {
+  /// "arrived" | "failed" (a goal ended without arriving) | "lost" | "back" | "lock_granted" |
+  /// "lock_released" | "lock_taken" | "stopped" (an operator's stop) | "staircase" | "proximity".
+  std::string kind;
+  std::string robot_id;     ///< the robot concerned ("" for a fleet staircase)
+  std::string other;        ///< proximity: the other robot; locks: the basestation; stopped: who stopped it
+  std::string message;      ///< one line for people, e.g. "r2 arrived at (30.00, 10.00) (goal 12)"
+  std::string reason;       ///< failed: why; lost: why
+  double distance_m = 0.0;  ///< proximity: centre distance, metres, frame map
+  std::chrono::system_clock::time_point time = std::chrono::system_clock::now();
+  std::optional<perception::StaircaseRegistry::Entry> staircase;  ///< kind "staircase"
+};
+
+/// Options of the event detector.
+struct FleetEventOptions {
+  /// Two robots closer than this (centre to centre, metres, frame map) raise a proximity event; (0, 100].
+  double proximity_m = 1.5;
+  /// The pair raises it again only after being farther apart than this (hysteresis); >= proximity_m.
+  double proximity_clear_m = 2.5;
+  /// @return false and sets `*why` naming the field, value and rule when invalid.
+  bool IsValid(std::string* why) const;
+};
+
+/// Turns successive views of the fleet into events, each change once. Not thread-safe.
+class FleetEventDetector {
+ public:
+  /// @throws std::invalid_argument when `options` are invalid.
+  explicit FleetEventDetector(FleetEventOptions options = {});
+
+  /// Compares every robot in `views` (staleness applied) with its last view and returns what changed: goals
+  /// arrived or failed, robots lost or back, lock granted/released/taken, operator stops, robots closer than
+  /// proximity_m. The first view of a robot only sets its baseline (a basestation that starts does not
+  /// replay old news), except that a robot first seen lost is not reported.
+  std::vector<OperatorEvent> Observe(const std::vector<RobotView>& views);
+
+  const FleetEventOptions& options() const { return options_; }
+
+ private:
+  struct Last {
+    bool lost = false;
+    bool has_state = false;
+    std::string holder;
+    uint32_t goal_id = 0;
+    cairn_msgs::NavStatus nav_status = cairn_msgs::NAV_STATUS_NONE;
+    uint32_t stops = 0;
+  };
+  void ObserveRobot(const RobotView& view, std::vector<OperatorEvent>* events);
+  void ObserveProximity(const std::vector<RobotView>& views, std::vector<OperatorEvent>* events);
+
+  FleetEventOptions options_;
+  std::map<std::string, Last> last_;
+  std::set<std::pair<std::string, std::string>> close_pairs_;  // pairs reported close, not yet apart again
+};
+
+}  // namespace cairn::base

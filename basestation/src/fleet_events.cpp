@@ -1,0 +1,151 @@
+#include "cairn/base/fleet_events.h"
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include "cairn/base/fleet_client.h"
+
+namespace cairn::base {
+
+namespace msgs = cairn_msgs;
+
+namespace {
+
+std::string Fixed2(double v) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.2f", v);
+  return text;
+}
+
+OperatorEvent Event(const std::string& kind, const std::string& robot, std::string message) {
+  OperatorEvent e;
+  e.kind = kind;
+  e.robot_id = robot;
+  e.message = std::move(message);
+  return e;
+}
+
+}  // namespace
+
+bool FleetEventOptions::IsValid(std::string* why) const {
+  if (!(proximity_m > 0.0 && proximity_m <= 100.0)) {
+    *why = "proximity_m = " + std::to_string(proximity_m) + " must be in (0, 100]";
+    return false;
+  }
+  if (!(proximity_clear_m >= proximity_m && std::isfinite(proximity_clear_m))) {
+    *why = "proximity_clear_m = " + std::to_string(proximity_clear_m) +
+           " must be finite and >= proximity_m (" + std::to_string(proximity_m) + ")";
+    return false;
+  }
+  return true;
+}
+
+FleetEventDetector::FleetEventDetector(FleetEventOptions options) : options_(options) {
+  std::string why;
+  if (!options_.IsValid(&why)) throw std::invalid_argument(why);
+}
+
+std::vector<OperatorEvent> FleetEventDetector::Observe(const std::vector<RobotView>& views) {
+  std::vector<OperatorEvent> events;
+  for (const RobotView& view : views) ObserveRobot(view, &events);
+  ObserveProximity(views, &events);
+  return events;
+}
+
+void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<OperatorEvent>* events) {
+  const std::string& r = view.robot_id;
+  auto found = last_.find(r);
+  Last now;
+  now.lost = view.lost;
+  now.has_state = view.state.has_value();
+  if (view.state) {
+    now.holder = view.state->holder_id();
+    now.goal_id = view.state->nav_goal_id();
+    now.nav_status = view.state->nav_status();
+    now.stops = view.state->stops();
+  }
+  if (found == last_.end()) {
+    last_[r] = now;
+    return;
+  }
+  Last& last = found->second;
+  if (now.lost != last.lost) {
+    OperatorEvent e = Event(now.lost ? "lost" : "back", r,
+                            now.lost ? r + " lost (" + view.lost_reason + ")" : r + " is back");
+    e.reason = now.lost ? view.lost_reason : "";
+    events->push_back(e);
+  }
+  if (view.state && last.has_state) {
+    const auto& s = *view.state;
+    const bool goal_changed = now.goal_id != last.goal_id || now.nav_status != last.nav_status;
+    if (goal_changed && now.nav_status == msgs::NAV_STATUS_ARRIVED) {
+      events->push_back(Event("arrived", r,
+                              r + " arrived at (" + Fixed2(s.nav_goal_M().x_m()) + ", " +
+                                  Fixed2(s.nav_goal_M().y_m()) + ") (goal " + std::to_string(now.goal_id) +
+                                  ")"));
+    } else if (goal_changed && now.nav_status == msgs::NAV_STATUS_FAILED) {
+      OperatorEvent e =
+          Event("failed", r, r + " goal " + std::to_string(now.goal_id) + " failed: " + s.nav_reason());
+      e.reason = s.nav_reason();
+      events->push_back(e);
+    }
+    if (now.stops > last.stops) {
+      OperatorEvent e = Event("stopped", r, r + " stopped by " + s.stopped_by());
+      e.other = s.stopped_by();
+      events->push_back(e);
+    }
+    if (now.holder != last.holder) {
+      OperatorEvent e;
+      if (last.holder.empty()) {
+        e = Event("lock_granted", r, r + " control granted to " + now.holder);
+        e.other = now.holder;
+      } else if (now.holder.empty()) {
+        e = Event("lock_released", r, r + " control released by " + last.holder);
+        e.other = last.holder;
+      } else {
+        e = Event("lock_taken", r, r + " control taken by " + now.holder + " from " + last.holder);
+        e.other = now.holder;
+      }
+      events->push_back(e);
+    }
+  }
+  if (!view.state) {
+    now.holder = last.holder;
+    now.goal_id = last.goal_id;
+    now.nav_status = last.nav_status;
+    now.stops = last.stops;
+    now.has_state = last.has_state;
+  }
+  last = now;
+}
+
+void FleetEventDetector::ObserveProximity(const std::vector<RobotView>& views,
+                                          std::vector<OperatorEvent>* events) {
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    for (std::size_t j = i + 1; j < views.size(); ++j) {
+      const RobotView& a = views[i];
+      const RobotView& b = views[j];
+      const auto pair = std::make_pair(a.robot_id, b.robot_id);
+      if (a.lost || b.lost || !a.state || !b.state) {
+        close_pairs_.erase(pair);
+        continue;
+      }
+      const auto& pa = a.state->pose_MB().position();
+      const auto& pb = b.state->pose_MB().position();
+      const double d = std::hypot(pa.x_m() - pb.x_m(), pa.y_m() - pb.y_m());
+      if (d < options_.proximity_m && close_pairs_.insert(pair).second) {
+        OperatorEvent e = Event("proximity", a.robot_id,
+                                a.robot_id + " and " + b.robot_id + " are " + Fixed2(d) +
+                                    " m apart (closer than " + Fixed2(options_.proximity_m) + " m)");
+        e.other = b.robot_id;
+        e.distance_m = d;
+        events->push_back(e);
+      } else if (d > options_.proximity_clear_m) {
+        close_pairs_.erase(pair);
+      }
+    }
+  }
+}
+
+}  // namespace cairn::base

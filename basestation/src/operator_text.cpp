@@ -1,0 +1,138 @@
+#include "cairn/base/operator_text.h"
+
+#include <algorithm>
+#include <utility>
+
+namespace cairn::base {
+
+namespace {
+
+// The text after "Condition: " in a reason, or "" when `reason` does not contain `condition`.
+std::string Detail(const std::string& reason, const std::string& condition) {
+  const auto at = reason.find(condition + ": ");
+  return at == std::string::npos ? "" : reason.substr(at + condition.size() + 2);
+}
+
+std::size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
+
+OperatorReason ExplainReason(const std::string& robot_id, const std::string& reason) {
+  struct Rule {
+    const char* condition;
+    std::string (*explain)(const std::string& robot, const std::string& detail);
+  };
+  static const Rule kRules[] = {
+      {"IsControlHeld",
+       [](const std::string& r, const std::string&) {
+         return "nobody holds " + r + "'s control lock: request-control " + r + " first";
+       }},
+      {"IsHolderAlive",
+       [](const std::string& r, const std::string& d) {
+         return "the basestation holding " + r + " is not connected (" + d + ")";
+       }},
+      {"IsLocalized", [](const std::string& r,
+                         const std::string&) { return r + " does not know where it is (not localized)"; }},
+      {"HasWaypointGoal",
+       [](const std::string& r, const std::string&) {
+         return "waypoint mode needs a goal: use goto " + r + " X Y";
+       }},
+      {"IsJoystickAlive",
+       [](const std::string&, const std::string&) {
+         return std::string(
+             "smart joystick needs a joystick at the holding basestation (it runs with --no-joystick "
+             "or is not connected): use manual");
+       }},
+      {"IsLocalPlannerHealthy",
+       [](const std::string& r, const std::string& d) {
+         return r + "'s obstacle sensing is not ready: " + d;
+       }},
+  };
+  for (const Rule& rule : kRules) {
+    const std::string detail = Detail(reason, rule.condition);
+    if (detail.empty() && reason.find(std::string(rule.condition) + ":") == std::string::npos) continue;
+    std::string text = rule.explain(robot_id, detail);
+    // A re-check keeps its lead-in ("manual no longer allowed: ..."): say what changed, then why.
+    const auto at = reason.find(rule.condition);
+    if (at > 0 && at != std::string::npos) text = reason.substr(0, at) + text;
+    return {text, rule.condition};
+  }
+  return {reason, ""};
+}
+
+std::vector<std::string> ValidActions(const RobotView& view, const std::string& base_id) {
+  if (view.lost || !view.state) return {};
+  const std::string& holder = view.state->holder_id();
+  if (holder.empty()) return {"request-control", "stop"};
+  if (holder != base_id) return {"stop"};
+  std::vector<std::string> actions;
+  std::string modes;
+  bool can_teleop = false, can_goto = false;
+  if (view.tree) {
+    for (const auto& mode : view.tree->valid_modes()) {
+      if (mode == "manual" || mode == "smart_joystick") can_teleop = true;
+      if (mode == "waypoint") continue;  // entered by goto, which sets the goal
+      modes += (modes.empty() ? "" : "|") + mode;
+    }
+    can_goto = view.tree->goal_acceptable();
+  }
+  const std::string& mode = view.state->mode();
+  can_teleop = can_teleop || mode == "manual" || mode == "smart_joystick";
+  if (!modes.empty()) actions.push_back("mode " + modes);
+  if (can_goto) actions.push_back("goto");
+  if (can_teleop) actions.push_back("teleop");
+  actions.push_back("release");
+  actions.push_back("stop");
+  return actions;
+}
+
+std::string ValidActionsText(const RobotView& view, const std::string& base_id) {
+  const std::vector<std::string> actions = ValidActions(view, base_id);
+  if (actions.empty()) return "valid now: none (robot " + view.robot_id + " is lost)";
+  std::string text = "valid now: ";
+  for (std::size_t i = 0; i < actions.size(); ++i) text += (i ? ", " : "") + actions[i];
+  return text;
+}
+
+std::vector<std::string> DidYouMean(const std::string& word, const std::vector<std::string>& candidates) {
+  std::vector<std::pair<std::size_t, std::string>> scored;
+  for (const auto& c : candidates) {
+    if (c == word) continue;
+    const std::size_t d = EditDistance(word, c);
+    const bool prefix = word.size() >= 3 && c.rfind(word, 0) == 0;
+    if (d <= 2 || prefix) scored.emplace_back(prefix ? 0 : d, c);
+  }
+  std::stable_sort(scored.begin(), scored.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<std::string> best;
+  for (const auto& [d, c] : scored) {
+    if (best.size() == 3) break;
+    best.push_back(c);
+  }
+  return best;
+}
+
+std::string DidYouMeanText(const std::string& word, const std::vector<std::string>& candidates) {
+  const std::vector<std::string> best = DidYouMean(word, candidates);
+  if (best.empty()) return "";
+  std::string text = " (did you mean ";
+  for (std::size_t i = 0; i < best.size(); ++i) {
+    text += (i == 0 ? "" : i + 1 == best.size() ? " or " : ", ") + best[i];
+  }
+  return text + "?)";
+}
+
+}  // namespace cairn::base

@@ -1,0 +1,75 @@
+// Helpers shared by the command shell's translation units (internal to cairn_base_lib).
+#pragma once
+
+#include <cmath>
+#include <cstdio>
+#include <iomanip>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cairn/perception/staircase.h"
+#include "cairn_msgs.h"
+
+namespace cairn::base::shell {
+
+/// `value` with `digits` decimals.
+inline std::string Fixed(double value, int digits) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(digits) << value;
+  return out.str();
+}
+
+/// Parses a finite number; on failure sets `error` naming the argument and the value.
+inline bool ParseNumber(const std::string& text, const char* name, double* value, std::string* error) {
+  std::size_t used = 0;
+  try {
+    *value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(*value)) {
+    *error = std::string(name) + " '" + text + "' is not a finite number";
+    return false;
+  }
+  return true;
+}
+
+/// Yaw about +z of a unit quaternion, radians.
+inline double YawOf(const cairn_msgs::Quaternion& q) {
+  return std::atan2(2.0 * (q.w() * q.z() + q.x() * q.y()), 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z()));
+}
+
+inline nlohmann::json PointsJson(const std::vector<cairn_msgs::Point>& points) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& p : points) list.push_back({p.x_m(), p.y_m(), p.z_m()});
+  return list;
+}
+
+inline std::string PointsText(const std::vector<cairn_msgs::Point>& points) {
+  std::string text;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    text += "  " + std::to_string(i) + ": (" + Fixed(points[i].x_m(), 2) + ", " + Fixed(points[i].y_m(), 2) +
+            ", " + Fixed(points[i].z_m(), 2) + ")\n";
+  }
+  return text;
+}
+
+/// One fleet staircase as JSON (the `stairs` list and the staircase event share it).
+inline nlohmann::json StaircaseJson(const perception::StaircaseRegistry::Entry& e) {
+  const perception::Staircase& s = e.staircase;
+  return {{"id", e.id},
+          {"x_m", s.p_W_first_step.x()},
+          {"y_m", s.p_W_first_step.y()},
+          {"z_m", s.p_W_first_step.z()},
+          {"yaw_rad", s.yaw_rad},
+          {"num_steps", s.num_steps},
+          {"rise_m", s.rise_m},
+          {"run_m", s.run_m},
+          {"width_m", s.width_m},
+          {"confidence", s.confidence},
+          {"sources", e.sources}};
+}
+
+}  // namespace cairn::base::shell

@@ -1,0 +1,112 @@
+#include "cairn/base/fleet_events.h"
+
+#include <gtest/gtest.h>
+
+#include "cairn/base/fleet_client.h"
+
+namespace cairn::base {
+namespace {
+
+RobotView Robot(const std::string& id, double x_m, double y_m) {
+  RobotView v;
+  v.robot_id = id;
+  cairn_msgs::RobotState s;
+  s.robot_id(id);
+  s.pose_MB().position().x_m(x_m);
+  s.pose_MB().position().y_m(y_m);
+  v.state = s;
+  return v;
+}
+
+std::vector<std::string> Kinds(const std::vector<OperatorEvent>& events) {
+  std::vector<std::string> kinds;
+  for (const auto& e : events) kinds.push_back(e.kind);
+  return kinds;
+}
+
+TEST(FleetEventDetector, FirstSightIsABaselineThenEachChangeIsToldOnce) {
+  FleetEventDetector detector;
+  RobotView r2 = Robot("r2", 0, 0);
+  r2.state->nav_goal_id(7);
+  r2.state->nav_status(cairn_msgs::NAV_STATUS_ARRIVED);  // old news when this basestation starts
+  EXPECT_TRUE(detector.Observe({r2}).empty());
+
+  r2.state->nav_goal_id(8);
+  r2.state->nav_status(cairn_msgs::NAV_STATUS_ACTIVE);
+  EXPECT_TRUE(detector.Observe({r2}).empty());
+  r2.state->nav_status(cairn_msgs::NAV_STATUS_ARRIVED);
+  r2.state->nav_goal_M().x_m(30);
+  r2.state->nav_goal_M().y_m(10);
+  auto events = detector.Observe({r2});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"arrived"}));
+  EXPECT_EQ(events[0].message, "r2 arrived at (30.00, 10.00) (goal 8)");
+  EXPECT_TRUE(detector.Observe({r2}).empty()) << "told once";
+
+  r2.state->nav_goal_id(9);
+  r2.state->nav_status(cairn_msgs::NAV_STATUS_FAILED);
+  r2.state->nav_reason("blocked: no progress for 10 s");
+  events = detector.Observe({r2});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"failed"}));
+  EXPECT_EQ(events[0].reason, "blocked: no progress for 10 s");
+}
+
+TEST(FleetEventDetector, LocksStopsLossAndReturn) {
+  FleetEventDetector detector;
+  RobotView r1 = Robot("r1", 0, 0);
+  detector.Observe({r1});
+  r1.state->holder_id("opA");
+  EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"lock_granted"}));
+  r1.state->holder_id("opB");
+  auto events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"lock_taken"}));
+  EXPECT_EQ(events[0].message, "r1 control taken by opB from opA");
+  r1.state->holder_id("");
+  EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"lock_released"}));
+  r1.state->stops(1);
+  r1.state->stopped_by("opC");
+  events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"stopped"}));
+  EXPECT_EQ(events[0].message, "r1 stopped by opC");
+  r1.lost = true;
+  r1.lost_reason = "liveliness lost";
+  events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"lost"}));
+  EXPECT_EQ(events[0].message, "r1 lost (liveliness lost)");
+  r1.lost = false;
+  EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"back"}));
+}
+
+TEST(FleetEventDetector, ProximityWithHysteresis) {
+  FleetEventOptions options;
+  options.proximity_m = 1.5;
+  options.proximity_clear_m = 2.5;
+  FleetEventDetector detector(options);
+  RobotView a = Robot("r1", 0, 0), b = Robot("r2", 5, 0);
+  EXPECT_TRUE(detector.Observe({a, b}).empty());
+  b.state->pose_MB().position().x_m(1.2);
+  auto events = detector.Observe({a, b});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"proximity"}));
+  EXPECT_NEAR(events[0].distance_m, 1.2, 1e-9);
+  EXPECT_EQ(events[0].other, "r2");
+  b.state->pose_MB().position().x_m(2.0);  // apart, but not past the clear distance
+  EXPECT_TRUE(detector.Observe({a, b}).empty());
+  b.state->pose_MB().position().x_m(1.0);
+  EXPECT_TRUE(detector.Observe({a, b}).empty()) << "still the same encounter";
+  b.state->pose_MB().position().x_m(3.0);
+  detector.Observe({a, b});
+  b.state->pose_MB().position().x_m(1.0);
+  EXPECT_EQ(Kinds(detector.Observe({a, b})), (std::vector<std::string>{"proximity"})) << "a new encounter";
+}
+
+TEST(FleetEventOptions, ValidatesNamingTheField) {
+  std::string why;
+  EXPECT_TRUE(FleetEventOptions{}.IsValid(&why));
+  FleetEventOptions bad;
+  bad.proximity_clear_m = 0.5;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_NE(why.find("proximity_clear_m"), std::string::npos) << why;
+  EXPECT_THROW(FleetEventDetector{bad}, std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace cairn::base

@@ -1,0 +1,70 @@
+#include "cairn/base/operator_text.h"
+
+#include <gtest/gtest.h>
+
+namespace cairn::base {
+namespace {
+
+RobotView HeldBy(const std::string& holder, const std::vector<std::string>& valid_modes,
+                 bool goal_acceptable) {
+  RobotView v;
+  v.robot_id = "r1";
+  cairn_msgs::RobotState s;
+  s.robot_id("r1");
+  s.mode("idle");
+  s.holder_id(holder);
+  s.holder_alive(true);
+  v.state = s;
+  cairn_msgs::BehaviorTreeState t;
+  t.valid_modes(valid_modes);
+  t.goal_acceptable(goal_acceptable);
+  v.tree = t;
+  return v;
+}
+
+TEST(ExplainReason, RewritesTreeConditionsInOperatorWordsKeepingTheId) {
+  OperatorReason r = ExplainReason("r1", "HasWaypointGoal: no accepted waypoint goal (send goto first)");
+  EXPECT_EQ(r.text, "waypoint mode needs a goal: use goto r1 X Y");
+  EXPECT_EQ(r.condition, "HasWaypointGoal");
+  r = ExplainReason("r1", "IsControlHeld: no basestation holds the control lock");
+  EXPECT_EQ(r.text, "nobody holds r1's control lock: request-control r1 first");
+  r = ExplainReason("r2",
+                    "manual no longer allowed: IsHolderAlive: liveliness of control holder opA is lost");
+  EXPECT_EQ(r.condition, "IsHolderAlive");
+  EXPECT_EQ(r.text.rfind("manual no longer allowed: the basestation holding r2 is not connected", 0), 0u)
+      << r.text;
+  r = ExplainReason("r1", "IsLocalPlannerHealthy: obstacle input is 0.80 s old (limit 0.50 s)");
+  EXPECT_EQ(r.text, "r1's obstacle sensing is not ready: obstacle input is 0.80 s old (limit 0.50 s)");
+  // A reason with no condition id is already in operator words.
+  r = ExplainReason("r1", "robot r1 is locked by basestation opA");
+  EXPECT_EQ(r.text, "robot r1 is locked by basestation opA");
+  EXPECT_EQ(r.condition, "");
+}
+
+TEST(ValidActions, OfferOnlyWhatTheRobotWouldAcceptFromThisBasestation) {
+  RobotView free = HeldBy("", {"idle"}, false);
+  EXPECT_EQ(ValidActions(free, "op1"), (std::vector<std::string>{"request-control", "stop"}));
+  RobotView other = HeldBy("opB", {"idle", "manual"}, true);
+  EXPECT_EQ(ValidActions(other, "op1"), (std::vector<std::string>{"stop"}));
+  RobotView mine = HeldBy("op1", {"idle", "manual", "waypoint"}, true);
+  EXPECT_EQ(ValidActions(mine, "op1"),
+            (std::vector<std::string>{"mode idle|manual", "goto", "teleop", "release", "stop"}));
+  EXPECT_EQ(ValidActionsText(mine, "op1"), "valid now: mode idle|manual, goto, teleop, release, stop");
+  RobotView no_goal = HeldBy("op1", {"idle"}, false);  // e.g. the local planner is not ready
+  EXPECT_EQ(ValidActions(no_goal, "op1"), (std::vector<std::string>{"mode idle", "release", "stop"}));
+  mine.lost = true;
+  EXPECT_TRUE(ValidActions(mine, "op1").empty());
+}
+
+TEST(DidYouMean, FindsTyposAndPrefixes) {
+  const std::vector<std::string> commands = {"goto", "status", "stop", "stairs", "snapshot"};
+  EXPECT_EQ(DidYouMean("gotoo", commands), (std::vector<std::string>{"goto"}));
+  EXPECT_EQ(DidYouMeanText("gotoo", commands), " (did you mean goto?)");
+  EXPECT_EQ(DidYouMean("snap", commands).front(), "snapshot") << "a prefix ranks first";
+  EXPECT_EQ(DidYouMean("stp", commands).front(), "stop");
+  EXPECT_TRUE(DidYouMean("teleportation", commands).empty());
+  EXPECT_EQ(DidYouMeanText("r9", {"r1", "r2"}), " (did you mean r1 or r2?)");
+}
+
+}  // namespace
+}  // namespace cairn::base
