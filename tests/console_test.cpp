@@ -8,6 +8,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -275,6 +276,71 @@ TEST(Console, SecondConsoleAttachesToARunningDemo) {
   ASSERT_TRUE(demo_status && WIFEXITED(*demo_status));
   EXPECT_EQ(WEXITSTATUS(*demo_status), 0);
   EXPECT_FALSE(std::filesystem::exists(demo_logs + "/demo.env")) << "the demo left its attach record behind";
+  unsetenv("CAIRN_DEMO_LOGS");
+}
+
+// The demo on a terminal, as an operator uses it: a three-robot mission from one console without polling
+// (arrivals print by themselves), watch until a key is pressed, quit asks before stopping the robots, a
+// second console attaches while they keep running, and Ctrl-C in the demo's terminal stops them.
+TEST(Console, ThreeRobotMissionFromTheDemoConsoleWithoutPolling) {
+  const std::string logs = Logs("demo_pty");
+  const std::string demo_logs = logs + "/demo-state";
+  std::filesystem::remove_all(demo_logs);
+  setenv("CAIRN_DEMO_LOGS", demo_logs.c_str(), 1);
+  PtyProcess demo({"/bin/bash", std::string(CAIRN_SOURCE_DIR) + "/tools/demo.sh", CAIRN_BINARY_DIR,
+                   "--robots", "3", "--domain", "84"});
+  ASSERT_TRUE(demo.WaitFor("op1> ", 120s)) << demo.output();
+  demo.Drain(2s);
+  auto run = [&](const std::string& line, const std::string& expect) {
+    demo.Mark();
+    demo.Type(line + "\r");
+    EXPECT_TRUE(demo.WaitFor(expect, 15s)) << line << " ->\n" << demo.SinceMark();
+  };
+  run("place add door 9,20", "place: accepted");
+  for (const char* r : {"r1", "r2", "r3"}) run(std::string("request-control ") + r, "accepted");
+  const auto sent = Clock::now();
+  run("goto r1 door", "goto r1: accepted");
+  run("goto r2 junction", "goto r2: accepted");
+  run("goto r3 south_bend", "goto r3: accepted");
+  demo.Mark();
+  for (const char* r : {"r1", "r2", "r3"}) {
+    EXPECT_TRUE(demo.WaitFor(std::string(r) + " arrived at", 90s)) << "no arrival news from " << r << ":\n"
+                                                                   << demo.SinceMark();
+  }
+  Figure("three_robot_mission_s", std::chrono::duration<double>(Clock::now() - sent).count());
+
+  // watch: the table refreshed in place until a key is pressed.
+  demo.Mark();
+  demo.Type("watch 0.5\r");
+  ASSERT_TRUE(demo.WaitFor("press any key to stop", 10s)) << demo.SinceMark();
+  demo.Drain(1200ms);
+  demo.Type("x");
+  EXPECT_TRUE(demo.WaitFor("op1> ", 5s)) << "watch did not end on a key press";
+  run("status r2", "control   held by op1 (this basestation)");
+
+  // quit asks; N keeps the robots running for other consoles.
+  demo.Mark();
+  demo.Type("quit\r");
+  ASSERT_TRUE(demo.WaitFor("Stop robots r1 r2 r3 and end the demo? [y/N]", 10s)) << demo.SinceMark();
+  demo.Type("n\r");
+  ASSERT_TRUE(demo.WaitFor("keep running", 5s)) << demo.SinceMark();
+  ChildProcess console({std::string(CAIRN_SOURCE_DIR) + "/cairn", "console", "--base-id", "op2", "--json",
+                        "--", "wait", "r3", "online", "5"},
+                       logs + "/console.log");
+  console.CloseStdin();
+  std::string answer;
+  while (auto line = console.ReadLine(20s)) answer = *line;
+  EXPECT_TRUE(json::parse(answer, nullptr, false).value("ok", false))
+      << "robots stopped with the console: " << answer;
+
+  // Ctrl-C in the demo's terminal stops them.
+  demo.Type("\x03");
+  const auto status = demo.Wait(30s);
+  ASSERT_TRUE(status.has_value()) << demo.output();
+  EXPECT_FALSE(std::filesystem::exists(demo_logs + "/demo.env"));
+  std::ifstream r1_log(demo_logs + "/r1.log");
+  const std::string r1_text((std::istreambuf_iterator<char>(r1_log)), std::istreambuf_iterator<char>());
+  EXPECT_NE(r1_text.find("shutting down"), std::string::npos) << "r1 did not shut down cleanly";
   unsetenv("CAIRN_DEMO_LOGS");
 }
 
