@@ -110,7 +110,8 @@ if [ -t 0 ]; then
     y|Y|yes)
       ;;
     *)
-      echo "demo: robots $ROBOT_IDS keep running. Attach with ./cairn console; Ctrl-C here stops them."
+      echo "demo: robots $ROBOT_IDS keep running, still locked to op1. Take them over with"
+      echo "      ./cairn console --base-id op1 (another operator: ./cairn console --base-id op2); Ctrl-C here stops them."
       wait "${PIDS[@]}" 2>/dev/null || true ;;
   esac
 fi

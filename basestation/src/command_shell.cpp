@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "cairn/base/operator_text.h"
+#include "cairn/core/shutdown.h"
 #include "shell_util.h"
 
 namespace cairn::base {
@@ -109,6 +110,7 @@ json EventJson(const OperatorEvent& e) {
   j["time"] = ClockText(e.time);
   if (!e.other.empty()) j["other"] = e.other;
   if (!e.reason.empty()) j["reason"] = e.reason;
+  if (!e.condition.empty()) j["condition"] = e.condition;
   if (e.kind == "proximity") j["distance_m"] = e.distance_m;
   return j;
 }
@@ -195,17 +197,27 @@ std::string CommandShell::Help() {
 }
 
 bool CommandShell::Cancelled() {
-  return options_.cancel != nullptr && options_.cancel->exchange(false);
+  // SIGTERM (and SIGINT in scripts) requests shutdown: a long wait or teleop ends then too.
+  return (options_.cancel != nullptr && options_.cancel->exchange(false)) || core::ShutdownRequested();
 }
 
 int CommandShell::UsageError(const std::string& command, const std::string& message) {
   if (json_) {
-    out_ << json{{"command", command}, {"ok", false}, {"result", outcome::kInvalid}, {"reason", message}}.dump()
+    out_ << json{{"command", command}, {"ok", false}, {"result", outcome::kInvalid}, {"reason", message}}.dump(-1, ' ', false, json::error_handler_t::replace)
          << std::endl;
   } else {
     out_ << command << ": " << outcome::kInvalid << ": " << message << std::endl;
   }
   return kUsage;
+}
+
+bool CommandShell::RefuseUnknown(const std::string& command, const std::string& robot) {
+  if (client_.Knows(robot)) return false;
+  CommandOutcome o;
+  o.result = outcome::kRefused;
+  o.reason = client_.UnknownRobotReason(robot);
+  Report(command, robot, o);
+  return true;
 }
 
 std::optional<RobotView> CommandShell::FreshView(const std::string& robot) {
@@ -248,7 +260,7 @@ int CommandShell::Report(const std::string& command, const std::string& robot, c
     if (!o.robot_reason.empty() && o.robot_reason != o.reason) j["robot_reason"] = o.robot_reason;
     if (!valid_text.empty()) j["valid_actions"] = valid;
     if (!notice.empty()) j["notice"] = notice;
-    out_ << j.dump() << std::endl;
+    out_ << j.dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
   } else {
     if (!notice.empty()) out_ << command << " " << robot << ": note: " << notice << std::endl;
     out_ << command << " " << robot << ": " << o.result;
@@ -272,7 +284,7 @@ int CommandShell::Execute(const std::string& line) {
 void CommandShell::PrintEvents() {
   for (const OperatorEvent& event : client_.TakeEvents()) {
     if (json_) {
-      out_ << EventJson(event).dump() << std::endl;
+      out_ << EventJson(event).dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
     } else {
       out_ << "[" << ClockText(event.time) << "] " << event.message << std::endl;
     }
@@ -327,7 +339,7 @@ int CommandShell::Run(const std::string& line) {
   if (cmd == "help") {
     if (args.size() == 1) return HelpFor(args[0]);
     if (json_) {
-      out_ << json{{"command", "help"}, {"ok", true}, {"result", outcome::kAccepted}, {"text", Help()}}.dump()
+      out_ << json{{"command", "help"}, {"ok", true}, {"result", outcome::kAccepted}, {"text", Help()}}.dump(-1, ' ', false, json::error_handler_t::replace)
            << std::endl;
     } else {
       out_ << Help() << std::endl;
@@ -399,7 +411,7 @@ int CommandShell::Robots() {
   if (json_) {
     json list = json::array();
     for (const auto& v : client_.Robots()) list.push_back(ViewJson(v, client_.base_id()));
-    out_ << json{{"command", "robots"}, {"ok", true}, {"result", outcome::kAccepted}, {"robots", list}}.dump()
+    out_ << json{{"command", "robots"}, {"ok", true}, {"result", outcome::kAccepted}, {"robots", list}}.dump(-1, ' ', false, json::error_handler_t::replace)
          << std::endl;
     return kOk;
   }
@@ -431,7 +443,7 @@ int CommandShell::Watch(const std::vector<std::string>& args) {
     if (json_) {
       json list = json::array();
       for (const auto& v : client_.Robots()) list.push_back(ViewJson(v, client_.base_id()));
-      out_ << json{{"command", "watch"}, {"progress", true}, {"robots", list}}.dump() << std::endl;
+      out_ << json{{"command", "watch"}, {"progress", true}, {"robots", list}}.dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
     } else {
       PrintRobotsTable();
       const auto recent = client_.RecentEvents();
@@ -452,7 +464,7 @@ int CommandShell::Watch(const std::vector<std::string>& args) {
     if (stop) break;
   }
   if (json_) {
-    out_ << json{{"command", "watch"}, {"ok", true}, {"result", outcome::kAccepted}}.dump() << std::endl;
+    out_ << json{{"command", "watch"}, {"ok", true}, {"result", outcome::kAccepted}}.dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
   }
   return kOk;
 }
@@ -469,7 +481,7 @@ int CommandShell::Events(const std::vector<std::string>& args) {
   if (json_) {
     json list = json::array();
     for (std::size_t i = from; i < recent.size(); ++i) list.push_back(EventJson(recent[i]));
-    out_ << json{{"command", "events"}, {"ok", true}, {"result", outcome::kAccepted}, {"events", list}}.dump()
+    out_ << json{{"command", "events"}, {"ok", true}, {"result", outcome::kAccepted}, {"events", list}}.dump(-1, ' ', false, json::error_handler_t::replace)
          << std::endl;
     return kOk;
   }
@@ -482,23 +494,17 @@ int CommandShell::Events(const std::vector<std::string>& args) {
 
 int CommandShell::Status(const std::vector<std::string>& args) {
   const std::string& robot = args[0];
+  if (RefuseUnknown("status", robot)) return kRefused;
   // A fresh basestation may know the robot before its first state arrives: give the state a moment.
-  if (client_.WaitForRobot(robot, 3.0)) {
-    client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return v.state.has_value(); });
-  }
+  client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return v.state.has_value() || v.lost; });
   const auto view = FreshView(robot);
-  if (!view) {
-    CommandOutcome o;
-    o.result = outcome::kRefused;
-    o.reason = "unknown robot '" + robot + "'" + DidYouMeanText(robot, client_.RobotIds());
-    return Report("status", robot, o);
-  }
+  if (!view) return kRefused;  // known a moment ago; cannot vanish (views are never removed)
   if (json_) {
     json out = ViewJson(*view, client_.base_id());
     out["command"] = "status";
     out["ok"] = !view->lost;
     out["result"] = view->lost ? outcome::kFailed : outcome::kAccepted;
-    out_ << out.dump() << std::endl;
+    out_ << out.dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
     return view->lost ? kRefused : kOk;
   }
   const RobotView& v = *view;
@@ -534,7 +540,7 @@ int CommandShell::Status(const std::vector<std::string>& args) {
              << " replans";
         if (!s.local_planner_status().empty()) out_ << "; local planner: " << s.local_planner_status();
       } else if (s.nav_status() == msgs::NAV_STATUS_FAILED) {
-        out_ << " (" << s.nav_reason() << ")";
+        out_ << " (" << ExplainReason(v.robot_id, s.nav_reason()).text << ")";
       }
     }
     out_ << "\n";
@@ -550,19 +556,34 @@ int CommandShell::Status(const std::vector<std::string>& args) {
 }
 
 int CommandShell::HelpFor(const std::string& robot) {
-  if (!client_.WaitForRobot(robot, 3.0)) {
-    CommandOutcome o;
-    o.result = outcome::kRefused;
-    o.reason = "unknown robot '" + robot + "'" + DidYouMeanText(robot, client_.RobotIds());
-    return Report("help", robot, o);
+  const auto& names = CommandNames();
+  if (std::find(names.begin(), names.end(), robot) != names.end()) {  // `help goto`: that command's usage
+    std::istringstream help(Help());
+    std::string text;
+    bool in = false;
+    for (std::string line; std::getline(help, line);) {
+      const bool starts = line.rfind("  " + robot + " ", 0) == 0 || line == "  " + robot;
+      const bool other = line.size() > 2 && line[2] != ' ' && !starts;
+      in = starts || (in && !other && line.rfind("  ", 0) == 0);
+      if (in) text += line + "\n";
+    }
+    if (json_) {
+      out_ << json{{"command", "help"}, {"ok", true}, {"result", outcome::kAccepted}, {"text", text}}.dump(
+                  -1, ' ', false, json::error_handler_t::replace)
+           << std::endl;
+    } else {
+      out_ << text << std::flush;
+    }
+    return kOk;
   }
-  client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return v.state.has_value() && v.tree.has_value(); });
+  if (RefuseUnknown("help", robot)) return kRefused;
+  client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return (v.state.has_value() && v.tree.has_value()) || v.lost; });
   const auto view = FreshView(robot);
   const std::vector<std::string> actions = ValidActions(*view, client_.base_id());
   if (json_) {
     out_ << json{{"command", "help"}, {"robot", robot}, {"ok", true}, {"result", outcome::kAccepted},
                  {"valid_actions", actions}}
-                .dump()
+                .dump(-1, ' ', false, json::error_handler_t::replace)
          << std::endl;
     return kOk;
   }
@@ -591,10 +612,8 @@ int CommandShell::Mode(const std::vector<std::string>& args) {
 int CommandShell::Stop(const std::vector<std::string>& args) {
   if (args[0] != "all") return Report("stop", args[0], client_.Stop(args[0]));
   std::this_thread::sleep_until(created_ + std::chrono::milliseconds(1500));  // discovery
-  std::vector<std::string> robots;
-  for (const auto& v : client_.Robots()) {
-    if (!v.lost) robots.push_back(v.robot_id);
-  }
+  std::vector<std::string> robots;  // lost ones too: a robot that looks lost may still hear a stop
+  for (const auto& v : client_.Robots()) robots.push_back(v.robot_id);
   // Every stop at once: a fleet stop must not wait for one robot's round trip before the next.
   std::vector<CommandOutcome> outcomes(robots.size());
   std::vector<std::thread> senders;
@@ -617,17 +636,17 @@ int CommandShell::Stop(const std::vector<std::string>& args) {
     out_ << json{{"command", "stop"}, {"robot", "all"}, {"ok", all_ok && !robots.empty()},
                  {"result", all_ok && !robots.empty() ? outcome::kAccepted : outcome::kFailed},
                  {"robots", results}}
-                .dump()
+                .dump(-1, ' ', false, json::error_handler_t::replace)
          << std::endl;
   } else if (robots.empty()) {
-    out_ << "stop all: " << outcome::kFailed << ": no live robot known" << std::endl;
+    out_ << "stop all: " << outcome::kFailed << ": no robot known" << std::endl;
   }
   out_.flush();
   return all_ok && !robots.empty() ? kOk : kRefused;
 }
 
 bool CommandShell::ParsePoint(const std::vector<std::string>& args, std::size_t first, double* x_m, double* y_m,
-                              std::size_t* used, std::string* error) const {
+                              std::size_t* used, std::string* error) {
   if (first >= args.size()) {
     *error = "missing point (X Y, X,Y or a place name)";
     return false;
@@ -647,7 +666,14 @@ bool CommandShell::ParsePoint(const std::vector<std::string>& args, std::size_t 
   if (numeric != word.size()) {
     const char first_char = word.empty() ? '\0' : word[0];
     if (!std::isalpha(static_cast<unsigned char>(first_char))) return ParseNumber(word, "X", x_m, error);
-    const auto place = places_.Find(word);
+    auto place = places_.Find(word);
+    if (!place && !options_.places_file.empty()) {  // another console may have added it
+      try {
+        places_ = Places::Load(options_.places_file);
+      } catch (const std::exception&) {
+      }
+      place = places_.Find(word);
+    }
     if (!place) {
       *error = "unknown place '" + word + "'" + DidYouMeanText(word, places_.Names()) +
                " (places: add one with place add NAME X Y)";
@@ -700,7 +726,7 @@ int CommandShell::Goto(const std::vector<std::string>& all_args) {
   if (json_) {
     out_ << json{{"command", "goto"}, {"robot", args[0]},        {"progress", true},   {"accepted", true},
                  {"reason", o.reason}, {"request_id", o.request_id}, {"goal_id", o.goal_id}}
-                .dump()
+                .dump(-1, ' ', false, json::error_handler_t::replace)
          << std::endl;
   } else {
     Report("goto", args[0], o);
@@ -725,7 +751,9 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
       return !failure.empty();
     }
     seen_goal = true;
-    if (s.nav_status() == msgs::NAV_STATUS_FAILED) failure = "navigation failed: " + s.nav_reason();
+    if (s.nav_status() == msgs::NAV_STATUS_FAILED) {
+      failure = "navigation failed: " + ExplainReason(robot, s.nav_reason()).text;
+    }
     return s.nav_status() == msgs::NAV_STATUS_ARRIVED || !failure.empty();
   };
   const auto start = core::SteadyClock::now();
@@ -759,7 +787,7 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
                    {"eta_s", s.nav_eta_s()},
                    {"local_planner", s.local_planner_status()},
                    {"replans", s.nav_replans()}}
-                  .dump()
+                  .dump(-1, ' ', false, json::error_handler_t::replace)
            << std::endl;
     } else {
       out_ << command << " " << robot << ": " << Fixed(s.nav_distance_left_m(), 1) << " m left, ETA " << eta;
@@ -803,10 +831,11 @@ int CommandShell::Teleop(const std::vector<std::string>& args) {
     return UsageError("teleop", "DURATION_S '" + args[3] + "' must be in (0, 600]");
   }
   const std::string& robot = args[0];
-  if (!client_.WaitForRobot(robot, 3.0)) {
+  if (RefuseUnknown("teleop", robot)) return kRefused;
+  if (!client_.WaitForRobot(robot, 3.0)) {  // lost: no twist is sent to a robot that cannot be heard
     CommandOutcome o;
     o.result = outcome::kRefused;
-    o.reason = "unknown robot '" + robot + "'" + DidYouMeanText(robot, client_.RobotIds());
+    o.reason = client_.UnknownRobotReason(robot);
     return Report("teleop", robot, o);
   }
   // A mode switch made just before may not show in the state yet (10 Hz): give it half a second.
@@ -930,7 +959,7 @@ int CommandShell::Sleep(const std::vector<std::string>& args) {
   }
   if (json_) {  // one JSON object per command, so that a program driving --json never waits for nothing
     out_ << json{{"command", "sleep"}, {"ok", !cancelled}, {"result", cancelled ? "cancelled" : outcome::kAccepted}}
-                .dump()
+                .dump(-1, ' ', false, json::error_handler_t::replace)
          << std::endl;
   }
   return cancelled ? kRefused : kOk;
@@ -939,6 +968,15 @@ int CommandShell::Sleep(const std::vector<std::string>& args) {
 int CommandShell::Place(const std::vector<std::string>& args) {
   static const char* kUsageText = "usage: place add NAME X Y|X,Y [Z] | place remove NAME";
   if (args.empty()) return UsageError("place", kUsageText);
+  // Other consoles share the file: start from what it holds now, so that their places are kept.
+  try {
+    places_ = Places::Load(options_.places_file);
+  } catch (const std::exception& e) {
+    CommandOutcome o;
+    o.result = outcome::kFailed;
+    o.reason = e.what();
+    return Report("place", args.size() > 1 ? args[1] : "", o);
+  }
   std::string message;
   if (args[0] == "add" && args.size() >= 3) {
     base::Place place;
@@ -978,7 +1016,7 @@ int CommandShell::Place(const std::vector<std::string>& args) {
     return Report("place", args[1], o);
   }
   if (json_) {
-    out_ << json{{"command", "place"}, {"ok", true}, {"result", outcome::kAccepted}, {"reason", message + where}}.dump()
+    out_ << json{{"command", "place"}, {"ok", true}, {"result", outcome::kAccepted}, {"reason", message + where}}.dump(-1, ' ', false, json::error_handler_t::replace)
          << std::endl;
   } else {
     out_ << "place: " << outcome::kAccepted << ": " << message << where << std::endl;
@@ -991,7 +1029,7 @@ int CommandShell::ListPlaces() {
   if (json_) {
     json list = json::array();
     for (const auto& p : all) list.push_back({{"name", p.name}, {"x_m", p.x_m}, {"y_m", p.y_m}, {"z_m", p.z_m}});
-    out_ << json{{"command", "places"}, {"ok", true}, {"result", outcome::kAccepted}, {"places", list}}.dump()
+    out_ << json{{"command", "places"}, {"ok", true}, {"result", outcome::kAccepted}, {"places", list}}.dump(-1, ' ', false, json::error_handler_t::replace)
          << std::endl;
     return kOk;
   }

@@ -20,6 +20,7 @@ using shell::StaircaseJson;
 int CommandShell::Map(const std::vector<std::string>& args) {
   const std::string& target = args[0];
   const std::string& path = args[2];
+  if (target != "fleet" && RefuseUnknown("map", target)) return kRefused;
   if (path.size() < 4 || path.substr(path.size() - 3) != ".bt") {
     return UsageError("map", "FILE '" + path + "' must end in .bt (OctoMap binary)");
   }
@@ -37,7 +38,7 @@ int CommandShell::Map(const std::vector<std::string>& args) {
     } else {
       j["reason"] = r.error;
     }
-    out_ << j.dump() << std::endl;
+    out_ << j.dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
   } else if (r.ok) {
     out_ << "map " << target << ": " << r.voxels << " voxels (" << r.occupied << " occupied) at "
          << Fixed(r.resolution_m, 2) << " m saved to " << path << std::endl;
@@ -50,6 +51,7 @@ int CommandShell::Map(const std::vector<std::string>& args) {
 int CommandShell::Snapshot(const std::vector<std::string>& args) {
   const std::string& robot = args[0];
   const std::string& path = args[1];
+  if (RefuseUnknown("snapshot", robot)) return kRefused;
   auto ends_with = [&](const std::string& suffix) {
     return path.size() > suffix.size() && path.compare(path.size() - suffix.size(), suffix.size(), suffix) == 0;
   };
@@ -95,7 +97,7 @@ int CommandShell::Snapshot(const std::vector<std::string>& args) {
                  {"bytes", data.size()}, {"width_px", view->frame.width_px()}, {"height_px", view->frame.height_px()},
                  {"seq", view->frame.seq()}, {"frames_missed", view->frames_missed},
                  {"x_m", p.x_m()}, {"y_m", p.y_m()}, {"z_m", p.z_m()}}
-                .dump()
+                .dump(-1, ' ', false, json::error_handler_t::replace)
          << std::endl;
   } else {
     out_ << "snapshot " << robot << ": frame " << view->frame.seq() << ", " << view->frame.width_px() << "x"
@@ -110,7 +112,7 @@ int CommandShell::Stairs() {
   if (json_) {
     json list = json::array();
     for (const auto& e : entries) list.push_back(StaircaseJson(e));
-    out_ << json{{"command", "stairs"}, {"ok", true}, {"result", outcome::kAccepted}, {"staircases", list}}.dump()
+    out_ << json{{"command", "stairs"}, {"ok", true}, {"result", outcome::kAccepted}, {"staircases", list}}.dump(-1, ' ', false, json::error_handler_t::replace)
          << std::endl;
     return kOk;
   }
@@ -127,6 +129,7 @@ int CommandShell::Stairs() {
 
 int CommandShell::Path(const std::vector<std::string>& args) {
   const std::string& robot = args[0];
+  if (RefuseUnknown("path", robot)) return kRefused;
   // The path is latched: a fresh basestation receives it shortly after discovery. After this shell's own
   // goto, wait for that goal's path.
   const uint32_t goal_id = last_goal_id_.count(robot) ? last_goal_id_[robot] : 0;
@@ -150,7 +153,7 @@ int CommandShell::Path(const std::vector<std::string>& args) {
                  {"goal_id", p.goal_id()},   {"platform", p.platform()}, {"frame_id", p.frame_id()},
                  {"length_m", p.length_m()}, {"map_version", p.map_version()}, {"replans", p.replans()},
                  {"path", PointsJson(p.path_M())}}
-                .dump()
+                .dump(-1, ' ', false, json::error_handler_t::replace)
          << std::endl;
     return kOk;
   }
@@ -181,6 +184,7 @@ int CommandShell::Plan(const std::vector<std::string>& args) {
   }
   if (positional.size() < 2) return UsageError("plan", kUsageText);
   const std::string& robot = positional[0];
+  if (RefuseUnknown("plan", robot)) return kRefused;
   double gx = 0, gy = 0, sx = 0, sy = 0;
   std::string error;
   std::size_t used = 0;
@@ -211,7 +215,7 @@ int CommandShell::Plan(const std::vector<std::string>& args) {
       j["map_version"] = a.response.map_version();
       j["path"] = PointsJson(a.response.path_M());
     }
-    out_ << j.dump() << std::endl;
+    out_ << j.dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
   } else if (a.ok) {
     out_ << "plan " << robot << ": path " << Fixed(a.response.length_m(), 1) << " m, "
          << a.response.path_M().size() << " waypoints, planned in "

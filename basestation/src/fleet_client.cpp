@@ -230,11 +230,14 @@ class FleetClient::Impl {
   }
 
   // Sends a command until the robot answers or the timeout passes (robots de-duplicate).
-  CommandOutcome Call(const std::string& robot_id, msgs::CommandKind kind,
-                      const std::function<bool(uint32_t)>& send) {
+  // `require_live`: refuse a robot that is unknown or lost instead of sending (every command but stop, which
+  // is sent at once whatever this basestation believes: a robot that looks lost on a congested link may
+  // still hear it).
+  CommandOutcome Call(const std::string& robot_id, msgs::CommandKind kind, const std::function<bool(uint32_t)>& send,
+                      bool require_live = true) {
     CommandOutcome outcome;
     outcome.request_id = next_request_id_++;
-    if (!WaitForRobot(robot_id, options_.command_timeout_s)) {
+    if (require_live && !WaitForRobot(robot_id, options_.command_timeout_s)) {
       outcome.result = outcome::kRefused;
       outcome.reason = UnknownRobotReason(robot_id);
       return outcome;
@@ -395,6 +398,18 @@ std::vector<OperatorEvent> FleetClient::RecentEvents() const {
   return {impl_->recent_events_.begin(), impl_->recent_events_.end()};
 }
 
+bool FleetClient::Knows(const std::string& robot_id) const {
+  std::unique_lock<std::mutex> lock(impl_->mutex_);
+  const auto discovered_by = impl_->created_ + std::chrono::duration_cast<SteadyClock::duration>(
+                                                   std::chrono::duration<double>(impl_->options_.discovery_s));
+  impl_->cv_.wait_until(lock, discovered_by, [&] { return impl_->robots_.count(robot_id) > 0; });
+  return impl_->robots_.count(robot_id) > 0;
+}
+
+std::string FleetClient::UnknownRobotReason(const std::string& robot_id) const {
+  return impl_->UnknownRobotReason(robot_id);
+}
+
 std::vector<std::string> FleetClient::RobotIds() const {
   std::lock_guard<std::mutex> lock(impl_->mutex_);
   std::vector<std::string> ids;
@@ -491,13 +506,16 @@ CommandOutcome FleetClient::SendWaypoint(const std::string& robot_id, double x_m
 }
 
 CommandOutcome FleetClient::Stop(const std::string& robot_id) {
-  return impl_->Call(robot_id, msgs::COMMAND_KIND_STOP, [&](uint32_t id) {
-    msgs::StopRequest m;
-    m.robot_id(robot_id);
-    m.base_id(base_id());
-    m.request_id(id);
-    return impl_->stop_writer_->Write(m);
-  });
+  return impl_->Call(
+      robot_id, msgs::COMMAND_KIND_STOP,
+      [&](uint32_t id) {
+        msgs::StopRequest m;
+        m.robot_id(robot_id);
+        m.base_id(base_id());
+        m.request_id(id);
+        return impl_->stop_writer_->Write(m);
+      },
+      /*require_live=*/false);
 }
 
 bool FleetClient::PublishTeleop(const std::string& robot_id, double linear_x_mps, double angular_z_radps,

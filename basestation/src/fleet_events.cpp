@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "cairn/base/fleet_client.h"
+#include "cairn/base/operator_text.h"
 
 namespace cairn::base {
 
@@ -85,9 +86,10 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
                                   Fixed2(s.nav_goal_M().y_m()) + ") (goal " + std::to_string(now.goal_id) +
                                   ")"));
     } else if (goal_changed && now.nav_status == msgs::NAV_STATUS_FAILED) {
-      OperatorEvent e =
-          Event("failed", r, r + " goal " + std::to_string(now.goal_id) + " failed: " + s.nav_reason());
-      e.reason = s.nav_reason();
+      const OperatorReason why = ExplainReason(r, s.nav_reason());
+      OperatorEvent e = Event("failed", r, r + " goal " + std::to_string(now.goal_id) + " failed: " + why.text);
+      e.reason = why.text;
+      e.condition = why.condition;
       events->push_back(e);
     }
     if (now.stops > last.stops) {

@@ -103,8 +103,12 @@ class KeysWhileRunning {
 bool KeyPressed() {
   pollfd input{STDIN_FILENO, POLLIN, 0};
   if (poll(&input, 1, 0) <= 0) return false;
-  char c = 0;
-  return read(STDIN_FILENO, &c, 1) == 1;
+  char keys[64];
+  const bool pressed = read(STDIN_FILENO, keys, sizeof(keys)) > 0;
+  // The rest of a multi-byte key (an arrow's escape sequence) must not reach the next prompt.
+  while (poll(&input, 1, 20) > 0 && read(STDIN_FILENO, keys, sizeof(keys)) > 0) {
+  }
+  return pressed;
 }
 
 // Prints events above the line being typed, then has libedit redraw its prompt and line (its buffer is
@@ -118,6 +122,9 @@ void PrintEventsKeepingLine(cairn::base::CommandShell& shell) {
 // Reads lines from a terminal with history (libedit) until Ctrl-D, "quit", or SIGTERM. Input is polled so
 // that events print while nothing is being run, above the line being typed.
 int RunInteractive(cairn::base::CommandShell& shell, cairn::base::FleetClient& client, const std::string& base_id) {
+  // Before anything initializes libedit (read_history does): it must not install signal handlers, which
+  // would run on any thread, DDS ones included. Ctrl-C is ours (cancel a wait, clear the line).
+  rl_catch_signals = 0;
   const char* home = std::getenv("HOME");
   const std::string history = std::string(home ? home : ".") + "/.cairn_base_history";
   read_history(history.c_str());
@@ -129,7 +136,6 @@ int RunInteractive(cairn::base::CommandShell& shell, cairn::base::FleetClient& c
   const std::string prompt = base_id + "> ";
   int last = cairn::base::kOk;
   g_interactive.shell = &shell;
-  rl_catch_signals = 0;  // libedit must not take SIGINT: Ctrl-C is ours (cancel, clear the line)
   rl_attempted_completion_function = Complete;
   rl_completion_append_character = ' ';
   rl_callback_handler_install(prompt.c_str(), OnLine);
@@ -145,9 +151,12 @@ int RunInteractive(cairn::base::CommandShell& shell, cairn::base::FleetClient& c
     if (g_interactive.pending) {
       // Without the handler installed the output is not interleaved with a redrawn prompt.
       rl_callback_handler_remove();
-      {
+      try {
         KeysWhileRunning keys;
         last = shell.Execute(*g_interactive.pending);
+      } catch (const std::exception& e) {  // a command's failure never ends the operator's session
+        std::cout << "error: " << e.what() << std::endl;
+        last = cairn::base::kRefused;
       }
       g_interrupt.store(false);
       g_interactive.pending.reset();

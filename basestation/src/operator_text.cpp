@@ -74,7 +74,7 @@ OperatorReason ExplainReason(const std::string& robot_id, const std::string& rea
 }
 
 std::vector<std::string> ValidActions(const RobotView& view, const std::string& base_id) {
-  if (view.lost || !view.state) return {};
+  if (view.lost || !view.state) return {"stop"};  // a stop is always allowed (and sent even to a lost robot)
   const std::string& holder = view.state->holder_id();
   if (holder.empty()) return {"request-control", "stop"};
   if (holder != base_id) return {"stop"};
@@ -101,8 +101,9 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
 
 std::string ValidActionsText(const RobotView& view, const std::string& base_id) {
   const std::vector<std::string> actions = ValidActions(view, base_id);
-  if (actions.empty()) return "valid now: none (robot " + view.robot_id + " is lost)";
   std::string text = "valid now: ";
+  if (view.lost) text = "robot " + view.robot_id + " is lost; valid now: ";
+  if (!view.lost && !view.state) text = "no state from " + view.robot_id + " yet; valid now: ";
   for (std::size_t i = 0; i < actions.size(); ++i) text += (i ? ", " : "") + actions[i];
   return text;
 }

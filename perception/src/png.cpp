@@ -10,8 +10,14 @@ namespace {
 
 void AppendBytes(png_structp png, png_bytep data, png_size_t length) {
   auto* out = static_cast<std::vector<std::uint8_t>*>(png_get_io_ptr(png));
-  out->insert(out->end(), data, data + length);
+  try {
+    out->insert(out->end(), data, data + length);
+  } catch (const std::exception&) {  // no C++ exception may cross libpng's C frames
+    png_error(png, "out of memory");
+  }
 }
+
+void Flush(png_structp) {}  // the bytes are in memory already
 
 void OnError(png_structp png, png_const_charp message) {
   *static_cast<std::string*>(png_get_error_ptr(png)) = message;
@@ -50,7 +56,7 @@ std::vector<std::uint8_t> EncodeGrayPng(const GrayFrame& frame) {
     png_destroy_write_struct(&png, &info);
     throw JpegError("PNG encoding failed: " + error);
   }
-  png_set_write_fn(png, &out, AppendBytes, nullptr);
+  png_set_write_fn(png, &out, AppendBytes, Flush);
   png_set_IHDR(png, info, static_cast<png_uint_32>(frame.width_px), static_cast<png_uint_32>(frame.height_px),
                8, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
                PNG_FILTER_TYPE_DEFAULT);

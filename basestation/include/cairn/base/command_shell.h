@@ -89,8 +89,10 @@ class CommandShell {
   // Reads a point: "X Y", "X,Y" or a place name from args[first...]; sets *used to the words consumed.
   // false with *error naming the argument on failure.
   bool ParsePoint(const std::vector<std::string>& args, std::size_t first, double* x_m, double* y_m,
-                  std::size_t* used, std::string* error) const;
+                  std::size_t* used, std::string* error);
   bool Cancelled();
+  // Reports `command` refused and returns true when `robot` is unknown (refused at once after discovery).
+  bool RefuseUnknown(const std::string& command, const std::string& robot);
   // The view of `robot` with a state received after this shell's last answer from it (waits up to 0.5 s),
   // so that what it shows follows from the commands just sent.
   std::optional<RobotView> FreshView(const std::string& robot);

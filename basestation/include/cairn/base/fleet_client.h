@@ -111,7 +111,8 @@ class FleetClient {
   CommandOutcome RequestMode(const std::string& robot_id, const std::string& mode);
   CommandOutcome SendWaypoint(const std::string& robot_id, double x_m, double y_m, double tolerance_m = 0.0);
   /// Stops `robot_id` now: zero twist, mode idle, goal cancelled. Honoured by the robot from any basestation,
-  /// with or without its control lock (an e-stop); the lock stays with its holder.
+  /// with or without its control lock (an e-stop); the lock stays with its holder. Sent at once even to a
+  /// robot this basestation thinks lost or has not seen (retried until answered or command_timeout_s).
   CommandOutcome Stop(const std::string& robot_id);
   /// Publishes one teleop twist (best effort, no acknowledgement), frame B of the robot: forward and
   /// left speed (m/s) and yaw rate (rad/s). false if it could not be written.
@@ -135,6 +136,12 @@ class FleetClient {
 
   /// Robot ids seen so far (for completion and "did you mean").
   std::vector<std::string> RobotIds() const;
+
+  /// True when `robot_id` has been seen (lost or not). Waits only while this client is younger than
+  /// discovery_s, so an unknown robot is refused at once afterwards.
+  bool Knows(const std::string& robot_id) const;
+  /// "unknown robot 'r9' (did you mean r1?) (known: r1, r2)" or "robot r1 is lost (...)".
+  std::string UnknownRobotReason(const std::string& robot_id) const;
 
   class Impl;  ///< DDS entities and the fleet model, kept out of this header.
 

@@ -26,7 +26,8 @@ struct OperatorEvent {
   std::string robot_id;     ///< the robot concerned ("" for a fleet staircase)
   std::string other;        ///< proximity: the other robot; locks: the basestation; stopped: who stopped it
   std::string message;      ///< one line for people, e.g. "r2 arrived at (30.00, 10.00) (goal 12)"
-  std::string reason;       ///< failed: why; lost: why
+  std::string reason;       ///< failed: why (operator words); lost: why
+  std::string condition;    ///< failed: the mode-tree condition behind it ("IsLocalPlannerHealthy"), or ""
   double distance_m = 0.0;  ///< proximity: centre distance, metres, frame map
   std::chrono::system_clock::time_point time = std::chrono::system_clock::now();
   std::optional<perception::StaircaseRegistry::Entry> staircase;  ///< kind "staircase"
@@ -51,7 +52,7 @@ class FleetEventDetector {
   /// Compares every robot in `views` (staleness applied) with its last view and returns what changed: goals
   /// arrived or failed, robots lost or back, lock granted/released/taken, operator stops, robots closer than
   /// proximity_m. The first view of a robot only sets its baseline (a basestation that starts does not
-  /// replay old news), except that a robot first seen lost is not reported.
+  /// replay old news). Proximity is a present hazard, not news: a pair already close is reported at once.
   std::vector<OperatorEvent> Observe(const std::vector<RobotView>& views);
 
   const FleetEventOptions& options() const { return options_; }

@@ -35,7 +35,7 @@ OperatorReason ExplainReason(const std::string& robot_id, const std::string& rea
 
 /// The commands `base_id` may send `view`'s robot now, e.g. {"mode idle|manual|waypoint", "goto", "teleop",
 /// "release", "stop"} for its holder; {"stop"} when another basestation holds it; {"request-control",
-/// "stop"} when free. Empty when the robot is lost. Modes come from the robot's behavior-tree state
+/// "stop"} when free; {"stop"} when the robot is lost or its state has not arrived. Modes come from the robot's behavior-tree state
 /// (valid_modes); "waypoint" is offered as `goto`, which sets the goal and enters it.
 std::vector<std::string> ValidActions(const RobotView& view, const std::string& base_id);
 
