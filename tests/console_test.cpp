@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "cairn_msgsPubSubTypes.h"
 #include "integration_util.h"
@@ -50,6 +51,22 @@ std::vector<std::unique_ptr<ChildProcess>> StartRobots(int count, int domain, co
 std::string WritePlaces(const std::string& path) {
   std::ofstream(path) << "places:\n  junction: {x_m: 30.0, y_m: 20.0, z_m: 0.0}\n";
   return path;
+}
+
+// `./cairn console --base-id op2 --json -- COMMAND...` against the running demo: the exit code and the result
+// line (event lines, which may follow it, skipped).
+std::pair<int, std::string> AttachedConsole(const std::vector<std::string>& command, const std::string& log) {
+  std::vector<std::string> argv = {
+      std::string(CAIRN_SOURCE_DIR) + "/cairn", "console", "--base-id", "op2", "--json", "--"};
+  argv.insert(argv.end(), command.begin(), command.end());
+  ChildProcess console(argv, log);
+  console.CloseStdin();
+  std::string answer;
+  while (auto line = console.ReadLine(20s)) {
+    if (line->find("\"event\"") == std::string::npos) answer = *line;
+  }
+  const auto status = console.Wait(10s);
+  return {status && WIFEXITED(*status) ? WEXITSTATUS(*status) : -1, answer};
 }
 
 bool HasEvent(const std::vector<json>& events, const std::string& kind, const std::string& robot) {
@@ -267,17 +284,8 @@ TEST(Console, SecondConsoleAttachesToARunningDemo) {
                     logs + "/demo.log");
   ASSERT_TRUE(demo.WaitForLine("demo: another operator can attach", 90s));
   ASSERT_TRUE(std::filesystem::exists(demo_logs + "/demo.env"));
-  ChildProcess console({std::string(CAIRN_SOURCE_DIR) + "/cairn", "console", "--base-id", "op2", "--json",
-                        "--", "wait", "r1", "online", "10"},
-                       logs + "/console.log");
-  console.CloseStdin();
-  std::string answer;
-  while (auto line = console.ReadLine(20s)) {
-    if (line->find("\"event\"") == std::string::npos) answer = *line;  // events may follow the result
-  }
-  const auto status = console.Wait(10s);
-  ASSERT_TRUE(status && WIFEXITED(*status)) << answer;
-  EXPECT_EQ(WEXITSTATUS(*status), 0) << answer;
+  const auto [exit_code, answer] = AttachedConsole({"wait", "r1", "online", "10"}, logs + "/console.log");
+  EXPECT_EQ(exit_code, 0) << answer;
   EXPECT_TRUE(json::parse(answer, nullptr, false).value("ok", false)) << answer;
   demo.WriteLine("robots");
   demo.CloseStdin();
@@ -346,14 +354,8 @@ TEST(Console, ThreeRobotMissionFromTheDemoConsoleWithoutPolling) {
   ASSERT_TRUE(demo.WaitFor("Stop robots r1 r2 r3 and end the demo? [y/N]", 10s)) << demo.SinceMark();
   demo.Type("n\r");
   ASSERT_TRUE(demo.WaitFor("keep running", 5s)) << demo.SinceMark();
-  ChildProcess console({std::string(CAIRN_SOURCE_DIR) + "/cairn", "console", "--base-id", "op2", "--json",
-                        "--", "wait", "r3", "online", "5"},
-                       logs + "/console.log");
-  console.CloseStdin();
-  std::string answer;
-  while (auto line = console.ReadLine(20s)) {
-    if (line->find("\"event\"") == std::string::npos) answer = *line;  // events may follow the result
-  }
+  const auto [exit_code, answer] = AttachedConsole({"wait", "r3", "online", "5"}, logs + "/console.log");
+  EXPECT_EQ(exit_code, 0) << answer;
   EXPECT_TRUE(json::parse(answer, nullptr, false).value("ok", false))
       << "robots stopped with the console: " << answer;
 

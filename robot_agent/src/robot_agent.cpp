@@ -91,6 +91,8 @@ class RobotAgent::Impl {
   void OnAgentLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status);
   // A remote participant left or was dropped (participant discovery): it speaks for no holder any more.
   void OnParticipantGone(const std::string& participant);
+  // With mutex_ held: the participants reported gone since the last call (their agent-info entries erased).
+  std::vector<std::string> TakeGoneParticipants();
   // With mutex_ held: the process `participant` is gone or silent; re-check the mode (a holder without a
   // live process stops modes that need a live operator).
   void LoseParticipant(const std::string& participant, const std::string& why);
@@ -164,6 +166,8 @@ class RobotAgent::Impl {
   std::atomic<bool> map_snapshot_requested_{false};
 
   std::mutex mutex_;
+  std::mutex gone_mutex_;                        // guards gone_participants_ only (taken on a DDS thread)
+  std::vector<std::string> gone_participants_;  // reported by participant discovery, handled by the loop
   std::unique_ptr<core::Participant> participant_;
   std::unique_ptr<core::Writer<msgs::AgentInfoPubSubType>> info_writer_;
   std::unique_ptr<core::Writer<msgs::RobotStatePubSubType>> state_writer_;
@@ -694,11 +698,24 @@ void RobotAgent::Impl::OnAgentLiveliness(const eprosima::fastdds::dds::Livelines
 }
 
 void RobotAgent::Impl::OnParticipantGone(const std::string& participant) {
-  std::lock_guard<std::mutex> guard(mutex_);
-  for (auto it = base_by_writer_.begin(); it != base_by_writer_.end();) {
-    it = it->second.participant == participant ? base_by_writer_.erase(it) : std::next(it);
+  // Fast DDS's discovery thread: never wait for the agent lock here (the control loop holds it while it
+  // writes samples). The control loop handles the departure within one period.
+  std::lock_guard<std::mutex> guard(gone_mutex_);
+  gone_participants_.push_back(participant);
+}
+
+std::vector<std::string> RobotAgent::Impl::TakeGoneParticipants() {
+  std::vector<std::string> gone;
+  {
+    std::lock_guard<std::mutex> guard(gone_mutex_);
+    gone.swap(gone_participants_);
   }
-  LoseParticipant(participant, "it left the DDS domain");
+  for (const std::string& participant : gone) {
+    for (auto it = base_by_writer_.begin(); it != base_by_writer_.end();) {
+      it = it->second.participant == participant ? base_by_writer_.erase(it) : std::next(it);
+    }
+  }
+  return gone;
 }
 
 void RobotAgent::Impl::LoseParticipant(const std::string& participant, const std::string& why) {
@@ -922,13 +939,30 @@ void RobotAgent::Impl::Run() {
   } join_on_exit{perception_thread};
   SteadyTime next = SteadyClock::now();
   for (uint64_t cycle = 0; !core::ShutdownRequested(); ++cycle) {
+    const SteadyTime wanted = SteadyClock::now();
+    if (const double late_s = core::SecondsBetween(next, wanted); late_s > 0.1) {
+      spdlog::warn("robot {}: control loop woke {:.0f} ms late (the process was not scheduled)", options_.robot_id,
+                   1000 * late_s);
+    }
     {
       std::lock_guard<std::mutex> guard(mutex_);
       const SteadyTime now = SteadyClock::now();
+      for (const std::string& participant : TakeGoneParticipants()) {
+        LoseParticipant(participant, "it left the DDS domain");
+      }
       Step(now);
       if (cycle % state_every == 0) PublishState(now);
       if (cycle % local_plan_every == 0) PublishLocalPlan();
       PublishTreeStateIfChanged();
+      // A late cycle is a robot driving blind: say where the time went (waiting for the lock, or working).
+      const double lock_wait_s = core::SecondsBetween(wanted, now);
+      const double work_s = core::SecondsBetween(now, SteadyClock::now());
+      if (lock_wait_s + work_s > 0.1) {
+        spdlog::warn("robot {}: control cycle took {:.0f} ms ({:.0f} ms waiting for the agent lock, {:.0f} ms "
+                     "working; period {:.0f} ms)",
+                     options_.robot_id, 1000 * (lock_wait_s + work_s), 1000 * lock_wait_s, 1000 * work_s,
+                     1000 * kLoopPeriodS);
+      }
     }
     next += period;
     const auto now = SteadyClock::now();
