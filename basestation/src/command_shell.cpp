@@ -15,6 +15,7 @@ namespace cairn::base {
 
 namespace msgs = cairn_msgs;
 using nlohmann::json;
+using shell::Dump;
 using shell::Fixed;
 using shell::ParseNumber;
 using shell::StaircaseJson;
@@ -152,7 +153,7 @@ CommandShell::CommandShell(FleetClient& client, bool json, std::ostream& out)
 
 const std::vector<std::string>& CommandShell::CommandNames() {
   static const std::vector<std::string> kNames = {
-      "robots", "watch", "status", "request-control", "release", "mode",   "goto",  "path",   "plan",
+      "robots", "watch", "status", "request-control", "release", "mode",     "goto",   "path",   "plan",
       "teleop", "stop",  "wait",   "sleep",           "map",     "snapshot", "stairs", "events", "place",
       "places", "help"};
   return kNames;
@@ -160,39 +161,51 @@ const std::vector<std::string>& CommandShell::CommandNames() {
 
 std::string CommandShell::Help() {
   return "commands (R: a robot id; a point is X Y, X,Y or a place name, metres, frame map):\n"
-         "  robots                              the fleet: mode, holder, goal status, distance left, ETA, last\n"
+         "  robots                              the fleet: mode, holder, goal status, distance left, ETA, "
+         "last\n"
          "                                      heard, last refusal\n"
          "  watch [PERIOD_S] [--count N]        the robots table refreshed in place until a key is pressed\n"
          "                                      (in scripts: N times, default 1)\n"
          "  status R                            R at a glance: pose, control, goal, refusal, valid actions\n"
          "  help R                              what you may do with R now, and how\n"
-         "  request-control R                   ask for R's control lock (refused if another basestation holds it)\n"
+         "  request-control R                   ask for R's control lock (refused if another basestation "
+         "holds it)\n"
          "  release R                           give R's control lock back (the robot stops)\n"
-         "  mode R MODE                         switch R to idle | manual | smart_joystick (waypoint: use goto)\n"
-         "  goto R POINT [TOL] [--wait [TIMEOUT_S]]  drive R to POINT; --wait prints progress (distance left,\n"
+         "  mode R MODE                         switch R to idle | manual | smart_joystick (waypoint: use "
+         "goto)\n"
+         "  goto R POINT [TOL] [--wait [TIMEOUT_S]]  drive R to POINT; --wait prints progress (distance "
+         "left,\n"
          "                                      ETA) until it arrives or fails (default 600 s)\n"
          "  path R                              the global path R is following (waypoints, length)\n"
-         "  plan R POINT [--from POINT] [--platform P]  ask R's global planner for a path (from R's pose, for\n"
+         "  plan R POINT [--from POINT] [--platform P]  ask R's global planner for a path (from R's pose, "
+         "for\n"
          "                                      R's platform by default); prints the path or the reason\n"
          "  teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]  drive R for DURATION_S, then stop sending: manual\n"
          "                                      mode unless R is in smart_joystick, where the twist is the\n"
-         "                                      direction the local planner follows; speeds beyond R's limits\n"
+         "                                      direction the local planner follows; speeds beyond R's "
+         "limits\n"
          "                                      are clamped, with a notice\n"
          "  stop R|all                          stop now: zero twist, mode idle, goal cancelled; from any\n"
          "                                      basestation, without the control lock (the lock stays)\n"
-         "  wait R arrived|idle|mode=M|online|lost [TIMEOUT_S]  block until R reaches that state (default 60 s)\n"
+         "  wait R arrived|idle|mode=M|online|lost [TIMEOUT_S]  block until R reaches that state (default 60 "
+         "s)\n"
          "  events [N]                          the last N events (default 20)\n"
          "  place add NAME POINT [Z] | place remove NAME   name a point (saved to the --places file)\n"
          "  places                              the named places\n"
-         "  map R|fleet --save FILE.bt          save R's coarse map (or the fleet map merged from every robot) as\n"
-         "                                      an OctoMap .bt; asks for a snapshot first if it is incomplete\n"
+         "  map R|fleet --save FILE.bt          save R's coarse map (or the fleet map merged from every "
+         "robot) as\n"
+         "                                      an OctoMap .bt; asks for a snapshot first if it is "
+         "incomplete\n"
          "  snapshot R FILE.jpg|FILE.png [TIMEOUT_S]  save R's next camera frame (default 5 s)\n"
          "  stairs                              staircases found by the fleet (merged across robots)\n"
          "  sleep S                             pause a script for S seconds\n"
          "  help                                this text\n"
-         "Outcomes: accepted, refused, failed, timed out, invalid (a malformed command), cancelled (Ctrl-C).\n"
-         "Refusals say why and what is valid now; a refused, failed, timed-out or cancelled command exits 1,\n"
-         "an invalid one 2. Events (arrivals, failures, losses, locks, stops, staircases, robots close to each\n"
+         "Outcomes: accepted, refused, failed, timed out, invalid (a malformed command), cancelled "
+         "(Ctrl-C).\n"
+         "Refusals say why and what is valid now; a refused, failed, timed-out or cancelled command exits "
+         "1,\n"
+         "an invalid one 2. Events (arrivals, failures, losses, locks, stops, staircases, robots close to "
+         "each\n"
          "other) print as they happen.";
 }
 
@@ -203,7 +216,8 @@ bool CommandShell::Cancelled() {
 
 int CommandShell::UsageError(const std::string& command, const std::string& message) {
   if (json_) {
-    out_ << json{{"command", command}, {"ok", false}, {"result", outcome::kInvalid}, {"reason", message}}.dump(-1, ' ', false, json::error_handler_t::replace)
+    out_ << Dump(
+                json{{"command", command}, {"ok", false}, {"result", outcome::kInvalid}, {"reason", message}})
          << std::endl;
   } else {
     out_ << command << ": " << outcome::kInvalid << ": " << message << std::endl;
@@ -224,9 +238,8 @@ std::optional<RobotView> CommandShell::FreshView(const std::string& robot) {
   const auto answered = last_answer_.find(robot);
   if (answered == last_answer_.end()) return client_.Robot(robot);
   const core::SteadyTime after = answered->second;
-  auto view = client_.WaitUntil(robot, 0.5, [after](const RobotView& v) {
-    return v.state.has_value() && v.state_received > after;
-  });
+  auto view = client_.WaitUntil(
+      robot, 0.5, [after](const RobotView& v) { return v.state.has_value() && v.state_received > after; });
   return view ? view : client_.Robot(robot);
 }
 
@@ -239,7 +252,8 @@ int CommandShell::Report(const std::string& command, const std::string& robot, c
   if (!o.ok && o.result == outcome::kRefused) {
     if (auto view = client_.Robot(robot)) {
       if (o.answered) {
-        // The robot's answer is newer than its last state: its holder and valid modes right after this command.
+        // The robot's answer is newer than its last state: its holder and valid modes right after this
+        // command.
         if (!view->state) view->state = cairn_msgs::RobotState{};
         view->state->holder_id(o.holder_id);
         view->state->mode(o.mode);
@@ -252,15 +266,21 @@ int CommandShell::Report(const std::string& command, const std::string& robot, c
     }
   }
   if (json_) {
-    json j = {{"command", command},     {"robot", robot},          {"ok", o.ok},
-              {"result", o.result},     {"reason", o.reason},      {"holder", o.holder_id},
-              {"mode", o.mode},         {"round_trip_ms", o.round_trip_ms},
-              {"request_id", o.request_id}, {"goal_id", o.goal_id}};
+    json j = {{"command", command},
+              {"robot", robot},
+              {"ok", o.ok},
+              {"result", o.result},
+              {"reason", o.reason},
+              {"holder", o.holder_id},
+              {"mode", o.mode},
+              {"round_trip_ms", o.round_trip_ms},
+              {"request_id", o.request_id},
+              {"goal_id", o.goal_id}};
     if (!o.condition.empty()) j["condition"] = o.condition;
     if (!o.robot_reason.empty() && o.robot_reason != o.reason) j["robot_reason"] = o.robot_reason;
     if (!valid_text.empty()) j["valid_actions"] = valid;
     if (!notice.empty()) j["notice"] = notice;
-    out_ << j.dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
+    out_ << Dump(j) << std::endl;
   } else {
     if (!notice.empty()) out_ << command << " " << robot << ": note: " << notice << std::endl;
     out_ << command << " " << robot << ": " << o.result;
@@ -284,7 +304,7 @@ int CommandShell::Execute(const std::string& line) {
 void CommandShell::PrintEvents() {
   for (const OperatorEvent& event : client_.TakeEvents()) {
     if (json_) {
-      out_ << EventJson(event).dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
+      out_ << Dump(EventJson(event)) << std::endl;
     } else {
       out_ << "[" << ClockText(event.time) << "] " << event.message << std::endl;
     }
@@ -299,9 +319,9 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
   } else {
     const std::string& cmd = before[0];
     const std::size_t arg = before.size();  // index of the word being completed, 1-based after the command
-    static const std::vector<std::string> kRobotFirst = {"status", "request-control", "release", "mode", "goto",
-                                                         "path",   "plan",            "teleop",  "stop", "wait",
-                                                         "map",    "snapshot",        "help"};
+    static const std::vector<std::string> kRobotFirst = {
+        "status", "request-control", "release", "mode", "goto", "path", "plan", "teleop", "stop", "wait",
+        "map",    "snapshot",        "help"};
     if (arg == 1 && std::find(kRobotFirst.begin(), kRobotFirst.end(), cmd) != kRobotFirst.end()) {
       pool = client_.RobotIds();
       if (cmd == "stop") pool.push_back("all");
@@ -339,7 +359,7 @@ int CommandShell::Run(const std::string& line) {
   if (cmd == "help") {
     if (args.size() == 1) return HelpFor(args[0]);
     if (json_) {
-      out_ << json{{"command", "help"}, {"ok", true}, {"result", outcome::kAccepted}, {"text", Help()}}.dump(-1, ' ', false, json::error_handler_t::replace)
+      out_ << Dump(json{{"command", "help"}, {"ok", true}, {"result", outcome::kAccepted}, {"text", Help()}})
            << std::endl;
     } else {
       out_ << Help() << std::endl;
@@ -371,11 +391,13 @@ int CommandShell::Run(const std::string& line) {
                                                      : UsageError(cmd, "usage: map R|fleet --save FILE.bt");
   }
   if (cmd == "snapshot") {
-    return (args.size() == 2 || args.size() == 3) ? Snapshot(args)
-                                                  : UsageError(cmd, "usage: snapshot R FILE.jpg|FILE.png [TIMEOUT_S]");
+    return (args.size() == 2 || args.size() == 3)
+               ? Snapshot(args)
+               : UsageError(cmd, "usage: snapshot R FILE.jpg|FILE.png [TIMEOUT_S]");
   }
   if (cmd == "stairs") return args.empty() ? Stairs() : UsageError(cmd, "usage: stairs");
-  return UsageError(cmd, "unknown command '" + cmd + "'" + DidYouMeanText(cmd, CommandNames()) + " (try help)");
+  return UsageError(cmd,
+                    "unknown command '" + cmd + "'" + DidYouMeanText(cmd, CommandNames()) + " (try help)");
 }
 
 void CommandShell::PrintRobotsTable() {
@@ -397,9 +419,11 @@ void CommandShell::PrintRobotsTable() {
     if (v.tree && !v.tree->last_refusal().empty()) {
       refusal = Truncate(ExplainReason(v.robot_id, v.tree->last_refusal()).text, 60);
     }
-    const std::string heard = v.lost ? "LOST (" + v.lost_reason + ")"
-                                     : Fixed(core::SecondsBetween(v.last_seen, core::SteadyClock::now()), 1) + " s ago";
-    rows.push_back({v.robot_id, v.platform.empty() ? "?" : v.platform, mode, holder, nav, left, eta, heard, refusal});
+    const std::string heard =
+        v.lost ? "LOST (" + v.lost_reason + ")"
+               : Fixed(core::SecondsBetween(v.last_seen, core::SteadyClock::now()), 1) + " s ago";
+    rows.push_back(
+        {v.robot_id, v.platform.empty() ? "?" : v.platform, mode, holder, nav, left, eta, heard, refusal});
   }
   PrintTable(out_, rows);
   if (views.empty()) out_ << "(no robots discovered yet)" << std::endl;
@@ -411,7 +435,7 @@ int CommandShell::Robots() {
   if (json_) {
     json list = json::array();
     for (const auto& v : client_.Robots()) list.push_back(ViewJson(v, client_.base_id()));
-    out_ << json{{"command", "robots"}, {"ok", true}, {"result", outcome::kAccepted}, {"robots", list}}.dump(-1, ' ', false, json::error_handler_t::replace)
+    out_ << Dump(json{{"command", "robots"}, {"ok", true}, {"result", outcome::kAccepted}, {"robots", list}})
          << std::endl;
     return kOk;
   }
@@ -425,8 +449,10 @@ int CommandShell::Watch(const std::vector<std::string>& args) {
   std::string error;
   for (std::size_t i = 0; i < args.size(); ++i) {
     if (args[i] == "--count" && i + 1 < args.size()) {
-      if (!ParseNumber(args[++i], "N", &count, &error) || count < 1 || count > 100000 || count != std::floor(count)) {
-        return UsageError("watch", error.empty() ? "N '" + args[i] + "' must be a whole number in [1, 100000]" : error);
+      if (!ParseNumber(args[++i], "N", &count, &error) || count < 1 || count > 100000 ||
+          count != std::floor(count)) {
+        return UsageError(
+            "watch", error.empty() ? "N '" + args[i] + "' must be a whole number in [1, 100000]" : error);
       }
     } else if (i == 0 && args[i].rfind("--", 0) != 0) {
       if (!ParseNumber(args[i], "PERIOD_S", &period_s, &error) || period_s < 0.1 || period_s > 60) {
@@ -443,19 +469,20 @@ int CommandShell::Watch(const std::vector<std::string>& args) {
     if (json_) {
       json list = json::array();
       for (const auto& v : client_.Robots()) list.push_back(ViewJson(v, client_.base_id()));
-      out_ << json{{"command", "watch"}, {"progress", true}, {"robots", list}}.dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
+      out_ << Dump(json{{"command", "watch"}, {"progress", true}, {"robots", list}}) << std::endl;
     } else {
       PrintRobotsTable();
       const auto recent = client_.RecentEvents();
       for (std::size_t i = recent.size() > 5 ? recent.size() - 5 : 0; i < recent.size(); ++i) {
         out_ << "[" << ClockText(recent[i].time) << "] " << recent[i].message << "\n";
       }
-      if (in_place) out_ << "(watching every " << Fixed(period_s, 1) << " s: press any key to stop)" << std::endl;
+      if (in_place)
+        out_ << "(watching every " << Fixed(period_s, 1) << " s: press any key to stop)" << std::endl;
     }
     if (count != 0 && n + 1 >= count) break;
     // Wait for the next refresh, a key, or Ctrl-C.
     const auto next = core::SteadyClock::now() + std::chrono::duration_cast<core::SteadyClock::duration>(
-                                                      std::chrono::duration<double>(period_s));
+                                                     std::chrono::duration<double>(period_s));
     bool stop = false;
     while (core::SteadyClock::now() < next && !stop) {
       stop = (options_.key_pressed && options_.key_pressed()) || Cancelled();
@@ -464,7 +491,7 @@ int CommandShell::Watch(const std::vector<std::string>& args) {
     if (stop) break;
   }
   if (json_) {
-    out_ << json{{"command", "watch"}, {"ok", true}, {"result", outcome::kAccepted}}.dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
+    out_ << Dump(json{{"command", "watch"}, {"ok", true}, {"result", outcome::kAccepted}}) << std::endl;
   }
   return kOk;
 }
@@ -473,15 +500,18 @@ int CommandShell::Events(const std::vector<std::string>& args) {
   double n = 20;
   std::string error;
   if (args.size() > 1) return UsageError("events", "usage: events [N]");
-  if (args.size() == 1 && (!ParseNumber(args[0], "N", &n, &error) || n < 1 || n > 100000 || n != std::floor(n))) {
-    return UsageError("events", error.empty() ? "N '" + args[0] + "' must be a whole number in [1, 100000]" : error);
+  if (args.size() == 1 &&
+      (!ParseNumber(args[0], "N", &n, &error) || n < 1 || n > 100000 || n != std::floor(n))) {
+    return UsageError("events",
+                      error.empty() ? "N '" + args[0] + "' must be a whole number in [1, 100000]" : error);
   }
   const auto recent = client_.RecentEvents();
-  const std::size_t from = recent.size() > static_cast<std::size_t>(n) ? recent.size() - static_cast<std::size_t>(n) : 0;
+  const std::size_t from =
+      recent.size() > static_cast<std::size_t>(n) ? recent.size() - static_cast<std::size_t>(n) : 0;
   if (json_) {
     json list = json::array();
     for (std::size_t i = from; i < recent.size(); ++i) list.push_back(EventJson(recent[i]));
-    out_ << json{{"command", "events"}, {"ok", true}, {"result", outcome::kAccepted}, {"events", list}}.dump(-1, ' ', false, json::error_handler_t::replace)
+    out_ << Dump(json{{"command", "events"}, {"ok", true}, {"result", outcome::kAccepted}, {"events", list}})
          << std::endl;
     return kOk;
   }
@@ -504,7 +534,7 @@ int CommandShell::Status(const std::vector<std::string>& args) {
     out["command"] = "status";
     out["ok"] = !view->lost;
     out["result"] = view->lost ? outcome::kFailed : outcome::kAccepted;
-    out_ << out.dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
+    out_ << Dump(out) << std::endl;
     return view->lost ? kRefused : kOk;
   }
   const RobotView& v = *view;
@@ -515,8 +545,8 @@ int CommandShell::Status(const std::vector<std::string>& args) {
     const auto& s = *v.state;
     const auto& p = s.pose_MB().position();
     out_ << "  mode      " << s.mode() << " (" << s.mux_reason() << ")\n";
-    out_ << "  pose      (" << Fixed(p.x_m(), 2) << ", " << Fixed(p.y_m(), 2) << ", " << Fixed(p.z_m(), 2) << ") m, heading "
-         << Fixed(YawOf(s.pose_MB().orientation()) * 180.0 / M_PI, 0) << " deg, speed "
+    out_ << "  pose      (" << Fixed(p.x_m(), 2) << ", " << Fixed(p.y_m(), 2) << ", " << Fixed(p.z_m(), 2)
+         << ") m, heading " << Fixed(YawOf(s.pose_MB().orientation()) * 180.0 / M_PI, 0) << " deg, speed "
          << Fixed(s.twist_B().linear_x_mps(), 2) << " m/s" << (s.in_contact() ? ", IN CONTACT" : "") << "\n";
     out_ << "  control   ";
     if (s.holder_id().empty()) {
@@ -526,14 +556,15 @@ int CommandShell::Status(const std::vector<std::string>& args) {
            << (s.holder_alive() ? ", connected" : ", NOT CONNECTED") << " (" << s.holder_participants()
            << " process" << (s.holder_participants() == 1 ? "" : "es") << ")";
     }
-    if (s.discarded_commands() > 0) out_ << "; " << s.discarded_commands() << " commands from others discarded";
+    if (s.discarded_commands() > 0)
+      out_ << "; " << s.discarded_commands() << " commands from others discarded";
     out_ << "\n";
     out_ << "  goal      ";
     if (s.nav_status() == msgs::NAV_STATUS_NONE) {
       out_ << "none";
     } else {
-      out_ << s.nav_goal_id() << " to (" << Fixed(s.nav_goal_M().x_m(), 2) << ", " << Fixed(s.nav_goal_M().y_m(), 2)
-           << "): " << NavStatusName(s.nav_status());
+      out_ << s.nav_goal_id() << " to (" << Fixed(s.nav_goal_M().x_m(), 2) << ", "
+           << Fixed(s.nav_goal_M().y_m(), 2) << "): " << NavStatusName(s.nav_status());
       if (s.nav_status() == msgs::NAV_STATUS_ACTIVE) {
         out_ << ", " << Fixed(s.nav_distance_left_m(), 1) << " m left, ETA "
              << (s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "unknown") << ", " << s.nav_replans()
@@ -568,8 +599,7 @@ int CommandShell::HelpFor(const std::string& robot) {
       if (in) text += line + "\n";
     }
     if (json_) {
-      out_ << json{{"command", "help"}, {"ok", true}, {"result", outcome::kAccepted}, {"text", text}}.dump(
-                  -1, ' ', false, json::error_handler_t::replace)
+      out_ << Dump(json{{"command", "help"}, {"ok", true}, {"result", outcome::kAccepted}, {"text", text}})
            << std::endl;
     } else {
       out_ << text << std::flush;
@@ -577,21 +607,27 @@ int CommandShell::HelpFor(const std::string& robot) {
     return kOk;
   }
   if (RefuseUnknown("help", robot)) return kRefused;
-  client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return (v.state.has_value() && v.tree.has_value()) || v.lost; });
+  client_.WaitUntil(robot, 3.0,
+                    [](const RobotView& v) { return (v.state.has_value() && v.tree.has_value()) || v.lost; });
   const auto view = FreshView(robot);
   const std::vector<std::string> actions = ValidActions(*view, client_.base_id());
   if (json_) {
-    out_ << json{{"command", "help"}, {"robot", robot}, {"ok", true}, {"result", outcome::kAccepted},
-                 {"valid_actions", actions}}
-                .dump(-1, ' ', false, json::error_handler_t::replace)
+    out_ << Dump(json{{"command", "help"},
+                      {"robot", robot},
+                      {"ok", true},
+                      {"result", outcome::kAccepted},
+                      {"valid_actions", actions}})
          << std::endl;
     return kOk;
   }
   out_ << robot << ": " << ValidActionsText(*view, client_.base_id()) << "\n";
   static const std::map<std::string, std::string> kUsage = {
-      {"request-control", "request-control R"}, {"release", "release R"},
-      {"mode", "mode R MODE"},                  {"goto", "goto R POINT [TOL] [--wait [TIMEOUT_S]]"},
-      {"teleop", "teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]"}, {"stop", "stop R|all"}};
+      {"request-control", "request-control R"},
+      {"release", "release R"},
+      {"mode", "mode R MODE"},
+      {"goto", "goto R POINT [TOL] [--wait [TIMEOUT_S]]"},
+      {"teleop", "teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]"},
+      {"stop", "stop R|all"}};
   for (const auto& action : actions) {
     const std::string verb = action.substr(0, action.find(' '));
     if (auto it = kUsage.find(verb); it != kUsage.end()) out_ << "  " << it->second << "\n";
@@ -626,17 +662,20 @@ int CommandShell::Stop(const std::vector<std::string>& args) {
   for (std::size_t i = 0; i < robots.size(); ++i) {
     all_ok = all_ok && outcomes[i].ok;
     if (json_) {
-      results.push_back({{"robot", robots[i]}, {"ok", outcomes[i].ok}, {"result", outcomes[i].result},
+      results.push_back({{"robot", robots[i]},
+                         {"ok", outcomes[i].ok},
+                         {"result", outcomes[i].result},
                          {"reason", outcomes[i].reason}});
     } else {
       out_ << "stop " << robots[i] << ": " << outcomes[i].result << ": " << outcomes[i].reason << "\n";
     }
   }
   if (json_) {
-    out_ << json{{"command", "stop"}, {"robot", "all"}, {"ok", all_ok && !robots.empty()},
-                 {"result", all_ok && !robots.empty() ? outcome::kAccepted : outcome::kFailed},
-                 {"robots", results}}
-                .dump(-1, ' ', false, json::error_handler_t::replace)
+    out_ << Dump(json{{"command", "stop"},
+                      {"robot", "all"},
+                      {"ok", all_ok && !robots.empty()},
+                      {"result", all_ok && !robots.empty() ? outcome::kAccepted : outcome::kFailed},
+                      {"robots", results}})
          << std::endl;
   } else if (robots.empty()) {
     out_ << "stop all: " << outcome::kFailed << ": no robot known" << std::endl;
@@ -645,8 +684,8 @@ int CommandShell::Stop(const std::vector<std::string>& args) {
   return all_ok && !robots.empty() ? kOk : kRefused;
 }
 
-bool CommandShell::ParsePoint(const std::vector<std::string>& args, std::size_t first, double* x_m, double* y_m,
-                              std::size_t* used, std::string* error) {
+bool CommandShell::ParsePoint(const std::vector<std::string>& args, std::size_t first, double* x_m,
+                              double* y_m, std::size_t* used, std::string* error) {
   if (first >= args.size()) {
     *error = "missing point (X Y, X,Y or a place name)";
     return false;
@@ -654,7 +693,8 @@ bool CommandShell::ParsePoint(const std::vector<std::string>& args, std::size_t 
   const std::string& word = args[first];
   if (const auto comma = word.find(','); comma != std::string::npos) {
     *used = 1;
-    return ParseNumber(word.substr(0, comma), "X", x_m, error) && ParseNumber(word.substr(comma + 1), "Y", y_m, error);
+    return ParseNumber(word.substr(0, comma), "X", x_m, error) &&
+           ParseNumber(word.substr(comma + 1), "Y", y_m, error);
   }
   // A word that reads as a number (nan and inf included, refused below as not finite) is X; else a place.
   std::size_t numeric = 0;
@@ -706,7 +746,8 @@ int CommandShell::Goto(const std::vector<std::string>& all_args) {
     wait = true;
     if (i + 1 < all_args.size()) {
       if (!ParseNumber(all_args[i + 1], "TIMEOUT_S", &timeout, &error) || timeout <= 0 || timeout > 86400) {
-        return UsageError("goto", error.empty() ? "TIMEOUT_S '" + all_args[i + 1] + "' must be in (0, 86400]" : error);
+        return UsageError(
+            "goto", error.empty() ? "TIMEOUT_S '" + all_args[i + 1] + "' must be in (0, 86400]" : error);
       }
       if (i + 2 != all_args.size()) return UsageError("goto", kUsageText);
       break;
@@ -718,15 +759,20 @@ int CommandShell::Goto(const std::vector<std::string>& all_args) {
   if (!ParsePoint(args, 1, &x, &y, &used, &error)) return UsageError("goto", error);
   const std::size_t rest = 1 + used;
   if (args.size() > rest + 1) return UsageError("goto", kUsageText);
-  if (args.size() == rest + 1 && !ParseNumber(args[rest], "TOL", &tolerance, &error)) return UsageError("goto", error);
+  if (args.size() == rest + 1 && !ParseNumber(args[rest], "TOL", &tolerance, &error))
+    return UsageError("goto", error);
   const CommandOutcome o = client_.SendWaypoint(args[0], x, y, tolerance);
   if (o.ok) last_goal_id_[args[0]] = o.goal_id;
   if (!o.ok || !wait) return Report("goto", args[0], o);
   // With --wait, one result line ends the command (JSON: the acceptance is a progress line before it).
   if (json_) {
-    out_ << json{{"command", "goto"}, {"robot", args[0]},        {"progress", true},   {"accepted", true},
-                 {"reason", o.reason}, {"request_id", o.request_id}, {"goal_id", o.goal_id}}
-                .dump(-1, ' ', false, json::error_handler_t::replace)
+    out_ << Dump(json{{"command", "goto"},
+                      {"robot", args[0]},
+                      {"progress", true},
+                      {"accepted", true},
+                      {"reason", o.reason},
+                      {"request_id", o.request_id},
+                      {"goal_id", o.goal_id}})
          << std::endl;
   } else {
     Report("goto", args[0], o);
@@ -746,7 +792,8 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
     if (goal_id != 0 && s.nav_goal_id() != goal_id) {
       // Once our goal was seen, another id means another goto replaced it.
       if (seen_goal && s.nav_status() != msgs::NAV_STATUS_NONE) {
-        failure = "goal " + std::to_string(goal_id) + " superseded by goal " + std::to_string(s.nav_goal_id());
+        failure =
+            "goal " + std::to_string(goal_id) + " superseded by goal " + std::to_string(s.nav_goal_id());
       }
       return !failure.empty();
     }
@@ -780,14 +827,13 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
     const auto& s = *now_view->state;
     const std::string eta = s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "unknown";
     if (json_) {
-      out_ << json{{"command", command},
-                   {"robot", robot},
-                   {"progress", true},
-                   {"distance_left_m", s.nav_distance_left_m()},
-                   {"eta_s", s.nav_eta_s()},
-                   {"local_planner", s.local_planner_status()},
-                   {"replans", s.nav_replans()}}
-                  .dump(-1, ' ', false, json::error_handler_t::replace)
+      out_ << Dump(json{{"command", command},
+                        {"robot", robot},
+                        {"progress", true},
+                        {"distance_left_m", s.nav_distance_left_m()},
+                        {"eta_s", s.nav_eta_s()},
+                        {"local_planner", s.local_planner_status()},
+                        {"replans", s.nav_replans()}})
            << std::endl;
     } else {
       out_ << command << " " << robot << ": " << Fixed(s.nav_distance_left_m(), 1) << " m left, ETA " << eta;
@@ -800,13 +846,13 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
   }
   CommandOutcome o;
   o.ok = view.has_value() && failure.empty();
-  o.result = o.ok ? outcome::kAccepted
+  o.result = o.ok        ? outcome::kAccepted
              : cancelled ? "cancelled"
              : view      ? outcome::kFailed
                          : outcome::kTimedOut;
   const std::string elapsed = Fixed(core::SecondsBetween(start, core::SteadyClock::now()), 2);
-  o.reason = cancelled            ? "stopped waiting after " + elapsed + " s (Ctrl-C); " + robot +
-                             " drives on: stop " + robot + " to stop it"
+  o.reason = cancelled ? "stopped waiting after " + elapsed + " s (Ctrl-C); " + robot + " drives on: stop " +
+                             robot + " to stop it"
              : !failure.empty() ? failure
              : view             ? "arrived after " + elapsed + " s"
                                 : "robot " + robot + " not arrived within " + Fixed(timeout_s, 1) + " s";
@@ -850,8 +896,8 @@ int CommandShell::Teleop(const std::vector<std::string>& args) {
     if (high <= 0 || (*value >= low && *value <= high)) return;
     const double asked = *value;
     *value = std::clamp(*value, low, high);
-    notice += (notice.empty() ? "" : "; ") + Fixed(std::abs(*value), 2) + " " + unit + " is " + robot + "'s " +
-              what + ": sent " + Fixed(*value, 2) + " (asked " + Fixed(asked, 2) + ")";
+    notice += (notice.empty() ? "" : "; ") + Fixed(std::abs(*value), 2) + " " + unit + " is " + robot +
+              "'s " + what + ": sent " + Fixed(*value, 2) + " (asked " + Fixed(asked, 2) + ")";
   };
   if (view) {
     clamp(&vx, -view->max_reverse_speed_mps, view->max_speed_mps,
@@ -898,7 +944,8 @@ int CommandShell::Wait(const std::vector<std::string>& args) {
   const std::string& what = args[1];
   double timeout = 60;
   std::string error;
-  if (args.size() == 3 && (!ParseNumber(args[2], "TIMEOUT_S", &timeout, &error) || timeout < 0 || timeout > 86400)) {
+  if (args.size() == 3 &&
+      (!ParseNumber(args[2], "TIMEOUT_S", &timeout, &error) || timeout < 0 || timeout > 86400)) {
     return UsageError("wait", error.empty() ? "TIMEOUT_S '" + args[2] + "' must be in [0, 86400]" : error);
   }
   std::function<bool(const RobotView&)> done;
@@ -950,16 +997,17 @@ int CommandShell::Sleep(const std::vector<std::string>& args) {
     return UsageError("sleep", error.empty() ? "S '" + args[0] + "' must be in [0, 3600]" : error);
   }
   const auto until = core::SteadyClock::now() + std::chrono::duration_cast<core::SteadyClock::duration>(
-                                                     std::chrono::duration<double>(seconds));
+                                                    std::chrono::duration<double>(seconds));
   bool cancelled = false;
   while (core::SteadyClock::now() < until && !cancelled) {
     std::this_thread::sleep_for(std::min<core::SteadyClock::duration>(std::chrono::milliseconds(50),
-                                                                       until - core::SteadyClock::now()));
+                                                                      until - core::SteadyClock::now()));
     cancelled = Cancelled();
   }
   if (json_) {  // one JSON object per command, so that a program driving --json never waits for nothing
-    out_ << json{{"command", "sleep"}, {"ok", !cancelled}, {"result", cancelled ? "cancelled" : outcome::kAccepted}}
-                .dump(-1, ' ', false, json::error_handler_t::replace)
+    out_ << Dump(json{{"command", "sleep"},
+                      {"ok", !cancelled},
+                      {"result", cancelled ? "cancelled" : outcome::kAccepted}})
          << std::endl;
   }
   return cancelled ? kRefused : kOk;
@@ -998,15 +1046,17 @@ int CommandShell::Place(const std::vector<std::string>& args) {
               Fixed(place.z_m, 2) + ")";
   } else if (args[0] == "remove" && args.size() == 2) {
     if (!places_.Remove(args[1])) {
-      return UsageError("place", "unknown place '" + args[1] + "'" + DidYouMeanText(args[1], places_.Names()));
+      return UsageError("place",
+                        "unknown place '" + args[1] + "'" + DidYouMeanText(args[1], places_.Names()));
     }
     message = "place " + args[1] + " removed";
   } else {
     return UsageError("place", kUsageText);
   }
-  std::string where = options_.places_file.empty() ? " (this session only: start cairn_base with --places FILE "
-                                                     "to keep places)"
-                                                   : " (saved to " + options_.places_file + ")";
+  std::string where = options_.places_file.empty()
+                          ? " (this session only: start cairn_base with --places FILE "
+                            "to keep places)"
+                          : " (saved to " + options_.places_file + ")";
   try {
     places_.Save();
   } catch (const std::exception& e) {
@@ -1016,7 +1066,10 @@ int CommandShell::Place(const std::vector<std::string>& args) {
     return Report("place", args[1], o);
   }
   if (json_) {
-    out_ << json{{"command", "place"}, {"ok", true}, {"result", outcome::kAccepted}, {"reason", message + where}}.dump(-1, ' ', false, json::error_handler_t::replace)
+    out_ << Dump(json{{"command", "place"},
+                      {"ok", true},
+                      {"result", outcome::kAccepted},
+                      {"reason", message + where}})
          << std::endl;
   } else {
     out_ << "place: " << outcome::kAccepted << ": " << message << where << std::endl;
@@ -1028,8 +1081,9 @@ int CommandShell::ListPlaces() {
   const auto all = places_.All();
   if (json_) {
     json list = json::array();
-    for (const auto& p : all) list.push_back({{"name", p.name}, {"x_m", p.x_m}, {"y_m", p.y_m}, {"z_m", p.z_m}});
-    out_ << json{{"command", "places"}, {"ok", true}, {"result", outcome::kAccepted}, {"places", list}}.dump(-1, ' ', false, json::error_handler_t::replace)
+    for (const auto& p : all)
+      list.push_back({{"name", p.name}, {"x_m", p.x_m}, {"y_m", p.y_m}, {"z_m", p.z_m}});
+    out_ << Dump(json{{"command", "places"}, {"ok", true}, {"result", outcome::kAccepted}, {"places", list}})
          << std::endl;
     return kOk;
   }

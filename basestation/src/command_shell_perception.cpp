@@ -11,6 +11,7 @@ namespace cairn::base {
 
 namespace msgs = cairn_msgs;
 using nlohmann::json;
+using shell::Dump;
 using shell::Fixed;
 using shell::ParseNumber;
 using shell::PointsJson;
@@ -38,7 +39,7 @@ int CommandShell::Map(const std::vector<std::string>& args) {
     } else {
       j["reason"] = r.error;
     }
-    out_ << j.dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
+    out_ << Dump(j) << std::endl;
   } else if (r.ok) {
     out_ << "map " << target << ": " << r.voxels << " voxels (" << r.occupied << " occupied) at "
          << Fixed(r.resolution_m, 2) << " m saved to " << path << std::endl;
@@ -53,7 +54,8 @@ int CommandShell::Snapshot(const std::vector<std::string>& args) {
   const std::string& path = args[1];
   if (RefuseUnknown("snapshot", robot)) return kRefused;
   auto ends_with = [&](const std::string& suffix) {
-    return path.size() > suffix.size() && path.compare(path.size() - suffix.size(), suffix.size(), suffix) == 0;
+    return path.size() > suffix.size() &&
+           path.compare(path.size() - suffix.size(), suffix.size(), suffix) == 0;
   };
   const bool png = ends_with(".png") || ends_with(".PNG");
   if (!png && !ends_with(".jpg") && !ends_with(".jpeg") && !ends_with(".JPG") && !ends_with(".JPEG")) {
@@ -61,8 +63,8 @@ int CommandShell::Snapshot(const std::vector<std::string>& args) {
   }
   double timeout_s = 5.0;
   std::string error;
-  if (args.size() == 3 && (!ParseNumber(args[2], "TIMEOUT_S", &timeout_s, &error) || timeout_s <= 0 ||
-                           timeout_s > 600)) {
+  if (args.size() == 3 &&
+      (!ParseNumber(args[2], "TIMEOUT_S", &timeout_s, &error) || timeout_s <= 0 || timeout_s > 600)) {
     return UsageError("snapshot", error.empty() ? "TIMEOUT_S '" + args[2] + "' must be in (0, 600]" : error);
   }
   // The next frame, so that the picture is from now, not from whenever the last one arrived.
@@ -92,17 +94,26 @@ int CommandShell::Snapshot(const std::vector<std::string>& args) {
   if (!file) return fail("cannot write '" + path + "'");
   const auto& p = view->frame.pose_MC().position();
   if (json_) {
-    out_ << json{{"command", "snapshot"}, {"robot", robot}, {"ok", true}, {"result", outcome::kAccepted},
-                 {"file", path}, {"format", png ? "png" : "jpeg"},
-                 {"bytes", data.size()}, {"width_px", view->frame.width_px()}, {"height_px", view->frame.height_px()},
-                 {"seq", view->frame.seq()}, {"frames_missed", view->frames_missed},
-                 {"x_m", p.x_m()}, {"y_m", p.y_m()}, {"z_m", p.z_m()}}
-                .dump(-1, ' ', false, json::error_handler_t::replace)
+    out_ << Dump(json{{"command", "snapshot"},
+                      {"robot", robot},
+                      {"ok", true},
+                      {"result", outcome::kAccepted},
+                      {"file", path},
+                      {"format", png ? "png" : "jpeg"},
+                      {"bytes", data.size()},
+                      {"width_px", view->frame.width_px()},
+                      {"height_px", view->frame.height_px()},
+                      {"seq", view->frame.seq()},
+                      {"frames_missed", view->frames_missed},
+                      {"x_m", p.x_m()},
+                      {"y_m", p.y_m()},
+                      {"z_m", p.z_m()}})
          << std::endl;
   } else {
     out_ << "snapshot " << robot << ": frame " << view->frame.seq() << ", " << view->frame.width_px() << "x"
-         << view->frame.height_px() << (png ? " PNG, " : " JPEG, ") << data.size() << " bytes, camera at (" << Fixed(p.x_m(), 2) << ", "
-         << Fixed(p.y_m(), 2) << ", " << Fixed(p.z_m(), 2) << ") saved to " << path << std::endl;
+         << view->frame.height_px() << (png ? " PNG, " : " JPEG, ") << data.size() << " bytes, camera at ("
+         << Fixed(p.x_m(), 2) << ", " << Fixed(p.y_m(), 2) << ", " << Fixed(p.z_m(), 2) << ") saved to "
+         << path << std::endl;
   }
   return kOk;
 }
@@ -112,7 +123,8 @@ int CommandShell::Stairs() {
   if (json_) {
     json list = json::array();
     for (const auto& e : entries) list.push_back(StaircaseJson(e));
-    out_ << json{{"command", "stairs"}, {"ok", true}, {"result", outcome::kAccepted}, {"staircases", list}}.dump(-1, ' ', false, json::error_handler_t::replace)
+    out_ << Dump(json{
+                {"command", "stairs"}, {"ok", true}, {"result", outcome::kAccepted}, {"staircases", list}})
          << std::endl;
     return kOk;
   }
@@ -121,8 +133,8 @@ int CommandShell::Stairs() {
     return kOk;
   }
   for (const auto& e : entries) {
-    out_ << "staircase " << e.id << ": " << DescribeStaircase(e) << ", confidence " << Fixed(e.staircase.confidence, 2)
-         << std::endl;
+    out_ << "staircase " << e.id << ": " << DescribeStaircase(e) << ", confidence "
+         << Fixed(e.staircase.confidence, 2) << std::endl;
   }
   return kOk;
 }
@@ -144,16 +156,22 @@ int CommandShell::Path(const std::vector<std::string>& args) {
     CommandOutcome o;
     o.result = outcome::kRefused;
     o.reason = client_.Robot(robot) ? "robot " + robot + " has published no global path"
-                                    : "unknown robot '" + robot + "'" + DidYouMeanText(robot, client_.RobotIds());
+                                    : client_.UnknownRobotReason(robot);
     return Report("path", robot, o);
   }
   const auto& p = *view->global_path;
   if (json_) {
-    out_ << json{{"command", "path"},        {"robot", robot},       {"ok", true}, {"result", outcome::kAccepted},
-                 {"goal_id", p.goal_id()},   {"platform", p.platform()}, {"frame_id", p.frame_id()},
-                 {"length_m", p.length_m()}, {"map_version", p.map_version()}, {"replans", p.replans()},
-                 {"path", PointsJson(p.path_M())}}
-                .dump(-1, ' ', false, json::error_handler_t::replace)
+    out_ << Dump(json{{"command", "path"},
+                      {"robot", robot},
+                      {"ok", true},
+                      {"result", outcome::kAccepted},
+                      {"goal_id", p.goal_id()},
+                      {"platform", p.platform()},
+                      {"frame_id", p.frame_id()},
+                      {"length_m", p.length_m()},
+                      {"map_version", p.map_version()},
+                      {"replans", p.replans()},
+                      {"path", PointsJson(p.path_M())}})
          << std::endl;
     return kOk;
   }
@@ -206,8 +224,8 @@ int CommandShell::Plan(const std::vector<std::string>& args) {
   }
   const PathAnswer a = client_.RequestPath(robot, platform, sx, sy, gx, gy);
   if (json_) {
-    json j = {{"command", "plan"}, {"robot", robot}, {"ok", a.ok}, {"result", a.result}, {"reason", a.reason},
-              {"round_trip_ms", a.round_trip_ms}};
+    json j = {{"command", "plan"},  {"robot", robot},     {"ok", a.ok},
+              {"result", a.result}, {"reason", a.reason}, {"round_trip_ms", a.round_trip_ms}};
     if (a.result == outcome::kAccepted || a.result == outcome::kRefused) {
       j["status"] = a.response.status();
       j["length_m"] = a.response.length_m();
@@ -215,12 +233,12 @@ int CommandShell::Plan(const std::vector<std::string>& args) {
       j["map_version"] = a.response.map_version();
       j["path"] = PointsJson(a.response.path_M());
     }
-    out_ << j.dump(-1, ' ', false, json::error_handler_t::replace) << std::endl;
+    out_ << Dump(j) << std::endl;
   } else if (a.ok) {
     out_ << "plan " << robot << ": path " << Fixed(a.response.length_m(), 1) << " m, "
          << a.response.path_M().size() << " waypoints, planned in "
-         << Fixed(a.response.planning_time_s() * 1000.0, 1) << " ms (map version " << a.response.map_version() << ")"
-         << std::endl
+         << Fixed(a.response.planning_time_s() * 1000.0, 1) << " ms (map version " << a.response.map_version()
+         << ")" << std::endl
          << PointsText(a.response.path_M());
   } else {
     out_ << "plan " << robot << ": " << a.result << ": " << a.reason << std::endl;

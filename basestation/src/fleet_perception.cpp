@@ -317,11 +317,6 @@ std::vector<perception::StaircaseRegistry::Entry> FleetPerception::Staircases() 
   return impl_->fleet_->Entries();
 }
 
-bool FleetPerception::HasEvents() const {
-  std::lock_guard<std::mutex> lock(impl_->mutex_);
-  return !impl_->events_.empty();
-}
-
 std::vector<FleetEvent> FleetPerception::TakeEvents() {
   std::lock_guard<std::mutex> lock(impl_->mutex_);
   std::vector<FleetEvent> events(impl_->events_.begin(), impl_->events_.end());

@@ -14,6 +14,11 @@
 
 namespace cairn::base::shell {
 
+/// One JSON object as one output line's text; invalid UTF-8 from operator input is replaced, never thrown.
+inline std::string Dump(const nlohmann::json& j) {
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 /// `value` with `digits` decimals.
 inline std::string Fixed(double value, int digits) {
   std::ostringstream out;

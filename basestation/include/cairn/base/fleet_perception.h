@@ -81,8 +81,6 @@ class FleetPerception {
   /// Fleet staircases: every robot's latest estimates merged (same staircase seen by several robots = one).
   std::vector<perception::StaircaseRegistry::Entry> Staircases() const;
 
-  /// True if TakeEvents() would return something.
-  bool HasEvents() const;
   /// Events not yet taken, oldest first.
   std::vector<FleetEvent> TakeEvents();
 
