@@ -5,7 +5,10 @@
 #include <algorithm>
 #include <array>
 #include <charconv>
+#include <climits>
+#include <cmath>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <system_error>
@@ -46,6 +49,11 @@ const char* ToString(NodeType type) {
 }
 
 TreeError::TreeError(const std::string& message, int line) : std::runtime_error(message), line_(line) {}
+
+std::chrono::nanoseconds SteadyClockNow() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+      std::chrono::steady_clock::now().time_since_epoch());
+}
 
 std::optional<bool> StringConverter<bool>::Convert(const std::string& text) {
   if (text == "true" || text == "True" || text == "TRUE" || text == "1") return true;
@@ -101,7 +109,8 @@ std::pair<Self*, std::string> Blackboard::Resolve(Self* self, std::string key) {
     if (remap != self->remappings_.end()) {
       next = self->parent_.get();
       key = remap->second;
-    } else if (self->entries_.count(key) > 0 || !self->auto_remapping_ || !self->parent_) {
+    } else if (self->entries_.count(key) > 0 || !self->auto_remapping_ || !self->parent_ ||
+               (!key.empty() && key.front() == '_')) {  // private keys are never auto-remapped
       return {self, key};
     } else {
       next = self->parent_.get();
@@ -178,6 +187,12 @@ std::pair<std::string, PortInfo> InputPort(const std::string& name, const std::s
   return MakePort(name, PortInfo::Direction::kInput, &default_value, description);
 }
 
+std::pair<std::string, PortInfo> OptionalInputPort(const std::string& name, const std::string& description) {
+  std::pair<std::string, PortInfo> port = MakePort(name, PortInfo::Direction::kInput, nullptr, description);
+  port.second.optional = true;
+  return port;
+}
+
 std::pair<std::string, PortInfo> OutputPort(const std::string& name, const std::string& description) {
   return MakePort(name, PortInfo::Direction::kOutput, nullptr, description);
 }
@@ -243,6 +258,8 @@ std::optional<std::string> TreeNode::BlackboardKey(const std::string& text, cons
   if (key == "=") return port;
   return key;
 }
+
+std::chrono::nanoseconds TreeNode::Now() const { return config_.clock ? config_.clock() : SteadyClockNow(); }
 
 NodeStatus StatefulActionNode::Tick() { return status() == NodeStatus::kRunning ? OnRunning() : OnStart(); }
 
@@ -349,29 +366,413 @@ class ConstantActionNode : public SyncActionNode {
   NodeStatus Tick() override { return kResult; }
 };
 
-// Writes `value` (text, or a copy of the entry "{key}") to the key named by `output_key` ("key" or "{key}").
-// Fails if `value` is a key that is not on the blackboard.
+// ---- Helpers of the builtin nodes with numeric ports.
+
+// The literal integer of port `port` in `port_values`: nullopt if the port is absent or a "{key}" (only known
+// at tick). Throws std::invalid_argument (for XmlValidator) if the literal is not an integer >= `min`.
+std::optional<int> IntLiteral(const std::map<std::string, std::string>& port_values, const std::string& port,
+                              int min) {
+  const auto it = port_values.find(port);
+  if (it == port_values.end() || TreeNode::BlackboardKey(it->second, port)) return std::nullopt;
+  const std::optional<int> value = StringConverter<int>::Convert(it->second);
+  if (!value || *value < min) {
+    throw std::invalid_argument("port '" + port + "' must be an integer >= " + std::to_string(min) +
+                                ", got '" + it->second + "'");
+  }
+  return value;
+}
+
+// Reads integer input `port` of `node` at tick (the value may come from the blackboard). Throws
+// std::runtime_error naming the node, the port and its text when it is unset, its key is absent, or the value
+// is not an integer >= `min`.
+int RequireInt(const TreeNode& node, const std::string& port, int min) {
+  const std::optional<int> value = node.GetInput<int>(port);
+  if (value && *value >= min) return *value;
+  const auto it = node.config().port_values.find(port);
+  std::string text = it != node.config().port_values.end() ? it->second : std::string("(unset)");
+  if (const std::optional<std::string> key = TreeNode::BlackboardKey(text, port)) {
+    const std::optional<std::string> stored =
+        node.config().blackboard ? node.config().blackboard->Get<std::string>(*key) : std::nullopt;
+    text += stored ? " = '" + *stored + "'" : " (absent)";
+  }
+  throw std::runtime_error(Describe(node) + ": port '" + port +
+                           "' must be an integer >= " + std::to_string(min) + ", got " + text);
+}
+
+// A port description with its TreeNodesModel type (the type BehaviorTree.CPP declares for it).
+std::pair<std::string, PortInfo> Typed(std::pair<std::string, PortInfo> port, const char* type_name) {
+  port.second.type_name = type_name;
+  return port;
+}
+
+// ---- Parallel (BehaviorTree.CPP src/controls/parallel_node.cpp).
+
+// The number of children a count stands for: a negative count means (children + count + 1), at least 0.
+std::size_t ParallelThreshold(int count, std::size_t num_children) {
+  if (count >= 0) return static_cast<std::size_t>(count);
+  return static_cast<std::size_t>(std::max(static_cast<int>(num_children) + count + 1, 0));
+}
+
+// Why `success_count`/`failure_count` cannot work with `num_children` children, or "" if they can.
+std::string ParallelThresholdError(int success_count, int failure_count, std::size_t num_children) {
+  const std::string children = std::to_string(num_children) + " children";
+  if (ParallelThreshold(success_count, num_children) > num_children) {
+    return "success_count " + std::to_string(success_count) + " needs more successes than its " + children +
+           " (it could never succeed)";
+  }
+  if (ParallelThreshold(failure_count, num_children) > num_children) {
+    return "failure_count " + std::to_string(failure_count) + " needs more failures than its " + children +
+           " (it could never fail)";
+  }
+  return "";
+}
+
+// Ticks every child that has not completed yet, in order. After each child it returns SUCCESS if
+// success_count children succeeded, FAILURE if failure_count children failed or too few are left to reach
+// success_count; completed children are not ticked again until the Parallel completes or is halted. On
+// completion the running children are halted and all are reset.
+class ParallelNode : public ControlNode {
+ public:
+  using ControlNode::ControlNode;
+
+  static constexpr int kDefaultSuccessCount = -1;  // all children
+  static constexpr int kDefaultFailureCount = 1;
+
+  static PortsList ProvidedPorts() {
+    return {Typed(InputPort("success_count", kDefaultSuccessCount,
+                            "children that must succeed for SUCCESS; negative: children + value + 1"),
+                  "int"),
+            Typed(InputPort("failure_count", kDefaultFailureCount,
+                            "children that must fail for FAILURE; negative: children + value + 1"),
+                  "int")};
+  }
+
+  static void ValidateXml(const std::map<std::string, std::string>& port_values, std::size_t num_children) {
+    const std::optional<int> success = IntLiteral(port_values, "success_count", INT_MIN);
+    const std::optional<int> failure = IntLiteral(port_values, "failure_count", INT_MIN);
+    const bool success_known = success || port_values.count("success_count") == 0;
+    const bool failure_known = failure || port_values.count("failure_count") == 0;
+    const std::string error =
+        ParallelThresholdError(success_known ? success.value_or(kDefaultSuccessCount) : 0,
+                               failure_known ? failure.value_or(kDefaultFailureCount) : 0, num_children);
+    if (!error.empty()) throw std::invalid_argument(error);
+  }
+
+ protected:
+  NodeStatus Tick() override {
+    const int success_count = RequireInt(*this, "success_count", INT_MIN);
+    const int failure_count = RequireInt(*this, "failure_count", INT_MIN);
+    const std::size_t n = num_children();
+    const std::string error = ParallelThresholdError(success_count, failure_count, n);
+    if (!error.empty()) throw std::logic_error(Describe(*this) + ": " + error);
+    const std::size_t needed_successes = ParallelThreshold(success_count, n);
+    const std::size_t enough_failures = ParallelThreshold(failure_count, n);
+    completed_.resize(n, false);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!completed_[i]) {
+        const NodeStatus result = MutableChild(i).ExecuteTick();
+        if (result != NodeStatus::kRunning) {
+          completed_[i] = true;
+          ++(result == NodeStatus::kSuccess ? successes_ : failures_);
+        }
+      }
+      if (successes_ >= needed_successes) return Complete(NodeStatus::kSuccess);
+      if (n - failures_ < needed_successes || failures_ == enough_failures) {
+        return Complete(NodeStatus::kFailure);
+      }
+    }
+    return NodeStatus::kRunning;
+  }
+
+  void HaltImpl() override {
+    Clear();
+    ControlNode::HaltImpl();
+  }
+
+ private:
+  NodeStatus Complete(NodeStatus result) {
+    Clear();
+    HaltChildren();
+    return result;
+  }
+  void Clear() {
+    completed_.assign(completed_.size(), false);
+    successes_ = 0;
+    failures_ = 0;
+  }
+
+  std::vector<bool> completed_;  // by child index
+  std::size_t successes_ = 0;
+  std::size_t failures_ = 0;
+};
+
+// ---- SwitchN (BehaviorTree.CPP include/behaviortree_cpp/controls/switch_node.h,
+// src/controls/switch_node.cpp).
+
+// BehaviorTree.CPP's case comparison: equal text, or both integers and equal, or both numbers within float
+// epsilon (so "2" matches "2.0" and "1e0" matches "1").
+bool SwitchCaseMatches(const std::string& value, const std::string& case_value) {
+  if (value == case_value) return true;
+  const std::optional<int> value_int = StringConverter<int>::Convert(value);
+  const std::optional<int> case_int = StringConverter<int>::Convert(case_value);
+  if (value_int && case_int && *value_int == *case_int) return true;
+  const std::optional<double> value_real = StringConverter<double>::Convert(value);
+  const std::optional<double> case_real = StringConverter<double>::Convert(case_value);
+  return value_real && case_real &&
+         std::abs(*value_real - *case_real) <= static_cast<double>(std::numeric_limits<float>::epsilon());
+}
+
+std::string SwitchCasePort(std::size_t i) { return "case_" + std::to_string(i + 1); }
+
+// N cases and N+1 children: ticks the child of the first case equal to `variable` (unset ports are skipped),
+// else the last child. When the selected child changes while another one runs, that one is halted first.
+template <std::size_t kCases>
+class SwitchNode : public ControlNode {
+ public:
+  using ControlNode::ControlNode;
+
+  static PortsList ProvidedPorts() {
+    PortsList ports{
+        Typed(OptionalInputPort("variable", "value compared with the cases (unset or absent key: default)"),
+              "std::string")};
+    for (std::size_t i = 0; i < kCases; ++i) {
+      ports.insert(
+          Typed(OptionalInputPort(SwitchCasePort(i), "value selecting child " + std::to_string(i + 1)),
+                "std::string"));
+    }
+    return ports;
+  }
+
+  static void ValidateXml(const std::map<std::string, std::string>&, std::size_t num_children) {
+    if (num_children != kCases + 1) throw std::invalid_argument(ChildrenError(num_children));
+  }
+
+ protected:
+  NodeStatus Tick() override {
+    if (num_children() != kCases + 1)
+      throw std::logic_error(Describe(*this) + ": " + ChildrenError(num_children()));
+    std::size_t selected = kCases;  // the default child
+    if (const std::optional<std::string> variable = GetInput<std::string>("variable")) {
+      for (std::size_t i = 0; i < kCases; ++i) {
+        const std::optional<std::string> case_value = GetInput<std::string>(SwitchCasePort(i));
+        if (case_value && SwitchCaseMatches(*variable, *case_value)) {
+          selected = i;
+          break;
+        }
+      }
+    }
+    if (running_ && *running_ != selected) HaltChild(*running_);
+    const NodeStatus result = MutableChild(selected).ExecuteTick();
+    if (result == NodeStatus::kRunning) {
+      running_ = selected;
+    } else {
+      running_.reset();
+      HaltChildren();
+    }
+    return result;
+  }
+
+  void HaltImpl() override {
+    running_.reset();
+    ControlNode::HaltImpl();
+  }
+
+ private:
+  static std::string ChildrenError(std::size_t num_children) {
+    return "a Switch" + std::to_string(kCases) + " needs " + std::to_string(kCases + 1) + " children (" +
+           std::to_string(kCases) + " cases, then the default), found " + std::to_string(num_children);
+  }
+
+  std::optional<std::size_t> running_;  // the child left running by the last tick
+};
+
+// ---- RetryUntilSuccessful (BehaviorTree.CPP src/decorators/retry_node.cpp).
+
+// Ticks the child until it succeeds, at most num_attempts times (-1: no limit); then fails. A child that
+// fails in the same tick it started (it was idle) yields: RUNNING is returned and the next attempt is made on
+// the next tick. A child that fails after running is retried at once, in the same tick.
+class RetryUntilSuccessfulNode : public DecoratorNode {
+ public:
+  using DecoratorNode::DecoratorNode;
+
+  static PortsList ProvidedPorts() {
+    return {Typed(InputPort("num_attempts", "attempts before failing; -1: retry forever"), "int")};
+  }
+
+  static void ValidateXml(const std::map<std::string, std::string>& port_values, std::size_t) {
+    IntLiteral(port_values, "num_attempts", -1);
+  }
+
+ protected:
+  NodeStatus Tick() override {
+    int attempts = RequireInt(*this, "num_attempts", -1);
+    bool again = failures_ < attempts || attempts == -1;
+    while (again) {
+      const NodeStatus before = Child().status();
+      const NodeStatus result = Child().ExecuteTick();
+      if (result == NodeStatus::kRunning) return result;
+      HaltChildren();
+      if (result == NodeStatus::kSuccess) {
+        failures_ = 0;
+        return result;
+      }
+      ++failures_;
+      attempts = RequireInt(*this, "num_attempts", -1);  // the child may have changed it
+      again = failures_ < attempts || attempts == -1;
+      if (before == NodeStatus::kIdle && again) return NodeStatus::kRunning;
+    }
+    failures_ = 0;
+    return NodeStatus::kFailure;
+  }
+
+  void HaltImpl() override {
+    failures_ = 0;
+    DecoratorNode::HaltImpl();
+  }
+
+ private:
+  int failures_ = 0;
+};
+
+// ---- Timeout (BehaviorTree.CPP src/decorators/timeout_node.cpp) and Delay (src/decorators/delay_node.cpp).
+// BehaviorTree.CPP runs a timer thread; here the tree's Clock is read on each tick, so the expiry is seen on
+// the first tick at or after it (which is when BehaviorTree.CPP's tick sees its timer's result, too).
+
+// Ticks the child; on the first tick at or after `msec` ms since the Timeout started, while the child is
+// still running, halts the child and fails without ticking it. msec="0": no time limit.
+class TimeoutNode : public DecoratorNode {
+ public:
+  using DecoratorNode::DecoratorNode;
+
+  static PortsList ProvidedPorts() {
+    return {Typed(InputPort("msec", "halt the child and fail after this many ms of running; 0: never"),
+                  "unsigned int")};
+  }
+
+  static void ValidateXml(const std::map<std::string, std::string>& port_values, std::size_t) {
+    IntLiteral(port_values, "msec", 0);
+  }
+
+ protected:
+  NodeStatus Tick() override {
+    if (!started_) {
+      timeout_ = std::chrono::milliseconds(RequireInt(*this, "msec", 0));
+      start_ = Now();
+      started_ = true;
+    }
+    if (timeout_.count() > 0 && Child().status() == NodeStatus::kRunning && Now() - start_ >= timeout_) {
+      started_ = false;
+      HaltChildren();
+      return NodeStatus::kFailure;
+    }
+    const NodeStatus result = Child().ExecuteTick();
+    if (result != NodeStatus::kRunning) {
+      started_ = false;
+      HaltChildren();
+    }
+    return result;
+  }
+
+  void HaltImpl() override {
+    started_ = false;
+    DecoratorNode::HaltImpl();
+  }
+
+ private:
+  bool started_ = false;
+  std::chrono::nanoseconds start_{0};
+  std::chrono::milliseconds timeout_{0};
+};
+
+// Returns RUNNING until `delay_msec` ms have passed since its first tick, then ticks the child (RUNNING,
+// SUCCESS or FAILURE passes through). The first tick never ticks the child, even with delay_msec="0".
+// When the child completes, the next tick starts a new delay.
+class DelayNode : public DecoratorNode {
+ public:
+  using DecoratorNode::DecoratorNode;
+
+  static PortsList ProvidedPorts() {
+    return {Typed(InputPort("delay_msec", "ms to wait before ticking the child"), "unsigned int")};
+  }
+
+  static void ValidateXml(const std::map<std::string, std::string>& port_values, std::size_t) {
+    IntLiteral(port_values, "delay_msec", 0);
+  }
+
+ protected:
+  NodeStatus Tick() override {
+    if (!started_) {
+      delay_ = std::chrono::milliseconds(RequireInt(*this, "delay_msec", 0));
+      start_ = Now();
+      started_ = true;
+      return NodeStatus::kRunning;
+    }
+    if (Now() - start_ < delay_) return NodeStatus::kRunning;
+    const NodeStatus result = Child().ExecuteTick();
+    if (result != NodeStatus::kRunning) {
+      started_ = false;
+      HaltChildren();
+    }
+    return result;
+  }
+
+  void HaltImpl() override {
+    started_ = false;
+    DecoratorNode::HaltImpl();
+  }
+
+ private:
+  bool started_ = false;
+  std::chrono::nanoseconds start_{0};
+  std::chrono::milliseconds delay_{0};
+};
+
+// ---- SetBlackboard (BehaviorTree.CPP include/behaviortree_cpp/actions/set_blackboard_node.h).
+
+// Writes `value` (text, or a copy of the entry "{key}") to the entry named by `output_key`. As in
+// BehaviorTree.CPP 4.10, output_key is read like any input port: a literal is the key's name ("goal",
+// "@goal"); "{ptr}" reads the entry `ptr`, whose text is the name of the key to write. Fails if `value` is a
+// "{key}" that is absent (BehaviorTree.CPP fails for a declared but empty entry and throws for an undeclared
+// one; this blackboard has no empty entries). Throws std::runtime_error if output_key is "{ptr}" and `ptr`
+// is absent.
 class SetBlackboardNode : public SyncActionNode {
  public:
   using SyncActionNode::SyncActionNode;
 
   static PortsList ProvidedPorts() {
-    return {InputPort("value", "text to store, or {key} of an entry to copy"),
-            InputPort("output_key", "blackboard key to write (plain name or {key})")};
+    return {
+        InputPort("value", "text to store, or {key} of an entry to copy"),
+        InputPort("output_key", "name of the blackboard entry to write (\"{ptr}\": the name stored in ptr)")};
+  }
+
+  static void ValidateXml(const std::map<std::string, std::string>& port_values, std::size_t) {
+    const auto key = port_values.find("output_key");
+    if (key != port_values.end() && key->second.empty()) {
+      throw std::invalid_argument("output_key must name a blackboard entry, got ''");
+    }
   }
 
  protected:
   NodeStatus Tick() override {
-    const std::string value_text = config().port_values.at("value");
-    const std::string key_text = config().port_values.at("output_key");
-    const std::string key = BlackboardKey(key_text, "output_key").value_or(key_text);
+    const std::string& value_text = config().port_values.at("value");
+    const std::string& key_text = config().port_values.at("output_key");
+    const std::optional<std::string> pointer = BlackboardKey(key_text, "output_key");
+    const std::optional<std::string> key =
+        pointer ? config().blackboard->Get<std::string>(*pointer) : std::optional<std::string>(key_text);
+    if (!key || key->empty()) {
+      throw std::runtime_error(
+          Describe(*this) + ": output_key '" + key_text + "' means: write the entry named " +
+          "by the text of entry '" + pointer.value_or("") + "', which is " +
+          (key ? "empty" : "absent or not text") + " (to write entry '" + pointer.value_or("") +
+          "' itself, write output_key=\"" + pointer.value_or("") + "\", as in BehaviorTree.CPP)");
+    }
     const std::shared_ptr<Blackboard>& blackboard = config().blackboard;
     if (const std::optional<std::string> source = BlackboardKey(value_text, "value")) {
       std::optional<std::any> value = blackboard->GetAny(*source);
       if (!value) return NodeStatus::kFailure;
-      blackboard->SetAny(key, std::move(*value));
+      blackboard->SetAny(*key, std::move(*value));
     } else {
-      blackboard->Set(key, value_text);
+      blackboard->Set(*key, value_text);
     }
     return NodeStatus::kSuccess;
   }
@@ -561,7 +962,15 @@ class TreeBuilder {
     for (const tinyxml2::XMLElement* child = root->FirstChildElement(); child != nullptr;
          child = child->NextSiblingElement()) {
       const std::string tag = child->Name();
-      if (tag == "TreeNodesModel") continue;
+      if (tag == "TreeNodesModel") {
+        if (models_line_ != 0) {
+          Fail(child->GetLineNum(), "a second <TreeNodesModel> (the first is on line " +
+                                        std::to_string(models_line_) + "); only one is allowed");
+        }
+        models_line_ = child->GetLineNum();
+        ParseModels(*child);
+        continue;
+      }
       if (tag == "include")
         Fail(child->GetLineNum(), "<include> is not supported; put all trees in one file");
       if (tag != "BehaviorTree") {
@@ -604,6 +1013,71 @@ class TreeBuilder {
                                    " BehaviorTrees but no main_tree_to_execute attribute");
     }
     return tree_elements.front().first;
+  }
+
+  // Reads <TreeNodesModel>: keeps the SubTree port declarations, checks the categories of registered IDs.
+  void ParseModels(const tinyxml2::XMLElement& models) {
+    for (const tinyxml2::XMLElement* entry = models.FirstChildElement(); entry != nullptr;
+         entry = entry->NextSiblingElement()) {
+      const std::string tag = entry->Name();
+      const int line = entry->GetLineNum();
+      const std::optional<NodeType> category = tag == kSubTreeId ? NodeType::kSubTree : ExplicitCategory(tag);
+      if (!category) {
+        Fail(line, "unexpected element <" + tag +
+                       "> in <TreeNodesModel> (expected Action, Condition, Control, Decorator or SubTree)");
+      }
+      const char* id = entry->Attribute("ID");
+      if (id == nullptr || *id == '\0') Fail(line, "<" + tag + "> in <TreeNodesModel> has no ID attribute");
+      const std::string who = "<TreeNodesModel> entry <" + tag + " ID=\"" + id + "\">";
+      PortsList ports = ParseModelPorts(*entry, who);
+      if (*category == NodeType::kSubTree) {
+        if (!subtree_models_.emplace(id, SubTreeModel{line, std::move(ports)}).second) {
+          Fail(line, "duplicate " + who);
+        }
+        continue;
+      }
+      const auto registered = factory_.entries_.find(id);
+      if (registered != factory_.entries_.end() && registered->second.type != *category) {
+        Fail(line, who + ": '" + id + "' is registered with type " + ToString(registered->second.type) +
+                       ", not " + tag);
+      }
+    }
+  }
+
+  // The <input_port|output_port|inout_port name=.. [default=..] [type=..] [description=..]> of a model
+  // entry; other children (Groot2 metadata) are ignored.
+  PortsList ParseModelPorts(const tinyxml2::XMLElement& entry, const std::string& who) {
+    PortsList ports;
+    for (const tinyxml2::XMLElement* port = entry.FirstChildElement(); port != nullptr;
+         port = port->NextSiblingElement()) {
+      const std::string tag = port->Name();
+      PortInfo info;
+      if (tag == "input_port") {
+        info.direction = PortInfo::Direction::kInput;
+      } else if (tag == "output_port") {
+        info.direction = PortInfo::Direction::kOutput;
+      } else if (tag == "inout_port") {
+        info.direction = PortInfo::Direction::kInOut;
+      } else {
+        continue;
+      }
+      const char* name = port->Attribute("name");
+      if (name == nullptr || *name == '\0') Fail(port->GetLineNum(), who + ": <" + tag + "> has no name");
+      if (const char* default_value = port->Attribute("default")) {
+        info.has_default = true;
+        info.default_value = default_value;
+      }
+      if (const char* type_name = port->Attribute("type")) info.type_name = type_name;
+      if (const char* description = port->Attribute("description")) {
+        info.description = description;
+      } else if (const char* text = port->GetText()) {
+        info.description = text;
+      }
+      if (!ports.emplace(name, std::move(info)).second) {
+        Fail(port->GetLineNum(), who + " declares port '" + std::string(name) + "' twice");
+      }
+    }
+    return ports;
   }
 
   NodeSpec ParseNode(const tinyxml2::XMLElement& element) {
@@ -654,7 +1128,7 @@ class TreeBuilder {
       spec.attributes[attribute] = value;
     }
     for (const auto& [port_name, info] : type.ports) {
-      if (info.direction != PortInfo::Direction::kOutput && !info.has_default &&
+      if (info.direction != PortInfo::Direction::kOutput && !info.has_default && !info.optional &&
           spec.attributes.count(port_name) == 0) {
         Fail(spec.line, who + " is missing required input port '" + port_name + "'");
       }
@@ -674,6 +1148,13 @@ class TreeBuilder {
     if ((type.type == NodeType::kAction || type.type == NodeType::kCondition) && n != 0) {
       Fail(spec.line, who + " is a leaf (" + ToString(type.type) + ") and cannot have children, found " +
                           std::to_string(n));
+    }
+    if (type.validator) {
+      try {
+        type.validator(spec.attributes, n);
+      } catch (const std::exception& e) {
+        Fail(spec.line, who + ": " + e.what());
+      }
     }
     return spec;
   }
@@ -707,7 +1188,28 @@ class TreeBuilder {
       spec.attributes[attribute] = value;
     }
     if (element.FirstChildElement() != nullptr) Fail(spec.line, who + " cannot have children");
+    ApplySubTreeModel(spec, who);
     return spec;
+  }
+
+  // BehaviorTree.CPP 4.10 (xml_parsing.cpp, recursivelyCreateSubtree): without _autoremap, a port declared
+  // in the <TreeNodesModel> and not set on the element takes the declared default; one without default (or
+  // with an empty one) must be set.
+  void ApplySubTreeModel(NodeSpec& spec, const std::string& who) const {
+    const auto model = subtree_models_.find(spec.subtree_id);
+    if (model == subtree_models_.end() || spec.autoremap) return;
+    for (const auto& [port, info] : model->second.ports) {
+      if (spec.attributes.count(port) > 0) continue;
+      if (!info.has_default || info.default_value.empty()) {
+        Fail(spec.line, who + " does not set port '" + port + "', which the <TreeNodesModel> (line " +
+                            std::to_string(model->second.line) + ") declares without a default");
+      }
+      if (info.default_value == "{}") {
+        Fail(model->second.line, "<TreeNodesModel> entry <SubTree ID=\"" + spec.subtree_id + "\">: port '" +
+                                     port + "' has an empty blackboard key '{}' as default");
+      }
+      spec.attributes[port] = info.default_value;
+    }
   }
 
   void CheckKeySyntax(int line, const std::string& who, const std::string& attribute,
@@ -756,6 +1258,7 @@ class TreeBuilder {
     config.port_values = spec.attributes;
     config.registration_id = spec.id;
     config.xml_line = spec.line;
+    config.clock = factory_.clock_;
     std::unique_ptr<TreeNode> node;
     if (spec.id == kSubTreeId) {
       node = std::make_unique<SubTreeNode>(spec.name, config);
@@ -797,10 +1300,18 @@ class TreeBuilder {
     return raw;
   }
 
+  // A <SubTree> entry of the <TreeNodesModel>.
+  struct SubTreeModel {
+    int line = 0;
+    PortsList ports;
+  };
+
   const TreeFactory& factory_;
   const std::string source_;
   std::set<std::string> tree_ids_;
   std::map<std::string, NodeSpec> trees_;
+  std::map<std::string, SubTreeModel> subtree_models_;  // by SubTree ID
+  int models_line_ = 0;                                 // line of <TreeNodesModel>, 0 if none
 };
 
 }  // namespace detail
@@ -819,10 +1330,20 @@ TreeFactory::TreeFactory() {
   RegisterNodeType<ConstantActionNode<NodeStatus::kSuccess>>("AlwaysSuccess");
   RegisterNodeType<ConstantActionNode<NodeStatus::kFailure>>("AlwaysFailure");
   RegisterNodeType<SetBlackboardNode>("SetBlackboard");
+  RegisterNodeType<ParallelNode>("Parallel");
+  RegisterNodeType<SwitchNode<2>>("Switch2");
+  RegisterNodeType<SwitchNode<3>>("Switch3");
+  RegisterNodeType<SwitchNode<4>>("Switch4");
+  RegisterNodeType<SwitchNode<5>>("Switch5");
+  RegisterNodeType<SwitchNode<6>>("Switch6");
+  RegisterNodeType<RetryUntilSuccessfulNode>("RetryUntilSuccessful");
+  RegisterNodeType<TimeoutNode>("Timeout");
+  RegisterNodeType<DelayNode>("Delay");
+  for (auto& [id, entry] : entries_) entry.builtin = true;
 }
 
-void TreeFactory::RegisterBuilder(const std::string& id, NodeType type, PortsList ports,
-                                  NodeBuilder builder) {
+void TreeFactory::RegisterBuilder(const std::string& id, NodeType type, PortsList ports, NodeBuilder builder,
+                                  XmlValidator validator) {
   const std::string where = "TreeFactory: registering '" + id + "': ";
   if (id.empty()) throw std::logic_error("TreeFactory: empty node ID");
   for (const char* reserved : {"root", "BehaviorTree", "TreeNodesModel", "include", "SubTree", "Action",
@@ -838,7 +1359,7 @@ void TreeFactory::RegisterBuilder(const std::string& id, NodeType type, PortsLis
                              "' (empty, 'name', 'ID' or starting with '_')");
     }
   }
-  entries_.emplace(id, Entry{type, std::move(ports), std::move(builder)});
+  entries_.emplace(id, Entry{type, std::move(ports), std::move(builder), std::move(validator)});
 }
 
 void TreeFactory::RegisterSimpleCondition(const std::string& id, std::function<NodeStatus(TreeNode&)> tick,
@@ -862,6 +1383,133 @@ void TreeFactory::RegisterSimpleAction(const std::string& id, std::function<Node
 
 bool TreeFactory::IsRegistered(const std::string& id) const {
   return id == detail::kSubTreeId || entries_.count(id) > 0;
+}
+
+bool TreeFactory::IsBuiltin(const std::string& id) const {
+  const auto entry = entries_.find(id);
+  return id == detail::kSubTreeId || (entry != entries_.end() && entry->second.builtin);
+}
+
+void TreeFactory::SetClock(Clock clock) {
+  if (!clock) throw std::logic_error("TreeFactory::SetClock: empty clock");
+  clock_ = std::move(clock);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// TreeNodesModel (the format of BehaviorTree.CPP's writeTreeNodesModelXML, src/xml_parsing.cpp).
+
+namespace {
+
+const char* ModelPortTag(PortInfo::Direction direction) {
+  switch (direction) {
+    case PortInfo::Direction::kInput:
+      return "input_port";
+    case PortInfo::Direction::kOutput:
+      return "output_port";
+    case PortInfo::Direction::kInOut:
+      return "inout_port";
+  }
+  return "input_port";
+}
+
+std::string Print(const tinyxml2::XMLNode& node) {
+  tinyxml2::XMLPrinter printer;
+  node.Accept(&printer);
+  return printer.CStr();
+}
+
+}  // namespace
+
+namespace detail {
+
+class ModelWriter {
+ public:
+  // Appends to `models` one element per registered type written by WriteTreeNodesModel; returns their IDs.
+  static std::set<std::string> Append(const TreeFactory& factory, tinyxml2::XMLDocument& doc,
+                                      tinyxml2::XMLElement& models, bool include_builtin);
+};
+
+std::set<std::string> ModelWriter::Append(const TreeFactory& factory, tinyxml2::XMLDocument& doc,
+                                          tinyxml2::XMLElement& models, bool include_builtin) {
+  std::set<std::string> ids;
+  for (const auto& [id, entry] : factory.entries_) {  // std::map: sorted by ID
+    if (entry.builtin && !include_builtin) continue;
+    tinyxml2::XMLElement* element = doc.NewElement(ToString(entry.type));
+    element->SetAttribute("ID", id.c_str());
+    for (const auto& [name, info] : entry.ports) {
+      tinyxml2::XMLElement* port = doc.NewElement(ModelPortTag(info.direction));
+      port->SetAttribute("name", name.c_str());
+      if (!info.type_name.empty()) port->SetAttribute("type", info.type_name.c_str());
+      if (info.has_default) port->SetAttribute("default", info.default_value.c_str());
+      if (!info.description.empty()) port->SetText(info.description.c_str());
+      element->InsertEndChild(port);
+    }
+    models.InsertEndChild(element);
+    ids.insert(id);
+  }
+  return ids;
+}
+
+}  // namespace detail
+
+std::string TreeFactory::WriteTreeNodesModel(bool include_builtin) const {
+  tinyxml2::XMLDocument doc;
+  tinyxml2::XMLElement* models = doc.NewElement("TreeNodesModel");
+  doc.InsertEndChild(models);
+  detail::ModelWriter::Append(*this, doc, *models, include_builtin);
+  return Print(*models);
+}
+
+std::string TreeFactory::WriteTreeNodesModelDocument(bool include_builtin) const {
+  tinyxml2::XMLDocument doc;
+  tinyxml2::XMLElement* root = doc.NewElement("root");
+  root->SetAttribute("BTCPP_format", "4");
+  doc.InsertEndChild(root);
+  tinyxml2::XMLElement* models = doc.NewElement("TreeNodesModel");
+  root->InsertEndChild(models);
+  detail::ModelWriter::Append(*this, doc, *models, include_builtin);
+  return Print(doc);
+}
+
+std::string TreeFactory::AddTreeNodesModel(const std::string& tree_xml, bool include_builtin) const {
+  tinyxml2::XMLDocument doc;
+  if (doc.Parse(tree_xml.data(), tree_xml.size()) != tinyxml2::XML_SUCCESS) {
+    throw TreeError("line " + std::to_string(doc.ErrorLineNum()) + ": malformed XML: " + doc.ErrorStr(),
+                    doc.ErrorLineNum());
+  }
+  tinyxml2::XMLElement* root = doc.RootElement();
+  if (root == nullptr || std::string(root->Name()) != "root") {
+    throw TreeError("missing <root> element: cannot add a <TreeNodesModel>", root ? root->GetLineNum() : 0);
+  }
+  tinyxml2::XMLElement* models = root->FirstChildElement("TreeNodesModel");
+  if (models != nullptr) {
+    if (const tinyxml2::XMLElement* second = models->NextSiblingElement("TreeNodesModel")) {
+      throw TreeError(
+          "line " + std::to_string(second->GetLineNum()) + ": a second <TreeNodesModel>; only one is allowed",
+          second->GetLineNum());
+    }
+  } else {
+    models = doc.NewElement("TreeNodesModel");
+    root->InsertEndChild(models);
+  }
+  tinyxml2::XMLDocument generated;
+  tinyxml2::XMLElement* fresh = generated.NewElement("TreeNodesModel");
+  generated.InsertEndChild(fresh);
+  const std::set<std::string> ids = detail::ModelWriter::Append(*this, generated, *fresh, include_builtin);
+  // Drop the old entries of the generated node types (not SubTree declarations), then append the new ones.
+  for (tinyxml2::XMLElement* entry = models->FirstChildElement(); entry != nullptr;) {
+    tinyxml2::XMLElement* next = entry->NextSiblingElement();
+    const char* id = entry->Attribute("ID");
+    if (id != nullptr && ids.count(id) > 0 && std::string(entry->Name()) != detail::kSubTreeId) {
+      models->DeleteChild(entry);
+    }
+    entry = next;
+  }
+  for (const tinyxml2::XMLElement* entry = fresh->FirstChildElement(); entry != nullptr;
+       entry = entry->NextSiblingElement()) {
+    models->InsertEndChild(entry->DeepClone(&doc));
+  }
+  return Print(doc);
 }
 
 Tree TreeFactory::CreateTree(const std::string& xml, std::shared_ptr<Blackboard> blackboard,

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -735,7 +736,7 @@ TEST_F(BehaviorTreeTest, SetBlackboardWritesLiteralsAndCopiesEntries) {
   blackboard_->Set("source", 12);
   Tree tree = Load(R"(<Sequence>
   <SetBlackboard value="1.5" output_key="speed_mps"/>
-  <SetBlackboard value="{source}" output_key="{copy}"/>
+  <SetBlackboard value="{source}" output_key="copy"/>
 </Sequence>)");
   EXPECT_EQ(tree.TickOnce(), NodeStatus::kSuccess);
   EXPECT_EQ(blackboard_->Get<double>("speed_mps"), 1.5);
@@ -759,7 +760,7 @@ TEST_F(BehaviorTreeTest, SubTreeRemapsPortsAndIsolatesItsBlackboard) {
     <SetBlackboard value="{target}" output_key="result"/>
     <SetBlackboard value="{fixed}" output_key="copied"/>
     <SetBlackboard value="inner" output_key="alias"/>
-    <SetBlackboard value="root" output_key="{@from_root}"/>
+    <SetBlackboard value="root" output_key="@from_root"/>
   </Sequence>
 </BehaviorTree>
 </root>)";
@@ -893,6 +894,830 @@ TEST_F(BehaviorTreeTest, TreeIsMovable) {
   int count = 0;
   empty.ForEachNode([&](const TreeNode&, int) { ++count; });
   EXPECT_EQ(count, 0);
+}
+
+// ---- Builtin nodes of BehaviorTree.CPP 4.10 --------------------------------------------------------------
+// The expected tick traces below were checked against BehaviorTree.CPP 4.10.0 built from source, ticked with
+// Tree::tickExactlyOnce (one root tick, like Tree::TickOnce here); each test names the source file it pins.
+
+// A long action that logs "name.start", "name.run" and "name.halt"; runs `ticks` ticks, then returns
+// `result`.
+class TracedAction : public StatefulActionNode {
+ public:
+  TracedAction(const std::string& name, const NodeConfig& config, std::vector<std::string>* log)
+      : StatefulActionNode(name, config), log_(log) {}
+  static PortsList ProvidedPorts() {
+    return {InputPort("ticks", 2, "ticks until done"), InputPort("result", "SUCCESS", "final status")};
+  }
+
+ protected:
+  NodeStatus OnStart() override {
+    log_->push_back(name() + ".start");
+    remaining_ = GetInput<int>("ticks").value_or(1) - 1;
+    return Step();
+  }
+  NodeStatus OnRunning() override {
+    log_->push_back(name() + ".run");
+    --remaining_;
+    return Step();
+  }
+  void OnHalted() override { log_->push_back(name() + ".halt"); }
+
+ private:
+  NodeStatus Step() const {
+    if (remaining_ > 0) return NodeStatus::kRunning;
+    return GetInput<std::string>("result") == std::string("FAILURE") ? NodeStatus::kFailure
+                                                                     : NodeStatus::kSuccess;
+  }
+  std::vector<std::string>* log_;
+  int remaining_ = 0;
+};
+
+class BuiltinNodesTest : public BehaviorTreeTest {
+ protected:
+  BuiltinNodesTest() {
+    factory_.RegisterBuilder("Traced", NodeType::kAction, TracedAction::ProvidedPorts(),
+                             [this](const std::string& name, const NodeConfig& config) {
+                               return std::make_unique<TracedAction>(name, config, &log_);
+                             });
+    // Fails the first `fails` times it is ticked, then succeeds; logs "name.fail" / "name.ok".
+    factory_.RegisterSimpleAction("Flaky",
+                                  [this](TreeNode& node) {
+                                    const bool fail = ++flaky_ticks_[node.name()] <=
+                                                      node.GetInput<int>("fails").value_or(0);
+                                    log_.push_back(node.name() + (fail ? ".fail" : ".ok"));
+                                    return fail ? NodeStatus::kFailure : NodeStatus::kSuccess;
+                                  },
+                                  {InputPort("fails", 0, "ticks that fail before the first success")});
+    factory_.SetClock([this] { return now_; });
+  }
+
+  // Ticks `tree` `n` times, advancing the fake clock by `step` after each tick; one "STATUS [events]" per
+  // tick.
+  std::vector<std::string> Ticks(Tree& tree, int n, std::chrono::milliseconds step = {}) {
+    std::vector<std::string> out;
+    for (int i = 0; i < n; ++i) {
+      std::string line = ToString(tree.TickOnce());
+      line += " [" + TakeLog() + "]";
+      out.push_back(line);
+      now_ += step;
+    }
+    return out;
+  }
+
+  // The events logged since the last call, space-separated.
+  std::string TakeLog() {
+    std::string out;
+    for (const std::string& event : log_) out += (out.empty() ? "" : " ") + event;
+    log_.clear();
+    return out;
+  }
+
+  std::vector<std::string> log_;
+  std::map<std::string, int> flaky_ticks_;
+  std::chrono::nanoseconds now_{std::chrono::seconds(1000)};
+};
+
+using Trace = std::vector<std::string>;
+
+// -- RetryUntilSuccessful: BehaviorTree.CPP src/decorators/retry_node.cpp
+
+TEST_F(BuiltinNodesTest, RetryYieldsRunningBetweenSynchronousFailures) {
+  Tree tree =
+      Load(R"(<RetryUntilSuccessful num_attempts="3"><Flaky name="f" fails="5"/></RetryUntilSuccessful>)");
+  EXPECT_EQ(Ticks(tree, 4),
+            (Trace{"RUNNING [f.fail]", "RUNNING [f.fail]", "FAILURE [f.fail]", "RUNNING [f.fail]"}));
+  Tree succeeds =
+      Load(R"(<RetryUntilSuccessful num_attempts="3"><Flaky name="g" fails="1"/></RetryUntilSuccessful>)");
+  EXPECT_EQ(Ticks(succeeds, 3), (Trace{"RUNNING [g.fail]", "SUCCESS [g.ok]", "SUCCESS [g.ok]"}));
+}
+
+TEST_F(BuiltinNodesTest, RetryRestartsARunningChildThatFailedInTheSameTick) {
+  Tree tree = Load(R"(<RetryUntilSuccessful num_attempts="3">
+  <Traced name="a" ticks="2" result="FAILURE"/>
+</RetryUntilSuccessful>)");
+  EXPECT_EQ(Ticks(tree, 5), (Trace{"RUNNING [a.start]", "RUNNING [a.run a.start]", "RUNNING [a.run a.start]",
+                                   "FAILURE [a.run]", "RUNNING [a.start]"}));
+  Tree one_tick = Load(R"(<RetryUntilSuccessful num_attempts="2">
+  <Traced name="b" ticks="1" result="FAILURE"/>
+</RetryUntilSuccessful>)");
+  EXPECT_EQ(Ticks(one_tick, 2), (Trace{"RUNNING [b.start]", "FAILURE [b.start]"}));
+}
+
+TEST_F(BuiltinNodesTest, RetryZeroAttemptsFailsAndMinusOneRetriesForever) {
+  Tree zero = Load(R"(<RetryUntilSuccessful num_attempts="0"><Traced name="a"/></RetryUntilSuccessful>)");
+  EXPECT_EQ(Ticks(zero, 1), (Trace{"FAILURE []"}));
+  Tree forever =
+      Load(R"(<RetryUntilSuccessful num_attempts="-1"><Flaky name="f" fails="4"/></RetryUntilSuccessful>)");
+  EXPECT_EQ(Ticks(forever, 5), (Trace{"RUNNING [f.fail]", "RUNNING [f.fail]", "RUNNING [f.fail]",
+                                      "RUNNING [f.fail]", "SUCCESS [f.ok]"}));
+}
+
+TEST_F(BuiltinNodesTest, RetryHaltResetsTheAttemptCount) {
+  Tree tree = Load(R"(<RetryUntilSuccessful num_attempts="2">
+  <Traced name="a" ticks="2" result="FAILURE"/>
+</RetryUntilSuccessful>)");
+  EXPECT_EQ(Ticks(tree, 2), (Trace{"RUNNING [a.start]", "RUNNING [a.run a.start]"}));
+  tree.HaltTree();
+  EXPECT_EQ(TakeLog(), "a.halt");
+  EXPECT_EQ(Ticks(tree, 3), (Trace{"RUNNING [a.start]", "RUNNING [a.run a.start]", "FAILURE [a.run]"}));
+}
+
+TEST_F(BuiltinNodesTest, RetryAttemptsFromBlackboardAndBadValues) {
+  blackboard_->Set("attempts", 2);
+  Tree tree = Load(R"(<RetryUntilSuccessful num_attempts="{attempts}">
+  <Flaky name="f" fails="9"/>
+</RetryUntilSuccessful>)");
+  EXPECT_EQ(Ticks(tree, 2), (Trace{"RUNNING [f.fail]", "FAILURE [f.fail]"}));
+  blackboard_->Erase("attempts");
+  try {
+    tree.TickOnce();
+    ADD_FAILURE() << "expected std::runtime_error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_PRED2(Contains, e.what(), "port 'num_attempts' must be an integer >= -1, got {attempts} (absent)");
+  }
+  EXPECT_PRED2(
+      Contains,
+      ErrorOf(Wrap("<RetryUntilSuccessful num_attempts=\"-2\"><AlwaysSuccess/></RetryUntilSuccessful>")),
+      "line 3: node 'RetryUntilSuccessful' (ID 'RetryUntilSuccessful'): port 'num_attempts' must be an "
+      "integer >= -1, got '-2'");
+  EXPECT_PRED2(Contains, ErrorOf(Wrap("<RetryUntilSuccessful><AlwaysSuccess/></RetryUntilSuccessful>")),
+               "missing required input port 'num_attempts'");
+}
+
+// -- A Nav2-style recovery with BehaviorTree.CPP's own nodes (retry_node.cpp, fallback_node.cpp,
+//    reactive_fallback.cpp): RetryUntilSuccessful { Fallback { action, Sequence { recovery, AlwaysFailure } }
+//    }
+
+TEST_F(BuiltinNodesTest, RecoveryRunsBetweenAttemptsUntilTheActionSucceeds) {
+  Tree tree = Load(R"(<RetryUntilSuccessful num_attempts="3">
+  <Fallback>
+    <Flaky name="act" fails="2"/>
+    <Sequence><Flaky name="rec"/><AlwaysFailure/></Sequence>
+  </Fallback>
+</RetryUntilSuccessful>)");
+  EXPECT_EQ(Ticks(tree, 3),
+            (Trace{"RUNNING [act.fail rec.ok]", "RUNNING [act.fail rec.ok]", "SUCCESS [act.ok]"}));
+}
+
+TEST_F(BuiltinNodesTest, RecoveryWithLongActionsAndRetriesExhausted) {
+  Tree tree = Load(R"(<RetryUntilSuccessful num_attempts="2">
+  <Fallback>
+    <Traced name="act" ticks="2" result="FAILURE"/>
+    <Sequence><Traced name="rec" ticks="2"/><AlwaysFailure/></Sequence>
+  </Fallback>
+</RetryUntilSuccessful>)");
+  EXPECT_EQ(Ticks(tree, 6),
+            (Trace{"RUNNING [act.start]", "RUNNING [act.run rec.start]", "RUNNING [rec.run act.start]",
+                   "RUNNING [act.run rec.start]", "FAILURE [rec.run]", "RUNNING [act.start]"}));
+}
+
+TEST_F(BuiltinNodesTest, RecoveryFailureCountsAsAFailedAttempt) {
+  Tree tree = Load(R"(<RetryUntilSuccessful num_attempts="2">
+  <Fallback>
+    <Flaky name="act" fails="99"/>
+    <Sequence><Flaky name="rec" fails="99"/><AlwaysFailure/></Sequence>
+  </Fallback>
+</RetryUntilSuccessful>)");
+  EXPECT_EQ(Ticks(tree, 2), (Trace{"RUNNING [act.fail rec.fail]", "FAILURE [act.fail rec.fail]"}));
+}
+
+TEST_F(BuiltinNodesTest, ReactiveRecoveryHaltsTheActionWhenTheGoalIsReached) {
+  Tree tree = Load(R"(<RetryUntilSuccessful num_attempts="2">
+  <ReactiveFallback>
+    <Flaky name="reached" fails="3"/>
+    <Sequence><Traced name="act" ticks="2" result="FAILURE"/><Traced name="rec" ticks="1"/></Sequence>
+  </ReactiveFallback>
+</RetryUntilSuccessful>)");
+  EXPECT_EQ(Ticks(tree, 3), (Trace{"RUNNING [reached.fail act.start]",
+                                   "RUNNING [reached.fail act.run reached.fail act.start]",
+                                   "SUCCESS [reached.ok act.halt]"}));
+}
+
+// -- Parallel: BehaviorTree.CPP src/controls/parallel_node.cpp
+
+const char kParallelChildren[] = R"(<Traced name="a" ticks="1"/>
+<Traced name="b" ticks="3" result="FAILURE"/>
+<Traced name="c" ticks="2"/>)";
+
+TEST_F(BuiltinNodesTest, ParallelDefaultsNeedAllSuccessesAndFailOnTheFirstFailure) {
+  Tree tree = Load(std::string("<Parallel>") + kParallelChildren + "</Parallel>");
+  EXPECT_EQ(Ticks(tree, 4), (Trace{"RUNNING [a.start b.start c.start]", "RUNNING [b.run c.run]",
+                                   "FAILURE [b.run]", "RUNNING [a.start b.start c.start]"}));
+  Tree all_succeed = Load(R"(<Parallel><Traced name="x" ticks="1"/><Traced name="y" ticks="2"/></Parallel>)");
+  EXPECT_EQ(Ticks(all_succeed, 2), (Trace{"RUNNING [x.start y.start]", "SUCCESS [y.run]"}));
+}
+
+TEST_F(BuiltinNodesTest, ParallelCountsAndNegativeCountsFromTheNumberOfChildren) {
+  for (const std::string ports : {R"(success_count="2")", R"(success_count="-2" failure_count="2")"}) {
+    Tree tree = Load("<Parallel " + ports + ">" + kParallelChildren + "</Parallel>");
+    EXPECT_EQ(Ticks(tree, 2), (Trace{"RUNNING [a.start b.start c.start]", "SUCCESS [b.run c.run b.halt]"}))
+        << ports;
+  }
+  Tree minus_one = Load(std::string(R"(<Parallel success_count="-1" failure_count="-1">)") +
+                        kParallelChildren + "</Parallel>");
+  EXPECT_EQ(Ticks(minus_one, 3),
+            (Trace{"RUNNING [a.start b.start c.start]", "RUNNING [b.run c.run]", "FAILURE [b.run]"}));
+  // Zero counts complete after the first child: success_count="-5" means max(3 - 5 + 1, 0) = 0.
+  for (const std::string ports : {R"(success_count="0")", R"(success_count="-5")"}) {
+    Tree tree = Load("<Parallel " + ports + ">" + kParallelChildren + "</Parallel>");
+    EXPECT_EQ(Ticks(tree, 1), (Trace{"SUCCESS [a.start]"})) << ports;
+  }
+  Tree zero_failures =
+      Load(std::string(R"(<Parallel failure_count="0">)") + kParallelChildren + "</Parallel>");
+  EXPECT_EQ(Ticks(zero_failures, 1), (Trace{"FAILURE [a.start]"}));
+}
+
+TEST_F(BuiltinNodesTest, ParallelFailsAsSoonAsSuccessIsImpossible) {
+  Tree tree = Load(R"(<Parallel success_count="3" failure_count="2">
+  <AlwaysSuccess/><AlwaysFailure/><Traced name="c" ticks="2"/>
+</Parallel>)");
+  EXPECT_EQ(Ticks(tree, 1), (Trace{"FAILURE []"}));  // c is never started
+}
+
+TEST_F(BuiltinNodesTest, ParallelKeepsCompletedChildrenUntilItCompletesOrIsHalted) {
+  Tree tree =
+      Load(R"(<Parallel name="p"><Traced name="a" ticks="1"/><Traced name="b" ticks="3"/></Parallel>)");
+  EXPECT_EQ(Ticks(tree, 1), (Trace{"RUNNING [a.start b.start]"}));
+  EXPECT_EQ(Statuses(tree), (std::vector<std::string>{"p=RUNNING", "a=SUCCESS", "b=RUNNING"}));
+  tree.HaltTree();
+  EXPECT_EQ(TakeLog(), "b.halt");
+  EXPECT_EQ(Ticks(tree, 3), (Trace{"RUNNING [a.start b.start]", "RUNNING [b.run]", "SUCCESS [b.run]"}));
+  EXPECT_EQ(Statuses(tree), (std::vector<std::string>{"p=SUCCESS", "a=IDLE", "b=IDLE"}));
+}
+
+TEST_F(BuiltinNodesTest, ParallelCountsAboveTheNumberOfChildrenAreRejected) {
+  EXPECT_PRED2(
+      Contains,
+      ErrorOf(Wrap(std::string("<Parallel success_count=\"4\">") + kParallelChildren + "</Parallel>")),
+      "line 3: node 'Parallel' (ID 'Parallel'): success_count 4 needs more successes than its 3 "
+      "children (it could never succeed)");
+  EXPECT_PRED2(Contains, ErrorOf(Wrap("<Parallel failure_count=\"2\"><AlwaysSuccess/></Parallel>")),
+               "failure_count 2 needs more failures than its 1 children (it could never fail)");
+  EXPECT_PRED2(Contains, ErrorOf(Wrap("<Parallel success_count=\"many\"><AlwaysSuccess/></Parallel>")),
+               "port 'success_count' must be an integer");
+  blackboard_->Set("needed", 5);
+  Tree tree = Load(std::string("<Parallel success_count=\"{needed}\">") + kParallelChildren + "</Parallel>");
+  EXPECT_THROW(tree.TickOnce(), std::logic_error);
+}
+
+// -- Switch2 .. Switch6: BehaviorTree.CPP include/behaviortree_cpp/controls/switch_node.h,
+// src/controls/switch_node.cpp
+
+TEST_F(BuiltinNodesTest, SwitchTicksTheMatchingCaseComparedAsTextIntegerOrNumber) {
+  blackboard_->Set("v", "2");
+  Tree tree = Load(R"(<Switch3 variable="{v}" case_1="1" case_2="2.0" case_3="x">
+  <Traced name="c1"/><Traced name="c2"/><Traced name="c3"/><Traced name="d"/>
+</Switch3>)");
+  EXPECT_EQ(Ticks(tree, 2), (Trace{"RUNNING [c2.start]", "SUCCESS [c2.run]"}));
+  blackboard_->Set("v", "x");
+  EXPECT_EQ(Ticks(tree, 1), (Trace{"RUNNING [c3.start]"}));
+  tree.HaltTree();
+  TakeLog();
+  blackboard_->Set("v", 1);  // an int on the blackboard matches "1"
+  EXPECT_EQ(Ticks(tree, 1), (Trace{"RUNNING [c1.start]"}));
+  tree.HaltTree();
+  TakeLog();
+  Tree exponent = Load(R"(<Switch2 variable="1e0" case_1="1" case_2="b">
+  <Traced name="e1" ticks="1"/><Traced name="e2"/><Traced name="ed"/>
+</Switch2>)");
+  EXPECT_EQ(Ticks(exponent, 1), (Trace{"SUCCESS [e1.start]"}));
+}
+
+TEST_F(BuiltinNodesTest, SwitchFallsBackToTheLastChild) {
+  Tree absent = Load(R"(<Switch2 variable="{nope}" case_1="1" case_2="2">
+  <Traced name="c1"/><Traced name="c2"/><Traced name="d"/>
+</Switch2>)");
+  EXPECT_EQ(Ticks(absent, 1), (Trace{"RUNNING [d.start]"}));
+  absent.HaltTree();
+  TakeLog();
+  // Ports are optional, as in BehaviorTree.CPP: an unset case never matches, an unset variable selects the
+  // default.
+  Tree unset_case = Load(R"(<Switch2 variable="b" case_1="a">
+  <Traced name="u1"/><Traced name="u2"/><Traced name="ud" ticks="1"/>
+</Switch2>)");
+  EXPECT_EQ(Ticks(unset_case, 1), (Trace{"SUCCESS [ud.start]"}));
+  Tree no_variable = Load(R"(<Switch2 case_1="" case_2="b">
+  <Traced name="n1"/><Traced name="n2"/><Traced name="nd" ticks="1"/>
+</Switch2>)");
+  EXPECT_EQ(Ticks(no_variable, 1), (Trace{"SUCCESS [nd.start]"}));
+}
+
+TEST_F(BuiltinNodesTest, SwitchHaltsTheRunningBranchWhenTheCaseChanges) {
+  blackboard_->Set("v", "1");
+  Tree tree = Load(R"(<Switch2 variable="{v}" case_1="1" case_2="2">
+  <Traced name="c1" ticks="5"/><Traced name="c2" ticks="5"/><Traced name="d" ticks="5"/>
+</Switch2>)");
+  EXPECT_EQ(Ticks(tree, 1), (Trace{"RUNNING [c1.start]"}));
+  blackboard_->Set("v", "2");
+  EXPECT_EQ(Ticks(tree, 1), (Trace{"RUNNING [c1.halt c2.start]"}));
+  blackboard_->Set("v", "zzz");
+  EXPECT_EQ(Ticks(tree, 1), (Trace{"RUNNING [c2.halt d.start]"}));
+  tree.HaltTree();
+  EXPECT_EQ(TakeLog(), "d.halt");
+}
+
+TEST_F(BuiltinNodesTest, SwitchNeedsOneChildPerCasePlusTheDefault) {
+  for (int cases = 2; cases <= 6; ++cases) {
+    std::string xml = "<Switch" + std::to_string(cases) + " variable=\"x\">";
+    for (int i = 0; i <= cases; ++i) xml += "<AlwaysFailure/>";
+    xml += "</Switch" + std::to_string(cases) + ">";
+    Tree tree = Load(xml);
+    EXPECT_EQ(tree.TickOnce(), NodeStatus::kFailure) << xml;
+    EXPECT_EQ(tree.root().config().ports.size(), static_cast<std::size_t>(cases + 1)) << xml;
+  }
+  // Also in a tree that is not the main one.
+  const std::string xml = R"(<root BTCPP_format="4" main_tree_to_execute="Main">
+<BehaviorTree ID="Main"><AlwaysSuccess/></BehaviorTree>
+<BehaviorTree ID="Other">
+  <Switch2 name="sw" variable="a" case_1="a" case_2="b"><AlwaysSuccess/><AlwaysSuccess/></Switch2>
+</BehaviorTree>
+</root>)";
+  EXPECT_PRED2(
+      Contains, ErrorOf(xml),
+      "line 4: node 'sw' (ID 'Switch2'): a Switch2 needs 3 children (2 cases, then the default), found 2");
+}
+
+// -- Timeout: BehaviorTree.CPP src/decorators/timeout_node.cpp (time from the factory's Clock)
+
+TEST_F(BuiltinNodesTest, TimeoutHaltsTheChildAndFailsOnTheFirstTickAfterTheDeadline) {
+  Tree tree = Load(R"(<Timeout msec="50"><Traced name="a" ticks="10"/></Timeout>)");
+  const std::chrono::milliseconds step(20);
+  EXPECT_EQ(Ticks(tree, 5, step), (Trace{"RUNNING [a.start]", "RUNNING [a.run]", "RUNNING [a.run]",
+                                         "FAILURE [a.halt]", "RUNNING [a.start]"}));
+  Tree exact = Load(R"(<Timeout msec="50"><Traced name="b" ticks="10"/></Timeout>)");
+  EXPECT_EQ(Ticks(exact, 3, std::chrono::milliseconds(25)),
+            (Trace{"RUNNING [b.start]", "RUNNING [b.run]", "FAILURE [b.halt]"}));  // at exactly 50 ms
+}
+
+TEST_F(BuiltinNodesTest, TimeoutRestartsAfterTheChildCompletesAndZeroNeverExpires) {
+  Tree tree = Load(R"(<Timeout msec="50"><Traced name="a" ticks="2"/></Timeout>)");
+  EXPECT_EQ(Ticks(tree, 4, std::chrono::milliseconds(20)),
+            (Trace{"RUNNING [a.start]", "SUCCESS [a.run]", "RUNNING [a.start]", "SUCCESS [a.run]"}));
+  Tree never = Load(R"(<Timeout msec="0"><Traced name="b" ticks="4"/></Timeout>)");
+  EXPECT_EQ(Ticks(never, 4, std::chrono::hours(1)),
+            (Trace{"RUNNING [b.start]", "RUNNING [b.run]", "RUNNING [b.run]", "SUCCESS [b.run]"}));
+}
+
+TEST_F(BuiltinNodesTest, TimeoutHaltResetsTheTimer) {
+  Tree tree = Load(R"(<Timeout msec="50"><Traced name="a" ticks="10"/></Timeout>)");
+  EXPECT_EQ(Ticks(tree, 2, std::chrono::milliseconds(40)), (Trace{"RUNNING [a.start]", "RUNNING [a.run]"}));
+  tree.HaltTree();
+  EXPECT_EQ(TakeLog(), "a.halt");
+  EXPECT_EQ(Ticks(tree, 3, std::chrono::milliseconds(20)),
+            (Trace{"RUNNING [a.start]", "RUNNING [a.run]", "RUNNING [a.run]"}));
+}
+
+TEST_F(BuiltinNodesTest, TimeoutAndDelayRejectBadMilliseconds) {
+  EXPECT_PRED2(Contains, ErrorOf(Wrap("<Timeout msec=\"-5\"><AlwaysSuccess/></Timeout>")),
+               "port 'msec' must be an integer >= 0, got '-5'");
+  EXPECT_PRED2(Contains, ErrorOf(Wrap("<Delay delay_msec=\"1.5\"><AlwaysSuccess/></Delay>")),
+               "port 'delay_msec' must be an integer >= 0, got '1.5'");
+  blackboard_->Set("t", "soon");
+  Tree tree = Load(R"(<Timeout msec="{t}"><AlwaysSuccess/></Timeout>)");
+  try {
+    tree.TickOnce();
+    ADD_FAILURE() << "expected std::runtime_error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_PRED2(Contains, e.what(),
+                 "node 'Timeout' (ID 'Timeout'): port 'msec' must be an integer >= 0, "
+                 "got {t} = 'soon'");
+  }
+}
+
+// -- Delay: BehaviorTree.CPP src/decorators/delay_node.cpp
+
+TEST_F(BuiltinNodesTest, DelayWaitsThenTicksTheChildAndStartsOverAfterIt) {
+  Tree tree = Load(R"(<Delay delay_msec="50"><Traced name="a" ticks="2"/></Delay>)");
+  EXPECT_EQ(Ticks(tree, 6, std::chrono::milliseconds(20)),
+            (Trace{"RUNNING []", "RUNNING []", "RUNNING []", "RUNNING [a.start]", "SUCCESS [a.run]",
+                   "RUNNING []"}));
+}
+
+TEST_F(BuiltinNodesTest, DelayNeverTicksTheChildOnItsFirstTick) {
+  Tree tree = Load(R"(<Delay delay_msec="0"><Traced name="a" ticks="1"/></Delay>)");
+  EXPECT_EQ(Ticks(tree, 3), (Trace{"RUNNING []", "SUCCESS [a.start]", "RUNNING []"}));
+}
+
+TEST_F(BuiltinNodesTest, DelayHaltRestartsTheDelay) {
+  Tree tree = Load(R"(<Delay delay_msec="30"><Traced name="a" ticks="1"/></Delay>)");
+  EXPECT_EQ(Ticks(tree, 1, std::chrono::milliseconds(20)), (Trace{"RUNNING []"}));
+  tree.HaltTree();
+  EXPECT_EQ(Ticks(tree, 3, std::chrono::milliseconds(20)),
+            (Trace{"RUNNING []", "RUNNING []", "SUCCESS [a.start]"}));
+}
+
+// -- Clock
+
+TEST_F(BuiltinNodesTest, TreesKeepTheClockTheyWereCreatedWith) {
+  Tree tree = Load(R"(<Timeout msec="100"><Traced name="a" ticks="10"/></Timeout>)");
+  EXPECT_EQ(tree.root().Now(), now_);
+  std::chrono::nanoseconds other_now{0};
+  factory_.SetClock([&other_now] { return other_now; });
+  Tree later = Load("<AlwaysSuccess/>");
+  EXPECT_EQ(later.root().Now(), other_now);
+  EXPECT_EQ(tree.root().Now(), now_);
+  EXPECT_THROW(factory_.SetClock(nullptr), std::logic_error);
+}
+
+TEST(ClockTest, DefaultClockIsSteady) {
+  TreeFactory factory;
+  const std::chrono::nanoseconds before = SteadyClockNow();
+  const std::chrono::nanoseconds now = factory.clock()();
+  EXPECT_LE(before, now);
+  EXPECT_LE(now, SteadyClockNow());
+  Tree tree = factory.CreateTreeFromText(Wrap("<AlwaysSuccess/>"), nullptr);
+  EXPECT_LE(now, tree.root().Now());
+  struct Leaf : SyncActionNode {
+    using SyncActionNode::SyncActionNode;
+    NodeStatus Tick() override { return NodeStatus::kSuccess; }
+  };
+  const Leaf hand_made("leaf", NodeConfig{});  // no clock in the config: the steady clock
+  EXPECT_LE(now, hand_made.Now());
+}
+
+// -- SubTree blackboards and models: BehaviorTree.CPP src/blackboard.cpp (IsPrivateKey) and
+// src/xml_parsing.cpp
+//    (recursivelyCreateSubtree, loadSubtreeModel)
+
+TEST(BlackboardTest, AutoRemappingKeepsPrivateKeysLocal) {
+  auto parent = Blackboard::Create();
+  parent->Set("_secret", 1);
+  parent->Set("shared", 2);
+  auto child = Blackboard::Create(parent);
+  child->EnableAutoRemapping(true);
+  EXPECT_EQ(child->Get<int>("shared"), 2);
+  EXPECT_FALSE(child->Has("_secret"));
+  EXPECT_EQ(child->Get<int>("@_secret"), 1);  // the root key, named explicitly
+  child->Set("_mine", 3);
+  EXPECT_FALSE(parent->Has("_mine"));
+  EXPECT_EQ(child->Keys(), std::vector<std::string>{"_mine"});
+  child->AddRemapping("_alias", "shared");  // explicit remapping still works for private keys
+  EXPECT_EQ(child->Get<int>("_alias"), 2);
+}
+
+TEST_F(BuiltinNodesTest, SubTreeAutoRemapDoesNotShareUnderscoreKeys) {
+  blackboard_->Set("_private", "parent");
+  blackboard_->Set("_secret", "s");
+  const std::string xml = R"(<root BTCPP_format="4" main_tree_to_execute="Main">
+<BehaviorTree ID="Main"><SubTree ID="Sub" _autoremap="true"/></BehaviorTree>
+<BehaviorTree ID="Sub">
+  <Sequence>
+    <SetBlackboard value="in" output_key="_private"/>
+    <SetBlackboard value="in" output_key="shared"/>
+    <SetBlackboard value="{_secret}" output_key="copied_secret"/>
+  </Sequence>
+</BehaviorTree>
+</root>)";
+  Tree tree = factory_.CreateTreeFromText(xml, blackboard_);
+  EXPECT_EQ(tree.TickOnce(), NodeStatus::kFailure);  // {_secret} is not visible in the subtree
+  EXPECT_EQ(blackboard_->Get<std::string>("_private"), "parent");
+  EXPECT_EQ(blackboard_->Get<std::string>("shared"), "in");
+  EXPECT_FALSE(blackboard_->Has("copied_secret"));
+}
+
+// A subtree that copies its `speed` to `result` and its `goal` to the local `goal_copy`.
+const char kModelledSubTree[] = R"(
+<BehaviorTree ID="Drive">
+  <Sequence>
+    <SetBlackboard value="{speed}" output_key="result"/>
+    <SetBlackboard value="{goal}" output_key="goal_copy"/>
+  </Sequence>
+</BehaviorTree>)";
+
+std::string ModelledDocument(const std::string& subtree_element, const std::string& model) {
+  return R"(<root BTCPP_format="4" main_tree_to_execute="Main">
+<BehaviorTree ID="Main">)" +
+         subtree_element + "</BehaviorTree>" + kModelledSubTree + "\n" + model + "\n</root>";
+}
+
+const char kDriveModel[] = R"(<TreeNodesModel>
+  <SubTree ID="Drive">
+    <input_port name="speed" default="0.5">speed, m/s</input_port>
+    <input_port name="goal" default="{the_goal}"/>
+    <output_port name="result" default="{res}"/>
+  </SubTree>
+</TreeNodesModel>)";
+
+TEST_F(BuiltinNodesTest, SubTreeModelDefaultsApplyToPortsTheElementDoesNotSet) {
+  blackboard_->Set("the_goal", "G");
+  Tree tree =
+      factory_.CreateTreeFromText(ModelledDocument(R"(<SubTree ID="Drive"/>)", kDriveModel), blackboard_);
+  EXPECT_EQ(tree.TickOnce(), NodeStatus::kSuccess);
+  EXPECT_EQ(blackboard_->Get<double>("res"), 0.5);  // literal default; {res} remaps the output
+  EXPECT_EQ(blackboard_->Keys(), (std::vector<std::string>{"res", "the_goal"}));
+
+  auto other = Blackboard::Create();
+  other->Set("the_goal", "G");
+  Tree overridden = factory_.CreateTreeFromText(
+      ModelledDocument(R"(<SubTree ID="Drive" speed="2" result="{out}"/>)", kDriveModel), other);
+  EXPECT_EQ(overridden.TickOnce(), NodeStatus::kSuccess);
+  EXPECT_EQ(other->Get<std::string>("out"), "2");
+  EXPECT_FALSE(other->Has("res"));
+}
+
+TEST_F(BuiltinNodesTest, SubTreeModelIsNotAppliedWithAutoRemap) {
+  blackboard_->Set("the_goal", "G");
+  Tree tree = factory_.CreateTreeFromText(
+      ModelledDocument(R"(<SubTree ID="Drive" _autoremap="true"/>)", kDriveModel), blackboard_);
+  EXPECT_EQ(tree.TickOnce(), NodeStatus::kFailure);  // `speed` is looked up in the parent, where it is absent
+  blackboard_->Set("speed", 3);
+  blackboard_->Set("goal", "H");
+  EXPECT_EQ(tree.TickOnce(), NodeStatus::kSuccess);
+  EXPECT_EQ(blackboard_->Get<int>("result"), 3);
+  EXPECT_EQ(blackboard_->Get<std::string>("goal_copy"), "H");
+}
+
+TEST_F(BuiltinNodesTest, SubTreeModelPortWithoutDefaultMustBeSet) {
+  const std::string model = R"(<TreeNodesModel>
+  <SubTree ID="Drive"><input_port name="speed"/><input_port name="goal" default=""/></SubTree>
+</TreeNodesModel>)";
+  EXPECT_PRED2(Contains, ErrorOf(ModelledDocument(R"(<SubTree ID="Drive" goal="g"/>)", model)),
+               "line 2: SubTree 'Drive' (ID 'Drive') does not set port 'speed', which the <TreeNodesModel> "
+               "(line 10) declares without a default");
+  EXPECT_PRED2(Contains, ErrorOf(ModelledDocument(R"(<SubTree ID="Drive" speed="1"/>)", model)),
+               "does not set port 'goal'");
+  Tree tree = factory_.CreateTreeFromText(
+      ModelledDocument(R"(<SubTree ID="Drive" speed="1" goal="g"/>)", model), blackboard_);
+  EXPECT_EQ(tree.TickOnce(), NodeStatus::kSuccess);
+}
+
+TEST_F(BuiltinNodesTest, TreeNodesModelIsValidated) {
+  const auto doc = [](const std::string& model) {
+    return "<root BTCPP_format=\"4\">\n<BehaviorTree ID=\"Main\"><AlwaysSuccess/></BehaviorTree>\n" + model +
+           "\n</root>";
+  };
+  EXPECT_PRED2(Contains, ErrorOf(doc("<TreeNodesModel/>\n<TreeNodesModel/>")),
+               "line 4: a second <TreeNodesModel> (the first is on line 3); only one is allowed");
+  EXPECT_PRED2(Contains, ErrorOf(doc("<TreeNodesModel><Widget ID=\"x\"/></TreeNodesModel>")),
+               "line 3: unexpected element <Widget> in <TreeNodesModel>");
+  EXPECT_PRED2(Contains, ErrorOf(doc("<TreeNodesModel><Action/></TreeNodesModel>")),
+               "<Action> in <TreeNodesModel> has no ID attribute");
+  EXPECT_PRED2(
+      Contains, ErrorOf(doc("<TreeNodesModel><Condition ID=\"Approach\"/></TreeNodesModel>")),
+      "<TreeNodesModel> entry <Condition ID=\"Approach\">: 'Approach' is registered with type Action, "
+      "not Condition");
+  EXPECT_PRED2(Contains,
+               ErrorOf(doc("<TreeNodesModel><Action ID=\"X\"><input_port/></Action></TreeNodesModel>")),
+               "<input_port> has no name");
+  EXPECT_PRED2(Contains,
+               ErrorOf(doc("<TreeNodesModel><SubTree ID=\"S\"/>\n<SubTree ID=\"S\"/></TreeNodesModel>")),
+               "line 4: duplicate <TreeNodesModel> entry <SubTree ID=\"S\">");
+  // Entries of unknown node types (another program's palette) and Groot2 metadata are accepted.
+  Tree tree = factory_.CreateTreeFromText(doc(R"(<TreeNodesModel>
+  <Action ID="Elsewhere"><input_port name="p"/><MetadataFields><Metadata a="b"/></MetadataFields></Action>
+</TreeNodesModel>)"),
+                                          blackboard_);
+  EXPECT_EQ(tree.TickOnce(), NodeStatus::kSuccess);
+}
+
+// -- SetBlackboard: BehaviorTree.CPP include/behaviortree_cpp/actions/set_blackboard_node.h (output_key is
+// read
+//    with getInput: a plain name is the key; "{ptr}" names the entry holding the key's name)
+
+TEST_F(BuiltinNodesTest, SetBlackboardOutputKeyIsAPlainKeyName) {
+  blackboard_->Set("ptr", "target");
+  Tree tree = Load(R"(<Sequence>
+  <SetBlackboard value="v1" output_key="{ptr}"/>
+  <SetBlackboard value="v2" output_key="plain"/>
+  <SetBlackboard value="r" output_key="@root_key"/>
+</Sequence>)");
+  EXPECT_EQ(tree.TickOnce(), NodeStatus::kSuccess);
+  EXPECT_EQ(blackboard_->Get<std::string>("target"), "v1");
+  EXPECT_EQ(blackboard_->Get<std::string>("ptr"), "target");
+  EXPECT_EQ(blackboard_->Get<std::string>("plain"), "v2");
+  EXPECT_EQ(blackboard_->Get<std::string>("root_key"), "r");
+
+  Tree absent = Load(R"(<SetBlackboard name="set" value="v" output_key="{copy}"/>)");
+  try {
+    absent.TickOnce();
+    ADD_FAILURE() << "expected std::runtime_error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_PRED2(Contains, e.what(), "node 'set' (ID 'SetBlackboard'): output_key '{copy}'");
+    EXPECT_PRED2(Contains, e.what(), "write output_key=\"copy\"");
+  }
+  EXPECT_FALSE(blackboard_->Has("copy"));
+  EXPECT_PRED2(Contains, ErrorOf(Wrap(R"(<SetBlackboard value="v" output_key=""/>)")),
+               "output_key must name a blackboard entry");
+}
+
+// ---- Port and registration extensions --------------------------------------------------------------------
+
+TEST(BehaviorTreeApiTest, OptionalAndTypedPorts) {
+  const auto optional = OptionalInputPort("hint", "may be omitted");
+  EXPECT_TRUE(optional.second.optional);
+  EXPECT_FALSE(optional.second.has_default);
+  EXPECT_FALSE(InputPort("p", "").second.optional);
+  EXPECT_EQ(InputPort("speed_mps", 0.5, "").second.type_name, "double");
+  EXPECT_EQ(InputPort("n", 3, "").second.type_name, "int");
+  EXPECT_EQ(InputPort("on", true, "").second.type_name, "bool");
+  EXPECT_EQ(InputPort("s", "x", "").second.type_name, "");
+
+  TreeFactory factory;
+  std::optional<int> seen = 7;
+  factory.RegisterSimpleAction("Hinted",
+                               [&seen](TreeNode& node) {
+                                 seen = node.GetInput<int>("hint");
+                                 return NodeStatus::kSuccess;
+                               },
+                               {OptionalInputPort("hint", "a hint")});
+  Tree tree = factory.CreateTreeFromText(Wrap("<Hinted/>"), nullptr);
+  EXPECT_EQ(tree.TickOnce(), NodeStatus::kSuccess);
+  EXPECT_EQ(seen, std::nullopt);
+}
+
+// A control whose XML must have an even number of children and a literal `size_m` > 0.
+class Pairs : public ControlNode {
+ public:
+  using ControlNode::ControlNode;
+  static PortsList ProvidedPorts() { return {InputPort("size_m", 1.0, "pair size, metres")}; }
+  static void ValidateXml(const std::map<std::string, std::string>& port_values, std::size_t num_children) {
+    if (num_children % 2 != 0) throw std::invalid_argument("needs pairs of children");
+    const auto size = port_values.find("size_m");
+    if (size != port_values.end() && StringConverter<double>::Convert(size->second).value_or(0.0) <= 0.0) {
+      throw std::invalid_argument("size_m must be > 0");
+    }
+  }
+
+ protected:
+  NodeStatus Tick() override { return NodeStatus::kSuccess; }
+};
+
+TEST_F(BehaviorTreeTest, RegisteredXmlValidatorsRunAtLoad) {
+  factory_.RegisterNodeType<Pairs>("Pairs");
+  EXPECT_PRED2(Contains, ErrorOf(Wrap("<Sequence>\n<Pairs name=\"p\"><AlwaysSuccess/></Pairs>\n</Sequence>")),
+               "line 4: node 'p' (ID 'Pairs'): needs pairs of children");
+  EXPECT_PRED2(Contains, ErrorOf(Wrap("<Pairs size_m=\"-1\"><AlwaysSuccess/><AlwaysSuccess/></Pairs>")),
+               "size_m must be > 0");
+  EXPECT_EQ(Load("<Pairs><AlwaysSuccess/><AlwaysSuccess/></Pairs>").TickOnce(), NodeStatus::kSuccess);
+  factory_.RegisterBuilder(
+      "NoChildrenPlease", NodeType::kDecorator, {},
+      [](const std::string& name, const NodeConfig& config) {
+        return std::unique_ptr<TreeNode>(std::make_unique<Pairs>(name, config));
+      },
+      [](const std::map<std::string, std::string>&, std::size_t) {
+        throw std::invalid_argument("never valid");
+      });
+  EXPECT_PRED2(Contains, ErrorOf(Wrap("<NoChildrenPlease><AlwaysSuccess/></NoChildrenPlease>")),
+               "never valid");
+}
+
+TEST(BehaviorTreeApiTest, BuiltinsAreTheConstructorsRegistrations) {
+  TreeFactory factory;
+  for (const char* id : {"Sequence",         "Fallback",
+                         "ReactiveSequence", "ReactiveFallback",
+                         "Parallel",         "Switch2",
+                         "Switch3",          "Switch4",
+                         "Switch5",          "Switch6",
+                         "Inverter",         "ForceSuccess",
+                         "ForceFailure",     "RetryUntilSuccessful",
+                         "Timeout",          "Delay",
+                         "AlwaysSuccess",    "AlwaysFailure",
+                         "SetBlackboard",    "SubTree"}) {
+    EXPECT_TRUE(factory.IsBuiltin(id)) << id;
+    EXPECT_TRUE(factory.IsRegistered(id)) << id;
+  }
+  factory.RegisterNodeType<AlwaysTrue>("AlwaysTrue");
+  EXPECT_FALSE(factory.IsBuiltin("AlwaysTrue"));
+  EXPECT_FALSE(factory.IsBuiltin("Nothing"));
+}
+
+// ---- TreeNodesModel writer: BehaviorTree.CPP src/xml_parsing.cpp (writeTreeNodesModelXML) ---------------
+
+// A decorator with an in/out port, for the model.
+class Stamp : public DecoratorNode {
+ public:
+  using DecoratorNode::DecoratorNode;
+  static PortsList ProvidedPorts() { return {InOutPort("counter", "incremented <each> tick & \"quoted\"")}; }
+
+ protected:
+  NodeStatus Tick() override { return Child().ExecuteTick(); }
+};
+
+class TreeNodesModelTest : public ::testing::Test {
+ protected:
+  TreeNodesModelTest() {
+    factory_.RegisterNodeType<Approach>("Approach");
+    factory_.RegisterNodeType<AlwaysTrue>("AlwaysTrue");
+    factory_.RegisterNodeType<Stamp>("Stamp");
+    factory_.RegisterNodeType<Pairs>("Pairs");
+  }
+  TreeFactory factory_;
+};
+
+const char kExpectedModel[] = R"(<TreeNodesModel>
+    <Condition ID="AlwaysTrue"/>
+    <Action ID="Approach">
+        <input_port name="distance_m" type="double" default="2">distance to go, metres</input_port>
+        <output_port name="remaining_m">half of it</output_port>
+    </Action>
+    <Control ID="Pairs">
+        <input_port name="size_m" type="double" default="1">pair size, metres</input_port>
+    </Control>
+    <Decorator ID="Stamp">
+        <inout_port name="counter">incremented &lt;each&gt; tick &amp; "quoted"</inout_port>
+    </Decorator>
+</TreeNodesModel>
+)";
+
+TEST_F(TreeNodesModelTest, WritesRegisteredTypesWithoutBuiltins) {
+  EXPECT_EQ(factory_.WriteTreeNodesModel(), kExpectedModel);
+  EXPECT_EQ(
+      factory_.WriteTreeNodesModelDocument(), "<root BTCPP_format=\"4\">\n    " + [] {
+        std::string indented;
+        for (const char* c = kExpectedModel; *c != '\0'; ++c) {
+          indented += *c;
+          if (*c == '\n' && c[1] != '\0') indented += "    ";
+        }
+        return indented;
+      }() + "</root>\n");
+  EXPECT_EQ(TreeFactory().WriteTreeNodesModel(), "<TreeNodesModel/>\n");
+}
+
+TEST_F(TreeNodesModelTest, IncludesBuiltinsOnRequest) {
+  const std::string model = factory_.WriteTreeNodesModel(true);
+  EXPECT_PRED2(
+      Contains, model,
+      "<Control ID=\"Parallel\">\n        <input_port name=\"failure_count\" type=\"int\" default=\"1\">");
+  EXPECT_PRED2(Contains, model, "<input_port name=\"success_count\" type=\"int\" default=\"-1\">");
+  EXPECT_PRED2(Contains, model,
+               "<Decorator ID=\"RetryUntilSuccessful\">\n        <input_port name=\"num_attempts\" "
+               "type=\"int\">");
+  EXPECT_PRED2(Contains, model, "<input_port name=\"msec\" type=\"unsigned int\">");
+  EXPECT_PRED2(Contains, model, "<input_port name=\"case_6\" type=\"std::string\">");
+  EXPECT_PRED2(Contains, model, "<Action ID=\"AlwaysSuccess\"/>");
+  EXPECT_PRED2(Contains, model, "<Action ID=\"Approach\">");
+}
+
+const char kTreeFile[] = R"(<?xml version="1.0" encoding="UTF-8"?>
+<!-- the mode tree -->
+<root BTCPP_format="4" main_tree_to_execute="Main">
+  <BehaviorTree ID="Main">
+    <Sequence>
+      <Approach distance_m="4" remaining_m="{left_m}"/>
+      <SubTree ID="Drive" target="{left_m}"/>
+    </Sequence>
+  </BehaviorTree>
+  <BehaviorTree ID="Drive">
+    <Stamp counter="{=}"><SetBlackboard value="{target}" output_key="result"/></Stamp>
+  </BehaviorTree>
+  <TreeNodesModel>
+    <SubTree ID="Drive">
+      <input_port name="target"/>
+      <output_port name="result" default="{driven_m}"/>
+    </SubTree>
+    <Action ID="Approach"><input_port name="stale_port"/></Action>
+    <Action ID="SomebodyElses"/>
+  </TreeNodesModel>
+</root>
+)";
+
+TEST_F(TreeNodesModelTest, AddsTheModelToATreeFileThatThenLoads) {
+  const std::string merged = factory_.AddTreeNodesModel(kTreeFile);
+  EXPECT_PRED2(Contains, merged, "<!-- the mode tree -->");
+  EXPECT_PRED2(Contains, merged, "<?xml version=\"1.0\" encoding=\"UTF-8\"?>");
+  EXPECT_EQ(merged.find("stale_port"), std::string::npos);  // the registered type's entry is replaced
+  EXPECT_PRED2(Contains, merged, "<Action ID=\"SomebodyElses\"/>");  // other entries are kept
+  EXPECT_PRED2(Contains, merged, "<output_port name=\"result\" default=\"{driven_m}\"/>");
+  EXPECT_PRED2(Contains, merged, "<Decorator ID=\"Stamp\">");
+  EXPECT_EQ(factory_.AddTreeNodesModel(merged), merged);  // idempotent
+
+  // The merged file loads, and its SubTree model default remaps the subtree's output.
+  const std::string path = ::testing::TempDir() + "cairn_bt_model_test_tree.xml";
+  {
+    std::ofstream file(path);
+    file << merged;
+  }
+  auto blackboard = Blackboard::Create();
+  Tree tree = factory_.CreateTreeFromFile(path, blackboard);
+  std::remove(path.c_str());
+  blackboard->Set("counter", 0);
+  EXPECT_EQ(tree.TickOnce(), NodeStatus::kSuccess);
+  EXPECT_EQ(blackboard->Get<double>("left_m"), 2.0);
+  EXPECT_EQ(blackboard->Get<double>("driven_m"), 2.0);
+}
+
+TEST_F(TreeNodesModelTest, AddsAModelWhereThereIsNoneAndAFullDocumentLoadsToo) {
+  const std::string bare =
+      "<root BTCPP_format=\"4\"><BehaviorTree ID=\"M\"><AlwaysTrue/></BehaviorTree></root>";
+  const std::string merged = factory_.AddTreeNodesModel(bare);
+  EXPECT_PRED2(Contains, merged, "    <TreeNodesModel>\n        <Condition ID=\"AlwaysTrue\"/>");
+  EXPECT_EQ(factory_.CreateTreeFromText(merged, nullptr).TickOnce(), NodeStatus::kSuccess);
+  // The builtin models load as well (a full palette in the file).
+  const std::string with_builtins = factory_.AddTreeNodesModel(bare, true);
+  EXPECT_EQ(factory_.CreateTreeFromText(with_builtins, nullptr).TickOnce(), NodeStatus::kSuccess);
+}
+
+TEST_F(TreeNodesModelTest, AddTreeNodesModelErrors) {
+  EXPECT_THROW(factory_.AddTreeNodesModel("<root"), TreeError);
+  EXPECT_THROW(factory_.AddTreeNodesModel("<tree/>"), TreeError);
+  try {
+    factory_.AddTreeNodesModel("<root BTCPP_format=\"4\">\n<TreeNodesModel/>\n<TreeNodesModel/>\n</root>");
+    ADD_FAILURE() << "expected TreeError";
+  } catch (const TreeError& e) {
+    EXPECT_PRED2(Contains, e.what(), "line 3: a second <TreeNodesModel>");
+    EXPECT_EQ(e.line(), 3);
+  }
 }
 
 }  // namespace

@@ -1,10 +1,11 @@
 // A behavior-tree engine that reads BehaviorTree.CPP v4 XML (<root BTCPP_format="4">), so trees can be edited
-// in Groot2 and loaded at start without recompiling.
+// in Groot2 and loaded at start without recompiling. Builtin nodes follow BehaviorTree.CPP 4.10 (the tests
+// cite the BehaviorTree.CPP source file whose behaviour each one pins).
 //
 // Supported XML (anything else is rejected with a TreeError naming the element/attribute and its line):
 //   <root BTCPP_format="4" [main_tree_to_execute="ID"]>   main_tree_to_execute is required if > 1 tree
 //     <BehaviorTree ID="ID"> exactly one child node </BehaviorTree>   (one or more)
-//     <TreeNodesModel> ... </TreeNodesModel>                            (ignored)
+//     <TreeNodesModel> ... </TreeNodesModel>                            (at most one; see below)
 //   </root>
 // Nodes are written compactly (<IsModeRequested mode="{requested}"/>) or explicitly
 // (<Action ID="X"/>, <Condition ID="X"/>, <Control ID="X">, <Decorator ID="X">; the category must match the
@@ -13,21 +14,74 @@
 // A port value is either a literal ("1.5") or a blackboard key in braces ("{goal}"); "{=}" means the key
 // with the port's own name; "{@key}" means `key` in the top-level blackboard.
 //
+// <TreeNodesModel> (as written by Groot2 and TreeFactory::WriteTreeNodesModel) holds one element per node
+// type: <Action|Condition|Control|Decorator|SubTree ID="X"> with <input_port|output_port|inout_port
+// name="p" [type="T"] [default="v"] [description="d"]>d</...> children. An entry for a registered ID must
+// name its registered category; entries for unknown IDs are documentation and ignored. <SubTree ID="T">
+// entries declare the ports of <BehaviorTree ID="T"> and are used as BehaviorTree.CPP 4.10 does: when a
+// <SubTree ID="T"> element without _autoremap="true" does not set a declared port, the port's default is
+// used as if written on the element ("{key}" remaps, anything else is a literal); a declared port without
+// default must then be set on the element (else TreeError). With _autoremap="true" the model is not applied.
+//
 // The whole document is validated (every BehaviorTree, used or not) before any node is constructed.
 //
-// Builtin nodes registered by TreeFactory:
-//   Controls:   Sequence, Fallback, ReactiveSequence, ReactiveFallback
-//   Decorators: Inverter, ForceSuccess, ForceFailure
+// Builtin nodes registered by TreeFactory (BehaviorTree.CPP 4.10 names, ports and behaviour):
+//   Controls:   Sequence, Fallback, ReactiveSequence, ReactiveFallback,
+//               Parallel(success_count=-1, failure_count=1), Switch2 .. Switch6(variable, case_1 .. case_N)
+//   Decorators: Inverter, ForceSuccess, ForceFailure, RetryUntilSuccessful(num_attempts),
+//               Timeout(msec), Delay(delay_msec)
 //   Actions:    AlwaysSuccess, AlwaysFailure, SetBlackboard(value, output_key)
 //   SubTree:    <SubTree ID="Other" [_autoremap="true"] [child_key="{parent_key}"] [child_key="literal"]/>
+// Semantics of the nodes that need more than their name (TreeError: at load, naming node and line;
+// std::runtime_error at tick: a port read from the blackboard holds a bad value or is absent):
+//   Parallel ticks, on each tick and in order, every child that has not completed since the Parallel
+//     started; after each child it returns SUCCESS once success_count children succeeded, FAILURE once
+//     failure_count children failed or too few are left to reach success_count. A negative count means
+//     max(children + count + 1, 0), so -1 is "all". On completion running children are halted and all are
+//     reset. A count above the number of children: TreeError (std::logic_error at tick if from the
+//     blackboard); a count that is not an integer: TreeError.
+//   SwitchN (N = 2..6 cases) needs N+1 children (else TreeError). It ticks the child of the first case_i
+//     equal to `variable` as text, as integers, or as numbers within float epsilon ("2" matches "2.0"); else
+//     the last child, also when `variable` is unset or its key absent (all ports are optional). A child left
+//     running by another branch is halted when the branch changes.
+//   RetryUntilSuccessful ticks its child until it succeeds, at most num_attempts times (-1: no limit; below
+//     -1: TreeError), then fails. A child that fails in the same tick it started (it was idle) ends the
+//     tick with RUNNING and the next attempt is made on the next tick; a child that fails after running is
+//     retried in the same tick. (This is BehaviorTree.CPP ticked with tickExactlyOnce, which is what
+//     Tree::TickOnce does; its tickOnce would re-tick the whole tree at once instead.)
+//   Timeout ticks its child; on the first tick at or after `msec` ms since the Timeout started, if the child
+//     is still running, it halts the child and fails without ticking it. msec="0": no limit. The Timeout
+//     restarts after the child completes or when halted.
+//   Delay returns RUNNING until `delay_msec` ms have passed since its first tick, then ticks its child and
+//     returns its status; the child is never ticked on the Delay's first tick, even with delay_msec="0". It
+//     restarts after the child completes or when halted.
+//   Negative or non-integer msec/delay_msec: TreeError. Time is the tree's Clock (TreeFactory::SetClock), so
+//   Timeout and Delay work on a simulated clock; expiry is seen when the tree is ticked.
+//   SetBlackboard writes `value` (text, or a copy of the entry "{key}") to the entry NAMED by `output_key`:
+//     output_key="goal" writes `goal` ("@goal": the top-level `goal`); output_key="{ptr}" writes the entry
+//     whose name is the text stored in `ptr`, as BehaviorTree.CPP 4.10 does (std::runtime_error at tick if
+//     `ptr` is absent). Returns FAILURE if `value` is a "{key}" that is absent.
+//
+// A Nav2-style RecoveryNode (retry an action N times, running a recovery between attempts) is expressed with
+// these nodes, as BehaviorTree.CPP has no RecoveryNode:
+//   <RetryUntilSuccessful num_attempts="N+1">
+//     <Fallback>   (or ReactiveFallback to re-check a condition child every tick)
+//       <Action/>
+//       <Sequence> <Recovery/> <AlwaysFailure/> </Sequence>   (failure: try the action again)
+//     </Fallback>
+//   </RetryUntilSuccessful>
+// Unlike Nav2's RecoveryNode, a failing recovery does not end the retries early: it counts as a failed
+// attempt.
 //
 // SubTree blackboards follow BehaviorTree.CPP v4: each SubTree instance gets its OWN blackboard whose parent
 // is the enclosing tree's blackboard. Every extra attribute `k="{p}"` makes the subtree's key `k` an alias of
 // the parent's key `p` (`k="{=}"`: alias of the parent's `k`); `k="text"` stores the text under `k` in the
 // subtree's blackboard. With _autoremap="true", every key the subtree does not define locally resolves in
-// the parent under the same name (the easy way to share everything).
+// the parent under the same name (the easy way to share everything), except keys starting with '_', which
+// stay private to the subtree (BehaviorTree.CPP 4.10).
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <functional>
 #include <map>
@@ -61,6 +115,14 @@ enum class NodeType {
 /// "Action", "Condition", "Control", "Decorator" or "SubTree".
 const char* ToString(NodeType type);
 
+/// Time source of a tree, read by the time-based builtin nodes (Timeout, Delay) and by TreeNode::Now(): the
+/// current time as a duration since an arbitrary fixed epoch. It must never go backwards. A tree ticked on a
+/// simulated clock gets a Clock returning simulated time (TreeFactory::SetClock).
+using Clock = std::function<std::chrono::nanoseconds()>;
+
+/// std::chrono::steady_clock's time since its epoch: the default Clock of a TreeFactory.
+std::chrono::nanoseconds SteadyClockNow();
+
 /// A configuration error: malformed or unsupported XML, unknown node ID or port, wrong number of children,
 /// undefined or recursive SubTree, missing file. what() names the offending node/attribute/value and starts
 /// with "line N: " (or "<path>:N: " when loaded from a file) when the error has a line.
@@ -81,7 +143,12 @@ struct PortInfo {
   Direction direction = Direction::kInput;
   std::string default_value;  ///< used when the XML omits the port (only if has_default); may be "{key}"
   bool has_default = false;
+  /// An input without default that the XML may omit (GetInput then returns nullopt). Inputs and in/out ports
+  /// that are neither optional nor defaulted are required: omitting them is a TreeError.
+  bool optional = false;
   std::string description;
+  /// Type shown as the `type` attribute in a TreeNodesModel (e.g. "double"); empty: untyped, omitted.
+  std::string type_name;
 };
 
 /// Ports of a node type, by port name.
@@ -92,7 +159,26 @@ std::pair<std::string, PortInfo> InputPort(const std::string& name, const std::s
 /// An optional input port with a default (literal text or "{key}") used when the XML omits it.
 std::pair<std::string, PortInfo> InputPort(const std::string& name, const std::string& default_value,
                                            const std::string& description);
-/// An optional input port with a bool/int/double default (stored as text, e.g. 1.5 -> "1.5").
+/// An input port without default that the XML may omit; GetInput then returns nullopt.
+std::pair<std::string, PortInfo> OptionalInputPort(const std::string& name, const std::string& description);
+
+namespace detail {
+/// The TreeNodesModel type name of an arithmetic port type ("bool", "int", "double", ...), "" if unnamed.
+template <class T>
+const char* ArithmeticTypeName() {
+  if constexpr (std::is_same_v<T, bool>) return "bool";
+  if constexpr (std::is_same_v<T, int>) return "int";
+  if constexpr (std::is_same_v<T, unsigned>) return "unsigned int";
+  if constexpr (std::is_same_v<T, long>) return "long";
+  if constexpr (std::is_same_v<T, unsigned long>) return "unsigned long";
+  if constexpr (std::is_same_v<T, float>) return "float";
+  if constexpr (std::is_same_v<T, double>) return "double";
+  return "";
+}
+}  // namespace detail
+
+/// An optional input port with a bool/int/double default (stored as text, e.g. 1.5 -> "1.5"); its
+/// TreeNodesModel type is the C++ type ("bool", "int", "double", ...).
 template <class T, class = std::enable_if_t<std::is_arithmetic_v<T>>>
 std::pair<std::string, PortInfo> InputPort(const std::string& name, T default_value,
                                            const std::string& description) {
@@ -104,7 +190,9 @@ std::pair<std::string, PortInfo> InputPort(const std::string& name, T default_va
   } else {
     text = detail::FormatDouble(static_cast<double>(default_value));
   }
-  return InputPort(name, text, description);
+  std::pair<std::string, PortInfo> port = InputPort(name, text, description);
+  port.second.type_name = detail::ArithmeticTypeName<T>();
+  return port;
 }
 /// An optional output port; XML must give it as "{key}" if set.
 std::pair<std::string, PortInfo> OutputPort(const std::string& name, const std::string& description);
@@ -118,10 +206,12 @@ struct NodeConfig {
   PortsList ports;                                 ///< the node type's declared ports
   std::string registration_id;                     ///< e.g. "Sequence", "IsModeRequested"
   int xml_line = 0;                                ///< line of the node's element, 0 if not from XML
+  Clock clock;                                     ///< the tree's time source; empty means SteadyClockNow
 };
 
 namespace detail {
 class TreeBuilder;
+class ModelWriter;
 }  // namespace detail
 
 /// Base of all nodes. A node is ticked by its parent through ExecuteTick() and stopped through Halt().
@@ -193,6 +283,9 @@ class TreeNode {
   /// If `text` is a blackboard pointer "{key}", returns key ("{=}" -> `port`; "{@k}" stays "@k").
   static std::optional<std::string> BlackboardKey(const std::string& text, const std::string& port);
 
+  /// The tree's current time: config().clock(), or SteadyClockNow() if the config has no clock.
+  std::chrono::nanoseconds Now() const;
+
  protected:
   /// One tick of the node's logic. Must not return kIdle.
   virtual NodeStatus Tick() = 0;
@@ -202,6 +295,8 @@ class TreeNode {
   TreeNode& MutableChild(std::size_t i) { return *children_.at(i); }
   /// Halts children [first, num_children()).
   void HaltChildren(std::size_t first = 0);
+  /// Halts child `i` only. Throws std::out_of_range.
+  void HaltChild(std::size_t i) { MutableChild(i).Halt(); }
 
  private:
   friend class detail::TreeBuilder;
@@ -323,12 +418,27 @@ class Tree {
 using NodeBuilder =
     std::function<std::unique_ptr<TreeNode>(const std::string& name, const NodeConfig& config)>;
 
+/// A node type's check of its XML element, run by TreeFactory for every element of the type in a document
+/// (used trees or not) before any node is constructed. `port_values`: the element's port attributes as
+/// written (defaults not filled in); `num_children`: its number of child elements. Throws
+/// std::invalid_argument with a reason to reject the document; the factory reports it as a TreeError naming
+/// the node and line.
+using XmlValidator =
+    std::function<void(const std::map<std::string, std::string>& port_values, std::size_t num_children)>;
+
 namespace detail {
 /// True if T has `static PortsList ProvidedPorts()`.
 template <class T, class = void>
 struct HasProvidedPorts : std::false_type {};
 template <class T>
 struct HasProvidedPorts<T, std::void_t<decltype(T::ProvidedPorts())>> : std::true_type {};
+/// True if T has `static void ValidateXml(const std::map<std::string, std::string>&, std::size_t)`.
+template <class T, class = void>
+struct HasValidateXml : std::false_type {};
+template <class T>
+struct HasValidateXml<T, std::void_t<decltype(T::ValidateXml(
+                             std::declval<const std::map<std::string, std::string>&>(), std::size_t{}))>>
+    : std::true_type {};
 }  // namespace detail
 
 /// Registry of node types and XML loader. Copyable; holds no global state.
@@ -339,7 +449,9 @@ class TreeFactory {
 
   /// Registers node type T under `id`. T must derive from ConditionNode, SyncActionNode, StatefulActionNode
   /// (or ActionNodeBase), ControlNode or DecoratorNode, have a constructor T(const std::string& name,
-  /// const NodeConfig& config), and may have `static PortsList ProvidedPorts()`.
+  /// const NodeConfig& config), and may have `static PortsList ProvidedPorts()` and a load-time check
+  /// `static void ValidateXml(const std::map<std::string, std::string>& port_values, std::size_t
+  /// num_children)` (see XmlValidator).
   /// Throws std::logic_error if `id` is empty, reserved (root, BehaviorTree, TreeNodesModel, SubTree, Action,
   /// Condition, Control, Decorator) or already registered, or a port is named "name", "ID" or starts with
   /// '_'.
@@ -362,9 +474,14 @@ class TreeFactory {
     }
     PortsList ports;
     if constexpr (detail::HasProvidedPorts<T>::value) ports = T::ProvidedPorts();
-    RegisterBuilder(id, type, std::move(ports), [](const std::string& name, const NodeConfig& config) {
-      return std::unique_ptr<TreeNode>(std::make_unique<T>(name, config));
-    });
+    XmlValidator validator;
+    if constexpr (detail::HasValidateXml<T>::value) validator = &T::ValidateXml;
+    RegisterBuilder(
+        id, type, std::move(ports),
+        [](const std::string& name, const NodeConfig& config) {
+          return std::unique_ptr<TreeNode>(std::make_unique<T>(name, config));
+        },
+        std::move(validator));
   }
 
   /// Registers a condition whose tick is `tick` (returning kSuccess/kFailure; kRunning throws
@@ -375,12 +492,44 @@ class TreeFactory {
   /// std::logic_error when ticked — write a StatefulActionNode for long actions). Same errors as above.
   void RegisterSimpleAction(const std::string& id, std::function<NodeStatus(TreeNode&)> tick,
                             PortsList ports = {});
-  /// Low-level registration used by the above. Same errors; also std::logic_error if `type` is kSubTree or
-  /// `builder` is empty.
-  void RegisterBuilder(const std::string& id, NodeType type, PortsList ports, NodeBuilder builder);
+  /// Low-level registration used by the above; `validator` (may be empty) checks each XML element of the
+  /// type at load. Same errors; also std::logic_error if `type` is kSubTree or `builder` is empty.
+  void RegisterBuilder(const std::string& id, NodeType type, PortsList ports, NodeBuilder builder,
+                       XmlValidator validator = nullptr);
 
   /// True if `id` is a registered node type (builtin or user) or "SubTree".
   bool IsRegistered(const std::string& id) const;
+  /// True if `id` is "SubTree" or a node type registered by the constructor (see file comment).
+  bool IsBuiltin(const std::string& id) const;
+
+  /// Sets the time source of the trees created from now on (trees already created keep the clock they were
+  /// created with). Default: SteadyClockNow. Throws std::logic_error if `clock` is empty.
+  void SetClock(Clock clock);
+  /// The time source given to new trees.
+  const Clock& clock() const { return clock_; }
+
+  /// The Groot2 node palette: a <TreeNodesModel> element (text, ending in a newline) with one entry per
+  /// registered node type, sorted by ID, in the format of BehaviorTree.CPP's writeTreeNodesModelXML:
+  ///   <TreeNodesModel>
+  ///       <Action ID="Approach">                       (Action, Condition, Control or Decorator)
+  ///           <input_port name="distance_m" type="double" default="2">distance to go, metres</input_port>
+  ///           <output_port name="remaining_m">half of it</output_port>
+  ///       </Action>
+  ///   </TreeNodesModel>
+  /// Ports are input_port, output_port or inout_port; `type` is written if PortInfo::type_name is set,
+  /// `default` if the port has one, the description as the element's text if not empty. Builtin node types
+  /// (IsBuiltin) are left out unless `include_builtin`, as BehaviorTree.CPP does by default.
+  std::string WriteTreeNodesModel(bool include_builtin = false) const;
+  /// The model as a complete document, <root BTCPP_format="4"> <TreeNodesModel>...</TreeNodesModel> </root>
+  /// (what BehaviorTree.CPP's writeTreeNodesModelXML returns; Groot2 imports it as a palette).
+  std::string WriteTreeNodesModelDocument(bool include_builtin = false) const;
+  /// `tree_xml` (a tree file's text) with the model merged into its <TreeNodesModel>, which is created as the
+  /// last child of <root> if absent: entries whose ID is written by WriteTreeNodesModel are replaced; other
+  /// entries (SubTree port declarations, node types of other programs) are kept. The document is re-printed
+  /// by tinyxml2: comments and content are kept, indentation is normalised. The result loads with
+  /// CreateTreeFromText if `tree_xml` did. Throws TreeError if `tree_xml` is malformed, its top element is
+  /// not <root>, or it has more than one <TreeNodesModel>.
+  std::string AddTreeNodesModel(const std::string& tree_xml, bool include_builtin = false) const;
 
   /// Parses and validates BehaviorTree.CPP v4 XML and instantiates the main tree on `blackboard` (a new empty
   /// blackboard if null). Throws TreeError (see class TreeError; message starts with "line N: "), or
@@ -392,16 +541,20 @@ class TreeFactory {
 
  private:
   friend class detail::TreeBuilder;
+  friend class detail::ModelWriter;
   struct Entry {
     NodeType type;
     PortsList ports;
     NodeBuilder builder;
+    XmlValidator validator;  // may be empty
+    bool builtin = false;
   };
 
   Tree CreateTree(const std::string& xml, std::shared_ptr<Blackboard> blackboard,
                   const std::string& source) const;
 
   std::map<std::string, Entry> entries_;
+  Clock clock_ = SteadyClockNow;
 };
 
 }  // namespace cairn::bt

@@ -86,7 +86,8 @@ std::optional<T> AnyTo(const std::any& value) {
 ///
 /// Scoping (used by SubTree, following BehaviorTree.CPP v4): a blackboard may have a parent. A key can be
 /// remapped to a key of the parent (AddRemapping), or all keys not present locally can fall through to the
-/// parent (EnableAutoRemapping). A key written "@name" always means "name" in the top-most ancestor.
+/// parent (EnableAutoRemapping), except private keys (starting with '_'), which auto-remapping never passes
+/// to the parent (BehaviorTree.CPP 4.10). A key written "@name" always means "name" in the top-most ancestor.
 ///
 /// Each call is atomic; sequences of calls are not. Create instances with Create().
 class Blackboard {
@@ -137,7 +138,8 @@ class Blackboard {
   /// Throws std::logic_error if this blackboard has no parent or `key` is empty.
   void AddRemapping(const std::string& key, const std::string& parent_key);
 
-  /// When enabled, keys not stored locally and not remapped resolve in the parent under the same name.
+  /// When enabled, keys not stored locally, not remapped and not starting with '_' resolve in the parent
+  /// under the same name.
   void EnableAutoRemapping(bool enable);
 
   /// The parent blackboard, or null.
