@@ -85,6 +85,7 @@ bool AStarOptions::IsValid(std::string* why) const {
   const bool ok = range("step_height_cost", step_height_cost, 0.0, 100.0) &&
                   range("preferred_clearance_m", preferred_clearance_m, 0.0, 10.0) &&
                   range("clearance_cost", clearance_cost, 0.0, 100.0) &&
+                  range("unknown_cost", unknown_cost, 0.0, 100.0) &&
                   range("start_escape_radius_m", start_escape_radius_m, 0.0, 5.0) &&
                   range("start_footprint_radius_m", start_footprint_radius_m, 0.0, 5.0);
   if (!ok && why != nullptr) *why = msg.str();
@@ -177,7 +178,8 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
   }
   const double c = grid.cell_size_m();
   if (!grid.IsTraversable(sx, sy)) {
-    const bool body_free = grid.IsFootprintFree(start_W.x(), start_W.y(), options.start_footprint_radius_m);
+    const bool body_free = options.start_is_robot ||
+                           grid.IsFootprintFree(start_W.x(), start_W.y(), options.start_footprint_radius_m);
     int best_x = -1;
     int best_y = -1;
     if (body_free && options.start_escape_radius_m > 0.0) {
@@ -258,8 +260,11 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
       const std::size_t mi = grid.Index(mx, my);
       if (closed[mi]) continue;
       const double move = (diagonal ? kSqrt2 : 1.0) * c;
-      const double cost = move * (1.0 + penalty(mx, my)) +
-                          options.step_height_cost * std::abs(grid.Ground(mx, my) - grid.Ground(cx, cy));
+      // Unknown ground (NaN) adds no step cost but the unknown-space factor.
+      const double dz = grid.Ground(mx, my) - grid.Ground(cx, cy);
+      const double unknown = grid.State(mx, my) == CellState::kUnknown ? options.unknown_cost : 0.0;
+      const double cost = move * (1.0 + penalty(mx, my) + unknown) +
+                          (std::isfinite(dz) ? options.step_height_cost * std::abs(dz) : 0.0);
       const double candidate = g[ui] + cost;
       if (candidate < g[mi]) {
         g[mi] = candidate;
@@ -307,6 +312,22 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
     clearance.push_back(clearance.front());
   }
   points.back() = Eigen::Vector3d(goal_W.x(), goal_W.y(), grid.Ground(gx, gy));
+  {  // Heights over unknown cells: carried from the nearest known point before (else after) on the path.
+    double known = grid.summary().reference_height_m;
+    for (const auto& p : points) {
+      if (std::isfinite(p.z())) {
+        known = p.z();
+        break;
+      }
+    }
+    for (auto& p : points) {
+      if (std::isfinite(p.z())) {
+        known = p.z();
+      } else {
+        p.z() = known;
+      }
+    }
+  }
 
   if (options.simplify_path && points.size() > 2) {
     // Greedy line-of-sight shortcutting: from each kept point, jump to the farthest following point reachable

@@ -60,7 +60,7 @@ PlatformProfile GetPlatformProfile(const std::string& name) {
   p.traversability.robot_radius_m = 0.3;
   p.traversability.robot_height_m = 0.8;
   if (name == "wheeled") {
-    p.limits = sim::UnicycleLimits::Wheeled();
+    p.limits = core::VelocityLimits::Wheeled();
     p.limits.max_speed_mps = 1.5;
     p.cruise_speed_mps = 1.0;
     p.traversability.max_step_m = 0.15;
@@ -68,7 +68,7 @@ PlatformProfile GetPlatformProfile(const std::string& name) {
     return p;
   }
   if (name == "legged") {
-    p.limits = sim::UnicycleLimits::Legged();
+    p.limits = core::VelocityLimits::Legged();
     p.cruise_speed_mps = 0.5;
     p.traversability.max_step_m = 0.25;
     p.local_heading_range_rad = kPi;
@@ -90,7 +90,7 @@ bool GlobalPlannerOptions::IsValid(std::string* why) const {
   return InRange("GlobalPlannerOptions::diagnose_max_step_m", diagnose_max_step_m, 0.0, 2.0, false, why);
 }
 
-GlobalPlanner::GlobalPlanner(std::shared_ptr<const sim::World> world, std::vector<PlatformProfile> profiles,
+GlobalPlanner::GlobalPlanner(std::shared_ptr<const core::VoxelGrid> world, std::vector<PlatformProfile> profiles,
                              const GlobalPlannerOptions& options)
     : options_(options), profiles_(std::move(profiles)), world_(std::move(world)) {
   std::string why;
@@ -120,13 +120,38 @@ std::string GlobalPlanner::PlatformList() const {
 
 std::uint64_t GlobalPlanner::map_version() const { return map_version_.load(); }
 
-void GlobalPlanner::UpdateWorld(std::shared_ptr<const sim::World> world) {
+void GlobalPlanner::UpdateWorld(std::shared_ptr<const core::VoxelGrid> world) {
   if (!world) throw std::invalid_argument("GlobalPlanner::UpdateWorld: world is null");
   std::lock_guard<std::mutex> guard(mutex_);
   world_ = std::move(world);
   ++map_version_;
   grids_.clear();
   diagnose_grids_.clear();
+}
+
+void GlobalPlanner::UpdateMap(std::shared_ptr<const core::VoxelGrid> world, const std::string& platform,
+                              std::shared_ptr<const TraversabilityGrid> grid) {
+  if (!world || !grid) throw std::invalid_argument("GlobalPlanner::UpdateMap: world or grid is null");
+  if (Profile(platform) == nullptr) {
+    throw std::invalid_argument("GlobalPlanner::UpdateMap: platform '" + platform + "' is not served (valid: " +
+                                PlatformList() + ")");
+  }
+  std::lock_guard<std::mutex> guard(mutex_);
+  world_ = std::move(world);
+  ++map_version_;
+  grids_.clear();
+  diagnose_grids_.clear();
+  grids_.emplace(platform, std::move(grid));
+}
+
+TraversabilityOptions GlobalPlanner::TerrainOptionsFor(const PlatformProfile& profile) const {
+  TraversabilityOptions t = profile.traversability;
+  t.cell_size_m = options_.reading.cell_size_m;
+  t.reference_height_m = options_.reading.reference_height_m;
+  t.ground_search_min_z_m = options_.reading.ground_search_min_z_m;
+  t.ground_search_max_z_m = options_.reading.ground_search_max_z_m;
+  t.unknown_is_lethal = options_.reading.unknown_is_lethal;
+  return t;
 }
 
 std::shared_ptr<const TraversabilityGrid> GlobalPlanner::Grid(const std::string& platform) {
@@ -140,7 +165,7 @@ std::shared_ptr<const TraversabilityGrid> GlobalPlanner::GridLocked(const std::s
   auto& cache = diagnose ? diagnose_grids_ : grids_;
   auto it = cache.find(platform);
   if (it != cache.end()) return it->second;
-  TraversabilityOptions t = profile->traversability;
+  TraversabilityOptions t = TerrainOptionsFor(*profile);
   if (diagnose) t.max_step_m = std::max(t.max_step_m, options_.diagnose_max_step_m);
   auto grid = std::make_shared<const TraversabilityGrid>(*world_, t);
   cache.emplace(platform, grid);
@@ -162,6 +187,7 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
   }
   AStarOptions astar = options_.astar;
   astar.start_footprint_radius_m = profile->footprint_radius_m;
+  astar.start_is_robot = request.start_is_robot;
   const auto grid = GridLocked(request.platform, false);
   plan.result = PlanPath(*grid, request.start_W, request.goal_W, astar);
   if (!plan.result.IsUsable()) {

@@ -2,6 +2,7 @@
 #include "cairn/nav/traversability.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <sstream>
@@ -97,11 +98,29 @@ bool TraversabilityOptions::IsValid(std::string* why) const {
     msg << "TraversabilityOptions::fill_min_neighbors = " << fill_min_neighbors << " must be in [1, 8]";
     ok = false;
   }
+  if (ok && (!std::isfinite(clearance_exact_m) || clearance_exact_m < robot_radius_m || clearance_exact_m > 20.0)) {
+    msg << "TraversabilityOptions::clearance_exact_m = " << clearance_exact_m << " must be in [robot_radius_m = "
+        << robot_radius_m << ", 20]";
+    ok = false;
+  }
   if (!ok && why != nullptr) *why = msg.str();
   return ok;
 }
 
-TraversabilityGrid::TraversabilityGrid(const sim::World& world, const TraversabilityOptions& options)
+namespace {
+
+// Inclusive cell window clamped to the grid; empty when x1 < x0 or y1 < y0.
+struct Window {
+  int x0, y0, x1, y1;
+  Window Grown(int by, int nx, int ny) const {
+    return Window{std::max(0, x0 - by), std::max(0, y0 - by), std::min(nx - 1, x1 + by), std::min(ny - 1, y1 + by)};
+  }
+  bool Empty() const { return x1 < x0 || y1 < y0; }
+};
+
+}  // namespace
+
+TraversabilityGrid::TraversabilityGrid(const core::VoxelGrid& world, const TraversabilityOptions& options)
     : options_(options) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
@@ -116,52 +135,25 @@ TraversabilityGrid::TraversabilityGrid(const sim::World& world, const Traversabi
       throw std::invalid_argument(msg.str());
     }
   }
+  k_ = k;
   cell_m_ = k * res;
   options_.cell_size_m = cell_m_;
-  const Eigen::Vector3i& dims = world.dims();
-  const int nxw = dims.x();
-  const int nyw = dims.y();
-  const int nzw = dims.z();
-  nx_ = (nxw + k - 1) / k;
-  ny_ = (nyw + k - 1) / k;
+  world_dims_ = world.dims();
+  world_p_min_ = world.p_W_min();
+  world_res_m_ = res;
+  nx_ = (world_dims_.x() + k - 1) / k;
+  ny_ = (world_dims_.y() + k - 1) / k;
   p_W_min_ = world.p_W_min().head<2>();
-  const double z0 = world.p_W_min().z();
-
-  // ---- 1. Ground candidates per world column. ----
-  // Voxel iz has its top at z0 + (iz + 1) * res; it is a candidate if that top is in the band and the
-  // `need` voxels above it are free.
-  const int need = std::max(1, static_cast<int>(std::ceil(options.robot_height_m / res - kEps_m)));
-  const double band_lo = options.ground_search_min_z_m - kEps_m;
-  const double band_hi = options.ground_search_max_z_m + kEps_m;
-  auto top_of = [&](int iz) { return z0 + (iz + 1) * res; };
-  auto in_band = [&](int iz) { return top_of(iz) >= band_lo && top_of(iz) <= band_hi; };
-  // Calls visit(iz) for each candidate of column (ix, iy), from the top down; returns whether the band
-  // holds an occupied voxel.
-  auto scan_column = [&](int ix, int iy, auto&& visit) {
-    bool band_occupied = false;
-    int free_run = options.free_above_map ? need : 0;  // Free voxels directly above the current one.
-    for (int iz = nzw - 1; iz >= 0; --iz) {
-      if (!world.IsOccupiedIndex({ix, iy, iz})) {
-        ++free_run;
-        continue;
-      }
-      if (in_band(iz)) {
-        band_occupied = true;
-        if (free_run >= need) visit(iz);
-      }
-      free_run = 0;
-    }
-    return band_occupied;
-  };
+  need_voxels_ = std::max(1, static_cast<int>(std::ceil(options.robot_height_m / res - kEps_m)));
 
   double reference = options.reference_height_m;
   if (std::isnan(reference)) {
     // Automatic: the most common lowest ground (the main floor); ties go to the lower height.
     std::map<int, std::int64_t> histogram;
-    for (int ix = 0; ix < nxw; ++ix) {
-      for (int iy = 0; iy < nyw; ++iy) {
+    for (int ix = 0; ix < world_dims_.x(); ++ix) {
+      for (int iy = 0; iy < world_dims_.y(); ++iy) {
         int lowest = -1;
-        scan_column(ix, iy, [&](int iz) { lowest = iz; });
+        ScanColumn(world, ix, iy, [&](int iz) { lowest = iz; });
         if (lowest >= 0) ++histogram[lowest];
       }
     }
@@ -173,80 +165,154 @@ TraversabilityGrid::TraversabilityGrid(const sim::World& world, const Traversabi
         best_count = count;
       }
     }
-    reference = best >= 0 ? top_of(best) : z0;
+    reference = best >= 0 ? TopOf(best) : world_p_min_.z();
   }
   summary_.reference_height_m = reference;
 
-  // Column results at world resolution.
-  std::vector<CellState> column_state(static_cast<std::size_t>(nxw) * nyw, CellState::kUnknown);
-  std::vector<double> column_ground(column_state.size(), std::nan(""));
-  for (int ix = 0; ix < nxw; ++ix) {
-    for (int iy = 0; iy < nyw; ++iy) {
-      int chosen = -1;
-      const bool band_occupied = scan_column(ix, iy, [&](int iz) {
-        if (chosen < 0 || std::abs(top_of(iz) - reference) <= std::abs(top_of(chosen) - reference))
-          chosen = iz;
-      });
-      const std::size_t c = static_cast<std::size_t>(ix) * nyw + iy;
-      if (chosen >= 0) {
-        column_state[c] = CellState::kFree;
-        column_ground[c] = top_of(chosen);
-      } else if (band_occupied) {
-        column_state[c] = CellState::kObstacle;
-      }
-    }
-  }
-
-  // ---- 2. Aggregate k x k columns into cells. ----
   const std::size_t n_cells = static_cast<std::size_t>(nx_) * ny_;
   state_.assign(n_cells, CellState::kUnknown);
   ground_.assign(n_cells, std::nan(""));
   inferred_.assign(n_cells, 0);
   lethal_.assign(n_cells, 0);
-  std::vector<std::uint8_t> internal_step(n_cells, 0);
-  for (int cx = 0; cx < nx_; ++cx) {
-    for (int cy = 0; cy < ny_; ++cy) {
+  internal_step_.assign(n_cells, 0);
+  clearance_m_.assign(n_cells, 0.0);
+  Recompute(world, {{0, 0, nx_ - 1, ny_ - 1}}, /*whole=*/true);
+}
+
+double TraversabilityGrid::TopOf(int iz) const { return world_p_min_.z() + (iz + 1) * world_res_m_; }
+
+template <class Visit>
+bool TraversabilityGrid::ScanColumn(const core::VoxelGrid& world, int ix, int iy, Visit&& visit) const {
+  // Voxel iz has its top at TopOf(iz); it is a candidate if that top is in the band and the need_voxels_
+  // voxels above it are free. Calls visit(iz) for each candidate from the top down; returns whether the band
+  // holds an occupied voxel.
+  const double band_lo = options_.ground_search_min_z_m - kEps_m;
+  const double band_hi = options_.ground_search_max_z_m + kEps_m;
+  bool band_occupied = false;
+  int free_run = options_.free_above_map ? need_voxels_ : 0;  // Free voxels directly above the current one.
+  for (int iz = world_dims_.z() - 1; iz >= 0; --iz) {
+    if (!world.IsOccupiedIndex({ix, iy, iz})) {
+      ++free_run;
+      continue;
+    }
+    const double top = TopOf(iz);
+    if (top >= band_lo && top <= band_hi) {
+      band_occupied = true;
+      if (free_run >= need_voxels_) visit(iz);
+    }
+    free_run = 0;
+  }
+  return band_occupied;
+}
+
+void TraversabilityGrid::Update(const core::VoxelGrid& world, const Eigen::AlignedBox2d& region_W) {
+  Update(world, std::vector<Eigen::AlignedBox2d>{region_W});
+}
+
+void TraversabilityGrid::Update(const core::VoxelGrid& world, const std::vector<Eigen::AlignedBox2d>& regions_W) {
+  if (world.dims() != world_dims_ || world.resolution_m() != world_res_m_ || world.p_W_min() != world_p_min_) {
+    throw std::invalid_argument("TraversabilityGrid::Update: the voxel grid's geometry differs from the one the "
+                                "grid was built on");
+  }
+  std::vector<std::array<int, 4>> windows;
+  const auto cell = [&](double v, double lo) { return static_cast<int>(std::floor((v - lo) / cell_m_)); };
+  for (const Eigen::AlignedBox2d& region_W : regions_W) {
+    if (region_W.isEmpty() || !region_W.min().allFinite() || !region_W.max().allFinite()) continue;
+    const int x0 = std::max(0, cell(region_W.min().x(), p_W_min_.x()));
+    const int y0 = std::max(0, cell(region_W.min().y(), p_W_min_.y()));
+    const int x1 = std::min(nx_ - 1, cell(region_W.max().x(), p_W_min_.x()));
+    const int y1 = std::min(ny_ - 1, cell(region_W.max().y(), p_W_min_.y()));
+    if (x1 >= x0 && y1 >= y0) windows.push_back({x0, y0, x1, y1});
+  }
+  if (!windows.empty()) Recompute(world, windows, /*whole=*/false);
+}
+
+void TraversabilityGrid::Recompute(const core::VoxelGrid& world, const std::vector<std::array<int, 4>>& changed_cells,
+                                   bool whole) {
+  const int k = k_;
+  const int nxw = world_dims_.x();
+  const int nyw = world_dims_.y();
+  const int nzw = world_dims_.z();
+  const double reference = summary_.reference_height_m;
+  Window changed{nx_, ny_, -1, -1};  // the union of the changed windows
+  for (const auto& w : changed_cells) {
+    changed = Window{std::min(changed.x0, w[0]), std::min(changed.y0, w[1]), std::max(changed.x1, w[2]),
+                     std::max(changed.y1, w[3])};
+  }
+  if (changed.Empty()) return;
+  // Hole filling reads up to fill_passes cells around a changed cell; lethal one more; clearance reads lethal
+  // cells within clearance_exact_m.
+  const Window filled = changed.Grown(options_.fill_passes, nx_, ny_);
+  const Window lethal = filled.Grown(options_.unknown_is_lethal ? 1 : 3, nx_, ny_);
+  const int reach_cells = static_cast<int>(std::ceil(options_.clearance_exact_m / cell_m_)) + 1;
+  const Window written = whole ? lethal : lethal.Grown(reach_cells, nx_, ny_);
+  const Window window = whole ? lethal : written.Grown(reach_cells, nx_, ny_);
+
+  // ---- 1-2. Ground per world column, aggregated k x k into cells (changed cells only). ----
+  for (const auto& w : changed_cells) for (int cx = w[0]; cx <= w[2]; ++cx) {
+    for (int cy = w[1]; cy <= w[3]; ++cy) {
       bool any_obstacle = false;
       double lo = kInf;
       double hi = -kInf;
       for (int ix = cx * k; ix < std::min(nxw, (cx + 1) * k); ++ix) {
         for (int iy = cy * k; iy < std::min(nyw, (cy + 1) * k); ++iy) {
-          const std::size_t c = static_cast<std::size_t>(ix) * nyw + iy;
-          if (column_state[c] == CellState::kObstacle) any_obstacle = true;
-          if (column_state[c] == CellState::kFree) {
-            lo = std::min(lo, column_ground[c]);
-            hi = std::max(hi, column_ground[c]);
+          int chosen = -1;
+          const bool band_occupied = ScanColumn(world, ix, iy, [&](int iz) {
+            if (chosen < 0 || std::abs(TopOf(iz) - reference) <= std::abs(TopOf(chosen) - reference)) chosen = iz;
+          });
+          if (chosen >= 0) {
+            lo = std::min(lo, TopOf(chosen));
+            hi = std::max(hi, TopOf(chosen));
+          } else if (band_occupied) {
+            any_obstacle = true;
           }
         }
       }
       const std::size_t i = Index(cx, cy);
+      inferred_[i] = 0;
+      internal_step_[i] = 0;
+      ground_[i] = std::nan("");
       if (any_obstacle) {
         state_[i] = CellState::kObstacle;
       } else if (hi > -kInf) {
         state_[i] = CellState::kFree;
         ground_[i] = hi;
-        internal_step[i] = (hi - lo) > options.max_step_m + kEps_m;
+        internal_step_[i] = (hi - lo) > options_.max_step_m + kEps_m;
+      } else {
+        state_[i] = CellState::kUnknown;
       }
     }
   }
 
-  // ---- 3. Hole filling for sparse scans. ----
+  // ---- 3. Hole filling for sparse scans (cells near a change: their inferred ground is redone). ----
+  for (int cx = filled.x0; cx <= filled.x1; ++cx) {
+    for (int cy = filled.y0; cy <= filled.y1; ++cy) {
+      const std::size_t i = Index(cx, cy);
+      if (inferred_[i]) {
+        inferred_[i] = 0;
+        state_[i] = CellState::kUnknown;
+        ground_[i] = std::nan("");
+      }
+    }
+  }
   // Body space check for an inferred ground g: no occupied voxel of the cell's columns in (g, g + height].
+  const double z0 = world_p_min_.z();
+  const double res = world_res_m_;
   auto body_space_free = [&](int cx, int cy, double g) {
     for (int ix = cx * k; ix < std::min(nxw, (cx + 1) * k); ++ix) {
       for (int iy = cy * k; iy < std::min(nyw, (cy + 1) * k); ++iy) {
         for (int iz = 0; iz < nzw; ++iz) {
           const double zc = z0 + (iz + 0.5) * res;
-          if (zc > g && zc <= g + options.robot_height_m && world.IsOccupiedIndex({ix, iy, iz})) return false;
+          if (zc > g && zc <= g + options_.robot_height_m && world.IsOccupiedIndex({ix, iy, iz})) return false;
         }
       }
     }
     return true;
   };
-  for (int pass = 0; pass < options.fill_passes; ++pass) {
+  for (int pass = 0; pass < options_.fill_passes; ++pass) {
     std::vector<std::pair<std::size_t, double>> fills;
-    for (int cx = 0; cx < nx_; ++cx) {
-      for (int cy = 0; cy < ny_; ++cy) {
+    for (int cx = filled.x0; cx <= filled.x1; ++cx) {
+      for (int cy = filled.y0; cy <= filled.y1; ++cy) {
         if (state_[Index(cx, cy)] != CellState::kUnknown) continue;
         int count = 0;
         double sum = 0.0;
@@ -263,7 +329,7 @@ TraversabilityGrid::TraversabilityGrid(const sim::World& world, const Traversabi
             hi = std::max(hi, ground_[j]);
           }
         }
-        if (count < options.fill_min_neighbors || hi - lo > options.max_step_m + kEps_m) continue;
+        if (count < options_.fill_min_neighbors || hi - lo > options_.max_step_m + kEps_m) continue;
         const double g = sum / count;
         if (body_space_free(cx, cy, g)) fills.emplace_back(Index(cx, cy), g);
       }
@@ -276,20 +342,46 @@ TraversabilityGrid::TraversabilityGrid(const sim::World& world, const Traversabi
     }
   }
 
-  // ---- 4. Lethal layer: non-free cells and the high side of too high steps. ----
-  for (int cx = 0; cx < nx_; ++cx) {
-    for (int cy = 0; cy < ny_; ++cy) {
+  // ---- 4. Lethal layer: non-free cells (unknown ones only if unknown_is_lethal) and the high side of too
+  // high steps. ----
+  for (int cx = lethal.x0; cx <= lethal.x1; ++cx) {
+    for (int cy = lethal.y0; cy <= lethal.y1; ++cy) {
       const std::size_t i = Index(cx, cy);
-      if (state_[i] != CellState::kFree || internal_step[i]) {
+      lethal_[i] = 0;
+      if (state_[i] == CellState::kObstacle || internal_step_[i] ||
+          (state_[i] == CellState::kUnknown && options_.unknown_is_lethal)) {
         lethal_[i] = 1;
         continue;
       }
+      if (state_[i] != CellState::kFree) continue;
       for (int dx = -1; dx <= 1 && !lethal_[i]; ++dx) {
         for (int dy = -1; dy <= 1; ++dy) {
           if ((dx == 0 && dy == 0) || !InGrid(cx + dx, cy + dy)) continue;
           const std::size_t j = Index(cx + dx, cy + dy);
-          if (state_[j] == CellState::kFree && ground_[i] - ground_[j] > options.max_step_m + kEps_m) {
+          if (state_[j] == CellState::kFree && ground_[i] - ground_[j] > options_.max_step_m + kEps_m) {
             lethal_[i] = 1;
+            break;
+          }
+        }
+      }
+      if (!lethal_[i] && !options_.unknown_is_lethal) {
+        // Optimistic reading: a step seen across unseen cells (a wall face whose foot is hidden) must not be
+        // bridged by planning through the gap. Free cells 2 or 3 cells away along the 8 directions, with only
+        // unknown cells between, count as neighbours, allowing a slope of kGapSlope over the gap.
+        constexpr double kGapSlope = 0.5;
+        for (int dir = 0; dir < 8 && !lethal_[i]; ++dir) {
+          static const int kDx[8] = {1, 1, 0, -1, -1, -1, 0, 1};
+          static const int kDy[8] = {0, 1, 1, 1, 0, -1, -1, -1};
+          for (int d = 2; d <= 3; ++d) {
+            const int mx = cx + d * kDx[dir];
+            const int my = cy + d * kDy[dir];
+            const int px = cx + (d - 1) * kDx[dir];
+            const int py = cy + (d - 1) * kDy[dir];
+            if (!InGrid(mx, my) || state_[Index(px, py)] != CellState::kUnknown) break;
+            const std::size_t j = Index(mx, my);
+            if (state_[j] != CellState::kFree) continue;
+            const double run_m = (d - 1) * cell_m_ * std::hypot(kDx[dir], kDy[dir]);
+            if (ground_[i] - ground_[j] > options_.max_step_m + kGapSlope * run_m + kEps_m) lethal_[i] = 1;
             break;
           }
         }
@@ -297,35 +389,45 @@ TraversabilityGrid::TraversabilityGrid(const sim::World& world, const Traversabi
     }
   }
 
-  // ---- 5. Clearance: exact Euclidean distance to the nearest lethal cell, and to the outside. ----
-  std::vector<double> d2(n_cells);
-  for (std::size_t i = 0; i < n_cells; ++i) d2[i] = lethal_[i] ? 0.0 : kFar;
+  // ---- 5. Clearance: exact Euclidean distance to the nearest lethal cell, and to the outside, computed on
+  // `window` and written for `written` (exact up to clearance_exact_m there, see ClearanceM()). ----
+  const int wx = window.x1 - window.x0 + 1;
+  const int wy = window.y1 - window.y0 + 1;
+  std::vector<double> d2(static_cast<std::size_t>(wx) * wy);
+  auto w_index = [&](int cx, int cy) {
+    return static_cast<std::size_t>(cx - window.x0) + static_cast<std::size_t>(wx) * (cy - window.y0);
+  };
+  for (int cy = window.y0; cy <= window.y1; ++cy) {
+    for (int cx = window.x0; cx <= window.x1; ++cx) d2[w_index(cx, cy)] = lethal_[Index(cx, cy)] ? 0.0 : kFar;
+  }
   std::vector<int> v;
   std::vector<double> z;
-  std::vector<double> line_in(static_cast<std::size_t>(std::max(nx_, ny_)));
+  std::vector<double> line_in(static_cast<std::size_t>(std::max(wx, wy)));
   std::vector<double> line_out(line_in.size());
-  for (int cy = 0; cy < ny_; ++cy) {  // Along x.
-    for (int cx = 0; cx < nx_; ++cx) line_in[static_cast<std::size_t>(cx)] = d2[Index(cx, cy)];
-    DistanceTransform1D(line_in.data(), nx_, line_out.data(), &v, &z);
-    for (int cx = 0; cx < nx_; ++cx) d2[Index(cx, cy)] = line_out[static_cast<std::size_t>(cx)];
+  for (int cy = window.y0; cy <= window.y1; ++cy) {  // Along x.
+    for (int cx = window.x0; cx <= window.x1; ++cx) line_in[static_cast<std::size_t>(cx - window.x0)] = d2[w_index(cx, cy)];
+    DistanceTransform1D(line_in.data(), wx, line_out.data(), &v, &z);
+    for (int cx = window.x0; cx <= window.x1; ++cx) d2[w_index(cx, cy)] = line_out[static_cast<std::size_t>(cx - window.x0)];
   }
-  for (int cx = 0; cx < nx_; ++cx) {  // Along y.
-    for (int cy = 0; cy < ny_; ++cy) line_in[static_cast<std::size_t>(cy)] = d2[Index(cx, cy)];
-    DistanceTransform1D(line_in.data(), ny_, line_out.data(), &v, &z);
-    for (int cy = 0; cy < ny_; ++cy) d2[Index(cx, cy)] = line_out[static_cast<std::size_t>(cy)];
+  for (int cx = window.x0; cx <= window.x1; ++cx) {  // Along y.
+    for (int cy = window.y0; cy <= window.y1; ++cy) line_in[static_cast<std::size_t>(cy - window.y0)] = d2[w_index(cx, cy)];
+    DistanceTransform1D(line_in.data(), wy, line_out.data(), &v, &z);
+    for (int cy = window.y0; cy <= window.y1; ++cy) d2[w_index(cx, cy)] = line_out[static_cast<std::size_t>(cy - window.y0)];
   }
-  clearance_m_.assign(n_cells, 0.0);
-  for (int cx = 0; cx < nx_; ++cx) {
-    for (int cy = 0; cy < ny_; ++cy) {
+  for (int cx = written.x0; cx <= written.x1; ++cx) {
+    for (int cy = written.y0; cy <= written.y1; ++cy) {
       const double border_cells = std::min({cx + 1, nx_ - cx, cy + 1, ny_ - cy});
-      const double d = d2[Index(cx, cy)] >= 0.5 * kFar ? kInf : std::sqrt(d2[Index(cx, cy)]);
-      clearance_m_[Index(cx, cy)] = std::min(d, border_cells) * cell_m_;
+      const double d = d2[w_index(cx, cy)] >= 0.5 * kFar ? kInf : std::sqrt(d2[w_index(cx, cy)]);
+      clearance_m_[Index(cx, cy)] = std::min(d, static_cast<double>(border_cells)) * cell_m_;
     }
   }
 
   // ---- 6. Summary. ----
-  summary_.cells_total = static_cast<std::int64_t>(n_cells);
-  for (std::size_t i = 0; i < n_cells; ++i) {
+  const double reference_height_m = summary_.reference_height_m;
+  summary_ = TraversabilitySummary{};
+  summary_.reference_height_m = reference_height_m;
+  summary_.cells_total = static_cast<std::int64_t>(state_.size());
+  for (std::size_t i = 0; i < state_.size(); ++i) {
     summary_.cells_unknown += state_[i] == CellState::kUnknown;
     summary_.cells_obstacle += state_[i] == CellState::kObstacle;
     summary_.cells_free += state_[i] == CellState::kFree;

@@ -172,7 +172,7 @@ TEST(IlqrOptionsTest, DefaultsAreValidAndMessagesNameFieldValueAndRule) {
   IlqrLimits limits;
   limits.max_yaw_rate_radps = -1.0;
   EXPECT_FALSE(limits.IsValid(&why));
-  EXPECT_EQ(why, "UnicycleLimits::max_yaw_rate_radps = -1 must be finite and in (0, 20]");
+  EXPECT_EQ(why, "VelocityLimits::max_yaw_rate_radps = -1 must be finite and in (0, 20]");
   try {
     IlqrController controller(IlqrOptions{}, limits);
     ADD_FAILURE() << "no exception";

@@ -32,7 +32,8 @@ nav::TrajectoryLibraryOptions AgentOptions::LibraryForPlatform() const {
 void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto config = core::ConfigSection::LoadFile(path);
   config.RejectUnknownKeys({"command_interface", "mux", "navigation", "local_planner", "controller", "platform",
-                            "traversability", "telemetry", "perception"});
+                            "traversability", "telemetry", "perception",
+                            "simulation"});  // `simulation` is the simulated platform's (sim::SimulatedPlatformOptions)
   const auto ci = config.Section("command_interface");
   ci.RejectUnknownKeys({"lock_keep_s"});
   ci.ReadDouble("lock_keep_s", &lock.lock_keep_s, /*allow_infinity=*/true);
@@ -45,7 +46,8 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   nav.RejectUnknownKeys({"cruise_speed_mps", "goal_tolerance_m", "blocked_timeout_s", "contact_timeout_s",
                          "carrot_distance_m", "required_free_length_m", "sensor_range_m", "local_planner_period_s",
                          "obstacle_timeout_s", "replan_check_period_s", "max_path_deviation_m",
-                         "joystick_turn_lookahead_s"});
+                         "joystick_turn_lookahead_s", "map_half_extent_m", "map_update_period_s",
+                         "obstacle_window_s"});
   nav.ReadDouble("cruise_speed_mps", &n.platform.cruise_speed_mps);
   nav.ReadDouble("goal_tolerance_m", &n.goal_tolerance_m);
   nav.ReadDouble("blocked_timeout_s", &n.blocked_timeout_s);
@@ -58,6 +60,9 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   nav.ReadDouble("replan_check_period_s", &n.replan_check_period_s);
   nav.ReadDouble("max_path_deviation_m", &n.max_path_deviation_m);
   nav.ReadDouble("joystick_turn_lookahead_s", &n.joystick_turn_lookahead_s);
+  nav.ReadDouble("map_half_extent_m", &nav_map.half_extent_m);
+  nav.ReadDouble("map_update_period_s", &nav_map.update_period_s);
+  nav.ReadDouble("obstacle_window_s", &obstacle_window_s);
   const auto local = config.Section("local_planner");
   local.RejectUnknownKeys({"collision_margin_m", "clearance_band_m", "voxel_size_m", "goal_direction_weight",
                            "heading_change_weight", "clearance_weight", "hysteresis_weight", "min_free_length_m"});
@@ -99,22 +104,10 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   telemetry.ReadDouble("local_plan_rate_hz", &local_plan_rate_hz);
   PerceptionOptions& pe = perception;
   const auto per = config.Section("perception");
-  per.RejectUnknownKeys({"enabled", "lidar_rate_hz", "lidar_beams", "lidar_points_per_beam", "lidar_max_range_m",
-                         "lidar_range_noise_m", "lidar_height_m", "slam_position_drift_per_sqrt_m",
-                         "slam_yaw_drift_rad_per_sqrt_m", "map_resolution_m", "map_insert_period_s",
-                         "map_keyframe_distance_m", "map_keyframe_angle_rad",
-                         "staircase_period_s", "map_coarse_levels", "map_budget_bits_per_s", "map_period_s",
-                         "camera_rate_hz", "camera_width_px", "camera_height_px", "jpeg_quality",
-                         "camera_budget_bits_per_s"});
+  per.RejectUnknownKeys({"enabled", "map_resolution_m", "map_insert_period_s", "map_keyframe_distance_m",
+                         "map_keyframe_angle_rad", "staircase_period_s", "map_coarse_levels", "map_budget_bits_per_s",
+                         "map_period_s", "camera_rate_hz", "jpeg_quality", "camera_budget_bits_per_s"});
   per.ReadBool("enabled", &pe.enabled);
-  per.ReadDouble("lidar_rate_hz", &pe.lidar.rate_hz);
-  per.ReadInt("lidar_beams", &pe.lidar.num_beams);
-  per.ReadInt("lidar_points_per_beam", &pe.lidar.points_per_beam);
-  per.ReadDouble("lidar_max_range_m", &pe.lidar.max_range_m);
-  per.ReadDouble("lidar_range_noise_m", &pe.lidar.range_noise_stddev_m);
-  per.ReadDouble("lidar_height_m", &pe.lidar_height_m);
-  per.ReadDouble("slam_position_drift_per_sqrt_m", &pe.slam.position_drift_per_sqrt_m);
-  per.ReadDouble("slam_yaw_drift_rad_per_sqrt_m", &pe.slam.yaw_drift_rad_per_sqrt_m);
   per.ReadDouble("map_resolution_m", &pe.map.resolution_m);
   per.ReadDouble("map_insert_period_s", &pe.map_insert_period_s);
   per.ReadDouble("map_keyframe_distance_m", &pe.map_keyframe_distance_m);
@@ -124,8 +117,6 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   per.ReadDouble("map_budget_bits_per_s", &pe.telemetry.budget_bits_per_s);
   per.ReadDouble("map_period_s", &pe.telemetry.period_s);
   per.ReadDouble("camera_rate_hz", &pe.camera_rate_hz);
-  per.ReadInt("camera_width_px", &pe.camera.width_px);
-  per.ReadInt("camera_height_px", &pe.camera.height_px);
   per.ReadInt("jpeg_quality", &pe.jpeg_quality);
   per.ReadDouble("camera_budget_bits_per_s", &pe.camera_budget_bits_per_s);
   std::string why;
@@ -169,6 +160,8 @@ bool AgentOptions::IsValid(std::string* why) const {
     return false;
   }
   if (!perception.IsValid(why)) return false;
+  if (!nav_map.IsValid(why)) return false;
+  if (!InRange("navigation.obstacle_window_s", obstacle_window_s, 0, 30, true, why)) return false;
   std::string inner;
   if (!LibraryForPlatform().IsValid(&inner)) {
     *why = "local_planner: " + inner;
@@ -196,7 +189,7 @@ void ParseStart(const std::string& text, AgentOptions* options) {
   options->start_W = ParseStartPose(text);
 }
 
-sim::PlanarPose ParseStartPose(const std::string& text) {
+core::PlanarPose ParseStartPose(const std::string& text) {
   std::vector<double> values;
   std::stringstream in(text);
   std::string item;
@@ -216,7 +209,7 @@ sim::PlanarPose ParseStartPose(const std::string& text) {
   if (values.size() < 2 || values.size() > 3 || (!text.empty() && text.back() == ',')) {
     throw std::invalid_argument("--start '" + text + "' must be X,Y or X,Y,YAW (metres, metres, radians)");
   }
-  return sim::PlanarPose{values[0], values[1], values.size() == 3 ? values[2] : 0.0};
+  return core::PlanarPose{values[0], values[1], values.size() == 3 ? values[2] : 0.0};
 }
 
 }  // namespace cairn::agent

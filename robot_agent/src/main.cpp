@@ -1,14 +1,20 @@
 // cairn_agent: one process per robot. See --help.
+#include <cstdio>
+#include <fstream>
 #include <iostream>
+#include <iterator>
+#include <stdexcept>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "cairn/agent/mode_manager.h"
 #include "cairn/agent/robot_agent.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/shutdown.h"
 #include "cairn/sim/builtin_worlds.h"
+#include "cairn/sim/simulated_platform.h"
 
 int main(int argc, char** argv) {
   cairn::core::InstallShutdownHandler();
@@ -19,8 +25,8 @@ int main(int argc, char** argv) {
   std::string worlds;
   for (const auto& name : cairn::sim::BuiltinWorldNames()) worlds += (worlds.empty() ? "" : ", ") + name;
 
-  CLI::App app{"cairn_agent: one Cairn robot (command interface, mode tree, mux, navigation, simulated "
-               "platform) on Fast DDS."};
+  CLI::App app{"cairn_agent: one Cairn robot (command interface, mode tree, mux, navigation, perception) on "
+               "Fast DDS, driving the simulated platform (--world)."};
   app.add_option("--robot-id", options.robot_id, "robot id, unique in the fleet ([A-Za-z0-9_-]{1,64})")
       ->required();
   app.add_option("--world", options.world,
@@ -39,6 +45,42 @@ int main(int argc, char** argv) {
   app.add_option("--map-save", options.map_save_path,
                  "save the robot's map (OctoMap .bt, full resolution, SLAM frame) to this file at exit");
   app.add_option("--mode-tree", options.mode_tree_file, "mode tree XML (default: config/mode_tree.xml)");
+  app.add_flag("--print-tree-nodes-model",
+               "print the mode tree's <TreeNodesModel> (Groot2) for the nodes this agent registers, and exit");
+  app.add_option("--update-tree-nodes-model", "rewrite the <TreeNodesModel> of mode tree FILE.xml in place (so "
+                                               "Groot2 opens it with this agent's nodes), and exit");
+  for (int i = 1; i < argc; ++i) {  // these need no other option (not even --robot-id)
+    const std::string arg = argv[i];
+    if (arg == "--print-tree-nodes-model") {
+      std::cout << cairn::agent::ModeManager::TreeNodesModel() << std::endl;
+      return 0;
+    }
+    if (arg == "--update-tree-nodes-model") {
+      if (i + 1 >= argc) {
+        std::cerr << "--update-tree-nodes-model needs a mode tree file (FILE.xml)" << std::endl;
+        return 2;
+      }
+      const std::string path = argv[i + 1];
+      try {
+        std::ifstream in(path);
+        if (!in) throw std::runtime_error("cannot read mode tree file '" + path + "'");
+        const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        const std::string updated = cairn::agent::ModeManager::WithTreeNodesModel(text);
+        std::ofstream out(path + ".tmp");
+        out << updated;
+        out.close();
+        if (!out || std::rename((path + ".tmp").c_str(), path.c_str()) != 0) {
+          throw std::runtime_error("cannot write mode tree file '" + path + "'");
+        }
+        std::cout << path << ": <TreeNodesModel> " << (updated == text ? "already up to date" : "updated")
+                  << std::endl;
+        return 0;
+      } catch (const std::exception& e) {
+        std::cerr << "cairn_agent: " << e.what() << std::endl;
+        return 2;
+      }
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -52,7 +94,17 @@ int main(int argc, char** argv) {
     if (!config_file.empty()) options.LoadConfigFile(config_file);
     std::string why;
     if (!options.IsValid(&why)) throw std::invalid_argument(why);
-    cairn::agent::RobotAgent agent(options);
+    // The platform driver: the simulator (the seam is core::PlatformIO; see docs/PLATFORM.md for a real one).
+    cairn::sim::SimulatedPlatformOptions sim;
+    sim.world = options.world;
+    sim.pcd_resolution_m = options.pcd_resolution_m;
+    sim.start_W = options.start_W;
+    sim.start_slot = options.start_slot;
+    sim.start_key = options.robot_id;
+    sim.SetProfile(options.navigation.platform);
+    if (!config_file.empty()) sim.LoadConfigFile(config_file);
+    auto platform = std::make_shared<cairn::sim::SimulatedPlatform>(sim);
+    cairn::agent::RobotAgent agent(options, platform);
     std::cout << "READY " << options.robot_id << std::endl;
     agent.Run();
   } catch (const std::exception& e) {

@@ -35,12 +35,10 @@ std::function<NodeStatus(bt::TreeNode&)> Traced(std::shared_ptr<Context> ctx,
   };
 }
 
+
 }  // namespace
 
-ModeManager::ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels)
-    : context_(std::make_shared<Context>()) {
-  bt::TreeFactory factory;
-  std::shared_ptr<Context> ctx = context_;
+void ModeManager::RegisterNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx) {
   factory.RegisterSimpleCondition(
       "IsModeRequested",
       Traced(ctx, [](bt::TreeNode& node) {
@@ -64,7 +62,10 @@ ModeManager::ModeManager(const std::string& tree_file, const std::vector<std::st
   }));
   factory.RegisterSimpleCondition("IsLocalized", Traced(ctx, [ctx](bt::TreeNode&) {
     return ctx->conditions.localized ? NodeStatus::kSuccess
-                                     : Fail(&ctx->failure, "IsLocalized: no valid pose estimate");
+                                     : Fail(&ctx->failure, "IsLocalized: no valid pose estimate" +
+                                                               (ctx->conditions.localization_problem.empty()
+                                                                    ? std::string()
+                                                                    : ": " + ctx->conditions.localization_problem));
   }));
   factory.RegisterSimpleCondition("HasWaypointGoal", Traced(ctx, [ctx](bt::TreeNode&) {
     return ctx->conditions.has_waypoint_goal
@@ -92,7 +93,24 @@ ModeManager::ModeManager(const std::string& tree_file, const std::vector<std::st
         return NodeStatus::kSuccess;
       }),
       {bt::InputPort("mode", "mode to commit"), bt::InputPort("channel", "mux channel of that mode")});
+}
 
+std::string ModeManager::TreeNodesModel() {
+  bt::TreeFactory factory;
+  RegisterNodes(factory, std::make_shared<Context>());
+  return factory.WriteTreeNodesModel();
+}
+
+std::string ModeManager::WithTreeNodesModel(const std::string& tree_xml) {
+  bt::TreeFactory factory;
+  RegisterNodes(factory, std::make_shared<Context>());
+  return factory.AddTreeNodesModel(tree_xml);
+}
+
+ModeManager::ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels)
+    : context_(std::make_shared<Context>()) {
+  bt::TreeFactory factory;
+  RegisterNodes(factory, context_);
   tree_ = factory.CreateTreeFromFile(tree_file, bt::Blackboard::Create());
   tree_.ForEachNode([this](const bt::TreeNode& node, int) {
     if (node.registration_id() != "IsModeRequested") return;

@@ -24,13 +24,13 @@ std::string Fixed(double value, int digits) {
 }
 
 // p_W = R(yaw) p_B + p_WB.
-Eigen::Vector2d ToWorld(const sim::UnicycleState& s, const Eigen::Vector2d& p_B) {
+Eigen::Vector2d ToWorld(const core::BaseState& s, const Eigen::Vector2d& p_B) {
   const double c = std::cos(s.yaw_rad), n = std::sin(s.yaw_rad);
   return {s.x_m + c * p_B.x() - n * p_B.y(), s.y_m + n * p_B.x() + c * p_B.y()};
 }
 
 // p_B = R(yaw)^T (p_W - p_WB).
-Eigen::Vector2d ToBody(const sim::UnicycleState& s, const Eigen::Vector2d& p_W) {
+Eigen::Vector2d ToBody(const core::BaseState& s, const Eigen::Vector2d& p_W) {
   const double c = std::cos(s.yaw_rad), n = std::sin(s.yaw_rad);
   const double dx = p_W.x() - s.x_m, dy = p_W.y() - s.y_m;
   return {c * dx + n * dy, -n * dx + c * dy};
@@ -85,12 +85,13 @@ Navigation::Navigation(const NavigationOptions& options, std::shared_ptr<nav::Gl
   plan_.result.status = nav::PlanResult::Status::kUnreachable;
 }
 
-nav::GlobalPlan Navigation::SetGoal(const sim::UnicycleState& state, double x_m, double y_m, double tolerance_m,
+nav::GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
                                     double now_s) {
   nav::GlobalPlanRequest request;
   request.start_W = {state.x_m, state.y_m};
   request.goal_W = {x_m, y_m};
   request.platform = options_.platform.name;
+  request.start_is_robot = true;  // where the robot stands: a start the map shows blocked is map noise
   nav::GlobalPlan plan = planner_->Plan(request);
   if (!plan.IsUsable()) return plan;
   Goal goal;
@@ -124,7 +125,7 @@ void Navigation::ClearGoal() {
   track_W_.clear();
 }
 
-void Navigation::SetObstacles(const std::vector<Eigen::Vector3f>& points_B, const sim::UnicycleState& state,
+void Navigation::SetObstacles(const std::vector<Eigen::Vector3f>& points_B, const core::BaseState& state,
                               double now_s) {
   obstacles_B_ = points_B;
   // Kept in frame B of `state`; RunLocalPlanner re-expresses them if the robot moved since.
@@ -197,11 +198,12 @@ Eigen::Vector2d Navigation::Carrot() const {
   return path.back().head<2>();
 }
 
-bool Navigation::Replan(const sim::UnicycleState& state, double now_s, std::string* reason) {
+bool Navigation::Replan(const core::BaseState& state, double now_s, std::string* reason) {
   nav::GlobalPlanRequest request;
   request.start_W = {state.x_m, state.y_m};
   request.goal_W = goal_->p_W;
   request.platform = options_.platform.name;
+  request.start_is_robot = true;  // where the robot stands: a start the map shows blocked is map noise
   nav::GlobalPlan plan = planner_->Plan(request);
   if (!plan.IsUsable()) {
     *reason = plan.reason;
@@ -218,7 +220,7 @@ bool Navigation::Replan(const sim::UnicycleState& state, double now_s, std::stri
   return true;
 }
 
-void Navigation::RunLocalPlanner(const sim::UnicycleState& state, const nav::LocalPlanRequest& request,
+void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalPlanRequest& request,
                                  double now_s, const std::optional<Eigen::Vector2d>& goal_W) {
   if (now_s - last_local_time_s_ < options_.local_planner_period_s - 1e-9) return;
   last_local_time_s_ = now_s;
@@ -271,7 +273,7 @@ void Navigation::RunLocalPlanner(const sim::UnicycleState& state, const nav::Loc
   if (track_W_.size() < 2) track_W_.clear();
 }
 
-NavigationStep Navigation::Control(const sim::UnicycleState& state, double cruise_mps, double now_s) {
+NavigationStep Navigation::Control(const core::BaseState& state, double cruise_mps, double now_s) {
   nav::IlqrState x0;
   x0 << state.x_m, state.y_m, state.yaw_rad, state.v_mps, state.w_radps;
   const double elapsed = last_solve_time_s_ < 0 ? 0.0 : std::max(0.0, now_s - last_solve_time_s_);
@@ -285,7 +287,7 @@ NavigationStep Navigation::Control(const sim::UnicycleState& state, double cruis
   return step;
 }
 
-NavigationStep Navigation::StepWaypoint(const sim::UnicycleState& state, double now_s) {
+NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now_s) {
   if (!goal_) return {};
   const Eigen::Vector2d p_W(state.x_m, state.y_m);
   const double to_goal = (goal_->p_W - p_W).norm();
@@ -358,7 +360,7 @@ NavigationStep Navigation::StepWaypoint(const sim::UnicycleState& state, double 
   return Control(state, options_.platform.cruise_speed_mps, now_s);
 }
 
-NavigationStep Navigation::StepJoystick(const sim::UnicycleState& state, double vx_mps, double vy_mps,
+NavigationStep Navigation::StepJoystick(const core::BaseState& state, double vx_mps, double vy_mps,
                                         double wz_radps, double now_s) {
   NavigationStep stop;
   if (!std::isfinite(vx_mps) || !std::isfinite(vy_mps) || !std::isfinite(wz_radps)) {

@@ -25,15 +25,11 @@ bool PerceptionOptions::IsValid(std::string* why) const {
     return false;
   };
   std::string inner;
-  if (!lidar.IsValid(&inner)) return fail("lidar: " + inner);
-  if (!slam.IsValid(&inner)) return fail("slam: " + inner);
   if (!map.IsValid(&inner)) return fail("map: " + inner);
   if (!staircase.IsValid(&inner)) return fail("staircase: " + inner);
   if (!telemetry.IsValid(&inner)) return fail("telemetry: " + inner);
-  if (!camera.IsValid(&inner)) return fail("camera: " + inner);
   using internal::InRange;
-  if (!InRange("lidar_height_m", lidar_height_m, 0.0, 3.0, false, &inner) ||
-      !InRange("map_insert_period_s", map_insert_period_s, 0.05, 10.0, false, &inner) ||
+  if (!InRange("map_insert_period_s", map_insert_period_s, 0.05, 10.0, false, &inner) ||
       !InRange("staircase_period_s", staircase_period_s, 0.1, 60.0, false, &inner) ||
       !InRange("map_keyframe_distance_m", map_keyframe_distance_m, 0.0, 10.0, false, &inner) ||
       !InRange("map_keyframe_angle_rad", map_keyframe_angle_rad, 0.0, M_PI, false, &inner) ||
@@ -60,49 +56,59 @@ const PerceptionOptions& Checked(const PerceptionOptions& options) {
 
 }  // namespace
 
-PerceptionPipeline::PerceptionPipeline(const PerceptionOptions& options, std::shared_ptr<const sim::World> world,
-                                       const std::string& robot_id, std::uint32_t seed)
+PerceptionPipeline::PerceptionPipeline(const PerceptionOptions& options, const std::string& robot_id)
     : options_(Checked(options)),
-      world_(std::move(world)),
-      lidar_(options.lidar, seed),
-      slam_(options.slam, seed + 1),
       map_(std::make_shared<perception::OccupancyMap>(options.map)),
       detector_(options.staircase),
       sender_(robot_id, options.coarse_resolution_m(), options.telemetry) {}
 
-Eigen::Isometry3d PerceptionPipeline::SensorPose(const Eigen::Isometry3d& T_W_B) const {
-  Eigen::Isometry3d T_B_S = Eigen::Isometry3d::Identity();
-  T_B_S.translation().z() = options_.lidar_height_m;
-  return T_W_B * T_B_S;
+bool PerceptionPipeline::CameraDue(double now_s) const {
+  return options_.enabled && options_.camera_rate_hz > 0 && now_s >= next_camera_s_;
+}
+
+std::vector<Eigen::Vector2i> PerceptionPipeline::TakeChangedTiles() {
+  std::set<std::pair<int, int>> tiles;
+  {
+    std::lock_guard<std::mutex> guard(changed_mutex_);
+    tiles.swap(changed_tiles_);
+  }
+  std::vector<Eigen::Vector2i> out;
+  out.reserve(tiles.size());
+  for (const auto& [x, y] : tiles) out.emplace_back(x, y);
+  return out;
 }
 
 void PerceptionPipeline::RequestMapSnapshot() { sender_.RequestSnapshot(); }
 
+void PerceptionPipeline::CollectChanges() {
+  std::vector<perception::CoarseVoxel> changes = map_->TakeCoarseChanges(options_.map_coarse_levels);
+  if (changes.empty()) return;
+  // Coarse voxel (ix, iy, iz) covers [i * edge, (i + 1) * edge) per axis (coarse_voxel.h); a tile is 10 x 10
+  // coarse columns.
+  auto tile_of = [](std::int32_t i) { return static_cast<int>(i >= 0 ? i / 10 : -((-i + 9) / 10)); };
+  {
+    std::lock_guard<std::mutex> guard(changed_mutex_);
+    for (const perception::CoarseVoxel& v : changes) changed_tiles_.emplace(tile_of(v.ix), tile_of(v.iy));
+  }
+  if (options_.enabled) sender_.AddChanges(std::move(changes));
+}
+
 std::vector<perception::MapUpdate> PerceptionPipeline::FlushMapTelemetry(double now_s) {
   const auto start = Clock::now();
-  sender_.AddChanges(map_->TakeCoarseChanges(options_.map_coarse_levels));
+  CollectChanges();
   std::vector<perception::MapUpdate> updates = sender_.Poll(now_s);
   stats_.telemetry_ms_total += MsSince(start);
   return updates;
 }
 
-PerceptionOutput PerceptionPipeline::Tick(double now_s, const Eigen::Isometry3d& T_W_B_true) {
+PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* scan, const core::CameraImage* image) {
   PerceptionOutput out;
-  if (!options_.enabled) return out;
-  T_W_B_estimate_ = slam_.Update(T_W_B_true);
-  stats_.distance_m = slam_.distance_travelled_m();
-  stats_.slam_error_m = (T_W_B_estimate_.translation() - T_W_B_true.translation()).norm();
-
-  const double scan_period_s = 1.0 / options_.lidar.rate_hz;
-  if (now_s >= next_scan_s_) {
-    next_scan_s_ = std::max(next_scan_s_ + scan_period_s, now_s);  // no catch-up after a late tick
-    auto start = Clock::now();
-    lidar_.Scan(*world_, SensorPose(T_W_B_true), &scan_);  // the world is sensed from where the robot is
-    stats_.lidar_ms_total += MsSince(start);
+  if (scan != nullptr) {  // the map is built even when perception's outputs are off: navigation plans on it
     ++stats_.scans;
-    const Eigen::Isometry3d T_W_S_estimate = SensorPose(T_W_B_estimate_);  // ...and registered where SLAM says
-    start = Clock::now();
-    local_cloud_.AddScan(scan_.points_S, T_W_S_estimate, now_s);
+    const Eigen::Isometry3d& T_W_S_estimate = scan->T_MS;  // registered where SLAM says the sensor was
+    T_W_B_estimate_ = scan->T_MS * scan->T_BS.inverse();
+    auto start = Clock::now();
+    local_cloud_.AddScan(scan->points_S, T_W_S_estimate, now_s);
     stats_.local_cloud_ms_total += MsSince(start);
     const bool keyframe =
         !T_W_S_last_keyframe_ ||
@@ -114,13 +120,15 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const Eigen::Isometry3d&
       next_insert_s_ = std::max(next_insert_s_ + options_.map_insert_period_s, now_s);
       T_W_S_last_keyframe_ = T_W_S_estimate;
       start = Clock::now();
-      const perception::InsertStats inserted = map_->InsertScan(scan_.points_S, T_W_S_estimate);
+      const perception::InsertStats inserted = map_->InsertScan(scan->points_S, T_W_S_estimate);
       stats_.map_ms_total += MsSince(start);
       stats_.points_dropped_non_finite += inserted.dropped_non_finite;
       ++stats_.scans_inserted;
+      CollectChanges();
     }
   }
 
+  if (!options_.enabled) return out;
   if (now_s >= next_staircase_s_) {
     next_staircase_s_ = std::max(next_staircase_s_ + options_.staircase_period_s, now_s);
     const auto start = Clock::now();
@@ -142,19 +150,16 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const Eigen::Isometry3d&
     out.map_messages = FlushMapTelemetry(now_s);
   }
 
-  if (options_.camera_rate_hz > 0 && now_s >= next_camera_s_) {
+  if (image != nullptr && CameraDue(now_s)) {
     next_camera_s_ = std::max(next_camera_s_ + 1.0 / options_.camera_rate_hz, now_s);
     const auto start = Clock::now();
-    sim::GrayImage image;
-    const Eigen::Isometry3d T_W_C_true = SensorPose(T_W_B_true);
-    sim::RenderShadedDepth(*world_, T_W_C_true, options_.camera, &image);
     CameraFrame frame;
     frame.seq = ++camera_seq_;
-    frame.width_px = image.width_px;
-    frame.height_px = image.height_px;
-    frame.T_W_C = SensorPose(T_W_B_estimate_);
-    frame.jpeg = perception::EncodeGrayJpeg(
-        perception::GrayFrame{image.width_px, image.height_px, std::move(image.pixels)}, options_.jpeg_quality);
+    frame.width_px = image->width_px;
+    frame.height_px = image->height_px;
+    frame.T_W_C = image->T_MC;
+    frame.jpeg = perception::EncodeGrayJpeg(perception::GrayFrame{image->width_px, image->height_px, image->pixels},
+                                            options_.jpeg_quality);
     out.camera = std::move(frame);
     stats_.camera_ms_total += MsSince(start);
     ++stats_.camera_frames;

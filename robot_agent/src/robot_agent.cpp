@@ -13,6 +13,7 @@
 
 #include "cairn/agent/control_lock.h"
 #include "cairn/agent/mode_manager.h"
+#include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
 #include "cairn/agent/reply_cache.h"
@@ -21,11 +22,8 @@
 #include "cairn/core/shutdown.h"
 #include "cairn/msgs/stamp.h"
 #include "cairn/nav/global_planner.h"
-#include "cairn/nav/sampling.h"
+#include "cairn/nav/scan_obstacles.h"
 #include "cairn/nav/traversability.h"
-#include "cairn/sim/builtin_worlds.h"
-#include "cairn/sim/unicycle.h"
-#include "cairn/sim/world.h"
 #include "cairn_msgsPubSubTypes.h"
 
 #ifndef CAIRN_CONFIG_DIR
@@ -54,7 +52,7 @@ std::string Format(const char* fmt, double a, double b) {
 
 class RobotAgent::Impl {
  public:
-  explicit Impl(const AgentOptions& options);
+  Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform);
   ~Impl();
   void Run();
 
@@ -122,17 +120,26 @@ class RobotAgent::Impl {
   void PublishTreeStateIfChanged();
   void PublishGlobalPathIfChanged();
   void PublishLocalPlan();
-  // Perception thread: scans, maps, detects and publishes telemetry at the lidar rate, off the control loop.
+  // Sensor thread: reads lidar scans from the platform, makes the local planner's obstacles, hands the scan on.
+  void SensorLoop();
+  // Reads a scan if the platform has a new one: obstacles for the control loop, the scan for perception.
+  bool ReadScan(double now_s);
+  // Perception thread: maps, detects and publishes telemetry and camera frames, off the control loop.
   void PerceptionLoop();
   void PublishPerception(const PerceptionOutput& out);
+  // Navigation map thread: applies the map's changed region to the planner's map at its period.
+  void NavMapLoop();
   double NowS(SteadyTime t) const { return core::SecondsBetween(start_time_, t); }
 
   AgentOptions options_;
   SteadyTime start_time_ = SteadyClock::now();
-  std::shared_ptr<const sim::World> world_;  // the simulated world (sensed by the lidar and camera)
+  std::shared_ptr<core::PlatformIO> platform_;  // the robot: pose estimate, sensors, twist commands
+  core::PlatformCapabilities capabilities_;
+  core::BaseState start_M_;                     // pose estimate at start (the navigation map's centre)
   std::shared_ptr<nav::GlobalPlanner> planner_;  // thread-safe; also serves path requests
-  std::shared_ptr<const nav::TraversabilityGrid> grid_;
-  sim::Unicycle platform_;
+  core::BaseState pose_;          // latest pose estimate, map frame (control thread)
+  bool pose_healthy_ = true;
+  std::string pose_problem_;
   ControlLock lock_;
   TwistMux mux_;
   ModeManager modes_;
@@ -147,8 +154,22 @@ class RobotAgent::Impl {
     bool alive = true;          // its agent-info writer's liveliness
   };
   std::map<eprosima::fastrtps::rtps::InstanceHandle_t, BaseParticipant> base_by_writer_;
-  std::vector<Eigen::Vector3f> obstacles_B_;
-  double last_sense_s_ = -1e9;
+  // Obstacles from live lidar points, made on the perception thread, taken by the control loop.
+  struct LiveObstacles {
+    std::vector<Eigen::Vector3f> points_B;
+    core::BaseState pose_M;  // pose the points are expressed from
+    double stamp_s = -1e9;
+    bool fresh = false;
+  };
+  std::mutex obstacles_mutex_;
+  LiveObstacles live_obstacles_;
+  std::unique_ptr<NavMap> nav_map_;  // used by the navigation map thread only
+  std::mutex scan_mutex_;
+  std::shared_ptr<core::LidarScan> latest_scan_;  // from the sensor thread to the perception thread
+  // Sensor thread only (and the constructor, before it starts).
+  std::unique_ptr<perception::LocalCloud> obstacle_cloud_;
+  nav::ScanObstacleOptions obstacle_options_;
+  std::vector<Eigen::Vector3f> obstacle_points_B_;
   std::uint64_t published_path_revision_ = ~0ull;
   msgs::NavStatus nav_status_ = msgs::NAV_STATUS_NONE;
   std::string nav_reason_;
@@ -191,32 +212,39 @@ class RobotAgent::Impl {
 
 namespace {
 
-std::shared_ptr<const sim::World> LoadAgentWorld(const AgentOptions& options) {
-  sim::WorldLoadOptions w;
-  w.pcd_resolution_m = options.pcd_resolution_m;
-  return std::make_shared<const sim::World>(sim::LoadWorld(options.world, w));
-}
-
-std::shared_ptr<nav::GlobalPlanner> MakePlanner(const AgentOptions& options,
-                                                std::shared_ptr<const sim::World> world) {
+// The planner on the robot's own map (see NavMap), empty at start.
+std::shared_ptr<nav::GlobalPlanner> MakePlanner(const AgentOptions& options, const core::BaseState& start_M) {
   // Serves its own (possibly re-configured) platform and the other built-in ones, for peers that ask.
   std::vector<nav::PlatformProfile> profiles = {options.navigation.platform};
   for (const auto& name : nav::PlatformNames()) {
     if (name != options.navigation.platform.name) profiles.push_back(nav::GetPlatformProfile(name));
   }
-  return std::make_shared<nav::GlobalPlanner>(world, profiles);
+  return NavMap::MakePlanner(options.nav_map, options.perception.map.resolution_m, start_M, std::move(profiles));
+}
+
+std::shared_ptr<core::PlatformIO> Checked(std::shared_ptr<core::PlatformIO> platform) {
+  if (!platform) throw std::invalid_argument("RobotAgent: platform is null");
+  return platform;
+}
+
+core::BaseState StartPose(core::PlatformIO& platform) {
+  platform.Update(0.0);
+  const core::PoseEstimate pose = platform.ReadPose();
+  if (!pose.T_MB.matrix().allFinite()) throw std::invalid_argument("the platform's start pose is not finite");
+  return pose.PlanarState();
 }
 
 std::string DefaultTreeFile() { return std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml"; }
 
 }  // namespace
 
-RobotAgent::Impl::Impl(const AgentOptions& options)
+RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform)
     : options_(options),
-      world_(LoadAgentWorld(options)),
-      planner_(MakePlanner(options, world_)),
-      grid_(planner_->Grid(options.navigation.platform.name)),
-      platform_(options.navigation.platform.limits, options.navigation.platform.footprint_radius_m),
+      platform_(Checked(std::move(platform))),
+      capabilities_(platform_->Capabilities()),
+      start_M_(StartPose(*platform_)),
+      planner_(MakePlanner(options, start_M_)),
+      pose_(start_M_),
       lock_(options.robot_id, options.lock),
       mux_({{"teleop", options.teleop_timeout_s},
             {"smart_joystick", options.waypoint_timeout_s},
@@ -224,45 +252,33 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
       modes_(options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file, mux_.channel_names()),
       navigation_(options.navigation, planner_,
                   std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform())) {
-  const double footprint_m = options.navigation.platform.footprint_radius_m;
   std::random_device entropy;
   next_goal_id_ = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
-
-  // Start pose: given, or chosen deterministically from the robot id among free cells.
-  sim::PlanarPose start;
-  if (options.start_W) {
-    start = *options.start_W;
-    if (!grid_->IsFootprintFree(start.x_m, start.y_m, footprint_m) ||
-        !grid_->GroundHeight(start.x_m, start.y_m)) {
-      throw std::invalid_argument("--start " + Format("%.2f,%.2f", start.x_m, start.y_m) +
-                                  " is not free ground in world " + options.world +
-                                  " (occupied, outside the map, or no floor there)");
+  nav_map_ = std::make_unique<NavMap>(options.nav_map, options.perception.map.resolution_m, start_M_, planner_,
+                                      options.navigation.platform.name);
+  // Obstacles for the local planner: points seen within obstacle_window_s, deduplicated, around the robot.
+  perception::LocalCloudOptions cloud_options;
+  cloud_options.voxel_size_m = 0.05;
+  cloud_options.window_s = options.obstacle_window_s;
+  cloud_options.radius_m = std::max(1.0, options.navigation.sensor_range_m + 0.5);
+  obstacle_cloud_ = std::make_unique<perception::LocalCloud>(cloud_options);
+  obstacle_options_.range_m = options.navigation.sensor_range_m;
+  obstacle_options_.max_step_m = options.navigation.platform.traversability.max_step_m;
+  obstacle_options_.robot_height_m = options.navigation.platform.traversability.robot_height_m;
+  if (capabilities_.has_lidar) {
+    // The first scan before the robot announces itself ready, so that it can take a goal at once.
+    const SteadyTime deadline = SteadyClock::now() + std::chrono::seconds(5);
+    while (!ReadScan(NowS(SteadyClock::now())) && SteadyClock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
-  } else if (options.start_slot) {
-    const int k = *options.start_slot;
-    if (options.world.rfind("builtin:", 0) == 0) {
-      const auto& starts = sim::GetBuiltinWorldInfo(options.world.substr(8)).suggested_starts;
-      start = starts[static_cast<std::size_t>(k) % starts.size()];
+    std::lock_guard<std::mutex> guard(obstacles_mutex_);
+    if (live_obstacles_.fresh) {
+      live_obstacles_.fresh = false;
+      navigation_.SetObstacles(live_obstacles_.points_B, live_obstacles_.pose_M, live_obstacles_.stamp_s);
     } else {
-      const auto starts = nav::SampleFreeStarts(*grid_, k + 1, 2.0, /*seed=*/7);
-      if (static_cast<int>(starts.size()) <= k) {
-        throw std::invalid_argument("--start slot:" + std::to_string(k) + ": world " + options.world + " has only " +
-                                    std::to_string(starts.size()) + " free starts 2 m apart");
-      }
-      start = sim::PlanarPose{starts[k].x(), starts[k].y(), 0.0};
+      spdlog::warn("robot {}: no lidar scan within 5 s of start; waypoint driving waits for one", options.robot_id);
     }
-  } else {
-    const auto starts = nav::SampleFreeStarts(*grid_, 1, 1.0,
-                                              static_cast<uint32_t>(std::hash<std::string>{}(options.robot_id)));
-    if (starts.empty()) throw std::invalid_argument("world " + options.world + " has no free start cell");
-    start = sim::PlanarPose{starts.front().x(), starts.front().y(), 0.0};
   }
-  sim::UnicycleState state;
-  state.x_m = start.x_m;
-  state.y_m = start.y_m;
-  state.yaw_rad = start.yaw_rad;
-  state.z_m = grid_->GroundHeight(start.x_m, start.y_m).value_or(0.0);
-  platform_.set_state(state);
 
   // DDS entities, in a checked chain; any failure throws and the destructors tear down what exists.
   core::ParticipantOptions p;
@@ -329,17 +345,17 @@ RobotAgent::Impl::Impl(const AgentOptions& options)
   info.platform(options.platform);
   info.capabilities(modes_.known_modes());
   info.version(kVersion);
-  info.world(options.world);
+  info.world(capabilities_.description);
   info.max_speed_mps(options.navigation.platform.limits.max_speed_mps);
   info.max_reverse_speed_mps(options.navigation.platform.limits.max_reverse_speed_mps);
   info.max_yaw_rate_radps(options.navigation.platform.limits.max_yaw_rate_radps);
   info.stamp(cairn::msgs::WallStampNow());
   info_writer_->Write(info);
-  perception_ = std::make_unique<PerceptionPipeline>(
-      options.perception, world_, options.robot_id, static_cast<uint32_t>(std::hash<std::string>{}(options.robot_id)));
+  perception_ = std::make_unique<PerceptionPipeline>(options.perception, options.robot_id);
   PublishGlobalPathIfChanged();  // an empty path: late joiners see "no goal"
-  spdlog::info("robot {} ({}) ready in {} at ({:.2f}, {:.2f}, yaw {:.2f}) on DDS domain {}", options.robot_id,
-               options.platform, options.world, state.x_m, state.y_m, state.yaw_rad, options.domain_id);
+  spdlog::info("robot {} ({}) ready on platform {} ({}) at ({:.2f}, {:.2f}, yaw {:.2f}) in its map frame on DDS "
+               "domain {}", options.robot_id, options.platform, capabilities_.driver, capabilities_.description,
+               start_M_.x_m, start_M_.y_m, start_M_.yaw_rad, options.domain_id);
 }
 
 RobotAgent::Impl::~Impl() {
@@ -358,7 +374,8 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   ModeConditions c;
   c.holder_id = lock_.holder_id();
   c.holder_alive = lock_.holder_alive();
-  c.localized = true;  // the simulated platform knows its pose; SLAM health comes with perception
+  c.localized = pose_healthy_;
+  c.localization_problem = pose_problem_;
   c.has_waypoint_goal = goal_.has_value();
   // A joystick is alive when a live process with the holder's id advertises one.
   c.joystick_alive = false;
@@ -577,7 +594,7 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg, const Sampl
     return deny(probe.reason);
   }
   const bool had_goal = goal_.has_value();
-  const nav::GlobalPlan plan = navigation_.SetGoal(platform_.state(), msg.x_m(), msg.y_m(), msg.tolerance_m(),
+  const nav::GlobalPlan plan = navigation_.SetGoal(pose_, msg.x_m(), msg.y_m(), msg.tolerance_m(),
                                                    NowS(SteadyClock::now()));
   if (!plan.IsUsable()) return deny("no path: " + plan.reason);  // the previous goal, if any, goes on
   Goal goal;
@@ -746,12 +763,26 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   }
 
   const double now_s = NowS(now);
-  const auto& s = platform_.state();
-  // Stand-in obstacle sensor at the local planner's rate: lethal cells of the map near the robot (frame B).
-  if (now_s - last_sense_s_ >= options_.navigation.local_planner_period_s - 1e-6) {
-    last_sense_s_ = now_s;
-    nav::LethalCellsNear(*grid_, s.x_m, s.y_m, s.yaw_rad, options_.navigation.sensor_range_m, &obstacles_B_);
-    navigation_.SetObstacles(obstacles_B_, s, now_s);
+  // The robot as its platform reports it: pose estimate (SLAM), health.
+  platform_->Update(now_s);
+  const core::PoseEstimate estimate = platform_->ReadPose();
+  pose_ = estimate.PlanarState();
+  if (estimate.healthy != pose_healthy_) {
+    if (estimate.healthy) {
+      spdlog::info("robot {}: localization recovered", options_.robot_id);
+    } else {
+      spdlog::warn("robot {}: localization lost: {}", options_.robot_id, estimate.problem);
+    }
+  }
+  pose_healthy_ = estimate.healthy;
+  pose_problem_ = estimate.healthy ? "" : estimate.problem;
+  const core::BaseState& s = pose_;
+  {  // Obstacles from live lidar points, at the sensor's rate.
+    std::lock_guard<std::mutex> guard(obstacles_mutex_);
+    if (live_obstacles_.fresh) {
+      live_obstacles_.fresh = false;
+      navigation_.SetObstacles(live_obstacles_.points_B, live_obstacles_.pose_M, live_obstacles_.stamp_s);
+    }
   }
   if (goal_ && modes_.mode() == "waypoint") {
     const NavigationStep step = navigation_.StepWaypoint(s, now_s);
@@ -779,8 +810,11 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   PublishGlobalPathIfChanged();
 
   last_mux_ = mux_.Compute(now);
-  const sim::UnicycleStepResult step =
-      platform_.Step(last_mux_.twist_B.linear_x_mps, last_mux_.twist_B.angular_z_radps, kLoopPeriodS, *grid_);
+  platform_->CommandTwist(last_mux_.twist_B.linear_x_mps, last_mux_.twist_B.angular_z_radps, now_s);
+  const core::PlatformStatus status = platform_->ReadStatus();
+  const struct {
+    bool contact;
+  } step{status.in_contact};
   in_contact_ = step.contact;
   if (goal_) {
     if (!step.contact) {
@@ -790,14 +824,14 @@ void RobotAgent::Impl::Step(SteadyTime now) {
       goal_->contact_since = now;
     } else if (core::SecondsBetween(goal_->contact_since, now) > options_.contact_timeout_s) {
       FinishGoal(msgs::NAV_STATUS_FAILED, Format("blocked: in contact with occupied space at (%.2f, %.2f)",
-                                                 platform_.state().x_m, platform_.state().y_m));
+                                                 pose_.x_m, pose_.y_m));
       GoIdle();
     }
   }
 }
 
 void RobotAgent::Impl::PublishState(SteadyTime) {
-  const auto& s = platform_.state();
+  const core::BaseState& s = pose_;  // the SLAM estimate, in the map frame of the robot's map and paths
   msgs::RobotState m;
   m.robot_id(options_.robot_id);
   m.stamp(cairn::msgs::WallStampNow());
@@ -893,7 +927,7 @@ void RobotAgent::Impl::PublishLocalPlan() {
   const std::string& mode = modes_.mode();
   if (mode != "waypoint" && mode != "smart_joystick") return;
   const nav::LocalPlanResult& r = navigation_.local_result();
-  const sim::UnicycleState& pose = navigation_.local_pose();
+  const core::BaseState& pose = navigation_.local_pose();
   msgs::LocalPlan m;
   m.robot_id(options_.robot_id);
   m.stamp(cairn::msgs::WallStampNow());
@@ -925,18 +959,23 @@ void RobotAgent::Impl::Run() {
   const int state_every = std::max(1, static_cast<int>(std::lround(1.0 / (options_.state_rate_hz * kLoopPeriodS))));
   const int local_plan_every =
       std::max(1, static_cast<int>(std::lround(1.0 / (options_.local_plan_rate_hz * kLoopPeriodS))));
-  std::thread perception_thread;
-  if (options_.perception.enabled) perception_thread = std::thread([this] { PerceptionLoop(); });
-  // Joins the perception thread however Run() ends (an exception would otherwise terminate the process).
+  // The lidar feeds navigation (live obstacles, the navigation map) even with perception's outputs disabled.
+  std::thread sensor_thread;
+  if (capabilities_.has_lidar) sensor_thread = std::thread([this] { SensorLoop(); });
+  std::thread perception_thread([this] { PerceptionLoop(); });
+  std::thread nav_map_thread([this] { NavMapLoop(); });
+  // Joins the threads however Run() ends (an exception would otherwise terminate the process).
   struct JoinOnExit {
-    std::thread& thread;
+    std::thread* threads[3];
     ~JoinOnExit() {
-      if (thread.joinable()) {
-        core::RequestShutdown();
-        thread.join();
+      for (std::thread* t : threads) {
+        if (t->joinable()) {
+          core::RequestShutdown();
+          t->join();
+        }
       }
     }
-  } join_on_exit{perception_thread};
+  } join_on_exit{{&sensor_thread, &perception_thread, &nav_map_thread}};
   SteadyTime next = SteadyClock::now();
   for (uint64_t cycle = 0; !core::ShutdownRequested(); ++cycle) {
     const SteadyTime wanted = SteadyClock::now();
@@ -974,7 +1013,9 @@ void RobotAgent::Impl::Run() {
     Stop("agent shutting down");
     PublishState(SteadyClock::now());
   }
-  if (perception_thread.joinable()) perception_thread.join();
+  for (std::thread* t : {&sensor_thread, &perception_thread, &nav_map_thread}) {
+    if (t->joinable()) t->join();
+  }
   if (options_.perception.enabled) {
     // The last changes (within the budget), and a moment for the asynchronous writer to deliver them.
     PerceptionOutput last;
@@ -991,12 +1032,11 @@ void RobotAgent::Impl::Run() {
     }
   }
   const PerceptionStats& ps = perception_->stats();
-  spdlog::info("robot {}: shutting down; perception: {} scans ({:.1f} ms lidar, {:.1f} ms map per inserted scan), "
-               "{} staircase runs ({:.1f} ms each), {} camera frames, SLAM error {:.2f} m after {:.1f} m",
-               options_.robot_id, ps.scans, ps.scans ? ps.lidar_ms_total / ps.scans : 0.0,
-               ps.scans_inserted ? ps.map_ms_total / ps.scans_inserted : 0.0, ps.staircase_runs,
-               ps.staircase_runs ? ps.staircase_ms_total / ps.staircase_runs : 0.0, ps.camera_frames, ps.slam_error_m,
-               ps.distance_m);
+  spdlog::info("robot {}: shutting down; perception: {} scans ({:.1f} ms map per inserted scan), {} staircase "
+               "runs ({:.1f} ms each), {} camera frames; navigation map version {}",
+               options_.robot_id, ps.scans, ps.scans_inserted ? ps.map_ms_total / ps.scans_inserted : 0.0,
+               ps.staircase_runs, ps.staircase_runs ? ps.staircase_ms_total / ps.staircase_runs : 0.0,
+               ps.camera_frames, planner_->map_version());
 }
 
 void RobotAgent::Impl::PublishPerception(const PerceptionOutput& out) {
@@ -1052,23 +1092,68 @@ void RobotAgent::Impl::PublishPerception(const PerceptionOutput& out) {
   }
 }
 
-void RobotAgent::Impl::PerceptionLoop() {
-  const auto period = std::chrono::duration_cast<SteadyClock::duration>(
-      std::chrono::duration<double>(1.0 / options_.perception.lidar.rate_hz));
+bool RobotAgent::Impl::ReadScan(double now_s) {
+  auto scan = std::make_shared<core::LidarScan>();
+  if (!platform_->ReadLidarScan(now_s, scan.get())) return false;
+  obstacle_cloud_->AddScan(scan->points_S, scan->T_MS, scan->stamp_s);
+  core::PoseEstimate at_scan;
+  at_scan.T_MB = scan->T_MS * scan->T_BS.inverse();
+  const core::BaseState pose_M = at_scan.PlanarState();
+  nav::ObstaclesFromPoints(obstacle_cloud_->Points(), pose_M, obstacle_options_, &obstacle_points_B_);
+  {
+    std::lock_guard<std::mutex> guard(obstacles_mutex_);
+    live_obstacles_.points_B.swap(obstacle_points_B_);
+    live_obstacles_.pose_M = pose_M;
+    live_obstacles_.stamp_s = scan->stamp_s;
+    live_obstacles_.fresh = true;
+  }
+  std::lock_guard<std::mutex> guard(scan_mutex_);
+  latest_scan_ = std::move(scan);  // perception takes the newest; a slow mapper skips scans, never queues
+  return true;
+}
+
+void RobotAgent::Impl::SensorLoop() {
+  // Polls the platform at twice its lidar rate: a scan reaches the local planner within half a period of its
+  // arrival, whatever the perception thread is busy with (mapping, stairs, camera).
+  const double rate_hz = capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0;
+  const auto period =
+      std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(0.5 / rate_hz));
   SteadyTime next = SteadyClock::now();
   while (!core::ShutdownRequested()) {
-    Eigen::Isometry3d T_W_B = Eigen::Isometry3d::Identity();
-    {
-      std::lock_guard<std::mutex> guard(mutex_);
-      const sim::UnicycleState& s = platform_.state();
-      T_W_B.translation() = Eigen::Vector3d(s.x_m, s.y_m, s.z_m);
-      T_W_B.linear() = Eigen::AngleAxisd(s.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    }
-    if (map_snapshot_requested_.exchange(false)) perception_->RequestMapSnapshot();
     try {
-      PublishPerception(perception_->Tick(NowS(SteadyClock::now()), T_W_B));
+      ReadScan(NowS(SteadyClock::now()));
     } catch (const std::exception& e) {
-      // Perception must never take the robot down; navigation does not depend on it yet.
+      // A sensor fault must never take the robot down: the local planner's input goes stale and the robot
+      // stops (navigation.obstacle_timeout_s).
+      spdlog::error("robot {}: lidar read failed: {}", options_.robot_id, e.what());
+    }
+    next += period;
+    const auto now = SteadyClock::now();
+    if (next < now) next = now;
+    core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
+  }
+}
+
+void RobotAgent::Impl::PerceptionLoop() {
+  const double rate_hz = capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0;
+  const auto period =
+      std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(0.5 / rate_hz));
+  core::CameraImage image;
+  SteadyTime next = SteadyClock::now();
+  while (!core::ShutdownRequested()) {
+    const double now_s = NowS(SteadyClock::now());
+    try {
+      std::shared_ptr<core::LidarScan> scan;
+      {
+        std::lock_guard<std::mutex> guard(scan_mutex_);
+        scan.swap(latest_scan_);
+      }
+      if (map_snapshot_requested_.exchange(false)) perception_->RequestMapSnapshot();
+      const bool has_image =
+          capabilities_.has_camera && perception_->CameraDue(now_s) && platform_->ReadCameraImage(now_s, &image);
+      PublishPerception(perception_->Tick(now_s, scan.get(), has_image ? &image : nullptr));
+    } catch (const std::exception& e) {
+      // Perception must never take the robot down.
       spdlog::error("robot {}: perception tick failed: {}", options_.robot_id, e.what());
     }
     next += period;
@@ -1078,7 +1163,34 @@ void RobotAgent::Impl::PerceptionLoop() {
   }
 }
 
-RobotAgent::RobotAgent(const AgentOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+void RobotAgent::Impl::NavMapLoop() {
+  const auto period = std::chrono::duration_cast<SteadyClock::duration>(
+      std::chrono::duration<double>(options_.nav_map.update_period_s));
+  SteadyTime next = SteadyClock::now() + period;
+  while (!core::ShutdownRequested()) {
+    core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - SteadyClock::now()));
+    if (core::ShutdownRequested()) break;
+    next += period;
+    if (next < SteadyClock::now()) next = SteadyClock::now() + period;
+    try {
+      const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
+      if (tiles.empty()) continue;
+      const NavMapUpdateStats stats = nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m());
+      if (stats.applied) {
+        spdlog::debug("robot {}: navigation map v{}: {} tiles in {:.1f} x {:.1f} m, {} occupied voxels, read {:.1f} "
+                      "ms, traversability {:.1f} ms, publish {:.1f} ms",
+                      options_.robot_id, stats.map_version, stats.tiles, stats.region_M.sizes().x(),
+                      stats.region_M.sizes().y(), stats.occupied_voxels, stats.read_ms, stats.traversability_ms,
+                      stats.publish_ms);
+      }
+    } catch (const std::exception& e) {
+      spdlog::error("robot {}: navigation map update failed: {}", options_.robot_id, e.what());
+    }
+  }
+}
+
+RobotAgent::RobotAgent(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform)
+    : impl_(std::make_unique<Impl>(options, std::move(platform))) {}
 RobotAgent::~RobotAgent() = default;
 void RobotAgent::Run() { impl_->Run(); }
 

@@ -98,7 +98,7 @@ TEST(AgentOptions, IdsAndPlatformsAreChecked) {
 }
 
 TEST(StartPose, ParsesAndRejects) {
-  const sim::PlanarPose p = ParseStartPose("1.5,-2");
+  const core::PlanarPose p = ParseStartPose("1.5,-2");
   EXPECT_DOUBLE_EQ(p.x_m, 1.5);
   EXPECT_DOUBLE_EQ(p.y_m, -2.0);
   EXPECT_DOUBLE_EQ(ParseStartPose("1,2,0.5").yaw_rad, 0.5);

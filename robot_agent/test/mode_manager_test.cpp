@@ -192,5 +192,18 @@ TEST(ModeManager, ForceIdleStopsWhateverTheTreeSays) {
   EXPECT_EQ(modes.channel(), "none");
 }
 
+TEST(ModeManagerTest, TheShippedTreeCarriesTheGeneratedTreeNodesModel) {
+  // Groot2 opens the shipped tree only with a model of its custom nodes; it must match the registered ones.
+  std::ifstream in(kTree);
+  ASSERT_TRUE(in) << kTree;
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string model = ModeManager::TreeNodesModel();
+  EXPECT_NE(model.find("<Condition ID=\"IsLocalized\""), std::string::npos) << model;
+  EXPECT_NE(model.find("<Action ID=\"SelectMode\""), std::string::npos) << model;
+  EXPECT_EQ(ModeManager::WithTreeNodesModel(text), text)
+      << "config/mode_tree.xml's <TreeNodesModel> is out of date: regenerate it (cairn_agent "
+         "--print-tree-nodes-model)";
+}
+
 }  // namespace
 }  // namespace cairn::agent

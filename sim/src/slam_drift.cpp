@@ -1,6 +1,8 @@
 // Copyright Cairn authors.
 #include "cairn/sim/slam_drift.h"
 
+#include "cairn/core/kinematics.h"
+
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -8,16 +10,9 @@
 namespace cairn::sim {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 // Heading of a rotation: angle of its x axis projected on the x-y plane, radians, (-pi, pi].
 double YawOf(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
-
-// Wraps an angle to (-pi, pi].
-double WrapAngle(double a_rad) {
-  a_rad = std::remainder(a_rad, 2.0 * kPi);
-  return a_rad <= -kPi ? a_rad + 2.0 * kPi : a_rad;
-}
 
 bool InUnitRange(double v) { return std::isfinite(v) && v >= 0.0 && v <= 1.0; }
 
@@ -61,7 +56,7 @@ Eigen::Isometry3d SlamDrift::Update(const Eigen::Isometry3d& T_W_B_true) {
   }
   const Eigen::Vector3d p_W_B = T_W_B_true.translation();
   const double ds_m = (p_W_B - T_W_B_previous_.translation()).norm();
-  const double dyaw_rad = std::abs(WrapAngle(YawOf(T_W_B_true.linear()) - YawOf(T_W_B_previous_.linear())));
+  const double dyaw_rad = std::abs(core::WrapAngle(YawOf(T_W_B_true.linear()) - YawOf(T_W_B_previous_.linear())));
   T_W_B_previous_ = T_W_B_true;
   if (ds_m == 0.0 && dyaw_rad == 0.0) return Estimate(T_W_B_true);  // At rest: no drift, no draw.
   distance_travelled_m_ += ds_m;

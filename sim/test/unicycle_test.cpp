@@ -44,7 +44,7 @@ TEST(UnicycleLimitsTest, InvalidFieldIsNamed) {
   limits.max_accel_mps2 = -1.0;
   std::string why;
   EXPECT_FALSE(limits.IsValid(&why));
-  EXPECT_CONTAINS(why, "UnicycleLimits::max_accel_mps2 = -1 must be finite and in (0, 50]");
+  EXPECT_CONTAINS(why, "VelocityLimits::max_accel_mps2 = -1 must be finite and in (0, 50]");
   limits = UnicycleLimits{};
   limits.max_yaw_rate_radps = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(limits.IsValid(&why));

@@ -24,14 +24,24 @@ struct AStarOptions {
   /// Largest extra cost factor for a move into a cell at zero clearance (falls linearly to 0 at
   /// preferred_clearance_m), range [0, 100]; 0 = shortest paths.
   double clearance_cost = 1.0;
+  /// Extra cost factor for a move into a cell whose ground is unknown (traversable only on a map read with
+  /// unknown_is_lethal false), range [0, 100]: 0.5 makes unseen space cost 1.5x seen ground, so a route over
+  /// known floor is preferred and an optimistic one through unknown space still found.
+  double unknown_cost = 0.5;
   /// When the start cell is not traversable but the robot body there is free (see
   /// start_footprint_radius_m), the search starts from the nearest traversable cell within this radius,
   /// metres, range [0, 5]; 0 = never.
   double start_escape_radius_m = 1.0;
   /// Radius of the body disk that must be free (TraversabilityGrid::IsFootprintFree) for the start escape,
-  /// metres, range [0, 5]. Use the simulated body radius (cairn::sim::Unicycle default 0.25 m), so that a
+  /// metres, range [0, 5]. Use the simulated body radius (the simulator's default is 0.25 m), so that a
   /// robot allowed to leave can also move.
   double start_footprint_radius_m = 0.25;
+  /// The start is where the robot stands (its own goals and replans): a start the map shows blocked (noise,
+  /// a wall mapped a little into the robot's body by drift) is left for the nearest traversable cell within
+  /// start_escape_radius_m even when the body there is not free. false for other callers' starts.
+  bool start_is_robot = false;
+  /// Path points over unknown cells get the height of the nearest known point before them on the path (else
+  /// after it, else the grid's reference height).
   /// Replace the cell path by line-of-sight shortcuts through traversable cells whose clearance is at least
   /// min(preferred_clearance_m, the least clearance of the replaced cells).
   bool simplify_path = true;

@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <atomic>
+#include <limits>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -19,12 +20,26 @@
 #include "cairn/nav/astar.h"
 #include "cairn/nav/platform.h"
 #include "cairn/nav/traversability.h"
-#include "cairn/sim/world.h"
+#include "cairn/core/voxel_grid.h"
 
 namespace cairn::nav {
 
+/// How the planner reads its map, applied over each platform's traversability options. The defaults read a
+/// complete map (a survey scan, the simulated world): automatic reference height, unknown columns lethal. A
+/// robot's own map is read with its floor height, a ground band around it and unknown space traversable
+/// (optimistic planning), see TraversabilityOptions.
+struct MapReading {
+  double cell_size_m = 0.0;                                               ///< 0 = map resolution
+  double reference_height_m = std::numeric_limits<double>::quiet_NaN();   ///< NaN = automatic
+  double ground_search_min_z_m = -std::numeric_limits<double>::infinity();
+  double ground_search_max_z_m = std::numeric_limits<double>::infinity();
+  bool unknown_is_lethal = true;
+};
+
 /// Options of GlobalPlanner.
 struct GlobalPlannerOptions {
+  /// How the map is read (see MapReading).
+  MapReading reading;
   /// Search options (costs, start escape, shortcutting). start_footprint_radius_m is replaced by the
   /// requesting platform's footprint radius.
   AStarOptions astar;
@@ -42,6 +57,8 @@ struct GlobalPlanRequest {
   Eigen::Vector2d start_W = Eigen::Vector2d::Zero();  ///< Start (x, y), metres, frame W.
   Eigen::Vector2d goal_W = Eigen::Vector2d::Zero();   ///< Goal (x, y), metres, frame W.
   std::string platform = "wheeled";                   ///< A GetPlatformProfile() name.
+  /// The start is the planning robot's own pose (see AStarOptions::start_is_robot).
+  bool start_is_robot = false;
 };
 
 /// Answer of GlobalPlanner::Plan().
@@ -83,7 +100,7 @@ class GlobalPlanner {
   /// @param world the map (shared, never modified). @param profiles the platforms served (at least one;
   ///        names unique). @throws std::invalid_argument for invalid options or profiles (message from
   ///        IsValid()), a null world or duplicate names.
-  GlobalPlanner(std::shared_ptr<const sim::World> world, std::vector<PlatformProfile> profiles,
+  GlobalPlanner(std::shared_ptr<const core::VoxelGrid> world, std::vector<PlatformProfile> profiles,
                 const GlobalPlannerOptions& options = {});
 
   /// Plans from request.start_W to request.goal_W for request.platform. Never throws for bad request
@@ -99,7 +116,17 @@ class GlobalPlanner {
 
   /// Replaces the map (e.g. after new obstacles were seen); increments map_version() and drops the grids.
   /// @throws std::invalid_argument for a null world.
-  void UpdateWorld(std::shared_ptr<const sim::World> world);
+  void UpdateWorld(std::shared_ptr<const core::VoxelGrid> world);
+
+  /// Replaces the map by `world` whose grid for `platform` the caller already brought up to date (e.g.
+  /// incrementally with TraversabilityGrid::Update(), built with TerrainOptionsFor()); increments
+  /// map_version(). Grids of the other platforms are rebuilt from `world` when first asked for.
+  /// @throws std::invalid_argument for a null world or grid, or an unknown platform.
+  void UpdateMap(std::shared_ptr<const core::VoxelGrid> world, const std::string& platform,
+                 std::shared_ptr<const TraversabilityGrid> grid);
+
+  /// The traversability options the planner uses for `profile`: its own with options().reading applied.
+  TraversabilityOptions TerrainOptionsFor(const PlatformProfile& profile) const;
 
   /// Number of map updates so far (0 for the map given at construction).
   std::uint64_t map_version() const;
@@ -122,7 +149,7 @@ class GlobalPlanner {
   GlobalPlannerOptions options_;
   std::vector<PlatformProfile> profiles_;
   mutable std::mutex mutex_;
-  std::shared_ptr<const sim::World> world_;
+  std::shared_ptr<const core::VoxelGrid> world_;
   std::atomic<std::uint64_t> map_version_{0};  // read without the mutex (control loops poll it)
   std::map<std::string, std::shared_ptr<const TraversabilityGrid>> grids_;            // by platform
   std::map<std::string, std::shared_ptr<const TraversabilityGrid>> diagnose_grids_;  // by platform

@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "cairn/sim/unicycle.h"
+#include "cairn/core/kinematics.h"
 
 namespace cairn::nav {
 
@@ -41,7 +41,7 @@ using IlqrControl = Eigen::Matrix<double, 2, 1>;
 /// Velocity and acceleration limits of the platform: the simulated platform's limits type (fields
 /// max_speed_mps, max_reverse_speed_mps, max_accel_mps2, max_yaw_rate_radps, max_yaw_accel_radps2, with
 /// IsValid()), so the controller and the platform it drives share one definition.
-using IlqrLimits = sim::UnicycleLimits;
+using IlqrLimits = core::VelocityLimits;
 
 /// Options of IlqrController. The cost of a trajectory (states x_0..x_N, controls u_0..u_N-1, reference
 /// r_0..r_N from BuildIlqrReference()) is

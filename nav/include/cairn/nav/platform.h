@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "cairn/nav/traversability.h"
-#include "cairn/sim/unicycle.h"
+#include "cairn/core/kinematics.h"
 
 namespace cairn::nav {
 
@@ -18,7 +18,7 @@ struct PlatformProfile {
   /// Name used on the command line, in configs and in path requests: "wheeled" or "legged".
   std::string name;
   /// Speed, acceleration and yaw-rate limits (the iLQR controller and the simulated platform use them).
-  sim::UnicycleLimits limits;
+  core::VelocityLimits limits;
   /// Radius of the body disk used for collision checks, metres, (0, 2].
   double footprint_radius_m = 0.3;
   /// Traversability analysis for the global planner: robot_radius_m (inflation), robot_height_m and
@@ -41,7 +41,7 @@ struct PlatformProfile {
 ///    stairs), forward-looking local planner (headings within +-100 deg: it does not back into space behind it);
 ///  - "legged": a quadruped, 0.6 m/s max (cruise 0.5), 0.6 m/s^2, 1.0 rad/s, steps <= 0.25 m (stairs of
 ///    up to 0.25 m rise), all-around local planner.
-/// Both turn in place (a skid-steer rover pivots; cairn::sim::Unicycle models both).
+/// Both turn in place (a skid-steer rover pivots; the simulator's unicycle models both).
 /// Both use a 0.3 m body radius and need 0.8 m of height.
 /// @throws std::invalid_argument naming the value and the valid names if `name` is unknown.
 PlatformProfile GetPlatformProfile(const std::string& name);

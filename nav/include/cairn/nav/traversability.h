@@ -9,14 +9,16 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "cairn/sim/unicycle.h"
-#include "cairn/sim/world.h"
+#include "cairn/core/kinematics.h"
+#include "cairn/core/voxel_grid.h"
 
 namespace cairn::nav {
 
@@ -48,6 +50,13 @@ struct TraversabilityOptions {
   int fill_passes = 2;
   /// Neighbours with ground a hole needs to be filled, range [1, 8].
   int fill_min_neighbors = 6;
+  /// true: a cell with no ground seen (kUnknown) is lethal, as on a complete map (a simulated world, a survey
+  /// scan). false: unknown cells are traversable, so a robot plans optimistically through space its own map
+  /// has not seen yet (obstacles and too high steps it has seen stay lethal).
+  bool unknown_is_lethal = true;
+  /// Update() keeps ClearanceM() exact up to this distance (metres, [robot_radius_m, 20]): anything a planner
+  /// compares clearance with (robot radius, preferred clearance) must be at most this.
+  double clearance_exact_m = 2.0;
 
   /// True when every field is in range; otherwise false and, if `why` is not null, a message naming the
   /// field, its value and the rule.
@@ -98,11 +107,11 @@ struct TraversabilitySummary {
 /// known free in the scan but no floor voxel, and they stay unknown on purpose: the World keeps occupancy
 /// only, and a floor nobody saw (maybe a stairwell) is not one to plan over. Filling only closes holes with
 /// at least fill_min_neighbors ground neighbours, so it never grows floor into such areas.
-class TraversabilityGrid : public sim::FootprintChecker {
+class TraversabilityGrid : public core::FootprintChecker {
  public:
   /// Analyses `world`. Throws std::invalid_argument if `options` is invalid (message from IsValid()) or
   /// cell_size_m is not a multiple of the world resolution.
-  explicit TraversabilityGrid(const sim::World& world, const TraversabilityOptions& options = {});
+  explicit TraversabilityGrid(const core::VoxelGrid& world, const TraversabilityOptions& options = {});
 
   /// Cells along x.
   int nx() const { return nx_; }
@@ -137,6 +146,8 @@ class TraversabilityGrid : public sim::FootprintChecker {
   /// True if the in-grid cell is lethal (not free, or the top of a too high step).
   bool IsLethal(int ix, int iy) const { return lethal_[Index(ix, iy)] != 0; }
   /// Distance from the cell centre to the nearest lethal cell centre or the outside of the grid, metres.
+  /// Exact after construction; after Update(), exact wherever it is <= options().clearance_exact_m, and some
+  /// value above clearance_exact_m elsewhere.
   double ClearanceM(int ix, int iy) const { return clearance_m_[Index(ix, iy)]; }
   /// True if the in-grid cell is traversable: ClearanceM() > robot_radius_m + 1e-9 m (so not lethal either;
   /// the tolerance makes a lethal cell exactly robot_radius_m away count as within the radius).
@@ -151,13 +162,36 @@ class TraversabilityGrid : public sim::FootprintChecker {
   /// the cell has no ground.
   std::optional<double> GroundHeight(double x_m, double y_m) const override;
 
+  /// Re-analyses the cells whose columns intersect `region_W` (x-y box, metres, frame of the grid) from
+  /// `world`, which must have the geometry (origin, resolution, dims) of the grid this was built from, and
+  /// the cells their change can affect (hole filling, step edges, clearance). The reference height stays the
+  /// one of construction. Cost: the region's voxel columns plus a distance transform over the region grown by
+  /// 2 * clearance_exact_m. Throws std::invalid_argument if the geometry differs.
+  void Update(const core::VoxelGrid& world, const Eigen::AlignedBox2d& region_W);
+  /// The same for several regions at once (e.g. the map's changed tiles): their columns are re-read, and the
+  /// cells around their union re-analysed once.
+  void Update(const core::VoxelGrid& world, const std::vector<Eigen::AlignedBox2d>& regions_W);
+
   /// Row-major index of a cell, ix + nx * iy.
   std::size_t Index(int ix, int iy) const {
     return static_cast<std::size_t>(ix) + static_cast<std::size_t>(nx_) * static_cast<std::size_t>(iy);
   }
 
  private:
+  double TopOf(int iz) const;
+  template <class Visit>
+  bool ScanColumn(const core::VoxelGrid& world, int ix, int iy, Visit&& visit) const;
+  // Steps 1-6 for the cell windows {x0, y0, x1, y1} (inclusive) and the cells they affect; whole = the full
+  // grid.
+  void Recompute(const core::VoxelGrid& world, const std::vector<std::array<int, 4>>& changed_cells, bool whole);
+
   TraversabilityOptions options_;
+  int k_ = 1;  // world columns per cell edge
+  Eigen::Vector3i world_dims_ = Eigen::Vector3i::Zero();
+  Eigen::Vector3d world_p_min_ = Eigen::Vector3d::Zero();
+  double world_res_m_ = 0.0;
+  int need_voxels_ = 1;  // free voxels a ground needs above it
+  std::vector<std::uint8_t> internal_step_;
   TraversabilitySummary summary_;
   int nx_ = 0;
   int ny_ = 0;

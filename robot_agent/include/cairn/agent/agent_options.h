@@ -5,11 +5,11 @@
 #include <string>
 
 #include "cairn/agent/control_lock.h"
+#include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
+#include "cairn/core/kinematics.h"
 #include "cairn/nav/local_planner.h"
-#include "cairn/sim/builtin_worlds.h"
-#include "cairn/sim/unicycle.h"
 
 namespace cairn::agent {
 
@@ -17,8 +17,10 @@ namespace cairn::agent {
 struct AgentOptions {
   // From the command line.
   std::string robot_id;                           ///< required; [A-Za-z0-9_-]{1,64}
+  // The simulated platform's (cairn_agent --world/--start/--pcd-resolution; main.cpp hands them to
+  // sim::SimulatedPlatform). The autonomy itself never reads them.
   std::string world = "builtin:tunnels";          ///< world spec: builtin:NAME, a .bt or a .pcd path
-  std::optional<sim::PlanarPose> start_W;         ///< start pose (m, m, rad) in W
+  std::optional<core::PlanarPose> start_W;        ///< start pose (m, m, rad) in W
   /// Start slot K (when no start_W): the K-th suggested start of a builtin world, or the K-th of a fixed
   /// seeded sample of free starts >= 2 m apart in other worlds. None = a free cell chosen from the robot id.
   std::optional<int> start_slot;
@@ -43,8 +45,13 @@ struct AgentOptions {
   /// from the platform profile.
   nav::TrajectoryLibraryOptions library = DefaultLibraryOptions();
   double collision_margin_m = 0.03;   ///< [0, 1], metres added to the footprint for the local planner
-  /// Perception: lidar, SLAM drift, mapping, staircases, map telemetry and camera (section `perception`).
+  /// Perception: mapping, staircases, map telemetry and camera frames (section `perception`).
   PerceptionOptions perception;
+  /// The navigation map on the robot's own OctoMap (section `navigation`, keys map_*).
+  NavMapOptions nav_map;
+  /// Live lidar obstacles: points seen within this many seconds feed the local planner, (0, 30]. Long enough
+  /// to remember the ground next to the robot, which a lidar above it sees only from a distance.
+  double obstacle_window_s = 3.0;
 
   /// Library options used by default: 0.05 m correspondence voxels (the conservative voxel test then adds
   /// only 0.035 m to the collision radius, so the robot still threads 0.8 m gaps).
@@ -66,6 +73,6 @@ struct AgentOptions {
 /// [0, 99]) into options->start_slot. @throws std::invalid_argument naming the value.
 void ParseStart(const std::string& text, AgentOptions* options);
 /// Parses "X,Y" or "X,Y,YAW". @throws std::invalid_argument naming the value.
-sim::PlanarPose ParseStartPose(const std::string& text);
+core::PlanarPose ParseStartPose(const std::string& text);
 
 }  // namespace cairn::agent

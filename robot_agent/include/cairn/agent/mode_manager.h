@@ -16,6 +16,7 @@ struct ModeConditions {
   std::string holder_id;          ///< basestation holding the control lock ("" = free)
   bool holder_alive = false;      ///< the holder's liveliness is alive
   bool localized = false;         ///< the pose estimate is valid
+  std::string localization_problem;  ///< why not (the platform's estimator), e.g. "SLAM diverged"
   bool has_waypoint_goal = false; ///< an accepted, unfinished waypoint goal exists
   /// The control holder has a joystick: it advertises the "joystick" capability and is alive.
   bool joystick_alive = false;
@@ -41,6 +42,14 @@ class ModeManager {
   ///         (the fail-safe mode) or its idle branch selects a channel other than "none"; when a SelectMode
   ///         names a channel that is not a literal mux channel (the branch, line and channel are named).
   ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels);
+
+  /// The `<TreeNodesModel>` element (BehaviorTree.CPP v4 / Groot2 format) of the nodes a mode tree may use
+  /// beyond BT.CPP's built-ins: the conditions (IsControlHeld, IsLocalized, ...) and SelectMode, with their
+  /// ports. `cairn_agent --print-tree-nodes-model` prints it.
+  static std::string TreeNodesModel();
+  /// `tree_xml` (a mode tree file's text) with its `<TreeNodesModel>` replaced by (or extended with) the
+  /// generated one, so Groot2 can open and edit the file. Throws bt::TreeError for malformed XML.
+  static std::string WithTreeNodesModel(const std::string& tree_xml);
 
   /// Stop: mode idle and channel "none" now, whatever the tree says (an operator's stop, or a failed
   /// channel switch). `refusal`, when not empty, is kept as the last refusal shown to operators (a fault).
@@ -76,6 +85,8 @@ class ModeManager {
   void CheckChannels(const std::string& tree_file, const std::vector<std::string>& mux_channels) const;
 
   struct Context;
+  // Registers the mode tree's condition and action nodes, whose callbacks read and write `ctx`.
+  static void RegisterNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx);
   std::shared_ptr<Context> context_;
   bt::Tree tree_;
   std::vector<std::string> known_modes_;

@@ -16,7 +16,7 @@
 #include "cairn/nav/ilqr.h"
 #include "cairn/nav/local_planner.h"
 #include "cairn/nav/platform.h"
-#include "cairn/sim/unicycle.h"
+#include "cairn/core/kinematics.h"
 
 namespace cairn::agent {
 
@@ -42,7 +42,7 @@ struct NavigationOptions {
   /// Local planner cycle period (the sensor rate), seconds, (0, 1].
   double local_planner_period_s = 0.1;
   /// The local planner is unhealthy when its obstacle input is older than this, seconds, (0, 10].
-  double obstacle_timeout_s = 0.5;
+  double obstacle_timeout_s = 1.0;
   /// How often the global path is checked against the current map, seconds, (0, 60].
   double replan_check_period_s = 0.5;
   /// Farther than this from the global path -> replan from the current pose, metres, (0, 20].
@@ -77,24 +77,24 @@ class Navigation {
   /// Plans a global path from `state` to the goal (x_m, y_m) (metres, frame map). On success the goal
   /// becomes active (replacing any other) and the plan is returned; otherwise the previous goal is kept and
   /// the plan's reason says why. tolerance_m 0 = options.goal_tolerance_m.
-  nav::GlobalPlan SetGoal(const sim::UnicycleState& state, double x_m, double y_m, double tolerance_m,
+  nav::GlobalPlan SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
                           double now_s);
   /// Drops the goal (the robot will be stopped by the caller's mode switch).
   void ClearGoal();
   bool has_goal() const { return goal_.has_value(); }
 
   /// New obstacle points (frame B of `state`, metres) sensed at now_s.
-  void SetObstacles(const std::vector<Eigen::Vector3f>& points_B, const sim::UnicycleState& state, double now_s);
+  void SetObstacles(const std::vector<Eigen::Vector3f>& points_B, const core::BaseState& state, double now_s);
 
   /// One control step in waypoint mode (call at the control rate). Without a goal: a zero twist. The goal
   /// is reached when the robot is within its tolerance moving at most 0.1 m/s (the controller brakes to
   /// rest at the goal).
-  NavigationStep StepWaypoint(const sim::UnicycleState& state, double now_s);
+  NavigationStep StepWaypoint(const core::BaseState& state, double now_s);
   /// One control step in smart joystick mode: `joystick` is the operator's twist (frame B: forward,
   /// left m/s; yaw rate rad/s); zero means stop. The direction is atan2(vy, vx) bent by wz *
   /// joystick_turn_lookahead_s; the speed is |(vx, vy)| capped at the platform's max speed. A pure yaw rate
   /// turns in place (a disk footprint cannot collide by turning).
-  NavigationStep StepJoystick(const sim::UnicycleState& state, double vx_mps, double vy_mps, double wz_radps,
+  NavigationStep StepJoystick(const core::BaseState& state, double vx_mps, double vy_mps, double wz_radps,
                               double now_s);
 
   /// True when the local planner has fresh obstacle input (age <= obstacle_timeout_s); else false and `why`.
@@ -113,7 +113,7 @@ class Navigation {
   /// Last local planner result (frame B of local_pose()).
   const nav::LocalPlanResult& local_result() const { return local_result_; }
   /// Pose the last local plan was made from.
-  const sim::UnicycleState& local_pose() const { return local_pose_; }
+  const core::BaseState& local_pose() const { return local_pose_; }
   /// "" (not run), "path", "boxed in: ..." or "invalid input: ...".
   const std::string& local_status() const { return local_status_; }
   /// Last controller solution.
@@ -130,17 +130,17 @@ class Navigation {
     double best_time_s = 0.0;
   };
   // Re-plans from `state` to the goal; false (and the reason) if no path remains.
-  bool Replan(const sim::UnicycleState& state, double now_s, std::string* reason);
+  bool Replan(const core::BaseState& state, double now_s, std::string* reason);
   // Progress along the global path: updates path_segment_ and distance_left_m_; returns the distance from
   // the robot to the path.
   double UpdateProgress(const Eigen::Vector2d& p_W);
   // Point carrot_distance_m ahead of the robot's projection on the global path.
   Eigen::Vector2d Carrot() const;
   // Runs the local planner if its period elapsed; fills track_W_ and track_stop_at_end_.
-  void RunLocalPlanner(const sim::UnicycleState& state, const nav::LocalPlanRequest& request, double now_s,
+  void RunLocalPlanner(const core::BaseState& state, const nav::LocalPlanRequest& request, double now_s,
                        const std::optional<Eigen::Vector2d>& goal_W);
   // iLQR on track_W_; zero twist (braking) when there is no track.
-  NavigationStep Control(const sim::UnicycleState& state, double cruise_mps, double now_s);
+  NavigationStep Control(const core::BaseState& state, double cruise_mps, double now_s);
   NavigationStep Fail(const std::string& reason);
 
   NavigationOptions options_;
@@ -164,8 +164,8 @@ class Navigation {
   double obstacles_time_s_ = -1e9;
   double last_local_time_s_ = -1e9;
   nav::LocalPlanResult local_result_;
-  sim::UnicycleState local_pose_;      // pose of the last local plan
-  sim::UnicycleState obstacles_pose_;  // pose the obstacle points are expressed from
+  core::BaseState local_pose_;      // pose of the last local plan
+  core::BaseState obstacles_pose_;  // pose the obstacle points are expressed from
   std::string local_status_;
   std::vector<Eigen::Vector2d> track_W_;  // path for the controller, frame W
   bool track_stop_at_end_ = true;

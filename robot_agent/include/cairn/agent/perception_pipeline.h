@@ -1,6 +1,7 @@
-// The robot's perception component, DDS-free: simulated lidar and SLAM pose, OctoMap mapping, staircase
-// detection and merging, map telemetry and camera frames, each at its own rate (Sriganesh et al. 2024,
-// "System-wide services" and "Command Interface"). The agent runs Tick() on its perception thread and
+// The robot's perception component, DDS-free: OctoMap mapping of the platform's registered lidar scans,
+// staircase detection and merging, map telemetry and camera frames, each at its own rate (Sriganesh et al.
+// 2024, "System-wide services" and "Command Interface"). It sees only what core::PlatformIO gives (scans with
+// the SLAM sensor pose, camera frames), never a world. The agent runs Tick() on its perception thread and
 // publishes what it returns; tests drive it faster than real time.
 #pragma once
 
@@ -11,22 +12,20 @@
 #include <string>
 #include <vector>
 
+#include <mutex>
+#include <set>
+#include <utility>
+
+#include "cairn/core/platform_io.h"
 #include "cairn/perception/map_telemetry.h"
 #include "cairn/perception/occupancy_map.h"
 #include "cairn/perception/staircase.h"
-#include "cairn/sim/camera.h"
-#include "cairn/sim/lidar.h"
-#include "cairn/sim/slam_drift.h"
-#include "cairn/sim/world.h"
 
 namespace cairn::agent {
 
 /// Options of the perception component (config section `perception`). Defaults are valid (tested).
 struct PerceptionOptions {
-  bool enabled = true;                       ///< false: no lidar, map, stairs, telemetry or camera
-  sim::LidarOptions lidar;                   ///< VLP-16-like: 16 x 1800 rays at 10 Hz, 30 m, 1 cm noise
-  double lidar_height_m = 0.5;               ///< sensor above the ground under the robot, [0, 3]
-  sim::SlamDriftOptions slam;                ///< drift of the simulated SLAM pose
+  bool enabled = true;  ///< false: no stairs, telemetry or camera (the map is still built: navigation's input)
   perception::OccupancyMapOptions map;       ///< OctoMap at 0.1 m
   double map_insert_period_s = 0.2;          ///< insert one scan per period, [0.05, 10]
   /// Keyframes: a scan goes into the map only once the sensor moved this far or turned this much since the
@@ -38,8 +37,7 @@ struct PerceptionOptions {
   perception::StaircaseDetectorOptions staircase;
   int map_coarse_levels = 1;                 ///< telemetry voxels are 2^levels x the map's, [0, 6]
   perception::MapTelemetryOptions telemetry; ///< budget (default 100 kbit/s) and period
-  double camera_rate_hz = 1.0;               ///< frames per second, [0, 30]; 0 = no camera
-  sim::CameraOptions camera;                 ///< 320 x 240, 90 deg
+  double camera_rate_hz = 1.0;               ///< frames published per second, [0, 30]; 0 = no camera
   int jpeg_quality = 75;                     ///< [1, 100]
   double camera_budget_bits_per_s = 400000;  ///< DDS flow-controller budget of camera frames, > 0
 
@@ -54,7 +52,7 @@ struct CameraFrame {
   std::uint32_t seq = 0;
   int width_px = 0;
   int height_px = 0;
-  Eigen::Isometry3d T_W_C = Eigen::Isometry3d::Identity();  ///< camera pose (SLAM estimate), frame W
+  Eigen::Isometry3d T_W_C = Eigen::Isometry3d::Identity();  ///< camera pose (SLAM estimate), map frame
   std::vector<std::uint8_t> jpeg;
 };
 
@@ -72,25 +70,32 @@ struct PerceptionStats {
   std::int64_t points_dropped_non_finite = 0;
   std::int64_t staircase_runs = 0;
   std::int64_t camera_frames = 0;
-  double lidar_ms_total = 0, local_cloud_ms_total = 0, map_ms_total = 0, staircase_ms_total = 0,
-         camera_ms_total = 0, telemetry_ms_total = 0;
-  /// Travelled distance and current SLAM position error (simulation knows the truth), metres.
-  double distance_m = 0, slam_error_m = 0;
+  double local_cloud_ms_total = 0, map_ms_total = 0, staircase_ms_total = 0, camera_ms_total = 0,
+         telemetry_ms_total = 0;
 };
 
-/// Runs the robot's perception. Not thread-safe except map(), which is (the map is a shared service).
+/// Runs the robot's perception. Not thread-safe except map() and TakeChangedRegion(), which are.
 class PerceptionPipeline {
  public:
   /// @throws std::invalid_argument naming the field when `options` is invalid.
-  /// `robot_id` names the map telemetry; `seed` seeds the lidar noise and the SLAM drift.
-  PerceptionPipeline(const PerceptionOptions& options, std::shared_ptr<const sim::World> world,
-                     const std::string& robot_id, std::uint32_t seed);
+  /// `robot_id` names the map telemetry.
+  PerceptionPipeline(const PerceptionOptions& options, const std::string& robot_id);
 
-  /// Does what is due at `now_s` (seconds, monotonic): a lidar scan at the lidar rate (from the true body
-  /// pose `T_W_B_true`, frame W; the scan is registered with the drifting SLAM estimate), map insertion,
-  /// staircase detection, telemetry and camera at their periods. A late tick does each due thing once (no
-  /// catch-up bursts).
-  PerceptionOutput Tick(double now_s, const Eigen::Isometry3d& T_W_B_true);
+  /// Does what is due at `now_s` (seconds, monotonic): with a new `scan` (registered by the platform's pose
+  /// estimate, map frame M; may be null) the local cloud and, at the insertion period on keyframes, the map;
+  /// staircase detection and telemetry at their periods; with a new `image` (may be null) a JPEG frame. A
+  /// late tick does each due thing once (no catch-up bursts).
+  PerceptionOutput Tick(double now_s, const core::LidarScan* scan, const core::CameraImage* image);
+
+  /// True when a camera frame is due at `now_s` (camera_rate_hz): the caller reads one from the platform.
+  bool CameraDue(double now_s) const;
+
+  /// Edge of the square x-y tiles changes are reported in, metres (10 coarse telemetry voxels).
+  double change_tile_m() const { return 10 * options_.coarse_resolution_m(); }
+  /// Tiles (ix, iy): tile covers [ix * change_tile_m(), (ix + 1) * change_tile_m()) x [iy * ..., ...) in the
+  /// map frame, over all heights) where the map changed since the last call, in no particular order.
+  /// Thread-safe: navigation's map thread calls it while Tick() runs.
+  std::vector<Eigen::Vector2i> TakeChangedTiles();
 
   /// Map telemetry only (no scan, no insertion): takes the map's changes and returns what the budget lets out
   /// at `now_s`. For shutdown (the last changes), and for tests that need the map to stand still.
@@ -101,28 +106,27 @@ class PerceptionPipeline {
 
   /// The robot's map (thread-safe queries: occupancy, ray cast, bounding box).
   std::shared_ptr<const perception::OccupancyMap> map() const { return map_; }
-  /// Latest SLAM pose estimate of the body, frame W.
+  /// Body pose of the latest scan (the platform's estimate), map frame.
   const Eigen::Isometry3d& T_W_B_estimate() const { return T_W_B_estimate_; }
   const PerceptionStats& stats() const { return stats_; }
   const perception::MapTelemetrySender& telemetry() const { return sender_; }
   const PerceptionOptions& options() const { return options_; }
 
  private:
-  Eigen::Isometry3d SensorPose(const Eigen::Isometry3d& T_W_B) const;
+  // Takes the map's coarse changes: extends the changed region (navigation) and queues them for telemetry.
+  void CollectChanges();
 
   PerceptionOptions options_;
-  std::shared_ptr<const sim::World> world_;
-  sim::SimulatedLidar lidar_;
-  sim::SlamDrift slam_;
   std::shared_ptr<perception::OccupancyMap> map_;
   perception::StaircaseDetector detector_;
   perception::StaircaseRegistry registry_;
   perception::LocalCloud local_cloud_;
   perception::MapTelemetrySender sender_;
-  sim::LidarScan scan_;
   Eigen::Isometry3d T_W_B_estimate_ = Eigen::Isometry3d::Identity();
   std::optional<Eigen::Isometry3d> T_W_S_last_keyframe_;
-  double next_scan_s_ = 0, next_insert_s_ = 0, next_staircase_s_ = 0, next_telemetry_s_ = 0, next_camera_s_ = 0;
+  double next_insert_s_ = 0, next_staircase_s_ = 0, next_telemetry_s_ = 0, next_camera_s_ = 0;
+  std::mutex changed_mutex_;
+  std::set<std::pair<int, int>> changed_tiles_;
   std::uint32_t camera_seq_ = 0;
   PerceptionStats stats_;
 };

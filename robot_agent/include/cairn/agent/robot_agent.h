@@ -1,20 +1,25 @@
-// cairn_agent: one process per robot hosting the command interface, mode tree, mux, waypoint navigation and
-// the simulated platform, talking to basestations over Fast DDS (Sriganesh et al. 2024, Fig. 1).
+// cairn_agent: one process per robot hosting the command interface, mode tree, mux, navigation and
+// perception, talking to basestations over Fast DDS (Sriganesh et al. 2024, Fig. 1). The robot itself (a
+// hardware driver or the simulator) is reached only through core::PlatformIO.
 #pragma once
 
 #include <memory>
 
 #include "cairn/agent/agent_options.h"
+#include "cairn/core/platform_io.h"
 
 namespace cairn::agent {
 
-/// A running robot agent. Construction loads the world, the mode tree and creates the DDS entities (any
-/// failure throws with a clear message and leaves nothing behind); Run() drives the robot until shutdown.
+/// A running robot agent. Construction loads the mode tree, builds the empty navigation map at the platform's
+/// current pose and creates the DDS entities (any failure throws with a clear message and leaves nothing
+/// behind); Run() drives the robot until shutdown.
 class RobotAgent {
  public:
-  /// @throws std::invalid_argument / core::ConfigError / sim::WorldError / bt::TreeError / core::DdsError
-  ///         naming the field or file at fault.
-  explicit RobotAgent(const AgentOptions& options);
+  /// `platform` is the robot (not null); the agent commands it from its control thread and reads its sensors
+  /// from its perception thread.
+  /// @throws std::invalid_argument / core::ConfigError / bt::TreeError / core::DdsError naming the field or
+  ///         file at fault.
+  RobotAgent(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform);
   ~RobotAgent();
 
   /// Control loop at 50 Hz until core::ShutdownRequested(). The robot is stopped when it returns.

@@ -7,17 +7,13 @@
 #include <string>
 #include <vector>
 
+#include "cairn/core/kinematics.h"
 #include "cairn/sim/world.h"
 
 namespace cairn::sim {
 
-/// A planar pose on the floor of a world: position (metres, frame W) and heading (radians, about +z of W,
-/// 0 = facing +x).
-struct PlanarPose {
-  double x_m = 0.0;
-  double y_m = 0.0;
-  double yaw_rad = 0.0;
-};
+/// A planar pose on the floor of a world (position metres, frame W; heading radians about +z).
+using PlanarPose = core::PlanarPose;
 
 /// Description of one built-in world.
 struct BuiltinWorldInfo {

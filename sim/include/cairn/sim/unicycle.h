@@ -8,51 +8,17 @@
 #include <optional>
 #include <string>
 
+#include "cairn/core/kinematics.h"
+
 namespace cairn::sim {
 
-/// Terrain queries the simulated platform needs; implemented by cairn::nav::TraversabilityGrid.
-class FootprintChecker {
- public:
-  virtual ~FootprintChecker() = default;
-  /// True if a disk of `radius_m` (metres) centred at (x_m, y_m) (metres, frame W) touches no obstacle.
-  virtual bool IsFootprintFree(double x_m, double y_m, double radius_m) const = 0;
-  /// Height of the ground surface (metres, frame W) under (x_m, y_m), or nullopt if unknown.
-  virtual std::optional<double> GroundHeight(double x_m, double y_m) const = 0;
-};
-
-/// Velocity and acceleration limits of a unicycle platform. Defaults: a small wheeled robot.
-struct UnicycleLimits {
-  /// Largest forward speed, m/s, range (0, 20].
-  double max_speed_mps = 1.0;
-  /// Largest reverse speed (a magnitude), m/s, range [0, 20].
-  double max_reverse_speed_mps = 0.5;
-  /// Largest change of forward speed, m/s^2, range (0, 50].
-  double max_accel_mps2 = 1.0;
-  /// Largest yaw rate (a magnitude), rad/s, range (0, 20].
-  double max_yaw_rate_radps = 1.5;
-  /// Largest change of yaw rate, rad/s^2, range (0, 100].
-  double max_yaw_accel_radps2 = 3.0;
-
-  /// True when every field is finite and in range; otherwise false and, if `why` is not null, a message
-  /// naming the field, its value and the rule.
-  bool IsValid(std::string* why) const;
-
-  /// Preset of a wheeled robot (the defaults above).
-  static UnicycleLimits Wheeled();
-  /// Preset of a legged robot walking like a unicycle: slower, turns in place (0.6 m/s forward, 0.3 m/s
-  /// reverse, 0.6 m/s^2, 1.0 rad/s, 2.0 rad/s^2).
-  static UnicycleLimits Legged();
-};
-
-/// State of a unicycle: pose in the world frame W and body-frame velocities.
-struct UnicycleState {
-  double x_m = 0.0;      ///< Position x, metres, frame W.
-  double y_m = 0.0;      ///< Position y, metres, frame W.
-  double z_m = 0.0;      ///< Height of the base on the ground, metres, frame W (follows the ground).
-  double yaw_rad = 0.0;  ///< Heading about +z of W, radians, wrapped to (-pi, pi].
-  double v_mps = 0.0;    ///< Forward speed (body x), m/s.
-  double w_radps = 0.0;  ///< Yaw rate, rad/s.
-};
+/// Terrain queries the simulated platform moves on (implemented by cairn::nav::TraversabilityGrid).
+using FootprintChecker = core::FootprintChecker;
+/// Velocity and acceleration limits of the simulated base (the platform's limits, core::VelocityLimits).
+using UnicycleLimits = core::VelocityLimits;
+/// State of a unicycle: true pose in the world frame W and body-frame velocities.
+using UnicycleState = core::BaseState;
+using core::WrapAngle;
 
 /// What happened in one Unicycle::Step().
 struct UnicycleStepResult {
@@ -95,8 +61,5 @@ class Unicycle {
   double footprint_radius_m_;
   UnicycleState state_;
 };
-
-/// Wraps an angle to (-pi, pi], radians.
-double WrapAngle(double angle_rad);
 
 }  // namespace cairn::sim

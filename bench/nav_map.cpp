@@ -1,0 +1,99 @@
+// Bench: the navigation map on the robot's own OctoMap (issue 11). A simulated wheeled robot drives the
+// tunnels' main corridor (4,20) -> (26,20) at 1 m/s scanning at 10 Hz; every second the map's changed tiles are
+// applied incrementally (NavMap::Update). Baseline, in the same run on the same voxels: a full rebuild of the
+// traversability grid. Then plan time on the robot's own map against the ground-truth planner (the planner
+// before issue 11, on the simulator's world) for the same goals.
+//
+//   build/bench/cairn_bench_nav_map
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <vector>
+
+#include "cairn/agent/nav_map.h"
+#include "cairn/agent/perception_pipeline.h"
+#include "cairn/nav/global_planner.h"
+#include "cairn/sim/simulated_platform.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double MsSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+}  // namespace
+
+int main() {
+  using namespace cairn;
+  const nav::PlatformProfile profile = nav::GetPlatformProfile("wheeled");
+  sim::SimulatedPlatformOptions sim_options;
+  sim_options.world = "builtin:tunnels";
+  sim_options.start_W = core::PlanarPose{4.0, 20.0, 0.0};
+  sim_options.SetProfile(profile);
+  sim::SimulatedPlatform platform(sim_options);
+  platform.Update(0.0);
+  const core::BaseState start_M = platform.ReadPose().PlanarState();
+
+  agent::PerceptionOptions perception_options;
+  perception_options.camera_rate_hz = 0;
+  agent::PerceptionPipeline perception(perception_options, "r1");
+  agent::NavMapOptions map_options;
+  auto planner = agent::NavMap::MakePlanner(map_options, perception_options.map.resolution_m, start_M, {profile});
+  agent::NavMap nav_map(map_options, perception_options.map.resolution_m, start_M, planner, "wheeled");
+
+  std::vector<double> incremental_ms, full_ms, tiles;
+  for (int k = 1; k <= 220; ++k) {
+    const double now_s = 0.1 * k;
+    sim::UnicycleState s = platform.TrueState();
+    s.x_m = 4.0 + 0.1 * k;
+    platform.SetTrueState(s);
+    platform.Update(now_s);
+    core::LidarScan scan;
+    if (platform.ReadLidarScan(now_s, &scan)) perception.Tick(now_s, &scan, nullptr);
+    if (k % 10 != 0) continue;
+    const agent::NavMapUpdateStats stats =
+        nav_map.Update(*perception.map(), perception.TakeChangedTiles(), perception.change_tile_m());
+    if (!stats.applied) continue;
+    incremental_ms.push_back(stats.read_ms + stats.traversability_ms);
+    tiles.push_back(stats.tiles);
+    const auto t = Clock::now();
+    const nav::TraversabilityGrid full(nav_map.voxels(), planner->TerrainOptionsFor(profile));
+    full_ms.push_back(MsSince(t));
+  }
+  std::printf("nav map update (80 x 80 m extent, 0.1 m, %zu updates at 1 Hz, median %.0f changed 2 m tiles):\n",
+              incremental_ms.size(), Median(tiles));
+  std::printf("  incremental (read tiles + re-analyse)  median %7.1f ms  max %7.1f ms\n", Median(incremental_ms),
+              *std::max_element(incremental_ms.begin(), incremental_ms.end()));
+  std::printf("  full rebuild (baseline)                median %7.1f ms  max %7.1f ms\n", Median(full_ms),
+              *std::max_element(full_ms.begin(), full_ms.end()));
+  std::printf("  ratio full / incremental (median)      %7.1fx\n", Median(full_ms) / Median(incremental_ms));
+
+  // Plan time: the robot's own map (after the drive) against the ground-truth planner on the world.
+  auto truth_planner = std::make_shared<nav::GlobalPlanner>(platform.world(), std::vector<nav::PlatformProfile>{profile});
+  const core::BaseState here = platform.ReadPose().PlanarState();
+  const std::vector<Eigen::Vector2d> goals = {{30, 12}, {30, 30}, {40, 5}, {20, 35}, {14, 20}};
+  std::vector<double> own_ms, truth_ms;
+  int own_ok = 0, truth_ok = 0;
+  truth_planner->Grid("wheeled");  // built once, outside the timing, as the agent's map is
+  for (const auto& goal : goals) {
+    nav::GlobalPlanRequest request;
+    request.start_W = {here.x_m, here.y_m};
+    request.goal_W = goal;
+    request.start_is_robot = true;
+    auto t = Clock::now();
+    own_ok += planner->Plan(request).IsUsable();
+    own_ms.push_back(MsSince(t));
+    t = Clock::now();
+    truth_ok += truth_planner->Plan(request).IsUsable();
+    truth_ms.push_back(MsSince(t));
+  }
+  std::printf("plan time from (%.1f, %.1f) to %zu goals: own map median %.1f ms (%d planned), ground truth median "
+              "%.1f ms (%d planned), ratio own / truth %.2f\n",
+              here.x_m, here.y_m, goals.size(), Median(own_ms), own_ok, Median(truth_ms), truth_ok,
+              Median(own_ms) / Median(truth_ms));
+  return 0;
+}

@@ -1,0 +1,103 @@
+// Copyright Cairn authors.
+#include "cairn/nav/scan_obstacles.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace cairn::nav {
+namespace {
+
+bool Check(const char* field, double value, double lo, bool lo_open, double hi, std::ostringstream* msg) {
+  const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
+  if (!ok) {
+    *msg << "ScanObstacleOptions::" << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo
+         << ", " << hi << "]";
+  }
+  return ok;
+}
+
+}  // namespace
+
+bool ScanObstacleOptions::IsValid(std::string* why) const {
+  std::ostringstream msg;
+  const bool ok = Check("cell_size_m", cell_size_m, 0.02, false, 1.0, &msg) &&
+                  Check("range_m", range_m, 0.0, true, 30.0, &msg) &&
+                  Check("max_step_m", max_step_m, 0.0, false, 2.0, &msg) &&
+                  Check("robot_height_m", robot_height_m, 0.0, true, 10.0, &msg) &&
+                  Check("depth_below_m", depth_below_m, 0.0, true, 10.0, &msg);
+  if (!ok && why != nullptr) *why = msg.str();
+  return ok;
+}
+
+ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points_M, const core::BaseState& pose_M,
+                                      const ScanObstacleOptions& options, std::vector<Eigen::Vector3f>* points_B) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  if (points_B == nullptr) throw std::invalid_argument("ObstaclesFromPoints: points_B is null");
+  points_B->clear();
+  ScanObstacleStats stats;
+  if (!std::isfinite(pose_M.x_m) || !std::isfinite(pose_M.y_m) || !std::isfinite(pose_M.z_m) ||
+      !std::isfinite(pose_M.yaw_rad)) {
+    return stats;
+  }
+  // A square grid of n x n cells centred on the robot, in frame M's axes.
+  const double c = options.cell_size_m;
+  const int half = static_cast<int>(std::ceil(options.range_m / c));
+  const int n = 2 * half + 1;
+  const double x0 = pose_M.x_m - (half + 0.5) * c;
+  const double y0 = pose_M.y_m - (half + 0.5) * c;
+  constexpr float kNone = std::numeric_limits<float>::infinity();
+  std::vector<float> low(static_cast<std::size_t>(n) * n, kNone);
+  std::vector<float> high(low.size(), -kNone);
+  const double z_lo = pose_M.z_m - options.depth_below_m;
+  const double z_hi = pose_M.z_m + options.robot_height_m;
+  const double r2 = options.range_m * options.range_m;
+  for (const Eigen::Vector3f& p : points_M) {
+    if (!p.allFinite() || p.z() < z_lo || p.z() > z_hi) continue;
+    const double dx = p.x() - pose_M.x_m;
+    const double dy = p.y() - pose_M.y_m;
+    if (dx * dx + dy * dy > r2) continue;
+    const int ix = static_cast<int>(std::floor((p.x() - x0) / c));
+    const int iy = static_cast<int>(std::floor((p.y() - y0) / c));
+    if (ix < 0 || iy < 0 || ix >= n || iy >= n) continue;
+    const std::size_t i = static_cast<std::size_t>(ix) + static_cast<std::size_t>(n) * iy;
+    low[i] = std::min(low[i], p.z());
+    high[i] = std::max(high[i], p.z());
+    ++stats.points_used;
+  }
+  const float step = static_cast<float>(options.max_step_m) + 1e-4f;
+  const double cos_yaw = std::cos(pose_M.yaw_rad);
+  const double sin_yaw = std::sin(pose_M.yaw_rad);
+  for (int iy = 0; iy < n; ++iy) {
+    for (int ix = 0; ix < n; ++ix) {
+      const std::size_t i = static_cast<std::size_t>(ix) + static_cast<std::size_t>(n) * iy;
+      if (low[i] == kNone) continue;
+      ++stats.cells_observed;
+      bool lethal = high[i] - low[i] > step;
+      for (int dy = -1; dy <= 1 && !lethal; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int jx = ix + dx;
+          const int jy = iy + dy;
+          if ((dx == 0 && dy == 0) || jx < 0 || jy < 0 || jx >= n || jy >= n) continue;
+          const std::size_t j = static_cast<std::size_t>(jx) + static_cast<std::size_t>(n) * jy;
+          if (low[j] != kNone && low[i] - low[j] > step) {
+            lethal = true;
+            break;
+          }
+        }
+      }
+      if (!lethal) continue;
+      ++stats.cells_lethal;
+      const double dx = x0 + (ix + 0.5) * c - pose_M.x_m;
+      const double dy = y0 + (iy + 0.5) * c - pose_M.y_m;
+      points_B->emplace_back(static_cast<float>(cos_yaw * dx + sin_yaw * dy),
+                             static_cast<float>(-sin_yaw * dx + cos_yaw * dy), 0.0f);
+    }
+  }
+  return stats;
+}
+
+}  // namespace cairn::nav

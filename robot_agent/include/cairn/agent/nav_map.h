@@ -1,0 +1,93 @@
+// The robot's navigation map: the global planner's view of the robot's own OctoMap (Sriganesh et al. 2024,
+// § Navigation Layer: planning on the local map fed by SLAM). A dense voxel copy of the OctoMap's occupied
+// voxels over a fixed extent around the start, and the robot platform's traversability grid on it, both
+// updated only where the map changed, then handed to the planner as a new map version. Unknown space is
+// traversable (optimistic planning): a goal the robot has not seen is accepted and the path is replanned as
+// the map shows walls. DDS-free; the agent runs Update() on its own thread, never on the control thread.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cairn/core/kinematics.h"
+#include "cairn/core/voxel_grid.h"
+#include "cairn/nav/global_planner.h"
+#include "cairn/nav/traversability.h"
+#include "cairn/perception/occupancy_map.h"
+
+namespace cairn::agent {
+
+/// Options of NavMap (config section `navigation`: map_half_extent_m, map_update_period_s).
+struct NavMapOptions {
+  /// The map spans start +- this along x and y, metres, [5, 200]. Goals outside are refused.
+  double half_extent_m = 40.0;
+  /// ...and from this far below the start's ground to this far above it, metres, [0.5, 50] each.
+  double below_m = 3.0;
+  double above_m = 7.0;
+  /// Ground surfaces are searched from this far below to this far above the start's ground, metres: the
+  /// band holds the floor the robot drives on (and stairs within it), not the ceiling. [0.1, 10] each.
+  double ground_band_below_m = 1.0;
+  double ground_band_above_m = 1.5;
+  /// How often the changed region is applied, seconds, [0.1, 10] (the issue asks for at least 1 Hz).
+  double update_period_s = 1.0;
+
+  /// @return false and sets `*why` (field prefixed "navigation.", value, rule) when a field is invalid.
+  bool IsValid(std::string* why) const;
+};
+
+/// What one NavMap::Update() did, for logs and PERFORMANCE.md.
+struct NavMapUpdateStats {
+  bool applied = false;              ///< False when no tile was inside the extent.
+  int tiles = 0;                     ///< Changed tiles applied.
+  Eigen::AlignedBox2d region_M;      ///< Their bounding box (clamped to the extent), metres, map frame.
+  std::int64_t occupied_voxels = 0;  ///< Occupied map voxels read in the region.
+  double read_ms = 0;                ///< Reading the OctoMap region into the voxel grid.
+  double traversability_ms = 0;      ///< Re-analysing the affected cells.
+  double publish_ms = 0;             ///< Copying the snapshot to the planner.
+  std::uint64_t map_version = 0;     ///< Planner map version after the update.
+};
+
+/// See the file comment. Not thread-safe: one thread calls Update(); the planner it feeds is thread-safe.
+class NavMap {
+ public:
+  /// The extent is centred on `start_M` (map frame) with voxels of `resolution_m` aligned to the OctoMap's
+  /// (multiples of the resolution). The planner must be built with Reading() and must serve `platform`.
+  /// Builds the empty map's grid and hands it to the planner (map version 1).
+  /// @throws std::invalid_argument for invalid options or an unknown platform.
+  NavMap(const NavMapOptions& options, double resolution_m, const core::BaseState& start_M,
+         std::shared_ptr<nav::GlobalPlanner> planner, const std::string& platform);
+
+  /// How the planner must read this map: the start's ground as reference, the ground band, unknown space
+  /// traversable.
+  static nav::MapReading Reading(const NavMapOptions& options, const core::BaseState& start_M);
+
+  /// A planner on the empty map of the extent, reading it with Reading(), serving `profiles` (at least one).
+  static std::shared_ptr<nav::GlobalPlanner> MakePlanner(const NavMapOptions& options, double resolution_m,
+                                                         const core::BaseState& start_M,
+                                                         std::vector<nav::PlatformProfile> profiles);
+
+  /// An empty voxel grid of the extent (for the planner's construction).
+  static std::shared_ptr<const core::VoxelGrid> EmptyGrid(const NavMapOptions& options, double resolution_m,
+                                                          const core::BaseState& start_M);
+
+  /// Re-reads the x-y tiles `tiles` (tile (i, j) covers [i * tile_m, (i + 1) * tile_m) x [j * tile_m, ...),
+  /// metres, map frame, every height of the extent; e.g. PerceptionPipeline::TakeChangedTiles()) from `map`,
+  /// re-analyses the affected traversability cells and gives the planner the new map. Tiles outside the
+  /// extent are ignored.
+  NavMapUpdateStats Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& tiles,
+                           double tile_m);
+
+  const core::VoxelGrid& voxels() const { return voxels_; }
+  const nav::TraversabilityGrid& grid() const { return *grid_; }
+
+ private:
+  NavMapOptions options_;
+  std::shared_ptr<nav::GlobalPlanner> planner_;
+  std::string platform_;
+  core::VoxelGrid voxels_;
+  std::unique_ptr<nav::TraversabilityGrid> grid_;
+};
+
+}  // namespace cairn::agent

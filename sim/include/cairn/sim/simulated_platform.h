@@ -1,0 +1,119 @@
+// Copyright Cairn authors.
+//
+// The simulated robot behind core::PlatformIO: a unicycle base moving on the ground truth of a World, a
+// spinning lidar and a camera rendered from the true pose, and a SLAM estimate that drifts with motion. The
+// autonomy gets only what PlatformIO gives (estimated pose, registered scans, frames); the truth is reachable
+// through TrueState() and world() for tests and benches that score results, never for the agent.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "cairn/core/platform_io.h"
+#include "cairn/nav/platform.h"
+#include "cairn/nav/traversability.h"
+#include "cairn/sim/builtin_worlds.h"
+#include "cairn/sim/camera.h"
+#include "cairn/sim/lidar.h"
+#include "cairn/sim/slam_drift.h"
+#include "cairn/sim/unicycle.h"
+#include "cairn/sim/world.h"
+
+namespace cairn::sim {
+
+/// Options of SimulatedPlatform (cairn_agent: --world, --start, --pcd-resolution and the config file's
+/// `simulation` section). Defaults are valid.
+struct SimulatedPlatformOptions {
+  /// World spec: builtin:NAME, a .bt/.ot or a .pcd path (see LoadWorld()).
+  std::string world = "builtin:tunnels";
+  /// Voxel edge for .pcd worlds, metres, [0.02, 2].
+  double pcd_resolution_m = 0.1;
+  /// Start pose (m, m, rad), frame W; must be free ground.
+  std::optional<PlanarPose> start_W;
+  /// Start slot K (when no start_W): the K-th suggested start of a builtin world, else the K-th of a fixed
+  /// seeded sample of free starts >= 2 m apart. None = a free cell chosen from `start_key`.
+  std::optional<int> start_slot;
+  /// Picks the start when neither start_W nor start_slot is given (the robot id), and seeds the sensors.
+  std::string start_key = "robot";
+  /// Base limits and footprint (the platform profile's).
+  core::VelocityLimits limits;
+  double footprint_radius_m = 0.3;
+  /// Ground truth terrain for the physics: step height, body height (the platform profile's traversability
+  /// with robot_radius_m unused).
+  nav::TraversabilityOptions terrain;
+  /// Lidar: VLP-16-like, 10 Hz.
+  LidarOptions lidar;
+  /// Lidar (and camera) height above the ground under the robot, metres, [0, 3].
+  double lidar_height_m = 0.5;
+  /// SLAM drift of the pose estimate.
+  SlamDriftOptions slam;
+  /// Camera intrinsics (320 x 240, 90 deg).
+  CameraOptions camera;
+  /// Largest physics step, seconds, (0, 0.1]; Update() sub-steps longer intervals.
+  double physics_step_s = 0.02;
+  /// A base that got no command for this long stops (driver watchdog), seconds, (0, 10].
+  double command_timeout_s = 0.25;
+
+  /// Takes the base limits, footprint and terrain (step height, body height) of a navigation profile.
+  void SetProfile(const nav::PlatformProfile& profile);
+  /// @return false and sets `*why` (field prefixed "simulation.", value, rule) when a field is invalid.
+  bool IsValid(std::string* why) const;
+  /// Reads the `simulation` section of a YAML config file (other sections are ignored). Throws
+  /// std::invalid_argument naming the file, field and value.
+  void LoadConfigFile(const std::string& path);
+};
+
+/// A simulated robot. Thread-safe as core::PlatformIO requires (one mutex).
+class SimulatedPlatform : public core::PlatformIO {
+ public:
+  /// Loads the world and places the robot. Throws WorldError for a bad world, std::invalid_argument for bad
+  /// options or a start that is not free ground (naming the start and the world).
+  explicit SimulatedPlatform(const SimulatedPlatformOptions& options);
+
+  core::PlatformCapabilities Capabilities() const override;
+  void Update(double now_s) override;
+  core::PoseEstimate ReadPose() const override;
+  core::PlatformStatus ReadStatus() const override;
+  bool ReadLidarScan(double now_s, core::LidarScan* scan) override;
+  bool ReadCameraImage(double now_s, core::CameraImage* image) override;
+  void CommandTwist(double linear_x_mps, double angular_z_radps, double now_s) override;
+
+  /// Ground truth, for tests and benches only: the base's true state (frame W).
+  UnicycleState TrueState() const;
+  /// Teleports the base (tests); the SLAM drift keeps its current offset.
+  void SetTrueState(const UnicycleState& state);
+  /// The simulated world (ground truth).
+  std::shared_ptr<const World> world() const;
+  /// Ground-truth traversability the base moves on.
+  std::shared_ptr<const nav::TraversabilityGrid> terrain() const;
+  /// Distance the base travelled, metres, and the SLAM position error now, metres (truth vs estimate).
+  double distance_travelled_m() const;
+  double slam_error_m() const;
+  const SimulatedPlatformOptions& options() const { return options_; }
+
+ private:
+  Eigen::Isometry3d TrueBodyPose() const;  // with mutex_ held
+  Eigen::Isometry3d SensorOnBody() const;
+
+  SimulatedPlatformOptions options_;
+  std::shared_ptr<const World> world_;
+  std::shared_ptr<const nav::TraversabilityGrid> terrain_;
+  mutable std::mutex mutex_;  // base, SLAM, command and status below
+  Unicycle base_;
+  SlamDrift slam_;
+  Eigen::Isometry3d T_MB_estimate_ = Eigen::Isometry3d::Identity();
+  double last_update_s_ = -1.0;
+  double command_v_mps_ = 0.0, command_w_radps_ = 0.0, command_time_s_ = -1e9;
+  bool in_contact_ = false;
+  std::mutex lidar_mutex_;  // the lidar and its schedule (perception thread)
+  SimulatedLidar lidar_;
+  LidarScan lidar_scan_;
+  std::uint64_t lidar_seq_ = 0;
+  double next_scan_s_ = 0.0;
+  std::uint32_t camera_seq_ = 0;
+};
+
+}  // namespace cairn::sim

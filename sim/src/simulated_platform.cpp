@@ -1,0 +1,295 @@
+// Copyright Cairn authors.
+#include "cairn/sim/simulated_platform.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <sstream>
+#include <stdexcept>
+
+#include "cairn/core/config.h"
+#include "cairn/nav/sampling.h"
+
+namespace cairn::sim {
+namespace {
+
+bool InRange(const char* field, double value, double lo, double hi, bool lo_open, std::string* why) {
+  const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
+  if (!ok && why != nullptr) {
+    std::ostringstream out;
+    out << "simulation." << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo << ", " << hi
+        << "]";
+    *why = out.str();
+  }
+  return ok;
+}
+
+std::string Format2(double a, double b) {
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.2f,%.2f", a, b);
+  return text;
+}
+
+std::shared_ptr<const World> LoadChecked(const SimulatedPlatformOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  WorldLoadOptions w;
+  w.pcd_resolution_m = options.pcd_resolution_m;
+  return std::make_shared<const World>(LoadWorld(options.world, w));
+}
+
+nav::TraversabilityOptions TerrainOptions(const SimulatedPlatformOptions& options) {
+  nav::TraversabilityOptions t = options.terrain;
+  t.robot_radius_m = options.footprint_radius_m;
+  return t;
+}
+
+// Start pose: given, or chosen deterministically among free cells of the ground truth.
+PlanarPose ChooseStart(const SimulatedPlatformOptions& options, const nav::TraversabilityGrid& terrain) {
+  if (options.start_W) {
+    const PlanarPose start = *options.start_W;
+    if (!terrain.IsFootprintFree(start.x_m, start.y_m, options.footprint_radius_m) ||
+        !terrain.GroundHeight(start.x_m, start.y_m)) {
+      throw std::invalid_argument("--start " + Format2(start.x_m, start.y_m) + " is not free ground in world " +
+                                  options.world + " (occupied, outside the map, or no floor there)");
+    }
+    return start;
+  }
+  if (options.start_slot) {
+    const int k = *options.start_slot;
+    if (options.world.rfind("builtin:", 0) == 0) {
+      const auto& starts = GetBuiltinWorldInfo(options.world.substr(8)).suggested_starts;
+      return starts[static_cast<std::size_t>(k) % starts.size()];
+    }
+    const auto starts = nav::SampleFreeStarts(terrain, k + 1, 2.0, /*seed=*/7);
+    if (static_cast<int>(starts.size()) <= k) {
+      throw std::invalid_argument("--start slot:" + std::to_string(k) + ": world " + options.world + " has only " +
+                                  std::to_string(starts.size()) + " free starts 2 m apart");
+    }
+    return PlanarPose{starts[static_cast<std::size_t>(k)].x(), starts[static_cast<std::size_t>(k)].y(), 0.0};
+  }
+  const auto starts =
+      nav::SampleFreeStarts(terrain, 1, 1.0, static_cast<std::uint32_t>(std::hash<std::string>{}(options.start_key)));
+  if (starts.empty()) throw std::invalid_argument("world " + options.world + " has no free start cell");
+  return PlanarPose{starts.front().x(), starts.front().y(), 0.0};
+}
+
+std::uint32_t SeedOf(const std::string& key) { return static_cast<std::uint32_t>(std::hash<std::string>{}(key)); }
+
+}  // namespace
+
+void SimulatedPlatformOptions::SetProfile(const nav::PlatformProfile& profile) {
+  limits = profile.limits;
+  footprint_radius_m = profile.footprint_radius_m;
+  terrain = profile.traversability;
+}
+
+bool SimulatedPlatformOptions::IsValid(std::string* why) const {
+  std::string inner;
+  auto fail = [&](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (!limits.IsValid(&inner)) return fail("simulation: " + inner);
+  if (!terrain.IsValid(&inner)) return fail("simulation: " + inner);
+  if (!lidar.IsValid(&inner)) return fail("simulation.lidar: " + inner);
+  if (!slam.IsValid(&inner)) return fail("simulation.slam: " + inner);
+  if (!camera.IsValid(&inner)) return fail("simulation.camera: " + inner);
+  if (start_slot && (*start_slot < 0 || *start_slot > 99)) {
+    return fail("--start slot:" + std::to_string(*start_slot) + " must be in [0, 99]");
+  }
+  if (start_W && !(std::isfinite(start_W->x_m) && std::isfinite(start_W->y_m) && std::isfinite(start_W->yaw_rad))) {
+    return fail("--start must be finite");
+  }
+  return InRange("pcd_resolution_m", pcd_resolution_m, 0.02, 2.0, false, why) &&
+         InRange("footprint_radius_m", footprint_radius_m, 0.0, 2.0, true, why) &&
+         InRange("lidar_height_m", lidar_height_m, 0.0, 3.0, false, why) &&
+         InRange("physics_step_s", physics_step_s, 0.0, 0.1, true, why) &&
+         InRange("command_timeout_s", command_timeout_s, 0.0, 10.0, true, why);
+}
+
+void SimulatedPlatformOptions::LoadConfigFile(const std::string& path) {
+  try {
+    const auto config = core::ConfigSection::LoadFile(path);
+    const auto s = config.Section("simulation");
+    s.RejectUnknownKeys({"lidar_rate_hz", "lidar_beams", "lidar_points_per_beam", "lidar_max_range_m",
+                         "lidar_range_noise_m", "lidar_height_m", "slam_position_drift_per_sqrt_m",
+                         "slam_yaw_drift_rad_per_sqrt_m", "camera_width_px", "camera_height_px",
+                         "command_timeout_s"});
+    s.ReadDouble("lidar_rate_hz", &lidar.rate_hz);
+    s.ReadInt("lidar_beams", &lidar.num_beams);
+    s.ReadInt("lidar_points_per_beam", &lidar.points_per_beam);
+    s.ReadDouble("lidar_max_range_m", &lidar.max_range_m);
+    s.ReadDouble("lidar_range_noise_m", &lidar.range_noise_stddev_m);
+    s.ReadDouble("lidar_height_m", &lidar_height_m);
+    s.ReadDouble("slam_position_drift_per_sqrt_m", &slam.position_drift_per_sqrt_m);
+    s.ReadDouble("slam_yaw_drift_rad_per_sqrt_m", &slam.yaw_drift_rad_per_sqrt_m);
+    s.ReadInt("camera_width_px", &camera.width_px);
+    s.ReadInt("camera_height_px", &camera.height_px);
+    s.ReadDouble("command_timeout_s", &command_timeout_s);
+  } catch (const core::ConfigError& e) {
+    throw std::invalid_argument(e.what());
+  }
+  std::string why;
+  if (!IsValid(&why)) throw std::invalid_argument(path + ": " + why);
+}
+
+SimulatedPlatform::SimulatedPlatform(const SimulatedPlatformOptions& options)
+    : options_(options),
+      world_(LoadChecked(options)),
+      terrain_(std::make_shared<const nav::TraversabilityGrid>(*world_, TerrainOptions(options))),
+      base_(options.limits, options.footprint_radius_m),
+      slam_(options.slam, SeedOf(options.start_key) + 1),
+      lidar_(options.lidar, SeedOf(options.start_key)) {
+  const PlanarPose start = ChooseStart(options_, *terrain_);
+  UnicycleState state;
+  state.x_m = start.x_m;
+  state.y_m = start.y_m;
+  state.yaw_rad = start.yaw_rad;
+  state.z_m = terrain_->GroundHeight(start.x_m, start.y_m).value_or(0.0);
+  base_.set_state(state);
+  T_MB_estimate_ = slam_.Update(TrueBodyPose());  // the map frame starts at the true start pose's frame W
+}
+
+Eigen::Isometry3d SimulatedPlatform::TrueBodyPose() const {
+  const UnicycleState& s = base_.state();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(s.x_m, s.y_m, s.z_m);
+  T.linear() = Eigen::AngleAxisd(s.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return T;
+}
+
+Eigen::Isometry3d SimulatedPlatform::SensorOnBody() const {
+  Eigen::Isometry3d T_BS = Eigen::Isometry3d::Identity();
+  T_BS.translation().z() = options_.lidar_height_m;
+  return T_BS;
+}
+
+core::PlatformCapabilities SimulatedPlatform::Capabilities() const {
+  core::PlatformCapabilities c;
+  c.driver = "sim";
+  c.description = options_.world;
+  c.limits = options_.limits;
+  c.footprint_radius_m = options_.footprint_radius_m;
+  c.has_lidar = true;
+  c.lidar_rate_hz = options_.lidar.rate_hz;
+  c.has_camera = true;
+  return c;
+}
+
+void SimulatedPlatform::Update(double now_s) {
+  std::lock_guard<std::mutex> guard(mutex_);
+  if (last_update_s_ < 0.0 || !(now_s > last_update_s_)) {
+    last_update_s_ = std::max(last_update_s_, now_s);
+    return;
+  }
+  // A late call integrates the whole interval (the real base kept moving), capped at 0.5 s.
+  double remaining_s = std::min(now_s - last_update_s_, 0.5);
+  last_update_s_ = now_s;
+  const bool fresh = now_s - command_time_s_ <= options_.command_timeout_s;
+  const double v = fresh ? command_v_mps_ : 0.0;
+  const double w = fresh ? command_w_radps_ : 0.0;
+  bool contact = false;
+  while (remaining_s > 1e-9) {
+    const double dt_s = std::min(remaining_s, options_.physics_step_s);
+    remaining_s -= dt_s;
+    contact = base_.Step(v, w, dt_s, *terrain_).contact || contact;
+  }
+  in_contact_ = contact;
+  T_MB_estimate_ = slam_.Update(TrueBodyPose());
+}
+
+core::PoseEstimate SimulatedPlatform::ReadPose() const {
+  std::lock_guard<std::mutex> guard(mutex_);
+  core::PoseEstimate p;
+  p.stamp_s = std::max(last_update_s_, 0.0);
+  p.T_MB = T_MB_estimate_;
+  p.v_mps = base_.state().v_mps;
+  p.w_radps = base_.state().w_radps;
+  p.healthy = true;
+  return p;
+}
+
+core::PlatformStatus SimulatedPlatform::ReadStatus() const {
+  std::lock_guard<std::mutex> guard(mutex_);
+  core::PlatformStatus s;
+  s.in_contact = in_contact_;
+  return s;
+}
+
+bool SimulatedPlatform::ReadLidarScan(double now_s, core::LidarScan* scan) {
+  if (scan == nullptr) throw std::invalid_argument("SimulatedPlatform::ReadLidarScan: scan is null");
+  std::lock_guard<std::mutex> lidar_guard(lidar_mutex_);
+  if (now_s < next_scan_s_) return false;
+  next_scan_s_ = std::max(next_scan_s_ + 1.0 / options_.lidar.rate_hz, now_s);  // no catch-up bursts
+  Eigen::Isometry3d T_WB_true;
+  Eigen::Isometry3d T_MB;
+  {
+    std::lock_guard<std::mutex> guard(mutex_);
+    T_WB_true = TrueBodyPose();
+    T_MB = T_MB_estimate_;
+  }
+  const Eigen::Isometry3d T_BS = SensorOnBody();
+  lidar_.Scan(*world_, T_WB_true * T_BS, &lidar_scan_);  // sensed from where the robot is...
+  scan->stamp_s = now_s;
+  scan->seq = ++lidar_seq_;
+  scan->points_S = lidar_scan_.points_S;
+  scan->T_BS = T_BS;
+  scan->T_MS = T_MB * T_BS;  // ...and registered where SLAM says it is
+  return true;
+}
+
+bool SimulatedPlatform::ReadCameraImage(double now_s, core::CameraImage* image) {
+  if (image == nullptr) throw std::invalid_argument("SimulatedPlatform::ReadCameraImage: image is null");
+  Eigen::Isometry3d T_WB_true;
+  Eigen::Isometry3d T_MB;
+  {
+    std::lock_guard<std::mutex> guard(mutex_);
+    T_WB_true = TrueBodyPose();
+    T_MB = T_MB_estimate_;
+  }
+  const Eigen::Isometry3d T_BC = SensorOnBody();
+  GrayImage gray;
+  RenderShadedDepth(*world_, T_WB_true * T_BC, options_.camera, &gray);
+  image->stamp_s = now_s;
+  image->seq = ++camera_seq_;
+  image->width_px = gray.width_px;
+  image->height_px = gray.height_px;
+  image->pixels = std::move(gray.pixels);
+  image->T_MC = T_MB * T_BC;
+  return true;
+}
+
+void SimulatedPlatform::CommandTwist(double linear_x_mps, double angular_z_radps, double now_s) {
+  std::lock_guard<std::mutex> guard(mutex_);
+  // Non-finite components become 0 in the base (Unicycle::Step), so a bad command never moves the robot.
+  command_v_mps_ = linear_x_mps;
+  command_w_radps_ = angular_z_radps;
+  command_time_s_ = now_s;
+}
+
+UnicycleState SimulatedPlatform::TrueState() const {
+  std::lock_guard<std::mutex> guard(mutex_);
+  return base_.state();
+}
+
+void SimulatedPlatform::SetTrueState(const UnicycleState& state) {
+  std::lock_guard<std::mutex> guard(mutex_);
+  base_.set_state(state);
+}
+
+std::shared_ptr<const World> SimulatedPlatform::world() const { return world_; }
+std::shared_ptr<const nav::TraversabilityGrid> SimulatedPlatform::terrain() const { return terrain_; }
+
+double SimulatedPlatform::distance_travelled_m() const {
+  std::lock_guard<std::mutex> guard(mutex_);
+  return slam_.distance_travelled_m();
+}
+
+double SimulatedPlatform::slam_error_m() const {
+  std::lock_guard<std::mutex> guard(mutex_);
+  return (T_MB_estimate_.translation() - TrueBodyPose().translation()).norm();
+}
+
+}  // namespace cairn::sim

@@ -1,0 +1,29 @@
+# Test (cmake -P): no source of the robot's autonomy includes a simulator header. Run by ctest as
+# cairn_layering_test with -DSOURCE_DIR=<repo>. Directories checked: nav/ and perception/ (libraries, not their
+# tests), and the autonomy sources of robot_agent/ (everything but the simulated-platform driver choice in
+# main.cpp). Fails naming each file and line.
+if(NOT SOURCE_DIR)
+  message(FATAL_ERROR "layering_check.cmake: pass -DSOURCE_DIR=<repository root>")
+endif()
+file(GLOB_RECURSE sources
+     "${SOURCE_DIR}/nav/include/*.h" "${SOURCE_DIR}/nav/src/*.cpp" "${SOURCE_DIR}/nav/src/*.h"
+     "${SOURCE_DIR}/perception/include/*.h" "${SOURCE_DIR}/perception/src/*.cpp" "${SOURCE_DIR}/perception/src/*.h"
+     "${SOURCE_DIR}/robot_agent/include/*.h" "${SOURCE_DIR}/robot_agent/src/*.cpp" "${SOURCE_DIR}/robot_agent/src/*.h")
+list(FILTER sources EXCLUDE REGEX "/robot_agent/src/main\\.cpp$")
+if(NOT sources)
+  message(FATAL_ERROR "layering_check.cmake: no sources found under ${SOURCE_DIR}")
+endif()
+set(violations "")
+foreach(file IN LISTS sources)
+  file(STRINGS "${file}" lines REGEX "^[ \t]*#[ \t]*include[ \t]*[\"<]cairn/sim/")
+  foreach(line IN LISTS lines)
+    file(RELATIVE_PATH rel "${SOURCE_DIR}" "${file}")
+    string(APPEND violations "\n  ${rel}: ${line}")
+  endforeach()
+endforeach()
+list(LENGTH sources n)
+if(violations)
+  message(FATAL_ERROR "the autonomy includes simulator headers (use cairn/core types and core::PlatformIO):"
+                      "${violations}")
+endif()
+message(STATUS "layering: ${n} autonomy sources include no cairn/sim header")
