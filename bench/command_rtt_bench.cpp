@@ -3,6 +3,8 @@
 // same QoS profile, measured in the same run on loopback. Run it through `./cairn bench` (private network
 // namespace). Usage: cairn_bench_command_rtt [--count N] [--domain D]
 #include <algorithm>
+#include <atomic>
+#include <cstdlib>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
@@ -205,6 +207,56 @@ int main(int argc, char** argv) {
       switch_to_state.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
     }
   }
+  // Mode commands from the holder while another process floods the robot with path requests (issue 11: paths
+  // are planned on the planning thread within a per-process rate, never on the DDS thread the commands use).
+  std::vector<double> mode_under_flood;
+  std::atomic<int> flood_sent{0};
+  {
+    cairn::core::ParticipantOptions flood_options;
+    flood_options.domain_id = domain;
+    flood_options.name = "flooder";
+    cairn::core::Participant flooder(flood_options);
+    cairn::core::Writer<msgs::PathRequestPubSubType> path_writer(flooder, "cairn/path_request", "cairn.command");
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // discovery
+    std::atomic<bool> flooding{true};
+    std::thread flood([&] {
+      for (int i = 0; i < 2000 && flooding; ++i) {
+        msgs::PathRequest r;
+        r.robot_id("r1");
+        r.requester_id("flooder");
+        r.request_id(static_cast<uint32_t>(i + 1));
+        r.frame_id("map");
+        r.start_M().x_m(2.0);
+        r.start_M().y_m(7.0);
+        r.goal_M().x_m(18.0);
+        r.goal_M().y_m(7.0);
+        path_writer.Write(r);
+        ++flood_sent;
+      }
+    });
+    for (int i = 0; i < 200; ++i) {
+      const std::string target = i % 2 ? "idle" : "manual";
+      const auto m = client.RequestMode("r1", target);
+      if (m.ok) mode_under_flood.push_back(m.round_trip_ms);
+    }
+    flooding = false;
+    flood.join();
+  }
+  double worst_late_ms = 0;
+  int late_lines = 0;
+  {
+    std::FILE* log = std::fopen("/tmp/cairn_bench_agent.log", "r");
+    char line[1024];
+    while (log != nullptr && std::fgets(line, sizeof(line), log) != nullptr) {
+      const char* woke = std::strstr(line, "control loop woke ");
+      const char* took = std::strstr(line, "control cycle took ");
+      if (woke != nullptr) worst_late_ms = std::max(worst_late_ms, std::atof(woke + 18) + 20.0);
+      if (took != nullptr) worst_late_ms = std::max(worst_late_ms, std::atof(took + 19));
+      late_lines += woke != nullptr || took != nullptr;
+    }
+    if (log != nullptr) std::fclose(log);
+  }
+
   const Stats raw_stats = Summarize(raw);
   Print("raw Fast DDS ping-pong (ModeRequest->Response)", raw_stats, nullptr);
   Print("cairn control command -> ack", Summarize(control), &raw_stats);
@@ -213,5 +265,15 @@ int main(int argc, char** argv) {
   std::printf("  (%zu mode-switch samples; the state is published at 100 Hz by a 50 Hz loop, so this includes\n"
               "   up to 20 ms of loop and publication phase: the mux itself switched before the ack above)\n",
               switch_to_state.size());
+  const Stats mode_stats = Summarize(mode);
+  if (mode_under_flood.size() >= 100) {
+    Print("cairn mode command -> ack during a 2000-request path flood", Summarize(mode_under_flood), &mode_stats);
+  } else {
+    std::printf("mode commands during the flood: only %zu of 200 answered\n", mode_under_flood.size());
+  }
+  std::printf("  (%d path requests sent by another process; control loop: %s)\n", flood_sent.load(),
+              late_lines == 0 ? "no period over 100 ms in the whole run"
+                              : ("worst period " + std::to_string(static_cast<int>(worst_late_ms)) + " ms, " +
+                                 std::to_string(late_lines) + " late cycles logged").c_str());
   return 0;
 }

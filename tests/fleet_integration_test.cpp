@@ -328,5 +328,46 @@ INSTANTIATE_TEST_SUITE_P(Worlds, FleetIntegration,
                                            WorldCase{"tunnels", "builtin:tunnels", 62}),
                          [](const auto& info) { return info.param.name; });
 
+// Navigation on the robot's own knowledge (issue 11): a goal around a corner the robot has never seen is
+// accepted and reached; a rockfall dropped into the simulated world mid-drive (in no map) is seen by the
+// lidar, avoided by the local planner and planned around, with no contact.
+TEST(NavigationOverDds, GoalInUnknownSpaceAndARockfallPlannedAround) {
+  const int domain = 64;
+  const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/rockfall";
+  std::filesystem::create_directories(logs);
+  const std::string config = logs + "/agent.yaml";
+  {
+    // The rock blocks the south two thirds of the 3 m main tunnel (y in [18.5, 21.5]) 10 m down the robot's
+    // way, 6 s after the agent starts: the robot is then driving towards it.
+    std::ofstream out(config);
+    out << "simulation:\n  rockfalls: \"6:14,18.3,15.5,20.4,1.2\"\n";
+  }
+  Observer observer(domain);
+  ChildProcess agent({kAgent, "--robot-id", "r1", "--platform", "wheeled", "--start", "4,20,0", "--domain",
+                      std::to_string(domain), "--config", config},
+                     logs + "/r1.log");
+  ASSERT_TRUE(agent.WaitForLine("READY", 60s)) << "see " << logs;
+  Base op("op", domain, logs);
+  ASSERT_TRUE(op.Run("wait r1 online 3")["ok"]);
+  ASSERT_TRUE(op.Run("request-control r1")["ok"]);
+  // (30, 10) is down the south branch of the X junction at (30, 20): out of the lidar's sight from the start.
+  json r = op.Run("goto r1 30 10 --wait 120", 130s);
+  EXPECT_TRUE(r["ok"]) << r << " (see " << logs << ")";
+  const auto arrived = observer.FreshState("r1");
+  EXPECT_LT(std::hypot(arrived.pose_MB().position().x_m() - 30.0, arrived.pose_MB().position().y_m() - 10.0), 0.3);
+  EXPECT_GE(arrived.nav_replans(), 1u) << "the path through the rock was never replanned";
+  double passed_at_y = 1e9;  // the robot's lowest y beside the rock
+  for (const auto& s : observer.History("r1")) {
+    EXPECT_FALSE(s.in_contact()) << "r1 touched occupied space at (" << s.pose_MB().position().x_m() << ", "
+                                 << s.pose_MB().position().y_m() << ")";
+    const double x = s.pose_MB().position().x_m();
+    if (x > 14.0 && x < 15.5) passed_at_y = std::min(passed_at_y, s.pose_MB().position().y_m());
+  }
+  EXPECT_GT(passed_at_y, 20.4 + 0.25) << "r1 did not keep north of the rock";
+  EXPECT_LT(passed_at_y, 1e8) << "r1 never passed the rock";
+  Figure("rock_pass_y_m", passed_at_y);
+  Figure("replans", arrived.nav_replans());
+}
+
 }  // namespace
 }  // namespace cairn

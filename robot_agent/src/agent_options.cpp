@@ -47,7 +47,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
                          "carrot_distance_m", "required_free_length_m", "sensor_range_m", "local_planner_period_s",
                          "obstacle_timeout_s", "replan_check_period_s", "max_path_deviation_m",
                          "joystick_turn_lookahead_s", "map_half_extent_m", "map_update_period_s",
-                         "obstacle_window_s"});
+                         "obstacle_window_s", "path_requests_per_s"});
   nav.ReadDouble("cruise_speed_mps", &n.platform.cruise_speed_mps);
   nav.ReadDouble("goal_tolerance_m", &n.goal_tolerance_m);
   nav.ReadDouble("blocked_timeout_s", &n.blocked_timeout_s);
@@ -63,6 +63,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   nav.ReadDouble("map_half_extent_m", &nav_map.half_extent_m);
   nav.ReadDouble("map_update_period_s", &nav_map.update_period_s);
   nav.ReadDouble("obstacle_window_s", &obstacle_window_s);
+  nav.ReadDouble("path_requests_per_s", &path_requests_per_s);
   const auto local = config.Section("local_planner");
   local.RejectUnknownKeys({"collision_margin_m", "clearance_band_m", "voxel_size_m", "goal_direction_weight",
                            "heading_change_weight", "clearance_weight", "hysteresis_weight", "min_free_length_m"});
@@ -162,6 +163,7 @@ bool AgentOptions::IsValid(std::string* why) const {
   if (!perception.IsValid(why)) return false;
   if (!nav_map.IsValid(why)) return false;
   if (!InRange("navigation.obstacle_window_s", obstacle_window_s, 0, 30, true, why)) return false;
+  if (!InRange("navigation.path_requests_per_s", path_requests_per_s, 0, 1000, true, why)) return false;
   std::string inner;
   if (!LibraryForPlatform().IsValid(&inner)) {
     *why = "local_planner: " + inner;

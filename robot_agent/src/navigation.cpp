@@ -85,17 +85,25 @@ Navigation::Navigation(const NavigationOptions& options, std::shared_ptr<nav::Gl
   plan_.result.status = nav::PlanResult::Status::kUnreachable;
 }
 
-nav::GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
-                                    double now_s) {
+nav::GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, double x_m, double y_m) const {
   nav::GlobalPlanRequest request;
   request.start_W = {state.x_m, state.y_m};
   request.goal_W = {x_m, y_m};
   request.platform = options_.platform.name;
   request.start_is_robot = true;  // where the robot stands: a start the map shows blocked is map noise
-  nav::GlobalPlan plan = planner_->Plan(request);
-  if (!plan.IsUsable()) return plan;
+  return request;
+}
+
+nav::GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
+                                    double now_s) {
+  nav::GlobalPlan plan = planner_->Plan(GoalRequest(state, x_m, y_m));
+  if (plan.IsUsable()) AcceptGoal(plan, x_m, y_m, tolerance_m, now_s);
+  return plan;
+}
+
+void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s) {
   Goal goal;
-  goal.p_W = request.goal_W;
+  goal.p_W = {x_m, y_m};
   goal.tolerance_m = tolerance_m > 0 ? tolerance_m : options_.goal_tolerance_m;
   goal.best_distance_m = plan.result.length_m;
   goal.best_time_s = now_s;
@@ -113,7 +121,6 @@ nav::GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, do
   track_W_.clear();
   last_local_time_s_ = -1e9;  // plan locally at once
   controller_.Reset();
-  return plan;
 }
 
 void Navigation::ClearGoal() {

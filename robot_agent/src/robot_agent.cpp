@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <condition_variable>
+#include <deque>
 #include <map>
+#include <optional>
 #include <mutex>
 #include <random>
 #include <set>
@@ -41,6 +44,7 @@ namespace {
 constexpr double kLoopPeriodS = 0.02;  // 50 Hz: mux staleness is acted on within 20 ms
 constexpr const char* kVersion = "0.1.0";
 constexpr std::size_t kResponseCacheSize = 256;
+constexpr std::size_t kMaxPendingPathRequests = 32;
 
 std::string Format(const char* fmt, double a, double b) {
   char text[128];
@@ -85,6 +89,20 @@ class RobotAgent::Impl {
   void OnStopRequest(const msgs::StopRequest& msg, const SampleInfo& info);
   void OnTeleop(const msgs::TeleopTwist& msg);
   void OnPathRequest(const msgs::PathRequest& msg, const SampleInfo& info);
+  // Planning thread: the holder's goals first, then peers' path requests; never on a DDS thread.
+  void PlanLoop();
+  struct GoalJob {
+    Sender sender;
+    msgs::WaypointGoal msg;
+    nav::GlobalPlanRequest request;
+  };
+  struct PathJob {
+    msgs::PathRequest msg;
+    std::string participant;
+  };
+  // With mutex_ held: the goal's plan is done; accept it (if the sender still holds the lock) and answer.
+  void FinishGoalJob(const GoalJob& job, const nav::GlobalPlan& plan);
+  void AnswerPathRequest(const PathJob& job);
   void OnAgentInfo(const msgs::AgentInfo& msg, const SampleInfo& info);
   void OnAgentLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status);
   // A remote participant left or was dropped (participant discovery): it speaks for no holder any more.
@@ -164,6 +182,19 @@ class RobotAgent::Impl {
   std::mutex obstacles_mutex_;
   LiveObstacles live_obstacles_;
   std::unique_ptr<NavMap> nav_map_;  // used by the navigation map thread only
+  // Planning jobs (jobs_mutex_), filled by DDS threads, emptied by the planning thread.
+  std::mutex jobs_mutex_;
+  std::condition_variable jobs_cv_;
+  std::deque<GoalJob> goal_jobs_;
+  std::deque<PathJob> path_jobs_;
+  struct PathBudget {  // token bucket per requesting process
+    double tokens = 0;
+    SteadyTime last{};
+    SteadyTime last_refusal{};
+  };
+  std::map<std::string, PathBudget> path_budgets_;
+  std::uint64_t path_requests_refused_ = 0;
+  std::vector<CommandKey> pending_goals_;  // goals being planned (mutex_)
   std::mutex scan_mutex_;
   std::shared_ptr<core::LidarScan> latest_scan_;  // from the sensor thread to the perception thread
   // Sensor thread only (and the constructor, before it starts).
@@ -593,10 +624,35 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg, const Sampl
     const ModeDecision probe = modes_.Request("waypoint", with_goal);  // refused: nothing switches
     return deny(probe.reason);
   }
+  // Planned on the planning thread, never here (a DDS thread, holding the agent lock); a retry of this request
+  // while it is planned is ignored (its answer comes when the plan is done).
+  const CommandKey key{sender.writer, kind, msg.request_id()};
+  if (std::find(pending_goals_.begin(), pending_goals_.end(), key) != pending_goals_.end()) return;
+  pending_goals_.push_back(key);
+  {
+    std::lock_guard<std::mutex> jobs_guard(jobs_mutex_);
+    goal_jobs_.push_back(GoalJob{sender, msg, navigation_.GoalRequest(pose_, msg.x_m(), msg.y_m())});
+  }
+  jobs_cv_.notify_one();
+}
+
+void RobotAgent::Impl::FinishGoalJob(const GoalJob& job, const nav::GlobalPlan& plan) {
+  const Sender& sender = job.sender;
+  const msgs::WaypointGoal& msg = job.msg;
+  const auto kind = msgs::COMMAND_KIND_WAYPOINT;
+  const CommandKey key{sender.writer, kind, msg.request_id()};
+  pending_goals_.erase(std::remove(pending_goals_.begin(), pending_goals_.end(), key), pending_goals_.end());
+  if (!lock_.IsHolder(sender.base_id)) {  // the lock moved while the goal was planned
+    lock_.CountDiscarded();
+    Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DISCARDED, lock_.NotHolderReason(sender.base_id));
+    return;
+  }
+  auto deny = [&](const std::string& reason) {
+    Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DENIED, reason);
+  };
   const bool had_goal = goal_.has_value();
-  const nav::GlobalPlan plan = navigation_.SetGoal(pose_, msg.x_m(), msg.y_m(), msg.tolerance_m(),
-                                                   NowS(SteadyClock::now()));
   if (!plan.IsUsable()) return deny("no path: " + plan.reason);  // the previous goal, if any, goes on
+  navigation_.AcceptGoal(plan, msg.x_m(), msg.y_m(), msg.tolerance_m(), NowS(SteadyClock::now()));
   Goal goal;
   goal.goal_id = next_goal_id_++;
   goal.x_m = msg.x_m();
@@ -654,12 +710,54 @@ void RobotAgent::Impl::OnTeleop(const msgs::TeleopTwist& msg) {
 
 void RobotAgent::Impl::OnPathRequest(const msgs::PathRequest& msg, const SampleInfo& info) {
   if (msg.robot_id() != options_.robot_id) return;
-  // The planner is thread-safe: no agent lock here. The control loop reads the planner's map version without
-  // its lock; only its rare path checks and replans (after map changes) wait for a plan running here.
+  // No planning here (a DDS thread): the request waits for the planning thread, within a per-process rate.
+  const std::string participant = core::ParticipantIdOf(info.publication_handle);
+  std::string refusal;
+  {
+    std::lock_guard<std::mutex> jobs_guard(jobs_mutex_);
+    const SteadyTime now = SteadyClock::now();
+    PathBudget& budget = path_budgets_[participant];
+    const double rate = options_.path_requests_per_s;
+    budget.tokens = std::min(2 * rate, budget.tokens + rate * core::SecondsBetween(budget.last, now));
+    budget.last = now;
+    if (budget.tokens < 1.0) {
+      ++path_requests_refused_;
+      // One refusal a second per process says why; the rest of a flood is dropped unanswered.
+      if (core::SecondsBetween(budget.last_refusal, now) < 1.0) return;
+      budget.last_refusal = now;
+      refusal = Format("rate limited: more than %.0f path requests/s (burst %.0f) from this process", rate,
+                       2 * rate);
+    } else if (path_jobs_.size() >= kMaxPendingPathRequests) {
+      ++path_requests_refused_;
+      refusal = "busy: " + std::to_string(kMaxPendingPathRequests) + " path requests are waiting";
+    } else {
+      budget.tokens -= 1.0;
+      path_jobs_.push_back(PathJob{msg, participant});
+    }
+  }
+  if (refusal.empty()) {
+    jobs_cv_.notify_one();
+    return;
+  }
   msgs::PathResponse r;
   r.request_id(msg.request_id());
   r.requester_id(msg.requester_id());
-  r.requester_participant(core::ParticipantIdOf(info.publication_handle));
+  r.requester_participant(participant);
+  r.robot_id(options_.robot_id);
+  r.frame_id("map");
+  r.success(false);
+  r.status("kRateLimited");
+  r.reason(refusal);
+  path_response_writer_->Write(r);
+}
+
+void RobotAgent::Impl::AnswerPathRequest(const PathJob& job) {
+  const msgs::PathRequest& msg = job.msg;
+  // The planner is thread-safe: no agent lock here.
+  msgs::PathResponse r;
+  r.request_id(msg.request_id());
+  r.requester_id(msg.requester_id());
+  r.requester_participant(job.participant);
   r.robot_id(options_.robot_id);
   r.frame_id("map");
   if (msg.frame_id() != "map") {
@@ -964,9 +1062,10 @@ void RobotAgent::Impl::Run() {
   if (capabilities_.has_lidar) sensor_thread = std::thread([this] { SensorLoop(); });
   std::thread perception_thread([this] { PerceptionLoop(); });
   std::thread nav_map_thread([this] { NavMapLoop(); });
+  std::thread plan_thread([this] { PlanLoop(); });
   // Joins the threads however Run() ends (an exception would otherwise terminate the process).
   struct JoinOnExit {
-    std::thread* threads[3];
+    std::thread* threads[4];
     ~JoinOnExit() {
       for (std::thread* t : threads) {
         if (t->joinable()) {
@@ -975,7 +1074,7 @@ void RobotAgent::Impl::Run() {
         }
       }
     }
-  } join_on_exit{{&sensor_thread, &perception_thread, &nav_map_thread}};
+  } join_on_exit{{&sensor_thread, &perception_thread, &nav_map_thread, &plan_thread}};
   SteadyTime next = SteadyClock::now();
   for (uint64_t cycle = 0; !core::ShutdownRequested(); ++cycle) {
     const SteadyTime wanted = SteadyClock::now();
@@ -1013,7 +1112,7 @@ void RobotAgent::Impl::Run() {
     Stop("agent shutting down");
     PublishState(SteadyClock::now());
   }
-  for (std::thread* t : {&sensor_thread, &perception_thread, &nav_map_thread}) {
+  for (std::thread* t : {&sensor_thread, &perception_thread, &nav_map_thread, &plan_thread}) {
     if (t->joinable()) t->join();
   }
   if (options_.perception.enabled) {
@@ -1160,6 +1259,36 @@ void RobotAgent::Impl::PerceptionLoop() {
     const auto now = SteadyClock::now();
     if (next < now) next = now;  // over budget: the next scan comes late, never a burst
     core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
+  }
+}
+
+void RobotAgent::Impl::PlanLoop() {
+  while (!core::ShutdownRequested()) {
+    std::optional<GoalJob> goal_job;
+    std::optional<PathJob> path_job;
+    {
+      std::unique_lock<std::mutex> jobs_guard(jobs_mutex_);
+      jobs_cv_.wait_for(jobs_guard, std::chrono::milliseconds(100),
+                        [this] { return !goal_jobs_.empty() || !path_jobs_.empty(); });
+      if (!goal_jobs_.empty()) {  // the holder's goals before peers' path requests
+        goal_job = std::move(goal_jobs_.front());
+        goal_jobs_.pop_front();
+      } else if (!path_jobs_.empty()) {
+        path_job = std::move(path_jobs_.front());
+        path_jobs_.pop_front();
+      }
+    }
+    try {
+      if (goal_job) {
+        const nav::GlobalPlan plan = planner_->Plan(goal_job->request);  // no agent lock while planning
+        std::lock_guard<std::mutex> guard(mutex_);
+        FinishGoalJob(*goal_job, plan);
+      } else if (path_job) {
+        AnswerPathRequest(*path_job);
+      }
+    } catch (const std::exception& e) {
+      spdlog::error("robot {}: planning failed: {}", options_.robot_id, e.what());
+    }
   }
 }
 

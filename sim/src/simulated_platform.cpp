@@ -79,6 +79,44 @@ std::uint32_t SeedOf(const std::string& key) { return static_cast<std::uint32_t>
 
 }  // namespace
 
+std::vector<Rockfall> ParseRockfalls(const std::string& text) {
+  std::vector<Rockfall> out;
+  std::stringstream entries(text);
+  std::string entry;
+  while (std::getline(entries, entry, ';')) {
+    if (entry.find_first_not_of(" \t") == std::string::npos) continue;
+    auto fail = [&](const std::string& rule) {
+      throw std::invalid_argument("simulation.rockfalls entry '" + entry + "': " + rule +
+                                  " (format AT_S:X0,Y0,X1,Y1,HEIGHT_M)");
+    };
+    const auto colon = entry.find(':');
+    if (colon == std::string::npos) fail("missing ':' after the time");
+    std::vector<double> v;
+    std::stringstream numbers(entry.substr(0, colon) + "," + entry.substr(colon + 1));
+    std::string item;
+    while (std::getline(numbers, item, ',')) {
+      double x = 0.0;
+      std::size_t used = 0;
+      try {
+        x = std::stod(item, &used);
+      } catch (const std::logic_error&) {
+        fail("'" + item + "' is not a number");
+      }
+      if (item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(x)) {
+        fail("'" + item + "' is not a number");
+      }
+      v.push_back(x);
+    }
+    if (v.size() != 6) fail("needs 6 numbers, has " + std::to_string(v.size()));
+    if (v[0] < 0) fail("time must be >= 0");
+    if (!(v[1] < v[3]) || !(v[2] < v[4])) fail("needs X0 < X1 and Y0 < Y1");
+    if (!(v[5] > 0 && v[5] <= 10)) fail("height must be in (0, 10] m");
+    out.push_back(Rockfall{v[0], Eigen::AlignedBox2d(Eigen::Vector2d(v[1], v[2]), Eigen::Vector2d(v[3], v[4])), v[5]});
+  }
+  std::sort(out.begin(), out.end(), [](const Rockfall& a, const Rockfall& b) { return a.at_s < b.at_s; });
+  return out;
+}
+
 void SimulatedPlatformOptions::SetProfile(const nav::PlatformProfile& profile) {
   limits = profile.limits;
   footprint_radius_m = profile.footprint_radius_m;
@@ -116,7 +154,7 @@ void SimulatedPlatformOptions::LoadConfigFile(const std::string& path) {
     s.RejectUnknownKeys({"lidar_rate_hz", "lidar_beams", "lidar_points_per_beam", "lidar_max_range_m",
                          "lidar_range_noise_m", "lidar_height_m", "slam_position_drift_per_sqrt_m",
                          "slam_yaw_drift_rad_per_sqrt_m", "camera_width_px", "camera_height_px",
-                         "command_timeout_s"});
+                         "command_timeout_s", "rockfalls"});
     s.ReadDouble("lidar_rate_hz", &lidar.rate_hz);
     s.ReadInt("lidar_beams", &lidar.num_beams);
     s.ReadInt("lidar_points_per_beam", &lidar.points_per_beam);
@@ -128,6 +166,9 @@ void SimulatedPlatformOptions::LoadConfigFile(const std::string& path) {
     s.ReadInt("camera_width_px", &camera.width_px);
     s.ReadInt("camera_height_px", &camera.height_px);
     s.ReadDouble("command_timeout_s", &command_timeout_s);
+    std::string rockfall_text;
+    s.ReadString("rockfalls", &rockfall_text);
+    if (!rockfall_text.empty()) rockfalls = ParseRockfalls(rockfall_text);
   } catch (const core::ConfigError& e) {
     throw std::invalid_argument(e.what());
   }
@@ -149,7 +190,9 @@ SimulatedPlatform::SimulatedPlatform(const SimulatedPlatformOptions& options)
   state.yaw_rad = start.yaw_rad;
   state.z_m = terrain_->GroundHeight(start.x_m, start.y_m).value_or(0.0);
   base_.set_state(state);
-  T_MB_estimate_ = slam_.Update(TrueBodyPose());  // the map frame starts at the true start pose's frame W
+  T_MB_estimate_ = slam_.Update(TrueBodyPose());
+  std::sort(options_.rockfalls.begin(), options_.rockfalls.end(),
+            [](const Rockfall& a, const Rockfall& b) { return a.at_s < b.at_s; });  // the map frame starts at the true start pose's frame W
 }
 
 Eigen::Isometry3d SimulatedPlatform::TrueBodyPose() const {
@@ -178,7 +221,44 @@ core::PlatformCapabilities SimulatedPlatform::Capabilities() const {
   return c;
 }
 
+std::int64_t SimulatedPlatform::DropRock(const Eigen::AlignedBox2d& area_W, double height_m) {
+  std::shared_ptr<const World> world;
+  std::shared_ptr<const nav::TraversabilityGrid> terrain;
+  {
+    std::lock_guard<std::mutex> guard(world_mutex_);
+    world = world_;
+    terrain = terrain_;
+  }
+  auto changed = std::make_shared<World>(*world);
+  const double floor_z =
+      terrain->GroundHeight(area_W.center().x(), area_W.center().y()).value_or(world->p_W_min().z());
+  std::int64_t filled = 0;
+  for (int ix = 0; ix < world->dims().x(); ++ix) {
+    for (int iy = 0; iy < world->dims().y(); ++iy) {
+      const Eigen::Vector3d c = world->CenterOf({ix, iy, 0});
+      if (!area_W.contains(c.head<2>())) continue;
+      for (int iz = 0; iz < world->dims().z(); ++iz) {
+        const double z = world->CenterOf({ix, iy, iz}).z();
+        if (z > floor_z - world->resolution_m() && z < floor_z + height_m && !changed->IsOccupiedIndex({ix, iy, iz})) {
+          changed->SetOccupied({ix, iy, iz});
+          ++filled;
+        }
+      }
+    }
+  }
+  auto new_terrain = std::make_shared<const nav::TraversabilityGrid>(*changed, TerrainOptions(options_));
+  std::lock_guard<std::mutex> guard(world_mutex_);
+  world_ = std::move(changed);
+  terrain_ = std::move(new_terrain);
+  return filled;
+}
+
 void SimulatedPlatform::Update(double now_s) {
+  while (next_rockfall_ < options_.rockfalls.size() && options_.rockfalls[next_rockfall_].at_s <= now_s) {
+    const Rockfall& r = options_.rockfalls[next_rockfall_++];
+    DropRock(r.area_W, r.height_m);
+  }
+  const std::shared_ptr<const nav::TraversabilityGrid> terrain = this->terrain();
   std::lock_guard<std::mutex> guard(mutex_);
   if (last_update_s_ < 0.0 || !(now_s > last_update_s_)) {
     last_update_s_ = std::max(last_update_s_, now_s);
@@ -194,7 +274,7 @@ void SimulatedPlatform::Update(double now_s) {
   while (remaining_s > 1e-9) {
     const double dt_s = std::min(remaining_s, options_.physics_step_s);
     remaining_s -= dt_s;
-    contact = base_.Step(v, w, dt_s, *terrain_).contact || contact;
+    contact = base_.Step(v, w, dt_s, *terrain).contact || contact;
   }
   in_contact_ = contact;
   T_MB_estimate_ = slam_.Update(TrueBodyPose());
@@ -231,7 +311,7 @@ bool SimulatedPlatform::ReadLidarScan(double now_s, core::LidarScan* scan) {
     T_MB = T_MB_estimate_;
   }
   const Eigen::Isometry3d T_BS = SensorOnBody();
-  lidar_.Scan(*world_, T_WB_true * T_BS, &lidar_scan_);  // sensed from where the robot is...
+  lidar_.Scan(*world(), T_WB_true * T_BS, &lidar_scan_);  // sensed from where the robot is...
   scan->stamp_s = now_s;
   scan->seq = ++lidar_seq_;
   scan->points_S = lidar_scan_.points_S;
@@ -251,7 +331,7 @@ bool SimulatedPlatform::ReadCameraImage(double now_s, core::CameraImage* image) 
   }
   const Eigen::Isometry3d T_BC = SensorOnBody();
   GrayImage gray;
-  RenderShadedDepth(*world_, T_WB_true * T_BC, options_.camera, &gray);
+  RenderShadedDepth(*world(), T_WB_true * T_BC, options_.camera, &gray);
   image->stamp_s = now_s;
   image->seq = ++camera_seq_;
   image->width_px = gray.width_px;
@@ -279,8 +359,15 @@ void SimulatedPlatform::SetTrueState(const UnicycleState& state) {
   base_.set_state(state);
 }
 
-std::shared_ptr<const World> SimulatedPlatform::world() const { return world_; }
-std::shared_ptr<const nav::TraversabilityGrid> SimulatedPlatform::terrain() const { return terrain_; }
+std::shared_ptr<const World> SimulatedPlatform::world() const {
+  std::lock_guard<std::mutex> guard(world_mutex_);
+  return world_;
+}
+
+std::shared_ptr<const nav::TraversabilityGrid> SimulatedPlatform::terrain() const {
+  std::lock_guard<std::mutex> guard(world_mutex_);
+  return terrain_;
+}
 
 double SimulatedPlatform::distance_travelled_m() const {
   std::lock_guard<std::mutex> guard(mutex_);

@@ -52,6 +52,9 @@ struct AgentOptions {
   /// Live lidar obstacles: points seen within this many seconds feed the local planner, (0, 30]. Long enough
   /// to remember the ground next to the robot, which a lidar above it sees only from a distance.
   double obstacle_window_s = 3.0;
+  /// Path requests answered per second per requesting process (token bucket, burst twice this), (0, 1000].
+  /// A flood beyond it gets one "rate limited" answer a second and is otherwise dropped.
+  double path_requests_per_s = 10.0;
 
   /// Library options used by default: 0.05 m correspondence voxels (the conservative voxel test then adds
   /// only 0.035 m to the collision radius, so the robot still threads 0.8 m gaps).

@@ -79,6 +79,12 @@ class Navigation {
   /// the plan's reason says why. tolerance_m 0 = options.goal_tolerance_m.
   nav::GlobalPlan SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
                           double now_s);
+  /// The planner request SetGoal() makes (from the robot's pose, start_is_robot), for callers that plan on
+  /// another thread and hand the plan to AcceptGoal().
+  nav::GlobalPlanRequest GoalRequest(const core::BaseState& state, double x_m, double y_m) const;
+  /// Makes a goal planned elsewhere (request from GoalRequest()) active, replacing any other. `plan` must be
+  /// usable.
+  void AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s);
   /// Drops the goal (the robot will be stopped by the caller's mode switch).
   void ClearGoal();
   bool has_goal() const { return goal_.has_value(); }

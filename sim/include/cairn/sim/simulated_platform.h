@@ -11,6 +11,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "cairn/core/platform_io.h"
 #include "cairn/nav/platform.h"
@@ -23,6 +24,18 @@
 #include "cairn/sim/world.h"
 
 namespace cairn::sim {
+
+/// A rockfall: at `at_s` (seconds on the agent's clock) the columns of `area_W` (x-y box, metres, frame W)
+/// fill from the floor up to `height_m` above it: an obstacle that is in no map the robot has.
+struct Rockfall {
+  double at_s = 0.0;
+  Eigen::AlignedBox2d area_W;
+  double height_m = 1.0;
+};
+
+/// Parses rockfalls "AT_S:X0,Y0,X1,Y1,HEIGHT_M" separated by ';' (e.g. "5:14,19,15,21,1.2"). Throws
+/// std::invalid_argument naming the entry and the rule (numbers, x0 < x1, y0 < y1, height in (0, 10], time >= 0).
+std::vector<Rockfall> ParseRockfalls(const std::string& text);
 
 /// Options of SimulatedPlatform (cairn_agent: --world, --start, --pcd-resolution and the config file's
 /// `simulation` section). Defaults are valid.
@@ -56,6 +69,9 @@ struct SimulatedPlatformOptions {
   double physics_step_s = 0.02;
   /// A base that got no command for this long stops (driver watchdog), seconds, (0, 10].
   double command_timeout_s = 0.25;
+  /// Obstacles dropped into the world while the robot runs (config `simulation.rockfalls`, see
+  /// ParseRockfalls()).
+  std::vector<Rockfall> rockfalls;
 
   /// Takes the base limits, footprint and terrain (step height, body height) of a navigation profile.
   void SetProfile(const nav::PlatformProfile& profile);
@@ -83,6 +99,9 @@ class SimulatedPlatform : public core::PlatformIO {
 
   /// Ground truth, for tests and benches only: the base's true state (frame W).
   UnicycleState TrueState() const;
+  /// Drops a rockfall now (tests; scheduled ones come from options().rockfalls): the world and the ground
+  /// truth terrain change, the robot's sensors see it from the next scan. Returns the voxels filled.
+  std::int64_t DropRock(const Eigen::AlignedBox2d& area_W, double height_m);
   /// Teleports the base (tests); the SLAM drift keeps its current offset.
   void SetTrueState(const UnicycleState& state);
   /// The simulated world (ground truth).
@@ -99,8 +118,10 @@ class SimulatedPlatform : public core::PlatformIO {
   Eigen::Isometry3d SensorOnBody() const;
 
   SimulatedPlatformOptions options_;
+  mutable std::mutex world_mutex_;  // guards the two pointers below (copy-on-write on a rockfall)
   std::shared_ptr<const World> world_;
   std::shared_ptr<const nav::TraversabilityGrid> terrain_;
+  std::size_t next_rockfall_ = 0;  // options_.rockfalls sorted by time; control thread
   mutable std::mutex mutex_;  // base, SLAM, command and status below
   Unicycle base_;
   SlamDrift slam_;

@@ -1,0 +1,84 @@
+// The simulated platform behind core::PlatformIO: what the autonomy gets (estimated pose, registered scans,
+// frames), the driver watchdog, bad commands, and rockfalls.
+#include "cairn/sim/simulated_platform.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace cairn::sim {
+namespace {
+
+SimulatedPlatformOptions Arena() {
+  SimulatedPlatformOptions o;
+  o.world = "builtin:arena";
+  o.start_W = core::PlanarPose{8.0, 11.0, 0.0};
+  o.SetProfile(nav::GetPlatformProfile("wheeled"));
+  return o;
+}
+
+TEST(SimulatedPlatformTest, DrivesOnCommandAndStopsWhenCommandsStop) {
+  SimulatedPlatform platform(Arena());
+  EXPECT_EQ(platform.Capabilities().driver, "sim");
+  EXPECT_TRUE(platform.Capabilities().has_lidar);
+  platform.Update(0.0);
+  EXPECT_NEAR(platform.ReadPose().PlanarState().x_m, 8.0, 1e-9);  // the map frame starts at the true start
+  for (int k = 1; k <= 100; ++k) {  // 2 s at 0.5 m/s, a command every 20 ms
+    platform.CommandTwist(0.5, 0.0, 0.02 * k);
+    platform.Update(0.02 * k);
+  }
+  const double x_driving = platform.TrueState().x_m;
+  EXPECT_GT(x_driving, 8.7);
+  EXPECT_NEAR(platform.ReadPose().PlanarState().x_m, x_driving, 0.05);  // the estimate drifts, a little
+  for (int k = 101; k <= 200; ++k) platform.Update(0.02 * k);  // commands stop: the watchdog brakes
+  EXPECT_EQ(platform.TrueState().v_mps, 0.0);
+  EXPECT_LT(platform.TrueState().x_m - x_driving, 0.5);
+  const double x_stopped = platform.TrueState().x_m;
+  for (int k = 201; k <= 300; ++k) {  // a non-finite command never moves the robot
+    platform.CommandTwist(std::nan(""), std::nan(""), 0.02 * k);
+    platform.Update(0.02 * k);
+  }
+  EXPECT_EQ(platform.TrueState().x_m, x_stopped);
+}
+
+TEST(SimulatedPlatformTest, ScansAreRegisteredAndARockfallIsSeenAndBlocks) {
+  SimulatedPlatform platform(Arena());
+  platform.Update(0.0);
+  core::LidarScan scan;
+  ASSERT_TRUE(platform.ReadLidarScan(0.0, &scan));
+  EXPECT_FALSE(platform.ReadLidarScan(0.05, &scan)) << "a second scan before the lidar period";
+  EXPECT_GT(scan.points_S.size(), 1000u);
+  EXPECT_NEAR(scan.T_MS.translation().z() - scan.T_BS.translation().z(), 0.0, 1e-9);
+  // A rock 1.5 m ahead: scans then hit it, and the ground truth blocks the base there.
+  auto hits_near = [&](const core::LidarScan& s, double x, double y) {
+    int n = 0;
+    for (const auto& p_S : s.points_S) {
+      const Eigen::Vector3d p_M = s.T_MS * p_S.cast<double>();
+      n += std::abs(p_M.x() - x) < 0.3 && std::abs(p_M.y() - y) < 0.6 && p_M.z() > 0.05;
+    }
+    return n;
+  };
+  EXPECT_EQ(hits_near(scan, 9.5, 11.0), 0);
+  EXPECT_GT(platform.DropRock(Eigen::AlignedBox2d(Eigen::Vector2d(9.3, 10.5), Eigen::Vector2d(9.7, 11.5)), 0.6), 0);
+  ASSERT_TRUE(platform.ReadLidarScan(0.2, &scan));
+  EXPECT_GT(hits_near(scan, 9.5, 11.0), 20);
+  EXPECT_FALSE(platform.terrain()->IsFootprintFree(9.5, 11.0, 0.3));
+}
+
+TEST(SimulatedPlatformTest, RockfallsParseOrNameTheEntry) {
+  const auto rocks = ParseRockfalls("8:1,2,3,4,0.5; 2:0,0,1,1,1");
+  ASSERT_EQ(rocks.size(), 2u);
+  EXPECT_EQ(rocks[0].at_s, 2.0);  // sorted by time
+  EXPECT_EQ(rocks[1].area_W.max().y(), 4.0);
+  for (const std::string bad : {"1,2,3,4,5", "1:1,2,3", "1:3,0,1,1,1", "1:0,0,1,1,0", "-1:0,0,1,1,1", "1:a,0,1,1,1"}) {
+    try {
+      ParseRockfalls(bad);
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("simulation.rockfalls entry '" + bad + "'"), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace cairn::sim
