@@ -103,6 +103,8 @@ class RobotAgent::Impl {
   // With mutex_ held: the goal's plan is done; accept it (if the sender still holds the lock) and answer.
   void FinishGoalJob(const GoalJob& job, const nav::GlobalPlan& plan);
   void AnswerPathRequest(const PathJob& job);
+  // A failed plan's reason for operators (an out-of-map goal names the navigation map's extent and its key).
+  std::string PlanReason(const nav::GlobalPlan& plan) const;
   void OnAgentInfo(const msgs::AgentInfo& msg, const SampleInfo& info);
   void OnAgentLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status);
   // A remote participant left or was dropped (participant discovery): it speaks for no holder any more.
@@ -264,6 +266,17 @@ core::BaseState StartPose(core::PlatformIO& platform) {
   if (!pose.T_MB.matrix().allFinite()) throw std::invalid_argument("the platform's start pose is not finite");
   return pose.PlanarState();
 }
+
+}  // namespace
+
+std::string RobotAgent::Impl::PlanReason(const nav::GlobalPlan& plan) const {
+  if (plan.result.status != nav::PlanResult::Status::kOutOfMap) return plan.reason;
+  return plan.reason + " (the robot's navigation map spans its start +- " +
+         Format("%.0f m: navigation.map_half_extent_m = %.0f)", options_.nav_map.half_extent_m,
+                options_.nav_map.half_extent_m);
+}
+
+namespace {
 
 std::string DefaultTreeFile() { return std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml"; }
 
@@ -651,7 +664,7 @@ void RobotAgent::Impl::FinishGoalJob(const GoalJob& job, const nav::GlobalPlan& 
     Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DENIED, reason);
   };
   const bool had_goal = goal_.has_value();
-  if (!plan.IsUsable()) return deny("no path: " + plan.reason);  // the previous goal, if any, goes on
+  if (!plan.IsUsable()) return deny("no path: " + PlanReason(plan));  // the previous goal, if any, goes on
   navigation_.AcceptGoal(plan, msg.x_m(), msg.y_m(), msg.tolerance_m(), NowS(SteadyClock::now()));
   Goal goal;
   goal.goal_id = next_goal_id_++;
@@ -772,7 +785,7 @@ void RobotAgent::Impl::AnswerPathRequest(const PathJob& job) {
     const nav::GlobalPlan plan = planner_->Plan(request);
     r.success(plan.IsUsable());
     r.status(plan.platform_known ? nav::ToString(plan.result.status) : "kUnknownPlatform");
-    r.reason(plan.reason);
+    r.reason(plan.IsUsable() ? "" : PlanReason(plan));
     r.path_M(PathPoints(plan.result.path_W));
     r.length_m(plan.result.length_m);
     r.map_version(plan.map_version);

@@ -197,6 +197,19 @@ sim::World WallWorld(bool with_doorway) {
   return w;
 }
 
+TEST(NavigationTest, WaypointThroughAOneMetreDoorwayWithoutContact) {
+  // Issue 11: a 0.6 m wheeled robot passes a 1.0 m doorway (0.2 m each side) to a goal behind the wall.
+  sim::World w = FlatWorld(10, 8, 0.1, 1.5);
+  FillBox(&w, {5.0, 0.0, 0.0}, {5.2, 8.0, 1.6});
+  FillBox(&w, {5.0, 4.4, 0.0}, {5.2, 5.4, 1.6}, false);  // 1.0 m door, centre y = 4.9
+  SimRobot robot(std::make_shared<const sim::World>(std::move(w)), "wheeled", 2.0, 3.0, 0.0);
+  const NavigationStep out = robot.DriveTo(8.5, 4.9, 60.0);
+  EXPECT_TRUE(out.arrived) << out.reason << "; local: " << robot.navigation.local_status();
+  EXPECT_EQ(robot.contacts, 0);
+  EXPECT_GT(robot.platform.state().x_m, 8.0);
+  std::printf("FIGURE doorway_1m time_s %.1f min_clearance_m %.2f\n", robot.t_s, robot.min_clearance_m);
+}
+
 TEST(NavigationTest, SmartJoystickStraightAtAWallNeverTouchesIt) {
   auto world = std::make_shared<const sim::World>(WallWorld(false));
   SimRobot robot(world, "wheeled", 2.0, 4.0, 0.0);
