@@ -38,6 +38,7 @@ struct Outcome {
 };
 
 double g_half_extent_m = agent::NavMapOptions().half_extent_m;
+bool g_verbose = false;
 
 agent::AgentOptions Options() {
   agent::AgentOptions o;
@@ -102,6 +103,11 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
     const agent::NavigationStep step = navigation.StepWaypoint(pose, t);
     platform.CommandTwist(step.linear_x_mps, step.angular_z_radps, t);
     out.contact = out.contact || platform.ReadStatus().in_contact;
+    if (g_verbose && std::fmod(t + 1e-9, 0.5) < kDt) {
+      std::printf("    t %5.1f pose (%.2f, %.2f, %.2f) v %.2f w %.2f cmd (%.2f, %.2f) left %.1f local '%s'\n", t, pose.x_m,
+                  pose.y_m, pose.yaw_rad, pose.v_mps, pose.w_radps, step.linear_x_mps, step.angular_z_radps,
+                  navigation.distance_left_m(), navigation.local_status().c_str());
+    }
     out.time_s = t;
     if (step.arrived) {
       const auto truth = platform.TrueState();
@@ -170,6 +176,17 @@ int main(int argc, char** argv) {
       goals_per_world = std::max(1, std::atoi(argv[++i]));
     } else if (!std::strcmp(argv[i], "--half-extent") && i + 1 < argc) {
       g_half_extent_m = std::atof(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--verbose")) {
+      g_verbose = true;
+    } else if (!std::strcmp(argv[i], "--one") && i + 6 < argc) {  // --one WORLD SX SY SYAW GX GY
+      const std::string world = argv[i + 1];
+      const core::PlanarPose start{std::atof(argv[i + 2]), std::atof(argv[i + 3]), std::atof(argv[i + 4])};
+      const Eigen::Vector2d goal(std::atof(argv[i + 5]), std::atof(argv[i + 6]));
+      const Outcome own = RunOwnMap(world, start, goal, 120.0);
+      std::printf("own map: %s after %.1f s %s\n", own.arrived ? "arrived" : "FAILED", own.time_s, own.reason.c_str());
+      const Outcome gt = RunGroundTruth(world, start, goal, 120.0);
+      std::printf("ground truth: %s after %.1f s %s\n", gt.arrived ? "arrived" : "FAILED", gt.time_s, gt.reason.c_str());
+      return own.arrived ? 0 : 1;
     } else if (!std::strcmp(argv[i], "--world") && i + 1 < argc) {
       worlds.push_back(argv[++i]);
     } else {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <cstdint>
 #include <stdexcept>
 
 namespace cairn::nav {
@@ -27,7 +28,8 @@ bool ScanObstacleOptions::IsValid(std::string* why) const {
                   Check("range_m", range_m, 0.0, true, 30.0, &msg) &&
                   Check("max_step_m", max_step_m, 0.0, false, 2.0, &msg) &&
                   Check("robot_height_m", robot_height_m, 0.0, true, 10.0, &msg) &&
-                  Check("depth_below_m", depth_below_m, 0.0, true, 10.0, &msg);
+                  Check("depth_below_m", depth_below_m, 0.0, true, 10.0, &msg) &&
+                  Check("min_points_per_cell", min_points_per_cell, 1.0, false, 1000.0, &msg);
   if (!ok && why != nullptr) *why = msg.str();
   return ok;
 }
@@ -52,6 +54,7 @@ ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points
   constexpr float kNone = std::numeric_limits<float>::infinity();
   std::vector<float> low(static_cast<std::size_t>(n) * n, kNone);
   std::vector<float> high(low.size(), -kNone);
+  std::vector<std::uint16_t> count(low.size(), 0);
   const double z_lo = pose_M.z_m - options.depth_below_m;
   const double z_hi = pose_M.z_m + options.robot_height_m;
   const double r2 = options.range_m * options.range_m;
@@ -66,6 +69,7 @@ ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points
     const std::size_t i = static_cast<std::size_t>(ix) + static_cast<std::size_t>(n) * iy;
     low[i] = std::min(low[i], p.z());
     high[i] = std::max(high[i], p.z());
+    if (count[i] < 0xffff) ++count[i];
     ++stats.points_used;
   }
   const float step = static_cast<float>(options.max_step_m) + 1e-4f;
@@ -76,6 +80,7 @@ ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points
       const std::size_t i = static_cast<std::size_t>(ix) + static_cast<std::size_t>(n) * iy;
       if (low[i] == kNone) continue;
       ++stats.cells_observed;
+      if (count[i] < options.min_points_per_cell) continue;  // a stray return is no obstacle
       bool lethal = high[i] - low[i] > step;
       for (int dy = -1; dy <= 1 && !lethal; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
@@ -83,7 +88,7 @@ ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points
           const int jy = iy + dy;
           if ((dx == 0 && dy == 0) || jx < 0 || jy < 0 || jx >= n || jy >= n) continue;
           const std::size_t j = static_cast<std::size_t>(jx) + static_cast<std::size_t>(n) * jy;
-          if (low[j] != kNone && low[i] - low[j] > step) {
+          if (low[j] != kNone && count[j] >= options.min_points_per_cell && low[i] - low[j] > step) {
             lethal = true;
             break;
           }

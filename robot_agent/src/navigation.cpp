@@ -121,6 +121,7 @@ void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m,
   track_W_.clear();
   last_local_time_s_ = -1e9;  // plan locally at once
   controller_.Reset();
+  turning_in_place_ = false;
 }
 
 void Navigation::ClearGoal() {
@@ -353,7 +354,13 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   const double bearing = std::atan2(request.goal_B.y(), request.goal_B.x());
   const bool behind = std::abs(bearing) > options_.platform.local_heading_range_rad * 0.9;
   const bool boxed_in = local_result_.status == nav::LocalPlanResult::Status::kBoxedIn;
-  if (behind || (boxed_in && std::abs(bearing) > kPi / 4)) {
+  // Rotation shim (as Nav2's RotationShimController): once turning in place, keep turning until the carrot is
+  // within kAlignedRad of the heading, so that a robot turning round in a corridor does not hand over to the
+  // local planner half-way and swing back (a limit cycle seen on geb079).
+  constexpr double kAlignedRad = 20.0 * kPi / 180.0;
+  if (turning_in_place_ && std::abs(bearing) < kAlignedRad) turning_in_place_ = false;
+  if (behind || (boxed_in && std::abs(bearing) > kPi / 4)) turning_in_place_ = true;
+  if (turning_in_place_) {
     track_W_.clear();
     controller_.Reset();
     local_status_ = std::string("turning in place toward the path") + (boxed_in ? " (boxed in ahead)" : "");

@@ -29,6 +29,9 @@ struct ScanObstacleOptions {
   double robot_height_m = 0.8;
   /// Points lower than this below the robot's ground are ignored, metres, (0, 10].
   double depth_below_m = 1.5;
+  /// A cell needs this many points to be analysed, [1, 1000]: single stray returns (dust, a scan's noise, the
+  /// stray voxels of a sparse survey) are neither obstacles nor ground.
+  int min_points_per_cell = 3;
 
   /// True when every field is in range; otherwise false and, if `why` is not null, a message naming the
   /// field, its value and the rule.
@@ -43,9 +46,10 @@ struct ScanObstacleStats {
 };
 
 /// Lethal cell centres near the robot, from `points_M` (metres, map frame M; e.g. the last half second of
-/// registered scans) around the robot at `pose_M` (frame M). A cell holding points is lethal when its points
+/// registered scans) around the robot at `pose_M` (frame M). A cell holding at least min_points_per_cell points
+/// is lethal when its points
 /// span more than max_step_m in height, or its lowest point is more than max_step_m above the lowest point of
-/// an 8-neighbour that holds points. Cells with no point are not obstacles (the global planner's map and the
+/// an 8-neighbour that holds enough points. Cells with no point are not obstacles (the global planner's map and the
 /// blocked timeout cover space the sensor does not see). Output: `points_B` cleared, then the lethal cells'
 /// centres in the body frame B of `pose_M`, at z = 0. Non-finite points are skipped.
 /// @throws std::invalid_argument if `options` is invalid or `points_B` is null.

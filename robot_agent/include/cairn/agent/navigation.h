@@ -178,6 +178,7 @@ class Navigation {
 
   nav::IlqrSolution solution_;
   double last_solve_time_s_ = -1.0;
+  bool turning_in_place_ = false;  // rotation shim: turning toward the path until aligned
 };
 
 }  // namespace cairn::agent
