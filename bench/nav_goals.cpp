@@ -107,6 +107,18 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
       std::printf("    t %5.1f pose (%.2f, %.2f, %.2f) v %.2f w %.2f cmd (%.2f, %.2f) left %.1f local '%s'\n", t, pose.x_m,
                   pose.y_m, pose.yaw_rad, pose.v_mps, pose.w_radps, step.linear_x_mps, step.angular_z_radps,
                   navigation.distance_left_m(), navigation.local_status().c_str());
+      // Obstacles within 1 m, frame M, and what the ground truth and the navigation map say there.
+      const auto truth = platform.terrain();
+      for (const auto& p : points_B) {
+        if (p.head<2>().norm() > 1.0) continue;
+        const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
+        const double x = pose.x_m + c * p.x() - s * p.y(), y = pose.y_m + s * p.x() + c * p.y();
+        int ix = 0, iy = 0;
+        const bool in_map = nav_map.grid().CellOf(x, y, &ix, &iy);
+        std::printf("      obstacle (%.2f, %.2f): truth %s, nav map %s\n", x, y,
+                    truth->IsTraversableAt(x, y) ? "traversable" : "blocked",
+                    in_map ? nav::ToString(nav_map.grid().State(ix, iy)) : "outside");
+      }
     }
     out.time_s = t;
     if (step.arrived) {
