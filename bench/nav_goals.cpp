@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "cairn/agent/agent_options.h"
+#include "cairn/agent/live_obstacles.h"
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
@@ -67,14 +68,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
   agent::NavMap nav_map(options.nav_map, perception_options.map.resolution_m, start_M, planner, "wheeled");
   agent::Navigation navigation(options.navigation, planner,
                                std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
-  perception::LocalCloudOptions cloud_options;
-  cloud_options.voxel_size_m = 0.05;
-  cloud_options.window_s = options.obstacle_window_s;
-  cloud_options.radius_m = options.navigation.sensor_range_m + 0.5;
-  perception::LocalCloud cloud(cloud_options);
-  nav::ScanObstacleOptions obstacle_options;
-  obstacle_options.range_m = options.navigation.sensor_range_m;
-  obstacle_options.max_step_m = options.navigation.platform.traversability.max_step_m;
+  agent::LiveObstacles live_obstacles(options);
   std::vector<Eigen::Vector3f> points_B;
   Outcome out;
   core::LidarScan scan;
@@ -83,11 +77,9 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
     platform.Update(t);
     const core::BaseState pose = platform.ReadPose().PlanarState();
     if (platform.ReadLidarScan(t, &scan)) {
-      cloud.AddScan(scan.points_S, scan.T_MS, scan.stamp_s);
-      core::PoseEstimate at_scan;
-      at_scan.T_MB = scan.T_MS * scan.T_BS.inverse();
-      nav::ObstaclesFromPoints(cloud.Points(), at_scan.PlanarState(), obstacle_options, &points_B);
-      navigation.SetObstacles(points_B, at_scan.PlanarState(), t);
+      core::BaseState at_scan;
+      live_obstacles.AddScan(scan, &points_B, &at_scan);
+      navigation.SetObstacles(points_B, at_scan, t);
       perception.Tick(t, &scan, nullptr);
     }
     if (std::fmod(t + 1e-9, 1.0) < kDt) nav_map.Update(*perception.map(), perception.TakeChangedTiles(),

@@ -15,6 +15,7 @@
 #include <spdlog/spdlog.h>
 
 #include "cairn/agent/control_lock.h"
+#include "cairn/agent/live_obstacles.h"
 #include "cairn/agent/mode_manager.h"
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
@@ -174,15 +175,15 @@ class RobotAgent::Impl {
     bool alive = true;          // its agent-info writer's liveliness
   };
   std::map<eprosima::fastrtps::rtps::InstanceHandle_t, BaseParticipant> base_by_writer_;
-  // Obstacles from live lidar points, made on the perception thread, taken by the control loop.
-  struct LiveObstacles {
+  // Obstacles from live lidar points, made on the sensor thread, taken by the control loop.
+  struct ObstacleSlot {
     std::vector<Eigen::Vector3f> points_B;
     core::BaseState pose_M;  // pose the points are expressed from
     double stamp_s = -1e9;
     bool fresh = false;
   };
   std::mutex obstacles_mutex_;
-  LiveObstacles live_obstacles_;
+  ObstacleSlot live_obstacles_;
   std::unique_ptr<NavMap> nav_map_;  // used by the navigation map thread only
   // Planning jobs (jobs_mutex_), filled by DDS threads, emptied by the planning thread.
   std::mutex jobs_mutex_;
@@ -200,8 +201,7 @@ class RobotAgent::Impl {
   std::mutex scan_mutex_;
   std::shared_ptr<core::LidarScan> latest_scan_;  // from the sensor thread to the perception thread
   // Sensor thread only (and the constructor, before it starts).
-  std::unique_ptr<perception::LocalCloud> obstacle_cloud_;
-  nav::ScanObstacleOptions obstacle_options_;
+  LiveObstacles live_obstacle_sensor_;
   std::vector<Eigen::Vector3f> obstacle_points_B_;
   std::uint64_t published_path_revision_ = ~0ull;
   msgs::NavStatus nav_status_ = msgs::NAV_STATUS_NONE;
@@ -295,20 +295,12 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
             {"waypoint", options.waypoint_timeout_s}}),
       modes_(options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file, mux_.channel_names()),
       navigation_(options.navigation, planner_,
-                  std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform())) {
+                  std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform())),
+      live_obstacle_sensor_(options) {
   std::random_device entropy;
   next_goal_id_ = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
   nav_map_ = std::make_unique<NavMap>(options.nav_map, options.perception.map.resolution_m, start_M_, planner_,
                                       options.navigation.platform.name);
-  // Obstacles for the local planner: points seen within obstacle_window_s, deduplicated, around the robot.
-  perception::LocalCloudOptions cloud_options;
-  cloud_options.voxel_size_m = 0.05;
-  cloud_options.window_s = options.obstacle_window_s;
-  cloud_options.radius_m = std::max(1.0, options.navigation.sensor_range_m + 0.5);
-  obstacle_cloud_ = std::make_unique<perception::LocalCloud>(cloud_options);
-  obstacle_options_.range_m = options.navigation.sensor_range_m;
-  obstacle_options_.max_step_m = options.navigation.platform.traversability.max_step_m;
-  obstacle_options_.robot_height_m = options.navigation.platform.traversability.robot_height_m;
   if (capabilities_.has_lidar) {
     // The first scan before the robot announces itself ready, so that it can take a goal at once.
     const SteadyTime deadline = SteadyClock::now() + std::chrono::seconds(5);
@@ -1207,11 +1199,8 @@ void RobotAgent::Impl::PublishPerception(const PerceptionOutput& out) {
 bool RobotAgent::Impl::ReadScan(double now_s) {
   auto scan = std::make_shared<core::LidarScan>();
   if (!platform_->ReadLidarScan(now_s, scan.get())) return false;
-  obstacle_cloud_->AddScan(scan->points_S, scan->T_MS, scan->stamp_s);
-  core::PoseEstimate at_scan;
-  at_scan.T_MB = scan->T_MS * scan->T_BS.inverse();
-  const core::BaseState pose_M = at_scan.PlanarState();
-  nav::ObstaclesFromPoints(obstacle_cloud_->Points(), pose_M, obstacle_options_, &obstacle_points_B_);
+  core::BaseState pose_M;
+  live_obstacle_sensor_.AddScan(*scan, &obstacle_points_B_, &pose_M);
   {
     std::lock_guard<std::mutex> guard(obstacles_mutex_);
     live_obstacles_.points_B.swap(obstacle_points_B_);

@@ -638,11 +638,46 @@ class RetryUntilSuccessfulNode : public DecoratorNode {
 // BehaviorTree.CPP runs a timer thread; here the tree's Clock is read on each tick, so the expiry is seen on
 // the first tick at or after it (which is when BehaviorTree.CPP's tick sees its timer's result, too).
 
-// Ticks the child; on the first tick at or after `msec` ms since the Timeout started, while the child is
-// still running, halts the child and fails without ticking it. msec="0": no time limit.
-class TimeoutNode : public DecoratorNode {
+// A decorator timed from its first tick: Start() reads `port` (ms) and notes the time, Elapsed() is the time
+// since, TickChild() ticks the child and restarts the timing once it completes. Shared by Timeout and Delay.
+class TimedDecorator : public DecoratorNode {
  public:
   using DecoratorNode::DecoratorNode;
+
+ protected:
+  bool started() const { return started_; }
+  void Start(const char* port) {
+    duration_ = std::chrono::milliseconds(RequireInt(*this, port, 0));
+    start_ = Now();
+    started_ = true;
+  }
+  std::chrono::nanoseconds Elapsed() const { return Now() - start_; }
+  std::chrono::milliseconds duration() const { return duration_; }
+  void Reset() {
+    started_ = false;
+    HaltChildren();
+  }
+  NodeStatus TickChild() {
+    const NodeStatus result = Child().ExecuteTick();
+    if (result != NodeStatus::kRunning) Reset();
+    return result;
+  }
+  void HaltImpl() override {
+    started_ = false;
+    DecoratorNode::HaltImpl();
+  }
+
+ private:
+  bool started_ = false;
+  std::chrono::nanoseconds start_{0};
+  std::chrono::milliseconds duration_{0};
+};
+
+// Ticks the child; on the first tick at or after `msec` ms since the Timeout started, while the child is
+// still running, halts the child and fails without ticking it. msec="0": no time limit.
+class TimeoutNode : public TimedDecorator {
+ public:
+  using TimedDecorator::TimedDecorator;
 
   static PortsList ProvidedPorts() {
     return {Typed(InputPort("msec", "halt the child and fail after this many ms of running; 0: never"),
@@ -655,41 +690,21 @@ class TimeoutNode : public DecoratorNode {
 
  protected:
   NodeStatus Tick() override {
-    if (!started_) {
-      timeout_ = std::chrono::milliseconds(RequireInt(*this, "msec", 0));
-      start_ = Now();
-      started_ = true;
-    }
-    if (timeout_.count() > 0 && Child().status() == NodeStatus::kRunning && Now() - start_ >= timeout_) {
-      started_ = false;
-      HaltChildren();
+    if (!started()) Start("msec");
+    if (duration().count() > 0 && Child().status() == NodeStatus::kRunning && Elapsed() >= duration()) {
+      Reset();
       return NodeStatus::kFailure;
     }
-    const NodeStatus result = Child().ExecuteTick();
-    if (result != NodeStatus::kRunning) {
-      started_ = false;
-      HaltChildren();
-    }
-    return result;
+    return TickChild();
   }
-
-  void HaltImpl() override {
-    started_ = false;
-    DecoratorNode::HaltImpl();
-  }
-
- private:
-  bool started_ = false;
-  std::chrono::nanoseconds start_{0};
-  std::chrono::milliseconds timeout_{0};
 };
 
 // Returns RUNNING until `delay_msec` ms have passed since its first tick, then ticks the child (RUNNING,
 // SUCCESS or FAILURE passes through). The first tick never ticks the child, even with delay_msec="0".
 // When the child completes, the next tick starts a new delay.
-class DelayNode : public DecoratorNode {
+class DelayNode : public TimedDecorator {
  public:
-  using DecoratorNode::DecoratorNode;
+  using TimedDecorator::TimedDecorator;
 
   static PortsList ProvidedPorts() {
     return {Typed(InputPort("delay_msec", "ms to wait before ticking the child"), "unsigned int")};
@@ -701,30 +716,13 @@ class DelayNode : public DecoratorNode {
 
  protected:
   NodeStatus Tick() override {
-    if (!started_) {
-      delay_ = std::chrono::milliseconds(RequireInt(*this, "delay_msec", 0));
-      start_ = Now();
-      started_ = true;
+    if (!started()) {
+      Start("delay_msec");
       return NodeStatus::kRunning;
     }
-    if (Now() - start_ < delay_) return NodeStatus::kRunning;
-    const NodeStatus result = Child().ExecuteTick();
-    if (result != NodeStatus::kRunning) {
-      started_ = false;
-      HaltChildren();
-    }
-    return result;
+    if (Elapsed() < duration()) return NodeStatus::kRunning;
+    return TickChild();
   }
-
-  void HaltImpl() override {
-    started_ = false;
-    DecoratorNode::HaltImpl();
-  }
-
- private:
-  bool started_ = false;
-  std::chrono::nanoseconds start_{0};
-  std::chrono::milliseconds delay_{0};
 };
 
 // ---- SetBlackboard (BehaviorTree.CPP include/behaviortree_cpp/actions/set_blackboard_node.h).
