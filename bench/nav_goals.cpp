@@ -49,6 +49,43 @@ agent::AgentOptions Options() {
   return o;
 }
 
+// A 4 m x 3 m picture around `center_W`: ground truth | navigation map. '#' lethal, '+' free but not
+// traversable, '.' traversable, '?' unknown (nav map, traversable), 'R' the robot; then the nav map's column
+// at the centre (occupied and seen-free voxel heights).
+void PrintPicture(const nav::TraversabilityGrid& truth, const agent::NavMap& nav_map, const core::BaseState& pose,
+                  const Eigen::Vector2d& center_W) {
+  const nav::TraversabilityGrid& grid = nav_map.grid();
+  auto glyph = [&](const nav::TraversabilityGrid& g, double x, double y) {
+    int ix = 0, iy = 0;
+    if (!g.CellOf(x, y, &ix, &iy)) return ' ';
+    if (std::hypot(x - pose.x_m, y - pose.y_m) < 0.1) return 'R';
+    if (g.IsLethal(ix, iy)) return '#';
+    if (g.State(ix, iy) == nav::CellState::kUnknown) return '?';
+    return g.IsTraversable(ix, iy) ? '.' : '+';
+  };
+  for (double y = center_W.y() + 1.5; y > center_W.y() - 1.5; y -= 0.1) {
+    std::string row;
+    for (double x = center_W.x() - 2.0; x < center_W.x() + 2.0; x += 0.1) row += glyph(truth, x, y);
+    row += "   ";
+    for (double x = center_W.x() - 2.0; x < center_W.x() + 2.0; x += 0.1) row += glyph(grid, x, y);
+    std::printf("      %s  y %.2f\n", row.c_str(), y);
+  }
+  const core::VoxelGrid& voxels = nav_map.voxels();
+  const auto index = voxels.IndexOf({center_W.x(), center_W.y(), pose.z_m});
+  if (!index) return;
+  std::printf("      column at (%.2f, %.2f), occupied z:", center_W.x(), center_W.y());
+  for (int iz = 0; iz < voxels.dims().z(); ++iz) {
+    if (voxels.IsOccupiedIndex({index->x(), index->y(), iz})) std::printf(" %.2f", voxels.CenterOf({0, 0, iz}).z());
+  }
+  std::printf("; seen free z:");
+  for (int iz = 0; iz < voxels.dims().z(); ++iz) {
+    if (nav_map.seen_free().IsOccupiedIndex({index->x(), index->y(), iz})) {
+      std::printf(" %.2f", voxels.CenterOf({0, 0, iz}).z());
+    }
+  }
+  std::printf("\n");
+}
+
 // The stack of issue 11: everything from the simulated platform's sensors and pose estimate.
 Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const Eigen::Vector2d& goal,
                   double timeout_s) {
@@ -99,6 +136,14 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
       std::printf("    t %5.1f pose (%.2f, %.2f, %.2f) v %.2f w %.2f cmd (%.2f, %.2f) left %.1f local '%s'\n", t, pose.x_m,
                   pose.y_m, pose.yaw_rad, pose.v_mps, pose.w_radps, step.linear_x_mps, step.angular_z_radps,
                   navigation.distance_left_m(), navigation.local_status().c_str());
+      const auto& path_W = navigation.global_plan().result.path_W;
+      std::printf("      global path (%zu points):", path_W.size());
+      for (std::size_t i = 0; i < path_W.size() && i < 6; ++i) std::printf(" (%.2f, %.2f)", path_W[i].x(), path_W[i].y());
+      const nav::LocalPlanResult& local = navigation.local_result();
+      std::printf("\n      local: %s free %.2f of %.2f m, %d free paths, end (%.2f, %.2f) frame B\n",
+                  local.message.c_str(), local.free_length_m, local.required_free_length_m, local.num_free_paths,
+                  local.path_B.empty() ? 0.0f : local.path_B.back().x(), local.path_B.empty() ? 0.0f : local.path_B.back().y());
+      if (std::fabs(t - 2.5) < 0.5 * kDt) PrintPicture(*platform.terrain(), nav_map, pose, {pose.x_m, pose.y_m});
       // Obstacles within 1 m, frame M, and what the ground truth and the navigation map say there.
       const auto truth = platform.terrain();
       for (const auto& p : points_B) {
@@ -107,9 +152,12 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
         const double x = pose.x_m + c * p.x() - s * p.y(), y = pose.y_m + s * p.x() + c * p.y();
         int ix = 0, iy = 0;
         const bool in_map = nav_map.grid().CellOf(x, y, &ix, &iy);
-        std::printf("      obstacle (%.2f, %.2f): truth %s, nav map %s\n", x, y,
+        const nav::TraversabilityGrid& grid = nav_map.grid();
+        std::printf("      obstacle (%.2f, %.2f) z %.2f: truth %s, nav map %s ground %.2f%s%s\n", x, y, p.z(),
                     truth->IsTraversableAt(x, y) ? "traversable" : "blocked",
-                    in_map ? nav::ToString(nav_map.grid().State(ix, iy)) : "outside");
+                    in_map ? nav::ToString(grid.State(ix, iy)) : "outside", in_map ? grid.Ground(ix, iy) : NAN,
+                    in_map && grid.IsLethal(ix, iy) ? " lethal" : "",
+                    in_map && grid.IsTraversable(ix, iy) ? " traversable" : "");
       }
     }
     out.time_s = t;
@@ -120,6 +168,16 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
       return out;
     }
     if (step.failed) {
+      if (g_verbose) {
+        PrintPicture(*platform.terrain(), nav_map, pose, goal);
+        for (double x = goal.x() - 0.35; x < goal.x() + 0.4; x += 0.1) {
+          std::printf("      octomap x %.2f:", x);
+          for (double z = -0.05; z < 0.4; z += 0.1) {
+            std::printf(" z %.2f %d", z, static_cast<int>(perception.map()->Query({x, goal.y(), z})));
+          }
+          std::printf("\n");
+        }
+      }
       out.reason = step.reason;
       return out;
     }

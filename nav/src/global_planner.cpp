@@ -124,13 +124,15 @@ void GlobalPlanner::UpdateWorld(std::shared_ptr<const core::VoxelGrid> world) {
   if (!world) throw std::invalid_argument("GlobalPlanner::UpdateWorld: world is null");
   std::lock_guard<std::mutex> guard(mutex_);
   world_ = std::move(world);
+  seen_free_.reset();
   ++map_version_;
   grids_.clear();
   diagnose_grids_.clear();
 }
 
 void GlobalPlanner::UpdateMap(std::shared_ptr<const core::VoxelGrid> world, const std::string& platform,
-                              std::shared_ptr<const TraversabilityGrid> grid) {
+                              std::shared_ptr<const TraversabilityGrid> grid,
+                              std::shared_ptr<const core::VoxelGrid> seen_free) {
   if (!world || !grid) throw std::invalid_argument("GlobalPlanner::UpdateMap: world or grid is null");
   if (Profile(platform) == nullptr) {
     throw std::invalid_argument("GlobalPlanner::UpdateMap: platform '" + platform + "' is not served (valid: " +
@@ -138,6 +140,7 @@ void GlobalPlanner::UpdateMap(std::shared_ptr<const core::VoxelGrid> world, cons
   }
   std::lock_guard<std::mutex> guard(mutex_);
   world_ = std::move(world);
+  seen_free_ = std::move(seen_free);
   ++map_version_;
   grids_.clear();
   diagnose_grids_.clear();
@@ -167,7 +170,7 @@ std::shared_ptr<const TraversabilityGrid> GlobalPlanner::GridLocked(const std::s
   if (it != cache.end()) return it->second;
   TraversabilityOptions t = TerrainOptionsFor(*profile);
   if (diagnose) t.max_step_m = std::max(t.max_step_m, options_.diagnose_max_step_m);
-  auto grid = std::make_shared<const TraversabilityGrid>(*world_, t);
+  auto grid = std::make_shared<const TraversabilityGrid>(*world_, t, seen_free_.get());
   cache.emplace(platform, grid);
   return grid;
 }
@@ -188,6 +191,9 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
   AStarOptions astar = options_.astar;
   astar.start_footprint_radius_m = profile->footprint_radius_m;
   astar.start_is_robot = request.start_is_robot;
+  if (std::isfinite(request.preferred_clearance_m)) {
+    astar.preferred_clearance_m = std::clamp(request.preferred_clearance_m, 0.0, 10.0);
+  }
   const auto grid = GridLocked(request.platform, false);
   plan.result = PlanPath(*grid, request.start_W, request.goal_W, astar);
   if (!plan.result.IsUsable()) {

@@ -109,6 +109,12 @@ bool TraversabilityOptions::IsValid(std::string* why) const {
 
 namespace {
 
+// Clears the grid's seen-free pointer (valid only while a caller's grid is in reach) when leaving a scope.
+struct SeenFreeScope {
+  const core::VoxelGrid** pointer;
+  ~SeenFreeScope() { *pointer = nullptr; }
+};
+
 // Inclusive cell window clamped to the grid; empty when x1 < x0 or y1 < y0.
 struct Window {
   int x0, y0, x1, y1;
@@ -120,7 +126,8 @@ struct Window {
 
 }  // namespace
 
-TraversabilityGrid::TraversabilityGrid(const core::VoxelGrid& world, const TraversabilityOptions& options)
+TraversabilityGrid::TraversabilityGrid(const core::VoxelGrid& world, const TraversabilityOptions& options,
+                                       const core::VoxelGrid* seen_free)
     : options_(options) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
@@ -145,6 +152,9 @@ TraversabilityGrid::TraversabilityGrid(const core::VoxelGrid& world, const Trave
   ny_ = (world_dims_.y() + k - 1) / k;
   p_W_min_ = world.p_W_min().head<2>();
   need_voxels_ = std::max(1, static_cast<int>(std::ceil(options.robot_height_m / res - kEps_m)));
+  if (seen_free != nullptr) CheckGeometry(*seen_free, "seen_free");
+  seen_free_ = seen_free;
+  const SeenFreeScope scope{&seen_free_};
 
   double reference = options.reference_height_m;
   if (std::isnan(reference)) {
@@ -179,6 +189,26 @@ TraversabilityGrid::TraversabilityGrid(const core::VoxelGrid& world, const Trave
   Recompute(world, {{0, 0, nx_ - 1, ny_ - 1}}, /*whole=*/true);
 }
 
+void TraversabilityGrid::CheckGeometry(const core::VoxelGrid& grid, const char* what) const {
+  if (grid.dims() != world_dims_ || grid.resolution_m() != world_res_m_ || grid.p_W_min() != world_p_min_) {
+    throw std::invalid_argument(std::string("TraversabilityGrid: the geometry of ") + what +
+                                " differs from the one the grid was built on");
+  }
+}
+
+bool TraversabilityGrid::SeenFreeAbove(int ix, int iy, int iz) const {
+  if (seen_free_ == nullptr) return true;
+  for (int dx = -1; dx <= 1; ++dx) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      if (seen_free_->IsOccupiedIndex({ix + dx, iy + dy, iz + 1}) ||
+          seen_free_->IsOccupiedIndex({ix + dx, iy + dy, iz + 2})) {
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
 double TraversabilityGrid::TopOf(int iz) const { return world_p_min_.z() + (iz + 1) * world_res_m_; }
 
 template <class Visit>
@@ -198,7 +228,7 @@ bool TraversabilityGrid::ScanColumn(const core::VoxelGrid& world, int ix, int iy
     const double top = TopOf(iz);
     if (top >= band_lo && top <= band_hi) {
       band_occupied = true;
-      if (free_run >= need_voxels_) visit(iz);
+      if (free_run >= need_voxels_ && SeenFreeAbove(ix, iy, iz)) visit(iz);
     }
     free_run = 0;
   }
@@ -210,10 +240,15 @@ void TraversabilityGrid::Update(const core::VoxelGrid& world, const Eigen::Align
 }
 
 void TraversabilityGrid::Update(const core::VoxelGrid& world, const std::vector<Eigen::AlignedBox2d>& regions_W) {
-  if (world.dims() != world_dims_ || world.resolution_m() != world_res_m_ || world.p_W_min() != world_p_min_) {
-    throw std::invalid_argument("TraversabilityGrid::Update: the voxel grid's geometry differs from the one the "
-                                "grid was built on");
-  }
+  Update(world, nullptr, regions_W);
+}
+
+void TraversabilityGrid::Update(const core::VoxelGrid& world, const core::VoxelGrid* seen_free,
+                                const std::vector<Eigen::AlignedBox2d>& regions_W) {
+  CheckGeometry(world, "the world");
+  if (seen_free != nullptr) CheckGeometry(*seen_free, "seen_free");
+  seen_free_ = seen_free;
+  const SeenFreeScope scope{&seen_free_};
   std::vector<std::array<int, 4>> windows;
   const auto cell = [&](double v, double lo) { return static_cast<int>(std::floor((v - lo) / cell_m_)); };
   for (const Eigen::AlignedBox2d& region_W : regions_W) {

@@ -425,9 +425,11 @@ class Tree final : public octomap::OcTree {
 
   /// Appends the keys of the occupied finest voxels below `node` (at `depth`, min corner key `base`) inside
   /// the closed key box [lo, hi].
-  void CollectOccupiedInKeyBox(const OcTreeNode* node, int depth, const std::array<int, 3>& base,
-                               const std::array<int, 3>& lo, const std::array<int, 3>& hi,
-                               std::vector<std::array<int, 3>>* out) const {
+  // Appends the keys of the finest voxels in the key box [lo, hi] whose leaf is occupied (want_occupied) or
+  // known free (!want_occupied); unknown space has no leaf and is never collected.
+  void CollectInKeyBox(const OcTreeNode* node, int depth, const std::array<int, 3>& base,
+                       const std::array<int, 3>& lo, const std::array<int, 3>& hi, bool want_occupied,
+                       std::vector<std::array<int, 3>>* out) const {
     const int size = 1 << (kTreeDepth - depth);
     std::array<int, 3> a{};
     std::array<int, 3> b{};
@@ -437,7 +439,7 @@ class Tree final : public octomap::OcTree {
       if (a[i] > b[i]) return;
     }
     if (!nodeHasChildren(node)) {
-      if (!isNodeOccupied(node)) return;
+      if (isNodeOccupied(node) != want_occupied) return;
       for (int x = a[0]; x <= b[0]; ++x) {
         for (int y = a[1]; y <= b[1]; ++y) {
           for (int z = a[2]; z <= b[2]; ++z) out->push_back({x, y, z});
@@ -450,7 +452,7 @@ class Tree final : public octomap::OcTree {
       if (!nodeChildExists(node, i)) continue;
       const std::array<int, 3> child_base{base[0] + ((i & 1u) ? half : 0), base[1] + ((i & 2u) ? half : 0),
                                           base[2] + ((i & 4u) ? half : 0)};
-      CollectOccupiedInKeyBox(getNodeChild(node, i), depth + 1, child_base, lo, hi, out);
+      CollectInKeyBox(getNodeChild(node, i), depth + 1, child_base, lo, hi, want_occupied, out);
     }
   }
 
@@ -977,8 +979,16 @@ std::optional<Eigen::Vector3d> OccupancyMap::CastRay(const Eigen::Vector3d& orig
 }
 
 std::vector<Eigen::Vector3d> OccupancyMap::OccupiedInBox(const Eigen::AlignedBox3d& box_W) const {
+  return VoxelsInBox(box_W, /*occupied=*/true);
+}
+
+std::vector<Eigen::Vector3d> OccupancyMap::FreeInBox(const Eigen::AlignedBox3d& box_W) const {
+  return VoxelsInBox(box_W, /*occupied=*/false);
+}
+
+std::vector<Eigen::Vector3d> OccupancyMap::VoxelsInBox(const Eigen::AlignedBox3d& box_W, bool occupied) const {
   if (box_W.min().hasNaN() || box_W.max().hasNaN()) {
-    throw MapError("OccupiedInBox: box_W corner is NaN: min " +
+    throw MapError(std::string(occupied ? "OccupiedInBox" : "FreeInBox") + ": box_W corner is NaN: min " +
                    Vec3Text(box_W.min().x(), box_W.min().y(), box_W.min().z()) + ", max " +
                    Vec3Text(box_W.max().x(), box_W.max().y(), box_W.max().z()));
   }
@@ -995,7 +1005,7 @@ std::vector<Eigen::Vector3d> OccupancyMap::OccupiedInBox(const Eigen::AlignedBox
   {
     ReadLock lock(m.turnstile, m.mutex);
     if (m.tree.getRoot() == nullptr) return centers_W;
-    m.tree.CollectOccupiedInKeyBox(m.tree.getRoot(), 0, {0, 0, 0}, lo, hi, &keys);
+    m.tree.CollectInKeyBox(m.tree.getRoot(), 0, {0, 0, 0}, lo, hi, occupied, &keys);
   }
   centers_W.reserve(keys.size());
   const double res = m.options.resolution_m;

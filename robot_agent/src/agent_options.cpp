@@ -44,8 +44,8 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   NavigationOptions& n = navigation;
   const auto nav = config.Section("navigation");
   nav.RejectUnknownKeys({"cruise_speed_mps", "goal_tolerance_m", "blocked_timeout_s", "contact_timeout_s",
-                         "carrot_distance_m", "required_free_length_m", "sensor_range_m", "local_planner_period_s",
-                         "obstacle_timeout_s", "replan_check_period_s", "max_path_deviation_m",
+                         "carrot_distance_m", "required_free_length_m", "tight_free_length_m",
+                         "tight_spot_deviation_rad", "sensor_range_m", "local_planner_period_s", "obstacle_timeout_s", "replan_check_period_s", "max_path_deviation_m",
                          "joystick_turn_lookahead_s", "map_half_extent_m", "map_update_period_s",
                          "obstacle_window_s", "path_requests_per_s"});
   nav.ReadDouble("cruise_speed_mps", &n.platform.cruise_speed_mps);
@@ -54,6 +54,8 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   nav.ReadDouble("contact_timeout_s", &contact_timeout_s);
   nav.ReadDouble("carrot_distance_m", &n.carrot_distance_m);
   nav.ReadDouble("required_free_length_m", &n.required_free_length_m);
+  nav.ReadDouble("tight_free_length_m", &n.tight_free_length_m);
+  nav.ReadDouble("tight_spot_deviation_rad", &n.tight_spot_deviation_rad);
   nav.ReadDouble("sensor_range_m", &n.sensor_range_m);
   nav.ReadDouble("local_planner_period_s", &n.local_planner_period_s);
   nav.ReadDouble("obstacle_timeout_s", &n.obstacle_timeout_s);

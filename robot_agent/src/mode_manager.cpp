@@ -1,5 +1,7 @@
 #include "cairn/agent/mode_manager.h"
 
+#include "cairn/agent/waypoint_recovery.h"
+
 #include <algorithm>
 #include <map>
 
@@ -39,6 +41,14 @@ std::function<NodeStatus(bt::TreeNode&)> Traced(std::shared_ptr<Context> ctx,
 }  // namespace
 
 void ModeManager::RegisterNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx) {
+  RegisterModeNodes(factory, ctx);
+  // The recovery tree of the same file (WaypointRecovery) uses these; they run only there.
+  WaypointRecovery::RegisterNodes(factory, nullptr);
+}
+
+void ModeManager::RegisterModeNodes(bt::TreeFactory& factory) { RegisterModeNodes(factory, std::make_shared<Context>()); }
+
+void ModeManager::RegisterModeNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx) {
   factory.RegisterSimpleCondition(
       "IsModeRequested",
       Traced(ctx, [](bt::TreeNode& node) {

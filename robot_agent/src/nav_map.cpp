@@ -68,16 +68,18 @@ NavMap::NavMap(const NavMapOptions& options, double resolution_m, const core::Ba
     : options_(Checked(options)),
       planner_(std::move(planner)),
       platform_(platform),
-      voxels_(*EmptyGrid(options, resolution_m, start_M)) {
+      voxels_(*EmptyGrid(options, resolution_m, start_M)),
+      seen_free_(voxels_) {
   if (!planner_) throw std::invalid_argument("NavMap: planner is null");
   const nav::PlatformProfile* profile = planner_->Profile(platform);
   if (profile == nullptr) {
     throw std::invalid_argument("NavMap: platform '" + platform + "' is not served by the planner (valid: " +
                                 planner_->PlatformList() + ")");
   }
-  grid_ = std::make_unique<nav::TraversabilityGrid>(voxels_, planner_->TerrainOptionsFor(*profile));
+  grid_ = std::make_unique<nav::TraversabilityGrid>(voxels_, planner_->TerrainOptionsFor(*profile), &seen_free_);
   planner_->UpdateMap(std::make_shared<const core::VoxelGrid>(voxels_), platform_,
-                      std::make_shared<const nav::TraversabilityGrid>(*grid_));
+                      std::make_shared<const nav::TraversabilityGrid>(*grid_),
+                      std::make_shared<const core::VoxelGrid>(seen_free_));
 }
 
 NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& tiles,
@@ -99,7 +101,10 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     if (lo.x() > hi.x() || lo.y() > hi.y()) continue;
     for (int ix = lo.x(); ix <= hi.x(); ++ix) {
       for (int iy = lo.y(); iy <= hi.y(); ++iy) {
-        for (int iz = 0; iz <= last.z(); ++iz) voxels_.SetOccupied({ix, iy, iz}, false);
+        for (int iz = 0; iz <= last.z(); ++iz) {
+          voxels_.SetOccupied({ix, iy, iz}, false);
+          seen_free_.SetOccupied({ix, iy, iz}, false);
+        }
       }
     }
     // Voxel centres strictly inside the tile, so that a neighbouring voxel touching its face is not read.
@@ -107,6 +112,7 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     const Eigen::AlignedBox3d query(voxels_.CenterOf({lo.x(), lo.y(), 0}) - shrink,
                                     voxels_.CenterOf({hi.x(), hi.y(), last.z()}) + shrink);
     for (const Eigen::Vector3d& p : map.OccupiedInBox(query)) stats.occupied_voxels += voxels_.SetOccupiedAt(p);
+    for (const Eigen::Vector3d& p : map.FreeInBox(query)) seen_free_.SetOccupiedAt(p);
     const Eigen::AlignedBox2d box(voxels_.CenterOf({lo.x(), lo.y(), 0}).head<2>(),
                                   voxels_.CenterOf({hi.x(), hi.y(), 0}).head<2>());
     columns.push_back(box);
@@ -116,11 +122,12 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
   if (columns.empty()) return stats;
   stats.read_ms = MsSince(start);
   start = Clock::now();
-  grid_->Update(voxels_, columns);
+  grid_->Update(voxels_, &seen_free_, columns);
   stats.traversability_ms = MsSince(start);
   start = Clock::now();
   planner_->UpdateMap(std::make_shared<const core::VoxelGrid>(voxels_), platform_,
-                      std::make_shared<const nav::TraversabilityGrid>(*grid_));
+                      std::make_shared<const nav::TraversabilityGrid>(*grid_),
+                      std::make_shared<const core::VoxelGrid>(seen_free_));
   stats.publish_ms = MsSince(start);
   stats.map_version = planner_->map_version();
   stats.applied = true;

@@ -53,6 +53,8 @@ bool NavigationOptions::IsValid(std::string* why) const {
          InRange("navigation.blocked_timeout_s", blocked_timeout_s, 0, 600, true, why) &&
          InRange("navigation.carrot_distance_m", carrot_distance_m, 0, 10, true, why) &&
          InRange("navigation.required_free_length_m", required_free_length_m, 0, 10, true, why) &&
+         InRange("navigation.tight_free_length_m", tight_free_length_m, 0, required_free_length_m, true, why) &&
+         InRange("navigation.tight_spot_deviation_rad", tight_spot_deviation_rad, 0, kPi, true, why) &&
          InRange("navigation.sensor_range_m", sensor_range_m, 0, 20, true, why) &&
          InRange("navigation.local_planner_period_s", local_planner_period_s, 0, 1, true, why) &&
          InRange("navigation.obstacle_timeout_s", obstacle_timeout_s, 0, 10, true, why) &&
@@ -91,6 +93,7 @@ nav::GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, dou
   request.goal_W = {x_m, y_m};
   request.platform = options_.platform.name;
   request.start_is_robot = true;  // where the robot stands: a start the map shows blocked is map noise
+  if (reduced_clearance_) request.preferred_clearance_m = options_.platform.footprint_radius_m;
   return request;
 }
 
@@ -133,9 +136,43 @@ void Navigation::ClearGoal() {
   track_W_.clear();
 }
 
+void Navigation::ClearObstacles() {
+  obstacles_B_.clear();
+  awaiting_obstacles_ = true;
+  track_W_.clear();
+}
+
+bool Navigation::ClearBehind(const core::BaseState& state, double distance_m, double margin_m,
+                             std::string* why) const {
+  const double radius = options_.platform.footprint_radius_m + std::max(0.0, margin_m);
+  const auto& library = local_planner_.library().options();
+  double nearest = 1e18;
+  Eigen::Vector2d nearest_W = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector3f& o : obstacles_B_) {
+    if (!o.allFinite() || o.z() < library.obstacle_min_z_m || o.z() > library.obstacle_max_z_m) continue;
+    // Obstacles are kept in frame B of obstacles_pose_; the segment runs from `state` backwards.
+    const Eigen::Vector2d p_B = ToBody(state, ToWorld(obstacles_pose_, o.head<2>().cast<double>()));
+    const double along = std::clamp(p_B.x(), -std::max(0.0, distance_m), 0.0);
+    const double d = (p_B - Eigen::Vector2d(along, 0.0)).norm();
+    // Points ahead of the robot's centre that it already touches do not block moving away from them.
+    if (p_B.x() > 0.0) continue;
+    if (d < nearest) {
+      nearest = d;
+      nearest_W = ToWorld(state, p_B);
+    }
+  }
+  if (nearest > radius) return true;
+  if (why != nullptr) {
+    *why = "obstacle behind at (" + Fixed(nearest_W.x(), 2) + ", " + Fixed(nearest_W.y(), 2) + "), " +
+           Fixed(nearest, 2) + " m from the way back";
+  }
+  return false;
+}
+
 void Navigation::SetObstacles(const std::vector<Eigen::Vector3f>& points_B, const core::BaseState& state,
                               double now_s) {
   obstacles_B_ = points_B;
+  awaiting_obstacles_ = false;
   // Kept in frame B of `state`; RunLocalPlanner re-expresses them if the robot moved since.
   obstacles_pose_ = state;
   obstacles_time_s_ = now_s;
@@ -192,10 +229,10 @@ double Navigation::UpdateProgress(const Eigen::Vector2d& p_W) {
   return best_d;
 }
 
-Eigen::Vector2d Navigation::Carrot() const {
+Eigen::Vector2d Navigation::PointAhead(double ahead_m) const {
   const auto& path = plan_.result.path_W;
   if (path.size() < 2) return goal_ ? goal_->p_W : Eigen::Vector2d::Zero();
-  const double target = projection_along_m_ + options_.carrot_distance_m;
+  const double target = projection_along_m_ + ahead_m;
   double along = segment_start_along_m_;
   for (std::size_t i = path_segment_; i + 1 < path.size(); ++i) {
     const Eigen::Vector2d a = path[i].head<2>(), b = path[i + 1].head<2>();
@@ -207,11 +244,7 @@ Eigen::Vector2d Navigation::Carrot() const {
 }
 
 bool Navigation::Replan(const core::BaseState& state, double now_s, std::string* reason) {
-  nav::GlobalPlanRequest request;
-  request.start_W = {state.x_m, state.y_m};
-  request.goal_W = goal_->p_W;
-  request.platform = options_.platform.name;
-  request.start_is_robot = true;  // where the robot stands: a start the map shows blocked is map noise
+  const nav::GlobalPlanRequest request = GoalRequest(state, goal_->p_W.x(), goal_->p_W.y());
   nav::GlobalPlan plan = planner_->Plan(request);
   if (!plan.IsUsable()) {
     *reason = plan.reason;
@@ -248,7 +281,35 @@ void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalP
   nav::LocalPlanRequest r = request;
   r.previous_path_id = local_result_.IsUsable() ? local_result_.path_id : -1;
   local_planner_.Plan(obstacles_B_, r, &local_result_);
+  bool aligned = true;
+  if (r.mode == nav::LocalPlanMode::kGoal) {
+    // Tight spot: the paths free for the full length all turn away from the carrot. Shorter required
+    // lengths let the robot creep through a gap whose far side the library's arcs cannot all clear.
+    const double target = std::atan2(r.goal_B.y(), r.goal_B.x());
+    auto deviation = [&](const nav::LocalPlanResult& result) {
+      if (!result.IsUsable() || result.path_B.size() < 2) return kPi + 1.0;
+      const Eigen::Vector3f& end = result.path_B.back();
+      return std::abs(std::remainder(std::atan2(end.y(), end.x()) - target, 2 * kPi));
+    };
+    double best = deviation(local_result_);
+    double length = std::min(r.max_required_free_length_m, options_.required_free_length_m);
+    while (best > options_.tight_spot_deviation_rad && length > options_.tight_free_length_m + 1e-9) {
+      length = std::max(options_.tight_free_length_m, 0.5 * length);
+      nav::LocalPlanRequest shorter = r;
+      shorter.max_required_free_length_m = length;
+      nav::LocalPlanResult result;
+      local_planner_.Plan(obstacles_B_, shorter, &result);
+      const double d = deviation(result);
+      if (d < best) {
+        best = d;
+        local_result_ = std::move(result);
+      }
+    }
+    aligned = best <= options_.tight_spot_deviation_rad;
+  }
   track_W_.clear();
+  creeping_ = false;
+  if (r.mode == nav::LocalPlanMode::kGoal && !aligned && TrackGlobalPathIfClear(state)) return;
   if (!local_result_.IsUsable()) {
     local_status_ = local_result_.status == nav::LocalPlanResult::Status::kBoxedIn ? local_result_.message
                                                                                    : "invalid input: " +
@@ -279,6 +340,36 @@ void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalP
     }
   }
   if (track_W_.size() < 2) track_W_.clear();
+}
+
+bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state) {
+  // Beyond the bare footprint radius (the platform radius is the body); none with reduced clearance.
+  const double kTightMarginM = reduced_clearance_ ? 0.0 : 0.01;
+  constexpr double kTightTrackM = 1.0;     // track length along the global path
+  constexpr double kTightSpacingM = 0.05;  // sample spacing of the check
+  if (!goal_ || plan_.result.path_W.size() < 2) return false;
+  const double radius = options_.platform.footprint_radius_m + kTightMarginM;
+  const auto& library = local_planner_.library().options();
+  std::vector<Eigen::Vector2d> track{Eigen::Vector2d(state.x_m, state.y_m)};
+  for (double ahead = kTightSpacingM; ahead <= kTightTrackM + 1e-9; ahead += kTightSpacingM) {
+    const Eigen::Vector2d p = PointAhead(ahead);
+    if ((p - track.back()).norm() > 1e-6) track.push_back(p);
+  }
+  if (track.size() < 2) return false;
+  double clearance = 1e18;
+  for (const Eigen::Vector2d& p_W : track) {
+    const Eigen::Vector2d p_B = ToBody(state, p_W);
+    for (const Eigen::Vector3f& o : obstacles_B_) {
+      if (!o.allFinite() || o.z() < library.obstacle_min_z_m || o.z() > library.obstacle_max_z_m) continue;
+      clearance = std::min(clearance, (o.head<2>().cast<double>() - p_B).norm());
+    }
+    if (clearance <= radius) return false;
+  }
+  track_W_ = std::move(track);
+  track_stop_at_end_ = true;
+  creeping_ = true;
+  local_status_ = "tight spot: following the global path, " + Fixed(clearance, 2) + " m from the nearest obstacle";
+  return true;
 }
 
 NavigationStep Navigation::Control(const core::BaseState& state, double cruise_mps, double now_s) {
@@ -342,9 +433,10 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   request.max_required_free_length_m = options_.required_free_length_m;
   if (request.goal_B.norm() < 1e-3) request.goal_B = ToBody(state, goal_->p_W);
   const bool goal_near = to_goal <= local_planner_.library().options().path_length_m;
-  if (!LocalPlannerHealthy(now_s, nullptr)) {
+  if (!LocalPlannerHealthy(now_s, nullptr) || awaiting_obstacles_) {
     track_W_.clear();
-    local_status_ = "stopped: no fresh obstacle input";
+    local_status_ = awaiting_obstacles_ ? "stopped: obstacle memory cleared, waiting for a fresh scan"
+                                        : "stopped: no fresh obstacle input";
     return Control(state, options_.platform.cruise_speed_mps, now_s);
   }
   RunLocalPlanner(state, request, now_s, goal_near ? std::optional<Eigen::Vector2d>(goal_->p_W) : std::nullopt);
@@ -371,7 +463,7 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     }
     return turn;
   }
-  return Control(state, options_.platform.cruise_speed_mps, now_s);
+  return Control(state, (creeping_ ? 0.5 : 1.0) * options_.platform.cruise_speed_mps, now_s);
 }
 
 NavigationStep Navigation::StepJoystick(const core::BaseState& state, double vx_mps, double vy_mps,

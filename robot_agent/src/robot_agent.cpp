@@ -22,6 +22,7 @@
 #include "cairn/agent/perception_pipeline.h"
 #include "cairn/agent/reply_cache.h"
 #include "cairn/agent/twist_mux.h"
+#include "cairn/agent/waypoint_recovery.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/shutdown.h"
 #include "cairn/msgs/stamp.h"
@@ -66,6 +67,7 @@ class RobotAgent::Impl {
   struct Goal {
     uint32_t goal_id = 0;  // robot-assigned (CommandResponse.goal_id, RobotState.nav_goal_id)
     double x_m = 0, y_m = 0;
+    double tolerance_m = 0;  // 0 = navigation's default
     SteadyTime contact_since{};
     bool in_contact = false;
   };
@@ -202,6 +204,9 @@ class RobotAgent::Impl {
   std::shared_ptr<core::LidarScan> latest_scan_;  // from the sensor thread to the perception thread
   // Sensor thread only (and the constructor, before it starts).
   LiveObstacles live_obstacle_sensor_;
+  // Set by the recovery's "clear the local obstacle memory" (control thread), done by the sensor thread.
+  std::atomic<bool> clear_obstacle_memory_{false};
+  std::unique_ptr<WaypointRecovery> recovery_;  // control thread
   std::vector<Eigen::Vector3f> obstacle_points_B_;
   std::uint64_t published_path_revision_ = ~0ull;
   msgs::NavStatus nav_status_ = msgs::NAV_STATUS_NONE;
@@ -299,6 +304,17 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       live_obstacle_sensor_(options) {
   std::random_device entropy;
   next_goal_id_ = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
+  recovery_ = std::make_unique<WaypointRecovery>(
+      options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file, &navigation_,
+      WaypointRecovery::Hooks{[this] {
+        clear_obstacle_memory_ = true;
+        std::lock_guard<std::mutex> guard(obstacles_mutex_);
+        live_obstacles_.fresh = false;  // points from before the clearing
+      }});
+  if (!recovery_->enabled()) {
+    spdlog::warn("robot {}: the mode tree file has no {} tree: a blocked waypoint goal fails without recovery",
+                 options.robot_id, WaypointRecovery::kTreeId);
+  }
   nav_map_ = std::make_unique<NavMap>(options.nav_map, options.perception.map.resolution_m, start_M_, planner_,
                                       options.navigation.platform.name);
   if (capabilities_.has_lidar) {
@@ -465,6 +481,7 @@ void RobotAgent::Impl::FinishGoal(msgs::NavStatus status, const std::string& rea
   nav_status_ = status;
   nav_reason_ = reason;
   goal_.reset();
+  recovery_->Halt();
   navigation_.ClearGoal();
   if (status == msgs::NAV_STATUS_FAILED) spdlog::warn("robot {}: waypoint {} failed: {}", options_.robot_id,
                                                        nav_goal_id_, reason);
@@ -657,11 +674,13 @@ void RobotAgent::Impl::FinishGoalJob(const GoalJob& job, const nav::GlobalPlan& 
   };
   const bool had_goal = goal_.has_value();
   if (!plan.IsUsable()) return deny("no path: " + PlanReason(plan));  // the previous goal, if any, goes on
+  recovery_->Halt();  // a recovering previous goal is superseded
   navigation_.AcceptGoal(plan, msg.x_m(), msg.y_m(), msg.tolerance_m(), NowS(SteadyClock::now()));
   Goal goal;
   goal.goal_id = next_goal_id_++;
   goal.x_m = msg.x_m();
   goal.y_m = msg.y_m();
+  goal.tolerance_m = msg.tolerance_m();
   goal_ = goal;
   const ModeDecision d = modes_.Request("waypoint", Conditions());
   if (!d.accepted) {
@@ -888,7 +907,28 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     }
   }
   if (goal_ && modes_.mode() == "waypoint") {
-    const NavigationStep step = navigation_.StepWaypoint(s, now_s);
+    NavigationStep step;
+    if (recovery_->active()) {
+      const WaypointRecovery::Output out = recovery_->Step(s, now_s);
+      step.arrived = out.arrived;
+      step.failed = out.status == bt::NodeStatus::kFailure;
+      step.reason = out.failure;
+      step.linear_x_mps = out.linear_x_mps;
+      step.angular_z_radps = out.angular_z_radps;
+      if (recovery_->active()) {
+        const std::string report = recovery_->Report();
+        if (report != nav_reason_) spdlog::warn("robot {}: waypoint {} {}", options_.robot_id, goal_->goal_id, report);
+        nav_reason_ = report;
+      }
+    } else {
+      step = navigation_.StepWaypoint(s, now_s);
+      if (step.failed && recovery_->enabled()) {
+        recovery_->Start(goal_->x_m, goal_->y_m, goal_->tolerance_m, step.reason);
+        nav_reason_ = recovery_->Report();
+        spdlog::warn("robot {}: waypoint {} {}", options_.robot_id, goal_->goal_id, nav_reason_);
+        step = NavigationStep{};  // brake this cycle; the recovery tree runs from the next
+      }
+    }
     nav_distance_left_m_ = navigation_.distance_left_m();
     if (step.arrived) {
       spdlog::info("robot {}: waypoint {} arrived ({:.2f} m from the goal)", options_.robot_id, goal_->goal_id,
@@ -1200,6 +1240,7 @@ bool RobotAgent::Impl::ReadScan(double now_s) {
   auto scan = std::make_shared<core::LidarScan>();
   if (!platform_->ReadLidarScan(now_s, scan.get())) return false;
   core::BaseState pose_M;
+  if (clear_obstacle_memory_.exchange(false)) live_obstacle_sensor_.Clear();
   live_obstacle_sensor_.AddScan(*scan, &obstacle_points_B_, &pose_M);
   {
     std::lock_guard<std::mutex> guard(obstacles_mutex_);

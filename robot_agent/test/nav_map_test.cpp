@@ -70,7 +70,7 @@ TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFlo
 
   // The incremental grid equals a full rebuild from the same voxels.
   const nav::TraversabilityGrid& incremental = nav_map.grid();
-  const nav::TraversabilityGrid full(nav_map.voxels(), planner->TerrainOptionsFor(profile));
+  const nav::TraversabilityGrid full(nav_map.voxels(), planner->TerrainOptionsFor(profile), &nav_map.seen_free());
   int differing = 0;
   for (int ix = 0; ix < full.nx(); ++ix) {
     for (int iy = 0; iy < full.ny(); ++iy) {

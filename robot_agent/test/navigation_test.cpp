@@ -3,6 +3,7 @@
 // the built-in tunnels, the staircase for legged and wheeled robots, smart joystick at a wall and an
 // off-centre doorway, and replanning when the map changes under the path.
 #include "cairn/agent/navigation.h"
+#include "cairn/agent/waypoint_recovery.h"
 
 #include <gtest/gtest.h>
 
@@ -38,11 +39,11 @@ std::shared_ptr<const nav::TrajectoryLibrary> LibraryFor(const nav::PlatformProf
 // One robot: navigation + platform + stand-in obstacle sensor on the planner's grid.
 struct SimRobot {
   SimRobot(std::shared_ptr<const sim::World> world, const std::string& platform_name, double x, double y,
-           double yaw)
+           double yaw, double blocked_timeout_s = NavigationOptions{}.blocked_timeout_s)
       : planner(std::make_shared<nav::GlobalPlanner>(
             world, std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled"),
                                                      nav::GetPlatformProfile("legged")})),
-        options(MakeOptions(platform_name)),
+        options(MakeOptions(platform_name, blocked_timeout_s)),
         navigation(options, planner, LibraryFor(options.platform)),
         platform(options.platform.limits, options.platform.footprint_radius_m) {
     sim::UnicycleState s;
@@ -53,9 +54,11 @@ struct SimRobot {
     platform.set_state(s);
   }
 
-  static NavigationOptions MakeOptions(const std::string& platform_name) {
+  static NavigationOptions MakeOptions(const std::string& platform_name,
+                                       double blocked_timeout_s = NavigationOptions{}.blocked_timeout_s) {
     NavigationOptions o;
     o.platform = nav::GetPlatformProfile(platform_name);
+    o.blocked_timeout_s = blocked_timeout_s;
     return o;
   }
 
@@ -304,6 +307,131 @@ TEST(NavigationTest, StopsWithoutObstacleInput) {
   const NavigationStep out = robot.navigation.StepWaypoint(robot.platform.state(), 0.0);
   EXPECT_NEAR(out.linear_x_mps, 0.0, 1e-9);
   EXPECT_EQ(robot.navigation.local_status(), "stopped: no fresh obstacle input");
+}
+
+
+// Recovery (the WaypointRecovery tree of the shipped mode tree file). A "ghost" in the live obstacles: a
+// U of points around the robot's nose (front and both sides, open behind), which no map holds, e.g. people
+// standing round the robot. Boxed in with the goal ahead, navigation gives up; the recovery tree clears the
+// obstacle memory and retries (the ghost is still there: attempt 1 fails), backs up and retries after the
+// ghost has left (attempt 2 arrives).
+struct GhostRobot {
+  explicit GhostRobot(double blocked_timeout_s)
+      : world(std::make_shared<const sim::World>(FlatWorld(16.0, 8.0, 0.1, 2.0))),
+        robot(world, "wheeled", 3.0, 4.0, 0.0, blocked_timeout_s),
+        recovery(std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml", &robot.navigation,
+                 WaypointRecovery::Hooks{[this] { ++clears; }}) {
+    for (double d = -0.5; d <= 0.5 + 1e-9; d += 0.05) {
+      ghost_W.emplace_back(3.45, 4.0 + d);  // front, 0.45 m ahead of the centre
+    }
+    for (double x = 2.4; x <= 3.45 + 1e-9; x += 0.05) {
+      ghost_W.emplace_back(x, 3.5);  // sides, 0.5 m off
+      ghost_W.emplace_back(x, 4.5);
+    }
+  }
+
+  // One 50 Hz step: senses (ghost included while ghost_present) every 0.1 s, then navigation or recovery.
+  NavigationStep Tick() {
+    const auto& s = robot.platform.state();
+    if (std::fmod(robot.t_s + 1e-9, 0.1) < kDt) {
+      std::vector<Eigen::Vector3f> points_B;
+      nav::LethalCellsNear(*robot.planner->Grid("wheeled"), s.x_m, s.y_m, s.yaw_rad, 3.5, &points_B);
+      if (ghost_present) {
+        const double c = std::cos(s.yaw_rad), sn = std::sin(s.yaw_rad);
+        for (const Eigen::Vector2d& g : ghost_W) {
+          const Eigen::Vector2d d = g - Eigen::Vector2d(s.x_m, s.y_m);
+          points_B.emplace_back(static_cast<float>(c * d.x() + sn * d.y()), static_cast<float>(-sn * d.x() + c * d.y()),
+                                0.3f);
+        }
+      }
+      robot.navigation.SetObstacles(points_B, s, robot.t_s);
+    }
+    NavigationStep step;
+    if (recovery.active()) {
+      const WaypointRecovery::Output out = recovery.Step(s, robot.t_s);
+      step.arrived = out.arrived;
+      step.failed = out.status == bt::NodeStatus::kFailure;
+      step.reason = out.failure;
+      step.linear_x_mps = out.linear_x_mps;
+      step.angular_z_radps = out.angular_z_radps;
+      if (recovery.active()) report = recovery.Report();
+    } else {
+      step = robot.navigation.StepWaypoint(s, robot.t_s);
+      if (step.failed) {
+        first_failure = step.reason;
+        recovery.Start(goal.x(), goal.y(), 0.0, step.reason);
+        step = NavigationStep{};
+      }
+    }
+    const sim::UnicycleStepResult r =
+        robot.platform.Step(step.linear_x_mps, step.angular_z_radps, kDt, *robot.planner->Grid("wheeled"));
+    robot.contacts += r.contact ? 1 : 0;
+    robot.t_s += kDt;
+    return step;
+  }
+
+  std::shared_ptr<const sim::World> world;
+  SimRobot robot;
+  WaypointRecovery recovery;
+  std::vector<Eigen::Vector2d> ghost_W;
+  bool ghost_present = true;
+  Eigen::Vector2d goal{9.0, 4.0};
+  int clears = 0;
+  std::string report;
+  std::string first_failure;
+};
+
+TEST(WaypointRecoveryTest, ABoxedInRobotRecoversByClearingBackingUpAndRetrying) {
+  GhostRobot g(3.0);
+  ASSERT_TRUE(g.recovery.enabled());
+  ASSERT_TRUE(g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
+  NavigationStep step;
+  double backed_up_from_x = 0.0;
+  bool saw_attempt_1 = false;
+  while (g.robot.t_s < 60.0 && !step.arrived && !step.failed) {
+    step = g.Tick();
+    if (!saw_attempt_1 && g.report.find("attempt 1 ") != std::string::npos) {
+      saw_attempt_1 = true;  // attempt 1 failed while the ghost was there; it leaves now
+      g.ghost_present = false;
+      backed_up_from_x = g.robot.platform.state().x_m;
+    }
+  }
+  EXPECT_TRUE(step.arrived) << step.reason << " | report: " << g.report;
+  std::printf("recovered, arrived after %.1f s; the report on the way: %s\n", g.robot.t_s, g.report.c_str());
+  EXPECT_NE(g.first_failure.find("blocked: no progress"), std::string::npos) << g.first_failure;
+  EXPECT_TRUE(saw_attempt_1);
+  EXPECT_NE(g.report.find("attempt 1 (clear the local obstacle memory): blocked"), std::string::npos) << g.report;
+  EXPECT_EQ(g.clears, 1);
+  EXPECT_EQ(g.robot.contacts, 0);
+  EXPECT_LT(backed_up_from_x, 3.05);  // it had not got past the ghost before the recovery
+  EXPECT_LT((Eigen::Vector2d(g.robot.platform.state().x_m, g.robot.platform.state().y_m) - g.goal).norm(), 0.25);
+}
+
+TEST(WaypointRecoveryTest, AGhostThatStaysFailsTheGoalWithEveryAttemptAndTheRobotGoesElsewhere) {
+  GhostRobot g(2.0);
+  ASSERT_TRUE(g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
+  NavigationStep step;
+  while (g.robot.t_s < 120.0 && !step.arrived && !step.failed) step = g.Tick();
+  ASSERT_TRUE(step.failed) << "arrived through a ghost?";
+  std::printf("recovery failed after %.1f s: %s\n", g.robot.t_s, step.reason.c_str());
+  EXPECT_FALSE(g.recovery.active());
+  for (const char* attempt : {"attempt 1 (clear the local obstacle memory): blocked",
+                              "attempt 2 (back up 0.40 m): blocked", "attempt 3 (rotate 90 deg): ",
+                              "attempt 4 (replan from here): ", "attempt 5 (replan, reduced clearance): "}) {
+    EXPECT_NE(step.reason.find(attempt), std::string::npos) << attempt << " in: " << step.reason;
+  }
+  EXPECT_EQ(step.reason.rfind("blocked: no progress", 0), 0u) << step.reason;
+  EXPECT_EQ(g.robot.contacts, 0);
+  // Sent elsewhere (back the way it came, where no ghost stands), it goes.
+  g.goal = Eigen::Vector2d(1.0, 4.0);
+  const NavigationStep back = [&] {
+    EXPECT_TRUE(g.robot.navigation.SetGoal(g.robot.platform.state(), 1.0, 4.0, 0.0, g.robot.t_s).IsUsable());
+    NavigationStep s;
+    const double until = g.robot.t_s + 40.0;
+    while (g.robot.t_s < until && !s.arrived && !s.failed) s = g.Tick();
+    return s;
+  }();
+  EXPECT_TRUE(back.arrived) << back.reason;
 }
 
 }  // namespace

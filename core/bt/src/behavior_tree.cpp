@@ -912,9 +912,17 @@ class TreeBuilder {
   TreeBuilder(const TreeFactory& factory, std::string source)
       : factory_(factory), source_(std::move(source)) {}
 
-  Tree Build(const std::string& xml, std::shared_ptr<Blackboard> blackboard) {
-    const std::string main_id = Parse(xml);
+  Tree Build(const std::string& xml, std::shared_ptr<Blackboard> blackboard, const std::string& tree_id) {
+    std::string main_id = Parse(xml);
     CheckRecursion();
+    if (!tree_id.empty()) {
+      if (trees_.count(tree_id) == 0) {
+        std::string ids;
+        for (const auto& [id, unused] : trees_) ids += (ids.empty() ? "" : ", ") + id;
+        Fail(0, "no <BehaviorTree ID=\"" + tree_id + "\"> in the document (its trees: " + ids + ")");
+      }
+      main_id = tree_id;
+    }
     Tree tree;
     tree.blackboard_ = blackboard ? std::move(blackboard) : Blackboard::Create();
     TreeNode* root = Instantiate(trees_.at(main_id), tree.blackboard_, tree);
@@ -1511,21 +1519,35 @@ std::string TreeFactory::AddTreeNodesModel(const std::string& tree_xml, bool inc
 }
 
 Tree TreeFactory::CreateTree(const std::string& xml, std::shared_ptr<Blackboard> blackboard,
-                             const std::string& source) const {
-  return detail::TreeBuilder(*this, source).Build(xml, std::move(blackboard));
+                             const std::string& source, const std::string& tree_id) const {
+  return detail::TreeBuilder(*this, source).Build(xml, std::move(blackboard), tree_id);
 }
 
-Tree TreeFactory::CreateTreeFromText(const std::string& xml, std::shared_ptr<Blackboard> blackboard) const {
-  return CreateTree(xml, std::move(blackboard), "");
-}
-
-Tree TreeFactory::CreateTreeFromFile(const std::string& path, std::shared_ptr<Blackboard> blackboard) const {
+std::string TreeFactory::ReadTreeFile(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
   if (!file) throw TreeError("cannot open behavior tree file '" + path + "'");
   std::ostringstream content;
   content << file.rdbuf();
   if (file.bad()) throw TreeError("cannot read behavior tree file '" + path + "'");
-  return CreateTree(content.str(), std::move(blackboard), path);
+  return content.str();
+}
+
+Tree TreeFactory::CreateTreeFromText(const std::string& xml, std::shared_ptr<Blackboard> blackboard) const {
+  return CreateTree(xml, std::move(blackboard), "", "");
+}
+
+Tree TreeFactory::CreateTreeFromFile(const std::string& path, std::shared_ptr<Blackboard> blackboard) const {
+  return CreateTree(ReadTreeFile(path), std::move(blackboard), path, "");
+}
+
+Tree TreeFactory::CreateTreeFromText(const std::string& xml, std::shared_ptr<Blackboard> blackboard,
+                                     const std::string& tree_id) const {
+  return CreateTree(xml, std::move(blackboard), "", tree_id);
+}
+
+Tree TreeFactory::CreateTreeFromFile(const std::string& path, std::shared_ptr<Blackboard> blackboard,
+                                     const std::string& tree_id) const {
+  return CreateTree(ReadTreeFile(path), std::move(blackboard), path, tree_id);
 }
 
 }  // namespace cairn::bt

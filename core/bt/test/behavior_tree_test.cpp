@@ -296,6 +296,32 @@ TEST_F(BehaviorTreeTest, ParsesCompactAndExplicitFormsWithSeveralTrees) {
   EXPECT_EQ(condition_ticks_["check"], 1);
 }
 
+TEST_F(BehaviorTreeTest, CreatesANamedTreeOfTheDocumentAsBtCppCreateTreeDoes) {
+  const std::string xml = R"(<root BTCPP_format="4" main_tree_to_execute="Modes">
+  <BehaviorTree ID="Modes"><Flag name="mode_check" value="false"/></BehaviorTree>
+  <BehaviorTree ID="Recovery"><Sequence><Flag name="recovery_check" value="true"/><AlwaysSuccess/></Sequence></BehaviorTree>
+</root>)";
+  Tree main = factory_.CreateTreeFromText(xml, blackboard_);
+  EXPECT_EQ(main.TickOnce(), NodeStatus::kFailure);
+  Tree recovery = factory_.CreateTreeFromText(xml, blackboard_, "Recovery");
+  EXPECT_EQ(recovery.root().registration_id(), "Sequence");
+  EXPECT_EQ(recovery.TickOnce(), NodeStatus::kSuccess);
+  EXPECT_EQ(condition_ticks_["recovery_check"], 1);
+  EXPECT_EQ(condition_ticks_["mode_check"], 1);
+  // An unknown ID names the trees there are; the whole document is validated even for another tree.
+  try {
+    factory_.CreateTreeFromText(xml, blackboard_, "Explore");
+    ADD_FAILURE() << "expected a TreeError";
+  } catch (const TreeError& e) {
+    EXPECT_EQ(std::string(e.what()), "no <BehaviorTree ID=\"Explore\"> in the document (its trees: Modes, Recovery)");
+  }
+  const std::string broken = R"(<root BTCPP_format="4" main_tree_to_execute="Modes">
+  <BehaviorTree ID="Modes"><Flag value="true"/></BehaviorTree>
+  <BehaviorTree ID="Recovery"><NoSuchNode/></BehaviorTree>
+</root>)";
+  EXPECT_THROW(factory_.CreateTreeFromText(broken, blackboard_, "Modes"), TreeError);
+}
+
 TEST_F(BehaviorTreeTest, SingleTreeNeedsNoMainAndNullBlackboardGetsOne) {
   Tree tree = factory_.CreateTreeFromText(Wrap("<AlwaysSuccess/>"), nullptr);
   ASSERT_NE(tree.blackboard(), nullptr);

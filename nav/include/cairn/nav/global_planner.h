@@ -59,6 +59,9 @@ struct GlobalPlanRequest {
   std::string platform = "wheeled";                   ///< A GetPlatformProfile() name.
   /// The start is the planning robot's own pose (see AStarOptions::start_is_robot).
   bool start_is_robot = false;
+  /// Overrides AStarOptions::preferred_clearance_m for this request (metres, [0, 10]) when finite, e.g. a
+  /// recovery that accepts paths hugging walls through a tight spot; NaN = the planner's option.
+  double preferred_clearance_m = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Answer of GlobalPlanner::Plan().
@@ -121,9 +124,12 @@ class GlobalPlanner {
   /// Replaces the map by `world` whose grid for `platform` the caller already brought up to date (e.g.
   /// incrementally with TraversabilityGrid::Update(), built with TerrainOptionsFor()); increments
   /// map_version(). Grids of the other platforms are rebuilt from `world` when first asked for.
+  /// `seen_free` (optional): the map's observed-free voxels, which the grids of the other platforms are then
+  /// built with (see TraversabilityGrid's constructor).
   /// @throws std::invalid_argument for a null world or grid, or an unknown platform.
   void UpdateMap(std::shared_ptr<const core::VoxelGrid> world, const std::string& platform,
-                 std::shared_ptr<const TraversabilityGrid> grid);
+                 std::shared_ptr<const TraversabilityGrid> grid,
+                 std::shared_ptr<const core::VoxelGrid> seen_free = nullptr);
 
   /// The traversability options the planner uses for `profile`: its own with options().reading applied.
   TraversabilityOptions TerrainOptionsFor(const PlatformProfile& profile) const;
@@ -150,6 +156,7 @@ class GlobalPlanner {
   std::vector<PlatformProfile> profiles_;
   mutable std::mutex mutex_;
   std::shared_ptr<const core::VoxelGrid> world_;
+  std::shared_ptr<const core::VoxelGrid> seen_free_;  // Null for a world known in full (a survey, the sim).
   std::atomic<std::uint64_t> map_version_{0};  // read without the mutex (control loops poll it)
   std::map<std::string, std::shared_ptr<const TraversabilityGrid>> grids_;            // by platform
   std::map<std::string, std::shared_ptr<const TraversabilityGrid>> diagnose_grids_;  // by platform

@@ -111,7 +111,20 @@ class TraversabilityGrid : public core::FootprintChecker {
  public:
   /// Analyses `world`. Throws std::invalid_argument if `options` is invalid (message from IsValid()) or
   /// cell_size_m is not a multiple of the world resolution.
-  explicit TraversabilityGrid(const core::VoxelGrid& world, const TraversabilityOptions& options = {});
+  ///
+  /// `seen_free` (optional, same geometry as `world`): the voxels a sensor has observed empty, for a map
+  /// built by the robot itself (an OctoMap's free space). When given, a ground candidate also needs one
+  /// seen-free voxel in the two voxels above its top, in its own column or one of the 8 neighbouring columns
+  /// (two, because a floor seen at a grazing angle leaves the first layer above it partly unobserved): a
+  /// surface is only known to be walkable when a lidar ray came down onto it. This rejects the top of what a
+  /// low lidar saw of a wall (seen from below, nothing observed above it, e.g. a wall 0.7 m away seen up to
+  /// 0.8 m by a lidar 0.5 m high) and ceilings seen from below, which otherwise read as raised ground next to
+  /// unseen floor. A column whose band holds occupied voxels but no accepted candidate is kObstacle.
+  /// Throws std::invalid_argument if its geometry differs from the world's.
+  TraversabilityGrid(const core::VoxelGrid& world, const TraversabilityOptions& options,
+                     const core::VoxelGrid* seen_free);
+  explicit TraversabilityGrid(const core::VoxelGrid& world, const TraversabilityOptions& options = {})
+      : TraversabilityGrid(world, options, nullptr) {}
 
   /// Cells along x.
   int nx() const { return nx_; }
@@ -171,6 +184,10 @@ class TraversabilityGrid : public core::FootprintChecker {
   /// The same for several regions at once (e.g. the map's changed tiles): their columns are re-read, and the
   /// cells around their union re-analysed once.
   void Update(const core::VoxelGrid& world, const std::vector<Eigen::AlignedBox2d>& regions_W);
+  /// The same with the seen-free voxels of a robot-built map (see the constructor); give it on every update
+  /// when the grid was built with it.
+  void Update(const core::VoxelGrid& world, const core::VoxelGrid* seen_free,
+              const std::vector<Eigen::AlignedBox2d>& regions_W);
 
   /// Row-major index of a cell, ix + nx * iy.
   std::size_t Index(int ix, int iy) const {
@@ -179,6 +196,8 @@ class TraversabilityGrid : public core::FootprintChecker {
 
  private:
   double TopOf(int iz) const;
+  void CheckGeometry(const core::VoxelGrid& grid, const char* what) const;
+  bool SeenFreeAbove(int ix, int iy, int iz) const;
   template <class Visit>
   bool ScanColumn(const core::VoxelGrid& world, int ix, int iy, Visit&& visit) const;
   // Steps 1-6 for the cell windows {x0, y0, x1, y1} (inclusive) and the cells they affect; whole = the full
@@ -192,6 +211,7 @@ class TraversabilityGrid : public core::FootprintChecker {
   double world_res_m_ = 0.0;
   int need_voxels_ = 1;  // free voxels a ground needs above it
   std::vector<std::uint8_t> internal_step_;
+  const core::VoxelGrid* seen_free_ = nullptr;  // Only during construction and Update().
   TraversabilitySummary summary_;
   int nx_ = 0;
   int ny_ = 0;

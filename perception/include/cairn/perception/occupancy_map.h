@@ -146,6 +146,9 @@ class OccupancyMap {
   /// resolution_m voxels. In no particular order; empty if the box is empty. Throws MapError if a corner of
   /// the box is NaN.
   std::vector<Eigen::Vector3d> OccupiedInBox(const Eigen::AlignedBox3d& box_W) const;
+  /// The same for the known-free voxels (observed empty: a lidar ray passed through them); unknown space is
+  /// in neither list.
+  std::vector<Eigen::Vector3d> FreeInBox(const Eigen::AlignedBox3d& box_W) const;
 
   /// Number of occupied voxels of edge resolution_m (a pruned leaf of edge 2^k * resolution_m counts as its
   /// 8^k voxels, so the figure does not depend on pruning).
@@ -194,6 +197,8 @@ class OccupancyMap {
   std::vector<CoarseVoxel> CoarseSnapshot(int coarse_levels) const;
 
  private:
+  std::vector<Eigen::Vector3d> VoxelsInBox(const Eigen::AlignedBox3d& box_W, bool occupied) const;
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

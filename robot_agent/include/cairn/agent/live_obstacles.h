@@ -21,6 +21,9 @@ class LiveObstacles {
     obstacle_options_.robot_height_m = options.navigation.platform.traversability.robot_height_m;
   }
 
+  /// Forgets every point seen so far (recovery: "clear the local obstacle memory").
+  void Clear() { cloud_.Clear(); }
+
   /// Adds `scan` and fills `points_B` with the obstacles in the body frame of the scan's pose, which goes to
   /// `pose_M` (map frame). Throws what ObstaclesFromPoints throws.
   void AddScan(const core::LidarScan& scan, std::vector<Eigen::Vector3f>* points_B, core::BaseState* pose_M) {

@@ -47,6 +47,9 @@ class ModeManager {
   /// beyond BT.CPP's built-ins: the conditions (IsControlHeld, IsLocalized, ...) and SelectMode, with their
   /// ports. `cairn_agent --print-tree-nodes-model` prints it.
   static std::string TreeNodesModel();
+  /// Registers the mode tree's node types (conditions, SelectMode; not the recovery actions) in `factory`,
+  /// e.g. so that another component loading a tree of the same file validates the document.
+  static void RegisterModeNodes(bt::TreeFactory& factory);
   /// `tree_xml` (a mode tree file's text) with its `<TreeNodesModel>` replaced by (or extended with) the
   /// generated one, so Groot2 can open and edit the file. Throws bt::TreeError for malformed XML.
   static std::string WithTreeNodesModel(const std::string& tree_xml);
@@ -87,6 +90,7 @@ class ModeManager {
   struct Context;
   // Registers the mode tree's condition and action nodes, whose callbacks read and write `ctx`.
   static void RegisterNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx);
+  static void RegisterModeNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx);
   std::shared_ptr<Context> context_;
   bt::Tree tree_;
   std::vector<std::string> known_modes_;

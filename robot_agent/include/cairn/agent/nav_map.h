@@ -80,6 +80,8 @@ class NavMap {
                            double tile_m);
 
   const core::VoxelGrid& voxels() const { return voxels_; }
+  /// The map's observed-free voxels (set bit = a lidar ray passed through), same geometry as voxels().
+  const core::VoxelGrid& seen_free() const { return seen_free_; }
   const nav::TraversabilityGrid& grid() const { return *grid_; }
 
  private:
@@ -87,6 +89,7 @@ class NavMap {
   std::shared_ptr<nav::GlobalPlanner> planner_;
   std::string platform_;
   core::VoxelGrid voxels_;
+  core::VoxelGrid seen_free_;  // The OctoMap's known-free voxels (a ray passed), same geometry as voxels_.
   std::unique_ptr<nav::TraversabilityGrid> grid_;
 };
 

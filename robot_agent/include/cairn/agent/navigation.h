@@ -37,6 +37,13 @@ struct NavigationOptions {
   /// Waypoint mode: a local path must be free for this long (or to the goal if nearer); a path blocked
   /// further on is driven to its free end, braking, and re-chosen every cycle. Metres, (0, 10].
   double required_free_length_m = 1.5;
+  /// Tight spots (a doorway, a pillar beside a wall): when no path free for required_free_length_m heads
+  /// within tight_spot_deviation_rad of the carrot, the local planner tries shorter required lengths, halving
+  /// down to this one, and drives the best-aligned path found to its free end, braking (a robot squeezes
+  /// through a 1.0 m gap instead of turning away). Metres, (0, required_free_length_m].
+  double tight_free_length_m = 0.5;
+  /// See tight_free_length_m, radians, (0, pi].
+  double tight_spot_deviation_rad = 0.7853981633974483;
   /// Obstacles within this range of the body feed the local planner, metres, (0, 20].
   double sensor_range_m = 3.5;
   /// Local planner cycle period (the sensor rate), seconds, (0, 1].
@@ -87,6 +94,17 @@ class Navigation {
   void AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s);
   /// Drops the goal (the robot will be stopped by the caller's mode switch).
   void ClearGoal();
+  /// Forgets the obstacle points (the local obstacle memory): waypoint driving brakes until the next
+  /// SetObstacles() brings a fresh scan. Recovery step "clear the local obstacle memory".
+  void ClearObstacles();
+  /// True if the robot can drive `distance_m` (>= 0) straight backwards from `state`: no obstacle point
+  /// (in the local planner's z band) within the footprint radius plus `margin_m` of that segment. Otherwise
+  /// false and `why` (if not null) names the nearest one.
+  bool ClearBehind(const core::BaseState& state, double distance_m, double margin_m, std::string* why) const;
+  /// Reduced clearance for the current and next goals (the last recovery attempt): global plans prefer no
+  /// extra clearance beyond the footprint, and tight spots are driven with no margin beyond it.
+  void SetReducedClearance(bool reduced) { reduced_clearance_ = reduced; }
+  bool reduced_clearance() const { return reduced_clearance_; }
   bool has_goal() const { return goal_.has_value(); }
 
   /// New obstacle points (frame B of `state`, metres) sensed at now_s.
@@ -141,7 +159,13 @@ class Navigation {
   // the robot to the path.
   double UpdateProgress(const Eigen::Vector2d& p_W);
   // Point carrot_distance_m ahead of the robot's projection on the global path.
-  Eigen::Vector2d Carrot() const;
+  Eigen::Vector2d Carrot() const { return PointAhead(options_.carrot_distance_m); }
+  // Point `ahead_m` along the global path from the robot's projection (its end when shorter).
+  Eigen::Vector2d PointAhead(double ahead_m) const;
+  // Tight-spot fallback when no library path heads toward the carrot: the next metre of the global path
+  // (checked on the map with the footprint) becomes the track if every live obstacle point stays farther
+  // than the bare footprint radius plus kTightMarginM from it. Returns whether it did.
+  bool TrackGlobalPathIfClear(const core::BaseState& state);
   // Runs the local planner if its period elapsed; fills track_W_ and track_stop_at_end_.
   void RunLocalPlanner(const core::BaseState& state, const nav::LocalPlanRequest& request, double now_s,
                        const std::optional<Eigen::Vector2d>& goal_W);
@@ -165,6 +189,9 @@ class Navigation {
   int replans_ = 0;
   std::uint64_t path_revision_ = 0;
   double last_replan_check_s_ = -1e9;
+  bool creeping_ = false;  // the track is the global path through a tight spot (half speed)
+  bool reduced_clearance_ = false;
+  bool awaiting_obstacles_ = false;  // obstacle memory cleared: no local plan before the next SetObstacles()
 
   std::vector<Eigen::Vector3f> obstacles_B_;
   double obstacles_time_s_ = -1e9;
