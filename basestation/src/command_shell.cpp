@@ -570,6 +570,7 @@ int CommandShell::Status(const std::vector<std::string>& args) {
              << (s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "unknown") << ", " << s.nav_replans()
              << " replans";
         if (!s.local_planner_status().empty()) out_ << "; local planner: " << s.local_planner_status();
+        if (!s.nav_reason().empty()) out_ << "; " << s.nav_reason();  // a recovery under way
       } else if (s.nav_status() == msgs::NAV_STATUS_FAILED) {
         out_ << " (" << ExplainReason(v.robot_id, s.nav_reason()).text << ")";
       }

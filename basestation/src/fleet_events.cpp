@@ -65,6 +65,7 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
     now.goal_id = view.state->nav_goal_id();
     now.nav_status = view.state->nav_status();
     now.stops = view.state->stops();
+    now.nav_reason = view.state->nav_reason();
   }
   if (found == last_.end()) {
     last_[r] = now;
@@ -92,6 +93,16 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
       e.condition = why.condition;
       events->push_back(e);
     }
+    if (now.nav_status == msgs::NAV_STATUS_ACTIVE && now.goal_id == last.goal_id && !now.nav_reason.empty() &&
+        now.nav_reason != last.nav_reason) {
+      // The recovery report grows by one "; attempt N (...): why" per failed attempt: show what is new.
+      const std::string added = now.nav_reason.rfind(last.nav_reason, 0) == 0 && !last.nav_reason.empty()
+                                    ? now.nav_reason.substr(last.nav_reason.size() + 2)
+                                    : now.nav_reason;
+      OperatorEvent e = Event("recovering", r, r + " goal " + std::to_string(now.goal_id) + " " + added);
+      e.reason = added;
+      events->push_back(e);
+    }
     if (now.stops > last.stops) {
       OperatorEvent e = Event("stopped", r, r + " stopped by " + s.stopped_by());
       e.other = s.stopped_by();
@@ -117,6 +128,7 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
     now.goal_id = last.goal_id;
     now.nav_status = last.nav_status;
     now.stops = last.stops;
+    now.nav_reason = last.nav_reason;
     now.has_state = last.has_state;
   }
   last = now;

@@ -50,6 +50,27 @@ TEST(FleetEventDetector, FirstSightIsABaselineThenEachChangeIsToldOnce) {
   EXPECT_EQ(events[0].reason, "blocked: no progress for 10 s");
 }
 
+TEST(FleetEventDetector, EachRecoveryAttemptIsToldAsItFails) {
+  FleetEventDetector detector;
+  RobotView r1 = Robot("r1", 0, 0);
+  r1.state->nav_goal_id(3);
+  r1.state->nav_status(cairn_msgs::NAV_STATUS_ACTIVE);
+  EXPECT_TRUE(detector.Observe({r1}).empty());
+  r1.state->nav_reason("recovering after: blocked: no progress for 10.0 s");
+  auto events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"recovering"}));
+  EXPECT_EQ(events[0].message, "r1 goal 3 recovering after: blocked: no progress for 10.0 s");
+  EXPECT_TRUE(detector.Observe({r1}).empty()) << "told once";
+  r1.state->nav_reason("recovering after: blocked: no progress for 10.0 s; attempt 1 (clear the local obstacle "
+                       "memory): blocked: no progress for 10.0 s");
+  events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"recovering"}));
+  EXPECT_EQ(events[0].reason, "attempt 1 (clear the local obstacle memory): blocked: no progress for 10.0 s");
+  r1.state->nav_status(cairn_msgs::NAV_STATUS_ARRIVED);
+  r1.state->nav_reason("");
+  EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"arrived"}));
+}
+
 TEST(FleetEventDetector, LocksStopsLossAndReturn) {
   FleetEventDetector detector;
   RobotView r1 = Robot("r1", 0, 0);

@@ -20,7 +20,8 @@ struct RobotView;
 
 /// One thing an operator should hear about.
 struct OperatorEvent {
-  /// "arrived" | "failed" (a goal ended without arriving) | "lost" | "back" | "lock_granted" |
+  /// "arrived" | "failed" (a goal ended without arriving) | "recovering" (navigation gave up and the recovery
+  /// tree runs: once when it starts and once per failed attempt) | "lost" | "back" | "lock_granted" |
   /// "lock_released" | "lock_taken" | "stopped" (an operator's stop) | "staircase" | "proximity".
   std::string kind;
   std::string robot_id;     ///< the robot concerned ("" for a fleet staircase)
@@ -65,6 +66,7 @@ class FleetEventDetector {
     uint32_t goal_id = 0;
     cairn_msgs::NavStatus nav_status = cairn_msgs::NAV_STATUS_NONE;
     uint32_t stops = 0;
+    std::string nav_reason;
   };
   void ObserveRobot(const RobotView& view, std::vector<OperatorEvent>* events);
   void ObserveProximity(const std::vector<RobotView>& views, std::vector<OperatorEvent>* events);
