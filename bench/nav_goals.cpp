@@ -7,6 +7,9 @@
 //
 //   build/bench/cairn_bench_nav_goals [--goals N] [--half-extent M (navigation map, default 40)]
 //                                     [--world builtin:NAME]...
+//   build/bench/cairn_bench_nav_goals [--verbose] [--then GX GY]... --one WORLD SX SY SYAW GX GY
+//     one robot from (SX, SY, SYAW) to (GX, GY), then on to each --then goal (given before --one), own map
+//     against ground truth for the first goal; --verbose traces the robot, its obstacles and maps.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -40,6 +43,7 @@ struct Outcome {
 
 double g_half_extent_m = agent::NavMapOptions().half_extent_m;
 bool g_verbose = false;
+std::vector<Eigen::Vector2d> g_then_goals;  // --then GX GY: further goals for the same robot (--one)
 
 agent::AgentOptions Options() {
   agent::AgentOptions o;
@@ -87,8 +91,10 @@ void PrintPicture(const nav::TraversabilityGrid& truth, const agent::NavMap& nav
 }
 
 // The stack of issue 11: everything from the simulated platform's sensors and pose estimate.
-Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const Eigen::Vector2d& goal,
+Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const Eigen::Vector2d& first_goal,
                   double timeout_s) {
+  Eigen::Vector2d goal = first_goal;
+  std::size_t next_goal = 0;
   const agent::AgentOptions options = Options();
   sim::SimulatedPlatformOptions sim_options;
   sim_options.world = world;
@@ -165,10 +171,33 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
       const auto truth = platform.TrueState();
       out.arrived = std::hypot(truth.x_m - goal.x(), truth.y_m - goal.y()) < 0.5;  // SLAM drift counted
       if (!out.arrived) out.reason = "arrived by its estimate but 0.5 m or more from the goal";
+      if (out.arrived && next_goal < g_then_goals.size()) {
+        std::printf("  arrived at (%.2f, %.2f) after %.1f s; next goal\n", goal.x(), goal.y(), t);
+        goal = g_then_goals[next_goal++];
+        goal_set = false;
+        continue;
+      }
       return out;
     }
     if (step.failed) {
       if (g_verbose) {
+        // The navigation map from the robot to the goal, along x (rows: y), 0.1 m per character.
+        const nav::TraversabilityGrid& grid = nav_map.grid();
+        const double x0 = std::min(pose.x_m, goal.x()) - 1, x1 = std::max(pose.x_m, goal.x()) + 1;
+        for (double y = 1.2; y > -1.3; y -= 0.1) {
+          std::string row;
+          for (double x = x0; x < x1; x += 0.1) {
+            int ix = 0, iy = 0;
+            char c = ' ';
+            if (grid.CellOf(x, y, &ix, &iy)) {
+              c = grid.IsLethal(ix, iy) ? '#' : grid.State(ix, iy) == nav::CellState::kUnknown ? '?'
+                                              : grid.IsTraversable(ix, iy) ? '.' : '+';
+            }
+            row += c;
+          }
+          std::printf("      %s  y %.2f\n", row.c_str(), y);
+        }
+        std::printf("      (x from %.1f to %.1f)\n", x0, x1);
         PrintPicture(*platform.terrain(), nav_map, pose, goal);
         for (double x = goal.x() - 0.35; x < goal.x() + 0.4; x += 0.1) {
           std::printf("      octomap x %.2f:", x);
@@ -238,6 +267,9 @@ int main(int argc, char** argv) {
       goals_per_world = std::max(1, std::atoi(argv[++i]));
     } else if (!std::strcmp(argv[i], "--half-extent") && i + 1 < argc) {
       g_half_extent_m = std::atof(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--then") && i + 2 < argc) {
+      g_then_goals.emplace_back(std::atof(argv[i + 1]), std::atof(argv[i + 2]));
+      i += 2;
     } else if (!std::strcmp(argv[i], "--verbose")) {
       g_verbose = true;
     } else if (!std::strcmp(argv[i], "--one") && i + 6 < argc) {  // --one WORLD SX SY SYAW GX GY

@@ -22,7 +22,7 @@ USAGE
 while [ $# -gt 0 ]; do
   case "$1" in
     --world) WORLD="${2:?--world needs a value}"; shift 2 ;;
-    --robots) ROBOTS="${2:?--robots needs a value}"; shift 2 ;;
+    --robots) ROBOTS="${2:?--robots needs a value}"; ROBOTS_GIVEN=1; shift 2 ;;
     --platform) PLATFORM="${2:?--platform needs a value}"; shift 2 ;;
     --domain) DOMAIN="${2:?--domain needs a value}"; shift 2 ;;
     --headless) HEADLESS=1; shift ;;
@@ -32,6 +32,11 @@ while [ $# -gt 0 ]; do
     *) echo "demo: unknown option '$1'" >&2; usage >&2; exit 2 ;;
   esac
 done
+# A mission script may name the fleet it was written for in a line '# robots: N' (--robots wins).
+if [ -n "$SCRIPT" ] && [ -r "$SCRIPT" ] && [ -z "${ROBOTS_GIVEN:-}" ]; then
+  wanted_robots=$(sed -n 's/^# robots: *//p' "$SCRIPT" | head -1)
+  if [ -n "$wanted_robots" ]; then ROBOTS="$wanted_robots"; fi
+fi
 if ! [[ "$ROBOTS" =~ ^[0-9]+$ ]] || [ "$ROBOTS" -lt 1 ] || [ "$ROBOTS" -gt 20 ]; then
   echo "demo: --robots '$ROBOTS' must be an integer in 1..20" >&2; exit 2
 fi

@@ -87,7 +87,8 @@ bool AStarOptions::IsValid(std::string* why) const {
                   range("clearance_cost", clearance_cost, 0.0, 100.0) &&
                   range("unknown_cost", unknown_cost, 0.0, 100.0) &&
                   range("start_escape_radius_m", start_escape_radius_m, 0.0, 5.0) &&
-                  range("start_footprint_radius_m", start_footprint_radius_m, 0.0, 5.0);
+                  range("start_footprint_radius_m", start_footprint_radius_m, 0.0, 5.0) &&
+                  (std::isnan(robot_radius_m) || range("robot_radius_m", robot_radius_m, 0.0, 5.0));
   if (!ok && why != nullptr) *why = msg.str();
   return ok;
 }
@@ -149,6 +150,12 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
   const auto t0 = std::chrono::steady_clock::now();
   PlanResult result;
+  // Traversable for this plan: the grid's layer, or clearance above a reduced radius.
+  const bool reduced = std::isfinite(options.robot_radius_m) &&
+                       options.robot_radius_m < grid.options().robot_radius_m - 1e-9;
+  auto traversable = [&grid, reduced, r = options.robot_radius_m](int cx, int cy) {
+    return reduced ? !grid.IsLethal(cx, cy) && grid.ClearanceM(cx, cy) > r + 1e-9 : grid.IsTraversable(cx, cy);
+  };
   auto finish = [&](PlanResult::Status status, std::string message) {
     result.status = status;
     result.message = std::move(message);
@@ -172,12 +179,12 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
     return finish(Status::kOutOfMap,
                   "goal " + FormatPoint(goal_W) + " is outside the map " + MapExtent(grid));
   }
-  if (!grid.IsTraversable(gx, gy)) {
+  if (!traversable(gx, gy)) {
     return finish(Status::kGoalBlocked,
                   "goal " + FormatPoint(goal_W) + " is not traversable (" + DescribeCell(grid, gx, gy) + ")");
   }
   const double c = grid.cell_size_m();
-  if (!grid.IsTraversable(sx, sy)) {
+  if (!traversable(sx, sy)) {
     const bool body_free = options.start_is_robot ||
                            grid.IsFootprintFree(start_W.x(), start_W.y(), options.start_footprint_radius_m);
     int best_x = -1;
@@ -188,7 +195,7 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
       double best_d = kInf;
       for (int cx = sx - span; cx <= sx + span; ++cx) {
         for (int cy = sy - span; cy <= sy + span; ++cy) {
-          if (!grid.InGrid(cx, cy) || !grid.IsTraversable(cx, cy)) continue;
+          if (!grid.InGrid(cx, cy) || !traversable(cx, cy)) continue;
           const double dist = (grid.CellCenter(cx, cy) - start_W).norm();
           if (dist <= r && dist < best_d) {
             best_d = dist;
@@ -253,9 +260,9 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
     for (int k = 0; k < 8; ++k) {
       const int mx = cx + kDx[k];
       const int my = cy + kDy[k];
-      if (!grid.InGrid(mx, my) || !grid.IsTraversable(mx, my)) continue;
+      if (!grid.InGrid(mx, my) || !traversable(mx, my)) continue;
       const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
-      if (diagonal && (!grid.IsTraversable(cx + kDx[k], cy) || !grid.IsTraversable(cx, cy + kDy[k])))
+      if (diagonal && (!traversable(cx + kDx[k], cy) || !traversable(cx, cy + kDy[k])))
         continue;
       const std::size_t mi = grid.Index(mx, my);
       if (closed[mi]) continue;

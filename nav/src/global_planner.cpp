@@ -132,7 +132,8 @@ void GlobalPlanner::UpdateWorld(std::shared_ptr<const core::VoxelGrid> world) {
 
 void GlobalPlanner::UpdateMap(std::shared_ptr<const core::VoxelGrid> world, const std::string& platform,
                               std::shared_ptr<const TraversabilityGrid> grid,
-                              std::shared_ptr<const core::VoxelGrid> seen_free) {
+                              std::shared_ptr<const core::VoxelGrid> seen_free,
+                              std::shared_ptr<const TraversabilityGrid> diagnose_grid) {
   if (!world || !grid) throw std::invalid_argument("GlobalPlanner::UpdateMap: world or grid is null");
   if (Profile(platform) == nullptr) {
     throw std::invalid_argument("GlobalPlanner::UpdateMap: platform '" + platform + "' is not served (valid: " +
@@ -145,6 +146,7 @@ void GlobalPlanner::UpdateMap(std::shared_ptr<const core::VoxelGrid> world, cons
   grids_.clear();
   diagnose_grids_.clear();
   grids_.emplace(platform, std::move(grid));
+  if (diagnose_grid) diagnose_grids_.emplace(platform, std::move(diagnose_grid));
 }
 
 TraversabilityOptions GlobalPlanner::TerrainOptionsFor(const PlatformProfile& profile) const {
@@ -154,6 +156,13 @@ TraversabilityOptions GlobalPlanner::TerrainOptionsFor(const PlatformProfile& pr
   t.ground_search_min_z_m = options_.reading.ground_search_min_z_m;
   t.ground_search_max_z_m = options_.reading.ground_search_max_z_m;
   t.unknown_is_lethal = options_.reading.unknown_is_lethal;
+  return t;
+}
+
+std::optional<TraversabilityOptions> GlobalPlanner::DiagnoseTerrainOptionsFor(const PlatformProfile& profile) const {
+  if (options_.diagnose_max_step_m <= profile.traversability.max_step_m) return std::nullopt;
+  TraversabilityOptions t = TerrainOptionsFor(profile);
+  t.max_step_m = options_.diagnose_max_step_m;
   return t;
 }
 
@@ -169,7 +178,7 @@ std::shared_ptr<const TraversabilityGrid> GlobalPlanner::GridLocked(const std::s
   auto it = cache.find(platform);
   if (it != cache.end()) return it->second;
   TraversabilityOptions t = TerrainOptionsFor(*profile);
-  if (diagnose) t.max_step_m = std::max(t.max_step_m, options_.diagnose_max_step_m);
+  if (diagnose) t = DiagnoseTerrainOptionsFor(*profile).value_or(t);
   auto grid = std::make_shared<const TraversabilityGrid>(*world_, t, seen_free_.get());
   cache.emplace(platform, grid);
   return grid;
@@ -194,6 +203,7 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
   if (std::isfinite(request.preferred_clearance_m)) {
     astar.preferred_clearance_m = std::clamp(request.preferred_clearance_m, 0.0, 10.0);
   }
+  if (std::isfinite(request.robot_radius_m)) astar.robot_radius_m = std::clamp(request.robot_radius_m, 0.0, 5.0);
   const auto grid = GridLocked(request.platform, false);
   plan.result = PlanPath(*grid, request.start_W, request.goal_W, astar);
   if (!plan.result.IsUsable()) {

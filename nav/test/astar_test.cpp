@@ -110,6 +110,32 @@ TEST(AStarTest, AroundAWallMatchesAnalyticOctileLength) {
   EXPECT_GE(d.length_m, s.length_m - 1e-9);
 }
 
+// A wall across the map with a 0.6 m gap (x in [5.0, 5.2), gap y in [4.7, 5.3)): lethal cell centres 0.7 m
+// apart, so no cell centre is more than the grid's 0.3 m robot radius from both sides: closed for the grid.
+// A plan with a reduced radius (a recovery's last attempt) goes through it, and never through a lethal cell.
+TEST(AStarTest, AReducedRobotRadiusOpensAGapTheGridClosed) {
+  sim::World world = FlatWorld(10.0, 10.0);
+  FillBox(&world, {5.0, 0.0, 0.0}, {5.2, 4.7, 1.5});
+  FillBox(&world, {5.0, 5.3, 0.0}, {5.2, 10.0, 1.5});
+  const TraversabilityGrid grid(world);
+  AStarOptions options = GridOptions();
+  const PlanResult closed = PlanPath(grid, {2.05, 5.05}, {8.05, 5.05}, options);
+  EXPECT_EQ(closed.status, PlanResult::Status::kUnreachable) << closed.message;
+  options.robot_radius_m = 0.2;
+  const PlanResult open = PlanPath(grid, {2.05, 5.05}, {8.05, 5.05}, options);
+  ASSERT_TRUE(open.IsUsable()) << open.message;
+  for (const Eigen::Vector3d& p : open.path_W) {
+    int ix = 0, iy = 0;
+    ASSERT_TRUE(grid.CellOf(p.x(), p.y(), &ix, &iy));
+    EXPECT_FALSE(grid.IsLethal(ix, iy));
+    EXPECT_GT(grid.ClearanceM(ix, iy), 0.2);
+  }
+  options.robot_radius_m = -1.0;
+  std::string why;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("robot_radius_m = -1"), std::string::npos) << why;
+}
+
 TEST(AStarTest, StepHeightsAreInPathAndCost) {
   sim::World world = FlatWorld(10.0, 4.0);
   FillBox(&world, {4.0, 0.0, 0.0}, {6.0, 4.0, 0.1});  // A 0.1 m plateau across the map.

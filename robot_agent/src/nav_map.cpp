@@ -77,9 +77,17 @@ NavMap::NavMap(const NavMapOptions& options, double resolution_m, const core::Ba
                                 planner_->PlatformList() + ")");
   }
   grid_ = std::make_unique<nav::TraversabilityGrid>(voxels_, planner_->TerrainOptionsFor(*profile), &seen_free_);
+  if (const auto relaxed = planner_->DiagnoseTerrainOptionsFor(*profile)) {
+    diagnose_grid_ = std::make_unique<nav::TraversabilityGrid>(voxels_, *relaxed, &seen_free_);
+  }
+  Publish();
+}
+
+void NavMap::Publish() {
   planner_->UpdateMap(std::make_shared<const core::VoxelGrid>(voxels_), platform_,
                       std::make_shared<const nav::TraversabilityGrid>(*grid_),
-                      std::make_shared<const core::VoxelGrid>(seen_free_));
+                      std::make_shared<const core::VoxelGrid>(seen_free_),
+                      diagnose_grid_ ? std::make_shared<const nav::TraversabilityGrid>(*diagnose_grid_) : nullptr);
 }
 
 NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& tiles,
@@ -123,11 +131,10 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
   stats.read_ms = MsSince(start);
   start = Clock::now();
   grid_->Update(voxels_, &seen_free_, columns);
+  if (diagnose_grid_) diagnose_grid_->Update(voxels_, &seen_free_, columns);
   stats.traversability_ms = MsSince(start);
   start = Clock::now();
-  planner_->UpdateMap(std::make_shared<const core::VoxelGrid>(voxels_), platform_,
-                      std::make_shared<const nav::TraversabilityGrid>(*grid_),
-                      std::make_shared<const core::VoxelGrid>(seen_free_));
+  Publish();
   stats.publish_ms = MsSince(start);
   stats.map_version = planner_->map_version();
   stats.applied = true;

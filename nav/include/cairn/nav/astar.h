@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,11 @@ struct AStarOptions {
   /// a wall mapped a little into the robot's body by drift) is left for the nearest traversable cell within
   /// start_escape_radius_m even when the body there is not free. false for other callers' starts.
   bool start_is_robot = false;
+  /// Cells count as traversable when their clearance exceeds this radius (metres, [0, the grid's
+  /// robot_radius_m]) instead of the grid's robot_radius_m; NaN = the grid's. A smaller one lets a plan
+  /// through a gap the map's cell quantization closed (a recovery with reduced clearance, whose local
+  /// planner then checks the real footprint against the live lidar points).
+  double robot_radius_m = std::numeric_limits<double>::quiet_NaN();
   /// Path points over unknown cells get the height of the nearest known point before them on the path (else
   /// after it, else the grid's reference height).
   /// Replace the cell path by line-of-sight shortcuts through traversable cells whose clearance is at least

@@ -85,11 +85,14 @@ class NavMap {
   const nav::TraversabilityGrid& grid() const { return *grid_; }
 
  private:
+  // Hands copies of the voxels, the grids and the seen-free voxels to the planner (a new map version).
+  void Publish();
   NavMapOptions options_;
   std::shared_ptr<nav::GlobalPlanner> planner_;
   std::string platform_;
   core::VoxelGrid voxels_;
-  core::VoxelGrid seen_free_;  // The OctoMap's known-free voxels (a ray passed), same geometry as voxels_.
+  core::VoxelGrid seen_free_;
+  std::unique_ptr<nav::TraversabilityGrid> diagnose_grid_;  // relaxed step limit: names an unreachable goal's step  // The OctoMap's known-free voxels (a ray passed), same geometry as voxels_.
   std::unique_ptr<nav::TraversabilityGrid> grid_;
 };
 

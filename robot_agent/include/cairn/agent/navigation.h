@@ -102,7 +102,8 @@ class Navigation {
   /// false and `why` (if not null) names the nearest one.
   bool ClearBehind(const core::BaseState& state, double distance_m, double margin_m, std::string* why) const;
   /// Reduced clearance for the current and next goals (the last recovery attempt): global plans prefer no
-  /// extra clearance beyond the footprint, and tight spots are driven with no margin beyond it.
+  /// extra clearance beyond the footprint and inflate obstacles by 70 % of it (a gap closed by the map's
+  /// cell quantization opens), and tight spots are driven with no margin beyond the footprint.
   void SetReducedClearance(bool reduced) { reduced_clearance_ = reduced; }
   bool reduced_clearance() const { return reduced_clearance_; }
   bool has_goal() const { return goal_.has_value(); }
