@@ -636,6 +636,50 @@ TEST(StaircaseRegistryTest, BottomAndTopViewsOfTheTunnelsStairsMerge) {
   EXPECT_EQ(registry.Entries()[0].staircase.num_steps, 5);
 }
 
+// The flake of tests/perception_integration_test (one staircase counted twice): a robot already on the
+// stairs sees only the flight above it. Real detections: the whole flight from its foot, then, for several
+// seeds and positions on treads 1 and 2, the partial view from on the stairs; every one must join the entry.
+TEST(StaircaseRegistryTest, PartialFlightSeenFromOnTheStairsMergesWithTheWholeFlight) {
+  const StaircaseDetector detector;
+  LocalCloud bottom;
+  const Eigen::Vector3d pb = AccumulateScans(Tunnels(), Line(46.5, 23.5, 49.0, 23.5, 6), 21, &bottom);
+  const std::vector<Staircase> whole = detector.Detect(bottom.Points(), pb);
+  ASSERT_EQ(whole.size(), 1u);
+  int partial_views = 0;
+  for (int tread = 1; tread <= 2; ++tread) {
+    for (std::uint32_t seed = 60; seed < 66; ++seed) {
+      // Standing on tread `tread` (z = 0.2 * tread), lidar 0.5 m above it, walking up, drifting across.
+      const double x0 = 50.0 + 0.5 * (tread - 1) + 0.1, y = 23.2 + 0.1 * (seed - 60);
+      LocalCloud on_stairs;
+      const Eigen::Vector3d p =
+          AccumulateScans(Tunnels(), Line(x0, y, x0 + 0.3, y, 3, 0.2 * tread + 0.5), seed, &on_stairs);
+      const std::vector<Staircase> partial = detector.Detect(on_stairs.Points(), p);
+      if (partial.empty()) continue;
+      const Staircase& d = partial[0];
+      std::printf("FIGURE stairs_partial_from_tread%d seed %u first_x %.3f first_z %.3f steps %d rise %.3f run %.3f "
+                  "width %.2f yaw_deg %.1f\n",
+                  tread, seed, d.p_W_first_step.x(), d.p_W_first_step.z(), d.num_steps, d.rise_m, d.run_m, d.width_m,
+                  d.yaw_rad / kDeg);
+      ++partial_views;
+      for (const bool whole_first : {true, false}) {
+        StaircaseRegistry registry;
+        const auto a = registry.Add(whole_first ? whole[0] : d, "r1");
+        const auto b = registry.Add(whole_first ? d : whole[0], "r1");
+        EXPECT_TRUE(a.is_new);
+        EXPECT_FALSE(b.is_new) << "tread " << tread << " seed " << seed << (whole_first ? " whole first" : " partial first");
+        EXPECT_EQ(registry.size(), 1u);
+        if (registry.size() == 1u) {
+          const Staircase merged = registry.Entries()[0].staircase;
+          EXPECT_EQ(merged.num_steps, 5);
+          EXPECT_NEAR(merged.p_W_first_step.x(), 50.0, 0.05);
+          EXPECT_NEAR(merged.p_W_first_step.z(), 0.0, 0.03);
+        }
+      }
+    }
+  }
+  EXPECT_GE(partial_views, 4);  // The case must actually occur.
+}
+
 TEST(StaircaseRegistryTest, ConcurrentAddsAreSafe) {
   StaircaseRegistry registry;
   std::vector<std::thread> threads;

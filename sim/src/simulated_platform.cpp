@@ -36,7 +36,12 @@ std::shared_ptr<const World> LoadChecked(const SimulatedPlatformOptions& options
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
   WorldLoadOptions w;
   w.pcd_resolution_m = options.pcd_resolution_m;
-  return std::make_shared<const World>(LoadWorld(options.world, w));
+  WorldLoadReport report;
+  auto world = std::make_shared<const World>(LoadWorld(options.world, w, &report));
+  if (report.kind != "builtin") {
+    std::fprintf(stderr, "[sim] world %s: %s\n", options.world.c_str(), report.Summary().c_str());
+  }
+  return world;
 }
 
 nav::TraversabilityOptions TerrainOptions(const SimulatedPlatformOptions& options) {

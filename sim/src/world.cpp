@@ -33,11 +33,45 @@ bool WorldLoadOptions::IsValid(std::string* why) const {
     msg << "WorldLoadOptions::pcd_resolution_m = " << pcd_resolution_m << " must be in [0.02, 2] m";
   } else if (max_voxels < 1 || max_voxels > 2'000'000'000) {
     msg << "WorldLoadOptions::max_voxels = " << max_voxels << " must be in [1, 2e9]";
+  } else if (!std::isfinite(support_radius_m) ||
+             (support_radius_m != 0.0 && (support_radius_m < 0.01 || support_radius_m > 1.0))) {
+    msg << "WorldLoadOptions::support_radius_m = " << support_radius_m << " must be 0 (off) or in [0.01, 1] m";
+  } else if (min_support_neighbors < 1 || min_support_neighbors > 100) {
+    msg << "WorldLoadOptions::min_support_neighbors = " << min_support_neighbors << " must be in [1, 100]";
+  } else if (pcd_min_points_per_voxel < 1 || pcd_min_points_per_voxel > 1000) {
+    msg << "WorldLoadOptions::pcd_min_points_per_voxel = " << pcd_min_points_per_voxel
+        << " must be in [1, 1000]";
+  } else if (!std::isfinite(fill_hole_max_m) ||
+             (fill_hole_max_m != 0.0 && (fill_hole_max_m < 0.05 || fill_hole_max_m > 3.0))) {
+    msg << "WorldLoadOptions::fill_hole_max_m = " << fill_hole_max_m << " must be 0 (off) or in [0.05, 3] m";
+  } else if (!std::isfinite(fill_clearance_m) || fill_clearance_m < 0.05 || fill_clearance_m > 5.0) {
+    msg << "WorldLoadOptions::fill_clearance_m = " << fill_clearance_m << " must be in [0.05, 5] m";
+  } else if (!std::isfinite(fill_gap_depth_m) || fill_gap_depth_m < 0.05 || fill_gap_depth_m > 5.0) {
+    msg << "WorldLoadOptions::fill_gap_depth_m = " << fill_gap_depth_m << " must be in [0.05, 5] m";
   } else {
     return true;
   }
   if (why != nullptr) *why = msg.str();
   return false;
+}
+
+std::string WorldLoadReport::Summary() const {
+  std::ostringstream out;
+  out << kind << ": ";
+  if (kind == "builtin") {
+    out << "procedural world, no clean-up";
+    return out.str();
+  }
+  if (kind == "pcd") {
+    out << points_total << " points (" << points_dropped_non_finite << " non-finite dropped) -> ";
+  } else {
+    out << leaves_occupied << " occupied leaves -> ";
+  }
+  out << voxels_read << " voxels; " << voxels_removed_unsupported << " unsupported voxels removed; "
+      << voxels_filled_floor << " floor-hole voxels filled (" << floor_surface_voxels << " floor and "
+      << overhead_surface_voxels << " overhead surface voxels, " << holes_seen_through
+      << " holes seen through left open); clean-up " << static_cast<int>(std::lround(cleanup_ms)) << " ms";
+  return out.str();
 }
 
 namespace internal {

@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <string>
+#include <unordered_map>
 
 #include "cairn/sim/world.h"
 
@@ -18,6 +19,15 @@ World LoadOctomapFile(const std::string& path, bool binary, const WorldLoadOptio
 
 /// Loads a PCD point cloud file; see LoadWorld().
 World LoadPcdFile(const std::string& path, const WorldLoadOptions& options, WorldLoadReport* report);
+
+/// Points per voxel of a PCD, keyed by World::LinearIndex().
+using PointCounts = std::unordered_map<std::int64_t, int>;
+
+/// Support filter then floor hole filling of a loaded scan (see WorldLoadOptions); fills the clean-up fields
+/// of `report`. `counts` (PCD only, may be null) gives the points per voxel. Throws WorldError if no voxel
+/// survives. Lives in world_cleanup.cpp.
+void CleanUpScannedWorld(World* world, const WorldLoadOptions& options, const PointCounts* counts,
+                         WorldLoadReport* report);
 
 /// Throws WorldError unless `path` names a readable regular file.
 void CheckReadableFile(const std::string& path);

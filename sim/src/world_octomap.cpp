@@ -58,6 +58,7 @@ World WorldFromTree(const octomap::OcTree& tree, const std::string& path, const 
       }
     }
   }
+  CleanUpScannedWorld(&world, options, /*counts=*/nullptr, report);
   return world;
 }
 

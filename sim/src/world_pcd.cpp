@@ -9,6 +9,7 @@
 #include <cmath>
 #include <exception>
 #include <fstream>
+#include <algorithm>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -100,13 +101,17 @@ World LoadPcdFile(const std::string& path, const WorldLoadOptions& options, Worl
   // A point on a voxel face belongs to the voxel above it, so the grid must reach past `hi`.
   World world = MakeGridCovering(path, "PCD file '" + path + "'", lo,
                                  hi + Eigen::Vector3d::Constant(0.5 * res), res, options.max_voxels);
+  PointCounts counts;
   for (const Eigen::Vector3d& p : points) {
     const Eigen::Vector3d q = (p - world.p_W_min()) / res;
     Eigen::Vector3i index(static_cast<int>(std::floor(q.x())), static_cast<int>(std::floor(q.y())),
                           static_cast<int>(std::floor(q.z())));
     index = index.cwiseMax(0).cwiseMin(world.dims() - Eigen::Vector3i::Ones());  // Rounding at the faces.
     world.SetOccupied(index);
+    int& n = counts[world.LinearIndex(index)];
+    n = std::min(n + 1, 1 << 20);
   }
+  CleanUpScannedWorld(&world, options, &counts, report);
   return world;
 }
 

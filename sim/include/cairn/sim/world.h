@@ -30,6 +30,33 @@ struct WorldLoadOptions {
   /// (500 M voxels) takes 62.5 MB as a bit grid.
   std::int64_t max_voxels = 500'000'000;
 
+  // Clean-up of scanned worlds (.bt, .ot, .pcd; builtin worlds are exact and never touched). The defaults suit
+  // a sparse, noisy survey scan (~50 floor points per m^2, holes in walls and floor, single stray returns in
+  // open space) loaded at pcd_resolution_m = 0.1 m, and leave dense scans nearly unchanged.
+
+  /// Support filter: a voxel is kept when it has at least min_support_neighbors occupied voxels within this
+  /// distance (a cube of half-edge max(1, round(support_radius_m / resolution)) voxels around it, itself
+  /// excluded), or (PCD only) at least pcd_min_points_per_voxel points. Removes single stray returns in open
+  /// space. Metres, 0 (filter off) or range [0.01, 1].
+  double support_radius_m = 0.25;
+  /// Occupied neighbours (within support_radius_m) that keep a voxel, range [1, 100].
+  int min_support_neighbors = 2;
+  /// PCD points in one voxel that keep it without neighbours (a surface hit repeatedly), range [1, 1000].
+  int pcd_min_points_per_voxel = 3;
+  /// Floor hole filling: a free voxel is made floor when it lies in a horizontal floor surface and the hole
+  /// through it is at most this wide in every direction (8 directions; e.g. a sampling gap of a sparse scan,
+  /// a hole under a robot footprint). Larger holes, floor edges (drops), and columns in which the scan saw
+  /// anything from fill_gap_depth_m to 5 m below the floor (a stairwell, a shaft, a pit) are never bridged.
+  /// Metres, 0 (off) or range [0.05, 3].
+  double fill_hole_max_m = 0.6;
+  /// Free height a floor surface needs above it, inside the map (so a ceiling at the top of the map is never
+  /// floor), and the free height below a surface that makes it overhead (a ceiling, a pipe, a shelf: never
+  /// floor, never filled, never support for filling), metres, range [0.05, 5]; at least one voxel is used.
+  double fill_clearance_m = 0.5;
+  /// A hole column whose scan shows an occupied voxel at least this far below the floor level (and at most
+  /// 5 m) is a real gap and is not filled, metres, range [0.05, 5]; at least one voxel is used.
+  double fill_gap_depth_m = 0.25;
+
   /// True when every field is in range; otherwise false and, if `why` is not null, a message naming the
   /// field, its value and the rule.
   bool IsValid(std::string* why) const;
@@ -49,6 +76,25 @@ struct WorldLoadReport {
   std::int64_t points_total = 0;
   /// PCD points dropped because a coordinate was NaN or infinite.
   std::int64_t points_dropped_non_finite = 0;
+  /// Occupied voxels before the clean-up (after voxelizing a PCD or expanding OctoMap leaves).
+  std::int64_t voxels_read = 0;
+  /// Voxels removed by the support filter (WorldLoadOptions::support_radius_m).
+  std::int64_t voxels_removed_unsupported = 0;
+  /// Free voxels made floor by hole filling (WorldLoadOptions::fill_hole_max_m).
+  std::int64_t voxels_filled_floor = 0;
+  /// Floor surface voxels the hole filling found (occupied, fill_clearance_m free above, not overhead).
+  std::int64_t floor_surface_voxels = 0;
+  /// Surface voxels classified overhead (free space of at least fill_clearance_m below them, then something
+  /// seen): ceilings, pipes, shelves; never floor.
+  std::int64_t overhead_surface_voxels = 0;
+  /// Hole voxels not filled because the scan saw through them (see WorldLoadOptions::fill_gap_depth_m).
+  std::int64_t holes_seen_through = 0;
+  /// Wall time of the clean-up, milliseconds.
+  double cleanup_ms = 0.0;
+
+  /// One line for logs, e.g. "pcd: 182311 points -> 96120 voxels; 412 unsupported removed; 20315 floor
+  /// voxels filled (...)".
+  std::string Summary() const;
 };
 
 /// Loads or builds the world named by `spec`:
@@ -58,6 +104,13 @@ struct WorldLoadReport {
 ///    leaves expanded into voxels at the tree resolution; the grid spans the occupied leaves;
 ///  - a path ending `.pcd` (PCL, fields x y z): every finite point voxelized at options.pcd_resolution_m;
 ///    NaN/inf points are dropped and counted in `report`.
+/// Files are then cleaned up, in this order (see the WorldLoadOptions fields; counts in `report`):
+///  1. support filter: unsupported voxels (stray returns) are removed;
+///  2. floor hole filling: holes narrower than fill_hole_max_m in floor surfaces are filled, one voxel thick,
+///     at the floor level. A floor surface is an occupied voxel with fill_clearance_m of free voxels above it
+///     inside the map and not overhead; ceilings at the top of the map and overhead surfaces (pipes, ceilings
+///     with the floor seen below) are never floor, so a hole under a pipe is filled at the floor level and the
+///     pipe stays the only thing above.
 /// Frames: the file's frame is taken as W, z up. Units: metres.
 /// Throws WorldError naming the path/field and value when: options are invalid, the builtin name is
 /// unknown (the message lists valid names), the extension is unknown, the file is missing or unreadable,
