@@ -207,9 +207,22 @@ int main(int argc, char** argv) {
       switch_to_state.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
     }
   }
+  // The robot's own measure of its control loop (RobotState.control_period_max_ms, worst period over the last
+  // 10-20 s): right after the flood below (covering it), and after 21 s with nothing to do (the baseline).
+  auto loop_worst_ms = [&client]() {
+    double worst = -1.0;
+    client.WaitUntil("r1", 2.0, [&](const cairn::base::RobotView& v) {
+      if (v.state) worst = v.state->control_period_max_ms();
+      return v.state.has_value();
+    });
+    return worst;
+  };
+
   // Mode commands from the holder while another process floods the robot with path requests (issue 11: paths
-  // are planned on the planning thread within a per-process rate, never on the DDS thread the commands use).
+  // are planned on the planning thread within a per-process rate, never on the DDS thread the commands use),
+  // and the holder sends a waypoint goal (planned on the same thread, first) every 10th command.
   std::vector<double> mode_under_flood;
+  int goals_accepted = 0;
   std::atomic<int> flood_sent{0};
   {
     cairn::core::ParticipantOptions flood_options;
@@ -235,6 +248,7 @@ int main(int argc, char** argv) {
       }
     });
     for (int i = 0; i < 200; ++i) {
+      if (i % 10 == 5) goals_accepted += client.SendWaypoint("r1", i % 20 == 5 ? 18.0 : 3.0, 7.0).ok ? 1 : 0;
       const std::string target = i % 2 ? "idle" : "manual";
       const auto m = client.RequestMode("r1", target);
       if (m.ok) mode_under_flood.push_back(m.round_trip_ms);
@@ -242,6 +256,10 @@ int main(int argc, char** argv) {
     flooding = false;
     flood.join();
   }
+  const double loaded_loop_worst_ms = loop_worst_ms();
+  client.RequestMode("r1", "idle");
+  std::this_thread::sleep_for(std::chrono::seconds(21));
+  const double idle_loop_worst_ms = loop_worst_ms();
   double worst_late_ms = 0;
   int late_lines = 0;
   {
@@ -271,6 +289,10 @@ int main(int argc, char** argv) {
   } else {
     std::printf("mode commands during the flood: only %zu of 200 answered\n", mode_under_flood.size());
   }
+  std::printf("control loop worst period (the robot's RobotState.control_period_max_ms): %.1f ms during the flood "
+              "and %d waypoint goals, %.1f ms idle for 21 s after it (ratio %.2f; nominal period 20 ms)\n",
+              loaded_loop_worst_ms, goals_accepted, idle_loop_worst_ms,
+              idle_loop_worst_ms > 0 ? loaded_loop_worst_ms / idle_loop_worst_ms : 0.0);
   std::printf("  (%d path requests sent by another process; control loop: %s)\n", flood_sent.load(),
               late_lines == 0 ? "no period over 100 ms in the whole run"
                               : ("worst period " + std::to_string(static_cast<int>(worst_late_ms)) + " ms, " +

@@ -1476,14 +1476,20 @@ StaircaseRegistry::MergeResult StaircaseRegistry::Add(const Staircase& staircase
   for (std::size_t i = 0; i < entries_.size(); ++i) {
     const Staircase& e = entries_[i].staircase;
     if (std::abs(WrapAngle(e.yaw_rad - staircase.yaw_rad)) > options_.max_yaw_difference_rad) continue;
-    // Whole steps between the two first risers (a view of the upper part only starts higher).
-    const double dz = staircase.p_W_first_step.z() - e.p_W_first_step.z();
-    const int k = static_cast<int>(std::lround(dz / e.rise_m));
-    if (std::abs(k) > std::max(e.num_steps, staircase.num_steps) - 1) continue;
-    if (std::abs(dz - k * e.rise_m) > options_.max_floor_difference_m) continue;
+    // Whole steps between the two first risers (a view of the upper part only starts higher), counted along
+    // the flight: the riser positions are measured on many points, the floor of a partial view is not.
     const Eigen::Vector2d u(std::cos(e.yaw_rad), std::sin(e.yaw_rad));
     const double ds = u.dot((staircase.p_W_first_step - e.p_W_first_step).head<2>());
+    const int k = static_cast<int>(std::lround(ds / e.run_m));
+    if (std::abs(k) > std::max(e.num_steps, staircase.num_steps) - 1) continue;
     if (std::abs(ds - k * e.run_m) > 0.5 * e.run_m) continue;
+    // Heights k rises apart. Two views of the same first riser (k = 0) must agree on the floor; the floor of
+    // a view that starts k steps up is the tread the viewer stands on or looks over (few points, partly
+    // hidden): within half a rise (a robot on the stairs saw 3 steps from the 2nd riser, its floor 8 cm low).
+    const double dz = staircase.p_W_first_step.z() - e.p_W_first_step.z();
+    const double height_tolerance =
+        k == 0 ? options_.max_floor_difference_m : std::max(options_.max_floor_difference_m, 0.5 * e.rise_m);
+    if (std::abs(dz - k * e.rise_m) > height_tolerance) continue;
     const Polygon efp = Footprint(e);
     const double smaller = std::min(area, Area(efp));
     if (smaller <= 0) continue;

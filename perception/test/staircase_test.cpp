@@ -588,6 +588,31 @@ TEST(StaircaseRegistryTest, UpperPartFirstThenWholeFlight) {
   EXPECT_NEAR((merged.p_W_first_step - whole.p_W_first_step).norm(), 0.0, 1e-9);
 }
 
+TEST(StaircaseRegistryTest, APartialViewFromOnTheStairsWithALowFloorMerges) {
+  // Logged by the perception integration test (it counted the staircase twice): the whole flight, then a
+  // robot standing on it saw 3 steps from the 2nd riser, one run further, its floor 8 cm below the 1st tread.
+  StaircaseRegistry registry;
+  Staircase whole = TunnelsStairs();
+  whole.p_W_first_step = Eigen::Vector3d(50.00, 23.72, -0.01);
+  whole.rise_m = 0.200;
+  whole.run_m = 0.499;
+  whole.width_m = 2.41;
+  Staircase partial = whole;
+  partial.p_W_first_step = Eigen::Vector3d(50.50, 23.73, 0.11);
+  partial.rise_m = 0.216;
+  partial.run_m = 0.500;
+  partial.width_m = 2.43;
+  partial.num_steps = 3;
+  EXPECT_TRUE(registry.Add(whole, "leg1").is_new);
+  EXPECT_FALSE(registry.Add(partial, "leg1").is_new);
+  ASSERT_EQ(registry.size(), 1u);
+  EXPECT_EQ(registry.Entries()[0].staircase.num_steps, 5);
+  // Two views of the same first riser must still agree on the floor: 8 cm apart at k = 0 is another flight.
+  Staircase other_floor = whole;
+  other_floor.p_W_first_step.z() += 0.08;
+  EXPECT_TRUE(registry.Add(other_floor, "leg2").is_new);
+}
+
 TEST(StaircaseRegistryTest, OppositeDirectionsAtTheSamePlaceStayApart) {
   // Detections are always described ascending (a view from the top gives the same yaw as one from the
   // foot, see SeenFromTheTopIsDescribedAscending), so opposite yaws at one place contradict each other: they

@@ -207,6 +207,24 @@ class RobotAgent::Impl {
   // Set by the recovery's "clear the local obstacle memory" (control thread), done by the sensor thread.
   std::atomic<bool> clear_obstacle_memory_{false};
   std::unique_ptr<WaypointRecovery> recovery_;  // control thread
+  // Control-loop periods (control thread): the worst of the current and the previous 10 s window.
+  struct PeriodWindow {
+    SteadyTime last_start{};
+    SteadyTime window_start{};
+    double current_max_ms = 0.0;
+    double previous_max_ms = 0.0;
+    void Note(SteadyTime start) {
+      if (last_start != SteadyTime{}) current_max_ms = std::max(current_max_ms, 1000 * core::SecondsBetween(last_start, start));
+      last_start = start;
+      if (window_start == SteadyTime{}) window_start = start;
+      if (core::SecondsBetween(window_start, start) >= 10.0) {
+        previous_max_ms = current_max_ms;
+        current_max_ms = 0.0;
+        window_start = start;
+      }
+    }
+    double WorstMs() const { return std::max(current_max_ms, previous_max_ms); }
+  } control_periods_;
   std::vector<Eigen::Vector3f> obstacle_points_B_;
   std::uint64_t published_path_revision_ = ~0ull;
   msgs::NavStatus nav_status_ = msgs::NAV_STATUS_NONE;
@@ -1003,6 +1021,7 @@ void RobotAgent::Impl::PublishState(SteadyTime) {
   m.nav_replans(static_cast<uint32_t>(navigation_.replans()));
   m.local_planner_status(navigation_.local_status());
   m.in_contact(in_contact_);
+  m.control_period_max_ms(control_periods_.WorstMs());
   m.stops(stops_);
   m.stopped_by(stopped_by_);
   m.stopped_at(stopped_at_);
@@ -1123,6 +1142,7 @@ void RobotAgent::Impl::Run() {
   SteadyTime next = SteadyClock::now();
   for (uint64_t cycle = 0; !core::ShutdownRequested(); ++cycle) {
     const SteadyTime wanted = SteadyClock::now();
+    control_periods_.Note(wanted);
     if (const double late_s = core::SecondsBetween(next, wanted); late_s > 0.1) {
       spdlog::warn("robot {}: control loop woke {:.0f} ms late (the process was not scheduled)", options_.robot_id,
                    1000 * late_s);

@@ -255,9 +255,10 @@ struct StaircaseRegistryOptions {
 ///
 /// Same-staircase rule: a detection joins an entry when (1) their ascending directions differ by at most
 /// max_yaw_difference_rad; (2) their first risers are k whole steps apart (|k| < the larger num_steps): the
-/// floor heights differ by k rises within max_floor_difference_m and the positions along the ascending
-/// direction by k runs within half a run (k = 0 for two views of the whole flight; k != 0 when one view saw
-/// only its upper or lower part); and (3) their footprints (rectangles from the foot of the first riser,
+/// positions along the ascending direction differ by k runs within half a run (k counted there), and the
+/// floor heights by k rises within max_floor_difference_m when k = 0 (two views of the whole flight), within
+/// half a rise when k != 0 (one view saw only the upper or lower part: its floor is a tread, estimated from
+/// few points); and (3) their footprints (rectangles from the foot of the first riser,
 /// num_steps * run_m along the ascending direction and width_m across it, seen from above) overlap by at
 /// least min_overlap_fraction of the smaller one. If several entries qualify the one with the largest overlap
 /// wins; entries are never merged with each other. Since detections are always described ascending, a
