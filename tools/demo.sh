@@ -16,6 +16,8 @@ usage: ./cairn demo [--world builtin:NAME|FILE.bt|FILE.pcd] [--robots N] [--plat
   Starts N robots (r1..rN, default 3) at distinct free starts and a basestation 'op1'.
   Interactive by default; --headless --script FILE runs the command file, prints the outcome and exits
   non-zero if any command fails. Example: ./cairn demo --headless --script examples/geb079_mission.cairn
+  A script may name the world and fleet size it was written for ('# world: PATH', '# robots: N' lines);
+  --world and --robots given on the command line win.
 USAGE
 }
 
