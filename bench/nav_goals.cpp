@@ -126,7 +126,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
       perception.Tick(t, &scan, nullptr);
     }
     if (std::fmod(t + 1e-9, 1.0) < kDt) nav_map.Update(*perception.map(), perception.TakeChangedTiles(),
-                                                       perception.change_tile_m());
+                                                       perception.change_tile_m(), perception.max_sensor_z_m());
     if (!goal_set) {
       const nav::GlobalPlan plan = navigation.SetGoal(pose, goal.x(), goal.y(), 0.0, t);
       if (!plan.IsUsable()) {

@@ -56,7 +56,8 @@ int main() {
     if (platform.ReadLidarScan(now_s, &scan)) perception.Tick(now_s, &scan, nullptr);
     if (k % 10 != 0) continue;
     const agent::NavMapUpdateStats stats =
-        nav_map.Update(*perception.map(), perception.TakeChangedTiles(), perception.change_tile_m());
+        nav_map.Update(*perception.map(), perception.TakeChangedTiles(), perception.change_tile_m(),
+                       perception.max_sensor_z_m());
     if (!stats.applied) continue;
     incremental_ms.push_back(stats.read_ms + stats.traversability_ms);
     tiles.push_back(stats.tiles);

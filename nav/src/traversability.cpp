@@ -198,6 +198,7 @@ void TraversabilityGrid::CheckGeometry(const core::VoxelGrid& grid, const char* 
 
 bool TraversabilityGrid::SeenFreeAbove(int ix, int iy, int iz) const {
   if (seen_free_ == nullptr) return true;
+  if (TopOf(iz) <= sensor_max_z_m_ - 0.1) return true;  // below every lidar position: seen from above
   for (int dx = -1; dx <= 1; ++dx) {
     for (int dy = -1; dy <= 1; ++dy) {
       if (seen_free_->IsOccupiedIndex({ix + dx, iy + dy, iz + 1}) ||

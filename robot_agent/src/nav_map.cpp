@@ -91,7 +91,7 @@ void NavMap::Publish() {
 }
 
 NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& tiles,
-                                 double tile_m) {
+                                 double tile_m, double sensor_max_z_m) {
   NavMapUpdateStats stats;
   if (!(tile_m > 0) || tiles.empty()) return stats;
   auto start = Clock::now();
@@ -130,8 +130,12 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
   if (columns.empty()) return stats;
   stats.read_ms = MsSince(start);
   start = Clock::now();
+  grid_->SetObserverHeight(sensor_max_z_m);
   grid_->Update(voxels_, &seen_free_, columns);
-  if (diagnose_grid_) diagnose_grid_->Update(voxels_, &seen_free_, columns);
+  if (diagnose_grid_) {
+    diagnose_grid_->SetObserverHeight(sensor_max_z_m);
+    diagnose_grid_->Update(voxels_, &seen_free_, columns);
+  }
   stats.traversability_ms = MsSince(start);
   start = Clock::now();
   Publish();

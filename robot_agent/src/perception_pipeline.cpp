@@ -121,6 +121,8 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* s
       T_W_S_last_keyframe_ = T_W_S_estimate;
       start = Clock::now();
       const perception::InsertStats inserted = map_->InsertScan(scan->points_S, T_W_S_estimate);
+      const double z = T_W_S_estimate.translation().z();
+      if (!(z <= max_sensor_z_m_.load())) max_sensor_z_m_ = z;  // also replaces NaN
       stats_.map_ms_total += MsSince(start);
       stats_.points_dropped_non_finite += inserted.dropped_non_finite;
       ++stats_.scans_inserted;

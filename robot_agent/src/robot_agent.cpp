@@ -1367,7 +1367,8 @@ void RobotAgent::Impl::NavMapLoop() {
     try {
       const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
       if (tiles.empty()) continue;
-      const NavMapUpdateStats stats = nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m());
+      const NavMapUpdateStats stats = nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m(),
+                                                        perception_->max_sensor_z_m());
       if (stats.applied) {
         spdlog::debug("robot {}: navigation map v{}: {} tiles in {:.1f} x {:.1f} m, {} occupied voxels, read {:.1f} "
                       "ms, traversability {:.1f} ms, publish {:.1f} ms",

@@ -55,7 +55,8 @@ TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFlo
     perception.Tick(now_s, &scan, nullptr);
     if (k % 10 == 0) {
       const NavMapUpdateStats stats =
-          nav_map.Update(*perception.map(), perception.TakeChangedTiles(), perception.change_tile_m());
+          nav_map.Update(*perception.map(), perception.TakeChangedTiles(), perception.change_tile_m(),
+                         perception.max_sensor_z_m());
       if (!stats.applied) continue;
       update_ms.push_back(stats.read_ms + stats.traversability_ms + stats.publish_ms);
       tiles_total += stats.tiles;
@@ -70,7 +71,10 @@ TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFlo
 
   // The incremental grid equals a full rebuild from the same voxels.
   const nav::TraversabilityGrid& incremental = nav_map.grid();
-  const nav::TraversabilityGrid full(nav_map.voxels(), planner->TerrainOptionsFor(profile), &nav_map.seen_free());
+  nav::TraversabilityGrid full(nav_map.voxels(), planner->TerrainOptionsFor(profile), &nav_map.seen_free());
+  full.SetObserverHeight(perception.max_sensor_z_m());
+  full.Update(nav_map.voxels(), &nav_map.seen_free(),
+              {Eigen::AlignedBox2d(full.p_W_min(), full.p_W_max())});  // the whole grid with that height
   int differing = 0;
   for (int ix = 0; ix < full.nx(); ++ix) {
     for (int iy = 0; iy < full.ny(); ++iy) {

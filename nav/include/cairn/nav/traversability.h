@@ -120,6 +120,9 @@ class TraversabilityGrid : public core::FootprintChecker {
   /// low lidar saw of a wall (seen from below, nothing observed above it, e.g. a wall 0.7 m away seen up to
   /// 0.8 m by a lidar 0.5 m high) and ceilings seen from below, which otherwise read as raised ground next to
   /// unseen floor. A column whose band holds occupied voxels but no accepted candidate is kObstacle.
+  /// Far floor seen at a grazing angle has no free voxel observed right above it (the ray crossed those
+  /// layers metres before its end), so a candidate whose top is at least 0.1 m below the highest sensor
+  /// position so far (SetObserverHeight()) needs no such evidence: a lidar can only have seen it from above.
   /// Throws std::invalid_argument if its geometry differs from the world's.
   TraversabilityGrid(const core::VoxelGrid& world, const TraversabilityOptions& options,
                      const core::VoxelGrid* seen_free);
@@ -189,6 +192,11 @@ class TraversabilityGrid : public core::FootprintChecker {
   void Update(const core::VoxelGrid& world, const core::VoxelGrid* seen_free,
               const std::vector<Eigen::AlignedBox2d>& regions_W);
 
+  /// Highest sensor (lidar) origin so far, metres, frame of the grid, for a grid built with `seen_free` (see
+  /// the constructor); used by the next Update(). NaN (default): no surface is taken as seen from above
+  /// without seen-free evidence.
+  void SetObserverHeight(double sensor_max_z_m) { sensor_max_z_m_ = sensor_max_z_m; }
+
   /// Row-major index of a cell, ix + nx * iy.
   std::size_t Index(int ix, int iy) const {
     return static_cast<std::size_t>(ix) + static_cast<std::size_t>(nx_) * static_cast<std::size_t>(iy);
@@ -212,6 +220,7 @@ class TraversabilityGrid : public core::FootprintChecker {
   int need_voxels_ = 1;  // free voxels a ground needs above it
   std::vector<std::uint8_t> internal_step_;
   const core::VoxelGrid* seen_free_ = nullptr;  // Only during construction and Update().
+  double sensor_max_z_m_ = std::numeric_limits<double>::quiet_NaN();
   TraversabilitySummary summary_;
   int nx_ = 0;
   int ny_ = 0;

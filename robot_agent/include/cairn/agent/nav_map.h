@@ -76,8 +76,10 @@ class NavMap {
   /// metres, map frame, every height of the extent; e.g. PerceptionPipeline::TakeChangedTiles()) from `map`,
   /// re-analyses the affected traversability cells and gives the planner the new map. Tiles outside the
   /// extent are ignored.
+  /// `sensor_max_z_m`: the highest lidar origin so far (metres, map frame; PerceptionPipeline::
+  /// max_sensor_z_m()): surfaces below it count as seen from above (TraversabilityGrid::SetObserverHeight).
   NavMapUpdateStats Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& tiles,
-                           double tile_m);
+                           double tile_m, double sensor_max_z_m);
 
   const core::VoxelGrid& voxels() const { return voxels_; }
   /// The map's observed-free voxels (set bit = a lidar ray passed through), same geometry as voxels().

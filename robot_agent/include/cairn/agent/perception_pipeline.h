@@ -5,6 +5,9 @@
 // publishes what it returns; tests drive it faster than real time.
 #pragma once
 
+#include <atomic>
+#include <limits>
+
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <memory>
@@ -92,6 +95,9 @@ class PerceptionPipeline {
 
   /// Edge of the square x-y tiles changes are reported in, metres (10 coarse telemetry voxels).
   double change_tile_m() const { return 10 * options_.coarse_resolution_m(); }
+  /// Highest lidar origin of the scans inserted so far (metres, map frame M); NaN before the first. Any
+  /// thread.
+  double max_sensor_z_m() const { return max_sensor_z_m_.load(); }
   /// Tiles (ix, iy): tile covers [ix * change_tile_m(), (ix + 1) * change_tile_m()) x [iy * ..., ...) in the
   /// map frame, over all heights) where the map changed since the last call, in no particular order.
   /// Thread-safe: navigation's map thread calls it while Tick() runs.
@@ -113,6 +119,7 @@ class PerceptionPipeline {
   const PerceptionOptions& options() const { return options_; }
 
  private:
+  std::atomic<double> max_sensor_z_m_{std::numeric_limits<double>::quiet_NaN()};
   // Takes the map's coarse changes: extends the changed region (navigation) and queues them for telemetry.
   void CollectChanges();
 
