@@ -17,11 +17,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kArrivalSpeedMps = 0.1;  // arrival needs the robot at most this fast
 constexpr double kGoalSnapM = 0.25;        // largest hop from a free local path sample to the goal
 
-std::string Fixed(double value, int digits) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", digits, value);
-  return buf;
-}
+using internal::Fixed;
 
 // p_W = R(yaw) p_B + p_WB.
 Eigen::Vector2d ToWorld(const core::BaseState& s, const Eigen::Vector2d& p_B) {
@@ -148,14 +144,18 @@ void Navigation::ClearObstacles() {
   track_W_.clear();
 }
 
+bool Navigation::IsObstacle(const Eigen::Vector3f& p_B) const {
+  const auto& library = local_planner_.library().options();
+  return p_B.allFinite() && p_B.z() >= library.obstacle_min_z_m && p_B.z() <= library.obstacle_max_z_m;
+}
+
 bool Navigation::ClearBehind(const core::BaseState& state, double distance_m, double margin_m,
                              std::string* why) const {
   const double radius = options_.platform.footprint_radius_m + std::max(0.0, margin_m);
-  const auto& library = local_planner_.library().options();
   double nearest = 1e18;
   Eigen::Vector2d nearest_W = Eigen::Vector2d::Zero();
   for (const Eigen::Vector3f& o : obstacles_B_) {
-    if (!o.allFinite() || o.z() < library.obstacle_min_z_m || o.z() > library.obstacle_max_z_m) continue;
+    if (!IsObstacle(o)) continue;
     // Obstacles are kept in frame B of obstacles_pose_; the segment runs from `state` backwards.
     const Eigen::Vector2d p_B = ToBody(state, ToWorld(obstacles_pose_, o.head<2>().cast<double>()));
     const double along = std::clamp(p_B.x(), -std::max(0.0, distance_m), 0.0);
@@ -355,7 +355,6 @@ bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state) {
   constexpr double kTightSpacingM = 0.05;  // sample spacing of the check
   if (!goal_ || plan_.result.path_W.size() < 2) return false;
   const double radius = options_.platform.footprint_radius_m + kTightMarginM;
-  const auto& library = local_planner_.library().options();
   std::vector<Eigen::Vector2d> track{Eigen::Vector2d(state.x_m, state.y_m)};
   for (double ahead = kTightSpacingM; ahead <= kTightTrackM + 1e-9; ahead += kTightSpacingM) {
     const Eigen::Vector2d p = PointAhead(ahead);
@@ -366,7 +365,7 @@ bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state) {
   for (const Eigen::Vector2d& p_W : track) {
     const Eigen::Vector2d p_B = ToBody(state, p_W);
     for (const Eigen::Vector3f& o : obstacles_B_) {
-      if (!o.allFinite() || o.z() < library.obstacle_min_z_m || o.z() > library.obstacle_max_z_m) continue;
+      if (!IsObstacle(o)) continue;
       clearance = std::min(clearance, (o.head<2>().cast<double>() - p_B).norm());
     }
     if (clearance <= radius) return false;

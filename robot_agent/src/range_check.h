@@ -1,4 +1,4 @@
-// Range check of one configuration value, shared by the agent's options and its navigation component.
+// Range check of one configuration value and number formatting for messages, shared by the agent's parts.
 #pragma once
 
 #include <cmath>
@@ -17,6 +17,15 @@ inline bool InRange(const char* field, double value, double lo, double hi, bool 
     *why = out.str();
   }
   return ok;
+}
+
+/// `value` with `digits` decimals, for messages.
+inline std::string Fixed(double value, int digits) {
+  std::ostringstream out;
+  out.setf(std::ios::fixed);
+  out.precision(digits);
+  out << value;
+  return out.str();
 }
 
 }  // namespace cairn::agent::internal

@@ -927,12 +927,7 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   if (goal_ && modes_.mode() == "waypoint") {
     NavigationStep step;
     if (recovery_->active()) {
-      const WaypointRecovery::Output out = recovery_->Step(s, now_s);
-      step.arrived = out.arrived;
-      step.failed = out.status == bt::NodeStatus::kFailure;
-      step.reason = out.failure;
-      step.linear_x_mps = out.linear_x_mps;
-      step.angular_z_radps = out.angular_z_radps;
+      step = recovery_->Step(s, now_s);
       if (recovery_->active()) {
         const std::string report = recovery_->Report();
         if (report != nav_reason_) spdlog::warn("robot {}: waypoint {} {}", options_.robot_id, goal_->goal_id, report);

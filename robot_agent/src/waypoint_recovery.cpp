@@ -1,10 +1,10 @@
 #include "cairn/agent/waypoint_recovery.h"
 
 #include "cairn/agent/mode_manager.h"
+#include "range_check.h"
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 
 namespace cairn::agent {
@@ -15,28 +15,21 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-std::string Fixed(double value, int digits) {
-  std::ostringstream out;
-  out.setf(std::ios::fixed);
-  out.precision(digits);
-  out << value;
-  return out.str();
-}
+using internal::Fixed;
 
-// Parses a port's text as a number in [lo, hi] for ValidateXml; throws std::invalid_argument naming both.
+// Parses a port's text as a number in (lo, hi] for ValidateXml; throws std::invalid_argument naming both.
 void CheckNumber(const std::map<std::string, std::string>& ports, const std::string& port, double lo, double hi) {
   const auto it = ports.find(port);
   if (it == ports.end() || it->second.empty() || it->second.front() == '{') return;  // default or blackboard
   std::size_t used = 0;
-  double value = 0.0;
+  double value = std::nan("");
   try {
     value = std::stod(it->second, &used);
   } catch (const std::exception&) {
-    used = 0;
   }
-  if (used != it->second.size() || !std::isfinite(value) || value <= lo || value > hi) {
-    throw std::invalid_argument("port " + port + " = '" + it->second + "' must be a number in (" + Fixed(lo, 2) +
-                                ", " + Fixed(hi, 2) + "]");
+  std::string why;
+  if (used != it->second.size() || !internal::InRange(("port " + port).c_str(), value, lo, hi, true, &why)) {
+    throw std::invalid_argument(why.empty() ? "port " + port + " = '" + it->second + "' is not a number" : why);
   }
 }
 
@@ -327,29 +320,29 @@ void WaypointRecovery::Start(double x_m, double y_m, double tolerance_m, const s
   c.active = true;
 }
 
-WaypointRecovery::Output WaypointRecovery::Step(const core::BaseState& state, double now_s) {
-  Output out;
+NavigationStep WaypointRecovery::Step(const core::BaseState& state, double now_s) {
+  NavigationStep out;
   Context& c = *context_;
   if (!c.active) return out;
   c.state = state;
   c.now_s = now_s;
   c.Stop();
-  out.status = tree_.TickOnce();
-  out.linear_x_mps = c.linear_x_mps;
-  out.angular_z_radps = c.angular_z_radps;
-  if (out.status == NodeStatus::kRunning) return out;
+  const NodeStatus status = tree_.TickOnce();
+  if (status == NodeStatus::kRunning) {
+    out.linear_x_mps = c.linear_x_mps;
+    out.angular_z_radps = c.angular_z_radps;
+    return out;
+  }
   c.active = false;
   tree_.HaltTree();
-  out.linear_x_mps = 0.0;
-  out.angular_z_radps = 0.0;
-  if (out.status == NodeStatus::kSuccess && c.arrived) {
+  if (status == NodeStatus::kSuccess && c.arrived) {
     out.arrived = true;
     return out;
   }
-  out.status = NodeStatus::kFailure;  // a tree that ends without arriving has not recovered the goal
+  out.failed = true;  // a tree that ends without arriving has not recovered the goal
   std::string attempts;
   for (const std::string& line : c.log) attempts += (attempts.empty() ? "" : "; ") + line;
-  out.failure = c.first_failure + "; recovery failed: " + (attempts.empty() ? "no attempt made" : attempts);
+  out.reason = c.first_failure + "; recovery failed: " + (attempts.empty() ? "no attempt made" : attempts);
   return out;
 }
 

@@ -348,12 +348,7 @@ struct GhostRobot {
     }
     NavigationStep step;
     if (recovery.active()) {
-      const WaypointRecovery::Output out = recovery.Step(s, robot.t_s);
-      step.arrived = out.arrived;
-      step.failed = out.status == bt::NodeStatus::kFailure;
-      step.reason = out.failure;
-      step.linear_x_mps = out.linear_x_mps;
-      step.angular_z_radps = out.angular_z_radps;
+      step = recovery.Step(s, robot.t_s);
       if (recovery.active()) report = recovery.Report();
     } else {
       step = robot.navigation.StepWaypoint(s, robot.t_s);

@@ -167,6 +167,8 @@ class Navigation {
   // (checked on the map with the footprint) becomes the track if every live obstacle point stays farther
   // than the bare footprint radius plus kTightMarginM from it. Returns whether it did.
   bool TrackGlobalPathIfClear(const core::BaseState& state);
+  // True if the obstacle point (frame B) is finite and in the local planner's obstacle z band.
+  bool IsObstacle(const Eigen::Vector3f& p_B) const;
   // Runs the local planner if its period elapsed; fills track_W_ and track_stop_at_end_.
   void RunLocalPlanner(const core::BaseState& state, const nav::LocalPlanRequest& request, double now_s,
                        const std::optional<Eigen::Vector2d>& goal_W);

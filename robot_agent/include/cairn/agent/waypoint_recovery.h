@@ -33,17 +33,6 @@ class WaypointRecovery {
     std::function<void()> clear_obstacle_memory;
   };
 
-  /// One tick's output.
-  struct Output {
-    bt::NodeStatus status = bt::NodeStatus::kIdle;  ///< kRunning while recovering.
-    double linear_x_mps = 0.0;                      ///< Twist for the waypoint channel, frame B.
-    double angular_z_radps = 0.0;
-    bool arrived = false;  ///< status kSuccess: the goal was reached by a retry.
-    /// status kFailure: why, with every attempt, e.g. "blocked: no progress ... ; recovery failed: attempt 1
-    /// (clear the local obstacle memory): blocked: ...; attempt 2 (back up 0.3 m): obstacle behind ...".
-    std::string failure;
-  };
-
   /// Registers the recovery action nodes (ClearObstacleMemory, BackUp, Spin, FollowGoal) in `factory`.
   /// With a null `context` (a factory that only validates documents or writes the TreeNodesModel, e.g. the
   /// mode manager's) the types are known but building one throws std::logic_error: they act only in the
@@ -65,8 +54,12 @@ class WaypointRecovery {
   /// Starts recovering the goal (x_m, y_m) (metres, frame M; arrival radius tolerance_m) that navigation
   /// failed with `failure`. Requires enabled().
   void Start(double x_m, double y_m, double tolerance_m, const std::string& failure);
-  /// Ticks the tree once with the robot's state (frame M) at `now_s` (seconds, the navigation clock).
-  Output Step(const core::BaseState& state, double now_s);
+  /// Ticks the tree once with the robot's state (frame M) at `now_s` (seconds, the navigation clock), as
+  /// Navigation::StepWaypoint does: the twist for the waypoint channel (frame B) while recovering; `arrived`
+  /// when a retry reached the goal; `failed` when every attempt failed, `reason` naming each, e.g. "blocked:
+  /// no progress ...; recovery failed: attempt 1 (clear the local obstacle memory): blocked: ...; attempt 2
+  /// (back up 0.40 m): obstacle behind ...". Both false and no twist when not active().
+  NavigationStep Step(const core::BaseState& state, double now_s);
   /// Stops a running recovery (a new goal, a stop, a mode change): the actions are halted, nothing moves.
   void Halt();
   /// For operators while active(): what started the recovery and the attempts so far, e.g. "recovering
