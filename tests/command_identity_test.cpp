@@ -257,6 +257,7 @@ class RawBasestation {
     m.frame_id("map");
     m.x_m(goal.x());
     m.y_m(goal.y());
+    m.z_m(std::nan(""));  // the robot's level
     goals_->Write(m);
   }
   // Replies meant for this participant (requester_participant) to `kind` request `request_id`, after waiting

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <ctime>
 #include <sstream>
 #include <thread>
@@ -173,8 +174,8 @@ std::string CommandShell::Help() {
          "  release R                           give R's control lock back (the robot stops)\n"
          "  mode R MODE                         switch R to idle | manual | smart_joystick (waypoint: use "
          "goto)\n"
-         "  goto R POINT [TOL] [--wait [TIMEOUT_S]]  drive R to POINT; --wait prints progress (distance "
-         "left,\n"
+         "  goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]  drive R to POINT (on the level nearest Z_M,\n"
+         "                                      default the robot's); --wait prints progress (distance left,\n"
          "                                      ETA) until it arrives or fails (default 600 s)\n"
          "  path R                              the global path R is following (waypoints, length)\n"
          "  plan R POINT [--from POINT] [--platform P]  ask R's global planner for a path (from R's pose, "
@@ -626,7 +627,7 @@ int CommandShell::HelpFor(const std::string& robot) {
       {"request-control", "request-control R"},
       {"release", "release R"},
       {"mode", "mode R MODE"},
-      {"goto", "goto R POINT [TOL] [--wait [TIMEOUT_S]]"},
+      {"goto", "goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]"},
       {"teleop", "teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]"},
       {"stop", "stop R|all"}};
   for (const auto& action : actions) {
@@ -734,12 +735,22 @@ bool CommandShell::ParsePoint(const std::vector<std::string>& args, std::size_t 
 }
 
 int CommandShell::Goto(const std::vector<std::string>& all_args) {
-  static const char* kUsageText = "usage: goto R X Y|X,Y|PLACE [TOL] [--wait [TIMEOUT_S]]";
+  static const char* kUsageText = "usage: goto R X Y|X,Y|PLACE [TOL] [--z Z_M] [--wait [TIMEOUT_S]]";
   std::vector<std::string> args;
   bool wait = false;
   double timeout = 600;
+  double z_m = std::numeric_limits<double>::quiet_NaN();
   std::string error;
   for (std::size_t i = 0; i < all_args.size(); ++i) {
+    if (all_args[i] == "--z") {
+      if (i + 1 >= all_args.size()) return UsageError("goto", "--z needs a height Z_M (metres, map frame)");
+      if (!ParseNumber(all_args[i + 1], "Z_M", &z_m, &error)) return UsageError("goto", error);
+      if (!std::isfinite(z_m) || std::abs(z_m) > 10000) {
+        return UsageError("goto", "Z_M '" + all_args[i + 1] + "' must be a finite height in [-10000, 10000] m");
+      }
+      ++i;
+      continue;
+    }
     if (all_args[i] != "--wait") {
       args.push_back(all_args[i]);
       continue;
@@ -762,7 +773,7 @@ int CommandShell::Goto(const std::vector<std::string>& all_args) {
   if (args.size() > rest + 1) return UsageError("goto", kUsageText);
   if (args.size() == rest + 1 && !ParseNumber(args[rest], "TOL", &tolerance, &error))
     return UsageError("goto", error);
-  const CommandOutcome o = client_.SendWaypoint(args[0], x, y, tolerance);
+  const CommandOutcome o = client_.SendWaypoint(args[0], x, y, tolerance, z_m);
   if (o.ok) last_goal_id_[args[0]] = o.goal_id;
   if (!o.ok || !wait) return Report("goto", args[0], o);
   // With --wait, one result line ends the command (JSON: the acceptance is a progress line before it).

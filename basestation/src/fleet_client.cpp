@@ -491,7 +491,8 @@ CommandOutcome FleetClient::RequestMode(const std::string& robot_id, const std::
   });
 }
 
-CommandOutcome FleetClient::SendWaypoint(const std::string& robot_id, double x_m, double y_m, double tolerance_m) {
+CommandOutcome FleetClient::SendWaypoint(const std::string& robot_id, double x_m, double y_m, double tolerance_m,
+                                         double z_m) {
   return impl_->Call(robot_id, msgs::COMMAND_KIND_WAYPOINT, [&](uint32_t id) {
     msgs::WaypointGoal m;
     m.robot_id(robot_id);
@@ -501,6 +502,7 @@ CommandOutcome FleetClient::SendWaypoint(const std::string& robot_id, double x_m
     m.x_m(x_m);
     m.y_m(y_m);
     m.tolerance_m(tolerance_m);
+    m.z_m(z_m);
     return impl_->goal_writer_->Write(m);
   });
 }

@@ -128,12 +128,16 @@ void GlobalPlanner::UpdateWorld(std::shared_ptr<const core::VoxelGrid> world) {
   ++map_version_;
   grids_.clear();
   diagnose_grids_.clear();
+  levels_.clear();
+  diagnose_levels_.clear();
+  sensor_max_z_m_ = std::numeric_limits<double>::quiet_NaN();
 }
 
 void GlobalPlanner::UpdateMap(std::shared_ptr<const core::VoxelGrid> world, const std::string& platform,
                               std::shared_ptr<const TraversabilityGrid> grid,
                               std::shared_ptr<const core::VoxelGrid> seen_free,
-                              std::shared_ptr<const TraversabilityGrid> diagnose_grid) {
+                              std::shared_ptr<const TraversabilityGrid> diagnose_grid,
+                              std::shared_ptr<const MultiLevelGrid> levels, double sensor_max_z_m) {
   if (!world || !grid) throw std::invalid_argument("GlobalPlanner::UpdateMap: world or grid is null");
   if (Profile(platform) == nullptr) {
     throw std::invalid_argument("GlobalPlanner::UpdateMap: platform '" + platform + "' is not served (valid: " +
@@ -147,6 +151,47 @@ void GlobalPlanner::UpdateMap(std::shared_ptr<const core::VoxelGrid> world, cons
   diagnose_grids_.clear();
   grids_.emplace(platform, std::move(grid));
   if (diagnose_grid) diagnose_grids_.emplace(platform, std::move(diagnose_grid));
+  levels_.clear();
+  diagnose_levels_.clear();
+  if (levels) levels_.emplace(platform, std::move(levels));
+  sensor_max_z_m_ = sensor_max_z_m;
+}
+
+TraversabilityOptions GlobalPlanner::LevelOptionsFor(const PlatformProfile& profile) const {
+  TraversabilityOptions t = TerrainOptionsFor(profile);
+  t.cell_size_m = 0.0;
+  t.reference_height_m = std::numeric_limits<double>::quiet_NaN();
+  t.ground_search_min_z_m = -std::numeric_limits<double>::infinity();
+  t.ground_search_max_z_m = std::numeric_limits<double>::infinity();
+  return t;
+}
+
+std::shared_ptr<const MultiLevelGrid> GlobalPlanner::Levels(const std::string& platform) {
+  std::lock_guard<std::mutex> guard(mutex_);
+  return LevelsLocked(platform, false);
+}
+
+std::shared_ptr<const MultiLevelGrid> GlobalPlanner::LevelsLocked(const std::string& platform, bool diagnose) {
+  const PlatformProfile* profile = Profile(platform);
+  if (profile == nullptr) return nullptr;
+  auto& cache = diagnose ? diagnose_levels_ : levels_;
+  auto it = cache.find(platform);
+  if (it != cache.end()) return it->second;
+  TraversabilityOptions t = LevelOptionsFor(*profile);
+  if (diagnose) t.max_step_m = std::max(t.max_step_m, options_.diagnose_max_step_m);
+  auto levels = std::make_shared<const MultiLevelGrid>(world_, t, seen_free_, sensor_max_z_m_);
+  cache.emplace(platform, levels);
+  return levels;
+}
+
+bool GlobalPlanner::NeedsLevels(const GlobalPlanRequest& request, const TraversabilityGrid& grid) const {
+  if (std::isfinite(request.goal_z_m)) return true;
+  if (!std::isfinite(request.start_z_m)) return false;
+  const auto ground = grid.GroundHeight(request.start_W.x(), request.start_W.y());
+  if (ground) return std::abs(*ground - request.start_z_m) > grid.options().max_step_m + 0.05;
+  // No main-level ground under the start (e.g. the floor right under a lidar is not seen yet): off the main
+  // level when the start is outside its ground band.
+  return request.start_z_m < grid.options().ground_search_min_z_m || request.start_z_m > grid.options().ground_search_max_z_m;
 }
 
 TraversabilityOptions GlobalPlanner::TerrainOptionsFor(const PlatformProfile& profile) const {
@@ -205,6 +250,37 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
   }
   if (std::isfinite(request.robot_radius_m)) astar.robot_radius_m = std::clamp(request.robot_radius_m, 0.0, 5.0);
   const auto grid = GridLocked(request.platform, false);
+  if (NeedsLevels(request, *grid)) {
+    const auto levels = LevelsLocked(request.platform, false);
+    const Eigen::Vector3d start(request.start_W.x(), request.start_W.y(), request.start_z_m);
+    plan.result = PlanPathMultiLevel(*levels, start, request.goal_W, request.goal_z_m, astar);
+    if (!plan.result.IsUsable()) {
+      plan.reason = plan.result.message;
+      if (plan.result.status == PlanResult::Status::kUnreachable &&
+          options_.diagnose_max_step_m > profile->traversability.max_step_m) {
+        // The same request allowing higher steps names the step that stops this platform (e.g. stairs).
+        // Cell by cell (no shortcuts), the first step above the platform's limit along that route.
+        const auto relaxed = LevelsLocked(request.platform, true);
+        AStarOptions cells = astar;
+        cells.simplify_path = false;
+        const PlanResult r = PlanPathMultiLevel(*relaxed, start, request.goal_W, request.goal_z_m, cells);
+        double worst_step = 0.0;
+        Eigen::Vector2d worst_at = request.start_W;
+        for (std::size_t i = 1; i < r.path_W.size(); ++i) {
+          const double dz = std::abs(r.path_W[i].z() - r.path_W[i - 1].z());
+          if (dz > profile->traversability.max_step_m + 1e-9) {
+            worst_step = dz;
+            worst_at = r.path_W[i].head<2>();
+            break;
+          }
+        }
+        const std::string diagnosis = r.IsUsable() ? DescribeStep(*profile, worst_step, worst_at) : "";
+        if (!diagnosis.empty()) plan.reason = diagnosis;
+      }
+    }
+    plan.total_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return plan;
+  }
   plan.result = PlanPath(*grid, request.start_W, request.goal_W, astar);
   if (!plan.result.IsUsable()) {
     plan.reason = plan.result.message;
@@ -244,6 +320,11 @@ std::string GlobalPlanner::DiagnoseUnreachable(const PlatformProfile& profile, c
       previous = *ground;
     }
   }
+  return DescribeStep(profile, worst_step, worst_at);
+}
+
+std::string GlobalPlanner::DescribeStep(const PlatformProfile& profile, double worst_step,
+                                        const Eigen::Vector2d& worst_at) const {
   if (worst_step <= profile.traversability.max_step_m + 1e-9) return "";
   std::string text = "unreachable for platform " + profile.name + ": the only route climbs a " +
                      Fixed2(worst_step) + " m step at (" + Fixed2(worst_at.x()) + ", " + Fixed2(worst_at.y()) +
@@ -272,8 +353,20 @@ PathCheck GlobalPlanner::CheckPath(const std::vector<Eigen::Vector3d>& path_W, c
     check.message = "path is empty";
     return check;
   }
+  // A path off the main level (an upper floor, stairs above another flight) is checked over the levels.
+  bool off_main_level = false;
+  for (const Eigen::Vector3d& p : path_W) {
+    const auto ground = grid->GroundHeight(p.x(), p.y());
+    if (std::isfinite(p.z()) && (!ground || std::abs(*ground - p.z()) > grid->options().max_step_m + 0.05)) {
+      off_main_level = true;
+      break;
+    }
+  }
+  const auto levels = off_main_level ? LevelsLocked(platform, false) : nullptr;
   for (std::size_t i = static_cast<std::size_t>(std::max(0, from_segment)); i + 1 < path_W.size(); ++i) {
-    if (!SegmentTraversable(*grid, path_W[i].head<2>(), path_W[i + 1].head<2>())) {
+    const bool traversable = levels ? SegmentTraversableMultiLevel(*levels, path_W[i], path_W[i + 1])
+                                    : SegmentTraversable(*grid, path_W[i].head<2>(), path_W[i + 1].head<2>());
+    if (!traversable) {
       check.valid = false;
       check.first_blocked_segment = static_cast<int>(i);
       check.message = "path segment " + std::to_string(i) + " from (" + Fixed2(path_W[i].x()) + ", " +

@@ -80,14 +80,19 @@ NavMap::NavMap(const NavMapOptions& options, double resolution_m, const core::Ba
   if (const auto relaxed = planner_->DiagnoseTerrainOptionsFor(*profile)) {
     diagnose_grid_ = std::make_unique<nav::TraversabilityGrid>(voxels_, *relaxed, &seen_free_);
   }
-  Publish();
+  levels_ = std::make_unique<nav::MultiLevelGrid>(std::make_shared<const core::VoxelGrid>(voxels_),
+                                                  planner_->LevelOptionsFor(*profile),
+                                                  std::make_shared<const core::VoxelGrid>(seen_free_));
+  Publish({});
 }
 
-void NavMap::Publish() {
-  planner_->UpdateMap(std::make_shared<const core::VoxelGrid>(voxels_), platform_,
-                      std::make_shared<const nav::TraversabilityGrid>(*grid_),
-                      std::make_shared<const core::VoxelGrid>(seen_free_),
-                      diagnose_grid_ ? std::make_shared<const nav::TraversabilityGrid>(*diagnose_grid_) : nullptr);
+void NavMap::Publish(const std::vector<Eigen::AlignedBox2d>& columns) {
+  auto world = std::make_shared<const core::VoxelGrid>(voxels_);
+  auto seen_free = std::make_shared<const core::VoxelGrid>(seen_free_);
+  if (!columns.empty()) levels_->Update(world, seen_free, columns, sensor_max_z_m_);
+  planner_->UpdateMap(world, platform_, std::make_shared<const nav::TraversabilityGrid>(*grid_), seen_free,
+                      diagnose_grid_ ? std::make_shared<const nav::TraversabilityGrid>(*diagnose_grid_) : nullptr,
+                      std::make_shared<const nav::MultiLevelGrid>(*levels_), sensor_max_z_m_);
 }
 
 NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& tiles,
@@ -130,6 +135,7 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
   if (columns.empty()) return stats;
   stats.read_ms = MsSince(start);
   start = Clock::now();
+  sensor_max_z_m_ = sensor_max_z_m;
   grid_->SetObserverHeight(sensor_max_z_m);
   grid_->Update(voxels_, &seen_free_, columns);
   if (diagnose_grid_) {
@@ -138,7 +144,7 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
   }
   stats.traversability_ms = MsSince(start);
   start = Clock::now();
-  Publish();
+  Publish(columns);
   stats.publish_ms = MsSince(start);
   stats.map_version = planner_->map_version();
   stats.applied = true;

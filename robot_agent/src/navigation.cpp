@@ -15,6 +15,7 @@ using internal::InRange;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kArrivalSpeedMps = 0.1;  // arrival needs the robot at most this fast
+constexpr double kArrivalLevelM = 0.5;     // ...and this close to the height of a goal's level
 constexpr double kGoalSnapM = 0.25;        // largest hop from a free local path sample to the goal
 
 using internal::Fixed;
@@ -83,10 +84,13 @@ Navigation::Navigation(const NavigationOptions& options, std::shared_ptr<nav::Gl
   plan_.result.status = nav::PlanResult::Status::kUnreachable;
 }
 
-nav::GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, double x_m, double y_m) const {
+nav::GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, double x_m, double y_m,
+                                               double z_m) const {
   nav::GlobalPlanRequest request;
   request.start_W = {state.x_m, state.y_m};
+  request.start_z_m = state.z_m;  // the planner uses the map's levels when the robot is off its main level
   request.goal_W = {x_m, y_m};
+  request.goal_z_m = z_m;
   request.platform = options_.platform.name;
   request.start_is_robot = true;  // where the robot stands: a start the map shows blocked is map noise
   if (reduced_clearance_) {
@@ -100,15 +104,17 @@ nav::GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, dou
 }
 
 nav::GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
-                                    double now_s) {
-  nav::GlobalPlan plan = planner_->Plan(GoalRequest(state, x_m, y_m));
-  if (plan.IsUsable()) AcceptGoal(plan, x_m, y_m, tolerance_m, now_s);
+                                    double now_s, double z_m) {
+  nav::GlobalPlan plan = planner_->Plan(GoalRequest(state, x_m, y_m, z_m));
+  if (plan.IsUsable()) AcceptGoal(plan, x_m, y_m, tolerance_m, now_s, z_m);
   return plan;
 }
 
-void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s) {
+void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s,
+                            double z_m) {
   Goal goal;
   goal.p_W = {x_m, y_m};
+  goal.z_m = z_m;
   goal.tolerance_m = tolerance_m > 0 ? tolerance_m : options_.goal_tolerance_m;
   goal.best_distance_m = plan.result.length_m;
   goal.best_time_s = now_s;
@@ -250,7 +256,7 @@ Eigen::Vector2d Navigation::PointAhead(double ahead_m) const {
 }
 
 bool Navigation::Replan(const core::BaseState& state, double now_s, std::string* reason) {
-  const nav::GlobalPlanRequest request = GoalRequest(state, goal_->p_W.x(), goal_->p_W.y());
+  const nav::GlobalPlanRequest request = GoalRequest(state, goal_->p_W.x(), goal_->p_W.y(), goal_->z_m);
   nav::GlobalPlan plan = planner_->Plan(request);
   if (!plan.IsUsable()) {
     *reason = plan.reason;
@@ -395,8 +401,11 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   if (!goal_) return {};
   const Eigen::Vector2d p_W(state.x_m, state.y_m);
   const double to_goal = (goal_->p_W - p_W).norm();
-  // Arrived: within the tolerance and (nearly) at rest, so the robot stops where it reports arriving.
-  if (to_goal <= goal_->tolerance_m && std::abs(state.v_mps) <= kArrivalSpeedMps) {
+  // Arrived: within the tolerance and (nearly) at rest, so the robot stops where it reports arriving; on the
+  // level of the plan's end when the goal names one (an upper floor lies over the same x-y).
+  const bool on_goal_level = !std::isfinite(goal_->z_m) || plan_.result.path_W.empty() ||
+                             std::abs(state.z_m - plan_.result.path_W.back().z()) <= kArrivalLevelM;
+  if (to_goal <= goal_->tolerance_m && on_goal_level && std::abs(state.v_mps) <= kArrivalSpeedMps) {
     NavigationStep step;
     step.arrived = true;
     ClearGoal();

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <condition_variable>
 #include <deque>
 #include <map>
@@ -67,6 +68,7 @@ class RobotAgent::Impl {
   struct Goal {
     uint32_t goal_id = 0;  // robot-assigned (CommandResponse.goal_id, RobotState.nav_goal_id)
     double x_m = 0, y_m = 0;
+    double z_m = std::numeric_limits<double>::quiet_NaN();  // level named by the operator; NaN = the robot's
     double tolerance_m = 0;  // 0 = navigation's default
     SteadyTime contact_since{};
     bool in_contact = false;
@@ -653,6 +655,9 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg, const Sampl
   if (!std::isfinite(msg.tolerance_m()) || msg.tolerance_m() < 0 || msg.tolerance_m() > 5) {
     return deny("goal tolerance_m = " + std::to_string(msg.tolerance_m()) + " must be in [0, 5]");
   }
+  if (std::isinf(msg.z_m())) {
+    return deny("goal z_m = " + std::to_string(msg.z_m()) + " must be a level's height (finite) or NaN (the robot's level)");
+  }
   const ModeConditions with_goal = [&] {
     ModeConditions c = Conditions();
     c.has_waypoint_goal = true;
@@ -671,7 +676,7 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg, const Sampl
   pending_goals_.push_back(key);
   {
     std::lock_guard<std::mutex> jobs_guard(jobs_mutex_);
-    goal_jobs_.push_back(GoalJob{sender, msg, navigation_.GoalRequest(pose_, msg.x_m(), msg.y_m())});
+    goal_jobs_.push_back(GoalJob{sender, msg, navigation_.GoalRequest(pose_, msg.x_m(), msg.y_m(), msg.z_m())});
   }
   jobs_cv_.notify_one();
 }
@@ -693,11 +698,12 @@ void RobotAgent::Impl::FinishGoalJob(const GoalJob& job, const nav::GlobalPlan& 
   const bool had_goal = goal_.has_value();
   if (!plan.IsUsable()) return deny("no path: " + PlanReason(plan));  // the previous goal, if any, goes on
   recovery_->Halt();  // a recovering previous goal is superseded
-  navigation_.AcceptGoal(plan, msg.x_m(), msg.y_m(), msg.tolerance_m(), NowS(SteadyClock::now()));
+  navigation_.AcceptGoal(plan, msg.x_m(), msg.y_m(), msg.tolerance_m(), NowS(SteadyClock::now()), msg.z_m());
   Goal goal;
   goal.goal_id = next_goal_id_++;
   goal.x_m = msg.x_m();
   goal.y_m = msg.y_m();
+  goal.z_m = msg.z_m();
   goal.tolerance_m = msg.tolerance_m();
   goal_ = goal;
   const ModeDecision d = modes_.Request("waypoint", Conditions());
@@ -936,7 +942,7 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     } else {
       step = navigation_.StepWaypoint(s, now_s);
       if (step.failed && recovery_->enabled()) {
-        recovery_->Start(goal_->x_m, goal_->y_m, goal_->tolerance_m, step.reason);
+        recovery_->Start(goal_->x_m, goal_->y_m, goal_->tolerance_m, step.reason, goal_->z_m);
         nav_reason_ = recovery_->Report();
         spdlog::warn("robot {}: waypoint {} {}", options_.robot_id, goal_->goal_id, nav_reason_);
         step = NavigationStep{};  // brake this cycle; the recovery tree runs from the next

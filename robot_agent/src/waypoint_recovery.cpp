@@ -49,6 +49,7 @@ struct WaypointRecovery::Context {
   // The goal being recovered.
   double goal_x_m = 0.0;
   double goal_y_m = 0.0;
+  double goal_z_m = std::numeric_limits<double>::quiet_NaN();  // the goal's level, NaN = none named
   double goal_tolerance_m = 0.0;
   bool active = false;
   std::string first_failure;   // navigation's reason that started the recovery
@@ -219,7 +220,7 @@ class FollowGoal : public bt::StatefulActionNode {
     label_ = label;
     ctx_->navigation->SetReducedClearance(reduced);
     const nav::GlobalPlan plan = ctx_->navigation->SetGoal(ctx_->state, ctx_->goal_x_m, ctx_->goal_y_m,
-                                                           ctx_->goal_tolerance_m, ctx_->now_s);
+                                                           ctx_->goal_tolerance_m, ctx_->now_s, ctx_->goal_z_m);
     if (!plan.IsUsable()) return Failed("no path: " + plan.reason);
     return OnRunning();
   }
@@ -304,12 +305,13 @@ WaypointRecovery::~WaypointRecovery() { Halt(); }
 
 bool WaypointRecovery::active() const { return context_->active; }
 
-void WaypointRecovery::Start(double x_m, double y_m, double tolerance_m, const std::string& failure) {
+void WaypointRecovery::Start(double x_m, double y_m, double tolerance_m, const std::string& failure, double z_m) {
   if (!enabled()) throw std::logic_error("WaypointRecovery::Start: the tree file has no recovery tree");
   Halt();
   Context& c = *context_;
   c.goal_x_m = x_m;
   c.goal_y_m = y_m;
+  c.goal_z_m = z_m;
   c.goal_tolerance_m = tolerance_m;
   c.first_failure = failure;
   c.attempt = 0;

@@ -175,6 +175,79 @@ World MakeArena() {
                           /*floor_bottom_m=*/-0.2, /*wall_thickness_m=*/0.2, column_at);
 }
 
+// ---- "building" ------------------------------------------------------------------------------------------
+// Two floors joined by a switchback stairwell, built from axis-aligned boxes (a voxel is occupied when its
+// centre lies in a solid box and in no opening). Dimensions in the header's description.
+
+struct Box {
+  double x0, x1, y0, y1, z0, z1;
+  bool Contains(const Eigen::Vector3d& p) const {
+    return p.x() > x0 && p.x() < x1 && p.y() > y0 && p.y() < y1 && p.z() > z0 && p.z() < z1;
+  }
+};
+
+World MakeBuilding() {
+  constexpr double kFloor2 = 3.2;   // Floor surface of the upper floor, metres.
+  constexpr double kRoof = 6.2;     // Bottom of the roof slab, metres.
+  constexpr double kTop = 6.4;      // Top of the roof slab, metres.
+  constexpr double kRise = 0.2;     // Step rise, metres.
+  constexpr double kRun = 0.3;      // Step run (tread depth), metres.
+  constexpr double kFlightX = 19.4; // x where the lower flight starts and the upper flight ends.
+  constexpr double kLandingX = 21.5;  // x where the mid landing starts.
+  std::vector<Box> solid = {
+      {0.0, 24.0, 0.0, 14.0, -0.2, 0.0},             // floor 1 slab
+      {0.0, kFlightX, 0.0, 14.0, kFloor2 - 0.2, kFloor2},  // floor 2 slab (open over the stairwell)
+      {0.0, 24.0, 0.0, 14.0, kRoof, kTop},           // roof
+      {0.0, 0.2, 0.0, 14.0, -0.2, kTop},             // outer walls
+      {23.8, 24.0, 0.0, 14.0, -0.2, kTop},
+      {0.0, 24.0, 0.0, 0.2, -0.2, kTop},
+      {0.0, 24.0, 13.8, 14.0, -0.2, kTop},
+      {18.0, 24.0, 0.0, 6.0, -0.2, kTop},            // service core around the stairwell
+      {18.0, 24.0, 8.2, 14.0, -0.2, kTop},
+      {0.0, 18.0, 5.8, 6.0, -0.2, kTop},             // corridor walls
+      {0.0, 18.0, 8.2, 8.4, -0.2, kTop},
+      {6.0, 6.2, 0.0, 5.8, -0.2, kTop},              // room partitions
+      {6.0, 6.2, 8.4, 14.0, -0.2, kTop},
+      {12.0, 12.2, 0.0, 5.8, -0.2, kTop},
+      {12.0, 12.2, 8.4, 14.0, -0.2, kTop},
+      {18.0, 18.2, 6.0, 8.2, -0.2, kTop},            // stairwell wall with its entrances
+      {kFlightX, kLandingX, 7.0, 7.2, 0.0, kFloor2 + 1.0},  // wall between the flights
+      {kFlightX, kFlightX + 0.1, 6.0, 7.0, kFloor2, kFloor2 + 1.0},  // railing over the lower flight
+      {kLandingX, 23.8, 6.0, 8.2, 1.6 - 0.2, 1.6},   // mid landing (1.6 m), free space below it
+  };
+  for (int k = 1; k <= 7; ++k) {
+    // Lower flight (y in [6.0, 7.0]) rises along +x, filled to the floor; upper flight (y in [7.2, 8.2])
+    // rises along -x from the mid landing, 0.4 m thick with free space below.
+    solid.push_back({kFlightX + kRun * (k - 1), kFlightX + kRun * k, 6.0, 7.0, 0.0, kRise * k});
+    solid.push_back({kLandingX - kRun * k, kLandingX - kRun * (k - 1), 7.2, 8.2, 1.6 + kRise * k - 0.4,
+                     1.6 + kRise * k});
+  }
+  std::vector<Box> open = {
+      {18.0, 18.2, 6.4, 7.6, 0.0, 2.2},        // stairwell entrance, floor 1 (1.2 m)
+      {18.0, 18.2, 6.8, 8.0, kFloor2, kFloor2 + 2.2},  // stairwell entrance, floor 2 (1.2 m)
+  };
+  for (const double floor : {0.0, kFloor2}) {
+    for (const double door_x : {3.1, 9.1, 15.1}) {  // 1.0 m doorways into the six rooms of each floor
+      open.push_back({door_x - 0.5, door_x + 0.5, 5.8, 6.0, floor, floor + 2.1});
+      open.push_back({door_x - 0.5, door_x + 0.5, 8.2, 8.4, floor, floor + 2.1});
+    }
+  }
+  World world("builtin:building", Eigen::Vector3d(0.0, 0.0, -0.3), 0.1, Eigen::Vector3i(240, 140, 68));
+  const Eigen::Vector3i dims = world.dims();
+  for (int ix = 0; ix < dims.x(); ++ix) {
+    for (int iy = 0; iy < dims.y(); ++iy) {
+      for (int iz = 0; iz < dims.z(); ++iz) {
+        const Eigen::Vector3d c = world.CenterOf({ix, iy, iz});
+        const auto in = [&c](const Box& b) { return b.Contains(c); };
+        if (std::any_of(solid.begin(), solid.end(), in) && std::none_of(open.begin(), open.end(), in)) {
+          world.SetOccupied({ix, iy, iz});
+        }
+      }
+    }
+  }
+  return world;
+}
+
 const std::vector<BuiltinWorldInfo>& Infos() {
   static const std::vector<BuiltinWorldInfo> kInfos = {
       {"tunnels",
@@ -190,6 +263,13 @@ const std::vector<BuiltinWorldInfo>& Infos() {
        0.0,
        {{2.0, 7.0, 0.0}, {18.0, 7.0, kPi}, {10.0, 2.0, kPi / 2}},
        {17.0, 12.0, 0.0}},
+      {"building",
+       "24 x 14 m building, two floors (3.2 m apart) of a corridor and six rooms with 1.0 m doorways, joined by "
+       "a switchback stairwell of 1.0 m wide flights (0.2 m rise, 0.3 m run)",
+       0.1,
+       0.0,
+       {{2.0, 7.1, 0.0}, {6.0, 7.1, 0.0}, {10.0, 7.1, 0.0}, {14.0, 7.1, 0.0}},
+       {15.1, 3.0, 0.0}},
   };
   return kInfos;
 }
@@ -218,6 +298,7 @@ const BuiltinWorldInfo& GetBuiltinWorldInfo(const std::string& name) {
 World MakeBuiltinWorld(const std::string& name, std::uint32_t seed) {
   GetBuiltinWorldInfo(name);  // Throws for unknown names.
   if (name == "tunnels") return MakeTunnels(seed);
+  if (name == "building") return MakeBuilding();
   return MakeArena();
 }
 

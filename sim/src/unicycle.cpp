@@ -63,7 +63,7 @@ UnicycleStepResult Unicycle::Step(double vx_mps, double wz_radps, double dt_s,
   const bool moves = dx != 0.0 || dy != 0.0;  // Turning in place never collides (disk footprint).
   for (int k = 1; moves && k <= checks && free; ++k) {
     const double f = static_cast<double>(k) / checks;
-    free = terrain.IsFootprintFree(state_.x_m + f * dx, state_.y_m + f * dy, footprint_radius_m_);
+    free = terrain.IsFootprintFreeNear(state_.x_m + f * dx, state_.y_m + f * dy, state_.z_m, footprint_radius_m_);
   }
   state_.yaw_rad = WrapAngle(state_.yaw_rad + w * dt_s);
   state_.w_radps = w;
@@ -75,7 +75,7 @@ UnicycleStepResult Unicycle::Step(double vx_mps, double wz_radps, double dt_s,
   state_.x_m += dx;
   state_.y_m += dy;
   state_.v_mps = v;
-  if (const auto z = terrain.GroundHeight(state_.x_m, state_.y_m)) state_.z_m = *z;
+  if (const auto z = terrain.GroundHeightNear(state_.x_m, state_.y_m, state_.z_m)) state_.z_m = *z;
   return result;
 }
 

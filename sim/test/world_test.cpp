@@ -88,7 +88,7 @@ TEST(WorldTest, RejectsBadGrids) {
 
 TEST(BuiltinWorldTest, NamesAndInfo) {
   const std::vector<std::string> names = BuiltinWorldNames();
-  EXPECT_EQ(names, (std::vector<std::string>{"tunnels", "arena"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"tunnels", "arena", "building"}));
   for (const std::string& name : names) {
     const BuiltinWorldInfo& info = GetBuiltinWorldInfo(name);
     EXPECT_EQ(info.name, name);
@@ -106,7 +106,7 @@ TEST(BuiltinWorldTest, NamesAndInfo) {
 TEST(BuiltinWorldTest, UnknownNameListsValidOnes) {
   const std::string message = WorldErrorOf([] { LoadWorld("builtin:caves"); });
   EXPECT_CONTAINS(message, "'builtin:caves'");
-  EXPECT_CONTAINS(message, "valid names: tunnels, arena");
+  EXPECT_CONTAINS(message, "valid names: tunnels, arena, building");
 }
 
 TEST(BuiltinWorldTest, TunnelsLayout) {

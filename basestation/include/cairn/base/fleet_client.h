@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <functional>
 #include <map>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -109,7 +110,10 @@ class FleetClient {
   CommandOutcome RequestControl(const std::string& robot_id);
   CommandOutcome ReleaseControl(const std::string& robot_id);
   CommandOutcome RequestMode(const std::string& robot_id, const std::string& mode);
-  CommandOutcome SendWaypoint(const std::string& robot_id, double x_m, double y_m, double tolerance_m = 0.0);
+  /// `z_m`: the goal's level, the walkable surface at (x_m, y_m) nearest this height (metres, map frame);
+  /// NaN = the robot's level.
+  CommandOutcome SendWaypoint(const std::string& robot_id, double x_m, double y_m, double tolerance_m = 0.0,
+                              double z_m = std::numeric_limits<double>::quiet_NaN());
   /// Stops `robot_id` now: zero twist, mode idle, goal cancelled. Honoured by the robot from any basestation,
   /// with or without its control lock (an e-stop); the lock stays with its holder. Sent at once even to a
   /// robot this basestation thinks lost or has not seen (retried until answered or command_timeout_s).

@@ -63,6 +63,19 @@ class FootprintChecker {
   virtual bool IsFootprintFree(double x_m, double y_m, double radius_m) const = 0;
   /// Height of the ground surface (metres) under (x_m, y_m), or nullopt if unknown.
   virtual std::optional<double> GroundHeight(double x_m, double y_m) const = 0;
+  /// For terrain with several walkable surfaces per column (floors, a flight above another): the same
+  /// test for a body standing on the surface under (x_m, y_m) nearest the height z_m (metres). Default: the
+  /// single-level test.
+  virtual bool IsFootprintFreeNear(double x_m, double y_m, double z_m, double radius_m) const {
+    (void)z_m;
+    return IsFootprintFree(x_m, y_m, radius_m);
+  }
+  /// Height (metres) of the surface under (x_m, y_m) a body at height z_m stands on (within a step of it),
+  /// or nullopt. Default: the single-level ground height.
+  virtual std::optional<double> GroundHeightNear(double x_m, double y_m, double z_m) const {
+    (void)z_m;
+    return GroundHeight(x_m, y_m);
+  }
 };
 
 /// Wraps an angle to (-pi, pi], radians; a non-finite angle is returned unchanged.

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "cairn/nav/astar.h"
+#include "cairn/nav/multilevel.h"
 #include "cairn/nav/platform.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/core/voxel_grid.h"
@@ -66,6 +67,11 @@ struct GlobalPlanRequest {
   /// Overrides the inflation radius of this plan (AStarOptions::robot_radius_m, metres, at most the
   /// platform's) when finite; NaN = the platform's.
   double robot_radius_m = std::numeric_limits<double>::quiet_NaN();
+  /// Height of the ground under the start (the robot's pose z), metres, frame W; NaN = on the main level.
+  double start_z_m = std::numeric_limits<double>::quiet_NaN();
+  /// Level of the goal: the walkable surface at goal_W nearest this height, metres, frame W; NaN = the
+  /// start's level (else the lowest surface there).
+  double goal_z_m = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Answer of GlobalPlanner::Plan().
@@ -102,6 +108,12 @@ struct PathCheck {
 /// ms more when a grid is built); map_version() never waits.
 ///
 /// Traversability grids are built lazily per platform on first use and rebuilt after UpdateWorld().
+///
+/// Levels: a request plans on the platform's 2.5D grid (the main level, TraversabilityGrid) unless it names a
+/// goal level (goal_z_m) or its start is off the main level (start_z_m more than max_step_m + 0.05 m from the
+/// main level's ground there, e.g. on an upper floor, or outside the grid's ground band where it has no
+/// ground); then it plans on the platform's MultiLevelGrid (every
+/// walkable surface; multilevel.h), built lazily like the 2.5D grid or handed over by UpdateMap().
 class GlobalPlanner {
  public:
   /// @param world the map (shared, never modified). @param profiles the platforms served (at least one;
@@ -133,16 +145,28 @@ class GlobalPlanner {
   /// grid of `platform` with DiagnoseTerrainOptionsFor() (the one that names the step of an unreachable
   /// goal), so that no plan has to build it (a full build of an 80 m map takes ~0.4 s).
   /// @throws std::invalid_argument for a null world or grid, or an unknown platform.
+  /// `levels` (optional): the caller's up-to-date MultiLevelGrid of `platform` (built with
+  /// LevelOptionsFor()); `sensor_max_z_m`: the map's highest sensor origin (MultiLevelGrid's observer
+  /// height) for the multi-level grids the planner builds itself.
   void UpdateMap(std::shared_ptr<const core::VoxelGrid> world, const std::string& platform,
                  std::shared_ptr<const TraversabilityGrid> grid,
                  std::shared_ptr<const core::VoxelGrid> seen_free = nullptr,
-                 std::shared_ptr<const TraversabilityGrid> diagnose_grid = nullptr);
+                 std::shared_ptr<const TraversabilityGrid> diagnose_grid = nullptr,
+                 std::shared_ptr<const MultiLevelGrid> levels = nullptr,
+                 double sensor_max_z_m = std::numeric_limits<double>::quiet_NaN());
 
   /// The traversability options the planner uses for `profile`: its own with options().reading applied.
   TraversabilityOptions TerrainOptionsFor(const PlatformProfile& profile) const;
   /// The options of the relaxed grid that diagnoses unreachable goals for `profile`: TerrainOptionsFor() with
   /// max_step_m raised to options().diagnose_max_step_m; nullopt when that is no higher (no diagnosis).
   std::optional<TraversabilityOptions> DiagnoseTerrainOptionsFor(const PlatformProfile& profile) const;
+
+  /// The options of `profile`'s MultiLevelGrid: TerrainOptionsFor() over the whole height of the map (no
+  /// ground band) at the map's resolution.
+  TraversabilityOptions LevelOptionsFor(const PlatformProfile& profile) const;
+
+  /// The multi-level grid of `platform` on the current map (built if needed); nullptr if unknown.
+  std::shared_ptr<const MultiLevelGrid> Levels(const std::string& platform);
 
   /// Number of map updates so far (0 for the map given at construction).
   std::uint64_t map_version() const;
@@ -159,6 +183,11 @@ class GlobalPlanner {
 
  private:
   std::shared_ptr<const TraversabilityGrid> GridLocked(const std::string& platform, bool diagnose);
+  std::shared_ptr<const MultiLevelGrid> LevelsLocked(const std::string& platform, bool diagnose);
+  // True when the request must be planned over the map's levels (see the class comment).
+  bool NeedsLevels(const GlobalPlanRequest& request, const TraversabilityGrid& grid) const;
+  // The largest step of a relaxed route, "" when none exceeds the platform's limit.
+  std::string DescribeStep(const PlatformProfile& profile, double worst_step, const Eigen::Vector2d& worst_at) const;
   std::string DiagnoseUnreachable(const PlatformProfile& profile, const GlobalPlanRequest& request,
                                   const AStarOptions& astar);
 
@@ -170,6 +199,9 @@ class GlobalPlanner {
   std::atomic<std::uint64_t> map_version_{0};  // read without the mutex (control loops poll it)
   std::map<std::string, std::shared_ptr<const TraversabilityGrid>> grids_;            // by platform
   std::map<std::string, std::shared_ptr<const TraversabilityGrid>> diagnose_grids_;  // by platform
+  std::map<std::string, std::shared_ptr<const MultiLevelGrid>> levels_;               // by platform
+  std::map<std::string, std::shared_ptr<const MultiLevelGrid>> diagnose_levels_;      // by platform
+  double sensor_max_z_m_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Obstacle points for the local planner from a traversability grid, standing in for a sensor until the

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "cairn/core/kinematics.h"
 #include "cairn/core/voxel_grid.h"
 #include "cairn/nav/global_planner.h"
+#include "cairn/nav/multilevel.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/perception/occupancy_map.h"
 
@@ -85,10 +87,12 @@ class NavMap {
   /// The map's observed-free voxels (set bit = a lidar ray passed through), same geometry as voxels().
   const core::VoxelGrid& seen_free() const { return seen_free_; }
   const nav::TraversabilityGrid& grid() const { return *grid_; }
+  const nav::MultiLevelGrid& levels() const { return *levels_; }
 
  private:
-  // Hands copies of the voxels, the grids and the seen-free voxels to the planner (a new map version).
-  void Publish();
+  // Hands copies of the voxels, the grids and the seen-free voxels to the planner (a new map version), after
+  // bringing the multi-level grid up to date over `columns` (x-y boxes, metres; empty: nothing changed).
+  void Publish(const std::vector<Eigen::AlignedBox2d>& columns);
   NavMapOptions options_;
   std::shared_ptr<nav::GlobalPlanner> planner_;
   std::string platform_;
@@ -96,6 +100,10 @@ class NavMap {
   core::VoxelGrid seen_free_;
   std::unique_ptr<nav::TraversabilityGrid> diagnose_grid_;  // relaxed step limit: names an unreachable goal's step  // The OctoMap's known-free voxels (a ray passed), same geometry as voxels_.
   std::unique_ptr<nav::TraversabilityGrid> grid_;
+  // Every walkable surface (upper floors, stairs above stairs), updated with the grids and handed over too,
+  // so that no plan off the main level has to build it.
+  std::unique_ptr<nav::MultiLevelGrid> levels_;
+  double sensor_max_z_m_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 }  // namespace cairn::agent

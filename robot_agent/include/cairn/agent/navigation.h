@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -84,14 +85,18 @@ class Navigation {
   /// Plans a global path from `state` to the goal (x_m, y_m) (metres, frame map). On success the goal
   /// becomes active (replacing any other) and the plan is returned; otherwise the previous goal is kept and
   /// the plan's reason says why. tolerance_m 0 = options.goal_tolerance_m.
+  /// `z_m`: the goal's level, the walkable surface at (x_m, y_m) nearest this height (metres, frame M; an
+  /// upper floor); NaN = the robot's level (see nav::GlobalPlanRequest::goal_z_m).
   nav::GlobalPlan SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
-                          double now_s);
+                          double now_s, double z_m = std::numeric_limits<double>::quiet_NaN());
   /// The planner request SetGoal() makes (from the robot's pose, start_is_robot), for callers that plan on
   /// another thread and hand the plan to AcceptGoal().
-  nav::GlobalPlanRequest GoalRequest(const core::BaseState& state, double x_m, double y_m) const;
+  nav::GlobalPlanRequest GoalRequest(const core::BaseState& state, double x_m, double y_m,
+                                     double z_m = std::numeric_limits<double>::quiet_NaN()) const;
   /// Makes a goal planned elsewhere (request from GoalRequest()) active, replacing any other. `plan` must be
   /// usable.
-  void AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s);
+  void AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s,
+                  double z_m = std::numeric_limits<double>::quiet_NaN());
   /// Drops the goal (the robot will be stopped by the caller's mode switch).
   void ClearGoal();
   /// Forgets the obstacle points (the local obstacle memory): waypoint driving brakes until the next
@@ -150,6 +155,7 @@ class Navigation {
  private:
   struct Goal {
     Eigen::Vector2d p_W = Eigen::Vector2d::Zero();
+    double z_m = std::numeric_limits<double>::quiet_NaN();  // level named by the operator, NaN = none
     double tolerance_m = 0.2;
     double best_distance_m = 0.0;
     double best_time_s = 0.0;

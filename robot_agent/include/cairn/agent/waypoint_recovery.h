@@ -10,6 +10,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -52,8 +53,10 @@ class WaypointRecovery {
   bool active() const;
 
   /// Starts recovering the goal (x_m, y_m) (metres, frame M; arrival radius tolerance_m) that navigation
-  /// failed with `failure`. Requires enabled().
-  void Start(double x_m, double y_m, double tolerance_m, const std::string& failure);
+  /// failed with `failure`, on the level nearest z_m (NaN: the robot's; see Navigation::SetGoal). Requires
+  /// enabled().
+  void Start(double x_m, double y_m, double tolerance_m, const std::string& failure,
+             double z_m = std::numeric_limits<double>::quiet_NaN());
   /// Ticks the tree once with the robot's state (frame M) at `now_s` (seconds, the navigation clock), as
   /// Navigation::StepWaypoint does: the twist for the waypoint channel (frame B) while recovering; `arrived`
   /// when a retry reached the goal; `failed` when every attempt failed, `reason` naming each, e.g. "blocked:

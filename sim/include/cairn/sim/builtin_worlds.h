@@ -32,7 +32,7 @@ struct BuiltinWorldInfo {
   PlanarPose far_goal;
 };
 
-/// Names of the built-in worlds, without the "builtin:" prefix: {"tunnels", "arena"}.
+/// Names of the built-in worlds, without the "builtin:" prefix: {"tunnels", "arena", "building"}.
 ///  - "tunnels": about 60 x 40 m (x in [0, 60], y in [0, 40], z in [-0.3, 3.8]) at 0.1 m: tunnels ~3 m wide
 ///    and ~3 m high with rough walls and ceilings, an X junction at (30, 20), two L bends at (30, 5) and
 ///    (30, 35), a 10 x 10 m room (x in [46, 56], y in [15, 25], 3.5 m high) with a staircase (5 steps of
@@ -41,6 +41,14 @@ struct BuiltinWorldInfo {
 ///  - "arena": 20 x 14 m walled yard at 0.1 m (x in [0, 20], y in [0, 14], z in [-0.2, 1.5]), no ceiling,
 ///    walls 1.5 m high, three 1 x 1 m pillars and a 0.1 m high plate (x in [3, 6], y in [2, 5]); floor
 ///    surface at z = 0.
+///  - "building": 24 x 14 m, two floors at 0.1 m (x in [0, 24], y in [0, 14], z in [-0.3, 6.5]): floor
+///    surfaces at z = 0 and z = 3.2 (slabs 0.2 m, roof at 6.2), on each floor a corridor (x in [0.2, 18],
+///    y in [6.0, 8.2]) and six rooms (x partitions at 6 and 12, y in [0.2, 5.8] and [8.4, 13.8]) behind
+///    1.0 m doorways centred at x = 3.1, 9.1, 15.1; a stairwell (x in [18.2, 23.8], y in [6.0, 8.2]) behind a
+///    1.2 m entrance per floor: the lower flight (y in [6, 7], 7 steps of 0.2 m rise and 0.3 m run, x in
+///    [19.4, 21.5]) up to a mid landing at 1.6 m (x in [21.5, 23.8]), the upper flight (y in [7.2, 8.2]) back
+///    along -x to floor 2 at x = 19.4; free space under the upper flight and the landing (a floor-1 pocket
+///    under them), a railing on floor 2 over the lower flight. Deterministic (the seed is unused).
 std::vector<std::string> BuiltinWorldNames();
 
 /// Description, suggested starts and far goal of built-in world `name` (without prefix).

@@ -1,0 +1,708 @@
+// Copyright Cairn authors.
+#include "cairn/nav/multilevel.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <queue>
+#include <sstream>
+#include <stdexcept>
+#include <unordered_map>
+#include <utility>
+
+namespace cairn::nav {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kEps_m = 1e-6;
+constexpr double kSqrt2 = 1.41421356237309504880;
+constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1};
+constexpr int kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+// A goal or start names a level within this height of a surface, metres.
+constexpr double kLevelMatch_m = 1.0;
+
+std::string Point2(const Eigen::Vector2d& p) {
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), "(%.2f, %.2f)", p.x(), p.y());
+  return buf;
+}
+
+std::string Fixed(double v) {
+  char buf[48];
+  std::snprintf(buf, sizeof(buf), "%.2f", v);
+  return buf;
+}
+
+}  // namespace
+
+MultiLevelGrid::MultiLevelGrid(std::shared_ptr<const core::VoxelGrid> world, const TraversabilityOptions& options,
+                               std::shared_ptr<const core::VoxelGrid> seen_free, double sensor_max_z_m)
+    : options_(options), world_(std::move(world)), seen_free_(std::move(seen_free)), sensor_max_z_m_(sensor_max_z_m) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  if (!world_) throw std::invalid_argument("MultiLevelGrid: world is null");
+  res_m_ = world_->resolution_m();
+  if (options.cell_size_m != 0.0 && std::abs(options.cell_size_m - res_m_) > kEps_m) {
+    throw std::invalid_argument("TraversabilityOptions::cell_size_m = " + std::to_string(options.cell_size_m) +
+                                " must be 0 or the map resolution " + std::to_string(res_m_) +
+                                " m for a multi-level grid");
+  }
+  options_.cell_size_m = res_m_;
+  cell_m_ = res_m_;
+  world_dims_ = world_->dims();
+  world_p_min_ = world_->p_W_min();
+  nx_ = world_dims_.x();
+  ny_ = world_dims_.y();
+  p_W_min_ = world_p_min_.head<2>();
+  need_voxels_ = std::max(1, static_cast<int>(std::ceil(options.robot_height_m / res_m_ - kEps_m)));
+  if (seen_free_) CheckGeometry(*seen_free_, "seen_free");
+  first_.assign(static_cast<std::size_t>(nx_) * ny_ + 1, 0);
+  Recompute({}, /*whole=*/true);
+}
+
+void MultiLevelGrid::CheckGeometry(const core::VoxelGrid& grid, const char* what) const {
+  if (grid.dims() != world_dims_ || grid.resolution_m() != res_m_ || grid.p_W_min() != world_p_min_) {
+    throw std::invalid_argument(std::string("MultiLevelGrid: the geometry of ") + what +
+                                " differs from the one the grid was built on");
+  }
+}
+
+bool MultiLevelGrid::CellOf(double x_m, double y_m, int* ix, int* iy) const {
+  if (!std::isfinite(x_m) || !std::isfinite(y_m)) return false;
+  const double u = std::floor((x_m - p_W_min_.x()) / cell_m_);
+  const double w = std::floor((y_m - p_W_min_.y()) / cell_m_);
+  if (u < 0 || w < 0 || u >= nx_ || w >= ny_) return false;
+  *ix = static_cast<int>(u);
+  *iy = static_cast<int>(w);
+  return true;
+}
+
+bool MultiLevelGrid::SeenFreeAbove(int ix, int iy, int iz) const {
+  if (!seen_free_) return true;
+  if (TopOf(iz) <= sensor_max_z_m_ - 0.1) return true;  // below every lidar position: seen from above
+  for (int dx = -1; dx <= 1; ++dx) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      if (seen_free_->IsOccupiedIndex({ix + dx, iy + dy, iz + 1}) ||
+          seen_free_->IsOccupiedIndex({ix + dx, iy + dy, iz + 2})) {
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
+template <class Visit>
+void MultiLevelGrid::ScanColumn(int ix, int iy, Visit&& visit) const {
+  // The candidates of TraversabilityGrid's ScanColumn, from the top down.
+  const double band_lo = options_.ground_search_min_z_m - kEps_m;
+  const double band_hi = options_.ground_search_max_z_m + kEps_m;
+  int free_run = options_.free_above_map ? need_voxels_ : 0;
+  for (int iz = world_dims_.z() - 1; iz >= 0; --iz) {
+    if (!world_->IsOccupiedIndex({ix, iy, iz})) {
+      ++free_run;
+      continue;
+    }
+    const double top = TopOf(iz);
+    if (top >= band_lo && top <= band_hi && free_run >= need_voxels_ && SeenFreeAbove(ix, iy, iz)) visit(iz);
+    free_run = 0;
+  }
+}
+
+int MultiLevelGrid::NodeNear(int ix, int iy, double z_m, double max_dz_m) const {
+  if (!InGrid(ix, iy) || !std::isfinite(z_m)) return -1;
+  const int column = Column(ix, iy);
+  int best = -1;
+  double best_dz = max_dz_m + kEps_m;
+  for (int n = first_[static_cast<std::size_t>(column)]; n < first_[static_cast<std::size_t>(column) + 1]; ++n) {
+    const double dz = std::abs(z_m_[static_cast<std::size_t>(n)] - z_m);
+    if (dz <= best_dz) {
+      best = n;
+      best_dz = dz;
+    }
+  }
+  return best;
+}
+
+bool MultiLevelGrid::IsUnknownAt(int ix, int iy, double z_m) const {
+  if (options_.unknown_is_lethal || !InGrid(ix, iy) || !std::isfinite(z_m)) return false;
+  // The voxel a floor at z_m would be (seen free: no floor there) and the body space above it.
+  const int iz0 = static_cast<int>(std::lround((z_m - world_p_min_.z()) / res_m_));
+  if (seen_free_ && seen_free_->IsOccupiedIndex({ix, iy, iz0 - 1})) return false;
+  for (int iz = iz0; iz < iz0 + need_voxels_; ++iz) {
+    if (world_->IsOccupiedIndex({ix, iy, iz})) return false;
+    if (seen_free_ && seen_free_->IsOccupiedIndex({ix, iy, iz})) return false;
+  }
+  return true;
+}
+
+int MultiLevelGrid::Connected(int jx, int jy, double z, bool* unknown) const {
+  *unknown = false;
+  const int node = NodeNear(jx, jy, z, options_.max_step_m);
+  if (node >= 0) return node;
+  *unknown = IsUnknownAt(jx, jy, z);
+  return -1;
+}
+
+void MultiLevelGrid::Update(std::shared_ptr<const core::VoxelGrid> world,
+                            std::shared_ptr<const core::VoxelGrid> seen_free,
+                            const std::vector<Eigen::AlignedBox2d>& regions_W, double sensor_max_z_m) {
+  if (!world) throw std::invalid_argument("MultiLevelGrid::Update: world is null");
+  CheckGeometry(*world, "the world");
+  if (seen_free) CheckGeometry(*seen_free, "seen_free");
+  world_ = std::move(world);
+  seen_free_ = std::move(seen_free);
+  sensor_max_z_m_ = sensor_max_z_m;
+  std::vector<std::array<int, 4>> windows;
+  const auto cell = [&](double v, double lo) { return static_cast<int>(std::floor((v - lo) / cell_m_)); };
+  for (const Eigen::AlignedBox2d& region_W : regions_W) {
+    if (region_W.isEmpty() || !region_W.min().allFinite() || !region_W.max().allFinite()) continue;
+    const int x0 = std::max(0, cell(region_W.min().x(), p_W_min_.x()));
+    const int y0 = std::max(0, cell(region_W.min().y(), p_W_min_.y()));
+    const int x1 = std::min(nx_ - 1, cell(region_W.max().x(), p_W_min_.x()));
+    const int y1 = std::min(ny_ - 1, cell(region_W.max().y(), p_W_min_.y()));
+    if (x1 >= x0 && y1 >= y0) windows.push_back({x0, y0, x1, y1});
+  }
+  if (!windows.empty()) Recompute(windows, /*whole=*/false);
+}
+
+void MultiLevelGrid::Recompute(const std::vector<std::array<int, 4>>& windows, bool whole) {
+  const std::size_t n_columns = static_cast<std::size_t>(nx_) * ny_;
+  // ---- 1. Surfaces of the changed columns; the others keep theirs (and their clearance for now). ----
+  std::array<int, 4> changed{nx_, ny_, -1, -1};
+  std::vector<std::uint8_t> is_changed;
+  if (whole) {
+    changed = {0, 0, nx_ - 1, ny_ - 1};
+  } else {
+    is_changed.assign(n_columns, 0);
+    for (const auto& w : windows) {
+      changed = {std::min(changed[0], w[0]), std::min(changed[1], w[1]), std::max(changed[2], w[2]),
+                 std::max(changed[3], w[3])};
+      for (int iy = w[1]; iy <= w[3]; ++iy) {
+        for (int ix = w[0]; ix <= w[2]; ++ix) is_changed[static_cast<std::size_t>(Column(ix, iy))] = 1;
+      }
+    }
+  }
+  std::vector<int> first(n_columns + 1, 0);
+  std::vector<float> z_m;
+  std::vector<float> clearance_m;
+  std::vector<int> column_of;
+  z_m.reserve(z_m_.size() + 1024);
+  clearance_m.reserve(z_m_.size() + 1024);
+  column_of.reserve(z_m_.size() + 1024);
+  std::vector<int> found;
+  max_levels_ = 0;
+  for (int iy = 0; iy < ny_; ++iy) {
+    for (int ix = 0; ix < nx_; ++ix) {
+      const std::size_t column = static_cast<std::size_t>(Column(ix, iy));
+      first[column] = static_cast<int>(z_m.size());
+      if (whole || is_changed[column]) {
+        found.clear();
+        ScanColumn(ix, iy, [&found](int iz) { found.push_back(iz); });
+        for (auto it = found.rbegin(); it != found.rend(); ++it) {  // lowest first
+          z_m.push_back(static_cast<float>(TopOf(*it)));
+          clearance_m.push_back(0.0f);
+          column_of.push_back(static_cast<int>(column));
+        }
+      } else {
+        for (int n = first_[column]; n < first_[column + 1]; ++n) {
+          z_m.push_back(z_m_[static_cast<std::size_t>(n)]);
+          clearance_m.push_back(clearance_m_[static_cast<std::size_t>(n)]);
+          column_of.push_back(static_cast<int>(column));
+        }
+      }
+      max_levels_ = std::max(max_levels_, static_cast<int>(z_m.size()) - first[column]);
+    }
+  }
+  first[n_columns] = static_cast<int>(z_m.size());
+  first_ = std::move(first);
+  z_m_ = std::move(z_m);
+  clearance_m_ = std::move(clearance_m);
+  column_of_ = std::move(column_of);
+
+  // ---- 2. Clearance by brushfire over connected surfaces, computed on `window` and written on `written`
+  // (a change alters the blocked points of its neighbours, which reach clearance_exact_m further). ----
+  const int reach = static_cast<int>(std::ceil(options_.clearance_exact_m / cell_m_)) + 2;
+  auto grown = [&](const std::array<int, 4>& w, int by) {
+    return std::array<int, 4>{std::max(0, w[0] - by), std::max(0, w[1] - by), std::min(nx_ - 1, w[2] + by),
+                              std::min(ny_ - 1, w[3] + by)};
+  };
+  const std::array<int, 4> written = whole ? changed : grown(changed, 1 + reach);
+  const std::array<int, 4> window = whole ? changed : grown(written, reach);
+  const std::size_t n_nodes = z_m_.size();
+  std::vector<float> dist(n_nodes, static_cast<float>(kInf));
+  std::vector<std::int32_t> seed_x(n_nodes, 0);
+  std::vector<std::int32_t> seed_y(n_nodes, 0);
+  using Entry = std::pair<float, int>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
+  auto in_window = [&window](int ix, int iy) {
+    return ix >= window[0] && ix <= window[2] && iy >= window[1] && iy <= window[3];
+  };
+  for (int iy = window[1]; iy <= window[3]; ++iy) {
+    for (int ix = window[0]; ix <= window[2]; ++ix) {
+      const int column = Column(ix, iy);
+      for (int n = first_[static_cast<std::size_t>(column)]; n < first_[static_cast<std::size_t>(column) + 1]; ++n) {
+        const double z = z_m_[static_cast<std::size_t>(n)];
+        for (int k = 0; k < 8; ++k) {
+          const int jx = ix + kDx[k];
+          const int jy = iy + kDy[k];
+          bool unknown = false;
+          if (InGrid(jx, jy) && (Connected(jx, jy, z, &unknown) >= 0 || unknown)) continue;
+          const float d = static_cast<float>(((kDx[k] != 0 && kDy[k] != 0) ? kSqrt2 : 1.0) * cell_m_);
+          if (d < dist[static_cast<std::size_t>(n)]) {
+            dist[static_cast<std::size_t>(n)] = d;
+            seed_x[static_cast<std::size_t>(n)] = jx;
+            seed_y[static_cast<std::size_t>(n)] = jy;
+          }
+        }
+        if (std::isfinite(dist[static_cast<std::size_t>(n)])) open.emplace(dist[static_cast<std::size_t>(n)], n);
+      }
+    }
+  }
+  const double limit_m = options_.clearance_exact_m + 2.0 * cell_m_;
+  while (!open.empty()) {
+    const auto [d, n] = open.top();
+    open.pop();
+    const auto un = static_cast<std::size_t>(n);
+    if (d > dist[un]) continue;
+    const int column = column_of_[un];
+    const int ix = column % nx_;
+    const int iy = column / nx_;
+    const Eigen::Vector2d seed = CellCenter(seed_x[un], seed_y[un]);
+    for (int k = 0; k < 8; ++k) {
+      const int jx = ix + kDx[k];
+      const int jy = iy + kDy[k];
+      if (!in_window(jx, jy)) continue;
+      bool unknown = false;
+      const int m = Connected(jx, jy, z_m_[un], &unknown);
+      if (m < 0) continue;
+      const auto um = static_cast<std::size_t>(m);
+      const float dm = static_cast<float>((CellCenter(jx, jy) - seed).norm());
+      if (dm + 1e-6f < dist[um] && dm <= limit_m) {
+        dist[um] = dm;
+        seed_x[um] = seed_x[un];
+        seed_y[um] = seed_y[un];
+        open.emplace(dm, m);
+      }
+    }
+  }
+  for (int iy = written[1]; iy <= written[3]; ++iy) {
+    for (int ix = written[0]; ix <= written[2]; ++ix) {
+      const int column = Column(ix, iy);
+      const double border_m = std::min({ix + 1, nx_ - ix, iy + 1, ny_ - iy}) * cell_m_;
+      for (int n = first_[static_cast<std::size_t>(column)]; n < first_[static_cast<std::size_t>(column) + 1]; ++n) {
+        clearance_m_[static_cast<std::size_t>(n)] =
+            static_cast<float>(std::min(static_cast<double>(dist[static_cast<std::size_t>(n)]), border_m));
+      }
+    }
+  }
+}
+
+bool MultiLevelGrid::IsFootprintFreeNear(double x_m, double y_m, double z_m, double radius_m) const {
+  int ix = 0;
+  int iy = 0;
+  if (!CellOf(x_m, y_m, &ix, &iy) || !(radius_m >= 0.0)) return false;
+  const int start = NodeNear(ix, iy, z_m, options_.max_step_m);
+  if (start < 0) return false;
+  const Eigen::Vector2d p(x_m, y_m);
+  const double reach_m = radius_m + 1.5 * cell_m_;
+  // Walk the connected surfaces around the body; any blocked neighbour point within the radius is contact.
+  std::vector<int> stack = {start};
+  std::vector<int> seen = {start};
+  while (!stack.empty()) {
+    const int n = stack.back();
+    stack.pop_back();
+    const int column = column_of_[static_cast<std::size_t>(n)];
+    const int cx = column % nx_;
+    const int cy = column / nx_;
+    for (int k = 0; k < 8; ++k) {
+      const int jx = cx + kDx[k];
+      const int jy = cy + kDy[k];
+      const Eigen::Vector2d c = CellCenter(jx, jy);
+      bool unknown = false;
+      const int m = InGrid(jx, jy) ? Connected(jx, jy, z_m_[static_cast<std::size_t>(n)], &unknown) : -1;
+      if (m < 0) {
+        if (!unknown && (c - p).norm() <= radius_m) return false;
+        continue;
+      }
+      if ((c - p).norm() > reach_m || std::find(seen.begin(), seen.end(), m) != seen.end()) continue;
+      seen.push_back(m);
+      stack.push_back(m);
+    }
+  }
+  return true;
+}
+
+std::optional<double> MultiLevelGrid::GroundHeightNear(double x_m, double y_m, double z_m) const {
+  int ix = 0;
+  int iy = 0;
+  if (!CellOf(x_m, y_m, &ix, &iy)) return std::nullopt;
+  const int node = NodeNear(ix, iy, z_m, options_.max_step_m);
+  if (node < 0) return std::nullopt;
+  return NodeZ(node);
+}
+
+std::optional<double> MultiLevelGrid::GroundHeight(double x_m, double y_m) const {
+  int ix = 0;
+  int iy = 0;
+  if (!CellOf(x_m, y_m, &ix, &iy)) return std::nullopt;
+  const int column = Column(ix, iy);
+  if (first_[static_cast<std::size_t>(column)] == first_[static_cast<std::size_t>(column) + 1]) return std::nullopt;
+  return NodeZ(first_[static_cast<std::size_t>(column)]);
+}
+
+bool MultiLevelGrid::IsFootprintFree(double x_m, double y_m, double radius_m) const {
+  const auto z = GroundHeight(x_m, y_m);
+  return z.has_value() && IsFootprintFreeNear(x_m, y_m, *z, radius_m);
+}
+
+// ---- LeveledTerrain ----------------------------------------------------------------------------------------
+
+LeveledTerrain::LeveledTerrain(std::shared_ptr<const TraversabilityGrid> main_level,
+                               std::shared_ptr<const MultiLevelGrid> levels)
+    : main_(std::move(main_level)), levels_(std::move(levels)) {
+  if (!main_ || !levels_) throw std::invalid_argument("LeveledTerrain: a grid is null");
+}
+
+bool LeveledTerrain::OnMainLevel(double x_m, double y_m, double z_m) const {
+  const auto ground = main_->GroundHeight(x_m, y_m);
+  return ground.has_value() && std::abs(*ground - z_m) <= main_->options().max_step_m + 0.05;
+}
+
+bool LeveledTerrain::IsFootprintFree(double x_m, double y_m, double radius_m) const {
+  return main_->IsFootprintFree(x_m, y_m, radius_m);
+}
+
+std::optional<double> LeveledTerrain::GroundHeight(double x_m, double y_m) const {
+  return main_->GroundHeight(x_m, y_m);
+}
+
+bool LeveledTerrain::IsFootprintFreeNear(double x_m, double y_m, double z_m, double radius_m) const {
+  return OnMainLevel(x_m, y_m, z_m) ? main_->IsFootprintFree(x_m, y_m, radius_m)
+                                     : levels_->IsFootprintFreeNear(x_m, y_m, z_m, radius_m);
+}
+
+std::optional<double> LeveledTerrain::GroundHeightNear(double x_m, double y_m, double z_m) const {
+  return OnMainLevel(x_m, y_m, z_m) ? main_->GroundHeight(x_m, y_m) : levels_->GroundHeightNear(x_m, y_m, z_m);
+}
+
+// ---- A* over (cell, surface) --------------------------------------------------------------------------------
+
+namespace {
+
+// A search state: a known surface (id < node_count) or a height in an unknown cell (key node_count + column *
+// nz + iz), see PlanPathMultiLevel.
+struct State {
+  int ix = 0;
+  int iy = 0;
+  double z = 0.0;
+  int node = -1;  // -1: unknown cell entered at height z
+};
+
+}  // namespace
+
+class MultiLevelSearch {
+ public:
+  MultiLevelSearch(const MultiLevelGrid& grid, const AStarOptions& options) : grid_(grid) {
+    radius_m_ = grid.options().robot_radius_m;
+    if (std::isfinite(options.robot_radius_m) && options.robot_radius_m < radius_m_) radius_m_ = options.robot_radius_m;
+  }
+
+  std::int64_t Key(const State& s) const {
+    if (s.node >= 0) return s.node;
+    const int iz = static_cast<int>(std::lround((s.z - grid_.world_p_min_.z()) / grid_.res_m_));
+    return static_cast<std::int64_t>(grid_.node_count()) +
+           (static_cast<std::int64_t>(grid_.Column(s.ix, s.iy)) * (grid_.world_dims_.z() + 2) + iz + 1);
+  }
+
+  bool Traversable(int node) const { return grid_.ClearanceM(node) > radius_m_ + 1e-9; }
+
+  // An unknown cell entered at height z: every cell within the radius is a connected surface or unknown too.
+  bool VirtualClear(int ix, int iy, double z) const {
+    const int span = static_cast<int>(std::ceil(radius_m_ / grid_.cell_size_m()));
+    const Eigen::Vector2d c = grid_.CellCenter(ix, iy);
+    for (int jx = ix - span; jx <= ix + span; ++jx) {
+      for (int jy = iy - span; jy <= iy + span; ++jy) {
+        if ((grid_.CellCenter(jx, jy) - c).norm() > radius_m_ + 1e-9) continue;
+        if (!grid_.InGrid(jx, jy)) return false;
+        bool unknown = false;
+        if (grid_.Connected(jx, jy, z, &unknown) < 0 && !unknown) return false;
+      }
+    }
+    return true;
+  }
+
+  // The state a body at `from` height reaches in cell (jx, jy), if it may stand there.
+  std::optional<State> Enter(int jx, int jy, double z) const {
+    if (!grid_.InGrid(jx, jy)) return std::nullopt;
+    bool unknown = false;
+    const int m = grid_.Connected(jx, jy, z, &unknown);
+    if (m >= 0) {
+      if (!Traversable(m)) return std::nullopt;
+      return State{jx, jy, grid_.NodeZ(m), m};
+    }
+    if (unknown && VirtualClear(jx, jy, z)) return State{jx, jy, z, -1};
+    return std::nullopt;
+  }
+
+  double Clearance(const State& s) const { return s.node >= 0 ? grid_.ClearanceM(s.node) : kInf; }
+
+  double radius_m() const { return radius_m_; }
+
+ private:
+  const MultiLevelGrid& grid_;
+  double radius_m_ = 0.0;
+};
+
+namespace {
+
+// Walks a -> b (x, y, surface z; metres, frame W) in quarter-cell steps over connected traversable surfaces
+// (or unknown space) whose clearance is at least min_clearance_m; true when it ends within a step of b.z.
+bool WalkSegment(const MultiLevelSearch& search, const MultiLevelGrid& grid, const Eigen::Vector3d& a,
+                 const Eigen::Vector3d& b, double min_clearance_m) {
+  const double c = grid.cell_size_m();
+  const double length = (b - a).head<2>().norm();
+  const int n = std::max(1, static_cast<int>(std::ceil(length / (0.25 * c))));
+  double z = a.z();
+  int px = -1, py = -1;
+  for (int i = 0; i <= n; ++i) {
+    const Eigen::Vector2d p = a.head<2>() + (b - a).head<2>() * (static_cast<double>(i) / n);
+    int cx = 0, cy = 0;
+    if (!grid.CellOf(p.x(), p.y(), &cx, &cy)) return false;
+    if (cx == px && cy == py) continue;
+    const std::optional<State> s = search.Enter(cx, cy, z);
+    if (!s || search.Clearance(*s) < min_clearance_m) return false;
+    z = s->z;
+    px = cx;
+    py = cy;
+  }
+  return std::abs(z - b.z()) <= grid.options().max_step_m + kEps_m;
+}
+
+}  // namespace
+
+bool SegmentTraversableMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& a_W, const Eigen::Vector3d& b_W,
+                                  double min_clearance_m, double robot_radius_m) {
+  AStarOptions options;
+  options.robot_radius_m = robot_radius_m;
+  const MultiLevelSearch search(grid, options);
+  return a_W.allFinite() && b_W.allFinite() && WalkSegment(search, grid, a_W, b_W, min_clearance_m);
+}
+
+PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& start_W,
+                              const Eigen::Vector2d& goal_W, double goal_z_m, const AStarOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  const auto t0 = std::chrono::steady_clock::now();
+  PlanResult result;
+  using Status = PlanResult::Status;
+  auto finish = [&](Status status, std::string message) {
+    result.status = status;
+    result.message = std::move(message);
+    result.planning_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return result;
+  };
+  const std::string extent = "x in [" + Fixed(grid.p_W_min().x()) + ", " + Fixed(grid.p_W_max().x()) +
+                             "], y in [" + Fixed(grid.p_W_min().y()) + ", " + Fixed(grid.p_W_max().y()) + "]";
+  if (!start_W.head<2>().allFinite()) {
+    return finish(Status::kInvalidStart, "start " + Point2(start_W.head<2>()) + " is not finite");
+  }
+  if (!goal_W.allFinite() || std::isinf(goal_z_m)) {
+    return finish(Status::kInvalidGoal, "goal " + Point2(goal_W) + " (z " + Fixed(goal_z_m) + ") is not finite");
+  }
+  int sx = 0, sy = 0, gx = 0, gy = 0;
+  if (!grid.CellOf(start_W.x(), start_W.y(), &sx, &sy)) {
+    return finish(Status::kOutOfMap, "start " + Point2(start_W.head<2>()) + " is outside the map " + extent);
+  }
+  if (!grid.CellOf(goal_W.x(), goal_W.y(), &gx, &gy)) {
+    return finish(Status::kOutOfMap, "goal " + Point2(goal_W) + " is outside the map " + extent);
+  }
+  const MultiLevelSearch search(grid, options);
+  const double step_m = grid.options().max_step_m;
+  const double c = grid.cell_size_m();
+
+  // ---- Start: the surface under the robot (nearest its height), an escape cell, or unknown space. ----
+  const int start_column = grid.Column(sx, sy);
+  auto lowest = [&grid](int column) {
+    return grid.FirstNode(column) < grid.FirstNode(column + 1) ? grid.FirstNode(column) : -1;
+  };
+  double start_z = start_W.z();
+  int start_node = std::isfinite(start_z) ? grid.NodeNear(sx, sy, start_z, std::max(0.5, step_m)) : lowest(start_column);
+  if (start_node >= 0) start_z = grid.NodeZ(start_node);
+  std::optional<State> start;
+  if (start_node >= 0 && search.Traversable(start_node)) {
+    start = State{sx, sy, start_z, start_node};
+  } else if (start_node < 0 && std::isfinite(start_z) && grid.IsUnknownAt(sx, sy, start_z)) {
+    start = State{sx, sy, start_z, -1};
+  } else if (start_node >= 0 && options.start_escape_radius_m > 0.0 &&
+             (options.start_is_robot ||
+              grid.IsFootprintFreeNear(start_W.x(), start_W.y(), start_z, options.start_footprint_radius_m))) {
+    const int span = static_cast<int>(std::ceil(options.start_escape_radius_m / c)) + 1;
+    double best_d = kInf;
+    for (int cx = sx - span; cx <= sx + span; ++cx) {
+      for (int cy = sy - span; cy <= sy + span; ++cy) {
+        const int n = grid.NodeNear(cx, cy, start_z, step_m);
+        if (n < 0 || !search.Traversable(n)) continue;
+        const double d = (grid.CellCenter(cx, cy) - start_W.head<2>()).norm();
+        if (d <= options.start_escape_radius_m && d < best_d) {
+          best_d = d;
+          start = State{cx, cy, grid.NodeZ(n), n};
+        }
+      }
+    }
+    result.used_start_escape = start.has_value();
+  }
+  if (!start) {
+    std::string what = start_node < 0 ? "has no walkable surface near z " + Fixed(start_W.z())
+                                      : "is not traversable (clearance " + Fixed(grid.ClearanceM(start_node)) +
+                                            " m <= robot_radius_m " + Fixed(search.radius_m()) +
+                                            " m) and no traversable cell lies within start_escape_radius_m";
+    return finish(Status::kStartBlocked, "start " + Point2(start_W.head<2>()) + " " + what);
+  }
+
+  // ---- Goal: the surface nearest the named height (default: the start's level, else the lowest). ----
+  const int goal_column = grid.Column(gx, gy);
+  const double target_z = std::isfinite(goal_z_m) ? goal_z_m : start_z;
+  int goal_node = grid.NodeNear(gx, gy, target_z, kLevelMatch_m);
+  if (goal_node < 0 && !std::isfinite(goal_z_m)) goal_node = lowest(goal_column);
+  const bool goal_unknown = goal_node < 0 && grid.IsUnknownAt(gx, gy, target_z);
+  if (goal_node < 0 && !goal_unknown) {
+    std::string surfaces;
+    for (int n = grid.FirstNode(goal_column); n < grid.FirstNode(goal_column + 1); ++n) {
+      surfaces += (surfaces.empty() ? "" : ", ") + Fixed(grid.NodeZ(n));
+    }
+    return finish(Status::kGoalBlocked, "goal " + Point2(goal_W) + " has no walkable surface within " +
+                                            Fixed(kLevelMatch_m) + " m of z " + Fixed(target_z) +
+                                            (surfaces.empty() ? " (none in that column)" : " (surfaces at z " + surfaces + ")"));
+  }
+  if (goal_node >= 0 && !search.Traversable(goal_node)) {
+    return finish(Status::kGoalBlocked, "goal " + Point2(goal_W) + " at z " + Fixed(grid.NodeZ(goal_node)) +
+                                            " is not traversable (clearance " + Fixed(grid.ClearanceM(goal_node)) +
+                                            " m <= robot_radius_m " + Fixed(search.radius_m()) + " m)");
+  }
+  auto is_goal = [&](const State& s) {
+    if (s.ix != gx || s.iy != gy) return false;
+    return goal_node >= 0 ? s.node == goal_node : std::abs(s.z - target_z) <= kLevelMatch_m;
+  };
+
+  // ---- A*. ----
+  struct Record {
+    double g = kInf;
+    std::int64_t parent = -1;
+    bool closed = false;
+    State state;
+  };
+  std::unordered_map<std::int64_t, Record> records;
+  using Entry = std::pair<double, std::int64_t>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
+  auto heuristic = [&](int cx, int cy) {
+    const int a = std::abs(cx - gx);
+    const int b = std::abs(cy - gy);
+    return (std::max(a, b) + (kSqrt2 - 1.0) * std::min(a, b)) * c;
+  };
+  auto penalty = [&](double clearance) {
+    if (options.preferred_clearance_m <= 0.0 || options.clearance_cost <= 0.0 || !std::isfinite(clearance)) return 0.0;
+    return options.clearance_cost *
+           std::clamp((options.preferred_clearance_m - clearance) / options.preferred_clearance_m, 0.0, 1.0);
+  };
+  const std::int64_t start_key = search.Key(*start);
+  records[start_key] = Record{0.0, -1, false, *start};
+  open.emplace(heuristic(start->ix, start->iy), start_key);
+  std::int64_t goal_key = -1;
+  while (!open.empty()) {
+    const auto [f, key] = open.top();
+    open.pop();
+    Record& rec = records[key];
+    if (rec.closed) continue;
+    rec.closed = true;
+    ++result.expansions;
+    const State s = rec.state;
+    const double g_here = rec.g;
+    if (is_goal(s)) {
+      goal_key = key;
+      break;
+    }
+    for (int k = 0; k < 8; ++k) {
+      const std::optional<State> next = search.Enter(s.ix + kDx[k], s.iy + kDy[k], s.z);
+      if (!next) continue;
+      const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
+      if (diagonal && (!search.Enter(s.ix + kDx[k], s.iy, s.z) || !search.Enter(s.ix, s.iy + kDy[k], s.z))) continue;
+      const std::int64_t next_key = search.Key(*next);
+      auto it = records.find(next_key);
+      if (it != records.end() && it->second.closed) continue;
+      const double move = (diagonal ? kSqrt2 : 1.0) * c;
+      const double unknown = next->node < 0 ? options.unknown_cost : 0.0;
+      const double cost = move * (1.0 + penalty(search.Clearance(*next)) + unknown) +
+                          options.step_height_cost * std::abs(next->z - s.z);
+      const double candidate = g_here + cost;
+      if (it == records.end()) it = records.emplace(next_key, Record{kInf, -1, false, *next}).first;
+      if (candidate < it->second.g) {
+        it->second.g = candidate;
+        it->second.parent = key;
+        open.emplace(candidate + heuristic(next->ix, next->iy), next_key);
+      }
+    }
+  }
+  if (goal_key < 0) {
+    std::ostringstream msg;
+    msg << "goal " << Point2(goal_W) << " at z " << Fixed(goal_node >= 0 ? grid.NodeZ(goal_node) : target_z)
+        << " is unreachable from start " << Point2(start_W.head<2>()) << " at z " << Fixed(start_z)
+        << ": no traversable path over the map's levels (" << result.expansions << " cells expanded)";
+    return finish(Status::kUnreachable, msg.str());
+  }
+
+  // ---- Path: start point, cell centres with their surface heights, goal point; shortcuts on one level. ----
+  std::vector<State> states;
+  for (std::int64_t key = goal_key; key >= 0; key = records[key].parent) states.push_back(records[key].state);
+  std::reverse(states.begin(), states.end());
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> clearance;
+  for (const State& s : states) {
+    const Eigen::Vector2d p = grid.CellCenter(s.ix, s.iy);
+    points.emplace_back(p.x(), p.y(), s.z);
+    clearance.push_back(search.Clearance(s));
+  }
+  const Eigen::Vector3d start_point(start_W.x(), start_W.y(), start_z);
+  if (result.used_start_escape) {
+    points.insert(points.begin(), start_point);
+    clearance.insert(clearance.begin(), 0.0);
+  } else {
+    points.front() = start_point;
+  }
+  if (points.size() == 1) {
+    points.push_back(points.front());
+    clearance.push_back(clearance.front());
+  }
+  points.back() = Eigen::Vector3d(goal_W.x(), goal_W.y(), states.back().z);
+  if (options.simplify_path && points.size() > 2) {
+    std::vector<Eigen::Vector3d> simplified = {points.front()};
+    std::size_t anchor = 0;
+    while (anchor + 1 < points.size()) {
+      std::size_t best = anchor + 1;
+      double least = clearance[anchor + 1];
+      for (std::size_t j = anchor + 2; j < points.size(); ++j) {
+        least = std::min(least, clearance[j]);
+        // Keep the corners of a climb: shortcuts only over points of (nearly) one height.
+        if (std::abs(points[j].z() - points[anchor].z()) > step_m + kEps_m) break;
+        if (!WalkSegment(search, grid, points[anchor], points[j], std::min(options.preferred_clearance_m, least) - 1e-9)) {
+          break;
+        }
+        best = j;
+      }
+      simplified.push_back(points[best]);
+      anchor = best;
+    }
+    points = std::move(simplified);
+  }
+  result.path_W = std::move(points);
+  result.length_m = PathLength2D(result.path_W);
+  std::ostringstream msg;
+  msg << "path from " << Point2(start_W.head<2>()) << " at z " << Fixed(start_z) << " to " << Point2(goal_W)
+      << " at z " << Fixed(result.path_W.back().z()) << ": " << Fixed(result.length_m) << " m, "
+      << result.path_W.size() << " waypoints, " << result.expansions << " cells expanded over the map's levels"
+      << (result.used_start_escape ? " (started from an escape cell)" : "");
+  return finish(Status::kSuccess, msg.str());
+}
+
+}  // namespace cairn::nav
