@@ -88,7 +88,8 @@ bool AStarOptions::IsValid(std::string* why) const {
                   range("unknown_cost", unknown_cost, 0.0, 100.0) &&
                   range("start_escape_radius_m", start_escape_radius_m, 0.0, 5.0) &&
                   range("start_footprint_radius_m", start_footprint_radius_m, 0.0, 5.0) &&
-                  (std::isnan(robot_radius_m) || range("robot_radius_m", robot_radius_m, 0.0, 5.0));
+                  (std::isnan(robot_radius_m) || range("robot_radius_m", robot_radius_m, 0.0, 5.0)) &&
+                  range("max_expansions", max_expansions, 1000, 1e8);
   if (!ok && why != nullptr) *why = msg.str();
   return ok;
 }

@@ -12,6 +12,8 @@
 namespace cairn::nav {
 namespace {
 
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
 constexpr double kPi = 3.14159265358979323846;
 
 bool InRange(const std::string& field, double value, double lo, double hi, bool lo_open, std::string* why) {
@@ -137,7 +139,8 @@ void GlobalPlanner::UpdateMap(std::shared_ptr<const core::VoxelGrid> world, cons
                               std::shared_ptr<const TraversabilityGrid> grid,
                               std::shared_ptr<const core::VoxelGrid> seen_free,
                               std::shared_ptr<const TraversabilityGrid> diagnose_grid,
-                              std::shared_ptr<const MultiLevelGrid> levels, double sensor_max_z_m) {
+                              std::shared_ptr<const MultiLevelGrid> levels, double sensor_max_z_m,
+                              std::shared_ptr<const MultiLevelGrid> diagnose_levels) {
   if (!world || !grid) throw std::invalid_argument("GlobalPlanner::UpdateMap: world or grid is null");
   if (Profile(platform) == nullptr) {
     throw std::invalid_argument("GlobalPlanner::UpdateMap: platform '" + platform + "' is not served (valid: " +
@@ -154,6 +157,7 @@ void GlobalPlanner::UpdateMap(std::shared_ptr<const core::VoxelGrid> world, cons
   levels_.clear();
   diagnose_levels_.clear();
   if (levels) levels_.emplace(platform, std::move(levels));
+  if (diagnose_levels) diagnose_levels_.emplace(platform, std::move(diagnose_levels));
   sensor_max_z_m_ = sensor_max_z_m;
 }
 
@@ -253,31 +257,41 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
   if (NeedsLevels(request, *grid)) {
     const auto levels = LevelsLocked(request.platform, false);
     const Eigen::Vector3d start(request.start_W.x(), request.start_W.y(), request.start_z_m);
+    astar.allow_partial = request.allow_partial;
     plan.result = PlanPathMultiLevel(*levels, start, request.goal_W, request.goal_z_m, astar);
-    if (!plan.result.IsUsable()) {
-      plan.reason = plan.result.message;
-      if (plan.result.status == PlanResult::Status::kUnreachable &&
-          options_.diagnose_max_step_m > profile->traversability.max_step_m) {
-        // The same request allowing higher steps names the step that stops this platform (e.g. stairs).
-        // Cell by cell (no shortcuts), the first step above the platform's limit along that route.
-        const auto relaxed = LevelsLocked(request.platform, true);
-        AStarOptions cells = astar;
-        cells.simplify_path = false;
-        const PlanResult r = PlanPathMultiLevel(*relaxed, start, request.goal_W, request.goal_z_m, cells);
-        double worst_step = 0.0;
-        Eigen::Vector2d worst_at = request.start_W;
-        for (std::size_t i = 1; i < r.path_W.size(); ++i) {
-          const double dz = std::abs(r.path_W[i].z() - r.path_W[i - 1].z());
-          if (dz > profile->traversability.max_step_m + 1e-9) {
-            worst_step = dz;
-            worst_at = r.path_W[i].head<2>();
-            break;
-          }
+    const bool short_of_goal = plan.result.partial || plan.result.status == PlanResult::Status::kUnreachable;
+    if (short_of_goal && options_.diagnose_max_step_m > profile->traversability.max_step_m) {
+      // The same request allowing higher steps: when that reaches the goal (or gets at least 1 m higher toward
+      // its level), this platform's step limit is what stops it; name the first step above it, cell by cell.
+      const auto relaxed = LevelsLocked(request.platform, true);
+      AStarOptions cells = astar;
+      cells.simplify_path = false;
+      const PlanResult r = PlanPathMultiLevel(*relaxed, start, request.goal_W, request.goal_z_m, cells);
+      const double goal_z = std::isfinite(request.goal_z_m) ? request.goal_z_m : start.z();
+      auto height_gap = [goal_z](const PlanResult& p) {
+        return p.path_W.empty() || !std::isfinite(goal_z) ? kInf : std::abs(p.path_W.back().z() - goal_z);
+      };
+      const bool relaxed_better =
+          r.IsUsable() && (!r.partial || !plan.result.IsUsable() || height_gap(r) < height_gap(plan.result) - 1.0);
+      double step = 0.0;
+      Eigen::Vector2d at = request.start_W;
+      for (std::size_t i = 1; relaxed_better && i < r.path_W.size(); ++i) {
+        const double dz = std::abs(r.path_W[i].z() - r.path_W[i - 1].z());
+        if (dz > profile->traversability.max_step_m + 1e-9) {
+          step = dz;
+          at = r.path_W[i].head<2>();
+          break;
         }
-        const std::string diagnosis = r.IsUsable() ? DescribeStep(*profile, worst_step, worst_at) : "";
-        if (!diagnosis.empty()) plan.reason = diagnosis;
+      }
+      const std::string diagnosis = relaxed_better ? DescribeStep(*profile, step, at) : "";
+      if (!diagnosis.empty()) {
+        plan.result.status = PlanResult::Status::kUnreachable;
+        plan.result.path_W.clear();
+        plan.result.partial = false;
+        plan.reason = diagnosis;
       }
     }
+    if (!plan.result.IsUsable() && plan.reason.empty()) plan.reason = plan.result.message;
     plan.total_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return plan;
   }

@@ -22,6 +22,10 @@ constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1};
 constexpr int kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
 // A goal or start names a level within this height of a surface, metres.
 constexpr double kLevelMatch_m = 1.0;
+// A partial plan ends where planar distance + this x height difference to the goal is least: height first.
+constexpr double kPartialHeightWeight = 10.0;
+// Expansions of a search that may end partial (see AStarOptions::allow_partial).
+constexpr int kPartialMaxExpansions = 300000;
 
 std::string Point2(const Eigen::Vector2d& p) {
   char buf[96];
@@ -59,6 +63,8 @@ MultiLevelGrid::MultiLevelGrid(std::shared_ptr<const core::VoxelGrid> world, con
   need_voxels_ = std::max(1, static_cast<int>(std::ceil(options.robot_height_m / res_m_ - kEps_m)));
   if (seen_free_) CheckGeometry(*seen_free_, "seen_free");
   first_.assign(static_cast<std::size_t>(nx_) * ny_ + 1, 0);
+  observed_.assign(static_cast<std::size_t>(nx_) * ny_, 0);
+  observed_near_.assign(static_cast<std::size_t>(nx_) * ny_, 0);
   Recompute({}, /*whole=*/true);
 }
 
@@ -127,12 +133,14 @@ int MultiLevelGrid::NodeNear(int ix, int iy, double z_m, double max_dz_m) const 
 
 bool MultiLevelGrid::IsUnknownAt(int ix, int iy, double z_m) const {
   if (options_.unknown_is_lethal || !InGrid(ix, iy) || !std::isfinite(z_m)) return false;
-  // The voxel a floor at z_m would be (seen free: no floor there) and the body space above it.
+  if (!observed_[static_cast<std::size_t>(Column(ix, iy))]) return true;  // nothing seen in the whole column
+  // The voxel a floor at z_m would be (seen free: a ray went through, no floor there) and the body space above
+  // it (anything occupied: a wall or a step). Body space seen free says nothing about the floor below it (a
+  // lidar does not see the floor right around itself).
   const int iz0 = static_cast<int>(std::lround((z_m - world_p_min_.z()) / res_m_));
   if (seen_free_ && seen_free_->IsOccupiedIndex({ix, iy, iz0 - 1})) return false;
   for (int iz = iz0; iz < iz0 + need_voxels_; ++iz) {
     if (world_->IsOccupiedIndex({ix, iy, iz})) return false;
-    if (seen_free_ && seen_free_->IsOccupiedIndex({ix, iy, iz})) return false;
   }
   return true;
 }
@@ -198,6 +206,11 @@ void MultiLevelGrid::Recompute(const std::vector<std::array<int, 4>>& windows, b
       const std::size_t column = static_cast<std::size_t>(Column(ix, iy));
       first[column] = static_cast<int>(z_m.size());
       if (whole || is_changed[column]) {
+        bool observed = false;
+        for (int iz = 0; iz < world_dims_.z() && !observed; ++iz) {
+          observed = world_->IsOccupiedIndex({ix, iy, iz}) || (seen_free_ && seen_free_->IsOccupiedIndex({ix, iy, iz}));
+        }
+        observed_[column] = observed;
         found.clear();
         ScanColumn(ix, iy, [&found](int iz) { found.push_back(iz); });
         for (auto it = found.rbegin(); it != found.rend(); ++it) {  // lowest first
@@ -220,6 +233,33 @@ void MultiLevelGrid::Recompute(const std::vector<std::array<int, 4>>& windows, b
   z_m_ = std::move(z_m);
   clearance_m_ = std::move(clearance_m);
   column_of_ = std::move(column_of);
+
+  // ---- 1b. Observed columns within the robot radius (a separable square dilation) around the change. ----
+  {
+    const int r = static_cast<int>(std::ceil(options_.robot_radius_m / cell_m_));
+    const int x0 = std::max(0, changed[0] - r), x1 = std::min(nx_ - 1, changed[2] + r);
+    const int y0 = std::max(0, changed[1] - r), y1 = std::min(ny_ - 1, changed[3] + r);
+    const int wx = x1 - x0 + 1;
+    std::vector<std::uint8_t> rows(static_cast<std::size_t>(wx) * (y1 - y0 + 1 + 2 * r), 0);
+    // rows[(y - (y0 - r)) * wx + (x - x0)]: any observed column in [x - r, x + r] of row y.
+    for (int y = y0 - r; y <= y1 + r; ++y) {
+      if (y < 0 || y >= ny_) continue;
+      for (int x = x0; x <= x1; ++x) {
+        std::uint8_t any = 0;
+        for (int d = -r; d <= r && !any; ++d) {
+          if (x + d >= 0 && x + d < nx_) any = observed_[static_cast<std::size_t>(Column(x + d, y))];
+        }
+        rows[static_cast<std::size_t>(y - (y0 - r)) * wx + (x - x0)] = any;
+      }
+    }
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        std::uint8_t any = 0;
+        for (int d = -r; d <= r && !any; ++d) any = rows[static_cast<std::size_t>(y + d - (y0 - r)) * wx + (x - x0)];
+        observed_near_[static_cast<std::size_t>(Column(x, y))] = any;
+      }
+    }
+  }
 
   // ---- 2. Clearance by brushfire over connected surfaces, computed on `window` and written on `written`
   // (a change alters the blocked points of its neighbours, which reach clearance_exact_m further). ----
@@ -420,6 +460,7 @@ class MultiLevelSearch {
 
   // An unknown cell entered at height z: every cell within the radius is a connected surface or unknown too.
   bool VirtualClear(int ix, int iy, double z) const {
+    if (grid_.IsUnobservedAround(ix, iy)) return true;  // nothing known within the radius
     const int span = static_cast<int>(std::ceil(radius_m_ / grid_.cell_size_m()));
     const Eigen::Vector2d c = grid_.CellCenter(ix, iy);
     for (int jx = ix - span; jx <= ix + span; ++jx) {
@@ -586,14 +627,19 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
     return goal_node >= 0 ? s.node == goal_node : std::abs(s.z - target_z) <= kLevelMatch_m;
   };
 
-  // ---- A*. ----
+  // ---- A*: known surfaces in flat arrays, unknown-space states in a hash map. ----
   struct Record {
     double g = kInf;
     std::int64_t parent = -1;
     bool closed = false;
     State state;
   };
-  std::unordered_map<std::int64_t, Record> records;
+  const int n_nodes = grid.node_count();
+  std::vector<Record> known(static_cast<std::size_t>(n_nodes));
+  std::unordered_map<std::int64_t, Record> virtuals;
+  auto record = [&](std::int64_t key) -> Record& {
+    return key < n_nodes ? known[static_cast<std::size_t>(key)] : virtuals[key];
+  };
   using Entry = std::pair<double, std::int64_t>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
   auto heuristic = [&](int cx, int cy) {
@@ -606,22 +652,45 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
     return options.clearance_cost *
            std::clamp((options.preferred_clearance_m - clearance) / options.preferred_clearance_m, 0.0, 1.0);
   };
+  // How far a state is from the goal, for a partial plan: planar distance + 10 x height difference.
+  const double goal_level_z = goal_node >= 0 ? grid.NodeZ(goal_node) : target_z;
+  auto remaining = [&](const State& s) {
+    return (grid.CellCenter(s.ix, s.iy) - goal_W).norm() + kPartialHeightWeight * std::abs(s.z - goal_level_z);
+  };
   const std::int64_t start_key = search.Key(*start);
-  records[start_key] = Record{0.0, -1, false, *start};
+  record(start_key) = Record{0.0, -1, false, *start};
   open.emplace(heuristic(start->ix, start->iy), start_key);
   std::int64_t goal_key = -1;
+  std::int64_t best_key = start_key;
+  double best_remaining = remaining(*start);
+  const double start_remaining = best_remaining;
+  bool capped = false;
+  // A partial plan is a best effort: its search is bounded tighter (an unreachable level would otherwise
+  // expand every cell of a mostly unknown map).
+  const int max_expansions = options.allow_partial ? std::min(options.max_expansions, kPartialMaxExpansions)
+                                                   : options.max_expansions;
   while (!open.empty()) {
     const auto [f, key] = open.top();
     open.pop();
-    Record& rec = records[key];
+    Record& rec = record(key);
     if (rec.closed) continue;
     rec.closed = true;
-    ++result.expansions;
+    if (++result.expansions > max_expansions) {
+      capped = true;
+      break;
+    }
     const State s = rec.state;
     const double g_here = rec.g;
     if (is_goal(s)) {
       goal_key = key;
       break;
+    }
+    if (options.allow_partial) {
+      const double r = remaining(s);
+      if (r < best_remaining - 1e-9) {
+        best_remaining = r;
+        best_key = key;
+      }
     }
     for (int k = 0; k < 8; ++k) {
       const std::optional<State> next = search.Enter(s.ix + kDx[k], s.iy + kDy[k], s.z);
@@ -629,32 +698,43 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
       const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
       if (diagonal && (!search.Enter(s.ix + kDx[k], s.iy, s.z) || !search.Enter(s.ix, s.iy + kDy[k], s.z))) continue;
       const std::int64_t next_key = search.Key(*next);
-      auto it = records.find(next_key);
-      if (it != records.end() && it->second.closed) continue;
+      Record& nr = record(next_key);
+      if (nr.closed) continue;
       const double move = (diagonal ? kSqrt2 : 1.0) * c;
       const double unknown = next->node < 0 ? options.unknown_cost : 0.0;
       const double cost = move * (1.0 + penalty(search.Clearance(*next)) + unknown) +
                           options.step_height_cost * std::abs(next->z - s.z);
       const double candidate = g_here + cost;
-      if (it == records.end()) it = records.emplace(next_key, Record{kInf, -1, false, *next}).first;
-      if (candidate < it->second.g) {
-        it->second.g = candidate;
-        it->second.parent = key;
+      if (candidate < nr.g) {
+        nr.g = candidate;
+        nr.parent = key;
+        nr.state = *next;
         open.emplace(candidate + heuristic(next->ix, next->iy), next_key);
       }
     }
   }
+  const std::string searched = std::to_string(result.expansions) + " cells expanded" +
+                               (capped ? ", the search limit " + std::to_string(max_expansions) : "");
+  std::string partial_note;
+  if (goal_key < 0 && options.allow_partial && best_key != start_key && best_remaining < start_remaining - 0.5) {
+    const State& b = record(best_key).state;
+    goal_key = best_key;
+    result.partial = true;
+    partial_note = "; partial: the map connects no route to the goal at z " + Fixed(goal_level_z) +
+                   " yet, this path ends at the reachable point nearest it, " +
+                   Point2(grid.CellCenter(b.ix, b.iy)) + " at z " + Fixed(b.z);
+  }
   if (goal_key < 0) {
     std::ostringstream msg;
-    msg << "goal " << Point2(goal_W) << " at z " << Fixed(goal_node >= 0 ? grid.NodeZ(goal_node) : target_z)
-        << " is unreachable from start " << Point2(start_W.head<2>()) << " at z " << Fixed(start_z)
-        << ": no traversable path over the map's levels (" << result.expansions << " cells expanded)";
+    msg << "goal " << Point2(goal_W) << " at z " << Fixed(goal_level_z) << " is unreachable from start "
+        << Point2(start_W.head<2>()) << " at z " << Fixed(start_z) << ": no traversable path over the map's levels ("
+        << searched << ")";
     return finish(Status::kUnreachable, msg.str());
   }
 
   // ---- Path: start point, cell centres with their surface heights, goal point; shortcuts on one level. ----
   std::vector<State> states;
-  for (std::int64_t key = goal_key; key >= 0; key = records[key].parent) states.push_back(records[key].state);
+  for (std::int64_t key = goal_key; key >= 0; key = record(key).parent) states.push_back(record(key).state);
   std::reverse(states.begin(), states.end());
   std::vector<Eigen::Vector3d> points;
   std::vector<double> clearance;
@@ -674,7 +754,7 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
     points.push_back(points.front());
     clearance.push_back(clearance.front());
   }
-  points.back() = Eigen::Vector3d(goal_W.x(), goal_W.y(), states.back().z);
+  if (!result.partial) points.back() = Eigen::Vector3d(goal_W.x(), goal_W.y(), states.back().z);
   if (options.simplify_path && points.size() > 2) {
     std::vector<Eigen::Vector3d> simplified = {points.front()};
     std::size_t anchor = 0;
@@ -700,8 +780,8 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
   std::ostringstream msg;
   msg << "path from " << Point2(start_W.head<2>()) << " at z " << Fixed(start_z) << " to " << Point2(goal_W)
       << " at z " << Fixed(result.path_W.back().z()) << ": " << Fixed(result.length_m) << " m, "
-      << result.path_W.size() << " waypoints, " << result.expansions << " cells expanded over the map's levels"
-      << (result.used_start_escape ? " (started from an escape cell)" : "");
+      << result.path_W.size() << " waypoints, " << searched << " over the map's levels"
+      << (result.used_start_escape ? " (started from an escape cell)" : "") << partial_note;
   return finish(Status::kSuccess, msg.str());
 }
 

@@ -181,5 +181,61 @@ TEST(MultiLevelGridTest, OwnMapIsOptimisticInUnseenSpaceOnly) {
   EXPECT_EQ(PlanPathMultiLevel(complete, {1.0, 1.5, 0.0}, {8.0, 1.5}, 0.0).status, PlanResult::Status::kGoalBlocked);
 }
 
+// The building as a robot on floor 1 has seen it: everything below 2.0 m observed, nothing above. A goal on
+// floor 2 is not connected yet: a partial plan climbs as far as the map shows (the upper flight's known steps);
+// a wheeled robot is refused naming the stairs' step instead.
+TEST(MultiLevelGridTest, PartialPlanClimbsAsFarAsTheMapShows) {
+  const auto truth = Building();
+  auto world = std::make_shared<core::VoxelGrid>("own", truth->p_W_min(), truth->resolution_m(), truth->dims());
+  auto seen_free = std::make_shared<core::VoxelGrid>("seen", truth->p_W_min(), truth->resolution_m(), truth->dims());
+  for (int ix = 0; ix < truth->dims().x(); ++ix) {
+    for (int iy = 0; iy < truth->dims().y(); ++iy) {
+      for (int iz = 0; iz < truth->dims().z(); ++iz) {
+        if (truth->CenterOf({ix, iy, iz}).z() > 2.0) break;
+        if (truth->IsOccupiedIndex({ix, iy, iz})) {
+          world->SetOccupied({ix, iy, iz});
+        } else {
+          seen_free->SetOccupied({ix, iy, iz});
+        }
+      }
+    }
+  }
+  TraversabilityOptions options = Legged();
+  options.unknown_is_lethal = false;
+  const MultiLevelGrid grid(world, options, seen_free);
+  AStarOptions astar;
+  PlanResult r = PlanPathMultiLevel(grid, {2.0, 7.1, 0.0}, {15.1, 3.0}, 3.2, astar);
+  EXPECT_EQ(r.status, PlanResult::Status::kUnreachable) << r.message;
+  astar.allow_partial = true;
+  r = PlanPathMultiLevel(grid, {2.0, 7.1, 0.0}, {15.1, 3.0}, 3.2, astar);
+  ASSERT_TRUE(r.IsUsable()) << r.message;
+  EXPECT_TRUE(r.partial);
+  EXPECT_NEAR(r.path_W.back().z(), 1.8, 1e-6) << r.message;  // the upper flight's first known step
+  EXPECT_NE(r.message.find("partial: the map connects no route to the goal at z 3.20 yet"), std::string::npos)
+      << r.message;
+
+  GlobalPlannerOptions planner_options;
+  planner_options.reading.unknown_is_lethal = false;
+  GlobalPlanner planner(world, {GetPlatformProfile("wheeled"), GetPlatformProfile("legged")}, planner_options);
+  planner.UpdateMap(world, "legged", std::make_shared<const TraversabilityGrid>(*world, planner.TerrainOptionsFor(
+                                                                                    GetPlatformProfile("legged")),
+                                                                                seen_free.get()),
+                    seen_free);
+  GlobalPlanRequest request;
+  request.start_W = {2.0, 7.1};
+  request.start_z_m = 0.0;
+  request.goal_W = {15.1, 3.0};
+  request.goal_z_m = 3.2;
+  request.allow_partial = true;
+  request.platform = "legged";
+  const GlobalPlan legged = planner.Plan(request);
+  ASSERT_TRUE(legged.IsUsable()) << legged.reason;
+  EXPECT_TRUE(legged.result.partial);
+  request.platform = "wheeled";
+  const GlobalPlan wheeled = planner.Plan(request);
+  EXPECT_FALSE(wheeled.IsUsable());
+  EXPECT_NE(wheeled.reason.find("climbs a 0.20 m step"), std::string::npos) << wheeled.reason;
+}
+
 }  // namespace
 }  // namespace cairn::nav

@@ -80,19 +80,28 @@ NavMap::NavMap(const NavMapOptions& options, double resolution_m, const core::Ba
   if (const auto relaxed = planner_->DiagnoseTerrainOptionsFor(*profile)) {
     diagnose_grid_ = std::make_unique<nav::TraversabilityGrid>(voxels_, *relaxed, &seen_free_);
   }
-  levels_ = std::make_unique<nav::MultiLevelGrid>(std::make_shared<const core::VoxelGrid>(voxels_),
-                                                  planner_->LevelOptionsFor(*profile),
-                                                  std::make_shared<const core::VoxelGrid>(seen_free_));
+  auto world = std::make_shared<const core::VoxelGrid>(voxels_);
+  auto seen_free = std::make_shared<const core::VoxelGrid>(seen_free_);
+  nav::TraversabilityOptions level_options = planner_->LevelOptionsFor(*profile);
+  levels_ = std::make_unique<nav::MultiLevelGrid>(world, level_options, seen_free);
+  if (const auto relaxed = planner_->DiagnoseTerrainOptionsFor(*profile)) {
+    level_options.max_step_m = relaxed->max_step_m;
+    diagnose_levels_ = std::make_unique<nav::MultiLevelGrid>(world, level_options, seen_free);
+  }
   Publish({});
 }
 
 void NavMap::Publish(const std::vector<Eigen::AlignedBox2d>& columns) {
   auto world = std::make_shared<const core::VoxelGrid>(voxels_);
   auto seen_free = std::make_shared<const core::VoxelGrid>(seen_free_);
-  if (!columns.empty()) levels_->Update(world, seen_free, columns, sensor_max_z_m_);
+  if (!columns.empty()) {
+    levels_->Update(world, seen_free, columns, sensor_max_z_m_);
+    if (diagnose_levels_) diagnose_levels_->Update(world, seen_free, columns, sensor_max_z_m_);
+  }
   planner_->UpdateMap(world, platform_, std::make_shared<const nav::TraversabilityGrid>(*grid_), seen_free,
                       diagnose_grid_ ? std::make_shared<const nav::TraversabilityGrid>(*diagnose_grid_) : nullptr,
-                      std::make_shared<const nav::MultiLevelGrid>(*levels_), sensor_max_z_m_);
+                      std::make_shared<const nav::MultiLevelGrid>(*levels_), sensor_max_z_m_,
+                      diagnose_levels_ ? std::make_shared<const nav::MultiLevelGrid>(*diagnose_levels_) : nullptr);
 }
 
 NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& tiles,

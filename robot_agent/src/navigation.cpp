@@ -3,6 +3,7 @@
 #include "range_check.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -84,6 +85,12 @@ Navigation::Navigation(const NavigationOptions& options, std::shared_ptr<nav::Gl
   plan_.result.status = nav::PlanResult::Status::kUnreachable;
 }
 
+double Navigation::PartialRemaining(const nav::GlobalPlan& plan) const {
+  if (!goal_ || plan.result.path_W.empty()) return 0.0;
+  const Eigen::Vector3d& end = plan.result.path_W.back();
+  return (end.head<2>() - goal_->p_W).norm() + (std::isfinite(goal_->z_m) ? 10.0 * std::abs(end.z() - goal_->z_m) : 0.0);
+}
+
 nav::GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, double x_m, double y_m,
                                                double z_m) const {
   nav::GlobalPlanRequest request;
@@ -91,6 +98,7 @@ nav::GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, dou
   request.start_z_m = state.z_m;  // the planner uses the map's levels when the robot is off its main level
   request.goal_W = {x_m, y_m};
   request.goal_z_m = z_m;
+  request.allow_partial = true;  // an upper floor not yet connected on the map: go as far as it is known
   request.platform = options_.platform.name;
   request.start_is_robot = true;  // where the robot stands: a start the map shows blocked is map noise
   if (reduced_clearance_) {
@@ -112,6 +120,7 @@ nav::GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, do
 
 void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s,
                             double z_m) {
+  DropExtension();
   Goal goal;
   goal.p_W = {x_m, y_m};
   goal.z_m = z_m;
@@ -135,7 +144,18 @@ void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m,
   turning_in_place_ = false;
 }
 
+void Navigation::DropExtension() {
+  // A running extension finishes on its own; its future waits in abandoned_ so that nothing here blocks.
+  abandoned_.erase(std::remove_if(abandoned_.begin(), abandoned_.end(),
+                                  [](const std::future<nav::GlobalPlan>& f) {
+                                    return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+                                  }),
+                   abandoned_.end());
+  if (extension_.valid()) abandoned_.push_back(std::move(extension_));
+}
+
 void Navigation::ClearGoal() {
+  DropExtension();
   if (!goal_) return;
   goal_.reset();
   plan_.result.path_W.clear();
@@ -262,6 +282,11 @@ bool Navigation::Replan(const core::BaseState& state, double now_s, std::string*
     *reason = plan.reason;
     return false;
   }
+  AdoptPlan(plan, now_s);
+  return true;
+}
+
+void Navigation::AdoptPlan(const nav::GlobalPlan& plan, double now_s) {
   plan_ = plan;
   path_segment_ = 0;
   segment_start_along_m_ = 0.0;
@@ -270,7 +295,6 @@ bool Navigation::Replan(const core::BaseState& state, double now_s, std::string*
   goal_->best_time_s = now_s;
   ++replans_;
   ++path_revision_;
-  return true;
 }
 
 void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalPlanRequest& request,
@@ -410,6 +434,31 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     step.arrived = true;
     ClearGoal();
     return step;
+  }
+  // A partial plan (the map connects no route to the goal's level yet) is extended as the map grows, and at
+  // its end, on a worker (a search over a mostly unknown map takes ~0.5 s); it fails when the map shows no
+  // way on from its end.
+  if (plan_.result.partial && !plan_.result.path_W.empty()) {
+    const Eigen::Vector3d end = plan_.result.path_W.back();
+    const bool at_end = (end.head<2>() - p_W).norm() <= std::max(goal_->tolerance_m, 0.3);
+    if (extension_.valid() && extension_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+      const nav::GlobalPlan extended = extension_.get();
+      const double before = PartialRemaining(plan_);
+      if (!extended.IsUsable()) return Fail("no route to the goal: " + extended.reason);
+      AdoptPlan(extended, now_s);
+      if (extension_at_end_ && extended.result.partial && PartialRemaining(extended) > before - 0.3) {
+        return Fail("no known route to the goal's level: the map shows no way on from (" + Fixed(end.x(), 2) + ", " +
+                    Fixed(end.y(), 2) + ") at z " + Fixed(end.z(), 2) + " (" + extended.result.message + ")");
+      }
+    } else if (!extension_.valid() &&
+               (at_end || (planner_->map_version() != plan_.map_version && now_s - last_partial_replan_s_ >= 2.0))) {
+      last_partial_replan_s_ = now_s;
+      extension_at_end_ = at_end;
+      extension_ = std::async(std::launch::async, [planner = planner_, request = GoalRequest(
+                                                      state, goal_->p_W.x(), goal_->p_W.y(), goal_->z_m)] {
+        return planner->Plan(request);
+      });
+    }
   }
   double off_path = UpdateProgress(p_W);
   // The map changed under the path, or the robot is far off it: plan again from here.

@@ -46,6 +46,14 @@ struct AStarOptions {
   /// through a gap the map's cell quantization closed (a recovery with reduced clearance, whose local
   /// planner then checks the real footprint against the live lidar points).
   double robot_radius_m = std::numeric_limits<double>::quiet_NaN();
+  /// Multi-level plans (PlanPathMultiLevel) only: when the map connects no route to the goal, return the
+  /// path to the reachable point nearest it (planar distance + 10 x height difference) as a partial plan
+  /// (PlanResult::partial), e.g. the top of the stairs seen so far on the way to an upper floor, so that the
+  /// robot goes on as its map grows; such a search stops after at most 300,000 expansions. PlanPath()
+  /// ignores it.
+  bool allow_partial = false;
+  /// Multi-level plans only: the search stops after this many expansions, [1000, 1e8] (then as if no route).
+  int max_expansions = 2000000;
   /// Path points over unknown cells get the height of the nearest known point before them on the path (else
   /// after it, else the grid's reference height).
   /// Replace the cell path by line-of-sight shortcuts through traversable cells whose clearance is at least
@@ -84,6 +92,8 @@ struct PlanResult {
   bool used_start_escape = false;
   /// Wall-clock planning time, seconds.
   double planning_time_s = 0.0;
+  /// True when path_W ends short of the goal (AStarOptions::allow_partial): the reachable point nearest it.
+  bool partial = false;
 
   /// True when status is kSuccess.
   bool IsUsable() const { return status == Status::kSuccess; }

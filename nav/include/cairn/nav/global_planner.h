@@ -72,6 +72,10 @@ struct GlobalPlanRequest {
   /// Level of the goal: the walkable surface at goal_W nearest this height, metres, frame W; NaN = the
   /// start's level (else the lowest surface there).
   double goal_z_m = std::numeric_limits<double>::quiet_NaN();
+  /// A plan over the map's levels may end short of the goal when the map connects no route to it yet
+  /// (AStarOptions::allow_partial; a robot's own goals). Unless a climbing platform would get much further
+  /// (then the plan fails naming the step, e.g. stairs for a wheeled robot).
+  bool allow_partial = false;
 };
 
 /// Answer of GlobalPlanner::Plan().
@@ -146,14 +150,16 @@ class GlobalPlanner {
   /// goal), so that no plan has to build it (a full build of an 80 m map takes ~0.4 s).
   /// @throws std::invalid_argument for a null world or grid, or an unknown platform.
   /// `levels` (optional): the caller's up-to-date MultiLevelGrid of `platform` (built with
-  /// LevelOptionsFor()); `sensor_max_z_m`: the map's highest sensor origin (MultiLevelGrid's observer
-  /// height) for the multi-level grids the planner builds itself.
+  /// LevelOptionsFor()) and `diagnose_levels` its relaxed twin (max_step_m raised to diagnose_max_step_m);
+  /// `sensor_max_z_m`: the map's highest sensor origin (MultiLevelGrid's observer height) for the multi-level
+  /// grids the planner builds itself.
   void UpdateMap(std::shared_ptr<const core::VoxelGrid> world, const std::string& platform,
                  std::shared_ptr<const TraversabilityGrid> grid,
                  std::shared_ptr<const core::VoxelGrid> seen_free = nullptr,
                  std::shared_ptr<const TraversabilityGrid> diagnose_grid = nullptr,
                  std::shared_ptr<const MultiLevelGrid> levels = nullptr,
-                 double sensor_max_z_m = std::numeric_limits<double>::quiet_NaN());
+                 double sensor_max_z_m = std::numeric_limits<double>::quiet_NaN(),
+                 std::shared_ptr<const MultiLevelGrid> diagnose_levels = nullptr);
 
   /// The traversability options the planner uses for `profile`: its own with options().reading applied.
   TraversabilityOptions TerrainOptionsFor(const PlatformProfile& profile) const;

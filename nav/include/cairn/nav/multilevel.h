@@ -35,9 +35,10 @@ namespace cairn::nav {
 /// Connections: a surface at z and the surface of an 8-neighbouring column nearest z are connected when
 /// their heights differ by at most max_step_m. A neighbour with no connected surface is "blocked" for the
 /// surface (a wall, a drop, a step too high), except, when unknown_is_lethal is false, a neighbour that is
-/// unknown at z: no voxel of its body space (z, z + robot_height_m] observed (occupied or seen free), so a
-/// floor may lie there that the robot has not seen (optimistic planning, as TraversabilityGrid's unknown
-/// cells). Outside the grid is blocked.
+/// unknown at z: no occupied voxel in its body space (z, z + robot_height_m] and the voxel a floor at z would
+/// be not seen free (no ray went through it), so a floor may lie there that the robot has not seen
+/// (optimistic planning, as TraversabilityGrid's unknown cells; a lidar never sees the floor right around
+/// itself). Outside the grid is blocked.
 ///
 /// Clearance of a surface: the Euclidean distance from its cell centre to the nearest blocked neighbour
 /// centre found through connected surfaces (brushfire propagating the nearest obstacle, as in Lau, Sprunk &
@@ -99,6 +100,8 @@ class MultiLevelGrid : public core::FootprintChecker {
   /// True if the in-grid cell (ix, iy) is unknown at height z_m (see the class comment); always false on a
   /// map read with unknown_is_lethal.
   bool IsUnknownAt(int ix, int iy, double z_m) const;
+  /// True if no column within robot_radius_m of (ix, iy) holds an observed voxel (occupied or seen free).
+  bool IsUnobservedAround(int ix, int iy) const { return !observed_near_[static_cast<std::size_t>(Column(ix, iy))]; }
   /// Largest number of surfaces of one column (1 for a single-level map).
   int max_levels() const { return max_levels_; }
 
@@ -142,6 +145,10 @@ class MultiLevelGrid : public core::FootprintChecker {
   std::vector<float> z_m_;            // per node
   std::vector<float> clearance_m_;    // per node
   std::vector<int> column_of_;        // per node
+  std::vector<std::uint8_t> observed_;  // per column: any voxel occupied or seen free (else wholly unknown)
+  // per column: an observed column lies within robot_radius_m (a square of that half side); else a body in
+  // unknown space there touches nothing known (a fast path of the search)
+  std::vector<std::uint8_t> observed_near_;
 };
 
 /// A body standing on the terrain of a map with a main level and other levels: TraversabilityGrid answers

@@ -103,6 +103,7 @@ class NavMap {
   // Every walkable surface (upper floors, stairs above stairs), updated with the grids and handed over too,
   // so that no plan off the main level has to build it.
   std::unique_ptr<nav::MultiLevelGrid> levels_;
+  std::unique_ptr<nav::MultiLevelGrid> diagnose_levels_;  // relaxed step limit (see diagnose_grid_)
   double sensor_max_z_m_ = std::numeric_limits<double>::quiet_NaN();
 };
 

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <future>
 #include <memory>
 #include <limits>
 #include <optional>
@@ -160,6 +161,12 @@ class Navigation {
     double best_distance_m = 0.0;
     double best_time_s = 0.0;
   };
+  // How far a (partial) plan's end is from the goal: planar distance + 10 x height difference to its level.
+  double PartialRemaining(const nav::GlobalPlan& plan) const;
+  // Makes `plan` (usable, for the current goal) the one followed, from its start.
+  void AdoptPlan(const nav::GlobalPlan& plan, double now_s);
+  // Forgets a running partial-plan extension without waiting for it.
+  void DropExtension();
   // Re-plans from `state` to the goal; false (and the reason) if no path remains.
   bool Replan(const core::BaseState& state, double now_s, std::string* reason);
   // Progress along the global path: updates path_segment_ and distance_left_m_; returns the distance from
@@ -198,6 +205,10 @@ class Navigation {
   int replans_ = 0;
   std::uint64_t path_revision_ = 0;
   double last_replan_check_s_ = -1e9;
+  double last_partial_replan_s_ = -1e9;  // last extension of a partial plan (the map grew)
+  std::future<nav::GlobalPlan> extension_;  // a partial plan's extension, planned on a worker
+  bool extension_at_end_ = false;           // ...asked for at the partial plan's end
+  std::vector<std::future<nav::GlobalPlan>> abandoned_;  // extensions of dropped goals, still running
   bool creeping_ = false;  // the track is the global path through a tight spot (half speed)
   bool reduced_clearance_ = false;
   bool awaiting_obstacles_ = false;  // obstacle memory cleared: no local plan before the next SetObstacles()
