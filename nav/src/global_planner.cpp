@@ -236,7 +236,9 @@ std::shared_ptr<const TraversabilityGrid> GlobalPlanner::GridLocked(const std::s
 GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
   const auto t0 = std::chrono::steady_clock::now();
   GlobalPlan plan;
-  std::lock_guard<std::mutex> guard(mutex_);
+  // The mutex guards the map and the grid caches only: the grids are immutable, so searches run unlocked
+  // (a plan over a mostly unknown map must not hold up the control loop's CheckPath or a map update).
+  std::unique_lock<std::mutex> guard(mutex_);
   plan.map_version = map_version_;
   const PlatformProfile* profile = Profile(request.platform);
   if (profile == nullptr) {
@@ -254,16 +256,20 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
   }
   if (std::isfinite(request.robot_radius_m)) astar.robot_radius_m = std::clamp(request.robot_radius_m, 0.0, 5.0);
   const auto grid = GridLocked(request.platform, false);
-  if (NeedsLevels(request, *grid)) {
-    const auto levels = LevelsLocked(request.platform, false);
+  const bool needs_levels = NeedsLevels(request, *grid);
+  const auto levels = needs_levels ? LevelsLocked(request.platform, false) : nullptr;
+  guard.unlock();
+  if (needs_levels) {
     const Eigen::Vector3d start(request.start_W.x(), request.start_W.y(), request.start_z_m);
     astar.allow_partial = request.allow_partial;
     plan.result = PlanPathMultiLevel(*levels, start, request.goal_W, request.goal_z_m, astar);
     const bool short_of_goal = plan.result.partial || plan.result.status == PlanResult::Status::kUnreachable;
-    if (short_of_goal && options_.diagnose_max_step_m > profile->traversability.max_step_m) {
-      // The same request allowing higher steps: when that reaches the goal (or gets at least 1 m higher toward
+    if (short_of_goal && request.diagnose && options_.diagnose_max_step_m > profile->traversability.max_step_m) {
+      // The same request allowing higher steps: when that reaches the goal (or gets 0.5 m higher toward
       // its level), this platform's step limit is what stops it; name the first step above it, cell by cell.
+      guard.lock();
       const auto relaxed = LevelsLocked(request.platform, true);
+      guard.unlock();
       AStarOptions cells = astar;
       cells.simplify_path = false;
       const PlanResult r = PlanPathMultiLevel(*relaxed, start, request.goal_W, request.goal_z_m, cells);
@@ -272,7 +278,7 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
         return p.path_W.empty() || !std::isfinite(goal_z) ? kInf : std::abs(p.path_W.back().z() - goal_z);
       };
       const bool relaxed_better =
-          r.IsUsable() && (!r.partial || !plan.result.IsUsable() || height_gap(r) < height_gap(plan.result) - 1.0);
+          r.IsUsable() && (!r.partial || !plan.result.IsUsable() || height_gap(r) < height_gap(plan.result) - 0.5);
       double step = 0.0;
       Eigen::Vector2d at = request.start_W;
       for (std::size_t i = 1; relaxed_better && i < r.path_W.size(); ++i) {
@@ -283,7 +289,12 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
           break;
         }
       }
-      const std::string diagnosis = relaxed_better ? DescribeStep(*profile, step, at) : "";
+      // A route that is only partial either way names a step only when another platform served here climbs it
+      // (stairs for a wheeled robot), not an artefact of the relaxed limit (a wall's edge seen at 0.4 m).
+      bool another_climbs = !r.partial;
+      for (const auto& other : profiles_) another_climbs = another_climbs || (other.name != profile->name &&
+                                                                              other.traversability.max_step_m + 1e-9 >= step);
+      const std::string diagnosis = relaxed_better && another_climbs ? DescribeStep(*profile, step, at) : "";
       if (!diagnosis.empty()) {
         plan.result.status = PlanResult::Status::kUnreachable;
         plan.result.path_W.clear();
@@ -311,7 +322,11 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
 std::string GlobalPlanner::DiagnoseUnreachable(const PlatformProfile& profile, const GlobalPlanRequest& request,
                                                const AStarOptions& astar) {
   if (options_.diagnose_max_step_m <= profile.traversability.max_step_m) return "";
-  const auto relaxed = GridLocked(profile.name, true);
+  std::shared_ptr<const TraversabilityGrid> relaxed;
+  {
+    std::lock_guard<std::mutex> guard(mutex_);
+    relaxed = GridLocked(profile.name, true);
+  }
   const PlanResult r = PlanPath(*relaxed, request.start_W, request.goal_W, astar);
   if (!r.IsUsable()) return "";
   // The largest ground height change between neighbouring cells along the relaxed route.
@@ -355,7 +370,7 @@ std::string GlobalPlanner::DescribeStep(const PlatformProfile& profile, double w
 PathCheck GlobalPlanner::CheckPath(const std::vector<Eigen::Vector3d>& path_W, const std::string& platform,
                                    int from_segment) {
   PathCheck check;
-  std::lock_guard<std::mutex> guard(mutex_);
+  std::unique_lock<std::mutex> guard(mutex_);
   const auto grid = GridLocked(platform, false);
   if (grid == nullptr) {
     check.valid = false;
@@ -377,6 +392,7 @@ PathCheck GlobalPlanner::CheckPath(const std::vector<Eigen::Vector3d>& path_W, c
     }
   }
   const auto levels = off_main_level ? LevelsLocked(platform, false) : nullptr;
+  guard.unlock();
   for (std::size_t i = static_cast<std::size_t>(std::max(0, from_segment)); i + 1 < path_W.size(); ++i) {
     const bool traversable = levels ? SegmentTraversableMultiLevel(*levels, path_W[i], path_W[i + 1])
                                     : SegmentTraversable(*grid, path_W[i].head<2>(), path_W[i + 1].head<2>());

@@ -22,10 +22,8 @@ constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1};
 constexpr int kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
 // A goal or start names a level within this height of a surface, metres.
 constexpr double kLevelMatch_m = 1.0;
-// A partial plan ends where planar distance + this x height difference to the goal is least: height first.
-constexpr double kPartialHeightWeight = 10.0;
 // Expansions of a search that may end partial (see AStarOptions::allow_partial).
-constexpr int kPartialMaxExpansions = 300000;
+constexpr int kPartialMaxExpansions = 80000;
 
 std::string Point2(const Eigen::Vector2d& p) {
   char buf[96];
@@ -419,8 +417,10 @@ std::optional<double> LeveledTerrain::GroundHeight(double x_m, double y_m) const
 }
 
 bool LeveledTerrain::IsFootprintFreeNear(double x_m, double y_m, double z_m, double radius_m) const {
-  return OnMainLevel(x_m, y_m, z_m) ? main_->IsFootprintFree(x_m, y_m, radius_m)
-                                     : levels_->IsFootprintFreeNear(x_m, y_m, z_m, radius_m);
+  // The main level's single ground per column reads a junction of levels (the top of a flight next to a
+  // landing over a lower floor) as a drop: free where either grid finds the body free on its level.
+  return (OnMainLevel(x_m, y_m, z_m) && main_->IsFootprintFree(x_m, y_m, radius_m)) ||
+         levels_->IsFootprintFreeNear(x_m, y_m, z_m, radius_m);
 }
 
 std::optional<double> LeveledTerrain::GroundHeightNear(double x_m, double y_m, double z_m) const {
@@ -522,6 +522,11 @@ bool WalkSegment(const MultiLevelSearch& search, const MultiLevelGrid& grid, con
 }
 
 }  // namespace
+
+double PartialRemainingM(const Eigen::Vector3d& p_W, const Eigen::Vector2d& goal_W, double goal_z_m) {
+  constexpr double kHeightWeight = 30.0;
+  return (p_W.head<2>() - goal_W).norm() + (std::isfinite(goal_z_m) ? kHeightWeight * std::abs(p_W.z() - goal_z_m) : 0.0);
+}
 
 bool SegmentTraversableMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& a_W, const Eigen::Vector3d& b_W,
                                   double min_clearance_m, double robot_radius_m) {
@@ -655,7 +660,8 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
   // How far a state is from the goal, for a partial plan: planar distance + 10 x height difference.
   const double goal_level_z = goal_node >= 0 ? grid.NodeZ(goal_node) : target_z;
   auto remaining = [&](const State& s) {
-    return (grid.CellCenter(s.ix, s.iy) - goal_W).norm() + kPartialHeightWeight * std::abs(s.z - goal_level_z);
+    const Eigen::Vector2d p = grid.CellCenter(s.ix, s.iy);
+    return PartialRemainingM(Eigen::Vector3d(p.x(), p.y(), s.z), goal_W, goal_level_z);
   };
   const std::int64_t start_key = search.Key(*start);
   record(start_key) = Record{0.0, -1, false, *start};

@@ -17,6 +17,7 @@ using internal::InRange;
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kArrivalSpeedMps = 0.1;  // arrival needs the robot at most this fast
 constexpr double kArrivalLevelM = 0.5;     // ...and this close to the height of a goal's level
+constexpr double kPartialWaitS = 8.0;      // a partial plan's end is a dead end after this long without a way on
 constexpr double kGoalSnapM = 0.25;        // largest hop from a free local path sample to the goal
 
 using internal::Fixed;
@@ -87,8 +88,7 @@ Navigation::Navigation(const NavigationOptions& options, std::shared_ptr<nav::Gl
 
 double Navigation::PartialRemaining(const nav::GlobalPlan& plan) const {
   if (!goal_ || plan.result.path_W.empty()) return 0.0;
-  const Eigen::Vector3d& end = plan.result.path_W.back();
-  return (end.head<2>() - goal_->p_W).norm() + (std::isfinite(goal_->z_m) ? 10.0 * std::abs(end.z() - goal_->z_m) : 0.0);
+  return nav::PartialRemainingM(plan.result.path_W.back(), goal_->p_W, goal_->z_m);
 }
 
 nav::GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, double x_m, double y_m,
@@ -121,6 +121,7 @@ nav::GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, do
 void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s,
                             double z_m) {
   DropExtension();
+  partial_stuck_since_s_ = -1.0;
   Goal goal;
   goal.p_W = {x_m, y_m};
   goal.z_m = z_m;
@@ -427,37 +428,57 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   const double to_goal = (goal_->p_W - p_W).norm();
   // Arrived: within the tolerance and (nearly) at rest, so the robot stops where it reports arriving; on the
   // level of the plan's end when the goal names one (an upper floor lies over the same x-y).
-  const bool on_goal_level = !std::isfinite(goal_->z_m) || plan_.result.path_W.empty() ||
-                             std::abs(state.z_m - plan_.result.path_W.back().z()) <= kArrivalLevelM;
+  // A partial plan's end is not the goal.
+  const bool on_goal_level = !plan_.result.partial &&
+                             (!std::isfinite(goal_->z_m) || plan_.result.path_W.empty() ||
+                              std::abs(state.z_m - plan_.result.path_W.back().z()) <= kArrivalLevelM);
   if (to_goal <= goal_->tolerance_m && on_goal_level && std::abs(state.v_mps) <= kArrivalSpeedMps) {
     NavigationStep step;
     step.arrived = true;
     ClearGoal();
     return step;
   }
-  // A partial plan (the map connects no route to the goal's level yet) is extended as the map grows, and at
-  // its end, on a worker (a search over a mostly unknown map takes ~0.5 s); it fails when the map shows no
-  // way on from its end.
+  // Plans over the map's levels (a goal naming a level, a partial plan) can take ~1 s on a mostly unknown map:
+  // they are replanned on a worker while the robot follows the current path. A partial plan (the map connects
+  // no route to the goal's level yet) is also extended as the map grows and at its end, and fails when the
+  // map shows no way on from there.
+  const bool replan_async = std::isfinite(goal_->z_m) || plan_.result.partial;
+  if (extension_.valid() && extension_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+    const nav::GlobalPlan extended = extension_.get();
+    const Eigen::Vector3d end = plan_.result.path_W.empty() ? Eigen::Vector3d::Zero() : plan_.result.path_W.back();
+    const bool was_partial = plan_.result.partial;
+    const double before = PartialRemaining(plan_);
+    // From a partial plan's end, "no route" (nothing nearer the goal than where the robot stands) is the same
+    // as no progress: the robot waits there a few map updates before failing.
+    if (!extended.IsUsable() && !(was_partial && extended.platform_known &&
+                                  extended.result.status == nav::PlanResult::Status::kUnreachable)) {
+      return Fail("no route to the goal: " + extended.reason);
+    }
+    if (extended.IsUsable()) AdoptPlan(extended, now_s);
+    const bool no_way_on = was_partial && (!extended.IsUsable() || (extension_at_end_ && extended.result.partial &&
+                                                                    PartialRemaining(extended) > before - 0.3));
+    if (!no_way_on) partial_stuck_since_s_ = -1.0;
+    if (no_way_on && partial_stuck_since_s_ < 0.0) partial_stuck_since_s_ = now_s;
+    // At the end of what the map shows, the robot waits a few map updates (it sees further from there).
+    if (no_way_on && now_s - partial_stuck_since_s_ >= kPartialWaitS) {
+      return Fail("no known route to the goal's level: the map shows no way on from (" + Fixed(end.x(), 2) + ", " +
+                  Fixed(end.y(), 2) + ") at z " + Fixed(end.z(), 2) + " (" +
+                  (extended.IsUsable() ? extended.result.message : extended.reason) + ")");
+    }
+  }
+  auto replan_on_worker = [&](bool at_end) {
+    if (extension_.valid()) return;  // one at a time; the next check asks again if still needed
+    last_partial_replan_s_ = now_s;
+    extension_at_end_ = at_end;
+    nav::GlobalPlanRequest request = GoalRequest(state, goal_->p_W.x(), goal_->p_W.y(), goal_->z_m);
+    request.diagnose = at_end;  // naming a step matters when the robot can go no further
+    extension_ = std::async(std::launch::async, [planner = planner_, request] { return planner->Plan(request); });
+  };
   if (plan_.result.partial && !plan_.result.path_W.empty()) {
-    const Eigen::Vector3d end = plan_.result.path_W.back();
-    const bool at_end = (end.head<2>() - p_W).norm() <= std::max(goal_->tolerance_m, 0.3);
-    if (extension_.valid() && extension_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
-      const nav::GlobalPlan extended = extension_.get();
-      const double before = PartialRemaining(plan_);
-      if (!extended.IsUsable()) return Fail("no route to the goal: " + extended.reason);
-      AdoptPlan(extended, now_s);
-      if (extension_at_end_ && extended.result.partial && PartialRemaining(extended) > before - 0.3) {
-        return Fail("no known route to the goal's level: the map shows no way on from (" + Fixed(end.x(), 2) + ", " +
-                    Fixed(end.y(), 2) + ") at z " + Fixed(end.z(), 2) + " (" + extended.result.message + ")");
-      }
-    } else if (!extension_.valid() &&
-               (at_end || (planner_->map_version() != plan_.map_version && now_s - last_partial_replan_s_ >= 2.0))) {
-      last_partial_replan_s_ = now_s;
-      extension_at_end_ = at_end;
-      extension_ = std::async(std::launch::async, [planner = planner_, request = GoalRequest(
-                                                      state, goal_->p_W.x(), goal_->p_W.y(), goal_->z_m)] {
-        return planner->Plan(request);
-      });
+    const bool at_end = (plan_.result.path_W.back().head<2>() - p_W).norm() <= std::max(goal_->tolerance_m, 0.3);
+    if ((at_end && now_s - last_partial_replan_s_ >= 1.0) ||
+        (planner_->map_version() != plan_.map_version && now_s - last_partial_replan_s_ >= 4.0)) {
+      replan_on_worker(at_end);
     }
   }
   double off_path = UpdateProgress(p_W);
@@ -468,13 +489,21 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     std::string why;
     if (map_changed && !planner_->CheckPath(plan_.result.path_W, options_.platform.name,
                                             static_cast<int>(path_segment_)).valid) {
-      if (!Replan(state, now_s, &why)) return Fail("the map changed under the path and no new path exists: " + why);
-      off_path = UpdateProgress(p_W);
+      if (replan_async) {
+        replan_on_worker(false);
+      } else {
+        if (!Replan(state, now_s, &why)) return Fail("the map changed under the path and no new path exists: " + why);
+        off_path = UpdateProgress(p_W);
+      }
     } else if (map_changed) {
       plan_.map_version = planner_->map_version();  // still valid on the new map
     } else if (off_path > options_.max_path_deviation_m) {
-      if (!Replan(state, now_s, &why)) return Fail(Fixed(off_path, 1) + " m off the path and no new path: " + why);
-      off_path = UpdateProgress(p_W);
+      if (replan_async) {
+        replan_on_worker(false);
+      } else {
+        if (!Replan(state, now_s, &why)) return Fail(Fixed(off_path, 1) + " m off the path and no new path: " + why);
+        off_path = UpdateProgress(p_W);
+      }
     }
   }
   // Progress bookkeeping: ETA from a slow mean of the speed, blocked when no progress.

@@ -47,9 +47,9 @@ struct AStarOptions {
   /// planner then checks the real footprint against the live lidar points).
   double robot_radius_m = std::numeric_limits<double>::quiet_NaN();
   /// Multi-level plans (PlanPathMultiLevel) only: when the map connects no route to the goal, return the
-  /// path to the reachable point nearest it (planar distance + 10 x height difference) as a partial plan
+  /// path to the reachable point nearest it (PartialRemainingM() in multilevel.h) as a partial plan
   /// (PlanResult::partial), e.g. the top of the stairs seen so far on the way to an upper floor, so that the
-  /// robot goes on as its map grows; such a search stops after at most 300,000 expansions. PlanPath()
+  /// robot goes on as its map grows; such a search stops after at most 80,000 expansions. PlanPath()
   /// ignores it.
   bool allow_partial = false;
   /// Multi-level plans only: the search stops after this many expansions, [1000, 1e8] (then as if no route).

@@ -76,6 +76,9 @@ struct GlobalPlanRequest {
   /// (AStarOptions::allow_partial; a robot's own goals). Unless a climbing platform would get much further
   /// (then the plan fails naming the step, e.g. stairs for a wheeled robot).
   bool allow_partial = false;
+  /// When a plan over the map's levels falls short of the goal, also plan allowing higher steps to name the
+  /// step that stops the platform (doubles the work; a robot extending a partial plan skips it).
+  bool diagnose = true;
 };
 
 /// Answer of GlobalPlanner::Plan().
@@ -108,8 +111,8 @@ struct PathCheck {
 };
 
 /// The global path service over one 3D world (the robot's map). Thread-safe: Plan(), CheckPath() and
-/// UpdateWorld() may be called from any thread (one mutex, held for a whole plan: a few ms on geb079.bt, ~30
-/// ms more when a grid is built); map_version() never waits.
+/// UpdateWorld() may be called from any thread (one mutex, held while a grid is fetched or built, never
+/// during a search: grids are immutable and shared); map_version() never waits.
 ///
 /// Traversability grids are built lazily per platform on first use and rebuilt after UpdateWorld().
 ///

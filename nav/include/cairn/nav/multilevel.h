@@ -151,9 +151,11 @@ class MultiLevelGrid : public core::FootprintChecker {
   std::vector<std::uint8_t> observed_near_;
 };
 
-/// A body standing on the terrain of a map with a main level and other levels: TraversabilityGrid answers
-/// where the body is on its main-level ground (within max_step_m of it), the MultiLevelGrid elsewhere (an
-/// upper floor, a stair flight above another). The single-level queries are the main level's.
+/// A body standing on the terrain of a map with a main level and other levels: the ground height is
+/// TraversabilityGrid's where the body is on its main-level ground (within max_step_m of it), the
+/// MultiLevelGrid's elsewhere (an upper floor, a stair flight above another); the body is free where either
+/// finds it free on its level (the main level reads a junction of levels as a drop). The single-level queries
+/// are the main level's.
 class LeveledTerrain : public core::FootprintChecker {
  public:
   /// @throws std::invalid_argument if either is null.
@@ -170,6 +172,11 @@ class LeveledTerrain : public core::FootprintChecker {
   std::shared_ptr<const TraversabilityGrid> main_;
   std::shared_ptr<const MultiLevelGrid> levels_;
 };
+
+/// How far point p_W (x, y, z; metres, frame W) is from a goal at (goal_W, goal_z_m) for a partial plan
+/// (AStarOptions::allow_partial): planar distance + 30 x height difference (metres; height progress first: a
+/// robot climbs the stairs it sees rather than waiting under the goal). goal_z_m NaN: planar distance only.
+double PartialRemainingM(const Eigen::Vector3d& p_W, const Eigen::Vector2d& goal_W, double goal_z_m);
 
 /// Plans on `grid` from start_W (x, y, z of the ground under the robot; metres, frame W) to goal_W (x, y) on
 /// the surface nearest goal_z_m (NaN: the surface nearest the start's height within 1 m, else the lowest),

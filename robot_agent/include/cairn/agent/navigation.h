@@ -161,7 +161,7 @@ class Navigation {
     double best_distance_m = 0.0;
     double best_time_s = 0.0;
   };
-  // How far a (partial) plan's end is from the goal: planar distance + 10 x height difference to its level.
+  // How far a (partial) plan's end is from the goal (nav::PartialRemainingM).
   double PartialRemaining(const nav::GlobalPlan& plan) const;
   // Makes `plan` (usable, for the current goal) the one followed, from its start.
   void AdoptPlan(const nav::GlobalPlan& plan, double now_s);
@@ -208,6 +208,7 @@ class Navigation {
   double last_partial_replan_s_ = -1e9;  // last extension of a partial plan (the map grew)
   std::future<nav::GlobalPlan> extension_;  // a partial plan's extension, planned on a worker
   bool extension_at_end_ = false;           // ...asked for at the partial plan's end
+  double partial_stuck_since_s_ = -1.0;     // at a partial plan's end with no way on since; -1 = not
   std::vector<std::future<nav::GlobalPlan>> abandoned_;  // extensions of dropped goals, still running
   bool creeping_ = false;  // the track is the global path through a tight spot (half speed)
   bool reduced_clearance_ = false;
