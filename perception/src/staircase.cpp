@@ -344,12 +344,53 @@ class DetectorRun {
       } else {
         ++stats_->chains_rejected;
         stats_->last_rejection = why;
+        stats_->rejections.push_back(why);
       }
     }
+    MergeContinuations(&out);
     std::sort(out.begin(), out.end(),
               [](const Staircase& a, const Staircase& b) { return a.confidence > b.confidence; });
     stats_->fit_ms = MsSince(t2);
     return out;
+  }
+
+  // One flight is one detection: a detection that continues another one up the same flight (a chain broken
+  // by two unseen risers, or a far part chained apart) is merged into it. `upper` continues `lower` when
+  // their directions differ by at most 10 deg, the upper first riser lies k whole runs (within a third of a
+  // run; 1 <= k <= lower's risers + 2) and k rises (within half a rise) from the lower one, and their
+  // centres lie within half the narrower width of each other across the flight. The merge keeps the lower
+  // first riser, spans both, and averages rise, run and width weighted by support points.
+  static void MergeContinuations(std::vector<Staircase>* found) {
+    bool merged = true;
+    while (merged) {
+      merged = false;
+      for (std::size_t i = 0; i < found->size() && !merged; ++i) {
+        for (std::size_t j = 0; j < found->size() && !merged; ++j) {
+          if (i == j) continue;
+          Staircase& lower = (*found)[i];
+          const Staircase& upper = (*found)[j];
+          if (std::abs(WrapAngle(lower.yaw_rad - upper.yaw_rad)) > 10.0 * kPi / 180.0) continue;
+          const Eigen::Vector2d u(std::cos(lower.yaw_rad), std::sin(lower.yaw_rad));
+          const Eigen::Vector2d d = (upper.p_W_first_step - lower.p_W_first_step).head<2>();
+          const double along = u.dot(d);
+          const int k = static_cast<int>(std::lround(along / lower.run_m));
+          if (k < 1 || k > lower.num_steps + 2 || std::abs(along - k * lower.run_m) > lower.run_m / 3.0) continue;
+          const double dz = upper.p_W_first_step.z() - lower.p_W_first_step.z();
+          if (std::abs(dz - k * lower.rise_m) > 0.5 * lower.rise_m) continue;
+          if (std::abs(u.x() * d.y() - u.y() * d.x()) > 0.5 * std::min(lower.width_m, upper.width_m)) continue;
+          const double wl = std::max(1, lower.support_points), wu = std::max(1, upper.support_points);
+          const double w = wl + wu;
+          lower.rise_m = (wl * lower.rise_m + wu * upper.rise_m) / w;
+          lower.run_m = (wl * lower.run_m + wu * upper.run_m) / w;
+          lower.width_m = (wl * lower.width_m + wu * upper.width_m) / w;
+          lower.num_steps = std::max(lower.num_steps, k + upper.num_steps);
+          lower.confidence = std::max(lower.confidence, upper.confidence);
+          lower.support_points += upper.support_points;
+          found->erase(found->begin() + static_cast<std::ptrdiff_t>(j));
+          merged = true;
+        }
+      }
+    }
   }
 
  private:
@@ -972,6 +1013,24 @@ class DetectorRun {
         p.t = -s * p.dx + c * p.dy;
       }
     }
+    // A first riser is a step up from the floor in front of it. A fit that slipped a step down the flight (a
+    // "first riser" in front of the real one, its floor a rise below the real floor) finds the surface in
+    // front of its first riser at its first tread's height, not at its floor's: such phantom lowest steps are
+    // dropped. (Seen from the top, the floor in front may be hidden: no point either way, nothing dropped.)
+    constexpr int kMinFloorPoints = 5;
+    while (m.n >= o_.min_steps) {
+      int floor_points = 0, raised_points = 0;
+      for (const Local& p : near) {
+        if (p.t < chain.t_lo_m + 0.1 || p.t > chain.t_hi_m - 0.1) continue;
+        if (p.s < m.s0 - m.run || p.s > m.s0 - 0.05) continue;
+        floor_points += std::abs(p.z - m.z0) <= 0.03 ? 1 : 0;
+        raised_points += std::abs(p.z - m.z0 - m.rise) <= 0.03 ? 1 : 0;
+      }
+      if (raised_points < kMinFloorPoints || raised_points <= floor_points) break;
+      m.s0 += m.run;
+      m.z0 += m.rise;
+      --m.n;
+    }
     // Residuals, support and the lateral extent of every step.
     double sq = 0;
     int inliers = 0;
@@ -1039,7 +1098,9 @@ class DetectorRun {
       coverage_sum += static_cast<double>(std::count(hit.begin(), hit.end(), 1)) / bins;
     }
     const double coverage = coverage_sum / m.n;
-    // Free space above the treads inside each step's lateral extent (shrunk by 0.15 m).
+    // Free space above the treads inside each step's lateral extent, shrunk by 0.25 m on each side: side walls
+    // (a stairwell; a sparse wall whose gaps let the tread's extent reach into it) are not above the treads,
+    // shelves and terraces span the width.
     int violations = 0;
     for (const Local& p : near) {
       const int k = static_cast<int>(std::floor((p.s - m.s0) / m.run));  // Step index (0-based) at s.
@@ -1047,7 +1108,7 @@ class DetectorRun {
       const double ds = p.s - m.RiserS(k);
       if (ds < 0.05 || ds > m.run - 0.05) continue;
       const auto& e = extent[static_cast<std::size_t>(k)];
-      if (p.t < e.first + 0.15 || p.t > e.second - 0.15) continue;
+      if (p.t < e.first + 0.25 || p.t > e.second - 0.25) continue;
       const double above = p.z - m.TreadZ(k + 1);
       if (above > 0.1 && above < 1.0) ++violations;
     }

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <random>
 #include <string>
@@ -419,6 +420,147 @@ TEST(StaircaseFalsePositiveTest, Geb079CorridorWithoutStairs) {
     stretches.push_back(east ? Line(x, y, x + 1.5, y, 4) : Line(x + 1.5, y, x, y, 4));
   }
   ExpectNoStairs(world, stretches, "geb079_no_stairs");
+}
+
+// ---- Walls, crates, flights seen side-on; 0.25 m runs (issue 11 §5) -------------------------------------
+// Scenes at 1 cm voxels: an 8 x 8 m floor (surface z = 0) and what stands on it. bench/staircase_accuracy.cpp
+// scores the same kinds of scene over many views.
+
+// Fills the voxels whose centres lie over the rectangle [s0, s1) x [t0, t1) of the frame at `origin` rotated by
+// `yaw_rad`, from z = 0 (or `z0`) up to top(s).
+void FillPrism(sim::World* w, const Eigen::Vector2d& origin, double yaw_rad, double s0, double s1, double t0,
+               double t1, const std::function<double(double)>& top, double z0 = -0.05) {
+  const Eigen::Vector2d u(std::cos(yaw_rad), std::sin(yaw_rad)), v(-u.y(), u.x());
+  for (int ix = 0; ix < w->dims().x(); ++ix) {
+    for (int iy = 0; iy < w->dims().y(); ++iy) {
+      const Eigen::Vector2d d = w->CenterOf({ix, iy, 0}).head<2>() - origin;
+      const double s = u.dot(d), t = v.dot(d);
+      if (s < s0 || s >= s1 || t < t0 || t >= t1) continue;
+      for (int iz = 0; iz < w->dims().z() && w->CenterOf({ix, iy, iz}).z() < top(s); ++iz) {
+        if (w->CenterOf({ix, iy, iz}).z() >= z0) w->SetOccupied({ix, iy, iz});
+      }
+    }
+  }
+}
+
+sim::World FloorScene(const char* name) {
+  sim::World w(name, Eigen::Vector3d(0.0, 0.0, -0.05), 0.01, Eigen::Vector3i(800, 800, 250));
+  FillPrism(&w, {0.0, 0.0}, 0.0, 0.0, 8.0, 0.0, 8.0, [](double) { return 0.0; });
+  return w;
+}
+
+// A flight of 8 steps (run 0.25 m) and a 1 m landing from `foot` towards `yaw_rad`, solid to the floor,
+// optionally between two 0.1 m walls 1 m above the nosing line.
+void AddFlight(sim::World* w, const Eigen::Vector2d& foot, double yaw_rad, double rise_m, double width_m,
+               bool walls) {
+  constexpr double kRun = 0.25, kLen = 8 * kRun;
+  FillPrism(w, foot, yaw_rad, 0.0, kLen + 1.0, -0.5 * width_m, 0.5 * width_m, [rise_m](double s) {
+    return rise_m * (s < kLen ? std::floor(s / kRun) + 1.0 : 8.0);
+  });
+  if (!walls) return;
+  for (double t0 : {0.5 * width_m, -0.5 * width_m - 0.1}) {
+    FillPrism(w, foot, yaw_rad, 0.0, kLen + 1.0, t0, t0 + 0.1,
+              [rise_m](double s) { return 1.0 + rise_m * std::min(s, 8 * 0.25) / 0.25; });
+  }
+}
+
+// Detections from a 1.5 m drive (4 scans, true poses) ending at `end` heading `yaw_rad`.
+std::vector<Staircase> DetectAfterDrive(const sim::World& world, const Eigen::Vector2d& end, double yaw_rad,
+                                        std::uint32_t seed, DetectStats* stats) {
+  const Eigen::Vector2d start = end - 1.5 * Eigen::Vector2d(std::cos(yaw_rad), std::sin(yaw_rad));
+  LocalCloud cloud;
+  sim::SimulatedLidar lidar(sim::LidarOptions{}, seed);
+  sim::LidarScan scan;
+  const std::vector<SensorPose> poses = Line(start.x(), start.y(), end.x(), end.y(), 4);
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    lidar.Scan(world, ToIsometry(poses[i]), &scan);
+    cloud.AddScan(scan.points_S, ToIsometry(poses[i]), 0.5 * static_cast<double>(i));
+  }
+  return StaircaseDetector().Detect(cloud.Points(), Eigen::Vector3d(end.x(), end.y(), 0.5), stats);
+}
+
+TEST(StaircaseRejectionTest, WallIsNotAStaircase) {
+  sim::World world = FloorScene("wall");
+  FillPrism(&world, {5.0, 2.0}, 0.5 * kPi, 0.0, 4.0, -0.2, 0.0, [](double) { return 2.5; });  // x in [5, 5.2]
+  std::uint32_t seed = 1;
+  for (double d : {1.5, 2.5}) {
+    for (double a : {0.0, 30.0 * kDeg}) {
+      const Eigen::Vector2d end = Eigen::Vector2d(5.0, 4.0) - d * Eigen::Vector2d(std::cos(a), std::sin(a));
+      DetectStats stats;
+      EXPECT_TRUE(DetectAfterDrive(world, end, a, ++seed, &stats).empty()) << "wall from " << end.transpose();
+      EXPECT_GT(stats.edge_cells, 0);  // The wall's foot and the floor give edge cells, never a chain.
+    }
+  }
+}
+
+// A pallet (1.2 x 1.0 m, 0.15 m high) with a 0.8 m cube set back on it: two edges 0.15 m and 0.8 m high, a
+// single 0.45 m crate beside: no three risers of one rise.
+TEST(StaircaseRejectionTest, CratesAreNotAStaircase) {
+  sim::World world = FloorScene("crates");
+  FillPrism(&world, {5.0, 3.0}, 0.0, 0.0, 1.0, 0.0, 1.2, [](double) { return 0.15; });
+  FillPrism(&world, {5.1, 3.2}, 0.0, 0.1, 0.9, 0.0, 0.8, [](double) { return 0.95; });
+  FillPrism(&world, {5.0, 5.0}, 0.0, 0.0, 0.4, 0.0, 0.6, [](double) { return 0.45; });
+  std::uint32_t seed = 10;
+  for (double d : {1.5, 2.5}) {
+    for (double a : {0.0, -30.0 * kDeg}) {
+      const Eigen::Vector2d end = Eigen::Vector2d(5.0, 3.6) - d * Eigen::Vector2d(std::cos(a), std::sin(a));
+      DetectStats stats;
+      EXPECT_TRUE(DetectAfterDrive(world, end, a, ++seed, &stats).empty()) << "crates from " << end.transpose();
+    }
+  }
+}
+
+// A real flight seen side-on (the lidar looks across its run, at its sawtooth side): it is either found with
+// its own ascending direction, at its own risers, or not at all; never a staircase along the viewing ray, never
+// one of its parts described with wrong heights.
+TEST(StaircaseRejectionTest, FlightSeenSideOnIsNeverAStaircaseAlongTheRay) {
+  constexpr double kRise = 0.18;
+  sim::World world = FloorScene("side_on");
+  AddFlight(&world, {2.5, 4.0}, 0.0, kRise, 1.2, false);
+  std::uint32_t seed = 20;
+  int views = 0;
+  for (int side : {1, -1}) {
+    for (double along : {3.0, 3.5, 4.0}) {
+      for (double d : {1.5, 2.5}) {
+        const Eigen::Vector2d end(along, 4.0 + side * (0.6 + d));
+        const std::vector<Staircase> found = DetectAfterDrive(world, end, -side * 0.5 * kPi, ++seed, nullptr);
+        ++views;
+        ASSERT_LE(found.size(), 1u) << "one flight, several staircases, from " << end.transpose();
+        for (const Staircase& s : found) {
+          EXPECT_LT(AngleError(s.yaw_rad, 0.0), 10.0 * kDeg) << "wrong axis from " << end.transpose();
+          const double k = std::round((s.p_W_first_step.x() - 2.5) / 0.25);
+          EXPECT_NEAR(s.p_W_first_step.x(), 2.5 + 0.25 * k, 0.1) << end.transpose();
+          EXPECT_NEAR(s.p_W_first_step.z(), kRise * k, 0.05) << end.transpose();
+          EXPECT_NEAR(s.rise_m, kRise, 0.02) << end.transpose();
+        }
+      }
+    }
+  }
+  EXPECT_EQ(views, 12);
+}
+
+// Run error on 0.25 m runs (issue 11 §5: <= 2 cm): flights of rise 0.17-0.20 m between walls, straight and at
+// 30 deg, approached from 1.5 m and 2.5 m; one detection per flight.
+TEST(StaircaseDetectorTest, QuarterMetreRunsWithinTwoCentimetres) {
+  std::uint32_t seed = 40;
+  double worst_run_err = 0.0;
+  for (const auto& [rise, yaw] : {std::pair<double, double>{0.17, 0.0}, {0.19, 30.0 * kDeg}, {0.20, 0.0}}) {
+    sim::World world = FloorScene("quarter_runs");
+    const Eigen::Vector2d foot(3.0, 3.0), u(std::cos(yaw), std::sin(yaw));
+    AddFlight(&world, foot, yaw, rise, 1.0, true);
+    for (double d : {1.5, 2.5}) {
+      DetectStats stats;
+      const std::vector<Staircase> found = DetectAfterDrive(world, foot - d * u, yaw, ++seed, &stats);
+      ASSERT_EQ(found.size(), 1u) << "rise " << rise << " from " << d << " m: " << stats.last_rejection;
+      const Staircase& s = found[0];
+      worst_run_err = std::max(worst_run_err, std::abs(s.run_m - 0.25));
+      EXPECT_NEAR(s.run_m, 0.25, 0.02) << "rise " << rise << " from " << d << " m";
+      EXPECT_NEAR(s.rise_m, rise, 0.01) << "rise " << rise << " from " << d << " m";
+      EXPECT_LT(AngleError(s.yaw_rad, yaw), 2.0 * kDeg);
+      EXPECT_LT((s.p_W_first_step.head<2>() - foot).norm(), 0.05);
+    }
+  }
+  std::printf("FIGURE stairs_quarter_runs worst_run_err_m %.4f\n", worst_run_err);
 }
 
 // ---- LocalCloud ------------------------------------------------------------------------------------------

@@ -256,7 +256,10 @@ const std::vector<BuiltinWorldInfo>& Infos() {
        0.1,
        0.0,
        {{4.0, 20.0, 0.0}, {14.0, 20.0, 0.0}, {30.0, 12.0, kPi / 2}, {20.0, 35.0, 0.0}, {40.0, 5.0, kPi}},
-       {50.0, 18.0, 0.0}},
+       {50.0, 18.0, 0.0},
+       // The room's staircase (see MakeTunnels): risers at x = 50, 50.5, .., 52, from y = 22.5 to the room
+       // wall at y = 25 (rough by up to 0.24 m).
+       {{Eigen::Vector3d(50.0, 23.75, 0.0), 0.0, 0.2, 0.5, 2.5, 5}}},
       {"arena",
        "20 x 14 m walled yard without ceiling, three pillars and a 0.1 m plate",
        0.1,

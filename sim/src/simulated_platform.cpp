@@ -93,31 +93,50 @@ std::vector<Rockfall> ParseRockfalls(const std::string& text) {
     if (entry.find_first_not_of(" \t") == std::string::npos) continue;
     auto fail = [&](const std::string& rule) {
       throw std::invalid_argument("simulation.rockfalls entry '" + entry + "': " + rule +
-                                  " (format AT_S:X0,Y0,X1,Y1,HEIGHT_M)");
+                                  " (format AT_S:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR_S])");
     };
-    const auto colon = entry.find(':');
-    if (colon == std::string::npos) fail("missing ':' after the time");
-    std::vector<double> v;
-    std::stringstream numbers(entry.substr(0, colon) + "," + entry.substr(colon + 1));
-    std::string item;
-    while (std::getline(numbers, item, ',')) {
+    auto number = [&](const std::string& field, const std::string& item) {
       double x = 0.0;
       std::size_t used = 0;
       try {
         x = std::stod(item, &used);
       } catch (const std::logic_error&) {
-        fail("'" + item + "' is not a number");
+        fail(field + " = '" + item + "' is not a number");
       }
       if (item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(x)) {
-        fail("'" + item + "' is not a number");
+        fail(field + " = '" + item + "' is not a number");
       }
-      v.push_back(x);
+      return x;
+    };
+    std::vector<std::string> parts;  // AT_S, the box and height, CLEAR_S
+    std::stringstream colons(entry);
+    for (std::string part; std::getline(colons, part, ':');) parts.push_back(part);
+    if (parts.size() < 2) fail("missing ':' after the time");
+    if (parts.size() > 3) fail("too many ':' (at most AT_S:BOX,HEIGHT_M:CLEAR_S)");
+    static const char* const kFields[] = {"X0", "Y0", "X1", "Y1", "HEIGHT_M"};
+    std::vector<double> v{number("AT_S", parts[0])};
+    std::stringstream numbers(parts[1]);
+    for (std::string item; std::getline(numbers, item, ',');) {
+      if (v.size() > 5) fail("needs 5 numbers after the time (X0,Y0,X1,Y1,HEIGHT_M), has more");
+      v.push_back(number(kFields[v.size() - 1], item));
     }
-    if (v.size() != 6) fail("needs 6 numbers, has " + std::to_string(v.size()));
-    if (v[0] < 0) fail("time must be >= 0");
-    if (!(v[1] < v[3]) || !(v[2] < v[4])) fail("needs X0 < X1 and Y0 < Y1");
-    if (!(v[5] > 0 && v[5] <= 10)) fail("height must be in (0, 10] m");
-    out.push_back(Rockfall{v[0], Eigen::AlignedBox2d(Eigen::Vector2d(v[1], v[2]), Eigen::Vector2d(v[3], v[4])), v[5]});
+    if (v.size() != 6) fail("needs 5 numbers after the time (X0,Y0,X1,Y1,HEIGHT_M), has " + std::to_string(v.size() - 1));
+    auto text_of = [](double x) {
+      std::ostringstream o;
+      o << x;
+      return o.str();
+    };
+    if (v[0] < 0) fail("AT_S = " + text_of(v[0]) + " must be >= 0 s");
+    if (!(v[1] < v[3])) fail("X0 = " + text_of(v[1]) + " must be < X1 = " + text_of(v[3]));
+    if (!(v[2] < v[4])) fail("Y0 = " + text_of(v[2]) + " must be < Y1 = " + text_of(v[4]));
+    if (!(v[5] > 0 && v[5] <= 10)) fail("HEIGHT_M = " + text_of(v[5]) + " must be in (0, 10] m");
+    Rockfall rock{v[0], Eigen::AlignedBox2d(Eigen::Vector2d(v[1], v[2]), Eigen::Vector2d(v[3], v[4])), v[5], std::nullopt};
+    if (parts.size() == 3) {
+      const double clear_s = number("CLEAR_S", parts[2]);
+      if (!(clear_s > v[0])) fail("CLEAR_S = " + text_of(clear_s) + " must be > AT_S = " + text_of(v[0]) + " s");
+      rock.clear_s = clear_s;
+    }
+    out.push_back(rock);
   }
   std::sort(out.begin(), out.end(), [](const Rockfall& a, const Rockfall& b) { return a.at_s < b.at_s; });
   return out;
@@ -227,7 +246,7 @@ core::PlatformCapabilities SimulatedPlatform::Capabilities() const {
   return c;
 }
 
-std::int64_t SimulatedPlatform::DropRock(const Eigen::AlignedBox2d& area_W, double height_m) {
+std::vector<Eigen::Vector3i> SimulatedPlatform::FillRock(const Eigen::AlignedBox2d& area_W, double height_m) {
   std::shared_ptr<const World> world;
   std::shared_ptr<const nav::TraversabilityGrid> terrain;
   {
@@ -238,7 +257,7 @@ std::int64_t SimulatedPlatform::DropRock(const Eigen::AlignedBox2d& area_W, doub
   auto changed = std::make_shared<World>(*world);
   const double floor_z =
       terrain->GroundHeight(area_W.center().x(), area_W.center().y()).value_or(world->p_W_min().z());
-  std::int64_t filled = 0;
+  std::vector<Eigen::Vector3i> filled;
   for (int ix = 0; ix < world->dims().x(); ++ix) {
     for (int iy = 0; iy < world->dims().y(); ++iy) {
       const Eigen::Vector3d c = world->CenterOf({ix, iy, 0});
@@ -247,22 +266,56 @@ std::int64_t SimulatedPlatform::DropRock(const Eigen::AlignedBox2d& area_W, doub
         const double z = world->CenterOf({ix, iy, iz}).z();
         if (z > floor_z - world->resolution_m() && z < floor_z + height_m && !changed->IsOccupiedIndex({ix, iy, iz})) {
           changed->SetOccupied({ix, iy, iz});
-          ++filled;
+          filled.emplace_back(ix, iy, iz);
         }
       }
     }
   }
+  SwapWorld(std::move(changed));
+  return filled;
+}
+
+void SimulatedPlatform::SwapWorld(std::shared_ptr<const World> changed) {
   auto new_terrain = std::make_shared<const nav::TraversabilityGrid>(*changed, TerrainOptions(options_));
   std::lock_guard<std::mutex> guard(world_mutex_);
   world_ = std::move(changed);
   terrain_ = std::move(new_terrain);
-  return filled;
+}
+
+std::int64_t SimulatedPlatform::DropRock(const Eigen::AlignedBox2d& area_W, double height_m) {
+  return static_cast<std::int64_t>(FillRock(area_W, height_m).size());
+}
+
+std::int64_t SimulatedPlatform::ClearRock(const std::vector<Eigen::Vector3i>& filled) {
+  std::shared_ptr<const World> world;
+  {
+    std::lock_guard<std::mutex> guard(world_mutex_);
+    world = world_;
+  }
+  auto changed = std::make_shared<World>(*world);
+  std::int64_t freed = 0;
+  for (const Eigen::Vector3i& index : filled) {
+    if (!changed->IsOccupiedIndex(index)) continue;
+    changed->SetOccupied(index, false);
+    ++freed;
+  }
+  SwapWorld(std::move(changed));
+  return freed;
 }
 
 void SimulatedPlatform::Update(double now_s) {
   while (next_rockfall_ < options_.rockfalls.size() && options_.rockfalls[next_rockfall_].at_s <= now_s) {
     const Rockfall& r = options_.rockfalls[next_rockfall_++];
-    DropRock(r.area_W, r.height_m);
+    std::vector<Eigen::Vector3i> filled = FillRock(r.area_W, r.height_m);
+    if (r.clear_s) pending_clears_.push_back({*r.clear_s, std::move(filled)});
+  }
+  for (auto it = pending_clears_.begin(); it != pending_clears_.end();) {
+    if (it->clear_s > now_s) {
+      ++it;
+      continue;
+    }
+    ClearRock(it->filled);
+    it = pending_clears_.erase(it);
   }
   const std::shared_ptr<const nav::TraversabilityGrid> terrain = this->terrain();
   std::lock_guard<std::mutex> guard(mutex_);

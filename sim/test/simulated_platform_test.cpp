@@ -65,12 +65,51 @@ TEST(SimulatedPlatformTest, ScansAreRegisteredAndARockfallIsSeenAndBlocks) {
   EXPECT_FALSE(platform.terrain()->IsFootprintFree(9.5, 11.0, 0.3));
 }
 
+TEST(SimulatedPlatformTest, RockfallClearTimeParsesAndErrorsNameTheField) {
+  const auto rocks = ParseRockfalls("2:0,0,1,1,1:9.5; 3:0,0,1,1,1");
+  ASSERT_EQ(rocks.size(), 2u);
+  EXPECT_EQ(rocks[0].clear_s.value_or(-1.0), 9.5);
+  EXPECT_FALSE(rocks[1].clear_s.has_value());
+  const std::pair<std::string, std::string> cases[] = {
+      {"5:0,0,1,1,1:3", "CLEAR_S = 3 must be > AT_S = 5"}, {"5:0,0,1,1,1:soon", "CLEAR_S = 'soon' is not a number"},
+      {"1:3,0,1,1,1", "X0 = 3 must be < X1 = 1"},          {"1:0,0,1,1,0", "HEIGHT_M = 0 must be in (0, 10]"},
+      {"-1:0,0,1,1,1", "AT_S = -1 must be >= 0"},          {"1:0,b,1,1,1", "Y0 = 'b' is not a number"}};
+  for (const auto& [bad, message] : cases) {
+    try {
+      ParseRockfalls(bad);
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(SimulatedPlatformTest, RockfallIsClearedAtItsClearTime) {
+  SimulatedPlatformOptions options;
+  options.world = "builtin:tunnels";
+  options.start_W = PlanarPose{4.0, 20.0, 0.0};
+  options.rockfalls = ParseRockfalls("1:9.3,19.5,9.7,20.5,0.6:3");
+  SimulatedPlatform platform(options);
+  const std::int64_t occupied = platform.world()->CountOccupied();
+  platform.Update(0.5);
+  EXPECT_TRUE(platform.terrain()->IsFootprintFree(9.5, 20.0, 0.3));
+  platform.Update(1.0);
+  EXPECT_FALSE(platform.terrain()->IsFootprintFree(9.5, 20.0, 0.3));
+  EXPECT_GT(platform.world()->CountOccupied(), occupied);
+  platform.Update(2.9);
+  EXPECT_FALSE(platform.terrain()->IsFootprintFree(9.5, 20.0, 0.3));
+  platform.Update(3.0);
+  EXPECT_TRUE(platform.terrain()->IsFootprintFree(9.5, 20.0, 0.3));
+  EXPECT_EQ(platform.world()->CountOccupied(), occupied);  // Exactly the rock's voxels freed, the floor kept.
+}
+
 TEST(SimulatedPlatformTest, RockfallsParseOrNameTheEntry) {
   const auto rocks = ParseRockfalls("8:1,2,3,4,0.5; 2:0,0,1,1,1");
   ASSERT_EQ(rocks.size(), 2u);
   EXPECT_EQ(rocks[0].at_s, 2.0);  // sorted by time
   EXPECT_EQ(rocks[1].area_W.max().y(), 4.0);
-  for (const std::string bad : {"1,2,3,4,5", "1:1,2,3", "1:3,0,1,1,1", "1:0,0,1,1,0", "-1:0,0,1,1,1", "1:a,0,1,1,1"}) {
+  for (const std::string bad : {"1,2,3,4,5", "1:1,2,3", "1:3,0,1,1,1", "1:0,0,1,1,0", "-1:0,0,1,1,1", "1:a,0,1,1,1",
+                                "5:0,0,1,1,1:3", "5:0,0,1,1,1:x", "5:0,0,1,1,1:6:7"}) {
     try {
       ParseRockfalls(bad);
       ADD_FAILURE() << bad << " was accepted";

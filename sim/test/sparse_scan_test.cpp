@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "cairn/nav/traversability.h"
+#include "cairn/sim/survey_scan.h"
 #include "cairn/sim/world.h"
 #include "test_util.h"
 
@@ -23,14 +24,6 @@ namespace cairn::sim {
 namespace {
 
 using testing::MakeTempDir;
-
-// Writes `points` (metres) as a binary PCD (fields x y z, float32).
-void WritePcd(const std::string& path, const std::vector<Eigen::Vector3f>& points) {
-  std::ofstream out(path, std::ios::binary);
-  out << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " << points.size()
-      << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << points.size() << "\nDATA binary\n";
-  for (const Eigen::Vector3f& p : points) out.write(reinterpret_cast<const char*>(p.data()), 3 * sizeof(float));
-}
 
 WorldLoadOptions NoCleanUp() {
   WorldLoadOptions o;
@@ -44,7 +37,7 @@ struct Box2 {
   bool Contains(double x, double y) const { return x >= x0 && x < x1 && y >= y0 && y < y1; }
 };
 
-// The degraded copy of geb079 and what was done to it.
+// The degraded copy of geb079 (MakeSurveyScan with DegradedGeb079Options()) and what was done to it.
 struct DegradedScan {
   std::vector<Eigen::Vector3f> points;
   std::vector<Eigen::Vector3d> strays;       // Single points in open space.
@@ -53,7 +46,6 @@ struct DegradedScan {
 };
 
 constexpr double kFloorDensity = 50.0;  // Points per m^2.
-constexpr double kWallKeep = 0.7;       // Fraction of wall/ceiling voxels that give a point.
 constexpr double kHoleRadius = 0.2;     // Floor holes of 0.4 m: smaller than a 0.6 m footprint.
 // Well A: 0.5 m x 0.5 m, a floor seen 2 m below (a shaft): smaller than fill_hole_max_m, seen through.
 const Box2 kWellA{8.0, 8.5, -1.2, -0.7};
@@ -61,64 +53,15 @@ const Box2 kWellA{8.0, 8.5, -1.2, -0.7};
 const Box2 kWellB{20.0, 21.2, -1.4, -0.4};
 
 DegradedScan Degrade(const World& truth, std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u01(0.0, 1.0);
-  const double res = truth.resolution_m();
+  const SurveyScanOptions options = DegradedGeb079Options();
+  EXPECT_EQ(options.floor_points_per_m2, kFloorDensity);
+  EXPECT_EQ(options.hole_radius_m, kHoleRadius);
+  SurveyScan scan = MakeSurveyScan(truth, options, seed);
   DegradedScan out;
-  for (int i = 0; i < 10; ++i) out.hole_centres.emplace_back(2.0 * i, i % 2 == 0 ? 0.4 : -0.2);
-  auto in_hole = [&out](double x, double y) {
-    for (const Eigen::Vector2d& c : out.hole_centres) {
-      if ((Eigen::Vector2d(x, y) - c).norm() <= kHoleRadius) return true;
-    }
-    return false;
-  };
-  const double p_floor = kFloorDensity * res * res;  // Points per floor column.
-  std::int64_t corridor_points = 0, corridor_columns = 0;
-  const Eigen::Vector3i& dims = truth.dims();
-  for (int ix = 0; ix < dims.x(); ++ix) {
-    for (int iy = 0; iy < dims.y(); ++iy) {
-      for (int iz = 0; iz < dims.z(); ++iz) {
-        if (!truth.IsOccupiedIndex({ix, iy, iz})) continue;
-        const Eigen::Vector3d c = truth.CenterOf({ix, iy, iz});
-        const Eigen::Vector3d jitter(res * (u01(rng) - 0.5), res * (u01(rng) - 0.5), res * (u01(rng) - 0.5));
-        if (c.z() < 0.0) {
-          // Floor: only its top surface is scanned, thinned to kFloorDensity, at z in [-0.06, -0.01].
-          if (truth.IsOccupiedIndex({ix, iy, iz + 1})) continue;
-          const bool corridor = std::abs(c.y()) < 1.0 && c.x() > -4.0 && c.x() < 26.0;
-          corridor_columns += corridor;
-          if (u01(rng) >= p_floor || in_hole(c.x(), c.y()) || kWellA.Contains(c.x(), c.y()) ||
-              kWellB.Contains(c.x(), c.y())) {
-            continue;
-          }
-          corridor_points += corridor;
-          out.points.emplace_back(Eigen::Vector3d(c.x() + jitter.x(), c.y() + jitter.y(), -0.06 + 0.05 * u01(rng))
-                                      .cast<float>());
-        } else if (u01(rng) < kWallKeep) {
-          out.points.push_back((c + jitter).cast<float>());
-        }
-      }
-    }
-  }
-  out.floor_points_per_m2 = corridor_points / (corridor_columns * res * res);
-  // The shaft under well A: its floor 2 m down, seen through the opening, dense enough to be supported.
-  for (double x = kWellA.x0; x < kWellA.x1; x += 0.05) {
-    for (double y = kWellA.y0; y < kWellA.y1; y += 0.05) out.points.emplace_back(x, y, -2.03);
-  }
-  // Single stray returns in open space: at least 0.5 m from anything of the true world.
-  std::uniform_real_distribution<double> ux(-6.0, 28.0), uy(-6.0, 6.0), uz(0.3, 2.3);
-  while (out.strays.size() < 300) {
-    const Eigen::Vector3d p(ux(rng), uy(rng), uz(rng));
-    bool open = true;
-    for (double dx = -0.5; dx <= 0.5 && open; dx += res) {
-      for (double dy = -0.5; dy <= 0.5 && open; dy += res) {
-        for (double dz = -0.5; dz <= 0.5 && open; dz += res) open = !truth.IsOccupied(p + Eigen::Vector3d(dx, dy, dz));
-      }
-    }
-    for (const Eigen::Vector3d& q : out.strays) open = open && (q - p).norm() > 0.6;  // Single, not a cluster.
-    if (!open) continue;
-    out.strays.push_back(p);
-    out.points.push_back(p.cast<float>());
-  }
+  out.points = std::move(scan.points_W);
+  out.strays = std::move(scan.strays_W);
+  out.hole_centres = options.hole_centres_W;
+  out.floor_points_per_m2 = scan.floor_points_per_m2;
   return out;
 }
 

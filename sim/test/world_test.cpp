@@ -103,6 +103,32 @@ TEST(BuiltinWorldTest, NamesAndInfo) {
   }
 }
 
+// Every flight a built-in world declares is in its voxels: the floor before the first riser and each tread at
+// its height (within half a voxel) across the inner part of the width, free space above each.
+TEST(BuiltinWorldTest, DeclaredStaircasesMatchTheVoxels) {
+  int flights = 0;
+  for (const std::string& name : BuiltinWorldNames()) {
+    const World world = MakeBuiltinWorld(name);
+    const double res = world.resolution_m();
+    for (const StaircaseFlight& f : GetBuiltinWorldInfo(name).staircases) {
+      ++flights;
+      ASSERT_GE(f.num_steps, 1) << name;
+      const Eigen::Vector3d u(std::cos(f.yaw_rad), std::sin(f.yaw_rad), 0.0);
+      const Eigen::Vector3d v(-u.y(), u.x(), 0.0);
+      for (int k = 0; k <= f.num_steps; ++k) {
+        for (double across : {-0.3, 0.0, 0.3}) {
+          const Eigen::Vector3d p = f.p_W_first_riser + (k - 0.5) * f.run_m * u + across * f.width_m * v;
+          const double top = f.p_W_first_riser.z() + k * f.rise_m;
+          EXPECT_TRUE(world.IsOccupied({p.x(), p.y(), top - res})) << name << " tread " << k << " at " << across;
+          EXPECT_FALSE(world.IsOccupied({p.x(), p.y(), top + res})) << name << " tread " << k << " at " << across;
+          EXPECT_FALSE(world.IsOccupied({p.x(), p.y(), top + 0.3})) << name << " tread " << k << " at " << across;
+        }
+      }
+    }
+  }
+  EXPECT_GE(flights, 1);  // builtin:tunnels has one.
+}
+
 TEST(BuiltinWorldTest, UnknownNameListsValidOnes) {
   const std::string message = WorldErrorOf([] { LoadWorld("builtin:caves"); });
   EXPECT_CONTAINS(message, "'builtin:caves'");

@@ -24,9 +24,14 @@
 //     (PCL VoxelGrid): tread points give height residuals and must lie between their risers, riser points
 //     give along-axis residuals, Huber-robustified, points reclassified between three rounds; width and
 //     centre come from the lateral extent of each step's points;
-//  7. the fit is rejected unless it explains the data: enough steps, rise/run/width in range, small
-//     residuals, each step covered across its width, and free space above the treads (walls, shelves and
-//     terraced surfaces fail here).
+//  7. a lowest step that is no step up from the floor in front of it (a fit slipped a step down the flight)
+//     is dropped; the fit is rejected unless it explains the data: enough steps, rise/run/width in range,
+//     small residuals, each step covered across its width, and free space above the treads away from the
+//     sides (shelves and terraced surfaces fail here);
+//  8. a detection that continues another one up the same flight (whole runs and rises apart, same direction,
+//     side by side) is merged into it: one flight, one detection.
+// Accuracy over the built-in worlds, survey copies and synthetic scenes: bench/staircase_accuracy.cpp and
+// docs/PERFORMANCE.md.
 #pragma once
 
 #include <Eigen/Core>
@@ -143,6 +148,8 @@ struct DetectStats {
   int chains_rejected = 0;
   /// Why the last rejected chain was rejected (empty if none).
   std::string last_rejection;
+  /// Why each rejected chain was rejected, in the order they were fitted (at most 8).
+  std::vector<std::string> rejections;
   /// Wall time of the crop and the optional input voxel filter, milliseconds.
   double filter_ms = 0.0;
   /// Wall time of the projection, edge extraction and chaining, milliseconds.

@@ -3,6 +3,7 @@
 // Procedurally generated built-in worlds (seeded, deterministic) and their suggested start poses and goals.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -14,6 +15,26 @@ namespace cairn::sim {
 
 /// A planar pose on the floor of a world (position metres, frame W; heading radians about +z).
 using PlanarPose = core::PlanarPose;
+
+/// One straight flight of stairs of a world, as its definition builds it: the ground truth that scores a
+/// staircase detector (bench/staircase_accuracy.cpp). Described ascending, like perception::Staircase: treads
+/// at heights p_W_first_riser.z() + k * rise_m (k = 1..num_steps), risers at (k - 1) * run_m (k = 1..num_steps)
+/// along (cos yaw, sin yaw, 0) from the first riser; the top tread may continue into a landing or a floor.
+struct StaircaseFlight {
+  /// Foot of the first riser (at the level of the floor before it), centred across the width, metres,
+  /// frame W.
+  Eigen::Vector3d p_W_first_riser = Eigen::Vector3d::Zero();
+  /// Ascending direction, radians about +z of W.
+  double yaw_rad = 0.0;
+  /// Height of one riser, metres.
+  double rise_m = 0.0;
+  /// Depth of one tread (horizontal distance between consecutive risers), metres.
+  double run_m = 0.0;
+  /// Width across the ascending direction, metres.
+  double width_m = 0.0;
+  /// Number of risers.
+  int num_steps = 0;
+};
 
 /// Description of one built-in world.
 struct BuiltinWorldInfo {
@@ -30,6 +51,9 @@ struct BuiltinWorldInfo {
   std::vector<PlanarPose> suggested_starts;
   /// A far goal on the floor reachable from every suggested start (yaw unused).
   PlanarPose far_goal;
+  /// Every flight of stairs the world has (a world with stairs must list them all: the staircase accuracy
+  /// bench counts a detection of an unlisted flight as a false positive). Valid for any seed.
+  std::vector<StaircaseFlight> staircases = {};
 };
 
 /// Names of the built-in worlds, without the "builtin:" prefix: {"tunnels", "arena", "building"}.

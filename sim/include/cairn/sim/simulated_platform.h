@@ -26,15 +26,19 @@
 namespace cairn::sim {
 
 /// A rockfall: at `at_s` (seconds on the agent's clock) the columns of `area_W` (x-y box, metres, frame W)
-/// fill from the floor up to `height_m` above it: an obstacle that is in no map the robot has.
+/// fill from the floor up to `height_m` above it: an obstacle that is in no map the robot has. If `clear_s` is
+/// set, the rock is removed again at that time (the voxels it filled become free).
 struct Rockfall {
   double at_s = 0.0;
   Eigen::AlignedBox2d area_W;
   double height_m = 1.0;
+  /// When the rock is cleared, seconds on the agent's clock (> at_s); none: it stays.
+  std::optional<double> clear_s;
 };
 
-/// Parses rockfalls "AT_S:X0,Y0,X1,Y1,HEIGHT_M" separated by ';' (e.g. "5:14,19,15,21,1.2"). Throws
-/// std::invalid_argument naming the entry and the rule (numbers, x0 < x1, y0 < y1, height in (0, 10], time >= 0).
+/// Parses rockfalls "AT_S:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR_S]" separated by ';' (e.g. "5:14,19,15,21,1.2" or
+/// "5:14,19,15,21,1.2:30"). Throws std::invalid_argument naming the entry, the field and its value and the rule
+/// (numbers, AT_S >= 0, X0 < X1, Y0 < Y1, HEIGHT_M in (0, 10], CLEAR_S > AT_S).
 std::vector<Rockfall> ParseRockfalls(const std::string& text);
 
 /// Options of SimulatedPlatform (cairn_agent: --world, --start, --pcd-resolution and the config file's
@@ -102,6 +106,9 @@ class SimulatedPlatform : public core::PlatformIO {
   /// Drops a rockfall now (tests; scheduled ones come from options().rockfalls): the world and the ground
   /// truth terrain change, the robot's sensors see it from the next scan. Returns the voxels filled.
   std::int64_t DropRock(const Eigen::AlignedBox2d& area_W, double height_m);
+  /// Removes the rock a scheduled rockfall dropped (the voxels it filled become free); tests use it through
+  /// Update() and Rockfall::clear_s. Returns the voxels freed.
+  std::int64_t ClearRock(const std::vector<Eigen::Vector3i>& filled);
   /// Teleports the base (tests); the SLAM drift keeps its current offset.
   void SetTrueState(const UnicycleState& state);
   /// The simulated world (ground truth).
@@ -122,6 +129,16 @@ class SimulatedPlatform : public core::PlatformIO {
   std::shared_ptr<const World> world_;
   std::shared_ptr<const nav::TraversabilityGrid> terrain_;
   std::size_t next_rockfall_ = 0;  // options_.rockfalls sorted by time; control thread
+  // Voxels each dropped rockfall with a clear time filled, and when to free them; control thread.
+  struct PendingClear {
+    double clear_s;
+    std::vector<Eigen::Vector3i> filled;
+  };
+  std::vector<PendingClear> pending_clears_;
+  // Fills the rock's voxels into a copy of the world, swaps it in; returns the voxels it filled.
+  std::vector<Eigen::Vector3i> FillRock(const Eigen::AlignedBox2d& area_W, double height_m);
+  // Makes `changed` the world and rebuilds the ground-truth terrain from it.
+  void SwapWorld(std::shared_ptr<const World> changed);
   mutable std::mutex mutex_;  // base, SLAM, command and status below
   Unicycle base_;
   SlamDrift slam_;
