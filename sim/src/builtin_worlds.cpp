@@ -272,7 +272,11 @@ const std::vector<BuiltinWorldInfo>& Infos() {
        0.1,
        0.0,
        {{2.0, 7.1, 0.0}, {6.0, 7.1, 0.0}, {10.0, 7.1, 0.0}, {14.0, 7.1, 0.0}},
-       {15.1, 3.0, 0.0}},
+       {15.1, 3.0, 0.0},
+       // The stairwell (see MakeBuilding): the lower flight up +x to the mid landing (its edge the 8th riser),
+       // the upper flight back along -x to floor 2 (its edge the 8th riser).
+       {{Eigen::Vector3d(19.4, 6.5, 0.0), 0.0, 0.2, 0.3, 1.0, 8},
+        {Eigen::Vector3d(21.5, 7.7, 1.6), kPi, 0.2, 0.3, 1.0, 8}}},
   };
   return kInfos;
 }
