@@ -16,12 +16,13 @@
 
 #include "cairn/agent/control_lock.h"
 #include "cairn/agent/live_obstacles.h"
-#include "cairn/agent/mode_manager.h"
+#include "cairn/agent/mode_control.h"
+#include "cairn/agent/modes.h"
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
 #include "cairn/agent/reply_cache.h"
-#include "cairn/agent/twist_mux.h"
+#include "cairn/agent/waypoint_mode.h"
 #include "cairn/agent/waypoint_recovery.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/shutdown.h"
@@ -63,20 +64,6 @@ class RobotAgent::Impl {
   void Run();
 
  private:
-  // Waypoint goal being driven (navigation_ holds its path and progress).
-  struct Goal {
-    uint32_t goal_id = 0;  // robot-assigned (CommandResponse.goal_id, RobotState.nav_goal_id)
-    double x_m = 0, y_m = 0;
-    double tolerance_m = 0;  // 0 = navigation's default
-    SteadyTime contact_since{};
-    bool in_contact = false;
-  };
-  // Latest operator twist for smart joystick mode.
-  struct Joystick {
-    double vx_mps = 0, vy_mps = 0, wz_radps = 0;
-    SteadyTime stamp{};
-  };
-
   // Who sent a command: the operator (base id, owner of the lock), the process (participant) and the writer.
   struct Sender {
     std::string base_id;
@@ -126,18 +113,11 @@ class RobotAgent::Impl {
   ModeConditions Conditions() const;
   // Modes valid now, and whether a goal would be accepted now (the operator's valid actions).
   std::vector<std::string> ValidNow(bool* goal_acceptable);
-  // Switches the mux to the decision's channel and ends a goal the new mode does not drive. A channel the
-  // mux lacks (impossible with a checked tree) is never ignored: the robot stops. false then.
-  bool ApplyMode(const ModeDecision& decision);
-  // Stop whatever the tree and the mux say: mode idle, no channel (zero twist), goal cancelled with
-  // `reason`. A `fault` (a failed channel switch) is also kept as the tree's last refusal for operators.
-  void Stop(const std::string& reason, bool fault = false);
-  // Idle after a goal ends: through the tree, or a Stop if the tree refuses idle.
-  void GoIdle();
+  // The mode modules: idle, manual, smart joystick, waypoint (a new mode is one more here and its subtree).
+  ModeRegistry MakeModes(const std::string& tree_file);
   static Sender SenderOf(const std::string& base_id, const SampleInfo& info) {
     return Sender{base_id, core::ParticipantIdOf(info.publication_handle), core::WriterIdOf(info.publication_handle)};
   }
-  void FinishGoal(msgs::NavStatus status, const std::string& reason);
   void Step(SteadyTime now);
   void PublishState(SteadyTime now);
   void PublishTreeStateIfChanged();
@@ -164,11 +144,9 @@ class RobotAgent::Impl {
   bool pose_healthy_ = true;
   std::string pose_problem_;
   ControlLock lock_;
-  TwistMux mux_;
-  ModeManager modes_;
   Navigation navigation_;
-  std::optional<Goal> goal_;
-  Joystick joystick_;
+  WaypointMode* waypoint_ = nullptr;    // owned by modes_; holds the waypoint goal
+  std::unique_ptr<ModeControl> modes_;  // the mode tree, the mode modules and the mux
   // Basestation processes from their agent info: writer handle -> participant and base id.
   struct BaseParticipant {
     std::string participant;
@@ -206,7 +184,6 @@ class RobotAgent::Impl {
   LiveObstacles live_obstacle_sensor_;
   // Set by the recovery's "clear the local obstacle memory" (control thread), done by the sensor thread.
   std::atomic<bool> clear_obstacle_memory_{false};
-  std::unique_ptr<WaypointRecovery> recovery_;  // control thread
   // Control-loop periods (control thread): the worst of the current and the previous 10 s window.
   struct PeriodWindow {
     SteadyTime last_start{};
@@ -227,16 +204,10 @@ class RobotAgent::Impl {
   } control_periods_;
   std::vector<Eigen::Vector3f> obstacle_points_B_;
   std::uint64_t published_path_revision_ = ~0ull;
-  msgs::NavStatus nav_status_ = msgs::NAV_STATUS_NONE;
-  std::string nav_reason_;
-  uint32_t nav_goal_id_ = 0;
-  uint32_t next_goal_id_ = 1;  // seeded at random: goal ids of a restarted robot do not repeat old ones
-  double nav_goal_x_m_ = 0, nav_goal_y_m_ = 0, nav_distance_left_m_ = 0;
   bool in_contact_ = false;
   uint32_t stops_ = 0;      // operator stops honoured
   std::string stopped_by_;  // base id of the last one
   msgs::Time stopped_at_;   // when it was received (wall clock)
-  MuxOutput last_mux_;
   ReplyCache<msgs::CommandResponse> replies_{kResponseCacheSize};
   std::string last_tree_signature_;
   std::unique_ptr<PerceptionPipeline> perception_;  // used by the perception thread only
@@ -313,26 +284,11 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       planner_(MakePlanner(options, start_M_)),
       pose_(start_M_),
       lock_(options.robot_id, options.lock),
-      mux_({{"teleop", options.teleop_timeout_s},
-            {"smart_joystick", options.waypoint_timeout_s},
-            {"waypoint", options.waypoint_timeout_s}}),
-      modes_(options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file, mux_.channel_names()),
       navigation_(options.navigation, planner_,
                   std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform())),
       live_obstacle_sensor_(options) {
-  std::random_device entropy;
-  next_goal_id_ = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
-  recovery_ = std::make_unique<WaypointRecovery>(
-      options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file, &navigation_,
-      WaypointRecovery::Hooks{[this] {
-        clear_obstacle_memory_ = true;
-        std::lock_guard<std::mutex> guard(obstacles_mutex_);
-        live_obstacles_.fresh = false;  // points from before the clearing
-      }});
-  if (!recovery_->enabled()) {
-    spdlog::warn("robot {}: the mode tree file has no {} tree: a blocked waypoint goal fails without recovery",
-                 options.robot_id, WaypointRecovery::kTreeId);
-  }
+  const std::string tree_file = options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file;
+  modes_ = std::make_unique<ModeControl>(tree_file, MakeModes(tree_file), options.robot_id);
   nav_map_ = std::make_unique<NavMap>(options.nav_map, options.perception.map.resolution_m, start_M_, planner_,
                                       options.navigation.platform.name);
   if (capabilities_.has_lidar) {
@@ -413,7 +369,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
   info.agent_id(options.robot_id);
   info.kind(msgs::AGENT_KIND_ROBOT);
   info.platform(options.platform);
-  info.capabilities(modes_.known_modes());
+  info.capabilities(modes_->tree().known_modes());
   info.version(kVersion);
   info.world(capabilities_.description);
   info.max_speed_mps(options.navigation.platform.limits.max_speed_mps);
@@ -426,6 +382,30 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
   spdlog::info("robot {} ({}) ready on platform {} ({}) at ({:.2f}, {:.2f}, yaw {:.2f}) in its map frame on DDS "
                "domain {}", options.robot_id, options.platform, capabilities_.driver, capabilities_.description,
                start_M_.x_m, start_M_.y_m, start_M_.yaw_rad, options.domain_id);
+}
+
+ModeRegistry RobotAgent::Impl::MakeModes(const std::string& tree_file) {
+  auto recovery = std::make_unique<WaypointRecovery>(tree_file, &navigation_, WaypointRecovery::Hooks{[this] {
+                                                       clear_obstacle_memory_ = true;
+                                                       std::lock_guard<std::mutex> guard(obstacles_mutex_);
+                                                       live_obstacles_.fresh = false;  // points from before
+                                                     }});
+  if (!recovery->enabled()) {
+    spdlog::warn("robot {}: the mode tree file has no {} tree: a blocked waypoint goal fails without recovery",
+                 options_.robot_id, WaypointRecovery::kTreeId);
+  }
+  WaypointModeOptions waypoint;
+  waypoint.robot_id = options_.robot_id;
+  waypoint.channel_timeout_s = options_.waypoint_timeout_s;
+  waypoint.contact_timeout_s = options_.contact_timeout_s;
+  std::random_device entropy;  // goal ids of a restarted robot do not repeat old ones
+  waypoint.first_goal_id = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
+  ModeRegistry modes;
+  modes.Emplace<IdleMode>();
+  modes.Emplace<ManualMode>(options_.teleop_timeout_s);
+  modes.Emplace<SmartJoystickMode>(&navigation_, options_.waypoint_timeout_s, options_.teleop_timeout_s);
+  waypoint_ = &modes.Emplace<WaypointMode>(waypoint, &navigation_, std::move(recovery));
+  return modes;
 }
 
 RobotAgent::Impl::~Impl() {
@@ -446,7 +426,7 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   c.holder_alive = lock_.holder_alive();
   c.localized = pose_healthy_;
   c.localization_problem = pose_problem_;
-  c.has_waypoint_goal = goal_.has_value();
+  c.has_waypoint_goal = waypoint_->has_goal();
   // A joystick is alive when a live process with the holder's id advertises one.
   c.joystick_alive = false;
   for (const auto& [handle, base] : base_by_writer_) {
@@ -456,56 +436,21 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   return c;
 }
 
-bool RobotAgent::Impl::ApplyMode(const ModeDecision& decision) {
-  if (decision.mode == "idle" && decision.channel != "none") {
-    const std::string reason = "the mode tree's idle selects mux channel '" + decision.channel + "': stopped";
-    spdlog::error("robot {}: {}", options_.robot_id, reason);
-    Stop(reason, /*fault=*/true);
-    return false;
-  }
-  if (!mux_.Select(decision.channel)) {
-    const std::string reason = "mode " + decision.mode + " selects mux channel '" + decision.channel +
-                               "', which the mux does not have: stopped";
-    spdlog::error("robot {}: {}", options_.robot_id, reason);
-    Stop(reason, /*fault=*/true);
-    return false;
-  }
-  if (decision.mode != "waypoint" && goal_) {
-    // A re-check says why the mode had to go (e.g. stale obstacle input); an operator's switch says which.
-    FinishGoal(msgs::NAV_STATUS_FAILED, decision.reason.empty() ? "cancelled: mode switched to " + decision.mode
-                                                                : "cancelled: " + decision.reason);
-  }
-  return true;
-}
-
-void RobotAgent::Impl::GoIdle() {
-  const ModeDecision d = modes_.Request("idle", Conditions());
-  if (!d.accepted) {
-    Stop("the mode tree refused idle: " + d.reason, /*fault=*/true);
-  } else {
-    ApplyMode(d);
-  }
-}
-
-void RobotAgent::Impl::Stop(const std::string& reason, bool fault) {
-  modes_.ForceIdle(fault ? reason : "");
-  mux_.Select("none");  // always succeeds: no channel, zero twist
-  joystick_ = Joystick{};
-  if (goal_) FinishGoal(msgs::NAV_STATUS_FAILED, "cancelled: " + reason);
-  last_mux_ = mux_.Compute(SteadyClock::now());  // the state shows the zero command at once
-}
-
-void RobotAgent::Impl::FinishGoal(msgs::NavStatus status, const std::string& reason) {
-  nav_status_ = status;
-  nav_reason_ = reason;
-  goal_.reset();
-  recovery_->Halt();
-  navigation_.ClearGoal();
-  if (status == msgs::NAV_STATUS_FAILED) spdlog::warn("robot {}: waypoint {} failed: {}", options_.robot_id,
-                                                       nav_goal_id_, reason);
-}
-
 namespace {
+
+msgs::NavStatus NavStatusOf(GoalStatus status) {
+  switch (status) {
+    case GoalStatus::kActive:
+      return msgs::NAV_STATUS_ACTIVE;
+    case GoalStatus::kArrived:
+      return msgs::NAV_STATUS_ARRIVED;
+    case GoalStatus::kFailed:
+      return msgs::NAV_STATUS_FAILED;
+    case GoalStatus::kNone:
+      break;
+  }
+  return msgs::NAV_STATUS_NONE;
+}
 
 msgs::Point PointOf(double x, double y, double z) {
   msgs::Point p;
@@ -564,7 +509,7 @@ void RobotAgent::Impl::Respond(const Sender& sender, uint32_t request_id, msgs::
   r.result(result);
   r.reason(reason);
   r.holder_id(lock_.holder_id());
-  r.mode(modes_.mode());
+  r.mode(modes_->mode());
   r.requester_participant(sender.participant);
   r.goal_id(goal_id);
   bool goal_acceptable = false;
@@ -587,8 +532,7 @@ void RobotAgent::Impl::OnControlRequest(const msgs::ControlRequest& msg, const S
   if (d.accepted) {
     spdlog::info("robot {}: control {} by {} (participant {})", options_.robot_id, release ? "released" : "granted",
                  sender.base_id, sender.participant);
-    const ModeDecision m = modes_.Recheck(Conditions());  // a release stops the robot (idle)
-    if (!m.accepted) ApplyMode(m);
+    modes_->Recheck(Conditions());  // a release stops the robot (idle)
   }
   Respond(sender, msg.request_id(), kind, d.accepted ? msgs::COMMAND_RESULT_ACCEPTED : msgs::COMMAND_RESULT_DENIED,
           d.reason);
@@ -605,8 +549,7 @@ void RobotAgent::Impl::OnModeRequest(const msgs::ModeRequest& msg, const SampleI
             lock_.NotHolderReason(sender.base_id));
     return;
   }
-  ModeDecision d = modes_.Request(msg.mode(), Conditions());
-  if (d.accepted && !ApplyMode(d)) d = ModeDecision{false, modes_.mode(), modes_.channel(), modes_.last_refusal()};
+  const ModeDecision d = modes_->Request(msg.mode(), Conditions());
   if (d.accepted) {
     lock_.NoteHolderCommand(sender.participant);  // an accepted command: this process speaks for the holder
     spdlog::info("robot {}: mode {} (by {})", options_.robot_id, d.mode, sender.base_id);
@@ -621,8 +564,8 @@ void RobotAgent::Impl::OnStopRequest(const msgs::StopRequest& msg, const SampleI
   std::lock_guard<std::mutex> guard(mutex_);
   if (ReplayIfDuplicate(sender, msgs::COMMAND_KIND_STOP, msg.request_id())) return;
   // An e-stop: honoured from any basestation, holder or not; the lock stays where it is.
-  const std::string previous = modes_.mode();
-  Stop("stopped by " + sender.base_id);
+  const std::string previous = modes_->mode();
+  modes_->Stop("stopped by " + sender.base_id);
   ++stops_;
   stopped_by_ = sender.base_id;
   stopped_at_ = cairn::msgs::WallStampNow();
@@ -659,9 +602,8 @@ void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg, const Sampl
     return c;
   }();
   // Refuse before planning when the mode could not be entered anyway (e.g. no fresh obstacle input).
-  if (const auto valid = modes_.ValidModes(with_goal);
-      std::find(valid.begin(), valid.end(), "waypoint") == valid.end()) {
-    const ModeDecision probe = modes_.Request("waypoint", with_goal);  // refused: nothing switches
+  if (!modes_->IsValid(waypoint_->name(), with_goal)) {
+    const ModeDecision probe = modes_->Request(waypoint_->name(), with_goal);  // refused: nothing switches
     return deny(probe.reason);
   }
   // Planned on the planning thread, never here (a DDS thread, holding the agent lock); a retry of this request
@@ -690,41 +632,17 @@ void RobotAgent::Impl::FinishGoalJob(const GoalJob& job, const nav::GlobalPlan& 
   auto deny = [&](const std::string& reason) {
     Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DENIED, reason);
   };
-  const bool had_goal = goal_.has_value();
   if (!plan.IsUsable()) return deny("no path: " + PlanReason(plan));  // the previous goal, if any, goes on
-  recovery_->Halt();  // a recovering previous goal is superseded
-  navigation_.AcceptGoal(plan, msg.x_m(), msg.y_m(), msg.tolerance_m(), NowS(SteadyClock::now()));
-  Goal goal;
-  goal.goal_id = next_goal_id_++;
-  goal.x_m = msg.x_m();
-  goal.y_m = msg.y_m();
-  goal.tolerance_m = msg.tolerance_m();
-  goal_ = goal;
-  const ModeDecision d = modes_.Request("waypoint", Conditions());
-  if (!d.accepted) {
-    // Navigation already holds the new goal, so the previous one ends here, with a status.
-    if (had_goal) {
-      FinishGoal(msgs::NAV_STATUS_FAILED, "cancelled: a new goal was refused: " + d.reason);
-    } else {
-      goal_.reset();
-      navigation_.ClearGoal();
-    }
-    return deny(d.reason);
-  }
-  // A previous goal is simply superseded by this one; the status below is this goal's.
-  nav_status_ = msgs::NAV_STATUS_ACTIVE;
-  nav_reason_.clear();
-  nav_goal_id_ = goal_->goal_id;
-  nav_goal_x_m_ = msg.x_m();
-  nav_goal_y_m_ = msg.y_m();
-  if (!ApplyMode(d)) return deny(modes_.last_refusal());  // stopped; this goal was cancelled
+  const GoalStart start =
+      waypoint_->Start(plan, msg.x_m(), msg.y_m(), msg.tolerance_m(), NowS(SteadyClock::now()),
+                       [this] { return modes_->Request(waypoint_->name(), Conditions()); });
+  if (!start.accepted) return deny(start.reason);
   lock_.NoteHolderCommand(sender.participant);  // an accepted goal: this process speaks for the holder
-  nav_distance_left_m_ = plan.result.length_m;
   spdlog::info("robot {}: waypoint {} to ({:.2f}, {:.2f}) from {} accepted, path {:.1f} m", options_.robot_id,
-               goal_->goal_id, msg.x_m(), msg.y_m(), sender.base_id, plan.result.length_m);
+               start.goal_id, msg.x_m(), msg.y_m(), sender.base_id, plan.result.length_m);
   PublishGlobalPathIfChanged();  // before the acknowledgement, so `path R` right after `goto` shows it
   Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_ACCEPTED,
-          Format("path %.1f m, ETA %.0f s", plan.result.length_m, navigation_.eta_s()), goal_->goal_id);
+          Format("path %.1f m, ETA %.0f s", plan.result.length_m, navigation_.eta_s()), start.goal_id);
 }
 
 void RobotAgent::Impl::OnTeleop(const msgs::TeleopTwist& msg) {
@@ -734,20 +652,16 @@ void RobotAgent::Impl::OnTeleop(const msgs::TeleopTwist& msg) {
     lock_.CountDiscarded();
     return;
   }
-  const Twist2 twist{msg.twist().linear_x_mps(), msg.twist().angular_z_radps()};
   if (!std::isfinite(msg.twist().linear_x_mps()) || !std::isfinite(msg.twist().linear_y_mps()) ||
       !std::isfinite(msg.twist().angular_z_radps())) {
     spdlog::warn("robot {}: teleop twist ({}, {}, {}) from {} dropped: not finite", options_.robot_id,
                  msg.twist().linear_x_mps(), msg.twist().linear_y_mps(), msg.twist().angular_z_radps(), msg.base_id());
     return;
   }
-  if (modes_.mode() == "smart_joystick") {
-    joystick_ = Joystick{msg.twist().linear_x_mps(), msg.twist().linear_y_mps(), msg.twist().angular_z_radps(),
-                         SteadyClock::now()};
-    return;
-  }
-  if (modes_.mode() != "manual") return;  // teleop drives only in manual and smart joystick modes
-  mux_.Submit("teleop", twist, SteadyClock::now());
+  // The running mode takes it (manual and smart joystick use it; the others ignore it).
+  modes_->OnOperatorTwist(
+      OperatorTwist{msg.twist().linear_x_mps(), msg.twist().linear_y_mps(), msg.twist().angular_z_radps()},
+      SteadyClock::now());
 }
 
 void RobotAgent::Impl::OnPathRequest(const msgs::PathRequest& msg, const SampleInfo& info) {
@@ -887,8 +801,7 @@ void RobotAgent::Impl::LoseParticipant(const std::string& participant, const std
     spdlog::info("robot {}: process {} of holder {} is gone ({}); {} speaks for it", options_.robot_id, participant,
                  holder, why, lock_.holder_participant());
   }
-  const ModeDecision m = modes_.Recheck(Conditions());
-  if (!m.accepted) ApplyMode(m);
+  modes_->Recheck(Conditions());
 }
 
 void RobotAgent::Impl::Step(SteadyTime now) {
@@ -896,11 +809,8 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     spdlog::warn("robot {}: control lock freed after {} s without its holder", options_.robot_id,
                  options_.lock.lock_keep_s);
   }
-  const ModeDecision recheck = modes_.Recheck(Conditions());
-  if (!recheck.accepted) {
-    spdlog::warn("robot {}: {} -> idle", options_.robot_id, recheck.reason);
-    ApplyMode(recheck);
-  }
+  const ModeDecision recheck = modes_->Recheck(Conditions());
+  if (!recheck.accepted) spdlog::warn("robot {}: {} -> idle", options_.robot_id, recheck.reason);
 
   const double now_s = NowS(now);
   // The robot as its platform reports it: pose estimate (SLAM), health.
@@ -924,66 +834,15 @@ void RobotAgent::Impl::Step(SteadyTime now) {
       navigation_.SetObstacles(live_obstacles_.points_B, live_obstacles_.pose_M, live_obstacles_.stamp_s);
     }
   }
-  if (goal_ && modes_.mode() == "waypoint") {
-    NavigationStep step;
-    if (recovery_->active()) {
-      step = recovery_->Step(s, now_s);
-      if (recovery_->active()) {
-        const std::string report = recovery_->Report();
-        if (report != nav_reason_) spdlog::warn("robot {}: waypoint {} {}", options_.robot_id, goal_->goal_id, report);
-        nav_reason_ = report;
-      }
-    } else {
-      step = navigation_.StepWaypoint(s, now_s);
-      if (step.failed && recovery_->enabled()) {
-        recovery_->Start(goal_->x_m, goal_->y_m, goal_->tolerance_m, step.reason);
-        nav_reason_ = recovery_->Report();
-        spdlog::warn("robot {}: waypoint {} {}", options_.robot_id, goal_->goal_id, nav_reason_);
-        step = NavigationStep{};  // brake this cycle; the recovery tree runs from the next
-      }
-    }
-    nav_distance_left_m_ = navigation_.distance_left_m();
-    if (step.arrived) {
-      spdlog::info("robot {}: waypoint {} arrived ({:.2f} m from the goal)", options_.robot_id, goal_->goal_id,
-                   std::hypot(s.x_m - goal_->x_m, s.y_m - goal_->y_m));
-      nav_distance_left_m_ = 0.0;
-      FinishGoal(msgs::NAV_STATUS_ARRIVED, "");
-      GoIdle();
-    } else if (step.failed) {
-      FinishGoal(msgs::NAV_STATUS_FAILED, step.reason);
-      GoIdle();
-    } else {
-      mux_.Submit("waypoint", Twist2{step.linear_x_mps, step.angular_z_radps}, now);
-    }
-  } else if (modes_.mode() == "smart_joystick") {
-    // A silent joystick is a zero stick: the robot brakes (the mux would zero it after its timeout anyway).
-    const bool fresh = core::SecondsBetween(joystick_.stamp, now) <= options_.teleop_timeout_s;
-    const NavigationStep step = navigation_.StepJoystick(s, fresh ? joystick_.vx_mps : 0.0,
-                                                         fresh ? joystick_.vy_mps : 0.0,
-                                                         fresh ? joystick_.wz_radps : 0.0, now_s);
-    mux_.Submit("smart_joystick", Twist2{step.linear_x_mps, step.angular_z_radps}, now);
-  }
+  const ModeInputs inputs{now, now_s, s};
+  if (modes_->Step(inputs)) modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
   PublishGlobalPathIfChanged();
 
-  last_mux_ = mux_.Compute(now);
-  platform_->CommandTwist(last_mux_.twist_B.linear_x_mps, last_mux_.twist_B.angular_z_radps, now_s);
+  const MuxOutput& command = modes_->Compute(now);
+  platform_->CommandTwist(command.twist_B.linear_x_mps, command.twist_B.angular_z_radps, now_s);
   const core::PlatformStatus status = platform_->ReadStatus();
-  const struct {
-    bool contact;
-  } step{status.in_contact};
-  in_contact_ = step.contact;
-  if (goal_) {
-    if (!step.contact) {
-      goal_->in_contact = false;
-    } else if (!goal_->in_contact) {
-      goal_->in_contact = true;
-      goal_->contact_since = now;
-    } else if (core::SecondsBetween(goal_->contact_since, now) > options_.contact_timeout_s) {
-      FinishGoal(msgs::NAV_STATUS_FAILED, Format("blocked: in contact with occupied space at (%.2f, %.2f)",
-                                                 pose_.x_m, pose_.y_m));
-      GoIdle();
-    }
-  }
+  in_contact_ = status.in_contact;
+  if (modes_->OnPlatformStatus(status, inputs)) modes_->GoIdle(Conditions());  // e.g. a goal blocked in contact
 }
 
 void RobotAgent::Impl::PublishState(SteadyTime) {
@@ -996,22 +855,24 @@ void RobotAgent::Impl::PublishState(SteadyTime) {
   m.pose_MB(PoseOf(s.x_m, s.y_m, s.z_m, s.yaw_rad));
   m.twist_B().linear_x_mps(s.v_mps);
   m.twist_B().angular_z_radps(s.w_radps);
-  m.cmd_twist_B().linear_x_mps(last_mux_.twist_B.linear_x_mps);
-  m.cmd_twist_B().angular_z_radps(last_mux_.twist_B.angular_z_radps);
-  m.mode(modes_.mode());
-  m.active_channel(last_mux_.active_channel);
-  m.mux_reason(last_mux_.reason);
+  const MuxOutput& command = modes_->last_output();
+  m.cmd_twist_B().linear_x_mps(command.twist_B.linear_x_mps);
+  m.cmd_twist_B().angular_z_radps(command.twist_B.angular_z_radps);
+  m.mode(modes_->mode());
+  m.active_channel(command.active_channel);
+  m.mux_reason(command.reason);
   m.holder_id(lock_.holder_id());
   m.holder_alive(lock_.holder_alive());
   m.holder_participant(lock_.holder_participant());
   m.holder_participants(lock_.holder_participants());
   m.discarded_commands(lock_.discarded());
-  m.nav_status(nav_status_);
-  m.nav_reason(nav_reason_);
-  m.nav_goal_id(nav_goal_id_);
-  m.nav_goal_M().x_m(nav_goal_x_m_);
-  m.nav_goal_M().y_m(nav_goal_y_m_);
-  m.nav_distance_left_m(nav_distance_left_m_);
+  const WaypointGoal& goal = waypoint_->goal();
+  m.nav_status(NavStatusOf(goal.status));
+  m.nav_reason(goal.reason);
+  m.nav_goal_id(goal.goal_id);
+  m.nav_goal_M().x_m(goal.x_m);
+  m.nav_goal_M().y_m(goal.y_m);
+  m.nav_distance_left_m(goal.distance_left_m);
   m.nav_eta_s(navigation_.eta_s());
   m.nav_replans(static_cast<uint32_t>(navigation_.replans()));
   m.local_planner_status(navigation_.local_status());
@@ -1027,15 +888,15 @@ std::vector<std::string> RobotAgent::Impl::ValidNow(bool* goal_acceptable) {
   const ModeConditions conditions = Conditions();
   ModeConditions with_goal = conditions;
   with_goal.has_waypoint_goal = true;
-  const std::vector<std::string> valid_with_goal = modes_.ValidModes(with_goal);
-  *goal_acceptable = std::find(valid_with_goal.begin(), valid_with_goal.end(), "waypoint") != valid_with_goal.end();
-  return modes_.ValidModes(conditions);
+  *goal_acceptable = modes_->IsValid(waypoint_->name(), with_goal);
+  return modes_->ValidModes(conditions);
 }
 
 void RobotAgent::Impl::PublishTreeStateIfChanged() {
   bool goal_acceptable = false;
   const std::vector<std::string> valid = ValidNow(&goal_acceptable);
-  std::string signature = modes_.mode() + "|" + modes_.channel() + "|" + modes_.last_refusal() + "|" +
+  const ModeManager& tree = modes_->tree();
+  std::string signature = tree.mode() + "|" + tree.channel() + "|" + tree.last_refusal() + "|" +
                           (goal_acceptable ? "goal" : "");
   for (const auto& v : valid) signature += "|" + v;
   if (signature == last_tree_signature_) return;
@@ -1044,18 +905,18 @@ void RobotAgent::Impl::PublishTreeStateIfChanged() {
   msgs::BehaviorTreeState t;
   t.robot_id(options_.robot_id);
   t.stamp(cairn::msgs::WallStampNow());
-  t.mode(modes_.mode());
-  t.active_channel(modes_.channel());
-  t.last_refusal(modes_.last_refusal());
+  t.mode(tree.mode());
+  t.active_channel(tree.channel());
+  t.last_refusal(tree.last_refusal());
   t.valid_modes(valid);
   t.goal_acceptable(goal_acceptable);
-  t.tick_count(modes_.tick_count());
-  modes_.tree().ForEachNode([&](const bt::TreeNode& node, int depth) {
+  t.tick_count(tree.tick_count());
+  tree.tree().ForEachNode([&](const bt::TreeNode& node, int depth) {
     msgs::BtNodeState n;
     n.name(node.name());
     n.registration_id(node.registration_id());
     n.depth(static_cast<uint16_t>(depth));
-    n.status(bt::ToString(modes_.LastTickStatus(node)));
+    n.status(bt::ToString(tree.LastTickStatus(node)));
     t.nodes().push_back(n);
   });
   tree_writer_->Write(t);
@@ -1068,10 +929,10 @@ void RobotAgent::Impl::PublishGlobalPathIfChanged() {
   msgs::GlobalPath m;
   m.robot_id(options_.robot_id);
   m.stamp(cairn::msgs::WallStampNow());
-  m.goal_id(goal_ ? goal_->goal_id : 0);
+  m.goal_id(waypoint_->has_goal() ? waypoint_->goal().goal_id : 0);
   m.platform(options_.navigation.platform.name);
   m.frame_id("map");
-  if (goal_) {
+  if (waypoint_->has_goal()) {
     m.path_M(PathPoints(plan.result.path_W));
     m.length_m(plan.result.length_m);
   }
@@ -1081,8 +942,8 @@ void RobotAgent::Impl::PublishGlobalPathIfChanged() {
 }
 
 void RobotAgent::Impl::PublishLocalPlan() {
-  const std::string& mode = modes_.mode();
-  if (mode != "waypoint" && mode != "smart_joystick") return;
+  if (!modes_->active().uses_local_planner()) return;
+  const std::string& mode = modes_->mode();
   const nav::LocalPlanResult& r = navigation_.local_result();
   const core::BaseState& pose = navigation_.local_pose();
   msgs::LocalPlan m;
@@ -1169,7 +1030,7 @@ void RobotAgent::Impl::Run() {
   }
   {
     std::lock_guard<std::mutex> guard(mutex_);
-    Stop("agent shutting down");
+    modes_->Stop("agent shutting down");
     PublishState(SteadyClock::now());
   }
   for (std::thread* t : {&sensor_thread, &perception_thread, &nav_map_thread, &plan_thread}) {
