@@ -14,14 +14,13 @@
 
 #include <spdlog/spdlog.h>
 
-#include "cairn/agent/control_lock.h"
+#include "cairn/agent/command_interface.h"
 #include "cairn/agent/live_obstacles.h"
 #include "cairn/agent/mode_control.h"
 #include "cairn/agent/modes.h"
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
-#include "cairn/agent/reply_cache.h"
 #include "cairn/agent/waypoint_mode.h"
 #include "cairn/agent/waypoint_recovery.h"
 #include "cairn/core/dds.h"
@@ -46,7 +45,6 @@ namespace {
 
 constexpr double kLoopPeriodS = 0.02;  // 50 Hz: mux staleness is acted on within 20 ms
 constexpr const char* kVersion = "0.1.0";
-constexpr std::size_t kResponseCacheSize = 256;
 constexpr std::size_t kMaxPendingPathRequests = 32;
 
 std::string Format(const char* fmt, double a, double b) {
@@ -64,59 +62,41 @@ class RobotAgent::Impl {
   void Run();
 
  private:
-  // Who sent a command: the operator (base id, owner of the lock), the process (participant) and the writer.
-  struct Sender {
-    std::string base_id;
-    std::string participant;  // core::ParticipantIdOf the sending writer
-    std::string writer;       // core::WriterIdOf the sending writer
-  };
   using SampleInfo = eprosima::fastdds::dds::SampleInfo;
 
-  // DDS callbacks (listener threads); each takes mutex_.
-  void OnControlRequest(const msgs::ControlRequest& msg, const SampleInfo& info);
-  void OnModeRequest(const msgs::ModeRequest& msg, const SampleInfo& info);
-  void OnWaypointGoal(const msgs::WaypointGoal& msg, const SampleInfo& info);
-  void OnStopRequest(const msgs::StopRequest& msg, const SampleInfo& info);
-  void OnTeleop(const msgs::TeleopTwist& msg);
+  // DDS callbacks (listener threads): each turns the message into the command interface's struct and applies it
+  // under mutex_.
   void OnPathRequest(const msgs::PathRequest& msg, const SampleInfo& info);
   // Planning thread: the holder's goals first, then peers' path requests; never on a DDS thread.
   void PlanLoop();
   struct GoalJob {
-    Sender sender;
-    msgs::WaypointGoal msg;
+    GoalCommand command;
     nav::GlobalPlanRequest request;
   };
   struct PathJob {
     msgs::PathRequest msg;
     std::string participant;
   };
-  // With mutex_ held: the goal's plan is done; accept it (if the sender still holds the lock) and answer.
-  void FinishGoalJob(const GoalJob& job, const nav::GlobalPlan& plan);
+  // With mutex_ held: drives a goal planned for the lock's holder (the command interface's start_goal).
+  CommandOutcome StartGoal(const GoalCommand& goal, const nav::GlobalPlan& plan);
   void AnswerPathRequest(const PathJob& job);
   // A failed plan's reason for operators (an out-of-map goal names the navigation map's extent and its key).
   std::string PlanReason(const nav::GlobalPlan& plan) const;
-  void OnAgentInfo(const msgs::AgentInfo& msg, const SampleInfo& info);
-  void OnAgentLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status);
   // A remote participant left or was dropped (participant discovery): it speaks for no holder any more.
   void OnParticipantGone(const std::string& participant);
-  // With mutex_ held: the participants reported gone since the last call (their agent-info entries erased).
+  // The participants reported gone since the last call.
   std::vector<std::string> TakeGoneParticipants();
-  // With mutex_ held: the process `participant` is gone or silent; re-check the mode (a holder without a
-  // live process stops modes that need a live operator).
-  void LoseParticipant(const std::string& participant, const std::string& why);
 
   // All below run with mutex_ held.
-  // Answers a retry (same writer, kind and request id) from the cache. true when it was one.
-  bool ReplayIfDuplicate(const Sender& sender, msgs::CommandKind kind, uint32_t request_id);
-  void Respond(const Sender& sender, uint32_t request_id, msgs::CommandKind kind, msgs::CommandResult result,
-               const std::string& reason, uint32_t goal_id = 0);
+  // The mode tree's facts now.
   ModeConditions Conditions() const;
-  // Modes valid now, and whether a goal would be accepted now (the operator's valid actions).
-  std::vector<std::string> ValidNow(bool* goal_acceptable);
+  // Writes a command interface reply as a CommandResponse.
+  void SendReply(const CommandReply& reply);
   // The mode modules: idle, manual, smart joystick, waypoint (a new mode is one more here and its subtree).
   ModeRegistry MakeModes(const std::string& tree_file);
-  static Sender SenderOf(const std::string& base_id, const SampleInfo& info) {
-    return Sender{base_id, core::ParticipantIdOf(info.publication_handle), core::WriterIdOf(info.publication_handle)};
+  static CommandSender SenderOf(const std::string& base_id, const SampleInfo& info) {
+    return CommandSender{base_id, core::ParticipantIdOf(info.publication_handle),
+                         core::WriterIdOf(info.publication_handle)};
   }
   void Step(SteadyTime now);
   void PublishState(SteadyTime now);
@@ -143,18 +123,10 @@ class RobotAgent::Impl {
   core::BaseState pose_;          // latest pose estimate, map frame (control thread)
   bool pose_healthy_ = true;
   std::string pose_problem_;
-  ControlLock lock_;
   Navigation navigation_;
   WaypointMode* waypoint_ = nullptr;    // owned by modes_; holds the waypoint goal
   std::unique_ptr<ModeControl> modes_;  // the mode tree, the mode modules and the mux
-  // Basestation processes from their agent info: writer handle -> participant and base id.
-  struct BaseParticipant {
-    std::string participant;
-    std::string base_id;
-    bool has_joystick = false;  // advertises the "joystick" capability
-    bool alive = true;          // its agent-info writer's liveliness
-  };
-  std::map<eprosima::fastrtps::rtps::InstanceHandle_t, BaseParticipant> base_by_writer_;
+  std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
   // Obstacles from live lidar points, made on the sensor thread, taken by the control loop.
   struct ObstacleSlot {
     std::vector<Eigen::Vector3f> points_B;
@@ -177,7 +149,6 @@ class RobotAgent::Impl {
   };
   std::map<std::string, PathBudget> path_budgets_;
   std::uint64_t path_requests_refused_ = 0;
-  std::vector<CommandKey> pending_goals_;  // goals being planned (mutex_)
   std::mutex scan_mutex_;
   std::shared_ptr<core::LidarScan> latest_scan_;  // from the sensor thread to the perception thread
   // Sensor thread only (and the constructor, before it starts).
@@ -205,10 +176,6 @@ class RobotAgent::Impl {
   std::vector<Eigen::Vector3f> obstacle_points_B_;
   std::uint64_t published_path_revision_ = ~0ull;
   bool in_contact_ = false;
-  uint32_t stops_ = 0;      // operator stops honoured
-  std::string stopped_by_;  // base id of the last one
-  msgs::Time stopped_at_;   // when it was received (wall clock)
-  ReplyCache<msgs::CommandResponse> replies_{kResponseCacheSize};
   std::string last_tree_signature_;
   std::unique_ptr<PerceptionPipeline> perception_;  // used by the perception thread only
   std::atomic<bool> map_snapshot_requested_{false};
@@ -283,12 +250,25 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       start_M_(StartPose(*platform_)),
       planner_(MakePlanner(options, start_M_)),
       pose_(start_M_),
-      lock_(options.robot_id, options.lock),
       navigation_(options.navigation, planner_,
                   std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform())),
       live_obstacle_sensor_(options) {
   const std::string tree_file = options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file;
   modes_ = std::make_unique<ModeControl>(tree_file, MakeModes(tree_file), options.robot_id);
+  command_ = std::make_unique<CommandInterface>(
+      options.robot_id, options.lock, modes_.get(), waypoint_->name(),
+      CommandInterface::Hooks{[this] { return Conditions(); }, [this](const CommandReply& r) { SendReply(r); },
+                              [this](const GoalCommand& goal) {
+                                {
+                                  std::lock_guard<std::mutex> jobs_guard(jobs_mutex_);
+                                  goal_jobs_.push_back(
+                                      GoalJob{goal, navigation_.GoalRequest(pose_, goal.x_m, goal.y_m)});
+                                }
+                                jobs_cv_.notify_one();
+                              },
+                              [this](const GoalCommand& goal, const nav::GlobalPlan& plan) {
+                                return StartGoal(goal, plan);
+                              }});
   nav_map_ = std::make_unique<NavMap>(options.nav_map, options.perception.map.resolution_m, start_M_, planner_,
                                       options.navigation.platform.name);
   if (capabilities_.has_lidar) {
@@ -348,22 +328,68 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       [this](const msgs::PathRequest& m, const auto& info) { OnPathRequest(m, info); });
   info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
       *participant_, "cairn/agent_info", "cairn.latched",
-      [this](const msgs::AgentInfo& m, const auto& info) { OnAgentInfo(m, info); },
-      [this](const auto& status) { OnAgentLiveliness(status); });
+      [this](const msgs::AgentInfo& m, const auto& info) {
+        if (m.kind() != msgs::AGENT_KIND_BASESTATION) return;
+        const auto& caps = m.capabilities();
+        const BaseAnnouncement base{core::WriterIdOf(info.publication_handle),
+                                    core::ParticipantIdOf(info.publication_handle), m.agent_id(),
+                                    std::find(caps.begin(), caps.end(), "joystick") != caps.end()};
+        std::lock_guard<std::mutex> guard(mutex_);
+        command_->OnBaseAnnounced(base);
+      },
+      [this](const eprosima::fastdds::dds::LivelinessChangedStatus& status) {
+        WriterLiveliness change;
+        change.writer = core::WriterIdOf(status.last_publication_handle);
+        // Unmatched (the writer is gone for good): alive -1 while alive, or not_alive -1 after its lease lapsed.
+        change.unmatched = (status.alive_count_change < 0 && status.not_alive_count_change == 0) ||
+                           (status.alive_count_change == 0 && status.not_alive_count_change < 0);
+        change.lost = core::IsLivelinessLoss(status);
+        change.regained = status.alive_count_change > 0;
+        std::lock_guard<std::mutex> guard(mutex_);
+        command_->OnBaseLiveliness(change, SteadyClock::now());
+      });
   control_reader_ = std::make_unique<core::Reader<msgs::ControlRequestPubSubType>>(
       *participant_, "cairn/control_request", "cairn.command",
-      [this](const msgs::ControlRequest& m, const auto& info) { OnControlRequest(m, info); });
+      [this](const msgs::ControlRequest& m, const auto& info) {
+        if (m.robot_id() != options_.robot_id) return;
+        const ControlCommand c{SenderOf(m.base_id(), info), m.request_id(),
+                               m.action() == msgs::CONTROL_ACTION_RELEASE};
+        std::lock_guard<std::mutex> guard(mutex_);
+        command_->OnControl(c, SteadyClock::now());
+      });
   mode_reader_ = std::make_unique<core::Reader<msgs::ModeRequestPubSubType>>(
       *participant_, "cairn/mode_request", "cairn.command",
-      [this](const msgs::ModeRequest& m, const auto& info) { OnModeRequest(m, info); });
+      [this](const msgs::ModeRequest& m, const auto& info) {
+        if (m.robot_id() != options_.robot_id) return;
+        const ModeCommand c{SenderOf(m.base_id(), info), m.request_id(), m.mode()};
+        std::lock_guard<std::mutex> guard(mutex_);
+        command_->OnMode(c);
+      });
   goal_reader_ = std::make_unique<core::Reader<msgs::WaypointGoalPubSubType>>(
       *participant_, "cairn/waypoint_goal", "cairn.command",
-      [this](const msgs::WaypointGoal& m, const auto& info) { OnWaypointGoal(m, info); });
+      [this](const msgs::WaypointGoal& m, const auto& info) {
+        if (m.robot_id() != options_.robot_id) return;
+        const GoalCommand c{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.x_m(), m.y_m(),
+                            m.tolerance_m()};
+        std::lock_guard<std::mutex> guard(mutex_);
+        command_->OnGoal(c);
+      });
   stop_reader_ = std::make_unique<core::Reader<msgs::StopRequestPubSubType>>(
       *participant_, "cairn/stop_request", "cairn.command",
-      [this](const msgs::StopRequest& m, const auto& info) { OnStopRequest(m, info); });
+      [this](const msgs::StopRequest& m, const auto& info) {
+        if (m.robot_id() != options_.robot_id) return;
+        const StopCommand c{SenderOf(m.base_id(), info), m.request_id()};
+        std::lock_guard<std::mutex> guard(mutex_);
+        command_->OnStop(c);
+      });
   teleop_reader_ = std::make_unique<core::Reader<msgs::TeleopTwistPubSubType>>(
-      *participant_, "cairn/teleop", "cairn.teleop", [this](const msgs::TeleopTwist& m, const auto&) { OnTeleop(m); });
+      *participant_, "cairn/teleop", "cairn.teleop", [this](const msgs::TeleopTwist& m, const auto&) {
+        if (m.robot_id() != options_.robot_id) return;
+        const TeleopCommand c{m.base_id(), OperatorTwist{m.twist().linear_x_mps(), m.twist().linear_y_mps(),
+                                                         m.twist().angular_z_radps()}};
+        std::lock_guard<std::mutex> guard(mutex_);
+        command_->OnTeleop(c, SteadyClock::now());
+      });
 
   msgs::AgentInfo info;
   info.agent_id(options.robot_id);
@@ -422,16 +448,10 @@ RobotAgent::Impl::~Impl() {
 
 ModeConditions RobotAgent::Impl::Conditions() const {
   ModeConditions c;
-  c.holder_id = lock_.holder_id();
-  c.holder_alive = lock_.holder_alive();
+  command_->FillConditions(&c);  // holder, its liveliness, its joystick
   c.localized = pose_healthy_;
   c.localization_problem = pose_problem_;
   c.has_waypoint_goal = waypoint_->has_goal();
-  // A joystick is alive when a live process with the holder's id advertises one.
-  c.joystick_alive = false;
-  for (const auto& [handle, base] : base_by_writer_) {
-    if (c.holder_alive && base.alive && base.base_id == c.holder_id && base.has_joystick) c.joystick_alive = true;
-  }
   c.local_planner_healthy = navigation_.LocalPlannerHealthy(NowS(SteadyClock::now()), &c.local_planner_problem);
   return c;
 }
@@ -490,178 +510,65 @@ std::vector<msgs::Point> PathPoints(const std::vector<Eigen::Vector3d>& path_W) 
 
 }  // namespace
 
-bool RobotAgent::Impl::ReplayIfDuplicate(const Sender& sender, msgs::CommandKind kind, uint32_t request_id) {
-  const msgs::CommandResponse* cached = replies_.Find(CommandKey{sender.writer, kind, request_id});
-  if (cached == nullptr) return false;
-  spdlog::debug("robot {}: retry of request {} from {} ({}) answered from the cache", options_.robot_id, request_id,
-                sender.base_id, sender.participant);
-  response_writer_->Write(*cached);
-  return true;
+namespace {
+
+msgs::CommandKind KindOf(CommandKind kind) {
+  switch (kind) {
+    case CommandKind::kControlRequest:
+      return msgs::COMMAND_KIND_CONTROL_REQUEST;
+    case CommandKind::kControlRelease:
+      return msgs::COMMAND_KIND_CONTROL_RELEASE;
+    case CommandKind::kMode:
+      return msgs::COMMAND_KIND_MODE;
+    case CommandKind::kWaypoint:
+      return msgs::COMMAND_KIND_WAYPOINT;
+    case CommandKind::kStop:
+      break;
+  }
+  return msgs::COMMAND_KIND_STOP;
 }
 
-void RobotAgent::Impl::Respond(const Sender& sender, uint32_t request_id, msgs::CommandKind kind,
-                               msgs::CommandResult result, const std::string& reason, uint32_t goal_id) {
+msgs::CommandResult ResultOf(CommandResult result) {
+  switch (result) {
+    case CommandResult::kAccepted:
+      return msgs::COMMAND_RESULT_ACCEPTED;
+    case CommandResult::kDenied:
+      return msgs::COMMAND_RESULT_DENIED;
+    case CommandResult::kDiscarded:
+      break;
+  }
+  return msgs::COMMAND_RESULT_DISCARDED;
+}
+
+}  // namespace
+
+void RobotAgent::Impl::SendReply(const CommandReply& reply) {
   msgs::CommandResponse r;
   r.robot_id(options_.robot_id);
-  r.base_id(sender.base_id);
-  r.request_id(request_id);
-  r.kind(kind);
-  r.result(result);
-  r.reason(reason);
-  r.holder_id(lock_.holder_id());
-  r.mode(modes_->mode());
-  r.requester_participant(sender.participant);
-  r.goal_id(goal_id);
-  bool goal_acceptable = false;
-  r.valid_modes(ValidNow(&goal_acceptable));
-  r.goal_acceptable(goal_acceptable);
+  r.base_id(reply.base_id);
+  r.request_id(reply.request_id);
+  r.kind(KindOf(reply.kind));
+  r.result(ResultOf(reply.result));
+  r.reason(reply.reason);
+  r.holder_id(reply.holder_id);
+  r.mode(reply.mode);
+  r.requester_participant(reply.requester_participant);
+  r.goal_id(reply.goal_id);
+  r.valid_modes(reply.valid_modes);
+  r.goal_acceptable(reply.goal_acceptable);
   response_writer_->Write(r);
-  replies_.Insert(CommandKey{sender.writer, kind, request_id}, r);
-  // The behavior-tree state follows from the control loop (<= 20 ms), off the command path.
 }
 
-void RobotAgent::Impl::OnControlRequest(const msgs::ControlRequest& msg, const SampleInfo& info) {
-  if (msg.robot_id() != options_.robot_id) return;
-  const Sender sender = SenderOf(msg.base_id(), info);
-  std::lock_guard<std::mutex> guard(mutex_);
-  const bool release = msg.action() == msgs::CONTROL_ACTION_RELEASE;
-  const auto kind = release ? msgs::COMMAND_KIND_CONTROL_RELEASE : msgs::COMMAND_KIND_CONTROL_REQUEST;
-  if (ReplayIfDuplicate(sender, kind, msg.request_id())) return;
-  const LockDecision d =
-      release ? lock_.Release(sender.base_id) : lock_.Request(sender.base_id, sender.participant, SteadyClock::now());
-  if (d.accepted) {
-    spdlog::info("robot {}: control {} by {} (participant {})", options_.robot_id, release ? "released" : "granted",
-                 sender.base_id, sender.participant);
-    modes_->Recheck(Conditions());  // a release stops the robot (idle)
-  }
-  Respond(sender, msg.request_id(), kind, d.accepted ? msgs::COMMAND_RESULT_ACCEPTED : msgs::COMMAND_RESULT_DENIED,
-          d.reason);
-}
-
-void RobotAgent::Impl::OnModeRequest(const msgs::ModeRequest& msg, const SampleInfo& info) {
-  if (msg.robot_id() != options_.robot_id) return;
-  const Sender sender = SenderOf(msg.base_id(), info);
-  std::lock_guard<std::mutex> guard(mutex_);
-  if (ReplayIfDuplicate(sender, msgs::COMMAND_KIND_MODE, msg.request_id())) return;
-  if (!lock_.IsHolder(sender.base_id)) {
-    lock_.CountDiscarded();
-    Respond(sender, msg.request_id(), msgs::COMMAND_KIND_MODE, msgs::COMMAND_RESULT_DISCARDED,
-            lock_.NotHolderReason(sender.base_id));
-    return;
-  }
-  const ModeDecision d = modes_->Request(msg.mode(), Conditions());
-  if (d.accepted) {
-    lock_.NoteHolderCommand(sender.participant);  // an accepted command: this process speaks for the holder
-    spdlog::info("robot {}: mode {} (by {})", options_.robot_id, d.mode, sender.base_id);
-  }
-  Respond(sender, msg.request_id(), msgs::COMMAND_KIND_MODE,
-          d.accepted ? msgs::COMMAND_RESULT_ACCEPTED : msgs::COMMAND_RESULT_DENIED, d.reason);
-}
-
-void RobotAgent::Impl::OnStopRequest(const msgs::StopRequest& msg, const SampleInfo& info) {
-  if (msg.robot_id() != options_.robot_id) return;
-  const Sender sender = SenderOf(msg.base_id(), info);
-  std::lock_guard<std::mutex> guard(mutex_);
-  if (ReplayIfDuplicate(sender, msgs::COMMAND_KIND_STOP, msg.request_id())) return;
-  // An e-stop: honoured from any basestation, holder or not; the lock stays where it is.
-  const std::string previous = modes_->mode();
-  modes_->Stop("stopped by " + sender.base_id);
-  ++stops_;
-  stopped_by_ = sender.base_id;
-  stopped_at_ = cairn::msgs::WallStampNow();
-  spdlog::warn("robot {}: stopped by {} (participant {}) in mode {}", options_.robot_id, sender.base_id,
-               sender.participant, previous);
-  Respond(sender, msg.request_id(), msgs::COMMAND_KIND_STOP, msgs::COMMAND_RESULT_ACCEPTED,
-          "stopped (was " + previous + "): zero twist, mode idle");
-}
-
-void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg, const SampleInfo& info) {
-  if (msg.robot_id() != options_.robot_id) return;
-  const Sender sender = SenderOf(msg.base_id(), info);
-  std::lock_guard<std::mutex> guard(mutex_);
-  const auto kind = msgs::COMMAND_KIND_WAYPOINT;
-  if (ReplayIfDuplicate(sender, kind, msg.request_id())) return;
-  if (!lock_.IsHolder(sender.base_id)) {
-    lock_.CountDiscarded();
-    Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DISCARDED, lock_.NotHolderReason(sender.base_id));
-    return;
-  }
-  auto deny = [&](const std::string& reason) {
-    Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DENIED, reason);
-  };
-  if (msg.frame_id() != "map") return deny("goal frame_id '" + msg.frame_id() + "' is not supported (use 'map')");
-  if (!std::isfinite(msg.x_m()) || !std::isfinite(msg.y_m())) {
-    return deny("goal " + Format("(%g, %g)", msg.x_m(), msg.y_m()) + " is not a finite point");
-  }
-  if (!std::isfinite(msg.tolerance_m()) || msg.tolerance_m() < 0 || msg.tolerance_m() > 5) {
-    return deny("goal tolerance_m = " + std::to_string(msg.tolerance_m()) + " must be in [0, 5]");
-  }
-  const ModeConditions with_goal = [&] {
-    ModeConditions c = Conditions();
-    c.has_waypoint_goal = true;
-    return c;
-  }();
-  // Refuse before planning when the mode could not be entered anyway (e.g. no fresh obstacle input).
-  if (!modes_->IsValid(waypoint_->name(), with_goal)) {
-    const ModeDecision probe = modes_->Request(waypoint_->name(), with_goal);  // refused: nothing switches
-    return deny(probe.reason);
-  }
-  // Planned on the planning thread, never here (a DDS thread, holding the agent lock); a retry of this request
-  // while it is planned is ignored (its answer comes when the plan is done).
-  const CommandKey key{sender.writer, kind, msg.request_id()};
-  if (std::find(pending_goals_.begin(), pending_goals_.end(), key) != pending_goals_.end()) return;
-  pending_goals_.push_back(key);
-  {
-    std::lock_guard<std::mutex> jobs_guard(jobs_mutex_);
-    goal_jobs_.push_back(GoalJob{sender, msg, navigation_.GoalRequest(pose_, msg.x_m(), msg.y_m())});
-  }
-  jobs_cv_.notify_one();
-}
-
-void RobotAgent::Impl::FinishGoalJob(const GoalJob& job, const nav::GlobalPlan& plan) {
-  const Sender& sender = job.sender;
-  const msgs::WaypointGoal& msg = job.msg;
-  const auto kind = msgs::COMMAND_KIND_WAYPOINT;
-  const CommandKey key{sender.writer, kind, msg.request_id()};
-  pending_goals_.erase(std::remove(pending_goals_.begin(), pending_goals_.end(), key), pending_goals_.end());
-  if (!lock_.IsHolder(sender.base_id)) {  // the lock moved while the goal was planned
-    lock_.CountDiscarded();
-    Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DISCARDED, lock_.NotHolderReason(sender.base_id));
-    return;
-  }
-  auto deny = [&](const std::string& reason) {
-    Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DENIED, reason);
-  };
-  if (!plan.IsUsable()) return deny("no path: " + PlanReason(plan));  // the previous goal, if any, goes on
+CommandOutcome RobotAgent::Impl::StartGoal(const GoalCommand& goal, const nav::GlobalPlan& plan) {
+  if (!plan.IsUsable()) return {false, "no path: " + PlanReason(plan), 0};  // the previous goal, if any, goes on
   const GoalStart start =
-      waypoint_->Start(plan, msg.x_m(), msg.y_m(), msg.tolerance_m(), NowS(SteadyClock::now()),
+      waypoint_->Start(plan, goal.x_m, goal.y_m, goal.tolerance_m, NowS(SteadyClock::now()),
                        [this] { return modes_->Request(waypoint_->name(), Conditions()); });
-  if (!start.accepted) return deny(start.reason);
-  lock_.NoteHolderCommand(sender.participant);  // an accepted goal: this process speaks for the holder
+  if (!start.accepted) return {false, start.reason, 0};
   spdlog::info("robot {}: waypoint {} to ({:.2f}, {:.2f}) from {} accepted, path {:.1f} m", options_.robot_id,
-               start.goal_id, msg.x_m(), msg.y_m(), sender.base_id, plan.result.length_m);
+               start.goal_id, goal.x_m, goal.y_m, goal.sender.base_id, plan.result.length_m);
   PublishGlobalPathIfChanged();  // before the acknowledgement, so `path R` right after `goto` shows it
-  Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_ACCEPTED,
-          Format("path %.1f m, ETA %.0f s", plan.result.length_m, navigation_.eta_s()), start.goal_id);
-}
-
-void RobotAgent::Impl::OnTeleop(const msgs::TeleopTwist& msg) {
-  if (msg.robot_id() != options_.robot_id) return;
-  std::lock_guard<std::mutex> guard(mutex_);
-  if (!lock_.IsHolder(msg.base_id())) {
-    lock_.CountDiscarded();
-    return;
-  }
-  if (!std::isfinite(msg.twist().linear_x_mps()) || !std::isfinite(msg.twist().linear_y_mps()) ||
-      !std::isfinite(msg.twist().angular_z_radps())) {
-    spdlog::warn("robot {}: teleop twist ({}, {}, {}) from {} dropped: not finite", options_.robot_id,
-                 msg.twist().linear_x_mps(), msg.twist().linear_y_mps(), msg.twist().angular_z_radps(), msg.base_id());
-    return;
-  }
-  // The running mode takes it (manual and smart joystick use it; the others ignore it).
-  modes_->OnOperatorTwist(
-      OperatorTwist{msg.twist().linear_x_mps(), msg.twist().linear_y_mps(), msg.twist().angular_z_radps()},
-      SteadyClock::now());
+  return {true, Format("path %.1f m, ETA %.0f s", plan.result.length_m, navigation_.eta_s()), start.goal_id};
 }
 
 void RobotAgent::Impl::OnPathRequest(const msgs::PathRequest& msg, const SampleInfo& info) {
@@ -739,35 +646,6 @@ void RobotAgent::Impl::AnswerPathRequest(const PathJob& job) {
   path_response_writer_->Write(r);
 }
 
-void RobotAgent::Impl::OnAgentInfo(const msgs::AgentInfo& msg, const SampleInfo& info) {
-  if (msg.kind() != msgs::AGENT_KIND_BASESTATION) return;
-  std::lock_guard<std::mutex> guard(mutex_);
-  BaseParticipant& base = base_by_writer_[info.publication_handle];
-  base.participant = core::ParticipantIdOf(info.publication_handle);
-  base.base_id = msg.agent_id();
-  base.has_joystick =
-      std::find(msg.capabilities().begin(), msg.capabilities().end(), "joystick") != msg.capabilities().end();
-  lock_.OnParticipantAlive(base.base_id, base.participant);
-}
-
-void RobotAgent::Impl::OnAgentLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status) {
-  std::lock_guard<std::mutex> guard(mutex_);
-  auto it = base_by_writer_.find(status.last_publication_handle);
-  if (it == base_by_writer_.end()) return;
-  const BaseParticipant base = it->second;
-  // Unmatched (the writer is gone for good): alive -1 while alive, or not_alive -1 after its lease lapsed.
-  const bool unmatched = (status.alive_count_change < 0 && status.not_alive_count_change == 0) ||
-                         (status.alive_count_change == 0 && status.not_alive_count_change < 0);
-  if (unmatched) base_by_writer_.erase(it);
-  if (core::IsLivelinessLoss(status)) {
-    if (!unmatched) it->second.alive = false;
-    LoseParticipant(base.participant, "its liveliness lapsed or it left");
-  } else if (status.alive_count_change > 0) {
-    it->second.alive = true;
-    lock_.OnParticipantAlive(base.base_id, base.participant);
-  }
-}
-
 void RobotAgent::Impl::OnParticipantGone(const std::string& participant) {
   // Fast DDS's discovery thread: never wait for the agent lock here (the control loop holds it while it
   // writes samples). The control loop handles the departure within one period.
@@ -777,38 +655,13 @@ void RobotAgent::Impl::OnParticipantGone(const std::string& participant) {
 
 std::vector<std::string> RobotAgent::Impl::TakeGoneParticipants() {
   std::vector<std::string> gone;
-  {
-    std::lock_guard<std::mutex> guard(gone_mutex_);
-    gone.swap(gone_participants_);
-  }
-  for (const std::string& participant : gone) {
-    for (auto it = base_by_writer_.begin(); it != base_by_writer_.end();) {
-      it = it->second.participant == participant ? base_by_writer_.erase(it) : std::next(it);
-    }
-  }
+  std::lock_guard<std::mutex> guard(gone_mutex_);
+  gone.swap(gone_participants_);
   return gone;
 }
 
-void RobotAgent::Impl::LoseParticipant(const std::string& participant, const std::string& why) {
-  const std::string holder = lock_.holder_id();
-  const bool was_speaker = !holder.empty() && lock_.holder_participant() == participant;
-  lock_.OnParticipantLost(participant, SteadyClock::now());
-  if (was_speaker && !lock_.holder_alive()) {
-    spdlog::warn("robot {}: control holder {} lost: its last process {} is gone ({}); modes that need a live "
-                 "operator stop",
-                 options_.robot_id, holder, participant, why);
-  } else if (was_speaker) {
-    spdlog::info("robot {}: process {} of holder {} is gone ({}); {} speaks for it", options_.robot_id, participant,
-                 holder, why, lock_.holder_participant());
-  }
-  modes_->Recheck(Conditions());
-}
-
 void RobotAgent::Impl::Step(SteadyTime now) {
-  if (lock_.Update(now)) {
-    spdlog::warn("robot {}: control lock freed after {} s without its holder", options_.robot_id,
-                 options_.lock.lock_keep_s);
-  }
+  command_->Update(now);
   const ModeDecision recheck = modes_->Recheck(Conditions());
   if (!recheck.accepted) spdlog::warn("robot {}: {} -> idle", options_.robot_id, recheck.reason);
 
@@ -861,11 +714,12 @@ void RobotAgent::Impl::PublishState(SteadyTime) {
   m.mode(modes_->mode());
   m.active_channel(command.active_channel);
   m.mux_reason(command.reason);
-  m.holder_id(lock_.holder_id());
-  m.holder_alive(lock_.holder_alive());
-  m.holder_participant(lock_.holder_participant());
-  m.holder_participants(lock_.holder_participants());
-  m.discarded_commands(lock_.discarded());
+  const ControlLock& lock = command_->lock();
+  m.holder_id(lock.holder_id());
+  m.holder_alive(lock.holder_alive());
+  m.holder_participant(lock.holder_participant());
+  m.holder_participants(lock.holder_participants());
+  m.discarded_commands(lock.discarded());
   const WaypointGoal& goal = waypoint_->goal();
   m.nav_status(NavStatusOf(goal.status));
   m.nav_reason(goal.reason);
@@ -878,23 +732,18 @@ void RobotAgent::Impl::PublishState(SteadyTime) {
   m.local_planner_status(navigation_.local_status());
   m.in_contact(in_contact_);
   m.control_period_max_ms(control_periods_.WorstMs());
-  m.stops(stops_);
-  m.stopped_by(stopped_by_);
-  m.stopped_at(stopped_at_);
+  const StopRecord& stops = command_->stops();
+  m.stops(stops.count);
+  m.stopped_by(stops.by);
+  m.stopped_at().sec(stops.at.sec);
+  m.stopped_at().nanosec(stops.at.nanosec);
   state_writer_->Write(m);
 }
 
-std::vector<std::string> RobotAgent::Impl::ValidNow(bool* goal_acceptable) {
-  const ModeConditions conditions = Conditions();
-  ModeConditions with_goal = conditions;
-  with_goal.has_waypoint_goal = true;
-  *goal_acceptable = modes_->IsValid(waypoint_->name(), with_goal);
-  return modes_->ValidModes(conditions);
-}
-
 void RobotAgent::Impl::PublishTreeStateIfChanged() {
-  bool goal_acceptable = false;
-  const std::vector<std::string> valid = ValidNow(&goal_acceptable);
+  const ValidActions valid_now = command_->ValidNow();
+  const std::vector<std::string>& valid = valid_now.modes;
+  const bool goal_acceptable = valid_now.goal_acceptable;
   const ModeManager& tree = modes_->tree();
   std::string signature = tree.mode() + "|" + tree.channel() + "|" + tree.last_refusal() + "|" +
                           (goal_acceptable ? "goal" : "");
@@ -1006,9 +855,7 @@ void RobotAgent::Impl::Run() {
     {
       std::lock_guard<std::mutex> guard(mutex_);
       const SteadyTime now = SteadyClock::now();
-      for (const std::string& participant : TakeGoneParticipants()) {
-        LoseParticipant(participant, "it left the DDS domain");
-      }
+      command_->OnParticipantsGone(TakeGoneParticipants(), now);
       Step(now);
       if (cycle % state_every == 0) PublishState(now);
       if (cycle % local_plan_every == 0) PublishLocalPlan();
@@ -1201,7 +1048,7 @@ void RobotAgent::Impl::PlanLoop() {
       if (goal_job) {
         const nav::GlobalPlan plan = planner_->Plan(goal_job->request);  // no agent lock while planning
         std::lock_guard<std::mutex> guard(mutex_);
-        FinishGoalJob(*goal_job, plan);
+        command_->OnGoalPlanned(goal_job->command, plan);
       } else if (path_job) {
         AnswerPathRequest(*path_job);
       }
