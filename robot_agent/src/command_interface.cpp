@@ -1,10 +1,10 @@
 #include "cairn/agent/command_interface.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
-
-#include <spdlog/spdlog.h>
 
 namespace cairn::agent {
 
@@ -41,12 +41,14 @@ CommandInterface::CommandInterface(std::string robot_id, const ControlLockOption
   std::string why;
   if (!lock.IsValid(&why)) throw std::invalid_argument("CommandInterface: " + why);
   if (!hooks_.conditions || !hooks_.send || !hooks_.plan_goal || !hooks_.start_goal) {
-    throw std::invalid_argument("CommandInterface: every hook (conditions, send, plan_goal, start_goal) is required");
+    throw std::invalid_argument(
+        "CommandInterface: every hook (conditions, send, plan_goal, start_goal) is required");
   }
 }
 
 bool CommandInterface::ReplayIfDuplicate(const CommandSender& sender, CommandKind kind, uint32_t request_id) {
-  const CommandReply* cached = replies_.Find(CommandKey{sender.writer, static_cast<uint32_t>(kind), request_id});
+  const CommandReply* cached =
+      replies_.Find(CommandKey{sender.writer, static_cast<uint32_t>(kind), request_id});
   if (cached == nullptr) return false;
   spdlog::debug("robot {}: retry of request {} from {} ({}) answered from the cache", robot_id_, request_id,
                 sender.base_id, sender.participant);
@@ -74,7 +76,8 @@ void CommandInterface::Respond(const CommandSender& sender, uint32_t request_id,
   // The behavior-tree state follows from the control loop (<= 20 ms), off the command path.
 }
 
-bool CommandInterface::DiscardUnlessHolder(const CommandSender& sender, uint32_t request_id, CommandKind kind) {
+bool CommandInterface::DiscardUnlessHolder(const CommandSender& sender, uint32_t request_id,
+                                           CommandKind kind) {
   if (lock_.IsHolder(sender.base_id)) return false;
   lock_.CountDiscarded();
   Respond(sender, request_id, kind, CommandResult::kDiscarded, lock_.NotHolderReason(sender.base_id));
@@ -85,11 +88,11 @@ void CommandInterface::OnControl(const ControlCommand& command, core::SteadyTime
   const CommandSender& sender = command.sender;
   const CommandKind kind = command.release ? CommandKind::kControlRelease : CommandKind::kControlRequest;
   if (ReplayIfDuplicate(sender, kind, command.request_id)) return;
-  const LockDecision d =
-      command.release ? lock_.Release(sender.base_id) : lock_.Request(sender.base_id, sender.participant, now);
+  const LockDecision d = command.release ? lock_.Release(sender.base_id)
+                                         : lock_.Request(sender.base_id, sender.participant, now);
   if (d.accepted) {
-    spdlog::info("robot {}: control {} by {} (participant {})", robot_id_, command.release ? "released" : "granted",
-                 sender.base_id, sender.participant);
+    spdlog::info("robot {}: control {} by {} (participant {})", robot_id_,
+                 command.release ? "released" : "granted", sender.base_id, sender.participant);
     modes_->Recheck(hooks_.conditions());  // a release stops the robot (idle)
   }
   Respond(sender, command.request_id, kind, d.accepted ? CommandResult::kAccepted : CommandResult::kDenied,
@@ -118,8 +121,8 @@ void CommandInterface::OnStop(const StopCommand& command) {
   ++stops_.count;
   stops_.by = sender.base_id;
   stops_.at = core::WallNow();
-  spdlog::warn("robot {}: stopped by {} (participant {}) in mode {}", robot_id_, sender.base_id, sender.participant,
-               previous);
+  spdlog::warn("robot {}: stopped by {} (participant {}) in mode {}", robot_id_, sender.base_id,
+               sender.participant, previous);
   Respond(sender, command.request_id, CommandKind::kStop, CommandResult::kAccepted,
           "stopped (was " + previous + "): zero twist, mode idle");
 }
@@ -156,8 +159,9 @@ void CommandInterface::OnGoalPlanned(const GoalCommand& command, const nav::Glob
   if (DiscardUnlessHolder(sender, command.request_id, kind)) return;  // the lock moved while it was planned
   const CommandOutcome outcome = hooks_.start_goal(command, plan);
   if (outcome.accepted) lock_.NoteHolderCommand(sender.participant);  // this process speaks for the holder
-  Respond(sender, command.request_id, kind, outcome.accepted ? CommandResult::kAccepted : CommandResult::kDenied,
-          outcome.reason, outcome.goal_id);
+  Respond(sender, command.request_id, kind,
+          outcome.accepted ? CommandResult::kAccepted : CommandResult::kDenied, outcome.reason,
+          outcome.goal_id);
 }
 
 void CommandInterface::OnTeleop(const TeleopCommand& command, core::SteadyTime now) {
@@ -167,8 +171,8 @@ void CommandInterface::OnTeleop(const TeleopCommand& command, core::SteadyTime n
   }
   const OperatorTwist& t = command.twist_B;
   if (!std::isfinite(t.vx_mps) || !std::isfinite(t.vy_mps) || !std::isfinite(t.wz_radps)) {
-    spdlog::warn("robot {}: teleop twist ({}, {}, {}) from {} dropped: not finite", robot_id_, t.vx_mps, t.vy_mps,
-                 t.wz_radps, command.base_id);
+    spdlog::warn("robot {}: teleop twist ({}, {}, {}) from {} dropped: not finite", robot_id_, t.vx_mps,
+                 t.vy_mps, t.wz_radps, command.base_id);
     return;
   }
   // The running mode takes it (manual and smart joystick use it; the others ignore it).
@@ -197,13 +201,15 @@ void CommandInterface::OnBaseLiveliness(const WriterLiveliness& change, core::St
   }
 }
 
-void CommandInterface::OnParticipantsGone(const std::vector<std::string>& participants, core::SteadyTime now) {
+void CommandInterface::OnParticipantsGone(const std::vector<std::string>& participants,
+                                          core::SteadyTime now) {
   for (const std::string& participant : participants) {
     for (auto it = bases_.begin(); it != bases_.end();) {
       it = it->second.participant == participant ? bases_.erase(it) : std::next(it);
     }
   }
-  for (const std::string& participant : participants) LoseParticipant(participant, "it left the DDS domain", now);
+  for (const std::string& participant : participants)
+    LoseParticipant(participant, "it left the DDS domain", now);
 }
 
 void CommandInterface::LoseParticipant(const std::string& participant, const std::string& why,
@@ -212,12 +218,13 @@ void CommandInterface::LoseParticipant(const std::string& participant, const std
   const bool was_speaker = !holder.empty() && lock_.holder_participant() == participant;
   lock_.OnParticipantLost(participant, now);
   if (was_speaker && !lock_.holder_alive()) {
-    spdlog::warn("robot {}: control holder {} lost: its last process {} is gone ({}); modes that need a live "
-                 "operator stop",
-                 robot_id_, holder, participant, why);
+    spdlog::warn(
+        "robot {}: control holder {} lost: its last process {} is gone ({}); modes that need a live "
+        "operator stop",
+        robot_id_, holder, participant, why);
   } else if (was_speaker) {
-    spdlog::info("robot {}: process {} of holder {} is gone ({}); {} speaks for it", robot_id_, participant, holder,
-                 why, lock_.holder_participant());
+    spdlog::info("robot {}: process {} of holder {} is gone ({}); {} speaks for it", robot_id_, participant,
+                 holder, why, lock_.holder_participant());
   }
   modes_->Recheck(hooks_.conditions());
 }
@@ -234,7 +241,8 @@ void CommandInterface::FillConditions(ModeConditions* c) const {
   // A joystick is alive when a live process with the holder's id advertises one.
   c->joystick_alive = false;
   for (const auto& [writer, base] : bases_) {
-    if (c->holder_alive && base.alive && base.base_id == c->holder_id && base.has_joystick) c->joystick_alive = true;
+    if (c->holder_alive && base.alive && base.base_id == c->holder_id && base.has_joystick)
+      c->joystick_alive = true;
   }
 }
 

@@ -1,9 +1,9 @@
 #include "cairn/agent/mode_control.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <stdexcept>
-
-#include <spdlog/spdlog.h>
 
 namespace cairn::agent {
 
@@ -49,8 +49,8 @@ bool ModeControl::Apply(const ModeDecision& decision) {
   } else if (next == nullptr) {
     fault = "mode " + decision.mode + " has no mode module: stopped";
   } else if (next->channel().name != decision.channel) {
-    fault = "mode " + decision.mode + " selects mux channel '" + decision.channel + "', but its module feeds '" +
-            next->channel().name + "': stopped";
+    fault = "mode " + decision.mode + " selects mux channel '" + decision.channel +
+            "', but its module feeds '" + next->channel().name + "': stopped";
   } else if (!mux_.Select(decision.channel)) {
     fault = "mode " + decision.mode + " selects mux channel '" + decision.channel +
             "', which the mux does not have: stopped";

@@ -10,9 +10,11 @@ ModeModule& ModeRegistry::Add(std::unique_ptr<ModeModule> module) {
   if (!module) throw std::invalid_argument("mode registry: a mode module is null");
   const std::string& name = module->name();
   if (name.empty()) throw std::invalid_argument("mode registry: a mode module has an empty name");
-  if (Find(name) != nullptr) throw std::invalid_argument("mode registry: mode '" + name + "' is registered twice");
+  if (Find(name) != nullptr)
+    throw std::invalid_argument("mode registry: mode '" + name + "' is registered twice");
   const MuxChannelOptions& channel = module->channel();
-  if (channel.name.empty()) throw std::invalid_argument("mode registry: mode '" + name + "' has no channel name");
+  if (channel.name.empty())
+    throw std::invalid_argument("mode registry: mode '" + name + "' has no channel name");
   for (const auto& other : modules_) {
     if (channel.name != "none" && other->channel().name == channel.name &&
         other->channel().timeout_s != channel.timeout_s) {

@@ -6,7 +6,8 @@ namespace cairn::agent {
 
 IdleMode::IdleMode() : ModeModule(kName, MuxChannelOptions{"none", 0.5}) {}
 
-ManualMode::ManualMode(double stick_timeout_s) : ModeModule(kName, MuxChannelOptions{kChannel, stick_timeout_s}) {}
+ManualMode::ManualMode(double stick_timeout_s)
+    : ModeModule(kName, MuxChannelOptions{kChannel, stick_timeout_s}) {}
 
 ModeOutput ManualMode::Step(const ModeInputs&) {
   ModeOutput out;
@@ -34,8 +35,8 @@ ModeOutput SmartJoystickMode::Step(const ModeInputs& in) {
   // A silent joystick is a zero stick: the robot brakes (the mux would zero it after its timeout anyway).
   const bool fresh = core::SecondsBetween(stick_.stamp, in.now) <= stick_timeout_s_;
   const OperatorTwist stick = fresh ? stick_.twist_B : OperatorTwist{};
-  const NavigationStep step = navigation_->StepJoystick(in.pose_M, stick.vx_mps, stick.vy_mps, stick.wz_radps,
-                                                        in.now_s);
+  const NavigationStep step =
+      navigation_->StepJoystick(in.pose_M, stick.vx_mps, stick.vy_mps, stick.wz_radps, in.now_s);
   ModeOutput out;
   out.twist_B = Twist2{step.linear_x_mps, step.angular_z_radps};
   out.stamp = in.now;

@@ -1,9 +1,9 @@
 #include "cairn/agent/waypoint_mode.h"
 
+#include <spdlog/spdlog.h>
+
 #include <cmath>
 #include <stdexcept>
-
-#include <spdlog/spdlog.h>
 
 #include "range_check.h"
 
@@ -21,7 +21,8 @@ WaypointMode::WaypointMode(WaypointModeOptions options, Navigation* navigation,
 
 GoalStart WaypointMode::Start(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m,
                               double now_s, const std::function<ModeDecision()>& enter_mode) {
-  if (!plan.IsUsable()) throw std::invalid_argument("WaypointMode::Start: the plan is not usable: " + plan.reason);
+  if (!plan.IsUsable())
+    throw std::invalid_argument("WaypointMode::Start: the plan is not usable: " + plan.reason);
   const WaypointGoal previous = goal_;
   if (recovery_) recovery_->Halt();  // a recovering previous goal is superseded
   navigation_->AcceptGoal(plan, x_m, y_m, tolerance_m, now_s);
@@ -72,7 +73,8 @@ ModeOutput WaypointMode::Step(const ModeInputs& in) {
     step = recovery_->Step(s, in.now_s);
     if (recovery_->active()) {
       const std::string report = recovery_->Report();
-      if (report != goal_.reason) spdlog::warn("robot {}: waypoint {} {}", options_.robot_id, goal_.goal_id, report);
+      if (report != goal_.reason)
+        spdlog::warn("robot {}: waypoint {} {}", options_.robot_id, goal_.goal_id, report);
       goal_.reason = report;
     }
   } else {
@@ -110,8 +112,9 @@ ModeOutput WaypointMode::OnPlatformStatus(const core::PlatformStatus& status, co
     in_contact_ = true;
     contact_since_ = in.now;
   } else if (core::SecondsBetween(contact_since_, in.now) > options_.contact_timeout_s) {
-    Finish(GoalStatus::kFailed, "blocked: in contact with occupied space at (" + internal::Fixed(in.pose_M.x_m, 2) +
-                                    ", " + internal::Fixed(in.pose_M.y_m, 2) + ")");
+    Finish(GoalStatus::kFailed, "blocked: in contact with occupied space at (" +
+                                    internal::Fixed(in.pose_M.x_m, 2) + ", " +
+                                    internal::Fixed(in.pose_M.y_m, 2) + ")");
     out.done = true;
   }
   return out;

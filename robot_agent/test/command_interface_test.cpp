@@ -3,10 +3,10 @@
 // the stick to the running mode only, and the holder's processes coming and going.
 #include "cairn/agent/command_interface.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
-
-#include <gtest/gtest.h>
 
 #include "cairn/agent/modes.h"
 
@@ -19,7 +19,8 @@ const core::SteadyTime kT0 = core::SteadyTime{} + std::chrono::seconds(100);
 // A mode that records the sticks it gets.
 class StickMode : public ModeModule {
  public:
-  StickMode(const std::string& name, const std::string& channel) : ModeModule(name, MuxChannelOptions{channel, 0.5}) {}
+  StickMode(const std::string& name, const std::string& channel)
+      : ModeModule(name, MuxChannelOptions{channel, 0.5}) {}
   ModeOutput Step(const ModeInputs&) override { return {}; }
   void OnOperatorTwist(const OperatorTwist& twist, core::SteadyTime) override { sticks.push_back(twist); }
   std::vector<OperatorTwist> sticks;
@@ -89,7 +90,8 @@ TEST(CommandInterface, OnlyTheHoldersCommandsRunAndOthersAreToldWhoHoldsTheLock)
 
   r.command->OnMode(ModeCommand{OpB(), 7, "manual"});
   EXPECT_EQ(r.last().result, CommandResult::kDiscarded);
-  EXPECT_EQ(r.last().reason, "basestation opB does not hold the control lock: robot r1 is locked by basestation opA");
+  EXPECT_EQ(r.last().reason,
+            "basestation opB does not hold the control lock: robot r1 is locked by basestation opA");
   EXPECT_EQ(r.last().requester_participant, "pB") << "the reply goes to the process that asked";
   EXPECT_EQ(r.command->lock().discarded(), 1u);
   EXPECT_EQ(r.modes->mode(), "idle");
@@ -256,14 +258,16 @@ TEST(CommandInterface, TheHoldersJoystickAndLivelinessComeFromItsProcesses) {
 
 TEST(CommandInterface, NeedsEveryHookAndValidLockOptions) {
   Robot r;
-  EXPECT_THROW(CommandInterface("r1", ControlLockOptions{}, r.modes.get(), "waypoint", CommandInterface::Hooks{}),
-               std::invalid_argument);
+  EXPECT_THROW(
+      CommandInterface("r1", ControlLockOptions{}, r.modes.get(), "waypoint", CommandInterface::Hooks{}),
+      std::invalid_argument);
   CommandInterface::Hooks hooks;
   hooks.conditions = [] { return ModeConditions{}; };
   hooks.send = [](const CommandReply&) {};
   hooks.plan_goal = [](const GoalCommand&) {};
   hooks.start_goal = [](const GoalCommand&, const nav::GlobalPlan&) { return CommandOutcome{}; };
-  EXPECT_THROW(CommandInterface("r1", ControlLockOptions{}, nullptr, "waypoint", hooks), std::invalid_argument);
+  EXPECT_THROW(CommandInterface("r1", ControlLockOptions{}, nullptr, "waypoint", hooks),
+               std::invalid_argument);
   ControlLockOptions bad;
   bad.lock_keep_s = -1.0;
   EXPECT_THROW(CommandInterface("r1", bad, r.modes.get(), "waypoint", hooks), std::invalid_argument);

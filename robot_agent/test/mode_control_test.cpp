@@ -1,12 +1,12 @@
-// The mode tree running mode modules through the mux, without DDS: the registry's rules, the load-time check of
-// the tree against the modules and the mux, switching (activate/deactivate), stop, and a new mode added as one
-// module plus one subtree.
+// The mode tree running mode modules through the mux, without DDS: the registry's rules, the load-time check
+// of the tree against the modules and the mux, switching (activate/deactivate), stop, and a new mode added as
+// one module plus one subtree.
 #include "cairn/agent/mode_control.h"
+
+#include <gtest/gtest.h>
 
 #include <fstream>
 #include <iterator>
-
-#include <gtest/gtest.h>
 
 #include "cairn/agent/modes.h"
 
@@ -115,8 +115,9 @@ TEST(ModeRegistry, RefusesNullEmptyAndDuplicateModesAndConflictingChannels) {
     r.Emplace<Conflicting>();
     FAIL() << "a channel with two timeouts was accepted";
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("mode 'conflicting' declares mux channel 'teleop' with timeout_s = 2.000"),
-              std::string::npos)
+    EXPECT_NE(
+        std::string(e.what()).find("mode 'conflicting' declares mux channel 'teleop' with timeout_s = 2.000"),
+        std::string::npos)
         << e.what();
   }
   EXPECT_EQ(r.names(), (std::vector<std::string>{"manual", "slow"}));
@@ -139,7 +140,8 @@ TEST(ModeControl, TheShippedTreeLoadsWithTheBuiltInModes) {
   ModeControl control(kTree, FakeRegistry(&m), "r1");
   EXPECT_EQ(control.mode(), "idle");
   EXPECT_EQ(control.active().name(), "idle");
-  EXPECT_EQ(control.mux().channel_names(), (std::vector<std::string>{"smart_joystick", "teleop", "waypoint"}));
+  EXPECT_EQ(control.mux().channel_names(),
+            (std::vector<std::string>{"smart_joystick", "teleop", "waypoint"}));
   EXPECT_EQ(control.last_output().active_channel, "none");
 }
 
@@ -178,16 +180,19 @@ TEST(ModeManager, RefusesATreeChannelOtherThanItsModulesNamingModeAndChannels) {
   const std::string error = [] {
     try {
       ModeManager tree(kTree, {"teleop", "smart_joystick", "waypoint"},
-                       {{"idle", "none"}, {"manual", "smart_joystick"}, {"smart_joystick", "smart_joystick"},
+                       {{"idle", "none"},
+                        {"manual", "smart_joystick"},
+                        {"smart_joystick", "smart_joystick"},
                         {"waypoint", "waypoint"}});
     } catch (const bt::TreeError& e) {
       return std::string(e.what());
     }
     return std::string("(loaded)");
   }();
-  EXPECT_NE(error.find("branch 'manual' (SelectMode mode=\"manual\") selects mux channel 'teleop', but mode module "
-                       "'manual' feeds channel 'smart_joystick'"),
-            std::string::npos)
+  EXPECT_NE(
+      error.find("branch 'manual' (SelectMode mode=\"manual\") selects mux channel 'teleop', but mode module "
+                 "'manual' feeds channel 'smart_joystick'"),
+      std::string::npos)
       << error;
   EXPECT_NE(error.find("mode_tree.xml:"), std::string::npos) << error;
 }
@@ -319,7 +324,8 @@ TEST(ModeControl, ANewModeIsOneModuleAndOneSubtree) {
   EXPECT_EQ(dock.steps, 1);
   // Without its module, the same tree is refused at load.
   Modes m2;
-  EXPECT_NE(LoadError(tree, FakeRegistry(&m2)).find("no mode module implements mode 'dock'"), std::string::npos);
+  EXPECT_NE(LoadError(tree, FakeRegistry(&m2)).find("no mode module implements mode 'dock'"),
+            std::string::npos);
 }
 
 TEST(ManualMode, DrivesTheLastStickOfThisModeWithItsArrivalTime) {
@@ -333,7 +339,8 @@ TEST(ManualMode, DrivesTheLastStickOfThisModeWithItsArrivalTime) {
   EXPECT_DOUBLE_EQ(out.twist_B->angular_z_radps, -0.2);
   EXPECT_EQ(out.stamp, At(1)) << "the mux judges the stick's age, not the step's";
   manual.Deactivate("stopped by opB");
-  EXPECT_FALSE(manual.Step(ModeInputs{At(1.3), 1.3, {}}).twist_B) << "a stick from before a stop never replays";
+  EXPECT_FALSE(manual.Step(ModeInputs{At(1.3), 1.3, {}}).twist_B)
+      << "a stick from before a stop never replays";
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
-// The waypoint mode's one record of the goal, without DDS: a goal the tree accepts or refuses, a goal cancelled by
-// a mode switch, and a goal failed by contact.
+// The waypoint mode's one record of the goal, without DDS: a goal the tree accepts or refuses, a goal
+// cancelled by a mode switch, and a goal failed by contact.
 #include "cairn/agent/waypoint_mode.h"
 
 #include <gtest/gtest.h>
@@ -16,7 +16,9 @@ core::SteadyTime At(double s) {
 }
 
 ModeDecision Accept() { return ModeDecision{true, "waypoint", "waypoint", ""}; }
-ModeDecision Refuse() { return ModeDecision{false, "idle", "none", "IsLocalPlannerHealthy: no obstacle input"}; }
+ModeDecision Refuse() {
+  return ModeDecision{false, "idle", "none", "IsLocalPlannerHealthy: no obstacle input"};
+}
 
 struct Fixture {
   Fixture()
@@ -118,7 +120,8 @@ TEST(WaypointMode, LeavingTheModeCancelsTheGoalOnce) {
   EXPECT_EQ(f.waypoint.goal().reason, "cancelled: mode switched to manual");
   EXPECT_FALSE(f.navigation.has_goal());
   f.waypoint.Deactivate("stopped by opB");
-  EXPECT_EQ(f.waypoint.goal().reason, "cancelled: mode switched to manual") << "an ended goal stays as it ended";
+  EXPECT_EQ(f.waypoint.goal().reason, "cancelled: mode switched to manual")
+      << "an ended goal stays as it ended";
 }
 
 TEST(WaypointMode, ContactLongerThanTheTimeoutFailsTheGoal) {

@@ -1,8 +1,8 @@
-// The command interface (Sriganesh et al. 2024, § Command Interface; lesson L3: exactly one operator commands a
-// robot at a time). Receives every command as a plain struct (commands.h), applies the rules of who may command
-// (the control lock; a stop from anyone), answers each command once (a retry is answered from the reply cache
-// and applied once), and keeps track of the basestation processes that speak for the lock's holder. DDS-free:
-// the agent's DDS adapter feeds it and sends its replies; tests drive it directly.
+// The command interface (Sriganesh et al. 2024, § Command Interface; lesson L3: exactly one operator commands
+// a robot at a time). Receives every command as a plain struct (commands.h), applies the rules of who may
+// command (the control lock; a stop from anyone), answers each command once (a retry is answered from the
+// reply cache and applied once), and keeps track of the basestation processes that speak for the lock's
+// holder. DDS-free: the agent's DDS adapter feeds it and sends its replies; tests drive it directly.
 #pragma once
 
 #include <cstdint>
@@ -22,9 +22,9 @@ namespace cairn::agent {
 
 /// The last operator stop honoured (RobotState.stops, stopped_by, stopped_at).
 struct StopRecord {
-  uint32_t count = 0;     ///< stops honoured since start
-  std::string by;         ///< base id of the last one
-  core::WallStamp at;     ///< when it was received (wall clock)
+  uint32_t count = 0;  ///< stops honoured since start
+  std::string by;      ///< base id of the last one
+  core::WallStamp at;  ///< when it was received (wall clock)
 };
 
 /// The operator's valid actions now (lesson L4).
@@ -51,10 +51,11 @@ class CommandInterface {
     std::function<CommandOutcome(const GoalCommand&, const nav::GlobalPlan&)> start_goal;
   };
 
-  /// `modes` (not owned) outlives this. `goal_mode`: the mode a waypoint goal is driven in (WaypointMode::kName).
+  /// `modes` (not owned) outlives this. `goal_mode`: the mode a waypoint goal is driven in
+  /// (WaypointMode::kName).
   /// @throws std::invalid_argument for a null `modes`, a missing hook or invalid lock options.
-  CommandInterface(std::string robot_id, const ControlLockOptions& lock, ModeControl* modes, std::string goal_mode,
-                   Hooks hooks);
+  CommandInterface(std::string robot_id, const ControlLockOptions& lock, ModeControl* modes,
+                   std::string goal_mode, Hooks hooks);
 
   /// request-control / release: granted when free or held by the sender's base id; only the holder releases
   /// (the robot then stops: modes that need a holder end).
@@ -116,8 +117,8 @@ class CommandInterface {
   ControlLock lock_;
   double lock_keep_s_;  // for the log line when the lock is freed
   ReplyCache<CommandReply> replies_{kReplyCacheSize};
-  std::vector<CommandKey> pending_goals_;        // goals being planned
-  std::map<std::string, BaseProcess> bases_;     // agent-info writer -> its process
+  std::vector<CommandKey> pending_goals_;     // goals being planned
+  std::map<std::string, BaseProcess> bases_;  // agent-info writer -> its process
   StopRecord stops_;
 };
 

@@ -1,9 +1,11 @@
-// The operator commands a robot receives and the replies it gives, as plain C++ (no DDS): the agent's DDS side
-// turns the wire messages (idl/cairn_msgs.idl: ControlRequest, ModeRequest, WaypointGoal, StopRequest,
-// TeleopTwist, AgentInfo) addressed to this robot into these, and CommandReply into a CommandResponse. The
-// command interface (CommandInterface) applies them.
+// The operator commands and peer requests a robot receives and the replies it gives, as plain C++ (no DDS):
+// the DDS adapter (AgentDds) turns the wire messages (idl/cairn_msgs.idl: ControlRequest, ModeRequest,
+// WaypointGoal, StopRequest, TeleopTwist, AgentInfo, PathRequest) addressed to this robot into these, and
+// CommandReply and PathAnswer into a CommandResponse and a PathResponse. The command interface
+// (CommandInterface) applies the commands; the planning service (PlanningService) answers path queries.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -16,7 +18,7 @@ namespace cairn::agent {
 struct CommandSender {
   std::string base_id;      ///< the operator's basestation id, e.g. "opA"
   std::string participant;  ///< core::ParticipantIdOf the sending writer: the process
-  std::string writer;       ///< core::WriterIdOf the sending writer: retries share it, other processes never do
+  std::string writer;  ///< core::WriterIdOf the sending writer: retries share it, other processes never do
 };
 
 /// Kind of a command (CommandResponse.kind).
@@ -52,14 +54,14 @@ struct StopCommand {
 struct GoalCommand {
   CommandSender sender;
   uint32_t request_id = 0;
-  std::string frame_id;      ///< must be "map"
-  double x_m = 0.0;          ///< goal point, frame M, metres
+  std::string frame_id;  ///< must be "map"
+  double x_m = 0.0;      ///< goal point, frame M, metres
   double y_m = 0.0;
   double tolerance_m = 0.0;  ///< arrival radius, metres, [0, 5]; 0 = navigation's default
 };
 
-/// Why `goal` cannot be driven as sent ("" when it can): a frame other than "map", a point that is not finite,
-/// a tolerance outside [0, 5] m. Each names the field and value.
+/// Why `goal` cannot be driven as sent ("" when it can): a frame other than "map", a point that is not
+/// finite, a tolerance outside [0, 5] m. Each names the field and value.
 std::string CheckGoal(const GoalCommand& goal);
 
 /// The operator's stick (TeleopTwist), best effort; no reply.
@@ -70,9 +72,9 @@ struct TeleopCommand {
 
 /// A basestation process announced itself (AgentInfo of kind basestation).
 struct BaseAnnouncement {
-  std::string writer;       ///< core::WriterIdOf its agent-info writer
-  std::string participant;  ///< core::ParticipantIdOf that writer
-  std::string base_id;      ///< the id it announced
+  std::string writer;         ///< core::WriterIdOf its agent-info writer
+  std::string participant;    ///< core::ParticipantIdOf that writer
+  std::string base_id;        ///< the id it announced
   bool has_joystick = false;  ///< it advertises the "joystick" capability
 };
 
@@ -91,10 +93,10 @@ struct CommandReply {
   uint32_t request_id = 0;
   CommandKind kind = CommandKind::kControlRequest;
   CommandResult result = CommandResult::kDenied;
-  std::string reason;     ///< why refused or discarded; what was done when accepted
-  std::string holder_id;  ///< the lock's holder after the command ("" = free)
-  std::string mode;       ///< the mode after the command
-  uint32_t goal_id = 0;   ///< the accepted goal's id (waypoint commands)
+  std::string reason;                    ///< why refused or discarded; what was done when accepted
+  std::string holder_id;                 ///< the lock's holder after the command ("" = free)
+  std::string mode;                      ///< the mode after the command
+  uint32_t goal_id = 0;                  ///< the accepted goal's id (waypoint commands)
   std::vector<std::string> valid_modes;  ///< the operator's valid actions now
   bool goal_acceptable = false;          ///< a goal would be accepted now
 };
@@ -104,6 +106,32 @@ struct CommandOutcome {
   bool accepted = false;
   std::string reason;    ///< why refused; when accepted, what was done (e.g. "path 26.0 m, ETA 26 s")
   uint32_t goal_id = 0;  ///< the goal's id when accepted
+};
+
+/// A peer's path query (PathRequest): the global planner service, answered by a PathAnswer.
+struct PathQuery {
+  std::string participant;   ///< core::ParticipantIdOf the asking process: the answer is addressed to it
+  uint32_t request_id = 0;   ///< unique per requester
+  std::string requester_id;  ///< agent id of the asker
+  std::string frame_id;      ///< must be "map"
+  Eigen::Vector2d start_M = Eigen::Vector2d::Zero();  ///< metres, frame M
+  Eigen::Vector2d goal_M = Eigen::Vector2d::Zero();   ///< metres, frame M
+  std::string platform;  ///< plan for this platform's limits; "" = the robot's own
+};
+
+/// The answer to a PathQuery (PathResponse on the wire, frame "map", where the adapter adds the robot id).
+struct PathAnswer {
+  uint32_t request_id = 0;
+  std::string requester_id;
+  std::string requester_participant;
+  bool success = false;
+  std::string status;  ///< A* status ("kSuccess", "kUnreachable", ...), "kInvalidFrame", "kUnknownPlatform",
+                       ///< "kRateLimited"
+  std::string reason;  ///< why not, naming the value at fault ("" on success)
+  std::vector<Eigen::Vector3d> path_M;  ///< N x 3, metres, frame M, z = ground height
+  double length_m = 0.0;
+  uint64_t map_version = 0;
+  double planning_time_s = 0.0;
 };
 
 }  // namespace cairn::agent

@@ -23,9 +23,10 @@ class ModeControl {
   ///         branch, mode and channel named).
   ModeControl(const std::string& tree_file, ModeRegistry registry, std::string robot_id);
 
-  /// Asks the tree for `mode` under `conditions`; on acceptance switches the mux channel and the running module
-  /// (the one left is deactivated, the new one activated). A channel switch that fails (impossible with a
-  /// checked tree) stops the robot: the decision then comes back refused with that fault as its reason.
+  /// Asks the tree for `mode` under `conditions`; on acceptance switches the mux channel and the running
+  /// module (the one left is deactivated, the new one activated). A channel switch that fails (impossible
+  /// with a checked tree) stops the robot: the decision then comes back refused with that fault as its
+  /// reason.
   ModeDecision Request(const std::string& mode, const ModeConditions& conditions);
   /// Re-checks the current mode; when it is no longer allowed, switches to idle (applied) and returns
   /// accepted = false with the reason.
@@ -49,7 +50,9 @@ class ModeControl {
   const MuxOutput& last_output() const { return last_output_; }
 
   /// Modes whose conditions hold now (no switch): the operator's valid actions.
-  std::vector<std::string> ValidModes(const ModeConditions& conditions) { return tree_.ValidModes(conditions); }
+  std::vector<std::string> ValidModes(const ModeConditions& conditions) {
+    return tree_.ValidModes(conditions);
+  }
   /// True when the tree would accept `mode` under `conditions` (no switch).
   bool IsValid(const std::string& mode, const ModeConditions& conditions);
 

@@ -1,12 +1,12 @@
-// Mode modules (Sriganesh et al. 2024, § Behavior Tree and Mux; lesson L5: a new mode is one module feeding the
-// mux plus one subtree of the mode tree). A module is a mode's behaviour: its name (the tree's mode), the mux
-// channel it feeds, and a step that turns the robot's state (and the operator's stick) into a twist. The mode
-// tree decides which module runs (ModeControl); the mux forwards only that module's channel.
+// Mode modules (Sriganesh et al. 2024, § Behavior Tree and Mux; lesson L5: a new mode is one module feeding
+// the mux plus one subtree of the mode tree). A module is a mode's behaviour: its name (the tree's mode), the
+// mux channel it feeds, and a step that turns the robot's state (and the operator's stick) into a twist. The
+// mode tree decides which module runs (ModeControl); the mux forwards only that module's channel.
 //
 // Adding a mode: derive from ModeModule, register it (RobotAgent's mode registry), and add its subtree to
 // config/mode_tree.xml (`<IsModeRequested mode="NAME"/>`, its conditions, `<SelectMode mode="NAME"
-// channel="CHANNEL"/>`). The agent refuses at start a tree whose SelectMode names a mode no module implements,
-// or a channel other than that module's (docs/AGENT.md).
+// channel="CHANNEL"/>`). The agent refuses at start a tree whose SelectMode names a mode no module
+// implements, or a channel other than that module's (docs/AGENT.md).
 #pragma once
 
 #include <map>
@@ -41,19 +41,20 @@ struct ModeInputs {
 
 /// What a module's step produces.
 struct ModeOutput {
-  /// Twist for the module's mux channel, frame B; none = nothing this cycle (the channel goes stale and the mux
-  /// then outputs zero).
+  /// Twist for the module's mux channel, frame B; none = nothing this cycle (the channel goes stale and the
+  /// mux then outputs zero).
   std::optional<Twist2> twist_B;
   core::SteadyTime stamp{};  ///< when the twist's source produced it (the mux's staleness clock)
-  bool done = false;         ///< the mode's task ended this cycle (a goal arrived or failed): the agent goes idle
+  bool done = false;  ///< the mode's task ended this cycle (a goal arrived or failed): the agent goes idle
 };
 
 /// One mode's behaviour. Not thread-safe: the agent calls every method under its lock.
 class ModeModule {
  public:
-  /// `name`: the mode's name in the tree, [a-z0-9_]+ by convention. `channel`: the mux input it feeds, with its
-  /// staleness timeout; channel name "none" = the mode drives nothing (zero twist).
-  ModeModule(std::string name, MuxChannelOptions channel) : name_(std::move(name)), channel_(std::move(channel)) {}
+  /// `name`: the mode's name in the tree, [a-z0-9_]+ by convention. `channel`: the mux input it feeds, with
+  /// its staleness timeout; channel name "none" = the mode drives nothing (zero twist).
+  ModeModule(std::string name, MuxChannelOptions channel)
+      : name_(std::move(name)), channel_(std::move(channel)) {}
   virtual ~ModeModule() = default;
   ModeModule(const ModeModule&) = delete;
   ModeModule& operator=(const ModeModule&) = delete;

@@ -1,8 +1,8 @@
-// Waypoint mode (Sriganesh et al. 2024, lesson L1): drives to an operator's goal along the global path (global
-// plan -> local planner -> iLQR, Navigation::StepWaypoint), runs the recovery tree when navigation gives up
-// (WaypointRecovery), and fails the goal when the robot stays in contact with occupied space. The module owns the
-// robot's one record of its waypoint goal (the one that is driven, or how the last one ended); RobotState, the
-// global path and the mode tree's HasWaypointGoal read it.
+// Waypoint mode (Sriganesh et al. 2024, lesson L1): drives to an operator's goal along the global path
+// (global plan -> local planner -> iLQR, Navigation::StepWaypoint), runs the recovery tree when navigation
+// gives up (WaypointRecovery), and fails the goal when the robot stays in contact with occupied space. The
+// module owns the robot's one record of its waypoint goal (the one that is driven, or how the last one
+// ended); RobotState, the global path and the mode tree's HasWaypointGoal read it.
 #pragma once
 
 #include <cstdint>
@@ -22,10 +22,10 @@ enum class GoalStatus { kNone, kActive, kArrived, kFailed };
 
 /// The waypoint goal: the one being driven, or the last one and how it ended.
 struct WaypointGoal {
-  uint32_t goal_id = 0;          ///< robot-assigned (CommandResponse.goal_id, RobotState.nav_goal_id); 0 = none yet
-  double x_m = 0.0;              ///< goal point, frame M, metres
+  uint32_t goal_id = 0;  ///< robot-assigned (CommandResponse.goal_id, RobotState.nav_goal_id); 0 = none yet
+  double x_m = 0.0;      ///< goal point, frame M, metres
   double y_m = 0.0;
-  double tolerance_m = 0.0;      ///< arrival radius as asked, metres; 0 = navigation's default
+  double tolerance_m = 0.0;  ///< arrival radius as asked, metres; 0 = navigation's default
   GoalStatus status = GoalStatus::kNone;
   std::string reason;            ///< why it failed; while recovering, the recovery's report
   double distance_left_m = 0.0;  ///< along the global path, metres
@@ -36,9 +36,10 @@ struct WaypointGoal {
 struct WaypointModeOptions {
   std::string robot_id;            ///< names the robot in log lines
   double channel_timeout_s = 0.5;  ///< the waypoint channel's staleness, seconds, (0, 60]
-  double contact_timeout_s = 1.0;  ///< in contact with occupied space longer than this -> the goal fails, s, > 0
-  uint32_t first_goal_id = 1;      ///< id of the first goal; the agent draws it at random (ids never repeat a
-                                   ///< restarted robot's), >= 1
+  double contact_timeout_s =
+      1.0;                     ///< in contact with occupied space longer than this -> the goal fails, s, > 0
+  uint32_t first_goal_id = 1;  ///< id of the first goal; the agent draws it at random (ids never repeat a
+                               ///< restarted robot's), >= 1
 };
 
 /// Outcome of WaypointMode::Start.
@@ -56,12 +57,13 @@ class WaypointMode : public ModeModule {
 
   /// `navigation` (not owned) outlives this. `recovery` runs when navigation gives up on a goal; null or not
   /// enabled() = the goal fails at once. @throws std::invalid_argument for a null navigation.
-  WaypointMode(WaypointModeOptions options, Navigation* navigation, std::unique_ptr<WaypointRecovery> recovery);
+  WaypointMode(WaypointModeOptions options, Navigation* navigation,
+               std::unique_ptr<WaypointRecovery> recovery);
 
   /// Makes the goal (x_m, y_m) (metres, frame M; arrival radius tolerance_m, 0 = navigation's default), whose
   /// usable `plan` was made from the robot's pose, the one driven: navigation takes it (a running recovery is
-  /// halted), then `enter_mode` asks the mode tree for this mode with the new goal in place. Accepted: the goal
-  /// is active and replaces any previous one. Refused: the record is the previous goal again, which ends
+  /// halted), then `enter_mode` asks the mode tree for this mode with the new goal in place. Accepted: the
+  /// goal is active and replaces any previous one. Refused: the record is the previous goal again, which ends
   /// ("cancelled: a new goal was refused: ...") since navigation already dropped it. Either way the goal id
   /// is used up. @throws std::invalid_argument for an unusable plan.
   GoalStart Start(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s,
