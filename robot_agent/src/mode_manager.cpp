@@ -170,14 +170,14 @@ void ModeManager::CheckChannels(const std::string& tree_file, const std::vector<
                           "' from the blackboard: a channel must be a literal mux channel (" + list + ")");
     }
     if (mode->second == kIdleMode && name != "none") {
-      throw bt::TreeError(where + ": the fail-safe mode 'idle' must select channel 'none' (zero twist), not '" +
-                          name + "'");
+      throw bt::TreeError(
+          where + ": the fail-safe mode 'idle' must select channel 'none' (zero twist), not '" + name + "'");
     }
     if (module_channels != nullptr && module_channels->count(mode->second) == 0) {
       std::string modules;
       for (const auto& [m, c] : *module_channels) modules += (modules.empty() ? "" : ", ") + m;
-      throw bt::TreeError(where + ": no mode module implements mode '" + mode->second + "' (modules: " + modules +
-                          "): a new mode needs its module registered in the agent");
+      throw bt::TreeError(where + ": no mode module implements mode '" + mode->second + "' (modules: " +
+                          modules + "): a new mode needs its module registered in the agent");
     }
     if (name != "none" && std::find(mux_channels.begin(), mux_channels.end(), name) == mux_channels.end()) {
       throw bt::TreeError(where + " names mux channel '" + name + "', which the mux does not have (channels: " +

@@ -41,12 +41,12 @@ class ModeManager {
   static constexpr const char* kIdleMode = "idle";
 
   /// Loads the tree and checks it against the mux it drives and the mode modules that implement its modes.
-  /// `mux_channels`: the channels the mux has ("none", no channel, is always allowed). `module_channels`: mode
-  /// name -> the mux channel its module feeds (ModeRegistry::ModeChannels()).
+  /// `mux_channels`: the channels the mux has ("none", no channel, is always allowed). `module_channels`:
+  /// mode name -> the mux channel its module feeds (ModeRegistry::ModeChannels()).
   /// @throws bt::TreeError (file, line, node) when the XML is invalid; when the tree has no branch for "idle"
   ///         (the fail-safe mode) or its idle branch selects a channel other than "none"; when a SelectMode
-  ///         names a channel that is not a literal mux channel, a mode no module implements, or a channel other
-  ///         than its module's (the file, line, branch, mode and channel are named).
+  ///         names a channel that is not a literal mux channel, a mode no module implements, or a channel
+  ///         other than its module's (the file, line, branch, mode and channel are named).
   ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels,
               const std::map<std::string, std::string>& module_channels);
   /// The same check without mode modules: the tree against the mux alone (tools, and tests of a tree).
