@@ -9,6 +9,7 @@
 #include <iterator>
 
 #include "cairn/agent/modes.h"
+#include "mode_test_util.h"
 
 namespace cairn::agent {
 namespace {
@@ -63,12 +64,9 @@ ModeRegistry FakeRegistry(Modes* modes) {
   return r;
 }
 
+// The holder also has a live joystick.
 ModeConditions Held() {
-  ModeConditions c;
-  c.holder_id = "opA";
-  c.holder_alive = true;
-  c.localized = true;
-  c.local_planner_healthy = true;
+  ModeConditions c = mode_testing::Held();
   c.joystick_alive = true;
   return c;
 }
