@@ -117,7 +117,15 @@ std::string ModeManager::WithTreeNodesModel(const std::string& tree_xml) {
   return factory.AddTreeNodesModel(tree_xml);
 }
 
+ModeManager::ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels,
+                         const std::map<std::string, std::string>& module_channels)
+    : ModeManager(tree_file, mux_channels, &module_channels) {}
+
 ModeManager::ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels)
+    : ModeManager(tree_file, mux_channels, nullptr) {}
+
+ModeManager::ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels,
+                         const std::map<std::string, std::string>* module_channels)
     : context_(std::make_shared<Context>()) {
   bt::TreeFactory factory;
   RegisterNodes(factory, context_);
@@ -130,13 +138,14 @@ ModeManager::ModeManager(const std::string& tree_file, const std::vector<std::st
       }
     }
   });
-  if (std::find(known_modes_.begin(), known_modes_.end(), "idle") == known_modes_.end()) {
+  if (std::find(known_modes_.begin(), known_modes_.end(), kIdleMode) == known_modes_.end()) {
     throw bt::TreeError(tree_file + ": the mode tree has no branch for the fail-safe mode 'idle'");
   }
-  CheckChannels(tree_file, mux_channels);
+  CheckChannels(tree_file, mux_channels, module_channels);
 }
 
-void ModeManager::CheckChannels(const std::string& tree_file, const std::vector<std::string>& mux_channels) const {
+void ModeManager::CheckChannels(const std::string& tree_file, const std::vector<std::string>& mux_channels,
+                                const std::map<std::string, std::string>* module_channels) const {
   std::string list = "none";
   for (const auto& c : mux_channels) list += ", " + c;
   std::vector<std::string> ancestors;  // names of the nodes above the one visited (pre-order)
@@ -160,13 +169,23 @@ void ModeManager::CheckChannels(const std::string& tree_file, const std::vector<
       throw bt::TreeError(where + " takes its channel '" + name +
                           "' from the blackboard: a channel must be a literal mux channel (" + list + ")");
     }
+    if (mode->second == kIdleMode && name != "none") {
+      throw bt::TreeError(
+          where + ": the fail-safe mode 'idle' must select channel 'none' (zero twist), not '" + name + "'");
+    }
+    if (module_channels != nullptr && module_channels->count(mode->second) == 0) {
+      std::string modules;
+      for (const auto& [m, c] : *module_channels) modules += (modules.empty() ? "" : ", ") + m;
+      throw bt::TreeError(where + ": no mode module implements mode '" + mode->second + "' (modules: " +
+                          modules + "): a new mode needs its module registered in the agent");
+    }
     if (name != "none" && std::find(mux_channels.begin(), mux_channels.end(), name) == mux_channels.end()) {
       throw bt::TreeError(where + " names mux channel '" + name + "', which the mux does not have (channels: " +
                           list + ")");
     }
-    if (mode != ports.end() && mode->second == "idle" && name != "none") {
-      throw bt::TreeError(where + ": the fail-safe mode 'idle' must select channel 'none' (zero twist), not '" +
-                          name + "'");
+    if (module_channels != nullptr && module_channels->at(mode->second) != name) {
+      throw bt::TreeError(where + " selects mux channel '" + name + "', but mode module '" + mode->second +
+                          "' feeds channel '" + module_channels->at(mode->second) + "'");
     }
   });
 }
@@ -220,15 +239,15 @@ ModeDecision ModeManager::Recheck(const ModeConditions& conditions) {
   }
   const std::string previous = mode_;
   std::string idle_channel, idle_failure;
-  Evaluate("idle", conditions, &idle_channel, &idle_failure);
+  Evaluate(kIdleMode, conditions, &idle_channel, &idle_failure);
   KeepTrace();
-  mode_ = "idle";
+  mode_ = kIdleMode;
   channel_ = idle_channel.empty() ? "none" : idle_channel;
   return {false, mode_, channel_, previous + " no longer allowed: " + failure};
 }
 
 ModeDecision ModeManager::ForceIdle(const std::string& refusal) {
-  mode_ = "idle";
+  mode_ = kIdleMode;
   channel_ = "none";
   if (!refusal.empty()) last_refusal_ = refusal;
   return {true, mode_, channel_, refusal};

@@ -1,36 +1,31 @@
+// RobotAgent: the composition of one robot's components (docs/AGENT.md): the mode tree running the mode
+// modules through the mux (ModeControl), the command interface, navigation and its planning service,
+// perception, the telemetry and the DDS adapter, on five threads: control (Run, 50 Hz), sensor, perception,
+// navigation map and planning. One lock (mutex_) serialises the control loop, the DDS handlers and the
+// planning thread's goal answers; the components themselves are not thread-safe unless they say so.
 #include "cairn/agent/robot_agent.h"
-
-#include <algorithm>
-#include <atomic>
-#include <cmath>
-#include <limits>
-#include <condition_variable>
-#include <deque>
-#include <map>
-#include <optional>
-#include <mutex>
-#include <random>
-#include <set>
-#include <thread>
 
 #include <spdlog/spdlog.h>
 
-#include "cairn/agent/control_lock.h"
-#include "cairn/agent/live_obstacles.h"
-#include "cairn/agent/mode_manager.h"
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <random>
+#include <thread>
+
+#include "cairn/agent/agent_dds.h"
+#include "cairn/agent/command_interface.h"
+#include "cairn/agent/mode_control.h"
+#include "cairn/agent/modes.h"
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
-#include "cairn/agent/perception_pipeline.h"
-#include "cairn/agent/reply_cache.h"
-#include "cairn/agent/twist_mux.h"
+#include "cairn/agent/perception_service.h"
+#include "cairn/agent/planning_service.h"
+#include "cairn/agent/telemetry.h"
+#include "cairn/agent/waypoint_mode.h"
 #include "cairn/agent/waypoint_recovery.h"
-#include "cairn/core/dds.h"
 #include "cairn/core/shutdown.h"
-#include "cairn/msgs/stamp.h"
-#include "cairn/nav/global_planner.h"
-#include "cairn/nav/scan_obstacles.h"
-#include "cairn/nav/traversability.h"
-#include "cairn_msgsPubSubTypes.h"
+#include "range_check.h"
 
 #ifndef CAIRN_CONFIG_DIR
 #error "CAIRN_CONFIG_DIR must be defined by the build"
@@ -38,7 +33,6 @@
 
 namespace cairn::agent {
 
-namespace msgs = cairn_msgs;
 using core::SteadyClock;
 using core::SteadyTime;
 
@@ -46,229 +40,8 @@ namespace {
 
 constexpr double kLoopPeriodS = 0.02;  // 50 Hz: mux staleness is acted on within 20 ms
 constexpr const char* kVersion = "0.1.0";
-constexpr std::size_t kResponseCacheSize = 256;
-constexpr std::size_t kMaxPendingPathRequests = 32;
 
-std::string Format(const char* fmt, double a, double b) {
-  char text[128];
-  std::snprintf(text, sizeof(text), fmt, a, b);
-  return text;
-}
-
-}  // namespace
-
-class RobotAgent::Impl {
- public:
-  Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform);
-  ~Impl();
-  void Run();
-
- private:
-  // Waypoint goal being driven (navigation_ holds its path and progress).
-  struct Goal {
-    uint32_t goal_id = 0;  // robot-assigned (CommandResponse.goal_id, RobotState.nav_goal_id)
-    double x_m = 0, y_m = 0;
-    double z_m = std::numeric_limits<double>::quiet_NaN();  // level named by the operator; NaN = the robot's
-    double tolerance_m = 0;  // 0 = navigation's default
-    SteadyTime contact_since{};
-    bool in_contact = false;
-  };
-  // Latest operator twist for smart joystick mode.
-  struct Joystick {
-    double vx_mps = 0, vy_mps = 0, wz_radps = 0;
-    SteadyTime stamp{};
-  };
-
-  // Who sent a command: the operator (base id, owner of the lock), the process (participant) and the writer.
-  struct Sender {
-    std::string base_id;
-    std::string participant;  // core::ParticipantIdOf the sending writer
-    std::string writer;       // core::WriterIdOf the sending writer
-  };
-  using SampleInfo = eprosima::fastdds::dds::SampleInfo;
-
-  // DDS callbacks (listener threads); each takes mutex_.
-  void OnControlRequest(const msgs::ControlRequest& msg, const SampleInfo& info);
-  void OnModeRequest(const msgs::ModeRequest& msg, const SampleInfo& info);
-  void OnWaypointGoal(const msgs::WaypointGoal& msg, const SampleInfo& info);
-  void OnStopRequest(const msgs::StopRequest& msg, const SampleInfo& info);
-  void OnTeleop(const msgs::TeleopTwist& msg);
-  void OnPathRequest(const msgs::PathRequest& msg, const SampleInfo& info);
-  // Planning thread: the holder's goals first, then peers' path requests; never on a DDS thread.
-  void PlanLoop();
-  struct GoalJob {
-    Sender sender;
-    msgs::WaypointGoal msg;
-    nav::GlobalPlanRequest request;
-  };
-  struct PathJob {
-    msgs::PathRequest msg;
-    std::string participant;
-  };
-  // With mutex_ held: the goal's plan is done; accept it (if the sender still holds the lock) and answer.
-  void FinishGoalJob(const GoalJob& job, const nav::GlobalPlan& plan);
-  void AnswerPathRequest(const PathJob& job);
-  // A failed plan's reason for operators (an out-of-map goal names the navigation map's extent and its key).
-  std::string PlanReason(const nav::GlobalPlan& plan) const;
-  void OnAgentInfo(const msgs::AgentInfo& msg, const SampleInfo& info);
-  void OnAgentLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status);
-  // A remote participant left or was dropped (participant discovery): it speaks for no holder any more.
-  void OnParticipantGone(const std::string& participant);
-  // With mutex_ held: the participants reported gone since the last call (their agent-info entries erased).
-  std::vector<std::string> TakeGoneParticipants();
-  // With mutex_ held: the process `participant` is gone or silent; re-check the mode (a holder without a
-  // live process stops modes that need a live operator).
-  void LoseParticipant(const std::string& participant, const std::string& why);
-
-  // All below run with mutex_ held.
-  // Answers a retry (same writer, kind and request id) from the cache. true when it was one.
-  bool ReplayIfDuplicate(const Sender& sender, msgs::CommandKind kind, uint32_t request_id);
-  void Respond(const Sender& sender, uint32_t request_id, msgs::CommandKind kind, msgs::CommandResult result,
-               const std::string& reason, uint32_t goal_id = 0);
-  ModeConditions Conditions() const;
-  // Modes valid now, and whether a goal would be accepted now (the operator's valid actions).
-  std::vector<std::string> ValidNow(bool* goal_acceptable);
-  // Switches the mux to the decision's channel and ends a goal the new mode does not drive. A channel the
-  // mux lacks (impossible with a checked tree) is never ignored: the robot stops. false then.
-  bool ApplyMode(const ModeDecision& decision);
-  // Stop whatever the tree and the mux say: mode idle, no channel (zero twist), goal cancelled with
-  // `reason`. A `fault` (a failed channel switch) is also kept as the tree's last refusal for operators.
-  void Stop(const std::string& reason, bool fault = false);
-  // Idle after a goal ends: through the tree, or a Stop if the tree refuses idle.
-  void GoIdle();
-  static Sender SenderOf(const std::string& base_id, const SampleInfo& info) {
-    return Sender{base_id, core::ParticipantIdOf(info.publication_handle), core::WriterIdOf(info.publication_handle)};
-  }
-  void FinishGoal(msgs::NavStatus status, const std::string& reason);
-  void Step(SteadyTime now);
-  void PublishState(SteadyTime now);
-  void PublishTreeStateIfChanged();
-  void PublishGlobalPathIfChanged();
-  void PublishLocalPlan();
-  // Sensor thread: reads lidar scans from the platform, makes the local planner's obstacles, hands the scan on.
-  void SensorLoop();
-  // Reads a scan if the platform has a new one: obstacles for the control loop, the scan for perception.
-  bool ReadScan(double now_s);
-  // Perception thread: maps, detects and publishes telemetry and camera frames, off the control loop.
-  void PerceptionLoop();
-  void PublishPerception(const PerceptionOutput& out);
-  // Navigation map thread: applies the map's changed region to the planner's map at its period.
-  void NavMapLoop();
-  double NowS(SteadyTime t) const { return core::SecondsBetween(start_time_, t); }
-
-  AgentOptions options_;
-  SteadyTime start_time_ = SteadyClock::now();
-  std::shared_ptr<core::PlatformIO> platform_;  // the robot: pose estimate, sensors, twist commands
-  core::PlatformCapabilities capabilities_;
-  core::BaseState start_M_;                     // pose estimate at start (the navigation map's centre)
-  std::shared_ptr<nav::GlobalPlanner> planner_;  // thread-safe; also serves path requests
-  core::BaseState pose_;          // latest pose estimate, map frame (control thread)
-  bool pose_healthy_ = true;
-  std::string pose_problem_;
-  ControlLock lock_;
-  TwistMux mux_;
-  ModeManager modes_;
-  Navigation navigation_;
-  std::optional<Goal> goal_;
-  Joystick joystick_;
-  // Basestation processes from their agent info: writer handle -> participant and base id.
-  struct BaseParticipant {
-    std::string participant;
-    std::string base_id;
-    bool has_joystick = false;  // advertises the "joystick" capability
-    bool alive = true;          // its agent-info writer's liveliness
-  };
-  std::map<eprosima::fastrtps::rtps::InstanceHandle_t, BaseParticipant> base_by_writer_;
-  // Obstacles from live lidar points, made on the sensor thread, taken by the control loop.
-  struct ObstacleSlot {
-    std::vector<Eigen::Vector3f> points_B;
-    core::BaseState pose_M;  // pose the points are expressed from
-    double stamp_s = -1e9;
-    bool fresh = false;
-  };
-  std::mutex obstacles_mutex_;
-  ObstacleSlot live_obstacles_;
-  std::unique_ptr<NavMap> nav_map_;  // used by the navigation map thread only
-  // Planning jobs (jobs_mutex_), filled by DDS threads, emptied by the planning thread.
-  std::mutex jobs_mutex_;
-  std::condition_variable jobs_cv_;
-  std::deque<GoalJob> goal_jobs_;
-  std::deque<PathJob> path_jobs_;
-  struct PathBudget {  // token bucket per requesting process
-    double tokens = 0;
-    SteadyTime last{};
-    SteadyTime last_refusal{};
-  };
-  std::map<std::string, PathBudget> path_budgets_;
-  std::uint64_t path_requests_refused_ = 0;
-  std::vector<CommandKey> pending_goals_;  // goals being planned (mutex_)
-  std::mutex scan_mutex_;
-  std::shared_ptr<core::LidarScan> latest_scan_;  // from the sensor thread to the perception thread
-  // Sensor thread only (and the constructor, before it starts).
-  LiveObstacles live_obstacle_sensor_;
-  // Set by the recovery's "clear the local obstacle memory" (control thread), done by the sensor thread.
-  std::atomic<bool> clear_obstacle_memory_{false};
-  std::unique_ptr<WaypointRecovery> recovery_;  // control thread
-  // Control-loop periods (control thread): the worst of the current and the previous 10 s window.
-  struct PeriodWindow {
-    SteadyTime last_start{};
-    SteadyTime window_start{};
-    double current_max_ms = 0.0;
-    double previous_max_ms = 0.0;
-    void Note(SteadyTime start) {
-      if (last_start != SteadyTime{}) current_max_ms = std::max(current_max_ms, 1000 * core::SecondsBetween(last_start, start));
-      last_start = start;
-      if (window_start == SteadyTime{}) window_start = start;
-      if (core::SecondsBetween(window_start, start) >= 10.0) {
-        previous_max_ms = current_max_ms;
-        current_max_ms = 0.0;
-        window_start = start;
-      }
-    }
-    double WorstMs() const { return std::max(current_max_ms, previous_max_ms); }
-  } control_periods_;
-  std::vector<Eigen::Vector3f> obstacle_points_B_;
-  std::uint64_t published_path_revision_ = ~0ull;
-  msgs::NavStatus nav_status_ = msgs::NAV_STATUS_NONE;
-  std::string nav_reason_;
-  uint32_t nav_goal_id_ = 0;
-  uint32_t next_goal_id_ = 1;  // seeded at random: goal ids of a restarted robot do not repeat old ones
-  double nav_goal_x_m_ = 0, nav_goal_y_m_ = 0, nav_distance_left_m_ = 0;
-  bool in_contact_ = false;
-  uint32_t stops_ = 0;      // operator stops honoured
-  std::string stopped_by_;  // base id of the last one
-  msgs::Time stopped_at_;   // when it was received (wall clock)
-  MuxOutput last_mux_;
-  ReplyCache<msgs::CommandResponse> replies_{kResponseCacheSize};
-  std::string last_tree_signature_;
-  std::unique_ptr<PerceptionPipeline> perception_;  // used by the perception thread only
-  std::atomic<bool> map_snapshot_requested_{false};
-
-  std::mutex mutex_;
-  std::mutex gone_mutex_;                        // guards gone_participants_ only (taken on a DDS thread)
-  std::vector<std::string> gone_participants_;  // reported by participant discovery, handled by the loop
-  std::unique_ptr<core::Participant> participant_;
-  std::unique_ptr<core::Writer<msgs::AgentInfoPubSubType>> info_writer_;
-  std::unique_ptr<core::Writer<msgs::RobotStatePubSubType>> state_writer_;
-  std::unique_ptr<core::Writer<msgs::BehaviorTreeStatePubSubType>> tree_writer_;
-  std::unique_ptr<core::Writer<msgs::CommandResponsePubSubType>> response_writer_;
-  std::unique_ptr<core::Writer<msgs::PathResponsePubSubType>> path_response_writer_;
-  std::unique_ptr<core::Writer<msgs::GlobalPathPubSubType>> global_path_writer_;
-  std::unique_ptr<core::Writer<msgs::LocalPlanPubSubType>> local_plan_writer_;
-  std::unique_ptr<core::Writer<msgs::MapUpdatePubSubType>> map_writer_;
-  std::unique_ptr<core::Writer<msgs::CompressedImagePubSubType>> camera_writer_;
-  std::unique_ptr<core::Writer<msgs::StaircaseDetectionPubSubType>> staircase_writer_;
-  std::unique_ptr<core::Reader<msgs::MapSyncRequestPubSubType>> map_sync_reader_;
-  std::unique_ptr<core::Reader<msgs::PathRequestPubSubType>> path_request_reader_;
-  std::unique_ptr<core::Reader<msgs::ControlRequestPubSubType>> control_reader_;
-  std::unique_ptr<core::Reader<msgs::ModeRequestPubSubType>> mode_reader_;
-  std::unique_ptr<core::Reader<msgs::WaypointGoalPubSubType>> goal_reader_;
-  std::unique_ptr<core::Reader<msgs::StopRequestPubSubType>> stop_reader_;
-  std::unique_ptr<core::Reader<msgs::TeleopTwistPubSubType>> teleop_reader_;
-  std::unique_ptr<core::Reader<msgs::AgentInfoPubSubType>> info_reader_;
-};
-
-namespace {
+std::string DefaultTreeFile() { return std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml"; }
 
 // The planner on the robot's own map (see NavMap), empty at start.
 std::shared_ptr<nav::GlobalPlanner> MakePlanner(const AgentOptions& options, const core::BaseState& start_M) {
@@ -277,7 +50,8 @@ std::shared_ptr<nav::GlobalPlanner> MakePlanner(const AgentOptions& options, con
   for (const auto& name : nav::PlatformNames()) {
     if (name != options.navigation.platform.name) profiles.push_back(nav::GetPlatformProfile(name));
   }
-  return NavMap::MakePlanner(options.nav_map, options.perception.map.resolution_m, start_M, std::move(profiles));
+  return NavMap::MakePlanner(options.nav_map, options.perception.map.resolution_m, start_M,
+                             std::move(profiles));
 }
 
 std::shared_ptr<core::PlatformIO> Checked(std::shared_ptr<core::PlatformIO> platform) {
@@ -292,20 +66,71 @@ core::BaseState StartPose(core::PlatformIO& platform) {
   return pose.PlanarState();
 }
 
+// Control-loop periods (control thread): the worst of the current and the previous 10 s window.
+struct PeriodWindow {
+  SteadyTime last_start{};
+  SteadyTime window_start{};
+  double current_max_ms = 0.0;
+  double previous_max_ms = 0.0;
+  void Note(SteadyTime start) {
+    if (last_start != SteadyTime{}) {
+      current_max_ms = std::max(current_max_ms, 1000 * core::SecondsBetween(last_start, start));
+    }
+    last_start = start;
+    if (window_start == SteadyTime{}) window_start = start;
+    if (core::SecondsBetween(window_start, start) >= 10.0) {
+      previous_max_ms = current_max_ms;
+      current_max_ms = 0.0;
+      window_start = start;
+    }
+  }
+  double WorstMs() const { return std::max(current_max_ms, previous_max_ms); }
+};
+
 }  // namespace
 
-std::string RobotAgent::Impl::PlanReason(const nav::GlobalPlan& plan) const {
-  if (plan.result.status != nav::PlanResult::Status::kOutOfMap) return plan.reason;
-  return plan.reason + " (the robot's navigation map spans its start +- " +
-         Format("%.0f m: navigation.map_half_extent_m = %.0f)", options_.nav_map.half_extent_m,
-                options_.nav_map.half_extent_m);
-}
+class RobotAgent::Impl {
+ public:
+  Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform);
+  void Run();
 
-namespace {
+ private:
+  // The mode modules: idle, manual, smart joystick, waypoint (a new mode is one more here and its subtree).
+  ModeRegistry MakeModes(const std::string& tree_file);
+  // The command interface's hooks into the modes, the planning service and the DDS adapter.
+  CommandInterface::Hooks CommandHooks();
+  // The DDS adapter's handlers: each applies a message to its component under mutex_.
+  AgentDdsHandlers DdsHandlers();
+  // With mutex_ held: drives a goal planned for the lock's holder (the command interface's start_goal).
+  CommandOutcome StartGoal(const GoalCommand& goal, const nav::GlobalPlan& plan);
+  // With mutex_ held: the mode tree's facts now.
+  ModeConditions Conditions() const;
+  // With mutex_ held: one control cycle (mode re-check, pose, obstacles, the running mode, the mux, the
+  // driver).
+  void Step(SteadyTime now);
+  double NowS(SteadyTime t) const { return core::SecondsBetween(start_time_, t); }
 
-std::string DefaultTreeFile() { return std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml"; }
-
-}  // namespace
+  AgentOptions options_;
+  SteadyTime start_time_ = SteadyClock::now();
+  std::shared_ptr<core::PlatformIO> platform_;  // the robot: pose estimate, sensors, twist commands
+  core::PlatformCapabilities capabilities_;
+  core::BaseState start_M_;                      // pose estimate at start (the navigation map's centre)
+  std::shared_ptr<nav::GlobalPlanner> planner_;  // thread-safe: goals and peers' path queries
+  core::BaseState pose_;                         // latest pose estimate, map frame (control thread)
+  bool pose_healthy_ = true;
+  std::string pose_problem_;
+  bool in_contact_ = false;
+  PeriodWindow control_periods_;
+  Navigation navigation_;
+  std::unique_ptr<PerceptionService> perception_;  // sensor, perception and navigation map threads
+  WaypointMode* waypoint_ = nullptr;               // owned by modes_; holds the waypoint goal
+  std::unique_ptr<ModeControl> modes_;             // the mode tree, the mode modules and the mux
+  std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
+  std::unique_ptr<PlanningService> planning_;  // the planning thread: goals, then peers' path queries
+  std::unique_ptr<Telemetry> telemetry_;
+  std::mutex mutex_;
+  std::unique_ptr<AgentDds> dds_;  // last: destroyed first, so no handler runs while the rest goes
+};
 
 RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform)
     : options_(options),
@@ -314,599 +139,150 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       start_M_(StartPose(*platform_)),
       planner_(MakePlanner(options, start_M_)),
       pose_(start_M_),
-      lock_(options.robot_id, options.lock),
-      mux_({{"teleop", options.teleop_timeout_s},
-            {"smart_joystick", options.waypoint_timeout_s},
-            {"waypoint", options.waypoint_timeout_s}}),
-      modes_(options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file, mux_.channel_names()),
       navigation_(options.navigation, planner_,
-                  std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform())),
-      live_obstacle_sensor_(options) {
-  std::random_device entropy;
-  next_goal_id_ = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
-  recovery_ = std::make_unique<WaypointRecovery>(
-      options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file, &navigation_,
-      WaypointRecovery::Hooks{[this] {
-        clear_obstacle_memory_ = true;
-        std::lock_guard<std::mutex> guard(obstacles_mutex_);
-        live_obstacles_.fresh = false;  // points from before the clearing
-      }});
-  if (!recovery_->enabled()) {
-    spdlog::warn("robot {}: the mode tree file has no {} tree: a blocked waypoint goal fails without recovery",
-                 options.robot_id, WaypointRecovery::kTreeId);
-  }
-  nav_map_ = std::make_unique<NavMap>(options.nav_map, options.perception.map.resolution_m, start_M_, planner_,
-                                      options.navigation.platform.name);
+                  std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform())) {
+  perception_ = std::make_unique<PerceptionService>(
+      options, platform_, start_M_, planner_, start_time_,
+      [this](const PerceptionOutput& out) { telemetry_->PublishPerception(out); });
+  const std::string tree_file = options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file;
+  modes_ = std::make_unique<ModeControl>(tree_file, MakeModes(tree_file), options.robot_id);
+  command_ = std::make_unique<CommandInterface>(options.robot_id, options.lock, modes_.get(),
+                                                waypoint_->name(), CommandHooks());
+  PlanningServiceOptions planning;
+  planning.robot_id = options.robot_id;
+  planning.platform = options.navigation.platform.name;
+  planning.path_queries_per_s = options.path_requests_per_s;
+  planning.map_half_extent_m = options.nav_map.half_extent_m;
+  planning_ = std::make_unique<PlanningService>(
+      planning, planner_,
+      PlanningService::Hooks{[this](const GoalCommand& goal, const nav::GlobalPlan& plan) {
+                               std::lock_guard<std::mutex> guard(mutex_);
+                               command_->OnGoalPlanned(goal, plan);
+                             },
+                             [this](const PathAnswer& answer) { dds_->Send(answer); }});
   if (capabilities_.has_lidar) {
     // The first scan before the robot announces itself ready, so that it can take a goal at once.
-    const SteadyTime deadline = SteadyClock::now() + std::chrono::seconds(5);
-    while (!ReadScan(NowS(SteadyClock::now())) && SteadyClock::now() < deadline) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    std::lock_guard<std::mutex> guard(obstacles_mutex_);
-    if (live_obstacles_.fresh) {
-      live_obstacles_.fresh = false;
-      navigation_.SetObstacles(live_obstacles_.points_B, live_obstacles_.pose_M, live_obstacles_.stamp_s);
-    } else {
-      spdlog::warn("robot {}: no lidar scan within 5 s of start; waypoint driving waits for one", options.robot_id);
+    perception_->WaitForFirstScan(std::chrono::seconds(5));
+    if (!perception_->FeedObstacles(navigation_)) {
+      spdlog::warn("robot {}: no lidar scan within 5 s of start; waypoint driving waits for one",
+                   options.robot_id);
     }
   }
-
-  // DDS entities, in a checked chain; any failure throws and the destructors tear down what exists.
-  core::ParticipantOptions p;
-  p.domain_id = options.domain_id;
-  if (!options.dds_profiles_file.empty()) p.profiles_file = options.dds_profiles_file;
-  p.name = "cairn_agent/" + options.robot_id;
-  p.on_participant_gone = [this](const std::string& participant) { OnParticipantGone(participant); };
+  AgentDdsOptions dds;
+  dds.robot_id = options.robot_id;
+  dds.domain_id = options.domain_id;
+  dds.profiles_file = options.dds_profiles_file;
   // Map telemetry budgets itself (PerceptionOptions::telemetry); the flow controller is a backstop 25 % above
   // it. Camera frames rely on theirs: a frame that cannot go out in time is replaced by the next.
-  p.flow_controllers = {{"cairn.map", options.perception.telemetry.budget_bits_per_s * 1.25, 100},
-                        {"cairn.camera", options.perception.camera_budget_bits_per_s, 100}};
-  participant_ = std::make_unique<core::Participant>(p);
-  info_writer_ = std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/agent_info",
-                                                                           "cairn.latched");
-  state_writer_ = std::make_unique<core::Writer<msgs::RobotStatePubSubType>>(*participant_, "cairn/robot_state",
-                                                                             "cairn.state");
-  tree_writer_ = std::make_unique<core::Writer<msgs::BehaviorTreeStatePubSubType>>(
-      *participant_, "cairn/bt_state", "cairn.latched");
-  response_writer_ = std::make_unique<core::Writer<msgs::CommandResponsePubSubType>>(
-      *participant_, "cairn/command_response", "cairn.command");
-  path_response_writer_ = std::make_unique<core::Writer<msgs::PathResponsePubSubType>>(
-      *participant_, "cairn/path_response", "cairn.command");
-  global_path_writer_ = std::make_unique<core::Writer<msgs::GlobalPathPubSubType>>(
-      *participant_, "cairn/global_path", "cairn.latched");
-  local_plan_writer_ = std::make_unique<core::Writer<msgs::LocalPlanPubSubType>>(*participant_, "cairn/local_plan",
-                                                                                 "cairn.state");
-  map_writer_ = std::make_unique<core::Writer<msgs::MapUpdatePubSubType>>(*participant_, "cairn/map_update",
-                                                                           "cairn.map", "cairn.map");
-  camera_writer_ = std::make_unique<core::Writer<msgs::CompressedImagePubSubType>>(*participant_, "cairn/camera",
-                                                                                   "cairn.camera", "cairn.camera");
-  staircase_writer_ = std::make_unique<core::Writer<msgs::StaircaseDetectionPubSubType>>(
-      *participant_, "cairn/staircase", "cairn.latched");
-  map_sync_reader_ = std::make_unique<core::Reader<msgs::MapSyncRequestPubSubType>>(
-      *participant_, "cairn/map_sync_request", "cairn.command", [this](const msgs::MapSyncRequest& m, const auto&) {
-        if (m.robot_id() != options_.robot_id) return;
-        spdlog::info("robot {}: map snapshot requested by {}", options_.robot_id, m.requester_id());
-        map_snapshot_requested_ = true;
-      });
-  path_request_reader_ = std::make_unique<core::Reader<msgs::PathRequestPubSubType>>(
-      *participant_, "cairn/path_request", "cairn.command",
-      [this](const msgs::PathRequest& m, const auto& info) { OnPathRequest(m, info); });
-  info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
-      *participant_, "cairn/agent_info", "cairn.latched",
-      [this](const msgs::AgentInfo& m, const auto& info) { OnAgentInfo(m, info); },
-      [this](const auto& status) { OnAgentLiveliness(status); });
-  control_reader_ = std::make_unique<core::Reader<msgs::ControlRequestPubSubType>>(
-      *participant_, "cairn/control_request", "cairn.command",
-      [this](const msgs::ControlRequest& m, const auto& info) { OnControlRequest(m, info); });
-  mode_reader_ = std::make_unique<core::Reader<msgs::ModeRequestPubSubType>>(
-      *participant_, "cairn/mode_request", "cairn.command",
-      [this](const msgs::ModeRequest& m, const auto& info) { OnModeRequest(m, info); });
-  goal_reader_ = std::make_unique<core::Reader<msgs::WaypointGoalPubSubType>>(
-      *participant_, "cairn/waypoint_goal", "cairn.command",
-      [this](const msgs::WaypointGoal& m, const auto& info) { OnWaypointGoal(m, info); });
-  stop_reader_ = std::make_unique<core::Reader<msgs::StopRequestPubSubType>>(
-      *participant_, "cairn/stop_request", "cairn.command",
-      [this](const msgs::StopRequest& m, const auto& info) { OnStopRequest(m, info); });
-  teleop_reader_ = std::make_unique<core::Reader<msgs::TeleopTwistPubSubType>>(
-      *participant_, "cairn/teleop", "cairn.teleop", [this](const msgs::TeleopTwist& m, const auto&) { OnTeleop(m); });
-
-  msgs::AgentInfo info;
-  info.agent_id(options.robot_id);
-  info.kind(msgs::AGENT_KIND_ROBOT);
-  info.platform(options.platform);
-  info.capabilities(modes_.known_modes());
-  info.version(kVersion);
-  info.world(capabilities_.description);
-  info.max_speed_mps(options.navigation.platform.limits.max_speed_mps);
-  info.max_reverse_speed_mps(options.navigation.platform.limits.max_reverse_speed_mps);
-  info.max_yaw_rate_radps(options.navigation.platform.limits.max_yaw_rate_radps);
-  info.stamp(cairn::msgs::WallStampNow());
-  info_writer_->Write(info);
-  perception_ = std::make_unique<PerceptionPipeline>(options.perception, options.robot_id);
-  PublishGlobalPathIfChanged();  // an empty path: late joiners see "no goal"
-  spdlog::info("robot {} ({}) ready on platform {} ({}) at ({:.2f}, {:.2f}, yaw {:.2f}) in its map frame on DDS "
-               "domain {}", options.robot_id, options.platform, capabilities_.driver, capabilities_.description,
-               start_M_.x_m, start_M_.y_m, start_M_.yaw_rad, options.domain_id);
+  dds.map_budget_bits_per_s = options.perception.telemetry.budget_bits_per_s * 1.25;
+  dds.camera_budget_bits_per_s = options.perception.camera_budget_bits_per_s;
+  dds_ = std::make_unique<AgentDds>(dds);
+  telemetry_ =
+      std::make_unique<Telemetry>(options, dds_.get(), modes_.get(), waypoint_, &navigation_, command_.get());
+  dds_->Listen(DdsHandlers());
+  telemetry_->PublishAgentInfo(capabilities_, kVersion);
+  telemetry_->PublishGlobalPathIfChanged();  // an empty path: late joiners see "no goal"
+  spdlog::info(
+      "robot {} ({}) ready on platform {} ({}) at ({:.2f}, {:.2f}, yaw {:.2f}) in its map frame on DDS "
+      "domain {}",
+      options.robot_id, options.platform, capabilities_.driver, capabilities_.description, start_M_.x_m,
+      start_M_.y_m, start_M_.yaw_rad, options.domain_id);
 }
 
-RobotAgent::Impl::~Impl() {
-  // Readers first so that no callback runs while the rest is torn down.
-  map_sync_reader_.reset();
-  path_request_reader_.reset();
-  control_reader_.reset();
-  mode_reader_.reset();
-  goal_reader_.reset();
-  stop_reader_.reset();
-  teleop_reader_.reset();
-  info_reader_.reset();
+ModeRegistry RobotAgent::Impl::MakeModes(const std::string& tree_file) {
+  auto recovery = std::make_unique<WaypointRecovery>(
+      tree_file, &navigation_, WaypointRecovery::Hooks{[this] { perception_->ClearObstacleMemory(); }});
+  if (!recovery->enabled()) {
+    spdlog::warn(
+        "robot {}: the mode tree file has no {} tree: a blocked waypoint goal fails without recovery",
+        options_.robot_id, WaypointRecovery::kTreeId);
+  }
+  WaypointModeOptions waypoint;
+  waypoint.robot_id = options_.robot_id;
+  waypoint.channel_timeout_s = options_.waypoint_timeout_s;
+  waypoint.contact_timeout_s = options_.contact_timeout_s;
+  std::random_device entropy;  // goal ids of a restarted robot do not repeat old ones
+  waypoint.first_goal_id = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
+  ModeRegistry modes;
+  modes.Emplace<IdleMode>();
+  modes.Emplace<ManualMode>(options_.teleop_timeout_s);
+  modes.Emplace<SmartJoystickMode>(&navigation_, options_.waypoint_timeout_s, options_.teleop_timeout_s);
+  waypoint_ = &modes.Emplace<WaypointMode>(waypoint, &navigation_, std::move(recovery));
+  return modes;
+}
+
+CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
+  CommandInterface::Hooks hooks;
+  hooks.conditions = [this] { return Conditions(); };
+  hooks.send = [this](const CommandReply& reply) { dds_->Send(reply); };
+  // Planned on the planning thread, never on the DDS thread that holds the agent lock.
+  hooks.plan_goal = [this](const GoalCommand& goal) {
+    planning_->SubmitGoal(goal, navigation_.GoalRequest(pose_, goal.x_m, goal.y_m, goal.z_m));
+  };
+  hooks.start_goal = [this](const GoalCommand& goal, const nav::GlobalPlan& plan) {
+    return StartGoal(goal, plan);
+  };
+  return hooks;
+}
+
+AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
+  // Each applies under the agent lock; discovery's departures are taken by the control loop instead.
+  auto locked = [this](auto apply) {
+    return [this, apply](const auto& message) {
+      std::lock_guard<std::mutex> guard(mutex_);
+      apply(message);
+    };
+  };
+  AgentDdsHandlers h;
+  h.control = locked([this](const ControlCommand& c) { command_->OnControl(c, SteadyClock::now()); });
+  h.mode = locked([this](const ModeCommand& c) { command_->OnMode(c); });
+  h.goal = locked([this](const GoalCommand& c) { command_->OnGoal(c); });
+  h.stop = locked([this](const StopCommand& c) { command_->OnStop(c); });
+  h.teleop = locked([this](const TeleopCommand& c) { command_->OnTeleop(c, SteadyClock::now()); });
+  h.base_announced = locked([this](const BaseAnnouncement& b) { command_->OnBaseAnnounced(b); });
+  h.base_liveliness =
+      locked([this](const WriterLiveliness& l) { command_->OnBaseLiveliness(l, SteadyClock::now()); });
+  // No planning on a DDS thread: the query waits for the planning thread, within a per-process rate.
+  h.path_query = [this](const PathQuery& q) { planning_->SubmitPathQuery(q, SteadyClock::now()); };
+  h.map_sync = [this](const std::string& requester) {
+    spdlog::info("robot {}: map snapshot requested by {}", options_.robot_id, requester);
+    perception_->RequestMapSnapshot();
+  };
+  return h;
+}
+
+CommandOutcome RobotAgent::Impl::StartGoal(const GoalCommand& goal, const nav::GlobalPlan& plan) {
+  if (!plan.IsUsable())
+    return {false, "no path: " + planning_->PlanReason(plan), 0};  // the previous goal goes on
+  const GoalStart start =
+      waypoint_->Start(plan, goal.x_m, goal.y_m, goal.tolerance_m, goal.z_m, NowS(SteadyClock::now()),
+                       [this] { return modes_->Request(waypoint_->name(), Conditions()); });
+  if (!start.accepted) return {false, start.reason, 0};
+  spdlog::info("robot {}: waypoint {} to ({:.2f}, {:.2f}) from {} accepted, path {:.1f} m", options_.robot_id,
+               start.goal_id, goal.x_m, goal.y_m, goal.sender.base_id, plan.result.length_m);
+  telemetry_
+      ->PublishGlobalPathIfChanged();  // before the acknowledgement, so `path R` right after `goto` shows it
+  return {true,
+          "path " + internal::Fixed(plan.result.length_m, 1) + " m, ETA " +
+              internal::Fixed(navigation_.eta_s(), 0) + " s",
+          start.goal_id};
 }
 
 ModeConditions RobotAgent::Impl::Conditions() const {
   ModeConditions c;
-  c.holder_id = lock_.holder_id();
-  c.holder_alive = lock_.holder_alive();
+  command_->FillConditions(&c);  // holder, its liveliness, its joystick
   c.localized = pose_healthy_;
   c.localization_problem = pose_problem_;
-  c.has_waypoint_goal = goal_.has_value();
-  // A joystick is alive when a live process with the holder's id advertises one.
-  c.joystick_alive = false;
-  for (const auto& [handle, base] : base_by_writer_) {
-    if (c.holder_alive && base.alive && base.base_id == c.holder_id && base.has_joystick) c.joystick_alive = true;
-  }
-  c.local_planner_healthy = navigation_.LocalPlannerHealthy(NowS(SteadyClock::now()), &c.local_planner_problem);
+  c.has_waypoint_goal = waypoint_->has_goal();
+  c.local_planner_healthy =
+      navigation_.LocalPlannerHealthy(NowS(SteadyClock::now()), &c.local_planner_problem);
   return c;
 }
 
-bool RobotAgent::Impl::ApplyMode(const ModeDecision& decision) {
-  if (decision.mode == "idle" && decision.channel != "none") {
-    const std::string reason = "the mode tree's idle selects mux channel '" + decision.channel + "': stopped";
-    spdlog::error("robot {}: {}", options_.robot_id, reason);
-    Stop(reason, /*fault=*/true);
-    return false;
-  }
-  if (!mux_.Select(decision.channel)) {
-    const std::string reason = "mode " + decision.mode + " selects mux channel '" + decision.channel +
-                               "', which the mux does not have: stopped";
-    spdlog::error("robot {}: {}", options_.robot_id, reason);
-    Stop(reason, /*fault=*/true);
-    return false;
-  }
-  if (decision.mode != "waypoint" && goal_) {
-    // A re-check says why the mode had to go (e.g. stale obstacle input); an operator's switch says which.
-    FinishGoal(msgs::NAV_STATUS_FAILED, decision.reason.empty() ? "cancelled: mode switched to " + decision.mode
-                                                                : "cancelled: " + decision.reason);
-  }
-  return true;
-}
-
-void RobotAgent::Impl::GoIdle() {
-  const ModeDecision d = modes_.Request("idle", Conditions());
-  if (!d.accepted) {
-    Stop("the mode tree refused idle: " + d.reason, /*fault=*/true);
-  } else {
-    ApplyMode(d);
-  }
-}
-
-void RobotAgent::Impl::Stop(const std::string& reason, bool fault) {
-  modes_.ForceIdle(fault ? reason : "");
-  mux_.Select("none");  // always succeeds: no channel, zero twist
-  joystick_ = Joystick{};
-  if (goal_) FinishGoal(msgs::NAV_STATUS_FAILED, "cancelled: " + reason);
-  last_mux_ = mux_.Compute(SteadyClock::now());  // the state shows the zero command at once
-}
-
-void RobotAgent::Impl::FinishGoal(msgs::NavStatus status, const std::string& reason) {
-  nav_status_ = status;
-  nav_reason_ = reason;
-  goal_.reset();
-  recovery_->Halt();
-  navigation_.ClearGoal();
-  if (status == msgs::NAV_STATUS_FAILED) spdlog::warn("robot {}: waypoint {} failed: {}", options_.robot_id,
-                                                       nav_goal_id_, reason);
-}
-
-namespace {
-
-msgs::Point PointOf(double x, double y, double z) {
-  msgs::Point p;
-  p.x_m(x);
-  p.y_m(y);
-  p.z_m(z);
-  return p;
-}
-
-msgs::Pose PoseOf(const Eigen::Isometry3d& T) {
-  msgs::Pose pose;
-  pose.position(PointOf(T.translation().x(), T.translation().y(), T.translation().z()));
-  const Eigen::Quaterniond q(T.rotation());
-  pose.orientation().x(q.x());
-  pose.orientation().y(q.y());
-  pose.orientation().z(q.z());
-  pose.orientation().w(q.w());
-  return pose;
-}
-
-// A planar pose (metres; yaw about +z, radians) as an IDL pose.
-msgs::Pose PoseOf(double x_m, double y_m, double z_m, double yaw_rad) {
-  msgs::Pose pose;
-  pose.position(PointOf(x_m, y_m, z_m));
-  pose.orientation().z(std::sin(yaw_rad / 2));
-  pose.orientation().w(std::cos(yaw_rad / 2));
-  return pose;
-}
-
-// A path (metres, frame map; z = ground height) as IDL points.
-std::vector<msgs::Point> PathPoints(const std::vector<Eigen::Vector3d>& path_W) {
-  std::vector<msgs::Point> points;
-  points.reserve(path_W.size());
-  for (const auto& p : path_W) points.push_back(PointOf(p.x(), p.y(), p.z()));
-  return points;
-}
-
-}  // namespace
-
-bool RobotAgent::Impl::ReplayIfDuplicate(const Sender& sender, msgs::CommandKind kind, uint32_t request_id) {
-  const msgs::CommandResponse* cached = replies_.Find(CommandKey{sender.writer, kind, request_id});
-  if (cached == nullptr) return false;
-  spdlog::debug("robot {}: retry of request {} from {} ({}) answered from the cache", options_.robot_id, request_id,
-                sender.base_id, sender.participant);
-  response_writer_->Write(*cached);
-  return true;
-}
-
-void RobotAgent::Impl::Respond(const Sender& sender, uint32_t request_id, msgs::CommandKind kind,
-                               msgs::CommandResult result, const std::string& reason, uint32_t goal_id) {
-  msgs::CommandResponse r;
-  r.robot_id(options_.robot_id);
-  r.base_id(sender.base_id);
-  r.request_id(request_id);
-  r.kind(kind);
-  r.result(result);
-  r.reason(reason);
-  r.holder_id(lock_.holder_id());
-  r.mode(modes_.mode());
-  r.requester_participant(sender.participant);
-  r.goal_id(goal_id);
-  bool goal_acceptable = false;
-  r.valid_modes(ValidNow(&goal_acceptable));
-  r.goal_acceptable(goal_acceptable);
-  response_writer_->Write(r);
-  replies_.Insert(CommandKey{sender.writer, kind, request_id}, r);
-  // The behavior-tree state follows from the control loop (<= 20 ms), off the command path.
-}
-
-void RobotAgent::Impl::OnControlRequest(const msgs::ControlRequest& msg, const SampleInfo& info) {
-  if (msg.robot_id() != options_.robot_id) return;
-  const Sender sender = SenderOf(msg.base_id(), info);
-  std::lock_guard<std::mutex> guard(mutex_);
-  const bool release = msg.action() == msgs::CONTROL_ACTION_RELEASE;
-  const auto kind = release ? msgs::COMMAND_KIND_CONTROL_RELEASE : msgs::COMMAND_KIND_CONTROL_REQUEST;
-  if (ReplayIfDuplicate(sender, kind, msg.request_id())) return;
-  const LockDecision d =
-      release ? lock_.Release(sender.base_id) : lock_.Request(sender.base_id, sender.participant, SteadyClock::now());
-  if (d.accepted) {
-    spdlog::info("robot {}: control {} by {} (participant {})", options_.robot_id, release ? "released" : "granted",
-                 sender.base_id, sender.participant);
-    const ModeDecision m = modes_.Recheck(Conditions());  // a release stops the robot (idle)
-    if (!m.accepted) ApplyMode(m);
-  }
-  Respond(sender, msg.request_id(), kind, d.accepted ? msgs::COMMAND_RESULT_ACCEPTED : msgs::COMMAND_RESULT_DENIED,
-          d.reason);
-}
-
-void RobotAgent::Impl::OnModeRequest(const msgs::ModeRequest& msg, const SampleInfo& info) {
-  if (msg.robot_id() != options_.robot_id) return;
-  const Sender sender = SenderOf(msg.base_id(), info);
-  std::lock_guard<std::mutex> guard(mutex_);
-  if (ReplayIfDuplicate(sender, msgs::COMMAND_KIND_MODE, msg.request_id())) return;
-  if (!lock_.IsHolder(sender.base_id)) {
-    lock_.CountDiscarded();
-    Respond(sender, msg.request_id(), msgs::COMMAND_KIND_MODE, msgs::COMMAND_RESULT_DISCARDED,
-            lock_.NotHolderReason(sender.base_id));
-    return;
-  }
-  ModeDecision d = modes_.Request(msg.mode(), Conditions());
-  if (d.accepted && !ApplyMode(d)) d = ModeDecision{false, modes_.mode(), modes_.channel(), modes_.last_refusal()};
-  if (d.accepted) {
-    lock_.NoteHolderCommand(sender.participant);  // an accepted command: this process speaks for the holder
-    spdlog::info("robot {}: mode {} (by {})", options_.robot_id, d.mode, sender.base_id);
-  }
-  Respond(sender, msg.request_id(), msgs::COMMAND_KIND_MODE,
-          d.accepted ? msgs::COMMAND_RESULT_ACCEPTED : msgs::COMMAND_RESULT_DENIED, d.reason);
-}
-
-void RobotAgent::Impl::OnStopRequest(const msgs::StopRequest& msg, const SampleInfo& info) {
-  if (msg.robot_id() != options_.robot_id) return;
-  const Sender sender = SenderOf(msg.base_id(), info);
-  std::lock_guard<std::mutex> guard(mutex_);
-  if (ReplayIfDuplicate(sender, msgs::COMMAND_KIND_STOP, msg.request_id())) return;
-  // An e-stop: honoured from any basestation, holder or not; the lock stays where it is.
-  const std::string previous = modes_.mode();
-  Stop("stopped by " + sender.base_id);
-  ++stops_;
-  stopped_by_ = sender.base_id;
-  stopped_at_ = cairn::msgs::WallStampNow();
-  spdlog::warn("robot {}: stopped by {} (participant {}) in mode {}", options_.robot_id, sender.base_id,
-               sender.participant, previous);
-  Respond(sender, msg.request_id(), msgs::COMMAND_KIND_STOP, msgs::COMMAND_RESULT_ACCEPTED,
-          "stopped (was " + previous + "): zero twist, mode idle");
-}
-
-void RobotAgent::Impl::OnWaypointGoal(const msgs::WaypointGoal& msg, const SampleInfo& info) {
-  if (msg.robot_id() != options_.robot_id) return;
-  const Sender sender = SenderOf(msg.base_id(), info);
-  std::lock_guard<std::mutex> guard(mutex_);
-  const auto kind = msgs::COMMAND_KIND_WAYPOINT;
-  if (ReplayIfDuplicate(sender, kind, msg.request_id())) return;
-  if (!lock_.IsHolder(sender.base_id)) {
-    lock_.CountDiscarded();
-    Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DISCARDED, lock_.NotHolderReason(sender.base_id));
-    return;
-  }
-  auto deny = [&](const std::string& reason) {
-    Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DENIED, reason);
-  };
-  if (msg.frame_id() != "map") return deny("goal frame_id '" + msg.frame_id() + "' is not supported (use 'map')");
-  if (!std::isfinite(msg.x_m()) || !std::isfinite(msg.y_m())) {
-    return deny("goal " + Format("(%g, %g)", msg.x_m(), msg.y_m()) + " is not a finite point");
-  }
-  if (!std::isfinite(msg.tolerance_m()) || msg.tolerance_m() < 0 || msg.tolerance_m() > 5) {
-    return deny("goal tolerance_m = " + std::to_string(msg.tolerance_m()) + " must be in [0, 5]");
-  }
-  if (std::isinf(msg.z_m())) {
-    return deny("goal z_m = " + std::to_string(msg.z_m()) + " must be a level's height (finite) or NaN (the robot's level)");
-  }
-  const ModeConditions with_goal = [&] {
-    ModeConditions c = Conditions();
-    c.has_waypoint_goal = true;
-    return c;
-  }();
-  // Refuse before planning when the mode could not be entered anyway (e.g. no fresh obstacle input).
-  if (const auto valid = modes_.ValidModes(with_goal);
-      std::find(valid.begin(), valid.end(), "waypoint") == valid.end()) {
-    const ModeDecision probe = modes_.Request("waypoint", with_goal);  // refused: nothing switches
-    return deny(probe.reason);
-  }
-  // Planned on the planning thread, never here (a DDS thread, holding the agent lock); a retry of this request
-  // while it is planned is ignored (its answer comes when the plan is done).
-  const CommandKey key{sender.writer, kind, msg.request_id()};
-  if (std::find(pending_goals_.begin(), pending_goals_.end(), key) != pending_goals_.end()) return;
-  pending_goals_.push_back(key);
-  {
-    std::lock_guard<std::mutex> jobs_guard(jobs_mutex_);
-    goal_jobs_.push_back(GoalJob{sender, msg, navigation_.GoalRequest(pose_, msg.x_m(), msg.y_m(), msg.z_m())});
-  }
-  jobs_cv_.notify_one();
-}
-
-void RobotAgent::Impl::FinishGoalJob(const GoalJob& job, const nav::GlobalPlan& plan) {
-  const Sender& sender = job.sender;
-  const msgs::WaypointGoal& msg = job.msg;
-  const auto kind = msgs::COMMAND_KIND_WAYPOINT;
-  const CommandKey key{sender.writer, kind, msg.request_id()};
-  pending_goals_.erase(std::remove(pending_goals_.begin(), pending_goals_.end(), key), pending_goals_.end());
-  if (!lock_.IsHolder(sender.base_id)) {  // the lock moved while the goal was planned
-    lock_.CountDiscarded();
-    Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DISCARDED, lock_.NotHolderReason(sender.base_id));
-    return;
-  }
-  auto deny = [&](const std::string& reason) {
-    Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_DENIED, reason);
-  };
-  const bool had_goal = goal_.has_value();
-  if (!plan.IsUsable()) return deny("no path: " + PlanReason(plan));  // the previous goal, if any, goes on
-  recovery_->Halt();  // a recovering previous goal is superseded
-  navigation_.AcceptGoal(plan, msg.x_m(), msg.y_m(), msg.tolerance_m(), NowS(SteadyClock::now()), msg.z_m());
-  Goal goal;
-  goal.goal_id = next_goal_id_++;
-  goal.x_m = msg.x_m();
-  goal.y_m = msg.y_m();
-  goal.z_m = msg.z_m();
-  goal.tolerance_m = msg.tolerance_m();
-  goal_ = goal;
-  const ModeDecision d = modes_.Request("waypoint", Conditions());
-  if (!d.accepted) {
-    // Navigation already holds the new goal, so the previous one ends here, with a status.
-    if (had_goal) {
-      FinishGoal(msgs::NAV_STATUS_FAILED, "cancelled: a new goal was refused: " + d.reason);
-    } else {
-      goal_.reset();
-      navigation_.ClearGoal();
-    }
-    return deny(d.reason);
-  }
-  // A previous goal is simply superseded by this one; the status below is this goal's.
-  nav_status_ = msgs::NAV_STATUS_ACTIVE;
-  nav_reason_.clear();
-  nav_goal_id_ = goal_->goal_id;
-  nav_goal_x_m_ = msg.x_m();
-  nav_goal_y_m_ = msg.y_m();
-  if (!ApplyMode(d)) return deny(modes_.last_refusal());  // stopped; this goal was cancelled
-  lock_.NoteHolderCommand(sender.participant);  // an accepted goal: this process speaks for the holder
-  nav_distance_left_m_ = plan.result.length_m;
-  spdlog::info("robot {}: waypoint {} to ({:.2f}, {:.2f}) from {} accepted, path {:.1f} m", options_.robot_id,
-               goal_->goal_id, msg.x_m(), msg.y_m(), sender.base_id, plan.result.length_m);
-  PublishGlobalPathIfChanged();  // before the acknowledgement, so `path R` right after `goto` shows it
-  Respond(sender, msg.request_id(), kind, msgs::COMMAND_RESULT_ACCEPTED,
-          Format("path %.1f m, ETA %.0f s", plan.result.length_m, navigation_.eta_s()), goal_->goal_id);
-}
-
-void RobotAgent::Impl::OnTeleop(const msgs::TeleopTwist& msg) {
-  if (msg.robot_id() != options_.robot_id) return;
-  std::lock_guard<std::mutex> guard(mutex_);
-  if (!lock_.IsHolder(msg.base_id())) {
-    lock_.CountDiscarded();
-    return;
-  }
-  const Twist2 twist{msg.twist().linear_x_mps(), msg.twist().angular_z_radps()};
-  if (!std::isfinite(msg.twist().linear_x_mps()) || !std::isfinite(msg.twist().linear_y_mps()) ||
-      !std::isfinite(msg.twist().angular_z_radps())) {
-    spdlog::warn("robot {}: teleop twist ({}, {}, {}) from {} dropped: not finite", options_.robot_id,
-                 msg.twist().linear_x_mps(), msg.twist().linear_y_mps(), msg.twist().angular_z_radps(), msg.base_id());
-    return;
-  }
-  if (modes_.mode() == "smart_joystick") {
-    joystick_ = Joystick{msg.twist().linear_x_mps(), msg.twist().linear_y_mps(), msg.twist().angular_z_radps(),
-                         SteadyClock::now()};
-    return;
-  }
-  if (modes_.mode() != "manual") return;  // teleop drives only in manual and smart joystick modes
-  mux_.Submit("teleop", twist, SteadyClock::now());
-}
-
-void RobotAgent::Impl::OnPathRequest(const msgs::PathRequest& msg, const SampleInfo& info) {
-  if (msg.robot_id() != options_.robot_id) return;
-  // No planning here (a DDS thread): the request waits for the planning thread, within a per-process rate.
-  const std::string participant = core::ParticipantIdOf(info.publication_handle);
-  std::string refusal;
-  {
-    std::lock_guard<std::mutex> jobs_guard(jobs_mutex_);
-    const SteadyTime now = SteadyClock::now();
-    PathBudget& budget = path_budgets_[participant];
-    const double rate = options_.path_requests_per_s;
-    budget.tokens = std::min(2 * rate, budget.tokens + rate * core::SecondsBetween(budget.last, now));
-    budget.last = now;
-    if (budget.tokens < 1.0) {
-      ++path_requests_refused_;
-      // One refusal a second per process says why; the rest of a flood is dropped unanswered.
-      if (core::SecondsBetween(budget.last_refusal, now) < 1.0) return;
-      budget.last_refusal = now;
-      refusal = Format("rate limited: more than %.0f path requests/s (burst %.0f) from this process", rate,
-                       2 * rate);
-    } else if (path_jobs_.size() >= kMaxPendingPathRequests) {
-      ++path_requests_refused_;
-      refusal = "busy: " + std::to_string(kMaxPendingPathRequests) + " path requests are waiting";
-    } else {
-      budget.tokens -= 1.0;
-      path_jobs_.push_back(PathJob{msg, participant});
-    }
-  }
-  if (refusal.empty()) {
-    jobs_cv_.notify_one();
-    return;
-  }
-  msgs::PathResponse r;
-  r.request_id(msg.request_id());
-  r.requester_id(msg.requester_id());
-  r.requester_participant(participant);
-  r.robot_id(options_.robot_id);
-  r.frame_id("map");
-  r.success(false);
-  r.status("kRateLimited");
-  r.reason(refusal);
-  path_response_writer_->Write(r);
-}
-
-void RobotAgent::Impl::AnswerPathRequest(const PathJob& job) {
-  const msgs::PathRequest& msg = job.msg;
-  // The planner is thread-safe: no agent lock here.
-  msgs::PathResponse r;
-  r.request_id(msg.request_id());
-  r.requester_id(msg.requester_id());
-  r.requester_participant(job.participant);
-  r.robot_id(options_.robot_id);
-  r.frame_id("map");
-  if (msg.frame_id() != "map") {
-    r.success(false);
-    r.status("kInvalidFrame");
-    r.reason("frame_id '" + msg.frame_id() + "' is not supported (use 'map')");
-  } else {
-    nav::GlobalPlanRequest request;
-    request.start_W = {msg.start_M().x_m(), msg.start_M().y_m()};
-    request.goal_W = {msg.goal_M().x_m(), msg.goal_M().y_m()};
-    request.platform = msg.platform().empty() ? options_.navigation.platform.name : msg.platform();
-    const nav::GlobalPlan plan = planner_->Plan(request);
-    r.success(plan.IsUsable());
-    r.status(plan.platform_known ? nav::ToString(plan.result.status) : "kUnknownPlatform");
-    r.reason(plan.IsUsable() ? "" : PlanReason(plan));
-    r.path_M(PathPoints(plan.result.path_W));
-    r.length_m(plan.result.length_m);
-    r.map_version(plan.map_version);
-    r.planning_time_s(plan.total_time_s);
-    spdlog::info("robot {}: path request {} from {} ({}): {}", options_.robot_id, msg.request_id(),
-                 msg.requester_id(), request.platform, plan.IsUsable() ? "path" : plan.reason);
-  }
-  path_response_writer_->Write(r);
-}
-
-void RobotAgent::Impl::OnAgentInfo(const msgs::AgentInfo& msg, const SampleInfo& info) {
-  if (msg.kind() != msgs::AGENT_KIND_BASESTATION) return;
-  std::lock_guard<std::mutex> guard(mutex_);
-  BaseParticipant& base = base_by_writer_[info.publication_handle];
-  base.participant = core::ParticipantIdOf(info.publication_handle);
-  base.base_id = msg.agent_id();
-  base.has_joystick =
-      std::find(msg.capabilities().begin(), msg.capabilities().end(), "joystick") != msg.capabilities().end();
-  lock_.OnParticipantAlive(base.base_id, base.participant);
-}
-
-void RobotAgent::Impl::OnAgentLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status) {
-  std::lock_guard<std::mutex> guard(mutex_);
-  auto it = base_by_writer_.find(status.last_publication_handle);
-  if (it == base_by_writer_.end()) return;
-  const BaseParticipant base = it->second;
-  // Unmatched (the writer is gone for good): alive -1 while alive, or not_alive -1 after its lease lapsed.
-  const bool unmatched = (status.alive_count_change < 0 && status.not_alive_count_change == 0) ||
-                         (status.alive_count_change == 0 && status.not_alive_count_change < 0);
-  if (unmatched) base_by_writer_.erase(it);
-  if (core::IsLivelinessLoss(status)) {
-    if (!unmatched) it->second.alive = false;
-    LoseParticipant(base.participant, "its liveliness lapsed or it left");
-  } else if (status.alive_count_change > 0) {
-    it->second.alive = true;
-    lock_.OnParticipantAlive(base.base_id, base.participant);
-  }
-}
-
-void RobotAgent::Impl::OnParticipantGone(const std::string& participant) {
-  // Fast DDS's discovery thread: never wait for the agent lock here (the control loop holds it while it
-  // writes samples). The control loop handles the departure within one period.
-  std::lock_guard<std::mutex> guard(gone_mutex_);
-  gone_participants_.push_back(participant);
-}
-
-std::vector<std::string> RobotAgent::Impl::TakeGoneParticipants() {
-  std::vector<std::string> gone;
-  {
-    std::lock_guard<std::mutex> guard(gone_mutex_);
-    gone.swap(gone_participants_);
-  }
-  for (const std::string& participant : gone) {
-    for (auto it = base_by_writer_.begin(); it != base_by_writer_.end();) {
-      it = it->second.participant == participant ? base_by_writer_.erase(it) : std::next(it);
-    }
-  }
-  return gone;
-}
-
-void RobotAgent::Impl::LoseParticipant(const std::string& participant, const std::string& why) {
-  const std::string holder = lock_.holder_id();
-  const bool was_speaker = !holder.empty() && lock_.holder_participant() == participant;
-  lock_.OnParticipantLost(participant, SteadyClock::now());
-  if (was_speaker && !lock_.holder_alive()) {
-    spdlog::warn("robot {}: control holder {} lost: its last process {} is gone ({}); modes that need a live "
-                 "operator stop",
-                 options_.robot_id, holder, participant, why);
-  } else if (was_speaker) {
-    spdlog::info("robot {}: process {} of holder {} is gone ({}); {} speaks for it", options_.robot_id, participant,
-                 holder, why, lock_.holder_participant());
-  }
-  const ModeDecision m = modes_.Recheck(Conditions());
-  if (!m.accepted) ApplyMode(m);
-}
-
 void RobotAgent::Impl::Step(SteadyTime now) {
-  if (lock_.Update(now)) {
-    spdlog::warn("robot {}: control lock freed after {} s without its holder", options_.robot_id,
-                 options_.lock.lock_keep_s);
-  }
-  const ModeDecision recheck = modes_.Recheck(Conditions());
-  if (!recheck.accepted) {
-    spdlog::warn("robot {}: {} -> idle", options_.robot_id, recheck.reason);
-    ApplyMode(recheck);
-  }
+  command_->Update(now);
+  const ModeDecision recheck = modes_->Recheck(Conditions());
+  if (!recheck.accepted) spdlog::warn("robot {}: {} -> idle", options_.robot_id, recheck.reason);
 
   const double now_s = NowS(now);
   // The robot as its platform reports it: pose estimate (SLAM), health.
@@ -922,212 +298,33 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   }
   pose_healthy_ = estimate.healthy;
   pose_problem_ = estimate.healthy ? "" : estimate.problem;
-  const core::BaseState& s = pose_;
-  {  // Obstacles from live lidar points, at the sensor's rate.
-    std::lock_guard<std::mutex> guard(obstacles_mutex_);
-    if (live_obstacles_.fresh) {
-      live_obstacles_.fresh = false;
-      navigation_.SetObstacles(live_obstacles_.points_B, live_obstacles_.pose_M, live_obstacles_.stamp_s);
-    }
-  }
-  if (goal_ && modes_.mode() == "waypoint") {
-    NavigationStep step;
-    if (recovery_->active()) {
-      step = recovery_->Step(s, now_s);
-      if (recovery_->active()) {
-        const std::string report = recovery_->Report();
-        if (report != nav_reason_) spdlog::warn("robot {}: waypoint {} {}", options_.robot_id, goal_->goal_id, report);
-        nav_reason_ = report;
-      }
-    } else {
-      step = navigation_.StepWaypoint(s, now_s);
-      if (step.failed && recovery_->enabled()) {
-        recovery_->Start(goal_->x_m, goal_->y_m, goal_->tolerance_m, step.reason, goal_->z_m);
-        nav_reason_ = recovery_->Report();
-        spdlog::warn("robot {}: waypoint {} {}", options_.robot_id, goal_->goal_id, nav_reason_);
-        step = NavigationStep{};  // brake this cycle; the recovery tree runs from the next
-      }
-    }
-    nav_distance_left_m_ = navigation_.distance_left_m();
-    if (step.arrived) {
-      spdlog::info("robot {}: waypoint {} arrived ({:.2f} m from the goal)", options_.robot_id, goal_->goal_id,
-                   std::hypot(s.x_m - goal_->x_m, s.y_m - goal_->y_m));
-      nav_distance_left_m_ = 0.0;
-      FinishGoal(msgs::NAV_STATUS_ARRIVED, "");
-      GoIdle();
-    } else if (step.failed) {
-      FinishGoal(msgs::NAV_STATUS_FAILED, step.reason);
-      GoIdle();
-    } else {
-      mux_.Submit("waypoint", Twist2{step.linear_x_mps, step.angular_z_radps}, now);
-    }
-  } else if (modes_.mode() == "smart_joystick") {
-    // A silent joystick is a zero stick: the robot brakes (the mux would zero it after its timeout anyway).
-    const bool fresh = core::SecondsBetween(joystick_.stamp, now) <= options_.teleop_timeout_s;
-    const NavigationStep step = navigation_.StepJoystick(s, fresh ? joystick_.vx_mps : 0.0,
-                                                         fresh ? joystick_.vy_mps : 0.0,
-                                                         fresh ? joystick_.wz_radps : 0.0, now_s);
-    mux_.Submit("smart_joystick", Twist2{step.linear_x_mps, step.angular_z_radps}, now);
-  }
-  PublishGlobalPathIfChanged();
+  perception_->FeedObstacles(navigation_);  // obstacles from live lidar points, at the sensor's rate
 
-  last_mux_ = mux_.Compute(now);
-  platform_->CommandTwist(last_mux_.twist_B.linear_x_mps, last_mux_.twist_B.angular_z_radps, now_s);
+  const ModeInputs inputs{now, now_s, pose_};
+  if (modes_->Step(inputs)) modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
+  telemetry_->PublishGlobalPathIfChanged();
+
+  const MuxOutput& command = modes_->Compute(now);
+  platform_->CommandTwist(command.twist_B.linear_x_mps, command.twist_B.angular_z_radps, now_s);
   const core::PlatformStatus status = platform_->ReadStatus();
-  const struct {
-    bool contact;
-  } step{status.in_contact};
-  in_contact_ = step.contact;
-  if (goal_) {
-    if (!step.contact) {
-      goal_->in_contact = false;
-    } else if (!goal_->in_contact) {
-      goal_->in_contact = true;
-      goal_->contact_since = now;
-    } else if (core::SecondsBetween(goal_->contact_since, now) > options_.contact_timeout_s) {
-      FinishGoal(msgs::NAV_STATUS_FAILED, Format("blocked: in contact with occupied space at (%.2f, %.2f)",
-                                                 pose_.x_m, pose_.y_m));
-      GoIdle();
-    }
-  }
-}
-
-void RobotAgent::Impl::PublishState(SteadyTime) {
-  const core::BaseState& s = pose_;  // the SLAM estimate, in the map frame of the robot's map and paths
-  msgs::RobotState m;
-  m.robot_id(options_.robot_id);
-  m.stamp(cairn::msgs::WallStampNow());
-  m.platform(options_.platform);
-  m.frame_id("map");
-  m.pose_MB(PoseOf(s.x_m, s.y_m, s.z_m, s.yaw_rad));
-  m.twist_B().linear_x_mps(s.v_mps);
-  m.twist_B().angular_z_radps(s.w_radps);
-  m.cmd_twist_B().linear_x_mps(last_mux_.twist_B.linear_x_mps);
-  m.cmd_twist_B().angular_z_radps(last_mux_.twist_B.angular_z_radps);
-  m.mode(modes_.mode());
-  m.active_channel(last_mux_.active_channel);
-  m.mux_reason(last_mux_.reason);
-  m.holder_id(lock_.holder_id());
-  m.holder_alive(lock_.holder_alive());
-  m.holder_participant(lock_.holder_participant());
-  m.holder_participants(lock_.holder_participants());
-  m.discarded_commands(lock_.discarded());
-  m.nav_status(nav_status_);
-  m.nav_reason(nav_reason_);
-  m.nav_goal_id(nav_goal_id_);
-  m.nav_goal_M().x_m(nav_goal_x_m_);
-  m.nav_goal_M().y_m(nav_goal_y_m_);
-  m.nav_distance_left_m(nav_distance_left_m_);
-  m.nav_eta_s(navigation_.eta_s());
-  m.nav_replans(static_cast<uint32_t>(navigation_.replans()));
-  m.local_planner_status(navigation_.local_status());
-  m.in_contact(in_contact_);
-  m.control_period_max_ms(control_periods_.WorstMs());
-  m.stops(stops_);
-  m.stopped_by(stopped_by_);
-  m.stopped_at(stopped_at_);
-  state_writer_->Write(m);
-}
-
-std::vector<std::string> RobotAgent::Impl::ValidNow(bool* goal_acceptable) {
-  const ModeConditions conditions = Conditions();
-  ModeConditions with_goal = conditions;
-  with_goal.has_waypoint_goal = true;
-  const std::vector<std::string> valid_with_goal = modes_.ValidModes(with_goal);
-  *goal_acceptable = std::find(valid_with_goal.begin(), valid_with_goal.end(), "waypoint") != valid_with_goal.end();
-  return modes_.ValidModes(conditions);
-}
-
-void RobotAgent::Impl::PublishTreeStateIfChanged() {
-  bool goal_acceptable = false;
-  const std::vector<std::string> valid = ValidNow(&goal_acceptable);
-  std::string signature = modes_.mode() + "|" + modes_.channel() + "|" + modes_.last_refusal() + "|" +
-                          (goal_acceptable ? "goal" : "");
-  for (const auto& v : valid) signature += "|" + v;
-  if (signature == last_tree_signature_) return;
-  last_tree_signature_ = signature;
-  // Node statuses come from the last Request/Recheck trace (Step's), which ValidModes does not overwrite.
-  msgs::BehaviorTreeState t;
-  t.robot_id(options_.robot_id);
-  t.stamp(cairn::msgs::WallStampNow());
-  t.mode(modes_.mode());
-  t.active_channel(modes_.channel());
-  t.last_refusal(modes_.last_refusal());
-  t.valid_modes(valid);
-  t.goal_acceptable(goal_acceptable);
-  t.tick_count(modes_.tick_count());
-  modes_.tree().ForEachNode([&](const bt::TreeNode& node, int depth) {
-    msgs::BtNodeState n;
-    n.name(node.name());
-    n.registration_id(node.registration_id());
-    n.depth(static_cast<uint16_t>(depth));
-    n.status(bt::ToString(modes_.LastTickStatus(node)));
-    t.nodes().push_back(n);
-  });
-  tree_writer_->Write(t);
-}
-
-void RobotAgent::Impl::PublishGlobalPathIfChanged() {
-  if (navigation_.path_revision() == published_path_revision_) return;
-  published_path_revision_ = navigation_.path_revision();
-  const nav::GlobalPlan& plan = navigation_.global_plan();
-  msgs::GlobalPath m;
-  m.robot_id(options_.robot_id);
-  m.stamp(cairn::msgs::WallStampNow());
-  m.goal_id(goal_ ? goal_->goal_id : 0);
-  m.platform(options_.navigation.platform.name);
-  m.frame_id("map");
-  if (goal_) {
-    m.path_M(PathPoints(plan.result.path_W));
-    m.length_m(plan.result.length_m);
-  }
-  m.map_version(plan.map_version);
-  m.replans(static_cast<uint32_t>(navigation_.replans()));
-  global_path_writer_->Write(m);
-}
-
-void RobotAgent::Impl::PublishLocalPlan() {
-  const std::string& mode = modes_.mode();
-  if (mode != "waypoint" && mode != "smart_joystick") return;
-  const nav::LocalPlanResult& r = navigation_.local_result();
-  const core::BaseState& pose = navigation_.local_pose();
-  msgs::LocalPlan m;
-  m.robot_id(options_.robot_id);
-  m.stamp(cairn::msgs::WallStampNow());
-  m.mode(mode);
-  const std::string& status = navigation_.local_status();
-  m.status(status == "path" ? "path" : status.rfind("boxed in", 0) == 0 ? "boxed in" : "stopped");
-  m.reason(status);
-  m.free_paths(static_cast<uint32_t>(r.num_free_paths));
-  m.total_paths(static_cast<uint32_t>(navigation_.library().num_paths()));
-  m.pose_MB(PoseOf(pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad));
-  for (const auto& p : r.path_B) m.chosen_path_B().push_back(PointOf(p.x(), p.y(), 0.0));
-  // End points of free paths, thinned to one per 0.5 m cell, to keep the message small (~1 kB).
-  std::set<std::pair<int, int>> cells;
-  for (int id = 0; id < navigation_.library().num_paths(); ++id) {
-    if (!r.IsFree(id)) continue;
-    const Eigen::Vector2f end = navigation_.library().info(id).end_B;
-    if (cells.emplace(static_cast<int>(std::floor(end.x() / 0.5f)), static_cast<int>(std::floor(end.y() / 0.5f)))
-            .second) {
-      m.free_path_ends_B().push_back(PointOf(end.x(), end.y(), 0.0));
-    }
-  }
-  m.obstacle_points(static_cast<uint32_t>(r.num_points_used));
-  m.cycle_time_ms(r.planning_time_s * 1000.0);
-  local_plan_writer_->Write(m);
+  in_contact_ = status.in_contact;
+  if (modes_->OnPlatformStatus(status, inputs))
+    modes_->GoIdle(Conditions());  // e.g. a goal blocked in contact
 }
 
 void RobotAgent::Impl::Run() {
-  const auto period = std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(kLoopPeriodS));
-  const int state_every = std::max(1, static_cast<int>(std::lround(1.0 / (options_.state_rate_hz * kLoopPeriodS))));
+  const auto period =
+      std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(kLoopPeriodS));
+  const int state_every =
+      std::max(1, static_cast<int>(std::lround(1.0 / (options_.state_rate_hz * kLoopPeriodS))));
   const int local_plan_every =
       std::max(1, static_cast<int>(std::lround(1.0 / (options_.local_plan_rate_hz * kLoopPeriodS))));
   // The lidar feeds navigation (live obstacles, the navigation map) even with perception's outputs disabled.
   std::thread sensor_thread;
-  if (capabilities_.has_lidar) sensor_thread = std::thread([this] { SensorLoop(); });
-  std::thread perception_thread([this] { PerceptionLoop(); });
-  std::thread nav_map_thread([this] { NavMapLoop(); });
-  std::thread plan_thread([this] { PlanLoop(); });
+  if (capabilities_.has_lidar) sensor_thread = std::thread([this] { perception_->SensorLoop(); });
+  std::thread perception_thread([this] { perception_->PerceptionLoop(); });
+  std::thread nav_map_thread([this] { perception_->NavMapLoop(); });
+  std::thread plan_thread([this] { planning_->Run([] { return !core::ShutdownRequested(); }); });
   // Joins the threads however Run() ends (an exception would otherwise terminate the process).
   struct JoinOnExit {
     std::thread* threads[4];
@@ -1145,27 +342,28 @@ void RobotAgent::Impl::Run() {
     const SteadyTime wanted = SteadyClock::now();
     control_periods_.Note(wanted);
     if (const double late_s = core::SecondsBetween(next, wanted); late_s > 0.1) {
-      spdlog::warn("robot {}: control loop woke {:.0f} ms late (the process was not scheduled)", options_.robot_id,
-                   1000 * late_s);
+      spdlog::warn("robot {}: control loop woke {:.0f} ms late (the process was not scheduled)",
+                   options_.robot_id, 1000 * late_s);
     }
     {
       std::lock_guard<std::mutex> guard(mutex_);
       const SteadyTime now = SteadyClock::now();
-      for (const std::string& participant : TakeGoneParticipants()) {
-        LoseParticipant(participant, "it left the DDS domain");
-      }
+      command_->OnParticipantsGone(dds_->TakeGoneParticipants(), now);
       Step(now);
-      if (cycle % state_every == 0) PublishState(now);
-      if (cycle % local_plan_every == 0) PublishLocalPlan();
-      PublishTreeStateIfChanged();
+      if (cycle % state_every == 0) {
+        telemetry_->PublishState(RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs()});
+      }
+      if (cycle % local_plan_every == 0) telemetry_->PublishLocalPlan();
+      telemetry_->PublishTreeStateIfChanged();
       // A late cycle is a robot driving blind: say where the time went (waiting for the lock, or working).
       const double lock_wait_s = core::SecondsBetween(wanted, now);
       const double work_s = core::SecondsBetween(now, SteadyClock::now());
       if (lock_wait_s + work_s > 0.1) {
-        spdlog::warn("robot {}: control cycle took {:.0f} ms ({:.0f} ms waiting for the agent lock, {:.0f} ms "
-                     "working; period {:.0f} ms)",
-                     options_.robot_id, 1000 * (lock_wait_s + work_s), 1000 * lock_wait_s, 1000 * work_s,
-                     1000 * kLoopPeriodS);
+        spdlog::warn(
+            "robot {}: control cycle took {:.0f} ms ({:.0f} ms waiting for the agent lock, {:.0f} ms "
+            "working; period {:.0f} ms)",
+            options_.robot_id, 1000 * (lock_wait_s + work_s), 1000 * lock_wait_s, 1000 * work_s,
+            1000 * kLoopPeriodS);
       }
     }
     next += period;
@@ -1175,212 +373,18 @@ void RobotAgent::Impl::Run() {
   }
   {
     std::lock_guard<std::mutex> guard(mutex_);
-    Stop("agent shutting down");
-    PublishState(SteadyClock::now());
+    modes_->Stop("agent shutting down");
+    telemetry_->PublishState(RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs()});
   }
   for (std::thread* t : {&sensor_thread, &perception_thread, &nav_map_thread, &plan_thread}) {
     if (t->joinable()) t->join();
   }
   if (options_.perception.enabled) {
     // The last changes (within the budget), and a moment for the asynchronous writer to deliver them.
-    PerceptionOutput last;
-    last.map_messages = perception_->FlushMapTelemetry(NowS(SteadyClock::now()));
-    PublishPerception(last);
-    map_writer_->get()->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(1, 0));
+    telemetry_->PublishPerception(perception_->Flush());
+    dds_->WaitForMapDelivery(std::chrono::seconds(1));
   }
-  if (!options_.map_save_path.empty()) {
-    try {
-      perception_->map()->SaveBt(options_.map_save_path);
-      spdlog::info("robot {}: map saved to {}", options_.robot_id, options_.map_save_path);
-    } catch (const std::exception& e) {
-      spdlog::error("robot {}: cannot save the map: {}", options_.robot_id, e.what());
-    }
-  }
-  const PerceptionStats& ps = perception_->stats();
-  spdlog::info("robot {}: shutting down; perception: {} scans ({:.1f} ms map per inserted scan), {} staircase "
-               "runs ({:.1f} ms each), {} camera frames; navigation map version {}",
-               options_.robot_id, ps.scans, ps.scans_inserted ? ps.map_ms_total / ps.scans_inserted : 0.0,
-               ps.staircase_runs, ps.staircase_runs ? ps.staircase_ms_total / ps.staircase_runs : 0.0,
-               ps.camera_frames, planner_->map_version());
-}
-
-void RobotAgent::Impl::PublishPerception(const PerceptionOutput& out) {
-  for (const perception::MapUpdate& update : out.map_messages) {
-    msgs::MapUpdate m;
-    m.robot_id(options_.robot_id);
-    m.stamp(cairn::msgs::WallStampNow());
-    m.kind(static_cast<uint8_t>(update.kind));
-    m.seq(update.seq);
-    m.base_seq(update.base_seq);
-    m.snapshot_id(update.snapshot_id);
-    m.chunk_index(update.chunk_index);
-    m.chunk_count(update.chunk_count);
-    m.resolution_m(update.resolution_m);
-    m.encoding("cairn-coarse-zstd-v1");
-    m.data(update.data);
-    if (!map_writer_->Write(m)) {
-      spdlog::warn("robot {}: map update seq {} not written (history full)", options_.robot_id, update.seq);
-    }
-  }
-  for (const perception::StaircaseRegistry::Entry& entry : out.staircases) {
-    const perception::Staircase& s = entry.staircase;
-    msgs::StaircaseDetection m;
-    m.robot_id(options_.robot_id);
-    m.staircase_id(static_cast<uint32_t>(entry.id));
-    m.stamp(cairn::msgs::WallStampNow());
-    m.p_M_first_step(PointOf(s.p_W_first_step.x(), s.p_W_first_step.y(), s.p_W_first_step.z()));
-    m.yaw_rad(s.yaw_rad);
-    m.rise_m(s.rise_m);
-    m.run_m(s.run_m);
-    m.width_m(s.width_m);
-    m.num_steps(static_cast<uint16_t>(s.num_steps));
-    m.confidence(s.confidence);
-    m.detections(static_cast<uint32_t>(entry.detections));
-    staircase_writer_->Write(m);
-    spdlog::info("robot {}: staircase {} at ({:.2f}, {:.2f}, {:.2f}) yaw {:.2f}: {} steps, rise {:.3f} m, run {:.3f} m, "
-                 "width {:.2f} m ({} detections)", options_.robot_id, entry.id, s.p_W_first_step.x(),
-                 s.p_W_first_step.y(), s.p_W_first_step.z(), s.yaw_rad, s.num_steps, s.rise_m, s.run_m, s.width_m,
-                 entry.detections);
-  }
-  if (out.camera) {
-    msgs::CompressedImage m;
-    m.robot_id(options_.robot_id);
-    m.stamp(cairn::msgs::WallStampNow());
-    m.seq(out.camera->seq);
-    m.frame_id("camera");
-    m.format("jpeg");
-    m.width_px(static_cast<uint16_t>(out.camera->width_px));
-    m.height_px(static_cast<uint16_t>(out.camera->height_px));
-    m.pose_MC(PoseOf(out.camera->T_W_C));
-    m.data(out.camera->jpeg);
-    camera_writer_->Write(m);  // keep-last 1: an unsent frame is replaced by this one (dropped, never queued)
-  }
-}
-
-bool RobotAgent::Impl::ReadScan(double now_s) {
-  auto scan = std::make_shared<core::LidarScan>();
-  if (!platform_->ReadLidarScan(now_s, scan.get())) return false;
-  core::BaseState pose_M;
-  if (clear_obstacle_memory_.exchange(false)) live_obstacle_sensor_.Clear();
-  live_obstacle_sensor_.AddScan(*scan, &obstacle_points_B_, &pose_M);
-  {
-    std::lock_guard<std::mutex> guard(obstacles_mutex_);
-    live_obstacles_.points_B.swap(obstacle_points_B_);
-    live_obstacles_.pose_M = pose_M;
-    live_obstacles_.stamp_s = scan->stamp_s;
-    live_obstacles_.fresh = true;
-  }
-  std::lock_guard<std::mutex> guard(scan_mutex_);
-  latest_scan_ = std::move(scan);  // perception takes the newest; a slow mapper skips scans, never queues
-  return true;
-}
-
-void RobotAgent::Impl::SensorLoop() {
-  // Polls the platform at twice its lidar rate: a scan reaches the local planner within half a period of its
-  // arrival, whatever the perception thread is busy with (mapping, stairs, camera).
-  const double rate_hz = capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0;
-  const auto period =
-      std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(0.5 / rate_hz));
-  SteadyTime next = SteadyClock::now();
-  while (!core::ShutdownRequested()) {
-    try {
-      ReadScan(NowS(SteadyClock::now()));
-    } catch (const std::exception& e) {
-      // A sensor fault must never take the robot down: the local planner's input goes stale and the robot
-      // stops (navigation.obstacle_timeout_s).
-      spdlog::error("robot {}: lidar read failed: {}", options_.robot_id, e.what());
-    }
-    next += period;
-    const auto now = SteadyClock::now();
-    if (next < now) next = now;
-    core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
-  }
-}
-
-void RobotAgent::Impl::PerceptionLoop() {
-  const double rate_hz = capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0;
-  const auto period =
-      std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(0.5 / rate_hz));
-  core::CameraImage image;
-  SteadyTime next = SteadyClock::now();
-  while (!core::ShutdownRequested()) {
-    const double now_s = NowS(SteadyClock::now());
-    try {
-      std::shared_ptr<core::LidarScan> scan;
-      {
-        std::lock_guard<std::mutex> guard(scan_mutex_);
-        scan.swap(latest_scan_);
-      }
-      if (map_snapshot_requested_.exchange(false)) perception_->RequestMapSnapshot();
-      const bool has_image =
-          capabilities_.has_camera && perception_->CameraDue(now_s) && platform_->ReadCameraImage(now_s, &image);
-      PublishPerception(perception_->Tick(now_s, scan.get(), has_image ? &image : nullptr));
-    } catch (const std::exception& e) {
-      // Perception must never take the robot down.
-      spdlog::error("robot {}: perception tick failed: {}", options_.robot_id, e.what());
-    }
-    next += period;
-    const auto now = SteadyClock::now();
-    if (next < now) next = now;  // over budget: the next scan comes late, never a burst
-    core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
-  }
-}
-
-void RobotAgent::Impl::PlanLoop() {
-  while (!core::ShutdownRequested()) {
-    std::optional<GoalJob> goal_job;
-    std::optional<PathJob> path_job;
-    {
-      std::unique_lock<std::mutex> jobs_guard(jobs_mutex_);
-      jobs_cv_.wait_for(jobs_guard, std::chrono::milliseconds(100),
-                        [this] { return !goal_jobs_.empty() || !path_jobs_.empty(); });
-      if (!goal_jobs_.empty()) {  // the holder's goals before peers' path requests
-        goal_job = std::move(goal_jobs_.front());
-        goal_jobs_.pop_front();
-      } else if (!path_jobs_.empty()) {
-        path_job = std::move(path_jobs_.front());
-        path_jobs_.pop_front();
-      }
-    }
-    try {
-      if (goal_job) {
-        const nav::GlobalPlan plan = planner_->Plan(goal_job->request);  // no agent lock while planning
-        std::lock_guard<std::mutex> guard(mutex_);
-        FinishGoalJob(*goal_job, plan);
-      } else if (path_job) {
-        AnswerPathRequest(*path_job);
-      }
-    } catch (const std::exception& e) {
-      spdlog::error("robot {}: planning failed: {}", options_.robot_id, e.what());
-    }
-  }
-}
-
-void RobotAgent::Impl::NavMapLoop() {
-  const auto period = std::chrono::duration_cast<SteadyClock::duration>(
-      std::chrono::duration<double>(options_.nav_map.update_period_s));
-  SteadyTime next = SteadyClock::now() + period;
-  while (!core::ShutdownRequested()) {
-    core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - SteadyClock::now()));
-    if (core::ShutdownRequested()) break;
-    next += period;
-    if (next < SteadyClock::now()) next = SteadyClock::now() + period;
-    try {
-      const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
-      if (tiles.empty()) continue;
-      const NavMapUpdateStats stats = nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m(),
-                                                        perception_->max_sensor_z_m());
-      if (stats.applied) {
-        spdlog::debug("robot {}: navigation map v{}: {} tiles in {:.1f} x {:.1f} m, {} occupied voxels, read {:.1f} "
-                      "ms, traversability {:.1f} ms, publish {:.1f} ms",
-                      options_.robot_id, stats.map_version, stats.tiles, stats.region_M.sizes().x(),
-                      stats.region_M.sizes().y(), stats.occupied_voxels, stats.read_ms, stats.traversability_ms,
-                      stats.publish_ms);
-      }
-    } catch (const std::exception& e) {
-      spdlog::error("robot {}: navigation map update failed: {}", options_.robot_id, e.what());
-    }
-  }
+  perception_->Finish(options_.map_save_path);
 }
 
 RobotAgent::RobotAgent(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform)

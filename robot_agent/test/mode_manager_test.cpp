@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "mode_test_util.h"
+
 namespace cairn::agent {
 namespace {
 
@@ -12,14 +14,7 @@ const std::string kTree = std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml
 // The agent's mux channels.
 const std::vector<std::string> kChannels = {"teleop", "smart_joystick", "waypoint"};
 
-ModeConditions Held() {
-  ModeConditions c;
-  c.holder_id = "opA";
-  c.holder_alive = true;
-  c.localized = true;
-  c.local_planner_healthy = true;
-  return c;
-}
+using mode_testing::Held;
 
 TEST(ModeManager, ShippedTreeLoadsWithItsModes) {
   ModeManager modes(kTree, kChannels);

@@ -36,11 +36,20 @@ struct ModeDecision {
 /// Owns the mode tree and the current mode. Not thread-safe (the agent calls it under its lock).
 class ModeManager {
  public:
-  /// Loads the tree and checks it against the mux it drives.
-  /// `mux_channels`: the channels the mux has ("none", no channel, is always allowed).
+  /// The fail-safe mode every tree must have: it selects channel "none" (zero twist); stops and lost
+  /// conditions fall back to it.
+  static constexpr const char* kIdleMode = "idle";
+
+  /// Loads the tree and checks it against the mux it drives and the mode modules that implement its modes.
+  /// `mux_channels`: the channels the mux has ("none", no channel, is always allowed). `module_channels`:
+  /// mode name -> the mux channel its module feeds (ModeRegistry::ModeChannels()).
   /// @throws bt::TreeError (file, line, node) when the XML is invalid; when the tree has no branch for "idle"
   ///         (the fail-safe mode) or its idle branch selects a channel other than "none"; when a SelectMode
-  ///         names a channel that is not a literal mux channel (the branch, line and channel are named).
+  ///         names a channel that is not a literal mux channel, a mode no module implements, or a channel
+  ///         other than its module's (the file, line, branch, mode and channel are named).
+  ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels,
+              const std::map<std::string, std::string>& module_channels);
+  /// The same check without mode modules: the tree against the mux alone (tools, and tests of a tree).
   ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels);
 
   /// The `<TreeNodesModel>` element (BehaviorTree.CPP v4 / Groot2 format) of the nodes a mode tree may use
@@ -79,13 +88,17 @@ class ModeManager {
   bt::NodeStatus LastTickStatus(const bt::TreeNode& node) const;
 
  private:
+  ModeManager(const std::string& tree_file, const std::vector<std::string>& mux_channels,
+              const std::map<std::string, std::string>* module_channels);
   // Ticks the tree once for `mode`. Returns true when a branch accepted; fills selection and failure.
   bool Evaluate(const std::string& mode, const ModeConditions& conditions, std::string* channel,
                 std::string* failure);
 
   void KeepTrace();
-  // Throws bt::TreeError when a SelectMode names a channel the mux does not have (see the constructor).
-  void CheckChannels(const std::string& tree_file, const std::vector<std::string>& mux_channels) const;
+  // Throws bt::TreeError when a SelectMode names a channel the mux does not have, or (with `module_channels`)
+  // a mode without a module or a channel other than its module's (see the constructor).
+  void CheckChannels(const std::string& tree_file, const std::vector<std::string>& mux_channels,
+                     const std::map<std::string, std::string>* module_channels) const;
 
   struct Context;
   // Registers the mode tree's condition and action nodes, whose callbacks read and write `ctx`.
@@ -94,7 +107,7 @@ class ModeManager {
   std::shared_ptr<Context> context_;
   bt::Tree tree_;
   std::vector<std::string> known_modes_;
-  std::string mode_ = "idle";
+  std::string mode_ = kIdleMode;
   std::string channel_ = "none";
   std::string last_refusal_;
   uint64_t tick_count_ = 0;

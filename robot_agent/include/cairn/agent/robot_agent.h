@@ -1,6 +1,7 @@
-// cairn_agent: one process per robot hosting the command interface, mode tree, mux, navigation and
-// perception, talking to basestations over Fast DDS (Sriganesh et al. 2024, Fig. 1). The robot itself (a
-// hardware driver or the simulator) is reached only through core::PlatformIO.
+// cairn_agent: one process per robot hosting the command interface, mode tree with its mode modules, mux,
+// navigation and perception, talking to basestations over Fast DDS (Sriganesh et al. 2024, Fig. 1). The robot
+// itself (a hardware driver or the simulator) is reached only through core::PlatformIO. RobotAgent composes the
+// components and runs their threads; docs/AGENT.md maps them (and shows how to add a mode).
 #pragma once
 
 #include <memory>

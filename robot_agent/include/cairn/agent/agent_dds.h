@@ -1,0 +1,100 @@
+// The agent's DDS adapter: one participant with the robot's readers and writers (topics and QoS profiles of
+// config/dds_profiles.xml), nothing else. Incoming messages addressed to this robot become the plain structs
+// of commands.h and go to the handlers; outgoing replies and telemetry are written as they are given. No
+// robot logic lives here: who may command is the command interface's, what to publish the telemetry's.
+//
+// Topics (idl/cairn_msgs.idl): reads cairn/control_request, cairn/mode_request, cairn/waypoint_goal,
+// cairn/stop_request (QoS cairn.command), cairn/teleop (cairn.teleop), cairn/agent_info (cairn.latched, with
+// liveliness), cairn/path_request, cairn/map_sync_request (cairn.command); writes cairn/command_response,
+// cairn/path_response (cairn.command), cairn/agent_info, cairn/bt_state, cairn/global_path, cairn/staircase
+// (cairn.latched), cairn/robot_state, cairn/local_plan (cairn.state), cairn/map_update (cairn.map, flow
+// controller "cairn.map"), cairn/camera (cairn.camera, flow controller "cairn.camera").
+#pragma once
+
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cairn/agent/commands.h"
+
+namespace cairn_msgs {
+class AgentInfo;
+class RobotState;
+class BehaviorTreeState;
+class GlobalPath;
+class LocalPlan;
+class MapUpdate;
+class CompressedImage;
+class StaircaseDetection;
+}  // namespace cairn_msgs
+
+namespace cairn::agent {
+
+/// How the adapter's participant is made.
+struct AgentDdsOptions {
+  std::string robot_id;                   ///< messages for other robots are ignored; replies carry it
+  int domain_id = 0;                      ///< DDS domain, [0, 232]
+  std::string profiles_file;              ///< Fast DDS XML profiles; "" = core::DefaultProfilesFile()
+  double map_budget_bits_per_s = 1e6;     ///< flow controller "cairn.map", > 0
+  double camera_budget_bits_per_s = 1e6;  ///< flow controller "cairn.camera", > 0
+};
+
+/// Where incoming messages go. Called on Fast DDS's threads, possibly concurrently: each handler does its own
+/// locking. Every handler is required.
+struct AgentDdsHandlers {
+  std::function<void(const ControlCommand&)> control;
+  std::function<void(const ModeCommand&)> mode;
+  std::function<void(const GoalCommand&)> goal;
+  std::function<void(const StopCommand&)> stop;
+  std::function<void(const TeleopCommand&)> teleop;
+  std::function<void(const BaseAnnouncement&)> base_announced;   ///< agent info of a basestation
+  std::function<void(const WriterLiveliness&)> base_liveliness;  ///< its agent-info writer's liveliness
+  std::function<void(const PathQuery&)> path_query;
+  std::function<void(const std::string& requester_id)> map_sync;  ///< a map snapshot is asked for
+};
+
+/// The robot's DDS entities. Construction is a checked chain (participant, writers); Listen() adds the
+/// readers. Any failure throws and what exists is torn down. Readers go first at destruction, so no handler
+/// runs while the rest goes.
+class AgentDds {
+ public:
+  /// Creates the participant and the writers. @throws core::DdsError naming the profile, topic or entity;
+  /// std::invalid_argument for a bad domain id.
+  explicit AgentDds(const AgentDdsOptions& options);
+  /// Creates the readers: from now on the handlers are called (so everything they use must exist, and the
+  /// writers replies go through already do). Call once. @throws std::invalid_argument for a missing handler,
+  /// std::logic_error for a second call, core::DdsError as the constructor.
+  void Listen(AgentDdsHandlers handlers);
+  ~AgentDds();
+  AgentDds(const AgentDds&) = delete;
+  AgentDds& operator=(const AgentDds&) = delete;
+
+  /// Remote processes that left the domain or were dropped since the last call (participant discovery sees
+  /// every process, announced or not). Collected on Fast DDS's discovery thread, which must never wait for
+  /// the agent's lock; the control loop takes them.
+  std::vector<std::string> TakeGoneParticipants();
+
+  /// A command's reply, as a CommandResponse.
+  void Send(const CommandReply& reply);
+  /// A path query's answer, as a PathResponse.
+  void Send(const PathAnswer& answer);
+  /// Telemetry as built by the caller. Each returns false when Fast DDS refuses the sample (history full).
+  bool Publish(const cairn_msgs::AgentInfo& info);
+  bool Publish(const cairn_msgs::RobotState& state);
+  bool Publish(const cairn_msgs::BehaviorTreeState& tree);
+  bool Publish(const cairn_msgs::GlobalPath& path);
+  bool Publish(const cairn_msgs::LocalPlan& plan);
+  bool Publish(const cairn_msgs::MapUpdate& update);
+  bool Publish(const cairn_msgs::CompressedImage& image);
+  bool Publish(const cairn_msgs::StaircaseDetection& staircase);
+  /// Waits up to `timeout` for the map updates written so far to be acknowledged (at shutdown).
+  void WaitForMapDelivery(std::chrono::milliseconds timeout);
+
+ private:
+  class Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cairn::agent

@@ -1,0 +1,97 @@
+// The robot's perception threads (Sriganesh et al. 2024, § System-wide services): the sensor thread reads
+// lidar scans from the platform and makes the local planner's live obstacles (LiveObstacles); the perception
+// thread maps, detects staircases and makes map and camera telemetry (PerceptionPipeline); the navigation map
+// thread copies the map's changed tiles into the global planner's map (NavMap). DDS-free: the telemetry
+// leaves through a callback; the control loop takes the obstacles.
+#pragma once
+
+#include <Eigen/Core>
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "cairn/agent/agent_options.h"
+#include "cairn/agent/live_obstacles.h"
+#include "cairn/agent/nav_map.h"
+#include "cairn/agent/navigation.h"
+#include "cairn/agent/perception_pipeline.h"
+#include "cairn/core/platform_io.h"
+#include "cairn/core/time.h"
+#include "cairn/nav/global_planner.h"
+
+namespace cairn::agent {
+
+/// The sensing side of one robot. The loops run until core::ShutdownRequested(), each on its own thread; the
+/// other methods are thread-safe unless they say otherwise.
+class PerceptionService {
+ public:
+  /// `platform` is read by the sensor and perception threads; `planner` is the one the navigation map feeds;
+  /// `start_M` centres the navigation map; `start_time` is the agent's clock origin (seconds since it are the
+  /// perception clock); `publish` sends one tick's telemetry (called on the perception thread).
+  /// @throws std::invalid_argument for a null platform, planner or publish; what NavMap and
+  /// PerceptionPipeline
+  ///         throw for invalid options.
+  PerceptionService(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
+                    const core::BaseState& start_M, std::shared_ptr<nav::GlobalPlanner> planner,
+                    core::SteadyTime start_time, std::function<void(const PerceptionOutput&)> publish);
+
+  /// Before the threads start: waits up to `timeout` for the first scan, so that the robot can take a goal as
+  /// soon as it announces itself. true when one came (and false at once without a lidar).
+  bool WaitForFirstScan(std::chrono::milliseconds timeout);
+  /// Hands the obstacles of a scan not handed yet to `navigation` (control thread). true when there was one.
+  bool FeedObstacles(Navigation& navigation);
+  /// Forgets the live obstacle points (the recovery's "clear the local obstacle memory"): the sensor thread
+  /// clears its window before the next scan, and obstacles from before now are never handed on.
+  void ClearObstacleMemory();
+  /// A basestation asked for a full map snapshot; the perception thread sends it.
+  void RequestMapSnapshot() { map_snapshot_requested_ = true; }
+
+  /// Sensor thread: polls the platform's lidar at twice its rate (a scan reaches the local planner within
+  /// half a period, whatever the perception thread is busy with). A read fault is logged, never thrown.
+  void SensorLoop();
+  /// Perception thread: maps, detects, makes telemetry and camera frames at their periods, publishing each
+  /// tick's output. A fault is logged, never thrown.
+  void PerceptionLoop();
+  /// Navigation map thread: applies the map's changed tiles to the planner's map every update_period_s.
+  void NavMapLoop();
+
+  /// After the loops ended: the map's last changes within the telemetry budget (empty with perception off).
+  PerceptionOutput Flush();
+  /// After the loops ended: saves the map to `path` ("" = no) and logs the perception statistics.
+  void Finish(const std::string& path);
+
+ private:
+  // Reads a scan if the platform has a new one: obstacles for the control loop, the scan for perception.
+  bool ReadScan(double now_s);
+  double NowS() const { return core::SecondsBetween(start_time_, core::SteadyClock::now()); }
+
+  // Obstacles from live lidar points, made on the sensor thread, taken by the control loop.
+  struct ObstacleSlot {
+    std::vector<Eigen::Vector3f> points_B;
+    core::BaseState pose_M;  // pose the points are expressed from
+    double stamp_s = -1e9;
+    bool fresh = false;
+  };
+
+  AgentOptions options_;
+  std::shared_ptr<core::PlatformIO> platform_;
+  core::PlatformCapabilities capabilities_;
+  std::shared_ptr<nav::GlobalPlanner> planner_;
+  core::SteadyTime start_time_;
+  std::function<void(const PerceptionOutput&)> publish_;
+  std::mutex obstacles_mutex_;
+  ObstacleSlot live_obstacles_;
+  LiveObstacles live_obstacle_sensor_;  // sensor thread only (and WaitForFirstScan, before it starts)
+  std::vector<Eigen::Vector3f> obstacle_points_B_;  // sensor thread's buffer
+  std::atomic<bool> clear_obstacle_memory_{false};
+  std::mutex scan_mutex_;
+  std::shared_ptr<core::LidarScan> latest_scan_;    // from the sensor thread to the perception thread
+  std::unique_ptr<PerceptionPipeline> perception_;  // perception thread (and the map/tiles, thread-safe)
+  std::unique_ptr<NavMap> nav_map_;                 // navigation map thread only
+  std::atomic<bool> map_snapshot_requested_{false};
+};
+
+}  // namespace cairn::agent

@@ -1,0 +1,65 @@
+// The robot's telemetry (Sriganesh et al. 2024, § Command Interface: the robot publishes its state, its
+// behavior-tree state, the downsampled map and the camera): builds the wire messages from the components that
+// own the facts and publishes them through the DDS adapter. Topics and fields are those of
+// idl/cairn_msgs.idl: AgentInfo, RobotState (pose_MB frame M, twists frame B), BehaviorTreeState, GlobalPath
+// (path_M), LocalPlan (poses and points frame B of pose_MB), MapUpdate, CompressedImage (pose_MC),
+// StaircaseDetection (p_M_first_step).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "cairn/agent/agent_dds.h"
+#include "cairn/agent/agent_options.h"
+#include "cairn/agent/command_interface.h"
+#include "cairn/agent/mode_control.h"
+#include "cairn/agent/navigation.h"
+#include "cairn/agent/perception_pipeline.h"
+#include "cairn/agent/waypoint_mode.h"
+#include "cairn/core/platform_io.h"
+
+namespace cairn::agent {
+
+/// What RobotState carries besides what the components hold.
+struct RobotStateInputs {
+  core::BaseState pose_M;              ///< the pose estimate, frame M (metres, radians; v, w in frame B)
+  bool in_contact = false;             ///< the platform reports contact with occupied space
+  double control_period_max_ms = 0.0;  ///< the control loop's worst period lately, milliseconds
+};
+
+/// Builds and publishes the robot's telemetry. The control-loop methods run under the agent's lock (they read
+/// the components); PublishPerception() runs on the perception thread and reads nothing shared.
+class Telemetry {
+ public:
+  /// Every pointer is required and (not owned) outlives this. @throws std::invalid_argument for a null one.
+  Telemetry(const AgentOptions& options, AgentDds* dds, const ModeControl* modes,
+            const WaypointMode* waypoint, const Navigation* navigation, CommandInterface* command);
+
+  /// AgentInfo (latched): id, kind robot, platform and its limits, the modes of the tree, version, world.
+  void PublishAgentInfo(const core::PlatformCapabilities& capabilities, const std::string& version);
+  /// RobotState: pose, commanded twist, mode, mux, lock, waypoint goal, navigation, stops.
+  void PublishState(const RobotStateInputs& in);
+  /// BehaviorTreeState, when the mode, channel, refusal or valid actions changed since the last one.
+  void PublishTreeStateIfChanged();
+  /// GlobalPath, when navigation's path changed (an empty one when no goal is driven: late joiners see it).
+  void PublishGlobalPathIfChanged();
+  /// LocalPlan, while the running mode drives through the local planner (for display, ~1 kB).
+  void PublishLocalPlan();
+  /// Map updates, staircase detections and a camera frame from one perception tick.
+  void PublishPerception(const PerceptionOutput& out);
+
+ private:
+  std::string robot_id_;
+  std::string platform_;      // AgentOptions::platform (RobotState, AgentInfo)
+  std::string nav_platform_;  // navigation's platform profile (GlobalPath)
+  core::VelocityLimits limits_;
+  AgentDds* dds_;
+  const ModeControl* modes_;
+  const WaypointMode* waypoint_;
+  const Navigation* navigation_;
+  CommandInterface* command_;
+  std::uint64_t published_path_revision_ = ~0ull;
+  std::string last_tree_signature_;
+};
+
+}  // namespace cairn::agent

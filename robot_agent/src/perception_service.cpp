@@ -1,0 +1,183 @@
+#include "cairn/agent/perception_service.h"
+
+#include <spdlog/spdlog.h>
+
+#include <stdexcept>
+#include <thread>
+
+#include "cairn/core/shutdown.h"
+
+namespace cairn::agent {
+
+namespace {
+
+template <class T>
+T Required(T pointer, const char* name) {
+  if (!pointer) throw std::invalid_argument(std::string("PerceptionService: ") + name + " is null");
+  return pointer;
+}
+
+}  // namespace
+
+PerceptionService::PerceptionService(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
+                                     const core::BaseState& start_M,
+                                     std::shared_ptr<nav::GlobalPlanner> planner, core::SteadyTime start_time,
+                                     std::function<void(const PerceptionOutput&)> publish)
+    : options_(options),
+      platform_(Required(std::move(platform), "platform")),
+      capabilities_(platform_->Capabilities()),
+      planner_(Required(std::move(planner), "planner")),
+      start_time_(start_time),
+      publish_(Required(std::move(publish), "publish")),
+      live_obstacle_sensor_(options),
+      perception_(std::make_unique<PerceptionPipeline>(options.perception, options.robot_id)),
+      nav_map_(std::make_unique<NavMap>(options.nav_map, options.perception.map.resolution_m, start_M,
+                                        planner_, options.navigation.platform.name)) {}
+
+bool PerceptionService::WaitForFirstScan(std::chrono::milliseconds timeout) {
+  if (!capabilities_.has_lidar) return false;
+  const core::SteadyTime deadline = core::SteadyClock::now() + timeout;
+  while (!ReadScan(NowS())) {
+    if (core::SteadyClock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
+}
+
+bool PerceptionService::FeedObstacles(Navigation& navigation) {
+  std::lock_guard<std::mutex> guard(obstacles_mutex_);
+  if (!live_obstacles_.fresh) return false;
+  live_obstacles_.fresh = false;
+  navigation.SetObstacles(live_obstacles_.points_B, live_obstacles_.pose_M, live_obstacles_.stamp_s);
+  return true;
+}
+
+void PerceptionService::ClearObstacleMemory() {
+  clear_obstacle_memory_ = true;
+  std::lock_guard<std::mutex> guard(obstacles_mutex_);
+  live_obstacles_.fresh = false;  // points from before the clearing
+}
+
+bool PerceptionService::ReadScan(double now_s) {
+  auto scan = std::make_shared<core::LidarScan>();
+  if (!platform_->ReadLidarScan(now_s, scan.get())) return false;
+  core::BaseState pose_M;
+  if (clear_obstacle_memory_.exchange(false)) live_obstacle_sensor_.Clear();
+  live_obstacle_sensor_.AddScan(*scan, &obstacle_points_B_, &pose_M);
+  {
+    std::lock_guard<std::mutex> guard(obstacles_mutex_);
+    live_obstacles_.points_B.swap(obstacle_points_B_);
+    live_obstacles_.pose_M = pose_M;
+    live_obstacles_.stamp_s = scan->stamp_s;
+    live_obstacles_.fresh = true;
+  }
+  std::lock_guard<std::mutex> guard(scan_mutex_);
+  latest_scan_ = std::move(scan);  // perception takes the newest; a slow mapper skips scans, never queues
+  return true;
+}
+
+void PerceptionService::SensorLoop() {
+  // Polls the platform at twice its lidar rate: a scan reaches the local planner within half a period of its
+  // arrival, whatever the perception thread is busy with (mapping, stairs, camera).
+  const double rate_hz = capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0;
+  const auto period =
+      std::chrono::duration_cast<core::SteadyClock::duration>(std::chrono::duration<double>(0.5 / rate_hz));
+  core::SteadyTime next = core::SteadyClock::now();
+  while (!core::ShutdownRequested()) {
+    try {
+      ReadScan(NowS());
+    } catch (const std::exception& e) {
+      // A sensor fault must never take the robot down: the local planner's input goes stale and the robot
+      // stops (navigation.obstacle_timeout_s).
+      spdlog::error("robot {}: lidar read failed: {}", options_.robot_id, e.what());
+    }
+    next += period;
+    const auto now = core::SteadyClock::now();
+    if (next < now) next = now;
+    core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
+  }
+}
+
+void PerceptionService::PerceptionLoop() {
+  const double rate_hz = capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0;
+  const auto period =
+      std::chrono::duration_cast<core::SteadyClock::duration>(std::chrono::duration<double>(0.5 / rate_hz));
+  core::CameraImage image;
+  core::SteadyTime next = core::SteadyClock::now();
+  while (!core::ShutdownRequested()) {
+    const double now_s = NowS();
+    try {
+      std::shared_ptr<core::LidarScan> scan;
+      {
+        std::lock_guard<std::mutex> guard(scan_mutex_);
+        scan.swap(latest_scan_);
+      }
+      if (map_snapshot_requested_.exchange(false)) perception_->RequestMapSnapshot();
+      const bool has_image = capabilities_.has_camera && perception_->CameraDue(now_s) &&
+                             platform_->ReadCameraImage(now_s, &image);
+      publish_(perception_->Tick(now_s, scan.get(), has_image ? &image : nullptr));
+    } catch (const std::exception& e) {
+      // Perception must never take the robot down.
+      spdlog::error("robot {}: perception tick failed: {}", options_.robot_id, e.what());
+    }
+    next += period;
+    const auto now = core::SteadyClock::now();
+    if (next < now) next = now;  // over budget: the next scan comes late, never a burst
+    core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
+  }
+}
+
+void PerceptionService::NavMapLoop() {
+  const auto period = std::chrono::duration_cast<core::SteadyClock::duration>(
+      std::chrono::duration<double>(options_.nav_map.update_period_s));
+  core::SteadyTime next = core::SteadyClock::now() + period;
+  while (!core::ShutdownRequested()) {
+    core::WaitForShutdown(
+        std::chrono::duration_cast<std::chrono::milliseconds>(next - core::SteadyClock::now()));
+    if (core::ShutdownRequested()) break;
+    next += period;
+    if (next < core::SteadyClock::now()) next = core::SteadyClock::now() + period;
+    try {
+      const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
+      if (tiles.empty()) continue;
+      const NavMapUpdateStats stats = nav_map_->Update(
+          *perception_->map(), tiles, perception_->change_tile_m(), perception_->max_sensor_z_m());
+      if (stats.applied) {
+        spdlog::debug(
+            "robot {}: navigation map v{}: {} tiles in {:.1f} x {:.1f} m, {} occupied voxels, read {:.1f} "
+            "ms, traversability {:.1f} ms, publish {:.1f} ms",
+            options_.robot_id, stats.map_version, stats.tiles, stats.region_M.sizes().x(),
+            stats.region_M.sizes().y(), stats.occupied_voxels, stats.read_ms, stats.traversability_ms,
+            stats.publish_ms);
+      }
+    } catch (const std::exception& e) {
+      spdlog::error("robot {}: navigation map update failed: {}", options_.robot_id, e.what());
+    }
+  }
+}
+
+PerceptionOutput PerceptionService::Flush() {
+  PerceptionOutput last;
+  if (options_.perception.enabled) last.map_messages = perception_->FlushMapTelemetry(NowS());
+  return last;
+}
+
+void PerceptionService::Finish(const std::string& path) {
+  if (!path.empty()) {
+    try {
+      perception_->map()->SaveBt(path);
+      spdlog::info("robot {}: map saved to {}", options_.robot_id, path);
+    } catch (const std::exception& e) {
+      spdlog::error("robot {}: cannot save the map: {}", options_.robot_id, e.what());
+    }
+  }
+  const PerceptionStats& ps = perception_->stats();
+  spdlog::info(
+      "robot {}: shutting down; perception: {} scans ({:.1f} ms map per inserted scan), {} staircase "
+      "runs ({:.1f} ms each), {} camera frames; navigation map version {}",
+      options_.robot_id, ps.scans, ps.scans_inserted ? ps.map_ms_total / ps.scans_inserted : 0.0,
+      ps.staircase_runs, ps.staircase_runs ? ps.staircase_ms_total / ps.staircase_runs : 0.0,
+      ps.camera_frames, planner_->map_version());
+}
+
+}  // namespace cairn::agent

@@ -1,0 +1,277 @@
+// The command interface's rules without DDS: who may command (the lock; a stop from anyone), one answer per
+// command (retries from the reply cache, applied once), goals checked before planning and answered after it,
+// the stick to the running mode only, and the holder's processes coming and going.
+#include "cairn/agent/command_interface.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "cairn/agent/modes.h"
+
+namespace cairn::agent {
+namespace {
+
+const std::string kTree = std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml";
+const core::SteadyTime kT0 = core::SteadyTime{} + std::chrono::seconds(100);
+
+// A mode that records the sticks it gets.
+class StickMode : public ModeModule {
+ public:
+  StickMode(const std::string& name, const std::string& channel)
+      : ModeModule(name, MuxChannelOptions{channel, 0.5}) {}
+  ModeOutput Step(const ModeInputs&) override { return {}; }
+  void OnOperatorTwist(const OperatorTwist& twist, core::SteadyTime) override { sticks.push_back(twist); }
+  std::vector<OperatorTwist> sticks;
+};
+
+CommandSender OpA(const std::string& writer = "wA") { return CommandSender{"opA", "pA", writer}; }
+CommandSender OpB() { return CommandSender{"opB", "pB", "wB"}; }
+
+// One robot's command interface on the shipped tree, with recording hooks.
+struct Robot {
+  Robot() {
+    ModeRegistry r;
+    r.Emplace<IdleMode>();
+    manual = &r.Emplace<StickMode>("manual", "teleop");
+    joystick = &r.Emplace<StickMode>("smart_joystick", "smart_joystick");
+    r.Emplace<StickMode>("waypoint", "waypoint");
+    modes = std::make_unique<ModeControl>(kTree, std::move(r), "r1");
+    CommandInterface::Hooks hooks;
+    hooks.conditions = [this] { return Conditions(); };
+    hooks.send = [this](const CommandReply& reply) { replies.push_back(reply); };
+    hooks.plan_goal = [this](const GoalCommand& goal) { planned.push_back(goal); };
+    hooks.start_goal = [this](const GoalCommand&, const nav::GlobalPlan&) {
+      has_goal = true;  // as WaypointMode::Start: the tree decides with the new goal in place
+      const ModeDecision d = modes->Request("waypoint", Conditions());
+      if (!d.accepted) {
+        has_goal = false;
+        return CommandOutcome{false, d.reason, 0};
+      }
+      return CommandOutcome{true, "path 5.0 m, ETA 5 s", 42};
+    };
+    command = std::make_unique<CommandInterface>("r1", ControlLockOptions{}, modes.get(), "waypoint", hooks);
+  }
+  ModeConditions Conditions() {
+    ModeConditions c;
+    command->FillConditions(&c);
+    c.localized = true;
+    c.local_planner_healthy = planner_healthy;
+    c.local_planner_problem = "no obstacle input for 1.2 s";
+    c.has_waypoint_goal = has_goal;
+    return c;
+  }
+  void Take(const CommandSender& who) { command->OnControl(ControlCommand{who, 1, false}, kT0); }
+  const CommandReply& last() const { return replies.back(); }
+
+  StickMode* manual = nullptr;
+  StickMode* joystick = nullptr;
+  std::unique_ptr<ModeControl> modes;
+  std::unique_ptr<CommandInterface> command;
+  std::vector<CommandReply> replies;
+  std::vector<GoalCommand> planned;
+  bool planner_healthy = true;
+  bool has_goal = false;
+};
+
+GoalCommand Goal(const CommandSender& who, uint32_t id, double x = 5.0, double y = 1.0) {
+  return GoalCommand{who, id, "map", x, y, 0.0};
+}
+
+TEST(CommandInterface, OnlyTheHoldersCommandsRunAndOthersAreToldWhoHoldsTheLock) {
+  Robot r;
+  r.Take(OpA());
+  EXPECT_EQ(r.last().result, CommandResult::kAccepted);
+  EXPECT_EQ(r.last().holder_id, "opA");
+  r.Take(OpB());
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_EQ(r.last().reason, "robot r1 is locked by basestation opA");
+
+  r.command->OnMode(ModeCommand{OpB(), 7, "manual"});
+  EXPECT_EQ(r.last().result, CommandResult::kDiscarded);
+  EXPECT_EQ(r.last().reason,
+            "basestation opB does not hold the control lock: robot r1 is locked by basestation opA");
+  EXPECT_EQ(r.last().requester_participant, "pB") << "the reply goes to the process that asked";
+  EXPECT_EQ(r.command->lock().discarded(), 1u);
+  EXPECT_EQ(r.modes->mode(), "idle");
+
+  r.command->OnMode(ModeCommand{OpA(), 2, "manual"});
+  EXPECT_EQ(r.last().result, CommandResult::kAccepted) << r.last().reason;
+  EXPECT_EQ(r.last().mode, "manual");
+  EXPECT_EQ(r.last().valid_modes, (std::vector<std::string>{"idle", "manual"}));
+  EXPECT_TRUE(r.last().goal_acceptable);
+  EXPECT_EQ(r.last().kind, CommandKind::kMode);
+}
+
+TEST(CommandInterface, ARetryIsAnsweredFromTheCacheAndAppliedOnce) {
+  Robot r;
+  r.Take(OpA());
+  r.command->OnMode(ModeCommand{OpA(), 5, "manual"});
+  ASSERT_EQ(r.modes->mode(), "manual");
+  r.command->OnStop(StopCommand{OpB(), 1});
+  ASSERT_EQ(r.modes->mode(), "idle");
+  const std::size_t before = r.replies.size();
+  r.command->OnMode(ModeCommand{OpA(), 5, "manual"});  // the same writer's retry
+  ASSERT_EQ(r.replies.size(), before + 1);
+  EXPECT_EQ(r.last().result, CommandResult::kAccepted);
+  EXPECT_EQ(r.last().mode, "manual") << "the reply first given";
+  EXPECT_EQ(r.modes->mode(), "idle") << "a retry is not applied again";
+  // Another process with the same base id and request id is another command: it runs.
+  r.command->OnMode(ModeCommand{OpA("wA2"), 5, "manual"});
+  EXPECT_EQ(r.modes->mode(), "manual");
+}
+
+TEST(CommandInterface, AStopFromAnyoneStopsAndLeavesTheLockWhereItIs) {
+  Robot r;
+  r.Take(OpA());
+  r.command->OnMode(ModeCommand{OpA(), 2, "manual"});
+  r.command->OnStop(StopCommand{OpB(), 9});
+  EXPECT_EQ(r.last().result, CommandResult::kAccepted);
+  EXPECT_EQ(r.last().reason, "stopped (was manual): zero twist, mode idle");
+  EXPECT_EQ(r.modes->mode(), "idle");
+  EXPECT_FALSE(r.modes->last_output().forwarding);
+  EXPECT_EQ(r.command->lock().holder_id(), "opA");
+  EXPECT_EQ(r.command->stops().count, 1u);
+  EXPECT_EQ(r.command->stops().by, "opB");
+  EXPECT_GT(r.command->stops().at.sec, 0);
+}
+
+TEST(CommandInterface, AReleaseStopsTheRobot) {
+  Robot r;
+  r.Take(OpA());
+  r.command->OnMode(ModeCommand{OpA(), 2, "manual"});
+  r.command->OnControl(ControlCommand{OpB(), 3, true}, kT0);
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_EQ(r.last().reason, "only the holder releases: robot r1 is locked by basestation opA");
+  EXPECT_EQ(r.modes->mode(), "manual");
+  r.command->OnControl(ControlCommand{OpA(), 3, true}, kT0);
+  EXPECT_EQ(r.last().result, CommandResult::kAccepted);
+  EXPECT_EQ(r.last().kind, CommandKind::kControlRelease);
+  EXPECT_EQ(r.modes->mode(), "idle");
+}
+
+TEST(CommandInterface, AGoalIsCheckedBeforePlanningNamingFieldAndValue) {
+  Robot r;
+  r.Take(OpA());
+  r.command->OnGoal(Goal(OpB(), 1));
+  EXPECT_EQ(r.last().result, CommandResult::kDiscarded);
+  GoalCommand odom = Goal(OpA(), 2);
+  odom.frame_id = "odom";
+  r.command->OnGoal(odom);
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_EQ(r.last().reason, "goal frame_id 'odom' is not supported (use 'map')");
+  r.command->OnGoal(Goal(OpA(), 3, std::numeric_limits<double>::quiet_NaN(), 1.0));
+  EXPECT_EQ(r.last().reason, "goal (nan, 1) is not a finite point");
+  GoalCommand wide = Goal(OpA(), 4);
+  wide.tolerance_m = 7.0;
+  r.command->OnGoal(wide);
+  EXPECT_EQ(r.last().reason, "goal tolerance_m = 7.000000 must be in [0, 5]");
+  // The mode could not be entered now: refused before planning, with the tree's reason.
+  r.planner_healthy = false;
+  r.command->OnGoal(Goal(OpA(), 5));
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_EQ(r.last().reason, "IsLocalPlannerHealthy: no obstacle input for 1.2 s");
+  EXPECT_FALSE(r.last().goal_acceptable);
+  EXPECT_TRUE(r.planned.empty());
+}
+
+TEST(CommandInterface, AGoalIsAnsweredOnceItsPlanIsDoneAndARetryMeanwhileIsIgnored) {
+  Robot r;
+  r.Take(OpA());
+  const std::size_t before = r.replies.size();
+  r.command->OnGoal(Goal(OpA(), 6));
+  ASSERT_EQ(r.planned.size(), 1u);
+  EXPECT_EQ(r.replies.size(), before) << "no answer before the plan";
+  r.command->OnGoal(Goal(OpA(), 6));
+  EXPECT_EQ(r.planned.size(), 1u) << "a retry while planning is not planned again";
+  EXPECT_EQ(r.replies.size(), before);
+  r.command->OnGoalPlanned(r.planned[0], nav::GlobalPlan{});
+  EXPECT_EQ(r.last().result, CommandResult::kAccepted);
+  EXPECT_EQ(r.last().reason, "path 5.0 m, ETA 5 s");
+  EXPECT_EQ(r.last().goal_id, 42u);
+  EXPECT_EQ(r.last().mode, "waypoint");
+  r.command->OnGoal(Goal(OpA(), 6));
+  EXPECT_EQ(r.planned.size(), 1u) << "a retry after the answer is answered from the cache";
+  EXPECT_EQ(r.last().goal_id, 42u);
+}
+
+TEST(CommandInterface, AGoalWhoseLockMovedWhileItWasPlannedIsDiscarded) {
+  Robot r;
+  r.Take(OpA());
+  r.command->OnGoal(Goal(OpA(), 6));
+  ASSERT_EQ(r.planned.size(), 1u);
+  r.command->OnControl(ControlCommand{OpA(), 7, true}, kT0);
+  r.Take(OpB());
+  r.command->OnGoalPlanned(r.planned[0], nav::GlobalPlan{});
+  EXPECT_EQ(r.last().result, CommandResult::kDiscarded);
+  EXPECT_EQ(r.last().base_id, "opA");
+  EXPECT_EQ(r.modes->mode(), "idle");
+}
+
+TEST(CommandInterface, TheHoldersFiniteStickReachesTheRunningModeOnly) {
+  Robot r;
+  r.Take(OpA());
+  r.command->OnMode(ModeCommand{OpA(), 2, "manual"});
+  r.command->OnTeleop(TeleopCommand{"opB", OperatorTwist{0.5, 0.0, 0.0}}, kT0);
+  EXPECT_TRUE(r.manual->sticks.empty());
+  EXPECT_EQ(r.command->lock().discarded(), 1u);
+  r.command->OnTeleop(TeleopCommand{"opA", OperatorTwist{std::nan(""), 0.0, 0.0}}, kT0);
+  EXPECT_TRUE(r.manual->sticks.empty()) << "a non-finite stick is dropped";
+  r.command->OnTeleop(TeleopCommand{"opA", OperatorTwist{0.5, 0.0, 0.1}}, kT0);
+  ASSERT_EQ(r.manual->sticks.size(), 1u);
+  EXPECT_DOUBLE_EQ(r.manual->sticks[0].vx_mps, 0.5);
+  EXPECT_TRUE(r.joystick->sticks.empty());
+}
+
+TEST(CommandInterface, TheHoldersJoystickAndLivelinessComeFromItsProcesses) {
+  Robot r;
+  r.Take(OpA());
+  ModeConditions c;
+  r.command->FillConditions(&c);
+  EXPECT_EQ(c.holder_id, "opA");
+  EXPECT_TRUE(c.holder_alive);
+  EXPECT_FALSE(c.joystick_alive) << "no process of opA announced a joystick";
+  r.command->OnBaseAnnounced(BaseAnnouncement{"infoA", "pA", "opA", true});
+  r.command->FillConditions(&c);
+  EXPECT_TRUE(c.joystick_alive);
+  r.command->OnMode(ModeCommand{OpA(), 2, "smart_joystick"});
+  ASSERT_EQ(r.modes->mode(), "smart_joystick") << r.last().reason;
+  // Its only process's liveliness lapses: the holder is lost and the operator-driven mode stops.
+  r.command->OnBaseLiveliness(WriterLiveliness{"infoA", true, false, false}, kT0);
+  r.command->FillConditions(&c);
+  EXPECT_FALSE(c.holder_alive);
+  EXPECT_FALSE(c.joystick_alive);
+  EXPECT_EQ(r.modes->mode(), "idle");
+  EXPECT_EQ(r.command->lock().holder_id(), "opA") << "the lock is kept for lock_keep_s (forever by default)";
+  // It comes back.
+  r.command->OnBaseLiveliness(WriterLiveliness{"infoA", false, false, true}, kT0);
+  r.command->FillConditions(&c);
+  EXPECT_TRUE(c.holder_alive);
+  EXPECT_TRUE(c.joystick_alive);
+  // It leaves the domain.
+  r.command->OnParticipantsGone({"pA"}, kT0);
+  r.command->FillConditions(&c);
+  EXPECT_FALSE(c.holder_alive);
+  EXPECT_FALSE(c.joystick_alive);
+}
+
+TEST(CommandInterface, NeedsEveryHookAndValidLockOptions) {
+  Robot r;
+  EXPECT_THROW(
+      CommandInterface("r1", ControlLockOptions{}, r.modes.get(), "waypoint", CommandInterface::Hooks{}),
+      std::invalid_argument);
+  CommandInterface::Hooks hooks;
+  hooks.conditions = [] { return ModeConditions{}; };
+  hooks.send = [](const CommandReply&) {};
+  hooks.plan_goal = [](const GoalCommand&) {};
+  hooks.start_goal = [](const GoalCommand&, const nav::GlobalPlan&) { return CommandOutcome{}; };
+  EXPECT_THROW(CommandInterface("r1", ControlLockOptions{}, nullptr, "waypoint", hooks),
+               std::invalid_argument);
+  ControlLockOptions bad;
+  bad.lock_keep_s = -1.0;
+  EXPECT_THROW(CommandInterface("r1", bad, r.modes.get(), "waypoint", hooks), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace cairn::agent

@@ -1,0 +1,139 @@
+// The planning service without DDS or threads: the holder's goals before peers' queries, the per-process rate
+// limit and the queue bound with the answers they give, and the answers to queries.
+#include "cairn/agent/planning_service.h"
+
+#include <gtest/gtest.h>
+
+#include "cairn/agent/nav_map.h"
+
+namespace cairn::agent {
+namespace {
+
+const core::SteadyTime kT0 = core::SteadyTime{} + std::chrono::seconds(100);
+
+core::SteadyTime At(double s) {
+  return kT0 + std::chrono::duration_cast<core::SteadyClock::duration>(std::chrono::duration<double>(s));
+}
+
+// A service on an empty navigation map (unknown space is traversable), recording what it hands on.
+struct Service {
+  explicit Service(double queries_per_s = 2.0, std::size_t max_waiting = 32) {
+    NavMapOptions map;
+    map.half_extent_m = 10.0;
+    planner = NavMap::MakePlanner(map, 0.1, core::BaseState{}, {nav::GetPlatformProfile("wheeled")});
+    PlanningServiceOptions o;
+    o.robot_id = "r1";
+    o.platform = "wheeled";
+    o.path_queries_per_s = queries_per_s;
+    o.max_waiting_queries = max_waiting;
+    o.map_half_extent_m = 10.0;
+    service = std::make_unique<PlanningService>(
+        o, planner,
+        PlanningService::Hooks{[this](const GoalCommand& g, const nav::GlobalPlan& p) {
+                                 order.push_back("goal " + std::to_string(g.request_id));
+                                 goal_plans.push_back(p);
+                               },
+                               [this](const PathAnswer& a) {
+                                 order.push_back("query " + std::to_string(a.request_id));
+                                 answers.push_back(a);
+                               }});
+  }
+  static PathQuery Query(uint32_t id, const std::string& participant = "pA", double x = 3.0) {
+    PathQuery q;
+    q.participant = participant;
+    q.request_id = id;
+    q.requester_id = "opA";
+    q.frame_id = "map";
+    q.goal_M = {x, 1.0};
+    return q;
+  }
+
+  std::shared_ptr<nav::GlobalPlanner> planner;
+  std::unique_ptr<PlanningService> service;
+  std::vector<std::string> order;
+  std::vector<nav::GlobalPlan> goal_plans;
+  std::vector<PathAnswer> answers;
+};
+
+TEST(PlanningService, TheHoldersGoalsGoBeforePeersQueries) {
+  Service s;
+  s.service->SubmitPathQuery(Service::Query(1), At(0));
+  nav::GlobalPlanRequest goal;
+  goal.goal_W = {4.0, 0.0};
+  goal.platform = "wheeled";
+  s.service->SubmitGoal(GoalCommand{CommandSender{"opA", "pA", "wA"}, 9, "map", 4.0, 0.0, 0.0}, goal);
+  EXPECT_TRUE(s.service->RunOnce(std::chrono::milliseconds(0)));
+  EXPECT_TRUE(s.service->RunOnce(std::chrono::milliseconds(0)));
+  EXPECT_FALSE(s.service->RunOnce(std::chrono::milliseconds(0))) << "nothing left";
+  EXPECT_EQ(s.order, (std::vector<std::string>{"goal 9", "query 1"}));
+  ASSERT_EQ(s.goal_plans.size(), 1u);
+  EXPECT_TRUE(s.goal_plans[0].IsUsable()) << s.goal_plans[0].reason;
+}
+
+TEST(PlanningService, AFloodFromOneProcessIsRefusedOnceASecondAndOthersAreNotHeldUp) {
+  Service s(2.0);  // 2 per second, burst 4
+  for (uint32_t id = 1; id <= 6; ++id) s.service->SubmitPathQuery(Service::Query(id), At(0));
+  ASSERT_EQ(s.answers.size(), 1u) << "one refusal says why; the rest of the flood is dropped unanswered";
+  EXPECT_EQ(s.answers[0].request_id, 5u);
+  EXPECT_EQ(s.answers[0].status, "kRateLimited");
+  EXPECT_EQ(s.answers[0].reason, "rate limited: more than 2 path requests/s (burst 4) from this process");
+  EXPECT_EQ(s.answers[0].requester_participant, "pA");
+  EXPECT_FALSE(s.answers[0].success);
+  EXPECT_EQ(s.service->queries_refused(), 2u);
+  s.service->SubmitPathQuery(Service::Query(7, "pB"), At(0));
+  EXPECT_EQ(s.answers.size(), 1u) << "another process has its own budget";
+  s.service->SubmitPathQuery(Service::Query(8), At(0.6));  // one token back
+  EXPECT_EQ(s.answers.size(), 1u);
+  while (s.service->RunOnce(std::chrono::milliseconds(0))) {
+  }
+  EXPECT_EQ(s.answers.size(), 7u) << "1 refusal + 4 + 1 + 1 answered";
+}
+
+TEST(PlanningService, AFullQueueIsBusy) {
+  Service s(100.0, 2);
+  for (uint32_t id = 1; id <= 3; ++id) s.service->SubmitPathQuery(Service::Query(id), At(0));
+  ASSERT_EQ(s.answers.size(), 1u);
+  EXPECT_EQ(s.answers[0].request_id, 3u);
+  EXPECT_EQ(s.answers[0].reason, "busy: 2 path requests are waiting");
+}
+
+TEST(PlanningService, AnswersNameTheFrameThePlatformOrTheMapExtent) {
+  Service s(100.0);
+  PathQuery odom = Service::Query(1);
+  odom.frame_id = "odom";
+  PathQuery hover = Service::Query(2);
+  hover.platform = "hovercraft";
+  s.service->SubmitPathQuery(odom, At(0));
+  s.service->SubmitPathQuery(hover, At(0));
+  s.service->SubmitPathQuery(Service::Query(3), At(0));
+  s.service->SubmitPathQuery(Service::Query(4, "pA", 30.0), At(0));  // beyond the 10 m half extent
+  while (s.service->RunOnce(std::chrono::milliseconds(0))) {
+  }
+  ASSERT_EQ(s.answers.size(), 4u);
+  EXPECT_EQ(s.answers[0].status, "kInvalidFrame");
+  EXPECT_EQ(s.answers[0].reason, "frame_id 'odom' is not supported (use 'map')");
+  EXPECT_EQ(s.answers[1].status, "kUnknownPlatform");
+  EXPECT_FALSE(s.answers[1].success);
+  EXPECT_TRUE(s.answers[2].success) << s.answers[2].reason;
+  EXPECT_GE(s.answers[2].path_M.size(), 2u);
+  EXPECT_GT(s.answers[2].length_m, 2.9);
+  EXPECT_FALSE(s.answers[3].success);
+  EXPECT_NE(s.answers[3].reason.find("(the robot's navigation map spans its start +- 10 m: "
+                                     "navigation.map_half_extent_m = 10)"),
+            std::string::npos)
+      << s.answers[3].reason;
+}
+
+TEST(PlanningService, RefusesANullPlannerMissingHooksAndABadRate) {
+  Service s;
+  PlanningService::Hooks hooks{[](const GoalCommand&, const nav::GlobalPlan&) {}, [](const PathAnswer&) {}};
+  EXPECT_THROW(PlanningService(PlanningServiceOptions{}, nullptr, hooks), std::invalid_argument);
+  EXPECT_THROW(PlanningService(PlanningServiceOptions{}, s.planner, PlanningService::Hooks{}),
+               std::invalid_argument);
+  PlanningServiceOptions zero;
+  zero.path_queries_per_s = 0.0;
+  EXPECT_THROW(PlanningService(zero, s.planner, hooks), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace cairn::agent
