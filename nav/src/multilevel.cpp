@@ -647,25 +647,30 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
   };
   using Entry = std::pair<double, std::int64_t>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
-  auto heuristic = [&](int cx, int cy) {
-    const int a = std::abs(cx - gx);
-    const int b = std::abs(cy - gy);
-    return (std::max(a, b) + (kSqrt2 - 1.0) * std::min(a, b)) * c;
+  // Octile distance plus the height still to climb or descend at step_height_cost per metre: every path
+  // changes height by at least that much, so the heuristic stays admissible and consistent, and a search
+  // toward another floor follows the stairs before it fills the floor it stands on.
+  const double goal_level_z = goal_node >= 0 ? grid.NodeZ(goal_node) : target_z;
+  const double level_slack_m = goal_node >= 0 ? 0.0 : kLevelMatch_m;  // an unknown goal matches within this
+  auto heuristic = [&](const State& s) {
+    const int a = std::abs(s.ix - gx);
+    const int b = std::abs(s.iy - gy);
+    return (std::max(a, b) + (kSqrt2 - 1.0) * std::min(a, b)) * c +
+           options.step_height_cost * std::max(0.0, std::abs(s.z - goal_level_z) - level_slack_m);
   };
   auto penalty = [&](double clearance) {
     if (options.preferred_clearance_m <= 0.0 || options.clearance_cost <= 0.0 || !std::isfinite(clearance)) return 0.0;
     return options.clearance_cost *
            std::clamp((options.preferred_clearance_m - clearance) / options.preferred_clearance_m, 0.0, 1.0);
   };
-  // How far a state is from the goal, for a partial plan: planar distance + 10 x height difference.
-  const double goal_level_z = goal_node >= 0 ? grid.NodeZ(goal_node) : target_z;
+  // How far a state is from the goal, for a partial plan (PartialRemainingM).
   auto remaining = [&](const State& s) {
     const Eigen::Vector2d p = grid.CellCenter(s.ix, s.iy);
     return PartialRemainingM(Eigen::Vector3d(p.x(), p.y(), s.z), goal_W, goal_level_z);
   };
   const std::int64_t start_key = search.Key(*start);
   record(start_key) = Record{0.0, -1, false, *start};
-  open.emplace(heuristic(start->ix, start->iy), start_key);
+  open.emplace(heuristic(*start), start_key);
   std::int64_t goal_key = -1;
   std::int64_t best_key = start_key;
   double best_remaining = remaining(*start);
@@ -715,7 +720,7 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
         nr.g = candidate;
         nr.parent = key;
         nr.state = *next;
-        open.emplace(candidate + heuristic(next->ix, next->iy), next_key);
+        open.emplace(candidate + heuristic(*next), next_key);
       }
     }
   }

@@ -9,6 +9,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "cairn/core/thread_priority.h"
+
 namespace cairn::agent {
 namespace {
 
@@ -145,15 +147,29 @@ void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m,
   turning_in_place_ = false;
 }
 
-void Navigation::DropExtension() {
-  // A running extension finishes on its own; its future waits in abandoned_ so that nothing here blocks.
+std::future<nav::GlobalPlan> Navigation::PlanOnWorker(nav::GlobalPlanRequest request) const {
+  return std::async(std::launch::async, [planner = planner_, request = std::move(request)] {
+    core::MakeCurrentThreadBackground();  // never ahead of the control loop for the CPU
+    return planner->Plan(request);
+  });
+}
+
+std::future<nav::GlobalPlan> Navigation::PlanGoalAsync(const core::BaseState& state, double x_m, double y_m,
+                                                      double z_m) const {
+  return PlanOnWorker(GoalRequest(state, x_m, y_m, z_m));
+}
+
+void Navigation::Abandon(std::future<nav::GlobalPlan> plan) {
+  // A running search finishes on its own; its future waits in abandoned_ so that nothing here blocks.
   abandoned_.erase(std::remove_if(abandoned_.begin(), abandoned_.end(),
                                   [](const std::future<nav::GlobalPlan>& f) {
                                     return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
                                   }),
                    abandoned_.end());
-  if (extension_.valid()) abandoned_.push_back(std::move(extension_));
+  if (plan.valid()) abandoned_.push_back(std::move(plan));
 }
+
+void Navigation::DropExtension() { Abandon(std::move(extension_)); }
 
 void Navigation::ClearGoal() {
   DropExtension();
@@ -274,17 +290,6 @@ Eigen::Vector2d Navigation::PointAhead(double ahead_m) const {
     along += len;
   }
   return path.back().head<2>();
-}
-
-bool Navigation::Replan(const core::BaseState& state, double now_s, std::string* reason) {
-  const nav::GlobalPlanRequest request = GoalRequest(state, goal_->p_W.x(), goal_->p_W.y(), goal_->z_m);
-  nav::GlobalPlan plan = planner_->Plan(request);
-  if (!plan.IsUsable()) {
-    *reason = plan.reason;
-    return false;
-  }
-  AdoptPlan(plan, now_s);
-  return true;
 }
 
 void Navigation::AdoptPlan(const nav::GlobalPlan& plan, double now_s) {
@@ -438,11 +443,10 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     ClearGoal();
     return step;
   }
-  // Plans over the map's levels (a goal naming a level, a partial plan) can take ~1 s on a mostly unknown map:
-  // they are replanned on a worker while the robot follows the current path. A partial plan (the map connects
-  // no route to the goal's level yet) is also extended as the map grows and at its end, and fails when the
-  // map shows no way on from there.
-  const bool replan_async = std::isfinite(goal_->z_m) || plan_.result.partial;
+  // Replans run on a worker while the robot follows the current path (the local planner keeps it off what
+  // the lidar sees): the control loop never waits for a search, which takes up to ~1 s over the map's levels
+  // on a mostly unknown map. A partial plan (the map connects no route to the goal's level yet) is also
+  // extended as the map grows and at its end, and fails when the map shows no way on from there.
   if (extension_.valid() && extension_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
     const nav::GlobalPlan extended = extension_.get();
     const Eigen::Vector3d end = plan_.result.path_W.empty() ? Eigen::Vector3d::Zero() : plan_.result.path_W.back();
@@ -452,7 +456,7 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     // as no progress: the robot waits there a few map updates before failing.
     if (!extended.IsUsable() && !(was_partial && extended.platform_known &&
                                   extended.result.status == nav::PlanResult::Status::kUnreachable)) {
-      return Fail("no route to the goal: " + extended.reason);
+      return Fail(extension_cause_ + " and no new path exists: " + extended.reason);
     }
     if (extended.IsUsable()) AdoptPlan(extended, now_s);
     const bool no_way_on = was_partial && (!extended.IsUsable() || (extension_at_end_ && extended.result.partial &&
@@ -466,44 +470,34 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
                   (extended.IsUsable() ? extended.result.message : extended.reason) + ")");
     }
   }
-  auto replan_on_worker = [&](bool at_end) {
+  auto replan_on_worker = [&](bool at_end, std::string cause) {
     if (extension_.valid()) return;  // one at a time; the next check asks again if still needed
-    last_partial_replan_s_ = now_s;
+    if (plan_.result.partial) last_partial_replan_s_ = now_s;
     extension_at_end_ = at_end;
+    extension_cause_ = std::move(cause);
     nav::GlobalPlanRequest request = GoalRequest(state, goal_->p_W.x(), goal_->p_W.y(), goal_->z_m);
     request.diagnose = at_end;  // naming a step matters when the robot can go no further
-    extension_ = std::async(std::launch::async, [planner = planner_, request] { return planner->Plan(request); });
+    extension_ = PlanOnWorker(std::move(request));
   };
   if (plan_.result.partial && !plan_.result.path_W.empty()) {
     const bool at_end = (plan_.result.path_W.back().head<2>() - p_W).norm() <= std::max(goal_->tolerance_m, 0.3);
     if ((at_end && now_s - last_partial_replan_s_ >= 1.0) ||
         (planner_->map_version() != plan_.map_version && now_s - last_partial_replan_s_ >= 4.0)) {
-      replan_on_worker(at_end);
+      replan_on_worker(at_end, "the partial plan was extended");
     }
   }
-  double off_path = UpdateProgress(p_W);
+  const double off_path = UpdateProgress(p_W);
   // The map changed under the path, or the robot is far off it: plan again from here.
   if (now_s - last_replan_check_s_ >= options_.replan_check_period_s) {
     last_replan_check_s_ = now_s;
     const bool map_changed = planner_->map_version() != plan_.map_version;
-    std::string why;
     if (map_changed && !planner_->CheckPath(plan_.result.path_W, options_.platform.name,
                                             static_cast<int>(path_segment_)).valid) {
-      if (replan_async) {
-        replan_on_worker(false);
-      } else {
-        if (!Replan(state, now_s, &why)) return Fail("the map changed under the path and no new path exists: " + why);
-        off_path = UpdateProgress(p_W);
-      }
+      replan_on_worker(false, "the map changed under the path");
     } else if (map_changed) {
       plan_.map_version = planner_->map_version();  // still valid on the new map
     } else if (off_path > options_.max_path_deviation_m) {
-      if (replan_async) {
-        replan_on_worker(false);
-      } else {
-        if (!Replan(state, now_s, &why)) return Fail(Fixed(off_path, 1) + " m off the path and no new path: " + why);
-        off_path = UpdateProgress(p_W);
-      }
+      replan_on_worker(false, "the robot was " + Fixed(off_path, 1) + " m off the path");
     }
   }
   // Progress bookkeeping: ETA from a slow mean of the speed, blocked when no progress.

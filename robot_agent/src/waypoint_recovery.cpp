@@ -4,7 +4,9 @@
 #include "range_check.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <future>
 #include <stdexcept>
 
 namespace cairn::agent {
@@ -219,12 +221,19 @@ class FollowGoal : public bt::StatefulActionNode {
     ++ctx_->attempt;
     label_ = label;
     ctx_->navigation->SetReducedClearance(reduced);
-    const nav::GlobalPlan plan = ctx_->navigation->SetGoal(ctx_->state, ctx_->goal_x_m, ctx_->goal_y_m,
-                                                           ctx_->goal_tolerance_m, ctx_->now_s, ctx_->goal_z_m);
-    if (!plan.IsUsable()) return Failed("no path: " + plan.reason);
+    // Planned on a worker: the robot holds still meanwhile, and the control loop goes on (its watchdogs too).
+    plan_ = ctx_->navigation->PlanGoalAsync(ctx_->state, ctx_->goal_x_m, ctx_->goal_y_m, ctx_->goal_z_m);
     return OnRunning();
   }
   NodeStatus OnRunning() override {
+    if (plan_.valid()) {
+      ctx_->Stop();
+      if (plan_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return NodeStatus::kRunning;
+      const nav::GlobalPlan plan = plan_.get();
+      if (!plan.IsUsable()) return Failed("no path: " + plan.reason);
+      ctx_->navigation->AcceptGoal(plan, ctx_->goal_x_m, ctx_->goal_y_m, ctx_->goal_tolerance_m, ctx_->now_s,
+                                   ctx_->goal_z_m);
+    }
     const NavigationStep step = ctx_->navigation->StepWaypoint(ctx_->state, ctx_->now_s);
     if (step.arrived) {
       ctx_->Stop();
@@ -239,6 +248,7 @@ class FollowGoal : public bt::StatefulActionNode {
   }
   void OnHalted() override {
     ctx_->Stop();
+    ctx_->navigation->Abandon(std::move(plan_));
     ctx_->navigation->ClearGoal();
     ctx_->navigation->SetReducedClearance(false);
     if (ctx_->active) ctx_->log.push_back("attempt " + std::to_string(ctx_->attempt) + " (" + label_ + "): interrupted");
@@ -254,6 +264,7 @@ class FollowGoal : public bt::StatefulActionNode {
 
   std::shared_ptr<Context> ctx_;
   std::string label_;
+  std::future<nav::GlobalPlan> plan_;  // the attempt's plan, while it runs on a worker
 };
 
 template <class Node>

@@ -98,6 +98,15 @@ class Navigation {
   /// usable.
   void AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s,
                   double z_m = std::numeric_limits<double>::quiet_NaN());
+  /// Plans the goal (x_m, y_m, z_m) from `state` on a worker thread, with the request GoalRequest() makes
+  /// now (the current clearance setting included), so that the control loop never waits for a search (one
+  /// over the map's levels takes up to ~1 s). The caller polls the future and hands a usable plan to
+  /// AcceptGoal(); a future it no longer wants goes to Abandon().
+  std::future<nav::GlobalPlan> PlanGoalAsync(const core::BaseState& state, double x_m, double y_m,
+                                             double z_m = std::numeric_limits<double>::quiet_NaN()) const;
+  /// Keeps a plan future nobody waits for until its search ends (destroying a running std::async future
+  /// would block the caller until then).
+  void Abandon(std::future<nav::GlobalPlan> plan);
   /// Drops the goal (the robot will be stopped by the caller's mode switch).
   void ClearGoal();
   /// Forgets the obstacle points (the local obstacle memory): waypoint driving brakes until the next
@@ -165,10 +174,10 @@ class Navigation {
   double PartialRemaining(const nav::GlobalPlan& plan) const;
   // Makes `plan` (usable, for the current goal) the one followed, from its start.
   void AdoptPlan(const nav::GlobalPlan& plan, double now_s);
-  // Forgets a running partial-plan extension without waiting for it.
+  // Forgets a running replan without waiting for it.
   void DropExtension();
-  // Re-plans from `state` to the goal; false (and the reason) if no path remains.
-  bool Replan(const core::BaseState& state, double now_s, std::string* reason);
+  // Runs `request` on a new background-priority thread.
+  std::future<nav::GlobalPlan> PlanOnWorker(nav::GlobalPlanRequest request) const;
   // Progress along the global path: updates path_segment_ and distance_left_m_; returns the distance from
   // the robot to the path.
   double UpdateProgress(const Eigen::Vector2d& p_W);
@@ -206,10 +215,11 @@ class Navigation {
   std::uint64_t path_revision_ = 0;
   double last_replan_check_s_ = -1e9;
   double last_partial_replan_s_ = -1e9;  // last extension of a partial plan (the map grew)
-  std::future<nav::GlobalPlan> extension_;  // a partial plan's extension, planned on a worker
+  std::future<nav::GlobalPlan> extension_;  // a replan (or a partial plan's extension) running on a worker
   bool extension_at_end_ = false;           // ...asked for at the partial plan's end
+  std::string extension_cause_;             // ...and why it was asked for, for a failure's reason
   double partial_stuck_since_s_ = -1.0;     // at a partial plan's end with no way on since; -1 = not
-  std::vector<std::future<nav::GlobalPlan>> abandoned_;  // extensions of dropped goals, still running
+  std::vector<std::future<nav::GlobalPlan>> abandoned_;  // plans of dropped goals, still running
   bool creeping_ = false;  // the track is the global path through a tight spot (half speed)
   bool reduced_clearance_ = false;
   bool awaiting_obstacles_ = false;  // obstacle memory cleared: no local plan before the next SetObstacles()
