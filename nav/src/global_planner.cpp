@@ -72,7 +72,7 @@ PlatformProfile GetPlatformProfile(const std::string& name) {
   if (name == "legged") {
     p.limits = core::VelocityLimits::Legged();
     p.cruise_speed_mps = 0.5;
-    p.traversability.max_step_m = 0.25;
+    p.traversability.max_step_m = 0.30;  // see platform.h: the voxel map's quantization of a 0.2 m rise
     p.local_heading_range_rad = kPi;
     return p;
   }

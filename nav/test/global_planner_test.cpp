@@ -147,7 +147,7 @@ TEST_F(StaircaseTest, WheeledRobotIsRefusedWithTheStep) {
   EXPECT_NE(plan.reason.find("unreachable for platform wheeled"), std::string::npos) << plan.reason;
   EXPECT_NE(plan.reason.find("0.20 m step"), std::string::npos) << plan.reason;
   EXPECT_NE(plan.reason.find("max_step_m 0.15"), std::string::npos) << plan.reason;
-  EXPECT_NE(plan.reason.find("platform legged climbs up to 0.25 m"), std::string::npos) << plan.reason;
+  EXPECT_NE(plan.reason.find("platform legged climbs up to 0.30 m"), std::string::npos) << plan.reason;
 }
 
 TEST(GlobalPlannerTest, MapChangeUnderThePathIsDetectedAndReplanned) {

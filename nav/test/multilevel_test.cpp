@@ -100,7 +100,7 @@ TEST(MultiLevelGridTest, PlannerRefusesAWheeledRobotNamingTheStairs) {
   const GlobalPlan wheeled = planner.Plan(request);
   EXPECT_FALSE(wheeled.IsUsable());
   EXPECT_NE(wheeled.reason.find("climbs a 0.20 m step"), std::string::npos) << wheeled.reason;
-  EXPECT_NE(wheeled.reason.find("platform legged climbs up to 0.25 m"), std::string::npos) << wheeled.reason;
+  EXPECT_NE(wheeled.reason.find("platform legged climbs up to 0.30 m"), std::string::npos) << wheeled.reason;
   request.platform = "legged";
   const GlobalPlan legged = planner.Plan(request);
   ASSERT_TRUE(legged.IsUsable()) << legged.reason;

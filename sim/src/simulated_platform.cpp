@@ -205,6 +205,8 @@ SimulatedPlatform::SimulatedPlatform(const SimulatedPlatformOptions& options)
     : options_(options),
       world_(LoadChecked(options)),
       terrain_(std::make_shared<const nav::TraversabilityGrid>(*world_, TerrainOptions(options))),
+      body_terrain_(std::make_shared<const nav::LeveledTerrain>(
+          terrain_, std::make_shared<const nav::MultiLevelGrid>(world_, TerrainOptions(options)))),
       base_(options.limits, options.footprint_radius_m),
       slam_(options.slam, SeedOf(options.start_key) + 1),
       lidar_(options.lidar, SeedOf(options.start_key)) {
@@ -271,15 +273,21 @@ std::vector<Eigen::Vector3i> SimulatedPlatform::FillRock(const Eigen::AlignedBox
       }
     }
   }
-  SwapWorld(std::move(changed));
+  SwapWorld(std::move(changed), area_W);
   return filled;
 }
 
-void SimulatedPlatform::SwapWorld(std::shared_ptr<const World> changed) {
+void SimulatedPlatform::SwapWorld(std::shared_ptr<const World> changed, const Eigen::AlignedBox2d& area_W) {
   auto new_terrain = std::make_shared<const nav::TraversabilityGrid>(*changed, TerrainOptions(options_));
+  auto levels = std::make_shared<nav::MultiLevelGrid>(body_terrain()->levels());
+  // One cell around the area: the voxels on its border columns changed too.
+  const Eigen::Vector2d margin = Eigen::Vector2d::Constant(changed->resolution_m());
+  levels->Update(changed, nullptr, {Eigen::AlignedBox2d(area_W.min() - margin, area_W.max() + margin)});
+  auto new_body = std::make_shared<const nav::LeveledTerrain>(new_terrain, std::move(levels));
   std::lock_guard<std::mutex> guard(world_mutex_);
   world_ = std::move(changed);
   terrain_ = std::move(new_terrain);
+  body_terrain_ = std::move(new_body);
 }
 
 std::int64_t SimulatedPlatform::DropRock(const Eigen::AlignedBox2d& area_W, double height_m) {
@@ -294,12 +302,15 @@ std::int64_t SimulatedPlatform::ClearRock(const std::vector<Eigen::Vector3i>& fi
   }
   auto changed = std::make_shared<World>(*world);
   std::int64_t freed = 0;
+  Eigen::AlignedBox2d area_W;  // empty
   for (const Eigen::Vector3i& index : filled) {
     if (!changed->IsOccupiedIndex(index)) continue;
     changed->SetOccupied(index, false);
+    area_W.extend(changed->CenterOf(index).head<2>());
     ++freed;
   }
-  SwapWorld(std::move(changed));
+  if (freed == 0) return 0;
+  SwapWorld(std::move(changed), area_W);
   return freed;
 }
 
@@ -317,7 +328,7 @@ void SimulatedPlatform::Update(double now_s) {
     ClearRock(it->filled);
     it = pending_clears_.erase(it);
   }
-  const std::shared_ptr<const nav::TraversabilityGrid> terrain = this->terrain();
+  const std::shared_ptr<const nav::LeveledTerrain> terrain = body_terrain();
   std::lock_guard<std::mutex> guard(mutex_);
   if (last_update_s_ < 0.0 || !(now_s > last_update_s_)) {
     last_update_s_ = std::max(last_update_s_, now_s);
@@ -426,6 +437,11 @@ std::shared_ptr<const World> SimulatedPlatform::world() const {
 std::shared_ptr<const nav::TraversabilityGrid> SimulatedPlatform::terrain() const {
   std::lock_guard<std::mutex> guard(world_mutex_);
   return terrain_;
+}
+
+std::shared_ptr<const nav::LeveledTerrain> SimulatedPlatform::body_terrain() const {
+  std::lock_guard<std::mutex> guard(world_mutex_);
+  return body_terrain_;
 }
 
 double SimulatedPlatform::distance_travelled_m() const {

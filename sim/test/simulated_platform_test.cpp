@@ -119,5 +119,29 @@ TEST(SimulatedPlatformTest, RockfallsParseOrNameTheEntry) {
   }
 }
 
+// The body moves on every level of the world: up the building's lower flight (1.0 m wide, one ground per
+// column) onto the mid landing, whose columns also hold the floor 1.6 m below it (a 2.5D ground reads the
+// landing's edge as a 1.4 m wall), and on along the landing, with no contact.
+TEST(SimulatedPlatformTest, LeggedBodyClimbsOntoALandingOverTheFloorBelow) {
+  SimulatedPlatformOptions o;
+  o.world = "builtin:building";
+  o.start_W = core::PlanarPose{19.0, 6.5, 0.0};
+  o.SetProfile(nav::GetPlatformProfile("legged"));
+  SimulatedPlatform platform(o);
+  platform.Update(0.0);
+  ASSERT_NEAR(platform.TrueState().z_m, 0.0, 1e-9);
+  bool contact = false;
+  double t = 0.0;
+  while (t < 20.0 && platform.TrueState().x_m < 22.6) {
+    t += 0.02;
+    platform.CommandTwist(0.4, 0.0, t);
+    platform.Update(t);
+    contact = contact || platform.ReadStatus().in_contact;
+  }
+  EXPECT_FALSE(contact) << "contact at x " << platform.TrueState().x_m << ", z " << platform.TrueState().z_m;
+  EXPECT_GE(platform.TrueState().x_m, 22.6);
+  EXPECT_NEAR(platform.TrueState().z_m, 1.6, 1e-6) << "not on the landing";
+}
+
 }  // namespace
 }  // namespace cairn::sim

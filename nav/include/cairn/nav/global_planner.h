@@ -92,7 +92,7 @@ struct GlobalPlan {
   /// Why the plan failed, for the operator: the A* message, extended for unreachable goals with the step
   /// that blocks the platform when a route exists for a climbing platform, e.g. "unreachable for platform
   /// wheeled: the only route climbs a 0.20 m step at (50.05, 23.65), above its max_step_m 0.15 m (platform
-  /// legged climbs up to 0.25 m)". Empty on success.
+  /// legged climbs up to 0.30 m)". Empty on success.
   std::string reason;
   /// Map version the plan was made on (see GlobalPlanner::map_version()).
   std::uint64_t map_version = 0;

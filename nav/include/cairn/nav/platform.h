@@ -39,8 +39,10 @@ struct PlatformProfile {
 /// The built-in profiles:
 ///  - "wheeled": a skid-steer rover, 1.5 m/s max (cruise 1.0), 1.0 m/s^2, 1.5 rad/s, steps <= 0.15 m (no
 ///    stairs), forward-looking local planner (headings within +-100 deg: it does not back into space behind it);
-///  - "legged": a quadruped, 0.6 m/s max (cruise 0.5), 0.6 m/s^2, 1.0 rad/s, steps <= 0.25 m (stairs of
-///    up to 0.25 m rise), all-around local planner.
+///  - "legged": a quadruped, 0.6 m/s max (cruise 0.5), 0.6 m/s^2, 1.0 rad/s, steps <= 0.30 m (Boston
+///    Dynamics Spot's rated maximum step height), all-around local planner. Stairs of 0.15-0.2 m rise read
+///    as steps of up to 0.3 m on a 0.1 m voxel map (a tread's top falls in the voxel below or above a
+///    boundary), so a lower limit would cut a real flight at the quantization, not at its steps.
 /// Both turn in place (a skid-steer rover pivots; the simulator's unicycle models both).
 /// Both use a 0.3 m body radius and need 0.8 m of height.
 /// @throws std::invalid_argument naming the value and the valid names if `name` is unknown.

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "cairn/core/platform_io.h"
+#include "cairn/nav/multilevel.h"
 #include "cairn/nav/platform.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/sim/builtin_worlds.h"
@@ -113,8 +114,11 @@ class SimulatedPlatform : public core::PlatformIO {
   void SetTrueState(const UnicycleState& state);
   /// The simulated world (ground truth).
   std::shared_ptr<const World> world() const;
-  /// Ground-truth traversability the base moves on.
+  /// Ground-truth traversability of the main level (one ground per column; starts, rock heights).
   std::shared_ptr<const nav::TraversabilityGrid> terrain() const;
+  /// Ground truth the base moves on: the main level and every other walkable surface of the world (an
+  /// upper floor, a landing over the floor below), see nav::LeveledTerrain.
+  std::shared_ptr<const nav::LeveledTerrain> body_terrain() const;
   /// Distance the base travelled, metres, and the SLAM position error now, metres (truth vs estimate).
   double distance_travelled_m() const;
   double slam_error_m() const;
@@ -125,9 +129,10 @@ class SimulatedPlatform : public core::PlatformIO {
   Eigen::Isometry3d SensorOnBody() const;
 
   SimulatedPlatformOptions options_;
-  mutable std::mutex world_mutex_;  // guards the two pointers below (copy-on-write on a rockfall)
+  mutable std::mutex world_mutex_;  // guards the three pointers below (copy-on-write on a rockfall)
   std::shared_ptr<const World> world_;
   std::shared_ptr<const nav::TraversabilityGrid> terrain_;
+  std::shared_ptr<const nav::LeveledTerrain> body_terrain_;
   std::size_t next_rockfall_ = 0;  // options_.rockfalls sorted by time; control thread
   // Voxels each dropped rockfall with a clear time filled, and when to free them; control thread.
   struct PendingClear {
@@ -137,8 +142,8 @@ class SimulatedPlatform : public core::PlatformIO {
   std::vector<PendingClear> pending_clears_;
   // Fills the rock's voxels into a copy of the world, swaps it in; returns the voxels it filled.
   std::vector<Eigen::Vector3i> FillRock(const Eigen::AlignedBox2d& area_W, double height_m);
-  // Makes `changed` the world and rebuilds the ground-truth terrain from it.
-  void SwapWorld(std::shared_ptr<const World> changed);
+  // Makes `changed` the world and rebuilds the ground-truth terrain from it (the levels in `area_W` only).
+  void SwapWorld(std::shared_ptr<const World> changed, const Eigen::AlignedBox2d& area_W);
   mutable std::mutex mutex_;  // base, SLAM, command and status below
   Unicycle base_;
   SlamDrift slam_;
