@@ -3,8 +3,9 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <atomic>
-#include <condition_variable>
+#include <chrono>
 #include <mutex>
 #include <thread>
 
@@ -13,8 +14,6 @@ namespace {
 
 std::atomic<bool> g_requested{false};
 std::atomic<void (*)()> g_on_interrupt{nullptr};
-std::mutex g_mutex;
-std::condition_variable g_cv;
 
 }  // namespace
 
@@ -48,17 +47,20 @@ void SetInterruptHandler(void (*on_interrupt)()) { g_on_interrupt.store(on_inter
 
 bool ShutdownRequested() { return g_requested.load(); }
 
-void RequestShutdown() {
-  {
-    std::lock_guard<std::mutex> lock(g_mutex);
-    g_requested.store(true);
-  }
-  g_cv.notify_all();
-}
+void RequestShutdown() { g_requested.store(true); }
 
 bool WaitForShutdown(std::chrono::milliseconds timeout) {
-  std::unique_lock<std::mutex> lock(g_mutex);
-  return g_cv.wait_for(lock, timeout, [] { return g_requested.load(); });
+  // Sleeps in slices and polls the flag rather than waiting on one condition variable shared by every thread
+  // of the process (a thread preempted while holding its mutex would hold up every other thread's wake, the
+  // robot's control loop among them). A shutdown is seen within one slice.
+  constexpr std::chrono::milliseconds kSlice(20);
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (!g_requested.load()) {
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= end) return false;
+    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(end - now, kSlice));
+  }
+  return true;
 }
 
 }  // namespace cairn::core

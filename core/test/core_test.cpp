@@ -3,16 +3,11 @@
 #include <fstream>
 #include <thread>
 
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-
 #include <gtest/gtest.h>
 
 #include "cairn/core/component.h"
 #include "cairn/core/config.h"
 #include "cairn/core/dds.h"
-#include "cairn/core/thread_priority.h"
 #include "cairn_msgsPubSubTypes.h"
 
 namespace cairn::core {
@@ -96,25 +91,6 @@ class Recorder : public Component {
   std::vector<std::string>* log_;
   bool fail_;
 };
-
-// Background priority is per thread: the thread that asks gets it, the others (the control loop) keep theirs.
-TEST(ThreadPriority, BackgroundIsTheCallingThreadsOnly) {
-  const auto nice_of = [](long tid) { return ::getpriority(PRIO_PROCESS, static_cast<id_t>(tid)); };
-  const long main_tid = ::syscall(SYS_gettid);
-  const int main_nice = nice_of(main_tid);
-  int worker_nice = -100;
-  std::thread worker([&] {
-    MakeCurrentThreadBackground();
-    worker_nice = nice_of(::syscall(SYS_gettid));
-  });
-  worker.join();
-  EXPECT_EQ(worker_nice, std::max(main_nice, kBackgroundNice));
-  EXPECT_EQ(nice_of(main_tid), main_nice);
-  std::string why;
-  EXPECT_FALSE(SetCurrentThreadNice(25, &why));
-  EXPECT_EQ(why, "nice = 25 must be in [-20, 19]");
-  EXPECT_EQ(nice_of(main_tid), main_nice);
-}
 
 TEST(Component, StartsInOrderAndStopsInReverse) {
   std::vector<std::string> log;

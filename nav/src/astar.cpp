@@ -1,6 +1,8 @@
 // Copyright Cairn authors.
 #include "cairn/nav/astar.h"
 
+#include "search_scratch.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -14,6 +16,33 @@
 
 namespace cairn::nav {
 namespace {
+
+// PlanPath's per-cell arrays, reset after each search at the cells it touched (search_scratch.h).
+struct GridSearchScratch {
+  std::vector<double> g;
+  std::vector<int> parent;
+  std::vector<std::uint8_t> closed;
+  std::vector<int> touched;  // cells whose g was set
+
+  void Prepare(std::size_t n) {
+    for (const int i : touched) {
+      g[static_cast<std::size_t>(i)] = std::numeric_limits<double>::infinity();
+      parent[static_cast<std::size_t>(i)] = -1;
+      closed[static_cast<std::size_t>(i)] = 0;
+    }
+    touched.clear();
+    if (g.size() != n) {
+      g.assign(n, std::numeric_limits<double>::infinity());
+      parent.assign(n, -1);
+      closed.assign(n, 0);
+    }
+  }
+};
+
+internal::ScratchPool<GridSearchScratch>& GridScratchPool() {
+  static internal::ScratchPool<GridSearchScratch> pool;
+  return pool;
+}
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kSqrt2 = 1.41421356237309504880;
@@ -226,9 +255,12 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
   // ---- A* search. ----
   const int nx = grid.nx();
   const std::size_t n = static_cast<std::size_t>(nx) * grid.ny();
-  std::vector<double> g(n, kInf);
-  std::vector<int> parent(n, -1);
-  std::vector<std::uint8_t> closed(n, 0);
+  auto scratch = GridScratchPool().Take();
+  scratch->Prepare(n);
+  std::vector<double>& g = scratch->g;
+  std::vector<int>& parent = scratch->parent;
+  std::vector<std::uint8_t>& closed = scratch->closed;
+  std::vector<int>& touched = scratch->touched;
   using Entry = std::pair<double, int>;  // (f, linear index)
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
   auto heuristic = [&](int cx, int cy) { return Octile(cx - gx, cy - gy) * c; };
@@ -241,6 +273,7 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
   const int start_index = static_cast<int>(grid.Index(sx, sy));
   const int goal_index = static_cast<int>(grid.Index(gx, gy));
   g[static_cast<std::size_t>(start_index)] = 0.0;
+  touched.push_back(start_index);
   open.emplace(heuristic(sx, sy), start_index);
   static const int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1};
   static const int kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
@@ -275,6 +308,7 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
                           (std::isfinite(dz) ? options.step_height_cost * std::abs(dz) : 0.0);
       const double candidate = g[ui] + cost;
       if (candidate < g[mi]) {
+        if (!std::isfinite(g[mi])) touched.push_back(static_cast<int>(mi));
         g[mi] = candidate;
         parent[mi] = index;
         open.emplace(candidate + heuristic(mx, my), static_cast<int>(mi));

@@ -1,6 +1,8 @@
 // Copyright Cairn authors.
 #include "cairn/nav/multilevel.h"
 
+#include "search_scratch.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -22,6 +24,11 @@ constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1};
 constexpr int kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
 // A goal or start names a level within this height of a surface, metres.
 constexpr double kLevelMatch_m = 1.0;
+// Unknown space is entered at the height of the surface left and never climbed, so at a height off the goal's
+// level it can only bridge an unseen gap between known surfaces (a tread the lidar missed): a search follows
+// it at most this far there. Without the bound a search toward an unconnected floor fills every unknown cell
+// within its expansion limit at every height it reached.
+constexpr double kMaxUnknownBridgeOffLevelM = 2.0;
 // Expansions of a search that may end partial (see AStarOptions::allow_partial).
 constexpr int kPartialMaxExpansions = 80000;
 
@@ -438,7 +445,36 @@ struct State {
   int iy = 0;
   double z = 0.0;
   int node = -1;  // -1: unknown cell entered at height z
+  float unknown_run_m = 0.0f;  // unknown space crossed since the last known surface (metres)
 };
+
+// A* bookkeeping of one state.
+struct Record {
+  double g = std::numeric_limits<double>::infinity();
+  std::int64_t parent = -1;
+  bool closed = false;
+  State state;
+};
+
+// PlanPathMultiLevel's per-surface records, reset after each search at the surfaces it touched
+// (search_scratch.h); unknown-space states live in a hash map.
+struct LevelSearchScratch {
+  std::vector<Record> known;
+  std::vector<int> touched;  // known surfaces whose record was written
+  std::unordered_map<std::int64_t, Record> virtuals;
+
+  void Prepare(std::size_t n_nodes) {
+    for (const int i : touched) known[static_cast<std::size_t>(i)] = Record{};
+    touched.clear();
+    virtuals.clear();
+    if (known.size() != n_nodes) known.assign(n_nodes, Record{});
+  }
+};
+
+internal::ScratchPool<LevelSearchScratch>& LevelScratchPool() {
+  static internal::ScratchPool<LevelSearchScratch> pool;
+  return pool;
+}
 
 }  // namespace
 
@@ -633,17 +669,17 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
   };
 
   // ---- A*: known surfaces in flat arrays, unknown-space states in a hash map. ----
-  struct Record {
-    double g = kInf;
-    std::int64_t parent = -1;
-    bool closed = false;
-    State state;
-  };
   const int n_nodes = grid.node_count();
-  std::vector<Record> known(static_cast<std::size_t>(n_nodes));
-  std::unordered_map<std::int64_t, Record> virtuals;
+  auto scratch = LevelScratchPool().Take();
+  scratch->Prepare(static_cast<std::size_t>(n_nodes));
+  std::vector<Record>& known = scratch->known;
+  std::vector<int>& touched = scratch->touched;
+  std::unordered_map<std::int64_t, Record>& virtuals = scratch->virtuals;
   auto record = [&](std::int64_t key) -> Record& {
     return key < n_nodes ? known[static_cast<std::size_t>(key)] : virtuals[key];
+  };
+  auto note_written = [&](std::int64_t key) {  // a known surface's record leaves its reset state
+    if (key < n_nodes) touched.push_back(static_cast<int>(key));
   };
   using Entry = std::pair<double, std::int64_t>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
@@ -670,6 +706,7 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
   };
   const std::int64_t start_key = search.Key(*start);
   record(start_key) = Record{0.0, -1, false, *start};
+  note_written(start_key);
   open.emplace(heuristic(*start), start_key);
   std::int64_t goal_key = -1;
   std::int64_t best_key = start_key;
@@ -704,9 +741,15 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
       }
     }
     for (int k = 0; k < 8; ++k) {
-      const std::optional<State> next = search.Enter(s.ix + kDx[k], s.iy + kDy[k], s.z);
+      std::optional<State> next = search.Enter(s.ix + kDx[k], s.iy + kDy[k], s.z);
       if (!next) continue;
       const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
+      if (next->node < 0) {
+        next->unknown_run_m = (s.node < 0 ? s.unknown_run_m : 0.0f) + static_cast<float>((diagonal ? kSqrt2 : 1.0) * c);
+        if (next->unknown_run_m > kMaxUnknownBridgeOffLevelM && std::abs(next->z - goal_level_z) > kLevelMatch_m) {
+          continue;  // off the goal's level, unknown space only bridges gaps
+        }
+      }
       if (diagonal && (!search.Enter(s.ix + kDx[k], s.iy, s.z) || !search.Enter(s.ix, s.iy + kDy[k], s.z))) continue;
       const std::int64_t next_key = search.Key(*next);
       Record& nr = record(next_key);
@@ -717,6 +760,7 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
                           options.step_height_cost * std::abs(next->z - s.z);
       const double candidate = g_here + cost;
       if (candidate < nr.g) {
+        if (!std::isfinite(nr.g)) note_written(next_key);
         nr.g = candidate;
         nr.parent = key;
         nr.state = *next;
@@ -727,7 +771,13 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
   const std::string searched = std::to_string(result.expansions) + " cells expanded" +
                                (capped ? ", the search limit " + std::to_string(max_expansions) : "");
   std::string partial_note;
-  if (goal_key < 0 && options.allow_partial && best_key != start_key && best_remaining < start_remaining - 0.5) {
+  // A partial plan toward another level must climb (or descend) some of the way: one that only comes nearer
+  // in x-y leads a robot under the goal, not to it (a wheeled robot at the foot of stairs it cannot climb).
+  const double start_dz = std::abs(start_z - goal_level_z);
+  const bool height_progress = start_dz <= kLevelMatch_m ||
+                               std::abs(record(best_key).state.z - goal_level_z) <= start_dz - 0.5 * step_m;
+  if (goal_key < 0 && options.allow_partial && best_key != start_key && best_remaining < start_remaining - 0.5 &&
+      height_progress) {
     const State& b = record(best_key).state;
     goal_key = best_key;
     result.partial = true;

@@ -45,7 +45,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto nav = config.Section("navigation");
   nav.RejectUnknownKeys({"cruise_speed_mps", "goal_tolerance_m", "blocked_timeout_s", "contact_timeout_s",
                          "carrot_distance_m", "required_free_length_m", "tight_free_length_m",
-                         "tight_spot_deviation_rad", "sensor_range_m", "local_planner_period_s", "obstacle_timeout_s", "replan_check_period_s", "max_path_deviation_m",
+                         "tight_spot_deviation_rad", "sensor_range_m", "local_planner_period_s", "obstacle_timeout_s", "obstacle_lost_s", "replan_check_period_s", "max_path_deviation_m",
                          "joystick_turn_lookahead_s", "map_half_extent_m", "map_update_period_s",
                          "obstacle_window_s", "path_requests_per_s"});
   nav.ReadDouble("cruise_speed_mps", &n.platform.cruise_speed_mps);
@@ -59,6 +59,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   nav.ReadDouble("sensor_range_m", &n.sensor_range_m);
   nav.ReadDouble("local_planner_period_s", &n.local_planner_period_s);
   nav.ReadDouble("obstacle_timeout_s", &n.obstacle_timeout_s);
+  nav.ReadDouble("obstacle_lost_s", &n.obstacle_lost_s);
   nav.ReadDouble("replan_check_period_s", &n.replan_check_period_s);
   nav.ReadDouble("max_path_deviation_m", &n.max_path_deviation_m);
   nav.ReadDouble("joystick_turn_lookahead_s", &n.joystick_turn_lookahead_s);

@@ -9,8 +9,6 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "cairn/core/thread_priority.h"
-
 namespace cairn::agent {
 namespace {
 
@@ -19,6 +17,9 @@ using internal::InRange;
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kArrivalSpeedMps = 0.1;  // arrival needs the robot at most this fast
 constexpr double kArrivalLevelM = 0.5;     // ...and this close to the height of a goal's level
+// Replans on the worker start at most this often (a search over the map's levels costs up to ~0.5 s of CPU on
+// a mostly unknown map; back to back they would take a core from the robot's sensing and mapping).
+constexpr double kMinReplanIntervalS = 1.0;
 constexpr double kPartialWaitS = 8.0;      // a partial plan's end is a dead end after this long without a way on
 constexpr double kGoalSnapM = 0.25;        // largest hop from a free local path sample to the goal
 
@@ -59,6 +60,7 @@ bool NavigationOptions::IsValid(std::string* why) const {
          InRange("navigation.sensor_range_m", sensor_range_m, 0, 20, true, why) &&
          InRange("navigation.local_planner_period_s", local_planner_period_s, 0, 1, true, why) &&
          InRange("navigation.obstacle_timeout_s", obstacle_timeout_s, 0, 10, true, why) &&
+         InRange("navigation.obstacle_lost_s", obstacle_lost_s, obstacle_timeout_s, 60, false, why) &&
          InRange("navigation.replan_check_period_s", replan_check_period_s, 0, 60, true, why) &&
          InRange("navigation.max_path_deviation_m", max_path_deviation_m, 0, 20, true, why) &&
          InRange("navigation.joystick_turn_lookahead_s", joystick_turn_lookahead_s, 0, 5, false, why);
@@ -148,10 +150,8 @@ void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m,
 }
 
 std::future<nav::GlobalPlan> Navigation::PlanOnWorker(nav::GlobalPlanRequest request) const {
-  return std::async(std::launch::async, [planner = planner_, request = std::move(request)] {
-    core::MakeCurrentThreadBackground();  // never ahead of the control loop for the CPU
-    return planner->Plan(request);
-  });
+  return std::async(std::launch::async,
+                    [planner = planner_, request = std::move(request)] { return planner->Plan(request); });
 }
 
 std::future<nav::GlobalPlan> Navigation::PlanGoalAsync(const core::BaseState& state, double x_m, double y_m,
@@ -227,15 +227,25 @@ void Navigation::SetObstacles(const std::vector<Eigen::Vector3f>& points_B, cons
   obstacles_time_s_ = now_s;
 }
 
-bool Navigation::LocalPlannerHealthy(double now_s, std::string* why) const {
-  const double age = now_s - obstacles_time_s_;
-  if (age <= options_.obstacle_timeout_s) return true;
+namespace {
+
+bool ObstacleInputFresh(double age_s, bool never, double limit_s, std::string* why) {
+  if (!never && age_s <= limit_s) return true;
   if (why != nullptr) {
-    *why = obstacles_time_s_ < -1e8 ? "no obstacle input yet"
-                                    : "obstacle input is " + Fixed(age, 2) + " s old (limit " +
-                                          Fixed(options_.obstacle_timeout_s, 2) + " s)";
+    *why = never ? "no obstacle input yet"
+                 : "obstacle input is " + Fixed(age_s, 2) + " s old (limit " + Fixed(limit_s, 2) + " s)";
   }
   return false;
+}
+
+}  // namespace
+
+bool Navigation::LocalPlannerHealthy(double now_s, std::string* why) const {
+  return ObstacleInputFresh(now_s - obstacles_time_s_, obstacles_time_s_ < -1e8, options_.obstacle_timeout_s, why);
+}
+
+bool Navigation::ObstacleSensingAlive(double now_s, std::string* why) const {
+  return ObstacleInputFresh(now_s - obstacles_time_s_, obstacles_time_s_ < -1e8, options_.obstacle_lost_s, why);
 }
 
 NavigationStep Navigation::Fail(const std::string& reason) {
@@ -452,10 +462,14 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     const Eigen::Vector3d end = plan_.result.path_W.empty() ? Eigen::Vector3d::Zero() : plan_.result.path_W.back();
     const bool was_partial = plan_.result.partial;
     const double before = PartialRemaining(plan_);
-    // From a partial plan's end, "no route" (nothing nearer the goal than where the robot stands) is the same
-    // as no progress: the robot waits there a few map updates before failing.
-    if (!extended.IsUsable() && !(was_partial && extended.platform_known &&
-                                  extended.result.status == nav::PlanResult::Status::kUnreachable)) {
+    // On a partial plan, "no route" (nothing nearer the goal than where the robot stands) is the same as no
+    // progress, and a goal that looks blocked lies on a part of the map seen from afar (grazing rays, a few
+    // voxels): the robot goes on along its plan, sees more, and fails only after a few map updates of that.
+    const auto status = extended.result.status;
+    const bool map_may_tell = was_partial && extended.platform_known &&
+                              (status == nav::PlanResult::Status::kUnreachable ||
+                               status == nav::PlanResult::Status::kGoalBlocked);
+    if (!extended.IsUsable() && !map_may_tell) {
       return Fail(extension_cause_ + " and no new path exists: " + extended.reason);
     }
     if (extended.IsUsable()) AdoptPlan(extended, now_s);
@@ -472,6 +486,8 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   }
   auto replan_on_worker = [&](bool at_end, std::string cause) {
     if (extension_.valid()) return;  // one at a time; the next check asks again if still needed
+    if (now_s - last_worker_replan_s_ < kMinReplanIntervalS) return;
+    last_worker_replan_s_ = now_s;
     if (plan_.result.partial) last_partial_replan_s_ = now_s;
     extension_at_end_ = at_end;
     extension_cause_ = std::move(cause);

@@ -25,7 +25,6 @@
 #include "cairn/agent/waypoint_mode.h"
 #include "cairn/agent/waypoint_recovery.h"
 #include "cairn/core/shutdown.h"
-#include "cairn/core/thread_priority.h"
 #include "range_check.h"
 
 #ifndef CAIRN_CONFIG_DIR
@@ -276,7 +275,7 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   c.localization_problem = pose_problem_;
   c.has_waypoint_goal = waypoint_->has_goal();
   c.local_planner_healthy =
-      navigation_.LocalPlannerHealthy(NowS(SteadyClock::now()), &c.local_planner_problem);
+      navigation_.ObstacleSensingAlive(NowS(SteadyClock::now()), &c.local_planner_problem);
   return c;
 }
 
@@ -323,20 +322,9 @@ void RobotAgent::Impl::Run() {
   // The lidar feeds navigation (live obstacles, the navigation map) even with perception's outputs disabled.
   std::thread sensor_thread;
   if (capabilities_.has_lidar) sensor_thread = std::thread([this] { perception_->SensorLoop(); });
-  // Mapping, the navigation map and the path service are background work (core/thread_priority.h): on a
-  // saturated CPU they slow down, the control loop and the sensor feeding its obstacle checks do not.
-  std::thread perception_thread([this] {
-    core::MakeCurrentThreadBackground();
-    perception_->PerceptionLoop();
-  });
-  std::thread nav_map_thread([this] {
-    core::MakeCurrentThreadBackground();
-    perception_->NavMapLoop();
-  });
-  std::thread plan_thread([this] {
-    core::MakeCurrentThreadBackground();
-    planning_->Run([] { return !core::ShutdownRequested(); });
-  });
+  std::thread perception_thread([this] { perception_->PerceptionLoop(); });
+  std::thread nav_map_thread([this] { perception_->NavMapLoop(); });
+  std::thread plan_thread([this] { planning_->Run([] { return !core::ShutdownRequested(); }); });
   // Joins the threads however Run() ends (an exception would otherwise terminate the process).
   struct JoinOnExit {
     std::thread* threads[4];

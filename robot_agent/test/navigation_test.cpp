@@ -297,6 +297,25 @@ TEST(NavigationTest, FailsWhenTheMapChangeLeavesNoPath) {
   EXPECT_FALSE(robot.navigation.has_goal());
 }
 
+// A late scan (1-3 s) brakes the robot and keeps its goal; only a longer silence loses obstacle sensing.
+TEST(NavigationTest, StaleObstacleInputBrakesFirstAndIsLostLater) {
+  auto world = std::make_shared<const sim::World>(FlatWorld(10, 6));
+  SimRobot robot(world, "legged", 2.0, 3.0, 0.0);
+  ASSERT_TRUE(robot.navigation.SetGoal(robot.platform.state(), 8.0, 3.0, 0.0, 0.0).IsUsable());
+  robot.navigation.SetObstacles({}, robot.platform.state(), 0.0);
+  std::string why;
+  EXPECT_TRUE(robot.navigation.LocalPlannerHealthy(0.5, &why));
+  EXPECT_FALSE(robot.navigation.LocalPlannerHealthy(2.0, &why));
+  EXPECT_EQ(why, "obstacle input is 2.00 s old (limit 1.00 s)");
+  EXPECT_TRUE(robot.navigation.ObstacleSensingAlive(2.0, &why));
+  const NavigationStep braking = robot.navigation.StepWaypoint(robot.platform.state(), 2.0);
+  EXPECT_FALSE(braking.failed) << braking.reason;
+  EXPECT_NEAR(braking.linear_x_mps, 0.0, 1e-9);
+  EXPECT_FALSE(robot.navigation.ObstacleSensingAlive(3.5, &why));
+  EXPECT_EQ(why, "obstacle input is 3.50 s old (limit 3.00 s)");
+  EXPECT_TRUE(robot.navigation.has_goal());
+}
+
 TEST(NavigationTest, StopsWithoutObstacleInput) {
   auto world = std::make_shared<const sim::World>(FlatWorld(10, 6));
   SimRobot robot(world, "legged", 2.0, 3.0, 0.0);

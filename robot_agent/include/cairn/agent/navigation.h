@@ -50,8 +50,13 @@ struct NavigationOptions {
   double sensor_range_m = 3.5;
   /// Local planner cycle period (the sensor rate), seconds, (0, 1].
   double local_planner_period_s = 0.1;
-  /// The local planner is unhealthy when its obstacle input is older than this, seconds, (0, 10].
+  /// The local planner is unhealthy when its obstacle input is older than this, seconds, (0, 10]: the robot
+  /// brakes and waits for a fresh scan.
   double obstacle_timeout_s = 1.0;
+  /// Obstacle sensing is lost when its input is older than this, seconds, [obstacle_timeout_s, 60]: modes
+  /// that need it (waypoint, smart joystick) end, with the reason. Between the two the goal survives a
+  /// sensor hiccup (a late scan on a loaded computer) with the robot at rest.
+  double obstacle_lost_s = 3.0;
   /// How often the global path is checked against the current map, seconds, (0, 60].
   double replan_check_period_s = 0.5;
   /// Farther than this from the global path -> replan from the current pose, metres, (0, 20].
@@ -139,6 +144,9 @@ class Navigation {
 
   /// True when the local planner has fresh obstacle input (age <= obstacle_timeout_s); else false and `why`.
   bool LocalPlannerHealthy(double now_s, std::string* why) const;
+  /// True unless obstacle sensing is lost (input older than obstacle_lost_s, or none yet); else false and
+  /// `why`. The mode condition IsLocalPlannerHealthy reads this.
+  bool ObstacleSensingAlive(double now_s, std::string* why) const;
 
   /// The active (or last) global plan; empty path when none.
   const nav::GlobalPlan& global_plan() const { return plan_; }
@@ -176,7 +184,7 @@ class Navigation {
   void AdoptPlan(const nav::GlobalPlan& plan, double now_s);
   // Forgets a running replan without waiting for it.
   void DropExtension();
-  // Runs `request` on a new background-priority thread.
+  // Runs `request` on a new thread.
   std::future<nav::GlobalPlan> PlanOnWorker(nav::GlobalPlanRequest request) const;
   // Progress along the global path: updates path_segment_ and distance_left_m_; returns the distance from
   // the robot to the path.
@@ -215,6 +223,7 @@ class Navigation {
   std::uint64_t path_revision_ = 0;
   double last_replan_check_s_ = -1e9;
   double last_partial_replan_s_ = -1e9;  // last extension of a partial plan (the map grew)
+  double last_worker_replan_s_ = -1e9;   // last replan started on the worker
   std::future<nav::GlobalPlan> extension_;  // a replan (or a partial plan's extension) running on a worker
   bool extension_at_end_ = false;           // ...asked for at the partial plan's end
   std::string extension_cause_;             // ...and why it was asked for, for a failure's reason
