@@ -771,11 +771,13 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
   const std::string searched = std::to_string(result.expansions) + " cells expanded" +
                                (capped ? ", the search limit " + std::to_string(max_expansions) : "");
   std::string partial_note;
-  // A partial plan toward another level must climb (or descend) some of the way: one that only comes nearer
-  // in x-y leads a robot under the goal, not to it (a wheeled robot at the foot of stairs it cannot climb).
+  // A partial plan toward another level must climb (or descend) more than one step of the platform: one that
+  // only comes nearer in x-y leads a robot under the goal, not to it (a wheeled robot at the foot of stairs
+  // it cannot climb), and one step's worth can be a quantized tread (a 0.2 m rise read as 0.1 m).
   const double start_dz = std::abs(start_z - goal_level_z);
-  const bool height_progress = start_dz <= kLevelMatch_m ||
-                               std::abs(record(best_key).state.z - goal_level_z) <= start_dz - 0.5 * step_m;
+  const bool height_progress =
+      start_dz <= kLevelMatch_m ||
+      std::abs(record(best_key).state.z - goal_level_z) < start_dz - step_m - 0.5 * grid.cell_size_m();
   if (goal_key < 0 && options.allow_partial && best_key != start_key && best_remaining < start_remaining - 0.5 &&
       height_progress) {
     const State& b = record(best_key).state;
