@@ -1,6 +1,8 @@
 // Copyright Cairn authors.
 #include "cairn/nav/astar.h"
 
+#include "path_internal.h"
+
 #include "search_scratch.h"
 
 #include <algorithm>
@@ -343,16 +345,7 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
   // start is prepended); the exact goal replaces the last cell centre.
   const double start_z = grid.GroundHeight(start_W.x(), start_W.y()).value_or(points.front().z());
   const Eigen::Vector3d start_point(start_W.x(), start_W.y(), start_z);
-  if (result.used_start_escape) {
-    points.insert(points.begin(), start_point);
-    clearance.insert(clearance.begin(), 0.0);
-  } else {
-    points.front() = start_point;
-  }
-  if (points.size() == 1) {
-    points.push_back(points.front());
-    clearance.push_back(clearance.front());
-  }
+  internal::AttachStart(start_point, result.used_start_escape, &points, &clearance);
   points.back() = Eigen::Vector3d(goal_W.x(), goal_W.y(), grid.Ground(gx, gy));
   {  // Heights over unknown cells: carried from the nearest known point before (else after) on the path.
     double known = grid.summary().reference_height_m;
@@ -371,24 +364,12 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
     }
   }
 
-  if (options.simplify_path && points.size() > 2) {
-    // Greedy line-of-sight shortcutting: from each kept point, jump to the farthest following point reachable
-    // in a straight line before the first failure.
-    std::vector<Eigen::Vector3d> simplified = {points.front()};
-    std::size_t anchor = 0;
-    while (anchor + 1 < points.size()) {
-      std::size_t best = anchor + 1;
-      double least = clearance[anchor + 1];
-      for (std::size_t j = anchor + 2; j < points.size(); ++j) {
-        least = std::min(least, clearance[j]);
-        const double need = std::min(options.preferred_clearance_m, least) - 1e-9;
-        if (!SegmentTraversable(grid, points[anchor].head<2>(), points[j].head<2>(), need)) break;
-        best = j;
-      }
-      simplified.push_back(points[best]);
-      anchor = best;
-    }
-    points = std::move(simplified);
+  if (options.simplify_path) {
+    internal::ShortcutPath(options.preferred_clearance_m, clearance,
+                           [&](std::size_t anchor, std::size_t j, double need) {
+                             return SegmentTraversable(grid, points[anchor].head<2>(), points[j].head<2>(), need);
+                           },
+                           &points);
   }
   result.path_W = std::move(points);
   result.length_m = PathLength2D(result.path_W);

@@ -1,6 +1,8 @@
 // Copyright Cairn authors.
 #include "cairn/nav/multilevel.h"
 
+#include "path_internal.h"
+
 #include "search_scratch.h"
 
 #include <algorithm>
@@ -91,17 +93,7 @@ bool MultiLevelGrid::CellOf(double x_m, double y_m, int* ix, int* iy) const {
 }
 
 bool MultiLevelGrid::SeenFreeAbove(int ix, int iy, int iz) const {
-  if (!seen_free_) return true;
-  if (TopOf(iz) <= sensor_max_z_m_ - 0.1) return true;  // below every lidar position: seen from above
-  for (int dx = -1; dx <= 1; ++dx) {
-    for (int dy = -1; dy <= 1; ++dy) {
-      if (seen_free_->IsOccupiedIndex({ix + dx, iy + dy, iz + 1}) ||
-          seen_free_->IsOccupiedIndex({ix + dx, iy + dy, iz + 2})) {
-        return true;
-      }
-    }
-  }
-  return false;
+  return internal::SeenFreeAbove(seen_free_.get(), sensor_max_z_m_, TopOf(iz), ix, iy, iz);
 }
 
 template <class Visit>
@@ -807,36 +799,16 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
     clearance.push_back(search.Clearance(s));
   }
   const Eigen::Vector3d start_point(start_W.x(), start_W.y(), start_z);
-  if (result.used_start_escape) {
-    points.insert(points.begin(), start_point);
-    clearance.insert(clearance.begin(), 0.0);
-  } else {
-    points.front() = start_point;
-  }
-  if (points.size() == 1) {
-    points.push_back(points.front());
-    clearance.push_back(clearance.front());
-  }
+  internal::AttachStart(start_point, result.used_start_escape, &points, &clearance);
   if (!result.partial) points.back() = Eigen::Vector3d(goal_W.x(), goal_W.y(), states.back().z);
-  if (options.simplify_path && points.size() > 2) {
-    std::vector<Eigen::Vector3d> simplified = {points.front()};
-    std::size_t anchor = 0;
-    while (anchor + 1 < points.size()) {
-      std::size_t best = anchor + 1;
-      double least = clearance[anchor + 1];
-      for (std::size_t j = anchor + 2; j < points.size(); ++j) {
-        least = std::min(least, clearance[j]);
-        // Keep the corners of a climb: shortcuts only over points of (nearly) one height.
-        if (std::abs(points[j].z() - points[anchor].z()) > step_m + kEps_m) break;
-        if (!WalkSegment(search, grid, points[anchor], points[j], std::min(options.preferred_clearance_m, least) - 1e-9)) {
-          break;
-        }
-        best = j;
-      }
-      simplified.push_back(points[best]);
-      anchor = best;
-    }
-    points = std::move(simplified);
+  if (options.simplify_path) {
+    internal::ShortcutPath(options.preferred_clearance_m, clearance,
+                           [&](std::size_t anchor, std::size_t j, double need) {
+                             // Keep the corners of a climb: shortcuts only over points of (nearly) one height.
+                             return std::abs(points[j].z() - points[anchor].z()) <= step_m + kEps_m &&
+                                    WalkSegment(search, grid, points[anchor], points[j], need);
+                           },
+                           &points);
   }
   result.path_W = std::move(points);
   result.length_m = PathLength2D(result.path_W);

@@ -1,6 +1,8 @@
 // Copyright Cairn authors.
 #include "cairn/nav/traversability.h"
 
+#include "path_internal.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -197,17 +199,7 @@ void TraversabilityGrid::CheckGeometry(const core::VoxelGrid& grid, const char* 
 }
 
 bool TraversabilityGrid::SeenFreeAbove(int ix, int iy, int iz) const {
-  if (seen_free_ == nullptr) return true;
-  if (TopOf(iz) <= sensor_max_z_m_ - 0.1) return true;  // below every lidar position: seen from above
-  for (int dx = -1; dx <= 1; ++dx) {
-    for (int dy = -1; dy <= 1; ++dy) {
-      if (seen_free_->IsOccupiedIndex({ix + dx, iy + dy, iz + 1}) ||
-          seen_free_->IsOccupiedIndex({ix + dx, iy + dy, iz + 2})) {
-        return true;
-      }
-    }
-  }
-  return false;
+  return internal::SeenFreeAbove(seen_free_, sensor_max_z_m_, TopOf(iz), ix, iy, iz);
 }
 
 double TraversabilityGrid::TopOf(int iz) const { return world_p_min_.z() + (iz + 1) * world_res_m_; }
