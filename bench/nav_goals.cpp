@@ -111,7 +111,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
   agent::NavMap nav_map(options.nav_map, perception_options.map.resolution_m, start_M, planner, "wheeled");
   agent::Navigation navigation(options.navigation, planner,
                                std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
-  agent::LiveObstacles live_obstacles(options);
+  agent::LiveObstacles live_obstacles(options, platform.Capabilities().lidar_min_elevation_rad);
   std::vector<Eigen::Vector3f> points_B;
   Outcome out;
   core::LidarScan scan;

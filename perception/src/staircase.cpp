@@ -1228,7 +1228,11 @@ bool LocalCloudOptions::IsValid(std::string* why) const {
   return CheckRange(kType, "voxel_size_m", voxel_size_m, 0.005, false, 0.5, false, why) &&
          CheckRange(kType, "radius_m", radius_m, 1.0, false, 100.0, false, why) &&
          CheckRange(kType, "window_s", window_s, 0.0, true, 600.0, false, why) &&
-         CheckRange(kType, "max_points", static_cast<double>(max_points), 1000.0, false, 1e7, false, why);
+         CheckRange(kType, "max_points", static_cast<double>(max_points), 1000.0, false, 1e7, false, why) &&
+         (std::isnan(blind_below_elevation_rad) ||
+          CheckRange(kType, "blind_below_elevation_rad", blind_below_elevation_rad, -kPi / 2, false, kPi / 2, false,
+                     why)) &&
+         CheckRange(kType, "blind_window_s", blind_window_s, window_s, false, 600.0, false, why);
 }
 
 struct LocalCloud::Impl {
@@ -1253,13 +1257,23 @@ struct LocalCloud::Impl {
   std::size_t mask = 0;
   double newest_stamp_s = -std::numeric_limits<double>::infinity();
   Eigen::Vector3d p_W_sensor = Eigen::Vector3d::Zero();
+  Eigen::Matrix3f R_SW = Eigen::Matrix3f::Identity();  // latest sensor orientation, W to S
   int scans_since_prune = 0;
+  // A point this close below the lowest beam may still be hit by it: not counted as blind.
+  static constexpr double kBlindMarginRad = 0.02;
 
-  // True if `slot` is within the window and the radius.
+  // True if a point at `p_W` lies below the sensor's lowest beam as seen from the latest scan's pose.
+  bool InBlindZone(const Eigen::Vector3f& p_W) const {
+    if (std::isnan(options.blind_below_elevation_rad)) return false;
+    const Eigen::Vector3f v_S = R_SW * (p_W - p_W_sensor.cast<float>());
+    return std::atan2(v_S.z(), v_S.head<2>().norm()) < options.blind_below_elevation_rad - kBlindMarginRad;
+  }
+  // True if `slot` is within the radius, and within the window (the blind window in the blind zone).
   bool IsLive(const Slot& slot) const {
     const auto r2 = static_cast<float>(options.radius_m * options.radius_m);
-    return slot.stamp_s >= newest_stamp_s - options.window_s &&
-           (slot.mean_W - p_W_sensor.cast<float>()).squaredNorm() <= r2;
+    if ((slot.mean_W - p_W_sensor.cast<float>()).squaredNorm() > r2) return false;
+    if (slot.stamp_s >= newest_stamp_s - options.window_s) return true;
+    return slot.stamp_s >= newest_stamp_s - options.blind_window_s && InBlindZone(slot.mean_W);
   }
 
   // Locality-preserving hash: the 4 x 4 x 4 voxels of a block share 64 consecutive places, so the points of a
@@ -1363,6 +1377,7 @@ void LocalCloud::AddScan(const std::vector<Eigen::Vector3f>& points_S, const Eig
   }
   im.newest_stamp_s = std::max(im.newest_stamp_s, stamp_s);
   im.p_W_sensor = T_W_S.translation();
+  im.R_SW = R_WS.transpose();
   // Reclaim old and far voxels every few scans (or when full); Points() skips them in between.
   if (++im.scans_since_prune >= Impl::kPrunePeriod || im.slots.size() >= max_points) {
     im.scans_since_prune = 0;
@@ -1392,6 +1407,12 @@ void LocalCloud::Clear() {
   std::fill(impl_->table_keys.begin(), impl_->table_keys.end(), Impl::kEmpty);
   impl_->newest_stamp_s = -std::numeric_limits<double>::infinity();
   impl_->p_W_sensor.setZero();
+  impl_->R_SW.setIdentity();
+}
+
+void LocalCloud::ForgetVisible() {
+  Impl& im = *impl_;
+  im.RemoveIf([&im](const Impl::Slot& slot) { return !im.IsLive(slot) || !im.InBlindZone(slot.mean_W); });
 }
 
 // ---- StaircaseRegistry ------------------------------------------------------------------------------------

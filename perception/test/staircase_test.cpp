@@ -631,6 +631,51 @@ TEST(LocalCloudTest, ForgetsOldAndFarPointsAndSkipsNonFinite) {
   EXPECT_EQ(cloud.size(), 0u);
 }
 
+// A low point the sensor drove up to lies under its lowest beam: kept for the blind window, forgotten once the
+// sensor could see it again (backed off) or after the blind window; ForgetVisible() keeps it, drops the rest.
+TEST(LocalCloudTest, KeepsWhatTheLowestBeamCannotSeeAgain) {
+  LocalCloudOptions options;  // window 3 s
+  options.blind_below_elevation_rad = -15.0 * kDeg;
+  options.blind_window_s = 30.0;
+  LocalCloud cloud(options);
+  Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
+  at.translation() = Eigen::Vector3d(0.0, 0.0, 0.5);  // sensor 0.5 m up, level
+  // A riser top 0.8 m ahead, 0.4 m below the sensor (elevation -26.6 deg), and a wall point at sensor height.
+  const Eigen::Vector3f riser_W(0.8f, 0.0f, 0.1f), wall_W(0.8f, 1.0f, 0.5f);
+  cloud.AddScan({riser_W - Eigen::Vector3f(0, 0, 0.5f), wall_W - Eigen::Vector3f(0, 0, 0.5f)}, at, 0.0);
+  ASSERT_EQ(cloud.size(), 2u);
+  cloud.AddScan({}, at, 10.0);  // 10 s later, seen by neither scan since
+  ASSERT_EQ(cloud.size(), 1u);
+  EXPECT_LT((cloud.Points()[0] - riser_W).norm(), 0.03);
+  cloud.AddScan({riser_W - Eigen::Vector3f(0, 0, 0.5f), wall_W - Eigen::Vector3f(0, 0, 0.5f)}, at, 11.0);
+  ASSERT_EQ(cloud.size(), 2u);
+  cloud.ForgetVisible();
+  ASSERT_EQ(cloud.size(), 1u);  // the wall went, the riser in the blind zone stayed
+  EXPECT_LT((cloud.Points()[0] - riser_W).norm(), 0.03);
+  // Backed off 2 m the riser is in view again (-8 deg): an ordinary point, gone after the window.
+  Eigen::Isometry3d back = at;
+  back.translation().x() = -2.0;
+  cloud.AddScan({}, back, 13.0);
+  EXPECT_EQ(cloud.size(), 1u);
+  cloud.AddScan({}, back, 14.5);
+  EXPECT_EQ(cloud.size(), 0u);
+  // In the blind zone but not seen for longer than the blind window: forgotten.
+  cloud.AddScan({riser_W - Eigen::Vector3f(0, 0, 0.5f)}, at, 20.0);
+  cloud.AddScan({}, at, 49.0);
+  EXPECT_EQ(cloud.size(), 1u);
+  cloud.AddScan({}, at, 50.5);
+  EXPECT_EQ(cloud.size(), 0u);
+  // Without a blind zone (the default) ForgetVisible forgets everything, like Clear().
+  LocalCloud plain;
+  plain.AddScan({riser_W - Eigen::Vector3f(0, 0, 0.5f)}, at, 0.0);
+  plain.ForgetVisible();
+  EXPECT_EQ(plain.size(), 0u);
+  options.blind_window_s = 1.0;  // shorter than the window
+  std::string why;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("blind_window_s"), std::string::npos) << why;
+}
+
 // ---- Registry --------------------------------------------------------------------------------------------
 
 Staircase Noisy(const Staircase& s, std::mt19937* rng, double scale) {

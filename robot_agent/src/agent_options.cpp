@@ -109,13 +109,14 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   PerceptionOptions& pe = perception;
   const auto per = config.Section("perception");
   per.RejectUnknownKeys({"enabled", "map_resolution_m", "map_insert_period_s", "map_keyframe_distance_m",
-                         "map_keyframe_angle_rad", "staircase_period_s", "map_coarse_levels", "map_budget_bits_per_s",
+                         "map_keyframe_angle_rad", "map_keyframe_max_interval_s", "staircase_period_s", "map_coarse_levels", "map_budget_bits_per_s",
                          "map_period_s", "camera_rate_hz", "jpeg_quality", "camera_budget_bits_per_s"});
   per.ReadBool("enabled", &pe.enabled);
   per.ReadDouble("map_resolution_m", &pe.map.resolution_m);
   per.ReadDouble("map_insert_period_s", &pe.map_insert_period_s);
   per.ReadDouble("map_keyframe_distance_m", &pe.map_keyframe_distance_m);
   per.ReadDouble("map_keyframe_angle_rad", &pe.map_keyframe_angle_rad);
+  per.ReadDouble("map_keyframe_max_interval_s", &pe.map_keyframe_max_interval_s);
   per.ReadDouble("staircase_period_s", &pe.staircase_period_s);
   per.ReadInt("map_coarse_levels", &pe.map_coarse_levels);
   per.ReadDouble("map_budget_bits_per_s", &pe.telemetry.budget_bits_per_s);

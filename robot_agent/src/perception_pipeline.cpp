@@ -33,6 +33,7 @@ bool PerceptionOptions::IsValid(std::string* why) const {
       !InRange("staircase_period_s", staircase_period_s, 0.1, 60.0, false, &inner) ||
       !InRange("map_keyframe_distance_m", map_keyframe_distance_m, 0.0, 10.0, false, &inner) ||
       !InRange("map_keyframe_angle_rad", map_keyframe_angle_rad, 0.0, M_PI, false, &inner) ||
+      !InRange("map_keyframe_max_interval_s", map_keyframe_max_interval_s, 0.05, 600.0, false, &inner) ||
       !InRange("camera_rate_hz", camera_rate_hz, 0.0, 30.0, false, &inner) ||
       !InRange("camera_budget_bits_per_s", camera_budget_bits_per_s, 1000.0, 1e9, false, &inner)) {
     return fail(inner);
@@ -115,10 +116,12 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* s
         (T_W_S_estimate.translation() - T_W_S_last_keyframe_->translation()).norm() >=
             options_.map_keyframe_distance_m ||
         Eigen::AngleAxisd(T_W_S_last_keyframe_->linear().transpose() * T_W_S_estimate.linear()).angle() >=
-            options_.map_keyframe_angle_rad;
+            options_.map_keyframe_angle_rad ||
+        (refresh_at_rest_ && now_s - last_keyframe_s_ >= options_.map_keyframe_max_interval_s);
     if (now_s >= next_insert_s_ && keyframe) {
       next_insert_s_ = std::max(next_insert_s_ + options_.map_insert_period_s, now_s);
       T_W_S_last_keyframe_ = T_W_S_estimate;
+      last_keyframe_s_ = now_s;
       start = Clock::now();
       const perception::InsertStats inserted = map_->InsertScan(scan->points_S, T_W_S_estimate);
       const double z = T_W_S_estimate.translation().z();

@@ -29,7 +29,7 @@ PerceptionService::PerceptionService(const AgentOptions& options, std::shared_pt
       planner_(Required(std::move(planner), "planner")),
       start_time_(start_time),
       publish_(Required(std::move(publish), "publish")),
-      live_obstacle_sensor_(options),
+      live_obstacle_sensor_(options, capabilities_.lidar_min_elevation_rad),
       perception_(std::make_unique<PerceptionPipeline>(options.perception, options.robot_id)),
       nav_map_(std::make_unique<NavMap>(options.nav_map, options.perception.map.resolution_m, start_M,
                                         planner_, options.navigation.platform.name)) {}

@@ -299,6 +299,7 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   pose_healthy_ = estimate.healthy;
   pose_problem_ = estimate.healthy ? "" : estimate.problem;
   perception_->FeedObstacles(navigation_);  // obstacles from live lidar points, at the sensor's rate
+  perception_->SetMapRefreshAtRest(waypoint_->has_goal());  // a robot waiting on a goal watches the world
 
   const ModeInputs inputs{now, now_s, pose_};
   if (modes_->Step(inputs)) modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)

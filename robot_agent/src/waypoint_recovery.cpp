@@ -303,6 +303,10 @@ WaypointRecovery::WaypointRecovery(const std::string& tree_file, Navigation* nav
   bt::TreeFactory factory;
   ModeManager::RegisterModeNodes(factory);
   RegisterNodes(factory, context_);
+  // Timeout and Delay count on the navigation clock (Step's now_s), so that a simulated clock runs them too.
+  factory.SetClock([context = context_] {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(context->now_s));
+  });
   try {
     tree_ = factory.CreateTreeFromFile(tree_file, bt::Blackboard::Create(), kTreeId);
   } catch (const bt::TreeError& e) {

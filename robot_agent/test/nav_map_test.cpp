@@ -116,6 +116,60 @@ TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFlo
   EXPECT_NE(blocked.reason.find("not traversable"), std::string::npos) << blocked.reason;
 }
 
+// A wheeled robot driven along the building's corridor to the foot of the stairwell, which it then sees: a
+// goal on floor 2 is refused naming the step it cannot climb (the multi-process floors test asks the same of
+// the agent; here without DDS or timing).
+TEST(NavMapTest, AWheeledRobotAtTheFootOfTheStairsIsRefusedTheFloorAboveNamingTheStep) {
+  sim::SimulatedPlatformOptions sim_options;
+  sim_options.world = "builtin:building";
+  sim_options.start_W = core::PlanarPose{10.0, 7.1, 0.0};
+  const nav::PlatformProfile profile = nav::GetPlatformProfile("wheeled");
+  sim_options.SetProfile(profile);
+  sim::SimulatedPlatform platform(sim_options);
+  platform.Update(0.0);
+  const core::BaseState start_M = platform.ReadPose().PlanarState();
+  PerceptionOptions perception_options;
+  perception_options.camera_rate_hz = 0;
+  PerceptionPipeline perception(perception_options, "r2");
+  NavMapOptions map_options;
+  auto planner = NavMap::MakePlanner(map_options, perception_options.map.resolution_m, start_M,
+                                     {profile, nav::GetPlatformProfile("legged")});
+  NavMap nav_map(map_options, perception_options.map.resolution_m, start_M, planner, "wheeled");
+  const double dt_s = 0.1;
+  for (int k = 1; k <= 120; ++k) {  // 8.9 m east at 1 m/s, then 3 s facing the stairs
+    const double now_s = k * dt_s;
+    sim::UnicycleState s = platform.TrueState();
+    s.x_m = std::min(18.9, 10.0 + 0.1 * k);
+    s.y_m = 7.1 - 0.2 * (s.x_m - 10.0) / 8.9;
+    platform.SetTrueState(s);
+    platform.Update(now_s);
+    core::LidarScan scan;
+    ASSERT_TRUE(platform.ReadLidarScan(now_s, &scan));
+    perception.Tick(now_s, &scan, nullptr);
+    if (k % 10 == 0) {
+      nav_map.Update(*perception.map(), perception.TakeChangedTiles(), perception.change_tile_m(),
+                     perception.max_sensor_z_m());
+    }
+  }
+  const core::BaseState here = platform.ReadPose().PlanarState();
+  nav::GlobalPlanRequest request;
+  request.start_W = {here.x_m, here.y_m};
+  request.start_z_m = here.z_m;
+  request.goal_W = {15.1, 11.0};
+  request.goal_z_m = 3.2;
+  request.allow_partial = true;
+  request.platform = "wheeled";
+  request.start_is_robot = true;
+  const nav::GlobalPlan refused = planner->Plan(request);
+  EXPECT_FALSE(refused.IsUsable());
+  EXPECT_NE(refused.reason.find("step"), std::string::npos) << refused.reason;
+  EXPECT_NE(refused.reason.find("max_step_m 0.15"), std::string::npos) << refused.reason;
+  // The legged robot's plan on the same map climbs (partial: the upper flight is not seen yet).
+  request.platform = "legged";
+  const nav::GlobalPlan legged = planner->Plan(request);
+  EXPECT_TRUE(legged.IsUsable()) << legged.reason;
+}
+
 TEST(NavMapTest, InvalidOptionsNameTheField) {
   NavMapOptions o;
   std::string why;

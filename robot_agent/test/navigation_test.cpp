@@ -431,7 +431,8 @@ TEST(WaypointRecoveryTest, AGhostThatStaysFailsTheGoalWithEveryAttemptAndTheRobo
   EXPECT_FALSE(g.recovery.active());
   for (const char* attempt : {"attempt 1 (clear the local obstacle memory): blocked",
                               "attempt 2 (back up 0.40 m): blocked", "attempt 3 (rotate 90 deg): ",
-                              "attempt 4 (replan from here): ", "attempt 5 (replan, reduced clearance): "}) {
+                              "attempt 4 (wait 5 s): ", "attempt 5 (replan from here): ",
+                              "attempt 6 (replan, reduced clearance): "}) {
     EXPECT_NE(step.reason.find(attempt), std::string::npos) << attempt << " in: " << step.reason;
   }
   EXPECT_EQ(step.reason.rfind("blocked: no progress", 0), 0u) << step.reason;

@@ -267,6 +267,38 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
                st.telemetry_ms_total) / duration_s);
 }
 
+// Keyframes: an idle robot at rest inserts one scan and leaves its map alone; with a task it waits on
+// (set_refresh_at_rest) it inserts one every map_keyframe_max_interval_s, so the world's changes reach it.
+TEST_F(PerceptionPipelineTest, ARobotAtRestRefreshesItsMapOnlyWhileItHasATask) {
+  PerceptionOptions options;
+  options.camera_rate_hz = 0;
+  options.map_keyframe_max_interval_s = 1.0;
+  PerceptionPipeline pipeline(options, "r1");
+  sim::SimulatedLidar lidar(sim::LidarOptions{}, /*seed=*/3);
+  Eigen::Isometry3d T_BS = Eigen::Isometry3d::Identity();
+  T_BS.translation().z() = 0.5;
+  const Eigen::Isometry3d T_MB = Pose(10.0, 20.0, 0.0);
+  sim::LidarScan scan;
+  auto tick = [&](double now_s) {
+    core::LidarScan platform_scan;
+    platform_scan.stamp_s = now_s;
+    platform_scan.T_BS = T_BS;
+    platform_scan.T_MS = T_MB * T_BS;
+    lidar.Scan(*world_, T_MB * T_BS, &scan);
+    platform_scan.points_S = scan.points_S;
+    pipeline.Tick(now_s, &platform_scan, nullptr);
+  };
+  // Scans every 0.25 s (exact in binary, so the 1 s interval falls on a scan).
+  for (int k = 0; k < 16; ++k) tick(0.25 * k);  // 0 .. 3.75 s idle at rest
+  EXPECT_EQ(pipeline.stats().scans_inserted, 1);
+  pipeline.set_refresh_at_rest(true);
+  for (int k = 16; k < 32; ++k) tick(0.25 * k);  // 4 .. 7.75 s waiting on a goal: at 4, 5, 6 and 7 s
+  EXPECT_EQ(pipeline.stats().scans_inserted, 1 + 4);
+  pipeline.set_refresh_at_rest(false);
+  for (int k = 32; k < 48; ++k) tick(0.25 * k);
+  EXPECT_EQ(pipeline.stats().scans_inserted, 5);
+}
+
 TEST(PerceptionOptionsTest, InvalidValuesNameTheField) {
   PerceptionOptions o;
   std::string why;

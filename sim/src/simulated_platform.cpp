@@ -93,7 +93,8 @@ std::vector<Rockfall> ParseRockfalls(const std::string& text) {
     if (entry.find_first_not_of(" \t") == std::string::npos) continue;
     auto fail = [&](const std::string& rule) {
       throw std::invalid_argument("simulation.rockfalls entry '" + entry + "': " + rule +
-                                  " (format AT_S:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR_S])");
+                                  " (format WHEN:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR], WHEN = AT_S or nearR_M, CLEAR = "
+                                  "CLEAR_S or +S)");
     };
     auto number = [&](const std::string& field, const std::string& item) {
       double x = 0.0;
@@ -108,37 +109,68 @@ std::vector<Rockfall> ParseRockfalls(const std::string& text) {
       }
       return x;
     };
-    std::vector<std::string> parts;  // AT_S, the box and height, CLEAR_S
-    std::stringstream colons(entry);
-    for (std::string part; std::getline(colons, part, ':');) parts.push_back(part);
-    if (parts.size() < 2) fail("missing ':' after the time");
-    if (parts.size() > 3) fail("too many ':' (at most AT_S:BOX,HEIGHT_M:CLEAR_S)");
-    static const char* const kFields[] = {"X0", "Y0", "X1", "Y1", "HEIGHT_M"};
-    std::vector<double> v{number("AT_S", parts[0])};
-    std::stringstream numbers(parts[1]);
-    for (std::string item; std::getline(numbers, item, ',');) {
-      if (v.size() > 5) fail("needs 5 numbers after the time (X0,Y0,X1,Y1,HEIGHT_M), has more");
-      v.push_back(number(kFields[v.size() - 1], item));
-    }
-    if (v.size() != 6) fail("needs 5 numbers after the time (X0,Y0,X1,Y1,HEIGHT_M), has " + std::to_string(v.size() - 1));
     auto text_of = [](double x) {
       std::ostringstream o;
       o << x;
       return o.str();
     };
-    if (v[0] < 0) fail("AT_S = " + text_of(v[0]) + " must be >= 0 s");
-    if (!(v[1] < v[3])) fail("X0 = " + text_of(v[1]) + " must be < X1 = " + text_of(v[3]));
-    if (!(v[2] < v[4])) fail("Y0 = " + text_of(v[2]) + " must be < Y1 = " + text_of(v[4]));
-    if (!(v[5] > 0 && v[5] <= 10)) fail("HEIGHT_M = " + text_of(v[5]) + " must be in (0, 10] m");
-    Rockfall rock{v[0], Eigen::AlignedBox2d(Eigen::Vector2d(v[1], v[2]), Eigen::Vector2d(v[3], v[4])), v[5], std::nullopt};
+    // Strips blanks around a field, so "near 1.0" and " +8" read as written.
+    auto trimmed = [](const std::string& item) {
+      const std::size_t first = item.find_first_not_of(" \t");
+      if (first == std::string::npos) return std::string();
+      return item.substr(first, item.find_last_not_of(" \t") - first + 1);
+    };
+    std::vector<std::string> parts;  // WHEN, the box and height, CLEAR
+    std::stringstream colons(entry);
+    for (std::string part; std::getline(colons, part, ':');) parts.push_back(part);
+    if (parts.size() < 2) fail("missing ':' after the time");
+    if (parts.size() > 3) fail("too many ':' (at most WHEN:BOX,HEIGHT_M:CLEAR)");
+    Rockfall rock;
+    const std::string when = trimmed(parts[0]);
+    if (when.rfind("near", 0) == 0) {
+      const double near_m = number("R_M", when.substr(4));
+      if (!(near_m > 0 && near_m <= 100)) fail("R_M = " + text_of(near_m) + " must be in (0, 100] m");
+      rock.near_m = near_m;
+    } else {
+      rock.at_s = number("AT_S", parts[0]);
+      if (rock.at_s < 0) fail("AT_S = " + text_of(rock.at_s) + " must be >= 0 s");
+    }
+    static const char* const kFields[] = {"X0", "Y0", "X1", "Y1", "HEIGHT_M"};
+    std::vector<double> v;
+    std::stringstream numbers(parts[1]);
+    for (std::string item; std::getline(numbers, item, ',');) {
+      if (v.size() >= 5) fail("needs 5 numbers after WHEN (X0,Y0,X1,Y1,HEIGHT_M), has more");
+      v.push_back(number(kFields[v.size()], item));
+    }
+    if (v.size() != 5) fail("needs 5 numbers after WHEN (X0,Y0,X1,Y1,HEIGHT_M), has " + std::to_string(v.size()));
+    if (!(v[0] < v[2])) fail("X0 = " + text_of(v[0]) + " must be < X1 = " + text_of(v[2]));
+    if (!(v[1] < v[3])) fail("Y0 = " + text_of(v[1]) + " must be < Y1 = " + text_of(v[3]));
+    if (!(v[4] > 0 && v[4] <= 10)) fail("HEIGHT_M = " + text_of(v[4]) + " must be in (0, 10] m");
+    rock.area_W = Eigen::AlignedBox2d(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]));
+    rock.height_m = v[4];
     if (parts.size() == 3) {
-      const double clear_s = number("CLEAR_S", parts[2]);
-      if (!(clear_s > v[0])) fail("CLEAR_S = " + text_of(clear_s) + " must be > AT_S = " + text_of(v[0]) + " s");
-      rock.clear_s = clear_s;
+      const std::string clear = trimmed(parts[2]);
+      if (!clear.empty() && clear.front() == '+') {
+        const double after_s = number("CLEAR (+S)", clear.substr(1));
+        if (!(after_s > 0)) fail("CLEAR = '" + clear + "': S must be > 0 s");
+        rock.clear_after_s = after_s;
+      } else {
+        const double clear_s = number("CLEAR_S", parts[2]);
+        if (rock.near_m) {
+          fail("CLEAR_S = " + text_of(clear_s) + " with a near trigger: the fall time is not known, give '+S'");
+        }
+        if (!(clear_s > rock.at_s)) {
+          fail("CLEAR_S = " + text_of(clear_s) + " must be > AT_S = " + text_of(rock.at_s) + " s");
+        }
+        rock.clear_s = clear_s;
+      }
     }
     out.push_back(rock);
   }
-  std::sort(out.begin(), out.end(), [](const Rockfall& a, const Rockfall& b) { return a.at_s < b.at_s; });
+  std::stable_sort(out.begin(), out.end(), [](const Rockfall& a, const Rockfall& b) {
+    if (a.near_m.has_value() != b.near_m.has_value()) return !a.near_m.has_value();
+    return !a.near_m && a.at_s < b.at_s;
+  });
   return out;
 }
 
@@ -218,8 +250,7 @@ SimulatedPlatform::SimulatedPlatform(const SimulatedPlatformOptions& options)
   state.z_m = terrain_->GroundHeight(start.x_m, start.y_m).value_or(0.0);
   base_.set_state(state);
   T_MB_estimate_ = slam_.Update(TrueBodyPose());
-  std::sort(options_.rockfalls.begin(), options_.rockfalls.end(),
-            [](const Rockfall& a, const Rockfall& b) { return a.at_s < b.at_s; });  // the map frame starts at the true start pose's frame W
+  rock_dropped_.assign(options_.rockfalls.size(), false);
 }
 
 Eigen::Isometry3d SimulatedPlatform::TrueBodyPose() const {
@@ -244,6 +275,7 @@ core::PlatformCapabilities SimulatedPlatform::Capabilities() const {
   c.footprint_radius_m = options_.footprint_radius_m;
   c.has_lidar = true;
   c.lidar_rate_hz = options_.lidar.rate_hz;
+  c.lidar_min_elevation_rad = options_.lidar.min_elevation_rad;
   c.has_camera = true;
   return c;
 }
@@ -315,10 +347,23 @@ std::int64_t SimulatedPlatform::ClearRock(const std::vector<Eigen::Vector3i>& fi
 }
 
 void SimulatedPlatform::Update(double now_s) {
-  while (next_rockfall_ < options_.rockfalls.size() && options_.rockfalls[next_rockfall_].at_s <= now_s) {
-    const Rockfall& r = options_.rockfalls[next_rockfall_++];
+  Eigen::Vector2d p_W;  // the body's true position, for proximity triggers
+  {
+    std::lock_guard<std::mutex> guard(mutex_);
+    p_W = Eigen::Vector2d(base_.state().x_m, base_.state().y_m);
+  }
+  for (std::size_t i = 0; i < options_.rockfalls.size(); ++i) {
+    const Rockfall& r = options_.rockfalls[i];
+    if (rock_dropped_[i]) continue;
+    const bool due = r.near_m ? r.area_W.exteriorDistance(p_W) <= *r.near_m : r.at_s <= now_s;
+    if (!due) continue;
+    rock_dropped_[i] = true;
     std::vector<Eigen::Vector3i> filled = FillRock(r.area_W, r.height_m);
-    if (r.clear_s) pending_clears_.push_back({*r.clear_s, std::move(filled)});
+    if (r.clear_after_s) {
+      pending_clears_.push_back({now_s + *r.clear_after_s, std::move(filled)});
+    } else if (r.clear_s) {
+      pending_clears_.push_back({*r.clear_s, std::move(filled)});
+    }
   }
   for (auto it = pending_clears_.begin(); it != pending_clears_.end();) {
     if (it->clear_s > now_s) {

@@ -103,6 +103,70 @@ TEST(SimulatedPlatformTest, RockfallIsClearedAtItsClearTime) {
   EXPECT_EQ(platform.world()->CountOccupied(), occupied);  // Exactly the rock's voxels freed, the floor kept.
 }
 
+// A proximity-triggered rock falls when the robot comes within its distance (not before, whatever the time)
+// and is cleared a given time after it fell.
+TEST(SimulatedPlatformTest, ARockfallTriggeredByTheRobotsApproachFallsThenClears) {
+  SimulatedPlatformOptions options;
+  options.world = "builtin:tunnels";
+  options.start_W = PlanarPose{4.0, 20.0, 0.0};
+  options.rockfalls = ParseRockfalls("near 1.5:7.0,19.5,7.4,20.5,0.6:+2");
+  ASSERT_EQ(options.rockfalls.size(), 1u);
+  SimulatedPlatform platform(options);
+  const std::int64_t occupied = platform.world()->CountOccupied();
+  double t_s = 0.0;
+  platform.Update(t_s);
+  EXPECT_TRUE(platform.terrain()->IsFootprintFree(7.2, 20.0, 0.3));
+  platform.Update(t_s += 30.0);  // time alone does not drop it
+  EXPECT_TRUE(platform.terrain()->IsFootprintFree(7.2, 20.0, 0.3));
+  // Drive along +x at 0.5 m/s until the rock is there; it falls between 5.5 and 5.6 m (1.5 m from x = 7.0).
+  double fell_at_x_m = 0.0;
+  double fell_at_s = 0.0;
+  while (t_s < 60.0) {
+    platform.CommandTwist(0.5, 0.0, t_s);
+    platform.Update(t_s += 0.05);
+    if (!platform.terrain()->IsFootprintFree(7.2, 20.0, 0.3)) {
+      fell_at_x_m = platform.TrueState().x_m;
+      fell_at_s = t_s;
+      break;
+    }
+  }
+  EXPECT_NEAR(fell_at_x_m, 5.5, 0.08);
+  EXPECT_GT(platform.world()->CountOccupied(), occupied);
+  platform.CommandTwist(0.0, 0.0, t_s);
+  platform.Update(fell_at_s + 1.9);
+  EXPECT_FALSE(platform.terrain()->IsFootprintFree(7.2, 20.0, 0.3));
+  platform.Update(fell_at_s + 2.0);
+  EXPECT_TRUE(platform.terrain()->IsFootprintFree(7.2, 20.0, 0.3));
+  EXPECT_EQ(platform.world()->CountOccupied(), occupied);
+  EXPECT_FALSE(platform.ReadStatus().in_contact);
+}
+
+TEST(SimulatedPlatformTest, ProximityRockfallsParseOrNameTheField) {
+  const auto rocks = ParseRockfalls("near2:0,0,1,1,1:+4; 3:0,0,1,1,1:+1; 1:0,0,1,1,1");
+  ASSERT_EQ(rocks.size(), 3u);
+  EXPECT_EQ(rocks[0].at_s, 1.0);  // time triggers first, by time
+  EXPECT_EQ(rocks[1].clear_after_s.value_or(-1.0), 1.0);
+  EXPECT_EQ(rocks[2].near_m.value_or(-1.0), 2.0);
+  EXPECT_EQ(rocks[2].clear_after_s.value_or(-1.0), 4.0);
+  EXPECT_FALSE(rocks[2].clear_s.has_value());
+  const std::pair<std::string, std::string> cases[] = {
+      {"near0:0,0,1,1,1", "R_M = 0 must be in (0, 100]"},
+      {"nearby:0,0,1,1,1", "R_M = 'by' is not a number"},
+      {"near1:0,0,1,1,1:9", "CLEAR_S = 9 with a near trigger"},
+      {"near1:0,0,1,1,1:+0", "CLEAR = '+0': S must be > 0"},
+      {"2:0,0,1,1,1:+soon", "CLEAR (+S) = 'soon' is not a number"},
+      {"near1:0,0,1,1", "needs 5 numbers after WHEN (X0,Y0,X1,Y1,HEIGHT_M), has 4"}};
+  for (const auto& [bad, message] : cases) {
+    try {
+      ParseRockfalls(bad);
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("simulation.rockfalls entry '" + bad + "'"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(SimulatedPlatformTest, RockfallsParseOrNameTheEntry) {
   const auto rocks = ParseRockfalls("8:1,2,3,4,0.5; 2:0,0,1,1,1");
   ASSERT_EQ(rocks.size(), 2u);

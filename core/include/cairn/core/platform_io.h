@@ -17,6 +17,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,10 @@ struct PlatformCapabilities {
   bool has_lidar = false;
   /// Rate at which new scans come, Hz (> 0 when has_lidar).
   double lidar_rate_hz = 0.0;
+  /// Elevation of the lidar's lowest beam in the sensor frame S, radians (a VLP-16: -15 deg = -0.2618); NaN
+  /// if unknown. Below it the lidar is blind near the robot (a 0.2 m step within 1.1 m of a VLP-16 0.5 m
+  /// up): the local obstacle memory keeps what it saw there (LocalCloudOptions::blind_below_elevation_rad).
+  double lidar_min_elevation_rad = std::numeric_limits<double>::quiet_NaN();
   /// True when ReadCameraImage() can return frames.
   bool has_camera = false;
 };

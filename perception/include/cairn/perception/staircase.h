@@ -37,6 +37,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -202,6 +203,14 @@ struct LocalCloudOptions {
   /// Hard cap on the number of stored voxels; beyond it new voxels are not added until forgotten ones are
   /// reclaimed, range [1000, 1e7].
   std::int64_t max_points = 1'000'000;
+  /// The sensor's blind zone: points below this elevation in the frame S of the latest scan (the lowest
+  /// beam of a spinning lidar) cannot be seen again from there, so they are kept for blind_window_s instead
+  /// of window_s. A low obstacle the robot drives up to (a stair's riser, a curb) drops out of a lidar's view
+  /// under its lowest beam and must not be forgotten then (a 0.2 m riser is blind within 1.1 m of a VLP-16
+  /// 0.5 m up). Radians, [-pi/2, pi/2]; NaN (default): no blind zone.
+  double blind_below_elevation_rad = std::numeric_limits<double>::quiet_NaN();
+  /// How long a point in the blind zone is kept since it was last seen, seconds, [window_s, 600].
+  double blind_window_s = 30.0;
 
   /// True when every field is finite and in range; otherwise false and, if `why` is not null, a message
   /// naming the field, its value and the rule.
@@ -236,6 +245,10 @@ class LocalCloud {
   Eigen::Vector3d p_W_latest_sensor() const;
   /// Forgets everything.
   void Clear();
+  /// Forgets every point a new scan from the latest sensor pose could show again, keeping those in its blind
+  /// zone (see LocalCloudOptions::blind_below_elevation_rad; with none, forgets everything): clearing a
+  /// robot's obstacle memory must not lose the step it stands next to and can no longer see.
+  void ForgetVisible();
 
  private:
   struct Impl;

@@ -1,9 +1,11 @@
-// The local planner's obstacles from the live lidar: the points seen within AgentOptions::obstacle_window_s
-// (a deduplicated perception::LocalCloud around the robot) analysed by nav::ObstaclesFromPoints. Used by the
-// agent's sensor thread and by in-process benches, so both sense exactly alike. Not thread-safe.
+// The local planner's obstacles from the live lidar: the points seen within AgentOptions::obstacle_window_s,
+// and for 30 s those under the lidar's lowest beam near the robot (a deduplicated perception::LocalCloud around
+// the robot) analysed by nav::ObstaclesFromPoints. Used by the agent's sensor thread and by in-process tests
+// and benches, so all sense exactly alike. Not thread-safe.
 #pragma once
 
 #include <algorithm>
+#include <limits>
 #include <vector>
 
 #include "cairn/agent/agent_options.h"
@@ -15,14 +17,20 @@ namespace cairn::agent {
 
 class LiveObstacles {
  public:
-  explicit LiveObstacles(const AgentOptions& options) : cloud_(CloudOptions(options)) {
+  /// `lidar_min_elevation_rad`: the platform's lowest lidar beam (core::PlatformCapabilities; NaN: unknown),
+  /// under which points near the robot stay in memory for the blind window (30 s) instead of
+  /// options.obstacle_window_s: the robot does not forget a step it drove up to.
+  explicit LiveObstacles(const AgentOptions& options,
+                         double lidar_min_elevation_rad = std::numeric_limits<double>::quiet_NaN())
+      : cloud_(CloudOptions(options, lidar_min_elevation_rad)) {
     obstacle_options_.range_m = options.navigation.sensor_range_m;
     obstacle_options_.max_step_m = options.navigation.platform.traversability.max_step_m;
     obstacle_options_.robot_height_m = options.navigation.platform.traversability.robot_height_m;
   }
 
-  /// Forgets every point seen so far (recovery: "clear the local obstacle memory").
-  void Clear() { cloud_.Clear(); }
+  /// Forgets every point a new scan can show again (recovery: "clear the local obstacle memory"): a ghost
+  /// (dust, a person who walked on) goes, a step in the lidar's blind zone beside the robot stays.
+  void Clear() { cloud_.ForgetVisible(); }
 
   /// Adds `scan` and fills `points_B` with the obstacles in the body frame of the scan's pose, which goes to
   /// `pose_M` (map frame). Throws what ObstaclesFromPoints throws.
@@ -35,10 +43,12 @@ class LiveObstacles {
   }
 
  private:
-  static perception::LocalCloudOptions CloudOptions(const AgentOptions& options) {
+  static perception::LocalCloudOptions CloudOptions(const AgentOptions& options, double lidar_min_elevation_rad) {
     perception::LocalCloudOptions o;
     o.voxel_size_m = 0.05;
     o.window_s = options.obstacle_window_s;
+    o.blind_below_elevation_rad = lidar_min_elevation_rad;
+    o.blind_window_s = std::max(o.window_s, 30.0);
     o.radius_m = std::max(1.0, options.navigation.sensor_range_m + 0.5);
     return o;
   }

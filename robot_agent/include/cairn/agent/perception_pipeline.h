@@ -31,11 +31,14 @@ struct PerceptionOptions {
   bool enabled = true;  ///< false: no stairs, telemetry or camera (the map is still built: navigation's input)
   perception::OccupancyMapOptions map;       ///< OctoMap at 0.1 m
   double map_insert_period_s = 0.2;          ///< insert one scan per period, [0.05, 10]
-  /// Keyframes: a scan goes into the map only once the sensor moved this far or turned this much since the
-  /// last inserted one (as LIO-SAM-style mappers do), so a robot at rest leaves its map unchanged. [0, 10] m,
-  /// [0, pi] rad; 0 and 0 insert every period.
+  /// Keyframes: a scan goes into the map once the sensor moved this far or turned this much since the last
+  /// inserted one (as LIO-SAM-style mappers do), [0, 10] m, [0, pi] rad; 0 and 0 insert every period...
   double map_keyframe_distance_m = 0.05;
   double map_keyframe_angle_rad = 0.05;
+  /// ...or, at rest with a task (set_refresh_at_rest()), once this long has passed since the last one, so
+  /// that what changes while the robot waits (a rock or a person leaves the doorway it waits at) reaches its
+  /// map. An idle robot at rest leaves its map (and its map telemetry) unchanged. Seconds, [0.05, 600].
+  double map_keyframe_max_interval_s = 0.2;
   double staircase_period_s = 1.0;           ///< run the detector this often, [0.1, 60]
   perception::StaircaseDetectorOptions staircase;
   int map_coarse_levels = 1;                 ///< telemetry voxels are 2^levels x the map's, [0, 6]
@@ -110,6 +113,10 @@ class PerceptionPipeline {
   /// A basestation asked for the full map: the next telemetry messages carry a snapshot.
   void RequestMapSnapshot();
 
+  /// While on, a robot at rest still inserts a scan every map_keyframe_max_interval_s (it has a goal and
+  /// waits for the world to change); off (idle), only keyframes from motion. Thread-safe.
+  void set_refresh_at_rest(bool on) { refresh_at_rest_ = on; }
+
   /// The robot's map (thread-safe queries: occupancy, ray cast, bounding box).
   std::shared_ptr<const perception::OccupancyMap> map() const { return map_; }
   /// Body pose of the latest scan (the platform's estimate), map frame.
@@ -131,6 +138,8 @@ class PerceptionPipeline {
   perception::MapTelemetrySender sender_;
   Eigen::Isometry3d T_W_B_estimate_ = Eigen::Isometry3d::Identity();
   std::optional<Eigen::Isometry3d> T_W_S_last_keyframe_;
+  double last_keyframe_s_ = 0.0;
+  std::atomic<bool> refresh_at_rest_{false};
   double next_insert_s_ = 0, next_staircase_s_ = 0, next_telemetry_s_ = 0, next_camera_s_ = 0;
   std::mutex changed_mutex_;
   std::set<std::pair<int, int>> changed_tiles_;

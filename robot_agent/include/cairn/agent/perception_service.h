@@ -48,6 +48,9 @@ class PerceptionService {
   void ClearObstacleMemory();
   /// A basestation asked for a full map snapshot; the perception thread sends it.
   void RequestMapSnapshot() { map_snapshot_requested_ = true; }
+  /// The robot has a task (a waypoint goal): its map follows the world while it stands (see
+  /// PerceptionPipeline::set_refresh_at_rest). Any thread.
+  void SetMapRefreshAtRest(bool on) { perception_->set_refresh_at_rest(on); }
 
   /// Sensor thread: polls the platform's lidar at twice its rate (a scan reaches the local planner within
   /// half a period, whatever the perception thread is busy with). A read fault is logged, never thrown.

@@ -26,20 +26,32 @@
 
 namespace cairn::sim {
 
-/// A rockfall: at `at_s` (seconds on the agent's clock) the columns of `area_W` (x-y box, metres, frame W)
-/// fill from the floor up to `height_m` above it: an obstacle that is in no map the robot has. If `clear_s` is
-/// set, the rock is removed again at that time (the voxels it filled become free).
+/// A rockfall: the columns of `area_W` (x-y box, metres, frame W) fill from the floor up to `height_m` above
+/// it: an obstacle that is in no map the robot has. It falls at `at_s` (seconds on the agent's clock) or, with
+/// `near_m` set, when the robot's true position first comes within near_m of the box (x-y), so that a test
+/// can drop it in front of the robot whatever the robot's speed. It stays, or is removed again (the voxels it
+/// filled become free) at `clear_s` or `clear_after_s` after it fell.
 struct Rockfall {
+  /// When the rock falls, seconds on the agent's clock (>= 0); ignored when near_m is set.
   double at_s = 0.0;
+  /// Proximity trigger: the rock falls on the first update with the true body within this distance of
+  /// area_W, metres (> 0); none: it falls at at_s.
+  std::optional<double> near_m;
   Eigen::AlignedBox2d area_W;
   double height_m = 1.0;
-  /// When the rock is cleared, seconds on the agent's clock (> at_s); none: it stays.
+  /// When the rock is cleared, seconds on the agent's clock (> at_s; time trigger only); none: see
+  /// clear_after_s.
   std::optional<double> clear_s;
+  /// When the rock is cleared, seconds after it fell (> 0); none with clear_s none: it stays.
+  std::optional<double> clear_after_s;
 };
 
-/// Parses rockfalls "AT_S:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR_S]" separated by ';' (e.g. "5:14,19,15,21,1.2" or
-/// "5:14,19,15,21,1.2:30"). Throws std::invalid_argument naming the entry, the field and its value and the rule
-/// (numbers, AT_S >= 0, X0 < X1, Y0 < Y1, HEIGHT_M in (0, 10], CLEAR_S > AT_S).
+/// Parses rockfalls "WHEN:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR]" separated by ';'. WHEN is AT_S (seconds on the agent's
+/// clock) or "nearR_M" (falls when the robot comes within R_M metres of the box); CLEAR is CLEAR_S (seconds
+/// on the agent's clock, time trigger only) or "+S" (seconds after the fall). E.g. "5:14,19,15,21,1.2",
+/// "5:14,19,15,21,1.2:30", "near1.0:8.5,5.7,9.7,6.1,1.0:+8". Throws std::invalid_argument naming the entry,
+/// the field and its value and the rule (numbers, AT_S >= 0, R_M in (0, 100], X0 < X1, Y0 < Y1, HEIGHT_M in
+/// (0, 10], CLEAR_S > AT_S, S > 0). Time-triggered entries come first, sorted by AT_S.
 std::vector<Rockfall> ParseRockfalls(const std::string& text);
 
 /// Options of SimulatedPlatform (cairn_agent: --world, --start, --pcd-resolution and the config file's
@@ -108,7 +120,7 @@ class SimulatedPlatform : public core::PlatformIO {
   /// truth terrain change, the robot's sensors see it from the next scan. Returns the voxels filled.
   std::int64_t DropRock(const Eigen::AlignedBox2d& area_W, double height_m);
   /// Removes the rock a scheduled rockfall dropped (the voxels it filled become free); tests use it through
-  /// Update() and Rockfall::clear_s. Returns the voxels freed.
+  /// Update() and Rockfall::clear_s / clear_after_s. Returns the voxels freed.
   std::int64_t ClearRock(const std::vector<Eigen::Vector3i>& filled);
   /// Teleports the base (tests); the SLAM drift keeps its current offset.
   void SetTrueState(const UnicycleState& state);
@@ -133,7 +145,7 @@ class SimulatedPlatform : public core::PlatformIO {
   std::shared_ptr<const World> world_;
   std::shared_ptr<const nav::TraversabilityGrid> terrain_;
   std::shared_ptr<const nav::LeveledTerrain> body_terrain_;
-  std::size_t next_rockfall_ = 0;  // options_.rockfalls sorted by time; control thread
+  std::vector<bool> rock_dropped_;  // per options_.rockfalls entry; control thread
   // Voxels each dropped rockfall with a clear time filled, and when to free them; control thread.
   struct PendingClear {
     double clear_s;
