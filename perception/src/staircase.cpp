@@ -307,6 +307,8 @@ constexpr double kRunTol = 0.07;
 // Tolerance on the height of a step edge when chaining blobs, metres (the nose of a riser seen from below is
 // sampled by a few beams only, its height is known to a few centimetres before the fit).
 constexpr double kChainRiseTol = 0.05;
+// A chain may seed across an unobserved riser only when its rise is at least min_rise_m plus this, metres.
+constexpr double kSkippedRiserMinExtraRise = 0.05;
 
 class DetectorRun {
  public:
@@ -779,18 +781,29 @@ class DetectorRun {
       for (std::size_t j = i + 1; j < steps.size(); ++j) {
         const Step& a = steps[i];
         const Step& b = steps[j];
-        const double rise = b.h - a.h;
-        const double run = b.s - a.s;
-        if (rise < rise_lo || rise > rise_hi || run < run_lo || run > run_hi) continue;
+        // A seed pair is two neighbouring risers, or two risers with one unobserved between them (from a few
+        // metres a VLP-16's beams 2 deg apart pass over a riser between two they hit). The latter only for
+        // rises well above the smallest: a ramp in a map of 0.1 m voxels reads as 0.1 m steps, and skipping
+        // one of those would turn any slope into a staircase.
+        int seed_gap = 0;
+        for (int g = 1; g <= 2 && seed_gap == 0; ++g) {
+          const double rise = (b.h - a.h) / g;
+          const double run = (b.s - a.s) / g;
+          const double lo = g == 1 ? rise_lo : o_.min_rise_m + kSkippedRiserMinExtraRise;
+          if (rise >= lo && rise <= rise_hi && run >= run_lo && run <= run_hi) seed_gap = g;
+        }
+        if (seed_gap == 0) continue;
+        const double rise = (b.h - a.h) / seed_gap;
+        const double run = (b.s - a.s) / seed_gap;
         if (!overlap(a.tlo, a.thi, b.tlo, b.thi)) continue;
         const double tlo = std::max(a.tlo, b.tlo);
         const double thi = std::min(a.thi, b.thi);
         // Riser index -> step index, grown up and down from the seed pair.
-        std::map<int, int> members{{0, static_cast<int>(i)}, {1, static_cast<int>(j)}};
-        int missing = 0;
+        std::map<int, int> members{{0, static_cast<int>(i)}, {seed_gap, static_cast<int>(j)}};
+        int missing = seed_gap - 1;
         double rise_est = rise, run_est = run;
         for (int dir : {1, -1}) {
-          int k = dir > 0 ? 1 : 0;
+          int k = dir > 0 ? seed_gap : 0;
           while (true) {
             const Step& last = steps[static_cast<std::size_t>(members[k])];
             int found = -1;
@@ -799,7 +812,11 @@ class DetectorRun {
               found = find(last.s + dir * gap * run_est, last.h + dir * gap * rise_est, tlo, thi);
               if (found >= 0) break;
             }
-            if (found < 0) break;
+            // A step already in the chain ends it (a chain never revisits a riser).
+            if (found < 0 || std::any_of(members.begin(), members.end(),
+                                         [found](const auto& km) { return km.second == found; })) {
+              break;
+            }
             if (gap == 2) ++missing;
             k += dir * gap;
             members[k] = found;
@@ -814,6 +831,24 @@ class DetectorRun {
         const int first = members.begin()->first;
         const int num_risers = members.rbegin()->first - first + 1;
         if (num_risers < o_.min_steps) continue;
+        // A chain seeded across an unobserved riser explains every step edge inside its span: an edge there
+        // between two of its risers means the spacing is an alias (three of four risers read as two of three).
+        // (An edge at one of its risers, lower than its nose, is that riser seen from below.)
+        if (seed_gap > 1) {
+          const Step& lowest = steps[static_cast<std::size_t>(members.begin()->second)];
+          const Step& highest = steps[static_cast<std::size_t>(members.rbegin()->second)];
+          const double chain_run = (highest.s - lowest.s) / (num_risers - 1);
+          bool unexplained = false;
+          for (std::size_t m = 0; m < steps.size() && !unexplained; ++m) {
+            const Step& st = steps[m];
+            if (st.s <= lowest.s + 0.5 * kRunTol || st.s >= highest.s - 0.5 * kRunTol) continue;
+            if (st.h <= lowest.h + kRiseTol || st.h >= highest.h - kRiseTol) continue;
+            if (!overlap(st.tlo, st.thi, tlo, thi)) continue;
+            const double from_riser = std::remainder(st.s - lowest.s, chain_run);
+            unexplained = std::abs(from_riser) > 0.5 * kRunTol;
+          }
+          if (unexplained) continue;
+        }
         Chain chain;
         chain.theta_rad = sign > 0 ? WrapAngle(theta) : WrapAngle(theta + kPi);
         chain.num_risers = num_risers;
@@ -1018,6 +1053,7 @@ class DetectorRun {
     // front of its first riser at its first tread's height, not at its floor's: such phantom lowest steps are
     // dropped. (Seen from the top, the floor in front may be hidden: no point either way, nothing dropped.)
     constexpr int kMinFloorPoints = 5;
+    int dropped_steps = 0;
     while (m.n >= o_.min_steps) {
       int floor_points = 0, raised_points = 0;
       for (const Local& p : near) {
@@ -1030,13 +1066,16 @@ class DetectorRun {
       m.s0 += m.run;
       m.z0 += m.rise;
       --m.n;
+      ++dropped_steps;
     }
     // Residuals, support and the lateral extent of every step.
     double sq = 0;
     int inliers = 0;
     std::vector<std::vector<double>> step_t(static_cast<std::size_t>(m.n));
+    std::vector<int> riser_support(static_cast<std::size_t>(m.n), 0);
     for (const Local& p : near) {
       const Classified cl = Classify(m, p.s, p.z, 0.03, 0.04);
+      if (cl.kind == PointClass::kRiser) ++riser_support[static_cast<std::size_t>(cl.index)];
       if (cl.kind == PointClass::kTread) {
         const double r = p.z - m.TreadZ(cl.index);
         sq += r * r;
@@ -1052,6 +1091,27 @@ class DetectorRun {
       }
     }
     const double rms = inliers > 0 ? std::sqrt(sq / inliers) : 1.0;
+    // A riser the chain skipped (no edge blob there) must still be in the points: at least a quarter of the
+    // median support of the observed ones, half when only two risers were observed (then the skipped one is a
+    // third of the evidence). Two walls and a box two "steps" apart leave little in between.
+    std::vector<bool> observed(static_cast<std::size_t>(m.n), false);
+    for (int k : chain.riser) {
+      const int model_k = k - dropped_steps;
+      if (model_k >= 0 && model_k < m.n) observed[static_cast<std::size_t>(model_k)] = true;
+    }
+    std::vector<double> observed_support;
+    for (int k = 0; k < m.n; ++k) {
+      const auto u = static_cast<std::size_t>(k);
+      if (observed[u]) observed_support.push_back(riser_support[u]);
+    }
+    int unsupported_riser = -1;
+    if (!observed_support.empty()) {
+      const double need = (observed_support.size() <= 2 ? 0.5 : 0.25) * Median(observed_support);
+      for (int k = 1; k + 1 < m.n && unsupported_riser < 0; ++k) {
+        if (!observed[static_cast<std::size_t>(k)] && riser_support[static_cast<std::size_t>(k)] < need)
+          unsupported_riser = k;
+      }
+    }
     std::vector<std::pair<double, double>> extent(static_cast<std::size_t>(m.n), {0.0, 0.0});
     std::vector<bool> has_extent(static_cast<std::size_t>(m.n), false);
     double width_sum = 0, centre_sum = 0;
@@ -1130,6 +1190,9 @@ class DetectorRun {
       reason << "step coverage " << coverage << " < " << o_.min_step_coverage;
     } else if (violation > o_.max_free_space_violation) {
       reason << "points above the treads: " << violation << " > " << o_.max_free_space_violation;
+    } else if (unsupported_riser >= 0) {
+      reason << "riser " << unsupported_riser << " unseen and unsupported ("
+             << riser_support[static_cast<std::size_t>(unsupported_riser)] << " points)";
     } else if (confidence < o_.min_confidence) {
       reason << "confidence " << confidence << " < " << o_.min_confidence;
     }

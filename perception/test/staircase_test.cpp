@@ -244,6 +244,25 @@ TEST_F(TunnelsStairsTest, ApproachAtThirtyDegrees) {
   if (!found.empty()) PrintFigure("stairs_yaw30", found[0], truth_, stats);
 }
 
+// Driving past 3.5 m from the foot (heading +y, the stairs to the right): the lidar's beams, 2 deg apart,
+// pass over one riser between two they hit, so no edge blob marks it. The flight is still found (the chain
+// seeds across the unobserved riser, whose points the fit then finds), with its true rise and run.
+TEST_F(TunnelsStairsTest, ARiserBetweenTwoBeamsDoesNotHideTheFlight) {
+  LocalCloud cloud;
+  const Eigen::Vector3d p = AccumulateScans(Tunnels(), Line(46.5, 22.25, 46.5, 23.75, 4), 13, &cloud);
+  DetectStats stats;
+  const std::vector<Staircase> found = detector_.Detect(cloud.Points(), p, &stats);
+  ASSERT_EQ(found.size(), 1u) << "rejections: " << ::testing::PrintToString(stats.rejections);
+  const Staircase& s = found[0];
+  EXPECT_GE(s.num_steps, 3);
+  EXPECT_NEAR(s.rise_m, 0.2, 0.01);
+  EXPECT_NEAR(s.run_m, 0.5, 0.01);
+  EXPECT_NEAR(s.p_W_first_step.x(), 50.0, 0.03);
+  EXPECT_NEAR(s.p_W_first_step.z(), 0.0, 0.02);
+  EXPECT_LT(AngleError(s.yaw_rad, 0.0), 2.0 * kDeg);
+  PrintFigure("stairs_riser_between_beams", s, truth_, stats);
+}
+
 // Seen from the 1 m platform, walking towards the top of the stairs (-x). A level VLP-16 sees nothing of
 // stairs going down (their 22 deg slope is steeper than its lowest beam, -15 deg): as on a legged robot about
 // to descend, the sensor is pitched 30 deg down.
