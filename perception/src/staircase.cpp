@@ -309,6 +309,8 @@ constexpr double kRunTol = 0.07;
 constexpr double kChainRiseTol = 0.05;
 // A chain may seed across an unobserved riser only when its rise is at least min_rise_m plus this, metres.
 constexpr double kSkippedRiserMinExtraRise = 0.05;
+// Largest height of the lidar above the detector's reference position (the robot's body), metres.
+constexpr double kSensorAboveReferenceMaxM = 0.6;
 
 class DetectorRun {
  public:
@@ -832,8 +834,8 @@ class DetectorRun {
         const int num_risers = members.rbegin()->first - first + 1;
         if (num_risers < o_.min_steps) continue;
         // A chain seeded across an unobserved riser explains every step edge inside its span: an edge there
-        // between two of its risers means the spacing is an alias (three of four risers read as two of three).
-        // (An edge at one of its risers, lower than its nose, is that riser seen from below.)
+        // between two of its risers means the spacing is an alias (three of four risers read as two of
+        // three). An edge at one of its risers, lower than its nose, is that riser seen from below.
         if (seed_gap > 1) {
           const Step& lowest = steps[static_cast<std::size_t>(members.begin()->second)];
           const Step& highest = steps[static_cast<std::size_t>(members.rbegin()->second)];
@@ -1112,6 +1114,16 @@ class DetectorRun {
           unsupported_riser = k;
       }
     }
+    // A riser faces down the flight: a sensor beyond it (up the flight) and well below its foot cannot have
+    // seen it. Such "risers" are the stepped underside of a flight above (builtin:building's upper flight
+    // seen from floor 1). p_ref_ may be the body, not the sensor: 0.6 m allows for the sensor's mount.
+    int riser_points = 0, unseeable_riser_points = 0;
+    for (int k = 0; k < m.n; ++k) {
+      const int support = riser_support[static_cast<std::size_t>(k)];
+      riser_points += support;
+      const bool behind_and_below = m.RiserS(k) < -0.1 && m.TreadZ(k) - p_ref_.z() > kSensorAboveReferenceMaxM;
+      if (behind_and_below) unseeable_riser_points += support;
+    }
     std::vector<std::pair<double, double>> extent(static_cast<std::size_t>(m.n), {0.0, 0.0});
     std::vector<bool> has_extent(static_cast<std::size_t>(m.n), false);
     double width_sum = 0, centre_sum = 0;
@@ -1190,6 +1202,9 @@ class DetectorRun {
       reason << "step coverage " << coverage << " < " << o_.min_step_coverage;
     } else if (violation > o_.max_free_space_violation) {
       reason << "points above the treads: " << violation << " > " << o_.max_free_space_violation;
+    } else if (2 * unseeable_riser_points > riser_points) {
+      reason << "risers face away from the sensor (" << unseeable_riser_points << " of " << riser_points
+             << " riser points behind and above it: the underside of a flight)";
     } else if (unsupported_riser >= 0) {
       reason << "riser " << unsupported_riser << " unseen and unsupported ("
              << riser_support[static_cast<std::size_t>(unsupported_riser)] << " points)";

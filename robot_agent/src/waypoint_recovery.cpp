@@ -48,6 +48,7 @@ struct WaypointRecovery::Context {
   double linear_x_mps = 0.0;
   double angular_z_radps = 0.0;
   bool arrived = false;
+  bool planning = false;  // an attempt waits for its plan from the planner's worker
   // The goal being recovered.
   double goal_x_m = 0.0;
   double goal_y_m = 0.0;
@@ -228,7 +229,8 @@ class FollowGoal : public bt::StatefulActionNode {
   NodeStatus OnRunning() override {
     if (plan_.valid()) {
       ctx_->Stop();
-      if (plan_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return NodeStatus::kRunning;
+      ctx_->planning = plan_.wait_for(std::chrono::seconds(0)) != std::future_status::ready;
+      if (ctx_->planning) return NodeStatus::kRunning;
       const nav::GlobalPlan plan = plan_.get();
       if (!plan.IsUsable()) return Failed("no path: " + plan.reason);
       ctx_->navigation->AcceptGoal(plan, ctx_->goal_x_m, ctx_->goal_y_m, ctx_->goal_tolerance_m, ctx_->now_s,
@@ -248,6 +250,7 @@ class FollowGoal : public bt::StatefulActionNode {
   }
   void OnHalted() override {
     ctx_->Stop();
+    ctx_->planning = false;
     ctx_->navigation->Abandon(std::move(plan_));
     ctx_->navigation->ClearGoal();
     ctx_->navigation->SetReducedClearance(false);
@@ -319,6 +322,8 @@ WaypointRecovery::WaypointRecovery(const std::string& tree_file, Navigation* nav
 WaypointRecovery::~WaypointRecovery() { Halt(); }
 
 bool WaypointRecovery::active() const { return context_->active; }
+
+bool WaypointRecovery::planning() const { return context_->active && context_->planning; }
 
 void WaypointRecovery::Start(double x_m, double y_m, double tolerance_m, const std::string& failure, double z_m) {
   if (!enabled()) throw std::logic_error("WaypointRecovery::Start: the tree file has no recovery tree");

@@ -7,8 +7,10 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <map>
+#include <thread>
 
 #include "../../nav/test/nav_test_util.h"
 #include "../../sim/test/test_util.h"
@@ -368,6 +370,12 @@ struct GhostRobot {
     NavigationStep step;
     if (recovery.active()) {
       step = recovery.Step(s, robot.t_s);
+      // The plan of an attempt comes from a worker thread: wait for it in wall time (the robot holds
+      // still), or the simulated clock runs the whole test ahead of a busy machine's planner.
+      while (recovery.planning()) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        step = recovery.Step(s, robot.t_s);
+      }
       if (recovery.active()) report = recovery.Report();
     } else {
       step = robot.navigation.StepWaypoint(s, robot.t_s);

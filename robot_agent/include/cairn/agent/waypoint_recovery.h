@@ -52,6 +52,9 @@ class WaypointRecovery {
   bool enabled() const { return !tree_.empty(); }
   /// True between Start() and the tick that ends the recovery (or Halt()).
   bool active() const;
+  /// True while active() and an attempt waits for its plan from the planner's worker thread (the robot
+  /// holds still). A simulated clock should wait in wall time then, not run ahead of the planner.
+  bool planning() const;
 
   /// Starts recovering the goal (x_m, y_m) (metres, frame M; arrival radius tolerance_m) that navigation
   /// failed with `failure`, on the level nearest z_m (NaN: the robot's; see Navigation::SetGoal). Requires
