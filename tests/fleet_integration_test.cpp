@@ -445,19 +445,24 @@ TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) 
   // (z = 3.2): accepted with a partial plan up the steps the robot sees, extended as its map grows.
   json r = op.Run("goto r1 19.0 6.5 --wait 60", 70s);
   ASSERT_TRUE(r["ok"]) << r << " (see " << logs << ")";
-  r = op.Run("goto r1 15.1 11.0 --z 3.2 --wait 240", 250s);
+  // A robot whose goal failed can be sent again and goes (section 3): an operator whose robot stopped on the
+  // stairs (e.g. a map update that showed no way on yet, on this loaded 2-core machine) sends the goal once more.
+  // Arrival on floor 2 is required.
+  const auto climb_start = Clock::now();
+  int attempts = 0;
+  do {
+    ++attempts;
+    r = op.Run("goto r1 15.1 11.0 --z 3.2 --wait 240", 250s);
+    if (!r["ok"]) std::printf("r1 goal to floor 2, attempt %d: %s\n", attempts, r.dump().c_str());
+  } while (!r["ok"] && attempts < 2);
+  const double climb_s = std::chrono::duration<double>(Clock::now() - climb_start).count();
+  ASSERT_TRUE(r["ok"]) << "r1 did not reach floor 2 in " << attempts << " attempts: " << r << " (see " << logs << ")";
   const auto arrived = observer.FreshState("r1");
   const auto& p = arrived.pose_MB().position();
-  if (r["ok"]) {
-    EXPECT_LT(std::hypot(p.x_m() - 15.1, p.y_m() - 11.0), 0.3) << "see " << logs;
-    EXPECT_NEAR(p.z_m(), 3.2, 0.15) << "r1 arrived, but not on floor 2 (see " << logs << ")";
-  } else {
-    // Arrival is not reliable yet on this loaded 2-core machine (see the notes): the robot must at
-    // least have climbed the lower flight on its own map, and the failure must say why.
-    std::printf("r1 did not reach floor 2: %s\n", r.dump().c_str());
-    EXPECT_FALSE(r.value("reason", "").empty()) << r;
-  }
-  Figure("legged_arrived_floor2", r["ok"] ? 1.0 : 0.0);
+  EXPECT_LT(std::hypot(p.x_m() - 15.1, p.y_m() - 11.0), 0.3) << "see " << logs;
+  EXPECT_NEAR(p.z_m(), 3.2, 0.15) << "r1 arrived, but not on floor 2 (see " << logs << ")";
+  Figure("legged_floor2_attempts", attempts);
+  Figure("legged_floor2_s", climb_s);
   double highest_z = 0.0;
   for (const auto& s : observer.History("r1")) {
     EXPECT_FALSE(s.in_contact()) << "r1 touched occupied space at (" << s.pose_MB().position().x_m() << ", "
@@ -466,7 +471,6 @@ TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) 
   }
   Figure("legged_final_z_m", p.z_m());
   Figure("legged_highest_z_m", highest_z);
-  EXPECT_GE(highest_z, 1.0) << "r1 did not climb five steps of the lower flight (see " << logs << ")";
 
   // The wheeled robot (started now: two agents mapping at once load this 2-core machine) goes to the foot of
   // the stairs, seeing them, then is refused the upper floor naming the step.
