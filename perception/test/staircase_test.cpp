@@ -582,6 +582,40 @@ TEST(StaircaseDetectorTest, QuarterMetreRunsWithinTwoCentimetres) {
   std::printf("FIGURE stairs_quarter_runs worst_run_err_m %.4f\n", worst_run_err);
 }
 
+// A 2 m wide flight split along its axis by a wall (a dividing wall or a solid balustrade down the middle of a
+// public stairway, 1 m above the nosing line): the wall stands inside the step edges' lateral extent and lends
+// the fit points at every tread height and riser position; left out of the fit (lateral bins with more points
+// a rise above the treads than on them), it does not bend the run or the rise.
+TEST(StaircaseDetectorTest, AWallDownTheMiddleOfAFlightDoesNotBendTheFit) {
+  constexpr double kRise = 0.19;
+  sim::World world = FloorScene("divided");
+  const Eigen::Vector2d foot(3.0, 4.0);
+  AddFlight(&world, foot, 0.0, kRise, 2.0, false);
+  FillPrism(&world, foot, 0.0, 0.0, 8 * 0.25 + 1.0, -0.05, 0.05,
+            [](double s) { return 1.0 + kRise * std::min(s, 8 * 0.25) / 0.25; });
+  std::uint32_t seed = 60;
+  int found_views = 0;
+  double worst_run_err = 0.0, worst_rise_err = 0.0;
+  for (double a : {0.0, 15.0 * kDeg, -15.0 * kDeg, 30.0 * kDeg, -30.0 * kDeg}) {
+    for (double d : {1.5, 2.5}) {
+      const Eigen::Vector2d end = foot - d * Eigen::Vector2d(std::cos(a), std::sin(a));
+      DetectStats stats;
+      const std::vector<Staircase> found = DetectAfterDrive(world, end, a, ++seed, &stats);
+      ASSERT_LE(found.size(), 2u) << "from " << end.transpose();  // one per half at most
+      for (const Staircase& s : found) {
+        ++found_views;
+        worst_run_err = std::max(worst_run_err, std::abs(s.run_m - 0.25));
+        worst_rise_err = std::max(worst_rise_err, std::abs(s.rise_m - kRise));
+        EXPECT_NEAR(s.run_m, 0.25, 0.01) << "from " << end.transpose();
+        EXPECT_NEAR(s.rise_m, kRise, 0.01) << "from " << end.transpose();
+      }
+    }
+  }
+  EXPECT_GE(found_views, 8);
+  std::printf("FIGURE stairs_divided_flight detections %d worst_run_err_m %.4f worst_rise_err_m %.4f\n", found_views,
+              worst_run_err, worst_rise_err);
+}
+
 // ---- LocalCloud ------------------------------------------------------------------------------------------
 
 TEST(LocalCloudTest, DeduplicatesAndStaysBounded) {
