@@ -128,6 +128,14 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
     if (std::fmod(t + 1e-9, 1.0) < kDt) nav_map.Update(*perception.map(), perception.TakeChangedTiles(),
                                                        perception.change_tile_m(), perception.max_sensor_z_m());
     if (!goal_set) {
+      // As the agent's planning service does (PerceptionService::CoverGoal): a goal beyond the navigation map
+      // makes it grow at its next update, the plan ends at its edge meanwhile.
+      std::string why;
+      if (!nav_map.CanCover(goal, &why)) {
+        out.reason = "refused: " + why;
+        return out;
+      }
+      nav_map.RequestCover(goal);
       const nav::GlobalPlan plan = navigation.SetGoal(pose, goal.x(), goal.y(), 0.0, t);
       if (!plan.IsUsable()) {
         out.reason = "refused: " + plan.reason;

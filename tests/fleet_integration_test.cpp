@@ -328,9 +328,10 @@ INSTANTIATE_TEST_SUITE_P(Worlds, FleetIntegration,
                                            WorldCase{"tunnels", "builtin:tunnels", 62}),
                          [](const auto& info) { return info.param.name; });
 
-// Navigation on the robot's own knowledge (issue 11): a goal around a corner the robot has never seen is
-// accepted and reached; a rockfall dropped into the simulated world mid-drive (in no map) is seen by the
-// lidar, avoided by the local planner and planned around, with no contact.
+// Navigation on the robot's own knowledge (issue 11): a goal around a corner the robot has never seen, beyond
+// its navigation map (started at start +- 10 m here), is accepted with a plan to the map's edge, the map grows
+// over it and the goal is reached; a rockfall dropped into the simulated world mid-drive (in no map) is seen by
+// the lidar, avoided by the local planner and planned around, with no contact.
 TEST(NavigationOverDds, GoalInUnknownSpaceAndARockfallPlannedAround) {
   const int domain = 64;
   const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/rockfall";
@@ -340,7 +341,8 @@ TEST(NavigationOverDds, GoalInUnknownSpaceAndARockfallPlannedAround) {
     // The rock blocks the south two thirds of the 3 m main tunnel (y in [18.5, 21.5]) 10 m down the robot's
     // way, 6 s after the agent starts: the robot is then driving towards it.
     std::ofstream out(config);
-    out << "simulation:\n  rockfalls: \"6:14,18.3,15.5,20.4,1.2\"\n";
+    out << "simulation:\n  rockfalls: \"6:14,18.3,15.5,20.4,1.2\"\n"
+        << "navigation:\n  map_half_extent_m: 10\n";
   }
   Observer observer(domain);
   ChildProcess agent({kAgent, "--robot-id", "r1", "--platform", "wheeled", "--start", "4,20,0", "--domain",
@@ -367,6 +369,12 @@ TEST(NavigationOverDds, GoalInUnknownSpaceAndARockfallPlannedAround) {
   EXPECT_LT(passed_at_y, 1e8) << "r1 never passed the rock";
   Figure("rock_pass_y_m", passed_at_y);
   Figure("replans", arrived.nav_replans());
+  // The navigation map (x in [-6, 14] at first) grew over the goal.
+  std::ifstream log(logs + "/r1.log");
+  int growths = 0;
+  for (std::string line; std::getline(log, line);) growths += line.find("navigation map grown") != std::string::npos;
+  EXPECT_GE(growths, 1) << "the navigation map never grew (see " << logs << ")";
+  Figure("nav_map_growths", growths);
 }
 
 // Narrow passages and recovery (issue 11 section 3) on the robot's own map: a 0.6 m wheeled robot in a room

@@ -256,6 +256,15 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
   }
   if (std::isfinite(request.robot_radius_m)) astar.robot_radius_m = std::clamp(request.robot_radius_m, 0.0, 5.0);
   const auto grid = GridLocked(request.platform, false);
+  int cell_x = 0, cell_y = 0;
+  if (request.allow_partial && request.goal_W.allFinite() &&
+      !grid->CellOf(request.goal_W.x(), request.goal_W.y(), &cell_x, &cell_y) &&
+      grid->CellOf(request.start_W.x(), request.start_W.y(), &cell_x, &cell_y)) {
+    guard.unlock();
+    GlobalPlan edge = PlanToMapEdge(request, *grid);
+    edge.total_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return edge;
+  }
   const bool needs_levels = NeedsLevels(request, *grid);
   const auto levels = needs_levels ? LevelsLocked(request.platform, false) : nullptr;
   guard.unlock();
@@ -317,6 +326,37 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
   }
   plan.total_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return plan;
+}
+
+GlobalPlan GlobalPlanner::PlanToMapEdge(const GlobalPlanRequest& request, const TraversabilityGrid& grid) {
+  // The goal projected onto the map's extent shrunk by kEdgeInsetM, then points 1 m apart back toward the
+  // start until one is reachable (the projection may fall in a wall the map shows).
+  constexpr double kEdgeInsetM = 1.0;
+  constexpr int kEdgeTries = 10;
+  const Eigen::Vector2d inset = Eigen::Vector2d::Constant(kEdgeInsetM).cwiseMin(0.25 * (grid.p_W_max() - grid.p_W_min()));
+  const Eigen::Vector2d lo = grid.p_W_min() + inset, hi = grid.p_W_max() - inset;
+  const Eigen::Vector2d edge = request.goal_W.cwiseMax(lo).cwiseMin(hi);
+  const Eigen::Vector2d back = request.start_W - edge;
+  const std::string extent = "x in [" + Fixed2(grid.p_W_min().x()) + ", " + Fixed2(grid.p_W_max().x()) + "], y in [" +
+                             Fixed2(grid.p_W_min().y()) + ", " + Fixed2(grid.p_W_max().y()) + "]";
+  const std::string goal = "(" + Fixed2(request.goal_W.x()) + ", " + Fixed2(request.goal_W.y()) + ")";
+  GlobalPlan first;
+  for (int i = 0; i <= kEdgeTries && i <= back.norm(); ++i) {
+    GlobalPlanRequest inner = request;
+    const Eigen::Vector2d toward_start = back.norm() > 0 ? Eigen::Vector2d(back.normalized()) : Eigen::Vector2d::Zero();
+    inner.goal_W = edge + static_cast<double>(i) * toward_start;
+    GlobalPlan plan = Plan(inner);  // inside the map: no recursion
+    if (plan.IsUsable()) {
+      plan.result.partial = true;
+      plan.result.message = "the goal " + goal + " lies beyond the navigation map (" + extent +
+                            "): planned to its edge, the map grows as the robot maps toward it";
+      return plan;
+    }
+    if (i == 0) first = plan;
+  }
+  first.reason = "the goal " + goal + " lies beyond the navigation map (" + extent +
+                 ") and the map shows no way to its edge toward it: " + first.reason;
+  return first;
 }
 
 std::string GlobalPlanner::DiagnoseUnreachable(const PlatformProfile& profile, const GlobalPlanRequest& request,

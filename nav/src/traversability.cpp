@@ -129,8 +129,8 @@ struct Window {
 }  // namespace
 
 TraversabilityGrid::TraversabilityGrid(const core::VoxelGrid& world, const TraversabilityOptions& options,
-                                       const core::VoxelGrid* seen_free)
-    : options_(options) {
+                                       const core::VoxelGrid* seen_free, double sensor_max_z_m)
+    : options_(options), sensor_max_z_m_(sensor_max_z_m) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
   const double res = world.resolution_m();

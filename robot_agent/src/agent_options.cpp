@@ -46,7 +46,8 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   nav.RejectUnknownKeys({"cruise_speed_mps", "goal_tolerance_m", "blocked_timeout_s", "contact_timeout_s",
                          "carrot_distance_m", "required_free_length_m", "tight_free_length_m",
                          "tight_spot_deviation_rad", "sensor_range_m", "local_planner_period_s", "obstacle_timeout_s", "obstacle_lost_s", "replan_check_period_s", "max_path_deviation_m",
-                         "joystick_turn_lookahead_s", "map_half_extent_m", "map_update_period_s",
+                         "joystick_turn_lookahead_s", "map_half_extent_m", "map_max_extent_m", "map_grow_margin_m", "map_grow_step_m",
+                         "map_update_period_s",
                          "obstacle_window_s", "path_requests_per_s"});
   nav.ReadDouble("cruise_speed_mps", &n.platform.cruise_speed_mps);
   nav.ReadDouble("goal_tolerance_m", &n.goal_tolerance_m);
@@ -64,6 +65,9 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   nav.ReadDouble("max_path_deviation_m", &n.max_path_deviation_m);
   nav.ReadDouble("joystick_turn_lookahead_s", &n.joystick_turn_lookahead_s);
   nav.ReadDouble("map_half_extent_m", &nav_map.half_extent_m);
+  nav.ReadDouble("map_max_extent_m", &nav_map.max_extent_m);
+  nav.ReadDouble("map_grow_margin_m", &nav_map.grow_margin_m);
+  nav.ReadDouble("map_grow_step_m", &nav_map.grow_step_m);
   nav.ReadDouble("map_update_period_s", &nav_map.update_period_s);
   nav.ReadDouble("obstacle_window_s", &obstacle_window_s);
   nav.ReadDouble("path_requests_per_s", &path_requests_per_s);

@@ -25,8 +25,21 @@ const NavMapOptions& Checked(const NavMapOptions& options) {
 
 bool NavMapOptions::IsValid(std::string* why) const {
   using internal::InRange;
-  return InRange("navigation.map_half_extent_m", half_extent_m, 5, 200, false, why) &&
-         InRange("navigation.map_below_m", below_m, 0.5, 50, false, why) &&
+  if (!InRange("navigation.map_half_extent_m", half_extent_m, 5, 200, false, why) ||
+      !InRange("navigation.map_max_extent_m", max_extent_m, 10, 2000, false, why) ||
+      !InRange("navigation.map_grow_margin_m", grow_margin_m, 0, 100, false, why) ||
+      !InRange("navigation.map_grow_step_m", grow_step_m, 1, 500, false, why)) {
+    return false;
+  }
+  if (max_extent_m < 2 * half_extent_m) {
+    if (why != nullptr) {
+      *why = "navigation.map_max_extent_m = " + internal::Fixed(max_extent_m, 1) +
+             " is below 2 * navigation.map_half_extent_m = " + internal::Fixed(2 * half_extent_m, 1) +
+             " (the map starts that large)";
+    }
+    return false;
+  }
+  return InRange("navigation.map_below_m", below_m, 0.5, 50, false, why) &&
          InRange("navigation.map_above_m", above_m, 0.5, 50, false, why) &&
          InRange("navigation.map_ground_band_below_m", ground_band_below_m, 0.1, 10, false, why) &&
          InRange("navigation.map_ground_band_above_m", ground_band_above_m, 0.1, 10, false, why) &&
@@ -71,24 +84,116 @@ NavMap::NavMap(const NavMapOptions& options, double resolution_m, const core::Ba
       voxels_(*EmptyGrid(options, resolution_m, start_M)),
       seen_free_(voxels_) {
   if (!planner_) throw std::invalid_argument("NavMap: planner is null");
-  const nav::PlatformProfile* profile = planner_->Profile(platform);
-  if (profile == nullptr) {
+  if (planner_->Profile(platform) == nullptr) {
     throw std::invalid_argument("NavMap: platform '" + platform + "' is not served by the planner (valid: " +
                                 planner_->PlatformList() + ")");
   }
-  grid_ = std::make_unique<nav::TraversabilityGrid>(voxels_, planner_->TerrainOptionsFor(*profile), &seen_free_);
-  if (const auto relaxed = planner_->DiagnoseTerrainOptionsFor(*profile)) {
-    diagnose_grid_ = std::make_unique<nav::TraversabilityGrid>(voxels_, *relaxed, &seen_free_);
+  extent_M_ = Eigen::AlignedBox2d(voxels_.p_W_min().head<2>(), voxels_.p_W_max().head<2>());
+  RebuildGrids();
+  Publish({});
+}
+
+void NavMap::RebuildGrids() {
+  const nav::PlatformProfile& profile = *planner_->Profile(platform_);
+  grid_ = std::make_unique<nav::TraversabilityGrid>(voxels_, planner_->TerrainOptionsFor(profile), &seen_free_,
+                                                    sensor_max_z_m_);
+  diagnose_grid_.reset();
+  if (const auto relaxed = planner_->DiagnoseTerrainOptionsFor(profile)) {
+    diagnose_grid_ = std::make_unique<nav::TraversabilityGrid>(voxels_, *relaxed, &seen_free_, sensor_max_z_m_);
   }
   auto world = std::make_shared<const core::VoxelGrid>(voxels_);
   auto seen_free = std::make_shared<const core::VoxelGrid>(seen_free_);
-  nav::TraversabilityOptions level_options = planner_->LevelOptionsFor(*profile);
-  levels_ = std::make_unique<nav::MultiLevelGrid>(world, level_options, seen_free);
-  if (const auto relaxed = planner_->DiagnoseTerrainOptionsFor(*profile)) {
+  nav::TraversabilityOptions level_options = planner_->LevelOptionsFor(profile);
+  levels_ = std::make_unique<nav::MultiLevelGrid>(world, level_options, seen_free, sensor_max_z_m_);
+  diagnose_levels_.reset();
+  if (const auto relaxed = planner_->DiagnoseTerrainOptionsFor(profile)) {
     level_options.max_step_m = relaxed->max_step_m;
-    diagnose_levels_ = std::make_unique<nav::MultiLevelGrid>(world, level_options, seen_free);
+    diagnose_levels_ = std::make_unique<nav::MultiLevelGrid>(world, level_options, seen_free, sensor_max_z_m_);
   }
-  Publish({});
+}
+
+Eigen::AlignedBox2d NavMap::extent_M() const {
+  std::lock_guard<std::mutex> guard(extent_mutex_);
+  return extent_M_;
+}
+
+bool NavMap::CanCover(const Eigen::Vector2d& p_M, std::string* why) const {
+  const Eigen::AlignedBox2d extent = extent_M();
+  if (!p_M.allFinite()) {
+    if (why != nullptr) *why = "the point is not finite";
+    return false;
+  }
+  Eigen::AlignedBox2d need = extent;
+  need.extend(p_M);
+  const Eigen::Vector2d size = need.sizes();
+  if (size.maxCoeff() <= options_.max_extent_m) return true;
+  if (why != nullptr) {
+    *why = "(" + internal::Fixed(p_M.x(), 2) + ", " + internal::Fixed(p_M.y(), 2) +
+           ") is too far for the robot's navigation map: it spans x in [" + internal::Fixed(extent.min().x(), 1) +
+           ", " + internal::Fixed(extent.max().x(), 1) + "], y in [" + internal::Fixed(extent.min().y(), 1) + ", " +
+           internal::Fixed(extent.max().y(), 1) + "] and may grow to " + internal::Fixed(options_.max_extent_m, 0) +
+           " m along x and y (navigation.map_max_extent_m = " + internal::Fixed(options_.max_extent_m, 0) + ")";
+  }
+  return false;
+}
+
+void NavMap::RequestCover(const Eigen::Vector2d& p_M) {
+  if (!p_M.allFinite()) return;
+  std::lock_guard<std::mutex> guard(extent_mutex_);
+  if (extent_M_.contains(p_M)) return;
+  pending_cover_M_.extend(p_M);
+}
+
+Eigen::AlignedBox2d NavMap::GrownExtent(const Eigen::AlignedBox2d& current_M, const Eigen::AlignedBox2d& want_M) const {
+  if (want_M.isEmpty()) return current_M;
+  // Within the margin of an edge (or beyond): grow that side to cover it plus grow_step_m.
+  const Eigen::Vector2d margin = Eigen::Vector2d::Constant(options_.grow_margin_m);
+  Eigen::Vector2d lo = current_M.min(), hi = current_M.max();
+  const Eigen::Vector2d step = Eigen::Vector2d::Constant(options_.grow_step_m);
+  for (int a = 0; a < 2; ++a) {
+    if (want_M.min()[a] < current_M.min()[a] + margin[a]) lo[a] = std::min(lo[a], want_M.min()[a] - step[a]);
+    if (want_M.max()[a] > current_M.max()[a] - margin[a]) hi[a] = std::max(hi[a], want_M.max()[a] + step[a]);
+    // Within max_extent_m: what must be covered first, then as much of the step as fits.
+    const double max = options_.max_extent_m;
+    if (hi[a] - lo[a] > max) {
+      const double need_lo = std::min(current_M.min()[a], want_M.min()[a]);
+      const double need_hi = std::max(current_M.max()[a], want_M.max()[a]);
+      const double spare = std::max(0.0, max - (need_hi - need_lo));
+      const double grow_lo = need_lo - lo[a], grow_hi = hi[a] - need_hi;  // the steps asked for
+      const double share_lo = grow_lo + grow_hi > 0 ? spare * grow_lo / (grow_lo + grow_hi) : 0.0;
+      lo[a] = need_lo - std::min(grow_lo, share_lo);
+      hi[a] = std::min(need_hi + std::min(grow_hi, spare - (need_lo - lo[a])), lo[a] + max);
+      lo[a] = std::max(lo[a], hi[a] - max);
+    }
+  }
+  return Eigen::AlignedBox2d(lo, hi);
+}
+
+void NavMap::Reallocate(const Eigen::AlignedBox2d& extent_M) {
+  const double res = voxels_.resolution_m();
+  // Whole voxels beyond the current grid on each side, so that voxel boundaries stay where they were.
+  const Eigen::Vector2d old_lo = voxels_.p_W_min().head<2>(), old_hi = voxels_.p_W_max().head<2>();
+  const Eigen::Vector2i grow_lo =
+      ((old_lo - extent_M.min()) / res).array().ceil().cast<int>().max(0).matrix();
+  const Eigen::Vector2i grow_hi =
+      ((extent_M.max() - old_hi) / res).array().ceil().cast<int>().max(0).matrix();
+  const Eigen::Vector3i offset(grow_lo.x(), grow_lo.y(), 0);
+  const Eigen::Vector3d p_min = voxels_.p_W_min() - offset.cast<double>() * res;
+  const Eigen::Vector3i dims = voxels_.dims() + offset + Eigen::Vector3i(grow_hi.x(), grow_hi.y(), 0);
+  auto copy = [&](const core::VoxelGrid& from) {
+    core::VoxelGrid to(from.name(), p_min, res, dims);
+    const Eigen::Vector3i& d = from.dims();
+    for (int ix = 0; ix < d.x(); ++ix) {
+      for (int iy = 0; iy < d.y(); ++iy) {
+        for (int iz = 0; iz < d.z(); ++iz) {
+          if (from.IsOccupiedIndex({ix, iy, iz})) to.SetOccupied(Eigen::Vector3i(ix, iy, iz) + offset);
+        }
+      }
+    }
+    return to;
+  };
+  voxels_ = copy(voxels_);
+  seen_free_ = copy(seen_free_);
 }
 
 void NavMap::Publish(const std::vector<Eigen::AlignedBox2d>& columns) {
@@ -104,11 +209,45 @@ void NavMap::Publish(const std::vector<Eigen::AlignedBox2d>& columns) {
                       diagnose_levels_ ? std::make_shared<const nav::MultiLevelGrid>(*diagnose_levels_) : nullptr);
 }
 
-NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& tiles,
+NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& changed,
                                  double tile_m, double sensor_max_z_m) {
   NavMapUpdateStats stats;
-  if (!(tile_m > 0) || tiles.empty()) return stats;
+  Eigen::AlignedBox2d want;  // what must be covered: changed tiles and requests
+  Eigen::AlignedBox2d current;
+  {
+    std::lock_guard<std::mutex> guard(extent_mutex_);
+    want = pending_cover_M_;
+    pending_cover_M_.setEmpty();
+    current = extent_M_;
+  }
+  if (!(tile_m > 0) || (changed.empty() && want.isEmpty())) {
+    stats.extent_M = current;
+    return stats;
+  }
   auto start = Clock::now();
+  for (const Eigen::Vector2i& tile : changed) {
+    want.extend(Eigen::Vector2d(tile.cast<double>() * tile_m));
+    want.extend(Eigen::Vector2d((tile + Eigen::Vector2i::Ones()).cast<double>() * tile_m));
+  }
+  std::vector<Eigen::Vector2i> tiles = changed;
+  const Eigen::AlignedBox2d grown = GrownExtent(current, want);
+  if (!grown.isApprox(current)) {
+    Reallocate(grown);
+    // The new area is read from the map like changed tiles (tiles already read are read again: harmless).
+    const Eigen::Vector2d lo = voxels_.p_W_min().head<2>(), hi = voxels_.p_W_max().head<2>();
+    const Eigen::Vector2i t_lo = (lo / tile_m).array().floor().cast<int>().matrix();
+    const Eigen::Vector2i t_hi = (hi / tile_m).array().ceil().cast<int>().matrix() - Eigen::Vector2i::Ones();
+    for (int tx = t_lo.x(); tx <= t_hi.x(); ++tx) {
+      for (int ty = t_lo.y(); ty <= t_hi.y(); ++ty) {
+        const Eigen::AlignedBox2d box(Eigen::Vector2d(tx, ty) * tile_m, Eigen::Vector2d(tx + 1, ty + 1) * tile_m);
+        if (!current.contains(box)) tiles.emplace_back(tx, ty);
+      }
+    }
+    stats.grown = true;
+    ++growths_;
+    std::lock_guard<std::mutex> guard(extent_mutex_);
+    extent_M_ = Eigen::AlignedBox2d(lo, hi);
+  }
   const double res = voxels_.resolution_m();
   const Eigen::Vector3i last = voxels_.dims() - Eigen::Vector3i::Ones();
   std::vector<Eigen::AlignedBox2d> columns;
@@ -141,15 +280,21 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     stats.region_M.extend(box);
     ++stats.tiles;
   }
-  if (columns.empty()) return stats;
+  stats.extent_M = extent_M();
+  if (columns.empty() && !stats.grown) return stats;
   stats.read_ms = MsSince(start);
   start = Clock::now();
   sensor_max_z_m_ = sensor_max_z_m;
-  grid_->SetObserverHeight(sensor_max_z_m);
-  grid_->Update(voxels_, &seen_free_, columns);
-  if (diagnose_grid_) {
-    diagnose_grid_->SetObserverHeight(sensor_max_z_m);
-    diagnose_grid_->Update(voxels_, &seen_free_, columns);
+  if (stats.grown) {
+    RebuildGrids();  // every grid over the new extent (their geometry changed)
+    columns.clear();
+  } else {
+    grid_->SetObserverHeight(sensor_max_z_m);
+    grid_->Update(voxels_, &seen_free_, columns);
+    if (diagnose_grid_) {
+      diagnose_grid_->SetObserverHeight(sensor_max_z_m);
+      diagnose_grid_->Update(voxels_, &seen_free_, columns);
+    }
   }
   stats.traversability_ms = MsSince(start);
   start = Clock::now();

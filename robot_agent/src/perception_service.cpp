@@ -76,6 +76,13 @@ bool PerceptionService::ReadScan(double now_s) {
   return true;
 }
 
+std::string PerceptionService::CoverGoal(const Eigen::Vector2d& goal_M) {
+  std::string why;
+  if (!nav_map_->CanCover(goal_M, &why)) return why;
+  nav_map_->RequestCover(goal_M);
+  return "";
+}
+
 void PerceptionService::SensorLoop() {
   // Polls the platform at twice its lidar rate: a scan reaches the local planner within half a period of its
   // arrival, whatever the perception thread is busy with (mapping, stairs, camera).
@@ -139,9 +146,15 @@ void PerceptionService::NavMapLoop() {
     if (next < core::SteadyClock::now()) next = core::SteadyClock::now() + period;
     try {
       const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
-      if (tiles.empty()) continue;
+      // With no changed tile, Update() still grows the map when a goal beyond it asked to.
       const NavMapUpdateStats stats = nav_map_->Update(
           *perception_->map(), tiles, perception_->change_tile_m(), perception_->max_sensor_z_m());
+      if (stats.grown) {
+        spdlog::info("robot {}: navigation map grown to x [{:.1f}, {:.1f}], y [{:.1f}, {:.1f}] (v{}, {:.0f} ms)",
+                     options_.robot_id, stats.extent_M.min().x(), stats.extent_M.max().x(),
+                     stats.extent_M.min().y(), stats.extent_M.max().y(), stats.map_version,
+                     stats.read_ms + stats.traversability_ms + stats.publish_ms);
+      }
       if (stats.applied) {
         spdlog::debug(
             "robot {}: navigation map v{}: {} tiles in {:.1f} x {:.1f} m, {} occupied voxels, read {:.1f} "

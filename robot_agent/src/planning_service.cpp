@@ -87,7 +87,17 @@ bool PlanningService::RunOnce(std::chrono::milliseconds wait) {
   }
   try {
     if (goal) {
-      hooks_.goal_planned(goal->goal, planner_->Plan(goal->request));
+      const std::string refusal = hooks_.cover_goal ? hooks_.cover_goal(goal->request.goal_W) : "";
+      if (!refusal.empty()) {
+        nav::GlobalPlan refused;
+        refused.result.status = nav::PlanResult::Status::kOutOfMap;
+        refused.result.message = refusal;
+        refused.reason = refusal;
+        refused.map_version = planner_->map_version();
+        hooks_.goal_planned(goal->goal, refused);
+      } else {
+        hooks_.goal_planned(goal->goal, planner_->Plan(goal->request));
+      }
     } else {
       hooks_.answer(Answer(*query));
     }
@@ -129,10 +139,13 @@ PathAnswer PlanningService::Answer(const PathQuery& query) const {
 }
 
 std::string PlanningService::PlanReason(const nav::GlobalPlan& plan) const {
-  if (plan.result.status != nav::PlanResult::Status::kOutOfMap) return plan.reason;
-  const std::string extent = internal::Fixed(options_.map_half_extent_m, 0);
-  return plan.reason + " (the robot's navigation map spans its start +- " + extent +
-         " m: navigation.map_half_extent_m = " + extent + ")";
+  if (plan.result.status != nav::PlanResult::Status::kOutOfMap ||
+      plan.reason.find("navigation.map_max_extent_m") != std::string::npos) {
+    return plan.reason;
+  }
+  const std::string extent = internal::Fixed(options_.map_max_extent_m, 0);
+  return plan.reason + " (the robot's navigation map grows as the robot maps or is sent beyond it, up to " +
+         extent + " m along x and y: navigation.map_max_extent_m = " + extent + ")";
 }
 
 std::uint64_t PlanningService::queries_refused() const {

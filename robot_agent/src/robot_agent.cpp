@@ -152,14 +152,15 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
   planning.robot_id = options.robot_id;
   planning.platform = options.navigation.platform.name;
   planning.path_queries_per_s = options.path_requests_per_s;
-  planning.map_half_extent_m = options.nav_map.half_extent_m;
+  planning.map_max_extent_m = options.nav_map.max_extent_m;
   planning_ = std::make_unique<PlanningService>(
       planning, planner_,
       PlanningService::Hooks{[this](const GoalCommand& goal, const nav::GlobalPlan& plan) {
                                std::lock_guard<std::mutex> guard(mutex_);
                                command_->OnGoalPlanned(goal, plan);
                              },
-                             [this](const PathAnswer& answer) { dds_->Send(answer); }});
+                             [this](const PathAnswer& answer) { dds_->Send(answer); },
+                             [this](const Eigen::Vector2d& goal_M) { return perception_->CoverGoal(goal_M); }});
   if (capabilities_.has_lidar) {
     // The first scan before the robot announces itself ready, so that it can take a goal at once.
     perception_->WaitForFirstScan(std::chrono::seconds(5));

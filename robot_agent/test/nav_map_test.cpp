@@ -65,9 +65,9 @@ TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFlo
   ASSERT_GE(update_ms.size(), 20u);
   std::sort(update_ms.begin(), update_ms.end());
   std::printf("FIGURE nav map update: %zu updates, %.1f tiles each, median %.1f ms, max %.1f ms (read + "
-              "traversability + hand-over; 80 x 80 m extent at 0.1 m)\n",
+              "traversability + hand-over; %d growths; extent %.0f x %.0f m at 0.1 m)\n",
               update_ms.size(), static_cast<double>(tiles_total) / update_ms.size(), update_ms[update_ms.size() / 2],
-              update_ms.back());
+              update_ms.back(), nav_map.growths(), nav_map.extent_M().sizes().x(), nav_map.extent_M().sizes().y());
 
   // The incremental grid equals a full rebuild from the same voxels.
   const nav::TraversabilityGrid& incremental = nav_map.grid();
@@ -170,6 +170,111 @@ TEST(NavMapTest, AWheeledRobotAtTheFootOfTheStairsIsRefusedTheFloorAboveNamingTh
   EXPECT_TRUE(legged.IsUsable()) << legged.reason;
 }
 
+// The map grows as the robot maps beyond its edge (a 20 m start extent, the robot driving 16 m east with a 30 m
+// lidar) and when a goal beyond it asks to (RequestCover), never past max_extent_m; the grown map holds every
+// occupied voxel of the OctoMap over its extent and its grid equals a full build.
+TEST(NavMapTest, GrowsAsTheRobotMapsBeyondItOrIsSentBeyondWithinItsLargestExtent) {
+  sim::SimulatedPlatformOptions sim_options;
+  sim_options.world = "builtin:tunnels";
+  sim_options.start_W = core::PlanarPose{4.0, 20.0, 0.0};
+  const nav::PlatformProfile profile = nav::GetPlatformProfile("wheeled");
+  sim_options.SetProfile(profile);
+  sim::SimulatedPlatform platform(sim_options);
+  platform.Update(0.0);
+  const core::BaseState start_M = platform.ReadPose().PlanarState();
+  PerceptionOptions perception_options;
+  perception_options.camera_rate_hz = 0;
+  PerceptionPipeline perception(perception_options, "r1");
+  NavMapOptions map_options;
+  map_options.half_extent_m = 10.0;
+  map_options.max_extent_m = 90.0;
+  map_options.grow_margin_m = 5.0;
+  map_options.grow_step_m = 10.0;
+  auto planner = NavMap::MakePlanner(map_options, perception_options.map.resolution_m, start_M, {profile});
+  NavMap nav_map(map_options, perception_options.map.resolution_m, start_M, planner, "wheeled");
+  const Eigen::AlignedBox2d initial = nav_map.extent_M();
+  EXPECT_NEAR(initial.max().x(), 14.0, 0.11);
+
+  // Too far for the largest extent: refused, naming the key; within it: coverable.
+  std::string why;
+  EXPECT_FALSE(nav_map.CanCover({100.0, 20.0}, &why));
+  EXPECT_NE(why.find("navigation.map_max_extent_m = 90"), std::string::npos) << why;
+  EXPECT_TRUE(nav_map.CanCover({50.0, 20.0}, &why)) << why;
+
+  int grown_updates = 0;
+  for (int k = 1; k <= 160; ++k) {
+    const double now_s = k * 0.1;
+    sim::UnicycleState s = platform.TrueState();
+    s.x_m = 4.0 + 0.1 * k;
+    s.v_mps = 1.0;
+    platform.SetTrueState(s);
+    platform.Update(now_s);
+    core::LidarScan scan;
+    ASSERT_TRUE(platform.ReadLidarScan(now_s, &scan));
+    perception.Tick(now_s, &scan, nullptr);
+    if (k % 10 == 0) {
+      grown_updates += nav_map.Update(*perception.map(), perception.TakeChangedTiles(), perception.change_tile_m(),
+                                      perception.max_sensor_z_m())
+                           .grown;
+    }
+  }
+  EXPECT_GE(grown_updates, 1);
+  EXPECT_EQ(grown_updates, nav_map.growths());
+  const Eigen::AlignedBox2d grown = nav_map.extent_M();
+  EXPECT_GT(grown.max().x(), 30.0) << "the lidar saw 30 m east of x 20";
+  EXPECT_LE(grown.sizes().maxCoeff(), 90.0 + 1e-6);
+  EXPECT_TRUE(grown.contains(initial));
+
+  // Every occupied voxel of the OctoMap within the grown extent is in the navigation map's voxels.
+  const core::VoxelGrid& voxels = nav_map.voxels();
+  const Eigen::Vector3d shrink = Eigen::Vector3d::Constant(0.25 * voxels.resolution_m());
+  const auto occupied =
+      perception.map()->OccupiedInBox(Eigen::AlignedBox3d(voxels.p_W_min() + shrink, voxels.p_W_max() - shrink));
+  EXPECT_GT(occupied.size(), 1000u);
+  EXPECT_EQ(static_cast<std::int64_t>(occupied.size()), voxels.CountOccupied());
+  for (const Eigen::Vector3d& p : occupied) ASSERT_TRUE(voxels.IsOccupied(p)) << p.transpose();
+
+  // The grid over the grown extent equals a full build from the same voxels.
+  nav::TraversabilityGrid full(voxels, planner->TerrainOptionsFor(profile), &nav_map.seen_free(),
+                               perception.max_sensor_z_m());
+  const nav::TraversabilityGrid& grid = nav_map.grid();
+  ASSERT_EQ(full.nx(), grid.nx());
+  ASSERT_EQ(full.ny(), grid.ny());
+  int differing = 0;
+  for (int ix = 0; ix < full.nx(); ++ix) {
+    for (int iy = 0; iy < full.ny(); ++iy) {
+      differing += full.State(ix, iy) != grid.State(ix, iy) || full.IsTraversable(ix, iy) != grid.IsTraversable(ix, iy);
+    }
+  }
+  EXPECT_EQ(differing, 0);
+
+  // A goal beyond the map: a partial plan to its edge; after RequestCover() and an update with no changed
+  // tile, the map covers it (within the largest extent) and the plan reaches it.
+  nav::GlobalPlanRequest request;
+  request.start_W = {20.0, 20.0};
+  request.goal_W = {grown.max().x() + 8.0, 20.0};
+  ASSERT_TRUE(nav_map.CanCover(request.goal_W, &why)) << why;
+  request.platform = "wheeled";
+  request.start_is_robot = true;
+  request.allow_partial = true;
+  const nav::GlobalPlan edge = planner->Plan(request);
+  ASSERT_TRUE(edge.IsUsable()) << edge.reason;
+  EXPECT_TRUE(edge.result.partial);
+  EXPECT_NEAR(edge.result.path_W.back().x(), grown.max().x() - 1.0, 0.15);
+  nav_map.RequestCover(request.goal_W);
+  EXPECT_TRUE(nav_map.Update(*perception.map(), {}, perception.change_tile_m(), perception.max_sensor_z_m()).grown);
+  EXPECT_TRUE(nav_map.extent_M().contains(request.goal_W));
+  EXPECT_LE(nav_map.extent_M().sizes().maxCoeff(), 90.0 + 1e-6);
+  const nav::GlobalPlan whole = planner->Plan(request);
+  ASSERT_TRUE(whole.IsUsable()) << whole.reason;
+  EXPECT_FALSE(whole.result.partial);
+  EXPECT_NEAR(whole.result.path_W.back().x(), request.goal_W.x(), 0.15);
+  // Without allow_partial (another robot's path request), a point beyond the map stays out of the map.
+  request.allow_partial = false;
+  request.goal_W = {nav_map.extent_M().max().x() + 5.0, 20.0};
+  EXPECT_EQ(planner->Plan(request).result.status, nav::PlanResult::Status::kOutOfMap);
+}
+
 TEST(NavMapTest, InvalidOptionsNameTheField) {
   NavMapOptions o;
   std::string why;
@@ -177,6 +282,16 @@ TEST(NavMapTest, InvalidOptionsNameTheField) {
   o.half_extent_m = 1;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("navigation.map_half_extent_m"), std::string::npos) << why;
+  o = NavMapOptions();
+  o.max_extent_m = 50;  // below the 80 m the map starts with
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("navigation.map_max_extent_m = 50.0 is below 2 * navigation.map_half_extent_m"),
+            std::string::npos)
+      << why;
+  o = NavMapOptions();
+  o.grow_step_m = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("navigation.map_grow_step_m"), std::string::npos) << why;
   o = NavMapOptions();
   o.update_period_s = 0;
   EXPECT_FALSE(o.IsValid(&why));

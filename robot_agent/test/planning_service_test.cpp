@@ -26,7 +26,7 @@ struct Service {
     o.platform = "wheeled";
     o.path_queries_per_s = queries_per_s;
     o.max_waiting_queries = max_waiting;
-    o.map_half_extent_m = 10.0;
+    o.map_max_extent_m = 20.0;
     service = std::make_unique<PlanningService>(
         o, planner,
         PlanningService::Hooks{[this](const GoalCommand& g, const nav::GlobalPlan& p) {
@@ -36,6 +36,11 @@ struct Service {
                                [this](const PathAnswer& a) {
                                  order.push_back("query " + std::to_string(a.request_id));
                                  answers.push_back(a);
+                               },
+                               [this](const Eigen::Vector2d& goal_M) {
+                                 covered.push_back(goal_M);
+                                 return goal_M.x() > 50.0 ? std::string("too far: navigation.map_max_extent_m")
+                                                          : std::string();
                                }});
   }
   static PathQuery Query(uint32_t id, const std::string& participant = "pA", double x = 3.0) {
@@ -53,6 +58,7 @@ struct Service {
   std::vector<std::string> order;
   std::vector<nav::GlobalPlan> goal_plans;
   std::vector<PathAnswer> answers;
+  std::vector<Eigen::Vector2d> covered;  // goals the cover hook was asked about
 };
 
 TEST(PlanningService, TheHoldersGoalsGoBeforePeersQueries) {
@@ -118,15 +124,45 @@ TEST(PlanningService, AnswersNameTheFrameThePlatformOrTheMapExtent) {
   EXPECT_GE(s.answers[2].path_M.size(), 2u);
   EXPECT_GT(s.answers[2].length_m, 2.9);
   EXPECT_FALSE(s.answers[3].success);
-  EXPECT_NE(s.answers[3].reason.find("(the robot's navigation map spans its start +- 10 m: "
-                                     "navigation.map_half_extent_m = 10)"),
+  EXPECT_NE(s.answers[3].reason.find("up to 20 m along x and y: navigation.map_max_extent_m = 20)"),
             std::string::npos)
       << s.answers[3].reason;
+  EXPECT_TRUE(s.covered.empty()) << "path queries do not grow the map";
+}
+
+// A goal beyond the navigation map is planned to the map's edge toward it (a partial plan, extended as the
+// map grows over it); one the map cannot grow to is refused with the cover hook's reason, unplanned.
+TEST(PlanningService, GoalsBeyondTheMapArePlannedToItsEdgeOrRefused) {
+  Service s;
+  nav::GlobalPlanRequest beyond;
+  beyond.goal_W = {25.0, 2.0};
+  beyond.platform = "wheeled";
+  beyond.allow_partial = true;
+  beyond.start_is_robot = true;
+  s.service->SubmitGoal(GoalCommand{CommandSender{"opA", "pA", "wA"}, 1, "map", 25.0, 2.0, 0.0}, beyond);
+  nav::GlobalPlanRequest too_far = beyond;
+  too_far.goal_W = {80.0, 0.0};
+  s.service->SubmitGoal(GoalCommand{CommandSender{"opA", "pA", "wA"}, 2, "map", 80.0, 0.0, 0.0}, too_far);
+  while (s.service->RunOnce(std::chrono::milliseconds(0))) {
+  }
+  ASSERT_EQ(s.goal_plans.size(), 2u);
+  ASSERT_EQ(s.covered.size(), 2u);
+  const nav::GlobalPlan& edge = s.goal_plans[0];
+  ASSERT_TRUE(edge.IsUsable()) << edge.reason;
+  EXPECT_TRUE(edge.result.partial);
+  EXPECT_NE(edge.result.message.find("beyond the navigation map"), std::string::npos) << edge.result.message;
+  // The map spans the start +- 10 m: the plan ends 1 m inside its edge, toward the goal.
+  EXPECT_NEAR(edge.result.path_W.back().x(), 9.0, 0.15);
+  EXPECT_NEAR(edge.result.path_W.back().y(), 2.0, 0.15);
+  const nav::GlobalPlan& refused = s.goal_plans[1];
+  EXPECT_FALSE(refused.IsUsable());
+  EXPECT_EQ(refused.result.status, nav::PlanResult::Status::kOutOfMap);
+  EXPECT_EQ(s.service->PlanReason(refused), "too far: navigation.map_max_extent_m");
 }
 
 TEST(PlanningService, RefusesANullPlannerMissingHooksAndABadRate) {
   Service s;
-  PlanningService::Hooks hooks{[](const GoalCommand&, const nav::GlobalPlan&) {}, [](const PathAnswer&) {}};
+  PlanningService::Hooks hooks{[](const GoalCommand&, const nav::GlobalPlan&) {}, [](const PathAnswer&) {}, {}};
   EXPECT_THROW(PlanningService(PlanningServiceOptions{}, nullptr, hooks), std::invalid_argument);
   EXPECT_THROW(PlanningService(PlanningServiceOptions{}, s.planner, PlanningService::Hooks{}),
                std::invalid_argument);

@@ -74,7 +74,10 @@ struct GlobalPlanRequest {
   double goal_z_m = std::numeric_limits<double>::quiet_NaN();
   /// A plan over the map's levels may end short of the goal when the map connects no route to it yet
   /// (AStarOptions::allow_partial; a robot's own goals). Unless a climbing platform would get much further
-  /// (then the plan fails naming the step, e.g. stairs for a wheeled robot).
+  /// (then the plan fails naming the step, e.g. stairs for a wheeled robot). Also: a goal beyond the map's
+  /// extent (a robot's map that grows as it explores) gets a partial plan to the map's edge toward it (the
+  /// goal projected 1 m inside the edge, or the nearest of the points 1 m apart from there back toward the
+  /// start that is reachable); without allow_partial it is kOutOfMap.
   bool allow_partial = false;
   /// When a plan over the map's levels falls short of the goal, also plan allowing higher steps to name the
   /// step that stops the platform (doubles the work; a robot extending a partial plan skips it).
@@ -199,6 +202,9 @@ class GlobalPlanner {
   std::string DescribeStep(const PlatformProfile& profile, double worst_step, const Eigen::Vector2d& worst_at) const;
   std::string DiagnoseUnreachable(const PlatformProfile& profile, const GlobalPlanRequest& request,
                                   const AStarOptions& astar);
+  // A plan for a goal beyond the map's extent (request.allow_partial): a partial plan to the map's edge toward
+  // the goal, or the failure to reach that edge.
+  GlobalPlan PlanToMapEdge(const GlobalPlanRequest& request, const TraversabilityGrid& grid);
 
   GlobalPlannerOptions options_;
   std::vector<PlatformProfile> profiles_;

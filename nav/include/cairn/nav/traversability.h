@@ -123,9 +123,13 @@ class TraversabilityGrid : public core::FootprintChecker {
   /// Far floor seen at a grazing angle has no free voxel observed right above it (the ray crossed those
   /// layers metres before its end), so a candidate whose top is at least 0.1 m below the highest sensor
   /// position so far (SetObserverHeight()) needs no such evidence: a lidar can only have seen it from above.
+  /// `sensor_max_z_m`: the highest sensor origin so far, as SetObserverHeight() sets it for later updates
+  /// (metres, frame of the grid; NaN: none), applied to this first analysis too (a grid rebuilt over a grown
+  /// map reads as the incrementally updated one did).
   /// Throws std::invalid_argument if its geometry differs from the world's.
   TraversabilityGrid(const core::VoxelGrid& world, const TraversabilityOptions& options,
-                     const core::VoxelGrid* seen_free);
+                     const core::VoxelGrid* seen_free,
+                     double sensor_max_z_m = std::numeric_limits<double>::quiet_NaN());
   explicit TraversabilityGrid(const core::VoxelGrid& world, const TraversabilityOptions& options = {})
       : TraversabilityGrid(world, options, nullptr) {}
 

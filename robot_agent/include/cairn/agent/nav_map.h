@@ -1,6 +1,6 @@
 // The robot's navigation map: the global planner's view of the robot's own OctoMap (Sriganesh et al. 2024,
 // § Navigation Layer: planning on the local map fed by SLAM). A dense voxel copy of the OctoMap's occupied
-// voxels over a fixed extent around the start, and the robot platform's traversability grid on it, both
+// voxels over an extent around the start that grows as the robot maps beyond it, and the robot platform's traversability grid on it, both
 // updated only where the map changed, then handed to the planner as a new map version. Unknown space is
 // traversable (optimistic planning): a goal the robot has not seen is accepted and the path is replanned as
 // the map shows walls. DDS-free; the agent runs Update() on its own thread, never on the control thread.
@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -21,10 +22,22 @@
 
 namespace cairn::agent {
 
-/// Options of NavMap (config section `navigation`: map_half_extent_m, map_update_period_s).
+/// Options of NavMap (config section `navigation`: map_half_extent_m, map_max_extent_m, map_grow_margin_m,
+/// map_grow_step_m, map_update_period_s).
 struct NavMapOptions {
-  /// The map spans start +- this along x and y, metres, [5, 200]. Goals outside are refused.
+  /// The map starts spanning start +- this along x and y, metres, [5, 200].
   double half_extent_m = 40.0;
+  /// It grows as the robot maps beyond it or is sent beyond it, up to this length along x and along y, metres,
+  /// [10, 2000], at least 2 * half_extent_m (= no growth). Memory grows with the area: about 3.3 KB per m² for
+  /// the map and its grids, twice that with the planner's copy (200 x 200 m: about 260 MB per robot). A goal
+  /// the map cannot grow to cover is refused naming this option.
+  double max_extent_m = 200.0;
+  /// The map grows when the robot's map changes within this distance of its edge (or beyond), metres,
+  /// [0, 100]...
+  double grow_margin_m = 10.0;
+  /// ...by this much beyond what it must cover, metres, [1, 500]: each growth rebuilds the grids (seconds on a
+  /// large map, on the navigation map thread), so it grows in steps.
+  double grow_step_m = 30.0;
   /// ...and from this far below the start's ground to this far above it, metres, [0.5, 50] each.
   double below_m = 3.0;
   double above_m = 7.0;
@@ -49,6 +62,8 @@ struct NavMapUpdateStats {
   double traversability_ms = 0;      ///< Re-analysing the affected cells.
   double publish_ms = 0;             ///< Copying the snapshot to the planner.
   std::uint64_t map_version = 0;     ///< Planner map version after the update.
+  bool grown = false;                ///< The extent grew (then the grids were rebuilt in full).
+  Eigen::AlignedBox2d extent_M;      ///< The extent after the update, metres, map frame.
 };
 
 /// See the file comment. Not thread-safe: one thread calls Update(); the planner it feeds is thread-safe.
@@ -60,6 +75,18 @@ class NavMap {
   /// @throws std::invalid_argument for invalid options or an unknown platform.
   NavMap(const NavMapOptions& options, double resolution_m, const core::BaseState& start_M,
          std::shared_ptr<nav::GlobalPlanner> planner, const std::string& platform);
+
+  /// True if the map covers, or may grow to cover (max_extent_m), the x-y point `p_M` (metres, map frame);
+  /// otherwise false with `*why` naming navigation.map_max_extent_m. Thread-safe.
+  bool CanCover(const Eigen::Vector2d& p_M, std::string* why) const;
+  /// Asks the next Update() to grow the map over `p_M` (metres, map frame) plus grow_step_m, within
+  /// max_extent_m; nothing when already covered. Thread-safe (e.g. the planning thread for a goal beyond the
+  /// map).
+  void RequestCover(const Eigen::Vector2d& p_M);
+  /// The x-y extent of the map now, metres, map frame. Thread-safe.
+  Eigen::AlignedBox2d extent_M() const;
+  /// Times the map has grown.
+  int growths() const { return growths_; }
 
   /// How the planner must read this map: the start's ground as reference, the ground band, unknown space
   /// traversable.
@@ -77,7 +104,10 @@ class NavMap {
   /// Re-reads the x-y tiles `tiles` (tile (i, j) covers [i * tile_m, (i + 1) * tile_m) x [j * tile_m, ...),
   /// metres, map frame, every height of the extent; e.g. PerceptionPipeline::TakeChangedTiles()) from `map`,
   /// re-analyses the affected traversability cells and gives the planner the new map. Tiles outside the
-  /// extent are ignored.
+  /// extent are ignored, unless they lie within grow_margin_m of the edge or beyond it, or RequestCover()
+  /// asked for more: then the map first grows (its voxels copied, the new area read from `map`, the grids
+  /// rebuilt over the new extent; NavMapUpdateStats::grown) and nothing is ignored. Also runs with no tiles
+  /// when RequestCover() is pending.
   /// `sensor_max_z_m`: the highest lidar origin so far (metres, map frame; PerceptionPipeline::
   /// max_sensor_z_m()): surfaces below it count as seen from above (TraversabilityGrid::SetObserverHeight).
   NavMapUpdateStats Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& tiles,
@@ -93,6 +123,13 @@ class NavMap {
   // Hands copies of the voxels, the grids and the seen-free voxels to the planner (a new map version), after
   // bringing the multi-level grid up to date over `columns` (x-y boxes, metres; empty: nothing changed).
   void Publish(const std::vector<Eigen::AlignedBox2d>& columns);
+  // The extent that covers `want_M` (plus grow_step_m beyond the current extent on each side that grows),
+  // within max_extent_m; the current extent when nothing needs to grow.
+  Eigen::AlignedBox2d GrownExtent(const Eigen::AlignedBox2d& current_M, const Eigen::AlignedBox2d& want_M) const;
+  // Re-allocates the voxel grids over `extent_M` (aligned to the voxels), keeping what they hold.
+  void Reallocate(const Eigen::AlignedBox2d& extent_M);
+  // Builds every grid anew over the voxels (after Reallocate()).
+  void RebuildGrids();
   NavMapOptions options_;
   std::shared_ptr<nav::GlobalPlanner> planner_;
   std::string platform_;
@@ -105,6 +142,10 @@ class NavMap {
   std::unique_ptr<nav::MultiLevelGrid> levels_;
   std::unique_ptr<nav::MultiLevelGrid> diagnose_levels_;  // relaxed step limit (see diagnose_grid_)
   double sensor_max_z_m_ = std::numeric_limits<double>::quiet_NaN();
+  mutable std::mutex extent_mutex_;  // guards extent_M_ and pending_cover_M_ (read by the planning thread)
+  Eigen::AlignedBox2d extent_M_;
+  Eigen::AlignedBox2d pending_cover_M_;  // empty: no request
+  int growths_ = 0;
 };
 
 }  // namespace cairn::agent

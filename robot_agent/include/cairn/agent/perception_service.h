@@ -52,13 +52,19 @@ class PerceptionService {
   /// PerceptionPipeline::set_refresh_at_rest). Any thread.
   void SetMapRefreshAtRest(bool on) { perception_->set_refresh_at_rest(on); }
 
+  /// A goal at `goal_M` (x, y, metres, map frame): "" when the navigation map covers it or may grow to (then
+  /// its thread grows the map over it at its next update), else why not (naming navigation.map_max_extent_m).
+  /// Any thread (the planning thread).
+  std::string CoverGoal(const Eigen::Vector2d& goal_M);
+
   /// Sensor thread: polls the platform's lidar at twice its rate (a scan reaches the local planner within
   /// half a period, whatever the perception thread is busy with). A read fault is logged, never thrown.
   void SensorLoop();
   /// Perception thread: maps, detects, makes telemetry and camera frames at their periods, publishing each
   /// tick's output. A fault is logged, never thrown.
   void PerceptionLoop();
-  /// Navigation map thread: applies the map's changed tiles to the planner's map every update_period_s.
+  /// Navigation map thread: applies the map's changed tiles to the planner's map every update_period_s,
+  /// growing it as the robot maps beyond it or is sent beyond it.
   void NavMapLoop();
 
   /// After the loops ended: the map's last changes within the telemetry budget (empty with perception off).
@@ -93,7 +99,7 @@ class PerceptionService {
   std::mutex scan_mutex_;
   std::shared_ptr<core::LidarScan> latest_scan_;    // from the sensor thread to the perception thread
   std::unique_ptr<PerceptionPipeline> perception_;  // perception thread (and the map/tiles, thread-safe)
-  std::unique_ptr<NavMap> nav_map_;                 // navigation map thread only
+  std::unique_ptr<NavMap> nav_map_;                 // navigation map thread only (but CoverGoal())
   std::atomic<bool> map_snapshot_requested_{false};
 };
 

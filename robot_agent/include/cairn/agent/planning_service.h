@@ -26,8 +26,8 @@ struct PlanningServiceOptions {
   std::string platform;              ///< the robot's platform: a query naming none is planned for it
   double path_queries_per_s = 10.0;  ///< answered per second per asking process (burst twice this), (0, 1000]
   std::size_t max_waiting_queries = 32;  ///< queries waiting beyond this are refused "busy", >= 1
-  double map_half_extent_m =
-      40.0;  ///< the navigation map's half extent, metres (named by out-of-map reasons)
+  double map_max_extent_m =
+      200.0;  ///< the navigation map's largest extent, metres (named by out-of-map reasons)
 };
 
 /// Goal planning and the path query service. Thread-safe: Submit*() from any thread, Run() on one thread.
@@ -39,6 +39,11 @@ class PlanningService {
     std::function<void(const GoalCommand& goal, const nav::GlobalPlan& plan)> goal_planned;
     /// A path query's answer (the planning thread, or the submitting thread for a refusal).
     std::function<void(const PathAnswer& answer)> answer;
+    /// Optional: called for a goal (x, y, metres, map frame) before it is planned; returns why the robot's
+    /// navigation map cannot cover it (the goal is then refused with that reason), or "" after asking the
+    /// map to grow over it when it lies beyond (the plan then ends at the map's edge and is extended as the
+    /// map grows).
+    std::function<std::string(const Eigen::Vector2d& goal_M)> cover_goal;
   };
 
   /// `planner` (thread-safe) serves the goals and the queries. @throws std::invalid_argument for a null
@@ -57,7 +62,8 @@ class PlanningService {
   /// Plans one queued job, if any within `wait`; false when none came.
   bool RunOnce(std::chrono::milliseconds wait);
 
-  /// A failed plan's reason for operators (an out-of-map goal names the navigation map's extent and its key).
+  /// A failed plan's reason for operators (an out-of-map point names the navigation map's largest extent and
+  /// its key).
   std::string PlanReason(const nav::GlobalPlan& plan) const;
   /// Path queries refused so far (rate or queue).
   std::uint64_t queries_refused() const;
