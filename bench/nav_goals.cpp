@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "cairn/agent/agent_options.h"
@@ -22,6 +23,7 @@
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
+#include "cairn/agent/waypoint_recovery.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/nav/sampling.h"
 #include "cairn/nav/scan_obstacles.h"
@@ -39,10 +41,12 @@ struct Outcome {
   bool contact = false;
   double time_s = 0.0;
   std::string reason;
+  int recoveries = 0;  // times the recovery tree ran (own map)
 };
 
 double g_half_extent_m = agent::NavMapOptions().half_extent_m;
 bool g_verbose = false;
+bool g_recovery = true;  // run the recovery tree when navigation gives up (--no-recovery: fail at once)
 std::vector<Eigen::Vector2d> g_then_goals;  // --then GX GY: further goals for the same robot (--one)
 
 agent::AgentOptions Options() {
@@ -112,6 +116,8 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
   agent::Navigation navigation(options.navigation, planner,
                                std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
   agent::LiveObstacles live_obstacles(options, platform.Capabilities().lidar_min_elevation_rad);
+  agent::WaypointRecovery recovery(std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml", &navigation,
+                                   agent::WaypointRecovery::Hooks{[&] { live_obstacles.Clear(); }});
   std::vector<Eigen::Vector3f> points_B;
   Outcome out;
   core::LidarScan scan;
@@ -143,7 +149,25 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
       }
       goal_set = true;
     }
-    const agent::NavigationStep step = navigation.StepWaypoint(pose, t);
+    // Navigation, and the recovery tree when it gives up (as the agent's waypoint mode runs them), unless
+    // --no-recovery.
+    agent::NavigationStep step;
+    if (recovery.active()) {
+      step = recovery.Step(pose, t);
+      // An attempt's plan comes from a worker: wait for it in wall time (the robot holds still).
+      while (recovery.planning()) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        step = recovery.Step(pose, t);
+      }
+    } else {
+      step = navigation.StepWaypoint(pose, t);
+      if (step.failed && g_recovery && recovery.enabled()) {
+        if (g_verbose) std::printf("  t %.1f recovery after: %s\n", t, step.reason.c_str());
+        ++out.recoveries;
+        recovery.Start(goal.x(), goal.y(), 0.0, step.reason);
+        step = agent::NavigationStep{};
+      }
+    }
     platform.CommandTwist(step.linear_x_mps, step.angular_z_radps, t);
     out.contact = out.contact || platform.ReadStatus().in_contact;
     if (g_verbose && std::fmod(t + 1e-9, 0.5) < kDt) {
@@ -280,6 +304,8 @@ int main(int argc, char** argv) {
       i += 2;
     } else if (!std::strcmp(argv[i], "--verbose")) {
       g_verbose = true;
+    } else if (!std::strcmp(argv[i], "--no-recovery")) {
+      g_recovery = false;
     } else if (!std::strcmp(argv[i], "--one") && i + 6 < argc) {  // --one WORLD SX SY SYAW GX GY
       const std::string world = argv[i + 1];
       const core::PlanarPose start{std::atof(argv[i + 2]), std::atof(argv[i + 3]), std::atof(argv[i + 4])};
@@ -292,11 +318,12 @@ int main(int argc, char** argv) {
     } else if (!std::strcmp(argv[i], "--world") && i + 1 < argc) {
       worlds.push_back(argv[++i]);
     } else {
-      std::fprintf(stderr, "usage: %s [--goals N] [--half-extent M] [--world builtin:NAME]...\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--goals N] [--half-extent M] [--no-recovery] [--world builtin:NAME]...\n",
+                   argv[0]);
       return 2;
     }
   }
-  if (worlds.empty()) worlds = {"builtin:tunnels", "builtin:arena"};
+  if (worlds.empty()) worlds = {"builtin:tunnels", "builtin:arena", "builtin:building"};
   for (const std::string& world : worlds) {
     const auto& info = sim::GetBuiltinWorldInfo(world.substr(8));
     const core::PlanarPose start = info.suggested_starts.front();
@@ -308,7 +335,7 @@ int main(int argc, char** argv) {
         goals.emplace_back(p.x(), p.y());
       }
     }
-    int own_ok = 0, truth_ok = 0, own_contacts = 0, truth_contacts = 0;
+    int own_ok = 0, truth_ok = 0, own_contacts = 0, truth_contacts = 0, recovered = 0;
     double own_time = 0, truth_time = 0;  // over goals both reached
     int both = 0;
     for (std::size_t g = 0; g < goals.size(); ++g) {
@@ -317,21 +344,24 @@ int main(int argc, char** argv) {
       own_ok += own.arrived;
       truth_ok += gt.arrived;
       own_contacts += own.contact;
+      recovered += own.arrived && own.recoveries > 0;
       truth_contacts += gt.contact;
       if (own.arrived && gt.arrived) {
         own_time += own.time_s;
         truth_time += gt.time_s;
         ++both;
       }
-      std::printf("  %s goal %2zu (%5.1f, %5.1f): own map %s %5.1f s%s | ground truth %s %5.1f s%s\n", world.c_str(),
-                  g, goals[g].x(), goals[g].y(), own.arrived ? "arrived" : "FAILED ", own.time_s,
+      std::printf("  %s goal %2zu (%5.1f, %5.1f): own map %s %5.1f s%s%s | ground truth %s %5.1f s%s\n",
+                  world.c_str(), g, goals[g].x(), goals[g].y(), own.arrived ? "arrived" : "FAILED ", own.time_s,
+                  own.recoveries > 0 ? (" after " + std::to_string(own.recoveries) + " recovery").c_str() : "",
                   own.arrived ? "" : (" (" + own.reason + ")").c_str(), gt.arrived ? "arrived" : "FAILED ",
                   gt.time_s, gt.arrived ? "" : (" (" + gt.reason + ")").c_str());
     }
-    std::printf("%s, %zu goals from (%.1f, %.1f): success own map %d/%zu, ground truth %d/%zu (ratio %.2f); "
-                "contacts %d vs %d; mean time to goal on the %d both reached: own %.1f s, ground truth %.1f s "
-                "(ratio %.2f)\n",
-                world.c_str(), goals.size(), start.x_m, start.y_m, own_ok, goals.size(), truth_ok, goals.size(),
+    std::printf("%s, %zu goals from (%.1f, %.1f): success own map %d/%zu (%d after a recovery), ground truth "
+                "%d/%zu (ratio %.2f); contacts %d vs %d; mean time to goal on the %d both reached: own %.1f s, "
+                "ground truth %.1f s (ratio %.2f)\n",
+                world.c_str(), goals.size(), start.x_m, start.y_m, own_ok, goals.size(), recovered, truth_ok,
+                goals.size(),
                 truth_ok ? static_cast<double>(own_ok) / truth_ok : 0.0, own_contacts, truth_contacts, both,
                 both ? own_time / both : 0.0, both ? truth_time / both : 0.0,
                 truth_time > 0 ? own_time / truth_time : 0.0);

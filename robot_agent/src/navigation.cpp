@@ -21,6 +21,7 @@ constexpr double kArrivalLevelM = 0.5;     // ...and this close to the height of
 // a mostly unknown map; back to back they would take a core from the robot's sensing and mapping).
 constexpr double kMinReplanIntervalS = 1.0;
 constexpr double kPartialWaitS = 8.0;      // a partial plan's end is a dead end after this long without a way on
+constexpr double kProgressRadiusM = 0.5;   // moving this far is progress (Nav2's required_movement_radius)
 constexpr double kGoalSnapM = 0.25;        // largest hop from a free local path sample to the goal
 
 using internal::Fixed;
@@ -132,6 +133,7 @@ void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m,
   goal.tolerance_m = tolerance_m > 0 ? tolerance_m : options_.goal_tolerance_m;
   goal.best_distance_m = plan.result.length_m;
   goal.best_time_s = now_s;
+  if (!plan.result.path_W.empty()) goal.best_p_W = plan.result.path_W.front().head<2>();
   goal_ = goal;
   plan_ = plan;
   path_segment_ = 0;
@@ -307,8 +309,10 @@ void Navigation::AdoptPlan(const nav::GlobalPlan& plan, double now_s) {
   path_segment_ = 0;
   segment_start_along_m_ = 0.0;
   projection_along_m_ = 0.0;
-  goal_->best_distance_m = plan.result.length_m;  // a detour is not a lack of progress
-  goal_->best_time_s = now_s;
+  // A detour is not a lack of progress: the new path's length is the reference from now on. Not moving is
+  // (the time of the last progress stays).
+  goal_->best_distance_m = plan.result.length_m;
+  (void)now_s;
   ++replans_;
   ++path_revision_;
 }
@@ -497,6 +501,9 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   };
   if (plan_.result.partial && !plan_.result.path_W.empty()) {
     const bool at_end = (plan_.result.path_W.back().head<2>() - p_W).norm() <= std::max(goal_->tolerance_m, 0.3);
+    // Waiting at a partial plan's end for the map to show a way on is not a lack of progress: kPartialWaitS
+    // governs it.
+    if (at_end) goal_->best_time_s = now_s;
     if ((at_end && now_s - last_partial_replan_s_ >= 1.0) ||
         (planner_->map_version() != plan_.map_version && now_s - last_partial_replan_s_ >= 4.0)) {
       replan_on_worker(at_end, "the partial plan was extended");
@@ -519,9 +526,11 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   // Progress bookkeeping: ETA from a slow mean of the speed, blocked when no progress.
   mean_speed_mps_ += 0.02 * (std::abs(state.v_mps) - mean_speed_mps_);
   eta_s_ = distance_left_m_ / std::max(mean_speed_mps_, 0.2 * options_.platform.cruise_speed_mps);
-  if (distance_left_m_ < goal_->best_distance_m - 0.05) {
+  const double moved_m = goal_->best_p_W.allFinite() ? (p_W - goal_->best_p_W).norm() : kProgressRadiusM;
+  if (moved_m >= kProgressRadiusM || (distance_left_m_ < goal_->best_distance_m - 0.05 && moved_m >= 0.05)) {
     goal_->best_distance_m = distance_left_m_;
     goal_->best_time_s = now_s;
+    goal_->best_p_W = p_W;
   } else if (now_s - goal_->best_time_s > options_.blocked_timeout_s) {
     return Fail("blocked: no progress for " + Fixed(options_.blocked_timeout_s, 1) + " s (" +
                 Fixed(distance_left_m_, 1) + " m left" +

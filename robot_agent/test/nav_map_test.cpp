@@ -15,22 +15,67 @@
 namespace cairn::agent {
 namespace {
 
-TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFloor) {
-  sim::SimulatedPlatformOptions sim_options;
-  sim_options.world = "builtin:tunnels";
-  sim_options.start_W = core::PlanarPose{4.0, 20.0, 0.0};
-  const nav::PlatformProfile profile = nav::GetPlatformProfile("wheeled");
-  sim_options.SetProfile(profile);
-  sim::SimulatedPlatform platform(sim_options);
-  platform.Update(0.0);
-  const core::BaseState start_M = platform.ReadPose().PlanarState();
+// A wheeled robot on the simulated platform in builtin:tunnels at (4, 20) facing east, its perception and a
+// navigation map with `map_options` feeding a planner.
+struct TunnelsRig {
+  explicit TunnelsRig(const NavMapOptions& map_options = {})
+      : profile(nav::GetPlatformProfile("wheeled")),
+        platform(PlatformOptions(profile)),
+        start_M(Started(platform)),
+        perception(Perception(), "r1"),
+        planner(NavMap::MakePlanner(map_options, Perception().map.resolution_m, start_M, {profile})),
+        nav_map(map_options, Perception().map.resolution_m, start_M, planner, "wheeled") {}
 
-  PerceptionOptions perception_options;
-  perception_options.camera_rate_hz = 0;
-  PerceptionPipeline perception(perception_options, "r1");
-  NavMapOptions map_options;
-  auto planner = NavMap::MakePlanner(map_options, perception_options.map.resolution_m, start_M, {profile});
-  NavMap nav_map(map_options, perception_options.map.resolution_m, start_M, planner, "wheeled");
+  static sim::SimulatedPlatformOptions PlatformOptions(const nav::PlatformProfile& profile) {
+    sim::SimulatedPlatformOptions o;
+    o.world = "builtin:tunnels";
+    o.start_W = core::PlanarPose{4.0, 20.0, 0.0};
+    o.SetProfile(profile);
+    return o;
+  }
+  static core::BaseState Started(sim::SimulatedPlatform& platform) {
+    platform.Update(0.0);
+    return platform.ReadPose().PlanarState();
+  }
+  static PerceptionOptions Perception() {
+    PerceptionOptions o;
+    o.camera_rate_hz = 0;
+    return o;
+  }
+
+  // Drives the true base east along the tunnel's centre line at 1 m/s for `steps` scans at 10 Hz, updating the
+  // navigation map at 1 Hz; returns the updates' statistics.
+  std::vector<NavMapUpdateStats> DriveEast(int steps) {
+    std::vector<NavMapUpdateStats> updates;
+    for (int k = 1; k <= steps; ++k) {
+      const double now_s = k * 0.1;
+      sim::UnicycleState s = platform.TrueState();
+      s.x_m = 4.0 + 0.1 * k;
+      s.v_mps = 1.0;
+      platform.SetTrueState(s);
+      platform.Update(now_s);
+      core::LidarScan scan;
+      EXPECT_TRUE(platform.ReadLidarScan(now_s, &scan));
+      perception.Tick(now_s, &scan, nullptr);
+      if (k % 10 == 0) {
+        updates.push_back(nav_map.Update(*perception.map(), perception.TakeChangedTiles(),
+                                         perception.change_tile_m(), perception.max_sensor_z_m()));
+      }
+    }
+    return updates;
+  }
+
+  nav::PlatformProfile profile;
+  sim::SimulatedPlatform platform;
+  core::BaseState start_M;
+  PerceptionPipeline perception;
+  std::shared_ptr<nav::GlobalPlanner> planner;
+  NavMap nav_map;
+};
+
+TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFloor) {
+  TunnelsRig rig;
+  auto& [profile, platform, start_M, perception, planner, nav_map] = rig;
 
   // Before anything is seen, a goal down the tunnel is planned optimistically (unknown space is traversable).
   nav::GlobalPlanRequest request;
@@ -39,28 +84,13 @@ TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFlo
   request.platform = "wheeled";
   ASSERT_TRUE(planner->Plan(request).IsUsable());
 
-  // Drive the true base east along the tunnel's centre line at 1 m/s, scanning at 10 Hz, updating at 1 Hz.
+  // Drive 22 m east, updating at 1 Hz.
   std::vector<double> update_ms;
   int tiles_total = 0;
-  const double dt_s = 0.1;
-  for (int k = 1; k <= 220; ++k) {
-    const double now_s = k * dt_s;
-    sim::UnicycleState s = platform.TrueState();
-    s.x_m = 4.0 + 0.1 * k;
-    s.v_mps = 1.0;
-    platform.SetTrueState(s);
-    platform.Update(now_s);
-    core::LidarScan scan;
-    ASSERT_TRUE(platform.ReadLidarScan(now_s, &scan));
-    perception.Tick(now_s, &scan, nullptr);
-    if (k % 10 == 0) {
-      const NavMapUpdateStats stats =
-          nav_map.Update(*perception.map(), perception.TakeChangedTiles(), perception.change_tile_m(),
-                         perception.max_sensor_z_m());
-      if (!stats.applied) continue;
-      update_ms.push_back(stats.read_ms + stats.traversability_ms + stats.publish_ms);
-      tiles_total += stats.tiles;
-    }
+  for (const NavMapUpdateStats& stats : rig.DriveEast(220)) {
+    if (!stats.applied) continue;
+    update_ms.push_back(stats.read_ms + stats.traversability_ms + stats.publish_ms);
+    tiles_total += stats.tiles;
   }
   ASSERT_GE(update_ms.size(), 20u);
   std::sort(update_ms.begin(), update_ms.end());
@@ -174,24 +204,13 @@ TEST(NavMapTest, AWheeledRobotAtTheFootOfTheStairsIsRefusedTheFloorAboveNamingTh
 // lidar) and when a goal beyond it asks to (RequestCover), never past max_extent_m; the grown map holds every
 // occupied voxel of the OctoMap over its extent and its grid equals a full build.
 TEST(NavMapTest, GrowsAsTheRobotMapsBeyondItOrIsSentBeyondWithinItsLargestExtent) {
-  sim::SimulatedPlatformOptions sim_options;
-  sim_options.world = "builtin:tunnels";
-  sim_options.start_W = core::PlanarPose{4.0, 20.0, 0.0};
-  const nav::PlatformProfile profile = nav::GetPlatformProfile("wheeled");
-  sim_options.SetProfile(profile);
-  sim::SimulatedPlatform platform(sim_options);
-  platform.Update(0.0);
-  const core::BaseState start_M = platform.ReadPose().PlanarState();
-  PerceptionOptions perception_options;
-  perception_options.camera_rate_hz = 0;
-  PerceptionPipeline perception(perception_options, "r1");
   NavMapOptions map_options;
   map_options.half_extent_m = 10.0;
   map_options.max_extent_m = 90.0;
   map_options.grow_margin_m = 5.0;
   map_options.grow_step_m = 10.0;
-  auto planner = NavMap::MakePlanner(map_options, perception_options.map.resolution_m, start_M, {profile});
-  NavMap nav_map(map_options, perception_options.map.resolution_m, start_M, planner, "wheeled");
+  TunnelsRig rig(map_options);
+  auto& [profile, platform, start_M, perception, planner, nav_map] = rig;
   const Eigen::AlignedBox2d initial = nav_map.extent_M();
   EXPECT_NEAR(initial.max().x(), 14.0, 0.11);
 
@@ -202,22 +221,7 @@ TEST(NavMapTest, GrowsAsTheRobotMapsBeyondItOrIsSentBeyondWithinItsLargestExtent
   EXPECT_TRUE(nav_map.CanCover({50.0, 20.0}, &why)) << why;
 
   int grown_updates = 0;
-  for (int k = 1; k <= 160; ++k) {
-    const double now_s = k * 0.1;
-    sim::UnicycleState s = platform.TrueState();
-    s.x_m = 4.0 + 0.1 * k;
-    s.v_mps = 1.0;
-    platform.SetTrueState(s);
-    platform.Update(now_s);
-    core::LidarScan scan;
-    ASSERT_TRUE(platform.ReadLidarScan(now_s, &scan));
-    perception.Tick(now_s, &scan, nullptr);
-    if (k % 10 == 0) {
-      grown_updates += nav_map.Update(*perception.map(), perception.TakeChangedTiles(), perception.change_tile_m(),
-                                      perception.max_sensor_z_m())
-                           .grown;
-    }
-  }
+  for (const NavMapUpdateStats& stats : rig.DriveEast(160)) grown_updates += stats.grown;
   EXPECT_GE(grown_updates, 1);
   EXPECT_EQ(grown_updates, nav_map.growths());
   const Eigen::AlignedBox2d grown = nav_map.extent_M();
