@@ -411,19 +411,37 @@ bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state) {
     if ((p - track.back()).norm() > 1e-6) track.push_back(p);
   }
   if (track.size() < 2) return false;
-  double clearance = 1e18;
+  // Clearance of each track sample from the live obstacle points.
+  std::vector<double> sample_clearance;
+  sample_clearance.reserve(track.size());
   for (const Eigen::Vector2d& p_W : track) {
     const Eigen::Vector2d p_B = ToBody(state, p_W);
+    double c = 1e18;
     for (const Eigen::Vector3f& o : obstacles_B_) {
-      if (!IsObstacle(o)) continue;
-      clearance = std::min(clearance, (o.head<2>().cast<double>() - p_B).norm());
+      if (IsObstacle(o)) c = std::min(c, (o.head<2>().cast<double>() - p_B).norm());
     }
-    if (clearance <= radius) return false;
+    sample_clearance.push_back(c);
   }
+  const double here = sample_clearance.front();
+  const double clearance = *std::min_element(sample_clearance.begin(), sample_clearance.end());
+  bool clear = clearance > radius;
+  // A robot wedged closer than `radius` (cut a door's corner: every library path collides, "boxed in") may
+  // leave along the path if no sample comes closer to any point than it is now (a disk that does not get
+  // closer cannot touch what it does not touch now) and the track's end is clear again.
+  constexpr double kWedgeNoiseM = 0.005;  // range noise of the live points between two scans
+  constexpr double kWedgeContactM = 0.02;  // closer than the footprint by this: in contact, do not move along
+  const bool wedged = !clear && here <= radius && here > options_.platform.footprint_radius_m - kWedgeContactM;
+  if (wedged) {
+    clear = sample_clearance.back() > radius;
+    for (double c : sample_clearance) clear = clear && c >= here - kWedgeNoiseM;
+  }
+  if (!clear) return false;
   track_W_ = std::move(track);
   track_stop_at_end_ = true;
   creeping_ = true;
-  local_status_ = "tight spot: following the global path, " + Fixed(clearance, 2) + " m from the nearest obstacle";
+  local_status_ = std::string(wedged ? "tight spot: leaving a wedge along the global path, "
+                                     : "tight spot: following the global path, ") +
+                  Fixed(clearance, 2) + " m from the nearest obstacle";
   return true;
 }
 
