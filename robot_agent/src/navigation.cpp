@@ -309,10 +309,9 @@ void Navigation::AdoptPlan(const nav::GlobalPlan& plan, double now_s) {
   path_segment_ = 0;
   segment_start_along_m_ = 0.0;
   projection_along_m_ = 0.0;
-  // A detour is not a lack of progress: the new path's length is the reference from now on. Not moving is
-  // (the time of the last progress stays).
-  goal_->best_distance_m = plan.result.length_m;
-  (void)now_s;
+  goal_->best_distance_m = plan.result.length_m;  // a detour is not a lack of progress
+  goal_->best_time_s = now_s;
+  if (last_p_W_.allFinite()) goal_->best_p_W = last_p_W_;
   ++replans_;
   ++path_revision_;
 }
@@ -462,6 +461,7 @@ NavigationStep Navigation::Control(const core::BaseState& state, double cruise_m
 NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now_s) {
   if (!goal_) return {};
   const Eigen::Vector2d p_W(state.x_m, state.y_m);
+  last_p_W_ = p_W;
   const double to_goal = (goal_->p_W - p_W).norm();
   // Arrived: within the tolerance and (nearly) at rest, so the robot stops where it reports arriving; on the
   // level of the plan's end when the goal names one (an upper floor lies over the same x-y).
