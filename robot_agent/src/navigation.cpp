@@ -21,7 +21,6 @@ constexpr double kArrivalLevelM = 0.5;     // ...and this close to the height of
 // a mostly unknown map; back to back they would take a core from the robot's sensing and mapping).
 constexpr double kMinReplanIntervalS = 1.0;
 constexpr double kPartialWaitS = 8.0;      // a partial plan's end is a dead end after this long without a way on
-constexpr double kProgressRadiusM = 0.5;   // moving this far is progress (Nav2's required_movement_radius)
 constexpr double kGoalSnapM = 0.25;        // largest hop from a free local path sample to the goal
 
 using internal::Fixed;
@@ -133,7 +132,6 @@ void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m,
   goal.tolerance_m = tolerance_m > 0 ? tolerance_m : options_.goal_tolerance_m;
   goal.best_distance_m = plan.result.length_m;
   goal.best_time_s = now_s;
-  if (!plan.result.path_W.empty()) goal.best_p_W = plan.result.path_W.front().head<2>();
   goal_ = goal;
   plan_ = plan;
   path_segment_ = 0;
@@ -311,7 +309,6 @@ void Navigation::AdoptPlan(const nav::GlobalPlan& plan, double now_s) {
   projection_along_m_ = 0.0;
   goal_->best_distance_m = plan.result.length_m;  // a detour is not a lack of progress
   goal_->best_time_s = now_s;
-  if (last_p_W_.allFinite()) goal_->best_p_W = last_p_W_;
   ++replans_;
   ++path_revision_;
 }
@@ -410,37 +407,19 @@ bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state) {
     if ((p - track.back()).norm() > 1e-6) track.push_back(p);
   }
   if (track.size() < 2) return false;
-  // Clearance of each track sample from the live obstacle points.
-  std::vector<double> sample_clearance;
-  sample_clearance.reserve(track.size());
+  double clearance = 1e18;
   for (const Eigen::Vector2d& p_W : track) {
     const Eigen::Vector2d p_B = ToBody(state, p_W);
-    double c = 1e18;
     for (const Eigen::Vector3f& o : obstacles_B_) {
-      if (IsObstacle(o)) c = std::min(c, (o.head<2>().cast<double>() - p_B).norm());
+      if (!IsObstacle(o)) continue;
+      clearance = std::min(clearance, (o.head<2>().cast<double>() - p_B).norm());
     }
-    sample_clearance.push_back(c);
+    if (clearance <= radius) return false;
   }
-  const double here = sample_clearance.front();
-  const double clearance = *std::min_element(sample_clearance.begin(), sample_clearance.end());
-  bool clear = clearance > radius;
-  // A robot wedged closer than `radius` (cut a door's corner: every library path collides, "boxed in") may
-  // leave along the path if no sample comes closer to any point than it is now (a disk that does not get
-  // closer cannot touch what it does not touch now) and the track's end is clear again.
-  constexpr double kWedgeNoiseM = 0.005;  // range noise of the live points between two scans
-  constexpr double kWedgeContactM = 0.02;  // closer than the footprint by this: in contact, do not move along
-  const bool wedged = !clear && here <= radius && here > options_.platform.footprint_radius_m - kWedgeContactM;
-  if (wedged) {
-    clear = sample_clearance.back() > radius;
-    for (double c : sample_clearance) clear = clear && c >= here - kWedgeNoiseM;
-  }
-  if (!clear) return false;
   track_W_ = std::move(track);
   track_stop_at_end_ = true;
   creeping_ = true;
-  local_status_ = std::string(wedged ? "tight spot: leaving a wedge along the global path, "
-                                     : "tight spot: following the global path, ") +
-                  Fixed(clearance, 2) + " m from the nearest obstacle";
+  local_status_ = "tight spot: following the global path, " + Fixed(clearance, 2) + " m from the nearest obstacle";
   return true;
 }
 
@@ -461,7 +440,6 @@ NavigationStep Navigation::Control(const core::BaseState& state, double cruise_m
 NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now_s) {
   if (!goal_) return {};
   const Eigen::Vector2d p_W(state.x_m, state.y_m);
-  last_p_W_ = p_W;
   const double to_goal = (goal_->p_W - p_W).norm();
   // Arrived: within the tolerance and (nearly) at rest, so the robot stops where it reports arriving; on the
   // level of the plan's end when the goal names one (an upper floor lies over the same x-y).
@@ -519,9 +497,6 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   };
   if (plan_.result.partial && !plan_.result.path_W.empty()) {
     const bool at_end = (plan_.result.path_W.back().head<2>() - p_W).norm() <= std::max(goal_->tolerance_m, 0.3);
-    // Waiting at a partial plan's end for the map to show a way on is not a lack of progress: kPartialWaitS
-    // governs it.
-    if (at_end) goal_->best_time_s = now_s;
     if ((at_end && now_s - last_partial_replan_s_ >= 1.0) ||
         (planner_->map_version() != plan_.map_version && now_s - last_partial_replan_s_ >= 4.0)) {
       replan_on_worker(at_end, "the partial plan was extended");
@@ -544,11 +519,9 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   // Progress bookkeeping: ETA from a slow mean of the speed, blocked when no progress.
   mean_speed_mps_ += 0.02 * (std::abs(state.v_mps) - mean_speed_mps_);
   eta_s_ = distance_left_m_ / std::max(mean_speed_mps_, 0.2 * options_.platform.cruise_speed_mps);
-  const double moved_m = goal_->best_p_W.allFinite() ? (p_W - goal_->best_p_W).norm() : kProgressRadiusM;
-  if (moved_m >= kProgressRadiusM || (distance_left_m_ < goal_->best_distance_m - 0.05 && moved_m >= 0.05)) {
+  if (distance_left_m_ < goal_->best_distance_m - 0.05) {
     goal_->best_distance_m = distance_left_m_;
     goal_->best_time_s = now_s;
-    goal_->best_p_W = p_W;
   } else if (now_s - goal_->best_time_s > options_.blocked_timeout_s) {
     return Fail("blocked: no progress for " + Fixed(options_.blocked_timeout_s, 1) + " s (" +
                 Fixed(distance_left_m_, 1) + " m left" +

@@ -215,21 +215,6 @@ TEST(NavigationTest, WaypointThroughAOneMetreDoorwayWithoutContact) {
   std::printf("FIGURE doorway_1m time_s %.1f min_clearance_m %.2f\n", robot.t_s, robot.min_clearance_m);
 }
 
-// A robot wedged 0.305 m from a wall (under the local planner's 0.33 m collision radius: every library path
-// collides, "boxed in"; under the tight-spot margin too), its goal ahead and away from the wall: it leaves along
-// the global path, never closer to the wall than it is, and arrives with no contact. (Seen at door jambs of
-// builtin:building, where it stood still until navigation gave up.)
-TEST(NavigationTest, AWedgedRobotLeavesAlongThePathWithoutComingCloser) {
-  sim::World w = FlatWorld(12, 8, 0.1, 1.5);
-  FillBox(&w, {0.0, 4.0, 0.0}, {12.0, 4.2, 1.6});  // wall cells' centres at y 4.05 and 4.15
-  SimRobot robot(std::make_shared<const sim::World>(std::move(w)), "wheeled", 2.0, 3.745, 0.0);
-  const NavigationStep out = robot.DriveTo(9.0, 3.0, 30.0);
-  EXPECT_TRUE(out.arrived) << out.reason << "; local: " << robot.navigation.local_status();
-  EXPECT_EQ(robot.contacts, 0);
-  EXPECT_GE(robot.min_clearance_m, 0.3) << "it came closer to the wall than it stood";
-  std::printf("FIGURE wedge time_s %.1f min_clearance_m %.3f\n", robot.t_s, robot.min_clearance_m);
-}
-
 TEST(NavigationTest, SmartJoystickStraightAtAWallNeverTouchesIt) {
   auto world = std::make_shared<const sim::World>(WallWorld(false));
   SimRobot robot(world, "wheeled", 2.0, 4.0, 0.0);

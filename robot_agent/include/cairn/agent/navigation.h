@@ -175,16 +175,9 @@ class Navigation {
     Eigen::Vector2d p_W = Eigen::Vector2d::Zero();
     double z_m = std::numeric_limits<double>::quiet_NaN();  // level named by the operator, NaN = none
     double tolerance_m = 0.2;
-    // Progress: the distance left and the time and place of the last progress. Progress is moving
-    // kProgressRadiusM from that place (Nav2's progress checker), a shorter distance left after moving at all,
-    // or a new plan (a detour is not a lack of progress; a robot waiting boxed in at a tight gap for its map to
-    // open it is given time).
     double best_distance_m = 0.0;
     double best_time_s = 0.0;
-    Eigen::Vector2d best_p_W = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   };
-  // The robot's position at the last StepWaypoint(), metres, frame W (NaN before the first).
-  Eigen::Vector2d last_p_W_ = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   // How far a (partial) plan's end is from the goal (nav::PartialRemainingM).
   double PartialRemaining(const nav::GlobalPlan& plan) const;
   // Makes `plan` (usable, for the current goal) the one followed, from its start.
