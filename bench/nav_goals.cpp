@@ -136,12 +136,10 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
     if (!goal_set) {
       // As the agent's planning service does (PerceptionService::CoverGoal): a goal beyond the navigation map
       // makes it grow at its next update, the plan ends at its edge meanwhile.
-      std::string why;
-      if (!nav_map.CanCover(goal, &why)) {
+      if (const std::string why = nav_map.Cover(goal); !why.empty()) {
         out.reason = "refused: " + why;
         return out;
       }
-      nav_map.RequestCover(goal);
       const nav::GlobalPlan plan = navigation.SetGoal(pose, goal.x(), goal.y(), 0.0, t);
       if (!plan.IsUsable()) {
         out.reason = "refused: " + plan.reason;

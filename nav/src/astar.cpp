@@ -41,6 +41,9 @@ struct GridSearchScratch {
   }
 };
 
+using internal::FormatPoint;
+using internal::MapExtent;
+
 internal::ScratchPool<GridSearchScratch>& GridScratchPool() {
   static internal::ScratchPool<GridSearchScratch> pool;
   return pool;
@@ -48,19 +51,6 @@ internal::ScratchPool<GridSearchScratch>& GridScratchPool() {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kSqrt2 = 1.41421356237309504880;
-
-std::string FormatPoint(const Eigen::Vector2d& p) {
-  char buf[96];
-  std::snprintf(buf, sizeof(buf), "(%.2f, %.2f)", p.x(), p.y());
-  return buf;
-}
-
-std::string MapExtent(const TraversabilityGrid& grid) {
-  char buf[160];
-  std::snprintf(buf, sizeof(buf), "x in [%.2f, %.2f], y in [%.2f, %.2f]", grid.p_W_min().x(),
-                grid.p_W_max().x(), grid.p_W_min().y(), grid.p_W_max().y());
-  return buf;
-}
 
 std::string DescribeCell(const TraversabilityGrid& grid, int ix, int iy) {
   std::ostringstream out;

@@ -9,6 +9,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "path_internal.h"
+
 namespace cairn::nav {
 namespace {
 
@@ -337,13 +339,12 @@ GlobalPlan GlobalPlanner::PlanToMapEdge(const GlobalPlanRequest& request, const 
   const Eigen::Vector2d lo = grid.p_W_min() + inset, hi = grid.p_W_max() - inset;
   const Eigen::Vector2d edge = request.goal_W.cwiseMax(lo).cwiseMin(hi);
   const Eigen::Vector2d back = request.start_W - edge;
-  const std::string extent = "x in [" + Fixed2(grid.p_W_min().x()) + ", " + Fixed2(grid.p_W_max().x()) + "], y in [" +
-                             Fixed2(grid.p_W_min().y()) + ", " + Fixed2(grid.p_W_max().y()) + "]";
-  const std::string goal = "(" + Fixed2(request.goal_W.x()) + ", " + Fixed2(request.goal_W.y()) + ")";
+  const Eigen::Vector2d toward_start = back.norm() > 0 ? Eigen::Vector2d(back.normalized()) : Eigen::Vector2d::Zero();
+  const std::string extent = internal::MapExtent(grid);
+  const std::string goal = internal::FormatPoint(request.goal_W);
   GlobalPlan first;
   for (int i = 0; i <= kEdgeTries && i <= back.norm(); ++i) {
     GlobalPlanRequest inner = request;
-    const Eigen::Vector2d toward_start = back.norm() > 0 ? Eigen::Vector2d(back.normalized()) : Eigen::Vector2d::Zero();
     inner.goal_W = edge + static_cast<double>(i) * toward_start;
     GlobalPlan plan = Plan(inner);  // inside the map: no recursion
     if (plan.IsUsable()) {

@@ -4,12 +4,30 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <cstdio>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include "cairn/core/voxel_grid.h"
+#include "cairn/nav/traversability.h"
 
 namespace cairn::nav::internal {
+
+/// "(x, y)" with two decimals, metres, for messages.
+inline std::string FormatPoint(const Eigen::Vector2d& p) {
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), "(%.2f, %.2f)", p.x(), p.y());
+  return buf;
+}
+
+/// "x in [.., ..], y in [.., ..]": the grid's extent, metres, for messages.
+inline std::string MapExtent(const TraversabilityGrid& grid) {
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), "x in [%.2f, %.2f], y in [%.2f, %.2f]", grid.p_W_min().x(), grid.p_W_max().x(),
+                grid.p_W_min().y(), grid.p_W_max().y());
+  return buf;
+}
 
 /// The seen-free rule for a robot-built map: a floor candidate whose voxel top is `top_z_m` (voxel (ix, iy,
 /// iz)) counts only if a ray went through the space right above it (one of the 3 x 3 columns around it, one or

@@ -144,6 +144,13 @@ void NavMap::RequestCover(const Eigen::Vector2d& p_M) {
   pending_cover_M_.extend(p_M);
 }
 
+std::string NavMap::Cover(const Eigen::Vector2d& p_M) {
+  std::string why;
+  if (!CanCover(p_M, &why)) return why;
+  RequestCover(p_M);
+  return "";
+}
+
 Eigen::AlignedBox2d NavMap::GrownExtent(const Eigen::AlignedBox2d& current_M, const Eigen::AlignedBox2d& want_M) const {
   if (want_M.isEmpty()) return current_M;
   // Within the margin of an edge (or beyond): grow that side to cover it plus grow_step_m.

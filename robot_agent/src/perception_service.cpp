@@ -76,13 +76,6 @@ bool PerceptionService::ReadScan(double now_s) {
   return true;
 }
 
-std::string PerceptionService::CoverGoal(const Eigen::Vector2d& goal_M) {
-  std::string why;
-  if (!nav_map_->CanCover(goal_M, &why)) return why;
-  nav_map_->RequestCover(goal_M);
-  return "";
-}
-
 void PerceptionService::SensorLoop() {
   // Polls the platform at twice its lidar rate: a scan reaches the local planner within half a period of its
   // arrival, whatever the perception thread is busy with (mapping, stairs, camera).

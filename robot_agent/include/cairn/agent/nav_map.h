@@ -83,6 +83,9 @@ class NavMap {
   /// max_extent_m; nothing when already covered. Thread-safe (e.g. the planning thread for a goal beyond the
   /// map).
   void RequestCover(const Eigen::Vector2d& p_M);
+  /// CanCover() then RequestCover(): "" when the map covers `p_M` or will grow over it at its next update,
+  /// else why not (CanCover()'s reason). Thread-safe (a goal's planning thread).
+  std::string Cover(const Eigen::Vector2d& p_M);
   /// The x-y extent of the map now, metres, map frame. Thread-safe.
   Eigen::AlignedBox2d extent_M() const;
   /// Times the map has grown.

@@ -55,7 +55,7 @@ class PerceptionService {
   /// A goal at `goal_M` (x, y, metres, map frame): "" when the navigation map covers it or may grow to (then
   /// its thread grows the map over it at its next update), else why not (naming navigation.map_max_extent_m).
   /// Any thread (the planning thread).
-  std::string CoverGoal(const Eigen::Vector2d& goal_M);
+  std::string CoverGoal(const Eigen::Vector2d& goal_M) { return nav_map_->Cover(goal_M); }
 
   /// Sensor thread: polls the platform's lidar at twice its rate (a scan reaches the local planner within
   /// half a period, whatever the perception thread is busy with). A read fault is logged, never thrown.
