@@ -7,13 +7,17 @@
 //
 //   build/bench/cairn_bench_nav_goals [--goals N] [--half-extent M (navigation map, default 40)]
 //                                     [--world builtin:NAME]...
-//   build/bench/cairn_bench_nav_goals [--verbose] [--then GX GY]... --one WORLD SX SY SYAW GX GY
-//     one robot from (SX, SY, SYAW) to (GX, GY), then on to each --then goal (given before --one), own map
-//     against ground truth for the first goal; --verbose traces the robot, its obstacles and maps.
+//   build/bench/cairn_bench_nav_goals [--verbose] [--platform wheeled|legged] [--z GZ] [--pause S] [--then GX GY]...
+//                                     --one WORLD SX SY SYAW GX GY
+//     one robot from (SX, SY, SYAW) to (GX, GY), then on to each --then goal (given before --one; the last
+//     goal on the level nearest GZ, metres: an upper floor), own map against ground truth for the first goal
+//     (planar goals only), standing still --pause S seconds before each --then goal (a goal that fails goes
+//     on to the next); --verbose traces the robot, its obstacles and maps.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <thread>
 #include <vector>
@@ -48,11 +52,15 @@ double g_half_extent_m = agent::NavMapOptions().half_extent_m;
 bool g_verbose = false;
 bool g_recovery = true;  // run the recovery tree when navigation gives up (--no-recovery: fail at once)
 std::vector<Eigen::Vector2d> g_then_goals;  // --then GX GY: further goals for the same robot (--one)
+std::string g_platform = "wheeled";          // --platform (--one)
+double g_goal_z_m = std::numeric_limits<double>::quiet_NaN();  // --z: the first goal's level (--one)
+bool g_verbose_columns_along_y = true;
+double g_pause_s = 0.0;  // --pause: the robot stands still this long before each --then goal (--one)
 
 agent::AgentOptions Options() {
   agent::AgentOptions o;
   o.robot_id = "bench";
-  o.SetPlatform("wheeled");
+  o.SetPlatform(g_platform);
   o.nav_map.half_extent_m = g_half_extent_m;
   return o;
 }
@@ -94,6 +102,54 @@ void PrintPicture(const nav::TraversabilityGrid& truth, const agent::NavMap& nav
   std::printf("\n");
 }
 
+// The navigation map's surfaces near height `z_m` over a 3 m x 2 m window around `center_W` (rows: y):
+// per cell the surface nearest z_m within 0.35 m as its height above z_m in decimetres (a letter when not
+// traversable: 'a' = -3 .. 'g' = +3), '-' none, '?' unknown at z_m.
+void PrintLevels(const agent::NavMap& nav_map, const Eigen::Vector2d& center_W, double z_m) {
+  const nav::MultiLevelGrid& levels = nav_map.levels();
+  for (double y = center_W.y() + 1.0; y > center_W.y() - 1.0; y -= 0.1) {
+    std::string row;
+    for (double x = center_W.x() - 1.5; x < center_W.x() + 1.5; x += 0.1) {
+      int ix = 0, iy = 0;
+      if (!levels.CellOf(x, y, &ix, &iy)) {
+        row += ' ';
+        continue;
+      }
+      const int node = levels.NodeNear(ix, iy, z_m, 0.35);
+      if (node < 0) {
+        row += levels.IsUnknownAt(ix, iy, z_m) ? '?' : '-';
+        continue;
+      }
+      const int dz = static_cast<int>(std::lround((levels.NodeZ(node) - z_m) / 0.1));
+      row += levels.IsTraversable(node) ? static_cast<char>('0' + std::clamp(dz + 3, 0, 9)) : static_cast<char>('a' + std::clamp(dz + 3, 0, 9));
+    }
+    std::printf("      %s  y %.2f\n", row.c_str(), y);
+  }
+  std::printf("      (x from %.2f; digit = 3 + surface height above z %.2f in dm, letter = not traversable)\n",
+              center_W.x() - 1.5, z_m);
+  // The columns along y = center's y: voxels (o occupied, f seen free, . unknown) from z_m - 0.5 up, and
+  // the surfaces (height, clearance).
+  const core::VoxelGrid& voxels = nav_map.voxels();
+  for (double t = -1.0; t < 0.6; t += 0.1) {
+    const double x = center_W.x() + (g_verbose_columns_along_y ? 0.0 : t);
+    const double y = center_W.y() + (g_verbose_columns_along_y ? t : 0.0);
+    const auto index = voxels.IndexOf({x, y, z_m});
+    int ix = 0, iy = 0;
+    if (!index || !levels.CellOf(x, y, &ix, &iy)) continue;
+    std::string column;
+    for (int dz = -5; dz <= 12; ++dz) {
+      const Eigen::Vector3i v(index->x(), index->y(), index->z() + dz);
+      column += voxels.IsOccupiedIndex(v) ? 'o' : nav_map.seen_free().IsOccupiedIndex(v) ? 'f' : '.';
+    }
+    std::printf("      x %.2f y %.2f z %.2f..: %s surfaces:", x, y, voxels.CenterOf(*index).z() - 0.5, column.c_str());
+    const int c = levels.Column(ix, iy);
+    for (int n = levels.FirstNode(c); n < levels.FirstNode(c + 1); ++n) {
+      std::printf(" %.2f(%.2f)", levels.NodeZ(n), levels.ClearanceM(n));
+    }
+    std::printf("\n");
+  }
+}
+
 // The stack of issue 11: everything from the simulated platform's sensors and pose estimate.
 Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const Eigen::Vector2d& first_goal,
                   double timeout_s) {
@@ -112,7 +168,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
   agent::PerceptionPipeline perception(perception_options, "bench");
   auto planner = agent::NavMap::MakePlanner(options.nav_map, perception_options.map.resolution_m, start_M,
                                             {options.navigation.platform});
-  agent::NavMap nav_map(options.nav_map, perception_options.map.resolution_m, start_M, planner, "wheeled");
+  agent::NavMap nav_map(options.nav_map, perception_options.map.resolution_m, start_M, planner, g_platform);
   agent::Navigation navigation(options.navigation, planner,
                                std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
   agent::LiveObstacles live_obstacles(options, platform.Capabilities().lidar_min_elevation_rad);
@@ -122,6 +178,8 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
   Outcome out;
   core::LidarScan scan;
   bool goal_set = false;
+  double active_goal_z_m = std::numeric_limits<double>::quiet_NaN();
+  double pause_until_s = 0.0;  // no goal before then (--pause)
   for (double t = kDt; t < timeout_s; t += kDt) {
     platform.Update(t);
     const core::BaseState pose = platform.ReadPose().PlanarState();
@@ -133,19 +191,26 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
     }
     if (std::fmod(t + 1e-9, 1.0) < kDt) nav_map.Update(*perception.map(), perception.TakeChangedTiles(),
                                                        perception.change_tile_m(), perception.max_sensor_z_m());
-    if (!goal_set) {
+    // A goal on another level waits for the first map updates (the agent is sent one when it has a map).
+    if (!goal_set && t >= pause_until_s && (next_goal > 0 || !std::isfinite(g_goal_z_m) || t >= 2.0)) {
       // As the agent's planning service does (PerceptionService::CoverGoal): a goal beyond the navigation map
       // makes it grow at its next update, the plan ends at its edge meanwhile.
       if (const std::string why = nav_map.Cover(goal); !why.empty()) {
         out.reason = "refused: " + why;
         return out;
       }
-      const nav::GlobalPlan plan = navigation.SetGoal(pose, goal.x(), goal.y(), 0.0, t);
+      active_goal_z_m = next_goal == g_then_goals.size() ? g_goal_z_m : std::numeric_limits<double>::quiet_NaN();
+      const nav::GlobalPlan plan = navigation.SetGoal(pose, goal.x(), goal.y(), 0.0, t, active_goal_z_m);
       if (!plan.IsUsable()) {
         out.reason = "refused: " + plan.reason;
         return out;
       }
       goal_set = true;
+    }
+    if (!goal_set) {  // standing still, sensing, until the next goal
+      platform.CommandTwist(0.0, 0.0, t);
+      out.contact = out.contact || platform.ReadStatus().in_contact;
+      continue;
     }
     // Navigation, and the recovery tree when it gives up (as the agent's waypoint mode runs them), unless
     // --no-recovery.
@@ -162,11 +227,17 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
       if (step.failed && g_recovery && recovery.enabled()) {
         if (g_verbose) std::printf("  t %.1f recovery after: %s\n", t, step.reason.c_str());
         ++out.recoveries;
-        recovery.Start(goal.x(), goal.y(), 0.0, step.reason);
+        recovery.Start(goal.x(), goal.y(), 0.0, step.reason, active_goal_z_m);
         step = agent::NavigationStep{};
       }
     }
     platform.CommandTwist(step.linear_x_mps, step.angular_z_radps, t);
+    if (platform.ReadStatus().in_contact && !out.contact) {
+      const auto truth = platform.TrueState();
+      std::printf("  t %.2f CONTACT at true (%.2f, %.2f, %.2f) yaw %.2f, estimate (%.2f, %.2f, %.2f) yaw %.2f, cmd (%.2f, %.2f)\n", t,
+                  truth.x_m, truth.y_m, truth.z_m, truth.yaw_rad, pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad,
+                  step.linear_x_mps, step.angular_z_radps);
+    }
     out.contact = out.contact || platform.ReadStatus().in_contact;
     if (g_verbose && std::fmod(t + 1e-9, 0.5) < kDt) {
       std::printf("    t %5.1f pose (%.2f, %.2f, %.2f) v %.2f w %.2f cmd (%.2f, %.2f) left %.1f local '%s'\n", t, pose.x_m,
@@ -205,9 +276,19 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
         std::printf("  arrived at (%.2f, %.2f) after %.1f s; next goal\n", goal.x(), goal.y(), t);
         goal = g_then_goals[next_goal++];
         goal_set = false;
+        out.arrived = false;
+        pause_until_s = t + g_pause_s;
         continue;
       }
       return out;
+    }
+    if (step.failed && next_goal < g_then_goals.size()) {
+      std::printf("  failed at (%.2f, %.2f) after %.1f s, robot at (%.2f, %.2f) yaw %.2f: %s; next goal\n", goal.x(), goal.y(), t,
+                  pose.x_m, pose.y_m, pose.yaw_rad, step.reason.c_str());
+      goal = g_then_goals[next_goal++];
+      goal_set = false;
+      pause_until_s = t + g_pause_s;
+      continue;
     }
     if (step.failed) {
       if (g_verbose) {
@@ -229,6 +310,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
         }
         std::printf("      (x from %.1f to %.1f)\n", x0, x1);
         PrintPicture(*platform.terrain(), nav_map, pose, goal);
+        PrintLevels(nav_map, {21.35, 7.7}, pose.z_m);
         for (double x = goal.x() - 0.35; x < goal.x() + 0.4; x += 0.1) {
           std::printf("      octomap x %.2f:", x);
           for (double z = -0.05; z < 0.4; z += 0.1) {
@@ -300,6 +382,12 @@ int main(int argc, char** argv) {
     } else if (!std::strcmp(argv[i], "--then") && i + 2 < argc) {
       g_then_goals.emplace_back(std::atof(argv[i + 1]), std::atof(argv[i + 2]));
       i += 2;
+    } else if (!std::strcmp(argv[i], "--pause") && i + 1 < argc) {
+      g_pause_s = std::atof(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--platform") && i + 1 < argc) {
+      g_platform = argv[++i];
+    } else if (!std::strcmp(argv[i], "--z") && i + 1 < argc) {
+      g_goal_z_m = std::atof(argv[++i]);
     } else if (!std::strcmp(argv[i], "--verbose")) {
       g_verbose = true;
     } else if (!std::strcmp(argv[i], "--no-recovery")) {
@@ -308,8 +396,10 @@ int main(int argc, char** argv) {
       const std::string world = argv[i + 1];
       const core::PlanarPose start{std::atof(argv[i + 2]), std::atof(argv[i + 3]), std::atof(argv[i + 4])};
       const Eigen::Vector2d goal(std::atof(argv[i + 5]), std::atof(argv[i + 6]));
-      const Outcome own = RunOwnMap(world, start, goal, 120.0);
-      std::printf("own map: %s after %.1f s %s\n", own.arrived ? "arrived" : "FAILED", own.time_s, own.reason.c_str());
+      const Outcome own = RunOwnMap(world, start, goal, 240.0);
+      std::printf("own map: %s after %.1f s%s %s\n", own.arrived ? "arrived" : "FAILED", own.time_s,
+                  own.contact ? " WITH CONTACT" : "", own.reason.c_str());
+      if (std::isfinite(g_goal_z_m)) return own.arrived && !own.contact ? 0 : 1;
       const Outcome gt = RunGroundTruth(world, start, goal, 120.0);
       std::printf("ground truth: %s after %.1f s %s\n", gt.arrived ? "arrived" : "FAILED", gt.time_s, gt.reason.c_str());
       return own.arrived ? 0 : 1;

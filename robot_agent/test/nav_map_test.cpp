@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "cairn/agent/live_obstacles.h"
 #include "cairn/agent/perception_pipeline.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/sim/simulated_platform.h"
@@ -300,6 +301,59 @@ TEST(NavMapTest, InvalidOptionsNameTheField) {
   o.update_period_s = 0;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("navigation.map_update_period_s"), std::string::npos) << why;
+}
+
+// A wheeled robot drives up to the first riser of the tunnels' staircase (0.2 m, above its 0.15 m step) and
+// stands 0.45 m from it while another robot climbs: the riser lies under its lidar's lowest beam from there, so
+// no scan shows it again. It stays among the local planner's obstacles for as long as it stays unseen (it was
+// forgotten after 30 s, and the robot, sent on, drove its corner into the step).
+TEST(LiveObstaclesTest, AStepBesideARobotStandingStillStaysAnObstacleWhileItCannotBeSeen) {
+  AgentOptions options;
+  options.SetPlatform("wheeled");
+  sim::SimulatedPlatformOptions sim_options;
+  sim_options.world = "builtin:tunnels";
+  sim_options.start_W = core::PlanarPose{47.0, 23.75, 0.0};
+  sim_options.SetProfile(options.navigation.platform);
+  sim::SimulatedPlatform platform(sim_options);
+  platform.Update(0.0);
+  LiveObstacles live(options, platform.Capabilities().lidar_min_elevation_rad);
+  std::vector<Eigen::Vector3f> points_B;
+  core::BaseState pose_M;
+  // Obstacle points of the riser: ahead of the robot, 0.3-0.7 m (the riser at x = 50, the robot's centre at
+  // 49.55), within the robot's width.
+  const auto riser_points = [&] {
+    return std::count_if(points_B.begin(), points_B.end(), [](const Eigen::Vector3f& p) {
+      return p.x() > 0.3f && p.x() < 0.7f && std::abs(p.y()) < 0.3f;
+    });
+  };
+  double now_s = 0.0;
+  const auto scan_at = [&](double x_m) {
+    sim::UnicycleState s = platform.TrueState();
+    s.x_m = x_m;
+    platform.SetTrueState(s);
+    platform.Update(now_s);
+    core::LidarScan scan;
+    ASSERT_TRUE(platform.ReadLidarScan(now_s, &scan));
+    live.AddScan(scan, &points_B, &pose_M);
+  };
+  for (int k = 1; k <= 26; ++k) {  // up to the riser at 0.1 m per scan, 10 Hz
+    now_s = 0.1 * k;
+    scan_at(std::min(49.55, 47.0 + 0.1 * k));
+  }
+  EXPECT_GT(riser_points(), 0) << "the riser was never an obstacle";
+  for (int k = 1; k <= 90; ++k) {  // 45 s standing still, a scan every 0.5 s
+    now_s += 0.5;
+    scan_at(49.55);
+  }
+  EXPECT_GT(riser_points(), 0) << "the riser beside the robot was forgotten after 45 s standing still";
+  // Backed off 1.5 m it is in view again, seen by the scans and still an obstacle (now 1.75-2.15 m ahead).
+  for (int k = 1; k <= 5; ++k) {
+    now_s += 0.1;
+    scan_at(48.05);
+  }
+  EXPECT_GT(std::count_if(points_B.begin(), points_B.end(),
+                          [](const Eigen::Vector3f& p) { return p.x() > 1.75f && p.x() < 2.15f && std::abs(p.y()) < 0.3f; }),
+            0);
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 // The local planner's obstacles from the live lidar: the points seen within AgentOptions::obstacle_window_s,
-// and for 30 s those under the lidar's lowest beam near the robot (a deduplicated perception::LocalCloud around
-// the robot) analysed by nav::ObstaclesFromPoints. Used by the agent's sensor thread and by in-process tests
+// and, for as long as they stay there (up to 10 min), those under the lidar's lowest beam near the robot (a
+// deduplicated perception::LocalCloud around the robot) analysed by nav::ObstaclesFromPoints. Used by the agent's sensor thread and by in-process tests
 // and benches, so all sense exactly alike. Not thread-safe.
 #pragma once
 
@@ -18,8 +18,10 @@ namespace cairn::agent {
 class LiveObstacles {
  public:
   /// `lidar_min_elevation_rad`: the platform's lowest lidar beam (core::PlatformCapabilities; NaN: unknown),
-  /// under which points near the robot stay in memory for the blind window (30 s) instead of
-  /// options.obstacle_window_s: the robot does not forget a step it drove up to.
+  /// under which points near the robot stay in memory while they stay under it (no scan can show them again
+  /// nor clear them; up to kBlindWindow_s) instead of options.obstacle_window_s: the robot does not forget a
+  /// step it drove up to, however long it stands there. Once it moves so that they are in view again, the
+  /// short window applies (a ghost goes, a real step is seen again).
   explicit LiveObstacles(const AgentOptions& options,
                          double lidar_min_elevation_rad = std::numeric_limits<double>::quiet_NaN())
       : cloud_(CloudOptions(options, lidar_min_elevation_rad)) {
@@ -43,12 +45,16 @@ class LiveObstacles {
   }
 
  private:
+  // The longest time a point under the lowest beam is kept, seconds (LocalCloudOptions' largest): a robot
+  // waiting beside a step while another robot climbs (30 s was too short for that).
+  static constexpr double kBlindWindow_s = 600.0;
+
   static perception::LocalCloudOptions CloudOptions(const AgentOptions& options, double lidar_min_elevation_rad) {
     perception::LocalCloudOptions o;
     o.voxel_size_m = 0.05;
     o.window_s = options.obstacle_window_s;
     o.blind_below_elevation_rad = lidar_min_elevation_rad;
-    o.blind_window_s = std::max(o.window_s, 30.0);
+    o.blind_window_s = std::max(o.window_s, kBlindWindow_s);
     o.radius_m = std::max(1.0, options.navigation.sensor_range_m + 0.5);
     return o;
   }
