@@ -311,6 +311,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
         std::printf("      (x from %.1f to %.1f)\n", x0, x1);
         PrintPicture(*platform.terrain(), nav_map, pose, goal);
         PrintLevels(nav_map, {21.35, 7.7}, pose.z_m);
+        PrintLevels(nav_map, {21.0, 7.7}, pose.z_m + 0.5);
         for (double x = goal.x() - 0.35; x < goal.x() + 0.4; x += 0.1) {
           std::printf("      octomap x %.2f:", x);
           for (double z = -0.05; z < 0.4; z += 0.1) {

@@ -280,6 +280,7 @@ TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
       << r;
   EXPECT_LT(observer.FreshState("whl1").pose_MB().position().z_m(), 0.15);
   for (const auto& s : observer.History("whl1")) EXPECT_FALSE(s.in_contact()) << "whl1 touched occupied space";
+  std::printf("%s", TrackBeforeContact(observer.History("whl1")).c_str());
   // Now its map holds the staircase: its path service refuses its own platform with the step.
   r = op.Run("plan whl1 54.5 23.8 --from 48,20");
   EXPECT_FALSE(r["ok"]) << r;
@@ -293,6 +294,7 @@ TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
   const auto top = observer.FreshState("leg1");
   EXPECT_NEAR(top.pose_MB().position().z_m(), 1.0, 0.11);
   for (const auto& s : observer.History("leg1")) EXPECT_FALSE(s.in_contact()) << "leg1 touched occupied space";
+  std::printf("%s", TrackBeforeContact(observer.History("leg1")).c_str());
   Figure("stairs_top_z_m", top.pose_MB().position().z_m());
 
   // Smart joystick: back where it started, full stick at the room's east wall (x ~ 56) for 8 s never touches it.
@@ -308,6 +310,7 @@ TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
     EXPECT_FALSE(s.in_contact()) << "whl1 touched occupied space at x " << s.pose_MB().position().x_m();
     max_x = std::max(max_x, s.pose_MB().position().x_m());
   }
+  std::printf("%s", TrackBeforeContact(observer.History("whl1")).c_str());
   EXPECT_GT(max_x, 53.0) << "smart joystick did not drive";
   Figure("joystick_wall_closest_x_m", max_x);
   r = op.Run("status whl1");
@@ -482,6 +485,7 @@ TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) 
                                  << s.pose_MB().position().y_m() << ", " << s.pose_MB().position().z_m() << ")";
     highest_z = std::max(highest_z, s.pose_MB().position().z_m());
   }
+  std::printf("%s", TrackBeforeContact(observer.History("r1")).c_str());
   Figure("legged_final_z_m", p.z_m());
   Figure("legged_highest_z_m", highest_z);
   EXPECT_GE(highest_z, 1.0) << "r1 did not climb five steps of the lower flight (see " << logs << ")";

@@ -5,6 +5,7 @@
 #include <signal.h>
 
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -94,6 +95,32 @@ class Observer {
   std::map<std::string, std::vector<cairn_msgs::RobotState>> history_;
   std::map<std::string, cairn_msgs::TeleopTwist> last_teleop_;
 };
+
+// The states of `history` up to the first one in contact (at most `count` of them, oldest first): pose
+// (metres, degrees), measured and commanded twist, the mux's and navigation's reasons; "" when none is in
+// contact. Printed by tests next to a contact failure, so that a rare one can be diagnosed from the log.
+inline std::string TrackBeforeContact(const std::vector<cairn_msgs::RobotState>& history, std::size_t count = 25) {
+  std::size_t first = history.size();
+  for (std::size_t i = 0; i < history.size() && first == history.size(); ++i) {
+    if (history[i].in_contact()) first = i;
+  }
+  if (first == history.size()) return "";
+  std::string out = "the states before the first contact:\n";
+  for (std::size_t i = first + 1 > count ? first + 1 - count : 0; i <= first; ++i) {
+    const cairn_msgs::RobotState& s = history[i];
+    const auto& p = s.pose_MB().position();
+    const auto& q = s.pose_MB().orientation();
+    const double yaw_deg =
+        std::atan2(2.0 * (q.w() * q.z() + q.x() * q.y()), 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z())) * 180.0 / M_PI;
+    char line[512];
+    std::snprintf(line, sizeof(line), "  t %.2f (%.2f, %.2f, %.2f) yaw %.0f v %.2f w %.2f cmd %.2f %.2f%s mux '%s' nav '%.120s'\n",
+                  WallSeconds(s.stamp()), p.x_m(), p.y_m(), p.z_m(), yaw_deg, s.twist_B().linear_x_mps(),
+                  s.twist_B().angular_z_radps(), s.cmd_twist_B().linear_x_mps(), s.cmd_twist_B().angular_z_radps(),
+                  s.in_contact() ? " CONTACT" : "", s.mux_reason().c_str(), s.nav_reason().c_str());
+    out += line;
+  }
+  return out;
+}
 
 // A basestation process driven line by line in --json mode.
 class Base {
