@@ -54,7 +54,8 @@ bool g_recovery = true;  // run the recovery tree when navigation gives up (--no
 std::vector<Eigen::Vector2d> g_then_goals;  // --then GX GY: further goals for the same robot (--one)
 std::string g_platform = "wheeled";          // --platform (--one)
 double g_goal_z_m = std::numeric_limits<double>::quiet_NaN();  // --z: the first goal's level (--one)
-bool g_verbose_columns_along_y = true;
+bool g_verbose_columns_along_y = false;
+bool g_stair_prior = true;  // --no-stair-prior: detected flights are not written into the navigation map
 double g_pause_s = 0.0;  // --pause: the robot stands still this long before each --then goal (--one)
 
 agent::AgentOptions Options() {
@@ -189,8 +190,10 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
       navigation.SetObstacles(points_B, at_scan, t);
       perception.Tick(t, &scan, nullptr);
     }
-    if (std::fmod(t + 1e-9, 1.0) < kDt) nav_map.Update(*perception.map(), perception.TakeChangedTiles(),
-                                                       perception.change_tile_m(), perception.max_sensor_z_m());
+    if (std::fmod(t + 1e-9, 1.0) < kDt) {
+      nav_map.Update(*perception.map(), perception.TakeChangedTiles(), perception.change_tile_m(),
+                     perception.max_sensor_z_m(), g_stair_prior ? perception.Staircases() : std::vector<perception::Staircase>{});
+    }
     // A goal on another level waits for the first map updates (the agent is sent one when it has a map).
     if (!goal_set && t >= pause_until_s && (next_goal > 0 || !std::isfinite(g_goal_z_m) || t >= 2.0)) {
       // As the agent's planning service does (PerceptionService::CoverGoal): a goal beyond the navigation map
@@ -310,6 +313,11 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
         }
         std::printf("      (x from %.1f to %.1f)\n", x0, x1);
         PrintPicture(*platform.terrain(), nav_map, pose, goal);
+        for (const perception::Staircase& st : perception.Staircases()) {
+          std::printf("      staircase at (%.2f, %.2f, %.2f) yaw %.2f rise %.3f run %.3f width %.2f, %d steps\n",
+                      st.p_W_first_step.x(), st.p_W_first_step.y(), st.p_W_first_step.z(), st.yaw_rad, st.rise_m,
+                      st.run_m, st.width_m, st.num_steps);
+        }
         PrintLevels(nav_map, {21.35, 7.7}, pose.z_m);
         PrintLevels(nav_map, {21.0, 7.7}, pose.z_m + 0.5);
         for (double x = goal.x() - 0.35; x < goal.x() + 0.4; x += 0.1) {
@@ -391,6 +399,8 @@ int main(int argc, char** argv) {
       g_goal_z_m = std::atof(argv[++i]);
     } else if (!std::strcmp(argv[i], "--verbose")) {
       g_verbose = true;
+    } else if (!std::strcmp(argv[i], "--no-stair-prior")) {
+      g_stair_prior = false;
     } else if (!std::strcmp(argv[i], "--no-recovery")) {
       g_recovery = false;
     } else if (!std::strcmp(argv[i], "--one") && i + 6 < argc) {  // --one WORLD SX SY SYAW GX GY

@@ -465,7 +465,10 @@ TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) 
   do {
     ++attempts;
     r = op.Run("goto r1 15.1 11.0 --z 3.2 --wait 240", 250s);
-    if (!r["ok"]) std::printf("r1 goal to floor 2, attempt %d: %s\n", attempts, r.dump().c_str());
+    if (!r["ok"]) {
+      std::printf("r1 goal to floor 2, attempt %d: %s; its last 60 s:\n%s", attempts, r.dump().c_str(),
+                  TrackTail(observer.History("r1"), 60.0, 3.0).c_str());
+    }
   } while (!r["ok"] && attempts < 2);
   const double climb_s = std::chrono::duration<double>(Clock::now() - climb_start).count();
   const auto arrived = observer.FreshState("r1");

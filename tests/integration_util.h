@@ -96,9 +96,24 @@ class Observer {
   std::map<std::string, cairn_msgs::TeleopTwist> last_teleop_;
 };
 
-// The states of `history` up to the first one in contact (at most `count` of them, oldest first): pose
-// (metres, degrees), measured and commanded twist, the mux's and navigation's reasons; "" when none is in
-// contact. Printed by tests next to a contact failure, so that a rare one can be diagnosed from the log.
+// One state as a line: stamp, pose (metres, degrees), measured and commanded twist, the mux's and navigation's
+// reasons.
+inline std::string FormatState(const cairn_msgs::RobotState& s) {
+  const auto& p = s.pose_MB().position();
+  const auto& q = s.pose_MB().orientation();
+  const double yaw_deg =
+      std::atan2(2.0 * (q.w() * q.z() + q.x() * q.y()), 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z())) * 180.0 / M_PI;
+  char line[512];
+  std::snprintf(line, sizeof(line), "  t %.2f (%.2f, %.2f, %.2f) yaw %.0f v %.2f w %.2f cmd %.2f %.2f%s mux '%s' nav '%.160s'\n",
+                WallSeconds(s.stamp()), p.x_m(), p.y_m(), p.z_m(), yaw_deg, s.twist_B().linear_x_mps(),
+                s.twist_B().angular_z_radps(), s.cmd_twist_B().linear_x_mps(), s.cmd_twist_B().angular_z_radps(),
+                s.in_contact() ? " CONTACT" : "", s.mux_reason().c_str(), s.nav_reason().c_str());
+  return line;
+}
+
+// The states of `history` up to the first one in contact (at most `count` of them, oldest first); "" when
+// none is in contact. Printed by tests next to a contact failure, so that a rare one can be diagnosed from the
+// log.
 inline std::string TrackBeforeContact(const std::vector<cairn_msgs::RobotState>& history, std::size_t count = 25) {
   std::size_t first = history.size();
   for (std::size_t i = 0; i < history.size() && first == history.size(); ++i) {
@@ -106,18 +121,21 @@ inline std::string TrackBeforeContact(const std::vector<cairn_msgs::RobotState>&
   }
   if (first == history.size()) return "";
   std::string out = "the states before the first contact:\n";
-  for (std::size_t i = first + 1 > count ? first + 1 - count : 0; i <= first; ++i) {
-    const cairn_msgs::RobotState& s = history[i];
-    const auto& p = s.pose_MB().position();
-    const auto& q = s.pose_MB().orientation();
-    const double yaw_deg =
-        std::atan2(2.0 * (q.w() * q.z() + q.x() * q.y()), 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z())) * 180.0 / M_PI;
-    char line[512];
-    std::snprintf(line, sizeof(line), "  t %.2f (%.2f, %.2f, %.2f) yaw %.0f v %.2f w %.2f cmd %.2f %.2f%s mux '%s' nav '%.120s'\n",
-                  WallSeconds(s.stamp()), p.x_m(), p.y_m(), p.z_m(), yaw_deg, s.twist_B().linear_x_mps(),
-                  s.twist_B().angular_z_radps(), s.cmd_twist_B().linear_x_mps(), s.cmd_twist_B().angular_z_radps(),
-                  s.in_contact() ? " CONTACT" : "", s.mux_reason().c_str(), s.nav_reason().c_str());
-    out += line;
+  for (std::size_t i = first + 1 > count ? first + 1 - count : 0; i <= first; ++i) out += FormatState(history[i]);
+  return out;
+}
+
+// The last `span_s` seconds of `history`, one state every `every_s` seconds: what a robot did before a goal
+// failed or timed out.
+inline std::string TrackTail(const std::vector<cairn_msgs::RobotState>& history, double span_s, double every_s) {
+  if (history.empty()) return "";
+  const double end_s = WallSeconds(history.back().stamp());
+  std::string out;
+  double next_s = end_s - span_s;
+  for (const auto& s : history) {
+    if (WallSeconds(s.stamp()) < next_s) continue;
+    out += FormatState(s);
+    next_s = WallSeconds(s.stamp()) + every_s;
   }
   return out;
 }

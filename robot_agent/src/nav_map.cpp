@@ -1,5 +1,6 @@
 #include "cairn/agent/nav_map.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -216,8 +217,83 @@ void NavMap::Publish(const std::vector<Eigen::AlignedBox2d>& columns) {
                       diagnose_levels_ ? std::make_shared<const nav::MultiLevelGrid>(*diagnose_levels_) : nullptr);
 }
 
+Eigen::AlignedBox2d NavMap::StairArea(const perception::Staircase& stairs) const {
+  const Eigen::Vector2d u(std::cos(stairs.yaw_rad), std::sin(stairs.yaw_rad));  // ascending
+  const Eigen::Vector2d v(-u.y(), u.x());                                         // across
+  const Eigen::Vector2d p0 = stairs.p_W_first_step.head<2>();
+  const double depth = stairs.num_steps * stairs.run_m;
+  Eigen::AlignedBox2d box;
+  for (const double a : {-stairs.run_m, depth}) {
+    for (const double b : {-0.5 * stairs.width_m, 0.5 * stairs.width_m}) box.extend(p0 + a * u + b * v);
+  }
+  const Eigen::Vector2d cell = Eigen::Vector2d::Constant(voxels_.resolution_m());
+  return Eigen::AlignedBox2d(box.min() - cell, box.max() + cell);
+}
+
+void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
+  const double res = voxels_.resolution_m();
+  const double half_width = 0.5 * stairs.width_m - kStairSideMargin_m;
+  const double depth = stairs.num_steps * stairs.run_m;
+  if (!(half_width > 0) || !(depth > 0) || !(stairs.rise_m > 0) || !stairs.p_W_first_step.allFinite()) return;
+  const Eigen::Vector2d u(std::cos(stairs.yaw_rad), std::sin(stairs.yaw_rad));
+  const Eigen::Vector2d v(-u.y(), u.x());
+  const Eigen::Vector2d p0 = stairs.p_W_first_step.head<2>();
+  const Eigen::AlignedBox2d box = StairArea(stairs);
+  const Eigen::Vector3i last = voxels_.dims() - Eigen::Vector3i::Ones();
+  const Eigen::Vector2d min_W = voxels_.p_W_min().head<2>();
+  const int x_lo = std::max(0, static_cast<int>(std::floor((box.min().x() - min_W.x()) / res)));
+  const int x_hi = std::min(last.x(), static_cast<int>(std::floor((box.max().x() - min_W.x()) / res)));
+  const int y_lo = std::max(0, static_cast<int>(std::floor((box.min().y() - min_W.y()) / res)));
+  const int y_hi = std::min(last.y(), static_cast<int>(std::floor((box.max().y() - min_W.y()) / res)));
+  for (int ix = x_lo; ix <= x_hi; ++ix) {
+    for (int iy = y_lo; iy <= y_hi; ++iy) {
+      const Eigen::Vector2d c = voxels_.CenterOf({ix, iy, 0}).head<2>() - p0;
+      const double a = c.dot(u);  // along the ascent from the first riser
+      if (std::abs(c.dot(v)) > half_width + 1e-6 || a < -stairs.run_m || a >= depth) continue;
+      // A column across a riser holds the higher tread's top; step 0 is the floor at the flight's foot (one
+      // run deep), the lidar's blind spot when the robot stands there.
+      const int step = std::clamp(static_cast<int>(std::floor((a + 0.5 * res + 1e-6) / stairs.run_m)) + 1, 0,
+                                  stairs.num_steps);
+      const double top_z = stairs.p_W_first_step.z() + step * stairs.rise_m;
+      const int iz_top = static_cast<int>(std::lround((top_z - voxels_.p_W_min().z()) / res)) - 1;
+      if (iz_top < 0 || iz_top > last.z()) continue;
+      // A ray through the step's body (a rise below the tread's top): no tread there (the floor before the
+      // flight, where the model's first riser lies a little off).
+      const int body_voxels = std::max(1, static_cast<int>(std::lround(stairs.rise_m / res)));
+      bool seen_through = false;
+      for (int iz = std::max(0, iz_top - body_voxels + 1); iz <= iz_top && !seen_through; ++iz) {
+        seen_through = seen_free_.IsOccupiedIndex({ix, iy, iz});
+      }
+      if (seen_through) continue;
+      voxels_.SetOccupied({ix, iy, iz_top}, true);
+      for (int iz = iz_top + 1; iz <= std::min(last.z(), iz_top + kStairClearVoxels); ++iz) {
+        if (voxels_.IsOccupiedIndex({ix, iy, iz})) break;
+        seen_free_.SetOccupied({ix, iy, iz}, true);
+      }
+    }
+  }
+}
+
+namespace {
+
+// True when the flights of `a` and `b` are the same to within what moves a tread by about a voxel: the
+// registry refines its estimates with every detection, and re-writing the map each time would change it
+// under the robot's path every second.
+bool SameStairs(const std::vector<perception::Staircase>& a, const std::vector<perception::Staircase>& b) {
+  return std::equal(a.begin(), a.end(), b.begin(), b.end(),
+                    [](const perception::Staircase& x, const perception::Staircase& y) {
+                      const double dyaw = std::remainder(x.yaw_rad - y.yaw_rad, 2.0 * M_PI);
+                      return (x.p_W_first_step - y.p_W_first_step).norm() <= 0.03 && std::abs(dyaw) <= 0.02 &&
+                             std::abs(x.rise_m - y.rise_m) <= 0.01 && std::abs(x.run_m - y.run_m) <= 0.01 &&
+                             std::abs(x.width_m - y.width_m) <= 0.05 && x.num_steps == y.num_steps;
+                    });
+}
+
+}  // namespace
+
 NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& changed,
-                                 double tile_m, double sensor_max_z_m) {
+                                 double tile_m, double sensor_max_z_m,
+                                 const std::vector<perception::Staircase>& staircases) {
   NavMapUpdateStats stats;
   Eigen::AlignedBox2d want;  // what must be covered: changed tiles and requests
   Eigen::AlignedBox2d current;
@@ -227,7 +303,8 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     pending_cover_M_.setEmpty();
     current = extent_M_;
   }
-  if (!(tile_m > 0) || (changed.empty() && want.isEmpty())) {
+  const bool stairs_changed = !SameStairs(staircases, stair_priors_);
+  if (!(tile_m > 0) || (changed.empty() && want.isEmpty() && !stairs_changed)) {
     stats.extent_M = current;
     return stats;
   }
@@ -254,6 +331,22 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     ++growths_;
     std::lock_guard<std::mutex> guard(extent_mutex_);
     extent_M_ = Eigen::AlignedBox2d(lo, hi);
+  }
+  if (stairs_changed) {
+    // The footprints of flights that went or changed are read again from the map (their old treads go), as
+    // are those of new ones (then written over).
+    const std::vector<perception::Staircase>& applied = stair_priors_;
+    for (const std::vector<perception::Staircase>* list : {&applied, &staircases}) {
+      for (const perception::Staircase& stairs : *list) {
+        const Eigen::AlignedBox2d box = StairArea(stairs);
+        const Eigen::Vector2i t_lo = (box.min() / tile_m).array().floor().cast<int>().matrix();
+        const Eigen::Vector2i t_hi = (box.max() / tile_m).array().floor().cast<int>().matrix();
+        for (int tx = t_lo.x(); tx <= t_hi.x(); ++tx) {
+          for (int ty = t_lo.y(); ty <= t_hi.y(); ++ty) tiles.emplace_back(tx, ty);
+        }
+      }
+    }
+    stair_priors_ = staircases;
   }
   const double res = voxels_.resolution_m();
   const Eigen::Vector3i last = voxels_.dims() - Eigen::Vector3i::Ones();
@@ -286,6 +379,21 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     columns.push_back(box);
     stats.region_M.extend(box);
     ++stats.tiles;
+  }
+  // The flights' treads over what was read (a growth read only the new area: the copied voxels kept them).
+  // Only for a platform that climbs the flight's rise: one that cannot gains nothing (its map shows the steps
+  // the lidar saw, and a refusal names the one it saw).
+  const double max_step_m = planner_->Profile(platform_)->traversability.max_step_m;
+  for (const perception::Staircase& stairs : stair_priors_) {
+    if (stairs.rise_m > max_step_m) continue;
+    const Eigen::AlignedBox2d box = StairArea(stairs);
+    const bool read = std::any_of(columns.begin(), columns.end(),
+                                  [&box](const Eigen::AlignedBox2d& c) { return c.intersects(box); });
+    if (!read) continue;
+    ApplyStairPrior(stairs);
+    // One cell more: the neighbours' analysis changes too.
+    columns.emplace_back(box.min() - Eigen::Vector2d::Constant(res), box.max() + Eigen::Vector2d::Constant(res));
+    ++stats.stair_priors;
   }
   stats.extent_M = extent_M();
   if (columns.empty() && !stats.grown) return stats;

@@ -67,6 +67,11 @@ bool PerceptionPipeline::CameraDue(double now_s) const {
   return options_.enabled && options_.camera_rate_hz > 0 && now_s >= next_camera_s_;
 }
 
+std::vector<perception::Staircase> PerceptionPipeline::Staircases() const {
+  std::lock_guard<std::mutex> guard(staircases_mutex_);
+  return staircases_;
+}
+
 std::vector<Eigen::Vector2i> PerceptionPipeline::TakeChangedTiles() {
   std::set<std::pair<int, int>> tiles;
   {
@@ -139,12 +144,22 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* s
     const auto start = Clock::now();
     const std::vector<perception::Staircase> found =
         detector_.Detect(local_cloud_.Points(), T_W_B_estimate_.translation());
+    bool registry_changed = false;
     for (const perception::Staircase& staircase : found) {
       const auto merged = registry_.Add(staircase, "scan");
       if (!merged.is_new && !merged.changed) continue;
+      registry_changed = true;
       for (const auto& entry : registry_.Entries()) {
         if (entry.id == merged.id) out.staircases.push_back(entry);
       }
+    }
+    if (registry_changed) {
+      std::vector<perception::Staircase> confirmed;
+      for (const auto& entry : registry_.Entries()) {
+        if (entry.detections >= kStairPriorDetections) confirmed.push_back(entry.staircase);
+      }
+      std::lock_guard<std::mutex> guard(staircases_mutex_);
+      staircases_ = std::move(confirmed);
     }
     stats_.staircase_ms_total += MsSince(start);
     ++stats_.staircase_runs;

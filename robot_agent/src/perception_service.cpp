@@ -140,8 +140,9 @@ void PerceptionService::NavMapLoop() {
     try {
       const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
       // With no changed tile, Update() still grows the map when a goal beyond it asked to.
-      const NavMapUpdateStats stats = nav_map_->Update(
-          *perception_->map(), tiles, perception_->change_tile_m(), perception_->max_sensor_z_m());
+      const NavMapUpdateStats stats =
+          nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m(), perception_->max_sensor_z_m(),
+                           perception_->Staircases());
       if (stats.grown) {
         spdlog::info("robot {}: navigation map grown to x [{:.1f}, {:.1f}], y [{:.1f}, {:.1f}] (v{}, {:.0f} ms)",
                      options_.robot_id, stats.extent_M.min().x(), stats.extent_M.max().x(),
@@ -151,10 +152,10 @@ void PerceptionService::NavMapLoop() {
       if (stats.applied) {
         spdlog::debug(
             "robot {}: navigation map v{}: {} tiles in {:.1f} x {:.1f} m, {} occupied voxels, read {:.1f} "
-            "ms, traversability {:.1f} ms, publish {:.1f} ms",
+            "ms, traversability {:.1f} ms, publish {:.1f} ms, {} staircase priors",
             options_.robot_id, stats.map_version, stats.tiles, stats.region_M.sizes().x(),
             stats.region_M.sizes().y(), stats.occupied_voxels, stats.read_ms, stats.traversability_ms,
-            stats.publish_ms);
+            stats.publish_ms, stats.stair_priors);
       }
     } catch (const std::exception& e) {
       spdlog::error("robot {}: navigation map update failed: {}", options_.robot_id, e.what());

@@ -356,5 +356,71 @@ TEST(LiveObstaclesTest, AStepBesideARobotStandingStillStaysAnObstacleWhileItCann
             0);
 }
 
+// A detected flight's treads are ground on the navigation map (a flight seen from below shows the lidar its
+// risers, not its treads above the sensor): a legged robot's plan climbs it on a map that knows nothing else,
+// and the treads go once the flight is no longer detected (its columns are read again from the OctoMap); a
+// platform that cannot climb the rise gets none.
+TEST(NavMapTest, ADetectedFlightsTreadsAreGroundUntilItIsNoLongerDetected) {
+  const perception::OccupancyMap octomap;  // empty: every voxel unknown
+  const core::BaseState start_M{};         // at the origin
+  NavMapOptions map_options;
+  map_options.half_extent_m = 10.0;
+  const nav::PlatformProfile legged = nav::GetPlatformProfile("legged");
+  auto planner = NavMap::MakePlanner(map_options, octomap.resolution_m(), start_M, {legged});
+  NavMap nav_map(map_options, octomap.resolution_m(), start_M, planner, "legged");
+  perception::Staircase flight;  // 5 risers of 0.2 m up +x from x = 2, 1 m wide
+  flight.p_W_first_step = Eigen::Vector3d(2.0, 0.0, 0.0);
+  flight.yaw_rad = 0.0;
+  flight.rise_m = 0.2;
+  flight.run_m = 0.3;
+  flight.width_m = 1.0;
+  flight.num_steps = 5;
+  nav::GlobalPlanRequest request;
+  request.start_W = {1.0, 0.0};
+  request.start_z_m = 0.0;
+  request.goal_W = {3.35, 0.0};  // the middle of the 5th tread, 1.0 m up
+  request.goal_z_m = 1.0;
+  request.platform = "legged";
+  request.start_is_robot = true;
+
+  const NavMapUpdateStats with = nav_map.Update(octomap, {}, 2.0, 0.5, {flight});
+  EXPECT_TRUE(with.applied);
+  EXPECT_EQ(with.stair_priors, 1);
+  const nav::MultiLevelGrid& levels = nav_map.levels();
+  for (int k = 1; k <= 5; ++k) {
+    int ix = 0, iy = 0;
+    ASSERT_TRUE(levels.CellOf(2.0 + (k - 0.5) * 0.3, 0.05, &ix, &iy));
+    const int node = levels.NodeNear(ix, iy, 0.2 * k, 0.05);
+    ASSERT_GE(node, 0) << "no tread " << k;
+    EXPECT_NEAR(levels.NodeZ(node), 0.2 * k, 1e-6);
+    // Beyond the side margin (0.4 m from the centre line) nothing is written.
+    ASSERT_TRUE(levels.CellOf(2.0 + (k - 0.5) * 0.3, 0.45, &ix, &iy));
+    EXPECT_LT(levels.NodeNear(ix, iy, 0.2 * k, 0.05), 0) << "tread " << k << " at the side";
+  }
+  const nav::GlobalPlan climb = planner->Plan(request);
+  ASSERT_TRUE(climb.IsUsable()) << climb.reason;
+  EXPECT_NEAR(climb.result.path_W.back().z(), 1.0, 1e-6);
+  // The registry refines its estimate with each detection: a centimetre does not rewrite the map (nothing
+  // to apply), a new riser does.
+  perception::Staircase refined = flight;
+  refined.p_W_first_step.x() += 0.01;
+  refined.width_m += 0.02;
+  EXPECT_FALSE(nav_map.Update(octomap, {}, 2.0, 0.5, {refined}).applied);
+  refined.num_steps = 6;
+  EXPECT_EQ(nav_map.Update(octomap, {}, 2.0, 0.5, {refined}).stair_priors, 1);
+
+  const NavMapUpdateStats without = nav_map.Update(octomap, {}, 2.0, 0.5, {});
+  EXPECT_TRUE(without.applied);
+  EXPECT_EQ(without.stair_priors, 0);
+  EXPECT_EQ(nav_map.levels().node_count(), 0) << "the treads stayed after the flight went";
+
+  // A wheeled robot (0.15 m step) does not climb 0.2 m risers: its map keeps what its lidar saw.
+  const nav::PlatformProfile wheeled = nav::GetPlatformProfile("wheeled");
+  auto wheeled_planner = NavMap::MakePlanner(map_options, octomap.resolution_m(), start_M, {wheeled});
+  NavMap wheeled_map(map_options, octomap.resolution_m(), start_M, wheeled_planner, "wheeled");
+  EXPECT_EQ(wheeled_map.Update(octomap, {}, 2.0, 0.5, {flight}).stair_priors, 0);
+  EXPECT_EQ(wheeled_map.levels().node_count(), 0);
+}
+
 }  // namespace
 }  // namespace cairn::agent

@@ -19,6 +19,7 @@
 #include "cairn/nav/multilevel.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/perception/occupancy_map.h"
+#include "cairn/perception/staircase.h"
 
 namespace cairn::agent {
 
@@ -63,6 +64,7 @@ struct NavMapUpdateStats {
   double publish_ms = 0;             ///< Copying the snapshot to the planner.
   std::uint64_t map_version = 0;     ///< Planner map version after the update.
   bool grown = false;                ///< The extent grew (then the grids were rebuilt in full).
+  int stair_priors = 0;              ///< Detected flights whose treads were written into the map.
   Eigen::AlignedBox2d extent_M;      ///< The extent after the update, metres, map frame.
 };
 
@@ -113,8 +115,12 @@ class NavMap {
   /// when RequestCover() is pending.
   /// `sensor_max_z_m`: the highest lidar origin so far (metres, map frame; PerceptionPipeline::
   /// max_sensor_z_m()): surfaces below it count as seen from above (TraversabilityGrid::SetObserverHeight).
+  /// `staircases` (map frame; e.g. PerceptionPipeline::Staircases()): detected flights, whose treads are
+  /// written into the map as ground when the platform climbs their rise (see ApplyStairPrior()); a flight
+  /// that changed or went is re-read from `map` first.
   NavMapUpdateStats Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& tiles,
-                           double tile_m, double sensor_max_z_m);
+                           double tile_m, double sensor_max_z_m,
+                           const std::vector<perception::Staircase>& staircases = {});
 
   const core::VoxelGrid& voxels() const { return voxels_; }
   /// The map's observed-free voxels (set bit = a lidar ray passed through), same geometry as voxels().
@@ -133,6 +139,21 @@ class NavMap {
   void Reallocate(const Eigen::AlignedBox2d& extent_M);
   // Builds every grid anew over the voxels (after Reallocate()).
   void RebuildGrids();
+  // Writes the treads of the detected flight `stairs` into the voxels: in every column of its footprint and of
+  // the floor one run before its first riser (less kStairSideMargin_m on each side), the voxel whose top is nearest its tread's height becomes occupied
+  // (unless a ray went through it or the rise below it: then the column is left as seen) and the kStairClearVoxels voxels above it
+  // (up to the first occupied one) seen free: a ground surface needs a ray right above it (nav::
+  // MultiLevelGrid), and the robot's height above must still be clear of what the lidar saw (a wall beside a
+  // flight detected too wide stays a wall). A flight seen
+  // from below shows the lidar its risers but not its treads above the sensor (the upper flight of a
+  // switchback, seen from the landing): without this no plan climbs it until the robot stands on it. Only
+  // unknown voxels change: what the lidar saw wins (an obstacle on a tread stays one).
+  void ApplyStairPrior(const perception::Staircase& stairs);
+  // The x-y box ApplyStairPrior() may write in: a flight's footprint (its treads and its foot) and one voxel
+  // around it, metres, map frame.
+  Eigen::AlignedBox2d StairArea(const perception::Staircase& stairs) const;
+  static constexpr double kStairSideMargin_m = 0.1;
+  static constexpr int kStairClearVoxels = 2;
   NavMapOptions options_;
   std::shared_ptr<nav::GlobalPlanner> planner_;
   std::string platform_;
@@ -143,6 +164,8 @@ class NavMap {
   // Every walkable surface (upper floors, stairs above stairs), updated with the grids and handed over too,
   // so that no plan off the main level has to build it.
   std::unique_ptr<nav::MultiLevelGrid> levels_;
+  // The flights written into the voxels (ApplyStairPrior()), as last passed to Update().
+  std::vector<perception::Staircase> stair_priors_;
   std::unique_ptr<nav::MultiLevelGrid> diagnose_levels_;  // relaxed step limit (see diagnose_grid_)
   double sensor_max_z_m_ = std::numeric_limits<double>::quiet_NaN();
   mutable std::mutex extent_mutex_;  // guards extent_M_ and pending_cover_M_ (read by the planning thread)

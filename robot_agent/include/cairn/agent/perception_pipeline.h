@@ -106,6 +106,11 @@ class PerceptionPipeline {
   /// Thread-safe: navigation's map thread calls it while Tick() runs.
   std::vector<Eigen::Vector2i> TakeChangedTiles();
 
+  /// The merged staircases seen at least kStairPriorDetections times (map frame M), for the navigation map's
+  /// tread prior (NavMap::Update). Thread-safe: navigation's map thread calls it while Tick() runs.
+  std::vector<perception::Staircase> Staircases() const;
+  static constexpr int kStairPriorDetections = 2;
+
   /// Map telemetry only (no scan, no insertion): takes the map's changes and returns what the budget lets out
   /// at `now_s`. For shutdown (the last changes), and for tests that need the map to stand still.
   std::vector<perception::MapUpdate> FlushMapTelemetry(double now_s);
@@ -134,6 +139,8 @@ class PerceptionPipeline {
   std::shared_ptr<perception::OccupancyMap> map_;
   perception::StaircaseDetector detector_;
   perception::StaircaseRegistry registry_;
+  mutable std::mutex staircases_mutex_;
+  std::vector<perception::Staircase> staircases_;  // Staircases(), updated by Tick()
   perception::LocalCloud local_cloud_;
   perception::MapTelemetrySender sender_;
   Eigen::Isometry3d T_W_B_estimate_ = Eigen::Isometry3d::Identity();
