@@ -7,6 +7,9 @@
 //
 //   build/bench/cairn_bench_nav_goals [--goals N] [--half-extent M (navigation map, default 40)]
 //                                     [--world builtin:NAME]...
+//   build/bench/cairn_bench_nav_goals --floors N
+//     a legged robot from N corridor starts in builtin:building to floor 2, with and without the staircase
+//     prior (RunFloors).
 //   build/bench/cairn_bench_nav_goals [--verbose] [--platform wheeled|legged] [--z GZ] [--pause S] [--then GX GY]...
 //                                     --one WORLD SX SY SYAW GX GY
 //     one robot from (SX, SY, SYAW) to (GX, GY), then on to each --then goal (given before --one; the last
@@ -46,6 +49,7 @@ struct Outcome {
   double time_s = 0.0;
   std::string reason;
   int recoveries = 0;  // times the recovery tree ran (own map)
+  double highest_z_m = 0.0;  // highest true height of the body (own map)
 };
 
 double g_half_extent_m = agent::NavMapOptions().half_extent_m;
@@ -210,6 +214,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
       }
       goal_set = true;
     }
+    perception.set_refresh_at_rest(goal_set);  // as the agent: a robot waiting on a goal watches the world
     if (!goal_set) {  // standing still, sensing, until the next goal
       platform.CommandTwist(0.0, 0.0, t);
       out.contact = out.contact || platform.ReadStatus().in_contact;
@@ -242,6 +247,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
                   step.linear_x_mps, step.angular_z_radps);
     }
     out.contact = out.contact || platform.ReadStatus().in_contact;
+    out.highest_z_m = std::max(out.highest_z_m, platform.TrueState().z_m);
     if (g_verbose && std::fmod(t + 1e-9, 0.5) < kDt) {
       std::printf("    t %5.1f pose (%.2f, %.2f, %.2f) v %.2f w %.2f cmd (%.2f, %.2f) left %.1f local '%s'\n", t, pose.x_m,
                   pose.y_m, pose.yaw_rad, pose.v_mps, pose.w_radps, step.linear_x_mps, step.angular_z_radps,
@@ -378,6 +384,41 @@ Outcome RunGroundTruth(const std::string& world_spec, const core::PlanarPose& st
   return out;
 }
 
+// --floors N: a legged robot from N starts along builtin:building's floor-1 corridor to the foot of the
+// stairwell, then to the room north of the corridor on floor 2 (z 3.2), with the staircase prior (detected
+// flights' treads written into its navigation map) and without it (the baseline), in the same process.
+int RunFloors(int starts) {
+  g_platform = "legged";
+  g_goal_z_m = 3.2;
+  g_then_goals = {Eigen::Vector2d(15.1, 11.0)};
+  struct Tally {
+    int arrived = 0, contacts = 0, on_floor2 = 0;  // on_floor2: the body was at z >= 3.1 at some point
+    double time_s = 0;
+  };
+  Tally with_prior, baseline;
+  for (int k = 0; k < starts; ++k) {
+    const core::PlanarPose start{8.0 + 9.0 * k / std::max(1, starts - 1), 7.1, 0.0};
+    for (const bool prior : {true, false}) {
+      g_stair_prior = prior;
+      const Outcome o = RunOwnMap("builtin:building", start, {19.0, 6.5}, 240.0);
+      Tally& t = prior ? with_prior : baseline;
+      t.arrived += o.arrived ? 1 : 0;
+      t.contacts += o.contact ? 1 : 0;
+      t.on_floor2 += o.highest_z_m >= 3.1 ? 1 : 0;
+      if (o.arrived) t.time_s += o.time_s;
+      std::printf("start (%.1f, 7.1) %s: %s after %.1f s, highest z %.2f m%s %.150s\n", start.x_m,
+                  prior ? "prior   " : "baseline", o.arrived ? "arrived" : "FAILED", o.time_s, o.highest_z_m,
+                  o.contact ? " WITH CONTACT" : "", o.reason.c_str());
+    }
+  }
+  std::printf("goal on floor 2 reached: with the staircase prior %d/%d (mean %.1f s), baseline %d/%d\n"
+              "body on floor 2 (z >= 3.1 m): with the staircase prior %d/%d, baseline %d/%d; contacts %d vs %d\n",
+              with_prior.arrived, starts, with_prior.arrived ? with_prior.time_s / with_prior.arrived : 0.0,
+              baseline.arrived, starts, with_prior.on_floor2, starts, baseline.on_floor2, starts,
+              with_prior.contacts, baseline.contacts);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -414,6 +455,8 @@ int main(int argc, char** argv) {
       const Outcome gt = RunGroundTruth(world, start, goal, 120.0);
       std::printf("ground truth: %s after %.1f s %s\n", gt.arrived ? "arrived" : "FAILED", gt.time_s, gt.reason.c_str());
       return own.arrived ? 0 : 1;
+    } else if (!std::strcmp(argv[i], "--floors") && i + 1 < argc) {
+      return RunFloors(std::max(1, std::atoi(argv[++i])));
     } else if (!std::strcmp(argv[i], "--world") && i + 1 < argc) {
       worlds.push_back(argv[++i]);
     } else {

@@ -3,6 +3,8 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 
@@ -96,7 +98,12 @@ bool PlanningService::RunOnce(std::chrono::milliseconds wait) {
         refused.map_version = planner_->map_version();
         hooks_.goal_planned(goal->goal, refused);
       } else {
-        hooks_.goal_planned(goal->goal, planner_->Plan(goal->request));
+        nav::GlobalPlan plan = planner_->Plan(goal->request);
+        if (!plan.IsUsable() && plan.platform_known && std::isfinite(goal->request.goal_z_m) &&
+            plan.reason.find("step") == std::string::npos && hooks_.staircases) {
+          plan.reason += StairNote(*planner_, goal->request.platform, hooks_.staircases(), goal->request.start_W);
+        }
+        hooks_.goal_planned(goal->goal, plan);
       }
     } else {
       hooks_.answer(Answer(*query));
@@ -136,6 +143,28 @@ PathAnswer PlanningService::Answer(const PathQuery& query) const {
   spdlog::info("robot {}: path request {} from {} ({}): {}", options_.robot_id, query.request_id,
                query.requester_id, request.platform, plan.IsUsable() ? "path" : plan.reason);
   return a;
+}
+
+std::string PlanningService::StairNote(const nav::GlobalPlanner& planner, const std::string& platform,
+                                       const std::vector<perception::Staircase>& staircases,
+                                       const Eigen::Vector2d& from_M) {
+  const nav::PlatformProfile* profile = planner.Profile(platform);
+  if (profile == nullptr) return "";
+  const double max_step_m = profile->traversability.max_step_m;
+  const perception::Staircase* nearest = nullptr;
+  double nearest_m = std::numeric_limits<double>::infinity();
+  for (const perception::Staircase& stairs : staircases) {
+    const double d = (stairs.p_W_first_step.head<2>() - from_M).norm();
+    if (stairs.rise_m > max_step_m + 1e-9 && d < nearest_m) {
+      nearest = &stairs;
+      nearest_m = d;
+    }
+  }
+  if (nearest == nullptr) return "";
+  const Eigen::Vector3d& p = nearest->p_W_first_step;
+  return "; the staircase seen at (" + internal::Fixed(p.x(), 2) + ", " + internal::Fixed(p.y(), 2) + ", " +
+         internal::Fixed(p.z(), 2) + ") rises " + internal::Fixed(nearest->rise_m, 2) +
+         " m per step, above platform " + platform + "'s max_step_m " + internal::Fixed(max_step_m, 2) + " m";
 }
 
 std::string PlanningService::PlanReason(const nav::GlobalPlan& plan) const {

@@ -160,7 +160,8 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
                                command_->OnGoalPlanned(goal, plan);
                              },
                              [this](const PathAnswer& answer) { dds_->Send(answer); },
-                             [this](const Eigen::Vector2d& goal_M) { return perception_->CoverGoal(goal_M); }});
+                             [this](const Eigen::Vector2d& goal_M) { return perception_->CoverGoal(goal_M); },
+                             [this] { return perception_->Staircases(); }});
   if (capabilities_.has_lidar) {
     // The first scan before the robot announces itself ready, so that it can take a goal at once.
     perception_->WaitForFirstScan(std::chrono::seconds(5));

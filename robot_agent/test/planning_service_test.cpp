@@ -41,7 +41,8 @@ struct Service {
                                  covered.push_back(goal_M);
                                  return goal_M.x() > 50.0 ? std::string("too far: navigation.map_max_extent_m")
                                                           : std::string();
-                               }});
+                               },
+                               {}});
   }
   static PathQuery Query(uint32_t id, const std::string& participant = "pA", double x = 3.0) {
     PathQuery q;
@@ -160,9 +161,32 @@ TEST(PlanningService, GoalsBeyondTheMapArePlannedToItsEdgeOrRefused) {
   EXPECT_EQ(s.service->PlanReason(refused), "too far: navigation.map_max_extent_m");
 }
 
+// A goal on another level the planner finds no route to, with no step in its reason, is told of the nearest
+// detected staircase the platform cannot climb.
+TEST(PlanningService, AnUnreachableLevelNamesTheNearestStaircaseThePlatformCannotClimb) {
+  Service s;
+  const auto flight = [](double x, double rise_m) {
+    perception::Staircase f;
+    f.p_W_first_step = Eigen::Vector3d(x, 1.0, 0.0);
+    f.rise_m = rise_m;
+    f.run_m = 0.3;
+    f.width_m = 1.0;
+    f.num_steps = 6;
+    return f;
+  };
+  // Nearest to (0, 1): a 0.12 m flight the wheeled robot climbs, then a 0.2 m one at x = 4, another at x = 8.
+  const std::vector<perception::Staircase> seen = {flight(8.0, 0.2), flight(1.0, 0.12), flight(4.0, 0.2)};
+  EXPECT_EQ(PlanningService::StairNote(*s.planner, "wheeled", seen, {0.0, 1.0}),
+            "; the staircase seen at (4.00, 1.00, 0.00) rises 0.20 m per step, above platform wheeled's max_step_m "
+            "0.15 m");
+  EXPECT_EQ(PlanningService::StairNote(*s.planner, "wheeled", {flight(1.0, 0.12)}, {0.0, 1.0}), "");
+  EXPECT_EQ(PlanningService::StairNote(*s.planner, "wheeled", {}, {0.0, 1.0}), "");
+  EXPECT_EQ(PlanningService::StairNote(*s.planner, "hovercraft", seen, {0.0, 1.0}), "");
+}
+
 TEST(PlanningService, RefusesANullPlannerMissingHooksAndABadRate) {
   Service s;
-  PlanningService::Hooks hooks{[](const GoalCommand&, const nav::GlobalPlan&) {}, [](const PathAnswer&) {}, {}};
+  PlanningService::Hooks hooks{[](const GoalCommand&, const nav::GlobalPlan&) {}, [](const PathAnswer&) {}, {}, {}};
   EXPECT_THROW(PlanningService(PlanningServiceOptions{}, nullptr, hooks), std::invalid_argument);
   EXPECT_THROW(PlanningService(PlanningServiceOptions{}, s.planner, PlanningService::Hooks{}),
                std::invalid_argument);

@@ -56,6 +56,8 @@ class PerceptionService {
   /// its thread grows the map over it at its next update), else why not (naming navigation.map_max_extent_m).
   /// Any thread (the planning thread).
   std::string CoverGoal(const Eigen::Vector2d& goal_M) { return nav_map_->Cover(goal_M); }
+  /// The staircases detected so far (PerceptionPipeline::Staircases()). Thread-safe.
+  std::vector<perception::Staircase> Staircases() const { return perception_->Staircases(); }
 
   /// Sensor thread: polls the platform's lidar at twice its rate (a scan reaches the local planner within
   /// half a period, whatever the perception thread is busy with). A read fault is logged, never thrown.

@@ -17,6 +17,7 @@
 #include "cairn/agent/commands.h"
 #include "cairn/core/time.h"
 #include "cairn/nav/global_planner.h"
+#include "cairn/perception/staircase.h"
 
 namespace cairn::agent {
 
@@ -44,11 +45,22 @@ class PlanningService {
     /// map to grow over it when it lies beyond (the plan then ends at the map's edge and is extended as the
     /// map grows).
     std::function<std::string(const Eigen::Vector2d& goal_M)> cover_goal;
+    /// Optional: the staircases the robot has detected (map frame). A goal on another level that cannot be
+    /// reached, whose reason names no step, is told of the nearest one whose rise is above the platform's
+    /// max_step_m (StairNote()): the map may not show enough of the flight for the planner to name its step.
+    std::function<std::vector<perception::Staircase>()> staircases;
   };
 
   /// `planner` (thread-safe) serves the goals and the queries. @throws std::invalid_argument for a null
   /// planner, a missing hook or options out of range.
   PlanningService(PlanningServiceOptions options, std::shared_ptr<nav::GlobalPlanner> planner, Hooks hooks);
+
+  /// "; the staircase seen at (x, y, z) rises R m per step, above platform P's max_step_m M m" for the
+  /// staircase of `staircases` nearest `from_M` (metres, map frame) whose rise is above `platform`'s step;
+  /// "" when there is none or the platform is unknown to `planner`.
+  static std::string StairNote(const nav::GlobalPlanner& planner, const std::string& platform,
+                               const std::vector<perception::Staircase>& staircases,
+                               const Eigen::Vector2d& from_M);
 
   /// Queues a goal already checked by the command interface, with the request planned from the robot's pose.
   void SubmitGoal(const GoalCommand& goal, const nav::GlobalPlanRequest& request);
