@@ -58,7 +58,7 @@ bool g_recovery = true;  // run the recovery tree when navigation gives up (--no
 std::vector<Eigen::Vector2d> g_then_goals;  // --then GX GY: further goals for the same robot (--one)
 std::string g_platform = "wheeled";          // --platform (--one)
 double g_goal_z_m = std::numeric_limits<double>::quiet_NaN();  // --z: the first goal's level (--one)
-bool g_verbose_columns_along_y = false;
+bool g_verbose_columns_along_y = false;  // PrintLevels' column list along y (true) or x (false)
 bool g_stair_prior = true;  // --no-stair-prior: detected flights are not written into the navigation map
 double g_pause_s = 0.0;  // --pause: the robot stands still this long before each --then goal (--one)
 
@@ -324,8 +324,13 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
                       st.p_W_first_step.x(), st.p_W_first_step.y(), st.p_W_first_step.z(), st.yaw_rad, st.rise_m,
                       st.run_m, st.width_m, st.num_steps);
         }
-        PrintLevels(nav_map, {21.35, 7.7}, pose.z_m);
-        PrintLevels(nav_map, {21.0, 7.7}, pose.z_m + 0.5);
+        // Around the end of the last plan (a partial plan's end: where the map showed no way on), at the
+        // robot's height and half a metre above.
+        const auto& last_path = navigation.global_plan().result.path_W;
+        const Eigen::Vector2d end = last_path.empty() ? Eigen::Vector2d(pose.x_m, pose.y_m)
+                                                      : Eigen::Vector2d(last_path.back().head<2>());
+        PrintLevels(nav_map, end, pose.z_m);
+        PrintLevels(nav_map, end, pose.z_m + 0.5);
         for (double x = goal.x() - 0.35; x < goal.x() + 0.4; x += 0.1) {
           std::printf("      octomap x %.2f:", x);
           for (double z = -0.05; z < 0.4; z += 0.1) {
