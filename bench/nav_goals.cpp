@@ -58,7 +58,7 @@ bool g_recovery = true;  // run the recovery tree when navigation gives up (--no
 std::vector<Eigen::Vector2d> g_then_goals;  // --then GX GY: further goals for the same robot (--one)
 std::string g_platform = "wheeled";          // --platform (--one)
 double g_goal_z_m = std::numeric_limits<double>::quiet_NaN();  // --z: the first goal's level (--one)
-bool g_verbose_columns_along_y = false;  // PrintLevels' column list along y (true) or x (false)
+bool g_verbose_columns_along_y = std::getenv("CAIRN_BENCH_COLUMNS_ALONG_Y") != nullptr;  // PrintLevels' column list along y (true) or x (false)
 bool g_stair_prior = true;  // --no-stair-prior: detected flights are not written into the navigation map
 double g_pause_s = 0.0;  // --pause: the robot stands still this long before each --then goal (--one)
 
@@ -331,6 +331,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
                                                       : Eigen::Vector2d(last_path.back().head<2>());
         PrintLevels(nav_map, end, pose.z_m);
         PrintLevels(nav_map, end, pose.z_m + 0.5);
+        if (std::getenv("CAIRN_BENCH_AT_X")) PrintLevels(nav_map, {std::atof(std::getenv("CAIRN_BENCH_AT_X")), end.y()}, pose.z_m);
         for (double x = goal.x() - 0.35; x < goal.x() + 0.4; x += 0.1) {
           std::printf("      octomap x %.2f:", x);
           for (double z = -0.05; z < 0.4; z += 0.1) {

@@ -131,11 +131,14 @@ int MultiLevelGrid::NodeNear(int ix, int iy, double z_m, double max_dz_m) const 
 bool MultiLevelGrid::IsUnknownAt(int ix, int iy, double z_m) const {
   if (options_.unknown_is_lethal || !InGrid(ix, iy) || !std::isfinite(z_m)) return false;
   if (!observed_[static_cast<std::size_t>(Column(ix, iy))]) return true;  // nothing seen in the whole column
-  // The voxel a floor at z_m would be (seen free: a ray went through, no floor there) and the body space above
-  // it (anything occupied: a wall or a step). Body space seen free says nothing about the floor below it (a
-  // lidar does not see the floor right around itself).
+  // The voxel a floor at z_m would be, or the one below it (a floor on a voxel boundary reads a voxel high in
+  // one column and low in the next): both seen free means a ray went through, no floor there. Then the body
+  // space above (anything occupied: a wall or a step). Body space seen free says nothing about the floor below
+  // it (a lidar does not see the floor right around itself).
   const int iz0 = static_cast<int>(std::lround((z_m - world_p_min_.z()) / res_m_));
-  if (seen_free_ && seen_free_->IsOccupiedIndex({ix, iy, iz0 - 1})) return false;
+  if (seen_free_ && seen_free_->IsOccupiedIndex({ix, iy, iz0 - 1}) && seen_free_->IsOccupiedIndex({ix, iy, iz0 - 2})) {
+    return false;
+  }
   for (int iz = iz0; iz < iz0 + need_voxels_; ++iz) {
     if (world_->IsOccupiedIndex({ix, iy, iz})) return false;
   }

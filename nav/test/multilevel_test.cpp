@@ -168,9 +168,15 @@ TEST(MultiLevelGridTest, OwnMapIsOptimisticInUnseenSpaceOnly) {
   PlanResult r = PlanPathMultiLevel(*optimistic, {1.0, 1.5, 0.0}, {8.0, 1.5}, 0.0);
   ASSERT_TRUE(r.IsUsable()) << r.message;
   EXPECT_NEAR(r.path_W.back().z(), 0.0, 1e-6);
-  // A ray crossed the floor's height at x in [6, 7]: no floor there.
+  // Rays crossed the floor's height at x in [6, 7], and the voxel below: no floor there. (One voxel seen free
+  // is not enough: a floor on a voxel boundary reads a voxel low in some columns.)
   for (int ix = 60; ix < 70; ++ix) {
     for (int iy = 0; iy < 30; ++iy) seen_free->SetOccupied({ix, iy, 4});
+  }
+  const MultiLevelGrid one_voxel(world, options, seen_free);
+  EXPECT_TRUE(PlanPathMultiLevel(one_voxel, {1.0, 1.5, 0.0}, {8.0, 1.5}, 0.0).IsUsable());
+  for (int ix = 60; ix < 70; ++ix) {
+    for (int iy = 0; iy < 30; ++iy) seen_free->SetOccupied({ix, iy, 3});
   }
   const MultiLevelGrid drop(world, options, seen_free);
   r = PlanPathMultiLevel(drop, {1.0, 1.5, 0.0}, {8.0, 1.5}, 0.0);
