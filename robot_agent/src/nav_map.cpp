@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <stdexcept>
 
 #include "range_check.h"
@@ -217,14 +218,28 @@ void NavMap::Publish(const std::vector<Eigen::AlignedBox2d>& columns) {
                       diagnose_levels_ ? std::make_shared<const nav::MultiLevelGrid>(*diagnose_levels_) : nullptr);
 }
 
+namespace {
+
+// A flight's x-y frame: origin at the foot of its first riser, `along` its ascent, `across` it (map frame).
+struct FlightAxes {
+  explicit FlightAxes(const perception::Staircase& stairs)
+      : origin(stairs.p_W_first_step.head<2>()),
+        along(std::cos(stairs.yaw_rad), std::sin(stairs.yaw_rad)),
+        across(-along.y(), along.x()),
+        depth_m(stairs.num_steps * stairs.run_m) {}
+  Eigen::Vector2d origin, along, across;
+  double depth_m;  // from the first riser to the last tread's end
+};
+
+}  // namespace
+
 Eigen::AlignedBox2d NavMap::StairArea(const perception::Staircase& stairs) const {
-  const Eigen::Vector2d u(std::cos(stairs.yaw_rad), std::sin(stairs.yaw_rad));  // ascending
-  const Eigen::Vector2d v(-u.y(), u.x());                                         // across
-  const Eigen::Vector2d p0 = stairs.p_W_first_step.head<2>();
-  const double depth = stairs.num_steps * stairs.run_m;
+  const FlightAxes axes(stairs);
   Eigen::AlignedBox2d box;
-  for (const double a : {-stairs.run_m, depth}) {
-    for (const double b : {-0.5 * stairs.width_m, 0.5 * stairs.width_m}) box.extend(p0 + a * u + b * v);
+  for (const double a : {-stairs.run_m, axes.depth_m}) {
+    for (const double b : {-0.5 * stairs.width_m, 0.5 * stairs.width_m}) {
+      box.extend(axes.origin + a * axes.along + b * axes.across);
+    }
   }
   const Eigen::Vector2d cell = Eigen::Vector2d::Constant(voxels_.resolution_m());
   return Eigen::AlignedBox2d(box.min() - cell, box.max() + cell);
@@ -233,11 +248,12 @@ Eigen::AlignedBox2d NavMap::StairArea(const perception::Staircase& stairs) const
 void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
   const double res = voxels_.resolution_m();
   const double half_width = 0.5 * stairs.width_m - kStairSideMargin_m;
-  const double depth = stairs.num_steps * stairs.run_m;
-  if (!(half_width > 0) || !(depth > 0) || !(stairs.rise_m > 0) || !stairs.p_W_first_step.allFinite()) return;
-  const Eigen::Vector2d u(std::cos(stairs.yaw_rad), std::sin(stairs.yaw_rad));
-  const Eigen::Vector2d v(-u.y(), u.x());
-  const Eigen::Vector2d p0 = stairs.p_W_first_step.head<2>();
+  const FlightAxes axes(stairs);
+  if (!(half_width > 0) || !(axes.depth_m > 0) || !(stairs.rise_m > 0) || !stairs.p_W_first_step.allFinite()) {
+    return;
+  }
+  // Voxels of one rise below a tread's top: a ray through any of them went through the step's body.
+  const int body_voxels = std::max(1, static_cast<int>(std::lround(stairs.rise_m / res)));
   const Eigen::AlignedBox2d box = StairArea(stairs);
   const Eigen::Vector3i last = voxels_.dims() - Eigen::Vector3i::Ones();
   const Eigen::Vector2d min_W = voxels_.p_W_min().head<2>();
@@ -247,9 +263,9 @@ void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
   const int y_hi = std::min(last.y(), static_cast<int>(std::floor((box.max().y() - min_W.y()) / res)));
   for (int ix = x_lo; ix <= x_hi; ++ix) {
     for (int iy = y_lo; iy <= y_hi; ++iy) {
-      const Eigen::Vector2d c = voxels_.CenterOf({ix, iy, 0}).head<2>() - p0;
-      const double a = c.dot(u);  // along the ascent from the first riser
-      if (std::abs(c.dot(v)) > half_width + 1e-6 || a < -stairs.run_m || a >= depth) continue;
+      const Eigen::Vector2d c = voxels_.CenterOf({ix, iy, 0}).head<2>() - axes.origin;
+      const double a = c.dot(axes.along);  // along the ascent from the first riser
+      if (std::abs(c.dot(axes.across)) > half_width + 1e-6 || a < -stairs.run_m || a >= axes.depth_m) continue;
       // A column across a riser holds the higher tread's top; step 0 is the floor at the flight's foot (one
       // run deep), the lidar's blind spot when the robot stands there.
       const int step = std::clamp(static_cast<int>(std::floor((a + 0.5 * res + 1e-6) / stairs.run_m)) + 1, 0,
@@ -257,9 +273,8 @@ void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
       const double top_z = stairs.p_W_first_step.z() + step * stairs.rise_m;
       const int iz_top = static_cast<int>(std::lround((top_z - voxels_.p_W_min().z()) / res)) - 1;
       if (iz_top < 0 || iz_top > last.z()) continue;
-      // A ray through the step's body (a rise below the tread's top): no tread there (the floor before the
-      // flight, where the model's first riser lies a little off).
-      const int body_voxels = std::max(1, static_cast<int>(std::lround(stairs.rise_m / res)));
+      // A ray through the step's body: no tread there (the floor before the flight, where the model's first
+      // riser lies a little off).
       bool seen_through = false;
       for (int iz = std::max(0, iz_top - body_voxels + 1); iz <= iz_top && !seen_through; ++iz) {
         seen_through = seen_free_.IsOccupiedIndex({ix, iy, iz});
@@ -303,7 +318,13 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     pending_cover_M_.setEmpty();
     current = extent_M_;
   }
-  const bool stairs_changed = !SameStairs(staircases, stair_priors_);
+  // Only flights the platform climbs: one that cannot gains nothing from their treads (its map shows the steps
+  // the lidar saw, and a refusal names the one it saw).
+  const double max_step_m = planner_->Profile(platform_)->traversability.max_step_m;
+  std::vector<perception::Staircase> climbable;
+  std::copy_if(staircases.begin(), staircases.end(), std::back_inserter(climbable),
+               [max_step_m](const perception::Staircase& stairs) { return stairs.rise_m <= max_step_m; });
+  const bool stairs_changed = !SameStairs(climbable, stair_priors_);
   if (!(tile_m > 0) || (changed.empty() && want.isEmpty() && !stairs_changed)) {
     stats.extent_M = current;
     return stats;
@@ -335,18 +356,17 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
   if (stairs_changed) {
     // The footprints of flights that went or changed are read again from the map (their old treads go), as
     // are those of new ones (then written over).
-    const std::vector<perception::Staircase>& applied = stair_priors_;
-    for (const std::vector<perception::Staircase>* list : {&applied, &staircases}) {
-      for (const perception::Staircase& stairs : *list) {
-        const Eigen::AlignedBox2d box = StairArea(stairs);
-        const Eigen::Vector2i t_lo = (box.min() / tile_m).array().floor().cast<int>().matrix();
-        const Eigen::Vector2i t_hi = (box.max() / tile_m).array().floor().cast<int>().matrix();
-        for (int tx = t_lo.x(); tx <= t_hi.x(); ++tx) {
-          for (int ty = t_lo.y(); ty <= t_hi.y(); ++ty) tiles.emplace_back(tx, ty);
-        }
+    auto read_again = [&](const perception::Staircase& stairs) {
+      const Eigen::AlignedBox2d box = StairArea(stairs);
+      const Eigen::Vector2i t_lo = (box.min() / tile_m).array().floor().cast<int>().matrix();
+      const Eigen::Vector2i t_hi = (box.max() / tile_m).array().floor().cast<int>().matrix();
+      for (int tx = t_lo.x(); tx <= t_hi.x(); ++tx) {
+        for (int ty = t_lo.y(); ty <= t_hi.y(); ++ty) tiles.emplace_back(tx, ty);
       }
-    }
-    stair_priors_ = staircases;
+    };
+    std::for_each(stair_priors_.begin(), stair_priors_.end(), read_again);
+    std::for_each(climbable.begin(), climbable.end(), read_again);
+    stair_priors_ = std::move(climbable);
   }
   const double res = voxels_.resolution_m();
   const Eigen::Vector3i last = voxels_.dims() - Eigen::Vector3i::Ones();
@@ -381,11 +401,7 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     ++stats.tiles;
   }
   // The flights' treads over what was read (a growth read only the new area: the copied voxels kept them).
-  // Only for a platform that climbs the flight's rise: one that cannot gains nothing (its map shows the steps
-  // the lidar saw, and a refusal names the one it saw).
-  const double max_step_m = planner_->Profile(platform_)->traversability.max_step_m;
   for (const perception::Staircase& stairs : stair_priors_) {
-    if (stairs.rise_m > max_step_m) continue;
     const Eigen::AlignedBox2d box = StairArea(stairs);
     const bool read = std::any_of(columns.begin(), columns.end(),
                                   [&box](const Eigen::AlignedBox2d& c) { return c.intersects(box); });
