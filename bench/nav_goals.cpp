@@ -210,6 +210,15 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
       const nav::GlobalPlan plan = navigation.SetGoal(pose, goal.x(), goal.y(), 0.0, t, active_goal_z_m);
       if (!plan.IsUsable()) {
         out.reason = "refused: " + plan.reason;
+        if (g_verbose) {
+          for (const perception::Staircase& st : perception.Staircases()) {
+            std::printf("      staircase at (%.2f, %.2f, %.2f) yaw %.2f rise %.3f run %.3f width %.2f, %d steps\n",
+                        st.p_W_first_step.x(), st.p_W_first_step.y(), st.p_W_first_step.z(), st.yaw_rad,
+                        st.rise_m, st.run_m, st.width_m, st.num_steps);
+          }
+          PrintLevels(nav_map, {pose.x_m + 1.0, pose.y_m}, pose.z_m);
+          PrintLevels(nav_map, {pose.x_m + 1.0, pose.y_m}, pose.z_m + 0.5);
+        }
         return out;
       }
       goal_set = true;

@@ -35,6 +35,7 @@ struct Geometry {
   double point_block_m = 0.0;          // collision + spacing / 2
   double voxel_block_m = 0.0;          // point_block + blocking half diagonal
   double band_reach_m = 0.0;  // collision + clearance half diagonal + band: clearance voxel centres within it
+  double near_origin_m = 0.0;  // voxel_block + spacing: points nearer the origin are tested exactly
   int block_grid_half = 0;    // Voxels from the origin to an edge of the blocking grid.
   int band_grid_half = 0;     // ... of the clearance grid.
 };
@@ -49,6 +50,7 @@ Geometry ComputeGeometry(const TrajectoryLibraryOptions& o) {
   g.point_block_m = o.collision_radius_m + 0.5 * g.spacing_m;
   g.voxel_block_m = g.point_block_m + g.block_half_diagonal_m;
   g.band_reach_m = o.collision_radius_m + g.band_half_diagonal_m + o.clearance_band_m;
+  g.near_origin_m = g.voxel_block_m + g.spacing_m;
   // Samples lie within path_length_m of the origin (arc length >= chord).
   g.block_grid_half =
       static_cast<int>(std::ceil((o.path_length_m + g.voxel_block_m) / o.voxel_size_m - 1e-9));
@@ -73,6 +75,22 @@ inline double SquaredDistance(double ax, double ay, double bx, double by) {
   const double dx = ax - bx;
   const double dy = ay - by;
   return dx * dx + dy * dy;
+}
+
+// True when the obstacle point (x, y) lies within `near_m` of the origin: it is tested against the samples
+// exactly (NearPointFirstBlocked), not through its voxel, whose conservative radius would block the first
+// samples of every path, also those leading away from a point the robot stands just inside the collision
+// radius of (a door jamb it brushed past): the robot could never leave.
+inline bool IsNearOrigin(double x, double y, double near_m) {
+  return SquaredDistance(x, y, 0.0, 0.0) < near_m * near_m;
+}
+
+// First sample among [0, end) of `s` within point_block_m of the point (x, y); `end` if none.
+inline int NearPointFirstBlocked(double x, double y, const Eigen::Vector2f* s, int end, double point_block2) {
+  for (int i = 0; i < end; ++i) {
+    if (SquaredDistance(x, y, s[i].x(), s[i].y()) <= point_block2) return i;
+  }
+  return end;
 }
 
 inline std::uint8_t ClearanceBucket(double min_d2, const Geometry& g, const TrajectoryLibraryOptions& o) {
@@ -209,6 +227,7 @@ TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options) : 
   spacing_m_ = geo.spacing_m;
   point_blocking_radius_m_ = geo.point_block_m;
   voxel_blocking_radius_m_ = geo.voxel_block_m;
+  near_origin_radius_m_ = geo.near_origin_m;
   auto make_grid = [](double voxel_m, int half) {
     Grid grid;
     grid.voxel_m = voxel_m;
@@ -516,6 +535,20 @@ LocalPlanner::LocalPlanner(std::shared_ptr<const TrajectoryLibrary> library,
   heading_rad_.resize(num_paths);
   end_bearing_rad_.resize(num_paths);
   static_score_.resize(num_paths);
+  // Near points: a few dozen lethal cells around the robot in practice; beyond the capacity the rest go
+  // through their voxels (conservative, no allocation in a cycle).
+  near_points_.reserve(4096);
+  near_reach_.resize(num_paths);
+  const double reach = library_->near_origin_radius_m() + library_->point_blocking_radius_m();
+  const int n = library_->samples_per_path();
+  for (std::size_t p = 0; p < num_paths; ++p) {
+    const Eigen::Vector2f* samples = library_->samples_B(static_cast<int>(p));
+    int last = -1;
+    for (int i = 0; i < n; ++i) {
+      if (samples[i].cast<double>().norm() <= reach + 1e-6) last = i;
+    }
+    near_reach_[p] = static_cast<std::uint8_t>(last + 1);
+  }
   const double max_total_turn = 3.0 * library_->options().max_segment_turn_rad;
   for (std::size_t p = 0; p < num_paths; ++p) {
     const TrajectoryInfo& info = library_->info(static_cast<int>(p));
@@ -624,6 +657,8 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
   }
   occupied_.clear();
   occupied_band_.clear();
+  near_points_.clear();
+  const double near_m = lib.near_origin_radius_m();
   float nearest2 = std::numeric_limits<float>::infinity();
   for (const Eigen::Vector3f& p : obstacles_B) {
     if (!IsFinite(p)) {
@@ -635,9 +670,11 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
       continue;
     }
     nearest2 = std::min(nearest2, p.x() * p.x() + p.y() * p.y());
-    const int v = lib.VoxelIndex(p.x(), p.y());
+    const bool near = IsNearOrigin(p.x(), p.y(), near_m) && near_points_.size() < near_points_.capacity();
+    if (near) near_points_.emplace_back(p.x(), p.y());
+    const int v = near ? -1 : lib.VoxelIndex(p.x(), p.y());
     const int w = lib.ClearanceVoxelIndex(p.x(), p.y());
-    if (v < 0 && w < 0) {
+    if (v < 0 && w < 0 && !near) {
       ++r.num_points_outside_grid;
       continue;
     }
@@ -680,6 +717,17 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
   for (int p = 0; p < num_paths; ++p, nodes += 3) {
     first_blocked[p] = std::min({node_first[nodes[0]], node_first[nodes[1]], node_first[nodes[2]]});
     bucket[p] = std::min({node_bucket[nodes[0]], node_bucket[nodes[1]], node_bucket[nodes[2]]});
+  }
+  // Points near the origin, exactly (see TrajectoryLibrary).
+  if (!near_points_.empty()) {
+    const double block2 = lib.point_blocking_radius_m() * lib.point_blocking_radius_m();
+    for (int p = 0; p < num_paths; ++p) {
+      const std::size_t pi = static_cast<std::size_t>(p);
+      const Eigen::Vector2f* s = lib.samples_B(p);
+      int end = std::min<int>(first_blocked[pi], near_reach_[pi]);
+      for (const Eigen::Vector2f& q : near_points_) end = NearPointFirstBlocked(q.x(), q.y(), s, end, block2);
+      if (end < near_reach_[pi]) first_blocked[pi] = std::min<std::uint8_t>(first_blocked[pi], static_cast<std::uint8_t>(end));
+    }
   }
 
   // Scoring (see LocalPlannerOptions).
@@ -776,13 +824,18 @@ std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
   std::vector<Eigen::Vector2d> band_centres;
   block_centres.reserve(obstacles_B.size());
   band_centres.reserve(obstacles_B.size());
+  std::vector<Eigen::Vector2d> near_points;  // tested exactly (IsNearOrigin)
   for (const Eigen::Vector3f& p : obstacles_B) {
     if (!IsFinite(p) || !InZBand(p, o)) continue;
-    block_centres.emplace_back(VoxelCentreCoordinate(p.x(), library.grid_min_m(), o.voxel_size_m),
-                               VoxelCentreCoordinate(p.y(), library.grid_min_m(), o.voxel_size_m));
     band_centres.emplace_back(
         VoxelCentreCoordinate(p.x(), library.clearance_grid_min_m(), o.clearance_voxel_size_m),
         VoxelCentreCoordinate(p.y(), library.clearance_grid_min_m(), o.clearance_voxel_size_m));
+    if (IsNearOrigin(p.x(), p.y(), geo.near_origin_m)) {
+      near_points.emplace_back(p.x(), p.y());
+      continue;
+    }
+    block_centres.emplace_back(VoxelCentreCoordinate(p.x(), library.grid_min_m(), o.voxel_size_m),
+                               VoxelCentreCoordinate(p.y(), library.grid_min_m(), o.voxel_size_m));
   }
   auto by_x = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() < b.x(); };
   std::sort(block_centres.begin(), block_centres.end(), by_x);
@@ -844,6 +897,8 @@ std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
         if (min_d2 < band2 && closest < req) bucket = std::min<int>(bucket, ClearanceBucket(min_d2, geo, o));
       });
     }
+    const double point_block2 = geo.point_block_m * geo.point_block_m;
+    for (const Eigen::Vector2d& q : near_points) first_blocked = NearPointFirstBlocked(q.x(), q.y(), s, first_blocked, point_block2);
     free_m[static_cast<std::size_t>(p)] = first_blocked * library.sample_spacing_m();
     if (clearance_m != nullptr) {
       (*clearance_m)[static_cast<std::size_t>(p)] =

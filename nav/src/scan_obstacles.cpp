@@ -58,49 +58,86 @@ ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points
   const double z_lo = pose_M.z_m - options.depth_below_m;
   const double z_hi = pose_M.z_m + options.robot_height_m;
   const double r2 = options.range_m * options.range_m;
-  for (const Eigen::Vector3f& p : points_M) {
-    if (!p.allFinite() || p.z() < z_lo || p.z() > z_hi) continue;
+  // The cell of a point in the analysed band, or -1.
+  auto cell_of = [&](const Eigen::Vector3f& p) -> std::ptrdiff_t {
+    if (!p.allFinite() || p.z() < z_lo || p.z() > z_hi) return -1;
     const double dx = p.x() - pose_M.x_m;
     const double dy = p.y() - pose_M.y_m;
-    if (dx * dx + dy * dy > r2) continue;
+    if (dx * dx + dy * dy > r2) return -1;
     const int ix = static_cast<int>(std::floor((p.x() - x0) / c));
     const int iy = static_cast<int>(std::floor((p.y() - y0) / c));
-    if (ix < 0 || iy < 0 || ix >= n || iy >= n) continue;
-    const std::size_t i = static_cast<std::size_t>(ix) + static_cast<std::size_t>(n) * iy;
+    if (ix < 0 || iy < 0 || ix >= n || iy >= n) return -1;
+    return static_cast<std::ptrdiff_t>(ix) + static_cast<std::ptrdiff_t>(n) * iy;
+  };
+  for (const Eigen::Vector3f& p : points_M) {
+    const std::ptrdiff_t cell = cell_of(p);
+    if (cell < 0) continue;
+    const std::size_t i = static_cast<std::size_t>(cell);
     low[i] = std::min(low[i], p.z());
     high[i] = std::max(high[i], p.z());
     if (count[i] < 0xffff) ++count[i];
     ++stats.points_used;
   }
+  // Lethal cells, and per lethal cell the height above which its points are the obstacle: above its lowest
+  // point + max_step_m when its own points span too much (a wall standing on the floor in the cell), all of
+  // them when it stands too high above a neighbour (a step's top).
   const float step = static_cast<float>(options.max_step_m) + 1e-4f;
-  const double cos_yaw = std::cos(pose_M.yaw_rad);
-  const double sin_yaw = std::sin(pose_M.yaw_rad);
+  std::vector<float> obstacle_above(low.size(), kNone);  // kNone: not lethal
   for (int iy = 0; iy < n; ++iy) {
     for (int ix = 0; ix < n; ++ix) {
       const std::size_t i = static_cast<std::size_t>(ix) + static_cast<std::size_t>(n) * iy;
       if (low[i] == kNone) continue;
       ++stats.cells_observed;
       if (count[i] < options.min_points_per_cell) continue;  // a stray return is no obstacle
-      bool lethal = high[i] - low[i] > step;
-      for (int dy = -1; dy <= 1 && !lethal; ++dy) {
+      bool above_neighbour = false;
+      for (int dy = -1; dy <= 1 && !above_neighbour; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
           const int jx = ix + dx;
           const int jy = iy + dy;
           if ((dx == 0 && dy == 0) || jx < 0 || jy < 0 || jx >= n || jy >= n) continue;
           const std::size_t j = static_cast<std::size_t>(jx) + static_cast<std::size_t>(n) * jy;
           if (low[j] != kNone && count[j] >= options.min_points_per_cell && low[i] - low[j] > step) {
-            lethal = true;
+            above_neighbour = true;
             break;
           }
         }
       }
-      if (!lethal) continue;
+      if (above_neighbour) {
+        obstacle_above[i] = -kNone;
+      } else if (high[i] - low[i] > step) {
+        obstacle_above[i] = low[i] + step;
+      } else {
+        continue;
+      }
       ++stats.cells_lethal;
-      const double dx = x0 + (ix + 0.5) * c - pose_M.x_m;
-      const double dy = y0 + (iy + 0.5) * c - pose_M.y_m;
-      points_B->emplace_back(static_cast<float>(cos_yaw * dx + sin_yaw * dy),
-                             static_cast<float>(-sin_yaw * dx + cos_yaw * dy), 0.0f);
     }
+  }
+  // Each lethal cell is reported at its obstacle point nearest the robot in x-y: the surface as measured.
+  // Its centre lies up to half a cell (5 cm) off the surface on either side and moves with the robot's
+  // position modulo a cell; in a 1.0 m doorway that decides whether a 0.6 m robot fits.
+  std::vector<Eigen::Vector2f> nearest(low.size(), Eigen::Vector2f::Zero());
+  std::vector<float> nearest_d2(low.size(), kNone);
+  for (const Eigen::Vector3f& p : points_M) {
+    const std::ptrdiff_t cell = cell_of(p);
+    if (cell < 0) continue;
+    const std::size_t i = static_cast<std::size_t>(cell);
+    if (!(p.z() > obstacle_above[i])) continue;
+    const float dx = static_cast<float>(p.x() - pose_M.x_m);
+    const float dy = static_cast<float>(p.y() - pose_M.y_m);
+    const float d2 = dx * dx + dy * dy;
+    if (d2 < nearest_d2[i]) {
+      nearest_d2[i] = d2;
+      nearest[i] = Eigen::Vector2f(dx, dy);
+    }
+  }
+  const double cos_yaw = std::cos(pose_M.yaw_rad);
+  const double sin_yaw = std::sin(pose_M.yaw_rad);
+  for (std::size_t i = 0; i < low.size(); ++i) {
+    if (nearest_d2[i] == kNone) continue;
+    const double dx = nearest[i].x();
+    const double dy = nearest[i].y();
+    points_B->emplace_back(static_cast<float>(cos_yaw * dx + sin_yaw * dy),
+                           static_cast<float>(-sin_yaw * dx + cos_yaw * dy), 0.0f);
   }
   return stats;
 }

@@ -67,6 +67,27 @@ TEST(ScanObstaclesTest, AStepHigherThanThePlatformClimbsIsAnObstacleALowerOneIsN
   EXPECT_TRUE(points_B.empty()) << points_B.size() << " obstacles for a platform that climbs 0.25 m";
 }
 
+// The nearest obstacle is where the surface is, whatever the robot's position modulo a cell: a cell centre
+// lies up to half a cell (5 cm) off the face, which in a 1.0 m doorway decides whether a 0.6 m robot fits.
+TEST(ScanObstaclesTest, TheNearestObstacleLiesOnTheSurfaceWhereverTheRobotStandsInItsCell) {
+  std::vector<Eigen::Vector3f> points_M;
+  AddPatch(-1.0, 3.0, -1.0, 1.0, 0.0, &points_M);
+  AddFace(1.5, -1.0, 1.0, 0.0, 1.0, &points_M);  // a wall at x = 1.5
+  double worst_m = 0.0;
+  for (double x = 0.0; x < 0.1; x += 0.01) {
+    core::BaseState pose;
+    pose.x_m = x;
+    std::vector<Eigen::Vector3f> points_B;
+    ObstaclesFromPoints(points_M, pose, ScanObstacleOptions{}, &points_B);
+    ASSERT_FALSE(points_B.empty());
+    double nearest = 1e9;
+    for (const auto& p : points_B) nearest = std::min(nearest, static_cast<double>(p.head<2>().norm()));
+    worst_m = std::max(worst_m, std::abs(nearest - (1.5 - x)));
+    for (const auto& p : points_B) EXPECT_GE(p.x(), 1.5 - x - 1e-4) << "an obstacle in front of the wall";
+  }
+  EXPECT_LT(worst_m, 1e-3) << "the nearest obstacle is " << worst_m << " m off the wall";
+}
+
 TEST(ScanObstaclesTest, BadInputIsNamedOrSkipped) {
   std::vector<Eigen::Vector3f> points_B;
   ScanObstacleOptions o;

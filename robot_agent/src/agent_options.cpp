@@ -43,7 +43,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   mux.ReadDouble("waypoint_timeout_s", &waypoint_timeout_s);
   NavigationOptions& n = navigation;
   const auto nav = config.Section("navigation");
-  nav.RejectUnknownKeys({"cruise_speed_mps", "goal_tolerance_m", "blocked_timeout_s", "contact_timeout_s",
+  nav.RejectUnknownKeys({"cruise_speed_mps", "goal_tolerance_m", "blocked_timeout_s", "stall_timeout_s", "contact_timeout_s",
                          "carrot_distance_m", "required_free_length_m", "tight_free_length_m",
                          "tight_spot_deviation_rad", "sensor_range_m", "local_planner_period_s", "obstacle_timeout_s", "obstacle_lost_s", "replan_check_period_s", "max_path_deviation_m",
                          "joystick_turn_lookahead_s", "map_half_extent_m", "map_max_extent_m", "map_grow_margin_m", "map_grow_step_m",
@@ -52,6 +52,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   nav.ReadDouble("cruise_speed_mps", &n.platform.cruise_speed_mps);
   nav.ReadDouble("goal_tolerance_m", &n.goal_tolerance_m);
   nav.ReadDouble("blocked_timeout_s", &n.blocked_timeout_s);
+  nav.ReadDouble("stall_timeout_s", &n.stall_timeout_s);
   nav.ReadDouble("contact_timeout_s", &contact_timeout_s);
   nav.ReadDouble("carrot_distance_m", &n.carrot_distance_m);
   nav.ReadDouble("required_free_length_m", &n.required_free_length_m);

@@ -273,14 +273,18 @@ void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
       const double top_z = stairs.p_W_first_step.z() + step * stairs.rise_m;
       const int iz_top = static_cast<int>(std::lround((top_z - voxels_.p_W_min().z()) / res)) - 1;
       if (iz_top < 0 || iz_top > last.z()) continue;
-      // A ray through the step's body: no tread there (the floor before the flight, where the model's first
-      // riser lies a little off).
+      // A ray through the step's body below its top voxel: no tread there (the floor before the flight, where
+      // the model's first riser lies a little off). The top voxel itself does not count: a ray grazing a tread
+      // on its way to the next riser clears it (an OctoMap miss), which left holes in the treads of the flight
+      // a robot stood at the foot of, and no plan onto it.
+      const int body_top = body_voxels >= 2 ? iz_top - 1 : iz_top;
       bool seen_through = false;
-      for (int iz = std::max(0, iz_top - body_voxels + 1); iz <= iz_top && !seen_through; ++iz) {
+      for (int iz = std::max(0, iz_top - body_voxels + 1); iz <= body_top && !seen_through; ++iz) {
         seen_through = seen_free_.IsOccupiedIndex({ix, iy, iz});
       }
       if (seen_through) continue;
       voxels_.SetOccupied({ix, iy, iz_top}, true);
+      seen_free_.SetOccupied({ix, iy, iz_top}, false);
       for (int iz = iz_top + 1; iz <= std::min(last.z(), iz_top + kStairClearVoxels); ++iz) {
         if (voxels_.IsOccupiedIndex({ix, iy, iz})) break;
         seen_free_.SetOccupied({ix, iy, iz}, true);

@@ -53,6 +53,7 @@ bool NavigationOptions::IsValid(std::string* why) const {
   }
   return InRange("navigation.goal_tolerance_m", goal_tolerance_m, 0, 5, true, why) &&
          InRange("navigation.blocked_timeout_s", blocked_timeout_s, 0, 600, true, why) &&
+         InRange("navigation.stall_timeout_s", stall_timeout_s, 0, 3600, true, why) &&
          InRange("navigation.carrot_distance_m", carrot_distance_m, 0, 10, true, why) &&
          InRange("navigation.required_free_length_m", required_free_length_m, 0, 10, true, why) &&
          InRange("navigation.tight_free_length_m", tight_free_length_m, 0, required_free_length_m, true, why) &&
@@ -519,6 +520,16 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   // Progress bookkeeping: ETA from a slow mean of the speed, blocked when no progress.
   mean_speed_mps_ += 0.02 * (std::abs(state.v_mps) - mean_speed_mps_);
   eta_s_ = distance_left_m_ / std::max(mean_speed_mps_, 0.2 * options_.platform.cruise_speed_mps);
+  // Stall: whatever the plans did, the robot must move (Nav2's progress checker, 0.5 m).
+  constexpr double kStallRadiusM = 0.5;
+  if (!goal_->anchor_W.allFinite() || (p_W - goal_->anchor_W).norm() >= kStallRadiusM) {
+    goal_->anchor_W = p_W;
+    goal_->anchor_time_s = now_s;
+  } else if (now_s - goal_->anchor_time_s > options_.stall_timeout_s) {
+    return Fail("stalled: moved less than " + Fixed(kStallRadiusM, 1) + " m in " + Fixed(options_.stall_timeout_s, 0) +
+                " s (" + Fixed(distance_left_m_, 1) + " m left, " + std::to_string(replans_) + " plans" +
+                (local_status_ != "path" && !local_status_.empty() ? "; local planner " + local_status_ : "") + ")");
+  }
   if (distance_left_m_ < goal_->best_distance_m - 0.05) {
     goal_->best_distance_m = distance_left_m_;
     goal_->best_time_s = now_s;

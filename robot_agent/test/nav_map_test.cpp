@@ -414,6 +414,27 @@ TEST(NavMapTest, ADetectedFlightsTreadsAreGroundUntilItIsNoLongerDetected) {
   EXPECT_EQ(without.stair_priors, 0);
   EXPECT_EQ(nav_map.levels().node_count(), 0) << "the treads stayed after the flight went";
 
+  // A ray that grazed the 2nd tread on its way to the 3rd riser cleared the tread's top voxel (an OctoMap
+  // miss): the tread is still written there. A ray through the step's body below its top voxel means no
+  // step: that column is left as seen.
+  perception::OccupancyMap seen;
+  const auto ray = [&seen](double y_m, double z_m) {
+    Eigen::Isometry3d T_W_S = Eigen::Isometry3d::Identity();
+    T_W_S.translation() = Eigen::Vector3d(1.0, y_m, z_m);
+    seen.InsertScan({Eigen::Vector3f(1.95f, 0.0f, 0.0f)}, T_W_S);  // ends in the 3rd step, at x 2.95
+  };
+  ray(0.05, 0.35);   // through the 2nd tread's top voxel (z 0.3-0.4), x 2.3-2.6
+  ray(-0.15, 0.25);  // through its body (z 0.2-0.3)
+  ASSERT_EQ(seen.Query({2.45, 0.05, 0.35}), perception::Occupancy::kFree);
+  const std::vector<Eigen::Vector2i> tiles = {{0, -1}, {1, -1}, {0, 0}, {1, 0}};
+  ASSERT_TRUE(nav_map.Update(seen, tiles, 2.0, 0.5, {flight}).applied);
+  int ix = 0, iy = 0;
+  ASSERT_TRUE(nav_map.levels().CellOf(2.45, 0.05, &ix, &iy));
+  EXPECT_GE(nav_map.levels().NodeNear(ix, iy, 0.4, 0.05), 0) << "a grazing ray left a hole in the 2nd tread";
+  ASSERT_TRUE(nav_map.levels().CellOf(2.45, -0.15, &ix, &iy));
+  EXPECT_LT(nav_map.levels().NodeNear(ix, iy, 0.4, 0.05), 0) << "a tread written where a ray went through the step";
+  ASSERT_TRUE(nav_map.Update(seen, {}, 2.0, 0.5, {}).applied);
+
   // A wheeled robot (0.15 m step) does not climb 0.2 m risers: its map keeps what its lidar saw.
   const nav::PlatformProfile wheeled = nav::GetPlatformProfile("wheeled");
   auto wheeled_planner = NavMap::MakePlanner(map_options, octomap.resolution_m(), start_M, {wheeled});

@@ -41,11 +41,12 @@ std::shared_ptr<const nav::TrajectoryLibrary> LibraryFor(const nav::PlatformProf
 // One robot: navigation + platform + stand-in obstacle sensor on the planner's grid.
 struct SimRobot {
   SimRobot(std::shared_ptr<const sim::World> world, const std::string& platform_name, double x, double y,
-           double yaw, double blocked_timeout_s = NavigationOptions{}.blocked_timeout_s)
+           double yaw, double blocked_timeout_s = NavigationOptions{}.blocked_timeout_s,
+           double stall_timeout_s = NavigationOptions{}.stall_timeout_s)
       : planner(std::make_shared<nav::GlobalPlanner>(
             world, std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled"),
                                                      nav::GetPlatformProfile("legged")})),
-        options(MakeOptions(platform_name, blocked_timeout_s)),
+        options(MakeOptions(platform_name, blocked_timeout_s, stall_timeout_s)),
         navigation(options, planner, LibraryFor(options.platform)),
         platform(options.platform.limits, options.platform.footprint_radius_m) {
     sim::UnicycleState s;
@@ -57,10 +58,12 @@ struct SimRobot {
   }
 
   static NavigationOptions MakeOptions(const std::string& platform_name,
-                                       double blocked_timeout_s = NavigationOptions{}.blocked_timeout_s) {
+                                       double blocked_timeout_s = NavigationOptions{}.blocked_timeout_s,
+                                       double stall_timeout_s = NavigationOptions{}.stall_timeout_s) {
     NavigationOptions o;
     o.platform = nav::GetPlatformProfile(platform_name);
     o.blocked_timeout_s = blocked_timeout_s;
+    o.stall_timeout_s = stall_timeout_s;
     return o;
   }
 
@@ -337,9 +340,9 @@ TEST(NavigationTest, StopsWithoutObstacleInput) {
 // obstacle memory and retries (the ghost is still there: attempt 1 fails), backs up and retries after the
 // ghost has left (attempt 2 arrives).
 struct GhostRobot {
-  explicit GhostRobot(double blocked_timeout_s)
+  explicit GhostRobot(double blocked_timeout_s, double stall_timeout_s = NavigationOptions{}.stall_timeout_s)
       : world(std::make_shared<const sim::World>(FlatWorld(16.0, 8.0, 0.1, 2.0))),
-        robot(world, "wheeled", 3.0, 4.0, 0.0, blocked_timeout_s),
+        robot(world, "wheeled", 3.0, 4.0, 0.0, blocked_timeout_s, stall_timeout_s),
         recovery(std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml", &robot.navigation,
                  WaypointRecovery::Hooks{[this] { ++clears; }}) {
     for (double d = -0.5; d <= 0.5 + 1e-9; d += 0.05) {
@@ -455,6 +458,22 @@ TEST(WaypointRecoveryTest, AGhostThatStaysFailsTheGoalWithEveryAttemptAndTheRobo
     return s;
   }();
   EXPECT_TRUE(back.arrived) << back.reason;
+}
+
+// A robot that does not move loses its goal after stall_timeout_s whatever else navigation counts as
+// progress (a new plan resets the blocked_timeout_s clock, so a robot whose plans kept changing on the stairs
+// kept its goal for 240 s): here the blocked rule alone would wait 600 s.
+TEST(NavigationTest, ARobotThatDoesNotMoveStallsWhateverItsPlansDo) {
+  GhostRobot g(/*blocked_timeout_s=*/600.0, /*stall_timeout_s=*/20.0);
+  ASSERT_TRUE(g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
+  NavigationStep step;
+  while (g.robot.t_s < 60.0 && !step.failed && !step.arrived) {
+    step = g.robot.Tick([&] { return NavigationStep{}; });  // a body that never moves
+    if (!step.failed) step = g.robot.navigation.StepWaypoint(g.robot.platform.state(), g.robot.t_s);
+  }
+  ASSERT_TRUE(step.failed);
+  EXPECT_EQ(step.reason.rfind("stalled: moved less than 0.5 m in 20 s", 0), 0u) << step.reason;
+  EXPECT_NEAR(g.robot.t_s, 20.0, 0.5);
 }
 
 }  // namespace

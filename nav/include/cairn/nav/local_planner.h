@@ -126,6 +126,11 @@ struct ConstSpan {
 /// sample_spacing_m() / 2 from each of its samples, hence farther than collision_radius_m from every point of
 /// the path after arc length sample_spacing_m() / 2. The price: a point may block at up to collision_radius_m
 /// + sample_spacing_m() / 2 + voxel_size_m * sqrt(2) (0.52 m with the defaults, 0.375 m at best).
+/// Points near the origin (within near_origin_radius_m()) skip the voxels and are tested against the samples
+/// exactly: one blocks a path from the first sample within point_blocking_radius_m() of it. Through its voxel
+/// such a point would block the first samples of every path, those leading away from it too, so that a robot
+/// standing just inside the collision radius of a door jamb could never leave; exactly, the paths that move
+/// away from it stay free and the guarantee above still holds.
 ///
 /// Clearance grid (clearance_voxel_size_m) and band entries: the clearance of a voxel to an arc is (distance
 /// from the voxel centre to the arc's nearest sample) - clearance_voxel_size_m * sqrt(2) / 2 -
@@ -188,6 +193,9 @@ class TrajectoryLibrary {
   /// Distance from a sample within which a blocking voxel's centre blocks the path: point_blocking_radius_m()
   /// + half the voxel diagonal, metres.
   double voxel_blocking_radius_m() const { return voxel_blocking_radius_m_; }
+  /// voxel_blocking_radius_m() + sample_spacing_m(), metres: obstacle points nearer the origin than this are
+  /// tested against the samples exactly (point_blocking_radius_m()), not through their voxel.
+  double near_origin_radius_m() const { return near_origin_radius_m_; }
   /// Clearance (metres) that a band entry's clearance_bucket stands for: a lower bound, bucket *
   /// clearance_band_m / 254; bucket 255 stands for "nothing in the band" and returns clearance_band_m.
   double BucketClearanceM(std::uint8_t bucket) const;
@@ -256,6 +264,7 @@ class TrajectoryLibrary {
   double spacing_m_ = 0.0;
   double point_blocking_radius_m_ = 0.0;
   double voxel_blocking_radius_m_ = 0.0;
+  double near_origin_radius_m_ = 0.0;
   Grid block_grid_;
   Grid band_grid_;
   int num_nodes_ = 0;
@@ -439,6 +448,8 @@ class LocalPlanner {
   std::vector<float> heading_rad_;                // Per path: TrajectoryInfo::heading_rad.
   std::vector<float> end_bearing_rad_;            // Per path: TrajectoryInfo::end_bearing_rad.
   std::vector<float> static_score_;  // Per path: the heading change and turning terms of the score.
+  std::vector<Eigen::Vector2f> near_points_;  // This cycle's points within near_origin_radius_m() (capacity fixed).
+  std::vector<std::uint8_t> near_reach_;      // Per path: samples [0, this) may lie within reach of a near point.
 };
 
 /// Reference classification without the correspondence, for tests and benchmarks: for every path and each

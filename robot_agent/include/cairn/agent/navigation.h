@@ -34,6 +34,10 @@ struct NavigationOptions {
   double goal_tolerance_m = 0.2;
   /// No progress toward the goal for this long -> the goal fails ("blocked: ..."), seconds, (0, 600].
   double blocked_timeout_s = 10.0;
+  /// The robot moved less than 0.5 m for this long -> the goal fails ("stalled: ..."), seconds, (0, 3600],
+  /// whatever its plans did (Nav2's progress checker): a new plan counts as progress for blocked_timeout_s,
+  /// so a robot whose plans keep changing without taking it anywhere would otherwise keep its goal forever.
+  double stall_timeout_s = 60.0;
   /// The local planner aims at the point this far along the global path, metres, (0, 10].
   double carrot_distance_m = 2.5;
   /// Waypoint mode: a local path must be free for this long (or to the goal if nearer); a path blocked
@@ -177,6 +181,9 @@ class Navigation {
     double tolerance_m = 0.2;
     double best_distance_m = 0.0;
     double best_time_s = 0.0;
+    // Where the robot last was 0.5 m away from (stall_timeout_s), NaN until its first step, and since when.
+    Eigen::Vector2d anchor_W = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+    double anchor_time_s = 0.0;
   };
   // How far a (partial) plan's end is from the goal (nav::PartialRemainingM).
   double PartialRemaining(const nav::GlobalPlan& plan) const;
