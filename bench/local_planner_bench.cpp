@@ -196,5 +196,57 @@ int main(int argc, char** argv) {
                 brute_ms / plan_ms, brute_free_ms, brute_free_ms / plan_ms, agree, library->num_paths());
     std::printf("        -> %s: %s\n", cairn::nav::ToString(result.status), result.message.c_str());
   }
+
+  // Points near the robot (within near_origin_radius_m()) are tested against every path's first samples
+  // exactly instead of through the correspondence. Their cost, in two tight spots added to the 20k tunnel
+  // cloud: the robot 0.1 m off the centre of a 1.0 m doorway (jambs 0.4 and 0.6 m away), and wedged 0.32 m
+  // from a wall's end (inside the collision radius). Baseline: the same cloud without the spot's points. Paths
+  // must be free for 1.5 m, as the agent's.
+  std::printf("\nnear points (within %.3f m): Plan() median of %d, same cloud without the spot = baseline\n",
+              library->near_origin_radius_m(), runs);
+  std::printf("%-26s %6s %9s %9s %9s %7s %s\n", "spot", "near", "plan ms", "p99 ms", "base ms", "ratio",
+              "outcome");
+  const std::vector<Eigen::Vector3f> tunnel = TunnelCloud(20000, range_m, 21000u);
+  struct Spot {
+    const char* name;
+    std::vector<Eigen::Vector3f> points;
+  };
+  Spot doorway{"doorway 1.0 m, 0.1 m off", {}};
+  Spot wedge{"wedged 0.32 m from a wall", {}};
+  for (double x = -0.1; x <= 0.1 + 1e-9; x += 0.02) {
+    for (double z = -0.3; z <= 1.0; z += 0.05) {
+      doorway.points.emplace_back(x, 0.4, z);
+      doorway.points.emplace_back(x, -0.6, z);
+    }
+  }
+  for (double x = -1.5; x <= 0.0 + 1e-9; x += 0.02) {  // a wall ending at x = 0, 0.32 m to the left
+    for (double z = -0.3; z <= 1.0; z += 0.05) wedge.points.emplace_back(x, 0.32, z);
+  }
+  request.max_required_free_length_m = 1.5;  // the agent's navigation.required_free_length_m
+  for (const Spot& spot : {doorway, wedge}) {
+    std::vector<Eigen::Vector3f> cloud = tunnel;
+    cloud.insert(cloud.end(), spot.points.begin(), spot.points.end());
+    auto median_ms = [&](const std::vector<Eigen::Vector3f>& c, double* p99_ms) {
+      for (int r = 0; r < 20; ++r) planner.Plan(c, request, &result);
+      std::vector<double> s;
+      for (int r = 0; r < runs; ++r) {
+        const auto t0 = Clock::now();
+        planner.Plan(c, request, &result);
+        s.push_back(Seconds(t0, Clock::now()));
+      }
+      if (p99_ms != nullptr) *p99_ms = Percentile(s, 0.99) * 1e3;
+      return Median(s) * 1e3;
+    };
+    const double base_ms = median_ms(tunnel, nullptr);
+    double p99_ms = 0.0;
+    const double spot_ms = median_ms(cloud, &p99_ms);
+    int near = 0;
+    for (const auto& p : cloud) {
+      near += p.z() >= library->options().obstacle_min_z_m && p.z() <= library->options().obstacle_max_z_m &&
+              p.head<2>().norm() < library->near_origin_radius_m();
+    }
+    std::printf("%-26s %6d %9.3f %9.3f %9.3f %7.2f %s\n", spot.name, near, spot_ms, p99_ms, base_ms,
+                spot_ms / base_ms, result.message.c_str());
+  }
   return 0;
 }

@@ -535,20 +535,6 @@ LocalPlanner::LocalPlanner(std::shared_ptr<const TrajectoryLibrary> library,
   heading_rad_.resize(num_paths);
   end_bearing_rad_.resize(num_paths);
   static_score_.resize(num_paths);
-  // Near points: a few dozen lethal cells around the robot in practice; beyond the capacity the rest go
-  // through their voxels (conservative, no allocation in a cycle).
-  near_points_.reserve(4096);
-  near_reach_.resize(num_paths);
-  const double reach = library_->near_origin_radius_m() + library_->point_blocking_radius_m();
-  const int n = library_->samples_per_path();
-  for (std::size_t p = 0; p < num_paths; ++p) {
-    const Eigen::Vector2f* samples = library_->samples_B(static_cast<int>(p));
-    int last = -1;
-    for (int i = 0; i < n; ++i) {
-      if (samples[i].cast<double>().norm() <= reach + 1e-6) last = i;
-    }
-    near_reach_[p] = static_cast<std::uint8_t>(last + 1);
-  }
   const double max_total_turn = 3.0 * library_->options().max_segment_turn_rad;
   for (std::size_t p = 0; p < num_paths; ++p) {
     const TrajectoryInfo& info = library_->info(static_cast<int>(p));
@@ -558,6 +544,27 @@ LocalPlanner::LocalPlanner(std::shared_ptr<const TrajectoryLibrary> library,
     static_score_[p] =
         static_cast<float>(options_.heading_change_weight * (1.0 - std::abs(info.heading_rad) / kPi) +
                            options_.turning_weight * straightness);
+  }
+  // Near points: a few dozen lethal cells around the robot in practice; beyond the capacity the rest go
+  // through their voxels (conservative, no allocation in a cycle). They are tested per path tree node (the
+  // first arc of a group holds every sample within reach of them with the defaults: 252 nodes, not 12,348
+  // paths).
+  near_points_.reserve(4096);
+  const double reach = library_->near_origin_radius_m() + library_->point_blocking_radius_m();
+  std::vector<char> seen(static_cast<std::size_t>(library_->num_nodes()), 0);
+  for (int p = 0; p < library_->num_paths(); ++p) {
+    const Eigen::Vector2f* samples = library_->samples_B(p);
+    const std::uint16_t* nodes = library_->path_nodes(p);
+    for (int level = 0; level < 3; ++level) {
+      if (seen[nodes[level]]) continue;
+      seen[nodes[level]] = 1;
+      const int first = level == 0 ? 0 : library_->level_end_sample(level - 1);
+      int end = first;
+      for (int i = first; i < library_->level_end_sample(level); ++i) {
+        if (samples[i].cast<double>().norm() <= reach + 1e-6) end = i + 1;
+      }
+      if (end > first) near_nodes_.push_back({nodes[level], p, first, end});
+    }
   }
 }
 
@@ -711,23 +718,34 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
       c = std::min(c, value);
     }
   }
+  // Points near the origin, exactly, per path tree node (see TrajectoryLibrary).
+  if (!near_points_.empty()) {
+    const double block2 = lib.point_blocking_radius_m() * lib.point_blocking_radius_m();
+    for (const NearNode& nn : near_nodes_) {
+      const Eigen::Vector2f* s = lib.samples_B(nn.path);
+      std::uint8_t& f = node_first[nn.node];
+      const int end = std::min<int>(f, nn.end);
+      for (int i = nn.first; i < end; ++i) {
+        bool blocked = false;
+        for (const Eigen::Vector2f& q : near_points_) {
+          if (SquaredDistance(q.x(), q.y(), s[i].x(), s[i].y()) <= block2) {
+            blocked = true;
+            break;
+          }
+        }
+        if (blocked) {
+          f = static_cast<std::uint8_t>(i);
+          break;
+        }
+      }
+    }
+  }
   std::uint8_t* const first_blocked = first_blocked_.data();
   std::uint8_t* const bucket = clearance_bucket_.data();
   const std::uint16_t* nodes = lib.path_nodes(0);
   for (int p = 0; p < num_paths; ++p, nodes += 3) {
     first_blocked[p] = std::min({node_first[nodes[0]], node_first[nodes[1]], node_first[nodes[2]]});
     bucket[p] = std::min({node_bucket[nodes[0]], node_bucket[nodes[1]], node_bucket[nodes[2]]});
-  }
-  // Points near the origin, exactly (see TrajectoryLibrary).
-  if (!near_points_.empty()) {
-    const double block2 = lib.point_blocking_radius_m() * lib.point_blocking_radius_m();
-    for (int p = 0; p < num_paths; ++p) {
-      const std::size_t pi = static_cast<std::size_t>(p);
-      const Eigen::Vector2f* s = lib.samples_B(p);
-      int end = std::min<int>(first_blocked[pi], near_reach_[pi]);
-      for (const Eigen::Vector2f& q : near_points_) end = NearPointFirstBlocked(q.x(), q.y(), s, end, block2);
-      if (end < near_reach_[pi]) first_blocked[pi] = std::min<std::uint8_t>(first_blocked[pi], static_cast<std::uint8_t>(end));
-    }
   }
 
   // Scoring (see LocalPlannerOptions).

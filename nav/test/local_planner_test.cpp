@@ -335,6 +335,39 @@ TEST(LocalPlannerTest, ObstacleStraightAheadIsAvoided) {
   EXPECT_EQ(r.num_points_used, 200);
 }
 
+// A robot that brushed past a wall's end stands 0.32 m from it, inside the collision radius (the agent's
+// library: 0.3 m footprint + 0.03 m, 0.05 m voxels): paths leading away from the end stay free (the origin is
+// no sample), those passing closer to it do not. Through the end's voxel, every path's first samples were
+// blocked and the robot could never leave (builtin:building's mid landing).
+TEST(LocalPlannerTest, ARobotJustInsideTheCollisionRadiusOfAWallEndLeavesAwayFromIt) {
+  TrajectoryLibraryOptions agent;
+  agent.collision_radius_m = 0.33;
+  agent.voxel_size_m = 0.05;
+  LocalPlanner planner(std::make_shared<const TrajectoryLibrary>(agent));
+  const TrajectoryLibrary& lib = planner.library();
+  Cloud cloud;
+  AddWall(&cloud, -2.0, 0.32, 0.0, 0.32);  // a wall along x on the left, ending beside the robot
+  LocalPlanRequest request = GoalRequest(3.0, 0.0);
+  request.max_required_free_length_m = 1.5;
+  const LocalPlanResult r = planner.Plan(cloud, request);
+  ASSERT_TRUE(r.IsUsable()) << r.message;
+  EXPECT_NEAR(r.nearest_obstacle_m, 0.32, 1e-3);
+  // The chosen path never comes nearer the wall than the point blocking radius after its first sample.
+  EXPECT_GE(ClosestApproachM(r.path_B, cloud, lib.options()), lib.options().collision_radius_m);
+  // Straight ahead passes 0.32 m from the wall's end at its first sample: blocked.
+  for (int p = 0; p < lib.num_paths(); ++p) {
+    const Eigen::Vector2f s0 = lib.samples_B(p)[0];
+    if (std::hypot(s0.x() - 0.0, s0.y() - 0.32) < lib.point_blocking_radius_m()) {
+      EXPECT_LT(planner.free_length_m(p), 1e-9) << "path " << p << " passes the wall's end closer than it stands";
+    }
+  }
+  // The brute-force reference agrees path for path.
+  const std::vector<double> brute = BruteForceFreeLengths(lib, cloud, r.required_free_length_m);
+  for (int p = 0; p < lib.num_paths(); ++p) {
+    ASSERT_DOUBLE_EQ(planner.free_length_m(p), brute[static_cast<std::size_t>(p)]) << "path " << p;
+  }
+}
+
 TEST(LocalPlannerTest, RingOfObstaclesBoxesIn) {
   LocalPlanner planner(DefaultLibrary());
   Cloud cloud;

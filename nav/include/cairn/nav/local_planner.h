@@ -449,7 +449,15 @@ class LocalPlanner {
   std::vector<float> end_bearing_rad_;            // Per path: TrajectoryInfo::end_bearing_rad.
   std::vector<float> static_score_;  // Per path: the heading change and turning terms of the score.
   std::vector<Eigen::Vector2f> near_points_;  // This cycle's points within near_origin_radius_m() (capacity fixed).
-  std::vector<std::uint8_t> near_reach_;      // Per path: samples [0, this) may lie within reach of a near point.
+  // Path tree nodes with samples a near point may block: samples [first, end) of path `path` (any path
+  // through the node) lie within near_origin_radius_m() + point_blocking_radius_m() of the origin.
+  struct NearNode {
+    int node = 0;
+    int path = 0;
+    int first = 0;
+    int end = 0;
+  };
+  std::vector<NearNode> near_nodes_;
 };
 
 /// Reference classification without the correspondence, for tests and benchmarks: for every path and each
