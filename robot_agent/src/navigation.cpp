@@ -303,6 +303,37 @@ Eigen::Vector2d Navigation::PointAhead(double ahead_m) const {
   return path.back().head<2>();
 }
 
+Eigen::Vector2d Navigation::Carrot(const core::BaseState& state) const {
+  constexpr double kMinCarrotM = 0.5;   // never nearer: the local planner needs a direction
+  constexpr double kCarrotStepM = 0.1;  // along the path
+  const Eigen::Vector2d full = PointAhead(options_.carrot_distance_m);
+  if (obstacles_B_.empty()) return full;
+  // Segment from the robot to a path point, in the frame the obstacles are kept in.
+  const Eigen::Vector2d robot_O = ToBody(obstacles_pose_, Eigen::Vector2d(state.x_m, state.y_m));
+  const double radius = options_.platform.footprint_radius_m;
+  auto in_sight = [&](const Eigen::Vector2d& p_W) {
+    const Eigen::Vector2d end_O = ToBody(obstacles_pose_, p_W);
+    const Eigen::Vector2d d = end_O - robot_O;
+    const double len2 = d.squaredNorm();
+    for (const Eigen::Vector3f& o : obstacles_B_) {
+      if (!IsObstacle(o)) continue;
+      const Eigen::Vector2d q = o.head<2>().cast<double>();
+      const double t = len2 > 1e-12 ? std::clamp((q - robot_O).dot(d) / len2, 0.0, 1.0) : 0.0;
+      const double to_segment = (robot_O + t * d - q).norm();
+      // Not nearer than the footprint, nor than the robot is now to a point it already stands that near.
+      if (to_segment < std::min(radius, (q - robot_O).norm() - 1e-3)) return false;
+    }
+    return true;
+  };
+  Eigen::Vector2d carrot = PointAhead(std::min(kMinCarrotM, options_.carrot_distance_m));
+  for (double ahead = kMinCarrotM + kCarrotStepM; ahead <= options_.carrot_distance_m + 1e-9; ahead += kCarrotStepM) {
+    const Eigen::Vector2d p = PointAhead(ahead);
+    if (!in_sight(p)) break;
+    carrot = p;
+  }
+  return carrot;
+}
+
 void Navigation::AdoptPlan(const nav::GlobalPlan& plan, double now_s) {
   plan_ = plan;
   path_segment_ = 0;
@@ -539,7 +570,7 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
                 (local_status_ != "path" && !local_status_.empty() ? "; local planner " + local_status_ : "") + ")");
   }
   // Local planner toward the carrot (the goal itself when near).
-  const Eigen::Vector2d carrot = Carrot();
+  const Eigen::Vector2d carrot = Carrot(state);
   nav::LocalPlanRequest request;
   request.mode = nav::LocalPlanMode::kGoal;
   request.goal_B = ToBody(state, carrot);

@@ -197,7 +197,11 @@ class Navigation {
   // the robot to the path.
   double UpdateProgress(const Eigen::Vector2d& p_W);
   // Point carrot_distance_m ahead of the robot's projection on the global path.
-  Eigen::Vector2d Carrot() const { return PointAhead(options_.carrot_distance_m); }
+  // Up to carrot_distance_m, but no farther than the robot at `state` sees in a straight line free of the live
+  // obstacle points (footprint clearance, or the clearance it has now if less): at a doorway off a corridor,
+  // the turn's corner, not a point in the room behind the door jamb, which no local path reaches and whose
+  // bearing disagrees with the path's (the robot turned back and forth past the door for a minute).
+  Eigen::Vector2d Carrot(const core::BaseState& state) const;
   // Point `ahead_m` along the global path from the robot's projection (its end when shorter).
   Eigen::Vector2d PointAhead(double ahead_m) const;
   // Tight-spot fallback when no library path heads toward the carrot: the next metre of the global path
