@@ -571,6 +571,7 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   }
   // Local planner toward the carrot (the goal itself when near).
   const Eigen::Vector2d carrot = Carrot(state);
+  carrot_W_ = carrot;
   nav::LocalPlanRequest request;
   request.mode = nav::LocalPlanMode::kGoal;
   request.goal_B = ToBody(state, carrot);

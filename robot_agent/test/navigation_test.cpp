@@ -218,6 +218,38 @@ TEST(NavigationTest, WaypointThroughAOneMetreDoorwayWithoutContact) {
   std::printf("FIGURE doorway_1m time_s %.1f min_clearance_m %.2f\n", robot.t_s, robot.min_clearance_m);
 }
 
+// A wheeled robot that overshot a doorway in the side wall of a corridor (it saw the door too late to turn)
+// stands 0.9 m past it. Its carrot, 2.5 m along the path, lay in the room behind the door jamb, where no local
+// path led and whose bearing disagreed with the path's: the robot turned back and forth past the door for a
+// minute (builtin:building on its own map: 74 s to a goal 7 m away). The carrot stops where the straight line
+// to it would pass the jamb closer than the footprint.
+TEST(NavigationTest, TheCarrotStaysInSightOfTheRobotAtADoorwayItOvershot) {
+  sim::World w = FlatWorld(10, 8, 0.1, 1.5);
+  FillBox(&w, {0.0, 3.8, 0.0}, {10.0, 4.0, 1.6});                  // the corridor's side wall, y 3.8-4.0
+  FillBox(&w, {2.6, 3.8, 0.0}, {3.6, 4.0, 1.6}, false);             // a 1.0 m doorway, x 2.6-3.6
+  auto world = std::make_shared<const sim::World>(std::move(w));
+  SimRobot robot(world, "wheeled", 4.5, 4.6, -2.8);  // 0.9 m past the door's far jamb, facing back
+  ASSERT_TRUE(robot.navigation.SetGoal(robot.platform.state(), 3.1, 1.5, 0.0, 0.0).IsUsable());
+  const auto& s = robot.platform.state();
+  // No obstacle seen yet: the carrot lies 2.5 m along the path, in the room.
+  std::vector<Eigen::Vector3f> none;
+  robot.navigation.SetObstacles(none, s, 0.0);
+  robot.navigation.StepWaypoint(s, 0.0);
+  EXPECT_LT(robot.navigation.carrot_W().y(), 3.8) << "carrot (" << robot.navigation.carrot_W().transpose() << ")";
+  // The jamb (x 3.6, y 3.8-4.0) seen: the carrot stays on the corridor's side, near the turn's corner.
+  std::vector<Eigen::Vector3f> points_B;
+  nav::LethalCellsNear(*robot.planner->Grid("wheeled"), s.x_m, s.y_m, s.yaw_rad, 3.5, &points_B);
+  robot.navigation.SetObstacles(points_B, s, 0.1);
+  robot.navigation.StepWaypoint(s, 0.1);
+  const Eigen::Vector2d carrot = robot.navigation.carrot_W();
+  EXPECT_GT(carrot.y(), 4.0) << "carrot (" << carrot.transpose() << ") behind the jamb";
+  EXPECT_GE((carrot - Eigen::Vector2d(s.x_m, s.y_m)).norm(), 0.5 - 1e-6);
+  // ... and the robot drives there and through the door.
+  const NavigationStep out = robot.DriveTo(3.1, 1.5, 40.0);
+  EXPECT_TRUE(out.arrived) << out.reason << "; local: " << robot.navigation.local_status();
+  EXPECT_EQ(robot.contacts, 0);
+}
+
 TEST(NavigationTest, SmartJoystickStraightAtAWallNeverTouchesIt) {
   auto world = std::make_shared<const sim::World>(WallWorld(false));
   SimRobot robot(world, "wheeled", 2.0, 4.0, 0.0);

@@ -164,6 +164,10 @@ class Navigation {
   std::uint64_t path_revision() const { return path_revision_; }
   /// Last local planner result (frame B of local_pose()).
   const nav::LocalPlanResult& local_result() const { return local_result_; }
+  /// The point the local planner last aimed at in waypoint mode ((x, y), metres, map frame): up to
+  /// carrot_distance_m along the global path, no farther than the robot sees it in a straight line (see
+  /// Carrot()).
+  const Eigen::Vector2d& carrot_W() const { return carrot_W_; }
   /// Pose the last local plan was made from.
   const core::BaseState& local_pose() const { return local_pose_; }
   /// "" (not run), "path", "boxed in: ..." or "invalid input: ...".
@@ -231,6 +235,7 @@ class Navigation {
   double eta_s_ = -1.0;
   double mean_speed_mps_ = 0.0;
   int replans_ = 0;
+  Eigen::Vector2d carrot_W_ = Eigen::Vector2d::Zero();
   std::uint64_t path_revision_ = 0;
   double last_replan_check_s_ = -1e9;
   double last_partial_replan_s_ = -1e9;  // last extension of a partial plan (the map grew)
