@@ -77,20 +77,32 @@ inline double SquaredDistance(double ax, double ay, double bx, double by) {
   return dx * dx + dy * dy;
 }
 
-// True when the obstacle point (x, y) lies within `near_m` of the origin: it is tested against the samples
-// exactly (NearPointFirstBlocked), not through its voxel, whose conservative radius would block the first
+// True when the obstacle point (x, y) lies within `near_m` of the origin: it is tested against the path's
+// segments exactly (NearPointBlocks), not through its voxel, whose conservative radius would block the first
 // samples of every path, also those leading away from a point the robot stands just inside the collision
 // radius of (a door jamb it brushed past): the robot could never leave.
 inline bool IsNearOrigin(double x, double y, double near_m) {
   return SquaredDistance(x, y, 0.0, 0.0) < near_m * near_m;
 }
 
-// First sample among [0, end) of `s` within point_block_m of the point (x, y); `end` if none.
-inline int NearPointFirstBlocked(double x, double y, const Eigen::Vector2f* s, int end, double point_block2) {
-  for (int i = 0; i < end; ++i) {
-    if (SquaredDistance(x, y, s[i].x(), s[i].y()) <= point_block2) return i;
-  }
-  return end;
+// Closer than this to a near point than the robot stands now is closer (metres): range noise of the points.
+constexpr double kNearNoCloserM = 1e-3;
+
+// Squared distance a near point (x, y) blocks at: the collision radius, or, for a point the robot already
+// stands inside it, the distance it stands at (less kNearNoCloserM): it may move along or away, not closer.
+inline double NearBlockSquared(double x, double y, double collision_radius_m) {
+  const double r = std::min(collision_radius_m, std::sqrt(SquaredDistance(x, y, 0.0, 0.0)) - kNearNoCloserM);
+  return r > 0.0 ? r * r : 0.0;
+}
+
+// True when the segment from sample i - 1 (the origin for i = 0) to sample i of `s` passes the near point
+// (x, y) closer than sqrt(block2) (exact point-to-segment distance).
+inline bool NearPointBlocks(double x, double y, const Eigen::Vector2f* s, int i, double block2) {
+  const double ax = i == 0 ? 0.0 : s[i - 1].x(), ay = i == 0 ? 0.0 : s[i - 1].y();
+  const double dx = s[i].x() - ax, dy = s[i].y() - ay;
+  const double len2 = dx * dx + dy * dy;
+  const double t = len2 > 0.0 ? std::clamp(((x - ax) * dx + (y - ay) * dy) / len2, 0.0, 1.0) : 0.0;
+  return SquaredDistance(ax + t * dx, ay + t * dy, x, y) < block2;
 }
 
 inline std::uint8_t ClearanceBucket(double min_d2, const Geometry& g, const TrajectoryLibraryOptions& o) {
@@ -550,7 +562,8 @@ LocalPlanner::LocalPlanner(std::shared_ptr<const TrajectoryLibrary> library,
   // first arc of a group holds every sample within reach of them with the defaults: 252 nodes, not 12,348
   // paths).
   near_points_.reserve(4096);
-  const double reach = library_->near_origin_radius_m() + library_->point_blocking_radius_m();
+  const double reach = library_->near_origin_radius_m() + library_->options().collision_radius_m +
+                       library_->sample_spacing_m();
   std::vector<char> seen(static_cast<std::size_t>(library_->num_nodes()), 0);
   for (int p = 0; p < library_->num_paths(); ++p) {
     const Eigen::Vector2f* samples = library_->samples_B(p);
@@ -678,7 +691,7 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
     }
     nearest2 = std::min(nearest2, p.x() * p.x() + p.y() * p.y());
     const bool near = IsNearOrigin(p.x(), p.y(), near_m) && near_points_.size() < near_points_.capacity();
-    if (near) near_points_.emplace_back(p.x(), p.y());
+    if (near) near_points_.push_back({p.x(), p.y(), NearBlockSquared(p.x(), p.y(), lo.collision_radius_m)});
     const int v = near ? -1 : lib.VoxelIndex(p.x(), p.y());
     const int w = lib.ClearanceVoxelIndex(p.x(), p.y());
     if (v < 0 && w < 0 && !near) {
@@ -720,15 +733,14 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
   }
   // Points near the origin, exactly, per path tree node (see TrajectoryLibrary).
   if (!near_points_.empty()) {
-    const double block2 = lib.point_blocking_radius_m() * lib.point_blocking_radius_m();
     for (const NearNode& nn : near_nodes_) {
       const Eigen::Vector2f* s = lib.samples_B(nn.path);
       std::uint8_t& f = node_first[nn.node];
       const int end = std::min<int>(f, nn.end);
       for (int i = nn.first; i < end; ++i) {
         bool blocked = false;
-        for (const Eigen::Vector2f& q : near_points_) {
-          if (SquaredDistance(q.x(), q.y(), s[i].x(), s[i].y()) <= block2) {
+        for (const NearPoint& q : near_points_) {
+          if (NearPointBlocks(q.x, q.y, s, i, q.block2)) {
             blocked = true;
             break;
           }
@@ -842,14 +854,14 @@ std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
   std::vector<Eigen::Vector2d> band_centres;
   block_centres.reserve(obstacles_B.size());
   band_centres.reserve(obstacles_B.size());
-  std::vector<Eigen::Vector2d> near_points;  // tested exactly (IsNearOrigin)
+  std::vector<Eigen::Vector3d> near_points;  // (x, y, squared blocking distance): tested exactly (IsNearOrigin)
   for (const Eigen::Vector3f& p : obstacles_B) {
     if (!IsFinite(p) || !InZBand(p, o)) continue;
     band_centres.emplace_back(
         VoxelCentreCoordinate(p.x(), library.clearance_grid_min_m(), o.clearance_voxel_size_m),
         VoxelCentreCoordinate(p.y(), library.clearance_grid_min_m(), o.clearance_voxel_size_m));
     if (IsNearOrigin(p.x(), p.y(), geo.near_origin_m)) {
-      near_points.emplace_back(p.x(), p.y());
+      near_points.emplace_back(p.x(), p.y(), NearBlockSquared(p.x(), p.y(), o.collision_radius_m));
       continue;
     }
     block_centres.emplace_back(VoxelCentreCoordinate(p.x(), library.grid_min_m(), o.voxel_size_m),
@@ -915,8 +927,12 @@ std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
         if (min_d2 < band2 && closest < req) bucket = std::min<int>(bucket, ClearanceBucket(min_d2, geo, o));
       });
     }
-    const double point_block2 = geo.point_block_m * geo.point_block_m;
-    for (const Eigen::Vector2d& q : near_points) first_blocked = NearPointFirstBlocked(q.x(), q.y(), s, first_blocked, point_block2);
+    for (int i = 0; i < first_blocked; ++i) {
+      const bool blocked = std::any_of(near_points.begin(), near_points.end(), [&](const Eigen::Vector3d& q) {
+        return NearPointBlocks(q.x(), q.y(), s, i, q.z());
+      });
+      if (blocked) first_blocked = i;
+    }
     free_m[static_cast<std::size_t>(p)] = first_blocked * library.sample_spacing_m();
     if (clearance_m != nullptr) {
       (*clearance_m)[static_cast<std::size_t>(p)] =

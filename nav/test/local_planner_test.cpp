@@ -96,6 +96,27 @@ double ClosestApproachM(const std::vector<Eigen::Vector3f>& path_B, const Cloud&
   return best;
 }
 
+// How far the polyline origin, path_B[1..] comes inside the distance each obstacle point of `cloud` must be
+// kept at (metres, <= 0 when none is violated): collision_radius_m, or for a point within near_origin_m of
+// the origin that the robot already stands closer to, that distance less 1 mm (see TrajectoryLibrary).
+double WorstShortfallM(const std::vector<Eigen::Vector3f>& path_B, const Cloud& cloud, const TrajectoryLibraryOptions& o,
+                       double near_origin_m) {
+  double worst = -std::numeric_limits<double>::infinity();
+  for (const Eigen::Vector3f& p : cloud) {
+    if (!IsObstacle(p, o)) continue;
+    const Eigen::Vector2d q = p.head<2>().cast<double>();
+    const double required = q.norm() < near_origin_m ? std::min(o.collision_radius_m, q.norm() - 1e-3)
+                                                     : o.collision_radius_m;
+    for (std::size_t i = 1; i < path_B.size(); ++i) {
+      const Eigen::Vector2d a = path_B[i - 1].head<2>().cast<double>(), b = path_B[i].head<2>().cast<double>();
+      const double len2 = (b - a).squaredNorm();
+      const double t = len2 > 0 ? std::clamp((q - a).dot(b - a) / len2, 0.0, 1.0) : 0.0;
+      worst = std::max(worst, required - (a + t * (b - a) - q).norm());
+    }
+  }
+  return worst;
+}
+
 // y where the path crosses x = x_m (first crossing), NaN if it does not.
 double CrossingY(const std::vector<Eigen::Vector3f>& path_B, double x_m) {
   for (std::size_t i = 0; i + 1 < path_B.size(); ++i) {
@@ -336,10 +357,10 @@ TEST(LocalPlannerTest, ObstacleStraightAheadIsAvoided) {
 }
 
 // A robot that brushed past a wall's end stands 0.32 m from it, inside the collision radius (the agent's
-// library: 0.3 m footprint + 0.03 m, 0.05 m voxels): paths leading away from the end stay free (the origin is
-// no sample), those passing closer to it do not. Through the end's voxel, every path's first samples were
+// library: 0.3 m footprint + 0.03 m, 0.05 m voxels): paths leading away from the end or along it stay free,
+// those passing closer to it do not. Through the end's voxel, every path's first samples were
 // blocked and the robot could never leave (builtin:building's mid landing).
-TEST(LocalPlannerTest, ARobotJustInsideTheCollisionRadiusOfAWallEndLeavesAwayFromIt) {
+TEST(LocalPlannerTest, ARobotJustInsideTheCollisionRadiusOfAWallEndLeavesAlongOrAwayFromIt) {
   TrajectoryLibraryOptions agent;
   agent.collision_radius_m = 0.33;
   agent.voxel_size_m = 0.05;
@@ -352,15 +373,23 @@ TEST(LocalPlannerTest, ARobotJustInsideTheCollisionRadiusOfAWallEndLeavesAwayFro
   const LocalPlanResult r = planner.Plan(cloud, request);
   ASSERT_TRUE(r.IsUsable()) << r.message;
   EXPECT_NEAR(r.nearest_obstacle_m, 0.32, 1e-3);
-  // The chosen path never comes nearer the wall than the point blocking radius after its first sample.
-  EXPECT_GE(ClosestApproachM(r.path_B, cloud, lib.options()), lib.options().collision_radius_m);
-  // Straight ahead passes 0.32 m from the wall's end at its first sample: blocked.
+  // The chosen path never comes nearer the wall than the robot stands (0.32 m, less 1 mm).
+  EXPECT_LE(WorstShortfallM(r.path_B, cloud, lib.options(), lib.near_origin_radius_m()), 1e-9);
+  // A path whose first sample comes nearer the wall's end than the robot stands is blocked there; one that
+  // runs along the wall at 0.32 m (straight ahead) is not.
   for (int p = 0; p < lib.num_paths(); ++p) {
     const Eigen::Vector2f s0 = lib.samples_B(p)[0];
-    if (std::hypot(s0.x() - 0.0, s0.y() - 0.32) < lib.point_blocking_radius_m()) {
+    if (std::hypot(s0.x() - 0.0, s0.y() - 0.32) < 0.32 - 1e-3) {
       EXPECT_LT(planner.free_length_m(p), 1e-9) << "path " << p << " passes the wall's end closer than it stands";
     }
   }
+  int ahead = -1;  // the straight path ahead (heading 0, no turn)
+  for (int p = 0; p < lib.num_paths() && ahead < 0; ++p) {
+    const Eigen::Vector2f end = lib.samples_B(p)[lib.samples_per_path() - 1];
+    if (std::abs(end.y()) < 1e-3 && end.x() > 2.9f) ahead = p;
+  }
+  ASSERT_GE(ahead, 0);
+  EXPECT_GT(planner.free_length_m(ahead), 1.5) << "the path along the wall, at the distance the robot stands, is blocked";
   // The brute-force reference agrees path for path.
   const std::vector<double> brute = BruteForceFreeLengths(lib, cloud, r.required_free_length_m);
   for (int p = 0; p < lib.num_paths(); ++p) {
@@ -630,12 +659,12 @@ std::pair<int, int> CheckRandomClouds(LocalPlanner* planner, int num_clouds, int
       continue;
     }
     ++found;
-    // The chosen path, as far as its free length, keeps collision_radius_m from every obstacle point.
+    // The chosen path, as far as its free length, keeps collision_radius_m from every obstacle point...
     EXPECT_EQ(r.path_B.size(),
               static_cast<std::size_t>(std::lround(r.free_length_m / lib.sample_spacing_m())) + 1);
     EXPECT_GE(r.free_length_m, r.required_free_length_m - 1e-9);
-    const double closest = ClosestApproachM(r.path_B, cloud, o);
-    EXPECT_GE(closest, o.collision_radius_m) << "path " << r.path_id;
+    // ... or, from a point the robot already stands inside that radius of, not closer than it stands.
+    EXPECT_LE(WorstShortfallM(r.path_B, cloud, o, lib.near_origin_radius_m()), 1e-9) << "path " << r.path_id;
     if (request.mode == LocalPlanMode::kJoystick) {
       EXPECT_LE(AngleBetween(lib.info(r.path_id).heading_rad, bearing), kPi / 2 + 1e-5);
       EXPECT_LE(AngleBetween(lib.info(r.path_id).end_bearing_rad, bearing), kPi / 2 + 1e-5);

@@ -285,6 +285,14 @@ void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
       if (seen_through) continue;
       voxels_.SetOccupied({ix, iy, iz_top}, true);
       seen_free_.SetOccupied({ix, iy, iz_top}, false);
+      // One occupied voxel right above the tread with free space above it is the tread itself read a voxel
+      // high (a tread top on a voxel boundary; the lidar's hits on a riser's edge): a bump of 0.1 m next to a
+      // grazed neighbour read 0.1 m low cut the landing from its upper flight (1.9 m beside 1.5 m). Two or
+      // more are an obstacle on the tread, and stay.
+      if (iz_top + 2 <= last.z() && voxels_.IsOccupiedIndex({ix, iy, iz_top + 1}) &&
+          !voxels_.IsOccupiedIndex({ix, iy, iz_top + 2})) {
+        voxels_.SetOccupied({ix, iy, iz_top + 1}, false);
+      }
       for (int iz = iz_top + 1; iz <= std::min(last.z(), iz_top + kStairClearVoxels); ++iz) {
         if (voxels_.IsOccupiedIndex({ix, iy, iz})) break;
         seen_free_.SetOccupied({ix, iy, iz}, true);

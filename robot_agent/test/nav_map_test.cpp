@@ -426,6 +426,16 @@ TEST(NavMapTest, ADetectedFlightsTreadsAreGroundUntilItIsNoLongerDetected) {
   ray(0.05, 0.35);   // through the 2nd tread's top voxel (z 0.3-0.4), x 2.3-2.6
   ray(-0.15, 0.25);  // through its body (z 0.2-0.3)
   ASSERT_EQ(seen.Query({2.45, 0.05, 0.35}), perception::Occupancy::kFree);
+  // The 3rd tread (x 2.6-2.9, top 0.6) read a voxel high in one column (a hit at z 0.65: its top on a voxel
+  // boundary), and with two voxels on it in another (an obstacle, 0.2 m high).
+  const auto hit = [&seen](double x_m, double y_m, double z_m) {
+    Eigen::Isometry3d T_W_S = Eigen::Isometry3d::Identity();
+    T_W_S.translation() = Eigen::Vector3d(2.0, y_m, z_m);
+    seen.InsertScan({Eigen::Vector3f(static_cast<float>(x_m - 2.0), 0.0f, 0.0f)}, T_W_S);
+  };
+  hit(2.75, 0.25, 0.65);
+  hit(2.75, -0.25, 0.65);
+  hit(2.75, -0.25, 0.75);
   const std::vector<Eigen::Vector2i> tiles = {{0, -1}, {1, -1}, {0, 0}, {1, 0}};
   ASSERT_TRUE(nav_map.Update(seen, tiles, 2.0, 0.5, {flight}).applied);
   int ix = 0, iy = 0;
@@ -433,6 +443,10 @@ TEST(NavMapTest, ADetectedFlightsTreadsAreGroundUntilItIsNoLongerDetected) {
   EXPECT_GE(nav_map.levels().NodeNear(ix, iy, 0.4, 0.05), 0) << "a grazing ray left a hole in the 2nd tread";
   ASSERT_TRUE(nav_map.levels().CellOf(2.45, -0.15, &ix, &iy));
   EXPECT_LT(nav_map.levels().NodeNear(ix, iy, 0.4, 0.05), 0) << "a tread written where a ray went through the step";
+  ASSERT_TRUE(nav_map.levels().CellOf(2.75, 0.25, &ix, &iy));
+  EXPECT_GE(nav_map.levels().NodeNear(ix, iy, 0.6, 0.05), 0) << "the 3rd tread read a voxel high stayed a bump";
+  ASSERT_TRUE(nav_map.levels().CellOf(2.75, -0.25, &ix, &iy));
+  EXPECT_LT(nav_map.levels().NodeNear(ix, iy, 0.6, 0.05), 0) << "an obstacle on the 3rd tread was erased";
   ASSERT_TRUE(nav_map.Update(seen, {}, 2.0, 0.5, {}).applied);
 
   // A wheeled robot (0.15 m step) does not climb 0.2 m risers: its map keeps what its lidar saw.

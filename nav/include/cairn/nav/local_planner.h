@@ -126,11 +126,13 @@ struct ConstSpan {
 /// sample_spacing_m() / 2 from each of its samples, hence farther than collision_radius_m from every point of
 /// the path after arc length sample_spacing_m() / 2. The price: a point may block at up to collision_radius_m
 /// + sample_spacing_m() / 2 + voxel_size_m * sqrt(2) (0.52 m with the defaults, 0.375 m at best).
-/// Points near the origin (within near_origin_radius_m()) skip the voxels and are tested against the samples
-/// exactly: one blocks a path from the first sample within point_blocking_radius_m() of it. Through its voxel
-/// such a point would block the first samples of every path, those leading away from it too, so that a robot
-/// standing just inside the collision radius of a door jamb could never leave; exactly, the paths that move
-/// away from it stay free and the guarantee above still holds.
+/// Points near the origin (within near_origin_radius_m()) skip the voxels and are tested exactly against the
+/// path's segments (origin to sample 0, sample 0 to sample 1, ...): one blocks a path from the first segment
+/// that passes it closer than collision_radius_m, or, when the robot already stands closer than that to it,
+/// closer than the robot stands now (less 1 mm): the robot may move along it or away, never closer. Through its
+/// voxel such a point would block the first samples of every path, those leading away from it too, so that a
+/// robot standing just inside the collision radius of a door jamb, or of a stair flight's side wall, could
+/// never leave; a path thus kept free keeps at least min(collision_radius_m, that distance) from the point.
 ///
 /// Clearance grid (clearance_voxel_size_m) and band entries: the clearance of a voxel to an arc is (distance
 /// from the voxel centre to the arc's nearest sample) - clearance_voxel_size_m * sqrt(2) / 2 -
@@ -194,7 +196,7 @@ class TrajectoryLibrary {
   /// + half the voxel diagonal, metres.
   double voxel_blocking_radius_m() const { return voxel_blocking_radius_m_; }
   /// voxel_blocking_radius_m() + sample_spacing_m(), metres: obstacle points nearer the origin than this are
-  /// tested against the samples exactly (point_blocking_radius_m()), not through their voxel.
+  /// tested against the path's segments exactly, not through their voxel (see the class comment).
   double near_origin_radius_m() const { return near_origin_radius_m_; }
   /// Clearance (metres) that a band entry's clearance_bucket stands for: a lower bound, bucket *
   /// clearance_band_m / 254; bucket 255 stands for "nothing in the band" and returns clearance_band_m.
@@ -448,7 +450,13 @@ class LocalPlanner {
   std::vector<float> heading_rad_;                // Per path: TrajectoryInfo::heading_rad.
   std::vector<float> end_bearing_rad_;            // Per path: TrajectoryInfo::end_bearing_rad.
   std::vector<float> static_score_;  // Per path: the heading change and turning terms of the score.
-  std::vector<Eigen::Vector2f> near_points_;  // This cycle's points within near_origin_radius_m() (capacity fixed).
+  // This cycle's points within near_origin_radius_m() (capacity fixed), with their squared blocking distance.
+  struct NearPoint {
+    float x = 0.0f;
+    float y = 0.0f;
+    double block2 = 0.0;
+  };
+  std::vector<NearPoint> near_points_;
   // Path tree nodes with samples a near point may block: samples [first, end) of path `path` (any path
   // through the node) lie within near_origin_radius_m() + point_blocking_radius_m() of the origin.
   struct NearNode {

@@ -143,12 +143,14 @@ class NavMap {
   // the floor one run before its first riser (less kStairSideMargin_m on each side), the voxel whose top is
   // nearest its tread's height becomes occupied, unless a ray went through the rise below it (then the
   // column is left as seen; a ray through the top voxel alone grazed the tread on its way to the next riser,
-  // an OctoMap miss on stairs), and the kStairClearVoxels voxels above it (up to the first occupied one) become
+  // an OctoMap miss on stairs), a single occupied voxel right above it is cleared (the tread read a voxel
+  // high), and the kStairClearVoxels voxels above it (up to the first occupied one) become
   // seen free: a ground surface needs a ray right above it (nav::MultiLevelGrid), and the robot's height above
   // must still be clear of what the lidar saw (a wall beside a flight detected too wide stays a wall). A flight
   // seen from below shows the lidar its risers but not its treads above the sensor (the upper flight of a
   // switchback, seen from the landing): without this no plan climbs it until the robot stands on it. Above
-  // the tread only unknown voxels change: what the lidar saw wins (an obstacle on a tread stays one).
+  // the tread only unknown voxels and that one voxel change: what the lidar saw wins (an obstacle on a tread,
+  // two voxels or more, stays one).
   void ApplyStairPrior(const perception::Staircase& stairs);
   // The x-y box ApplyStairPrior() may write in: a flight's footprint (its treads and its foot) and one voxel
   // around it, metres, map frame.
