@@ -554,9 +554,13 @@ bool WalkSegment(const MultiLevelSearch& search, const MultiLevelGrid& grid, con
 
 }  // namespace
 
-double PartialRemainingM(const Eigen::Vector3d& p_W, const Eigen::Vector2d& goal_W, double goal_z_m) {
+double PartialRemainingM(const Eigen::Vector3d& p_W, const Eigen::Vector2d& goal_W, double goal_z_m,
+                         double level_tolerance_m) {
   constexpr double kHeightWeight = 30.0;
-  return (p_W.head<2>() - goal_W).norm() + (std::isfinite(goal_z_m) ? kHeightWeight * std::abs(p_W.z() - goal_z_m) : 0.0);
+  const double off_level = std::isfinite(goal_z_m)
+                               ? std::max(0.0, std::abs(p_W.z() - goal_z_m) - std::max(0.0, level_tolerance_m) - kEps_m)
+                               : 0.0;
+  return (p_W.head<2>() - goal_W).norm() + kHeightWeight * off_level;
 }
 
 bool SegmentTraversableMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& a_W, const Eigen::Vector3d& b_W,
@@ -697,7 +701,7 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
   // How far a state is from the goal, for a partial plan (PartialRemainingM).
   auto remaining = [&](const State& s) {
     const Eigen::Vector2d p = grid.CellCenter(s.ix, s.iy);
-    return PartialRemainingM(Eigen::Vector3d(p.x(), p.y(), s.z), goal_W, goal_level_z);
+    return PartialRemainingM(Eigen::Vector3d(p.x(), p.y(), s.z), goal_W, goal_level_z, grid.cell_size_m());
   };
   const std::int64_t start_key = search.Key(*start);
   record(start_key) = Record{0.0, -1, false, *start};

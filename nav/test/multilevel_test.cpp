@@ -190,6 +190,19 @@ TEST(MultiLevelGridTest, OwnMapIsOptimisticInUnseenSpaceOnly) {
 // The building as a robot on floor 1 has seen it: everything below 2.0 m observed, nothing above. A goal on
 // floor 2 is not connected yet: a partial plan climbs as far as the map shows (the upper flight's known steps);
 // a wheeled robot is refused naming the stairs' step instead.
+// A partial plan's end is scored by its planar distance and 30 x its height off the goal's level, but a voxel
+// off counts as on the level: floor 2 at 3.2 m read 3.3 m along its corridor and 3.2 m at the top of the
+// stairs, and a robot on floor 2 was sent back to the stairs.
+TEST(PartialRemainingTest, AFloorReadAVoxelOffIsOnTheGoalsLevel) {
+  const Eigen::Vector2d goal(15.1, 11.0);
+  const Eigen::Vector3d corridor(18.35, 7.55, 3.3), stairs_top(19.15, 7.85, 3.2), landing(21.8, 7.6, 1.7);
+  EXPECT_DOUBLE_EQ(PartialRemainingM(corridor, goal, 3.2), (corridor.head<2>() - goal).norm());
+  EXPECT_LT(PartialRemainingM(corridor, goal, 3.2), PartialRemainingM(stairs_top, goal, 3.2));
+  EXPECT_NEAR(PartialRemainingM(landing, goal, 3.2), (landing.head<2>() - goal).norm() + 30.0 * 1.4, 1e-4);
+  EXPECT_DOUBLE_EQ(PartialRemainingM(corridor, goal, std::nan("")), (corridor.head<2>() - goal).norm());
+  EXPECT_NEAR(PartialRemainingM(corridor, goal, 3.2, 0.0), (corridor.head<2>() - goal).norm() + 3.0, 1e-4);
+}
+
 TEST(MultiLevelGridTest, PartialPlanClimbsAsFarAsTheMapShows) {
   const auto truth = Building();
   auto world = std::make_shared<core::VoxelGrid>("own", truth->p_W_min(), truth->resolution_m(), truth->dims());

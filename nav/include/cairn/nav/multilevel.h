@@ -176,7 +176,12 @@ class LeveledTerrain : public core::FootprintChecker {
 /// How far point p_W (x, y, z; metres, frame W) is from a goal at (goal_W, goal_z_m) for a partial plan
 /// (AStarOptions::allow_partial): planar distance + 30 x height difference (metres; height progress first: a
 /// robot climbs the stairs it sees rather than waiting under the goal). goal_z_m NaN: planar distance only.
-double PartialRemainingM(const Eigen::Vector3d& p_W, const Eigen::Vector2d& goal_W, double goal_z_m);
+/// Heights within `level_tolerance_m` of goal_z_m count as on the goal's level (metres, >= 0; default one 0.1 m
+/// voxel): a floor on a voxel boundary reads a voxel high in one column and low in the next, and 30 x 0.1 m
+/// sent a robot on floor 2 back to the top of the stairs, which read the floor's height exactly, instead of
+/// on along its corridor, which read a voxel high.
+double PartialRemainingM(const Eigen::Vector3d& p_W, const Eigen::Vector2d& goal_W, double goal_z_m,
+                         double level_tolerance_m = 0.1);
 
 /// Plans on `grid` from start_W (x, y, z of the ground under the robot; metres, frame W) to goal_W (x, y) on
 /// the surface nearest goal_z_m (NaN: the surface nearest the start's height within 1 m, else the lowest),
