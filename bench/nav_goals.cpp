@@ -285,6 +285,14 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
                     in_map && grid.IsTraversable(ix, iy) ? " traversable" : "");
       }
     }
+    // CAIRN_BENCH_DUMP="T X Y Z": the navigation map's surfaces around (X, Y) near height Z at time T (debugging).
+    if (static const char* dump = std::getenv("CAIRN_BENCH_DUMP"); dump != nullptr) {
+      double dt = 0, dx = 0, dy = 0, dz = 0;
+      if (std::sscanf(dump, "%lf %lf %lf %lf", &dt, &dx, &dy, &dz) == 4 && std::fabs(t - dt) < 0.5 * kDt) {
+        std::printf("  map at t %.1f around (%.2f, %.2f) z %.2f:\n", t, dx, dy, dz);
+        PrintLevels(nav_map, {dx, dy}, dz);
+      }
+    }
     out.time_s = t;
     if (step.arrived) {
       const auto truth = platform.TrueState();
