@@ -303,6 +303,7 @@ int CommandShell::Execute(const std::string& line) {
 }
 
 void CommandShell::PrintEvents() {
+  if (!options_.print_events) return;
   for (const OperatorEvent& event : client_.TakeEvents()) {
     if (json_) {
       out_ << Dump(EventJson(event)) << std::endl;

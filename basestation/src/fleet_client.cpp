@@ -290,6 +290,7 @@ class FleetClient::Impl {
       }
       lock.lock();
       for (auto& e : events) {
+        e.seq = ++event_seq_;
         pending_events_.push_back(e);
         recent_events_.push_back(std::move(e));
         if (recent_events_.size() > options_.events_kept) recent_events_.pop_front();
@@ -341,6 +342,7 @@ class FleetClient::Impl {
   FleetEventDetector detector_;
   std::deque<OperatorEvent> pending_events_;
   std::deque<OperatorEvent> recent_events_;
+  std::uint64_t event_seq_ = 0;
   bool stop_monitor_ = false;
   std::thread monitor_;
   mutable std::condition_variable cv_;
@@ -396,6 +398,16 @@ bool FleetClient::HasEvents() const {
 std::vector<OperatorEvent> FleetClient::RecentEvents() const {
   std::lock_guard<std::mutex> lock(impl_->mutex_);
   return {impl_->recent_events_.begin(), impl_->recent_events_.end()};
+}
+
+std::vector<OperatorEvent> FleetClient::EventsSince(std::uint64_t* cursor) const {
+  std::lock_guard<std::mutex> lock(impl_->mutex_);
+  std::vector<OperatorEvent> events;
+  for (const OperatorEvent& e : impl_->recent_events_) {
+    if (e.seq > *cursor) events.push_back(e);
+  }
+  *cursor = std::max(*cursor, impl_->event_seq_);
+  return events;
 }
 
 bool FleetClient::Knows(const std::string& robot_id) const {

@@ -325,6 +325,8 @@ std::vector<FleetEvent> FleetPerception::TakeEvents() {
 }
 
 perception::FleetMapStats FleetPerception::MapStats() const { return impl_->map_.Stats(); }
+std::vector<perception::CoarseVoxel> FleetPerception::MapVoxels() const { return impl_->map_.Voxels(); }
+double FleetPerception::MapResolution() const { return impl_->map_.resolution_m(); }
 
 bool FleetPerception::RobotMapStats(const std::string& robot_id, perception::RobotMapStats* out) const {
   return impl_->map_.GetRobotStats(robot_id, out);

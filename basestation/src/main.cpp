@@ -9,7 +9,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <thread>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -21,6 +23,7 @@
 
 #include "cairn/base/command_shell.h"
 #include "cairn/base/fleet_client.h"
+#include "cairn/base/gui_bridge.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/shutdown.h"
 
@@ -184,6 +187,14 @@ int RunScript(cairn::base::CommandShell& shell, std::istream& in, bool keep_goin
   return first_failure;
 }
 
+// The web app built by ./cairn build: BUILD/web, the executable being BUILD/basestation/cairn_base.
+std::string DefaultWebRoot(const char* argv0) {
+  std::error_code ec;
+  std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) exe = std::filesystem::absolute(argv0, ec);
+  return (exe.parent_path().parent_path() / "web").string();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -192,8 +203,8 @@ int main(int argc, char** argv) {
   spdlog::set_default_logger(spdlog::stderr_color_mt("cairn"));
   cairn::base::FleetClientOptions options;
   cairn::base::ShellOptions shell_options;
-  std::string domain_text = "0", script;
-  bool keep_going = false, no_joystick = false;
+  std::string domain_text = "0", script, listen = "127.0.0.1:8080", gui_root;
+  bool keep_going = false, no_joystick = false, gui = false;
   std::vector<std::string> command;
 
   CLI::App app{"cairn_base: a Cairn basestation. Commands come from the terminal (REPL), from stdin line by "
@@ -216,6 +227,14 @@ int main(int argc, char** argv) {
   app.add_option("--proximity-m", options.events.proximity_m,
                  "event when two robots are closer than this, metres (centre to centre)")
       ->capture_default_str();
+  app.add_flag("--gui", gui,
+               "also serve the operator GUI (web app and Foxglove WebSocket protocol) on --listen; the console "
+               "keeps working beside it");
+  app.add_option("--listen", listen, "with --gui: ADDR:PORT to serve on (any address other than loopback only "
+                                     "when given)")
+      ->capture_default_str();
+  app.add_option("--gui-root", gui_root, "with --gui: the built web app (default: web/ beside the build's "
+                                         "basestation/ directory)");
   app.add_option("command", command, "one command to run, after --");
   try {
     app.parse(argc, argv);
@@ -246,7 +265,21 @@ int main(int argc, char** argv) {
       shell_options.key_pressed = KeyPressed;
       shell_options.cancel = &g_interrupt;
     }
+    cairn::base::GuiOptions gui_options;
+    if (gui) {
+      cairn::base::ParseListenAddress(listen, &gui_options.server.address, &gui_options.server.port);
+      gui_options.server.web_root = gui_root.empty() ? DefaultWebRoot(argv[0]) : gui_root;
+      gui_options.places_file = shell_options.places_file;
+    } else if (app.count("--listen") > 0 || app.count("--gui-root") > 0) {
+      throw std::invalid_argument("--listen and --gui-root need --gui");
+    }
     cairn::base::FleetClient client(options);
+    std::unique_ptr<cairn::base::GuiBridge> gui_bridge;
+    if (gui) {
+      gui_bridge = std::make_unique<cairn::base::GuiBridge>(client, gui_options);
+      // The URL on stdout's first line: scripts and the demo read it from there.
+      std::cout << "GUI " << gui_bridge->url() << std::endl;
+    }
     cairn::base::CommandShell shell(client, shell_options, std::cout);
     if (!command.empty()) {
       std::string line;
@@ -255,7 +288,10 @@ int main(int argc, char** argv) {
     }
     if (!script.empty()) return RunScript(shell, script_file, keep_going);
     if (interactive) return RunInteractive(shell, client, options.base_id);
-    return RunScript(shell, std::cin, /*keep_going=*/true);
+    const int code = RunScript(shell, std::cin, /*keep_going=*/true);
+    // A GUI outlives the end of stdin (cairn_base --gui </dev/null): it serves until SIGINT or SIGTERM.
+    while (gui_bridge && !cairn::core::ShutdownRequested()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    return code;
   } catch (const std::exception& e) {
     spdlog::error("cairn_base {}: {}", options.base_id, e.what());
     return cairn::base::kUsage;

@@ -28,6 +28,9 @@ struct ShellOptions {
   std::function<bool()> key_pressed;
   /// Set (e.g. by SIGINT in the REPL) to cancel the running wait, teleop or watch; the shell clears it.
   std::atomic<bool>* cancel = nullptr;
+  /// Print the fleet's events (taken from the client) around commands and during waits; false for a second
+  /// shell on the same client (the GUI's), which must not take the console's events.
+  bool print_events = true;
 };
 
 /// Executes one command line against a fleet client and prints the outcome (text, or one JSON object per

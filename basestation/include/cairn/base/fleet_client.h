@@ -137,6 +137,10 @@ class FleetClient {
   bool HasEvents() const;
   /// The last events_kept events, oldest first (taken or not).
   std::vector<OperatorEvent> RecentEvents() const;
+  /// Of the last events_kept events, those detected after the one numbered `*cursor` (OperatorEvent::seq),
+  /// oldest first; sets `*cursor` to the newest. Independent of TakeEvents(): a GUI follows events this way
+  /// without taking them from the console.
+  std::vector<OperatorEvent> EventsSince(std::uint64_t* cursor) const;
 
   /// Robot ids seen so far (for completion and "did you mean").
   std::vector<std::string> RobotIds() const;

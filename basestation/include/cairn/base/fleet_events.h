@@ -4,6 +4,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <set>
@@ -32,6 +33,7 @@ struct OperatorEvent {
   double distance_m = 0.0;  ///< proximity: centre distance, metres, frame map
   std::chrono::system_clock::time_point time = std::chrono::system_clock::now();
   std::optional<perception::StaircaseRegistry::Entry> staircase;  ///< kind "staircase"
+  std::uint64_t seq = 0;  ///< order of detection in this basestation, from 1 (FleetClient::EventsSince)
 };
 
 /// Options of the event detector.

@@ -85,6 +85,10 @@ class FleetPerception {
   std::vector<FleetEvent> TakeEvents();
 
   perception::FleetMapStats MapStats() const;
+  /// The merged fleet map's known coarse voxels (occupied and free), frame map; see perception::FleetMap.
+  std::vector<perception::CoarseVoxel> MapVoxels() const;
+  /// The fleet map's coarse voxel edge, metres; 0 until a robot's map arrived.
+  double MapResolution() const;
   /// false if no map message of `robot_id` was accepted yet.
   bool RobotMapStats(const std::string& robot_id, perception::RobotMapStats* out) const;
 

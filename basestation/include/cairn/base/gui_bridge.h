@@ -1,0 +1,77 @@
+// The operator GUI's server side (cairn_base --gui): the fleet as this basestation sees it (FleetClient),
+// published over the Foxglove WebSocket protocol with Foxglove's well-known schemas, so that Cairn's own web
+// GUI, Foxglove and Lichtblick connect to the same port; operator commands come back through the protocol's
+// service and client-publish capabilities with exactly the CLI's semantics (a CommandShell runs them).
+//
+// Channels (JSON encoding, JSON schemas):
+//   /fleet            cairn.FleetState         every robot: pose, mode, holder, nav status, the actions valid
+//                                              now for this basestation (operator_text.h ValidActions), 10 Hz
+//   /tf               foxglove.FrameTransforms map -> ROBOT_ID for every robot, 10 Hz
+//   /robots           foxglove.SceneUpdate     robot bodies, headings and labels (mode colour, holder), 10 Hz
+//   /paths            foxglove.SceneUpdate     global paths, local plans, trails, goals, when they change
+//   /staircases       foxglove.SceneUpdate     the fleet's staircases drawn as steps, when they change
+//   /fleet_map        foxglove.SceneUpdate     the merged fleet map's occupied voxels coloured by height, one
+//                                              entity per 4 x 4 m column of the map; every second only the
+//                                              columns that changed (a new subscriber gets all of them)
+//   /ROBOT_ID/camera  foxglove.CompressedImage each robot's latest JPEG frame, as it arrives
+//   /events           foxglove.Log            operator events (arrived, failed, lost, locks, staircases, ...)
+// Service:  /cairn/command  {"command": "goto r1 12 4"} -> the CLI's --json result of that command line.
+// Client publish: /cairn/teleop  cairn.Teleop {"robot_id", "linear_x_mps", "angular_z_radps"[, "linear_y_mps"]}:
+//   one teleop twist, clamped to the robot's limits as the CLI's teleop command does.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "cairn/base/command_shell.h"
+#include "cairn/base/fleet_client.h"
+#include "cairn/base/foxglove_server.h"
+
+namespace cairn::base {
+
+/// Options of the GUI server.
+struct GuiOptions {
+  FoxgloveServerOptions server;  ///< listen address (loopback by default), port, web root
+  std::string places_file;       ///< the shell's places file (goto by place name), "" = none
+  double state_rate_hz = 10.0;   ///< /fleet, /tf and /robots, (0, 50]
+  double map_period_s = 1.0;     ///< /fleet_map changes at most this often, [0.1, 60]
+  double trail_s = 120.0;        ///< trail length kept per robot, seconds, [0, 3600]
+  /// @return false and sets `*why` naming the field, value and rule when invalid.
+  bool IsValid(std::string* why) const;
+};
+
+/// Counters for tests and the bench.
+struct GuiStats {
+  FoxgloveServerStats server;
+  std::uint64_t commands = 0;         ///< /cairn/command calls answered
+  std::uint64_t teleop_messages = 0;  ///< /cairn/teleop twists published to robots
+  std::uint64_t teleop_rejected = 0;  ///< malformed or unknown-robot teleop messages (answered with a status)
+  std::uint64_t map_chunks_sent = 0;  ///< /fleet_map column entities published
+};
+
+/// Serves the GUI for `client` until destroyed. Thread-safe.
+class GuiBridge {
+ public:
+  /// Loads the Foxglove schemas written by the web build (WEB_ROOT/foxglove-schemas.json) and listens.
+  /// @throws std::invalid_argument naming the option or file at fault; std::runtime_error when it cannot
+  ///         listen (names address:port).
+  GuiBridge(FleetClient& client, const GuiOptions& options);
+  ~GuiBridge();
+  GuiBridge(const GuiBridge&) = delete;
+  GuiBridge& operator=(const GuiBridge&) = delete;
+
+  /// "http://ADDRESS:PORT/".
+  std::string url() const;
+  GuiStats Stats() const;
+
+  class Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Colour of a robot mode in the GUI and the scene ("idle" grey, "manual" orange, "smart_joystick" purple,
+/// "waypoint" blue, others teal), as RGB in [0, 1].
+void ModeColor(const std::string& mode, double* r, double* g, double* b);
+
+}  // namespace cairn::base

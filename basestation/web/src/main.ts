@@ -1,0 +1,414 @@
+// Cairn's operator GUI: the fleet at a glance in 3D, per robot only the actions valid now (from the state the
+// robot publishes and this basestation's lock), notifications, a camera pane, touch, mouse, keyboard and a
+// gamepad. Everything goes through cairn_base (the same FleetClient as its CLI) over the Foxglove WebSocket
+// protocol; nothing here bypasses the control lock.
+import { CairnLink, type CommandResult } from "./client";
+import { FleetScene, modeColor } from "./scene";
+
+interface Robot {
+  id: string;
+  platform: string;
+  online: boolean;
+  lost_reason: string;
+  heard_s_ago: number;
+  mode: string;
+  holder: string;
+  holder_alive: boolean;
+  you_hold: boolean;
+  nav_status: string;
+  nav_reason: string;
+  goal?: { x_m: number; y_m: number; z_m: number };
+  distance_left_m: number;
+  eta_s: number;
+  local_planner_status: string;
+  pose?: { x_m: number; y_m: number; z_m: number; yaw_rad: number };
+  speed_mps: number;
+  in_contact: boolean;
+  valid_actions: string[];
+  max_speed_mps: number;
+  max_reverse_speed_mps: number;
+  max_yaw_rate_radps: number;
+  camera_age_s: number;
+  control_period_max_ms: number;
+}
+
+interface EventEntry {
+  time: Date;
+  level: number;
+  kind: string;
+  message: string;
+}
+
+const $ = <T extends HTMLElement>(id: string) => document.getElementById(id) as T;
+const params = new URLSearchParams(location.search);
+
+const state = {
+  baseId: "",
+  robots: [] as Robot[],
+  selected: location.hash.startsWith("#robot=") ? decodeURIComponent(location.hash.slice(7)) : "",
+  tab: "fleet",
+  events: [] as EventEntry[],
+  toasts: [] as string[],
+  lastResult: undefined as CommandResult | undefined,
+  pickingGoal: false,
+  pendingGoal: undefined as { x: number; y: number } | undefined,
+  driving: false,
+  drive: { vx: 0, wz: 0, active: false, source: "", stale: false, sent: 0 },
+  cameraUrls: new Map<string, { url: string; stamp: number }>(),
+  statusText: "connecting",
+  ceilingAuto: true, // hide map voxels 1.6 m above the highest robot (tunnel roofs, upper floors)
+};
+
+const scene = new FleetScene($("view"));
+const link = new CairnLink(
+  `${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/`,
+  (topic) => topic.startsWith("/") && topic !== "/tf" && topic !== "/robots",
+  onMessage,
+);
+link.onState = (connected, text) => {
+  state.statusText = connected ? text : text;
+  $("conn").textContent = connected ? `● ${text}` : `○ ${text}`;
+  $("conn").className = connected ? "ok" : "bad";
+};
+
+// ---- Messages from cairn_base -------------------------------------------------------------------------
+function onMessage(topic: string, msg: any): void {
+  if (topic === "/fleet") {
+    state.baseId = msg.base_id;
+    state.robots = msg.robots as Robot[];
+    if (!state.selected && state.robots.length > 0 && params.get("select") !== "none") state.selected = state.robots[0].id;
+    scene.selected = state.selected;
+    const zs = state.robots.filter((r) => r.pose).map((r) => r.pose!.z_m);
+    if (state.ceilingAuto && zs.length > 0) scene.setCeilingCut(Math.max(...zs) + 1.6);
+    scene.setRobots(
+      state.robots
+        .filter((r) => r.pose)
+        .map((r) => ({ id: r.id, x: r.pose!.x_m, y: r.pose!.y_m, z: r.pose!.z_m, yaw: r.pose!.yaw_rad, mode: r.mode, holder: r.holder, online: r.online })),
+    );
+    render();
+  } else if (topic === "/fleet_map" || topic === "/paths" || topic === "/staircases") {
+    scene.applySceneUpdate(msg);
+  } else if (topic === "/events") {
+    const entry: EventEntry = { time: new Date(Number(msg.timestamp.sec) * 1000), level: msg.level, kind: msg.name, message: msg.message };
+    state.events.unshift(entry);
+    state.events.length = Math.min(state.events.length, 300);
+    toast(msg.message, msg.level >= 3 ? "warn" : "info");
+    if (state.tab === "events") renderEvents();
+  } else if (topic.endsWith("/camera")) {
+    const robot = topic.split("/")[1];
+    const old = state.cameraUrls.get(robot);
+    if (old) URL.revokeObjectURL(old.url);
+    const bytes = Uint8Array.from(atob(msg.data), (c) => c.charCodeAt(0));
+    const url = URL.createObjectURL(new Blob([bytes], { type: `image/${msg.format}` }));
+    state.cameraUrls.set(robot, { url, stamp: Date.now() });
+    if (robot === state.selected) ($("camera") as HTMLImageElement).src = url;
+  }
+}
+
+// ---- Notifications ------------------------------------------------------------------------------------
+function toast(text: string, kind: "info" | "warn" | "ok" | "bad" = "info"): void {
+  state.toasts.push(text);
+  const el = document.createElement("div");
+  el.className = `toast ${kind}`;
+  el.textContent = text;
+  $("toasts").prepend(el);
+  window.setTimeout(() => el.classList.add("gone"), 5000);
+  window.setTimeout(() => el.remove(), 5600);
+  while ($("toasts").children.length > 5) $("toasts").lastElementChild?.remove();
+}
+
+// ---- Commands (the CLI's lines, its semantics and reasons) ---------------------------------------------
+async function run(line: string, quiet = false): Promise<CommandResult> {
+  const result = await link.command(line);
+  state.lastResult = result;
+  if (!quiet || !result.ok) {
+    const words = result.ok ? `${line}: ${result.result ?? "accepted"}` : `${line}: ${result.result ?? "failed"} — ${result.reason ?? ""}`;
+    toast(words, result.ok ? "ok" : "bad");
+  }
+  render();
+  return result;
+}
+
+function selectedRobot(): Robot | undefined {
+  return state.robots.find((r) => r.id === state.selected);
+}
+
+function select(id: string): void {
+  state.selected = id;
+  scene.selected = id;
+  history.replaceState(null, "", `#robot=${encodeURIComponent(id)}`);
+  const r = selectedRobot();
+  const cam = state.cameraUrls.get(id);
+  ($("camera") as HTMLImageElement).src = cam ? cam.url : "";
+  if (r?.pose) scene.focus(r.pose.x_m, r.pose.y_m, r.pose.z_m);
+  setTab("robot");
+}
+
+// ---- Rendering of the side panel ------------------------------------------------------------------------
+function setTab(tab: string): void {
+  state.tab = tab;
+  for (const b of document.querySelectorAll<HTMLButtonElement>("#tabs button")) b.classList.toggle("active", b.dataset.tab === tab);
+  for (const p of document.querySelectorAll<HTMLElement>(".tab")) p.hidden = p.id !== `tab-${tab}`;
+  render();
+  if (tab === "events") renderEvents();
+}
+
+function fmt(v: number | undefined, digits = 1, unit = ""): string {
+  return v === undefined || v < 0 || !isFinite(v) ? "–" : `${v.toFixed(digits)}${unit}`;
+}
+
+function render(): void {
+  $("base").textContent = state.baseId ? `basestation ${state.baseId}` : "";
+  renderFleet();
+  renderRobot();
+  renderHealth();
+}
+
+function renderFleet(): void {
+  const rows = state.robots.map((r) => {
+    const holder = r.holder ? (r.you_hold ? `${r.holder} (you)` : r.holder) : "free";
+    return `<tr class="row ${r.id === state.selected ? "sel" : ""}" data-robot="${r.id}">
+      <td><span class="dot ${r.online ? "on" : "off"}"></span>${r.id}</td>
+      <td><span class="chip" style="background:${modeColor(r.mode)}">${r.mode || "?"}</span></td>
+      <td>${holder}</td><td>${r.online ? fmt(r.heard_s_ago, 1, " s") : "lost"}</td></tr>`;
+  });
+  $("fleet-rows").innerHTML = rows.join("") || `<tr><td colspan="4">no robot heard yet</td></tr>`;
+}
+
+// The buttons of the robot's valid actions (ValidActions of cairn_base for this basestation).
+function actionButtons(r: Robot): string {
+  const b: string[] = [];
+  for (const action of r.valid_actions) {
+    if (action === "request-control") b.push(`<button class="act" data-cmd="request-control ${r.id}">Request control</button>`);
+    else if (action === "release") b.push(`<button class="act" data-cmd="release ${r.id}">Release control</button>`);
+    else if (action.startsWith("mode ")) {
+      for (const mode of action.slice(5).split("|")) {
+        if (mode === r.mode) continue;
+        b.push(`<button class="act mode" data-cmd="mode ${r.id} ${mode}" style="border-color:${modeColor(mode)}">Mode ${mode.replace("_", " ")}</button>`);
+      }
+    } else if (action === "goto") b.push(`<button class="act" data-goto="1">${state.pickingGoal ? "Tap the map… (Esc)" : "Go to… (tap the map)"}</button>`);
+    else if (action === "teleop") b.push(`<button class="act" data-drive="1">${state.driving ? "Stop driving" : "Drive (keys / gamepad)"}</button>`);
+  }
+  return b.join("");
+}
+
+function renderRobot(): void {
+  const r = selectedRobot();
+  if (!r) {
+    $("robot-head").innerHTML = `<p>Tap a robot in the 3D view or the fleet list.</p>`;
+    $("actions").innerHTML = "";
+    $("robot-nav").innerHTML = "";
+    return;
+  }
+  const holder = r.holder ? `held by <b>${r.holder}</b>${r.you_hold ? " (you)" : ""}${r.holder_alive ? "" : " (not heard)"}` : "free";
+  $("robot-head").innerHTML = `<h2>${r.id} <span class="chip" style="background:${modeColor(r.mode)}">${r.mode || "?"}</span></h2>
+    <p>${r.platform} · ${holder} · ${r.online ? "online" : `<b class="bad">lost</b> ${r.lost_reason}`}</p>`;
+  const nav = r.nav_status === "active"
+    ? `to (${fmt(r.goal?.x_m, 2)}, ${fmt(r.goal?.y_m, 2)}) · ${fmt(r.distance_left_m, 1, " m")} left · ETA ${fmt(r.eta_s, 0, " s")}`
+    : r.nav_status;
+  $("robot-nav").innerHTML = `<p>navigation: <b>${nav}</b>${r.nav_reason ? `<br><span class="reason">${r.nav_reason}</span>` : ""}</p>
+    <p class="small">local planner: ${r.local_planner_status || "–"} · speed ${fmt(Math.abs(r.speed_mps), 2, " m/s")}</p>`;
+  $("actions").innerHTML = actionButtons(r) + `<button class="act stop" data-cmd="stop ${r.id}">STOP</button>`;
+  $("actions").dataset.robot = r.id;
+  const cam = state.cameraUrls.get(r.id);
+  $("camera-age").textContent = cam ? `camera: ${((Date.now() - cam.stamp) / 1000).toFixed(1)} s old` : "camera: no frame yet";
+  $("drive-state").textContent = state.driving
+    ? `driving ${r.id}: ${state.drive.source || "no input"} ${state.drive.active ? `v ${state.drive.vx.toFixed(2)} m/s, w ${state.drive.wz.toFixed(2)} rad/s` : "(released: zero sent)"}${state.drive.stale ? " · stick silent: zero sent" : ""}`
+    : "";
+}
+
+function renderHealth(): void {
+  const rows = state.robots.map(
+    (r) => `<tr><td>${r.id}</td><td>${r.online ? "online" : "lost"}</td><td>${fmt(r.heard_s_ago, 1, " s")}</td>
+      <td>${fmt(r.control_period_max_ms, 0, " ms")}</td><td>${r.in_contact ? "CONTACT" : "–"}</td><td>${fmt(r.camera_age_s, 1, " s")}</td></tr>`,
+  );
+  $("health-rows").innerHTML = rows.join("");
+  $("health-link").textContent = `link: ${state.statusText} · received ${(link.bytesReceived / 1e6).toFixed(1)} MB · 3D: ${scene.voxelCount} voxels, ${scene.fps.toFixed(0)} fps`;
+}
+
+function renderEvents(): void {
+  $("event-rows").innerHTML = state.events
+    .map((e) => `<li class="${e.level >= 3 ? "warn" : ""}"><time>${e.time.toLocaleTimeString()}</time> ${e.message}</li>`)
+    .join("");
+}
+
+// ---- Input: panel buttons ---------------------------------------------------------------------------------
+document.addEventListener("click", (ev) => {
+  const target = (ev.target as HTMLElement).closest<HTMLElement>("[data-cmd],[data-goto],[data-drive],[data-robot],[data-tab],#confirm-goto,#cancel-goto,#topdown,#ceiling");
+  if (!target) return;
+  if (target.dataset.tab) setTab(target.dataset.tab);
+  else if (target.dataset.cmd) void run(target.dataset.cmd);
+  else if (target.dataset.goto) startGoalPick(!state.pickingGoal);
+  else if (target.dataset.drive) void setDriving(!state.driving);
+  else if (target.id === "confirm-goto") void confirmGoal();
+  else if (target.id === "cancel-goto") cancelGoal();
+  else if (target.id === "ceiling") {
+    state.ceilingAuto = !state.ceilingAuto;
+    target.textContent = state.ceilingAuto ? "Ceiling: cut" : "Ceiling: shown";
+    if (!state.ceilingAuto) scene.setCeilingCut(Infinity);
+  } else if (target.id === "topdown") {
+    scene.setTopDown(!scene.isTopDown);
+    target.textContent = scene.isTopDown ? "Orbit view" : "Top-down view";
+  } else if (target.dataset.robot) select(target.dataset.robot);
+});
+
+// ---- Input: the 3D view (tap = select or goal, long press = goal) ----------------------------------------
+let press: { x: number; y: number; t: number; timer: number; moved: boolean } | undefined;
+const canvas = scene.renderer.domElement;
+canvas.addEventListener("pointerdown", (ev) => {
+  if (!ev.isPrimary) return;
+  const timer = window.setTimeout(() => {
+    if (press && !press.moved) onLongPress(press.x, press.y);
+  }, 600);
+  press = { x: ev.clientX, y: ev.clientY, t: performance.now(), timer, moved: false };
+});
+canvas.addEventListener("pointermove", (ev) => {
+  if (press && Math.hypot(ev.clientX - press.x, ev.clientY - press.y) > 8) press.moved = true;
+});
+canvas.addEventListener("pointerup", (ev) => {
+  if (!press) return;
+  window.clearTimeout(press.timer);
+  const tap = !press.moved && performance.now() - press.t < 600;
+  press = undefined;
+  if (tap) onTap(ev.clientX, ev.clientY);
+});
+
+function groundZ(): number {
+  return selectedRobot()?.pose?.z_m ?? 0;
+}
+
+function onTap(x: number, y: number): void {
+  const hit = scene.pick(x, y, groundZ());
+  if (state.pickingGoal && hit.point) {
+    proposeGoal(hit.point.x, hit.point.y);
+    return;
+  }
+  if (hit.robot) select(hit.robot);
+}
+
+function onLongPress(x: number, y: number): void {
+  const r = selectedRobot();
+  if (!r || !r.valid_actions.includes("goto")) {
+    toast(r ? `${r.id}: goto is not valid now (valid: ${r.valid_actions.join(", ")})` : "select a robot first", "warn");
+    return;
+  }
+  const hit = scene.pick(x, y, groundZ());
+  if (hit.point) proposeGoal(hit.point.x, hit.point.y);
+}
+
+function startGoalPick(on: boolean): void {
+  state.pickingGoal = on;
+  $("banner").hidden = !on;
+  $("banner").textContent = on ? `Tap the map where ${state.selected} should go (Esc cancels)` : "";
+  render();
+}
+
+function proposeGoal(x: number, y: number): void {
+  state.pendingGoal = { x, y };
+  state.pickingGoal = false;
+  $("banner").hidden = true;
+  $("confirm-text").textContent = `Send ${state.selected} to (${x.toFixed(2)}, ${y.toFixed(2)})?`;
+  $("confirm").hidden = false;
+  render();
+}
+
+async function confirmGoal(): Promise<void> {
+  const g = state.pendingGoal;
+  $("confirm").hidden = true;
+  state.pendingGoal = undefined;
+  if (g && state.selected) await run(`goto ${state.selected} ${g.x.toFixed(2)} ${g.y.toFixed(2)}`);
+}
+
+function cancelGoal(): void {
+  state.pendingGoal = undefined;
+  $("confirm").hidden = true;
+  startGoalPick(false);
+}
+
+// ---- Driving: keyboard and gamepad (deadman), streamed on /cairn/teleop at 10 Hz ---------------------------
+const keys = new Set<string>();
+async function setDriving(on: boolean): Promise<void> {
+  const r = selectedRobot();
+  if (on && r && r.mode !== "manual" && r.mode !== "smart_joystick") {
+    const result = await run(`mode ${r.id} manual`);
+    if (!result.ok) return;
+  }
+  state.driving = on && !!r;
+  if (!state.driving) {
+    if (r) link.teleop(r.id, 0, 0);
+    state.drive = { vx: 0, wz: 0, active: false, source: "", stale: false, sent: state.drive.sent };
+  }
+  render();
+}
+
+let lastPadStamp = -1;
+let lastPadChange = performance.now();
+function driveTick(): void {
+  const r = selectedRobot();
+  if (!state.driving || !r) return;
+  const vmax = r.max_speed_mps > 0 ? Math.min(r.max_speed_mps, 1.0) : 0.5;
+  const wmax = r.max_yaw_rate_radps > 0 ? Math.min(r.max_yaw_rate_radps, 1.2) : 1.0;
+  let vx = 0, wz = 0, active = false, source = "", stale = false;
+  const pad = Array.from(navigator.getGamepads?.() ?? []).find((p) => p && p.connected);
+  if (pad) {
+    const deadman = [4, 5, 6, 7].some((i) => pad.buttons[i]?.pressed);
+    if (pad.timestamp !== lastPadStamp) {
+      lastPadStamp = pad.timestamp;
+      lastPadChange = performance.now();
+    }
+    stale = performance.now() - lastPadChange > 500;
+    source = `gamepad${deadman ? " (deadman held)" : " (deadman released)"}`;
+    if (deadman && !stale) {
+      const ax = (v: number) => (Math.abs(v) < 0.08 ? 0 : v);
+      vx = -ax(pad.axes[1] ?? 0) * vmax;
+      wz = -ax(pad.axes[0] ?? 0) * wmax;
+      active = true;
+    }
+  }
+  if (!active && keys.size > 0) {
+    source = "keyboard";
+    vx = ((keys.has("ArrowUp") || keys.has("w") ? 1 : 0) - (keys.has("ArrowDown") || keys.has("s") ? 1 : 0)) * vmax * 0.6;
+    wz = ((keys.has("ArrowLeft") || keys.has("a") ? 1 : 0) - (keys.has("ArrowRight") || keys.has("d") ? 1 : 0)) * wmax * 0.6;
+    active = true;
+  }
+  const wasActive = state.drive.active;
+  state.drive = { vx, wz, active, source, stale, sent: state.drive.sent };
+  // While active: the twist at 10 Hz. On release (or a silent stick): one zero, then silence, and the robot's
+  // mux also stops it when the twists stop (teleop_timeout_s).
+  if (active || wasActive) {
+    if (link.teleop(r.id, active ? vx : 0, active ? wz : 0)) state.drive.sent++;
+  }
+  renderRobot();
+}
+window.setInterval(driveTick, 100);
+
+window.addEventListener("keydown", (ev) => {
+  if ((ev.target as HTMLElement).tagName === "INPUT") return;
+  if (state.driving && ["ArrowUp", "ArrowDown", "ArrowLeft", "ArrowRight", "w", "a", "s", "d"].includes(ev.key)) {
+    keys.add(ev.key);
+    ev.preventDefault();
+    return;
+  }
+  if (ev.key === "Escape") cancelGoal();
+  else if (ev.key === " " && state.selected) {
+    ev.preventDefault();
+    void run(`stop ${state.selected}`);
+  } else if (ev.key === "t") $("topdown").click();
+  else if (ev.key === "g" && selectedRobot()?.valid_actions.includes("goto")) startGoalPick(true);
+  else if (/^[1-9]$/.test(ev.key) && state.robots[Number(ev.key) - 1]) select(state.robots[Number(ev.key) - 1].id);
+});
+window.addEventListener("keyup", (ev) => keys.delete(ev.key));
+window.addEventListener("blur", () => keys.clear());
+
+window.setInterval(() => {
+  renderHealth();
+  renderRobot();
+}, 1000);
+
+// For tests and benches (Playwright reads it; nothing in the page depends on it).
+(window as any).cairn = { state, scene, link, run, select, proposeGoal, confirmGoal };
+
+setTab(state.selected ? "robot" : "fleet");
+const bench = params.get("bench_voxels");
+if (bench) scene.addSyntheticVoxels(Number(bench));
+else link.connect();

@@ -1,0 +1,369 @@
+// The 3D fleet view (three.js): the fleet map's voxels as one instanced mesh per map column entity, robots with
+// heading, name, mode colour and lock holder, global paths, local plans, trails, goals and staircases drawn as
+// steps. Frame: the map frame, z up, metres.
+import * as THREE from "three";
+import { OrbitControls } from "three/examples/jsm/controls/OrbitControls.js";
+
+export interface RobotPose {
+  id: string;
+  x: number;
+  y: number;
+  z: number;
+  yaw: number;
+  mode: string;
+  holder: string;
+  online: boolean;
+}
+
+const MODE_COLORS: Record<string, number> = {
+  idle: 0x9ea3ad,
+  manual: 0xf58c26,
+  smart_joystick: 0xa361eb,
+  waypoint: 0x338cfa,
+};
+
+export function modeColor(mode: string): string {
+  return "#" + (MODE_COLORS[mode] ?? 0x26b8a6).toString(16).padStart(6, "0");
+}
+
+type Vec3 = { x: number; y: number; z: number };
+type Rgba = { r: number; g: number; b: number; a: number };
+
+interface RobotObject {
+  group: THREE.Group;
+  body: THREE.Mesh;
+  ring: THREE.Mesh;
+  label: THREE.Sprite;
+  labelText: string;
+}
+
+export class FleetScene {
+  readonly renderer: THREE.WebGLRenderer;
+  readonly scene = new THREE.Scene();
+  readonly camera: THREE.PerspectiveCamera;
+  readonly controls: OrbitControls;
+  private mapGroup = new THREE.Group();
+  private chunks = new Map<string, THREE.InstancedMesh>();
+  private entityGroup = new THREE.Group(); // paths, staircases
+  private entities = new Map<string, THREE.Object3D>();
+  private robots = new Map<string, RobotObject>();
+  private boxGeometry = new THREE.BoxGeometry(1, 1, 1);
+  // Voxels above the ceiling cut are clipped away, so that robots inside tunnels and rooms stay in view.
+  private ceilingPlane = new THREE.Plane(new THREE.Vector3(0, 0, -1), 1e6);
+  private voxelMaterial = new THREE.MeshLambertMaterial({ clippingPlanes: [this.ceilingPlane] });
+  /** Height (metres, map frame) above which map voxels are hidden; Infinity shows all. */
+  ceilingCut = Infinity;
+  private raycaster = new THREE.Raycaster();
+  private topDown = false;
+  private frames = 0;
+  private fpsWindowStart = performance.now();
+  fps = 0;
+  voxelCount = 0;
+  selected = "";
+  private centred = false;
+
+  constructor(private container: HTMLElement) {
+    this.renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    this.renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
+    this.renderer.setClearColor(0x151a21);
+    this.renderer.localClippingEnabled = true;
+    container.appendChild(this.renderer.domElement);
+    this.camera = new THREE.PerspectiveCamera(55, 1, 0.05, 2000);
+    this.camera.up.set(0, 0, 1);
+    this.camera.position.set(-6, -9, 12);
+    this.controls = new OrbitControls(this.camera, this.renderer.domElement);
+    this.controls.enableDamping = true;
+    this.controls.screenSpacePanning = true;
+    this.controls.touches = { ONE: THREE.TOUCH.ROTATE, TWO: THREE.TOUCH.DOLLY_PAN };
+    this.scene.add(new THREE.HemisphereLight(0xdfe8ff, 0x30343a, 2.2));
+    const sun = new THREE.DirectionalLight(0xffffff, 1.6);
+    sun.position.set(20, -10, 40);
+    this.scene.add(sun);
+    const grid = new THREE.GridHelper(200, 200, 0x2d3640, 0x232a32);
+    grid.rotation.x = Math.PI / 2; // the XY plane
+    grid.position.z = -0.02;
+    this.scene.add(grid);
+    this.scene.add(this.mapGroup, this.entityGroup);
+    new ResizeObserver(() => this.resize()).observe(container);
+    this.resize();
+    const loop = () => {
+      this.controls.update();
+      this.renderer.render(this.scene, this.camera);
+      this.frames++;
+      const now = performance.now();
+      if (now - this.fpsWindowStart >= 1000) {
+        this.fps = (this.frames * 1000) / (now - this.fpsWindowStart);
+        this.frames = 0;
+        this.fpsWindowStart = now;
+      }
+      requestAnimationFrame(loop);
+    };
+    requestAnimationFrame(loop);
+  }
+
+  private resize(): void {
+    const w = Math.max(1, this.container.clientWidth);
+    const h = Math.max(1, this.container.clientHeight);
+    this.renderer.setSize(w, h, false);
+    this.camera.aspect = w / h;
+    this.camera.updateProjectionMatrix();
+  }
+
+  /** Orbit (false) or top-down (true) camera over the current target. */
+  setTopDown(on: boolean): void {
+    this.topDown = on;
+    const t = this.controls.target;
+    const d = Math.max(8, this.camera.position.distanceTo(t));
+    if (on) {
+      this.camera.position.set(t.x, t.y - 0.001, t.z + d);
+      this.controls.enableRotate = false;
+    } else {
+      this.camera.position.set(t.x - d * 0.45, t.y - d * 0.6, t.z + d * 0.65);
+      this.controls.enableRotate = true;
+    }
+  }
+  get isTopDown(): boolean {
+    return this.topDown;
+  }
+
+  /** Hides map voxels above `z` metres (Infinity: none hidden). */
+  setCeilingCut(z: number): void {
+    this.ceilingCut = z;
+    this.ceilingPlane.constant = isFinite(z) ? z : 1e6;
+  }
+
+  /** Centres the view on a point (map frame). */
+  focus(x: number, y: number, z: number): void {
+    const offset = this.camera.position.clone().sub(this.controls.target);
+    this.controls.target.set(x, y, z);
+    this.camera.position.copy(this.controls.target).add(offset);
+  }
+
+  /** A foxglove.SceneUpdate of /fleet_map, /paths or /staircases. */
+  applySceneUpdate(update: any): void {
+    for (const d of update.deletions ?? []) {
+      if (d.type === 1) {
+        this.clearAll();
+      } else {
+        this.remove(d.id);
+      }
+    }
+    for (const e of update.entities ?? []) {
+      if (typeof e.id !== "string") continue;
+      if (e.id.startsWith("map/")) {
+        this.setChunk(e.id, e.cubes ?? []);
+      } else {
+        this.setEntity(e);
+      }
+    }
+  }
+
+  private clearAll(): void {
+    for (const id of [...this.chunks.keys(), ...this.entities.keys()]) this.remove(id);
+  }
+
+  private remove(id: string): void {
+    const chunk = this.chunks.get(id);
+    if (chunk) {
+      this.voxelCount -= chunk.count;
+      this.mapGroup.remove(chunk);
+      chunk.dispose();
+      this.chunks.delete(id);
+    }
+    const obj = this.entities.get(id);
+    if (obj) {
+      this.entityGroup.remove(obj);
+      this.entities.delete(id);
+    }
+  }
+
+  /** One map column: its occupied voxels as instances of one box. */
+  setChunk(id: string, cubes: { pose: { position: Vec3 }; size: Vec3; color: Rgba }[]): void {
+    this.remove(id);
+    if (cubes.length === 0) return;
+    const mesh = new THREE.InstancedMesh(this.boxGeometry, this.voxelMaterial, cubes.length);
+    const m = new THREE.Matrix4();
+    const c = new THREE.Color();
+    cubes.forEach((cube, i) => {
+      const p = cube.pose.position;
+      m.makeScale(cube.size.x * 0.96, cube.size.y * 0.96, cube.size.z * 0.96);
+      m.setPosition(p.x, p.y, p.z);
+      mesh.setMatrixAt(i, m);
+      c.setRGB(cube.color.r, cube.color.g, cube.color.b);
+      mesh.setColorAt(i, c);
+    });
+    mesh.instanceMatrix.needsUpdate = true;
+    if (mesh.instanceColor) mesh.instanceColor.needsUpdate = true;
+    mesh.computeBoundingSphere();
+    mesh.userData.kind = "map";
+    this.mapGroup.add(mesh);
+    this.chunks.set(id, mesh);
+    this.voxelCount += cubes.length;
+    if (!this.centred && this.robots.size === 0) {
+      const p = cubes[0].pose.position;
+      this.focus(p.x, p.y, 0);
+      this.centred = true;
+    }
+  }
+
+  /** Paths, local plans, trails, goals (/paths) and staircases (/staircases): lines, cubes and spheres. */
+  private setEntity(e: any): void {
+    this.remove(e.id);
+    const group = new THREE.Group();
+    for (const line of e.lines ?? []) {
+      const pts = (line.points ?? []).map((p: Vec3) => new THREE.Vector3(p.x, p.y, p.z));
+      if (pts.length < 2) continue;
+      const geometry = new THREE.BufferGeometry().setFromPoints(pts);
+      const material = new THREE.LineBasicMaterial({
+        color: new THREE.Color(line.color.r, line.color.g, line.color.b),
+        transparent: line.color.a < 1,
+        opacity: line.color.a,
+      });
+      group.add(new THREE.Line(geometry, material));
+    }
+    for (const cube of e.cubes ?? []) {
+      const material = new THREE.MeshLambertMaterial({
+        color: new THREE.Color(cube.color.r, cube.color.g, cube.color.b),
+        transparent: cube.color.a < 1,
+        opacity: cube.color.a,
+      });
+      const mesh = new THREE.Mesh(this.boxGeometry, material);
+      mesh.scale.set(cube.size.x, cube.size.y, cube.size.z);
+      const p = cube.pose.position;
+      const q = cube.pose.orientation;
+      mesh.position.set(p.x, p.y, p.z);
+      mesh.quaternion.set(q.x, q.y, q.z, q.w);
+      group.add(mesh);
+    }
+    for (const sphere of e.spheres ?? []) {
+      const mesh = new THREE.Mesh(
+        new THREE.SphereGeometry(0.5, 16, 12),
+        new THREE.MeshLambertMaterial({ color: new THREE.Color(sphere.color.r, sphere.color.g, sphere.color.b) }),
+      );
+      mesh.scale.set(sphere.size.x, sphere.size.y, sphere.size.z);
+      mesh.position.set(sphere.pose.position.x, sphere.pose.position.y, sphere.pose.position.z);
+      group.add(mesh);
+    }
+    group.userData.id = e.id;
+    this.entityGroup.add(group);
+    this.entities.set(e.id, group);
+  }
+
+  /** Robots from /fleet: bodies (mode colour), heading, a label with name, mode and holder. */
+  setRobots(poses: RobotPose[]): void {
+    const seen = new Set<string>();
+    for (const r of poses) {
+      seen.add(r.id);
+      let obj = this.robots.get(r.id);
+      if (!obj) {
+        obj = this.makeRobot(r.id);
+        this.robots.set(r.id, obj);
+        this.scene.add(obj.group);
+        if (!this.centred) {
+          this.focus(r.x, r.y, r.z);
+          this.centred = true;
+        }
+      }
+      obj.group.position.set(r.x, r.y, r.z);
+      obj.group.rotation.z = r.yaw;
+      (obj.body.material as THREE.MeshLambertMaterial).color.set(modeColor(r.mode));
+      (obj.body.material as THREE.MeshLambertMaterial).opacity = r.online ? 1 : 0.35;
+      obj.ring.visible = r.id === this.selected;
+      const text = `${r.id} · ${r.mode || "?"} · ${r.holder ? "held by " + r.holder : "free"}${r.online ? "" : " · LOST"}`;
+      if (text !== obj.labelText) {
+        obj.labelText = text;
+        this.drawLabel(obj.label, text);
+      }
+    }
+    for (const [id, obj] of this.robots) {
+      if (!seen.has(id)) {
+        this.scene.remove(obj.group);
+        this.robots.delete(id);
+      }
+    }
+  }
+
+  private makeRobot(id: string): RobotObject {
+    const group = new THREE.Group();
+    const body = new THREE.Mesh(
+      new THREE.BoxGeometry(0.7, 0.5, 0.35),
+      new THREE.MeshLambertMaterial({ color: 0x9ea3ad, transparent: true }),
+    );
+    body.position.z = 0.2;
+    body.userData.robotId = id;
+    const nose = new THREE.Mesh(new THREE.ConeGeometry(0.14, 0.35, 12), new THREE.MeshLambertMaterial({ color: 0xffffff }));
+    nose.rotation.z = -Math.PI / 2;
+    nose.position.set(0.5, 0, 0.25);
+    nose.userData.robotId = id;
+    const ring = new THREE.Mesh(
+      new THREE.RingGeometry(0.6, 0.75, 40),
+      new THREE.MeshBasicMaterial({ color: 0xffe14d, side: THREE.DoubleSide }),
+    );
+    ring.position.z = 0.03;
+    ring.visible = false;
+    const label = new THREE.Sprite(new THREE.SpriteMaterial({ transparent: true, depthTest: false }));
+    label.position.z = 1.1;
+    label.renderOrder = 10;
+    group.add(body, nose, ring, label);
+    return { group, body, ring, label, labelText: "" };
+  }
+
+  private drawLabel(sprite: THREE.Sprite, text: string): void {
+    const canvas = document.createElement("canvas");
+    const ctx = canvas.getContext("2d")!;
+    ctx.font = "bold 30px system-ui, sans-serif";
+    const w = Math.ceil(ctx.measureText(text).width) + 24;
+    canvas.width = w;
+    canvas.height = 44;
+    ctx.font = "bold 30px system-ui, sans-serif";
+    ctx.fillStyle = "rgba(10, 14, 20, 0.78)";
+    ctx.fillRect(0, 0, w, 44);
+    ctx.fillStyle = "#ffffff";
+    ctx.fillText(text, 12, 32);
+    const material = sprite.material as THREE.SpriteMaterial;
+    material.map?.dispose();
+    material.map = new THREE.CanvasTexture(canvas);
+    material.needsUpdate = true;
+    sprite.scale.set((w / 44) * 0.45, 0.45, 1);
+  }
+
+  /** What a tap at client pixel (x, y) hits: a robot id, else a point on the map or the ground plane at `groundZ`. */
+  pick(clientX: number, clientY: number, groundZ: number): { robot?: string; point?: THREE.Vector3 } {
+    const rect = this.renderer.domElement.getBoundingClientRect();
+    const ndc = new THREE.Vector2(((clientX - rect.left) / rect.width) * 2 - 1, -((clientY - rect.top) / rect.height) * 2 + 1);
+    this.raycaster.setFromCamera(ndc, this.camera);
+    const robotMeshes: THREE.Object3D[] = [];
+    for (const obj of this.robots.values()) robotMeshes.push(...obj.group.children.filter((c) => c.userData.robotId));
+    const hitRobot = this.raycaster.intersectObjects(robotMeshes, false)[0];
+    if (hitRobot) return { robot: hitRobot.object.userData.robotId as string };
+    // The floor under the robot's level: the ground plane through groundZ (a goal names x and y; the level is the robot's).
+    const plane = new THREE.Plane(new THREE.Vector3(0, 0, 1), -groundZ);
+    const point = new THREE.Vector3();
+    if (this.raycaster.ray.intersectPlane(plane, point)) return { point };
+    return {};
+  }
+
+  /** Screen position (client pixels) of a map point, for tests and markers. */
+  toScreen(x: number, y: number, z: number): { x: number; y: number } {
+    const v = new THREE.Vector3(x, y, z).project(this.camera);
+    const rect = this.renderer.domElement.getBoundingClientRect();
+    return { x: rect.left + ((v.x + 1) / 2) * rect.width, y: rect.top + ((1 - v.y) / 2) * rect.height };
+  }
+
+  /** Synthetic map of `count` voxels (a benchmark of the view, no server needed). */
+  addSyntheticVoxels(count: number): void {
+    const perChunk = 4000;
+    for (let made = 0, k = 0; made < count; k++) {
+      const n = Math.min(perChunk, count - made);
+      const cubes = [];
+      for (let i = 0; i < n; i++) {
+        const j = made + i;
+        const x = (j % 400) * 0.2, y = (Math.floor(j / 400) % 400) * 0.2, z = Math.floor(j / 160000) * 0.2;
+        cubes.push({ pose: { position: { x, y, z } }, size: { x: 0.2, y: 0.2, z: 0.2 }, color: { r: 0.3, g: 0.6 + 0.3 * Math.sin(x), b: 0.8, a: 1 } });
+      }
+      this.setChunk(`map/bench/${k}`, cubes);
+      made += n;
+    }
+    this.focus(40, 40, 0);
+  }
+}
