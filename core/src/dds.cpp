@@ -9,6 +9,11 @@
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
 #include <fastdds/rtps/flowcontrol/FlowControllerDescriptor.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+#include <fastrtps/utils/IPLocator.h>
 
 #ifndef CAIRN_CONFIG_DIR
 #error "CAIRN_CONFIG_DIR must be defined by the build"
@@ -91,9 +96,103 @@ std::string DefaultProfilesFile() {
 
 namespace {
 
-// A participant QoS is loopback-only when built-in transports are off and every user transport is UDPv4
-// whitelisted to 127.0.0.1 only.
-bool IsLoopbackOnly(const dds::DomainParticipantQos& qos, std::string* why) {
+using eprosima::fastrtps::rtps::IPLocator;
+using eprosima::fastrtps::rtps::Locator_t;
+using eprosima::fastrtps::rtps::LocatorList_t;
+
+std::string LocatorText(const Locator_t& locator) {
+  if (locator.kind != LOCATOR_KIND_UDPv4) return "a locator of kind " + std::to_string(locator.kind) + " (not UDPv4)";
+  return IPLocator::toIPv4string(locator) + ":" + std::to_string(locator.port);
+}
+
+std::uint32_t LocatorAddress(const Locator_t& locator) {
+  return (static_cast<std::uint32_t>(locator.address[12]) << 24) | (static_cast<std::uint32_t>(locator.address[13]) << 16) |
+         (static_cast<std::uint32_t>(locator.address[14]) << 8) | locator.address[15];
+}
+
+bool IsLoopbackAddress(std::uint32_t address) { return (address >> 24) == 127; }
+bool IsMulticastAddress(std::uint32_t address) { return (address >> 28) == 0xE; }
+
+// Every locator of a unicast list is UDPv4 on loopback or a named subnet; a multicast list may hold multicast
+// groups only when the scope names multicast. `*why` names `list` and the locator at fault.
+bool LocatorsInScope(const LocatorList_t& locators, const std::string& list, bool multicast_list,
+                     const NetworkScope& scope, std::string* why) {
+  for (const Locator_t& locator : locators) {
+    const std::string text = LocatorText(locator);
+    if (multicast_list) {
+      if (!scope.multicast || locator.kind != LOCATOR_KIND_UDPv4 || !IsMulticastAddress(LocatorAddress(locator))) {
+        *why = "its " + list + " holds " + text +
+               (scope.multicast ? " (not a UDPv4 multicast group)" : " (multicast leaves loopback)");
+        return false;
+      }
+      continue;
+    }
+    if (locator.kind != LOCATOR_KIND_UDPv4 || !scope.Contains(LocatorAddress(locator))) {
+      *why = "its " + list + " holds " + text + ", outside " + scope.Describe();
+      return false;
+    }
+  }
+  return true;
+}
+
+bool EndpointInScope(const dds::RTPSEndpointQos& endpoint, const NetworkScope& scope, std::string* why) {
+  return LocatorsInScope(endpoint.unicast_locator_list, "unicastLocatorList", false, scope, why) &&
+         LocatorsInScope(endpoint.remote_locator_list, "remoteLocatorList", false, scope, why) &&
+         LocatorsInScope(endpoint.multicast_locator_list, "multicastLocatorList", true, scope, why);
+}
+
+std::string ScopeRefusal(const NetworkScope& scope) {
+  return scope.subnets.empty() ? "is not loopback-only: " : "leaves its network scope (" + scope.Describe() + "): ";
+}
+
+}  // namespace
+
+Ipv4Subnet ParseIpv4Subnet(const std::string& text) {
+  const auto slash = text.find('/');
+  const std::string address = text.substr(0, slash);
+  const std::string length = slash == std::string::npos ? "" : text.substr(slash + 1);
+  std::uint32_t value = 0;
+  int parts = 0;
+  bool ok = !length.empty() && length.size() <= 2 &&
+            std::all_of(length.begin(), length.end(), [](char c) { return c >= '0' && c <= '9'; });
+  std::size_t at = 0;
+  while (ok && at <= address.size() && parts < 4) {
+    const std::size_t dot = std::min(address.find('.', at), address.size());
+    const std::string part = address.substr(at, dot - at);
+    ok = !part.empty() && part.size() <= 3 && std::all_of(part.begin(), part.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
+         std::stoi(part) <= 255;
+    if (ok) value = (value << 8) | static_cast<std::uint32_t>(std::stoi(part));
+    ++parts;
+    at = dot + 1;
+  }
+  ok = ok && parts == 4 && at == address.size() + 1 && std::stoi(length) <= 32;
+  if (!ok) throw std::invalid_argument("subnet '" + text + "' must be an IPv4 CIDR, e.g. 10.77.0.0/24");
+  Ipv4Subnet subnet;
+  subnet.prefix_length = std::stoi(length);
+  const std::uint32_t mask = subnet.prefix_length == 0 ? 0 : ~std::uint32_t{0} << (32 - subnet.prefix_length);
+  subnet.network = value & mask;
+  subnet.text = text;
+  return subnet;
+}
+
+bool Ipv4Subnet::Contains(std::uint32_t address) const {
+  const std::uint32_t mask = prefix_length == 0 ? 0 : ~std::uint32_t{0} << (32 - prefix_length);
+  return (address & mask) == network;
+}
+
+bool NetworkScope::Contains(std::uint32_t address) const {
+  if (IsLoopbackAddress(address)) return true;
+  return std::any_of(subnets.begin(), subnets.end(), [address](const Ipv4Subnet& s) { return s.Contains(address); });
+}
+
+std::string NetworkScope::Describe() const {
+  std::string text = "loopback (127.0.0.0/8)";
+  for (const Ipv4Subnet& s : subnets) text += " and " + s.text;
+  if (multicast) text += ", multicast on those";
+  return text;
+}
+
+bool WithinNetworkScope(const dds::DomainParticipantQos& qos, const NetworkScope& scope, std::string* why) {
   if (qos.transport().use_builtin_transports) {
     *why = "it keeps Fast DDS built-in transports (UDP on every interface, multicast)";
     return false;
@@ -113,16 +212,63 @@ bool IsLoopbackOnly(const dds::DomainParticipantQos& qos, std::string* why) {
       return false;
     }
     for (const auto& address : udp->interfaceWhiteList) {
-      if (address != "127.0.0.1") {
-        *why = "its UDPv4 whitelist contains " + address;
+      const bool loopback_only = scope.subnets.empty();
+      bool in_scope = address == "127.0.0.1";
+      if (!in_scope && !loopback_only) {
+        try {
+          in_scope = scope.Contains(ParseIpv4Subnet(address + "/32").network);
+        } catch (const std::invalid_argument&) {
+          in_scope = false;  // an interface name or a malformed address: named by the reason below
+        }
+      }
+      if (!in_scope) {
+        *why = "its UDPv4 whitelist contains " + address + (loopback_only ? "" : ", outside " + scope.Describe());
         return false;
       }
+    }
+  }
+  const auto& builtin = qos.wire_protocol().builtin;
+  const std::pair<const LocatorList_t*, const char*> unicast[] = {
+      {&builtin.metatrafficUnicastLocatorList, "metatrafficUnicastLocatorList"},
+      {&builtin.initialPeersList, "initialPeersList"},
+      {&qos.wire_protocol().default_unicast_locator_list, "defaultUnicastLocatorList"}};
+  for (const auto& [list, name] : unicast) {
+    if (!LocatorsInScope(*list, name, /*multicast_list=*/false, scope, why)) return false;
+  }
+  const std::pair<const LocatorList_t*, const char*> multicast[] = {
+      {&builtin.metatrafficMulticastLocatorList, "metatrafficMulticastLocatorList"},
+      {&qos.wire_protocol().default_multicast_locator_list, "defaultMulticastLocatorList"}};
+  for (const auto& [list, name] : multicast) {
+    if (!LocatorsInScope(*list, name, /*multicast_list=*/true, scope, why)) return false;
+  }
+  for (const auto& server : builtin.discovery_config.m_DiscoveryServers) {
+    if (!LocatorsInScope(server.metatrafficUnicastLocatorList, "discovery server's metatrafficUnicastLocatorList",
+                         false, scope, why) ||
+        !LocatorsInScope(server.metatrafficMulticastLocatorList, "discovery server's metatrafficMulticastLocatorList",
+                         true, scope, why)) {
+      return false;
     }
   }
   return true;
 }
 
-}  // namespace
+void Participant::CheckEndpointProfile(const std::string& profile, bool writer) const {
+  std::string why;
+  bool ok = true;
+  if (writer) {
+    dds::DataWriterQos qos;
+    if (publisher_->get_datawriter_qos_from_profile(profile, qos) != ReturnCode_t::RETCODE_OK) return;  // reported by the caller
+    ok = EndpointInScope(qos.endpoint(), options_.network, &why);
+  } else {
+    dds::DataReaderQos qos;
+    if (subscriber_->get_datareader_qos_from_profile(profile, qos) != ReturnCode_t::RETCODE_OK) return;
+    ok = EndpointInScope(qos.endpoint(), options_.network, &why);
+  }
+  if (!ok) {
+    throw DdsError(std::string(writer ? "writer" : "reader") + " QoS profile '" + profile + "' in " +
+                   options_.profiles_file + " " + ScopeRefusal(options_.network) + why + "; refusing to create it");
+  }
+}
 
 Participant::Participant(const ParticipantOptions& options) : options_(options) {
   if (options.domain_id < 0 || options.domain_id > kMaxDomainId) {
@@ -142,9 +288,9 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
                    options.profiles_file);
   }
   std::string why;
-  if (!options.allow_network && !IsLoopbackOnly(qos, &why)) {
-    throw DdsError("participant profile '" + options.participant_profile + "' is not loopback-only: " + why +
-                   "; refusing to start without allow_network");
+  if (!WithinNetworkScope(qos, options.network, &why)) {
+    throw DdsError("participant profile '" + options.participant_profile + "' " + ScopeRefusal(options.network) +
+                   why + "; refusing to start it");
   }
   qos.name(options.name);
   for (const FlowControllerOptions& flow : options.flow_controllers) {

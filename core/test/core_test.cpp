@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+
 #include "cairn/core/component.h"
 #include "cairn/core/config.h"
 #include "cairn/core/dds.h"
@@ -149,6 +152,184 @@ TEST(Participant, RefusesMissingFilesProfilesAndNetworkProfiles) {
   } catch (const DdsError& e) {
     EXPECT_NE(std::string(e.what()).find("not loopback-only"), std::string::npos) << e.what();
   }
+}
+
+// A profiles file whose participant "<name>" is the shipped loopback one plus `extra` inside <builtin> or
+// <rtps>, and whose "<name>.writer" / "<name>.reader" profiles hold `endpoint` (inside <data_writer> or
+// <data_reader>).
+std::string LoopbackProfiles(const std::string& name, const std::string& builtin_extra, const std::string& rtps_extra,
+                             const std::string& writer_extra = "", const std::string& reader_extra = "") {
+  const std::string udp = "<locator><udpv4><address>127.0.0.1</address></udpv4></locator>";
+  // Each list once (Fast DDS refuses a repeated element): the shipped loopback list unless `extra` replaces it.
+  const auto list = [&udp](const std::string& tag, const std::string& extra) {
+    return extra.find("<" + tag + ">") != std::string::npos ? std::string() : "<" + tag + ">" + udp + "</" + tag + ">";
+  };
+  return WriteTemp(name + ".xml",
+                   "<?xml version=\"1.0\"?><dds xmlns=\"http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles\"><profiles>"
+                   "<transport_descriptors><transport_descriptor><transport_id>" + name + "_udp</transport_id>"
+                   "<type>UDPv4</type><interfaceWhiteList><address>127.0.0.1</address></interfaceWhiteList>"
+                   "</transport_descriptor></transport_descriptors>"
+                   "<participant profile_name=\"" + name + "\"><rtps><userTransports><transport_id>" + name +
+                   "_udp</transport_id></userTransports><useBuiltinTransports>false</useBuiltinTransports><builtin>" +
+                   list("metatrafficUnicastLocatorList", builtin_extra) + list("initialPeersList", builtin_extra) +
+                   builtin_extra + "</builtin>" + list("defaultUnicastLocatorList", rtps_extra) + rtps_extra +
+                   "</rtps></participant>"
+                   "<data_writer profile_name=\"" + name + ".writer\">" + writer_extra + "</data_writer>"
+                   "<data_reader profile_name=\"" + name + ".reader\">" + reader_extra + "</data_reader>"
+                   "</profiles></dds>");
+}
+
+void ExpectParticipantRefused(const std::string& name, const std::string& builtin_extra, const std::string& rtps_extra,
+                              const std::string& needle) {
+  ParticipantOptions options;
+  options.profiles_file = LoopbackProfiles(name, builtin_extra, rtps_extra);
+  options.participant_profile = name;
+  try {
+    Participant p{options};
+    ADD_FAILURE() << name << ": a participant started";
+  } catch (const DdsError& e) {
+    EXPECT_NE(std::string(e.what()).find("not loopback-only: " + needle), std::string::npos) << name << ": " << e.what();
+  }
+}
+
+TEST(Participant, RefusesLoopbackProfilesWithALocatorOutsideLoopback) {
+  const auto udp = [](const std::string& a) { return "<locator><udpv4><address>" + a + "</address></udpv4></locator>"; };
+  // The baseline file itself is accepted (the checks below fail for the added locator, nothing else).
+  {
+    ParticipantOptions options;
+    options.domain_id = 42;
+    options.profiles_file = LoopbackProfiles("guard_ok", "", "");
+    options.participant_profile = "guard_ok";
+    EXPECT_NO_THROW(Participant{options});
+  }
+  ExpectParticipantRefused("guard_peer", "<initialPeersList>" + udp("10.0.0.5") + "</initialPeersList>", "",
+                           "its initialPeersList holds 10.0.0.5:");
+  ExpectParticipantRefused("guard_meta", "<metatrafficUnicastLocatorList>" + udp("192.168.1.7") +
+                                             "</metatrafficUnicastLocatorList>", "",
+                           "its metatrafficUnicastLocatorList holds 192.168.1.7:");
+  ExpectParticipantRefused("guard_metamc", "<metatrafficMulticastLocatorList>" + udp("239.255.0.1") +
+                                               "</metatrafficMulticastLocatorList>", "",
+                           "its metatrafficMulticastLocatorList holds 239.255.0.1:");
+  ExpectParticipantRefused("guard_default", "", "<defaultUnicastLocatorList>" + udp("172.16.0.2") +
+                                                    "</defaultUnicastLocatorList>",
+                           "its defaultUnicastLocatorList holds 172.16.0.2:");
+  ExpectParticipantRefused("guard_defaultmc", "", "<defaultMulticastLocatorList>" + udp("239.255.0.2") +
+                                                      "</defaultMulticastLocatorList>",
+                           "its defaultMulticastLocatorList holds 239.255.0.2:");
+  ExpectParticipantRefused("guard_any", "", "<defaultUnicastLocatorList>" + udp("0.0.0.0") + "</defaultUnicastLocatorList>",
+                           "its defaultUnicastLocatorList holds 0.0.0.0:");
+  ExpectParticipantRefused("guard_server",
+                           "<discovery_config><discoveryProtocol>CLIENT</discoveryProtocol><discoveryServersList>"
+                           "<RemoteServer prefix=\"44.53.00.5f.45.50.52.4f.53.49.4d.41\"><metatrafficUnicastLocatorList>" +
+                               udp("10.9.9.9") +
+                               "</metatrafficUnicastLocatorList></RemoteServer></discoveryServersList></discovery_config>",
+                           "", "its discovery server's metatrafficUnicastLocatorList holds 10.9.9.9:");
+}
+
+TEST(Participant, RefusesEndpointProfilesWithALocatorOutsideLoopback) {
+  const auto udp = [](const std::string& a) { return "<locator><udpv4><address>" + a + "</address></udpv4></locator>"; };
+  struct Case {
+    std::string name, writer, reader, needle;
+  };
+  const Case cases[] = {
+      {"guard_wuni", "<unicastLocatorList>" + udp("10.0.0.9") + "</unicastLocatorList>", "",
+       "writer QoS profile 'guard_wuni.writer'"},
+      {"guard_wmc", "<multicastLocatorList>" + udp("239.255.1.1") + "</multicastLocatorList>", "",
+       "multicastLocatorList holds 239.255.1.1:"},
+      {"guard_rremote", "", "<remoteLocatorList>" + udp("10.0.0.10") + "</remoteLocatorList>",
+       "reader QoS profile 'guard_rremote.reader'"},
+      {"guard_rmc", "", "<multicastLocatorList>" + udp("239.255.1.2") + "</multicastLocatorList>",
+       "multicastLocatorList holds 239.255.1.2:"},
+  };
+  for (const Case& c : cases) {
+    ParticipantOptions options;
+    options.domain_id = 43;
+    options.profiles_file = LoopbackProfiles(c.name, "", "", c.writer, c.reader);
+    options.participant_profile = c.name;
+    Participant participant(options);
+    try {
+      if (!c.writer.empty()) {
+        Writer<cairn_msgs::ModeRequestPubSubType> writer(participant, "test/guard", c.name);
+      } else {
+        Reader<cairn_msgs::ModeRequestPubSubType> reader(participant, "test/guard", c.name, [](const auto&, const auto&) {});
+      }
+      ADD_FAILURE() << c.name << ": the endpoint was created";
+    } catch (const DdsError& e) {
+      EXPECT_NE(std::string(e.what()).find(c.needle), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("not loopback-only"), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(NetworkScope, ParsesSubnetsAndRefusesWhatIsNotACidrNamingIt) {
+  const Ipv4Subnet s = ParseIpv4Subnet("10.77.0.9/24");
+  EXPECT_EQ(s.network, 0x0A4D0000u);
+  EXPECT_EQ(s.prefix_length, 24);
+  EXPECT_TRUE(s.Contains(0x0A4D00FEu));
+  EXPECT_FALSE(s.Contains(0x0A4E0001u));
+  EXPECT_TRUE(ParseIpv4Subnet("0.0.0.0/0").Contains(0xC0A80101u));
+  for (const std::string bad : {"10.77.0.0", "10.77.0.0/33", "10.77.0/24", "10.77.0.256/24", "ten/8", "10.77.0.0/",
+                                " 10.77.0.0/24", "10.77.0.0/24 ", "10..0.0/8", "10.77.0.0.1/24"}) {
+    try {
+      ParseIpv4Subnet(bad);
+      ADD_FAILURE() << "accepted '" << bad << "'";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("'" + bad + "'"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// A participant QoS as a lan link on 10.77.0.0/24 would build it: UDPv4 whitelisted to the robot's address,
+// unicast locators on it, a multicast discovery group.
+eprosima::fastdds::dds::DomainParticipantQos LanQos(const std::string& whitelist, const std::string& peer,
+                                                    const std::string& multicast) {
+  using eprosima::fastrtps::rtps::IPLocator;
+  using eprosima::fastrtps::rtps::Locator_t;
+  eprosima::fastdds::dds::DomainParticipantQos qos;
+  qos.transport().use_builtin_transports = false;
+  auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+  udp->interfaceWhiteList.push_back(whitelist);
+  qos.transport().user_transports.push_back(udp);
+  const auto locator = [](const std::string& address, std::uint32_t port) {
+    Locator_t l;
+    l.kind = LOCATOR_KIND_UDPv4;
+    IPLocator::setIPv4(l, address);
+    l.port = port;
+    return l;
+  };
+  qos.wire_protocol().builtin.metatrafficUnicastLocatorList.push_back(locator(whitelist, 7410));
+  if (!peer.empty()) qos.wire_protocol().builtin.initialPeersList.push_back(locator(peer, 7410));
+  if (!multicast.empty()) qos.wire_protocol().builtin.metatrafficMulticastLocatorList.push_back(locator(multicast, 7400));
+  return qos;
+}
+
+TEST(NetworkScope, ANamedSubnetAdmitsItsAddressesOnlyAndMulticastOnlyWhenNamed) {
+  NetworkScope lan;
+  lan.subnets.push_back(ParseIpv4Subnet("10.77.0.0/24"));
+  std::string why;
+  EXPECT_TRUE(WithinNetworkScope(LanQos("10.77.0.1", "10.77.0.2", ""), lan, &why)) << why;
+  // The default scope (loopback) refuses the same profile, naming the whitelist entry.
+  EXPECT_FALSE(WithinNetworkScope(LanQos("10.77.0.1", "", ""), NetworkScope{}, &why));
+  EXPECT_NE(why.find("whitelist contains 10.77.0.1"), std::string::npos) << why;
+  // An interface or a peer outside the named subnet.
+  EXPECT_FALSE(WithinNetworkScope(LanQos("10.78.0.1", "", ""), lan, &why));
+  EXPECT_NE(why.find("whitelist contains 10.78.0.1, outside loopback (127.0.0.0/8) and 10.77.0.0/24"), std::string::npos) << why;
+  EXPECT_FALSE(WithinNetworkScope(LanQos("10.77.0.1", "192.168.1.20", ""), lan, &why));
+  EXPECT_NE(why.find("initialPeersList holds 192.168.1.20:7410, outside loopback"), std::string::npos) << why;
+  EXPECT_FALSE(WithinNetworkScope(LanQos("eth0", "", ""), lan, &why));
+  EXPECT_NE(why.find("whitelist contains eth0"), std::string::npos) << why;
+  // Multicast discovery: refused unless the scope names multicast, and then only multicast groups.
+  EXPECT_FALSE(WithinNetworkScope(LanQos("10.77.0.1", "", "239.255.0.1"), lan, &why));
+  EXPECT_NE(why.find("metatrafficMulticastLocatorList holds 239.255.0.1:7400"), std::string::npos) << why;
+  lan.multicast = true;
+  EXPECT_TRUE(WithinNetworkScope(LanQos("10.77.0.1", "", "239.255.0.1"), lan, &why)) << why;
+  EXPECT_FALSE(WithinNetworkScope(LanQos("10.77.0.1", "", "10.77.0.255"), lan, &why));
+  EXPECT_NE(why.find("not a UDPv4 multicast group"), std::string::npos) << why;
+  // Built-in transports are never in scope.
+  auto builtin = LanQos("10.77.0.1", "", "");
+  builtin.transport().use_builtin_transports = true;
+  EXPECT_FALSE(WithinNetworkScope(builtin, lan, &why));
+  EXPECT_NE(why.find("built-in transports"), std::string::npos) << why;
 }
 
 TEST(Participant, LoopbackPublishSubscribeRoundTrip) {

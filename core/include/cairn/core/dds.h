@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <deque>
 #include <functional>
 #include <memory>
@@ -16,6 +17,7 @@
 #include <fastdds/dds/core/status/LivelinessChangedStatus.hpp>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantListener.hpp>
+#include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/DataWriterListener.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
@@ -56,14 +58,45 @@ struct FlowControllerOptions {
   int period_ms = 100;             ///< budget window, [1, 10000]
 };
 
+/// An IPv4 subnet in CIDR form (a named network of a link profile).
+struct Ipv4Subnet {
+  std::uint32_t network = 0;  ///< host byte order, host bits cleared
+  int prefix_length = 32;     ///< [0, 32]
+  std::string text;           ///< as given, e.g. "10.77.0.0/24"
+  bool Contains(std::uint32_t address) const;
+};
+
+/// "A.B.C.D/N" into an Ipv4Subnet (host bits are cleared). @throws std::invalid_argument naming the text.
+Ipv4Subnet ParseIpv4Subnet(const std::string& text);
+
+/// What a participant may use besides loopback (127.0.0.0/8 is always in scope): the named subnets for
+/// whitelisted interfaces and unicast locators, and multicast groups when `multicast` (sent only on the
+/// whitelisted interfaces). Empty: loopback only.
+struct NetworkScope {
+  std::vector<Ipv4Subnet> subnets;
+  bool multicast = false;
+  /// True for a loopback address or one in a named subnet (host byte order).
+  bool Contains(std::uint32_t address) const;
+  /// E.g. "loopback (127.0.0.0/8) and 10.77.0.0/24, multicast on those".
+  std::string Describe() const;
+};
+
+/// True when `qos` stays within `scope`: built-in transports off, UDPv4 user transports whose whitelists hold
+/// only addresses in scope, and every locator list (metatraffic and default unicast, initial peers, discovery
+/// servers) in scope, multicast lists empty unless the scope names multicast. Otherwise false, with `*why`
+/// naming the list or whitelist and the address.
+bool WithinNetworkScope(const eprosima::fastdds::dds::DomainParticipantQos& qos, const NetworkScope& scope,
+                        std::string* why);
+
 /// How a participant is created.
 struct ParticipantOptions {
   int domain_id = 0;                                    ///< DDS domain, [0, 232].
   std::string profiles_file = DefaultProfilesFile();    ///< Fast DDS XML profiles file.
   std::string participant_profile = "cairn.loopback";  ///< participant profile name in that file.
   std::string name = "cairn";                           ///< participant name seen by peers.
-  /// Profiles other than loopback-only are refused unless this is set (network safety, DESIGN.md).
-  bool allow_network = false;
+  /// The networks the participant may use (network safety, DESIGN.md): loopback only by default; a profile
+  /// that would listen on, announce or send to anything else is refused with the reason.
+  NetworkScope network;
   /// Flow controllers to register; names must be unique. @see FlowControllerOptions.
   std::vector<FlowControllerOptions> flow_controllers;
   /// Called (on a Fast DDS thread) with the ParticipantIdOf a remote participant that left (a clean exit) or
@@ -74,7 +107,7 @@ struct ParticipantOptions {
 /// One DomainParticipant with one publisher and one subscriber, built from an XML profile.
 ///
 /// The participant is never created with Fast DDS default transports: the profile must load, must exist,
-/// and unless `allow_network` it must disable built-in transports and whitelist only 127.0.0.1.
+/// and it must stay within ParticipantOptions::network (WithinNetworkScope; loopback only by default).
 /// Destruction deletes every contained entity and the participant (no /dev/shm or port leftovers).
 class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
  public:
@@ -97,6 +130,10 @@ class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
 
   /// The registered flow controller's name as Fast DDS holds it, or nullptr if none has that name.
   const char* FlowControllerName(const std::string& name) const;
+  /// Network safety for endpoints: a writer (`writer`) or reader QoS profile whose unicast, remote or
+  /// multicast locators leave options().network is refused. Writer and Reader call it.
+  /// @throws DdsError naming the profile, the locator list and the locator.
+  void CheckEndpointProfile(const std::string& profile, bool writer) const;
 
   /// This participant's identity (ParticipantIdOf its GUID): what peers see as the sender of its samples.
   std::string participant_id() const;
@@ -150,6 +187,7 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
   Writer(Participant& participant, const std::string& topic_name, const std::string& qos_class,
          const std::string& flow_controller = "")
       : participant_(participant) {
+    participant.CheckEndpointProfile(qos_class + ".writer", /*writer=*/true);
     topic_ = participant.GetTopic(topic_name, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
     if (flow_controller.empty()) {
       writer_ = participant.publisher()->create_datawriter_with_profile(topic_, qos_class + ".writer", this);
@@ -219,6 +257,7 @@ class Reader : private eprosima::fastdds::dds::DataReaderListener {
   Reader(Participant& participant, const std::string& topic_name, const std::string& qos_class,
          SampleCallback on_sample, LivelinessCallback on_liveliness = nullptr)
       : participant_(participant), on_sample_(std::move(on_sample)), on_liveliness_(std::move(on_liveliness)) {
+    participant.CheckEndpointProfile(qos_class + ".reader", /*writer=*/false);
     topic_ = participant.GetTopic(topic_name, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
     reader_ = participant.subscriber()->create_datareader_with_profile(topic_, qos_class + ".reader", this);
     if (reader_ == nullptr) {
