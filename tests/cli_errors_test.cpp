@@ -109,6 +109,16 @@ TEST(BaseCli, RefusesBadFlagsAndCommands) {
   o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--command-timeout", "1", "--", "request-control", "r9"});
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_NE(o.stdout_text.find("unknown robot 'r9'"), std::string::npos) << o.stdout_text;
+  // The GUI's flags.
+  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--gui", "--listen", "localhost:8080"}),
+                "--listen 'localhost:8080': 'localhost' is not an IP address");
+  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--gui", "--listen", "127.0.0.1:80800"}),
+                "port '80800' must be an integer in [0, 65535]");
+  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--listen", "127.0.0.1:9000"}),
+                "--listen, --gui-root and --gui-map-kBps need --gui");
+  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--gui", "--listen", "127.0.0.1:0",
+                            "--gui-root", "/nonexistent/web"}),
+                "'/nonexistent/web/foxglove-schemas.json' cannot be read");
   o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--", "help"});
   EXPECT_EQ(o.exit_code, 0);
   EXPECT_NE(o.stdout_text.find("request-control R"), std::string::npos);

@@ -3,17 +3,19 @@
 # Called by `./cairn demo` inside a private network namespace. The robots run in their own session, so a
 # Ctrl-C in the console cancels the console's wait and never reaches them; when the console ends, the demo
 # asks before stopping them (a console attached with `./cairn console` meanwhile keeps working).
-#   demo.sh BUILD_DIR [--world SPEC] [--robots N] [--domain D] [--headless --script FILE] [--json]
+#   demo.sh BUILD_DIR [--world SPEC] [--robots N] [--domain D] [--gui [--gui-port P]] [--headless --script FILE] [--json]
 set -euo pipefail
 BUILD="$1"; shift
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-WORLD="builtin:tunnels"; ROBOTS=3; DOMAIN=7; HEADLESS=0; SCRIPT=""; JSON=""; PLATFORM="wheeled"
+WORLD="builtin:tunnels"; ROBOTS=3; DOMAIN=7; HEADLESS=0; SCRIPT=""; JSON=""; PLATFORM="wheeled"; GUI=0; GUI_PORT=8080
 
 usage() {
   cat <<USAGE
 usage: ./cairn demo [--world builtin:NAME|FILE.bt|FILE.pcd] [--robots N] [--platform wheeled|legged]
-                    [--domain D] [--headless --script FILE] [--json]
+                    [--domain D] [--gui [--gui-port P]] [--headless --script FILE] [--json]
   Starts N robots (r1..rN, default 3) at distinct free starts and a basestation 'op1'.
+  --gui: op1 also serves the operator GUI; open http://127.0.0.1:P/ (default 8080) in a browser on this
+  machine (./cairn forwards that one TCP port from 127.0.0.1 into the demo's private network namespace).
   Interactive by default; --headless --script FILE runs the command file, prints the outcome and exits
   non-zero if any command fails. Example: ./cairn demo --headless --script examples/geb079_mission.cairn
   A script may name the world and fleet size it was written for ('# world: PATH', '# robots: N' lines);
@@ -30,6 +32,8 @@ while [ $# -gt 0 ]; do
     --headless) HEADLESS=1; shift ;;
     --script) SCRIPT="${2:?--script needs a file}"; shift 2 ;;
     --json) JSON="--json"; shift ;;
+    --gui) GUI=1; shift ;;
+    --gui-port) GUI_PORT="${2:?--gui-port needs a value}"; shift 2 ;;
     -h|--help) usage; exit 0 ;;
     *) echo "demo: unknown option '$1'" >&2; usage >&2; exit 2 ;;
   esac
@@ -41,6 +45,9 @@ if [ -n "$SCRIPT" ] && [ -r "$SCRIPT" ] && [ -z "${ROBOTS_GIVEN:-}" ]; then
 fi
 if ! [[ "$ROBOTS" =~ ^[0-9]+$ ]] || [ "$ROBOTS" -lt 1 ] || [ "$ROBOTS" -gt 20 ]; then
   echo "demo: --robots '$ROBOTS' must be an integer in 1..20" >&2; exit 2
+fi
+if ! [[ "$GUI_PORT" =~ ^[0-9]+$ ]] || [ "$GUI_PORT" -lt 1 ] || [ "$GUI_PORT" -gt 65535 ]; then
+  echo "demo: --gui-port '$GUI_PORT' must be an integer in 1..65535" >&2; exit 2
 fi
 if [ "$HEADLESS" = 1 ] && [ -z "$SCRIPT" ]; then echo "demo: --headless needs --script FILE" >&2; exit 2; fi
 if [ -n "$SCRIPT" ] && [ ! -r "$SCRIPT" ]; then echo "demo: --script '$SCRIPT' cannot be read" >&2; exit 2; fi
@@ -96,9 +103,14 @@ fi
 printf 'CAIRN_DEMO_PID=%s\nCAIRN_DEMO_DOMAIN=%s\nCAIRN_DEMO_PLACES=%s\n' "$$" "$DOMAIN" "$PLACES" >"$ENV_FILE"
 
 BASE="$BUILD/basestation/cairn_base"
+GUI_ARGS=()
+if [ "$GUI" = 1 ]; then
+  GUI_ARGS=(--gui --listen "127.0.0.1:$GUI_PORT")
+  echo "demo: operator GUI at http://127.0.0.1:$GUI_PORT/ (open it in a browser on this machine)"
+fi
 if [ -n "$SCRIPT" ]; then
   set +e
-  "$BASE" --base-id op1 --domain "$DOMAIN" --places "$PLACES" $JSON --script "$SCRIPT"
+  "$BASE" --base-id op1 --domain "$DOMAIN" --places "$PLACES" $JSON "${GUI_ARGS[@]}" --script "$SCRIPT"
   status=$?
   set -e
   if [ $status -eq 0 ]; then echo "demo: mission succeeded"; else echo "demo: mission FAILED (exit $status)"; fi
@@ -108,7 +120,7 @@ echo "demo: another operator can attach with: ./cairn console --base-id op2"
 # Ctrl-C belongs to the console while it runs (it cancels a wait or clears the line): the demo only notes it.
 trap 'true' INT
 set +e
-"$BASE" --base-id op1 --domain "$DOMAIN" --places "$PLACES" $JSON
+"$BASE" --base-id op1 --domain "$DOMAIN" --places "$PLACES" $JSON "${GUI_ARGS[@]}"
 set -e
 trap 'exit 130' INT TERM
 if [ -t 0 ]; then

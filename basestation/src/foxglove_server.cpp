@@ -6,6 +6,7 @@
 #include <websocketpp/config/asio_no_tls.hpp>
 #include <websocketpp/server.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <cstring>
 #include <filesystem>
@@ -67,14 +68,10 @@ void ParseListenAddress(const std::string& text, std::string* address, int* port
   std::string addr = text.substr(0, colon);
   if (addr.size() >= 2 && addr.front() == '[' && addr.back() == ']') addr = addr.substr(1, addr.size() - 2);
   const std::string port_text = text.substr(colon + 1);
-  std::size_t used = 0;
-  int value = -1;
-  try {
-    value = std::stoi(port_text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != port_text.size() || value < 0 || value > 65535) {
+  const bool digits = port_text.size() <= 5 && std::all_of(port_text.begin(), port_text.end(),
+                                                            [](char c) { return c >= '0' && c <= '9'; });
+  const int value = digits ? std::stoi(port_text) : -1;
+  if (!digits || value > 65535) {
     throw std::invalid_argument("--listen '" + text + "': port '" + port_text + "' must be an integer in [0, 65535]");
   }
   std::error_code ec;
@@ -148,29 +145,26 @@ class FoxgloveServer::Impl {
     std::lock_guard<std::mutex> lock(mutex_);
     const std::uint32_t id = next_channel_++;
     channels_[id] = spec;
-    const std::string text = json{{"op", "advertise"}, {"channels", json::array({ChannelJson(id, spec)})}}.dump();
-    for (auto& [cid, client] : clients_) SendText(client.handle, text);
+    SendTextToAll(json{{"op", "advertise"}, {"channels", json::array({ChannelJson(id, spec)})}}.dump());
     return id;
   }
 
   void RemoveChannel(std::uint32_t channel) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (channels_.erase(channel) == 0) return;
-    const std::string text = json{{"op", "unadvertise"}, {"channelIds", json::array({channel})}}.dump();
     for (auto& [cid, client] : clients_) {
       for (auto it = client.subscriptions.begin(); it != client.subscriptions.end();) {
         it = it->second == channel ? client.subscriptions.erase(it) : std::next(it);
       }
-      SendText(client.handle, text);
     }
+    SendTextToAll(json{{"op", "unadvertise"}, {"channelIds", json::array({channel})}}.dump());
   }
 
   std::uint32_t AddService(const ServiceSpec& spec) {
     std::lock_guard<std::mutex> lock(mutex_);
     const std::uint32_t id = next_service_++;
     services_[id] = spec;
-    const std::string text = json{{"op", "advertiseServices"}, {"services", json::array({ServiceJson(id, spec)})}}.dump();
-    for (auto& [cid, client] : clients_) SendText(client.handle, text);
+    SendTextToAll(json{{"op", "advertiseServices"}, {"services", json::array({ServiceJson(id, spec)})}}.dump());
     return id;
   }
 
@@ -232,6 +226,11 @@ class FoxgloveServer::Impl {
             {"response",
              {{"encoding", "json"}, {"schemaName", spec.response_schema_name}, {"schemaEncoding", "jsonschema"},
               {"schema", spec.response_schema}}}};
+  }
+
+  // Caller holds mutex_.
+  void SendTextToAll(const std::string& text) {
+    for (auto& [cid, client] : clients_) SendText(client.handle, text);
   }
 
   // Caller holds mutex_.
@@ -449,7 +448,7 @@ class FoxgloveServer::Impl {
     const std::filesystem::path file = std::filesystem::path(options_.web_root) / relative;
     std::ifstream in;
     if (!options_.web_root.empty() && !escapes && std::filesystem::is_regular_file(file)) in.open(file, std::ios::binary);
-    if (!in) {
+    if (!in.is_open() || !in) {  // a stream never opened is not in a failed state
       con->set_status(websocketpp::http::status_code::not_found);
       con->set_body("not found: " + resource);
       return;

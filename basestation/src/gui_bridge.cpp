@@ -19,6 +19,8 @@
 #include <spdlog/spdlog.h>
 
 #include "cairn/base/operator_text.h"
+#include "cairn/core/time.h"
+#include "shell_util.h"
 
 namespace cairn::base {
 namespace {
@@ -26,21 +28,16 @@ namespace {
 using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kChunkVoxels = 20;  // a /fleet_map entity covers 20 x 20 coarse voxels (4 x 4 m at 0.2 m)
 
 std::uint64_t NowNs() {
-  return static_cast<std::uint64_t>(
-      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-          .count());
+  const core::WallStamp now = core::WallNow();
+  return static_cast<std::uint64_t>(now.sec) * 1000000000ULL + now.nanosec;
 }
 
 json Stamp(std::uint64_t ns) { return {{"sec", ns / 1000000000ULL}, {"nsec", ns % 1000000000ULL}}; }
 
-// Yaw about +z of a unit quaternion, radians.
-double Yaw(const cairn_msgs::Quaternion& q) {
-  return std::atan2(2.0 * (q.w() * q.z() + q.x() * q.y()), 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z()));
-}
+using shell::YawOf;
 
 json Vec3(double x, double y, double z) { return {{"x", x}, {"y", y}, {"z", z}}; }
 json Color(double r, double g, double b, double a = 1.0) { return {{"r", r}, {"g", g}, {"b", b}, {"a", a}}; }
@@ -115,7 +112,9 @@ const char* kFleetStateSchema = R"json({"title":"cairn.FleetState","description"
 "valid_modes":{"type":"array","items":{"type":"string"}},"goal_acceptable":{"type":"boolean"},
 "max_speed_mps":{"type":"number"},"max_reverse_speed_mps":{"type":"number"},"max_yaw_rate_radps":{"type":"number"},
 "camera_age_s":{"type":"number","description":"age of its latest camera frame, -1 = none"},
-"control_period_max_ms":{"type":"number"}}}}}})json";
+"control_period_max_ms":{"type":"number"},
+"state_stamp":{"type":"object","description":"the robot's stamp of its latest state (wall clock)","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},
+"received_stamp":{"type":"object","description":"when this basestation received that state (wall clock)","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}}}}}}})json";
 
 const char* kCommandRequestSchema = R"json({"title":"cairn.CommandRequest","description":"One cairn_base command line, e.g. goto r1 12 4 (see cairn_base --help)","type":"object","properties":{"command":{"type":"string"}},"required":["command"]})json";
 
@@ -159,6 +158,8 @@ bool GuiOptions::IsValid(std::string* why) const {
   };
   if (!(state_rate_hz > 0 && state_rate_hz <= 50)) return bad("GuiOptions::state_rate_hz " + std::to_string(state_rate_hz) + " must be in (0, 50]");
   if (!(map_period_s >= 0.1 && map_period_s <= 60)) return bad("GuiOptions::map_period_s " + std::to_string(map_period_s) + " must be in [0.1, 60]");
+  if (!(map_budget_kBps >= 1 && map_budget_kBps <= 1e6)) return bad("GuiOptions::map_budget_kBps " + std::to_string(map_budget_kBps) + " must be in [1, 1e6]");
+  if (!(map_resend_s >= 0 && map_resend_s <= 600)) return bad("GuiOptions::map_resend_s " + std::to_string(map_resend_s) + " must be in [0, 600]");
   if (!(trail_s >= 0 && trail_s <= 3600)) return bad("GuiOptions::trail_s " + std::to_string(trail_s) + " must be in [0, 3600]");
   return true;
 }
@@ -203,8 +204,8 @@ class GuiBridge::Impl {
     command.response_schema_name = "cairn.CommandResponse";
     command.response_schema = kCommandResponseSchema;
     command_service_ = server_->AddService(command);
-    // Events from now on (the console's are its own: the shell below prints none).
-    client_.EventsSince(&event_cursor_);
+    // Every event the FleetClient still keeps, also those from before the GUI started (a staircase found while
+    // the basestation was starting); the console prints its own, the shell below prints none.
     ShellOptions shell_options;
     shell_options.json = true;
     shell_options.places_file = options.places_file;
@@ -241,7 +242,8 @@ class GuiBridge::Impl {
   };
 
   void OnSubscribe(FoxgloveServer::ClientId client, std::uint32_t channel) {
-    if (channel != map_ && channel != stairs_ && channel != paths_) return;  // the others refresh at 10 Hz
+    // The others refresh at 10 Hz; /events sends a new subscriber the events it missed (ReplayEvents).
+    if (channel != map_ && channel != stairs_ && channel != paths_ && channel != events_) return;
     std::lock_guard<std::mutex> lock(mutex_);
     snapshots_.push_back({client, channel});
   }
@@ -371,6 +373,7 @@ class GuiBridge::Impl {
           if (s.channel == map_) PublishMap(ns, s.client);
           if (s.channel == stairs_) PublishStairs(ns, s.client);
           if (s.channel == paths_) PublishPaths(robots, ns, s.client);
+          if (s.channel == events_) ReplayEvents(ns, s.client);
         }
       } catch (const std::exception& e) {
         spdlog::warn("GUI publisher: {}", e.what());
@@ -402,7 +405,7 @@ class GuiBridge::Impl {
       if (v.state) {
         const cairn_msgs::RobotState& s = *v.state;
         const auto& p = s.pose_MB().position();
-        const double yaw = Yaw(s.pose_MB().orientation());
+        const double yaw = YawOf(s.pose_MB().orientation());
         r["mode"] = s.mode();
         r["holder"] = s.holder_id();
         r["holder_alive"] = s.holder_alive();
@@ -418,7 +421,15 @@ class GuiBridge::Impl {
         r["speed_mps"] = s.twist_B().linear_x_mps();
         r["in_contact"] = s.in_contact();
         r["control_period_max_ms"] = s.control_period_max_ms();
-        tf["transforms"].push_back({{"timestamp", Stamp(ns)},
+        const std::uint64_t state_ns = s.stamp().sec() < 0 ? 0
+                                           : static_cast<std::uint64_t>(s.stamp().sec()) * 1000000000ULL +
+                                                 std::min<std::uint64_t>(s.stamp().nanosec(), 999999999ULL);
+        const double received_ago_s = core::SecondsBetween(v.state_received, now);
+        r["state_stamp"] = Stamp(state_ns);
+        r["received_stamp"] = Stamp(ns - std::min<std::uint64_t>(ns, static_cast<std::uint64_t>(std::max(0.0, received_ago_s) * 1e9)));
+        // The pose at the time the robot stamped it (a peer's stamp in the future or far past: ours).
+        const bool stamp_plausible = state_ns > 0 && state_ns <= ns + 1000000000ULL && ns - std::min(ns, state_ns) < 3600000000000ULL;
+        tf["transforms"].push_back({{"timestamp", Stamp(stamp_plausible ? state_ns : ns)},
                                      {"parent_frame_id", "map"},
                                      {"child_frame_id", v.robot_id},
                                      {"translation", Vec3(p.x_m(), p.y_m(), p.z_m())},
@@ -480,7 +491,7 @@ class GuiBridge::Impl {
       }
       if (v.local_plan && !v.local_plan->chosen_path_B().empty()) {
         const auto& lp = *v.local_plan;
-        const double yaw = Yaw(lp.pose_MB().orientation());
+        const double yaw = YawOf(lp.pose_MB().orientation());
         const auto& o = lp.pose_MB().position();
         std::vector<std::array<double, 3>> pts;
         for (const auto& p : lp.chosen_path_B()) {
@@ -504,10 +515,16 @@ class GuiBridge::Impl {
       scene["entities"].push_back(e);
     }
     if (scene["entities"].empty()) return;
+    Send(paths_, ns, scene.dump(), only);
+  }
+
+  // To every subscriber of `channel`, or to `only` (a new subscriber's snapshot).
+  void Send(std::uint32_t channel, std::uint64_t ns, const std::string& payload,
+            std::optional<FoxgloveServer::ClientId> only) {
     if (only) {
-      server_->SendTo(*only, paths_, ns, scene.dump());
+      server_->SendTo(*only, channel, ns, payload);
     } else {
-      server_->Publish(paths_, ns, scene.dump());
+      server_->Publish(channel, ns, payload);
     }
   }
 
@@ -550,16 +567,28 @@ class GuiBridge::Impl {
     return out;
   }
 
+  // An operator event as a foxglove.Log stamped with the event's own time.
+  static std::string LogPayload(const OperatorEvent& e) {
+    const auto t = std::chrono::duration_cast<std::chrono::nanoseconds>(e.time.time_since_epoch()).count();
+    return json{{"timestamp", Stamp(static_cast<std::uint64_t>(t))},
+                {"level", LogLevel(e.kind)},
+                {"message", e.message},
+                {"name", e.kind + (e.robot_id.empty() ? "" : "/" + e.robot_id)},
+                {"file", ""},
+                {"line", 0}}
+        .dump();
+  }
+
   void PublishEvents(std::uint64_t ns) {
-    for (const OperatorEvent& e : client_.EventsSince(&event_cursor_)) {
-      const auto t = std::chrono::duration_cast<std::chrono::nanoseconds>(e.time.time_since_epoch()).count();
-      const json log = {{"timestamp", Stamp(static_cast<std::uint64_t>(t))},
-                        {"level", LogLevel(e.kind)},
-                        {"message", e.message},
-                        {"name", e.kind + (e.robot_id.empty() ? "" : "/" + e.robot_id)},
-                        {"file", ""},
-                        {"line", 0}};
-      server_->Publish(events_, ns, log.dump());
+    for (const OperatorEvent& e : client_.EventsSince(&event_cursor_)) server_->Publish(events_, ns, LogPayload(e));
+  }
+
+  // The events the FleetClient keeps that went out before, each with its own time, to a new /events
+  // subscriber (a GUI opened late still lists the staircases found and robots lost before it). One it also got
+  // live is sent twice: the Cairn GUI drops it (same time, name and message).
+  void ReplayEvents(std::uint64_t ns, FoxgloveServer::ClientId client) {
+    for (const OperatorEvent& e : client_.RecentEvents()) {
+      if (e.seq <= event_cursor_) server_->SendTo(client, events_, ns, LogPayload(e));
     }
   }
 
@@ -588,14 +617,14 @@ class GuiBridge::Impl {
                                          " steps (seen by " + sources + ")"}});
       scene["entities"].push_back(e);
     }
-    const std::string text = scene["entities"].dump();
     if (only) {
-      if (!entries.empty()) server_->SendTo(*only, stairs_, ns, scene.dump());
+      if (!entries.empty()) Send(stairs_, ns, scene.dump(), only);
       return;
     }
+    std::string text = scene["entities"].dump();
     if (text == last_stairs_) return;
-    last_stairs_ = text;
-    server_->Publish(stairs_, ns, scene.dump());
+    last_stairs_ = std::move(text);
+    Send(stairs_, ns, scene.dump(), only);
   }
 
   // The fleet map's occupied voxels by 4 x 4 m column: changed columns to every subscriber, or every column
@@ -620,12 +649,38 @@ class GuiBridge::Impl {
                       cubes.empty() ? "" : ",", x, y, z, res, res, res, r, g, b);
         cubes += buf;
       }
+      // The link budget (GuiOptions::map_budget_kBps): a token bucket filled at the budget, holding at most two
+      // seconds of it. Columns never sent go first (new ground shows at once), then changed ones, least recently
+      // sent first, each at most every map_resend_s: a map that keeps changing as robots drive costs the budget,
+      // not every change; what waits goes out at a later period.
+      const auto now = Clock::now();
+      const double budget_Bps = options_.map_budget_kBps * 1000.0;
+      const double dt = map_tokens_at_ == Clock::time_point{} ? 2.0 : std::chrono::duration<double>(now - map_tokens_at_).count();
+      map_tokens_at_ = now;
+      map_tokens_ = std::min(2.0 * budget_Bps, map_tokens_ + dt * budget_Bps);
+      std::vector<std::pair<std::pair<int, int>, const std::string*>> changed;
+      for (const auto& [key, cubes] : chunks) {
+        const auto sent = map_chunks_.find(key);
+        if (sent != map_chunks_.end() && sent->second == cubes) continue;
+        if (sent != map_chunks_.end() && std::chrono::duration<double>(now - map_chunk_sent_at_[key]).count() < options_.map_resend_s) continue;
+        changed.emplace_back(key, &cubes);
+      }
+      std::stable_sort(changed.begin(), changed.end(), [this](const auto& a, const auto& b) {
+        const bool a_new = map_chunks_.count(a.first) == 0, b_new = map_chunks_.count(b.first) == 0;
+        if (a_new != b_new) return a_new;
+        return map_chunk_sent_at_[a.first] < map_chunk_sent_at_[b.first];
+      });
       std::vector<std::string> entities, deletions;
-      for (auto& [key, cubes] : chunks) {
-        auto& sent = map_chunks_[key];
-        if (sent == cubes) continue;
-        sent = cubes;
-        entities.push_back(ChunkEntity(key, cubes, ns));
+      for (const auto& [key, cubes] : changed) {
+        if (map_tokens_ <= 0) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          stats_.map_chunks_deferred += 1;
+          continue;
+        }
+        entities.push_back(ChunkEntity(key, *cubes, ns));
+        map_tokens_ -= static_cast<double>(entities.back().size());
+        map_chunks_[key] = *cubes;
+        map_chunk_sent_at_[key] = now;
       }
       for (auto it = map_chunks_.begin(); it != map_chunks_.end();) {
         if (chunks.count(it->first)) {
@@ -633,6 +688,7 @@ class GuiBridge::Impl {
           continue;
         }
         deletions.push_back(Deletion(ChunkId(it->first), ns).dump());
+        map_chunk_sent_at_.erase(it->first);
         it = map_chunks_.erase(it);
       }
       // At most ~64 columns per message so that no single frame grows past a few MB.
@@ -701,7 +757,10 @@ class GuiBridge::Impl {
   std::map<std::string, std::deque<TrailPoint>> trails_;
   std::map<std::string, std::string> last_paths_;
   std::string last_stairs_;
-  std::map<std::pair<int, int>, std::string> map_chunks_;
+  std::map<std::pair<int, int>, std::string> map_chunks_;  // the columns as last sent
+  std::map<std::pair<int, int>, Clock::time_point> map_chunk_sent_at_;
+  double map_tokens_ = 0;  // bytes the map may send now (token bucket)
+  Clock::time_point map_tokens_at_{};
   Clock::time_point last_map_{};
   std::uint64_t event_cursor_ = 0;
   // Shared.

@@ -235,6 +235,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--gui-root", gui_root, "with --gui: the built web app (default: web/ beside the build's "
                                          "basestation/ directory)");
+  double gui_map_kBps = cairn::base::GuiOptions{}.map_budget_kBps;
+  app.add_option("--gui-map-kBps", gui_map_kBps,
+                 "with --gui: the fleet map's share of the link to each GUI client, kB/s (changed map columns wait "
+                 "when it is spent)")
+      ->capture_default_str();
   app.add_option("command", command, "one command to run, after --");
   try {
     app.parse(argc, argv);
@@ -270,8 +275,13 @@ int main(int argc, char** argv) {
       cairn::base::ParseListenAddress(listen, &gui_options.server.address, &gui_options.server.port);
       gui_options.server.web_root = gui_root.empty() ? DefaultWebRoot(argv[0]) : gui_root;
       gui_options.places_file = shell_options.places_file;
-    } else if (app.count("--listen") > 0 || app.count("--gui-root") > 0) {
-      throw std::invalid_argument("--listen and --gui-root need --gui");
+      gui_options.map_budget_kBps = gui_map_kBps;
+      std::string why;
+      if (!gui_options.IsValid(&why)) {
+        throw std::invalid_argument("--gui-map-kBps " + std::to_string(gui_map_kBps) + ": " + why);
+      }
+    } else if (app.count("--listen") > 0 || app.count("--gui-root") > 0 || app.count("--gui-map-kBps") > 0) {
+      throw std::invalid_argument("--listen, --gui-root and --gui-map-kBps need --gui");
     }
     cairn::base::FleetClient client(options);
     std::unique_ptr<cairn::base::GuiBridge> gui_bridge;
@@ -290,6 +300,7 @@ int main(int argc, char** argv) {
     if (interactive) return RunInteractive(shell, client, options.base_id);
     const int code = RunScript(shell, std::cin, /*keep_going=*/true);
     // A GUI outlives the end of stdin (cairn_base --gui </dev/null): it serves until SIGINT or SIGTERM.
+    if (gui_bridge) spdlog::info("cairn_base {}: stdin ended; the GUI serves {} until SIGINT or SIGTERM", options.base_id, gui_bridge->url());
     while (gui_bridge && !cairn::core::ShutdownRequested()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
     return code;
   } catch (const std::exception& e) {

@@ -21,7 +21,7 @@ await build({
   outfile: join(out, "app.js"),
   logLevel: "warning",
 });
-for (const f of ["index.html", "style.css"]) copyFileSync(join(here, f), join(out, f));
+for (const f of ["index.html", "style.css", "favicon.svg"]) copyFileSync(join(here, f), join(out, f));
 const wanted = ["SceneUpdate", "FrameTransforms", "CompressedImage", "Log", "PointCloud"];
 const table = Object.fromEntries(wanted.map((name) => [`foxglove.${name}`, schemas[name]]));
 writeFileSync(join(out, "foxglove-schemas.json"), JSON.stringify(table));

@@ -48,7 +48,7 @@ const state = {
   selected: location.hash.startsWith("#robot=") ? decodeURIComponent(location.hash.slice(7)) : "",
   tab: "fleet",
   events: [] as EventEntry[],
-  toasts: [] as string[],
+  toasts: [] as { text: string; shownMs: number; eventMs: number }[],
   lastResult: undefined as CommandResult | undefined,
   pickingGoal: false,
   pendingGoal: undefined as { x: number; y: number } | undefined,
@@ -66,7 +66,7 @@ const link = new CairnLink(
   onMessage,
 );
 link.onState = (connected, text) => {
-  state.statusText = connected ? text : text;
+  state.statusText = text;
   $("conn").textContent = connected ? `● ${text}` : `○ ${text}`;
   $("conn").className = connected ? "ok" : "bad";
 };
@@ -89,10 +89,17 @@ function onMessage(topic: string, msg: any): void {
   } else if (topic === "/fleet_map" || topic === "/paths" || topic === "/staircases") {
     scene.applySceneUpdate(msg);
   } else if (topic === "/events") {
-    const entry: EventEntry = { time: new Date(Number(msg.timestamp.sec) * 1000), level: msg.level, kind: msg.name, message: msg.message };
+    // A new subscriber is sent the last events first (some of them it may also get live): each is kept once,
+    // and only a fresh one is a toast.
+    const timeMs = Number(msg.timestamp.sec) * 1000 + Number(msg.timestamp.nsec) / 1e6;
+    const key = `${msg.timestamp.sec}.${msg.timestamp.nsec}|${msg.name}|${msg.message}`;
+    if (seenEvents.has(key)) return;
+    seenEvents.add(key);
+    const entry: EventEntry = { time: new Date(timeMs), level: msg.level, kind: msg.name, message: msg.message };
     state.events.unshift(entry);
+    state.events.sort((a, b) => b.time.getTime() - a.time.getTime());
     state.events.length = Math.min(state.events.length, 300);
-    toast(msg.message, msg.level >= 3 ? "warn" : "info");
+    if (Date.now() - timeMs < kToastMaxAgeMs) toast(msg.message, msg.level >= 3 ? "warn" : "info", timeMs);
     if (state.tab === "events") renderEvents();
   } else if (topic.endsWith("/camera")) {
     const robot = topic.split("/")[1];
@@ -106,8 +113,13 @@ function onMessage(topic: string, msg: any): void {
 }
 
 // ---- Notifications ------------------------------------------------------------------------------------
-function toast(text: string, kind: "info" | "warn" | "ok" | "bad" = "info"): void {
-  state.toasts.push(text);
+const kToastMaxAgeMs = 10000; // an event older than this when it arrives goes to the Events tab only
+const seenEvents = new Set<string>();
+
+/** A notification for 5 s; `eventMs` is when it happened (state.toasts keeps both times for tests). */
+function toast(text: string, kind: "info" | "warn" | "ok" | "bad" = "info", eventMs = Date.now()): void {
+  state.toasts.push({ text, shownMs: Date.now(), eventMs });
+  if (state.toasts.length > 500) state.toasts.shift();
   const el = document.createElement("div");
   el.className = `toast ${kind}`;
   el.textContent = text;
@@ -157,6 +169,15 @@ function fmt(v: number | undefined, digits = 1, unit = ""): string {
   return v === undefined || v < 0 || !isFinite(v) ? "–" : `${v.toFixed(digits)}${unit}`;
 }
 
+// Sets an element's HTML only when it changed, so that elements under a finger (or a test's click) are not
+// replaced by the 10 Hz /fleet updates.
+const shownHtml = new WeakMap<HTMLElement, string>();
+function setHtml(el: HTMLElement, html: string): void {
+  if (shownHtml.get(el) === html) return;
+  shownHtml.set(el, html);
+  el.innerHTML = html;
+}
+
 function render(): void {
   $("base").textContent = state.baseId ? `basestation ${state.baseId}` : "";
   renderFleet();
@@ -165,14 +186,31 @@ function render(): void {
 }
 
 function renderFleet(): void {
-  const rows = state.robots.map((r) => {
+  // One row per robot, kept across updates (only its cells change).
+  const body = $("fleet-rows");
+  const ids = state.robots.map((r) => r.id);
+  for (const row of Array.from(body.children) as HTMLElement[]) {
+    if (!ids.includes(row.dataset.robot ?? "")) row.remove();
+  }
+  let previous: Element | null = null;
+  for (const r of state.robots) {
+    let row = body.querySelector<HTMLElement>(`tr[data-robot="${CSS.escape(r.id)}"]`);
+    if (!row) {
+      row = document.createElement("tr");
+      row.dataset.robot = r.id;
+    }
+    if (row.previousElementSibling !== previous || row.parentElement !== body) {
+      if (previous) previous.after(row);
+      else body.prepend(row);
+    }
+    previous = row;
+    row.className = `row ${r.id === state.selected ? "sel" : ""}`;
     const holder = r.holder ? (r.you_hold ? `${r.holder} (you)` : r.holder) : "free";
-    return `<tr class="row ${r.id === state.selected ? "sel" : ""}" data-robot="${r.id}">
-      <td><span class="dot ${r.online ? "on" : "off"}"></span>${r.id}</td>
+    setHtml(row, `<td><span class="dot ${r.online ? "on" : "off"}"></span>${r.id}</td>
       <td><span class="chip" style="background:${modeColor(r.mode)}">${r.mode || "?"}</span></td>
-      <td>${holder}</td><td>${r.online ? fmt(r.heard_s_ago, 1, " s") : "lost"}</td></tr>`;
-  });
-  $("fleet-rows").innerHTML = rows.join("") || `<tr><td colspan="4">no robot heard yet</td></tr>`;
+      <td>${holder}</td><td>${r.online ? fmt(r.heard_s_ago, 1, " s") : "lost"}</td>`);
+  }
+  $("fleet-empty").hidden = state.robots.length > 0;
 }
 
 // The buttons of the robot's valid actions (ValidActions of cairn_base for this basestation).
@@ -195,26 +233,28 @@ function actionButtons(r: Robot): string {
 function renderRobot(): void {
   const r = selectedRobot();
   if (!r) {
-    $("robot-head").innerHTML = `<p>Tap a robot in the 3D view or the fleet list.</p>`;
-    $("actions").innerHTML = "";
-    $("robot-nav").innerHTML = "";
+    setHtml($("robot-head"), `<p>Tap a robot in the 3D view or the fleet list.</p>`);
+    setHtml($("actions"), "");
+    setHtml($("robot-nav"), "");
     return;
   }
   const holder = r.holder ? `held by <b>${r.holder}</b>${r.you_hold ? " (you)" : ""}${r.holder_alive ? "" : " (not heard)"}` : "free";
-  $("robot-head").innerHTML = `<h2>${r.id} <span class="chip" style="background:${modeColor(r.mode)}">${r.mode || "?"}</span></h2>
-    <p>${r.platform} · ${holder} · ${r.online ? "online" : `<b class="bad">lost</b> ${r.lost_reason}`}</p>`;
+  setHtml($("robot-head"), `<h2>${r.id} <span class="chip" style="background:${modeColor(r.mode)}">${r.mode || "?"}</span></h2>
+    <p>${r.platform} · ${holder} · ${r.online ? "online" : `<b class="bad">lost</b> ${r.lost_reason}`}</p>`);
   const nav = r.nav_status === "active"
     ? `to (${fmt(r.goal?.x_m, 2)}, ${fmt(r.goal?.y_m, 2)}) · ${fmt(r.distance_left_m, 1, " m")} left · ETA ${fmt(r.eta_s, 0, " s")}`
     : r.nav_status;
-  $("robot-nav").innerHTML = `<p>navigation: <b>${nav}</b>${r.nav_reason ? `<br><span class="reason">${r.nav_reason}</span>` : ""}</p>
-    <p class="small">local planner: ${r.local_planner_status || "–"} · speed ${fmt(Math.abs(r.speed_mps), 2, " m/s")}</p>`;
-  $("actions").innerHTML = actionButtons(r) + `<button class="act stop" data-cmd="stop ${r.id}">STOP</button>`;
+  setHtml($("robot-nav"), `<p>navigation: <b>${nav}</b>${r.nav_reason ? `<br><span class="reason">${r.nav_reason}</span>` : ""}</p>
+    <p class="small">local planner: ${r.local_planner_status || "–"} · speed ${fmt(Math.abs(r.speed_mps), 2, " m/s")}</p>`);
+  setHtml($("actions"), actionButtons(r) + `<button class="act stop" data-cmd="stop ${r.id}">STOP</button>`);
   $("actions").dataset.robot = r.id;
   const cam = state.cameraUrls.get(r.id);
   $("camera-age").textContent = cam ? `camera: ${((Date.now() - cam.stamp) / 1000).toFixed(1)} s old` : "camera: no frame yet";
-  $("drive-state").textContent = state.driving
-    ? `driving ${r.id}: ${state.drive.source || "no input"} ${state.drive.active ? `v ${state.drive.vx.toFixed(2)} m/s, w ${state.drive.wz.toFixed(2)} rad/s` : "(released: zero sent)"}${state.drive.stale ? " · stick silent: zero sent" : ""}`
-    : "";
+  const d = state.drive;
+  $("drive-state").textContent = !state.driving ? ""
+    : d.active ? `driving ${r.id}: ${d.source} v ${d.vx.toFixed(2)} m/s, w ${d.wz.toFixed(2)} rad/s`
+    : d.stale ? `driving ${r.id}: gamepad stick silent for over 0.5 s: zero sent (move it to drive again)`
+    : `driving ${r.id}: ${d.source || "no input"}: zero sent`;
 }
 
 function renderHealth(): void {
@@ -222,7 +262,7 @@ function renderHealth(): void {
     (r) => `<tr><td>${r.id}</td><td>${r.online ? "online" : "lost"}</td><td>${fmt(r.heard_s_ago, 1, " s")}</td>
       <td>${fmt(r.control_period_max_ms, 0, " ms")}</td><td>${r.in_contact ? "CONTACT" : "–"}</td><td>${fmt(r.camera_age_s, 1, " s")}</td></tr>`,
   );
-  $("health-rows").innerHTML = rows.join("");
+  setHtml($("health-rows"), rows.join(""));
   $("health-link").textContent = `link: ${state.statusText} · received ${(link.bytesReceived / 1e6).toFixed(1)} MB · 3D: ${scene.voxelCount} voxels, ${scene.fps.toFixed(0)} fps`;
 }
 
@@ -342,6 +382,7 @@ async function setDriving(on: boolean): Promise<void> {
 }
 
 let lastPadStamp = -1;
+let zerosToSend = 0;
 let lastPadChange = performance.now();
 function driveTick(): void {
   const r = selectedRobot();
@@ -371,12 +412,15 @@ function driveTick(): void {
     wz = ((keys.has("ArrowLeft") || keys.has("a") ? 1 : 0) - (keys.has("ArrowRight") || keys.has("d") ? 1 : 0)) * wmax * 0.6;
     active = true;
   }
-  const wasActive = state.drive.active;
+  if (state.drive.active && !active) zerosToSend = 5;
   state.drive = { vx, wz, active, source, stale, sent: state.drive.sent };
-  // While active: the twist at 10 Hz. On release (or a silent stick): one zero, then silence, and the robot's
-  // mux also stops it when the twists stop (teleop_timeout_s).
-  if (active || wasActive) {
-    if (link.teleop(r.id, active ? vx : 0, active ? wz : 0)) state.drive.sent++;
+  // While active: the twist at 10 Hz. On release (or a silent stick): zero for 0.5 s (one may be lost), then
+  // silence; the robot's mux also stops it when the twists stop (teleop_timeout_s).
+  if (active) {
+    if (link.teleop(r.id, vx, wz)) state.drive.sent++;
+  } else if (zerosToSend > 0) {
+    zerosToSend--;
+    if (link.teleop(r.id, 0, 0)) state.drive.sent++;
   }
   renderRobot();
 }
@@ -410,5 +454,9 @@ window.setInterval(() => {
 
 setTab(state.selected ? "robot" : "fleet");
 const bench = params.get("bench_voxels");
-if (bench) scene.addSyntheticVoxels(Number(bench));
+if (bench) {
+  scene.continuous = true; // the frame-rate bench: draw every frame
+  link.onState(false, `bench: ${bench} synthetic voxels, no server`);
+  scene.addSyntheticVoxels(Number(bench));
+}
 else link.connect();

@@ -35,6 +35,10 @@ struct GuiOptions {
   std::string places_file;       ///< the shell's places file (goto by place name), "" = none
   double state_rate_hz = 10.0;   ///< /fleet, /tf and /robots, (0, 50]
   double map_period_s = 1.0;     ///< /fleet_map changes at most this often, [0.1, 60]
+  /// /fleet_map's share of the link to each GUI client, kB/s, [1, 1e6] (a new client's first full map is
+  /// not counted). Columns that changed wait when it is spent.
+  double map_budget_kBps = 150.0;
+  double map_resend_s = 3.0;     ///< a column already sent is sent again at most this often, s, [0, 600]
   double trail_s = 120.0;        ///< trail length kept per robot, seconds, [0, 3600]
   /// @return false and sets `*why` naming the field, value and rule when invalid.
   bool IsValid(std::string* why) const;
@@ -47,6 +51,7 @@ struct GuiStats {
   std::uint64_t teleop_messages = 0;  ///< /cairn/teleop twists published to robots
   std::uint64_t teleop_rejected = 0;  ///< malformed or unknown-robot teleop messages (answered with a status)
   std::uint64_t map_chunks_sent = 0;  ///< /fleet_map column entities published
+  std::uint64_t map_chunks_deferred = 0;  ///< changed columns held back a period by map_budget_kBps
 };
 
 /// Serves the GUI for `client` until destroyed. Thread-safe.

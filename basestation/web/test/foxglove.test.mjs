@@ -1,0 +1,167 @@
+// A plain Foxglove WebSocket protocol client (@foxglove/ws-protocol in node, over `ws`), as Foxglove or
+// Lichtblick would connect to cairn_base --gui: it lists the channels, subscribes to each, decodes a message
+// from each and validates it against the JSON schema the channel advertises (Foxglove's well-known schemas and
+// cairn.FleetState); the /cairn/command service answers with the CLI's result and reason; a malformed client
+// publish on /cairn/teleop moves nothing. Real processes, run by ctest inside a private network namespace.
+import assert from "node:assert/strict";
+import { spawnSync } from "node:child_process";
+import { join } from "node:path";
+import { after, before, test } from "node:test";
+
+import wsProtocol from "@foxglove/ws-protocol";
+import Ajv from "ajv";
+import WebSocket from "ws";
+
+const { FoxgloveClient } = wsProtocol;
+
+import { BUILD, startBase, startRobot, stopAll, waitFor } from "./harness.mjs";
+
+const DOMAIN = 74;
+let base, client;
+const channels = new Map(); // id -> channel
+const services = new Map(); // name -> service
+const firstMessage = new Map(); // topic -> decoded JSON
+const responses = new Map(); // call id -> decoded JSON
+const decoder = new TextDecoder();
+
+before(async () => {
+  // Facing the room's staircase (first riser at x = 50), so that /staircases and /events have something.
+  await startRobot("r1", { start: "46.5,23.75,0", domain: DOMAIN });
+  base = await startBase("op1", { domain: DOMAIN });
+  const url = base.url.replace(/^http/, "ws");
+  client = new FoxgloveClient({ ws: new WebSocket(url, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]) });
+  client.on("advertise", (list) => list.forEach((c) => channels.set(c.id, c)));
+  client.on("advertiseServices", (list) => list.forEach((s) => services.set(s.name, s)));
+  client.on("serviceCallResponse", (r) => responses.set(r.callId, JSON.parse(decoder.decode(r.data))));
+  client.on("serviceCallFailure", (r) => responses.set(r.callId, { failure: r.message }));
+});
+
+after(() => {
+  client?.close();
+  stopAll();
+});
+
+test("the server lists every channel with a JSON schema, and the command service", async () => {
+  await waitFor("r1's camera channel", () => [...channels.values()].some((c) => c.topic === "/r1/camera"), 20000);
+  const topics = Object.fromEntries([...channels.values()].map((c) => [c.topic, c.schemaName]));
+  assert.deepEqual(topics, {
+    "/fleet": "cairn.FleetState",
+    "/tf": "foxglove.FrameTransforms",
+    "/robots": "foxglove.SceneUpdate",
+    "/paths": "foxglove.SceneUpdate",
+    "/staircases": "foxglove.SceneUpdate",
+    "/fleet_map": "foxglove.SceneUpdate",
+    "/events": "foxglove.Log",
+    "/r1/camera": "foxglove.CompressedImage",
+  });
+  for (const c of channels.values()) {
+    assert.equal(c.encoding, "json", c.topic);
+    assert.equal(c.schemaEncoding, "jsonschema", c.topic);
+  }
+  assert.ok(services.has("/cairn/command"), [...services.keys()].join(", "));
+});
+
+test("a subscription to each channel delivers a message that decodes and matches its schema", async () => {
+  const ajv = new Ajv({ strict: false, allErrors: true });
+  const validators = new Map([...channels.values()].map((c) => [c.id, ajv.compile(JSON.parse(c.schema))]));
+  const bySubscription = new Map();
+  client.on("message", ({ subscriptionId, data }) => {
+    const channel = bySubscription.get(subscriptionId);
+    if (firstMessage.has(channel.topic)) return;
+    const msg = JSON.parse(decoder.decode(data));
+    const validate = validators.get(channel.id);
+    assert.ok(validate(msg), `${channel.topic}: ${ajv.errorsText(validate.errors)}`);
+    firstMessage.set(channel.topic, msg);
+  });
+  for (const c of channels.values()) bySubscription.set(client.subscribe(c.id), c);
+  await waitFor("a message on every channel", () => firstMessage.size === channels.size, 60000).catch((e) => {
+    const missing = [...channels.values()].map((c) => c.topic).filter((t) => !firstMessage.has(t));
+    throw new Error(`${e.message}: none on ${missing.join(", ")}`);
+  });
+
+  const fleet = firstMessage.get("/fleet");
+  assert.equal(fleet.base_id, "op1");
+  assert.equal(fleet.robots[0].id, "r1");
+  assert.deepEqual(fleet.robots[0].valid_actions, ["request-control", "stop"]);
+  const tf = firstMessage.get("/tf").transforms[0];
+  assert.equal(tf.parent_frame_id, "map");
+  assert.equal(tf.child_frame_id, "r1");
+  assert.ok(Math.abs(tf.translation.x - 46.5) < 0.5, JSON.stringify(tf.translation));
+  const image = firstMessage.get("/r1/camera");
+  assert.equal(image.format, "jpeg");
+  const jpeg = Buffer.from(image.data, "base64");
+  assert.deepEqual([...jpeg.subarray(0, 2)], [0xff, 0xd8], "a JPEG starts with SOI");
+  assert.ok(firstMessage.get("/fleet_map").entities.some((e) => e.id.startsWith("map/") && e.cubes.length > 0));
+  assert.ok(firstMessage.get("/robots").entities.some((e) => e.id === "robot/r1"));
+  const stairs = firstMessage.get("/staircases").entities;
+  assert.ok(stairs.length > 0 && stairs[0].cubes.length >= 3, "a staircase drawn as steps");
+  assert.match(firstMessage.get("/events").message, /staircase/);
+});
+
+/** Calls /cairn/command with `line` and returns the decoded answer. */
+async function command(line) {
+  const callId = Math.floor(Math.random() * 1e9);
+  client.sendServiceCallRequest({
+    serviceId: services.get("/cairn/command").id, callId, encoding: "json",
+    data: new TextEncoder().encode(JSON.stringify({ command: line })),
+  });
+  return waitFor(`the answer to '${line}'`, () => responses.get(callId), 10000);
+}
+
+/** The CLI's --json answer to `line` from a one-shot cairn_base with another base id. */
+function cli(line) {
+  const run = spawnSync(join(BUILD, "basestation/cairn_base"),
+    ["--base-id", "cli1", "--domain", String(DOMAIN), "--json", "--", ...line.split(" ")], { encoding: "utf8", timeout: 30000 });
+  const lines = run.stdout.trim().split("\n").filter((l) => l.startsWith("{")).map((l) => JSON.parse(l));
+  return lines.find((l) => l.command !== undefined) ?? { stdout: run.stdout, stderr: run.stderr };
+}
+
+test("the command service has the CLI's semantics: the same refusal and reason", async () => {
+  const viaGui = await command("mode r1 manual");
+  assert.equal(viaGui.ok, false);
+  assert.equal(viaGui.result, "refused");
+  const viaCli = cli("mode r1 manual");
+  assert.equal(viaCli.result, "refused", JSON.stringify(viaCli));
+  assert.equal(viaGui.reason.replaceAll("op1", "BASE"), viaCli.reason.replaceAll("cli1", "BASE"));
+
+  const bad = await command("goto r1 nowhere-known");
+  assert.equal(bad.ok, false);
+  assert.equal(bad.result, cli("goto r1 nowhere-known").result);
+
+  const held = await command("request-control r1");
+  assert.equal(held.ok, true, JSON.stringify(held));
+  const blocked = cli("request-control r1");
+  assert.equal(blocked.result, "refused");
+  assert.match(blocked.reason, /op1/);
+
+  const stream = await command("teleop r1 0.5 0 2");
+  assert.equal(stream.result, "invalid");
+  assert.match(stream.reason, /\/cairn\/teleop/);
+});
+
+test("client publish on /cairn/teleop: malformed twists are dropped and move nothing, a valid one drives", async () => {
+  let x = firstMessage.get("/tf").transforms[0].translation.x;
+  client.on("message", ({ data }) => {
+    const t = JSON.parse(decoder.decode(data)).transforms?.find((tr) => tr.child_frame_id === "r1");
+    if (t) x = t.translation.x;
+  });
+  assert.equal((await command("mode r1 manual")).ok, true);
+  const teleop = client.advertise({ topic: "/cairn/teleop", encoding: "json", schemaName: "cairn.Teleop" });
+  const send = (text) => client.sendMessage(teleop, new TextEncoder().encode(text));
+  const x0 = x;
+  for (let i = 0; i < 10; i++) {
+    send("{");
+    send(JSON.stringify({ robot_id: "r1", linear_x_mps: "fast", angular_z_radps: 0 }));
+    send(JSON.stringify({ robot_id: "r1", linear_x_mps: Infinity, angular_z_radps: 0 })); // null in JSON
+    send(JSON.stringify({ linear_x_mps: 0.5, angular_z_radps: 0 }));
+    await new Promise((r) => setTimeout(r, 100));
+  }
+  await new Promise((r) => setTimeout(r, 500));
+  assert.ok(Math.abs(x - x0) < 0.02, `r1 moved from ${x0} to ${x} on malformed twists`);
+  for (let i = 0; i < 10; i++) {
+    send(JSON.stringify({ robot_id: "r1", linear_x_mps: -0.3, angular_z_radps: 0 })); // back, away from the stairs
+    await new Promise((r) => setTimeout(r, 100));
+  }
+  await waitFor("r1 backing up", () => x0 - x > 0.1, 3000);
+  assert.equal((await command("release r1")).ok, true);
+});

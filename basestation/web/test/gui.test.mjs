@@ -1,0 +1,189 @@
+// Browser tests of the operator GUI (issue 12), in headless Chromium against real processes: two simulated
+// robots in builtin:tunnels, two basestations op1 and op2 each with its GUI. Each step saves a screenshot in
+// build/test-logs/gui/gui/. Run by ctest inside a private network namespace (node --test).
+import assert from "node:assert/strict";
+import { after, before, test } from "node:test";
+
+import {
+  launchBrowser, openGui, robotState, screenshot, sleep, startBase, startRobot, stopAll, tail, waitFor,
+} from "./harness.mjs";
+
+const DOMAIN = 71;
+let browser, op1, op2, page1, page2;
+
+before(async () => {
+  await Promise.all([
+    startRobot("r1", { start: "4,20,0", domain: DOMAIN }),
+    startRobot("r2", { start: "slot:1", domain: DOMAIN }),
+  ]);
+  op1 = await startBase("op1", { domain: DOMAIN });
+  op2 = await startBase("op2", { domain: DOMAIN });
+  browser = await launchBrowser();
+  page1 = await openGui(browser, op1.url);
+  page2 = await openGui(browser, op2.url);
+});
+
+after(async () => {
+  await browser?.close();
+  stopAll();
+});
+
+test("the page lists the robots, online, with mode and holder", async () => {
+  await waitFor("both robots in op1's fleet list", async () =>
+    (await page1.locator("#fleet-rows tr[data-robot]").count()) === 2, 20000);
+  const rows = await page1.locator("#fleet-rows tr[data-robot]").allInnerTexts();
+  assert.match(rows[0], /r1\s+idle\s+free/);
+  assert.match(rows[1], /r2\s+idle\s+free/);
+  assert.equal(await page1.locator("#fleet-rows .dot.on").count(), 2);
+  await screenshot(page1, "01_fleet_list");
+});
+
+test("selecting a robot shows only its valid actions: a free robot offers request-control and stop", async () => {
+  await page1.locator('#fleet-rows tr[data-robot="r1"]').click();
+  await waitFor("r1's robot tab", async () => (await page1.locator("#robot-head h2").innerText()).startsWith("r1"));
+  const buttons = await page1.locator("#actions button").allInnerTexts();
+  assert.deepEqual(buttons, ["Request control", "STOP"]);
+  for (const b of await page1.locator("#actions button").elementHandles()) {
+    const box = await b.boundingBox();
+    assert.ok(box.height >= 48, `touch target ${box.height} px high`);
+  }
+  await screenshot(page1, "02_free_robot_actions");
+});
+
+test("request control: the holder gets the drive actions; a second GUI sees the holder and no drive buttons", async () => {
+  await page1.getByRole("button", { name: "Request control" }).click();
+  await waitFor("op1 holds r1", async () => (await robotState(page1, "r1"))?.you_hold === true);
+  await waitFor("op1's drive actions", async () => (await page1.locator("#actions button").allInnerTexts()).includes("Release control"));
+  const buttons = await page1.locator("#actions button").allInnerTexts();
+  for (const b of ["Go to… (tap the map)", "Drive (keys / gamepad)", "Release control", "STOP"]) assert.ok(buttons.includes(b), `${b} in ${buttons}`);
+  assert.ok(buttons.some((b) => b.startsWith("Mode manual")), `${buttons}`);
+  await screenshot(page1, "03_holder_actions");
+
+  await page2.locator('#fleet-rows tr[data-robot="r1"]').click();
+  await waitFor("op2 sees op1 holding r1", async () => (await page2.locator("#robot-head").innerText()).includes("held by op1"));
+  assert.match(await page2.locator('#fleet-rows tr[data-robot="r1"]').innerText(), /op1/);
+  assert.deepEqual(await page2.locator("#actions button").allInnerTexts(), ["STOP"]);
+  await screenshot(page2, "04_second_gui_no_drive_buttons");
+});
+
+test("tap a goal on the map, confirm: the robot arrives and the page shows it", async () => {
+  const start = await robotState(page1, "r1");
+  await page1.getByRole("button", { name: /Go to/ }).click();
+  await waitFor("the goal banner", () => page1.locator("#banner").isVisible());
+  // The goal 4 m ahead of r1 along the tunnel, tapped where the view draws it.
+  const goal = { x: start.pose.x_m + 4, y: start.pose.y_m };
+  const at = await page1.evaluate((g) => window.cairn.scene.toScreen(g.x, g.y, 0), goal);
+  await page1.mouse.click(at.x, at.y);
+  await waitFor("the confirm bar", () => page1.locator("#confirm").isVisible());
+  assert.match(await page1.locator("#confirm-text").innerText(), /Send r1 to \(/);
+  await page1.evaluate(() => { window.cairn.state.lastResult = undefined; });
+  await page1.getByRole("button", { name: "Confirm" }).click();
+  const result = await waitFor("the goto answer", () => page1.evaluate(() => window.cairn.state.lastResult));
+  assert.equal(result.ok, true, JSON.stringify(result));
+  assert.equal(result.command, "goto");
+  await screenshot(page1, "05_goal_sent");
+  await waitFor("r1 arrived", async () => (await robotState(page1, "r1"))?.nav_status === "arrived", 60000);
+  const end = await robotState(page1, "r1");
+  assert.ok(Math.hypot(end.pose.x_m - goal.x, end.pose.y_m - goal.y) < 0.5, `r1 at (${end.pose.x_m}, ${end.pose.y_m})`);
+  await waitFor("the arrival toast", async () => (await page1.evaluate(() => window.cairn.state.toasts)).some((t) => t.text.startsWith("r1 arrived")), 5000)
+    .catch(async (e) => {
+      throw new Error(`${e.message}; toasts: ${JSON.stringify(await page1.evaluate(() => window.cairn.state.toasts))}`);
+    });
+  assert.match(await page1.locator("#robot-nav").innerText(), /arrived/);
+  await screenshot(page1, "06_arrived");
+});
+
+test("the camera pane shows the selected robot's latest frame and its age", async () => {
+  await waitFor("a camera frame", () => page1.evaluate(() => {
+    const img = document.getElementById("camera");
+    return img.complete && img.naturalWidth > 0;
+  }), 15000);
+  const size = await page1.evaluate(() => [document.getElementById("camera").naturalWidth, document.getElementById("camera").naturalHeight]);
+  assert.deepEqual(size, [320, 240]);
+  assert.match(await page1.locator("#camera-age").innerText(), /camera: \d+\.\d s old/);
+  await screenshot(page1, "07_camera");
+});
+
+test("in builtin:tunnels the staircase toast appears and the steps are drawn", async () => {
+  // r3 starts now, with both pages open, 3.5 m before the room's staircase (first riser at x = 50), facing it.
+  await startRobot("r3", { start: "46.5,23.75,0", domain: DOMAIN });
+  const stairToast = await waitFor("a staircase toast on op2's page", async () => {
+    const toasts = await page2.evaluate(() => window.cairn.state.toasts);
+    return toasts.find((t) => t.text.includes("staircase"));
+  }, 60000);
+  const latencyS = (stairToast.shownMs - stairToast.eventMs) / 1000;
+  console.log(`FIGURE gui_staircase_event_to_toast_s ${latencyS.toFixed(3)}`);
+  assert.ok(latencyS < 1.0, `the toast came ${latencyS} s after the event`);
+  await page2.locator('#tabs button[data-tab="events"]').click();
+  assert.match(await page2.locator("#event-rows").innerText(), /staircase/);
+  await page2.evaluate(() => window.cairn.scene.focus(50, 23.75, 0));
+  await sleep(500);
+  await screenshot(page2, "08_staircase_toast");
+});
+
+test("a gamepad drives the robot while the deadman is held; releasing it, or a silent stick, stops it", async () => {
+  // A synthetic gamepad: left stick axes[1] forward (-1), deadman = button 4; its timestamp advances while it
+  // is "alive" (a real pad reports continuously).
+  await page1.evaluate(() => {
+    const pad = { connected: true, id: "test pad", index: 0, timestamp: 1, axes: [0, 0, 0, 0],
+      buttons: Array.from({ length: 16 }, () => ({ pressed: false, value: 0 })) };
+    window.__pad = pad;
+    window.__padAlive = setInterval(() => { pad.timestamp += 50; }, 50);
+    navigator.getGamepads = () => [pad];
+    // Every twist the page sends on /cairn/teleop, with its time (the page's own link object).
+    const link = window.cairn.link;
+    const send = link.teleop.bind(link);
+    window.__sent = [];
+    link.teleop = (id, vx, wz) => { window.__sent.push({ t: performance.now(), vx, wz }); return send(id, vx, wz); };
+  });
+  await page1.getByRole("button", { name: "Drive (keys / gamepad)" }).click();
+  await waitFor("r1 in manual mode", async () => (await robotState(page1, "r1"))?.mode === "manual");
+  const before = await robotState(page1, "r1");
+  await page1.evaluate(() => {
+    window.__pad.buttons[4] = { pressed: true, value: 1 };
+    window.__pad.axes[1] = -0.6;
+  });
+  await waitFor("r1 driving forward", async () => (await robotState(page1, "r1")).speed_mps > 0.2, 5000);
+  await screenshot(page1, "09_gamepad_driving");
+  await page1.evaluate(() => { window.__pad.buttons[4] = { pressed: false, value: 0 }; });
+  const released = Date.now();
+  await waitFor("r1 stopped after the deadman's release", async () => Math.abs((await robotState(page1, "r1")).speed_mps) < 0.05, 3000);
+  const stopS = (Date.now() - released) / 1000;
+  const after = await robotState(page1, "r1");
+  assert.ok(after.pose.x_m - before.pose.x_m > 0.3, `r1 moved ${after.pose.x_m - before.pose.x_m} m`);
+  console.log(`FIGURE gui_deadman_release_to_stop_s ${stopS.toFixed(2)}`);
+  // Deadman held again, then the stick falls silent (its timestamp stops): the GUI sends zero.
+  await page1.evaluate(() => {
+    window.__pad.buttons[4] = { pressed: true, value: 1 };
+  });
+  await waitFor("r1 driving again", async () => (await robotState(page1, "r1")).speed_mps > 0.2, 5000).catch(async (e) => {
+    const why = await page1.evaluate(() => ({ drive: window.cairn.state.drive, r1: window.cairn.state.robots.find((r) => r.id === "r1") }));
+    throw new Error(`${e.message}: ${JSON.stringify(why)}`);
+  });
+  // The stream while the deadman was held: 10 Hz, with no gap near the robot's 0.5 s staleness (a longer one
+  // stops the robot, as it must, but then the page's main thread was stalled).
+  const gapMs = await page1.evaluate(() => {
+    const sent = window.__sent;
+    const gaps = sent.slice(1).filter((s, i) => s.vx !== 0 && sent[i].vx !== 0).map((s) => s.t - sent[sent.indexOf(s) - 1].t);
+    return Math.max(...gaps);
+  });
+  console.log(`FIGURE gui_teleop_max_gap_ms ${gapMs.toFixed(0)}`);
+  const silentAt = await page1.evaluate(() => { clearInterval(window.__padAlive); return performance.now(); });
+  // The page must say so and send zero (not merely go quiet), and the robot must stop.
+  await waitFor("the page to call the stick silent", async () => /stick silent/.test(await page1.locator("#drive-state").innerText()), 4000)
+    .catch(async (e) => { throw new Error(`${e.message}: ${await page1.locator("#drive-state").innerText()}`); });
+  // From the first zero on, only zeros: the page does not resume on its own.
+  const sentAfter = await page1.evaluate((t0) => {
+    const after = window.__sent.filter((s) => s.t > t0);
+    return after.slice(after.findIndex((s) => s.vx === 0 && s.wz === 0));
+  }, silentAt);
+  assert.ok(sentAfter.length > 0 && sentAfter.every((s) => s.vx === 0 && s.wz === 0), `sent after silence: ${JSON.stringify(sentAfter)}`);
+  await waitFor("r1 stopped when the stick fell silent", async () => Math.abs((await robotState(page1, "r1")).speed_mps) < 0.05, 4000);
+  await screenshot(page1, "10_gamepad_released");
+  await page1.getByRole("button", { name: "Stop driving" }).click();
+});
+
+test("the pages raised no script error", () => {
+  assert.deepEqual(page1.errors, [], `op1's page: ${page1.errors}\n${tail("op1")}`);
+  assert.deepEqual(page2.errors, [], `op2's page: ${page2.errors}`);
+});
