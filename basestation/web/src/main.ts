@@ -51,7 +51,7 @@ const state = {
   toasts: [] as { text: string; shownMs: number; eventMs: number }[],
   lastResult: undefined as CommandResult | undefined,
   pickingGoal: false,
-  pendingGoal: undefined as { x: number; y: number } | undefined,
+  pendingGoal: undefined as { x: number; y: number; z?: number } | undefined,
   driving: false,
   drive: { vx: 0, wz: 0, active: false, source: "", stale: false, sent: 0 },
   cameraUrls: new Map<string, { url: string; stamp: number }>(),
@@ -320,7 +320,7 @@ function groundZ(): number {
 function onTap(x: number, y: number): void {
   const hit = scene.pick(x, y, groundZ());
   if (state.pickingGoal && hit.point) {
-    proposeGoal(hit.point.x, hit.point.y);
+    proposeGoal(hit.point.x, hit.point.y, hit.surface ? hit.point.z : undefined);
     return;
   }
   if (hit.robot) select(hit.robot);
@@ -333,7 +333,7 @@ function onLongPress(x: number, y: number): void {
     return;
   }
   const hit = scene.pick(x, y, groundZ());
-  if (hit.point) proposeGoal(hit.point.x, hit.point.y);
+  if (hit.point) proposeGoal(hit.point.x, hit.point.y, hit.surface ? hit.point.z : undefined);
 }
 
 function startGoalPick(on: boolean): void {
@@ -343,11 +343,19 @@ function startGoalPick(on: boolean): void {
   render();
 }
 
-function proposeGoal(x: number, y: number): void {
-  state.pendingGoal = { x, y };
+// A tapped surface more than this above or below the robot names its level (goto --z): another floor, a
+// landing; nearer ones are the robot's own level.
+const kOtherLevelM = 0.5;
+
+/** Asks to confirm a goal at (x, y) in the map frame, m; `z` (m) names the level when it is not the robot's. */
+function proposeGoal(x: number, y: number, z?: number): void {
+  const robotZ = selectedRobot()?.pose?.z_m ?? 0;
+  const level = z !== undefined && Math.abs(z - robotZ) > kOtherLevelM ? z : undefined;
+  state.pendingGoal = { x, y, z: level };
   state.pickingGoal = false;
   $("banner").hidden = true;
-  $("confirm-text").textContent = `Send ${state.selected} to (${x.toFixed(2)}, ${y.toFixed(2)})?`;
+  $("confirm-text").textContent = `Send ${state.selected} to (${x.toFixed(2)}, ${y.toFixed(2)})` +
+    (level === undefined ? "?" : ` on the level at z ${level.toFixed(2)} m?`);
   $("confirm").hidden = false;
   render();
 }
@@ -356,7 +364,9 @@ async function confirmGoal(): Promise<void> {
   const g = state.pendingGoal;
   $("confirm").hidden = true;
   state.pendingGoal = undefined;
-  if (g && state.selected) await run(`goto ${state.selected} ${g.x.toFixed(2)} ${g.y.toFixed(2)}`);
+  if (g && state.selected) {
+    await run(`goto ${state.selected} ${g.x.toFixed(2)} ${g.y.toFixed(2)}${g.z === undefined ? "" : ` --z ${g.z.toFixed(2)}`}`);
+  }
 }
 
 function cancelGoal(): void {

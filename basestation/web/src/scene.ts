@@ -52,7 +52,10 @@ export class FleetScene {
   private ceilingPlane = new THREE.Plane(new THREE.Vector3(0, 0, -1), 1e6);
   // Voxels: an unlit material on a box whose faces carry a fixed shade (top brightest, bottom never drawn), so
   // that 300k instances cost no lighting per pixel and 5/6 of the triangles.
-  private voxelGeometry = FleetScene.shadedVoxelGeometry();
+  // Voxels are drawn 4 % smaller than they are (a dark seam shows the grid) but picked at their full size: a tap
+  // on a seam still meets the surface.
+  private voxelGeometry = FleetScene.shadedVoxelGeometry().scale(0.96, 0.96, 0.96);
+  private voxelPickGeometry = new THREE.BoxGeometry(1, 1, 1);
   private voxelMaterial = new THREE.MeshBasicMaterial({ vertexColors: true, clippingPlanes: [this.ceilingPlane] });
   /** Height (metres, map frame) above which map voxels are hidden; Infinity shows all. */
   ceilingCut = Infinity;
@@ -256,7 +259,7 @@ export class FleetScene {
     const c = new THREE.Color();
     cubes.forEach((cube, i) => {
       const p = cube.pose.position;
-      m.makeScale(cube.size.x * 0.96, cube.size.y * 0.96, cube.size.z * 0.96);
+      m.makeScale(cube.size.x, cube.size.y, cube.size.z);
       m.setPosition(p.x, p.y, p.z);
       mesh.setMatrixAt(i, m);
       c.setRGB(cube.color.r, cube.color.g, cube.color.b);
@@ -264,7 +267,9 @@ export class FleetScene {
     });
     mesh.instanceMatrix.needsUpdate = true;
     if (mesh.instanceColor) mesh.instanceColor.needsUpdate = true;
+    mesh.geometry = this.voxelPickGeometry; // the bounds of the voxels' full size (culling and picking)
     mesh.computeBoundingSphere();
+    mesh.geometry = this.voxelGeometry;
     mesh.userData.kind = "map";
     this.mapGroup.add(mesh);
     this.chunks.set(id, mesh);
@@ -401,8 +406,12 @@ export class FleetScene {
     sprite.scale.set((w / 44) * 0.45, 0.45, 1);
   }
 
-  /** What a tap at client pixel (x, y) hits: a robot id, else a point on the map or the ground plane at `groundZ`. */
-  pick(clientX: number, clientY: number, groundZ: number): { robot?: string; point?: THREE.Vector3 } {
+  /**
+   * What a tap at client pixel (x, y) hits: a robot id; else the top of the first visible map voxel under the
+   * tap (`surface`: a floor, a tread, another level's floor; map frame, z at the voxel's top, m); else, when the
+   * tap meets a voxel's side (a wall) or no voxel, the ground plane at `groundZ` (m).
+   */
+  pick(clientX: number, clientY: number, groundZ: number): { robot?: string; point?: THREE.Vector3; surface?: boolean } {
     const rect = this.renderer.domElement.getBoundingClientRect();
     const ndc = new THREE.Vector2(((clientX - rect.left) / rect.width) * 2 - 1, -((clientY - rect.top) / rect.height) * 2 + 1);
     this.raycaster.setFromCamera(ndc, this.camera);
@@ -410,11 +419,47 @@ export class FleetScene {
     for (const obj of this.robots.values()) robotMeshes.push(...obj.group.children.filter((c) => c.userData.robotId));
     const hitRobot = this.raycaster.intersectObjects(robotMeshes, false)[0];
     if (hitRobot) return { robot: hitRobot.object.userData.robotId as string };
+    // Voxels above the ceiling cut are not drawn (a clipping plane, which raycasting ignores): passed over.
+    const chunks = [...this.chunks.values()];
+    for (const chunk of chunks) chunk.geometry = this.voxelPickGeometry;
+    let hits: THREE.Intersection[];
+    try {
+      hits = this.raycaster.intersectObjects(chunks, false);
+    } finally {
+      for (const chunk of chunks) chunk.geometry = this.voxelGeometry;
+    }
+    for (const hit of hits) {
+      if (hit.point.z > this.ceilingCut) continue;
+      const top = hit.face !== null && hit.face !== undefined && hit.face.normal.z > 0.5;
+      if (top && hit.instanceId !== undefined && !FleetScene.coveredAbove(hit.object as THREE.InstancedMesh, hit.instanceId)) {
+        return { point: hit.point.clone(), surface: true };
+      }
+      break;
+    }
     // The floor under the robot's level: the ground plane through groundZ (a goal names x and y; the level is the robot's).
     const plane = new THREE.Plane(new THREE.Vector3(0, 0, 1), -groundZ);
     const point = new THREE.Vector3();
     if (this.raycaster.ray.intersectPlane(plane, point)) return { point };
     return {};
+  }
+
+  /**
+   * True when voxel `index` of a map column has another voxel right above it (within two voxel sizes): the top
+   * of a wall cut by the ceiling, not a surface to stand on.
+   */
+  private static coveredAbove(mesh: THREE.InstancedMesh, index: number): boolean {
+    const m = new THREE.Matrix4();
+    const p = new THREE.Vector3(), q = new THREE.Vector3(), size = new THREE.Vector3(), quat = new THREE.Quaternion();
+    mesh.getMatrixAt(index, m);
+    m.decompose(p, quat, size);
+    for (let i = 0; i < mesh.count; i++) {
+      if (i === index) continue;
+      mesh.getMatrixAt(i, m);
+      q.setFromMatrixPosition(m);
+      const dz = q.z - p.z;
+      if (dz > 0 && dz < 2.2 * size.z && Math.abs(q.x - p.x) < 0.5 * size.x && Math.abs(q.y - p.y) < 0.5 * size.y) return true;
+    }
+    return false;
   }
 
   /** Screen position (client pixels) of a map point, for tests and markers. */

@@ -183,6 +183,46 @@ test("a gamepad drives the robot while the deadman is held; releasing it, or a s
   await page1.getByRole("button", { name: "Stop driving" }).click();
 });
 
+test("a tap on another level's floor names that level (goto --z); a wall cut by the ceiling is no surface", async () => {
+  // A page with no server (the bench's mode, no voxels): a known map of one 4 x 4 m column.
+  const page = await openGui(browser, `${op1.url}?bench_voxels=0`);
+  const picks = await page.evaluate(async () => {
+    const { scene } = window.cairn;
+    const cube = (x, y, z) => ({ pose: { position: { x, y, z } }, size: { x: 0.2, y: 0.2, z: 0.2 }, color: { r: 1, g: 1, b: 1, a: 1 } });
+    const cubes = [];
+    for (let i = 0; i < 20; i++) for (let j = 0; j < 20; j++) cubes.push(cube(0.1 + 0.2 * i, 0.1 + 0.2 * j, -0.1)); // floor 1, top z 0
+    for (let i = 0; i < 8; i++) for (let j = 0; j < 20; j++) cubes.push(cube(0.1 + 0.2 * i, 0.1 + 0.2 * j, 3.1)); // floor 2 over x < 1.6, top z 3.2
+    for (let k = 0; k < 15; k++) for (let j = 0; j < 20; j++) cubes.push(cube(3.9, 0.1 + 0.2 * j, 0.1 + 0.2 * k)); // a 3 m wall at x 3.9
+    scene.applySceneUpdate({ entities: [{ id: "map/test/0/0", cubes }] });
+    scene.focus(2, 2, 0);
+    scene.setTopDown(true);
+    await new Promise((r) => setTimeout(r, 500));
+    const at = (x, y, z) => {
+      const p = scene.toScreen(x, y, z);
+      const hit = scene.pick(p.x, p.y, 0);
+      return { surface: !!hit.surface, z: hit.point ? Number(hit.point.z.toFixed(2)) : null };
+    };
+    scene.setCeilingCut(Infinity);
+    const floor2 = at(0.8, 2, 3.2), floor1 = at(2.5, 2, 0);
+    scene.setCeilingCut(1.6);
+    const floor2Cut = at(0.8, 2, 3.2), wallCut = at(3.9, 2, 1.6);
+    window.cairn.proposeGoal(0.8, 2, 3.2);
+    const confirm = document.getElementById("confirm-text").textContent;
+    return { floor2, floor1, floor2Cut, wallCut, confirm };
+  });
+  assert.deepEqual(picks.floor2, { surface: true, z: 3.2 }, JSON.stringify(picks));
+  assert.equal(picks.floor1.surface, true, JSON.stringify(picks));
+  assert.ok(Math.abs(picks.floor1.z) < 0.01, JSON.stringify(picks));
+  // Floor 2 hidden by the ceiling cut: the tap reaches floor 1 under it.
+  assert.equal(picks.floor2Cut.surface, true, JSON.stringify(picks));
+  assert.ok(Math.abs(picks.floor2Cut.z) < 0.01, JSON.stringify(picks));
+  // A wall seen from above through the cut: not a surface, the ground plane at the robot's level instead.
+  assert.ok(!picks.wallCut.surface && Math.abs(picks.wallCut.z) < 0.01, JSON.stringify(picks));
+  assert.match(picks.confirm, /on the level at z 3\.20 m\?/);
+  assert.deepEqual(page.errors, []);
+  await page.close();
+});
+
 test("the pages raised no script error", () => {
   assert.deepEqual(page1.errors, [], `op1's page: ${page1.errors}\n${tail("op1")}`);
   assert.deepEqual(page2.errors, [], `op2's page: ${page2.errors}`);
