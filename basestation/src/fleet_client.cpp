@@ -47,6 +47,7 @@ class FleetClient::Impl {
     core::ParticipantOptions p;
     p.domain_id = options.domain_id;
     if (!options.dds_profiles_file.empty()) p.profiles_file = options.dds_profiles_file;
+    p.link = options.link;
     p.name = "cairn_base/" + options.base_id;
     participant_ = std::make_unique<core::Participant>(p);
     participant_id_ = participant_->participant_id();

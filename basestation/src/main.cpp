@@ -216,6 +216,12 @@ int main(int argc, char** argv) {
   app.add_flag("--json", shell_options.json, "print one JSON object per command, progress line and event");
   app.add_option("--script", script, "run the commands of FILE, stop at the first failure");
   app.add_flag("--keep-going", keep_going, "with a script or stdin: run every line even after a failure");
+  app.add_option("--link", options.link.link, "loopback | lan: the network DDS talks on (lan needs --subnet or "
+                                              "--interface; nothing else is listened on or sent to)")
+      ->capture_default_str();
+  app.add_option("--subnet", options.link.subnet, "with --link lan: the IPv4 subnet to use, e.g. 10.77.0.0/24 "
+                                                  "(this host's one address in it)");
+  app.add_option("--interface", options.link.interface_name, "with --link lan: the interface to use, e.g. eth1");
   app.add_option("--dds-profiles", options.dds_profiles_file, "Fast DDS XML profiles file (default: shipped "
                                                               "loopback-only config/dds_profiles.xml)");
   app.add_option("--command-timeout", options.command_timeout_s, "seconds to wait for a robot's answer")
@@ -249,6 +255,7 @@ int main(int argc, char** argv) {
 
   try {
     options.domain_id = cairn::core::ParseDomainId(domain_text);
+    cairn::core::CheckLinkOptions(options.link);
     if (no_joystick) options.capabilities.clear();
     if (!(options.command_timeout_s > 0 && options.command_timeout_s <= 60)) {
       throw std::invalid_argument("--command-timeout " + std::to_string(options.command_timeout_s) +

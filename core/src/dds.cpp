@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
@@ -14,6 +15,11 @@
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
 #include <fastrtps/utils/IPLocator.h>
+
+#include <arpa/inet.h>
+#include <ifaddrs.h>
+#include <net/if.h>
+#include <netinet/in.h>
 
 #ifndef CAIRN_CONFIG_DIR
 #error "CAIRN_CONFIG_DIR must be defined by the build"
@@ -270,6 +276,95 @@ void Participant::CheckEndpointProfile(const std::string& profile, bool writer) 
   }
 }
 
+void CheckLinkOptions(const LinkOptions& link) {
+  if (link.link != "loopback" && link.link != "lan") {
+    throw std::invalid_argument("--link '" + link.link + "' must be loopback or lan");
+  }
+  if (link.link == "loopback" && (!link.subnet.empty() || !link.interface_name.empty())) {
+    throw std::invalid_argument("--subnet and --interface name a lan link: add --link lan (the loopback link "
+                                "binds to 127.0.0.1 only)");
+  }
+  if (link.link == "lan" && link.subnet.empty() && link.interface_name.empty()) {
+    throw std::invalid_argument("--link lan needs --subnet CIDR or --interface NAME: it binds only to the "
+                                "network you name, never to every interface");
+  }
+  if (!link.subnet.empty()) ParseIpv4Subnet(link.subnet);
+}
+
+std::string ResolveLinkAddress(const LinkOptions& link, Ipv4Subnet* subnet) {
+  CheckLinkOptions(link);
+  std::optional<Ipv4Subnet> named;
+  if (!link.subnet.empty()) named = ParseIpv4Subnet(link.subnet);
+  ifaddrs* list = nullptr;
+  if (getifaddrs(&list) != 0) throw std::invalid_argument("cannot list this host's network interfaces");
+  std::vector<std::pair<std::string, Ipv4Subnet>> matches;  // address, its interface's subnet
+  std::string seen;
+  for (const ifaddrs* i = list; i != nullptr; i = i->ifa_next) {
+    if (i->ifa_addr == nullptr || i->ifa_addr->sa_family != AF_INET) continue;
+    const std::uint32_t address = ntohl(reinterpret_cast<const sockaddr_in*>(i->ifa_addr)->sin_addr.s_addr);
+    const std::uint32_t mask =
+        i->ifa_netmask != nullptr ? ntohl(reinterpret_cast<const sockaddr_in*>(i->ifa_netmask)->sin_addr.s_addr) : ~0u;
+    char text[INET_ADDRSTRLEN] = {};
+    const in_addr raw = reinterpret_cast<const sockaddr_in*>(i->ifa_addr)->sin_addr;
+    inet_ntop(AF_INET, &raw, text, sizeof(text));
+    seen += (seen.empty() ? "" : ", ") + std::string(i->ifa_name) + " " + text;
+    if (!link.interface_name.empty() && link.interface_name != i->ifa_name) continue;
+    if (named && !named->Contains(address)) continue;
+    int prefix = 0;
+    while (prefix < 32 && (mask & (0x80000000u >> prefix)) != 0) ++prefix;
+    Ipv4Subnet own;
+    own.prefix_length = prefix;
+    own.network = address & (prefix == 0 ? 0 : ~std::uint32_t{0} << (32 - prefix));
+    own.text = std::string(text) + "/" + std::to_string(prefix);
+    matches.emplace_back(text, own);
+  }
+  freeifaddrs(list);
+  const std::string what = !link.interface_name.empty()
+                               ? "--interface '" + link.interface_name + "'" + (named ? " in --subnet " + named->text : "")
+                               : "--subnet " + named->text;
+  if (matches.empty()) {
+    throw std::invalid_argument(what + ": no interface of this host has an IPv4 address there (seen: " +
+                                (seen.empty() ? "none" : seen) + ")");
+  }
+  if (matches.size() > 1) {
+    throw std::invalid_argument(what + ": " + std::to_string(matches.size()) + " addresses match (seen: " + seen +
+                                "); name one with --interface");
+  }
+  *subnet = named ? *named : matches.front().second;
+  return matches.front().first;
+}
+
+namespace {
+
+// The lan link (LinkOptions): the profile's QoS with its transport and locators on `address` only.
+void ApplyLanLink(const std::string& address, int domain_id, dds::DomainParticipantQos* qos) {
+  auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+  udp->interfaceWhiteList = {address};
+  qos->transport().use_builtin_transports = false;
+  qos->transport().user_transports = {udp};
+  const auto locator = [](const std::string& ip, std::uint32_t port) {
+    Locator_t l;
+    l.kind = LOCATOR_KIND_UDPv4;
+    IPLocator::setIPv4(l, ip);
+    l.port = port;
+    return l;
+  };
+  // RTPS well-known ports (PB 7400, DG 250, d0..d3 = 0, 10, 1, 11): participant id 0's are set here only
+  // for the multicast group; unicast ports are left to Fast DDS (0), per participant.
+  const std::uint32_t base = 7400 + 250 * static_cast<std::uint32_t>(domain_id);
+  auto& builtin = qos->wire_protocol().builtin;
+  builtin.metatrafficUnicastLocatorList.clear();
+  builtin.metatrafficUnicastLocatorList.push_back(locator(address, 0));
+  builtin.metatrafficMulticastLocatorList.clear();
+  builtin.metatrafficMulticastLocatorList.push_back(locator("239.255.0.1", base));
+  builtin.initialPeersList.clear();  // none: Fast DDS announces on the metatraffic multicast locators then
+  qos->wire_protocol().default_unicast_locator_list.clear();
+  qos->wire_protocol().default_unicast_locator_list.push_back(locator(address, 0));
+  qos->wire_protocol().default_multicast_locator_list.clear();
+}
+
+}  // namespace
+
 Participant::Participant(const ParticipantOptions& options) : options_(options) {
   if (options.domain_id < 0 || options.domain_id > kMaxDomainId) {
     throw std::invalid_argument("domain id " + std::to_string(options.domain_id) +
@@ -287,9 +382,18 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
     throw DdsError("participant profile '" + options.participant_profile + "' is not defined in " +
                    options.profiles_file);
   }
+  if (options.link.link == "lan") {
+    Ipv4Subnet subnet;
+    const std::string address = ResolveLinkAddress(options.link, &subnet);
+    ApplyLanLink(address, options.domain_id, &qos);
+    options_.network.subnets = {subnet};
+    options_.network.multicast = true;
+  } else {
+    CheckLinkOptions(options.link);
+  }
   std::string why;
-  if (!WithinNetworkScope(qos, options.network, &why)) {
-    throw DdsError("participant profile '" + options.participant_profile + "' " + ScopeRefusal(options.network) +
+  if (!WithinNetworkScope(qos, options_.network, &why)) {
+    throw DdsError("participant profile '" + options.participant_profile + "' " + ScopeRefusal(options_.network) +
                    why + "; refusing to start it");
   }
   qos.name(options.name);

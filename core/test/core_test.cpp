@@ -303,6 +303,65 @@ eprosima::fastdds::dds::DomainParticipantQos LanQos(const std::string& whitelist
   return qos;
 }
 
+// Tests run in a private network namespace: the host has lo 127.0.0.1 only.
+TEST(LinkOptions, ALanLinkResolvesToTheOneAddressNamedAndRefusesAnythingElseNamingIt) {
+  LinkOptions lan;
+  lan.link = "lan";
+  lan.subnet = "127.0.0.0/8";
+  Ipv4Subnet subnet;
+  EXPECT_EQ(ResolveLinkAddress(lan, &subnet), "127.0.0.1");
+  EXPECT_EQ(subnet.text, "127.0.0.0/8");
+  lan.subnet.clear();
+  lan.interface_name = "lo";
+  EXPECT_EQ(ResolveLinkAddress(lan, &subnet), "127.0.0.1");
+  EXPECT_EQ(subnet.text, "127.0.0.1/8");  // the interface's own
+  const auto refused = [](const LinkOptions& link, const std::string& needle) {
+    Ipv4Subnet unused;
+    try {
+      ResolveLinkAddress(link, &unused);
+      ADD_FAILURE() << "accepted, expected: " << needle;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  lan.interface_name.clear();
+  lan.subnet = "10.99.0.0/24";
+  refused(lan, "--subnet 10.99.0.0/24: no interface of this host has an IPv4 address there (seen: lo 127.0.0.1)");
+  lan.subnet.clear();
+  lan.interface_name = "eth7";
+  refused(lan, "--interface 'eth7': no interface of this host has an IPv4 address there");
+  lan.subnet = "10.99.0.0/24";
+  lan.interface_name = "lo";
+  refused(lan, "--interface 'lo' in --subnet 10.99.0.0/24: no interface");
+  refused(LinkOptions{"lan", "", ""}, "--link lan needs --subnet CIDR or --interface NAME");
+  refused(LinkOptions{"radio", "", ""}, "--link 'radio' must be loopback or lan");
+  refused(LinkOptions{"loopback", "10.77.0.0/24", ""}, "add --link lan");
+  refused(LinkOptions{"lan", "10.77.0.0", ""}, "subnet '10.77.0.0' must be an IPv4 CIDR");
+}
+
+// A lan participant is built on the named address only: its QoS passes the guard for that subnet (the
+// participant would not start otherwise) and it publishes and reads on it.
+TEST(LinkOptions, ALanParticipantStartsOnTheNamedNetworkOnly) {
+  ParticipantOptions options;
+  options.domain_id = 44;
+  options.link = LinkOptions{"lan", "127.0.0.0/8", ""};
+  Participant participant(options);
+  ASSERT_EQ(participant.options().network.subnets.size(), 1u);
+  EXPECT_EQ(participant.options().network.subnets[0].text, "127.0.0.0/8");
+  EXPECT_TRUE(participant.options().network.multicast);
+  eprosima::fastdds::dds::DomainParticipantQos qos;
+  participant.get()->get_qos(qos);
+  ASSERT_EQ(qos.transport().user_transports.size(), 1u);
+  const auto* udp = dynamic_cast<const eprosima::fastdds::rtps::UDPv4TransportDescriptor*>(
+      qos.transport().user_transports[0].get());
+  ASSERT_NE(udp, nullptr);
+  EXPECT_EQ(udp->interfaceWhiteList, std::vector<std::string>{"127.0.0.1"});
+  EXPECT_FALSE(qos.transport().use_builtin_transports);
+  // A lan link on a subnet this host has no address in never creates a participant.
+  options.link.subnet = "10.99.0.0/24";
+  EXPECT_THROW(Participant{options}, std::invalid_argument);
+}
+
 TEST(NetworkScope, ANamedSubnetAdmitsItsAddressesOnlyAndMulticastOnlyWhenNamed) {
   NetworkScope lan;
   lan.subnets.push_back(ParseIpv4Subnet("10.77.0.0/24"));

@@ -63,6 +63,7 @@ class AgentDds::Impl {
     core::ParticipantOptions p;
     p.domain_id = options.domain_id;
     if (!options.profiles_file.empty()) p.profiles_file = options.profiles_file;
+    p.link = options.link;
     p.name = "cairn_agent/" + options.robot_id;
     p.on_participant_gone = [this](const std::string& participant) {
       std::lock_guard<std::mutex> guard(gone_mutex_);

@@ -40,6 +40,12 @@ int main(int argc, char** argv) {
   app.add_option("--config", config_file, "YAML config file (see config/agent.yaml)");
   app.add_option("--pcd-resolution", options.pcd_resolution_m, "voxel size for .pcd worlds, metres")
       ->capture_default_str();
+  app.add_option("--link", options.link.link, "loopback | lan: the network DDS talks on (lan needs --subnet or "
+                                              "--interface; nothing else is listened on or sent to)")
+      ->capture_default_str();
+  app.add_option("--subnet", options.link.subnet, "with --link lan: the IPv4 subnet to use, e.g. 10.77.0.0/24 "
+                                                  "(this host's one address in it)");
+  app.add_option("--interface", options.link.interface_name, "with --link lan: the interface to use, e.g. eth1");
   app.add_option("--dds-profiles", options.dds_profiles_file, "Fast DDS XML profiles file (default: shipped "
                                                               "loopback-only config/dds_profiles.xml)");
   app.add_option("--map-save", options.map_save_path,
@@ -89,6 +95,7 @@ int main(int argc, char** argv) {
 
   try {
     options.domain_id = cairn::core::ParseDomainId(domain_text);
+    cairn::core::CheckLinkOptions(options.link);
     if (!start_text.empty()) cairn::agent::ParseStart(start_text, &options);
     options.SetPlatform(platform);
     if (!config_file.empty()) options.LoadConfigFile(config_file);

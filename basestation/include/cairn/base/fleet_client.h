@@ -15,6 +15,7 @@
 
 #include "cairn/base/fleet_events.h"
 #include "cairn/base/fleet_perception.h"
+#include "cairn/core/link_options.h"
 #include "cairn/core/time.h"
 #include "cairn_msgs.h"
 
@@ -61,6 +62,7 @@ struct FleetClientOptions {
   std::string base_id;                 ///< required; [A-Za-z0-9_-]{1,64}
   int domain_id = 0;                   ///< [0, 232]
   std::string dds_profiles_file;       ///< "" = shipped loopback-only profiles
+  core::LinkOptions link;              ///< loopback (default) or a named lan (core::LinkOptions)
   double command_timeout_s = 3.0;      ///< give up waiting for an acknowledgement, (0, 60]
   double command_retry_s = 0.5;        ///< resend an unacknowledged command (robots de-duplicate), (0, 10]
   double lost_after_s = 3.0;           ///< a robot whose state is silent this long is shown lost, (0, 60]

@@ -30,6 +30,8 @@
 #include <fastdds/dds/topic/TypeSupport.hpp>
 #include <fastrtps/types/TypesBase.h>
 
+#include "cairn/core/link_options.h"
+
 namespace cairn::core {
 
 /// A DDS entity could not be created or configured. The message names the entity, profile and cause.
@@ -88,6 +90,15 @@ struct NetworkScope {
 bool WithinNetworkScope(const eprosima::fastdds::dds::DomainParticipantQos& qos, const NetworkScope& scope,
                         std::string* why);
 
+/// The local address a lan link binds to: the one interface with an IPv4 address in `link.subnet`, or the
+/// IPv4 address of `link.interface_name` (both given: that interface's address must be in the subnet).
+/// `*subnet` receives the named subnet (or the interface's own). @throws std::invalid_argument naming the
+/// option, the value and the interfaces seen.
+std::string ResolveLinkAddress(const LinkOptions& link, Ipv4Subnet* subnet);
+
+/// "loopback" | "lan" check of `link` (names the field and value). @throws std::invalid_argument.
+void CheckLinkOptions(const LinkOptions& link);
+
 /// How a participant is created.
 struct ParticipantOptions {
   int domain_id = 0;                                    ///< DDS domain, [0, 232].
@@ -97,6 +108,9 @@ struct ParticipantOptions {
   /// The networks the participant may use (network safety, DESIGN.md): loopback only by default; a profile
   /// that would listen on, announce or send to anything else is refused with the reason.
   NetworkScope network;
+  /// The link (LinkOptions): `lan` rebuilds the profile's transport and locators on the named network and sets
+  /// `network` to it.
+  LinkOptions link;
   /// Flow controllers to register; names must be unique. @see FlowControllerOptions.
   std::vector<FlowControllerOptions> flow_controllers;
   /// Called (on a Fast DDS thread) with the ParticipantIdOf a remote participant that left (a clean exit) or

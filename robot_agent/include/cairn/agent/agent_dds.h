@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "cairn/agent/commands.h"
+#include "cairn/core/link_options.h"
 
 namespace cairn_msgs {
 class AgentInfo;
@@ -37,6 +38,7 @@ struct AgentDdsOptions {
   std::string robot_id;                   ///< messages for other robots are ignored; replies carry it
   int domain_id = 0;                      ///< DDS domain, [0, 232]
   std::string profiles_file;              ///< Fast DDS XML profiles; "" = core::DefaultProfilesFile()
+  core::LinkOptions link;                 ///< the network the participant talks on
   double map_budget_bits_per_s = 1e6;     ///< flow controller "cairn.map", > 0
   double camera_budget_bits_per_s = 1e6;  ///< flow controller "cairn.camera", > 0
 };

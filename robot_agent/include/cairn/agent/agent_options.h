@@ -9,6 +9,7 @@
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
 #include "cairn/core/kinematics.h"
+#include "cairn/core/link_options.h"
 #include "cairn/nav/local_planner.h"
 
 namespace cairn::agent {
@@ -27,6 +28,7 @@ struct AgentOptions {
   std::string platform = "wheeled";               ///< "wheeled" | "legged"; set with SetPlatform()
   int domain_id = 0;                              ///< DDS domain [0, 232]
   std::string dds_profiles_file;                  ///< "" = core::DefaultProfilesFile()
+  core::LinkOptions link;                         ///< loopback (default) or a named lan (core::LinkOptions)
   std::string mode_tree_file;                     ///< "" = config/mode_tree.xml of the source tree
   double pcd_resolution_m = 0.1;                  ///< voxel size when the world is a PCD cloud, (0.02, 2]
   std::string map_save_path;                      ///< "" = none; else the robot's map is saved here (.bt) at exit

@@ -1,0 +1,136 @@
+#!/usr/bin/env bash
+# A robot and a basestation on two hosts joined by a simulated 1 Mbit/s radio (tests/linksim), each talking DDS
+# on the lan link bound to the test subnet only (issue 13, first part). Checks, in order:
+#   1. the link simulator: a 1 Mbit/s link carries about 1 Mbit/s, and 20 % loss drops about 20 %;
+#   2. bad link flags are refused naming the flag and the value, before any participant starts;
+#   3. a lan participant in a subnet this host has no address in is refused, naming the interfaces seen;
+#   4. the shipped loopback link stays on loopback: a basestation on the other host never sees the robot;
+#   5. over the lan link the basestation sees the robot, takes control and drives it to a goal 3 m away.
+# Run by ctest inside tests/netns_run.sh (a private network namespace); it enters a private mount namespace
+# too, so that the hosts' names in /run/netns vanish with it.
+#   lan_link_test.sh BUILD_DIR
+set -uo pipefail
+BUILD="$1"
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+[ "${CAIRN_IN_NETNS:-}" = 1 ] || { echo "lan_link_test: run me inside tests/netns_run.sh" >&2; exit 2; }
+if [ "${CAIRN_IN_MOUNTNS:-}" != 1 ]; then
+  exec env CAIRN_IN_MOUNTNS=1 unshare --mount --propagation private -- "$0" "$@"
+fi
+# shellcheck source=linksim/linksim.sh
+source "$ROOT/tests/linksim/linksim.sh"
+
+AGENT="$BUILD/robot_agent/cairn_agent"
+BASE="$BUILD/basestation/cairn_base"
+DOMAIN=83
+P="ll$$"
+LOGS="$(mktemp -d)"
+failures=0
+fail() { echo "FAIL: $*" >&2; failures=$((failures + 1)); }
+pass() { echo "ok: $*"; }
+cleanup() {
+  linksim_down "$P"
+  rm -rf "$LOGS"
+}
+trap cleanup EXIT
+
+linksim_up "$P" || exit 1
+linksim_add_host "$P" robot 10.77.0.2 1000 || exit 1
+linksim_add_host "$P" base 10.77.0.3 1000 || exit 1
+LAN=(--link lan --subnet 10.77.0.0/24)
+
+# 1. The link simulator.
+linksim_exec "$P" base node "$ROOT/tests/linksim/udp_probe.mjs" recv 9000 4 >"$LOGS/recv" &
+sleep 0.5
+linksim_exec "$P" robot node "$ROOT/tests/linksim/udp_probe.mjs" send 10.77.0.3 9000 3 3000 >"$LOGS/send"
+wait
+read -r _ received _ _ _ kbps <"$LOGS/recv"
+if [ "$kbps" -ge 700 ] && [ "$kbps" -le 1150 ]; then pass "1 Mbit/s link carried $kbps kbit/s of 3000 offered"
+else fail "1 Mbit/s link carried $kbps kbit/s ($(cat "$LOGS/recv"))"; fi
+linksim_set_loss "$P" base 20
+linksim_exec "$P" base node "$ROOT/tests/linksim/udp_probe.mjs" recv 9001 4 >"$LOGS/recv" &
+sleep 0.5
+linksim_exec "$P" robot node "$ROOT/tests/linksim/udp_probe.mjs" send 10.77.0.3 9001 3 400 >"$LOGS/send"
+wait
+read -r _ sent <"$LOGS/send"
+read -r _ received _ _ _ _ <"$LOGS/recv"
+lost_pct=$(( (sent - received) * 100 / sent ))
+if [ "$lost_pct" -ge 10 ] && [ "$lost_pct" -le 30 ]; then pass "20 % loss: $received of $sent arrived ($lost_pct % lost)"
+else fail "20 % loss: $received of $sent arrived ($lost_pct % lost)"; fi
+linksim_set_loss "$P" base 0
+
+# 2. Bad flags, refused before anything starts (exit 2, the flag and the value named).
+expect_refused() {
+  local needle="$1"
+  shift
+  local out code
+  out=$("$@" 2>&1 </dev/null)
+  code=$?
+  if [ "$code" -eq 2 ] && grep -qF -- "$needle" <<<"$out"; then pass "refused: $needle"
+  else fail "expected exit 2 and '$needle', got exit $code: $(tail -2 <<<"$out")"; fi
+}
+expect_refused "--link 'radio' must be loopback or lan" "$AGENT" --robot-id r9 --domain "$DOMAIN" --link radio
+expect_refused "--link lan needs --subnet CIDR or --interface NAME" "$BASE" --base-id opX --domain "$DOMAIN" --link lan -- robots
+expect_refused "add --link lan" "$BASE" --base-id opX --domain "$DOMAIN" --subnet 10.77.0.0/24 -- robots
+expect_refused "subnet '10.77.0.0/33' must be an IPv4 CIDR" "$BASE" --base-id opX --domain "$DOMAIN" --link lan --subnet 10.77.0.0/33 -- robots
+
+# 3. A subnet this host has no address in.
+expect_refused "--subnet 10.99.0.0/24: no interface of this host has an IPv4 address there (seen: lo 127.0.0.1, radio0 10.77.0.2)" \
+  linksim_exec "$P" robot "$AGENT" --robot-id r9 --domain "$DOMAIN" --link lan --subnet 10.99.0.0/24
+
+# The robot, on its host, on the lan link.
+linksim_exec "$P" robot "$AGENT" --robot-id r1 --domain "$DOMAIN" --start 10,20,0 "${LAN[@]}" >"$LOGS/r1.log" 2>&1 &
+for _ in $(seq 1 600); do grep -q READY "$LOGS/r1.log" && break; sleep 0.1; done
+grep -q READY "$LOGS/r1.log" || fail "r1 did not start: $(tail -3 "$LOGS/r1.log")"
+
+# 4. The loopback link on the other host: never sees r1.
+out=$(linksim_exec "$P" base "$BASE" --base-id opB --domain "$DOMAIN" -- wait r1 online 5 2>&1 </dev/null)
+code=$?
+if [ "$code" -ne 0 ]; then pass "a loopback basestation on another host does not see r1 (exit $code)"
+else fail "a loopback basestation on another host saw r1: $out"; fi
+
+# 5. Over the lan link: seen, commanded, arrives.
+base_lan() { linksim_exec "$P" base "$BASE" --base-id opA --domain "$DOMAIN" "${LAN[@]}" -- "$@" 2>&1 </dev/null; }
+start_s=$(date +%s.%N)
+out=$(base_lan wait r1 online 30)
+code=$?
+seen_s=$(awk -v a="$start_s" -v b="$(date +%s.%N)" 'BEGIN{printf "%.1f", b - a}')
+if [ "$code" -eq 0 ]; then pass "a lan basestation on another host sees r1 ($seen_s s, its process start included)"
+else fail "a lan basestation did not see r1: $out"; fi
+out=$(base_lan request-control r1)
+if grep -q "accepted" <<<"$out"; then pass "request-control over the link: $(head -1 <<<"$out")"
+else fail "request-control over the link: $out"; fi
+out=$(base_lan goto r1 13 20 --wait 60)
+code=$?
+if [ "$code" -eq 0 ] && grep -q "arrived" <<<"$out"; then pass "goto over the link: $(tail -1 <<<"$out")"
+else fail "goto over the link (exit $code): $(tail -3 <<<"$out")"; fi
+
+# 6. Commands while r1 drives (its map, camera and state on the link): 30 request-control round trips from one
+#    basestation process, 5 per second. None may be lost; the round trip is printed (a figure, not a limit).
+{
+  echo "goto r1 40 20"
+  for _ in $(seq 1 30); do echo "request-control r1"; echo "sleep 0.2"; done
+  echo "stop r1"
+} | linksim_exec "$P" base "$BASE" --base-id opA --domain "$DOMAIN" "${LAN[@]}" --json >"$LOGS/rtt.json" 2>"$LOGS/rtt.err"
+summary=$(node -e '
+  const lines = require("fs").readFileSync(process.argv[1], "utf8").split("\n").filter((l) => l.startsWith("{"));
+  const all = lines.map((l) => JSON.parse(l));
+  const r = all.filter((o) => o.command === "request-control");
+  const drove = all.some((o) => o.command === "goto" && o.ok === true);
+  const ok = r.filter((o) => o.ok === true && o.result === "accepted");
+  const t = ok.map((o) => o.round_trip_ms).sort((a, b) => a - b);
+  const q = (p) => t.length ? t[Math.min(t.length - 1, Math.floor(p * t.length))].toFixed(1) : "-";
+  console.log(`${ok.length} ${r.length} ${q(0.5)} ${q(0.99)} ${t.length ? t[t.length - 1].toFixed(1) : "-"} ${drove}`);
+' "$LOGS/rtt.json")
+read -r accepted answered p50 p99 worst drove <<<"$summary"
+[ "$drove" = true ] || fail "the goto that was to keep r1 driving was not accepted: $(head -c 400 "$LOGS/rtt.json")"
+echo "FIGURE lan_1mbit_command_round_trip_ms median $p50 p99 $p99 max $worst ($accepted of 30 accepted)"
+if [ "$accepted" = 30 ]; then pass "30 commands over the link while r1 drove: all accepted"
+else fail "$accepted of 30 commands accepted ($answered answered): $(head -c 600 "$LOGS/rtt.json") $(tail -3 "$LOGS/rtt.err")"; fi
+
+if [ "$failures" -ne 0 ]; then
+  echo "--- r1" >&2
+  tail -20 "$LOGS/r1.log" >&2
+  echo "lan_link_test: $failures check(s) failed" >&2
+  exit 1
+fi
+echo "lan_link_test: all checks passed"
