@@ -216,9 +216,12 @@ int main(int argc, char** argv) {
   app.add_flag("--json", shell_options.json, "print one JSON object per command, progress line and event");
   app.add_option("--script", script, "run the commands of FILE, stop at the first failure");
   app.add_flag("--keep-going", keep_going, "with a script or stdin: run every line even after a failure");
-  app.add_option("--link", options.link.link, "loopback | lan: the network DDS talks on (lan needs --subnet or "
-                                              "--interface; nothing else is listened on or sent to)")
+  app.add_option("--link", options.link.link, "loopback | lan | radio: the network DDS talks on (lan and radio "
+                                              "need --subnet or --interface; nothing else is listened on or sent "
+                                              "to; radio also --link-kbps)")
       ->capture_default_str();
+  app.add_option("--link-kbps", options.link.link_kbps, "with --link radio: the link's budget, kbit/s (a robot "
+                                                         "holds its map and camera to shares of it)");
   app.add_option("--subnet", options.link.subnet, "with --link lan: the IPv4 subnet to use, e.g. 10.77.0.0/24 "
                                                   "(this host's one address in it)");
   app.add_option("--interface", options.link.interface_name, "with --link lan: the interface to use, e.g. eth1");

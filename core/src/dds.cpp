@@ -277,16 +277,23 @@ void Participant::CheckEndpointProfile(const std::string& profile, bool writer) 
 }
 
 void CheckLinkOptions(const LinkOptions& link) {
-  if (link.link != "loopback" && link.link != "lan") {
-    throw std::invalid_argument("--link '" + link.link + "' must be loopback or lan");
+  if (link.link != "loopback" && link.link != "lan" && link.link != "radio") {
+    throw std::invalid_argument("--link '" + link.link + "' must be loopback, lan or radio");
+  }
+  if (link.link == "radio" && !(link.link_kbps >= 8 && link.link_kbps <= 1e6)) {
+    throw std::invalid_argument("--link-kbps " + std::to_string(link.link_kbps) +
+                                ": a radio link needs its budget, in kbit/s in [8, 1e6]");
+  }
+  if (link.link != "radio" && link.link_kbps != 0) {
+    throw std::invalid_argument("--link-kbps names a radio link's budget: add --link radio");
   }
   if (link.link == "loopback" && (!link.subnet.empty() || !link.interface_name.empty())) {
     throw std::invalid_argument("--subnet and --interface name a lan link: add --link lan (the loopback link "
                                 "binds to 127.0.0.1 only)");
   }
-  if (link.link == "lan" && link.subnet.empty() && link.interface_name.empty()) {
-    throw std::invalid_argument("--link lan needs --subnet CIDR or --interface NAME: it binds only to the "
-                                "network you name, never to every interface");
+  if (IsNamedNetworkLink(link) && link.subnet.empty() && link.interface_name.empty()) {
+    throw std::invalid_argument("--link " + link.link + " needs --subnet CIDR or --interface NAME: it binds only "
+                                "to the network you name, never to every interface");
   }
   if (!link.subnet.empty()) ParseIpv4Subnet(link.subnet);
 }
@@ -382,7 +389,7 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
     throw DdsError("participant profile '" + options.participant_profile + "' is not defined in " +
                    options.profiles_file);
   }
-  if (options.link.link == "lan") {
+  if (IsNamedNetworkLink(options.link)) {
     Ipv4Subnet subnet;
     const std::string address = ResolveLinkAddress(options.link, &subnet);
     ApplyLanLink(address, options.domain_id, &qos);

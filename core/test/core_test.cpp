@@ -334,7 +334,10 @@ TEST(LinkOptions, ALanLinkResolvesToTheOneAddressNamedAndRefusesAnythingElseNami
   lan.interface_name = "lo";
   refused(lan, "--interface 'lo' in --subnet 10.99.0.0/24: no interface");
   refused(LinkOptions{"lan", "", ""}, "--link lan needs --subnet CIDR or --interface NAME");
-  refused(LinkOptions{"radio", "", ""}, "--link 'radio' must be loopback or lan");
+  refused(LinkOptions{"wifi", "", ""}, "--link 'wifi' must be loopback, lan or radio");
+  refused(LinkOptions{"radio", "10.77.0.0/24", "", 0}, "--link-kbps 0.000000: a radio link needs its budget");
+  refused(LinkOptions{"lan", "10.77.0.0/24", "", 1000}, "--link-kbps names a radio link's budget: add --link radio");
+  refused(LinkOptions{"radio", "", "", 1000}, "--link radio needs --subnet CIDR or --interface NAME");
   refused(LinkOptions{"loopback", "10.77.0.0/24", ""}, "add --link lan");
   refused(LinkOptions{"lan", "10.77.0.0", ""}, "subnet '10.77.0.0' must be an IPv4 CIDR");
 }

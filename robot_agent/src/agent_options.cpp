@@ -135,6 +135,22 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
 
 using internal::InRange;
 
+std::string AgentOptions::ApplyLinkBudget() {
+  if (link.link != "radio") return "";
+  std::string changed;
+  const double budget_bits_per_s = link.link_kbps * 1000.0;
+  const auto lower = [&](const char* name, double share, double* value) {
+    const double limit = share * budget_bits_per_s;
+    if (*value <= limit) return;
+    changed += (changed.empty() ? "" : ", ") + std::string(name) + " " + std::to_string(static_cast<long>(*value)) +
+               " -> " + std::to_string(static_cast<long>(limit)) + " bit/s";
+    *value = limit;
+  };
+  lower("map telemetry", core::kRadioMapShare, &perception.telemetry.budget_bits_per_s);
+  lower("camera", core::kRadioCameraShare, &perception.camera_budget_bits_per_s);
+  return changed;
+}
+
 bool AgentOptions::IsValid(std::string* why) const {
   static const std::regex kIdPattern("[A-Za-z0-9_-]{1,64}");
   if (!std::regex_match(robot_id, kIdPattern)) {

@@ -40,9 +40,12 @@ int main(int argc, char** argv) {
   app.add_option("--config", config_file, "YAML config file (see config/agent.yaml)");
   app.add_option("--pcd-resolution", options.pcd_resolution_m, "voxel size for .pcd worlds, metres")
       ->capture_default_str();
-  app.add_option("--link", options.link.link, "loopback | lan: the network DDS talks on (lan needs --subnet or "
-                                              "--interface; nothing else is listened on or sent to)")
+  app.add_option("--link", options.link.link, "loopback | lan | radio: the network DDS talks on (lan and radio "
+                                              "need --subnet or --interface; nothing else is listened on or sent "
+                                              "to; radio also --link-kbps)")
       ->capture_default_str();
+  app.add_option("--link-kbps", options.link.link_kbps, "with --link radio: the link's budget, kbit/s (a robot "
+                                                         "holds its map and camera to shares of it)");
   app.add_option("--subnet", options.link.subnet, "with --link lan: the IPv4 subnet to use, e.g. 10.77.0.0/24 "
                                                   "(this host's one address in it)");
   app.add_option("--interface", options.link.interface_name, "with --link lan: the interface to use, e.g. eth1");
@@ -99,6 +102,8 @@ int main(int argc, char** argv) {
     if (!start_text.empty()) cairn::agent::ParseStart(start_text, &options);
     options.SetPlatform(platform);
     if (!config_file.empty()) options.LoadConfigFile(config_file);
+    const std::string budget = options.ApplyLinkBudget();
+    if (!budget.empty()) spdlog::info("cairn_agent {}: radio link of {} kbit/s: {}", options.robot_id, options.link.link_kbps, budget);
     std::string why;
     if (!options.IsValid(&why)) throw std::invalid_argument(why);
     // The platform driver: the simulator (the seam is core::PlatformIO; see docs/PLATFORM.md for a real one).

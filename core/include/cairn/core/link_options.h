@@ -13,10 +13,22 @@ namespace cairn::core {
 ///   it) or by `interface_name` (its address; the subnet is the interface's); discovery is multicast
 ///   (239.255.0.1, sent on that interface only).
 ///   Nothing listens on or sends to any other interface (WithinNetworkScope checks the result).
+/// - `radio`: a lan link with a stated budget, `link_kbps` (a mesh radio of ~1 Mbit/s, as in SubT). The DDS
+///   transport is the lan's; a robot holds its bulk traffic to shares of the budget (kRadioMapShare,
+///   kRadioCameraShare) so that commands, the lock, state and events never queue behind maps and frames.
 struct LinkOptions {
-  std::string link = "loopback";  ///< "loopback" | "lan"
-  std::string subnet;              ///< lan: "A.B.C.D/N", e.g. "10.77.0.0/24"
-  std::string interface_name;      ///< lan: e.g. "eth1" (instead of, or besides, subnet)
+  std::string link = "loopback";  ///< "loopback" | "lan" | "radio"
+  std::string subnet;              ///< lan, radio: "A.B.C.D/N", e.g. "10.77.0.0/24"
+  std::string interface_name;      ///< lan, radio: e.g. "eth1" (instead of, or besides, subnet)
+  double link_kbps = 0;            ///< radio: the link's budget, kbit/s, [8, 1e6]; 0 otherwise
 };
+
+/// Shares of a radio link's budget for a robot's map telemetry and camera frames (the rest: commands, state,
+/// events, behavior tree and DDS's own traffic).
+constexpr double kRadioMapShare = 0.25;
+constexpr double kRadioCameraShare = 0.15;
+
+/// True for the links bound to a named network (lan, radio).
+inline bool IsNamedNetworkLink(const LinkOptions& link) { return link.link == "lan" || link.link == "radio"; }
 
 }  // namespace cairn::core

@@ -72,6 +72,10 @@ struct AgentOptions {
 
   /// @return false and sets `*why` (field, value, rule) when any field is invalid.
   bool IsValid(std::string* why) const;
+
+  /// On a radio link (link.link == "radio"), lowers map telemetry's budget to core::kRadioMapShare and the
+  /// camera's to core::kRadioCameraShare of link.link_kbps (never raises them). @return what changed, or "".
+  std::string ApplyLinkBudget();
 };
 
 /// Parses --start: "X,Y" or "X,Y,YAW" (metres, metres, radians) into options->start_W, or "slot:K" (K in
