@@ -114,5 +114,26 @@ TEST(StartPose, ParsesAndRejects) {
   }
 }
 
+
+// A radio link holds the robot's bulk traffic to shares of its budget; other links leave the config alone.
+TEST(AgentOptions, ARadioLinkLowersMapAndCameraBudgetsToTheirSharesOnly) {
+  AgentOptions options;
+  options.robot_id = "r1";
+  options.perception.telemetry.budget_bits_per_s = 100000;
+  options.perception.camera_budget_bits_per_s = 4000000;
+  options.link = core::LinkOptions{"lan", "10.77.0.0/24", "", 0};
+  EXPECT_EQ(options.ApplyLinkBudget(), "");
+  EXPECT_EQ(options.perception.camera_budget_bits_per_s, 4000000);
+  options.link = core::LinkOptions{"radio", "10.77.0.0/24", "", 1000};
+  EXPECT_EQ(options.ApplyLinkBudget(), "camera 4000000 -> 150000 bit/s");  // map: 100 kbit/s is under 25 %
+  EXPECT_DOUBLE_EQ(options.perception.telemetry.budget_bits_per_s, 100000);
+  EXPECT_DOUBLE_EQ(options.perception.camera_budget_bits_per_s, 150000);
+  options.link.link_kbps = 200;
+  EXPECT_EQ(options.ApplyLinkBudget(), "map telemetry 100000 -> 50000 bit/s, camera 150000 -> 30000 bit/s");
+  std::string why;
+  EXPECT_TRUE(options.IsValid(&why)) << why;
+}
+
 }  // namespace
 }  // namespace cairn::agent
+
