@@ -25,6 +25,7 @@
 #include "cairn/base/fleet_client.h"
 #include "cairn/base/gui_bridge.h"
 #include "cairn/core/dds.h"
+#include "cairn/core/link_cli.h"
 #include "cairn/core/shutdown.h"
 
 namespace {
@@ -216,15 +217,7 @@ int main(int argc, char** argv) {
   app.add_flag("--json", shell_options.json, "print one JSON object per command, progress line and event");
   app.add_option("--script", script, "run the commands of FILE, stop at the first failure");
   app.add_flag("--keep-going", keep_going, "with a script or stdin: run every line even after a failure");
-  app.add_option("--link", options.link.link, "loopback | lan | radio: the network DDS talks on (lan and radio "
-                                              "need --subnet or --interface; nothing else is listened on or sent "
-                                              "to; radio also --link-kbps)")
-      ->capture_default_str();
-  app.add_option("--link-kbps", options.link.link_kbps, "with --link radio: the link's budget, kbit/s (a robot "
-                                                         "holds its map and camera to shares of it)");
-  app.add_option("--subnet", options.link.subnet, "with --link lan: the IPv4 subnet to use, e.g. 10.77.0.0/24 "
-                                                  "(this host's one address in it)");
-  app.add_option("--interface", options.link.interface_name, "with --link lan: the interface to use, e.g. eth1");
+  cairn::core::AddLinkFlags(app, &options.link);
   app.add_option("--dds-profiles", options.dds_profiles_file, "Fast DDS XML profiles file (default: shipped "
                                                               "loopback-only config/dds_profiles.xml)");
   app.add_option("--command-timeout", options.command_timeout_s, "seconds to wait for a robot's answer")

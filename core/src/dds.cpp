@@ -341,6 +341,14 @@ std::string ResolveLinkAddress(const LinkOptions& link, Ipv4Subnet* subnet) {
   return matches.front().first;
 }
 
+Locator_t Udpv4Locator(const std::string& address, std::uint32_t port) {
+  Locator_t l;
+  l.kind = LOCATOR_KIND_UDPv4;
+  IPLocator::setIPv4(l, address);
+  l.port = port;
+  return l;
+}
+
 namespace {
 
 // The lan link (LinkOptions): the profile's QoS with its transport and locators on `address` only.
@@ -349,24 +357,17 @@ void ApplyLanLink(const std::string& address, int domain_id, dds::DomainParticip
   udp->interfaceWhiteList = {address};
   qos->transport().use_builtin_transports = false;
   qos->transport().user_transports = {udp};
-  const auto locator = [](const std::string& ip, std::uint32_t port) {
-    Locator_t l;
-    l.kind = LOCATOR_KIND_UDPv4;
-    IPLocator::setIPv4(l, ip);
-    l.port = port;
-    return l;
-  };
   // RTPS well-known ports (PB 7400, DG 250, d0..d3 = 0, 10, 1, 11): participant id 0's are set here only
   // for the multicast group; unicast ports are left to Fast DDS (0), per participant.
   const std::uint32_t base = 7400 + 250 * static_cast<std::uint32_t>(domain_id);
   auto& builtin = qos->wire_protocol().builtin;
   builtin.metatrafficUnicastLocatorList.clear();
-  builtin.metatrafficUnicastLocatorList.push_back(locator(address, 0));
+  builtin.metatrafficUnicastLocatorList.push_back(Udpv4Locator(address, 0));
   builtin.metatrafficMulticastLocatorList.clear();
-  builtin.metatrafficMulticastLocatorList.push_back(locator("239.255.0.1", base));
+  builtin.metatrafficMulticastLocatorList.push_back(Udpv4Locator("239.255.0.1", base));
   builtin.initialPeersList.clear();  // none: Fast DDS announces on the metatraffic multicast locators then
   qos->wire_protocol().default_unicast_locator_list.clear();
-  qos->wire_protocol().default_unicast_locator_list.push_back(locator(address, 0));
+  qos->wire_protocol().default_unicast_locator_list.push_back(Udpv4Locator(address, 0));
   qos->wire_protocol().default_multicast_locator_list.clear();
 }
 

@@ -290,13 +290,7 @@ eprosima::fastdds::dds::DomainParticipantQos LanQos(const std::string& whitelist
   auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
   udp->interfaceWhiteList.push_back(whitelist);
   qos.transport().user_transports.push_back(udp);
-  const auto locator = [](const std::string& address, std::uint32_t port) {
-    Locator_t l;
-    l.kind = LOCATOR_KIND_UDPv4;
-    IPLocator::setIPv4(l, address);
-    l.port = port;
-    return l;
-  };
+  const auto locator = Udpv4Locator;
   qos.wire_protocol().builtin.metatrafficUnicastLocatorList.push_back(locator(whitelist, 7410));
   if (!peer.empty()) qos.wire_protocol().builtin.initialPeersList.push_back(locator(peer, 7410));
   if (!multicast.empty()) qos.wire_protocol().builtin.metatrafficMulticastLocatorList.push_back(locator(multicast, 7400));

@@ -12,6 +12,7 @@
 #include "cairn/agent/mode_manager.h"
 #include "cairn/agent/robot_agent.h"
 #include "cairn/core/dds.h"
+#include "cairn/core/link_cli.h"
 #include "cairn/core/shutdown.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/simulated_platform.h"
@@ -40,15 +41,7 @@ int main(int argc, char** argv) {
   app.add_option("--config", config_file, "YAML config file (see config/agent.yaml)");
   app.add_option("--pcd-resolution", options.pcd_resolution_m, "voxel size for .pcd worlds, metres")
       ->capture_default_str();
-  app.add_option("--link", options.link.link, "loopback | lan | radio: the network DDS talks on (lan and radio "
-                                              "need --subnet or --interface; nothing else is listened on or sent "
-                                              "to; radio also --link-kbps)")
-      ->capture_default_str();
-  app.add_option("--link-kbps", options.link.link_kbps, "with --link radio: the link's budget, kbit/s (a robot "
-                                                         "holds its map and camera to shares of it)");
-  app.add_option("--subnet", options.link.subnet, "with --link lan: the IPv4 subnet to use, e.g. 10.77.0.0/24 "
-                                                  "(this host's one address in it)");
-  app.add_option("--interface", options.link.interface_name, "with --link lan: the interface to use, e.g. eth1");
+  cairn::core::AddLinkFlags(app, &options.link);
   app.add_option("--dds-profiles", options.dds_profiles_file, "Fast DDS XML profiles file (default: shipped "
                                                               "loopback-only config/dds_profiles.xml)");
   app.add_option("--map-save", options.map_save_path,

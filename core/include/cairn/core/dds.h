@@ -99,6 +99,9 @@ std::string ResolveLinkAddress(const LinkOptions& link, Ipv4Subnet* subnet);
 /// "loopback" | "lan" check of `link` (names the field and value). @throws std::invalid_argument.
 void CheckLinkOptions(const LinkOptions& link);
 
+/// A UDPv4 locator: `address` (dotted quad), `port` (0: Fast DDS chooses).
+eprosima::fastrtps::rtps::Locator_t Udpv4Locator(const std::string& address, std::uint32_t port);
+
 /// How a participant is created.
 struct ParticipantOptions {
   int domain_id = 0;                                    ///< DDS domain, [0, 232].
