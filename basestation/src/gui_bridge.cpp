@@ -658,38 +658,42 @@ class GuiBridge::Impl {
       const double dt = map_tokens_at_ == Clock::time_point{} ? 2.0 : std::chrono::duration<double>(now - map_tokens_at_).count();
       map_tokens_at_ = now;
       map_tokens_ = std::min(2.0 * budget_Bps, map_tokens_ + dt * budget_Bps);
-      std::vector<std::pair<std::pair<int, int>, const std::string*>> changed;
+      // Each changed column with when it was last sent (never: the epoch, so it sorts first).
+      struct Changed {
+        std::pair<int, int> key;
+        const std::string* cubes;
+        Clock::time_point sent_at;
+      };
+      std::vector<Changed> changed;
       for (const auto& [key, cubes] : chunks) {
-        const auto sent = map_chunks_.find(key);
-        if (sent != map_chunks_.end() && sent->second == cubes) continue;
-        if (sent != map_chunks_.end() && std::chrono::duration<double>(now - map_chunk_sent_at_[key]).count() < options_.map_resend_s) continue;
-        changed.emplace_back(key, &cubes);
+        const auto sent = map_sent_.find(key);
+        if (sent == map_sent_.end()) {
+          changed.push_back({key, &cubes, Clock::time_point{}});
+        } else if (sent->second.cubes != cubes &&
+                   std::chrono::duration<double>(now - sent->second.sent_at).count() >= options_.map_resend_s) {
+          changed.push_back({key, &cubes, sent->second.sent_at});
+        }
       }
-      std::stable_sort(changed.begin(), changed.end(), [this](const auto& a, const auto& b) {
-        const bool a_new = map_chunks_.count(a.first) == 0, b_new = map_chunks_.count(b.first) == 0;
-        if (a_new != b_new) return a_new;
-        return map_chunk_sent_at_[a.first] < map_chunk_sent_at_[b.first];
-      });
+      std::stable_sort(changed.begin(), changed.end(),
+                       [](const Changed& a, const Changed& b) { return a.sent_at < b.sent_at; });
       std::vector<std::string> entities, deletions;
-      for (const auto& [key, cubes] : changed) {
+      for (const Changed& c : changed) {
         if (map_tokens_ <= 0) {
           std::lock_guard<std::mutex> lock(mutex_);
           stats_.map_chunks_deferred += 1;
           continue;
         }
-        entities.push_back(ChunkEntity(key, *cubes, ns));
+        entities.push_back(ChunkEntity(c.key, *c.cubes, ns));
         map_tokens_ -= static_cast<double>(entities.back().size());
-        map_chunks_[key] = *cubes;
-        map_chunk_sent_at_[key] = now;
+        map_sent_[c.key] = {*c.cubes, now};
       }
-      for (auto it = map_chunks_.begin(); it != map_chunks_.end();) {
+      for (auto it = map_sent_.begin(); it != map_sent_.end();) {
         if (chunks.count(it->first)) {
           ++it;
           continue;
         }
         deletions.push_back(Deletion(ChunkId(it->first), ns).dump());
-        map_chunk_sent_at_.erase(it->first);
-        it = map_chunks_.erase(it);
+        it = map_sent_.erase(it);
       }
       // At most ~64 columns per message so that no single frame grows past a few MB.
       for (std::size_t i = 0; i < std::max<std::size_t>(entities.size(), deletions.empty() ? 0 : 1); i += 64) {
@@ -707,7 +711,7 @@ class GuiBridge::Impl {
       return;
     }
     std::vector<std::string> entities;
-    for (const auto& [key, cubes] : map_chunks_) entities.push_back(ChunkEntity(key, cubes, ns));
+    for (const auto& [key, sent] : map_sent_) entities.push_back(ChunkEntity(key, sent.cubes, ns));
     for (std::size_t i = 0; i < entities.size(); i += 64) {
       const std::size_t end = std::min(entities.size(), i + 64);
       server_->SendTo(*only, map_, ns,
@@ -757,8 +761,11 @@ class GuiBridge::Impl {
   std::map<std::string, std::deque<TrailPoint>> trails_;
   std::map<std::string, std::string> last_paths_;
   std::string last_stairs_;
-  std::map<std::pair<int, int>, std::string> map_chunks_;  // the columns as last sent
-  std::map<std::pair<int, int>, Clock::time_point> map_chunk_sent_at_;
+  struct SentColumn {
+    std::string cubes;  // the column's cubes as last sent
+    Clock::time_point sent_at;
+  };
+  std::map<std::pair<int, int>, SentColumn> map_sent_;
   double map_tokens_ = 0;  // bytes the map may send now (token bucket)
   Clock::time_point map_tokens_at_{};
   Clock::time_point last_map_{};

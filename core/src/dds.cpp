@@ -18,7 +18,6 @@
 
 #include <arpa/inet.h>
 #include <ifaddrs.h>
-#include <net/if.h>
 #include <netinet/in.h>
 
 #ifndef CAIRN_CONFIG_DIR
@@ -116,6 +115,11 @@ std::uint32_t LocatorAddress(const Locator_t& locator) {
          (static_cast<std::uint32_t>(locator.address[14]) << 8) | locator.address[15];
 }
 
+// The netmask of a prefix length in [0, 32], host byte order.
+std::uint32_t PrefixMask(int prefix_length) {
+  return prefix_length == 0 ? 0 : ~std::uint32_t{0} << (32 - prefix_length);
+}
+
 bool IsLoopbackAddress(std::uint32_t address) { return (address >> 24) == 127; }
 bool IsMulticastAddress(std::uint32_t address) { return (address >> 28) == 0xE; }
 
@@ -175,15 +179,13 @@ Ipv4Subnet ParseIpv4Subnet(const std::string& text) {
   if (!ok) throw std::invalid_argument("subnet '" + text + "' must be an IPv4 CIDR, e.g. 10.77.0.0/24");
   Ipv4Subnet subnet;
   subnet.prefix_length = std::stoi(length);
-  const std::uint32_t mask = subnet.prefix_length == 0 ? 0 : ~std::uint32_t{0} << (32 - subnet.prefix_length);
-  subnet.network = value & mask;
+  subnet.network = value & PrefixMask(subnet.prefix_length);
   subnet.text = text;
   return subnet;
 }
 
 bool Ipv4Subnet::Contains(std::uint32_t address) const {
-  const std::uint32_t mask = prefix_length == 0 ? 0 : ~std::uint32_t{0} << (32 - prefix_length);
-  return (address & mask) == network;
+  return (address & PrefixMask(prefix_length)) == network;
 }
 
 bool NetworkScope::Contains(std::uint32_t address) const {
@@ -321,7 +323,7 @@ std::string ResolveLinkAddress(const LinkOptions& link, Ipv4Subnet* subnet) {
     while (prefix < 32 && (mask & (0x80000000u >> prefix)) != 0) ++prefix;
     Ipv4Subnet own;
     own.prefix_length = prefix;
-    own.network = address & (prefix == 0 ? 0 : ~std::uint32_t{0} << (32 - prefix));
+    own.network = address & PrefixMask(prefix);
     own.text = std::string(text) + "/" + std::to_string(prefix);
     matches.emplace_back(text, own);
   }
@@ -357,8 +359,8 @@ void ApplyLanLink(const std::string& address, int domain_id, dds::DomainParticip
   udp->interfaceWhiteList = {address};
   qos->transport().use_builtin_transports = false;
   qos->transport().user_transports = {udp};
-  // RTPS well-known ports (PB 7400, DG 250, d0..d3 = 0, 10, 1, 11): participant id 0's are set here only
-  // for the multicast group; unicast ports are left to Fast DDS (0), per participant.
+  // The discovery multicast group's port is RTPS's well-known PB + DG * domain + d0 (7400 + 250 d + 0); unicast
+  // ports are left to Fast DDS (0: chosen per participant).
   const std::uint32_t base = 7400 + 250 * static_cast<std::uint32_t>(domain_id);
   auto& builtin = qos->wire_protocol().builtin;
   builtin.metatrafficUnicastLocatorList.clear();
