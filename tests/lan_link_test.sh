@@ -123,16 +123,7 @@ command_round_trips() {
     for _ in $(seq 1 30); do echo "request-control r1"; echo "sleep 0.2"; done
     echo "stop r1"
   } | linksim_exec "$P" base "$BASE" --base-id opA --domain "$DOMAIN" "${LAN[@]}" --json >"$LOGS/rtt.json" 2>"$LOGS/rtt.err"
-  summary=$(node -e '
-    const lines = require("fs").readFileSync(process.argv[1], "utf8").split("\n").filter((l) => l.startsWith("{"));
-    const all = lines.map((l) => JSON.parse(l));
-    const r = all.filter((o) => o.command === "request-control").slice(1);
-    const drove = all.some((o) => o.command === "goto" && o.ok === true);
-    const ok = r.filter((o) => o.ok === true && o.result === "accepted");
-    const t = ok.map((o) => o.round_trip_ms).sort((a, b) => a - b);
-    const q = (p) => t.length ? t[Math.min(t.length - 1, Math.floor(p * t.length))].toFixed(1) : "-1";
-    console.log(`${ok.length} ${r.length} ${q(0.5)} ${q(0.99)} ${t.length ? t[t.length - 1].toFixed(1) : "-1"} ${drove}`);
-  ' "$LOGS/rtt.json")
+  summary=$(node "$ROOT/tests/linksim/round_trips.mjs" "$LOGS/rtt.json" 1)
   read -r ACCEPTED answered P50 P99 WORST drove <<<"$summary"
   echo "FIGURE ${label}_command_round_trip_ms median $P50 p99 $P99 max $WORST ($ACCEPTED of 30 accepted)"
   [ "$drove" = true ] || fail "$label: the goto that was to keep r1 driving was not accepted: $(head -c 400 "$LOGS/rtt.json")"

@@ -18,6 +18,7 @@ namespace msgs = cairn_msgs;
 using nlohmann::json;
 using shell::Dump;
 using shell::Fixed;
+using shell::PrintTable;
 using shell::ParseNumber;
 using shell::StaircaseJson;
 using shell::YawOf;
@@ -117,24 +118,6 @@ json EventJson(const OperatorEvent& e) {
   return j;
 }
 
-// Prints rows as columns separated by two spaces, each as wide as its widest cell.
-void PrintTable(std::ostream& out, const std::vector<std::vector<std::string>>& rows) {
-  std::vector<std::size_t> widths;
-  for (const auto& row : rows) {
-    widths.resize(std::max(widths.size(), row.size()));
-    for (std::size_t c = 0; c < row.size(); ++c) widths[c] = std::max(widths[c], row[c].size());
-  }
-  for (const auto& row : rows) {
-    std::string line;
-    for (std::size_t c = 0; c < row.size(); ++c) {
-      line += row[c];
-      if (c + 1 < row.size()) line += std::string(widths[c] - row[c].size() + 2, ' ');
-    }
-    out << line << "\n";
-  }
-  out.flush();
-}
-
 std::string Truncate(const std::string& text, std::size_t n) {
   return text.size() <= n ? text : text.substr(0, n - 3) + "...";
 }
@@ -156,7 +139,7 @@ const std::vector<std::string>& CommandShell::CommandNames() {
   static const std::vector<std::string> kNames = {
       "robots", "watch", "status", "request-control", "release", "mode",     "goto",   "path",   "plan",
       "teleop", "stop",  "wait",   "sleep",           "map",     "snapshot", "stairs", "events", "place",
-      "places", "help"};
+      "places", "links", "help"};
   return kNames;
 }
 
@@ -168,6 +151,9 @@ std::string CommandShell::Help() {
          "  watch [PERIOD_S] [--count N]        the robots table refreshed in place until a key is pressed\n"
          "                                      (in scripts: N times, default 1)\n"
          "  status R                            R at a glance: pose, control, goal, refusal, valid actions\n"
+         "  links [R]                           each robot's link: class and budget, last heard, probe round\n"
+         "                                      trip, state samples lost, what it sends per topic class; warns\n"
+         "                                      when a robot sends more than its budget or stops answering\n"
          "  help R                              what you may do with R now, and how\n"
          "  request-control R                   ask for R's control lock (refused if another basestation "
          "holds it)\n"
@@ -205,9 +191,8 @@ std::string CommandShell::Help() {
          "(Ctrl-C).\n"
          "Refusals say why and what is valid now; a refused, failed, timed-out or cancelled command exits "
          "1,\n"
-         "an invalid one 2. Events (arrivals, failures, losses, locks, stops, staircases, robots close to "
-         "each\n"
-         "other) print as they happen.";
+         "an invalid one 2. Events (robots joining, arrivals, failures, losses, robots leaving or over their link\n"
+         "budget, locks, stops, staircases, robots close to each other) print as they happen.";
 }
 
 bool CommandShell::Cancelled() {
@@ -370,6 +355,7 @@ int CommandShell::Run(const std::string& line) {
   }
   if (cmd == "robots") return args.empty() ? Robots() : UsageError(cmd, "usage: robots");
   if (cmd == "watch") return Watch(args);
+  if (cmd == "links") return Links(args);
   if (cmd == "events") return Events(args);
   if (cmd == "status") return need(1, "status R") ? Status(args) : kUsage;
   if (cmd == "request-control") return need(1, "request-control R") ? Control(args, true) : kUsage;

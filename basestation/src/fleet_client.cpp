@@ -49,6 +49,11 @@ class FleetClient::Impl {
     if (!options.dds_profiles_file.empty()) p.profiles_file = options.dds_profiles_file;
     p.link = options.link;
     p.name = "cairn_base/" + options.base_id;
+    // Fast DDS's discovery thread must not wait for mutex_: the monitor loop applies what it collects.
+    p.on_participant_gone = [this](const std::string& participant, bool dropped) {
+      std::lock_guard<std::mutex> guard(gone_mutex_);
+      gone_participants_.emplace_back(participant, dropped);
+    };
     participant_ = std::make_unique<core::Participant>(p);
     participant_id_ = participant_->participant_id();
     info_writer_ =
@@ -68,12 +73,31 @@ class FleetClient::Impl {
         *participant_, "cairn/command_response", "cairn.command",
         [this](const msgs::CommandResponse& m, const auto&) { OnResponse(m); });
     state_reader_ = std::make_unique<core::Reader<msgs::RobotStatePubSubType>>(
-        *participant_, "cairn/robot_state", "cairn.state", [this](const msgs::RobotState& m, const auto&) {
+        *participant_, "cairn/robot_state", "cairn.state",
+        [this](const msgs::RobotState& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          const auto now = SteadyClock::now();
+          std::vector<ClassUsage> usage;
+          for (const msgs::LinkClassUsage& u : m.link_usage()) {
+            usage.push_back({u.topic_class(), u.sent_kbps(), u.sent_bytes()});
+          }
           Update(m.robot_id(), [&](RobotView& v) {
             v.state = m;
             v.platform = m.platform();
-            v.state_received = SteadyClock::now();
+            v.state_received = now;
+            links_.OnState(m.robot_id(), core::WriterIdOf(info.publication_handle),
+                           static_cast<std::uint64_t>(info.sample_identity.sequence_number().to64long()), now);
+            if (!usage.empty()) links_.OnUsage(m.robot_id(), std::move(usage));  // once a second
           });
+        });
+    probe_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(*participant_, "cairn/link_probe",
+                                                                           "cairn.command");
+    probe_reply_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
+        *participant_, "cairn/link_probe_reply", "cairn.command", [this](const msgs::PingPong& m, const auto&) {
+          if (m.base_id() != options_.base_id || m.body() != participant_id_) return;  // another base's probe
+          const auto now = SteadyClock::now();
+          std::lock_guard<std::mutex> lock(mutex_);
+          if (robots_.count(m.robot_id()) == 0) return;  // announces itself first
+          links_.OnProbeReply(m.robot_id(), m.request_id(), now);
         });
     path_request_writer_ = std::make_unique<core::Writer<msgs::PathRequestPubSubType>>(
         *participant_, "cairn/path_request", "cairn.command");
@@ -107,10 +131,17 @@ class FleetClient::Impl {
             std::lock_guard<std::mutex> lock(mutex_);
             robot_by_writer_[info.publication_handle] = m.agent_id();
             current_writer_[m.agent_id()] = info.publication_handle;
+            participant_of_robot_[m.agent_id()] = core::ParticipantIdOf(info.publication_handle);
           }
           Update(m.agent_id(), [&](RobotView& v) {
             v.platform = m.platform();
             v.capabilities = m.capabilities();
+            v.sensors = m.sensors();
+            v.map_resolution_m =
+                std::isfinite(m.map_resolution_m()) ? std::max(0.0, m.map_resolution_m()) : 0.0;
+            v.version = m.version();
+            v.announced = true;
+            links_.OnInfo(m.agent_id(), m.link(), m.link_kbps());
             v.max_speed_mps = std::isfinite(m.max_speed_mps()) ? std::max(0.0, m.max_speed_mps()) : 0.0;
             v.max_reverse_speed_mps =
                 std::isfinite(m.max_reverse_speed_mps()) ? std::max(0.0, m.max_reverse_speed_mps()) : 0.0;
@@ -139,6 +170,7 @@ class FleetClient::Impl {
     cv_.notify_all();
     if (monitor_.joinable()) monitor_.join();
     response_reader_.reset();
+    probe_reply_reader_.reset();
     path_response_reader_.reset();
     global_path_reader_.reset();
     local_plan_reader_.reset();
@@ -157,6 +189,7 @@ class FleetClient::Impl {
       change(v);
       v.last_seen = SteadyClock::now();
       v.lost = false;
+      v.left = false;
       v.lost_reason.clear();
     }
     cv_.notify_all();
@@ -199,8 +232,27 @@ class FleetClient::Impl {
     cv_.notify_all();
   }
 
-  // Applies staleness to a copy of a view.
+  // Robots whose process left cleanly (participant removed, not dropped) since the last call: shown "left".
+  void ApplyGoneParticipants() {
+    std::vector<std::pair<std::string, bool>> gone;
+    {
+      std::lock_guard<std::mutex> guard(gone_mutex_);
+      gone.swap(gone_participants_);
+    }
+    for (const auto& [participant, dropped] : gone) {
+      for (auto& [robot_id, robot_participant] : participant_of_robot_) {
+        if (robot_participant != participant) continue;
+        RobotView& v = robots_[robot_id];
+        v.lost = true;
+        v.left = !dropped;
+        v.lost_reason = dropped ? "its participant's lease expired" : "its process exited";
+      }
+    }
+  }
+
+  // Applies staleness and the link monitor's view to a copy of a view.
   RobotView WithStaleness(RobotView v, core::SteadyTime now) const {
+    v.link = links_.View(v.robot_id, now);
     if (!v.lost && v.state && core::SecondsBetween(v.last_seen, now) > options_.lost_after_s) {
       v.lost = true;
       v.lost_reason = "no state for " + std::to_string(static_cast<int>(core::SecondsBetween(v.last_seen, now))) + " s";
@@ -276,7 +328,19 @@ class FleetClient::Impl {
   // Watches the fleet at 10 Hz: staleness and proximity change without a message, so polling it is.
   void MonitorLoop() {
     std::unique_lock<std::mutex> lock(mutex_);
-    while (!stop_monitor_) {
+    for (std::uint64_t tick = 0; !stop_monitor_; ++tick) {
+      if (tick % 10 == 0) {  // the link probe, every second
+        const std::uint32_t probe_id = ++last_probe_id_;
+        links_.OnProbeSent(probe_id, SteadyClock::now());
+        lock.unlock();
+        msgs::PingPong probe;
+        probe.request_id(probe_id);
+        probe.base_id(options_.base_id);
+        probe.body(participant_id_);
+        probe_writer_->Write(probe);
+        lock.lock();
+      }
+      ApplyGoneParticipants();
       std::vector<RobotView> views;
       const auto now = SteadyClock::now();
       for (const auto& [id, view] : robots_) views.push_back(WithStaleness(view, now));
@@ -350,6 +414,11 @@ class FleetClient::Impl {
   std::map<std::string, RobotView> robots_;
   std::map<eprosima::fastrtps::rtps::InstanceHandle_t, std::string> robot_by_writer_;
   std::map<std::string, eprosima::fastrtps::rtps::InstanceHandle_t> current_writer_;  // newest agent-info writer
+  std::map<std::string, std::string> participant_of_robot_;  // robot id -> its newest process (ParticipantIdOf)
+  LinkMonitor links_;
+  std::uint32_t last_probe_id_ = 0;
+  std::mutex gone_mutex_;  // guards gone_participants_ only (taken on Fast DDS's discovery thread)
+  std::vector<std::pair<std::string, bool>> gone_participants_;  // (participant, dropped)
   std::map<std::string, msgs::CommandResponse> responses_;  // answers to awaited_ requests only
   std::map<uint32_t, msgs::PathResponse> path_responses_;    // answers to awaited_paths_ only
   std::set<std::string> awaited_;
@@ -366,6 +435,8 @@ class FleetClient::Impl {
   std::unique_ptr<core::Writer<msgs::StopRequestPubSubType>> stop_writer_;
   std::unique_ptr<core::Writer<msgs::TeleopTwistPubSubType>> teleop_writer_;
   std::unique_ptr<core::Writer<msgs::PathRequestPubSubType>> path_request_writer_;
+  std::unique_ptr<core::Writer<msgs::PingPongPubSubType>> probe_writer_;
+  std::unique_ptr<core::Reader<msgs::PingPongPubSubType>> probe_reply_reader_;
   std::unique_ptr<core::Reader<msgs::CommandResponsePubSubType>> response_reader_;
   std::unique_ptr<core::Reader<msgs::PathResponsePubSubType>> path_response_reader_;
   std::unique_ptr<core::Reader<msgs::GlobalPathPubSubType>> global_path_reader_;

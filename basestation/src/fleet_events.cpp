@@ -19,6 +19,21 @@ std::string Fixed2(double v) {
   return text;
 }
 
+std::string Fixed1(double v) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.1f", v);
+  return text;
+}
+
+// "camera 310.2 kbit/s": the class sending most.
+std::string BusiestClass(const LinkView& link) {
+  const ClassUsage* busiest = nullptr;
+  for (const ClassUsage& u : link.usage) {
+    if (busiest == nullptr || u.sent_kbps > busiest->sent_kbps) busiest = &u;
+  }
+  return busiest == nullptr ? "no usage reported" : busiest->topic_class + " " + Fixed1(busiest->sent_kbps) + " kbit/s";
+}
+
 OperatorEvent Event(const std::string& kind, const std::string& robot, std::string message) {
   OperatorEvent e;
   e.kind = kind;
@@ -59,6 +74,8 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
   auto found = last_.find(r);
   Last now;
   now.lost = view.lost;
+  now.left = view.left;
+  now.announced = view.announced;
   now.has_state = view.state.has_value();
   if (view.state) {
     now.holder = view.state->holder_id();
@@ -67,12 +84,32 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
     now.stops = view.state->stops();
     now.nav_reason = view.state->nav_reason();
   }
+  // Joining is presence, not old news: a basestation that starts hears who is there.
+  if (now.announced && (found == last_.end() || !found->second.announced)) {
+    OperatorEvent e = Event("joined", r, r + " joined: " + DescribeAgent(view));
+    events->push_back(e);
+  }
+  // Over budget from the first view on; back within it below 90 % (no flapping at the edge).
+  const LinkView& link = view.link;
+  const bool was_over = found != last_.end() && found->second.over_budget;
+  now.over_budget = was_over ? link.budget_kbps > 0 && link.sent_kbps > 0.9 * link.budget_kbps : link.over_budget;
+  if (now.over_budget && !was_over) {
+    OperatorEvent e = Event("over_budget", r,
+                            r + " sends " + Fixed1(link.sent_kbps) + " kbit/s, over its link budget of " +
+                                Fixed1(link.budget_kbps) + " kbit/s (" + BusiestClass(link) + ")");
+    e.reason = BusiestClass(link);
+    events->push_back(e);
+  }
   if (found == last_.end()) {
     last_[r] = now;
     return;
   }
   Last& last = found->second;
-  if (now.lost != last.lost) {
+  if (now.left && !last.left) {
+    OperatorEvent e = Event("left", r, r + " left (" + view.lost_reason + ")");
+    e.reason = view.lost_reason;
+    events->push_back(e);
+  } else if (now.lost != last.lost && !(now.lost && now.left)) {
     OperatorEvent e = Event(now.lost ? "lost" : "back", r,
                             now.lost ? r + " lost (" + view.lost_reason + ")" : r + " is back");
     e.reason = now.lost ? view.lost_reason : "";

@@ -1,6 +1,7 @@
 #include "cairn/base/operator_text.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <utility>
 
 namespace cairn::base {
@@ -97,6 +98,32 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
   actions.push_back("release");
   actions.push_back("stop");
   return actions;
+}
+
+std::string DescribeAgent(const RobotView& view) {
+  auto joined = [](const std::vector<std::string>& words) {
+    std::string text;
+    for (const std::string& w : words) text += (text.empty() ? "" : " ") + w;
+    return text;
+  };
+  auto fixed = [](double v, int digits) {
+    char text[32];
+    std::snprintf(text, sizeof(text), "%.*f", digits, v);
+    return std::string(text);
+  };
+  std::vector<std::string> parts;
+  if (!view.platform.empty()) parts.push_back(view.platform);
+  if (!view.version.empty()) parts.push_back("cairn " + view.version);
+  if (!view.capabilities.empty()) parts.push_back("modes " + joined(view.capabilities));
+  parts.push_back(view.sensors.empty() ? "no sensors" : "sensors " + joined(view.sensors));
+  parts.push_back(view.map_resolution_m > 0 ? "map " + fixed(view.map_resolution_m, 2) + " m" : "no map");
+  if (!view.link.link.empty()) {
+    parts.push_back("link " + view.link.link +
+                    (view.link.budget_kbps > 0 ? " " + fixed(view.link.budget_kbps, 0) + " kbit/s" : ""));
+  }
+  std::string text;
+  for (const std::string& p : parts) text += (text.empty() ? "" : ", ") + p;
+  return text;
 }
 
 std::string ValidActionsText(const RobotView& view, const std::string& base_id) {

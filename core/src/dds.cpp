@@ -463,7 +463,7 @@ void Participant::on_participant_discovery(dds::DomainParticipant*,
   using Status = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
   if (!options_.on_participant_gone) return;
   if (info.status == Status::REMOVED_PARTICIPANT || info.status == Status::DROPPED_PARTICIPANT) {
-    options_.on_participant_gone(ParticipantIdOf(info.info.m_guid));
+    options_.on_participant_gone(ParticipantIdOf(info.info.m_guid), info.status == Status::DROPPED_PARTICIPANT);
   }
 }
 

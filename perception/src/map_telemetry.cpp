@@ -554,6 +554,15 @@ bool MapTelemetrySender::EmitDelta(std::vector<MapUpdate>* out) {
   return true;
 }
 
+void MapTelemetrySender::SetRateShare(double share) {
+  if (!(share > 0.0 && share <= 1.0)) {
+    throw std::invalid_argument("MapTelemetrySender::SetRateShare: share = " + std::to_string(share) +
+                                " must be in (0, 1]");
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  rate_share_ = share;
+}
+
 std::vector<MapUpdate> MapTelemetrySender::Poll(double now_s) {
   if (!std::isfinite(now_s)) throw std::invalid_argument("MapTelemetrySender::Poll: now_s is not finite");
   std::lock_guard<std::mutex> lock(mutex_);
@@ -566,7 +575,8 @@ std::vector<MapUpdate> MapTelemetrySender::Poll(double now_s) {
     next_send_s_ = now_s;
   }
   if (now_s > last_now_s_) {
-    tokens_bits_ = std::min(depth_bits, tokens_bits_ + options_.budget_bits_per_s * (now_s - last_now_s_));
+    tokens_bits_ =
+        std::min(depth_bits, tokens_bits_ + rate_share_ * options_.budget_bits_per_s * (now_s - last_now_s_));
     last_now_s_ = now_s;
   }
   // Tolerance: a caller polling every period_s on a floating-point clock must not skip periods.

@@ -521,6 +521,34 @@ TEST(MapTelemetrySenderTest, ChangeBackIsNotSentAndLatestStateWins) {
   EXPECT_EQ(sender.stats().voxels_pending, 0u) << "a rejected batch changes nothing";
 }
 
+// A radio link shared by four robots: each sends at a quarter of its budget (the bucket refills 4x slower).
+TEST(MapTelemetrySenderTest, RateShareScalesTheRefillNotTheBurst) {
+  auto sent_bytes_in_20_s = [](double share) {
+    MapTelemetryOptions o;
+    o.budget_bits_per_s = 20000;
+    MapTelemetrySender sender("r1", kRes, o);
+    sender.SetRateShare(share);
+    std::vector<CoarseVoxel> changes;  // far more than 20 s of budget: noise-like states, poorly compressible
+    std::uint32_t bits = 12345;
+    for (int i = 0; i < 200000; ++i) {
+      bits = bits * 1103515245u + 12345u;
+      changes.push_back(V(i % 400 - 200, (i / 400) % 250 - 125, i / 100000, (bits >> 16) % 2 ? kOcc : kFree));
+    }
+    sender.AddChanges(changes);
+    for (int step = 0; step <= 200; ++step) sender.Poll(0.1 * step);
+    return static_cast<double>(sender.stats().budget_bytes_sent);
+  };
+  const double full = sent_bytes_in_20_s(1.0), quarter = sent_bytes_in_20_s(0.25);
+  const double depth_bytes = 20000 * 1.0 / 8;
+  EXPECT_LE(full, 20000 * 20.0 / 8 + depth_bytes);
+  EXPECT_GE(full, 0.9 * 20000 * 20.0 / 8);  // the budget was the limit, not the changes
+  EXPECT_LE(quarter, 0.25 * 20000 * 20.0 / 8 + depth_bytes);
+  EXPECT_GE(quarter, 0.8 * 0.25 * 20000 * 20.0 / 8);
+  MapTelemetrySender sender("r1", kRes);
+  EXPECT_THROW(sender.SetRateShare(0.0), std::invalid_argument);
+  EXPECT_THROW(sender.SetRateShare(1.5), std::invalid_argument);
+}
+
 // The DDS layer in a test: robot messages go to every basestation that has joined; a basestation whose map
 // needs a snapshot asks, at most every 2 s.
 struct Basestation {

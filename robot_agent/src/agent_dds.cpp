@@ -1,7 +1,9 @@
 #include "cairn/agent/agent_dds.h"
 
 #include <algorithm>
+#include <map>
 #include <mutex>
+#include <set>
 #include <stdexcept>
 
 #include "cairn/core/dds.h"
@@ -65,18 +67,24 @@ class AgentDds::Impl {
     if (!options.profiles_file.empty()) p.profiles_file = options.profiles_file;
     p.link = options.link;
     p.name = "cairn_agent/" + options.robot_id;
-    p.on_participant_gone = [this](const std::string& participant) {
+    p.on_participant_gone = [this](const std::string& participant, bool /*dropped*/) {
       std::lock_guard<std::mutex> guard(gone_mutex_);
       gone_participants_.push_back(participant);
     };
-    p.flow_controllers = {{"cairn.map", options.map_budget_bits_per_s, 100},
-                          {"cairn.camera", options.camera_budget_bits_per_s, 100}};
+    // One pair of bulk flow controllers per share of a shared radio (SetBulkShare picks one); Fast DDS cannot
+    // change a controller's budget once the participant exists.
+    for (int share : kBulkShares) {
+      p.flow_controllers.push_back({BulkController("cairn.map", share), options.map_budget_bits_per_s / share, 100});
+      p.flow_controllers.push_back(
+          {BulkController("cairn.camera", share), options.camera_budget_bits_per_s / share, 100});
+    }
     participant_ = std::make_unique<core::Participant>(p);
     MakeWriters();
   }
 
   ~Impl() {
     // Readers first so that no callback runs while the rest is torn down.
+    probe_reader_.reset();
     map_sync_reader_.reset();
     path_request_reader_.reset();
     control_reader_.reset();
@@ -103,12 +111,31 @@ class AgentDds::Impl {
         std::make_unique<core::Writer<msgs::GlobalPathPubSubType>>(p, "cairn/global_path", "cairn.latched");
     local_plan_writer_ =
         std::make_unique<core::Writer<msgs::LocalPlanPubSubType>>(p, "cairn/local_plan", "cairn.state");
-    map_writer_ = std::make_unique<core::Writer<msgs::MapUpdatePubSubType>>(p, "cairn/map_update",
-                                                                            "cairn.map", "cairn.map");
-    camera_writer_ = std::make_unique<core::Writer<msgs::CompressedImagePubSubType>>(
-        p, "cairn/camera", "cairn.camera", "cairn.camera");
+    MakeBulkWriters(1);
     staircase_writer_ = std::make_unique<core::Writer<msgs::StaircaseDetectionPubSubType>>(
         p, "cairn/staircase", "cairn.latched");
+    probe_reply_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(p, "cairn/link_probe_reply",
+                                                                                   "cairn.command");
+  }
+
+  // The map and camera writers on the flow controllers of `share` (bulk_mutex_ held, or before any Publish).
+  // What the old writers had sent stays counted.
+  void MakeBulkWriters(int share) {
+    if (map_writer_) retired_map_ = {retired_map_.first + map_writer_->bytes_written(),
+                                     retired_map_.second + map_writer_->samples_written()};
+    if (camera_writer_) retired_camera_ = {retired_camera_.first + camera_writer_->bytes_written(),
+                                           retired_camera_.second + camera_writer_->samples_written()};
+    map_writer_.reset();
+    camera_writer_.reset();
+    map_writer_ = std::make_unique<core::Writer<msgs::MapUpdatePubSubType>>(
+        *participant_, "cairn/map_update", "cairn.map", BulkController("cairn.map", share));
+    camera_writer_ = std::make_unique<core::Writer<msgs::CompressedImagePubSubType>>(
+        *participant_, "cairn/camera", "cairn.camera", BulkController("cairn.camera", share));
+    bulk_share_ = share;
+  }
+
+  static std::string BulkController(const char* name, int share) {
+    return share == 1 ? std::string(name) : std::string(name) + "/" + std::to_string(share);
   }
 
   // Each reader keeps only what is addressed to this robot and hands it on as a plain struct.
@@ -118,6 +145,17 @@ class AgentDds::Impl {
     listening_ = true;
     core::Participant& p = *participant_;
     const std::string& robot = options_.robot_id;
+    // A basestation's link probe, echoed at once: its round trip is the link's, not the control loop's.
+    probe_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
+        p, "cairn/link_probe", "cairn.command", [this, robot](const msgs::PingPong& m, const SampleInfo&) {
+          if (!m.robot_id().empty() && m.robot_id() != robot) return;
+          msgs::PingPong reply;
+          reply.request_id(m.request_id());
+          reply.base_id(m.base_id());
+          reply.robot_id(robot);
+          reply.body(m.body());  // the probing process's identity: bases sharing an id tell their probes apart
+          probe_reply_writer_->Write(reply);
+        });
     map_sync_reader_ = std::make_unique<core::Reader<msgs::MapSyncRequestPubSubType>>(
         p, "cairn/map_sync_request", "cairn.command",
         [this, robot](const msgs::MapSyncRequest& m, const auto&) {
@@ -138,6 +176,11 @@ class AgentDds::Impl {
     info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
         p, "cairn/agent_info", "cairn.latched",
         [this](const msgs::AgentInfo& m, const SampleInfo& info) {
+          if (m.kind() == msgs::AGENT_KIND_ROBOT) {
+            std::lock_guard<std::mutex> guard(peers_mutex_);
+            robot_peers_[core::WriterIdOf(info.publication_handle)] = {m.agent_id(), true};
+            return;
+          }
           if (m.kind() != msgs::AGENT_KIND_BASESTATION) return;
           const auto& caps = m.capabilities();
           handlers_.base_announced(BaseAnnouncement{
@@ -152,6 +195,18 @@ class AgentDds::Impl {
                              (status.alive_count_change == 0 && status.not_alive_count_change < 0);
           change.lost = core::IsLivelinessLoss(status);
           change.regained = status.alive_count_change > 0;
+          {
+            std::lock_guard<std::mutex> guard(peers_mutex_);
+            auto peer = robot_peers_.find(change.writer);
+            if (peer != robot_peers_.end()) {
+              if (change.unmatched) {
+                robot_peers_.erase(peer);
+              } else if (change.lost || change.regained) {
+                peer->second.second = change.regained && !change.lost;
+              }
+              return;  // a robot's: not a basestation's liveliness
+            }
+          }
           handlers_.base_liveliness(change);
         });
     control_reader_ = std::make_unique<core::Reader<msgs::ControlRequestPubSubType>>(
@@ -192,6 +247,8 @@ class AgentDds::Impl {
   AgentDdsOptions options_;
   AgentDdsHandlers handlers_;
   bool listening_ = false;
+  mutable std::mutex peers_mutex_;  // guards robot_peers_ only (taken on DDS threads)
+  std::map<std::string, std::pair<std::string, bool>> robot_peers_;  // agent-info writer -> (robot id, alive)
   std::mutex gone_mutex_;  // guards gone_participants_ only (taken on a DDS thread)
   std::vector<std::string>
       gone_participants_;  // reported by participant discovery, taken by the control loop
@@ -203,9 +260,15 @@ class AgentDds::Impl {
   std::unique_ptr<core::Writer<msgs::PathResponsePubSubType>> path_response_writer_;
   std::unique_ptr<core::Writer<msgs::GlobalPathPubSubType>> global_path_writer_;
   std::unique_ptr<core::Writer<msgs::LocalPlanPubSubType>> local_plan_writer_;
+  static constexpr int kBulkShares[] = {1, 2, 3, 4, 6, 8, 12, 16};
+  mutable std::mutex bulk_mutex_;  // guards the two bulk writers, replaced by SetBulkShare
   std::unique_ptr<core::Writer<msgs::MapUpdatePubSubType>> map_writer_;
   std::unique_ptr<core::Writer<msgs::CompressedImagePubSubType>> camera_writer_;
+  int bulk_share_ = 1;
+  std::pair<std::uint64_t, std::uint64_t> retired_map_{0, 0}, retired_camera_{0, 0};  // (bytes, samples)
   std::unique_ptr<core::Writer<msgs::StaircaseDetectionPubSubType>> staircase_writer_;
+  std::unique_ptr<core::Writer<msgs::PingPongPubSubType>> probe_reply_writer_;
+  std::unique_ptr<core::Reader<msgs::PingPongPubSubType>> probe_reader_;
   std::unique_ptr<core::Reader<msgs::MapSyncRequestPubSubType>> map_sync_reader_;
   std::unique_ptr<core::Reader<msgs::PathRequestPubSubType>> path_request_reader_;
   std::unique_ptr<core::Reader<msgs::ControlRequestPubSubType>> control_reader_;
@@ -274,14 +337,60 @@ bool AgentDds::Publish(const msgs::RobotState& state) { return impl_->state_writ
 bool AgentDds::Publish(const msgs::BehaviorTreeState& tree) { return impl_->tree_writer_->Write(tree); }
 bool AgentDds::Publish(const msgs::GlobalPath& path) { return impl_->global_path_writer_->Write(path); }
 bool AgentDds::Publish(const msgs::LocalPlan& plan) { return impl_->local_plan_writer_->Write(plan); }
-bool AgentDds::Publish(const msgs::MapUpdate& update) { return impl_->map_writer_->Write(update); }
-bool AgentDds::Publish(const msgs::CompressedImage& image) { return impl_->camera_writer_->Write(image); }
+bool AgentDds::Publish(const msgs::MapUpdate& update) {
+  std::lock_guard<std::mutex> guard(impl_->bulk_mutex_);
+  return impl_->map_writer_->Write(update);
+}
+bool AgentDds::Publish(const msgs::CompressedImage& image) {
+  std::lock_guard<std::mutex> guard(impl_->bulk_mutex_);
+  return impl_->camera_writer_->Write(image);
+}
+
+int AgentDds::SetBulkShare(int robots) {
+  int share = Impl::kBulkShares[0];
+  for (int s : Impl::kBulkShares) {
+    share = s;
+    if (s >= robots) break;
+  }
+  std::lock_guard<std::mutex> guard(impl_->bulk_mutex_);
+  if (share != impl_->bulk_share_) impl_->MakeBulkWriters(share);
+  return share;
+}
 bool AgentDds::Publish(const msgs::StaircaseDetection& staircase) {
   return impl_->staircase_writer_->Write(staircase);
 }
 
+std::vector<SentTraffic> AgentDds::SentByClass() const {
+  const Impl& i = *impl_;
+  auto sum = [](const char* topic_class, std::initializer_list<std::pair<std::uint64_t, std::uint64_t>> writers) {
+    SentTraffic t{topic_class, 0, 0};
+    for (const auto& [bytes, samples] : writers) {
+      t.bytes += bytes;
+      t.samples += samples;
+    }
+    return t;
+  };
+  auto of = [](const auto& writer) { return std::make_pair(writer->bytes_written(), writer->samples_written()); };
+  std::lock_guard<std::mutex> guard(i.bulk_mutex_);
+  return {sum("command", {of(i.response_writer_), of(i.path_response_writer_), of(i.probe_reply_writer_)}),
+          sum("state", {of(i.state_writer_), of(i.local_plan_writer_), of(i.info_writer_), of(i.staircase_writer_)}),
+          sum("tree", {of(i.tree_writer_), of(i.global_path_writer_)}),
+          sum("map", {of(i.map_writer_), i.retired_map_}),
+          sum("camera", {of(i.camera_writer_), i.retired_camera_})};
+}
+
+int AgentDds::RobotsOnLink() const {
+  std::set<std::string> robots = {impl_->options_.robot_id};
+  std::lock_guard<std::mutex> guard(impl_->peers_mutex_);
+  for (const auto& [writer, peer] : impl_->robot_peers_) {
+    if (peer.second) robots.insert(peer.first);
+  }
+  return static_cast<int>(robots.size());
+}
+
 void AgentDds::WaitForMapDelivery(std::chrono::milliseconds timeout) {
   const auto ms = timeout.count();
+  std::lock_guard<std::mutex> guard(impl_->bulk_mutex_);
   impl_->map_writer_->get()->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(
       static_cast<int32_t>(ms / 1000), static_cast<uint32_t>((ms % 1000) * 1000000)));
 }

@@ -86,6 +86,11 @@ std::vector<Eigen::Vector2i> PerceptionPipeline::TakeChangedTiles() {
 
 void PerceptionPipeline::RequestMapSnapshot() { sender_.RequestSnapshot(); }
 
+void PerceptionPipeline::SetLinkShare(double share) {
+  sender_.SetRateShare(share);  // checks the range
+  link_share_ = share;
+}
+
 void PerceptionPipeline::CollectChanges() {
   std::vector<perception::CoarseVoxel> changes = map_->TakeCoarseChanges(options_.map_coarse_levels);
   if (changes.empty()) return;
@@ -180,6 +185,10 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* s
     frame.T_W_C = image->T_MC;
     frame.jpeg = perception::EncodeGrayJpeg(perception::GrayFrame{image->width_px, image->height_px, image->pixels},
                                             options_.jpeg_quality);
+    // Within the camera's budget: a frame of B bytes holds the next one back B * 8 / budget seconds, so the
+    // robot never renders frames its link would only drop (on a radio link the budget is a share of it).
+    next_camera_s_ = std::max(next_camera_s_, now_s + static_cast<double>(frame.jpeg.size()) * 8.0 /
+                                                          (link_share_ * options_.camera_budget_bits_per_s));
     out.camera = std::move(frame);
     stats_.camera_ms_total += MsSince(start);
     ++stats_.camera_frames;

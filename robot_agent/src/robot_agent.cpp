@@ -108,6 +108,9 @@ class RobotAgent::Impl {
   // With mutex_ held: one control cycle (mode re-check, pose, obstacles, the running mode, the mux, the
   // driver).
   void Step(SteadyTime now);
+  // On a radio link: the robots on it share its bulk budget (map telemetry, camera), so a robot's share is
+  // 1 / n of what one robot alone would send (AgentOptions::ApplyLinkBudget). Control thread, once a second.
+  void ShareRadioLink();
   double NowS(SteadyTime t) const { return core::SecondsBetween(start_time_, t); }
 
   AgentOptions options_;
@@ -121,6 +124,7 @@ class RobotAgent::Impl {
   std::string pose_problem_;
   bool in_contact_ = false;
   PeriodWindow control_periods_;
+  int robots_on_link_ = 1;  // ShareRadioLink()
   Navigation navigation_;
   std::unique_ptr<PerceptionService> perception_;  // sensor, perception and navigation map threads
   WaypointMode* waypoint_ = nullptr;               // owned by modes_; holds the waypoint goal
@@ -190,6 +194,20 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       "domain {}",
       options.robot_id, options.platform, capabilities_.driver, capabilities_.description, start_M_.x_m,
       start_M_.y_m, start_M_.yaw_rad, options.domain_id);
+}
+
+void RobotAgent::Impl::ShareRadioLink() {
+  if (options_.link.link != "radio" || !options_.perception.enabled) return;
+  const int robots = std::max(1, dds_->RobotsOnLink());
+  if (robots == robots_on_link_) return;
+  robots_on_link_ = robots;
+  perception_->SetLinkShare(1.0 / robots);
+  const int flow_share = dds_->SetBulkShare(robots);
+  spdlog::info(
+      "robot {}: {} robots share the {} kbit/s radio link: map telemetry {:.0f} bit/s, camera {:.0f} bit/s "
+      "(DDS flow controllers at 1/{} of theirs)",
+      options_.robot_id, robots, options_.link.link_kbps, options_.perception.telemetry.budget_bits_per_s / robots,
+      options_.perception.camera_budget_bits_per_s / robots, flow_share);
 }
 
 ModeRegistry RobotAgent::Impl::MakeModes(const std::string& tree_file) {
@@ -370,6 +388,7 @@ void RobotAgent::Impl::Run() {
             1000 * kLoopPeriodS);
       }
     }
+    if (cycle % 50 == 0) ShareRadioLink();
     next += period;
     const auto now = SteadyClock::now();
     if (next < now) next = now;  // overrun: do not try to catch up

@@ -2,11 +2,13 @@
 
 #include <spdlog/spdlog.h>
 
+#include <chrono>
 #include <cmath>
 #include <set>
 #include <stdexcept>
 #include <utility>
 
+#include "cairn/core/time.h"
 #include "cairn/msgs/stamp.h"
 #include "cairn_msgs.h"
 
@@ -80,6 +82,8 @@ Telemetry::Telemetry(const AgentOptions& options, AgentDds* dds, const ModeContr
       platform_(options.platform),
       nav_platform_(options.navigation.platform.name),
       limits_(options.navigation.platform.limits),
+      link_(options.link),
+      map_resolution_m_(options.perception.enabled ? options.perception.map.resolution_m : 0.0),
       dds_(Required(dds, "dds")),
       modes_(Required(modes, "modes")),
       waypoint_(Required(waypoint, "waypoint")),
@@ -97,6 +101,13 @@ void Telemetry::PublishAgentInfo(const core::PlatformCapabilities& capabilities,
   info.max_speed_mps(limits_.max_speed_mps);
   info.max_reverse_speed_mps(limits_.max_reverse_speed_mps);
   info.max_yaw_rate_radps(limits_.max_yaw_rate_radps);
+  std::vector<std::string> sensors;
+  if (capabilities.has_lidar) sensors.push_back("lidar");
+  if (capabilities.has_camera) sensors.push_back("camera");
+  info.sensors(sensors);
+  info.map_resolution_m(map_resolution_m_);
+  info.link(link_.link);
+  info.link_kbps(link_.link == "radio" ? link_.link_kbps : 0.0);
   info.stamp(cairn::msgs::WallStampNow());
   dds_->Publish(info);
 }
@@ -140,7 +151,26 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
   m.stopped_by(stops.by);
   m.stopped_at().sec(stops.at.sec);
   m.stopped_at().nanosec(stops.at.nanosec);
+  const double now_s =
+      std::chrono::duration<double>(core::SteadyClock::now().time_since_epoch()).count();
+  // Link usage once a second (every 10th state at 10 Hz): ~200 bytes that would otherwise ride on every sample.
+  if (now_s >= next_link_usage_s_) {
+    next_link_usage_s_ = now_s + 1.0;
+    AddLinkUsage(now_s, &m);
+  }
+  m.link_budget_kbps(link_.link == "radio" ? link_.link_kbps : 0.0);
   dds_->Publish(m);
+}
+
+void Telemetry::AddLinkUsage(double now_s, msgs::RobotState* state) {
+  for (const SentRate& rate : link_usage_.Update(now_s, dds_->SentByClass())) {
+    msgs::LinkClassUsage usage;
+    usage.topic_class(rate.total.topic_class);
+    usage.sent_kbps(rate.sent_kbps);
+    usage.sent_bytes(rate.total.bytes);
+    usage.sent_samples(rate.total.samples);
+    state->link_usage().push_back(usage);
+  }
 }
 
 void Telemetry::PublishTreeStateIfChanged() {

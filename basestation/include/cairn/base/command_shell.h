@@ -66,6 +66,7 @@ class CommandShell {
   int Snapshot(const std::vector<std::string>& args);
   int Stairs();
   int Robots();
+  int Links(const std::vector<std::string>& args);
   int Watch(const std::vector<std::string>& args);
   int Events(const std::vector<std::string>& args);
   int Status(const std::vector<std::string>& args);

@@ -15,6 +15,7 @@
 
 #include "cairn/base/fleet_events.h"
 #include "cairn/base/fleet_perception.h"
+#include "cairn/base/link_monitor.h"
 #include "cairn/core/link_options.h"
 #include "cairn/core/time.h"
 #include "cairn_msgs.h"
@@ -29,6 +30,11 @@ struct RobotView {
   double max_speed_mps = 0.0;          ///< from its agent info: largest forward speed (0 = unknown)
   double max_reverse_speed_mps = 0.0;  ///< largest reverse speed, a magnitude (0 = unknown)
   double max_yaw_rate_radps = 0.0;     ///< largest yaw rate, a magnitude (0 = unknown)
+  std::vector<std::string> sensors;    ///< from its agent info: "lidar", "camera"
+  double map_resolution_m = 0.0;       ///< voxel edge of the map it sends, metres (0 = no map)
+  std::string version;                 ///< its cairn version
+  bool announced = false;              ///< its agent info arrived (capabilities above are its own)
+  LinkView link;                       ///< its link as this basestation sees it (LinkMonitor)
   std::optional<cairn_msgs::RobotState> state;         ///< latest state, if any arrived
   std::optional<cairn_msgs::BehaviorTreeState> tree;   ///< latest behavior-tree state
   std::optional<cairn_msgs::GlobalPath> global_path;   ///< global path being followed (latched)
@@ -36,6 +42,7 @@ struct RobotView {
   core::SteadyTime last_seen{};                        ///< last agent info or state
   core::SteadyTime state_received{};                   ///< when `state` arrived
   bool lost = false;                                   ///< liveliness lost or state silent > lost_after_s
+  bool left = false;                                   ///< lost because its process exited cleanly
   std::string lost_reason;
 };
 

@@ -21,9 +21,12 @@ struct RobotView;
 
 /// One thing an operator should hear about.
 struct OperatorEvent {
-  /// "arrived" | "failed" (a goal ended without arriving) | "recovering" (navigation gave up and the recovery
-  /// tree runs: once when it starts and once per failed attempt) | "lost" | "back" | "lock_granted" |
-  /// "lock_released" | "lock_taken" | "stopped" (an operator's stop) | "staircase" | "proximity".
+  /// "joined" (its agent info reached this basestation: what it offers, in `message`) | "arrived" | "failed" (a
+  /// goal ended without arriving) | "recovering" (navigation gave up and the recovery tree runs: once when it
+  /// starts and once per failed attempt) | "lost" (liveliness lapsed or state silent) | "left" (its process
+  /// exited cleanly) | "back" | "over_budget" (it sends more than its stated link budget; `reason`: the
+  /// busiest topic class) | "lock_granted" | "lock_released" | "lock_taken" | "stopped" (an operator's stop) |
+  /// "staircase" | "proximity".
   std::string kind;
   std::string robot_id;     ///< the robot concerned ("" for a fleet staircase)
   std::string other;        ///< proximity: the other robot; locks: the basestation; stopped: who stopped it
@@ -52,10 +55,11 @@ class FleetEventDetector {
   /// @throws std::invalid_argument when `options` are invalid.
   explicit FleetEventDetector(FleetEventOptions options = {});
 
-  /// Compares every robot in `views` (staleness applied) with its last view and returns what changed: goals
-  /// arrived or failed, robots lost or back, lock granted/released/taken, operator stops, robots closer than
-  /// proximity_m. The first view of a robot only sets its baseline (a basestation that starts does not
-  /// replay old news). Proximity is a present hazard, not news: a pair already close is reported at once.
+  /// Compares every robot in `views` (staleness applied) with its last view and returns what changed: robots
+  /// joined (agent info seen), goals arrived or failed, robots lost, left or back, over their link budget,
+  /// lock granted/released/taken, operator stops, robots closer than proximity_m. The first view of a robot
+  /// only sets its baseline for the rest (a basestation that starts does not replay old news); presence
+  /// (joined), a link over budget and proximity are present facts, not news, and are reported at once.
   std::vector<OperatorEvent> Observe(const std::vector<RobotView>& views);
 
   const FleetEventOptions& options() const { return options_; }
@@ -63,6 +67,9 @@ class FleetEventDetector {
  private:
   struct Last {
     bool lost = false;
+    bool left = false;
+    bool announced = false;
+    bool over_budget = false;
     bool has_state = false;
     std::string holder;
     uint32_t goal_id = 0;

@@ -42,6 +42,10 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
 /// ValidActions as one line: "valid now: mode idle|manual, goto, teleop, release, stop".
 std::string ValidActionsText(const RobotView& view, const std::string& base_id);
 
+/// What a robot offers, from its agent info, in one line: "wheeled, cairn 0.1.0, modes idle manual waypoint,
+/// sensors lidar camera, map 0.10 m, link radio 1000 kbit/s". Parts it did not announce are left out.
+std::string DescribeAgent(const RobotView& view);
+
 /// Candidates closest to `word` by edit distance (Levenshtein, at most 2 edits, or a prefix of at least 3
 /// letters), best first, at most 3. Empty when nothing is close.
 std::vector<std::string> DidYouMean(const std::string& word, const std::vector<std::string>& candidates);

@@ -116,9 +116,10 @@ struct ParticipantOptions {
   LinkOptions link;
   /// Flow controllers to register; names must be unique. @see FlowControllerOptions.
   std::vector<FlowControllerOptions> flow_controllers;
-  /// Called (on a Fast DDS thread) with the ParticipantIdOf a remote participant that left (a clean exit) or
-  /// was dropped (its lease expired: a crash or a lost link). Sees every process, announced or not.
-  std::function<void(const std::string& participant_id)> on_participant_gone;
+  /// Called (on a Fast DDS thread) with the ParticipantIdOf a remote participant that left (a clean exit,
+  /// `dropped` false) or was dropped (its lease expired: a crash or a lost link, `dropped` true). Sees every
+  /// process, announced or not.
+  std::function<void(const std::string& participant_id, bool dropped)> on_participant_gone;
 };
 
 /// One DomainParticipant with one publisher and one subscriber, built from an XML profile.
@@ -236,7 +237,19 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
   Writer& operator=(const Writer&) = delete;
 
   /// Publishes one sample; false when Fast DDS refuses it (history full of unacknowledged samples, etc.).
-  bool Write(const Msg& msg) { return writer_->write(const_cast<Msg*>(&msg)); }
+  /// A sample written counts into bytes_written() with its serialized size.
+  bool Write(const Msg& msg) {
+    if (!writer_->write(const_cast<Msg*>(&msg))) return false;
+    // CDR size plus the 4-byte encapsulation header, as the generated type's size provider computes it.
+    bytes_written_.fetch_add(Msg::getCdrSerializedSize(msg) + 4u, std::memory_order_relaxed);
+    samples_written_.fetch_add(1, std::memory_order_relaxed);
+    return true;
+  }
+
+  /// Serialized bytes (CDR, encapsulation included; no RTPS headers, no resends) of the samples written so far.
+  std::uint64_t bytes_written() const { return bytes_written_.load(std::memory_order_relaxed); }
+  /// Samples written so far.
+  std::uint64_t samples_written() const { return samples_written_.load(std::memory_order_relaxed); }
 
   /// Number of matched readers.
   int matched() const { return matched_.load(); }
@@ -258,6 +271,8 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
   eprosima::fastdds::dds::Topic* topic_ = nullptr;
   eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
   std::atomic<int> matched_{0};
+  std::atomic<std::uint64_t> bytes_written_{0};
+  std::atomic<std::uint64_t> samples_written_{0};
 };
 
 /// Typed reader for a fastddsgen type, calling `on_sample` on the DDS listener thread for each valid sample

@@ -204,6 +204,11 @@ class MapTelemetrySender {
   /// Counters, see MapTelemetryStats.
   MapTelemetryStats stats() const;
 
+  /// Sends at `share` of budget_bits_per_s from now on, (0, 1] (a radio link shared by several robots): the
+  /// bucket refills that much slower; its depth, and so the largest message, stay those of the full budget.
+  /// Thread-safe. @throws std::invalid_argument naming the value when out of range.
+  void SetRateShare(double share);
+
   /// Robot id given at construction.
   const std::string& robot_id() const { return robot_id_; }
   /// Coarse voxel edge, metres.
@@ -238,6 +243,7 @@ class MapTelemetrySender {
   double last_now_s_ = 0.0;
   double next_send_s_ = 0.0;
   double tokens_bits_ = 0.0;
+  double rate_share_ = 1.0;  // SetRateShare()
   double bytes_per_voxel_ = 2.0;  // Running estimate of payload bytes per DELTA voxel, to size messages.
   MapTelemetryStats stats_;
 };

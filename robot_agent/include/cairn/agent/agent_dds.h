@@ -8,10 +8,12 @@
 // liveliness), cairn/path_request, cairn/map_sync_request (cairn.command); writes cairn/command_response,
 // cairn/path_response (cairn.command), cairn/agent_info, cairn/bt_state, cairn/global_path, cairn/staircase
 // (cairn.latched), cairn/robot_state, cairn/local_plan (cairn.state), cairn/map_update (cairn.map, flow
-// controller "cairn.map"), cairn/camera (cairn.camera, flow controller "cairn.camera").
+// controller "cairn.map"), cairn/camera (cairn.camera, flow controller "cairn.camera"). It answers every
+// basestation's link probe (cairn/link_probe -> cairn/link_probe_reply, cairn.command) on the spot.
 #pragma once
 
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -41,6 +43,13 @@ struct AgentDdsOptions {
   core::LinkOptions link;                 ///< the network the participant talks on
   double map_budget_bits_per_s = 1e6;     ///< flow controller "cairn.map", > 0
   double camera_budget_bits_per_s = 1e6;  ///< flow controller "cairn.camera", > 0
+};
+
+/// What the agent has sent in one topic class (AgentDds::SentByClass), cumulative since it started.
+struct SentTraffic {
+  std::string topic_class;        ///< "command" | "state" | "tree" | "map" | "camera" (cairn_msgs::LinkClassUsage)
+  std::uint64_t bytes = 0;        ///< serialized samples (CDR with encapsulation), bytes
+  std::uint64_t samples = 0;
 };
 
 /// Where incoming messages go. Called on Fast DDS's threads, possibly concurrently: each handler does its own
@@ -91,6 +100,18 @@ class AgentDds {
   bool Publish(const cairn_msgs::MapUpdate& update);
   bool Publish(const cairn_msgs::CompressedImage& image);
   bool Publish(const cairn_msgs::StaircaseDetection& staircase);
+  /// What every writer has sent so far, grouped into the link's topic classes, in priority order: command
+  /// (command and path answers, probe replies), state (robot state, local plan, agent info, staircases), tree
+  /// (behavior tree, global path), map, camera. Thread-safe.
+  std::vector<SentTraffic> SentByClass() const;
+  /// Robots on this robot's link now, itself included: distinct robot ids whose agent info writers are alive
+  /// (robots announce themselves to every agent; nothing else of theirs reaches this one). Thread-safe.
+  int RobotsOnLink() const;
+  /// A radio shared by `robots` robots: the map and camera writers move to flow controllers holding 1 / n of
+  /// their budgets, n the smallest of 1, 2, 3, 4, 6, 8, 12, 16 at least `robots` (16 beyond). Replacing a
+  /// writer drops its samples not yet sent (a basestation that misses map updates asks for a snapshot).
+  /// Thread-safe. @return n.
+  int SetBulkShare(int robots);
   /// Waits up to `timeout` for the map updates written so far to be acknowledged (at shutdown).
   void WaitForMapDelivery(std::chrono::milliseconds timeout);
 

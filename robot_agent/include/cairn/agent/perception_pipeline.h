@@ -45,7 +45,9 @@ struct PerceptionOptions {
   perception::MapTelemetryOptions telemetry; ///< budget (default 100 kbit/s) and period
   double camera_rate_hz = 1.0;               ///< frames published per second, [0, 30]; 0 = no camera
   int jpeg_quality = 75;                     ///< [1, 100]
-  double camera_budget_bits_per_s = 400000;  ///< DDS flow-controller budget of camera frames, > 0
+  /// Camera frames' budget, bit/s, [1000, 1e9]: the frame rate drops below camera_rate_hz when frames are too
+  /// big for it (a frame of B bytes delays the next by B * 8 / budget s); also the DDS flow controller's.
+  double camera_budget_bits_per_s = 400000;
 
   /// Coarse telemetry voxel edge, metres.
   double coarse_resolution_m() const { return map.resolution_m * (1 << map_coarse_levels); }
@@ -118,6 +120,10 @@ class PerceptionPipeline {
   /// A basestation asked for the full map: the next telemetry messages carry a snapshot.
   void RequestMapSnapshot();
 
+  /// Map telemetry and camera frames at `share` of their budgets from now on, (0, 1]: a radio link shared by
+  /// 1 / share robots. Thread-safe. @throws std::invalid_argument naming the value when out of range.
+  void SetLinkShare(double share);
+
   /// While on, a robot at rest still inserts a scan every map_keyframe_max_interval_s (it has a goal and
   /// waits for the world to change); off (idle), only keyframes from motion. Thread-safe.
   void set_refresh_at_rest(bool on) { refresh_at_rest_ = on; }
@@ -147,6 +153,7 @@ class PerceptionPipeline {
   std::optional<Eigen::Isometry3d> T_W_S_last_keyframe_;
   double last_keyframe_s_ = 0.0;
   std::atomic<bool> refresh_at_rest_{false};
+  std::atomic<double> link_share_{1.0};  // SetLinkShare()
   double next_insert_s_ = 0, next_staircase_s_ = 0, next_telemetry_s_ = 0, next_camera_s_ = 0;
   std::mutex changed_mutex_;
   std::set<std::pair<int, int>> changed_tiles_;

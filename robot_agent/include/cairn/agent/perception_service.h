@@ -48,6 +48,8 @@ class PerceptionService {
   void ClearObstacleMemory();
   /// A basestation asked for a full map snapshot; the perception thread sends it.
   void RequestMapSnapshot() { map_snapshot_requested_ = true; }
+  /// Map telemetry and camera at `share` of their budgets, (0, 1] (PerceptionPipeline::SetLinkShare). Any thread.
+  void SetLinkShare(double share) { perception_->SetLinkShare(share); }
   /// The robot has a task (a waypoint goal): its map follows the world while it stands (see
   /// PerceptionPipeline::set_refresh_at_rest). Any thread.
   void SetMapRefreshAtRest(bool on) { perception_->set_refresh_at_rest(on); }

@@ -12,6 +12,7 @@
 #include "cairn/agent/agent_dds.h"
 #include "cairn/agent/agent_options.h"
 #include "cairn/agent/command_interface.h"
+#include "cairn/agent/link_usage.h"
 #include "cairn/agent/mode_control.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
@@ -35,9 +36,11 @@ class Telemetry {
   Telemetry(const AgentOptions& options, AgentDds* dds, const ModeControl* modes,
             const WaypointMode* waypoint, const Navigation* navigation, CommandInterface* command);
 
-  /// AgentInfo (latched): id, kind robot, platform and its limits, the modes of the tree, version, world.
+  /// AgentInfo (latched): id, kind robot, platform and its limits, the modes of the tree, version, world,
+  /// sensors (lidar, camera), map resolution (0 with perception off), link class and budget.
   void PublishAgentInfo(const core::PlatformCapabilities& capabilities, const std::string& version);
-  /// RobotState: pose, commanded twist, mode, mux, lock, waypoint goal, navigation, stops.
+  /// RobotState: pose, commanded twist, mode, mux, lock, waypoint goal, navigation, stops, its link budget, and
+  /// once a second what the robot sends per topic class (LinkUsageMeter over AgentDds::SentByClass).
   void PublishState(const RobotStateInputs& in);
   /// BehaviorTreeState, when the mode, channel, refusal or valid actions changed since the last one.
   void PublishTreeStateIfChanged();
@@ -49,10 +52,17 @@ class Telemetry {
   void PublishPerception(const PerceptionOutput& out);
 
  private:
+  // Appends what the robot sends per topic class (rates over the last ~2 s) to `state`.
+  void AddLinkUsage(double now_s, cairn_msgs::RobotState* state);
+
   std::string robot_id_;
   std::string platform_;      // AgentOptions::platform (RobotState, AgentInfo)
   std::string nav_platform_;  // navigation's platform profile (GlobalPath)
   core::VelocityLimits limits_;
+  core::LinkOptions link_;
+  double map_resolution_m_;  // 0: perception off, no map sent
+  LinkUsageMeter link_usage_;
+  double next_link_usage_s_ = 0.0;  // steady clock, seconds
   AgentDds* dds_;
   const ModeControl* modes_;
   const WaypointMode* waypoint_;
