@@ -50,6 +50,70 @@ TEST(FleetEventDetector, FirstSightIsABaselineThenEachChangeIsToldOnce) {
   EXPECT_EQ(events[0].reason, "blocked: no progress for 10 s");
 }
 
+TEST(FleetEventDetector, JoinedOnceWithWhatItOffersThenLeftOrLostAndBack) {
+  FleetEventDetector detector;
+  RobotView r1 = Robot("r1", 0, 0);
+  EXPECT_TRUE(detector.Observe({r1}).empty()) << "its state came first: nothing to say until it announces";
+  r1.announced = true;
+  r1.platform = "wheeled";
+  r1.version = "0.1.0";
+  r1.capabilities = {"idle", "manual"};
+  r1.sensors = {"lidar"};
+  r1.map_resolution_m = 0.1;
+  r1.link.link = "radio";
+  r1.link.budget_kbps = 1000;
+  auto events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"joined"}));
+  EXPECT_EQ(events[0].message,
+            "r1 joined: wheeled, cairn 0.1.0, modes idle manual, sensors lidar, map 0.10 m, link radio 1000 kbit/s");
+  EXPECT_TRUE(detector.Observe({r1}).empty()) << "told once";
+
+  r1.lost = r1.left = true;
+  r1.lost_reason = "its process exited";
+  events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"left"}));
+  EXPECT_EQ(events[0].message, "r1 left (its process exited)");
+  r1.lost = r1.left = false;
+  EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"back"}));
+  r1.lost = true;
+  r1.lost_reason = "liveliness lost";
+  EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"lost"}));
+  r1.left = true;  // the clean exit is told after the lapse, once
+  r1.lost_reason = "its process exited";
+  EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"left"}));
+  EXPECT_TRUE(detector.Observe({r1}).empty());
+
+  // A basestation that starts when the robot is already there hears that it joined.
+  FleetEventDetector late;
+  r1.lost = r1.left = false;
+  EXPECT_EQ(Kinds(late.Observe({r1})), (std::vector<std::string>{"joined"}));
+}
+
+TEST(FleetEventDetector, OverBudgetOnceUntilBackUnderNinetyPercent) {
+  FleetEventDetector detector;
+  RobotView r1 = Robot("r1", 0, 0);
+  r1.link.budget_kbps = 100;
+  r1.link.usage = {{"state", 30, 0}, {"camera", 80, 0}};
+  r1.link.sent_kbps = 110;
+  r1.link.over_budget = true;
+  auto events = detector.Observe({r1});  // a present fact: told at first sight
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"over_budget"}));
+  EXPECT_EQ(events[0].message, "r1 sends 110.0 kbit/s, over its link budget of 100.0 kbit/s (camera 80.0 kbit/s)");
+  EXPECT_EQ(events[0].reason, "camera 80.0 kbit/s");
+  r1.link.sent_kbps = 95;  // under the budget, not under 90 %: still the same episode
+  r1.link.over_budget = false;
+  EXPECT_TRUE(detector.Observe({r1}).empty());
+  r1.link.sent_kbps = 101;
+  r1.link.over_budget = true;
+  EXPECT_TRUE(detector.Observe({r1}).empty()) << "no flapping at the edge";
+  r1.link.sent_kbps = 50;
+  r1.link.over_budget = false;
+  EXPECT_TRUE(detector.Observe({r1}).empty());
+  r1.link.sent_kbps = 120;
+  r1.link.over_budget = true;
+  EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"over_budget"}));
+}
+
 TEST(FleetEventDetector, EachRecoveryAttemptIsToldAsItFails) {
   FleetEventDetector detector;
   RobotView r1 = Robot("r1", 0, 0);
