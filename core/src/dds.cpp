@@ -8,6 +8,7 @@
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
+#include <fastdds/rtps/attributes/ServerAttributes.h>
 #include <fastdds/rtps/flowcontrol/FlowControllerDescriptor.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/dds/publisher/Publisher.hpp>
@@ -298,6 +299,30 @@ void CheckLinkOptions(const LinkOptions& link) {
                                 "to the network you name, never to every interface");
   }
   if (!link.subnet.empty()) ParseIpv4Subnet(link.subnet);
+  if (!link.discovery_server.empty()) {
+    if (!IsNamedNetworkLink(link)) {
+      throw std::invalid_argument("--discovery-server names a server on a lan or radio link: add --link lan");
+    }
+    ParseDiscoveryServer(link.discovery_server);
+  }
+}
+
+std::pair<std::string, std::uint32_t> ParseDiscoveryServer(const std::string& text) {
+  const auto colon = text.rfind(':');
+  std::uint32_t port = 0;
+  in_addr address{};
+  bool ok = colon != std::string::npos && inet_pton(AF_INET, text.substr(0, colon).c_str(), &address) == 1;
+  if (ok) {
+    const std::string port_text = text.substr(colon + 1);
+    ok = !port_text.empty() && port_text.size() <= 5 &&
+         port_text.find_first_not_of("0123456789") == std::string::npos;
+    if (ok) port = static_cast<std::uint32_t>(std::stoul(port_text));
+    ok = ok && port >= 1 && port <= 65535;
+  }
+  if (!ok) {
+    throw std::invalid_argument("--discovery-server '" + text + "' must be IPV4_ADDRESS:PORT, e.g. 10.77.0.2:11811");
+  }
+  return {text.substr(0, colon), port};
 }
 
 std::string ResolveLinkAddress(const LinkOptions& link, Ipv4Subnet* subnet) {
@@ -354,7 +379,8 @@ Locator_t Udpv4Locator(const std::string& address, std::uint32_t port) {
 namespace {
 
 // The lan link (LinkOptions): the profile's QoS with its transport and locators on `address` only.
-void ApplyLanLink(const std::string& address, int domain_id, dds::DomainParticipantQos* qos) {
+void ApplyLanLink(const std::string& address, int domain_id, const std::string& discovery_server,
+                  dds::DomainParticipantQos* qos) {
   auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
   udp->interfaceWhiteList = {address};
   qos->transport().use_builtin_transports = false;
@@ -371,6 +397,17 @@ void ApplyLanLink(const std::string& address, int domain_id, dds::DomainParticip
   qos->wire_protocol().default_unicast_locator_list.clear();
   qos->wire_protocol().default_unicast_locator_list.push_back(Udpv4Locator(address, 0));
   qos->wire_protocol().default_multicast_locator_list.clear();
+  if (!discovery_server.empty()) {
+    // A client of the server: it announces itself there only and hears of its matches from it; no multicast.
+    const auto [server_address, server_port] = ParseDiscoveryServer(discovery_server);
+    eprosima::fastdds::rtps::RemoteServerAttributes server;
+    server.ReadguidPrefix(kDiscoveryServerGuidPrefix);
+    server.metatrafficUnicastLocatorList.push_back(Udpv4Locator(server_address, server_port));
+    builtin.discovery_config.discoveryProtocol = eprosima::fastrtps::rtps::DiscoveryProtocol_t::CLIENT;
+    builtin.discovery_config.m_DiscoveryServers.clear();
+    builtin.discovery_config.m_DiscoveryServers.push_back(server);
+    builtin.metatrafficMulticastLocatorList.clear();
+  }
 }
 
 }  // namespace
@@ -395,9 +432,9 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
   if (IsNamedNetworkLink(options.link)) {
     Ipv4Subnet subnet;
     const std::string address = ResolveLinkAddress(options.link, &subnet);
-    ApplyLanLink(address, options.domain_id, &qos);
+    ApplyLanLink(address, options.domain_id, options.link.discovery_server, &qos);
     options_.network.subnets = {subnet};
-    options_.network.multicast = true;
+    options_.network.multicast = options.link.discovery_server.empty();
   } else {
     CheckLinkOptions(options.link);
   }

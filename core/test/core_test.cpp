@@ -327,13 +327,18 @@ TEST(LinkOptions, ALanLinkResolvesToTheOneAddressNamedAndRefusesAnythingElseNami
   lan.subnet = "10.99.0.0/24";
   lan.interface_name = "lo";
   refused(lan, "--interface 'lo' in --subnet 10.99.0.0/24: no interface");
-  refused(LinkOptions{"lan", "", ""}, "--link lan needs --subnet CIDR or --interface NAME");
-  refused(LinkOptions{"wifi", "", ""}, "--link 'wifi' must be loopback, lan or radio");
-  refused(LinkOptions{"radio", "10.77.0.0/24", "", 0}, "--link-kbps 0.000000: a radio link needs its budget");
-  refused(LinkOptions{"lan", "10.77.0.0/24", "", 1000}, "--link-kbps names a radio link's budget: add --link radio");
-  refused(LinkOptions{"radio", "", "", 1000}, "--link radio needs --subnet CIDR or --interface NAME");
-  refused(LinkOptions{"loopback", "10.77.0.0/24", ""}, "add --link lan");
-  refused(LinkOptions{"lan", "10.77.0.0", ""}, "subnet '10.77.0.0' must be an IPv4 CIDR");
+  refused(LinkOptions{"lan", "", "", 0, ""}, "--link lan needs --subnet CIDR or --interface NAME");
+  refused(LinkOptions{"wifi", "", "", 0, ""}, "--link 'wifi' must be loopback, lan or radio");
+  refused(LinkOptions{"radio", "10.77.0.0/24", "", 0, ""}, "--link-kbps 0.000000: a radio link needs its budget");
+  refused(LinkOptions{"lan", "10.77.0.0/24", "", 1000, ""}, "--link-kbps names a radio link's budget: add --link radio");
+  refused(LinkOptions{"radio", "", "", 1000, ""}, "--link radio needs --subnet CIDR or --interface NAME");
+  refused(LinkOptions{"loopback", "10.77.0.0/24", "", 0, ""}, "add --link lan");
+  refused(LinkOptions{"lan", "10.77.0.0", "", 0, ""}, "subnet '10.77.0.0' must be an IPv4 CIDR");
+  refused(LinkOptions{"lan", "10.77.0.0/24", "", 0, "10.77.0.2"},
+          "--discovery-server '10.77.0.2' must be IPV4_ADDRESS:PORT, e.g. 10.77.0.2:11811");
+  refused(LinkOptions{"lan", "10.77.0.0/24", "", 0, "10.77.0.2:70000"}, "--discovery-server '10.77.0.2:70000'");
+  refused(LinkOptions{"loopback", "", "", 0, "127.0.0.1:11811"},
+          "--discovery-server names a server on a lan or radio link: add --link lan");
 }
 
 // A lan participant is built on the named address only: its QoS passes the guard for that subnet (the
@@ -341,7 +346,7 @@ TEST(LinkOptions, ALanLinkResolvesToTheOneAddressNamedAndRefusesAnythingElseNami
 TEST(LinkOptions, ALanParticipantStartsOnTheNamedNetworkOnly) {
   ParticipantOptions options;
   options.domain_id = 44;
-  options.link = LinkOptions{"lan", "127.0.0.0/8", ""};
+  options.link = LinkOptions{"lan", "127.0.0.0/8", "", 0, ""};
   Participant participant(options);
   ASSERT_EQ(participant.options().network.subnets.size(), 1u);
   EXPECT_EQ(participant.options().network.subnets[0].text, "127.0.0.0/8");

@@ -121,10 +121,10 @@ TEST(AgentOptions, ARadioLinkLowersMapAndCameraBudgetsToTheirSharesOnly) {
   options.robot_id = "r1";
   options.perception.telemetry.budget_bits_per_s = 100000;
   options.perception.camera_budget_bits_per_s = 4000000;
-  options.link = core::LinkOptions{"lan", "10.77.0.0/24", "", 0};
+  options.link = core::LinkOptions{"lan", "10.77.0.0/24", "", 0, ""};
   EXPECT_EQ(options.ApplyLinkBudget(), "");
   EXPECT_EQ(options.perception.camera_budget_bits_per_s, 4000000);
-  options.link = core::LinkOptions{"radio", "10.77.0.0/24", "", 1000};
+  options.link = core::LinkOptions{"radio", "10.77.0.0/24", "", 1000, ""};
   EXPECT_EQ(options.ApplyLinkBudget(), "camera 4000000 -> 150000 bit/s");  // map: 100 kbit/s is under 25 %
   EXPECT_DOUBLE_EQ(options.perception.telemetry.budget_bits_per_s, 100000);
   EXPECT_DOUBLE_EQ(options.perception.camera_budget_bits_per_s, 150000);

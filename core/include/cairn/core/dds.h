@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <fastdds/dds/core/status/LivelinessChangedStatus.hpp>
@@ -98,6 +99,10 @@ std::string ResolveLinkAddress(const LinkOptions& link, Ipv4Subnet* subnet);
 
 /// "loopback" | "lan" check of `link` (names the field and value). @throws std::invalid_argument.
 void CheckLinkOptions(const LinkOptions& link);
+
+/// "A.B.C.D:PORT" (LinkOptions::discovery_server) into (address, port). @throws std::invalid_argument naming
+/// the flag and the value.
+std::pair<std::string, std::uint32_t> ParseDiscoveryServer(const std::string& text);
 
 /// A UDPv4 locator: `address` (dotted quad), `port` (0: Fast DDS chooses).
 eprosima::fastrtps::rtps::Locator_t Udpv4Locator(const std::string& address, std::uint32_t port);

@@ -19,6 +19,9 @@ inline void AddLinkFlags(CLI::App& app, LinkOptions* link) {
   app.add_option("--subnet", link->subnet, "with --link lan|radio: the IPv4 subnet to use, e.g. 10.77.0.0/24 "
                                            "(this host's one address in it)");
   app.add_option("--interface", link->interface_name, "with --link lan|radio: the interface to use, e.g. eth1");
+  app.add_option("--discovery-server", link->discovery_server,
+                 "with --link lan|radio: ADDRESS:PORT of a discovery server in that network (cairn "
+                 "discovery-server); no multicast then");
 }
 
 }  // namespace cairn::core

@@ -21,7 +21,16 @@ struct LinkOptions {
   std::string subnet;              ///< lan, radio: "A.B.C.D/N", e.g. "10.77.0.0/24"
   std::string interface_name;      ///< lan, radio: e.g. "eth1" (instead of, or besides, subnet)
   double link_kbps = 0;            ///< radio: the link's budget, kbit/s, [8, 1e6]; 0 otherwise
+  /// lan, radio: "A.B.C.D:PORT" of a Fast DDS discovery server in the named network (`cairn discovery-server`
+  /// runs one); "" = multicast discovery. With one, the participant is its client: no multicast at all, each
+  /// process announces itself to the server only and learns from it who matches (fleets where multicast is
+  /// absent, or where everyone announcing to everyone costs too much).
+  std::string discovery_server;
 };
+
+/// The well-known GUID prefix of Fast DDS discovery server 0 (`fast-discovery-server -i 0`), which clients
+/// of Fast DDS 2.9 must name.
+constexpr const char* kDiscoveryServerGuidPrefix = "44.53.00.5f.45.50.52.4f.53.49.4d.41";
 
 /// Shares of a radio link's budget for a robot's map telemetry and camera frames (the rest: commands, state,
 /// events, behavior tree and DDS's own traffic).
