@@ -5,7 +5,9 @@
 #   2. bad link flags are refused naming the flag and the value, before any participant starts;
 #   3. a lan participant in a subnet this host has no address in is refused, naming the interfaces seen;
 #   4. the shipped loopback link stays on loopback: a basestation on the other host never sees the robot;
-#   5. over the lan link the basestation sees the robot, takes control and drives it to a goal 3 m away.
+#   5. over the lan link the basestation sees the robot, takes control and drives it to a goal 3 m away;
+#   6-7. command round trips while it drives, then with a camera that saturates the link (lan, then radio);
+#   8. at 5 % loss each way, commands are applied once and the basestation's map converges.
 # Run by ctest inside tests/netns_run.sh (a private network namespace); it enters a private mount namespace
 # too, so that the hosts' names in /run/netns vanish with it.
 #   lan_link_test.sh BUILD_DIR
@@ -154,6 +156,48 @@ command_round_trips saturated_radio
 if awk -v p="$P99" 'BEGIN{exit !(p >= 0 && p <= 100)}'; then pass "radio link: command round trip p99 $P99 ms <= 100 ms"
 else fail "radio link: command round trip p99 $P99 ms > 100 ms"; fi
 echo "FIGURE saturated_command_round_trip_p99_ratio_lan_over_radio $(awk -v a="$lan_p99" -v b="$P99" 'BEGIN{printf "%.1f", (b > 0 ? a / b : 0)}')"
+
+# 8. 5 % random loss each way on both hosts (~10 % of round trips hit): every command answered once and applied
+#    once (retries are de-duplicated: the goals the robot numbers are consecutive, each arrives under its own
+#    id), and the basestation's map of the robot, kept by deltas over the lossy link, ends equal to a snapshot
+#    a second basestation asks for once the robot has stopped.
+start_r1 "${LAN[@]}"
+linksim_set_loss "$P" robot 5
+linksim_set_loss "$P" base 5
+{
+  echo "request-control r1"
+  echo "goto r1 16 20 --wait 60"
+  echo "goto r1 22 20 --wait 60"
+  for _ in $(seq 1 20); do echo "request-control r1"; done
+  echo "goto r1 28 20 --wait 60"
+  echo "sleep 3"
+  echo "map r1 --save $LOGS/deltas.bt"
+} | linksim_exec "$P" base "$BASE" --base-id opA --domain "$DOMAIN" "${LAN[@]}" --json >"$LOGS/loss.json" 2>"$LOGS/loss.err"
+out=$(printf 'wait r1 online 20\nmap r1 --save %s\n' "$LOGS/snapshot.bt" |
+  linksim_exec "$P" base "$BASE" --base-id opC --domain "$DOMAIN" "${LAN[@]}" --json 2>&1)
+verdict=$(node -e '
+  const fs = require("fs");
+  const all = fs.readFileSync(process.argv[1], "utf8").split("\n").filter((l) => l.startsWith("{")).map((l) => JSON.parse(l));
+  const snap = fs.readFileSync(process.argv[2], "utf8").split("\n").filter((l) => l.startsWith("{")).map((l) => JSON.parse(l)).find((o) => o.command === "map");
+  const bad = [];
+  const controls = all.filter((o) => o.command === "request-control");
+  if (controls.length !== 21 || !controls.every((o) => o.ok)) bad.push(`${controls.filter((o) => o.ok).length} of ${controls.length} request-control accepted`);
+  const gotos = all.filter((o) => o.command === "goto" && !o.progress);
+  if (gotos.length !== 3 || !gotos.every((o) => o.ok && /^arrived/.test(o.reason))) bad.push(`gotos: ${JSON.stringify(gotos.map((o) => o.reason))}`);
+  const ids = gotos.map((o) => o.goal_id);
+  if (ids.length !== 3 || ids[1] !== ids[0] + 1 || ids[2] !== ids[1] + 1) bad.push(`goal ids ${JSON.stringify(ids)} (3 consecutive expected)`);
+  const map = all.find((o) => o.command === "map");
+  if (!map || !map.ok) bad.push(`map over the lossy link: ${JSON.stringify(map)}`);
+  if (!snap || !snap.ok) bad.push(`snapshot map: ${JSON.stringify(snap)}`);
+  if (map && snap && map.ok && snap.ok && (map.voxels !== snap.voxels || map.occupied !== snap.occupied)) {
+    bad.push(`maps differ: deltas ${map.voxels} voxels (${map.occupied} occupied), snapshot ${snap.voxels} (${snap.occupied})`);
+  }
+  console.log(bad.length ? "BAD " + bad.join("; ") : `GOOD goals ${ids.join(", ")}; map ${map.voxels} voxels (${map.occupied} occupied) both ways`);
+' "$LOGS/loss.json" <(echo "$out"))
+if [[ "$verdict" == GOOD* ]]; then pass "5 % loss: 21 commands and 3 goals each applied once, ${verdict#GOOD }"
+else fail "5 % loss: ${verdict#BAD } ($(tail -2 "$LOGS/loss.err"))"; fi
+linksim_set_loss "$P" robot 0
+linksim_set_loss "$P" base 0
 kill -TERM "$R1_PID" 2>/dev/null
 
 if [ "$failures" -ne 0 ]; then
