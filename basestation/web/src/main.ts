@@ -11,6 +11,19 @@ interface Robot {
   online: boolean;
   lost_reason: string;
   heard_s_ago: number;
+  link?: {
+    class: string;
+    budget_kbps: number;
+    rtt_ms: number;
+    rtt_max_ms: number;
+    probe_wait_s: number;
+    loss_pct: number;
+    state_lost: number;
+    state_received: number;
+    sent_kbps: number;
+    over_budget: boolean;
+    usage: { topic_class: string; sent_kbps: number }[];
+  };
   mode: string;
   holder: string;
   holder_alive: boolean;
@@ -257,10 +270,24 @@ function renderRobot(): void {
     : `driving ${r.id}: ${d.source || "no input"}: zero sent`;
 }
 
+// One robot's link cells: probe round trip, state samples lost (10 s), what it sends against its budget.
+function linkCells(r: Robot): string {
+  const l = r.link;
+  if (!l) return "<td>–</td><td>–</td><td>–</td>";
+  const rtt = l.rtt_ms < 0 ? "–"
+    : l.probe_wait_s > 0 ? `<b class="bad">no answer ${l.probe_wait_s.toFixed(0)} s</b>`
+    : `${l.rtt_ms.toFixed(l.rtt_ms < 10 ? 1 : 0)} ms`;
+  const loss = `${l.loss_pct.toFixed(0)} %`;
+  const classes = l.usage.map((u) => `${u.topic_class} ${u.sent_kbps.toFixed(0)}`).join(", ");
+  const budget = l.budget_kbps > 0 ? ` / ${l.budget_kbps.toFixed(0)}` : "";
+  const sends = `<span title="${classes}">${l.sent_kbps.toFixed(0)}${budget} kbit/s</span>`;
+  return `<td>${rtt}</td><td${l.loss_pct >= 5 ? ' class="bad"' : ""}>${loss}</td><td${l.over_budget ? ' class="bad"' : ""}>${l.over_budget ? "OVER " : ""}${sends}</td>`;
+}
+
 function renderHealth(): void {
   const rows = state.robots.map(
     (r) => `<tr><td>${r.id}</td><td>${r.online ? "online" : "lost"}</td><td>${fmt(r.heard_s_ago, 1, " s")}</td>
-      <td>${fmt(r.control_period_max_ms, 0, " ms")}</td><td>${r.in_contact ? "CONTACT" : "–"}</td><td>${fmt(r.camera_age_s, 1, " s")}</td></tr>`,
+      ${linkCells(r)}<td>${fmt(r.control_period_max_ms, 0, " ms")}</td><td>${r.in_contact ? "CONTACT" : "–"}</td><td>${fmt(r.camera_age_s, 1, " s")}</td></tr>`,
   );
   setHtml($("health-rows"), rows.join(""));
   $("health-link").textContent = `link: ${state.statusText} · received ${(link.bytesReceived / 1e6).toFixed(1)} MB · 3D: ${scene.voxelCount} voxels, ${scene.fps.toFixed(0)} fps`;

@@ -104,6 +104,20 @@ test("the camera pane shows the selected robot's latest frame and its age", asyn
   await screenshot(page1, "07_camera");
 });
 
+test("the Health tab shows each robot's link: probe round trip, states lost, what it sends", async () => {
+  await page1.locator('#tabs button[data-tab="health"]').click();
+  const row = await waitFor("r1's link in the Health tab", async () => {
+    const text = await page1.locator("#health-rows tr").first().innerText();
+    return /[\d.]+ ms/.test(text) && /\d+ kbit\/s/.test(text) ? text : null;
+  }, 10000);
+  assert.match(row, /^r1\s+online\s+[\d.]+ s\s+[\d.]+ ms\s+\d+ %\s+\d+ kbit\/s/);
+  const link = (await robotState(page1, "r1")).link;
+  assert.equal(link.class, "loopback");
+  assert.deepEqual(link.usage.map((u) => u.topic_class), ["command", "state", "tree", "map", "camera"]);
+  await screenshot(page1, "07b_health_links");
+  await page1.locator('#tabs button[data-tab="robot"]').click();
+});
+
 test("in builtin:tunnels the staircase toast appears and the steps are drawn", async () => {
   // r3 starts now, with both pages open, 3.5 m before the room's staircase (first riser at x = 50), facing it.
   await startRobot("r3", { start: "46.5,23.75,0", domain: DOMAIN });
