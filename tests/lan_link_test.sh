@@ -7,7 +7,8 @@
 #   4. the shipped loopback link stays on loopback: a basestation on the other host never sees the robot;
 #   5. over the lan link the basestation sees the robot, takes control and drives it to a goal 3 m away;
 #   6-7. command round trips while it drives, then with a camera that saturates the link (lan, then radio);
-#   8. at 5 % loss each way, commands are applied once and the basestation's map converges.
+#   8. at 5 % loss each way, commands are applied once and the basestation's map converges;
+#   9. a 10 s link cut while driving by teleop: the robot stops, keeps its lock, is lost then back, map resyncs.
 # Run by ctest inside tests/netns_run.sh (a private network namespace); it enters a private mount namespace
 # too, so that the hosts' names in /run/netns vanish with it.
 #   lan_link_test.sh BUILD_DIR
@@ -198,6 +199,50 @@ if [[ "$verdict" == GOOD* ]]; then pass "5 % loss: 21 commands and 3 goals each 
 else fail "5 % loss: ${verdict#BAD } ($(tail -2 "$LOGS/loss.err"))"; fi
 linksim_set_loss "$P" robot 0
 linksim_set_loss "$P" base 0
+
+# 9. The link cut for 10 s while the operator drives r1 by teleop (0.4 m/s for 16 s), then restored: the robot
+#    stops when teleop goes stale (it drives ~2.5 m, not 6.4), keeps the operator's lock, is shown lost then
+#    back, and the basestation's map of it resyncs (equal to a fresh snapshot).
+start_r1 "${LAN[@]}"
+{
+  echo "request-control r1"
+  echo "mode r1 manual"
+  echo "teleop r1 0.4 0 16"
+  echo "wait r1 online 30"
+  echo "sleep 4"
+  echo "status r1"
+  echo "map r1 --save $LOGS/after_cut.bt"
+} | linksim_exec "$P" base "$BASE" --base-id opA --domain "$DOMAIN" "${LAN[@]}" --json >"$LOGS/cut.json" 2>"$LOGS/cut.err" &
+cut_base=$!
+for _ in $(seq 1 200); do grep -q '"command":"mode".*"ok":true' "$LOGS/cut.json" 2>/dev/null && break; sleep 0.1; done
+sleep 3
+linksim_set_loss "$P" robot 100
+sleep 10
+linksim_set_loss "$P" robot 0
+wait "$cut_base"
+out=$(printf 'wait r1 online 20\nmap r1 --save %s\n' "$LOGS/fresh.bt" |
+  linksim_exec "$P" base "$BASE" --base-id opC --domain "$DOMAIN" "${LAN[@]}" --json 2>&1)
+verdict=$(node -e '
+  const fs = require("fs");
+  const lines = (t) => t.split("\n").filter((l) => l.startsWith("{")).map((l) => JSON.parse(l));
+  const all = lines(fs.readFileSync(process.argv[1], "utf8"));
+  const fresh = lines(fs.readFileSync(process.argv[2], "utf8")).find((o) => o.command === "map");
+  const bad = [];
+  const kinds = all.filter((o) => o.event && o.robot === "r1").map((o) => o.event);
+  const lost = kinds.indexOf("lost"), back = kinds.lastIndexOf("back");
+  if (lost < 0 || back < lost) bad.push(`events ${JSON.stringify(kinds)} (lost then back expected)`);
+  const status = all.find((o) => o.command === "status");
+  if (!status || status.holder !== "opA") bad.push(`holder after the cut: ${status && status.holder}`);
+  const dx = status ? status.x_m - 10 : NaN;
+  if (!(dx > 0.5 && dx < 4.0)) bad.push(`drove ${dx.toFixed(2)} m (0.5-4 expected: it must stop while the link is cut)`);
+  const map = all.find((o) => o.command === "map");
+  if (!map || !map.ok || !fresh || !fresh.ok || map.voxels !== fresh.voxels || map.occupied !== fresh.occupied) {
+    bad.push(`map after the cut ${map && map.voxels}/${map && map.occupied}, fresh snapshot ${fresh && fresh.voxels}/${fresh && fresh.occupied}`);
+  }
+  console.log(bad.length ? "BAD " + bad.join("; ") : `GOOD drove ${dx.toFixed(2)} m, events ${kinds.join(" ")}, lock kept, map ${map.voxels} voxels both ways`);
+' "$LOGS/cut.json" <(echo "$out"))
+if [[ "$verdict" == GOOD* ]]; then pass "10 s link cut: ${verdict#GOOD }"
+else fail "10 s link cut: ${verdict#BAD } ($(tail -2 "$LOGS/cut.err"))"; fi
 kill -TERM "$R1_PID" 2>/dev/null
 
 if [ "$failures" -ne 0 ]; then

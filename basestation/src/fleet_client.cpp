@@ -346,6 +346,15 @@ class FleetClient::Impl {
       for (const auto& [id, view] : robots_) views.push_back(WithStaleness(view, now));
       std::vector<OperatorEvent> events = detector_.Observe(views);
       lock.unlock();
+      // A robot back from lost may have sent map deltas this basestation never got (a cut link unmatches the
+      // writers, and volatile samples are not replayed): its map here starts again from a snapshot, asked for
+      // until one completes.
+      for (const OperatorEvent& e : events) {
+        if (e.kind == "back") perception_->OnRobotSeen(e.robot_id);
+      }
+      for (const RobotView& v : views) {
+        if (v.announced && !v.lost && v.map_resolution_m > 0) perception_->SyncIfIncomplete(v.robot_id);
+      }
       for (const FleetEvent& f : perception_->TakeEvents()) {
         OperatorEvent e;
         e.kind = f.kind;

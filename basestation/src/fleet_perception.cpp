@@ -239,6 +239,10 @@ void FleetPerception::OnRobotSeen(const std::string& robot_id) {
   impl_->MaybeRequestSync(robot_id);
 }
 
+void FleetPerception::SyncIfIncomplete(const std::string& robot_id) {
+  if (!impl_->HasBase(robot_id)) impl_->MaybeRequestSync(robot_id);
+}
+
 bool FleetPerception::WaitForMapSync(const std::string& robot_id, double timeout_s) {
   const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
                                                  std::chrono::duration<double>(timeout_s));
