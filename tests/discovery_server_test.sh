@@ -6,7 +6,8 @@
 #   2. with either kind of discovery the basestation sees the three and commands one; the time it takes from
 #      the basestation's start, and the bytes the hub delivers over 10 s with the three robots idle and no
 #      basestation (discovery and liveliness only), are figures;
-#   3. with the server, no UDP datagram is sent to a multicast group.
+#   3. with the server, no UDP datagram is sent to a multicast group;
+#   4. robots that exit cleanly are told as "left" at a basestation watching (either kind of discovery).
 # Run by ctest inside tests/netns_run.sh; enters a private mount namespace (the hosts' names vanish with it).
 #   discovery_server_test.sh BUILD_DIR
 set -uo pipefail
@@ -92,8 +93,17 @@ round() {
   out=$(ip netns exec "${P}base" "$BASE" --base-id opA --domain "$DOMAIN" "${flags[@]}" -- request-control r2 2>&1 </dev/null)
   if grep -q "accepted" <<<"$out"; then pass "$label: request-control r2 accepted"
   else fail "$label: request-control r2: $out"; fi
+  # The three exit cleanly while a basestation watches: each is told as "left", not lost.
+  printf 'wait r1 online 20\nwait r2 online 20\nwait r3 online 20\nsleep 1\nevents 1\nsleep 6\n' |
+    ip netns exec "${P}base" "$BASE" --base-id opW --domain "$DOMAIN" "${flags[@]}" --json >"$LOGS/leave.json" 2>&1 &
+  local watcher=$!
+  for _ in $(seq 1 200); do grep -q '"command":"events"' "$LOGS/leave.json" 2>/dev/null && break; sleep 0.1; done
   for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null; done
   for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null; done
+  wait "$watcher"
+  if [ "$(grep -c '"event":"left".*its process exited' "$LOGS/leave.json")" = 3 ]; then
+    pass "$label: the three robots that exited are told as left"
+  else fail "$label: left events: $(grep -a '"event"' "$LOGS/leave.json" | grep -v joined | head -4)"; fi
 }
 
 # 2. Simple discovery.
