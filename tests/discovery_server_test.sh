@@ -11,28 +11,9 @@
 # Run by ctest inside tests/netns_run.sh; enters a private mount namespace (the hosts' names vanish with it).
 #   discovery_server_test.sh BUILD_DIR
 set -uo pipefail
-BUILD="$1"
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-[ "${CAIRN_IN_NETNS:-}" = 1 ] || { echo "discovery_server_test: run me inside tests/netns_run.sh" >&2; exit 2; }
-if [ "${CAIRN_IN_MOUNTNS:-}" != 1 ]; then
-  exec env CAIRN_IN_MOUNTNS=1 unshare --mount --propagation private -- "$0" "$@"
-fi
-# shellcheck source=linksim/linksim.sh
-source "$ROOT/tests/linksim/linksim.sh"
-
-AGENT="$BUILD/robot_agent/cairn_agent"
-BASE="$BUILD/basestation/cairn_base"
+# shellcheck source=linksim/test_harness.sh
+source "$(dirname "${BASH_SOURCE[0]}")/linksim/test_harness.sh" discovery_server_test ds "$@"
 DOMAIN=85
-P="ds$$"
-LOGS="$(mktemp -d)"
-failures=0
-fail() { echo "FAIL: $*" >&2; failures=$((failures + 1)); }
-pass() { echo "ok: $*"; }
-cleanup() {
-  linksim_down "$P"
-  rm -rf "$LOGS"
-}
-trap cleanup EXIT
 
 linksim_up "$P" || exit 1
 linksim_add_host "$P" base 10.77.0.2 1000 || exit 1

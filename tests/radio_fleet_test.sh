@@ -12,28 +12,9 @@
 # Run by ctest inside tests/netns_run.sh; enters a private mount namespace (the hosts' names vanish with it).
 #   radio_fleet_test.sh BUILD_DIR
 set -uo pipefail
-BUILD="$1"
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-[ "${CAIRN_IN_NETNS:-}" = 1 ] || { echo "radio_fleet_test: run me inside tests/netns_run.sh" >&2; exit 2; }
-if [ "${CAIRN_IN_MOUNTNS:-}" != 1 ]; then
-  exec env CAIRN_IN_MOUNTNS=1 unshare --mount --propagation private -- "$0" "$@"
-fi
-# shellcheck source=linksim/linksim.sh
-source "$ROOT/tests/linksim/linksim.sh"
-
-AGENT="$BUILD/robot_agent/cairn_agent"
-BASE="$BUILD/basestation/cairn_base"
+# shellcheck source=linksim/test_harness.sh
+source "$(dirname "${BASH_SOURCE[0]}")/linksim/test_harness.sh" radio_fleet_test rf "$@"
 DOMAIN=84
-P="rf$$"
-LOGS="$(mktemp -d)"
-failures=0
-fail() { echo "FAIL: $*" >&2; failures=$((failures + 1)); }
-pass() { echo "ok: $*"; }
-cleanup() {
-  linksim_down "$P"
-  rm -rf "$LOGS"
-}
-trap cleanup EXIT
 
 RADIO=(--link radio --link-kbps 1000 --subnet 10.77.0.0/24)
 linksim_up "$P" || exit 1

@@ -94,10 +94,11 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
   const bool was_over = found != last_.end() && found->second.over_budget;
   now.over_budget = was_over ? link.budget_kbps > 0 && link.sent_kbps > 0.9 * link.budget_kbps : link.over_budget;
   if (now.over_budget && !was_over) {
+    const std::string busiest = BusiestClass(link);
     OperatorEvent e = Event("over_budget", r,
                             r + " sends " + Fixed1(link.sent_kbps) + " kbit/s, over its link budget of " +
-                                Fixed1(link.budget_kbps) + " kbit/s (" + BusiestClass(link) + ")");
-    e.reason = BusiestClass(link);
+                                Fixed1(link.budget_kbps) + " kbit/s (" + busiest + ")");
+    e.reason = busiest;
     events->push_back(e);
   }
   if (found == last_.end()) {

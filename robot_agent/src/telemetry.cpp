@@ -107,7 +107,7 @@ void Telemetry::PublishAgentInfo(const core::PlatformCapabilities& capabilities,
   info.sensors(sensors);
   info.map_resolution_m(map_resolution_m_);
   info.link(link_.link);
-  info.link_kbps(link_.link == "radio" ? link_.link_kbps : 0.0);
+  info.link_kbps(core::StatedBudgetKbps(link_));
   info.stamp(cairn::msgs::WallStampNow());
   dds_->Publish(info);
 }
@@ -158,7 +158,7 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
     next_link_usage_s_ = now_s + 1.0;
     AddLinkUsage(now_s, &m);
   }
-  m.link_budget_kbps(link_.link == "radio" ? link_.link_kbps : 0.0);
+  m.link_budget_kbps(core::StatedBudgetKbps(link_));
   dds_->Publish(m);
 }
 

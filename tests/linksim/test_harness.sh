@@ -1,0 +1,28 @@
+# The common start of a multi-host test on linksim hosts. Source it first thing, with the test's name, a
+# namespace prefix and the script's own arguments (BUILD_DIR):
+#   source "$(dirname "${BASH_SOURCE[0]}")/linksim/test_harness.sh" my_test xy "$@"
+# It refuses to run outside tests/netns_run.sh, re-runs the script in a private mount namespace (the hosts'
+# names in /run/netns vanish with it), sources linksim.sh and sets BUILD, ROOT, AGENT, BASE, P (the hosts'
+# prefix), LOGS (removed at exit, with every host), failures and fail/pass.
+linksim_test_name="$1"
+P="$2$$"
+shift 2
+BUILD="$1"
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+[ "${CAIRN_IN_NETNS:-}" = 1 ] || { echo "$linksim_test_name: run me inside tests/netns_run.sh" >&2; exit 2; }
+if [ "${CAIRN_IN_MOUNTNS:-}" != 1 ]; then
+  exec env CAIRN_IN_MOUNTNS=1 unshare --mount --propagation private -- "$0" "$@"
+fi
+# shellcheck source=linksim.sh
+source "$ROOT/tests/linksim/linksim.sh"
+AGENT="$BUILD/robot_agent/cairn_agent"
+BASE="$BUILD/basestation/cairn_base"
+LOGS="$(mktemp -d)"
+failures=0
+fail() { echo "FAIL: $*" >&2; failures=$((failures + 1)); }
+pass() { echo "ok: $*"; }
+linksim_test_cleanup() {
+  linksim_down "$P"
+  rm -rf "$LOGS"
+}
+trap linksim_test_cleanup EXIT
