@@ -142,7 +142,11 @@ grep -q "radio link of 1000 kbit/s: camera 4000000 -> 150000 bit/s" "$LOGS/r1.lo
 command_round_trips saturated_radio
 if awk -v p="$P99" 'BEGIN{exit !(p >= 0 && p <= 100)}'; then pass "radio link: command round trip p99 $P99 ms <= 100 ms"
 else fail "radio link: command round trip p99 $P99 ms > 100 ms"; fi
-echo "FIGURE saturated_command_round_trip_p99_ratio_lan_over_radio $(awk -v a="$lan_p99" -v b="$P99" 'BEGIN{printf "%.1f", (b > 0 ? a / b : 0)}')"
+if awk -v a="$lan_p99" -v b="$P99" 'BEGIN{exit !(a > 0 && b > 0)}'; then
+  echo "FIGURE saturated_command_round_trip_p99_ratio_lan_over_radio $(awk -v a="$lan_p99" -v b="$P99" 'BEGIN{printf "%.1f", a / b}')"
+else
+  echo "FIGURE saturated_command_round_trip_p99_ratio_lan_over_radio none (no lan command answered: every one lost in the saturated link)"
+fi
 
 # 8. 5 % random loss each way on both hosts (~10 % of round trips hit): every command answered once and applied
 #    once (retries are de-duplicated: the goals the robot numbers are consecutive, each arrives under its own

@@ -53,7 +53,10 @@ cat >"$xml" <<XML
         <useBuiltinTransports>false</useBuiltinTransports>
         <userTransports><transport_id>cairn_udp</transport_id></userTransports>
         <builtin>
-          <discovery_config><discoveryProtocol>SERVER</discoveryProtocol></discovery_config>
+          <discovery_config>
+            <discoveryProtocol>SERVER</discoveryProtocol>
+            <clientAnnouncementPeriod><sec>0</sec><nanosec>100000000</nanosec></clientAnnouncementPeriod>
+          </discovery_config>
           <metatrafficUnicastLocatorList>
             <locator><udpv4><address>$address</address><port>$port</port></udpv4></locator>
           </metatrafficUnicastLocatorList>

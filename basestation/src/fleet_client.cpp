@@ -8,6 +8,8 @@
 #include <set>
 #include <thread>
 
+#include <spdlog/spdlog.h>
+
 #include "cairn/base/operator_text.h"
 
 #include "cairn/core/dds.h"
@@ -147,6 +149,13 @@ class FleetClient::Impl {
                 std::isfinite(m.max_reverse_speed_mps()) ? std::max(0.0, m.max_reverse_speed_mps()) : 0.0;
             v.max_yaw_rate_radps = std::isfinite(m.max_yaw_rate_radps()) ? std::max(0.0, m.max_yaw_rate_radps()) : 0.0;
           });
+          // How long the announcement took to arrive, by the robot's wall clock against ours (a figure of
+          // discovery when the clocks are synchronized; the fleet join test reads it).
+          const core::WallStamp now = core::WallNow();
+          const double age_s = static_cast<double>(now.sec) - static_cast<double>(m.stamp().sec()) +
+                               (static_cast<double>(now.nanosec) - static_cast<double>(m.stamp().nanosec())) * 1e-9;
+          spdlog::info("basestation {}: {} announced itself on link {} ({:.3f} s ago by its clock)", options_.base_id,
+                       m.agent_id(), m.link().empty() ? "?" : m.link(), age_s);
           perception_->OnRobotSeen(m.agent_id());
         },
         [this](const eprosima::fastdds::dds::LivelinessChangedStatus& status) { OnLiveliness(status); });
@@ -255,7 +264,7 @@ class FleetClient::Impl {
     v.link = links_.View(v.robot_id, now);
     if (!v.lost && v.state && core::SecondsBetween(v.last_seen, now) > options_.lost_after_s) {
       v.lost = true;
-      v.lost_reason = "no state for " + std::to_string(static_cast<int>(core::SecondsBetween(v.last_seen, now))) + " s";
+      v.lost_reason = fmt::format("no state for {:.1f} s", core::SecondsBetween(v.last_seen, now));
     }
     return v;
   }
@@ -295,6 +304,7 @@ class FleetClient::Impl {
       outcome.reason = UnknownRobotReason(robot_id);
       return outcome;
     }
+    if (require_live) WaitForCommandPath(robot_id, options_.command_timeout_s);
     const std::string key = ResponseKey(robot_id, kind, outcome.request_id);
     const auto start = SteadyClock::now();
     std::unique_lock<std::mutex> lock(mutex_);
@@ -390,6 +400,31 @@ class FleetClient::Impl {
       if (it == robots_.end() && now >= discovered_by) return false;
       if (now >= deadline) return false;
       cv_.wait_until(lock, std::min(deadline, now + std::chrono::milliseconds(100)));
+    }
+  }
+
+  // Waits up to `timeout_s` until the robot's command readers have matched this basestation's command writers
+  // (endpoint discovery done both ways is what lets it hear a command). Seeing a robot's state does not mean
+  // that yet: on a lossy link a lost endpoint announcement is repaired only at Fast DDS's next heartbeat (1 s),
+  // and a command sent before the match is never delivered (volatile). Returns whether they matched; the
+  // command is sent either way.
+  bool WaitForCommandPath(const std::string& robot_id, double timeout_s) const {
+    const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                                   std::chrono::duration<double>(timeout_s));
+    while (true) {
+      std::string participant;
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        auto it = participant_of_robot_.find(robot_id);
+        if (it != participant_of_robot_.end()) participant = it->second;
+      }
+      if (participant.empty()) return false;  // known by state only (no agent info yet): nothing to wait on
+      if (control_writer_->MatchedWith(participant) && mode_writer_->MatchedWith(participant) &&
+          goal_writer_->MatchedWith(participant) && stop_writer_->MatchedWith(participant)) {
+        return true;
+      }
+      if (SteadyClock::now() >= deadline) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
   }
 

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -264,11 +265,25 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
     return WaitForCount(matched_, count, timeout);
   }
 
+  /// True when a reader of the participant `participant_id` (ParticipantIdOf) is matched: that process can
+  /// hear this writer (its endpoint discovery has completed with ours).
+  bool MatchedWith(const std::string& participant_id) const {
+    std::lock_guard<std::mutex> lock(matched_mutex_);
+    auto it = matched_readers_.find(participant_id);
+    return it != matched_readers_.end() && it->second > 0;
+  }
+
   eprosima::fastdds::dds::DataWriter* get() const { return writer_; }
 
  private:
   void on_publication_matched(eprosima::fastdds::dds::DataWriter*,
                               const eprosima::fastdds::dds::PublicationMatchedStatus& status) override {
+    {
+      std::lock_guard<std::mutex> lock(matched_mutex_);
+      const std::string participant = ParticipantIdOf(status.last_subscription_handle);
+      if (status.current_count_change > 0) ++matched_readers_[participant];
+      if (status.current_count_change < 0 && --matched_readers_[participant] <= 0) matched_readers_.erase(participant);
+    }
     matched_.store(status.current_count);
   }
 
@@ -276,6 +291,8 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
   eprosima::fastdds::dds::Topic* topic_ = nullptr;
   eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
   std::atomic<int> matched_{0};
+  mutable std::mutex matched_mutex_;
+  std::map<std::string, int> matched_readers_;  // ParticipantIdOf -> matched readers of that participant
   std::atomic<std::uint64_t> bytes_written_{0};
   std::atomic<std::uint64_t> samples_written_{0};
 };
