@@ -72,8 +72,9 @@ class AgentDds::Impl {
       gone_participants_.push_back(participant);
     };
     // One pair of bulk flow controllers per share of a shared radio (SetBulkShare picks one); Fast DDS cannot
-    // change a controller's budget once the participant exists.
+    // change a controller's budget once the participant exists. Other links need only the whole budget.
     for (int share : kBulkShares) {
+      if (share != 1 && options.link.link != "radio") continue;
       p.flow_controllers.push_back({BulkController("cairn.map", share), options.map_budget_bits_per_s / share, 100});
       p.flow_controllers.push_back(
           {BulkController("cairn.camera", share), options.camera_budget_bits_per_s / share, 100});
@@ -347,6 +348,7 @@ bool AgentDds::Publish(const msgs::CompressedImage& image) {
 }
 
 int AgentDds::SetBulkShare(int robots) {
+  if (impl_->options_.link.link != "radio") return 1;  // only a radio's controllers come in shares
   int share = Impl::kBulkShares[0];
   for (int s : Impl::kBulkShares) {
     share = s;

@@ -110,7 +110,7 @@ class AgentDds {
   /// A radio shared by `robots` robots: the map and camera writers move to flow controllers holding 1 / n of
   /// their budgets, n the smallest of 1, 2, 3, 4, 6, 8, 12, 16 at least `robots` (16 beyond). Replacing a
   /// writer drops its samples not yet sent (a basestation that misses map updates asks for a snapshot).
-  /// Thread-safe. @return n.
+  /// Thread-safe. @return n; always 1 on a link other than radio (only a radio's controllers come in shares).
   int SetBulkShare(int robots);
   /// Waits up to `timeout` for the map updates written so far to be acknowledged (at shutdown).
   void WaitForMapDelivery(std::chrono::milliseconds timeout);
