@@ -33,15 +33,6 @@ expect_bad_flag() {
 NEEDLE="--discovery-server '10.77.0.2' must be IPV4_ADDRESS:PORT" expect_bad_flag --link lan --subnet 10.77.0.0/24 --discovery-server 10.77.0.2
 NEEDLE="--discovery-server names a server on a lan or radio link" expect_bad_flag --discovery-server "$SERVER"
 
-hub_bytes() {  # bytes the hub has delivered to every host so far
-  local total=0 n
-  for port in p-base p-r1 p-r2 p-r3; do
-    n=$(linksim_exec "$P" hub tc -s qdisc show dev "$port" | awk '/Sent/ {print $2; exit}')
-    total=$((total + n))
-  done
-  echo "$total"
-}
-
 # One round: three robots and a basestation with the given extra link flags ("simple" or "server").
 round() {
   local label="$1"
@@ -58,9 +49,9 @@ round() {
   done
   sleep 2
   local b0 b1
-  b0=$(hub_bytes)
+  b0=$(linksim_hub_bytes "$P")
   sleep 10
-  b1=$(hub_bytes)
+  b1=$(linksim_hub_bytes "$P")
   echo "FIGURE discovery_${label}_3_idle_robots_kbps $(awk -v a="$b0" -v b="$b1" 'BEGIN{printf "%.1f", (b - a) * 8 / 1000 / 10}') (bytes the hub delivered to the 4 hosts over 10 s, no basestation)"
   local start_s seen_s out
   start_s=$(date +%s.%N)

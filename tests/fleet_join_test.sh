@@ -40,20 +40,12 @@ simulation:
   lidar_points_per_beam: 360
 YAML
 
-hub_bytes() {  # bytes the hub has delivered to every host so far
-  local total=0 n port
-  for port in $(linksim_exec "$P" hub ip -o link show master br0 | awk -F': ' '{print $2}' | cut -d@ -f1); do
-    n=$(linksim_exec "$P" hub tc -s qdisc show dev "$port" | awk '/Sent/ {print $2; exit}')
-    total=$((total + n))
-  done
-  echo "$total"
-}
 # kbit/s the hub delivers over SECONDS.
 hub_kbps() {
   local b0 b1
-  b0=$(hub_bytes)
+  b0=$(linksim_hub_bytes "$P")
   sleep "$1"
-  b1=$(hub_bytes)
+  b1=$(linksim_hub_bytes "$P")
   awk -v a="$b0" -v b="$b1" -v s="$1" 'BEGIN{printf "%.1f", (b - a) * 8 / 1000 / s}'
 }
 epoch_of_log_line() {  # "[2026-11-23 22:19:23.536] ..." -> seconds since the epoch

@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cairn/core/dds.h"
+#include "cairn/msgs/stamp.h"
 #include "cairn_msgsPubSubTypes.h"
 #include "process.h"
 
@@ -31,7 +32,7 @@ using Clock = std::chrono::steady_clock;
 const std::string kAgent = std::string(CAIRN_BINARY_DIR) + "/robot_agent/cairn_agent";
 const std::string kBase = std::string(CAIRN_BINARY_DIR) + "/basestation/cairn_base";
 
-inline double WallSeconds(const cairn_msgs::Time& t) { return t.sec() + 1e-9 * t.nanosec(); }
+using ::cairn::msgs::WallSeconds;
 
 // Watches robot states and operator teleop over DDS, and can inject raw messages.
 class Observer {

@@ -151,9 +151,8 @@ class FleetClient::Impl {
           });
           // How long the announcement took to arrive, by the robot's wall clock against ours (a figure of
           // discovery when the clocks are synchronized; the fleet join test reads it).
-          const core::WallStamp now = core::WallNow();
-          const double age_s = static_cast<double>(now.sec) - static_cast<double>(m.stamp().sec()) +
-                               (static_cast<double>(now.nanosec) - static_cast<double>(m.stamp().nanosec())) * 1e-9;
+          const double age_s =
+              cairn::msgs::WallSeconds(cairn::msgs::WallStampNow()) - cairn::msgs::WallSeconds(m.stamp());
           spdlog::info("basestation {}: {} announced itself on link {} ({:.3f} s ago by its clock)", options_.base_id,
                        m.agent_id(), m.link().empty() ? "?" : m.link(), age_s);
           perception_->OnRobotSeen(m.agent_id());

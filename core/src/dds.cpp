@@ -378,7 +378,6 @@ Locator_t Udpv4Locator(const std::string& address, std::uint32_t port) {
 
 namespace {
 
-// The lan link (LinkOptions): the profile's QoS with its transport and locators on `address` only.
 // Participant announcements on a radio link (the lan link keeps the shipped loopback profile's 250 ms
 // announcements and 2 s lease). Each announcement (~0.3-0.5 kB) reaches every host, so their period is the
 // largest idle cost of a fleet; loss is seen within 1 s by other means (state silence at the basestation,
@@ -389,6 +388,8 @@ constexpr int kRadioLeaseS = 6;
 constexpr int kRadioInitialAnnouncements = 6;
 constexpr int kRadioInitialAnnouncementPeriodMs = 100;
 
+// The lan link (LinkOptions): the profile's QoS with its transport and locators on `address` only; on a radio
+// link, the announcement timing above.
 void ApplyLanLink(const std::string& address, int domain_id, const std::string& discovery_server, bool radio,
                   dds::DomainParticipantQos* qos) {
   auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
@@ -452,7 +453,7 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
   if (IsNamedNetworkLink(options.link)) {
     Ipv4Subnet subnet;
     const std::string address = ResolveLinkAddress(options.link, &subnet);
-    ApplyLanLink(address, options.domain_id, options.link.discovery_server, options.link.link == "radio", &qos);
+    ApplyLanLink(address, options.domain_id, options.link.discovery_server, IsRadioLink(options.link), &qos);
     options_.network.subnets = {subnet};
     options_.network.multicast = options.link.discovery_server.empty();
   } else {

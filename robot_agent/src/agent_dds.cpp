@@ -74,7 +74,7 @@ class AgentDds::Impl {
     // One pair of bulk flow controllers per share of a shared radio (SetBulkShare picks one); Fast DDS cannot
     // change a controller's budget once the participant exists. Other links need only the whole budget.
     for (int share : kBulkShares) {
-      if (share != 1 && options.link.link != "radio") continue;
+      if (share != 1 && !core::IsRadioLink(options.link)) continue;
       p.flow_controllers.push_back({BulkController("cairn.map", share), options.map_budget_bits_per_s / share, 100});
       p.flow_controllers.push_back(
           {BulkController("cairn.camera", share), options.camera_budget_bits_per_s / share, 100});
@@ -348,7 +348,7 @@ bool AgentDds::Publish(const msgs::CompressedImage& image) {
 }
 
 int AgentDds::SetBulkShare(int robots) {
-  if (impl_->options_.link.link != "radio") return 1;  // only a radio's controllers come in shares
+  if (!core::IsRadioLink(impl_->options_.link)) return 1;  // only a radio's controllers come in shares
   int share = Impl::kBulkShares[0];
   for (int s : Impl::kBulkShares) {
     share = s;

@@ -136,7 +136,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
 using internal::InRange;
 
 std::string AgentOptions::ApplyLinkBudget() {
-  if (link.link != "radio") return "";
+  if (!core::IsRadioLink(link)) return "";
   std::string changed;
   const double budget_bits_per_s = link.link_kbps * 1000.0;
   const auto lower = [&](const char* name, double share, double* value) {

@@ -197,7 +197,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
 }
 
 void RobotAgent::Impl::ShareRadioLink() {
-  if (options_.link.link != "radio" || !options_.perception.enabled) return;
+  if (!core::IsRadioLink(options_.link) || !options_.perception.enabled) return;
   const int robots = std::max(1, dds_->RobotsOnLink());
   if (robots == robots_on_link_) return;
   robots_on_link_ = robots;

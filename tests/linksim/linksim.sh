@@ -15,8 +15,9 @@
 #                                                       way, LOSS_PCT % of packets dropped each way (0..100)
 #   linksim_set_loss PREFIX NAME LOSS_PCT               change a host's loss (100: the link is cut)
 #   linksim_exec PREFIX NAME CMD...                     run CMD in that host
+#   linksim_hub_bytes PREFIX                            bytes the hub has delivered to every host so far
 #   linksim_down PREFIX                                 remove the hub and every host of PREFIX
-# Or from a shell: tests/linksim/linksim.sh up|add-host|set-loss|exec|down ARGS (same arguments).
+# Or from a shell: tests/linksim/linksim.sh up|add-host|set-loss|exec|hub-bytes|down ARGS (same arguments).
 
 linksim_fail() { echo "linksim: $*" >&2; return 1; }
 
@@ -72,6 +73,15 @@ linksim_exec() {
   ip netns exec "${prefix}${name}" "$@"
 }
 
+linksim_hub_bytes() {
+  local prefix="$1" total=0 n port
+  for port in $(ip -n "${prefix}hub" -o link show master br0 | awk -F': ' '{print $2}' | cut -d@ -f1); do
+    n=$(ip netns exec "${prefix}hub" tc -s qdisc show dev "$port" | awk '/Sent/ {print $2; exit}')
+    total=$((total + n))
+  done
+  echo "$total"
+}
+
 linksim_down() {
   local prefix="$1" ns
   for ns in $(ip netns list | awk '{print $1}' | grep "^${prefix}"); do
@@ -94,6 +104,7 @@ if [ "${BASH_SOURCE[0]}" = "$0" ]; then
     set-loss) linksim_set_loss "$@" ;;
     exec) linksim_exec "$@" ;;
     down) linksim_down "$@" ;;
-    *) echo "usage: linksim.sh up|add-host|set-loss|exec|down ARGS (see the comment at the top)" >&2; exit 2 ;;
+    hub-bytes) linksim_hub_bytes "$@" ;;
+    *) echo "usage: linksim.sh up|add-host|set-loss|exec|hub-bytes|down ARGS (see the comment at the top)" >&2; exit 2 ;;
   esac
 fi

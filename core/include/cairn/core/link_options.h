@@ -37,8 +37,11 @@ constexpr const char* kDiscoveryServerGuidPrefix = "44.53.00.5f.45.50.52.4f.53.4
 constexpr double kRadioMapShare = 0.25;
 constexpr double kRadioCameraShare = 0.15;
 
+/// True for the radio link class (a lan link with a stated budget, shared by the robots on it).
+inline bool IsRadioLink(const LinkOptions& link) { return link.link == "radio"; }
+
 /// The budget a link states, kbit/s: link_kbps on a radio link, 0 (none) otherwise.
-inline double StatedBudgetKbps(const LinkOptions& link) { return link.link == "radio" ? link.link_kbps : 0.0; }
+inline double StatedBudgetKbps(const LinkOptions& link) { return IsRadioLink(link) ? link.link_kbps : 0.0; }
 
 /// True for the links bound to a named network (lan, radio).
 inline bool IsNamedNetworkLink(const LinkOptions& link) { return link.link == "lan" || link.link == "radio"; }

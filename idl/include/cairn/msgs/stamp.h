@@ -15,4 +15,7 @@ inline cairn_msgs::Time WallStampNow() {
   return t;
 }
 
+/// A wire time as seconds since the Unix epoch (double: microsecond precision today).
+inline double WallSeconds(const cairn_msgs::Time& t) { return t.sec() + 1e-9 * t.nanosec(); }
+
 }  // namespace cairn::msgs
