@@ -218,7 +218,7 @@ class RawBasestation {
     options.name = "test-raw-" + base_id;
     participant_ = std::make_unique<core::Participant>(options);
     id_ = participant_->participant_id();
-    info_ = std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/agent_info",
+    info_ = std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/base_info",
                                                                       "cairn.latched");
     control_ = std::make_unique<core::Writer<msgs::ControlRequestPubSubType>>(
         *participant_, "cairn/control_request", "cairn.command");

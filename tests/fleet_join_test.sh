@@ -145,11 +145,19 @@ round() {
   local before after
   sleep 2
   before=$(grep -c '"event":"lost"' "$LOGS/$label.json")
+  local q0 q1 t0 t1
+  q0=$(linksim_host_queue "$P" base)
+  t0=$(date +%s.%N)
   for i in $(seq 1 "$N"); do linksim_set_loss "$P" "r$i" 5; done
   linksim_set_loss "$P" base 5
   echo "sleep 20" >&3
   echo "events 1" >&3
   for _ in $(seq 1 300); do grep -q '"command":"events"' "$LOGS/$label.json" && break; sleep 0.1; done
+  q1=$(linksim_host_queue "$P" base)
+  t1=$(date +%s.%N)
+  awk -v q0="$q0" -v q1="$q1" -v a="$t0" -v b="$t1" -v n="$N" -v k="$KBIT" 'BEGIN{split(q0, x, " "); split(q1, y, " ");
+    printf "FIGURE to_base_kbps_%d_robots %.1f of %d (during the 5 %% loss, %d packets dropped by its queue)\n",
+      n, (y[1] - x[1]) * 8 / 1000 / (b - a), k, y[2] - x[2]}'
   for i in $(seq 1 "$N"); do linksim_set_loss "$P" "r$i" 0; done
   linksim_set_loss "$P" base 0
   after=$(grep -c '"event":"lost"' "$LOGS/$label.json")

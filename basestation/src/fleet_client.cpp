@@ -58,8 +58,9 @@ class FleetClient::Impl {
     };
     participant_ = std::make_unique<core::Participant>(p);
     participant_id_ = participant_->participant_id();
+    // Announced on cairn/base_info, which only robots read; robots announce on cairn/agent_info.
     info_writer_ =
-        std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/agent_info", "cairn.latched");
+        std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/base_info", "cairn.latched");
     perception_ = std::make_unique<FleetPerception>(*participant_, options.base_id);
     control_writer_ = std::make_unique<core::Writer<msgs::ControlRequestPubSubType>>(
         *participant_, "cairn/control_request", "cairn.command");
@@ -159,14 +160,7 @@ class FleetClient::Impl {
         },
         [this](const eprosima::fastdds::dds::LivelinessChangedStatus& status) { OnLiveliness(status); });
 
-    msgs::AgentInfo info;
-    info.agent_id(options.base_id);
-    info.kind(msgs::AGENT_KIND_BASESTATION);
-    info.platform("basestation");
-    info.capabilities(options.capabilities);
-    info.version("0.1.0");
-    info.stamp(cairn::msgs::WallStampNow());
-    info_writer_->Write(info);
+    Announce(0);
     monitor_ = std::thread([this] { MonitorLoop(); });
   }
 
@@ -186,6 +180,22 @@ class FleetClient::Impl {
     tree_reader_.reset();
     info_reader_.reset();
     perception_.reset();  // after info_reader_, whose callback uses it
+  }
+
+  // Publishes this basestation's AgentInfo with the number of robots it hears (robots size their share of a
+  // radio by it). Called without mutex_ held.
+  void Announce(int robots_heard) {
+    msgs::AgentInfo info;
+    info.agent_id(options_.base_id);
+    info.kind(msgs::AGENT_KIND_BASESTATION);
+    info.platform("basestation");
+    info.capabilities(options_.capabilities);
+    info.version("0.1.0");
+    info.stamp(cairn::msgs::WallStampNow());
+    info.link(options_.link.link);
+    info.link_kbps(core::StatedBudgetKbps(options_.link));
+    info.robots_heard(static_cast<std::uint16_t>(std::min(robots_heard, 65535)));
+    info_writer_->Write(info);
   }
 
   // Applies `change` to the view of `robot_id` (creating it), marks it seen and wakes waiters.
@@ -354,7 +364,13 @@ class FleetClient::Impl {
       const auto now = SteadyClock::now();
       for (const auto& [id, view] : robots_) views.push_back(WithStaleness(view, now));
       std::vector<OperatorEvent> events = detector_.Observe(views);
+      const int robots_heard = static_cast<int>(
+          std::count_if(views.begin(), views.end(), [](const RobotView& v) { return v.state && !v.lost; }));
       lock.unlock();
+      if (robots_heard != announced_robots_heard_) {
+        announced_robots_heard_ = robots_heard;
+        Announce(robots_heard);
+      }
       // A robot back from lost may have sent map deltas this basestation never got (a cut link unmatches the
       // writers, and volatile samples are not replayed): its map here starts again from a snapshot, asked for
       // until one completes.
@@ -460,6 +476,7 @@ class FleetClient::Impl {
   std::map<std::string, std::string> participant_of_robot_;  // robot id -> its newest process (ParticipantIdOf)
   LinkMonitor links_;
   std::uint32_t last_probe_id_ = 0;
+  int announced_robots_heard_ = 0;  // MonitorLoop only: the robots_heard of the last Announce
   std::mutex gone_mutex_;  // guards gone_participants_ only (taken on Fast DDS's discovery thread)
   std::vector<std::pair<std::string, bool>> gone_participants_;  // (participant, dropped)
   std::map<std::string, msgs::CommandResponse> responses_;  // answers to awaited_ requests only

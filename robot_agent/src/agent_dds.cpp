@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <map>
 #include <mutex>
-#include <set>
 #include <stdexcept>
 
 #include "cairn/core/dds.h"
@@ -174,19 +173,20 @@ class AgentDds::Impl {
                                          {m.goal_M().x_m(), m.goal_M().y_m()},
                                          m.platform()});
         });
+    // Basestations' announcements only: robots announce themselves on cairn/agent_info, which no robot reads.
     info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
-        p, "cairn/agent_info", "cairn.latched",
+        p, "cairn/base_info", "cairn.latched",
         [this](const msgs::AgentInfo& m, const SampleInfo& info) {
-          if (m.kind() == msgs::AGENT_KIND_ROBOT) {
-            std::lock_guard<std::mutex> guard(peers_mutex_);
-            robot_peers_[core::WriterIdOf(info.publication_handle)] = {m.agent_id(), true};
-            return;
-          }
           if (m.kind() != msgs::AGENT_KIND_BASESTATION) return;
+          const std::string writer = core::WriterIdOf(info.publication_handle);
+          {
+            std::lock_guard<std::mutex> guard(peers_mutex_);
+            robots_heard_by_base_[writer] = {m.robots_heard(), true};
+          }
           const auto& caps = m.capabilities();
-          handlers_.base_announced(BaseAnnouncement{
-              core::WriterIdOf(info.publication_handle), core::ParticipantIdOf(info.publication_handle),
-              m.agent_id(), std::find(caps.begin(), caps.end(), "joystick") != caps.end()});
+          handlers_.base_announced(BaseAnnouncement{writer, core::ParticipantIdOf(info.publication_handle),
+                                                    m.agent_id(),
+                                                    std::find(caps.begin(), caps.end(), "joystick") != caps.end()});
         },
         [this](const eprosima::fastdds::dds::LivelinessChangedStatus& status) {
           WriterLiveliness change;
@@ -198,14 +198,13 @@ class AgentDds::Impl {
           change.regained = status.alive_count_change > 0;
           {
             std::lock_guard<std::mutex> guard(peers_mutex_);
-            auto peer = robot_peers_.find(change.writer);
-            if (peer != robot_peers_.end()) {
+            auto base = robots_heard_by_base_.find(change.writer);
+            if (base != robots_heard_by_base_.end()) {
               if (change.unmatched) {
-                robot_peers_.erase(peer);
+                robots_heard_by_base_.erase(base);
               } else if (change.lost || change.regained) {
-                peer->second.second = change.regained && !change.lost;
+                base->second.second = change.regained && !change.lost;
               }
-              return;  // a robot's: not a basestation's liveliness
             }
           }
           handlers_.base_liveliness(change);
@@ -248,8 +247,9 @@ class AgentDds::Impl {
   AgentDdsOptions options_;
   AgentDdsHandlers handlers_;
   bool listening_ = false;
-  mutable std::mutex peers_mutex_;  // guards robot_peers_ only (taken on DDS threads)
-  std::map<std::string, std::pair<std::string, bool>> robot_peers_;  // agent-info writer -> (robot id, alive)
+  mutable std::mutex peers_mutex_;  // guards robots_heard_by_base_ only (taken on DDS threads)
+  // A basestation's info writer -> (the robots it hears, alive).
+  std::map<std::string, std::pair<int, bool>> robots_heard_by_base_;
   std::mutex gone_mutex_;  // guards gone_participants_ only (taken on a DDS thread)
   std::vector<std::string>
       gone_participants_;  // reported by participant discovery, taken by the control loop
@@ -382,12 +382,12 @@ std::vector<SentTraffic> AgentDds::SentByClass() const {
 }
 
 int AgentDds::RobotsOnLink() const {
-  std::set<std::string> robots = {impl_->options_.robot_id};
+  int robots = 1;
   std::lock_guard<std::mutex> guard(impl_->peers_mutex_);
-  for (const auto& [writer, peer] : impl_->robot_peers_) {
-    if (peer.second) robots.insert(peer.first);
+  for (const auto& [writer, heard] : impl_->robots_heard_by_base_) {
+    if (heard.second) robots = std::max(robots, heard.first);
   }
-  return static_cast<int>(robots.size());
+  return robots;
 }
 
 void AgentDds::WaitForMapDelivery(std::chrono::milliseconds timeout) {

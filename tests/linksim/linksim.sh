@@ -16,8 +16,10 @@
 #   linksim_set_loss PREFIX NAME LOSS_PCT               change a host's loss (100: the link is cut)
 #   linksim_exec PREFIX NAME CMD...                     run CMD in that host
 #   linksim_hub_bytes PREFIX                            bytes the hub has delivered to every host so far
+#   linksim_host_queue PREFIX NAME                      "BYTES DROPPED": bytes the hub has delivered to NAME
+#                                                       and packets its queue towards NAME dropped, so far
 #   linksim_down PREFIX                                 remove the hub and every host of PREFIX
-# Or from a shell: tests/linksim/linksim.sh up|add-host|set-loss|exec|hub-bytes|down ARGS (same arguments).
+# Or from a shell: tests/linksim/linksim.sh up|add-host|set-loss|exec|hub-bytes|host-queue|down ARGS (same arguments).
 
 linksim_fail() { echo "linksim: $*" >&2; return 1; }
 
@@ -82,6 +84,11 @@ linksim_hub_bytes() {
   echo "$total"
 }
 
+linksim_host_queue() {
+  local prefix="$1" name="$2"
+  ip netns exec "${prefix}hub" tc -s qdisc show dev "p-$name" | awk '/Sent/ {gsub(",", ""); print $2, $8; exit}'
+}
+
 linksim_down() {
   local prefix="$1" ns
   for ns in $(ip netns list | awk '{print $1}' | grep "^${prefix}"); do
@@ -105,6 +112,7 @@ if [ "${BASH_SOURCE[0]}" = "$0" ]; then
     exec) linksim_exec "$@" ;;
     down) linksim_down "$@" ;;
     hub-bytes) linksim_hub_bytes "$@" ;;
-    *) echo "usage: linksim.sh up|add-host|set-loss|exec|hub-bytes|down ARGS (see the comment at the top)" >&2; exit 2 ;;
+    host-queue) linksim_host_queue "$@" ;;
+    *) echo "usage: linksim.sh up|add-host|set-loss|exec|hub-bytes|host-queue|down ARGS (see the comment at the top)" >&2; exit 2 ;;
   esac
 fi

@@ -4,7 +4,7 @@
 // robot logic lives here: who may command is the command interface's, what to publish the telemetry's.
 //
 // Topics (idl/cairn_msgs.idl): reads cairn/control_request, cairn/mode_request, cairn/waypoint_goal,
-// cairn/stop_request (QoS cairn.command), cairn/teleop (cairn.teleop), cairn/agent_info (cairn.latched, with
+// cairn/stop_request (QoS cairn.command), cairn/teleop (cairn.teleop), cairn/base_info (cairn.latched, with
 // liveliness), cairn/path_request, cairn/map_sync_request (cairn.command); writes cairn/command_response,
 // cairn/path_response (cairn.command), cairn/agent_info, cairn/bt_state, cairn/global_path, cairn/staircase
 // (cairn.latched), cairn/robot_state, cairn/local_plan (cairn.state), cairn/map_update (cairn.map, flow
@@ -104,8 +104,9 @@ class AgentDds {
   /// (command and path answers, probe replies), state (robot state, local plan, agent info, staircases), tree
   /// (behavior tree, global path), map, camera. Thread-safe.
   std::vector<SentTraffic> SentByClass() const;
-  /// Robots on this robot's link now, itself included: distinct robot ids whose agent info writers are alive
-  /// (robots announce themselves to every agent; nothing else of theirs reaches this one). Thread-safe.
+  /// Robots sharing this robot's link now, itself included: the largest AgentInfo::robots_heard of the live
+  /// basestations, at least 1. Robots never read one another (a fleet's discovery stays O(robots), not
+  /// O(robots²)), so the basestations, which hear them all, tell them. Thread-safe.
   int RobotsOnLink() const;
   /// A radio shared by `robots` robots: the map and camera writers move to flow controllers holding 1 / n of
   /// their budgets, n the smallest of 1, 2, 3, 4, 6, 8, 12, 16 at least `robots` (16 beyond). Replacing a
