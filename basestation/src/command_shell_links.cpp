@@ -15,25 +15,11 @@ using shell::PrintTable;
 namespace {
 
 json LinkJson(const RobotView& v) {
-  const LinkView& l = v.link;
-  json usage = json::array();
-  for (const ClassUsage& u : l.usage) {
-    usage.push_back({{"topic_class", u.topic_class}, {"sent_kbps", u.sent_kbps}, {"sent_bytes", u.sent_bytes}});
-  }
-  json j = {{"robot", v.robot_id},
-            {"link", l.link},
-            {"budget_kbps", l.budget_kbps},
-            {"lost", v.lost},
-            {"heard_s_ago", core::SecondsBetween(v.last_seen, core::SteadyClock::now())},
-            {"rtt_ms", l.rtt_ms},
-            {"rtt_max_ms", l.rtt_max_ms},
-            {"probe_wait_s", l.probe_wait_s},
-            {"state_received", l.state_received},
-            {"state_lost", l.state_lost},
-            {"loss_pct", l.loss_pct},
-            {"sent_kbps", l.sent_kbps},
-            {"over_budget", l.over_budget},
-            {"usage", usage}};
+  json j = shell::LinkFieldsJson(v.link);
+  j["robot"] = v.robot_id;
+  j["link"] = v.link.link;
+  j["lost"] = v.lost;
+  j["heard_s_ago"] = core::SecondsBetween(v.last_seen, core::SteadyClock::now());
   if (v.lost) j["lost_reason"] = v.lost_reason;
   return j;
 }

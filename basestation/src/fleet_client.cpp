@@ -426,21 +426,16 @@ class FleetClient::Impl {
   bool WaitForCommandPath(const std::string& robot_id, double timeout_s) const {
     const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
                                                    std::chrono::duration<double>(timeout_s));
-    while (true) {
-      std::string participant;
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        auto it = participant_of_robot_.find(robot_id);
-        if (it != participant_of_robot_.end()) participant = it->second;
-      }
-      if (participant.empty()) return false;  // known by state only (no agent info yet): nothing to wait on
-      if (control_writer_->MatchedWith(participant) && mode_writer_->MatchedWith(participant) &&
-          goal_writer_->MatchedWith(participant) && stop_writer_->MatchedWith(participant)) {
-        return true;
-      }
-      if (SteadyClock::now() >= deadline) return false;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    std::string participant;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      auto it = participant_of_robot_.find(robot_id);
+      if (it != participant_of_robot_.end()) participant = it->second;
     }
+    if (participant.empty()) return false;  // known by state only (no agent info yet): nothing to wait on
+    return control_writer_->WaitMatchedWith(participant, deadline) &&
+           mode_writer_->WaitMatchedWith(participant, deadline) &&
+           goal_writer_->WaitMatchedWith(participant, deadline) && stop_writer_->WaitMatchedWith(participant, deadline);
   }
 
   std::string UnknownRobotReason(const std::string& robot_id) const {

@@ -105,7 +105,7 @@ const char* kFleetStateSchema = R"json({"title":"cairn.FleetState","description"
 "class":{"type":"string"},"budget_kbps":{"type":"number"},"rtt_ms":{"type":"number","description":"last link-probe round trip, -1 none yet"},
 "rtt_max_ms":{"type":"number"},"probe_wait_s":{"type":"number"},"loss_pct":{"type":"number","description":"state samples lost over 10 s"},
 "state_lost":{"type":"integer"},"state_received":{"type":"integer"},"sent_kbps":{"type":"number"},"over_budget":{"type":"boolean"},
-"usage":{"type":"array","items":{"type":"object","properties":{"topic_class":{"type":"string"},"sent_kbps":{"type":"number"}}}}}},
+"usage":{"type":"array","items":{"type":"object","properties":{"topic_class":{"type":"string"},"sent_kbps":{"type":"number"},"sent_bytes":{"type":"integer"}}}}}},
 "mode":{"type":"string"},"holder":{"type":"string","description":"basestation holding the control lock, empty when free"},
 "holder_alive":{"type":"boolean"},"you_hold":{"type":"boolean"},
 "nav_status":{"type":"string","enum":["none","active","arrived","failed"]},"nav_reason":{"type":"string"},"nav_goal_id":{"type":"integer"},
@@ -399,14 +399,8 @@ class GuiBridge::Impl {
     for (const RobotView& v : robots) {
       json r = {{"id", v.robot_id}, {"platform", v.platform}, {"online", !v.lost}, {"lost_reason", v.lost_reason}};
       r["heard_s_ago"] = v.state ? core::SecondsBetween(v.state_received, now) : -1.0;
-      json usage = json::array();
-      for (const ClassUsage& u : v.link.usage) usage.push_back({{"topic_class", u.topic_class}, {"sent_kbps", u.sent_kbps}});
-      r["link"] = {{"class", v.link.link},          {"budget_kbps", v.link.budget_kbps},
-                   {"rtt_ms", v.link.rtt_ms},        {"rtt_max_ms", v.link.rtt_max_ms},
-                   {"probe_wait_s", v.link.probe_wait_s}, {"loss_pct", v.link.loss_pct},
-                   {"state_lost", v.link.state_lost}, {"state_received", v.link.state_received},
-                   {"sent_kbps", v.link.sent_kbps},  {"over_budget", v.link.over_budget},
-                   {"usage", usage}};
+      r["link"] = shell::LinkFieldsJson(v.link);
+      r["link"]["class"] = v.link.link;
       r["valid_actions"] = ValidActions(v, client_.base_id());
       r["max_speed_mps"] = v.max_speed_mps;
       r["max_reverse_speed_mps"] = v.max_reverse_speed_mps;

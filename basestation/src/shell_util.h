@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "cairn/base/link_monitor.h"
 #include "cairn/perception/staircase.h"
 #include "cairn_msgs.h"
 
@@ -95,6 +96,22 @@ inline nlohmann::json StaircaseJson(const perception::StaircaseRegistry::Entry& 
           {"width_m", s.width_m},
           {"confidence", s.confidence},
           {"sources", e.sources}};
+}
+
+/// A robot's link as this basestation sees it (LinkMonitor), for `links --json` and the GUI's fleet message:
+/// budget_kbps, rtt_ms (-1 none yet), rtt_max_ms, probe_wait_s, state_received, state_lost, loss_pct (over
+/// 10 s), sent_kbps, over_budget and usage (topic_class, sent_kbps, sent_bytes in the robot's priority
+/// order). The link class itself is the caller's ("link" in the shell, "class" in the GUI).
+inline nlohmann::json LinkFieldsJson(const LinkView& l) {
+  nlohmann::json usage = nlohmann::json::array();
+  for (const ClassUsage& u : l.usage) {
+    usage.push_back({{"topic_class", u.topic_class}, {"sent_kbps", u.sent_kbps}, {"sent_bytes", u.sent_bytes}});
+  }
+  return {{"budget_kbps", l.budget_kbps}, {"rtt_ms", l.rtt_ms},
+          {"rtt_max_ms", l.rtt_max_ms},   {"probe_wait_s", l.probe_wait_s},
+          {"state_received", l.state_received}, {"state_lost", l.state_lost},
+          {"loss_pct", l.loss_pct},       {"sent_kbps", l.sent_kbps},
+          {"over_budget", l.over_budget}, {"usage", usage}};
 }
 
 }  // namespace cairn::base::shell

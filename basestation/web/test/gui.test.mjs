@@ -211,12 +211,15 @@ test("a tap on another level's floor names that level (goto --z); a wall cut by 
     scene.applySceneUpdate({ entities: [{ id: "map/test/0/0", cubes }] });
     scene.focus(2, 2, 0);
     scene.setTopDown(true);
-    await new Promise((r) => setTimeout(r, 500));
     const at = (x, y, z) => {
       const p = scene.toScreen(x, y, z);
       const hit = scene.pick(p.x, p.y, 0);
       return { surface: !!hit.surface, z: hit.point ? Number(hit.point.z.toFixed(2)) : null };
     };
+    // The cubes become pickable once a frame has drawn them (a loaded machine may take seconds).
+    for (let waited = 0; waited < 10000 && !at(2.5, 2, 0).surface; waited += 100) {
+      await new Promise((r) => setTimeout(r, 100));
+    }
     scene.setCeilingCut(Infinity);
     const floor2 = at(0.8, 2, 3.2), floor1 = at(2.5, 2, 0);
     scene.setCeilingCut(1.6);

@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -273,6 +274,15 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
     return it != matched_readers_.end() && it->second > 0;
   }
 
+  /// Waits until MatchedWith(participant_id) holds or `deadline` passes; returns whether it holds.
+  bool WaitMatchedWith(const std::string& participant_id, std::chrono::steady_clock::time_point deadline) const {
+    std::unique_lock<std::mutex> lock(matched_mutex_);
+    return matched_cv_.wait_until(lock, deadline, [&] {
+      auto it = matched_readers_.find(participant_id);
+      return it != matched_readers_.end() && it->second > 0;
+    });
+  }
+
   eprosima::fastdds::dds::DataWriter* get() const { return writer_; }
 
  private:
@@ -284,6 +294,7 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
       if (status.current_count_change > 0) ++matched_readers_[participant];
       if (status.current_count_change < 0 && --matched_readers_[participant] <= 0) matched_readers_.erase(participant);
     }
+    matched_cv_.notify_all();
     matched_.store(status.current_count);
   }
 
@@ -292,6 +303,7 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
   eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
   std::atomic<int> matched_{0};
   mutable std::mutex matched_mutex_;
+  mutable std::condition_variable matched_cv_;  // notified on every match change
   std::map<std::string, int> matched_readers_;  // ParticipantIdOf -> matched readers of that participant
   std::atomic<std::uint64_t> bytes_written_{0};
   std::atomic<std::uint64_t> samples_written_{0};
