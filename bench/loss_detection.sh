@@ -24,13 +24,7 @@ RADIO=(--link radio --link-kbps 1000 --subnet 10.77.0.0/24)
 linksim_up "$P" || exit 1
 for k in "${!AFTER[@]}"; do linksim_add_host "$P" "b$k" "10.77.0.$((2 + k))" 1000 || exit 1; done
 for i in "${!ROBOTS[@]}"; do linksim_add_host "$P" "${ROBOTS[$i]}" "10.77.0.$((11 + i))" 1000 || exit 1; done
-cat >"$LOGS/light.yaml" <<'YAML'
-perception:
-  enabled: false
-simulation:
-  lidar_rate_hz: 5.0
-  lidar_points_per_beam: 360
-YAML
+linksim_light_robot_config "$LOGS/light.yaml"
 
 # Basestation k (0-based) reads commands from fd 10+k and writes JSON lines to $LOGS/base$k.json.
 BASE_PIDS=()

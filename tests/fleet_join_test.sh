@@ -32,13 +32,7 @@ SERVER=10.77.0.2:11811
 linksim_up "$P" || exit 1
 linksim_add_host "$P" base 10.77.0.2 "$KBIT" || exit 1
 for i in $(seq 1 "$N"); do linksim_add_host "$P" "r$i" "10.77.0.$((10 + i))" "$KBIT" || exit 1; done
-cat >"$LOGS/light.yaml" <<'YAML'
-perception:
-  enabled: false
-simulation:
-  lidar_rate_hz: 5.0
-  lidar_points_per_beam: 360
-YAML
+linksim_light_robot_config "$LOGS/light.yaml"
 
 # kbit/s the hub delivers over SECONDS.
 hub_kbps() {

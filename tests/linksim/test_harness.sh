@@ -3,7 +3,7 @@
 #   source "$(dirname "${BASH_SOURCE[0]}")/linksim/test_harness.sh" my_test xy "$@"
 # It refuses to run outside tests/netns_run.sh, re-runs the script in a private mount namespace (the hosts'
 # names in /run/netns vanish with it), sources linksim.sh and sets BUILD, ROOT, AGENT, BASE, P (the hosts'
-# prefix), LOGS (removed at exit, with every host), failures and fail/pass.
+# prefix), LOGS (removed at exit, with every host), failures and fail/pass, and linksim_light_robot_config.
 linksim_test_name="$1"
 P="$2$$"
 shift 2
@@ -21,6 +21,17 @@ LOGS="$(mktemp -d)"
 failures=0
 fail() { echo "FAIL: $*" >&2; failures=$((failures + 1)); }
 pass() { echo "ok: $*"; }
+# Writes the agent config of a light simulated robot to FILE: no perception, a sparse lidar at 5 Hz, so that a
+# dozen processes fit two cores (discovery, state and liveliness do not depend on perception).
+linksim_light_robot_config() {
+  cat >"$1" <<'YAML'
+perception:
+  enabled: false
+simulation:
+  lidar_rate_hz: 5.0
+  lidar_points_per_beam: 360
+YAML
+}
 linksim_test_cleanup() {
   linksim_down "$P"
   rm -rf "$LOGS"
