@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cairn/core/dds.h"
+#include "cairn/msgs/robot_state.h"
 #include "cairn/msgs/stamp.h"
 #include "cairn_msgsPubSubTypes.h"
 #include "process.h"
@@ -42,11 +43,28 @@ class Observer {
     options.domain_id = domain;
     options.name = "test-observer";
     participant_ = std::make_unique<core::Participant>(options);
+    // Whole states (on change, at least once a second) and the 10 Hz poses applied to the last one, as a
+    // basestation does: the history has an entry per whole state and per pose.
     states_ = std::make_unique<core::Reader<cairn_msgs::RobotStatePubSubType>>(
-        *participant_, "cairn/robot_state", "cairn.state", [this](const cairn_msgs::RobotState& s, const auto&) {
+        *participant_, "cairn/robot_state", "cairn.latched",
+        [this](const cairn_msgs::RobotState& s, const auto&) {
           std::lock_guard<std::mutex> lock(mutex_);
-          latest_[s.robot_id()] = s;
-          history_[s.robot_id()].push_back(s);
+          cairn_msgs::RobotState whole = s;
+          auto it = latest_.find(s.robot_id());
+          if (it != latest_.end() && WallSeconds(it->second.stamp()) > WallSeconds(s.stamp())) {
+            cairn::msgs::MergePose(cairn::msgs::PoseOf(it->second), &whole);  // a resent, older whole state
+          }
+          latest_[s.robot_id()] = whole;
+          history_[s.robot_id()].push_back(whole);
+        });
+    poses_ = std::make_unique<core::Reader<cairn_msgs::RobotPosePubSubType>>(
+        *participant_, "cairn/robot_pose", "cairn.state",
+        [this](const cairn_msgs::RobotPose& p, const auto&) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          auto it = latest_.find(p.robot_id());
+          if (it == latest_.end()) return;  // its whole state is on the way
+          cairn::msgs::MergePose(p, &it->second);
+          history_[p.robot_id()].push_back(it->second);
         });
     teleop_ = std::make_unique<core::Reader<cairn_msgs::TeleopTwistPubSubType>>(
         *participant_, "cairn/teleop", "cairn.teleop", [this](const cairn_msgs::TeleopTwist& t, const auto&) {
@@ -56,6 +74,13 @@ class Observer {
     goals_ = std::make_unique<core::Writer<cairn_msgs::WaypointGoalPubSubType>>(*participant_, "cairn/waypoint_goal",
                                                                                "cairn.command");
   }
+  ~Observer() {  // the readers first: their callbacks use the maps and the mutex below
+    states_.reset();
+    poses_.reset();
+    teleop_.reset();
+  }
+  Observer(const Observer&) = delete;
+  Observer& operator=(const Observer&) = delete;
   std::optional<cairn_msgs::RobotState> Latest(const std::string& robot) {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = latest_.find(robot);
@@ -89,6 +114,7 @@ class Observer {
  private:
   std::unique_ptr<core::Participant> participant_;
   std::unique_ptr<core::Reader<cairn_msgs::RobotStatePubSubType>> states_;
+  std::unique_ptr<core::Reader<cairn_msgs::RobotPosePubSubType>> poses_;
   std::unique_ptr<core::Reader<cairn_msgs::TeleopTwistPubSubType>> teleop_;
   std::unique_ptr<core::Writer<cairn_msgs::WaypointGoalPubSubType>> goals_;
   std::mutex mutex_;

@@ -224,8 +224,9 @@ std::optional<RobotView> CommandShell::FreshView(const std::string& robot) {
   const auto answered = last_answer_.find(robot);
   if (answered == last_answer_.end()) return client_.Robot(robot);
   const core::SteadyTime after = answered->second;
-  auto view = client_.WaitUntil(
-      robot, 0.5, [after](const RobotView& v) { return v.state.has_value() && v.state_received > after; });
+  auto view = client_.WaitUntil(robot, 0.5, [after](const RobotView& v) {
+    return v.state.has_value() && v.whole_state_received > after;
+  });
   return view ? view : client_.Robot(robot);
 }
 

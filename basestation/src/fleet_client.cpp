@@ -13,6 +13,7 @@
 #include "cairn/base/operator_text.h"
 
 #include "cairn/core/dds.h"
+#include "cairn/msgs/robot_state.h"
 #include "cairn/msgs/stamp.h"
 #include "cairn_msgsPubSubTypes.h"
 
@@ -75,21 +76,39 @@ class FleetClient::Impl {
     response_reader_ = std::make_unique<core::Reader<msgs::CommandResponsePubSubType>>(
         *participant_, "cairn/command_response", "cairn.command",
         [this](const msgs::CommandResponse& m, const auto&) { OnResponse(m); });
+    // A robot's whole state (on change, at least once a second; reliable, latched) and its 10 Hz pose stream,
+    // applied to the last whole state (idl/cairn_msgs.idl RobotPose). Either keeps the robot from being lost;
+    // the gaps in the pose stream's sequence numbers are the link's losses.
     state_reader_ = std::make_unique<core::Reader<msgs::RobotStatePubSubType>>(
-        *participant_, "cairn/robot_state", "cairn.state",
-        [this](const msgs::RobotState& m, const eprosima::fastdds::dds::SampleInfo& info) {
+        *participant_, "cairn/robot_state", "cairn.latched", [this](const msgs::RobotState& m, const auto&) {
           const auto now = SteadyClock::now();
           std::vector<ClassUsage> usage;
           for (const msgs::LinkClassUsage& u : m.link_usage()) {
             usage.push_back({u.topic_class(), u.sent_kbps(), u.sent_bytes()});
           }
           Update(m.robot_id(), [&](RobotView& v) {
-            v.state = m;
+            msgs::RobotState whole = m;
+            // A resent whole state can be older than the last pose applied: keep that pose.
+            if (v.state && cairn::msgs::WallSeconds(v.state->stamp()) > cairn::msgs::WallSeconds(m.stamp())) {
+              cairn::msgs::MergePose(cairn::msgs::PoseOf(*v.state), &whole);
+            }
+            v.state = std::move(whole);
             v.platform = m.platform();
             v.state_received = now;
-            links_.OnState(m.robot_id(), core::WriterIdOf(info.publication_handle),
-                           static_cast<std::uint64_t>(info.sample_identity.sequence_number().to64long()), now);
+            v.whole_state_received = now;
             if (!usage.empty()) links_.OnUsage(m.robot_id(), std::move(usage));  // once a second
+          });
+        });
+    pose_reader_ = std::make_unique<core::Reader<msgs::RobotPosePubSubType>>(
+        *participant_, "cairn/robot_pose", "cairn.state",
+        [this](const msgs::RobotPose& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          const auto now = SteadyClock::now();
+          Update(m.robot_id(), [&](RobotView& v) {
+            if (v.state) cairn::msgs::MergePose(m, &*v.state);  // else its whole state is on the way
+            v.state_received = now;
+            links_.OnState(m.robot_id(), core::WriterIdOf(info.publication_handle),
+                           static_cast<std::uint64_t>(info.sample_identity.sequence_number().to64long()),
+                           now);
           });
         });
     probe_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(*participant_, "cairn/link_probe",
@@ -177,6 +196,7 @@ class FleetClient::Impl {
     global_path_reader_.reset();
     local_plan_reader_.reset();
     state_reader_.reset();
+    pose_reader_.reset();
     tree_reader_.reset();
     info_reader_.reset();
     perception_.reset();  // after info_reader_, whose callback uses it
@@ -497,6 +517,7 @@ class FleetClient::Impl {
   std::unique_ptr<core::Reader<msgs::GlobalPathPubSubType>> global_path_reader_;
   std::unique_ptr<core::Reader<msgs::LocalPlanPubSubType>> local_plan_reader_;
   std::unique_ptr<core::Reader<msgs::RobotStatePubSubType>> state_reader_;
+  std::unique_ptr<core::Reader<msgs::RobotPosePubSubType>> pose_reader_;
   std::unique_ptr<core::Reader<msgs::BehaviorTreeStatePubSubType>> tree_reader_;
   std::unique_ptr<core::Reader<msgs::AgentInfoPubSubType>> info_reader_;
 };

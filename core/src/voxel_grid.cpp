@@ -1,6 +1,7 @@
 // Copyright Cairn authors.
 #include "cairn/core/voxel_grid.h"
 
+#include <algorithm>
 #include <bitset>
 #include <cmath>
 #include <sstream>
@@ -76,6 +77,24 @@ std::int64_t VoxelGrid::CountOccupied() const {
   std::int64_t n = 0;
   for (const std::uint64_t word : bits_) n += static_cast<std::int64_t>(std::bitset<64>(word).count());
   return n;
+}
+
+int VoxelGrid::HighestOccupiedInColumn(int ix, int iy, int iz) const {
+  if (ix < 0 || iy < 0 || ix >= dims_.x() || iy >= dims_.y()) return -1;
+  iz = std::min(iz, dims_.z() - 1);
+  if (iz < 0) return -1;
+  const std::int64_t base = LinearIndex({ix, iy, 0});  // the column is bits [base, base + dims_.z())
+  std::int64_t i = base + iz;
+  while (i >= base) {
+    const std::int64_t word_index = i >> 6;
+    const int bit = static_cast<int>(i & 63);
+    std::uint64_t word = bits_[static_cast<std::size_t>(word_index)];
+    if (bit < 63) word &= (std::uint64_t{1} << (bit + 1)) - 1;                        // bits at or below i
+    if ((base >> 6) == word_index) word &= ~((std::uint64_t{1} << (base & 63)) - 1);  // bits of this column
+    if (word != 0) return static_cast<int>(word_index * 64 + (63 - __builtin_clzll(word)) - base);
+    i = word_index * 64 - 1;
+  }
+  return -1;
 }
 
 }  // namespace cairn::core

@@ -1,6 +1,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <random>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -11,6 +12,7 @@
 #include "cairn/core/component.h"
 #include "cairn/core/config.h"
 #include "cairn/core/dds.h"
+#include "cairn/core/voxel_grid.h"
 #include "cairn_msgsPubSubTypes.h"
 
 namespace cairn::core {
@@ -20,6 +22,44 @@ std::string WriteTemp(const std::string& name, const std::string& text) {
   const std::string path = ::testing::TempDir() + "/" + name;
   std::ofstream(path) << text;
   return path;
+}
+
+// The word-wise column scan against a voxel-by-voxel one, on columns that straddle 64-bit words (z = 70 and
+// 130 voxels: columns start at every bit offset) with sparse and dense occupancy.
+TEST(VoxelGrid, HighestOccupiedInColumnMatchesAVoxelByVoxelScan) {
+  std::mt19937 random(7);
+  for (const int nz : {1, 64, 70, 130}) {
+    for (const double density : {0.0, 0.02, 0.5}) {
+      VoxelGrid grid("test", Eigen::Vector3d::Zero(), 0.1, Eigen::Vector3i(5, 4, nz));
+      std::bernoulli_distribution occupied(density);
+      for (int ix = 0; ix < 5; ++ix) {
+        for (int iy = 0; iy < 4; ++iy) {
+          for (int iz = 0; iz < nz; ++iz) grid.SetOccupied({ix, iy, iz}, occupied(random));
+        }
+      }
+      for (int ix = 0; ix < 5; ++ix) {
+        for (int iy = 0; iy < 4; ++iy) {
+          for (int from = -1; from <= nz + 2; ++from) {
+            int expected = -1;
+            for (int iz = std::min(from, nz - 1); iz >= 0; --iz) {
+              if (grid.IsOccupiedIndex({ix, iy, iz})) {
+                expected = iz;
+                break;
+              }
+            }
+            ASSERT_EQ(grid.HighestOccupiedInColumn(ix, iy, from), expected)
+                << "nz " << nz << " density " << density << " column (" << ix << ", " << iy << ") from "
+                << from;
+          }
+        }
+      }
+    }
+  }
+  VoxelGrid grid("test", Eigen::Vector3d::Zero(), 0.1, Eigen::Vector3i(2, 2, 8));
+  grid.SetOccupied({1, 1, 3});
+  EXPECT_EQ(grid.HighestOccupiedInColumn(1, 1, 100), 3);
+  EXPECT_EQ(grid.HighestOccupiedInColumn(2, 1, 7), -1) << "outside the grid";
+  EXPECT_EQ(grid.HighestOccupiedInColumn(-1, 0, 7), -1) << "outside the grid";
 }
 
 TEST(DomainId, AcceptsRangeAndNamesBadValues) {

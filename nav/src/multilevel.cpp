@@ -102,14 +102,14 @@ void MultiLevelGrid::ScanColumn(int ix, int iy, Visit&& visit) const {
   const double band_lo = options_.ground_search_min_z_m - kEps_m;
   const double band_hi = options_.ground_search_max_z_m + kEps_m;
   int free_run = options_.free_above_map ? need_voxels_ : 0;
-  for (int iz = world_dims_.z() - 1; iz >= 0; --iz) {
-    if (!world_->IsOccupiedIndex({ix, iy, iz})) {
-      ++free_run;
-      continue;
-    }
+  for (int above = world_dims_.z() - 1; above >= 0;) {
+    const int iz = world_->HighestOccupiedInColumn(ix, iy, above);  // voxels iz + 1 .. above are free
+    free_run += above - iz;
+    if (iz < 0) break;
     const double top = TopOf(iz);
     if (top >= band_lo && top <= band_hi && free_run >= need_voxels_ && SeenFreeAbove(ix, iy, iz)) visit(iz);
     free_run = 0;
+    above = iz - 1;
   }
 }
 
@@ -206,11 +206,9 @@ void MultiLevelGrid::Recompute(const std::vector<std::array<int, 4>>& windows, b
       const std::size_t column = static_cast<std::size_t>(Column(ix, iy));
       first[column] = static_cast<int>(z_m.size());
       if (whole || is_changed[column]) {
-        bool observed = false;
-        for (int iz = 0; iz < world_dims_.z() && !observed; ++iz) {
-          observed = world_->IsOccupiedIndex({ix, iy, iz}) || (seen_free_ && seen_free_->IsOccupiedIndex({ix, iy, iz}));
-        }
-        observed_[column] = observed;
+        const int top_z = world_dims_.z() - 1;
+        observed_[column] = world_->HighestOccupiedInColumn(ix, iy, top_z) >= 0 ||
+                            (seen_free_ && seen_free_->HighestOccupiedInColumn(ix, iy, top_z) >= 0);
         found.clear();
         ScanColumn(ix, iy, [&found](int iz) { found.push_back(iz); });
         for (auto it = found.rbegin(); it != found.rend(); ++it) {  // lowest first

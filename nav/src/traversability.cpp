@@ -213,17 +213,17 @@ bool TraversabilityGrid::ScanColumn(const core::VoxelGrid& world, int ix, int iy
   const double band_hi = options_.ground_search_max_z_m + kEps_m;
   bool band_occupied = false;
   int free_run = options_.free_above_map ? need_voxels_ : 0;  // Free voxels directly above the current one.
-  for (int iz = world_dims_.z() - 1; iz >= 0; --iz) {
-    if (!world.IsOccupiedIndex({ix, iy, iz})) {
-      ++free_run;
-      continue;
-    }
+  for (int above = world_dims_.z() - 1; above >= 0;) {
+    const int iz = world.HighestOccupiedInColumn(ix, iy, above);  // voxels iz + 1 .. above are free
+    free_run += above - iz;
+    if (iz < 0) break;
     const double top = TopOf(iz);
     if (top >= band_lo && top <= band_hi) {
       band_occupied = true;
       if (free_run >= need_voxels_ && SeenFreeAbove(ix, iy, iz)) visit(iz);
     }
     free_run = 0;
+    above = iz - 1;
   }
   return band_occupied;
 }

@@ -100,7 +100,9 @@ class AgentDds::Impl {
     info_writer_ =
         std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(p, "cairn/agent_info", "cairn.latched");
     state_writer_ =
-        std::make_unique<core::Writer<msgs::RobotStatePubSubType>>(p, "cairn/robot_state", "cairn.state");
+        std::make_unique<core::Writer<msgs::RobotStatePubSubType>>(p, "cairn/robot_state", "cairn.latched");
+    pose_writer_ =
+        std::make_unique<core::Writer<msgs::RobotPosePubSubType>>(p, "cairn/robot_pose", "cairn.state");
     tree_writer_ = std::make_unique<core::Writer<msgs::BehaviorTreeStatePubSubType>>(p, "cairn/bt_state",
                                                                                      "cairn.latched");
     response_writer_ = std::make_unique<core::Writer<msgs::CommandResponsePubSubType>>(
@@ -256,6 +258,7 @@ class AgentDds::Impl {
   std::unique_ptr<core::Participant> participant_;
   std::unique_ptr<core::Writer<msgs::AgentInfoPubSubType>> info_writer_;
   std::unique_ptr<core::Writer<msgs::RobotStatePubSubType>> state_writer_;
+  std::unique_ptr<core::Writer<msgs::RobotPosePubSubType>> pose_writer_;
   std::unique_ptr<core::Writer<msgs::BehaviorTreeStatePubSubType>> tree_writer_;
   std::unique_ptr<core::Writer<msgs::CommandResponsePubSubType>> response_writer_;
   std::unique_ptr<core::Writer<msgs::PathResponsePubSubType>> path_response_writer_;
@@ -335,6 +338,7 @@ void AgentDds::Send(const PathAnswer& answer) {
 
 bool AgentDds::Publish(const msgs::AgentInfo& info) { return impl_->info_writer_->Write(info); }
 bool AgentDds::Publish(const msgs::RobotState& state) { return impl_->state_writer_->Write(state); }
+bool AgentDds::Publish(const msgs::RobotPose& pose) { return impl_->pose_writer_->Write(pose); }
 bool AgentDds::Publish(const msgs::BehaviorTreeState& tree) { return impl_->tree_writer_->Write(tree); }
 bool AgentDds::Publish(const msgs::GlobalPath& path) { return impl_->global_path_writer_->Write(path); }
 bool AgentDds::Publish(const msgs::LocalPlan& plan) { return impl_->local_plan_writer_->Write(plan); }
@@ -375,7 +379,8 @@ std::vector<SentTraffic> AgentDds::SentByClass() const {
   auto of = [](const auto& writer) { return std::make_pair(writer->bytes_written(), writer->samples_written()); };
   std::lock_guard<std::mutex> guard(i.bulk_mutex_);
   return {sum("command", {of(i.response_writer_), of(i.path_response_writer_), of(i.probe_reply_writer_)}),
-          sum("state", {of(i.state_writer_), of(i.local_plan_writer_), of(i.info_writer_), of(i.staircase_writer_)}),
+          sum("state", {of(i.state_writer_), of(i.pose_writer_), of(i.local_plan_writer_), of(i.info_writer_),
+                        of(i.staircase_writer_)}),
           sum("tree", {of(i.tree_writer_), of(i.global_path_writer_)}),
           sum("map", {of(i.map_writer_), i.retired_map_}),
           sum("camera", {of(i.camera_writer_), i.retired_camera_})};

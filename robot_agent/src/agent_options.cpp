@@ -136,7 +136,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
 using internal::InRange;
 
 std::string AgentOptions::ApplyLinkBudget() {
-  if (!core::IsRadioLink(link)) return "";
+  if (!core::IsRadioLink(link) || !perception.enabled) return "";  // without perception: no map, no camera
   std::string changed;
   const double budget_bits_per_s = link.link_kbps * 1000.0;
   const auto lower = [&](const char* name, double share, double* value) {
@@ -148,6 +148,14 @@ std::string AgentOptions::ApplyLinkBudget() {
   };
   lower("map telemetry", core::kRadioMapShare, &perception.telemetry.budget_bits_per_s);
   lower("camera", core::kRadioCameraShare, &perception.camera_budget_bits_per_s);
+  std::string why;
+  if (!perception.telemetry.IsValid(&why)) {
+    throw std::invalid_argument("--link-kbps " + std::to_string(link.link_kbps) + ": map telemetry's share (" +
+                                std::to_string(static_cast<long>(perception.telemetry.budget_bits_per_s)) +
+                                " bit/s) cannot carry one map message (" + why +
+                                "): give the radio a larger budget, or turn perception off (perception.enabled: "
+                                "false)");
+  }
   return changed;
 }
 

@@ -54,6 +54,19 @@ std::shared_ptr<nav::GlobalPlanner> MakePlanner(const AgentOptions& options, con
                              std::move(profiles));
 }
 
+std::unique_ptr<AgentDds> MakeDds(const AgentOptions& options) {
+  AgentDdsOptions dds;
+  dds.robot_id = options.robot_id;
+  dds.domain_id = options.domain_id;
+  dds.profiles_file = options.dds_profiles_file;
+  dds.link = options.link;
+  // Map telemetry budgets itself (PerceptionOptions::telemetry); the flow controller is a backstop 25 % above
+  // it. Camera frames rely on theirs: a frame that cannot go out in time is replaced by the next.
+  dds.map_budget_bits_per_s = options.perception.telemetry.budget_bits_per_s * 1.25;
+  dds.camera_budget_bits_per_s = options.perception.camera_budget_bits_per_s;
+  return std::make_unique<AgentDds>(dds);
+}
+
 std::shared_ptr<core::PlatformIO> Checked(std::shared_ptr<core::PlatformIO> platform) {
   if (!platform) throw std::invalid_argument("RobotAgent: platform is null");
   return platform;
@@ -92,6 +105,9 @@ struct PeriodWindow {
 class RobotAgent::Impl {
  public:
   Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform);
+  ~Impl() { dds_.reset(); }  // first: no handler runs while the rest goes
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
   void Run();
 
  private:
@@ -115,6 +131,9 @@ class RobotAgent::Impl {
 
   AgentOptions options_;
   SteadyTime start_time_ = SteadyClock::now();
+  // The DDS participant and writers come first, so that discovery runs while the rest is built (~0.5 s: the
+  // trajectory library, the navigation grids); the readers come last (Listen). Destroyed first (~Impl).
+  std::unique_ptr<AgentDds> dds_;
   std::shared_ptr<core::PlatformIO> platform_;  // the robot: pose estimate, sensors, twist commands
   core::PlatformCapabilities capabilities_;
   core::BaseState start_M_;                      // pose estimate at start (the navigation map's centre)
@@ -133,11 +152,11 @@ class RobotAgent::Impl {
   std::unique_ptr<PlanningService> planning_;  // the planning thread: goals, then peers' path queries
   std::unique_ptr<Telemetry> telemetry_;
   std::mutex mutex_;
-  std::unique_ptr<AgentDds> dds_;  // last: destroyed first, so no handler runs while the rest goes
 };
 
 RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform)
     : options_(options),
+      dds_(MakeDds(options)),
       platform_(Checked(std::move(platform))),
       capabilities_(platform_->Capabilities()),
       start_M_(StartPose(*platform_)),
@@ -174,16 +193,6 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
                    options.robot_id);
     }
   }
-  AgentDdsOptions dds;
-  dds.robot_id = options.robot_id;
-  dds.domain_id = options.domain_id;
-  dds.profiles_file = options.dds_profiles_file;
-  dds.link = options.link;
-  // Map telemetry budgets itself (PerceptionOptions::telemetry); the flow controller is a backstop 25 % above
-  // it. Camera frames rely on theirs: a frame that cannot go out in time is replaced by the next.
-  dds.map_budget_bits_per_s = options.perception.telemetry.budget_bits_per_s * 1.25;
-  dds.camera_budget_bits_per_s = options.perception.camera_budget_bits_per_s;
-  dds_ = std::make_unique<AgentDds>(dds);
   telemetry_ =
       std::make_unique<Telemetry>(options, dds_.get(), modes_.get(), waypoint_, &navigation_, command_.get());
   dds_->Listen(DdsHandlers());
@@ -235,7 +244,10 @@ ModeRegistry RobotAgent::Impl::MakeModes(const std::string& tree_file) {
 CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
   CommandInterface::Hooks hooks;
   hooks.conditions = [this] { return Conditions(); };
-  hooks.send = [this](const CommandReply& reply) { dds_->Send(reply); };
+  hooks.send = [this](const CommandReply& reply) {
+    dds_->Send(reply);
+    telemetry_->RequestWholeState();  // its sender may read the state the command left behind
+  };
   // Planned on the planning thread, never on the DDS thread that holds the agent lock.
   hooks.plan_goal = [this](const GoalCommand& goal) {
     planning_->SubmitGoal(goal, navigation_.GoalRequest(pose_, goal.x_m, goal.y_m, goal.z_m));

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "cairn/core/time.h"
+#include "cairn/msgs/robot_state.h"
 #include "cairn/msgs/stamp.h"
 #include "cairn_msgs.h"
 
@@ -151,15 +152,22 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
   m.stopped_by(stops.by);
   m.stopped_at().sec(stops.at.sec);
   m.stopped_at().nanosec(stops.at.nanosec);
-  const double now_s =
-      std::chrono::duration<double>(core::SteadyClock::now().time_since_epoch()).count();
-  // Link usage once a second (every 10th state at 10 Hz): ~200 bytes that would otherwise ride on every sample.
-  if (now_s >= next_link_usage_s_) {
-    next_link_usage_s_ = now_s + 1.0;
-    AddLinkUsage(now_s, &m);
-  }
   m.link_budget_kbps(core::StatedBudgetKbps(link_));
-  dds_->Publish(m);
+  const cairn_msgs::RobotPose pose = cairn::msgs::PoseOf(m);
+  // The whole state (~360 bytes, most of it unchanged from one cycle to the next) only when due. It goes
+  // before the pose of the same cycle, so a reader that has the pose has (or is being repaired) the state it
+  // joins.
+  const double now_s = std::chrono::duration<double>(core::SteadyClock::now().time_since_epoch()).count();
+  if (now_s >= next_link_usage_s_) whole_state_.Request();  // with the link usage, once a second
+  if (whole_state_.Due(cairn::msgs::SlowPartOf(m), now_s)) {
+    // Link usage once a second: ~200 bytes that would otherwise ride on every whole state.
+    if (now_s >= next_link_usage_s_) {
+      next_link_usage_s_ = now_s + 1.0;
+      AddLinkUsage(now_s, &m);
+    }
+    dds_->Publish(m);
+  }
+  dds_->Publish(pose);
 }
 
 void Telemetry::AddLinkUsage(double now_s, msgs::RobotState* state) {

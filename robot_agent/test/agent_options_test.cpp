@@ -114,7 +114,6 @@ TEST(StartPose, ParsesAndRejects) {
   }
 }
 
-
 // A radio link holds the robot's bulk traffic to shares of its budget; other links leave the config alone.
 TEST(AgentOptions, ARadioLinkLowersMapAndCameraBudgetsToTheirSharesOnly) {
   AgentOptions options;
@@ -132,6 +131,27 @@ TEST(AgentOptions, ARadioLinkLowersMapAndCameraBudgetsToTheirSharesOnly) {
   EXPECT_EQ(options.ApplyLinkBudget(), "map telemetry 100000 -> 50000 bit/s, camera 150000 -> 30000 bit/s");
   std::string why;
   EXPECT_TRUE(options.IsValid(&why)) << why;
+}
+
+// A radio too slow for one map message is refused naming --link-kbps, unless perception (the map) is off.
+TEST(AgentOptions, ARadioTooSlowForOneMapMessageIsRefusedNamingTheFlagUnlessPerceptionIsOff) {
+  AgentOptions options;
+  options.robot_id = "r1";
+  options.link = core::LinkOptions{"radio", "10.77.0.0/24", "", 8, ""};
+  try {
+    options.ApplyLinkBudget();
+    FAIL() << "8 kbit/s accepted for map telemetry";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--link-kbps 8"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("perception.enabled"), std::string::npos) << e.what();
+  }
+  AgentOptions light;
+  light.robot_id = "r1";
+  light.perception.enabled = false;
+  light.link = options.link;
+  EXPECT_EQ(light.ApplyLinkBudget(), "");
+  std::string why;
+  EXPECT_TRUE(light.IsValid(&why)) << why;
 }
 
 }  // namespace

@@ -21,15 +21,17 @@ LOGS="$(mktemp -d)"
 failures=0
 fail() { echo "FAIL: $*" >&2; failures=$((failures + 1)); }
 pass() { echo "ok: $*"; }
-# Writes the agent config of a light simulated robot to FILE: no perception, a sparse lidar at 5 Hz, so that a
-# dozen processes fit two cores (discovery, state and liveliness do not depend on perception).
+# Writes the agent config of a light simulated robot to FILE: no perception, a sparse lidar (4 beams of 180
+# points) at 5 Hz, so that a dozen idle processes fit two cores (~5 % of a core each; discovery, state and
+# liveliness do not depend on perception).
 linksim_light_robot_config() {
   cat >"$1" <<'YAML'
 perception:
   enabled: false
 simulation:
   lidar_rate_hz: 5.0
-  lidar_points_per_beam: 360
+  lidar_beams: 4
+  lidar_points_per_beam: 180
 YAML
 }
 linksim_test_cleanup() {

@@ -35,12 +35,13 @@ struct RobotView {
   std::string version;                 ///< its cairn version
   bool announced = false;              ///< its agent info arrived (capabilities above are its own)
   LinkView link;                       ///< its link as this basestation sees it (LinkMonitor)
-  std::optional<cairn_msgs::RobotState> state;         ///< latest state, if any arrived
+  std::optional<cairn_msgs::RobotState> state;         ///< latest whole state with the latest pose applied
   std::optional<cairn_msgs::BehaviorTreeState> tree;   ///< latest behavior-tree state
   std::optional<cairn_msgs::GlobalPath> global_path;   ///< global path being followed (latched)
   std::optional<cairn_msgs::LocalPlan> local_plan;     ///< latest local planner output (2 Hz)
   core::SteadyTime last_seen{};                        ///< last agent info or state
-  core::SteadyTime state_received{};                   ///< when `state` arrived
+  core::SteadyTime state_received{};                   ///< when its last whole state or pose arrived
+  core::SteadyTime whole_state_received{};             ///< when its last whole state arrived
   bool lost = false;                                   ///< liveliness lost or state silent > lost_after_s
   bool left = false;                                   ///< lost because its process exited cleanly
   std::string lost_reason;

@@ -1,7 +1,7 @@
 // A basestation's view of each robot's link (issue 13, bandwidth monitoring; Sriganesh et al. 2024 § Host
 // discovery and communication): when it was last heard, the round trip of the base's link probe, how many of
-// its 10 Hz state samples were lost on the way (gaps in the state writer's sequence numbers), and what the
-// robot says it sends per topic class against its stated budget. Pure logic, no DDS: FleetClient feeds it
+// its 10 Hz state samples (RobotPose) were lost on the way (gaps in their writer's sequence numbers), and
+// what the robot says it sends per topic class against its stated budget. Pure logic, no DDS: FleetClient feeds it
 // from its readers and probe writer. Not thread-safe (FleetClient holds its lock).
 #pragma once
 
@@ -46,8 +46,8 @@ class LinkMonitor {
   void OnProbeSent(std::uint32_t probe_id, core::SteadyTime now);
   /// `robot_id` answered probe `probe_id` at `now`. Unknown or very old probe ids are ignored.
   void OnProbeReply(const std::string& robot_id, std::uint32_t probe_id, core::SteadyTime now);
-  /// A state sample of `robot_id` arrived: its writer (`writer_id`, core::WriterIdOf) and that writer's
-  /// sequence number. A new writer (the robot restarted) starts counting afresh; a sequence number that is not
+  /// A 10 Hz state sample (RobotPose) of `robot_id` arrived: its writer (`writer_id`, core::WriterIdOf) and
+  /// that writer's sequence number. A new writer (the robot restarted) starts counting afresh; a sequence number that is not
   /// newer (a duplicate) is ignored.
   void OnState(const std::string& robot_id, const std::string& writer_id, std::uint64_t sequence_number,
                core::SteadyTime now);

@@ -77,6 +77,10 @@ class VoxelGrid {
   bool SetOccupiedAt(const Eigen::Vector3d& p_W, bool occupied = true);
   /// Number of occupied voxels.
   std::int64_t CountOccupied() const;
+  /// The highest occupied voxel z index of column (ix, iy) at or below `iz` (clamped to the grid's top), or
+  /// -1 when there is none or the column is outside the grid. Reads the column 64 voxels at a time, so a scan
+  /// down a mostly free column costs a few loads instead of one test per voxel.
+  int HighestOccupiedInColumn(int ix, int iy, int iz) const;
 
   /// Linear storage index of an in-grid voxel; z varies fastest, so a column (ix, iy) is contiguous.
   std::int64_t LinearIndex(const Eigen::Vector3i& index) const {

@@ -6,9 +6,9 @@
 // Topics (idl/cairn_msgs.idl): reads cairn/control_request, cairn/mode_request, cairn/waypoint_goal,
 // cairn/stop_request (QoS cairn.command), cairn/teleop (cairn.teleop), cairn/base_info (cairn.latched, with
 // liveliness), cairn/path_request, cairn/map_sync_request (cairn.command); writes cairn/command_response,
-// cairn/path_response (cairn.command), cairn/agent_info, cairn/bt_state, cairn/global_path, cairn/staircase
-// (cairn.latched), cairn/robot_state, cairn/local_plan (cairn.state), cairn/map_update (cairn.map, flow
-// controller "cairn.map"), cairn/camera (cairn.camera, flow controller "cairn.camera"). It answers every
+// cairn/path_response (cairn.command), cairn/agent_info, cairn/bt_state, cairn/global_path, cairn/staircase,
+// cairn/robot_state (cairn.latched), cairn/robot_pose, cairn/local_plan (cairn.state), cairn/map_update
+// (cairn.map, flow controller "cairn.map"), cairn/camera (cairn.camera, flow controller "cairn.camera"). It answers every
 // basestation's link probe (cairn/link_probe -> cairn/link_probe_reply, cairn.command) on the spot.
 #pragma once
 
@@ -24,6 +24,7 @@
 
 namespace cairn_msgs {
 class AgentInfo;
+class RobotPose;
 class RobotState;
 class BehaviorTreeState;
 class GlobalPath;
@@ -94,6 +95,7 @@ class AgentDds {
   /// Telemetry as built by the caller. Each returns false when Fast DDS refuses the sample (history full).
   bool Publish(const cairn_msgs::AgentInfo& info);
   bool Publish(const cairn_msgs::RobotState& state);
+  bool Publish(const cairn_msgs::RobotPose& pose);
   bool Publish(const cairn_msgs::BehaviorTreeState& tree);
   bool Publish(const cairn_msgs::GlobalPath& path);
   bool Publish(const cairn_msgs::LocalPlan& plan);
@@ -101,8 +103,8 @@ class AgentDds {
   bool Publish(const cairn_msgs::CompressedImage& image);
   bool Publish(const cairn_msgs::StaircaseDetection& staircase);
   /// What every writer has sent so far, grouped into the link's topic classes, in priority order: command
-  /// (command and path answers, probe replies), state (robot state, local plan, agent info, staircases), tree
-  /// (behavior tree, global path), map, camera. Thread-safe.
+  /// (command and path answers, probe replies), state (robot state and pose, local plan, agent info,
+  /// staircases), tree (behavior tree, global path), map, camera. Thread-safe.
   std::vector<SentTraffic> SentByClass() const;
   /// Robots sharing this robot's link now, itself included: the largest AgentInfo::robots_heard of the live
   /// basestations, at least 1. Robots never read one another (a fleet's discovery stays O(robots), not

@@ -73,8 +73,10 @@ struct AgentOptions {
   /// @return false and sets `*why` (field, value, rule) when any field is invalid.
   bool IsValid(std::string* why) const;
 
-  /// On a radio link (link.link == "radio"), lowers map telemetry's budget to core::kRadioMapShare and the
-  /// camera's to core::kRadioCameraShare of link.link_kbps (never raises them). @return what changed, or "".
+  /// On a radio link (link.link == "radio") with perception on, lowers map telemetry's budget to
+  /// core::kRadioMapShare and the camera's to core::kRadioCameraShare of link.link_kbps (never raises them).
+  /// @return what changed, or "". @throws std::invalid_argument naming --link-kbps when map telemetry's share
+  /// cannot carry one map message.
   std::string ApplyLinkBudget();
 };
 

@@ -1,9 +1,9 @@
 // The robot's telemetry (Sriganesh et al. 2024, § Command Interface: the robot publishes its state, its
 // behavior-tree state, the downsampled map and the camera): builds the wire messages from the components that
 // own the facts and publishes them through the DDS adapter. Topics and fields are those of
-// idl/cairn_msgs.idl: AgentInfo, RobotState (pose_MB frame M, twists frame B), BehaviorTreeState, GlobalPath
-// (path_M), LocalPlan (poses and points frame B of pose_MB), MapUpdate, CompressedImage (pose_MC),
-// StaircaseDetection (p_M_first_step).
+// idl/cairn_msgs.idl: AgentInfo, RobotState (pose_MB frame M, twists frame B) and its 10 Hz part RobotPose,
+// BehaviorTreeState, GlobalPath (path_M), LocalPlan (poses and points frame B of pose_MB), MapUpdate,
+// CompressedImage (pose_MC), StaircaseDetection (p_M_first_step).
 #pragma once
 
 #include <cstdint>
@@ -18,6 +18,7 @@
 #include "cairn/agent/perception_pipeline.h"
 #include "cairn/agent/waypoint_mode.h"
 #include "cairn/core/platform_io.h"
+#include "cairn/msgs/robot_state.h"
 
 namespace cairn::agent {
 
@@ -39,9 +40,15 @@ class Telemetry {
   /// AgentInfo (latched): id, kind robot, platform and its limits, the modes of the tree, version, world,
   /// sensors (lidar, camera), map resolution (0 with perception off), link class and budget.
   void PublishAgentInfo(const core::PlatformCapabilities& capabilities, const std::string& version);
-  /// RobotState: pose, commanded twist, mode, mux, lock, waypoint goal, navigation, stops, its link budget, and
-  /// once a second what the robot sends per topic class (LinkUsageMeter over AgentDds::SentByClass).
+  /// RobotPose every call (the 10 Hz stream: planar pose, measured and commanded twist, distance and time
+  /// left, contact), and before it the whole RobotState (mode, mux, lock, waypoint goal, navigation, stops, its
+  /// link budget...) when due: at once after an urgent change (cairn::msgs::UrgentChange) or a command's answer
+  /// (RequestWholeState), 0.5 s after the last one for any other change of its slow part, and at least once a
+  /// second, then with what the robot sends per topic class (LinkUsageMeter over AgentDds::SentByClass).
   void PublishState(const RobotStateInputs& in);
+  /// The next PublishState sends the whole state: a command was answered, and its sender reads the state it
+  /// left behind (the basestation's `status` after a command).
+  void RequestWholeState() { whole_state_.Request(); }
   /// BehaviorTreeState, when the mode, channel, refusal or valid actions changed since the last one.
   void PublishTreeStateIfChanged();
   /// GlobalPath, when navigation's path changed (an empty one when no goal is driven: late joiners see it).
@@ -63,6 +70,10 @@ class Telemetry {
   double map_resolution_m_;  // 0: perception off, no map sent
   LinkUsageMeter link_usage_;
   double next_link_usage_s_ = 0.0;  // steady clock, seconds
+  // A change of the slow part that no one waits on (a reason, a status text) waits 0.5 s after the last whole
+  // state: a text that changes every cycle (the local planner's clearance in a tight spot) costs 2 whole states
+  // a second, not 10. At least one a second, with the link usage.
+  cairn::msgs::WholeStateSchedule whole_state_{0.5, 1.0};
   AgentDds* dds_;
   const ModeControl* modes_;
   const WaypointMode* waypoint_;
