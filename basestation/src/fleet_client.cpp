@@ -175,7 +175,7 @@ class FleetClient::Impl {
               cairn::msgs::WallSeconds(cairn::msgs::WallStampNow()) - cairn::msgs::WallSeconds(m.stamp());
           spdlog::info("basestation {}: {} announced itself on link {} ({:.3f} s ago by its clock)", options_.base_id,
                        m.agent_id(), m.link().empty() ? "?" : m.link(), age_s);
-          perception_->OnRobotSeen(m.agent_id());
+          if (m.map_resolution_m() > 0) perception_->OnRobotSeen(m.agent_id());  // none to sync without a map
         },
         [this](const eprosima::fastdds::dds::LivelinessChangedStatus& status) { OnLiveliness(status); });
 
@@ -395,7 +395,10 @@ class FleetClient::Impl {
       // writers, and volatile samples are not replayed): its map here starts again from a snapshot, asked for
       // until one completes.
       for (const OperatorEvent& e : events) {
-        if (e.kind == "back") perception_->OnRobotSeen(e.robot_id);
+        if (e.kind != "back") continue;
+        const auto back = std::find_if(views.begin(), views.end(),
+                                       [&e](const RobotView& v) { return v.robot_id == e.robot_id; });
+        if (back != views.end() && back->map_resolution_m > 0) perception_->OnRobotSeen(e.robot_id);
       }
       for (const RobotView& v : views) {
         if (v.announced && !v.lost && v.map_resolution_m > 0) perception_->SyncIfIncomplete(v.robot_id);
