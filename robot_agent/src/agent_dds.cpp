@@ -182,7 +182,7 @@ class AgentDds::Impl {
           if (m.kind() != msgs::AGENT_KIND_BASESTATION) return;
           const std::string writer = core::WriterIdOf(info.publication_handle);
           {
-            std::lock_guard<std::mutex> guard(peers_mutex_);
+            std::lock_guard<std::mutex> guard(robots_heard_mutex_);
             robots_heard_by_base_[writer] = {m.robots_heard(), true};
           }
           const auto& caps = m.capabilities();
@@ -199,7 +199,7 @@ class AgentDds::Impl {
           change.lost = core::IsLivelinessLoss(status);
           change.regained = status.alive_count_change > 0;
           {
-            std::lock_guard<std::mutex> guard(peers_mutex_);
+            std::lock_guard<std::mutex> guard(robots_heard_mutex_);
             auto base = robots_heard_by_base_.find(change.writer);
             if (base != robots_heard_by_base_.end()) {
               if (change.unmatched) {
@@ -249,7 +249,7 @@ class AgentDds::Impl {
   AgentDdsOptions options_;
   AgentDdsHandlers handlers_;
   bool listening_ = false;
-  mutable std::mutex peers_mutex_;  // guards robots_heard_by_base_ only (taken on DDS threads)
+  mutable std::mutex robots_heard_mutex_;  // guards robots_heard_by_base_ only (taken on DDS threads)
   // A basestation's info writer -> (the robots it hears, alive).
   std::map<std::string, std::pair<int, bool>> robots_heard_by_base_;
   std::mutex gone_mutex_;  // guards gone_participants_ only (taken on a DDS thread)
@@ -388,7 +388,7 @@ std::vector<SentTraffic> AgentDds::SentByClass() const {
 
 int AgentDds::RobotsOnLink() const {
   int robots = 1;
-  std::lock_guard<std::mutex> guard(impl_->peers_mutex_);
+  std::lock_guard<std::mutex> guard(impl_->robots_heard_mutex_);
   for (const auto& [writer, heard] : impl_->robots_heard_by_base_) {
     if (heard.second) robots = std::max(robots, heard.first);
   }

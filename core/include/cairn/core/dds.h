@@ -270,22 +270,23 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
   /// hear this writer (its endpoint discovery has completed with ours).
   bool MatchedWith(const std::string& participant_id) const {
     std::lock_guard<std::mutex> lock(matched_mutex_);
-    auto it = matched_readers_.find(participant_id);
-    return it != matched_readers_.end() && it->second > 0;
+    return MatchedLocked(participant_id);
   }
 
   /// Waits until MatchedWith(participant_id) holds or `deadline` passes; returns whether it holds.
   bool WaitMatchedWith(const std::string& participant_id, std::chrono::steady_clock::time_point deadline) const {
     std::unique_lock<std::mutex> lock(matched_mutex_);
-    return matched_cv_.wait_until(lock, deadline, [&] {
-      auto it = matched_readers_.find(participant_id);
-      return it != matched_readers_.end() && it->second > 0;
-    });
+    return matched_cv_.wait_until(lock, deadline, [&] { return MatchedLocked(participant_id); });
   }
 
   eprosima::fastdds::dds::DataWriter* get() const { return writer_; }
 
  private:
+  // With matched_mutex_ held.
+  bool MatchedLocked(const std::string& participant_id) const {
+    auto it = matched_readers_.find(participant_id);
+    return it != matched_readers_.end() && it->second > 0;
+  }
   void on_publication_matched(eprosima::fastdds::dds::DataWriter*,
                               const eprosima::fastdds::dds::PublicationMatchedStatus& status) override {
     {
