@@ -172,7 +172,7 @@ verdict=$(node -e '
   const snap = fs.readFileSync(process.argv[2], "utf8").split("\n").filter((l) => l.startsWith("{")).map((l) => JSON.parse(l)).find((o) => o.command === "map");
   const bad = [];
   const controls = all.filter((o) => o.command === "request-control");
-  if (controls.length !== 21 || !controls.every((o) => o.ok)) bad.push(`${controls.filter((o) => o.ok).length} of ${controls.length} request-control accepted`);
+  if (controls.length !== 21 || !controls.every((o) => o.ok)) bad.push(`${controls.filter((o) => o.ok).length} of ${controls.length} request-control accepted (not: ${JSON.stringify(controls.filter((o) => !o.ok))})`);
   const gotos = all.filter((o) => o.command === "goto" && !o.progress);
   if (gotos.length !== 3 || !gotos.every((o) => o.ok && /^arrived/.test(o.reason))) bad.push(`gotos: ${JSON.stringify(gotos.map((o) => o.reason))}`);
   const ids = gotos.map((o) => o.goal_id);
@@ -186,7 +186,7 @@ verdict=$(node -e '
   console.log(bad.length ? "BAD " + bad.join("; ") : `GOOD goals ${ids.join(", ")}; map ${map.voxels} voxels (${map.occupied} occupied) both ways`);
 ' "$LOGS/loss.json" <(echo "$out"))
 if [[ "$verdict" == GOOD* ]]; then pass "5 % loss: 21 commands and 3 goals each applied once, ${verdict#GOOD }"
-else fail "5 % loss: ${verdict#BAD } ($(tail -2 "$LOGS/loss.err"))"; fi
+else fail "5 % loss: ${verdict#BAD } ($(tail -15 "$LOGS/loss.err"))"; fi
 linksim_set_loss "$P" robot 0
 linksim_set_loss "$P" base 0
 
