@@ -161,6 +161,8 @@ TEST(Console, WordsEventsForgivingInputPlacesAndEStop) {
   ASSERT_TRUE(opA.Run("wait r2 online 5")["ok"]);
   ASSERT_TRUE(opB.Run("wait r1 online 5")["ok"]);
   ASSERT_TRUE(opB.Run("status r1")["ok"]);  // opB has seen r1 free: the grant below is news to it
+  // ... and its event detector too, which compares the views it samples at 10 Hz.
+  std::this_thread::sleep_for(300ms);
 
   // Operator words: a tree refusal says what to do, keeps the condition id, and lists the valid actions.
   ASSERT_TRUE(opA.Run("request-control r1")["ok"]);
