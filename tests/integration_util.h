@@ -49,13 +49,11 @@ class Observer {
         *participant_, "cairn/robot_state", "cairn.latched",
         [this](const cairn_msgs::RobotState& s, const auto&) {
           std::lock_guard<std::mutex> lock(mutex_);
-          cairn_msgs::RobotState whole = s;
-          auto it = latest_.find(s.robot_id());
-          if (it != latest_.end() && WallSeconds(it->second.stamp()) > WallSeconds(s.stamp())) {
-            cairn::msgs::MergePose(cairn::msgs::PoseOf(it->second), &whole);  // a resent, older whole state
-          }
-          latest_[s.robot_id()] = whole;
-          history_[s.robot_id()].push_back(whole);
+          std::optional<cairn_msgs::RobotState> view;
+          if (auto it = latest_.find(s.robot_id()); it != latest_.end()) view = it->second;
+          cairn::msgs::ApplyWholeState(s, &view);  // a resent, older whole state keeps the last pose
+          latest_[s.robot_id()] = *view;
+          history_[s.robot_id()].push_back(*view);
         });
     poses_ = std::make_unique<core::Reader<cairn_msgs::RobotPosePubSubType>>(
         *participant_, "cairn/robot_pose", "cairn.state",

@@ -87,12 +87,7 @@ class FleetClient::Impl {
             usage.push_back({u.topic_class(), u.sent_kbps(), u.sent_bytes()});
           }
           Update(m.robot_id(), [&](RobotView& v) {
-            msgs::RobotState whole = m;
-            // A resent whole state can be older than the last pose applied: keep that pose.
-            if (v.state && cairn::msgs::WallSeconds(v.state->stamp()) > cairn::msgs::WallSeconds(m.stamp())) {
-              cairn::msgs::MergePose(cairn::msgs::PoseOf(*v.state), &whole);
-            }
-            v.state = std::move(whole);
+            cairn::msgs::ApplyWholeState(m, &v.state);
             v.platform = m.platform();
             v.state_received = now;
             v.whole_state_received = now;

@@ -59,6 +59,18 @@ inline void MergePose(const cairn_msgs::RobotPose& pose, cairn_msgs::RobotState*
   state->link_usage().clear();
 }
 
+/// Applies a whole state that arrived to a reader's view of the robot (`*view`, empty before the first one):
+/// the whole state replaces the view, except that a resent one older than the pose last applied keeps that
+/// pose.
+inline void ApplyWholeState(const cairn_msgs::RobotState& whole, std::optional<cairn_msgs::RobotState>* view) {
+  cairn_msgs::RobotState merged = whole;
+  if (*view && (*view)->stamp().sec() + 1e-9 * (*view)->stamp().nanosec() >
+                   whole.stamp().sec() + 1e-9 * whole.stamp().nanosec()) {
+    MergePose(PoseOf(**view), &merged);
+  }
+  *view = std::move(merged);
+}
+
 /// `state` without what RobotPose carries, its stamp and its link usage: two states with equal slow parts
 /// differ only in what the 10 Hz pose stream already sends.
 inline cairn_msgs::RobotState SlowPartOf(cairn_msgs::RobotState state) {
