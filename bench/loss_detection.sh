@@ -6,6 +6,7 @@
 # same robot links (each basestation on a host of its own: four on one 1 Mbit/s link would fill it). Then:
 #   1. every link at each loss level (0, 5, 10, 20 % of packets dropped each way) for DURATION_S: the lost
 #      events each basestation raised (all false: no robot went anywhere), per robot and minute;
+#      and how often a robot lost the liveliness of op0, which holds every robot's control lock and never left;
 #   2. each robot's link cut in turn: how long each basestation took to show it lost (`wait R lost`).
 # Prints one FIGURE line per (lost-after, loss level) and per (lost-after, cut), then a table.
 #   tests/netns_run.sh bench/loss_detection.sh BUILD_DIR
@@ -48,6 +49,13 @@ for k in "${!AFTER[@]}"; do
   [ "$(grep '"command":"wait"' "$LOGS/base$k.json" | grep -c '"ok":true')" = 3 ] ||
     { echo "loss_detection_bench: op$k did not see the 3 robots: $(cat "$LOGS/base$k.json"; tail -3 "$LOGS/base$k.log")" >&2; exit 1; }
 done
+# op0 takes every robot's control lock: each robot watches op0's liveliness (its dead-man check on the operator),
+# and a lapse it sees while op0 is there is a false holder loss, counted from the robots' logs.
+for n in "${ROBOTS[@]}"; do to_base 0 "request-control $n"; done
+for _ in $(seq 1 100); do [ "$(grep -c '"command":"request-control".*"ok":true' "$LOGS/base0.json")" -ge 3 ] && break; sleep 0.1; done
+[ "$(grep -c '"command":"request-control".*"ok":true' "$LOGS/base0.json")" = 3 ] ||
+  { echo "loss_detection_bench: op0 did not get the 3 locks: $(grep request-control "$LOGS/base0.json")" >&2; exit 1; }
+holder_losses() { for n in "${ROBOTS[@]}"; do cat "$LOGS/$n.log"; done | grep -c "control holder op0 lost"; }
 # Seven processes start at once with multicast discovery on 1 Mbit/s links: their endpoint announcements take
 # seconds to settle, and while they do the bursts overflow the links' queues and drop state samples. The loss
 # levels start once that is over.
@@ -69,17 +77,20 @@ flush_bases() {
   done
 }
 lost_count() { grep -c '"event":"lost"' "$LOGS/base$1.json"; }
-declare -A FALSE DETECT
+declare -A FALSE DETECT HOLDER
 # 1. Loss levels.
 for level in "${LEVELS[@]}"; do
   declare -a before=()
   flush_bases
   for k in "${!AFTER[@]}"; do before[$k]=$(lost_count "$k"); done
+  holder_before=$(holder_losses)
   for n in "${HOSTS[@]}"; do linksim_set_loss "$P" "$n" "$level"; done
   sleep "$DURATION_S"
   for n in "${HOSTS[@]}"; do linksim_set_loss "$P" "$n" 0; done
   sleep 3  # lost robots come back; a loss raised in the last moment is counted
   flush_bases
+  HOLDER["$level"]=$(( $(holder_losses) - holder_before ))
+  echo "FIGURE false_holder_loss_loss_${level}_pct ${HOLDER[$level]} (robots that lost op0's liveliness while it ran, ${#ROBOTS[@]} robots, $DURATION_S s)"
   for k in "${!AFTER[@]}"; do
     events=$(( $(lost_count "$k") - before[k] ))
     rate=$(awk -v e="$events" -v s="$DURATION_S" -v r="${#ROBOTS[@]}" 'BEGIN{printf "%.2f", e / r / (s / 60)}')
@@ -120,3 +131,6 @@ for k in "${!AFTER[@]}"; do
   for level in "${LEVELS[@]}"; do row+=" ${FALSE["$k,$level"]} |"; done
   echo "$row"
 done
+row="| robots' false holder losses (op0's liveliness, 3 robots) | |"
+for level in "${LEVELS[@]}"; do row+=" ${HOLDER[$level]} |"; done
+echo "$row"

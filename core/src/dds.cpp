@@ -261,22 +261,44 @@ bool WithinNetworkScope(const dds::DomainParticipantQos& qos, const NetworkScope
   return true;
 }
 
-void Participant::CheckEndpointProfile(const std::string& profile, bool writer) const {
+namespace {
+
+// The QoS of a `kind` ("writer" | "reader") profile as a participant with `options` uses it
+// (Participant::WriterQos); `load(profile, qos)` reads the profile.
+template <class EndpointQos, class Load>
+EndpointQos EndpointQosFor(const char* kind, const std::string& profile, const ParticipantOptions& options,
+                           const Load& load) {
+  EndpointQos qos;
+  if (load(profile, qos) != ReturnCode_t::RETCODE_OK) {
+    throw DdsError(std::string(kind) + " QoS profile '" + profile + "' is not defined in " + options.profiles_file);
+  }
   std::string why;
-  bool ok = true;
-  if (writer) {
-    dds::DataWriterQos qos;
-    if (publisher_->get_datawriter_qos_from_profile(profile, qos) != ReturnCode_t::RETCODE_OK) return;  // reported by the caller
-    ok = EndpointInScope(qos.endpoint(), options_.network, &why);
-  } else {
-    dds::DataReaderQos qos;
-    if (subscriber_->get_datareader_qos_from_profile(profile, qos) != ReturnCode_t::RETCODE_OK) return;
-    ok = EndpointInScope(qos.endpoint(), options_.network, &why);
+  if (!EndpointInScope(qos.endpoint(), options.network, &why)) {
+    throw DdsError(std::string(kind) + " QoS profile '" + profile + "' in " + options.profiles_file + " " +
+                   ScopeRefusal(options.network) + why + "; refusing to create it");
   }
-  if (!ok) {
-    throw DdsError(std::string(writer ? "writer" : "reader") + " QoS profile '" + profile + "' in " +
-                   options_.profiles_file + " " + ScopeRefusal(options_.network) + why + "; refusing to create it");
+  // A finite AUTOMATIC liveliness lease shorter than kNetworkLivelinessLeaseS is raised to it.
+  auto& liveliness = qos.liveliness();
+  const eprosima::fastrtps::Duration_t shortest(kNetworkLivelinessLeaseS);
+  if (IsNamedNetworkLink(options.link) && liveliness.kind == dds::AUTOMATIC_LIVELINESS_QOS &&
+      liveliness.lease_duration != eprosima::fastrtps::c_TimeInfinite && liveliness.lease_duration < shortest) {
+    liveliness.lease_duration = shortest;
   }
+  return qos;
+}
+
+}  // namespace
+
+dds::DataWriterQos Participant::WriterQos(const std::string& profile) const {
+  return EndpointQosFor<dds::DataWriterQos>("writer", profile, options_, [this](const std::string& p, auto& qos) {
+    return publisher_->get_datawriter_qos_from_profile(p, qos);
+  });
+}
+
+dds::DataReaderQos Participant::ReaderQos(const std::string& profile) const {
+  return EndpointQosFor<dds::DataReaderQos>("reader", profile, options_, [this](const std::string& p, auto& qos) {
+    return subscriber_->get_datareader_qos_from_profile(p, qos);
+  });
 }
 
 void CheckLinkOptions(const LinkOptions& link) {

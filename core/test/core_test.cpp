@@ -462,5 +462,46 @@ TEST(Participant, LoopbackPublishSubscribeRoundTrip) {
   EXPECT_EQ(last_robot, "r7");
 }
 
+// On a network link a writer's and a reader's 1 s liveliness lease (cairn.latched) is raised to 2 s, so that a
+// lossy radio does not lapse it, and the two still match; loopback keeps the profile's 1 s.
+TEST(LinkOptions, ANetworkLinkRaisesShortLivelinessLeasesAndItsEndpointsStillMatch) {
+  const auto lease_s = [](const auto& qos) {
+    const auto& d = qos.liveliness().lease_duration;
+    return d.seconds + d.nanosec * 1e-9;
+  };
+  ParticipantOptions loopback;
+  loopback.domain_id = 45;
+  Participant on_loopback(loopback);
+  EXPECT_DOUBLE_EQ(lease_s(on_loopback.WriterQos("cairn.latched.writer")), 1.0);
+  EXPECT_DOUBLE_EQ(lease_s(on_loopback.ReaderQos("cairn.latched.reader")), 1.0);
+
+  ParticipantOptions lan = loopback;
+  lan.link = LinkOptions{"lan", "127.0.0.0/8", "", 0, ""};
+  Participant a(lan), b(lan);
+  EXPECT_DOUBLE_EQ(lease_s(a.WriterQos("cairn.latched.writer")), kNetworkLivelinessLeaseS);
+  EXPECT_DOUBLE_EQ(lease_s(a.ReaderQos("cairn.latched.reader")), kNetworkLivelinessLeaseS);
+  // The announcement period stays: eight assertions per lease.
+  const auto period = a.WriterQos("cairn.latched.writer").liveliness().announcement_period;
+  EXPECT_DOUBLE_EQ(period.seconds + period.nanosec * 1e-9, 0.25);
+  // Profiles without a finite lease keep theirs.
+  EXPECT_EQ(a.WriterQos("cairn.command.writer").liveliness().lease_duration,
+            on_loopback.WriterQos("cairn.command.writer").liveliness().lease_duration);
+  EXPECT_THROW(a.WriterQos("no.such.writer"), DdsError);
+
+  std::atomic<int> received{0};
+  Reader<cairn_msgs::ModeRequestPubSubType> reader(b, "test/latched", "cairn.latched",
+                                                  [&](const cairn_msgs::ModeRequest&, const auto&) { ++received; });
+  Writer<cairn_msgs::ModeRequestPubSubType> writer(a, "test/latched", "cairn.latched");
+  ASSERT_TRUE(writer.WaitForMatched(1, std::chrono::seconds(5)));
+  ASSERT_TRUE(reader.WaitForMatched(1, std::chrono::seconds(5)));
+  eprosima::fastdds::dds::DataWriterQos created;
+  writer.get()->get_qos(created);
+  EXPECT_DOUBLE_EQ(lease_s(created), kNetworkLivelinessLeaseS);
+  cairn_msgs::ModeRequest msg;
+  msg.robot_id("r7");
+  ASSERT_TRUE(writer.Write(msg));
+  EXPECT_TRUE(WaitForCount(received, 1, std::chrono::seconds(5)));
+}
+
 }  // namespace
 }  // namespace cairn::core

@@ -47,6 +47,10 @@ class DdsError : public std::runtime_error {
 /// calls exit(1), so every id is checked here first.
 inline constexpr long kMaxDomainId = 232;
 
+/// Shortest AUTOMATIC liveliness lease on a network link (lan, radio), in seconds: eight of the profiles' 250 ms
+/// assertions, so that only a cut or a dead process lapses it, not a lossy link (Participant::WriterQos).
+inline constexpr double kNetworkLivelinessLeaseS = 2.0;
+
 /// Checks a domain id given as text (CLI flag, config) and returns it.
 /// @throws std::invalid_argument naming `field` and the value when it is not an integer in [0, 232].
 int ParseDomainId(const std::string& text, const std::string& field = "--domain");
@@ -155,10 +159,19 @@ class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
 
   /// The registered flow controller's name as Fast DDS holds it, or nullptr if none has that name.
   const char* FlowControllerName(const std::string& name) const;
-  /// Network safety for endpoints: a writer (`writer`) or reader QoS profile whose unicast, remote or
-  /// multicast locators leave options().network is refused. Writer and Reader call it.
-  /// @throws DdsError naming the profile, the locator list and the locator.
-  void CheckEndpointProfile(const std::string& profile, bool writer) const;
+  /// The QoS of writer profile `profile` (e.g. "cairn.latched.writer") as this participant uses it; Writer and
+  /// Reader create their endpoints with these.
+  ///  - Network safety for endpoints: a profile whose unicast, remote or multicast locators leave
+  ///    options().network is refused.
+  ///  - On a network link (lan, radio) a finite AUTOMATIC liveliness lease shorter than
+  ///    kNetworkLivelinessLeaseS is raised to it, on writers and readers alike (a reader's lease must not be
+  ///    shorter than its writer's, or they never match). Liveliness is the robot's dead-man check on its
+  ///    operator: on a lossy radio, a lease of only four 250 ms assertions lapsed now and then while the
+  ///    operator was there (the lan link test at 5 % loss each way).
+  /// @throws DdsError naming the profile (not defined), or the locator list and the locator.
+  eprosima::fastdds::dds::DataWriterQos WriterQos(const std::string& profile) const;
+  /// The same for reader profile `profile` (e.g. "cairn.latched.reader").
+  eprosima::fastdds::dds::DataReaderQos ReaderQos(const std::string& profile) const;
 
   /// This participant's identity (ParticipantIdOf its GUID): what peers see as the sender of its samples.
   std::string participant_id() const;
@@ -212,17 +225,9 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
   Writer(Participant& participant, const std::string& topic_name, const std::string& qos_class,
          const std::string& flow_controller = "")
       : participant_(participant) {
-    participant.CheckEndpointProfile(qos_class + ".writer", /*writer=*/true);
+    eprosima::fastdds::dds::DataWriterQos qos = participant.WriterQos(qos_class + ".writer");
     topic_ = participant.GetTopic(topic_name, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
-    if (flow_controller.empty()) {
-      writer_ = participant.publisher()->create_datawriter_with_profile(topic_, qos_class + ".writer", this);
-    } else {
-      eprosima::fastdds::dds::DataWriterQos qos;
-      if (participant.publisher()->get_datawriter_qos_from_profile(qos_class + ".writer", qos) !=
-          eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
-        throw DdsError("writer QoS profile '" + qos_class + ".writer' is not defined in " +
-                       participant.options().profiles_file);
-      }
+    if (!flow_controller.empty()) {
       const char* name = participant.FlowControllerName(flow_controller);
       if (name == nullptr) {
         throw DdsError("flow controller '" + flow_controller + "' is not registered on participant '" +
@@ -230,8 +235,8 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
       }
       qos.publish_mode().kind = eprosima::fastdds::dds::ASYNCHRONOUS_PUBLISH_MODE;
       qos.publish_mode().flow_controller_name = name;
-      writer_ = participant.publisher()->create_datawriter(topic_, qos, this);
     }
+    writer_ = participant.publisher()->create_datawriter(topic_, qos, this);
     if (writer_ == nullptr) {
       throw DdsError("cannot create writer on topic '" + topic_name + "' with QoS profile '" + qos_class +
                      ".writer' from " + participant.options().profiles_file);
@@ -324,9 +329,9 @@ class Reader : private eprosima::fastdds::dds::DataReaderListener {
   Reader(Participant& participant, const std::string& topic_name, const std::string& qos_class,
          SampleCallback on_sample, LivelinessCallback on_liveliness = nullptr)
       : participant_(participant), on_sample_(std::move(on_sample)), on_liveliness_(std::move(on_liveliness)) {
-    participant.CheckEndpointProfile(qos_class + ".reader", /*writer=*/false);
+    const eprosima::fastdds::dds::DataReaderQos qos = participant.ReaderQos(qos_class + ".reader");
     topic_ = participant.GetTopic(topic_name, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
-    reader_ = participant.subscriber()->create_datareader_with_profile(topic_, qos_class + ".reader", this);
+    reader_ = participant.subscriber()->create_datareader(topic_, qos, this);
     if (reader_ == nullptr) {
       throw DdsError("cannot create reader on topic '" + topic_name + "' with QoS profile '" + qos_class +
                      ".reader' from " + participant.options().profiles_file);
