@@ -88,6 +88,7 @@ class FleetClient::Impl {
           }
           Update(m.robot_id(), [&](RobotView& v) {
             cairn::msgs::ApplyWholeState(m, &v.state);
+            if (!v.first_state) v.first_state = m;
             v.platform = m.platform();
             v.state_received = now;
             v.whole_state_received = now;

@@ -102,10 +102,22 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
     events->push_back(e);
   }
   if (found == last_.end()) {
-    last_[r] = now;
-    return;
+    // First sight: presence and loss are as they are now; the state's baseline is the first whole state this
+    // basestation received (below), so that what changed since (its own request-control, granted before
+    // this first look) is still told.
+    found = last_.emplace(r, now).first;
+    found->second.has_state = false;
   }
   Last& last = found->second;
+  if (view.state && !last.has_state && view.first_state) {
+    const cairn_msgs::RobotState& first = *view.first_state;
+    last.holder = first.holder_id();
+    last.goal_id = first.nav_goal_id();
+    last.nav_status = first.nav_status();
+    last.stops = first.stops();
+    last.nav_reason = first.nav_reason();
+    last.has_state = true;
+  }
   if (now.left && !last.left) {
     OperatorEvent e = Event("left", r, r + " left (" + view.lost_reason + ")");
     e.reason = view.lost_reason;

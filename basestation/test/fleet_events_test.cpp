@@ -135,6 +135,34 @@ TEST(FleetEventDetector, EachRecoveryAttemptIsToldAsItFails) {
   EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"arrived"}));
 }
 
+// The grant of this basestation's own request-control reached it before the detector's first look at r1:
+// the first whole state it received is the baseline, so the grant is still told; older news is not.
+TEST(FleetEventDetector, ChangesAfterTheFirstWholeStateAreToldEvenBeforeTheFirstLook) {
+  FleetEventDetector detector;
+  RobotView r1 = Robot("r1", 0, 0);
+  r1.state->nav_goal_id(3);
+  r1.state->nav_status(cairn_msgs::NAV_STATUS_ARRIVED);  // old news
+  r1.first_state = r1.state;
+  r1.state->holder_id("opA");
+  auto events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"lock_granted"}));
+  EXPECT_EQ(events[0].message, "r1 control granted to opA");
+  EXPECT_TRUE(detector.Observe({r1}).empty()) << "told once";
+
+  // A robot first seen lost, then its state: no lost event for the first look, the baseline still applies.
+  RobotView r2 = Robot("r2", 5, 0);
+  r2.lost = true;
+  std::optional<cairn_msgs::RobotState> state = r2.state;
+  r2.state.reset();
+  EXPECT_TRUE(detector.Observe({r2}).empty());
+  r2.lost = false;
+  r2.state = state;
+  r2.first_state = state;
+  r2.state->stops(1);
+  r2.state->stopped_by("opB");
+  EXPECT_EQ(Kinds(detector.Observe({r2})), (std::vector<std::string>{"back", "stopped"}));
+}
+
 TEST(FleetEventDetector, LocksStopsLossAndReturn) {
   FleetEventDetector detector;
   RobotView r1 = Robot("r1", 0, 0);

@@ -36,6 +36,9 @@ struct RobotView {
   bool announced = false;              ///< its agent info arrived (capabilities above are its own)
   LinkView link;                       ///< its link as this basestation sees it (LinkMonitor)
   std::optional<cairn_msgs::RobotState> state;         ///< latest whole state with the latest pose applied
+  /// The first whole state this basestation received from the robot: what it knew on arrival. The baseline
+  /// of news (FleetEventDetector), so that a change between it and the detector's first look is still told.
+  std::optional<cairn_msgs::RobotState> first_state;
   std::optional<cairn_msgs::BehaviorTreeState> tree;   ///< latest behavior-tree state
   std::optional<cairn_msgs::GlobalPath> global_path;   ///< global path being followed (latched)
   std::optional<cairn_msgs::LocalPlan> local_plan;     ///< latest local planner output (2 Hz)

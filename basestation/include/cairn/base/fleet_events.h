@@ -57,8 +57,9 @@ class FleetEventDetector {
 
   /// Compares every robot in `views` (staleness applied) with its last view and returns what changed: robots
   /// joined (agent info seen), goals arrived or failed, robots lost, left or back, over their link budget,
-  /// lock granted/released/taken, operator stops, robots closer than proximity_m. The first view of a robot
-  /// only sets its baseline for the rest (a basestation that starts does not replay old news); presence
+  /// lock granted/released/taken, operator stops, robots closer than proximity_m. The robot's first whole
+  /// state (RobotView::first_state; else its first view) only sets its baseline for the rest (a basestation
+  /// that starts does not replay old news, and tells what changed after it arrived); presence
   /// (joined), a link over budget and proximity are present facts, not news, and are reported at once.
   std::vector<OperatorEvent> Observe(const std::vector<RobotView>& views);
 
