@@ -5,7 +5,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <sstream>
+#include <type_traits>
 #include <stdexcept>
 #include <utility>
 
@@ -230,7 +232,18 @@ bool TrajectoryLibraryOptions::IsValid(std::string* why) const {
 // ---------------------------------------------------------------------------------------------------------
 // TrajectoryLibrary
 
-TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options) : options_(options) {
+TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options)
+    : TrajectoryLibrary(options, PathsOnly{}) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Correspondence all = BuildCorrespondence([](int) { return true; });
+  blocking_offsets_ = std::move(all.blocking_offsets);
+  blocking_ = std::move(all.blocking);
+  band_offsets_ = std::move(all.band_offsets);
+  band_ = std::move(all.band);
+  build_time_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options, PathsOnly) : options_(options) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
   const auto t0 = std::chrono::steady_clock::now();
@@ -354,6 +367,15 @@ TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options) : 
     nodes[1] = static_cast<std::uint16_t>(level1_base + (heading_slot * groups + g) * k + a);
     nodes[2] = static_cast<std::uint16_t>(level2_base + p);
   }
+  build_time_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+TrajectoryLibrary::Correspondence TrajectoryLibrary::BuildCorrespondence(
+    const std::function<bool(int node)>& keep) const {
+  const TrajectoryLibraryOptions& options = options_;
+  const Geometry geo = ComputeGeometry(options);
+  const int num_paths = this->num_paths();
+  Correspondence out;
   // Each node's samples [i0, i1), taken from its lowest-id path.
   struct NodeSamples {
     int path = 0;
@@ -411,6 +433,7 @@ TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options) : 
     std::vector<std::uint8_t> first(nv);
     stamp.assign(nv, -1);
     for (int node = 0; node < num_nodes_; ++node) {
+      if (!keep(node)) continue;
       touched.clear();
       // Samples come in increasing order, so the first visit of a voxel is its first blocked sample.
       for_each_near(block_grid_, geo.voxel_block_m, node, [&](int v, int i, double, bool first_visit) {
@@ -423,7 +446,7 @@ TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options) : 
         lists[static_cast<std::size_t>(v)].push_back(e);
       }
     }
-    Compress(&lists, &blocking_offsets_, &blocking_);
+    Compress(&lists, &out.blocking_offsets, &out.blocking);
   }
   {  // Clearance band: nearest sample (first if tied) and the clearance bucket.
     const std::size_t nv = static_cast<std::size_t>(num_clearance_voxels());
@@ -432,6 +455,7 @@ TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options) : 
     std::vector<std::uint8_t> closest(nv);
     stamp.assign(nv, -1);
     for (int node = 0; node < num_nodes_ && options.clearance_band_m > 0.0; ++node) {
+      if (!keep(node)) continue;
       touched.clear();
       for_each_near(band_grid_, geo.band_reach_m, node, [&](int v, int i, double d2, bool first_visit) {
         const std::size_t vi = static_cast<std::size_t>(v);
@@ -450,9 +474,9 @@ TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options) : 
         lists[vi].push_back(e);
       }
     }
-    Compress(&lists, &band_offsets_, &band_);
+    Compress(&lists, &out.band_offsets, &out.band);
   }
-  build_time_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
 }
 
 double TrajectoryLibrary::BucketClearanceM(std::uint8_t bucket) const {
@@ -475,6 +499,213 @@ std::size_t TrajectoryLibrary::memory_bytes() const {
          samples_B_.capacity() * sizeof(Eigen::Vector2f) + node_of_path_.capacity() * sizeof(std::uint16_t) +
          blocking_offsets_.capacity() * sizeof(std::uint32_t) + blocking_.capacity() * sizeof(BlockingEntry) +
          band_offsets_.capacity() * sizeof(std::uint32_t) + band_.capacity() * sizeof(BandEntry);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// TrajectoryLibrary serialization
+
+namespace {
+
+constexpr char kLibraryMagic[8] = {'C', 'A', 'I', 'R', 'N', 'T', 'L', '\0'};
+constexpr std::uint32_t kByteOrderMark = 0x01020304u;
+static_assert(sizeof(BlockingEntry) == 4 && std::is_trivially_copyable_v<BlockingEntry>);
+static_assert(sizeof(BandEntry) == 4 && std::is_trivially_copyable_v<BandEntry>);
+
+// The options in the order they are stored, with their names (for a mismatch message).
+std::vector<std::pair<const char*, double>> StoredOptions(const TrajectoryLibraryOptions& o) {
+  return {{"path_length_m", o.path_length_m},
+          {"num_groups", o.num_groups},
+          {"paths_per_group", o.paths_per_group},
+          {"num_headings", o.num_headings},
+          {"heading_range_rad", o.heading_range_rad},
+          {"max_segment_turn_rad", o.max_segment_turn_rad},
+          {"sample_spacing_m", o.sample_spacing_m},
+          {"voxel_size_m", o.voxel_size_m},
+          {"clearance_voxel_size_m", o.clearance_voxel_size_m},
+          {"collision_radius_m", o.collision_radius_m},
+          {"clearance_band_m", o.clearance_band_m},
+          {"obstacle_min_z_m", o.obstacle_min_z_m},
+          {"obstacle_max_z_m", o.obstacle_max_z_m}};
+}
+
+void Append(std::string* out, const void* data, std::size_t bytes) {
+  out->append(static_cast<const char*>(data), bytes);
+}
+
+template <typename T>
+void AppendArray(std::string* out, const std::vector<T>& v) {
+  const std::uint64_t count = v.size();
+  Append(out, &count, sizeof(count));
+  Append(out, v.data(), v.size() * sizeof(T));
+}
+
+// Reads from `bytes` at `*at`, never past the end.
+class ByteReader {
+ public:
+  explicit ByteReader(const std::string& bytes) : bytes_(bytes) {}
+  bool Read(void* data, std::size_t n) {
+    if (n > bytes_.size() - at_) return false;
+    std::memcpy(data, bytes_.data() + at_, n);
+    at_ += n;
+    return true;
+  }
+  template <typename T>
+  bool ReadArray(std::vector<T>* v) {
+    std::uint64_t count = 0;
+    if (!Read(&count, sizeof(count)) || count > (bytes_.size() - at_) / sizeof(T)) return false;
+    v->resize(static_cast<std::size_t>(count));
+    return Read(v->data(), v->size() * sizeof(T));
+  }
+  bool AtEnd() const { return at_ == bytes_.size(); }
+
+ private:
+  const std::string& bytes_;
+  std::size_t at_ = 0;
+};
+
+// Compressed rows: offsets start at 0, never decrease, end at the entry count, one row per voxel; node ids
+// ascend within a row and stay below `num_nodes`; `sample_of(entry)` stays below `samples`.
+template <typename Entry, typename SampleOf>
+bool RowsValid(const std::vector<std::uint32_t>& offsets, const std::vector<Entry>& entries, int voxels,
+               int num_nodes, int samples, SampleOf sample_of) {
+  if (offsets.size() != static_cast<std::size_t>(voxels) + 1 || offsets.front() != 0 ||
+      offsets.back() != entries.size()) {
+    return false;
+  }
+  for (std::size_t v = 0; v + 1 < offsets.size(); ++v) {
+    if (offsets[v] > offsets[v + 1]) return false;
+    for (std::uint32_t e = offsets[v]; e < offsets[v + 1]; ++e) {
+      const Entry& entry = entries[e];
+      if (entry.node >= num_nodes || sample_of(entry) >= samples) return false;
+      if (e > offsets[v] && entries[e - 1].node >= entry.node) return false;
+    }
+  }
+  return true;
+}
+
+// The rows restricted to the entries of the nodes marked in `keep` (one flag per node).
+template <typename Entry>
+void KeepRows(const std::vector<std::uint32_t>& offsets, const std::vector<Entry>& entries,
+              const std::vector<char>& keep, std::vector<std::uint32_t>* kept_offsets, std::vector<Entry>* kept) {
+  kept_offsets->assign(1, 0);
+  kept->clear();
+  for (std::size_t v = 0; v + 1 < offsets.size(); ++v) {
+    for (std::uint32_t e = offsets[v]; e < offsets[v + 1]; ++e) {
+      if (keep[entries[e].node]) kept->push_back(entries[e]);
+    }
+    kept_offsets->push_back(static_cast<std::uint32_t>(kept->size()));
+  }
+}
+
+template <typename Entry>
+bool SameEntries(const std::vector<Entry>& a, const std::vector<Entry>& b) {
+  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(Entry)) == 0);
+}
+
+}  // namespace
+
+int TrajectoryLibrary::HeadingSlotOfNode(int node) const {
+  const int groups = options_.num_groups;
+  const int k = IntSqrt(options_.paths_per_group);
+  const int level1_base = num_kept_headings_ * groups;
+  const int level2_base = level1_base + num_kept_headings_ * groups * k;
+  if (node < level1_base) return node / groups;
+  if (node < level2_base) return (node - level1_base) / (groups * k);
+  return (node - level2_base) / paths_per_heading_;
+}
+
+std::uint64_t TrajectoryLibrary::Fingerprint(const TrajectoryLibraryOptions& options) {
+  std::string bytes;
+  Append(&bytes, &kFormatVersion, sizeof(kFormatVersion));
+  for (const auto& [name, value] : StoredOptions(options)) Append(&bytes, &value, sizeof(value));
+  std::uint64_t hash = 14695981039346656037ull;  // FNV-1a, 64 bits
+  for (const char c : bytes) {
+    hash ^= static_cast<unsigned char>(c);
+    hash *= 1099511628211ull;
+  }
+  return hash;
+}
+
+std::string TrajectoryLibrary::Serialize() const {
+  std::string out;
+  out.reserve(64 + 8 * 13 + 32 + (blocking_offsets_.size() + band_offsets_.size()) * 4 +
+              (blocking_.size() + band_.size()) * 4);
+  Append(&out, kLibraryMagic, sizeof(kLibraryMagic));
+  Append(&out, &kFormatVersion, sizeof(kFormatVersion));
+  Append(&out, &kByteOrderMark, sizeof(kByteOrderMark));
+  for (const auto& [name, value] : StoredOptions(options_)) Append(&out, &value, sizeof(value));
+  AppendArray(&out, blocking_offsets_);
+  AppendArray(&out, blocking_);
+  AppendArray(&out, band_offsets_);
+  AppendArray(&out, band_);
+  return out;
+}
+
+std::unique_ptr<TrajectoryLibrary> TrajectoryLibrary::Deserialize(const std::string& bytes,
+                                                                  const TrajectoryLibraryOptions& options,
+                                                                  std::string* why) {
+  std::string invalid;
+  if (!options.IsValid(&invalid)) throw std::invalid_argument(invalid);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto refuse = [why](const std::string& reason) {
+    *why = reason;
+    return nullptr;
+  };
+  ByteReader in(bytes);
+  char magic[sizeof(kLibraryMagic)] = {};
+  std::uint32_t version = 0;
+  std::uint32_t byte_order = 0;
+  if (!in.Read(magic, sizeof(magic)) || std::memcmp(magic, kLibraryMagic, sizeof(magic)) != 0) {
+    return refuse("not a Cairn trajectory library (magic)");
+  }
+  if (!in.Read(&version, sizeof(version)) || version != kFormatVersion) {
+    return refuse("format version " + std::to_string(version) + ", this build reads " +
+                  std::to_string(kFormatVersion));
+  }
+  if (!in.Read(&byte_order, sizeof(byte_order)) || byte_order != kByteOrderMark) {
+    return refuse("written on a machine of another byte order");
+  }
+  for (const auto& [name, value] : StoredOptions(options)) {
+    double stored = 0.0;
+    if (!in.Read(&stored, sizeof(stored))) return refuse("truncated in its options");
+    if (!(stored == value)) {
+      std::ostringstream msg;
+      msg.precision(17);
+      msg << "built with " << name << " = " << stored << ", wanted " << value;
+      return refuse(msg.str());
+    }
+  }
+  std::unique_ptr<TrajectoryLibrary> library(new TrajectoryLibrary(options, PathsOnly{}));
+  TrajectoryLibrary& lib = *library;
+  if (!in.ReadArray(&lib.blocking_offsets_) || !in.ReadArray(&lib.blocking_) ||
+      !in.ReadArray(&lib.band_offsets_) || !in.ReadArray(&lib.band_)) {
+    return refuse("truncated in its correspondence");
+  }
+  if (!in.AtEnd()) return refuse("longer than its contents");
+  const int n = lib.samples_per_path_;
+  if (!RowsValid(lib.blocking_offsets_, lib.blocking_, lib.num_voxels(), lib.num_nodes_, n,
+                 [](const BlockingEntry& e) { return e.first_sample; })) {
+    return refuse("blocking rows out of range (sizes, offsets, node ids or samples)");
+  }
+  if (!RowsValid(lib.band_offsets_, lib.band_, lib.num_clearance_voxels(), lib.num_nodes_, n,
+                 [](const BandEntry& e) { return e.closest_sample; })) {
+    return refuse("band rows out of range (sizes, offsets, node ids or samples)");
+  }
+  // Spot check: one heading's correspondence built again.
+  const int slot = lib.num_kept_headings_ / 2;
+  std::vector<char> in_slot(static_cast<std::size_t>(lib.num_nodes_));
+  for (int node = 0; node < lib.num_nodes_; ++node) in_slot[static_cast<std::size_t>(node)] = lib.HeadingSlotOfNode(node) == slot;
+  const Correspondence fresh = lib.BuildCorrespondence([&in_slot](int node) { return in_slot[static_cast<std::size_t>(node)] != 0; });
+  Correspondence stored;
+  KeepRows(lib.blocking_offsets_, lib.blocking_, in_slot, &stored.blocking_offsets, &stored.blocking);
+  KeepRows(lib.band_offsets_, lib.band_, in_slot, &stored.band_offsets, &stored.band);
+  if (fresh.blocking_offsets != stored.blocking_offsets || !SameEntries(fresh.blocking, stored.blocking) ||
+      fresh.band_offsets != stored.band_offsets || !SameEntries(fresh.band, stored.band)) {
+    return refuse("the correspondence of heading slot " + std::to_string(slot) +
+                  " differs from one built now (a file from another build, or damaged)");
+  }
+  lib.build_time_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return library;
 }
 
 // ---------------------------------------------------------------------------------------------------------

@@ -305,6 +305,116 @@ TEST(TrajectoryLibraryTest, HeadingRangeRestrictsHeadings) {
   EXPECT_GT(planner.library().info(r.path_id).end_B.y(), 0.0f);  // Turns toward the goal side.
 }
 
+// A small library for the serialization tests (quick to build and to spot-check).
+TrajectoryLibraryOptions SmallLibraryOptions() {
+  TrajectoryLibraryOptions o;
+  o.num_groups = 3;
+  o.paths_per_group = 9;
+  o.num_headings = 12;
+  return o;
+}
+
+// Every row of both grids and every path sample of `a` and `b` are equal.
+void ExpectSameLibrary(const TrajectoryLibrary& a, const TrajectoryLibrary& b) {
+  ASSERT_EQ(a.num_paths(), b.num_paths());
+  ASSERT_EQ(a.num_nodes(), b.num_nodes());
+  ASSERT_EQ(a.num_voxels(), b.num_voxels());
+  ASSERT_EQ(a.num_clearance_voxels(), b.num_clearance_voxels());
+  ASSERT_EQ(a.num_blocking_entries(), b.num_blocking_entries());
+  ASSERT_EQ(a.num_band_entries(), b.num_band_entries());
+  for (int p = 0; p < a.num_paths(); ++p) {
+    for (int i = 0; i < a.samples_per_path(); ++i) ASSERT_EQ(a.samples_B(p)[i], b.samples_B(p)[i]) << p << " " << i;
+  }
+  for (int v = 0; v < a.num_voxels(); ++v) {
+    const auto ra = a.blocking_entries(v);
+    const auto rb = b.blocking_entries(v);
+    ASSERT_EQ(ra.size(), rb.size()) << v;
+    for (std::size_t e = 0; e < ra.size(); ++e) {
+      ASSERT_EQ(ra.first[e].node, rb.first[e].node);
+      ASSERT_EQ(ra.first[e].first_sample, rb.first[e].first_sample);
+    }
+  }
+  for (int v = 0; v < a.num_clearance_voxels(); ++v) {
+    const auto ra = a.band_entries(v);
+    const auto rb = b.band_entries(v);
+    ASSERT_EQ(ra.size(), rb.size()) << v;
+    for (std::size_t e = 0; e < ra.size(); ++e) {
+      ASSERT_EQ(ra.first[e].node, rb.first[e].node);
+      ASSERT_EQ(ra.first[e].closest_sample, rb.first[e].closest_sample);
+      ASSERT_EQ(ra.first[e].clearance_bucket, rb.first[e].clearance_bucket);
+    }
+  }
+}
+
+TEST(TrajectoryLibraryTest, SerializedLibraryLoadsEqualAndPlansTheSame) {
+  const TrajectoryLibraryOptions o = SmallLibraryOptions();
+  const auto built = std::make_shared<const TrajectoryLibrary>(o);
+  const std::string bytes = built->Serialize();
+  std::string why;
+  std::shared_ptr<const TrajectoryLibrary> loaded = TrajectoryLibrary::Deserialize(bytes, o, &why);
+  ASSERT_NE(loaded, nullptr) << why;
+  ExpectSameLibrary(*built, *loaded);
+  EXPECT_EQ(loaded->Serialize(), bytes);
+  // The same scene, the same choice.
+  const Cloud wall = {{1.5f, -0.5f, 0.2f}, {1.5f, 0.0f, 0.2f}, {1.5f, 0.5f, 0.2f}};
+  LocalPlanner from_built(built), from_loaded(loaded);
+  const LocalPlanResult a = from_built.Plan(wall, GoalRequest(3.0, 0.0));
+  const LocalPlanResult b = from_loaded.Plan(wall, GoalRequest(3.0, 0.0));
+  ASSERT_TRUE(a.IsUsable()) << a.message;
+  EXPECT_EQ(a.path_id, b.path_id);
+  EXPECT_EQ(a.free_length_m, b.free_length_m);
+}
+
+TEST(TrajectoryLibraryTest, DeserializeRefusesOtherVersionsOptionsAndDamagedBytesNamingWhy) {
+  const TrajectoryLibraryOptions o = SmallLibraryOptions();
+  const TrajectoryLibrary built(o);
+  const std::string bytes = built.Serialize();
+  auto refusal_for = [](const std::string& b, const TrajectoryLibraryOptions& wanted) {
+    std::string why;
+    auto lib = TrajectoryLibrary::Deserialize(b, wanted, &why);
+    return lib == nullptr ? why : std::string("loaded");
+  };
+  auto refusal = [&](const std::string& b) { return refusal_for(b, o); };
+  EXPECT_EQ(refusal(""), "not a Cairn trajectory library (magic)");
+  EXPECT_EQ(refusal("CAIRNTL"), "not a Cairn trajectory library (magic)");
+  std::string other_version = bytes;
+  other_version[8] = static_cast<char>(TrajectoryLibrary::kFormatVersion + 1);
+  EXPECT_EQ(refusal(other_version), "format version 2, this build reads 1");
+  TrajectoryLibraryOptions wider = o;
+  wider.collision_radius_m = 0.4;
+  EXPECT_EQ(refusal_for(bytes, wider), "built with collision_radius_m = 0.34999999999999998, wanted 0.40000000000000002");
+  EXPECT_EQ(refusal(bytes.substr(0, 100)), "truncated in its options");
+  EXPECT_EQ(refusal(bytes.substr(0, bytes.size() - 1)), "truncated in its correspondence");
+  EXPECT_EQ(refusal(bytes + "x"), "longer than its contents");
+  // Header (magic, version, byte order, 13 options) and the blocking offsets' count and values.
+  const std::size_t blocking_at = 8 + 4 + 4 + 13 * 8 + 8 + 4 * (built.num_voxels() + 1) + 8;
+  const BlockingEntry* first = built.blocking_entries(0).first;
+  // A node id beyond the tree.
+  std::string bad_node = bytes;
+  bad_node[blocking_at] = bad_node[blocking_at + 1] = static_cast<char>(0xff);
+  EXPECT_EQ(refusal(bad_node), "blocking rows out of range (sizes, offsets, node ids or samples)");
+  // A first blocked sample changed to another valid one, in the heading the spot check builds again.
+  const int slot_path = built.num_kept_headings() / 2 * built.paths_per_heading();
+  const std::uint16_t node = built.path_nodes(slot_path)[2];
+  std::ptrdiff_t index = -1;
+  for (int v = 0; v < built.num_voxels() && index < 0; ++v) {
+    for (const BlockingEntry& e : built.blocking_entries(v)) {
+      if (e.node == node) index = &e - first;
+    }
+  }
+  ASSERT_GE(index, 0);
+  std::string bad_sample = bytes;
+  char& sample = bad_sample[blocking_at + 4 * static_cast<std::size_t>(index) + 2];
+  sample = static_cast<char>(sample == 0 ? 1 : sample - 1);
+  EXPECT_EQ(refusal(bad_sample), "the correspondence of heading slot 6 differs from one built now (a file from "
+                                 "another build, or damaged)");
+  EXPECT_EQ(refusal(bytes), "loaded");
+  TrajectoryLibraryOptions invalid = o;
+  invalid.num_headings = 0;
+  std::string why;
+  EXPECT_THROW(TrajectoryLibrary::Deserialize(bytes, invalid, &why), std::invalid_argument);
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // Planning, hand-made scenes
 

@@ -74,8 +74,10 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   nav.ReadDouble("path_requests_per_s", &path_requests_per_s);
   const auto local = config.Section("local_planner");
   local.RejectUnknownKeys({"collision_margin_m", "clearance_band_m", "voxel_size_m", "goal_direction_weight",
-                           "heading_change_weight", "clearance_weight", "hysteresis_weight", "min_free_length_m"});
+                           "heading_change_weight", "clearance_weight", "hysteresis_weight", "min_free_length_m",
+                           "library_cache_dir"});
   local.ReadDouble("collision_margin_m", &collision_margin_m);
+  local.ReadString("library_cache_dir", &library_cache_dir);
   local.ReadDouble("clearance_band_m", &library.clearance_band_m);
   local.ReadDouble("voxel_size_m", &library.voxel_size_m);
   local.ReadDouble("goal_direction_weight", &n.local_planner.goal_direction_weight);

@@ -22,6 +22,7 @@
 #include "cairn/agent/perception_service.h"
 #include "cairn/agent/planning_service.h"
 #include "cairn/agent/telemetry.h"
+#include "cairn/agent/trajectory_library_cache.h"
 #include "cairn/agent/waypoint_mode.h"
 #include "cairn/agent/waypoint_recovery.h"
 #include "cairn/core/shutdown.h"
@@ -65,6 +66,18 @@ std::unique_ptr<AgentDds> MakeDds(const AgentOptions& options) {
   dds.map_budget_bits_per_s = options.perception.telemetry.budget_bits_per_s * 1.25;
   dds.camera_budget_bits_per_s = options.perception.camera_budget_bits_per_s;
   return std::make_unique<AgentDds>(dds);
+}
+
+// The local planner's library, from the cache when it has it (trajectory_library_cache.h).
+std::shared_ptr<const nav::TrajectoryLibrary> LocalPlannerLibrary(const AgentOptions& options) {
+  CachedLibrary cached = LoadOrBuildTrajectoryLibrary(options.LibraryForPlatform(),
+                                                      TrajectoryLibraryCacheDir(options.library_cache_dir));
+  if (cached.cache_failed) {
+    spdlog::warn("robot {}: local planner library {}", options.robot_id, cached.how);
+  } else {
+    spdlog::info("robot {}: local planner library {}", options.robot_id, cached.how);
+  }
+  return std::move(cached.library);
 }
 
 std::shared_ptr<core::PlatformIO> Checked(std::shared_ptr<core::PlatformIO> platform) {
@@ -163,7 +176,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       planner_(MakePlanner(options, start_M_)),
       pose_(start_M_),
       navigation_(options.navigation, planner_,
-                  std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform())) {
+                  LocalPlannerLibrary(options)) {
   perception_ = std::make_unique<PerceptionService>(
       options, platform_, start_M_, planner_, start_time_,
       [this](const PerceptionOutput& out) { telemetry_->PublishPerception(out); });

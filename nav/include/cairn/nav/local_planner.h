@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -236,10 +237,47 @@ class TrajectoryLibrary {
 
   /// Heap memory held by the library (samples, path descriptions, correspondence), bytes.
   std::size_t memory_bytes() const;
-  /// Wall-clock time the constructor took, seconds.
+  /// Wall-clock time the constructor (or Deserialize) took, seconds.
   double build_time_s() const { return build_time_s_; }
 
+  /// Version of the Serialize() format. Bumped whenever the format or what the build computes changes, so that
+  /// a cache written by an older build is refused rather than used.
+  static constexpr std::uint32_t kFormatVersion = 1;
+
+  /// The library as bytes, for a cache file (the agent keeps one per option set: LoadOrBuildTrajectoryLibrary):
+  /// a header (magic, kFormatVersion, a byte-order mark, the options) and the correspondence (blocking and band
+  /// rows); the paths are not stored, Deserialize rebuilds them from the options (a few ms). Native byte order:
+  /// a cache is local to one machine. With the agent's options (0.05 m voxels) ~33 MB before compression.
+  std::string Serialize() const;
+
+  /// A 64-bit fingerprint (FNV-1a) of kFormatVersion and `options` as Serialize() stores them: equal options
+  /// give equal fingerprints; a cache names its files by it.
+  static std::uint64_t Fingerprint(const TrajectoryLibraryOptions& options);
+
+  /// The library that `bytes` (from Serialize()) holds, or nullptr with `*why` (not null) saying what does not
+  /// match: the magic, the version, the byte order, an option (named, both values), an array size, offset or id
+  /// out of range, or the spot check. Spot check: the correspondence of one heading is built again and must
+  /// equal the stored one (catches a file from a build that computed it differently, and most damage). Never
+  /// reads outside `bytes`, whatever they hold.
+  /// @throws std::invalid_argument if `options` is invalid (as the constructor).
+  static std::unique_ptr<TrajectoryLibrary> Deserialize(const std::string& bytes,
+                                                        const TrajectoryLibraryOptions& options, std::string* why);
+
  private:
+  // The paths, their descriptions and the path tree of `options` (validated), without the correspondence.
+  struct PathsOnly {};
+  TrajectoryLibrary(const TrajectoryLibraryOptions& options, PathsOnly);
+  // The correspondence rows of the path tree nodes `keep` accepts (all: the library's).
+  struct Correspondence {
+    std::vector<std::uint32_t> blocking_offsets;
+    std::vector<BlockingEntry> blocking;
+    std::vector<std::uint32_t> band_offsets;
+    std::vector<BandEntry> band;
+  };
+  Correspondence BuildCorrespondence(const std::function<bool(int node)>& keep) const;
+  // The kept-heading slot (0..num_kept_headings()-1) of path tree node `node`.
+  int HeadingSlotOfNode(int node) const;
+
   // A square grid centred on the origin.
   struct Grid {
     double voxel_m = 1.0;

@@ -47,6 +47,9 @@ struct AgentOptions {
   /// from the platform profile.
   nav::TrajectoryLibraryOptions library = DefaultLibraryOptions();
   double collision_margin_m = 0.03;   ///< [0, 1], metres added to the footprint for the local planner
+  /// Folder of built trajectory libraries (trajectory_library_cache.h): "" = $XDG_CACHE_HOME/cairn or
+  /// $HOME/.cache/cairn; "off" = build at every start.
+  std::string library_cache_dir;
   /// Perception: mapping, staircases, map telemetry and camera frames (section `perception`).
   PerceptionOptions perception;
   /// The navigation map on the robot's own OctoMap (section `navigation`, keys map_*).
