@@ -109,6 +109,8 @@ TEST(BaseCli, RefusesBadFlagsAndCommands) {
   o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--command-timeout", "1", "--", "request-control", "r9"});
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_NE(o.stdout_text.find("unknown robot 'r9'"), std::string::npos) << o.stdout_text;
+  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--discovery-wait", "0", "--", "robots"}),
+                "--discovery-wait 0.000000 must be in (0, 60] s");
   // The GUI's flags.
   ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--gui", "--listen", "localhost:8080"}),
                 "--listen 'localhost:8080': 'localhost' is not an IP address");

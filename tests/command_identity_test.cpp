@@ -110,6 +110,35 @@ double SecondsToRest(Observer& observer, const std::string& robot, std::chrono::
   return -1;
 }
 
+// A basestation started just before its robot: the first command waits for the robot to be discovered, up to
+// --discovery-wait, however short --command-timeout is (cairn_lan_link_test at 5 % loss: a fresh basestation
+// took over 3 s to discover r1, and its request-control was refused as "unknown robot" at the 3 s timeout).
+TEST(CommandIdentity, AFirstCommandWaitsForARobotNotYetDiscoveredBeyondItsTimeout) {
+  const int domain = 57;
+  const std::string logs = Logs("discovery_wait");
+  ChildProcess base({kBase, "--base-id", "opA", "--domain", std::to_string(domain), "--json", "--command-timeout",
+                     "0.5", "--discovery-wait", "20", "--", "request-control", "r1"},
+                    logs + "/base.log");
+  base.CloseStdin();
+  auto agent = StartAgent("r1", domain, logs);  // ready after the command's 0.5 s have passed
+  json answer;
+  while (auto line = base.ReadLine(30s)) {
+    const json j = json::parse(*line, nullptr, /*allow_exceptions=*/false);
+    if (j.is_object() && !j.contains("progress") && !j.contains("event")) answer = j;
+  }
+  const auto status = base.Wait(20s);
+  ASSERT_TRUE(status && WIFEXITED(*status)) << answer;
+  EXPECT_EQ(WEXITSTATUS(*status), 0) << answer;
+  EXPECT_TRUE(answer.value("ok", false)) << answer;
+  EXPECT_EQ(answer.value("holder", ""), "opA") << answer;
+  // Once the window has passed, an unknown robot (a typo) is refused at once, not after the timeout.
+  const auto start = Clock::now();
+  const OneShot typo = RunOneShot("opA", domain, "request-control r2", logs + "/typo.log");
+  EXPECT_EQ(typo.exit_code, 1) << typo.answer;
+  EXPECT_NE(typo.answer.value("reason", "").find("unknown robot 'r2'"), std::string::npos) << typo.answer;
+  EXPECT_LT(std::chrono::duration<double>(Clock::now() - start).count(), 10.0);
+}
+
 // Issue 9, defect 1: the README's one-shot form. Each process numbers its requests from 1; the second goal
 // used to get the first goal's cached denial and never ran.
 TEST(CommandIdentity, OneShotCommandsWithOneBaseIdAllRun) {

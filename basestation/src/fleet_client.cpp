@@ -171,7 +171,7 @@ class FleetClient::Impl {
               cairn::msgs::WallSeconds(cairn::msgs::WallStampNow()) - cairn::msgs::WallSeconds(m.stamp());
           spdlog::info("basestation {}: {} announced itself on link {} ({:.3f} s ago by its clock)", options_.base_id,
                        m.agent_id(), m.link().empty() ? "?" : m.link(), age_s);
-          if (m.map_resolution_m() > 0) perception_->OnRobotSeen(m.agent_id());  // none to sync without a map
+          perception_->OnRobotSeen(m.agent_id(), m.map_resolution_m());
         },
         [this](const eprosima::fastdds::dds::LivelinessChangedStatus& status) { OnLiveliness(status); });
 
@@ -391,13 +391,10 @@ class FleetClient::Impl {
       // writers, and volatile samples are not replayed): its map here starts again from a snapshot, asked for
       // until one completes.
       for (const OperatorEvent& e : events) {
-        if (e.kind != "back") continue;
-        const auto back = std::find_if(views.begin(), views.end(),
-                                       [&e](const RobotView& v) { return v.robot_id == e.robot_id; });
-        if (back != views.end() && back->map_resolution_m > 0) perception_->OnRobotSeen(e.robot_id);
+        if (e.kind == "back") perception_->OnRobotBack(e.robot_id);
       }
       for (const RobotView& v : views) {
-        if (v.announced && !v.lost && v.map_resolution_m > 0) perception_->SyncIfIncomplete(v.robot_id);
+        if (v.announced && !v.lost) perception_->SyncIfIncomplete(v.robot_id);
       }
       for (const FleetEvent& f : perception_->TakeEvents()) {
         OperatorEvent e;
@@ -419,8 +416,10 @@ class FleetClient::Impl {
     }
   }
 
-  // Waits up to `timeout_s` for `robot_id` to be known and alive. A robot still unknown once discovery_s has
-  // passed since this client started is refused at once (no 3 s wait for a typo).
+  // Waits for `robot_id` to be known and alive: a robot not heard of yet until discovery_s has passed since
+  // this client started (a fresh basestation on a lossy link may need longer than a command's timeout to
+  // discover it; once that has passed, an unknown robot, a typo, is refused at once), a lost one up to
+  // `timeout_s`.
   bool WaitForRobot(const std::string& robot_id, double timeout_s) const {
     std::unique_lock<std::mutex> lock(mutex_);
     const auto discovered_by = created_ + std::chrono::duration_cast<SteadyClock::duration>(
@@ -431,9 +430,9 @@ class FleetClient::Impl {
       auto it = robots_.find(robot_id);
       const auto now = SteadyClock::now();
       if (it != robots_.end() && !WithStaleness(it->second, now).lost) return true;
-      if (it == robots_.end() && now >= discovered_by) return false;
-      if (now >= deadline) return false;
-      cv_.wait_until(lock, std::min(deadline, now + std::chrono::milliseconds(100)));
+      const auto until = it == robots_.end() ? discovered_by : deadline;
+      if (now >= until) return false;
+      cv_.wait_until(lock, std::min(until, now + std::chrono::milliseconds(100)));
     }
   }
 

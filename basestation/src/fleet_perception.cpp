@@ -154,6 +154,12 @@ class FleetPerception::Impl {
     spdlog::info("basestation {}: asked {} for a map snapshot", base_id_, robot_id);
   }
 
+  // True for a robot seen announcing a map (OnRobotSeen).
+  bool SendsMap(const std::string& robot_id) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return seen_robots_.count(robot_id) > 0;
+  }
+
   bool HasBase(const std::string& robot_id) const {
     perception::RobotMapStats stats;
     return map_.GetRobotStats(robot_id, &stats) && stats.has_base && !stats.needs_snapshot;
@@ -214,7 +220,7 @@ class FleetPerception::Impl {
   std::unique_ptr<perception::StaircaseRegistry> fleet_ = std::make_unique<perception::StaircaseRegistry>();
   perception::StaircaseRegistry notified_;
   std::deque<FleetEvent> events_;
-  std::set<std::string> seen_robots_;
+  std::set<std::string> seen_robots_;  // robots seen announcing a map
   bool stop_ = false;
   std::thread sync_thread_;
 
@@ -228,19 +234,29 @@ FleetPerception::FleetPerception(core::Participant& participant, const std::stri
     : impl_(std::make_unique<Impl>(participant, base_id)) {}
 FleetPerception::~FleetPerception() = default;
 
-void FleetPerception::OnRobotSeen(const std::string& robot_id) {
+void FleetPerception::OnRobotSeen(const std::string& robot_id, double map_resolution_m) {
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex_);
+    if (!(map_resolution_m > 0)) {  // none to sync (a robot may restart with perception off)
+      impl_->seen_robots_.erase(robot_id);
+      return;
+    }
+    impl_->seen_robots_.insert(robot_id);
+  }
   // A robot's agent info arrives once per session: a restarted robot numbers its deltas from 1 again, so its
   // stream starts afresh (the voxels stay until the new session overwrites them).
   impl_->map_.ResetRobot(robot_id);
-  {
-    std::lock_guard<std::mutex> lock(impl_->mutex_);
-    impl_->seen_robots_.insert(robot_id);
-  }
+  impl_->MaybeRequestSync(robot_id);
+}
+
+void FleetPerception::OnRobotBack(const std::string& robot_id) {
+  if (!impl_->SendsMap(robot_id)) return;
+  impl_->map_.ResetRobot(robot_id);
   impl_->MaybeRequestSync(robot_id);
 }
 
 void FleetPerception::SyncIfIncomplete(const std::string& robot_id) {
-  if (!impl_->HasBase(robot_id)) impl_->MaybeRequestSync(robot_id);
+  if (impl_->SendsMap(robot_id) && !impl_->HasBase(robot_id)) impl_->MaybeRequestSync(robot_id);
 }
 
 bool FleetPerception::WaitForMapSync(const std::string& robot_id, double timeout_s) {

@@ -231,6 +231,10 @@ int main(int argc, char** argv) {
                                                               "loopback-only config/dds_profiles.xml)");
   app.add_option("--command-timeout", options.command_timeout_s, "seconds to wait for a robot's answer")
       ->capture_default_str();
+  double discovery_wait_s = 0;
+  app.add_option("--discovery-wait", discovery_wait_s,
+                 "after this basestation starts, a command to a robot it has not seen yet waits this long for it "
+                 "before refusing it as unknown, seconds (default 5 on lan and radio links, 1.5 on loopback)");
   double lost_after_s = 0;
   app.add_option("--lost-after", lost_after_s,
                  "show a robot lost when its state (10 Hz) has been silent this long, seconds (default 0.8 on lan "
@@ -271,6 +275,13 @@ int main(int argc, char** argv) {
     if (cairn::core::IsNamedNetworkLink(options.link)) {
       options.discovery_s = kNetworkDiscoveryS;
       options.lost_after_s = kNetworkLostAfterS;
+    }
+    if (app.count("--discovery-wait") > 0) {
+      if (!(discovery_wait_s > 0 && discovery_wait_s <= 60)) {
+        throw std::invalid_argument("--discovery-wait " + std::to_string(discovery_wait_s) +
+                                    " must be in (0, 60] s");
+      }
+      options.discovery_s = discovery_wait_s;
     }
     if (app.count("--lost-after") > 0) {
       if (!(lost_after_s >= 0.2 && lost_after_s <= 60)) {

@@ -92,25 +92,16 @@ bool MultiLevelGrid::CellOf(double x_m, double y_m, int* ix, int* iy) const {
   return true;
 }
 
-bool MultiLevelGrid::SeenFreeAbove(int ix, int iy, int iz) const {
-  return internal::SeenFreeAbove(seen_free_.get(), sensor_max_z_m_, TopOf(iz), ix, iy, iz);
-}
-
 template <class Visit>
 void MultiLevelGrid::ScanColumn(int ix, int iy, Visit&& visit) const {
-  // The candidates of TraversabilityGrid's ScanColumn, from the top down.
-  const double band_lo = options_.ground_search_min_z_m - kEps_m;
-  const double band_hi = options_.ground_search_max_z_m + kEps_m;
-  int free_run = options_.free_above_map ? need_voxels_ : 0;
-  for (int above = world_dims_.z() - 1; above >= 0;) {
-    const int iz = world_->HighestOccupiedInColumn(ix, iy, above);  // voxels iz + 1 .. above are free
-    free_run += above - iz;
-    if (iz < 0) break;
-    const double top = TopOf(iz);
-    if (top >= band_lo && top <= band_hi && free_run >= need_voxels_ && SeenFreeAbove(ix, iy, iz)) visit(iz);
-    free_run = 0;
-    above = iz - 1;
-  }
+  const internal::FloorColumnScan scan{*world_,
+                                       seen_free_.get(),
+                                       sensor_max_z_m_,
+                                       options_.ground_search_min_z_m - kEps_m,
+                                       options_.ground_search_max_z_m + kEps_m,
+                                       need_voxels_,
+                                       options_.free_above_map};
+  scan(ix, iy, visit);
 }
 
 int MultiLevelGrid::NodeNear(int ix, int iy, double z_m, double max_dz_m) const {

@@ -47,6 +47,43 @@ inline bool SeenFreeAbove(const core::VoxelGrid* seen_free, double sensor_max_z_
   return false;
 }
 
+/// The floor candidates of a map column, as the single-level and multi-level terrain analyses read them: a
+/// voxel is one if its top lies in [band_lo_m, band_hi_m], the need_voxels voxels right above it are free (space
+/// above the map counts as free when free_above_map) and it passes SeenFreeAbove.
+struct FloorColumnScan {
+  const core::VoxelGrid& world;
+  const core::VoxelGrid* seen_free;  ///< null: every candidate counts as seen
+  double sensor_max_z_m;
+  double band_lo_m;
+  double band_hi_m;
+  int need_voxels;
+  bool free_above_map;
+
+  /// Top of voxel layer iz, metres, frame W.
+  double TopOf(int iz) const { return world.p_W_min().z() + (iz + 1) * world.resolution_m(); }
+
+  /// Calls visit(iz) for each candidate of column (ix, iy), from the top down; returns whether the band holds
+  /// an occupied voxel (candidate or not). Skips free runs 64 voxels at a time (HighestOccupiedInColumn).
+  template <class Visit>
+  bool operator()(int ix, int iy, Visit&& visit) const {
+    bool band_occupied = false;
+    int free_run = free_above_map ? need_voxels : 0;  // free voxels directly above the current one
+    for (int above = world.dims().z() - 1; above >= 0;) {
+      const int iz = world.HighestOccupiedInColumn(ix, iy, above);  // voxels iz + 1 .. above are free
+      free_run += above - iz;
+      if (iz < 0) break;
+      const double top = TopOf(iz);
+      if (top >= band_lo_m && top <= band_hi_m) {
+        band_occupied = true;
+        if (free_run >= need_voxels && SeenFreeAbove(seen_free, sensor_max_z_m, top, ix, iy, iz)) visit(iz);
+      }
+      free_run = 0;
+      above = iz - 1;
+    }
+    return band_occupied;
+  }
+};
+
 /// Puts the exact start on a searched path of cell centres: it replaces the first centre, or is prepended
 /// (clearance 0) when the search started from an escape cell; a one-point path gets a second point, so that
 /// the caller can replace the last one with the exact goal.

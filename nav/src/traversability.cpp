@@ -198,34 +198,18 @@ void TraversabilityGrid::CheckGeometry(const core::VoxelGrid& grid, const char* 
   }
 }
 
-bool TraversabilityGrid::SeenFreeAbove(int ix, int iy, int iz) const {
-  return internal::SeenFreeAbove(seen_free_, sensor_max_z_m_, TopOf(iz), ix, iy, iz);
-}
-
 double TraversabilityGrid::TopOf(int iz) const { return world_p_min_.z() + (iz + 1) * world_res_m_; }
 
 template <class Visit>
 bool TraversabilityGrid::ScanColumn(const core::VoxelGrid& world, int ix, int iy, Visit&& visit) const {
-  // Voxel iz has its top at TopOf(iz); it is a candidate if that top is in the band and the need_voxels_
-  // voxels above it are free. Calls visit(iz) for each candidate from the top down; returns whether the band
-  // holds an occupied voxel.
-  const double band_lo = options_.ground_search_min_z_m - kEps_m;
-  const double band_hi = options_.ground_search_max_z_m + kEps_m;
-  bool band_occupied = false;
-  int free_run = options_.free_above_map ? need_voxels_ : 0;  // Free voxels directly above the current one.
-  for (int above = world_dims_.z() - 1; above >= 0;) {
-    const int iz = world.HighestOccupiedInColumn(ix, iy, above);  // voxels iz + 1 .. above are free
-    free_run += above - iz;
-    if (iz < 0) break;
-    const double top = TopOf(iz);
-    if (top >= band_lo && top <= band_hi) {
-      band_occupied = true;
-      if (free_run >= need_voxels_ && SeenFreeAbove(ix, iy, iz)) visit(iz);
-    }
-    free_run = 0;
-    above = iz - 1;
-  }
-  return band_occupied;
+  const internal::FloorColumnScan scan{world,
+                                       seen_free_,
+                                       sensor_max_z_m_,
+                                       options_.ground_search_min_z_m - kEps_m,
+                                       options_.ground_search_max_z_m + kEps_m,
+                                       need_voxels_,
+                                       options_.free_above_map};
+  return scan(ix, iy, visit);
 }
 
 void TraversabilityGrid::Update(const core::VoxelGrid& world, const Eigen::AlignedBox2d& region_W) {

@@ -8,7 +8,9 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <mutex>
 #include <random>
 #include <thread>
@@ -424,15 +426,34 @@ void RobotAgent::Impl::Run() {
     modes_->Stop("agent shutting down");
     telemetry_->PublishState(RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs()});
   }
-  for (std::thread* t : {&sensor_thread, &perception_thread, &nav_map_thread, &plan_thread}) {
-    if (t->joinable()) t->join();
+  // Leaving takes a moment (the threads finish, the last map changes go out, the map is saved: over a second on
+  // a busy link): the robot keeps sending its pose meanwhile, so that basestations see it leave when its
+  // participant goes, not fall silent and be shown lost first.
+  std::atomic<bool> finished{false};
+  std::exception_ptr failure;
+  std::thread finisher([&] {
+    try {
+      for (std::thread* t : {&sensor_thread, &perception_thread, &nav_map_thread, &plan_thread}) {
+        if (t->joinable()) t->join();
+      }
+      if (options_.perception.enabled) {
+        // The last changes (within the budget), and a moment for the asynchronous writer to deliver them.
+        telemetry_->PublishPerception(perception_->Flush());
+        dds_->WaitForMapDelivery(std::chrono::seconds(1));
+      }
+      perception_->Finish(options_.map_save_path);
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    finished = true;
+  });
+  while (!finished) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    std::lock_guard<std::mutex> guard(mutex_);
+    telemetry_->PublishState(RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs()});
   }
-  if (options_.perception.enabled) {
-    // The last changes (within the budget), and a moment for the asynchronous writer to deliver them.
-    telemetry_->PublishPerception(perception_->Flush());
-    dds_->WaitForMapDelivery(std::chrono::seconds(1));
-  }
-  perception_->Finish(options_.map_save_path);
+  finisher.join();
+  if (failure) std::rethrow_exception(failure);
 }
 
 RobotAgent::RobotAgent(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform)

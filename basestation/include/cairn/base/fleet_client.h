@@ -80,7 +80,8 @@ struct FleetClientOptions {
   /// Advertised in this basestation's agent info. "joystick": it can stream teleop twists, which the
   /// robots' IsJoystickAlive condition requires for smart joystick mode.
   std::vector<std::string> capabilities = {"joystick"};
-  /// A robot not seen this long after start is unknown: commands to it are refused at once, (0, 60].
+  /// A robot not seen this long after start is unknown: commands to it are refused at once, (0, 60]. Until
+  /// then a command to a robot not heard of yet waits for it, however short the command's timeout.
   double discovery_s = 1.5;
   FleetEventOptions events;            ///< what raises operator events (proximity distances)
   std::size_t events_kept = 200;       ///< recent events kept for RecentEvents(), [1, 100000]
@@ -112,7 +113,8 @@ class FleetClient {
   /// One robot, if seen.
   std::optional<RobotView> Robot(const std::string& robot_id) const;
 
-  /// Waits up to `timeout_s` until `robot_id` is known and alive. false on timeout.
+  /// Waits until `robot_id` is known and alive: up to `timeout_s` for a robot already known (lost now), until
+  /// discovery_s after this client's start for one not heard of yet. false when it is not.
   bool WaitForRobot(const std::string& robot_id, double timeout_s) const;
 
   /// Waits up to `timeout_s` until `predicate(view)` holds for `robot_id` (evaluated on every update).

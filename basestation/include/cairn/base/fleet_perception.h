@@ -59,12 +59,15 @@ class FleetPerception {
   FleetPerception(const FleetPerception&) = delete;
   FleetPerception& operator=(const FleetPerception&) = delete;
 
-  /// A robot's agent info arrived (once per robot session), or it is back from lost: restart its map stream
-  /// and ask it for a snapshot (late joiners, restarted robots, a restored link).
-  void OnRobotSeen(const std::string& robot_id);
-  /// Asks `robot_id` for a snapshot again (at most once a second) while its map here has no base: a request
-  /// written before the robot's reader matched (a link just restored) is lost, and a robot standing still
-  /// sends no delta that would reveal the gap.
+  /// A robot's agent info arrived (once per robot session), announcing the voxel edge of the map it sends
+  /// (`map_resolution_m`, metres; 0 or less: none, perception off): restart its map stream and ask it for a
+  /// snapshot (late joiners, restarted robots). A robot without a map is never asked.
+  void OnRobotSeen(const std::string& robot_id, double map_resolution_m);
+  /// A robot is back from lost: if it sends a map, as OnRobotSeen (a restored link lost its deltas).
+  void OnRobotBack(const std::string& robot_id);
+  /// Asks `robot_id`, if it sends a map, for a snapshot again (at most once a second) while its map here has no
+  /// base: a request written before the robot's reader matched (a link just restored) is lost, and a robot
+  /// standing still sends no delta that would reveal the gap.
   void SyncIfIncomplete(const std::string& robot_id);
 
   /// Saves the coarse map of `target` (a robot id, or "fleet" for the merged map) as an OctoMap .bt. A robot

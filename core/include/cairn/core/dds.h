@@ -48,7 +48,7 @@ class DdsError : public std::runtime_error {
 inline constexpr long kMaxDomainId = 232;
 
 /// Shortest AUTOMATIC liveliness lease on a network link (lan, radio), in seconds: eight of the profiles' 250 ms
-/// assertions, so that only a cut or a dead process lapses it, not a lossy link (Participant::WriterQos).
+/// assertions, so that a cut or a dead process lapses it, not a fade of a second (Participant::WriterQos).
 inline constexpr double kNetworkLivelinessLeaseS = 2.0;
 
 /// Checks a domain id given as text (CLI flag, config) and returns it.
@@ -166,8 +166,8 @@ class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
   ///  - On a network link (lan, radio) a finite AUTOMATIC liveliness lease shorter than
   ///    kNetworkLivelinessLeaseS is raised to it, on writers and readers alike (a reader's lease must not be
   ///    shorter than its writer's, or they never match). Liveliness is the robot's dead-man check on its
-  ///    operator: on a lossy radio, a lease of only four 250 ms assertions lapsed now and then while the
-  ///    operator was there (the lan link test at 5 % loss each way).
+  ///    operator (manual and smart joystick stop when it lapses): on a radio, a fade of a second must not
+  ///    throw the operator out of their mode (teleop going stale already stops the robot within 0.5 s).
   /// @throws DdsError naming the profile (not defined), or the locator list and the locator.
   eprosima::fastdds::dds::DataWriterQos WriterQos(const std::string& profile) const;
   /// The same for reader profile `profile` (e.g. "cairn.latched.reader").

@@ -119,7 +119,6 @@ class MultiLevelGrid : public core::FootprintChecker {
   friend class MultiLevelSearch;
   template <class Visit>
   void ScanColumn(int ix, int iy, Visit&& visit) const;
-  bool SeenFreeAbove(int ix, int iy, int iz) const;
   double TopOf(int iz) const { return world_p_min_.z() + (iz + 1) * res_m_; }
   void CheckGeometry(const core::VoxelGrid& grid, const char* what) const;
   // Rebuilds the surfaces of the columns in `windows` ({x0, y0, x1, y1} inclusive; all when empty and

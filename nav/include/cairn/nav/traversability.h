@@ -209,7 +209,6 @@ class TraversabilityGrid : public core::FootprintChecker {
  private:
   double TopOf(int iz) const;
   void CheckGeometry(const core::VoxelGrid& grid, const char* what) const;
-  bool SeenFreeAbove(int ix, int iy, int iz) const;
   template <class Visit>
   bool ScanColumn(const core::VoxelGrid& world, int ix, int iy, Visit&& visit) const;
   // Steps 1-6 for the cell windows {x0, y0, x1, y1} (inclusive) and the cells they affect; whole = the full
