@@ -121,13 +121,17 @@ class Observer {
   std::map<std::string, cairn_msgs::TeleopTwist> last_teleop_;
 };
 
+// The state's yaw, radians in (-pi, pi], frame M (from its orientation quaternion).
+inline double YawOf(const cairn_msgs::RobotState& s) {
+  const auto& q = s.pose_MB().orientation();
+  return std::atan2(2.0 * (q.w() * q.z() + q.x() * q.y()), 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z()));
+}
+
 // One state as a line: stamp, pose (metres, degrees), measured and commanded twist, the mux's and navigation's
 // reasons.
 inline std::string FormatState(const cairn_msgs::RobotState& s) {
   const auto& p = s.pose_MB().position();
-  const auto& q = s.pose_MB().orientation();
-  const double yaw_deg =
-      std::atan2(2.0 * (q.w() * q.z() + q.x() * q.y()), 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z())) * 180.0 / M_PI;
+  const double yaw_deg = YawOf(s) * 180.0 / M_PI;
   char line[512];
   std::snprintf(line, sizeof(line), "  t %.2f (%.2f, %.2f, %.2f) yaw %.0f v %.2f w %.2f cmd %.2f %.2f%s mux '%s' nav '%.160s'\n",
                 WallSeconds(s.stamp()), p.x_m(), p.y_m(), p.z_m(), yaw_deg, s.twist_B().linear_x_mps(),

@@ -884,11 +884,13 @@ int CommandShell::Teleop(const std::vector<std::string>& args) {
     o.reason = client_.UnknownRobotReason(robot);
     return Report("teleop", robot, o);
   }
-  // A mode switch made just before may not show in the state yet (10 Hz): give it half a second.
+  // The state after this shell's last command (a mode switch just before), then, if it shows no driving mode
+  // yet, half a second more for one (a switch from another process).
   const auto driving = [](const RobotView& v) {
     return v.state && (v.state->mode() == "manual" || v.state->mode() == "smart_joystick");
   };
-  auto view = client_.WaitUntil(robot, 0.5, driving);
+  auto view = FreshView(robot);
+  if (!view || !driving(*view)) view = client_.WaitUntil(robot, 0.5, driving);
   if (!view) view = client_.Robot(robot);
   // Limits applied with a notice: a value typed in the wrong unit (80 for 0.8) is not silently clamped.
   std::string notice;
