@@ -1,0 +1,94 @@
+// Copyright Cairn authors.
+//
+// Frontiers of a robot's own map for exploration (Yamauchi, "A Frontier-Based Approach for Autonomous
+// Exploration", CIRA 1997): the boundary between known-free, traversable ground and space the map has not
+// seen, grouped into clusters, each with a target the robot can drive to, the unknown area behind it (the
+// expected information gain) and the travel cost to it on the robot's traversability grid. The utility
+// weighs gain against cost as in González-Baños & Latombe, "Navigation Strategies for Exploring Indoor
+// Environments", IJRR 21(10), 2002 (there gain · exp(-λ · cost); here gain / (cost + cost_offset_m), which
+// needs no scale for λ). DDS-free; the agent's explore mode calls FindFrontiers() on its map thread.
+//
+// Frame M (the robot's map frame), metres.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "cairn/nav/traversability.h"
+
+namespace cairn::nav {
+
+/// Options of FindFrontiers().
+struct FrontierOptions {
+  /// A cluster with less unknown area than this behind it is ignored (holes in a sparse scan's floor, a
+  /// corner the lidar grazed), m², [0, 1e4].
+  double min_gain_m2 = 1.0;
+  /// The unknown area behind a frontier is counted up to this far from it, through unknown cells only,
+  /// metres, (0, 100]: about the lidar's useful range, what one look from the frontier can reveal.
+  double gain_radius_m = 5.0;
+  /// A cluster needs at least this many frontier cells, [1, 10000].
+  int min_cells = 3;
+  /// Clusters longer than this are cut into pieces at most this long (along x and along y), so that a wide
+  /// opening is several targets two robots can take apart, metres, [0.5, 100].
+  double max_cluster_extent_m = 4.0;
+  /// Utility = gain_m2 / (travel cost + this), metres, (0, 1000]: keeps a frontier next to the robot from
+  /// dividing by nothing.
+  double cost_offset_m = 1.0;
+  /// Only frontier cells inside this x-y box count (metres, frame M); an empty box (the default) = everywhere.
+  Eigen::AlignedBox2d region_M;
+  /// Only frontier cells whose ground lies in [min_z_m, max_z_m] count (metres, frame M; a floor of a
+  /// building). Default: every height.
+  double min_z_m = -std::numeric_limits<double>::infinity();
+  double max_z_m = std::numeric_limits<double>::infinity();
+
+  /// True when every field is in range; otherwise false with `*why` (if not null) naming the field, its value
+  /// and the rule.
+  bool IsValid(std::string* why) const;
+};
+
+/// One cluster of frontier cells.
+struct FrontierCluster {
+  /// Where to go: the cluster's frontier cell nearest its centroid (a known-free, traversable cell), its
+  /// centre, metres, frame M.
+  Eigen::Vector2d target_M = Eigen::Vector2d::Zero();
+  double target_ground_z_m = 0.0;  ///< the target cell's ground height, metres, frame M
+  Eigen::Vector2d centroid_M = Eigen::Vector2d::Zero();  ///< mean of its cells' centres, metres, frame M
+  int cells = 0;                                          ///< frontier cells
+  /// Unknown area reachable from the cluster through unknown cells within gain_radius_m of it, m².
+  double gain_m2 = 0.0;
+  /// Shortest 8-connected path from the robot's cell to the target over known-free traversable cells, metres;
+  /// infinity when there is none (the frontier is seen across a gap the robot cannot cross).
+  double travel_cost_m = std::numeric_limits<double>::infinity();
+  /// gain_m2 / (travel_cost_m + cost_offset_m); 0 when unreachable.
+  double utility = 0.0;
+  bool reachable() const { return travel_cost_m < std::numeric_limits<double>::infinity(); }
+};
+
+/// What FindFrontiers() found.
+struct FrontierSet {
+  /// Clusters with enough cells and gain, by utility (highest first; unreachable ones last, by gain).
+  std::vector<FrontierCluster> clusters;
+  int frontier_cells = 0;      ///< frontier cells in the region, before clusters were filtered
+  double known_free_m2 = 0.0;  ///< known-free ground in the region (State kFree), m²: the explored area
+  bool robot_on_grid = false;  ///< the robot's cell (or a traversable cell within 1 m of it) was found
+  int reachable() const;       ///< clusters with a finite travel cost
+};
+
+/// Frontiers of `grid` (a robot-built map read optimistically: TraversabilityOptions::unknown_is_lethal
+/// false) seen from the robot at `robot_M` (x-y, metres, frame M, the grid's frame).
+///
+/// A frontier cell is a known-free (State kFree, inferred or not), traversable cell inside the region and
+/// height band with at least one 4-neighbour of State kUnknown. Frontier cells are grouped by 8-connectivity,
+/// then cut into pieces of at most max_cluster_extent_m; pieces with fewer than min_cells cells or less than
+/// min_gain_m2 of gain are dropped. Travel costs come from one Dijkstra search from the robot's cell over
+/// known-free traversable cells (the robot's own cell counts even if it is not traversable, e.g. next to a
+/// wall; when it is off the grid or not free, the nearest traversable free cell within 1 m is used).
+/// Cost: linear in the grid's cells plus the search (about 10-30 ms for 640,000 cells).
+/// @throws std::invalid_argument if `options` is invalid (IsValid()'s message).
+FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d& robot_M,
+                          const FrontierOptions& options = {});
+
+}  // namespace cairn::nav

@@ -1,0 +1,261 @@
+// Copyright Cairn authors.
+#include "cairn/nav/frontier.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <queue>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+namespace cairn::nav {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kDx4[4] = {1, -1, 0, 0};
+constexpr int kDy4[4] = {0, 0, 1, -1};
+constexpr int kDx8[8] = {1, 1, 0, -1, -1, -1, 0, 1};
+constexpr int kDy8[8] = {0, 1, 1, 1, 0, -1, -1, -1};
+
+// How far from the robot's position a traversable start cell is looked for, metres.
+constexpr double kStartSearchM = 1.0;
+
+}  // namespace
+
+bool FrontierOptions::IsValid(std::string* why) const {
+  std::ostringstream msg;
+  auto range = [&msg](const char* field, double value, double lo, double hi, bool lo_open) {
+    if (std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi) return true;
+    msg << "FrontierOptions::" << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo << ", "
+        << hi << "]";
+    return false;
+  };
+  bool ok = range("min_gain_m2", min_gain_m2, 0, 1e4, false) && range("gain_radius_m", gain_radius_m, 0, 100, true) &&
+            range("max_cluster_extent_m", max_cluster_extent_m, 0.5, 100, false) &&
+            range("cost_offset_m", cost_offset_m, 0, 1000, true);
+  if (ok && (min_cells < 1 || min_cells > 10000)) {
+    msg << "FrontierOptions::min_cells = " << min_cells << " must be in [1, 10000]";
+    ok = false;
+  }
+  if (ok && !region_M.isEmpty() && !(region_M.min().allFinite() && region_M.max().allFinite())) {
+    msg << "FrontierOptions::region_M must have finite corners";
+    ok = false;
+  }
+  if (ok && (std::isnan(min_z_m) || std::isnan(max_z_m) || !(min_z_m <= max_z_m))) {
+    msg << "FrontierOptions::min_z_m = " << min_z_m << " must be <= max_z_m = " << max_z_m;
+    ok = false;
+  }
+  if (!ok && why != nullptr) *why = msg.str();
+  return ok;
+}
+
+int FrontierSet::reachable() const {
+  return static_cast<int>(
+      std::count_if(clusters.begin(), clusters.end(), [](const FrontierCluster& c) { return c.reachable(); }));
+}
+
+FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d& robot_M,
+                          const FrontierOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  const int nx = grid.nx();
+  const int ny = grid.ny();
+  const double cell_m = grid.cell_size_m();
+  const std::size_t n = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
+  auto index = [nx](int ix, int iy) { return static_cast<std::size_t>(ix) + static_cast<std::size_t>(nx) * iy; };
+  auto in_scope = [&](int ix, int iy) {
+    if (!options.region_M.isEmpty() && !options.region_M.contains(grid.CellCenter(ix, iy))) return false;
+    const double z = grid.Ground(ix, iy);
+    return z >= options.min_z_m && z <= options.max_z_m;
+  };
+
+  FrontierSet result;
+  // 1. Frontier cells, and the explored area.
+  std::vector<char> frontier(n, 0);
+  int free_cells = 0;
+  for (int iy = 0; iy < ny; ++iy) {
+    for (int ix = 0; ix < nx; ++ix) {
+      if (grid.State(ix, iy) != CellState::kFree || !in_scope(ix, iy)) continue;
+      ++free_cells;
+      if (!grid.IsTraversable(ix, iy)) continue;
+      for (int d = 0; d < 4; ++d) {
+        const int jx = ix + kDx4[d];
+        const int jy = iy + kDy4[d];
+        if (grid.InGrid(jx, jy) && grid.State(jx, jy) == CellState::kUnknown) {
+          frontier[index(ix, iy)] = 1;
+          ++result.frontier_cells;
+          break;
+        }
+      }
+    }
+  }
+  result.known_free_m2 = free_cells * cell_m * cell_m;
+
+  // 2. Travel cost: Dijkstra from the robot's cell over known-free traversable cells.
+  std::vector<double> cost(n, kInf);
+  int sx = -1;
+  int sy = -1;
+  if (int rx = 0, ry = 0; grid.CellOf(robot_M.x(), robot_M.y(), &rx, &ry) && grid.State(rx, ry) == CellState::kFree) {
+    sx = rx;
+    sy = ry;
+  } else {
+    const int reach = static_cast<int>(std::ceil(kStartSearchM / cell_m));
+    double best = kInf;
+    int cx = 0;
+    int cy = 0;
+    const bool inside = grid.CellOf(std::clamp(robot_M.x(), grid.p_W_min().x(), grid.p_W_max().x() - 1e-9),
+                                    std::clamp(robot_M.y(), grid.p_W_min().y(), grid.p_W_max().y() - 1e-9), &cx, &cy);
+    for (int dy = -reach; inside && dy <= reach; ++dy) {
+      for (int dx = -reach; dx <= reach; ++dx) {
+        const int jx = cx + dx;
+        const int jy = cy + dy;
+        if (!grid.InGrid(jx, jy) || grid.State(jx, jy) != CellState::kFree || !grid.IsTraversable(jx, jy)) continue;
+        const double d = (grid.CellCenter(jx, jy) - robot_M).norm();
+        if (d <= kStartSearchM && d < best) {
+          best = d;
+          sx = jx;
+          sy = jy;
+        }
+      }
+    }
+  }
+  if (sx >= 0) {
+    result.robot_on_grid = true;
+    using Item = std::pair<double, std::size_t>;
+    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> open;
+    cost[index(sx, sy)] = 0.0;
+    open.emplace(0.0, index(sx, sy));
+    while (!open.empty()) {
+      const auto [c, i] = open.top();
+      open.pop();
+      if (c > cost[i]) continue;
+      const int ix = static_cast<int>(i % static_cast<std::size_t>(nx));
+      const int iy = static_cast<int>(i / static_cast<std::size_t>(nx));
+      for (int d = 0; d < 8; ++d) {
+        const int jx = ix + kDx8[d];
+        const int jy = iy + kDy8[d];
+        if (!grid.InGrid(jx, jy) || grid.State(jx, jy) != CellState::kFree || !grid.IsTraversable(jx, jy)) continue;
+        // A diagonal step needs both cells beside it passable too (no corner cutting past a wall).
+        if (kDx8[d] != 0 && kDy8[d] != 0 &&
+            (!grid.IsTraversable(ix + kDx8[d], iy) || !grid.IsTraversable(ix, iy + kDy8[d]))) {
+          continue;
+        }
+        const double step = (kDx8[d] != 0 && kDy8[d] != 0 ? std::sqrt(2.0) : 1.0) * cell_m;
+        const std::size_t j = index(jx, jy);
+        if (c + step < cost[j]) {
+          cost[j] = c + step;
+          open.emplace(cost[j], j);
+        }
+      }
+    }
+  }
+
+  // 3. Clusters: 8-connected components of frontier cells, cut into pieces of at most max_cluster_extent_m.
+  std::vector<char> seen(n, 0);
+  std::vector<int> gain_stamp(n, -1);
+  int gain_id = 0;
+  std::vector<std::pair<int, int>> component;
+  std::vector<std::pair<int, int>> stack;
+  const int piece_cells = std::max(1, static_cast<int>(std::floor(options.max_cluster_extent_m / cell_m)));
+  const int gain_reach2 = static_cast<int>(std::floor(std::pow(options.gain_radius_m / cell_m, 2)));
+  for (int iy0 = 0; iy0 < ny; ++iy0) {
+    for (int ix0 = 0; ix0 < nx; ++ix0) {
+      if (!frontier[index(ix0, iy0)] || seen[index(ix0, iy0)]) continue;
+      component.clear();
+      stack.assign(1, {ix0, iy0});
+      seen[index(ix0, iy0)] = 1;
+      int min_x = ix0;
+      int min_y = iy0;
+      while (!stack.empty()) {
+        const auto [ix, iy] = stack.back();
+        stack.pop_back();
+        component.emplace_back(ix, iy);
+        min_x = std::min(min_x, ix);
+        min_y = std::min(min_y, iy);
+        for (int d = 0; d < 8; ++d) {
+          const int jx = ix + kDx8[d];
+          const int jy = iy + kDy8[d];
+          if (!grid.InGrid(jx, jy) || !frontier[index(jx, jy)] || seen[index(jx, jy)]) continue;
+          seen[index(jx, jy)] = 1;
+          stack.emplace_back(jx, jy);
+        }
+      }
+      std::map<std::pair<int, int>, std::vector<std::pair<int, int>>> pieces;
+      for (const auto& c : component) pieces[{(c.first - min_x) / piece_cells, (c.second - min_y) / piece_cells}].push_back(c);
+      for (const auto& [key, cells] : pieces) {
+        if (static_cast<int>(cells.size()) < options.min_cells) continue;
+        FrontierCluster cluster;
+        cluster.cells = static_cast<int>(cells.size());
+        for (const auto& [ix, iy] : cells) cluster.centroid_M += grid.CellCenter(ix, iy);
+        cluster.centroid_M /= cluster.cells;
+        // Gain: unknown cells reachable from the piece through unknown cells, within gain_radius_m of the
+        // frontier cell they were reached from.
+        ++gain_id;
+        std::queue<std::pair<std::size_t, std::size_t>> fill;
+        for (const auto& [ix, iy] : cells) {
+          for (int d = 0; d < 4; ++d) {
+            const int jx = ix + kDx4[d];
+            const int jy = iy + kDy4[d];
+            if (!grid.InGrid(jx, jy) || grid.State(jx, jy) != CellState::kUnknown) continue;
+            const std::size_t j = index(jx, jy);
+            if (gain_stamp[j] == gain_id) continue;
+            gain_stamp[j] = gain_id;
+            fill.emplace(j, index(ix, iy));
+          }
+        }
+        std::int64_t unknown = 0;
+        while (!fill.empty()) {
+          const auto [i, origin] = fill.front();
+          fill.pop();
+          ++unknown;
+          const int ix = static_cast<int>(i % static_cast<std::size_t>(nx));
+          const int iy = static_cast<int>(i / static_cast<std::size_t>(nx));
+          const int ox = static_cast<int>(origin % static_cast<std::size_t>(nx));
+          const int oy = static_cast<int>(origin / static_cast<std::size_t>(nx));
+          for (int d = 0; d < 4; ++d) {
+            const int jx = ix + kDx4[d];
+            const int jy = iy + kDy4[d];
+            if (!grid.InGrid(jx, jy) || grid.State(jx, jy) != CellState::kUnknown) continue;
+            if ((jx - ox) * (jx - ox) + (jy - oy) * (jy - oy) > gain_reach2) continue;
+            const std::size_t j = index(jx, jy);
+            if (gain_stamp[j] == gain_id) continue;
+            gain_stamp[j] = gain_id;
+            fill.emplace(j, origin);
+          }
+        }
+        cluster.gain_m2 = unknown * cell_m * cell_m;
+        if (cluster.gain_m2 < options.min_gain_m2) continue;
+        // Target: the reachable cell nearest the centroid (any cell nearest it when none is reachable).
+        double best_reachable = kInf;
+        double best_any = kInf;
+        std::pair<int, int> target = cells.front();
+        std::pair<int, int> fallback = cells.front();
+        for (const auto& [ix, iy] : cells) {
+          const double d = (grid.CellCenter(ix, iy) - cluster.centroid_M).squaredNorm();
+          if (cost[index(ix, iy)] < kInf && d < best_reachable) {
+            best_reachable = d;
+            target = {ix, iy};
+          }
+          if (d < best_any) {
+            best_any = d;
+            fallback = {ix, iy};
+          }
+        }
+        if (best_reachable == kInf) target = fallback;
+        cluster.target_M = grid.CellCenter(target.first, target.second);
+        cluster.target_ground_z_m = grid.Ground(target.first, target.second);
+        cluster.travel_cost_m = cost[index(target.first, target.second)];
+        cluster.utility = cluster.reachable() ? cluster.gain_m2 / (cluster.travel_cost_m + options.cost_offset_m) : 0.0;
+        result.clusters.push_back(cluster);
+      }
+    }
+  }
+  std::stable_sort(result.clusters.begin(), result.clusters.end(), [](const FrontierCluster& a, const FrontierCluster& b) {
+    if (a.reachable() != b.reachable()) return a.reachable();
+    return a.reachable() ? a.utility > b.utility : a.gain_m2 > b.gain_m2;
+  });
+  return result;
+}
+
+}  // namespace cairn::nav

@@ -1,0 +1,133 @@
+// Copyright Cairn authors.
+#include "cairn/nav/frontier.h"
+
+#include <gtest/gtest.h>
+
+#include "nav_test_util.h"
+
+namespace cairn::nav {
+namespace {
+
+using testing::FillBox;
+using testing::FlatWorld;
+
+// A robot-built map is read optimistically: unknown space is not lethal.
+TraversabilityOptions RobotMapReading() {
+  TraversabilityOptions o;
+  o.unknown_is_lethal = false;
+  return o;
+}
+
+// 20 x 10 m at 0.1 m: floor over x < 10.2 (room A, what the robot has seen), none beyond (unknown). A wall
+// along x in [10.0, 10.2) with a 2 m door at y in [4, 6).
+sim::World RoomWithADoor() {
+  sim::World world = FlatWorld(20.0, 10.0, 0.1, 2.0);
+  FillBox(&world, {10.2, 0.0, -0.2}, {20.0, 10.0, 0.0}, false);
+  FillBox(&world, {10.0, 0.0, 0.0}, {10.2, 4.0, 2.0});
+  FillBox(&world, {10.0, 6.0, 0.0}, {10.2, 10.0, 2.0});
+  return world;
+}
+
+TEST(FrontierOptionsTest, DefaultsAreValidAndMessagesNameTheField) {
+  std::string why;
+  EXPECT_TRUE(FrontierOptions{}.IsValid(&why)) << why;
+  FrontierOptions o;
+  o.gain_radius_m = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_EQ(why, "FrontierOptions::gain_radius_m = 0 must be in (0, 100]");
+  o = FrontierOptions{};
+  o.min_cells = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_EQ(why, "FrontierOptions::min_cells = 0 must be in [1, 10000]");
+  o = FrontierOptions{};
+  o.min_z_m = 2;
+  o.max_z_m = 1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_EQ(why, "FrontierOptions::min_z_m = 2 must be <= max_z_m = 1");
+  const TraversabilityGrid grid(RoomWithADoor(), RobotMapReading());
+  EXPECT_THROW(FindFrontiers(grid, {2, 5}, o), std::invalid_argument);
+}
+
+TEST(FrontierTest, ADoorIntoUnknownSpaceIsOneReachableClusterAndAFloorHoleIsNone) {
+  sim::World world = RoomWithADoor();
+  FillBox(&world, {5.0, 2.0, -0.2}, {5.4, 2.4, 0.0}, false);  // a 0.4 m hole in the floor (a sparse scan)
+  const TraversabilityGrid grid(world, RobotMapReading());
+  const FrontierSet set = FindFrontiers(grid, {2.0, 5.0});
+  EXPECT_TRUE(set.robot_on_grid);
+  ASSERT_EQ(set.clusters.size(), 1u);
+  const FrontierCluster& door = set.clusters[0];
+  EXPECT_TRUE(door.reachable());
+  EXPECT_NEAR(door.target_M.x(), 10.15, 1e-9);  // the last floor cells of the doorway
+  EXPECT_NEAR(door.target_M.y(), 5.0, 0.1);
+  EXPECT_NEAR(door.target_ground_z_m, 0.0, 1e-9);
+  EXPECT_NEAR(door.travel_cost_m, 8.15, 0.15);
+  // Behind a 2 m door, within 5 m of it: a bit more than a half disc of radius 5 m.
+  EXPECT_GT(door.gain_m2, 39.0);
+  EXPECT_LT(door.gain_m2, 60.0);
+  EXPECT_NEAR(door.utility, door.gain_m2 / (door.travel_cost_m + 1.0), 1e-9);
+  EXPECT_GT(set.frontier_cells, door.cells);  // the hole's rim is frontier, its cluster gains too little
+  EXPECT_NEAR(set.known_free_m2, 10.2 * 10.0 - 0.4 * 0.4 - 0.2 * 8.0, 0.5);
+}
+
+TEST(FrontierTest, AWideOpeningIsCutIntoPiecesAndTheNearestPieceComesFirst) {
+  sim::World world = FlatWorld(20.0, 10.0, 0.1, 2.0);
+  FillBox(&world, {10.2, 0.0, -0.2}, {20.0, 10.0, 0.0}, false);  // all of x >= 10.2 unknown
+  const TraversabilityGrid grid(world, RobotMapReading());
+  const FrontierSet set = FindFrontiers(grid, {9.0, 5.0});
+  ASSERT_EQ(set.clusters.size(), 3u);  // 10 m of frontier in pieces of at most 4 m
+  for (const FrontierCluster& c : set.clusters) {
+    EXPECT_TRUE(c.reachable());
+    EXPECT_LE(c.cells, 40);
+  }
+  EXPECT_GT(set.clusters[0].target_M.y(), 4.0);  // the piece in front of the robot
+  EXPECT_LT(set.clusters[0].target_M.y(), 8.0);
+  EXPECT_GE(set.clusters[0].utility, set.clusters[1].utility);
+  EXPECT_GE(set.clusters[1].utility, set.clusters[2].utility);
+}
+
+TEST(FrontierTest, AFrontierBehindAWallIsUnreachableAndARegionOrAHeightBandLeavesFrontiersOut) {
+  sim::World world = RoomWithADoor();
+  FillBox(&world, {0.0, 8.0, 0.0}, {10.0, 8.2, 2.0});             // a wall across room A
+  FillBox(&world, {1.0, 9.2, -0.2}, {4.0, 10.0, 0.0}, false);    // unknown floor behind it
+  const TraversabilityGrid grid(world, RobotMapReading());
+  FrontierSet set = FindFrontiers(grid, {2.0, 5.0});
+  ASSERT_EQ(set.clusters.size(), 2u);
+  EXPECT_TRUE(set.clusters[0].reachable());  // the door first
+  EXPECT_GT(set.clusters[0].target_M.x(), 10.0);
+  EXPECT_FALSE(set.clusters[1].reachable());  // then the one it cannot get to
+  EXPECT_EQ(set.clusters[1].utility, 0.0);
+  EXPECT_GT(set.clusters[1].target_M.y(), 8.2);
+
+  FrontierOptions room_only;
+  room_only.region_M = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(9.5, 10));
+  set = FindFrontiers(grid, {2.0, 5.0}, room_only);
+  ASSERT_EQ(set.clusters.size(), 1u);
+  EXPECT_FALSE(set.clusters[0].reachable());
+  FrontierOptions upstairs;
+  upstairs.min_z_m = 2.0;
+  upstairs.max_z_m = 4.0;
+  set = FindFrontiers(grid, {2.0, 5.0}, upstairs);
+  EXPECT_TRUE(set.clusters.empty());
+  EXPECT_EQ(set.known_free_m2, 0.0);
+}
+
+TEST(FrontierTest, ARobotOffTheMapReachesNothingAndAnExploredMapHasNoFrontier) {
+  const TraversabilityGrid grid(RoomWithADoor(), RobotMapReading());
+  FrontierSet set = FindFrontiers(grid, {50.0, 50.0});
+  EXPECT_FALSE(set.robot_on_grid);
+  ASSERT_EQ(set.clusters.size(), 1u);
+  EXPECT_FALSE(set.clusters[0].reachable());
+  // Standing in the wall (next to it): the nearest traversable cell within 1 m is the start.
+  set = FindFrontiers(grid, {10.1, 2.0});
+  EXPECT_TRUE(set.robot_on_grid);
+  EXPECT_TRUE(set.clusters.at(0).reachable());
+
+  const TraversabilityGrid explored(FlatWorld(10.0, 10.0, 0.1, 2.0), RobotMapReading());
+  set = FindFrontiers(explored, {5.0, 5.0});
+  EXPECT_TRUE(set.clusters.empty());
+  EXPECT_EQ(set.frontier_cells, 0);
+  EXPECT_NEAR(set.known_free_m2, 100.0, 1e-6);
+}
+
+}  // namespace
+}  // namespace cairn::nav
