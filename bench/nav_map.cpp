@@ -2,7 +2,8 @@
 // tunnels' main corridor (4,20) -> (26,20) at 1 m/s scanning at 10 Hz; every second the map's changed tiles are
 // applied incrementally (NavMap::Update). Baseline, in the same run on the same voxels: a full rebuild of the
 // traversability grid. Then plan time on the robot's own map against the ground-truth planner (the planner
-// before issue 11, on the simulator's world) for the same goals.
+// before issue 11, on the simulator's world) for the same goals. And the frontier update (issue 14) after each map
+// update, against that update and the full rebuild.
 //
 //   build/bench/cairn_bench_nav_map
 #include <algorithm>
@@ -12,6 +13,7 @@
 
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/perception_pipeline.h"
+#include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/sim/simulated_platform.h"
 
@@ -45,7 +47,8 @@ int main() {
   auto planner = agent::NavMap::MakePlanner(map_options, perception_options.map.resolution_m, start_M, {profile});
   agent::NavMap nav_map(map_options, perception_options.map.resolution_m, start_M, planner, "wheeled");
 
-  std::vector<double> incremental_ms, full_ms, tiles;
+  std::vector<double> incremental_ms, full_ms, tiles, frontier_ms;
+  nav::FrontierSet last_frontiers;
   for (int k = 1; k <= 220; ++k) {
     const double now_s = 0.1 * k;
     sim::UnicycleState s = platform.TrueState();
@@ -61,9 +64,13 @@ int main() {
     if (!stats.applied) continue;
     incremental_ms.push_back(stats.read_ms + stats.traversability_ms);
     tiles.push_back(stats.tiles);
-    const auto t = Clock::now();
+    auto t = Clock::now();
     const nav::TraversabilityGrid full(nav_map.voxels(), planner->TerrainOptionsFor(profile));
     full_ms.push_back(MsSince(t));
+    // Exploration's frontier update on the map just updated (issue 14), from where the robot is.
+    t = Clock::now();
+    last_frontiers = nav::FindFrontiers(nav_map.grid(), {s.x_m, s.y_m});
+    frontier_ms.push_back(MsSince(t));
   }
   std::printf("nav map update (80 x 80 m extent, 0.1 m, %zu updates at 1 Hz, median %.0f changed 2 m tiles):\n",
               incremental_ms.size(), Median(tiles));
@@ -72,6 +79,13 @@ int main() {
   std::printf("  full rebuild (baseline)                median %7.1f ms  max %7.1f ms\n", Median(full_ms),
               *std::max_element(full_ms.begin(), full_ms.end()));
   std::printf("  ratio full / incremental (median)      %7.1fx\n", Median(full_ms) / Median(incremental_ms));
+  std::printf("frontier update per map change (FindFrontiers on the updated grid, issue 14): median %.1f ms, max "
+              "%.1f ms; ratio to the incremental update %.2f, to the full rebuild %.2f; last: %zu clusters (%d "
+              "reachable), %d frontier cells, %.0f m^2 known free\n",
+              Median(frontier_ms), *std::max_element(frontier_ms.begin(), frontier_ms.end()),
+              Median(frontier_ms) / Median(incremental_ms), Median(frontier_ms) / Median(full_ms),
+              last_frontiers.clusters.size(), last_frontiers.reachable(), last_frontiers.frontier_cells,
+              last_frontiers.known_free_m2);
 
   // Column scans (what every grid rebuild does per x-y column): the word-wise scan down each column of the
   // robot's map after the drive, and of an empty map (the agent's start), against a voxel-by-voxel scan.

@@ -33,7 +33,8 @@ bool FrontierOptions::IsValid(std::string* why) const {
   };
   bool ok = range("min_gain_m2", min_gain_m2, 0, 1e4, false) && range("gain_radius_m", gain_radius_m, 0, 100, true) &&
             range("max_cluster_extent_m", max_cluster_extent_m, 0.5, 100, false) &&
-            range("cost_offset_m", cost_offset_m, 0, 1000, true);
+            range("cost_offset_m", cost_offset_m, 0, 1000, true) && range("unknown_cost", unknown_cost, 0, 100, false) &&
+            range("unknown_reach_m", unknown_reach_m, 0, 50, false);
   if (ok && (min_cells < 1 || min_cells > 10000)) {
     msg << "FrontierOptions::min_cells = " << min_cells << " must be in [1, 10000]";
     ok = false;
@@ -92,7 +93,43 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
   }
   result.known_free_m2 = free_cells * cell_m * cell_m;
 
-  // 2. Travel cost: Dijkstra from the robot's cell over known-free traversable cells.
+  // 2. Travel cost: Dijkstra from the robot's cell over traversable cells, known-free or unknown.
+  // Chamfer distance (1, sqrt 2, in cells) from every cell to the nearest known-free cell, two passes.
+  std::vector<float> to_known(n, std::numeric_limits<float>::infinity());
+  for (int iy = 0; iy < ny; ++iy) {
+    for (int ix = 0; ix < nx; ++ix) {
+      if (grid.State(ix, iy) == CellState::kFree) to_known[index(ix, iy)] = 0.0f;
+    }
+  }
+  constexpr float kDiag = 1.41421356f;
+  for (int iy = 0; iy < ny; ++iy) {
+    for (int ix = 0; ix < nx; ++ix) {
+      float& d = to_known[index(ix, iy)];
+      if (ix > 0) d = std::min(d, to_known[index(ix - 1, iy)] + 1.0f);
+      if (iy > 0) {
+        d = std::min(d, to_known[index(ix, iy - 1)] + 1.0f);
+        if (ix > 0) d = std::min(d, to_known[index(ix - 1, iy - 1)] + kDiag);
+        if (ix + 1 < nx) d = std::min(d, to_known[index(ix + 1, iy - 1)] + kDiag);
+      }
+    }
+  }
+  for (int iy = ny - 1; iy >= 0; --iy) {
+    for (int ix = nx - 1; ix >= 0; --ix) {
+      float& d = to_known[index(ix, iy)];
+      if (ix + 1 < nx) d = std::min(d, to_known[index(ix + 1, iy)] + 1.0f);
+      if (iy + 1 < ny) {
+        d = std::min(d, to_known[index(ix, iy + 1)] + 1.0f);
+        if (ix + 1 < nx) d = std::min(d, to_known[index(ix + 1, iy + 1)] + kDiag);
+        if (ix > 0) d = std::min(d, to_known[index(ix - 1, iy + 1)] + kDiag);
+      }
+    }
+  }
+  const float reach_cells = static_cast<float>(options.unknown_reach_m / cell_m);
+  auto passable = [&](int ix, int iy) {
+    const CellState state = grid.State(ix, iy);
+    if (state == CellState::kUnknown) return to_known[index(ix, iy)] <= reach_cells && grid.IsTraversable(ix, iy);
+    return state == CellState::kFree && grid.IsTraversable(ix, iy);
+  };
   std::vector<double> cost(n, kInf);
   int sx = -1;
   int sy = -1;
@@ -135,13 +172,13 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
       for (int d = 0; d < 8; ++d) {
         const int jx = ix + kDx8[d];
         const int jy = iy + kDy8[d];
-        if (!grid.InGrid(jx, jy) || grid.State(jx, jy) != CellState::kFree || !grid.IsTraversable(jx, jy)) continue;
+        if (!grid.InGrid(jx, jy) || !passable(jx, jy)) continue;
         // A diagonal step needs both cells beside it passable too (no corner cutting past a wall).
-        if (kDx8[d] != 0 && kDy8[d] != 0 &&
-            (!grid.IsTraversable(ix + kDx8[d], iy) || !grid.IsTraversable(ix, iy + kDy8[d]))) {
+        if (kDx8[d] != 0 && kDy8[d] != 0 && (!passable(ix + kDx8[d], iy) || !passable(ix, iy + kDy8[d]))) {
           continue;
         }
-        const double step = (kDx8[d] != 0 && kDy8[d] != 0 ? std::sqrt(2.0) : 1.0) * cell_m;
+        const double per_m = grid.State(jx, jy) == CellState::kUnknown ? 1.0 + options.unknown_cost : 1.0;
+        const double step = (kDx8[d] != 0 && kDy8[d] != 0 ? std::sqrt(2.0) : 1.0) * cell_m * per_m;
         const std::size_t j = index(jx, jy);
         if (c + step < cost[j]) {
           cost[j] = c + step;

@@ -111,6 +111,31 @@ TEST(FrontierTest, AFrontierBehindAWallIsUnreachableAndARegionOrAHeightBandLeave
   EXPECT_EQ(set.known_free_m2, 0.0);
 }
 
+// A sparse lidar's far floor: a patch seen across a 1 m gap of unseen floor is reached through the gap (at the
+// unknown cost), one across a 5 m gap is not (beyond unknown_reach_m of known ground).
+TEST(FrontierTest, AGapOfUnseenFloorIsCrossedOnlyWhenNarrow) {
+  sim::World world = FlatWorld(30.0, 10.0, 0.1, 2.0);
+  FillBox(&world, {8.0, 0.0, -0.2}, {9.0, 10.0, 0.0}, false);    // a 1 m gap
+  FillBox(&world, {14.0, 0.0, -0.2}, {19.0, 10.0, 0.0}, false);  // a 5 m gap
+  FillBox(&world, {25.0, 0.0, -0.2}, {30.0, 10.0, 0.0}, false);  // unseen beyond
+  const TraversabilityGrid grid(world, RobotMapReading());
+  const FrontierSet set = FindFrontiers(grid, {2.0, 5.0});
+  int across_narrow = 0, across_wide = 0;
+  for (const FrontierCluster& c : set.clusters) {
+    if (c.target_M.x() > 9.0 && c.target_M.x() < 14.0) {  // the far side of the 1 m gap, or its near side
+      ++across_narrow;
+      EXPECT_TRUE(c.reachable()) << c.target_M.transpose();
+      EXPECT_LT(c.travel_cost_m, 1.5 * (c.target_M.x() - 2.0) + 1.0) << c.target_M.transpose();
+    }
+    if (c.target_M.x() > 19.0) {
+      ++across_wide;
+      EXPECT_FALSE(c.reachable()) << c.target_M.transpose();
+    }
+  }
+  EXPECT_GT(across_narrow, 0);
+  EXPECT_GT(across_wide, 0);
+}
+
 TEST(FrontierTest, ARobotOffTheMapReachesNothingAndAnExploredMapHasNoFrontier) {
   const TraversabilityGrid grid(RoomWithADoor(), RobotMapReading());
   FrontierSet set = FindFrontiers(grid, {50.0, 50.0});

@@ -37,6 +37,13 @@ struct FrontierOptions {
   /// Utility = gain_m2 / (travel cost + this), metres, (0, 1000]: keeps a frontier next to the robot from
   /// dividing by nothing.
   double cost_offset_m = 1.0;
+  /// Travel through unknown (unseen, not lethal) cells costs this much more per metre than over known ground,
+  /// [0, 100], as the global planner reads the map (AStarOptions::unknown_cost: 0.5, unseen space costs
+  /// 1.5x). A sparse lidar leaves gaps in the floor it saw far away: the robot drives through them.
+  double unknown_cost = 0.5;
+  /// ...but only unknown cells within this of known ground, metres, [0, 50]: the gaps between patches of floor
+  /// seen far away, not routes across the whole unseen map (which also keeps the search small).
+  double unknown_reach_m = 2.0;
   /// Only frontier cells inside this x-y box count (metres, frame M); an empty box (the default) = everywhere.
   Eigen::AlignedBox2d region_M;
   /// Only frontier cells whose ground lies in [min_z_m, max_z_m] count (metres, frame M; a floor of a
@@ -59,8 +66,9 @@ struct FrontierCluster {
   int cells = 0;                                          ///< frontier cells
   /// Unknown area reachable from the cluster through unknown cells within gain_radius_m of it, m².
   double gain_m2 = 0.0;
-  /// Shortest 8-connected path from the robot's cell to the target over known-free traversable cells, metres;
-  /// infinity when there is none (the frontier is seen across a gap the robot cannot cross).
+  /// Cost of the shortest 8-connected path from the robot's cell to the target over traversable cells, known
+  /// or unknown (those cost 1 + unknown_cost per metre), metres; infinity when there is none (the frontier is
+  /// seen across a wall or a drop the robot cannot pass).
   double travel_cost_m = std::numeric_limits<double>::infinity();
   /// gain_m2 / (travel_cost_m + cost_offset_m); 0 when unreachable.
   double utility = 0.0;
@@ -84,9 +92,9 @@ struct FrontierSet {
 /// height band with at least one 4-neighbour of State kUnknown. Frontier cells are grouped by 8-connectivity,
 /// then cut into pieces of at most max_cluster_extent_m; pieces with fewer than min_cells cells or less than
 /// min_gain_m2 of gain are dropped. Travel costs come from one Dijkstra search from the robot's cell over
-/// known-free traversable cells (the robot's own cell counts even if it is not traversable, e.g. next to a
-/// wall; when it is off the grid or not free, the nearest traversable free cell within 1 m is used).
-/// Cost: linear in the grid's cells plus the search (about 10-30 ms for 640,000 cells).
+/// traversable cells, known-free or unknown within unknown_reach_m of known-free ones (the robot's own cell counts even if it is not traversable, e.g.
+/// next to a wall; when it is off the grid or not free, the nearest traversable free cell within 1 m is
+/// used). Cost: linear in the grid's cells plus the search (cairn_bench_nav_map).
 /// @throws std::invalid_argument if `options` is invalid (IsValid()'s message).
 FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d& robot_M,
                           const FrontierOptions& options = {});

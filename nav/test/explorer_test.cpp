@@ -1,0 +1,87 @@
+// Copyright Cairn authors.
+#include "cairn/nav/explorer.h"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+namespace cairn::nav {
+namespace {
+
+FrontierCluster Cluster(double x, double y, double utility, bool reachable = true) {
+  FrontierCluster c;
+  c.target_M = Eigen::Vector2d(x, y);
+  c.centroid_M = c.target_M;
+  c.cells = 10;
+  c.gain_m2 = 10.0;
+  c.travel_cost_m = reachable ? 5.0 : std::numeric_limits<double>::infinity();
+  c.utility = reachable ? utility : 0.0;
+  return c;
+}
+
+FrontierSet Set(std::vector<FrontierCluster> clusters) {
+  FrontierSet set;
+  set.clusters = std::move(clusters);
+  set.robot_on_grid = true;
+  return set;
+}
+
+TEST(ExplorerOptionsTest, DefaultsAreValidAndMessagesNameTheField) {
+  std::string why;
+  EXPECT_TRUE(ExplorerOptions{}.IsValid(&why)) << why;
+  ExplorerOptions o;
+  o.switch_utility_ratio = 0.5;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_EQ(why, "ExplorerOptions::switch_utility_ratio = 0.5 must be in [1, 100]");
+  EXPECT_THROW(Explorer{o}, std::invalid_argument);
+}
+
+TEST(ExplorerTest, TakesTheBestThenKeepsItUnlessAnotherIsClearlyBetter) {
+  Explorer explorer;
+  ExplorerDecision d = explorer.Decide(Set({Cluster(5, 0, 2.0), Cluster(0, 5, 3.0), Cluster(-5, 0, 1.0)}));
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(0, 5));
+  EXPECT_EQ(d.reason, "best of 3 reachable frontiers");
+  ASSERT_TRUE(explorer.current().has_value());
+
+  // The map grew: the current frontier moved 0.8 m and another is 1.3 times as good: keep going.
+  d = explorer.Decide(Set({Cluster(5, 0, 4.0), Cluster(0, 5.8, 3.0)}));
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kKeep);
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(0, 5.8));
+  // Twice as good: switch.
+  d = explorer.Decide(Set({Cluster(5, 0, 6.0), Cluster(0, 6.0, 3.0)}));
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(5, 0));
+  EXPECT_EQ(d.reason, "a frontier 2.00 times as worth it as the current one");
+  // The current frontier is gone (explored): the best of the rest.
+  d = explorer.Decide(Set({Cluster(-5, 0, 1.0), Cluster(0, -5, 0.5)}));
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(-5, 0));
+}
+
+TEST(ExplorerTest, AFailedTargetIsNeverTriedAgainAndExplorationCompletesWhenNothingIsLeft) {
+  Explorer explorer;
+  ExplorerDecision d = explorer.Decide(Set({Cluster(5, 0, 3.0), Cluster(0, 5, 1.0)}));
+  ASSERT_EQ(d.target.target_M, Eigen::Vector2d(5, 0));
+  explorer.Fail("no path: a 0.9 m doorway, narrower than the robot");
+  EXPECT_FALSE(explorer.current().has_value());
+  ASSERT_EQ(explorer.failed().size(), 1u);
+  EXPECT_EQ(explorer.failed()[0].reason, "no path: a 0.9 m doorway, narrower than the robot");
+  // The same frontier, moved 1 m, is still barred; the other one is taken.
+  d = explorer.Decide(Set({Cluster(6, 0, 3.0), Cluster(0, 5, 1.0)}));
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(0, 5));
+  explorer.Fail("blocked: no progress for 10 s");
+  d = explorer.Decide(Set({Cluster(6, 0, 3.0), Cluster(0, 5.5, 1.0), Cluster(20, 20, 0, /*reachable=*/false)}));
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kComplete);
+  EXPECT_EQ(d.reason, "exploration complete: no reachable frontier (1 seen but unreachable, 2 given up on)");
+  EXPECT_FALSE(explorer.current().has_value());
+  d = explorer.Decide(Set({}));
+  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kComplete);
+  EXPECT_EQ(d.reason, "exploration complete: no reachable frontier");
+  explorer.Fail("ignored: no current target");
+  EXPECT_EQ(explorer.failed().size(), 2u);
+}
+
+}  // namespace
+}  // namespace cairn::nav
