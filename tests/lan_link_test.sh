@@ -41,9 +41,9 @@ read -r _ received _ _ _ kbps <"$LOGS/recv"
 if [ "$kbps" -ge 700 ] && [ "$kbps" -le 1150 ]; then pass "1 Mbit/s link carried $kbps kbit/s of 3000 offered"
 else fail "1 Mbit/s link carried $kbps kbit/s ($(cat "$LOGS/recv"))"; fi
 linksim_set_loss "$P" base 20
-linksim_exec "$P" base node "$ROOT/tests/linksim/udp_probe.mjs" recv 9001 4 >"$LOGS/recv" &
+linksim_exec "$P" base node "$ROOT/tests/linksim/udp_probe.mjs" recv 9001 7 >"$LOGS/recv" &
 sleep 0.5
-linksim_exec "$P" robot node "$ROOT/tests/linksim/udp_probe.mjs" send 10.77.0.3 9001 3 400 >"$LOGS/send"
+linksim_exec "$P" robot node "$ROOT/tests/linksim/udp_probe.mjs" send 10.77.0.3 9001 6 400 >"$LOGS/send"
 wait
 read -r _ sent <"$LOGS/send"
 read -r _ received _ _ _ _ <"$LOGS/recv"
