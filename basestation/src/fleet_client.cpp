@@ -80,7 +80,8 @@ class FleetClient::Impl {
     // applied to the last whole state (idl/cairn_msgs.idl RobotPose). Either keeps the robot from being lost;
     // the gaps in the pose stream's sequence numbers are the link's losses.
     state_reader_ = std::make_unique<core::Reader<msgs::RobotStatePubSubType>>(
-        *participant_, "cairn/robot_state", "cairn.latched", [this](const msgs::RobotState& m, const auto&) {
+        *participant_, "cairn/robot_state", "cairn.latched",
+        [this](const msgs::RobotState& m, const eprosima::fastdds::dds::SampleInfo& info) {
           const auto now = SteadyClock::now();
           std::vector<ClassUsage> usage;
           for (const msgs::LinkClassUsage& u : m.link_usage()) {
@@ -89,6 +90,9 @@ class FleetClient::Impl {
           Update(m.robot_id(), [&](RobotView& v) {
             cairn::msgs::ApplyWholeState(m, &v.state);
             if (!v.first_state) v.first_state = m;
+            // The process sending it, for "left" when that participant goes: its agent info, which says the
+            // same, may not have matched yet (a basestation just started, a lossy link).
+            participant_of_robot_[m.robot_id()] = core::ParticipantIdOf(info.publication_handle);
             v.platform = m.platform();
             v.state_received = now;
             v.whole_state_received = now;

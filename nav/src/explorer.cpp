@@ -5,15 +5,14 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "option_range.h"
+
 namespace cairn::nav {
 
 bool ExplorerOptions::IsValid(std::string* why) const {
   std::ostringstream msg;
   auto range = [&msg](const char* field, double value, double lo, double hi, bool lo_open) {
-    if (std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi) return true;
-    msg << "ExplorerOptions::" << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo << ", "
-        << hi << "]";
-    return false;
+    return internal::InOptionRange(msg, "ExplorerOptions", field, value, lo, hi, lo_open);
   };
   const bool ok = range("switch_utility_ratio", switch_utility_ratio, 1, 100, false) &&
                   range("follow_radius_m", follow_radius_m, 0, 10, true) &&

@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "option_range.h"
+
 namespace cairn::nav {
 namespace {
 
@@ -26,10 +28,7 @@ constexpr double kStartSearchM = 1.0;
 bool FrontierOptions::IsValid(std::string* why) const {
   std::ostringstream msg;
   auto range = [&msg](const char* field, double value, double lo, double hi, bool lo_open) {
-    if (std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi) return true;
-    msg << "FrontierOptions::" << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo << ", "
-        << hi << "]";
-    return false;
+    return internal::InOptionRange(msg, "FrontierOptions", field, value, lo, hi, lo_open);
   };
   bool ok = range("min_gain_m2", min_gain_m2, 0, 1e4, false) && range("gain_radius_m", gain_radius_m, 0, 100, true) &&
             range("max_cluster_extent_m", max_cluster_extent_m, 0.5, 100, false) &&
