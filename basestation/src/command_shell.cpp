@@ -85,14 +85,17 @@ json ViewJson(const RobotView& v, const std::string& base_id) {
     j["in_contact"] = s.in_contact();
     j["stops"] = s.stops();
     j["stopped_by"] = s.stopped_by();
+    j["exploration"] = ExplorationJson(s);
   }
   if (v.tree) {
     j["valid_modes"] = v.tree->valid_modes();
     j["goal_acceptable"] = v.tree->goal_acceptable();
+    j["explore_acceptable"] = v.tree->explore_acceptable();
     const OperatorReason why = ExplainReason(v.robot_id, v.tree->last_refusal());
     j["last_refusal"] = why.text;
     j["last_refusal_condition"] = why.condition;
   }
+  j["valid_actions"] = ValidActions(v, base_id);
   return j;
 }
 
@@ -139,7 +142,7 @@ const std::vector<std::string>& CommandShell::CommandNames() {
   static const std::vector<std::string> kNames = {
       "robots", "watch", "status", "request-control", "release", "mode",     "goto",   "path",   "plan",
       "teleop", "stop",  "wait",   "sleep",           "map",     "snapshot", "stairs", "events", "place",
-      "places", "links", "help"};
+      "places", "links", "explore", "frontiers", "help"};
   return kNames;
 }
 
@@ -163,6 +166,11 @@ std::string CommandShell::Help() {
          "  goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]  drive R to POINT (on the level nearest Z_M,\n"
          "                                      default the robot's); --wait prints progress (distance left,\n"
          "                                      ETA) until it arrives or fails (default 600 s)\n"
+         "  explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--wait [TIMEOUT_S]]  R explores by itself\n"
+         "                                      (frontiers of its own map, in the region and height band when\n"
+         "                                      given) until no reachable frontier is left, then goes idle;\n"
+         "                                      --wait prints progress until it ends (default 3600 s)\n"
+         "  frontiers R                         R's exploration: explored area, frontiers, current target\n"
          "  path R                              the global path R is following (waypoints, length)\n"
          "  plan R POINT [--from POINT] [--platform P]  ask R's global planner for a path (from R's pose, "
          "for\n"
@@ -309,7 +317,7 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
     const std::size_t arg = before.size();  // index of the word being completed, 1-based after the command
     static const std::vector<std::string> kRobotFirst = {
         "status", "request-control", "release", "mode", "goto", "path", "plan", "teleop", "stop", "wait",
-        "map",    "snapshot",        "help"};
+        "map",    "snapshot",        "help", "explore", "frontiers"};
     if (arg == 1 && std::find(kRobotFirst.begin(), kRobotFirst.end(), cmd) != kRobotFirst.end()) {
       pool = client_.RobotIds();
       if (cmd == "stop") pool.push_back("all");
@@ -364,6 +372,8 @@ int CommandShell::Run(const std::string& line) {
   if (cmd == "mode") return need(2, "mode R MODE") ? Mode(args) : kUsage;
   if (cmd == "stop") return need(1, "stop R|all") ? Stop(args) : kUsage;
   if (cmd == "goto") return Goto(args);
+  if (cmd == "explore") return Explore(args);
+  if (cmd == "frontiers") return need(1, "frontiers R") ? Frontiers(args) : kUsage;
   if (cmd == "teleop") {
     return (args.size() == 4 || args.size() == 5)
                ? Teleop(args)
@@ -565,6 +575,7 @@ int CommandShell::Status(const std::vector<std::string>& args) {
       }
     }
     out_ << "\n";
+    if (s.explore_task_id() != 0) out_ << "  explore   " << ExplorationText(s) << "\n";
     if (s.stops() > 0) out_ << "  stops     " << s.stops() << ", last by " << s.stopped_by() << "\n";
   }
   if (v.tree && !v.tree->last_refusal().empty()) {
@@ -616,6 +627,7 @@ int CommandShell::HelpFor(const std::string& robot) {
       {"release", "release R"},
       {"mode", "mode R MODE"},
       {"goto", "goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]"},
+      {"explore", "explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--wait [TIMEOUT_S]]"},
       {"teleop", "teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]"},
       {"stop", "stop R|all"}};
   for (const auto& action : actions) {

@@ -69,6 +69,8 @@ class FleetClient::Impl {
                                                                               "cairn.command");
     goal_writer_ = std::make_unique<core::Writer<msgs::WaypointGoalPubSubType>>(
         *participant_, "cairn/waypoint_goal", "cairn.command");
+    explore_writer_ = std::make_unique<core::Writer<msgs::ExploreRequestPubSubType>>(
+        *participant_, "cairn/explore_request", "cairn.command");
     stop_writer_ = std::make_unique<core::Writer<msgs::StopRequestPubSubType>>(*participant_, "cairn/stop_request",
                                                                               "cairn.command");
     teleop_writer_ =
@@ -457,7 +459,8 @@ class FleetClient::Impl {
     if (participant.empty()) return false;  // known by state only (no agent info yet): nothing to wait on
     return control_writer_->WaitMatchedWith(participant, deadline) &&
            mode_writer_->WaitMatchedWith(participant, deadline) &&
-           goal_writer_->WaitMatchedWith(participant, deadline) && stop_writer_->WaitMatchedWith(participant, deadline);
+           goal_writer_->WaitMatchedWith(participant, deadline) &&
+           explore_writer_->WaitMatchedWith(participant, deadline) && stop_writer_->WaitMatchedWith(participant, deadline);
   }
 
   std::string UnknownRobotReason(const std::string& robot_id) const {
@@ -509,6 +512,7 @@ class FleetClient::Impl {
   std::unique_ptr<core::Writer<msgs::ControlRequestPubSubType>> control_writer_;
   std::unique_ptr<core::Writer<msgs::ModeRequestPubSubType>> mode_writer_;
   std::unique_ptr<core::Writer<msgs::WaypointGoalPubSubType>> goal_writer_;
+  std::unique_ptr<core::Writer<msgs::ExploreRequestPubSubType>> explore_writer_;
   std::unique_ptr<core::Writer<msgs::StopRequestPubSubType>> stop_writer_;
   std::unique_ptr<core::Writer<msgs::TeleopTwistPubSubType>> teleop_writer_;
   std::unique_ptr<core::Writer<msgs::PathRequestPubSubType>> path_request_writer_;
@@ -666,6 +670,27 @@ CommandOutcome FleetClient::SendWaypoint(const std::string& robot_id, double x_m
     m.tolerance_m(tolerance_m);
     m.z_m(z_m);
     return impl_->goal_writer_->Write(m);
+  });
+}
+
+CommandOutcome FleetClient::SendExplore(const std::string& robot_id, const std::optional<Eigen::AlignedBox2d>& region_M,
+                                        double min_z_m, double max_z_m) {
+  return impl_->Call(robot_id, msgs::COMMAND_KIND_EXPLORE, [&](uint32_t id) {
+    msgs::ExploreRequest m;
+    m.robot_id(robot_id);
+    m.base_id(base_id());
+    m.request_id(id);
+    m.frame_id("map");
+    m.has_region(region_M.has_value());
+    if (region_M) {
+      m.region_min_x_m(region_M->min().x());
+      m.region_min_y_m(region_M->min().y());
+      m.region_max_x_m(region_M->max().x());
+      m.region_max_y_m(region_M->max().y());
+    }
+    m.min_z_m(min_z_m);
+    m.max_z_m(max_z_m);
+    return impl_->explore_writer_->Write(m);
   });
 }
 

@@ -81,19 +81,21 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
   if (holder != base_id) return {"stop"};
   std::vector<std::string> actions;
   std::string modes;
-  bool can_teleop = false, can_goto = false;
+  bool can_teleop = false, can_goto = false, can_explore = false;
   if (view.tree) {
     for (const auto& mode : view.tree->valid_modes()) {
       if (mode == "manual" || mode == "smart_joystick") can_teleop = true;
-      if (mode == "waypoint") continue;  // entered by goto, which sets the goal
+      if (mode == "waypoint" || mode == "explore") continue;  // entered by goto / explore, which set the task
       modes += (modes.empty() ? "" : "|") + mode;
     }
     can_goto = view.tree->goal_acceptable();
+    can_explore = view.tree->explore_acceptable();
   }
   const std::string& mode = view.state->mode();
   can_teleop = can_teleop || mode == "manual" || mode == "smart_joystick";
   if (!modes.empty()) actions.push_back("mode " + modes);
   if (can_goto) actions.push_back("goto");
+  if (can_explore) actions.push_back("explore");
   if (can_teleop) actions.push_back("teleop");
   actions.push_back("release");
   actions.push_back("stop");

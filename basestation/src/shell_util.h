@@ -115,3 +115,14 @@ inline nlohmann::json LinkFieldsJson(const LinkView& l) {
 }
 
 }  // namespace cairn::base::shell
+
+namespace cairn::base {
+
+/// A robot's exploration fields (RobotState.explore_*) as JSON: state, reason, task id, explored m²,
+/// frontiers, reachable frontiers, targets reached and given up, the target when it has one.
+nlohmann::json ExplorationJson(const cairn_msgs::RobotState& s);
+/// The same as one line: "7: exploring, 120 m² explored, 14 frontiers (12 reachable), 3 reached, 0 given up;
+/// target (12.30, 4.10); best of 12 reachable frontiers"; "none" before any exploration.
+std::string ExplorationText(const cairn_msgs::RobotState& s);
+
+}  // namespace cairn::base

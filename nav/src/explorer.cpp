@@ -16,7 +16,8 @@ bool ExplorerOptions::IsValid(std::string* why) const {
   };
   const bool ok = range("switch_utility_ratio", switch_utility_ratio, 1, 100, false) &&
                   range("follow_radius_m", follow_radius_m, 0, 10, true) &&
-                  range("blacklist_radius_m", blacklist_radius_m, 0, 20, true);
+                  range("blacklist_radius_m", blacklist_radius_m, 0, 20, true) &&
+                  range("visited_radius_m", visited_radius_m, 0, 20, true);
   if (!ok && why != nullptr) *why = msg.str();
   return ok;
 }
@@ -33,6 +34,13 @@ bool Explorer::Barred(const Eigen::Vector2d& target_M) const {
   return false;
 }
 
+bool Explorer::Visited(const Eigen::Vector2d& target_M) const {
+  for (const Eigen::Vector2d& v : visited_) {
+    if ((v - target_M).norm() <= options_.visited_radius_m) return true;
+  }
+  return false;
+}
+
 ExplorerDecision Explorer::Decide(const FrontierSet& set) {
   ExplorerDecision decision;
   const FrontierCluster* best = nullptr;
@@ -40,6 +48,7 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set) {
   int candidates = 0;
   int unreachable = 0;
   int barred = 0;
+  int visited = 0;
   for (const FrontierCluster& c : set.clusters) {
     if (!c.reachable()) {
       ++unreachable;
@@ -47,6 +56,10 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set) {
     }
     if (Barred(c.target_M)) {
       ++barred;
+      continue;
+    }
+    if (Visited(c.target_M)) {
+      ++visited;
       continue;
     }
     ++candidates;
@@ -60,8 +73,9 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set) {
   if (best == nullptr) {
     std::ostringstream why;
     why << "exploration complete: no reachable frontier";
-    if (unreachable > 0 || barred > 0) {
-      why << " (" << unreachable << " seen but unreachable, " << barred << " given up on)";
+    if (unreachable > 0 || barred > 0 || visited > 0) {
+      why << " (" << unreachable << " seen but unreachable, " << barred << " given up on, " << visited
+          << " reached but still unseen beyond)";
     }
     decision.kind = ExplorerDecision::Kind::kComplete;
     decision.reason = why.str();
@@ -83,6 +97,12 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set) {
   }
   current_ = decision.target;
   return decision;
+}
+
+void Explorer::Reached() {
+  if (!current_) return;
+  visited_.push_back(current_->target_M);
+  current_.reset();
 }
 
 void Explorer::Fail(const std::string& reason) {

@@ -23,6 +23,38 @@ constexpr int kDy8[8] = {0, 1, 1, 1, 0, -1, -1, -1};
 // How far from the robot's position a traversable start cell is looked for, metres.
 constexpr double kStartSearchM = 1.0;
 
+constexpr double kPi = 3.14159265358979323846;
+
+// Unknown cells a lidar at cell (tx, ty) could see within `radius_m`: rays from the cell's centre, as many as
+// there are cells around the circle of that radius (every cell within it is crossed by one),
+// each marching cell by cell through known-free and unknown cells until a cell with an obstacle (a wall) or
+// the radius; a cell crossed by several rays counts once (`stamp`, marked with `id`).
+std::int64_t VisibleUnknownCells(const TraversabilityGrid& grid, int tx, int ty, double radius_m, int id,
+                                 std::vector<int>* stamp) {
+  const double cell_m = grid.cell_size_m();
+  const Eigen::Vector2d origin = grid.CellCenter(tx, ty);
+  const int steps = static_cast<int>(std::ceil(radius_m / (0.5 * cell_m)));
+  const int rays = static_cast<int>(std::ceil(2.0 * kPi * radius_m / cell_m));
+  std::int64_t unknown = 0;
+  for (int r = 0; r < rays; ++r) {
+    const double angle = 2.0 * kPi * r / rays;
+    const Eigen::Vector2d step = 0.5 * cell_m * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+    for (int k = 1; k <= steps; ++k) {
+      int ix = 0;
+      int iy = 0;
+      if (!grid.CellOf(origin.x() + k * step.x(), origin.y() + k * step.y(), &ix, &iy)) break;
+      const CellState state = grid.State(ix, iy);
+      if (state == CellState::kObstacle) break;
+      if (state != CellState::kUnknown) continue;
+      int& s = (*stamp)[static_cast<std::size_t>(iy) * grid.nx() + ix];
+      if (s == id) continue;
+      s = id;
+      ++unknown;
+    }
+  }
+  return unknown;
+}
+
 }  // namespace
 
 bool FrontierOptions::IsValid(std::string* why) const {
@@ -132,7 +164,10 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
   std::vector<double> cost(n, kInf);
   int sx = -1;
   int sy = -1;
-  if (int rx = 0, ry = 0; grid.CellOf(robot_M.x(), robot_M.y(), &rx, &ry) && grid.State(rx, ry) == CellState::kFree) {
+  // The robot's own cell: known free, or unknown but passable (it stands in its lidar's blind ring, where no
+  // beam reaches the floor).
+  if (int rx = 0, ry = 0; grid.CellOf(robot_M.x(), robot_M.y(), &rx, &ry) &&
+                          (grid.State(rx, ry) == CellState::kFree || passable(rx, ry))) {
     sx = rx;
     sy = ry;
   } else {
@@ -194,7 +229,6 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
   std::vector<std::pair<int, int>> component;
   std::vector<std::pair<int, int>> stack;
   const int piece_cells = std::max(1, static_cast<int>(std::floor(options.max_cluster_extent_m / cell_m)));
-  const int gain_reach2 = static_cast<int>(std::floor(std::pow(options.gain_radius_m / cell_m, 2)));
   for (int iy0 = 0; iy0 < ny; ++iy0) {
     for (int ix0 = 0; ix0 < nx; ++ix0) {
       if (!frontier[index(ix0, iy0)] || seen[index(ix0, iy0)]) continue;
@@ -225,43 +259,6 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
         cluster.cells = static_cast<int>(cells.size());
         for (const auto& [ix, iy] : cells) cluster.centroid_M += grid.CellCenter(ix, iy);
         cluster.centroid_M /= cluster.cells;
-        // Gain: unknown cells reachable from the piece through unknown cells, within gain_radius_m of the
-        // frontier cell they were reached from.
-        ++gain_id;
-        std::queue<std::pair<std::size_t, std::size_t>> fill;
-        for (const auto& [ix, iy] : cells) {
-          for (int d = 0; d < 4; ++d) {
-            const int jx = ix + kDx4[d];
-            const int jy = iy + kDy4[d];
-            if (!grid.InGrid(jx, jy) || grid.State(jx, jy) != CellState::kUnknown) continue;
-            const std::size_t j = index(jx, jy);
-            if (gain_stamp[j] == gain_id) continue;
-            gain_stamp[j] = gain_id;
-            fill.emplace(j, index(ix, iy));
-          }
-        }
-        std::int64_t unknown = 0;
-        while (!fill.empty()) {
-          const auto [i, origin] = fill.front();
-          fill.pop();
-          ++unknown;
-          const int ix = static_cast<int>(i % static_cast<std::size_t>(nx));
-          const int iy = static_cast<int>(i / static_cast<std::size_t>(nx));
-          const int ox = static_cast<int>(origin % static_cast<std::size_t>(nx));
-          const int oy = static_cast<int>(origin / static_cast<std::size_t>(nx));
-          for (int d = 0; d < 4; ++d) {
-            const int jx = ix + kDx4[d];
-            const int jy = iy + kDy4[d];
-            if (!grid.InGrid(jx, jy) || grid.State(jx, jy) != CellState::kUnknown) continue;
-            if ((jx - ox) * (jx - ox) + (jy - oy) * (jy - oy) > gain_reach2) continue;
-            const std::size_t j = index(jx, jy);
-            if (gain_stamp[j] == gain_id) continue;
-            gain_stamp[j] = gain_id;
-            fill.emplace(j, origin);
-          }
-        }
-        cluster.gain_m2 = unknown * cell_m * cell_m;
-        if (cluster.gain_m2 < options.min_gain_m2) continue;
         // Target: the reachable cell nearest the centroid (any cell nearest it when none is reachable).
         double best_reachable = kInf;
         double best_any = kInf;
@@ -279,6 +276,10 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
           }
         }
         if (best_reachable == kInf) target = fallback;
+        cluster.gain_m2 = VisibleUnknownCells(grid, target.first, target.second, options.gain_radius_m,
+                                              ++gain_id, &gain_stamp) *
+                          cell_m * cell_m;
+        if (cluster.gain_m2 < options.min_gain_m2) continue;
         cluster.target_M = grid.CellCenter(target.first, target.second);
         cluster.target_ground_z_m = grid.Ground(target.first, target.second);
         cluster.travel_cost_m = cost[index(target.first, target.second)];

@@ -74,7 +74,8 @@ TEST(ExplorerTest, AFailedTargetIsNeverTriedAgainAndExplorationCompletesWhenNoth
   explorer.Fail("blocked: no progress for 10 s");
   d = explorer.Decide(Set({Cluster(6, 0, 3.0), Cluster(0, 5.5, 1.0), Cluster(20, 20, 0, /*reachable=*/false)}));
   ASSERT_EQ(d.kind, ExplorerDecision::Kind::kComplete);
-  EXPECT_EQ(d.reason, "exploration complete: no reachable frontier (1 seen but unreachable, 2 given up on)");
+  EXPECT_EQ(d.reason, "exploration complete: no reachable frontier (1 seen but unreachable, 2 given up on, 0 reached but still "
+                     "unseen beyond)");
   EXPECT_FALSE(explorer.current().has_value());
   d = explorer.Decide(Set({}));
   EXPECT_EQ(d.kind, ExplorerDecision::Kind::kComplete);

@@ -1,5 +1,7 @@
 #include "cairn/agent/agent_dds.h"
 
+#include <cmath>
+
 #include <algorithm>
 #include <map>
 #include <mutex>
@@ -30,6 +32,8 @@ msgs::CommandKind KindOf(CommandKind kind) {
       return msgs::COMMAND_KIND_MODE;
     case CommandKind::kWaypoint:
       return msgs::COMMAND_KIND_WAYPOINT;
+    case CommandKind::kExplore:
+      return msgs::COMMAND_KIND_EXPLORE;
     case CommandKind::kStop:
       break;
   }
@@ -49,7 +53,7 @@ msgs::CommandResult ResultOf(CommandResult result) {
 }
 
 AgentDdsHandlers Checked(AgentDdsHandlers h) {
-  if (!h.control || !h.mode || !h.goal || !h.stop || !h.teleop || !h.base_announced || !h.base_liveliness ||
+  if (!h.control || !h.mode || !h.goal || !h.explore || !h.stop || !h.teleop || !h.base_announced || !h.base_liveliness ||
       !h.path_query || !h.map_sync) {
     throw std::invalid_argument("AgentDds: every handler is required");
   }
@@ -90,6 +94,7 @@ class AgentDds::Impl {
     control_reader_.reset();
     mode_reader_.reset();
     goal_reader_.reset();
+    explore_reader_.reset();
     stop_reader_.reset();
     teleop_reader_.reset();
     info_reader_.reset();
@@ -231,6 +236,22 @@ class AgentDds::Impl {
           handlers_.goal(GoalCommand{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.x_m(),
                                      m.y_m(), m.tolerance_m(), m.z_m()});
         });
+    explore_reader_ = std::make_unique<core::Reader<msgs::ExploreRequestPubSubType>>(
+        p, "cairn/explore_request", "cairn.command",
+        [this, robot](const msgs::ExploreRequest& m, const SampleInfo& info) {
+          if (m.robot_id() != robot) return;
+          ExploreCommand c{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), {}};
+          if (m.has_region()) {
+            // Corners as sent (not sorted: CheckExploreTask refuses a box whose corners are swapped).
+            c.task.region_M = Eigen::AlignedBox2d();
+            c.task.region_M->min() << m.region_min_x_m(), m.region_min_y_m();
+            c.task.region_M->max() << m.region_max_x_m(), m.region_max_y_m();
+          }
+          // NaN on the wire = no bound.
+          if (!std::isnan(m.min_z_m())) c.task.min_z_m = m.min_z_m();
+          if (!std::isnan(m.max_z_m())) c.task.max_z_m = m.max_z_m();
+          handlers_.explore(c);
+        });
     stop_reader_ = std::make_unique<core::Reader<msgs::StopRequestPubSubType>>(
         p, "cairn/stop_request", "cairn.command",
         [this, robot](const msgs::StopRequest& m, const SampleInfo& info) {
@@ -278,6 +299,7 @@ class AgentDds::Impl {
   std::unique_ptr<core::Reader<msgs::ControlRequestPubSubType>> control_reader_;
   std::unique_ptr<core::Reader<msgs::ModeRequestPubSubType>> mode_reader_;
   std::unique_ptr<core::Reader<msgs::WaypointGoalPubSubType>> goal_reader_;
+  std::unique_ptr<core::Reader<msgs::ExploreRequestPubSubType>> explore_reader_;
   std::unique_ptr<core::Reader<msgs::StopRequestPubSubType>> stop_reader_;
   std::unique_ptr<core::Reader<msgs::TeleopTwistPubSubType>> teleop_reader_;
   std::unique_ptr<core::Reader<msgs::AgentInfoPubSubType>> info_reader_;

@@ -32,7 +32,7 @@ nav::TrajectoryLibraryOptions AgentOptions::LibraryForPlatform() const {
 void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto config = core::ConfigSection::LoadFile(path);
   config.RejectUnknownKeys({"command_interface", "mux", "navigation", "local_planner", "controller", "platform",
-                            "traversability", "telemetry", "perception",
+                            "traversability", "telemetry", "perception", "explore",
                             "simulation"});  // `simulation` is the simulated platform's (sim::SimulatedPlatformOptions)
   const auto ci = config.Section("command_interface");
   ci.RejectUnknownKeys({"lock_keep_s"});
@@ -109,6 +109,20 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   trav.ReadDouble("robot_radius_m", &n.platform.traversability.robot_radius_m);
   trav.ReadDouble("robot_height_m", &n.platform.traversability.robot_height_m);
   trav.ReadDouble("max_step_m", &n.platform.traversability.max_step_m);
+  const auto ex = config.Section("explore");
+  ex.RejectUnknownKeys({"target_tolerance_m", "settle_s", "map_wait_s", "min_gain_m2", "gain_radius_m",
+                        "max_cluster_extent_m", "unknown_reach_m", "switch_utility_ratio", "blacklist_radius_m",
+                        "visited_radius_m"});
+  ex.ReadDouble("target_tolerance_m", &explore.target_tolerance_m);
+  ex.ReadDouble("settle_s", &explore.settle_s);
+  ex.ReadDouble("map_wait_s", &explore.map_wait_s);
+  ex.ReadDouble("min_gain_m2", &explore.frontiers.min_gain_m2);
+  ex.ReadDouble("gain_radius_m", &explore.frontiers.gain_radius_m);
+  ex.ReadDouble("max_cluster_extent_m", &explore.frontiers.max_cluster_extent_m);
+  ex.ReadDouble("unknown_reach_m", &explore.frontiers.unknown_reach_m);
+  ex.ReadDouble("switch_utility_ratio", &explore.explorer.switch_utility_ratio);
+  ex.ReadDouble("blacklist_radius_m", &explore.explorer.blacklist_radius_m);
+  ex.ReadDouble("visited_radius_m", &explore.explorer.visited_radius_m);
   const auto telemetry = config.Section("telemetry");
   telemetry.RejectUnknownKeys({"state_rate_hz", "local_plan_rate_hz"});
   telemetry.ReadDouble("state_rate_hz", &state_rate_hz);
@@ -197,6 +211,7 @@ bool AgentOptions::IsValid(std::string* why) const {
   }
   if (!perception.IsValid(why)) return false;
   if (!nav_map.IsValid(why)) return false;
+  if (!explore.IsValid(why)) return false;
   if (!InRange("navigation.obstacle_window_s", obstacle_window_s, 0, 30, true, why)) return false;
   if (!InRange("navigation.path_requests_per_s", path_requests_per_s, 0, 1000, true, why)) return false;
   std::string inner;

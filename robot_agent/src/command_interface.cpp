@@ -43,9 +43,9 @@ CommandInterface::CommandInterface(std::string robot_id, const ControlLockOption
       lock_keep_s_(lock.lock_keep_s) {
   std::string why;
   if (!lock.IsValid(&why)) throw std::invalid_argument("CommandInterface: " + why);
-  if (!hooks_.conditions || !hooks_.send || !hooks_.plan_goal || !hooks_.start_goal) {
+  if (!hooks_.conditions || !hooks_.send || !hooks_.plan_goal || !hooks_.start_goal || !hooks_.start_explore) {
     throw std::invalid_argument(
-        "CommandInterface: every hook (conditions, send, plan_goal, start_goal) is required");
+        "CommandInterface: every hook (conditions, send, plan_goal, start_goal, start_explore) is required");
   }
 }
 
@@ -167,6 +167,20 @@ void CommandInterface::OnGoalPlanned(const GoalCommand& command, const nav::Glob
           outcome.goal_id);
 }
 
+void CommandInterface::OnExplore(const ExploreCommand& command) {
+  const CommandSender& sender = command.sender;
+  const CommandKind kind = CommandKind::kExplore;
+  if (ReplayIfDuplicate(sender, kind, command.request_id)) return;
+  if (DiscardUnlessHolder(sender, command.request_id, kind)) return;
+  std::string problem = command.frame_id != "map" ? "frame_id '" + command.frame_id + "' must be 'map'"
+                                                  : CheckExploreTask(command.task);
+  if (!problem.empty()) return Respond(sender, command.request_id, kind, CommandResult::kDenied, problem);
+  const CommandOutcome outcome = hooks_.start_explore(command);
+  if (outcome.accepted) lock_.NoteHolderCommand(sender.participant);  // this process speaks for the holder
+  Respond(sender, command.request_id, kind, outcome.accepted ? CommandResult::kAccepted : CommandResult::kDenied,
+          outcome.reason, outcome.goal_id);
+}
+
 void CommandInterface::OnTeleop(const TeleopCommand& command, core::SteadyTime now) {
   if (!lock_.IsHolder(command.base_id)) {
     lock_.CountDiscarded();
@@ -255,6 +269,9 @@ ValidActions CommandInterface::ValidNow() {
   with_goal.has_waypoint_goal = true;
   ValidActions valid;
   valid.goal_acceptable = modes_->IsValid(goal_mode_, with_goal);
+  ModeConditions with_task = conditions;
+  with_task.has_explore_task = true;
+  valid.explore_acceptable = modes_->IsValid(ExploreMode::kName, with_task);
   valid.modes = modes_->ValidModes(conditions);
   return valid;
 }

@@ -82,6 +82,15 @@ void ModeManager::RegisterModeNodes(bt::TreeFactory& factory, const std::shared_
                ? NodeStatus::kSuccess
                : Fail(&ctx->failure, "HasWaypointGoal: no accepted waypoint goal (send goto first)");
   }));
+  factory.RegisterSimpleCondition("HasExploreTask", Traced(ctx, [ctx](bt::TreeNode&) {
+    return ctx->conditions.has_explore_task
+               ? NodeStatus::kSuccess
+               : Fail(&ctx->failure, "HasExploreTask: no exploration task (send explore first)");
+  }));
+  factory.RegisterSimpleCondition("IsMappingHealthy", Traced(ctx, [ctx](bt::TreeNode&) {
+    const ModeConditions& c = ctx->conditions;
+    return c.mapping_healthy ? NodeStatus::kSuccess : Fail(&ctx->failure, "IsMappingHealthy: " + c.mapping_problem);
+  }));
   factory.RegisterSimpleCondition("IsJoystickAlive", Traced(ctx, [ctx](bt::TreeNode&) {
     return ctx->conditions.joystick_alive
                ? NodeStatus::kSuccess

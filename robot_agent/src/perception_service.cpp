@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "cairn/core/shutdown.h"
+#include "range_check.h"
 
 namespace cairn::agent {
 
@@ -63,6 +64,7 @@ bool PerceptionService::ReadScan(double now_s) {
   if (!platform_->ReadLidarScan(now_s, scan.get())) return false;
   core::BaseState pose_M;
   if (clear_obstacle_memory_.exchange(false)) live_obstacle_sensor_.Clear();
+  last_scan_s_ = now_s;
   live_obstacle_sensor_.AddScan(*scan, &obstacle_points_B_, &pose_M);
   {
     std::lock_guard<std::mutex> guard(obstacles_mutex_);
@@ -143,6 +145,20 @@ void PerceptionService::NavMapLoop() {
       const NavMapUpdateStats stats =
           nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m(), perception_->max_sensor_z_m(),
                            perception_->Staircases());
+      last_map_update_s_ = NowS();
+      std::optional<nav::FrontierOptions> search;
+      Eigen::Vector2d robot_p_M;
+      {
+        std::lock_guard<std::mutex> guard(frontier_mutex_);
+        search = frontier_search_;
+        robot_p_M = robot_p_M_;
+      }
+      if (search) {
+        nav::FrontierSet set = nav::FindFrontiers(nav_map_->grid(), robot_p_M, *search);
+        std::lock_guard<std::mutex> guard(frontier_mutex_);
+        frontiers_ = std::move(set);
+        frontiers_at_s_ = NowS();
+      }
       if (stats.grown) {
         spdlog::info("robot {}: navigation map grown to x [{:.1f}, {:.1f}], y [{:.1f}, {:.1f}] (v{}, {:.0f} ms)",
                      options_.robot_id, stats.extent_M.min().x(), stats.extent_M.max().x(),
@@ -161,6 +177,43 @@ void PerceptionService::NavMapLoop() {
       spdlog::error("robot {}: navigation map update failed: {}", options_.robot_id, e.what());
     }
   }
+}
+
+void PerceptionService::SetFrontierSearch(const std::optional<nav::FrontierOptions>& search) {
+  std::lock_guard<std::mutex> guard(frontier_mutex_);
+  frontier_search_ = search;
+  if (!search) frontiers_.reset();
+}
+
+void PerceptionService::SetRobotPosition(const Eigen::Vector2d& p_M) {
+  std::lock_guard<std::mutex> guard(frontier_mutex_);
+  robot_p_M_ = p_M;
+}
+
+std::optional<std::pair<nav::FrontierSet, double>> PerceptionService::TakeFrontiers() {
+  std::lock_guard<std::mutex> guard(frontier_mutex_);
+  if (!frontiers_) return std::nullopt;
+  std::optional<std::pair<nav::FrontierSet, double>> out(std::in_place, std::move(*frontiers_), frontiers_at_s_);
+  frontiers_.reset();
+  return out;
+}
+
+bool PerceptionService::MappingHealthy(std::string* why) const {
+  const double now_s = NowS();
+  std::string problem;
+  if (!capabilities_.has_lidar) {
+    problem = "the platform has no lidar to map with";
+  } else if (const double age = now_s - last_scan_s_.load(); age > options_.navigation.obstacle_lost_s) {
+    problem = last_scan_s_.load() < -1e8 ? "no lidar scan yet"
+                                          : "no lidar scan for " + internal::Fixed(age, 1) + " s";
+  } else if (const double map_age = now_s - last_map_update_s_.load();
+             map_age > std::max(3.0, 3 * options_.nav_map.update_period_s) && now_s > 3.0) {
+    problem = last_map_update_s_.load() < -1e8
+                  ? "the navigation map was never updated"
+                  : "the navigation map was not updated for " + internal::Fixed(map_age, 1) + " s";
+  }
+  if (!problem.empty() && why != nullptr) *why = problem;
+  return problem.empty();
 }
 
 PerceptionOutput PerceptionService::Flush() {

@@ -17,6 +17,7 @@
 
 #include "cairn/agent/agent_dds.h"
 #include "cairn/agent/command_interface.h"
+#include "cairn/agent/explore_mode.h"
 #include "cairn/agent/mode_control.h"
 #include "cairn/agent/modes.h"
 #include "cairn/agent/nav_map.h"
@@ -162,6 +163,7 @@ class RobotAgent::Impl {
   Navigation navigation_;
   std::unique_ptr<PerceptionService> perception_;  // sensor, perception and navigation map threads
   WaypointMode* waypoint_ = nullptr;               // owned by modes_; holds the waypoint goal
+  ExploreMode* explore_ = nullptr;                 // owned by modes_; holds the exploration task
   std::unique_ptr<ModeControl> modes_;             // the mode tree, the mode modules and the mux
   std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
   std::unique_ptr<PlanningService> planning_;  // the planning thread: goals, then peers' path queries
@@ -209,7 +211,8 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
     }
   }
   telemetry_ =
-      std::make_unique<Telemetry>(options, dds_.get(), modes_.get(), waypoint_, &navigation_, command_.get());
+      std::make_unique<Telemetry>(options, dds_.get(), modes_.get(), waypoint_, explore_, &navigation_,
+                                  command_.get());
   dds_->Listen(DdsHandlers());
   telemetry_->PublishAgentInfo(capabilities_, kVersion);
   telemetry_->PublishGlobalPathIfChanged();  // an empty path: late joiners see "no goal"
@@ -253,6 +256,15 @@ ModeRegistry RobotAgent::Impl::MakeModes(const std::string& tree_file) {
   modes.Emplace<ManualMode>(options_.teleop_timeout_s);
   modes.Emplace<SmartJoystickMode>(&navigation_, options_.waypoint_timeout_s, options_.teleop_timeout_s);
   waypoint_ = &modes.Emplace<WaypointMode>(waypoint, &navigation_, std::move(recovery));
+  ExploreModeOptions explore = options_.explore;
+  explore.robot_id = options_.robot_id;
+  explore.channel_timeout_s = options_.waypoint_timeout_s;
+  explore.contact_timeout_s = options_.contact_timeout_s;
+  explore.first_task_id = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
+  explore_ = &modes.Emplace<ExploreMode>(
+      explore, &navigation_,
+      std::make_unique<WaypointRecovery>(tree_file, &navigation_,
+                                         WaypointRecovery::Hooks{[this] { perception_->ClearObstacleMemory(); }}));
   return modes;
 }
 
@@ -270,6 +282,14 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
   hooks.start_goal = [this](const GoalCommand& goal, const nav::GlobalPlan& plan) {
     return StartGoal(goal, plan);
   };
+  hooks.start_explore = [this](const ExploreCommand& explore) {
+    const std::string refused = explore_->Start(explore.task, NowS(SteadyClock::now()), [this] {
+      return modes_->Request(explore_->name(), Conditions());
+    });
+    if (!refused.empty()) return CommandOutcome{false, refused, 0};
+    return CommandOutcome{true, "exploring " + std::to_string(explore_->status().task_id),
+                          explore_->status().task_id};
+  };
   return hooks;
 }
 
@@ -285,6 +305,7 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   h.control = locked([this](const ControlCommand& c) { command_->OnControl(c, SteadyClock::now()); });
   h.mode = locked([this](const ModeCommand& c) { command_->OnMode(c); });
   h.goal = locked([this](const GoalCommand& c) { command_->OnGoal(c); });
+  h.explore = locked([this](const ExploreCommand& c) { command_->OnExplore(c); });
   h.stop = locked([this](const StopCommand& c) { command_->OnStop(c); });
   h.teleop = locked([this](const TeleopCommand& c) { command_->OnTeleop(c, SteadyClock::now()); });
   h.base_announced = locked([this](const BaseAnnouncement& b) { command_->OnBaseAnnounced(b); });
@@ -324,6 +345,8 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   c.has_waypoint_goal = waypoint_->has_goal();
   c.local_planner_healthy =
       navigation_.ObstacleSensingAlive(NowS(SteadyClock::now()), &c.local_planner_problem);
+  c.has_explore_task = explore_->exploring();
+  c.mapping_healthy = perception_->MappingHealthy(&c.mapping_problem);
   return c;
 }
 
@@ -347,7 +370,12 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   pose_healthy_ = estimate.healthy;
   pose_problem_ = estimate.healthy ? "" : estimate.problem;
   perception_->FeedObstacles(navigation_);  // obstacles from live lidar points, at the sensor's rate
-  perception_->SetMapRefreshAtRest(waypoint_->has_goal());  // a robot waiting on a goal watches the world
+  // A robot waiting on a goal (or between frontiers) watches the world.
+  perception_->SetMapRefreshAtRest(waypoint_->has_goal() || explore_->exploring());
+  // The explore mode's frontiers, searched on the navigation map thread.
+  perception_->SetFrontierSearch(explore_->frontier_search());
+  perception_->SetRobotPosition({pose_.x_m, pose_.y_m});
+  if (auto frontiers = perception_->TakeFrontiers()) explore_->OnFrontiers(std::move(frontiers->first), frontiers->second);
 
   const ModeInputs inputs{now, now_s, pose_};
   if (modes_->Step(inputs)) modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)

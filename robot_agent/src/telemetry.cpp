@@ -78,7 +78,8 @@ T* Required(T* pointer, const char* name) {
 }  // namespace
 
 Telemetry::Telemetry(const AgentOptions& options, AgentDds* dds, const ModeControl* modes,
-                     const WaypointMode* waypoint, const Navigation* navigation, CommandInterface* command)
+                     const WaypointMode* waypoint, const ExploreMode* explore, const Navigation* navigation,
+                     CommandInterface* command)
     : robot_id_(options.robot_id),
       platform_(options.platform),
       nav_platform_(options.navigation.platform.name),
@@ -88,6 +89,7 @@ Telemetry::Telemetry(const AgentOptions& options, AgentDds* dds, const ModeContr
       dds_(Required(dds, "dds")),
       modes_(Required(modes, "modes")),
       waypoint_(Required(waypoint, "waypoint")),
+      explore_(Required(explore, "explore")),
       navigation_(Required(navigation, "navigation")),
       command_(Required(command, "command")) {}
 
@@ -153,6 +155,19 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
   m.stopped_at().sec(stops.at.sec);
   m.stopped_at().nanosec(stops.at.nanosec);
   m.link_budget_kbps(core::StatedBudgetKbps(link_));
+  const ExplorationStatus& ex = explore_->status();
+  m.explore_state(ToString(ex.state));
+  m.explore_reason(ex.reason);
+  m.explore_task_id(ex.task_id);
+  m.explored_m2(ex.explored_m2);
+  m.frontier_clusters(static_cast<uint32_t>(ex.frontier_clusters));
+  m.reachable_frontiers(static_cast<uint32_t>(ex.reachable_frontiers));
+  m.explore_has_target(ex.has_target);
+  m.explore_target_M().x_m(ex.target_M.x());
+  m.explore_target_M().y_m(ex.target_M.y());
+  m.explore_target_M().z_m(ex.target_z_m);
+  m.explore_targets_reached(static_cast<uint32_t>(ex.targets_reached));
+  m.explore_targets_failed(static_cast<uint32_t>(ex.targets_failed));
   const cairn_msgs::RobotPose pose = cairn::msgs::PoseOf(m);
   // The whole state (~360 bytes, most of it unchanged from one cycle to the next) only when due. It goes
   // before the pose of the same cycle, so a reader that has the pose has (or is being repaired) the state it
@@ -185,7 +200,7 @@ void Telemetry::PublishTreeStateIfChanged() {
   const ValidActions valid = command_->ValidNow();
   const ModeManager& tree = modes_->tree();
   std::string signature = tree.mode() + "|" + tree.channel() + "|" + tree.last_refusal() + "|" +
-                          (valid.goal_acceptable ? "goal" : "");
+                          (valid.goal_acceptable ? "goal" : "") + (valid.explore_acceptable ? "|explore" : "");
   for (const auto& v : valid.modes) signature += "|" + v;
   if (signature == last_tree_signature_) return;
   last_tree_signature_ = signature;
@@ -198,6 +213,7 @@ void Telemetry::PublishTreeStateIfChanged() {
   t.last_refusal(tree.last_refusal());
   t.valid_modes(valid.modes);
   t.goal_acceptable(valid.goal_acceptable);
+  t.explore_acceptable(valid.explore_acceptable);
   t.tick_count(tree.tick_count());
   tree.tree().ForEachNode([&](const bt::TreeNode& node, int depth) {
     msgs::BtNodeState n;

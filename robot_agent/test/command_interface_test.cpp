@@ -37,6 +37,7 @@ struct Robot {
     manual = &r.Emplace<StickMode>("manual", "teleop");
     joystick = &r.Emplace<StickMode>("smart_joystick", "smart_joystick");
     r.Emplace<StickMode>("waypoint", "waypoint");
+    r.Emplace<StickMode>("explore", "explore");
     modes = std::make_unique<ModeControl>(kTree, std::move(r), "r1");
     CommandInterface::Hooks hooks;
     hooks.conditions = [this] { return Conditions(); };
@@ -51,6 +52,16 @@ struct Robot {
       }
       return CommandOutcome{true, "path 5.0 m, ETA 5 s", 42};
     };
+    hooks.start_explore = [this](const ExploreCommand& c) {
+      explored.push_back(c);
+      has_task = true;  // as ExploreMode::Start: the tree decides with the task in place
+      const ModeDecision d = modes->Request("explore", Conditions());
+      if (!d.accepted) {
+        has_task = false;
+        return CommandOutcome{false, d.reason, 0};
+      }
+      return CommandOutcome{true, "exploring 9", 9};
+    };
     command = std::make_unique<CommandInterface>("r1", ControlLockOptions{}, modes.get(), "waypoint", hooks);
   }
   ModeConditions Conditions() {
@@ -60,6 +71,9 @@ struct Robot {
     c.local_planner_healthy = planner_healthy;
     c.local_planner_problem = "no obstacle input for 1.2 s";
     c.has_waypoint_goal = has_goal;
+    c.has_explore_task = has_task;
+    c.mapping_healthy = mapping_healthy;
+    c.mapping_problem = "no lidar scan for 3.5 s";
     return c;
   }
   void Take(const CommandSender& who) { command->OnControl(ControlCommand{who, 1, false}, kT0); }
@@ -71,8 +85,11 @@ struct Robot {
   std::unique_ptr<CommandInterface> command;
   std::vector<CommandReply> replies;
   std::vector<GoalCommand> planned;
+  std::vector<ExploreCommand> explored;
   bool planner_healthy = true;
   bool has_goal = false;
+  bool has_task = false;
+  bool mapping_healthy = true;
 };
 
 GoalCommand Goal(const CommandSender& who, uint32_t id, double x = 5.0, double y = 1.0) {
@@ -256,6 +273,48 @@ TEST(CommandInterface, TheHoldersJoystickAndLivelinessComeFromItsProcesses) {
   EXPECT_FALSE(c.joystick_alive);
 }
 
+// Issue 14: explore R is the holder's; a bad frame or region is refused naming it; the tree's refusal names the
+// failed condition (mapping); an accepted one answers with the task id and the robot explores.
+TEST(CommandInterface, ExploreIsTheHoldersCheckedAndDecidedByTheTree) {
+  Robot r;
+  ExploreCommand explore{OpA(), 1, "map", {}};
+  r.command->OnExplore(explore);
+  EXPECT_EQ(r.last().result, CommandResult::kDiscarded) << "no lock held: " << r.last().reason;
+  r.Take(OpA());
+  explore.request_id = 2;
+  explore.frame_id = "odom";
+  r.command->OnExplore(explore);
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_EQ(r.last().reason, "frame_id 'odom' must be 'map'");
+  explore.request_id = 3;
+  explore.frame_id = "map";
+  explore.task.region_M = Eigen::AlignedBox2d();
+  explore.task.region_M->min() << 5, 0;
+  explore.task.region_M->max() << 1, 4;
+  r.command->OnExplore(explore);
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_NE(r.last().reason.find("x0 must be below x1"), std::string::npos) << r.last().reason;
+  EXPECT_TRUE(r.explored.empty()) << "a bad task never reaches the mode";
+  explore.request_id = 4;
+  explore.task.region_M->min() << 0, 0;
+  r.mapping_healthy = false;
+  r.command->OnExplore(explore);
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_EQ(r.last().reason, "IsMappingHealthy: no lidar scan for 3.5 s");
+  EXPECT_EQ(r.modes->mode(), "idle");
+  explore.request_id = 5;
+  r.mapping_healthy = true;
+  r.command->OnExplore(explore);
+  EXPECT_EQ(r.last().result, CommandResult::kAccepted) << r.last().reason;
+  EXPECT_EQ(r.last().kind, CommandKind::kExplore);
+  EXPECT_EQ(r.last().goal_id, 9u);
+  EXPECT_EQ(r.modes->mode(), "explore");
+  ExploreCommand other{OpB(), 1, "map", {}};
+  r.command->OnExplore(other);
+  EXPECT_EQ(r.last().result, CommandResult::kDiscarded) << "only the holder explores";
+  EXPECT_EQ(r.modes->mode(), "explore");
+}
+
 TEST(CommandInterface, NeedsEveryHookAndValidLockOptions) {
   Robot r;
   EXPECT_THROW(
@@ -266,6 +325,10 @@ TEST(CommandInterface, NeedsEveryHookAndValidLockOptions) {
   hooks.send = [](const CommandReply&) {};
   hooks.plan_goal = [](const GoalCommand&) {};
   hooks.start_goal = [](const GoalCommand&, const nav::GlobalPlan&) { return CommandOutcome{}; };
+  EXPECT_THROW(CommandInterface("r1", ControlLockOptions{}, r.modes.get(), "waypoint", hooks),
+               std::invalid_argument)
+      << "start_explore is required";
+  hooks.start_explore = [](const ExploreCommand&) { return CommandOutcome{}; };
   EXPECT_THROW(CommandInterface("r1", ControlLockOptions{}, nullptr, "waypoint", hooks),
                std::invalid_argument);
   ControlLockOptions bad;

@@ -12,7 +12,7 @@ namespace {
 
 const std::string kTree = std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml";
 // The agent's mux channels.
-const std::vector<std::string> kChannels = {"teleop", "smart_joystick", "waypoint"};
+const std::vector<std::string> kChannels = {"teleop", "smart_joystick", "waypoint", "explore"};
 
 using mode_testing::Held;
 
@@ -20,7 +20,7 @@ TEST(ModeManager, ShippedTreeLoadsWithItsModes) {
   ModeManager modes(kTree, kChannels);
   EXPECT_EQ(modes.mode(), "idle");
   EXPECT_EQ(modes.channel(), "none");
-  EXPECT_EQ(modes.known_modes(), (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint"}));
+  EXPECT_EQ(modes.known_modes(), (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint", "explore"}));
 }
 
 TEST(ModeManager, AcceptsManualWhenConditionsHoldAndSelectsTeleop) {
@@ -47,7 +47,7 @@ TEST(ModeManager, RefusalNamesTheFailedConditionAndKeepsTheMode) {
 
   d = modes.Request("warp", Held());
   EXPECT_FALSE(d.accepted);
-  EXPECT_EQ(d.reason, "unknown mode 'warp' (valid: idle, manual, smart_joystick, waypoint)");
+  EXPECT_EQ(d.reason, "unknown mode 'warp' (valid: idle, manual, smart_joystick, waypoint, explore)");
 }
 
 TEST(ModeManager, RecheckFallsBackToIdleWhenHolderIsLost) {
@@ -88,9 +88,32 @@ TEST(ModeManager, ValidModesAreTheOperatorsValidActions) {
   with_goal.has_waypoint_goal = true;
   EXPECT_EQ(modes.ValidModes(with_goal), (std::vector<std::string>{"idle", "manual", "waypoint"}));
   with_goal.joystick_alive = true;
-  EXPECT_EQ(modes.ValidModes(with_goal),
-            (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint"}));
+  EXPECT_EQ(modes.ValidModes(with_goal), (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint"}));
   EXPECT_EQ(modes.mode(), "idle") << "ValidModes must not switch";
+}
+
+// Issue 14: explore needs a task, a healthy local planner and a robot that maps; a refusal names which.
+TEST(ModeManager, ExploreNeedsATaskAndMappingAndTheRefusalNamesWhich) {
+  ModeManager modes(kTree, kChannels);
+  ModeConditions c = Held();
+  c.has_explore_task = true;
+  c.mapping_healthy = false;
+  c.mapping_problem = "no lidar scan for 4.0 s";
+  ModeDecision d = modes.Request("explore", c);
+  EXPECT_FALSE(d.accepted);
+  EXPECT_EQ(d.reason, "IsMappingHealthy: no lidar scan for 4.0 s");
+  c.mapping_healthy = true;
+  c.has_explore_task = false;
+  d = modes.Request("explore", c);
+  EXPECT_EQ(d.reason, "HasExploreTask: no exploration task (send explore first)");
+  c.has_explore_task = true;
+  d = modes.Request("explore", c);
+  EXPECT_TRUE(d.accepted) << d.reason;
+  EXPECT_EQ(d.channel, "explore");
+  c.mapping_healthy = false;
+  d = modes.Recheck(c);
+  EXPECT_FALSE(d.accepted);
+  EXPECT_EQ(modes.mode(), "idle") << "mapping lost mid-way: the robot stops";
 }
 
 TEST(ModeManager, SmartJoystickNeedsAJoystickAndAHealthyLocalPlanner) {

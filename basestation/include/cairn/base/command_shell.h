@@ -74,6 +74,13 @@ class CommandShell {
   int Control(const std::vector<std::string>& args, bool request);
   int Mode(const std::vector<std::string>& args);
   int Goto(const std::vector<std::string>& args);
+  // explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--wait [TIMEOUT_S]] (command_shell_explore.cpp).
+  int Explore(const std::vector<std::string>& args);
+  // Waits until exploration `task_id` of `robot` ends, printing its progress every 5 s: accepted when
+  // complete, failed when it failed or was stopped (or the robot is lost), timed out.
+  int WaitExplored(const std::string& robot, uint32_t task_id, double timeout_s);
+  // frontiers R: explored area, frontier count, current target, targets reached and given up.
+  int Frontiers(const std::vector<std::string>& args);
   int Stop(const std::vector<std::string>& args);
   int Teleop(const std::vector<std::string>& args);
   int Wait(const std::vector<std::string>& args);

@@ -2,6 +2,8 @@
 // liveliness), robot and behavior-tree state, and commands answered by the robots' command interfaces.
 #pragma once
 
+#include <Eigen/Geometry>
+
 #include <chrono>
 #include <condition_variable>
 #include <functional>
@@ -129,6 +131,12 @@ class FleetClient {
   /// NaN = the robot's level.
   CommandOutcome SendWaypoint(const std::string& robot_id, double x_m, double y_m, double tolerance_m = 0.0,
                               double z_m = std::numeric_limits<double>::quiet_NaN());
+  /// Sends `robot_id` exploring by itself (ExploreRequest): frontiers within `region_M` (x-y box, metres, map
+  /// frame; none = everywhere) whose ground lies in [min_z_m, max_z_m] (metres, map frame; NaN = no bound).
+  /// The answer carries the task id in goal_id.
+  CommandOutcome SendExplore(const std::string& robot_id, const std::optional<Eigen::AlignedBox2d>& region_M,
+                             double min_z_m = std::numeric_limits<double>::quiet_NaN(),
+                             double max_z_m = std::numeric_limits<double>::quiet_NaN());
   /// Stops `robot_id` now: zero twist, mode idle, goal cancelled. Honoured by the robot from any basestation,
   /// with or without its control lock (an e-stop); the lock stays with its holder. Sent at once even to a
   /// robot this basestation thinks lost or has not seen (retried until answered or command_timeout_s).

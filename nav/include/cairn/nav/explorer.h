@@ -27,6 +27,10 @@ struct ExplorerOptions {
   double follow_radius_m = 1.5;
   /// A failed target bars clusters whose target lies within this of it, metres, (0, 20].
   double blacklist_radius_m = 1.5;
+  /// A target the robot reached bars clusters whose target lies within this of it, metres, (0, 20]: what
+  /// is still unknown behind a frontier the robot stood on is out of its lidar's sight from there (below its
+  /// lowest beam, behind a corner), and driving there again would show nothing new.
+  double visited_radius_m = 1.0;
 
   /// True when every field is in range; otherwise false with `*why` (if not null) naming the field, its value
   /// and the rule.
@@ -60,29 +64,37 @@ class Explorer {
   /// Chooses what to do with the frontiers `set` (FindFrontiers on the latest map). Clusters that cannot be
   /// reached or lie within blacklist_radius_m of a failed target are left out; of the others the one with the
   /// highest utility is taken, unless the current target is still there and the best is not
-  /// switch_utility_ratio times better. With none left, exploration is complete.
+  /// switch_utility_ratio times better; reached targets (visited_radius_m) are left out too. With none left,
+  /// exploration is complete.
   ExplorerDecision Decide(const FrontierSet& set);
 
   /// Navigation gave up on the current target (no path, blocked): it is barred for good (a frontier seen
   /// across a gap the robot cannot cross, a doorway too narrow) with `reason`, and there is no current
   /// target any more.
   void Fail(const std::string& reason);
-  /// The current target was reached (the robot stands at its frontier) or given up by the caller: the next
-  /// Decide() chooses afresh.
+  /// The robot reached the current target (it stands at that frontier): clusters within visited_radius_m of
+  /// it are left out from now on, and there is no current target any more.
+  void Reached();
+  /// The current target is given up by the caller, without blame (e.g. the operator stopped the robot): the
+  /// next Decide() chooses afresh.
   void ClearTarget() { current_.reset(); }
 
   /// The current target, if any.
   const std::optional<FrontierCluster>& current() const { return current_; }
   /// Targets barred so far, oldest first.
   const std::vector<FailedTarget>& failed() const { return failed_; }
+  /// Targets reached so far, oldest first.
+  const std::vector<Eigen::Vector2d>& visited() const { return visited_; }
   const ExplorerOptions& options() const { return options_; }
 
  private:
   bool Barred(const Eigen::Vector2d& target_M) const;
+  bool Visited(const Eigen::Vector2d& target_M) const;
 
   ExplorerOptions options_;
   std::optional<FrontierCluster> current_;
   std::vector<FailedTarget> failed_;
+  std::vector<Eigen::Vector2d> visited_;
 };
 
 }  // namespace cairn::nav

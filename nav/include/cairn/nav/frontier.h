@@ -23,11 +23,11 @@ namespace cairn::nav {
 
 /// Options of FindFrontiers().
 struct FrontierOptions {
-  /// A cluster with less unknown area than this behind it is ignored (holes in a sparse scan's floor, a
-  /// corner the lidar grazed), m², [0, 1e4].
-  double min_gain_m2 = 1.0;
-  /// The unknown area behind a frontier is counted up to this far from it, through unknown cells only,
-  /// metres, (0, 100]: about the lidar's useful range, what one look from the frontier can reveal.
+  /// A cluster with less unknown area than this in sight of it is ignored (holes in a sparse scan's floor, a
+  /// strip of floor along a wall the lidar grazed), m², [0, 1e4].
+  double min_gain_m2 = 3.0;
+  /// The unknown area in sight of a frontier's target is counted up to this far from it, metres, (0, 100]:
+  /// about the lidar's useful range, what one look from the frontier can reveal.
   double gain_radius_m = 5.0;
   /// A cluster needs at least this many frontier cells, [1, 10000].
   int min_cells = 3;
@@ -64,7 +64,10 @@ struct FrontierCluster {
   double target_ground_z_m = 0.0;  ///< the target cell's ground height, metres, frame M
   Eigen::Vector2d centroid_M = Eigen::Vector2d::Zero();  ///< mean of its cells' centres, metres, frame M
   int cells = 0;                                          ///< frontier cells
-  /// Unknown area reachable from the cluster through unknown cells within gain_radius_m of it, m².
+  /// Unknown area a lidar at the target could see: cells crossed by rays from the target (one per cell on the
+  /// circle of radius gain_radius_m) out to gain_radius_m through known-free and unknown cells, each ray
+  /// stopped by the first obstacle cell (a wall), m². Rock behind a wall the map saw whole is not counted; unknown floor along a
+  /// wall the lidar grazed is, but little of it.
   double gain_m2 = 0.0;
   /// Cost of the shortest 8-connected path from the robot's cell to the target over traversable cells, known
   /// or unknown (those cost 1 + unknown_cost per metre), metres; infinity when there is none (the frontier is

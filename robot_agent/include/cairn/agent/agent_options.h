@@ -5,6 +5,7 @@
 #include <string>
 
 #include "cairn/agent/control_lock.h"
+#include "cairn/agent/explore_mode.h"
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
@@ -43,6 +44,8 @@ struct AgentOptions {
   /// Navigation: platform profile (set from `platform` by SetPlatform(), then overridden by the config
   /// file's platform and traversability sections), local planner scoring, iLQR, mission timing.
   NavigationOptions navigation;
+  /// Explore mode: frontier search, target choice, timing (robot_id is filled in by the agent).
+  ExploreModeOptions explore;
   /// Local planner library: collision radius = footprint + collision_margin_m; the heading range comes
   /// from the platform profile.
   nav::TrajectoryLibraryOptions library = DefaultLibraryOptions();

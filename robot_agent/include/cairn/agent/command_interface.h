@@ -31,6 +31,7 @@ struct StopRecord {
 struct ValidActions {
   std::vector<std::string> modes;  ///< modes the tree would accept now
   bool goal_acceptable = false;    ///< a waypoint goal would be accepted now
+  bool explore_acceptable = false; ///< an exploration task would be accepted now
 };
 
 /// Applies operator commands. Not thread-safe: the agent calls it under its lock.
@@ -49,6 +50,8 @@ class CommandInterface {
     std::function<void(const GoalCommand&)> plan_goal;
     /// Drives the goal along `plan` (still from its holder): the outcome is the reply's.
     std::function<CommandOutcome(const GoalCommand&, const nav::GlobalPlan&)> start_goal;
+    /// Starts the exploration task (checked) from its holder: the outcome is the reply's.
+    std::function<CommandOutcome(const ExploreCommand&)> start_explore;
   };
 
   /// `modes` (not owned) outlives this. `goal_mode`: the mode a waypoint goal is driven in
@@ -71,6 +74,9 @@ class CommandInterface {
   /// The goal's plan is done: discarded when the lock moved meanwhile, else driven (Hooks::start_goal) and
   /// answered.
   void OnGoalPlanned(const GoalCommand& command, const nav::GlobalPlan& plan);
+  /// explore R: the holder's only; checked (frame, CheckExploreTask), then started (Hooks::start_explore), which
+  /// asks the mode tree.
+  void OnExplore(const ExploreCommand& command);
   /// The stick: the holder's only (others are counted as discarded), finite only; to the running mode.
   void OnTeleop(const TeleopCommand& command, core::SteadyTime now);
 

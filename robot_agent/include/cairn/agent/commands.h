@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "cairn/agent/explore_mode.h"
 #include "cairn/agent/mode_module.h"
 
 namespace cairn::agent {
@@ -23,7 +24,7 @@ struct CommandSender {
 };
 
 /// Kind of a command (CommandResponse.kind).
-enum class CommandKind : uint32_t { kControlRequest, kControlRelease, kMode, kWaypoint, kStop };
+enum class CommandKind : uint32_t { kControlRequest, kControlRelease, kMode, kWaypoint, kStop, kExplore };
 /// Outcome of a command (CommandResponse.result).
 enum class CommandResult {
   kAccepted,   ///< control granted or released, mode switched, goal accepted, stopped
@@ -67,6 +68,15 @@ struct GoalCommand {
 /// finite, a tolerance outside [0, 5] m, an infinite level z_m. Each names the field and value.
 std::string CheckGoal(const GoalCommand& goal);
 
+/// explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1]: as received (ExploreRequest; checked by
+/// CheckExploreTask()).
+struct ExploreCommand {
+  CommandSender sender;
+  uint32_t request_id = 0;
+  std::string frame_id;  ///< must be "map"
+  ExploreTask task;
+};
+
 /// The operator's stick (TeleopTwist), best effort; no reply.
 struct TeleopCommand {
   std::string base_id;
@@ -99,7 +109,7 @@ struct CommandReply {
   std::string reason;                    ///< why refused or discarded; what was done when accepted
   std::string holder_id;                 ///< the lock's holder after the command ("" = free)
   std::string mode;                      ///< the mode after the command
-  uint32_t goal_id = 0;                  ///< the accepted goal's id (waypoint commands)
+  uint32_t goal_id = 0;                  ///< the accepted goal's id (waypoint commands), task id (explore)
   std::vector<std::string> valid_modes;  ///< the operator's valid actions now
   bool goal_acceptable = false;          ///< a goal would be accepted now
 };

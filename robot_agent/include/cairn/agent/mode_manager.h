@@ -23,6 +23,12 @@ struct ModeConditions {
   /// The local planner ran on fresh obstacle input recently; when false, local_planner_problem says why.
   bool local_planner_healthy = false;
   std::string local_planner_problem;  ///< e.g. "no obstacle input for 0.8 s"
+  /// An exploration task is running (sent with explore R).
+  bool has_explore_task = false;
+  /// The robot maps: fresh lidar scans reach its map and its navigation map is updated; when false,
+  /// mapping_problem says why.
+  bool mapping_healthy = false;
+  std::string mapping_problem;  ///< e.g. "no lidar scan for 3.2 s"
 };
 
 /// Result of a mode request or re-check.

@@ -10,6 +10,8 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -20,6 +22,7 @@
 #include "cairn/agent/perception_pipeline.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/core/time.h"
+#include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
 
 namespace cairn::agent {
@@ -58,6 +61,20 @@ class PerceptionService {
   /// its thread grows the map over it at its next update), else why not (naming navigation.map_max_extent_m).
   /// Any thread (the planning thread).
   std::string CoverGoal(const Eigen::Vector2d& goal_M) { return nav_map_->Cover(goal_M); }
+  /// Frontier search for the explore mode: while `search` is set, the navigation map thread runs
+  /// nav::FindFrontiers with it on its map after each update, from the robot's position given with
+  /// SetRobotPosition(); none = no search. Any thread.
+  void SetFrontierSearch(const std::optional<nav::FrontierOptions>& search);
+  /// The robot's x-y position (metres, frame M) the frontier search starts from. Any thread.
+  void SetRobotPosition(const Eigen::Vector2d& p_M);
+  /// The newest frontier set not taken yet, and when it was computed (seconds on the agent's clock). Any
+  /// thread.
+  std::optional<std::pair<nav::FrontierSet, double>> TakeFrontiers();
+  /// True when the robot's mapping works: a lidar scan came within navigation.obstacle_lost_s and the
+  /// navigation map was updated within 3 of its periods (or 3 s); otherwise false and `*why` (if not null)
+  /// says which and for how long. Any thread.
+  bool MappingHealthy(std::string* why) const;
+
   /// The staircases detected so far (PerceptionPipeline::Staircases()). Thread-safe.
   std::vector<perception::Staircase> Staircases() const { return perception_->Staircases(); }
 
@@ -105,6 +122,13 @@ class PerceptionService {
   std::unique_ptr<PerceptionPipeline> perception_;  // perception thread (and the map/tiles, thread-safe)
   std::unique_ptr<NavMap> nav_map_;                 // navigation map thread only (but CoverGoal())
   std::atomic<bool> map_snapshot_requested_{false};
+  std::atomic<double> last_scan_s_{-1e9};        // agent clock of the newest scan read
+  std::atomic<double> last_map_update_s_{-1e9};  // ... of the newest navigation map update that succeeded
+  std::mutex frontier_mutex_;  // guards the four below
+  std::optional<nav::FrontierOptions> frontier_search_;
+  Eigen::Vector2d robot_p_M_ = Eigen::Vector2d::Zero();
+  std::optional<nav::FrontierSet> frontiers_;
+  double frontiers_at_s_ = 0.0;
 };
 
 }  // namespace cairn::agent

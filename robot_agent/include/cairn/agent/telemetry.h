@@ -16,6 +16,7 @@
 #include "cairn/agent/mode_control.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
+#include "cairn/agent/explore_mode.h"
 #include "cairn/agent/waypoint_mode.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/msgs/robot_state.h"
@@ -35,7 +36,8 @@ class Telemetry {
  public:
   /// Every pointer is required and (not owned) outlives this. @throws std::invalid_argument for a null one.
   Telemetry(const AgentOptions& options, AgentDds* dds, const ModeControl* modes,
-            const WaypointMode* waypoint, const Navigation* navigation, CommandInterface* command);
+            const WaypointMode* waypoint, const ExploreMode* explore, const Navigation* navigation,
+            CommandInterface* command);
 
   /// AgentInfo (latched): id, kind robot, platform and its limits, the modes of the tree, version, world,
   /// sensors (lidar, camera), map resolution (0 with perception off), link class and budget.
@@ -77,6 +79,7 @@ class Telemetry {
   AgentDds* dds_;
   const ModeControl* modes_;
   const WaypointMode* waypoint_;
+  const ExploreMode* explore_;
   const Navigation* navigation_;
   CommandInterface* command_;
   std::uint64_t published_path_revision_ = ~0ull;

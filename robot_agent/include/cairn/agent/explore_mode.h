@@ -1,0 +1,156 @@
+// Explore mode (issue 14; Sriganesh et al. 2024, § Behavior Tree and Mux: exploration, the top level of sliding
+// autonomy): the robot maps the unknown by itself. Frontiers of its own navigation map (nav::FindFrontiers, run
+// on the map's thread after each update and handed in with OnFrontiers()) feed the target choice
+// (nav::Explorer); each target is driven as a waypoint goal through navigation, with the waypoint recovery tree
+// when navigation gives up; a target that still fails is barred with its reason. Exploration ends by itself
+// when no reachable frontier is left ("exploration complete: no reachable frontier ...") and the robot goes
+// idle.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <functional>
+#include <future>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "cairn/agent/mode_manager.h"
+#include "cairn/agent/mode_module.h"
+#include "cairn/agent/navigation.h"
+#include "cairn/agent/waypoint_recovery.h"
+#include "cairn/nav/explorer.h"
+#include "cairn/nav/frontier.h"
+
+namespace cairn::agent {
+
+/// What to explore (explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1]).
+struct ExploreTask {
+  /// Only frontiers inside this x-y box (metres, frame M); none (the default) = everywhere.
+  std::optional<Eigen::AlignedBox2d> region_M;
+  /// Only frontiers whose ground lies in [min_z_m, max_z_m] (metres, frame M; a floor); default: every height.
+  double min_z_m = -std::numeric_limits<double>::infinity();
+  double max_z_m = std::numeric_limits<double>::infinity();
+};
+
+/// Why `task` cannot be explored as sent ("" when it can): a region corner that is not finite, a region with
+/// x0 >= x1 or y0 >= y1, a NaN height bound, min_z_m >= max_z_m. Names the field and the value.
+std::string CheckExploreTask(const ExploreTask& task);
+
+/// How an exploration stands (RobotState.explore_*).
+enum class ExplorationState {
+  kNone,       ///< never started
+  kExploring,  ///< running
+  kComplete,   ///< ended by itself: no reachable frontier left
+  kFailed,     ///< ended by itself otherwise (no map around the robot, in contact with occupied space)
+  kStopped,    ///< ended by the operator or a mode switch
+};
+const char* ToString(ExplorationState state);
+
+/// The exploration record: the one running, or the last one and how it ended.
+struct ExplorationStatus {
+  uint32_t task_id = 0;  ///< robot-assigned; 0 = none yet
+  ExplorationState state = ExplorationState::kNone;
+  std::string reason;    ///< how it ended ("exploration complete: ..."), or what it is doing now
+  ExploreTask task;
+  int frontier_clusters = 0;    ///< clusters in the latest frontier set (reachable or not)
+  int reachable_frontiers = 0;  ///< of which reachable
+  double explored_m2 = 0.0;     ///< known-free ground of the map in the task's region and height band, m²
+  bool has_target = false;      ///< a frontier is being driven to
+  Eigen::Vector2d target_M = Eigen::Vector2d::Zero();  ///< its target, metres, frame M
+  double target_z_m = 0.0;                              ///< its ground height, metres, frame M
+  double target_gain_m2 = 0.0;                          ///< unknown area behind it, m²
+  int targets_reached = 0;
+  int targets_failed = 0;
+  double started_s = 0.0;  ///< agent clock, seconds
+  bool active() const { return state == ExplorationState::kExploring; }
+};
+
+/// Options of ExploreMode (from AgentOptions, config section `explore`).
+struct ExploreModeOptions {
+  std::string robot_id;                ///< names the robot in log lines
+  double channel_timeout_s = 0.5;      ///< the explore channel's staleness, seconds, (0, 60]
+  double contact_timeout_s = 1.0;      ///< in contact longer than this -> exploration fails, seconds, > 0
+  nav::FrontierOptions frontiers;      ///< frontier search (the task's region and heights are set per task)
+  nav::ExplorerOptions explorer;       ///< target choice
+  /// A frontier target counts as reached within this of it (navigation's arrival radius), metres, (0, 3].
+  double target_tolerance_m = 0.6;
+  /// After a target is reached or fails, the next choice waits for a frontier set computed at least this
+  /// long after (the map has taken in what the robot sees from there), seconds, [0, 10].
+  double settle_s = 1.0;
+  /// No usable frontier set (no map around the robot) this long after the start -> exploration fails,
+  /// seconds, (0, 600].
+  double map_wait_s = 15.0;
+  uint32_t first_task_id = 1;  ///< id of the first task (drawn at random by the agent), >= 1
+
+  /// @return false and sets `*why` (field, value, rule) when a field is invalid.
+  bool IsValid(std::string* why) const;
+};
+
+/// The explore mode module. Not thread-safe (the agent calls it under its lock, on its control thread).
+class ExploreMode : public ModeModule {
+ public:
+  static constexpr const char* kName = "explore";
+  static constexpr const char* kChannel = "explore";
+
+  /// `navigation` (not owned) outlives this; `recovery` runs when navigation gives up on a target (null or not
+  /// enabled = the target fails at once). @throws std::invalid_argument for a null navigation or invalid
+  /// options.
+  ExploreMode(ExploreModeOptions options, Navigation* navigation, std::unique_ptr<WaypointRecovery> recovery);
+  ~ExploreMode() override;
+
+  /// Starts exploring `task` (checked with CheckExploreTask) at `now_s`, then `enter_mode` asks the mode tree
+  /// for this mode with the task in place. Refused (the reason is the tree's failed condition, or the
+  /// task's fault): the previous record is kept. Accepted: any previous exploration is replaced. Returns the
+  /// reason when refused, "" when accepted.
+  std::string Start(const ExploreTask& task, double now_s, const std::function<ModeDecision()>& enter_mode);
+
+  /// The frontier search the map thread should run now (the task's region and heights), while exploring.
+  std::optional<nav::FrontierOptions> frontier_search() const;
+  /// A frontier set of the robot's map computed at `computed_at_s` (agent clock): the newest is used at the
+  /// next Step().
+  void OnFrontiers(nav::FrontierSet set, double computed_at_s);
+
+  const ExplorationStatus& status() const { return status_; }
+  /// True while exploring (the tree's HasExploreTask).
+  bool exploring() const { return status_.active(); }
+  /// True while a target's plan is computed on a worker (the robot holds still).
+  bool planning() const;
+  /// The target choice (its failed and reached targets).
+  const nav::Explorer& explorer() const { return explorer_; }
+
+  /// Ends the exploration, if one runs: stopped with `why`.
+  void Deactivate(const std::string& why) override;
+  ModeOutput Step(const ModeInputs& in) override;
+  /// In contact with occupied space longer than contact_timeout_s: the exploration fails, done.
+  ModeOutput OnPlatformStatus(const core::PlatformStatus& status, const ModeInputs& in) override;
+  bool uses_local_planner() const override { return true; }
+
+ private:
+  // Ends the exploration with `state` and `reason`, dropping the target.
+  void Finish(ExplorationState state, const std::string& reason);
+  // Drops the target being planned or driven (navigation's goal, the recovery).
+  void DropTarget();
+  // A target ended (reached, or failed with `reason`): the explorer learns it; the next choice waits.
+  void EndTarget(bool reached, const std::string& reason, double now_s);
+  // Applies the newest frontier set: complete, keep, or plan a new target.
+  void Choose(const core::BaseState& pose_M, double now_s, ModeOutput* out);
+
+  ExploreModeOptions options_;
+  Navigation* navigation_;
+  std::unique_ptr<WaypointRecovery> recovery_;
+  nav::Explorer explorer_;
+  ExplorationStatus status_;
+  uint32_t next_task_id_;
+  std::optional<nav::FrontierSet> frontiers_;  // newest set not used yet
+  double frontiers_at_s_ = -1e9;
+  double settle_until_s_ = -1e9;  // no choice from a set computed before this
+  bool complete_pending_ = false;  // the last set had no target: confirm with the next one, at rest
+  std::future<nav::GlobalPlan> plan_;
+  bool driving_ = false;  // navigation (or the recovery) holds the target as its goal
+  bool in_contact_ = false;
+  core::SteadyTime contact_since_{};
+};
+
+}  // namespace cairn::agent

@@ -1,0 +1,72 @@
+// One robot's autonomy stepped on the caller's clock, on the caller's thread, with no DDS: the components the
+// agent runs on its threads (live obstacles, perception's map, the navigation map, the frontier search,
+// navigation and the explore mode with its recovery tree), fed from a core::PlatformIO the same way. For
+// long scenarios that must run faster than real time (exploration coverage, several robots, benches): each
+// capability's end-to-end test across real processes runs the agent itself.
+//
+// What differs from the agent: no mode tree (no lock or operator: the explore task is started directly), the
+// navigation map and the frontier search run inline at their period, and the caller waits in wall time for a
+// plan computed on a worker (SteppedRobot::planning()) instead of the robot holding still meanwhile.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cairn/agent/agent_options.h"
+#include "cairn/agent/explore_mode.h"
+#include "cairn/agent/live_obstacles.h"
+#include "cairn/agent/nav_map.h"
+#include "cairn/agent/navigation.h"
+#include "cairn/agent/perception_pipeline.h"
+#include "cairn/core/platform_io.h"
+
+namespace cairn::agent {
+
+/// See the file comment. Not thread-safe.
+class SteppedRobot {
+ public:
+  /// `platform` is read and commanded at each Step(); its pose at time 0 centres the navigation map.
+  /// `tree_file`: the mode tree file whose WaypointRecovery tree runs when navigation gives up ("" = none).
+  /// @throws std::invalid_argument for a null platform or invalid options (as the components throw).
+  SteppedRobot(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
+               const std::string& tree_file);
+
+  /// Starts exploring `task` at `now_s`; "" or why not (CheckExploreTask).
+  std::string Explore(const ExploreTask& task, double now_s);
+  /// One control cycle at `now_s` (seconds; cycles expected every 0.02 s): the platform's pose and scan,
+  /// the map, at its period the navigation map and the frontier search, then the explore mode's twist to the
+  /// platform (zero when not exploring).
+  void Step(double now_s);
+  /// True while a plan the next Step() needs is computed on a worker: the caller waits (wall time) before
+  /// stepping on, so that results do not depend on the machine's speed.
+  bool planning() const { return explore_->planning(); }
+
+  const ExploreMode& explore() const { return *explore_; }
+  const NavMap& nav_map() const { return *nav_map_; }
+  const Navigation& navigation() const { return *navigation_; }
+  const PerceptionPipeline& perception() const { return *perception_; }
+  /// Seconds spent in the frontier searches so far, and their number (benches).
+  double frontier_search_s() const { return frontier_search_s_; }
+  int frontier_searches() const { return frontier_searches_; }
+  /// True when the platform reported contact with occupied space at any step.
+  bool ever_in_contact() const { return ever_in_contact_; }
+
+ private:
+  AgentOptions options_;
+  std::shared_ptr<core::PlatformIO> platform_;
+  std::unique_ptr<PerceptionPipeline> perception_;
+  std::shared_ptr<nav::GlobalPlanner> planner_;
+  std::unique_ptr<NavMap> nav_map_;
+  std::unique_ptr<Navigation> navigation_;
+  std::unique_ptr<LiveObstacles> live_obstacles_;
+  std::unique_ptr<ExploreMode> explore_;
+  core::LidarScan scan_;
+  std::vector<Eigen::Vector3f> points_B_;
+  double next_map_update_s_ = 0.0;
+  double frontier_search_s_ = 0.0;
+  int frontier_searches_ = 0;
+  bool ever_in_contact_ = false;
+};
+
+}  // namespace cairn::agent

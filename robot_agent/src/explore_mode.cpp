@@ -1,0 +1,304 @@
+#include "cairn/agent/explore_mode.h"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "range_check.h"
+
+namespace cairn::agent {
+
+namespace {
+
+// A frontier set with less known-free ground than this is no map yet (the first scans are not in), m².
+constexpr double kMinKnownFreeM2 = 2.0;
+
+bool Ready(const std::future<nav::GlobalPlan>& plan) {
+  return plan.valid() && plan.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+}
+
+std::string Point(const Eigen::Vector2d& p) {
+  return "(" + internal::Fixed(p.x(), 2) + ", " + internal::Fixed(p.y(), 2) + ")";
+}
+
+}  // namespace
+
+std::string CheckExploreTask(const ExploreTask& task) {
+  std::ostringstream why;
+  if (task.region_M) {
+    const Eigen::Vector2d lo = task.region_M->min(), hi = task.region_M->max();
+    const std::string region = "region (" + std::to_string(lo.x()) + ", " + std::to_string(lo.y()) + ", " +
+                               std::to_string(hi.x()) + ", " + std::to_string(hi.y()) + ")";
+    if (!lo.allFinite() || !hi.allFinite()) return region + " must be finite, metres";
+    if (!(lo.x() < hi.x()) || !(lo.y() < hi.y())) return region + ": x0 must be below x1 and y0 below y1";
+  }
+  if (std::isnan(task.min_z_m) || std::isnan(task.max_z_m) || !(task.min_z_m < task.max_z_m)) {
+    why << "z range (" << task.min_z_m << ", " << task.max_z_m << ") must be two numbers, the first below the "
+        << "second, metres";
+  }
+  return why.str();
+}
+
+const char* ToString(ExplorationState state) {
+  switch (state) {
+    case ExplorationState::kNone: return "none";
+    case ExplorationState::kExploring: return "exploring";
+    case ExplorationState::kComplete: return "complete";
+    case ExplorationState::kFailed: return "failed";
+    case ExplorationState::kStopped: return "stopped";
+  }
+  return "?";
+}
+
+bool ExploreModeOptions::IsValid(std::string* why) const {
+  std::string msg;
+  bool ok = internal::InRange("explore.channel_timeout_s", channel_timeout_s, 0, 60, true, &msg) &&
+            internal::InRange("explore.contact_timeout_s", contact_timeout_s, 0, 3600, true, &msg) &&
+            internal::InRange("explore.target_tolerance_m", target_tolerance_m, 0, 3, true, &msg) &&
+            internal::InRange("explore.settle_s", settle_s, 0, 10, false, &msg) &&
+            internal::InRange("explore.map_wait_s", map_wait_s, 0, 600, true, &msg) &&
+            frontiers.IsValid(&msg) && explorer.IsValid(&msg);
+  if (ok && first_task_id == 0) {
+    msg = "explore.first_task_id = 0 must be >= 1";
+    ok = false;
+  }
+  if (!ok && why != nullptr) *why = msg;
+  return ok;
+}
+
+namespace {
+
+const ExploreModeOptions& Checked(const ExploreModeOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument("ExploreMode: " + why);
+  return options;
+}
+
+}  // namespace
+
+ExploreMode::ExploreMode(ExploreModeOptions options, Navigation* navigation,
+                         std::unique_ptr<WaypointRecovery> recovery)
+    : ModeModule(kName, MuxChannelOptions{kChannel, Checked(options).channel_timeout_s}),
+      options_(std::move(options)),
+      navigation_(navigation),
+      recovery_(std::move(recovery)),
+      explorer_(options_.explorer),
+      next_task_id_(options_.first_task_id) {
+  if (navigation_ == nullptr) throw std::invalid_argument("ExploreMode: navigation is null");
+}
+
+ExploreMode::~ExploreMode() {
+  if (plan_.valid()) navigation_->Abandon(std::move(plan_));
+}
+
+std::string ExploreMode::Start(const ExploreTask& task, double now_s,
+                               const std::function<ModeDecision()>& enter_mode) {
+  if (std::string why = CheckExploreTask(task); !why.empty()) return why;
+  const ExplorationStatus previous = status_;
+  const bool was_exploring = exploring();
+  DropTarget();
+  ExplorationStatus s;
+  s.task_id = next_task_id_++;
+  s.state = ExplorationState::kExploring;
+  s.reason = "waiting for the first frontiers of the map";
+  s.task = task;
+  s.started_s = now_s;
+  status_ = s;
+  explorer_ = nav::Explorer(options_.explorer);  // a new task starts with no barred target
+  frontiers_.reset();
+  settle_until_s_ = now_s;  // only frontiers computed from now on
+  complete_pending_ = false;
+  in_contact_ = false;
+  const ModeDecision d = enter_mode();
+  if (d.accepted) {
+    spdlog::info("robot {}: exploration {} started{}", options_.robot_id, s.task_id,
+                 task.region_M ? " in region " + Point(task.region_M->min()) + "-" + Point(task.region_M->max())
+                               : "");
+    return "";
+  }
+  if (status_.task_id == s.task_id && status_.active()) {
+    status_ = previous;  // the refused task never ran; a running one was dropped with its target
+    if (was_exploring) Finish(ExplorationState::kStopped, "a new exploration was refused: " + d.reason);
+  }
+  return d.reason.empty() ? "refused" : d.reason;
+}
+
+std::optional<nav::FrontierOptions> ExploreMode::frontier_search() const {
+  if (!exploring()) return std::nullopt;
+  nav::FrontierOptions o = options_.frontiers;
+  o.region_M = status_.task.region_M.value_or(Eigen::AlignedBox2d());
+  o.min_z_m = status_.task.min_z_m;
+  o.max_z_m = status_.task.max_z_m;
+  return o;
+}
+
+void ExploreMode::OnFrontiers(nav::FrontierSet set, double computed_at_s) {
+  if (!exploring()) return;
+  frontiers_ = std::move(set);
+  frontiers_at_s_ = computed_at_s;
+}
+
+bool ExploreMode::planning() const { return plan_.valid() && !Ready(plan_); }
+
+void ExploreMode::DropTarget() {
+  if (plan_.valid()) navigation_->Abandon(std::move(plan_));
+  plan_ = {};
+  if (recovery_) recovery_->Halt();
+  if (driving_) navigation_->ClearGoal();
+  driving_ = false;
+  status_.has_target = false;
+}
+
+void ExploreMode::Finish(ExplorationState state, const std::string& reason) {
+  DropTarget();
+  explorer_.ClearTarget();
+  status_.state = state;
+  status_.reason = reason;
+  frontiers_.reset();
+  if (state == ExplorationState::kComplete) {
+    spdlog::info("robot {}: exploration {} {} ({:.0f} m² explored, {} targets reached, {} given up)",
+                 options_.robot_id, status_.task_id, reason, status_.explored_m2, status_.targets_reached,
+                 status_.targets_failed);
+  } else {
+    spdlog::warn("robot {}: exploration {} {}: {}", options_.robot_id, status_.task_id, ToString(state), reason);
+  }
+}
+
+void ExploreMode::Deactivate(const std::string& why) {
+  if (exploring()) Finish(ExplorationState::kStopped, "stopped: " + why);
+}
+
+void ExploreMode::EndTarget(bool reached, const std::string& reason, double now_s) {
+  const Eigen::Vector2d target = status_.target_M;
+  DropTarget();
+  if (reached) {
+    explorer_.Reached();
+    ++status_.targets_reached;
+    spdlog::info("robot {}: exploration {} reached the frontier at {}", options_.robot_id, status_.task_id,
+                 Point(target));
+  } else {
+    explorer_.Fail(reason);
+    ++status_.targets_failed;
+    spdlog::warn("robot {}: exploration {} gave up the frontier at {}: {}", options_.robot_id, status_.task_id,
+                 Point(target), reason);
+  }
+  settle_until_s_ = now_s + options_.settle_s;
+}
+
+void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput* out) {
+  const nav::FrontierSet set = std::move(*frontiers_);
+  frontiers_.reset();
+  status_.frontier_clusters = static_cast<int>(set.clusters.size());
+  status_.reachable_frontiers = set.reachable();
+  status_.explored_m2 = set.known_free_m2;
+  if (!set.robot_on_grid || set.known_free_m2 < kMinKnownFreeM2) {
+    if (now_s - status_.started_s > options_.map_wait_s) {
+      Finish(ExplorationState::kFailed,
+             std::string("no map around the robot after ") + internal::Fixed(options_.map_wait_s, 0) + " s (" +
+                 (set.robot_on_grid ? internal::Fixed(set.known_free_m2, 1) + " m² known free"
+                                    : "the robot is on no traversable cell of its map") +
+                 ")");
+      out->done = true;
+    }
+    return;
+  }
+  const nav::ExplorerDecision d = explorer_.Decide(set);
+  if (d.kind == nav::ExplorerDecision::Kind::kComplete) {
+    if (!complete_pending_ && (driving_ || plan_.valid() || pose_M.v_mps > 0.05)) {
+      // Seen on the move: confirm it at rest with the next set (a frontier may be just out of sight).
+      DropTarget();
+      complete_pending_ = true;
+      settle_until_s_ = now_s + options_.settle_s;
+      return;
+    }
+    Finish(ExplorationState::kComplete, d.reason);
+    out->done = true;
+    return;
+  }
+  complete_pending_ = false;
+  status_.reason = d.reason;
+  const bool same = (driving_ || plan_.valid()) && d.kind == nav::ExplorerDecision::Kind::kKeep;
+  status_.target_gain_m2 = d.target.gain_m2;
+  if (same) return;  // the frontier moved a little as the map grew: the goal stands
+  DropTarget();
+  status_.has_target = true;
+  status_.target_M = d.target.target_M;
+  status_.target_z_m = d.target.target_ground_z_m;
+  plan_ = navigation_->PlanGoalAsync(pose_M, d.target.target_M.x(), d.target.target_M.y(),
+                                     d.target.target_ground_z_m);
+  spdlog::info("robot {}: exploration {} to the frontier at {} ({:.0f} m² unknown behind it, {:.1f} m away): {}",
+               options_.robot_id, status_.task_id, Point(d.target.target_M), d.target.gain_m2,
+               d.target.travel_cost_m, d.reason);
+}
+
+ModeOutput ExploreMode::Step(const ModeInputs& in) {
+  ModeOutput out;
+  if (!exploring()) return out;
+  out.twist_B = Twist2{0.0, 0.0};  // holds still unless a target is driven
+  out.stamp = in.now;
+  if (Ready(plan_)) {
+    const nav::GlobalPlan plan = plan_.get();
+    plan_ = {};
+    if (plan.IsUsable()) {
+      navigation_->AcceptGoal(plan, status_.target_M.x(), status_.target_M.y(), options_.target_tolerance_m,
+                              in.now_s, status_.target_z_m);
+      driving_ = true;
+    } else {
+      EndTarget(false, "no path: " + plan.reason, in.now_s);
+    }
+  }
+  if (driving_) {
+    NavigationStep step;
+    if (recovery_ && recovery_->active()) {
+      step = recovery_->Step(in.pose_M, in.now_s);
+      if (recovery_->active()) status_.reason = "recovering: " + recovery_->Report();
+    } else {
+      step = navigation_->StepWaypoint(in.pose_M, in.now_s);
+      if (step.failed && recovery_ && recovery_->enabled()) {
+        recovery_->Start(status_.target_M.x(), status_.target_M.y(), options_.target_tolerance_m, step.reason,
+                         status_.target_z_m);
+        status_.reason = "recovering: " + recovery_->Report();
+        step = NavigationStep{};  // brake this cycle; the recovery tree runs from the next
+      }
+    }
+    if (step.arrived) {
+      EndTarget(true, "", in.now_s);
+    } else if (step.failed) {
+      EndTarget(false, step.reason, in.now_s);
+    } else {
+      out.twist_B = Twist2{step.linear_x_mps, step.angular_z_radps};
+    }
+  }
+  if (frontiers_ && frontiers_at_s_ >= settle_until_s_) {
+    Choose(in.pose_M, in.now_s, &out);
+  } else if (!status_.has_target && !complete_pending_ && !frontiers_ &&
+             in.now_s - status_.started_s > options_.map_wait_s && status_.explored_m2 < kMinKnownFreeM2) {
+    Finish(ExplorationState::kFailed, "no frontier search result " + internal::Fixed(options_.map_wait_s, 0) +
+                                          " s after the start (is the navigation map updated?)");
+    out.done = true;
+  }
+  if (out.done) out.twist_B.reset();
+  return out;
+}
+
+ModeOutput ExploreMode::OnPlatformStatus(const core::PlatformStatus& status, const ModeInputs& in) {
+  ModeOutput out;
+  if (!exploring()) return out;
+  if (!status.in_contact) {
+    in_contact_ = false;
+  } else if (!in_contact_) {
+    in_contact_ = true;
+    contact_since_ = in.now;
+  } else if (core::SecondsBetween(contact_since_, in.now) > options_.contact_timeout_s) {
+    Finish(ExplorationState::kFailed, "blocked: in contact with occupied space at (" +
+                                          internal::Fixed(in.pose_M.x_m, 2) + ", " +
+                                          internal::Fixed(in.pose_M.y_m, 2) + ")");
+    out.done = true;
+  }
+  return out;
+}
+
+}  // namespace cairn::agent

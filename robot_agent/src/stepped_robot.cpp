@@ -1,0 +1,90 @@
+#include "cairn/agent/stepped_robot.h"
+
+#include <chrono>
+#include <stdexcept>
+
+#include "cairn/agent/waypoint_recovery.h"
+#include "cairn/nav/frontier.h"
+
+namespace cairn::agent {
+
+namespace {
+
+std::shared_ptr<core::PlatformIO> Checked(std::shared_ptr<core::PlatformIO> platform) {
+  if (!platform) throw std::invalid_argument("SteppedRobot: platform is null");
+  return platform;
+}
+
+core::BaseState StartPose(core::PlatformIO& platform) {
+  platform.Update(0.0);
+  return platform.ReadPose().PlanarState();
+}
+
+core::SteadyTime AsSteady(double now_s) {
+  return core::SteadyTime{} +
+         std::chrono::duration_cast<core::SteadyClock::duration>(std::chrono::duration<double>(now_s));
+}
+
+}  // namespace
+
+SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
+                           const std::string& tree_file)
+    : options_(options), platform_(Checked(std::move(platform))) {
+  const core::BaseState start_M = StartPose(*platform_);
+  PerceptionOptions perception = options_.perception;
+  perception.camera_rate_hz = 0;
+  perception_ = std::make_unique<PerceptionPipeline>(perception, options_.robot_id);
+  planner_ = NavMap::MakePlanner(options_.nav_map, perception.map.resolution_m, start_M,
+                                 {options_.navigation.platform});
+  nav_map_ = std::make_unique<NavMap>(options_.nav_map, perception.map.resolution_m, start_M, planner_,
+                                      options_.navigation.platform.name);
+  navigation_ = std::make_unique<Navigation>(options_.navigation, planner_,
+                                             std::make_shared<const nav::TrajectoryLibrary>(options_.LibraryForPlatform()));
+  live_obstacles_ = std::make_unique<LiveObstacles>(options_, platform_->Capabilities().lidar_min_elevation_rad);
+  std::unique_ptr<WaypointRecovery> recovery;
+  if (!tree_file.empty()) {
+    recovery = std::make_unique<WaypointRecovery>(
+        tree_file, navigation_.get(), WaypointRecovery::Hooks{[this] { live_obstacles_->Clear(); }});
+  }
+  ExploreModeOptions explore = options_.explore;
+  explore.robot_id = options_.robot_id;
+  explore_ = std::make_unique<ExploreMode>(explore, navigation_.get(), std::move(recovery));
+  next_map_update_s_ = options_.nav_map.update_period_s;
+}
+
+std::string SteppedRobot::Explore(const ExploreTask& task, double now_s) {
+  return explore_->Start(task, now_s, [] { return ModeDecision{true, ExploreMode::kName, ExploreMode::kChannel, ""}; });
+}
+
+void SteppedRobot::Step(double now_s) {
+  platform_->Update(now_s);
+  const core::BaseState pose = platform_->ReadPose().PlanarState();
+  if (platform_->ReadLidarScan(now_s, &scan_)) {
+    core::BaseState at_scan;
+    live_obstacles_->AddScan(scan_, &points_B_, &at_scan);
+    navigation_->SetObstacles(points_B_, at_scan, now_s);
+    perception_->Tick(now_s, &scan_, nullptr);
+  }
+  perception_->set_refresh_at_rest(explore_->exploring());
+  if (now_s >= next_map_update_s_) {
+    next_map_update_s_ += options_.nav_map.update_period_s;
+    nav_map_->Update(*perception_->map(), perception_->TakeChangedTiles(), perception_->change_tile_m(),
+                     perception_->max_sensor_z_m(), perception_->Staircases());
+    if (const auto search = explore_->frontier_search()) {
+      const auto start = std::chrono::steady_clock::now();
+      nav::FrontierSet set = nav::FindFrontiers(nav_map_->grid(), {pose.x_m, pose.y_m}, *search);
+      frontier_search_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      ++frontier_searches_;
+      explore_->OnFrontiers(std::move(set), now_s);
+    }
+  }
+  const ModeInputs in{AsSteady(now_s), now_s, pose};
+  ModeOutput out = explore_->Step(in);
+  const Twist2 twist = out.twist_B.value_or(Twist2{0.0, 0.0});
+  platform_->CommandTwist(twist.linear_x_mps, twist.angular_z_radps, now_s);
+  const core::PlatformStatus status = platform_->ReadStatus();
+  ever_in_contact_ = ever_in_contact_ || status.in_contact;
+  explore_->OnPlatformStatus(status, in);
+}
+
+}  // namespace cairn::agent
