@@ -2,7 +2,8 @@
 // half of builtin:tunnels and its X junction (a region) from a basestation's CLI; only the lock's holder may send it, a malformed
 // region is refused naming it, and the robot explores by itself until it reports "exploration complete", then
 // stands idle with its explored area and frontier count shown by `status` and `frontiers`; it never touches a
-// wall. Scored against the world's ground truth. All processes run in this test's private network namespace
+// wall. Scored against the world's ground truth. Then `home` brings it back to its start, and a robot exploring
+// with --home-after-silence comes back by itself once no basestation is left. All processes run in this test's private network namespace
 // (tests/netns_run.sh).
 #include <filesystem>
 
@@ -96,6 +97,46 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
   Figure("explore_region_s", explore_s);
   Figure("explored_m2", explored_m2);
   Figure("true_floor_m2", truth_m2);
+
+  // home brings it back to where it started, on its own map (from 16 m down the tunnel).
+  r = op.Run("goto ex1 20 20 --wait 90", 100s);
+  ASSERT_TRUE(r["ok"]) << r;
+  const double away_m = std::hypot(observer.FreshState("ex1").pose_MB().position().x_m() - 4.0,
+                                   observer.FreshState("ex1").pose_MB().position().y_m() - 20.0);
+  r = op.Run("home ex1 --wait 120", 130s);
+  ASSERT_TRUE(r["ok"]) << r;
+  cairn_msgs::RobotState at = observer.FreshState("ex1");
+  const double home_error_m = std::hypot(at.pose_MB().position().x_m() - 4.0, at.pose_MB().position().y_m() - 20.0);
+  EXPECT_LT(home_error_m, 1.0) << FormatState(at);
+  Figure("home_from_m", away_m);
+  Figure("home_error_m", home_error_m);
+
+  // Lost link: exploring with --home-after-silence 3, the robot hears no basestation once both are gone, and
+  // drives back to its start by itself.
+  r = op.Run("explore ex1 --home-after-silence 3");
+  ASSERT_TRUE(r["ok"]) << r;
+  for (auto deadline = Clock::now() + 60s; Clock::now() < deadline;) {
+    at = observer.FreshState("ex1");
+    if (std::hypot(at.pose_MB().position().x_m() - 4.0, at.pose_MB().position().y_m() - 20.0) > 6.0) break;
+    std::this_thread::sleep_for(200ms);
+  }
+  ASSERT_GT(std::hypot(at.pose_MB().position().x_m() - 4.0, at.pose_MB().position().y_m() - 20.0), 6.0)
+      << "the robot set out exploring: " << FormatState(at);
+  EXPECT_EQ(at.explore_state(), "exploring") << FormatState(at);
+  op.Kill();
+  other.Kill();
+  const auto silent_since = Clock::now();
+  bool home = false;
+  for (auto deadline = Clock::now() + 120s; Clock::now() < deadline && !home;) {
+    at = observer.FreshState("ex1");
+    home = at.mode() == "idle" && at.nav_status() == cairn_msgs::NAV_STATUS_ARRIVED &&
+           std::hypot(at.pose_MB().position().x_m() - 4.0, at.pose_MB().position().y_m() - 20.0) < 1.0;
+    std::this_thread::sleep_for(200ms);
+  }
+  ASSERT_TRUE(home) << FormatState(at) << ", exploration " << at.explore_state() << ": " << at.explore_reason();
+  EXPECT_EQ(at.explore_state(), "stopped");
+  EXPECT_NE(at.explore_reason().find("no basestation heard for"), std::string::npos) << at.explore_reason();
+  Figure("lost_link_home_s", std::chrono::duration<double>(Clock::now() - silent_since).count());
 }
 
 }  // namespace

@@ -142,7 +142,7 @@ const std::vector<std::string>& CommandShell::CommandNames() {
   static const std::vector<std::string> kNames = {
       "robots", "watch", "status", "request-control", "release", "mode",     "goto",   "path",   "plan",
       "teleop", "stop",  "wait",   "sleep",           "map",     "snapshot", "stairs", "events", "place",
-      "places", "links", "explore", "frontiers", "help"};
+      "places", "links", "explore", "frontiers", "home", "help"};
   return kNames;
 }
 
@@ -166,11 +166,15 @@ std::string CommandShell::Help() {
          "  goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]  drive R to POINT (on the level nearest Z_M,\n"
          "                                      default the robot's); --wait prints progress (distance left,\n"
          "                                      ETA) until it arrives or fails (default 600 s)\n"
-         "  explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--wait [TIMEOUT_S]]  R explores by itself\n"
-         "                                      (frontiers of its own map, in the region and height band when\n"
-         "                                      given) until no reachable frontier is left, then goes idle;\n"
-         "                                      --wait prints progress until it ends (default 3600 s)\n"
+         "  explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait [TIMEOUT_S]]\n"
+         "                                      R explores by itself (frontiers of its own map, in the region\n"
+         "                                      and height band when given) until no reachable frontier is\n"
+         "                                      left, then goes idle; --home-after-silence: it drives back to\n"
+         "                                      its start when it hears no basestation for S s; --wait prints\n"
+         "                                      progress until it ends (default 3600 s)\n"
          "  frontiers R                         R's exploration: explored area, frontiers, current target\n"
+         "  home R [POINT] [--z Z_M] [--wait [TIMEOUT_S]]  R drives back to where it started (or to POINT) on\n"
+         "                                      its own map, from any mode; --wait as goto's\n"
          "  path R                              the global path R is following (waypoints, length)\n"
          "  plan R POINT [--from POINT] [--platform P]  ask R's global planner for a path (from R's pose, "
          "for\n"
@@ -317,7 +321,7 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
     const std::size_t arg = before.size();  // index of the word being completed, 1-based after the command
     static const std::vector<std::string> kRobotFirst = {
         "status", "request-control", "release", "mode", "goto", "path", "plan", "teleop", "stop", "wait",
-        "map",    "snapshot",        "help", "explore", "frontiers"};
+        "map",    "snapshot",        "help", "explore", "frontiers", "home"};
     if (arg == 1 && std::find(kRobotFirst.begin(), kRobotFirst.end(), cmd) != kRobotFirst.end()) {
       pool = client_.RobotIds();
       if (cmd == "stop") pool.push_back("all");
@@ -325,7 +329,7 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
     } else if (cmd == "mode" && arg == 2) {
       pool = {"idle", "manual", "smart_joystick"};
       if (const auto view = client_.Robot(before[1]); view && view->tree) pool = view->tree->valid_modes();
-    } else if ((cmd == "goto" || cmd == "plan") && arg == 2) {
+    } else if ((cmd == "goto" || cmd == "plan" || cmd == "home") && arg == 2) {
       pool = places_.Names();
     } else if (cmd == "wait" && arg == 2) {
       pool = {"arrived", "idle", "online", "lost", "mode="};
@@ -371,7 +375,7 @@ int CommandShell::Run(const std::string& line) {
   if (cmd == "release") return need(1, "release R") ? Control(args, false) : kUsage;
   if (cmd == "mode") return need(2, "mode R MODE") ? Mode(args) : kUsage;
   if (cmd == "stop") return need(1, "stop R|all") ? Stop(args) : kUsage;
-  if (cmd == "goto") return Goto(args);
+  if (cmd == "goto" || cmd == "home") return Goto(cmd, args);
   if (cmd == "explore") return Explore(args);
   if (cmd == "frontiers") return need(1, "frontiers R") ? Frontiers(args) : kUsage;
   if (cmd == "teleop") {
@@ -627,7 +631,8 @@ int CommandShell::HelpFor(const std::string& robot) {
       {"release", "release R"},
       {"mode", "mode R MODE"},
       {"goto", "goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]"},
-      {"explore", "explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--wait [TIMEOUT_S]]"},
+      {"explore", "explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait [TIMEOUT_S]]"},
+      {"home", "home R [POINT] [--z Z_M] [--wait [TIMEOUT_S]]"},
       {"teleop", "teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]"},
       {"stop", "stop R|all"}};
   for (const auto& action : actions) {
@@ -734,8 +739,11 @@ bool CommandShell::ParsePoint(const std::vector<std::string>& args, std::size_t 
   return ParseNumber(word, "X", x_m, error) && ParseNumber(args[first + 1], "Y", y_m, error);
 }
 
-int CommandShell::Goto(const std::vector<std::string>& all_args) {
-  static const char* kUsageText = "usage: goto R X Y|X,Y|PLACE [TOL] [--z Z_M] [--wait [TIMEOUT_S]]";
+int CommandShell::Goto(const std::string& command, const std::vector<std::string>& all_args) {
+  const bool home = command == "home";
+  const std::string usage = home ? "usage: home R [X Y|X,Y|PLACE] [--z Z_M] [--wait [TIMEOUT_S]]"
+                                 : "usage: goto R X Y|X,Y|PLACE [TOL] [--z Z_M] [--wait [TIMEOUT_S]]";
+  const char* kUsageText = usage.c_str();
   std::vector<std::string> args;
   bool wait = false;
   double timeout = 600;
@@ -743,10 +751,10 @@ int CommandShell::Goto(const std::vector<std::string>& all_args) {
   std::string error;
   for (std::size_t i = 0; i < all_args.size(); ++i) {
     if (all_args[i] == "--z") {
-      if (i + 1 >= all_args.size()) return UsageError("goto", "--z needs a height Z_M (metres, map frame)");
-      if (!ParseNumber(all_args[i + 1], "Z_M", &z_m, &error)) return UsageError("goto", error);
+      if (i + 1 >= all_args.size()) return UsageError(command, "--z needs a height Z_M (metres, map frame)");
+      if (!ParseNumber(all_args[i + 1], "Z_M", &z_m, &error)) return UsageError(command, error);
       if (!std::isfinite(z_m) || std::abs(z_m) > 10000) {
-        return UsageError("goto", "Z_M '" + all_args[i + 1] + "' must be a finite height in [-10000, 10000] m");
+        return UsageError(command, "Z_M '" + all_args[i + 1] + "' must be a finite height in [-10000, 10000] m");
       }
       ++i;
       continue;
@@ -759,26 +767,29 @@ int CommandShell::Goto(const std::vector<std::string>& all_args) {
     if (i + 1 < all_args.size()) {
       if (!ParseNumber(all_args[i + 1], "TIMEOUT_S", &timeout, &error) || timeout <= 0 || timeout > 86400) {
         return UsageError(
-            "goto", error.empty() ? "TIMEOUT_S '" + all_args[i + 1] + "' must be in (0, 86400]" : error);
+            command, error.empty() ? "TIMEOUT_S '" + all_args[i + 1] + "' must be in (0, 86400]" : error);
       }
-      if (i + 2 != all_args.size()) return UsageError("goto", kUsageText);
+      if (i + 2 != all_args.size()) return UsageError(command, kUsageText);
       break;
     }
   }
-  if (args.size() < 2) return UsageError("goto", kUsageText);
+  if (args.size() < (home ? 1u : 2u)) return UsageError(command, kUsageText);
   double x = 0, y = 0, tolerance = 0;
   std::size_t used = 0;
-  if (!ParsePoint(args, 1, &x, &y, &used, &error)) return UsageError("goto", error);
+  if (args.size() > 1 && !ParsePoint(args, 1, &x, &y, &used, &error)) return UsageError(command, error);
   const std::size_t rest = 1 + used;
-  if (args.size() > rest + 1) return UsageError("goto", kUsageText);
+  if (args.size() > rest + (home ? 0 : 1)) return UsageError(command, kUsageText);
   if (args.size() == rest + 1 && !ParseNumber(args[rest], "TOL", &tolerance, &error))
-    return UsageError("goto", error);
-  const CommandOutcome o = client_.SendWaypoint(args[0], x, y, tolerance, z_m);
+    return UsageError(command, error);
+  if (home && used == 0 && std::isfinite(z_m)) return UsageError(command, "--z names the level of a POINT: give one");
+  const CommandOutcome o =
+      !home ? client_.SendWaypoint(args[0], x, y, tolerance, z_m)
+            : client_.SendHome(args[0], used == 0 ? std::nullopt : std::optional<Eigen::Vector3d>({x, y, z_m}));
   if (o.ok) last_goal_id_[args[0]] = o.goal_id;
-  if (!o.ok || !wait) return Report("goto", args[0], o);
+  if (!o.ok || !wait) return Report(command, args[0], o);
   // With --wait, one result line ends the command (JSON: the acceptance is a progress line before it).
   if (json_) {
-    out_ << Dump(json{{"command", "goto"},
+    out_ << Dump(json{{"command", command},
                       {"robot", args[0]},
                       {"progress", true},
                       {"accepted", true},
@@ -787,9 +798,9 @@ int CommandShell::Goto(const std::vector<std::string>& all_args) {
                       {"goal_id", o.goal_id}})
          << std::endl;
   } else {
-    Report("goto", args[0], o);
+    Report(command, args[0], o);
   }
-  return WaitArrived("goto", args[0], timeout);
+  return WaitArrived(command, args[0], timeout);
 }
 
 int CommandShell::WaitArrived(const std::string& command, const std::string& robot, double timeout_s) {
@@ -874,7 +885,7 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
   }
   o.goal_id = goal_id;
   o.round_trip_ms = core::SecondsBetween(start, core::SteadyClock::now()) * 1000.0;
-  return Report(command == "goto" ? "goto" : "wait", robot, o);
+  return Report(command == "wait" ? "wait" : command, robot, o);
 }
 
 int CommandShell::Teleop(const std::vector<std::string>& args) {

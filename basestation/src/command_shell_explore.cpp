@@ -16,7 +16,7 @@ using shell::Fixed;
 namespace {
 
 constexpr const char* kExploreUsage =
-    "usage: explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--wait [TIMEOUT_S]]";
+    "usage: explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait [TIMEOUT_S]]";
 
 // "A,B[,C,D]" -> `n` numbers named `names` (for messages); false with `*error` naming the flag and the value.
 bool ParseList(const std::string& flag, const std::string& text, std::size_t n, double* values,
@@ -82,6 +82,7 @@ int CommandShell::Explore(const std::vector<std::string>& all_args) {
   double max_z_m = std::numeric_limits<double>::quiet_NaN();
   bool wait = false;
   double timeout_s = 3600;
+  double home_after_silence_s = 0.0;
   std::vector<std::string> args;
   std::string error;
   for (std::size_t i = 0; i < all_args.size(); ++i) {
@@ -106,6 +107,15 @@ int CommandShell::Explore(const std::vector<std::string>& all_args) {
         max_z_m = v[1];
       }
       ++i;
+    } else if (a == "--home-after-silence") {
+      if (i + 1 >= all_args.size() || !shell::ParseNumber(all_args[i + 1], "S", &home_after_silence_s, &error) ||
+          !(home_after_silence_s > 0 && home_after_silence_s <= 86400)) {
+        return UsageError("explore", error.empty() ? "--home-after-silence needs S in (0, 86400] seconds" +
+                                                         (i + 1 < all_args.size() ? ", not '" + all_args[i + 1] + "'"
+                                                                                  : std::string())
+                                                   : error);
+      }
+      ++i;
     } else if (a == "--wait") {
       wait = true;
       if (i + 1 < all_args.size() && all_args[i + 1].rfind("--", 0) != 0) {
@@ -124,7 +134,7 @@ int CommandShell::Explore(const std::vector<std::string>& all_args) {
   }
   if (args.size() != 1) return UsageError("explore", kExploreUsage);
   const std::string& robot = args[0];
-  const CommandOutcome o = client_.SendExplore(robot, region_M, min_z_m, max_z_m);
+  const CommandOutcome o = client_.SendExplore(robot, region_M, min_z_m, max_z_m, home_after_silence_s);
   if (!o.ok || !wait) return Report("explore", robot, o);
   if (json_) {
     out_ << Dump(json{{"command", "explore"},

@@ -71,6 +71,8 @@ class FleetClient::Impl {
         *participant_, "cairn/waypoint_goal", "cairn.command");
     explore_writer_ = std::make_unique<core::Writer<msgs::ExploreRequestPubSubType>>(
         *participant_, "cairn/explore_request", "cairn.command");
+    home_writer_ = std::make_unique<core::Writer<msgs::HomeRequestPubSubType>>(*participant_, "cairn/home_request",
+                                                                              "cairn.command");
     stop_writer_ = std::make_unique<core::Writer<msgs::StopRequestPubSubType>>(*participant_, "cairn/stop_request",
                                                                               "cairn.command");
     teleop_writer_ =
@@ -460,7 +462,8 @@ class FleetClient::Impl {
     return control_writer_->WaitMatchedWith(participant, deadline) &&
            mode_writer_->WaitMatchedWith(participant, deadline) &&
            goal_writer_->WaitMatchedWith(participant, deadline) &&
-           explore_writer_->WaitMatchedWith(participant, deadline) && stop_writer_->WaitMatchedWith(participant, deadline);
+           explore_writer_->WaitMatchedWith(participant, deadline) &&
+           home_writer_->WaitMatchedWith(participant, deadline) && stop_writer_->WaitMatchedWith(participant, deadline);
   }
 
   std::string UnknownRobotReason(const std::string& robot_id) const {
@@ -513,6 +516,7 @@ class FleetClient::Impl {
   std::unique_ptr<core::Writer<msgs::ModeRequestPubSubType>> mode_writer_;
   std::unique_ptr<core::Writer<msgs::WaypointGoalPubSubType>> goal_writer_;
   std::unique_ptr<core::Writer<msgs::ExploreRequestPubSubType>> explore_writer_;
+  std::unique_ptr<core::Writer<msgs::HomeRequestPubSubType>> home_writer_;
   std::unique_ptr<core::Writer<msgs::StopRequestPubSubType>> stop_writer_;
   std::unique_ptr<core::Writer<msgs::TeleopTwistPubSubType>> teleop_writer_;
   std::unique_ptr<core::Writer<msgs::PathRequestPubSubType>> path_request_writer_;
@@ -674,7 +678,7 @@ CommandOutcome FleetClient::SendWaypoint(const std::string& robot_id, double x_m
 }
 
 CommandOutcome FleetClient::SendExplore(const std::string& robot_id, const std::optional<Eigen::AlignedBox2d>& region_M,
-                                        double min_z_m, double max_z_m) {
+                                        double min_z_m, double max_z_m, double home_after_silence_s) {
   return impl_->Call(robot_id, msgs::COMMAND_KIND_EXPLORE, [&](uint32_t id) {
     msgs::ExploreRequest m;
     m.robot_id(robot_id);
@@ -690,7 +694,25 @@ CommandOutcome FleetClient::SendExplore(const std::string& robot_id, const std::
     }
     m.min_z_m(min_z_m);
     m.max_z_m(max_z_m);
+    m.home_after_silence_s(home_after_silence_s);
     return impl_->explore_writer_->Write(m);
+  });
+}
+
+CommandOutcome FleetClient::SendHome(const std::string& robot_id, const std::optional<Eigen::Vector3d>& point_M) {
+  return impl_->Call(robot_id, msgs::COMMAND_KIND_HOME, [&](uint32_t id) {
+    msgs::HomeRequest m;
+    m.robot_id(robot_id);
+    m.base_id(base_id());
+    m.request_id(id);
+    m.frame_id("map");
+    m.has_point(point_M.has_value());
+    if (point_M) {
+      m.x_m(point_M->x());
+      m.y_m(point_M->y());
+      m.z_m(point_M->z());
+    }
+    return impl_->home_writer_->Write(m);
   });
 }
 

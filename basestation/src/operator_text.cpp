@@ -95,6 +95,7 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
   can_teleop = can_teleop || mode == "manual" || mode == "smart_joystick";
   if (!modes.empty()) actions.push_back("mode " + modes);
   if (can_goto) actions.push_back("goto");
+  if (can_goto) actions.push_back("home");
   if (can_explore) actions.push_back("explore");
   if (can_teleop) actions.push_back("teleop");
   actions.push_back("release");

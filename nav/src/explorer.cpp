@@ -1,6 +1,7 @@
 // Copyright Cairn authors.
 #include "cairn/nav/explorer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -17,7 +18,9 @@ bool ExplorerOptions::IsValid(std::string* why) const {
   const bool ok = range("switch_utility_ratio", switch_utility_ratio, 1, 100, false) &&
                   range("follow_radius_m", follow_radius_m, 0, 10, true) &&
                   range("blacklist_radius_m", blacklist_radius_m, 0, 20, true) &&
-                  range("visited_radius_m", visited_radius_m, 0, 20, true);
+                  range("visited_radius_m", visited_radius_m, 0, 20, true) &&
+                  range("claim_radius_m", claim_radius_m, 0, 50, true) &&
+                  range("retry_after_s", retry_after_s, 0, 3600, false);
   if (!ok && why != nullptr) *why = msg.str();
   return ok;
 }
@@ -27,9 +30,10 @@ Explorer::Explorer(ExplorerOptions options) : options_(options) {
   if (!options_.IsValid(&why)) throw std::invalid_argument(why);
 }
 
-bool Explorer::Barred(const Eigen::Vector2d& target_M) const {
+bool Explorer::Barred(const Eigen::Vector2d& target_M, double now_s) const {
   for (const FailedTarget& f : failed_) {
-    if ((f.target_M - target_M).norm() <= options_.blacklist_radius_m) return true;
+    if ((f.target_M - target_M).norm() > options_.blacklist_radius_m) continue;
+    if (f.failures >= 2 || now_s - f.failed_at_s < options_.retry_after_s) return true;
   }
   return false;
 }
@@ -41,7 +45,23 @@ bool Explorer::Visited(const Eigen::Vector2d& target_M) const {
   return false;
 }
 
-ExplorerDecision Explorer::Decide(const FrontierSet& set) {
+bool Explorer::ClaimedByPeer(const FrontierCluster& c, bool is_current, const TeamView& team,
+                             std::string* by) const {
+  const double mine_s = is_current ? HeldS(team.now_s) : 0.0;
+  for (const PeerClaim& claim : team.claims) {
+    if (claim.robot_id == team.own_id) continue;
+    if ((claim.target_M - c.target_M).norm() > options_.claim_radius_m) continue;
+    const bool older = claim.held_s > mine_s + 0.5;
+    const bool tie = std::abs(claim.held_s - mine_s) <= 0.5 && claim.robot_id < team.own_id;
+    if (older || tie) {
+      *by = claim.robot_id;
+      return true;
+    }
+  }
+  return false;
+}
+
+ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) {
   ExplorerDecision decision;
   const FrontierCluster* best = nullptr;
   const FrontierCluster* followed = nullptr;
@@ -49,17 +69,25 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set) {
   int unreachable = 0;
   int barred = 0;
   int visited = 0;
+  int claimed = 0;
+  std::vector<std::string> claimers;
   for (const FrontierCluster& c : set.clusters) {
     if (!c.reachable()) {
       ++unreachable;
       continue;
     }
-    if (Barred(c.target_M)) {
+    if (Barred(c.target_M, team.now_s)) {
       ++barred;
       continue;
     }
     if (Visited(c.target_M)) {
       ++visited;
+      continue;
+    }
+    const bool is_current = current_ && (c.target_M - current_->target_M).norm() <= options_.follow_radius_m;
+    if (std::string by; ClaimedByPeer(c, is_current, team, &by)) {
+      ++claimed;
+      if (std::find(claimers.begin(), claimers.end(), by) == claimers.end()) claimers.push_back(by);
       continue;
     }
     ++candidates;
@@ -69,6 +97,16 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set) {
          (c.target_M - current_->target_M).norm() < (followed->target_M - current_->target_M).norm())) {
       followed = &c;
     }
+  }
+  if (best == nullptr && claimed > 0) {
+    std::ostringstream why;
+    why << "every reachable frontier (" << claimed << ") is claimed by a peer (";
+    for (std::size_t i = 0; i < claimers.size(); ++i) why << (i == 0 ? "" : ", ") << claimers[i];
+    why << "): waiting";
+    decision.kind = ExplorerDecision::Kind::kWait;
+    decision.reason = why.str();
+    current_.reset();
+    return decision;
   }
   if (best == nullptr) {
     std::ostringstream why;
@@ -95,6 +133,7 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set) {
                                 " times as worth it as the current one"
                           : "best of " + std::to_string(candidates) + " reachable frontiers";
   }
+  if (decision.kind == ExplorerDecision::Kind::kGoTo) current_since_s_ = team.now_s;
   current_ = decision.target;
   return decision;
 }
@@ -105,9 +144,18 @@ void Explorer::Reached() {
   current_.reset();
 }
 
-void Explorer::Fail(const std::string& reason) {
+void Explorer::Fail(const std::string& reason, double now_s) {
   if (!current_) return;
-  failed_.push_back(FailedTarget{current_->target_M, reason});
+  for (FailedTarget& f : failed_) {
+    if ((f.target_M - current_->target_M).norm() <= options_.blacklist_radius_m) {
+      ++f.failures;  // the second time here: barred for good
+      f.reason = reason;
+      f.failed_at_s = now_s;
+      current_.reset();
+      return;
+    }
+  }
+  failed_.push_back(FailedTarget{current_->target_M, reason, 1, now_s});
   current_.reset();
 }
 

@@ -24,13 +24,16 @@ constexpr int kDy8[8] = {0, 1, 1, 1, 0, -1, -1, -1};
 constexpr double kStartSearchM = 1.0;
 
 constexpr double kPi = 3.14159265358979323846;
+// Clearance a frontier's target keeps beyond the footprint where the cluster allows it, metres.
+constexpr double kTargetMarginM = 0.15;
 
 // Unknown cells a lidar at cell (tx, ty) could see within `radius_m`: rays from the cell's centre, as many as
 // there are cells around the circle of that radius (every cell within it is crossed by one),
 // each marching cell by cell through known-free and unknown cells until a cell with an obstacle (a wall) or
-// the radius; a cell crossed by several rays counts once (`stamp`, marked with `id`).
+// the radius; a cell crossed by several rays counts once (`stamp`, marked with `id`), a cell `peer_seen` marks
+// (when not empty) not at all.
 std::int64_t VisibleUnknownCells(const TraversabilityGrid& grid, int tx, int ty, double radius_m, int id,
-                                 std::vector<int>* stamp) {
+                                 std::vector<int>* stamp, const std::vector<char>& peer_seen) {
   const double cell_m = grid.cell_size_m();
   const Eigen::Vector2d origin = grid.CellCenter(tx, ty);
   const int steps = static_cast<int>(std::ceil(radius_m / (0.5 * cell_m)));
@@ -46,7 +49,9 @@ std::int64_t VisibleUnknownCells(const TraversabilityGrid& grid, int tx, int ty,
       const CellState state = grid.State(ix, iy);
       if (state == CellState::kObstacle) break;
       if (state != CellState::kUnknown) continue;
-      int& s = (*stamp)[static_cast<std::size_t>(iy) * grid.nx() + ix];
+      const std::size_t i = static_cast<std::size_t>(iy) * grid.nx() + ix;
+      if (!peer_seen.empty() && peer_seen[i]) continue;  // a peer has seen it
+      int& s = (*stamp)[i];
       if (s == id) continue;
       s = id;
       ++unknown;
@@ -87,8 +92,32 @@ int FrontierSet::reachable() const {
       std::count_if(clusters.begin(), clusters.end(), [](const FrontierCluster& c) { return c.reachable(); }));
 }
 
+PeerCoverage::PeerCoverage(double cell_m) : cell_m_(cell_m) {
+  if (!(cell_m > 0 && cell_m <= 10)) {
+    throw std::invalid_argument("PeerCoverage: cell_m = " + std::to_string(cell_m) + " must be in (0, 10]");
+  }
+}
+
+std::int64_t PeerCoverage::Key(const Eigen::Vector2d& p_M) const {
+  const auto ix = static_cast<std::int64_t>(std::floor(p_M.x() / cell_m_));
+  const auto iy = static_cast<std::int64_t>(std::floor(p_M.y() / cell_m_));
+  return (ix << 32) ^ (iy & 0xffffffffLL);
+}
+
+Eigen::Vector2d PeerCoverage::Corner(std::int64_t key) const {
+  const auto ix = static_cast<std::int32_t>(key >> 32);
+  const auto iy = static_cast<std::int32_t>(key & 0xffffffffLL);
+  return {ix * cell_m_, iy * cell_m_};
+}
+
+void PeerCoverage::Mark(const Eigen::Vector2d& p_M) {
+  if (p_M.allFinite()) cells_.insert(Key(p_M));
+}
+
+bool PeerCoverage::Covered(const Eigen::Vector2d& p_M) const { return p_M.allFinite() && cells_.count(Key(p_M)) > 0; }
+
 FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d& robot_M,
-                          const FrontierOptions& options) {
+                          const FrontierOptions& options, const PeerCoverage* peers) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
   const int nx = grid.nx();
@@ -103,6 +132,21 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
   };
 
   FrontierSet result;
+  // What peers have seen, on this grid's cells.
+  std::vector<char> peer_seen;
+  if (peers != nullptr && peers->size() > 0) {
+    peer_seen.assign(n, 0);
+    const double c = peers->cell_m();
+    peers->ForEach([&](const Eigen::Vector2d& corner) {
+      int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+      const Eigen::Vector2d lo = corner.cwiseMax(grid.p_W_min()), hi = (corner.array() + c).matrix().cwiseMin(grid.p_W_max());
+      if (lo.x() >= hi.x() || lo.y() >= hi.y()) return;
+      if (!grid.CellOf(lo.x(), lo.y(), &x0, &y0) || !grid.CellOf(hi.x() - 1e-9, hi.y() - 1e-9, &x1, &y1)) return;
+      for (int iy = y0; iy <= y1; ++iy) {
+        for (int ix = x0; ix <= x1; ++ix) peer_seen[index(ix, iy)] = 1;
+      }
+    });
+  }
   // 1. Frontier cells, and the explored area.
   std::vector<char> frontier(n, 0);
   int free_cells = 0;
@@ -265,7 +309,11 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
         std::pair<int, int> target = cells.front();
         std::pair<int, int> fallback = cells.front();
         for (const auto& [ix, iy] : cells) {
-          const double d = (grid.CellCenter(ix, iy) - cluster.centroid_M).squaredNorm();
+          // Nearest the centroid, but away from walls: a cell the footprint barely fits on is a goal the
+          // planner may refuse once the next scan moves the wall a voxel (kTargetMarginM of clearance kept).
+          const double short_m =
+              std::max(0.0, grid.options().robot_radius_m + kTargetMarginM - grid.ClearanceM(ix, iy));
+          const double d = (grid.CellCenter(ix, iy) - cluster.centroid_M).norm() + 4.0 * short_m;
           if (cost[index(ix, iy)] < kInf && d < best_reachable) {
             best_reachable = d;
             target = {ix, iy};
@@ -277,7 +325,7 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
         }
         if (best_reachable == kInf) target = fallback;
         cluster.gain_m2 = VisibleUnknownCells(grid, target.first, target.second, options.gain_radius_m,
-                                              ++gain_id, &gain_stamp) *
+                                              ++gain_id, &gain_stamp, peer_seen) *
                           cell_m * cell_m;
         if (cluster.gain_m2 < options.min_gain_m2) continue;
         cluster.target_M = grid.CellCenter(target.first, target.second);

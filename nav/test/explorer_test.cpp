@@ -84,5 +84,73 @@ TEST(ExplorerTest, AFailedTargetIsNeverTriedAgainAndExplorationCompletesWhenNoth
   EXPECT_EQ(explorer.failed().size(), 2u);
 }
 
+// A failed frontier is barred for retry_after_s, then tried once more, and barred for good after a second failure.
+TEST(ExplorerTest, AFailedTargetIsRetriedOnceAfterAWhileThenBarredForGood) {
+  Explorer explorer;
+  ExplorerDecision d = explorer.Decide(Set({Cluster(5, 0, 3.0)}), TeamView{"r1", 10.0, {}});
+  explorer.Fail("no path: the map showed no way", 10.0);
+  d = explorer.Decide(Set({Cluster(5, 0, 3.0)}), TeamView{"r1", 100.0, {}});
+  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kComplete) << "barred for 120 s";
+  d = explorer.Decide(Set({Cluster(5.2, 0, 3.0)}), TeamView{"r1", 131.0, {}});
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo) << "the map may show a way now";
+  explorer.Fail("no path: still none", 140.0);
+  ASSERT_EQ(explorer.failed().size(), 1u);
+  EXPECT_EQ(explorer.failed()[0].failures, 2);
+  EXPECT_EQ(explorer.failed()[0].reason, "no path: still none");
+  d = explorer.Decide(Set({Cluster(5, 0, 3.0)}), TeamView{"r1", 5000.0, {}});
+  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kComplete) << "never retried forever";
+}
+
+// Claims: a frontier a peer claimed first is the peer's; of two claims as old, the smaller id's; a robot whose
+// every reachable frontier is claimed waits instead of completing.
+TEST(ExplorerTest, APeersOlderClaimWinsAndAllClaimedMeansWait) {
+  Explorer explorer;
+  TeamView team{"r2", 50.0, {{"r1", Eigen::Vector2d(5, 0.5), 10.0}}};
+  ExplorerDecision d = explorer.Decide(Set({Cluster(5, 0, 3.0), Cluster(0, 5, 1.0)}), team);
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(0, 5)) << "r1 claimed (5, 0.5) first";
+  // r3 has just claimed the same frontier as r2 holds for 20 s: r2 keeps it.
+  team = TeamView{"r2", 70.0, {{"r1", Eigen::Vector2d(5, 0.5), 30.0}, {"r3", Eigen::Vector2d(0, 5.5), 0.2}}};
+  d = explorer.Decide(Set({Cluster(5, 0, 3.0), Cluster(0, 5, 1.0)}), team);
+  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kKeep);
+  // A tie (both 0.3 s): the smaller id keeps it.
+  Explorer r3;
+  d = r3.Decide(Set({Cluster(0, 5, 1.0)}), TeamView{"r3", 0.0, {{"r2", Eigen::Vector2d(0, 5), 0.3}}});
+  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kWait);
+  EXPECT_EQ(d.reason, "every reachable frontier (1) is claimed by a peer (r2): waiting");
+  Explorer r1;
+  d = r1.Decide(Set({Cluster(0, 5, 1.0)}), TeamView{"r1", 0.0, {{"r2", Eigen::Vector2d(0, 5), 0.3}}});
+  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kGoTo) << "r1 < r2";
+  // The robot's own claim is never a peer's.
+  Explorer self;
+  d = self.Decide(Set({Cluster(0, 5, 1.0)}), TeamView{"r1", 0.0, {{"r1", Eigen::Vector2d(0, 5), 9.0}}});
+  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+}
+
+// A frontier the robot stood on and whose unknown stayed unseen (below its lidar's lowest beam) is not driven to
+// again; one farther than visited_radius_m from it is.
+TEST(ExplorerTest, AReachedTargetIsNotDrivenToAgain) {
+  Explorer explorer;
+  ExplorerDecision d = explorer.Decide(Set({Cluster(5, 0, 3.0), Cluster(0, 5, 1.0)}));
+  ASSERT_EQ(d.target.target_M, Eigen::Vector2d(5, 0));
+  explorer.Reached();
+  EXPECT_FALSE(explorer.current().has_value());
+  ASSERT_EQ(explorer.visited().size(), 1u);
+  d = explorer.Decide(Set({Cluster(5.5, 0, 3.0), Cluster(0, 5, 1.0)}));
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(0, 5));
+  explorer.Reached();
+  d = explorer.Decide(Set({Cluster(5.5, 0, 3.0), Cluster(0, 5.2, 1.0)}));
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kComplete);
+  EXPECT_EQ(d.reason,
+            "exploration complete: no reachable frontier (0 seen but unreachable, 0 given up on, 2 reached but still "
+            "unseen beyond)");
+  d = explorer.Decide(Set({Cluster(7, 0, 3.0)}));
+  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kGoTo) << "2 m from a reached target: a new frontier";
+  explorer.Reached();
+  explorer.Reached();  // no current target: nothing more
+  EXPECT_EQ(explorer.visited().size(), 3u);
+}
+
 }  // namespace
 }  // namespace cairn::nav

@@ -34,6 +34,8 @@ msgs::CommandKind KindOf(CommandKind kind) {
       return msgs::COMMAND_KIND_WAYPOINT;
     case CommandKind::kExplore:
       return msgs::COMMAND_KIND_EXPLORE;
+    case CommandKind::kHome:
+      return msgs::COMMAND_KIND_HOME;
     case CommandKind::kStop:
       break;
   }
@@ -53,7 +55,7 @@ msgs::CommandResult ResultOf(CommandResult result) {
 }
 
 AgentDdsHandlers Checked(AgentDdsHandlers h) {
-  if (!h.control || !h.mode || !h.goal || !h.explore || !h.stop || !h.teleop || !h.base_announced || !h.base_liveliness ||
+  if (!h.control || !h.mode || !h.goal || !h.explore || !h.home || !h.stop || !h.teleop || !h.base_announced || !h.base_liveliness ||
       !h.path_query || !h.map_sync) {
     throw std::invalid_argument("AgentDds: every handler is required");
   }
@@ -95,6 +97,7 @@ class AgentDds::Impl {
     mode_reader_.reset();
     goal_reader_.reset();
     explore_reader_.reset();
+    home_reader_.reset();
     stop_reader_.reset();
     teleop_reader_.reset();
     info_reader_.reset();
@@ -250,7 +253,15 @@ class AgentDds::Impl {
           // NaN on the wire = no bound.
           if (!std::isnan(m.min_z_m())) c.task.min_z_m = m.min_z_m();
           if (!std::isnan(m.max_z_m())) c.task.max_z_m = m.max_z_m();
+          c.task.home_after_silence_s = m.home_after_silence_s();
           handlers_.explore(c);
+        });
+    home_reader_ = std::make_unique<core::Reader<msgs::HomeRequestPubSubType>>(
+        p, "cairn/home_request", "cairn.command",
+        [this, robot](const msgs::HomeRequest& m, const SampleInfo& info) {
+          if (m.robot_id() != robot) return;
+          handlers_.home(HomeCommand{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.has_point(),
+                                     m.x_m(), m.y_m(), m.z_m()});
         });
     stop_reader_ = std::make_unique<core::Reader<msgs::StopRequestPubSubType>>(
         p, "cairn/stop_request", "cairn.command",
@@ -300,6 +311,7 @@ class AgentDds::Impl {
   std::unique_ptr<core::Reader<msgs::ModeRequestPubSubType>> mode_reader_;
   std::unique_ptr<core::Reader<msgs::WaypointGoalPubSubType>> goal_reader_;
   std::unique_ptr<core::Reader<msgs::ExploreRequestPubSubType>> explore_reader_;
+  std::unique_ptr<core::Reader<msgs::HomeRequestPubSubType>> home_reader_;
   std::unique_ptr<core::Reader<msgs::StopRequestPubSubType>> stop_reader_;
   std::unique_ptr<core::Reader<msgs::TeleopTwistPubSubType>> teleop_reader_;
   std::unique_ptr<core::Reader<msgs::AgentInfoPubSubType>> info_reader_;

@@ -130,9 +130,27 @@ void CommandInterface::OnStop(const StopCommand& command) {
           "stopped (was " + previous + "): zero twist, mode idle");
 }
 
+void CommandInterface::OnHome(const HomeCommand& command, const core::BaseState& home_M) {
+  GoalCommand goal;
+  goal.sender = command.sender;
+  goal.request_id = command.request_id;
+  goal.frame_id = command.frame_id;
+  goal.kind = CommandKind::kHome;
+  if (command.has_point) {
+    goal.x_m = command.x_m;
+    goal.y_m = command.y_m;
+    goal.z_m = command.z_m;
+  } else {
+    goal.x_m = home_M.x_m;
+    goal.y_m = home_M.y_m;
+    goal.z_m = home_M.z_m;  // the level it started on
+  }
+  OnGoal(goal);
+}
+
 void CommandInterface::OnGoal(const GoalCommand& command) {
   const CommandSender& sender = command.sender;
-  const CommandKind kind = CommandKind::kWaypoint;
+  const CommandKind kind = command.kind;
   if (ReplayIfDuplicate(sender, kind, command.request_id)) return;
   if (DiscardUnlessHolder(sender, command.request_id, kind)) return;
   auto deny = [&](const std::string& reason) {
@@ -156,7 +174,7 @@ void CommandInterface::OnGoal(const GoalCommand& command) {
 
 void CommandInterface::OnGoalPlanned(const GoalCommand& command, const nav::GlobalPlan& plan) {
   const CommandSender& sender = command.sender;
-  const CommandKind kind = CommandKind::kWaypoint;
+  const CommandKind kind = command.kind;
   const CommandKey key{sender.writer, static_cast<uint32_t>(kind), command.request_id};
   pending_goals_.erase(std::remove(pending_goals_.begin(), pending_goals_.end(), key), pending_goals_.end());
   if (DiscardUnlessHolder(sender, command.request_id, kind)) return;  // the lock moved while it was planned
@@ -250,6 +268,13 @@ void CommandInterface::Update(core::SteadyTime now) {
   if (lock_.Update(now)) {
     spdlog::warn("robot {}: control lock freed after {} s without its holder", robot_id_, lock_keep_s_);
   }
+  for (const auto& [writer, base] : bases_) {
+    if (base.alive) last_base_alive_ = now;
+  }
+}
+
+double CommandInterface::SecondsSinceBaseHeard(core::SteadyTime now) const {
+  return std::max(0.0, core::SecondsBetween(last_base_alive_, now));
 }
 
 void CommandInterface::FillConditions(ModeConditions* c) const {

@@ -38,8 +38,31 @@ std::string CheckExploreTask(const ExploreTask& task) {
   if (std::isnan(task.min_z_m) || std::isnan(task.max_z_m) || !(task.min_z_m < task.max_z_m)) {
     why << "z range (" << task.min_z_m << ", " << task.max_z_m << ") must be two numbers, the first below the "
         << "second, metres";
+  } else if (!(task.home_after_silence_s >= 0 && task.home_after_silence_s <= 86400)) {
+    why << "home_after_silence_s = " << task.home_after_silence_s << " must be in [0, 86400] (0 = never)";
   }
   return why.str();
+}
+
+bool MarkPeerCoverage(const perception::MapUpdate& update, double min_z_m, double max_z_m,
+                      nav::PeerCoverage* coverage, std::string* why) {
+  if (!(update.resolution_m > 0) || !std::isfinite(update.resolution_m)) {
+    if (why != nullptr) *why = "resolution_m = " + std::to_string(update.resolution_m) + " must be positive";
+    return false;
+  }
+  std::vector<perception::CoarseVoxel> voxels;
+  if (!perception::DecodeCoarseVoxels(update.data.data(), update.data.size(), perception::kMaxVoxelsPerUpdate,
+                                      &voxels, why)) {
+    return false;
+  }
+  const double r = update.resolution_m;
+  for (const perception::CoarseVoxel& v : voxels) {
+    if (v.state != perception::CoarseState::kOccupied) continue;  // space seen, not the ground
+    const double z = (v.iz + 0.5) * r;
+    if (z < min_z_m || z > max_z_m) continue;
+    coverage->Mark({(v.ix + 0.5) * r, (v.iy + 0.5) * r});
+  }
+  return true;
 }
 
 const char* ToString(ExplorationState state) {
@@ -59,8 +82,12 @@ bool ExploreModeOptions::IsValid(std::string* why) const {
             internal::InRange("explore.contact_timeout_s", contact_timeout_s, 0, 3600, true, &msg) &&
             internal::InRange("explore.target_tolerance_m", target_tolerance_m, 0, 3, true, &msg) &&
             internal::InRange("explore.settle_s", settle_s, 0, 10, false, &msg) &&
-            internal::InRange("explore.map_wait_s", map_wait_s, 0, 600, true, &msg) &&
-            frontiers.IsValid(&msg) && explorer.IsValid(&msg);
+            internal::InRange("explore.map_wait_s", map_wait_s, 0, 600, true, &msg);
+  std::string nested;
+  if (ok && !(frontiers.IsValid(&nested) && explorer.IsValid(&nested))) {
+    msg = "explore: " + nested;  // the config section; the option struct names the field
+    ok = false;
+  }
   if (ok && first_task_id == 0) {
     msg = "explore.first_task_id = 0 must be >= 1";
     ok = false;
@@ -141,6 +168,11 @@ void ExploreMode::OnFrontiers(nav::FrontierSet set, double computed_at_s) {
   frontiers_at_s_ = computed_at_s;
 }
 
+std::optional<nav::PeerClaim> ExploreMode::OwnClaim(double now_s) const {
+  if (!exploring() || !status_.has_target) return std::nullopt;
+  return nav::PeerClaim{options_.robot_id, status_.target_M, explorer_.HeldS(now_s)};
+}
+
 bool ExploreMode::planning() const { return plan_.valid() && !Ready(plan_); }
 
 void ExploreMode::DropTarget() {
@@ -180,7 +212,7 @@ void ExploreMode::EndTarget(bool reached, const std::string& reason, double now_
     spdlog::info("robot {}: exploration {} reached the frontier at {}", options_.robot_id, status_.task_id,
                  Point(target));
   } else {
-    explorer_.Fail(reason);
+    explorer_.Fail(reason, now_s);
     ++status_.targets_failed;
     spdlog::warn("robot {}: exploration {} gave up the frontier at {}: {}", options_.robot_id, status_.task_id,
                  Point(target), reason);
@@ -205,7 +237,16 @@ void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput
     }
     return;
   }
-  const nav::ExplorerDecision d = explorer_.Decide(set);
+  const nav::ExplorerDecision d = explorer_.Decide(set, nav::TeamView{options_.robot_id, now_s, peer_claims_});
+  if (d.kind == nav::ExplorerDecision::Kind::kWait) {
+    if (status_.has_target || status_.reason != d.reason) {
+      spdlog::info("robot {}: exploration {}: {}", options_.robot_id, status_.task_id, d.reason);
+    }
+    DropTarget();
+    complete_pending_ = false;
+    status_.reason = d.reason;
+    return;
+  }
   if (d.kind == nav::ExplorerDecision::Kind::kComplete) {
     if (!complete_pending_ && (driving_ || plan_.valid() || pose_M.v_mps > 0.05)) {
       // Seen on the move: confirm it at rest with the next set (a frontier may be just out of sight).
@@ -227,8 +268,8 @@ void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput
   status_.has_target = true;
   status_.target_M = d.target.target_M;
   status_.target_z_m = d.target.target_ground_z_m;
-  plan_ = navigation_->PlanGoalAsync(pose_M, d.target.target_M.x(), d.target.target_M.y(),
-                                     d.target.target_ground_z_m);
+  // On the robot's level, as the frontier search reads the map (its main level).
+  plan_ = navigation_->PlanGoalAsync(pose_M, d.target.target_M.x(), d.target.target_M.y());
   spdlog::info("robot {}: exploration {} to the frontier at {} ({:.0f} m² unknown behind it, {:.1f} m away): {}",
                options_.robot_id, status_.task_id, Point(d.target.target_M), d.target.gain_m2,
                d.target.travel_cost_m, d.reason);
@@ -239,12 +280,21 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
   if (!exploring()) return out;
   out.twist_B = Twist2{0.0, 0.0};  // holds still unless a target is driven
   out.stamp = in.now;
+  // A peer claimed the same frontier first (both chose it before either heard of the other): leave it now.
+  if (std::string by; status_.has_target &&
+                      explorer_.CurrentClaimedByPeer(nav::TeamView{options_.robot_id, in.now_s, peer_claims_}, &by)) {
+    const Eigen::Vector2d target = status_.target_M;
+    DropTarget();
+    explorer_.ClearTarget();
+    status_.reason = "the frontier at " + Point(target) + " is " + by + "'s (claimed first)";
+    spdlog::info("robot {}: exploration {}: {}", options_.robot_id, status_.task_id, status_.reason);
+  }
   if (Ready(plan_)) {
     const nav::GlobalPlan plan = plan_.get();
     plan_ = {};
     if (plan.IsUsable()) {
       navigation_->AcceptGoal(plan, status_.target_M.x(), status_.target_M.y(), options_.target_tolerance_m,
-                              in.now_s, status_.target_z_m);
+                              in.now_s);
       driving_ = true;
     } else {
       EndTarget(false, "no path: " + plan.reason, in.now_s);
@@ -259,7 +309,7 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
       step = navigation_->StepWaypoint(in.pose_M, in.now_s);
       if (step.failed && recovery_ && recovery_->enabled()) {
         recovery_->Start(status_.target_M.x(), status_.target_M.y(), options_.target_tolerance_m, step.reason,
-                         status_.target_z_m);
+                         std::numeric_limits<double>::quiet_NaN());
         status_.reason = "recovering: " + recovery_->Report();
         step = NavigationStep{};  // brake this cycle; the recovery tree runs from the next
       }

@@ -11,6 +11,7 @@
 #include <atomic>
 #include <cmath>
 #include <exception>
+#include <future>
 #include <mutex>
 #include <random>
 #include <thread>
@@ -121,7 +122,10 @@ struct PeriodWindow {
 class RobotAgent::Impl {
  public:
   Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform);
-  ~Impl() { dds_.reset(); }  // first: no handler runs while the rest goes
+  ~Impl() {
+    dds_.reset();  // first: no handler runs while the rest goes
+    if (home_plan_.valid()) navigation_.Abandon(std::move(home_plan_));
+  }
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
   void Run();
@@ -137,6 +141,10 @@ class RobotAgent::Impl {
   CommandOutcome StartGoal(const GoalCommand& goal, const nav::GlobalPlan& plan);
   // With mutex_ held: the mode tree's facts now.
   ModeConditions Conditions() const;
+  // With mutex_ held, once per control cycle: an exploring robot that has heard no basestation for its task's
+  // home_after_silence_s ends the exploration and drives back to its start by itself (plans on a worker,
+  // then a waypoint goal).
+  void ComeHomeIfSilent(SteadyTime now);
   // With mutex_ held: one control cycle (mode re-check, pose, obstacles, the running mode, the mux, the
   // driver).
   void Step(SteadyTime now);
@@ -164,6 +172,7 @@ class RobotAgent::Impl {
   std::unique_ptr<PerceptionService> perception_;  // sensor, perception and navigation map threads
   WaypointMode* waypoint_ = nullptr;               // owned by modes_; holds the waypoint goal
   ExploreMode* explore_ = nullptr;                 // owned by modes_; holds the exploration task
+  std::future<nav::GlobalPlan> home_plan_;         // ComeHomeIfSilent(): the way back, being planned
   std::unique_ptr<ModeControl> modes_;             // the mode tree, the mode modules and the mux
   std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
   std::unique_ptr<PlanningService> planning_;  // the planning thread: goals, then peers' path queries
@@ -306,6 +315,7 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   h.mode = locked([this](const ModeCommand& c) { command_->OnMode(c); });
   h.goal = locked([this](const GoalCommand& c) { command_->OnGoal(c); });
   h.explore = locked([this](const ExploreCommand& c) { command_->OnExplore(c); });
+  h.home = locked([this](const HomeCommand& c) { command_->OnHome(c, start_M_); });
   h.stop = locked([this](const StopCommand& c) { command_->OnStop(c); });
   h.teleop = locked([this](const TeleopCommand& c) { command_->OnTeleop(c, SteadyClock::now()); });
   h.base_announced = locked([this](const BaseAnnouncement& b) { command_->OnBaseAnnounced(b); });
@@ -331,8 +341,11 @@ CommandOutcome RobotAgent::Impl::StartGoal(const GoalCommand& goal, const nav::G
                start.goal_id, goal.x_m, goal.y_m, goal.sender.base_id, plan.result.length_m);
   telemetry_
       ->PublishGlobalPathIfChanged();  // before the acknowledgement, so `path R` right after `goto` shows it
+  const std::string home = goal.kind == CommandKind::kHome ? "home to (" + internal::Fixed(goal.x_m, 2) + ", " +
+                                                                  internal::Fixed(goal.y_m, 2) + "): "
+                                                            : "";
   return {true,
-          "path " + internal::Fixed(plan.result.length_m, 1) + " m, ETA " +
+          home + "path " + internal::Fixed(plan.result.length_m, 1) + " m, ETA " +
               internal::Fixed(navigation_.eta_s(), 0) + " s",
           start.goal_id};
 }
@@ -348,6 +361,35 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   c.has_explore_task = explore_->exploring();
   c.mapping_healthy = perception_->MappingHealthy(&c.mapping_problem);
   return c;
+}
+
+void RobotAgent::Impl::ComeHomeIfSilent(SteadyTime now) {
+  if (home_plan_.valid()) {
+    if (home_plan_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+    const nav::GlobalPlan plan = home_plan_.get();
+    if (!plan.IsUsable()) {
+      spdlog::error("robot {}: no way back to its start ({:.2f}, {:.2f}): {}; it stays here", options_.robot_id,
+                    start_M_.x_m, start_M_.y_m, plan.reason);
+      return;
+    }
+    const GoalStart start =
+        waypoint_->Start(plan, start_M_.x_m, start_M_.y_m, 0.0, start_M_.z_m, NowS(now),
+                         [this] { return modes_->Request(waypoint_->name(), Conditions()); });
+    if (start.accepted) {
+      spdlog::warn("robot {}: driving back to its start ({:.2f}, {:.2f}), {:.1f} m (waypoint {})", options_.robot_id,
+                   start_M_.x_m, start_M_.y_m, plan.result.length_m, start.goal_id);
+    } else {
+      spdlog::error("robot {}: cannot drive back to its start: {}; it stays here", options_.robot_id, start.reason);
+    }
+    return;
+  }
+  if (!explore_->exploring()) return;
+  const double limit_s = explore_->status().task.home_after_silence_s;
+  const double silence_s = command_->SecondsSinceBaseHeard(now);
+  if (limit_s <= 0 || silence_s <= limit_s) return;
+  explore_->Deactivate("no basestation heard for " + internal::Fixed(silence_s, 1) +
+                       " s: driving back to the start");
+  home_plan_ = navigation_.PlanGoalAsync(pose_, start_M_.x_m, start_M_.y_m, start_M_.z_m);
 }
 
 void RobotAgent::Impl::Step(SteadyTime now) {
@@ -379,6 +421,7 @@ void RobotAgent::Impl::Step(SteadyTime now) {
 
   const ModeInputs inputs{now, now_s, pose_};
   if (modes_->Step(inputs)) modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
+  ComeHomeIfSilent(now);
   telemetry_->PublishGlobalPathIfChanged();
 
   const MuxOutput& command = modes_->Compute(now);

@@ -20,6 +20,11 @@ core::BaseState StartPose(core::PlatformIO& platform) {
   return platform.ReadPose().PlanarState();
 }
 
+// The band of a peer's ground voxels that count as this robot's floor, metres below and above the start's
+// ground (plus the platform's step).
+constexpr double kPeerFloorBelowM = 0.5;
+constexpr double kPeerFloorAboveM = 0.2;
+
 core::SteadyTime AsSteady(double now_s) {
   return core::SteadyTime{} +
          std::chrono::duration_cast<core::SteadyClock::duration>(std::chrono::duration<double>(now_s));
@@ -31,6 +36,7 @@ SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::Pl
                            const std::string& tree_file)
     : options_(options), platform_(Checked(std::move(platform))) {
   const core::BaseState start_M = StartPose(*platform_);
+  start_z_m_ = start_M.z_m;
   PerceptionOptions perception = options_.perception;
   perception.camera_rate_hz = 0;
   perception_ = std::make_unique<PerceptionPipeline>(perception, options_.robot_id);
@@ -52,32 +58,53 @@ SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::Pl
   next_map_update_s_ = options_.nav_map.update_period_s;
 }
 
+void SteppedRobot::AddPeerMapUpdate(const perception::MapUpdate& update) {
+  // The floor around the start's level (one coarse voxel above the steps the platform climbs).
+  MarkPeerCoverage(update, start_z_m_ - kPeerFloorBelowM,
+                   start_z_m_ + options_.navigation.platform.traversability.max_step_m + kPeerFloorAboveM,
+                   &peer_coverage_, nullptr);
+}
+
 std::string SteppedRobot::Explore(const ExploreTask& task, double now_s) {
   return explore_->Start(task, now_s, [] { return ModeDecision{true, ExploreMode::kName, ExploreMode::kChannel, ""}; });
 }
 
 void SteppedRobot::Step(double now_s) {
+  using WallClock = std::chrono::steady_clock;
+  auto since = [](WallClock::time_point start) {
+    return std::chrono::duration<double>(WallClock::now() - start).count();
+  };
+  auto start = WallClock::now();
   platform_->Update(now_s);
   const core::BaseState pose = platform_->ReadPose().PlanarState();
-  if (platform_->ReadLidarScan(now_s, &scan_)) {
+  const bool has_scan = platform_->ReadLidarScan(now_s, &scan_);
+  timing_.platform_s += since(start);
+  start = WallClock::now();
+  if (has_scan) {
     core::BaseState at_scan;
     live_obstacles_->AddScan(scan_, &points_B_, &at_scan);
     navigation_->SetObstacles(points_B_, at_scan, now_s);
-    perception_->Tick(now_s, &scan_, nullptr);
+    PerceptionOutput out = perception_->Tick(now_s, &scan_, nullptr);
+    for (auto& m : out.map_messages) map_messages_.push_back(std::move(m));
   }
   perception_->set_refresh_at_rest(explore_->exploring());
+  timing_.perception_s += since(start);
   if (now_s >= next_map_update_s_) {
+    start = WallClock::now();
     next_map_update_s_ += options_.nav_map.update_period_s;
     nav_map_->Update(*perception_->map(), perception_->TakeChangedTiles(), perception_->change_tile_m(),
                      perception_->max_sensor_z_m(), perception_->Staircases());
+    timing_.nav_map_s += since(start);
     if (const auto search = explore_->frontier_search()) {
-      const auto start = std::chrono::steady_clock::now();
-      nav::FrontierSet set = nav::FindFrontiers(nav_map_->grid(), {pose.x_m, pose.y_m}, *search);
-      frontier_search_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      start = WallClock::now();
+      nav::FrontierSet set = nav::FindFrontiers(nav_map_->grid(), {pose.x_m, pose.y_m}, *search,
+                                                peer_coverage_.size() > 0 ? &peer_coverage_ : nullptr);
+      frontier_search_s_ += since(start);
       ++frontier_searches_;
       explore_->OnFrontiers(std::move(set), now_s);
     }
   }
+  start = WallClock::now();
   const ModeInputs in{AsSteady(now_s), now_s, pose};
   ModeOutput out = explore_->Step(in);
   const Twist2 twist = out.twist_B.value_or(Twist2{0.0, 0.0});
@@ -85,6 +112,7 @@ void SteppedRobot::Step(double now_s) {
   const core::PlatformStatus status = platform_->ReadStatus();
   ever_in_contact_ = ever_in_contact_ || status.in_contact;
   explore_->OnPlatformStatus(status, in);
+  timing_.explore_s += since(start);
 }
 
 }  // namespace cairn::agent

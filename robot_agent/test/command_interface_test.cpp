@@ -213,6 +213,38 @@ TEST(CommandInterface, AGoalIsAnsweredOnceItsPlanIsDoneAndARetryMeanwhileIsIgnor
   EXPECT_EQ(r.last().goal_id, 42u);
 }
 
+// Issue 14: home R is a goal to the robot's start (its level too), or to the point sent; its answer is a home
+// answer, and it is the holder's only.
+TEST(CommandInterface, HomeIsAGoalToTheStartOrThePointSent) {
+  Robot r;
+  core::BaseState start;
+  start.x_m = 4.0;
+  start.y_m = 20.0;
+  start.z_m = 0.1;
+  r.command->OnHome(HomeCommand{OpA(), 1, "map", false, 0, 0, std::nan("")}, start);
+  EXPECT_EQ(r.last().result, CommandResult::kDiscarded);
+  EXPECT_EQ(r.last().kind, CommandKind::kHome);
+  r.Take(OpA());
+  r.command->OnHome(HomeCommand{OpA(), 2, "map", false, 0, 0, std::nan("")}, start);
+  ASSERT_EQ(r.planned.size(), 1u);
+  EXPECT_EQ(r.planned[0].x_m, 4.0);
+  EXPECT_EQ(r.planned[0].y_m, 20.0);
+  EXPECT_EQ(r.planned[0].z_m, 0.1);
+  EXPECT_EQ(r.planned[0].kind, CommandKind::kHome);
+  r.command->OnGoalPlanned(r.planned[0], nav::GlobalPlan{});
+  EXPECT_EQ(r.last().result, CommandResult::kAccepted);
+  EXPECT_EQ(r.last().kind, CommandKind::kHome);
+  EXPECT_EQ(r.last().request_id, 2u);
+  r.command->OnHome(HomeCommand{OpA(), 3, "map", true, 7.5, -2.0, std::nan("")}, start);
+  ASSERT_EQ(r.planned.size(), 2u);
+  EXPECT_EQ(r.planned[1].x_m, 7.5);
+  EXPECT_EQ(r.planned[1].y_m, -2.0);
+  r.command->OnHome(HomeCommand{OpA(), 4, "odom", false, 0, 0, std::nan("")}, start);
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_NE(r.last().reason.find("odom"), std::string::npos) << r.last().reason;
+  EXPECT_EQ(r.planned.size(), 2u);
+}
+
 TEST(CommandInterface, AGoalWhoseLockMovedWhileItWasPlannedIsDiscarded) {
   Robot r;
   r.Take(OpA());

@@ -8,11 +8,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <queue>
 #include <thread>
 
 #include "cairn/agent/stepped_robot.h"
+#include "explore_team.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/simulated_platform.h"
 
@@ -57,58 +56,41 @@ TEST(ExploreTaskTest, BadRegionsAndHeightsAreNamed) {
   EXPECT_NE(CheckExploreTask(task).find("z range"), std::string::npos);
 }
 
-// Fraction of the floor a robot can reach from `start` (traversable ground-truth cells, 8-connected flood
-// fill) that is known (not unknown) in `grid`, the robot's map.
-double Coverage(const nav::TraversabilityGrid& truth, const nav::TraversabilityGrid& grid, double start_x,
-                double start_y, int* reachable_cells) {
-  int sx = 0, sy = 0;
-  if (!truth.CellOf(start_x, start_y, &sx, &sy)) return 0.0;
-  const int nx = truth.nx(), ny = truth.ny();
-  std::vector<char> seen(static_cast<std::size_t>(nx) * ny, 0);
-  std::queue<std::pair<int, int>> open;
-  open.push({sx, sy});
-  seen[static_cast<std::size_t>(sy) * nx + sx] = 1;
-  int reachable = 0, known = 0;
-  while (!open.empty()) {
-    const auto [x, y] = open.front();
-    open.pop();
-    ++reachable;
-    const Eigen::Vector2d c = truth.CellCenter(x, y);
-    int gx = 0, gy = 0;
-    if (grid.CellOf(c.x(), c.y(), &gx, &gy) && grid.State(gx, gy) != nav::CellState::kUnknown) ++known;
-    for (int dy = -1; dy <= 1; ++dy) {
-      for (int dx = -1; dx <= 1; ++dx) {
-        const int u = x + dx, v = y + dy;
-        if (u < 0 || v < 0 || u >= nx || v >= ny) continue;
-        char& s = seen[static_cast<std::size_t>(v) * nx + u];
-        if (s || !truth.IsTraversable(u, v)) continue;
-        s = 1;
-        open.push({u, v});
-      }
-    }
+// Two robots from a gate explore the west half of the tunnels and the X junction (a region) as a team: they never
+// go for the same frontier, both take part, the region ends up in their maps and every robot completes; with
+// one robot gone for good 15 s in, the other explores the branch it was going for and completes the region
+// alone (what the gone robot saw before it went counts as seen: it reached its peers as map telemetry).
+TEST(ExploreTest, TwoRobotsShareARegionWithoutSharingAFrontierAndOneTakesOverWhenTheOtherIsGone) {
+  explore_team::TeamOptions o;
+  o.starts = {{4.0, 20.0, 0.0}, {6.0, 20.0, 0.0}};
+  o.task.region_M = Eigen::AlignedBox2d(Eigen::Vector2d(0, 15), Eigen::Vector2d(32, 25));
+  explore_team::TeamRun team = explore_team::RunTeam(o);
+  for (std::size_t i = 0; i < team.statuses.size(); ++i) {
+    const ExplorationStatus& s = team.statuses[i];
+    std::printf("  r%zu: %s: %s; %d reached, %d given up, %.0f m driven\n", i + 1, ToString(s.state), s.reason.c_str(),
+                s.targets_reached, s.targets_failed, team.driven_m[i]);
+    EXPECT_EQ(s.state, ExplorationState::kComplete) << s.reason;
+    EXPECT_GE(s.targets_reached, 1) << "every robot takes part";
   }
-  if (reachable_cells != nullptr) *reachable_cells = reachable;
-  if (std::getenv("CAIRN_TEST_COVERAGE_MAP") != nullptr) {
-    // 0.5 m per character: ' ' not reachable, '#' all known, '?' some unknown, 'U' mostly unknown.
-    for (int y = ny - 5; y >= 0; y -= 5) {
-      std::string row;
-      for (int x = 0; x < nx; x += 5) {
-        int r = 0, k = 0;
-        for (int v = y; v < std::min(ny, y + 5); ++v) {
-          for (int u = x; u < std::min(nx, x + 5); ++u) {
-            if (!seen[static_cast<std::size_t>(v) * nx + u]) continue;
-            ++r;
-            const Eigen::Vector2d c = truth.CellCenter(u, v);
-            int gx = 0, gy = 0;
-            if (grid.CellOf(c.x(), c.y(), &gx, &gy) && grid.State(gx, gy) != nav::CellState::kUnknown) ++k;
-          }
-        }
-        row += r == 0 ? ' ' : k == r ? '#' : 2 * k >= r ? '?' : 'U';
-      }
-      std::printf("%s\n", row.c_str());
-    }
-  }
-  return reachable > 0 ? static_cast<double>(known) / reachable : 0.0;
+  std::printf("  two robots: %.1f %% of the region after %.0f s (90 %% after %.0f s), %d claim overlaps; %.0f s wall\n",
+              100 * team.coverage, team.end_s, team.time_to_90_s, team.claim_overlaps, team.wall_s);
+  EXPECT_GE(team.coverage, 0.9);
+  EXPECT_EQ(team.claim_overlaps, 0);
+  EXPECT_FALSE(team.contact);
+
+  o.kill_index = 0;
+  o.kill_at_s = 15.0;
+  team = explore_team::RunTeam(o);
+  ASSERT_TRUE(team.killed_claim.has_value()) << "r1 was going somewhere when it went";
+  std::printf("  r1 gone at 15 s going for (%.2f, %.2f): %.0f %% of the floor within 2 m of it in r2's own map; "
+              "%.1f %% of the region after %.0f s; r2 %s: %s\n",
+              team.killed_claim->target_M.x(), team.killed_claim->target_M.y(), 100 * team.killed_branch_known,
+              100 * team.coverage, team.end_s, ToString(team.statuses[1].state), team.statuses[1].reason.c_str());
+  // r1's claim went with it: r2 explored the branch r1 was going for, itself.
+  EXPECT_GE(team.killed_branch_known, 0.9);
+  EXPECT_GE(team.coverage, 0.8);
+  EXPECT_EQ(team.statuses[1].state, ExplorationState::kComplete) << team.statuses[1].reason;
+  EXPECT_EQ(team.statuses[0].state, ExplorationState::kExploring) << "r1 stopped mid-way (its process gone)";
 }
 
 TEST(ExploreTest, OneRobotExploresTheTunnelsUntilCompleteWithoutContact) {
@@ -140,13 +122,16 @@ TEST(ExploreTest, OneRobotExploresTheTunnelsUntilCompleteWithoutContact) {
   }
   const ExplorationStatus& s = robot.explore().status();
   int reachable = 0;
-  const double coverage = Coverage(*platform->terrain(), robot.nav_map().grid(), start_W.x_m, start_W.y_m,
-                                   &reachable);
+  const double coverage = explore_team::Coverage(*platform->terrain(), {&robot.nav_map().grid()}, start_W.x_m,
+                                                 start_W.y_m, {}, &reachable);
   std::printf("  after %.0f s: %s: %s; coverage %.1f %% of %d reachable cells, %.0f m² explored, %d targets "
               "reached, %d failed, %.0f m driven, %d frontier searches, %.1f ms each\n",
               t, ToString(s.state), s.reason.c_str(), 100 * coverage, reachable, s.explored_m2, s.targets_reached,
               s.targets_failed, platform->distance_travelled_m(), robot.frontier_searches(),
               1000 * robot.frontier_search_s() / std::max(1, robot.frontier_searches()));
+  std::printf("  wall time: platform %.1f s, perception %.1f s, navigation map %.1f s, frontiers %.1f s, explore %.1f s\n",
+              robot.timing().platform_s, robot.timing().perception_s, robot.timing().nav_map_s,
+              robot.frontier_search_s(), robot.timing().explore_s);
   EXPECT_EQ(s.state, ExplorationState::kComplete) << s.reason;
   EXPECT_NE(s.reason.find("exploration complete: no reachable frontier"), std::string::npos) << s.reason;
   EXPECT_GE(coverage, 0.90);

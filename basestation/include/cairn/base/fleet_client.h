@@ -133,10 +133,15 @@ class FleetClient {
                               double z_m = std::numeric_limits<double>::quiet_NaN());
   /// Sends `robot_id` exploring by itself (ExploreRequest): frontiers within `region_M` (x-y box, metres, map
   /// frame; none = everywhere) whose ground lies in [min_z_m, max_z_m] (metres, map frame; NaN = no bound).
-  /// The answer carries the task id in goal_id.
+  /// `home_after_silence_s` > 0: the robot comes back to its start by itself when it has heard no basestation
+  /// for that long (0 = never). The answer carries the task id in goal_id.
   CommandOutcome SendExplore(const std::string& robot_id, const std::optional<Eigen::AlignedBox2d>& region_M,
                              double min_z_m = std::numeric_limits<double>::quiet_NaN(),
-                             double max_z_m = std::numeric_limits<double>::quiet_NaN());
+                             double max_z_m = std::numeric_limits<double>::quiet_NaN(),
+                             double home_after_silence_s = 0.0);
+  /// Sends `robot_id` home (HomeRequest): a waypoint goal the robot plans to its start, or to `point_M`
+  /// (x, y metres, frame map; z its level, NaN = the robot's). The answer carries the goal id.
+  CommandOutcome SendHome(const std::string& robot_id, const std::optional<Eigen::Vector3d>& point_M = std::nullopt);
   /// Stops `robot_id` now: zero twist, mode idle, goal cancelled. Honoured by the robot from any basestation,
   /// with or without its control lock (an e-stop); the lock stays with its holder. Sent at once even to a
   /// robot this basestation thinks lost or has not seen (retried until answered or command_timeout_s).

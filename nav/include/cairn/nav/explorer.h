@@ -25,22 +25,45 @@ struct ExplorerOptions {
   /// The current target is still there when a cluster's target lies within this of it, metres, (0, 10]: the
   /// frontier moves a little as the map grows around it.
   double follow_radius_m = 1.5;
-  /// A failed target bars clusters whose target lies within this of it, metres, (0, 20].
+  /// A failed target bars clusters whose target lies within this of it, metres, (0, 20]...
   double blacklist_radius_m = 1.5;
+  /// ...for this long after its first failure (the map around it may show a way later), and for good after a
+  /// second failure there, seconds, [0, 3600].
+  double retry_after_s = 120.0;
   /// A target the robot reached bars clusters whose target lies within this of it, metres, (0, 20]: what
   /// is still unknown behind a frontier the robot stood on is out of its lidar's sight from there (below its
   /// lowest beam, behind a corner), and driving there again would show nothing new.
   double visited_radius_m = 1.0;
+  /// A cluster whose target lies within this of a peer's claim is that peer's (unless this robot has held it
+  /// longer), metres, (0, 50]: two robots never drive to the same frontier.
+  double claim_radius_m = 3.0;
 
   /// True when every field is in range; otherwise false with `*why` (if not null) naming the field, its value
   /// and the rule.
   bool IsValid(std::string* why) const;
 };
 
+/// A peer robot's claim on the frontier it drives to (ExploreClaim on the wire): its target and how long it
+/// has held it. The caller leaves out claims that expired (a robot lost, or no longer exploring).
+struct PeerClaim {
+  std::string robot_id;
+  Eigen::Vector2d target_M = Eigen::Vector2d::Zero();  ///< metres, frame M (shared by the team)
+  double held_s = 0.0;                                  ///< seconds
+};
+
+/// The team as one robot sees it when it decides.
+struct TeamView {
+  std::string own_id;             ///< this robot's id: ties between claims of equal age go to the smaller id
+  double now_s = 0.0;             ///< this robot's clock, seconds (how long it has held its own target)
+  std::vector<PeerClaim> claims;  ///< the peers' live claims
+};
+
 /// A target navigation gave up on, and why.
 struct FailedTarget {
   Eigen::Vector2d target_M = Eigen::Vector2d::Zero();
-  std::string reason;
+  std::string reason;    ///< the last failure's
+  int failures = 1;      ///< failures within blacklist_radius_m of target_M
+  double failed_at_s = 0.0;  ///< the last one's time (TeamView::now_s), seconds
 };
 
 /// What to do after a frontier update.
@@ -49,6 +72,7 @@ struct ExplorerDecision {
     kGoTo,      ///< drive to `target` (new, or a better one than the current)
     kKeep,      ///< keep driving to the current target (it moved at most follow_radius_m: `target` is where it is now)
     kComplete,  ///< no reachable frontier is left: exploration ends (`reason` says so and why)
+    kWait,      ///< every reachable frontier is a peer's: hold still and decide again with the next set
   };
   Kind kind = Kind::kComplete;
   FrontierCluster target;  ///< the cluster to go to (kGoTo, kKeep)
@@ -66,12 +90,22 @@ class Explorer {
   /// highest utility is taken, unless the current target is still there and the best is not
   /// switch_utility_ratio times better; reached targets (visited_radius_m) are left out too. With none left,
   /// exploration is complete.
-  ExplorerDecision Decide(const FrontierSet& set);
+  /// With `team`: a cluster within claim_radius_m of a peer's claim is left to the peer when the peer has held
+  /// its claim longer than this robot has held that cluster (0 unless it is the current target), or as long
+  /// (within 0.5 s) and its id is smaller; when only such clusters are left, the decision is kWait.
+  ExplorerDecision Decide(const FrontierSet& set, const TeamView& team = {});
+  /// True when a peer's claim in `team` takes the current target from this robot (as Decide() would see it);
+  /// `*by` names the peer. The caller drops the target then, at once, instead of at the next frontier set.
+  bool CurrentClaimedByPeer(const TeamView& team, std::string* by) const {
+    return current_ && ClaimedByPeer(*current_, true, team, by);
+  }
+  /// How long the current target has been held at `now_s` (the team's clock), seconds; 0 without one.
+  double HeldS(double now_s) const { return current_ ? now_s - current_since_s_ : 0.0; }
 
-  /// Navigation gave up on the current target (no path, blocked): it is barred for good (a frontier seen
-  /// across a gap the robot cannot cross, a doorway too narrow) with `reason`, and there is no current
-  /// target any more.
-  void Fail(const std::string& reason);
+  /// Navigation gave up on the current target at `now_s` (no path, blocked) with `reason`: clusters near it are
+  /// barred for retry_after_s, for good after a second failure there (a frontier seen across a gap the robot
+  /// cannot cross, a doorway too narrow: never retried forever); there is no current target any more.
+  void Fail(const std::string& reason, double now_s = 0.0);
   /// The robot reached the current target (it stands at that frontier): clusters within visited_radius_m of
   /// it are left out from now on, and there is no current target any more.
   void Reached();
@@ -88,11 +122,14 @@ class Explorer {
   const ExplorerOptions& options() const { return options_; }
 
  private:
-  bool Barred(const Eigen::Vector2d& target_M) const;
+  bool Barred(const Eigen::Vector2d& target_M, double now_s) const;
   bool Visited(const Eigen::Vector2d& target_M) const;
 
   ExplorerOptions options_;
+  // True when a peer's claim takes `c` from this robot (see Decide()).
+  bool ClaimedByPeer(const FrontierCluster& c, bool is_current, const TeamView& team, std::string* by) const;
   std::optional<FrontierCluster> current_;
+  double current_since_s_ = 0.0;
   std::vector<FailedTarget> failed_;
   std::vector<Eigen::Vector2d> visited_;
 };

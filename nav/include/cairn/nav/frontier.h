@@ -13,8 +13,10 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <limits>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 #include "cairn/nav/traversability.h"
@@ -58,7 +60,8 @@ struct FrontierOptions {
 
 /// One cluster of frontier cells.
 struct FrontierCluster {
-  /// Where to go: the cluster's frontier cell nearest its centroid (a known-free, traversable cell), its
+  /// Where to go: the cluster's reachable frontier cell nearest its centroid (a known-free, traversable cell),
+  /// each 0.1 m short of 0.15 m clearance beyond the footprint counting as 0.4 m farther (away from walls), its
   /// centre, metres, frame M.
   Eigen::Vector2d target_M = Eigen::Vector2d::Zero();
   double target_ground_z_m = 0.0;  ///< the target cell's ground height, metres, frame M
@@ -88,6 +91,33 @@ struct FrontierSet {
   int reachable() const;       ///< clusters with a finite travel cost
 };
 
+/// Where peer robots have seen (issue 14: their maps reach each other): x-y cells of cell_m() marked from their
+/// map telemetry. FindFrontiers counts none of it as gain: a frontier into a branch a peer explored is worth
+/// nothing. Frame M (shared by the team), metres. Not thread-safe.
+class PeerCoverage {
+ public:
+  /// @throws std::invalid_argument unless 0 < cell_m <= 10.
+  explicit PeerCoverage(double cell_m);
+  /// Marks the cell containing `p_M`.
+  void Mark(const Eigen::Vector2d& p_M);
+  /// True when the cell containing `p_M` is marked.
+  bool Covered(const Eigen::Vector2d& p_M) const;
+  double cell_m() const { return cell_m_; }
+  /// Marked cells.
+  std::size_t size() const { return cells_.size(); }
+  /// Calls `f(min_corner_M)` for each marked cell (its x-y minimum corner, metres).
+  template <class F>
+  void ForEach(F&& f) const {
+    for (const std::int64_t key : cells_) f(Corner(key));
+  }
+
+ private:
+  std::int64_t Key(const Eigen::Vector2d& p_M) const;
+  Eigen::Vector2d Corner(std::int64_t key) const;
+  double cell_m_;
+  std::unordered_set<std::int64_t> cells_;
+};
+
 /// Frontiers of `grid` (a robot-built map read optimistically: TraversabilityOptions::unknown_is_lethal
 /// false) seen from the robot at `robot_M` (x-y, metres, frame M, the grid's frame).
 ///
@@ -99,7 +129,8 @@ struct FrontierSet {
 /// next to a wall; when it is off the grid or not free, the nearest traversable free cell within 1 m is
 /// used). Cost: linear in the grid's cells plus the search (cairn_bench_nav_map).
 /// @throws std::invalid_argument if `options` is invalid (IsValid()'s message).
+/// `peers` (may be null): what peer robots have seen, counted as no gain.
 FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d& robot_M,
-                          const FrontierOptions& options = {});
+                          const FrontierOptions& options = {}, const PeerCoverage* peers = nullptr);
 
 }  // namespace cairn::nav

@@ -4,7 +4,7 @@
 // robot logic lives here: who may command is the command interface's, what to publish the telemetry's.
 //
 // Topics (idl/cairn_msgs.idl): reads cairn/control_request, cairn/mode_request, cairn/waypoint_goal,
-// cairn/explore_request, cairn/stop_request (QoS cairn.command), cairn/teleop (cairn.teleop), cairn/base_info (cairn.latched, with
+// cairn/explore_request, cairn/home_request, cairn/stop_request (QoS cairn.command), cairn/teleop (cairn.teleop), cairn/base_info (cairn.latched, with
 // liveliness), cairn/path_request, cairn/map_sync_request (cairn.command); writes cairn/command_response,
 // cairn/path_response (cairn.command), cairn/agent_info, cairn/bt_state, cairn/global_path, cairn/staircase,
 // cairn/robot_state (cairn.latched), cairn/robot_pose, cairn/local_plan (cairn.state), cairn/map_update
@@ -60,6 +60,7 @@ struct AgentDdsHandlers {
   std::function<void(const ModeCommand&)> mode;
   std::function<void(const GoalCommand&)> goal;
   std::function<void(const ExploreCommand&)> explore;
+  std::function<void(const HomeCommand&)> home;
   std::function<void(const StopCommand&)> stop;
   std::function<void(const TeleopCommand&)> teleop;
   std::function<void(const BaseAnnouncement&)> base_announced;   ///< agent info of a basestation

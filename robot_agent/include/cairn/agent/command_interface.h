@@ -74,6 +74,9 @@ class CommandInterface {
   /// The goal's plan is done: discarded when the lock moved meanwhile, else driven (Hooks::start_goal) and
   /// answered.
   void OnGoalPlanned(const GoalCommand& command, const nav::GlobalPlan& plan);
+  /// home R [POINT]: the holder's only; a waypoint goal to `home_M` (the robot's start, frame M, with its
+  /// ground height) or the point sent, then as OnGoal() (the reply's kind is kHome).
+  void OnHome(const HomeCommand& command, const core::BaseState& home_M);
   /// explore R: the holder's only; checked (frame, CheckExploreTask), then started (Hooks::start_explore), which
   /// asks the mode tree.
   void OnExplore(const ExploreCommand& command);
@@ -89,6 +92,9 @@ class CommandInterface {
   /// Frees the lock after lock_keep_s without its holder (logged). Call once per control cycle.
   void Update(core::SteadyTime now);
 
+  /// Seconds since a basestation process was last known alive (its liveliness), at `now`; from the
+  /// interface's creation while none ever was.
+  double SecondsSinceBaseHeard(core::SteadyTime now) const;
   /// Fills the tree's facts this interface knows: holder, its liveliness, its joystick.
   void FillConditions(ModeConditions* conditions) const;
   /// Modes valid now and whether a goal would be accepted now.
@@ -126,6 +132,7 @@ class CommandInterface {
   std::vector<CommandKey> pending_goals_;     // goals being planned
   std::map<std::string, BaseProcess> bases_;  // agent-info writer -> its process
   StopRecord stops_;
+  core::SteadyTime last_base_alive_ = core::SteadyClock::now();  // Update() notes a live base process
 };
 
 }  // namespace cairn::agent

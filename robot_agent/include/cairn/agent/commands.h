@@ -24,7 +24,7 @@ struct CommandSender {
 };
 
 /// Kind of a command (CommandResponse.kind).
-enum class CommandKind : uint32_t { kControlRequest, kControlRelease, kMode, kWaypoint, kStop, kExplore };
+enum class CommandKind : uint32_t { kControlRequest, kControlRelease, kMode, kWaypoint, kStop, kExplore, kHome };
 /// Outcome of a command (CommandResponse.result).
 enum class CommandResult {
   kAccepted,   ///< control granted or released, mode switched, goal accepted, stopped
@@ -62,6 +62,19 @@ struct GoalCommand {
   double tolerance_m = 0.0;  ///< arrival radius, metres, [0, 5]; 0 = navigation's default
   /// Level: the walkable surface at (x_m, y_m) nearest this height, metres, frame M; NaN = the robot's level.
   double z_m = std::numeric_limits<double>::quiet_NaN();
+  /// kWaypoint (goto) or kHome (home R: the point is the robot's start or the one named), for the reply.
+  CommandKind kind = CommandKind::kWaypoint;
+};
+
+/// home R [POINT]: as received (HomeRequest). Without a point, the robot's start.
+struct HomeCommand {
+  CommandSender sender;
+  uint32_t request_id = 0;
+  std::string frame_id;  ///< must be "map"
+  bool has_point = false;
+  double x_m = 0.0;  ///< metres, frame M (has_point)
+  double y_m = 0.0;
+  double z_m = std::numeric_limits<double>::quiet_NaN();  ///< its level; NaN = the robot's
 };
 
 /// Why `goal` cannot be driven as sent ("" when it can): a frame other than "map", a point that is not

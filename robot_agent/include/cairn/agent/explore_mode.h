@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "cairn/agent/mode_manager.h"
 #include "cairn/agent/mode_module.h"
@@ -22,6 +23,7 @@
 #include "cairn/agent/waypoint_recovery.h"
 #include "cairn/nav/explorer.h"
 #include "cairn/nav/frontier.h"
+#include "cairn/perception/map_telemetry.h"
 
 namespace cairn::agent {
 
@@ -32,10 +34,14 @@ struct ExploreTask {
   /// Only frontiers whose ground lies in [min_z_m, max_z_m] (metres, frame M; a floor); default: every height.
   double min_z_m = -std::numeric_limits<double>::infinity();
   double max_z_m = std::numeric_limits<double>::infinity();
+  /// No basestation heard for this long while exploring -> the robot ends the exploration and drives back to
+  /// its start by itself (the agent does; SubT robots returned to comms), seconds; 0 = never (the default).
+  double home_after_silence_s = 0.0;
 };
 
 /// Why `task` cannot be explored as sent ("" when it can): a region corner that is not finite, a region with
-/// x0 >= x1 or y0 >= y1, a NaN height bound, min_z_m >= max_z_m. Names the field and the value.
+/// x0 >= x1 or y0 >= y1, a NaN height bound, min_z_m >= max_z_m, home_after_silence_s not in [0, 86400]. Names
+/// the field and the value.
 std::string CheckExploreTask(const ExploreTask& task);
 
 /// How an exploration stands (RobotState.explore_*).
@@ -66,6 +72,13 @@ struct ExplorationStatus {
   double started_s = 0.0;  ///< agent clock, seconds
   bool active() const { return state == ExplorationState::kExploring; }
 };
+
+/// Marks in `coverage` the x-y cells of the occupied coarse voxels of a peer's map telemetry `update` (frame M,
+/// shared by the team) whose centre height lies in [min_z_m, max_z_m]: the ground the peer has seen (free space
+/// above unseen ground is not marked: the floor there is still unknown, as it is in this robot's map). Returns false, marking nothing, with `*why` (if not null) naming the fault when the
+/// payload cannot be decoded (perception::DecodeCoarseVoxels) or its resolution is not positive.
+bool MarkPeerCoverage(const perception::MapUpdate& update, double min_z_m, double max_z_m,
+                      nav::PeerCoverage* coverage, std::string* why);
 
 /// Options of ExploreMode (from AgentOptions, config section `explore`).
 struct ExploreModeOptions {
@@ -112,6 +125,12 @@ class ExploreMode : public ModeModule {
   /// next Step().
   void OnFrontiers(nav::FrontierSet set, double computed_at_s);
 
+  /// The live claims of the other exploring robots (their ExploreClaim, expired ones left out), used at the
+  /// next choice: a frontier a peer claimed first is left to it.
+  void SetPeerClaims(std::vector<nav::PeerClaim> claims) { peer_claims_ = std::move(claims); }
+  /// This robot's claim at `now_s` (agent clock): its target and how long it has held it; none without one.
+  std::optional<nav::PeerClaim> OwnClaim(double now_s) const;
+
   const ExplorationStatus& status() const { return status_; }
   /// True while exploring (the tree's HasExploreTask).
   bool exploring() const { return status_.active(); }
@@ -143,6 +162,7 @@ class ExploreMode : public ModeModule {
   nav::Explorer explorer_;
   ExplorationStatus status_;
   uint32_t next_task_id_;
+  std::vector<nav::PeerClaim> peer_claims_;
   std::optional<nav::FrontierSet> frontiers_;  // newest set not used yet
   double frontiers_at_s_ = -1e9;
   double settle_until_s_ = -1e9;  // no choice from a set computed before this

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,14 @@ class SteppedRobot {
   /// stepping on, so that results do not depend on the machine's speed.
   bool planning() const { return explore_->planning(); }
 
+  /// Team exploration, as the agents do over DDS: the peers' live claims for the next choice, and a peer's map
+  /// telemetry (what it has seen is no gain here). TakeMapMessages() returns this robot's own telemetry since
+  /// the last call, for its peers.
+  void SetPeerClaims(std::vector<nav::PeerClaim> claims) { explore_->SetPeerClaims(std::move(claims)); }
+  std::optional<nav::PeerClaim> OwnClaim(double now_s) const { return explore_->OwnClaim(now_s); }
+  void AddPeerMapUpdate(const perception::MapUpdate& update);
+  std::vector<perception::MapUpdate> TakeMapMessages() { return std::move(map_messages_); }
+
   const ExploreMode& explore() const { return *explore_; }
   const NavMap& nav_map() const { return *nav_map_; }
   const Navigation& navigation() const { return *navigation_; }
@@ -49,6 +58,12 @@ class SteppedRobot {
   /// Seconds spent in the frontier searches so far, and their number (benches).
   double frontier_search_s() const { return frontier_search_s_; }
   int frontier_searches() const { return frontier_searches_; }
+  /// Wall time spent so far, seconds: the platform (pose, lidar), perception (live obstacles, map), the
+  /// navigation map updates and the explore mode's steps (navigation) — where a long run's time goes.
+  struct Timing {
+    double platform_s = 0, perception_s = 0, nav_map_s = 0, explore_s = 0;
+  };
+  const Timing& timing() const { return timing_; }
   /// True when the platform reported contact with occupied space at any step.
   bool ever_in_contact() const { return ever_in_contact_; }
 
@@ -64,9 +79,13 @@ class SteppedRobot {
   core::LidarScan scan_;
   std::vector<Eigen::Vector3f> points_B_;
   double next_map_update_s_ = 0.0;
+  double start_z_m_ = 0.0;
+  nav::PeerCoverage peer_coverage_{0.2};
+  std::vector<perception::MapUpdate> map_messages_;
   double frontier_search_s_ = 0.0;
   int frontier_searches_ = 0;
   bool ever_in_contact_ = false;
+  Timing timing_;
 };
 
 }  // namespace cairn::agent

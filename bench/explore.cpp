@@ -1,0 +1,110 @@
+// Bench: exploration coverage against time for a team of 1, 2 and 3 robots (issue 14), in process on a simulated
+// clock (agent::SteppedRobot each: lidar -> OctoMap -> navigation map -> frontiers -> explore mode ->
+// navigation, claims and map telemetry shared every cycle), scored against the world's ground truth. The
+// baseline is one robot in the same run: the figure is its time to 90 % coverage over the team's.
+//
+//   build/bench/cairn_bench_explore [--world builtin:NAME] [--robots 1,2,3] [--kill]
+//                                   [--csv FILE] [--timeout S]
+//     robots start from a gate: the world's first suggested start and 2 m steps along its heading; --kill also
+//     runs the largest team with robot 2 gone for good at 60 s; --csv writes "robots,t_s,coverage" rows (the
+//     plot: tools/plot_explore_coverage.py).
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "../robot_agent/test/explore_team.h"
+#include "cairn/sim/builtin_worlds.h"
+
+namespace {
+
+using namespace cairn;
+using agent::explore_team::RunTeam;
+using agent::explore_team::TeamOptions;
+using agent::explore_team::TeamRun;
+
+std::vector<core::PlanarPose> Gate(const std::string& world, int robots) {
+  const std::string name = world.rfind("builtin:", 0) == 0 ? world.substr(8) : world;
+  const core::PlanarPose first = sim::GetBuiltinWorldInfo(name).suggested_starts.front();
+  std::vector<core::PlanarPose> starts;
+  for (int i = 0; i < robots; ++i) {
+    starts.push_back({first.x_m + 2.0 * i * std::cos(first.yaw_rad), first.y_m + 2.0 * i * std::sin(first.yaw_rad),
+                      first.yaw_rad});
+  }
+  return starts;
+}
+
+void Print(const char* label, int robots, const TeamRun& r, double baseline_90_s) {
+  double reached = 0, driven = 0;
+  for (std::size_t i = 0; i < r.statuses.size(); ++i) {
+    reached += r.statuses[i].targets_reached;
+    driven += r.driven_m[i];
+  }
+  std::printf("%-22s robots %d: 90 %% after %6.0f s (ratio 1 robot / team %.2f), end %5.0f s at %.1f %%, "
+              "%d claim overlaps, %.0f targets, %.0f m driven, contact %s, %.0f s wall\n",
+              label, robots, r.time_to_90_s, baseline_90_s > 0 && r.time_to_90_s > 0 ? baseline_90_s / r.time_to_90_s : 0.0,
+              r.end_s, 100 * r.coverage, r.claim_overlaps, reached, driven, r.contact ? "YES" : "no", r.wall_s);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string world = "builtin:tunnels";
+  std::vector<int> teams = {1, 2, 3};
+  bool kill = false;
+  std::string csv;
+  double timeout_s = 1800;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--world" && i + 1 < argc) {
+      world = argv[++i];
+    } else if (a == "--robots" && i + 1 < argc) {
+      teams.clear();
+      std::stringstream list(argv[++i]);
+      for (std::string n; std::getline(list, n, ',');) teams.push_back(std::stoi(n));
+    } else if (a == "--kill") {
+      kill = true;
+    } else if (a == "--csv" && i + 1 < argc) {
+      csv = argv[++i];
+    } else if (a == "--timeout" && i + 1 < argc) {
+      timeout_s = std::stod(argv[++i]);
+    } else {
+      std::fprintf(stderr, "usage: %s [--world builtin:NAME] [--robots 1,2,3] [--kill] [--csv FILE] [--timeout S]\n",
+                   argv[0]);
+      return 2;
+    }
+  }
+  std::ofstream out;
+  if (!csv.empty()) {
+    out.open(csv);
+    out << "robots,t_s,coverage\n";
+  }
+  double baseline_90_s = -1;
+  for (int robots : teams) {
+    TeamOptions o;
+    o.world = world;
+    o.starts = Gate(world, robots);
+    o.timeout_s = timeout_s;
+    o.stop_at_coverage = 0.95;  // the 90 % figure and a little beyond; the rest is the last corners
+    const TeamRun r = RunTeam(o);
+    if (robots == 1) baseline_90_s = r.time_to_90_s;
+    Print(world.c_str(), robots, r, baseline_90_s);
+    for (const auto& [t, c] : r.coverage_over_time) out << robots << "," << t << "," << c << "\n";
+    std::fflush(stdout);
+  }
+  if (kill && !teams.empty()) {
+    TeamOptions o;
+    o.world = world;
+    o.starts = Gate(world, teams.back());
+    o.timeout_s = timeout_s;
+    o.kill_index = 1;
+    o.kill_at_s = 60.0;
+    o.stop_at_coverage = 0.9;
+    const TeamRun r = RunTeam(o);
+    Print("(r2 gone at 60 s)", teams.back(), r, baseline_90_s);
+  }
+  return 0;
+}

@@ -1,0 +1,197 @@
+// A team of robots exploring a simulated world in process on a simulated clock (agent::SteppedRobot each), as
+// their agents do over DDS: every control cycle each live robot's claim goes to the others, and its map
+// telemetry too (delivered at once: no link). Scored against the world's ground truth. Used by
+// cairn_agent_explore_test and cairn_bench_explore; the simulator's truth is for scoring only.
+#pragma once
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cairn/agent/stepped_robot.h"
+#include "cairn/sim/simulated_platform.h"
+
+namespace cairn::agent::explore_team {
+
+/// Fraction of the floor a robot can reach from (start_x, start_y) (traversable ground-truth cells, 8-connected
+/// flood fill; only those inside `region` when it is not empty) that is known (not unknown) in any of `grids`.
+inline double Coverage(const nav::TraversabilityGrid& truth, const std::vector<const nav::TraversabilityGrid*>& grids,
+                       double start_x, double start_y, const Eigen::AlignedBox2d& region = {},
+                       int* reachable_cells = nullptr) {
+  int sx = 0, sy = 0;
+  if (!truth.CellOf(start_x, start_y, &sx, &sy)) return 0.0;
+  const int nx = truth.nx(), ny = truth.ny();
+  std::vector<char> seen(static_cast<std::size_t>(nx) * ny, 0);
+  std::vector<std::pair<int, int>> open = {{sx, sy}};
+  seen[static_cast<std::size_t>(sy) * nx + sx] = 1;
+  int reachable = 0, known = 0;
+  while (!open.empty()) {
+    const auto [x, y] = open.back();
+    open.pop_back();
+    const Eigen::Vector2d c = truth.CellCenter(x, y);
+    if (region.isEmpty() || region.contains(c)) {
+      ++reachable;
+      for (const nav::TraversabilityGrid* grid : grids) {
+        int gx = 0, gy = 0;
+        if (grid->CellOf(c.x(), c.y(), &gx, &gy) && grid->State(gx, gy) != nav::CellState::kUnknown) {
+          ++known;
+          break;
+        }
+      }
+    }
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int u = x + dx, v = y + dy;
+        if (u < 0 || v < 0 || u >= nx || v >= ny) continue;
+        char& s = seen[static_cast<std::size_t>(v) * nx + u];
+        if (s || !truth.IsTraversable(u, v)) continue;
+        s = 1;
+        open.push_back({u, v});
+      }
+    }
+  }
+  if (reachable_cells != nullptr) *reachable_cells = reachable;
+  return reachable > 0 ? static_cast<double>(known) / reachable : 0.0;
+}
+
+/// What to run.
+struct TeamOptions {
+  std::string world = "builtin:tunnels";
+  std::string platform = "wheeled";
+  std::vector<core::PlanarPose> starts;  ///< one per robot, frame W (the team's map frame)
+  ExploreTask task;                      ///< every robot's
+  int kill_index = -1;                   ///< this robot stops for good (no step, no claim) at kill_at_s
+  double kill_at_s = 0.0;
+  double stop_at_coverage = 2.0;  ///< stop once the team's coverage reaches this (> 1: when all have ended)
+  double timeout_s = 1800.0;
+  double score_period_s = 10.0;   ///< coverage is scored this often, simulated seconds
+  bool verbose = false;           ///< coverage every minute
+};
+
+/// What happened.
+struct TeamRun {
+  double time_to_90_s = -1;  ///< first score at or above 90 % (-1: never)
+  double end_s = 0;          ///< simulated seconds run
+  double coverage = 0;       ///< at the end
+  std::vector<std::pair<double, double>> coverage_over_time;  ///< (t, coverage) at each score
+  int claim_overlaps = 0;    ///< control cycles with two claims within 1.5 m of each other
+  bool contact = false;
+  std::vector<ExplorationStatus> statuses;  ///< each robot's at the end
+  std::vector<double> driven_m;             ///< each robot's distance travelled
+  std::optional<nav::PeerClaim> killed_claim;  ///< the killed robot's claim when it went (if it had one)
+  /// Fraction of the floor cells within 2 m of killed_claim's target known in the live robots' own maps at the
+  /// end (the branch it was going for, taken over by the others), -1 without a claim.
+  double killed_branch_known = -1;
+  double wall_s = 0;
+};
+
+inline TeamRun RunTeam(const TeamOptions& o) {
+  constexpr double kDt = 0.02;
+  const auto wall_start = std::chrono::steady_clock::now();
+  TeamRun run;
+  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
+  std::vector<std::unique_ptr<SteppedRobot>> robots;
+  for (std::size_t i = 0; i < o.starts.size(); ++i) {
+    AgentOptions options;
+    options.robot_id = "r" + std::to_string(i + 1);
+    options.SetPlatform(o.platform);
+    sim::SimulatedPlatformOptions sim_options;
+    sim_options.world = o.world;
+    sim_options.start_W = o.starts[i];
+    sim_options.SetProfile(options.navigation.platform);
+    platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
+    robots.push_back(
+        std::make_unique<SteppedRobot>(options, platforms.back(), std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml"));
+    robots.back()->Explore(o.task, 0.0);
+  }
+  std::vector<bool> alive(robots.size(), true);
+  const auto truth = platforms.front()->terrain();
+  const Eigen::AlignedBox2d region = o.task.region_M.value_or(Eigen::AlignedBox2d());
+  auto score = [&] {
+    std::vector<const nav::TraversabilityGrid*> grids;
+    for (const auto& r : robots) grids.push_back(&r->nav_map().grid());
+    return Coverage(*truth, grids, o.starts[0].x_m, o.starts[0].y_m, region);
+  };
+  auto any_exploring = [&] {
+    for (std::size_t i = 0; i < robots.size(); ++i) {
+      if (alive[i] && robots[i]->explore().exploring()) return true;
+    }
+    return false;
+  };
+  double t = 0.0;
+  double next_score_s = o.score_period_s;
+  while (any_exploring() && t < o.timeout_s) {
+    t += kDt;
+    if (o.kill_index >= 0 && alive[o.kill_index] && t >= o.kill_at_s) {
+      alive[o.kill_index] = false;
+      run.killed_claim = robots[o.kill_index]->OwnClaim(t);
+    }
+    // Each robot steps with the claims the others hold right now (those that stepped before it this cycle
+    // included: a link without delay).
+    auto live_claims = [&] {
+      std::vector<nav::PeerClaim> claims;
+      for (std::size_t i = 0; i < robots.size(); ++i) {
+        if (!alive[i]) continue;
+        if (auto c = robots[i]->OwnClaim(t)) claims.push_back(*c);
+      }
+      return claims;
+    };
+    for (std::size_t i = 0; i < robots.size(); ++i) {
+      if (!alive[i]) continue;
+      robots[i]->SetPeerClaims(live_claims());  // its own is skipped by id
+      robots[i]->Step(t);
+      while (robots[i]->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    const std::vector<nav::PeerClaim> claims = live_claims();
+    for (std::size_t a = 0; a < claims.size(); ++a) {
+      for (std::size_t b = a + 1; b < claims.size(); ++b) {
+        if ((claims[a].target_M - claims[b].target_M).norm() < 1.5) ++run.claim_overlaps;
+      }
+    }
+    for (std::size_t i = 0; i < robots.size(); ++i) {
+      if (!alive[i]) continue;
+      for (const perception::MapUpdate& m : robots[i]->TakeMapMessages()) {
+        for (std::size_t j = 0; j < robots.size(); ++j) {
+          if (j != i && alive[j]) robots[j]->AddPeerMapUpdate(m);
+        }
+      }
+    }
+    if (t >= next_score_s) {
+      next_score_s += o.score_period_s;
+      const double coverage = score();
+      run.coverage_over_time.emplace_back(t, coverage);
+      if (run.time_to_90_s < 0 && coverage >= 0.9) run.time_to_90_s = t;
+      if (o.verbose && std::fmod(t + 1e-6, 60.0) < o.score_period_s - 1e-6) {
+        std::printf("  t %4.0f s: team coverage %.1f %%\n", t, 100 * coverage);
+      }
+      if (coverage >= o.stop_at_coverage) break;
+    }
+  }
+  run.coverage = score();
+  if (run.time_to_90_s < 0 && run.coverage >= 0.9) run.time_to_90_s = t;
+  run.end_s = t;
+  for (std::size_t i = 0; i < robots.size(); ++i) {
+    run.contact = run.contact || robots[i]->ever_in_contact();
+    run.statuses.push_back(robots[i]->explore().status());
+    run.driven_m.push_back(platforms[i]->distance_travelled_m());
+  }
+  if (run.killed_claim) {
+    std::vector<const nav::TraversabilityGrid*> live;
+    for (std::size_t i = 0; i < robots.size(); ++i) {
+      if (alive[i]) live.push_back(&robots[i]->nav_map().grid());
+    }
+    const Eigen::Vector2d c = run.killed_claim->target_M;
+    run.killed_branch_known =
+        Coverage(*truth, live, o.starts[0].x_m, o.starts[0].y_m,
+                 Eigen::AlignedBox2d(c - Eigen::Vector2d(2, 2), c + Eigen::Vector2d(2, 2)));
+  }
+  run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return run;
+}
+
+}  // namespace cairn::agent::explore_team
