@@ -61,6 +61,12 @@ OperatorReason ExplainReason(const std::string& robot_id, const std::string& rea
        [](const std::string& r, const std::string& d) {
          return r + "'s obstacle sensing is not ready: " + d;
        }},
+      {"IsMappingHealthy",
+       [](const std::string& r, const std::string& d) { return r + " is not mapping: " + d; }},
+      {"HasExploreTask",
+       [](const std::string& r, const std::string&) {
+         return "explore mode needs a task: use explore " + r;
+       }},
   };
   for (const Rule& rule : kRules) {
     const std::string detail = Detail(reason, rule.condition);

@@ -35,6 +35,11 @@ TEST(ExplainReason, RewritesTreeConditionsInOperatorWordsKeepingTheId) {
       << r.text;
   r = ExplainReason("r1", "IsLocalPlannerHealthy: obstacle input is 0.80 s old (limit 0.50 s)");
   EXPECT_EQ(r.text, "r1's obstacle sensing is not ready: obstacle input is 0.80 s old (limit 0.50 s)");
+  r = ExplainReason("r1", "IsMappingHealthy: no lidar scan for 3.5 s");
+  EXPECT_EQ(r.text, "r1 is not mapping: no lidar scan for 3.5 s");
+  EXPECT_EQ(r.condition, "IsMappingHealthy");
+  EXPECT_EQ(ExplainReason("r1", "HasExploreTask: no exploration task (send explore first)").text,
+            "explore mode needs a task: use explore r1");
   // A reason with no condition id is already in operator words.
   r = ExplainReason("r1", "robot r1 is locked by basestation opA");
   EXPECT_EQ(r.text, "robot r1 is locked by basestation opA");
@@ -48,8 +53,14 @@ TEST(ValidActions, OfferOnlyWhatTheRobotWouldAcceptFromThisBasestation) {
   EXPECT_EQ(ValidActions(other, "op1"), (std::vector<std::string>{"stop"}));
   RobotView mine = HeldBy("op1", {"idle", "manual", "waypoint"}, true);
   EXPECT_EQ(ValidActions(mine, "op1"),
-            (std::vector<std::string>{"mode idle|manual", "goto", "teleop", "release", "stop"}));
-  EXPECT_EQ(ValidActionsText(mine, "op1"), "valid now: mode idle|manual, goto, teleop, release, stop");
+            (std::vector<std::string>{"mode idle|manual", "goto", "home", "teleop", "release", "stop"}));
+  EXPECT_EQ(ValidActionsText(mine, "op1"), "valid now: mode idle|manual, goto, home, teleop, release, stop");
+  // Issue 14: explore when the tree would take a task (a mapping robot); the explore mode itself is not a
+  // `mode` action (explore sets the task).
+  RobotView explorer = HeldBy("op1", {"idle", "manual", "waypoint", "explore"}, true);
+  explorer.tree->explore_acceptable(true);
+  EXPECT_EQ(ValidActions(explorer, "op1"),
+            (std::vector<std::string>{"mode idle|manual", "goto", "home", "explore", "teleop", "release", "stop"}));
   RobotView no_goal = HeldBy("op1", {"idle"}, false);  // e.g. the local planner is not ready
   EXPECT_EQ(ValidActions(no_goal, "op1"), (std::vector<std::string>{"mode idle", "release", "stop"}));
   mine.lost = true;
