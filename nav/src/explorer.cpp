@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -20,7 +21,8 @@ bool ExplorerOptions::IsValid(std::string* why) const {
                   range("blacklist_radius_m", blacklist_radius_m, 0, 20, true) &&
                   range("visited_radius_m", visited_radius_m, 0, 20, true) &&
                   range("claim_radius_m", claim_radius_m, 0, 50, true) &&
-                  range("retry_after_s", retry_after_s, 0, 3600, false);
+                  range("retry_after_s", retry_after_s, 0, 3600, false) &&
+                  range("peer_influence_m", peer_influence_m, 0, 200, false);
   if (!ok && why != nullptr) *why = msg.str();
   return ok;
 }
@@ -71,7 +73,20 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
   int visited = 0;
   int claimed = 0;
   std::vector<std::string> claimers;
-  for (const FrontierCluster& c : set.clusters) {
+  // Coordination (Burgard et al., "Coordinated Multi-Robot Exploration", IEEE T-RO 21(3), 2005): what a peer
+  // will see from its target is worth less here, so the team spreads out. Utility scaled by the distance to the
+  // nearest peer claim over peer_influence_m (linear, within it).
+  std::vector<FrontierCluster> clusters = set.clusters;
+  if (options_.peer_influence_m > 0) {
+    for (FrontierCluster& c : clusters) {
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const PeerClaim& claim : team.claims) {
+        if (claim.robot_id != team.own_id) nearest = std::min(nearest, (claim.target_M - c.target_M).norm());
+      }
+      if (nearest < options_.peer_influence_m) c.utility *= std::max(0.05, nearest / options_.peer_influence_m);
+    }
+  }
+  for (const FrontierCluster& c : clusters) {
     if (!c.reachable()) {
       ++unreachable;
       continue;

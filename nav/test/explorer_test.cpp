@@ -127,6 +127,21 @@ TEST(ExplorerTest, APeersOlderClaimWinsAndAllClaimedMeansWait) {
   EXPECT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
 }
 
+// Coordination: a frontier near a peer's claim (within peer_influence_m, here 10 m) is worth less, so a robot takes
+// one farther away that is otherwise worth less.
+TEST(ExplorerTest, AFrontierNearAPeersClaimIsWorthLess) {
+  const FrontierSet set = Set({Cluster(4, 0, 2.0), Cluster(15, 0, 1.0)});
+  Explorer alone;
+  EXPECT_EQ(alone.Decide(set).target.target_M, Eigen::Vector2d(4, 0));
+  ExplorerOptions coordinated;
+  coordinated.peer_influence_m = 10.0;
+  Explorer teammate(coordinated);
+  const ExplorerDecision d = teammate.Decide(set, TeamView{"r2", 0.0, {{"r1", Eigen::Vector2d(0, 0), 5.0}}});
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(15, 0)) << "(4, 0) is worth 2.0 * 4 / 10 = 0.8 next to r1's target";
+  EXPECT_NEAR(d.target.utility, 1.0, 1e-12);
+}
+
 // A frontier the robot stood on and whose unknown stayed unseen (below its lidar's lowest beam) is not driven to
 // again; one farther than visited_radius_m from it is.
 TEST(ExplorerTest, AReachedTargetIsNotDrivenToAgain) {

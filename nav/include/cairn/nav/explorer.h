@@ -37,6 +37,12 @@ struct ExplorerOptions {
   /// A cluster whose target lies within this of a peer's claim is that peer's (unless this robot has held it
   /// longer), metres, (0, 50]: two robots never drive to the same frontier.
   double claim_radius_m = 3.0;
+  /// A cluster's utility is scaled by d / peer_influence_m (at least 0.05) when its target lies d < this from a
+  /// peer's claim (Burgard et al. 2005: what the peer will see from there is worth less here), so that the team
+  /// spreads over the map instead of following one another, metres, [0, 200]; 0 = off (the default: with 10 m
+  /// two robots left more of a region unmapped in cairn_agent_explore_test, 88 % against 99 %; see
+  /// docs/PERFORMANCE.md, "Exploration coverage").
+  double peer_influence_m = 0.0;
 
   /// True when every field is in range; otherwise false with `*why` (if not null) naming the field, its value
   /// and the rule.
@@ -92,7 +98,8 @@ class Explorer {
   /// exploration is complete.
   /// With `team`: a cluster within claim_radius_m of a peer's claim is left to the peer when the peer has held
   /// its claim longer than this robot has held that cluster (0 unless it is the current target), or as long
-  /// (within 0.5 s) and its id is smaller; when only such clusters are left, the decision is kWait.
+  /// (within 0.5 s) and its id is smaller; when only such clusters are left, the decision is kWait. Utilities
+  /// are discounted near peers' claims (peer_influence_m); the decision's target carries the discounted one.
   ExplorerDecision Decide(const FrontierSet& set, const TeamView& team = {});
   /// True when a peer's claim in `team` takes the current target from this robot (as Decide() would see it);
   /// `*by` names the peer. The caller drops the target then, at once, instead of at the next frontier set.
