@@ -138,7 +138,7 @@ std::string ExploreMode::Start(const ExploreTask& task, double now_s,
   frontiers_.reset();
   settle_until_s_ = now_s;  // only frontiers computed from now on
   complete_pending_ = false;
-  in_contact_ = false;
+  contact_.Reset();
   const ModeDecision d = enter_mode();
   if (d.accepted) {
     spdlog::info("robot {}: exploration {} started{}", options_.robot_id, s.task_id,
@@ -337,15 +337,8 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
 ModeOutput ExploreMode::OnPlatformStatus(const core::PlatformStatus& status, const ModeInputs& in) {
   ModeOutput out;
   if (!exploring()) return out;
-  if (!status.in_contact) {
-    in_contact_ = false;
-  } else if (!in_contact_) {
-    in_contact_ = true;
-    contact_since_ = in.now;
-  } else if (core::SecondsBetween(contact_since_, in.now) > options_.contact_timeout_s) {
-    Finish(ExplorationState::kFailed, "blocked: in contact with occupied space at (" +
-                                          internal::Fixed(in.pose_M.x_m, 2) + ", " +
-                                          internal::Fixed(in.pose_M.y_m, 2) + ")");
+  if (const std::string blocked = contact_.Update(status, in, options_.contact_timeout_s); !blocked.empty()) {
+    Finish(ExplorationState::kFailed, blocked);
     out.done = true;
   }
   return out;

@@ -6,6 +6,21 @@
 
 namespace cairn::agent {
 
+std::string ContactTimer::Update(const core::PlatformStatus& status, const ModeInputs& in, double timeout_s) {
+  if (!status.in_contact) {
+    in_contact_ = false;
+    return "";
+  }
+  if (!in_contact_) {
+    in_contact_ = true;
+    since_ = in.now;
+    return "";
+  }
+  if (core::SecondsBetween(since_, in.now) <= timeout_s) return "";
+  return "blocked: in contact with occupied space at (" + internal::Fixed(in.pose_M.x_m, 2) + ", " +
+         internal::Fixed(in.pose_M.y_m, 2) + ")";
+}
+
 ModeModule& ModeRegistry::Add(std::unique_ptr<ModeModule> module) {
   if (!module) throw std::invalid_argument("mode registry: a mode module is null");
   const std::string& name = module->name();

@@ -35,7 +35,7 @@ GoalStart WaypointMode::Start(const nav::GlobalPlan& plan, double x_m, double y_
   goal.status = GoalStatus::kActive;
   goal.distance_left_m = plan.result.length_m;
   goal_ = goal;
-  in_contact_ = false;
+  contact_.Reset();
   const ModeDecision d = enter_mode();  // the tree sees the new goal (HasWaypointGoal)
   if (d.accepted) return GoalStart{true, "", goal.goal_id};
   // Refused by the tree (the new goal still stands here), or stopped by a failed switch (it was cancelled).
@@ -107,15 +107,8 @@ ModeOutput WaypointMode::Step(const ModeInputs& in) {
 ModeOutput WaypointMode::OnPlatformStatus(const core::PlatformStatus& status, const ModeInputs& in) {
   ModeOutput out;
   if (!has_goal()) return out;
-  if (!status.in_contact) {
-    in_contact_ = false;
-  } else if (!in_contact_) {
-    in_contact_ = true;
-    contact_since_ = in.now;
-  } else if (core::SecondsBetween(contact_since_, in.now) > options_.contact_timeout_s) {
-    Finish(GoalStatus::kFailed, "blocked: in contact with occupied space at (" +
-                                    internal::Fixed(in.pose_M.x_m, 2) + ", " +
-                                    internal::Fixed(in.pose_M.y_m, 2) + ")");
+  if (const std::string blocked = contact_.Update(status, in, options_.contact_timeout_s); !blocked.empty()) {
+    Finish(GoalStatus::kFailed, blocked);
     out.done = true;
   }
   return out;

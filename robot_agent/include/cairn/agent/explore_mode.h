@@ -169,8 +169,7 @@ class ExploreMode : public ModeModule {
   bool complete_pending_ = false;  // the last set had no target: confirm with the next one, at rest
   std::future<nav::GlobalPlan> plan_;
   bool driving_ = false;  // navigation (or the recovery) holds the target as its goal
-  bool in_contact_ = false;
-  core::SteadyTime contact_since_{};
+  ContactTimer contact_;  // the task's contact with occupied space
 };
 
 }  // namespace cairn::agent

@@ -48,6 +48,21 @@ struct ModeOutput {
   bool done = false;  ///< the mode's task ended this cycle (a goal arrived or failed): the agent goes idle
 };
 
+/// How long the platform has stayed in contact with occupied space, for the modes that drive a task (waypoint,
+/// explore): a task fails when contact lasts longer than a timeout.
+class ContactTimer {
+ public:
+  /// Forgets any contact (a new task starts).
+  void Reset() { in_contact_ = false; }
+  /// Notes `status` at `in.now`: "" while not in contact or for up to `timeout_s` seconds of contact, then
+  /// "blocked: in contact with occupied space at (x, y)" (the pose of `in`, metres, frame M).
+  std::string Update(const core::PlatformStatus& status, const ModeInputs& in, double timeout_s);
+
+ private:
+  bool in_contact_ = false;
+  core::SteadyTime since_{};
+};
+
 /// One mode's behaviour. Not thread-safe: the agent calls every method under its lock.
 class ModeModule {
  public:

@@ -94,8 +94,7 @@ class WaypointMode : public ModeModule {
   std::unique_ptr<WaypointRecovery> recovery_;
   WaypointGoal goal_;
   uint32_t next_goal_id_;
-  bool in_contact_ = false;  // the driven goal's contact with occupied space, since contact_since_
-  core::SteadyTime contact_since_{};
+  ContactTimer contact_;  // the task's contact with occupied space
 };
 
 }  // namespace cairn::agent
