@@ -1,13 +1,13 @@
 // Bench: exploration coverage against time for a team of 1, 2 and 3 robots (issue 14), in process on a simulated
 // clock (agent::SteppedRobot each: lidar -> OctoMap -> navigation map -> frontiers -> explore mode ->
-// navigation, claims and map telemetry shared every cycle), scored against the world's ground truth. The
+// navigation, explore claims and coverage shared as the agents send them), scored against the world's ground truth. The
 // baseline is one robot in the same run: the figure is its time to 90 % coverage over the team's.
 //
 //   build/bench/cairn_bench_explore [--world builtin:NAME] [--robots 1,2,3] [--kill]
 //                                   [--csv FILE] [--timeout S]
 //     robots start from a gate: the world's first suggested start and 2 m steps along its heading; --kill also
 //     runs the largest team with robot 2 gone for good at 60 s; --csv writes "robots,t_s,coverage" rows (the
-//     plot: tools/plot_explore_coverage.py).
+//     plot: tools/plot_explore_coverage.sh).
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -43,10 +43,16 @@ void Print(const char* label, int robots, const TeamRun& r, double baseline_90_s
     reached += r.statuses[i].targets_reached;
     driven += r.driven_m[i];
   }
+  // Claims on the wire: 88 bytes of CDR (encapsulation, a 2-character id, the fixed fields, the sequence's
+  // length) plus the compressed coverage.
+  const double claim_bits_per_s =
+      robots > 0 && r.end_s > 0 ? 8.0 * (88.0 * r.claims_sent + r.coverage_bytes_sent) / r.end_s / robots : 0.0;
   std::printf("%-22s robots %d: 90 %% after %6.0f s (ratio 1 robot / team %.2f), end %5.0f s at %.1f %%, "
-              "%d claim overlaps, %.0f targets, %.0f m driven, contact %s, %.0f s wall\n",
+              "%d claim overlaps, %.0f targets, %.0f m driven, contact %s, claims %.0f bit/s per robot, "
+              "%.0f s wall\n",
               label, robots, r.time_to_90_s, baseline_90_s > 0 && r.time_to_90_s > 0 ? baseline_90_s / r.time_to_90_s : 0.0,
-              r.end_s, 100 * r.coverage, r.claim_overlaps, reached, driven, r.contact ? "YES" : "no", r.wall_s);
+              r.end_s, 100 * r.coverage, r.claim_overlaps, reached, driven, r.contact ? "YES" : "no",
+              claim_bits_per_s, r.wall_s);
 }
 
 }  // namespace

@@ -1,8 +1,9 @@
-// Exploration over DDS, multi-process (issue 14): a wheeled robot that knows nothing is sent exploring the west
-// half of builtin:tunnels and its X junction (a region) from a basestation's CLI; only the lock's holder may send it, a malformed
-// region is refused naming it, and the robot explores by itself until it reports "exploration complete", then
-// stands idle with its explored area and frontier count shown by `status` and `frontiers`; it never touches a
-// wall. Scored against the world's ground truth. Then `home` brings it back to its start, and a robot exploring
+// Exploration over DDS, multi-process (issue 14): two wheeled robots that know nothing are sent exploring the
+// west half of builtin:tunnels and its X junction (a region) from a basestation's CLI; only the lock's holder may
+// send one, a malformed region is refused naming it, and the robots explore by themselves, sharing claims and
+// coverage over cairn/explore_claim (never one frontier for two, neither mapping it all, the traffic measured),
+// until each reports "exploration complete", then stand idle with their explored area and frontier count shown
+// by `status` and `frontiers`; they never touch a wall. Scored against the world's ground truth. Then `home` brings it back to its start, and a robot exploring
 // with --home-after-silence comes back by itself once no basestation is left. All processes run in this test's private network namespace
 // (tests/netns_run.sh).
 #include <filesystem>
@@ -64,39 +65,100 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
   r = other.Run("explore ex1");
   EXPECT_EQ(r["result"], "refused") << r;
 
+  // A second robot, 3 m down the tunnel: the two share the region. Each tells the other what it goes for and,
+  // every few seconds, the floor it has seen (cairn/explore_claim), so neither explores the other's branch.
+  auto robot2 = std::make_unique<ChildProcess>(
+      std::vector<std::string>{kAgent, "--robot-id", "ex2", "--start", "7,20,0", "--domain", std::to_string(domain)},
+      logs + "/ex2.log");
+  ASSERT_TRUE(robot2->WaitForLine("READY", 60s)) << "see " << logs;
+  ASSERT_TRUE(op.Run("wait ex2 online 5")["ok"]);
+  ASSERT_TRUE(op.Run("request-control ex2")["ok"]);
+
   // The west half of the main tunnel and the X junction (x < 32, the branches cut at y 15 and 25): explored
   // until no reachable frontier is left in it.
   const auto start = std::chrono::steady_clock::now();
+  r = op.Run("explore ex2 --region 0,15,32,25");
+  ASSERT_TRUE(r["ok"]) << r;
   r = op.Run("explore ex1 --region 0,15,32,25 --wait 300", 320s);
   const double explore_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_TRUE(r["ok"]) << r << "; see " << logs;
   EXPECT_NE(r["reason"].get<std::string>().find("exploration complete: no reachable frontier"), std::string::npos)
       << r;
   EXPECT_FALSE(op.progress_lines().empty()) << "--wait prints progress";
+  for (auto deadline = Clock::now() + 120s;
+       Clock::now() < deadline && observer.FreshState("ex2").explore_state() == "exploring";) {
+    std::this_thread::sleep_for(200ms);
+  }
+  const double team_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  r = op.Run("status ex1");
-
-  ASSERT_TRUE(r["ok"]) << r;
-  EXPECT_EQ(r["mode"], "idle") << r;
-  const json e = r["exploration"];
-  EXPECT_EQ(e["state"], "complete") << r;
-  EXPECT_EQ(e["reachable_frontiers"], 0) << r;
-  const double explored_m2 = e["explored_m2"].get<double>();
+  std::vector<double> own_m2, peer_seen_m2;
+  for (const char* id : {"ex1", "ex2"}) {
+    r = op.Run(std::string("status ") + id);
+    ASSERT_TRUE(r["ok"]) << r;
+    EXPECT_EQ(r["mode"], "idle") << r;
+    const json e = r["exploration"];
+    EXPECT_EQ(e["state"], "complete") << r;
+    own_m2.push_back(e["explored_m2"].get<double>());
+    peer_seen_m2.push_back(e["peer_seen_m2"].get<double>());
+  }
+  // Each mapped the region (they drive the same tunnel: the lidar sees it all) and heard what the other had seen
+  // (the peer's coverage bitmap over DDS: no gain in it for its frontiers).
   const double truth_m2 = TrueFloorM2(0, 15, 32, 25);
-  EXPECT_GE(explored_m2, 0.85 * truth_m2) << r;
+  EXPECT_GE(std::max(own_m2[0], own_m2[1]), 0.85 * truth_m2) << own_m2[0] << ", " << own_m2[1];
+  EXPECT_GE(std::min(peer_seen_m2[0], peer_seen_m2[1]), 0.5 * truth_m2) << peer_seen_m2[0] << ", " << peer_seen_m2[1];
   r = op.Run("frontiers ex1");
   ASSERT_TRUE(r["ok"]) << r;
   EXPECT_EQ(r["state"], "complete") << r;
-  EXPECT_EQ(r["task_id"], e["task_id"]) << r;
 
-  // It never touched a wall, and it stands still.
-  for (const auto& s : observer.History("ex1")) {
-    ASSERT_FALSE(s.in_contact()) << "contact at " << FormatState(s) << "\n" << TrackBeforeContact(observer.History("ex1"));
+  // Never two claims on one frontier: at each of ex1's states with a target, ex2's target then (its latest state
+  // stamped at or before it: the robots share this machine's clock) lay apart.
+  const auto history1 = observer.History("ex1");
+  const auto history2 = observer.History("ex2");
+  auto seconds = [](const cairn_msgs::RobotState& s) { return s.stamp().sec() + 1e-9 * s.stamp().nanosec(); };
+  int both = 0, conflicts = 0;
+  for (const auto& a : history1) {
+    if (!a.explore_has_target()) continue;
+    const cairn_msgs::RobotState* nearest = nullptr;
+    for (const auto& b : history2) {
+      if (seconds(b) <= seconds(a) && (nearest == nullptr || seconds(b) > seconds(*nearest))) nearest = &b;
+    }
+    if (nearest == nullptr || !nearest->explore_has_target()) continue;
+    ++both;
+    conflicts += std::hypot(a.explore_target_M().x_m() - nearest->explore_target_M().x_m(),
+                            a.explore_target_M().y_m() - nearest->explore_target_M().y_m()) < 1.5;
   }
-  EXPECT_LT(std::abs(observer.FreshState("ex1").twist_B().linear_x_mps()), 0.05);
+  EXPECT_GT(both, 10) << "both robots held targets at once";
+  EXPECT_EQ(conflicts, 0) << "of " << both << " state pairs with two targets";
+
+  // What the claims cost on the radio: the agents count what they send per topic class.
+  r = op.Run("links");
+  ASSERT_TRUE(r["ok"]) << r;
+  double team_bits_per_s = 0;
+  for (const auto& robot_link : r["robots"]) {
+    for (const auto& usage : robot_link["usage"]) {
+      if (usage["topic_class"] == "team") team_bits_per_s += 8.0 * usage["sent_bytes"].get<double>() / team_s / 2;
+    }
+  }
+  EXPECT_GT(team_bits_per_s, 0) << r;
+  EXPECT_LT(team_bits_per_s, 20000) << "claims and coverage must fit a radio: " << r;
+
+  // Neither touched a wall, and they stand still.
+  for (const char* id : {"ex1", "ex2"}) {
+    for (const auto& s : observer.History(id)) {
+      ASSERT_FALSE(s.in_contact()) << "contact at " << FormatState(s) << "\n" << TrackBeforeContact(observer.History(id));
+    }
+    EXPECT_LT(std::abs(observer.FreshState(id).twist_B().linear_x_mps()), 0.05);
+  }
   Figure("explore_region_s", explore_s);
-  Figure("explored_m2", explored_m2);
+  Figure("team_done_s", team_s);
+  Figure("explored_m2_ex1", own_m2[0]);
+  Figure("explored_m2_ex2", own_m2[1]);
+  Figure("peer_seen_m2_ex1", peer_seen_m2[0]);
+  Figure("peer_seen_m2_ex2", peer_seen_m2[1]);
   Figure("true_floor_m2", truth_m2);
+  Figure("claim_traffic_bits_per_s_per_robot", team_bits_per_s);
+  Figure("target_pairs", both);
+  robot2.reset();  // ex1 alone from here
 
   // home brings it back to where it started, on its own map (from 16 m down the tunnel).
   r = op.Run("goto ex1 20 20 --wait 90", 100s);

@@ -53,7 +53,9 @@ json ExplorationJson(const cairn_msgs::RobotState& s) {
             {"frontiers", s.frontier_clusters()},
             {"reachable_frontiers", s.reachable_frontiers()},
             {"targets_reached", s.explore_targets_reached()},
-            {"targets_failed", s.explore_targets_failed()}};
+            {"targets_failed", s.explore_targets_failed()},
+            {"peers", s.explore_peers()},
+            {"peer_seen_m2", s.explore_peer_seen_m2()}};
   if (s.explore_has_target()) {
     j["target"] = {{"x_m", s.explore_target_M().x_m()},
                    {"y_m", s.explore_target_M().y_m()},
@@ -71,6 +73,10 @@ std::string ExplorationText(const cairn_msgs::RobotState& s) {
                      std::to_string(s.explore_targets_failed()) + " given up";
   if (s.explore_has_target()) {
     text += "; target (" + Fixed(s.explore_target_M().x_m(), 2) + ", " + Fixed(s.explore_target_M().y_m(), 2) + ")";
+  }
+  if (s.explore_peers() > 0 || s.explore_peer_seen_m2() > 0) {
+    text += "; " + std::to_string(s.explore_peers()) + (s.explore_peers() == 1 ? " peer" : " peers") +
+            " exploring, " + Fixed(s.explore_peer_seen_m2(), 0) + " m² seen by peers";
   }
   if (!s.explore_reason().empty()) text += "; " + s.explore_reason();
   return text;

@@ -53,6 +53,10 @@ bool Explorer::ClaimedByPeer(const FrontierCluster& c, bool is_current, const Te
   for (const PeerClaim& claim : team.claims) {
     if (claim.robot_id == team.own_id) continue;
     if ((claim.target_M - c.target_M).norm() > options_.claim_radius_m) continue;
+    if (!is_current) {  // a peer's claim, however fresh, is the peer's: a robot never takes a claimed frontier
+      *by = claim.robot_id;
+      return true;
+    }
     const bool older = claim.held_s > mine_s + 0.5;
     const bool tie = std::abs(claim.held_s - mine_s) <= 0.5 && claim.robot_id < team.own_id;
     if (older || tie) {

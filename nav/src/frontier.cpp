@@ -116,6 +116,74 @@ void PeerCoverage::Mark(const Eigen::Vector2d& p_M) {
 
 bool PeerCoverage::Covered(const Eigen::Vector2d& p_M) const { return p_M.allFinite() && cells_.count(Key(p_M)) > 0; }
 
+void PeerCoverage::Add(const CoverageBitmap& bitmap) {
+  if (std::abs(bitmap.cell_m - cell_m_) > 1e-9) {
+    throw std::invalid_argument("PeerCoverage::Add: bitmap cell_m = " + std::to_string(bitmap.cell_m) +
+                                " differs from the coverage's " + std::to_string(cell_m_));
+  }
+  if (const std::string why = bitmap.Check(); !why.empty()) throw std::invalid_argument("PeerCoverage::Add: " + why);
+  for (int j = 0; j < bitmap.ny; ++j) {
+    for (int i = 0; i < bitmap.nx; ++i) {
+      if (!bitmap.Covered(i, j)) continue;
+      const std::int64_t ix = bitmap.origin_cell.x() + i, iy = bitmap.origin_cell.y() + j;
+      cells_.insert((ix << 32) ^ (iy & 0xffffffffLL));
+    }
+  }
+}
+
+int CoverageBitmap::CountCovered() const {
+  int n = 0;
+  for (const std::uint8_t b : bits) n += __builtin_popcount(b);
+  return n;
+}
+
+std::string CoverageBitmap::Check() const {
+  std::ostringstream why;
+  if (!(cell_m > 0 && cell_m <= 10)) {
+    why << "cell_m = " << cell_m << " must be in (0, 10]";
+  } else if (nx < 0 || ny < 0) {
+    why << "nx = " << nx << ", ny = " << ny << " must not be negative";
+  } else if (static_cast<std::int64_t>(nx) * ny > kMaxCells) {
+    why << "nx * ny = " << static_cast<std::int64_t>(nx) * ny << " cells is over the limit of " << kMaxCells;
+  } else if (std::abs(origin_cell.x()) > (1 << 24) || std::abs(origin_cell.y()) > (1 << 24)) {
+    why << "origin_cell = (" << origin_cell.x() << ", " << origin_cell.y() << ") is beyond +-2^24 cells";
+  } else if (bits.size() != (static_cast<std::size_t>(nx) * ny + 7) / 8) {
+    why << "bits has " << bits.size() << " bytes, " << (static_cast<std::size_t>(nx) * ny + 7) / 8
+        << " expected for " << nx << " x " << ny << " cells";
+  }
+  return why.str();
+}
+
+CoverageBitmap SeenCoverage(const TraversabilityGrid& grid, double cell_m) {
+  if (!(cell_m > 0 && cell_m <= 10) || cell_m < grid.cell_size_m() - 1e-9) {
+    throw std::invalid_argument("SeenCoverage: cell_m = " + std::to_string(cell_m) + " must be in (0, 10] and at " +
+                                "least the grid's cell of " + std::to_string(grid.cell_size_m()) + " m");
+  }
+  CoverageBitmap out;
+  out.cell_m = cell_m;
+  const Eigen::Vector2d lo = grid.p_W_min(), hi = grid.p_W_max();
+  out.origin_cell = {static_cast<int>(std::floor(lo.x() / cell_m)), static_cast<int>(std::floor(lo.y() / cell_m))};
+  out.nx = static_cast<int>(std::ceil(hi.x() / cell_m)) - out.origin_cell.x();
+  out.ny = static_cast<int>(std::ceil(hi.y() / cell_m)) - out.origin_cell.y();
+  const std::size_t n = static_cast<std::size_t>(out.nx) * out.ny;
+  std::vector<std::uint16_t> seen(n, 0), total(n, 0);
+  for (int y = 0; y < grid.ny(); ++y) {
+    for (int x = 0; x < grid.nx(); ++x) {
+      const Eigen::Vector2d c = grid.CellCenter(x, y);
+      const int i = std::clamp(static_cast<int>(std::floor(c.x() / cell_m)) - out.origin_cell.x(), 0, out.nx - 1);
+      const int j = std::clamp(static_cast<int>(std::floor(c.y() / cell_m)) - out.origin_cell.y(), 0, out.ny - 1);
+      const std::size_t k = static_cast<std::size_t>(j) * out.nx + i;
+      ++total[k];
+      if (grid.State(x, y) != CellState::kUnknown) ++seen[k];
+    }
+  }
+  out.bits.assign((n + 7) / 8, 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (total[k] > 0 && 2 * seen[k] >= total[k]) out.bits[k / 8] |= static_cast<std::uint8_t>(1U << (k % 8));
+  }
+  return out;
+}
+
 FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d& robot_M,
                           const FrontierOptions& options, const PeerCoverage* peers) {
   std::string why;

@@ -113,14 +113,23 @@ TEST(ExplorerTest, APeersOlderClaimWinsAndAllClaimedMeansWait) {
   team = TeamView{"r2", 70.0, {{"r1", Eigen::Vector2d(5, 0.5), 30.0}, {"r3", Eigen::Vector2d(0, 5.5), 0.2}}};
   d = explorer.Decide(Set({Cluster(5, 0, 3.0), Cluster(0, 5, 1.0)}), team);
   EXPECT_EQ(d.kind, ExplorerDecision::Kind::kKeep);
-  // A tie (both 0.3 s): the smaller id keeps it.
+  // A frontier a peer claimed, however recently, is never taken, whatever the ids.
   Explorer r3;
   d = r3.Decide(Set({Cluster(0, 5, 1.0)}), TeamView{"r3", 0.0, {{"r2", Eigen::Vector2d(0, 5), 0.3}}});
   EXPECT_EQ(d.kind, ExplorerDecision::Kind::kWait);
   EXPECT_EQ(d.reason, "every reachable frontier (1) is claimed by a peer (r2): waiting");
   Explorer r1;
-  d = r1.Decide(Set({Cluster(0, 5, 1.0)}), TeamView{"r1", 0.0, {{"r2", Eigen::Vector2d(0, 5), 0.3}}});
-  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kGoTo) << "r1 < r2";
+  d = r1.Decide(Set({Cluster(0, 5, 1.0)}), TeamView{"r1", 0.0, {{"r2", Eigen::Vector2d(0, 5.1), 0.0}}});
+  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kWait) << "r1 < r2, but r2 claimed it first";
+  // Two robots chose one frontier at once (before either heard the other): both hold it 0.3 s; the smaller id
+  // keeps it and the other leaves it.
+  Explorer a, b;
+  ASSERT_EQ(a.Decide(Set({Cluster(0, 5, 1.0)}), TeamView{"r1", 0.0, {}}).kind, ExplorerDecision::Kind::kGoTo);
+  ASSERT_EQ(b.Decide(Set({Cluster(0, 5, 1.0)}), TeamView{"r2", 0.0, {}}).kind, ExplorerDecision::Kind::kGoTo);
+  std::string by;
+  EXPECT_FALSE(a.CurrentClaimedByPeer(TeamView{"r1", 0.3, {{"r2", Eigen::Vector2d(0, 5), 0.3}}}, &by));
+  EXPECT_TRUE(b.CurrentClaimedByPeer(TeamView{"r2", 0.3, {{"r1", Eigen::Vector2d(0, 5), 0.3}}}, &by));
+  EXPECT_EQ(by, "r1");
   // The robot's own claim is never a peer's.
   Explorer self;
   d = self.Decide(Set({Cluster(0, 5, 1.0)}), TeamView{"r1", 0.0, {{"r1", Eigen::Vector2d(0, 5), 9.0}}});

@@ -70,6 +70,48 @@ TEST(FrontierTest, ADoorIntoUnknownSpaceIsOneReachableClusterAndAFloorHoleIsNone
   EXPECT_NEAR(set.known_free_m2, 10.2 * 10.0 - 0.4 * 0.4 - 0.2 * 8.0, 0.5);
 }
 
+TEST(PeerCoverageTest, APeersSeenFloorMakesTheDoorWorthNothingAndBadBitmapsAreNamed) {
+  // The peer has seen the room beyond the door (the whole world); this robot only room A.
+  const TraversabilityGrid peer_grid(FlatWorld(20.0, 10.0, 0.1, 2.0), RobotMapReading());
+  const CoverageBitmap bitmap = SeenCoverage(peer_grid, 0.5);
+  EXPECT_EQ(bitmap.Check(), "");
+  EXPECT_EQ(bitmap.nx, 40);
+  EXPECT_EQ(bitmap.ny, 20);
+  EXPECT_EQ(bitmap.CountCovered(), 800);
+  // Room A only: the coarse cells of x >= 10 are unseen (x in [10, 10.5) is 2 of 5 columns seen: a minority).
+  const TraversabilityGrid own_grid(RoomWithADoor(), RobotMapReading());
+  const CoverageBitmap own = SeenCoverage(own_grid, 0.5);
+  EXPECT_EQ(own.CountCovered(), 20 * 20);
+  EXPECT_TRUE(own.Covered(19, 0));
+  EXPECT_FALSE(own.Covered(20, 0));
+
+  PeerCoverage peers(0.5);
+  peers.Add(bitmap);
+  EXPECT_EQ(peers.size(), 800u);
+  EXPECT_TRUE(peers.Covered({15.2, 5.1}));
+  EXPECT_FALSE(peers.Covered({25.0, 5.0}));
+  const FrontierSet alone = FindFrontiers(own_grid, {2.0, 5.0});
+  ASSERT_EQ(alone.clusters.size(), 1u);
+  FrontierOptions lenient;
+  lenient.min_gain_m2 = 0.0;  // keep the cluster to see its gain
+  const FrontierSet with_peer = FindFrontiers(own_grid, {2.0, 5.0}, lenient, &peers);
+  ASSERT_EQ(with_peer.clusters.size(), 1u);
+  EXPECT_LT(with_peer.clusters[0].gain_m2, 1.0);
+  EXPECT_TRUE(FindFrontiers(own_grid, {2.0, 5.0}, FrontierOptions{}, &peers).clusters.empty());
+
+  CoverageBitmap bad = bitmap;
+  bad.bits.pop_back();
+  EXPECT_EQ(bad.Check(), "bits has 99 bytes, 100 expected for 40 x 20 cells");
+  EXPECT_THROW(peers.Add(bad), std::invalid_argument);
+  bad = bitmap;
+  bad.cell_m = 0.25;
+  EXPECT_THROW(peers.Add(bad), std::invalid_argument);  // another cell size
+  bad = bitmap;
+  bad.nx = -1;
+  EXPECT_EQ(bad.Check(), "nx = -1, ny = 20 must not be negative");
+  EXPECT_THROW(SeenCoverage(peer_grid, 0.05), std::invalid_argument);  // finer than the grid
+}
+
 TEST(FrontierTest, AWideOpeningIsCutIntoPiecesAndTheNearestPieceComesFirst) {
   sim::World world = FlatWorld(20.0, 10.0, 0.1, 2.0);
   FillBox(&world, {10.2, 0.0, -0.2}, {20.0, 10.0, 0.0}, false);  // all of x >= 10.2 unknown

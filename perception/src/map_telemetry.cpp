@@ -242,24 +242,74 @@ std::vector<std::uint8_t> EncodeCoarseVoxels(std::vector<CoarseVoxel> voxels, in
         static_cast<std::uint8_t>(static_cast<unsigned>(voxels[k].state) << (2 * (k % 4)));
   }
 
-  std::vector<std::uint8_t> out(kHeaderBytes + ZSTD_compressBound(body.size()));
+  std::vector<std::uint8_t> out(kHeaderBytes);
   std::memcpy(out.data(), kMagic, 4);
   out[4] = kVersion;
   const auto count = static_cast<std::uint32_t>(n);
   for (int i = 0; i < 4; ++i) out[5 + i] = static_cast<std::uint8_t>(count >> (8 * i));
+  ZstdCompressAppend(body, zstd_level, "EncodeCoarseVoxels", &out);
+  return out;
+}
+
+void ZstdCompressAppend(const std::vector<std::uint8_t>& raw, int zstd_level, const char* caller,
+                        std::vector<std::uint8_t>* out) {
+  if (zstd_level < 1 || zstd_level > 19) {
+    throw std::invalid_argument(std::string(caller) + ": zstd_level = " + std::to_string(zstd_level) +
+                                " must be in [1, 19]");
+  }
+  const std::size_t at = out->size();
+  out->resize(at + ZSTD_compressBound(raw.size()));
   ZSTD_CCtx* cctx = ThreadCCtx();
-  if (cctx == nullptr) throw std::runtime_error("EncodeCoarseVoxels: ZSTD_createCCtx failed");
+  if (cctx == nullptr) throw std::runtime_error(std::string(caller) + ": ZSTD_createCCtx failed");
   ZSTD_CCtx_reset(cctx, ZSTD_reset_session_and_parameters);
   ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, zstd_level);
   ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
   ZSTD_CCtx_setParameter(cctx, ZSTD_c_contentSizeFlag, 1);
-  const std::size_t written =
-      ZSTD_compress2(cctx, out.data() + kHeaderBytes, out.size() - kHeaderBytes, body.data(), body.size());
+  const std::size_t written = ZSTD_compress2(cctx, out->data() + at, out->size() - at, raw.data(), raw.size());
   if (ZSTD_isError(written)) {
-    throw std::runtime_error(std::string("EncodeCoarseVoxels: zstd: ") + ZSTD_getErrorName(written));
+    throw std::runtime_error(std::string(caller) + ": zstd: " + ZSTD_getErrorName(written));
   }
-  out.resize(kHeaderBytes + written);
-  return out;
+  out->resize(at + written);
+}
+
+bool ZstdDecompress(const std::uint8_t* frame, std::size_t frame_size, std::size_t max_bytes,
+                    std::vector<std::uint8_t>* out, std::string* error) {
+  out->clear();
+  if (frame == nullptr && frame_size > 0) return Fail(error, "null data with a non-zero size");
+  if (frame_size < 4 || std::memcmp(frame, kZstdFrameMagic, 4) != 0) {
+    return Fail(error, "no zstd frame (missing or bad frame magic)");
+  }
+  const std::size_t compressed = ZSTD_findFrameCompressedSize(frame, frame_size);
+  if (ZSTD_isError(compressed)) {
+    return Fail(error, std::string("corrupt or truncated zstd frame: ") + ZSTD_getErrorName(compressed));
+  }
+  if (compressed != frame_size) {
+    return Fail(error, std::to_string(frame_size - compressed) + " trailing bytes after the zstd frame");
+  }
+  const unsigned long long declared = ZSTD_getFrameContentSize(frame, frame_size);
+  if (declared == ZSTD_CONTENTSIZE_ERROR) return Fail(error, "corrupt zstd frame header");
+  if (declared == ZSTD_CONTENTSIZE_UNKNOWN) return Fail(error, "zstd frame does not declare its content size");
+  if (declared > max_bytes) {
+    return Fail(error, "zstd frame declares " + std::to_string(declared) + " decompressed bytes, over the cap of " +
+                           std::to_string(max_bytes) + " (decompression bomb?)");
+  }
+  out->resize(static_cast<std::size_t>(declared));
+  ZSTD_DCtx* dctx = ThreadDCtx();
+  if (dctx == nullptr) return Fail(error, "ZSTD_createDCtx failed");
+  ZSTD_DCtx_reset(dctx, ZSTD_reset_session_and_parameters);
+  // `out` has exactly the declared size: zstd never writes past it (it fails with dstSize_tooSmall).
+  const std::size_t got = ZSTD_decompressDCtx(dctx, out->data(), out->size(), frame, frame_size);
+  if (ZSTD_isError(got)) {
+    out->clear();
+    return Fail(error, std::string("zstd decompression failed: ") + ZSTD_getErrorName(got));
+  }
+  if (got != out->size()) {
+    const std::size_t want = out->size();
+    out->clear();
+    return Fail(error, "zstd frame decompressed to " + std::to_string(got) + " bytes, declared " +
+                           std::to_string(want));
+  }
+  return true;
 }
 
 bool DecodeCoarseVoxels(const std::uint8_t* data, std::size_t size, std::size_t max_voxels,
@@ -288,39 +338,11 @@ bool DecodeCoarseVoxels(const std::uint8_t* data, std::size_t size, std::size_t 
                            std::to_string(max_voxels));
   }
 
-  const std::uint8_t* frame = data + kHeaderBytes;
-  const std::size_t frame_size = size - kHeaderBytes;
-  if (frame_size < 4 || std::memcmp(frame, kZstdFrameMagic, 4) != 0) {
-    return Fail(error, "no zstd frame after the header (missing or bad frame magic)");
-  }
-  const std::size_t compressed = ZSTD_findFrameCompressedSize(frame, frame_size);
-  if (ZSTD_isError(compressed)) {
-    return Fail(error, std::string("corrupt or truncated zstd frame: ") + ZSTD_getErrorName(compressed));
-  }
-  if (compressed != frame_size) {
-    return Fail(error, std::to_string(frame_size - compressed) + " trailing bytes after the zstd frame");
-  }
-  const unsigned long long declared = ZSTD_getFrameContentSize(frame, frame_size);
-  if (declared == ZSTD_CONTENTSIZE_ERROR) return Fail(error, "corrupt zstd frame header");
-  if (declared == ZSTD_CONTENTSIZE_UNKNOWN)
-    return Fail(error, "zstd frame does not declare its content size");
   const std::size_t cap = static_cast<std::size_t>(count) * kMaxBodyBytesPerVoxel + (count + 3) / 4;
-  if (declared > cap) {
-    return Fail(error, "zstd frame declares " + std::to_string(declared) +
-                           " decompressed bytes, over the cap of " + std::to_string(cap) + " for " +
-                           std::to_string(count) + " voxels (decompression bomb?)");
-  }
-  std::vector<std::uint8_t> body(static_cast<std::size_t>(declared));
-  ZSTD_DCtx* dctx = ThreadDCtx();
-  if (dctx == nullptr) return Fail(error, "ZSTD_createDCtx failed");
-  ZSTD_DCtx_reset(dctx, ZSTD_reset_session_and_parameters);
-  // `body` has exactly the declared size: zstd never writes past it (it fails with dstSize_tooSmall).
-  const std::size_t got = ZSTD_decompressDCtx(dctx, body.data(), body.size(), frame, frame_size);
-  if (ZSTD_isError(got))
-    return Fail(error, std::string("zstd decompression failed: ") + ZSTD_getErrorName(got));
-  if (got != body.size()) {
-    return Fail(error, "zstd frame decompressed to " + std::to_string(got) + " bytes, declared " +
-                           std::to_string(body.size()));
+  std::vector<std::uint8_t> body;
+  std::string why;
+  if (!ZstdDecompress(data + kHeaderBytes, size - kHeaderBytes, cap, &body, &why)) {
+    return Fail(error, why + " (after the header, for " + std::to_string(count) + " voxels)");
   }
   if (!ParseBody(body.data(), body.size(), count, out, error)) {
     out->clear();

@@ -56,7 +56,7 @@ msgs::CommandResult ResultOf(CommandResult result) {
 
 AgentDdsHandlers Checked(AgentDdsHandlers h) {
   if (!h.control || !h.mode || !h.goal || !h.explore || !h.home || !h.stop || !h.teleop || !h.base_announced || !h.base_liveliness ||
-      !h.path_query || !h.map_sync) {
+      !h.path_query || !h.map_sync || !h.explore_claim) {
     throw std::invalid_argument("AgentDds: every handler is required");
   }
   return h;
@@ -91,6 +91,7 @@ class AgentDds::Impl {
   ~Impl() {
     // Readers first so that no callback runs while the rest is torn down.
     probe_reader_.reset();
+    claim_reader_.reset();
     map_sync_reader_.reset();
     path_request_reader_.reset();
     control_reader_.reset();
@@ -126,6 +127,8 @@ class AgentDds::Impl {
         p, "cairn/staircase", "cairn.latched");
     probe_reply_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(p, "cairn/link_probe_reply",
                                                                                    "cairn.command");
+    claim_writer_ =
+        std::make_unique<core::Writer<msgs::ExploreClaimPubSubType>>(p, "cairn/explore_claim", "cairn.latched");
   }
 
   // The map and camera writers on the flow controllers of `share` (bulk_mutex_ held, or before any Publish).
@@ -165,6 +168,29 @@ class AgentDds::Impl {
           reply.robot_id(robot);
           reply.body(m.body());  // the probing process's identity: bases sharing an id tell their probes apart
           probe_reply_writer_->Write(reply);
+        });
+    // Peers' explore claims: the one topic robots read from one another.
+    claim_reader_ = std::make_unique<core::Reader<msgs::ExploreClaimPubSubType>>(
+        p, "cairn/explore_claim", "cairn.latched", [this, robot](const msgs::ExploreClaim& m, const SampleInfo&) {
+          if (m.robot_id() == robot) return;
+          ExploreClaim c;
+          c.robot_id = m.robot_id();
+          c.task_id = m.task_id();
+          c.active = m.active();
+          c.has_target = m.has_target();
+          c.target_M = {m.target_x_m(), m.target_y_m(), m.target_z_m()};
+          c.held_s = m.held_s();
+          c.lease_s = m.lease_s();
+          std::string fault;
+          if (m.coverage_cell_m() != 0.0) {
+            nav::CoverageBitmap bitmap;
+            bitmap.cell_m = m.coverage_cell_m();
+            bitmap.origin_cell = {m.coverage_origin_ix(), m.coverage_origin_iy()};
+            bitmap.nx = m.coverage_nx();
+            bitmap.ny = m.coverage_ny();
+            if (DecompressCoverageBits(m.coverage_zstd(), &bitmap, &fault)) c.coverage = std::move(bitmap);
+          }
+          handlers_.explore_claim(c, fault);
         });
     map_sync_reader_ = std::make_unique<core::Reader<msgs::MapSyncRequestPubSubType>>(
         p, "cairn/map_sync_request", "cairn.command",
@@ -305,6 +331,8 @@ class AgentDds::Impl {
   std::unique_ptr<core::Writer<msgs::StaircaseDetectionPubSubType>> staircase_writer_;
   std::unique_ptr<core::Writer<msgs::PingPongPubSubType>> probe_reply_writer_;
   std::unique_ptr<core::Reader<msgs::PingPongPubSubType>> probe_reader_;
+  std::unique_ptr<core::Writer<msgs::ExploreClaimPubSubType>> claim_writer_;
+  std::unique_ptr<core::Reader<msgs::ExploreClaimPubSubType>> claim_reader_;
   std::unique_ptr<core::Reader<msgs::MapSyncRequestPubSubType>> map_sync_reader_;
   std::unique_ptr<core::Reader<msgs::PathRequestPubSubType>> path_request_reader_;
   std::unique_ptr<core::Reader<msgs::ControlRequestPubSubType>> control_reader_;
@@ -400,6 +428,29 @@ bool AgentDds::Publish(const msgs::StaircaseDetection& staircase) {
   return impl_->staircase_writer_->Write(staircase);
 }
 
+bool AgentDds::Publish(const ExploreClaim& claim) {
+  msgs::ExploreClaim m;
+  m.robot_id(impl_->options_.robot_id);
+  m.task_id(claim.task_id);
+  m.active(claim.active);
+  m.has_target(claim.has_target);
+  m.target_x_m(claim.target_M.x());
+  m.target_y_m(claim.target_M.y());
+  m.target_z_m(claim.target_M.z());
+  m.held_s(claim.held_s);
+  m.lease_s(claim.lease_s);
+  if (claim.coverage) {
+    const nav::CoverageBitmap& b = *claim.coverage;
+    m.coverage_cell_m(b.cell_m);
+    m.coverage_origin_ix(b.origin_cell.x());
+    m.coverage_origin_iy(b.origin_cell.y());
+    m.coverage_nx(b.nx);
+    m.coverage_ny(b.ny);
+    m.coverage_zstd(CompressCoverageBits(b));
+  }
+  return impl_->claim_writer_->Write(m);
+}
+
 std::vector<SentTraffic> AgentDds::SentByClass() const {
   const Impl& i = *impl_;
   auto sum = [](const char* topic_class, std::initializer_list<std::pair<std::uint64_t, std::uint64_t>> writers) {
@@ -416,6 +467,7 @@ std::vector<SentTraffic> AgentDds::SentByClass() const {
           sum("state", {of(i.state_writer_), of(i.pose_writer_), of(i.local_plan_writer_), of(i.info_writer_),
                         of(i.staircase_writer_)}),
           sum("tree", {of(i.tree_writer_), of(i.global_path_writer_)}),
+          sum("team", {of(i.claim_writer_)}),
           sum("map", {of(i.map_writer_), i.retired_map_}),
           sum("camera", {of(i.camera_writer_), i.retired_camera_})};
 }

@@ -112,7 +112,8 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto ex = config.Section("explore");
   ex.RejectUnknownKeys({"target_tolerance_m", "settle_s", "map_wait_s", "min_gain_m2", "gain_radius_m",
                         "max_cluster_extent_m", "unknown_reach_m", "switch_utility_ratio", "blacklist_radius_m",
-                        "visited_radius_m", "retry_after_s", "claim_radius_m", "peer_influence_m"});
+                        "visited_radius_m", "retry_after_s", "claim_radius_m", "peer_influence_m", "claim_period_s",
+                        "coverage_period_s", "claim_lease_s", "coverage_cell_m"});
   ex.ReadDouble("target_tolerance_m", &explore.target_tolerance_m);
   ex.ReadDouble("settle_s", &explore.settle_s);
   ex.ReadDouble("map_wait_s", &explore.map_wait_s);
@@ -126,6 +127,10 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   ex.ReadDouble("retry_after_s", &explore.explorer.retry_after_s);
   ex.ReadDouble("claim_radius_m", &explore.explorer.claim_radius_m);
   ex.ReadDouble("peer_influence_m", &explore.explorer.peer_influence_m);
+  ex.ReadDouble("claim_period_s", &explore.team.claim_period_s);
+  ex.ReadDouble("coverage_period_s", &explore.team.coverage_period_s);
+  ex.ReadDouble("claim_lease_s", &explore.team.lease_s);
+  ex.ReadDouble("coverage_cell_m", &explore.team.coverage_cell_m);
   const auto telemetry = config.Section("telemetry");
   telemetry.RejectUnknownKeys({"state_rate_hz", "local_plan_rate_hz"});
   telemetry.ReadDouble("state_rate_hz", &state_rate_hz);

@@ -44,27 +44,6 @@ std::string CheckExploreTask(const ExploreTask& task) {
   return why.str();
 }
 
-bool MarkPeerCoverage(const perception::MapUpdate& update, double min_z_m, double max_z_m,
-                      nav::PeerCoverage* coverage, std::string* why) {
-  if (!(update.resolution_m > 0) || !std::isfinite(update.resolution_m)) {
-    if (why != nullptr) *why = "resolution_m = " + std::to_string(update.resolution_m) + " must be positive";
-    return false;
-  }
-  std::vector<perception::CoarseVoxel> voxels;
-  if (!perception::DecodeCoarseVoxels(update.data.data(), update.data.size(), perception::kMaxVoxelsPerUpdate,
-                                      &voxels, why)) {
-    return false;
-  }
-  const double r = update.resolution_m;
-  for (const perception::CoarseVoxel& v : voxels) {
-    if (v.state != perception::CoarseState::kOccupied) continue;  // space seen, not the ground
-    const double z = (v.iz + 0.5) * r;
-    if (z < min_z_m || z > max_z_m) continue;
-    coverage->Mark({(v.ix + 0.5) * r, (v.iy + 0.5) * r});
-  }
-  return true;
-}
-
 const char* ToString(ExplorationState state) {
   switch (state) {
     case ExplorationState::kNone: return "none";
@@ -88,6 +67,7 @@ bool ExploreModeOptions::IsValid(std::string* why) const {
     msg = "explore: " + nested;  // the config section; the option struct names the field
     ok = false;
   }
+  if (ok && !team.IsValid(&msg)) ok = false;  // names the config field itself
   if (ok && first_task_id == 0) {
     msg = "explore.first_task_id = 0 must be >= 1";
     ok = false;
@@ -171,6 +151,19 @@ void ExploreMode::OnFrontiers(nav::FrontierSet set, double computed_at_s) {
 std::optional<nav::PeerClaim> ExploreMode::OwnClaim(double now_s) const {
   if (!exploring() || !status_.has_target) return std::nullopt;
   return nav::PeerClaim{options_.robot_id, status_.target_M, explorer_.HeldS(now_s)};
+}
+
+std::optional<ExploreClaim> DueClaim(const ExploreMode& mode, ExploreTeam& team, double now_s,
+                                     const std::function<std::optional<nav::CoverageBitmap>()>& coverage) {
+  const std::optional<nav::PeerClaim> own = mode.OwnClaim(now_s);
+  const bool active = mode.exploring();
+  if (!team.ClaimDue(now_s, active, own.has_value(), own ? own->target_M : Eigen::Vector2d::Zero())) {
+    return std::nullopt;
+  }
+  ExploreClaim claim = team.MakeClaim(mode.status().task_id, active, own, mode.status().target_z_m);
+  if (team.CoverageDue(now_s) && coverage) claim.coverage = coverage();
+  team.Sent(claim, now_s);
+  return claim;
 }
 
 bool ExploreMode::planning() const { return plan_.valid() && !Ready(plan_); }

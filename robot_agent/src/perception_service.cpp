@@ -148,13 +148,23 @@ void PerceptionService::NavMapLoop() {
       last_map_update_s_ = NowS();
       std::optional<nav::FrontierOptions> search;
       Eigen::Vector2d robot_p_M;
+      std::shared_ptr<const nav::PeerCoverage> peers;
+      double coverage_cell_m = 0.0;
       {
         std::lock_guard<std::mutex> guard(frontier_mutex_);
         search = frontier_search_;
         robot_p_M = robot_p_M_;
+        peers = peer_coverage_;
+        coverage_cell_m = coverage_cell_m_;
+      }
+      if (coverage_cell_m > 0) {
+        nav::CoverageBitmap seen = nav::SeenCoverage(nav_map_->grid(), coverage_cell_m);
+        std::lock_guard<std::mutex> guard(frontier_mutex_);
+        seen_coverage_ = std::move(seen);
+        coverage_cell_m_ = 0.0;
       }
       if (search) {
-        nav::FrontierSet set = nav::FindFrontiers(nav_map_->grid(), robot_p_M, *search);
+        nav::FrontierSet set = nav::FindFrontiers(nav_map_->grid(), robot_p_M, *search, peers.get());
         std::lock_guard<std::mutex> guard(frontier_mutex_);
         frontiers_ = std::move(set);
         frontiers_at_s_ = NowS();
@@ -183,6 +193,19 @@ void PerceptionService::SetFrontierSearch(const std::optional<nav::FrontierOptio
   std::lock_guard<std::mutex> guard(frontier_mutex_);
   frontier_search_ = search;
   if (!search) frontiers_.reset();
+}
+
+void PerceptionService::SetPeerCoverage(std::shared_ptr<const nav::PeerCoverage> coverage) {
+  std::lock_guard<std::mutex> guard(frontier_mutex_);
+  peer_coverage_ = std::move(coverage);
+}
+
+std::optional<nav::CoverageBitmap> PerceptionService::TakeSeenCoverage(double cell_m) {
+  std::lock_guard<std::mutex> guard(frontier_mutex_);
+  coverage_cell_m_ = cell_m;
+  std::optional<nav::CoverageBitmap> out = std::move(seen_coverage_);
+  seen_coverage_.reset();
+  return out;
 }
 
 void PerceptionService::SetRobotPosition(const Eigen::Vector2d& p_M) {

@@ -151,6 +151,9 @@ class RobotAgent::Impl {
   // On a radio link: the robots on it share its bulk budget (map telemetry, camera), so a robot's share is
   // 1 / n of what one robot alone would send (AgentOptions::ApplyLinkBudget). Control thread, once a second.
   void ShareRadioLink();
+  void SendClaim(const ExploreClaim& claim) {
+    if (!dds_->Publish(claim)) spdlog::warn("robot {}: explore claim not sent (DDS history full)", options_.robot_id);
+  }
   double NowS(SteadyTime t) const { return core::SecondsBetween(start_time_, t); }
 
   AgentOptions options_;
@@ -172,6 +175,8 @@ class RobotAgent::Impl {
   std::unique_ptr<PerceptionService> perception_;  // sensor, perception and navigation map threads
   WaypointMode* waypoint_ = nullptr;               // owned by modes_; holds the waypoint goal
   ExploreMode* explore_ = nullptr;                 // owned by modes_; holds the exploration task
+  ExploreTeam team_;                               // peers' explore claims and coverage (thread-safe)
+  std::optional<ExploreClaim> claim_to_send_;      // Step()'s, sent by Run() outside the agent lock
   std::future<nav::GlobalPlan> home_plan_;         // ComeHomeIfSilent(): the way back, being planned
   std::unique_ptr<ModeControl> modes_;             // the mode tree, the mode modules and the mux
   std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
@@ -189,7 +194,8 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       planner_(MakePlanner(options, start_M_)),
       pose_(start_M_),
       navigation_(options.navigation, planner_,
-                  LocalPlannerLibrary(options)) {
+                  LocalPlannerLibrary(options)),
+      team_(options.robot_id, options.explore.team) {
   perception_ = std::make_unique<PerceptionService>(
       options, platform_, start_M_, planner_, start_time_,
       [this](const PerceptionOutput& out) { telemetry_->PublishPerception(out); });
@@ -323,6 +329,12 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
       locked([this](const WriterLiveliness& l) { command_->OnBaseLiveliness(l, SteadyClock::now()); });
   // No planning on a DDS thread: the query waits for the planning thread, within a per-process rate.
   h.path_query = [this](const PathQuery& q) { planning_->SubmitPathQuery(q, SteadyClock::now()); };
+  // Peers' claims need no agent lock (ExploreTeam has its own); a bad one is named and dropped.
+  h.explore_claim = [this](const ExploreClaim& claim, const std::string& fault) {
+    const std::string refused = fault.empty() ? team_.OnPeerClaim(claim, NowS(SteadyClock::now()))
+                                              : "explore claim from \"" + claim.robot_id + "\": " + fault;
+    if (!refused.empty()) spdlog::warn("robot {}: {}; dropped", options_.robot_id, refused);
+  };
   h.map_sync = [this](const std::string& requester) {
     spdlog::info("robot {}: map snapshot requested by {}", options_.robot_id, requester);
     perception_->RequestMapSnapshot();
@@ -418,10 +430,19 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   perception_->SetFrontierSearch(explore_->frontier_search());
   perception_->SetRobotPosition({pose_.x_m, pose_.y_m});
   if (auto frontiers = perception_->TakeFrontiers()) explore_->OnFrontiers(std::move(frontiers->first), frontiers->second);
+  // The team: what peers go for and have seen shapes the choice; this robot's claim goes out when due.
+  explore_->SetPeerClaims(team_.LiveClaims(now_s));
+  explore_->SetTeamView(team_.ExploringPeers(now_s), team_.PeerSeenM2());
+  perception_->SetPeerCoverage(team_.Coverage());
 
   const ModeInputs inputs{now, now_s, pose_};
   if (modes_->Step(inputs)) modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
   ComeHomeIfSilent(now);
+  // Written by Run() once the agent lock is released: Fast DDS hands the sample to this participant's own claim
+  // reader on the writing thread, and the liveliness callbacks that come with it take the agent lock.
+  claim_to_send_ = DueClaim(*explore_, team_, now_s, [this] {
+    return perception_->TakeSeenCoverage(team_.options().coverage_cell_m);
+  });
   telemetry_->PublishGlobalPathIfChanged();
 
   const MuxOutput& command = modes_->Compute(now);
@@ -465,6 +486,7 @@ void RobotAgent::Impl::Run() {
       spdlog::warn("robot {}: control loop woke {:.0f} ms late (the process was not scheduled)",
                    options_.robot_id, 1000 * late_s);
     }
+    std::optional<ExploreClaim> claim;
     {
       std::lock_guard<std::mutex> guard(mutex_);
       const SteadyTime now = SteadyClock::now();
@@ -475,6 +497,8 @@ void RobotAgent::Impl::Run() {
       }
       if (cycle % local_plan_every == 0) telemetry_->PublishLocalPlan();
       telemetry_->PublishTreeStateIfChanged();
+      claim = std::move(claim_to_send_);
+      claim_to_send_.reset();
       // A late cycle is a robot driving blind: say where the time went (waiting for the lock, or working).
       const double lock_wait_s = core::SecondsBetween(wanted, now);
       const double work_s = core::SecondsBetween(now, SteadyClock::now());
@@ -486,17 +510,21 @@ void RobotAgent::Impl::Run() {
             1000 * kLoopPeriodS);
       }
     }
+    if (claim) SendClaim(*claim);
     if (cycle % 50 == 0) ShareRadioLink();
     next += period;
     const auto now = SteadyClock::now();
     if (next < now) next = now;  // overrun: do not try to catch up
     core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
   }
+  std::optional<ExploreClaim> release;
   {
     std::lock_guard<std::mutex> guard(mutex_);
     modes_->Stop("agent shutting down");
     telemetry_->PublishState(RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs()});
+    release = DueClaim(*explore_, team_, NowS(SteadyClock::now()), {});  // an exploring robot lets go of its claim
   }
+  if (release) SendClaim(*release);
   // Leaving takes a moment (the threads finish, the last map changes go out, the map is saved: over a second on
   // a busy link): the robot keeps sending its pose meanwhile, so that basestations see it leave when its
   // participant goes, not fall silent and be shown lost first.

@@ -20,11 +20,6 @@ core::BaseState StartPose(core::PlatformIO& platform) {
   return platform.ReadPose().PlanarState();
 }
 
-// The band of a peer's ground voxels that count as this robot's floor, metres below and above the start's
-// ground (plus the platform's step).
-constexpr double kPeerFloorBelowM = 0.5;
-constexpr double kPeerFloorAboveM = 0.2;
-
 core::SteadyTime AsSteady(double now_s) {
   return core::SteadyTime{} +
          std::chrono::duration_cast<core::SteadyClock::duration>(std::chrono::duration<double>(now_s));
@@ -34,9 +29,8 @@ core::SteadyTime AsSteady(double now_s) {
 
 SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
                            const std::string& tree_file)
-    : options_(options), platform_(Checked(std::move(platform))) {
+    : options_(options), platform_(Checked(std::move(platform))), team_(options.robot_id, options.explore.team) {
   const core::BaseState start_M = StartPose(*platform_);
-  start_z_m_ = start_M.z_m;
   PerceptionOptions perception = options_.perception;
   perception.camera_rate_hz = 0;
   perception_ = std::make_unique<PerceptionPipeline>(perception, options_.robot_id);
@@ -58,11 +52,10 @@ SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::Pl
   next_map_update_s_ = options_.nav_map.update_period_s;
 }
 
-void SteppedRobot::AddPeerMapUpdate(const perception::MapUpdate& update) {
-  // The floor around the start's level (one coarse voxel above the steps the platform climbs).
-  MarkPeerCoverage(update, start_z_m_ - kPeerFloorBelowM,
-                   start_z_m_ + options_.navigation.platform.traversability.max_step_m + kPeerFloorAboveM,
-                   &peer_coverage_, nullptr);
+std::optional<ExploreClaim> SteppedRobot::ClaimToSend(double now_s) {
+  return DueClaim(*explore_, team_, now_s, [this] {
+    return std::optional<nav::CoverageBitmap>(nav::SeenCoverage(nav_map_->grid(), team_.options().coverage_cell_m));
+  });
 }
 
 std::string SteppedRobot::Explore(const ExploreTask& task, double now_s) {
@@ -84,8 +77,7 @@ void SteppedRobot::Step(double now_s) {
     core::BaseState at_scan;
     live_obstacles_->AddScan(scan_, &points_B_, &at_scan);
     navigation_->SetObstacles(points_B_, at_scan, now_s);
-    PerceptionOutput out = perception_->Tick(now_s, &scan_, nullptr);
-    for (auto& m : out.map_messages) map_messages_.push_back(std::move(m));
+    perception_->Tick(now_s, &scan_, nullptr);
   }
   perception_->set_refresh_at_rest(explore_->exploring());
   timing_.perception_s += since(start);
@@ -97,14 +89,16 @@ void SteppedRobot::Step(double now_s) {
     timing_.nav_map_s += since(start);
     if (const auto search = explore_->frontier_search()) {
       start = WallClock::now();
-      nav::FrontierSet set = nav::FindFrontiers(nav_map_->grid(), {pose.x_m, pose.y_m}, *search,
-                                                peer_coverage_.size() > 0 ? &peer_coverage_ : nullptr);
+      const std::shared_ptr<const nav::PeerCoverage> peers = team_.Coverage();
+      nav::FrontierSet set = nav::FindFrontiers(nav_map_->grid(), {pose.x_m, pose.y_m}, *search, peers.get());
       frontier_search_s_ += since(start);
       ++frontier_searches_;
       explore_->OnFrontiers(std::move(set), now_s);
     }
   }
   start = WallClock::now();
+  explore_->SetPeerClaims(team_.LiveClaims(now_s));
+  explore_->SetTeamView(team_.ExploringPeers(now_s), team_.PeerSeenM2());
   const ModeInputs in{AsSteady(now_s), now_s, pose};
   ModeOutput out = explore_->Step(in);
   const Twist2 twist = out.twist_B.value_or(Twist2{0.0, 0.0});

@@ -168,6 +168,8 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
   m.explore_target_M().z_m(ex.target_z_m);
   m.explore_targets_reached(static_cast<uint32_t>(ex.targets_reached));
   m.explore_targets_failed(static_cast<uint32_t>(ex.targets_failed));
+  m.explore_peers(static_cast<uint32_t>(ex.peers));
+  m.explore_peer_seen_m2(ex.peer_seen_m2);
   const cairn_msgs::RobotPose pose = cairn::msgs::PoseOf(m);
   // The whole state (~360 bytes, most of it unchanged from one cycle to the next) only when due. It goes
   // before the pose of the same cycle, so a reader that has the pose has (or is being repaired) the state it

@@ -1,6 +1,6 @@
 // A team of robots exploring a simulated world in process on a simulated clock (agent::SteppedRobot each), as
-// their agents do over DDS: every control cycle each live robot's claim goes to the others, and its map
-// telemetry too (delivered at once: no link). Scored against the world's ground truth. Used by
+// their agents do over DDS: each live robot's explore claims (ExploreTeam: every claim_period_s, with its seen
+// floor every coverage_period_s) go to the others, delivered at once (no link). Scored against the world's ground truth. Used by
 // cairn_agent_explore_test and cairn_bench_explore; the simulator's truth is for scoring only.
 #pragma once
 
@@ -88,6 +88,8 @@ struct TeamRun {
   /// end (the branch it was going for, taken over by the others), -1 without a claim.
   double killed_branch_known = -1;
   double wall_s = 0;
+  int claims_sent = 0;                  ///< claims all robots sent
+  std::size_t coverage_bytes_sent = 0;  ///< their compressed coverage, bytes
 };
 
 inline TeamRun RunTeam(const TeamOptions& o) {
@@ -131,34 +133,30 @@ inline TeamRun RunTeam(const TeamOptions& o) {
       alive[o.kill_index] = false;
       run.killed_claim = robots[o.kill_index]->OwnClaim(t);
     }
-    // Each robot steps with the claims the others hold right now (those that stepped before it this cycle
-    // included: a link without delay).
-    auto live_claims = [&] {
-      std::vector<nav::PeerClaim> claims;
-      for (std::size_t i = 0; i < robots.size(); ++i) {
-        if (!alive[i]) continue;
-        if (auto c = robots[i]->OwnClaim(t)) claims.push_back(*c);
-      }
-      return claims;
-    };
+    // Each robot steps, then sends its claim if one is due (with its coverage when that is due): the peers
+    // hear it at once (a link without delay or loss), as the agents do over cairn/explore_claim.
     for (std::size_t i = 0; i < robots.size(); ++i) {
       if (!alive[i]) continue;
-      robots[i]->SetPeerClaims(live_claims());  // its own is skipped by id
       robots[i]->Step(t);
       while (robots[i]->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      if (const std::optional<ExploreClaim> claim = robots[i]->ClaimToSend(t)) {
+        ++run.claims_sent;
+        if (claim->coverage) run.coverage_bytes_sent += CompressCoverageBits(*claim->coverage).size();
+        for (std::size_t j = 0; j < robots.size(); ++j) {
+          if (j == i || !alive[j]) continue;
+          const std::string refused = robots[j]->OnPeerClaim(*claim, t);
+          if (!refused.empty()) std::printf("claim refused: %s\n", refused.c_str());
+        }
+      }
     }
-    const std::vector<nav::PeerClaim> claims = live_claims();
+    std::vector<nav::PeerClaim> claims;
+    for (std::size_t i = 0; i < robots.size(); ++i) {
+      if (!alive[i]) continue;
+      if (auto c = robots[i]->OwnClaim(t)) claims.push_back(*c);
+    }
     for (std::size_t a = 0; a < claims.size(); ++a) {
       for (std::size_t b = a + 1; b < claims.size(); ++b) {
         if ((claims[a].target_M - claims[b].target_M).norm() < 1.5) ++run.claim_overlaps;
-      }
-    }
-    for (std::size_t i = 0; i < robots.size(); ++i) {
-      if (!alive[i]) continue;
-      for (const perception::MapUpdate& m : robots[i]->TakeMapMessages()) {
-        for (std::size_t j = 0; j < robots.size(); ++j) {
-          if (j != i && alive[j]) robots[j]->AddPeerMapUpdate(m);
-        }
       }
     }
     if (t >= next_score_s) {

@@ -17,7 +17,7 @@ namespace cairn::base {
 
 /// What a robot sends in one topic class, as it reports it (cairn_msgs::LinkClassUsage).
 struct ClassUsage {
-  std::string topic_class;  ///< "command" | "state" | "tree" | "map" | "camera"
+  std::string topic_class;  ///< "command" | "state" | "tree" | "team" | "map" | "camera"
   double sent_kbps = 0.0;   ///< over the robot's last ~2 s, kbit/s
   std::uint64_t sent_bytes = 0;
 };

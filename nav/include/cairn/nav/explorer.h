@@ -96,9 +96,10 @@ class Explorer {
   /// highest utility is taken, unless the current target is still there and the best is not
   /// switch_utility_ratio times better; reached targets (visited_radius_m) are left out too. With none left,
   /// exploration is complete.
-  /// With `team`: a cluster within claim_radius_m of a peer's claim is left to the peer when the peer has held
-  /// its claim longer than this robot has held that cluster (0 unless it is the current target), or as long
-  /// (within 0.5 s) and its id is smaller; when only such clusters are left, the decision is kWait. Utilities
+  /// With `team`: a cluster within claim_radius_m of a peer's claim is left to the peer, however fresh the
+  /// claim, unless it is this robot's current target: then the peer wins when it has held its claim longer, or
+  /// as long (within 0.5 s: two robots chose at once, before either heard the other) and its id is smaller.
+  /// When only such clusters are left, the decision is kWait. Utilities
   /// are discounted near peers' claims (peer_influence_m); the decision's target carries the discounted one.
   ExplorerDecision Decide(const FrontierSet& set, const TeamView& team = {});
   /// True when a peer's claim in `team` takes the current target from this robot (as Decide() would see it);

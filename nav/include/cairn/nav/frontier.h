@@ -47,6 +47,9 @@ struct FrontierOptions {
   /// seen far away, not routes across the whole unseen map (which also keeps the search small).
   double unknown_reach_m = 2.0;
   /// Only frontier cells inside this x-y box count (metres, frame M); an empty box (the default) = everywhere.
+  /// Their gain counts unknown cells beyond the box too: counting only those inside left 1-2 m strips along a
+  /// region's edge unexplored (the strip's gain under min_gain_m2; 85 % of a region against 97 % in
+  /// cairn_agent_explore_test).
   Eigen::AlignedBox2d region_M;
   /// Only frontier cells whose ground lies in [min_z_m, max_z_m] count (metres, frame M; a floor of a
   /// building). Default: every height.
@@ -91,6 +94,34 @@ struct FrontierSet {
   int reachable() const;       ///< clusters with a finite travel cost
 };
 
+/// A robot's explored floor, coarse, for its peers (issue 14: "their maps reach each other"; the coverage of an
+/// ExploreClaim): which cell_m x cell_m cells of an x-y box, frame M (shared by the team), hold mostly known
+/// ground in the robot's navigation map. Cell (i, j) has its minimum corner at (origin_cell + (i, j)) * cell_m,
+/// metres; it is bit k % 8 (least significant first) of bits[k / 8], k = j * nx + i.
+struct CoverageBitmap {
+  static constexpr int kMaxCells = 1 << 24;  ///< nx * ny at most (2 MB of bits)
+  double cell_m = 0.5;
+  Eigen::Vector2i origin_cell = Eigen::Vector2i::Zero();
+  int nx = 0;
+  int ny = 0;
+  std::vector<std::uint8_t> bits;  ///< ceil(nx * ny / 8) bytes
+  bool Covered(int i, int j) const {
+    const std::size_t k = static_cast<std::size_t>(j) * nx + i;
+    return (bits[k / 8] >> (k % 8)) & 1U;
+  }
+  /// Marked cells.
+  int CountCovered() const;
+  /// "" when consistent, else the fault naming the field and value: cell_m not in (0, 10], nx or ny negative,
+  /// nx * ny over kMaxCells, |origin_cell| over 2^24, bits not ceil(nx * ny / 8) bytes.
+  std::string Check() const;
+};
+
+/// The cells of `grid` (any state but kUnknown counts as seen: floor, walls, drops) gathered into cells of
+/// `cell_m` aligned on multiples of cell_m in frame M; a coarse cell is marked when at least half of the grid
+/// cells whose centres fall in it are seen. The box is the grid's, rounded out. Cost: linear in the grid's cells.
+/// @throws std::invalid_argument unless 0 < cell_m <= 10 and cell_m >= the grid's cell size.
+CoverageBitmap SeenCoverage(const TraversabilityGrid& grid, double cell_m);
+
 /// Where peer robots have seen (issue 14: their maps reach each other): x-y cells of cell_m() marked from their
 /// map telemetry. FindFrontiers counts none of it as gain: a frontier into a branch a peer explored is worth
 /// nothing. Frame M (shared by the team), metres. Not thread-safe.
@@ -100,6 +131,9 @@ class PeerCoverage {
   explicit PeerCoverage(double cell_m);
   /// Marks the cell containing `p_M`.
   void Mark(const Eigen::Vector2d& p_M);
+  /// Marks the covered cells of a peer's `bitmap` (a union: peers' coverage only grows). @throws
+  /// std::invalid_argument when bitmap.cell_m is not cell_m() (within 1e-9 m) or bitmap.Check() fails.
+  void Add(const CoverageBitmap& bitmap);
   /// True when the cell containing `p_M` is marked.
   bool Covered(const Eigen::Vector2d& p_M) const;
   double cell_m() const { return cell_m_; }

@@ -63,6 +63,19 @@ inline constexpr std::size_t kMaxVoxelsPerUpdate = 1 << 16;
 /// zstd fails (out of memory).
 std::vector<std::uint8_t> EncodeCoarseVoxels(std::vector<CoarseVoxel> voxels, int zstd_level = 3);
 
+/// Appends to `out` one zstd frame (content size declared, XXH64 checksum on) of `raw`, at `zstd_level` in
+/// [1, 19]. The codec under EncodeCoarseVoxels, shared with other payloads (the explore claims' coverage).
+/// @throws std::invalid_argument for a level out of range (naming `caller`), std::runtime_error if zstd fails.
+void ZstdCompressAppend(const std::vector<std::uint8_t>& raw, int zstd_level, const char* caller,
+                        std::vector<std::uint8_t>* out);
+
+/// Decompresses exactly one zstd frame `frame[0, frame_size)` made by ZstdCompressAppend into `out`. Returns
+/// false, with `*error` (if not null) saying why and `out` empty, when the frame magic is missing, the frame is
+/// corrupt or truncated or followed by extra bytes, it does not declare its size or declares more than
+/// `max_bytes` (checked before any allocation), or the checksum fails. `out` must not be null.
+bool ZstdDecompress(const std::uint8_t* frame, std::size_t frame_size, std::size_t max_bytes,
+                    std::vector<std::uint8_t>* out, std::string* error);
+
 /// Decodes a payload made by EncodeCoarseVoxels into `out` (lexicographic (ix, iy, iz) order).
 ///
 /// Returns false, leaves `out` empty and, if `error` is not null, sets a message naming what is wrong when:

@@ -8,7 +8,8 @@
 // liveliness), cairn/path_request, cairn/map_sync_request (cairn.command); writes cairn/command_response,
 // cairn/path_response (cairn.command), cairn/agent_info, cairn/bt_state, cairn/global_path, cairn/staircase,
 // cairn/robot_state (cairn.latched), cairn/robot_pose, cairn/local_plan (cairn.state), cairn/map_update
-// (cairn.map, flow controller "cairn.map"), cairn/camera (cairn.camera, flow controller "cairn.camera"). It answers every
+// (cairn.map, flow controller "cairn.map"), cairn/camera (cairn.camera, flow controller "cairn.camera"). Robots
+// read one another on one topic only: cairn/explore_claim (cairn.latched), written and read. It answers every
 // basestation's link probe (cairn/link_probe -> cairn/link_probe_reply, cairn.command) on the spot.
 #pragma once
 
@@ -20,6 +21,7 @@
 #include <vector>
 
 #include "cairn/agent/commands.h"
+#include "cairn/agent/explore_claims.h"
 #include "cairn/core/link_options.h"
 
 namespace cairn_msgs {
@@ -48,7 +50,7 @@ struct AgentDdsOptions {
 
 /// What the agent has sent in one topic class (AgentDds::SentByClass), cumulative since it started.
 struct SentTraffic {
-  std::string topic_class;        ///< "command" | "state" | "tree" | "map" | "camera" (cairn_msgs::LinkClassUsage)
+  std::string topic_class;        ///< "command" | "state" | "tree" | "team" | "map" | "camera" (cairn_msgs::LinkClassUsage)
   std::uint64_t bytes = 0;        ///< serialized samples (CDR with encapsulation), bytes
   std::uint64_t samples = 0;
 };
@@ -67,6 +69,9 @@ struct AgentDdsHandlers {
   std::function<void(const WriterLiveliness&)> base_liveliness;  ///< its agent-info writer's liveliness
   std::function<void(const PathQuery&)> path_query;
   std::function<void(const std::string& requester_id)> map_sync;  ///< a map snapshot is asked for
+  /// A peer robot's explore claim (its own are not handed on); `fault` is "" or why its coverage could not be
+  /// read (the field and value; the claim is then handed on without coverage and must be dropped).
+  std::function<void(const ExploreClaim& claim, const std::string& fault)> explore_claim;
 };
 
 /// The robot's DDS entities. Construction is a checked chain (participant, writers); Listen() adds the
@@ -104,9 +109,11 @@ class AgentDds {
   bool Publish(const cairn_msgs::MapUpdate& update);
   bool Publish(const cairn_msgs::CompressedImage& image);
   bool Publish(const cairn_msgs::StaircaseDetection& staircase);
+  /// This robot's explore claim (its coverage compressed here). false when Fast DDS refuses it.
+  bool Publish(const ExploreClaim& claim);
   /// What every writer has sent so far, grouped into the link's topic classes, in priority order: command
   /// (command and path answers, probe replies), state (robot state and pose, local plan, agent info,
-  /// staircases), tree (behavior tree, global path), map, camera. Thread-safe.
+  /// staircases), tree (behavior tree, global path), team (explore claims), map, camera. Thread-safe.
   std::vector<SentTraffic> SentByClass() const;
   /// Robots sharing this robot's link now, itself included: the largest AgentInfo::robots_heard of the live
   /// basestations, at least 1. Robots never read one another (a fleet's discovery stays O(robots), not

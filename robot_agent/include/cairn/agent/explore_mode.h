@@ -17,13 +17,13 @@
 #include <string>
 #include <vector>
 
+#include "cairn/agent/explore_claims.h"
 #include "cairn/agent/mode_manager.h"
 #include "cairn/agent/mode_module.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/waypoint_recovery.h"
 #include "cairn/nav/explorer.h"
 #include "cairn/nav/frontier.h"
-#include "cairn/perception/map_telemetry.h"
 
 namespace cairn::agent {
 
@@ -69,16 +69,12 @@ struct ExplorationStatus {
   double target_gain_m2 = 0.0;                          ///< unknown area behind it, m²
   int targets_reached = 0;
   int targets_failed = 0;
+  int peers = 0;                ///< exploring peers heard within their claims' lease (ExploreTeam)
+  double peer_seen_m2 = 0.0;    ///< floor the peers have seen (their coverage), m²
   double started_s = 0.0;  ///< agent clock, seconds
   bool active() const { return state == ExplorationState::kExploring; }
 };
 
-/// Marks in `coverage` the x-y cells of the occupied coarse voxels of a peer's map telemetry `update` (frame M,
-/// shared by the team) whose centre height lies in [min_z_m, max_z_m]: the ground the peer has seen (free space
-/// above unseen ground is not marked: the floor there is still unknown, as it is in this robot's map). Returns false, marking nothing, with `*why` (if not null) naming the fault when the
-/// payload cannot be decoded (perception::DecodeCoarseVoxels) or its resolution is not positive.
-bool MarkPeerCoverage(const perception::MapUpdate& update, double min_z_m, double max_z_m,
-                      nav::PeerCoverage* coverage, std::string* why);
 
 /// Options of ExploreMode (from AgentOptions, config section `explore`).
 struct ExploreModeOptions {
@@ -87,6 +83,7 @@ struct ExploreModeOptions {
   double contact_timeout_s = 1.0;      ///< in contact longer than this -> exploration fails, seconds, > 0
   nav::FrontierOptions frontiers;      ///< frontier search (the task's region and heights are set per task)
   nav::ExplorerOptions explorer;       ///< target choice
+  ExploreTeamOptions team;             ///< claims and coverage shared with peers (ExploreTeam)
   /// A frontier target counts as reached within this of it (navigation's arrival radius), metres, (0, 3].
   double target_tolerance_m = 0.6;
   /// After a target is reached or fails, the next choice waits for a frontier set computed at least this
@@ -128,6 +125,11 @@ class ExploreMode : public ModeModule {
   /// The live claims of the other exploring robots (their ExploreClaim, expired ones left out), used at the
   /// next choice: a frontier a peer claimed first is left to it.
   void SetPeerClaims(std::vector<nav::PeerClaim> claims) { peer_claims_ = std::move(claims); }
+  /// The team as heard, for the status: `peers` exploring peers, `peer_seen_m2` of floor they have seen.
+  void SetTeamView(int peers, double peer_seen_m2) {
+    status_.peers = peers;
+    status_.peer_seen_m2 = peer_seen_m2;
+  }
   /// This robot's claim at `now_s` (agent clock): its target and how long it has held it; none without one.
   std::optional<nav::PeerClaim> OwnClaim(double now_s) const;
 
@@ -171,5 +173,12 @@ class ExploreMode : public ModeModule {
   bool driving_ = false;  // navigation (or the recovery) holds the target as its goal
   ContactTimer contact_;  // the task's contact with occupied space
 };
+
+/// The claim `mode`'s robot sends at `now_s` (ExploreTeam::ClaimDue: every claim_period_s while exploring, at
+/// once on a new target, once when it stops), recorded with team.Sent(); none when nothing is due. When the
+/// coverage is due too, `coverage` (may be empty) gives the robot's seen floor (nav::SeenCoverage of its
+/// navigation map; none: not ready, sent next time).
+std::optional<ExploreClaim> DueClaim(const ExploreMode& mode, ExploreTeam& team, double now_s,
+                                     const std::function<std::optional<nav::CoverageBitmap>()>& coverage);
 
 }  // namespace cairn::agent

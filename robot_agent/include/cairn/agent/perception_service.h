@@ -67,6 +67,12 @@ class PerceptionService {
   void SetFrontierSearch(const std::optional<nav::FrontierOptions>& search);
   /// The robot's x-y position (metres, frame M) the frontier search starts from. Any thread.
   void SetRobotPosition(const Eigen::Vector2d& p_M);
+  /// What the robot's peers have seen (ExploreTeam::Coverage(); null = nothing): no gain for the frontier
+  /// search. Any thread.
+  void SetPeerCoverage(std::shared_ptr<const nav::PeerCoverage> coverage);
+  /// The robot's seen floor for its peers: the newest nav::SeenCoverage(cell_m) of the navigation map made
+  /// since the last call, if any; each call asks the map thread for a new one after its next update. Any thread.
+  std::optional<nav::CoverageBitmap> TakeSeenCoverage(double cell_m);
   /// The newest frontier set not taken yet, and when it was computed (seconds on the agent's clock). Any
   /// thread.
   std::optional<std::pair<nav::FrontierSet, double>> TakeFrontiers();
@@ -124,7 +130,10 @@ class PerceptionService {
   std::atomic<bool> map_snapshot_requested_{false};
   std::atomic<double> last_scan_s_{-1e9};        // agent clock of the newest scan read
   std::atomic<double> last_map_update_s_{-1e9};  // ... of the newest navigation map update that succeeded
-  std::mutex frontier_mutex_;  // guards the four below
+  std::mutex frontier_mutex_;  // guards the seven below
+  std::shared_ptr<const nav::PeerCoverage> peer_coverage_;
+  double coverage_cell_m_ = 0.0;  // > 0: SeenCoverage() asked for
+  std::optional<nav::CoverageBitmap> seen_coverage_;
   std::optional<nav::FrontierOptions> frontier_search_;
   Eigen::Vector2d robot_p_M_ = Eigen::Vector2d::Zero();
   std::optional<nav::FrontierSet> frontiers_;

@@ -43,13 +43,14 @@ class SteppedRobot {
   /// stepping on, so that results do not depend on the machine's speed.
   bool planning() const { return explore_->planning(); }
 
-  /// Team exploration, as the agents do over DDS: the peers' live claims for the next choice, and a peer's map
-  /// telemetry (what it has seen is no gain here). TakeMapMessages() returns this robot's own telemetry since
-  /// the last call, for its peers.
-  void SetPeerClaims(std::vector<nav::PeerClaim> claims) { explore_->SetPeerClaims(std::move(claims)); }
+  /// Team exploration, as the agents do over DDS (ExploreTeam): ClaimToSend() is the claim this robot sends at
+  /// `now_s` if one is due (with its seen floor when that is due too); OnPeerClaim() takes a peer's, heard at
+  /// `now_s` ("" or why it was refused). The peers' live claims and coverage feed the next choice and search.
+  std::optional<ExploreClaim> ClaimToSend(double now_s);
+  std::string OnPeerClaim(const ExploreClaim& claim, double now_s) { return team_.OnPeerClaim(claim, now_s); }
+  /// The target this robot holds now (none: none).
   std::optional<nav::PeerClaim> OwnClaim(double now_s) const { return explore_->OwnClaim(now_s); }
-  void AddPeerMapUpdate(const perception::MapUpdate& update);
-  std::vector<perception::MapUpdate> TakeMapMessages() { return std::move(map_messages_); }
+  const ExploreTeam& team() const { return team_; }
 
   const ExploreMode& explore() const { return *explore_; }
   const NavMap& nav_map() const { return *nav_map_; }
@@ -79,9 +80,7 @@ class SteppedRobot {
   core::LidarScan scan_;
   std::vector<Eigen::Vector3f> points_B_;
   double next_map_update_s_ = 0.0;
-  double start_z_m_ = 0.0;
-  nav::PeerCoverage peer_coverage_{0.2};
-  std::vector<perception::MapUpdate> map_messages_;
+  ExploreTeam team_;
   double frontier_search_s_ = 0.0;
   int frontier_searches_ = 0;
   bool ever_in_contact_ = false;
