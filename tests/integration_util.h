@@ -71,8 +71,15 @@ class Observer {
         });
     goals_ = std::make_unique<core::Writer<cairn_msgs::WaypointGoalPubSubType>>(*participant_, "cairn/waypoint_goal",
                                                                                "cairn.command");
+    // Exploring robots' claims, as their peers hear them, with their arrival time.
+    claims_ = std::make_unique<core::Reader<cairn_msgs::ExploreClaimPubSubType>>(
+        *participant_, "cairn/explore_claim", "cairn.latched", [this](const cairn_msgs::ExploreClaim& c, const auto&) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          claim_log_.push_back({Clock::now(), c});
+        });
   }
   ~Observer() {  // the readers first: their callbacks use the maps and the mutex below
+    claims_.reset();
     states_.reset();
     poses_.reset();
     teleop_.reset();
@@ -84,6 +91,14 @@ class Observer {
     auto it = latest_.find(robot);
     if (it == latest_.end()) return std::nullopt;
     return it->second;
+  }
+  struct HeardClaim {
+    Clock::time_point at;
+    cairn_msgs::ExploreClaim claim;
+  };
+  std::vector<HeardClaim> Claims() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return claim_log_;
   }
   std::vector<cairn_msgs::RobotState> History(const std::string& robot) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -113,6 +128,8 @@ class Observer {
   std::unique_ptr<core::Participant> participant_;
   std::unique_ptr<core::Reader<cairn_msgs::RobotStatePubSubType>> states_;
   std::unique_ptr<core::Reader<cairn_msgs::RobotPosePubSubType>> poses_;
+  std::unique_ptr<core::Reader<cairn_msgs::ExploreClaimPubSubType>> claims_;
+  std::vector<HeardClaim> claim_log_;
   std::unique_ptr<core::Reader<cairn_msgs::TeleopTwistPubSubType>> teleop_;
   std::unique_ptr<core::Writer<cairn_msgs::WaypointGoalPubSubType>> goals_;
   std::mutex mutex_;

@@ -127,8 +127,6 @@ class AgentDds::Impl {
         p, "cairn/staircase", "cairn.latched");
     probe_reply_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(p, "cairn/link_probe_reply",
                                                                                    "cairn.command");
-    claim_writer_ =
-        std::make_unique<core::Writer<msgs::ExploreClaimPubSubType>>(p, "cairn/explore_claim", "cairn.latched");
   }
 
   // The map and camera writers on the flow controllers of `share` (bulk_mutex_ held, or before any Publish).
@@ -151,25 +149,16 @@ class AgentDds::Impl {
     return share == 1 ? std::string(name) : std::string(name) + "/" + std::to_string(share);
   }
 
-  // Each reader keeps only what is addressed to this robot and hands it on as a plain struct.
-  void MakeReaders(AgentDdsHandlers handlers) {
-    if (listening_) throw std::logic_error("AgentDds::Listen called twice");
-    handlers_ = Checked(std::move(handlers));
-    listening_ = true;
+  // The explore-claim writer and reader, made when the robot first explores (team_mutex_ held): robots read one
+  // another on this topic only, and only robots that explore, so that an idle fleet's discovery stays O(robots)
+  // (every endpoint of every robot would otherwise go to every robot: cairn_fleet_join_test's ten robots were
+  // seen 4.3 s after they started instead of 3 s).
+  void MakeTeamEndpoints() {
+    if (claim_writer_) return;
     core::Participant& p = *participant_;
     const std::string& robot = options_.robot_id;
-    // A basestation's link probe, echoed at once: its round trip is the link's, not the control loop's.
-    probe_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
-        p, "cairn/link_probe", "cairn.command", [this, robot](const msgs::PingPong& m, const SampleInfo&) {
-          if (!m.robot_id().empty() && m.robot_id() != robot) return;
-          msgs::PingPong reply;
-          reply.request_id(m.request_id());
-          reply.base_id(m.base_id());
-          reply.robot_id(robot);
-          reply.body(m.body());  // the probing process's identity: bases sharing an id tell their probes apart
-          probe_reply_writer_->Write(reply);
-        });
-    // Peers' explore claims: the one topic robots read from one another.
+    claim_writer_ =
+        std::make_unique<core::Writer<msgs::ExploreClaimPubSubType>>(p, "cairn/explore_claim", "cairn.latched");
     claim_reader_ = std::make_unique<core::Reader<msgs::ExploreClaimPubSubType>>(
         p, "cairn/explore_claim", "cairn.latched", [this, robot](const msgs::ExploreClaim& m, const SampleInfo&) {
           if (m.robot_id() == robot) return;
@@ -191,6 +180,32 @@ class AgentDds::Impl {
             if (DecompressCoverageBits(m.coverage_zstd(), &bitmap, &fault)) c.coverage = std::move(bitmap);
           }
           handlers_.explore_claim(c, fault);
+        });
+  }
+
+  std::pair<std::uint64_t, std::uint64_t> TeamSent() const {
+    std::lock_guard<std::mutex> guard(team_mutex_);
+    return claim_writer_ ? std::make_pair(claim_writer_->bytes_written(), claim_writer_->samples_written())
+                         : std::make_pair(std::uint64_t{0}, std::uint64_t{0});
+  }
+
+  // Each reader keeps only what is addressed to this robot and hands it on as a plain struct.
+  void MakeReaders(AgentDdsHandlers handlers) {
+    if (listening_) throw std::logic_error("AgentDds::Listen called twice");
+    handlers_ = Checked(std::move(handlers));
+    listening_ = true;
+    core::Participant& p = *participant_;
+    const std::string& robot = options_.robot_id;
+    // A basestation's link probe, echoed at once: its round trip is the link's, not the control loop's.
+    probe_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
+        p, "cairn/link_probe", "cairn.command", [this, robot](const msgs::PingPong& m, const SampleInfo&) {
+          if (!m.robot_id().empty() && m.robot_id() != robot) return;
+          msgs::PingPong reply;
+          reply.request_id(m.request_id());
+          reply.base_id(m.base_id());
+          reply.robot_id(robot);
+          reply.body(m.body());  // the probing process's identity: bases sharing an id tell their probes apart
+          probe_reply_writer_->Write(reply);
         });
     map_sync_reader_ = std::make_unique<core::Reader<msgs::MapSyncRequestPubSubType>>(
         p, "cairn/map_sync_request", "cairn.command",
@@ -331,6 +346,7 @@ class AgentDds::Impl {
   std::unique_ptr<core::Writer<msgs::StaircaseDetectionPubSubType>> staircase_writer_;
   std::unique_ptr<core::Writer<msgs::PingPongPubSubType>> probe_reply_writer_;
   std::unique_ptr<core::Reader<msgs::PingPongPubSubType>> probe_reader_;
+  mutable std::mutex team_mutex_;  // guards the two below, made by the first Publish(ExploreClaim)
   std::unique_ptr<core::Writer<msgs::ExploreClaimPubSubType>> claim_writer_;
   std::unique_ptr<core::Reader<msgs::ExploreClaimPubSubType>> claim_reader_;
   std::unique_ptr<core::Reader<msgs::MapSyncRequestPubSubType>> map_sync_reader_;
@@ -448,6 +464,9 @@ bool AgentDds::Publish(const ExploreClaim& claim) {
     m.coverage_ny(b.ny);
     m.coverage_zstd(CompressCoverageBits(b));
   }
+  std::lock_guard<std::mutex> guard(impl_->team_mutex_);
+  if (!impl_->listening_) throw std::logic_error("AgentDds::Publish(ExploreClaim) before Listen()");
+  impl_->MakeTeamEndpoints();
   return impl_->claim_writer_->Write(m);
 }
 
@@ -467,7 +486,7 @@ std::vector<SentTraffic> AgentDds::SentByClass() const {
           sum("state", {of(i.state_writer_), of(i.pose_writer_), of(i.local_plan_writer_), of(i.info_writer_),
                         of(i.staircase_writer_)}),
           sum("tree", {of(i.tree_writer_), of(i.global_path_writer_)}),
-          sum("team", {of(i.claim_writer_)}),
+          sum("team", {i.TeamSent()}),
           sum("map", {of(i.map_writer_), i.retired_map_}),
           sum("camera", {of(i.camera_writer_), i.retired_camera_})};
 }

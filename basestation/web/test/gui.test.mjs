@@ -113,7 +113,7 @@ test("the Health tab shows each robot's link: probe round trip, states lost, wha
   assert.match(row, /^r1\s+online\s+[\d.]+ s\s+[\d.]+ ms\s+\d+ %\s+\d+ kbit\/s/);
   const link = (await robotState(page1, "r1")).link;
   assert.equal(link.class, "loopback");
-  assert.deepEqual(link.usage.map((u) => u.topic_class), ["command", "state", "tree", "map", "camera"]);
+  assert.deepEqual(link.usage.map((u) => u.topic_class), ["command", "state", "tree", "team", "map", "camera"]);
   await screenshot(page1, "07b_health_links");
   await page1.locator('#tabs button[data-tab="robot"]').click();
 });

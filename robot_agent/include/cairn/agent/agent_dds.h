@@ -9,7 +9,8 @@
 // cairn/path_response (cairn.command), cairn/agent_info, cairn/bt_state, cairn/global_path, cairn/staircase,
 // cairn/robot_state (cairn.latched), cairn/robot_pose, cairn/local_plan (cairn.state), cairn/map_update
 // (cairn.map, flow controller "cairn.map"), cairn/camera (cairn.camera, flow controller "cairn.camera"). Robots
-// read one another on one topic only: cairn/explore_claim (cairn.latched), written and read. It answers every
+// read one another on one topic only, cairn/explore_claim (cairn.latched), written and read from the robot's
+// first claim on (an idle fleet's discovery stays O(robots)). It answers every
 // basestation's link probe (cairn/link_probe -> cairn/link_probe_reply, cairn.command) on the spot.
 #pragma once
 
@@ -109,7 +110,10 @@ class AgentDds {
   bool Publish(const cairn_msgs::MapUpdate& update);
   bool Publish(const cairn_msgs::CompressedImage& image);
   bool Publish(const cairn_msgs::StaircaseDetection& staircase);
-  /// This robot's explore claim (its coverage compressed here). false when Fast DDS refuses it.
+  /// This robot's explore claim (its coverage compressed here). The first call makes the claim writer and the
+  /// reader of peers' claims (their handler runs from then on); call it outside any lock a handler takes (Fast
+  /// DDS delivers to this participant's own reader, with liveliness callbacks, on the calling thread). false
+  /// when Fast DDS refuses the sample. @throws std::logic_error before Listen(), core::DdsError.
   bool Publish(const ExploreClaim& claim);
   /// What every writer has sent so far, grouped into the link's topic classes, in priority order: command
   /// (command and path answers, probe replies), state (robot state and pose, local plan, agent info,
