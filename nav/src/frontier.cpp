@@ -226,9 +226,7 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
       for (int d = 0; d < 4; ++d) {
         const int jx = ix + kDx4[d];
         const int jy = iy + kDy4[d];
-        // Unknown space beyond the region is not the task's: a region's edge across a branch is no frontier.
-        if (grid.InGrid(jx, jy) && grid.State(jx, jy) == CellState::kUnknown &&
-            (options.region_M.isEmpty() || options.region_M.contains(grid.CellCenter(jx, jy)))) {
+        if (grid.InGrid(jx, jy) && grid.State(jx, jy) == CellState::kUnknown) {
           frontier[index(ix, iy)] = 1;
           ++result.frontier_cells;
           break;

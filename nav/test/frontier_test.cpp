@@ -98,12 +98,6 @@ TEST(PeerCoverageTest, APeersSeenFloorMakesTheDoorWorthNothingAndBadBitmapsAreNa
   ASSERT_EQ(with_peer.clusters.size(), 1u);
   EXPECT_LT(with_peer.clusters[0].gain_m2, 1.0);
   EXPECT_TRUE(FindFrontiers(own_grid, {2.0, 5.0}, FrontierOptions{}, &peers).clusters.empty());
-  // A region whose edge runs through the doorway: the room beyond is not the task's, so the door is no frontier.
-  FrontierOptions region;
-  region.region_M = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(10.2, 10));
-  EXPECT_TRUE(FindFrontiers(own_grid, {2.0, 5.0}, region).clusters.empty());
-  region.region_M = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(10.5, 10));
-  EXPECT_EQ(FindFrontiers(own_grid, {2.0, 5.0}, region).clusters.size(), 1u);
 
   CoverageBitmap bad = bitmap;
   bad.bits.pop_back();
