@@ -22,7 +22,7 @@ for n in $teams; do
   plot+="${plot:+, }'$csv' using (\$1 == $n ? \$2 / 60 : 1/0):(\$3 * 100) with lines lw 2 title '$label'"
 done
 gnuplot <<GP
-set terminal pngcairo size 900,540 font "sans,11"
+set terminal pngcairo size 900,540 font "sans,11" noenhanced
 set output "$png"
 set datafile separator ","
 set key bottom right
