@@ -4,10 +4,11 @@
 // baseline is one robot in the same run: the figure is its time to 90 % coverage over the team's.
 //
 //   build/bench/cairn_bench_explore [--world builtin:NAME] [--robots 1,2,3] [--kill]
-//                                   [--csv FILE] [--timeout S]
+//                                   [--csv FILE] [--timeout S] [--platform wheeled|legged] [--floors Z0:Z1,...]
 //     robots start from a gate: the world's first suggested start and 2 m steps along its heading; --kill also
 //     runs the largest team with robot 2 gone for good at 60 s; --csv writes "robots,t_s,coverage" rows (the
-//     plot: tools/plot_explore_coverage.sh).
+//     plot: tools/plot_explore_coverage.sh); --floors scores each height band (a building's floors, metres) over
+//     the map's levels at the end (e.g. builtin:building with a legged robot: --floors -0.5:0.5,2.7:3.7).
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -63,6 +64,8 @@ int main(int argc, char** argv) {
   bool kill = false;
   std::string csv;
   double timeout_s = 1800;
+  std::string platform = "wheeled";
+  std::vector<std::pair<double, double>> floors;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--world" && i + 1 < argc) {
@@ -77,8 +80,22 @@ int main(int argc, char** argv) {
       csv = argv[++i];
     } else if (a == "--timeout" && i + 1 < argc) {
       timeout_s = std::stod(argv[++i]);
+    } else if (a == "--platform" && i + 1 < argc) {
+      platform = argv[++i];
+    } else if (a == "--floors" && i + 1 < argc) {
+      std::stringstream list(argv[++i]);
+      for (std::string band; std::getline(list, band, ',');) {
+        const std::size_t colon = band.find(':');
+        if (colon == std::string::npos) {
+          std::fprintf(stderr, "--floors '%s': each band is Z0:Z1 (metres)\n", band.c_str());
+          return 2;
+        }
+        floors.emplace_back(std::stod(band.substr(0, colon)), std::stod(band.substr(colon + 1)));
+      }
     } else {
-      std::fprintf(stderr, "usage: %s [--world builtin:NAME] [--robots 1,2,3] [--kill] [--csv FILE] [--timeout S]\n",
+      std::fprintf(stderr,
+                   "usage: %s [--world builtin:NAME] [--robots 1,2,3] [--kill] [--csv FILE] [--timeout S] "
+                   "[--platform wheeled|legged] [--floors Z0:Z1,...]\n",
                    argv[0]);
       return 2;
     }
@@ -95,9 +112,20 @@ int main(int argc, char** argv) {
     o.starts = Gate(world, robots);
     o.timeout_s = timeout_s;
     o.stop_at_coverage = 0.95;  // the 90 % figure and a little beyond; the rest is the last corners
+    o.platform = platform;
+    o.level_bands = floors;
+    if (!floors.empty()) o.stop_at_coverage = 2.0;  // the floors are scored at the end: run until every robot ends
     const TeamRun r = RunTeam(o);
     if (robots == 1) baseline_90_s = r.time_to_90_s;
     Print(world.c_str(), robots, r, baseline_90_s);
+    for (std::size_t k = 0; k < floors.size(); ++k) {
+      std::printf("  floor z [%.1f, %.1f] m: %.1f %% of its reachable surfaces in the robots' maps\n", floors[k].first,
+                  floors[k].second, 100 * r.level_coverage[k]);
+    }
+    if (!floors.empty()) {
+      std::printf("  highest ground stood on: z %.2f m; %s: %s\n", r.highest_z_m, agent::ToString(r.statuses[0].state),
+                  r.statuses[0].reason.c_str());
+    }
     for (const auto& [t, c] : r.coverage_over_time) out << robots << "," << t << "," << c << "\n";
     std::fflush(stdout);
   }

@@ -47,8 +47,8 @@ int main() {
   auto planner = agent::NavMap::MakePlanner(map_options, perception_options.map.resolution_m, start_M, {profile});
   agent::NavMap nav_map(map_options, perception_options.map.resolution_m, start_M, planner, "wheeled");
 
-  std::vector<double> incremental_ms, full_ms, tiles, frontier_ms;
-  nav::FrontierSet last_frontiers;
+  std::vector<double> incremental_ms, full_ms, tiles, frontier_ms, level_frontier_ms;
+  nav::FrontierSet last_frontiers, last_level_frontiers;
   for (int k = 1; k <= 220; ++k) {
     const double now_s = 0.1 * k;
     sim::UnicycleState s = platform.TrueState();
@@ -71,6 +71,10 @@ int main() {
     t = Clock::now();
     last_frontiers = nav::FindFrontiers(nav_map.grid(), {s.x_m, s.y_m});
     frontier_ms.push_back(MsSince(t));
+    // ...and on every level of the map (a legged robot's search), the same map.
+    t = Clock::now();
+    last_level_frontiers = nav::FindFrontiersMultiLevel(nav_map.levels(), {s.x_m, s.y_m, s.z_m});
+    level_frontier_ms.push_back(MsSince(t));
   }
   std::printf("nav map update (80 x 80 m extent, 0.1 m, %zu updates at 1 Hz, median %.0f changed 2 m tiles):\n",
               incremental_ms.size(), Median(tiles));
@@ -86,6 +90,11 @@ int main() {
               Median(frontier_ms) / Median(incremental_ms), Median(frontier_ms) / Median(full_ms),
               last_frontiers.clusters.size(), last_frontiers.reachable(), last_frontiers.frontier_cells,
               last_frontiers.known_free_m2);
+  std::printf("  on every level (FindFrontiersMultiLevel, same maps): median %.1f ms, max %.1f ms; ratio to the main "
+              "level's search %.2f; last: %zu clusters (%d reachable), %d frontier surfaces, %.0f m^2 of surfaces\n",
+              Median(level_frontier_ms), *std::max_element(level_frontier_ms.begin(), level_frontier_ms.end()),
+              Median(level_frontier_ms) / Median(frontier_ms), last_level_frontiers.clusters.size(),
+              last_level_frontiers.reachable(), last_level_frontiers.frontier_cells, last_level_frontiers.known_free_m2);
 
   // Column scans (what every grid rebuild does per x-y column): the word-wise scan down each column of the
   // robot's map after the drive, and of an empty map (the agent's start), against a voxel-by-voxel scan.

@@ -118,6 +118,7 @@ const char* kFleetStateSchema = R"json({"title":"cairn.FleetState","description"
 "max_speed_mps":{"type":"number"},"max_reverse_speed_mps":{"type":"number"},"max_yaw_rate_radps":{"type":"number"},
 "camera_age_s":{"type":"number","description":"age of its latest camera frame, -1 = none"},
 "control_period_max_ms":{"type":"number"},
+"exploration":{"type":"object","description":"the robot's exploration (as status --json): state, reason, task_id, explored_m2, frontiers, reachable_frontiers, targets_reached, targets_failed, peers, peer_seen_m2, target {x_m, y_m, z_m} when it has one"},
 "state_stamp":{"type":"object","description":"the robot's stamp of its latest state (wall clock)","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},
 "received_stamp":{"type":"object","description":"when this basestation received that state (wall clock)","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}}}}}}})json";
 
@@ -428,6 +429,7 @@ class GuiBridge::Impl {
         r["speed_mps"] = s.twist_B().linear_x_mps();
         r["in_contact"] = s.in_contact();
         r["control_period_max_ms"] = s.control_period_max_ms();
+        r["exploration"] = ExplorationJson(s);
         const std::uint64_t state_ns = s.stamp().sec() < 0 ? 0
                                            : static_cast<std::uint64_t>(s.stamp().sec()) * 1000000000ULL +
                                                  std::min<std::uint64_t>(s.stamp().nanosec(), 999999999ULL);
@@ -481,7 +483,7 @@ class GuiBridge::Impl {
     while (!trail.empty() && std::chrono::duration<double>(now - trail.front().t).count() > options_.trail_s) trail.pop_front();
   }
 
-  // Global paths, local plans, goals and trails: changed ones to every subscriber, or all to `only`.
+  // Global paths, local plans, goals, exploration targets and trails: changed ones to every subscriber, or all to `only`.
   void PublishPaths(const std::vector<RobotView>& robots, std::uint64_t ns, std::optional<FoxgloveServer::ClientId> only) {
     json scene = {{"deletions", json::array()}, {"entities", json::array()}};
     for (const RobotView& v : robots) {
@@ -495,6 +497,16 @@ class GuiBridge::Impl {
         const auto& g = s.nav_goal_M();
         e["spheres"].push_back({{"pose", PoseJson(g.x_m(), g.y_m(), g.z_m() + 0.15, 0)}, {"size", Vec3(0.3, 0.3, 0.3)},
                                 {"color", Color(0.2, 0.85, 1.0, 0.9)}});
+      }
+      if (s.explore_has_target() && s.explore_state() == "exploring") {
+        // The frontier the robot explores toward: a sphere on a 1 m post, in the explore mode's colour.
+        const auto& t = s.explore_target_M();
+        double r = 0, g = 0, b = 0;
+        ModeColor("explore", &r, &g, &b);
+        e["lines"].push_back(LineStrip({{t.x_m(), t.y_m(), t.z_m()}, {t.x_m(), t.y_m(), t.z_m() + 1.0}}, 0.05,
+                                       Color(r, g, b, 0.9)));
+        e["spheres"].push_back({{"pose", PoseJson(t.x_m(), t.y_m(), t.z_m() + 1.0, 0)}, {"size", Vec3(0.35, 0.35, 0.35)},
+                                {"color", Color(r, g, b, 0.95)}});
       }
       if (v.local_plan && !v.local_plan->chosen_path_B().empty()) {
         const auto& lp = *v.local_plan;

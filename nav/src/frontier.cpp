@@ -4,11 +4,14 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <queue>
 #include <sstream>
+#include <unordered_map>
 #include <stdexcept>
 #include <utility>
 
+#include "multilevel_search.h"
 #include "option_range.h"
 
 namespace cairn::nav {
@@ -60,6 +63,89 @@ std::int64_t VisibleUnknownCells(const TraversabilityGrid& grid, int tx, int ty,
   return unknown;
 }
 
+// Chamfer distance (1, sqrt 2, in cells; two passes) from every cell of an nx x ny grid (index ix + nx * iy)
+// to the nearest cell `known(ix, iy)` marks; infinity when none is.
+template <class Known>
+std::vector<float> ChamferToKnown(int nx, int ny, Known&& known) {
+  auto index = [nx](int ix, int iy) { return static_cast<std::size_t>(ix) + static_cast<std::size_t>(nx) * iy; };
+  std::vector<float> to_known(static_cast<std::size_t>(nx) * ny, std::numeric_limits<float>::infinity());
+  for (int iy = 0; iy < ny; ++iy) {
+    for (int ix = 0; ix < nx; ++ix) {
+      if (known(ix, iy)) to_known[index(ix, iy)] = 0.0f;
+    }
+  }
+  constexpr float kDiag = 1.41421356f;
+  for (int iy = 0; iy < ny; ++iy) {
+    for (int ix = 0; ix < nx; ++ix) {
+      float& d = to_known[index(ix, iy)];
+      if (ix > 0) d = std::min(d, to_known[index(ix - 1, iy)] + 1.0f);
+      if (iy > 0) {
+        d = std::min(d, to_known[index(ix, iy - 1)] + 1.0f);
+        if (ix > 0) d = std::min(d, to_known[index(ix - 1, iy - 1)] + kDiag);
+        if (ix + 1 < nx) d = std::min(d, to_known[index(ix + 1, iy - 1)] + kDiag);
+      }
+    }
+  }
+  for (int iy = ny - 1; iy >= 0; --iy) {
+    for (int ix = nx - 1; ix >= 0; --ix) {
+      float& d = to_known[index(ix, iy)];
+      if (ix + 1 < nx) d = std::min(d, to_known[index(ix + 1, iy)] + 1.0f);
+      if (iy + 1 < ny) {
+        d = std::min(d, to_known[index(ix, iy + 1)] + 1.0f);
+        if (ix + 1 < nx) d = std::min(d, to_known[index(ix + 1, iy + 1)] + kDiag);
+        if (ix > 0) d = std::min(d, to_known[index(ix - 1, iy + 1)] + kDiag);
+      }
+    }
+  }
+  return to_known;
+}
+
+// The frontier cells of one 8-connected component cut into pieces of at most `piece_cells` cells along x and
+// along y, counted from the component's minimum cell (`cell_xy` gives a cell's column indices).
+template <class Cell, class CellXY>
+std::map<std::pair<int, int>, std::vector<Cell>> CutIntoPieces(const std::vector<Cell>& component, CellXY&& cell_xy,
+                                                                int piece_cells) {
+  int min_x = std::numeric_limits<int>::max();
+  int min_y = std::numeric_limits<int>::max();
+  for (const Cell& c : component) {
+    const auto [x, y] = cell_xy(c);
+    min_x = std::min(min_x, x);
+    min_y = std::min(min_y, y);
+  }
+  std::map<std::pair<int, int>, std::vector<Cell>> pieces;
+  for (const Cell& c : component) {
+    const auto [x, y] = cell_xy(c);
+    pieces[{(x - min_x) / piece_cells, (y - min_y) / piece_cells}].push_back(c);
+  }
+  return pieces;
+}
+
+// A piece's target: among `cells`, the reachable one (finite `cost_m(cell)`) nearest the centroid, each 0.1 m
+// its clearance (`clearance_m(cell)`) falls short of robot_radius_m + kTargetMarginM counting as 0.4 m
+// farther: a cell the footprint barely fits on is a goal the planner may refuse once the next scan moves the
+// wall a voxel. The nearest of any cell when none is reachable.
+template <class Cell, class Center, class Clearance, class Cost>
+Cell ChooseTarget(const std::vector<Cell>& cells, const Eigen::Vector2d& centroid_M, double robot_radius_m,
+                  Center&& center_M, Clearance&& clearance_m, Cost&& cost_m) {
+  double best_reachable = kInf;
+  double best_any = kInf;
+  Cell target = cells.front();
+  Cell fallback = cells.front();
+  for (const Cell& c : cells) {
+    const double short_m = std::max(0.0, robot_radius_m + kTargetMarginM - clearance_m(c));
+    const double d = (center_M(c) - centroid_M).norm() + 4.0 * short_m;
+    if (cost_m(c) < kInf && d < best_reachable) {
+      best_reachable = d;
+      target = c;
+    }
+    if (d < best_any) {
+      best_any = d;
+      fallback = c;
+    }
+  }
+  return best_reachable == kInf ? fallback : target;
+}
+
 }  // namespace
 
 bool FrontierOptions::IsValid(std::string* why) const {
@@ -83,8 +169,21 @@ bool FrontierOptions::IsValid(std::string* why) const {
     msg << "FrontierOptions::min_z_m = " << min_z_m << " must be <= max_z_m = " << max_z_m;
     ok = false;
   }
+  if (ok && (std::isnan(peer_coverage_min_z_m) || std::isnan(peer_coverage_max_z_m) ||
+             !(peer_coverage_min_z_m <= peer_coverage_max_z_m))) {
+    msg << "FrontierOptions::peer_coverage_min_z_m = " << peer_coverage_min_z_m
+        << " must be <= peer_coverage_max_z_m = " << peer_coverage_max_z_m;
+    ok = false;
+  }
   if (!ok && why != nullptr) *why = msg.str();
   return ok;
+}
+
+void SortFrontierClusters(std::vector<FrontierCluster>* clusters) {
+  std::stable_sort(clusters->begin(), clusters->end(), [](const FrontierCluster& a, const FrontierCluster& b) {
+    if (a.reachable() != b.reachable()) return a.reachable();
+    return a.reachable() ? a.utility > b.utility : a.gain_m2 > b.gain_m2;
+  });
 }
 
 int FrontierSet::reachable() const {
@@ -237,36 +336,8 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
   result.known_free_m2 = free_cells * cell_m * cell_m;
 
   // 2. Travel cost: Dijkstra from the robot's cell over traversable cells, known-free or unknown.
-  // Chamfer distance (1, sqrt 2, in cells) from every cell to the nearest known-free cell, two passes.
-  std::vector<float> to_known(n, std::numeric_limits<float>::infinity());
-  for (int iy = 0; iy < ny; ++iy) {
-    for (int ix = 0; ix < nx; ++ix) {
-      if (grid.State(ix, iy) == CellState::kFree) to_known[index(ix, iy)] = 0.0f;
-    }
-  }
-  constexpr float kDiag = 1.41421356f;
-  for (int iy = 0; iy < ny; ++iy) {
-    for (int ix = 0; ix < nx; ++ix) {
-      float& d = to_known[index(ix, iy)];
-      if (ix > 0) d = std::min(d, to_known[index(ix - 1, iy)] + 1.0f);
-      if (iy > 0) {
-        d = std::min(d, to_known[index(ix, iy - 1)] + 1.0f);
-        if (ix > 0) d = std::min(d, to_known[index(ix - 1, iy - 1)] + kDiag);
-        if (ix + 1 < nx) d = std::min(d, to_known[index(ix + 1, iy - 1)] + kDiag);
-      }
-    }
-  }
-  for (int iy = ny - 1; iy >= 0; --iy) {
-    for (int ix = nx - 1; ix >= 0; --ix) {
-      float& d = to_known[index(ix, iy)];
-      if (ix + 1 < nx) d = std::min(d, to_known[index(ix + 1, iy)] + 1.0f);
-      if (iy + 1 < ny) {
-        d = std::min(d, to_known[index(ix, iy + 1)] + 1.0f);
-        if (ix + 1 < nx) d = std::min(d, to_known[index(ix + 1, iy + 1)] + kDiag);
-        if (ix > 0) d = std::min(d, to_known[index(ix - 1, iy + 1)] + kDiag);
-      }
-    }
-  }
+  const std::vector<float> to_known =
+      ChamferToKnown(nx, ny, [&](int ix, int iy) { return grid.State(ix, iy) == CellState::kFree; });
   const float reach_cells = static_cast<float>(options.unknown_reach_m / cell_m);
   auto passable = [&](int ix, int iy) {
     const CellState state = grid.State(ix, iy);
@@ -347,14 +418,10 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
       component.clear();
       stack.assign(1, {ix0, iy0});
       seen[index(ix0, iy0)] = 1;
-      int min_x = ix0;
-      int min_y = iy0;
       while (!stack.empty()) {
         const auto [ix, iy] = stack.back();
         stack.pop_back();
         component.emplace_back(ix, iy);
-        min_x = std::min(min_x, ix);
-        min_y = std::min(min_y, iy);
         for (int d = 0; d < 8; ++d) {
           const int jx = ix + kDx8[d];
           const int jy = iy + kDy8[d];
@@ -363,35 +430,18 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
           stack.emplace_back(jx, jy);
         }
       }
-      std::map<std::pair<int, int>, std::vector<std::pair<int, int>>> pieces;
-      for (const auto& c : component) pieces[{(c.first - min_x) / piece_cells, (c.second - min_y) / piece_cells}].push_back(c);
+      const auto pieces = CutIntoPieces(component, [](const std::pair<int, int>& c) { return c; }, piece_cells);
       for (const auto& [key, cells] : pieces) {
         if (static_cast<int>(cells.size()) < options.min_cells) continue;
         FrontierCluster cluster;
         cluster.cells = static_cast<int>(cells.size());
         for (const auto& [ix, iy] : cells) cluster.centroid_M += grid.CellCenter(ix, iy);
         cluster.centroid_M /= cluster.cells;
-        // Target: the reachable cell nearest the centroid (any cell nearest it when none is reachable).
-        double best_reachable = kInf;
-        double best_any = kInf;
-        std::pair<int, int> target = cells.front();
-        std::pair<int, int> fallback = cells.front();
-        for (const auto& [ix, iy] : cells) {
-          // Nearest the centroid, but away from walls: a cell the footprint barely fits on is a goal the
-          // planner may refuse once the next scan moves the wall a voxel (kTargetMarginM of clearance kept).
-          const double short_m =
-              std::max(0.0, grid.options().robot_radius_m + kTargetMarginM - grid.ClearanceM(ix, iy));
-          const double d = (grid.CellCenter(ix, iy) - cluster.centroid_M).norm() + 4.0 * short_m;
-          if (cost[index(ix, iy)] < kInf && d < best_reachable) {
-            best_reachable = d;
-            target = {ix, iy};
-          }
-          if (d < best_any) {
-            best_any = d;
-            fallback = {ix, iy};
-          }
-        }
-        if (best_reachable == kInf) target = fallback;
+        const std::pair<int, int> target = ChooseTarget(
+            cells, cluster.centroid_M, grid.options().robot_radius_m,
+            [&](const std::pair<int, int>& c) { return grid.CellCenter(c.first, c.second); },
+            [&](const std::pair<int, int>& c) { return grid.ClearanceM(c.first, c.second); },
+            [&](const std::pair<int, int>& c) { return cost[index(c.first, c.second)]; });
         cluster.gain_m2 = VisibleUnknownCells(grid, target.first, target.second, options.gain_radius_m,
                                               ++gain_id, &gain_stamp, peer_seen) *
                           cell_m * cell_m;
@@ -404,10 +454,254 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
       }
     }
   }
-  std::stable_sort(result.clusters.begin(), result.clusters.end(), [](const FrontierCluster& a, const FrontierCluster& b) {
-    if (a.reachable() != b.reachable()) return a.reachable();
-    return a.reachable() ? a.utility > b.utility : a.gain_m2 > b.gain_m2;
-  });
+  SortFrontierClusters(&result.clusters);
+  return result;
+}
+
+
+namespace {
+
+// Unknown cells a lidar at surface `node` could see within `radius_m` (as VisibleUnknownCells, on the
+// surfaces): each ray climbs or descends with the connected surface of each column it crosses, goes on at its
+// height through unknown space and stops at a blocked column (a wall, a drop, a step too high). A column
+// counts once (`stamp`), not at all when `peer_seen` marks it and the height lies in [peer_min_z_m,
+// peer_max_z_m].
+std::int64_t VisibleUnknownOnLevels(const MultiLevelGrid& grid, int tx, int ty, double z0, double radius_m, int id,
+                                    std::vector<int>* stamp, const std::vector<char>& peer_seen, double peer_min_z_m,
+                                    double peer_max_z_m) {
+  const double cell_m = grid.cell_size_m();
+  const Eigen::Vector2d origin = grid.CellCenter(tx, ty);
+  const int steps = static_cast<int>(std::ceil(radius_m / (0.5 * cell_m)));
+  const int rays = static_cast<int>(std::ceil(2.0 * kPi * radius_m / cell_m));
+  const double max_step_m = grid.options().max_step_m;
+  std::int64_t unknown = 0;
+  for (int r = 0; r < rays; ++r) {
+    const double angle = 2.0 * kPi * r / rays;
+    const Eigen::Vector2d step = 0.5 * cell_m * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+    double z = z0;
+    int px = tx;
+    int py = ty;
+    for (int k = 1; k <= steps; ++k) {
+      int ix = 0;
+      int iy = 0;
+      if (!grid.CellOf(origin.x() + k * step.x(), origin.y() + k * step.y(), &ix, &iy)) break;
+      if (ix == px && iy == py) continue;
+      px = ix;
+      py = iy;
+      if (const int m = grid.NodeNear(ix, iy, z, max_step_m); m >= 0) {
+        z = grid.NodeZ(m);
+        continue;
+      }
+      if (!grid.IsUnknownAt(ix, iy, z) && !grid.IsUnseenStepAt(ix, iy, z)) break;  // blocked
+      const std::size_t i = static_cast<std::size_t>(grid.Column(ix, iy));
+      if (!peer_seen.empty() && peer_seen[i] && z >= peer_min_z_m && z <= peer_max_z_m) continue;
+      int& s = (*stamp)[i];
+      if (s == id) continue;
+      s = id;
+      ++unknown;
+    }
+  }
+  return unknown;
+}
+
+}  // namespace
+
+double VisibleUnknownM2(const MultiLevelGrid& grid, const Eigen::Vector3d& p_M, double radius_m) {
+  int tx = 0, ty = 0;
+  if (!p_M.allFinite() || !(radius_m > 0) || !grid.CellOf(p_M.x(), p_M.y(), &tx, &ty)) return 0.0;
+  std::vector<int> stamp(static_cast<std::size_t>(grid.nx()) * grid.ny(), -1);
+  return VisibleUnknownOnLevels(grid, tx, ty, p_M.z(), std::min(radius_m, 100.0), 0, &stamp, {}, 0.0, 0.0) *
+         grid.cell_size_m() * grid.cell_size_m();
+}
+
+FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& robot_M,
+                                    const FrontierOptions& options, const PeerCoverage* peers) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  using State = internal::LevelState;
+  const int nx = grid.nx();
+  const int ny = grid.ny();
+  const double cell_m = grid.cell_size_m();
+  const double max_step_m = grid.options().max_step_m;
+  const std::size_t columns = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
+  const std::size_t nodes = static_cast<std::size_t>(grid.node_count());
+  auto column_xy = [nx](int column) { return std::pair<int, int>(column % nx, column / nx); };
+  auto node_center = [&](int node) {
+    const auto [ix, iy] = column_xy(grid.NodeColumn(node));
+    return grid.CellCenter(ix, iy);
+  };
+  auto in_scope = [&](int node) {
+    if (!options.region_M.isEmpty() && !options.region_M.contains(node_center(node))) return false;
+    const double z = grid.NodeZ(node);
+    return z >= options.min_z_m && z <= options.max_z_m;
+  };
+  const double radius_m = grid.options().robot_radius_m;
+  auto traversable = [&](int node) { return grid.ClearanceM(node) > radius_m + 1e-9; };
+  FrontierSet result;
+  std::vector<char> peer_seen;
+  if (peers != nullptr && peers->size() > 0) {
+    peer_seen.assign(columns, 0);
+    const double c = peers->cell_m();
+    peers->ForEach([&](const Eigen::Vector2d& corner) {
+      int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+      const Eigen::Vector2d lo = corner.cwiseMax(grid.p_W_min());
+      const Eigen::Vector2d hi = (corner.array() + c).matrix().cwiseMin(grid.p_W_max());
+      if (lo.x() >= hi.x() || lo.y() >= hi.y()) return;
+      if (!grid.CellOf(lo.x(), lo.y(), &x0, &y0) || !grid.CellOf(hi.x() - 1e-9, hi.y() - 1e-9, &x1, &y1)) return;
+      for (int iy = y0; iy <= y1; ++iy) {
+        for (int ix = x0; ix <= x1; ++ix) peer_seen[static_cast<std::size_t>(grid.Column(ix, iy))] = 1;
+      }
+    });
+  }
+
+  // 1. Frontier surfaces (traversable, in scope, a 4-neighbour unknown at their height) and the explored area.
+  std::vector<char> frontier(nodes, 0);
+  int known_nodes = 0;
+  for (int node = 0; node < grid.node_count(); ++node) {
+    if (!in_scope(node)) continue;
+    ++known_nodes;
+    if (!traversable(node)) continue;
+    const auto [ix, iy] = column_xy(grid.NodeColumn(node));
+    const double z = grid.NodeZ(node);
+    for (int d = 0; d < 4; ++d) {
+      const int jx = ix + kDx4[d];
+      const int jy = iy + kDy4[d];
+      if (grid.InGrid(jx, jy) && grid.NodeNear(jx, jy, z, max_step_m) < 0 &&
+          (grid.IsUnknownAt(jx, jy, z) || grid.IsUnseenStepAt(jx, jy, z))) {
+        frontier[static_cast<std::size_t>(node)] = 1;
+        ++result.frontier_cells;
+        break;
+      }
+    }
+  }
+  result.known_free_m2 = known_nodes * cell_m * cell_m;
+
+  // 2. Travel cost: Dijkstra from the robot's surface over connected traversable surfaces and unknown space
+  // entered at the height of the surface left (PlanPathMultiLevel's moves), unknown columns only within
+  // unknown_reach_m of a column with a known surface (the robot stands in its lidar's blind ring, unseen
+  // floor all around it).
+  AStarOptions moves;
+  moves.robot_radius_m = radius_m;
+  const MultiLevelSearch search(grid, moves);
+  const std::vector<float> to_known = ChamferToKnown(
+      nx, ny, [&](int ix, int iy) { return grid.FirstNode(grid.Column(ix, iy)) < grid.FirstNode(grid.Column(ix, iy) + 1); });
+  const float reach_cells = static_cast<float>(options.unknown_reach_m / cell_m);
+  std::vector<double> cost(nodes, kInf);
+  std::unordered_map<std::int64_t, double> virtual_cost;
+  // Start: the robot's surface when traversable; else every traversable surface within kStartSearchM of it
+  // (at its height, within max(0.5 m, a step)) at its planar distance — a robot-built map shows a ragged,
+  // holed floor right around the robot, which its lidar does not see — and its unknown column at its height.
+  std::vector<std::pair<State, double>> starts;
+  if (int rx = 0, ry = 0; std::isfinite(robot_M.z()) && grid.CellOf(robot_M.x(), robot_M.y(), &rx, &ry)) {
+    const double dz = std::max(0.5, max_step_m);
+    if (const int m = grid.NodeNear(rx, ry, robot_M.z(), dz); m >= 0 && traversable(m)) {
+      starts.emplace_back(State{rx, ry, grid.NodeZ(m), m}, 0.0);
+    } else {
+      if (m < 0 && grid.IsUnknownAt(rx, ry, robot_M.z())) starts.emplace_back(State{rx, ry, robot_M.z(), -1}, 0.0);
+      const int reach = static_cast<int>(std::ceil(kStartSearchM / cell_m));
+      for (int dy = -reach; dy <= reach; ++dy) {
+        for (int dx = -reach; dx <= reach; ++dx) {
+          const int n = grid.NodeNear(rx + dx, ry + dy, robot_M.z(), dz);
+          if (n < 0 || !traversable(n)) continue;
+          const double d = (grid.CellCenter(rx + dx, ry + dy) - robot_M.head<2>()).norm();
+          if (d <= kStartSearchM) starts.emplace_back(State{rx + dx, ry + dy, grid.NodeZ(n), n}, d);
+        }
+      }
+    }
+  }
+  auto cost_of = [&](const State& s) -> double& {
+    if (s.node >= 0) return cost[static_cast<std::size_t>(s.node)];
+    return virtual_cost.try_emplace(search.Key(s), kInf).first->second;
+  };
+  if (!starts.empty()) {
+    result.robot_on_grid = true;
+    struct Item {
+      double cost;
+      State state;
+      bool operator>(const Item& other) const { return cost > other.cost; }
+    };
+    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> open;
+    for (const auto& [state, d] : starts) {
+      double& c = cost_of(state);
+      if (d < c) {
+        c = d;
+        open.push({d, state});
+      }
+    }
+    while (!open.empty()) {
+      const Item item = open.top();
+      open.pop();
+      const State& s = item.state;
+      if (item.cost > cost_of(s)) continue;
+      for (int d = 0; d < 8; ++d) {
+        std::optional<State> next = search.Enter(s.ix + kDx8[d], s.iy + kDy8[d], s.z);
+        if (!next) continue;
+        const bool diagonal = kDx8[d] != 0 && kDy8[d] != 0;
+        if (diagonal && (!search.Enter(s.ix + kDx8[d], s.iy, s.z) || !search.Enter(s.ix, s.iy + kDy8[d], s.z))) {
+          continue;  // no corner cutting past a wall
+        }
+        const double length_m = (diagonal ? std::sqrt(2.0) : 1.0) * cell_m;
+        if (next->node < 0 && to_known[static_cast<std::size_t>(grid.Column(next->ix, next->iy))] > reach_cells) continue;
+        const double c = item.cost + length_m * (next->node < 0 ? 1.0 + options.unknown_cost : 1.0);
+        double& best = cost_of(*next);
+        if (c < best) {
+          best = c;
+          open.push({c, *next});
+        }
+      }
+    }
+  }
+
+  // 3. Clusters: components of frontier surfaces connected across 8-neighbouring columns (within a step),
+  // cut into pieces of at most max_cluster_extent_m along x and y.
+  std::vector<char> seen(nodes, 0);
+  std::vector<int> gain_stamp(columns, -1);
+  int gain_id = 0;
+  std::vector<int> component;
+  std::vector<int> stack;
+  const int piece_cells = std::max(1, static_cast<int>(std::floor(options.max_cluster_extent_m / cell_m)));
+  for (int node0 = 0; node0 < grid.node_count(); ++node0) {
+    if (!frontier[static_cast<std::size_t>(node0)] || seen[static_cast<std::size_t>(node0)]) continue;
+    component.clear();
+    stack.assign(1, node0);
+    seen[static_cast<std::size_t>(node0)] = 1;
+    while (!stack.empty()) {
+      const int node = stack.back();
+      stack.pop_back();
+      component.push_back(node);
+      const auto [ix, iy] = column_xy(grid.NodeColumn(node));
+      for (int d = 0; d < 8; ++d) {
+        const int m = grid.NodeNear(ix + kDx8[d], iy + kDy8[d], grid.NodeZ(node), max_step_m);
+        if (m < 0 || !frontier[static_cast<std::size_t>(m)] || seen[static_cast<std::size_t>(m)]) continue;
+        seen[static_cast<std::size_t>(m)] = 1;
+        stack.push_back(m);
+      }
+    }
+    const auto pieces = CutIntoPieces(component, [&](int node) { return column_xy(grid.NodeColumn(node)); }, piece_cells);
+    for (const auto& [key, cells] : pieces) {
+      if (static_cast<int>(cells.size()) < options.min_cells) continue;
+      FrontierCluster cluster;
+      cluster.cells = static_cast<int>(cells.size());
+      for (const int node : cells) cluster.centroid_M += node_center(node);
+      cluster.centroid_M /= cluster.cells;
+      const int target = ChooseTarget(
+          cells, cluster.centroid_M, radius_m, node_center,
+          [&](int node) { return grid.ClearanceM(node); }, [&](int node) { return cost[static_cast<std::size_t>(node)]; });
+      const auto [tx, ty] = column_xy(grid.NodeColumn(target));
+      cluster.gain_m2 = VisibleUnknownOnLevels(grid, tx, ty, grid.NodeZ(target), options.gain_radius_m, ++gain_id,
+                                               &gain_stamp, peer_seen,
+                                               options.peer_coverage_min_z_m, options.peer_coverage_max_z_m) *
+                        cell_m * cell_m;
+      if (cluster.gain_m2 < options.min_gain_m2) continue;
+      cluster.target_M = node_center(target);
+      cluster.target_ground_z_m = grid.NodeZ(target);
+      cluster.on_main_level = false;
+      cluster.travel_cost_m = cost[static_cast<std::size_t>(target)];
+      cluster.utility = cluster.reachable() ? cluster.gain_m2 / (cluster.travel_cost_m + options.cost_offset_m) : 0.0;
+      result.clusters.push_back(cluster);
+    }
+  }
+  SortFrontierClusters(&result.clusters);
   return result;
 }
 

@@ -3,6 +3,7 @@
 
 #include "path_internal.h"
 
+#include "multilevel_search.h"
 #include "search_scratch.h"
 
 #include <algorithm>
@@ -134,6 +135,27 @@ bool MultiLevelGrid::IsUnknownAt(int ix, int iy, double z_m) const {
     if (world_->IsOccupiedIndex({ix, iy, iz})) return false;
   }
   return true;
+}
+
+bool MultiLevelGrid::IsUnseenStepAt(int ix, int iy, double z_m) const {
+  if (options_.unknown_is_lethal || !seen_free_ || !InGrid(ix, iy) || !std::isfinite(z_m)) return false;
+  // Voxel iz has its top at TopOf(iz); the steps: tops in (z_m, z_m + max_step_m].
+  const int iz_first = static_cast<int>(std::lround((z_m - world_p_min_.z()) / res_m_));  // top at z_m + res
+  const int iz_last = static_cast<int>(std::floor((z_m + options_.max_step_m + kEps_m - world_p_min_.z()) / res_m_)) - 1;
+  for (int iz = std::max(0, iz_first); iz <= iz_last && iz < world_dims_.z(); ++iz) {
+    if (!world_->IsOccupiedIndex({ix, iy, iz})) continue;
+    bool unseen = false;
+    for (int k = iz + 1; k <= iz + need_voxels_; ++k) {
+      if (k >= world_dims_.z()) {
+        unseen = true;  // above the map: not seen
+        break;
+      }
+      if (world_->IsOccupiedIndex({ix, iy, k})) return false;  // a wall, or the step's own riser goes on
+      if (!seen_free_->IsOccupiedIndex({ix, iy, k})) unseen = true;
+    }
+    return unseen;
+  }
+  return false;
 }
 
 int MultiLevelGrid::Connected(int jx, int jy, double z, bool* unknown) const {
@@ -422,15 +444,7 @@ std::optional<double> LeveledTerrain::GroundHeightNear(double x_m, double y_m, d
 
 namespace {
 
-// A search state: a known surface (id < node_count) or a height in an unknown cell (key node_count + column *
-// nz + iz), see PlanPathMultiLevel.
-struct State {
-  int ix = 0;
-  int iy = 0;
-  double z = 0.0;
-  int node = -1;  // -1: unknown cell entered at height z
-  float unknown_run_m = 0.0f;  // unknown space crossed since the last known surface (metres)
-};
+using State = internal::LevelState;
 
 // A* bookkeeping of one state.
 struct Record {
@@ -462,59 +476,6 @@ internal::ScratchPool<LevelSearchScratch>& LevelScratchPool() {
 
 }  // namespace
 
-class MultiLevelSearch {
- public:
-  MultiLevelSearch(const MultiLevelGrid& grid, const AStarOptions& options) : grid_(grid) {
-    radius_m_ = grid.options().robot_radius_m;
-    if (std::isfinite(options.robot_radius_m) && options.robot_radius_m < radius_m_) radius_m_ = options.robot_radius_m;
-  }
-
-  std::int64_t Key(const State& s) const {
-    if (s.node >= 0) return s.node;
-    const int iz = static_cast<int>(std::lround((s.z - grid_.world_p_min_.z()) / grid_.res_m_));
-    return static_cast<std::int64_t>(grid_.node_count()) +
-           (static_cast<std::int64_t>(grid_.Column(s.ix, s.iy)) * (grid_.world_dims_.z() + 2) + iz + 1);
-  }
-
-  bool Traversable(int node) const { return grid_.ClearanceM(node) > radius_m_ + 1e-9; }
-
-  // An unknown cell entered at height z: every cell within the radius is a connected surface or unknown too.
-  bool VirtualClear(int ix, int iy, double z) const {
-    if (grid_.IsUnobservedAround(ix, iy)) return true;  // nothing known within the radius
-    const int span = static_cast<int>(std::ceil(radius_m_ / grid_.cell_size_m()));
-    const Eigen::Vector2d c = grid_.CellCenter(ix, iy);
-    for (int jx = ix - span; jx <= ix + span; ++jx) {
-      for (int jy = iy - span; jy <= iy + span; ++jy) {
-        if ((grid_.CellCenter(jx, jy) - c).norm() > radius_m_ + 1e-9) continue;
-        if (!grid_.InGrid(jx, jy)) return false;
-        bool unknown = false;
-        if (grid_.Connected(jx, jy, z, &unknown) < 0 && !unknown) return false;
-      }
-    }
-    return true;
-  }
-
-  // The state a body at `from` height reaches in cell (jx, jy), if it may stand there.
-  std::optional<State> Enter(int jx, int jy, double z) const {
-    if (!grid_.InGrid(jx, jy)) return std::nullopt;
-    bool unknown = false;
-    const int m = grid_.Connected(jx, jy, z, &unknown);
-    if (m >= 0) {
-      if (!Traversable(m)) return std::nullopt;
-      return State{jx, jy, grid_.NodeZ(m), m};
-    }
-    if (unknown && VirtualClear(jx, jy, z)) return State{jx, jy, z, -1};
-    return std::nullopt;
-  }
-
-  double Clearance(const State& s) const { return s.node >= 0 ? grid_.ClearanceM(s.node) : kInf; }
-
-  double radius_m() const { return radius_m_; }
-
- private:
-  const MultiLevelGrid& grid_;
-  double radius_m_ = 0.0;
-};
 
 namespace {
 

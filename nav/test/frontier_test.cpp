@@ -3,6 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdio>
+
+#include "cairn/nav/platform.h"
+#include "cairn/sim/builtin_worlds.h"
 #include "nav_test_util.h"
 
 namespace cairn::nav {
@@ -195,6 +200,86 @@ TEST(FrontierTest, ARobotOffTheMapReachesNothingAndAnExploredMapHasNoFrontier) {
   EXPECT_TRUE(set.clusters.empty());
   EXPECT_EQ(set.frontier_cells, 0);
   EXPECT_NEAR(set.known_free_m2, 100.0, 1e-6);
+}
+
+// The multi-level search on a map of one level finds what the single-level one finds.
+TEST(MultiLevelFrontierTest, OnOneLevelTheDoorIsFoundAsByTheSingleLevelSearch) {
+  const auto world = std::make_shared<const core::VoxelGrid>(RoomWithADoor());
+  const MultiLevelGrid levels(world, RobotMapReading());
+  const FrontierSet set = FindFrontiersMultiLevel(levels, {2.0, 5.0, 0.0});
+  const FrontierSet flat = FindFrontiers(TraversabilityGrid(*world, RobotMapReading()), {2.0, 5.0});
+  EXPECT_TRUE(set.robot_on_grid);
+  ASSERT_EQ(set.clusters.size(), 1u);
+  ASSERT_EQ(flat.clusters.size(), 1u);
+  const FrontierCluster& door = set.clusters[0];
+  EXPECT_NEAR(door.target_M.x(), 10.15, 1e-9);
+  EXPECT_NEAR(door.target_M.y(), 5.0, 0.1);
+  EXPECT_NEAR(door.target_ground_z_m, 0.0, 1e-6);
+  EXPECT_NEAR(door.travel_cost_m, flat.clusters[0].travel_cost_m, 0.3);
+  EXPECT_NEAR(door.gain_m2, flat.clusters[0].gain_m2, 0.1 * flat.clusters[0].gain_m2);
+  EXPECT_NEAR(set.known_free_m2, flat.known_free_m2, 1.0);
+  FrontierOptions o;
+  o.peer_coverage_min_z_m = 1.0;
+  o.peer_coverage_max_z_m = 0.0;
+  std::string why;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_EQ(why, "FrontierOptions::peer_coverage_min_z_m = 1 must be <= peer_coverage_max_z_m = 0");
+  EXPECT_THROW(FindFrontiersMultiLevel(levels, {2.0, 5.0, 0.0}, o), std::invalid_argument);
+}
+
+// The two-floor building as a legged robot on floor 1 has seen it (everything up to 2.0 m, and the free space
+// over the flights up to 2.8 m, as rays passing over the treads): the stairs lead on into unknown space, a reachable frontier above the robot's floor; a wheeled robot cannot climb to it. Peers'
+// coverage of floor 1 leaves the stairs' gain alone when it is counted on floor 1's band only. Seen whole, the
+// building has no frontier left.
+TEST(MultiLevelFrontierTest, TheStairsAreAFrontierOnlyALeggedRobotReaches) {
+  const auto truth = std::make_shared<const core::VoxelGrid>(sim::MakeBuiltinWorld("building"));
+  std::shared_ptr<core::VoxelGrid> world, seen_free;
+  testing::SeenBelow(*truth, 2.0, &world, &seen_free, 2.8);
+  TraversabilityOptions legged = GetPlatformProfile("legged").traversability;
+  legged.unknown_is_lethal = false;
+  const MultiLevelGrid levels(world, legged, seen_free);
+  const Eigen::Vector3d robot_M(2.0, 7.1, 0.0);
+  const FrontierSet set = FindFrontiersMultiLevel(levels, robot_M);
+  ASSERT_TRUE(set.robot_on_grid);
+  const auto stairs = std::find_if(set.clusters.begin(), set.clusters.end(), [](const FrontierCluster& c) {
+    return c.reachable() && c.target_ground_z_m > 1.0;
+  });
+  ASSERT_NE(stairs, set.clusters.end()) << set.clusters.size() << " clusters, none reachable above floor 1";
+  std::printf("  %zu clusters; stairs: target (%.2f, %.2f, z %.2f), %.1f m², %.1f m away; %.0f m² of surfaces\n",
+              set.clusters.size(), stairs->target_M.x(), stairs->target_M.y(), stairs->target_ground_z_m,
+              stairs->gain_m2, stairs->travel_cost_m, set.known_free_m2);
+  EXPECT_GT(stairs->target_M.x(), 18.0);  // in the stairwell
+  EXPECT_LT(stairs->target_ground_z_m, 2.1);
+  EXPECT_GT(stairs->travel_cost_m, 17.0);  // at least the walk along the corridor
+  EXPECT_GE(stairs->gain_m2, FrontierOptions{}.min_gain_m2);
+
+  TraversabilityOptions wheeled = GetPlatformProfile("wheeled").traversability;
+  wheeled.unknown_is_lethal = false;
+  const FrontierSet rolling = FindFrontiersMultiLevel(MultiLevelGrid(world, wheeled, seen_free), robot_M);
+  for (const FrontierCluster& c : rolling.clusters) {
+    EXPECT_FALSE(c.reachable() && c.target_ground_z_m > 0.5) << c.target_M.transpose() << " z " << c.target_ground_z_m;
+  }
+
+  PeerCoverage peers(0.5);
+  for (double x = 0.25; x < 24.0; x += 0.5) {
+    for (double y = 0.25; y < 14.0; y += 0.5) peers.Mark({x, y});
+  }
+  FrontierOptions floor1_band;
+  floor1_band.peer_coverage_min_z_m = -1.0;
+  floor1_band.peer_coverage_max_z_m = 1.5;
+  const FrontierSet with_peers = FindFrontiersMultiLevel(levels, robot_M, floor1_band, &peers);
+  EXPECT_TRUE(std::any_of(with_peers.clusters.begin(), with_peers.clusters.end(), [](const FrontierCluster& c) {
+    return c.reachable() && c.target_ground_z_m > 1.0;
+  }));
+  const FrontierSet everywhere = FindFrontiersMultiLevel(levels, robot_M, {}, &peers);
+  EXPECT_TRUE(everywhere.clusters.empty()) << everywhere.clusters.size();
+
+  std::shared_ptr<core::VoxelGrid> all, all_free;
+  testing::SeenBelow(*truth, 100.0, &all, &all_free);
+  const FrontierSet done = FindFrontiersMultiLevel(MultiLevelGrid(all, legged, all_free), robot_M);
+  EXPECT_EQ(done.reachable(), 0) << done.clusters.size() << " clusters, the first at "
+                                 << (done.clusters.empty() ? Eigen::Vector2d::Zero() : done.clusters[0].target_M).transpose();
+  EXPECT_GT(done.known_free_m2, 1.8 * set.known_free_m2 * 0.9);  // two floors
 }
 
 }  // namespace

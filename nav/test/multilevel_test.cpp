@@ -11,6 +11,7 @@
 
 #include "cairn/nav/global_planner.h"
 #include "cairn/sim/builtin_worlds.h"
+#include "nav_test_util.h"
 
 namespace cairn::nav {
 namespace {
@@ -204,21 +205,8 @@ TEST(PartialRemainingTest, AFloorReadAVoxelOffIsOnTheGoalsLevel) {
 }
 
 TEST(MultiLevelGridTest, PartialPlanClimbsAsFarAsTheMapShows) {
-  const auto truth = Building();
-  auto world = std::make_shared<core::VoxelGrid>("own", truth->p_W_min(), truth->resolution_m(), truth->dims());
-  auto seen_free = std::make_shared<core::VoxelGrid>("seen", truth->p_W_min(), truth->resolution_m(), truth->dims());
-  for (int ix = 0; ix < truth->dims().x(); ++ix) {
-    for (int iy = 0; iy < truth->dims().y(); ++iy) {
-      for (int iz = 0; iz < truth->dims().z(); ++iz) {
-        if (truth->CenterOf({ix, iy, iz}).z() > 2.0) break;
-        if (truth->IsOccupiedIndex({ix, iy, iz})) {
-          world->SetOccupied({ix, iy, iz});
-        } else {
-          seen_free->SetOccupied({ix, iy, iz});
-        }
-      }
-    }
-  }
+  std::shared_ptr<core::VoxelGrid> world, seen_free;
+  testing::SeenBelow(*Building(), 2.0, &world, &seen_free);
   TraversabilityOptions options = Legged();
   options.unknown_is_lethal = false;
   const MultiLevelGrid grid(world, options, seen_free);

@@ -113,7 +113,19 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   ex.RejectUnknownKeys({"target_tolerance_m", "settle_s", "map_wait_s", "min_gain_m2", "gain_radius_m",
                         "max_cluster_extent_m", "unknown_reach_m", "switch_utility_ratio", "blacklist_radius_m",
                         "visited_radius_m", "retry_after_s", "claim_radius_m", "peer_influence_m", "claim_period_s",
-                        "coverage_period_s", "claim_lease_s", "coverage_cell_m"});
+                        "coverage_period_s", "claim_lease_s", "coverage_cell_m", "levels"});
+  if (std::string levels; ex.ReadString("levels", &levels), !levels.empty()) {
+    using Levels = ExploreModeOptions::Levels;
+    if (levels == "auto") {
+      explore.levels = Levels::kAuto;
+    } else if (levels == "main") {
+      explore.levels = Levels::kMain;
+    } else if (levels == "all") {
+      explore.levels = Levels::kAll;
+    } else {
+      throw core::ConfigError(path + ": explore.levels = '" + levels + "' must be auto, main or all");
+    }
+  }
   ex.ReadDouble("target_tolerance_m", &explore.target_tolerance_m);
   ex.ReadDouble("settle_s", &explore.settle_s);
   ex.ReadDouble("map_wait_s", &explore.map_wait_s);

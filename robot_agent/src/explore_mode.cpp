@@ -61,7 +61,8 @@ bool ExploreModeOptions::IsValid(std::string* why) const {
             internal::InRange("explore.contact_timeout_s", contact_timeout_s, 0, 3600, true, &msg) &&
             internal::InRange("explore.target_tolerance_m", target_tolerance_m, 0, 3, true, &msg) &&
             internal::InRange("explore.settle_s", settle_s, 0, 10, false, &msg) &&
-            internal::InRange("explore.map_wait_s", map_wait_s, 0, 600, true, &msg);
+            internal::InRange("explore.map_wait_s", map_wait_s, 0, 600, true, &msg) &&
+            internal::InRange("explore.platform_max_step_m", platform_max_step_m, 0, 10, false, &msg);
   std::string nested;
   if (ok && !(frontiers.IsValid(&nested) && explorer.IsValid(&nested))) {
     msg = "explore: " + nested;  // the config section; the option struct names the field
@@ -261,8 +262,11 @@ void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput
   status_.has_target = true;
   status_.target_M = d.target.target_M;
   status_.target_z_m = d.target.target_ground_z_m;
-  // On the robot's level, as the frontier search reads the map (its main level).
-  plan_ = navigation_->PlanGoalAsync(pose_M, d.target.target_M.x(), d.target.target_M.y());
+  // A target the main level holds is planned there (NaN: robust to the holes a robot-built map shows around
+  // the robot); one only the map's levels hold (a flight of stairs, an upper floor, the pocket under a
+  // landing) names its surface.
+  goal_z_m_ = d.target.on_main_level ? std::numeric_limits<double>::quiet_NaN() : d.target.target_ground_z_m;
+  plan_ = navigation_->PlanGoalAsync(pose_M, d.target.target_M.x(), d.target.target_M.y(), goal_z_m_);
   spdlog::info("robot {}: exploration {} to the frontier at {} ({:.0f} m² unknown behind it, {:.1f} m away): {}",
                options_.robot_id, status_.task_id, Point(d.target.target_M), d.target.gain_m2,
                d.target.travel_cost_m, d.reason);
@@ -287,7 +291,7 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
     plan_ = {};
     if (plan.IsUsable()) {
       navigation_->AcceptGoal(plan, status_.target_M.x(), status_.target_M.y(), options_.target_tolerance_m,
-                              in.now_s);
+                              in.now_s, goal_z_m_);
       driving_ = true;
     } else {
       EndTarget(false, "no path: " + plan.reason, in.now_s);
@@ -302,7 +306,7 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
       step = navigation_->StepWaypoint(in.pose_M, in.now_s);
       if (step.failed && recovery_ && recovery_->enabled()) {
         recovery_->Start(status_.target_M.x(), status_.target_M.y(), options_.target_tolerance_m, step.reason,
-                         std::numeric_limits<double>::quiet_NaN());
+                         goal_z_m_);
         status_.reason = "recovering: " + recovery_->Report();
         step = NavigationStep{};  // brake this cycle; the recovery tree runs from the next
       }

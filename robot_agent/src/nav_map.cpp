@@ -1,6 +1,7 @@
 #include "cairn/agent/nav_map.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <iterator>
@@ -112,6 +113,59 @@ void NavMap::RebuildGrids() {
     level_options.max_step_m = relaxed->max_step_m;
     diagnose_levels_ = std::make_unique<nav::MultiLevelGrid>(world, level_options, seen_free, sensor_max_z_m_);
   }
+}
+
+void NavMap::AddStairFrontiers(const Eigen::Vector3d& robot_M, const nav::FrontierOptions& options,
+                                nav::FrontierSet* set) const {
+  const nav::MultiLevelGrid& levels = *levels_;
+  for (const perception::Staircase& stairs : stair_priors_) {
+    const Eigen::Vector2d dir(std::cos(stairs.yaw_rad), std::sin(stairs.yaw_rad));
+    const Eigen::Vector2d foot = stairs.p_W_first_step.head<2>();
+    const double length_m = (stairs.num_steps - 1) * stairs.run_m;
+    // Each end, kStairEndM off the flight: the floor at its foot, and the landing or floor past its last riser.
+    const std::array<std::pair<Eigen::Vector2d, double>, 2> ends = {
+        std::make_pair(Eigen::Vector2d(foot - kStairEndM * dir), stairs.p_W_first_step.z()),
+        std::make_pair(Eigen::Vector2d(foot + (length_m + kStairEndM) * dir),
+                       stairs.p_W_first_step.z() + stairs.num_steps * stairs.rise_m)};
+    for (const auto& [end_M, end_z] : ends) {
+      int ix = 0, iy = 0;
+      if (!levels.CellOf(end_M.x(), end_M.y(), &ix, &iy)) continue;
+      const int node = levels.NodeNear(ix, iy, end_z, levels.options().max_step_m);
+      if (node >= 0 && levels.IsTraversable(node)) continue;  // known ground: the frontier search's
+      if (!options.region_M.isEmpty() && !options.region_M.contains(end_M)) continue;
+      if (end_z < options.min_z_m || end_z > options.max_z_m) continue;
+      nav::FrontierCluster c;
+      c.target_M = end_M;
+      c.centroid_M = end_M;
+      c.target_ground_z_m = end_z;
+      c.cells = 1;
+      c.on_main_level = false;
+      c.gain_m2 = nav::VisibleUnknownM2(levels, {end_M.x(), end_M.y(), end_z}, options.gain_radius_m);
+      if (c.gain_m2 < options.min_gain_m2) continue;
+      // The robot to the other end, then along the flight: an estimate (straight lines), the search over the
+      // map's surfaces does not cross a flight its 0.1 m cells show narrower than the robot.
+      const Eigen::Vector2d other = (end_M - foot).norm() < kStairEndM + 1e-6 ? Eigen::Vector2d(foot + length_m * dir) : foot;
+      c.travel_cost_m = (robot_M.head<2>() - other).norm() + (end_M - other).norm();
+      c.utility = c.gain_m2 / (c.travel_cost_m + options.cost_offset_m);
+      set->clusters.push_back(c);
+    }
+  }
+  nav::SortFrontierClusters(&set->clusters);
+}
+
+nav::FrontierSet NavMap::Frontiers(const Eigen::Vector3d& robot_M, nav::FrontierOptions options, bool every_level,
+                                   const nav::PeerCoverage* peers) const {
+  if (!every_level) return nav::FindFrontiers(*grid_, robot_M.head<2>(), options, peers);
+  options.peer_coverage_min_z_m = grid_->options().ground_search_min_z_m;
+  options.peer_coverage_max_z_m = grid_->options().ground_search_max_z_m;
+  nav::FrontierSet set = nav::FindFrontiersMultiLevel(*levels_, robot_M, options, peers);
+  for (nav::FrontierCluster& c : set.clusters) {
+    const std::optional<double> ground = grid_->GroundHeight(c.target_M.x(), c.target_M.y());
+    c.on_main_level = ground && std::abs(*ground - c.target_ground_z_m) <= grid_->options().max_step_m &&
+                      grid_->IsTraversableAt(c.target_M.x(), c.target_M.y());
+  }
+  AddStairFrontiers(robot_M, options, &set);
+  return set;
 }
 
 Eigen::AlignedBox2d NavMap::extent_M() const {

@@ -147,13 +147,15 @@ void PerceptionService::NavMapLoop() {
                            perception_->Staircases());
       last_map_update_s_ = NowS();
       std::optional<nav::FrontierOptions> search;
-      Eigen::Vector2d robot_p_M;
+      Eigen::Vector3d robot_p_M;
+      bool every_level = false;
       std::shared_ptr<const nav::PeerCoverage> peers;
       double coverage_cell_m = 0.0;
       {
         std::lock_guard<std::mutex> guard(frontier_mutex_);
         search = frontier_search_;
         robot_p_M = robot_p_M_;
+        every_level = frontier_every_level_;
         peers = peer_coverage_;
         coverage_cell_m = coverage_cell_m_;
       }
@@ -164,7 +166,7 @@ void PerceptionService::NavMapLoop() {
         coverage_cell_m_ = 0.0;
       }
       if (search) {
-        nav::FrontierSet set = nav::FindFrontiers(nav_map_->grid(), robot_p_M, *search, peers.get());
+        nav::FrontierSet set = nav_map_->Frontiers(robot_p_M, *search, every_level, peers.get());
         std::lock_guard<std::mutex> guard(frontier_mutex_);
         frontiers_ = std::move(set);
         frontiers_at_s_ = NowS();
@@ -189,9 +191,10 @@ void PerceptionService::NavMapLoop() {
   }
 }
 
-void PerceptionService::SetFrontierSearch(const std::optional<nav::FrontierOptions>& search) {
+void PerceptionService::SetFrontierSearch(const std::optional<nav::FrontierOptions>& search, bool every_level) {
   std::lock_guard<std::mutex> guard(frontier_mutex_);
   frontier_search_ = search;
+  frontier_every_level_ = every_level;
   if (!search) frontiers_.reset();
 }
 
@@ -208,7 +211,7 @@ std::optional<nav::CoverageBitmap> PerceptionService::TakeSeenCoverage(double ce
   return out;
 }
 
-void PerceptionService::SetRobotPosition(const Eigen::Vector2d& p_M) {
+void PerceptionService::SetRobotPosition(const Eigen::Vector3d& p_M) {
   std::lock_guard<std::mutex> guard(frontier_mutex_);
   robot_p_M_ = p_M;
 }

@@ -273,6 +273,7 @@ ModeRegistry RobotAgent::Impl::MakeModes(const std::string& tree_file) {
   waypoint_ = &modes.Emplace<WaypointMode>(waypoint, &navigation_, std::move(recovery));
   ExploreModeOptions explore = options_.explore;
   explore.robot_id = options_.robot_id;
+  explore.platform_max_step_m = options_.navigation.platform.traversability.max_step_m;
   explore.channel_timeout_s = options_.waypoint_timeout_s;
   explore.contact_timeout_s = options_.contact_timeout_s;
   explore.first_task_id = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
@@ -427,8 +428,8 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   // A robot waiting on a goal (or between frontiers) watches the world.
   perception_->SetMapRefreshAtRest(waypoint_->has_goal() || explore_->exploring());
   // The explore mode's frontiers, searched on the navigation map thread.
-  perception_->SetFrontierSearch(explore_->frontier_search());
-  perception_->SetRobotPosition({pose_.x_m, pose_.y_m});
+  perception_->SetFrontierSearch(explore_->frontier_search(), explore_->every_level());
+  perception_->SetRobotPosition({pose_.x_m, pose_.y_m, pose_.z_m});
   if (auto frontiers = perception_->TakeFrontiers()) explore_->OnFrontiers(std::move(frontiers->first), frontiers->second);
   // The team: what peers go for and have seen shapes the choice; this robot's claim goes out when due.
   explore_->SetPeerClaims(team_.LiveClaims(now_s));

@@ -48,6 +48,7 @@ SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::Pl
   }
   ExploreModeOptions explore = options_.explore;
   explore.robot_id = options_.robot_id;
+  explore.platform_max_step_m = options_.navigation.platform.traversability.max_step_m;
   explore_ = std::make_unique<ExploreMode>(explore, navigation_.get(), std::move(recovery));
   next_map_update_s_ = options_.nav_map.update_period_s;
 }
@@ -90,7 +91,8 @@ void SteppedRobot::Step(double now_s) {
     if (const auto search = explore_->frontier_search()) {
       start = WallClock::now();
       const std::shared_ptr<const nav::PeerCoverage> peers = team_.Coverage();
-      nav::FrontierSet set = nav::FindFrontiers(nav_map_->grid(), {pose.x_m, pose.y_m}, *search, peers.get());
+      nav::FrontierSet set =
+          nav_map_->Frontiers({pose.x_m, pose.y_m, pose.z_m}, *search, explore_->every_level(), peers.get());
       frontier_search_s_ += since(start);
       ++frontier_searches_;
       explore_->OnFrontiers(std::move(set), now_s);

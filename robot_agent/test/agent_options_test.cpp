@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "cairn/core/config.h"
+#include "cairn/nav/platform.h"
 
 namespace cairn::agent {
 namespace {
@@ -60,6 +61,7 @@ TEST(AgentOptions, NavigationConfigErrorsNameTheField) {
       {"explore:\n  min_gain_m2: -3\n", "FrontierOptions::min_gain_m2 = -3"},
       {"explore:\n  switch_utility_ratio: 0.5\n", "ExplorerOptions::switch_utility_ratio = 0.5"},
       {"explore:\n  radius: 5\n", "explore.radius is not a known setting"},
+      {"explore:\n  levels: upstairs\n", "explore.levels = 'upstairs' must be auto, main or all"},
   };
   for (const auto& [yaml, expected] : cases) {
     AgentOptions options;
@@ -86,6 +88,28 @@ TEST(AgentOptions, PlatformProfilesSetLimitsAndStairs) {
   EXPECT_GE(options.navigation.platform.traversability.max_step_m, 0.2);
   EXPECT_DOUBLE_EQ(options.navigation.platform.limits.max_speed_mps, 0.6);
   EXPECT_THROW(options.SetPlatform("hovercraft"), std::invalid_argument);
+}
+
+// explore.levels: a legged robot (it climbs a stair rise) explores every level of its map by default, a wheeled
+// one its main level; the config names either.
+TEST(AgentOptions, ExploreLevelsFollowThePlatformUnlessTheConfigNamesThem) {
+  ExploreModeOptions explore;
+  explore.platform_max_step_m = nav::GetPlatformProfile("legged").traversability.max_step_m;
+  EXPECT_TRUE(explore.EveryLevel());
+  explore.platform_max_step_m = nav::GetPlatformProfile("wheeled").traversability.max_step_m;
+  EXPECT_FALSE(explore.EveryLevel());
+  AgentOptions options;
+  options.robot_id = "r1";
+  options.LoadConfigFile(Write("levels.yaml", "explore:\n  levels: all\n"));
+  EXPECT_EQ(options.explore.levels, ExploreModeOptions::Levels::kAll);
+  options.LoadConfigFile(Write("levels.yaml", "explore:\n  levels: main\n"));
+  EXPECT_EQ(options.explore.levels, ExploreModeOptions::Levels::kMain);
+  options.explore.platform_max_step_m = 0.3;
+  EXPECT_FALSE(options.explore.EveryLevel());
+  options.explore.platform_max_step_m = -1;
+  std::string why;
+  EXPECT_FALSE(options.explore.IsValid(&why));
+  EXPECT_NE(why.find("explore.platform_max_step_m = -1"), std::string::npos) << why;
 }
 
 TEST(AgentOptions, IdsAndPlatformsAreChecked) {

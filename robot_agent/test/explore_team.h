@@ -4,6 +4,7 @@
 // cairn_agent_explore_test and cairn_bench_explore; the simulator's truth is for scoring only.
 #pragma once
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -59,6 +60,50 @@ inline double Coverage(const nav::TraversabilityGrid& truth, const std::vector<c
   return reachable > 0 ? static_cast<double>(known) / reachable : 0.0;
 }
 
+/// Fraction of the walkable surfaces (every level) a robot can reach from `start` (x, y, ground z; metres)
+/// on `truth` (ground truth; connected traversable surfaces, 8-neighbouring columns, flood fill) whose heights
+/// lie in [min_z_m, max_z_m] that any of `maps` knows: a surface within 0.3 m of its height in that column, or
+/// the column seen at that height (not MultiLevelGrid::IsUnknownAt). `reachable_surfaces`: how many there are.
+inline double CoverageOnLevels(const nav::MultiLevelGrid& truth, const std::vector<const nav::MultiLevelGrid*>& maps,
+                               const Eigen::Vector3d& start, double min_z_m, double max_z_m,
+                               int* reachable_surfaces = nullptr) {
+  int sx = 0, sy = 0;
+  if (!truth.CellOf(start.x(), start.y(), &sx, &sy)) return 0.0;
+  const int start_node = truth.NodeNear(sx, sy, start.z(), 0.5);
+  if (start_node < 0) return 0.0;
+  std::vector<char> seen(static_cast<std::size_t>(truth.node_count()), 0);
+  std::vector<int> open = {start_node};
+  seen[static_cast<std::size_t>(start_node)] = 1;
+  int reachable = 0, known = 0;
+  while (!open.empty()) {
+    const int node = open.back();
+    open.pop_back();
+    const int x = truth.NodeColumn(node) % truth.nx(), y = truth.NodeColumn(node) / truth.nx();
+    const double z = truth.NodeZ(node);
+    const Eigen::Vector2d c = truth.CellCenter(x, y);
+    if (z >= min_z_m && z <= max_z_m) {
+      ++reachable;
+      for (const nav::MultiLevelGrid* map : maps) {
+        int gx = 0, gy = 0;
+        if (map->CellOf(c.x(), c.y(), &gx, &gy) && (map->NodeNear(gx, gy, z, 0.3) >= 0 || !map->IsUnknownAt(gx, gy, z))) {
+          ++known;
+          break;
+        }
+      }
+    }
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int m = truth.NodeNear(x + dx, y + dy, z, truth.options().max_step_m);
+        if (m < 0 || seen[static_cast<std::size_t>(m)] || !truth.IsTraversable(m)) continue;
+        seen[static_cast<std::size_t>(m)] = 1;
+        open.push_back(m);
+      }
+    }
+  }
+  if (reachable_surfaces != nullptr) *reachable_surfaces = reachable;
+  return reachable > 0 ? static_cast<double>(known) / reachable : 0.0;
+}
+
 /// What to run.
 struct TeamOptions {
   std::string world = "builtin:tunnels";
@@ -71,6 +116,9 @@ struct TeamOptions {
   double timeout_s = 1800.0;
   double score_period_s = 10.0;   ///< coverage is scored this often, simulated seconds
   bool verbose = false;           ///< coverage every minute
+  /// Height bands (metres, frame W; e.g. the floors of a building) scored at the end over the map's levels
+  /// (CoverageOnLevels, from the first start's ground at z 0): TeamRun::level_coverage.
+  std::vector<std::pair<double, double>> level_bands;
 };
 
 /// What happened.
@@ -90,6 +138,8 @@ struct TeamRun {
   double wall_s = 0;
   int claims_sent = 0;                  ///< claims all robots sent
   std::size_t coverage_bytes_sent = 0;  ///< their compressed coverage, bytes
+  std::vector<double> level_coverage;   ///< per TeamOptions::level_bands, at the end
+  double highest_z_m = 0;               ///< the highest ground any robot stood on (true pose), metres
 };
 
 inline TeamRun RunTeam(const TeamOptions& o) {
@@ -138,6 +188,7 @@ inline TeamRun RunTeam(const TeamOptions& o) {
     for (std::size_t i = 0; i < robots.size(); ++i) {
       if (!alive[i]) continue;
       robots[i]->Step(t);
+      run.highest_z_m = std::max(run.highest_z_m, platforms[i]->TrueState().z_m);
       while (robots[i]->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
       if (const std::optional<ExploreClaim> claim = robots[i]->ClaimToSend(t)) {
         ++run.claims_sent;
@@ -172,6 +223,12 @@ inline TeamRun RunTeam(const TeamOptions& o) {
   }
   run.coverage = score();
   if (run.time_to_90_s < 0 && run.coverage >= 0.9) run.time_to_90_s = t;
+  std::vector<const nav::MultiLevelGrid*> level_maps;
+  for (const auto& r : robots) level_maps.push_back(&r->nav_map().levels());
+  for (const auto& [z0, z1] : o.level_bands) {
+    run.level_coverage.push_back(CoverageOnLevels(platforms.front()->body_terrain()->levels(), level_maps,
+                                                  {o.starts[0].x_m, o.starts[0].y_m, 0.0}, z0, z1));
+  }
   run.end_s = t;
   for (std::size_t i = 0; i < robots.size(); ++i) {
     run.contact = run.contact || robots[i]->ever_in_contact();

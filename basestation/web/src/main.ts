@@ -43,6 +43,22 @@ interface Robot {
   max_yaw_rate_radps: number;
   camera_age_s: number;
   control_period_max_ms: number;
+  exploration?: Exploration;
+}
+
+// The robot's exploration record (cairn_base's `status --json` exploration block).
+interface Exploration {
+  state: string; // none | exploring | complete | failed | stopped
+  reason: string;
+  task_id: number;
+  explored_m2: number;
+  frontiers: number;
+  reachable_frontiers: number;
+  targets_reached: number;
+  targets_failed: number;
+  peers: number;
+  peer_seen_m2: number;
+  target?: { x_m: number; y_m: number; z_m: number };
 }
 
 interface EventEntry {
@@ -239,6 +255,8 @@ function actionButtons(r: Robot): string {
       }
     } else if (action === "goto") b.push(`<button class="act" data-goto="1">${state.pickingGoal ? "Tap the map… (Esc)" : "Go to… (tap the map)"}</button>`);
     else if (action === "teleop") b.push(`<button class="act" data-drive="1">${state.driving ? "Stop driving" : "Drive (keys / gamepad)"}</button>`);
+    else if (action === "explore") b.push(`<button class="act" data-cmd="explore ${r.id}">Explore</button>`);
+    else if (action === "home") b.push(`<button class="act" data-cmd="home ${r.id}">Return home</button>`);
   }
   return b.join("");
 }
@@ -254,11 +272,14 @@ function renderRobot(): void {
   const holder = r.holder ? `held by <b>${r.holder}</b>${r.you_hold ? " (you)" : ""}${r.holder_alive ? "" : " (not heard)"}` : "free";
   setHtml($("robot-head"), `<h2>${r.id} <span class="chip" style="background:${modeColor(r.mode)}">${r.mode || "?"}</span></h2>
     <p>${r.platform} · ${holder} · ${r.online ? "online" : `<b class="bad">lost</b> ${r.lost_reason}`}</p>`);
-  const nav = r.nav_status === "active"
+  // In explore mode the robot drives to its frontiers itself: its last waypoint goal's status is stale.
+  const nav = r.mode === "explore" ? "following the exploration's targets"
+    : r.nav_status === "active"
     ? `to (${fmt(r.goal?.x_m, 2)}, ${fmt(r.goal?.y_m, 2)}) · ${fmt(r.distance_left_m, 1, " m")} left · ETA ${fmt(r.eta_s, 0, " s")}`
     : r.nav_status;
   setHtml($("robot-nav"), `<p>navigation: <b>${nav}</b>${r.nav_reason ? `<br><span class="reason">${r.nav_reason}</span>` : ""}</p>
-    <p class="small">local planner: ${r.local_planner_status || "–"} · speed ${fmt(Math.abs(r.speed_mps), 2, " m/s")}</p>`);
+    <p class="small">local planner: ${r.local_planner_status || "–"} · speed ${fmt(Math.abs(r.speed_mps), 2, " m/s")}</p>
+    ${explorationHtml(r.exploration)}`);
   setHtml($("actions"), actionButtons(r) + `<button class="act stop" data-cmd="stop ${r.id}">STOP</button>`);
   $("actions").dataset.robot = r.id;
   const cam = state.cameraUrls.get(r.id);
@@ -268,6 +289,17 @@ function renderRobot(): void {
     : d.active ? `driving ${r.id}: ${d.source} v ${d.vx.toFixed(2)} m/s, w ${d.wz.toFixed(2)} rad/s`
     : d.stale ? `driving ${r.id}: gamepad stick silent for over 0.5 s: zero sent (move it to drive again)`
     : `driving ${r.id}: ${d.source || "no input"}: zero sent`;
+}
+
+// The exploration block of the robot tab: state, explored area, frontiers, target, team (nothing before the
+// robot's first exploration).
+function explorationHtml(e: Exploration | undefined): string {
+  if (!e || !e.state || e.state === "none") return "";
+  const target = e.target ? ` · target (${fmt(e.target.x_m, 1)}, ${fmt(e.target.y_m, 1)}, z ${fmt(e.target.z_m, 1)})` : "";
+  const team = e.peers > 0 ? ` · ${e.peers} peer${e.peers > 1 ? "s" : ""} (${fmt(e.peer_seen_m2, 0, " m²")} seen)` : "";
+  return `<p id="exploration">exploration ${e.task_id}: <b>${e.state}</b> · ${fmt(e.explored_m2, 0, " m²")} explored ·
+    ${e.frontiers} frontiers (${e.reachable_frontiers} reachable)${target}${team} · ${e.targets_reached} reached, ${e.targets_failed} given up
+    ${e.reason ? `<br><span class="reason">${e.reason}</span>` : ""}</p>`;
 }
 
 // One robot's link cells: probe round trip, state samples lost (10 s), what it sends against its budget.

@@ -241,6 +241,46 @@ test("a tap on another level's floor names that level (goto --z); a wall cut by 
   await page.close();
 });
 
+test("the holder starts an exploration from the robot tab, sees its frontiers and target, stops it and sends the robot home", async () => {
+  await page1.locator('#tabs button[data-tab="fleet"]').click();
+  await page1.locator('#fleet-rows tr[data-robot="r1"]').click();
+  await waitFor("op1's Explore button", async () => (await page1.locator("#actions button").allInnerTexts()).includes("Explore"), 10000);
+  assert.ok((await page2.locator("#actions button").allInnerTexts()).every((b) => b !== "Explore"), "op2 holds no lock: no Explore");
+  const before = await robotState(page1, "r1");
+  await page1.evaluate(() => { window.cairn.state.lastResult = undefined; });
+  await page1.getByRole("button", { name: "Explore" }).click();
+  const result = await waitFor("the explore answer", () => page1.evaluate(() => window.cairn.state.lastResult));
+  assert.equal(result.ok, true, JSON.stringify(result));
+  assert.equal(result.command, "explore");
+  const exploring = await waitFor("r1 exploring with a target", async () => {
+    const e = (await robotState(page1, "r1"))?.exploration;
+    return e?.state === "exploring" && e.target && e.reachable_frontiers > 0 ? e : undefined;
+  }, 30000);
+  const text = await page1.locator("#exploration").innerText();
+  assert.match(text, /exploration \d+: exploring · \d+ m² explored · \d+ frontiers \(\d+ reachable\) · target \(/);
+  console.log(`FIGURE gui_explore_first_target ${JSON.stringify(exploring.target)} frontiers ${exploring.frontiers}`);
+  await waitFor("r1 driving to its frontiers", async () => {
+    const p = (await robotState(page1, "r1"))?.pose;
+    return p && Math.hypot(p.x_m - before.pose.x_m, p.y_m - before.pose.y_m) > 1.0;
+  }, 20000);
+  await screenshot(page1, "12_exploring");
+  await page1.getByRole("button", { name: "STOP" }).click();
+  await waitFor("the exploration stopped", async () => (await robotState(page1, "r1"))?.exploration?.state === "stopped", 10000);
+  assert.match(await page1.locator("#exploration").innerText(), /stopped/);
+  await waitFor("op1's Return home button", async () => (await page1.locator("#actions button").allInnerTexts()).includes("Return home"), 10000);
+  await page1.evaluate(() => { window.cairn.state.lastResult = undefined; });
+  await page1.getByRole("button", { name: "Return home" }).click();
+  const home = await waitFor("the home answer", () => page1.evaluate(() => window.cairn.state.lastResult));
+  assert.equal(home.ok, true, JSON.stringify(home));
+  // Home is where r1 started (4, 20).
+  await waitFor("r1's goal is its start", async () => {
+    const r = await robotState(page1, "r1");
+    return r?.nav_status === "active" && Math.hypot(r.goal.x_m - 4, r.goal.y_m - 20) < 0.3;
+  }, 15000);
+  await screenshot(page1, "13_going_home");
+  await page1.getByRole("button", { name: "STOP" }).click();
+});
+
 test("the pages raised no script error", () => {
   assert.deepEqual(page1.errors, [], `op1's page: ${page1.errors}\n${tail("op1")}`);
   assert.deepEqual(page2.errors, [], `op2's page: ${page2.errors}`);

@@ -19,6 +19,7 @@
 #include <unordered_set>
 #include <vector>
 
+#include "cairn/nav/multilevel.h"
 #include "cairn/nav/traversability.h"
 
 namespace cairn::nav {
@@ -57,6 +58,12 @@ struct FrontierOptions {
   /// building). Default: every height.
   double min_z_m = -std::numeric_limits<double>::infinity();
   double max_z_m = std::numeric_limits<double>::infinity();
+  /// FindFrontiersMultiLevel() counts peers' coverage (a bitmap of x-y cells) only at heights in
+  /// [peer_coverage_min_z_m, peer_coverage_max_z_m] (metres, frame M): the band of ground their bitmaps describe
+  /// (their main level, SeenCoverage()), so that a floor above a branch a peer explored keeps its gain. The
+  /// single-level FindFrontiers() reads only its main level and ignores these. Default: every height.
+  double peer_coverage_min_z_m = -std::numeric_limits<double>::infinity();
+  double peer_coverage_max_z_m = std::numeric_limits<double>::infinity();
 
   /// True when every field is in range; otherwise false with `*why` (if not null) naming the field, its value
   /// and the rule.
@@ -83,6 +90,10 @@ struct FrontierCluster {
   double travel_cost_m = std::numeric_limits<double>::infinity();
   /// gain_m2 / (travel_cost_m + cost_offset_m); 0 when unreachable.
   double utility = 0.0;
+  /// True when a planner reading the main level (TraversabilityGrid) may plan to the target there: always
+  /// for FindFrontiers(); FindFrontiersMultiLevel() sets false (the caller, who has the main level, may set it
+  /// where that level finds the target traversable at its height, e.g. agent::NavMap::Frontiers()).
+  bool on_main_level = true;
   bool reachable() const { return travel_cost_m < std::numeric_limits<double>::infinity(); }
 };
 
@@ -95,6 +106,10 @@ struct FrontierSet {
   bool robot_on_grid = false;  ///< the robot's cell (or a traversable cell within 1 m of it) was found
   int reachable() const;       ///< clusters with a finite travel cost
 };
+
+/// Orders clusters as FindFrontiers() does: reachable ones by utility (highest first), then unreachable ones by
+/// gain; stable.
+void SortFrontierClusters(std::vector<FrontierCluster>* clusters);
 
 /// A robot's explored floor, coarse, for its peers (issue 14: "their maps reach each other"; the coverage of an
 /// ExploreClaim): which cell_m x cell_m cells of an x-y box, frame M (shared by the team), hold mostly known
@@ -168,5 +183,37 @@ class PeerCoverage {
 /// `peers` (may be null): what peer robots have seen, counted as no gain.
 FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d& robot_M,
                           const FrontierOptions& options = {}, const PeerCoverage* peers = nullptr);
+
+/// Frontiers of every level of `grid` (a robot-built multi-level map read optimistically, unknown_is_lethal
+/// false), seen from the robot standing at `robot_M` (x, y and the height of the ground under it; metres, frame
+/// M): FindFrontiers() on the map's surfaces, so that the floors above and below the robot, and the stairs
+/// between them, hold frontiers a legged robot can go for (issue 14: "it finds and uses the stairs").
+///
+/// A frontier surface is a traversable surface inside the region and height band with a 4-neighbouring column
+/// that has no surface within max_step_m of its height and is unknown there (MultiLevelGrid::IsUnknownAt: no
+/// ray through where its floor would be) or holds a step up whose top the map has not seen
+/// (MultiLevelGrid::IsUnseenStepAt: the next riser of a flight seen from below). Clusters join frontier
+/// surfaces of 8-neighbouring columns within max_step_m of each other (a flight of stairs is one cluster), then
+/// are cut and filtered as FindFrontiers()'s.
+///
+/// Travel costs: one Dijkstra search with PlanPathMultiLevel()'s moves (connected traversable surfaces, or
+/// unknown space entered at the height of the surface left) from the robot's surface (the one within
+/// max(0.5 m, max_step_m) of robot_M.z()) when it is traversable, else from every traversable surface within
+/// 1 m around the robot at its planar distance and from its column when that is unknown at its height (a
+/// robot-built map shows a ragged floor around the robot, which its lidar does not see). Unknown columns are
+/// crossed only within unknown_reach_m of a column with a known surface, at 1 + unknown_cost per metre.
+///
+/// Gain: rays from the target follow the surface of each column they cross and stop at a blocked one (a wall,
+/// a drop, a step too high); unknown columns and unseen steps count once. known_free_m2 counts the surfaces in
+/// scope (each cell of each level). FrontierCluster::on_main_level is false for every cluster.
+/// Cost: linear in the surfaces plus the search (cairn_bench_nav_map).
+/// @throws std::invalid_argument if `options` is invalid (IsValid()'s message).
+FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& robot_M,
+                                    const FrontierOptions& options = {}, const PeerCoverage* peers = nullptr);
+
+/// The unknown area a lidar at `p_M` (x, y, and the height of a floor there; metres, frame M) could see within
+/// `radius_m` (metres, capped at 100) on `grid`'s levels, as FindFrontiersMultiLevel()'s gain: rays following
+/// the surfaces from that height, m². 0 when p_M is off the grid, not finite, or radius_m <= 0.
+double VisibleUnknownM2(const MultiLevelGrid& grid, const Eigen::Vector3d& p_M, double radius_m);
 
 }  // namespace cairn::nav

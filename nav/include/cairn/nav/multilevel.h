@@ -100,6 +100,13 @@ class MultiLevelGrid : public core::FootprintChecker {
   /// True if the in-grid cell (ix, iy) is unknown at height z_m (see the class comment); always false on a
   /// map read with unknown_is_lethal.
   bool IsUnknownAt(int ix, int iy, double z_m) const;
+  /// True if the in-grid cell (ix, iy) holds a step up from z_m the map has not seen the top of: its lowest
+  /// occupied voxel whose top lies in (z_m, z_m + max_step_m] has no occupied voxel within robot_height_m above
+  /// it but one there not seen free (a flight's riser seen from below, its tread above the sensor; a robot-built
+  /// map, seen_free given). Such a column has no surface at the step (MultiLevelGrid needs the space above a
+  /// floor seen free) and is not unknown at z_m (the riser fills the body space): the frontier search counts
+  /// it as unseen. Always false on a map read with unknown_is_lethal or without seen_free.
+  bool IsUnseenStepAt(int ix, int iy, double z_m) const;
   /// True if no column within robot_radius_m of (ix, iy) holds an observed voxel (occupied or seen free).
   bool IsUnobservedAround(int ix, int iy) const { return !observed_near_[static_cast<std::size_t>(Column(ix, iy))]; }
   /// Largest number of surfaces of one column (1 for a single-level map).

@@ -93,6 +93,23 @@ struct ExploreModeOptions {
   /// seconds, (0, 600].
   double map_wait_s = 15.0;
   uint32_t first_task_id = 1;  ///< id of the first task (drawn at random by the agent), >= 1
+  /// Which levels of the robot's map hold frontiers (config `explore.levels`: auto, main, all).
+  enum class Levels {
+    kAuto,  ///< every level when the platform climbs stairs (platform_max_step_m >= kStairRiseM), else main
+    kMain,  ///< the level the robot drives on (nav::FindFrontiers on the map's main level)
+    kAll,   ///< every level (nav::FindFrontiersMultiLevel): the stairs and the floors they lead to
+  };
+  Levels levels = Levels::kAuto;
+  /// A stair rise a platform must climb for kAuto to explore every level, metres (a building's rise is
+  /// 0.15-0.20 m; the legged profile climbs 0.30, the wheeled one 0.15).
+  static constexpr double kStairRiseM = 0.18;
+  /// The platform's highest step (nav::PlatformProfile::traversability.max_step_m), metres, [0, 10]: the agent
+  /// sets it from its platform.
+  double platform_max_step_m = 0.0;
+  /// True when frontiers are searched on every level (see Levels).
+  bool EveryLevel() const {
+    return levels == Levels::kAll || (levels == Levels::kAuto && platform_max_step_m >= kStairRiseM);
+  }
 
   /// @return false and sets `*why` (field, value, rule) when a field is invalid.
   bool IsValid(std::string* why) const;
@@ -118,6 +135,8 @@ class ExploreMode : public ModeModule {
 
   /// The frontier search the map thread should run now (the task's region and heights), while exploring.
   std::optional<nav::FrontierOptions> frontier_search() const;
+  /// True when that search covers every level of the map (ExploreModeOptions::EveryLevel()).
+  bool every_level() const { return options_.EveryLevel(); }
   /// A frontier set of the robot's map computed at `computed_at_s` (agent clock): the newest is used at the
   /// next Step().
   void OnFrontiers(nav::FrontierSet set, double computed_at_s);
@@ -149,6 +168,9 @@ class ExploreMode : public ModeModule {
   bool uses_local_planner() const override { return true; }
 
  private:
+  // The level of the target being planned or driven for the planner (metres, frame M): NaN for one on the
+  // main level (FrontierCluster::on_main_level).
+  double goal_z_m_ = std::numeric_limits<double>::quiet_NaN();
   // Ends the exploration with `state` and `reason`, dropping the target.
   void Finish(ExplorationState state, const std::string& reason);
   // Drops the target being planned or driven (navigation's goal, the recovery).

@@ -15,6 +15,7 @@
 
 #include "cairn/core/kinematics.h"
 #include "cairn/core/voxel_grid.h"
+#include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/nav/multilevel.h"
 #include "cairn/nav/traversability.h"
@@ -127,6 +128,14 @@ class NavMap {
   const core::VoxelGrid& seen_free() const { return seen_free_; }
   const nav::TraversabilityGrid& grid() const { return *grid_; }
   const nav::MultiLevelGrid& levels() const { return *levels_; }
+  /// The frontiers of the map seen from the robot at `robot_M` (x, y, and the height of the ground under it;
+  /// metres, map frame): nav::FindFrontiersMultiLevel on levels() when `every_level`, else nav::FindFrontiers
+  /// on the main level (grid()); a target of the former is on_main_level where grid() has traversable ground
+  /// within a step of its height. `peers` (may be null): what peers have seen, their main levels' ground, so it
+  /// counts only within this map's ground band (FrontierOptions::peer_coverage_min_z_m). Same thread as
+  /// Update(). @throws std::invalid_argument for invalid `options`.
+  nav::FrontierSet Frontiers(const Eigen::Vector3d& robot_M, nav::FrontierOptions options, bool every_level,
+                             const nav::PeerCoverage* peers) const;
 
  private:
   // Hands copies of the voxels, the grids and the seen-free voxels to the planner (a new map version), after
@@ -135,6 +144,15 @@ class NavMap {
   // The extent that covers `want_M` (plus grow_step_m beyond the current extent on each side that grows),
   // within max_extent_m; the current extent when nothing needs to grow.
   Eigen::AlignedBox2d GrownExtent(const Eigen::AlignedBox2d& current_M, const Eigen::AlignedBox2d& want_M) const;
+  // Frontiers at the ends of the detected flights the platform climbs (the stair priors) that the map shows no
+  // traversable ground at (kStairEndM off the flight, at the floor's or the landing's height): the flights of a
+  // robot-built map read too narrow and too ragged for the search over the levels to cross (treads a voxel
+  // high or low, 0.1-0.3 m of clearance on a 1.0 m flight), while the planner climbs them with partial plans.
+  // Gain: nav::VisibleUnknownM2 from that end; travel cost: straight lines to the other end, then along the
+  // flight. Appended to `*set` (region and height band applied), then sorted as FindFrontiers sorts.
+  void AddStairFrontiers(const Eigen::Vector3d& robot_M, const nav::FrontierOptions& options,
+                         nav::FrontierSet* set) const;
+  static constexpr double kStairEndM = 0.6;
   // Re-allocates the voxel grids over `extent_M` (aligned to the voxels), keeping what they hold.
   void Reallocate(const Eigen::AlignedBox2d& extent_M);
   // Builds every grid anew over the voxels (after Reallocate()).

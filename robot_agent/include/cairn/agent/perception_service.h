@@ -64,9 +64,10 @@ class PerceptionService {
   /// Frontier search for the explore mode: while `search` is set, the navigation map thread runs
   /// nav::FindFrontiers with it on its map after each update, from the robot's position given with
   /// SetRobotPosition(); none = no search. Any thread.
-  void SetFrontierSearch(const std::optional<nav::FrontierOptions>& search);
+  /// `every_level`: on every level of the map (NavMap::Frontiers()).
+  void SetFrontierSearch(const std::optional<nav::FrontierOptions>& search, bool every_level = false);
   /// The robot's x-y position (metres, frame M) the frontier search starts from. Any thread.
-  void SetRobotPosition(const Eigen::Vector2d& p_M);
+  void SetRobotPosition(const Eigen::Vector3d& p_M);
   /// What the robot's peers have seen (ExploreTeam::Coverage(); null = nothing): no gain for the frontier
   /// search. Any thread.
   void SetPeerCoverage(std::shared_ptr<const nav::PeerCoverage> coverage);
@@ -135,7 +136,8 @@ class PerceptionService {
   double coverage_cell_m_ = 0.0;  // > 0: SeenCoverage() asked for
   std::optional<nav::CoverageBitmap> seen_coverage_;
   std::optional<nav::FrontierOptions> frontier_search_;
-  Eigen::Vector2d robot_p_M_ = Eigen::Vector2d::Zero();
+  Eigen::Vector3d robot_p_M_ = Eigen::Vector3d::Zero();
+  bool frontier_every_level_ = false;
   std::optional<nav::FrontierSet> frontiers_;
   double frontiers_at_s_ = 0.0;
 };
