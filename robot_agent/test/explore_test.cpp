@@ -139,6 +139,5 @@ TEST(ExploreTest, OneRobotExploresTheTunnelsUntilCompleteWithoutContact) {
   EXPECT_LT(platform->TrueState().v_mps, 0.05) << "the robot is at rest at the end";
 }
 
-
 }  // namespace
 }  // namespace cairn::agent
