@@ -5,7 +5,9 @@
 //
 //   build/bench/cairn_bench_explore [--world builtin:NAME] [--robots 1,2,3] [--kill]
 //                                   [--csv FILE] [--timeout S] [--platform wheeled|legged] [--floors Z0:Z1,...]
-//     robots start from a gate: the world's first suggested start and 2 m steps along its heading; --kill also
+//                                   [--start X,Y[,YAW]]
+//     robots start from a gate: the world's first suggested start (--start: this one, e.g. in a .bt world) and
+//     2 m steps along its heading; --kill also
 //     runs the largest team with robot 2 gone for good at 60 s; --csv writes "robots,t_s,coverage" rows (the
 //     plot: tools/plot_explore_coverage.sh); --floors scores each height band (a building's floors, metres) over
 //     the map's levels at the end (e.g. builtin:building with a legged robot: --floors -0.5:0.5,2.7:3.7).
@@ -13,6 +15,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -27,9 +30,9 @@ using agent::explore_team::RunTeam;
 using agent::explore_team::TeamOptions;
 using agent::explore_team::TeamRun;
 
-std::vector<core::PlanarPose> Gate(const std::string& world, int robots) {
+std::vector<core::PlanarPose> Gate(const std::string& world, int robots, const std::optional<core::PlanarPose>& start) {
   const std::string name = world.rfind("builtin:", 0) == 0 ? world.substr(8) : world;
-  const core::PlanarPose first = sim::GetBuiltinWorldInfo(name).suggested_starts.front();
+  const core::PlanarPose first = start ? *start : sim::GetBuiltinWorldInfo(name).suggested_starts.front();
   std::vector<core::PlanarPose> starts;
   for (int i = 0; i < robots; ++i) {
     starts.push_back({first.x_m + 2.0 * i * std::cos(first.yaw_rad), first.y_m + 2.0 * i * std::sin(first.yaw_rad),
@@ -65,6 +68,7 @@ int main(int argc, char** argv) {
   std::string csv;
   double timeout_s = 1800;
   std::string platform = "wheeled";
+  std::optional<core::PlanarPose> start;
   std::vector<std::pair<double, double>> floors;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -80,6 +84,13 @@ int main(int argc, char** argv) {
       csv = argv[++i];
     } else if (a == "--timeout" && i + 1 < argc) {
       timeout_s = std::stod(argv[++i]);
+    } else if (a == "--start" && i + 1 < argc) {
+      double x = 0, y = 0, yaw = 0;
+      if (std::sscanf(argv[++i], "%lf,%lf,%lf", &x, &y, &yaw) < 2) {
+        std::fprintf(stderr, "--start '%s' must be X,Y[,YAW] (metres, radians)\n", argv[i]);
+        return 2;
+      }
+      start = core::PlanarPose{x, y, yaw};
     } else if (a == "--platform" && i + 1 < argc) {
       platform = argv[++i];
     } else if (a == "--floors" && i + 1 < argc) {
@@ -95,7 +106,7 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: %s [--world builtin:NAME] [--robots 1,2,3] [--kill] [--csv FILE] [--timeout S] "
-                   "[--platform wheeled|legged] [--floors Z0:Z1,...]\n",
+                   "[--platform wheeled|legged] [--floors Z0:Z1,...] [--start X,Y[,YAW]]\n",
                    argv[0]);
       return 2;
     }
@@ -109,7 +120,7 @@ int main(int argc, char** argv) {
   for (int robots : teams) {
     TeamOptions o;
     o.world = world;
-    o.starts = Gate(world, robots);
+    o.starts = Gate(world, robots, start);
     o.timeout_s = timeout_s;
     o.stop_at_coverage = 0.95;  // the 90 % figure and a little beyond; the rest is the last corners
     o.platform = platform;
@@ -132,7 +143,7 @@ int main(int argc, char** argv) {
   if (kill && !teams.empty()) {
     TeamOptions o;
     o.world = world;
-    o.starts = Gate(world, teams.back());
+    o.starts = Gate(world, teams.back(), start);
     o.timeout_s = timeout_s;
     o.kill_index = 1;
     o.kill_at_s = 60.0;
