@@ -535,8 +535,6 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
     const double z = grid.NodeZ(node);
     return z >= options.min_z_m && z <= options.max_z_m;
   };
-  const double radius_m = grid.options().robot_radius_m;
-  auto traversable = [&](int node) { return grid.ClearanceM(node) > radius_m + 1e-9; };
   FrontierSet result;
   std::vector<char> peer_seen;
   if (peers != nullptr && peers->size() > 0) {
@@ -560,7 +558,7 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
   for (int node = 0; node < grid.node_count(); ++node) {
     if (!in_scope(node)) continue;
     ++known_nodes;
-    if (!traversable(node)) continue;
+    if (!grid.IsTraversable(node)) continue;
     const auto [ix, iy] = column_xy(grid.NodeColumn(node));
     const double z = grid.NodeZ(node);
     for (int d = 0; d < 4; ++d) {
@@ -580,9 +578,7 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
   // entered at the height of the surface left (PlanPathMultiLevel's moves), unknown columns only within
   // unknown_reach_m of a column with a known surface (the robot stands in its lidar's blind ring, unseen
   // floor all around it).
-  AStarOptions moves;
-  moves.robot_radius_m = radius_m;
-  const MultiLevelSearch search(grid, moves);
+  const MultiLevelSearch search(grid, AStarOptions{});
   const std::vector<float> to_known = ChamferToKnown(
       nx, ny, [&](int ix, int iy) { return grid.FirstNode(grid.Column(ix, iy)) < grid.FirstNode(grid.Column(ix, iy) + 1); });
   const float reach_cells = static_cast<float>(options.unknown_reach_m / cell_m);
@@ -594,7 +590,7 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
   std::vector<std::pair<State, double>> starts;
   if (int rx = 0, ry = 0; std::isfinite(robot_M.z()) && grid.CellOf(robot_M.x(), robot_M.y(), &rx, &ry)) {
     const double dz = std::max(0.5, max_step_m);
-    if (const int m = grid.NodeNear(rx, ry, robot_M.z(), dz); m >= 0 && traversable(m)) {
+    if (const int m = grid.NodeNear(rx, ry, robot_M.z(), dz); m >= 0 && grid.IsTraversable(m)) {
       starts.emplace_back(State{rx, ry, grid.NodeZ(m), m}, 0.0);
     } else {
       if (m < 0 && grid.IsUnknownAt(rx, ry, robot_M.z())) starts.emplace_back(State{rx, ry, robot_M.z(), -1}, 0.0);
@@ -602,7 +598,7 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
       for (int dy = -reach; dy <= reach; ++dy) {
         for (int dx = -reach; dx <= reach; ++dx) {
           const int n = grid.NodeNear(rx + dx, ry + dy, robot_M.z(), dz);
-          if (n < 0 || !traversable(n)) continue;
+          if (n < 0 || !grid.IsTraversable(n)) continue;
           const double d = (grid.CellCenter(rx + dx, ry + dy) - robot_M.head<2>()).norm();
           if (d <= kStartSearchM) starts.emplace_back(State{rx + dx, ry + dy, grid.NodeZ(n), n}, d);
         }
@@ -685,7 +681,7 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
       for (const int node : cells) cluster.centroid_M += node_center(node);
       cluster.centroid_M /= cluster.cells;
       const int target = ChooseTarget(
-          cells, cluster.centroid_M, radius_m, node_center,
+          cells, cluster.centroid_M, grid.options().robot_radius_m, node_center,
           [&](int node) { return grid.ClearanceM(node); }, [&](int node) { return cost[static_cast<std::size_t>(node)]; });
       const auto [tx, ty] = column_xy(grid.NodeColumn(target));
       cluster.gain_m2 = VisibleUnknownOnLevels(grid, tx, ty, grid.NodeZ(target), options.gain_radius_m, ++gain_id,
