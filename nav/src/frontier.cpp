@@ -100,6 +100,27 @@ std::vector<float> ChamferToKnown(int nx, int ny, Known&& known) {
   return to_known;
 }
 
+// The x-y cells of `grid` (a TraversabilityGrid or a MultiLevelGrid: index ix + nx * iy) inside a cell that
+// `peers` marks, 1 each; empty when there are no peers.
+template <class Grid>
+std::vector<char> PeerSeenCells(const Grid& grid, const PeerCoverage* peers) {
+  std::vector<char> seen;
+  if (peers == nullptr || peers->size() == 0) return seen;
+  seen.assign(static_cast<std::size_t>(grid.nx()) * static_cast<std::size_t>(grid.ny()), 0);
+  const double c = peers->cell_m();
+  peers->ForEach([&](const Eigen::Vector2d& corner) {
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    const Eigen::Vector2d lo = corner.cwiseMax(grid.p_W_min());
+    const Eigen::Vector2d hi = (corner.array() + c).matrix().cwiseMin(grid.p_W_max());
+    if (lo.x() >= hi.x() || lo.y() >= hi.y()) return;
+    if (!grid.CellOf(lo.x(), lo.y(), &x0, &y0) || !grid.CellOf(hi.x() - 1e-9, hi.y() - 1e-9, &x1, &y1)) return;
+    for (int iy = y0; iy <= y1; ++iy) {
+      for (int ix = x0; ix <= x1; ++ix) seen[static_cast<std::size_t>(ix) + static_cast<std::size_t>(grid.nx()) * iy] = 1;
+    }
+  });
+  return seen;
+}
+
 // The frontier cells of one 8-connected component cut into pieces of at most `piece_cells` cells along x and
 // along y, counted from the component's minimum cell (`cell_xy` gives a cell's column indices).
 template <class Cell, class CellXY>
@@ -299,21 +320,7 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
   };
 
   FrontierSet result;
-  // What peers have seen, on this grid's cells.
-  std::vector<char> peer_seen;
-  if (peers != nullptr && peers->size() > 0) {
-    peer_seen.assign(n, 0);
-    const double c = peers->cell_m();
-    peers->ForEach([&](const Eigen::Vector2d& corner) {
-      int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-      const Eigen::Vector2d lo = corner.cwiseMax(grid.p_W_min()), hi = (corner.array() + c).matrix().cwiseMin(grid.p_W_max());
-      if (lo.x() >= hi.x() || lo.y() >= hi.y()) return;
-      if (!grid.CellOf(lo.x(), lo.y(), &x0, &y0) || !grid.CellOf(hi.x() - 1e-9, hi.y() - 1e-9, &x1, &y1)) return;
-      for (int iy = y0; iy <= y1; ++iy) {
-        for (int ix = x0; ix <= x1; ++ix) peer_seen[index(ix, iy)] = 1;
-      }
-    });
-  }
+  const std::vector<char> peer_seen = PeerSeenCells(grid, peers);  // on this grid's cells
   // 1. Frontier cells, and the explored area.
   std::vector<char> frontier(n, 0);
   int free_cells = 0;
@@ -536,21 +543,7 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
     return z >= options.min_z_m && z <= options.max_z_m;
   };
   FrontierSet result;
-  std::vector<char> peer_seen;
-  if (peers != nullptr && peers->size() > 0) {
-    peer_seen.assign(columns, 0);
-    const double c = peers->cell_m();
-    peers->ForEach([&](const Eigen::Vector2d& corner) {
-      int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-      const Eigen::Vector2d lo = corner.cwiseMax(grid.p_W_min());
-      const Eigen::Vector2d hi = (corner.array() + c).matrix().cwiseMin(grid.p_W_max());
-      if (lo.x() >= hi.x() || lo.y() >= hi.y()) return;
-      if (!grid.CellOf(lo.x(), lo.y(), &x0, &y0) || !grid.CellOf(hi.x() - 1e-9, hi.y() - 1e-9, &x1, &y1)) return;
-      for (int iy = y0; iy <= y1; ++iy) {
-        for (int ix = x0; ix <= x1; ++ix) peer_seen[static_cast<std::size_t>(grid.Column(ix, iy))] = 1;
-      }
-    });
-  }
+  const std::vector<char> peer_seen = PeerSeenCells(grid, peers);  // per column
 
   // 1. Frontier surfaces (traversable, in scope, a 4-neighbour unknown at their height) and the explored area.
   std::vector<char> frontier(nodes, 0);
