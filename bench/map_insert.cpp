@@ -273,6 +273,7 @@ void Bench(const DataSet& set, double resolution_m, int reps) {
   options.resolution_m = resolution_m;
   OccupancyMapOptions exact_options = options;
   exact_options.one_ray_per_endpoint_voxel = false;
+  exact_options.floor_guard_layers = 0;
   Run best_ours;
   Run best_exact;
   Run best_octomap;

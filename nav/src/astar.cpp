@@ -110,6 +110,7 @@ bool AStarOptions::IsValid(std::string* why) const {
                   range("start_escape_radius_m", start_escape_radius_m, 0.0, 5.0) &&
                   range("start_footprint_radius_m", start_footprint_radius_m, 0.0, 5.0) &&
                   (std::isnan(robot_radius_m) || range("robot_radius_m", robot_radius_m, 0.0, 5.0)) &&
+                  (std::isnan(partial_min_climb_m) || range("partial_min_climb_m", partial_min_climb_m, 0.0, 5.0)) &&
                   range("max_expansions", max_expansions, 1000, 1e8);
   if (!ok && why != nullptr) *why = msg.str();
   return ok;

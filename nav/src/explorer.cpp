@@ -22,7 +22,8 @@ bool ExplorerOptions::IsValid(std::string* why) const {
                   range("visited_radius_m", visited_radius_m, 0, 20, true) &&
                   range("claim_radius_m", claim_radius_m, 0, 50, true) &&
                   range("retry_after_s", retry_after_s, 0, 3600, false) &&
-                  range("peer_influence_m", peer_influence_m, 0, 200, false);
+                  range("peer_influence_m", peer_influence_m, 0, 200, false) &&
+                  range("same_place_dz_m", same_place_dz_m, 0, 10, true);
   if (!ok && why != nullptr) *why = msg.str();
   return ok;
 }
@@ -32,17 +33,21 @@ Explorer::Explorer(ExplorerOptions options) : options_(options) {
   if (!options_.IsValid(&why)) throw std::invalid_argument(why);
 }
 
-bool Explorer::Barred(const Eigen::Vector2d& target_M, double now_s) const {
+bool Explorer::SamePlace(const FrontierCluster& a, const Eigen::Vector2d& b_M, double b_z_m, double radius_m) const {
+  return (a.target_M - b_M).norm() <= radius_m && std::abs(a.target_ground_z_m - b_z_m) <= options_.same_place_dz_m;
+}
+
+bool Explorer::Barred(const FrontierCluster& c, double now_s) const {
   for (const FailedTarget& f : failed_) {
-    if ((f.target_M - target_M).norm() > options_.blacklist_radius_m) continue;
+    if (!SamePlace(c, f.target_M, f.target_ground_z_m, options_.blacklist_radius_m)) continue;
     if (f.failures >= 2 || now_s - f.failed_at_s < options_.retry_after_s) return true;
   }
   return false;
 }
 
-bool Explorer::Visited(const Eigen::Vector2d& target_M) const {
-  for (const Eigen::Vector2d& v : visited_) {
-    if ((v - target_M).norm() <= options_.visited_radius_m) return true;
+bool Explorer::Visited(const FrontierCluster& c) const {
+  for (const Eigen::Vector3d& v : visited_) {
+    if (SamePlace(c, v.head<2>(), v.z(), options_.visited_radius_m)) return true;
   }
   return false;
 }
@@ -95,15 +100,16 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
       ++unreachable;
       continue;
     }
-    if (Barred(c.target_M, team.now_s)) {
+    if (Barred(c, team.now_s)) {
       ++barred;
       continue;
     }
-    if (Visited(c.target_M)) {
+    if (Visited(c)) {
       ++visited;
       continue;
     }
-    const bool is_current = current_ && (c.target_M - current_->target_M).norm() <= options_.follow_radius_m;
+    const bool is_current =
+        current_ && SamePlace(c, current_->target_M, current_->target_ground_z_m, options_.follow_radius_m);
     if (std::string by; ClaimedByPeer(c, is_current, team, &by)) {
       ++claimed;
       if (std::find(claimers.begin(), claimers.end(), by) == claimers.end()) claimers.push_back(by);
@@ -111,7 +117,7 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
     }
     ++candidates;
     if (best == nullptr || c.utility > best->utility) best = &c;
-    if (current_ && (c.target_M - current_->target_M).norm() <= options_.follow_radius_m &&
+    if (is_current &&
         (followed == nullptr ||
          (c.target_M - current_->target_M).norm() < (followed->target_M - current_->target_M).norm())) {
       followed = &c;
@@ -159,14 +165,14 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
 
 void Explorer::Reached() {
   if (!current_) return;
-  visited_.push_back(current_->target_M);
+  visited_.emplace_back(current_->target_M.x(), current_->target_M.y(), current_->target_ground_z_m);
   current_.reset();
 }
 
 void Explorer::Fail(const std::string& reason, double now_s) {
   if (!current_) return;
   for (FailedTarget& f : failed_) {
-    if ((f.target_M - current_->target_M).norm() <= options_.blacklist_radius_m) {
+    if (SamePlace(*current_, f.target_M, f.target_ground_z_m, options_.blacklist_radius_m)) {
       ++f.failures;  // the second time here: barred for good
       f.reason = reason;
       f.failed_at_s = now_s;
@@ -174,7 +180,7 @@ void Explorer::Fail(const std::string& reason, double now_s) {
       return;
     }
   }
-  failed_.push_back(FailedTarget{current_->target_M, reason, 1, now_s});
+  failed_.push_back(FailedTarget{current_->target_M, current_->target_ground_z_m, reason, 1, now_s});
   current_.reset();
 }
 

@@ -177,7 +177,11 @@ bool FrontierOptions::IsValid(std::string* why) const {
   bool ok = range("min_gain_m2", min_gain_m2, 0, 1e4, false) && range("gain_radius_m", gain_radius_m, 0, 100, true) &&
             range("max_cluster_extent_m", max_cluster_extent_m, 0.5, 100, false) &&
             range("cost_offset_m", cost_offset_m, 0, 1000, true) && range("unknown_cost", unknown_cost, 0, 100, false) &&
-            range("unknown_reach_m", unknown_reach_m, 0, 50, false);
+            range("unknown_reach_m", unknown_reach_m, 0, 50, false) && range("tight_cost", tight_cost, 0, 100, false);
+  if (ok && !(tight_radius_m > 0)) {
+    msg << "FrontierOptions::tight_radius_m = " << tight_radius_m << " must be > 0 (infinity: off)";
+    ok = false;
+  }
   if (ok && (min_cells < 1 || min_cells > 10000)) {
     msg << "FrontierOptions::min_cells = " << min_cells << " must be in [1, 10000]";
     ok = false;
@@ -346,11 +350,14 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
   const std::vector<float> to_known =
       ChamferToKnown(nx, ny, [&](int ix, int iy) { return grid.State(ix, iy) == CellState::kFree; });
   const float reach_cells = static_cast<float>(options.unknown_reach_m / cell_m);
+  const double pass_radius_m = std::min(grid.options().robot_radius_m, options.tight_radius_m);
+  auto clear = [&](int ix, int iy) { return grid.ClearanceM(ix, iy) > pass_radius_m + 1e-9; };
   auto passable = [&](int ix, int iy) {
     const CellState state = grid.State(ix, iy);
-    if (state == CellState::kUnknown) return to_known[index(ix, iy)] <= reach_cells && grid.IsTraversable(ix, iy);
-    return state == CellState::kFree && grid.IsTraversable(ix, iy);
+    if (state == CellState::kUnknown) return to_known[index(ix, iy)] <= reach_cells && clear(ix, iy);
+    return state == CellState::kFree && clear(ix, iy);
   };
+  std::vector<char> via_tight(n, 0);  // the cheapest path to the cell passes a tight cell
   std::vector<double> cost(n, kInf);
   int sx = -1;
   int sy = -1;
@@ -401,11 +408,14 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
         if (kDx8[d] != 0 && kDy8[d] != 0 && (!passable(ix + kDx8[d], iy) || !passable(ix, iy + kDy8[d]))) {
           continue;
         }
-        const double per_m = grid.State(jx, jy) == CellState::kUnknown ? 1.0 + options.unknown_cost : 1.0;
+        const bool tight = !grid.IsTraversable(jx, jy);
+        const double per_m = (grid.State(jx, jy) == CellState::kUnknown ? 1.0 + options.unknown_cost : 1.0) +
+                             (tight ? options.tight_cost : 0.0);
         const double step = (kDx8[d] != 0 && kDy8[d] != 0 ? std::sqrt(2.0) : 1.0) * cell_m * per_m;
         const std::size_t j = index(jx, jy);
         if (c + step < cost[j]) {
           cost[j] = c + step;
+          via_tight[j] = static_cast<char>(via_tight[i] || tight);
           open.emplace(cost[j], j);
         }
       }
@@ -456,6 +466,7 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
         cluster.target_M = grid.CellCenter(target.first, target.second);
         cluster.target_ground_z_m = grid.Ground(target.first, target.second);
         cluster.travel_cost_m = cost[index(target.first, target.second)];
+        cluster.through_tight_gap = via_tight[index(target.first, target.second)] != 0;
         cluster.utility = cluster.reachable() ? cluster.gain_m2 / (cluster.travel_cost_m + options.cost_offset_m) : 0.0;
         result.clusters.push_back(cluster);
       }
@@ -571,12 +582,16 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
   // entered at the height of the surface left (PlanPathMultiLevel's moves), unknown columns only within
   // unknown_reach_m of a column with a known surface (the robot stands in its lidar's blind ring, unseen
   // floor all around it).
-  const MultiLevelSearch search(grid, AStarOptions{});
+  AStarOptions moves;
+  moves.robot_radius_m = options.tight_radius_m;  // the search takes the least of this and the grid's radius
+  const MultiLevelSearch search(grid, moves);
   const std::vector<float> to_known = ChamferToKnown(
       nx, ny, [&](int ix, int iy) { return grid.FirstNode(grid.Column(ix, iy)) < grid.FirstNode(grid.Column(ix, iy) + 1); });
   const float reach_cells = static_cast<float>(options.unknown_reach_m / cell_m);
   std::vector<double> cost(nodes, kInf);
   std::unordered_map<std::int64_t, double> virtual_cost;
+  std::vector<char> via_tight(nodes, 0);  // the cheapest path to the surface passes a tight surface
+  std::unordered_map<std::int64_t, char> virtual_via_tight;
   // Start: the robot's surface when traversable; else every traversable surface within kStartSearchM of it
   // (at its height, within max(0.5 m, a step)) at its planar distance — a robot-built map shows a ragged,
   // holed floor right around the robot, which its lidar does not see — and its unknown column at its height.
@@ -601,6 +616,10 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
   auto cost_of = [&](const State& s) -> double& {
     if (s.node >= 0) return cost[static_cast<std::size_t>(s.node)];
     return virtual_cost.try_emplace(search.Key(s), kInf).first->second;
+  };
+  auto via_tight_of = [&](const State& s) -> char& {
+    if (s.node >= 0) return via_tight[static_cast<std::size_t>(s.node)];
+    return virtual_via_tight.try_emplace(search.Key(s), 0).first->second;
   };
   if (!starts.empty()) {
     result.robot_on_grid = true;
@@ -631,10 +650,14 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
         }
         const double length_m = (diagonal ? std::sqrt(2.0) : 1.0) * cell_m;
         if (next->node < 0 && to_known[static_cast<std::size_t>(grid.Column(next->ix, next->iy))] > reach_cells) continue;
-        const double c = item.cost + length_m * (next->node < 0 ? 1.0 + options.unknown_cost : 1.0);
+        const bool tight = next->node >= 0 && !grid.IsTraversable(next->node);
+        const double c = item.cost + length_m * ((next->node < 0 ? 1.0 + options.unknown_cost : 1.0) +
+                                                 (tight ? options.tight_cost : 0.0));
         double& best = cost_of(*next);
         if (c < best) {
           best = c;
+          const char from_tight = via_tight_of(s);
+          via_tight_of(*next) = static_cast<char>(from_tight || tight);
           open.push({c, *next});
         }
       }
@@ -686,6 +709,7 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
       cluster.target_ground_z_m = grid.NodeZ(target);
       cluster.on_main_level = false;
       cluster.travel_cost_m = cost[static_cast<std::size_t>(target)];
+      cluster.through_tight_gap = via_tight[static_cast<std::size_t>(target)] != 0;
       cluster.utility = cluster.reachable() ? cluster.gain_m2 / (cluster.travel_cost_m + options.cost_offset_m) : 0.0;
       result.clusters.push_back(cluster);
     }

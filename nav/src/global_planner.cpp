@@ -283,6 +283,7 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
       guard.unlock();
       AStarOptions cells = astar;
       cells.simplify_path = false;
+      cells.partial_min_climb_m = profile->traversability.max_step_m;  // progress measured in this platform's steps
       const PlanResult r = PlanPathMultiLevel(*relaxed, start, request.goal_W, request.goal_z_m, cells);
       const double goal_z = std::isfinite(request.goal_z_m) ? request.goal_z_m : start.z();
       auto height_gap = [goal_z](const PlanResult& p) {

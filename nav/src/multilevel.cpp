@@ -726,7 +726,9 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
   const double start_dz = std::abs(start_z - goal_level_z);
   const bool height_progress =
       start_dz <= kLevelMatch_m ||
-      std::abs(record(best_key).state.z - goal_level_z) < start_dz - step_m - 0.5 * grid.cell_size_m();
+      std::abs(record(best_key).state.z - goal_level_z) <
+          start_dz - (std::isnan(options.partial_min_climb_m) ? step_m : options.partial_min_climb_m) -
+              0.5 * grid.cell_size_m();
   if (goal_key < 0 && options.allow_partial && best_key != start_key && best_remaining < start_remaining - 0.5 &&
       height_progress) {
     const State& b = record(best_key).state;

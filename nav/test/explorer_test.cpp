@@ -176,5 +176,34 @@ TEST(ExplorerTest, AReachedTargetIsNotDrivenToAgain) {
   EXPECT_EQ(explorer.visited().size(), 3u);
 }
 
+// Places on different levels are different places: the pocket under a landing reached, and the landing 1.6 m
+// above it failed, bar neither the landing nor the floor above; at the same height they do.
+TEST(ExplorerTest, ReachedAndFailedTargetsBarOnlyTheirOwnLevel) {
+  auto at_height = [](FrontierCluster c, double z_m) {
+    c.target_ground_z_m = z_m;
+    return c;
+  };
+  Explorer explorer;
+  ExplorerDecision d = explorer.Decide(Set({Cluster(22.5, 7.2, 3.0)}));  // the pocket, z 0
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  explorer.Reached();
+  EXPECT_EQ(explorer.visited().at(0), Eigen::Vector3d(22.5, 7.2, 0.0));
+  d = explorer.Decide(Set({at_height(Cluster(22.6, 7.0, 2.0), 1.6), Cluster(22.6, 7.0, 1.0)}));
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  EXPECT_EQ(d.target.target_ground_z_m, 1.6) << "the landing above the pocket is a new place";
+  explorer.Fail("no path: the flight is not on the map yet", 10.0);
+  EXPECT_EQ(explorer.failed().at(0).target_ground_z_m, 1.6);
+  d = explorer.Decide(Set({at_height(Cluster(22.6, 7.1, 2.0), 1.7), at_height(Cluster(22.6, 7.1, 1.0), 3.2)}), {"r1", 20.0, {}});
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  EXPECT_EQ(d.target.target_ground_z_m, 3.2) << "the landing is barred, floor 2 above it is not";
+  d = explorer.Decide(Set({at_height(Cluster(22.6, 7.1, 2.0), 1.7)}), {"r1", 30.0, {}});
+  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kComplete) << d.reason;
+  ExplorerOptions bad;
+  bad.same_place_dz_m = 0.0;
+  std::string why;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_NE(why.find("same_place_dz_m"), std::string::npos) << why;
+}
+
 }  // namespace
 }  // namespace cairn::nav

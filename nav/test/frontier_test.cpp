@@ -202,6 +202,53 @@ TEST(FrontierTest, ARobotOffTheMapReachesNothingAndAnExploredMapHasNoFrontier) {
   EXPECT_NEAR(set.known_free_m2, 100.0, 1e-6);
 }
 
+// A 0.4 m door (the walls' cells 0.5 m apart, centre to centre) into a room seen 2 m deep: no cell in it has
+// more than 0.2 m of clearance, so the room's frontier is unreachable for a 0.3 m radius unless travel may pass
+// tight cells (FrontierOptions::tight_radius_m, here 0.15 m); then it is reachable, flagged as through a tight
+// gap, and the door's cells cost tight_cost more per metre.
+TEST(FrontierTest, ATightDoorIsPassedOnlyWithATightRadiusAndIsFlagged) {
+  sim::World world = FlatWorld(20.0, 10.0, 0.1, 2.0);
+  FillBox(&world, {12.0, 0.0, -0.2}, {20.0, 10.0, 0.0}, false);  // unseen beyond 2 m into room B
+  FillBox(&world, {10.0, 0.0, 0.0}, {10.2, 4.8, 2.0});
+  FillBox(&world, {10.0, 5.2, 0.0}, {10.2, 10.0, 2.0});
+  const auto truth = std::make_shared<const core::VoxelGrid>(world);
+  const TraversabilityGrid grid(world, RobotMapReading());
+  const MultiLevelGrid levels(truth, RobotMapReading());
+  FrontierOptions tight;
+  tight.tight_radius_m = 0.15;
+  for (const bool multi_level : {false, true}) {
+    SCOPED_TRACE(multi_level ? "FindFrontiersMultiLevel" : "FindFrontiers");
+    auto find = [&](const FrontierOptions& o) {
+      return multi_level ? FindFrontiersMultiLevel(levels, {2.0, 5.0, 0.0}, o) : FindFrontiers(grid, {2.0, 5.0}, o);
+    };
+    const FrontierSet strict = find(FrontierOptions{});
+    ASSERT_FALSE(strict.clusters.empty());
+    for (const FrontierCluster& c : strict.clusters) EXPECT_FALSE(c.reachable()) << c.target_M.transpose();
+    const FrontierSet passed = find(tight);
+    ASSERT_EQ(passed.clusters.size(), strict.clusters.size());
+    const FrontierCluster& best = passed.clusters.front();
+    EXPECT_TRUE(best.reachable());
+    EXPECT_TRUE(best.through_tight_gap);
+    EXPECT_GT(best.target_M.x(), 11.5);
+    // At least the straight line to it, plus tight_cost per metre over the door's 0.2 m.
+    const double straight_m = (best.target_M - Eigen::Vector2d(2.0, 5.0)).norm();
+    EXPECT_GT(best.travel_cost_m, straight_m + 0.2 * tight.tight_cost - 0.05);
+    EXPECT_LT(best.travel_cost_m, straight_m + 2.0);
+    FrontierOptions free_of_charge = tight;
+    free_of_charge.tight_cost = 0.0;
+    EXPECT_LT(find(free_of_charge).clusters.front().travel_cost_m, best.travel_cost_m);
+  }
+  FrontierOptions bad;
+  bad.tight_radius_m = 0.0;
+  std::string why;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_EQ(why, "FrontierOptions::tight_radius_m = 0 must be > 0 (infinity: off)");
+  // A door the footprint fits through is no tight gap.
+  const FrontierSet door = FindFrontiers(TraversabilityGrid(RoomWithADoor(), RobotMapReading()), {2.0, 5.0}, tight);
+  ASSERT_EQ(door.clusters.size(), 1u);
+  EXPECT_FALSE(door.clusters[0].through_tight_gap);
+}
+
 // The multi-level search on a map of one level finds what the single-level one finds.
 TEST(MultiLevelFrontierTest, OnOneLevelTheDoorIsFoundAsByTheSingleLevelSearch) {
   const auto world = std::make_shared<const core::VoxelGrid>(RoomWithADoor());

@@ -6,7 +6,9 @@
 // Insertion (InsertScan) computes the same update sets as OcTree::insertPointCloud, faster:
 //  1. points are transformed to W and discretized with OctoMap's float arithmetic; end-point voxels are
 //     deduplicated in a flat open-addressing hash set and, by default, one ray is cast per new end-point
-//     voxel rather than one per point (the only deviation, optional, see occupancy_map.h);
+//     voxel rather than one per point (a deviation, optional, see occupancy_map.h; the other is the floor
+//     guard, OccupancyMapOptions::floor_guard_layers: descending rays carve no free space in the layers at
+//     their end point's height);
 //  2. ray voxels (OctoMap's computeRayKeys) go into a bitmap over the scan's key box instead of OctoMap's
 //     node-based std::unordered_set (KeySet). The bitmap is stored in 8 x 8 x 8-voxel bricks of one cache
 //     line each, whose bits are in Morton order, i.e. the depth-first order of the octree, so the set comes
@@ -743,6 +745,9 @@ bool OccupancyMapOptions::IsValid(std::string* why) const {
   if (!(clamping_max > 0.5 && clamping_max < 1.0)) {
     return fail("clamping_max = " + text(clamping_max) + " must be in (0.5, 1)");
   }
+  if (floor_guard_layers < 0 || floor_guard_layers > 8) {
+    return fail("floor_guard_layers = " + std::to_string(floor_guard_layers) + " must be in [0, 8]");
+  }
   return true;
 }
 
@@ -788,6 +793,7 @@ struct OccupancyMap::Impl {
   FlatSet64 occupied_keys;
   ScanKeySet free_keys;
   std::vector<point3d> ray_ends;
+  std::vector<int> ray_keep_below;  // per ray end: layers (z keys) below this are not carved (floor guard)
   std::vector<std::uint64_t> updates;
   std::vector<std::uint64_t> sort_scratch;
 };
@@ -861,6 +867,8 @@ InsertStats OccupancyMap::InsertScan(const std::vector<Eigen::Vector3f>& points_
   // of all of them.
   m.occupied_keys.Clear();
   m.ray_ends.clear();
+  m.ray_keep_below.clear();
+  const int guard = m.options.floor_guard_layers;
   std::array<int, 3> lo{origin_key[0], origin_key[1], origin_key[2]};
   std::array<int, 3> hi = lo;
   for (const Eigen::Vector3f& p_S : points_S) {
@@ -872,7 +880,8 @@ InsertStats OccupancyMap::InsertScan(const std::vector<Eigen::Vector3f>& points_
     point3d end(static_cast<float>(p_W.x()), static_cast<float>(p_W.y()), static_cast<float>(p_W.z()));
     const point3d ray_W = end - origin;
     OcTreeKey end_key;
-    if (ray_W.norm() <= max_range_m) {
+    const bool hit = ray_W.norm() <= max_range_m;
+    if (hit) {
       if (!m.tree.coordToKeyChecked(end, end_key)) {
         ++stats.dropped_out_of_map;
         continue;
@@ -890,6 +899,8 @@ InsertStats OccupancyMap::InsertScan(const std::vector<Eigen::Vector3f>& points_
       }
     }
     m.ray_ends.push_back(end);
+    const bool guarded = hit && guard > 0 && static_cast<int>(end_key[2]) + guard < static_cast<int>(origin_key[2]);
+    m.ray_keep_below.push_back(guarded ? static_cast<int>(end_key[2]) + guard : 0);
     for (int i = 0; i < 3; ++i) {
       lo[i] = std::min(lo[i], static_cast<int>(end_key[i]));
       hi[i] = std::max(hi[i], static_cast<int>(end_key[i]));
@@ -897,9 +908,12 @@ InsertStats OccupancyMap::InsertScan(const std::vector<Eigen::Vector3f>& points_
   }
   // Pass 2: the voxels crossed by the rays (both ends are in the map, so computeRayKeys cannot fail).
   m.free_keys.Begin(lo, hi);
-  for (const point3d& end : m.ray_ends) {
-    m.tree.computeRayKeys(origin, end, m.ray);
-    for (const OcTreeKey& key : m.ray) m.free_keys.Insert(key);
+  for (std::size_t r = 0; r < m.ray_ends.size(); ++r) {
+    m.tree.computeRayKeys(origin, m.ray_ends[r], m.ray);
+    const int keep_below = m.ray_keep_below[r];
+    for (const OcTreeKey& key : m.ray) {
+      if (static_cast<int>(key[2]) >= keep_below) m.free_keys.Insert(key);
+    }
   }
 
   stats.free_updates =
@@ -1042,6 +1056,7 @@ std::size_t OccupancyMap::MemoryBytes() const {
   ReadLock lock(m.turnstile, m.mutex);
   return m.tree.memoryUsage() + m.changed.MemoryBytes() + m.occupied_keys.MemoryBytes() +
          m.free_keys.MemoryBytes() + m.ray_ends.capacity() * sizeof(point3d) +
+         m.ray_keep_below.capacity() * sizeof(int) +
          (m.updates.capacity() + m.sort_scratch.capacity()) * sizeof(std::uint64_t) +
          m.ray.sizeMax() * sizeof(OcTreeKey);
 }

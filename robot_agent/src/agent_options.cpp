@@ -112,7 +112,8 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto ex = config.Section("explore");
   ex.RejectUnknownKeys({"target_tolerance_m", "settle_s", "map_wait_s", "min_gain_m2", "gain_radius_m",
                         "max_cluster_extent_m", "unknown_reach_m", "switch_utility_ratio", "blacklist_radius_m",
-                        "visited_radius_m", "retry_after_s", "claim_radius_m", "peer_influence_m", "claim_period_s",
+                        "visited_radius_m", "same_place_dz_m", "retry_after_s", "claim_radius_m", "peer_influence_m",
+                        "claim_period_s",
                         "coverage_period_s", "claim_lease_s", "coverage_cell_m", "levels"});
   if (std::string levels; ex.ReadString("levels", &levels), !levels.empty()) {
     using Levels = ExploreModeOptions::Levels;
@@ -136,6 +137,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   ex.ReadDouble("switch_utility_ratio", &explore.explorer.switch_utility_ratio);
   ex.ReadDouble("blacklist_radius_m", &explore.explorer.blacklist_radius_m);
   ex.ReadDouble("visited_radius_m", &explore.explorer.visited_radius_m);
+  ex.ReadDouble("same_place_dz_m", &explore.explorer.same_place_dz_m);
   ex.ReadDouble("retry_after_s", &explore.explorer.retry_after_s);
   ex.ReadDouble("claim_radius_m", &explore.explorer.claim_radius_m);
   ex.ReadDouble("peer_influence_m", &explore.explorer.peer_influence_m);

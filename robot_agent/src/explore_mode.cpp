@@ -140,6 +140,7 @@ std::optional<nav::FrontierOptions> ExploreMode::frontier_search() const {
   o.region_M = status_.task.region_M.value_or(Eigen::AlignedBox2d());
   o.min_z_m = status_.task.min_z_m;
   o.max_z_m = status_.task.max_z_m;
+  o.tight_radius_m = navigation_->reduced_radius_m();  // a gap the map closes that navigation squeezes through
   return o;
 }
 
@@ -174,6 +175,7 @@ void ExploreMode::DropTarget() {
   plan_ = {};
   if (recovery_) recovery_->Halt();
   if (driving_) navigation_->ClearGoal();
+  navigation_->SetReducedClearance(false);
   driving_ = false;
   status_.has_target = false;
 }
@@ -266,10 +268,13 @@ void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput
   // the robot); one only the map's levels hold (a flight of stairs, an upper floor, the pocket under a
   // landing) names its surface.
   goal_z_m_ = d.target.on_main_level ? std::numeric_limits<double>::quiet_NaN() : d.target.target_ground_z_m;
+  // Reached only through a gap the map shows narrower than the footprint's inflation: planned (and driven)
+  // with reduced clearance, as the waypoint recovery's last attempt would.
+  navigation_->SetReducedClearance(d.target.through_tight_gap);
   plan_ = navigation_->PlanGoalAsync(pose_M, d.target.target_M.x(), d.target.target_M.y(), goal_z_m_);
-  spdlog::info("robot {}: exploration {} to the frontier at {} ({:.0f} m² unknown behind it, {:.1f} m away): {}",
+  spdlog::info("robot {}: exploration {} to the frontier at {} ({:.0f} m² unknown behind it, {:.1f} m away{}): {}",
                options_.robot_id, status_.task_id, Point(d.target.target_M), d.target.gain_m2,
-               d.target.travel_cost_m, d.reason);
+               d.target.travel_cost_m, d.target.through_tight_gap ? ", through a tight gap" : "", d.reason);
 }
 
 ModeOutput ExploreMode::Step(const ModeInputs& in) {

@@ -111,7 +111,7 @@ nav::GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, dou
     // the 0.1 m map cells can close a gap the robot fits through (a 0.8 m gap for a 0.6 m robot); the
     // local planner's tight-spot check holds the real footprint against the live lidar points.
     request.preferred_clearance_m = options_.platform.footprint_radius_m;
-    request.robot_radius_m = 0.7 * options_.platform.footprint_radius_m;
+    request.robot_radius_m = reduced_radius_m();
   }
   return request;
 }

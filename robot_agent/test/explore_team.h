@@ -110,7 +110,9 @@ struct TeamOptions {
   std::string platform = "wheeled";
   std::vector<core::PlanarPose> starts;  ///< one per robot, frame W (the team's map frame)
   ExploreTask task;                      ///< every robot's
-  int kill_index = -1;                   ///< this robot stops for good (no step, no claim) at kill_at_s
+  /// This robot stops for good (no step, no claim) at the first cycle at or after kill_at_s in which it holds a
+  /// claim (it goes while going somewhere; not while it waits for a peer).
+  int kill_index = -1;
   double kill_at_s = 0.0;
   double stop_at_coverage = 2.0;  ///< stop once the team's coverage reaches this (> 1: when all have ended)
   double timeout_s = 1800.0;
@@ -132,6 +134,7 @@ struct TeamRun {
   std::vector<ExplorationStatus> statuses;  ///< each robot's at the end
   std::vector<double> driven_m;             ///< each robot's distance travelled
   std::optional<nav::PeerClaim> killed_claim;  ///< the killed robot's claim when it went (if it had one)
+  double killed_at_s = -1;                     ///< when it went, simulated seconds (-1: it did not)
   /// Fraction of the floor cells within 2 m of killed_claim's target known in the live robots' own maps at the
   /// end (the branch it was going for, taken over by the others), -1 without a claim.
   double killed_branch_known = -1;
@@ -179,9 +182,10 @@ inline TeamRun RunTeam(const TeamOptions& o) {
   double next_score_s = o.score_period_s;
   while (any_exploring() && t < o.timeout_s) {
     t += kDt;
-    if (o.kill_index >= 0 && alive[o.kill_index] && t >= o.kill_at_s) {
+    if (o.kill_index >= 0 && alive[o.kill_index] && t >= o.kill_at_s && robots[o.kill_index]->OwnClaim(t)) {
       alive[o.kill_index] = false;
       run.killed_claim = robots[o.kill_index]->OwnClaim(t);
+      run.killed_at_s = t;
     }
     // Each robot steps, then sends its claim if one is due (with its coverage when that is due): the peers
     // hear it at once (a link without delay or loss), as the agents do over cairn/explore_claim.

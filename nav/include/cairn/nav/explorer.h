@@ -43,6 +43,11 @@ struct ExplorerOptions {
   /// two robots left more of a region unmapped in cairn_agent_explore_test, 88 % against 99 %; see
   /// docs/PERFORMANCE.md, "Exploration coverage").
   double peer_influence_m = 0.0;
+  /// Two targets are one place (for the current target, the failed and the reached ones) only when their
+  /// ground heights differ by at most this, metres, (0, 10]: the landing over the pocket beneath it, a floor
+  /// above another. Compared in x-y alone, the pocket reached barred the landing above it and a legged robot in
+  /// builtin:building never climbed.
+  double same_place_dz_m = 1.0;
 
   /// True when every field is in range; otherwise false with `*why` (if not null) naming the field, its value
   /// and the rule.
@@ -67,6 +72,7 @@ struct TeamView {
 /// A target navigation gave up on, and why.
 struct FailedTarget {
   Eigen::Vector2d target_M = Eigen::Vector2d::Zero();
+  double target_ground_z_m = 0.0;  ///< its ground height, metres, frame M
   std::string reason;    ///< the last failure's
   int failures = 1;      ///< failures within blacklist_radius_m of target_M
   double failed_at_s = 0.0;  ///< the last one's time (TeamView::now_s), seconds
@@ -125,13 +131,16 @@ class Explorer {
   const std::optional<FrontierCluster>& current() const { return current_; }
   /// Targets barred so far, oldest first.
   const std::vector<FailedTarget>& failed() const { return failed_; }
-  /// Targets reached so far, oldest first.
-  const std::vector<Eigen::Vector2d>& visited() const { return visited_; }
+  /// Targets reached so far (x, y, ground z; metres, frame M), oldest first.
+  const std::vector<Eigen::Vector3d>& visited() const { return visited_; }
   const ExplorerOptions& options() const { return options_; }
 
  private:
-  bool Barred(const Eigen::Vector2d& target_M, double now_s) const;
-  bool Visited(const Eigen::Vector2d& target_M) const;
+  // True when clusters `a` and a place at `b_M`, ground height `b_z_m`, lie within `radius_m` in x-y and
+  // same_place_dz_m in height.
+  bool SamePlace(const FrontierCluster& a, const Eigen::Vector2d& b_M, double b_z_m, double radius_m) const;
+  bool Barred(const FrontierCluster& c, double now_s) const;
+  bool Visited(const FrontierCluster& c) const;
 
   ExplorerOptions options_;
   // True when a peer's claim takes `c` from this robot (see Decide()).
@@ -139,7 +148,7 @@ class Explorer {
   std::optional<FrontierCluster> current_;
   double current_since_s_ = 0.0;
   std::vector<FailedTarget> failed_;
-  std::vector<Eigen::Vector2d> visited_;
+  std::vector<Eigen::Vector3d> visited_;
 };
 
 }  // namespace cairn::nav

@@ -47,6 +47,14 @@ struct FrontierOptions {
   /// ...but only unknown cells within this of known ground, metres, [0, 50]: the gaps between patches of floor
   /// seen far away, not routes across the whole unseen map (which also keeps the search small).
   double unknown_reach_m = 2.0;
+  /// Travel may pass cells whose clearance lies in (tight_radius_m, the grid's robot_radius_m], metres, > 0;
+  /// infinity (the default) = only the grid's traversable cells. A robot-built map on 0.1 m cells closes
+  /// gaps the robot fits through (a 0.75 m door in geb079 left 0.7 m between lethal cell centres, which no
+  /// cell of a 0.3 m radius passes, and cut the robot off from half the building); the agent sets the radius
+  /// its navigation plans with under reduced clearance (agent::Navigation::reduced_radius_m()).
+  double tight_radius_m = std::numeric_limits<double>::infinity();
+  /// Travel through such tight cells costs this much more per metre, [0, 100].
+  double tight_cost = 2.0;
   /// Only frontier cells inside this x-y box count (metres, frame M); an empty box (the default) = everywhere.
   /// Their gain counts unknown cells beyond the box too: counting only those inside left 1-2 m strips along a
   /// region's edge unexplored (their gain under min_gain_m2; 85 % of a region against 97 % in
@@ -94,6 +102,9 @@ struct FrontierCluster {
   /// for FindFrontiers(); FindFrontiersMultiLevel() sets false (the caller, who has the main level, may set it
   /// where that level finds the target traversable at its height, e.g. agent::NavMap::Frontiers()).
   bool on_main_level = true;
+  /// True when the cheapest path to the target passes a tight cell (FrontierOptions::tight_radius_m): a
+  /// planner needs the reduced radius to reach it.
+  bool through_tight_gap = false;
   bool reachable() const { return travel_cost_m < std::numeric_limits<double>::infinity(); }
 };
 

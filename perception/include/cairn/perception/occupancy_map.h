@@ -49,9 +49,18 @@ struct OccupancyMapOptions {
   double clamping_max = 0.97;
   /// Cast one ray per end-point voxel (to the first point of the scan in it) instead of one per point: ~1.5x
   /// faster insertion of VLP-16 scans in tunnels, 3-5x of dense close-range scans (bench/map_insert.cpp), at
-  /// the cost of a few missed free-space updates (see OccupancyMap::InsertScan). False gives exactly
-  /// OctoMap's insertPointCloud map.
+  /// the cost of a few missed free-space updates (see OccupancyMap::InsertScan). False (and
+  /// floor_guard_layers 0) gives exactly OctoMap's insertPointCloud map.
   bool one_ray_per_endpoint_voxel = true;
+  /// Floor-erosion guard: a ray whose end point lies more than this many voxel layers below the sensor's
+  /// carves no free space in the end point's layer nor the layers above it up to this many in all, [0, 8];
+  /// 0 gives OctoMap's update. A VLP-16's low beams meet a floor 2-6 m away at 5-15 degrees, so each ray
+  /// crosses the floor's own layer over 0.4-1.1 m before its end: misses outnumber the hits there and the
+  /// floor is erased (worst when the floor lies on a voxel boundary and its hits fall in either layer). In
+  /// geb079.bt, whose corridor floor is at z = 0.00, the corridor a robot had driven was unknown in its map,
+  /// both layers free or never hit (cairn_bench_explore). Free space at those heights is still carved by the
+  /// rays that end lower (a drop, a stairwell) or meet a wall there.
+  int floor_guard_layers = 2;
 
   /// True when every field is in range; otherwise false and, if `why` is not null, a message naming the
   /// field, its value and the rule.
@@ -92,7 +101,7 @@ struct InsertStats {
 /// thread. Moving a map is not thread-safe, and a moved-from map may only be destroyed or assigned to.
 ///
 /// Insertion (InsertScan) builds the map OctoMap's `OcTree::insertPointCloud(cloud, origin, max_range_m)`
-/// builds, faster; see InsertScan() for the one deviation.
+/// builds, faster; see InsertScan() for the two deviations.
 class OccupancyMap {
  public:
   /// Largest `coarse_levels` accepted by TakeCoarseChanges() and CoarseSnapshot().
@@ -117,14 +126,16 @@ class OccupancyMap {
   /// voxel holding an end point of this scan is never also given a miss. Points beyond max_range_m carve free
   /// space up to max_range_m only. NaN/inf points are dropped and counted; an empty scan is a no-op.
   ///
-  /// Result: with options().one_ray_per_endpoint_voxel false, exactly the map of
+  /// Result: with options().one_ray_per_endpoint_voxel false and floor_guard_layers 0, exactly the map of
   /// `OcTree::insertPointCloud(cloud_W, p_W_S, max_range_m)` (same voxels, log-odds and pruning; ray
   /// traversal, end-point voxels and max-range clipping use OctoMap's own float arithmetic and
   /// computeRayKeys). With it true (the default), one ray is cast per end-point voxel, to the first point of
   /// the scan in it, so voxels crossed only by the other points' rays into that voxel get no miss. The map is
   /// then conservative against OctoMap's: every voxel OctoMap's map holds occupied is occupied here, a few
   /// (about 0.2 % of the occupied voxels in lidar scans of tunnels, see bench/map_insert.cpp) are occupied
-  /// here and free there, and a few voxels (about 0.3 % of the known ones) stay unknown.
+  /// here and free there, and a few voxels (about 0.3 % of the known ones) stay unknown. With
+  /// floor_guard_layers > 0 (the default 2), rays that end well below the sensor carve nothing in the layers
+  /// at their end point's height, so a floor seen at grazing incidence is kept (OccupancyMapOptions).
   ///
   /// Throws MapError if T_W_S is not finite or the sensor origin lies outside the map's extent.
   InsertStats InsertScan(const std::vector<Eigen::Vector3f>& points_S, const Eigen::Isometry3d& T_W_S);

@@ -130,6 +130,11 @@ class Navigation {
   /// cell quantization opens), and tight spots are driven with no margin beyond the footprint.
   void SetReducedClearance(bool reduced) { reduced_clearance_ = reduced; }
   bool reduced_clearance() const { return reduced_clearance_; }
+  /// Share of the footprint radius obstacles are inflated by under reduced clearance.
+  static constexpr double kReducedRadiusRatio = 0.7;
+  /// The radius global plans inflate obstacles by under reduced clearance, metres: kReducedRadiusRatio x
+  /// the platform's footprint radius (the frontier search passes gaps this wide, FrontierOptions::tight_radius_m).
+  double reduced_radius_m() const { return kReducedRadiusRatio * options_.platform.footprint_radius_m; }
   bool has_goal() const { return goal_.has_value(); }
 
   /// New obstacle points (frame B of `state`, metres) sensed at now_s.
