@@ -31,11 +31,16 @@ inline std::string MapExtent(const TraversabilityGrid& grid) {
 
 /// The seen-free rule for a robot-built map: a floor candidate whose voxel top is `top_z_m` (voxel (ix, iy,
 /// iz)) counts only if a ray went through the space right above it (one of the 3 x 3 columns around it, one or
-/// two voxels up) or it lies below every sensor origin so far (seen from above). No `seen_free`: always true.
+/// two voxels up), or it lies 0.1 m below the highest sensor origin so far and was not hit from below (the
+/// voxel right under it not seen free): far floor seen at a grazing angle has no free voxel observed right
+/// above it, while the underside of a flight or a landing seen from the floor below, whose space above is
+/// unseen, is no floor (it read as a ragged tread beside the real ones once a legged robot stood on the
+/// landing above it). No `seen_free`: always true.
 inline bool SeenFreeAbove(const core::VoxelGrid* seen_free, double sensor_max_z_m, double top_z_m, int ix, int iy,
                           int iz) {
   if (seen_free == nullptr) return true;
-  if (top_z_m <= sensor_max_z_m - 0.1) return true;
+  const bool hit_from_below = iz > 0 && seen_free->IsOccupiedIndex({ix, iy, iz - 1});
+  if (!hit_from_below && top_z_m <= sensor_max_z_m - 0.1) return true;
   for (int dx = -1; dx <= 1; ++dx) {
     for (int dy = -1; dy <= 1; ++dy) {
       if (seen_free->IsOccupiedIndex({ix + dx, iy + dy, iz + 1}) ||

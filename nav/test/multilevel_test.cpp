@@ -194,6 +194,35 @@ TEST(MultiLevelGridTest, OwnMapIsOptimisticInUnseenSpaceOnly) {
 // A partial plan's end is scored by its planar distance and 30 x its height off the goal's level, but a voxel
 // off counts as on the level: floor 2 at 3.2 m read 3.3 m along its corridor and 3.2 m at the top of the
 // stairs, and a robot on floor 2 was sent back to the stairs.
+// A robot-built map of a room under a 0.2 m slab (z 1.4-1.6) it saw only from below: the slab's underside
+// voxel, with unseen space above it, is no surface even once the robot's lidar has been higher (on a landing,
+// sensor 2.2 m); a floor seen from above at a grazing angle (no free voxel observed right above it) still is.
+// Seen from above too (free space observed over it), the slab is a surface.
+TEST(MultiLevelGridTest, AnUndersideSeenFromBelowIsNoSurface) {
+  sim::World truth = testing::FlatWorld(6.0, 6.0, 0.1, 3.0);
+  sim::World world("own", truth.p_W_min(), truth.resolution_m(), truth.dims());
+  sim::World seen("seen", truth.p_W_min(), truth.resolution_m(), truth.dims());
+  testing::FillBox(&world, {0.0, 0.0, -0.1}, {6.0, 6.0, 0.0});      // the floor's top voxels, hit from above
+  testing::FillBox(&world, {2.0, 2.0, 1.4}, {4.0, 4.0, 1.5});       // the slab's underside voxels, hit from below
+  testing::FillBox(&seen, {0.0, 0.0, 0.0}, {6.0, 6.0, 1.4});        // rays below the slab (none right over the floor
+  testing::FillBox(&seen, {0.0, 0.0, 0.0}, {6.0, 6.0, 0.2}, false);  // at a grazing angle)
+  testing::FillBox(&seen, {0.0, 0.0, 1.6}, {2.0, 6.0, 3.0});        // around the slab, not over it
+  auto own = std::make_shared<const core::VoxelGrid>(world);
+  auto seen_free = std::make_shared<const core::VoxelGrid>(seen);
+  TraversabilityOptions options = Legged();
+  options.unknown_is_lethal = false;
+  const MultiLevelGrid grid(own, options, seen_free, /*sensor_max_z_m=*/2.2);
+  int ix = 0, iy = 0;
+  ASSERT_TRUE(grid.CellOf(3.0, 3.0, &ix, &iy));
+  EXPECT_LT(grid.NodeNear(ix, iy, 1.5, 0.3), 0) << "the underside at 1.4 is no surface";
+  EXPECT_GE(grid.NodeNear(ix, iy, 0.0, 0.1), 0) << "the floor under it is";
+  testing::FillBox(&seen, {2.0, 2.0, 1.6}, {4.0, 4.0, 1.8});  // then seen from above: free space right over the slab
+  testing::FillBox(&world, {2.0, 2.0, 1.5}, {4.0, 4.0, 1.6});
+  const MultiLevelGrid seen_twice(std::make_shared<const core::VoxelGrid>(world), options,
+                                  std::make_shared<const core::VoxelGrid>(seen), 2.2);
+  EXPECT_GE(seen_twice.NodeNear(ix, iy, 1.6, 0.1), 0) << "the slab's top, seen from above";
+}
+
 TEST(PartialRemainingTest, AFloorReadAVoxelOffIsOnTheGoalsLevel) {
   const Eigen::Vector2d goal(15.1, 11.0);
   const Eigen::Vector3d corridor(18.35, 7.55, 3.3), stairs_top(19.15, 7.85, 3.2), landing(21.8, 7.6, 1.7);
