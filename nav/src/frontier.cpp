@@ -589,9 +589,12 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
       nx, ny, [&](int ix, int iy) { return grid.FirstNode(grid.Column(ix, iy)) < grid.FirstNode(grid.Column(ix, iy) + 1); });
   const float reach_cells = static_cast<float>(options.unknown_reach_m / cell_m);
   std::vector<double> cost(nodes, kInf);
-  std::unordered_map<std::int64_t, double> virtual_cost;
   std::vector<char> via_tight(nodes, 0);  // the cheapest path to the surface passes a tight surface
-  std::unordered_map<std::int64_t, char> virtual_via_tight;
+  struct Virtual {  // an unknown state's cost and via_tight, one hash lookup for both
+    double cost = kInf;
+    char via_tight = 0;
+  };
+  std::unordered_map<std::int64_t, Virtual> virtual_states;
   // Start: the robot's surface when traversable; else every traversable surface within kStartSearchM of it
   // (at its height, within max(0.5 m, a step)) at its planar distance — a robot-built map shows a ragged,
   // holed floor right around the robot, which its lidar does not see — and its unknown column at its height.
@@ -615,11 +618,11 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
   }
   auto cost_of = [&](const State& s) -> double& {
     if (s.node >= 0) return cost[static_cast<std::size_t>(s.node)];
-    return virtual_cost.try_emplace(search.Key(s), kInf).first->second;
+    return virtual_states[search.Key(s)].cost;
   };
   auto via_tight_of = [&](const State& s) -> char& {
     if (s.node >= 0) return via_tight[static_cast<std::size_t>(s.node)];
-    return virtual_via_tight.try_emplace(search.Key(s), 0).first->second;
+    return virtual_states[search.Key(s)].via_tight;
   };
   if (!starts.empty()) {
     result.robot_on_grid = true;
