@@ -62,6 +62,7 @@ bool ExploreModeOptions::IsValid(std::string* why) const {
             internal::InRange("explore.target_tolerance_m", target_tolerance_m, 0, 3, true, &msg) &&
             internal::InRange("explore.settle_s", settle_s, 0, 10, false, &msg) &&
             internal::InRange("explore.map_wait_s", map_wait_s, 0, 600, true, &msg) &&
+            internal::InRange("explore.tight_gap_stall_s", tight_gap_stall_s, 0, 600, true, &msg) &&
             internal::InRange("explore.platform_max_step_m", platform_max_step_m, 0, 10, false, &msg);
   std::string nested;
   if (ok && !(frontiers.IsValid(&nested) && explorer.IsValid(&nested))) {
@@ -168,7 +169,9 @@ std::optional<ExploreClaim> DueClaim(const ExploreMode& mode, ExploreTeam& team,
   return claim;
 }
 
-bool ExploreMode::planning() const { return plan_.valid() && !Ready(plan_); }
+bool ExploreMode::planning() const {
+  return (plan_.valid() && !Ready(plan_)) || (recovery_ && recovery_->planning()) || navigation_->replanning();
+}
 
 void ExploreMode::DropTarget() {
   if (plan_.valid()) navigation_->Abandon(std::move(plan_));
@@ -177,6 +180,7 @@ void ExploreMode::DropTarget() {
   if (driving_) navigation_->ClearGoal();
   navigation_->SetReducedClearance(false);
   driving_ = false;
+  target_through_tight_gap_ = false;
   status_.has_target = false;
 }
 
@@ -264,13 +268,20 @@ void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput
   status_.has_target = true;
   status_.target_M = d.target.target_M;
   status_.target_z_m = d.target.target_ground_z_m;
-  // A target the main level holds is planned there (NaN: robust to the holes a robot-built map shows around
-  // the robot); one only the map's levels hold (a flight of stairs, an upper floor, the pocket under a
-  // landing) names its surface.
-  goal_z_m_ = d.target.on_main_level ? std::numeric_limits<double>::quiet_NaN() : d.target.target_ground_z_m;
+  // A target the main level holds, with the robot on that level too, is planned there (NaN: the start's level,
+  // robust to the holes a robot-built map shows around the robot). Any other names its surface: one only the
+  // map's levels hold (a flight of stairs, an upper floor, the pocket under a landing), and one on the main
+  // level while the robot stands on another floor (NaN would plan to the same x-y on the robot's floor).
+  const bool robot_on_target_level =
+      std::abs(pose_M.z_m - d.target.target_ground_z_m) <= explorer_.options().same_place_dz_m;
+  goal_z_m_ = d.target.on_main_level && robot_on_target_level ? std::numeric_limits<double>::quiet_NaN()
+                                                              : d.target.target_ground_z_m;
   // Reached only through a gap the map shows narrower than the footprint's inflation: planned (and driven)
   // with reduced clearance, as the waypoint recovery's last attempt would.
   navigation_->SetReducedClearance(d.target.through_tight_gap);
+  target_through_tight_gap_ = d.target.through_tight_gap;
+  stall_anchor_M_ = {pose_M.x_m, pose_M.y_m};
+  stall_anchor_s_ = now_s;
   plan_ = navigation_->PlanGoalAsync(pose_M, d.target.target_M.x(), d.target.target_M.y(), goal_z_m_);
   spdlog::info("robot {}: exploration {} to the frontier at {} ({:.0f} m² unknown behind it, {:.1f} m away{}): {}",
                options_.robot_id, status_.task_id, Point(d.target.target_M), d.target.gain_m2,
@@ -316,8 +327,18 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
         step = NavigationStep{};  // brake this cycle; the recovery tree runs from the next
       }
     }
+    const Eigen::Vector2d p_M(in.pose_M.x_m, in.pose_M.y_m);
+    if ((p_M - stall_anchor_M_).norm() >= ExploreModeOptions::kTargetStallRadiusM) {
+      stall_anchor_M_ = p_M;
+      stall_anchor_s_ = in.now_s;
+    }
     if (step.arrived) {
       EndTarget(true, "", in.now_s);
+    } else if (target_through_tight_gap_ && in.now_s - stall_anchor_s_ > options_.tight_gap_stall_s) {
+      EndTarget(false,
+                "stalled at a tight gap: moved less than " + internal::Fixed(ExploreModeOptions::kTargetStallRadiusM, 1) +
+                    " m in " + internal::Fixed(options_.tight_gap_stall_s, 0) + " s",
+                in.now_s);
     } else if (step.failed) {
       EndTarget(false, step.reason, in.now_s);
     } else {

@@ -170,6 +170,10 @@ void Navigation::Abandon(std::future<nav::GlobalPlan> plan) {
   if (plan.valid()) abandoned_.push_back(std::move(plan));
 }
 
+bool Navigation::replanning() const {
+  return extension_.valid() && extension_.wait_for(std::chrono::seconds(0)) != std::future_status::ready;
+}
+
 void Navigation::DropExtension() { Abandon(std::move(extension_)); }
 
 void Navigation::ClearGoal() {

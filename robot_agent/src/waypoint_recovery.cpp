@@ -48,7 +48,7 @@ struct WaypointRecovery::Context {
   double linear_x_mps = 0.0;
   double angular_z_radps = 0.0;
   bool arrived = false;
-  bool planning = false;  // an attempt waits for its plan from the planner's worker
+  std::future<nav::GlobalPlan> plan;  // the attempt's plan, while it runs on the planner's worker
   // The goal being recovered.
   double goal_x_m = 0.0;
   double goal_y_m = 0.0;
@@ -223,15 +223,14 @@ class FollowGoal : public bt::StatefulActionNode {
     label_ = label;
     ctx_->navigation->SetReducedClearance(reduced);
     // Planned on a worker: the robot holds still meanwhile, and the control loop goes on (its watchdogs too).
-    plan_ = ctx_->navigation->PlanGoalAsync(ctx_->state, ctx_->goal_x_m, ctx_->goal_y_m, ctx_->goal_z_m);
+    ctx_->plan = ctx_->navigation->PlanGoalAsync(ctx_->state, ctx_->goal_x_m, ctx_->goal_y_m, ctx_->goal_z_m);
     return OnRunning();
   }
   NodeStatus OnRunning() override {
-    if (plan_.valid()) {
+    if (ctx_->plan.valid()) {
       ctx_->Stop();
-      ctx_->planning = plan_.wait_for(std::chrono::seconds(0)) != std::future_status::ready;
-      if (ctx_->planning) return NodeStatus::kRunning;
-      const nav::GlobalPlan plan = plan_.get();
+      if (ctx_->plan.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return NodeStatus::kRunning;
+      const nav::GlobalPlan plan = ctx_->plan.get();
       if (!plan.IsUsable()) return Failed("no path: " + plan.reason);
       ctx_->navigation->AcceptGoal(plan, ctx_->goal_x_m, ctx_->goal_y_m, ctx_->goal_tolerance_m, ctx_->now_s,
                                    ctx_->goal_z_m);
@@ -250,8 +249,7 @@ class FollowGoal : public bt::StatefulActionNode {
   }
   void OnHalted() override {
     ctx_->Stop();
-    ctx_->planning = false;
-    ctx_->navigation->Abandon(std::move(plan_));
+    ctx_->navigation->Abandon(std::move(ctx_->plan));
     ctx_->navigation->ClearGoal();
     ctx_->navigation->SetReducedClearance(false);
     if (ctx_->active) ctx_->log.push_back("attempt " + std::to_string(ctx_->attempt) + " (" + label_ + "): interrupted");
@@ -267,7 +265,6 @@ class FollowGoal : public bt::StatefulActionNode {
 
   std::shared_ptr<Context> ctx_;
   std::string label_;
-  std::future<nav::GlobalPlan> plan_;  // the attempt's plan, while it runs on a worker
 };
 
 template <class Node>
@@ -323,7 +320,10 @@ WaypointRecovery::~WaypointRecovery() { Halt(); }
 
 bool WaypointRecovery::active() const { return context_->active; }
 
-bool WaypointRecovery::planning() const { return context_->active && context_->planning; }
+bool WaypointRecovery::planning() const {
+  return context_->active && context_->plan.valid() &&
+         context_->plan.wait_for(std::chrono::seconds(0)) != std::future_status::ready;
+}
 
 void WaypointRecovery::Start(double x_m, double y_m, double tolerance_m, const std::string& failure, double z_m) {
   if (!enabled()) throw std::logic_error("WaypointRecovery::Start: the tree file has no recovery tree");

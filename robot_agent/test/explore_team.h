@@ -62,10 +62,12 @@ inline double Coverage(const nav::TraversabilityGrid& truth, const std::vector<c
 
 /// Fraction of the walkable surfaces (every level) a robot can reach from `start` (x, y, ground z; metres)
 /// on `truth` (ground truth; connected traversable surfaces, 8-neighbouring columns, flood fill) whose heights
-/// lie in [min_z_m, max_z_m] that any of `maps` knows: a surface within 0.3 m of its height in that column, or
-/// the column seen at that height (not MultiLevelGrid::IsUnknownAt). `reachable_surfaces`: how many there are.
+/// lie in [min_z_m, max_z_m] (and whose cell centre lies in `region`, frame W, unless it is empty) that any of
+/// `maps` knows: a surface within 0.3 m of its height in that column, or the column seen at that height (not
+/// MultiLevelGrid::IsUnknownAt). `reachable_surfaces`: how many there are.
 inline double CoverageOnLevels(const nav::MultiLevelGrid& truth, const std::vector<const nav::MultiLevelGrid*>& maps,
                                const Eigen::Vector3d& start, double min_z_m, double max_z_m,
+                               const Eigen::AlignedBox2d& region = Eigen::AlignedBox2d(),
                                int* reachable_surfaces = nullptr) {
   int sx = 0, sy = 0;
   if (!truth.CellOf(start.x(), start.y(), &sx, &sy)) return 0.0;
@@ -81,7 +83,7 @@ inline double CoverageOnLevels(const nav::MultiLevelGrid& truth, const std::vect
     const int x = truth.NodeColumn(node) % truth.nx(), y = truth.NodeColumn(node) / truth.nx();
     const double z = truth.NodeZ(node);
     const Eigen::Vector2d c = truth.CellCenter(x, y);
-    if (z >= min_z_m && z <= max_z_m) {
+    if (z >= min_z_m && z <= max_z_m && (region.isEmpty() || region.contains(c))) {
       ++reachable;
       for (const nav::MultiLevelGrid* map : maps) {
         int gx = 0, gy = 0;
@@ -119,7 +121,7 @@ struct TeamOptions {
   double score_period_s = 10.0;   ///< coverage is scored this often, simulated seconds
   bool verbose = false;           ///< coverage every minute
   /// Height bands (metres, frame W; e.g. the floors of a building) scored at the end over the map's levels
-  /// (CoverageOnLevels, from the first start's ground at z 0): TeamRun::level_coverage.
+  /// (CoverageOnLevels, from the first start's ground at z 0, in the task's region): TeamRun::level_coverage.
   std::vector<std::pair<double, double>> level_bands;
 };
 
@@ -143,6 +145,7 @@ struct TeamRun {
   std::size_t coverage_bytes_sent = 0;  ///< their compressed coverage, bytes
   std::vector<double> level_coverage;   ///< per TeamOptions::level_bands, at the end
   double highest_z_m = 0;               ///< the highest ground any robot stood on (true pose), metres
+  double end_speed_mps = 0;             ///< the fastest live robot's true speed at the end, m/s
 };
 
 inline TeamRun RunTeam(const TeamOptions& o) {
@@ -231,13 +234,14 @@ inline TeamRun RunTeam(const TeamOptions& o) {
   for (const auto& r : robots) level_maps.push_back(&r->nav_map().levels());
   for (const auto& [z0, z1] : o.level_bands) {
     run.level_coverage.push_back(CoverageOnLevels(platforms.front()->body_terrain()->levels(), level_maps,
-                                                  {o.starts[0].x_m, o.starts[0].y_m, 0.0}, z0, z1));
+                                                  {o.starts[0].x_m, o.starts[0].y_m, 0.0}, z0, z1, region));
   }
   run.end_s = t;
   for (std::size_t i = 0; i < robots.size(); ++i) {
     run.contact = run.contact || robots[i]->ever_in_contact();
     run.statuses.push_back(robots[i]->explore().status());
     run.driven_m.push_back(platforms[i]->distance_travelled_m());
+    if (alive[i]) run.end_speed_mps = std::max(run.end_speed_mps, std::abs(platforms[i]->TrueState().v_mps));
   }
   if (run.killed_claim) {
     std::vector<const nav::TraversabilityGrid*> live;

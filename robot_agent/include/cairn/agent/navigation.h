@@ -113,6 +113,9 @@ class Navigation {
   /// AcceptGoal(); a future it no longer wants goes to Abandon().
   std::future<nav::GlobalPlan> PlanGoalAsync(const core::BaseState& state, double x_m, double y_m,
                                              double z_m = std::numeric_limits<double>::quiet_NaN()) const;
+  /// True while a replan of the current goal (or a partial plan's extension) runs on the worker; the next
+  /// StepWaypoint() after it ends adopts its plan.
+  bool replanning() const;
   /// Keeps a plan future nobody waits for until its search ends (destroying a running std::async future
   /// would block the caller until then).
   void Abandon(std::future<nav::GlobalPlan> plan);
