@@ -176,9 +176,8 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
   // Traversable for this plan: the grid's layer, or clearance above a reduced radius.
   const bool reduced = std::isfinite(options.robot_radius_m) &&
                        options.robot_radius_m < grid.options().robot_radius_m - 1e-9;
-  auto traversable = [&grid, reduced, r = options.robot_radius_m](int cx, int cy) {
-    return reduced ? !grid.IsLethal(cx, cy) && grid.ClearanceM(cx, cy) > r + 1e-9 : grid.IsTraversable(cx, cy);
-  };
+  const double radius_m = reduced ? options.robot_radius_m : grid.options().robot_radius_m;
+  auto traversable = [&grid, radius_m](int cx, int cy) { return grid.IsTraversableFor(cx, cy, radius_m); };
   auto finish = [&](PlanResult::Status status, std::string message) {
     result.status = status;
     result.message = std::move(message);

@@ -351,7 +351,7 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
       ChamferToKnown(nx, ny, [&](int ix, int iy) { return grid.State(ix, iy) == CellState::kFree; });
   const float reach_cells = static_cast<float>(options.unknown_reach_m / cell_m);
   const double pass_radius_m = std::min(grid.options().robot_radius_m, options.tight_radius_m);
-  auto clear = [&](int ix, int iy) { return grid.ClearanceM(ix, iy) > pass_radius_m + 1e-9; };
+  auto clear = [&](int ix, int iy) { return grid.IsTraversableFor(ix, iy, pass_radius_m); };
   auto passable = [&](int ix, int iy) {
     const CellState state = grid.State(ix, iy);
     if (state == CellState::kUnknown) return to_known[index(ix, iy)] <= reach_cells && clear(ix, iy);

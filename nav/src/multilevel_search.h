@@ -42,7 +42,7 @@ class MultiLevelSearch {
            (static_cast<std::int64_t>(grid_.Column(s.ix, s.iy)) * (grid_.world_dims_.z() + 2) + iz + 1);
   }
 
-  bool Traversable(int node) const { return grid_.ClearanceM(node) > radius_m_ + 1e-9; }
+  bool Traversable(int node) const { return grid_.IsTraversableFor(node, radius_m_); }
 
   // An unknown cell entered at height z: every cell within the radius is a connected surface or unknown too.
   bool VirtualClear(int ix, int iy, double z) const {

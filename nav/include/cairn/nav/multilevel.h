@@ -94,7 +94,10 @@ class MultiLevelGrid : public core::FootprintChecker {
   /// Column of surface `node`.
   int NodeColumn(int node) const { return column_of_[static_cast<std::size_t>(node)]; }
   /// True if surface `node` is traversable (clearance above robot_radius_m).
-  bool IsTraversable(int node) const { return ClearanceM(node) > options_.robot_radius_m + 1e-9; }
+  bool IsTraversable(int node) const { return IsTraversableFor(node, options_.robot_radius_m); }
+  /// True if surface `node` is traversable for a robot of radius `radius_m` (>= 0), metres (clearance above it;
+  /// TraversabilityGrid::IsTraversableFor()).
+  bool IsTraversableFor(int node, double radius_m) const { return ClearanceM(node) > radius_m + 1e-9; }
   /// The surface of cell (ix, iy) nearest z_m within max_dz_m (metres); -1 if none or outside the grid.
   int NodeNear(int ix, int iy, double z_m, double max_dz_m) const;
   /// True if the in-grid cell (ix, iy) is unknown at height z_m (see the class comment); always false on a

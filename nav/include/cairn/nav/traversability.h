@@ -171,7 +171,11 @@ class TraversabilityGrid : public core::FootprintChecker {
   double ClearanceM(int ix, int iy) const { return clearance_m_[Index(ix, iy)]; }
   /// True if the in-grid cell is traversable: ClearanceM() > robot_radius_m + 1e-9 m (so not lethal either;
   /// the tolerance makes a lethal cell exactly robot_radius_m away count as within the radius).
-  bool IsTraversable(int ix, int iy) const { return ClearanceM(ix, iy) > options_.robot_radius_m + 1e-9; }
+  bool IsTraversable(int ix, int iy) const { return IsTraversableFor(ix, iy, options_.robot_radius_m); }
+  /// True if the in-grid cell is traversable for a robot of radius `radius_m` (>= 0), metres: ClearanceM() >
+  /// radius_m + 1e-9 m, the same rule as IsTraversable(). A reduced radius (a tight gap: waypoint recovery's last
+  /// attempt, FrontierOptions::tight_radius_m) passes cells the grid's own radius does not.
+  bool IsTraversableFor(int ix, int iy, double radius_m) const { return ClearanceM(ix, iy) > radius_m + 1e-9; }
   /// True if the cell containing (x_m, y_m) exists and is traversable.
   bool IsTraversableAt(double x_m, double y_m) const;
 
