@@ -16,10 +16,6 @@ namespace {
 // A frontier set with less known-free ground than this is no map yet (the first scans are not in), m².
 constexpr double kMinKnownFreeM2 = 2.0;
 
-bool Ready(const std::future<nav::GlobalPlan>& plan) {
-  return plan.valid() && plan.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
-}
-
 std::string Point(const Eigen::Vector2d& p) {
   return "(" + internal::Fixed(p.x(), 2) + ", " + internal::Fixed(p.y(), 2) + ")";
 }
@@ -170,7 +166,7 @@ std::optional<ExploreClaim> DueClaim(const ExploreMode& mode, ExploreTeam& team,
 }
 
 bool ExploreMode::planning() const {
-  return (plan_.valid() && !Ready(plan_)) || (recovery_ && recovery_->planning()) || navigation_->replanning();
+  return PlanRunning(plan_) || (recovery_ && recovery_->planning()) || navigation_->replanning();
 }
 
 void ExploreMode::DropTarget() {
@@ -302,7 +298,7 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
     status_.reason = "the frontier at " + Point(target) + " is " + by + "'s (claimed first)";
     spdlog::info("robot {}: exploration {}: {}", options_.robot_id, status_.task_id, status_.reason);
   }
-  if (Ready(plan_)) {
+  if (PlanReady(plan_)) {
     const nav::GlobalPlan plan = plan_.get();
     plan_ = {};
     if (plan.IsUsable()) {

@@ -164,14 +164,14 @@ void Navigation::Abandon(std::future<nav::GlobalPlan> plan) {
   // A running search finishes on its own; its future waits in abandoned_ so that nothing here blocks.
   abandoned_.erase(std::remove_if(abandoned_.begin(), abandoned_.end(),
                                   [](const std::future<nav::GlobalPlan>& f) {
-                                    return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+                                    return PlanReady(f);
                                   }),
                    abandoned_.end());
   if (plan.valid()) abandoned_.push_back(std::move(plan));
 }
 
 bool Navigation::replanning() const {
-  return extension_.valid() && extension_.wait_for(std::chrono::seconds(0)) != std::future_status::ready;
+  return PlanRunning(extension_);
 }
 
 void Navigation::DropExtension() { Abandon(std::move(extension_)); }
@@ -493,7 +493,7 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   // the lidar sees): the control loop never waits for a search, which takes up to ~1 s over the map's levels
   // on a mostly unknown map. A partial plan (the map connects no route to the goal's level yet) is also
   // extended as the map grows and at its end, and fails when the map shows no way on from there.
-  if (extension_.valid() && extension_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+  if (PlanReady(extension_)) {
     const nav::GlobalPlan extended = extension_.get();
     const Eigen::Vector3d end = plan_.result.path_W.empty() ? Eigen::Vector3d::Zero() : plan_.result.path_W.back();
     const bool was_partial = plan_.result.partial;

@@ -378,7 +378,7 @@ ModeConditions RobotAgent::Impl::Conditions() const {
 
 void RobotAgent::Impl::ComeHomeIfSilent(SteadyTime now) {
   if (home_plan_.valid()) {
-    if (home_plan_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+    if (PlanRunning(home_plan_)) return;
     const nav::GlobalPlan plan = home_plan_.get();
     if (!plan.IsUsable()) {
       spdlog::error("robot {}: no way back to its start ({:.2f}, {:.2f}): {}; it stays here", options_.robot_id,

@@ -229,7 +229,7 @@ class FollowGoal : public bt::StatefulActionNode {
   NodeStatus OnRunning() override {
     if (ctx_->plan.valid()) {
       ctx_->Stop();
-      if (ctx_->plan.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return NodeStatus::kRunning;
+      if (PlanRunning(ctx_->plan)) return NodeStatus::kRunning;
       const nav::GlobalPlan plan = ctx_->plan.get();
       if (!plan.IsUsable()) return Failed("no path: " + plan.reason);
       ctx_->navigation->AcceptGoal(plan, ctx_->goal_x_m, ctx_->goal_y_m, ctx_->goal_tolerance_m, ctx_->now_s,
@@ -321,8 +321,7 @@ WaypointRecovery::~WaypointRecovery() { Halt(); }
 bool WaypointRecovery::active() const { return context_->active; }
 
 bool WaypointRecovery::planning() const {
-  return context_->active && context_->plan.valid() &&
-         context_->plan.wait_for(std::chrono::seconds(0)) != std::future_status::ready;
+  return context_->active && PlanRunning(context_->plan);
 }
 
 void WaypointRecovery::Start(double x_m, double y_m, double tolerance_m, const std::string& failure, double z_m) {

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <chrono>
 #include <future>
 #include <memory>
 #include <limits>
@@ -81,6 +82,16 @@ struct NavigationStep {
   bool failed = false;         ///< The goal failed this step (the goal is cleared); see reason.
   std::string reason;          ///< Why it failed.
 };
+
+/// True if `plan` (a future from Navigation::PlanGoalAsync() or a replan) holds a finished search: get() will
+/// not block. False for an empty future.
+inline bool PlanReady(const std::future<nav::GlobalPlan>& plan) {
+  return plan.valid() && plan.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+}
+/// True while `plan`'s search still runs on the planner's worker.
+inline bool PlanRunning(const std::future<nav::GlobalPlan>& plan) {
+  return plan.valid() && plan.wait_for(std::chrono::seconds(0)) != std::future_status::ready;
+}
 
 /// The navigation stack of one robot. Not thread-safe (the agent calls it under its lock); the global
 /// planner it shares is thread-safe and may also serve path requests from other threads.
