@@ -158,6 +158,9 @@ test("a gamepad drives the robot while the deadman is held; releasing it, or a s
     window.__pad.axes[1] = -0.6;
   });
   await waitFor("r1 driving forward", async () => (await robotState(page1, "r1")).speed_mps > 0.2, 5000);
+  // Held until the robot has covered 0.3 m (under load the page may see the speed late, and the release then comes
+  // after a short drive; the distance is what shows the stick drove the robot).
+  await waitFor("r1 0.3 m forward on the stick", async () => (await robotState(page1, "r1")).pose.x_m - before.pose.x_m > 0.3, 5000);
   await screenshot(page1, "09_gamepad_driving");
   await page1.evaluate(() => { window.__pad.buttons[4] = { pressed: false, value: 0 }; });
   const released = Date.now();
@@ -264,7 +267,7 @@ test("the holder starts an exploration from the robot tab, sees its frontiers an
     return p && Math.hypot(p.x_m - before.pose.x_m, p.y_m - before.pose.y_m) > 1.0;
   }, 20000);
   await screenshot(page1, "12_exploring");
-  await page1.getByRole("button", { name: "STOP" }).click();
+  await page1.getByRole("button", { name: "STOP", exact: true }).click();
   await waitFor("the exploration stopped", async () => (await robotState(page1, "r1"))?.exploration?.state === "stopped", 10000);
   assert.match(await page1.locator("#exploration").innerText(), /stopped/);
   await waitFor("op1's Return home button", async () => (await page1.locator("#actions button").allInnerTexts()).includes("Return home"), 10000);
@@ -278,7 +281,7 @@ test("the holder starts an exploration from the robot tab, sees its frontiers an
     return r?.nav_status === "active" && Math.hypot(r.goal.x_m - 4, r.goal.y_m - 20) < 0.3;
   }, 15000);
   await screenshot(page1, "13_going_home");
-  await page1.getByRole("button", { name: "STOP" }).click();
+  await page1.getByRole("button", { name: "STOP", exact: true }).click();
 });
 
 test("the pages raised no script error", () => {
