@@ -70,6 +70,7 @@ int main(int argc, char** argv) {
   std::string platform = "wheeled";
   std::optional<core::PlanarPose> start;
   std::vector<std::pair<double, double>> floors;
+  std::optional<Eigen::AlignedBox2d> region;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--world" && i + 1 < argc) {
@@ -91,6 +92,13 @@ int main(int argc, char** argv) {
         return 2;
       }
       start = core::PlanarPose{x, y, yaw};
+    } else if (a == "--region" && i + 1 < argc) {
+      double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+      if (std::sscanf(argv[++i], "%lf,%lf,%lf,%lf", &x0, &y0, &x1, &y1) != 4 || !(x0 < x1) || !(y0 < y1)) {
+        std::fprintf(stderr, "--region '%s' must be X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1 (metres)\n", argv[i]);
+        return 2;
+      }
+      region = Eigen::AlignedBox2d(Eigen::Vector2d(x0, y0), Eigen::Vector2d(x1, y1));
     } else if (a == "--platform" && i + 1 < argc) {
       platform = argv[++i];
     } else if (a == "--floors" && i + 1 < argc) {
@@ -106,7 +114,7 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: %s [--world builtin:NAME] [--robots 1,2,3] [--kill] [--csv FILE] [--timeout S] "
-                   "[--platform wheeled|legged] [--floors Z0:Z1,...] [--start X,Y[,YAW]]\n",
+                   "[--platform wheeled|legged] [--floors Z0:Z1,...] [--start X,Y[,YAW]] [--region X0,Y0,X1,Y1]\n",
                    argv[0]);
       return 2;
     }
@@ -125,6 +133,7 @@ int main(int argc, char** argv) {
     o.stop_at_coverage = 0.95;  // the 90 % figure and a little beyond; the rest is the last corners
     o.platform = platform;
     o.level_bands = floors;
+    o.task.region_M = region;
     if (!floors.empty()) o.stop_at_coverage = 2.0;  // the floors are scored at the end: run until every robot ends
     const TeamRun r = RunTeam(o);
     if (robots == 1) baseline_90_s = r.time_to_90_s;

@@ -110,7 +110,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   trav.ReadDouble("robot_height_m", &n.platform.traversability.robot_height_m);
   trav.ReadDouble("max_step_m", &n.platform.traversability.max_step_m);
   const auto ex = config.Section("explore");
-  ex.RejectUnknownKeys({"target_tolerance_m", "settle_s", "map_wait_s", "min_gain_m2", "gain_radius_m",
+  ex.RejectUnknownKeys({"target_tolerance_m", "settle_s", "complete_settle_s", "map_wait_s", "min_gain_m2", "gain_radius_m",
                         "max_cluster_extent_m", "unknown_reach_m", "switch_utility_ratio", "blacklist_radius_m",
                         "visited_radius_m", "same_place_dz_m", "tight_gap_stall_s", "retry_after_s", "claim_radius_m", "peer_influence_m",
                         "claim_period_s",
@@ -129,6 +129,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   }
   ex.ReadDouble("target_tolerance_m", &explore.target_tolerance_m);
   ex.ReadDouble("settle_s", &explore.settle_s);
+  ex.ReadDouble("complete_settle_s", &explore.complete_settle_s);
   ex.ReadDouble("map_wait_s", &explore.map_wait_s);
   ex.ReadDouble("tight_gap_stall_s", &explore.tight_gap_stall_s);
   ex.ReadDouble("min_gain_m2", &explore.frontiers.min_gain_m2);

@@ -57,6 +57,7 @@ bool ExploreModeOptions::IsValid(std::string* why) const {
             internal::InRange("explore.contact_timeout_s", contact_timeout_s, 0, 3600, true, &msg) &&
             internal::InRange("explore.target_tolerance_m", target_tolerance_m, 0, 3, true, &msg) &&
             internal::InRange("explore.settle_s", settle_s, 0, 10, false, &msg) &&
+            internal::InRange("explore.complete_settle_s", complete_settle_s, 0, 30, false, &msg) &&
             internal::InRange("explore.map_wait_s", map_wait_s, 0, 600, true, &msg) &&
             internal::InRange("explore.tight_gap_stall_s", tight_gap_stall_s, 0, 600, true, &msg) &&
             internal::InRange("explore.platform_max_step_m", platform_max_step_m, 0, 10, false, &msg);
@@ -244,11 +245,12 @@ void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput
     return;
   }
   if (d.kind == nav::ExplorerDecision::Kind::kComplete) {
-    if (!complete_pending_ && (driving_ || plan_.valid() || pose_M.v_mps > 0.05)) {
-      // Seen on the move: confirm it at rest with the next set (a frontier may be just out of sight).
+    if (!complete_pending_) {
+      // Confirm it with a set computed once the robot has held still for complete_settle_s: a frontier may be
+      // just out of sight, and perception may not have confirmed what the robot sees from here yet.
       DropTarget();
       complete_pending_ = true;
-      settle_until_s_ = now_s + options_.settle_s;
+      settle_until_s_ = now_s + options_.complete_settle_s;
       return;
     }
     Finish(ExplorationState::kComplete, d.reason);

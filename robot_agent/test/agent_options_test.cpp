@@ -58,6 +58,7 @@ TEST(AgentOptions, NavigationConfigErrorsNameTheField) {
       {"traversability:\n  max_step_m: -0.1\n", "max_step_m = -0.1"},
       {"local_planner:\n  speed: 1\n", "local_planner.speed is not a known setting"},
       {"explore:\n  settle_s: -1\n", "explore.settle_s = -1"},
+      {"explore:\n  complete_settle_s: 40\n", "explore.complete_settle_s = 40"},
       {"explore:\n  min_gain_m2: -3\n", "FrontierOptions::min_gain_m2 = -3"},
       {"explore:\n  switch_utility_ratio: 0.5\n", "ExplorerOptions::switch_utility_ratio = 0.5"},
       {"explore:\n  radius: 5\n", "explore.radius is not a known setting"},

@@ -457,5 +457,62 @@ TEST(NavMapTest, ADetectedFlightsTreadsAreGroundUntilItIsNoLongerDetected) {
   EXPECT_EQ(wheeled_map.levels().node_count(), 0);
 }
 
+// A detected flight the map cannot cross yet gets a frontier at each end the map shows no surface at (the floor
+// before its foot, the landing past its last riser). An end where the map holds a surface it cannot stand on
+// (ragged treads above a flight detected part way up) gets none: a plan there is refused at once, and that
+// failure would bar the flight's own frontiers around it.
+TEST(NavMapTest, AFlightsEndsAreFrontiersWhereTheMapShowsNoSurface) {
+  const core::BaseState start_M{};
+  NavMapOptions map_options;
+  map_options.half_extent_m = 10.0;
+  const nav::PlatformProfile legged = nav::GetPlatformProfile("legged");
+  perception::OccupancyMap seen;
+  auto planner = NavMap::MakePlanner(map_options, seen.resolution_m(), start_M, {legged});
+  NavMap nav_map(map_options, seen.resolution_m(), start_M, planner, "legged");
+  perception::Staircase flight;  // 5 risers of 0.2 m up +x from x = 2, 1 m wide: its top end at (3.8, 0), z 1.0
+  flight.p_W_first_step = Eigen::Vector3d(2.0, 0.0, 0.0);
+  flight.rise_m = 0.2;
+  flight.run_m = 0.3;
+  flight.width_m = 1.0;
+  flight.num_steps = 5;
+  const Eigen::Vector2d foot_end(1.4, 0.0), top_end(3.8, 0.0);
+  auto stair_ends = [&] {
+    const nav::FrontierSet set = nav_map.Frontiers({1.0, 0.0, 0.0}, nav::FrontierOptions{}, true, nullptr);
+    std::vector<Eigen::Vector3d> ends;
+    for (const nav::FrontierCluster& c : set.clusters) {
+      if (c.cells == 1 && ((c.target_M - foot_end).norm() < 1e-9 || (c.target_M - top_end).norm() < 1e-9)) {
+        ends.emplace_back(c.target_M.x(), c.target_M.y(), c.target_ground_z_m);
+      }
+    }
+    return ends;
+  };
+  ASSERT_TRUE(nav_map.Update(seen, {}, 2.0, 0.5, {flight}).applied);
+  std::vector<Eigen::Vector3d> ends = stair_ends();
+  ASSERT_EQ(ends.size(), 2u);
+  EXPECT_TRUE(std::any_of(ends.begin(), ends.end(), [&](const Eigen::Vector3d& e) {
+    return (e.head<2>() - top_end).norm() < 1e-9 && std::abs(e.z() - 1.0) < 1e-9;
+  }));
+  // Past the last riser the lidar sees a floor voxel (top z 1.0) with a wall right beyond it and the space
+  // above seen free: a surface, too narrow to stand on.
+  for (double z = 1.05; z < 1.7; z += 0.1) {
+    Eigen::Isometry3d T_W_S = Eigen::Isometry3d::Identity();
+    T_W_S.translation() = Eigen::Vector3d(2.0, 0.05, z);
+    seen.InsertScan({Eigen::Vector3f(1.95f, 0.0f, 0.0f)}, T_W_S);  // ends in the wall at x 3.95
+  }
+  Eigen::Isometry3d T_W_S = Eigen::Isometry3d::Identity();
+  T_W_S.translation() = Eigen::Vector3d(2.0, 0.05, 1.3);
+  seen.InsertScan({Eigen::Vector3f(1.85f, 0.0f, -0.35f)}, T_W_S);  // the floor voxel at (3.85, 0.05), z 0.9-1.0
+  const std::vector<Eigen::Vector2i> tiles = {{0, -1}, {1, -1}, {0, 0}, {1, 0}};
+  ASSERT_TRUE(nav_map.Update(seen, tiles, 2.0, 1.3, {flight}).applied);
+  int ix = 0, iy = 0;
+  ASSERT_TRUE(nav_map.levels().CellOf(top_end.x(), top_end.y(), &ix, &iy));
+  const int node = nav_map.levels().NodeNear(ix, iy, 1.0, 0.05);
+  ASSERT_GE(node, 0) << "no surface at the top end";
+  EXPECT_FALSE(nav_map.levels().IsTraversable(node));
+  ends = stair_ends();
+  ASSERT_EQ(ends.size(), 1u);
+  EXPECT_LT((ends[0].head<2>() - foot_end).norm(), 1e-9) << "the top end is a frontier on a surface it cannot stand on";
+}
+
 }  // namespace
 }  // namespace cairn::agent

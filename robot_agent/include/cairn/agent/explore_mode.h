@@ -89,6 +89,11 @@ struct ExploreModeOptions {
   /// After a target is reached or fails, the next choice waits for a frontier set computed at least this
   /// long after (the map has taken in what the robot sees from there), seconds, [0, 10].
   double settle_s = 1.0;
+  /// "Exploration complete" is declared only from a frontier set computed at least this long after the robot
+  /// stopped for good (it holds still meanwhile), seconds, [0, 30]: what it sees from where it ended needs
+  /// perception's confirmation first (a staircase becomes a map prior, which a flight whose treads the lidar
+  /// cannot see needs to read traversable, after two detections at the detector's 1 s period).
+  double complete_settle_s = 3.0;
   /// No usable frontier set (no map around the robot) this long after the start -> exploration fails,
   /// seconds, (0, 600].
   double map_wait_s = 15.0;

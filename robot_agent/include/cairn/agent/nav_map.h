@@ -144,8 +144,8 @@ class NavMap {
   // The extent that covers `want_M` (plus grow_step_m beyond the current extent on each side that grows),
   // within max_extent_m; the current extent when nothing needs to grow.
   Eigen::AlignedBox2d GrownExtent(const Eigen::AlignedBox2d& current_M, const Eigen::AlignedBox2d& want_M) const;
-  // Frontiers at the ends of the detected flights the platform climbs (the stair priors) that the map shows no
-  // traversable ground at (kStairEndM off the flight, at the floor's or the landing's height): the flights of a
+  // Frontiers at the ends of the detected flights the platform climbs (the stair priors) where the map shows no
+  // surface yet (kStairEndM off the flight, within a step of the floor's or the landing's height): the flights of a
   // robot-built map read too narrow and too ragged for the search over the levels to cross (treads a voxel
   // high or low, 0.1-0.3 m of clearance on a 1.0 m flight), while the planner climbs them with partial plans.
   // Gain: nav::VisibleUnknownM2 from that end; travel cost: straight lines to the other end, then along the
