@@ -94,11 +94,15 @@ test("tap a goal on the map, confirm: the robot arrives and the page shows it", 
 });
 
 test("the camera pane shows the selected robot's latest frame and its age", async () => {
-  await waitFor("a camera frame", () => page1.evaluate(() => {
-    const img = document.getElementById("camera");
-    return img.complete && img.naturalWidth > 0;
-  }), 15000);
-  const size = await page1.evaluate(() => [document.getElementById("camera").naturalWidth, document.getElementById("camera").naturalHeight]);
+  // The size is read with the check that the frame is loaded: a later read may find the next frame loading (0 x 0).
+  let size = null;
+  await waitFor("a camera frame", async () => {
+    size = await page1.evaluate(() => {
+      const img = document.getElementById("camera");
+      return img.complete && img.naturalWidth > 0 ? [img.naturalWidth, img.naturalHeight] : null;
+    });
+    return size !== null;
+  }, 15000);
   assert.deepEqual(size, [320, 240]);
   assert.match(await page1.locator("#camera-age").innerText(), /camera: \d+\.\d s old/);
   await screenshot(page1, "07_camera");
