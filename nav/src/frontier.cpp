@@ -167,6 +167,49 @@ Cell ChooseTarget(const std::vector<Cell>& cells, const Eigen::Vector2d& centroi
   return best_reachable == kInf ? fallback : target;
 }
 
+// How a search reads its cells (a 2.5D cell, or a surface of the map's levels) for AppendClusters(): callables
+// taking a cell.
+template <class Center, class Clearance, class Cost, class ViaTight, class GroundZ, class UnknownCells>
+struct CellView {
+  Center center_m;              // x-y of its centre, metres, frame M
+  Clearance clearance_m;        // to the nearest lethal cell, metres
+  Cost cost_m;                  // travel cost from the robot, metres; infinity when unreachable
+  ViaTight via_tight;           // the cheapest path to it passes a tight cell
+  GroundZ ground_z_m;           // its ground height, metres, frame M
+  UnknownCells unknown_cells;   // the unknown cells visible around it (the gain, in cells)
+};
+template <class... Fn>
+CellView<Fn...> MakeCellView(Fn... fn) {
+  return {std::move(fn)...};
+}
+
+// Appends to `clusters` one FrontierCluster per piece (CutIntoPieces()) of at least options.min_cells cells and
+// options.min_gain_m2 gain, the same way for both searches; `view` (a CellView) reads the cells, each
+// cell_area_m2.
+template <class Cell, class View>
+void AppendClusters(const std::map<std::pair<int, int>, std::vector<Cell>>& pieces, const FrontierOptions& options,
+                    double robot_radius_m, double cell_area_m2, const View& view,
+                    std::vector<FrontierCluster>* clusters) {
+  for (const auto& [key, cells] : pieces) {
+    if (static_cast<int>(cells.size()) < options.min_cells) continue;
+    FrontierCluster cluster;
+    cluster.cells = static_cast<int>(cells.size());
+    for (const Cell& c : cells) cluster.centroid_M += view.center_m(c);
+    cluster.centroid_M /= cluster.cells;
+    const Cell target = ChooseTarget(
+        cells, cluster.centroid_M, robot_radius_m, [&view](const Cell& c) { return view.center_m(c); },
+        [&view](const Cell& c) { return view.clearance_m(c); }, [&view](const Cell& c) { return view.cost_m(c); });
+    cluster.gain_m2 = static_cast<double>(view.unknown_cells(target)) * cell_area_m2;
+    if (cluster.gain_m2 < options.min_gain_m2) continue;
+    cluster.target_M = view.center_m(target);
+    cluster.target_ground_z_m = view.ground_z_m(target);
+    cluster.travel_cost_m = view.cost_m(target);
+    cluster.through_tight_gap = view.via_tight(target);
+    cluster.utility = cluster.reachable() ? cluster.gain_m2 / (cluster.travel_cost_m + options.cost_offset_m) : 0.0;
+    clusters->push_back(cluster);
+  }
+}
+
 }  // namespace
 
 bool FrontierOptions::IsValid(std::string* why) const {
@@ -426,6 +469,16 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
   std::vector<char> seen(n, 0);
   std::vector<int> gain_stamp(n, -1);
   int gain_id = 0;
+  using Cell2 = std::pair<int, int>;
+  const auto view = MakeCellView(
+      [&](const Cell2& c) { return grid.CellCenter(c.first, c.second); },
+      [&](const Cell2& c) { return grid.ClearanceM(c.first, c.second); },
+      [&](const Cell2& c) { return cost[index(c.first, c.second)]; },
+      [&](const Cell2& c) { return via_tight[index(c.first, c.second)] != 0; },
+      [&](const Cell2& c) { return grid.Ground(c.first, c.second); },
+      [&](const Cell2& c) {
+        return VisibleUnknownCells(grid, c.first, c.second, options.gain_radius_m, ++gain_id, &gain_stamp, peer_seen);
+      });
   std::vector<std::pair<int, int>> component;
   std::vector<std::pair<int, int>> stack;
   const int piece_cells = std::max(1, static_cast<int>(std::floor(options.max_cluster_extent_m / cell_m)));
@@ -447,29 +500,8 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
           stack.emplace_back(jx, jy);
         }
       }
-      const auto pieces = CutIntoPieces(component, [](const std::pair<int, int>& c) { return c; }, piece_cells);
-      for (const auto& [key, cells] : pieces) {
-        if (static_cast<int>(cells.size()) < options.min_cells) continue;
-        FrontierCluster cluster;
-        cluster.cells = static_cast<int>(cells.size());
-        for (const auto& [ix, iy] : cells) cluster.centroid_M += grid.CellCenter(ix, iy);
-        cluster.centroid_M /= cluster.cells;
-        const std::pair<int, int> target = ChooseTarget(
-            cells, cluster.centroid_M, grid.options().robot_radius_m,
-            [&](const std::pair<int, int>& c) { return grid.CellCenter(c.first, c.second); },
-            [&](const std::pair<int, int>& c) { return grid.ClearanceM(c.first, c.second); },
-            [&](const std::pair<int, int>& c) { return cost[index(c.first, c.second)]; });
-        cluster.gain_m2 = VisibleUnknownCells(grid, target.first, target.second, options.gain_radius_m,
-                                              ++gain_id, &gain_stamp, peer_seen) *
-                          cell_m * cell_m;
-        if (cluster.gain_m2 < options.min_gain_m2) continue;
-        cluster.target_M = grid.CellCenter(target.first, target.second);
-        cluster.target_ground_z_m = grid.Ground(target.first, target.second);
-        cluster.travel_cost_m = cost[index(target.first, target.second)];
-        cluster.through_tight_gap = via_tight[index(target.first, target.second)] != 0;
-        cluster.utility = cluster.reachable() ? cluster.gain_m2 / (cluster.travel_cost_m + options.cost_offset_m) : 0.0;
-        result.clusters.push_back(cluster);
-      }
+      AppendClusters(CutIntoPieces(component, [](const std::pair<int, int>& c) { return c; }, piece_cells), options,
+                     grid.options().robot_radius_m, cell_m * cell_m, view, &result.clusters);
     }
   }
   SortFrontierClusters(&result.clusters);
@@ -672,6 +704,15 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
   std::vector<char> seen(nodes, 0);
   std::vector<int> gain_stamp(columns, -1);
   int gain_id = 0;
+  const auto view = MakeCellView(
+      node_center, [&](int node) { return grid.ClearanceM(node); },
+      [&](int node) { return cost[static_cast<std::size_t>(node)]; },
+      [&](int node) { return via_tight[static_cast<std::size_t>(node)] != 0; }, [&](int node) { return grid.NodeZ(node); },
+      [&](int node) {
+        const auto [tx, ty] = column_xy(grid.NodeColumn(node));
+        return VisibleUnknownOnLevels(grid, tx, ty, grid.NodeZ(node), options.gain_radius_m, ++gain_id, &gain_stamp,
+                                      peer_seen, options.peer_coverage_min_z_m, options.peer_coverage_max_z_m);
+      });
   std::vector<int> component;
   std::vector<int> stack;
   const int piece_cells = std::max(1, static_cast<int>(std::floor(options.max_cluster_extent_m / cell_m)));
@@ -692,31 +733,10 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
         stack.push_back(m);
       }
     }
-    const auto pieces = CutIntoPieces(component, [&](int node) { return column_xy(grid.NodeColumn(node)); }, piece_cells);
-    for (const auto& [key, cells] : pieces) {
-      if (static_cast<int>(cells.size()) < options.min_cells) continue;
-      FrontierCluster cluster;
-      cluster.cells = static_cast<int>(cells.size());
-      for (const int node : cells) cluster.centroid_M += node_center(node);
-      cluster.centroid_M /= cluster.cells;
-      const int target = ChooseTarget(
-          cells, cluster.centroid_M, grid.options().robot_radius_m, node_center,
-          [&](int node) { return grid.ClearanceM(node); }, [&](int node) { return cost[static_cast<std::size_t>(node)]; });
-      const auto [tx, ty] = column_xy(grid.NodeColumn(target));
-      cluster.gain_m2 = VisibleUnknownOnLevels(grid, tx, ty, grid.NodeZ(target), options.gain_radius_m, ++gain_id,
-                                               &gain_stamp, peer_seen,
-                                               options.peer_coverage_min_z_m, options.peer_coverage_max_z_m) *
-                        cell_m * cell_m;
-      if (cluster.gain_m2 < options.min_gain_m2) continue;
-      cluster.target_M = node_center(target);
-      cluster.target_ground_z_m = grid.NodeZ(target);
-      cluster.on_main_level = false;
-      cluster.travel_cost_m = cost[static_cast<std::size_t>(target)];
-      cluster.through_tight_gap = via_tight[static_cast<std::size_t>(target)] != 0;
-      cluster.utility = cluster.reachable() ? cluster.gain_m2 / (cluster.travel_cost_m + options.cost_offset_m) : 0.0;
-      result.clusters.push_back(cluster);
-    }
+    AppendClusters(CutIntoPieces(component, [&](int node) { return column_xy(grid.NodeColumn(node)); }, piece_cells),
+                   options, grid.options().robot_radius_m, cell_m * cell_m, view, &result.clusters);
   }
+  for (FrontierCluster& cluster : result.clusters) cluster.on_main_level = false;  // see FrontierCluster
   SortFrontierClusters(&result.clusters);
   return result;
 }

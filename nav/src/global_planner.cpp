@@ -193,11 +193,7 @@ std::shared_ptr<const MultiLevelGrid> GlobalPlanner::LevelsLocked(const std::str
 bool GlobalPlanner::NeedsLevels(const GlobalPlanRequest& request, const TraversabilityGrid& grid) const {
   if (std::isfinite(request.goal_z_m)) return true;
   if (!std::isfinite(request.start_z_m)) return false;
-  const auto ground = grid.GroundHeight(request.start_W.x(), request.start_W.y());
-  if (ground) return std::abs(*ground - request.start_z_m) > grid.options().max_step_m + 0.05;
-  // No main-level ground under the start (e.g. the floor right under a lidar is not seen yet): off the main
-  // level when the start is outside its ground band.
-  return request.start_z_m < grid.options().ground_search_min_z_m || request.start_z_m > grid.options().ground_search_max_z_m;
+  return !grid.OnLevel(request.start_W.x(), request.start_W.y(), request.start_z_m);
 }
 
 TraversabilityOptions GlobalPlanner::TerrainOptionsFor(const PlatformProfile& profile) const {

@@ -492,4 +492,11 @@ std::optional<double> TraversabilityGrid::GroundHeight(double x_m, double y_m) c
   return Ground(ix, iy);
 }
 
+bool TraversabilityGrid::OnLevel(double x_m, double y_m, double z_m) const {
+  if (const std::optional<double> ground = GroundHeight(x_m, y_m)) {
+    return std::abs(*ground - z_m) <= options_.max_step_m + 0.05;
+  }
+  return z_m >= options_.ground_search_min_z_m && z_m <= options_.ground_search_max_z_m;
+}
+
 }  // namespace cairn::nav

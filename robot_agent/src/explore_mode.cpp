@@ -266,20 +266,15 @@ void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput
   status_.has_target = true;
   status_.target_M = d.target.target_M;
   status_.target_z_m = d.target.target_ground_z_m;
-  // A target the main level holds, with the robot on that level too, is planned there (NaN: the start's level,
-  // robust to the holes a robot-built map shows around the robot). Any other names its surface: one only the
-  // map's levels hold (a flight of stairs, an upper floor, the pocket under a landing), and one on the main
-  // level while the robot stands on another floor (NaN would plan to the same x-y on the robot's floor).
-  const bool robot_on_target_level =
-      std::abs(pose_M.z_m - d.target.target_ground_z_m) <= explorer_.options().same_place_dz_m;
-  goal_z_m_ = d.target.on_main_level && robot_on_target_level ? std::numeric_limits<double>::quiet_NaN()
-                                                              : d.target.target_ground_z_m;
+  // A target the main level holds, with the robot on it too, is planned there (NaN: the start's level, robust to
+  // the holes a robot-built map shows around the robot). Any other names its surface: one only the map's levels
+  // hold (a flight of stairs, an upper floor, the pocket under a landing), and any while the robot stands on
+  // another floor (NaN would plan to the same x-y on the robot's floor).
+  goal_z_m_ = d.target.on_main_level ? std::numeric_limits<double>::quiet_NaN() : d.target.target_ground_z_m;
   // Reached only through a gap the map shows narrower than the footprint's inflation: planned (and driven)
   // with reduced clearance, as the waypoint recovery's last attempt would.
   navigation_->SetReducedClearance(d.target.through_tight_gap);
   target_through_tight_gap_ = d.target.through_tight_gap;
-  stall_anchor_M_ = {pose_M.x_m, pose_M.y_m};
-  stall_anchor_s_ = now_s;
   plan_ = navigation_->PlanGoalAsync(pose_M, d.target.target_M.x(), d.target.target_M.y(), goal_z_m_);
   spdlog::info("robot {}: exploration {} to the frontier at {} ({:.0f} m² unknown behind it, {:.1f} m away{}): {}",
                options_.robot_id, status_.task_id, Point(d.target.target_M), d.target.gain_m2,
@@ -305,7 +300,7 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
     plan_ = {};
     if (plan.IsUsable()) {
       navigation_->AcceptGoal(plan, status_.target_M.x(), status_.target_M.y(), options_.target_tolerance_m,
-                              in.now_s, goal_z_m_);
+                              in.now_s, goal_z_m_, target_through_tight_gap_ ? options_.tight_gap_stall_s : 0.0);
       driving_ = true;
     } else {
       EndTarget(false, "no path: " + plan.reason, in.now_s);
@@ -318,25 +313,18 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
       if (recovery_->active()) status_.reason = "recovering: " + recovery_->Report();
     } else {
       step = navigation_->StepWaypoint(in.pose_M, in.now_s);
-      if (step.failed && recovery_ && recovery_->enabled()) {
+      // A stall at a tight gap ends the target at once: the gap may be narrower than the robot.
+      const bool tight_gap_stall = step.failed && step.stalled && target_through_tight_gap_;
+      if (tight_gap_stall) step.reason = "at a tight gap, " + step.reason;
+      if (step.failed && !tight_gap_stall && recovery_ && recovery_->enabled()) {
         recovery_->Start(status_.target_M.x(), status_.target_M.y(), options_.target_tolerance_m, step.reason,
                          goal_z_m_);
         status_.reason = "recovering: " + recovery_->Report();
         step = NavigationStep{};  // brake this cycle; the recovery tree runs from the next
       }
     }
-    const Eigen::Vector2d p_M(in.pose_M.x_m, in.pose_M.y_m);
-    if ((p_M - stall_anchor_M_).norm() >= ExploreModeOptions::kTargetStallRadiusM) {
-      stall_anchor_M_ = p_M;
-      stall_anchor_s_ = in.now_s;
-    }
     if (step.arrived) {
       EndTarget(true, "", in.now_s);
-    } else if (target_through_tight_gap_ && in.now_s - stall_anchor_s_ > options_.tight_gap_stall_s) {
-      EndTarget(false,
-                "stalled at a tight gap: moved less than " + internal::Fixed(ExploreModeOptions::kTargetStallRadiusM, 1) +
-                    " m in " + internal::Fixed(options_.tight_gap_stall_s, 0) + " s",
-                in.now_s);
     } else if (step.failed) {
       EndTarget(false, step.reason, in.now_s);
     } else {

@@ -163,9 +163,12 @@ nav::FrontierSet NavMap::Frontiers(const Eigen::Vector3d& robot_M, nav::Frontier
   options.peer_coverage_min_z_m = grid_->options().ground_search_min_z_m;
   options.peer_coverage_max_z_m = grid_->options().ground_search_max_z_m;
   nav::FrontierSet set = nav::FindFrontiersMultiLevel(*levels_, robot_M, options, peers);
+  // A plan from a robot on another level (an upper floor) searches the map's levels whatever the target's.
+  const bool robot_on_main_level = grid_->OnLevel(robot_M.x(), robot_M.y(), robot_M.z());
   for (nav::FrontierCluster& c : set.clusters) {
     const std::optional<double> ground = grid_->GroundHeight(c.target_M.x(), c.target_M.y());
-    c.on_main_level = ground && std::abs(*ground - c.target_ground_z_m) <= grid_->options().max_step_m &&
+    c.on_main_level = robot_on_main_level && ground &&
+                      std::abs(*ground - c.target_ground_z_m) <= grid_->options().max_step_m &&
                       grid_->IsTraversableAt(c.target_M.x(), c.target_M.y());
   }
   AddStairFrontiers(robot_M, options, &set);

@@ -124,13 +124,14 @@ nav::GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, do
 }
 
 void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s,
-                            double z_m) {
+                            double z_m, double stall_timeout_s) {
   DropExtension();
   partial_stuck_since_s_ = -1.0;
   Goal goal;
   goal.p_W = {x_m, y_m};
   goal.z_m = z_m;
   goal.tolerance_m = tolerance_m > 0 ? tolerance_m : options_.goal_tolerance_m;
+  goal.stall_timeout_s = stall_timeout_s > 0 ? stall_timeout_s : options_.stall_timeout_s;
   goal.best_distance_m = plan.result.length_m;
   goal.best_time_s = now_s;
   goal_ = goal;
@@ -560,10 +561,13 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   if (!goal_->anchor_W.allFinite() || (p_W - goal_->anchor_W).norm() >= kStallRadiusM) {
     goal_->anchor_W = p_W;
     goal_->anchor_time_s = now_s;
-  } else if (now_s - goal_->anchor_time_s > options_.stall_timeout_s) {
-    return Fail("stalled: moved less than " + Fixed(kStallRadiusM, 1) + " m in " + Fixed(options_.stall_timeout_s, 0) +
-                " s (" + Fixed(distance_left_m_, 1) + " m left, " + std::to_string(replans_) + " plans" +
-                (local_status_ != "path" && !local_status_.empty() ? "; local planner " + local_status_ : "") + ")");
+  } else if (now_s - goal_->anchor_time_s > goal_->stall_timeout_s) {
+    NavigationStep stalled =
+        Fail("stalled: moved less than " + Fixed(kStallRadiusM, 1) + " m in " + Fixed(goal_->stall_timeout_s, 0) +
+             " s (" + Fixed(distance_left_m_, 1) + " m left, " + std::to_string(replans_) + " plans" +
+             (local_status_ != "path" && !local_status_.empty() ? "; local planner " + local_status_ : "") + ")");
+    stalled.stalled = true;
+    return stalled;
   }
   if (distance_left_m_ < goal_->best_distance_m - 0.05) {
     goal_->best_distance_m = distance_left_m_;

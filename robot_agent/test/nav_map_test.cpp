@@ -150,6 +150,26 @@ TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFlo
 // A wheeled robot driven along the building's corridor to the foot of the stairwell, which it then sees: a
 // goal on floor 2 is refused naming the step it cannot climb (the multi-process floors test asks the same of
 // the agent; here without DDS or timing).
+// A frontier the main level holds is on_main_level (a plan to it may read that level alone) only while the
+// robot is on that level too: from a robot a storey up at the same x-y, a plan with no goal level would search
+// the robot's floor, so none is.
+TEST(NavMapTest, FrontiersAreOnTheMainLevelOnlyForARobotOnIt) {
+  TunnelsRig rig;
+  rig.DriveEast(40);
+  const Eigen::Vector3d robot_M(8.0, 20.0, rig.start_M.z_m);
+  const nav::FrontierSet on_floor = rig.nav_map.Frontiers(robot_M, nav::FrontierOptions{}, true, nullptr);
+  ASSERT_FALSE(on_floor.clusters.empty());
+  EXPECT_TRUE(std::any_of(on_floor.clusters.begin(), on_floor.clusters.end(),
+                          [](const nav::FrontierCluster& c) { return c.on_main_level; }));
+  EXPECT_TRUE(rig.nav_map.grid().OnLevel(robot_M.x(), robot_M.y(), robot_M.z()));
+  const Eigen::Vector3d upstairs_M = robot_M + Eigen::Vector3d(0.0, 0.0, 3.0);
+  EXPECT_FALSE(rig.nav_map.grid().OnLevel(upstairs_M.x(), upstairs_M.y(), upstairs_M.z()));
+  const nav::FrontierSet upstairs = rig.nav_map.Frontiers(upstairs_M, nav::FrontierOptions{}, true, nullptr);
+  ASSERT_EQ(upstairs.clusters.size(), on_floor.clusters.size());
+  EXPECT_TRUE(std::none_of(upstairs.clusters.begin(), upstairs.clusters.end(),
+                           [](const nav::FrontierCluster& c) { return c.on_main_level; }));
+}
+
 TEST(NavMapTest, AWheeledRobotAtTheFootOfTheStairsIsRefusedTheFloorAboveNamingTheStep) {
   sim::SimulatedPlatformOptions sim_options;
   sim_options.world = "builtin:building";

@@ -504,8 +504,41 @@ TEST(NavigationTest, ARobotThatDoesNotMoveStallsWhateverItsPlansDo) {
     if (!step.failed) step = g.robot.navigation.StepWaypoint(g.robot.platform.state(), g.robot.t_s);
   }
   ASSERT_TRUE(step.failed);
+  EXPECT_TRUE(step.stalled);
   EXPECT_EQ(step.reason.rfind("stalled: moved less than 0.5 m in 20 s", 0), 0u) << step.reason;
   EXPECT_NEAR(g.robot.t_s, 20.0, 0.5);
+}
+
+// A goal given its own stall timeout (exploration's target through a tight gap) stalls after that, not the
+// options' one; the next goal without one has the options' again.
+TEST(NavigationTest, AGoalsOwnStallTimeoutReplacesTheOptions) {
+  GhostRobot g(/*blocked_timeout_s=*/600.0, /*stall_timeout_s=*/20.0);
+  Navigation& navigation = g.robot.navigation;
+  const auto run_until_failed = [&g, &navigation] {
+    const double start_s = g.robot.t_s;
+    NavigationStep step;
+    while (g.robot.t_s - start_s < 60.0 && !step.failed && !step.arrived) {
+      step = g.robot.Tick([&] { return NavigationStep{}; });  // a body that never moves
+      if (!step.failed) step = navigation.StepWaypoint(g.robot.platform.state(), g.robot.t_s);
+    }
+    return std::make_pair(step, g.robot.t_s - start_s);
+  };
+  const nav::GlobalPlan plan =
+      g.robot.planner->Plan(navigation.GoalRequest(g.robot.platform.state(), g.goal.x(), g.goal.y()));
+  ASSERT_TRUE(plan.IsUsable()) << plan.reason;
+  navigation.AcceptGoal(plan, g.goal.x(), g.goal.y(), 0.0, g.robot.t_s, std::numeric_limits<double>::quiet_NaN(),
+                        /*stall_timeout_s=*/8.0);
+  auto [step, took_s] = run_until_failed();
+  ASSERT_TRUE(step.failed);
+  EXPECT_TRUE(step.stalled);
+  EXPECT_EQ(step.reason.rfind("stalled: moved less than 0.5 m in 8 s", 0), 0u) << step.reason;
+  EXPECT_NEAR(took_s, 8.0, 0.5);
+
+  navigation.AcceptGoal(plan, g.goal.x(), g.goal.y(), 0.0, g.robot.t_s);
+  std::tie(step, took_s) = run_until_failed();
+  ASSERT_TRUE(step.failed);
+  EXPECT_TRUE(step.stalled);
+  EXPECT_NEAR(took_s, 20.0, 0.5);
 }
 
 }  // namespace

@@ -185,6 +185,12 @@ class TraversabilityGrid : public core::FootprintChecker {
   /// Ground height (metres, frame W) of the cell containing (x_m, y_m), or nullopt if outside the grid or
   /// the cell has no ground.
   std::optional<double> GroundHeight(double x_m, double y_m) const override;
+  /// True if the point (x_m, y_m, z_m) (metres, frame W; z the height a robot there stands at) is on this
+  /// grid's level: within max_step_m + 0.05 m of the ground of its cell, or, where the cell has no ground (the
+  /// floor right under a lidar is not seen yet), z_m inside [ground_search_min_z_m, ground_search_max_z_m].
+  /// False for a robot on an upper floor or the pocket under a landing. A planner searches this grid alone
+  /// from a start on its level (GlobalPlanner).
+  bool OnLevel(double x_m, double y_m, double z_m) const;
 
   /// Re-analyses the cells whose columns intersect `region_W` (x-y box, metres, frame of the grid) from
   /// `world`, which must have the geometry (origin, resolution, dims) of the grid this was built from, and

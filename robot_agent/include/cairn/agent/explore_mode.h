@@ -97,13 +97,12 @@ struct ExploreModeOptions {
   /// No usable frontier set (no map around the robot) this long after the start -> exploration fails,
   /// seconds, (0, 600].
   double map_wait_s = 15.0;
-  /// A target reached only through a tight gap (nav::FrontierCluster::through_tight_gap) is given up when the
-  /// robot moves less than kTargetStallRadiusM in this long, seconds, (0, 600]: such a gap may be narrower
-  /// than the robot (the map's cells cannot tell), and the robot has other frontiers to go for meanwhile
-  /// (navigation's own stall_timeout_s, 60 s by default, cost 3 min of a 15 min run on geb079).
+  /// A target reached only through a tight gap (nav::FrontierCluster::through_tight_gap) is given up, with no
+  /// recovery, when the robot moves less than 0.5 m in this long (its goal's stall timeout, see
+  /// Navigation::AcceptGoal()), seconds, (0, 600]: such a gap may be narrower than the robot (the map's cells
+  /// cannot tell), and the robot has other frontiers to go for meanwhile (navigation's own stall_timeout_s,
+  /// 60 s by default, cost 3 min of a 15 min run on geb079).
   double tight_gap_stall_s = 20.0;
-  /// The distance a robot must move for tight_gap_stall_s to start again, metres (Nav2's progress checker).
-  static constexpr double kTargetStallRadiusM = 0.5;
   uint32_t first_task_id = 1;  ///< id of the first task (drawn at random by the agent), >= 1
   /// Which levels of the robot's map hold frontiers (config `explore.levels`: auto, main, all).
   enum class Levels {
@@ -208,8 +207,6 @@ class ExploreMode : public ModeModule {
   std::future<nav::GlobalPlan> plan_;
   bool driving_ = false;  // navigation (or the recovery) holds the target as its goal
   bool target_through_tight_gap_ = false;  // the current target's FrontierCluster::through_tight_gap
-  Eigen::Vector2d stall_anchor_M_ = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
-  double stall_anchor_s_ = 0.0;  // when the robot was last kTargetStallRadiusM from stall_anchor_M_
   ContactTimer contact_;  // the task's contact with occupied space
 };
 

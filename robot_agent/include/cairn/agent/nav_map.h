@@ -131,7 +131,8 @@ class NavMap {
   /// The frontiers of the map seen from the robot at `robot_M` (x, y, and the height of the ground under it;
   /// metres, map frame): nav::FindFrontiersMultiLevel on levels() when `every_level`, else nav::FindFrontiers
   /// on the main level (grid()); a target of the former is on_main_level where grid() has traversable ground
-  /// within a step of its height. `peers` (may be null): what peers have seen, their main levels' ground, so it
+  /// within a step of its height and the robot is on grid()'s level (TraversabilityGrid::OnLevel()), so that a
+  /// plan to it may read the main level alone. `peers` (may be null): what peers have seen, their main levels' ground, so it
   /// counts only within this map's ground band (FrontierOptions::peer_coverage_min_z_m). Same thread as
   /// Update(). @throws std::invalid_argument for invalid `options`.
   nav::FrontierSet Frontiers(const Eigen::Vector3d& robot_M, nav::FrontierOptions options, bool every_level,

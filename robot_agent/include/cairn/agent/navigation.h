@@ -80,6 +80,7 @@ struct NavigationStep {
   double angular_z_radps = 0.0;
   bool arrived = false;        ///< The goal was reached this step (the goal is cleared).
   bool failed = false;         ///< The goal failed this step (the goal is cleared); see reason.
+  bool stalled = false;        ///< With failed: the robot moved less than 0.5 m in the goal's stall timeout.
   std::string reason;          ///< Why it failed.
 };
 
@@ -115,9 +116,10 @@ class Navigation {
   nav::GlobalPlanRequest GoalRequest(const core::BaseState& state, double x_m, double y_m,
                                      double z_m = std::numeric_limits<double>::quiet_NaN()) const;
   /// Makes a goal planned elsewhere (request from GoalRequest()) active, replacing any other. `plan` must be
-  /// usable.
+  /// usable. `stall_timeout_s`: this goal's stall timeout (the robot moves less than 0.5 m for this long ->
+  /// the step fails with `stalled`), seconds; 0 = options.stall_timeout_s.
   void AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s,
-                  double z_m = std::numeric_limits<double>::quiet_NaN());
+                  double z_m = std::numeric_limits<double>::quiet_NaN(), double stall_timeout_s = 0.0);
   /// Plans the goal (x_m, y_m, z_m) from `state` on a worker thread, with the request GoalRequest() makes
   /// now (the current clearance setting included), so that the control loop never waits for a search (one
   /// over the map's levels takes up to ~1 s). The caller polls the future and hands a usable plan to
@@ -204,6 +206,7 @@ class Navigation {
     double tolerance_m = 0.2;
     double best_distance_m = 0.0;
     double best_time_s = 0.0;
+    double stall_timeout_s = 60.0;  // see AcceptGoal()
     // Where the robot last was 0.5 m away from (stall_timeout_s), NaN until its first step, and since when.
     Eigen::Vector2d anchor_W = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
     double anchor_time_s = 0.0;
