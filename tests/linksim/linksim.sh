@@ -18,8 +18,9 @@
 #   linksim_hub_bytes PREFIX                            bytes the hub has delivered to every host so far
 #   linksim_host_queue PREFIX NAME                      "BYTES DROPPED": bytes the hub has delivered to NAME
 #                                                       and packets its queue towards NAME dropped, so far
+#   linksim_own_queue PREFIX NAME                       "BYTES DROPPED" of NAME's own queue (its sends), so far
 #   linksim_down PREFIX                                 remove the hub and every host of PREFIX
-# Or from a shell: tests/linksim/linksim.sh up|add-host|set-loss|exec|hub-bytes|host-queue|down ARGS (same arguments).
+# Or from a shell: tests/linksim/linksim.sh up|add-host|set-loss|exec|hub-bytes|host-queue|own-queue|down ARGS (same arguments).
 
 linksim_fail() { echo "linksim: $*" >&2; return 1; }
 
@@ -84,9 +85,21 @@ linksim_hub_bytes() {
   echo "$total"
 }
 
+# "BYTES DROPPED" of the queue (qdisc) on DEV in namespace NS, from `tc -s qdisc show`'s
+# "Sent B bytes P pkt (dropped D, overlimits O requeues R)".
+linksim_queue_counts() {
+  ip netns exec "$1" tc -s qdisc show dev "$2" |
+    awk '/Sent/ {for (i = 1; i < NF; ++i) if ($i == "(dropped") d = $(i + 1); gsub(",", "", d); print $2, d; exit}'
+}
+
 linksim_host_queue() {
   local prefix="$1" name="$2"
-  ip netns exec "${prefix}hub" tc -s qdisc show dev "p-$name" | awk '/Sent/ {gsub(",", ""); print $2, $8; exit}'
+  linksim_queue_counts "${prefix}hub" "p-$name"
+}
+
+linksim_own_queue() {
+  local prefix="$1" name="$2"
+  linksim_queue_counts "${prefix}${name}" radio0
 }
 
 linksim_down() {
@@ -113,6 +126,7 @@ if [ "${BASH_SOURCE[0]}" = "$0" ]; then
     down) linksim_down "$@" ;;
     hub-bytes) linksim_hub_bytes "$@" ;;
     host-queue) linksim_host_queue "$@" ;;
-    *) echo "usage: linksim.sh up|add-host|set-loss|exec|hub-bytes|host-queue|down ARGS (see the comment at the top)" >&2; exit 2 ;;
+    own-queue) linksim_own_queue "$@" ;;
+    *) echo "usage: linksim.sh up|add-host|set-loss|exec|hub-bytes|host-queue|own-queue|down ARGS (see the comment at the top)" >&2; exit 2 ;;
   esac
 fi
