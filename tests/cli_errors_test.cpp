@@ -56,6 +56,13 @@ void ExpectRefused(const Outcome& o, const std::string& needle) {
 TEST(AgentCli, RefusesBadFlagsNamingTheValue) {
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", "300"}), "--domain 300 is out of range");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", "x1"}), "--domain 'x1' is not an integer");
+  // Issue 15: ' 150' was taken while '150 ' was refused; a missing --map-save folder was found at exit (exit 0).
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", " 150"}), "--domain ' 150' is not an integer");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", "150 "}), "--domain '150 ' is not an integer");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--map-save", "/nonexistent/dir/map.bt"}),
+                "--map-save '/nonexistent/dir/map.bt': its folder '/nonexistent/dir' does not exist");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--map-save", ::testing::TempDir()}),
+                "is a directory, not a file");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--start", "1,nan"}), "'nan' is not a finite number");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--platform", "hover"}), "platform 'hover' is not supported");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r 1"}), "robot id 'r 1'");
@@ -72,6 +79,11 @@ TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
   const std::string config = WriteFile("bad.yaml", "mux:\n  teleop_timeout_s: fast\n");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--config", config}),
                 "mux.teleop_timeout_s = 'fast' is not a number");
+  // Issue 15: a key written twice was accepted (the first one read, the second silently ignored).
+  const std::string twice = WriteFile("twice.yaml", "mux:\n  teleop_timeout_s: 0.5\nexplore:\n  settle_s: 1\n"
+                                                    "mux:\n  teleop_timeout_s: 2\n");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--config", twice}),
+                "twice.yaml: mux appears twice (line 5): remove one");
   const std::string tree = WriteFile("tree.xml", "<root BTCPP_format=\"4\"><BehaviorTree ID=\"T\"><Nope/>"
                                                  "</BehaviorTree></root>");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--mode-tree", tree}), "Nope");
@@ -97,6 +109,9 @@ TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
 TEST(BaseCli, RefusesBadFlagsAndCommands) {
   ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "233", "--", "robots"}), "--domain 233 is out of range");
   ExpectRefused(RunProcess({kBase, "--base-id", "op A", "--domain", "72", "--", "robots"}), "--base-id 'op A'");
+  // Issue 15: a folder as --script ran nothing and exited 0.
+  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--script", ::testing::TempDir()}),
+                "is a folder, not a file");
   Outcome o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--", "goto", "r1", "1", "inf"});
   EXPECT_EQ(o.exit_code, 2);
   EXPECT_NE(o.stdout_text.find("Y 'inf' is not a finite number"), std::string::npos) << o.stdout_text;

@@ -238,18 +238,26 @@ TEST(CommandIdentity, RestartedBasestationsGotoAndStopTakeEffect) {
   Figure("restarted_stop_to_rest_s", rest_s);
 }
 
+// A generated type whose writer takes samples up to 256 kB: fastddsgen sizes an unbounded string at 255
+// characters, so a writer of the shipped type cannot send the oversized ids a rogue peer's own build can.
+template <class PubSubT>
+class Oversize : public PubSubT {
+ public:
+  Oversize() { this->m_typeSize = 256 * 1024; }
+};
+
 // Raw DDS commands from this test process (one participant = one "basestation process").
 class RawBasestation {
  public:
   RawBasestation(int domain, const std::string& base_id) : base_id_(base_id) {
     core::ParticipantOptions options;
     options.domain_id = domain;
-    options.name = "test-raw-" + base_id;
+    options.name = "test-raw-" + base_id.substr(0, 64);  // a participant name goes into every announcement
     participant_ = std::make_unique<core::Participant>(options);
     id_ = participant_->participant_id();
     info_ = std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/base_info",
                                                                       "cairn.latched");
-    control_ = std::make_unique<core::Writer<msgs::ControlRequestPubSubType>>(
+    control_ = std::make_unique<core::Writer<Oversize<msgs::ControlRequestPubSubType>>>(
         *participant_, "cairn/control_request", "cairn.command");
     goals_ = std::make_unique<core::Writer<msgs::WaypointGoalPubSubType>>(
         *participant_, "cairn/waypoint_goal", "cairn.command");
@@ -260,7 +268,9 @@ class RawBasestation {
           received_.push_back(m);
         });
     msgs::AgentInfo info;
-    info.agent_id(base_id);
+    // Announced with at most 64 characters: agent_id is AgentInfo's key, which Fast DDS hashes through a buffer
+    // sized for 255 (a longer one throws in the writer).
+    info.agent_id(base_id.substr(0, 64));
     info.kind(msgs::AGENT_KIND_BASESTATION);
     info.platform("basestation");
     info.stamp(cairn::msgs::WallStampNow());
@@ -270,12 +280,13 @@ class RawBasestation {
     EXPECT_TRUE(responses_->WaitForMatched(1, 10s));
   }
   const std::string& participant_id() const { return id_; }
-  void RequestControl(const std::string& robot, uint32_t request_id) {
+  void RequestControl(const std::string& robot, uint32_t request_id,
+                      msgs::ControlAction action = msgs::CONTROL_ACTION_REQUEST) {
     msgs::ControlRequest m;
     m.robot_id(robot);
     m.base_id(base_id_);
     m.request_id(request_id);
-    m.action(msgs::CONTROL_ACTION_REQUEST);
+    m.action(action);
     control_->Write(m);
   }
   void SendGoal(const std::string& robot, uint32_t request_id, const Eigen::Vector2d& goal) {
@@ -316,7 +327,7 @@ class RawBasestation {
   std::string id_;
   std::unique_ptr<core::Participant> participant_;
   std::unique_ptr<core::Writer<msgs::AgentInfoPubSubType>> info_;
-  std::unique_ptr<core::Writer<msgs::ControlRequestPubSubType>> control_;
+  std::unique_ptr<core::Writer<Oversize<msgs::ControlRequestPubSubType>>> control_;
   std::unique_ptr<core::Writer<msgs::WaypointGoalPubSubType>> goals_;
   std::mutex mutex_;  // before responses_: outlives the reader's callbacks
   std::vector<msgs::CommandResponse> received_;
@@ -378,6 +389,53 @@ TEST(CommandIdentity, AGenuineRetryIsAnsweredFromTheCacheAndAppliedOnce) {
     return n;
   };
   EXPECT_EQ(count("waypoint " + std::to_string(goal_id) + " to"), 1u) << text;
+}
+
+// Issue 15, found with a rogue peer: a ControlRequest with a 100 kB base id got the lock (and the id then rode
+// in every state message), and an unknown action (99) was taken as REQUEST. Now the first is dropped (one
+// warning, not one per message) and the second refused, naming the action; the lock stays free.
+TEST(CommandIdentity, ARoguePeersOversizedIdAndUnknownActionAreRefused) {
+  const int domain = 75;
+  const std::string logs = Logs("rogue");
+  Observer observer(domain);
+  auto agent = StartAgent("r1", domain, logs);
+  observer.FreshState("r1");
+  {
+    RawBasestation rogue(domain, std::string(100000, 'x'));
+    for (uint32_t request = 1; request <= 20; ++request) {
+      rogue.RequestControl("r1", request);
+      std::this_thread::sleep_for(100ms);
+    }
+    EXPECT_TRUE(rogue.RepliesTo(msgs::COMMAND_KIND_CONTROL_REQUEST, 1, 1, 500ms).empty());
+    EXPECT_EQ(observer.FreshState("r1").holder_id(), "") << "a 100 kB base id holds the lock";
+  }
+  RawBasestation odd(domain, "opR");
+  std::vector<msgs::CommandResponse> replies;
+  for (int attempt = 0; attempt < 20 && replies.empty(); ++attempt) {  // resent until its reader matched
+    odd.RequestControl("r1", 1, static_cast<msgs::ControlAction>(99));
+    replies = odd.RepliesTo(msgs::COMMAND_KIND_CONTROL_REQUEST, 1, 1, 250ms);
+  }
+  ASSERT_EQ(replies.size(), 1u);
+  EXPECT_EQ(replies[0].result(), msgs::COMMAND_RESULT_DENIED);
+  EXPECT_NE(replies[0].reason().find("action 99 is neither REQUEST (0) nor RELEASE (1)"), std::string::npos)
+      << replies[0].reason();
+  EXPECT_EQ(observer.FreshState("r1").holder_id(), "");
+  odd.RequestControl("r1", 2);  // the same peer asking properly is served
+  const auto granted = odd.RepliesTo(msgs::COMMAND_KIND_CONTROL_REQUEST, 2, 1);
+  ASSERT_EQ(granted.size(), 1u);
+  EXPECT_EQ(granted[0].result(), msgs::COMMAND_RESULT_ACCEPTED) << granted[0].reason();
+
+  agent.reset();
+  std::ifstream log(logs + "/r1.log");
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  std::size_t warnings = 0;
+  for (auto at = text.find("cairn/control_request dropped"); at != std::string::npos;
+       at = text.find("cairn/control_request dropped", at + 1)) {
+    ++warnings;
+  }
+  EXPECT_EQ(warnings, 1u) << "20 messages in 2 s: one warning (at most one per 5 s)";
+  EXPECT_NE(text.find("base id '" + std::string(64, 'x') + "...' (100000 characters) must be 1-64 characters"),
+            std::string::npos);
 }
 
 // Issue 9, defect 2: a one-shot process with the holder's id that starts and exits used to make the robot

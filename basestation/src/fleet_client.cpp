@@ -4,7 +4,6 @@
 #include <atomic>
 #include <cmath>
 #include <deque>
-#include <regex>
 #include <set>
 #include <thread>
 
@@ -13,6 +12,7 @@
 #include "cairn/base/operator_text.h"
 
 #include "cairn/core/dds.h"
+#include "cairn/core/peer_input.h"
 #include "cairn/msgs/robot_state.h"
 #include "cairn/msgs/stamp.h"
 #include "cairn_msgsPubSubTypes.h"
@@ -34,9 +34,8 @@ std::string ResponseKey(const std::string& robot_id, msgs::CommandKind kind, uin
 class FleetClient::Impl {
  public:
   explicit Impl(const FleetClientOptions& options) : options_(options) {
-    static const std::regex kIdPattern("[A-Za-z0-9_-]{1,64}");
-    if (!std::regex_match(options.base_id, kIdPattern)) {
-      throw std::invalid_argument("--base-id '" + options.base_id + "' must be 1-64 characters of A-Z a-z 0-9 _ -");
+    if (const std::string fault = core::CheckId("--base-id", options.base_id); !fault.empty()) {
+      throw std::invalid_argument(fault);
     }
     std::string why;
     if (!options.events.IsValid(&why)) throw std::invalid_argument("events: " + why);

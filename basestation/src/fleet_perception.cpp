@@ -1,6 +1,7 @@
 #include "cairn/base/fleet_perception.h"
 
 #include <cmath>
+#include <sstream>
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
@@ -12,6 +13,7 @@
 #include <spdlog/spdlog.h>
 
 #include "cairn/core/dds.h"
+#include "cairn/core/peer_input.h"
 #include "cairn/msgs/stamp.h"
 #include "cairn_msgsPubSubTypes.h"
 
@@ -25,22 +27,30 @@ namespace {
 constexpr double kSyncRequestPeriodS = 1.0;  // at most one snapshot request per robot per second
 constexpr std::size_t kMaxStaircaseInstances = 4096;  // (robot, staircase) pairs kept from peers
 
-// A robot's detection, checked: false (and a reason) if a field is not finite or out of its physical range.
+// Farthest a map coordinate from a robot may be from the map's origin, metres: beyond any site (a staircase at
+// x = 1e300 was announced to every operator).
+constexpr double kMaxMapCoordinateM = 1e5;
+
+// A robot's detection, checked: false and the fault (the field and its value, the rule) if a field is not
+// finite or out of its physical range.
 bool ToStaircase(const msgs::StaircaseDetection& m, perception::Staircase* s, std::string* why) {
-  const double values[] = {m.p_M_first_step().x_m(), m.p_M_first_step().y_m(), m.p_M_first_step().z_m(),
-                           m.yaw_rad(), m.rise_m(), m.run_m(), m.width_m(), m.confidence()};
-  for (double v : values) {
-    if (!std::isfinite(v)) {
-      *why = "a field is not finite";
-      return false;
-    }
-  }
-  if (m.rise_m() <= 0 || m.rise_m() > 1 || m.run_m() <= 0 || m.run_m() > 2 || m.width_m() <= 0 ||
-      m.width_m() > 20 || m.num_steps() < 1 || m.num_steps() > 500 || m.confidence() < 0 || m.confidence() > 1) {
-    *why = "rise, run, width, steps or confidence out of range";
+  const auto in_range = [why](const char* field, double value, double lo, double hi, bool lo_open) {
+    if (std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi) return true;
+    std::ostringstream out;
+    out << field << " = " << value << " is not in " << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
+    *why = out.str();
+    return false;
+  };
+  const auto& p = m.p_M_first_step();
+  if (!in_range("p_M_first_step.x_m", p.x_m(), -kMaxMapCoordinateM, kMaxMapCoordinateM, false) ||
+      !in_range("p_M_first_step.y_m", p.y_m(), -kMaxMapCoordinateM, kMaxMapCoordinateM, false) ||
+      !in_range("p_M_first_step.z_m", p.z_m(), -kMaxMapCoordinateM, kMaxMapCoordinateM, false) ||
+      !in_range("yaw_rad", m.yaw_rad(), -10.0, 10.0, false) || !in_range("rise_m", m.rise_m(), 0.0, 1.0, true) ||
+      !in_range("run_m", m.run_m(), 0.0, 2.0, true) || !in_range("width_m", m.width_m(), 0.0, 20.0, true) ||
+      !in_range("num_steps", m.num_steps(), 1, 500, false) || !in_range("confidence", m.confidence(), 0.0, 1.0, false)) {
     return false;
   }
-  s->p_W_first_step = {m.p_M_first_step().x_m(), m.p_M_first_step().y_m(), m.p_M_first_step().z_m()};
+  s->p_W_first_step = {p.x_m(), p.y_m(), p.z_m()};
   s->yaw_rad = m.yaw_rad();
   s->rise_m = m.rise_m();
   s->run_m = m.run_m();
@@ -182,8 +192,13 @@ class FleetPerception::Impl {
   void OnStaircase(const msgs::StaircaseDetection& m) {
     perception::Staircase staircase;
     std::string why;
-    if (!ToStaircase(m, &staircase, &why)) {
-      spdlog::warn("staircase {} from {} dropped: {}", m.staircase_id(), m.robot_id(), why);
+    if (why = core::CheckId("robot id", m.robot_id()); why.empty()) ToStaircase(m, &staircase, &why);
+    if (!why.empty()) {
+      std::uint64_t suppressed = 0;
+      if (warnings_.Allow("staircase", core::SteadyClock::now(), &suppressed)) {
+        spdlog::warn("staircase {} from {} dropped: {}{}", m.staircase_id(), m.robot_id().substr(0, core::kMaxIdLength),
+                     why, suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+      }
       return;
     }
     std::lock_guard<std::mutex> lock(mutex_);
@@ -217,6 +232,7 @@ class FleetPerception::Impl {
   std::map<std::string, core::SteadyTime> last_sync_request_;
   std::map<std::string, CameraView> frames_;
   std::map<std::pair<std::string, uint32_t>, perception::Staircase> latest_;
+  core::WarningLimiter warnings_;  // bad staircase messages from peers
   std::unique_ptr<perception::StaircaseRegistry> fleet_ = std::make_unique<perception::StaircaseRegistry>();
   perception::StaircaseRegistry notified_;
   std::deque<FleetEvent> events_;

@@ -301,6 +301,8 @@ int main(int argc, char** argv) {
     options.events.proximity_clear_m = std::max(options.events.proximity_clear_m, options.events.proximity_m + 1.0);
     std::ifstream script_file;
     if (!script.empty()) {
+      // A folder opens as a stream that reads nothing: it ran no command and exited 0.
+      if (std::filesystem::is_directory(script)) throw std::invalid_argument("--script '" + script + "' is a folder, not a file");
       script_file.open(script);
       if (!script_file) throw std::invalid_argument("--script '" + script + "' cannot be read");
     }

@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
+#include <set>
 
+#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 namespace cairn::core {
@@ -24,6 +27,29 @@ ConfigSection::~ConfigSection() = default;
 
 namespace {
 
+// yaml-cpp keeps both entries of a key written twice in one mapping (its lookup then reads the first): a second
+// `lock_keep_s` further down a file would be ignored silently. Throws ConfigError naming the key, its mapping
+// and the line of its second appearance.
+void RejectDuplicateKeys(const YAML::Node& node, const std::string& origin, const std::string& path) {
+  if (node.IsSequence()) {
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      RejectDuplicateKeys(node[i], origin, path + "[" + std::to_string(i) + "]");
+    }
+    return;
+  }
+  if (!node.IsMap()) return;
+  std::set<std::string> seen;
+  for (auto it = node.begin(); it != node.end(); ++it) {
+    const std::string key = it->first.IsScalar() ? it->first.Scalar() : "(a non-scalar key)";
+    const std::string where = path.empty() ? key : path + "." + key;
+    if (!seen.insert(key).second) {
+      throw ConfigError(origin + ": " + where + " appears twice (line " + std::to_string(it->first.Mark().line + 1) +
+                        "): remove one");
+    }
+    RejectDuplicateKeys(it->second, origin, where);
+  }
+}
+
 ConfigSection::Impl Parse(const std::string& text, const std::string& origin) {
   ConfigSection::Impl impl;
   impl.origin = origin;
@@ -34,6 +60,7 @@ ConfigSection::Impl Parse(const std::string& text, const std::string& origin) {
   }
   if (impl.node.IsNull()) impl.node = YAML::Node(YAML::NodeType::Map);
   if (!impl.node.IsMap()) throw ConfigError(origin + ": the top level must be a mapping of key: value");
+  RejectDuplicateKeys(impl.node, origin, "");
   return impl;
 }
 
@@ -124,6 +151,21 @@ void ConfigSection::RejectUnknownKeys(const std::vector<std::string>& known) con
       throw ConfigError(Where(key) + " is not a known setting (known: " + list + ")");
     }
   }
+}
+
+std::string CheckOutputFile(const std::string& field, const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path file(path);
+  if (path.empty()) return field + " '' names no file";
+  if (fs::is_directory(file, ec)) return field + " '" + path + "' is a directory, not a file";
+  const fs::path folder = file.has_parent_path() ? file.parent_path() : fs::path(".");
+  if (!fs::is_directory(folder, ec)) return field + " '" + path + "': its folder '" + folder.string() + "' does not exist";
+  if (::access(folder.c_str(), W_OK | X_OK) != 0) {
+    return field + " '" + path + "': its folder '" + folder.string() + "' is not writable";
+  }
+  if (fs::exists(file, ec) && ::access(file.c_str(), W_OK) != 0) return field + " '" + path + "' is not writable";
+  return "";
 }
 
 }  // namespace cairn::core

@@ -1,6 +1,7 @@
 #include "cairn/core/dds.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -38,6 +39,8 @@ int ParseDomainId(const std::string& text, const std::string& field) {
   } catch (const std::exception&) {
     used = 0;
   }
+  // stol skips leading white space (' 150' was taken while '150 ' was refused): neither is an integer.
+  if (!text.empty() && std::isspace(static_cast<unsigned char>(text.front()))) used = 0;
   if (used == 0 || used != text.size()) {
     throw std::invalid_argument(field + " '" + text + "' is not an integer (valid DDS domain ids: 0..232)");
   }

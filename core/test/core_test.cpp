@@ -12,6 +12,7 @@
 #include "cairn/core/component.h"
 #include "cairn/core/config.h"
 #include "cairn/core/dds.h"
+#include "cairn/core/peer_input.h"
 #include "cairn/core/voxel_grid.h"
 #include "cairn_msgsPubSubTypes.h"
 
@@ -62,6 +63,30 @@ TEST(VoxelGrid, HighestOccupiedInColumnMatchesAVoxelByVoxelScan) {
   EXPECT_EQ(grid.HighestOccupiedInColumn(-1, 0, 7), -1) << "outside the grid";
 }
 
+TEST(PeerInput, IdsAreCheckedAsTheClisTakeThemAndLongOnesAreShownCut) {
+  EXPECT_EQ(core::CheckId("base id", "opA_2-x"), "");
+  EXPECT_EQ(core::CheckId("base id", std::string(64, 'a')), "");
+  EXPECT_EQ(core::CheckId("base id", ""), "base id '' must be 1-64 characters of A-Z a-z 0-9 _ -");
+  EXPECT_EQ(core::CheckId("robot id", "r 1"), "robot id 'r 1' must be 1-64 characters of A-Z a-z 0-9 _ -");
+  EXPECT_EQ(core::CheckId("robot id", "r\x1b[2J"), "robot id 'r?[2J' must be 1-64 characters of A-Z a-z 0-9 _ -");
+  EXPECT_EQ(core::CheckId("base id", std::string(100000, 'x')),
+            "base id '" + std::string(64, 'x') + "...' (100000 characters) must be 1-64 characters of A-Z a-z 0-9 _ -");
+}
+
+TEST(PeerInput, AWarningLimiterAllowsOnePerKeyPerPeriodAndCountsTheRest) {
+  core::WarningLimiter limiter(5.0);
+  const core::SteadyTime t0 = core::SteadyClock::now();
+  std::uint64_t suppressed = 99;
+  EXPECT_TRUE(limiter.Allow("a", t0, &suppressed));
+  EXPECT_EQ(suppressed, 0u);
+  for (int i = 1; i <= 20; ++i) EXPECT_FALSE(limiter.Allow("a", t0 + std::chrono::milliseconds(50 * i)));
+  EXPECT_TRUE(limiter.Allow("b", t0 + std::chrono::seconds(1)));  // keys are independent
+  EXPECT_TRUE(limiter.Allow("a", t0 + std::chrono::seconds(5), &suppressed));
+  EXPECT_EQ(suppressed, 20u);
+  EXPECT_FALSE(limiter.Allow("a", t0 + std::chrono::seconds(6)));
+  EXPECT_THROW(core::WarningLimiter(0.0), std::invalid_argument);
+}
+
 TEST(DomainId, AcceptsRangeAndNamesBadValues) {
   EXPECT_EQ(ParseDomainId("0"), 0);
   EXPECT_EQ(ParseDomainId("232"), 232);
@@ -78,6 +103,27 @@ TEST(DomainId, AcceptsRangeAndNamesBadValues) {
   ParticipantOptions options;
   options.domain_id = 300;
   EXPECT_THROW(Participant{options}, std::invalid_argument);
+}
+
+// Issue 15: a key written twice was read once and the other silently ignored.
+TEST(Config, AKeyWrittenTwiceInOneMappingIsRefusedNamingItAndItsLine) {
+  try {
+    ConfigSection::LoadText("agent:\n  lock_keep_s: 5\n  name: r1\n  lock_keep_s: 9\n", "t.yaml");
+    FAIL() << "a duplicate key was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_STREQ(e.what(), "t.yaml: agent.lock_keep_s appears twice (line 4): remove one");
+  }
+  EXPECT_NO_THROW(ConfigSection::LoadText("a:\n  x: 1\nb:\n  x: 2\nc: [{x: 1}, {x: 2}]\n", "t.yaml"));
+  EXPECT_THROW(ConfigSection::LoadText("c: [{x: 1, x: 2}]\n", "t.yaml"), ConfigError);
+}
+
+TEST(Config, AnOutputFileIsCheckedBeforeAnythingIsWritten) {
+  EXPECT_EQ(CheckOutputFile("--map-save", ::testing::TempDir() + "/map.bt"), "");
+  EXPECT_EQ(CheckOutputFile("--map-save", "map.bt"), "");  // the working folder
+  EXPECT_EQ(CheckOutputFile("--map-save", "/nonexistent/map.bt"),
+            "--map-save '/nonexistent/map.bt': its folder '/nonexistent' does not exist");
+  EXPECT_EQ(CheckOutputFile("--map-save", "/"), "--map-save '/' is a directory, not a file");
+  EXPECT_EQ(CheckOutputFile("--map-save", ""), "--map-save '' names no file");
 }
 
 TEST(Config, ReadsValuesAndNamesFieldValueAndRule) {

@@ -7,7 +7,10 @@
 #include <mutex>
 #include <stdexcept>
 
+#include <spdlog/spdlog.h>
+
 #include "cairn/core/dds.h"
+#include "cairn/core/peer_input.h"
 #include "cairn_msgsPubSubTypes.h"
 
 namespace cairn::agent {
@@ -161,7 +164,7 @@ class AgentDds::Impl {
         std::make_unique<core::Writer<msgs::ExploreClaimPubSubType>>(p, "cairn/explore_claim", "cairn.latched");
     claim_reader_ = std::make_unique<core::Reader<msgs::ExploreClaimPubSubType>>(
         p, "cairn/explore_claim", "cairn.latched", [this, robot](const msgs::ExploreClaim& m, const SampleInfo&) {
-          if (m.robot_id() == robot) return;
+          if (m.robot_id() == robot || !ValidPeerId("cairn/explore_claim", "robot id", m.robot_id())) return;
           ExploreClaim c;
           c.robot_id = m.robot_id();
           c.task_id = m.task_id();
@@ -189,6 +192,19 @@ class AgentDds::Impl {
                          : std::make_pair(std::uint64_t{0}, std::uint64_t{0});
   }
 
+  // False, with a warning at most every 5 s per topic, when a peer's message names a sender no CLI could
+  // have (`field` `id`, e.g. a 100 kB base id, which would then ride in every state message as the holder's).
+  bool ValidPeerId(const char* topic, const char* field, const std::string& id) {
+    const std::string why = core::CheckId(field, id);
+    if (why.empty()) return true;
+    std::uint64_t suppressed = 0;
+    if (peer_warnings_.Allow(topic, core::SteadyClock::now(), &suppressed)) {
+      spdlog::warn("robot {}: a message on {} dropped: {}{}", options_.robot_id, topic, why,
+                   suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+    }
+    return false;
+  }
+
   // Each reader keeps only what is addressed to this robot and hands it on as a plain struct.
   void MakeReaders(AgentDdsHandlers handlers) {
     if (listening_) throw std::logic_error("AgentDds::Listen called twice");
@@ -200,6 +216,8 @@ class AgentDds::Impl {
     probe_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
         p, "cairn/link_probe", "cairn.command", [this, robot](const msgs::PingPong& m, const SampleInfo&) {
           if (!m.robot_id().empty() && m.robot_id() != robot) return;
+          // Echoed: a body or id no basestation sends would make the robot an amplifier.
+          if (!ValidPeerId("cairn/link_probe", "base id", m.base_id()) || m.body().size() > kMaxProbeBodyBytes) return;
           msgs::PingPong reply;
           reply.request_id(m.request_id());
           reply.base_id(m.base_id());
@@ -228,7 +246,7 @@ class AgentDds::Impl {
     info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
         p, "cairn/base_info", "cairn.latched",
         [this](const msgs::AgentInfo& m, const SampleInfo& info) {
-          if (m.kind() != msgs::AGENT_KIND_BASESTATION) return;
+          if (m.kind() != msgs::AGENT_KIND_BASESTATION || !ValidPeerId("cairn/base_info", "base id", m.agent_id())) return;
           const std::string writer = core::WriterIdOf(info.publication_handle);
           {
             std::lock_guard<std::mutex> guard(robots_heard_mutex_);
@@ -264,19 +282,27 @@ class AgentDds::Impl {
         p, "cairn/control_request", "cairn.command",
         [this, robot](const msgs::ControlRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
-          handlers_.control(ControlCommand{SenderOf(m.base_id(), info), m.request_id(),
-                                           m.action() == msgs::CONTROL_ACTION_RELEASE});
+          if (!ValidPeerId("cairn/control_request", "base id", m.base_id())) return;
+          ControlCommand c{SenderOf(m.base_id(), info), m.request_id(), m.action() == msgs::CONTROL_ACTION_RELEASE, ""};
+          if (m.action() != msgs::CONTROL_ACTION_REQUEST && m.action() != msgs::CONTROL_ACTION_RELEASE) {
+            c.malformed = "action " + std::to_string(static_cast<int>(m.action())) + " is neither REQUEST (" +
+                          std::to_string(static_cast<int>(msgs::CONTROL_ACTION_REQUEST)) + ") nor RELEASE (" +
+                          std::to_string(static_cast<int>(msgs::CONTROL_ACTION_RELEASE)) + ")";
+          }
+          handlers_.control(c);
         });
     mode_reader_ = std::make_unique<core::Reader<msgs::ModeRequestPubSubType>>(
         p, "cairn/mode_request", "cairn.command",
         [this, robot](const msgs::ModeRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
+          if (!ValidPeerId("cairn/mode_request", "base id", m.base_id())) return;
           handlers_.mode(ModeCommand{SenderOf(m.base_id(), info), m.request_id(), m.mode()});
         });
     goal_reader_ = std::make_unique<core::Reader<msgs::WaypointGoalPubSubType>>(
         p, "cairn/waypoint_goal", "cairn.command",
         [this, robot](const msgs::WaypointGoal& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
+          if (!ValidPeerId("cairn/waypoint_goal", "base id", m.base_id())) return;
           handlers_.goal(GoalCommand{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.x_m(),
                                      m.y_m(), m.tolerance_m(), m.z_m()});
         });
@@ -284,6 +310,7 @@ class AgentDds::Impl {
         p, "cairn/explore_request", "cairn.command",
         [this, robot](const msgs::ExploreRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
+          if (!ValidPeerId("cairn/explore_request", "base id", m.base_id())) return;
           ExploreCommand c{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), {}};
           if (m.has_region()) {
             // Corners as sent (not sorted: CheckExploreTask refuses a box whose corners are swapped).
@@ -301,6 +328,7 @@ class AgentDds::Impl {
         p, "cairn/home_request", "cairn.command",
         [this, robot](const msgs::HomeRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
+          if (!ValidPeerId("cairn/home_request", "base id", m.base_id())) return;
           handlers_.home(HomeCommand{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.has_point(),
                                      m.x_m(), m.y_m(), m.z_m()});
         });
@@ -308,19 +336,23 @@ class AgentDds::Impl {
         p, "cairn/stop_request", "cairn.command",
         [this, robot](const msgs::StopRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
+          if (!ValidPeerId("cairn/stop_request", "base id", m.base_id())) return;
           handlers_.stop(StopCommand{SenderOf(m.base_id(), info), m.request_id()});
         });
     teleop_reader_ = std::make_unique<core::Reader<msgs::TeleopTwistPubSubType>>(
         p, "cairn/teleop", "cairn.teleop", [this, robot](const msgs::TeleopTwist& m, const SampleInfo&) {
           if (m.robot_id() != robot) return;
+          if (!ValidPeerId("cairn/teleop", "base id", m.base_id())) return;
           const msgs::Twist& t = m.twist();
           handlers_.teleop(TeleopCommand{
               m.base_id(), OperatorTwist{t.linear_x_mps(), t.linear_y_mps(), t.angular_z_radps()}});
         });
   }
 
+  static constexpr std::size_t kMaxProbeBodyBytes = 256;
   AgentDdsOptions options_;
   AgentDdsHandlers handlers_;
+  core::WarningLimiter peer_warnings_;
   bool listening_ = false;
   mutable std::mutex robots_heard_mutex_;  // guards robots_heard_by_base_ only (taken on DDS threads)
   // A basestation's info writer -> (the robots it hears, alive).

@@ -1,12 +1,12 @@
 #include "cairn/agent/agent_options.h"
 
 #include <cmath>
-#include <regex>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
 
 #include "cairn/core/config.h"
+#include "cairn/core/peer_input.h"
 #include "range_check.h"
 
 namespace cairn::agent {
@@ -200,9 +200,8 @@ std::string AgentOptions::ApplyLinkBudget() {
 }
 
 bool AgentOptions::IsValid(std::string* why) const {
-  static const std::regex kIdPattern("[A-Za-z0-9_-]{1,64}");
-  if (!std::regex_match(robot_id, kIdPattern)) {
-    *why = "robot id '" + robot_id + "' must be 1-64 characters of A-Z a-z 0-9 _ -";
+  if (std::string fault = core::CheckId("robot id", robot_id); !fault.empty()) {
+    *why = std::move(fault);
     return false;
   }
   if (platform != navigation.platform.name) {

@@ -91,6 +91,11 @@ void CommandInterface::OnControl(const ControlCommand& command, core::SteadyTime
   const CommandSender& sender = command.sender;
   const CommandKind kind = command.release ? CommandKind::kControlRelease : CommandKind::kControlRequest;
   if (ReplayIfDuplicate(sender, kind, command.request_id)) return;
+  if (!command.malformed.empty()) {
+    spdlog::warn("robot {}: control command {} from {} refused: {}", robot_id_, command.request_id, sender.base_id,
+                 command.malformed);
+    return Respond(sender, command.request_id, kind, CommandResult::kDenied, "refused: " + command.malformed);
+  }
   const LockDecision d = command.release ? lock_.Release(sender.base_id)
                                          : lock_.Request(sender.base_id, sender.participant, now);
   if (d.accepted) {
@@ -206,8 +211,13 @@ void CommandInterface::OnTeleop(const TeleopCommand& command, core::SteadyTime n
   }
   const OperatorTwist& t = command.twist_B;
   if (!std::isfinite(t.vx_mps) || !std::isfinite(t.vy_mps) || !std::isfinite(t.wz_radps)) {
-    spdlog::warn("robot {}: teleop twist ({}, {}, {}) from {} dropped: not finite", robot_id_, t.vx_mps,
-                 t.vy_mps, t.wz_radps, command.base_id);
+    // At the teleop rate (20 Hz) a bad joystick would fill the log: one warning per 5 s, with the count.
+    std::uint64_t suppressed = 0;
+    if (teleop_warnings_.Allow("non-finite", now, &suppressed)) {
+      spdlog::warn("robot {}: teleop twist ({}, {}, {}) from {} dropped: not finite{}", robot_id_, t.vx_mps,
+                   t.vy_mps, t.wz_radps, command.base_id,
+                   suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+    }
     return;
   }
   // The running mode takes it (manual and smart joystick use it; the others ignore it).

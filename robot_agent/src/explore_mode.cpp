@@ -117,6 +117,7 @@ std::string ExploreMode::Start(const ExploreTask& task, double now_s,
   frontiers_.reset();
   settle_until_s_ = now_s;  // only frontiers computed from now on
   complete_pending_ = false;
+  last_tight_stall_M_.setConstant(std::numeric_limits<double>::quiet_NaN());
   contact_.Reset();
   const ModeDecision d = enter_mode();
   if (d.accepted) {
@@ -313,9 +314,21 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
       if (recovery_->active()) status_.reason = "recovering: " + recovery_->Report();
     } else {
       step = navigation_->StepWaypoint(in.pose_M, in.now_s);
-      // A stall at a tight gap ends the target at once: the gap may be narrower than the robot.
-      const bool tight_gap_stall = step.failed && step.stalled && target_through_tight_gap_;
-      if (tight_gap_stall) step.reason = "at a tight gap, " + step.reason;
+      // A stall at a tight gap ends the target at once: the gap may be narrower than the robot. A second one
+      // where the last one happened is the robot wedged, not the gap (geb079: one robot gave up 12 targets in
+      // a row standing in one place): that one goes to the recovery (back up, turn) like any other failure.
+      bool tight_gap_stall = step.failed && step.stalled && target_through_tight_gap_;
+      const Eigen::Vector2d p_M(in.pose_M.x_m, in.pose_M.y_m);
+      if (tight_gap_stall) {
+        const bool wedged = (p_M - last_tight_stall_M_).norm() < kWedgedRadiusM;
+        last_tight_stall_M_ = p_M;
+        if (wedged) {
+          tight_gap_stall = false;
+          step.reason = "wedged (a second tight-gap stall here), " + step.reason;
+        } else {
+          step.reason = "at a tight gap, " + step.reason;
+        }
+      }
       if (step.failed && !tight_gap_stall && recovery_ && recovery_->enabled()) {
         recovery_->Start(status_.target_M.x(), status_.target_M.y(), options_.target_tolerance_m, step.reason,
                          goal_z_m_);

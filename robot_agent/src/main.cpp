@@ -11,6 +11,7 @@
 
 #include "cairn/agent/mode_manager.h"
 #include "cairn/agent/robot_agent.h"
+#include "cairn/core/config.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/link_cli.h"
 #include "cairn/core/shutdown.h"
@@ -99,6 +100,12 @@ int main(int argc, char** argv) {
     if (!budget.empty()) spdlog::info("cairn_agent {}: radio link of {} kbit/s: {}", options.robot_id, options.link.link_kbps, budget);
     std::string why;
     if (!options.IsValid(&why)) throw std::invalid_argument(why);
+    if (!options.map_save_path.empty()) {
+      // Written at exit: a missing folder found only then lost the map and exited 0.
+      if (const std::string fault = cairn::core::CheckOutputFile("--map-save", options.map_save_path); !fault.empty()) {
+        throw std::invalid_argument(fault);
+      }
+    }
     // The platform driver: the simulator (the seam is core::PlatformIO; see docs/PLATFORM.md for a real one).
     cairn::sim::SimulatedPlatformOptions sim;
     sim.world = options.world;

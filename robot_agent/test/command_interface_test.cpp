@@ -76,7 +76,7 @@ struct Robot {
     c.mapping_problem = "no lidar scan for 3.5 s";
     return c;
   }
-  void Take(const CommandSender& who) { command->OnControl(ControlCommand{who, 1, false}, kT0); }
+  void Take(const CommandSender& who) { command->OnControl(ControlCommand{who, 1, false, ""}, kT0); }
   const CommandReply& last() const { return replies.back(); }
 
   StickMode* manual = nullptr;
@@ -158,14 +158,31 @@ TEST(CommandInterface, AReleaseStopsTheRobot) {
   Robot r;
   r.Take(OpA());
   r.command->OnMode(ModeCommand{OpA(), 2, "manual"});
-  r.command->OnControl(ControlCommand{OpB(), 3, true}, kT0);
+  r.command->OnControl(ControlCommand{OpB(), 3, true, ""}, kT0);
   EXPECT_EQ(r.last().result, CommandResult::kDenied);
   EXPECT_EQ(r.last().reason, "only the holder releases: robot r1 is locked by basestation opA");
   EXPECT_EQ(r.modes->mode(), "manual");
-  r.command->OnControl(ControlCommand{OpA(), 3, true}, kT0);
+  r.command->OnControl(ControlCommand{OpA(), 3, true, ""}, kT0);
   EXPECT_EQ(r.last().result, CommandResult::kAccepted);
   EXPECT_EQ(r.last().kind, CommandKind::kControlRelease);
   EXPECT_EQ(r.modes->mode(), "idle");
+}
+
+// A control command holding a value no basestation sends (an unknown action) is refused with it, and the lock
+// is neither taken nor released.
+TEST(CommandInterface, AMalformedControlCommandIsRefusedNamingTheValue) {
+  Robot r;
+  ControlCommand odd{OpB(), 1, false, "action 99 is neither REQUEST (0) nor RELEASE (1)"};
+  r.command->OnControl(odd, kT0);
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_EQ(r.last().reason, "refused: action 99 is neither REQUEST (0) nor RELEASE (1)");
+  EXPECT_EQ(r.command->lock().holder_id(), "");
+  r.Take(OpA());
+  odd.request_id = 2;
+  odd.release = true;
+  r.command->OnControl(odd, kT0);
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_EQ(r.command->lock().holder_id(), "opA");
 }
 
 TEST(CommandInterface, AGoalIsCheckedBeforePlanningNamingFieldAndValue) {
@@ -250,7 +267,7 @@ TEST(CommandInterface, AGoalWhoseLockMovedWhileItWasPlannedIsDiscarded) {
   r.Take(OpA());
   r.command->OnGoal(Goal(OpA(), 6));
   ASSERT_EQ(r.planned.size(), 1u);
-  r.command->OnControl(ControlCommand{OpA(), 7, true}, kT0);
+  r.command->OnControl(ControlCommand{OpA(), 7, true, ""}, kT0);
   r.Take(OpB());
   r.command->OnGoalPlanned(r.planned[0], nav::GlobalPlan{});
   EXPECT_EQ(r.last().result, CommandResult::kDiscarded);

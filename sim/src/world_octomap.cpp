@@ -16,12 +16,19 @@ namespace cairn::sim {
 namespace internal {
 namespace {
 
+// The voxel edges a world file may have, metres: a survey map's finest to a coarse site map's. A .bt's keys
+// span 65536 voxels per axis, so the largest gives a 330 km map.
+constexpr double kMinResolutionM = 0.005;
+constexpr double kMaxResolutionM = 5.0;
+
 World WorldFromTree(const octomap::OcTree& tree, const std::string& path, const WorldLoadOptions& options,
                     WorldLoadReport* report) {
   const double res = tree.getResolution();
-  if (!std::isfinite(res) || res <= 0.0) {
+  if (!std::isfinite(res) || res < kMinResolutionM || res > kMaxResolutionM) {
+    // A resolution of 1e30 loaded and put the robot at (1.2e32, ...).
     std::ostringstream msg;
-    msg << "OctoMap file '" << path << "' has an invalid resolution " << res << " (corrupt file?)";
+    msg << "OctoMap file '" << path << "' has resolution " << res << " m, outside [" << kMinResolutionM << ", "
+        << kMaxResolutionM << "] m (corrupt file?)";
     throw WorldError(msg.str());
   }
   // Bounds of the occupied leaves only (free space may reach far beyond the structure).

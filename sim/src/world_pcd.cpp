@@ -10,6 +10,8 @@
 #include <exception>
 #include <fstream>
 #include <algorithm>
+#include <cctype>
+#include <cstdint>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -20,43 +22,159 @@
 namespace cairn::sim::internal {
 namespace {
 
+// A header value that must be a whole number >= 0 ("12"; not "-5", "1e9", "12x" or one past int64).
+bool ParseCount(const std::string& text, std::int64_t* value) {
+  if (text.empty() || text.size() > 18 ||
+      !std::all_of(text.begin(), text.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); })) {
+    return false;
+  }
+  *value = std::stoll(text);
+  return true;
+}
+
+std::string Bytes(double bytes) {
+  std::ostringstream out;
+  out.precision(3);
+  if (bytes >= 1e9) {
+    out << bytes / 1e9 << " GB";
+  } else if (bytes >= 1e6) {
+    out << bytes / 1e6 << " MB";
+  } else {
+    out << static_cast<std::int64_t>(bytes) << " bytes";
+  }
+  return out.str();
+}
+
+// LZF (PCD's binary_compressed) turns 3 bytes into at most 264: a file cannot hold more than this many bytes per
+// compressed byte.
+constexpr double kMaxLzfRatio = 88.0;
+
 // Checks the PCD header (format: https://pointclouds.org/documentation/tutorials/pcd_file_format.html)
-// before PCL reads the file: PCL 1.13's PCDReader dereferences missing fields of a file without a header and
-// crashes, so files that are not PCD at all must not reach it. Throws WorldError naming what is missing.
+// before PCL reads the file, and that the data it declares fits in the file: PCL 1.13's PCDReader dereferences
+// missing fields of a file without a header and crashes, sizes the cloud from POINTS before reading any data
+// (a 215-byte file declaring 2e9 points made it allocate 23.5 GB), and reports a bad TYPE or a negative POINTS
+// as a generic failure. Throws WorldError naming the header field and its value.
 void CheckPcdHeader(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
+  const auto fail = [&path](const std::string& why) {
+    throw WorldError("world file '" + path + "' is not a valid PCD file (" + why + ")");
+  };
+  std::vector<std::string> fields;
+  std::vector<std::string> sizes;
+  std::vector<std::string> types;
+  std::vector<std::string> counts;
+  std::int64_t width = -1;
+  std::int64_t height = -1;
+  std::int64_t points = -1;
   std::string line;
-  bool has_xyz = false;
-  bool has_fields = false;
   for (int n = 0; n < 64 && std::getline(in, line); ++n) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty() || line[0] == '#') continue;
     std::istringstream tokens(line);
     std::string key;
     tokens >> key;
-    if (key == "FIELDS") {
-      has_fields = true;
-      std::set<std::string> names;
-      for (std::string name; tokens >> name;) names.insert(name);
-      has_xyz = names.count("x") && names.count("y") && names.count("z");
-    } else if (key == "DATA") {
-      std::string kind;
-      tokens >> kind;
-      if (kind != "ascii" && kind != "binary" && kind != "binary_compressed") {
-        throw WorldError("world file '" + path + "' is not a valid PCD file (DATA '" + kind +
-                         "' is not ascii, binary or binary_compressed)");
+    std::vector<std::string> values;
+    for (std::string v; tokens >> v;) values.push_back(v);
+    const auto one_count = [&](std::int64_t* out) {
+      if (values.size() != 1 || !ParseCount(values[0], out)) {
+        fail(key + " '" + (values.empty() ? "" : values[0].substr(0, 20)) + (values.size() > 1 ? " ..." : "") +
+             "' is not a whole number >= 0");
       }
-      if (!has_fields || !has_xyz) {
-        throw WorldError("world file '" + path + "' is not a valid PCD file (" +
-                         (has_fields ? "FIELDS lacks x, y or z" : "no FIELDS line") + ")");
+    };
+    if (key == "FIELDS") {
+      fields = values;
+    } else if (key == "SIZE") {
+      sizes = values;
+    } else if (key == "TYPE") {
+      types = values;
+    } else if (key == "COUNT") {
+      counts = values;
+    } else if (key == "WIDTH") {
+      one_count(&width);
+    } else if (key == "HEIGHT") {
+      one_count(&height);
+    } else if (key == "POINTS") {
+      one_count(&points);
+    } else if (key == "DATA") {
+      const std::string kind = values.empty() ? "" : values[0];
+      if (kind != "ascii" && kind != "binary" && kind != "binary_compressed") {
+        fail("DATA '" + kind + "' is not ascii, binary or binary_compressed");
+      }
+      if (fields.empty()) fail("no FIELDS line");
+      const std::set<std::string> names(fields.begin(), fields.end());
+      if (!names.count("x") || !names.count("y") || !names.count("z")) fail("FIELDS lacks x, y or z");
+      if (counts.empty()) counts.assign(fields.size(), "1");
+      for (const auto& [name, list] : {std::make_pair("SIZE", &sizes), std::make_pair("TYPE", &types),
+                                       std::make_pair("COUNT", &counts)}) {
+        if (list->size() != fields.size()) {
+          fail(std::string(name) + " has " + std::to_string(list->size()) + " values for " +
+               std::to_string(fields.size()) + " FIELDS");
+        }
+      }
+      std::int64_t point_bytes = 0;
+      std::int64_t values_per_point = 0;
+      for (std::size_t f = 0; f < fields.size(); ++f) {
+        const std::string& field = fields[f];
+        if (sizes[f] != "1" && sizes[f] != "2" && sizes[f] != "4" && sizes[f] != "8") {
+          fail("SIZE '" + sizes[f] + "' of field '" + field + "' is not 1, 2, 4 or 8");
+        }
+        if (types[f] != "I" && types[f] != "U" && types[f] != "F") {
+          fail("TYPE '" + types[f].substr(0, 8) + "' of field '" + field + "' is not I, U or F");
+        }
+        if (types[f] == "F" && sizes[f] != "4" && sizes[f] != "8") {
+          fail("field '" + field + "' is TYPE F with SIZE " + sizes[f] + " (a float has 4 or 8 bytes)");
+        }
+        std::int64_t count = 0;
+        if (!ParseCount(counts[f], &count) || count < 1 || count > 1000000) {
+          fail("COUNT '" + counts[f].substr(0, 20) + "' of field '" + field + "' is not in [1, 1000000]");
+        }
+        point_bytes += count * std::stoll(sizes[f]);
+        values_per_point += count;
+      }
+      if (width < 0) fail("no WIDTH line");
+      if (height < 0) fail("no HEIGHT line");
+      if (points < 0) points = width * height;  // optional in the format
+      if (width > 0 && height > std::numeric_limits<std::int64_t>::max() / width) fail("WIDTH x HEIGHT overflows");
+      if (points != width * height) {
+        fail("POINTS " + std::to_string(points) + " is not WIDTH x HEIGHT = " + std::to_string(width) + " x " +
+             std::to_string(height));
+      }
+      // What the data after the header must hold at least.
+      const std::streamoff data_begin = in.tellg();
+      in.seekg(0, std::ios::end);
+      const double data_bytes = static_cast<double>(in.tellg() - data_begin);
+      double need = 0.0;
+      std::string what;
+      if (kind == "binary") {
+        need = static_cast<double>(points) * static_cast<double>(point_bytes);
+        what = std::to_string(points) + " points of " + std::to_string(point_bytes) + " bytes (" + Bytes(need) + ")";
+      } else if (kind == "ascii") {
+        need = static_cast<double>(points) * static_cast<double>(values_per_point) * 2.0;  // "0 " per value
+        what = std::to_string(points) + " points of " + std::to_string(values_per_point) + " values (" +
+               Bytes(need) + " of text at least)";
+      } else {
+        in.seekg(data_begin);
+        std::uint32_t sizes_le[2] = {0, 0};  // compressed, uncompressed
+        in.read(reinterpret_cast<char*>(sizes_le), sizeof(sizes_le));
+        if (!in) fail("binary_compressed data without its two sizes");
+        const double uncompressed = static_cast<double>(points) * static_cast<double>(point_bytes);
+        if (static_cast<double>(sizes_le[1]) != uncompressed) {
+          fail("binary_compressed data of " + std::to_string(sizes_le[1]) + " bytes uncompressed, but POINTS " +
+               std::to_string(points) + " of " + std::to_string(point_bytes) + " bytes make " + Bytes(uncompressed));
+        }
+        need = 8.0 + std::max(static_cast<double>(sizes_le[0]), uncompressed / kMaxLzfRatio);
+        what = std::to_string(points) + " points of " + std::to_string(point_bytes) + " bytes (" +
+               Bytes(uncompressed) + ", at least " + Bytes(need) + " compressed)";
+      }
+      if (need > data_bytes) {
+        fail("the header declares " + what + " but the file holds " + Bytes(data_bytes) + " after it");
       }
       return;
-    } else if (key != "VERSION" && key != "SIZE" && key != "TYPE" && key != "COUNT" && key != "WIDTH" &&
-               key != "HEIGHT" && key != "VIEWPOINT" && key != "POINTS") {
-      throw WorldError("world file '" + path + "' is not a valid PCD file (unexpected header line '" +
-                       line.substr(0, 40) + "')");
+    } else if (key != "VERSION" && key != "VIEWPOINT") {
+      fail("unexpected header line '" + line.substr(0, 40) + "'");
     }
   }
-  throw WorldError("world file '" + path + "' is not a valid PCD file (no DATA line in the header)");
+  fail("no DATA line in the header");
 }
 
 }  // namespace

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
+
 #include <cmath>
 #include <limits>
 #include <set>
@@ -253,6 +255,17 @@ TEST_F(WorldFileTest, GarbageAndTruncatedBt) {
   WriteFile(truncated, bytes.substr(0, bytes.size() / 2));
   EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(truncated); }), "is not a valid OctoMap binary (.bt) file");
 
+  // A resolution of 1e30 (the header is text: "res 0.1") loaded and put the robot at (1.2e32, ...).
+  std::string huge = bytes;
+  const std::size_t res_at = huge.find("\nres ");
+  ASSERT_NE(res_at, std::string::npos);
+  const std::size_t res_end = huge.find('\n', res_at + 1);
+  huge.replace(res_at, res_end - res_at, "\nres 1e30");
+  const std::string huge_path = dir_ + "/huge.bt";
+  WriteFile(huge_path, huge);
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(huge_path); }),
+                  "OctoMap file '" + huge_path + "' has resolution 1e+30 m, outside [0.005, 5] m");
+
   const std::string garbage_ot = dir_ + "/garbage.ot";
   WriteFile(garbage_ot, "# Octomap OcTree file\nnonsense\n");
   EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(garbage_ot); }), "is not a valid OctoMap (.ot) file");
@@ -377,6 +390,60 @@ TEST_F(WorldFileTest, PcdErrors) {
   const std::string garbage = dir_ + "/garbage.pcd";
   WriteFile(garbage, "hello, I am not a point cloud\n");
   EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(garbage); }), "'" + garbage + "' is not a valid PCD file");
+}
+
+// Issue 15's crafted headers: each is refused before PCL reads (or allocates) anything, naming the field and
+// its value.
+TEST_F(WorldFileTest, PcdHeadersThatLieAreRefusedNamingTheField) {
+  const auto header = [](const std::string& type, const std::string& points, const std::string& data) {
+    return "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE " + type + "\nCOUNT 1 1 1\nWIDTH " + points +
+           "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + points + "\nDATA " + data + "\n";
+  };
+  const auto error_of = [this](const std::string& name, const std::string& text) {
+    const std::string path = dir_ + "/" + name + ".pcd";
+    WriteFile(path, text);
+    return WorldErrorOf([&] { LoadWorld(path); });
+  };
+  // 2e9 points in a ~200-byte binary file: PCL sized the cloud first (23.5 GB).
+  EXPECT_CONTAINS(error_of("huge", header("F F F", "2000000000", "binary") + std::string(24, '\0')),
+                  "the header declares 2000000000 points of 12 bytes (24 GB) but the file holds 24 bytes after it");
+  // The same through binary_compressed: 8 bytes of sizes, the uncompressed one matching POINTS.
+  std::string sizes(8, '\0');
+  const std::uint32_t compressed = 16, uncompressed = 1200000000;
+  std::memcpy(&sizes[0], &compressed, 4);
+  std::memcpy(&sizes[4], &uncompressed, 4);
+  EXPECT_CONTAINS(error_of("lzf", header("F F F", "100000000", "binary_compressed") + sizes + std::string(16, 'a')),
+                  "declares 100000000 points of 12 bytes (1.2 GB, at least 13.6 MB compressed)");
+  std::memcpy(&sizes[4], &compressed, 4);
+  EXPECT_CONTAINS(error_of("lzf_size", header("F F F", "1", "binary_compressed") + sizes),
+                  "binary_compressed data of 16 bytes uncompressed, but POINTS 1 of 12 bytes make 12 bytes");
+  EXPECT_CONTAINS(error_of("ascii", header("F F F", "1000", "ascii") + "0 0 0\n"),
+                  "declares 1000 points of 3 values (6000 bytes of text at least) but the file holds 6 bytes");
+  EXPECT_CONTAINS(error_of("type_q", header("Q F F", "1", "ascii") + "0 0 0\n"),
+                  "TYPE 'Q' of field 'x' is not I, U or F");
+  EXPECT_CONTAINS(error_of("negative", header("F F F", "-5", "ascii") + "0 0 0\n"),
+                  "WIDTH '-5' is not a whole number >= 0");
+  std::string lying_points = header("F F F", "1", "ascii") + "0 0 0\n";
+  lying_points.replace(lying_points.find("POINTS 1"), 8, "POINTS -5");
+  EXPECT_CONTAINS(error_of("negative_points", lying_points), "POINTS '-5' is not a whole number >= 0");
+  std::string mismatch = header("F F F", "2", "ascii") + "0 0 0\n1 1 1\n";
+  mismatch.replace(mismatch.find("POINTS 2"), 8, "POINTS 3");
+  EXPECT_CONTAINS(error_of("mismatch", mismatch), "POINTS 3 is not WIDTH x HEIGHT = 2 x 1");
+  std::string half_float = header("F F F", "1", "ascii") + "0 0 0\n";
+  half_float.replace(half_float.find("SIZE 4 4 4"), 10, "SIZE 2 4 4");
+  EXPECT_CONTAINS(error_of("half", half_float), "field 'x' is TYPE F with SIZE 2");
+  std::string short_type = header("F F", "1", "ascii") + "0 0 0\n";
+  EXPECT_CONTAINS(error_of("short_type", short_type), "TYPE has 2 values for 3 FIELDS");
+  // A valid binary file still loads.
+  std::string data(12, '\0');
+  const float p[3] = {0.05f, 0.05f, 0.05f};
+  std::memcpy(&data[0], p, 12);
+  WorldLoadOptions raw;
+  raw.support_radius_m = 0.0;
+  raw.fill_hole_max_m = 0.0;
+  const std::string good = dir_ + "/good.pcd";
+  WriteFile(good, header("F F F", "1", "binary") + data);
+  EXPECT_EQ(LoadWorld(good, raw).CountOccupied(), 1);
 }
 
 TEST(Geb079Test, LoadsRealScan) {

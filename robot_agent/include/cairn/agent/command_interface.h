@@ -15,6 +15,7 @@
 #include "cairn/agent/control_lock.h"
 #include "cairn/agent/mode_control.h"
 #include "cairn/agent/reply_cache.h"
+#include "cairn/core/peer_input.h"
 #include "cairn/core/time.h"
 #include "cairn/nav/global_planner.h"
 
@@ -132,6 +133,7 @@ class CommandInterface {
   std::vector<CommandKey> pending_goals_;     // goals being planned
   std::map<std::string, BaseProcess> bases_;  // agent-info writer -> its process
   StopRecord stops_;
+  core::WarningLimiter teleop_warnings_;  // non-finite teleop twists
   core::SteadyTime last_base_alive_ = core::SteadyClock::now();  // Update() notes a live base process
 };
 

@@ -101,7 +101,8 @@ struct ExploreModeOptions {
   /// recovery, when the robot moves less than 0.5 m in this long (its goal's stall timeout, see
   /// Navigation::AcceptGoal()), seconds, (0, 600]: such a gap may be narrower than the robot (the map's cells
   /// cannot tell), and the robot has other frontiers to go for meanwhile (navigation's own stall_timeout_s,
-  /// 60 s by default, cost 3 min of a 15 min run on geb079).
+  /// 60 s by default, cost 3 min of a 15 min run on geb079). A second such stall within 0.5 m of the last is
+  /// the robot wedged, not the gap: the waypoint recovery runs (back up, turn) as for any failed goal.
   double tight_gap_stall_s = 20.0;
   uint32_t first_task_id = 1;  ///< id of the first task (drawn at random by the agent), >= 1
   /// Which levels of the robot's map hold frontiers (config `explore.levels`: auto, main, all).
@@ -207,6 +208,9 @@ class ExploreMode : public ModeModule {
   std::future<nav::GlobalPlan> plan_;
   bool driving_ = false;  // navigation (or the recovery) holds the target as its goal
   bool target_through_tight_gap_ = false;  // the current target's FrontierCluster::through_tight_gap
+  // Where the last tight-gap stall happened (NaN: none yet); a second one within kWedgedRadiusM runs the recovery.
+  static constexpr double kWedgedRadiusM = 0.5;
+  Eigen::Vector2d last_tight_stall_M_ = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   ContactTimer contact_;  // the task's contact with occupied space
 };
 
