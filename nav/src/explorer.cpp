@@ -37,12 +37,14 @@ bool Explorer::SamePlace(const FrontierCluster& a, const Eigen::Vector2d& b_M, d
   return (a.target_M - b_M).norm() <= radius_m && std::abs(a.target_ground_z_m - b_z_m) <= options_.same_place_dz_m;
 }
 
-bool Explorer::Barred(const FrontierCluster& c, double now_s) const {
+Explorer::Bar Explorer::Barred(const FrontierCluster& c, double now_s) const {
+  Bar bar = Bar::kNone;
   for (const FailedTarget& f : failed_) {
     if (!SamePlace(c, f.target_M, f.target_ground_z_m, options_.blacklist_radius_m)) continue;
-    if (f.failures >= 2 || now_s - f.failed_at_s < options_.retry_after_s) return true;
+    if (f.failures >= 2) return Bar::kForGood;
+    if (now_s - f.failed_at_s < options_.retry_after_s) bar = Bar::kUntilRetry;
   }
-  return false;
+  return bar;
 }
 
 bool Explorer::Visited(const FrontierCluster& c) const {
@@ -76,6 +78,7 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
   ExplorerDecision decision;
   const FrontierCluster* best = nullptr;
   const FrontierCluster* followed = nullptr;
+  const FrontierCluster* retry = nullptr;  // the best of those barred only until their retry
   int candidates = 0;
   int unreachable = 0;
   int barred = 0;
@@ -100,16 +103,21 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
       ++unreachable;
       continue;
     }
-    if (Barred(c, team.now_s)) {
+    const bool is_current =
+        current_ && SamePlace(c, current_->target_M, current_->target_ground_z_m, options_.follow_radius_m);
+    if (const Bar bar = Barred(c, team.now_s); bar != Bar::kNone) {
       ++barred;
+      std::string by;
+      if (bar == Bar::kUntilRetry && !Visited(c) && !ClaimedByPeer(c, is_current, team, &by) &&
+          (retry == nullptr || c.utility > retry->utility)) {
+        retry = &c;
+      }
       continue;
     }
     if (Visited(c)) {
       ++visited;
       continue;
     }
-    const bool is_current =
-        current_ && SamePlace(c, current_->target_M, current_->target_ground_z_m, options_.follow_radius_m);
     if (std::string by; ClaimedByPeer(c, is_current, team, &by)) {
       ++claimed;
       if (std::find(claimers.begin(), claimers.end(), by) == claimers.end()) claimers.push_back(by);
@@ -131,6 +139,19 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
     decision.kind = ExplorerDecision::Kind::kWait;
     decision.reason = why.str();
     current_.reset();
+    return decision;
+  }
+  // Nothing else to do: a frontier barred until its retry is retried now (its second failure bars it for good)
+  // rather than left behind by a completion: it failed while the map around it was thinner, and an exploration
+  // that ends is never retried.
+  if (best == nullptr && retry != nullptr) {
+    const bool retrying = current_ && SamePlace(*retry, current_->target_M, current_->target_ground_z_m,
+                                                options_.follow_radius_m);
+    decision.kind = retrying ? ExplorerDecision::Kind::kKeep : ExplorerDecision::Kind::kGoTo;
+    decision.target = *retry;
+    decision.reason = "a frontier given up on once, retried before its time: no other reachable frontier";
+    if (!retrying) current_since_s_ = team.now_s;
+    current_ = decision.target;
     return decision;
   }
   if (best == nullptr) {

@@ -72,7 +72,21 @@ TEST(ExplorerTest, AFailedTargetIsNeverTriedAgainAndExplorationCompletesWhenNoth
   ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
   EXPECT_EQ(d.target.target_M, Eigen::Vector2d(0, 5));
   explorer.Fail("blocked: no progress for 10 s");
-  d = explorer.Decide(Set({Cluster(6, 0, 3.0), Cluster(0, 5.5, 1.0), Cluster(20, 20, 0, /*reachable=*/false)}));
+  // Nothing else is left: the better of the two given up on once is retried before its time (a completion would
+  // leave both behind for good); it is kept as the map grows, and a second failure there bars it for good.
+  const FrontierSet left = Set({Cluster(6, 0, 3.0), Cluster(0, 5.5, 1.0), Cluster(20, 20, 0, /*reachable=*/false)});
+  d = explorer.Decide(left);
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(6, 0));
+  EXPECT_EQ(d.reason, "a frontier given up on once, retried before its time: no other reachable frontier");
+  d = explorer.Decide(Set({Cluster(6.3, 0, 3.0), Cluster(0, 5.5, 1.0)}));
+  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kKeep);
+  explorer.Fail("no path: a 0.9 m doorway, still");
+  d = explorer.Decide(left);
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(0, 5.5));
+  explorer.Fail("blocked again");
+  d = explorer.Decide(left);
   ASSERT_EQ(d.kind, ExplorerDecision::Kind::kComplete);
   EXPECT_EQ(d.reason, "exploration complete: no reachable frontier (1 seen but unreachable, 2 given up on, 0 reached but still "
                      "unseen beyond)");
@@ -84,15 +98,19 @@ TEST(ExplorerTest, AFailedTargetIsNeverTriedAgainAndExplorationCompletesWhenNoth
   EXPECT_EQ(explorer.failed().size(), 2u);
 }
 
-// A failed frontier is barred for retry_after_s, then tried once more, and barred for good after a second failure.
+// A failed frontier is barred for retry_after_s while others are left, then tried once more, and barred for good
+// after a second failure.
 TEST(ExplorerTest, AFailedTargetIsRetriedOnceAfterAWhileThenBarredForGood) {
   Explorer explorer;
-  ExplorerDecision d = explorer.Decide(Set({Cluster(5, 0, 3.0)}), TeamView{"r1", 10.0, {}});
+  ExplorerDecision d = explorer.Decide(Set({Cluster(5, 0, 3.0), Cluster(-5, 0, 1.0)}), TeamView{"r1", 10.0, {}});
+  ASSERT_EQ(d.target.target_M, Eigen::Vector2d(5, 0));
   explorer.Fail("no path: the map showed no way", 10.0);
-  d = explorer.Decide(Set({Cluster(5, 0, 3.0)}), TeamView{"r1", 100.0, {}});
-  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kComplete) << "barred for 120 s";
-  d = explorer.Decide(Set({Cluster(5.2, 0, 3.0)}), TeamView{"r1", 131.0, {}});
+  d = explorer.Decide(Set({Cluster(5, 0, 3.0), Cluster(-5, 0, 1.0)}), TeamView{"r1", 100.0, {}});
+  ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(-5, 0)) << "barred for 120 s";
+  d = explorer.Decide(Set({Cluster(5.2, 0, 3.0), Cluster(-5, 0, 1.0)}), TeamView{"r1", 131.0, {}});
   ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo) << "the map may show a way now";
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(5.2, 0));
   explorer.Fail("no path: still none", 140.0);
   ASSERT_EQ(explorer.failed().size(), 1u);
   EXPECT_EQ(explorer.failed()[0].failures, 2);
@@ -197,7 +215,8 @@ TEST(ExplorerTest, ReachedAndFailedTargetsBarOnlyTheirOwnLevel) {
   ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
   EXPECT_EQ(d.target.target_ground_z_m, 3.2) << "the landing is barred, floor 2 above it is not";
   d = explorer.Decide(Set({at_height(Cluster(22.6, 7.1, 2.0), 1.7)}), {"r1", 30.0, {}});
-  EXPECT_EQ(d.kind, ExplorerDecision::Kind::kComplete) << d.reason;
+  EXPECT_EQ(d.reason, "a frontier given up on once, retried before its time: no other reachable frontier")
+      << "the landing, 0.1 m off, is the failed place";
   ExplorerOptions bad;
   bad.same_place_dz_m = 0.0;
   std::string why;

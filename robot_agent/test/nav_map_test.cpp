@@ -532,6 +532,14 @@ TEST(NavMapTest, AFlightsEndsAreFrontiersWhereTheMapShowsNoSurface) {
   ends = stair_ends();
   ASSERT_EQ(ends.size(), 1u);
   EXPECT_LT((ends[0].head<2>() - foot_end).norm(), 1e-9) << "the top end is a frontier on a surface it cannot stand on";
+  // Something seen in the body space over the foot end (its column no longer unknown at z 0, no surface there
+  // either): a plan to it would be refused at once, so it is no stair frontier.
+  T_W_S.translation() = Eigen::Vector3d(1.0, 0.05, 0.45);
+  seen.InsertScan({Eigen::Vector3f(0.45f, 0.0f, 0.0f)}, T_W_S);  // a hit at (1.45, 0.05), z 0.4-0.5
+  ASSERT_TRUE(nav_map.Update(seen, tiles, 2.0, 1.3, {flight}).applied);
+  ASSERT_TRUE(nav_map.levels().CellOf(foot_end.x() + 0.05, foot_end.y(), &ix, &iy));
+  EXPECT_FALSE(nav_map.levels().IsUnknownAt(ix, iy, 0.0));
+  EXPECT_TRUE(stair_ends().empty());
 }
 
 }  // namespace
