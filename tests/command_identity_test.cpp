@@ -438,6 +438,78 @@ TEST(CommandIdentity, ARoguePeersOversizedIdAndUnknownActionAreRefused) {
             std::string::npos);
 }
 
+// Issue 15: two basestations race for r1's lock, each from its own process and thread: request-control, and when
+// granted give a command only the holder may give (mode r1 idle) and release, 100 times each. A grant is
+// certainly held from its answer's arrival until the release is sent (the robot granted it before the answer and
+// freed it after the release); no two such spans of opA and opB may overlap, the holder's command and every
+// release succeed, a refusal names the other basestation, and the robot's
+// states never show a third holder. Both win some rounds and lose some (the race is real).
+TEST(CommandIdentity, TwoBasestationsRacingForTheLockNeverBothHoldIt) {
+  const int domain = 77;
+  const std::string logs = Logs("lock_race");
+  Observer observer(domain);
+  auto agent = StartAgent("r1", domain, logs);
+  struct Span {
+    Clock::time_point granted, releasing;
+  };
+  struct Tally {
+    std::vector<Span> held;
+    int refused = 0;
+    std::vector<std::string> problems;
+  };
+  std::map<std::string, Tally> tallies;
+  std::map<std::string, std::unique_ptr<Base>> bases;
+  for (const std::string id : {"opA", "opB"}) {
+    bases[id] = std::make_unique<Base>(id, domain, logs);
+    tallies[id];
+    ASSERT_TRUE(bases[id]->Run("status r1")["ok"]) << id << " sees r1";  // both have discovered r1
+  }
+  auto race = [&](const std::string& id, const std::string& other) {
+    Base& base = *bases.at(id);
+    Tally& tally = tallies.at(id);
+    for (int round = 0; round < 100; ++round) {
+      const json r = base.Run("request-control r1");
+      if (r.value("ok", false)) {
+        const Clock::time_point granted = Clock::now();
+        // A command only the holder may give, while the other keeps asking.
+        const json commanded = base.Run("mode r1 idle");
+        if (!commanded.value("ok", false)) tally.problems.push_back("holder's command refused: " + commanded.dump());
+        const Clock::time_point releasing = Clock::now();
+        const json released = base.Run("release r1");
+        tally.held.push_back({granted, releasing});
+        if (!released.value("ok", false)) tally.problems.push_back("release refused: " + released.dump());
+      } else {
+        ++tally.refused;
+        if (r.value("holder", "") != other) tally.problems.push_back("refusal not naming " + other + ": " + r.dump());
+      }
+    }
+  };
+  std::thread a(race, "opA", "opB");
+  std::thread b(race, "opB", "opA");
+  a.join();
+  b.join();
+  for (const auto& [id, tally] : tallies) {
+    for (const std::string& p : tally.problems) ADD_FAILURE() << id << ": " << p;
+  }
+  int overlaps = 0;
+  for (const Span& x : tallies["opA"].held) {
+    for (const Span& y : tallies["opB"].held) {
+      if (x.granted < y.releasing && y.granted < x.releasing) ++overlaps;
+    }
+  }
+  EXPECT_EQ(overlaps, 0) << "opA and opB both held r1";
+  EXPECT_GT(tallies["opA"].held.size(), 0u);
+  EXPECT_GT(tallies["opB"].held.size(), 0u);
+  EXPECT_GT(tallies["opA"].refused + tallies["opB"].refused, 0) << "no round was contested";
+  for (const msgs::RobotState& s : observer.History("r1")) {
+    EXPECT_TRUE(s.holder_id().empty() || s.holder_id() == "opA" || s.holder_id() == "opB") << s.holder_id();
+  }
+  EXPECT_TRUE(observer.FreshState("r1").holder_id().empty()) << "the last release left the lock free";
+  Figure("grants_opA", static_cast<double>(tallies["opA"].held.size()));
+  Figure("grants_opB", static_cast<double>(tallies["opB"].held.size()));
+  Figure("refusals", tallies["opA"].refused + tallies["opB"].refused);
+}
+
 // Issue 9, defect 2: a one-shot process with the holder's id that starts and exits used to make the robot
 // mark the holder lost for 8 s and refuse the live REPL's commands.
 TEST(CommandIdentity, AShortLivedSecondProcessWithTheHoldersIdLeavesTheHolderAlive) {
