@@ -510,6 +510,105 @@ TEST(CommandIdentity, TwoBasestationsRacingForTheLockNeverBothHoldIt) {
   Figure("refusals", tallies["opA"].refused + tallies["opB"].refused);
 }
 
+// The largest planar distance between states of `robot` received in [from, now): metres.
+double Travel(Observer& observer, const std::string& robot, std::size_t from) {
+  const auto history = observer.History(robot);
+  double travel_m = 0.0;
+  for (std::size_t i = from; i < history.size(); ++i) travel_m = std::max(travel_m, Distance(history[from], history[i]));
+  return travel_m;
+}
+
+// Issue 15 fault suite: an agent frozen (SIGSTOP) for 5 s in the middle of a teleop is shown lost; resumed
+// (SIGCONT) after the operator's teleop has ended, it is back online with its holder and lock, comes to rest and
+// stays there: the twists sent before and while it was frozen do not drive it. Its holder commands it as before.
+// DISABLED: it exposes an open fault, seen in 2 of 5 runs (2026-11-25): after the agent resumes, one of the two
+// basestations (the holder once, the watcher once) never hears r1 again and keeps it "lost (its participant's lease
+// expired)" (its state 40 s old, the holder's commands refused), while the other basestation and the test's
+// observer hear it. Fast DDS dropped the frozen participant by its lease on that side only and the rediscovery
+// did not bring its endpoints back. Run it with --gtest_also_run_disabled_tests --gtest_repeat=5.
+TEST(CommandIdentity, DISABLED_AFrozenAgentComesBackWithItsLockAndDoesNotDriveOnStaleTwists) {
+  const int domain = 78;
+  const std::string logs = Logs("frozen_agent");
+  Observer observer(domain);
+  auto agent = StartAgent("r1", domain, logs);
+  Base op("opA", domain, logs);
+  Base watcher("opW", domain, logs);
+  ASSERT_TRUE(op.Run("request-control r1")["ok"]);
+  ASSERT_TRUE(op.Run("mode r1 manual")["ok"]);
+  std::thread teleop([&] { op.Run("teleop r1 0.3 0 3", 20s); });
+  std::this_thread::sleep_for(1500ms);
+  agent->Signal(SIGSTOP);
+  const auto frozen = Clock::now();
+  json r = watcher.Run("wait r1 lost 5", 10s);
+  EXPECT_TRUE(r["ok"]) << "r1 frozen was not shown lost: " << r;
+  Figure("sigstop_to_lost_s", std::chrono::duration<double>(Clock::now() - frozen).count());
+  teleop.join();  // the operator's teleop ends while the agent is frozen
+  std::this_thread::sleep_for(5s - (Clock::now() - frozen));
+  agent->Signal(SIGCONT);
+  const auto resumed = Clock::now();
+  r = watcher.Run("wait r1 online 5", 10s);
+  EXPECT_TRUE(r["ok"]) << "r1 resumed is not back: " << r;
+  Figure("sigcont_to_online_s", std::chrono::duration<double>(Clock::now() - resumed).count());
+  bool at_rest = false;  // zero command and speed (in manual mode: its holder is alive)
+  while (Clock::now() - resumed < 3s && !at_rest) {
+    const msgs::RobotState s = observer.FreshState("r1");
+    at_rest = s.cmd_twist_B().linear_x_mps() == 0.0 && std::abs(s.twist_B().linear_x_mps()) < 1e-6;
+  }
+  EXPECT_TRUE(at_rest) << "r1 did not come to rest after it resumed";
+  const std::size_t from = observer.History("r1").size();
+  std::this_thread::sleep_for(3s);
+  EXPECT_LT(Travel(observer, "r1", from), 0.02) << "r1 moved after it came to rest";
+  const msgs::RobotState after = observer.FreshState("r1");
+  EXPECT_EQ(after.holder_id(), "opA");
+  EXPECT_TRUE(after.holder_alive());
+  EXPECT_TRUE(watcher.Run("request-control r1")["result"] == "refused");
+  r = op.Run("mode r1 manual");
+  EXPECT_TRUE(r["ok"]) << r;
+}
+
+// Issue 15 fault suite: the holder's basestation frozen (SIGSTOP) while it teleoperates r1: the robot stops (holder
+// lost: idle, zero twist) and keeps the lock; resumed (SIGCONT), the basestation is the live holder again with no
+// command repeated: the robot stays idle and at rest although the frozen process's teleop had time left, nobody
+// else may take it, and the holder commands it at once.
+TEST(CommandIdentity, AFrozenBasestationGetsItsRobotBackIdleWithNoCommandRepeated) {
+  const int domain = 79;
+  const std::string logs = Logs("frozen_base");
+  Observer observer(domain);
+  auto agent = StartAgent("r1", domain, logs);
+  Base op("opA", domain, logs);
+  Base other("opB", domain, logs);
+  ASSERT_TRUE(op.Run("request-control r1")["ok"]);
+  ASSERT_TRUE(op.Run("mode r1 manual")["ok"]);
+  std::thread teleop([&] { op.Run("teleop r1 0.3 0 8", 30s); });
+  std::this_thread::sleep_for(1500ms);
+  op.Signal(SIGSTOP);
+  const auto frozen = Clock::now();
+  bool stopped = false;
+  while (Clock::now() - frozen < 5s && !stopped) {
+    const msgs::RobotState s = observer.FreshState("r1");
+    stopped = !s.holder_alive() && s.mode() == "idle" && s.cmd_twist_B().linear_x_mps() == 0.0;
+  }
+  EXPECT_TRUE(stopped) << "r1 did not stop when its holder froze";
+  Figure("holder_sigstop_to_stop_s", std::chrono::duration<double>(Clock::now() - frozen).count());
+  EXPECT_EQ(other.Run("request-control r1")["holder"], "opA") << "the lock stays with the frozen holder";
+  std::this_thread::sleep_for(4s - (Clock::now() - frozen));
+  const std::size_t from = observer.History("r1").size();
+  op.Signal(SIGCONT);  // its teleop has about 2.5 s left
+  const auto resumed = Clock::now();
+  bool alive = false;
+  while (Clock::now() - resumed < 5s && !alive) alive = observer.FreshState("r1").holder_alive();
+  EXPECT_TRUE(alive) << "the resumed holder is not alive again";
+  Figure("holder_sigcont_to_alive_s", std::chrono::duration<double>(Clock::now() - resumed).count());
+  teleop.join();
+  const msgs::RobotState after = observer.FreshState("r1");
+  EXPECT_EQ(after.holder_id(), "opA");
+  EXPECT_EQ(after.mode(), "idle") << "a resumed teleop must not bring back manual mode";
+  EXPECT_LT(Travel(observer, "r1", from), 0.05) << "r1 moved after its holder resumed";
+  EXPECT_EQ(other.Run("request-control r1")["result"], "refused");
+  json r = op.Run("mode r1 manual");
+  EXPECT_TRUE(r["ok"]) << r;
+}
+
 // Issue 9, defect 2: a one-shot process with the holder's id that starts and exits used to make the robot
 // mark the holder lost for 8 s and refuse the live REPL's commands.
 TEST(CommandIdentity, AShortLivedSecondProcessWithTheHoldersIdLeavesTheHolderAlive) {

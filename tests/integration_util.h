@@ -192,6 +192,8 @@ class Base {
   Base(const std::string& id, int domain, const std::string& log_dir, const std::vector<std::string>& extra = {})
       : process_(Args(id, domain, extra), log_dir + "/" + id + ".log") {}
   void Kill() { process_.Signal(SIGKILL); }
+  /// Sends `sig` to the basestation process (SIGSTOP / SIGCONT freeze and resume it).
+  void Signal(int sig) { process_.Signal(sig); }
   /// Progress lines seen so far (distance left, ETA).
   const std::vector<json>& progress_lines() const { return progress_lines_; }
   /// Event lines seen so far (e.g. {"event": "staircase", ...}).
