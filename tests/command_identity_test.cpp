@@ -438,12 +438,12 @@ TEST(CommandIdentity, ARoguePeersOversizedIdAndUnknownActionAreRefused) {
             std::string::npos);
 }
 
-// Issue 15: two basestations race for r1's lock, each from its own process and thread: request-control, and when
-// granted give a command only the holder may give (mode r1 idle) and release, 100 times each. A grant is
-// certainly held from its answer's arrival until the release is sent (the robot granted it before the answer and
-// freed it after the release); no two such spans of opA and opB may overlap, the holder's command and every
-// release succeed, a refusal names the other basestation, and the robot's
-// states never show a third holder. Both win some rounds and lose some (the race is real).
+// Issue 15: two basestations race for r1's lock, each from its own process and thread: request-control, and
+// when granted give a command only the holder may give (mode r1 idle) and release, 100 times each. A grant is
+// certainly held from its answer's arrival until the release is sent (the robot granted it before the answer
+// and freed it after the release); no two such spans of opA and opB may overlap, the holder's command and
+// every release succeed, a refusal names the other basestation, and the robot's states never show a third
+// holder. Both win some rounds and lose some (the race is real).
 TEST(CommandIdentity, TwoBasestationsRacingForTheLockNeverBothHoldIt) {
   const int domain = 77;
   const std::string logs = Logs("lock_race");
@@ -473,14 +473,16 @@ TEST(CommandIdentity, TwoBasestationsRacingForTheLockNeverBothHoldIt) {
         const Clock::time_point granted = Clock::now();
         // A command only the holder may give, while the other keeps asking.
         const json commanded = base.Run("mode r1 idle");
-        if (!commanded.value("ok", false)) tally.problems.push_back("holder's command refused: " + commanded.dump());
+        if (!commanded.value("ok", false))
+          tally.problems.push_back("holder's command refused: " + commanded.dump());
         const Clock::time_point releasing = Clock::now();
         const json released = base.Run("release r1");
         tally.held.push_back({granted, releasing});
         if (!released.value("ok", false)) tally.problems.push_back("release refused: " + released.dump());
       } else {
         ++tally.refused;
-        if (r.value("holder", "") != other) tally.problems.push_back("refusal not naming " + other + ": " + r.dump());
+        if (r.value("holder", "") != other)
+          tally.problems.push_back("refusal not naming " + other + ": " + r.dump());
       }
     }
   };
@@ -514,18 +516,20 @@ TEST(CommandIdentity, TwoBasestationsRacingForTheLockNeverBothHoldIt) {
 double Travel(Observer& observer, const std::string& robot, std::size_t from) {
   const auto history = observer.History(robot);
   double travel_m = 0.0;
-  for (std::size_t i = from; i < history.size(); ++i) travel_m = std::max(travel_m, Distance(history[from], history[i]));
+  for (std::size_t i = from; i < history.size(); ++i)
+    travel_m = std::max(travel_m, Distance(history[from], history[i]));
   return travel_m;
 }
 
 // Issue 15 fault suite: an agent frozen (SIGSTOP) for 5 s in the middle of a teleop is shown lost; resumed
-// (SIGCONT) after the operator's teleop has ended, it is back online with its holder and lock, comes to rest and
-// stays there: the twists sent before and while it was frozen do not drive it. Its holder commands it as before.
-// DISABLED: it exposes an open fault, seen in 2 of 5 runs (2026-11-25): after the agent resumes, one of the two
-// basestations (the holder once, the watcher once) never hears r1 again and keeps it "lost (its participant's lease
-// expired)" (its state 40 s old, the holder's commands refused), while the other basestation and the test's
-// observer hear it. Fast DDS dropped the frozen participant by its lease on that side only and the rediscovery
-// did not bring its endpoints back. Run it with --gtest_also_run_disabled_tests --gtest_repeat=5.
+// (SIGCONT) after the operator's teleop has ended, it is back online with its holder and lock, comes to rest
+// and stays there: the twists sent before and while it was frozen do not drive it. Its holder commands it as
+// before. DISABLED: it exposes an open fault, seen in 2 of 5 runs (2026-11-25): after the agent resumes, one
+// of the two basestations (the holder once, the watcher once) never hears r1 again and keeps it "lost (its
+// participant's lease expired)" (its state 40 s old, the holder's commands refused), while the other
+// basestation and the test's observer hear it. Fast DDS dropped the frozen participant by its lease on that
+// side only and the rediscovery did not bring its endpoints back. Run it with --gtest_also_run_disabled_tests
+// --gtest_repeat=5.
 TEST(CommandIdentity, DISABLED_AFrozenAgentComesBackWithItsLockAndDoesNotDriveOnStaleTwists) {
   const int domain = 78;
   const std::string logs = Logs("frozen_agent");
@@ -566,10 +570,10 @@ TEST(CommandIdentity, DISABLED_AFrozenAgentComesBackWithItsLockAndDoesNotDriveOn
   EXPECT_TRUE(r["ok"]) << r;
 }
 
-// Issue 15 fault suite: the holder's basestation frozen (SIGSTOP) while it teleoperates r1: the robot stops (holder
-// lost: idle, zero twist) and keeps the lock; resumed (SIGCONT), the basestation is the live holder again with no
-// command repeated: the robot stays idle and at rest although the frozen process's teleop had time left, nobody
-// else may take it, and the holder commands it at once.
+// Issue 15 fault suite: the holder's basestation frozen (SIGSTOP) while it teleoperates r1: the robot stops
+// (holder lost: idle, zero twist) and keeps the lock; resumed (SIGCONT), the basestation is the live holder
+// again with no command repeated: the robot stays idle and at rest although the frozen process's teleop had
+// time left, nobody else may take it, and the holder commands it at once.
 TEST(CommandIdentity, AFrozenBasestationGetsItsRobotBackIdleWithNoCommandRepeated) {
   const int domain = 79;
   const std::string logs = Logs("frozen_base");

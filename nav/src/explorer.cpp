@@ -141,9 +141,9 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
     current_.reset();
     return decision;
   }
-  // Nothing else to do: a frontier barred until its retry is retried now (its second failure bars it for good)
-  // rather than left behind by a completion: it failed while the map around it was thinner, and an exploration
-  // that ends is never retried.
+  // Nothing else to do: a frontier barred until its retry is retried now (its second failure bars it for
+  // good) rather than left behind by a completion: it failed while the map around it was thinner, and an
+  // exploration that ends is never retried.
   if (best == nullptr && retry != nullptr) {
     const bool retrying = current_ && SamePlace(*retry, current_->target_M, current_->target_ground_z_m,
                                                 options_.follow_radius_m);

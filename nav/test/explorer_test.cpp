@@ -72,9 +72,11 @@ TEST(ExplorerTest, AFailedTargetIsNeverTriedAgainAndExplorationCompletesWhenNoth
   ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
   EXPECT_EQ(d.target.target_M, Eigen::Vector2d(0, 5));
   explorer.Fail("blocked: no progress for 10 s");
-  // Nothing else is left: the better of the two given up on once is retried before its time (a completion would
-  // leave both behind for good); it is kept as the map grows, and a second failure there bars it for good.
-  const FrontierSet left = Set({Cluster(6, 0, 3.0), Cluster(0, 5.5, 1.0), Cluster(20, 20, 0, /*reachable=*/false)});
+  // Nothing else is left: the better of the two given up on once is retried before its time (a completion
+  // would leave both behind for good); it is kept as the map grows, and a second failure there bars it for
+  // good.
+  const FrontierSet left =
+      Set({Cluster(6, 0, 3.0), Cluster(0, 5.5, 1.0), Cluster(20, 20, 0, /*reachable=*/false)});
   d = explorer.Decide(left);
   ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
   EXPECT_EQ(d.target.target_M, Eigen::Vector2d(6, 0));
@@ -98,11 +100,12 @@ TEST(ExplorerTest, AFailedTargetIsNeverTriedAgainAndExplorationCompletesWhenNoth
   EXPECT_EQ(explorer.failed().size(), 2u);
 }
 
-// A failed frontier is barred for retry_after_s while others are left, then tried once more, and barred for good
-// after a second failure.
+// A failed frontier is barred for retry_after_s while others are left, then tried once more, and barred for
+// good after a second failure.
 TEST(ExplorerTest, AFailedTargetIsRetriedOnceAfterAWhileThenBarredForGood) {
   Explorer explorer;
-  ExplorerDecision d = explorer.Decide(Set({Cluster(5, 0, 3.0), Cluster(-5, 0, 1.0)}), TeamView{"r1", 10.0, {}});
+  ExplorerDecision d =
+      explorer.Decide(Set({Cluster(5, 0, 3.0), Cluster(-5, 0, 1.0)}), TeamView{"r1", 10.0, {}});
   ASSERT_EQ(d.target.target_M, Eigen::Vector2d(5, 0));
   explorer.Fail("no path: the map showed no way", 10.0);
   d = explorer.Decide(Set({Cluster(5, 0, 3.0), Cluster(-5, 0, 1.0)}), TeamView{"r1", 100.0, {}});

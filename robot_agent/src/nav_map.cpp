@@ -131,12 +131,12 @@ void NavMap::AddStairFrontiers(const Eigen::Vector3d& robot_M, const nav::Fronti
       int ix = 0, iy = 0;
       if (!levels.CellOf(end_M.x(), end_M.y(), &ix, &iy)) continue;
       const int node = levels.NodeNear(ix, iy, end_z, levels.options().max_step_m);
-      // Known ground there: traversable, it is the frontier search's; not (the ragged treads of a flight detected
-      // only part way up, the end then lies on the treads above), a plan to it is refused at once and that
-      // failure would bar the flight's own frontiers within blacklist_radius_m. The same for an end whose column
-      // holds something in the body space (a riser seen, its tread not: the frontier search counts it as unseen
-      // from the tread below). Only an end the map shows nothing at is a stair frontier (a plan to unknown
-      // ground is allowed).
+      // Known ground there: traversable, it is the frontier search's; not (the ragged treads of a flight
+      // detected only part way up, the end then lies on the treads above), a plan to it is refused at once
+      // and that failure would bar the flight's own frontiers within blacklist_radius_m. The same for an end
+      // whose column holds something in the body space (a riser seen, its tread not: the frontier search
+      // counts it as unseen from the tread below). Only an end the map shows nothing at is a stair frontier
+      // (a plan to unknown ground is allowed).
       if (node >= 0 || !levels.IsUnknownAt(ix, iy, end_z)) continue;
       if (!options.region_M.isEmpty() && !options.region_M.contains(end_M)) continue;
       if (end_z < options.min_z_m || end_z > options.max_z_m) continue;

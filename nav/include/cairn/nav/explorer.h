@@ -27,8 +27,9 @@ struct ExplorerOptions {
   double follow_radius_m = 1.5;
   /// A failed target bars clusters whose target lies within this of it, metres, (0, 20]...
   double blacklist_radius_m = 1.5;
-  /// ...for this long after its first failure (the map around it may show a way later; sooner when no other
-  /// frontier is left, see Explorer::Decide()), and for good after a second failure there, seconds, [0, 3600].
+  /// ...for this long after its first failure (the map around it may show a way later; sooner when no
+  /// other frontier is left, see Explorer::Decide()), and for good after a second failure there, seconds,
+  /// [0, 3600].
   double retry_after_s = 120.0;
   /// A target the robot reached bars clusters whose target lies within this of it, metres, (0, 20]: what
   /// is still unknown behind a frontier the robot stood on is out of its lidar's sight from there (below its
@@ -102,14 +103,14 @@ class Explorer {
   /// Chooses what to do with the frontiers `set` (FindFrontiers on the latest map). Clusters that cannot be
   /// reached or lie within blacklist_radius_m of a failed target are left out; of the others the one with the
   /// highest utility is taken, unless the current target is still there and the best is not
-  /// switch_utility_ratio times better; reached targets (visited_radius_m) are left out too. With none left, the
-  /// best cluster barred only until its retry (one failure there) is retried at once; with none of those
+  /// switch_utility_ratio times better; reached targets (visited_radius_m) are left out too. With none left,
+  /// the best cluster barred only until its retry (one failure there) is retried at once; with none of those
   /// either, exploration is complete.
   /// With `team`: a cluster within claim_radius_m of a peer's claim is left to the peer, however fresh the
-  /// claim, unless it is this robot's current target: then the peer wins when it has held its claim longer, or
-  /// as long (within 0.5 s: two robots chose at once, before either heard the other) and its id is smaller.
-  /// When only such clusters are left, the decision is kWait. Utilities
-  /// are discounted near peers' claims (peer_influence_m); the decision's target carries the discounted one.
+  /// claim, unless it is this robot's current target: then the peer wins when it has held its claim longer,
+  /// or as long (within 0.5 s: two robots chose at once, before either heard the other) and its id is
+  /// smaller. When only such clusters are left, the decision is kWait. Utilities are discounted near peers'
+  /// claims (peer_influence_m); the decision's target carries the discounted one.
   ExplorerDecision Decide(const FrontierSet& set, const TeamView& team = {});
   /// True when a peer's claim in `team` takes the current target from this robot (as Decide() would see it);
   /// `*by` names the peer. The caller drops the target then, at once, instead of at the next frontier set.
@@ -143,8 +144,8 @@ class Explorer {
   // same_place_dz_m in height.
   bool SamePlace(const FrontierCluster& a, const Eigen::Vector2d& b_M, double b_z_m, double radius_m) const;
   enum class Bar { kNone, kUntilRetry, kForGood };
-  // Whether `c` lies near a failed target at `now_s`: barred until retry_after_s after one failure there, for good
-  // after two.
+  // Whether `c` lies near a failed target at `now_s`: barred until retry_after_s after one failure there, for
+  // good after two.
   Bar Barred(const FrontierCluster& c, double now_s) const;
   bool Visited(const FrontierCluster& c) const;
 
