@@ -150,11 +150,7 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
     decision.kind = retrying ? ExplorerDecision::Kind::kKeep : ExplorerDecision::Kind::kGoTo;
     decision.target = *retry;
     decision.reason = "a frontier given up on once, retried before its time: no other reachable frontier";
-    if (!retrying) current_since_s_ = team.now_s;
-    current_ = decision.target;
-    return decision;
-  }
-  if (best == nullptr) {
+  } else if (best == nullptr) {
     std::ostringstream why;
     why << "exploration complete: no reachable frontier";
     if (unreachable > 0 || barred > 0 || visited > 0) {
@@ -165,8 +161,7 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
     decision.reason = why.str();
     current_.reset();
     return decision;
-  }
-  if (followed != nullptr && !(best->utility > options_.switch_utility_ratio * followed->utility)) {
+  } else if (followed != nullptr && !(best->utility > options_.switch_utility_ratio * followed->utility)) {
     decision.kind = ExplorerDecision::Kind::kKeep;
     decision.target = *followed;
     decision.reason = "the current frontier is still the one to explore (" + std::to_string(candidates) +
