@@ -524,13 +524,10 @@ double Travel(Observer& observer, const std::string& robot, std::size_t from) {
 // Issue 15 fault suite: an agent frozen (SIGSTOP) for 5 s in the middle of a teleop is shown lost; resumed
 // (SIGCONT) after the operator's teleop has ended, it is back online with its holder and lock, comes to rest
 // and stays there: the twists sent before and while it was frozen do not drive it. Its holder commands it as
-// before. DISABLED: it exposes an open fault, seen in 2 of 5 runs (2026-11-25): after the agent resumes, one
-// of the two basestations (the holder once, the watcher once) never hears r1 again and keeps it "lost (its
-// participant's lease expired)" (its state 40 s old, the holder's commands refused), while the other
-// basestation and the test's observer hear it. Fast DDS dropped the frozen participant by its lease on that
-// side only and the rediscovery did not bring its endpoints back. Run it with --gtest_also_run_disabled_tests
-// --gtest_repeat=5.
-TEST(CommandIdentity, DISABLED_AFrozenAgentComesBackWithItsLockAndDoesNotDriveOnStaleTwists) {
+// before. A freeze longer than the participant lease used to leave one basestation deaf to the robot for good
+// (seen in 2 of 5 runs: Fast DDS dropped the frozen participant on that side only and never got its endpoints
+// again); the agent's participant now re-creates itself after a stall (core::Participant's watchdog).
+TEST(CommandIdentity, AFrozenAgentComesBackWithItsLockAndDoesNotDriveOnStaleTwists) {
   const int domain = 78;
   const std::string logs = Logs("frozen_agent");
   Observer observer(domain);
@@ -573,13 +570,9 @@ TEST(CommandIdentity, DISABLED_AFrozenAgentComesBackWithItsLockAndDoesNotDriveOn
 // Issue 15 fault suite: the holder's basestation frozen (SIGSTOP) while it teleoperates r1: the robot stops
 // (holder lost: idle, zero twist) and keeps the lock; resumed (SIGCONT), the basestation is the live holder
 // again with no command repeated: the robot stays idle and at rest although the frozen process's teleop had
-// time left, nobody else may take it, and the holder commands it at once.
-// DISABLED: the same open fault as the frozen agent's, the other way round. It passed 3 of 3 runs by hand and
-// failed in the clean-clone CI (2026-11-25): after SIGCONT the robot never saw the holder alive again and the
-// holder's basestation showed r1 "lost (no state for 8.2 s)" (the robot had dropped the frozen basestation's
-// participant by its lease; the basestation, resumed, had not dropped the robot's, and the endpoints were not
-// rediscovered). Run it with --gtest_also_run_disabled_tests --gtest_repeat=5.
-TEST(CommandIdentity, DISABLED_AFrozenBasestationGetsItsRobotBackIdleWithNoCommandRepeated) {
+// time left, nobody else may take it, and the holder commands it at once. The same fault as the frozen
+// agent's, the other way round, used to leave the robot deaf to its resumed holder (seen in CI).
+TEST(CommandIdentity, AFrozenBasestationGetsItsRobotBackIdleWithNoCommandRepeated) {
   const int domain = 79;
   const std::string logs = Logs("frozen_base");
   Observer observer(domain);

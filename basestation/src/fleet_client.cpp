@@ -57,7 +57,6 @@ class FleetClient::Impl {
       gone_participants_.emplace_back(participant, dropped);
     };
     participant_ = std::make_unique<core::Participant>(p);
-    participant_id_ = participant_->participant_id();
     // Announced on cairn/base_info, which only robots read; robots announce on cairn/agent_info.
     info_writer_ =
         std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/base_info", "cairn.latched");
@@ -118,7 +117,7 @@ class FleetClient::Impl {
                                                                            "cairn.command");
     probe_reply_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
         *participant_, "cairn/link_probe_reply", "cairn.command", [this](const msgs::PingPong& m, const auto&) {
-          if (m.base_id() != options_.base_id || m.body() != participant_id_) return;  // another base's probe
+          if (m.base_id() != options_.base_id || m.body() != participant_->participant_id()) return;  // another base's probe
           const auto now = SteadyClock::now();
           std::lock_guard<std::mutex> lock(mutex_);
           if (robots_.count(m.robot_id()) == 0) return;  // announces itself first
@@ -129,7 +128,7 @@ class FleetClient::Impl {
     path_response_reader_ = std::make_unique<core::Reader<msgs::PathResponsePubSubType>>(
         *participant_, "cairn/path_response", "cairn.command", [this](const msgs::PathResponse& m, const auto&) {
           // Answers to another process with this base id (same request ids) are not ours.
-          if (m.requester_id() != options_.base_id || m.requester_participant() != participant_id_) return;
+          if (m.requester_id() != options_.base_id || m.requester_participant() != participant_->participant_id()) return;
           {
             std::lock_guard<std::mutex> lock(mutex_);
             if (awaited_paths_.count(m.request_id()) == 0) return;  // a late duplicate of an answered request
@@ -263,7 +262,7 @@ class FleetClient::Impl {
 
   void OnResponse(const msgs::CommandResponse& m) {
     // Replies to another process with this base id (it numbers its requests from 1 too) are not ours.
-    if (m.base_id() != options_.base_id || m.requester_participant() != participant_id_) return;
+    if (m.base_id() != options_.base_id || m.requester_participant() != participant_->participant_id()) return;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       const std::string key = ResponseKey(m.robot_id(), m.kind(), m.request_id());
@@ -378,7 +377,7 @@ class FleetClient::Impl {
         msgs::PingPong probe;
         probe.request_id(probe_id);
         probe.base_id(options_.base_id);
-        probe.body(participant_id_);
+        probe.body(participant_->participant_id());
         probe_writer_->Write(probe);
         lock.lock();
       }
@@ -482,7 +481,6 @@ class FleetClient::Impl {
   }
 
   FleetClientOptions options_;
-  std::string participant_id_;
   const core::SteadyTime created_ = SteadyClock::now();
   mutable std::mutex mutex_;
   FleetEventDetector detector_;
@@ -536,7 +534,7 @@ FleetClient::~FleetClient() = default;
 
 const std::string& FleetClient::base_id() const { return impl_->options_.base_id; }
 
-const std::string& FleetClient::participant_id() const { return impl_->participant_id_; }
+std::string FleetClient::participant_id() const { return impl_->participant_->participant_id(); }
 
 FleetPerception& FleetClient::perception() { return *impl_->perception_; }
 

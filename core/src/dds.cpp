@@ -7,6 +7,9 @@
 #include <fstream>
 #include <optional>
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
 #include <fastdds/rtps/attributes/ServerAttributes.h>
@@ -96,7 +99,10 @@ std::string WriterIdOf(const eprosima::fastrtps::rtps::InstanceHandle_t& handle)
   return DottedHex(bytes, sizeof(bytes));
 }
 
-std::string Participant::participant_id() const { return ParticipantIdOf(participant_->guid()); }
+std::string Participant::participant_id() const {
+  std::lock_guard<std::mutex> lock(id_mutex_);
+  return participant_id_;
+}
 
 std::string DefaultProfilesFile() {
   if (const char* env = std::getenv("CAIRN_DDS_PROFILES"); env != nullptr && *env != '\0') return env;
@@ -518,27 +524,114 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
     descriptor->period_ms = static_cast<uint64_t>(period_ms);
     qos.flow_controllers().push_back(descriptor);
   }
-  // The listener hears participant discovery only (StatusMask::none: entity callbacks stay with the entities).
-  participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options.domain_id), qos, this,
-                                             dds::StatusMask::none());
-  if (participant_ == nullptr) {
-    throw DdsError("cannot create DDS participant '" + options.name + "' in domain " +
-                   std::to_string(options.domain_id) + " with profile '" + options.participant_profile + "'");
-  }
-  publisher_ = participant_->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
-  subscriber_ = participant_->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);
-  if (publisher_ == nullptr || subscriber_ == nullptr) {
-    participant_->delete_contained_entities();
-    factory->delete_participant(participant_);
-    throw DdsError("cannot create the publisher/subscriber of participant '" + options.name + "'");
+  qos_ = qos;
+  CreateEntities();
+  const auto& discovery = qos_.wire_protocol().builtin.discovery_config;
+  if (options_.rebuild_after_stall && discovery.leaseDuration != eprosima::fastrtps::c_TimeInfinite) {
+    stall_threshold_s_ = std::max(0.5, discovery.leaseDuration.to_ns() * 1e-9 -
+                                           discovery.leaseDuration_announcementperiod.to_ns() * 1e-9);
+    watchdog_ = std::thread([this] { WatchForStalls(); });
   }
 }
 
 Participant::~Participant() {
+  if (watchdog_.joinable()) {
+    {
+      std::lock_guard<std::mutex> lock(watchdog_mutex_);
+      watchdog_stop_ = true;
+    }
+    watchdog_cv_.notify_all();
+    watchdog_.join();
+  }
+  DeleteEntities();
+}
+
+void Participant::CreateEntities() {
+  auto* factory = dds::DomainParticipantFactory::get_instance();
+  // The listener hears participant discovery only (StatusMask::none: entity callbacks stay with the entities).
+  participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options_.domain_id), qos_, this,
+                                             dds::StatusMask::none());
+  if (participant_ == nullptr) {
+    throw DdsError("cannot create DDS participant '" + options_.name + "' in domain " +
+                   std::to_string(options_.domain_id) + " with profile '" + options_.participant_profile + "'");
+  }
+  publisher_ = participant_->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
+  subscriber_ = participant_->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);
+  if (publisher_ == nullptr || subscriber_ == nullptr) {
+    DeleteEntities();
+    throw DdsError("cannot create the publisher/subscriber of participant '" + options_.name + "'");
+  }
+  std::lock_guard<std::mutex> lock(id_mutex_);
+  participant_id_ = ParticipantIdOf(participant_->guid());
+}
+
+void Participant::DeleteEntities() {
   if (participant_ == nullptr) return;
   participant_->set_listener(nullptr);
   participant_->delete_contained_entities();
   dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  participant_ = nullptr;
+  publisher_ = nullptr;
+  subscriber_ = nullptr;
+}
+
+void Participant::Register(ParticipantEndpoint* endpoint) {
+  std::lock_guard<std::mutex> lock(endpoints_mutex_);
+  endpoints_.insert(endpoint);
+}
+
+void Participant::Unregister(ParticipantEndpoint* endpoint) {
+  std::lock_guard<std::mutex> lock(endpoints_mutex_);
+  endpoints_.erase(endpoint);
+}
+
+void Participant::Rebuild(const std::string& why) {
+  std::lock_guard<std::mutex> one_at_a_time(rebuild_mutex_);
+  const std::string old_id = participant_id();
+  std::size_t endpoints = 0;
+  {
+    std::unique_lock<std::shared_mutex> entities(entities_mutex_);
+    std::lock_guard<std::mutex> lock(endpoints_mutex_);
+    for (ParticipantEndpoint* endpoint : endpoints_) endpoint->DeleteEntity();
+    DeleteEntities();
+    CreateEntities();
+    for (ParticipantEndpoint* endpoint : endpoints_) endpoint->CreateEntity();
+    endpoints = endpoints_.size();
+    ++rebuilds_;
+  }
+  {
+    // Writers publish what waited (AfterRebuild takes the entities lock shared); an endpoint being destroyed
+    // meanwhile waits in Unregister.
+    std::lock_guard<std::mutex> lock(endpoints_mutex_);
+    for (ParticipantEndpoint* endpoint : endpoints_) endpoint->AfterRebuild();
+  }
+  const std::string new_id = participant_id();
+  spdlog::warn("DDS participant '{}' re-created ({}): {} is now {}, {} endpoints back", options_.name, why, old_id,
+               new_id, endpoints);
+  if (options_.on_rebuilt) options_.on_rebuilt(new_id);
+}
+
+void Participant::WatchForStalls() {
+  using Clock = std::chrono::steady_clock;
+  constexpr auto kPeriod = std::chrono::milliseconds(100);
+  std::unique_lock<std::mutex> lock(watchdog_mutex_);
+  Clock::time_point last = Clock::now();
+  while (!watchdog_cv_.wait_for(lock, kPeriod, [this] { return watchdog_stop_; })) {
+    const Clock::time_point now = Clock::now();
+    const double gap_s = std::chrono::duration<double>(now - last).count();
+    last = now;
+    if (gap_s <= stall_threshold_s_) continue;
+    lock.unlock();
+    try {
+      Rebuild(fmt::format("this process stalled for {:.1f} s, longer than the {:.2f} s after which peers may have "
+                          "dropped it",
+                          gap_s, stall_threshold_s_));
+    } catch (const std::exception& e) {
+      spdlog::error("DDS participant '{}' could not be re-created after a stall: {}", options_.name, e.what());
+    }
+    lock.lock();
+    last = Clock::now();
+  }
 }
 
 void Participant::on_participant_discovery(dds::DomainParticipant*,

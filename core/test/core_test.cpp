@@ -549,5 +549,106 @@ TEST(LinkOptions, ANetworkLinkRaisesShortLivelinessLeasesAndItsEndpointsStillMat
   EXPECT_TRUE(WaitForCount(received, 1, std::chrono::seconds(5)));
 }
 
+
+// A rebuilt participant (what the stall watchdog does after a SIGSTOP longer than the lease) comes back under
+// a new GUID with every endpoint: its writers and readers match their peers again, a latched writer publishes
+// its last sample again for them, and a writer used during the rebuild neither blocks nor fails.
+TEST(Participant, ARebuildComesBackUnderANewIdWithEveryEndpointAndItsLatchedSample) {
+  ParticipantOptions options;
+  options.domain_id = 43;
+  std::mutex mutex;
+  std::vector<std::string> rebuilt_ids;
+  ParticipantOptions rebuilt_options = options;
+  rebuilt_options.on_rebuilt = [&](const std::string& id) {
+    std::lock_guard<std::mutex> lock(mutex);
+    rebuilt_ids.push_back(id);
+  };
+  Participant a(rebuilt_options), b(options);
+  EXPECT_GT(a.stall_threshold_s(), 1.0);  // the shipped 2 s lease less its 250 ms announcements
+  EXPECT_LT(a.stall_threshold_s(), 2.0);
+
+  std::atomic<int> latched_received{0}, commands_received{0};
+  std::string last_latched;
+  Reader<cairn_msgs::ModeRequestPubSubType> latched_reader(b, "test/rebuild_latched", "cairn.latched",
+                                                          [&](const cairn_msgs::ModeRequest& m, const auto&) {
+                                                            std::lock_guard<std::mutex> lock(mutex);
+                                                            last_latched = m.robot_id();
+                                                            ++latched_received;
+                                                          });
+  Reader<cairn_msgs::ModeRequestPubSubType> command_reader(
+      a, "test/rebuild_command", "cairn.command",
+      [&](const cairn_msgs::ModeRequest&, const auto&) { ++commands_received; });
+  std::atomic<int> quiet_received{0};
+  Reader<cairn_msgs::ModeRequestPubSubType> quiet_reader(
+      b, "test/rebuild_quiet", "cairn.latched",
+      [&](const cairn_msgs::ModeRequest&, const auto&) { ++quiet_received; });
+  Writer<cairn_msgs::ModeRequestPubSubType> latched_writer(a, "test/rebuild_latched", "cairn.latched");
+  Writer<cairn_msgs::ModeRequestPubSubType> quiet_writer(a, "test/rebuild_quiet", "cairn.latched");
+  Writer<cairn_msgs::ModeRequestPubSubType> command_writer(b, "test/rebuild_command", "cairn.command");
+  ASSERT_TRUE(latched_writer.WaitForMatched(1, std::chrono::seconds(5)));
+  ASSERT_TRUE(quiet_writer.WaitForMatched(1, std::chrono::seconds(5)));
+  ASSERT_TRUE(command_writer.WaitForMatched(1, std::chrono::seconds(5)));
+  cairn_msgs::ModeRequest msg;
+  for (const char* robot : {"r1", "r2"}) {
+    msg.robot_id(robot);
+    ASSERT_TRUE(latched_writer.Write(msg));
+  }
+  ASSERT_TRUE(WaitForCount(latched_received, 2, std::chrono::seconds(5)));
+  ASSERT_TRUE(quiet_writer.Write(msg));  // written once, before the rebuild only
+  ASSERT_TRUE(WaitForCount(quiet_received, 1, std::chrono::seconds(5)));
+  ASSERT_TRUE(command_writer.Write(msg));
+  ASSERT_TRUE(WaitForCount(commands_received, 1, std::chrono::seconds(5)));
+
+  const std::string old_id = a.participant_id();
+  std::atomic<bool> stop{false};
+  std::atomic<int> refused{0};
+  std::thread writing([&] {
+    cairn_msgs::ModeRequest during;
+    during.robot_id("r3");
+    while (!stop) {
+      if (!latched_writer.Write(during)) ++refused;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  a.Rebuild("test");
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  stop = true;
+  writing.join();
+  EXPECT_EQ(refused.load(), 0);
+  EXPECT_EQ(a.rebuilds(), 1);
+  EXPECT_NE(a.participant_id(), old_id);
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    ASSERT_EQ(rebuilt_ids.size(), 1u);
+    EXPECT_EQ(rebuilt_ids[0], a.participant_id());
+  }
+
+  // Both directions match again, and the peer gets a latched writer's last sample from the new writer, also
+  // from one not written since.
+  EXPECT_TRUE(WaitForCount(quiet_received, 2, std::chrono::seconds(5)));
+  ASSERT_TRUE(latched_writer.WaitMatchedWith(b.participant_id(), std::chrono::steady_clock::now() +
+                                                                     std::chrono::seconds(5)));
+  ASSERT_TRUE(command_writer.WaitMatchedWith(a.participant_id(), std::chrono::steady_clock::now() +
+                                                                     std::chrono::seconds(5)));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  const auto latest = [&] {
+    std::lock_guard<std::mutex> lock(mutex);
+    return last_latched;
+  };
+  while (latest() != "r3" && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(latest(), "r3");
+  const int commands_before = commands_received.load();
+  ASSERT_TRUE(command_writer.Write(msg));
+  EXPECT_TRUE(WaitForCount(commands_received, commands_before + 1, std::chrono::seconds(5)));
+  // A reader joining now gets the latched sample from the new writer too.
+  std::atomic<int> late_received{0};
+  Reader<cairn_msgs::ModeRequestPubSubType> late(b, "test/rebuild_quiet", "cairn.latched",
+                                                [&](const cairn_msgs::ModeRequest&, const auto&) { ++late_received; });
+  EXPECT_TRUE(WaitForCount(late_received, 1, std::chrono::seconds(5)));
+}
+
 }  // namespace
 }  // namespace cairn::core

@@ -533,10 +533,8 @@ int AgentDds::RobotsOnLink() const {
 }
 
 void AgentDds::WaitForMapDelivery(std::chrono::milliseconds timeout) {
-  const auto ms = timeout.count();
   std::lock_guard<std::mutex> guard(impl_->bulk_mutex_);
-  impl_->map_writer_->get()->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(
-      static_cast<int32_t>(ms / 1000), static_cast<uint32_t>((ms % 1000) * 1000000)));
+  impl_->map_writer_->WaitForAcknowledgments(timeout);
 }
 
 }  // namespace cairn::agent

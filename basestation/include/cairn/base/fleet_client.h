@@ -108,7 +108,7 @@ class FleetClient {
   const std::string& base_id() const;
   /// This process's DDS participant id (core::ParticipantIdOf): robots answer it, and show it as the
   /// participant speaking for the holder (RobotState::holder_participant).
-  const std::string& participant_id() const;
+  std::string participant_id() const;
 
   /// Snapshot of every robot seen so far, sorted by id (staleness applied at `now`).
   std::vector<RobotView> Robots() const;

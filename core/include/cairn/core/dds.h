@@ -11,6 +11,9 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <set>
+#include <shared_mutex>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -131,6 +134,27 @@ struct ParticipantOptions {
   /// `dropped` false) or was dropped (its lease expired: a crash or a lost link, `dropped` true). Sees every
   /// process, announced or not.
   std::function<void(const std::string& participant_id, bool dropped)> on_participant_gone;
+  /// Re-create the participant after this process stalled long enough for peers to drop it (Participant's
+  /// stall watchdog). Off only in tests that need a fixed participant.
+  bool rebuild_after_stall = true;
+  /// Called (on the watchdog's thread, after every endpoint is back) with the new ParticipantIdOf after a
+  /// rebuild: what peers now see as this process.
+  std::function<void(const std::string& participant_id)> on_rebuilt;
+};
+
+/// An entity of a Participant that Participant::Rebuild deletes and re-creates (Writer and Reader).
+class ParticipantEndpoint {
+ public:
+  virtual ~ParticipantEndpoint() = default;
+
+ protected:
+  friend class Participant;
+  /// Deletes the DDS entity (the participant is about to go); called with the rebuild lock held.
+  virtual void DeleteEntity() = 0;
+  /// Creates it again on the new participant; called with the rebuild lock held.
+  virtual void CreateEntity() = 0;
+  /// After every endpoint is back and the lock released: publish what waited for the rebuild.
+  virtual void AfterRebuild() {}
 };
 
 /// One DomainParticipant with one publisher and one subscriber, built from an XML profile.
@@ -138,6 +162,17 @@ struct ParticipantOptions {
 /// The participant is never created with Fast DDS default transports: the profile must load, must exist,
 /// and it must stay within ParticipantOptions::network (WithinNetworkScope; loopback only by default).
 /// Destruction deletes every contained entity and the participant (no /dev/shm or port leftovers).
+///
+/// Stalls. A process stopped (SIGSTOP, swap, a debugger) for longer than the participant lease is dropped
+/// by its peers, but on resuming it may read their queued announcements before its own lease check runs and
+/// so keep them: the peers then never get its endpoints again (Fast DDS 2.9 does not re-send endpoint
+/// discovery to a reader it counts as up to date; eProsima/Fast-DDS issues #155 and #457) and each side
+/// stays deaf to the other until a restart. A watchdog thread therefore measures its own wake-ups on the
+/// steady clock; a gap longer than stall_threshold_s() (the lease less one announcement period: long enough
+/// that a peer may have dropped us) makes it Rebuild() the participant: every Writer and Reader is deleted,
+/// the participant is created again from the same QoS (a new GUID, so every peer discovers it afresh) and
+/// each endpoint is re-created. Writes during a rebuild wait in their writer and go out after it; a
+/// transient-local writer re-publishes its last sample for the peers that now join it.
 class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
  public:
   /// @throws DdsError naming the profiles file, profile or entity that failed; std::invalid_argument for a
@@ -174,19 +209,61 @@ class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
   eprosima::fastdds::dds::DataReaderQos ReaderQos(const std::string& profile) const;
 
   /// This participant's identity (ParticipantIdOf its GUID): what peers see as the sender of its samples.
+  /// Changes with every Rebuild().
   std::string participant_id() const;
 
+  /// Deletes the DDS participant with every endpoint and creates them again (see the class comment);
+  /// `why` is logged. Thread-safe; endpoints' writes meanwhile wait in their writer.
+  /// @throws DdsError when the participant cannot be created again (the endpoints then stay deleted).
+  void Rebuild(const std::string& why);
+  /// Rebuilds done so far.
+  int rebuilds() const { return rebuilds_.load(); }
+  /// A watchdog wake-up later than this (seconds) counts as a stall that peers may have dropped us for: the
+  /// participant lease less one lease announcement period; 0 when the watchdog is off (option, or an
+  /// infinite lease).
+  double stall_threshold_s() const { return stall_threshold_s_; }
+
  private:
+  template <class>
+  friend class Writer;
+  template <class>
+  friend class Reader;
+
   void on_participant_discovery(eprosima::fastdds::dds::DomainParticipant* participant,
                                 eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override;
+  // Creates participant_, publisher_ and subscriber_ from qos_; throws DdsError.
+  void CreateEntities();
+  // Deletes them (and any endpoint still on them).
+  void DeleteEntities();
+  void WatchForStalls();
+  void Register(ParticipantEndpoint* endpoint);
+  void Unregister(ParticipantEndpoint* endpoint);
 
   ParticipantOptions options_;
+  eprosima::fastdds::dds::DomainParticipantQos qos_;
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   std::mutex mutex_;
   // Fast DDS keeps `const char*` names of flow controllers: the strings live here, as long as the participant.
   std::deque<std::string> flow_controller_names_;
+  // Locks. Rebuilds run one at a time (rebuild_mutex_, taken first). entities_mutex_ is held exclusively by
+  // Rebuild while it deletes and creates, and shared by an endpoint while it uses its entity.
+  // endpoints_mutex_ guards endpoints_: taken after the exclusive lock in Rebuild and after a shared one in
+  // Register; AfterRebuild takes it before a shared lock, which is safe because only Rebuild, serialised,
+  // ever waits for the exclusive lock.
+  std::mutex rebuild_mutex_;
+  std::shared_mutex entities_mutex_;
+  std::mutex endpoints_mutex_;
+  std::set<ParticipantEndpoint*> endpoints_;
+  mutable std::mutex id_mutex_;
+  std::string participant_id_;
+  std::atomic<int> rebuilds_{0};
+  double stall_threshold_s_ = 0.0;
+  std::mutex watchdog_mutex_;
+  std::condition_variable watchdog_cv_;
+  bool watchdog_stop_ = false;
+  std::thread watchdog_;
 };
 
 /// True when a liveliness change means the writer `status.last_publication_handle` is gone: its liveliness
@@ -215,47 +292,59 @@ bool WaitForCount(const std::atomic<int>& value, int count, std::chrono::millise
 /// Typed writer for a fastddsgen type. `PubSubT` is the generated `XPubSubType`; `PubSubT::type` is X.
 /// QoS comes from the XML profile "<qos_class>.writer" (e.g. "cairn.command.writer").
 template <class PubSubT>
-class Writer : private eprosima::fastdds::dds::DataWriterListener {
+class Writer : private eprosima::fastdds::dds::DataWriterListener, private ParticipantEndpoint {
  public:
   using Msg = typename PubSubT::type;
+
+  /// Samples a writer holds while its participant is rebuilt; the oldest goes first beyond this.
+  static constexpr std::size_t kMaxHeldDuringRebuild = 256;
 
   /// `flow_controller`: name of a flow controller registered on the participant (ParticipantOptions), or
   /// "" for none. With one, the writer publishes asynchronously within that controller's budget.
   /// @throws DdsError when the profile or flow controller is missing or the writer cannot be created.
   Writer(Participant& participant, const std::string& topic_name, const std::string& qos_class,
          const std::string& flow_controller = "")
-      : participant_(participant) {
-    eprosima::fastdds::dds::DataWriterQos qos = participant.WriterQos(qos_class + ".writer");
-    topic_ = participant.GetTopic(topic_name, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
-    if (!flow_controller.empty()) {
-      const char* name = participant.FlowControllerName(flow_controller);
-      if (name == nullptr) {
-        throw DdsError("flow controller '" + flow_controller + "' is not registered on participant '" +
-                       participant.options().name + "'");
-      }
-      qos.publish_mode().kind = eprosima::fastdds::dds::ASYNCHRONOUS_PUBLISH_MODE;
-      qos.publish_mode().flow_controller_name = name;
-    }
-    writer_ = participant.publisher()->create_datawriter(topic_, qos, this);
-    if (writer_ == nullptr) {
-      throw DdsError("cannot create writer on topic '" + topic_name + "' with QoS profile '" + qos_class +
-                     ".writer' from " + participant.options().profiles_file);
-    }
+      : participant_(participant), topic_name_(topic_name), qos_class_(qos_class), flow_controller_(flow_controller) {
+    std::shared_lock<std::shared_mutex> lock(participant_.entities_mutex_);
+    CreateEntity();
+    participant_.Register(this);
   }
   ~Writer() override {
-    participant_.publisher()->delete_datawriter(writer_);
+    participant_.Unregister(this);
+    std::shared_lock<std::shared_mutex> lock(participant_.entities_mutex_);
+    DeleteEntity();
   }
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
 
   /// Publishes one sample; false when Fast DDS refuses it (history full of unacknowledged samples, etc.).
-  /// A sample written counts into bytes_written() with its serialized size.
+  /// A sample written counts into bytes_written() with its serialized size. During a Participant::Rebuild
+  /// the sample is held (true) and published once the writer is back.
   bool Write(const Msg& msg) {
-    if (!writer_->write(const_cast<Msg*>(&msg))) return false;
-    // CDR size plus the 4-byte encapsulation header, as the generated type's size provider computes it.
-    bytes_written_.fetch_add(Msg::getCdrSerializedSize(msg) + 4u, std::memory_order_relaxed);
-    samples_written_.fetch_add(1, std::memory_order_relaxed);
-    return true;
+    std::shared_lock<std::shared_mutex> lock(participant_.entities_mutex_, std::try_to_lock);
+    if (!lock.owns_lock()) {
+      {
+        std::lock_guard<std::mutex> held(held_mutex_);
+        if (held_.size() >= kMaxHeldDuringRebuild) held_.pop_front();
+        held_.push_back(msg);
+      }
+      // The rebuild may have finished (and flushed) between the failed lock and the push.
+      if (lock.try_lock()) FlushHeld();
+      return true;
+    }
+    FlushHeld();
+    return WriteEntity(msg);
+  }
+
+  /// Waits until every matched reliable reader acknowledged what was written, or `timeout` passes; false on
+  /// timeout or while the participant is being rebuilt.
+  bool WaitForAcknowledgments(std::chrono::milliseconds timeout) {
+    std::shared_lock<std::shared_mutex> lock(participant_.entities_mutex_, std::try_to_lock);
+    if (!lock.owns_lock()) return false;
+    const auto ms = timeout.count();
+    return writer_->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(
+               static_cast<int32_t>(ms / 1000), static_cast<uint32_t>((ms % 1000) * 1000000))) ==
+           eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK;
   }
 
   /// Serialized bytes (CDR, encapsulation included; no RTPS headers, no resends) of the samples written so far.
@@ -284,9 +373,75 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
     return matched_cv_.wait_until(lock, deadline, [&] { return MatchedLocked(participant_id); });
   }
 
+  /// The current DDS writer (another after a Participant::Rebuild).
   eprosima::fastdds::dds::DataWriter* get() const { return writer_; }
 
  private:
+  void CreateEntity() override {
+    eprosima::fastdds::dds::DataWriterQos qos = participant_.WriterQos(qos_class_ + ".writer");
+    auto* topic = participant_.GetTopic(topic_name_, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
+    if (!flow_controller_.empty()) {
+      const char* name = participant_.FlowControllerName(flow_controller_);
+      if (name == nullptr) {
+        throw DdsError("flow controller '" + flow_controller_ + "' is not registered on participant '" +
+                       participant_.options().name + "'");
+      }
+      qos.publish_mode().kind = eprosima::fastdds::dds::ASYNCHRONOUS_PUBLISH_MODE;
+      qos.publish_mode().flow_controller_name = name;
+    }
+    latched_ = qos.durability().kind != eprosima::fastdds::dds::VOLATILE_DURABILITY_QOS;
+    writer_ = participant_.publisher()->create_datawriter(topic, qos, this);
+    if (writer_ == nullptr) {
+      throw DdsError("cannot create writer on topic '" + topic_name_ + "' with QoS profile '" + qos_class_ +
+                     ".writer' from " + participant_.options().profiles_file);
+    }
+  }
+  void DeleteEntity() override {
+    if (writer_ == nullptr) return;
+    writer_->set_listener(nullptr);
+    participant_.publisher()->delete_datawriter(writer_);
+    writer_ = nullptr;
+    {
+      std::lock_guard<std::mutex> lock(matched_mutex_);
+      matched_readers_.clear();
+    }
+    matched_.store(0);
+    matched_cv_.notify_all();
+  }
+  void AfterRebuild() override {
+    std::shared_lock<std::shared_mutex> lock(participant_.entities_mutex_);
+    if (FlushHeld() > 0 || !latched_) return;
+    // The new writer's history is empty: re-publish the last sample for the peers that join it now.
+    std::optional<Msg> last;
+    {
+      std::lock_guard<std::mutex> held(held_mutex_);
+      last = last_;
+    }
+    if (last) WriteEntity(*last);
+  }
+
+  // With the entities lock shared. Publishes the samples held during a rebuild; returns how many.
+  std::size_t FlushHeld() {
+    std::deque<Msg> held;
+    {
+      std::lock_guard<std::mutex> guard(held_mutex_);
+      held.swap(held_);
+    }
+    for (const Msg& msg : held) WriteEntity(msg);
+    return held.size();
+  }
+  // With the entities lock shared.
+  bool WriteEntity(const Msg& msg) {
+    if (writer_ == nullptr || !writer_->write(const_cast<Msg*>(&msg))) return false;
+    if (latched_) {
+      std::lock_guard<std::mutex> held(held_mutex_);
+      last_ = msg;
+    }
+    // CDR size plus the 4-byte encapsulation header, as the generated type's size provider computes it.
+    bytes_written_.fetch_add(Msg::getCdrSerializedSize(msg) + 4u, std::memory_order_relaxed);
+    samples_written_.fetch_add(1, std::memory_order_relaxed);
+    return true;
+  }
   // With matched_mutex_ held.
   bool MatchedLocked(const std::string& participant_id) const {
     auto it = matched_readers_.find(participant_id);
@@ -305,12 +460,18 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
   }
 
   Participant& participant_;
-  eprosima::fastdds::dds::Topic* topic_ = nullptr;
+  const std::string topic_name_;
+  const std::string qos_class_;
+  const std::string flow_controller_;
   eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
+  bool latched_ = false;  // transient-local or more durable: the last sample is kept for a rebuild
   std::atomic<int> matched_{0};
   mutable std::mutex matched_mutex_;
   mutable std::condition_variable matched_cv_;  // notified on every match change
   std::map<std::string, int> matched_readers_;  // ParticipantIdOf -> matched readers of that participant
+  std::mutex held_mutex_;
+  std::deque<Msg> held_;      // written during a rebuild, published after it
+  std::optional<Msg> last_;   // the last sample written, when latched_
   std::atomic<std::uint64_t> bytes_written_{0};
   std::atomic<std::uint64_t> samples_written_{0};
 };
@@ -319,7 +480,7 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
 /// and `on_liveliness` when a matched writer's liveliness changes. QoS from "<qos_class>.reader".
 /// Callbacks must be thread-safe with respect to the owner's state.
 template <class PubSubT>
-class Reader : private eprosima::fastdds::dds::DataReaderListener {
+class Reader : private eprosima::fastdds::dds::DataReaderListener, private ParticipantEndpoint {
  public:
   using Msg = typename PubSubT::type;
   using SampleCallback = std::function<void(const Msg&, const eprosima::fastdds::dds::SampleInfo&)>;
@@ -328,18 +489,19 @@ class Reader : private eprosima::fastdds::dds::DataReaderListener {
   /// @throws DdsError when the profile is missing or the reader cannot be created.
   Reader(Participant& participant, const std::string& topic_name, const std::string& qos_class,
          SampleCallback on_sample, LivelinessCallback on_liveliness = nullptr)
-      : participant_(participant), on_sample_(std::move(on_sample)), on_liveliness_(std::move(on_liveliness)) {
-    const eprosima::fastdds::dds::DataReaderQos qos = participant.ReaderQos(qos_class + ".reader");
-    topic_ = participant.GetTopic(topic_name, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
-    reader_ = participant.subscriber()->create_datareader(topic_, qos, this);
-    if (reader_ == nullptr) {
-      throw DdsError("cannot create reader on topic '" + topic_name + "' with QoS profile '" + qos_class +
-                     ".reader' from " + participant.options().profiles_file);
-    }
+      : participant_(participant),
+        topic_name_(topic_name),
+        qos_class_(qos_class),
+        on_sample_(std::move(on_sample)),
+        on_liveliness_(std::move(on_liveliness)) {
+    std::shared_lock<std::shared_mutex> lock(participant_.entities_mutex_);
+    CreateEntity();
+    participant_.Register(this);
   }
   ~Reader() override {
-    reader_->set_listener(nullptr);
-    participant_.subscriber()->delete_datareader(reader_);
+    participant_.Unregister(this);
+    std::shared_lock<std::shared_mutex> lock(participant_.entities_mutex_);
+    DeleteEntity();
   }
   Reader(const Reader&) = delete;
   Reader& operator=(const Reader&) = delete;
@@ -351,9 +513,26 @@ class Reader : private eprosima::fastdds::dds::DataReaderListener {
     return WaitForCount(matched_, count, timeout);
   }
 
+  /// The current DDS reader (another after a Participant::Rebuild).
   eprosima::fastdds::dds::DataReader* get() const { return reader_; }
 
  private:
+  void CreateEntity() override {
+    const eprosima::fastdds::dds::DataReaderQos qos = participant_.ReaderQos(qos_class_ + ".reader");
+    auto* topic = participant_.GetTopic(topic_name_, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
+    reader_ = participant_.subscriber()->create_datareader(topic, qos, this);
+    if (reader_ == nullptr) {
+      throw DdsError("cannot create reader on topic '" + topic_name_ + "' with QoS profile '" + qos_class_ +
+                     ".reader' from " + participant_.options().profiles_file);
+    }
+  }
+  void DeleteEntity() override {
+    if (reader_ == nullptr) return;
+    reader_->set_listener(nullptr);
+    participant_.subscriber()->delete_datareader(reader_);
+    reader_ = nullptr;
+    matched_.store(0);
+  }
   void on_data_available(eprosima::fastdds::dds::DataReader* reader) override {
     Msg msg;
     eprosima::fastdds::dds::SampleInfo info;
@@ -371,9 +550,10 @@ class Reader : private eprosima::fastdds::dds::DataReaderListener {
   }
 
   Participant& participant_;
+  const std::string topic_name_;
+  const std::string qos_class_;
   SampleCallback on_sample_;
   LivelinessCallback on_liveliness_;
-  eprosima::fastdds::dds::Topic* topic_ = nullptr;
   eprosima::fastdds::dds::DataReader* reader_ = nullptr;
   std::atomic<int> matched_{0};
 };
