@@ -56,25 +56,23 @@ class FleetClient::Impl {
       std::lock_guard<std::mutex> guard(gone_mutex_);
       gone_participants_.emplace_back(participant, dropped);
     };
+    if (options.security.enabled()) {
+      // Under DDS Security each robot has command topics of its own, and this base makes writers only for the
+      // robots its permissions give it (core::CommandTopicFor), on first use; an observer makes none.
+      p.security = options.security;
+      commandable_ = options.security.CommandableRobots();
+    }
     participant_ = std::make_unique<core::Participant>(p);
     // Announced on cairn/base_info, which only robots read; robots announce on cairn/agent_info.
     info_writer_ =
         std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/base_info", "cairn.latched");
     perception_ = std::make_unique<FleetPerception>(*participant_, options.base_id);
-    control_writer_ = std::make_unique<core::Writer<msgs::ControlRequestPubSubType>>(
-        *participant_, "cairn/control_request", "cairn.command");
-    mode_writer_ = std::make_unique<core::Writer<msgs::ModeRequestPubSubType>>(*participant_, "cairn/mode_request",
-                                                                              "cairn.command");
-    goal_writer_ = std::make_unique<core::Writer<msgs::WaypointGoalPubSubType>>(
-        *participant_, "cairn/waypoint_goal", "cairn.command");
-    explore_writer_ = std::make_unique<core::Writer<msgs::ExploreRequestPubSubType>>(
-        *participant_, "cairn/explore_request", "cairn.command");
-    home_writer_ = std::make_unique<core::Writer<msgs::HomeRequestPubSubType>>(*participant_, "cairn/home_request",
-                                                                              "cairn.command");
-    stop_writer_ = std::make_unique<core::Writer<msgs::StopRequestPubSubType>>(*participant_, "cairn/stop_request",
-                                                                              "cairn.command");
-    teleop_writer_ =
-        std::make_unique<core::Writer<msgs::TeleopTwistPubSubType>>(*participant_, "cairn/teleop", "cairn.teleop");
+    if (!options.security.enabled()) {
+      // The shared command topics, matched before the first command needs them.
+      for (const CommandKind& kind : kCommandKinds) kind.make(*this, "");
+      CommandWriter<msgs::TeleopTwistPubSubType>("cairn/teleop", "", "cairn.teleop");
+      CommandWriter<msgs::PathRequestPubSubType>("cairn/path_request", "");
+    }
     response_reader_ = std::make_unique<core::Reader<msgs::CommandResponsePubSubType>>(
         *participant_, "cairn/command_response", "cairn.command",
         [this](const msgs::CommandResponse& m, const auto&) { OnResponse(m); });
@@ -123,8 +121,6 @@ class FleetClient::Impl {
           if (robots_.count(m.robot_id()) == 0) return;  // announces itself first
           links_.OnProbeReply(m.robot_id(), m.request_id(), now);
         });
-    path_request_writer_ = std::make_unique<core::Writer<msgs::PathRequestPubSubType>>(
-        *participant_, "cairn/path_request", "cairn.command");
     path_response_reader_ = std::make_unique<core::Reader<msgs::PathResponsePubSubType>>(
         *participant_, "cairn/path_response", "cairn.command", [this](const msgs::PathResponse& m, const auto&) {
           // Answers to another process with this base id (same request ids) are not ours.
@@ -330,6 +326,11 @@ class FleetClient::Impl {
                       bool require_live = true) {
     CommandOutcome outcome;
     outcome.request_id = next_request_id_++;
+    if (std::string why = NotPermittedReason(robot_id, kind == msgs::COMMAND_KIND_STOP); !why.empty()) {
+      outcome.result = outcome::kRefused;
+      outcome.reason = std::move(why);
+      return outcome;
+    }
     if (require_live && !WaitForRobot(robot_id, options_.command_timeout_s)) {
       outcome.result = outcome::kRefused;
       outcome.reason = UnknownRobotReason(robot_id);
@@ -447,7 +448,57 @@ class FleetClient::Impl {
   // that yet: on a lossy link a lost endpoint announcement is repaired only at Fast DDS's next heartbeat (1 s),
   // and a command sent before the match is never delivered (volatile). Returns whether they matched; the
   // command is sent either way.
-  bool WaitForCommandPath(const std::string& robot_id, double timeout_s) const {
+  // The writer of command topic `topic` for `robot_id` (core::CommandTopicFor: one shared by every robot
+  // without DDS Security), made on first use. @throws core::DdsError when it cannot be made.
+  template <class PubSubT>
+  core::Writer<PubSubT>& CommandWriter(const std::string& topic, const std::string& robot_id,
+                                       const std::string& qos_class = "cairn.command") {
+    const std::string name = core::CommandTopicFor(topic, robot_id, commandable_.has_value());
+    std::lock_guard<std::mutex> lock(command_writers_mutex_);
+    std::shared_ptr<void>& writer = command_writers_[name];
+    if (!writer) writer = std::make_shared<core::Writer<PubSubT>>(*participant_, name, qos_class);
+    return *std::static_pointer_cast<core::Writer<PubSubT>>(writer);
+  }
+
+  // One kind of command: makes (or finds) its writer for a robot and tells whether it matched a process.
+  struct CommandKind {
+    bool e_stop = false;  // stop: any commander may send it to any robot
+    std::function<void(Impl&, const std::string& robot_id)> make;
+    std::function<bool(Impl&, const std::string& robot_id, const std::string& participant,
+                       SteadyClock::time_point deadline)>
+        matched;
+  };
+  template <class PubSubT>
+  static CommandKind Kind(const char* topic, const char* qos_class = "cairn.command") {
+    return {std::string(topic) == "cairn/stop_request",
+            [=](Impl& impl, const std::string& robot) { impl.CommandWriter<PubSubT>(topic, robot, qos_class); },
+            [=](Impl& impl, const std::string& robot, const std::string& participant,
+                SteadyClock::time_point deadline) {
+              return impl.CommandWriter<PubSubT>(topic, robot, qos_class).WaitMatchedWith(participant, deadline);
+            }};
+  }
+  // The commands whose writers a command waits for (WaitForCommandPath).
+  static const std::vector<CommandKind> kCommandKinds;
+
+  // False for an observer under DDS Security (no robot to command).
+  bool MayCommandAny() const { return !commandable_ || !commandable_->empty(); }
+
+  // "" when this base may command `robot_id` (always without DDS Security), else why not. A commander may
+  // send any robot an `e_stop`.
+  std::string NotPermittedReason(const std::string& robot_id, bool e_stop = false) const {
+    if (!commandable_ || (e_stop && MayCommandAny())) return "";
+    for (const std::string& robot : *commandable_) {
+      if (robot == "*" || robot == robot_id) return "";
+    }
+    std::string given;
+    for (const std::string& robot : *commandable_) given += (given.empty() ? "" : ", ") + robot;
+    return "basestation " + options_.base_id + " may not command " + robot_id + " under DDS Security: its permissions (" +
+           options_.security.File("permissions.xml", true) + ") give it " +
+           (given.empty() ? std::string("no robot (an observer)") : given);
+  }
+
+  // Waits until the robot's readers matched this base's writers of the commands it may send that robot.
+  bool WaitForCommandPath(const std::string& robot_id, double timeout_s) {
     const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
                                                    std::chrono::duration<double>(timeout_s));
     std::string participant;
@@ -457,11 +508,12 @@ class FleetClient::Impl {
       if (it != participant_of_robot_.end()) participant = it->second;
     }
     if (participant.empty()) return false;  // known by state only (no agent info yet): nothing to wait on
-    return control_writer_->WaitMatchedWith(participant, deadline) &&
-           mode_writer_->WaitMatchedWith(participant, deadline) &&
-           goal_writer_->WaitMatchedWith(participant, deadline) &&
-           explore_writer_->WaitMatchedWith(participant, deadline) &&
-           home_writer_->WaitMatchedWith(participant, deadline) && stop_writer_->WaitMatchedWith(participant, deadline);
+    const bool e_stop_only = !NotPermittedReason(robot_id).empty();
+    for (const CommandKind& kind : kCommandKinds) {
+      if (e_stop_only && !kind.e_stop) continue;
+      if (!kind.matched(*this, robot_id, participant, deadline)) return false;
+    }
+    return true;
   }
 
   std::string UnknownRobotReason(const std::string& robot_id) const {
@@ -509,15 +561,11 @@ class FleetClient::Impl {
   std::unique_ptr<core::Participant> participant_;
   std::unique_ptr<core::Writer<msgs::AgentInfoPubSubType>> info_writer_;
   std::unique_ptr<FleetPerception> perception_;
-  std::unique_ptr<core::Writer<msgs::ControlRequestPubSubType>> control_writer_;
-  std::unique_ptr<core::Writer<msgs::ModeRequestPubSubType>> mode_writer_;
-  std::unique_ptr<core::Writer<msgs::WaypointGoalPubSubType>> goal_writer_;
-  std::unique_ptr<core::Writer<msgs::ExploreRequestPubSubType>> explore_writer_;
-  std::unique_ptr<core::Writer<msgs::HomeRequestPubSubType>> home_writer_;
-  std::unique_ptr<core::Writer<msgs::StopRequestPubSubType>> stop_writer_;
-  std::unique_ptr<core::Writer<msgs::TeleopTwistPubSubType>> teleop_writer_;
-  std::unique_ptr<core::Writer<msgs::PathRequestPubSubType>> path_request_writer_;
+  std::mutex command_writers_mutex_;
+  std::map<std::string, std::shared_ptr<void>> command_writers_;  // by topic name: core::Writer<...>
   std::unique_ptr<core::Writer<msgs::PingPongPubSubType>> probe_writer_;
+  // Under DDS Security: the robots this base may command ("*": all; empty: an observer). Unset without it.
+  std::optional<std::vector<std::string>> commandable_;
   std::unique_ptr<core::Reader<msgs::PingPongPubSubType>> probe_reply_reader_;
   std::unique_ptr<core::Reader<msgs::CommandResponsePubSubType>> response_reader_;
   std::unique_ptr<core::Reader<msgs::PathResponsePubSubType>> path_response_reader_;
@@ -528,6 +576,14 @@ class FleetClient::Impl {
   std::unique_ptr<core::Reader<msgs::BehaviorTreeStatePubSubType>> tree_reader_;
   std::unique_ptr<core::Reader<msgs::AgentInfoPubSubType>> info_reader_;
 };
+
+const std::vector<FleetClient::Impl::CommandKind> FleetClient::Impl::kCommandKinds = {
+    Kind<msgs::ControlRequestPubSubType>("cairn/control_request"),
+    Kind<msgs::ModeRequestPubSubType>("cairn/mode_request"),
+    Kind<msgs::WaypointGoalPubSubType>("cairn/waypoint_goal"),
+    Kind<msgs::ExploreRequestPubSubType>("cairn/explore_request"),
+    Kind<msgs::HomeRequestPubSubType>("cairn/home_request"),
+    Kind<msgs::StopRequestPubSubType>("cairn/stop_request")};
 
 FleetClient::FleetClient(const FleetClientOptions& options) : impl_(std::make_unique<Impl>(options)) {}
 FleetClient::~FleetClient() = default;
@@ -632,7 +688,7 @@ CommandOutcome FleetClient::RequestControl(const std::string& robot_id) {
     m.base_id(base_id());
     m.request_id(id);
     m.action(msgs::CONTROL_ACTION_REQUEST);
-    return impl_->control_writer_->Write(m);
+    return impl_->CommandWriter<msgs::ControlRequestPubSubType>("cairn/control_request", robot_id).Write(m);
   });
 }
 
@@ -643,7 +699,7 @@ CommandOutcome FleetClient::ReleaseControl(const std::string& robot_id) {
     m.base_id(base_id());
     m.request_id(id);
     m.action(msgs::CONTROL_ACTION_RELEASE);
-    return impl_->control_writer_->Write(m);
+    return impl_->CommandWriter<msgs::ControlRequestPubSubType>("cairn/control_request", robot_id).Write(m);
   });
 }
 
@@ -654,7 +710,7 @@ CommandOutcome FleetClient::RequestMode(const std::string& robot_id, const std::
     m.base_id(base_id());
     m.request_id(id);
     m.mode(mode);
-    return impl_->mode_writer_->Write(m);
+    return impl_->CommandWriter<msgs::ModeRequestPubSubType>("cairn/mode_request", robot_id).Write(m);
   });
 }
 
@@ -670,7 +726,7 @@ CommandOutcome FleetClient::SendWaypoint(const std::string& robot_id, double x_m
     m.y_m(y_m);
     m.tolerance_m(tolerance_m);
     m.z_m(z_m);
-    return impl_->goal_writer_->Write(m);
+    return impl_->CommandWriter<msgs::WaypointGoalPubSubType>("cairn/waypoint_goal", robot_id).Write(m);
   });
 }
 
@@ -692,7 +748,7 @@ CommandOutcome FleetClient::SendExplore(const std::string& robot_id, const std::
     m.min_z_m(min_z_m);
     m.max_z_m(max_z_m);
     m.home_after_silence_s(home_after_silence_s);
-    return impl_->explore_writer_->Write(m);
+    return impl_->CommandWriter<msgs::ExploreRequestPubSubType>("cairn/explore_request", robot_id).Write(m);
   });
 }
 
@@ -709,7 +765,7 @@ CommandOutcome FleetClient::SendHome(const std::string& robot_id, const std::opt
       m.y_m(point_M->y());
       m.z_m(point_M->z());
     }
-    return impl_->home_writer_->Write(m);
+    return impl_->CommandWriter<msgs::HomeRequestPubSubType>("cairn/home_request", robot_id).Write(m);
   });
 }
 
@@ -721,13 +777,14 @@ CommandOutcome FleetClient::Stop(const std::string& robot_id) {
         m.robot_id(robot_id);
         m.base_id(base_id());
         m.request_id(id);
-        return impl_->stop_writer_->Write(m);
+        return impl_->CommandWriter<msgs::StopRequestPubSubType>("cairn/stop_request", robot_id).Write(m);
       },
       /*require_live=*/false);
 }
 
 bool FleetClient::PublishTeleop(const std::string& robot_id, double linear_x_mps, double angular_z_radps,
                                 double linear_y_mps) {
+  if (!impl_->NotPermittedReason(robot_id).empty()) return false;
   msgs::TeleopTwist m;
   m.robot_id(robot_id);
   m.base_id(base_id());
@@ -736,13 +793,18 @@ bool FleetClient::PublishTeleop(const std::string& robot_id, double linear_x_mps
   m.twist().linear_x_mps(linear_x_mps);
   m.twist().linear_y_mps(linear_y_mps);
   m.twist().angular_z_radps(angular_z_radps);
-  return impl_->teleop_writer_->Write(m);
+  return impl_->CommandWriter<msgs::TeleopTwistPubSubType>("cairn/teleop", robot_id, "cairn.teleop").Write(m);
 }
 
 PathAnswer FleetClient::RequestPath(const std::string& robot_id, const std::string& platform, double start_x_m,
                                     double start_y_m, double goal_x_m, double goal_y_m) {
   PathAnswer answer;
   const uint32_t request_id = impl_->next_request_id_++;
+  if (std::string why = impl_->NotPermittedReason(robot_id); !why.empty()) {
+    answer.result = outcome::kRefused;
+    answer.reason = std::move(why);
+    return answer;
+  }
   if (!impl_->WaitForRobot(robot_id, impl_->options_.command_timeout_s)) {
     answer.result = outcome::kRefused;
     answer.reason = impl_->UnknownRobotReason(robot_id);
@@ -761,7 +823,7 @@ PathAnswer FleetClient::RequestPath(const std::string& robot_id, const std::stri
     m.start_M().y_m(start_y_m);
     m.goal_M().x_m(goal_x_m);
     m.goal_M().y_m(goal_y_m);
-    return impl_->path_request_writer_->Write(m);
+    return impl_->CommandWriter<msgs::PathRequestPubSubType>("cairn/path_request", robot_id).Write(m);
   };
   impl_->awaited_paths_.insert(request_id);
   const bool answered = impl_->SendUntil(

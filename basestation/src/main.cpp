@@ -227,6 +227,7 @@ int main(int argc, char** argv) {
   app.add_option("--script", script, "run the commands of FILE, stop at the first failure");
   app.add_flag("--keep-going", keep_going, "with a script or stdin: run every line even after a failure");
   cairn::core::AddLinkFlags(app, &options.link);
+  cairn::core::AddSecureFlag(app, &options.security);
   app.add_option("--dds-profiles", options.dds_profiles_file, "Fast DDS XML profiles file (default: shipped "
                                                               "loopback-only config/dds_profiles.xml)");
   app.add_option("--command-timeout", options.command_timeout_s, "seconds to wait for a robot's answer")
@@ -269,6 +270,7 @@ int main(int argc, char** argv) {
   try {
     options.domain_id = cairn::core::ParseDomainId(domain_text);
     cairn::core::CheckLinkOptions(options.link);
+    cairn::core::CheckSecureFlag(options.base_id, &options.security);
     // Across hosts a lost announcement or endpoint message waits for the next one: 5 % loss took a fresh
     // basestation past 1.5 s to know a robot (cairn_lan_link_test), so a robot it has not seen yet is given
     // longer before a command to it is refused as unknown.

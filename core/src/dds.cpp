@@ -1,9 +1,11 @@
 #include "cairn/core/dds.h"
+#include "cairn/core/peer_input.h"
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <optional>
 
@@ -462,7 +464,80 @@ void ApplyLanLink(const std::string& address, int domain_id, const std::string& 
   }
 }
 
+// The properties of Fast DDS's built-in security plugins (Fast DDS docs, "Security"), from the files of
+// `security`; each must be readable.
+void ApplySecurity(const SecurityOptions& security, dds::DomainParticipantQos* qos) {
+  if (const std::string why = CheckId("--secure identity", security.identity); !why.empty()) {
+    throw std::invalid_argument(why);
+  }
+  const auto uri = [&](const std::string& name, bool own) {
+    const std::string path = security.File(name, own);
+    if (!std::ifstream(path).good()) {
+      throw DdsError("DDS Security: '" + path + "' cannot be read (--secure " + security.dir +
+                     ": make the folder with ./cairn keys, and the identity '" + security.identity +
+                     "' with it)");
+    }
+    return "file://" + path;
+  };
+  auto& properties = qos->properties().properties();
+  const auto set = [&](const std::string& name, const std::string& value) { properties.emplace_back(name, value); };
+  set("dds.sec.auth.plugin", "builtin.PKI-DH");
+  set("dds.sec.auth.builtin.PKI-DH.identity_ca", uri("ca.pem", false));
+  set("dds.sec.auth.builtin.PKI-DH.identity_certificate", uri("cert.pem", true));
+  set("dds.sec.auth.builtin.PKI-DH.private_key", uri("key.pem", true));
+  set("dds.sec.access.plugin", "builtin.Access-Permissions");
+  set("dds.sec.access.builtin.Access-Permissions.permissions_ca", uri("ca.pem", false));
+  set("dds.sec.access.builtin.Access-Permissions.governance", uri("governance.p7s", false));
+  set("dds.sec.access.builtin.Access-Permissions.permissions", uri("permissions.p7s", true));
+  set("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
+}
+
 }  // namespace
+
+std::string SecurityOptions::File(const std::string& name, bool own) const {
+  std::error_code ec;
+  std::filesystem::path folder = std::filesystem::absolute(dir, ec);
+  if (ec) folder = dir;
+  if (own) folder /= identity;
+  return (folder / name).lexically_normal().string();
+}
+
+std::vector<std::string> SecurityOptions::CommandableRobots() const {
+  const std::string path = File("robots", true);
+  std::ifstream in(path);
+  if (!in) {
+    throw std::invalid_argument("DDS Security: '" + path + "' cannot be read (--secure " + dir +
+                                ": the robots identity '" + identity + "' may command; ./cairn keys writes it)");
+  }
+  std::vector<std::string> robots;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    if (line.empty()) continue;
+    if (line != "*") {
+      if (const std::string why = CheckId("robot id", line); !why.empty()) {
+        throw std::invalid_argument(path + " line " + std::to_string(number) + ": " + why);
+      }
+    }
+    robots.push_back(line);
+  }
+  return robots;
+}
+
+std::string CommandTopicFor(const std::string& topic, const std::string& robot_id, bool secure) {
+  return secure ? topic + "/" + robot_id : topic;
+}
+
+const std::vector<std::string>& CommandTopics() {
+  static const std::vector<std::string> topics = {
+      "cairn/control_request", "cairn/mode_request", "cairn/waypoint_goal", "cairn/explore_request",
+      "cairn/home_request",    "cairn/stop_request", "cairn/teleop",        "cairn/path_request"};
+  return topics;
+}
+
+std::string Participant::SecurityHint() const {
+  if (!options_.security.enabled()) return "";
+  return " (DDS Security: is it allowed by " + options_.security.File("permissions.xml", true) + "?)";
+}
 
 Participant::Participant(const ParticipantOptions& options) : options_(options) {
   if (options.domain_id < 0 || options.domain_id > kMaxDomainId) {
@@ -496,6 +571,7 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
                    why + "; refusing to start it");
   }
   qos.name(options.name);
+  if (options.security.enabled()) ApplySecurity(options.security, &qos);
   for (const FlowControllerOptions& flow : options.flow_controllers) {
     if (flow.name.empty() || FlowControllerName(flow.name) != nullptr) {
       throw DdsError("flow controller name '" + flow.name + "' is empty or used twice");
@@ -553,7 +629,11 @@ void Participant::CreateEntities() {
                                              dds::StatusMask::none());
   if (participant_ == nullptr) {
     throw DdsError("cannot create DDS participant '" + options_.name + "' in domain " +
-                   std::to_string(options_.domain_id) + " with profile '" + options_.participant_profile + "'");
+                   std::to_string(options_.domain_id) + " with profile '" + options_.participant_profile + "'" +
+                   (options_.security.enabled()
+                        ? " and DDS Security from " + options_.security.dir + " as '" + options_.security.identity +
+                              "' (a certificate, key or signed document that does not verify against ca.pem?)"
+                        : ""));
   }
   publisher_ = participant_->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
   subscriber_ = participant_->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);

@@ -75,6 +75,7 @@ class AgentDds::Impl {
     if (!options.profiles_file.empty()) p.profiles_file = options.profiles_file;
     p.link = options.link;
     p.name = "cairn_agent/" + options.robot_id;
+    p.security = options.security;
     p.on_participant_gone = [this](const std::string& participant, bool /*dropped*/) {
       std::lock_guard<std::mutex> guard(gone_mutex_);
       gone_participants_.push_back(participant);
@@ -105,6 +106,11 @@ class AgentDds::Impl {
     stop_reader_.reset();
     teleop_reader_.reset();
     info_reader_.reset();
+  }
+
+  // The topic this robot reads one kind of command on (its own under DDS Security: core::CommandTopicFor).
+  std::string CommandTopic(const std::string& topic) const {
+    return core::CommandTopicFor(topic, options_.robot_id, options_.security.enabled());
   }
 
   void MakeWriters() {
@@ -231,7 +237,7 @@ class AgentDds::Impl {
           if (m.robot_id() == robot) handlers_.map_sync(m.requester_id());
         });
     path_request_reader_ = std::make_unique<core::Reader<msgs::PathRequestPubSubType>>(
-        p, "cairn/path_request", "cairn.command",
+        p, CommandTopic("cairn/path_request"), "cairn.command",
         [this, robot](const msgs::PathRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
           handlers_.path_query(PathQuery{core::ParticipantIdOf(info.publication_handle),
@@ -279,7 +285,7 @@ class AgentDds::Impl {
           handlers_.base_liveliness(change);
         });
     control_reader_ = std::make_unique<core::Reader<msgs::ControlRequestPubSubType>>(
-        p, "cairn/control_request", "cairn.command",
+        p, CommandTopic("cairn/control_request"), "cairn.command",
         [this, robot](const msgs::ControlRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
           if (!ValidPeerId("cairn/control_request", "base id", m.base_id())) return;
@@ -292,14 +298,14 @@ class AgentDds::Impl {
           handlers_.control(c);
         });
     mode_reader_ = std::make_unique<core::Reader<msgs::ModeRequestPubSubType>>(
-        p, "cairn/mode_request", "cairn.command",
+        p, CommandTopic("cairn/mode_request"), "cairn.command",
         [this, robot](const msgs::ModeRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
           if (!ValidPeerId("cairn/mode_request", "base id", m.base_id())) return;
           handlers_.mode(ModeCommand{SenderOf(m.base_id(), info), m.request_id(), m.mode()});
         });
     goal_reader_ = std::make_unique<core::Reader<msgs::WaypointGoalPubSubType>>(
-        p, "cairn/waypoint_goal", "cairn.command",
+        p, CommandTopic("cairn/waypoint_goal"), "cairn.command",
         [this, robot](const msgs::WaypointGoal& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
           if (!ValidPeerId("cairn/waypoint_goal", "base id", m.base_id())) return;
@@ -307,7 +313,7 @@ class AgentDds::Impl {
                                      m.y_m(), m.tolerance_m(), m.z_m()});
         });
     explore_reader_ = std::make_unique<core::Reader<msgs::ExploreRequestPubSubType>>(
-        p, "cairn/explore_request", "cairn.command",
+        p, CommandTopic("cairn/explore_request"), "cairn.command",
         [this, robot](const msgs::ExploreRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
           if (!ValidPeerId("cairn/explore_request", "base id", m.base_id())) return;
@@ -325,7 +331,7 @@ class AgentDds::Impl {
           handlers_.explore(c);
         });
     home_reader_ = std::make_unique<core::Reader<msgs::HomeRequestPubSubType>>(
-        p, "cairn/home_request", "cairn.command",
+        p, CommandTopic("cairn/home_request"), "cairn.command",
         [this, robot](const msgs::HomeRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
           if (!ValidPeerId("cairn/home_request", "base id", m.base_id())) return;
@@ -333,14 +339,14 @@ class AgentDds::Impl {
                                      m.x_m(), m.y_m(), m.z_m()});
         });
     stop_reader_ = std::make_unique<core::Reader<msgs::StopRequestPubSubType>>(
-        p, "cairn/stop_request", "cairn.command",
+        p, CommandTopic("cairn/stop_request"), "cairn.command",
         [this, robot](const msgs::StopRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
           if (!ValidPeerId("cairn/stop_request", "base id", m.base_id())) return;
           handlers_.stop(StopCommand{SenderOf(m.base_id(), info), m.request_id()});
         });
     teleop_reader_ = std::make_unique<core::Reader<msgs::TeleopTwistPubSubType>>(
-        p, "cairn/teleop", "cairn.teleop", [this, robot](const msgs::TeleopTwist& m, const SampleInfo&) {
+        p, CommandTopic("cairn/teleop"), "cairn.teleop", [this, robot](const msgs::TeleopTwist& m, const SampleInfo&) {
           if (m.robot_id() != robot) return;
           if (!ValidPeerId("cairn/teleop", "base id", m.base_id())) return;
           const msgs::Twist& t = m.twist();

@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
   app.add_option("--pcd-resolution", options.pcd_resolution_m, "voxel size for .pcd worlds, metres")
       ->capture_default_str();
   cairn::core::AddLinkFlags(app, &options.link);
+  cairn::core::AddSecureFlag(app, &options.security);
   app.add_option("--dds-profiles", options.dds_profiles_file, "Fast DDS XML profiles file (default: shipped "
                                                               "loopback-only config/dds_profiles.xml)");
   app.add_option("--map-save", options.map_save_path,
@@ -93,6 +94,7 @@ int main(int argc, char** argv) {
   try {
     options.domain_id = cairn::core::ParseDomainId(domain_text);
     cairn::core::CheckLinkOptions(options.link);
+    cairn::core::CheckSecureFlag(options.robot_id, &options.security);
     if (!start_text.empty()) cairn::agent::ParseStart(start_text, &options);
     options.SetPlatform(platform);
     if (!config_file.empty()) options.LoadConfigFile(config_file);

@@ -65,6 +65,7 @@ std::unique_ptr<AgentDds> MakeDds(const AgentOptions& options) {
   dds.domain_id = options.domain_id;
   dds.profiles_file = options.dds_profiles_file;
   dds.link = options.link;
+  dds.security = options.security;
   // Map telemetry budgets itself (PerceptionOptions::telemetry); the flow controller is a backstop 25 % above
   // it. Camera frames rely on theirs: a frame that cannot go out in time is replaced by the next.
   dds.map_budget_bits_per_s = options.perception.telemetry.budget_bits_per_s * 1.25;

@@ -87,6 +87,9 @@ struct FleetClientOptions {
   double discovery_s = 1.5;
   FleetEventOptions events;            ///< what raises operator events (proximity distances)
   std::size_t events_kept = 200;       ///< recent events kept for RecentEvents(), [1, 100000]
+  /// DDS Security (--secure DIR; identity = base_id). Commands to robots its permissions do not give it are
+  /// refused here, naming them; the robots' access control refuses them anyway.
+  core::SecurityOptions security;
 };
 
 /// Answer of the global path service (FleetClient::RequestPath()).

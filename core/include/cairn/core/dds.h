@@ -116,6 +116,16 @@ std::pair<std::string, std::uint32_t> ParseDiscoveryServer(const std::string& te
 /// A UDPv4 locator: `address` (dotted quad), `port` (0: Fast DDS chooses).
 eprosima::fastrtps::rtps::Locator_t Udpv4Locator(const std::string& address, std::uint32_t port);
 
+/// The topic a basestation sends `robot_id` one kind of command on (`topic`: one of CommandTopics()). Without
+/// DDS Security every robot shares `topic`. With it (`secure`), each robot has its own, "<topic>/<robot_id>"
+/// (e.g. "cairn/mode_request/r1"), so that signed permissions can say who may command which robot: Fast DDS
+/// 2.9's access control checks an endpoint's topic name against the permissions, but not its partitions.
+std::string CommandTopicFor(const std::string& topic, const std::string& robot_id, bool secure);
+
+/// The topics a basestation commands a robot on (control, mode, goal, explore, home, stop, teleop, path
+/// queries); tools/keys.sh lists the same.
+const std::vector<std::string>& CommandTopics();
+
 /// How a participant is created.
 struct ParticipantOptions {
   int domain_id = 0;                                    ///< DDS domain, [0, 232].
@@ -130,6 +140,9 @@ struct ParticipantOptions {
   LinkOptions link;
   /// Flow controllers to register; names must be unique. @see FlowControllerOptions.
   std::vector<FlowControllerOptions> flow_controllers;
+  /// DDS Security; off by default. When on, every file it names must be readable (DdsError naming it), and
+  /// the participant neither discovers nor talks to anyone without a certificate from the same CA.
+  SecurityOptions security;
   /// Called (on a Fast DDS thread) with the ParticipantIdOf a remote participant that left (a clean exit,
   /// `dropped` false) or was dropped (its lease expired: a crash or a lost link, `dropped` true). Sees every
   /// process, announced or not.
@@ -191,6 +204,10 @@ class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
   /// @throws DdsError when registration or creation fails.
   eprosima::fastdds::dds::Topic* GetTopic(const std::string& topic_name,
                                           eprosima::fastdds::dds::TypeSupport type);
+
+  /// " (DDS Security: ...)" naming the permissions file when security is on, else "": appended to the error
+  /// of an endpoint the access control may have refused.
+  std::string SecurityHint() const;
 
   /// The registered flow controller's name as Fast DDS holds it, or nullptr if none has that name.
   const char* FlowControllerName(const std::string& name) const;
@@ -393,7 +410,7 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
     writer_ = participant_.publisher()->create_datawriter(topic, qos, this);
     if (writer_ == nullptr) {
       throw DdsError("cannot create writer on topic '" + topic_name_ + "' with QoS profile '" + qos_class_ +
-                     ".writer' from " + participant_.options().profiles_file);
+                     ".writer' from " + participant_.options().profiles_file + participant_.SecurityHint());
     }
   }
   void DeleteEntity() override {
@@ -523,7 +540,7 @@ class Reader : private eprosima::fastdds::dds::DataReaderListener, private Parti
     reader_ = participant_.subscriber()->create_datareader(topic, qos, this);
     if (reader_ == nullptr) {
       throw DdsError("cannot create reader on topic '" + topic_name_ + "' with QoS profile '" + qos_class_ +
-                     ".reader' from " + participant_.options().profiles_file);
+                     ".reader' from " + participant_.options().profiles_file + participant_.SecurityHint());
     }
   }
   void DeleteEntity() override {

@@ -1,7 +1,9 @@
-// The link a DDS participant talks on (no Fast DDS headers: agent and basestation options carry it).
+// The link a DDS participant talks on and its DDS Security (no Fast DDS headers: agent and basestation options
+// carry them).
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace cairn::core {
 
@@ -45,5 +47,21 @@ inline double StatedBudgetKbps(const LinkOptions& link) { return IsRadioLink(lin
 
 /// True for the links bound to a named network (lan, radio).
 inline bool IsNamedNetworkLink(const LinkOptions& link) { return link.link == "lan" || link.link == "radio"; }
+
+/// DDS Security (OMG DDS Security 1.1 with Fast DDS's built-in plugins: PKI-DH authentication,
+/// Access-Permissions, AES-GCM-GMAC cryptography), from the folder `./cairn keys` writes (tools/keys.sh).
+struct SecurityOptions {
+  /// The fleet's folder: ca.pem, governance.p7s and <identity>/{cert.pem,key.pem,permissions.p7s}. "" = off.
+  std::string dir;
+  /// The robot or basestation id whose certificate and permissions this process uses.
+  std::string identity;
+  bool enabled() const { return !dir.empty(); }
+  /// The file `name` of the fleet (ca.pem, governance.p7s) or, with `own`, of the identity (cert.pem, ...).
+  std::string File(const std::string& name, bool own) const;
+  /// The robots the identity may command (<identity>/robots: one id per line, "*" for all; empty for an
+  /// observer or a robot). @throws std::invalid_argument naming the file when it cannot be read or holds a
+  /// bad id.
+  std::vector<std::string> CommandableRobots() const;
+};
 
 }  // namespace cairn::core

@@ -47,6 +47,9 @@ struct AgentDdsOptions {
   core::LinkOptions link;                 ///< the network the participant talks on
   double map_budget_bits_per_s = 1e6;     ///< flow controller "cairn.map", > 0
   double camera_budget_bits_per_s = 1e6;  ///< flow controller "cairn.camera", > 0
+  /// DDS Security (--secure DIR; identity = robot_id): commands are then read from the robot's
+  /// core::CommandPartition only, where its permissions let only the basestations given it publish.
+  core::SecurityOptions security;
 };
 
 /// What the agent has sent in one topic class (AgentDds::SentByClass), cumulative since it started.

@@ -30,6 +30,7 @@ struct AgentOptions {
   int domain_id = 0;                              ///< DDS domain [0, 232]
   std::string dds_profiles_file;                  ///< "" = core::DefaultProfilesFile()
   core::LinkOptions link;                         ///< loopback (default) or a named lan (core::LinkOptions)
+  core::SecurityOptions security;                 ///< DDS Security (--secure DIR), off by default
   std::string mode_tree_file;                     ///< "" = config/mode_tree.xml of the source tree
   double pcd_resolution_m = 0.1;                  ///< voxel size when the world is a PCD cloud, (0.02, 2]
   std::string map_save_path;                      ///< "" = none; else the robot's map is saved here (.bt) at exit
