@@ -2,6 +2,7 @@
 // non-zero exit code and a message naming the value, and never start a robot.
 #include <sys/wait.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -104,6 +105,20 @@ TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
                                          "<rtps></rtps></participant></profiles></dds>");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--dds-profiles", profiles}),
                 "not loopback-only");
+}
+
+// --secure: a folder that is not one, and a fleet folder without this id's identity, are named.
+TEST(SecureFlag, RefusesAMissingFolderAndAMissingIdentityNamingThem) {
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--secure", "/nonexistent/keys"}),
+                "--secure '/nonexistent/keys' is not a folder");
+  const std::string keys = (std::filesystem::path(::testing::TempDir()) / "cli_keys").lexically_normal().string();
+  std::filesystem::remove_all(keys);
+  const std::string make = std::string(CAIRN_SOURCE_DIR) + "/cairn keys " + keys + " --robots r1 2>/dev/null";
+  ASSERT_EQ(std::system(make.c_str()), 0) << make;
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r9", "--world", "builtin:arena", "--domain", "72", "--secure", keys}),
+                keys + "/r9/cert.pem' cannot be read");
+  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--secure", keys, "--", "robots"}),
+                keys + "/opA/robots' cannot be read");
 }
 
 TEST(BaseCli, RefusesBadFlagsAndCommands) {

@@ -506,8 +506,9 @@ std::vector<std::string> SecurityOptions::CommandableRobots() const {
   const std::string path = File("robots", true);
   std::ifstream in(path);
   if (!in) {
-    throw std::invalid_argument("DDS Security: '" + path + "' cannot be read (--secure " + dir +
-                                ": the robots identity '" + identity + "' may command; ./cairn keys writes it)");
+    throw std::invalid_argument("DDS Security: '" + path + "' cannot be read (--secure " + dir + ": is '" +
+                                identity + "' a basestation of this fleet? ./cairn keys makes one per --commander "
+                                "and --observer, with the robots it may command)");
   }
   std::vector<std::string> robots;
   std::string line;
