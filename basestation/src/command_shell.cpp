@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+
+#include <fmt/format.h>
 #include <limits>
 #include <ctime>
 #include <sstream>
@@ -66,6 +68,11 @@ json ViewJson(const RobotView& v, const std::string& base_id) {
     j["holder_alive"] = s.holder_alive();
     j["holder_participant"] = s.holder_participant();
     j["holder_participants"] = s.holder_participants();
+    if (s.has_resumable_goal()) {
+      const auto& g = s.resumable_goal_M();
+      j["resumable_goal"] = {{"x_m", g.x_m()}, {"y_m", g.y_m()}};
+      if (std::isfinite(g.z_m())) j["resumable_goal"]["z_m"] = g.z_m();
+    }
     j["x_m"] = s.pose_MB().position().x_m();
     j["y_m"] = s.pose_MB().position().y_m();
     j["z_m"] = s.pose_MB().position().z_m();
@@ -142,7 +149,7 @@ const std::vector<std::string>& CommandShell::CommandNames() {
   static const std::vector<std::string> kNames = {
       "robots", "watch", "status", "request-control", "release", "mode",     "goto",   "path",   "plan",
       "teleop", "stop",  "wait",   "sleep",           "map",     "snapshot", "stairs", "events", "place",
-      "places", "links", "explore", "frontiers", "home", "help"};
+      "places", "links", "explore", "frontiers", "home", "resume-goal", "help"};
   return kNames;
 }
 
@@ -166,6 +173,8 @@ std::string CommandShell::Help() {
          "  goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]  drive R to POINT (on the level nearest Z_M,\n"
          "                                      default the robot's); --wait prints progress (distance left,\n"
          "                                      ETA) until it arrives or fails (default 600 s)\n"
+         "  resume-goal R [--wait [TIMEOUT_S]]  drive R again to the goal it was driving when it crashed (a\n"
+         "                                      robot restarted with --resume offers it, never resumes it)\n"
          "  explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait [TIMEOUT_S]]\n"
          "                                      R explores by itself (frontiers of its own map, in the region\n"
          "                                      and height band when given) until no reachable frontier is\n"
@@ -321,7 +330,7 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
     const std::size_t arg = before.size();  // index of the word being completed, 1-based after the command
     static const std::vector<std::string> kRobotFirst = {
         "status", "request-control", "release", "mode", "goto", "path", "plan", "teleop", "stop", "wait",
-        "map",    "snapshot",        "help", "explore", "frontiers", "home"};
+        "map",    "snapshot",        "help", "explore", "frontiers", "home", "resume-goal"};
     if (arg == 1 && std::find(kRobotFirst.begin(), kRobotFirst.end(), cmd) != kRobotFirst.end()) {
       pool = client_.RobotIds();
       if (cmd == "stop") pool.push_back("all");
@@ -376,6 +385,7 @@ int CommandShell::Run(const std::string& line) {
   if (cmd == "mode") return need(2, "mode R MODE") ? Mode(args) : kUsage;
   if (cmd == "stop") return need(1, "stop R|all") ? Stop(args) : kUsage;
   if (cmd == "goto" || cmd == "home") return Goto(cmd, args);
+  if (cmd == "resume-goal") return ResumeGoal(args);
   if (cmd == "explore") return Explore(args);
   if (cmd == "frontiers") return need(1, "frontiers R") ? Frontiers(args) : kUsage;
   if (cmd == "teleop") {
@@ -633,6 +643,7 @@ int CommandShell::HelpFor(const std::string& robot) {
       {"goto", "goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]"},
       {"explore", "explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait [TIMEOUT_S]]"},
       {"home", "home R [POINT] [--z Z_M] [--wait [TIMEOUT_S]]"},
+      {"resume-goal", "resume-goal R [--wait [TIMEOUT_S]]"},
       {"teleop", "teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]"},
       {"stop", "stop R|all"}};
   for (const auto& action : actions) {
@@ -737,6 +748,30 @@ bool CommandShell::ParsePoint(const std::vector<std::string>& args, std::size_t 
     return false;
   }
   return ParseNumber(word, "X", x_m, error) && ParseNumber(args[first + 1], "Y", y_m, error);
+}
+
+int CommandShell::ResumeGoal(const std::vector<std::string>& args) {
+  const std::string usage = "usage: resume-goal R [--wait [TIMEOUT_S]]";
+  if (args.empty() || args[0].rfind("--", 0) == 0) return UsageError("resume-goal", usage);
+  const std::string& robot = args[0];
+  if (RefuseUnknown("resume-goal", robot)) return kRefused;
+  const auto view = client_.Robot(robot);
+  if (!view || !view->state || !view->state->has_resumable_goal()) {
+    CommandOutcome o;
+    o.result = outcome::kRefused;
+    o.reason = robot + " offers no goal to resume (a robot restarted with --resume in the middle of a goal offers "
+                       "it until it leaves idle)";
+    return Report("resume-goal", robot, o);
+  }
+  // A new goal to the old point: the same as goto, on the level the old goal asked for.
+  const cairn_msgs::Point& goal = view->state->resumable_goal_M();
+  std::vector<std::string> goto_args = {robot, fmt::format("{:.3f},{:.3f}", goal.x_m(), goal.y_m())};
+  if (std::isfinite(goal.z_m())) {
+    goto_args.push_back("--z");
+    goto_args.push_back(fmt::format("{:.3f}", goal.z_m()));
+  }
+  goto_args.insert(goto_args.end(), args.begin() + 1, args.end());
+  return Goto("goto", goto_args);
 }
 
 int CommandShell::Goto(const std::string& command, const std::vector<std::string>& all_args) {

@@ -102,6 +102,7 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
   if (!modes.empty()) actions.push_back("mode " + modes);
   if (can_goto) actions.push_back("goto");
   if (can_goto) actions.push_back("home");
+  if (can_goto && view.state->has_resumable_goal()) actions.push_back("resume-goal");
   if (can_explore) actions.push_back("explore");
   if (can_teleop) actions.push_back("teleop");
   actions.push_back("release");

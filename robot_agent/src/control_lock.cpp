@@ -65,6 +65,18 @@ void ControlLock::OnParticipantLost(const std::string& participant, core::Steady
   lost_since_ = now;
 }
 
+void ControlLock::Restore(const std::string& base_id, core::SteadyTime now) {
+  holder_ = base_id;
+  speaker_.clear();
+  lost_since_ = now;
+  for (const auto& [participant, announced] : live_) {
+    if (!holder_.empty() && announced == holder_) {
+      speaker_ = participant;
+      return;
+    }
+  }
+}
+
 uint32_t ControlLock::holder_participants() const {
   uint32_t n = 0;
   for (const auto& [participant, base_id] : live_) n += (!holder_.empty() && base_id == holder_) ? 1 : 0;

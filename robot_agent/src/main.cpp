@@ -1,4 +1,6 @@
 // cairn_agent: one process per robot. See --help.
+#include <unistd.h>
+
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -10,7 +12,9 @@
 #include <spdlog/spdlog.h>
 
 #include "cairn/agent/mode_manager.h"
+#include "cairn/agent/journal.h"
 #include "cairn/agent/robot_agent.h"
+#include "cairn/agent/supervisor.h"
 #include "cairn/core/config.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/link_cli.h"
@@ -48,6 +52,18 @@ int main(int argc, char** argv) {
                                                               "loopback-only config/dds_profiles.xml)");
   app.add_option("--map-save", options.map_save_path,
                  "save the robot's map (OctoMap .bt, full resolution, SLAM frame) to this file at exit");
+  app.add_option("--journal", options.journal_dir,
+                 "keep the robot's last known safe state in folder DIR (lock holder, mode, goal, pose, a map "
+                 "snapshot), written atomically whenever it changes");
+  bool resume = false, supervise = false;
+  app.add_flag("--resume", resume,
+               "with --journal: start from the journal (idle, the lock back with its holder, the map reloaded, "
+               "the old goal offered as resume-goal, never resumed by itself); a fresh start when there is none");
+  app.add_flag("--supervise", supervise,
+               "with --journal: run the agent as a child process and start it again with --resume when it "
+               "crashes (back-off 1-30 s)");
+  app.add_option("--journal-map-every", options.journal_map_every_s, "with --journal: seconds between map snapshots")
+      ->capture_default_str();
   app.add_option("--mode-tree", options.mode_tree_file, "mode tree XML (default: config/mode_tree.xml)");
   app.add_flag("--print-tree-nodes-model",
                "print the mode tree's <TreeNodesModel> (Groot2) for the nodes this agent registers, and exit");
@@ -91,11 +107,44 @@ int main(int argc, char** argv) {
     return app.exit(e);
   }
 
+  if (supervise) {
+    if (options.journal_dir.empty()) {
+      spdlog::error("cairn_agent {}: --supervise needs --journal DIR (a restarted robot reads its last state "
+                    "there)",
+                    options.robot_id);
+      return 2;
+    }
+    std::vector<std::string> child;
+    child.push_back("/proc/self/exe");
+    for (int i = 1; i < argc; ++i) {
+      if (std::string(argv[i]) != "--supervise") child.push_back(argv[i]);
+    }
+    char self[4096];
+    const ssize_t n = readlink("/proc/self/exe", self, sizeof(self) - 1);
+    if (n > 0) child[0] = std::string(self, static_cast<std::size_t>(n));
+    return cairn::agent::SuperviseAgent(child, options.robot_id);
+  }
+
   try {
     options.domain_id = cairn::core::ParseDomainId(domain_text);
     cairn::core::CheckLinkOptions(options.link);
     cairn::core::CheckSecureFlag(options.robot_id, &options.security);
     if (!start_text.empty()) cairn::agent::ParseStart(start_text, &options);
+    if (resume && options.journal_dir.empty()) throw std::invalid_argument("--resume needs --journal DIR");
+    if (resume) {
+      try {
+        options.resumed = cairn::agent::ReadJournal(options.journal_dir, options.robot_id);
+      } catch (const std::invalid_argument& e) {
+        // A robot that cannot read its journal still comes up, idle and free, rather than not at all; the bad
+        // file is kept beside it for a look.
+        spdlog::error("cairn_agent {}: {}; starting without it (kept as journal.json.bad)", options.robot_id,
+                      e.what());
+        const std::string file = cairn::agent::JournalFile(options.journal_dir);
+        std::rename(file.c_str(), (file + ".bad").c_str());
+      }
+      if (!options.resumed) spdlog::info("cairn_agent {}: no journal in {}: a fresh start", options.robot_id,
+                                         options.journal_dir);
+    }
     options.SetPlatform(platform);
     if (!config_file.empty()) options.LoadConfigFile(config_file);
     const std::string budget = options.ApplyLinkBudget();
@@ -113,6 +162,11 @@ int main(int argc, char** argv) {
     sim.world = options.world;
     sim.pcd_resolution_m = options.pcd_resolution_m;
     sim.start_W = options.start_W;
+    if (options.resumed) {
+      // The simulator stands in for a robot that stayed where it stopped: it starts at the journal's pose
+      // (the pose estimate, so within the SLAM drift of where the robot was).
+      sim.start_W = cairn::core::PlanarPose{options.resumed->x_m, options.resumed->y_m, options.resumed->yaw_rad};
+    }
     sim.start_slot = options.start_slot;
     sim.start_key = options.robot_id;
     sim.SetProfile(options.navigation.platform);

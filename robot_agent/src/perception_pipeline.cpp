@@ -84,6 +84,17 @@ std::vector<Eigen::Vector2i> PerceptionPipeline::TakeChangedTiles() {
   return out;
 }
 
+void PerceptionPipeline::LoadMap(const std::string& path) {
+  perception::OccupancyMap loaded = perception::OccupancyMap::LoadBt(path, options_.map);
+  if (std::abs(loaded.resolution_m() - options_.map.resolution_m) > 1e-9) {
+    throw std::invalid_argument("map file '" + path + "' has resolution " + std::to_string(loaded.resolution_m()) +
+                                " m, not the robot's perception.map.resolution_m " +
+                                std::to_string(options_.map.resolution_m) + " m");
+  }
+  map_ = std::make_shared<perception::OccupancyMap>(std::move(loaded));
+  CollectChanges();  // LoadBt marked all of it changed: the navigation map and map telemetry take it all
+}
+
 void PerceptionPipeline::RequestMapSnapshot() { sender_.RequestSnapshot(); }
 
 void PerceptionPipeline::SetLinkShare(double share) {

@@ -11,6 +11,7 @@
 #include <atomic>
 #include <cmath>
 #include <exception>
+#include <filesystem>
 #include <future>
 #include <mutex>
 #include <random>
@@ -19,6 +20,7 @@
 #include "cairn/agent/agent_dds.h"
 #include "cairn/agent/command_interface.h"
 #include "cairn/agent/explore_mode.h"
+#include "cairn/agent/journal.h"
 #include "cairn/agent/mode_control.h"
 #include "cairn/agent/modes.h"
 #include "cairn/agent/nav_map.h"
@@ -183,7 +185,15 @@ class RobotAgent::Impl {
   std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
   std::unique_ptr<PlanningService> planning_;  // the planning thread: goals, then peers' path queries
   std::unique_ptr<Telemetry> telemetry_;
+  std::optional<Eigen::Vector3d> resumable_goal_M_;  // a resumed robot's old goal, offered until it leaves idle
+  std::unique_ptr<JournalWriter> journal_;           // --journal: the last known safe state on disk
   std::mutex mutex_;
+
+  // With mutex_ held: what the journal keeps now.
+  JournalEntry JournalNow() const;
+  // With mutex_ held, in the constructor: a robot restarted from its journal (--resume) comes up idle with its
+  // lock's holder (lost until that basestation announces itself), its map, and its old goal offered.
+  void Resume(const JournalEntry& entry);
 };
 
 RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform)
@@ -229,6 +239,16 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
   telemetry_ =
       std::make_unique<Telemetry>(options, dds_.get(), modes_.get(), waypoint_, explore_, &navigation_,
                                   command_.get());
+  if (options.resumed) Resume(*options.resumed);
+  if (!options.journal_dir.empty()) {
+    std::function<void(const std::string&)> save_map;
+    if (options.perception.enabled) {
+      save_map = [this](const std::string& path) { perception_->SaveMapSnapshot(path); };
+    }
+    journal_ = std::make_unique<JournalWriter>(options.journal_dir, options.journal_map_every_s, save_map);
+    std::lock_guard<std::mutex> guard(mutex_);
+    journal_->Submit(JournalNow());
+  }
   dds_->Listen(DdsHandlers());
   telemetry_->PublishAgentInfo(capabilities_, kVersion);
   telemetry_->PublishGlobalPathIfChanged();  // an empty path: late joiners see "no goal"
@@ -237,6 +257,55 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       "domain {}",
       options.robot_id, options.platform, capabilities_.driver, capabilities_.description, start_M_.x_m,
       start_M_.y_m, start_M_.yaw_rad, options.domain_id);
+}
+
+void RobotAgent::Impl::Resume(const JournalEntry& entry) {
+  std::string map = "no map snapshot";
+  if (!entry.map_file.empty()) {
+    const std::string path = (std::filesystem::path(options_.journal_dir) / entry.map_file).string();
+    try {
+      perception_->LoadMap(path);
+      map = "its map from " + path;
+    } catch (const std::exception& e) {
+      map = "no map (" + std::string(e.what()) + ")";
+      spdlog::error("robot {}: resuming without its map: {}", options_.robot_id, e.what());
+    }
+  }
+  command_->RestoreHolder(entry.holder_id, SteadyClock::now());
+  if (entry.has_goal) resumable_goal_M_ = Eigen::Vector3d(entry.goal_x_m, entry.goal_y_m, entry.goal_z_m);
+  spdlog::warn(
+      "robot {}: resumed from its journal: idle (was {}), lock {}, {}; {}", options_.robot_id, entry.mode,
+      entry.holder_id.empty() ? "free" : "with " + entry.holder_id + " (lost until it announces itself)",
+      map,
+      entry.has_goal ? fmt::format("goal {} at ({:.2f}, {:.2f}) offered to resume (resume-goal {}), not resumed",
+                                   entry.goal_id, entry.goal_x_m, entry.goal_y_m, options_.robot_id)
+                     : std::string("no goal was being driven"));
+}
+
+JournalEntry RobotAgent::Impl::JournalNow() const {
+  JournalEntry e;
+  e.robot_id = options_.robot_id;
+  e.holder_id = command_->lock().holder_id();
+  e.mode = modes_->mode();
+  if (waypoint_->has_goal()) {
+    const WaypointGoal& goal = waypoint_->goal();
+    e.has_goal = true;
+    e.goal_id = goal.goal_id;
+    e.goal_x_m = goal.x_m;
+    e.goal_y_m = goal.y_m;
+    e.goal_z_m = goal.z_m;
+    e.goal_tolerance_m = goal.tolerance_m;
+  } else if (resumable_goal_M_) {  // still offered: a second crash keeps the offer
+    e.has_goal = true;
+    e.goal_x_m = resumable_goal_M_->x();
+    e.goal_y_m = resumable_goal_M_->y();
+    e.goal_z_m = resumable_goal_M_->z();
+  }
+  e.x_m = pose_.x_m;
+  e.y_m = pose_.y_m;
+  e.z_m = pose_.z_m;
+  e.yaw_rad = pose_.yaw_rad;
+  return e;
 }
 
 void RobotAgent::Impl::ShareRadioLink() {
@@ -494,8 +563,11 @@ void RobotAgent::Impl::Run() {
       const SteadyTime now = SteadyClock::now();
       command_->OnParticipantsGone(dds_->TakeGoneParticipants(), now);
       Step(now);
+      if (resumable_goal_M_ && modes_->mode() != "idle") resumable_goal_M_.reset();  // the operator moved on
+      if (journal_ && cycle % 10 == 0) journal_->Submit(JournalNow());
       if (cycle % state_every == 0) {
-        telemetry_->PublishState(RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs()});
+        telemetry_->PublishState(
+            RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_});
       }
       if (cycle % local_plan_every == 0) telemetry_->PublishLocalPlan();
       telemetry_->PublishTreeStateIfChanged();
@@ -523,7 +595,7 @@ void RobotAgent::Impl::Run() {
   {
     std::lock_guard<std::mutex> guard(mutex_);
     modes_->Stop("agent shutting down");
-    telemetry_->PublishState(RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs()});
+    telemetry_->PublishState(RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_});
     release = DueClaim(*explore_, team_, NowS(SteadyClock::now()), {});  // an exploring robot lets go of its claim
   }
   if (release) SendClaim(*release);
@@ -551,7 +623,7 @@ void RobotAgent::Impl::Run() {
   while (!finished) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     std::lock_guard<std::mutex> guard(mutex_);
-    telemetry_->PublishState(RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs()});
+    telemetry_->PublishState(RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_});
   }
   finisher.join();
   if (failure) std::rethrow_exception(failure);

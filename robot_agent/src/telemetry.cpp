@@ -170,6 +170,12 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
   m.explore_targets_failed(static_cast<uint32_t>(ex.targets_failed));
   m.explore_peers(static_cast<uint32_t>(ex.peers));
   m.explore_peer_seen_m2(ex.peer_seen_m2);
+  m.has_resumable_goal(in.resumable_goal_M.has_value());
+  if (in.resumable_goal_M) {
+    m.resumable_goal_M().x_m(in.resumable_goal_M->x());
+    m.resumable_goal_M().y_m(in.resumable_goal_M->y());
+    m.resumable_goal_M().z_m(in.resumable_goal_M->z());
+  }
   const cairn_msgs::RobotPose pose = cairn::msgs::PoseOf(m);
   // The whole state (~360 bytes, most of it unchanged from one cycle to the next) only when due. It goes
   // before the pose of the same cycle, so a reader that has the pose has (or is being repaired) the state it

@@ -29,6 +29,30 @@ TEST(ControlLock, GrantsWhenFreeDeniesOthersNamingTheHolder) {
   EXPECT_EQ(lock.holder_participant(), kReplA);
 }
 
+// A robot restarted from its journal: the holder has the lock again, lost until one of its processes
+// announces itself; others are refused meanwhile.
+TEST(ControlLock, ARestoredHolderIsLostUntilItsProcessAnnouncesItself) {
+  ControlLock lock("r1", {});
+  const auto t0 = core::SteadyClock::now();
+  lock.Restore("opA", t0);
+  EXPECT_EQ(lock.holder_id(), "opA");
+  EXPECT_FALSE(lock.holder_alive());
+  EXPECT_FALSE(lock.Request("opB", kB, t0).accepted);
+  lock.OnParticipantAlive("opB", kB);
+  EXPECT_FALSE(lock.holder_alive()) << "another id's process does not speak for the holder";
+  lock.OnParticipantAlive("opA", kRestartedA);
+  EXPECT_TRUE(lock.holder_alive());
+  EXPECT_EQ(lock.holder_participant(), kRestartedA);
+  // A process already announced before the restore speaks for the holder at once.
+  ControlLock second("r1", {});
+  second.OnParticipantAlive("opA", kReplA);
+  second.Restore("opA", t0);
+  EXPECT_TRUE(second.holder_alive());
+  second.Restore("", t0);
+  EXPECT_EQ(second.holder_id(), "");
+  EXPECT_TRUE(second.Request("opB", kB, t0).accepted);
+}
+
 TEST(ControlLock, OnlyTheHolderReleases) {
   ControlLock lock("r1", {});
   EXPECT_FALSE(lock.Release("opA").accepted) << "nothing to release";

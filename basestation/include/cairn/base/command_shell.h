@@ -75,6 +75,7 @@ class CommandShell {
   int Mode(const std::vector<std::string>& args);
   // goto R POINT ... and home R [POINT] ... (`command`): a waypoint goal, the robot's start by default for home.
   int Goto(const std::string& command, const std::vector<std::string>& args);
+  int ResumeGoal(const std::vector<std::string>& args);
   // explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--wait [TIMEOUT_S]] (command_shell_explore.cpp).
   int Explore(const std::vector<std::string>& args);
   // Waits until exploration `task_id` of `robot` ends, printing its progress every 5 s: accepted when

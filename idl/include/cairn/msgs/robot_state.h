@@ -82,6 +82,8 @@ inline cairn_msgs::RobotState SlowPartOf(cairn_msgs::RobotState state) {
   state.nav_eta_s(0.0);
   state.in_contact(false);
   state.link_usage().clear();
+  // NaN (the robot's level) never equals itself: compared as 0, or every state would differ from the last.
+  if (std::isnan(state.resumable_goal_M().z_m())) state.resumable_goal_M().z_m(0.0);
   return state;
 }
 

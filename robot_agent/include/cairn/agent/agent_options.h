@@ -6,6 +6,7 @@
 
 #include "cairn/agent/control_lock.h"
 #include "cairn/agent/explore_mode.h"
+#include "cairn/agent/journal.h"
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
@@ -34,6 +35,12 @@ struct AgentOptions {
   std::string mode_tree_file;                     ///< "" = config/mode_tree.xml of the source tree
   double pcd_resolution_m = 0.1;                  ///< voxel size when the world is a PCD cloud, (0.02, 2]
   std::string map_save_path;                      ///< "" = none; else the robot's map is saved here (.bt) at exit
+  /// The journal's folder (--journal): the last known safe state, kept while the robot runs; "" = none.
+  std::string journal_dir;
+  double journal_map_every_s = 10.0;              ///< map snapshots into the journal, seconds, > 0
+  /// The journal read at start (--resume, main.cpp): the robot comes up idle with its lock, its map and its
+  /// old goal offered. Unset: a fresh start.
+  std::optional<JournalEntry> resumed;
 
   // From the config file.
   ControlLockOptions lock;

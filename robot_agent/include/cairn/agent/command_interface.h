@@ -102,6 +102,8 @@ class CommandInterface {
   ValidActions ValidNow();
 
   const ControlLock& lock() const { return lock_; }
+  /// After a restart: `base_id` (the journal's holder) holds the lock again (ControlLock::Restore).
+  void RestoreHolder(const std::string& base_id, core::SteadyTime now) { lock_.Restore(base_id, now); }
   const StopRecord& stops() const { return stops_; }
 
  private:

@@ -67,6 +67,10 @@ class ControlLock {
   /// is lost only when no other live participant speaks for it.
   void OnParticipantLost(const std::string& participant, core::SteadyTime now);
 
+  /// After a restart (the journal): `base_id` holds the lock again, lost until a process with that id
+  /// announces itself (OnParticipantAlive) or commands. "" leaves the lock free.
+  void Restore(const std::string& base_id, core::SteadyTime now);
+
   /// Frees the lock once the holder has been lost for longer than lock_keep_s. @return true if it freed it.
   bool Update(core::SteadyTime now);
 

@@ -128,6 +128,12 @@ class PerceptionPipeline {
   /// waits for the world to change); off (idle), only keyframes from motion. Thread-safe.
   void set_refresh_at_rest(bool on) { refresh_at_rest_ = on; }
 
+  /// Before the first Tick(): replaces the (empty) map with the OctoMap file `path` (a journal's snapshot,
+  /// written by this robot), marks all of it changed for the navigation map and sends it as map telemetry.
+  /// @throws perception::MapError naming the file; std::invalid_argument when its resolution is not the
+  /// map's (perception.map.resolution_m).
+  void LoadMap(const std::string& path);
+
   /// The robot's map (thread-safe queries: occupancy, ray cast, bounding box).
   std::shared_ptr<const perception::OccupancyMap> map() const { return map_; }
   /// Body pose of the latest scan (the platform's estimate), map frame.

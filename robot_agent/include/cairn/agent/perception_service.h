@@ -97,6 +97,12 @@ class PerceptionService {
 
   /// After the loops ended: the map's last changes within the telemetry budget (empty with perception off).
   PerceptionOutput Flush();
+  /// Before the loops start: the map is the OctoMap file `path` (a journal's snapshot). @throws
+  /// perception::MapError / std::invalid_argument naming the file.
+  void LoadMap(const std::string& path) { perception_->LoadMap(path); }
+  /// Any thread: writes the map as it is now to `path` (OctoMap .bt, write-then-rename). @throws
+  /// perception::MapError naming the file.
+  void SaveMapSnapshot(const std::string& path) const { perception_->map()->SaveBt(path); }
   /// After the loops ended: saves the map to `path` ("" = no) and logs the perception statistics.
   void Finish(const std::string& path);
 

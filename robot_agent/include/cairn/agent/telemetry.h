@@ -6,6 +6,10 @@
 // CompressedImage (pose_MC), StaircaseDetection (p_M_first_step).
 #pragma once
 
+#include <optional>
+
+#include <Eigen/Core>
+
 #include <cstdint>
 #include <string>
 
@@ -28,6 +32,8 @@ struct RobotStateInputs {
   core::BaseState pose_M;              ///< the pose estimate, frame M (metres, radians; v, w in frame B)
   bool in_contact = false;             ///< the platform reports contact with occupied space
   double control_period_max_ms = 0.0;  ///< the control loop's worst period lately, milliseconds
+  /// A restarted robot's old goal, offered to resume (frame M, metres; z NaN: the robot's level).
+  std::optional<Eigen::Vector3d> resumable_goal_M;
 };
 
 /// Builds and publishes the robot's telemetry. The control-loop methods run under the agent's lock (they read
