@@ -131,7 +131,8 @@ fi
 for i in $(seq 1 "$ROBOTS"); do
   on_host "r$i"
   "${ON_HOST[@]}" setsid "$BUILD/robot_agent/cairn_agent" --robot-id "r$i" --world "$WORLD" --start "slot:$((i - 1))" \
-    --platform "$PLATFORM" --domain "$DOMAIN" "${LINK_ARGS[@]}" >"$LOGS/r$i.log" 2>&1 </dev/null &
+    --platform "$PLATFORM" --domain "$DOMAIN" "${LINK_ARGS[@]}" --journal "$LOGS/r$i.journal" --supervise \
+    >"$LOGS/r$i.log" 2>&1 </dev/null &
   PIDS+=($!)
 done
 # Wait until every agent has loaded its world and is on DDS.
