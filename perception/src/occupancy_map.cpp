@@ -412,6 +412,21 @@ class Tree final : public octomap::OcTree {
     }
   }
 
+  /// How many entries CollectAtDepth would produce below `node` (at `depth`), or `limit` + 1 once there are
+  /// more (a pruned leaf high in the tree stands for 8^levels voxels).
+  std::uint64_t CountAtDepth(const OcTreeNode* node, int depth, int target_depth, std::uint64_t limit) const {
+    if (depth == target_depth) return 1;
+    if (!nodeHasChildren(node)) {
+      const int shift = 3 * (target_depth - depth);
+      return shift >= 63 || (std::uint64_t{1} << shift) > limit ? limit + 1 : std::uint64_t{1} << shift;
+    }
+    std::uint64_t n = 0;
+    for (unsigned i = 0; i < 8 && n <= limit; ++i) {
+      if (nodeChildExists(node, i)) n += CountAtDepth(getNodeChild(node, i), depth + 1, target_depth, limit - n);
+    }
+    return std::min(n, limit + 1);
+  }
+
   /// Counts the occupied and known finest voxels below `node` (at `depth`).
   void CountVoxels(const OcTreeNode* node, int depth, std::int64_t* occupied, std::int64_t* known) const {
     if (!nodeHasChildren(node)) {
@@ -1101,6 +1116,12 @@ void OccupancyMap::SaveBt(const std::string& path) const {
   }
 }
 
+namespace {
+// Most change-tracking cubes a loaded map may expand to (8-16 bytes each in the tracking set): 10^7 cubes of
+// 2^kMaxCoarseLevels voxels a side (6.4 m at 0.1 m) hold any site many times over.
+constexpr std::uint64_t kMaxLoadedTrackedVoxels = 10'000'000;
+}  // namespace
+
 OccupancyMap OccupancyMap::LoadBt(const std::string& path, const OccupancyMapOptions& options) {
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
@@ -1131,6 +1152,17 @@ OccupancyMap OccupancyMap::LoadBt(const std::string& path, const OccupancyMapOpt
     }
     // readBinary leaves the root at the upper clamp; inner nodes get the max of their children.
     m.tree.updateInnerOccupancy();
+    // A pruned leaf high in the tree stands for a huge cube of space: expanded into change tracking (and
+    // later into coarse telemetry voxels) it would take gigabytes (found by fuzzing: a root with 8 leaves,
+    // 61 bytes, took 22 GB). Such a file is no map of a site.
+    const std::uint64_t tracked =
+        m.tree.CountAtDepth(m.tree.getRoot(), 0, kTreeDepth - m.track_levels, kMaxLoadedTrackedVoxels);
+    if (tracked > kMaxLoadedTrackedVoxels) {
+      const double edge_m = contents.resolution_m * static_cast<double>(1 << m.track_levels);
+      throw MapError("map file '" + path + "' expands to more than " + std::to_string(kMaxLoadedTrackedVoxels) +
+                     " known cubes of " + std::to_string(edge_m) +
+                     " m (pruned leaves covering kilometres of space); refusing to load it");
+    }
   }
   m.MarkAllKnownChanged();
   return map;

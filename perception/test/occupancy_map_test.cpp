@@ -697,6 +697,12 @@ TEST(OccupancyMapFileTest, BadFilesGiveMapError) {
   WriteFile(deep, header + std::string(1 << 16, '\xFF'));
   ExpectLoadError(deep, "finest depth");
 
+  // Found by fuzzing (fuzz/corpus/bt_file/eight_root_leaves.bt): a root whose 8 children are pruned leaves is
+  // 61 bytes that stand for a 6.5 km cube; expanding it for change tracking took 22 GB.
+  const std::string huge = dir.File("eight_root_leaves.bt");
+  WriteFile(huge, "# Octomap OcTree binary file\nid OcTree\nsize 9\nres 0.1\ndata\n\x99\x99");
+  ExpectLoadError(huge, "expands to more than");
+
   // Truncations of a valid file, in the header and in the data.
   const OccupancyMap map = RoomMap(1);
   std::ostringstream valid_stream;
