@@ -1,6 +1,6 @@
-// Fuzz harness: an OctoMap .bt file from a peer or a user (a world, a map) through OccupancyMap::LoadBt. Every
-// input must load or be refused with perception::MapError / std::invalid_argument; no crash, no unbounded
-// allocation (a declared size is checked against the file first).
+// Fuzz harness: an OctoMap .bt file from a peer or a user (a world, a map) through OccupancyMap::LoadBt.
+// Every input must load or be refused with perception::MapError / std::invalid_argument; no crash, no
+// unbounded allocation (a declared size is checked against the file first).
 #include <cstddef>
 #include <cstdint>
 #include <stdexcept>

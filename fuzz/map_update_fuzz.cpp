@@ -1,9 +1,9 @@
 // Fuzz harness: map updates from peers (topic cairn/map_update) as a basestation applies them: the header
 // fields and the payload come from the input, through FleetMap::Apply (header rules, DecodeCoarseVoxels,
 // limits). Every message must be applied or dropped with a reason; no crash, no unbounded allocation.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <algorithm>
 #include <cstring>
 #include <string>
 

@@ -1,5 +1,5 @@
-// Fuzz harness: a .pcd point cloud given as a world (cairn_agent --world FILE.pcd) through sim::LoadWorld. Every
-// input must load or be refused with an exception naming the file; the header is checked field by field
+// Fuzz harness: a .pcd point cloud given as a world (cairn_agent --world FILE.pcd) through sim::LoadWorld.
+// Every input must load or be refused with an exception naming the file; the header is checked field by field
 // against the file size before PCL allocates anything.
 #include <cstddef>
 #include <cstdint>

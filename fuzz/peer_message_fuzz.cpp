@@ -1,16 +1,17 @@
 // Fuzz harness: samples from peers as a robot or a basestation decodes them. The first byte picks the type;
 // the rest is its CDR payload, deserialized by the fastddsgen type (what Fast DDS does with every sample from
 // the link), then checked and converted as the receiver does: ids (core::CheckId), waypoint goals
-// (agent::CheckGoal), explore claims with their zstd coverage (agent::DecompressCoverageBits,
-// CheckExploreClaim), map updates (FleetMap::Apply). Every input must decode or be refused; no crash, no
+// (agent::CheckGoal), explore claims with their zstd coverage (agent::ClaimFromMessage, CheckExploreClaim),
+// map updates (FleetMap::Apply). Every input must decode or be refused; no crash, no
 // unbounded allocation.
+#include <fastdds/rtps/common/SerializedPayload.h>
+
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <string>
 
-#include <fastdds/rtps/common/SerializedPayload.h>
-
+#include "cairn/agent/agent_dds.h"
 #include "cairn/agent/commands.h"
 #include "cairn/agent/explore_claims.h"
 #include "cairn/core/peer_input.h"
@@ -46,24 +47,8 @@ void Goal(const msgs::WaypointGoal& m) {
 }
 
 void Claim(const msgs::ExploreClaim& m) {
-  cairn::agent::ExploreClaim c;
-  c.robot_id = m.robot_id();
-  c.task_id = m.task_id();
-  c.active = m.active();
-  c.has_target = m.has_target();
-  c.target_M = {m.target_x_m(), m.target_y_m(), m.target_z_m()};
-  c.held_s = m.held_s();
-  c.lease_s = m.lease_s();
-  if (m.coverage_cell_m() != 0.0) {
-    cairn::nav::CoverageBitmap bitmap;
-    bitmap.cell_m = m.coverage_cell_m();
-    bitmap.origin_cell = {m.coverage_origin_ix(), m.coverage_origin_iy()};
-    bitmap.nx = m.coverage_nx();
-    bitmap.ny = m.coverage_ny();
-    std::string why;
-    if (cairn::agent::DecompressCoverageBits(m.coverage_zstd(), &bitmap, &why)) c.coverage = std::move(bitmap);
-  }
-  (void)cairn::agent::CheckExploreClaim(c);
+  std::string fault;
+  (void)cairn::agent::CheckExploreClaim(cairn::agent::ClaimFromMessage(m, &fault));
 }
 
 void Map(const msgs::MapUpdate& m) {
@@ -107,7 +92,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     case 3: {
       msgs::ControlRequest m;
-      if (Deserialize<msgs::ControlRequestPubSubType>(data, size, &m)) (void)cairn::core::CheckId("base id", m.base_id());
+      if (Deserialize<msgs::ControlRequestPubSubType>(data, size, &m))
+        (void)cairn::core::CheckId("base id", m.base_id());
       break;
     }
     case 4: {

@@ -1,5 +1,6 @@
 // Bad input at the process boundary: flags, config and world files. Each must end the process with a
 // non-zero exit code and a message naming the value, and never start a robot.
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <cstdlib>
@@ -7,8 +8,6 @@
 #include <fstream>
 #include <iterator>
 #include <sstream>
-
-#include <gtest/gtest.h>
 
 #include "process.h"
 
@@ -109,13 +108,16 @@ TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
 
 // --secure: a folder that is not one, and a fleet folder without this id's identity, are named.
 TEST(SecureFlag, RefusesAMissingFolderAndAMissingIdentityNamingThem) {
-  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--secure", "/nonexistent/keys"}),
-                "--secure '/nonexistent/keys' is not a folder");
-  const std::string keys = (std::filesystem::path(::testing::TempDir()) / "cli_keys").lexically_normal().string();
+  ExpectRefused(
+      RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--secure", "/nonexistent/keys"}),
+      "--secure '/nonexistent/keys' is not a folder");
+  const std::string keys =
+      (std::filesystem::path(::testing::TempDir()) / "cli_keys").lexically_normal().string();
   std::filesystem::remove_all(keys);
   const std::string make = std::string(CAIRN_SOURCE_DIR) + "/cairn keys " + keys + " --robots r1 2>/dev/null";
   ASSERT_EQ(std::system(make.c_str()), 0) << make;
-  ExpectRefused(RunProcess({kAgent, "--robot-id", "r9", "--world", "builtin:arena", "--domain", "72", "--secure", keys}),
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r9", "--world", "builtin:arena", "--domain", "72",
+                            "--secure", keys}),
                 keys + "/r9/cert.pem' cannot be read");
   ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--secure", keys, "--", "robots"}),
                 keys + "/opA/robots' cannot be read");

@@ -17,11 +17,8 @@
 
 #include "cairn/core/dds.h"
 #include "cairn/msgs/stamp.h"
-#include "cairn/nav/astar.h"
-#include "cairn/nav/sampling.h"
-#include "cairn/nav/traversability.h"
-#include "cairn/sim/world.h"
 #include "cairn_msgsPubSubTypes.h"
+#include "goal_util.h"
 #include "integration_util.h"
 #include "process.h"
 
@@ -43,12 +40,7 @@ std::string Logs(const std::string& test) {
 
 std::unique_ptr<ChildProcess> StartAgent(const std::string& id, int domain, const std::string& logs,
                                          const std::vector<std::string>& extra = {}) {
-  std::vector<std::string> argv = {
-      kAgent, "--robot-id", id, "--world", kWorld, "--start", "slot:0", "--domain", std::to_string(domain)};
-  argv.insert(argv.end(), extra.begin(), extra.end());
-  auto agent = std::make_unique<ChildProcess>(argv, logs + "/" + id + ".log");
-  if (!agent->WaitForLine("READY", 60s)) ADD_FAILURE() << "agent " << id << " did not start; see " << logs;
-  return agent;
+  return StartAgentIn(kWorld, id, domain, logs, extra);
 }
 
 // One `cairn_base --json -- COMMAND` process, run to its end.
@@ -73,28 +65,6 @@ OneShot RunOneShot(const std::string& base_id, int domain, const std::string& co
   const auto status = child.Wait(20s);
   if (status && WIFEXITED(*status)) out.exit_code = WEXITSTATUS(*status);
   return out;
-}
-
-std::string GotoCommand(const std::string& robot, const Eigen::Vector2d& goal) {
-  char text[96];
-  std::snprintf(text, sizeof(text), "goto %s %.2f %.2f", robot.c_str(), goal.x(), goal.y());
-  return text;
-}
-
-// A free goal whose path from the robot's start is between min_m and max_m long, on the agent's own grid.
-Eigen::Vector2d GoalAtPathLength(const msgs::RobotState& start, double min_m, double max_m) {
-  static const sim::World world = sim::LoadWorld(kWorld);
-  static const nav::TraversabilityGrid grid(world, nav::TraversabilityOptions{});
-  const Eigen::Vector2d p_start(start.pose_MB().position().x_m(), start.pose_MB().position().y_m());
-  for (const auto& c : nav::SampleFreeStarts(grid, 80, 1.0, 4321)) {
-    const nav::PlanResult plan = nav::PlanPath(grid, p_start, c.head<2>(), nav::AStarOptions{});
-    if (plan.status == nav::PlanResult::Status::kSuccess && plan.length_m >= min_m &&
-        plan.length_m <= max_m) {
-      return c.head<2>();
-    }
-  }
-  ADD_FAILURE() << "no goal " << min_m << "-" << max_m << " m from the start";
-  return p_start;
 }
 
 // Waits until `robot` is at rest with a zero command in mode idle; returns the seconds it took (-1: never).

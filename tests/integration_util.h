@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cstdio>
 #include <cmath>
+#include <filesystem>
+#include <memory>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -232,6 +234,26 @@ class Base {
     return args;
   }
 };
+
+// Starts `cairn_agent --robot-id ID --world WORLD --start slot:0 --domain DOMAIN EXTRA...` (stderr into
+// LOGS/ID.log) and waits for its READY line; a test failure when it does not come within 60 s.
+inline std::unique_ptr<ChildProcess> StartAgentIn(const std::string& world, const std::string& id, int domain,
+                                                  const std::string& logs, const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> argv = {
+      kAgent, "--robot-id", id, "--world", world, "--start", "slot:0", "--domain", std::to_string(domain)};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  auto agent = std::make_unique<ChildProcess>(argv, logs + "/" + id + ".log");
+  if (!agent->WaitForLine("READY", 60s)) ADD_FAILURE() << "agent " << id << " did not start; see " << logs;
+  return agent;
+}
+
+// An emptied folder build/test-logs/GROUP/TEST for a test's process logs.
+inline std::string FreshLogs(const std::string& group, const std::string& test) {
+  const std::string dir = std::string(CAIRN_BINARY_DIR) + "/test-logs/" + group + "/" + test;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
 
 // Records a measured figure in the test report and prints it (for docs and closing notes).
 inline void Figure(const std::string& name, double value) {

@@ -1,7 +1,8 @@
 // Restart into the last known safe state (issue 15), through real processes in this test's private network
-// namespace: a cairn_agent run by its supervisor (--supervise --journal) is SIGKILLed in the middle of a goal;
-// the supervisor starts it again with --resume, and the robot comes back idle where it was, with its lock's
-// holder, its map reloaded and the old goal offered (never resumed by itself) until the holder resumes it.
+// namespace: a cairn_agent run by its supervisor (--supervise --journal) is SIGKILLed in the middle of a
+// goal; the supervisor starts it again with --resume, and the robot comes back idle where it was, with its
+// lock's holder, its map reloaded and the old goal offered (never resumed by itself) until the holder resumes
+// it.
 #include <gtest/gtest.h>
 #include <signal.h>
 
@@ -12,11 +13,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "cairn/nav/astar.h"
-#include "cairn/nav/sampling.h"
-#include "cairn/nav/traversability.h"
-#include "cairn/sim/world.h"
 #include "cairn_msgsPubSubTypes.h"
+#include "goal_util.h"
 #include "integration_util.h"
 #include "process.h"
 
@@ -29,28 +27,6 @@ using nlohmann::json;
 namespace msgs = cairn_msgs;
 
 const std::string kWorld = "builtin:tunnels";
-
-std::string Logs(const std::string& test) {
-  const std::string dir = std::string(CAIRN_BINARY_DIR) + "/test-logs/resume/" + test;
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
-
-// A free goal whose path from `start` is between min_m and max_m long, on the agent's own grid.
-Eigen::Vector2d GoalAtPathLength(const msgs::RobotState& start, double min_m, double max_m) {
-  static const sim::World world = sim::LoadWorld(kWorld);
-  static const nav::TraversabilityGrid grid(world, nav::TraversabilityOptions{});
-  const Eigen::Vector2d p_start(start.pose_MB().position().x_m(), start.pose_MB().position().y_m());
-  for (const auto& c : nav::SampleFreeStarts(grid, 80, 1.0, 4321)) {
-    const nav::PlanResult plan = nav::PlanPath(grid, p_start, c.head<2>(), nav::AStarOptions{});
-    if (plan.status == nav::PlanResult::Status::kSuccess && plan.length_m >= min_m && plan.length_m <= max_m) {
-      return c.head<2>();
-    }
-  }
-  ADD_FAILURE() << "no goal " << min_m << "-" << max_m << " m from the start";
-  return p_start;
-}
 
 // The supervisor's child (the agent itself), or -1.
 pid_t ChildOf(pid_t supervisor) {
@@ -76,20 +52,19 @@ std::string ReadFile(const std::string& path) {
 
 TEST(Resume, AnAgentKilledMidGoalComesBackIdleWithItsLockMapAndGoalOfferedNeverResumed) {
   const int domain = 86;
-  const std::string logs = Logs("killed_mid_goal");
+  const std::string logs = FreshLogs("resume", "killed_mid_goal");
   const std::string journal = logs + "/journal";
   Observer observer(domain);
-  ChildProcess supervisor({kAgent, "--robot-id", "r1", "--world", kWorld, "--start", "slot:0", "--domain",
-                           std::to_string(domain), "--journal", journal, "--journal-map-every", "1", "--supervise"},
-                          logs + "/r1.log");
+  ChildProcess supervisor(
+      {kAgent, "--robot-id", "r1", "--world", kWorld, "--start", "slot:0", "--domain", std::to_string(domain),
+       "--journal", journal, "--journal-map-every", "1", "--supervise"},
+      logs + "/r1.log");
   ASSERT_TRUE(supervisor.WaitForLine("READY", 60s)) << "see " << logs;
   Base op("opA", domain, logs);
   ASSERT_TRUE(op.Run("request-control r1")["ok"]);
   const msgs::RobotState start = observer.FreshState("r1");
   const Eigen::Vector2d goal = GoalAtPathLength(start, 25, 40);
-  char go[96];
-  std::snprintf(go, sizeof(go), "goto r1 %.2f %.2f", goal.x(), goal.y());
-  json r = op.Run(go);
+  json r = op.Run(GotoCommand("r1", goal));
   ASSERT_TRUE(r["ok"]) << r;
 
   // Driving, with the goal and a map snapshot in the journal.
@@ -111,12 +86,13 @@ TEST(Resume, AnAgentKilledMidGoalComesBackIdleWithItsLockMapAndGoalOfferedNeverR
   const msgs::RobotState before_kill = observer.FreshState("r1");
   ASSERT_EQ(::kill(agent, SIGKILL), 0);
   const auto killed = Clock::now();
-  ASSERT_TRUE(supervisor.WaitForLine("READY", 60s)) << "the supervisor did not start the agent again; see " << logs;
+  ASSERT_TRUE(supervisor.WaitForLine("READY", 60s))
+      << "the supervisor did not start the agent again; see " << logs;
   Figure("sigkill_to_ready_s", std::chrono::duration<double>(Clock::now() - killed).count());
   EXPECT_NE(ChildOf(supervisor.pid()), agent);
 
-  // Back idle, at rest, where it was, with its holder (alive again once the basestation is heard) and the goal
-  // offered.
+  // Back idle, at rest, where it was, with its holder (alive again once the basestation is heard) and the
+  // goal offered.
   msgs::RobotState back;
   bool holder_alive = false;
   const auto resumed = Clock::now();
@@ -140,7 +116,8 @@ TEST(Resume, AnAgentKilledMidGoalComesBackIdleWithItsLockMapAndGoalOfferedNeverR
   std::this_thread::sleep_for(3s);
   const auto history = observer.History("r1");
   double travel_m = 0;
-  for (std::size_t i = from; i < history.size(); ++i) travel_m = std::max(travel_m, Distance(history[from], history[i]));
+  for (std::size_t i = from; i < history.size(); ++i)
+    travel_m = std::max(travel_m, Distance(history[from], history[i]));
   EXPECT_LT(travel_m, 0.02) << "the robot resumed its goal by itself";
   r = op.Run("status r1");
   EXPECT_TRUE(r.contains("resumable_goal")) << r;

@@ -31,13 +31,6 @@ namespace msgs = cairn_msgs;
 
 const std::string kWorld = "builtin:tunnels";
 
-std::string Logs(const std::string& test) {
-  const std::string dir = std::string(CAIRN_BINARY_DIR) + "/test-logs/security/" + test;
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
-
 // `./cairn keys DIR ARGS` into a fresh DIR; fails the test when it does not exit 0.
 std::string MakeKeys(const std::string& dir, const std::string& args) {
   std::filesystem::remove_all(dir);
@@ -50,12 +43,7 @@ std::string MakeKeys(const std::string& dir, const std::string& args) {
 
 std::unique_ptr<ChildProcess> StartAgent(const std::string& id, int domain, const std::string& logs,
                                          const std::vector<std::string>& extra = {}) {
-  std::vector<std::string> argv = {
-      kAgent, "--robot-id", id, "--world", kWorld, "--start", "slot:0", "--domain", std::to_string(domain)};
-  argv.insert(argv.end(), extra.begin(), extra.end());
-  auto agent = std::make_unique<ChildProcess>(argv, logs + "/" + id + ".log");
-  if (!agent->WaitForLine("READY", 60s)) ADD_FAILURE() << "agent " << id << " did not start; see " << logs;
-  return agent;
+  return StartAgentIn(kWorld, id, domain, logs, extra);
 }
 
 // A test participant: plain (no keys) or with the identity `identity` of the fleet in `keys`. It reads robot
@@ -87,7 +75,8 @@ class Peer {
   }
   // A control request writer on `topic`. @throws core::DdsError when the access control refuses to make it.
   std::unique_ptr<core::Writer<msgs::ControlRequestPubSubType>> ControlWriter(const std::string& topic) {
-    return std::make_unique<core::Writer<msgs::ControlRequestPubSubType>>(*participant_, topic, "cairn.command");
+    return std::make_unique<core::Writer<msgs::ControlRequestPubSubType>>(*participant_, topic,
+                                                                          "cairn.command");
   }
 
  private:
@@ -108,8 +97,8 @@ msgs::ControlRequest Grab(const std::string& robot, const std::string& base_id, 
 }
 
 // Seconds from starting a basestation process to its first answer that `robot` is online.
-double SecondsToOnline(const std::string& base_id, int domain, const std::string& logs, const std::string& robot,
-                       const std::vector<std::string>& extra) {
+double SecondsToOnline(const std::string& base_id, int domain, const std::string& logs,
+                       const std::string& robot, const std::vector<std::string>& extra) {
   const auto start = Clock::now();
   Base base(base_id, domain, logs, extra);
   const json r = base.Run("wait " + robot + " online 20", 30s);
@@ -119,7 +108,7 @@ double SecondsToOnline(const std::string& base_id, int domain, const std::string
 
 TEST(Security, ANodeWithoutAValidCertificateNeitherDiscoversNorReadsNorWrites) {
   const int domain = 81;
-  const std::string logs = Logs("outsider");
+  const std::string logs = FreshLogs("security", "outsider");
   const std::string keys = MakeKeys(logs + "/keys", "--robots r1 --commander opA=r1");
   const std::string other_ca = MakeKeys(logs + "/other_keys", "--robots r1 --commander opA=r1");
   auto agent = StartAgent("r1", domain, logs, {"--secure", keys});
@@ -127,12 +116,12 @@ TEST(Security, ANodeWithoutAValidCertificateNeitherDiscoversNorReadsNorWrites) {
   json r = op.Run("wait r1 online 20", 30s);
   ASSERT_TRUE(r["ok"]) << "the secure basestation does not see the secure robot: " << r;
 
-  Peer plain(domain);                      // no security at all
-  Peer forged(domain, other_ca, "opA");    // the holder's id, from another CA
+  Peer plain(domain);                    // no security at all
+  Peer forged(domain, other_ca, "opA");  // the holder's id, from another CA
   const std::string r1_control = core::CommandTopicFor("cairn/control_request", "r1", true);
   auto plain_writer = plain.ControlWriter(r1_control);
   auto plain_shared_writer = plain.ControlWriter("cairn/control_request");  // the topic without security
-  auto forged_writer = forged.ControlWriter(r1_control);  // its own CA lets it
+  auto forged_writer = forged.ControlWriter(r1_control);                    // its own CA lets it
   const auto deadline = Clock::now() + 6s;
   for (uint32_t id = 1; Clock::now() < deadline; ++id) {  // try to take r1 for 6 s from all three
     plain_writer->Write(Grab("r1", "rogue", id));
@@ -164,7 +153,7 @@ TEST(Security, ANodeWithoutAValidCertificateNeitherDiscoversNorReadsNorWrites) {
 
 TEST(Security, PermissionsSayWhoCommandsWhichRobotAndAnObserverOnlyReads) {
   const int domain = 83;
-  const std::string logs = Logs("permissions");
+  const std::string logs = FreshLogs("security", "permissions");
   const std::string keys =
       MakeKeys(logs + "/keys", "--robots r1,r2 --commander opA=r1 --commander opB=r2 --observer opW");
   auto agent = StartAgent("r1", domain, logs, {"--secure", keys});
@@ -212,7 +201,8 @@ TEST(Security, PermissionsSayWhoCommandsWhichRobotAndAnObserverOnlyReads) {
   EXPECT_THROW(as_b.ControlWriter(r1_control), core::DdsError);
   EXPECT_THROW(as_b.ControlWriter("cairn/control_request"), core::DdsError);
   EXPECT_THROW(observer.ControlWriter(r1_control), core::DdsError);
-  EXPECT_THROW(observer.ControlWriter(core::CommandTopicFor("cairn/control_request", "r2", true)), core::DdsError);
+  EXPECT_THROW(observer.ControlWriter(core::CommandTopicFor("cairn/control_request", "r2", true)),
+               core::DdsError);
   // opB's own robot's topic is allowed; a command for r1 written there never reaches r1.
   auto b_writer = as_b.ControlWriter(core::CommandTopicFor("cairn/control_request", "r2", true));
   for (uint32_t id = 1; id <= 10; ++id) {

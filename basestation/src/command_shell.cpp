@@ -1,12 +1,12 @@
 #include "cairn/base/command_shell.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-
-#include <fmt/format.h>
-#include <limits>
 #include <ctime>
+#include <limits>
 #include <sstream>
 #include <thread>
 
@@ -147,9 +147,9 @@ CommandShell::CommandShell(FleetClient& client, bool json, std::ostream& out)
 
 const std::vector<std::string>& CommandShell::CommandNames() {
   static const std::vector<std::string> kNames = {
-      "robots", "watch", "status", "request-control", "release", "mode",     "goto",   "path",   "plan",
-      "teleop", "stop",  "wait",   "sleep",           "map",     "snapshot", "stairs", "events", "place",
-      "places", "links", "explore", "frontiers", "home", "resume-goal", "help"};
+      "robots", "watch", "status",  "request-control", "release", "mode",        "goto",   "path",   "plan",
+      "teleop", "stop",  "wait",    "sleep",           "map",     "snapshot",    "stairs", "events", "place",
+      "places", "links", "explore", "frontiers",       "home",    "resume-goal", "help"};
   return kNames;
 }
 
@@ -161,8 +161,10 @@ std::string CommandShell::Help() {
          "  watch [PERIOD_S] [--count N]        the robots table refreshed in place until a key is pressed\n"
          "                                      (in scripts: N times, default 1)\n"
          "  status R                            R at a glance: pose, control, goal, refusal, valid actions\n"
-         "  links [R]                           each robot's link: class and budget, last heard, probe round\n"
-         "                                      trip, state samples lost, what it sends per topic class; warns\n"
+         "  links [R]                           each robot's link: class and budget, last heard, probe "
+         "round\n"
+         "                                      trip, state samples lost, what it sends per topic class; "
+         "warns\n"
          "                                      when a robot sends more than its budget or stops answering\n"
          "  help R                              what you may do with R now, and how\n"
          "  request-control R                   ask for R's control lock (refused if another basestation "
@@ -171,18 +173,24 @@ std::string CommandShell::Help() {
          "  mode R MODE                         switch R to idle | manual | smart_joystick (waypoint: use "
          "goto)\n"
          "  goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]  drive R to POINT (on the level nearest Z_M,\n"
-         "                                      default the robot's); --wait prints progress (distance left,\n"
+         "                                      default the robot's); --wait prints progress (distance "
+         "left,\n"
          "                                      ETA) until it arrives or fails (default 600 s)\n"
          "  resume-goal R [--wait [TIMEOUT_S]]  drive R again to the goal it was driving when it crashed (a\n"
          "                                      robot restarted with --resume offers it, never resumes it)\n"
-         "  explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait [TIMEOUT_S]]\n"
-         "                                      R explores by itself (frontiers of its own map, in the region\n"
+         "  explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait "
+         "[TIMEOUT_S]]\n"
+         "                                      R explores by itself (frontiers of its own map, in the "
+         "region\n"
          "                                      and height band when given) until no reachable frontier is\n"
-         "                                      left, then goes idle; --home-after-silence: it drives back to\n"
-         "                                      its start when it hears no basestation for S s; --wait prints\n"
+         "                                      left, then goes idle; --home-after-silence: it drives back "
+         "to\n"
+         "                                      its start when it hears no basestation for S s; --wait "
+         "prints\n"
          "                                      progress until it ends (default 3600 s)\n"
          "  frontiers R                         R's exploration: explored area, frontiers, current target\n"
-         "  home R [POINT] [--z Z_M] [--wait [TIMEOUT_S]]  R drives back to where it started (or to POINT) on\n"
+         "  home R [POINT] [--z Z_M] [--wait [TIMEOUT_S]]  R drives back to where it started (or to POINT) "
+         "on\n"
          "                                      its own map, from any mode; --wait as goto's\n"
          "  path R                              the global path R is following (waypoints, length)\n"
          "  plan R POINT [--from POINT] [--platform P]  ask R's global planner for a path (from R's pose, "
@@ -212,7 +220,8 @@ std::string CommandShell::Help() {
          "(Ctrl-C).\n"
          "Refusals say why and what is valid now; a refused, failed, timed-out or cancelled command exits "
          "1,\n"
-         "an invalid one 2. Events (robots joining, arrivals, failures, losses, robots leaving or over their link\n"
+         "an invalid one 2. Events (robots joining, arrivals, failures, losses, robots leaving or over their "
+         "link\n"
          "budget, locks, stops, staircases, robots close to each other) print as they happen.";
 }
 
@@ -329,8 +338,9 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
     const std::string& cmd = before[0];
     const std::size_t arg = before.size();  // index of the word being completed, 1-based after the command
     static const std::vector<std::string> kRobotFirst = {
-        "status", "request-control", "release", "mode", "goto", "path", "plan", "teleop", "stop", "wait",
-        "map",    "snapshot",        "help", "explore", "frontiers", "home", "resume-goal"};
+        "status", "request-control", "release",   "mode", "goto",       "path",
+        "plan",   "teleop",          "stop",      "wait", "map",        "snapshot",
+        "help",   "explore",         "frontiers", "home", "resume-goal"};
     if (arg == 1 && std::find(kRobotFirst.begin(), kRobotFirst.end(), cmd) != kRobotFirst.end()) {
       pool = client_.RobotIds();
       if (cmd == "stop") pool.push_back("all");
@@ -641,7 +651,8 @@ int CommandShell::HelpFor(const std::string& robot) {
       {"release", "release R"},
       {"mode", "mode R MODE"},
       {"goto", "goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]"},
-      {"explore", "explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait [TIMEOUT_S]]"},
+      {"explore",
+       "explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait [TIMEOUT_S]]"},
       {"home", "home R [POINT] [--z Z_M] [--wait [TIMEOUT_S]]"},
       {"resume-goal", "resume-goal R [--wait [TIMEOUT_S]]"},
       {"teleop", "teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]"},
@@ -759,8 +770,9 @@ int CommandShell::ResumeGoal(const std::vector<std::string>& args) {
   if (!view || !view->state || !view->state->has_resumable_goal()) {
     CommandOutcome o;
     o.result = outcome::kRefused;
-    o.reason = robot + " offers no goal to resume (a robot restarted with --resume in the middle of a goal offers "
-                       "it until it leaves idle)";
+    o.reason = robot +
+               " offers no goal to resume (a robot restarted with --resume in the middle of a goal offers "
+               "it until it leaves idle)";
     return Report("resume-goal", robot, o);
   }
   // A new goal to the old point: the same as goto, on the level the old goal asked for.

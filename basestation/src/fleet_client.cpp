@@ -114,8 +114,10 @@ class FleetClient::Impl {
     probe_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(*participant_, "cairn/link_probe",
                                                                            "cairn.command");
     probe_reply_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
-        *participant_, "cairn/link_probe_reply", "cairn.command", [this](const msgs::PingPong& m, const auto&) {
-          if (m.base_id() != options_.base_id || m.body() != participant_->participant_id()) return;  // another base's probe
+        *participant_, "cairn/link_probe_reply", "cairn.command",
+        [this](const msgs::PingPong& m, const auto&) {
+          if (m.base_id() != options_.base_id || m.body() != participant_->participant_id())
+            return;  // another base's probe
           const auto now = SteadyClock::now();
           std::lock_guard<std::mutex> lock(mutex_);
           if (robots_.count(m.robot_id()) == 0) return;  // announces itself first
@@ -124,7 +126,9 @@ class FleetClient::Impl {
     path_response_reader_ = std::make_unique<core::Reader<msgs::PathResponsePubSubType>>(
         *participant_, "cairn/path_response", "cairn.command", [this](const msgs::PathResponse& m, const auto&) {
           // Answers to another process with this base id (same request ids) are not ours.
-          if (m.requester_id() != options_.base_id || m.requester_participant() != participant_->participant_id()) return;
+          if (m.requester_id() != options_.base_id ||
+              m.requester_participant() != participant_->participant_id())
+            return;
           {
             std::lock_guard<std::mutex> lock(mutex_);
             if (awaited_paths_.count(m.request_id()) == 0) return;  // a late duplicate of an answered request
@@ -258,7 +262,8 @@ class FleetClient::Impl {
 
   void OnResponse(const msgs::CommandResponse& m) {
     // Replies to another process with this base id (it numbers its requests from 1 too) are not ours.
-    if (m.base_id() != options_.base_id || m.requester_participant() != participant_->participant_id()) return;
+    if (m.base_id() != options_.base_id || m.requester_participant() != participant_->participant_id())
+      return;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       const std::string key = ResponseKey(m.robot_id(), m.kind(), m.request_id());
@@ -445,8 +450,8 @@ class FleetClient::Impl {
 
   // Waits up to `timeout_s` until the robot's command readers have matched this basestation's command writers
   // (endpoint discovery done both ways is what lets it hear a command). Seeing a robot's state does not mean
-  // that yet: on a lossy link a lost endpoint announcement is repaired only at Fast DDS's next heartbeat (1 s),
-  // and a command sent before the match is never delivered (volatile). Returns whether they matched; the
+  // that yet: on a lossy link a lost endpoint announcement is repaired only at Fast DDS's next heartbeat (1
+  // s), and a command sent before the match is never delivered (volatile). Returns whether they matched; the
   // command is sent either way.
   // The writer of command topic `topic` for `robot_id` (core::CommandTopicFor: one shared by every robot
   // without DDS Security), made on first use. @throws core::DdsError when it cannot be made.
@@ -470,12 +475,13 @@ class FleetClient::Impl {
   };
   template <class PubSubT>
   static CommandKind Kind(const char* topic, const char* qos_class = "cairn.command") {
-    return {std::string(topic) == "cairn/stop_request",
-            [=](Impl& impl, const std::string& robot) { impl.CommandWriter<PubSubT>(topic, robot, qos_class); },
-            [=](Impl& impl, const std::string& robot, const std::string& participant,
-                SteadyClock::time_point deadline) {
-              return impl.CommandWriter<PubSubT>(topic, robot, qos_class).WaitMatchedWith(participant, deadline);
-            }};
+    return {
+        std::string(topic) == "cairn/stop_request",
+        [=](Impl& impl, const std::string& robot) { impl.CommandWriter<PubSubT>(topic, robot, qos_class); },
+        [=](Impl& impl, const std::string& robot, const std::string& participant,
+            SteadyClock::time_point deadline) {
+          return impl.CommandWriter<PubSubT>(topic, robot, qos_class).WaitMatchedWith(participant, deadline);
+        }};
   }
   // The commands whose writers a command waits for (WaitForCommandPath).
   static const std::vector<CommandKind> kCommandKinds;
@@ -492,9 +498,9 @@ class FleetClient::Impl {
     }
     std::string given;
     for (const std::string& robot : *commandable_) given += (given.empty() ? "" : ", ") + robot;
-    return "basestation " + options_.base_id + " may not command " + robot_id + " under DDS Security: its permissions (" +
-           options_.security.File("permissions.xml", true) + ") give it " +
-           (given.empty() ? std::string("no robot (an observer)") : given);
+    return "basestation " + options_.base_id + " may not command " + robot_id +
+           " under DDS Security: its permissions (" + options_.security.File("permissions.xml", true) +
+           ") give it " + (given.empty() ? std::string("no robot (an observer)") : given);
   }
 
   // Waits until the robot's readers matched this base's writers of the commands it may send that robot.

@@ -1,31 +1,30 @@
 #include "cairn/core/dds.h"
-#include "cairn/core/peer_input.h"
+
+#include <arpa/inet.h>
+#include <fastdds/rtps/attributes/ServerAttributes.h>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+#include <fmt/format.h>
+#include <ifaddrs.h>
+#include <netinet/in.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
-#include <filesystem>
-#include <fstream>
-#include <optional>
-
-#include <fmt/format.h>
-#include <spdlog/spdlog.h>
-
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
-#include <fastdds/rtps/attributes/ServerAttributes.h>
-#include <fastdds/rtps/flowcontrol/FlowControllerDescriptor.hpp>
-#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
-#include <fastrtps/utils/IPLocator.h>
+#include <fastdds/rtps/flowcontrol/FlowControllerDescriptor.hpp>
+#include <filesystem>
+#include <fstream>
+#include <optional>
 
-#include <arpa/inet.h>
-#include <ifaddrs.h>
-#include <netinet/in.h>
+#include "cairn/core/peer_input.h"
 
 #ifndef CAIRN_CONFIG_DIR
 #error "CAIRN_CONFIG_DIR must be defined by the build"
@@ -480,7 +479,9 @@ void ApplySecurity(const SecurityOptions& security, dds::DomainParticipantQos* q
     return "file://" + path;
   };
   auto& properties = qos->properties().properties();
-  const auto set = [&](const std::string& name, const std::string& value) { properties.emplace_back(name, value); };
+  const auto set = [&](const std::string& name, const std::string& value) {
+    properties.emplace_back(name, value);
+  };
   set("dds.sec.auth.plugin", "builtin.PKI-DH");
   set("dds.sec.auth.builtin.PKI-DH.identity_ca", uri("ca.pem", false));
   set("dds.sec.auth.builtin.PKI-DH.identity_certificate", uri("cert.pem", true));
@@ -507,7 +508,8 @@ std::vector<std::string> SecurityOptions::CommandableRobots() const {
   std::ifstream in(path);
   if (!in) {
     throw std::invalid_argument("DDS Security: '" + path + "' cannot be read (--secure " + dir + ": is '" +
-                                identity + "' a basestation of this fleet? ./cairn keys makes one per --commander "
+                                identity +
+                                "' a basestation of this fleet? ./cairn keys makes one per --commander "
                                 "and --observer, with the robots it may command)");
   }
   std::vector<std::string> robots;
@@ -629,12 +631,13 @@ void Participant::CreateEntities() {
   participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options_.domain_id), qos_, this,
                                              dds::StatusMask::none());
   if (participant_ == nullptr) {
-    throw DdsError("cannot create DDS participant '" + options_.name + "' in domain " +
-                   std::to_string(options_.domain_id) + " with profile '" + options_.participant_profile + "'" +
-                   (options_.security.enabled()
-                        ? " and DDS Security from " + options_.security.dir + " as '" + options_.security.identity +
-                              "' (a certificate, key or signed document that does not verify against ca.pem?)"
-                        : ""));
+    throw DdsError(
+        "cannot create DDS participant '" + options_.name + "' in domain " +
+        std::to_string(options_.domain_id) + " with profile '" + options_.participant_profile + "'" +
+        (options_.security.enabled()
+             ? " and DDS Security from " + options_.security.dir + " as '" + options_.security.identity +
+                   "' (a certificate, key or signed document that does not verify against ca.pem?)"
+             : ""));
   }
   publisher_ = participant_->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
   subscriber_ = participant_->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);
@@ -687,8 +690,8 @@ void Participant::Rebuild(const std::string& why) {
     for (ParticipantEndpoint* endpoint : endpoints_) endpoint->AfterRebuild();
   }
   const std::string new_id = participant_id();
-  spdlog::warn("DDS participant '{}' re-created ({}): {} is now {}, {} endpoints back", options_.name, why, old_id,
-               new_id, endpoints);
+  spdlog::warn("DDS participant '{}' re-created ({}): {} is now {}, {} endpoints back", options_.name, why,
+               old_id, new_id, endpoints);
   if (options_.on_rebuilt) options_.on_rebuilt(new_id);
 }
 
@@ -704,11 +707,13 @@ void Participant::WatchForStalls() {
     if (gap_s <= stall_threshold_s_) continue;
     lock.unlock();
     try {
-      Rebuild(fmt::format("this process stalled for {:.1f} s, longer than the {:.2f} s after which peers may have "
-                          "dropped it",
-                          gap_s, stall_threshold_s_));
+      Rebuild(fmt::format(
+          "this process stalled for {:.1f} s, longer than the {:.2f} s after which peers may have "
+          "dropped it",
+          gap_s, stall_threshold_s_));
     } catch (const std::exception& e) {
-      spdlog::error("DDS participant '{}' could not be re-created after a stall: {}", options_.name, e.what());
+      spdlog::error("DDS participant '{}' could not be re-created after a stall: {}", options_.name,
+                    e.what());
     }
     lock.lock();
     last = Clock::now();

@@ -549,7 +549,6 @@ TEST(LinkOptions, ANetworkLinkRaisesShortLivelinessLeasesAndItsEndpointsStillMat
   EXPECT_TRUE(WaitForCount(received, 1, std::chrono::seconds(5)));
 }
 
-
 // A rebuilt participant (what the stall watchdog does after a SIGSTOP longer than the lease) comes back under
 // a new GUID with every endpoint: its writers and readers match their peers again, a latched writer publishes
 // its last sample again for them, and a writer used during the rebuild neither blocks nor fails.
@@ -569,12 +568,12 @@ TEST(Participant, ARebuildComesBackUnderANewIdWithEveryEndpointAndItsLatchedSamp
 
   std::atomic<int> latched_received{0}, commands_received{0};
   std::string last_latched;
-  Reader<cairn_msgs::ModeRequestPubSubType> latched_reader(b, "test/rebuild_latched", "cairn.latched",
-                                                          [&](const cairn_msgs::ModeRequest& m, const auto&) {
-                                                            std::lock_guard<std::mutex> lock(mutex);
-                                                            last_latched = m.robot_id();
-                                                            ++latched_received;
-                                                          });
+  Reader<cairn_msgs::ModeRequestPubSubType> latched_reader(
+      b, "test/rebuild_latched", "cairn.latched", [&](const cairn_msgs::ModeRequest& m, const auto&) {
+        std::lock_guard<std::mutex> lock(mutex);
+        last_latched = m.robot_id();
+        ++latched_received;
+      });
   Reader<cairn_msgs::ModeRequestPubSubType> command_reader(
       a, "test/rebuild_command", "cairn.command",
       [&](const cairn_msgs::ModeRequest&, const auto&) { ++commands_received; });
@@ -627,10 +626,10 @@ TEST(Participant, ARebuildComesBackUnderANewIdWithEveryEndpointAndItsLatchedSamp
   // Both directions match again, and the peer gets a latched writer's last sample from the new writer, also
   // from one not written since.
   EXPECT_TRUE(WaitForCount(quiet_received, 2, std::chrono::seconds(5)));
-  ASSERT_TRUE(latched_writer.WaitMatchedWith(b.participant_id(), std::chrono::steady_clock::now() +
-                                                                     std::chrono::seconds(5)));
-  ASSERT_TRUE(command_writer.WaitMatchedWith(a.participant_id(), std::chrono::steady_clock::now() +
-                                                                     std::chrono::seconds(5)));
+  ASSERT_TRUE(latched_writer.WaitMatchedWith(b.participant_id(),
+                                             std::chrono::steady_clock::now() + std::chrono::seconds(5)));
+  ASSERT_TRUE(command_writer.WaitMatchedWith(a.participant_id(),
+                                             std::chrono::steady_clock::now() + std::chrono::seconds(5)));
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
   const auto latest = [&] {
     std::lock_guard<std::mutex> lock(mutex);
@@ -645,8 +644,9 @@ TEST(Participant, ARebuildComesBackUnderANewIdWithEveryEndpointAndItsLatchedSamp
   EXPECT_TRUE(WaitForCount(commands_received, commands_before + 1, std::chrono::seconds(5)));
   // A reader joining now gets the latched sample from the new writer too.
   std::atomic<int> late_received{0};
-  Reader<cairn_msgs::ModeRequestPubSubType> late(b, "test/rebuild_quiet", "cairn.latched",
-                                                [&](const cairn_msgs::ModeRequest&, const auto&) { ++late_received; });
+  Reader<cairn_msgs::ModeRequestPubSubType> late(
+      b, "test/rebuild_quiet", "cairn.latched",
+      [&](const cairn_msgs::ModeRequest&, const auto&) { ++late_received; });
   EXPECT_TRUE(WaitForCount(late_received, 1, std::chrono::seconds(5)));
 }
 

@@ -422,7 +422,8 @@ class Tree final : public octomap::OcTree {
     }
     std::uint64_t n = 0;
     for (unsigned i = 0; i < 8 && n <= limit; ++i) {
-      if (nodeChildExists(node, i)) n += CountAtDepth(getNodeChild(node, i), depth + 1, target_depth, limit - n);
+      if (nodeChildExists(node, i))
+        n += CountAtDepth(getNodeChild(node, i), depth + 1, target_depth, limit - n);
     }
     return std::min(n, limit + 1);
   }
@@ -648,7 +649,7 @@ BtContents ParseBt(const std::string& bytes, const std::string& path) {
     std::size_t eol = bytes.find('\n', pos);
     if (eol == std::string::npos || eol - pos > 1024) eol = std::min(bytes.size(), pos + 1024);
     *line = bytes.substr(pos, eol - pos);
-    pos = eol + 1;
+    pos = std::min(bytes.size(), eol + 1);  // a last line without '\n' ends the file (found by fuzzing)
     if (!line->empty() && line->back() == '\r') line->pop_back();
     return true;
   };
@@ -1159,8 +1160,8 @@ OccupancyMap OccupancyMap::LoadBt(const std::string& path, const OccupancyMapOpt
         m.tree.CountAtDepth(m.tree.getRoot(), 0, kTreeDepth - m.track_levels, kMaxLoadedTrackedVoxels);
     if (tracked > kMaxLoadedTrackedVoxels) {
       const double edge_m = contents.resolution_m * static_cast<double>(1 << m.track_levels);
-      throw MapError("map file '" + path + "' expands to more than " + std::to_string(kMaxLoadedTrackedVoxels) +
-                     " known cubes of " + std::to_string(edge_m) +
+      throw MapError("map file '" + path + "' expands to more than " +
+                     std::to_string(kMaxLoadedTrackedVoxels) + " known cubes of " + std::to_string(edge_m) +
                      " m (pruned leaves covering kilometres of space); refusing to load it");
     }
   }

@@ -702,6 +702,11 @@ TEST(OccupancyMapFileTest, BadFilesGiveMapError) {
   const std::string huge = dir.File("eight_root_leaves.bt");
   WriteFile(huge, "# Octomap OcTree binary file\nid OcTree\nsize 9\nres 0.1\ndata\n\x99\x99");
   ExpectLoadError(huge, "expands to more than");
+  // Also found by fuzzing: a header whose 'data' line is the file's last, without a newline, threw
+  // std::out_of_range out of the parser instead of a MapError.
+  const std::string no_data = dir.File("no_data.bt");
+  WriteFile(no_data, "# Octomap OcTree binary file\nid OcTree\nsize 2000\nres 0.1\ndata");
+  ExpectLoadError(no_data, "truncated");
 
   // Truncations of a valid file, in the header and in the data.
   const OccupancyMap map = RoomMap(1);

@@ -67,6 +67,27 @@ AgentDdsHandlers Checked(AgentDdsHandlers h) {
 
 }  // namespace
 
+ExploreClaim ClaimFromMessage(const msgs::ExploreClaim& m, std::string* fault) {
+  ExploreClaim c;
+  c.robot_id = m.robot_id();
+  c.task_id = m.task_id();
+  c.active = m.active();
+  c.has_target = m.has_target();
+  c.target_M = {m.target_x_m(), m.target_y_m(), m.target_z_m()};
+  c.held_s = m.held_s();
+  c.lease_s = m.lease_s();
+  fault->clear();
+  if (m.coverage_cell_m() != 0.0) {
+    nav::CoverageBitmap bitmap;
+    bitmap.cell_m = m.coverage_cell_m();
+    bitmap.origin_cell = {m.coverage_origin_ix(), m.coverage_origin_iy()};
+    bitmap.nx = m.coverage_nx();
+    bitmap.ny = m.coverage_ny();
+    if (DecompressCoverageBits(m.coverage_zstd(), &bitmap, fault)) c.coverage = std::move(bitmap);
+  }
+  return c;
+}
+
 class AgentDds::Impl {
  public:
   explicit Impl(const AgentDdsOptions& options) : options_(options) {
@@ -171,23 +192,8 @@ class AgentDds::Impl {
     claim_reader_ = std::make_unique<core::Reader<msgs::ExploreClaimPubSubType>>(
         p, "cairn/explore_claim", "cairn.latched", [this, robot](const msgs::ExploreClaim& m, const SampleInfo&) {
           if (m.robot_id() == robot || !ValidPeerId("cairn/explore_claim", "robot id", m.robot_id())) return;
-          ExploreClaim c;
-          c.robot_id = m.robot_id();
-          c.task_id = m.task_id();
-          c.active = m.active();
-          c.has_target = m.has_target();
-          c.target_M = {m.target_x_m(), m.target_y_m(), m.target_z_m()};
-          c.held_s = m.held_s();
-          c.lease_s = m.lease_s();
           std::string fault;
-          if (m.coverage_cell_m() != 0.0) {
-            nav::CoverageBitmap bitmap;
-            bitmap.cell_m = m.coverage_cell_m();
-            bitmap.origin_cell = {m.coverage_origin_ix(), m.coverage_origin_iy()};
-            bitmap.nx = m.coverage_nx();
-            bitmap.ny = m.coverage_ny();
-            if (DecompressCoverageBits(m.coverage_zstd(), &bitmap, &fault)) c.coverage = std::move(bitmap);
-          }
+          const ExploreClaim c = ClaimFromMessage(m, &fault);
           handlers_.explore_claim(c, fault);
         });
   }
@@ -346,7 +352,8 @@ class AgentDds::Impl {
           handlers_.stop(StopCommand{SenderOf(m.base_id(), info), m.request_id()});
         });
     teleop_reader_ = std::make_unique<core::Reader<msgs::TeleopTwistPubSubType>>(
-        p, CommandTopic("cairn/teleop"), "cairn.teleop", [this, robot](const msgs::TeleopTwist& m, const SampleInfo&) {
+        p, CommandTopic("cairn/teleop"), "cairn.teleop",
+        [this, robot](const msgs::TeleopTwist& m, const SampleInfo&) {
           if (m.robot_id() != robot) return;
           if (!ValidPeerId("cairn/teleop", "base id", m.base_id())) return;
           const msgs::Twist& t = m.twist();

@@ -1,17 +1,16 @@
 #include "cairn/agent/journal.h"
 
 #include <fcntl.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
-
-#include <nlohmann/json.hpp>
-#include <spdlog/spdlog.h>
 
 #include "cairn/core/peer_input.h"
 
@@ -84,8 +83,8 @@ std::string Text(const json& object, const std::string& key) {
 bool JournalEntry::SameStateAs(const JournalEntry& o) const {
   const auto same = [](double a, double b) { return a == b || (std::isnan(a) && std::isnan(b)); };
   return robot_id == o.robot_id && holder_id == o.holder_id && mode == o.mode && has_goal == o.has_goal &&
-         goal_id == o.goal_id && goal_x_m == o.goal_x_m && goal_y_m == o.goal_y_m && same(goal_z_m, o.goal_z_m) &&
-         goal_tolerance_m == o.goal_tolerance_m && map_file == o.map_file;
+         goal_id == o.goal_id && goal_x_m == o.goal_x_m && goal_y_m == o.goal_y_m &&
+         same(goal_z_m, o.goal_z_m) && goal_tolerance_m == o.goal_tolerance_m && map_file == o.map_file;
 }
 
 std::string JournalFile(const std::string& dir) { return (fs::path(dir) / "journal.json").string(); }
@@ -100,7 +99,8 @@ std::optional<JournalEntry> ReadJournal(const std::string& dir, const std::strin
     const json j = json::parse(in);  // throws json::parse_error naming the byte
     if (!j.is_object()) throw std::invalid_argument("it is not a JSON object");
     if (!j.contains("version") || j["version"] != kVersion) {
-      throw std::invalid_argument("version " + (j.contains("version") ? j["version"].dump() : std::string("missing")) +
+      throw std::invalid_argument("version " +
+                                  (j.contains("version") ? j["version"].dump() : std::string("missing")) +
                                   " is not " + std::to_string(kVersion));
     }
     JournalEntry e;
@@ -134,7 +134,8 @@ std::optional<JournalEntry> ReadJournal(const std::string& dir, const std::strin
     }
     e.map_file = Text(j, "map_file");
     if (!e.map_file.empty()) {
-      if (e.map_file != kMapFile) throw std::invalid_argument("map_file '" + e.map_file + "' is not " + kMapFile);
+      if (e.map_file != kMapFile)
+        throw std::invalid_argument("map_file '" + e.map_file + "' is not " + kMapFile);
       if (!fs::is_regular_file(fs::path(dir) / e.map_file, ec)) {
         throw std::invalid_argument("map_file '" + e.map_file + "' does not exist in " + dir);
       }
@@ -147,7 +148,8 @@ std::optional<JournalEntry> ReadJournal(const std::string& dir, const std::strin
   }
 }
 
-JournalWriter::JournalWriter(std::string dir, double map_every_s, std::function<void(const std::string&)> save_map)
+JournalWriter::JournalWriter(std::string dir, double map_every_s,
+                             std::function<void(const std::string&)> save_map)
     : dir_(std::move(dir)), map_every_s_(map_every_s), save_map_(std::move(save_map)) {
   if (save_map_ && !(map_every_s_ > 0 && std::isfinite(map_every_s_))) {
     throw std::invalid_argument("--journal-map-every " + std::to_string(map_every_s_) + " must be > 0 s");
@@ -219,7 +221,8 @@ void JournalWriter::WriteEntry(JournalEntry entry) {
     const double moved_m = std::hypot(entry.x_m - written_->x_m, entry.y_m - written_->y_m);
     const double turned_rad = std::abs(std::remainder(entry.yaw_rad - written_->yaw_rad, 2 * M_PI));
     const bool pose_changed = moved_m > 0.01 || turned_rad > 0.01;
-    if (moved_m <= kPoseStepM && turned_rad <= kPoseStepRad && (!pose_changed || now_s - written_at_s_ < kPoseRefreshS)) {
+    if (moved_m <= kPoseStepM && turned_rad <= kPoseStepRad &&
+        (!pose_changed || now_s - written_at_s_ < kPoseRefreshS)) {
       return;
     }
   }

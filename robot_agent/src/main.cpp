@@ -1,18 +1,17 @@
 // cairn_agent: one process per robot. See --help.
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
 #include <iterator>
 #include <stdexcept>
 
-#include <CLI/CLI.hpp>
-#include <spdlog/sinks/stdout_color_sinks.h>
-#include <spdlog/spdlog.h>
-
-#include "cairn/agent/mode_manager.h"
 #include "cairn/agent/journal.h"
+#include "cairn/agent/mode_manager.h"
 #include "cairn/agent/robot_agent.h"
 #include "cairn/agent/supervisor.h"
 #include "cairn/core/config.h"
@@ -56,13 +55,15 @@ int main(int argc, char** argv) {
                  "keep the robot's last known safe state in folder DIR (lock holder, mode, goal, pose, a map "
                  "snapshot), written atomically whenever it changes");
   bool resume = false, supervise = false;
-  app.add_flag("--resume", resume,
-               "with --journal: start from the journal (idle, the lock back with its holder, the map reloaded, "
-               "the old goal offered as resume-goal, never resumed by itself); a fresh start when there is none");
+  app.add_flag(
+      "--resume", resume,
+      "with --journal: start from the journal (idle, the lock back with its holder, the map reloaded, "
+      "the old goal offered as resume-goal, never resumed by itself); a fresh start when there is none");
   app.add_flag("--supervise", supervise,
                "with --journal: run the agent as a child process and start it again with --resume when it "
                "crashes (back-off 1-30 s)");
-  app.add_option("--journal-map-every", options.journal_map_every_s, "with --journal: seconds between map snapshots")
+  app.add_option("--journal-map-every", options.journal_map_every_s,
+                 "with --journal: seconds between map snapshots")
       ->capture_default_str();
   app.add_option("--mode-tree", options.mode_tree_file, "mode tree XML (default: config/mode_tree.xml)");
   app.add_flag("--print-tree-nodes-model",
@@ -109,9 +110,10 @@ int main(int argc, char** argv) {
 
   if (supervise) {
     if (options.journal_dir.empty()) {
-      spdlog::error("cairn_agent {}: --supervise needs --journal DIR (a restarted robot reads its last state "
-                    "there)",
-                    options.robot_id);
+      spdlog::error(
+          "cairn_agent {}: --supervise needs --journal DIR (a restarted robot reads its last state "
+          "there)",
+          options.robot_id);
       return 2;
     }
     std::vector<std::string> child;
@@ -142,8 +144,9 @@ int main(int argc, char** argv) {
         const std::string file = cairn::agent::JournalFile(options.journal_dir);
         std::rename(file.c_str(), (file + ".bad").c_str());
       }
-      if (!options.resumed) spdlog::info("cairn_agent {}: no journal in {}: a fresh start", options.robot_id,
-                                         options.journal_dir);
+      if (!options.resumed)
+        spdlog::info("cairn_agent {}: no journal in {}: a fresh start", options.robot_id,
+                     options.journal_dir);
     }
     options.SetPlatform(platform);
     if (!config_file.empty()) options.LoadConfigFile(config_file);
@@ -165,7 +168,8 @@ int main(int argc, char** argv) {
     if (options.resumed) {
       // The simulator stands in for a robot that stayed where it stopped: it starts at the journal's pose
       // (the pose estimate, so within the SLAM drift of where the robot was).
-      sim.start_W = cairn::core::PlanarPose{options.resumed->x_m, options.resumed->y_m, options.resumed->yaw_rad};
+      sim.start_W =
+          cairn::core::PlanarPose{options.resumed->x_m, options.resumed->y_m, options.resumed->yaw_rad};
     }
     sim.start_slot = options.start_slot;
     sim.start_key = options.robot_id;

@@ -87,7 +87,8 @@ std::vector<Eigen::Vector2i> PerceptionPipeline::TakeChangedTiles() {
 void PerceptionPipeline::LoadMap(const std::string& path) {
   perception::OccupancyMap loaded = perception::OccupancyMap::LoadBt(path, options_.map);
   if (std::abs(loaded.resolution_m() - options_.map.resolution_m) > 1e-9) {
-    throw std::invalid_argument("map file '" + path + "' has resolution " + std::to_string(loaded.resolution_m()) +
+    throw std::invalid_argument("map file '" + path + "' has resolution " +
+                                std::to_string(loaded.resolution_m()) +
                                 " m, not the robot's perception.map.resolution_m " +
                                 std::to_string(options_.map.resolution_m) + " m");
   }

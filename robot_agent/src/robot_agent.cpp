@@ -185,14 +185,15 @@ class RobotAgent::Impl {
   std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
   std::unique_ptr<PlanningService> planning_;  // the planning thread: goals, then peers' path queries
   std::unique_ptr<Telemetry> telemetry_;
-  std::optional<Eigen::Vector3d> resumable_goal_M_;  // a resumed robot's old goal, offered until it leaves idle
-  std::unique_ptr<JournalWriter> journal_;           // --journal: the last known safe state on disk
+  std::optional<Eigen::Vector3d>
+      resumable_goal_M_;                    // a resumed robot's old goal, offered until it leaves idle
+  std::unique_ptr<JournalWriter> journal_;  // --journal: the last known safe state on disk
   std::mutex mutex_;
 
   // With mutex_ held: what the journal keeps now.
   JournalEntry JournalNow() const;
-  // With mutex_ held, in the constructor: a robot restarted from its journal (--resume) comes up idle with its
-  // lock's holder (lost until that basestation announces itself), its map, and its old goal offered.
+  // With mutex_ held, in the constructor: a robot restarted from its journal (--resume) comes up idle with
+  // its lock's holder (lost until that basestation announces itself), its map, and its old goal offered.
   void Resume(const JournalEntry& entry);
 };
 
@@ -275,11 +276,11 @@ void RobotAgent::Impl::Resume(const JournalEntry& entry) {
   if (entry.has_goal) resumable_goal_M_ = Eigen::Vector3d(entry.goal_x_m, entry.goal_y_m, entry.goal_z_m);
   spdlog::warn(
       "robot {}: resumed from its journal: idle (was {}), lock {}, {}; {}", options_.robot_id, entry.mode,
-      entry.holder_id.empty() ? "free" : "with " + entry.holder_id + " (lost until it announces itself)",
-      map,
-      entry.has_goal ? fmt::format("goal {} at ({:.2f}, {:.2f}) offered to resume (resume-goal {}), not resumed",
-                                   entry.goal_id, entry.goal_x_m, entry.goal_y_m, options_.robot_id)
-                     : std::string("no goal was being driven"));
+      entry.holder_id.empty() ? "free" : "with " + entry.holder_id + " (lost until it announces itself)", map,
+      entry.has_goal
+          ? fmt::format("goal {} at ({:.2f}, {:.2f}) offered to resume (resume-goal {}), not resumed",
+                        entry.goal_id, entry.goal_x_m, entry.goal_y_m, options_.robot_id)
+          : std::string("no goal was being driven"));
 }
 
 JournalEntry RobotAgent::Impl::JournalNow() const {
@@ -595,7 +596,8 @@ void RobotAgent::Impl::Run() {
   {
     std::lock_guard<std::mutex> guard(mutex_);
     modes_->Stop("agent shutting down");
-    telemetry_->PublishState(RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_});
+    telemetry_->PublishState(
+        RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_});
     release = DueClaim(*explore_, team_, NowS(SteadyClock::now()), {});  // an exploring robot lets go of its claim
   }
   if (release) SendClaim(*release);
@@ -623,7 +625,8 @@ void RobotAgent::Impl::Run() {
   while (!finished) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     std::lock_guard<std::mutex> guard(mutex_);
-    telemetry_->PublishState(RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_});
+    telemetry_->PublishState(
+        RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_});
   }
   finisher.join();
   if (failure) std::rethrow_exception(failure);

@@ -1,6 +1,7 @@
 #include "cairn/agent/supervisor.h"
 
 #include <signal.h>
+#include <spdlog/spdlog.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -9,8 +10,6 @@
 #include <cerrno>
 #include <chrono>
 #include <thread>
-
-#include <spdlog/spdlog.h>
 
 #include "cairn/core/shutdown.h"
 
@@ -66,8 +65,9 @@ int SuperviseAgent(std::vector<std::string> argv, const std::string& robot_id) {
       return WEXITSTATUS(status);  // shut down, or bad input that a restart would not mend
     }
     if (ran_s >= kHealthyRunS) backoff_s = kFirstBackoffS;
-    spdlog::error("supervisor of {}: the agent died ({}) after {:.1f} s; starting it again with --resume in {:.0f} s",
-                  robot_id, Describe(status), ran_s, backoff_s);
+    spdlog::error(
+        "supervisor of {}: the agent died ({}) after {:.1f} s; starting it again with --resume in {:.0f} s",
+        robot_id, Describe(status), ran_s, backoff_s);
     if (core::WaitForShutdown(std::chrono::milliseconds(static_cast<int>(backoff_s * 1000)))) return 0;
     backoff_s = std::min(kMaxBackoffS, backoff_s * 2);
     if (std::find(argv.begin(), argv.end(), "--resume") == argv.end()) argv.push_back("--resume");

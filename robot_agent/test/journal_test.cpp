@@ -38,7 +38,8 @@ JournalEntry Driving() {
 }
 
 bool WaitForWrites(const JournalWriter& writer, int count) {
-  for (int i = 0; i < 200 && writer.writes() < count; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  for (int i = 0; i < 200 && writer.writes() < count; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   return writer.writes() >= count;
 }
 
@@ -116,7 +117,8 @@ TEST(Journal, ABadJournalIsRefusedNamingTheFieldAndTheValue) {
   bad.replace(bad.find("\"map_file\":\"\""), 13, "\"map_file\":\"map.bt\"");
   EXPECT_NE(refused(bad, "r1").find("map_file 'map.bt' does not exist"), std::string::npos);
   bad = good;
-  bad.replace(bad.find("\"goal\":null"), 11, "\"goal\":{\"goal_id\":3,\"x_m\":\"far\",\"y_m\":0,\"tolerance_m\":0}");
+  bad.replace(bad.find("\"goal\":null"), 11,
+              "\"goal\":{\"goal_id\":3,\"x_m\":\"far\",\"y_m\":0,\"tolerance_m\":0}");
   EXPECT_NE(refused(bad, "r1").find("goal.x_m"), std::string::npos);
   EXPECT_NE(refused(R"({"version":2})", "r1").find("version 2"), std::string::npos);
 }

@@ -2,24 +2,13 @@
 // typed writers and readers over fastddsgen types, and a checked entity chain with clear errors.
 #pragma once
 
+#include <fastrtps/types/TypesBase.h>
+
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
-#include <functional>
-#include <map>
-#include <memory>
-#include <mutex>
-#include <optional>
-#include <set>
-#include <shared_mutex>
-#include <stdexcept>
-#include <string>
-#include <thread>
-#include <utility>
-#include <vector>
-
 #include <fastdds/dds/core/status/LivelinessChangedStatus.hpp>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantListener.hpp>
@@ -34,7 +23,18 @@
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
-#include <fastrtps/types/TypesBase.h>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <shared_mutex>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
 
 #include "cairn/core/link_options.h"
 
@@ -321,7 +321,10 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
   /// @throws DdsError when the profile or flow controller is missing or the writer cannot be created.
   Writer(Participant& participant, const std::string& topic_name, const std::string& qos_class,
          const std::string& flow_controller = "")
-      : participant_(participant), topic_name_(topic_name), qos_class_(qos_class), flow_controller_(flow_controller) {
+      : participant_(participant),
+        topic_name_(topic_name),
+        qos_class_(qos_class),
+        flow_controller_(flow_controller) {
     std::shared_lock<std::shared_mutex> lock(participant_.entities_mutex_);
     CreateEntity();
     participant_.Register(this);
@@ -487,8 +490,8 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
   mutable std::condition_variable matched_cv_;  // notified on every match change
   std::map<std::string, int> matched_readers_;  // ParticipantIdOf -> matched readers of that participant
   std::mutex held_mutex_;
-  std::deque<Msg> held_;      // written during a rebuild, published after it
-  std::optional<Msg> last_;   // the last sample written, when latched_
+  std::deque<Msg> held_;     // written during a rebuild, published after it
+  std::optional<Msg> last_;  // the last sample written, when latched_
   std::atomic<std::uint64_t> bytes_written_{0};
   std::atomic<std::uint64_t> samples_written_{0};
 };

@@ -1,12 +1,11 @@
-// The link flags of cairn_agent and cairn_base (--link, --link-kbps, --subnet, --interface, --secure), one definition
-// for both programs. Header-only: only programs that parse a command line with CLI11 include it.
+// The link flags of cairn_agent and cairn_base (--link, --link-kbps, --subnet, --interface, --secure), one
+// definition for both programs. Header-only: only programs that parse a command line with CLI11 include it.
 #pragma once
 
+#include <CLI/CLI.hpp>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
-
-#include <CLI/CLI.hpp>
 
 #include "cairn/core/link_options.h"
 
@@ -28,12 +27,14 @@ inline void AddLinkFlags(CLI::App& app, LinkOptions* link) {
                  "discovery-server); no multicast then");
 }
 
-/// Adds --secure DIR to `app`, writing into `security->dir` (the identity is the program's own id, set by it).
+/// Adds --secure DIR to `app`, writing into `security->dir` (the identity is the program's own id, set by
+/// it).
 inline void AddSecureFlag(CLI::App& app, SecurityOptions* security) {
-  app.add_option("--secure", security->dir,
-                 "DDS Security from DIR (made by ./cairn keys): authenticate with this id's certificate (PKI-DH), "
-                 "encrypt (AES-GCM) and apply its signed permissions; peers without a certificate from the same "
-                 "CA are neither heard nor answered");
+  app.add_option(
+      "--secure", security->dir,
+      "DDS Security from DIR (made by ./cairn keys): authenticate with this id's certificate (PKI-DH), "
+      "encrypt (AES-GCM) and apply its signed permissions; peers without a certificate from the same "
+      "CA are neither heard nor answered");
 }
 
 /// Sets `security->identity` to `id` and checks that --secure names a folder. @throws std::invalid_argument
@@ -43,7 +44,8 @@ inline void CheckSecureFlag(const std::string& id, SecurityOptions* security) {
   if (!security->enabled()) return;
   std::error_code ec;
   if (!std::filesystem::is_directory(security->dir, ec)) {
-    throw std::invalid_argument("--secure '" + security->dir + "' is not a folder (make one with ./cairn keys)");
+    throw std::invalid_argument("--secure '" + security->dir +
+                                "' is not a folder (make one with ./cairn keys)");
   }
 }
 

@@ -1,5 +1,5 @@
-// The link a DDS participant talks on and its DDS Security (no Fast DDS headers: agent and basestation options
-// carry them).
+// The link a DDS participant talks on and its DDS Security (no Fast DDS headers: agent and basestation
+// options carry them).
 #pragma once
 
 #include <string>

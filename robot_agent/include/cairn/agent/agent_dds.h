@@ -35,6 +35,7 @@ class LocalPlan;
 class MapUpdate;
 class CompressedImage;
 class StaircaseDetection;
+class ExploreClaim;
 }  // namespace cairn_msgs
 
 namespace cairn::agent {
@@ -138,5 +139,11 @@ class AgentDds {
   class Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// A peer's claim as it came off cairn/explore_claim, with its coverage decompressed
+/// (DecompressCoverageBits); `*fault` (not null) is "" or why its coverage could not be read, and then the
+/// claim has none. The receiver still checks it (CheckExploreClaim). Also the fuzz harness's way in
+/// (fuzz/peer_message_fuzz.cpp).
+ExploreClaim ClaimFromMessage(const cairn_msgs::ExploreClaim& m, std::string* fault);
 
 }  // namespace cairn::agent

@@ -37,7 +37,7 @@ struct AgentOptions {
   std::string map_save_path;                      ///< "" = none; else the robot's map is saved here (.bt) at exit
   /// The journal's folder (--journal): the last known safe state, kept while the robot runs; "" = none.
   std::string journal_dir;
-  double journal_map_every_s = 10.0;              ///< map snapshots into the journal, seconds, > 0
+  double journal_map_every_s = 10.0;  ///< map snapshots into the journal, seconds, > 0
   /// The journal read at start (--resume, main.cpp): the robot comes up idle with its lock, its map and its
   /// old goal offered. Unset: a fresh start.
   std::optional<JournalEntry> resumed;

@@ -6,21 +6,19 @@
 // CompressedImage (pose_MC), StaircaseDetection (p_M_first_step).
 #pragma once
 
-#include <optional>
-
 #include <Eigen/Core>
-
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "cairn/agent/agent_dds.h"
 #include "cairn/agent/agent_options.h"
 #include "cairn/agent/command_interface.h"
+#include "cairn/agent/explore_mode.h"
 #include "cairn/agent/link_usage.h"
 #include "cairn/agent/mode_control.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
-#include "cairn/agent/explore_mode.h"
 #include "cairn/agent/waypoint_mode.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/msgs/robot_state.h"
