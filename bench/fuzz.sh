@@ -14,7 +14,7 @@ RUNS="${1:-1000000}"
 BUILD="${2:-$ROOT/build-fuzz}"
 shift $(( $# > 2 ? 2 : $# )) || true
 HARNESSES=("$@")
-[ ${#HARNESSES[@]} -gt 0 ] || HARNESSES=(bt_file pcd_world agent_config mode_tree map_update peer_message)
+[ ${#HARNESSES[@]} -gt 0 ] || HARNESSES=(bt_file bt_world pcd_world agent_config mode_tree map_update peer_message)
 [[ "$RUNS" =~ ^[0-9]+$ ]] || { echo "fuzz: RUNS '$RUNS' must be a number of executions" >&2; exit 2; }
 command -v clang++ >/dev/null || { echo "fuzz: clang++ is not installed (apt-get install clang libclang-rt-dev)" >&2; exit 2; }
 FLAGS="-fsanitize=fuzzer-no-link,address -fno-omit-frame-pointer"
