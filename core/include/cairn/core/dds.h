@@ -345,7 +345,7 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
     if (!lock.owns_lock()) {
       {
         std::lock_guard<std::mutex> held(held_mutex_);
-        if (held_.size() >= kMaxHeldDuringRebuild) held_.pop_front();
+        if (held_.size() >= kMaxHeldDuringRebuild) held_.erase(held_.begin());
         held_.push_back(msg);
       }
       // The rebuild may have finished (and flushed) between the failed lock and the push.
@@ -442,7 +442,7 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
 
   // With the entities lock shared. Publishes the samples held during a rebuild; returns how many.
   std::size_t FlushHeld() {
-    std::deque<Msg> held;
+    std::vector<Msg> held;  // no allocation while nothing is held: every Write() passes here
     {
       std::lock_guard<std::mutex> guard(held_mutex_);
       held.swap(held_);
@@ -490,7 +490,7 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
   mutable std::condition_variable matched_cv_;  // notified on every match change
   std::map<std::string, int> matched_readers_;  // ParticipantIdOf -> matched readers of that participant
   std::mutex held_mutex_;
-  std::deque<Msg> held_;     // written during a rebuild, published after it
+  std::vector<Msg> held_;  // written during a rebuild, published after it
   std::optional<Msg> last_;  // the last sample written, when latched_
   std::atomic<std::uint64_t> bytes_written_{0};
   std::atomic<std::uint64_t> samples_written_{0};
