@@ -23,6 +23,8 @@
 // the 0.5 threshold), at a coarse tracking level (see TakeCoarseChanges).
 #include "cairn/perception/occupancy_map.h"
 
+#include "cairn/core/octomap_bt.h"
+
 #include <octomap/OcTree.h>
 
 #include <algorithm>
@@ -51,9 +53,6 @@ using octomap::point3d;
 constexpr int kTreeDepth = 16;
 /// Key of the voxel whose min corner is the origin of W (OctoMap's tree_max_val).
 constexpr int kKeyOffset = 1 << (kTreeDepth - 1);
-/// First line of an OctoMap binary file, and the start of the first line of an OctoMap full (.ot) file.
-constexpr char kBtFirstLine[] = "# Octomap OcTree binary file";
-constexpr char kOtFirstLine[] = "# Octomap OcTree file";
 
 // -----------------------------------------------------------------------------------------------------------
 // Keys and Morton codes.
@@ -560,78 +559,7 @@ class Tree final : public octomap::OcTree {
 // -----------------------------------------------------------------------------------------------------------
 // .bt header and validation.
 
-/// Shortest decimal text of `value` that reads back exactly; "0.1" for 0.1, as OctoMap writes it.
-std::string DoubleText(double value) {
-  for (int precision = 6; precision <= 17; ++precision) {
-    std::ostringstream s;
-    s.precision(precision);
-    s << value;
-    if (std::strtod(s.str().c_str(), nullptr) == value) return s.str();
-  }
-  return std::to_string(value);
-}
-
-/// The header OctoMap's writeBinaryConst() writes.
-std::string BtHeader(std::size_t num_nodes, double resolution_m) {
-  std::string h = kBtFirstLine;
-  h += "\n# (feel free to add / change comments, but leave the first line as it is!)\n#\n";
-  h += "id OcTree\nsize " + std::to_string(num_nodes) + "\nres " + DoubleText(resolution_m) + "\ndata\n";
-  return h;
-}
-
-/// Walks an OctoMap binary node stream (`data`, `size` bytes) without building it (depth first, two bytes of
-/// child codes per inner node, at most kTreeDepth levels, iteratively) and returns its number of nodes with
-/// *error empty; returns -1 with a message in *error if the stream is truncated, too deep, has an inner node
-/// without children or bytes after its end.
-std::int64_t CountBtNodes(const char* data, std::size_t size, std::string* error) {
-  error->clear();
-  if (size == 0) return 0;
-  // pending[d]: inner nodes at depth d whose child codes are still to be read.
-  std::array<int, kTreeDepth + 1> pending{};
-  std::int64_t nodes = 1;  // The root.
-  std::size_t pos = 0;
-  int depth = 0;  // Depth of the node whose codes are read next.
-  pending[0] = 1;
-  while (true) {
-    while (depth >= 0 && pending[depth] == 0) --depth;
-    if (depth < 0) break;
-    --pending[depth];
-    if (pos + 2 > size) {
-      *error = "truncated: the node data ends at byte " + std::to_string(size) + " inside the tree";
-      return -1;
-    }
-    const unsigned codes = static_cast<unsigned char>(data[pos]) |
-                           (static_cast<unsigned>(static_cast<unsigned char>(data[pos + 1])) << 8);
-    pos += 2;
-    int inner = 0;
-    for (int i = 0; i < 8; ++i) {
-      const unsigned c = (codes >> (2 * i)) & 3u;
-      if (c != 0) ++nodes;
-      if (c == 3) ++inner;
-    }
-    if (codes == 0 && depth > 0) {
-      *error = "corrupt: an inner node at depth " + std::to_string(depth) + " has no children (byte " +
-               std::to_string(pos - 2) + ")";
-      return -1;
-    }
-    if (inner > 0 && depth + 1 >= kTreeDepth) {
-      *error = "corrupt: inner nodes below the finest depth " + std::to_string(kTreeDepth) + " (byte " +
-               std::to_string(pos - 2) + ")";
-      return -1;
-    }
-    if (inner > 0) {
-      pending[depth + 1] += inner;
-      ++depth;
-    }
-  }
-  if (pos != size) {
-    *error = "corrupt: " + std::to_string(size - pos) + " bytes follow the end of the node data";
-    return -1;
-  }
-  return nodes;
-}
-
-/// A parsed, validated .bt file.
+/// A parsed, validated .bt file (core::ParseBtFile), its resolution checked as a map's.
 struct BtContents {
   double resolution_m = 0.0;
   std::int64_t num_nodes = 0;
@@ -641,82 +569,18 @@ struct BtContents {
 /// Parses and validates the .bt file `bytes` read from `path`; throws MapError naming the path and the fault.
 BtContents ParseBt(const std::string& bytes, const std::string& path) {
   const std::string where = "map file '" + path + "'";
-  if (bytes.empty()) throw MapError(where + " is empty");
-  std::size_t pos = 0;
-  // Reads the next header line (without '\n'); false at the end of the file.
-  auto next_line = [&](std::string* line) {
-    if (pos >= bytes.size()) return false;
-    std::size_t eol = bytes.find('\n', pos);
-    if (eol == std::string::npos || eol - pos > 1024) eol = std::min(bytes.size(), pos + 1024);
-    *line = bytes.substr(pos, eol - pos);
-    pos = std::min(bytes.size(), eol + 1);  // a last line without '\n' ends the file (found by fuzzing)
-    if (!line->empty() && line->back() == '\r') line->pop_back();
-    return true;
-  };
-  std::string line;
-  next_line(&line);
-  if (line.rfind(kBtFirstLine, 0) != 0) {
-    if (line.rfind(kOtFirstLine, 0) == 0) {
-      throw MapError(where + " is an OctoMap full (.ot) file, not a binary (.bt) file");
-    }
-    throw MapError(where + " is not an OctoMap binary (.bt) file: its first line is not '" +
-                   std::string(kBtFirstLine) + "'");
+  core::BtFile file;
+  try {
+    file = core::ParseBtFile(bytes, where);
+  } catch (const std::invalid_argument& e) {
+    throw MapError(e.what());
   }
-  std::string id;
-  std::optional<std::int64_t> size;
-  std::optional<double> res;
-  bool data_found = false;
-  for (int n = 0; n < 256 && !data_found; ++n) {
-    if (!next_line(&line)) break;
-    std::istringstream s(line);
-    std::string keyword;
-    if (!(s >> keyword) || keyword[0] == '#') continue;
-    std::string value;
-    s >> value;
-    std::string rest;
-    if (keyword == "data" && value.empty()) {
-      data_found = true;
-    } else if (keyword == "id" && !value.empty() && !(s >> rest)) {
-      id = value;
-    } else if (keyword == "size" && !value.empty() && !(s >> rest) &&
-               value.find_first_not_of("0123456789") == std::string::npos && value.size() <= 10) {
-      size = std::stoll(value);
-    } else if (keyword == "res" && !value.empty() && !(s >> rest)) {
-      char* parse_end = nullptr;
-      const double r = std::strtod(value.c_str(), &parse_end);
-      if (parse_end == nullptr || *parse_end != '\0') {
-        throw MapError(where + " has an invalid resolution '" + value + "' in its header");
-      }
-      res = r;
-    } else {
-      throw MapError(where + " has an invalid header line '" + line.substr(0, 80) + "'");
-    }
-  }
-  if (!data_found) throw MapError(where + " is truncated or corrupt: its header has no 'data' line");
-  if (id != "OcTree") {
-    throw MapError(where + " holds an OctoMap tree of type '" + id + "'; only 'OcTree' is supported");
-  }
-  if (!size || *size > std::numeric_limits<std::uint32_t>::max()) {
-    throw MapError(where + " has no valid 'size' in its header");
-  }
-  if (!res) throw MapError(where + " has no 'res' (resolution) in its header");
   OccupancyMapOptions check;
-  check.resolution_m = *res;
-  check.max_range_m = *res;
+  check.resolution_m = file.resolution_m;
+  check.max_range_m = file.resolution_m;
   std::string why;
   if (!check.IsValid(&why)) throw MapError(where + " has an invalid resolution: " + why);
-
-  BtContents contents;
-  contents.resolution_m = *res;
-  contents.data = bytes.substr(pos);
-  std::string error;
-  contents.num_nodes = CountBtNodes(contents.data.data(), contents.data.size(), &error);
-  if (!error.empty()) throw MapError(where + " is " + error);
-  if (contents.num_nodes != *size) {
-    throw MapError(where + " is corrupt or truncated: its header says " + std::to_string(*size) +
-                   " nodes but its data holds " + std::to_string(contents.num_nodes));
-  }
-  return contents;
+  return BtContents{file.resolution_m, file.num_nodes, std::move(file.data)};
 }
 
 std::string Vec3Text(double x, double y, double z) {
@@ -741,7 +605,7 @@ bool OccupancyMapOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = msg;
     return false;
   };
-  auto text = [](double v) { return DoubleText(v); };
+  auto text = [](double v) { return core::ShortestDecimal(v); };
   if (!(resolution_m >= 0.01 && resolution_m <= 10.0)) {
     return fail("resolution_m = " + text(resolution_m) + " must be in [0.01, 10]");
   }
@@ -871,7 +735,7 @@ InsertStats OccupancyMap::InsertScan(const std::vector<Eigen::Vector3f>& points_
   OcTreeKey origin_key;
   if (!m.tree.coordToKeyChecked(origin, origin_key)) {
     throw MapError("InsertScan: sensor origin p_W_S = " + Vec3Text(p_W_S.x(), p_W_S.y(), p_W_S.z()) +
-                   " m is outside the map (+-" + DoubleText(kKeyOffset * m.options.resolution_m) + " m)");
+                   " m is outside the map (+-" + core::ShortestDecimal(kKeyOffset * m.options.resolution_m) + " m)");
   }
   if (points_S.empty()) return stats;
   const Eigen::Matrix3d R_W_S = T_W_S.linear();
@@ -964,7 +828,7 @@ std::optional<Eigen::Vector3d> OccupancyMap::CastRay(const Eigen::Vector3d& orig
                    " must be finite and non-zero");
   }
   if (!(max_range_m >= 0.0 && std::isfinite(max_range_m))) {
-    throw MapError("CastRay: max_range_m = " + DoubleText(max_range_m) + " must be finite and >= 0");
+    throw MapError("CastRay: max_range_m = " + core::ShortestDecimal(max_range_m) + " must be finite and >= 0");
   }
   const Impl& m = *impl_;
   const double res = m.options.resolution_m;
@@ -1084,9 +948,9 @@ void OccupancyMap::WriteBinary(std::ostream& out) const {
     if (impl_->tree.getRoot() != nullptr) impl_->tree.WriteMaxLikelihood(impl_->tree.getRoot(), true, &data);
   }
   std::string error;
-  const std::int64_t num_nodes = CountBtNodes(data.data(), data.size(), &error);
+  const std::int64_t num_nodes = core::CountBtNodes(data.data(), data.size(), &error);
   if (!error.empty()) throw MapError("WriteBinary: internal error, the node stream is " + error);
-  out << BtHeader(static_cast<std::size_t>(num_nodes), impl_->options.resolution_m);
+  out << core::BtFileHeader(static_cast<std::size_t>(num_nodes), impl_->options.resolution_m);
   out.write(data.data(), static_cast<std::streamsize>(data.size()));
   if (!out) throw MapError("WriteBinary: the output stream failed");
 }
@@ -1146,7 +1010,7 @@ OccupancyMap OccupancyMap::LoadBt(const std::string& path, const OccupancyMapOpt
   // A root without children is an empty map (OctoMap would read it as one occupied root leaf).
   if (contents.num_nodes > 1) {
     // Hand OctoMap a canonical header and the validated node stream.
-    std::istringstream stream(BtHeader(static_cast<std::size_t>(contents.num_nodes), contents.resolution_m) +
+    std::istringstream stream(core::BtFileHeader(static_cast<std::size_t>(contents.num_nodes), contents.resolution_m) +
                               contents.data);
     if (!m.tree.readBinary(stream) || static_cast<std::int64_t>(m.tree.size()) != contents.num_nodes) {
       throw MapError("map file '" + path + "' could not be read by OctoMap");

@@ -6,10 +6,13 @@
 
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 
+#include "cairn/core/octomap_bt.h"
 #include "world_loaders.h"
 
 namespace cairn::sim {
@@ -77,10 +80,19 @@ World LoadOctomapFile(const std::string& path, bool binary, const WorldLoadOptio
   if (binary) {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw WorldError("world file '" + path + "' cannot be opened for reading");
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    // Checked before OctoMap sees it: its reader recurses once per inner node and trusts the header (a
+    // fuzzed file of nested inner nodes overflowed the stack).
+    core::BtFile file;
+    try {
+      file = core::ParseBtFile(bytes, "world file '" + path + "'");
+    } catch (const std::invalid_argument& e) {
+      throw WorldError(e.what());
+    }
+    std::istringstream stream(core::BtFileHeader(static_cast<std::size_t>(file.num_nodes), file.resolution_m) +
+                              file.data);
     octomap::OcTree tree(0.1);
-    // readBinary() checks the header and that the node count read equals the count in the header, so
-    // corrupt and truncated files are rejected.
-    if (!tree.readBinary(in)) {
+    if (!tree.readBinary(stream)) {
       throw WorldError(
           "world file '" + path +
           "' is not a valid OctoMap binary (.bt) file (bad header, or corrupt or truncated data)");

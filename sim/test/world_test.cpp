@@ -246,14 +246,21 @@ TEST_F(WorldFileTest, GarbageAndTruncatedBt) {
   const std::string garbage = dir_ + "/garbage.bt";
   WriteFile(garbage, "this is not an octree\n\x01\x02\x03 at all");
   EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(garbage); }),
-                  "'" + garbage + "' is not a valid OctoMap binary (.bt) file");
+                  "'" + garbage + "' is not an OctoMap binary (.bt) file: its first line is not");
 
   const std::string full = dir_ + "/full.bt";
   SaveWorldAsBt(MakeBuiltinWorld("arena"), full);
   const std::string bytes = ReadFile(full);
   const std::string truncated = dir_ + "/truncated.bt";
   WriteFile(truncated, bytes.substr(0, bytes.size() / 2));
-  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(truncated); }), "is not a valid OctoMap binary (.bt) file");
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(truncated); }), "'" + truncated + "' is truncated");
+
+  // Found by fuzzing (fuzz/corpus/bt_world/nested_inner_nodes.bt): inner nodes nested beyond the tree's 16
+  // levels overflowed the stack in OctoMap's recursive reader; the stream is now walked before OctoMap sees it.
+  const std::string header = "# Octomap OcTree binary file\nid OcTree\nsize 100000\nres 0.1\ndata\n";
+  const std::string deep = dir_ + "/deep.bt";
+  WriteFile(deep, header + std::string(1 << 17, '\xFF'));
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(deep); }), "inner nodes below the finest depth");
 
   // A resolution of 1e30 (the header is text: "res 0.1") loaded and put the robot at (1.2e32, ...).
   std::string huge = bytes;

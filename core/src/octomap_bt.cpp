@@ -1,0 +1,163 @@
+#include "cairn/core/octomap_bt.h"
+
+#include <array>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+namespace cairn::core {
+namespace {
+
+constexpr int kTreeDepth = kOctomapTreeDepth;
+constexpr char kBtFirstLine[] = "# Octomap OcTree binary file";
+constexpr char kOtFirstLine[] = "# Octomap OcTree file";
+
+}  // namespace
+
+std::int64_t CountBtNodes(const char* data, std::size_t size, std::string* error) {
+  error->clear();
+  if (size == 0) return 0;
+  // pending[d]: inner nodes at depth d whose child codes are still to be read.
+  std::array<int, kTreeDepth + 1> pending{};
+  std::int64_t nodes = 1;  // The root.
+  std::size_t pos = 0;
+  int depth = 0;  // Depth of the node whose codes are read next.
+  pending[0] = 1;
+  while (true) {
+    while (depth >= 0 && pending[depth] == 0) --depth;
+    if (depth < 0) break;
+    --pending[depth];
+    if (pos + 2 > size) {
+      *error = "truncated: the node data ends at byte " + std::to_string(size) + " inside the tree";
+      return -1;
+    }
+    const unsigned codes = static_cast<unsigned char>(data[pos]) |
+                           (static_cast<unsigned>(static_cast<unsigned char>(data[pos + 1])) << 8);
+    pos += 2;
+    int inner = 0;
+    for (int i = 0; i < 8; ++i) {
+      const unsigned c = (codes >> (2 * i)) & 3u;
+      if (c != 0) ++nodes;
+      if (c == 3) ++inner;
+    }
+    if (codes == 0 && depth > 0) {
+      *error = "corrupt: an inner node at depth " + std::to_string(depth) + " has no children (byte " +
+               std::to_string(pos - 2) + ")";
+      return -1;
+    }
+    if (inner > 0 && depth + 1 >= kTreeDepth) {
+      *error = "corrupt: inner nodes below the finest depth " + std::to_string(kTreeDepth) + " (byte " +
+               std::to_string(pos - 2) + ")";
+      return -1;
+    }
+    if (inner > 0) {
+      pending[depth + 1] += inner;
+      ++depth;
+    }
+  }
+  if (pos != size) {
+    *error = "corrupt: " + std::to_string(size - pos) + " bytes follow the end of the node data";
+    return -1;
+  }
+  return nodes;
+}
+
+
+std::string ShortestDecimal(double value) {
+  for (int precision = 6; precision <= 17; ++precision) {
+    std::ostringstream s;
+    s.precision(precision);
+    s << value;
+    if (std::strtod(s.str().c_str(), nullptr) == value) return s.str();
+  }
+  return std::to_string(value);
+}
+
+std::string BtFileHeader(std::size_t num_nodes, double resolution_m) {
+  std::string h = kBtFirstLine;
+  h += "\n# (feel free to add / change comments, but leave the first line as it is!)\n#\n";
+  h += "id OcTree\nsize " + std::to_string(num_nodes) + "\nres " + ShortestDecimal(resolution_m) + "\ndata\n";
+  return h;
+}
+
+BtFile ParseBtFile(const std::string& bytes, const std::string& where) {
+  if (bytes.empty()) throw std::invalid_argument(where + " is empty");
+  std::size_t pos = 0;
+  // Reads the next header line (without '\n'); false at the end of the file.
+  auto next_line = [&](std::string* line) {
+    if (pos >= bytes.size()) return false;
+    std::size_t eol = bytes.find('\n', pos);
+    if (eol == std::string::npos || eol - pos > 1024) eol = std::min(bytes.size(), pos + 1024);
+    *line = bytes.substr(pos, eol - pos);
+    pos = std::min(bytes.size(), eol + 1);  // a last line without '\n' ends the file (found by fuzzing)
+    if (!line->empty() && line->back() == '\r') line->pop_back();
+    return true;
+  };
+  std::string line;
+  next_line(&line);
+  if (line.rfind(kBtFirstLine, 0) != 0) {
+    if (line.rfind(kOtFirstLine, 0) == 0) {
+      throw std::invalid_argument(where + " is an OctoMap full (.ot) file, not a binary (.bt) file");
+    }
+    throw std::invalid_argument(where + " is not an OctoMap binary (.bt) file: its first line is not '" +
+                   std::string(kBtFirstLine) + "'");
+  }
+  std::string id;
+  std::optional<std::int64_t> size;
+  std::optional<double> res;
+  bool data_found = false;
+  for (int n = 0; n < 256 && !data_found; ++n) {
+    if (!next_line(&line)) break;
+    std::istringstream s(line);
+    std::string keyword;
+    if (!(s >> keyword) || keyword[0] == '#') continue;
+    std::string value;
+    s >> value;
+    std::string rest;
+    if (keyword == "data" && value.empty()) {
+      data_found = true;
+    } else if (keyword == "id" && !value.empty() && !(s >> rest)) {
+      id = value;
+    } else if (keyword == "size" && !value.empty() && !(s >> rest) &&
+               value.find_first_not_of("0123456789") == std::string::npos && value.size() <= 10) {
+      size = std::stoll(value);
+    } else if (keyword == "res" && !value.empty() && !(s >> rest)) {
+      char* parse_end = nullptr;
+      const double r = std::strtod(value.c_str(), &parse_end);
+      if (parse_end == nullptr || *parse_end != '\0') {
+        throw std::invalid_argument(where + " has an invalid resolution '" + value + "' in its header");
+      }
+      res = r;
+    } else {
+      throw std::invalid_argument(where + " has an invalid header line '" + line.substr(0, 80) + "'");
+    }
+  }
+  if (!data_found) throw std::invalid_argument(where + " is truncated or corrupt: its header has no 'data' line");
+  if (id != "OcTree") {
+    throw std::invalid_argument(where + " holds an OctoMap tree of type '" + id + "'; only 'OcTree' is supported");
+  }
+  if (!size || *size > std::numeric_limits<std::uint32_t>::max()) {
+    throw std::invalid_argument(where + " has no valid 'size' in its header");
+  }
+  if (!res) throw std::invalid_argument(where + " has no 'res' (resolution) in its header");
+  if (!std::isfinite(*res) || *res <= 0.0) {
+    throw std::invalid_argument(where + " has an invalid resolution " + std::to_string(*res) + " in its header");
+  }
+
+  BtFile contents;
+  contents.resolution_m = *res;
+  contents.data = bytes.substr(pos);
+  std::string error;
+  contents.num_nodes = CountBtNodes(contents.data.data(), contents.data.size(), &error);
+  if (!error.empty()) throw std::invalid_argument(where + " is " + error);
+  if (contents.num_nodes != *size) {
+    throw std::invalid_argument(where + " is corrupt or truncated: its header says " + std::to_string(*size) +
+                   " nodes but its data holds " + std::to_string(contents.num_nodes));
+  }
+  return contents;
+}
+
+}  // namespace cairn::core
