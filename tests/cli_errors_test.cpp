@@ -67,6 +67,15 @@ TEST(AgentCli, RefusesBadFlagsNamingTheValue) {
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--platform", "hover"}), "platform 'hover' is not supported");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r 1"}), "robot id 'r 1'");
   ExpectRefused(RunProcess({kAgent}), "--robot-id is required");
+  // The fault-injection test hook names the part at fault.
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--inject-fault", "lidar:throw:5"}),
+                "no component \"lidar\" (the components are platform, perception");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--inject-fault", "perception:crash:5"}),
+                "kind \"crash\" is neither throw nor hang");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--inject-fault", "perception:throw:-1"}),
+                "AFTER_S \"-1\" is not a number of seconds >= 0");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--inject-fault", "mux:hang:5"}),
+                "a hang of mux would hang the control cycle");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--start", "-50,-50", "--domain", "71"}),
                 "is not free ground");
 }

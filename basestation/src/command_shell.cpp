@@ -147,9 +147,9 @@ CommandShell::CommandShell(FleetClient& client, bool json, std::ostream& out)
 
 const std::vector<std::string>& CommandShell::CommandNames() {
   static const std::vector<std::string> kNames = {
-      "robots", "watch", "status",  "request-control", "release", "mode",        "goto",   "path",   "plan",
-      "teleop", "stop",  "wait",    "sleep",           "map",     "snapshot",    "stairs", "events", "place",
-      "places", "links", "explore", "frontiers",       "home",    "resume-goal", "help"};
+      "robots", "watch", "status",  "request-control", "release", "mode",        "goto",   "path",    "plan",
+      "teleop", "stop",  "wait",    "sleep",           "map",     "snapshot",    "stairs", "events",  "place",
+      "places", "links", "explore", "frontiers",       "home",    "resume-goal", "health", "restart", "help"};
   return kNames;
 }
 
@@ -167,6 +167,12 @@ std::string CommandShell::Help() {
          "warns\n"
          "                                      when a robot sends more than its budget or stops answering\n"
          "  help R                              what you may do with R now, and how\n"
+         "  health R                            R's software components: state, loop rate against its "
+         "target,\n"
+         "                                      CPU, memory, restarts, last error (a failed part restarts "
+         "by\n"
+         "                                      itself, alone, with a growing back-off)\n"
+         "  restart R COMPONENT                 restart one component of R now (the lock holder's only)\n"
          "  request-control R                   ask for R's control lock (refused if another basestation "
          "holds it)\n"
          "  release R                           give R's control lock back (the robot stops)\n"
@@ -338,9 +344,10 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
     const std::string& cmd = before[0];
     const std::size_t arg = before.size();  // index of the word being completed, 1-based after the command
     static const std::vector<std::string> kRobotFirst = {
-        "status", "request-control", "release",   "mode", "goto",       "path",
-        "plan",   "teleop",          "stop",      "wait", "map",        "snapshot",
-        "help",   "explore",         "frontiers", "home", "resume-goal"};
+        "status", "request-control", "release",   "mode", "goto",        "path",
+        "plan",   "teleop",          "stop",      "wait", "map",         "snapshot",
+        "help",   "explore",         "frontiers", "home", "resume-goal", "health",
+        "restart"};
     if (arg == 1 && std::find(kRobotFirst.begin(), kRobotFirst.end(), cmd) != kRobotFirst.end()) {
       pool = client_.RobotIds();
       if (cmd == "stop") pool.push_back("all");
@@ -352,6 +359,10 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
       pool = places_.Names();
     } else if (cmd == "wait" && arg == 2) {
       pool = {"arrived", "idle", "online", "lost", "mode="};
+    } else if (cmd == "restart" && arg == 2) {
+      if (const auto view = client_.Robot(before[1]); view && view->health) {
+        for (const auto& c : view->health->components()) pool.push_back(c.name());
+      }
     } else if (cmd == "place" && arg == 1) {
       pool = {"add", "remove"};
     } else if (cmd == "place" && arg == 2 && before[1] == "remove") {
@@ -390,6 +401,8 @@ int CommandShell::Run(const std::string& line) {
   if (cmd == "links") return Links(args);
   if (cmd == "events") return Events(args);
   if (cmd == "status") return need(1, "status R") ? Status(args) : kUsage;
+  if (cmd == "health") return need(1, "health R") ? Health(args) : kUsage;
+  if (cmd == "restart") return need(2, "restart R COMPONENT") ? Restart(args) : kUsage;
   if (cmd == "request-control") return need(1, "request-control R") ? Control(args, true) : kUsage;
   if (cmd == "release") return need(1, "release R") ? Control(args, false) : kUsage;
   if (cmd == "mode") return need(2, "mode R MODE") ? Mode(args) : kUsage;

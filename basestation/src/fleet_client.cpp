@@ -111,6 +111,18 @@ class FleetClient::Impl {
                            now);
           });
         });
+    // Component health: kept with the robot's view (the robot must be known by its state or agent info); it
+    // does not keep a robot from being shown lost.
+    health_reader_ = std::make_unique<core::Reader<msgs::AgentHealthPubSubType>>(
+        *participant_, "cairn/health", "cairn.latched", [this](const msgs::AgentHealth& m, const auto&) {
+          {
+            std::lock_guard<std::mutex> lock(mutex_);
+            auto it = robots_.find(m.robot_id());
+            if (it == robots_.end()) return;
+            it->second.health = m;
+          }
+          cv_.notify_all();
+        });
     probe_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(*participant_, "cairn/link_probe",
                                                                            "cairn.command");
     probe_reply_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
@@ -199,6 +211,7 @@ class FleetClient::Impl {
     local_plan_reader_.reset();
     state_reader_.reset();
     pose_reader_.reset();
+    health_reader_.reset();
     tree_reader_.reset();
     info_reader_.reset();
     perception_.reset();  // after info_reader_, whose callback uses it
@@ -579,6 +592,7 @@ class FleetClient::Impl {
   std::unique_ptr<core::Reader<msgs::LocalPlanPubSubType>> local_plan_reader_;
   std::unique_ptr<core::Reader<msgs::RobotStatePubSubType>> state_reader_;
   std::unique_ptr<core::Reader<msgs::RobotPosePubSubType>> pose_reader_;
+  std::unique_ptr<core::Reader<msgs::AgentHealthPubSubType>> health_reader_;
   std::unique_ptr<core::Reader<msgs::BehaviorTreeStatePubSubType>> tree_reader_;
   std::unique_ptr<core::Reader<msgs::AgentInfoPubSubType>> info_reader_;
 };
@@ -589,7 +603,8 @@ const std::vector<FleetClient::Impl::CommandKind> FleetClient::Impl::kCommandKin
     Kind<msgs::WaypointGoalPubSubType>("cairn/waypoint_goal"),
     Kind<msgs::ExploreRequestPubSubType>("cairn/explore_request"),
     Kind<msgs::HomeRequestPubSubType>("cairn/home_request"),
-    Kind<msgs::StopRequestPubSubType>("cairn/stop_request")};
+    Kind<msgs::StopRequestPubSubType>("cairn/stop_request"),
+    Kind<msgs::RestartRequestPubSubType>("cairn/restart_request")};
 
 FleetClient::FleetClient(const FleetClientOptions& options) : impl_(std::make_unique<Impl>(options)) {}
 FleetClient::~FleetClient() = default;
@@ -706,6 +721,17 @@ CommandOutcome FleetClient::ReleaseControl(const std::string& robot_id) {
     m.request_id(id);
     m.action(msgs::CONTROL_ACTION_RELEASE);
     return impl_->CommandWriter<msgs::ControlRequestPubSubType>("cairn/control_request", robot_id).Write(m);
+  });
+}
+
+CommandOutcome FleetClient::Restart(const std::string& robot_id, const std::string& component) {
+  return impl_->Call(robot_id, msgs::COMMAND_KIND_RESTART, [&](uint32_t id) {
+    msgs::RestartRequest m;
+    m.robot_id(robot_id);
+    m.base_id(base_id());
+    m.request_id(id);
+    m.component_name(component);
+    return impl_->CommandWriter<msgs::RestartRequestPubSubType>("cairn/restart_request", robot_id).Write(m);
   });
 }
 

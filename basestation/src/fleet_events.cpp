@@ -173,6 +173,22 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
       events->push_back(e);
     }
   }
+  // Its components' failures and restarts: each new one once (a restarted agent counts from 0 again: its
+  // first health is a new baseline).
+  if (view.health) {
+    const cairn_msgs::AgentHealth& h = *view.health;
+    now.has_health = true;
+    now.health_events = h.events();
+    if (last.has_health && h.events() > last.health_events && !h.last_event_kind().empty()) {
+      OperatorEvent e = Event("component_" + h.last_event_kind(), r, r + ": " + h.last_event());
+      e.other = h.last_event_component();
+      e.reason = h.last_event();
+      events->push_back(e);
+    }
+  } else {
+    now.has_health = last.has_health;
+    now.health_events = last.health_events;
+  }
   if (!view.state) {
     now.holder = last.holder;
     now.goal_id = last.goal_id;

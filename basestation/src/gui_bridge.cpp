@@ -95,7 +95,8 @@ json LoadSchemas(const std::string& web_root) {
 }
 
 // cairn's own JSON schemas.
-const char* kFleetStateSchema = R"json({"title":"cairn.FleetState","description":"The fleet as one basestation sees it, with the actions valid now for it","type":"object","properties":{
+const char* kFleetStateSchema =
+    R"json({"title":"cairn.FleetState","description":"The fleet as one basestation sees it, with the actions valid now for it","type":"object","properties":{
 "timestamp":{"type":"object","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},
 "base_id":{"type":"string","description":"this basestation"},
 "robots":{"type":"array","items":{"type":"object","properties":{
@@ -118,6 +119,7 @@ const char* kFleetStateSchema = R"json({"title":"cairn.FleetState","description"
 "max_speed_mps":{"type":"number"},"max_reverse_speed_mps":{"type":"number"},"max_yaw_rate_radps":{"type":"number"},
 "camera_age_s":{"type":"number","description":"age of its latest camera frame, -1 = none"},
 "control_period_max_ms":{"type":"number"},
+"components":{"type":"array","description":"its agent's components as its health monitor judges them (cairn_base health R)","items":{"type":"object","properties":{"name":{"type":"string"},"state":{"type":"string","enum":["active","down","inactive","unconfigured"]},"loop_rate_hz":{"type":"number"},"target_rate_hz":{"type":"number"},"cpu_percent":{"type":"number"},"restarts":{"type":"integer"},"restart_in_s":{"type":"number"},"last_error":{"type":"string"}}}},
 "exploration":{"type":"object","description":"the robot's exploration (as status --json): state, reason, task_id, explored_m2, frontiers, reachable_frontiers, targets_reached, targets_failed, peers, peer_seen_m2, target {x_m, y_m, z_m} when it has one"},
 "state_stamp":{"type":"object","description":"the robot's stamp of its latest state (wall clock)","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},
 "received_stamp":{"type":"object","description":"when this basestation received that state (wall clock)","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}}}}}}})json";
@@ -137,7 +139,7 @@ std::string NavStatusName(cairn_msgs::NavStatus s) {
 
 int LogLevel(const std::string& kind) {
   if (kind == "failed" || kind == "lost" || kind == "lock_taken") return 3;  // WARNING
-  if (kind == "stopped") return 3;
+  if (kind == "stopped" || kind == "component_failed" || kind == "component_restart_failed") return 3;
   return 2;  // INFO
 }
 
@@ -410,6 +412,19 @@ class GuiBridge::Impl {
       r["goal_acceptable"] = v.tree ? v.tree->goal_acceptable() : false;
       const auto frame = client_.perception().LatestFrame(v.robot_id);
       r["camera_age_s"] = frame ? core::SecondsBetween(frame->received, now) : -1.0;
+      r["components"] = json::array();
+      if (v.health) {
+        for (const auto& c : v.health->components()) {
+          r["components"].push_back({{"name", c.name()},
+                                     {"state", c.state()},
+                                     {"loop_rate_hz", c.loop_rate_hz()},
+                                     {"target_rate_hz", c.target_rate_hz()},
+                                     {"cpu_percent", c.cpu_percent()},
+                                     {"restarts", c.restarts()},
+                                     {"restart_in_s", c.restart_in_s()},
+                                     {"last_error", c.last_error()}});
+        }
+      }
       if (v.state) {
         const cairn_msgs::RobotState& s = *v.state;
         const auto& p = s.pose_MB().position();

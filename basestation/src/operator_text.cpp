@@ -63,10 +63,13 @@ OperatorReason ExplainReason(const std::string& robot_id, const std::string& rea
        }},
       {"IsMappingHealthy",
        [](const std::string& r, const std::string& d) { return r + " is not mapping: " + d; }},
-      {"HasExploreTask",
-       [](const std::string& r, const std::string&) {
-         return "explore mode needs a task: use explore " + r;
+      {"IsComponentUp",
+       [](const std::string& r, const std::string& d) {
+         return "a part of " + r + "'s software is down and restarting by itself: " + d + " (health " + r +
+                ")";
        }},
+      {"HasExploreTask", [](const std::string& r,
+                            const std::string&) { return "explore mode needs a task: use explore " + r; }},
   };
   for (const Rule& rule : kRules) {
     const std::string detail = Detail(reason, rule.condition);

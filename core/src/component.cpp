@@ -1,5 +1,13 @@
 #include "cairn/core/component.h"
 
+#include <spdlog/spdlog.h>
+#include <time.h>
+
+#include <algorithm>
+#include <condition_variable>
+
+#include "cairn/core/shutdown.h"
+
 namespace cairn::core {
 
 const char* ToString(LifecycleState state) {
@@ -14,9 +22,24 @@ const char* ToString(LifecycleState state) {
   return "?";
 }
 
+std::int64_t ThreadCpuNanoseconds() {
+  timespec ts{};
+  if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0) return 0;
+  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
+
+Component::Component(std::string name, double target_rate_hz)
+    : name_(std::move(name)), target_rate_hz_(target_rate_hz) {
+  if (name_.empty()) throw std::invalid_argument("Component: empty name");
+  if (!(target_rate_hz_ > 0)) {
+    throw std::invalid_argument("Component " + name_ + ": target_rate_hz must be > 0, got " +
+                                std::to_string(target_rate_hz_));
+  }
+}
+
 void Component::Configure() {
-  if (state_ != LifecycleState::kUnconfigured) {
-    throw ComponentError(name_ + ": configure requested while " + ToString(state_));
+  if (state() != LifecycleState::kUnconfigured) {
+    throw ComponentError(name_ + ": configure requested while " + ToString(state()));
   }
   try {
     OnConfigure();
@@ -31,29 +54,184 @@ void Component::Configure() {
 }
 
 void Component::Activate() {
-  if (state_ != LifecycleState::kInactive) {
-    throw ComponentError(name_ + ": activate requested while " + ToString(state_));
+  if (state() != LifecycleState::kInactive) {
+    throw ComponentError(name_ + ": activate requested while " + ToString(state()));
   }
+  failed_ = false;
+  Heartbeat(SteadyClock::now());
   try {
     OnActivate();
   } catch (const std::exception& e) {
     throw ComponentError(name_ + ": activate failed: " + e.what());
   }
-  last_heartbeat_ = SteadyClock::now();
   state_ = LifecycleState::kActive;
 }
 
 void Component::Deactivate() {
-  if (state_ != LifecycleState::kActive) return;
+  if (state() != LifecycleState::kActive) return;
   OnDeactivate();
   state_ = LifecycleState::kInactive;
 }
 
 void Component::Cleanup() {
-  if (state_ != LifecycleState::kInactive) return;
+  if (state() != LifecycleState::kInactive) return;
   OnCleanup();
   state_ = LifecycleState::kUnconfigured;
 }
+
+void Component::Heartbeat(SteadyTime now) {
+  last_heartbeat_ = now.time_since_epoch().count();
+  ++heartbeats_;
+}
+
+SteadyTime Component::last_heartbeat() const {
+  return SteadyTime(SteadyClock::duration(last_heartbeat_.load()));
+}
+
+void Component::ReportFailure(const std::string& what) {
+  {
+    std::lock_guard<std::mutex> guard(error_mutex_);
+    if (failed_) return;  // the first cause, not its consequences
+    last_error_ = what;
+  }
+  failed_ = true;
+}
+
+std::string Component::last_error() const {
+  std::lock_guard<std::mutex> guard(error_mutex_);
+  return last_error_;
+}
+
+// ---- ThreadedComponent
+// -------------------------------------------------------------------------------------
+
+struct WorkLoop::Shared {
+  std::mutex mutex;
+  std::condition_variable wake;
+  bool stop = false;
+};
+
+bool WorkLoop::Running() const {
+  if (ShutdownRequested()) return false;
+  std::lock_guard<std::mutex> guard(shared_->mutex);
+  return !shared_->stop;
+}
+
+bool WorkLoop::WaitFor(std::chrono::milliseconds timeout) const {
+  const SteadyTime deadline = SteadyClock::now() + timeout;
+  std::unique_lock<std::mutex> lock(shared_->mutex);
+  // Process shutdown has its own waiters: look at it at least every 50 ms.
+  while (!shared_->stop && !ShutdownRequested()) {
+    const SteadyTime now = SteadyClock::now();
+    if (now >= deadline) break;
+    shared_->wake.wait_until(lock, std::min(deadline, now + std::chrono::milliseconds(50)));
+  }
+  return !shared_->stop && !ShutdownRequested();
+}
+
+void WorkLoop::Beat() {
+  const SteadyTime now = SteadyClock::now();
+  last_beat_ = now.time_since_epoch().count();
+  if (primary_) component_->Heartbeat(now);
+}
+
+struct ThreadedComponent::Running {
+  std::unique_ptr<WorkLoop> loop;
+  std::shared_ptr<WorkLoop::Shared> shared;
+  std::shared_ptr<std::atomic<bool>> done;
+  std::thread thread;
+  int index = 0;
+};
+
+ThreadedComponent::ThreadedComponent(std::string name, double target_rate_hz, double stop_grace_s)
+    : Component(std::move(name), target_rate_hz), stop_grace_s_(stop_grace_s) {
+  if (!(stop_grace_s_ > 0))
+    throw std::invalid_argument("ThreadedComponent " + this->name() + ": stop_grace_s must be > 0");
+}
+
+ThreadedComponent::~ThreadedComponent() {
+  // Subclasses stop their loops in their own destructors (their loops use their members); this is the
+  // backstop.
+  StopLoops();
+  std::lock_guard<std::mutex> guard(loops_mutex_);
+  const SteadyTime deadline = SteadyClock::now() + std::chrono::seconds(5);
+  for (auto& r : abandoned_) {
+    while (!*r->done && SteadyClock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    if (*r->done) {
+      r->thread.join();
+    } else {
+      spdlog::error("{}: loop {} still hangs at exit; left running", name(), r->index);
+      r->thread.detach();
+      (void)r.release();  // its WorkLoop stays valid for the thread
+    }
+  }
+}
+
+SteadyTime ThreadedComponent::last_heartbeat() const {
+  std::lock_guard<std::mutex> guard(loops_mutex_);
+  if (running_.empty()) return Component::last_heartbeat();
+  SteadyClock::rep oldest = running_.front()->loop->last_beat_.load();
+  for (const auto& r : running_) oldest = std::min(oldest, r->loop->last_beat_.load());
+  return SteadyTime(SteadyClock::duration(oldest));
+}
+
+void ThreadedComponent::OnActivate() {
+  std::vector<std::function<void(WorkLoop&)>> loops = Loops();
+  std::lock_guard<std::mutex> guard(loops_mutex_);
+  int index = 0;
+  for (auto& body : loops) {
+    auto r = std::make_unique<Running>();
+    r->shared = std::make_shared<WorkLoop::Shared>();
+    r->loop.reset(new WorkLoop(this, r->shared, index == 0));
+    r->loop->last_beat_ = SteadyClock::now().time_since_epoch().count();
+    r->done = std::make_shared<std::atomic<bool>>(false);
+    r->index = index++;
+    WorkLoop* loop = r->loop.get();
+    auto done = r->done;
+    r->thread = std::thread([this, loop, done, loop_index = r->index, body = std::move(body)] {
+      try {
+        body(*loop);
+        if (loop->Running()) ReportFailure("its loop " + std::to_string(loop_index) + " ended by itself");
+      } catch (const std::exception& e) {
+        ReportFailure(e.what());
+      } catch (...) {
+        ReportFailure("unknown exception");
+      }
+      *done = true;
+    });
+    running_.push_back(std::move(r));
+  }
+}
+
+void ThreadedComponent::OnDeactivate() { StopLoops(); }
+
+void ThreadedComponent::StopLoops() {
+  std::lock_guard<std::mutex> guard(loops_mutex_);
+  for (auto& r : running_) {
+    std::lock_guard<std::mutex> lock(r->shared->mutex);
+    r->shared->stop = true;
+    r->shared->wake.notify_all();
+  }
+  const SteadyTime deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                                       std::chrono::duration<double>(stop_grace_s_));
+  for (auto& r : running_) {
+    while (!*r->done && SteadyClock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    if (*r->done) {
+      r->thread.join();
+    } else {
+      spdlog::error("{}: loop {} did not stop within {:.1f} s; abandoned (fresh loops take over)", name(),
+                    r->index, stop_grace_s_);
+      ++abandoned_count_;
+      abandoned_.push_back(std::move(r));
+    }
+  }
+  running_.clear();
+}
+
+// ---- ComponentManager
+// --------------------------------------------------------------------------------------
 
 void ComponentManager::StartAll() {
   std::size_t started = 0;

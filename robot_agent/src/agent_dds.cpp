@@ -39,6 +39,8 @@ msgs::CommandKind KindOf(CommandKind kind) {
       return msgs::COMMAND_KIND_EXPLORE;
     case CommandKind::kHome:
       return msgs::COMMAND_KIND_HOME;
+    case CommandKind::kRestart:
+      return msgs::COMMAND_KIND_RESTART;
     case CommandKind::kStop:
       break;
   }
@@ -58,8 +60,8 @@ msgs::CommandResult ResultOf(CommandResult result) {
 }
 
 AgentDdsHandlers Checked(AgentDdsHandlers h) {
-  if (!h.control || !h.mode || !h.goal || !h.explore || !h.home || !h.stop || !h.teleop || !h.base_announced || !h.base_liveliness ||
-      !h.path_query || !h.map_sync || !h.explore_claim) {
+  if (!h.control || !h.mode || !h.goal || !h.explore || !h.home || !h.stop || !h.restart || !h.teleop ||
+      !h.base_announced || !h.base_liveliness || !h.path_query || !h.map_sync || !h.explore_claim) {
     throw std::invalid_argument("AgentDds: every handler is required");
   }
   return h;
@@ -125,6 +127,7 @@ class AgentDds::Impl {
     explore_reader_.reset();
     home_reader_.reset();
     stop_reader_.reset();
+    restart_reader_.reset();
     teleop_reader_.reset();
     info_reader_.reset();
   }
@@ -142,6 +145,8 @@ class AgentDds::Impl {
         std::make_unique<core::Writer<msgs::RobotStatePubSubType>>(p, "cairn/robot_state", "cairn.latched");
     pose_writer_ =
         std::make_unique<core::Writer<msgs::RobotPosePubSubType>>(p, "cairn/robot_pose", "cairn.state");
+    health_writer_ =
+        std::make_unique<core::Writer<msgs::AgentHealthPubSubType>>(p, "cairn/health", "cairn.latched");
     tree_writer_ = std::make_unique<core::Writer<msgs::BehaviorTreeStatePubSubType>>(p, "cairn/bt_state",
                                                                                      "cairn.latched");
     response_writer_ = std::make_unique<core::Writer<msgs::CommandResponsePubSubType>>(
@@ -344,6 +349,13 @@ class AgentDds::Impl {
           handlers_.home(HomeCommand{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.has_point(),
                                      m.x_m(), m.y_m(), m.z_m()});
         });
+    restart_reader_ = std::make_unique<core::Reader<msgs::RestartRequestPubSubType>>(
+        p, CommandTopic("cairn/restart_request"), "cairn.command",
+        [this, robot](const msgs::RestartRequest& m, const SampleInfo& info) {
+          if (m.robot_id() != robot) return;
+          if (!ValidPeerId("cairn/restart_request", "base id", m.base_id())) return;
+          handlers_.restart(RestartCommand{SenderOf(m.base_id(), info), m.request_id(), m.component_name()});
+        });
     stop_reader_ = std::make_unique<core::Reader<msgs::StopRequestPubSubType>>(
         p, CommandTopic("cairn/stop_request"), "cairn.command",
         [this, robot](const msgs::StopRequest& m, const SampleInfo& info) {
@@ -376,6 +388,7 @@ class AgentDds::Impl {
   std::unique_ptr<core::Participant> participant_;
   std::unique_ptr<core::Writer<msgs::AgentInfoPubSubType>> info_writer_;
   std::unique_ptr<core::Writer<msgs::RobotStatePubSubType>> state_writer_;
+  std::unique_ptr<core::Writer<msgs::AgentHealthPubSubType>> health_writer_;
   std::unique_ptr<core::Writer<msgs::RobotPosePubSubType>> pose_writer_;
   std::unique_ptr<core::Writer<msgs::BehaviorTreeStatePubSubType>> tree_writer_;
   std::unique_ptr<core::Writer<msgs::CommandResponsePubSubType>> response_writer_;
@@ -402,6 +415,7 @@ class AgentDds::Impl {
   std::unique_ptr<core::Reader<msgs::ExploreRequestPubSubType>> explore_reader_;
   std::unique_ptr<core::Reader<msgs::HomeRequestPubSubType>> home_reader_;
   std::unique_ptr<core::Reader<msgs::StopRequestPubSubType>> stop_reader_;
+  std::unique_ptr<core::Reader<msgs::RestartRequestPubSubType>> restart_reader_;
   std::unique_ptr<core::Reader<msgs::TeleopTwistPubSubType>> teleop_reader_;
   std::unique_ptr<core::Reader<msgs::AgentInfoPubSubType>> info_reader_;
 };
@@ -461,6 +475,7 @@ void AgentDds::Send(const PathAnswer& answer) {
 
 bool AgentDds::Publish(const msgs::AgentInfo& info) { return impl_->info_writer_->Write(info); }
 bool AgentDds::Publish(const msgs::RobotState& state) { return impl_->state_writer_->Write(state); }
+bool AgentDds::Publish(const msgs::AgentHealth& health) { return impl_->health_writer_->Write(health); }
 bool AgentDds::Publish(const msgs::RobotPose& pose) { return impl_->pose_writer_->Write(pose); }
 bool AgentDds::Publish(const msgs::BehaviorTreeState& tree) { return impl_->tree_writer_->Write(tree); }
 bool AgentDds::Publish(const msgs::GlobalPath& path) { return impl_->global_path_writer_->Write(path); }
@@ -529,7 +544,7 @@ std::vector<SentTraffic> AgentDds::SentByClass() const {
   std::lock_guard<std::mutex> guard(i.bulk_mutex_);
   return {sum("command", {of(i.response_writer_), of(i.path_response_writer_), of(i.probe_reply_writer_)}),
           sum("state", {of(i.state_writer_), of(i.pose_writer_), of(i.local_plan_writer_), of(i.info_writer_),
-                        of(i.staircase_writer_)}),
+                        of(i.staircase_writer_), of(i.health_writer_)}),
           sum("tree", {of(i.tree_writer_), of(i.global_path_writer_)}),
           sum("team", {i.TeamSent()}),
           sum("map", {of(i.map_writer_), i.retired_map_}),

@@ -31,9 +31,10 @@ nav::TrajectoryLibraryOptions AgentOptions::LibraryForPlatform() const {
 
 void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto config = core::ConfigSection::LoadFile(path);
-  config.RejectUnknownKeys({"command_interface", "mux", "navigation", "local_planner", "controller", "platform",
-                            "traversability", "telemetry", "perception", "explore",
-                            "simulation"});  // `simulation` is the simulated platform's (sim::SimulatedPlatformOptions)
+  config.RejectUnknownKeys(
+      {"command_interface", "mux", "navigation", "local_planner", "controller", "platform", "traversability",
+       "telemetry", "perception", "explore", "health",
+       "simulation"});  // `simulation` is the simulated platform's (sim::SimulatedPlatformOptions)
   const auto ci = config.Section("command_interface");
   ci.RejectUnknownKeys({"lock_keep_s"});
   ci.ReadDouble("lock_keep_s", &lock.lock_keep_s, /*allow_infinity=*/true);
@@ -151,6 +152,10 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   telemetry.RejectUnknownKeys({"state_rate_hz", "local_plan_rate_hz"});
   telemetry.ReadDouble("state_rate_hz", &state_rate_hz);
   telemetry.ReadDouble("local_plan_rate_hz", &local_plan_rate_hz);
+  const auto health_section = config.Section("health");
+  health_section.RejectUnknownKeys({"restart_backoff_s", "restart_backoff_max_s"});
+  health_section.ReadDouble("restart_backoff_s", &restart_backoff_s);
+  health_section.ReadDouble("restart_backoff_max_s", &restart_backoff_max_s);
   PerceptionOptions& pe = perception;
   const auto per = config.Section("perception");
   per.RejectUnknownKeys({"enabled", "map_resolution_m", "map_insert_period_s", "map_keyframe_distance_m",
@@ -245,10 +250,13 @@ bool AgentOptions::IsValid(std::string* why) const {
   return InRange("mux.teleop_timeout_s", teleop_timeout_s, 0, 60, true, why) &&
          InRange("mux.waypoint_timeout_s", waypoint_timeout_s, 0, 60, true, why) &&
          InRange("navigation.contact_timeout_s", contact_timeout_s, 0, 60, true, why) &&
-         InRange("traversability.robot_radius_m", fp.traversability.robot_radius_m, fp.footprint_radius_m, 2, false,
-                 why) &&
+         InRange("traversability.robot_radius_m", fp.traversability.robot_radius_m, fp.footprint_radius_m, 2,
+                 false, why) &&
          InRange("telemetry.state_rate_hz", state_rate_hz, 0, 100, true, why) &&
          InRange("telemetry.local_plan_rate_hz", local_plan_rate_hz, 0, 20, true, why) &&
+         InRange("health.restart_backoff_s", restart_backoff_s, 0, 3600, true, why) &&
+         InRange("health.restart_backoff_max_s", restart_backoff_max_s, restart_backoff_s, 3600, false,
+                 why) &&
          InRange("--pcd-resolution", pcd_resolution_m, 0.02, 2, false, why);
 }
 

@@ -43,9 +43,12 @@ CommandInterface::CommandInterface(std::string robot_id, const ControlLockOption
       lock_keep_s_(lock.lock_keep_s) {
   std::string why;
   if (!lock.IsValid(&why)) throw std::invalid_argument("CommandInterface: " + why);
-  if (!hooks_.conditions || !hooks_.send || !hooks_.plan_goal || !hooks_.start_goal || !hooks_.start_explore) {
+  if (!hooks_.conditions || !hooks_.send || !hooks_.plan_goal || !hooks_.start_goal ||
+      !hooks_.start_explore || !hooks_.restart_component) {
     throw std::invalid_argument(
-        "CommandInterface: every hook (conditions, send, plan_goal, start_goal, start_explore) is required");
+        "CommandInterface: every hook (conditions, send, plan_goal, start_goal, start_explore, "
+        "restart_component) "
+        "is required");
   }
 }
 
@@ -118,6 +121,20 @@ void CommandInterface::OnMode(const ModeCommand& command) {
   }
   Respond(sender, command.request_id, CommandKind::kMode,
           d.accepted ? CommandResult::kAccepted : CommandResult::kDenied, d.reason);
+}
+
+void CommandInterface::OnRestart(const RestartCommand& command) {
+  const CommandSender& sender = command.sender;
+  if (ReplayIfDuplicate(sender, CommandKind::kRestart, command.request_id)) return;
+  if (DiscardUnlessHolder(sender, command.request_id, CommandKind::kRestart)) return;
+  const std::string refused = hooks_.restart_component(command.component, sender.base_id);
+  if (refused.empty()) {
+    lock_.NoteHolderCommand(sender.participant);
+    spdlog::warn("robot {}: restart of {} asked by {}", robot_id_, command.component, sender.base_id);
+  }
+  Respond(sender, command.request_id, CommandKind::kRestart,
+          refused.empty() ? CommandResult::kAccepted : CommandResult::kDenied,
+          refused.empty() ? "restarting " + command.component : refused);
 }
 
 void CommandInterface::OnStop(const StopCommand& command) {

@@ -10,6 +10,7 @@
 #include <iterator>
 #include <stdexcept>
 
+#include "cairn/agent/agent_components.h"
 #include "cairn/agent/journal.h"
 #include "cairn/agent/mode_manager.h"
 #include "cairn/agent/robot_agent.h"
@@ -65,6 +66,9 @@ int main(int argc, char** argv) {
   app.add_option("--journal-map-every", options.journal_map_every_s,
                  "with --journal: seconds between map snapshots")
       ->capture_default_str();
+  app.add_option("--inject-fault", options.inject_faults,
+                 "test hook: make COMPONENT throw, or hang, AFTER_S seconds after start "
+                 "(COMPONENT:throw|hang:AFTER_S; repeatable); the health monitor restarts it");
   app.add_option("--mode-tree", options.mode_tree_file, "mode tree XML (default: config/mode_tree.xml)");
   app.add_flag("--print-tree-nodes-model",
                "print the mode tree's <TreeNodesModel> (Groot2) for the nodes this agent registers, and exit");
@@ -133,6 +137,7 @@ int main(int argc, char** argv) {
     cairn::core::CheckSecureFlag(options.robot_id, &options.security);
     if (!start_text.empty()) cairn::agent::ParseStart(start_text, &options);
     if (resume && options.journal_dir.empty()) throw std::invalid_argument("--resume needs --journal DIR");
+    for (const std::string& fault : options.inject_faults) cairn::agent::ParseFaultInjection(fault);
     if (resume) {
       try {
         options.resumed = cairn::agent::ReadJournal(options.journal_dir, options.robot_id);

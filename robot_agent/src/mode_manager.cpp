@@ -91,6 +91,25 @@ void ModeManager::RegisterModeNodes(bt::TreeFactory& factory, const std::shared_
     const ModeConditions& c = ctx->conditions;
     return c.mapping_healthy ? NodeStatus::kSuccess : Fail(&ctx->failure, "IsMappingHealthy: " + c.mapping_problem);
   }));
+  factory.RegisterSimpleCondition(
+      "IsComponentUp",
+      Traced(ctx,
+             [ctx](bt::TreeNode& node) {
+               const auto name = node.GetInput<std::string>("component");
+               if (!name) return Fail(&ctx->failure, "IsComponentUp: missing component port");
+               const std::vector<std::string>& known = AgentComponentNames();
+               if (std::find(known.begin(), known.end(), *name) == known.end()) {
+                 std::string names;
+                 for (const auto& k : known) names += (names.empty() ? "" : ", ") + k;
+                 return Fail(&ctx->failure, "IsComponentUp: no component \"" + *name +
+                                                "\" (the components are " + names + ")");
+               }
+               const auto down = ctx->conditions.components_down.find(*name);
+               return down == ctx->conditions.components_down.end()
+                          ? NodeStatus::kSuccess
+                          : Fail(&ctx->failure, "IsComponentUp: " + down->second);
+             }),
+      {bt::InputPort("component", "an agent component (AgentComponentNames())")});
   factory.RegisterSimpleCondition("IsJoystickAlive", Traced(ctx, [ctx](bt::TreeNode&) {
     return ctx->conditions.joystick_alive
                ? NodeStatus::kSuccess

@@ -2,10 +2,10 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <stdexcept>
 #include <thread>
 
-#include "cairn/core/shutdown.h"
 #include "range_check.h"
 
 namespace cairn::agent {
@@ -78,37 +78,43 @@ bool PerceptionService::ReadScan(double now_s) {
   return true;
 }
 
-void PerceptionService::SensorLoop() {
+void PerceptionService::SensorLoop(core::WorkLoop& loop) {
   // Polls the platform at twice its lidar rate: a scan reaches the local planner within half a period of its
   // arrival, whatever the perception thread is busy with (mapping, stairs, camera).
   const double rate_hz = capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0;
   const auto period =
       std::chrono::duration_cast<core::SteadyClock::duration>(std::chrono::duration<double>(0.5 / rate_hz));
   core::SteadyTime next = core::SteadyClock::now();
-  while (!core::ShutdownRequested()) {
-    try {
-      ReadScan(NowS());
-    } catch (const std::exception& e) {
-      // A sensor fault must never take the robot down: the local planner's input goes stale and the robot
-      // stops (navigation.obstacle_timeout_s).
-      spdlog::error("robot {}: lidar read failed: {}", options_.robot_id, e.what());
+  while (loop.Running()) {
+    loop.Beat();
+    {
+      // A read fault ends the loop: its component (platform) is restarted, and meanwhile the local planner's
+      // input goes stale and the robot stops (navigation.obstacle_timeout_s).
+      core::ScopedCpu cpu(loop.component());
+      if (fault_hook_) fault_hook_("platform");
+      if (capabilities_.has_lidar) ReadScan(NowS());
     }
     next += period;
     const auto now = core::SteadyClock::now();
     if (next < now) next = now;
-    core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
+    loop.WaitFor(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
   }
 }
 
-void PerceptionService::PerceptionLoop() {
+void PerceptionService::PerceptionLoop(core::WorkLoop& loop) {
   const double rate_hz = capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0;
   const auto period =
       std::chrono::duration_cast<core::SteadyClock::duration>(std::chrono::duration<double>(0.5 / rate_hz));
   core::CameraImage image;
   core::SteadyTime next = core::SteadyClock::now();
-  while (!core::ShutdownRequested()) {
+  while (loop.Running()) {
+    loop.Beat();
     const double now_s = NowS();
-    try {
+    {
+      // A fault ends the loop: its component (perception) is restarted alone; the robot drives on without it
+      // where its modes allow (the mode tree's IsComponentUp).
+      core::ScopedCpu cpu(loop.component());
+      if (fault_hook_) fault_hook_("perception");
       std::shared_ptr<core::LidarScan> scan;
       {
         std::lock_guard<std::mutex> guard(scan_mutex_);
@@ -118,75 +124,77 @@ void PerceptionService::PerceptionLoop() {
       const bool has_image = capabilities_.has_camera && perception_->CameraDue(now_s) &&
                              platform_->ReadCameraImage(now_s, &image);
       publish_(perception_->Tick(now_s, scan.get(), has_image ? &image : nullptr));
-    } catch (const std::exception& e) {
-      // Perception must never take the robot down.
-      spdlog::error("robot {}: perception tick failed: {}", options_.robot_id, e.what());
+      map_memory_bytes_ = perception_->map()->MemoryBytes();
     }
     next += period;
     const auto now = core::SteadyClock::now();
     if (next < now) next = now;  // over budget: the next scan comes late, never a burst
-    core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
+    loop.WaitFor(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
   }
 }
 
-void PerceptionService::NavMapLoop() {
+void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
   const auto period = std::chrono::duration_cast<core::SteadyClock::duration>(
       std::chrono::duration<double>(options_.nav_map.update_period_s));
   core::SteadyTime next = core::SteadyClock::now() + period;
-  while (!core::ShutdownRequested()) {
-    core::WaitForShutdown(
-        std::chrono::duration_cast<std::chrono::milliseconds>(next - core::SteadyClock::now()));
-    if (core::ShutdownRequested()) break;
+  // Beats at least every 100 ms while it waits for its next update.
+  const auto beat_every = std::chrono::milliseconds(100);
+  while (loop.Running()) {
+    loop.Beat();
+    const auto now = core::SteadyClock::now();
+    if (now < next) {
+      loop.WaitFor(std::min(beat_every, std::chrono::duration_cast<std::chrono::milliseconds>(next - now) +
+                                            std::chrono::milliseconds(1)));
+      continue;
+    }
     next += period;
     if (next < core::SteadyClock::now()) next = core::SteadyClock::now() + period;
-    try {
-      const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
-      // With no changed tile, Update() still grows the map when a goal beyond it asked to.
-      const NavMapUpdateStats stats =
-          nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m(), perception_->max_sensor_z_m(),
-                           perception_->Staircases());
-      last_map_update_s_ = NowS();
-      std::optional<nav::FrontierOptions> search;
-      Eigen::Vector3d robot_p_M;
-      bool every_level = false;
-      std::shared_ptr<const nav::PeerCoverage> peers;
-      double coverage_cell_m = 0.0;
-      {
-        std::lock_guard<std::mutex> guard(frontier_mutex_);
-        search = frontier_search_;
-        robot_p_M = robot_p_M_;
-        every_level = frontier_every_level_;
-        peers = peer_coverage_;
-        coverage_cell_m = coverage_cell_m_;
-      }
-      if (coverage_cell_m > 0) {
-        nav::CoverageBitmap seen = nav::SeenCoverage(nav_map_->grid(), coverage_cell_m);
-        std::lock_guard<std::mutex> guard(frontier_mutex_);
-        seen_coverage_ = std::move(seen);
-        coverage_cell_m_ = 0.0;
-      }
-      if (search) {
-        nav::FrontierSet set = nav_map_->Frontiers(robot_p_M, *search, every_level, peers.get());
-        std::lock_guard<std::mutex> guard(frontier_mutex_);
-        frontiers_ = std::move(set);
-        frontiers_at_s_ = NowS();
-      }
-      if (stats.grown) {
-        spdlog::info("robot {}: navigation map grown to x [{:.1f}, {:.1f}], y [{:.1f}, {:.1f}] (v{}, {:.0f} ms)",
-                     options_.robot_id, stats.extent_M.min().x(), stats.extent_M.max().x(),
-                     stats.extent_M.min().y(), stats.extent_M.max().y(), stats.map_version,
-                     stats.read_ms + stats.traversability_ms + stats.publish_ms);
-      }
-      if (stats.applied) {
-        spdlog::debug(
-            "robot {}: navigation map v{}: {} tiles in {:.1f} x {:.1f} m, {} occupied voxels, read {:.1f} "
-            "ms, traversability {:.1f} ms, publish {:.1f} ms, {} staircase priors",
-            options_.robot_id, stats.map_version, stats.tiles, stats.region_M.sizes().x(),
-            stats.region_M.sizes().y(), stats.occupied_voxels, stats.read_ms, stats.traversability_ms,
-            stats.publish_ms, stats.stair_priors);
-      }
-    } catch (const std::exception& e) {
-      spdlog::error("robot {}: navigation map update failed: {}", options_.robot_id, e.what());
+    core::ScopedCpu cpu(loop.component());
+    const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
+    // With no changed tile, Update() still grows the map when a goal beyond it asked to.
+    const NavMapUpdateStats stats =
+        nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m(),
+                         perception_->max_sensor_z_m(), perception_->Staircases());
+    last_map_update_s_ = NowS();
+    std::optional<nav::FrontierOptions> search;
+    Eigen::Vector3d robot_p_M;
+    bool every_level = false;
+    std::shared_ptr<const nav::PeerCoverage> peers;
+    double coverage_cell_m = 0.0;
+    {
+      std::lock_guard<std::mutex> guard(frontier_mutex_);
+      search = frontier_search_;
+      robot_p_M = robot_p_M_;
+      every_level = frontier_every_level_;
+      peers = peer_coverage_;
+      coverage_cell_m = coverage_cell_m_;
+    }
+    if (coverage_cell_m > 0) {
+      nav::CoverageBitmap seen = nav::SeenCoverage(nav_map_->grid(), coverage_cell_m);
+      std::lock_guard<std::mutex> guard(frontier_mutex_);
+      seen_coverage_ = std::move(seen);
+      coverage_cell_m_ = 0.0;
+    }
+    if (search) {
+      nav::FrontierSet set = nav_map_->Frontiers(robot_p_M, *search, every_level, peers.get());
+      std::lock_guard<std::mutex> guard(frontier_mutex_);
+      frontiers_ = std::move(set);
+      frontiers_at_s_ = NowS();
+    }
+    if (stats.grown) {
+      spdlog::info(
+          "robot {}: navigation map grown to x [{:.1f}, {:.1f}], y [{:.1f}, {:.1f}] (v{}, {:.0f} ms)",
+          options_.robot_id, stats.extent_M.min().x(), stats.extent_M.max().x(), stats.extent_M.min().y(),
+          stats.extent_M.max().y(), stats.map_version,
+          stats.read_ms + stats.traversability_ms + stats.publish_ms);
+    }
+    if (stats.applied) {
+      spdlog::debug(
+          "robot {}: navigation map v{}: {} tiles in {:.1f} x {:.1f} m, {} occupied voxels, read {:.1f} "
+          "ms, traversability {:.1f} ms, publish {:.1f} ms, {} staircase priors",
+          options_.robot_id, stats.map_version, stats.tiles, stats.region_M.sizes().x(),
+          stats.region_M.sizes().y(), stats.occupied_voxels, stats.read_ms, stats.traversability_ms,
+          stats.publish_ms, stats.stair_priors);
     }
   }
 }

@@ -1,8 +1,11 @@
 // RobotAgent: the composition of one robot's components (docs/AGENT.md): the mode tree running the mode
 // modules through the mux (ModeControl), the command interface, navigation and its planning service,
-// perception, the telemetry and the DDS adapter, on five threads: control (Run, 50 Hz), sensor, perception,
-// navigation map and planning. One lock (mutex_) serialises the control loop, the DDS handlers and the
-// planning thread's goal answers; the components themselves are not thread-safe unless they say so.
+// perception, the telemetry and the DDS adapter. They run as core::Components (agent_components.h) watched by
+// a core::HealthMonitor, which restarts one that throws or stalls alone: the control cycle (Run, 50 Hz; its
+// parts command_interface, mode_tree, mux, navigation, telemetry), and the threads of platform (sensor),
+// perception (perception, navigation map) and planning. One lock (mutex_) serialises the control loop, the
+// DDS handlers and the planning thread's goal answers; the components themselves are not thread-safe unless
+// they say so.
 #include "cairn/agent/robot_agent.h"
 
 #include <spdlog/spdlog.h>
@@ -13,10 +16,12 @@
 #include <exception>
 #include <filesystem>
 #include <future>
+#include <map>
 #include <mutex>
 #include <random>
 #include <thread>
 
+#include "cairn/agent/agent_components.h"
 #include "cairn/agent/agent_dds.h"
 #include "cairn/agent/command_interface.h"
 #include "cairn/agent/explore_mode.h"
@@ -31,7 +36,9 @@
 #include "cairn/agent/trajectory_library_cache.h"
 #include "cairn/agent/waypoint_mode.h"
 #include "cairn/agent/waypoint_recovery.h"
+#include "cairn/core/health_monitor.h"
 #include "cairn/core/shutdown.h"
+#include "cairn_msgs.h"
 #include "range_check.h"
 
 #ifndef CAIRN_CONFIG_DIR
@@ -126,7 +133,8 @@ class RobotAgent::Impl {
  public:
   Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform);
   ~Impl() {
-    dds_.reset();  // first: no handler runs while the rest goes
+    if (health_) health_->StopAll();  // the component threads end before what they use
+    dds_.reset();                     // no handler runs while the rest goes
     if (home_plan_.valid()) navigation_.Abandon(std::move(home_plan_));
   }
   Impl(const Impl&) = delete;
@@ -190,6 +198,31 @@ class RobotAgent::Impl {
   std::unique_ptr<JournalWriter> journal_;  // --journal: the last known safe state on disk
   std::mutex mutex_;
 
+  // The components (agent_components.h) and their health monitor; made last, stopped first (~Impl).
+  FaultInjector faults_;
+  std::unique_ptr<PlatformComponent> platform_c_;
+  std::unique_ptr<PerceptionComponent> perception_c_;
+  std::unique_ptr<PlanningComponent> planning_c_;
+  std::unique_ptr<ControlLoopComponent> command_c_, mode_tree_c_, mux_c_, navigation_c_, telemetry_c_;
+  std::unique_ptr<core::HealthMonitor> health_;
+  std::mutex health_event_mutex_;  // guards the two below (the monitor's thread writes them)
+  uint32_t health_events_ = 0;
+  core::HealthEvent last_health_event_{core::HealthEvent::Kind::kFailed, "", ""};
+  std::atomic<bool> health_due_{true};
+  SteadyTime last_health_publish_{};
+  double last_process_cpu_s_ = 0.0;
+  double process_cpu_percent_ = 0.0;
+
+  // In the constructor: the components and their monitor (not started).
+  void MakeComponents();
+  // The monitor's event: logged there; published at once.
+  void OnHealthEvent(const core::HealthEvent& event);
+  // Control thread, outside the agent lock: the health message when due (health_due_, or its period).
+  void PublishHealthIfDue(SteadyTime now);
+  // With mutex_ held, at the top of a control cycle: a control-loop part restarted since the last cycle has
+  // its state reset.
+  void ResetRestartedParts();
+
   // With mutex_ held: what the journal keeps now.
   JournalEntry JournalNow() const;
   // With mutex_ held, in the constructor: a robot restarted from its journal (--resume) comes up idle with
@@ -205,9 +238,15 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       start_M_(StartPose(*platform_)),
       planner_(MakePlanner(options, start_M_)),
       pose_(start_M_),
-      navigation_(options.navigation, planner_,
-                  LocalPlannerLibrary(options)),
-      team_(options.robot_id, options.explore.team) {
+      navigation_(options.navigation, planner_, LocalPlannerLibrary(options)),
+      team_(options.robot_id, options.explore.team),
+      faults_(
+          [&] {
+            std::vector<FaultInjection> faults;
+            for (const std::string& f : options.inject_faults) faults.push_back(ParseFaultInjection(f));
+            return faults;
+          }(),
+          start_time_) {
   perception_ = std::make_unique<PerceptionService>(
       options, platform_, start_M_, planner_, start_time_,
       [this](const PerceptionOutput& out) { telemetry_->PublishPerception(out); });
@@ -250,6 +289,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
     std::lock_guard<std::mutex> guard(mutex_);
     journal_->Submit(JournalNow());
   }
+  MakeComponents();
   dds_->Listen(DdsHandlers());
   telemetry_->PublishAgentInfo(capabilities_, kVersion);
   telemetry_->PublishGlobalPathIfChanged();  // an empty path: late joiners see "no goal"
@@ -377,6 +417,10 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
     return CommandOutcome{true, "exploring " + std::to_string(explore_->status().task_id),
                           explore_->status().task_id};
   };
+  // Queued for the monitor's thread: a component's threads are never waited for under the agent lock.
+  hooks.restart_component = [this](const std::string& component, const std::string& by) {
+    return health_->RequestRestart(component, by);
+  };
   return hooks;
 }
 
@@ -395,6 +439,7 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   h.explore = locked([this](const ExploreCommand& c) { command_->OnExplore(c); });
   h.home = locked([this](const HomeCommand& c) { command_->OnHome(c, start_M_); });
   h.stop = locked([this](const StopCommand& c) { command_->OnStop(c); });
+  h.restart = locked([this](const RestartCommand& c) { command_->OnRestart(c); });
   h.teleop = locked([this](const TeleopCommand& c) { command_->OnTeleop(c, SteadyClock::now()); });
   h.base_announced = locked([this](const BaseAnnouncement& b) { command_->OnBaseAnnounced(b); });
   h.base_liveliness =
@@ -444,6 +489,7 @@ ModeConditions RobotAgent::Impl::Conditions() const {
       navigation_.ObstacleSensingAlive(NowS(SteadyClock::now()), &c.local_planner_problem);
   c.has_explore_task = explore_->exploring();
   c.mapping_healthy = perception_->MappingHealthy(&c.mapping_problem);
+  if (health_) c.components_down = health_->Down();
   return c;
 }
 
@@ -477,52 +523,195 @@ void RobotAgent::Impl::ComeHomeIfSilent(SteadyTime now) {
 }
 
 void RobotAgent::Impl::Step(SteadyTime now) {
-  command_->Update(now);
-  const ModeDecision recheck = modes_->Recheck(Conditions());
-  if (!recheck.accepted) spdlog::warn("robot {}: {} -> idle", options_.robot_id, recheck.reason);
+  ResetRestartedParts();
+  command_c_->Run([&] { command_->Update(now); });
+  mode_tree_c_->Run([&] {
+    const ModeDecision recheck = modes_->Recheck(Conditions());
+    if (!recheck.accepted) spdlog::warn("robot {}: {} -> idle", options_.robot_id, recheck.reason);
+  });
 
   const double now_s = NowS(now);
-  // The robot as its platform reports it: pose estimate (SLAM), health.
-  platform_->Update(now_s);
-  const core::PoseEstimate estimate = platform_->ReadPose();
-  pose_ = estimate.PlanarState();
-  if (estimate.healthy != pose_healthy_) {
-    if (estimate.healthy) {
-      spdlog::info("robot {}: localization recovered", options_.robot_id);
-    } else {
-      spdlog::warn("robot {}: localization lost: {}", options_.robot_id, estimate.problem);
+  // The robot as its platform reports it: pose estimate (SLAM), health. A platform call that throws takes the
+  // platform component down (its restart re-reads the sensors); the robot is told zero twist meanwhile.
+  bool platform_ok = true;
+  try {
+    platform_->Update(now_s);
+    const core::PoseEstimate estimate = platform_->ReadPose();
+    pose_ = estimate.PlanarState();
+    if (estimate.healthy != pose_healthy_) {
+      if (estimate.healthy) {
+        spdlog::info("robot {}: localization recovered", options_.robot_id);
+      } else {
+        spdlog::warn("robot {}: localization lost: {}", options_.robot_id, estimate.problem);
+      }
+    }
+    pose_healthy_ = estimate.healthy;
+    pose_problem_ = estimate.healthy ? "" : estimate.problem;
+  } catch (const std::exception& e) {
+    platform_c_->ReportFailure(std::string("pose estimate: ") + e.what());
+    platform_ok = false;
+  }
+  const ModeInputs inputs{now, now_s, pose_};
+  // Navigation: live obstacles, the explore mode's frontiers and team, the running mode's step.
+  const bool navigated = navigation_c_->Run([&] {
+    perception_->FeedObstacles(navigation_);  // obstacles from live lidar points, at the sensor's rate
+    // A robot waiting on a goal (or between frontiers) watches the world.
+    perception_->SetMapRefreshAtRest(waypoint_->has_goal() || explore_->exploring());
+    perception_->SetFrontierSearch(explore_->frontier_search(), explore_->every_level());
+    perception_->SetRobotPosition({pose_.x_m, pose_.y_m, pose_.z_m});
+    if (auto frontiers = perception_->TakeFrontiers())
+      explore_->OnFrontiers(std::move(frontiers->first), frontiers->second);
+    // The team: what peers go for and have seen shapes the choice; this robot's claim goes out when due.
+    explore_->SetPeerClaims(team_.LiveClaims(now_s));
+    explore_->SetTeamView(team_.ExploringPeers(now_s), team_.PeerSeenM2());
+    perception_->SetPeerCoverage(team_.Coverage());
+    if (modes_->Step(inputs))
+      modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
+    ComeHomeIfSilent(now);
+    // Written by Run() once the agent lock is released: Fast DDS hands the sample to this participant's own
+    // claim reader on the writing thread, and the liveliness callbacks that come with it take the agent lock.
+    claim_to_send_ = DueClaim(*explore_, team_, now_s, [this] {
+      return perception_->TakeSeenCoverage(team_.options().coverage_cell_m);
+    });
+  });
+  telemetry_c_->Run([&] { telemetry_->PublishGlobalPathIfChanged(); });
+
+  Twist2 twist_B;
+  const bool muxed = mux_c_->Run([&] { twist_B = modes_->Compute(now).twist_B; });
+  // A part of the driving chain that failed or is down: zero twist, and the robot leaves its mode (it is not
+  // driven by a half-working chain when the part comes back).
+  if (!(muxed && navigated && platform_ok && mode_tree_c_->up() && navigation_c_->up() && mux_c_->up())) {
+    twist_B = Twist2{};
+    if (modes_->mode() != ModeManager::kIdleMode) {
+      try {
+        modes_->Stop("a component of the driving chain is down (health " + options_.robot_id + ")");
+      } catch (const std::exception& e) {
+        spdlog::error("robot {}: cannot go idle: {}", options_.robot_id, e.what());
+      }
     }
   }
-  pose_healthy_ = estimate.healthy;
-  pose_problem_ = estimate.healthy ? "" : estimate.problem;
-  perception_->FeedObstacles(navigation_);  // obstacles from live lidar points, at the sensor's rate
-  // A robot waiting on a goal (or between frontiers) watches the world.
-  perception_->SetMapRefreshAtRest(waypoint_->has_goal() || explore_->exploring());
-  // The explore mode's frontiers, searched on the navigation map thread.
-  perception_->SetFrontierSearch(explore_->frontier_search(), explore_->every_level());
-  perception_->SetRobotPosition({pose_.x_m, pose_.y_m, pose_.z_m});
-  if (auto frontiers = perception_->TakeFrontiers()) explore_->OnFrontiers(std::move(frontiers->first), frontiers->second);
-  // The team: what peers go for and have seen shapes the choice; this robot's claim goes out when due.
-  explore_->SetPeerClaims(team_.LiveClaims(now_s));
-  explore_->SetTeamView(team_.ExploringPeers(now_s), team_.PeerSeenM2());
-  perception_->SetPeerCoverage(team_.Coverage());
+  try {
+    platform_->CommandTwist(twist_B.linear_x_mps, twist_B.angular_z_radps, now_s);
+    const core::PlatformStatus status = platform_->ReadStatus();
+    in_contact_ = status.in_contact;
+    if (navigated && mode_tree_c_->up()) {
+      mode_tree_c_->Run(
+          [&] {
+            if (modes_->OnPlatformStatus(status, inputs))
+              modes_->GoIdle(Conditions());  // e.g. a goal blocked in contact
+          },
+          /*beat=*/false);
+    }
+  } catch (const std::exception& e) {
+    platform_c_->ReportFailure(std::string("driver: ") + e.what());
+  }
+}
 
-  const ModeInputs inputs{now, now_s, pose_};
-  if (modes_->Step(inputs)) modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
-  ComeHomeIfSilent(now);
-  // Written by Run() once the agent lock is released: Fast DDS hands the sample to this participant's own claim
-  // reader on the writing thread, and the liveliness callbacks that come with it take the agent lock.
-  claim_to_send_ = DueClaim(*explore_, team_, now_s, [this] {
-    return perception_->TakeSeenCoverage(team_.options().coverage_cell_m);
-  });
-  telemetry_->PublishGlobalPathIfChanged();
+void RobotAgent::Impl::ResetRestartedParts() {
+  for (ControlLoopComponent* part : {mode_tree_c_.get(), mux_c_.get(), navigation_c_.get()}) {
+    if (part->TakeRestart()) {
+      try {
+        modes_->Stop(part->name() + " restarted");  // idle, no goal: the operator decides what comes next
+      } catch (const std::exception& e) {
+        part->ReportFailure(std::string("reset after restart: ") + e.what());
+      }
+    }
+  }
+  if (telemetry_c_->TakeRestart()) telemetry_->RequestWholeState();
+  command_c_->TakeRestart();  // the lock, its holder and the reply cache are kept: nothing to reset
+}
 
-  const MuxOutput& command = modes_->Compute(now);
-  platform_->CommandTwist(command.twist_B.linear_x_mps, command.twist_B.angular_z_radps, now_s);
-  const core::PlatformStatus status = platform_->ReadStatus();
-  in_contact_ = status.in_contact;
-  if (modes_->OnPlatformStatus(status, inputs))
-    modes_->GoIdle(Conditions());  // e.g. a goal blocked in contact
+void RobotAgent::Impl::MakeComponents() {
+  const double lidar_hz = capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0;
+  platform_c_ = std::make_unique<PlatformComponent>(perception_.get(), 2 * lidar_hz);
+  perception_c_ = std::make_unique<PerceptionComponent>(perception_.get(), 2 * lidar_hz);
+  planning_c_ = std::make_unique<PlanningComponent>(planning_.get(), faults_.empty() ? nullptr : &faults_);
+  FaultInjector* faults = faults_.empty() ? nullptr : &faults_;
+  const double control_hz = 1.0 / kLoopPeriodS;
+  command_c_ = std::make_unique<ControlLoopComponent>("command_interface", control_hz, faults);
+  mode_tree_c_ = std::make_unique<ControlLoopComponent>("mode_tree", control_hz, faults);
+  mux_c_ = std::make_unique<ControlLoopComponent>("mux", control_hz, faults);
+  navigation_c_ = std::make_unique<ControlLoopComponent>("navigation", control_hz, faults);
+  telemetry_c_ = std::make_unique<ControlLoopComponent>("telemetry", control_hz, faults);
+  if (faults != nullptr)
+    perception_->SetFaultHook([faults](const char* component) { faults->Check(component); });
+  health_ = std::make_unique<core::HealthMonitor>([this](const core::HealthEvent& e) { OnHealthEvent(e); });
+  // Deadlines: a loop beats every iteration; perception's ticks (a map insert, a staircase search, a
+  // navigation map update) and planning's plans may each take seconds on a big map, the control cycle 20 ms.
+  core::RestartPolicy base;
+  base.first_backoff_s = options_.restart_backoff_s;
+  base.max_backoff_s = options_.restart_backoff_max_s;
+  core::RestartPolicy sensor = base;
+  sensor.heartbeat_deadline_s = 1.0;
+  core::RestartPolicy perception = base;
+  perception.heartbeat_deadline_s = 3.0;
+  core::RestartPolicy planning = base;
+  planning.heartbeat_deadline_s = 10.0;
+  core::RestartPolicy control = base;
+  control.heartbeat_deadline_s = 2.0;
+  health_->Add(platform_c_.get(), sensor);
+  health_->Add(perception_c_.get(), perception);
+  health_->Add(planning_c_.get(), planning);
+  for (core::Component* c :
+       {static_cast<core::Component*>(command_c_.get()), static_cast<core::Component*>(mode_tree_c_.get()),
+        static_cast<core::Component*>(mux_c_.get()), static_cast<core::Component*>(navigation_c_.get()),
+        static_cast<core::Component*>(telemetry_c_.get())}) {
+    health_->Add(c, control);
+  }
+}
+
+void RobotAgent::Impl::OnHealthEvent(const core::HealthEvent& event) {
+  {
+    std::lock_guard<std::mutex> guard(health_event_mutex_);
+    ++health_events_;
+    last_health_event_ = event;
+  }
+  health_due_ = true;
+}
+
+void RobotAgent::Impl::PublishHealthIfDue(SteadyTime now) {
+  const double period_s = core::IsRadioLink(options_.link) ? 10.0 : 2.0;
+  if (!health_due_.exchange(false) && core::SecondsBetween(last_health_publish_, now) < period_s) return;
+  const double window_s = core::SecondsBetween(last_health_publish_, now);
+  const double cpu_s = ProcessCpuSeconds();
+  if (last_health_publish_ != SteadyTime{} && window_s > 0.2) {
+    process_cpu_percent_ = 100.0 * (cpu_s - last_process_cpu_s_) / window_s;
+  }
+  if (last_health_publish_ == SteadyTime{} || window_s > 0.2) {
+    last_process_cpu_s_ = cpu_s;
+    last_health_publish_ = now;
+  }
+  cairn_msgs::AgentHealth m;
+  m.robot_id(options_.robot_id);
+  const core::WallStamp stamp = core::WallNow();
+  m.stamp().sec(stamp.sec);
+  m.stamp().nanosec(stamp.nanosec);
+  for (const core::ComponentHealth& h : health_->Snapshot(now)) {
+    cairn_msgs::ComponentHealth c;
+    c.name(h.name);
+    c.state(h.state);
+    c.loop_rate_hz(static_cast<float>(h.loop_rate_hz));
+    c.target_rate_hz(static_cast<float>(h.target_rate_hz));
+    c.last_error(h.last_error.size() > 240 ? h.last_error.substr(0, 237) + "..." : h.last_error);
+    c.cpu_percent(static_cast<float>(h.cpu_percent));
+    c.memory_bytes(h.memory_bytes);
+    c.restarts(h.restarts);
+    c.restart_in_s(static_cast<float>(h.restart_in_s));
+    c.down_for_s(static_cast<float>(h.down_for_s));
+    m.components().push_back(std::move(c));
+  }
+  m.rss_bytes(ProcessRssBytes());
+  m.process_cpu_percent(static_cast<float>(process_cpu_percent_));
+  {
+    std::lock_guard<std::mutex> guard(health_event_mutex_);
+    m.events(health_events_);
+    if (health_events_ > 0) {
+      m.last_event(last_health_event_.message);
+      m.last_event_kind(core::ToString(last_health_event_.kind));
+      m.last_event_component(last_health_event_.component);
+    }
+  }
+  if (!dds_->Publish(m)) spdlog::warn("robot {}: health not sent (DDS history full)", options_.robot_id);
 }
 
 void RobotAgent::Impl::Run() {
@@ -532,24 +721,19 @@ void RobotAgent::Impl::Run() {
       std::max(1, static_cast<int>(std::lround(1.0 / (options_.state_rate_hz * kLoopPeriodS))));
   const int local_plan_every =
       std::max(1, static_cast<int>(std::lround(1.0 / (options_.local_plan_rate_hz * kLoopPeriodS))));
-  // The lidar feeds navigation (live obstacles, the navigation map) even with perception's outputs disabled.
-  std::thread sensor_thread;
-  if (capabilities_.has_lidar) sensor_thread = std::thread([this] { perception_->SensorLoop(); });
-  std::thread perception_thread([this] { perception_->PerceptionLoop(); });
-  std::thread nav_map_thread([this] { perception_->NavMapLoop(); });
-  std::thread plan_thread([this] { planning_->Run([] { return !core::ShutdownRequested(); }); });
-  // Joins the threads however Run() ends (an exception would otherwise terminate the process).
-  struct JoinOnExit {
-    std::thread* threads[4];
-    ~JoinOnExit() {
-      for (std::thread* t : threads) {
-        if (t->joinable()) {
-          core::RequestShutdown();
-          t->join();
-        }
-      }
+  // The components' threads (sensor, perception, navigation map, planning) start, and their monitor watches
+  // every component from now on. The lidar feeds navigation (live obstacles, the navigation map) even with
+  // perception's outputs disabled.
+  health_->StartAll();
+  // Stops them however Run() ends (an exception would otherwise leave threads running).
+  struct StopOnExit {
+    core::HealthMonitor* health;
+    ~StopOnExit() {
+      core::RequestShutdown();
+      health->StopAll();
     }
-  } join_on_exit{{&sensor_thread, &perception_thread, &nav_map_thread, &plan_thread}};
+  } stop_on_exit{health_.get()};
+  health_->StartChecking();
   SteadyTime next = SteadyClock::now();
   for (uint64_t cycle = 0; !core::ShutdownRequested(); ++cycle) {
     const SteadyTime wanted = SteadyClock::now();
@@ -586,6 +770,7 @@ void RobotAgent::Impl::Run() {
       }
     }
     if (claim) SendClaim(*claim);
+    PublishHealthIfDue(SteadyClock::now());
     if (cycle % 50 == 0) ShareRadioLink();
     next += period;
     const auto now = SteadyClock::now();
@@ -608,9 +793,7 @@ void RobotAgent::Impl::Run() {
   std::exception_ptr failure;
   std::thread finisher([&] {
     try {
-      for (std::thread* t : {&sensor_thread, &perception_thread, &nav_map_thread, &plan_thread}) {
-        if (t->joinable()) t->join();
-      }
+      health_->StopAll();  // the component threads end (they see the shutdown)
       if (options_.perception.enabled) {
         // The last changes (within the budget), and a moment for the asynchronous writer to deliver them.
         telemetry_->PublishPerception(perception_->Flush());

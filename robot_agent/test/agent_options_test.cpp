@@ -45,6 +45,14 @@ TEST(AgentOptions, ConfigErrorsNameFileFieldAndValue) {
   }
   EXPECT_THROW(options.LoadConfigFile(Write("bad3.yaml", "command_interface:\n  lock_keep_s: soon\n")),
                core::ConfigError);
+  try {
+    AgentOptions fresh;
+    fresh.robot_id = "r1";
+    fresh.LoadConfigFile(Write("bad4.yaml", "health:\n  restart_backoff_s: 5\n  restart_backoff_max_s: 2\n"));
+    FAIL();
+  } catch (const core::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("health.restart_backoff_max_s = 2"), std::string::npos) << e.what();
+  }
 }
 
 TEST(AgentOptions, NavigationConfigErrorsNameTheField) {

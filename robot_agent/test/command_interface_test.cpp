@@ -62,6 +62,11 @@ struct Robot {
       }
       return CommandOutcome{true, "exploring 9", 9};
     };
+    hooks.restart_component = [this](const std::string& component, const std::string& by) {
+      if (component != "perception") return std::string("no component \"" + component + "\"");
+      restarts.push_back(component + " by " + by);
+      return std::string();
+    };
     command = std::make_unique<CommandInterface>("r1", ControlLockOptions{}, modes.get(), "waypoint", hooks);
   }
   ModeConditions Conditions() {
@@ -86,6 +91,7 @@ struct Robot {
   std::vector<CommandReply> replies;
   std::vector<GoalCommand> planned;
   std::vector<ExploreCommand> explored;
+  std::vector<std::string> restarts;
   bool planner_healthy = true;
   bool has_goal = false;
   bool has_task = false;
@@ -364,6 +370,25 @@ TEST(CommandInterface, ExploreIsTheHoldersCheckedAndDecidedByTheTree) {
   EXPECT_EQ(r.modes->mode(), "explore");
 }
 
+TEST(CommandInterface, RestartIsTheHoldersAndNamesAnUnknownComponent) {
+  Robot r;
+  r.command->OnRestart(RestartCommand{OpA(), 1, "perception"});
+  EXPECT_EQ(r.last().result, CommandResult::kDiscarded) << "nobody holds the lock: not even that";
+  r.Take(OpA());
+  r.command->OnRestart(RestartCommand{OpB(), 1, "perception"});
+  EXPECT_EQ(r.last().result, CommandResult::kDiscarded);
+  EXPECT_TRUE(r.restarts.empty());
+  r.command->OnRestart(RestartCommand{OpA(), 2, "lidar"});
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_EQ(r.last().reason, "no component \"lidar\"");
+  r.command->OnRestart(RestartCommand{OpA(), 3, "perception"});
+  EXPECT_EQ(r.last().result, CommandResult::kAccepted);
+  EXPECT_EQ(r.last().kind, CommandKind::kRestart);
+  EXPECT_EQ(r.last().reason, "restarting perception");
+  r.command->OnRestart(RestartCommand{OpA(), 3, "perception"});  // a retry: answered, not applied again
+  EXPECT_EQ(r.restarts, (std::vector<std::string>{"perception by opA"}));
+}
+
 TEST(CommandInterface, NeedsEveryHookAndValidLockOptions) {
   Robot r;
   EXPECT_THROW(
@@ -378,6 +403,10 @@ TEST(CommandInterface, NeedsEveryHookAndValidLockOptions) {
                std::invalid_argument)
       << "start_explore is required";
   hooks.start_explore = [](const ExploreCommand&) { return CommandOutcome{}; };
+  EXPECT_THROW(CommandInterface("r1", ControlLockOptions{}, r.modes.get(), "waypoint", hooks),
+               std::invalid_argument)
+      << "restart_component is required";
+  hooks.restart_component = [](const std::string&, const std::string&) { return std::string(); };
   EXPECT_THROW(CommandInterface("r1", ControlLockOptions{}, nullptr, "waypoint", hooks),
                std::invalid_argument);
   ControlLockOptions bad;

@@ -92,6 +92,34 @@ TEST(ModeManager, ValidModesAreTheOperatorsValidActions) {
   EXPECT_EQ(modes.mode(), "idle") << "ValidModes must not switch";
 }
 
+// Issue 15: a mode that needs a component that is down is refused naming it, falls back to idle on its
+// re-check, and is valid again once the component is back; the others go on.
+TEST(ModeManager, ModesNeedingAComponentThatIsDownAreRefusedUntilItIsBack) {
+  ModeManager modes(kTree, kChannels);
+  ModeConditions c = Held();
+  c.joystick_alive = true;
+  c.has_explore_task = true;
+  c.mapping_healthy = true;
+  ASSERT_TRUE(modes.Request("smart_joystick", c).accepted);
+  c.components_down["perception"] = "perception is down (injected fault); restart in 0.8 s";
+  const ModeDecision recheck = modes.Recheck(c);
+  EXPECT_FALSE(recheck.accepted);
+  EXPECT_EQ(modes.mode(), "idle");
+  EXPECT_NE(recheck.reason.find("IsComponentUp: perception is down (injected fault); restart in 0.8 s"),
+            std::string::npos)
+      << recheck.reason;
+  EXPECT_FALSE(modes.Request("explore", c).accepted);
+  EXPECT_EQ(modes.ValidModes(c), (std::vector<std::string>{"idle", "manual"}));
+  c.has_waypoint_goal = true;
+  EXPECT_EQ(modes.ValidModes(c), (std::vector<std::string>{"idle", "manual", "waypoint"}))
+      << "waypoint drives on the platform's live obstacles, not on perception";
+  c.components_down.clear();
+  c.components_down["platform"] = "platform is down (lidar read threw)";
+  EXPECT_EQ(modes.ValidModes(c), (std::vector<std::string>{"idle", "manual", "smart_joystick", "explore"}));
+  c.components_down.clear();
+  EXPECT_TRUE(modes.Request("smart_joystick", c).accepted);
+}
+
 // Issue 14: explore needs a task, a healthy local planner and a robot that maps; a refusal names which.
 TEST(ModeManager, ExploreNeedsATaskAndMappingAndTheRefusalNamesWhich) {
   ModeManager modes(kTree, kChannels);

@@ -5,6 +5,18 @@
 import { CairnLink, type CommandResult } from "./client";
 import { FleetScene, modeColor } from "./scene";
 
+// One component of a robot's agent (cairn_base health R).
+interface Component {
+  name: string;
+  state: string;
+  loop_rate_hz: number;
+  target_rate_hz: number;
+  cpu_percent: number;
+  restarts: number;
+  restart_in_s: number;
+  last_error: string;
+}
+
 interface Robot {
   id: string;
   platform: string;
@@ -24,6 +36,7 @@ interface Robot {
     over_budget: boolean;
     usage: { topic_class: string; sent_kbps: number }[];
   };
+  components?: Component[];
   mode: string;
   holder: string;
   holder_alive: boolean;
@@ -316,12 +329,32 @@ function linkCells(r: Robot): string {
   return `<td>${rtt}</td><td${l.loss_pct >= 5 ? ' class="bad"' : ""}>${loss}</td><td${l.over_budget ? ' class="bad"' : ""}>${l.over_budget ? "OVER " : ""}${sends}</td>`;
 }
 
+function hasDown(r: Robot): boolean {
+  return (r.components ?? []).some((c) => c.state !== "active");
+}
+
 function renderHealth(): void {
   const rows = state.robots.map(
     (r) => `<tr><td>${r.id}</td><td>${r.online ? "online" : "lost"}</td><td>${fmt(r.heard_s_ago, 1, " s")}</td>
       ${linkCells(r)}<td>${fmt(r.control_period_max_ms, 0, " ms")}</td><td>${r.in_contact ? "CONTACT" : "–"}</td><td>${fmt(r.camera_age_s, 1, " s")}</td></tr>`,
   );
   setHtml($("health-rows"), rows.join(""));
+  // Components, robot by robot (those with a part down first): a restart button where this basestation holds
+  // the robot's lock (the only ones a robot accepts it from).
+  const robots = [...state.robots].sort((a, b) => Number(hasDown(b)) - Number(hasDown(a)));
+  setHtml($("component-rows"), robots.filter((r) => (r.components ?? []).length > 0).map((r) => {
+    const head = `<tr class="group"><td colspan="6"><b>${r.id}</b>${hasDown(r) ? ' <b class="bad">component down</b>' : ""}</td></tr>`;
+    return head + (r.components ?? []).map((c) => {
+      const stateText = c.state === "down" ? `<b class="bad">DOWN</b> ${c.restart_in_s.toFixed(0)} s` : c.state;
+      const restart = r.you_hold && r.online
+        ? `<button class="restart" title="restart ${c.name}" data-cmd="restart ${r.id} ${c.name}">restart</button>` : "";
+      // The last error under the component's name (the panel is narrow): what made it fail last.
+      const error = c.last_error ? `<br><span class="reason error">${c.last_error}</span>` : "";
+      return `<tr data-robot-id="${r.id}"><td>${c.name}${error}</td><td>${stateText}</td>
+        <td>${c.loop_rate_hz.toFixed(0)}/${c.target_rate_hz.toFixed(0)}</td><td>${c.cpu_percent.toFixed(0)}</td>
+        <td>${c.restarts}</td><td>${restart}</td></tr>`;
+    }).join("");
+  }).join(""));
   $("health-link").textContent = `link: ${state.statusText} · received ${(link.bytesReceived / 1e6).toFixed(1)} MB · 3D: ${scene.voxelCount} voxels, ${scene.fps.toFixed(0)} fps`;
 }
 

@@ -108,7 +108,7 @@ test("the camera pane shows the selected robot's latest frame and its age", asyn
   await screenshot(page1, "07_camera");
 });
 
-test("the Health tab shows each robot's link: probe round trip, states lost, what it sends", async () => {
+test("the Health tab shows each robot's link (probe round trip, states lost, what it sends) and its components", async () => {
   await page1.locator('#tabs button[data-tab="health"]').click();
   const row = await waitFor("r1's link in the Health tab", async () => {
     const text = await page1.locator("#health-rows tr").first().innerText();
@@ -118,6 +118,15 @@ test("the Health tab shows each robot's link: probe round trip, states lost, wha
   const link = (await robotState(page1, "r1")).link;
   assert.equal(link.class, "loopback");
   assert.deepEqual(link.usage.map((u) => u.topic_class), ["command", "state", "tree", "team", "map", "camera"]);
+  // Its agent's components (health R): all up, with a restart button only where this page holds the lock.
+  const parts = await waitFor("r1's components in the Health tab", async () => {
+    const rows = await page1.locator('#component-rows tr[data-robot-id="r1"]').allInnerTexts();
+    return rows.length === 8 ? rows : null;
+  }, 10000);
+  assert.ok(parts.every((t) => /\sactive\s/.test(t)), parts.join("\n"));
+  assert.ok(parts.some((t) => /^perception\s+active\s+\d+\/20\s/.test(t)), parts.join("\n"));
+  const holds = (await robotState(page1, "r1")).you_hold;
+  assert.equal(await page1.locator('#component-rows button[data-cmd^="restart r1 "]').count(), holds ? 8 : 0);
   await screenshot(page1, "07b_health_links");
   await page1.locator('#tabs button[data-tab="robot"]').click();
 });

@@ -70,6 +70,8 @@ class CommandShell {
   int Watch(const std::vector<std::string>& args);
   int Events(const std::vector<std::string>& args);
   int Status(const std::vector<std::string>& args);
+  int Health(const std::vector<std::string>& args);
+  int Restart(const std::vector<std::string>& args);
   int HelpFor(const std::string& robot);
   int Control(const std::vector<std::string>& args, bool request);
   int Mode(const std::vector<std::string>& args);

@@ -44,6 +44,7 @@ struct RobotView {
   std::optional<cairn_msgs::BehaviorTreeState> tree;   ///< latest behavior-tree state
   std::optional<cairn_msgs::GlobalPath> global_path;   ///< global path being followed (latched)
   std::optional<cairn_msgs::LocalPlan> local_plan;     ///< latest local planner output (2 Hz)
+  std::optional<cairn_msgs::AgentHealth> health;       ///< latest health of its agent's components (latched)
   core::SteadyTime last_seen{};                        ///< last agent info or state
   core::SteadyTime state_received{};                   ///< when its last whole state or pose arrived
   core::SteadyTime whole_state_received{};             ///< when its last whole state arrived
@@ -149,6 +150,9 @@ class FleetClient {
   /// with or without its control lock (an e-stop); the lock stays with its holder. Sent at once even to a
   /// robot this basestation thinks lost or has not seen (retried until answered or command_timeout_s).
   CommandOutcome Stop(const std::string& robot_id);
+  /// Restarts one component of `robot_id`'s agent (RestartRequest; `health R` lists them). The holder's only;
+  /// the answer says the restart is under way, AgentHealth how it went.
+  CommandOutcome Restart(const std::string& robot_id, const std::string& component);
   /// Publishes one teleop twist (best effort, no acknowledgement), frame B of the robot: forward and
   /// left speed (m/s) and yaw rate (rad/s). false if it could not be written.
   bool PublishTeleop(const std::string& robot_id, double linear_x_mps, double angular_z_radps,

@@ -21,12 +21,14 @@ struct RobotView;
 
 /// One thing an operator should hear about.
 struct OperatorEvent {
-  /// "joined" (its agent info reached this basestation: what it offers, in `message`) | "arrived" | "failed" (a
-  /// goal ended without arriving) | "recovering" (navigation gave up and the recovery tree runs: once when it
-  /// starts and once per failed attempt) | "lost" (liveliness lapsed or state silent) | "left" (its process
-  /// exited cleanly) | "back" | "over_budget" (it sends more than its stated link budget; `reason`: the
-  /// busiest topic class) | "lock_granted" | "lock_released" | "lock_taken" | "stopped" (an operator's stop) |
-  /// "staircase" | "proximity".
+  /// "joined" (its agent info reached this basestation: what it offers, in `message`) | "arrived" | "failed"
+  /// (a goal ended without arriving) | "recovering" (navigation gave up and the recovery tree runs: once when
+  /// it starts and once per failed attempt) | "lost" (liveliness lapsed or state silent) | "left" (its
+  /// process exited cleanly) | "back" | "over_budget" (it sends more than its stated link budget; `reason`:
+  /// the busiest topic class) | "lock_granted" | "lock_released" | "lock_taken" | "stopped" (an operator's
+  /// stop) | "staircase" | "proximity" | "component_failed" (a part of its agent threw or stalled and waits
+  /// for its restart; `other`: the component, `reason`: why) | "component_restarted" |
+  /// "component_restart_failed".
   std::string kind;
   std::string robot_id;     ///< the robot concerned ("" for a fleet staircase)
   std::string other;        ///< proximity: the other robot; locks: the basestation; stopped: who stopped it
@@ -77,6 +79,8 @@ class FleetEventDetector {
     cairn_msgs::NavStatus nav_status = cairn_msgs::NAV_STATUS_NONE;
     uint32_t stops = 0;
     std::string nav_reason;
+    bool has_health = false;
+    uint32_t health_events = 0;  // AgentHealth::events
   };
   void ObserveRobot(const RobotView& view, std::vector<OperatorEvent>* events);
   void ObserveProximity(const std::vector<RobotView>& views, std::vector<OperatorEvent>* events);

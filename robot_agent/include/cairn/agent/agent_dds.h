@@ -4,14 +4,15 @@
 // robot logic lives here: who may command is the command interface's, what to publish the telemetry's.
 //
 // Topics (idl/cairn_msgs.idl): reads cairn/control_request, cairn/mode_request, cairn/waypoint_goal,
-// cairn/explore_request, cairn/home_request, cairn/stop_request (QoS cairn.command), cairn/teleop (cairn.teleop), cairn/base_info (cairn.latched, with
-// liveliness), cairn/path_request, cairn/map_sync_request (cairn.command); writes cairn/command_response,
-// cairn/path_response (cairn.command), cairn/agent_info, cairn/bt_state, cairn/global_path, cairn/staircase,
-// cairn/robot_state (cairn.latched), cairn/robot_pose, cairn/local_plan (cairn.state), cairn/map_update
-// (cairn.map, flow controller "cairn.map"), cairn/camera (cairn.camera, flow controller "cairn.camera"). Robots
-// read one another on one topic only, cairn/explore_claim (cairn.latched), written and read from the robot's
-// first claim on (an idle fleet's discovery stays O(robots)). It answers every
-// basestation's link probe (cairn/link_probe -> cairn/link_probe_reply, cairn.command) on the spot.
+// cairn/explore_request, cairn/home_request, cairn/stop_request, cairn/restart_request (QoS cairn.command),
+// cairn/teleop (cairn.teleop), cairn/base_info (cairn.latched, with liveliness), cairn/path_request,
+// cairn/map_sync_request (cairn.command); writes cairn/command_response, cairn/path_response (cairn.command),
+// cairn/agent_info, cairn/bt_state, cairn/global_path, cairn/staircase, cairn/robot_state, cairn/health
+// (cairn.latched), cairn/robot_pose, cairn/local_plan (cairn.state), cairn/map_update (cairn.map, flow
+// controller "cairn.map"), cairn/camera (cairn.camera, flow controller "cairn.camera"). Robots read one
+// another on one topic only, cairn/explore_claim (cairn.latched), written and read from the robot's first
+// claim on (an idle fleet's discovery stays O(robots)). It answers every basestation's link probe
+// (cairn/link_probe -> cairn/link_probe_reply, cairn.command) on the spot.
 #pragma once
 
 #include <chrono>
@@ -29,6 +30,7 @@ namespace cairn_msgs {
 class AgentInfo;
 class RobotPose;
 class RobotState;
+class AgentHealth;
 class BehaviorTreeState;
 class GlobalPath;
 class LocalPlan;
@@ -69,6 +71,7 @@ struct AgentDdsHandlers {
   std::function<void(const ExploreCommand&)> explore;
   std::function<void(const HomeCommand&)> home;
   std::function<void(const StopCommand&)> stop;
+  std::function<void(const RestartCommand&)> restart;
   std::function<void(const TeleopCommand&)> teleop;
   std::function<void(const BaseAnnouncement&)> base_announced;   ///< agent info of a basestation
   std::function<void(const WriterLiveliness&)> base_liveliness;  ///< its agent-info writer's liveliness
@@ -107,6 +110,7 @@ class AgentDds {
   /// Telemetry as built by the caller. Each returns false when Fast DDS refuses the sample (history full).
   bool Publish(const cairn_msgs::AgentInfo& info);
   bool Publish(const cairn_msgs::RobotState& state);
+  bool Publish(const cairn_msgs::AgentHealth& health);
   bool Publish(const cairn_msgs::RobotPose& pose);
   bool Publish(const cairn_msgs::BehaviorTreeState& tree);
   bool Publish(const cairn_msgs::GlobalPath& path);

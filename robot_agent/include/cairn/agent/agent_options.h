@@ -3,6 +3,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "cairn/agent/control_lock.h"
 #include "cairn/agent/explore_mode.h"
@@ -41,6 +42,9 @@ struct AgentOptions {
   /// The journal read at start (--resume, main.cpp): the robot comes up idle with its lock, its map and its
   /// old goal offered. Unset: a fresh start.
   std::optional<JournalEntry> resumed;
+  /// Test hook (--inject-fault COMPONENT:throw|hang:AFTER_S, agent_components.h): faults to inject, checked
+  /// at start (ParseFaultInjection).
+  std::vector<std::string> inject_faults;
 
   // From the config file.
   ControlLockOptions lock;
@@ -48,6 +52,10 @@ struct AgentOptions {
   double waypoint_timeout_s = 0.5;    ///< (0, 60]; also the smart_joystick channel's staleness
   double contact_timeout_s = 1.0;     ///< (0, 60]
   double state_rate_hz = 10.0;        ///< (0, 100]
+  /// A failed or stalled component waits this long before its first restart, seconds, (0, 3600]; the wait
+  /// doubles with each failure in a row up to restart_backoff_max_s, [restart_backoff_s, 3600].
+  double restart_backoff_s = 1.0;
+  double restart_backoff_max_s = 30.0;
   double local_plan_rate_hz = 2.0;    ///< local plan display messages, (0, 20]
   /// Navigation: platform profile (set from `platform` by SetPlatform(), then overridden by the config
   /// file's platform and traversability sections), local planner scoring, iLQR, mission timing.

@@ -53,6 +53,8 @@ class CommandInterface {
     std::function<CommandOutcome(const GoalCommand&, const nav::GlobalPlan&)> start_goal;
     /// Starts the exploration task (checked) from its holder: the outcome is the reply's.
     std::function<CommandOutcome(const ExploreCommand&)> start_explore;
+    /// Restarts one component (core::HealthMonitor::RequestRestart): "" when under way, else why not.
+    std::function<std::string(const std::string& component, const std::string& by)> restart_component;
   };
 
   /// `modes` (not owned) outlives this. `goal_mode`: the mode a waypoint goal is driven in
@@ -68,6 +70,10 @@ class CommandInterface {
   void OnMode(const ModeCommand& command);
   /// stop R: from anyone, holder or not; the lock stays where it is. Zero twist and idle at once.
   void OnStop(const StopCommand& command);
+  /// restart R COMPONENT: the holder's only; the component restarts on the health monitor's thread (its
+  /// outcome reaches operators as AgentHealth events); refused naming the components when there is no such
+  /// one.
+  void OnRestart(const RestartCommand& command);
   /// goto R X Y: the holder's only; checked (CheckGoal), refused at once when the goal's mode could not be
   /// entered now, else queued for planning (Hooks::plan_goal). A retry while it is planned is ignored: its
   /// reply comes when the plan is done.

@@ -24,7 +24,16 @@ struct CommandSender {
 };
 
 /// Kind of a command (CommandResponse.kind).
-enum class CommandKind : uint32_t { kControlRequest, kControlRelease, kMode, kWaypoint, kStop, kExplore, kHome };
+enum class CommandKind : uint32_t {
+  kControlRequest,
+  kControlRelease,
+  kMode,
+  kWaypoint,
+  kStop,
+  kExplore,
+  kHome,
+  kRestart
+};
 /// Outcome of a command (CommandResponse.result).
 enum class CommandResult {
   kAccepted,   ///< control granted or released, mode switched, goal accepted, stopped
@@ -47,6 +56,13 @@ struct ModeCommand {
   CommandSender sender;
   uint32_t request_id = 0;
   std::string mode;  ///< the mode asked for, as the operator typed it
+};
+
+/// restart R COMPONENT: restart one component of the agent (the holder's only).
+struct RestartCommand {
+  CommandSender sender;
+  uint32_t request_id = 0;
+  std::string component;  ///< as the operator typed it (core::HealthMonitor names)
 };
 
 /// stop R: an e-stop, honoured from any basestation.

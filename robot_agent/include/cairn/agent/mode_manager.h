@@ -29,7 +29,18 @@ struct ModeConditions {
   /// mapping_problem says why.
   bool mapping_healthy = false;
   std::string mapping_problem;  ///< e.g. "no lidar scan for 3.2 s"
+  /// The agent's components that are down now (core::HealthMonitor::Down()): name -> why. A name of
+  /// kAgentComponents missing here is up.
+  std::map<std::string, std::string> components_down;
 };
+
+/// The components of cairn_agent (RobotAgent, core::HealthMonitor), as IsComponentUp and `restart R` name
+/// them, in the order the monitor has them.
+inline const std::vector<std::string>& AgentComponentNames() {
+  static const std::vector<std::string> names = {"platform",  "perception", "planning",   "command_interface",
+                                                 "mode_tree", "mux",        "navigation", "telemetry"};
+  return names;
+}
 
 /// Result of a mode request or re-check.
 struct ModeDecision {

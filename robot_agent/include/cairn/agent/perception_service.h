@@ -11,8 +11,8 @@
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <utility>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cairn/agent/agent_options.h"
@@ -20,6 +20,7 @@
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
+#include "cairn/core/component.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/core/time.h"
 #include "cairn/nav/frontier.h"
@@ -27,8 +28,9 @@
 
 namespace cairn::agent {
 
-/// The sensing side of one robot. The loops run until core::ShutdownRequested(), each on its own thread; the
-/// other methods are thread-safe unless they say otherwise.
+/// The sensing side of one robot. The loops run on the threads of the agent's perception and platform
+/// components (agent_components.h) until their WorkLoop stops; the other methods are thread-safe unless they
+/// say otherwise.
 class PerceptionService {
  public:
   /// `platform` is read by the sensor and perception threads; `planner` is the one the navigation map feeds;
@@ -85,15 +87,22 @@ class PerceptionService {
   /// The staircases detected so far (PerceptionPipeline::Staircases()). Thread-safe.
   std::vector<perception::Staircase> Staircases() const { return perception_->Staircases(); }
 
-  /// Sensor thread: polls the platform's lidar at twice its rate (a scan reaches the local planner within
-  /// half a period, whatever the perception thread is busy with). A read fault is logged, never thrown.
-  void SensorLoop();
-  /// Perception thread: maps, detects, makes telemetry and camera frames at their periods, publishing each
-  /// tick's output. A fault is logged, never thrown.
-  void PerceptionLoop();
-  /// Navigation map thread: applies the map's changed tiles to the planner's map every update_period_s,
-  /// growing it as the robot maps beyond it or is sent beyond it.
-  void NavMapLoop();
+  /// Sensor thread (the platform component's loop): polls the platform's lidar at twice its rate (a scan
+  /// reaches the local planner within half a period, whatever the perception thread is busy with) until
+  /// `loop` stops. A read fault is thrown (the component restarts).
+  void SensorLoop(core::WorkLoop& loop);
+  /// Perception thread (the perception component's): maps, detects, makes telemetry and camera frames at
+  /// their periods, publishing each tick's output, until `loop` stops. A fault is thrown.
+  void PerceptionLoop(core::WorkLoop& loop);
+  /// Navigation map thread (the perception component's): applies the map's changed tiles to the planner's
+  /// map every update_period_s, growing it as the robot maps beyond it or is sent beyond it, until `loop`
+  /// stops. A fault is thrown.
+  void NavMapLoop(core::WorkLoop& loop);
+  /// Test hook (--inject-fault): called with the component's name at the top of every iteration of its loops;
+  /// it may throw or hang. Set before the loops start.
+  void SetFaultHook(std::function<void(const char* component)> hook) { fault_hook_ = std::move(hook); }
+  /// The map's memory as the perception thread last measured it, bytes (never waits for the map). Any thread.
+  std::size_t map_memory_bytes() const { return map_memory_bytes_.load(); }
 
   /// After the loops ended: the map's last changes within the telemetry budget (empty with perception off).
   PerceptionOutput Flush();
@@ -135,6 +144,8 @@ class PerceptionService {
   std::unique_ptr<PerceptionPipeline> perception_;  // perception thread (and the map/tiles, thread-safe)
   std::unique_ptr<NavMap> nav_map_;                 // navigation map thread only (but CoverGoal())
   std::atomic<bool> map_snapshot_requested_{false};
+  std::function<void(const char*)> fault_hook_;
+  std::atomic<std::size_t> map_memory_bytes_{0};
   std::atomic<double> last_scan_s_{-1e9};        // agent clock of the newest scan read
   std::atomic<double> last_map_update_s_{-1e9};  // ... of the newest navigation map update that succeeded
   std::mutex frontier_mutex_;  // guards the seven below

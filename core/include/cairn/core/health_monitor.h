@@ -1,0 +1,131 @@
+// The agent's health monitor: it brings its components up, watches their heartbeats and failures, and
+// restarts one that threw or stalled, alone, with a growing back-off (Sriganesh et al. 2024, § Resilience: a
+// health tab, automatic or manual restarts of parts). Nav2's lifecycle manager takes every node down when one
+// bond times out; here the others go on, and the modes that need the one that is down are refused meanwhile
+// (the agent's mode tree asks Down()).
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cairn/core/component.h"
+#include "cairn/core/time.h"
+
+namespace cairn::core {
+
+/// How one component is judged and restarted.
+struct RestartPolicy {
+  /// A heartbeat older than this is one missed deadline, seconds, > 0.
+  double heartbeat_deadline_s = 1.0;
+  /// Missed deadlines in a row that make it stalled (it is then restarted), >= 1.
+  int missed_deadlines_to_fail = 3;
+  /// Wait before the first restart after a failure, seconds, > 0; it doubles with each failure up to
+  /// max_backoff_s, and falls back to first_backoff_s after stable_after_s up.
+  double first_backoff_s = 1.0;
+  double max_backoff_s = 30.0;
+  double stable_after_s = 60.0;
+};
+
+/// One component's health as the monitor last judged it.
+struct ComponentHealth {
+  std::string name;
+  /// "active" | "down" (failed or stalled; restarted at restart_in_s) | "inactive" | "unconfigured".
+  std::string state;
+  double loop_rate_hz = 0.0;       ///< heartbeats per second over the last measuring window (about 1 s)
+  double target_rate_hz = 0.0;     ///< what it should beat at (Component::target_rate_hz())
+  std::string last_error;          ///< newest failure ("" = never failed)
+  double cpu_percent = 0.0;        ///< of one core, over the last measuring window
+  std::uint64_t memory_bytes = 0;  ///< Component::MemoryBytes() (0 = not reported)
+  std::uint32_t restarts = 0;      ///< automatic and manual restarts so far
+  double restart_in_s = 0.0;       ///< "down": seconds until the next restart attempt
+  double down_for_s = 0.0;         ///< "down": seconds since it went down
+};
+
+/// A change the operator is told about.
+struct HealthEvent {
+  enum class Kind { kFailed, kRestarted, kRestartFailed };
+  Kind kind;
+  std::string component;
+  std::string message;  ///< e.g. "perception failed: stalled (no heartbeat for 6.0 s); restart in 1.0 s"
+};
+const char* ToString(HealthEvent::Kind kind);
+
+/// Owns nothing. Add() components, Start() them, then Check() at a fixed period (its own thread with Run(),
+/// or a test's clock). Thread-safe.
+class HealthMonitor {
+ public:
+  /// `on_event` (may be empty) is called on the checking thread, without the monitor's lock held.
+  explicit HealthMonitor(std::function<void(const HealthEvent&)> on_event = {});
+  ~HealthMonitor();
+  HealthMonitor(const HealthMonitor&) = delete;
+  HealthMonitor& operator=(const HealthMonitor&) = delete;
+
+  /// @throws std::invalid_argument for a null component, a name already added or a bad policy (the field).
+  void Add(Component* component, const RestartPolicy& policy);
+  /// Configures then activates every component in order (ComponentManager::StartAll: all or none).
+  void StartAll();
+  /// Stops the checking thread, then deactivates and cleans up every component in reverse order.
+  void StopAll() noexcept;
+
+  /// Runs Check() every `period` on a thread of its own until StopAll() (or the destructor).
+  void StartChecking(std::chrono::milliseconds period = std::chrono::milliseconds(100));
+  /// One pass at `now`: a failed or stalled active component is deactivated and its restart scheduled; a down
+  /// one whose back-off has passed is activated again. A pass coming more than a heartbeat deadline after the
+  /// previous one (this process was not scheduled: every thread stalled alike) judges no stall.
+  void Check(SteadyTime now);
+
+  /// An operator's restart (`restart R COMPONENT`, by basestation `by`): done by the next Check(), without
+  /// back-off (a down component is brought up at once). "" when queued, else why not (no such component,
+  /// naming those there are). Never waits for the component: any thread, any lock held.
+  std::string RequestRestart(const std::string& name, const std::string& by);
+
+  /// Components that are not up now, with why (e.g. "perception is down: stalled ...; restart in 0.6 s").
+  std::map<std::string, std::string> Down() const;
+  /// Every component's health at `now`, in the order added.
+  std::vector<ComponentHealth> Snapshot(SteadyTime now) const;
+  /// Names in the order added.
+  std::vector<std::string> Names() const;
+
+ private:
+  struct Entry {
+    Component* component = nullptr;
+    RestartPolicy policy;
+    bool down = false;
+    SteadyTime down_since{};
+    SteadyTime restart_at{};
+    SteadyTime up_since{};
+    double backoff_s = 0.0;
+    std::uint32_t restarts = 0;
+    std::string down_reason;
+    // Rate and CPU over the measuring window.
+    SteadyTime window_start{};
+    std::uint64_t window_beats = 0;
+    double window_cpu_s = 0.0;
+    double rate_hz = 0.0;
+    double cpu_percent = 0.0;
+    SteadyTime no_stall_before{};      // after this process stalled as a whole
+    std::string restart_requested_by;  // RequestRestart(), done by the next Check()
+  };
+  Entry* Find(const std::string& name);
+  // Deactivates a failed component (the lock not held: it may wait for its loops) and returns the event.
+  HealthEvent TakeDown(Entry& e, const std::string& reason, SteadyTime now);
+
+  std::function<void(const HealthEvent&)> on_event_;
+  mutable std::mutex mutex_;     // guards entries_' bookkeeping
+  std::mutex transition_mutex_;  // one lifecycle transition at a time (Check and Restart)
+  std::vector<Entry> entries_;
+  SteadyTime last_check_{};
+  std::thread thread_;
+  std::mutex stop_mutex_;
+  std::condition_variable stop_wake_;
+  bool stop_ = false;
+};
+
+}  // namespace cairn::core

@@ -1,0 +1,314 @@
+#include "cairn/core/health_monitor.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+namespace cairn::core {
+
+namespace {
+
+std::string Fixed1(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.1f", v);
+  return buffer;
+}
+
+void CheckPolicy(const std::string& name, const RestartPolicy& p) {
+  auto bad = [&](const char* field, double value) {
+    return std::invalid_argument("component " + name + ": restart policy " + field + " " + Fixed1(value) +
+                                 " is out of range");
+  };
+  if (!(p.heartbeat_deadline_s > 0)) throw bad("heartbeat_deadline_s", p.heartbeat_deadline_s);
+  if (p.missed_deadlines_to_fail < 1) throw bad("missed_deadlines_to_fail", p.missed_deadlines_to_fail);
+  if (!(p.first_backoff_s > 0)) throw bad("first_backoff_s", p.first_backoff_s);
+  if (!(p.max_backoff_s >= p.first_backoff_s)) throw bad("max_backoff_s", p.max_backoff_s);
+  if (!(p.stable_after_s >= 0)) throw bad("stable_after_s", p.stable_after_s);
+}
+
+}  // namespace
+
+const char* ToString(HealthEvent::Kind kind) {
+  switch (kind) {
+    case HealthEvent::Kind::kFailed:
+      return "failed";
+    case HealthEvent::Kind::kRestarted:
+      return "restarted";
+    case HealthEvent::Kind::kRestartFailed:
+      return "restart_failed";
+  }
+  return "?";
+}
+
+HealthMonitor::HealthMonitor(std::function<void(const HealthEvent&)> on_event)
+    : on_event_(std::move(on_event)) {}
+
+HealthMonitor::~HealthMonitor() {
+  {
+    std::lock_guard<std::mutex> guard(stop_mutex_);
+    stop_ = true;
+  }
+  stop_wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void HealthMonitor::Add(Component* component, const RestartPolicy& policy) {
+  if (component == nullptr) throw std::invalid_argument("HealthMonitor: null component");
+  CheckPolicy(component->name(), policy);
+  std::lock_guard<std::mutex> guard(mutex_);
+  for (const Entry& e : entries_) {
+    if (e.component->name() == component->name()) {
+      throw std::invalid_argument("HealthMonitor: component " + component->name() + " added twice");
+    }
+  }
+  Entry e;
+  e.component = component;
+  e.policy = policy;
+  entries_.push_back(std::move(e));
+}
+
+void HealthMonitor::StartAll() {
+  std::lock_guard<std::mutex> transition(transition_mutex_);
+  ComponentManager manager;
+  {
+    std::lock_guard<std::mutex> guard(mutex_);
+    for (const Entry& e : entries_) manager.Add(e.component);
+  }
+  manager.StartAll();
+  const SteadyTime now = SteadyClock::now();
+  std::lock_guard<std::mutex> guard(mutex_);
+  for (Entry& e : entries_) {
+    e.up_since = now;
+    e.window_start = now;
+    e.window_beats = e.component->heartbeats();
+    e.window_cpu_s = e.component->cpu_s();
+  }
+}
+
+void HealthMonitor::StopAll() noexcept {
+  {
+    std::lock_guard<std::mutex> guard(stop_mutex_);
+    stop_ = true;
+  }
+  stop_wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+  std::lock_guard<std::mutex> transition(transition_mutex_);
+  ComponentManager manager;
+  {
+    std::lock_guard<std::mutex> guard(mutex_);
+    for (const Entry& e : entries_) manager.Add(e.component);
+  }
+  manager.StopAll();
+}
+
+void HealthMonitor::StartChecking(std::chrono::milliseconds period) {
+  if (thread_.joinable()) throw std::logic_error("HealthMonitor: already checking");
+  thread_ = std::thread([this, period] {
+    std::unique_lock<std::mutex> lock(stop_mutex_);
+    while (!stop_) {
+      lock.unlock();
+      Check(SteadyClock::now());
+      lock.lock();
+      stop_wake_.wait_for(lock, period, [this] { return stop_; });
+    }
+  });
+}
+
+HealthMonitor::Entry* HealthMonitor::Find(const std::string& name) {
+  for (Entry& e : entries_) {
+    if (e.component->name() == name) return &e;
+  }
+  return nullptr;
+}
+
+HealthEvent HealthMonitor::TakeDown(Entry& e, const std::string& reason, SteadyTime now) {
+  try {
+    e.component->Deactivate();  // stops its loops (those that hang are abandoned)
+  } catch (const std::exception& ex) {
+    spdlog::error("{}: deactivation failed: {}", e.component->name(), ex.what());
+  }
+  std::lock_guard<std::mutex> guard(mutex_);
+  e.backoff_s =
+      e.backoff_s <= 0 ? e.policy.first_backoff_s : std::min(2 * e.backoff_s, e.policy.max_backoff_s);
+  e.down = true;
+  e.down_since = now;
+  // The back-off counts from when its loops have stopped (a hung one is waited for up to its grace period).
+  e.restart_at = std::max(now, SteadyClock::now()) + std::chrono::duration_cast<SteadyClock::duration>(
+                                                         std::chrono::duration<double>(e.backoff_s));
+  e.down_reason = reason;
+  return {HealthEvent::Kind::kFailed, e.component->name(),
+          e.component->name() + " failed: " + reason + "; restart in " + Fixed1(e.backoff_s) + " s"};
+}
+
+void HealthMonitor::Check(SteadyTime now) {
+  std::vector<HealthEvent> events;
+  {
+    std::lock_guard<std::mutex> transition(transition_mutex_);
+    std::vector<Entry*> entries;
+    bool process_stalled = false;
+    {
+      std::lock_guard<std::mutex> guard(mutex_);
+      double shortest_deadline_s = 1e9;
+      for (Entry& e : entries_) {
+        entries.push_back(&e);
+        shortest_deadline_s = std::min(shortest_deadline_s, e.policy.heartbeat_deadline_s);
+      }
+      process_stalled = last_check_ != SteadyTime{} && SecondsBetween(last_check_, now) > shortest_deadline_s;
+      last_check_ = now;
+    }
+    for (Entry* entry : entries) {
+      Entry& e = *entry;
+      Component& c = *e.component;
+      std::string reason;
+      std::string by;
+      {
+        std::lock_guard<std::mutex> guard(mutex_);
+        // Loop rate and CPU over windows of about a second.
+        if (const double window_s = SecondsBetween(e.window_start, now); window_s >= 1.0) {
+          const std::uint64_t beats = c.heartbeats();
+          const double cpu_s = c.cpu_s();
+          e.rate_hz = static_cast<double>(beats - e.window_beats) / window_s;
+          e.cpu_percent = 100.0 * (cpu_s - e.window_cpu_s) / window_s;
+          e.window_start = now;
+          e.window_beats = beats;
+          e.window_cpu_s = cpu_s;
+        }
+        if (process_stalled) {
+          e.no_stall_before = now + std::chrono::duration_cast<SteadyClock::duration>(
+                                        std::chrono::duration<double>(e.policy.heartbeat_deadline_s));
+        }
+        by = std::move(e.restart_requested_by);
+        e.restart_requested_by.clear();
+        if (c.state() == LifecycleState::kActive) {
+          if (c.failed()) {
+            reason = c.last_error();
+          } else if (now >= e.no_stall_before) {
+            const double age_s = SecondsBetween(c.last_heartbeat(), now);
+            const int missed = static_cast<int>(std::floor(age_s / e.policy.heartbeat_deadline_s));
+            if (missed >= e.policy.missed_deadlines_to_fail) {
+              reason = "stalled: no heartbeat for " + Fixed1(age_s) + " s (" + std::to_string(missed) +
+                       " deadlines of " + Fixed1(e.policy.heartbeat_deadline_s) + " s missed)";
+              c.ReportFailure(reason);
+            }
+          }
+          if (reason.empty() && e.backoff_s > 0 &&
+              SecondsBetween(e.up_since, now) >= e.policy.stable_after_s) {
+            e.backoff_s = 0;  // up long enough: the next failure waits the first back-off again
+          }
+        }
+      }
+      if (!reason.empty()) {
+        events.push_back(TakeDown(e, reason, now));
+        spdlog::error("{}", events.back().message);
+        continue;
+      }
+      bool bring_up = false;
+      {
+        std::lock_guard<std::mutex> guard(mutex_);
+        bring_up = e.down && (now >= e.restart_at || !by.empty());
+      }
+      if (!by.empty() && c.state() == LifecycleState::kActive) {
+        try {
+          c.Deactivate();
+        } catch (const std::exception& ex) {
+          spdlog::error("{}: deactivation failed: {}", c.name(), ex.what());
+        }
+        bring_up = true;
+      }
+      if (!bring_up) continue;
+      const double down_s = e.down ? SecondsBetween(e.down_since, now) : 0.0;
+      try {
+        c.Activate();
+        std::lock_guard<std::mutex> guard(mutex_);
+        e.down = false;
+        e.up_since = now;
+        e.down_reason.clear();
+        ++e.restarts;
+        std::string message = c.name() + " restarted";
+        message += by.empty() ? "" : " by " + by;
+        message += down_s > 0 ? " after " + Fixed1(down_s) + " s down" : "";
+        message += " (restart " + std::to_string(e.restarts) + ")";
+        events.push_back({HealthEvent::Kind::kRestarted, c.name(), message});
+        spdlog::warn("{}", message);
+      } catch (const std::exception& ex) {
+        std::lock_guard<std::mutex> guard(mutex_);
+        if (!e.down) e.down_since = now;
+        e.down = true;
+        e.backoff_s =
+            e.backoff_s <= 0 ? e.policy.first_backoff_s : std::min(2 * e.backoff_s, e.policy.max_backoff_s);
+        e.restart_at = now + std::chrono::duration_cast<SteadyClock::duration>(
+                                 std::chrono::duration<double>(e.backoff_s));
+        e.down_reason = ex.what();
+        events.push_back({HealthEvent::Kind::kRestartFailed, c.name(),
+                          c.name() + " did not come back up: " + ex.what() + "; next try in " +
+                              Fixed1(e.backoff_s) + " s"});
+        spdlog::error("{}", events.back().message);
+      }
+    }
+  }
+  if (on_event_) {
+    for (const HealthEvent& event : events) on_event_(event);
+  }
+}
+
+std::string HealthMonitor::RequestRestart(const std::string& name, const std::string& by) {
+  std::lock_guard<std::mutex> guard(mutex_);
+  Entry* e = Find(name);
+  if (e == nullptr) {
+    std::string names;
+    for (const Entry& x : entries_) names += (names.empty() ? "" : ", ") + x.component->name();
+    return "no component \"" + name + "\" (the components are " + names + ")";
+  }
+  e->restart_requested_by = by.empty() ? "an operator" : by;
+  return "";
+}
+
+std::map<std::string, std::string> HealthMonitor::Down() const {
+  std::map<std::string, std::string> down;
+  const SteadyTime now = SteadyClock::now();
+  std::lock_guard<std::mutex> guard(mutex_);
+  for (const Entry& e : entries_) {
+    if (e.down) {
+      down[e.component->name()] = e.component->name() + " is down (" + e.down_reason + "); restart in " +
+                                  Fixed1(std::max(0.0, SecondsBetween(now, e.restart_at))) + " s";
+    } else if (e.component->state() != LifecycleState::kActive) {
+      down[e.component->name()] = e.component->name() + " is " + ToString(e.component->state());
+    }
+  }
+  return down;
+}
+
+std::vector<ComponentHealth> HealthMonitor::Snapshot(SteadyTime now) const {
+  std::vector<ComponentHealth> out;
+  std::lock_guard<std::mutex> guard(mutex_);
+  for (const Entry& e : entries_) {
+    const Component& c = *e.component;
+    ComponentHealth h;
+    h.name = c.name();
+    h.state = e.down ? "down" : ToString(c.state());
+    h.loop_rate_hz = e.down ? 0.0 : e.rate_hz;
+    h.target_rate_hz = c.target_rate_hz();
+    h.last_error = c.last_error();
+    h.cpu_percent = e.cpu_percent;
+    h.memory_bytes = c.MemoryBytes();
+    h.restarts = e.restarts;
+    if (e.down) {
+      h.restart_in_s = std::max(0.0, SecondsBetween(now, e.restart_at));
+      h.down_for_s = SecondsBetween(e.down_since, now);
+    }
+    out.push_back(std::move(h));
+  }
+  return out;
+}
+
+std::vector<std::string> HealthMonitor::Names() const {
+  std::vector<std::string> names;
+  std::lock_guard<std::mutex> guard(mutex_);
+  for (const Entry& e : entries_) names.push_back(e.component->name());
+  return names;
+}
+
+}  // namespace cairn::core

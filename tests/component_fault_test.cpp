@@ -1,0 +1,212 @@
+// The fault suite of issue 15 through real processes in this test's private network namespace: a robot
+// agent's perception component is made to throw, and to hang (test hook --inject-fault); the health monitor
+// restarts it alone, the modes that need it are refused meanwhile and come back after, basestations are told,
+// and the robot never moves. An operator's restart is the lock holder's only.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "cairn_msgsPubSubTypes.h"
+#include "integration_util.h"
+#include "process.h"
+
+namespace cairn {
+namespace {
+
+using namespace std::chrono_literals;
+using namespace testing_util;
+using nlohmann::json;
+namespace msgs = cairn_msgs;
+
+const std::string kWorld = "builtin:tunnels";
+
+// A config whose restarts wait `backoff_s` (the window in which the degraded modes are checked).
+std::string ConfigWithBackoff(const std::string& logs, double backoff_s) {
+  const std::string path = logs + "/agent.yaml";
+  std::ofstream out(path);
+  out << "health:\n  restart_backoff_s: " << backoff_s << "\n  restart_backoff_max_s: 60\n";
+  return path;
+}
+
+// `health R` until `predicate(component's json)` holds for `name`, up to `timeout`; the last answer.
+json WaitForComponent(Base& op, const std::string& robot, const std::string& name,
+                      const std::function<bool(const json&)>& predicate, std::chrono::seconds timeout) {
+  const auto deadline = Clock::now() + timeout;
+  json last;
+  while (Clock::now() < deadline) {
+    last = op.Run("health " + robot);
+    if (last["ok"] == true) {
+      for (const json& c : last["components"]) {
+        if (c["name"] == name && predicate(c)) return last;
+      }
+    }
+    std::this_thread::sleep_for(200ms);
+  }
+  ADD_FAILURE() << name << " never reached the expected health; last: " << last.dump();
+  return last;
+}
+
+json Component(const json& health, const std::string& name) {
+  for (const json& c : health["components"]) {
+    if (c["name"] == name) return c;
+  }
+  return json();
+}
+
+// Largest distance of the robot from `from` over its states since the observer started.
+double MaxDisplacement(Observer& observer, const std::string& robot, const msgs::RobotState& from) {
+  double worst = 0.0;
+  for (const auto& s : observer.History(robot)) worst = std::max(worst, Distance(from, s));
+  return worst;
+}
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+bool SawEvent(const Base& op, const std::string& kind, const std::string& component) {
+  for (const json& e : op.events()) {
+    if (e["event"] == kind && e.value("other", "") == component) return true;
+  }
+  return false;
+}
+
+TEST(ComponentFaults, PerceptionThatThrowsIsRestartedAloneItsModesWaitAndTheRobotNeverMoves) {
+  const int domain = 87;
+  const std::string logs = FreshLogs("component_faults", "throw");
+  Observer observer(domain);
+  auto agent =
+      StartAgentIn(kWorld, "r1", domain, logs,
+                   {"--config", ConfigWithBackoff(logs, 6.0), "--inject-fault", "perception:throw:14"});
+  Base op("opA", domain, logs);
+  ASSERT_TRUE(op.Run("request-control r1")["ok"]);
+  // Smart joystick needs the robot to have heard this basestation's joystick (its agent info): a moment.
+  json r;
+  for (const auto until = Clock::now() + 10s; Clock::now() < until; std::this_thread::sleep_for(200ms)) {
+    r = op.Run("mode r1 smart_joystick");
+    if (r["ok"] == true || r.value("condition", "") != "IsJoystickAlive") break;
+  }
+  ASSERT_TRUE(r["ok"]) << r;
+  const msgs::RobotState start = observer.FreshState("r1");
+  // Its first health (at start) has no map yet: the one after the perception thread's first ticks.
+  json health = WaitForComponent(
+      op, "r1", "perception", [](const json& c) { return c["memory_bytes"].get<double>() > 0; }, 10s);
+  ASSERT_TRUE(health["ok"]) << health;
+  EXPECT_TRUE(health["all_up"]) << health;
+  EXPECT_EQ(health["components"].size(), 8u) << health;
+  EXPECT_GT(Component(health, "perception")["memory_bytes"].get<double>(), 0) << health;
+
+  // The fault: perception goes down; the robot leaves smart joystick (it needs perception) and stays put.
+  health = WaitForComponent(
+      op, "r1", "perception", [](const json& c) { return c["state"] == "down"; }, 30s);
+  const auto down_at = Clock::now();
+  EXPECT_NE(Component(health, "perception")["last_error"].get<std::string>().find("injected fault"),
+            std::string::npos)
+      << health;
+  for (const std::string name :
+       {"platform", "planning", "command_interface", "mode_tree", "mux", "navigation", "telemetry"}) {
+    EXPECT_EQ(Component(health, name)["state"], "active") << name << ": " << health;
+    EXPECT_EQ(Component(health, name)["restarts"], 0) << name << " was restarted too: " << health;
+  }
+  const msgs::RobotState degraded = observer.FreshState("r1");
+  EXPECT_EQ(degraded.mode(), "idle");
+  EXPECT_NE(
+      ReadFile(logs + "/r1.log").find("smart_joystick no longer allowed: IsComponentUp: perception is down"),
+      std::string::npos)
+      << "see " << logs << "/r1.log";
+  json status = op.Run("status r1");
+  EXPECT_EQ(status.dump().find("smart_joystick"), std::string::npos) << "offered while down: " << status;
+  // Refused while it is down, naming it; manual (no perception needed) is not.
+  r = op.Run("mode r1 smart_joystick");
+  EXPECT_FALSE(r["ok"]) << r;
+  EXPECT_NE(r.value("reason", "").find("perception is down"), std::string::npos) << r;
+  r = op.Run("explore r1");
+  EXPECT_FALSE(r["ok"]) << r;
+  r = op.Run("mode r1 manual");
+  EXPECT_TRUE(r["ok"]) << r;
+  ASSERT_TRUE(op.Run("mode r1 idle")["ok"]);
+  EXPECT_LT(std::chrono::duration<double>(Clock::now() - down_at).count(), 5.0)
+      << "the checks above ran after the restart: lengthen restart_backoff_s";
+
+  // Restarted alone after its back-off, with its map; smart joystick is valid again.
+  health = WaitForComponent(
+      op, "r1", "perception", [](const json& c) { return c["state"] == "active" && c["restarts"] == 1; },
+      20s);
+  const double down_s = std::chrono::duration<double>(Clock::now() - down_at).count();
+  Figure("perception_down_s", down_s);
+  EXPECT_GT(Component(health, "perception")["memory_bytes"].get<double>(), 0) << health;
+  r = op.Run("mode r1 smart_joystick");
+  EXPECT_TRUE(r["ok"]) << r;
+  // Its loops beat again at their rate.
+  std::this_thread::sleep_for(2500ms);
+  health = op.Run("health r1");
+  EXPECT_GT(Component(health, "perception")["loop_rate_hz"].get<double>(),
+            0.5 * Component(health, "perception")["target_rate_hz"].get<double>())
+      << health;
+  ASSERT_TRUE(op.Run("mode r1 idle")["ok"]);
+  op.Run("sleep 0.5");  // the events of the last seconds print before the next answer
+  EXPECT_TRUE(SawEvent(op, "component_failed", "perception")) << "the operator was not told";
+  EXPECT_TRUE(SawEvent(op, "component_restarted", "perception")) << "the operator was not told";
+  const double moved_m = MaxDisplacement(observer, "r1", start);
+  Figure("max_displacement_m", moved_m);
+  EXPECT_LT(moved_m, 0.05) << "the robot moved";
+}
+
+TEST(ComponentFaults, PerceptionThatHangsIsAbandonedAndRestartedAndOnlyTheHolderRestarts) {
+  const int domain = 88;
+  const std::string logs = FreshLogs("component_faults", "hang");
+  Observer observer(domain);
+  auto agent =
+      StartAgentIn(kWorld, "r1", domain, logs,
+                   {"--config", ConfigWithBackoff(logs, 2.0), "--inject-fault", "perception:hang:10"});
+  Base op("opA", domain, logs);
+  Base other("opB", domain, logs);
+  ASSERT_TRUE(op.Run("request-control r1")["ok"]);
+  const msgs::RobotState start = observer.FreshState("r1");
+
+  // The hang: 3 missed deadlines of 3 s, then its loops are stopped (the hung one abandoned), 2 s down, and
+  // fresh loops.
+  json health = WaitForComponent(
+      op, "r1", "perception", [](const json& c) { return c["state"] == "active" && c["restarts"] == 1; },
+      60s);
+  EXPECT_NE(Component(health, "perception")["last_error"].get<std::string>().find("stalled"),
+            std::string::npos)
+      << health;
+  std::this_thread::sleep_for(2500ms);
+  health = op.Run("health r1");
+  EXPECT_GT(Component(health, "perception")["loop_rate_hz"].get<double>(),
+            0.5 * Component(health, "perception")["target_rate_hz"].get<double>())
+      << "the fresh loops do not run: " << health;
+  json r = op.Run("mode r1 smart_joystick");
+  EXPECT_TRUE(r["ok"]) << r;
+  ASSERT_TRUE(op.Run("mode r1 idle")["ok"]);
+
+  // An operator's restart: the holder's only, of a component that exists.
+  r = other.Run("restart r1 planning");
+  EXPECT_FALSE(r["ok"]) << r;
+  EXPECT_EQ(r["result"], "refused") << r;
+  r = op.Run("restart r1 lidar");
+  EXPECT_FALSE(r["ok"]) << r;
+  EXPECT_NE(r.value("reason", "").find("the components are platform, perception, planning"),
+            std::string::npos)
+      << r;
+  r = op.Run("restart r1 planning");
+  EXPECT_TRUE(r["ok"]) << r;
+  health = WaitForComponent(
+      op, "r1", "planning", [](const json& c) { return c["restarts"] == 1; }, 10s);
+  EXPECT_EQ(Component(health, "planning")["state"], "active") << health;
+  EXPECT_EQ(Component(health, "perception")["restarts"], 1) << health;
+  // The restarted planning thread plans.
+  r = op.Run("plan r1 5 0");
+  EXPECT_TRUE(r.contains("ok")) << r;
+  EXPECT_NE(r.value("result", ""), "timed_out") << r;
+  const double moved_m = MaxDisplacement(observer, "r1", start);
+  EXPECT_LT(moved_m, 0.05) << "the robot moved";
+}
+
+}  // namespace
+}  // namespace cairn
