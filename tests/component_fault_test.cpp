@@ -76,7 +76,7 @@ bool SawEvent(const Base& op, const std::string& kind, const std::string& compon
 }
 
 TEST(ComponentFaults, PerceptionThatThrowsIsRestartedAloneItsModesWaitAndTheRobotNeverMoves) {
-  const int domain = 87;
+  const int domain = 89;
   const std::string logs = FreshLogs("component_faults", "throw");
   Observer observer(domain);
   auto agent =
@@ -157,7 +157,7 @@ TEST(ComponentFaults, PerceptionThatThrowsIsRestartedAloneItsModesWaitAndTheRobo
 }
 
 TEST(ComponentFaults, PerceptionThatHangsIsAbandonedAndRestartedAndOnlyTheHolderRestarts) {
-  const int domain = 88;
+  const int domain = 90;
   const std::string logs = FreshLogs("component_faults", "hang");
   Observer observer(domain);
   auto agent =

@@ -211,6 +211,43 @@ TEST(FleetEventDetector, ProximityWithHysteresis) {
   EXPECT_EQ(Kinds(detector.Observe({a, b})), (std::vector<std::string>{"proximity"})) << "a new encounter";
 }
 
+TEST(FleetEventDetector, EachComponentFailureAndRestartIsToldOnceAndARestartedAgentIsABaseline) {
+  FleetEventDetector detector;
+  RobotView r1 = Robot("r1", 0, 0);
+  cairn_msgs::AgentHealth h;
+  h.robot_id("r1");
+  h.events(2);  // old news when this basestation starts
+  h.last_event("perception restarted (restart 1)");
+  h.last_event_kind("restarted");
+  h.last_event_component("perception");
+  r1.health = h;
+  EXPECT_TRUE(detector.Observe({r1}).empty());
+  r1.health->events(3);
+  r1.health->last_event("perception failed: injected fault; restart in 1.0 s");
+  r1.health->last_event_kind("failed");
+  auto events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"component_failed"}));
+  EXPECT_EQ(events[0].other, "perception");
+  EXPECT_EQ(events[0].message, "r1: perception failed: injected fault; restart in 1.0 s");
+  EXPECT_TRUE(detector.Observe({r1}).empty()) << "told once";
+  r1.health->events(4);
+  r1.health->last_event("perception restarted after 1.0 s down (restart 2)");
+  r1.health->last_event_kind("restarted");
+  EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"component_restarted"}));
+  // The agent itself restarted: its count starts again; nothing to tell until it grows.
+  r1.health->events(0);
+  r1.health->last_event("");
+  r1.health->last_event_kind("");
+  EXPECT_TRUE(detector.Observe({r1}).empty());
+  r1.health->events(1);
+  r1.health->last_event("planning restarted by opA (restart 1)");
+  r1.health->last_event_kind("restarted");
+  r1.health->last_event_component("planning");
+  events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"component_restarted"}));
+  EXPECT_EQ(events[0].other, "planning");
+}
+
 TEST(FleetEventOptions, ValidatesNamingTheField) {
   std::string why;
   EXPECT_TRUE(FleetEventOptions{}.IsValid(&why));

@@ -127,7 +127,12 @@ void CommandInterface::OnRestart(const RestartCommand& command) {
   const CommandSender& sender = command.sender;
   if (ReplayIfDuplicate(sender, CommandKind::kRestart, command.request_id)) return;
   if (DiscardUnlessHolder(sender, command.request_id, CommandKind::kRestart)) return;
-  const std::string refused = hooks_.restart_component(command.component, sender.base_id);
+  // A peer's name is bounded and plain before it goes anywhere (a reason, a log line).
+  const bool plain = !command.component.empty() && command.component.size() <= 64 &&
+                     command.component.find_first_not_of("abcdefghijklmnopqrstuvwxyz_") == std::string::npos;
+  const std::string refused = plain ? hooks_.restart_component(command.component, sender.base_id)
+                                    : "component name of " + std::to_string(command.component.size()) +
+                                          " characters is not [a-z_]{1,64}";
   if (refused.empty()) {
     lock_.NoteHolderCommand(sender.participant);
     spdlog::warn("robot {}: restart of {} asked by {}", robot_id_, command.component, sender.base_id);

@@ -381,6 +381,9 @@ TEST(CommandInterface, RestartIsTheHoldersAndNamesAnUnknownComponent) {
   r.command->OnRestart(RestartCommand{OpA(), 2, "lidar"});
   EXPECT_EQ(r.last().result, CommandResult::kDenied);
   EXPECT_EQ(r.last().reason, "no component \"lidar\"");
+  r.command->OnRestart(RestartCommand{OpA(), 4, std::string(100000, 'x')});
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_EQ(r.last().reason, "component name of 100000 characters is not [a-z_]{1,64}");
   r.command->OnRestart(RestartCommand{OpA(), 3, "perception"});
   EXPECT_EQ(r.last().result, CommandResult::kAccepted);
   EXPECT_EQ(r.last().kind, CommandKind::kRestart);
