@@ -5,7 +5,9 @@
 # /proc/PID/status VmRSS), its CPU use over the last 10 s (per cent of one core) and the robot's missed control
 # deadlines so far (the agent's "control loop woke N ms late" and "control cycle took" warnings: a 50 Hz cycle
 # that ran over 100 ms). The baseline is the sample at 5 minutes, in the same run: RSS growth is the last
-# sample against it. Samples go to OUT_DIR/soak.csv, figures to stdout (FIGURE lines).
+# sample against it. Samples go to OUT_DIR/soak.csv, figures to stdout (FIGURE lines). Every minute the
+# basestation also asks each robot's health (`health R`): its perception map's memory and its agent's RSS as the
+# robot reports them, to tell a map that grows from memory that leaks (OUT_DIR/health.csv).
 # Must run in a private network namespace: tests/netns_run.sh bench/soak.sh BUILD_DIR [DURATION_S] [OUT_DIR]
 set -euo pipefail
 BUILD="${1:?usage: soak.sh BUILD_DIR [DURATION_S] [OUT_DIR]}"
@@ -39,7 +41,7 @@ declare -a TO=("30,20" "30,20" "30,20" "30,20" "40,20")
 fifo="$OUT/base.in"
 rm -f "$fifo"
 mkfifo "$fifo"
-"$BUILD/basestation/cairn_base" --base-id soak --domain "$DOMAIN" --keep-going <"$fifo" >"$OUT/base.out" 2>"$OUT/base.log" &
+"$BUILD/basestation/cairn_base" --base-id soak --domain "$DOMAIN" --keep-going --json <"$fifo" >"$OUT/base.out" 2>"$OUT/base.log" &
 base_pid=$!
 pids+=("$base_pid")
 exec 3>"$fifo"
@@ -58,6 +60,8 @@ declare -A last_ticks baseline_rss
 for i in "${!procs[@]}"; do last_ticks[$i]=$(ticks "${procs[$i]}"); done
 echo "t_s,process,rss_kb,cpu_pct,missed_deadlines" >"$OUT/soak.csv"
 start=$(date +%s)
+: >"$OUT/health_times.txt"
+next_health=60
 leg=0
 next_goal=0
 while :; do
@@ -73,6 +77,11 @@ while :; do
   fi
   sleep 10
   now=$(( $(date +%s) - start ))
+  if [ "$now" -ge "$next_health" ]; then
+    echo "$now" >>"$OUT/health_times.txt"
+    for k in $(seq 0 $((ROBOTS - 1))); do echo "health r$k" >&3; done
+    next_health=$((next_health + 60))
+  fi
   for i in "${!procs[@]}"; do
     pid="${procs[$i]}"
     kill -0 "$pid" 2>/dev/null || { echo "soak: ${names[$i]} (pid $pid) died at ${now} s" >&2; exit 1; }
@@ -111,3 +120,35 @@ for name, rs in sorted(by.items()):
 print(f"FIGURE soak worst RSS growth after the baseline: {worst:+.2f} % (bound: 5 %)")
 PY
 grep -h "arrived" "$OUT"/r*.log | wc -l | xargs -I{} echo "FIGURE soak goals arrived: {}"
+sleep 2
+# The robots' own view (health R): perception's map memory and the agent's RSS, first answer at or after the
+# baseline against the last.
+python3 - "$OUT/base.out" "$OUT/health_times.txt" "$BASELINE_S" "$OUT/health.csv" <<'PY'
+import json, sys
+times = [int(t) for t in open(sys.argv[2]).read().split()]
+baseline_s = int(sys.argv[3])
+answers = {}
+for line in open(sys.argv[1]):
+    try:
+        j = json.loads(line)
+    except ValueError:
+        continue
+    if j.get("command") == "health":
+        answers.setdefault(j.get("robot"), []).append(j)
+with open(sys.argv[4], "w") as out:
+    out.write("t_s,robot,perception_map_kb,rss_kb\n")
+    for robot, js in sorted(answers.items()):
+        rows = []
+        for t, j in zip(times, js):
+            if not j.get("ok"):
+                continue
+            m = next((c["memory_bytes"] for c in j["components"] if c["name"] == "perception"), 0)
+            rows.append((t, m // 1024, j["rss_bytes"] // 1024))
+            out.write(f"{t},{robot},{m // 1024},{j['rss_bytes'] // 1024}\n")
+        if not rows:
+            continue
+        base = next((r for r in rows if r[0] >= baseline_s), rows[0])
+        last = rows[-1]
+        print(f"FIGURE soak {robot} (its health): perception map {base[1]/1024:.1f} MB at {base[0]} s -> "
+              f"{last[1]/1024:.1f} MB at {last[0]} s; RSS {base[2]/1024:.1f} -> {last[2]/1024:.1f} MB")
+PY
