@@ -124,6 +124,11 @@ HealthMonitor::Entry* HealthMonitor::Find(const std::string& name) {
   return nullptr;
 }
 
+void HealthMonitor::ScheduleRestart(Entry& e, SteadyTime from) {
+  e.backoff_s = e.backoff_s <= 0 ? e.policy.first_backoff_s : std::min(2 * e.backoff_s, e.policy.max_backoff_s);
+  e.restart_at = from + std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(e.backoff_s));
+}
+
 HealthEvent HealthMonitor::TakeDown(Entry& e, const std::string& reason, SteadyTime now) {
   try {
     e.component->Deactivate();  // stops its loops (those that hang are abandoned)
@@ -131,13 +136,10 @@ HealthEvent HealthMonitor::TakeDown(Entry& e, const std::string& reason, SteadyT
     spdlog::error("{}: deactivation failed: {}", e.component->name(), ex.what());
   }
   std::lock_guard<std::mutex> guard(mutex_);
-  e.backoff_s =
-      e.backoff_s <= 0 ? e.policy.first_backoff_s : std::min(2 * e.backoff_s, e.policy.max_backoff_s);
   e.down = true;
   e.down_since = now;
   // The back-off counts from when its loops have stopped (a hung one is waited for up to its grace period).
-  e.restart_at = std::max(now, SteadyClock::now()) + std::chrono::duration_cast<SteadyClock::duration>(
-                                                         std::chrono::duration<double>(e.backoff_s));
+  ScheduleRestart(e, std::max(now, SteadyClock::now()));
   e.down_reason = reason;
   return {HealthEvent::Kind::kFailed, e.component->name(),
           e.component->name() + " failed: " + reason + "; restart in " + Fixed1(e.backoff_s) + " s"};
@@ -237,10 +239,7 @@ void HealthMonitor::Check(SteadyTime now) {
         std::lock_guard<std::mutex> guard(mutex_);
         if (!e.down) e.down_since = now;
         e.down = true;
-        e.backoff_s =
-            e.backoff_s <= 0 ? e.policy.first_backoff_s : std::min(2 * e.backoff_s, e.policy.max_backoff_s);
-        e.restart_at = now + std::chrono::duration_cast<SteadyClock::duration>(
-                                 std::chrono::duration<double>(e.backoff_s));
+        ScheduleRestart(e, now);
         e.down_reason = ex.what();
         events.push_back({HealthEvent::Kind::kRestartFailed, c.name(),
                           c.name() + " did not come back up: " + ex.what() + "; next try in " +

@@ -114,6 +114,8 @@ class HealthMonitor {
     std::string restart_requested_by;  // RequestRestart(), done by the next Check()
   };
   Entry* Find(const std::string& name);
+  // The next back-off (the first, or the last doubled up to its cap) and the restart at `from` plus it. Lock held.
+  void ScheduleRestart(Entry& e, SteadyTime from);
   // Deactivates a failed component (the lock not held: it may wait for its loops) and returns the event.
   HealthEvent TakeDown(Entry& e, const std::string& reason, SteadyTime now);
 
