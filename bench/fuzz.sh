@@ -14,7 +14,7 @@ RUNS="${1:-1000000}"
 BUILD="${2:-$ROOT/build-fuzz}"
 shift $(( $# > 2 ? 2 : $# )) || true
 HARNESSES=("$@")
-[ ${#HARNESSES[@]} -gt 0 ] || HARNESSES=(bt_file bt_world pcd_world agent_config mode_tree map_update peer_message)
+[ ${#HARNESSES[@]} -gt 0 ] || HARNESSES=(bt_file bt_world pcd_world agent_config mode_tree map_update peer_message cli_line)
 [[ "$RUNS" =~ ^[0-9]+$ ]] || { echo "fuzz: RUNS '$RUNS' must be a number of executions" >&2; exit 2; }
 command -v clang++ >/dev/null || { echo "fuzz: clang++ is not installed (apt-get install clang libclang-rt-dev)" >&2; exit 2; }
 FLAGS="-fsanitize=fuzzer-no-link,address -fno-omit-frame-pointer"
@@ -33,7 +33,12 @@ for h in "${HARNESSES[@]}"; do
   mkdir -p "$corpus" "$artifacts"
   cp -n "$ROOT/fuzz/corpus/$h/"* "$corpus/" 2>/dev/null || true
   start=$(date +%s.%N)
-  if ASAN_OPTIONS=detect_leaks=0:allocator_may_return_null=1 "$BUILD/fuzz/cairn_fuzz_$h" -runs="$RUNS" \
+  asan="detect_leaks=0:allocator_may_return_null=1"
+  # Fast DDS 2.9.1 (Debian's libfastrtps) deletes its statistics readers and writers with a size not theirs
+  # when a participant is torn down: ASan's new-delete-type-mismatch, inside the library, at every exit of a
+  # harness that has a participant (cli_line).
+  [ "$h" = cli_line ] && asan="$asan:new_delete_type_mismatch=0"
+  if ASAN_OPTIONS="$asan" "$BUILD/fuzz/cairn_fuzz_$h" -runs="$RUNS" \
       -max_total_time="${FUZZ_MAX_S:-0}" \
       -rss_limit_mb=4096 -malloc_limit_mb=2048 -max_len=65536 -print_final_stats=1 \
       -artifact_prefix="$artifacts/" "$corpus" >"$BUILD/fuzz_$h.log" 2>&1; then

@@ -139,7 +139,6 @@ CommandShell::CommandShell(FleetClient& client, ShellOptions options, std::ostre
       options_(std::move(options)),
       json_(options_.json),
       out_(out),
-      created_(core::SteadyClock::now()),
       places_(Places::Load(options_.places_file)) {}
 
 CommandShell::CommandShell(FleetClient& client, bool json, std::ostream& out)
@@ -467,7 +466,7 @@ void CommandShell::PrintRobotsTable() {
 
 int CommandShell::Robots() {
   // A fresh basestation needs a moment of discovery before its list means anything.
-  std::this_thread::sleep_until(created_ + std::chrono::milliseconds(1500));
+  std::this_thread::sleep_until(client_.started() + std::chrono::milliseconds(1500));
   if (json_) {
     json list = json::array();
     for (const auto& v : client_.Robots()) list.push_back(ViewJson(v, client_.base_id()));
@@ -498,7 +497,7 @@ int CommandShell::Watch(const std::vector<std::string>& args) {
       return UsageError("watch", kUsageText);
     }
   }
-  std::this_thread::sleep_until(created_ + std::chrono::milliseconds(1500));
+  std::this_thread::sleep_until(client_.started() + std::chrono::milliseconds(1500));
   const bool in_place = options_.key_pressed != nullptr && !json_;
   for (int n = 0; count == 0 || n < count; ++n) {
     if (in_place) out_ << "\033[H\033[2J";  // home and clear: the table is redrawn in place
@@ -689,7 +688,7 @@ int CommandShell::Mode(const std::vector<std::string>& args) {
 
 int CommandShell::Stop(const std::vector<std::string>& args) {
   if (args[0] != "all") return Report("stop", args[0], client_.Stop(args[0]));
-  std::this_thread::sleep_until(created_ + std::chrono::milliseconds(1500));  // discovery
+  std::this_thread::sleep_until(client_.started() + std::chrono::milliseconds(1500));  // discovery
   std::vector<std::string> robots;  // lost ones too: a robot that looks lost may still hear a stop
   for (const auto& v : client_.Robots()) robots.push_back(v.robot_id);
   // Every stop at once: a fleet stop must not wait for one robot's round trip before the next.

@@ -650,6 +650,8 @@ bool FleetClient::Knows(const std::string& robot_id) const {
   return impl_->robots_.count(robot_id) > 0;
 }
 
+core::SteadyTime FleetClient::started() const { return impl_->created_; }
+
 std::string FleetClient::UnknownRobotReason(const std::string& robot_id) const {
   return impl_->UnknownRobotReason(robot_id);
 }

@@ -116,7 +116,6 @@ class CommandShell {
   ShellOptions options_;
   bool json_;
   std::ostream& out_;
-  core::SteadyTime created_;
   Places places_;
   std::map<std::string, uint32_t> last_goal_id_;  // per robot, the last waypoint this shell sent
   std::map<std::string, core::SteadyTime> last_answer_;  // per robot, when it last answered this shell

@@ -183,6 +183,9 @@ class FleetClient {
   /// True when `robot_id` has been seen (lost or not). Waits only while this client is younger than
   /// discovery_s, so an unknown robot is refused at once afterwards.
   bool Knows(const std::string& robot_id) const;
+  /// When this client (its DDS participant) started: discovery is measured from it, by the client and by
+  /// every shell on it (`robots`, `links` wait until 1.5 s / 2.5 s after it).
+  core::SteadyTime started() const;
   /// "unknown robot 'r9' (did you mean r1?) (known: r1, r2)" or "robot r1 is lost (...)".
   std::string UnknownRobotReason(const std::string& robot_id) const;
 
