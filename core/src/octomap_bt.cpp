@@ -1,5 +1,6 @@
 #include "cairn/core/octomap_bt.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdlib>
@@ -65,6 +66,51 @@ std::int64_t CountBtNodes(const char* data, std::size_t size, std::string* error
   return nodes;
 }
 
+std::int64_t CountOtNodes(const char* data, std::size_t size, std::string* error) {
+  error->clear();
+  if (size == 0) return 0;                               // OctoMap writes no node data for an empty tree
+  constexpr std::size_t kNodeBytes = sizeof(float) + 1;  // OcTreeNode's value, then its child bits
+  // pending[d]: nodes at depth d still to be read (OctoMap writes a node, then its children, depth first).
+  std::array<int, kTreeDepth + 1> pending{};
+  std::int64_t nodes = 0;
+  std::size_t pos = 0;
+  int depth = 0;  // Depth of the node read next.
+  pending[0] = 1;
+  while (true) {
+    while (depth >= 0 && pending[depth] == 0) --depth;
+    if (depth < 0) break;
+    --pending[depth];
+    if (pos + kNodeBytes > size) {
+      *error = "truncated: the node data ends at byte " + std::to_string(size) + " inside the tree";
+      return -1;
+    }
+    const unsigned children = static_cast<unsigned char>(data[pos + sizeof(float)]);
+    pos += kNodeBytes;
+    ++nodes;
+    if (children == 0) continue;
+    if (depth + 1 > kTreeDepth) {
+      *error = "corrupt: nodes below the finest depth " + std::to_string(kTreeDepth) + " (byte " +
+               std::to_string(pos - 1) + ")";
+      return -1;
+    }
+    int count = 0;
+    for (int i = 0; i < 8; ++i) count += (children >> i) & 1u;
+    pending[depth + 1] += count;
+    ++depth;
+  }
+  if (pos != size) {
+    *error = "corrupt: " + std::to_string(size - pos) + " bytes follow the end of the node data";
+    return -1;
+  }
+  return nodes;
+}
+
+std::string OtFileHeader(std::size_t num_nodes, double resolution_m) {
+  std::string h = kOtFirstLine;
+  h += "\n# (feel free to add / change comments, but leave the first line as it is!)\n#\n";
+  h += "id OcTree\nsize " + std::to_string(num_nodes) + "\nres " + ShortestDecimal(resolution_m) + "\ndata\n";
+  return h;
+}
 
 std::string ShortestDecimal(double value) {
   for (int precision = 6; precision <= 17; ++precision) {
@@ -83,7 +129,15 @@ std::string BtFileHeader(std::size_t num_nodes, double resolution_m) {
   return h;
 }
 
-BtFile ParseBtFile(const std::string& bytes, const std::string& where) {
+namespace {
+
+enum class Format { kBinary, kFull };
+
+// The header of a .bt or .ot file (they differ in their first line only) and the node stream after it, walked
+// by the format's counter.
+BtFile ParseOctomapFile(const std::string& bytes, const std::string& where, Format format) {
+  const bool binary = format == Format::kBinary;
+  const char* kind = binary ? "an OctoMap binary (.bt) file" : "an OctoMap full (.ot) file";
   if (bytes.empty()) throw std::invalid_argument(where + " is empty");
   std::size_t pos = 0;
   // Reads the next header line (without '\n'); false at the end of the file.
@@ -98,12 +152,17 @@ BtFile ParseBtFile(const std::string& bytes, const std::string& where) {
   };
   std::string line;
   next_line(&line);
-  if (line.rfind(kBtFirstLine, 0) != 0) {
-    if (line.rfind(kOtFirstLine, 0) == 0) {
+  const std::string first_line = binary ? kBtFirstLine : kOtFirstLine;
+  // "# Octomap OcTree file" is a prefix of neither form's other first line, so the order of the checks
+  // matters only for the message.
+  if (line.rfind(first_line, 0) != 0) {
+    if (binary && line.rfind(kOtFirstLine, 0) == 0) {
       throw std::invalid_argument(where + " is an OctoMap full (.ot) file, not a binary (.bt) file");
     }
-    throw std::invalid_argument(where + " is not an OctoMap binary (.bt) file: its first line is not '" +
-                   std::string(kBtFirstLine) + "'");
+    if (!binary && line.rfind(kBtFirstLine, 0) == 0) {
+      throw std::invalid_argument(where + " is an OctoMap binary (.bt) file, not a full (.ot) file");
+    }
+    throw std::invalid_argument(where + " is not " + kind + ": its first line is not '" + first_line + "'");
   }
   std::string id;
   std::optional<std::int64_t> size;
@@ -151,13 +210,24 @@ BtFile ParseBtFile(const std::string& bytes, const std::string& where) {
   contents.resolution_m = *res;
   contents.data = bytes.substr(pos);
   std::string error;
-  contents.num_nodes = CountBtNodes(contents.data.data(), contents.data.size(), &error);
+  contents.num_nodes = binary ? CountBtNodes(contents.data.data(), contents.data.size(), &error)
+                              : CountOtNodes(contents.data.data(), contents.data.size(), &error);
   if (!error.empty()) throw std::invalid_argument(where + " is " + error);
   if (contents.num_nodes != *size) {
     throw std::invalid_argument(where + " is corrupt or truncated: its header says " + std::to_string(*size) +
                    " nodes but its data holds " + std::to_string(contents.num_nodes));
   }
   return contents;
+}
+
+}  // namespace
+
+BtFile ParseBtFile(const std::string& bytes, const std::string& where) {
+  return ParseOctomapFile(bytes, where, Format::kBinary);
+}
+
+BtFile ParseOtFile(const std::string& bytes, const std::string& where) {
+  return ParseOctomapFile(bytes, where, Format::kFull);
 }
 
 }  // namespace cairn::core

@@ -77,36 +77,35 @@ World WorldFromTree(const octomap::OcTree& tree, const std::string& path, const 
 World LoadOctomapFile(const std::string& path, bool binary, const WorldLoadOptions& options,
                       WorldLoadReport* report) {
   CheckReadableFile(path);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw WorldError("world file '" + path + "' cannot be opened for reading");
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // Checked before OctoMap sees it: its readers recurse once per node and trust the header (a fuzzed .bt of
+  // nested inner nodes overflowed the stack), and its .ot reader reads on past the end of the data.
+  const std::string where = "world file '" + path + "'";
+  core::BtFile file;
+  try {
+    file = binary ? core::ParseBtFile(bytes, where) : core::ParseOtFile(bytes, where);
+  } catch (const std::invalid_argument& e) {
+    throw WorldError(e.what());
+  }
+  const auto num_nodes = static_cast<std::size_t>(file.num_nodes);
+  std::istringstream stream((binary ? core::BtFileHeader(num_nodes, file.resolution_m)
+                                    : core::OtFileHeader(num_nodes, file.resolution_m)) +
+                            file.data);
   if (binary) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw WorldError("world file '" + path + "' cannot be opened for reading");
-    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    // Checked before OctoMap sees it: its reader recurses once per inner node and trusts the header (a
-    // fuzzed file of nested inner nodes overflowed the stack).
-    core::BtFile file;
-    try {
-      file = core::ParseBtFile(bytes, "world file '" + path + "'");
-    } catch (const std::invalid_argument& e) {
-      throw WorldError(e.what());
-    }
-    std::istringstream stream(core::BtFileHeader(static_cast<std::size_t>(file.num_nodes), file.resolution_m) +
-                              file.data);
     octomap::OcTree tree(0.1);
     if (!tree.readBinary(stream)) {
       throw WorldError(
-          "world file '" + path +
-          "' is not a valid OctoMap binary (.bt) file (bad header, or corrupt or truncated data)");
+          where + " is not a valid OctoMap binary (.bt) file (bad header, or corrupt or truncated data)");
     }
     return WorldFromTree(tree, path, options, report);
   }
-  std::unique_ptr<octomap::AbstractOcTree> abstract(octomap::AbstractOcTree::read(path));
-  if (!abstract) {
-    throw WorldError("world file '" + path +
-                     "' is not a valid OctoMap (.ot) file (bad header or corrupt data)");
-  }
+  std::unique_ptr<octomap::AbstractOcTree> abstract(octomap::AbstractOcTree::read(stream));
+  if (!abstract) throw WorldError(where + " is not a valid OctoMap (.ot) file (bad header or corrupt data)");
   const auto* tree = dynamic_cast<const octomap::OcTree*>(abstract.get());
   if (tree == nullptr) {
-    throw WorldError("world file '" + path + "' holds an OctoMap tree of type '" + abstract->getTreeType() +
+    throw WorldError(where + " holds an OctoMap tree of type '" + abstract->getTreeType() +
                      "'; only OcTree is supported");
   }
   return WorldFromTree(*tree, path, options, report);

@@ -2,10 +2,10 @@
 #include "cairn/sim/world.h"
 
 #include <gtest/gtest.h>
-
-#include <cstring>
+#include <octomap/OcTree.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <set>
 
@@ -275,7 +275,73 @@ TEST_F(WorldFileTest, GarbageAndTruncatedBt) {
 
   const std::string garbage_ot = dir_ + "/garbage.ot";
   WriteFile(garbage_ot, "# Octomap OcTree file\nnonsense\n");
-  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(garbage_ot); }), "is not a valid OctoMap (.ot) file");
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(garbage_ot); }),
+                  "'" + garbage_ot + "' has an invalid header line 'nonsense'");
+}
+
+// An OctoMap full (.ot) file as OctoMap writes it loads to the same world as the .bt it came from.
+TEST_F(WorldFileTest, OtWorldLoadsAsItsBt) {
+  const std::string bt = dir_ + "/arena.bt";
+  SaveWorldAsBt(MakeBuiltinWorld("arena"), bt);
+  const std::string ot = dir_ + "/arena.ot";
+  ASSERT_TRUE(octomap::OcTree(bt).write(ot));
+  const World from_bt = LoadWorld(bt);
+  const World from_ot = LoadWorld(ot);
+  ASSERT_EQ(from_ot.dims(), from_bt.dims());
+  EXPECT_TRUE(from_ot.p_W_min().isApprox(from_bt.p_W_min()));
+  int mismatches = 0, occupied = 0;
+  for (int ix = 0; ix < from_bt.dims().x(); ++ix) {
+    for (int iy = 0; iy < from_bt.dims().y(); ++iy) {
+      for (int iz = 0; iz < from_bt.dims().z(); ++iz) {
+        mismatches += from_ot.IsOccupiedIndex({ix, iy, iz}) != from_bt.IsOccupiedIndex({ix, iy, iz});
+        occupied += from_bt.IsOccupiedIndex({ix, iy, iz});
+      }
+    }
+  }
+  EXPECT_GT(occupied, 1000);
+  EXPECT_EQ(mismatches, 0);
+}
+
+// .ot worlds went to OctoMap's reader unchecked: it recurses once per node and reads on past the end of the
+// data. A 10 MB .ot of 2*10^6 nodes, each the only child of the one before, crashed cairn_agent --world
+// (SIGSEGV, stack overflow). The stream is now walked before OctoMap sees it.
+TEST_F(WorldFileTest, BadOtFiles) {
+  const std::string bt = dir_ + "/arena.bt";
+  SaveWorldAsBt(MakeBuiltinWorld("arena"), bt);
+  const std::string ot = dir_ + "/arena.ot";
+  ASSERT_TRUE(octomap::OcTree(bt).write(ot));
+  const std::string bytes = ReadFile(ot);
+
+  const std::string truncated = dir_ + "/truncated.ot";
+  WriteFile(truncated, bytes.substr(0, bytes.size() / 2));
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(truncated); }), "'" + truncated + "' is truncated");
+
+  const std::string trailing = dir_ + "/trailing.ot";
+  WriteFile(trailing, bytes + "xyz");
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(trailing); }), "3 bytes follow the end of the node data");
+
+  std::string node(sizeof(float) + 1, '\0');
+  const float log_odds = 2.0f;
+  std::memcpy(node.data(), &log_odds, sizeof(float));
+  node[sizeof(float)] = '\x01';  // one child: the next node
+  const int kNodes = 2'000'000;
+  std::string deep = "# Octomap OcTree file\nid OcTree\nsize " + std::to_string(kNodes) + "\nres 0.1\ndata\n";
+  deep.reserve(deep.size() + node.size() * kNodes);
+  for (int i = 0; i < kNodes; ++i) deep += node;
+  const std::string deep_path = dir_ + "/deep.ot";
+  WriteFile(deep_path, deep);
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(deep_path); }), "nodes below the finest depth 16");
+
+  const std::string color = dir_ + "/color.ot";
+  WriteFile(color,
+            "# Octomap OcTree file\nid ColorOcTree\nsize 1\nres 0.1\ndata\n" + node.substr(0, 4) + '\0');
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(color); }),
+                  "of type 'ColorOcTree'; only 'OcTree' is supported");
+
+  const std::string bt_as_ot = dir_ + "/binary.ot";
+  WriteFile(bt_as_ot, ReadFile(bt));
+  EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(bt_as_ot); }),
+                  "is an OctoMap binary (.bt) file, not a full (.ot) file");
 }
 
 TEST_F(WorldFileTest, EmptyBt) {
