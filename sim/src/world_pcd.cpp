@@ -50,10 +50,36 @@ std::string Bytes(double bytes) {
 constexpr double kMaxLzfRatio = 88.0;
 
 // Checks the PCD header (format: https://pointclouds.org/documentation/tutorials/pcd_file_format.html)
-// before PCL reads the file, and that the data it declares fits in the file: PCL 1.13's PCDReader dereferences
-// missing fields of a file without a header and crashes, sizes the cloud from POINTS before reading any data
-// (a 215-byte file declaring 2e9 points made it allocate 23.5 GB), and reports a bad TYPE or a negative POINTS
-// as a generic failure. Throws WorldError naming the header field and its value.
+// before PCL reads the file, and that the data it declares fits in the file: PCL 1.13's PCDReader
+// dereferences missing fields of a file without a header and crashes, sizes the cloud from POINTS before
+// reading any data (a 215-byte file declaring 2e9 points made it allocate 23.5 GB), and reports a bad TYPE or
+// a negative POINTS as a generic failure. Throws WorldError naming the header field and its value. PCL's
+// header reader does not stop at the DATA line: it reads on while the lines are empty, comments (after
+// trimming) or start with a header keyword (a prefix match), and a keyword line there changes the header it
+// uses. Data whose first line starts with one (binary bytes spelling "FIELDS..."; found by fuzzing, a heap
+// use-after-free inside PCL 1.13's reader) is refused. `in` is at the first byte after the DATA line.
+template <typename Fail>
+void CheckNoHeaderAfterData(std::istream& in, const Fail& fail) {
+  static const char* const kKeywords[] = {"FIELDS", "COLUMNS", "SIZE",   "TYPE", "COUNT",
+                                          "WIDTH",  "HEIGHT",  "POINTS", "DATA", "VIEWPOINT"};
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty()) continue;
+    std::istringstream tokens(line);
+    std::string first;
+    if (!(tokens >> first)) return;  // blank: PCL's header ends here
+    if (first[0] == '#' || first.rfind("VERSION", 0) == 0) continue;
+    for (const char* keyword : kKeywords) {
+      if (first.rfind(keyword, 0) == 0) {
+        std::string shown = first.substr(0, 20);
+        for (char& c : shown) c = std::isprint(static_cast<unsigned char>(c)) ? c : '?';
+        fail("the data after the DATA line starts with '" + shown + "', which PCL would read as a " +
+             keyword + " header line");
+      }
+    }
+    return;
+  }
+}
+
 void CheckPcdHeader(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   const auto fail = [&path](const std::string& why) {
@@ -141,6 +167,8 @@ void CheckPcdHeader(const std::string& path) {
       }
       // What the data after the header must hold at least.
       const std::streamoff data_begin = in.tellg();
+      CheckNoHeaderAfterData(in, fail);
+      in.clear();
       in.seekg(0, std::ios::end);
       const double data_bytes = static_cast<double>(in.tellg() - data_begin);
       double need = 0.0;

@@ -507,6 +507,16 @@ TEST_F(WorldFileTest, PcdHeadersThatLieAreRefusedNamingTheField) {
   EXPECT_CONTAINS(error_of("half", half_float), "field 'x' is TYPE F with SIZE 2");
   std::string short_type = header("F F", "1", "ascii") + "0 0 0\n";
   EXPECT_CONTAINS(error_of("short_type", short_type), "TYPE has 2 values for 3 FIELDS");
+  // Found by fuzzing: binary data whose first bytes spell a header keyword. PCL's reader reads on past the
+  // DATA line and took "FIELDS_..." as new fields (a heap use-after-free inside PCL 1.13).
+  std::string fields_data(600, '\x3f');
+  fields_data.replace(0, 8, "FIELDS_\xc0");
+  EXPECT_CONTAINS(error_of("fields_after_data", header("F F F", "50", "binary") + fields_data),
+                  "the data after the DATA line starts with 'FIELDS_?");
+  EXPECT_CONTAINS(error_of("fields_after_data", header("F F F", "50", "binary") + fields_data),
+                  "which PCL would read as a FIELDS header line");
+  std::string comment_then_width = header("F F F", "1", "ascii") + "# a comment\nWIDTH 7\n0 0 0\n";
+  EXPECT_CONTAINS(error_of("width_after_data", comment_then_width), "starts with 'WIDTH'");
   // A valid binary file still loads.
   std::string data(12, '\0');
   const float p[3] = {0.05f, 0.05f, 0.05f};
