@@ -2,19 +2,24 @@
 // the rest is its CDR payload, deserialized by the fastddsgen type (what Fast DDS does with every sample from
 // the link), then checked and converted as the receiver does: ids (core::CheckId), waypoint goals
 // (agent::CheckGoal), explore claims with their zstd coverage (agent::ClaimFromMessage, CheckExploreClaim),
-// map updates (FleetMap::Apply). Every input must decode or be refused; no crash, no
-// unbounded allocation.
+// map updates (FleetMap::Apply), staircases (base::StaircaseFromMessage), and path requests (the agent's id
+// and frame checks, then a real global planner over a small map, from and to the requested points). Every
+// input must decode or be refused; no crash, no unbounded allocation.
 #include <fastdds/rtps/common/SerializedPayload.h>
 
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <string>
 
 #include "cairn/agent/agent_dds.h"
 #include "cairn/agent/commands.h"
 #include "cairn/agent/explore_claims.h"
+#include "cairn/base/fleet_perception.h"
 #include "cairn/core/peer_input.h"
+#include "cairn/core/voxel_grid.h"
+#include "cairn/nav/global_planner.h"
 #include "cairn/perception/map_telemetry.h"
 #include "cairn_msgsPubSubTypes.h"
 
@@ -67,11 +72,42 @@ void Map(const msgs::MapUpdate& m) {
   (void)fleet.Apply(u.robot_id, u, &error);
 }
 
+void Staircase(const msgs::StaircaseDetection& m) {
+  cairn::perception::Staircase staircase;
+  std::string why;
+  (void)cairn::base::StaircaseFromMessage(m, &staircase, &why);
+}
+
+// The agent's path request reader (agent_dds.cpp) and PlanningService::Answer, on a 4 m x 4 m room with a
+// floor and a wall across its middle (a door at one end).
+void Path(const msgs::PathRequest& m) {
+  if (!cairn::core::CheckId("requester id", m.requester_id()).empty()) return;
+  if (!m.platform().empty() && !cairn::core::CheckId("platform", m.platform()).empty()) return;
+  if (m.frame_id() != "map") return;
+  static const std::shared_ptr<cairn::nav::GlobalPlanner> planner = [] {
+    auto room = std::make_shared<cairn::core::VoxelGrid>("room", Eigen::Vector3d(0, 0, -0.1), 0.1,
+                                                         Eigen::Vector3i(40, 40, 20));
+    for (int x = 0; x < 40; ++x) {
+      for (int y = 0; y < 40; ++y) room->SetOccupied({x, y, 0});
+    }
+    for (int y = 0; y < 32; ++y) {
+      for (int z = 1; z < 20; ++z) room->SetOccupied({20, y, z});
+    }
+    return std::make_shared<cairn::nav::GlobalPlanner>(
+        room, std::vector<cairn::nav::PlatformProfile>{cairn::nav::GetPlatformProfile("wheeled")});
+  }();
+  cairn::nav::GlobalPlanRequest request;
+  request.start_W = {m.start_M().x_m(), m.start_M().y_m()};
+  request.goal_W = {m.goal_M().x_m(), m.goal_M().y_m()};
+  request.platform = m.platform().empty() ? "wheeled" : m.platform();
+  (void)planner->Plan(request);
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
-  const std::uint8_t kind = data[0] % 6;
+  const std::uint8_t kind = data[0] % 8;
   ++data;
   --size;
   switch (kind) {
@@ -98,7 +134,19 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     case 4: {
       msgs::StaircaseDetection m;
-      (void)Deserialize<msgs::StaircaseDetectionPubSubType>(data, size, &m);
+      if (Deserialize<msgs::StaircaseDetectionPubSubType>(data, size, &m)) Staircase(m);
+      break;
+    }
+    case 5: {
+      msgs::PathRequest m;
+      if (Deserialize<msgs::PathRequestPubSubType>(data, size, &m)) Path(m);
+      break;
+    }
+    case 6: {
+      msgs::RestartRequest m;
+      if (Deserialize<msgs::RestartRequestPubSubType>(data, size, &m)) {
+        (void)cairn::core::CheckId("base id", m.base_id());
+      }
       break;
     }
     default: {

@@ -32,7 +32,7 @@ constexpr std::size_t kMaxStaircaseInstances = 4096;  // (robot, staircase) pair
 constexpr double kMaxMapCoordinateM = 1e5;
 
 // A robot's detection, checked: false and the fault (the field and its value, the rule) if a field is not
-// finite or out of its physical range.
+// finite or out of its physical range. The robot id is checked by the caller.
 bool ToStaircase(const msgs::StaircaseDetection& m, perception::Staircase* s, std::string* why) {
   const auto in_range = [why](const char* field, double value, double lo, double hi, bool lo_open) {
     if (std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi) return true;
@@ -62,6 +62,12 @@ bool ToStaircase(const msgs::StaircaseDetection& m, perception::Staircase* s, st
 }
 
 }  // namespace
+
+bool StaircaseFromMessage(const msgs::StaircaseDetection& m, perception::Staircase* staircase,
+                          std::string* why) {
+  *why = core::CheckId("robot id", m.robot_id());
+  return why->empty() && ToStaircase(m, staircase, why);
+}
 
 std::string DescribeStaircase(const perception::StaircaseRegistry::Entry& entry) {
   const perception::Staircase& s = entry.staircase;
@@ -192,8 +198,7 @@ class FleetPerception::Impl {
   void OnStaircase(const msgs::StaircaseDetection& m) {
     perception::Staircase staircase;
     std::string why;
-    if (why = core::CheckId("robot id", m.robot_id()); why.empty()) ToStaircase(m, &staircase, &why);
-    if (!why.empty()) {
+    if (!StaircaseFromMessage(m, &staircase, &why)) {
       std::uint64_t suppressed = 0;
       if (warnings_.Allow("staircase", core::SteadyClock::now(), &suppressed)) {
         spdlog::warn("staircase {} from {} dropped: {}{}", m.staircase_id(), m.robot_id().substr(0, core::kMaxIdLength),

@@ -245,12 +245,20 @@ class AgentDds::Impl {
     map_sync_reader_ = std::make_unique<core::Reader<msgs::MapSyncRequestPubSubType>>(
         p, "cairn/map_sync_request", "cairn.command",
         [this, robot](const msgs::MapSyncRequest& m, const auto&) {
-          if (m.robot_id() == robot) handlers_.map_sync(m.requester_id());
+          if (m.robot_id() != robot ||
+              !ValidPeerId("cairn/map_sync_request", "requester id", m.requester_id())) {
+            return;
+          }
+          handlers_.map_sync(m.requester_id());
         });
     path_request_reader_ = std::make_unique<core::Reader<msgs::PathRequestPubSubType>>(
         p, CommandTopic("cairn/path_request"), "cairn.command",
         [this, robot](const msgs::PathRequest& m, const SampleInfo& info) {
-          if (m.robot_id() != robot) return;
+          // The requester id and the platform name ride into the answer and the log: bounded as ids are.
+          if (m.robot_id() != robot || !ValidPeerId("cairn/path_request", "requester id", m.requester_id()) ||
+              (!m.platform().empty() && !ValidPeerId("cairn/path_request", "platform", m.platform()))) {
+            return;
+          }
           handlers_.path_query(PathQuery{core::ParticipantIdOf(info.publication_handle),
                                          m.request_id(),
                                          m.requester_id(),

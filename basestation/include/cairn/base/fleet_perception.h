@@ -48,6 +48,13 @@ struct MapSaveResult {
 /// 2.38 m, seen by r1, r2".
 std::string DescribeStaircase(const perception::StaircaseRegistry::Entry& entry);
 
+/// A robot's staircase detection as the basestation takes it (frame M = the fleet's map frame): its robot id
+/// (core::CheckId) and every field checked, finite and within its physical range (position within 1e5 m of
+/// the origin, rise (0, 1] m, run (0, 2] m, width (0, 20] m, 1-500 steps, confidence [0, 1]).
+/// @return false, with *why naming the field, its value and the range, when the detection is refused.
+bool StaircaseFromMessage(const cairn_msgs::StaircaseDetection& m, perception::Staircase* staircase,
+                          std::string* why);
+
 /// DDS readers and writers of the perception topics on a basestation's participant, and the fleet model
 /// built from them. Thread-safe. Malformed map updates are dropped and counted (FleetMapStats::drops),
 /// never applied.
