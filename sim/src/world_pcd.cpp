@@ -49,15 +49,11 @@ std::string Bytes(double bytes) {
 // compressed byte.
 constexpr double kMaxLzfRatio = 88.0;
 
-// Checks the PCD header (format: https://pointclouds.org/documentation/tutorials/pcd_file_format.html)
-// before PCL reads the file, and that the data it declares fits in the file: PCL 1.13's PCDReader
-// dereferences missing fields of a file without a header and crashes, sizes the cloud from POINTS before
-// reading any data (a 215-byte file declaring 2e9 points made it allocate 23.5 GB), and reports a bad TYPE or
-// a negative POINTS as a generic failure. Throws WorldError naming the header field and its value. PCL's
-// header reader does not stop at the DATA line: it reads on while the lines are empty, comments (after
+// PCL's header reader does not stop at the DATA line: it reads on while the lines are empty, comments (after
 // trimming) or start with a header keyword (a prefix match), and a keyword line there changes the header it
 // uses. Data whose first line starts with one (binary bytes spelling "FIELDS..."; found by fuzzing, a heap
-// use-after-free inside PCL 1.13's reader) is refused. `in` is at the first byte after the DATA line.
+// use-after-free inside PCL 1.13's reader) is refused through `fail`. `in` is at the first byte after the
+// DATA line.
 template <typename Fail>
 void CheckNoHeaderAfterData(std::istream& in, const Fail& fail) {
   static const char* const kKeywords[] = {"FIELDS", "COLUMNS", "SIZE",   "TYPE", "COUNT",
@@ -80,6 +76,11 @@ void CheckNoHeaderAfterData(std::istream& in, const Fail& fail) {
   }
 }
 
+// Checks the PCD header (format: https://pointclouds.org/documentation/tutorials/pcd_file_format.html)
+// before PCL reads the file, and that the data it declares fits in the file: PCL 1.13's PCDReader
+// dereferences missing fields of a file without a header and crashes, sizes the cloud from POINTS before
+// reading any data (a 215-byte file declaring 2e9 points made it allocate 23.5 GB), and reports a bad TYPE or
+// a negative POINTS as a generic failure. Throws WorldError naming the header field and its value.
 void CheckPcdHeader(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   const auto fail = [&path](const std::string& why) {

@@ -41,8 +41,7 @@ BtFile ParseOtFile(const std::string& bytes, const std::string& where);
 /// Walks an OctoMap full (.ot) node stream of an OcTree (`data`, `size` bytes; per node a 4-byte value and a
 /// byte whose bit i says child i follows, depth first, at most 16 levels) without building it, iteratively.
 /// @return its number of nodes with *error empty; -1 with the fault in *error (truncated, too deep, bytes
-/// after
-///         its end). An empty stream has 0 nodes.
+///         after its end). An empty stream has 0 nodes.
 std::int64_t CountOtNodes(const char* data, std::size_t size, std::string* error);
 
 /// The header OctoMap's AbstractOcTree::write() writes for an OcTree of `num_nodes` nodes at `resolution_m`;
