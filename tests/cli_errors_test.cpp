@@ -162,6 +162,14 @@ TEST(BaseCli, RefusesBadFlagsAndCommands) {
   ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--gui", "--listen", "127.0.0.1:0",
                             "--gui-root", "/nonexistent/web"}),
                 "'/nonexistent/web/foxglove-schemas.json' cannot be read");
+  // Found by fuzzing (fuzz/corpus/cli_line/stop_long_id): a stop, sent even to robots not seen, with a
+  // 370-character id made Fast CDR throw out of the writer (a DDS key holds 255 bytes) and cairn_base abort.
+  o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--", "stop", std::string(370, 'N')});
+  EXPECT_EQ(o.exit_code, 2);
+  EXPECT_NE(o.stdout_text.find("robot id '" + std::string(64, 'N') +
+                               "...' (370 characters) must be 1-64 characters of A-Z a-z 0-9 _ -"),
+            std::string::npos)
+      << o.stdout_text << o.stderr_text;
   o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--", "help"});
   EXPECT_EQ(o.exit_code, 0);
   EXPECT_NE(o.stdout_text.find("request-control R"), std::string::npos);

@@ -313,7 +313,7 @@ int CommandShell::Report(const std::string& command, const std::string& robot, c
     if (!valid_text.empty()) out_ << "; " << valid_text;
     out_ << std::endl;
   }
-  return o.ok ? kOk : kRefused;
+  return o.ok ? kOk : o.result == outcome::kInvalid ? kUsage : kRefused;
 }
 
 int CommandShell::Execute(const std::string& line) {

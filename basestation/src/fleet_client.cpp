@@ -344,6 +344,13 @@ class FleetClient::Impl {
                       bool require_live = true) {
     CommandOutcome outcome;
     outcome.request_id = next_request_id_++;
+    // No robot can have such an id (robots check theirs at start), and one longer than a DDS key holds would
+    // not even serialize (found by fuzzing: `stop` with a 370-character id).
+    if (std::string why = core::CheckId("robot id", robot_id); !why.empty()) {
+      outcome.result = outcome::kInvalid;
+      outcome.reason = std::move(why);
+      return outcome;
+    }
     if (std::string why = NotPermittedReason(robot_id, kind == msgs::COMMAND_KIND_STOP); !why.empty()) {
       outcome.result = outcome::kRefused;
       outcome.reason = std::move(why);

@@ -95,8 +95,14 @@ void CheckPcdHeader(const std::string& path) {
   std::int64_t points = -1;
   std::string line;
   for (int n = 0; n < 64 && std::getline(in, line); ++n) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
+    if (line.empty()) continue;  // PCL skips empty lines only: one of blanks (or a lone '\r') ends its header
+    if (line.find_first_not_of(" \t\r") == std::string::npos) {
+      fail("line " + std::to_string(n + 1) +
+           " is blank (spaces or a carriage return) before the DATA line: PCL's "
+           "reader stops at it");  // found by fuzzing: PCL 1.13 then read a missing field (SEGV)
+    }
+    if (line.back() == '\r') line.pop_back();
+    if (line[0] == '#') continue;
     std::istringstream tokens(line);
     std::string key;
     tokens >> key;

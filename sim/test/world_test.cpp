@@ -515,6 +515,9 @@ TEST_F(WorldFileTest, PcdHeadersThatLieAreRefusedNamingTheField) {
                   "the data after the DATA line starts with 'FIELDS_?");
   EXPECT_CONTAINS(error_of("fields_after_data", header("F F F", "50", "binary") + fields_data),
                   "which PCL would read as a FIELDS header line");
+  // Found by fuzzing: a lone carriage return before the header ended PCL's header there (SEGV inside PCL).
+  EXPECT_CONTAINS(error_of("cr_first", "\r\n" + header("F F F", "1", "ascii") + "0 0 0\n"),
+                  "line 1 is blank (spaces or a carriage return) before the DATA line");
   std::string comment_then_width = header("F F F", "1", "ascii") + "# a comment\nWIDTH 7\n0 0 0\n";
   EXPECT_CONTAINS(error_of("width_after_data", comment_then_width), "starts with 'WIDTH'");
   // A valid binary file still loads.

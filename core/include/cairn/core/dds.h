@@ -452,7 +452,14 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
   }
   // With the entities lock shared.
   bool WriteEntity(const Msg& msg) {
-    if (writer_ == nullptr || !writer_->write(const_cast<Msg*>(&msg))) return false;
+    if (writer_ == nullptr) return false;
+    try {
+      if (!writer_->write(const_cast<Msg*>(&msg))) return false;
+    } catch (const std::exception&) {
+      // Fast CDR throws out of write() when a sample or its key does not fit the type's buffers (a keyed
+      // string longer than 255 bytes): refused like any other sample Fast DDS will not take.
+      return false;
+    }
     if (latched_) {
       std::lock_guard<std::mutex> held(held_mutex_);
       last_ = msg;
