@@ -6,7 +6,8 @@
 # A crash stops that harness and leaves crash-* in BUILD_DIR/artifacts/<name>/: add it to the corpus and a
 # regression test. No network is used (run it in a private namespace anyway: tests/netns_run.sh).
 # FUZZ_MAX_S (environment): also stop each harness after this many seconds (libFuzzer -max_total_time), for the
-# slow decoders (a world file is loaded and cleaned up in milliseconds, not microseconds).
+# slow decoders (a world file is loaded and cleaned up in milliseconds, not microseconds). FUZZ_MAX_LEN: the
+# largest input libFuzzer makes (default 65536 bytes).
 # Usage: bench/fuzz.sh [RUNS] [BUILD_DIR] [HARNESS...]
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -40,7 +41,7 @@ for h in "${HARNESSES[@]}"; do
   [ "$h" = cli_line ] && asan="$asan:new_delete_type_mismatch=0"
   if ASAN_OPTIONS="$asan" "$BUILD/fuzz/cairn_fuzz_$h" -runs="$RUNS" \
       -max_total_time="${FUZZ_MAX_S:-0}" \
-      -rss_limit_mb=4096 -malloc_limit_mb=2048 -max_len=65536 -print_final_stats=1 \
+      -rss_limit_mb=4096 -malloc_limit_mb=2048 -max_len="${FUZZ_MAX_LEN:-65536}" -print_final_stats=1 \
       -artifact_prefix="$artifacts/" "$corpus" >"$BUILD/fuzz_$h.log" 2>&1; then
     result="no crash"
   else
