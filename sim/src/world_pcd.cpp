@@ -93,6 +93,7 @@ void CheckPcdHeader(const std::string& path) {
   std::int64_t width = -1;
   std::int64_t height = -1;
   std::int64_t points = -1;
+  std::set<std::string> keys_seen;
   std::string line;
   for (int n = 0; n < 64 && std::getline(in, line); ++n) {
     if (line.empty()) continue;  // PCL skips empty lines only: one of blanks (or a lone '\r') ends its header
@@ -108,6 +109,10 @@ void CheckPcdHeader(const std::string& path) {
     tokens >> key;
     std::vector<std::string> values;
     for (std::string v; tokens >> v;) values.push_back(v);
+    // PCL acts on every header line as it reads it (a POINTS line sizes the cloud at once): a key given twice
+    // would be checked here by its last value and used by PCL with its first (found by fuzzing: POINTS 2e9,
+    // then POINTS 50, made PCL allocate 48 GB).
+    if (!keys_seen.insert(key).second) fail(key.substr(0, 20) + " appears twice in the header");
     const auto one_count = [&](std::int64_t* out) {
       if (values.size() != 1 || !ParseCount(values[0], out)) {
         fail(key + " '" + (values.empty() ? "" : values[0].substr(0, 20)) + (values.size() > 1 ? " ..." : "") +

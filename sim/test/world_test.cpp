@@ -515,6 +515,10 @@ TEST_F(WorldFileTest, PcdHeadersThatLieAreRefusedNamingTheField) {
                   "the data after the DATA line starts with 'FIELDS_?");
   EXPECT_CONTAINS(error_of("fields_after_data", header("F F F", "50", "binary") + fields_data),
                   "which PCL would read as a FIELDS header line");
+  // Found by fuzzing: a key given twice. PCL sized the cloud from the first POINTS (48 GB); the check read
+  // the last.
+  EXPECT_CONTAINS(error_of("points_twice", "POINTS 2000000000\n" + header("F F F", "1", "ascii") + "0 0 0\n"),
+                  "POINTS appears twice in the header");
   // Found by fuzzing: a lone carriage return before the header ended PCL's header there (SEGV inside PCL).
   EXPECT_CONTAINS(error_of("cr_first", "\r\n" + header("F F F", "1", "ascii") + "0 0 0\n"),
                   "line 1 is blank (spaces or a carriage return) before the DATA line");
