@@ -6,8 +6,10 @@
 # deadlines so far (the agent's "control loop woke N ms late" and "control cycle took" warnings: a 50 Hz cycle
 # that ran over 100 ms). The baseline is the sample at 5 minutes, in the same run: RSS growth is the last
 # sample against it. Samples go to OUT_DIR/soak.csv, figures to stdout (FIGURE lines). Every minute the
-# basestation also asks each robot's health (`health R`): its perception map's memory and its agent's RSS as the
-# robot reports them, to tell a map that grows from memory that leaks (OUT_DIR/health.csv).
+# basestation also asks each robot's health (`health R`): the memory of its maps as the robot counts it
+# (perception: the OctoMap and the navigation map's grids; planning: the planner's copy of them) and its
+# agent's RSS, to tell maps that grow (the navigation map is re-allocated over a larger area in steps) from
+# memory that leaks: OUT_DIR/health.csv, and the RSS growth net of the maps' (FIGURE ... net of its maps).
 # Must run in a private network namespace: tests/netns_run.sh bench/soak.sh BUILD_DIR [DURATION_S] [OUT_DIR]
 set -euo pipefail
 BUILD="${1:?usage: soak.sh BUILD_DIR [DURATION_S] [OUT_DIR]}"
@@ -121,8 +123,8 @@ print(f"FIGURE soak worst RSS growth after the baseline: {worst:+.2f} % (bound: 
 PY
 grep -h "arrived" "$OUT"/r*.log | wc -l | xargs -I{} echo "FIGURE soak goals arrived: {}"
 sleep 2
-# The robots' own view (health R): perception's map memory and the agent's RSS, first answer at or after the
-# baseline against the last.
+# The robots' own view (health R): its maps' memory and the agent's RSS, first answer at or after the baseline
+# against the last; the growth of the RSS less the maps' memory, against the RSS at the baseline.
 python3 - "$OUT/base.out" "$OUT/health_times.txt" "$BASELINE_S" "$OUT/health.csv" <<'PY'
 import json, sys
 times = [int(t) for t in open(sys.argv[2]).read().split()]
@@ -136,19 +138,27 @@ for line in open(sys.argv[1]):
     if j.get("command") == "health":
         answers.setdefault(j.get("robot"), []).append(j)
 with open(sys.argv[4], "w") as out:
-    out.write("t_s,robot,perception_map_kb,rss_kb\n")
+    out.write("t_s,robot,perception_maps_kb,planning_map_kb,rss_kb\n")
+    worst = None
     for robot, js in sorted(answers.items()):
         rows = []
         for t, j in zip(times, js):
             if not j.get("ok"):
                 continue
-            m = next((c["memory_bytes"] for c in j["components"] if c["name"] == "perception"), 0)
-            rows.append((t, m // 1024, j["rss_bytes"] // 1024))
-            out.write(f"{t},{robot},{m // 1024},{j['rss_bytes'] // 1024}\n")
+            mem = {c["name"]: c["memory_bytes"] // 1024 for c in j["components"]}
+            row = (t, mem.get("perception", 0), mem.get("planning", 0), j["rss_bytes"] // 1024)
+            rows.append(row)
+            out.write(",".join(str(v) for v in (row[0], robot) + row[1:]) + "\n")
         if not rows:
             continue
         base = next((r for r in rows if r[0] >= baseline_s), rows[0])
         last = rows[-1]
-        print(f"FIGURE soak {robot} (its health): perception map {base[1]/1024:.1f} MB at {base[0]} s -> "
-              f"{last[1]/1024:.1f} MB at {last[0]} s; RSS {base[2]/1024:.1f} -> {last[2]/1024:.1f} MB")
+        net = 100.0 * ((last[3] - last[1] - last[2]) - (base[3] - base[1] - base[2])) / max(1, base[3])
+        worst = net if worst is None else max(worst, net)
+        mb = lambda kb: f"{kb / 1024:.1f}"
+        print(f"FIGURE soak {robot} (its health) {base[0]} s -> {last[0]} s: perception maps {mb(base[1])} -> "
+              f"{mb(last[1])} MB, planner's map {mb(base[2])} -> {mb(last[2])} MB, RSS {mb(base[3])} -> "
+              f"{mb(last[3])} MB; RSS growth net of its maps {net:+.2f} %")
+    if worst is not None:
+        print(f"FIGURE soak worst RSS growth net of the maps after the baseline: {worst:+.2f} % (bound: 5 %)")
 PY

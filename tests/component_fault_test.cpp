@@ -99,6 +99,8 @@ TEST(ComponentFaults, PerceptionThatThrowsIsRestartedAloneItsModesWaitAndTheRobo
   EXPECT_TRUE(health["all_up"]) << health;
   EXPECT_EQ(health["components"].size(), 8u) << health;
   EXPECT_GT(Component(health, "perception")["memory_bytes"].get<double>(), 0) << health;
+  // The planner holds a copy of the navigation map (voxels, seen-free voxels, grids): megabytes, not zero.
+  EXPECT_GT(Component(health, "planning")["memory_bytes"].get<double>(), 1e6) << health;
 
   // The fault: perception goes down; the robot leaves smart joystick (it needs perception) and stays put.
   health = WaitForComponent(

@@ -107,6 +107,18 @@ GlobalPlanner::GlobalPlanner(std::shared_ptr<const core::VoxelGrid> world, std::
     if (!names.insert(p.name).second) throw std::invalid_argument("GlobalPlanner: platform '" + p.name +
                                                                    "' given twice");
   }
+  map_memory_bytes_ = world_->MemoryBytes();
+}
+
+void GlobalPlanner::CountMapMemoryLocked() {
+  std::size_t bytes = world_->MemoryBytes() + (seen_free_ ? seen_free_->MemoryBytes() : 0);
+  for (const auto* cache : {&grids_, &diagnose_grids_}) {
+    for (const auto& [platform, grid] : *cache) bytes += grid->MemoryBytes();
+  }
+  for (const auto* cache : {&levels_, &diagnose_levels_}) {
+    for (const auto& [platform, levels] : *cache) bytes += levels->MemoryBytes();
+  }
+  map_memory_bytes_.store(bytes, std::memory_order_relaxed);
 }
 
 const PlatformProfile* GlobalPlanner::Profile(const std::string& platform) const {
@@ -135,6 +147,7 @@ void GlobalPlanner::UpdateWorld(std::shared_ptr<const core::VoxelGrid> world) {
   levels_.clear();
   diagnose_levels_.clear();
   sensor_max_z_m_ = std::numeric_limits<double>::quiet_NaN();
+  CountMapMemoryLocked();
 }
 
 void GlobalPlanner::UpdateMap(std::shared_ptr<const core::VoxelGrid> world, const std::string& platform,
@@ -161,6 +174,7 @@ void GlobalPlanner::UpdateMap(std::shared_ptr<const core::VoxelGrid> world, cons
   if (levels) levels_.emplace(platform, std::move(levels));
   if (diagnose_levels) diagnose_levels_.emplace(platform, std::move(diagnose_levels));
   sensor_max_z_m_ = sensor_max_z_m;
+  CountMapMemoryLocked();
 }
 
 TraversabilityOptions GlobalPlanner::LevelOptionsFor(const PlatformProfile& profile) const {
@@ -187,6 +201,7 @@ std::shared_ptr<const MultiLevelGrid> GlobalPlanner::LevelsLocked(const std::str
   if (diagnose) t.max_step_m = std::max(t.max_step_m, options_.diagnose_max_step_m);
   auto levels = std::make_shared<const MultiLevelGrid>(world_, t, seen_free_, sensor_max_z_m_);
   cache.emplace(platform, levels);
+  CountMapMemoryLocked();
   return levels;
 }
 
@@ -228,6 +243,7 @@ std::shared_ptr<const TraversabilityGrid> GlobalPlanner::GridLocked(const std::s
   if (diagnose) t = DiagnoseTerrainOptionsFor(*profile).value_or(t);
   auto grid = std::make_shared<const TraversabilityGrid>(*world_, t, seen_free_.get());
   cache.emplace(platform, grid);
+  CountMapMemoryLocked();
   return grid;
 }
 

@@ -83,6 +83,12 @@ void MultiLevelGrid::CheckGeometry(const core::VoxelGrid& grid, const char* what
   }
 }
 
+std::size_t MultiLevelGrid::MemoryBytes() const {
+  return first_.capacity() * sizeof(int) + z_m_.capacity() * sizeof(float) +
+         clearance_m_.capacity() * sizeof(float) + column_of_.capacity() * sizeof(int) +
+         observed_.capacity() + observed_near_.capacity();
+}
+
 bool MultiLevelGrid::CellOf(double x_m, double y_m, int* ix, int* iy) const {
   if (!std::isfinite(x_m) || !std::isfinite(y_m)) return false;
   const double u = std::floor((x_m - p_W_min_.x()) / cell_m_);

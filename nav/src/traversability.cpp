@@ -449,6 +449,12 @@ void TraversabilityGrid::Recompute(const core::VoxelGrid& world, const std::vect
   }
 }
 
+std::size_t TraversabilityGrid::MemoryBytes() const {
+  return internal_step_.capacity() + state_.capacity() * sizeof(CellState) +
+         ground_.capacity() * sizeof(double) + inferred_.capacity() + lethal_.capacity() +
+         clearance_m_.capacity() * sizeof(double);
+}
+
 bool TraversabilityGrid::CellOf(double x_m, double y_m, int* ix, int* iy) const {
   if (!std::isfinite(x_m) || !std::isfinite(y_m)) return false;
   const double u = std::floor((x_m - p_W_min_.x()) / cell_m_);

@@ -150,6 +150,27 @@ TEST_F(StaircaseTest, WheeledRobotIsRefusedWithTheStep) {
   EXPECT_NE(plan.reason.find("platform legged climbs up to 0.30 m"), std::string::npos) << plan.reason;
 }
 
+// map_memory_bytes() counts the world and every grid the planner caches, as they are built and replaced.
+TEST(GlobalPlannerTest, MapMemoryCountsTheWorldAndTheGridsItHolds) {
+  const sim::World w = FlatWorld(12, 8);
+  const auto world = std::make_shared<const sim::World>(w);
+  GlobalPlanner planner(world, BothPlatforms());
+  EXPECT_EQ(planner.map_memory_bytes(), world->MemoryBytes());
+  EXPECT_GE(world->MemoryBytes(), static_cast<std::size_t>(world->num_voxels() / 8));
+  const auto wheeled = planner.Grid("wheeled");
+  ASSERT_NE(wheeled, nullptr);
+  EXPECT_GE(wheeled->MemoryBytes(), static_cast<std::size_t>(wheeled->nx() * wheeled->ny()) * 18u);
+  EXPECT_EQ(planner.map_memory_bytes(), world->MemoryBytes() + wheeled->MemoryBytes());
+  const auto legged = planner.Grid("legged");
+  EXPECT_EQ(planner.map_memory_bytes(),
+            world->MemoryBytes() + wheeled->MemoryBytes() + legged->MemoryBytes());
+  // A new map drops the old grids; a larger one is counted whole.
+  const auto larger = std::make_shared<const sim::World>(FlatWorld(24, 16));
+  planner.UpdateWorld(larger);
+  EXPECT_EQ(planner.map_memory_bytes(), larger->MemoryBytes());
+  EXPECT_GE(larger->MemoryBytes(), 3 * world->MemoryBytes());
+}
+
 TEST(GlobalPlannerTest, MapChangeUnderThePathIsDetectedAndReplanned) {
   sim::World w = FlatWorld(12, 8);
   GlobalPlanner planner(std::make_shared<const sim::World>(w), BothPlatforms());

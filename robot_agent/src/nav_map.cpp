@@ -268,6 +268,14 @@ void NavMap::Reallocate(const Eigen::AlignedBox2d& extent_M) {
   seen_free_ = copy(seen_free_);
 }
 
+std::size_t NavMap::MemoryBytes() const {
+  std::size_t bytes =
+      voxels_.MemoryBytes() + seen_free_.MemoryBytes() + grid_->MemoryBytes() + levels_->MemoryBytes();
+  if (diagnose_grid_) bytes += diagnose_grid_->MemoryBytes();
+  if (diagnose_levels_) bytes += diagnose_levels_->MemoryBytes();
+  return bytes;
+}
+
 void NavMap::Publish(const std::vector<Eigen::AlignedBox2d>& columns) {
   auto world = std::make_shared<const core::VoxelGrid>(voxels_);
   auto seen_free = std::make_shared<const core::VoxelGrid>(seen_free_);

@@ -234,6 +234,8 @@ TEST(NavMapTest, GrowsAsTheRobotMapsBeyondItOrIsSentBeyondWithinItsLargestExtent
   auto& [profile, platform, start_M, perception, planner, nav_map] = rig;
   const Eigen::AlignedBox2d initial = nav_map.extent_M();
   EXPECT_NEAR(initial.max().x(), 14.0, 0.11);
+  const std::size_t initial_bytes = nav_map.MemoryBytes();
+  const std::size_t initial_planner_bytes = planner->map_memory_bytes();
 
   // Too far for the largest extent: refused, naming the key; within it: coverable.
   std::string why;
@@ -249,6 +251,20 @@ TEST(NavMapTest, GrowsAsTheRobotMapsBeyondItOrIsSentBeyondWithinItsLargestExtent
   EXPECT_GT(grown.max().x(), 30.0) << "the lidar saw 30 m east of x 20";
   EXPECT_LE(grown.sizes().maxCoeff(), 90.0 + 1e-6);
   EXPECT_TRUE(grown.contains(initial));
+
+  // Memory (what health reports for perception and planning) grows with the area: the grids are per column,
+  // the voxels per column of a fixed height band. The map counts its own grids, the planner its copies.
+  const double area_ratio = grown.volume() / initial.volume();
+  const std::size_t grown_bytes = nav_map.MemoryBytes();
+  EXPECT_GE(grown_bytes, nav_map.voxels().MemoryBytes() + nav_map.seen_free().MemoryBytes() +
+                             nav_map.grid().MemoryBytes() + nav_map.levels().MemoryBytes());
+  EXPECT_NEAR(static_cast<double>(grown_bytes) / static_cast<double>(initial_bytes), area_ratio,
+              0.25 * area_ratio);
+  const std::size_t planner_bytes = planner->map_memory_bytes();
+  EXPECT_GE(planner_bytes, nav_map.voxels().MemoryBytes() + nav_map.seen_free().MemoryBytes() +
+                               nav_map.grid().MemoryBytes() + nav_map.levels().MemoryBytes());
+  EXPECT_NEAR(static_cast<double>(planner_bytes) / static_cast<double>(initial_planner_bytes), area_ratio,
+              0.25 * area_ratio);
 
   // Every occupied voxel of the OctoMap within the grown extent is in the navigation map's voxels.
   const core::VoxelGrid& voxels = nav_map.voxels();

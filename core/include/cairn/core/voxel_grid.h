@@ -50,6 +50,8 @@ class VoxelGrid {
   Eigen::AlignedBox3d bounds() const { return Eigen::AlignedBox3d(p_W_min_, p_W_max()); }
   /// Total number of voxels, dims().prod().
   std::int64_t num_voxels() const { return num_voxels_; }
+  /// Heap memory the grid holds, bytes (its bit words, one bit per voxel, and its name); not sizeof(*this).
+  std::size_t MemoryBytes() const { return bits_.capacity() * sizeof(std::uint64_t) + name_.capacity(); }
 
   /// True if `index` lies in the grid.
   bool Contains(const Eigen::Vector3i& index) const {

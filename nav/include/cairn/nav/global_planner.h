@@ -182,6 +182,11 @@ class GlobalPlanner {
 
   /// Number of map updates so far (0 for the map given at construction).
   std::uint64_t map_version() const;
+  /// Heap memory of the map the planner holds now, bytes: its voxel grids (world, seen-free) and every grid
+  /// cached or handed over for its platforms (TraversabilityGrid, MultiLevelGrid). Not counted: grids a
+  /// search in flight still holds after a map update. Lock-free (counted when the map or a cache changes), so
+  /// a health monitor never waits for a grid being built.
+  std::size_t map_memory_bytes() const { return map_memory_bytes_.load(std::memory_order_relaxed); }
 
   /// The traversability grid of `platform` on the current map (built if needed); nullptr if the platform
   /// is unknown. The grid stays valid while the caller holds the pointer.
@@ -202,6 +207,8 @@ class GlobalPlanner {
   std::string DescribeStep(const PlatformProfile& profile, double worst_step, const Eigen::Vector2d& worst_at) const;
   std::string DiagnoseUnreachable(const PlatformProfile& profile, const GlobalPlanRequest& request,
                                   const AStarOptions& astar);
+  // Sets map_memory_bytes_ from the map and the caches (mutex_ held).
+  void CountMapMemoryLocked();
   // A plan for a goal beyond the map's extent (request.allow_partial): a partial plan to the map's edge toward
   // the goal, or the failure to reach that edge.
   GlobalPlan PlanToMapEdge(const GlobalPlanRequest& request, const TraversabilityGrid& grid);
@@ -212,6 +219,7 @@ class GlobalPlanner {
   std::shared_ptr<const core::VoxelGrid> world_;
   std::shared_ptr<const core::VoxelGrid> seen_free_;  // Null for a world known in full (a survey, the sim).
   std::atomic<std::uint64_t> map_version_{0};  // read without the mutex (control loops poll it)
+  std::atomic<std::size_t> map_memory_bytes_{0};  // read without the mutex (the health monitor)
   std::map<std::string, std::shared_ptr<const TraversabilityGrid>> grids_;            // by platform
   std::map<std::string, std::shared_ptr<const TraversabilityGrid>> diagnose_grids_;  // by platform
   std::map<std::string, std::shared_ptr<const MultiLevelGrid>> levels_;               // by platform

@@ -81,6 +81,9 @@ class MultiLevelGrid : public core::FootprintChecker {
   }
   /// Column index ix + nx * iy of an in-grid cell.
   int Column(int ix, int iy) const { return ix + nx_ * iy; }
+  /// Heap memory of the grid's own arrays, bytes (per column and per surface); not the voxel grids it shares
+  /// (world and seen_free: their owner counts them).
+  std::size_t MemoryBytes() const;
 
   /// Surfaces ("nodes") of column `column` are the ids [FirstNode(column), FirstNode(column + 1)), ordered by
   /// height (lowest first).

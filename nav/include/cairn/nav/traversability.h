@@ -147,6 +147,8 @@ class TraversabilityGrid : public core::FootprintChecker {
   const TraversabilityOptions& options() const { return options_; }
   /// Counts and the reference height used.
   const TraversabilitySummary& summary() const { return summary_; }
+  /// Heap memory the grid holds, bytes (its per-cell arrays: about 20 bytes a cell); not the world's voxels.
+  std::size_t MemoryBytes() const;
 
   /// True if (ix, iy) is a cell of the grid.
   bool InGrid(int ix, int iy) const { return ix >= 0 && iy >= 0 && ix < nx_ && iy < ny_; }

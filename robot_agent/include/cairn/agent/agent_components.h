@@ -99,7 +99,10 @@ class PerceptionComponent : public core::ThreadedComponent {
   PerceptionComponent(PerceptionService* service, double rate_hz)
       : core::ThreadedComponent("perception", rate_hz), service_(service) {}
   ~PerceptionComponent() override { StopLoops(); }
-  std::size_t MemoryBytes() const override { return service_->map_memory_bytes(); }
+  /// Its maps: the OctoMap and the navigation map's grids, bytes.
+  std::size_t MemoryBytes() const override {
+    return service_->map_memory_bytes() + service_->nav_map_memory_bytes();
+  }
 
  protected:
   std::vector<std::function<void(core::WorkLoop&)>> Loops() override {
@@ -133,6 +136,8 @@ class PlanningComponent : public core::ThreadedComponent {
   PlanningComponent(PlanningService* service, FaultInjector* faults)
       : core::ThreadedComponent("planning", 10.0), service_(service), faults_(faults) {}
   ~PlanningComponent() override { StopLoops(); }
+  /// The map the global planner holds (its copy of the navigation map's grids), bytes.
+  std::size_t MemoryBytes() const override { return service_->map_memory_bytes(); }
 
  protected:
   std::vector<std::function<void(core::WorkLoop&)>> Loops() override {

@@ -93,6 +93,10 @@ class NavMap {
   Eigen::AlignedBox2d extent_M() const;
   /// Times the map has grown.
   int growths() const { return growths_; }
+  /// Heap memory of the map's own grids, bytes: its voxels and seen-free voxels (one bit each) and the
+  /// traversability and multi-level grids it keeps up to date, normal and relaxed. Not the copies handed to
+  /// the planner (GlobalPlanner::map_memory_bytes()). Same thread as Update().
+  std::size_t MemoryBytes() const;
 
   /// How the planner must read this map: the start's ground as reference, the ground band, unknown space
   /// traversable.

@@ -79,6 +79,8 @@ class PlanningService {
   std::string PlanReason(const nav::GlobalPlan& plan) const;
   /// Path queries refused so far (rate or queue).
   std::uint64_t queries_refused() const;
+  /// The planner's map memory, bytes (GlobalPlanner::map_memory_bytes()). Any thread, never waits.
+  std::size_t map_memory_bytes() const { return planner_->map_memory_bytes(); }
 
  private:
   struct GoalJob {
