@@ -1,13 +1,11 @@
 #include "cairn/agent/perception_service.h"
 
-#include <malloc.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <stdexcept>
 #include <thread>
 
-#include "cairn/agent/agent_components.h"
 #include "range_check.h"
 
 namespace cairn::agent {
@@ -187,21 +185,11 @@ void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
       frontiers_at_s_ = NowS();
     }
     if (stats.grown) {
-      // A growth holds the old grids, the new ones and both copies of the planner at once (four maps' worth);
-      // glibc keeps the freed half in its heap, where nothing as large is asked for again until the next
-      // growth. Handed back to the system here, so the process's RSS follows the map's size (an hour's soak
-      // without it: r0's RSS rose 66 MB when its maps grew 27 MB, to 124 x 80 m).
-      const std::uint64_t rss_before = ProcessRssBytes();
-      malloc_trim(0);
-      const std::uint64_t rss_after = ProcessRssBytes();
       spdlog::info(
-          "robot {}: navigation map grown to x [{:.1f}, {:.1f}], y [{:.1f}, {:.1f}] (v{}, {:.0f} ms); maps "
-          "{:.1f} MB (navigation) + {:.1f} MB (planner), {:.1f} MB of freed heap returned to the system",
+          "robot {}: navigation map grown to x [{:.1f}, {:.1f}], y [{:.1f}, {:.1f}] (v{}, {:.0f} ms)",
           options_.robot_id, stats.extent_M.min().x(), stats.extent_M.max().x(), stats.extent_M.min().y(),
           stats.extent_M.max().y(), stats.map_version,
-          stats.read_ms + stats.traversability_ms + stats.publish_ms,
-          nav_map_memory_bytes_.load() / 1048576.0, planner_->map_memory_bytes() / 1048576.0,
-          rss_before > rss_after ? (rss_before - rss_after) / 1048576.0 : 0.0);
+          stats.read_ms + stats.traversability_ms + stats.publish_ms);
     }
     if (stats.applied) {
       spdlog::debug(
