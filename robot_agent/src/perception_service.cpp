@@ -138,7 +138,8 @@ void PerceptionService::PerceptionLoop(core::WorkLoop& loop) {
 void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
   const auto period = std::chrono::duration_cast<core::SteadyClock::duration>(
       std::chrono::duration<double>(options_.nav_map.update_period_s));
-  core::SteadyTime next = core::SteadyClock::now() + period;
+  // The first update at once: exploring needs a map updated lately (MappingHealthy()).
+  core::SteadyTime next = core::SteadyClock::now();
   // Beats at least every 100 ms while it waits for its next update.
   const auto beat_every = std::chrono::milliseconds(100);
   while (loop.Running()) {
@@ -152,12 +153,14 @@ void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
     next += period;
     if (next < core::SteadyClock::now()) next = core::SteadyClock::now() + period;
     core::ScopedCpu cpu(loop.component());
+    map_update_started_s_ = NowS();
     const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
     // With no changed tile, Update() still grows the map when a goal beyond it asked to.
     const NavMapUpdateStats stats =
         nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m(),
                          perception_->max_sensor_z_m(), perception_->Staircases());
     last_map_update_s_ = NowS();
+    map_update_started_s_ = -1e9;
     nav_map_memory_bytes_ = nav_map_->MemoryBytes();
     std::optional<nav::FrontierOptions> search;
     Eigen::Vector3d robot_p_M;
@@ -244,7 +247,9 @@ bool PerceptionService::MappingHealthy(std::string* why) const {
     problem = last_scan_s_.load() < -1e8 ? "no lidar scan yet"
                                           : "no lidar scan for " + internal::Fixed(age, 1) + " s";
   } else if (const double map_age = now_s - last_map_update_s_.load();
-             map_age > std::max(3.0, 3 * options_.nav_map.update_period_s) && now_s > 3.0) {
+             map_age > std::max(3.0, 3 * options_.nav_map.update_period_s) && now_s > 3.0 &&
+             !(now_s - map_update_started_s_.load() < kMaxMapUpdateS)) {
+    // An update under way (a growth over a large area takes seconds) is a map at work, not a stalled one.
     problem = last_map_update_s_.load() < -1e8
                   ? "the navigation map was never updated"
                   : "the navigation map was not updated for " + internal::Fixed(map_age, 1) + " s";

@@ -80,8 +80,9 @@ class PerceptionService {
   /// thread.
   std::optional<std::pair<nav::FrontierSet, double>> TakeFrontiers();
   /// True when the robot's mapping works: a lidar scan came within navigation.obstacle_lost_s and the
-  /// navigation map was updated within 3 of its periods (or 3 s); otherwise false and `*why` (if not null)
-  /// says which and for how long. Any thread.
+  /// navigation map was updated within 3 of its periods (or 3 s), or an update has been under way for less
+  /// than 30 s (a growth over a large area takes seconds); otherwise false and `*why` (if not null) says
+  /// which and for how long. Any thread.
   bool MappingHealthy(std::string* why) const;
 
   /// The staircases detected so far (PerceptionPipeline::Staircases()). Thread-safe.
@@ -152,6 +153,8 @@ class PerceptionService {
   std::atomic<std::size_t> nav_map_memory_bytes_{0};
   std::atomic<double> last_scan_s_{-1e9};        // agent clock of the newest scan read
   std::atomic<double> last_map_update_s_{-1e9};  // ... of the newest navigation map update that succeeded
+  std::atomic<double> map_update_started_s_{-1e9};  // ... when the update under way started (-1e9: none)
+  static constexpr double kMaxMapUpdateS = 30.0;    // an update running longer than this counts as stalled
   std::mutex frontier_mutex_;  // guards the seven below
   std::shared_ptr<const nav::PeerCoverage> peer_coverage_;
   double coverage_cell_m_ = 0.0;  // > 0: SeenCoverage() asked for
