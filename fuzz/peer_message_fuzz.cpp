@@ -2,8 +2,9 @@
 // the rest is its CDR payload, deserialized by the fastddsgen type (what Fast DDS does with every sample from
 // the link), then checked and converted as the receiver does: ids (core::CheckId), waypoint goals
 // (agent::CheckGoal), explore claims with their zstd coverage (agent::ClaimFromMessage, CheckExploreClaim),
-// map updates (FleetMap::Apply), staircases (base::StaircaseFromMessage), and path requests (the agent's id
-// and frame checks, then a real global planner over a small map, from and to the requested points). Every
+// map updates (FleetMap::Apply), staircases (base::StaircaseFromMessage), path requests (the agent's id
+// and frame checks, then a real global planner over a small map, from and to the requested points), and peer
+// states (agent::PeerFromMessage, PeerTracker, AppendPeerObstacles). Every
 // input must decode or be refused; no crash, no unbounded allocation.
 #include <fastdds/rtps/common/SerializedPayload.h>
 
@@ -12,10 +13,12 @@
 #include <cstring>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "cairn/agent/agent_dds.h"
 #include "cairn/agent/commands.h"
 #include "cairn/agent/explore_claims.h"
+#include "cairn/agent/peers.h"
 #include "cairn/base/fleet_perception.h"
 #include "cairn/core/peer_input.h"
 #include "cairn/core/voxel_grid.h"
@@ -103,11 +106,25 @@ void Path(const msgs::PathRequest& m) {
   (void)planner->Plan(request);
 }
 
+// A peer's state as a robot takes it (AgentDds's id checks, PeerFromMessage, PeerTracker), then the obstacle
+// points a robot at the origin would make of it.
+void Peer(const msgs::PeerState& m) {
+  if (!cairn::core::CheckId("robot id", m.robot_id()).empty() ||
+      !cairn::core::CheckId("mode", m.mode()).empty()) {
+    return;
+  }
+  cairn::agent::PeerTracker tracker("r1", cairn::agent::PeerOptions{});
+  (void)tracker.OnPeerState(cairn::agent::PeerFromMessage(m), 0.0);
+  std::vector<Eigen::Vector3f> points_B;
+  cairn::agent::AppendPeerObstacles(tracker.Live(0.5), cairn::core::BaseState{}, 3.5, 0.3,
+                                    cairn::agent::PeerOptions{}, &points_B);
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
-  const std::uint8_t kind = data[0] % 8;
+  const std::uint8_t kind = data[0] % 9;
   ++data;
   --size;
   switch (kind) {
@@ -147,6 +164,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       if (Deserialize<msgs::RestartRequestPubSubType>(data, size, &m)) {
         (void)cairn::core::CheckId("base id", m.base_id());
       }
+      break;
+    }
+    case 8: {
+      msgs::PeerState m;
+      if (Deserialize<msgs::PeerStatePubSubType>(data, size, &m)) Peer(m);
       break;
     }
     default: {

@@ -287,6 +287,11 @@ TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
   EXPECT_NE(r["reason"].get<std::string>().find("unreachable for platform wheeled"), std::string::npos) << r;
   EXPECT_NE(r["reason"].get<std::string>().find(" m step"), std::string::npos) << r;
 
+  // whl1 stands where its refused goal left it, at the foot of the flight: back to where it started, out of
+  // leg1's way (robots keep clear of one another: leg1 would stop short of it).
+  r = op.Run("goto whl1 52 18 --wait 60", 70s);
+  EXPECT_TRUE(r["ok"]) << r;
+
   // The legged robot climbs to the top.
   ASSERT_TRUE(op.Run("request-control leg1")["ok"]);
   r = op.Run("goto leg1 54.5 23.8 --wait 90", 100s);
@@ -297,9 +302,7 @@ TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
   std::printf("%s", TrackBeforeContact(observer.History("leg1")).c_str());
   Figure("stairs_top_z_m", top.pose_MB().position().z_m());
 
-  // Smart joystick: back where it started, full stick at the room's east wall (x ~ 56) for 8 s never touches it.
-  r = op.Run("goto whl1 52 18 --wait 60", 70s);
-  EXPECT_TRUE(r["ok"]) << r;
+  // Smart joystick: where it started, full stick at the room's east wall (x ~ 56) for 8 s never touches it.
   // Face the east wall: the heading it arrives with depends on where the refused stairs goal left it (once it
   // came from the north and the stick drove it south).
   ASSERT_TRUE(op.Run("mode whl1 manual")["ok"]);
@@ -521,6 +524,51 @@ TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) 
   const std::string reason = r.value("reason", "");
   EXPECT_NE(reason.find("step"), std::string::npos) << reason;
   EXPECT_NE(reason.find("max_step_m 0.15"), std::string::npos) << reason;
+}
+
+// Peers over DDS (issue 16): robot B stands idle in the main tunnel of builtin:tunnels (3 m wide) on robot
+// A's way. A simulated lidar does not see another robot (each agent simulates its own world): A keeps clear
+// of B only because B tells its peers where it is (cairn/peer_state). A either passes B or stops short of it
+// (its goal then fails as blocked); it never comes within touching distance, and B never moves.
+TEST(PeersOverDds, ARobotParkedInATunnelIsNeverDrivenInto) {
+  const int domain = 91;
+  const std::string logs = FreshLogs("peers", "parked_in_tunnel");
+  Observer observer(domain);
+  ChildProcess b({kAgent, "--robot-id", "pb", "--start", "16,20,0", "--domain", std::to_string(domain)},
+                 logs + "/pb.log");
+  ChildProcess a({kAgent, "--robot-id", "pa", "--start", "8,20,0", "--domain", std::to_string(domain)},
+                 logs + "/pa.log");
+  ASSERT_TRUE(b.WaitForLine("READY", 60s)) << "see " << logs;
+  ASSERT_TRUE(a.WaitForLine("READY", 60s)) << "see " << logs;
+  Base op("op", domain, logs);
+  ASSERT_TRUE(op.Run("wait pa online 5")["ok"]);
+  ASSERT_TRUE(op.Run("wait pb online 5")["ok"]);
+  ASSERT_TRUE(op.Run("request-control pa")["ok"]);
+  const cairn_msgs::RobotState b_start = observer.FreshState("pb");
+  const json r = op.Run("goto pa 24 20 --wait 90", 100s);
+  const std::string outcome = r["ok"] == true ? "passed" : r.value("reason", std::string("?"));
+  if (r["ok"] != true) {
+    EXPECT_NE(outcome.find("blocked"), std::string::npos) << r;
+  }
+  // Closest approach over every pair of states heard (10 Hz each), by the robots' own pose estimates.
+  const auto a_track = observer.History("pa");
+  const auto b_track = observer.History("pb");
+  ASSERT_FALSE(a_track.empty());
+  ASSERT_FALSE(b_track.empty());
+  double closest_m = 1e9;
+  for (const auto& sa : a_track) {
+    for (const auto& sb : b_track) {
+      if (std::abs(cairn::msgs::WallSeconds(sa.stamp()) - cairn::msgs::WallSeconds(sb.stamp())) < 0.2)
+        closest_m = std::min(closest_m, Distance(sa, sb));
+    }
+    EXPECT_FALSE(sa.in_contact()) << "pa touched occupied space";
+  }
+  const double touching_m = 2 * 0.3;  // two wheeled footprints (nav::GetPlatformProfile("wheeled"))
+  EXPECT_GT(closest_m, touching_m + 0.1) << "pa came within " << closest_m << " m of pb (" << outcome << ")";
+  EXPECT_LT(Distance(observer.FreshState("pb"), b_start), 0.1) << "pb moved";
+  const cairn_msgs::RobotState a_end = observer.FreshState("pa");
+  std::printf("FIGURE peers_parked_in_tunnel outcome '%s' closest_centre_distance_m %.2f pa_end_x_m %.1f\n",
+              outcome.c_str(), closest_m, a_end.pose_MB().position().x_m());
 }
 
 }  // namespace

@@ -61,7 +61,8 @@ msgs::CommandResult ResultOf(CommandResult result) {
 
 AgentDdsHandlers Checked(AgentDdsHandlers h) {
   if (!h.control || !h.mode || !h.goal || !h.explore || !h.home || !h.stop || !h.restart || !h.teleop ||
-      !h.base_announced || !h.base_liveliness || !h.path_query || !h.map_sync || !h.explore_claim) {
+      !h.base_announced || !h.base_liveliness || !h.path_query || !h.map_sync || !h.explore_claim ||
+      !h.peer_state) {
     throw std::invalid_argument("AgentDds: every handler is required");
   }
   return h;
@@ -119,6 +120,7 @@ class AgentDds::Impl {
     // Readers first so that no callback runs while the rest is torn down.
     probe_reader_.reset();
     claim_reader_.reset();
+    peer_reader_.reset();
     map_sync_reader_.reset();
     path_request_reader_.reset();
     control_reader_.reset();
@@ -162,6 +164,8 @@ class AgentDds::Impl {
         p, "cairn/staircase", "cairn.latched");
     probe_reply_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(p, "cairn/link_probe_reply",
                                                                                    "cairn.command");
+    peer_writer_ =
+        std::make_unique<core::Writer<msgs::PeerStatePubSubType>>(p, "cairn/peer_state", "cairn.state");
   }
 
   // The map and camera writers on the flow controllers of `share` (bulk_mutex_ held, or before any Publish).
@@ -205,8 +209,27 @@ class AgentDds::Impl {
 
   std::pair<std::uint64_t, std::uint64_t> TeamSent() const {
     std::lock_guard<std::mutex> guard(team_mutex_);
-    return claim_writer_ ? std::make_pair(claim_writer_->bytes_written(), claim_writer_->samples_written())
-                         : std::make_pair(std::uint64_t{0}, std::uint64_t{0});
+    auto sent = claim_writer_
+                    ? std::make_pair(claim_writer_->bytes_written(), claim_writer_->samples_written())
+                    : std::make_pair(std::uint64_t{0}, std::uint64_t{0});
+    sent.first += peer_writer_->bytes_written();
+    sent.second += peer_writer_->samples_written();
+    return sent;
+  }
+
+  // The reader of the peers' states (team_mutex_ held), made when the robot first drives.
+  void MakePeerReader() {
+    if (peer_reader_) return;
+    const std::string& robot = options_.robot_id;
+    peer_reader_ = std::make_unique<core::Reader<msgs::PeerStatePubSubType>>(
+        *participant_, "cairn/peer_state", "cairn.state",
+        [this, robot](const msgs::PeerState& m, const SampleInfo&) {
+          if (m.robot_id() == robot || !ValidPeerId("cairn/peer_state", "robot id", m.robot_id()) ||
+              !ValidPeerId("cairn/peer_state", "mode", m.mode())) {
+            return;
+          }
+          handlers_.peer_state(PeerFromMessage(m));
+        });
   }
 
   // False, with a warning at most every 5 s per topic, when a peer's message names a sender no CLI could
@@ -415,6 +438,9 @@ class AgentDds::Impl {
   mutable std::mutex team_mutex_;  // guards the two below, made by the first Publish(ExploreClaim)
   std::unique_ptr<core::Writer<msgs::ExploreClaimPubSubType>> claim_writer_;
   std::unique_ptr<core::Reader<msgs::ExploreClaimPubSubType>> claim_reader_;
+  std::unique_ptr<core::Reader<msgs::PeerStatePubSubType>>
+      peer_reader_;  // team_mutex_, made by ListenToPeers()
+  std::unique_ptr<core::Writer<msgs::PeerStatePubSubType>> peer_writer_;
   std::unique_ptr<core::Reader<msgs::MapSyncRequestPubSubType>> map_sync_reader_;
   std::unique_ptr<core::Reader<msgs::PathRequestPubSubType>> path_request_reader_;
   std::unique_ptr<core::Reader<msgs::ControlRequestPubSubType>> control_reader_;
@@ -536,6 +562,35 @@ bool AgentDds::Publish(const ExploreClaim& claim) {
   if (!impl_->listening_) throw std::logic_error("AgentDds::Publish(ExploreClaim) before Listen()");
   impl_->MakeTeamEndpoints();
   return impl_->claim_writer_->Write(m);
+}
+
+bool AgentDds::Publish(const msgs::PeerState& state) {
+  // No reader anywhere (every robot idle): nothing to send, and nothing counted as sent on the link.
+  if (impl_->peer_writer_->matched() == 0) return true;
+  return impl_->peer_writer_->Write(state);
+}
+
+void AgentDds::ListenToPeers() {
+  std::lock_guard<std::mutex> guard(impl_->team_mutex_);
+  if (!impl_->listening_) throw std::logic_error("AgentDds::ListenToPeers() before Listen()");
+  impl_->MakePeerReader();
+}
+
+PeerBody PeerFromMessage(const msgs::PeerState& m) {
+  PeerBody peer;
+  peer.robot_id = m.robot_id();
+  peer.pose_M.x_m = m.x_MB_m();
+  peer.pose_M.y_m = m.y_MB_m();
+  peer.pose_M.z_m = m.z_MB_m();
+  peer.pose_M.yaw_rad = m.yaw_MB_rad();
+  peer.pose_M.v_mps = m.v_B_mps();
+  peer.pose_M.w_radps = m.w_B_radps();
+  peer.footprint_radius_m = m.footprint_radius_m();
+  peer.mode = m.mode();
+  peer.path_ahead_M.reserve(m.path_ahead_M().size());
+  for (const msgs::PeerPathPoint& p : m.path_ahead_M())
+    peer.path_ahead_M.emplace_back(p.x_m(), p.y_m(), p.z_m());
+  return peer;
 }
 
 std::vector<SentTraffic> AgentDds::SentByClass() const {

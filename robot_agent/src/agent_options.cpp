@@ -33,7 +33,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto config = core::ConfigSection::LoadFile(path);
   config.RejectUnknownKeys(
       {"command_interface", "mux", "navigation", "local_planner", "controller", "platform", "traversability",
-       "telemetry", "perception", "explore", "health",
+       "telemetry", "perception", "explore", "peers", "health",
        "simulation"});  // `simulation` is the simulated platform's (sim::SimulatedPlatformOptions)
   const auto ci = config.Section("command_interface");
   ci.RejectUnknownKeys({"lock_keep_s"});
@@ -148,6 +148,15 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   ex.ReadDouble("coverage_period_s", &explore.team.coverage_period_s);
   ex.ReadDouble("claim_lease_s", &explore.team.lease_s);
   ex.ReadDouble("coverage_cell_m", &explore.team.coverage_cell_m);
+  const auto pe_section = config.Section("peers");
+  pe_section.RejectUnknownKeys(
+      {"rate_hz", "timeout_s", "margin_m", "prediction_s", "same_level_dz_m", "avoid"});
+  pe_section.ReadDouble("rate_hz", &peers.rate_hz);
+  pe_section.ReadDouble("timeout_s", &peers.timeout_s);
+  pe_section.ReadDouble("margin_m", &peers.margin_m);
+  pe_section.ReadDouble("prediction_s", &peers.prediction_s);
+  pe_section.ReadDouble("same_level_dz_m", &peers.same_level_dz_m);
+  pe_section.ReadBool("avoid", &peers.avoid);
   const auto telemetry = config.Section("telemetry");
   telemetry.RejectUnknownKeys({"state_rate_hz", "local_plan_rate_hz"});
   telemetry.ReadDouble("state_rate_hz", &state_rate_hz);
@@ -240,6 +249,7 @@ bool AgentOptions::IsValid(std::string* why) const {
   if (!perception.IsValid(why)) return false;
   if (!nav_map.IsValid(why)) return false;
   if (!explore.IsValid(why)) return false;
+  if (!peers.IsValid(why)) return false;
   if (!InRange("navigation.obstacle_window_s", obstacle_window_s, 0, 30, true, why)) return false;
   if (!InRange("navigation.path_requests_per_s", path_requests_per_s, 0, 1000, true, why)) return false;
   std::string inner;

@@ -227,10 +227,20 @@ bool Navigation::ClearBehind(const core::BaseState& state, double distance_m, do
 void Navigation::SetObstacles(const std::vector<Eigen::Vector3f>& points_B, const core::BaseState& state,
                               double now_s) {
   obstacles_B_ = points_B;
+  if (peer_options_.avoid && !peers_.empty()) {
+    const auto& band = local_planner_.library().options();
+    AppendPeerObstacles(peers_, state, options_.sensor_range_m,
+                        0.5 * (band.obstacle_min_z_m + band.obstacle_max_z_m), peer_options_, &obstacles_B_);
+  }
   awaiting_obstacles_ = false;
   // Kept in frame B of `state`; RunLocalPlanner re-expresses them if the robot moved since.
   obstacles_pose_ = state;
   obstacles_time_s_ = now_s;
+}
+
+void Navigation::SetPeers(std::vector<PeerBody> peers, const PeerOptions& options) {
+  peers_ = std::move(peers);
+  peer_options_ = options;
 }
 
 namespace {

@@ -30,6 +30,7 @@
 #include "cairn/agent/modes.h"
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
+#include "cairn/agent/peers.h"
 #include "cairn/agent/perception_service.h"
 #include "cairn/agent/planning_service.h"
 #include "cairn/agent/telemetry.h"
@@ -37,6 +38,7 @@
 #include "cairn/agent/waypoint_mode.h"
 #include "cairn/agent/waypoint_recovery.h"
 #include "cairn/core/health_monitor.h"
+#include "cairn/core/peer_input.h"
 #include "cairn/core/shutdown.h"
 #include "cairn_msgs.h"
 #include "range_check.h"
@@ -162,6 +164,8 @@ class RobotAgent::Impl {
   // On a radio link: the robots on it share its bulk budget (map telemetry, camera), so a robot's share is
   // 1 / n of what one robot alone would send (AgentOptions::ApplyLinkBudget). Control thread, once a second.
   void ShareRadioLink();
+  // With mutex_ held: this robot's pose, footprint, mode and the next metres of its path, for its peers.
+  void PublishPeerState();
   void SendClaim(const ExploreClaim& claim) {
     if (!dds_->Publish(claim)) spdlog::warn("robot {}: explore claim not sent (DDS history full)", options_.robot_id);
   }
@@ -187,6 +191,10 @@ class RobotAgent::Impl {
   WaypointMode* waypoint_ = nullptr;               // owned by modes_; holds the waypoint goal
   ExploreMode* explore_ = nullptr;                 // owned by modes_; holds the exploration task
   ExploreTeam team_;                               // peers' explore claims and coverage (thread-safe)
+  PeerTracker peers_;                              // peers' poses, footprints and paths (thread-safe)
+  core::WarningLimiter peer_warnings_;             // a bad peer state is named once per 5 s per robot
+  bool drives_ = false;              // the robot has left idle once (Run(): it reads its peers from then on)
+  bool listening_to_peers_ = false;  // Run(): AgentDds::ListenToPeers() done
   std::optional<ExploreClaim> claim_to_send_;      // Step()'s, sent by Run() outside the agent lock
   std::future<nav::GlobalPlan> home_plan_;         // ComeHomeIfSilent(): the way back, being planned
   std::unique_ptr<ModeControl> modes_;             // the mode tree, the mode modules and the mux
@@ -240,6 +248,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       pose_(start_M_),
       navigation_(options.navigation, planner_, LocalPlannerLibrary(options)),
       team_(options.robot_id, options.explore.team),
+      peers_(options.robot_id, options.peers),
       faults_(
           [&] {
             std::vector<FaultInjection> faults;
@@ -424,6 +433,31 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
   return hooks;
 }
 
+void RobotAgent::Impl::PublishPeerState() {
+  cairn_msgs::PeerState m;
+  m.robot_id(options_.robot_id);
+  m.platform(options_.navigation.platform.name);
+  m.x_MB_m(pose_.x_m);
+  m.y_MB_m(pose_.y_m);
+  m.z_MB_m(pose_.z_m);
+  m.yaw_MB_rad(pose_.yaw_rad);
+  m.v_B_mps(static_cast<float>(pose_.v_mps));
+  m.w_B_radps(static_cast<float>(pose_.w_radps));
+  m.footprint_radius_m(static_cast<float>(options_.navigation.platform.footprint_radius_m));
+  m.mode(modes_->mode());
+  if (navigation_.has_goal()) {
+    for (const Eigen::Vector3d& p : PathAhead(navigation_.global_plan().result.path_W, {pose_.x_m, pose_.y_m},
+                                              kPeerPathSpacingM, kPeerPathPoints)) {
+      cairn_msgs::PeerPathPoint q;
+      q.x_m(static_cast<float>(p.x()));
+      q.y_m(static_cast<float>(p.y()));
+      q.z_m(static_cast<float>(p.z()));
+      m.path_ahead_M().push_back(q);
+    }
+  }
+  if (!dds_->Publish(m)) spdlog::debug("robot {}: peer state not sent (DDS history full)", options_.robot_id);
+}
+
 AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   // Each applies under the agent lock; discovery's departures are taken by the control loop instead.
   auto locked = [this](auto apply) {
@@ -451,6 +485,18 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
     const std::string refused = fault.empty() ? team_.OnPeerClaim(claim, NowS(SteadyClock::now()))
                                               : "explore claim from \"" + claim.robot_id + "\": " + fault;
     if (!refused.empty()) spdlog::warn("robot {}: {}; dropped", options_.robot_id, refused);
+  };
+  // Peers' states need no agent lock either (PeerTracker has its own); at 5 Hz a bad one is named once per 5
+  // s.
+  h.peer_state = [this](const PeerBody& peer) {
+    const SteadyTime now = SteadyClock::now();
+    const std::string refused = peers_.OnPeerState(peer, NowS(now));
+    std::uint64_t suppressed = 0;
+    if (!refused.empty() && peer_warnings_.Allow(peer.robot_id, now, &suppressed)) {
+      spdlog::warn(
+          "robot {}: {}; dropped{}", options_.robot_id, refused,
+          suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+    }
   };
   h.map_sync = [this](const std::string& requester) {
     spdlog::info("robot {}: map snapshot requested by {}", options_.robot_id, requester);
@@ -554,6 +600,8 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   const ModeInputs inputs{now, now_s, pose_};
   // Navigation: live obstacles, the explore mode's frontiers and team, the running mode's step.
   const bool navigated = navigation_c_->Run([&] {
+    // Peers heard lately are obstacles too (added to the next live points: no robot drives into another).
+    navigation_.SetPeers(peers_.Live(now_s), peers_.options());
     perception_->FeedObstacles(navigation_);  // obstacles from live lidar points, at the sensor's rate
     // A robot waiting on a goal (or between frontiers) watches the world.
     perception_->SetMapRefreshAtRest(waypoint_->has_goal() || explore_->exploring());
@@ -721,6 +769,8 @@ void RobotAgent::Impl::Run() {
       std::max(1, static_cast<int>(std::lround(1.0 / (options_.state_rate_hz * kLoopPeriodS))));
   const int local_plan_every =
       std::max(1, static_cast<int>(std::lround(1.0 / (options_.local_plan_rate_hz * kLoopPeriodS))));
+  const int peer_every =
+      std::max(1, static_cast<int>(std::lround(1.0 / (options_.peers.rate_hz * kLoopPeriodS))));
   // The components' threads (sensor, perception, navigation map, planning) start, and their monitor watches
   // every component from now on. The lidar feeds navigation (live obstacles, the navigation map) even with
   // perception's outputs disabled.
@@ -743,6 +793,7 @@ void RobotAgent::Impl::Run() {
                    options_.robot_id, 1000 * late_s);
     }
     std::optional<ExploreClaim> claim;
+    bool listen_to_peers = false;
     {
       std::lock_guard<std::mutex> guard(mutex_);
       const SteadyTime now = SteadyClock::now();
@@ -755,6 +806,9 @@ void RobotAgent::Impl::Run() {
             RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_});
       }
       if (cycle % local_plan_every == 0) telemetry_->PublishLocalPlan();
+      if (cycle % peer_every == 0) PublishPeerState();
+      drives_ = drives_ || modes_->mode() != ModeManager::kIdleMode;
+      listen_to_peers = drives_ && !listening_to_peers_;
       telemetry_->PublishTreeStateIfChanged();
       claim = std::move(claim_to_send_);
       claim_to_send_.reset();
@@ -770,6 +824,12 @@ void RobotAgent::Impl::Run() {
       }
     }
     if (claim) SendClaim(*claim);
+    if (listen_to_peers) {
+      // A robot that drives keeps clear of its peers: it reads their states from now on (outside the agent
+      // lock, as the explore claims' endpoints are made).
+      dds_->ListenToPeers();
+      listening_to_peers_ = true;
+    }
     PublishHealthIfDue(SteadyClock::now());
     if (cycle % 50 == 0) ShareRadioLink();
     next += period;

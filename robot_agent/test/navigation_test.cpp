@@ -541,5 +541,91 @@ TEST(NavigationTest, AGoalsOwnStallTimeoutReplacesTheOptions) {
   EXPECT_NEAR(took_s, 20.0, 0.5);
 }
 
+// Peers (issue 16): each robot is told where the other is (PeerTracker::Live() as the agent would, here every
+// 0.2 s as at peers.rate_hz 5) and keeps clear of it; a simulated robot's lidar never sees another robot.
+PeerBody PeerOf(const std::string& id, const SimRobot& robot) {
+  PeerBody peer;
+  peer.robot_id = id;
+  const sim::UnicycleState& s = robot.platform.state();
+  peer.pose_M.x_m = s.x_m;
+  peer.pose_M.y_m = s.y_m;
+  peer.pose_M.z_m = s.z_m;
+  peer.pose_M.yaw_rad = s.yaw_rad;
+  peer.pose_M.v_mps = s.v_mps;
+  peer.footprint_radius_m = robot.options.platform.footprint_radius_m;
+  peer.mode = "waypoint";
+  return peer;
+}
+
+double CentreDistance(const SimRobot& a, const SimRobot& b) {
+  return std::hypot(a.platform.state().x_m - b.platform.state().x_m,
+                    a.platform.state().y_m - b.platform.state().y_m);
+}
+
+// A robot parked in a 1.4 m corridor (too narrow to pass it): the other, sent past it, stops short of it and
+// its goal fails as blocked. Told nothing of the peer, it drives through it (what the test would catch).
+TEST(NavigationPeersTest, ARobotParkedInANarrowCorridorIsNeverDrivenInto) {
+  sim::World w = FlatWorld(20, 6, 0.1, 1.5);
+  FillBox(&w, {0.0, 0.0, 0.0}, {20.0, 2.3, 1.6});
+  FillBox(&w, {0.0, 3.7, 0.0}, {20.0, 6.0, 1.6});  // free band y in [2.3, 3.7]
+  const auto world = std::make_shared<const sim::World>(std::move(w));
+  for (const bool told : {true, false}) {
+    SCOPED_TRACE(told ? "told of the peer" : "not told");
+    SimRobot mover(world, "wheeled", 2.0, 3.0, 0.0, /*blocked_timeout_s=*/8.0);
+    SimRobot parked(world, "wheeled", 10.0, 3.0, 0.0);
+    const PeerOptions options;
+    const nav::GlobalPlan plan = mover.navigation.SetGoal(mover.platform.state(), 18.0, 3.0, 0.0, mover.t_s);
+    ASSERT_TRUE(plan.IsUsable()) << plan.reason;
+    double closest_m = 1e9;
+    NavigationStep out;
+    while (mover.t_s < 40.0 && !out.arrived && !out.failed) {
+      if (told) mover.navigation.SetPeers({PeerOf("parked", parked)}, options);
+      out = mover.Tick([&] { return mover.navigation.StepWaypoint(mover.platform.state(), mover.t_s); });
+      closest_m = std::min(closest_m, CentreDistance(mover, parked));
+    }
+    const double touching_m = 2 * mover.options.platform.footprint_radius_m;
+    if (told) {
+      EXPECT_GT(closest_m, touching_m + 0.1) << "it came within " << closest_m << " m";
+      EXPECT_TRUE(out.failed) << "arrived: " << out.arrived;
+      EXPECT_NE(out.reason.find("blocked"), std::string::npos) << out.reason;
+      std::printf("FIGURE peer_parked_in_corridor closest_centre_distance_m %.2f (touching %.2f)\n",
+                  closest_m, touching_m);
+    } else {
+      EXPECT_LT(closest_m, touching_m) << "a ghost peer is driven through";
+    }
+  }
+}
+
+// Two robots sent head-on along a 6 m wide yard, each told of the other: they pass without touching and both
+// arrive.
+TEST(NavigationPeersTest, TwoRobotsMeetingHeadOnPassWithoutTouching) {
+  const auto world = std::make_shared<const sim::World>(FlatWorld(20, 6, 0.1, 1.5));
+  SimRobot a(world, "wheeled", 2.0, 3.0, 0.0);
+  SimRobot b(world, "wheeled", 18.0, 3.1, M_PI);
+  ASSERT_TRUE(a.navigation.SetGoal(a.platform.state(), 18.0, 3.0, 0.0, a.t_s).IsUsable());
+  ASSERT_TRUE(b.navigation.SetGoal(b.platform.state(), 2.0, 3.1, 0.0, b.t_s).IsUsable());
+  const PeerOptions options;
+  double closest_m = 1e9;
+  NavigationStep out_a, out_b;
+  int cycle = 0;
+  while (a.t_s < 60.0 && b.t_s < 60.0 && !(out_a.arrived && out_b.arrived) && !out_a.failed &&
+         !out_b.failed) {
+    if (cycle++ % 10 == 0) {  // 5 Hz
+      a.navigation.SetPeers({PeerOf("b", b)}, options);
+      b.navigation.SetPeers({PeerOf("a", a)}, options);
+    }
+    if (!out_a.arrived) out_a = a.Tick([&] { return a.navigation.StepWaypoint(a.platform.state(), a.t_s); });
+    if (!out_b.arrived) out_b = b.Tick([&] { return b.navigation.StepWaypoint(b.platform.state(), b.t_s); });
+    closest_m = std::min(closest_m, CentreDistance(a, b));
+  }
+  EXPECT_TRUE(out_a.arrived) << out_a.reason;
+  EXPECT_TRUE(out_b.arrived) << out_b.reason;
+  const double touching_m = 2 * a.options.platform.footprint_radius_m;
+  EXPECT_GT(closest_m, touching_m) << "they came within " << closest_m << " m";
+  EXPECT_EQ(a.contacts + b.contacts, 0);
+  std::printf("FIGURE peers_head_on closest_centre_distance_m %.2f (touching %.2f) time_s %.1f\n", closest_m,
+              touching_m, std::max(a.t_s, b.t_s));
+}
+
 }  // namespace
 }  // namespace cairn::agent

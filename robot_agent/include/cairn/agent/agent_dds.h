@@ -10,9 +10,12 @@
 // cairn/agent_info, cairn/bt_state, cairn/global_path, cairn/staircase, cairn/robot_state, cairn/health
 // (cairn.latched), cairn/robot_pose, cairn/local_plan (cairn.state), cairn/map_update (cairn.map, flow
 // controller "cairn.map"), cairn/camera (cairn.camera, flow controller "cairn.camera"). Robots read one
-// another on one topic only, cairn/explore_claim (cairn.latched), written and read from the robot's first
-// claim on (an idle fleet's discovery stays O(robots)). It answers every basestation's link probe
-// (cairn/link_probe -> cairn/link_probe_reply, cairn.command) on the spot.
+// another on two topics only, each read from the moment the robot needs it, so that an idle fleet's discovery
+// stays O(robots) (a reader matches every robot's writer; a discovery server relays a robot's endpoints only
+// to the processes that match them): cairn/explore_claim (cairn.latched), written and read from the robot's
+// first claim on, and cairn/peer_state (cairn.state), written from the start and read once the robot first
+// drives (ListenToPeers()). It answers every basestation's link probe (cairn/link_probe ->
+// cairn/link_probe_reply, cairn.command) on the spot.
 #pragma once
 
 #include <chrono>
@@ -24,6 +27,7 @@
 
 #include "cairn/agent/commands.h"
 #include "cairn/agent/explore_claims.h"
+#include "cairn/agent/peers.h"
 #include "cairn/core/link_options.h"
 
 namespace cairn_msgs {
@@ -38,6 +42,7 @@ class MapUpdate;
 class CompressedImage;
 class StaircaseDetection;
 class ExploreClaim;
+class PeerState;
 }  // namespace cairn_msgs
 
 namespace cairn::agent {
@@ -80,6 +85,9 @@ struct AgentDdsHandlers {
   /// A peer robot's explore claim (its own are not handed on); `fault` is "" or why its coverage could not be
   /// read (the field and value; the claim is then handed on without coverage and must be dropped).
   std::function<void(const ExploreClaim& claim, const std::string& fault)> explore_claim;
+  /// A peer robot's state (cairn/peer_state; its own are not handed on), after ListenToPeers(). Not checked
+  /// here: the receiver checks it (CheckPeerBody).
+  std::function<void(const PeerBody& peer)> peer_state;
 };
 
 /// The robot's DDS entities. Construction is a checked chain (participant, writers); Listen() adds the
@@ -123,9 +131,17 @@ class AgentDds {
   /// DDS delivers to this participant's own reader, with liveliness callbacks, on the calling thread). false
   /// when Fast DDS refuses the sample. @throws std::logic_error before Listen(), core::DdsError.
   bool Publish(const ExploreClaim& claim);
+  /// This robot's state for its peers (class "team"): written only while a reader of the topic is matched
+  /// (its own too, once it listens). false when Fast DDS refuses the sample.
+  bool Publish(const cairn_msgs::PeerState& state);
+  /// Makes the reader of the peers' states (idempotent): the peer_state handler runs from then on. Call it
+  /// when the robot first drives, outside any lock a handler takes. @throws std::logic_error before Listen(),
+  /// core::DdsError.
+  void ListenToPeers();
   /// What every writer has sent so far, grouped into the link's topic classes, in priority order: command
   /// (command and path answers, probe replies), state (robot state and pose, local plan, agent info,
-  /// staircases), tree (behavior tree, global path), team (explore claims), map, camera. Thread-safe.
+  /// staircases), tree (behavior tree, global path), team (explore claims, peer states), map, camera.
+  /// Thread-safe.
   std::vector<SentTraffic> SentByClass() const;
   /// Robots sharing this robot's link now, itself included: the largest AgentInfo::robots_heard of the live
   /// basestations, at least 1. Robots never read one another (a fleet's discovery stays O(robots), not
@@ -149,5 +165,9 @@ class AgentDds {
 /// claim has none. The receiver still checks it (CheckExploreClaim). Also the fuzz harness's way in
 /// (fuzz/peer_message_fuzz.cpp).
 ExploreClaim ClaimFromMessage(const cairn_msgs::ExploreClaim& m, std::string* fault);
+
+/// A peer's state as it came off cairn/peer_state (the receiver checks it: CheckPeerBody). Also the fuzz
+/// harness's way in.
+PeerBody PeerFromMessage(const cairn_msgs::PeerState& m);
 
 }  // namespace cairn::agent

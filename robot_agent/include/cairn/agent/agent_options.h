@@ -10,6 +10,7 @@
 #include "cairn/agent/journal.h"
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
+#include "cairn/agent/peers.h"
 #include "cairn/agent/perception_pipeline.h"
 #include "cairn/core/kinematics.h"
 #include "cairn/core/link_options.h"
@@ -62,6 +63,8 @@ struct AgentOptions {
   NavigationOptions navigation;
   /// Explore mode: frontier search, target choice, timing (robot_id is filled in by the agent).
   ExploreModeOptions explore;
+  /// Peers: how often this robot tells them where it is, and how it keeps clear of them (config `peers`).
+  PeerOptions peers;
   /// Local planner library: collision radius = footprint + collision_margin_m; the heading range comes
   /// from the platform profile.
   nav::TrajectoryLibraryOptions library = DefaultLibraryOptions();

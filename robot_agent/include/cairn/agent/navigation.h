@@ -9,17 +9,18 @@
 #include <Eigen/Core>
 #include <chrono>
 #include <future>
-#include <memory>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "cairn/agent/peers.h"
+#include "cairn/core/kinematics.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/nav/ilqr.h"
 #include "cairn/nav/local_planner.h"
 #include "cairn/nav/platform.h"
-#include "cairn/core/kinematics.h"
 
 namespace cairn::agent {
 
@@ -153,8 +154,14 @@ class Navigation {
   double reduced_radius_m() const { return kReducedRadiusRatio * options_.platform.footprint_radius_m; }
   bool has_goal() const { return goal_.has_value(); }
 
-  /// New obstacle points (frame B of `state`, metres) sensed at now_s.
+  /// New obstacle points (frame B of `state`, metres) sensed at now_s. The peers of the last SetPeers() are
+  /// added to them (AppendPeerObstacles within sensor_range_m, unless their options say not to avoid them).
   void SetObstacles(const std::vector<Eigen::Vector3f>& points_B, const core::BaseState& state, double now_s);
+  /// The peer robots to keep clear of from the next SetObstacles() on (PeerTracker::Live()), with `options`
+  /// (valid). An empty list: none.
+  void SetPeers(std::vector<PeerBody> peers, const PeerOptions& options);
+  /// Peers of the last SetPeers().
+  const std::vector<PeerBody>& peers() const { return peers_; }
 
   /// One control step in waypoint mode (call at the control rate). Without a goal: a zero twist. The goal
   /// is reached when the robot is within its tolerance moving at most 0.1 m/s (the controller brakes to
@@ -273,6 +280,8 @@ class Navigation {
 
   std::vector<Eigen::Vector3f> obstacles_B_;
   double obstacles_time_s_ = -1e9;
+  std::vector<PeerBody> peers_;
+  PeerOptions peer_options_;
   double last_local_time_s_ = -1e9;
   nav::LocalPlanResult local_result_;
   core::BaseState local_pose_;      // pose of the last local plan
