@@ -193,8 +193,7 @@ class RobotAgent::Impl {
   ExploreTeam team_;                               // peers' explore claims and coverage (thread-safe)
   PeerTracker peers_;                              // peers' poses, footprints and paths (thread-safe)
   core::WarningLimiter peer_warnings_;             // a bad peer state is named once per 5 s per robot
-  bool drives_ = false;              // the robot has left idle once (Run(): it reads its peers from then on)
-  bool listening_to_peers_ = false;  // Run(): AgentDds::ListenToPeers() done
+  bool listening_to_peers_ = false;  // Run(): AgentDds::ListenToPeers() done, once the robot first left idle
   std::optional<ExploreClaim> claim_to_send_;      // Step()'s, sent by Run() outside the agent lock
   std::future<nav::GlobalPlan> home_plan_;         // ComeHomeIfSilent(): the way back, being planned
   std::unique_ptr<ModeControl> modes_;             // the mode tree, the mode modules and the mux
@@ -807,8 +806,7 @@ void RobotAgent::Impl::Run() {
       }
       if (cycle % local_plan_every == 0) telemetry_->PublishLocalPlan();
       if (cycle % peer_every == 0) PublishPeerState();
-      drives_ = drives_ || modes_->mode() != ModeManager::kIdleMode;
-      listen_to_peers = drives_ && !listening_to_peers_;
+      listen_to_peers = !listening_to_peers_ && modes_->mode() != ModeManager::kIdleMode;
       telemetry_->PublishTreeStateIfChanged();
       claim = std::move(claim_to_send_);
       claim_to_send_.reset();
