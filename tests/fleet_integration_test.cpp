@@ -529,7 +529,8 @@ TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) 
 // Peers over DDS (issue 16): robot B stands idle in the main tunnel of builtin:tunnels (3 m wide) on robot
 // A's way. A simulated lidar does not see another robot (each agent simulates its own world): A keeps clear
 // of B only because B tells its peers where it is (cairn/peer_state). A either passes B or stops short of it
-// (its goal then fails as blocked); it never comes within touching distance, and B never moves.
+// (its goal then fails as blocked, or it is still in its recovery attempts when the wait ends: seen both ways
+// in two runs); it never comes within touching distance, and B never moves.
 TEST(PeersOverDds, ARobotParkedInATunnelIsNeverDrivenInto) {
   const int domain = 91;
   const std::string logs = FreshLogs("peers", "parked_in_tunnel");
@@ -548,7 +549,12 @@ TEST(PeersOverDds, ARobotParkedInATunnelIsNeverDrivenInto) {
   const json r = op.Run("goto pa 24 20 --wait 90", 100s);
   const std::string outcome = r["ok"] == true ? "passed" : r.value("reason", std::string("?"));
   if (r["ok"] != true) {
-    EXPECT_NE(outcome.find("blocked"), std::string::npos) << r;
+    // Stopped short of pb: failed as blocked, or still in its recovery attempts (clear, back up, turn, wait,
+    // retry beside pb) when the wait ends; then the operator stops it.
+    EXPECT_TRUE(outcome.find("blocked") != std::string::npos ||
+                outcome.find("not arrived") != std::string::npos)
+        << r;
+    EXPECT_TRUE(op.Run("stop pa")["ok"]);
   }
   // Closest approach over every pair of states heard (10 Hz each), by the robots' own pose estimates.
   const auto a_track = observer.History("pa");
