@@ -109,7 +109,7 @@ command_round_trips() {
     echo "stop r1"
   } | linksim_exec "$P" base "$BASE" --base-id opA --domain "$DOMAIN" "${LAN[@]}" --json >"$LOGS/rtt.json" 2>"$LOGS/rtt.err"
   summary=$(node "$ROOT/tests/linksim/round_trips.mjs" "$LOGS/rtt.json" 1)
-  read -r ACCEPTED answered P50 P99 WORST drove <<<"$summary"
+  read -r ACCEPTED answered P50 P99 WORST drove _ <<<"$summary"
   echo "FIGURE ${label}_command_round_trip_ms median $P50 p99 $P99 max $WORST ($ACCEPTED of 30 accepted)"
   if [ "$mode" = baseline ]; then
     echo "FIGURE ${label}_commands_lost $((30 - ACCEPTED)) of 30 (r1 drove: $drove)"
