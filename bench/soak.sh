@@ -7,7 +7,7 @@
 # that ran over 100 ms). The baseline is the sample at 5 minutes, in the same run: RSS growth is the last
 # sample against it. Samples go to OUT_DIR/soak.csv, figures to stdout (FIGURE lines). Every minute the
 # basestation also asks each robot's health (`health R`): the memory of its maps as the robot counts it
-# (perception: the OctoMap and the navigation map's grids; planning: the planner's copy of them) and its
+# (perception: the OctoMap; planning: the navigation map's grids, which the planner shares) and its
 # agent's RSS, to tell maps that grow (the navigation map is re-allocated over a larger area in steps) from
 # memory that leaks: OUT_DIR/health.csv, and the RSS growth net of the maps' (FIGURE ... net of its maps).
 # Must run in a private network namespace: tests/netns_run.sh bench/soak.sh BUILD_DIR [DURATION_S] [OUT_DIR]
@@ -38,8 +38,10 @@ for k in $(seq 0 $((ROBOTS - 1))); do
 done
 
 # Patrols (frame map, metres; builtin:tunnels' landmarks): each robot alternates between its two ends.
+# Each on its own stretch of tunnel: robots keep clear of one another (peers), so patrols that met head-on in
+# a 3 m tunnel would measure waiting, not driving.
 declare -a FROM=("4,20" "30,5" "30,35" "48.8,20" "20,20")
-declare -a TO=("30,20" "30,20" "30,20" "30,20" "40,20")
+declare -a TO=("14,20" "50,5" "14,35" "38,20" "30,28")
 fifo="$OUT/base.in"
 rm -f "$fifo"
 mkfifo "$fifo"

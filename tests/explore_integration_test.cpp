@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <thread>
 
 #include "cairn/nav/platform.h"
 #include "cairn/nav/traversability.h"
@@ -61,9 +62,16 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
   r = op.Run("explore ex1 --region 16,16,0,24");
   EXPECT_EQ(r["result"], "invalid") << r;
   EXPECT_NE(r["reason"].get<std::string>().find("--region '16,16,0,24'"), std::string::npos) << r;
-  r = op.Run("status ex1");
-  EXPECT_NE(std::find(r["valid_actions"].begin(), r["valid_actions"].end(), "explore"), r["valid_actions"].end())
-      << "explore is a valid action for the holder: " << r;
+  // The holder's valid actions come with the robot's next mode-tree state (a control cycle after the grant,
+  // later on a loaded machine): within a few seconds.
+  bool explore_valid = false;
+  for (int attempt = 0; attempt < 50 && !explore_valid; ++attempt) {
+    if (attempt > 0) std::this_thread::sleep_for(100ms);
+    r = op.Run("status ex1");
+    explore_valid = std::find(r["valid_actions"].begin(), r["valid_actions"].end(), "explore") !=
+                    r["valid_actions"].end();
+  }
+  EXPECT_TRUE(explore_valid) << "explore is a valid action for the holder within 5 s: " << r;
   r = other.Run("explore ex1");
   EXPECT_EQ(r["result"], "refused") << r;
 

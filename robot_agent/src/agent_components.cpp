@@ -1,5 +1,6 @@
 #include "cairn/agent/agent_components.h"
 
+#include <malloc.h>
 #include <spdlog/spdlog.h>
 #include <time.h>
 #include <unistd.h>
@@ -86,6 +87,10 @@ std::uint64_t ProcessRssBytes() {
   std::uint64_t size_pages = 0, resident_pages = 0;
   if (!(statm >> size_pages >> resident_pages)) return 0;
   return resident_pages * static_cast<std::uint64_t>(sysconf(_SC_PAGESIZE));
+}
+
+bool ReturnLargeBlocksWhenFreed(std::size_t threshold_bytes) {
+  return mallopt(M_MMAP_THRESHOLD, static_cast<int>(std::min<std::size_t>(threshold_bytes, 32u << 20))) == 1;
 }
 
 double ProcessCpuSeconds() {

@@ -24,6 +24,7 @@
 
 int main(int argc, char** argv) {
   cairn::core::InstallShutdownHandler();
+  cairn::agent::ReturnLargeBlocksWhenFreed();  // a grown map's old grids go back to the system
   // Logs go to stderr: stdout carries command output (cairn_base) and the READY line (cairn_agent).
   spdlog::set_default_logger(spdlog::stderr_color_mt("cairn"));
   cairn::agent::AgentOptions options;

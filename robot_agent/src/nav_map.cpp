@@ -18,6 +18,14 @@ double MsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+// The grid `*grid` points to, copied first if anyone else holds it (the planner, a search in flight, the
+// multi-level grid over the voxels): what a map update may change without touching what others read.
+template <class Grid>
+Grid& Writable(std::shared_ptr<Grid>* grid) {
+  if (grid->use_count() > 1) *grid = std::make_shared<Grid>(**grid);
+  return **grid;
+}
+
 const NavMapOptions& Checked(const NavMapOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
@@ -84,34 +92,34 @@ NavMap::NavMap(const NavMapOptions& options, double resolution_m, const core::Ba
     : options_(Checked(options)),
       planner_(std::move(planner)),
       platform_(platform),
-      voxels_(*EmptyGrid(options, resolution_m, start_M)),
-      seen_free_(voxels_) {
+      voxels_(std::make_shared<core::VoxelGrid>(*EmptyGrid(options, resolution_m, start_M))),
+      seen_free_(std::make_shared<core::VoxelGrid>(*voxels_)) {
   if (!planner_) throw std::invalid_argument("NavMap: planner is null");
   if (planner_->Profile(platform) == nullptr) {
     throw std::invalid_argument("NavMap: platform '" + platform + "' is not served by the planner (valid: " +
                                 planner_->PlatformList() + ")");
   }
-  extent_M_ = Eigen::AlignedBox2d(voxels_.p_W_min().head<2>(), voxels_.p_W_max().head<2>());
+  extent_M_ = Eigen::AlignedBox2d(voxels_->p_W_min().head<2>(), voxels_->p_W_max().head<2>());
   RebuildGrids();
   Publish({});
 }
 
 void NavMap::RebuildGrids() {
   const nav::PlatformProfile& profile = *planner_->Profile(platform_);
-  grid_ = std::make_unique<nav::TraversabilityGrid>(voxels_, planner_->TerrainOptionsFor(profile), &seen_free_,
-                                                    sensor_max_z_m_);
+  grid_ = std::make_shared<nav::TraversabilityGrid>(*voxels_, planner_->TerrainOptionsFor(profile),
+                                                    seen_free_.get(), sensor_max_z_m_);
   diagnose_grid_.reset();
   if (const auto relaxed = planner_->DiagnoseTerrainOptionsFor(profile)) {
-    diagnose_grid_ = std::make_unique<nav::TraversabilityGrid>(voxels_, *relaxed, &seen_free_, sensor_max_z_m_);
+    diagnose_grid_ =
+        std::make_shared<nav::TraversabilityGrid>(*voxels_, *relaxed, seen_free_.get(), sensor_max_z_m_);
   }
-  auto world = std::make_shared<const core::VoxelGrid>(voxels_);
-  auto seen_free = std::make_shared<const core::VoxelGrid>(seen_free_);
   nav::TraversabilityOptions level_options = planner_->LevelOptionsFor(profile);
-  levels_ = std::make_unique<nav::MultiLevelGrid>(world, level_options, seen_free, sensor_max_z_m_);
+  levels_ = std::make_shared<nav::MultiLevelGrid>(voxels_, level_options, seen_free_, sensor_max_z_m_);
   diagnose_levels_.reset();
   if (const auto relaxed = planner_->DiagnoseTerrainOptionsFor(profile)) {
     level_options.max_step_m = relaxed->max_step_m;
-    diagnose_levels_ = std::make_unique<nav::MultiLevelGrid>(world, level_options, seen_free, sensor_max_z_m_);
+    diagnose_levels_ =
+        std::make_shared<nav::MultiLevelGrid>(voxels_, level_options, seen_free_, sensor_max_z_m_);
   }
 }
 
@@ -242,16 +250,16 @@ Eigen::AlignedBox2d NavMap::GrownExtent(const Eigen::AlignedBox2d& current_M, co
 }
 
 void NavMap::Reallocate(const Eigen::AlignedBox2d& extent_M) {
-  const double res = voxels_.resolution_m();
+  const double res = voxels_->resolution_m();
   // Whole voxels beyond the current grid on each side, so that voxel boundaries stay where they were.
-  const Eigen::Vector2d old_lo = voxels_.p_W_min().head<2>(), old_hi = voxels_.p_W_max().head<2>();
+  const Eigen::Vector2d old_lo = voxels_->p_W_min().head<2>(), old_hi = voxels_->p_W_max().head<2>();
   const Eigen::Vector2i grow_lo =
       ((old_lo - extent_M.min()) / res).array().ceil().cast<int>().max(0).matrix();
   const Eigen::Vector2i grow_hi =
       ((extent_M.max() - old_hi) / res).array().ceil().cast<int>().max(0).matrix();
   const Eigen::Vector3i offset(grow_lo.x(), grow_lo.y(), 0);
-  const Eigen::Vector3d p_min = voxels_.p_W_min() - offset.cast<double>() * res;
-  const Eigen::Vector3i dims = voxels_.dims() + offset + Eigen::Vector3i(grow_hi.x(), grow_hi.y(), 0);
+  const Eigen::Vector3d p_min = voxels_->p_W_min() - offset.cast<double>() * res;
+  const Eigen::Vector3i dims = voxels_->dims() + offset + Eigen::Vector3i(grow_hi.x(), grow_hi.y(), 0);
   auto copy = [&](const core::VoxelGrid& from) {
     core::VoxelGrid to(from.name(), p_min, res, dims);
     const Eigen::Vector3i& d = from.dims();
@@ -264,29 +272,44 @@ void NavMap::Reallocate(const Eigen::AlignedBox2d& extent_M) {
     }
     return to;
   };
-  voxels_ = copy(voxels_);
-  seen_free_ = copy(seen_free_);
+  voxels_ = std::make_shared<core::VoxelGrid>(copy(*voxels_));
+  seen_free_ = std::make_shared<core::VoxelGrid>(copy(*seen_free_));
 }
 
 std::size_t NavMap::MemoryBytes() const {
   std::size_t bytes =
-      voxels_.MemoryBytes() + seen_free_.MemoryBytes() + grid_->MemoryBytes() + levels_->MemoryBytes();
+      voxels_->MemoryBytes() + seen_free_->MemoryBytes() + grid_->MemoryBytes() + levels_->MemoryBytes();
   if (diagnose_grid_) bytes += diagnose_grid_->MemoryBytes();
   if (diagnose_levels_) bytes += diagnose_levels_->MemoryBytes();
   return bytes;
 }
 
+std::size_t NavMap::UnpublishedMemoryBytes() const {
+  std::size_t bytes = 0;
+  auto add = [&](const auto& grid) {
+    if (grid && std::find(published_.begin(), published_.end(), grid.get()) == published_.end())
+      bytes += grid->MemoryBytes();
+  };
+  add(voxels_);
+  add(seen_free_);
+  add(grid_);
+  add(diagnose_grid_);
+  add(levels_);
+  add(diagnose_levels_);
+  return bytes;
+}
+
 void NavMap::Publish(const std::vector<Eigen::AlignedBox2d>& columns) {
-  auto world = std::make_shared<const core::VoxelGrid>(voxels_);
-  auto seen_free = std::make_shared<const core::VoxelGrid>(seen_free_);
   if (!columns.empty()) {
-    levels_->Update(world, seen_free, columns, sensor_max_z_m_);
-    if (diagnose_levels_) diagnose_levels_->Update(world, seen_free, columns, sensor_max_z_m_);
+    Writable(&levels_).Update(voxels_, seen_free_, columns, sensor_max_z_m_);
+    if (diagnose_levels_) Writable(&diagnose_levels_).Update(voxels_, seen_free_, columns, sensor_max_z_m_);
   }
-  planner_->UpdateMap(world, platform_, std::make_shared<const nav::TraversabilityGrid>(*grid_), seen_free,
-                      diagnose_grid_ ? std::make_shared<const nav::TraversabilityGrid>(*diagnose_grid_) : nullptr,
-                      std::make_shared<const nav::MultiLevelGrid>(*levels_), sensor_max_z_m_,
-                      diagnose_levels_ ? std::make_shared<const nav::MultiLevelGrid>(*diagnose_levels_) : nullptr);
+  // Handed over, not copied: the planner plans on these very grids, and the next update copies any it
+  // changes.
+  planner_->UpdateMap(voxels_, platform_, grid_, seen_free_, diagnose_grid_, levels_, sensor_max_z_m_,
+                      diagnose_levels_);
+  published_ = {voxels_.get(),        seen_free_.get(), grid_.get(),
+                diagnose_grid_.get(), levels_.get(),    diagnose_levels_.get()};
 }
 
 namespace {
@@ -312,12 +335,14 @@ Eigen::AlignedBox2d NavMap::StairArea(const perception::Staircase& stairs) const
       box.extend(axes.origin + a * axes.along + b * axes.across);
     }
   }
-  const Eigen::Vector2d cell = Eigen::Vector2d::Constant(voxels_.resolution_m());
+  const Eigen::Vector2d cell = Eigen::Vector2d::Constant(voxels_->resolution_m());
   return Eigen::AlignedBox2d(box.min() - cell, box.max() + cell);
 }
 
 void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
-  const double res = voxels_.resolution_m();
+  Writable(&voxels_);
+  Writable(&seen_free_);
+  const double res = voxels_->resolution_m();
   const double half_width = 0.5 * stairs.width_m - kStairSideMargin_m;
   const FlightAxes axes(stairs);
   if (!(half_width > 0) || !(axes.depth_m > 0) || !(stairs.rise_m > 0) || !stairs.p_W_first_step.allFinite()) {
@@ -326,15 +351,15 @@ void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
   // Voxels of one rise below a tread's top: a ray through any of them went through the step's body.
   const int body_voxels = std::max(1, static_cast<int>(std::lround(stairs.rise_m / res)));
   const Eigen::AlignedBox2d box = StairArea(stairs);
-  const Eigen::Vector3i last = voxels_.dims() - Eigen::Vector3i::Ones();
-  const Eigen::Vector2d min_W = voxels_.p_W_min().head<2>();
+  const Eigen::Vector3i last = voxels_->dims() - Eigen::Vector3i::Ones();
+  const Eigen::Vector2d min_W = voxels_->p_W_min().head<2>();
   const int x_lo = std::max(0, static_cast<int>(std::floor((box.min().x() - min_W.x()) / res)));
   const int x_hi = std::min(last.x(), static_cast<int>(std::floor((box.max().x() - min_W.x()) / res)));
   const int y_lo = std::max(0, static_cast<int>(std::floor((box.min().y() - min_W.y()) / res)));
   const int y_hi = std::min(last.y(), static_cast<int>(std::floor((box.max().y() - min_W.y()) / res)));
   for (int ix = x_lo; ix <= x_hi; ++ix) {
     for (int iy = y_lo; iy <= y_hi; ++iy) {
-      const Eigen::Vector2d c = voxels_.CenterOf({ix, iy, 0}).head<2>() - axes.origin;
+      const Eigen::Vector2d c = voxels_->CenterOf({ix, iy, 0}).head<2>() - axes.origin;
       const double a = c.dot(axes.along);  // along the ascent from the first riser
       if (std::abs(c.dot(axes.across)) > half_width + 1e-6 || a < -stairs.run_m || a >= axes.depth_m) continue;
       // A column across a riser holds the higher tread's top; step 0 is the floor at the flight's foot (one
@@ -342,7 +367,7 @@ void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
       const int step = std::clamp(static_cast<int>(std::floor((a + 0.5 * res + 1e-6) / stairs.run_m)) + 1, 0,
                                   stairs.num_steps);
       const double top_z = stairs.p_W_first_step.z() + step * stairs.rise_m;
-      const int iz_top = static_cast<int>(std::lround((top_z - voxels_.p_W_min().z()) / res)) - 1;
+      const int iz_top = static_cast<int>(std::lround((top_z - voxels_->p_W_min().z()) / res)) - 1;
       if (iz_top < 0 || iz_top > last.z()) continue;
       // A ray through the step's body below its top voxel: no tread there (the floor before the flight, where
       // the model's first riser lies a little off). The top voxel itself does not count: a ray grazing a tread
@@ -351,22 +376,22 @@ void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
       const int body_top = body_voxels >= 2 ? iz_top - 1 : iz_top;
       bool seen_through = false;
       for (int iz = std::max(0, iz_top - body_voxels + 1); iz <= body_top && !seen_through; ++iz) {
-        seen_through = seen_free_.IsOccupiedIndex({ix, iy, iz});
+        seen_through = seen_free_->IsOccupiedIndex({ix, iy, iz});
       }
       if (seen_through) continue;
-      voxels_.SetOccupied({ix, iy, iz_top}, true);
-      seen_free_.SetOccupied({ix, iy, iz_top}, false);
+      voxels_->SetOccupied({ix, iy, iz_top}, true);
+      seen_free_->SetOccupied({ix, iy, iz_top}, false);
       // One occupied voxel right above the tread with free space above it is the tread itself read a voxel
       // high (a tread top on a voxel boundary; the lidar's hits on a riser's edge): a bump of 0.1 m next to a
       // grazed neighbour read 0.1 m low cut the landing from its upper flight (1.9 m beside 1.5 m). Two or
       // more are an obstacle on the tread, and stay.
-      if (iz_top + 2 <= last.z() && voxels_.IsOccupiedIndex({ix, iy, iz_top + 1}) &&
-          !voxels_.IsOccupiedIndex({ix, iy, iz_top + 2})) {
-        voxels_.SetOccupied({ix, iy, iz_top + 1}, false);
+      if (iz_top + 2 <= last.z() && voxels_->IsOccupiedIndex({ix, iy, iz_top + 1}) &&
+          !voxels_->IsOccupiedIndex({ix, iy, iz_top + 2})) {
+        voxels_->SetOccupied({ix, iy, iz_top + 1}, false);
       }
       for (int iz = iz_top + 1; iz <= std::min(last.z(), iz_top + kStairClearVoxels); ++iz) {
-        if (voxels_.IsOccupiedIndex({ix, iy, iz})) break;
-        seen_free_.SetOccupied({ix, iy, iz}, true);
+        if (voxels_->IsOccupiedIndex({ix, iy, iz})) break;
+        seen_free_->SetOccupied({ix, iy, iz}, true);
       }
     }
   }
@@ -422,7 +447,7 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
   if (!grown.isApprox(current)) {
     Reallocate(grown);
     // The new area is read from the map like changed tiles (tiles already read are read again: harmless).
-    const Eigen::Vector2d lo = voxels_.p_W_min().head<2>(), hi = voxels_.p_W_max().head<2>();
+    const Eigen::Vector2d lo = voxels_->p_W_min().head<2>(), hi = voxels_->p_W_max().head<2>();
     const Eigen::Vector2i t_lo = (lo / tile_m).array().floor().cast<int>().matrix();
     const Eigen::Vector2i t_hi = (hi / tile_m).array().ceil().cast<int>().matrix() - Eigen::Vector2i::Ones();
     for (int tx = t_lo.x(); tx <= t_hi.x(); ++tx) {
@@ -451,34 +476,44 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     std::for_each(climbable.begin(), climbable.end(), read_again);
     stair_priors_ = std::move(climbable);
   }
-  const double res = voxels_.resolution_m();
-  const Eigen::Vector3i last = voxels_.dims() - Eigen::Vector3i::Ones();
+  const double res = voxels_->resolution_m();
+  const Eigen::Vector3i last = voxels_->dims() - Eigen::Vector3i::Ones();
   std::vector<Eigen::AlignedBox2d> columns;
+  if (!tiles.empty()) {
+    Writable(&voxels_);
+    Writable(&seen_free_);
+  }
   for (const Eigen::Vector2i& tile : tiles) {
     const Eigen::Vector2d lo_W = tile.cast<double>() * tile_m;
     const Eigen::Vector2d hi_W = lo_W + Eigen::Vector2d::Constant(tile_m);
     // Voxel index range of the tile (inclusive), over the extent's full height.
-    const Eigen::Vector2i lo = ((lo_W - voxels_.p_W_min().head<2>()) / res).array().round().cast<int>().matrix()
+    const Eigen::Vector2i lo = ((lo_W - voxels_->p_W_min().head<2>()) / res)
+                                   .array()
+                                   .round()
+                                   .cast<int>()
+                                   .matrix()
                                    .cwiseMax(Eigen::Vector2i::Zero());
-    const Eigen::Vector2i hi = (((hi_W - voxels_.p_W_min().head<2>()) / res).array().round().cast<int>() - 1).matrix()
+    const Eigen::Vector2i hi = (((hi_W - voxels_->p_W_min().head<2>()) / res).array().round().cast<int>() - 1)
+                                   .matrix()
                                    .cwiseMin(last.head<2>());
     if (lo.x() > hi.x() || lo.y() > hi.y()) continue;
     for (int ix = lo.x(); ix <= hi.x(); ++ix) {
       for (int iy = lo.y(); iy <= hi.y(); ++iy) {
         for (int iz = 0; iz <= last.z(); ++iz) {
-          voxels_.SetOccupied({ix, iy, iz}, false);
-          seen_free_.SetOccupied({ix, iy, iz}, false);
+          voxels_->SetOccupied({ix, iy, iz}, false);
+          seen_free_->SetOccupied({ix, iy, iz}, false);
         }
       }
     }
     // Voxel centres strictly inside the tile, so that a neighbouring voxel touching its face is not read.
     const Eigen::Vector3d shrink = Eigen::Vector3d::Constant(0.25 * res);
-    const Eigen::AlignedBox3d query(voxels_.CenterOf({lo.x(), lo.y(), 0}) - shrink,
-                                    voxels_.CenterOf({hi.x(), hi.y(), last.z()}) + shrink);
-    for (const Eigen::Vector3d& p : map.OccupiedInBox(query)) stats.occupied_voxels += voxels_.SetOccupiedAt(p);
-    for (const Eigen::Vector3d& p : map.FreeInBox(query)) seen_free_.SetOccupiedAt(p);
-    const Eigen::AlignedBox2d box(voxels_.CenterOf({lo.x(), lo.y(), 0}).head<2>(),
-                                  voxels_.CenterOf({hi.x(), hi.y(), 0}).head<2>());
+    const Eigen::AlignedBox3d query(voxels_->CenterOf({lo.x(), lo.y(), 0}) - shrink,
+                                    voxels_->CenterOf({hi.x(), hi.y(), last.z()}) + shrink);
+    for (const Eigen::Vector3d& p : map.OccupiedInBox(query))
+      stats.occupied_voxels += voxels_->SetOccupiedAt(p);
+    for (const Eigen::Vector3d& p : map.FreeInBox(query)) seen_free_->SetOccupiedAt(p);
+    const Eigen::AlignedBox2d box(voxels_->CenterOf({lo.x(), lo.y(), 0}).head<2>(),
+                                  voxels_->CenterOf({hi.x(), hi.y(), 0}).head<2>());
     columns.push_back(box);
     stats.region_M.extend(box);
     ++stats.tiles;
@@ -503,11 +538,13 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     RebuildGrids();  // every grid over the new extent (their geometry changed)
     columns.clear();
   } else {
-    grid_->SetObserverHeight(sensor_max_z_m);
-    grid_->Update(voxels_, &seen_free_, columns);
+    nav::TraversabilityGrid& grid = Writable(&grid_);
+    grid.SetObserverHeight(sensor_max_z_m);
+    grid.Update(*voxels_, seen_free_.get(), columns);
     if (diagnose_grid_) {
-      diagnose_grid_->SetObserverHeight(sensor_max_z_m);
-      diagnose_grid_->Update(voxels_, &seen_free_, columns);
+      nav::TraversabilityGrid& diagnose_grid = Writable(&diagnose_grid_);
+      diagnose_grid.SetObserverHeight(sensor_max_z_m);
+      diagnose_grid.Update(*voxels_, seen_free_.get(), columns);
     }
   }
   stats.traversability_ms = MsSince(start);

@@ -33,9 +33,7 @@ PerceptionService::PerceptionService(const AgentOptions& options, std::shared_pt
       live_obstacle_sensor_(options, capabilities_.lidar_min_elevation_rad),
       perception_(std::make_unique<PerceptionPipeline>(options.perception, options.robot_id)),
       nav_map_(std::make_unique<NavMap>(options.nav_map, options.perception.map.resolution_m, start_M,
-                                        planner_, options.navigation.platform.name)) {
-  nav_map_memory_bytes_ = nav_map_->MemoryBytes();
-}
+                                        planner_, options.navigation.platform.name)) {}
 
 bool PerceptionService::WaitForFirstScan(std::chrono::milliseconds timeout) {
   if (!capabilities_.has_lidar) return false;
@@ -161,7 +159,6 @@ void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
                          perception_->max_sensor_z_m(), perception_->Staircases());
     last_map_update_s_ = NowS();
     map_update_started_s_ = -1e9;
-    nav_map_memory_bytes_ = nav_map_->MemoryBytes();
     std::optional<nav::FrontierOptions> search;
     Eigen::Vector3d robot_p_M;
     bool every_level = false;

@@ -44,11 +44,13 @@ struct TunnelsRig {
     return o;
   }
 
-  // Drives the true base east along the tunnel's centre line at 1 m/s for `steps` scans at 10 Hz, updating the
-  // navigation map at 1 Hz; returns the updates' statistics.
+  // Drives the true base east along the tunnel's centre line at 1 m/s for `steps` scans at 10 Hz, updating
+  // the navigation map at 1 Hz; returns the updates' statistics. A second call drives on from where the first
+  // stopped (its pose and time).
   std::vector<NavMapUpdateStats> DriveEast(int steps) {
     std::vector<NavMapUpdateStats> updates;
-    for (int k = 1; k <= steps; ++k) {
+    const int driven = static_cast<int>(std::lround((platform.TrueState().x_m - 4.0) / 0.1));
+    for (int k = driven + 1; k <= driven + steps; ++k) {
       const double now_s = k * 0.1;
       sim::UnicycleState s = platform.TrueState();
       s.x_m = 4.0 + 0.1 * k;
@@ -221,9 +223,53 @@ TEST(NavMapTest, AWheeledRobotAtTheFootOfTheStairsIsRefusedTheFloorAboveNamingTh
   EXPECT_TRUE(legged.IsUsable()) << legged.reason;
 }
 
-// The map grows as the robot maps beyond its edge (a 20 m start extent, the robot driving 16 m east with a 30 m
-// lidar) and when a goal beyond it asks to (RequestCover), never past max_extent_m; the grown map holds every
-// occupied voxel of the OctoMap over its extent and its grid equals a full build.
+// The map grows as the robot maps beyond its edge (a 20 m start extent, the robot driving 16 m east with a 30
+// m lidar) and when a goal beyond it asks to (RequestCover), never past max_extent_m; the grown map holds
+// every occupied voxel of the OctoMap over its extent and its grid equals a full build. The planner plans on
+// the map's own grids (handed over, not copied), and an update never changes a grid the planner (or a search
+// in flight) still holds: it copies the grids it changes, hands the copies over, and then holds one copy of
+// the map again.
+TEST(NavMapTest, SharesItsGridsWithThePlannerAndCopiesOnlyWhatAnUpdateChanges) {
+  TunnelsRig rig;
+  auto& [profile, platform, start_M, perception, planner, nav_map] = rig;
+  int applied = 0;
+  for (const NavMapUpdateStats& stats : rig.DriveEast(20)) applied += stats.applied;
+  ASSERT_GE(applied, 1);
+  const std::shared_ptr<const nav::TraversabilityGrid> held = planner->Grid("wheeled");
+  ASSERT_EQ(held.get(), &nav_map.grid());
+  EXPECT_EQ(nav_map.UnpublishedMemoryBytes(), 0u);
+  // What a search in flight holds now, cell by cell.
+  std::vector<std::pair<int, bool>> before;
+  for (int ix = 0; ix < held->nx(); ++ix) {
+    for (int iy = 0; iy < held->ny(); ++iy)
+      before.emplace_back(static_cast<int>(held->State(ix, iy)), held->IsTraversable(ix, iy));
+  }
+
+  applied = 0;
+  for (const NavMapUpdateStats& stats : rig.DriveEast(60)) applied += stats.applied && stats.tiles > 0;
+  ASSERT_GE(applied, 1) << "the robot saw new ground";
+  EXPECT_NE(held.get(), &nav_map.grid()) << "an update changed the grid the planner held";
+  EXPECT_EQ(planner->Grid("wheeled").get(), &nav_map.grid());
+  EXPECT_EQ(nav_map.UnpublishedMemoryBytes(), 0u);
+  std::vector<std::pair<int, bool>> after;
+  for (int ix = 0; ix < held->nx(); ++ix) {
+    for (int iy = 0; iy < held->ny(); ++iy)
+      after.emplace_back(static_cast<int>(held->State(ix, iy)), held->IsTraversable(ix, iy));
+  }
+  EXPECT_EQ(before, after) << "the held grid changed under its holder";
+  int changed = 0;  // cells compared where they are (the map may have grown)
+  for (int ix = 0; ix < held->nx(); ++ix) {
+    for (int iy = 0; iy < held->ny(); ++iy) {
+      const Eigen::Vector2d c = held->CellCenter(ix, iy);
+      changed += nav_map.grid().IsTraversableAt(c.x(), c.y()) != held->IsTraversable(ix, iy);
+    }
+  }
+  EXPECT_GT(changed, 0) << "the new grid shows what the robot saw since";
+  // One copy of the map between updates: the planner's figure is the map's own (one platform), half of what
+  // it was with a copy.
+  EXPECT_EQ(planner->map_memory_bytes(), nav_map.MemoryBytes());
+}
+
 TEST(NavMapTest, GrowsAsTheRobotMapsBeyondItOrIsSentBeyondWithinItsLargestExtent) {
   NavMapOptions map_options;
   map_options.half_extent_m = 10.0;
@@ -252,8 +298,8 @@ TEST(NavMapTest, GrowsAsTheRobotMapsBeyondItOrIsSentBeyondWithinItsLargestExtent
   EXPECT_LE(grown.sizes().maxCoeff(), 90.0 + 1e-6);
   EXPECT_TRUE(grown.contains(initial));
 
-  // Memory (what health reports for perception and planning) grows with the area: the grids are per column,
-  // the voxels per column of a fixed height band. The map counts its own grids, the planner its copies.
+  // Memory (what health reports for planning) grows with the area: the grids are per column, the voxels per
+  // column of a fixed height band. The planner holds the map's own grids (none copied).
   const double area_ratio = grown.volume() / initial.volume();
   const std::size_t grown_bytes = nav_map.MemoryBytes();
   EXPECT_GE(grown_bytes, nav_map.voxels().MemoryBytes() + nav_map.seen_free().MemoryBytes() +
@@ -265,6 +311,10 @@ TEST(NavMapTest, GrowsAsTheRobotMapsBeyondItOrIsSentBeyondWithinItsLargestExtent
                                nav_map.grid().MemoryBytes() + nav_map.levels().MemoryBytes());
   EXPECT_NEAR(static_cast<double>(planner_bytes) / static_cast<double>(initial_planner_bytes), area_ratio,
               0.25 * area_ratio);
+
+  EXPECT_EQ(nav_map.UnpublishedMemoryBytes(), 0u);
+  EXPECT_EQ(planner->Grid("wheeled").get(), &nav_map.grid());
+  EXPECT_EQ(planner->Levels("wheeled").get(), &nav_map.levels());
 
   // Every occupied voxel of the OctoMap within the grown extent is in the navigation map's voxels.
   const core::VoxelGrid& voxels = nav_map.voxels();

@@ -99,10 +99,9 @@ class PerceptionComponent : public core::ThreadedComponent {
   PerceptionComponent(PerceptionService* service, double rate_hz)
       : core::ThreadedComponent("perception", rate_hz), service_(service) {}
   ~PerceptionComponent() override { StopLoops(); }
-  /// Its maps: the OctoMap and the navigation map's grids, bytes.
-  std::size_t MemoryBytes() const override {
-    return service_->map_memory_bytes() + service_->nav_map_memory_bytes();
-  }
+  /// Its map, the OctoMap, bytes. The navigation map's grids, which it keeps up to date, are the planner's
+  /// too (handed over, not copied): PlanningComponent counts them.
+  std::size_t MemoryBytes() const override { return service_->map_memory_bytes(); }
 
  protected:
   std::vector<std::function<void(core::WorkLoop&)>> Loops() override {
@@ -136,7 +135,7 @@ class PlanningComponent : public core::ThreadedComponent {
   PlanningComponent(PlanningService* service, FaultInjector* faults)
       : core::ThreadedComponent("planning", 10.0), service_(service), faults_(faults) {}
   ~PlanningComponent() override { StopLoops(); }
-  /// The map the global planner holds (its copy of the navigation map's grids), bytes.
+  /// The map the global planner holds (the navigation map's grids, shared with it), bytes.
   std::size_t MemoryBytes() const override { return service_->map_memory_bytes(); }
 
  protected:
@@ -161,5 +160,13 @@ class PlanningComponent : public core::ThreadedComponent {
 std::uint64_t ProcessRssBytes();
 /// The agent process's CPU time so far, seconds (CLOCK_PROCESS_CPUTIME_ID).
 double ProcessCpuSeconds();
+
+/// Makes glibc serve every allocation of `threshold_bytes` or more (default 1 MiB) with its own mmap, so that
+/// freeing one returns it to the system at once (mallopt M_MMAP_THRESHOLD; a fixed threshold also turns off
+/// glibc's raising of it after such a free). Without it, a navigation map that grows (grids of 10-30 MB,
+/// old and new held at once for a moment) leaves tens of MB of freed heap the process keeps: measured 39 MB
+/// in an hour's soak (docs/PERFORMANCE.md, Soak). Call once at the start of main(). Returns false if glibc
+/// refused.
+bool ReturnLargeBlocksWhenFreed(std::size_t threshold_bytes = std::size_t{1} << 20);
 
 }  // namespace cairn::agent

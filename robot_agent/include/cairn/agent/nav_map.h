@@ -29,10 +29,10 @@ namespace cairn::agent {
 struct NavMapOptions {
   /// The map starts spanning start +- this along x and y, metres, [5, 200].
   double half_extent_m = 40.0;
-  /// It grows as the robot maps beyond it or is sent beyond it, up to this length along x and along y, metres,
-  /// [10, 2000], at least 2 * half_extent_m (= no growth). Memory grows with the area: about 3.3 KB per m² for
-  /// the map and its grids, twice that with the planner's copy (200 x 200 m: about 260 MB per robot). A goal
-  /// the map cannot grow to cover is refused naming this option.
+  /// It grows as the robot maps beyond it or is sent beyond it, up to this length along x and along y,
+  /// metres, [10, 2000], at least 2 * half_extent_m (= no growth). Memory grows with the area: about 3.3 KB
+  /// per m² for the map and its grids, which the planner shares (200 x 200 m: about 130 MB per robot; twice
+  /// that for the seconds a growth takes). A goal the map cannot grow to cover is refused naming this option.
   double max_extent_m = 200.0;
   /// The map grows when the robot's map changes within this distance of its edge (or beyond), metres,
   /// [0, 100]...
@@ -93,10 +93,14 @@ class NavMap {
   Eigen::AlignedBox2d extent_M() const;
   /// Times the map has grown.
   int growths() const { return growths_; }
-  /// Heap memory of the map's own grids, bytes: its voxels and seen-free voxels (one bit each) and the
-  /// traversability and multi-level grids it keeps up to date, normal and relaxed. Not the copies handed to
-  /// the planner (GlobalPlanner::map_memory_bytes()). Same thread as Update().
+  /// Heap memory of the map's grids, bytes: its voxels and seen-free voxels (one bit each) and the
+  /// traversability and multi-level grids it keeps up to date, normal and relaxed. The planner plans on these
+  /// same grids (handed over, not copied: GlobalPlanner::map_memory_bytes() counts them too). Same thread as
+  /// Update().
   std::size_t MemoryBytes() const;
+  /// The part of MemoryBytes() the planner does not hold: the grids an update copied to change them (copy on
+  /// write) and has not handed over yet; 0 between updates. What health adds to the planner's figure.
+  std::size_t UnpublishedMemoryBytes() const;
 
   /// How the planner must read this map: the start's ground as reference, the ground band, unknown space
   /// traversable.
@@ -127,9 +131,9 @@ class NavMap {
                            double tile_m, double sensor_max_z_m,
                            const std::vector<perception::Staircase>& staircases = {});
 
-  const core::VoxelGrid& voxels() const { return voxels_; }
+  const core::VoxelGrid& voxels() const { return *voxels_; }
   /// The map's observed-free voxels (set bit = a lidar ray passed through), same geometry as voxels().
-  const core::VoxelGrid& seen_free() const { return seen_free_; }
+  const core::VoxelGrid& seen_free() const { return *seen_free_; }
   const nav::TraversabilityGrid& grid() const { return *grid_; }
   const nav::MultiLevelGrid& levels() const { return *levels_; }
   /// The frontiers of the map seen from the robot at `robot_M` (x, y, and the height of the ground under it;
@@ -183,16 +187,21 @@ class NavMap {
   NavMapOptions options_;
   std::shared_ptr<nav::GlobalPlanner> planner_;
   std::string platform_;
-  core::VoxelGrid voxels_;
-  core::VoxelGrid seen_free_;
-  std::unique_ptr<nav::TraversabilityGrid> diagnose_grid_;  // relaxed step limit: names an unreachable goal's step  // The OctoMap's known-free voxels (a ray passed), same geometry as voxels_.
-  std::unique_ptr<nav::TraversabilityGrid> grid_;
+  // The grids are shared with the planner once handed over (Publish()), and copied before a change while it
+  // holds them (Writable()): one copy of the map between updates, two while one is made or the map grows.
+  std::shared_ptr<core::VoxelGrid> voxels_;
+  std::shared_ptr<core::VoxelGrid> seen_free_;  // The OctoMap's known-free voxels (a ray passed), as voxels_.
+  std::shared_ptr<nav::TraversabilityGrid> grid_;
+  // Relaxed step limit: names an unreachable goal's step.
+  std::shared_ptr<nav::TraversabilityGrid> diagnose_grid_;
   // Every walkable surface (upper floors, stairs above stairs), updated with the grids and handed over too,
   // so that no plan off the main level has to build it.
-  std::unique_ptr<nav::MultiLevelGrid> levels_;
+  std::shared_ptr<nav::MultiLevelGrid> levels_;
+  std::shared_ptr<nav::MultiLevelGrid> diagnose_levels_;  // relaxed step limit (see diagnose_grid_)
+  // The grids last handed to the planner (compared by address: UnpublishedMemoryBytes()).
+  std::vector<const void*> published_;
   // The flights written into the voxels (ApplyStairPrior()), as last passed to Update().
   std::vector<perception::Staircase> stair_priors_;
-  std::unique_ptr<nav::MultiLevelGrid> diagnose_levels_;  // relaxed step limit (see diagnose_grid_)
   double sensor_max_z_m_ = std::numeric_limits<double>::quiet_NaN();
   mutable std::mutex extent_mutex_;  // guards extent_M_ and pending_cover_M_ (read by the planning thread)
   Eigen::AlignedBox2d extent_M_;

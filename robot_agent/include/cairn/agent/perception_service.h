@@ -104,9 +104,6 @@ class PerceptionService {
   void SetFaultHook(std::function<void(const char* component)> hook) { fault_hook_ = std::move(hook); }
   /// The map's memory as the perception thread last measured it, bytes (never waits for the map). Any thread.
   std::size_t map_memory_bytes() const { return map_memory_bytes_.load(); }
-  /// The navigation map's own grids' memory (NavMap::MemoryBytes()) after its last update, bytes: grows in
-  /// steps as the map grows over a larger area. Any thread.
-  std::size_t nav_map_memory_bytes() const { return nav_map_memory_bytes_.load(); }
 
   /// After the loops ended: the map's last changes within the telemetry budget (empty with perception off).
   PerceptionOutput Flush();
@@ -150,7 +147,6 @@ class PerceptionService {
   std::atomic<bool> map_snapshot_requested_{false};
   std::function<void(const char*)> fault_hook_;
   std::atomic<std::size_t> map_memory_bytes_{0};
-  std::atomic<std::size_t> nav_map_memory_bytes_{0};
   std::atomic<double> last_scan_s_{-1e9};        // agent clock of the newest scan read
   std::atomic<double> last_map_update_s_{-1e9};  // ... of the newest navigation map update that succeeded
   std::atomic<double> map_update_started_s_{-1e9};  // ... when the update under way started (-1e9: none)
