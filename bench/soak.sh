@@ -4,8 +4,9 @@
 # for DURATION_S (default 3600) on this machine. Every 10 s it samples each process's resident memory (RSS,
 # /proc/PID/status VmRSS), its CPU use over the last 10 s (per cent of one core) and the robot's missed control
 # deadlines so far (the agent's "control loop woke N ms late" and "control cycle took" warnings: a 50 Hz cycle
-# that ran over 100 ms). The baseline is the sample at 5 minutes, in the same run: RSS growth is the last
-# sample against it. Samples go to OUT_DIR/soak.csv, figures to stdout (FIGURE lines). Every minute the
+# that ran over 100 ms). RSS growth compares the 4 minutes from the baseline (5 minutes in) with the last 4
+# (bench/soak_report.py: floor and peak of each window). Samples go to OUT_DIR/soak.csv, figures to stdout
+# (FIGURE lines). Every minute the
 # basestation also asks each robot's health (`health R`): the memory of its maps as the robot counts it
 # (perception: the OctoMap; planning: the navigation map's grids, which the planner shares) and its
 # agent's RSS, to tell maps that grow (the navigation map is re-allocated over a larger area in steps) from
@@ -60,7 +61,7 @@ names=()
 for k in $(seq 0 $((ROBOTS - 1))); do names+=("r$k"); done
 names+=("base")
 procs=("${pids[@]:0:$ROBOTS}" "$base_pid")
-declare -A last_ticks baseline_rss
+declare -A last_ticks
 for i in "${!procs[@]}"; do last_ticks[$i]=$(ticks "${procs[$i]}"); done
 echo "t_s,process,rss_kb,cpu_pct,missed_deadlines" >"$OUT/soak.csv"
 start=$(date +%s)
@@ -96,71 +97,11 @@ while :; do
     [ "${names[$i]}" != base ] && missed=$(late "${names[$i]#r}")
     rss=$(rss_kb "$pid")
     echo "$now,${names[$i]},$rss,$cpu,$missed" >>"$OUT/soak.csv"
-    if [ -z "${baseline_rss[$i]:-}" ] && [ "$now" -ge "$BASELINE_S" ]; then baseline_rss[$i]=$rss; fi
   done
 done
 echo "quit" >&3 || true
 
 echo "soak: $ROBOTS robots and a basestation for $DURATION_S s; samples in $OUT/soak.csv"
-python3 - "$OUT/soak.csv" "$BASELINE_S" <<'PY'
-import csv, sys
-rows = list(csv.DictReader(open(sys.argv[1])))
-baseline_s = int(sys.argv[2])
-by = {}
-for r in rows:
-    by.setdefault(r["process"], []).append(r)
-worst = 0.0
-for name, rs in sorted(by.items()):
-    base = next((r for r in rs if int(r["t_s"]) >= baseline_s), rs[0])
-    last = rs[-1]
-    growth = 100.0 * (int(last["rss_kb"]) - int(base["rss_kb"])) / max(1, int(base["rss_kb"]))
-    worst = max(worst, growth)
-    cpu = sum(float(r["cpu_pct"]) for r in rs) / len(rs)
-    peak = max(int(r["rss_kb"]) for r in rs)
-    print(f"FIGURE soak {name}: RSS {int(base['rss_kb'])/1024:.1f} MB at {base['t_s']} s -> "
-          f"{int(last['rss_kb'])/1024:.1f} MB at {last['t_s']} s (growth {growth:+.2f} %, ratio "
-          f"{int(last['rss_kb'])/max(1,int(base['rss_kb'])):.3f}), peak {peak/1024:.1f} MB, mean CPU {cpu:.1f} % "
-          f"of one core, missed control deadlines {last['missed_deadlines']}")
-print(f"FIGURE soak worst RSS growth after the baseline: {worst:+.2f} % (bound: 5 %)")
-PY
 grep -h "arrived" "$OUT"/r*.log | wc -l | xargs -I{} echo "FIGURE soak goals arrived: {}"
-sleep 2
-# The robots' own view (health R): its maps' memory and the agent's RSS, first answer at or after the baseline
-# against the last; the growth of the RSS less the maps' memory, against the RSS at the baseline.
-python3 - "$OUT/base.out" "$OUT/health_times.txt" "$BASELINE_S" "$OUT/health.csv" <<'PY'
-import json, sys
-times = [int(t) for t in open(sys.argv[2]).read().split()]
-baseline_s = int(sys.argv[3])
-answers = {}
-for line in open(sys.argv[1]):
-    try:
-        j = json.loads(line)
-    except ValueError:
-        continue
-    if j.get("command") == "health":
-        answers.setdefault(j.get("robot"), []).append(j)
-with open(sys.argv[4], "w") as out:
-    out.write("t_s,robot,perception_maps_kb,planning_map_kb,rss_kb\n")
-    worst = None
-    for robot, js in sorted(answers.items()):
-        rows = []
-        for t, j in zip(times, js):
-            if not j.get("ok"):
-                continue
-            mem = {c["name"]: c["memory_bytes"] // 1024 for c in j["components"]}
-            row = (t, mem.get("perception", 0), mem.get("planning", 0), j["rss_bytes"] // 1024)
-            rows.append(row)
-            out.write(",".join(str(v) for v in (row[0], robot) + row[1:]) + "\n")
-        if not rows:
-            continue
-        base = next((r for r in rows if r[0] >= baseline_s), rows[0])
-        last = rows[-1]
-        net = 100.0 * ((last[3] - last[1] - last[2]) - (base[3] - base[1] - base[2])) / max(1, base[3])
-        worst = net if worst is None else max(worst, net)
-        mb = lambda kb: f"{kb / 1024:.1f}"
-        print(f"FIGURE soak {robot} (its health) {base[0]} s -> {last[0]} s: perception maps {mb(base[1])} -> "
-              f"{mb(last[1])} MB, planner's map {mb(base[2])} -> {mb(last[2])} MB, RSS {mb(base[3])} -> "
-              f"{mb(last[3])} MB; RSS growth net of its maps {net:+.2f} %")
-    if worst is not None:
-        print(f"FIGURE soak worst RSS growth net of the maps after the baseline: {worst:+.2f} % (bound: 5 %)")
-PY
+sleep 2  # the last health answers
+python3 "$(dirname "${BASH_SOURCE[0]}")/soak_report.py" "$OUT" "$BASELINE_S"
