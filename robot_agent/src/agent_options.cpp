@@ -33,7 +33,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto config = core::ConfigSection::LoadFile(path);
   config.RejectUnknownKeys(
       {"command_interface", "mux", "navigation", "local_planner", "controller", "platform", "traversability",
-       "telemetry", "perception", "explore", "peers", "health",
+       "telemetry", "perception", "explore", "peers", "convoy", "health",
        "simulation"});  // `simulation` is the simulated platform's (sim::SimulatedPlatformOptions)
   const auto ci = config.Section("command_interface");
   ci.RejectUnknownKeys({"lock_keep_s"});
@@ -157,6 +157,14 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   pe_section.ReadDouble("prediction_s", &peers.prediction_s);
   pe_section.ReadDouble("same_level_dz_m", &peers.same_level_dz_m);
   pe_section.ReadBool("avoid", &peers.avoid);
+  const auto convoy_section = config.Section("convoy");
+  convoy_section.RejectUnknownKeys({"spacing_m", "hold_band_m", "breadcrumb_step_m", "lead_s", "lost_after_s", "max_trail_m"});
+  convoy_section.ReadDouble("spacing_m", &convoy.spacing_m);
+  convoy_section.ReadDouble("hold_band_m", &convoy.hold_band_m);
+  convoy_section.ReadDouble("breadcrumb_step_m", &convoy.breadcrumb_step_m);
+  convoy_section.ReadDouble("lead_s", &convoy.lead_s);
+  convoy_section.ReadDouble("lost_after_s", &convoy.lost_after_s);
+  convoy_section.ReadDouble("max_trail_m", &convoy.max_trail_m);
   const auto telemetry = config.Section("telemetry");
   telemetry.RejectUnknownKeys({"state_rate_hz", "local_plan_rate_hz"});
   telemetry.ReadDouble("state_rate_hz", &state_rate_hz);
@@ -250,6 +258,7 @@ bool AgentOptions::IsValid(std::string* why) const {
   if (!nav_map.IsValid(why)) return false;
   if (!explore.IsValid(why)) return false;
   if (!peers.IsValid(why)) return false;
+  if (!convoy.IsValid(why)) return false;
   if (!InRange("navigation.obstacle_window_s", obstacle_window_s, 0, 30, true, why)) return false;
   if (!InRange("navigation.path_requests_per_s", path_requests_per_s, 0, 1000, true, why)) return false;
   std::string inner;

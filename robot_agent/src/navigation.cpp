@@ -243,6 +243,20 @@ void Navigation::SetPeers(std::vector<PeerBody> peers, const PeerOptions& option
   peer_options_ = options;
 }
 
+PeerBody Navigation::AsPeer(const std::string& robot_id, const core::BaseState& pose_M,
+                            const std::string& mode) const {
+  PeerBody self;
+  self.robot_id = robot_id;
+  self.pose_M = pose_M;
+  self.footprint_radius_m = options_.platform.footprint_radius_m;
+  self.mode = mode;
+  if (has_goal()) {
+    self.path_ahead_M =
+        PathAhead(plan_.result.path_W, {pose_M.x_m, pose_M.y_m}, kPeerPathSpacingM, kPeerPathPoints);
+  }
+  return self;
+}
+
 namespace {
 
 bool ObstacleInputFresh(double age_s, bool never, double limit_s, std::string* why) {

@@ -433,26 +433,24 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
 }
 
 void RobotAgent::Impl::PublishPeerState() {
+  const PeerBody self = navigation_.AsPeer(options_.robot_id, pose_, modes_->mode());
   cairn_msgs::PeerState m;
-  m.robot_id(options_.robot_id);
+  m.robot_id(self.robot_id);
   m.platform(options_.navigation.platform.name);
-  m.x_MB_m(pose_.x_m);
-  m.y_MB_m(pose_.y_m);
-  m.z_MB_m(pose_.z_m);
-  m.yaw_MB_rad(pose_.yaw_rad);
-  m.v_B_mps(static_cast<float>(pose_.v_mps));
-  m.w_B_radps(static_cast<float>(pose_.w_radps));
-  m.footprint_radius_m(static_cast<float>(options_.navigation.platform.footprint_radius_m));
-  m.mode(modes_->mode());
-  if (navigation_.has_goal()) {
-    for (const Eigen::Vector3d& p : PathAhead(navigation_.global_plan().result.path_W, {pose_.x_m, pose_.y_m},
-                                              kPeerPathSpacingM, kPeerPathPoints)) {
-      cairn_msgs::PeerPathPoint q;
-      q.x_m(static_cast<float>(p.x()));
-      q.y_m(static_cast<float>(p.y()));
-      q.z_m(static_cast<float>(p.z()));
-      m.path_ahead_M().push_back(q);
-    }
+  m.x_MB_m(self.pose_M.x_m);
+  m.y_MB_m(self.pose_M.y_m);
+  m.z_MB_m(self.pose_M.z_m);
+  m.yaw_MB_rad(self.pose_M.yaw_rad);
+  m.v_B_mps(static_cast<float>(self.pose_M.v_mps));
+  m.w_B_radps(static_cast<float>(self.pose_M.w_radps));
+  m.footprint_radius_m(static_cast<float>(self.footprint_radius_m));
+  m.mode(self.mode);
+  for (const Eigen::Vector3d& p : self.path_ahead_M) {
+    cairn_msgs::PeerPathPoint q;
+    q.x_m(static_cast<float>(p.x()));
+    q.y_m(static_cast<float>(p.y()));
+    q.z_m(static_cast<float>(p.z()));
+    m.path_ahead_M().push_back(q);
   }
   if (!dds_->Publish(m)) spdlog::debug("robot {}: peer state not sent (DDS history full)", options_.robot_id);
 }

@@ -1,6 +1,7 @@
 #include "cairn/agent/stepped_robot.h"
 
 #include <chrono>
+#include <limits>
 #include <stdexcept>
 
 #include "cairn/agent/waypoint_recovery.h"
@@ -29,8 +30,12 @@ core::SteadyTime AsSteady(double now_s) {
 
 SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
                            const std::string& tree_file)
-    : options_(options), platform_(Checked(std::move(platform))), team_(options.robot_id, options.explore.team) {
+    : options_(options),
+      platform_(Checked(std::move(platform))),
+      team_(options.robot_id, options.explore.team),
+      peers_(options.robot_id, options.peers) {
   const core::BaseState start_M = StartPose(*platform_);
+  pose_M_ = start_M;
   PerceptionOptions perception = options_.perception;
   perception.camera_rate_hz = 0;
   perception_ = std::make_unique<PerceptionPipeline>(perception, options_.robot_id);
@@ -50,6 +55,11 @@ SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::Pl
   explore.robot_id = options_.robot_id;
   explore.platform_max_step_m = options_.navigation.platform.traversability.max_step_m;
   explore_ = std::make_unique<ExploreMode>(explore, navigation_.get(), std::move(recovery));
+  WaypointModeOptions waypoint;
+  waypoint.robot_id = options_.robot_id;
+  waypoint_ = std::make_unique<WaypointMode>(waypoint, navigation_.get(), nullptr);
+  convoy_ = std::make_unique<ConvoyMode>(options_.convoy, waypoint.channel_timeout_s, navigation_.get());
+  active_ = explore_.get();
   next_map_update_s_ = options_.nav_map.update_period_s;
 }
 
@@ -59,8 +69,34 @@ std::optional<ExploreClaim> SteppedRobot::ClaimToSend(double now_s) {
   });
 }
 
+PeerBody SteppedRobot::PeerState() const {
+  const bool busy = active_ == explore_.get()    ? explore_->exploring()
+                    : active_ == waypoint_.get() ? waypoint_->has_goal()
+                                                 : convoy_->active();
+  return navigation_->AsPeer(options_.robot_id, pose_M_, busy ? active_->name() : std::string("idle"));
+}
+
 std::string SteppedRobot::Explore(const ExploreTask& task, double now_s) {
+  if (active_ != explore_.get()) active_->Deactivate("exploring instead");
+  active_ = explore_.get();
   return explore_->Start(task, now_s, [] { return ModeDecision{true, ExploreMode::kName, ExploreMode::kChannel, ""}; });
+}
+
+std::string SteppedRobot::Goto(double x_m, double y_m, double now_s) {
+  const nav::GlobalPlan plan = navigation_->PlanGoalAsync(pose_M_, x_m, y_m).get();
+  if (!plan.IsUsable()) return plan.reason.empty() ? plan.result.message : plan.reason;
+  if (active_ != waypoint_.get()) active_->Deactivate("driving to a waypoint instead");
+  active_ = waypoint_.get();
+  const GoalStart start =
+      waypoint_->Start(plan, x_m, y_m, 0.0, std::numeric_limits<double>::quiet_NaN(), now_s,
+                       [] { return ModeDecision{true, WaypointMode::kName, WaypointMode::kChannel, ""}; });
+  return start.accepted ? "" : start.reason;
+}
+
+std::string SteppedRobot::Follow(const std::vector<std::string>& ahead_ids, double now_s) {
+  if (active_ != convoy_.get()) active_->Deactivate("following in a convoy instead");
+  active_ = convoy_.get();
+  return convoy_->Start(options_.robot_id, ahead_ids, now_s);
 }
 
 void SteppedRobot::Step(double now_s) {
@@ -71,12 +107,14 @@ void SteppedRobot::Step(double now_s) {
   auto start = WallClock::now();
   platform_->Update(now_s);
   const core::BaseState pose = platform_->ReadPose().PlanarState();
+  pose_M_ = pose;
   const bool has_scan = platform_->ReadLidarScan(now_s, &scan_);
   timing_.platform_s += since(start);
   start = WallClock::now();
   if (has_scan) {
     core::BaseState at_scan;
     live_obstacles_->AddScan(scan_, &points_B_, &at_scan);
+    navigation_->SetPeers(peers_.Live(now_s), peers_.options());  // peers are obstacles too
     navigation_->SetObstacles(points_B_, at_scan, now_s);
     perception_->Tick(now_s, &scan_, nullptr);
   }
@@ -101,13 +139,14 @@ void SteppedRobot::Step(double now_s) {
   start = WallClock::now();
   explore_->SetPeerClaims(team_.LiveClaims(now_s));
   explore_->SetTeamView(team_.ExploringPeers(now_s), team_.PeerSeenM2());
+  convoy_->SetPeers(peers_.Live(now_s), now_s);
   const ModeInputs in{AsSteady(now_s), now_s, pose};
-  ModeOutput out = explore_->Step(in);
+  ModeOutput out = active_->Step(in);
   const Twist2 twist = out.twist_B.value_or(Twist2{0.0, 0.0});
   platform_->CommandTwist(twist.linear_x_mps, twist.angular_z_radps, now_s);
   const core::PlatformStatus status = platform_->ReadStatus();
   ever_in_contact_ = ever_in_contact_ || status.in_contact;
-  explore_->OnPlatformStatus(status, in);
+  active_->OnPlatformStatus(status, in);
   timing_.explore_s += since(start);
 }
 

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -123,6 +124,9 @@ struct TeamOptions {
   /// Height bands (metres, frame W; e.g. the floors of a building) scored at the end over the map's levels
   /// (CoverageOnLevels, from the first start's ground at z 0, in the task's region): TeamRun::level_coverage.
   std::vector<std::pair<double, double>> level_bands;
+  /// Robots tell one another their states at 5 Hz and keep clear of one another, as the agents do over
+  /// cairn/peer_state (SteppedRobot::PeerState()).
+  bool peers = true;
 };
 
 /// What happened.
@@ -146,6 +150,9 @@ struct TeamRun {
   std::vector<double> level_coverage;   ///< per TeamOptions::level_bands, at the end
   double highest_z_m = 0;               ///< the highest ground any robot stood on (true pose), metres
   double end_speed_mps = 0;             ///< the fastest live robot's true speed at the end, m/s
+  /// The least distance between two live robots' centres over the run (true poses), metres (infinity with
+  /// one robot).
+  double closest_peer_m = std::numeric_limits<double>::infinity();
 };
 
 inline TeamRun RunTeam(const TeamOptions& o) {
@@ -183,7 +190,7 @@ inline TeamRun RunTeam(const TeamOptions& o) {
   };
   double t = 0.0;
   double next_score_s = o.score_period_s;
-  while (any_exploring() && t < o.timeout_s) {
+  for (int cycle = 1; any_exploring() && t < o.timeout_s; ++cycle) {
     t += kDt;
     if (o.kill_index >= 0 && alive[o.kill_index] && t >= o.kill_at_s && robots[o.kill_index]->OwnClaim(t)) {
       alive[o.kill_index] = false;
@@ -204,6 +211,22 @@ inline TeamRun RunTeam(const TeamOptions& o) {
           if (j == i || !alive[j]) continue;
           const std::string refused = robots[j]->OnPeerClaim(*claim, t);
           if (!refused.empty()) std::printf("claim refused: %s\n", refused.c_str());
+        }
+      }
+    }
+    // Peer states at 5 Hz, heard at once; the closest approach from the true poses.
+    for (std::size_t i = 0; i < robots.size(); ++i) {
+      if (!alive[i]) continue;
+      const PeerBody self = robots[i]->PeerState();
+      for (std::size_t j = 0; j < robots.size(); ++j) {
+        if (j == i || !alive[j]) continue;
+        if (o.peers && cycle % 10 == 0) {
+          const std::string refused = robots[j]->OnPeerState(self, t);
+          if (!refused.empty()) std::printf("peer state refused: %s\n", refused.c_str());
+        }
+        if (j > i) {
+          const sim::UnicycleState a = platforms[i]->TrueState(), b = platforms[j]->TrueState();
+          run.closest_peer_m = std::min(run.closest_peer_m, std::hypot(a.x_m - b.x_m, a.y_m - b.y_m));
         }
       }
     }

@@ -11,6 +11,7 @@
 #include <future>
 #include <string>
 
+#include "cairn/nav/platform.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "explore_team.h"
 #include "../../sim/test/test_util.h"
@@ -64,9 +65,14 @@ void PrintTeam(const char* label, const explore_team::TeamRun& run) {
     std::printf("  %s r%zu: %s: %s; %d reached, %d given up, %.0f m driven\n", label, i + 1, ToString(s.state),
                 s.reason.c_str(), s.targets_reached, s.targets_failed, run.driven_m[i]);
   }
-  std::printf("  %s: %.1f %% after %.0f s (90 %% after %.0f s), %d claim overlaps; %.0f s wall\n", label,
-              100 * run.coverage, run.end_s, run.time_to_90_s, run.claim_overlaps, run.wall_s);
+  std::printf("  %s: %.1f %% after %.0f s (90 %% after %.0f s), %d claim overlaps, robots %.2f m apart at the "
+              "closest; %.0f s wall\n",
+              label, 100 * run.coverage, run.end_s, run.time_to_90_s, run.claim_overlaps, run.closest_peer_m,
+              run.wall_s);
 }
+
+// Two robots' centres closer than this touch (wheeled footprints).
+double TouchingM() { return 2 * nav::GetPlatformProfile("wheeled").footprint_radius_m; }
 
 // Two robots from a gate explore the west half of the tunnels and the X junction (a region) as a team: they never
 // go for the same frontier, both take part, the region ends up in their maps and every robot completes.
@@ -83,6 +89,7 @@ TEST(ExploreTest, TwoRobotsShareARegionWithoutSharingAFrontier) {
   EXPECT_GE(team.coverage, 0.9);
   EXPECT_EQ(team.claim_overlaps, 0);
   EXPECT_FALSE(team.contact);
+  EXPECT_GT(team.closest_peer_m, TouchingM()) << "the robots keep clear of each other (peers)";
 }
 
 // The whole of builtin:tunnels from its gate (robots 2 m apart): one robot that knows nothing explores until it
@@ -113,6 +120,7 @@ TEST(ExploreTest, ThreeRobotsExploreTheTunnelsAtLeast1p8TimesSoonerThanOneAndTak
   EXPECT_GE(ratio, 1.8);
   EXPECT_EQ(three.claim_overlaps, 0);
   EXPECT_FALSE(three.contact);
+  EXPECT_GT(three.closest_peer_m, TouchingM()) << "the robots keep clear of one another (peers)";
   for (std::size_t i = 0; i < three.statuses.size(); ++i) EXPECT_GT(three.driven_m[i], 5.0) << "every robot takes part";
 
   o.kill_index = 1;

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "cairn/agent/control_lock.h"
+#include "cairn/agent/convoy.h"
 #include "cairn/agent/explore_mode.h"
 #include "cairn/agent/journal.h"
 #include "cairn/agent/nav_map.h"
@@ -65,6 +66,8 @@ struct AgentOptions {
   ExploreModeOptions explore;
   /// Peers: how often this robot tells them where it is, and how it keeps clear of them (config `peers`).
   PeerOptions peers;
+  /// Convoy: a follower's spacing to the robot ahead and when it counts it lost (config `convoy`).
+  ConvoyOptions convoy;
   /// Local planner library: collision radius = footprint + collision_margin_m; the heading range comes
   /// from the platform profile.
   nav::TrajectoryLibraryOptions library = DefaultLibraryOptions();

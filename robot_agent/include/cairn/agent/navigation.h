@@ -162,6 +162,10 @@ class Navigation {
   void SetPeers(std::vector<PeerBody> peers, const PeerOptions& options);
   /// Peers of the last SetPeers().
   const std::vector<PeerBody>& peers() const { return peers_; }
+  /// This robot as its peers see it (cairn/peer_state): at `pose_M` (frame M) in `mode`, with the platform's
+  /// footprint radius and, with a goal, the next kPeerPathPoints points of its global path from the pose,
+  /// kPeerPathSpacingM apart (PathAhead).
+  PeerBody AsPeer(const std::string& robot_id, const core::BaseState& pose_M, const std::string& mode) const;
 
   /// One control step in waypoint mode (call at the control rate). Without a goal: a zero twist. The goal
   /// is reached when the robot is within its tolerance moving at most 0.1 m/s (the controller brakes to

@@ -4,7 +4,8 @@
 // long scenarios that must run faster than real time (exploration coverage, several robots, benches): each
 // capability's end-to-end test across real processes runs the agent itself.
 //
-// What differs from the agent: no mode tree (no lock or operator: the explore task is started directly), the
+// What differs from the agent: no mode tree (no lock or operator: the explore task, a waypoint goal or a
+// convoy is started directly, the last one started runs), the
 // navigation map and the frontier search run inline at their period, and the caller waits in wall time for a
 // plan computed on a worker (SteppedRobot::planning()) instead of the robot holding still meanwhile.
 #pragma once
@@ -15,11 +16,13 @@
 #include <vector>
 
 #include "cairn/agent/agent_options.h"
+#include "cairn/agent/convoy_mode.h"
 #include "cairn/agent/explore_mode.h"
 #include "cairn/agent/live_obstacles.h"
 #include "cairn/agent/nav_map.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
+#include "cairn/agent/waypoint_mode.h"
 #include "cairn/core/platform_io.h"
 
 namespace cairn::agent {
@@ -35,6 +38,12 @@ class SteppedRobot {
 
   /// Starts exploring `task` at `now_s`; "" or why not (CheckExploreTask).
   std::string Explore(const ExploreTask& task, double now_s);
+  /// Drives to (x_m, y_m) (frame M, metres) in waypoint mode, planned now on this thread; "" or why not (the
+  /// plan's reason).
+  std::string Goto(double x_m, double y_m, double now_s);
+  /// Follows the robots `ahead_ids` (nearest first, the leader last) in convoy mode from `now_s` on; their
+  /// states come through OnPeerState(). "" or why not (ConvoyMode::Start).
+  std::string Follow(const std::vector<std::string>& ahead_ids, double now_s);
   /// One control cycle at `now_s` (seconds; cycles expected every 0.02 s): the platform's pose and scan,
   /// the map, at its period the navigation map and the frontier search, then the explore mode's twist to the
   /// platform (zero when not exploring).
@@ -48,11 +57,19 @@ class SteppedRobot {
   /// `now_s` ("" or why it was refused). The peers' live claims and coverage feed the next choice and search.
   std::optional<ExploreClaim> ClaimToSend(double now_s);
   std::string OnPeerClaim(const ExploreClaim& claim, double now_s) { return team_.OnPeerClaim(claim, now_s); }
+  /// Peers, as the agents do over cairn/peer_state (PeerTracker): PeerState() is this robot as its peers see
+  /// it after the last Step() (Navigation::AsPeer; mode "explore" while exploring, else "idle"); OnPeerState()
+  /// takes a peer's, heard at `now_s` ("" or why it was dropped). Peers heard within options.peers.timeout_s
+  /// are obstacles from the next Step() on, as in the agent.
+  PeerBody PeerState() const;
+  std::string OnPeerState(const PeerBody& peer, double now_s) { return peers_.OnPeerState(peer, now_s); }
   /// The target this robot holds now (none: none).
   std::optional<nav::PeerClaim> OwnClaim(double now_s) const { return explore_->OwnClaim(now_s); }
   const ExploreTeam& team() const { return team_; }
 
   const ExploreMode& explore() const { return *explore_; }
+  const WaypointMode& waypoint() const { return *waypoint_; }
+  const ConvoyMode& convoy() const { return *convoy_; }
   const NavMap& nav_map() const { return *nav_map_; }
   const Navigation& navigation() const { return *navigation_; }
   const PerceptionPipeline& perception() const { return *perception_; }
@@ -77,10 +94,15 @@ class SteppedRobot {
   std::unique_ptr<Navigation> navigation_;
   std::unique_ptr<LiveObstacles> live_obstacles_;
   std::unique_ptr<ExploreMode> explore_;
+  std::unique_ptr<WaypointMode> waypoint_;
+  std::unique_ptr<ConvoyMode> convoy_;
+  ModeModule* active_ = nullptr;  // the mode started last (explore_ until another one is)
   core::LidarScan scan_;
   std::vector<Eigen::Vector3f> points_B_;
   double next_map_update_s_ = 0.0;
   ExploreTeam team_;
+  PeerTracker peers_;
+  core::BaseState pose_M_;  // at the last Step()
   double frontier_search_s_ = 0.0;
   int frontier_searches_ = 0;
   bool ever_in_contact_ = false;

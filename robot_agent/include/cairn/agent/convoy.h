@@ -1,0 +1,93 @@
+// Convoy (issue 16; Sriganesh et al. 2024, § Advanced Multi-agent Coordination): followers keep behind the
+// robot ahead of them on the path it actually drove, at a spacing along that path. The robot ahead's pose
+// comes from its peer state (cairn/peer_state, peers.h); a follower keeps those poses as breadcrumbs (its
+// trail), places itself on the trail and drives to the point `spacing_m` short of the robot ahead along it,
+// so that it takes the corners the robot ahead took (never the chord through a wall) and slows and stops
+// with it. All positions are in the team's map frame M, metres.
+#pragma once
+
+#include <Eigen/Core>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace cairn::agent {
+
+/// Options of a convoy follower (config section `convoy`).
+struct ConvoyOptions {
+  /// Distance to keep to the robot ahead, along the path it drove, metres, [1, 50].
+  double spacing_m = 3.0;
+  /// Within spacing_m + this of the robot ahead the follower holds (at rest), metres, [0, 5]: it does not
+  /// creep after every few centimetres the robot ahead moves.
+  double hold_band_m = 0.5;
+  /// The robot ahead's poses are kept this far apart along its path, metres, [0.05, 2].
+  double breadcrumb_step_m = 0.2;
+  /// While the robot ahead moves, the target is this many seconds of its speed beyond the spacing point,
+  /// seconds, [0, 5]: a follower braking toward a target that moves on lags behind it by its braking distance
+  /// (about 1 m at 1 m/s), which this takes back. The target never passes the robot ahead's position.
+  double lead_s = 1.0;
+  /// The robot ahead is lost when not heard for this long, seconds, (0, 60]: the follower stops.
+  double lost_after_s = 2.0;
+  /// Trail kept ahead of the follower, metres, [10, 1000]: beyond it the oldest breadcrumbs go (a robot
+  /// ahead that drove that far without its follower moving; the follower then drives to the nearest kept one).
+  double max_trail_m = 300.0;
+
+  /// @return false and sets `*why` (field, value, rule) when a field is invalid.
+  bool IsValid(std::string* why) const;
+};
+
+/// What a follower does now (ConvoyTrail::Next()).
+struct ConvoyCommand {
+  enum class Kind {
+    kHold,    ///< at the spacing (or nothing to follow yet): stay at rest
+    kFollow,  ///< drive along path_M to its end
+    kLost,    ///< the robot ahead was not heard for lost_after_s: stop
+  };
+  Kind kind = Kind::kHold;
+  /// kFollow: the trail from the follower's place on it to the target (spacing_m short of the robot ahead
+  /// along it), frame M, metres; the first point is the follower's own position.
+  std::vector<Eigen::Vector3d> path_M;
+  /// Distance from the follower to the robot ahead along the trail, metres (NaN before the robot ahead was
+  /// heard).
+  double gap_m = 0.0;
+  /// Why it holds or is lost, for the operator.
+  std::string reason;
+};
+
+/// The path the robot ahead drove (its breadcrumbs) and where a follower is on it. Not thread-safe.
+class ConvoyTrail {
+ public:
+  /// @throws std::invalid_argument for invalid options (IsValid()'s message).
+  explicit ConvoyTrail(const ConvoyOptions& options);
+
+  /// The robot ahead was at `p_M` (frame M, metres) moving at `speed_mps` (its measured forward speed, m/s) at
+  /// `now_s` (seconds, the follower's clock): a breadcrumb when it is breadcrumb_step_m or more from the last
+  /// one. Non-finite points are ignored (a non-finite speed counts as 0).
+  void OnAhead(const Eigen::Vector3d& p_M, double now_s, double speed_mps = 0.0);
+  /// What the follower at `follower_M` does at `now_s`. Its place on the trail only moves forward (a trail
+  /// that loops back past the follower is not taken as a shortcut); breadcrumbs behind it are dropped.
+  ConvoyCommand Next(const Eigen::Vector3d& follower_M, double now_s);
+  /// lost_after_s counts from `now_s`: at the start (a trail never heard is lost after lost_after_s too), and
+  /// after a re-link to a new robot ahead (the trail is kept: the new one drove it too).
+  void Relinked(double now_s) { last_heard_s_ = now_s; }
+
+  /// True once the robot ahead (any since the start) was heard.
+  bool heard() const { return heard_; }
+  /// The breadcrumbs not yet passed, oldest first, frame M.
+  const std::vector<Eigen::Vector3d>& trail_M() const { return trail_M_; }
+  const ConvoyOptions& options() const { return options_; }
+
+ private:
+  ConvoyOptions options_;
+  std::vector<Eigen::Vector3d> trail_M_;
+  Eigen::Vector3d ahead_M_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  double ahead_speed_mps_ = 0.0;
+  double last_heard_s_ = -1e9;
+  bool heard_ = false;
+};
+
+/// Distance from `p` to the polyline `path` in x-y, metres (infinity for an empty path): how far a follower
+/// strayed from the path the leader drove.
+double DistanceToPath2D(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& p);
+
+}  // namespace cairn::agent

@@ -1,0 +1,260 @@
+// Convoy (issue 16): the follower's trail (ConvoyTrail) on made-up paths, and a leader driven by waypoints
+// through builtin:tunnels' X junction with three followers behind it, every robot's autonomy stepped on a
+// simulated clock in process (SteppedRobot: perception, navigation map, local planner, controller), peer
+// states exchanged at 5 Hz as over cairn/peer_state. The convoy over real processes and DDS is
+// tests/convoy_integration_test (when the operator's commands exist).
+
+#include "cairn/agent/convoy.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cairn/agent/convoy_mode.h"
+#include "cairn/agent/stepped_robot.h"
+#include "cairn/nav/platform.h"
+#include "cairn/sim/simulated_platform.h"
+
+namespace cairn::agent {
+namespace {
+
+// Feeds `trail` the robot ahead driving `path` (metres, frame M) at 1 m/s from t = 0, one pose per 0.1 s;
+// returns the time of the last pose.
+double DriveAhead(ConvoyTrail* trail, const std::vector<Eigen::Vector3d>& path) {
+  double t = 0;
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+    const double d = (path[i + 1] - path[i]).norm();
+    for (double s = 0; s < d; s += 0.1, t += 0.1) trail->OnAhead(path[i] + (s / d) * (path[i + 1] - path[i]), t);
+  }
+  trail->OnAhead(path.back(), t);
+  return t;
+}
+
+TEST(ConvoyTrailTest, BadOptionsAreNamed) {
+  ConvoyOptions o;
+  std::string why;
+  EXPECT_TRUE(o.IsValid(&why)) << why;
+  o.spacing_m = 0.5;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("convoy.spacing_m = 0.5"), std::string::npos) << why;
+  o = ConvoyOptions{};
+  o.lost_after_s = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("convoy.lost_after_s"), std::string::npos) << why;
+  EXPECT_THROW(ConvoyTrail{o}, std::invalid_argument);
+}
+
+// Around an L corner the follower's way goes through the corner the robot ahead drove, never the chord, and
+// ends spacing_m short of the robot ahead along it.
+TEST(ConvoyTrailTest, TheWayFollowsTheDrivenCornerAndEndsAtTheSpacing) {
+  ConvoyTrail trail(ConvoyOptions{});
+  const double t = DriveAhead(&trail, {{0, 0, 0}, {10, 0, 0}, {10, 10, 0}});
+  const ConvoyCommand c = trail.Next({-1, 0, 0}, t);
+  ASSERT_EQ(c.kind, ConvoyCommand::Kind::kFollow) << c.reason;
+  // Breadcrumbs 0.2 m apart cut a corner by less than 0.1 m of length.
+  EXPECT_NEAR(c.gap_m, 21.0, 0.1);
+  ASSERT_GE(c.path_M.size(), 3u);
+  EXPECT_NEAR((c.path_M.back() - Eigen::Vector3d(10, 7, 0)).norm(), 0.0, 0.1) << c.path_M.back().transpose();
+  const std::vector<Eigen::Vector3d> driven = {{-1, 0, 0}, {0, 0, 0}, {10, 0, 0}, {10, 10, 0}};
+  for (const Eigen::Vector3d& p : c.path_M) EXPECT_LT(DistanceToPath2D(driven, p), 0.01) << p.transpose();
+  // The corner is on the way: some point within a breadcrumb of (10, 0).
+  EXPECT_TRUE(std::any_of(c.path_M.begin(), c.path_M.end(),
+                          [](const Eigen::Vector3d& p) { return (p - Eigen::Vector3d(10, 0, 0)).norm() < 0.2; }));
+}
+
+// Within spacing + hold band it holds; the robot ahead not heard for lost_after_s is lost, as is one never
+// heard after lost_after_s from the start.
+TEST(ConvoyTrailTest, HoldsAtTheSpacingAndIsLostWhenTheRobotAheadFallsSilent) {
+  ConvoyTrail trail(ConvoyOptions{});
+  trail.Relinked(0.0);
+  ConvoyCommand c = trail.Next({0, 0, 0}, 1.0);
+  EXPECT_EQ(c.kind, ConvoyCommand::Kind::kHold);
+  EXPECT_TRUE(std::isnan(c.gap_m));
+  c = trail.Next({0, 0, 0}, 2.5);
+  EXPECT_EQ(c.kind, ConvoyCommand::Kind::kLost) << "never heard within lost_after_s";
+
+  const double t = DriveAhead(&trail, {{0, 0, 0}, {3.3, 0, 0}});
+  c = trail.Next({0, 0, 0}, t);
+  EXPECT_EQ(c.kind, ConvoyCommand::Kind::kHold) << c.reason;
+  EXPECT_NEAR(c.gap_m, 3.3, 0.05);
+  trail.OnAhead({4.0, 0, 0}, t + 0.1);
+  c = trail.Next({0, 0, 0}, t + 0.1);
+  EXPECT_EQ(c.kind, ConvoyCommand::Kind::kFollow) << "4 m > 3 + 0.5";
+  c = trail.Next({0, 0, 0}, t + 0.1 + 2.05);
+  EXPECT_EQ(c.kind, ConvoyCommand::Kind::kLost);
+  EXPECT_NE(c.reason.find("not heard for 2.0 s"), std::string::npos) << c.reason;
+}
+
+// A trail that turns back past the follower (a U through a side passage) is not a shortcut: the gap is along
+// the trail, 22 m, not the 2 m straight across.
+TEST(ConvoyTrailTest, ATrailLoopingBackPastTheFollowerIsNotAShortcut) {
+  ConvoyTrail trail(ConvoyOptions{});
+  const double t = DriveAhead(&trail, {{0, 0, 0}, {10, 0, 0}, {10, 2, 0}, {0, 2, 0}});
+  const ConvoyCommand c = trail.Next({0, 0, 0}, t);
+  ASSERT_EQ(c.kind, ConvoyCommand::Kind::kFollow);
+  EXPECT_NEAR(c.gap_m, 22.0, 0.2);  // two corners, each cut by less than 0.1 m
+  EXPECT_NEAR((c.path_M.back() - Eigen::Vector3d(3, 2, 0)).norm(), 0.0, 0.2) << c.path_M.back().transpose();
+}
+
+// ---- The convoy through the X junction ------------------------------------------------------------------
+
+struct ConvoyRun {
+  std::vector<Eigen::Vector3d> leader_driven;  // the leader's true positions, 5 cm apart
+  std::vector<double> spacing_error_m;         // on straight stretches, every follower, every 0.1 s, moving or not
+  double worst_deviation_m = 0;                // a follower's true position from the leader's driven path
+  double closest_m = std::numeric_limits<double>::infinity();  // any two robots' centres
+  bool contact = false;
+  bool leader_arrived = false;
+  std::vector<ConvoyStatus> end_status;  // the followers' at the end
+  std::vector<double> end_gap_m;         // consecutive robots along the driven path, at the end
+  double wall_s = 0;
+};
+
+// Arc length of the projection of `p` onto `path` (x-y), metres.
+double AlongPath(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& p) {
+  double best = std::numeric_limits<double>::infinity(), best_along = 0, along = 0;
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+    const Eigen::Vector2d a = path[i].head<2>(), ab = (path[i + 1] - path[i]).head<2>();
+    const double len = ab.norm();
+    const double t = len > 0 ? std::clamp((p.head<2>() - a).dot(ab) / (len * len), 0.0, 1.0) : 0.0;
+    const double d = (a + t * ab - p.head<2>()).norm();
+    if (d < best) {
+      best = d;
+      best_along = along + t * len;
+    }
+    along += len;
+  }
+  return best_along;
+}
+
+// Leader r1 at `starts[0]` drives by waypoints through `goals`; r2.. follow it in that order. Every robot
+// steps at 50 Hz simulated; peer states go to all at 5 Hz. Runs until the leader arrived at its last goal
+// and `settle_s` more, or `timeout_s`.
+ConvoyRun RunConvoy(const std::vector<core::PlanarPose>& starts, const std::vector<Eigen::Vector2d>& goals,
+                    double settle_s, double timeout_s) {
+  constexpr double kDt = 0.02;
+  const auto wall_start = std::chrono::steady_clock::now();
+  ConvoyRun run;
+  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
+  std::vector<std::unique_ptr<SteppedRobot>> robots;
+  std::vector<std::string> ids;
+  for (std::size_t i = 0; i < starts.size(); ++i) {
+    AgentOptions options;
+    options.robot_id = "r" + std::to_string(i + 1);
+    options.SetPlatform("wheeled");
+    sim::SimulatedPlatformOptions sim_options;
+    sim_options.world = "builtin:tunnels";
+    sim_options.start_W = starts[i];
+    sim_options.SetProfile(options.navigation.platform);
+    platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
+    robots.push_back(std::make_unique<SteppedRobot>(options, platforms.back(), ""));
+    ids.push_back(options.robot_id);
+  }
+  // The convoy sits on the tunnel's centre line: its driven path starts at the last follower.
+  run.leader_driven = {{starts.back().x_m, starts.back().y_m, 0.0}, {starts[0].x_m, starts[0].y_m, 0.0}};
+  for (std::size_t i = 1; i < robots.size(); ++i) {
+    std::vector<std::string> ahead(ids.rbegin() + static_cast<std::ptrdiff_t>(ids.size() - i), ids.rend());
+    EXPECT_EQ(robots[i]->Follow(ahead, 0.0), "");
+  }
+  std::size_t next_goal = 0;
+  double arrived_at_s = -1;
+  double t = 0;
+  for (int cycle = 1; t < timeout_s; ++cycle) {
+    t += kDt;
+    if (!robots[0]->waypoint().has_goal() && next_goal < goals.size()) {
+      const std::string why = robots[0]->Goto(goals[next_goal].x(), goals[next_goal].y(), t);
+      EXPECT_EQ(why, "") << "goal " << next_goal;
+      ++next_goal;
+    }
+    for (std::size_t i = 0; i < robots.size(); ++i) {
+      robots[i]->Step(t);
+      while (robots[i]->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    if (cycle % 10 == 0) {
+      for (std::size_t i = 0; i < robots.size(); ++i) {
+        const PeerBody self = robots[i]->PeerState();
+        for (std::size_t j = 0; j < robots.size(); ++j) {
+          if (j != i) {
+            EXPECT_EQ(robots[j]->OnPeerState(self, t), "");
+          }
+        }
+      }
+    }
+    std::vector<Eigen::Vector3d> at;
+    for (const auto& p : platforms) {
+      const sim::UnicycleState s = p->TrueState();
+      at.emplace_back(s.x_m, s.y_m, 0.0);
+    }
+    if ((at[0] - run.leader_driven.back()).head<2>().norm() >= 0.05) run.leader_driven.push_back(at[0]);
+    for (std::size_t i = 0; i < at.size(); ++i) {
+      for (std::size_t j = i + 1; j < at.size(); ++j)
+        run.closest_m = std::min(run.closest_m, (at[i] - at[j]).head<2>().norm());
+    }
+    if (cycle % 5 == 0) {
+      for (std::size_t i = 1; i < at.size(); ++i) {
+        run.worst_deviation_m = std::max(run.worst_deviation_m, DistanceToPath2D(run.leader_driven, at[i]));
+        // Straight stretches: both robots more than 2 m from the junction's centre (the corner).
+        const Eigen::Vector2d junction(30.0, 20.0);
+        if ((at[i].head<2>() - junction).norm() > 2.0 && (at[i - 1].head<2>() - junction).norm() > 2.0) {
+          const double gap = AlongPath(run.leader_driven, at[i - 1]) - AlongPath(run.leader_driven, at[i]);
+          run.spacing_error_m.push_back(gap - ConvoyOptions{}.spacing_m);
+        }
+      }
+    }
+    if (next_goal == goals.size() && !robots[0]->waypoint().has_goal() && arrived_at_s < 0) {
+      arrived_at_s = t;
+      run.leader_arrived = robots[0]->waypoint().goal().status == GoalStatus::kArrived;
+    }
+    if (arrived_at_s >= 0 && t >= arrived_at_s + settle_s) break;
+  }
+  for (std::size_t i = 0; i < robots.size(); ++i) {
+    run.contact = run.contact || robots[i]->ever_in_contact();
+    if (i == 0) continue;
+    run.end_status.push_back(robots[i]->convoy().status());
+    const sim::UnicycleState a = platforms[i - 1]->TrueState(), b = platforms[i]->TrueState();
+    run.end_gap_m.push_back(AlongPath(run.leader_driven, {a.x_m, a.y_m, 0}) -
+                            AlongPath(run.leader_driven, {b.x_m, b.y_m, 0}));
+  }
+  run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return run;
+}
+
+// Three followers behind a leader driven by waypoints from the main tunnel through the X junction into the
+// north branch: on straight stretches every follower keeps within 1 m of the 3 m spacing along the leader's
+// driven path, no follower strays 0.5 m from that path (it takes the corner the leader took), no two robots
+// touch, nothing touches a wall, and at the end all hold at the spacing behind the stopped leader.
+TEST(ConvoyTest, ThreeFollowersKeepTheSpacingOnTheLeadersPathThroughTheXJunction) {
+  const ConvoyRun run = RunConvoy({{14.0, 20.0, 0.0}, {11.0, 20.0, 0.0}, {8.0, 20.0, 0.0}, {5.0, 20.0, 0.0}},
+                                  {{30.0, 20.0}, {30.0, 32.0}}, 15.0, 150.0);
+  ASSERT_TRUE(run.leader_arrived);
+  ASSERT_FALSE(run.spacing_error_m.empty());
+  std::vector<double> errors = run.spacing_error_m;
+  std::sort(errors.begin(), errors.end());
+  double mean = 0;
+  for (double e : errors) mean += e / static_cast<double>(errors.size());
+  const double p05 = errors[errors.size() / 20], p95 = errors[errors.size() * 19 / 20];
+  std::printf("  spacing error on straight stretches (%zu samples): mean %+.2f m, 5th %+.2f, 95th %+.2f, min %+.2f, "
+              "max %+.2f; worst path deviation %.2f m; closest robots %.2f m; %.0f s wall\n",
+              errors.size(), mean, p05, p95, errors.front(), errors.back(), run.worst_deviation_m, run.closest_m,
+              run.wall_s);
+  EXPECT_GE(errors.front(), -1.0);
+  EXPECT_LE(errors.back(), 1.0);
+  EXPECT_LE(run.worst_deviation_m, 0.5);
+  EXPECT_GT(run.closest_m, 2 * nav::GetPlatformProfile("wheeled").footprint_radius_m);
+  EXPECT_FALSE(run.contact);
+  for (std::size_t i = 0; i < run.end_status.size(); ++i) {
+    EXPECT_EQ(run.end_status[i].state, ConvoyStatus::State::kHolding) << run.end_status[i].reason;
+    EXPECT_NEAR(run.end_gap_m[i], 3.0, 1.0) << "r" << i + 2;
+  }
+}
+
+}  // namespace
+}  // namespace cairn::agent
