@@ -99,7 +99,8 @@ ROBOT_TOPICS=(cairn/agent_info cairn/robot_state cairn/robot_pose cairn/bt_state
               cairn/link_probe_reply cairn/explore_claim cairn/peer_state cairn/health)
 BASE_TOPICS=(cairn/base_info cairn/link_probe cairn/map_sync_request)
 COMMAND_TOPICS=(cairn/control_request cairn/mode_request cairn/waypoint_goal cairn/explore_request
-                cairn/home_request cairn/stop_request cairn/teleop cairn/path_request cairn/restart_request)
+                cairn/home_request cairn/stop_request cairn/teleop cairn/path_request cairn/restart_request
+                cairn/convoy_request)
 
 topics() { for t in "$@"; do printf '            <topic>%s</topic>\n' "$t"; done; }
 # command_topics ROBOT...: every command topic of each robot (core::CommandTopicFor: "<topic>/<robot>"; * for all).

@@ -93,6 +93,7 @@ json ViewJson(const RobotView& v, const std::string& base_id) {
     j["stops"] = s.stops();
     j["stopped_by"] = s.stopped_by();
     j["exploration"] = ExplorationJson(s);
+    j["convoy"] = ConvoyJson(s);
   }
   if (v.tree) {
     j["valid_modes"] = v.tree->valid_modes();
@@ -146,9 +147,11 @@ CommandShell::CommandShell(FleetClient& client, bool json, std::ostream& out)
 
 const std::vector<std::string>& CommandShell::CommandNames() {
   static const std::vector<std::string> kNames = {
-      "robots", "watch", "status",  "request-control", "release", "mode",        "goto",   "path",    "plan",
-      "teleop", "stop",  "wait",    "sleep",           "map",     "snapshot",    "stairs", "events",  "place",
-      "places", "links", "explore", "frontiers",       "home",    "resume-goal", "health", "restart", "help"};
+      "robots", "watch",   "status",   "request-control", "release",     "mode",
+      "goto",   "path",    "plan",     "teleop",          "stop",        "wait",
+      "sleep",  "map",     "snapshot", "stairs",          "events",      "place",
+      "places", "links",   "explore",  "frontiers",       "home",        "resume-goal",
+      "health", "restart", "help",     "convoy",          "convoy-stop", "peel"};
   return kNames;
 }
 
@@ -172,9 +175,9 @@ std::string CommandShell::Help() {
          "by\n"
          "                                      itself, alone, with a growing back-off)\n"
          "  restart R COMPONENT                 restart one component of R now (the lock holder's only)\n"
-         "  request-control R                   ask for R's control lock (refused if another basestation "
+         "  request-control R [R2 ...]          ask for R's control lock (refused if another basestation "
          "holds it)\n"
-         "  release R                           give R's control lock back (the robot stops)\n"
+         "  release R [R2 ...]                  give R's control lock back (the robot stops)\n"
          "  mode R MODE                         switch R to idle | manual | smart_joystick (waypoint: use "
          "goto)\n"
          "  goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]  drive R to POINT (on the level nearest Z_M,\n"
@@ -194,6 +197,17 @@ std::string CommandShell::Help() {
          "prints\n"
          "                                      progress until it ends (default 3600 s)\n"
          "  frontiers R                         R's exploration: explored area, frontiers, current target\n"
+         "  convoy LEADER R1 [R2 ...]           R1 follows LEADER, R2 follows R1, ... on the path each robot "
+         "ahead\n"
+         "                                      drove, at the configured spacing (this basestation must hold "
+         "every\n"
+         "                                      lock); drive the leader as usual (goto, teleop, "
+         "smart_joystick)\n"
+         "  convoy-stop [LEADER]                the followers (of LEADER's convoy, or of every convoy) go "
+         "idle\n"
+         "  peel R POINT [TOL]                  follower R leaves its convoy for POINT; the robots behind it "
+         "close\n"
+         "                                      up behind the robot ahead of it\n"
          "  home R [POINT] [--z Z_M] [--wait [TIMEOUT_S]]  R drives back to where it started (or to POINT) "
          "on\n"
          "                                      its own map, from any mode; --wait as goto's\n"
@@ -343,10 +357,10 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
     const std::string& cmd = before[0];
     const std::size_t arg = before.size();  // index of the word being completed, 1-based after the command
     static const std::vector<std::string> kRobotFirst = {
-        "status", "request-control", "release",   "mode", "goto",        "path",
-        "plan",   "teleop",          "stop",      "wait", "map",         "snapshot",
-        "help",   "explore",         "frontiers", "home", "resume-goal", "health",
-        "restart"};
+        "status",  "request-control", "release",     "mode", "goto",        "path",
+        "plan",    "teleop",          "stop",        "wait", "map",         "snapshot",
+        "help",    "explore",         "frontiers",   "home", "resume-goal", "health",
+        "restart", "convoy",          "convoy-stop", "peel"};
     if (arg == 1 && std::find(kRobotFirst.begin(), kRobotFirst.end(), cmd) != kRobotFirst.end()) {
       pool = client_.RobotIds();
       if (cmd == "stop") pool.push_back("all");
@@ -354,7 +368,9 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
     } else if (cmd == "mode" && arg == 2) {
       pool = {"idle", "manual", "smart_joystick"};
       if (const auto view = client_.Robot(before[1]); view && view->tree) pool = view->tree->valid_modes();
-    } else if ((cmd == "goto" || cmd == "plan" || cmd == "home") && arg == 2) {
+    } else if (cmd == "convoy" || (cmd == "request-control" || cmd == "release")) {
+      pool = client_.RobotIds();  // every word: the robots of a convoy, in order
+    } else if ((cmd == "goto" || cmd == "plan" || cmd == "home" || cmd == "peel") && arg == 2) {
       pool = places_.Names();
     } else if (cmd == "wait" && arg == 2) {
       pool = {"arrived", "idle", "online", "lost", "mode="};
@@ -402,8 +418,14 @@ int CommandShell::Run(const std::string& line) {
   if (cmd == "status") return need(1, "status R") ? Status(args) : kUsage;
   if (cmd == "health") return need(1, "health R") ? Health(args) : kUsage;
   if (cmd == "restart") return need(2, "restart R COMPONENT") ? Restart(args) : kUsage;
-  if (cmd == "request-control") return need(1, "request-control R") ? Control(args, true) : kUsage;
-  if (cmd == "release") return need(1, "release R") ? Control(args, false) : kUsage;
+  if (cmd == "request-control") {
+    return args.empty() ? UsageError(cmd, "usage: request-control R [R2 ...]") : Control(args, true);
+  }
+  if (cmd == "release")
+    return args.empty() ? UsageError(cmd, "usage: release R [R2 ...]") : Control(args, false);
+  if (cmd == "convoy") return Convoy(args);
+  if (cmd == "convoy-stop") return ConvoyStop(args);
+  if (cmd == "peel") return Peel(args);
   if (cmd == "mode") return need(2, "mode R MODE") ? Mode(args) : kUsage;
   if (cmd == "stop") return need(1, "stop R|all") ? Stop(args) : kUsage;
   if (cmd == "goto" || cmd == "home") return Goto(cmd, args);
@@ -612,6 +634,7 @@ int CommandShell::Status(const std::vector<std::string>& args) {
     }
     out_ << "\n";
     if (s.explore_task_id() != 0) out_ << "  explore   " << ExplorationText(s) << "\n";
+    if (!s.convoy_ahead_ids().empty()) out_ << "  convoy    " << ConvoyText(s) << "\n";
     if (s.stops() > 0) out_ << "  stops     " << s.stops() << ", last by " << s.stopped_by() << "\n";
   }
   if (v.tree && !v.tree->last_refusal().empty()) {
@@ -668,7 +691,10 @@ int CommandShell::HelpFor(const std::string& robot) {
       {"home", "home R [POINT] [--z Z_M] [--wait [TIMEOUT_S]]"},
       {"resume-goal", "resume-goal R [--wait [TIMEOUT_S]]"},
       {"teleop", "teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]"},
-      {"stop", "stop R|all"}};
+      {"stop", "stop R|all"},
+      {"convoy", "convoy LEADER R1 [R2 ...]"},
+      {"peel", "peel R POINT [TOL]"},
+      {"convoy-stop", "convoy-stop [LEADER]"}};
   for (const auto& action : actions) {
     const std::string verb = action.substr(0, action.find(' '));
     if (auto it = kUsage.find(verb); it != kUsage.end()) out_ << "  " << it->second << "\n";
@@ -678,8 +704,48 @@ int CommandShell::HelpFor(const std::string& robot) {
 }
 
 int CommandShell::Control(const std::vector<std::string>& args, bool request) {
-  return Report(request ? "request-control" : "release", args[0],
-                request ? client_.RequestControl(args[0]) : client_.ReleaseControl(args[0]));
+  // Several robots at once (a convoy's): every request in parallel, one answer line each.
+  std::vector<CommandOutcome> outcomes(args.size());
+  std::vector<std::thread> senders;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    senders.emplace_back([&, i] {
+      outcomes[i] = request ? client_.RequestControl(args[i]) : client_.ReleaseControl(args[i]);
+    });
+  }
+  for (auto& t : senders) t.join();
+  return ReportEach(request ? "request-control" : "release", args.front(), args, outcomes);
+}
+
+int CommandShell::ReportEach(const std::string& command, const std::string& label,
+                             const std::vector<std::string>& robots,
+                             const std::vector<CommandOutcome>& outcomes, bool always_list) {
+  if (robots.size() == 1 && !always_list) return Report(command, robots[0], outcomes[0]);
+  bool all_ok = !robots.empty();
+  json results = json::array();
+  for (std::size_t i = 0; i < robots.size(); ++i) {
+    all_ok = all_ok && outcomes[i].ok;
+    if (outcomes[i].answered) last_answer_[robots[i]] = core::SteadyClock::now();
+    if (json_) {
+      results.push_back({{"robot", robots[i]},
+                         {"ok", outcomes[i].ok},
+                         {"result", outcomes[i].result},
+                         {"reason", outcomes[i].reason}});
+    } else {
+      out_ << command << " " << robots[i] << ": " << outcomes[i].result << ": " << outcomes[i].reason << "\n";
+    }
+  }
+  if (json_) {
+    out_ << Dump(json{{"command", command},
+                      {"robot", label},
+                      {"ok", all_ok},
+                      {"result", all_ok ? outcome::kAccepted : outcome::kFailed},
+                      {"robots", results}})
+         << std::endl;
+  } else if (robots.empty()) {
+    out_ << command << " " << label << ": " << outcome::kFailed << ": no robot known" << std::endl;
+  }
+  out_.flush();
+  return all_ok ? kOk : kRefused;
 }
 
 int CommandShell::Mode(const std::vector<std::string>& args) {
@@ -698,31 +764,7 @@ int CommandShell::Stop(const std::vector<std::string>& args) {
     senders.emplace_back([&, i] { outcomes[i] = client_.Stop(robots[i]); });
   }
   for (auto& t : senders) t.join();
-  bool all_ok = true;
-  json results = json::array();
-  for (std::size_t i = 0; i < robots.size(); ++i) {
-    all_ok = all_ok && outcomes[i].ok;
-    if (json_) {
-      results.push_back({{"robot", robots[i]},
-                         {"ok", outcomes[i].ok},
-                         {"result", outcomes[i].result},
-                         {"reason", outcomes[i].reason}});
-    } else {
-      out_ << "stop " << robots[i] << ": " << outcomes[i].result << ": " << outcomes[i].reason << "\n";
-    }
-  }
-  if (json_) {
-    out_ << Dump(json{{"command", "stop"},
-                      {"robot", "all"},
-                      {"ok", all_ok && !robots.empty()},
-                      {"result", all_ok && !robots.empty() ? outcome::kAccepted : outcome::kFailed},
-                      {"robots", results}})
-         << std::endl;
-  } else if (robots.empty()) {
-    out_ << "stop all: " << outcome::kFailed << ": no robot known" << std::endl;
-  }
-  out_.flush();
-  return all_ok && !robots.empty() ? kOk : kRefused;
+  return ReportEach("stop", "all", robots, outcomes, /*always_list=*/true);
 }
 
 bool CommandShell::ParsePoint(const std::vector<std::string>& args, std::size_t first, double* x_m,

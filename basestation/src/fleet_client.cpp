@@ -611,7 +611,8 @@ const std::vector<FleetClient::Impl::CommandKind> FleetClient::Impl::kCommandKin
     Kind<msgs::ExploreRequestPubSubType>("cairn/explore_request"),
     Kind<msgs::HomeRequestPubSubType>("cairn/home_request"),
     Kind<msgs::StopRequestPubSubType>("cairn/stop_request"),
-    Kind<msgs::RestartRequestPubSubType>("cairn/restart_request")};
+    Kind<msgs::RestartRequestPubSubType>("cairn/restart_request"),
+    Kind<msgs::ConvoyRequestPubSubType>("cairn/convoy_request")};
 
 FleetClient::FleetClient(const FleetClientOptions& options) : impl_(std::make_unique<Impl>(options)) {}
 FleetClient::~FleetClient() = default;
@@ -790,6 +791,19 @@ CommandOutcome FleetClient::SendExplore(const std::string& robot_id, const std::
     m.max_z_m(max_z_m);
     m.home_after_silence_s(home_after_silence_s);
     return impl_->CommandWriter<msgs::ExploreRequestPubSubType>("cairn/explore_request", robot_id).Write(m);
+  });
+}
+
+CommandOutcome FleetClient::SendConvoy(const std::string& robot_id,
+                                       const std::vector<std::string>& ahead_ids) {
+  return impl_->Call(robot_id, msgs::COMMAND_KIND_CONVOY, [&](uint32_t id) {
+    msgs::ConvoyRequest m;
+    m.robot_id(robot_id);
+    m.base_id(base_id());
+    m.request_id(id);
+    m.action(ahead_ids.empty() ? msgs::CONVOY_ACTION_STOP : msgs::CONVOY_ACTION_FOLLOW);
+    m.ahead_ids(ahead_ids);
+    return impl_->CommandWriter<msgs::ConvoyRequestPubSubType>("cairn/convoy_request", robot_id).Write(m);
   });
 }
 

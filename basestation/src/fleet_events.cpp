@@ -83,6 +83,9 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
     now.nav_status = view.state->nav_status();
     now.stops = view.state->stops();
     now.nav_reason = view.state->nav_reason();
+    now.convoy_state = view.state->convoy_state();
+    const auto& ahead = view.state->convoy_ahead_ids();
+    now.convoy_ahead = ahead.empty() ? "" : ahead.front();
   }
   // Joining is presence, not old news: a basestation that starts hears who is there.
   if (now.announced && (found == last_.end() || !found->second.announced)) {
@@ -116,6 +119,8 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
     last.nav_status = first.nav_status();
     last.stops = first.stops();
     last.nav_reason = first.nav_reason();
+    last.convoy_state = first.convoy_state();
+    last.convoy_ahead = first.convoy_ahead_ids().empty() ? "" : first.convoy_ahead_ids().front();
     last.has_state = true;
   }
   if (now.left && !last.left) {
@@ -151,6 +156,22 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
                                     : now.nav_reason;
       OperatorEvent e = Event("recovering", r, r + " goal " + std::to_string(now.goal_id) + " " + added);
       e.reason = added;
+      events->push_back(e);
+    }
+    // A convoy follower that stops on its own (lost or blocked) or re-links is news; following and holding
+    // are its normal course.
+    if (now.convoy_state != last.convoy_state &&
+        (now.convoy_state == "lost" || now.convoy_state == "blocked")) {
+      OperatorEvent e = Event("convoy_" + now.convoy_state, r,
+                              r + " stopped in the convoy (" + now.convoy_state + "): " + s.convoy_reason());
+      e.reason = s.convoy_reason();
+      e.other = now.convoy_ahead;
+      events->push_back(e);
+    } else if (!now.convoy_ahead.empty() && !last.convoy_ahead.empty() &&
+               now.convoy_ahead != last.convoy_ahead) {
+      OperatorEvent e = Event("convoy_relinked", r,
+                              r + " now follows " + now.convoy_ahead + " (was " + last.convoy_ahead + ")");
+      e.other = now.convoy_ahead;
       events->push_back(e);
     }
     if (now.stops > last.stops) {

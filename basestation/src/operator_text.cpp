@@ -70,6 +70,10 @@ OperatorReason ExplainReason(const std::string& robot_id, const std::string& rea
        }},
       {"HasExploreTask", [](const std::string& r,
                             const std::string&) { return "explore mode needs a task: use explore " + r; }},
+      {"HasConvoyTask",
+       [](const std::string& r, const std::string&) {
+         return "convoy mode needs the robots ahead: use convoy LEADER ... " + r + " (in order)";
+       }},
   };
   for (const Rule& rule : kRules) {
     const std::string detail = Detail(reason, rule.condition);
@@ -94,7 +98,8 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
   if (view.tree) {
     for (const auto& mode : view.tree->valid_modes()) {
       if (mode == "manual" || mode == "smart_joystick") can_teleop = true;
-      if (mode == "waypoint" || mode == "explore") continue;  // entered by goto / explore, which set the task
+      // Entered by goto / explore / convoy, which set the task.
+      if (mode == "waypoint" || mode == "explore" || mode == "convoy") continue;
       modes += (modes.empty() ? "" : "|") + mode;
     }
     can_goto = view.tree->goal_acceptable();
@@ -107,6 +112,13 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
   if (can_goto) actions.push_back("home");
   if (can_goto && view.state->has_resumable_goal()) actions.push_back("resume-goal");
   if (can_explore) actions.push_back("explore");
+  // A convoy: any robot the tree would drive to a goal may lead or follow; a follower may peel off or stop
+  // it.
+  if (can_goto) actions.push_back("convoy");
+  if (!view.state->convoy_ahead_ids().empty()) {
+    actions.push_back("peel");
+    actions.push_back("convoy-stop");
+  }
   if (can_teleop) actions.push_back("teleop");
   actions.push_back("release");
   actions.push_back("stop");

@@ -124,5 +124,10 @@ nlohmann::json ExplorationJson(const cairn_msgs::RobotState& s);
 /// The same as one line: "7: exploring, 120 m² explored, 14 frontiers (12 reachable), 3 reached, 0 given up;
 /// target (12.30, 4.10); best of 12 reachable frontiers"; "none" before any exploration.
 std::string ExplorationText(const cairn_msgs::RobotState& s);
+/// A convoy follower's fields (RobotState.convoy_*) as JSON: state, the robots ahead (nearest first), reason,
+/// gap along the trail in metres when known.
+nlohmann::json ConvoyJson(const cairn_msgs::RobotState& s);
+/// The same as one line: "following behind r1 (3.1 m along its path), leader r0"; "none" when not following.
+std::string ConvoyText(const cairn_msgs::RobotState& s);
 
 }  // namespace cairn::base

@@ -52,15 +52,23 @@ TEST(ValidActions, OfferOnlyWhatTheRobotWouldAcceptFromThisBasestation) {
   RobotView other = HeldBy("opB", {"idle", "manual"}, true);
   EXPECT_EQ(ValidActions(other, "op1"), (std::vector<std::string>{"stop"}));
   RobotView mine = HeldBy("op1", {"idle", "manual", "waypoint"}, true);
-  EXPECT_EQ(ValidActions(mine, "op1"),
-            (std::vector<std::string>{"mode idle|manual", "goto", "home", "teleop", "release", "stop"}));
-  EXPECT_EQ(ValidActionsText(mine, "op1"), "valid now: mode idle|manual, goto, home, teleop, release, stop");
+  EXPECT_EQ(ValidActions(mine, "op1"), (std::vector<std::string>{"mode idle|manual", "goto", "home", "convoy",
+                                                                 "teleop", "release", "stop"}));
+  EXPECT_EQ(ValidActionsText(mine, "op1"),
+            "valid now: mode idle|manual, goto, home, convoy, teleop, release, stop");
   // Issue 14: explore when the tree would take a task (a mapping robot); the explore mode itself is not a
   // `mode` action (explore sets the task).
   RobotView explorer = HeldBy("op1", {"idle", "manual", "waypoint", "explore"}, true);
   explorer.tree->explore_acceptable(true);
   EXPECT_EQ(ValidActions(explorer, "op1"),
-            (std::vector<std::string>{"mode idle|manual", "goto", "home", "explore", "teleop", "release", "stop"}));
+            (std::vector<std::string>{"mode idle|manual", "goto", "home", "explore", "convoy", "teleop",
+                                      "release", "stop"}));
+  // Issue 16: a convoy follower may peel off or end the convoy; convoy mode itself is set by convoy.
+  RobotView follower = HeldBy("op1", {"idle", "manual", "waypoint", "convoy"}, true);
+  follower.state->convoy_ahead_ids({"r0"});
+  EXPECT_EQ(ValidActions(follower, "op1"),
+            (std::vector<std::string>{"mode idle|manual", "goto", "home", "convoy", "peel", "convoy-stop",
+                                      "teleop", "release", "stop"}));
   RobotView no_goal = HeldBy("op1", {"idle"}, false);  // e.g. the local planner is not ready
   EXPECT_EQ(ValidActions(no_goal, "op1"), (std::vector<std::string>{"mode idle", "release", "stop"}));
   mine.lost = true;

@@ -532,9 +532,9 @@ std::string CommandTopicFor(const std::string& topic, const std::string& robot_i
 
 const std::vector<std::string>& CommandTopics() {
   static const std::vector<std::string> topics = {
-      "cairn/control_request", "cairn/mode_request", "cairn/waypoint_goal",
-      "cairn/explore_request", "cairn/home_request", "cairn/stop_request",
-      "cairn/teleop",          "cairn/path_request", "cairn/restart_request"};
+      "cairn/control_request", "cairn/mode_request",  "cairn/waypoint_goal", "cairn/explore_request",
+      "cairn/home_request",    "cairn/stop_request",  "cairn/teleop",        "cairn/path_request",
+      "cairn/restart_request", "cairn/convoy_request"};
   return topics;
 }
 

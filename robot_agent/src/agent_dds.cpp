@@ -41,6 +41,8 @@ msgs::CommandKind KindOf(CommandKind kind) {
       return msgs::COMMAND_KIND_HOME;
     case CommandKind::kRestart:
       return msgs::COMMAND_KIND_RESTART;
+    case CommandKind::kConvoy:
+      return msgs::COMMAND_KIND_CONVOY;
     case CommandKind::kStop:
       break;
   }
@@ -60,9 +62,9 @@ msgs::CommandResult ResultOf(CommandResult result) {
 }
 
 AgentDdsHandlers Checked(AgentDdsHandlers h) {
-  if (!h.control || !h.mode || !h.goal || !h.explore || !h.home || !h.stop || !h.restart || !h.teleop ||
-      !h.base_announced || !h.base_liveliness || !h.path_query || !h.map_sync || !h.explore_claim ||
-      !h.peer_state) {
+  if (!h.control || !h.mode || !h.goal || !h.explore || !h.convoy || !h.home || !h.stop || !h.restart ||
+      !h.teleop || !h.base_announced || !h.base_liveliness || !h.path_query || !h.map_sync ||
+      !h.explore_claim || !h.peer_state) {
     throw std::invalid_argument("AgentDds: every handler is required");
   }
   return h;
@@ -127,6 +129,7 @@ class AgentDds::Impl {
     mode_reader_.reset();
     goal_reader_.reset();
     explore_reader_.reset();
+    convoy_reader_.reset();
     home_reader_.reset();
     stop_reader_.reset();
     restart_reader_.reset();
@@ -380,6 +383,22 @@ class AgentDds::Impl {
           handlers_.home(HomeCommand{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.has_point(),
                                      m.x_m(), m.y_m(), m.z_m()});
         });
+    convoy_reader_ = std::make_unique<core::Reader<msgs::ConvoyRequestPubSubType>>(
+        p, CommandTopic("cairn/convoy_request"), "cairn.command",
+        [this, robot](const msgs::ConvoyRequest& m, const SampleInfo& info) {
+          if (m.robot_id() != robot) return;
+          if (!ValidPeerId("cairn/convoy_request", "base id", m.base_id())) return;
+          ConvoyCommand c{SenderOf(m.base_id(), info), m.request_id(), false, {}, ""};
+          if (m.action() == msgs::CONVOY_ACTION_STOP) {
+            c.stop = true;
+          } else if (m.action() == msgs::CONVOY_ACTION_FOLLOW) {
+            c.ahead_ids = m.ahead_ids();
+          } else {
+            c.malformed = "cairn/convoy_request: action = " + std::to_string(static_cast<int>(m.action())) +
+                          " is not FOLLOW (0) or STOP (1)";
+          }
+          handlers_.convoy(c);
+        });
     restart_reader_ = std::make_unique<core::Reader<msgs::RestartRequestPubSubType>>(
         p, CommandTopic("cairn/restart_request"), "cairn.command",
         [this, robot](const msgs::RestartRequest& m, const SampleInfo& info) {
@@ -447,6 +466,7 @@ class AgentDds::Impl {
   std::unique_ptr<core::Reader<msgs::ModeRequestPubSubType>> mode_reader_;
   std::unique_ptr<core::Reader<msgs::WaypointGoalPubSubType>> goal_reader_;
   std::unique_ptr<core::Reader<msgs::ExploreRequestPubSubType>> explore_reader_;
+  std::unique_ptr<core::Reader<msgs::ConvoyRequestPubSubType>> convoy_reader_;
   std::unique_ptr<core::Reader<msgs::HomeRequestPubSubType>> home_reader_;
   std::unique_ptr<core::Reader<msgs::StopRequestPubSubType>> stop_reader_;
   std::unique_ptr<core::Reader<msgs::RestartRequestPubSubType>> restart_reader_;

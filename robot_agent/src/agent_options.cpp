@@ -158,11 +158,12 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   pe_section.ReadDouble("same_level_dz_m", &peers.same_level_dz_m);
   pe_section.ReadBool("avoid", &peers.avoid);
   const auto convoy_section = config.Section("convoy");
-  convoy_section.RejectUnknownKeys({"spacing_m", "hold_band_m", "breadcrumb_step_m", "lead_s", "lost_after_s", "max_trail_m"});
+  convoy_section.RejectUnknownKeys(
+      {"spacing_m", "hold_band_m", "breadcrumb_step_m", "gap_gain_per_s", "lost_after_s", "max_trail_m"});
   convoy_section.ReadDouble("spacing_m", &convoy.spacing_m);
   convoy_section.ReadDouble("hold_band_m", &convoy.hold_band_m);
   convoy_section.ReadDouble("breadcrumb_step_m", &convoy.breadcrumb_step_m);
-  convoy_section.ReadDouble("lead_s", &convoy.lead_s);
+  convoy_section.ReadDouble("gap_gain_per_s", &convoy.gap_gain_per_s);
   convoy_section.ReadDouble("lost_after_s", &convoy.lost_after_s);
   convoy_section.ReadDouble("max_trail_m", &convoy.max_trail_m);
   const auto telemetry = config.Section("telemetry");

@@ -44,11 +44,10 @@ CommandInterface::CommandInterface(std::string robot_id, const ControlLockOption
   std::string why;
   if (!lock.IsValid(&why)) throw std::invalid_argument("CommandInterface: " + why);
   if (!hooks_.conditions || !hooks_.send || !hooks_.plan_goal || !hooks_.start_goal ||
-      !hooks_.start_explore || !hooks_.restart_component) {
+      !hooks_.start_explore || !hooks_.convoy || !hooks_.restart_component) {
     throw std::invalid_argument(
-        "CommandInterface: every hook (conditions, send, plan_goal, start_goal, start_explore, "
-        "restart_component) "
-        "is required");
+        "CommandInterface: every hook (conditions, send, plan_goal, start_goal, start_explore, convoy, "
+        "restart_component) is required");
   }
 }
 
@@ -224,6 +223,20 @@ void CommandInterface::OnExplore(const ExploreCommand& command) {
   if (outcome.accepted) lock_.NoteHolderCommand(sender.participant);  // this process speaks for the holder
   Respond(sender, command.request_id, kind, outcome.accepted ? CommandResult::kAccepted : CommandResult::kDenied,
           outcome.reason, outcome.goal_id);
+}
+
+void CommandInterface::OnConvoy(const ConvoyCommand& command) {
+  const CommandSender& sender = command.sender;
+  const CommandKind kind = CommandKind::kConvoy;
+  if (ReplayIfDuplicate(sender, kind, command.request_id)) return;
+  if (DiscardUnlessHolder(sender, command.request_id, kind)) return;
+  if (!command.malformed.empty()) {
+    return Respond(sender, command.request_id, kind, CommandResult::kDenied, command.malformed);
+  }
+  const CommandOutcome outcome = hooks_.convoy(command);
+  if (outcome.accepted) lock_.NoteHolderCommand(sender.participant);
+  Respond(sender, command.request_id, kind,
+          outcome.accepted ? CommandResult::kAccepted : CommandResult::kDenied, outcome.reason);
 }
 
 void CommandInterface::OnTeleop(const TeleopCommand& command, core::SteadyTime now) {

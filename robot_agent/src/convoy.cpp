@@ -13,7 +13,7 @@ bool ConvoyOptions::IsValid(std::string* why) const {
   const bool ok = internal::InRange("convoy.spacing_m", spacing_m, 1, 50, false, &msg) &&
                   internal::InRange("convoy.hold_band_m", hold_band_m, 0, 5, false, &msg) &&
                   internal::InRange("convoy.breadcrumb_step_m", breadcrumb_step_m, 0.05, 2, false, &msg) &&
-                  internal::InRange("convoy.lead_s", lead_s, 0, 5, false, &msg) &&
+                  internal::InRange("convoy.gap_gain_per_s", gap_gain_per_s, 0.1, 5, false, &msg) &&
                   internal::InRange("convoy.lost_after_s", lost_after_s, 0, 60, true, &msg) &&
                   internal::InRange("convoy.max_trail_m", max_trail_m, 10, 1000, false, &msg);
   if (!ok && why != nullptr) *why = msg;
@@ -64,15 +64,15 @@ void ConvoyTrail::OnAhead(const Eigen::Vector3d& p_M, double now_s, double speed
   }
 }
 
-ConvoyCommand ConvoyTrail::Next(const Eigen::Vector3d& follower_M, double now_s) {
-  ConvoyCommand command;
+ConvoyDecision ConvoyTrail::Next(const Eigen::Vector3d& follower_M, double now_s) {
+  ConvoyDecision command;
   if (!heard_ && now_s - last_heard_s_ <= options_.lost_after_s) {
     command.gap_m = std::numeric_limits<double>::quiet_NaN();
     command.reason = "nothing heard from the robot ahead yet";
     return command;
   }
   if (now_s - last_heard_s_ > options_.lost_after_s) {
-    command.kind = ConvoyCommand::Kind::kLost;
+    command.kind = ConvoyDecision::Kind::kLost;
     command.gap_m = std::numeric_limits<double>::quiet_NaN();
     command.reason = "the robot ahead was not heard for " + internal::Fixed(now_s - last_heard_s_, 1) +
                      " s (convoy.lost_after_s = " + internal::Fixed(options_.lost_after_s, 1) + ")";
@@ -103,14 +103,18 @@ ConvoyCommand ConvoyTrail::Next(const Eigen::Vector3d& follower_M, double now_s)
   double gap = 0;
   for (std::size_t i = 0; i + 1 < way.size(); ++i) gap += Distance2D(way[i], way[i + 1]);
   command.gap_m = gap;
-  if (gap <= options_.spacing_m + options_.hold_band_m) {
+  const double error_m = gap - options_.spacing_m;
+  const double speed = ahead_speed_mps_ + options_.gap_gain_per_s * error_m;
+  if ((ahead_speed_mps_ < kAtRestMps && error_m <= options_.hold_band_m) || speed < kMinSpeedMps) {
     command.reason = internal::Fixed(gap, 1) + " m behind the robot ahead (spacing " +
                      internal::Fixed(options_.spacing_m, 1) + " m)";
     return command;
   }
-  // The target: spacing_m short of the robot ahead along the way, led by its speed (never past it).
-  command.kind = ConvoyCommand::Kind::kFollow;
-  double left = std::min(gap - options_.spacing_m + ahead_speed_mps_ * options_.lead_s, gap);
+  // The way ends past the spacing point (speed matching keeps the spacing), never within half of it of the
+  // robot ahead.
+  command.kind = ConvoyDecision::Kind::kFollow;
+  command.speed_mps = speed;
+  double left = gap - std::max(options_.spacing_m - kTargetBeyondM, 0.5 * options_.spacing_m);
   command.path_M.push_back(way.front());
   for (std::size_t i = 0; i + 1 < way.size() && left > 0; ++i) {
     const double d = Distance2D(way[i], way[i + 1]);

@@ -65,16 +65,22 @@ std::string ConvoyMode::Start(const std::string& own_id, const std::vector<std::
     if (id == own_id) return "robot " + own_id + " cannot follow itself";
     if (!seen.insert(id).second) return "robot " + id + " is named twice ahead of " + own_id;
   }
-  if (has_goal_) navigation_->ClearGoal();
+  // A re-link to a robot already ahead (the one followed peeled off): it drove the same trail, which is kept.
+  const bool same_trail = active() && std::find(status_.ahead_ids.begin(), status_.ahead_ids.end(),
+                                                ahead_ids.front()) != status_.ahead_ids.end();
+  if (has_goal_) navigation_->ClearGoal(goal_serial_);
   has_goal_ = false;
-  trail_ = ConvoyTrail(options_);
+  if (!same_trail) trail_ = ConvoyTrail(options_);
   trail_.Relinked(now_s);
+  const std::string before = status_.ahead_id;
   status_ = ConvoyStatus{};
   status_.state = ConvoyStatus::State::kHolding;
   status_.ahead_ids = ahead_ids;
   status_.ahead_id = ahead_ids.front();
   status_.gap_m = std::numeric_limits<double>::quiet_NaN();
-  status_.reason = "waiting to hear " + status_.ahead_id;
+  status_.reason = same_trail && before != status_.ahead_id
+                       ? "re-linked to " + status_.ahead_id + " (was " + before + ")"
+                       : "waiting to hear " + status_.ahead_id;
   return "";
 }
 
@@ -107,14 +113,14 @@ void ConvoyMode::SetPeers(const std::vector<PeerBody>& peers, double now_s) {
 
 void ConvoyMode::Deactivate(const std::string& why) {
   if (!active()) return;
-  if (has_goal_) navigation_->ClearGoal();
+  if (has_goal_) navigation_->ClearGoal(goal_serial_);
   has_goal_ = false;
   status_.state = ConvoyStatus::State::kNone;
   status_.reason = why;
 }
 
 ModeOutput ConvoyMode::Stop(ConvoyStatus::State state, const std::string& reason, const ModeInputs& in) {
-  if (has_goal_) navigation_->ClearGoal();
+  if (has_goal_) navigation_->ClearGoal(goal_serial_);
   has_goal_ = false;
   status_.state = state;
   status_.reason = reason;
@@ -127,28 +133,30 @@ ModeOutput ConvoyMode::Stop(ConvoyStatus::State state, const std::string& reason
 ModeOutput ConvoyMode::Step(const ModeInputs& in) {
   if (!active()) return {};
   const core::BaseState& s = in.pose_M;
-  const ConvoyCommand command = trail_.Next({s.x_m, s.y_m, s.z_m}, in.now_s);
-  status_.gap_m = command.gap_m;
-  switch (command.kind) {
-    case ConvoyCommand::Kind::kHold:
+  const ConvoyDecision decision = trail_.Next({s.x_m, s.y_m, s.z_m}, in.now_s);
+  status_.gap_m = decision.gap_m;
+  switch (decision.kind) {
+    case ConvoyDecision::Kind::kHold:
       return Stop(ConvoyStatus::State::kHolding,
-                  trail_.heard() ? command.reason : "waiting to hear " + status_.ahead_id, in);
-    case ConvoyCommand::Kind::kLost:
-      return Stop(ConvoyStatus::State::kLost, status_.ahead_id + " lost: " + command.reason, in);
-    case ConvoyCommand::Kind::kFollow:
+                  trail_.heard() ? decision.reason : "waiting to hear " + status_.ahead_id, in);
+    case ConvoyDecision::Kind::kLost:
+      return Stop(ConvoyStatus::State::kLost, status_.ahead_id + " lost: " + decision.reason, in);
+    case ConvoyDecision::Kind::kFollow:
       break;
   }
-  const Eigen::Vector2d target = command.path_M.back().head<2>();
+  const Eigen::Vector2d target = decision.path_M.back().head<2>();
   if (status_.state == ConvoyStatus::State::kBlocked && (target - blocked_at_M_).norm() < kBlockedRetryM) {
     return Stop(ConvoyStatus::State::kBlocked, status_.reason, in);
   }
   if (!has_goal_ || !navigation_->has_goal() || (target - goal_M_).norm() >= kRefreshM) {
-    navigation_->AcceptGoal(PlanAlong(command.path_M, navigation_->global_plan().map_version), target.x(),
+    navigation_->AcceptGoal(PlanAlong(decision.path_M, navigation_->global_plan().map_version), target.x(),
                             target.y(), 0.0, in.now_s);
+    goal_serial_ = navigation_->goal_serial();
     goal_M_ = target;
     has_goal_ = true;
   }
-  const NavigationStep step = navigation_->StepWaypoint(s, in.now_s);
+  const NavigationStep step =
+      navigation_->StepWaypoint(s, in.now_s, decision.speed_mps, /*follow_path=*/true);
   if (step.failed) {
     blocked_at_M_ = target;
     has_goal_ = false;  // navigation dropped it
@@ -158,7 +166,8 @@ ModeOutput ConvoyMode::Step(const ModeInputs& in) {
   if (step.arrived) {
     has_goal_ = false;
     return Stop(ConvoyStatus::State::kHolding,
-                internal::Fixed(command.gap_m, 1) + " m behind " + status_.ahead_id + " (at its target)", in);
+                internal::Fixed(decision.gap_m, 1) + " m behind " + status_.ahead_id + " (at its target)",
+                in);
   }
   status_.state = ConvoyStatus::State::kFollowing;
   status_.reason = "";

@@ -175,7 +175,7 @@ void ExploreMode::DropTarget() {
   if (plan_.valid()) navigation_->Abandon(std::move(plan_));
   plan_ = {};
   if (recovery_) recovery_->Halt();
-  if (driving_) navigation_->ClearGoal();
+  if (driving_) navigation_->ClearGoal(goal_serial_);
   navigation_->SetReducedClearance(false);
   driving_ = false;
   target_through_tight_gap_ = false;
@@ -287,6 +287,8 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
   if (!exploring()) return out;
   out.twist_B = Twist2{0.0, 0.0};  // holds still unless a target is driven
   out.stamp = in.now;
+  // While this mode steps, navigation's goal is its own (its recovery may have planned it again).
+  if (driving_) goal_serial_ = navigation_->goal_serial();
   // A peer claimed the same frontier first (both chose it before either heard of the other): leave it now.
   if (std::string by; status_.has_target &&
                       explorer_.CurrentClaimedByPeer(nav::TeamView{options_.robot_id, in.now_s, peer_claims_}, &by)) {
@@ -303,6 +305,7 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
       navigation_->AcceptGoal(plan, status_.target_M.x(), status_.target_M.y(), options_.target_tolerance_m,
                               in.now_s, goal_z_m_, target_through_tight_gap_ ? options_.tight_gap_stall_s : 0.0);
       driving_ = true;
+      goal_serial_ = navigation_->goal_serial();
     } else {
       EndTarget(false, "no path: " + plan.reason, in.now_s);
     }

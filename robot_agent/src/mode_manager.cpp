@@ -87,6 +87,12 @@ void ModeManager::RegisterModeNodes(bt::TreeFactory& factory, const std::shared_
                ? NodeStatus::kSuccess
                : Fail(&ctx->failure, "HasExploreTask: no exploration task (send explore first)");
   }));
+  factory.RegisterSimpleCondition("HasConvoyTask", Traced(ctx, [ctx](bt::TreeNode&) {
+                                    return ctx->conditions.has_convoy_task
+                                               ? NodeStatus::kSuccess
+                                               : Fail(&ctx->failure,
+                                                      "HasConvoyTask: not in a convoy (send convoy first)");
+                                  }));
   factory.RegisterSimpleCondition("IsMappingHealthy", Traced(ctx, [ctx](bt::TreeNode&) {
     const ModeConditions& c = ctx->conditions;
     return c.mapping_healthy ? NodeStatus::kSuccess : Fail(&ctx->failure, "IsMappingHealthy: " + c.mapping_problem);

@@ -135,6 +135,7 @@ void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m,
   goal.best_distance_m = plan.result.length_m;
   goal.best_time_s = now_s;
   goal_ = goal;
+  ++goal_serial_;
   plan_ = plan;
   path_segment_ = 0;
   segment_start_along_m_ = 0.0;
@@ -185,6 +186,10 @@ void Navigation::ClearGoal() {
   plan_.result.length_m = 0.0;
   ++path_revision_;
   track_W_.clear();
+}
+
+void Navigation::ClearGoal(std::uint64_t serial) {
+  if (goal_ && serial == goal_serial_) ClearGoal();
 }
 
 void Navigation::ClearObstacles() {
@@ -422,7 +427,15 @@ void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalP
   }
   track_W_.clear();
   creeping_ = false;
-  if (r.mode == nav::LocalPlanMode::kGoal && !aligned && TrackGlobalPathIfClear(state)) return;
+  if (r.mode == nav::LocalPlanMode::kGoal && follow_path_ &&
+      TrackGlobalPathIfClear(state, kFollowTrackM, kFollowMarginM, /*tight=*/false)) {
+    return;
+  }
+  // Beyond the bare footprint radius (the platform radius is the body); none with reduced clearance.
+  if (r.mode == nav::LocalPlanMode::kGoal && !aligned &&
+      TrackGlobalPathIfClear(state, 1.0, reduced_clearance_ ? 0.0 : 0.01, /*tight=*/true)) {
+    return;
+  }
   if (!local_result_.IsUsable()) {
     local_status_ = local_result_.status == nav::LocalPlanResult::Status::kBoxedIn ? local_result_.message
                                                                                    : "invalid input: " +
@@ -455,15 +468,13 @@ void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalP
   if (track_W_.size() < 2) track_W_.clear();
 }
 
-bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state) {
-  // Beyond the bare footprint radius (the platform radius is the body); none with reduced clearance.
-  const double kTightMarginM = reduced_clearance_ ? 0.0 : 0.01;
-  constexpr double kTightTrackM = 1.0;     // track length along the global path
+bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state, double track_m, double margin_m,
+                                        bool tight) {
   constexpr double kTightSpacingM = 0.05;  // sample spacing of the check
   if (!goal_ || plan_.result.path_W.size() < 2) return false;
-  const double radius = options_.platform.footprint_radius_m + kTightMarginM;
+  const double radius = options_.platform.footprint_radius_m + margin_m;
   std::vector<Eigen::Vector2d> track{Eigen::Vector2d(state.x_m, state.y_m)};
-  for (double ahead = kTightSpacingM; ahead <= kTightTrackM + 1e-9; ahead += kTightSpacingM) {
+  for (double ahead = kTightSpacingM; ahead <= track_m + 1e-9; ahead += kTightSpacingM) {
     const Eigen::Vector2d p = PointAhead(ahead);
     if ((p - track.back()).norm() > 1e-6) track.push_back(p);
   }
@@ -478,6 +489,12 @@ bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state) {
     if (clearance <= radius) return false;
   }
   track_W_ = std::move(track);
+  if (!tight) {
+    // Stops at its end only where the path ends there.
+    track_stop_at_end_ = distance_left_m_ <= track_m + 1e-6;
+    local_status_ = "path";
+    return true;
+  }
   track_stop_at_end_ = true;
   creeping_ = true;
   local_status_ = "tight spot: following the global path, " + Fixed(clearance, 2) + " m from the nearest obstacle";
@@ -498,7 +515,12 @@ NavigationStep Navigation::Control(const core::BaseState& state, double cruise_m
   return step;
 }
 
-NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now_s) {
+NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now_s, double speed_mps,
+                                        bool follow_path) {
+  follow_path_ = follow_path;
+  const double cruise_mps = std::isfinite(speed_mps) && speed_mps > 0
+                                ? std::min(speed_mps, options_.platform.limits.max_speed_mps)
+                                : options_.platform.cruise_speed_mps;
   if (!goal_) return {};
   const Eigen::Vector2d p_W(state.x_m, state.y_m);
   const double to_goal = (goal_->p_W - p_W).norm();
@@ -614,7 +636,7 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     track_W_.clear();
     local_status_ = awaiting_obstacles_ ? "stopped: obstacle memory cleared, waiting for a fresh scan"
                                         : "stopped: no fresh obstacle input";
-    return Control(state, options_.platform.cruise_speed_mps, now_s);
+    return Control(state, cruise_mps, now_s);
   }
   RunLocalPlanner(state, request, now_s, goal_near ? std::optional<Eigen::Vector2d>(goal_->p_W) : std::nullopt);
   // Turn in place toward the path when no library path can start that way (a forward-looking platform with
@@ -640,7 +662,7 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     }
     return turn;
   }
-  return Control(state, (creeping_ ? 0.5 : 1.0) * options_.platform.cruise_speed_mps, now_s);
+  return Control(state, (creeping_ ? 0.5 : 1.0) * cruise_mps, now_s);
 }
 
 NavigationStep Navigation::StepJoystick(const core::BaseState& state, double vx_mps, double vy_mps,

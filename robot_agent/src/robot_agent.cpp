@@ -24,6 +24,7 @@
 #include "cairn/agent/agent_components.h"
 #include "cairn/agent/agent_dds.h"
 #include "cairn/agent/command_interface.h"
+#include "cairn/agent/convoy_mode.h"
 #include "cairn/agent/explore_mode.h"
 #include "cairn/agent/journal.h"
 #include "cairn/agent/mode_control.h"
@@ -166,6 +167,9 @@ class RobotAgent::Impl {
   void ShareRadioLink();
   // With mutex_ held: this robot's pose, footprint, mode and the next metres of its path, for its peers.
   void PublishPeerState();
+  // A convoy follower's request (CommandInterface::Hooks::convoy): follow the robots ahead, or leave the
+  // convoy.
+  CommandOutcome OnConvoy(const ConvoyCommand& c);
   void SendClaim(const ExploreClaim& claim) {
     if (!dds_->Publish(claim)) spdlog::warn("robot {}: explore claim not sent (DDS history full)", options_.robot_id);
   }
@@ -190,6 +194,7 @@ class RobotAgent::Impl {
   std::unique_ptr<PerceptionService> perception_;  // sensor, perception and navigation map threads
   WaypointMode* waypoint_ = nullptr;               // owned by modes_; holds the waypoint goal
   ExploreMode* explore_ = nullptr;                 // owned by modes_; holds the exploration task
+  ConvoyMode* convoy_ = nullptr;                   // owned by modes_; holds the convoy follower's task
   ExploreTeam team_;                               // peers' explore claims and coverage (thread-safe)
   PeerTracker peers_;                              // peers' poses, footprints and paths (thread-safe)
   core::WarningLimiter peer_warnings_;             // a bad peer state is named once per 5 s per robot
@@ -284,9 +289,8 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
                    options.robot_id);
     }
   }
-  telemetry_ =
-      std::make_unique<Telemetry>(options, dds_.get(), modes_.get(), waypoint_, explore_, &navigation_,
-                                  command_.get());
+  telemetry_ = std::make_unique<Telemetry>(options, dds_.get(), modes_.get(), waypoint_, explore_, convoy_,
+                                           &navigation_, command_.get());
   if (options.resumed) Resume(*options.resumed);
   if (!options.journal_dir.empty()) {
     std::function<void(const std::string&)> save_map;
@@ -400,6 +404,7 @@ ModeRegistry RobotAgent::Impl::MakeModes(const std::string& tree_file) {
       explore, &navigation_,
       std::make_unique<WaypointRecovery>(tree_file, &navigation_,
                                          WaypointRecovery::Hooks{[this] { perception_->ClearObstacleMemory(); }}));
+  convoy_ = &modes.Emplace<ConvoyMode>(options_.convoy, options_.waypoint_timeout_s, &navigation_);
   return modes;
 }
 
@@ -425,11 +430,35 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
     return CommandOutcome{true, "exploring " + std::to_string(explore_->status().task_id),
                           explore_->status().task_id};
   };
+  hooks.convoy = [this](const ConvoyCommand& c) { return OnConvoy(c); };
   // Queued for the monitor's thread: a component's threads are never waited for under the agent lock.
   hooks.restart_component = [this](const std::string& component, const std::string& by) {
     return health_->RequestRestart(component, by);
   };
   return hooks;
+}
+
+CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
+  if (c.stop) {
+    if (!convoy_->active()) return CommandOutcome{true, "not in a convoy", 0};
+    convoy_->Deactivate("convoy stopped by " + c.sender.base_id);
+    if (modes_->mode() == convoy_->name()) modes_->GoIdle(Conditions());
+    return CommandOutcome{true, "left the convoy: idle", 0};
+  }
+  const bool was_following = convoy_->active() && modes_->mode() == convoy_->name();
+  const std::string refused = convoy_->Start(options_.robot_id, c.ahead_ids, NowS(SteadyClock::now()));
+  if (!refused.empty()) return CommandOutcome{false, refused, 0};
+  convoy_->SetPeers(peers_.Live(NowS(SteadyClock::now())), NowS(SteadyClock::now()));
+  if (!was_following) {
+    const ModeDecision d = modes_->Request(convoy_->name(), Conditions());
+    if (!d.accepted) {
+      convoy_->Deactivate(d.reason);
+      return CommandOutcome{false, d.reason, 0};
+    }
+  }
+  std::string order;
+  for (const std::string& id : c.ahead_ids) order += (order.empty() ? "" : ", ") + id;
+  return CommandOutcome{true, "following " + c.ahead_ids.front() + " (ahead: " + order + ")", 0};
 }
 
 void RobotAgent::Impl::PublishPeerState() {
@@ -468,6 +497,7 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   h.mode = locked([this](const ModeCommand& c) { command_->OnMode(c); });
   h.goal = locked([this](const GoalCommand& c) { command_->OnGoal(c); });
   h.explore = locked([this](const ExploreCommand& c) { command_->OnExplore(c); });
+  h.convoy = locked([this](const ConvoyCommand& c) { command_->OnConvoy(c); });
   h.home = locked([this](const HomeCommand& c) { command_->OnHome(c, start_M_); });
   h.stop = locked([this](const StopCommand& c) { command_->OnStop(c); });
   h.restart = locked([this](const RestartCommand& c) { command_->OnRestart(c); });
@@ -531,6 +561,7 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   c.local_planner_healthy =
       navigation_.ObstacleSensingAlive(NowS(SteadyClock::now()), &c.local_planner_problem);
   c.has_explore_task = explore_->exploring();
+  c.has_convoy_task = convoy_->active();
   c.mapping_healthy = perception_->MappingHealthy(&c.mapping_problem);
   if (health_) c.components_down = health_->Down();
   return c;
@@ -609,6 +640,7 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     // The team: what peers go for and have seen shapes the choice; this robot's claim goes out when due.
     explore_->SetPeerClaims(team_.LiveClaims(now_s));
     explore_->SetTeamView(team_.ExploringPeers(now_s), team_.PeerSeenM2());
+    convoy_->SetPeers(peers_.Live(now_s), now_s);  // the robot followed extends the trail
     perception_->SetPeerCoverage(team_.Coverage());
     if (modes_->Step(inputs))
       modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)

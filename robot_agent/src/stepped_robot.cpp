@@ -76,27 +76,36 @@ PeerBody SteppedRobot::PeerState() const {
   return navigation_->AsPeer(options_.robot_id, pose_M_, busy ? active_->name() : std::string("idle"));
 }
 
+// As in the agent (ModeControl), the mode taking over starts first (its goal set), then the one it replaces
+// is deactivated.
 std::string SteppedRobot::Explore(const ExploreTask& task, double now_s) {
+  const std::string why = explore_->Start(task, now_s, [] {
+    return ModeDecision{true, ExploreMode::kName, ExploreMode::kChannel, ""};
+  });
+  if (!why.empty()) return why;
   if (active_ != explore_.get()) active_->Deactivate("exploring instead");
   active_ = explore_.get();
-  return explore_->Start(task, now_s, [] { return ModeDecision{true, ExploreMode::kName, ExploreMode::kChannel, ""}; });
+  return "";
 }
 
 std::string SteppedRobot::Goto(double x_m, double y_m, double now_s) {
   const nav::GlobalPlan plan = navigation_->PlanGoalAsync(pose_M_, x_m, y_m).get();
   if (!plan.IsUsable()) return plan.reason.empty() ? plan.result.message : plan.reason;
-  if (active_ != waypoint_.get()) active_->Deactivate("driving to a waypoint instead");
-  active_ = waypoint_.get();
   const GoalStart start =
       waypoint_->Start(plan, x_m, y_m, 0.0, std::numeric_limits<double>::quiet_NaN(), now_s,
                        [] { return ModeDecision{true, WaypointMode::kName, WaypointMode::kChannel, ""}; });
-  return start.accepted ? "" : start.reason;
+  if (!start.accepted) return start.reason;
+  if (active_ != waypoint_.get()) active_->Deactivate("driving to a waypoint instead");
+  active_ = waypoint_.get();
+  return "";
 }
 
 std::string SteppedRobot::Follow(const std::vector<std::string>& ahead_ids, double now_s) {
+  const std::string why = convoy_->Start(options_.robot_id, ahead_ids, now_s);
+  if (!why.empty()) return why;
   if (active_ != convoy_.get()) active_->Deactivate("following in a convoy instead");
   active_ = convoy_.get();
-  return convoy_->Start(options_.robot_id, ahead_ids, now_s);
+  return "";
 }
 
 void SteppedRobot::Step(double now_s) {

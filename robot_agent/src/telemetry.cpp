@@ -78,8 +78,8 @@ T* Required(T* pointer, const char* name) {
 }  // namespace
 
 Telemetry::Telemetry(const AgentOptions& options, AgentDds* dds, const ModeControl* modes,
-                     const WaypointMode* waypoint, const ExploreMode* explore, const Navigation* navigation,
-                     CommandInterface* command)
+                     const WaypointMode* waypoint, const ExploreMode* explore, const ConvoyMode* convoy,
+                     const Navigation* navigation, CommandInterface* command)
     : robot_id_(options.robot_id),
       platform_(options.platform),
       nav_platform_(options.navigation.platform.name),
@@ -90,6 +90,7 @@ Telemetry::Telemetry(const AgentOptions& options, AgentDds* dds, const ModeContr
       modes_(Required(modes, "modes")),
       waypoint_(Required(waypoint, "waypoint")),
       explore_(Required(explore, "explore")),
+      convoy_(Required(convoy, "convoy")),
       navigation_(Required(navigation, "navigation")),
       command_(Required(command, "command")) {}
 
@@ -170,6 +171,11 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
   m.explore_targets_failed(static_cast<uint32_t>(ex.targets_failed));
   m.explore_peers(static_cast<uint32_t>(ex.peers));
   m.explore_peer_seen_m2(ex.peer_seen_m2);
+  const ConvoyStatus& convoy = convoy_->status();
+  m.convoy_state(ToString(convoy.state));
+  m.convoy_ahead_ids(convoy_->active() ? convoy.ahead_ids : std::vector<std::string>{});
+  m.convoy_gap_m(convoy.gap_m);
+  m.convoy_reason(convoy.reason);
   m.has_resumable_goal(in.resumable_goal_M.has_value());
   if (in.resumable_goal_M) {
     m.resumable_goal_M().x_m(in.resumable_goal_M->x());

@@ -62,6 +62,11 @@ struct Robot {
       }
       return CommandOutcome{true, "exploring 9", 9};
     };
+    hooks.convoy = [this](const ConvoyCommand& c) {
+      convoys.push_back(c);
+      return c.stop ? CommandOutcome{true, "left the convoy", 0}
+                    : CommandOutcome{true, "following " + c.ahead_ids.front(), 0};
+    };
     hooks.restart_component = [this](const std::string& component, const std::string& by) {
       if (component != "perception") return std::string("no component \"" + component + "\"");
       restarts.push_back(component + " by " + by);
@@ -91,6 +96,7 @@ struct Robot {
   std::vector<CommandReply> replies;
   std::vector<GoalCommand> planned;
   std::vector<ExploreCommand> explored;
+  std::vector<ConvoyCommand> convoys;
   std::vector<std::string> restarts;
   bool planner_healthy = true;
   bool has_goal = false;
@@ -370,6 +376,25 @@ TEST(CommandInterface, ExploreIsTheHoldersCheckedAndDecidedByTheTree) {
   EXPECT_EQ(r.modes->mode(), "explore");
 }
 
+TEST(CommandInterface, ConvoyIsTheHoldersAndAMalformedOneIsRefusedNamingTheValue) {
+  Robot r;
+  r.Take(OpA());
+  r.command->OnConvoy(ConvoyCommand{OpB(), 3, false, {"r0"}, ""});
+  EXPECT_EQ(r.last().result, CommandResult::kDiscarded);
+  EXPECT_EQ(r.last().kind, CommandKind::kConvoy);
+  EXPECT_TRUE(r.convoys.empty());
+  r.command->OnConvoy(
+      ConvoyCommand{OpA(), 4, false, {}, "cairn/convoy_request: action = 7 is not FOLLOW (0) or STOP (1)"});
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_NE(r.last().reason.find("action = 7"), std::string::npos) << r.last().reason;
+  EXPECT_TRUE(r.convoys.empty()) << "a malformed request never reaches the mode";
+  r.command->OnConvoy(ConvoyCommand{OpA(), 5, false, {"r0", "rL"}, ""});
+  EXPECT_EQ(r.last().result, CommandResult::kAccepted) << r.last().reason;
+  EXPECT_EQ(r.last().reason, "following r0");
+  ASSERT_EQ(r.convoys.size(), 1u);
+  EXPECT_EQ(r.convoys[0].ahead_ids, (std::vector<std::string>{"r0", "rL"}));
+}
+
 TEST(CommandInterface, RestartIsTheHoldersAndNamesAnUnknownComponent) {
   Robot r;
   r.command->OnRestart(RestartCommand{OpA(), 1, "perception"});
@@ -406,6 +431,10 @@ TEST(CommandInterface, NeedsEveryHookAndValidLockOptions) {
                std::invalid_argument)
       << "start_explore is required";
   hooks.start_explore = [](const ExploreCommand&) { return CommandOutcome{}; };
+  EXPECT_THROW(CommandInterface("r1", ControlLockOptions{}, r.modes.get(), "waypoint", hooks),
+               std::invalid_argument)
+      << "convoy is required";
+  hooks.convoy = [](const ConvoyCommand&) { return CommandOutcome{}; };
   EXPECT_THROW(CommandInterface("r1", ControlLockOptions{}, r.modes.get(), "waypoint", hooks),
                std::invalid_argument)
       << "restart_component is required";

@@ -53,16 +53,19 @@ TEST(ConvoyTrailTest, BadOptionsAreNamed) {
 }
 
 // Around an L corner the follower's way goes through the corner the robot ahead drove, never the chord, and
-// ends spacing_m short of the robot ahead along it.
+// ends kTargetBeyondM past the spacing point (1.5 m short of the robot ahead along it); the speed asked is
+// the gain times the spacing error (the robot ahead at rest).
 TEST(ConvoyTrailTest, TheWayFollowsTheDrivenCornerAndEndsAtTheSpacing) {
   ConvoyTrail trail(ConvoyOptions{});
   const double t = DriveAhead(&trail, {{0, 0, 0}, {10, 0, 0}, {10, 10, 0}});
-  const ConvoyCommand c = trail.Next({-1, 0, 0}, t);
-  ASSERT_EQ(c.kind, ConvoyCommand::Kind::kFollow) << c.reason;
+  const ConvoyDecision c = trail.Next({-1, 0, 0}, t);
+  ASSERT_EQ(c.kind, ConvoyDecision::Kind::kFollow) << c.reason;
   // Breadcrumbs 0.2 m apart cut a corner by less than 0.1 m of length.
   EXPECT_NEAR(c.gap_m, 21.0, 0.1);
   ASSERT_GE(c.path_M.size(), 3u);
-  EXPECT_NEAR((c.path_M.back() - Eigen::Vector3d(10, 7, 0)).norm(), 0.0, 0.1) << c.path_M.back().transpose();
+  EXPECT_NEAR((c.path_M.back() - Eigen::Vector3d(10, 8.5, 0)).norm(), 0.0, 0.1)
+      << c.path_M.back().transpose();
+  EXPECT_NEAR(c.speed_mps, ConvoyOptions{}.gap_gain_per_s * (c.gap_m - 3.0), 1e-9);
   const std::vector<Eigen::Vector3d> driven = {{-1, 0, 0}, {0, 0, 0}, {10, 0, 0}, {10, 10, 0}};
   for (const Eigen::Vector3d& p : c.path_M) EXPECT_LT(DistanceToPath2D(driven, p), 0.01) << p.transpose();
   // The corner is on the way: some point within a breadcrumb of (10, 0).
@@ -75,21 +78,30 @@ TEST(ConvoyTrailTest, TheWayFollowsTheDrivenCornerAndEndsAtTheSpacing) {
 TEST(ConvoyTrailTest, HoldsAtTheSpacingAndIsLostWhenTheRobotAheadFallsSilent) {
   ConvoyTrail trail(ConvoyOptions{});
   trail.Relinked(0.0);
-  ConvoyCommand c = trail.Next({0, 0, 0}, 1.0);
-  EXPECT_EQ(c.kind, ConvoyCommand::Kind::kHold);
+  ConvoyDecision c = trail.Next({0, 0, 0}, 1.0);
+  EXPECT_EQ(c.kind, ConvoyDecision::Kind::kHold);
   EXPECT_TRUE(std::isnan(c.gap_m));
   c = trail.Next({0, 0, 0}, 2.5);
-  EXPECT_EQ(c.kind, ConvoyCommand::Kind::kLost) << "never heard within lost_after_s";
+  EXPECT_EQ(c.kind, ConvoyDecision::Kind::kLost) << "never heard within lost_after_s";
 
   const double t = DriveAhead(&trail, {{0, 0, 0}, {3.3, 0, 0}});
   c = trail.Next({0, 0, 0}, t);
-  EXPECT_EQ(c.kind, ConvoyCommand::Kind::kHold) << c.reason;
+  EXPECT_EQ(c.kind, ConvoyDecision::Kind::kHold) << c.reason;
   EXPECT_NEAR(c.gap_m, 3.3, 0.05);
+  // Moving, the robot ahead is followed as soon as speed matching asks for a speed: 3.3 m at its 0.5 m/s.
+  trail.OnAhead({3.3, 0, 0}, t, 0.5);
+  c = trail.Next({0, 0, 0}, t);
+  EXPECT_EQ(c.kind, ConvoyDecision::Kind::kFollow) << c.reason;
+  EXPECT_NEAR(c.speed_mps, 0.5 + 0.8 * 0.3, 0.05);
+  // Too close (2.3 m) behind one that moves slowly: hold (the matched speed is below kMinSpeedMps).
+  trail.OnAhead({3.3, 0, 0}, t, 0.1);
+  c = trail.Next({1, 0, 0}, t);
+  EXPECT_EQ(c.kind, ConvoyDecision::Kind::kHold) << c.speed_mps;
   trail.OnAhead({4.0, 0, 0}, t + 0.1);
   c = trail.Next({0, 0, 0}, t + 0.1);
-  EXPECT_EQ(c.kind, ConvoyCommand::Kind::kFollow) << "4 m > 3 + 0.5";
+  EXPECT_EQ(c.kind, ConvoyDecision::Kind::kFollow) << "4 m > 3 + 0.5";
   c = trail.Next({0, 0, 0}, t + 0.1 + 2.05);
-  EXPECT_EQ(c.kind, ConvoyCommand::Kind::kLost);
+  EXPECT_EQ(c.kind, ConvoyDecision::Kind::kLost);
   EXPECT_NE(c.reason.find("not heard for 2.0 s"), std::string::npos) << c.reason;
 }
 
@@ -98,10 +110,10 @@ TEST(ConvoyTrailTest, HoldsAtTheSpacingAndIsLostWhenTheRobotAheadFallsSilent) {
 TEST(ConvoyTrailTest, ATrailLoopingBackPastTheFollowerIsNotAShortcut) {
   ConvoyTrail trail(ConvoyOptions{});
   const double t = DriveAhead(&trail, {{0, 0, 0}, {10, 0, 0}, {10, 2, 0}, {0, 2, 0}});
-  const ConvoyCommand c = trail.Next({0, 0, 0}, t);
-  ASSERT_EQ(c.kind, ConvoyCommand::Kind::kFollow);
+  const ConvoyDecision c = trail.Next({0, 0, 0}, t);
+  ASSERT_EQ(c.kind, ConvoyDecision::Kind::kFollow);
   EXPECT_NEAR(c.gap_m, 22.0, 0.2);  // two corners, each cut by less than 0.1 m
-  EXPECT_NEAR((c.path_M.back() - Eigen::Vector3d(3, 2, 0)).norm(), 0.0, 0.2) << c.path_M.back().transpose();
+  EXPECT_NEAR((c.path_M.back() - Eigen::Vector3d(1.5, 2, 0)).norm(), 0.0, 0.2) << c.path_M.back().transpose();
 }
 
 // ---- The convoy through the X junction ------------------------------------------------------------------
@@ -110,6 +122,7 @@ struct ConvoyRun {
   std::vector<Eigen::Vector3d> leader_driven;  // the leader's true positions, 5 cm apart
   std::vector<double> spacing_error_m;         // on straight stretches, every follower, every 0.1 s, moving or not
   double worst_deviation_m = 0;                // a follower's true position from the leader's driven path
+  Eigen::Vector3d worst_deviation_at_M = Eigen::Vector3d::Zero();  // where, and which follower (z: its index)
   double closest_m = std::numeric_limits<double>::infinity();  // any two robots' centres
   bool contact = false;
   bool leader_arrived = false;
@@ -200,7 +213,11 @@ ConvoyRun RunConvoy(const std::vector<core::PlanarPose>& starts, const std::vect
     }
     if (cycle % 5 == 0) {
       for (std::size_t i = 1; i < at.size(); ++i) {
-        run.worst_deviation_m = std::max(run.worst_deviation_m, DistanceToPath2D(run.leader_driven, at[i]));
+        const double deviation = DistanceToPath2D(run.leader_driven, at[i]);
+        if (deviation > run.worst_deviation_m) {
+          run.worst_deviation_m = deviation;
+          run.worst_deviation_at_M = {at[i].x(), at[i].y(), static_cast<double>(i)};
+        }
         // Straight stretches: both robots more than 2 m from the junction's centre (the corner).
         const Eigen::Vector2d junction(30.0, 20.0);
         if ((at[i].head<2>() - junction).norm() > 2.0 && (at[i - 1].head<2>() - junction).norm() > 2.0) {
@@ -241,10 +258,13 @@ TEST(ConvoyTest, ThreeFollowersKeepTheSpacingOnTheLeadersPathThroughTheXJunction
   double mean = 0;
   for (double e : errors) mean += e / static_cast<double>(errors.size());
   const double p05 = errors[errors.size() / 20], p95 = errors[errors.size() * 19 / 20];
-  std::printf("  spacing error on straight stretches (%zu samples): mean %+.2f m, 5th %+.2f, 95th %+.2f, min %+.2f, "
-              "max %+.2f; worst path deviation %.2f m; closest robots %.2f m; %.0f s wall\n",
-              errors.size(), mean, p05, p95, errors.front(), errors.back(), run.worst_deviation_m, run.closest_m,
-              run.wall_s);
+  std::printf(
+      "  spacing error on straight stretches (%zu samples): mean %+.2f m, 5th %+.2f, 95th %+.2f, min %+.2f, "
+      "max %+.2f; worst path deviation %.2f m (follower %d at %.1f, %.1f); closest robots %.2f m; %.0f s "
+      "wall\n",
+      errors.size(), mean, p05, p95, errors.front(), errors.back(), run.worst_deviation_m,
+      static_cast<int>(run.worst_deviation_at_M.z()), run.worst_deviation_at_M.x(),
+      run.worst_deviation_at_M.y(), run.closest_m, run.wall_s);
   EXPECT_GE(errors.front(), -1.0);
   EXPECT_LE(errors.back(), 1.0);
   EXPECT_LE(run.worst_deviation_m, 0.5);
@@ -254,6 +274,48 @@ TEST(ConvoyTest, ThreeFollowersKeepTheSpacingOnTheLeadersPathThroughTheXJunction
     EXPECT_EQ(run.end_status[i].state, ConvoyStatus::State::kHolding) << run.end_status[i].reason;
     EXPECT_NEAR(run.end_gap_m[i], 3.0, 1.0) << "r" << i + 2;
   }
+}
+
+// A follower sent to a goal (peel) leaves the convoy and drives there: the convoy, deactivated after the
+// waypoint mode set its goal (the agent's order), does not drop that goal from navigation.
+TEST(ConvoyTest, AFollowerSentToAGoalLeavesTheConvoyAndArrives) {
+  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
+  std::vector<std::unique_ptr<SteppedRobot>> robots;
+  for (const double x : {14.0, 11.0}) {
+    AgentOptions options;
+    options.robot_id = "r" + std::to_string(robots.size() + 1);
+    options.SetPlatform("wheeled");
+    sim::SimulatedPlatformOptions sim_options;
+    sim_options.world = "builtin:tunnels";
+    sim_options.start_W = {x, 20.0, 0.0};
+    sim_options.SetProfile(options.navigation.platform);
+    platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
+    robots.push_back(std::make_unique<SteppedRobot>(options, platforms.back(), ""));
+  }
+  ASSERT_EQ(robots[1]->Follow({"r1"}, 0.0), "");
+  double t = 0;
+  auto step = [&](double seconds) {
+    for (const double end = t + seconds; t < end;) {
+      t += 0.02;
+      for (auto& robot : robots) {
+        robot->Step(t);
+        while (robot->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      }
+      for (std::size_t i = 0; i < robots.size(); ++i) {
+        EXPECT_EQ(robots[1 - i]->OnPeerState(robots[i]->PeerState(), t), "");
+      }
+    }
+  };
+  step(1.0);
+  EXPECT_EQ(robots[1]->convoy().status().state, ConvoyStatus::State::kHolding)
+      << robots[1]->convoy().status().reason;
+  ASSERT_EQ(robots[1]->Goto(6.0, 20.0, t), "");
+  EXPECT_FALSE(robots[1]->convoy().active());
+  EXPECT_TRUE(robots[1]->navigation().has_goal()) << "the convoy's leaving dropped the waypoint's goal";
+  step(20.0);
+  EXPECT_EQ(robots[1]->waypoint().goal().status, GoalStatus::kArrived) << robots[1]->waypoint().goal().reason;
+  const sim::UnicycleState end = platforms[1]->TrueState();
+  EXPECT_LT(std::hypot(end.x_m - 6.0, end.y_m - 20.0), 0.5);
 }
 
 }  // namespace

@@ -85,6 +85,18 @@ class CommandShell {
   int WaitExplored(const std::string& robot, uint32_t task_id, double timeout_s);
   // frontiers R: explored area, frontier count, current target, targets reached and given up.
   int Frontiers(const std::vector<std::string>& args);
+  // convoy LEADER R1 R2 ..., convoy-stop [LEADER], peel R POINT [TOL] (command_shell_convoy.cpp).
+  int Convoy(const std::vector<std::string>& args);
+  int ConvoyStop(const std::vector<std::string>& args);
+  int Peel(const std::vector<std::string>& args);
+  // "" when this basestation holds every robot of `robots` (waits up to 3 s for a state from each), else
+  // why not, naming the first robot it does not hold.
+  std::string RefuseUnlessHeld(const std::string& command, const std::vector<std::string>& robots);
+  // Sends follower i `ahead[i]` (empty: leave the convoy), all at once; their answers in order.
+  std::vector<CommandOutcome> SendConvoys(const std::vector<std::string>& followers,
+                                          const std::vector<std::vector<std::string>>& ahead);
+  // The convoy followers the fleet's states show (of `leader`'s convoy; "": every one): id, robots ahead.
+  std::vector<std::pair<std::string, std::vector<std::string>>> ConvoyFollowers(const std::string& leader);
   int Stop(const std::vector<std::string>& args);
   int Teleop(const std::vector<std::string>& args);
   int Wait(const std::vector<std::string>& args);
@@ -98,6 +110,11 @@ class CommandShell {
   int Sleep(const std::vector<std::string>& args);
   int Report(const std::string& command, const std::string& robot, const CommandOutcome& outcome,
              const std::string& notice = "");
+  // The answers of one command sent to several robots: a line per robot (text), or one JSON object for
+  // `label` with a "robots" list; a single robot's is Report()'s unless `always_list`. kOk when all were
+  // accepted (none: failed).
+  int ReportEach(const std::string& command, const std::string& label, const std::vector<std::string>& robots,
+                 const std::vector<CommandOutcome>& outcomes, bool always_list = false);
   int UsageError(const std::string& command, const std::string& message);
   // The robots table (`robots`, `watch`).
   void PrintRobotsTable();

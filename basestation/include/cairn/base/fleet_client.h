@@ -143,6 +143,9 @@ class FleetClient {
                              double min_z_m = std::numeric_limits<double>::quiet_NaN(),
                              double max_z_m = std::numeric_limits<double>::quiet_NaN(),
                              double home_after_silence_s = 0.0);
+  /// Tells convoy follower `robot_id` to follow `ahead_ids` (the robots ahead of it, nearest first, the
+  /// leader last; at most 16) on the path they drove, or, with none, to leave the convoy (ConvoyRequest).
+  CommandOutcome SendConvoy(const std::string& robot_id, const std::vector<std::string>& ahead_ids);
   /// Sends `robot_id` home (HomeRequest): a waypoint goal the robot plans to its start, or to `point_M`
   /// (x, y metres, frame map; z its level, NaN = the robot's). The answer carries the goal id.
   CommandOutcome SendHome(const std::string& robot_id, const std::optional<Eigen::Vector3d>& point_M = std::nullopt);

@@ -79,6 +79,8 @@ class FleetEventDetector {
     cairn_msgs::NavStatus nav_status = cairn_msgs::NAV_STATUS_NONE;
     uint32_t stops = 0;
     std::string nav_reason;
+    std::string convoy_state;  // RobotState::convoy_state ("" before a state)
+    std::string convoy_ahead;  // the robot it follows ("" when not in a convoy)
     bool has_health = false;
     uint32_t health_events = 0;  // AgentHealth::events
   };

@@ -74,6 +74,7 @@ struct AgentDdsHandlers {
   std::function<void(const ModeCommand&)> mode;
   std::function<void(const GoalCommand&)> goal;
   std::function<void(const ExploreCommand&)> explore;
+  std::function<void(const ConvoyCommand&)> convoy;
   std::function<void(const HomeCommand&)> home;
   std::function<void(const StopCommand&)> stop;
   std::function<void(const RestartCommand&)> restart;

@@ -53,6 +53,9 @@ class CommandInterface {
     std::function<CommandOutcome(const GoalCommand&, const nav::GlobalPlan&)> start_goal;
     /// Starts the exploration task (checked) from its holder: the outcome is the reply's.
     std::function<CommandOutcome(const ExploreCommand&)> start_explore;
+    /// Follows the robots ahead (convoy mode) or leaves the convoy, from its holder: the outcome is the
+    /// reply's.
+    std::function<CommandOutcome(const ConvoyCommand&)> convoy;
     /// Restarts one component (core::HealthMonitor::RequestRestart): "" when under way, else why not.
     std::function<std::string(const std::string& component, const std::string& by)> restart_component;
   };
@@ -87,6 +90,9 @@ class CommandInterface {
   /// explore R: the holder's only; checked (frame, CheckExploreTask), then started (Hooks::start_explore), which
   /// asks the mode tree.
   void OnExplore(const ExploreCommand& command);
+  /// A convoy follower's request (convoy, convoy-stop, peel): the holder's only; a malformed one is refused
+  /// naming the value; else Hooks::convoy, which asks the mode tree.
+  void OnConvoy(const ConvoyCommand& command);
   /// The stick: the holder's only (others are counted as discarded), finite only; to the running mode.
   void OnTeleop(const TeleopCommand& command, core::SteadyTime now);
 

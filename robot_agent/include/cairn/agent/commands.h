@@ -32,7 +32,8 @@ enum class CommandKind : uint32_t {
   kStop,
   kExplore,
   kHome,
-  kRestart
+  kRestart,
+  kConvoy
 };
 /// Outcome of a command (CommandResponse.result).
 enum class CommandResult {
@@ -107,6 +108,17 @@ struct ExploreCommand {
   uint32_t request_id = 0;
   std::string frame_id;  ///< must be "map"
   ExploreTask task;
+};
+
+/// convoy L R1 R2 ... / convoy-stop / peel, as one follower receives it (ConvoyRequest): follow `ahead_ids`
+/// (nearest first, the leader last) or leave the convoy. Checked by ConvoyMode::Start.
+struct ConvoyCommand {
+  CommandSender sender;
+  uint32_t request_id = 0;
+  bool stop = false;                   ///< true: leave the convoy (idle)
+  std::vector<std::string> ahead_ids;  ///< !stop: the robots ahead, nearest first
+  /// Non-empty: the message holds a value no basestation sends (an unknown action), named with the value.
+  std::string malformed;
 };
 
 /// The operator's stick (TeleopTwist), best effort; no reply.

@@ -22,10 +22,11 @@ struct ConvoyOptions {
   double hold_band_m = 0.5;
   /// The robot ahead's poses are kept this far apart along its path, metres, [0.05, 2].
   double breadcrumb_step_m = 0.2;
-  /// While the robot ahead moves, the target is this many seconds of its speed beyond the spacing point,
-  /// seconds, [0, 5]: a follower braking toward a target that moves on lags behind it by its braking distance
-  /// (about 1 m at 1 m/s), which this takes back. The target never passes the robot ahead's position.
-  double lead_s = 1.0;
+  /// Speed matching: the follower drives at the robot ahead's speed plus this gain times its spacing error
+  /// (gap along the trail minus spacing_m), per second, [0.1, 5]; the error then decays with time constant
+  /// 1 / gain (1.25 s by default), up to the platform's max speed. A follower braking to a point that moves
+  /// on instead lags by its braking distance, and cannot make it up at the same speed as the robot ahead.
+  double gap_gain_per_s = 0.8;
   /// The robot ahead is lost when not heard for this long, seconds, (0, 60]: the follower stops.
   double lost_after_s = 2.0;
   /// Trail kept ahead of the follower, metres, [10, 1000]: beyond it the oldest breadcrumbs go (a robot
@@ -37,7 +38,7 @@ struct ConvoyOptions {
 };
 
 /// What a follower does now (ConvoyTrail::Next()).
-struct ConvoyCommand {
+struct ConvoyDecision {
   enum class Kind {
     kHold,    ///< at the spacing (or nothing to follow yet): stay at rest
     kFollow,  ///< drive along path_M to its end
@@ -50,6 +51,9 @@ struct ConvoyCommand {
   /// Distance from the follower to the robot ahead along the trail, metres (NaN before the robot ahead was
   /// heard).
   double gap_m = 0.0;
+  /// kFollow: the speed to drive at, m/s, > 0 (the robot ahead's plus gap_gain_per_s x the spacing error;
+  /// the caller caps it at the platform's max speed).
+  double speed_mps = 0.0;
   /// Why it holds or is lost, for the operator.
   std::string reason;
 };
@@ -66,7 +70,10 @@ class ConvoyTrail {
   void OnAhead(const Eigen::Vector3d& p_M, double now_s, double speed_mps = 0.0);
   /// What the follower at `follower_M` does at `now_s`. Its place on the trail only moves forward (a trail
   /// that loops back past the follower is not taken as a shortcut); breadcrumbs behind it are dropped.
-  ConvoyCommand Next(const Eigen::Vector3d& follower_M, double now_s);
+  /// It holds within spacing_m + hold_band_m of a robot ahead at rest, and whenever speed matching asks for
+  /// less than kMinSpeedMps. Following, the way ends kTargetBeyondM past the spacing point (never nearer the
+  /// robot ahead than half the spacing): speed matching, not braking to the way's end, keeps the spacing.
+  ConvoyDecision Next(const Eigen::Vector3d& follower_M, double now_s);
   /// lost_after_s counts from `now_s`: at the start (a trail never heard is lost after lost_after_s too), and
   /// after a re-link to a new robot ahead (the trail is kept: the new one drove it too).
   void Relinked(double now_s) { last_heard_s_ = now_s; }
@@ -76,6 +83,15 @@ class ConvoyTrail {
   /// The breadcrumbs not yet passed, oldest first, frame M.
   const std::vector<Eigen::Vector3d>& trail_M() const { return trail_M_; }
   const ConvoyOptions& options() const { return options_; }
+
+  /// A robot ahead slower than this is at rest, m/s.
+  static constexpr double kAtRestMps = 0.1;
+  /// Below this matched speed the follower holds, m/s.
+  static constexpr double kMinSpeedMps = 0.05;
+  /// The way ends this far past the spacing point, metres (see Next()). Measured through the X junction
+  /// (convoy_test): with 1 m the local planner aimed at a point 1 m off and let a follower run 0.1 m aside of
+  /// the robot ahead's trail, adding up along the convoy (the third follower 0.51 m off); with 1.5 m, 0.38 m.
+  static constexpr double kTargetBeyondM = 1.5;
 
  private:
   ConvoyOptions options_;

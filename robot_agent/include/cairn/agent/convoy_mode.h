@@ -49,7 +49,8 @@ class ConvoyMode : public ModeModule {
   ConvoyMode(const ConvoyOptions& options, double channel_timeout_s, Navigation* navigation);
 
   /// Follows `ahead_ids` (the robots ahead, nearest first, the leader last; ids unique, not `own_id`) from
-  /// `now_s` on, with a new trail. "" or why not (naming the id).
+  /// `now_s` on: with a new trail, or, already in a convoy and re-linked to one of the robots that were ahead
+  /// (one peeled off), with the trail kept (it drove it). "" or why not (naming the id).
   std::string Start(const std::string& own_id, const std::vector<std::string>& ahead_ids, double now_s);
   /// The peers heard lately (PeerTracker::Live()) at `now_s`: the robot followed extends the trail; a lost one
   /// is replaced by the nearest one further ahead that is heard.
@@ -78,6 +79,7 @@ class ConvoyMode : public ModeModule {
   ConvoyStatus status_;
   Eigen::Vector2d goal_M_ = Eigen::Vector2d::Zero();  // the target last handed to navigation
   bool has_goal_ = false;
+  std::uint64_t goal_serial_ = 0;        // Navigation::goal_serial() of that target
   double blocked_target_moved_m_ = 0.0;  // kBlocked: retry once the target moved this far from where it failed
   Eigen::Vector2d blocked_at_M_ = Eigen::Vector2d::Zero();
 };

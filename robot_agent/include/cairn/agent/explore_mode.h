@@ -207,6 +207,7 @@ class ExploreMode : public ModeModule {
   bool complete_pending_ = false;  // the last set had no target: confirm with the next one, at rest
   std::future<nav::GlobalPlan> plan_;
   bool driving_ = false;  // navigation (or the recovery) holds the target as its goal
+  std::uint64_t goal_serial_ = 0;  // Navigation::goal_serial() of that goal (DropTarget clears only it)
   bool target_through_tight_gap_ = false;  // the current target's FrontierCluster::through_tight_gap
   // Where the last tight-gap stall happened (NaN: none yet); a second one within kWedgedRadiusM runs the recovery.
   static constexpr double kWedgedRadiusM = 0.5;

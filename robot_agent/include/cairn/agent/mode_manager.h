@@ -25,6 +25,8 @@ struct ModeConditions {
   std::string local_planner_problem;  ///< e.g. "no obstacle input for 0.8 s"
   /// An exploration task is running (sent with explore R).
   bool has_explore_task = false;
+  /// A convoy follower's task is running (sent with convoy L R1 R2 ...).
+  bool has_convoy_task = false;
   /// The robot maps: fresh lidar scans reach its map and its navigation map is updated; when false,
   /// mapping_problem says why.
   bool mapping_healthy = false;

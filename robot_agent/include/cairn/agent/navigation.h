@@ -135,6 +135,11 @@ class Navigation {
   void Abandon(std::future<nav::GlobalPlan> plan);
   /// Drops the goal (the robot will be stopped by the caller's mode switch).
   void ClearGoal();
+  /// Drops the goal only if it is still the one made active when goal_serial() was `serial`: a mode that
+  /// leaves must not drop the goal the mode taking over has just set (its Deactivate comes after that).
+  void ClearGoal(std::uint64_t serial);
+  /// Bumped whenever a goal becomes active (AcceptGoal, SetGoal).
+  std::uint64_t goal_serial() const { return goal_serial_; }
   /// Forgets the obstacle points (the local obstacle memory): waypoint driving brakes until the next
   /// SetObstacles() brings a fresh scan. Recovery step "clear the local obstacle memory".
   void ClearObstacles();
@@ -169,8 +174,19 @@ class Navigation {
 
   /// One control step in waypoint mode (call at the control rate). Without a goal: a zero twist. The goal
   /// is reached when the robot is within its tolerance moving at most 0.1 m/s (the controller brakes to
-  /// rest at the goal).
-  NavigationStep StepWaypoint(const core::BaseState& state, double now_s);
+  /// rest at the goal). `speed_mps`: the speed to drive at, m/s, capped at the platform's max speed; NaN (or
+  /// not > 0) = the platform's cruise speed (a convoy follower matches the robot ahead's speed).
+  /// `follow_path`: the controller tracks the global path itself (its next kFollowTrackM) whenever no live
+  /// obstacle point comes within the footprint radius plus kFollowMarginM of it, the local planner's path
+  /// otherwise: a convoy follower drives the corners the robot ahead drove instead of cutting them toward a
+  /// point ahead, which adds up along a convoy.
+  NavigationStep StepWaypoint(const core::BaseState& state, double now_s,
+                              double speed_mps = std::numeric_limits<double>::quiet_NaN(),
+                              bool follow_path = false);
+  /// StepWaypoint(follow_path): the track along the global path, metres, and its clearance beyond the
+  /// footprint radius, metres.
+  static constexpr double kFollowTrackM = 2.0;
+  static constexpr double kFollowMarginM = 0.15;
   /// One control step in smart joystick mode: `joystick` is the operator's twist (frame B: forward,
   /// left m/s; yaw rate rad/s); zero means stop. The direction is atan2(vy, vx) bent by wz *
   /// joystick_turn_lookahead_s; the speed is |(vx, vy)| capped at the platform's max speed. A pure yaw rate
@@ -241,10 +257,11 @@ class Navigation {
   Eigen::Vector2d Carrot(const core::BaseState& state) const;
   // Point `ahead_m` along the global path from the robot's projection (its end when shorter).
   Eigen::Vector2d PointAhead(double ahead_m) const;
-  // Tight-spot fallback when no library path heads toward the carrot: the next metre of the global path
-  // (checked on the map with the footprint) becomes the track if every live obstacle point stays farther
-  // than the bare footprint radius plus kTightMarginM from it. Returns whether it did.
-  bool TrackGlobalPathIfClear(const core::BaseState& state);
+  // The next `track_m` of the global path becomes the track if every live obstacle point stays farther than
+  // the footprint radius plus `margin_m` from it. Returns whether it did. `tight`: the tight-spot fallback
+  // when no library path heads toward the carrot (1 m, the bare footprint: it creeps and says so); else
+  // StepWaypoint(follow_path)'s (kFollowTrackM, kFollowMarginM).
+  bool TrackGlobalPathIfClear(const core::BaseState& state, double track_m, double margin_m, bool tight);
   // True if the obstacle point (frame B) is finite and in the local planner's obstacle z band.
   bool IsObstacle(const Eigen::Vector3f& p_B) const;
   // Runs the local planner if its period elapsed; fills track_W_ and track_stop_at_end_.
@@ -279,6 +296,8 @@ class Navigation {
   double partial_stuck_since_s_ = -1.0;     // at a partial plan's end with no way on since; -1 = not
   std::vector<std::future<nav::GlobalPlan>> abandoned_;  // plans of dropped goals, still running
   bool creeping_ = false;  // the track is the global path through a tight spot (half speed)
+  bool follow_path_ = false;
+  std::uint64_t goal_serial_ = 0;  // see goal_serial()  // StepWaypoint(follow_path) of the step under way
   bool reduced_clearance_ = false;
   bool awaiting_obstacles_ = false;  // obstacle memory cleared: no local plan before the next SetObstacles()
 

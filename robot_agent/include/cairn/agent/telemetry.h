@@ -14,6 +14,7 @@
 #include "cairn/agent/agent_dds.h"
 #include "cairn/agent/agent_options.h"
 #include "cairn/agent/command_interface.h"
+#include "cairn/agent/convoy_mode.h"
 #include "cairn/agent/explore_mode.h"
 #include "cairn/agent/link_usage.h"
 #include "cairn/agent/mode_control.h"
@@ -40,8 +41,8 @@ class Telemetry {
  public:
   /// Every pointer is required and (not owned) outlives this. @throws std::invalid_argument for a null one.
   Telemetry(const AgentOptions& options, AgentDds* dds, const ModeControl* modes,
-            const WaypointMode* waypoint, const ExploreMode* explore, const Navigation* navigation,
-            CommandInterface* command);
+            const WaypointMode* waypoint, const ExploreMode* explore, const ConvoyMode* convoy,
+            const Navigation* navigation, CommandInterface* command);
 
   /// AgentInfo (latched): id, kind robot, platform and its limits, the modes of the tree, version, world,
   /// sensors (lidar, camera), map resolution (0 with perception off), link class and budget.
@@ -84,6 +85,7 @@ class Telemetry {
   const ModeControl* modes_;
   const WaypointMode* waypoint_;
   const ExploreMode* explore_;
+  const ConvoyMode* convoy_;
   const Navigation* navigation_;
   CommandInterface* command_;
   std::uint64_t published_path_revision_ = ~0ull;

@@ -1,0 +1,219 @@
+// The command shell's convoy commands (issue 16): `convoy LEADER R1 R2 ...`, `convoy-stop [LEADER]` and
+// `peel R X Y|X,Y|PLACE [TOL]` (see command_shell.h), and the convoy fields of `status`.
+//
+// A convoy is the followers' state, not the shell's: each follower says whom it follows (RobotState's
+// convoy_ahead_ids, nearest first, the leader last), so that convoy-stop and peel work from any shell of the
+// basestation that holds the robots, and after a restart of it.
+#include <algorithm>
+#include <set>
+#include <thread>
+
+#include "cairn/base/command_shell.h"
+#include "cairn/base/operator_text.h"
+#include "shell_util.h"
+
+namespace cairn::base {
+
+using nlohmann::json;
+using shell::Dump;
+using shell::Fixed;
+
+namespace {
+
+// The IDL's bound on ConvoyRequest.ahead_ids.
+constexpr std::size_t kMaxAhead = 16;
+
+std::string Joined(const std::vector<std::string>& ids, const char* separator) {
+  std::string text;
+  for (const std::string& id : ids) text += (text.empty() ? "" : separator) + id;
+  return text;
+}
+
+}  // namespace
+
+json ConvoyJson(const cairn_msgs::RobotState& s) {
+  json j = {{"state", s.convoy_state()}, {"ahead", s.convoy_ahead_ids()}, {"reason", s.convoy_reason()}};
+  if (std::isfinite(s.convoy_gap_m())) j["gap_m"] = s.convoy_gap_m();
+  return j;
+}
+
+std::string ConvoyText(const cairn_msgs::RobotState& s) {
+  if (s.convoy_ahead_ids().empty()) return "none";
+  std::string text = s.convoy_state() + " behind " + s.convoy_ahead_ids().front();
+  if (std::isfinite(s.convoy_gap_m())) text += " (" + Fixed(s.convoy_gap_m(), 1) + " m along its path)";
+  text += ", leader " + s.convoy_ahead_ids().back();
+  if (!s.convoy_reason().empty()) text += "; " + s.convoy_reason();
+  return text;
+}
+
+std::string CommandShell::RefuseUnlessHeld(const std::string& command,
+                                           const std::vector<std::string>& robots) {
+  for (const std::string& robot : robots) {
+    if (!client_.Knows(robot)) return client_.UnknownRobotReason(robot);
+    // A lock just granted (request-control right before) shows in the robot's next whole state: wait for it
+    // a little before refusing.
+    const std::string base = client_.base_id();
+    const auto view = client_
+                          .WaitUntil(robot, 1.5,
+                                     [&base](const RobotView& v) {
+                                       return (v.state.has_value() && v.state->holder_id() == base) || v.lost;
+                                     })
+                          .value_or(client_.Robot(robot).value_or(RobotView{}));
+    if (!view.state) return "no state from " + robot + " yet";
+    const std::string& holder = view.state->holder_id();
+    if (holder != client_.base_id()) {
+      return "robot " + robot + " is " +
+             (holder.empty() ? "not locked by anyone" : "locked by basestation " + holder) + ": " + command +
+             " needs this basestation (" + client_.base_id() + ") to hold every robot named (" +
+             "request-control " + robot + ")";
+    }
+  }
+  return "";
+}
+
+std::vector<CommandOutcome> CommandShell::SendConvoys(const std::vector<std::string>& followers,
+                                                      const std::vector<std::vector<std::string>>& ahead) {
+  // Every follower at once: one robot's round trip does not hold up the others.
+  std::vector<CommandOutcome> outcomes(followers.size());
+  std::vector<std::thread> senders;
+  for (std::size_t i = 0; i < followers.size(); ++i) {
+    senders.emplace_back([&, i] { outcomes[i] = client_.SendConvoy(followers[i], ahead[i]); });
+  }
+  for (auto& t : senders) t.join();
+  return outcomes;
+}
+
+int CommandShell::Convoy(const std::vector<std::string>& args) {
+  constexpr const char* kUsageText =
+      "usage: convoy LEADER R1 [R2 ...] (followers in order behind the leader)";
+  if (args.size() < 2) return UsageError("convoy", kUsageText);
+  if (args.size() > kMaxAhead + 1) {
+    return UsageError("convoy", std::to_string(args.size()) + " robots named: a convoy has at most " +
+                                    std::to_string(kMaxAhead + 1) + " (a leader and " +
+                                    std::to_string(kMaxAhead) + " followers)");
+  }
+  std::set<std::string> seen;
+  for (const std::string& robot : args) {
+    if (!seen.insert(robot).second) return UsageError("convoy", "robot " + robot + " is named twice");
+  }
+  for (const std::string& robot : args) {
+    if (RefuseUnknown("convoy", robot)) return kRefused;
+  }
+  if (const std::string why = RefuseUnlessHeld("convoy", args); !why.empty()) {
+    CommandOutcome o;
+    o.result = outcome::kRefused;
+    o.reason = why;
+    return Report("convoy", args[0], o);
+  }
+  // Follower k follows robots k-1 ... 0 (the leader last).
+  std::vector<std::string> followers(args.begin() + 1, args.end());
+  std::vector<std::vector<std::string>> ahead;
+  for (std::size_t k = 1; k < args.size(); ++k)
+    ahead.emplace_back(args.rend() - static_cast<std::ptrdiff_t>(k), args.rend());
+  std::vector<CommandOutcome> outcomes = SendConvoys(followers, ahead);
+  if (std::any_of(outcomes.begin(), outcomes.end(), [](const CommandOutcome& o) { return !o.ok; })) {
+    // Not all follow: none does (a convoy with a hole in it would follow the wrong robot).
+    std::vector<std::string> taken;
+    for (std::size_t i = 0; i < followers.size(); ++i) {
+      if (outcomes[i].ok) {
+        taken.push_back(followers[i]);
+        outcomes[i].ok = false;
+        outcomes[i].result = outcome::kRefused;
+        outcomes[i].reason = "left the convoy again: another follower refused";
+      }
+    }
+    SendConvoys(taken, std::vector<std::vector<std::string>>(taken.size()));
+    return ReportEach("convoy", args[0], followers, outcomes, /*always_list=*/true);
+  }
+  if (!json_) out_ << "convoy " << args[0] << ": " << Joined(args, " <- ") << std::endl;
+  return ReportEach("convoy", args[0], followers, outcomes, /*always_list=*/true);
+}
+
+std::vector<std::pair<std::string, std::vector<std::string>>> CommandShell::ConvoyFollowers(
+    const std::string& leader) {
+  std::vector<std::pair<std::string, std::vector<std::string>>> followers;
+  for (const RobotView& v : client_.Robots()) {
+    if (!v.state || v.state->convoy_ahead_ids().empty()) continue;
+    if (!leader.empty() && v.state->convoy_ahead_ids().back() != leader) continue;
+    followers.emplace_back(v.robot_id, v.state->convoy_ahead_ids());
+  }
+  return followers;
+}
+
+int CommandShell::ConvoyStop(const std::vector<std::string>& args) {
+  if (args.size() > 1) return UsageError("convoy-stop", "usage: convoy-stop [LEADER]");
+  const std::string leader = args.empty() ? "" : args[0];
+  if (!leader.empty() && RefuseUnknown("convoy-stop", leader)) return kRefused;
+  std::this_thread::sleep_until(client_.started() + std::chrono::milliseconds(1500));  // discovery
+  std::vector<std::string> followers;
+  for (const auto& [robot, ahead] : ConvoyFollowers(leader)) followers.push_back(robot);
+  if (followers.empty()) {
+    CommandOutcome o;
+    o.result = outcome::kRefused;
+    o.reason = leader.empty() ? "no robot is in a convoy" : "no robot follows " + leader;
+    return Report("convoy-stop", leader.empty() ? "all" : leader, o);
+  }
+  if (const std::string why = RefuseUnlessHeld("convoy-stop", followers); !why.empty()) {
+    CommandOutcome o;
+    o.result = outcome::kRefused;
+    o.reason = why;
+    return Report("convoy-stop", leader.empty() ? "all" : leader, o);
+  }
+  return ReportEach("convoy-stop", leader.empty() ? "all" : leader, followers,
+                    SendConvoys(followers, std::vector<std::vector<std::string>>(followers.size())),
+                    /*always_list=*/true);
+}
+
+int CommandShell::Peel(const std::vector<std::string>& args) {
+  constexpr const char* kUsageText = "usage: peel R X Y|X,Y|PLACE [TOL]";
+  if (args.size() < 2) return UsageError("peel", kUsageText);
+  const std::string& robot = args[0];
+  double x = 0, y = 0, tolerance = 0;
+  std::size_t used = 0;
+  std::string error;
+  if (!ParsePoint(args, 1, &x, &y, &used, &error)) return UsageError("peel", error);
+  if (args.size() > 2 + used) return UsageError("peel", kUsageText);
+  if (args.size() == 2 + used && !shell::ParseNumber(args[1 + used], "TOL", &tolerance, &error)) {
+    return UsageError("peel", error);
+  }
+  if (RefuseUnknown("peel", robot)) return kRefused;
+  client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return v.state.has_value() || v.lost; });
+  const auto view = FreshView(robot);
+  if (!view || !view->state || view->state->convoy_ahead_ids().empty()) {
+    CommandOutcome o;
+    o.result = outcome::kRefused;
+    o.reason = "robot " + robot + " is not a convoy follower (convoy LEADER R1 R2 ... first)";
+    return Report("peel", robot, o);
+  }
+  // The followers behind it follow the robots ahead of it instead.
+  const std::string leader = view->state->convoy_ahead_ids().back();
+  std::vector<std::string> behind;
+  std::vector<std::vector<std::string>> relinked;
+  for (const auto& [follower, ahead] : ConvoyFollowers(leader)) {
+    if (std::find(ahead.begin(), ahead.end(), robot) == ahead.end()) continue;
+    behind.push_back(follower);
+    relinked.emplace_back();
+    for (const std::string& id : ahead) {
+      if (id != robot) relinked.back().push_back(id);
+    }
+  }
+  std::vector<std::string> held = behind;
+  held.push_back(robot);
+  if (const std::string why = RefuseUnlessHeld("peel", held); !why.empty()) {
+    CommandOutcome o;
+    o.result = outcome::kRefused;
+    o.reason = why;
+    return Report("peel", robot, o);
+  }
+  // The goal first: a robot that cannot go there stays in the convoy and nobody re-links.
+  const CommandOutcome goal = client_.SendWaypoint(robot, x, y, tolerance);
+  if (goal.ok) last_goal_id_[robot] = goal.goal_id;
+  if (!goal.ok || behind.empty()) return Report("peel", robot, goal);
+  std::vector<std::string> robots = {robot};
+  robots.insert(robots.end(), behind.begin(), behind.end());
+  std::vector<CommandOutcome> outcomes = {goal};
+  for (CommandOutcome& o : SendConvoys(behind, relinked)) outcomes.push_back(std::move(o));
+  return ReportEach("peel", robot, robots, outcomes, /*always_list=*/true);
+}
+
+}  // namespace cairn::base
