@@ -38,6 +38,7 @@ struct Robot {
     joystick = &r.Emplace<StickMode>("smart_joystick", "smart_joystick");
     r.Emplace<StickMode>("waypoint", "waypoint");
     r.Emplace<StickMode>("explore", "explore");
+    r.Emplace<StickMode>("convoy", "convoy");
     modes = std::make_unique<ModeControl>(kTree, std::move(r), "r1");
     CommandInterface::Hooks hooks;
     hooks.conditions = [this] { return Conditions(); };

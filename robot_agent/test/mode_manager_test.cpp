@@ -12,7 +12,7 @@ namespace {
 
 const std::string kTree = std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml";
 // The agent's mux channels.
-const std::vector<std::string> kChannels = {"teleop", "smart_joystick", "waypoint", "explore"};
+const std::vector<std::string> kChannels = {"teleop", "smart_joystick", "waypoint", "explore", "convoy"};
 
 using mode_testing::Held;
 
@@ -20,7 +20,8 @@ TEST(ModeManager, ShippedTreeLoadsWithItsModes) {
   ModeManager modes(kTree, kChannels);
   EXPECT_EQ(modes.mode(), "idle");
   EXPECT_EQ(modes.channel(), "none");
-  EXPECT_EQ(modes.known_modes(), (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint", "explore"}));
+  EXPECT_EQ(modes.known_modes(),
+            (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint", "explore", "convoy"}));
 }
 
 TEST(ModeManager, AcceptsManualWhenConditionsHoldAndSelectsTeleop) {
@@ -47,7 +48,7 @@ TEST(ModeManager, RefusalNamesTheFailedConditionAndKeepsTheMode) {
 
   d = modes.Request("warp", Held());
   EXPECT_FALSE(d.accepted);
-  EXPECT_EQ(d.reason, "unknown mode 'warp' (valid: idle, manual, smart_joystick, waypoint, explore)");
+  EXPECT_EQ(d.reason, "unknown mode 'warp' (valid: idle, manual, smart_joystick, waypoint, explore, convoy)");
 }
 
 TEST(ModeManager, RecheckFallsBackToIdleWhenHolderIsLost) {
