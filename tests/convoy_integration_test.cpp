@@ -184,11 +184,27 @@ TEST(ConvoyOverDds, ThreeFollowersKeepTheSpacingOnTheLeadersPathThroughTheXJunct
   Figure("spacing_error_max_m", errors.back());
   Figure("worst_path_deviation_m", worst_deviation_m);
   Figure("closest_robots_m", closest_m);
+  // Peer-state traffic: what each robot sent in link class "team" (its peer states; no explore claims here),
+  // the highest of its once-a-second readings while the convoy drove.
+  for (const std::string& id : kIds) {
+    double team_kbps = 0;
+    for (const cairn_msgs::RobotState& s : fleet.observer().History(id)) {
+      for (const auto& usage : s.link_usage()) {
+        if (usage.topic_class() == "team") team_kbps = std::max(team_kbps, usage.sent_kbps());
+      }
+    }
+    Figure("peer_state_kbps_" + id, team_kbps);
+    EXPECT_GT(team_kbps, 0.0) << id << " sent no peer state";
+  }
   EXPECT_GE(errors.front(), -1.0);
   EXPECT_LE(errors.back(), 1.0);
   EXPECT_LE(worst_deviation_m, 0.5) << worst_at;
   EXPECT_GT(closest_m, kTouchingM);
   EXPECT_FALSE(contact);
+  for (const json& e : op.events()) {
+    const std::string kind = e.value("event", "");
+    EXPECT_TRUE(kind != "convoy_lost" && kind != "convoy_blocked") << "no follower stopped on its own: " << e;
+  }
   r = op.Run("convoy-stop cl");
   EXPECT_EQ(r["ok"], true) << r;
   for (const char* id : {"c1", "c2", "c3"}) {

@@ -103,18 +103,19 @@ ConvoyDecision ConvoyTrail::Next(const Eigen::Vector3d& follower_M, double now_s
   double gap = 0;
   for (std::size_t i = 0; i + 1 < way.size(); ++i) gap += Distance2D(way[i], way[i + 1]);
   command.gap_m = gap;
-  const double error_m = gap - options_.spacing_m;
+  const double spacing_m = options_.spacing_m * static_cast<double>(slots_);
+  const double error_m = gap - spacing_m;
   const double speed = ahead_speed_mps_ + options_.gap_gain_per_s * error_m;
   if ((ahead_speed_mps_ < kAtRestMps && error_m <= options_.hold_band_m) || speed < kMinSpeedMps) {
     command.reason = internal::Fixed(gap, 1) + " m behind the robot ahead (spacing " +
-                     internal::Fixed(options_.spacing_m, 1) + " m)";
+                     internal::Fixed(spacing_m, 1) + " m)";
     return command;
   }
   // The way ends past the spacing point (speed matching keeps the spacing), never within half of it of the
   // robot ahead.
   command.kind = ConvoyDecision::Kind::kFollow;
   command.speed_mps = speed;
-  double left = gap - std::max(options_.spacing_m - kTargetBeyondM, 0.5 * options_.spacing_m);
+  double left = gap - std::max(spacing_m - kTargetBeyondM, 0.5 * spacing_m);
   command.path_M.push_back(way.front());
   for (std::size_t i = 0; i + 1 < way.size() && left > 0; ++i) {
     const double d = Distance2D(way[i], way[i + 1]);

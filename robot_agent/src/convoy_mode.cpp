@@ -71,6 +71,7 @@ std::string ConvoyMode::Start(const std::string& own_id, const std::vector<std::
   if (has_goal_) navigation_->ClearGoal(goal_serial_);
   has_goal_ = false;
   if (!same_trail) trail_ = ConvoyTrail(options_);
+  skipped_ = 0;  // the operator's order: every robot ahead is named
   trail_.Relinked(now_s);
   const std::string before = status_.ahead_id;
   status_ = ConvoyStatus{};
@@ -96,11 +97,14 @@ void ConvoyMode::SetPeers(const std::vector<PeerBody>& peers, double now_s) {
     std::vector<std::string>& ids = status_.ahead_ids;  // ids.front() is the one followed
     for (std::size_t k = 1; k < ids.size(); ++k) {
       if (const PeerBody* further = heard(ids[k])) {
-        status_.reason = "re-linked to " + ids[k] + ": " + status_.ahead_id + " was not heard";
+        skipped_ += static_cast<int>(k);
+        status_.reason = "re-linked to " + ids[k] + ": " + status_.ahead_id + " was not heard (keeping " +
+                         internal::Fixed(options_.spacing_m * (skipped_ + 1), 1) +
+                         " m: it may still be in line)";
         ids.erase(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(k));
         status_.ahead_id = ids.front();
         status_.state = ConvoyStatus::State::kHolding;
-        trail_.Relinked(now_s);
+        trail_.Relinked(now_s, skipped_ + 1);
         ahead = further;
         break;
       }

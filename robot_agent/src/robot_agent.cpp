@@ -442,6 +442,7 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
   if (c.stop) {
     if (!convoy_->active()) return CommandOutcome{true, "not in a convoy", 0};
     convoy_->Deactivate("convoy stopped by " + c.sender.base_id);
+    spdlog::info("robot {}: convoy stopped by {}", options_.robot_id, c.sender.base_id);
     if (modes_->mode() == convoy_->name()) modes_->GoIdle(Conditions());
     return CommandOutcome{true, "left the convoy: idle", 0};
   }
@@ -458,6 +459,8 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
   }
   std::string order;
   for (const std::string& id : c.ahead_ids) order += (order.empty() ? "" : ", ") + id;
+  spdlog::info("robot {}: convoy from {}: following {} (ahead: {})", options_.robot_id, c.sender.base_id,
+               c.ahead_ids.front(), order);
   return CommandOutcome{true, "following " + c.ahead_ids.front() + " (ahead: " + order + ")", 0};
 }
 

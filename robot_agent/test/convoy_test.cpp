@@ -116,6 +116,25 @@ TEST(ConvoyTrailTest, ATrailLoopingBackPastTheFollowerIsNotAShortcut) {
   EXPECT_NEAR((c.path_M.back() - Eigen::Vector3d(1.5, 2, 0)).norm(), 0.0, 0.2) << c.path_M.back().transpose();
 }
 
+// An order a follower cannot take (from a basestation's ConvoyRequest) is refused naming the id, and the
+// robot stays out of convoy mode.
+TEST(ConvoyModeTest, ABadOrderIsRefusedNamingTheId) {
+  AgentOptions options;
+  options.robot_id = "r2";
+  options.SetPlatform("wheeled");
+  sim::SimulatedPlatformOptions sim_options;
+  sim_options.world = "builtin:tunnels";
+  sim_options.start_W = core::PlanarPose{11.0, 20.0, 0.0};
+  sim_options.SetProfile(options.navigation.platform);
+  SteppedRobot robot(options, std::make_shared<sim::SimulatedPlatform>(sim_options), "");
+  EXPECT_EQ(robot.Follow({}, 0.0), "a convoy follower needs the robot ahead of it");
+  EXPECT_EQ(robot.Follow({"r2"}, 0.0), "robot r2 cannot follow itself");
+  EXPECT_EQ(robot.Follow({"r1", "r0", "r1"}, 0.0), "robot r1 is named twice ahead of r2");
+  const std::string why = robot.Follow({"r1", "r\x1b[2J"}, 0.0);
+  EXPECT_NE(why.find("robot id 'r?[2J'"), std::string::npos) << why;
+  EXPECT_FALSE(robot.convoy().active());
+}
+
 // ---- The convoy through the X junction ------------------------------------------------------------------
 
 struct ConvoyRun {
@@ -316,6 +335,72 @@ TEST(ConvoyTest, AFollowerSentToAGoalLeavesTheConvoyAndArrives) {
   EXPECT_EQ(robots[1]->waypoint().goal().status, GoalStatus::kArrived) << robots[1]->waypoint().goal().reason;
   const sim::UnicycleState end = platforms[1]->TrueState();
   EXPECT_LT(std::hypot(end.x_m - 6.0, end.y_m - 20.0), 0.5);
+}
+
+// Radios falling silent: r3 no longer hears r2 and re-links to r1, two spacings behind it (r2 may still be in
+// line, and is); then nobody hears the leader r1: r2 and r3, with nothing further ahead to follow, stop as
+// lost. Nobody touches anybody.
+TEST(ConvoyTest, AFollowerReLinksPastASilentRobotAndStopsWhenNoneAheadIsHeard) {
+  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
+  std::vector<std::unique_ptr<SteppedRobot>> robots;
+  for (const double x : {14.0, 11.0, 8.0}) {
+    AgentOptions options;
+    options.robot_id = "r" + std::to_string(robots.size() + 1);
+    options.SetPlatform("wheeled");
+    sim::SimulatedPlatformOptions sim_options;
+    sim_options.world = "builtin:tunnels";
+    sim_options.start_W = {x, 20.0, 0.0};
+    sim_options.SetProfile(options.navigation.platform);
+    platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
+    robots.push_back(std::make_unique<SteppedRobot>(options, platforms.back(), ""));
+  }
+  ASSERT_EQ(robots[1]->Follow({"r1"}, 0.0), "");
+  ASSERT_EQ(robots[2]->Follow({"r2", "r1"}, 0.0), "");
+  ASSERT_EQ(robots[0]->Goto(27.0, 20.0, 0.0), "");
+  // heard[i][j]: robot j hears robot i's peer states.
+  bool heard[3][3] = {{true, true, true}, {true, true, true}, {true, true, true}};
+  double t = 0, closest_m = std::numeric_limits<double>::infinity();
+  auto step = [&](double seconds) {
+    for (const double end = t + seconds; t < end;) {
+      t += 0.02;
+      for (auto& robot : robots) {
+        robot->Step(t);
+        while (robot->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      }
+      for (std::size_t i = 0; i < 3; ++i) {
+        for (std::size_t j = 0; j < 3; ++j) {
+          if (i != j && heard[i][j]) {
+            EXPECT_EQ(robots[j]->OnPeerState(robots[i]->PeerState(), t), "");
+          }
+        }
+      }
+      for (std::size_t i = 0; i < 3; ++i) {
+        for (std::size_t j = i + 1; j < 3; ++j) {
+          const sim::UnicycleState a = platforms[i]->TrueState(), b = platforms[j]->TrueState();
+          closest_m = std::min(closest_m, std::hypot(a.x_m - b.x_m, a.y_m - b.y_m));
+        }
+      }
+    }
+  };
+  step(3.0);
+  EXPECT_EQ(robots[2]->convoy().status().ahead_id, "r2");
+  heard[1][2] = false;  // r3 no longer hears r2
+  step(4.0);
+  const ConvoyStatus& r3 = robots[2]->convoy().status();
+  EXPECT_EQ(r3.ahead_id, "r1") << r3.reason;
+  EXPECT_EQ(r3.ahead_ids, (std::vector<std::string>{"r1"}));
+  EXPECT_EQ(robots[1]->convoy().status().state, ConvoyStatus::State::kFollowing)
+      << robots[1]->convoy().status().reason;
+  heard[0][1] = heard[0][2] = false;  // nobody hears the leader
+  step(4.0);
+  for (std::size_t i = 1; i < 3; ++i) {
+    const ConvoyStatus& s = robots[i]->convoy().status();
+    EXPECT_EQ(s.state, ConvoyStatus::State::kLost) << "r" << i + 1 << ": " << s.reason;
+    EXPECT_NE(s.reason.find("r1 lost: the robot ahead was not heard"), std::string::npos) << s.reason;
+    EXPECT_LT(std::abs(platforms[i]->TrueState().v_mps), 0.05) << "r" << i + 1 << " stopped";
+  }
+  EXPECT_GT(closest_m, 2.0) << "r3 kept two spacings behind r1, r2 between them";
+  for (const auto& robot : robots) EXPECT_FALSE(robot->ever_in_contact());
 }
 
 }  // namespace

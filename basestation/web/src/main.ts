@@ -57,6 +57,16 @@ interface Robot {
   camera_age_s: number;
   control_period_max_ms: number;
   exploration?: Exploration;
+  convoy?: Convoy;
+}
+
+// A convoy follower's record (cairn_base's `status --json` convoy block): the robots ahead of it, nearest
+// first, the leader last (empty: not following).
+interface Convoy {
+  state: string;  // none | following | holding | lost | blocked
+  ahead: string[];
+  reason: string;
+  gap_m?: number;
 }
 
 // The robot's exploration record (cairn_base's `status --json` exploration block).
@@ -85,20 +95,36 @@ const $ = <T extends HTMLElement>(id: string) => document.getElementById(id) as 
 const params = new URLSearchParams(location.search);
 
 const state = {
-  baseId: "",
+  baseId: '',
   robots: [] as Robot[],
-  selected: location.hash.startsWith("#robot=") ? decodeURIComponent(location.hash.slice(7)) : "",
-  tab: "fleet",
+  selected: location.hash.startsWith('#robot=') ? decodeURIComponent(location.hash.slice(7)) : '',
+  tab: 'fleet',
   events: [] as EventEntry[],
-  toasts: [] as { text: string; shownMs: number; eventMs: number }[],
+  toasts: [] as {
+    text: string;
+    shownMs: number;
+    eventMs: number
+  }[],
   lastResult: undefined as CommandResult | undefined,
   pickingGoal: false,
-  pendingGoal: undefined as { x: number; y: number; z?: number } | undefined,
+  goalVerb: 'goto' as 'goto' | 'peel',  // what a picked goal is sent as
+  pendingGoal: undefined as {
+    x: number;
+    y: number;
+    z?: number
+  } | undefined,
+  convoyOrder: undefined as string[] | undefined,  // a convoy being put together: the leader, then followers
+  convoyNote: '',
   driving: false,
-  drive: { vx: 0, wz: 0, active: false, source: "", stale: false, sent: 0 },
-  cameraUrls: new Map<string, { url: string; stamp: number }>(),
-  statusText: "connecting",
-  ceilingAuto: true, // hide map voxels 1.6 m above the highest robot (tunnel roofs, upper floors)
+  drive: {vx: 0, wz: 0, active: false, source: '', stale: false, sent: 0},
+  cameraUrls: new Map<
+      string,
+      {
+        url: string;
+        stamp: number
+      }>(),
+  statusText: 'connecting',
+  ceilingAuto: true,  // hide map voxels 1.6 m above the highest robot (tunnel roofs, upper floors)
 };
 
 const scene = new FleetScene($("view"));
@@ -188,6 +214,7 @@ function selectedRobot(): Robot | undefined {
 }
 
 function select(id: string): void {
+  if (state.convoyOrder) return addToConvoy(id);
   state.selected = id;
   scene.selected = id;
   history.replaceState(null, "", `#robot=${encodeURIComponent(id)}`);
@@ -248,9 +275,12 @@ function renderFleet(): void {
     previous = row;
     row.className = `row ${r.id === state.selected ? "sel" : ""}`;
     const holder = r.holder ? (r.you_hold ? `${r.holder} (you)` : r.holder) : "free";
-    setHtml(row, `<td><span class="dot ${r.online ? "on" : "off"}"></span>${r.id}</td>
-      <td><span class="chip" style="background:${modeColor(r.mode)}">${r.mode || "?"}</span></td>
-      <td>${holder}</td><td>${r.online ? fmt(r.heard_s_ago, 1, " s") : "lost"}</td>`);
+    setHtml(
+        row,
+        `<td><span class="dot ${r.online ? 'on' : 'off'}"></span>${r.id}</td>
+      <td><span class="chip" style="background:${modeColor(r.mode)}">${r.mode || '?'}</span>${
+            r.convoy?.ahead.length ? ` <span class="small">→ ${r.convoy.ahead[0]}</span>` : ''}</td>
+      <td>${holder}</td><td>${r.online ? fmt(r.heard_s_ago, 1, ' s') : 'lost'}</td>`);
   }
   $("fleet-empty").hidden = state.robots.length > 0;
 }
@@ -270,6 +300,15 @@ function actionButtons(r: Robot): string {
     else if (action === "teleop") b.push(`<button class="act" data-drive="1">${state.driving ? "Stop driving" : "Drive (keys / gamepad)"}</button>`);
     else if (action === "explore") b.push(`<button class="act" data-cmd="explore ${r.id}">Explore</button>`);
     else if (action === "home") b.push(`<button class="act" data-cmd="home ${r.id}">Return home</button>`);
+    else if (action === 'convoy' && !state.convoyOrder)
+      b.push(`<button class="act" data-convoy="${r.id}">Lead a convoy…</button>`);
+    else if (action === 'peel')
+      b.push(`<button class="act" data-peel="1">${
+          state.pickingGoal && state.goalVerb === 'peel' ? 'Tap the map… (Esc)' :
+                                                           'Peel off… (tap the map)'}</button>`);
+    else if (action === 'convoy-stop' && r.convoy?.ahead.length)
+      b.push(`<button class="act" data-cmd="convoy-stop ${
+          r.convoy.ahead[r.convoy.ahead.length - 1]}">Stop the convoy</button>`);
   }
   return b.join("");
 }
@@ -290,9 +329,13 @@ function renderRobot(): void {
     : r.nav_status === "active"
     ? `to (${fmt(r.goal?.x_m, 2)}, ${fmt(r.goal?.y_m, 2)}) · ${fmt(r.distance_left_m, 1, " m")} left · ETA ${fmt(r.eta_s, 0, " s")}`
     : r.nav_status;
-  setHtml($("robot-nav"), `<p>navigation: <b>${nav}</b>${r.nav_reason ? `<br><span class="reason">${r.nav_reason}</span>` : ""}</p>
-    <p class="small">local planner: ${r.local_planner_status || "–"} · speed ${fmt(Math.abs(r.speed_mps), 2, " m/s")}</p>
-    ${explorationHtml(r.exploration)}`);
+  setHtml(
+      $('robot-nav'),
+      `<p>navigation: <b>${nav}</b>${
+          r.nav_reason ? `<br><span class="reason">${r.nav_reason}</span>` : ''}</p>
+    <p class="small">local planner: ${r.local_planner_status || '–'} · speed ${
+          fmt(Math.abs(r.speed_mps), 2, ' m/s')}</p>
+    ${explorationHtml(r.exploration)}${convoyHtml(r.convoy)}`);
   setHtml($("actions"), actionButtons(r) + `<button class="act stop" data-cmd="stop ${r.id}">STOP</button>`);
   $("actions").dataset.robot = r.id;
   const cam = state.cameraUrls.get(r.id);
@@ -313,6 +356,18 @@ function explorationHtml(e: Exploration | undefined): string {
   return `<p id="exploration">exploration ${e.task_id}: <b>${e.state}</b> · ${fmt(e.explored_m2, 0, " m²")} explored ·
     ${e.frontiers} frontiers (${e.reachable_frontiers} reachable)${target}${team} · ${e.targets_reached} reached, ${e.targets_failed} given up
     ${e.reason ? `<br><span class="reason">${e.reason}</span>` : ""}</p>`;
+}
+
+// The convoy block of the robot tab: whom it follows, how far behind along the path, the order to the leader.
+function convoyHtml(c: Convoy|undefined): string {
+  if (!c || c.ahead.length === 0) return '';
+  const order = [...c.ahead].reverse().join(' ← ');
+  const gap = c.gap_m === undefined ? '' : ` · ${fmt(c.gap_m, 1, ' m')} behind along its path`;
+  const bad = c.state === 'lost' || c.state === 'blocked';
+  return `<p id="convoy">convoy: <b${bad ? ' class="bad"' : ''}>${c.state}</b> behind <b>${c.ahead[0]}</b>${
+      gap}
+    <br><span class="small">order: ${order} ← ${state.selected}</span>
+    ${c.reason ? `<br><span class="reason">${c.reason}</span>` : ''}</p>`;
 }
 
 // One robot's link cells: probe round trip, state samples lost (10 s), what it sends against its budget.
@@ -365,15 +420,28 @@ function renderEvents(): void {
 }
 
 // ---- Input: panel buttons ---------------------------------------------------------------------------------
-document.addEventListener("click", (ev) => {
-  const target = (ev.target as HTMLElement).closest<HTMLElement>("[data-cmd],[data-goto],[data-drive],[data-robot],[data-tab],#confirm-goto,#cancel-goto,#topdown,#ceiling");
+document.addEventListener('click', (ev) => {
+  const target =
+      (ev.target as HTMLElement)
+          .closest<HTMLElement>(
+              '[data-cmd],[data-goto],[data-peel],[data-convoy],[data-drive],[data-robot],[data-tab],#confirm-goto,#cancel-goto,#topdown,#ceiling');
   if (!target) return;
-  if (target.dataset.tab) setTab(target.dataset.tab);
-  else if (target.dataset.cmd) void run(target.dataset.cmd);
-  else if (target.dataset.goto) startGoalPick(!state.pickingGoal);
-  else if (target.dataset.drive) void setDriving(!state.driving);
-  else if (target.id === "confirm-goto") void confirmGoal();
-  else if (target.id === "cancel-goto") cancelGoal();
+  if (target.dataset.tab)
+    setTab(target.dataset.tab);
+  else if (target.dataset.cmd)
+    void run(target.dataset.cmd);
+  else if (target.dataset.goto)
+    startGoalPick(!state.pickingGoal, 'goto');
+  else if (target.dataset.peel)
+    startGoalPick(!state.pickingGoal, 'peel');
+  else if (target.dataset.convoy)
+    startConvoy(target.dataset.convoy);
+  else if (target.dataset.drive)
+    void setDriving(!state.driving);
+  else if (target.id === "confirm-goto")
+    void confirmGoal();
+  else if (target.id === "cancel-goto")
+    cancelGoal();
   else if (target.id === "ceiling") {
     state.ceilingAuto = !state.ceilingAuto;
     target.textContent = state.ceilingAuto ? "Ceiling: cut" : "Ceiling: shown";
@@ -381,7 +449,8 @@ document.addEventListener("click", (ev) => {
   } else if (target.id === "topdown") {
     scene.setTopDown(!scene.isTopDown);
     target.textContent = scene.isTopDown ? "Orbit view" : "Top-down view";
-  } else if (target.dataset.robot) select(target.dataset.robot);
+  } else if (target.dataset.robot)
+    select(target.dataset.robot);
 });
 
 // ---- Input: the 3D view (tap = select or goal, long press = goal) ----------------------------------------
@@ -428,10 +497,51 @@ function onLongPress(x: number, y: number): void {
   if (hit.point) proposeGoal(hit.point.x, hit.point.y, hit.surface ? hit.point.z : undefined);
 }
 
-function startGoalPick(on: boolean): void {
+function startGoalPick(on: boolean, verb: 'goto'|'peel' = 'goto'): void {
   state.pickingGoal = on;
+  state.goalVerb = verb;
   $("banner").hidden = !on;
-  $("banner").textContent = on ? `Tap the map where ${state.selected} should go (Esc cancels)` : "";
+  $('banner').textContent = !on ?
+      '' :
+      verb === 'peel' ?
+      `Tap the map where ${state.selected} should go when it leaves its convoy (Esc cancels)` :
+      `Tap the map where ${state.selected} should go (Esc cancels)`;
+  render();
+}
+
+// ---- Convoy: the leader, then the followers in order, tapped in the 3D view or the fleet list ------------
+function startConvoy(leader: string): void {
+  state.convoyOrder = [leader];
+  state.convoyNote = '';
+  setTab('fleet');  // the robots to tap, beside the 3D view
+  showConvoyOrder();
+}
+
+function addToConvoy(id: string): void {
+  const order = state.convoyOrder;
+  if (!order || order.includes(id)) return;
+  const r = state.robots.find((x) => x.id === id);
+  // Only a robot this basestation may send into a convoy now (its valid actions, as cairn_base's help R).
+  if (!r || !r.valid_actions.includes('convoy')) {
+    state.convoyNote =
+        `${id} cannot follow: ${r?.you_hold ? 'it cannot drive by itself now' : 'you do not hold it'}`;
+  } else {
+    order.push(id);
+    state.convoyNote = '';
+  }
+  showConvoyOrder();
+}
+
+function showConvoyOrder(): void {
+  const order = state.convoyOrder ?? [];
+  // One box: the order so far and what to do next (the banner would sit under it).
+  $('banner').hidden = true;
+  $('confirm-text').textContent =
+      (order.length < 2 ? `Convoy behind ${order[0]}: tap the first follower` :
+                          `Convoy: ${order.join(' ← ')} · tap the next follower, or confirm`) +
+      (state.convoyNote ? ` · ${state.convoyNote}` : '');
+  ($('confirm-goto') as HTMLButtonElement).disabled = order.length < 2;
+  $('confirm').hidden = false;
   render();
 }
 
@@ -446,23 +556,40 @@ function proposeGoal(x: number, y: number, z?: number): void {
   state.pendingGoal = { x, y, z: level };
   state.pickingGoal = false;
   $("banner").hidden = true;
-  $("confirm-text").textContent = `Send ${state.selected} to (${x.toFixed(2)}, ${y.toFixed(2)})` +
-    (level === undefined ? "?" : ` on the level at z ${level.toFixed(2)} m?`);
+  ($('confirm-goto') as HTMLButtonElement).disabled = false;
+  $('confirm-text').textContent =
+      `${state.goalVerb === 'peel' ? 'Peel' : 'Send'} ${state.selected} ${
+          state.goalVerb === 'peel' ? 'off ' : ''}to (${x.toFixed(2)}, ${y.toFixed(2)})` +
+      (level === undefined ? '?' : ` on the level at z ${level.toFixed(2)} m?`);
   $("confirm").hidden = false;
   render();
 }
 
 async function confirmGoal(): Promise<void> {
   const g = state.pendingGoal;
+  const order = state.convoyOrder;
   $("confirm").hidden = true;
   state.pendingGoal = undefined;
+  if (order) {
+    state.convoyOrder = undefined;
+    $('banner').hidden = true;
+    if (order.length >= 2) await run(`convoy ${order.join(' ')}`);
+    render();
+    return;
+  }
   if (g && state.selected) {
-    await run(`goto ${state.selected} ${g.x.toFixed(2)} ${g.y.toFixed(2)}${g.z === undefined ? "" : ` --z ${g.z.toFixed(2)}`}`);
+    if (state.goalVerb === 'peel')
+      await run(`peel ${state.selected} ${g.x.toFixed(2)} ${g.y.toFixed(2)}`);
+    else
+      await run(`goto ${state.selected} ${g.x.toFixed(2)} ${g.y.toFixed(2)}${
+          g.z === undefined ? '' : ` --z ${g.z.toFixed(2)}`}`);
   }
 }
 
 function cancelGoal(): void {
   state.pendingGoal = undefined;
+  state.convoyOrder = undefined;
+  ($('confirm-goto') as HTMLButtonElement).disabled = false;
   $("confirm").hidden = true;
   startGoalPick(false);
 }

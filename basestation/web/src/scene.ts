@@ -20,6 +20,7 @@ const MODE_COLORS: Record<string, number> = {
   manual: 0xf58c26,
   smart_joystick: 0xa361eb,
   waypoint: 0x338cfa,
+  convoy: 0xd9b52b,  // explore (and any other mode): 0x26b8a6
 };
 
 export function modeColor(mode: string): string {

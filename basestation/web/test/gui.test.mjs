@@ -297,6 +297,48 @@ test("the holder starts an exploration from the robot tab, sees its frontiers an
   await page1.getByRole("button", { name: "STOP", exact: true }).click();
 });
 
+test("the holder puts a convoy together by tapping its robots in order; the follower closes up and shows whom it follows", async () => {
+  await page1.locator('#tabs button[data-tab="fleet"]').click();
+  await page1.locator('#fleet-rows tr[data-robot="r2"]').click();
+  await waitFor("r2's Request control button", async () => (await page1.locator("#actions button").allInnerTexts()).includes("Request control"), 10000);
+  await page1.getByRole("button", { name: "Request control" }).click();
+  await waitFor("op1's Lead a convoy button on r2", async () => (await page1.locator("#actions button").allInnerTexts()).includes("Lead a convoy…"), 10000);
+  assert.ok((await page2.locator("#actions button").allInnerTexts()).every((b) => b !== "Lead a convoy…"), "op2 holds no lock: no convoy");
+  await page1.getByRole("button", { name: "Lead a convoy…" }).click();
+  assert.equal(await page1.locator("#confirm-text").innerText(), "Convoy behind r2: tap the first follower");
+  assert.equal(await page1.locator("#confirm-goto").isDisabled(), true, "no convoy without a follower");
+  await page1.locator('#fleet-rows tr[data-robot="r1"]').click();
+  assert.equal(await page1.locator("#confirm-text").innerText(), "Convoy: r2 ← r1 · tap the next follower, or confirm");
+  await page1.locator('#fleet-rows tr[data-robot="r3"]').click();  // op1 does not hold r3
+  assert.equal(await page1.locator("#confirm-text").innerText(),
+    "Convoy: r2 ← r1 · tap the next follower, or confirm · r3 cannot follow: you do not hold it");
+  await screenshot(page1, "14_convoy_order");
+  await page1.evaluate(() => { window.cairn.state.lastResult = undefined; });
+  await page1.locator("#confirm-goto").click();
+  const result = await waitFor("the convoy answer", () => page1.evaluate(() => window.cairn.state.lastResult));
+  assert.equal(result.ok, true, JSON.stringify(result));
+  assert.equal(result.command, "convoy");
+  // r1 (where the earlier steps left it, near r2) holds behind r2, which stands: it drives up when farther
+  // than the spacing, and stays put when nearer (the spacing itself is cairn_convoy_integration_test's).
+  let last;
+  const holding = await waitFor("r1 holding behind r2", async () => {
+    const r = await robotState(page1, "r1");
+    last = { mode: r?.mode, pose: r?.pose, convoy: r?.convoy, local: r?.local_planner_status };
+    const c = r?.convoy;
+    return r?.mode === "convoy" && c?.state === "holding" && c.ahead[0] === "r2" && c.gap_m !== undefined ? c : undefined;
+  }, 45000).catch((e) => { throw new Error(`${e.message}; r1 last: ${JSON.stringify(last)}`); });
+  console.log(`FIGURE gui_convoy_gap_m ${holding.gap_m.toFixed(2)}`);
+  await page1.locator('#fleet-rows tr[data-robot="r1"]').click();
+  await waitFor("r1's convoy block", async () => /convoy: holding behind r2/.test(await page1.locator("#robot-nav").innerText()), 5000);
+  assert.match(await page1.locator("#convoy").innerText(), /order: r2 ← r1/);
+  assert.match(await page1.locator('#fleet-rows tr[data-robot="r1"]').innerText(), /convoy\s+→ r2/);
+  const buttons = await page1.locator("#actions button").allInnerTexts();
+  for (const b of ["Peel off… (tap the map)", "Stop the convoy"]) assert.ok(buttons.includes(b), `${b} in ${buttons}`);
+  await screenshot(page1, "15_convoy_follower");
+  await page1.getByRole("button", { name: "Stop the convoy" }).click();
+  await waitFor("r1 idle after the convoy", async () => (await robotState(page1, "r1"))?.mode === "idle", 10000);
+});
+
 test("the pages raised no script error", () => {
   assert.deepEqual(page1.errors, [], `op1's page: ${page1.errors}\n${tail("op1")}`);
   assert.deepEqual(page2.errors, [], `op2's page: ${page2.errors}`);

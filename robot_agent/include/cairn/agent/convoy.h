@@ -75,8 +75,13 @@ class ConvoyTrail {
   /// robot ahead than half the spacing): speed matching, not braking to the way's end, keeps the spacing.
   ConvoyDecision Next(const Eigen::Vector3d& follower_M, double now_s);
   /// lost_after_s counts from `now_s`: at the start (a trail never heard is lost after lost_after_s too), and
-  /// after a re-link to a new robot ahead (the trail is kept: the new one drove it too).
-  void Relinked(double now_s) { last_heard_s_ = now_s; }
+  /// after a re-link to a new robot ahead (the trail is kept: the new one drove it too). `slots`: spacings to
+  /// keep to the new robot ahead, >= 1: past k robots that fell silent, k + 1 (they may still stand in line
+  /// between; a real lidar would see them, a simulated one and the peer avoidance no longer do).
+  void Relinked(double now_s, int slots = 1) {
+    last_heard_s_ = now_s;
+    slots_ = slots < 1 ? 1 : slots;
+  }
 
   /// True once the robot ahead (any since the start) was heard.
   bool heard() const { return heard_; }
@@ -99,6 +104,7 @@ class ConvoyTrail {
   Eigen::Vector3d ahead_M_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   double ahead_speed_mps_ = 0.0;
   double last_heard_s_ = -1e9;
+  int slots_ = 1;  // spacings to the robot followed (Relinked())
   bool heard_ = false;
 };
 

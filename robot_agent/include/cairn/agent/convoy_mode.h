@@ -1,13 +1,15 @@
 // Convoy mode (issue 16): a follower drives behind the robot ahead of it in a convoy, on the path that robot
 // drove (ConvoyTrail), through navigation's local planner and controller (Navigation::AcceptGoal with the
 // trail as the global path, StepWaypoint), so that peers and live obstacles are avoided as in waypoint mode.
-// Its target is spacing_m short of the robot ahead along the trail, refreshed as that robot moves: the
-// controller's braking toward the target slows and stops the follower with the robot ahead.
+// It drives at the robot ahead's speed plus a gain times its spacing error (ConvoyTrail::Next), so that it
+// slows and stops with the robot ahead, and tracks the trail itself while no obstacle is near it
+// (StepWaypoint's follow_path: no corner cutting that would add up along the convoy).
 //
 // The robots ahead are given nearest first (the one followed, then the one ahead of it, ... the leader). When
 // the one followed is not heard for lost_after_s, the follower re-links to the nearest one further ahead that
-// is heard (it drove the same trail) and says so; with none heard it stops, lost. A follower whose navigation
-// gives up (blocked) stops too; it tries again once its target has moved on.
+// is heard (it drove the same trail) and says so, keeping a spacing for each robot it re-linked past (a
+// silent robot may still be in line); with none heard it stops, lost. A follower whose navigation gives up
+// (blocked) stops too; it tries again once its target has moved on.
 #pragma once
 
 #include <string>
@@ -79,6 +81,7 @@ class ConvoyMode : public ModeModule {
   ConvoyStatus status_;
   Eigen::Vector2d goal_M_ = Eigen::Vector2d::Zero();  // the target last handed to navigation
   bool has_goal_ = false;
+  int skipped_ = 0;  // robots ahead re-linked past since the operator's last order (silent ones)
   std::uint64_t goal_serial_ = 0;        // Navigation::goal_serial() of that target
   double blocked_target_moved_m_ = 0.0;  // kBlocked: retry once the target moved this far from where it failed
   Eigen::Vector2d blocked_at_M_ = Eigen::Vector2d::Zero();
