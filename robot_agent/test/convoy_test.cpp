@@ -137,6 +137,27 @@ TEST(ConvoyModeTest, ABadOrderIsRefusedNamingTheId) {
 
 // ---- The convoy through the X junction ------------------------------------------------------------------
 
+// Wheeled robots r1, r2, ... in builtin:tunnels at `starts` (frame W = M at the start), stepped in process.
+struct Team {
+  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
+  std::vector<std::unique_ptr<SteppedRobot>> robots;
+};
+Team MakeTeam(const std::vector<core::PlanarPose>& starts) {
+  Team team;
+  for (const core::PlanarPose& start : starts) {
+    AgentOptions options;
+    options.robot_id = "r" + std::to_string(team.robots.size() + 1);
+    options.SetPlatform("wheeled");
+    sim::SimulatedPlatformOptions sim_options;
+    sim_options.world = "builtin:tunnels";
+    sim_options.start_W = start;
+    sim_options.SetProfile(options.navigation.platform);
+    team.platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
+    team.robots.push_back(std::make_unique<SteppedRobot>(options, team.platforms.back(), ""));
+  }
+  return team;
+}
+
 struct ConvoyRun {
   std::vector<Eigen::Vector3d> leader_driven;  // the leader's true positions, 5 cm apart
   std::vector<double> spacing_error_m;         // on straight stretches, every follower, every 0.1 s, moving or not
@@ -175,21 +196,9 @@ ConvoyRun RunConvoy(const std::vector<core::PlanarPose>& starts, const std::vect
   constexpr double kDt = 0.02;
   const auto wall_start = std::chrono::steady_clock::now();
   ConvoyRun run;
-  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
-  std::vector<std::unique_ptr<SteppedRobot>> robots;
+  auto [platforms, robots] = MakeTeam(starts);
   std::vector<std::string> ids;
-  for (std::size_t i = 0; i < starts.size(); ++i) {
-    AgentOptions options;
-    options.robot_id = "r" + std::to_string(i + 1);
-    options.SetPlatform("wheeled");
-    sim::SimulatedPlatformOptions sim_options;
-    sim_options.world = "builtin:tunnels";
-    sim_options.start_W = starts[i];
-    sim_options.SetProfile(options.navigation.platform);
-    platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
-    robots.push_back(std::make_unique<SteppedRobot>(options, platforms.back(), ""));
-    ids.push_back(options.robot_id);
-  }
+  for (std::size_t i = 0; i < starts.size(); ++i) ids.push_back("r" + std::to_string(i + 1));
   // The convoy sits on the tunnel's centre line: its driven path starts at the last follower.
   run.leader_driven = {{starts.back().x_m, starts.back().y_m, 0.0}, {starts[0].x_m, starts[0].y_m, 0.0}};
   for (std::size_t i = 1; i < robots.size(); ++i) {
@@ -298,19 +307,7 @@ TEST(ConvoyTest, ThreeFollowersKeepTheSpacingOnTheLeadersPathThroughTheXJunction
 // A follower sent to a goal (peel) leaves the convoy and drives there: the convoy, deactivated after the
 // waypoint mode set its goal (the agent's order), does not drop that goal from navigation.
 TEST(ConvoyTest, AFollowerSentToAGoalLeavesTheConvoyAndArrives) {
-  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
-  std::vector<std::unique_ptr<SteppedRobot>> robots;
-  for (const double x : {14.0, 11.0}) {
-    AgentOptions options;
-    options.robot_id = "r" + std::to_string(robots.size() + 1);
-    options.SetPlatform("wheeled");
-    sim::SimulatedPlatformOptions sim_options;
-    sim_options.world = "builtin:tunnels";
-    sim_options.start_W = {x, 20.0, 0.0};
-    sim_options.SetProfile(options.navigation.platform);
-    platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
-    robots.push_back(std::make_unique<SteppedRobot>(options, platforms.back(), ""));
-  }
+  auto [platforms, robots] = MakeTeam({{14.0, 20.0, 0.0}, {11.0, 20.0, 0.0}});
   ASSERT_EQ(robots[1]->Follow({"r1"}, 0.0), "");
   double t = 0;
   auto step = [&](double seconds) {
@@ -341,19 +338,7 @@ TEST(ConvoyTest, AFollowerSentToAGoalLeavesTheConvoyAndArrives) {
 // line, and is); then nobody hears the leader r1: r2 and r3, with nothing further ahead to follow, stop as
 // lost. Nobody touches anybody.
 TEST(ConvoyTest, AFollowerReLinksPastASilentRobotAndStopsWhenNoneAheadIsHeard) {
-  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
-  std::vector<std::unique_ptr<SteppedRobot>> robots;
-  for (const double x : {14.0, 11.0, 8.0}) {
-    AgentOptions options;
-    options.robot_id = "r" + std::to_string(robots.size() + 1);
-    options.SetPlatform("wheeled");
-    sim::SimulatedPlatformOptions sim_options;
-    sim_options.world = "builtin:tunnels";
-    sim_options.start_W = {x, 20.0, 0.0};
-    sim_options.SetProfile(options.navigation.platform);
-    platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
-    robots.push_back(std::make_unique<SteppedRobot>(options, platforms.back(), ""));
-  }
+  auto [platforms, robots] = MakeTeam({{14.0, 20.0, 0.0}, {11.0, 20.0, 0.0}, {8.0, 20.0, 0.0}});
   ASSERT_EQ(robots[1]->Follow({"r1"}, 0.0), "");
   ASSERT_EQ(robots[2]->Follow({"r2", "r1"}, 0.0), "");
   ASSERT_EQ(robots[0]->Goto(27.0, 20.0, 0.0), "");
