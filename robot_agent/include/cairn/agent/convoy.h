@@ -1,9 +1,9 @@
 // Convoy (issue 16; Sriganesh et al. 2024, § Advanced Multi-agent Coordination): followers keep behind the
 // robot ahead of them on the path it actually drove, at a spacing along that path. The robot ahead's pose
 // comes from its peer state (cairn/peer_state, peers.h); a follower keeps those poses as breadcrumbs (its
-// trail), places itself on the trail and drives to the point `spacing_m` short of the robot ahead along it,
-// so that it takes the corners the robot ahead took (never the chord through a wall) and slows and stops
-// with it. All positions are in the team's map frame M, metres.
+// trail), places itself on the trail and drives along it at the robot ahead's speed, corrected by its spacing
+// error (the gap along the trail minus `spacing_m`), so that it takes the corners the robot ahead took (never
+// the chord through a wall) and slows and stops with it. All positions are in the team's map frame M, metres.
 #pragma once
 
 #include <Eigen/Core>
@@ -45,8 +45,9 @@ struct ConvoyDecision {
     kLost,    ///< the robot ahead was not heard for lost_after_s: stop
   };
   Kind kind = Kind::kHold;
-  /// kFollow: the trail from the follower's place on it to the target (spacing_m short of the robot ahead
-  /// along it), frame M, metres; the first point is the follower's own position.
+  /// kFollow: the trail from the follower's place on it to kTargetBeyondM past the spacing point (never
+  /// nearer the robot ahead than half the spacing), frame M, metres; the first point is the follower's own
+  /// position.
   std::vector<Eigen::Vector3d> path_M;
   /// Distance from the follower to the robot ahead along the trail, metres (NaN before the robot ahead was
   /// heard).
