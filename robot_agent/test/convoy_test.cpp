@@ -142,6 +142,13 @@ struct Team {
   std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
   std::vector<std::unique_ptr<SteppedRobot>> robots;
 };
+// One control cycle of every robot at `now_s`, each waiting (wall time) for the plan its next step needs.
+void StepAll(const std::vector<std::unique_ptr<SteppedRobot>>& robots, double now_s) {
+  for (const auto& robot : robots) {
+    robot->Step(now_s);
+    while (robot->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
 Team MakeTeam(const std::vector<core::PlanarPose>& starts) {
   Team team;
   for (const core::PlanarPose& start : starts) {
@@ -215,10 +222,7 @@ ConvoyRun RunConvoy(const std::vector<core::PlanarPose>& starts, const std::vect
       EXPECT_EQ(why, "") << "goal " << next_goal;
       ++next_goal;
     }
-    for (std::size_t i = 0; i < robots.size(); ++i) {
-      robots[i]->Step(t);
-      while (robots[i]->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
+    StepAll(robots, t);
     if (cycle % 10 == 0) {
       for (std::size_t i = 0; i < robots.size(); ++i) {
         const PeerBody self = robots[i]->PeerState();
@@ -313,10 +317,7 @@ TEST(ConvoyTest, AFollowerSentToAGoalLeavesTheConvoyAndArrives) {
   auto step = [&](double seconds) {
     for (const double end = t + seconds; t < end;) {
       t += 0.02;
-      for (auto& robot : robots) {
-        robot->Step(t);
-        while (robot->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-      }
+      StepAll(robots, t);
       for (std::size_t i = 0; i < robots.size(); ++i) {
         EXPECT_EQ(robots[1 - i]->OnPeerState(robots[i]->PeerState(), t), "");
       }
@@ -348,10 +349,7 @@ TEST(ConvoyTest, AFollowerReLinksPastASilentRobotAndStopsWhenNoneAheadIsHeard) {
   auto step = [&](double seconds) {
     for (const double end = t + seconds; t < end;) {
       t += 0.02;
-      for (auto& robot : robots) {
-        robot->Step(t);
-        while (robot->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-      }
+      StepAll(robots, t);
       for (std::size_t i = 0; i < 3; ++i) {
         for (std::size_t j = 0; j < 3; ++j) {
           if (i != j && heard[i][j]) {
