@@ -130,13 +130,21 @@ ConvoyDecision ConvoyTrail::Next(const Eigen::Vector3d& follower_M, double now_s
   return command;
 }
 
-double DistanceToPath2D(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& p) {
-  if (path.empty()) return std::numeric_limits<double>::infinity();
-  double best = Distance2D(path.front(), p);
+PathProjection ProjectOntoPath2D(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& p) {
+  PathProjection best{std::numeric_limits<double>::infinity(), 0.0};
+  if (path.empty()) return best;
+  best.distance_m = Distance2D(path.front(), p);
+  double along = 0;
   for (std::size_t i = 0; i + 1 < path.size(); ++i) {
-    best = std::min(best, Distance2D(NearestOnSegment2D(path[i], path[i + 1], p), p));
+    const Eigen::Vector3d q = NearestOnSegment2D(path[i], path[i + 1], p);
+    if (const double d = Distance2D(q, p); d < best.distance_m) best = {d, along + Distance2D(path[i], q)};
+    along += Distance2D(path[i], path[i + 1]);
   }
   return best;
+}
+
+double DistanceToPath2D(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& p) {
+  return ProjectOntoPath2D(path, p).distance_m;
 }
 
 }  // namespace cairn::agent

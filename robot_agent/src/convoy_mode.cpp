@@ -68,8 +68,7 @@ std::string ConvoyMode::Start(const std::string& own_id, const std::vector<std::
   // A re-link to a robot already ahead (the one followed peeled off): it drove the same trail, which is kept.
   const bool same_trail = active() && std::find(status_.ahead_ids.begin(), status_.ahead_ids.end(),
                                                 ahead_ids.front()) != status_.ahead_ids.end();
-  if (has_goal_) navigation_->ClearGoal(goal_serial_);
-  has_goal_ = false;
+  DropGoal();
   if (!same_trail) trail_ = ConvoyTrail(options_);
   skipped_ = 0;  // the operator's order: every robot ahead is named
   trail_.Relinked(now_s);
@@ -117,15 +116,18 @@ void ConvoyMode::SetPeers(const std::vector<PeerBody>& peers, double now_s) {
 
 void ConvoyMode::Deactivate(const std::string& why) {
   if (!active()) return;
-  if (has_goal_) navigation_->ClearGoal(goal_serial_);
-  has_goal_ = false;
+  DropGoal();
   status_.state = ConvoyStatus::State::kNone;
   status_.reason = why;
 }
 
-ModeOutput ConvoyMode::Stop(ConvoyStatus::State state, const std::string& reason, const ModeInputs& in) {
+void ConvoyMode::DropGoal() {
   if (has_goal_) navigation_->ClearGoal(goal_serial_);
   has_goal_ = false;
+}
+
+ModeOutput ConvoyMode::Stop(ConvoyStatus::State state, const std::string& reason, const ModeInputs& in) {
+  DropGoal();
   status_.state = state;
   status_.reason = reason;
   ModeOutput out;

@@ -447,9 +447,10 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
     return CommandOutcome{true, "left the convoy: idle", 0};
   }
   const bool was_following = convoy_->active() && modes_->mode() == convoy_->name();
-  const std::string refused = convoy_->Start(options_.robot_id, c.ahead_ids, NowS(SteadyClock::now()));
+  const double now_s = NowS(SteadyClock::now());
+  const std::string refused = convoy_->Start(options_.robot_id, c.ahead_ids, now_s);
   if (!refused.empty()) return CommandOutcome{false, refused, 0};
-  convoy_->SetPeers(peers_.Live(NowS(SteadyClock::now())), NowS(SteadyClock::now()));
+  convoy_->SetPeers(peers_.Live(now_s), now_s);
   if (!was_following) {
     const ModeDecision d = modes_->Request(convoy_->name(), Conditions());
     if (!d.accepted) {

@@ -180,19 +180,7 @@ struct ConvoyRun {
 
 // Arc length of the projection of `p` onto `path` (x-y), metres.
 double AlongPath(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& p) {
-  double best = std::numeric_limits<double>::infinity(), best_along = 0, along = 0;
-  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
-    const Eigen::Vector2d a = path[i].head<2>(), ab = (path[i + 1] - path[i]).head<2>();
-    const double len = ab.norm();
-    const double t = len > 0 ? std::clamp((p.head<2>() - a).dot(ab) / (len * len), 0.0, 1.0) : 0.0;
-    const double d = (a + t * ab - p.head<2>()).norm();
-    if (d < best) {
-      best = d;
-      best_along = along + t * len;
-    }
-    along += len;
-  }
-  return best_along;
+  return ProjectOntoPath2D(path, p).along_m;
 }
 
 // Leader r1 at `starts[0]` drives by waypoints through `goals`; r2.. follow it in that order. Every robot

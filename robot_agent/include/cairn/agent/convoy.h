@@ -109,8 +109,15 @@ class ConvoyTrail {
   bool heard_ = false;
 };
 
-/// Distance from `p` to the polyline `path` in x-y, metres (infinity for an empty path): how far a follower
-/// strayed from the path the leader drove.
+/// Where `p` projects onto the polyline `path` in x-y: its distance to the path and the arc length of the
+/// nearest point from the path's start, metres (infinity and 0 for an empty path; a single point: that
+/// point).
+struct PathProjection {
+  double distance_m = 0.0;
+  double along_m = 0.0;
+};
+PathProjection ProjectOntoPath2D(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& p);
+/// ProjectOntoPath2D(path, p).distance_m: how far a follower strayed from the path the leader drove.
 double DistanceToPath2D(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& p);
 
 }  // namespace cairn::agent

@@ -74,6 +74,8 @@ class ConvoyMode : public ModeModule {
 
  private:
   ModeOutput Stop(ConvoyStatus::State state, const std::string& reason, const ModeInputs& in);
+  // Drops the target it handed to navigation, if navigation still holds it (Navigation::ClearGoal(serial)).
+  void DropGoal();
 
   ConvoyOptions options_;
   Navigation* navigation_;
