@@ -96,8 +96,9 @@ chmod 644 "$DIR/ca.pem"
 # Topics by who publishes them (robot_agent/src/agent_dds.cpp, basestation/src/fleet_client.cpp).
 ROBOT_TOPICS=(cairn/agent_info cairn/robot_state cairn/robot_pose cairn/bt_state cairn/global_path cairn/local_plan
               cairn/staircase cairn/camera cairn/map_update cairn/command_response cairn/path_response
-              cairn/link_probe_reply cairn/explore_claim cairn/peer_state cairn/health)
-BASE_TOPICS=(cairn/base_info cairn/link_probe cairn/map_sync_request)
+              cairn/link_probe_reply cairn/explore_claim cairn/peer_state cairn/health cairn/yield_request)
+# cairn/yield_request is not a command topic: robots ask one another to get out of the way, operators too.
+BASE_TOPICS=(cairn/base_info cairn/link_probe cairn/map_sync_request cairn/yield_request)
 COMMAND_TOPICS=(cairn/control_request cairn/mode_request cairn/waypoint_goal cairn/explore_request
                 cairn/home_request cairn/stop_request cairn/teleop cairn/path_request cairn/restart_request
                 cairn/convoy_request)

@@ -94,6 +94,7 @@ json ViewJson(const RobotView& v, const std::string& base_id) {
     j["stopped_by"] = s.stopped_by();
     j["exploration"] = ExplorationJson(s);
     j["convoy"] = ConvoyJson(s);
+    j["yield"] = {{"state", s.yield_state()}, {"peer", s.yield_peer_id()}, {"reason", s.yield_reason()}};
   }
   if (v.tree) {
     j["valid_modes"] = v.tree->valid_modes();
@@ -151,7 +152,8 @@ const std::vector<std::string>& CommandShell::CommandNames() {
       "goto",   "path",    "plan",     "teleop",          "stop",        "wait",
       "sleep",  "map",     "snapshot", "stairs",          "events",      "place",
       "places", "links",   "explore",  "frontiers",       "home",        "resume-goal",
-      "health", "restart", "help",     "convoy",          "convoy-stop", "peel"};
+      "health", "restart", "help",     "convoy",          "convoy-stop", "peel",
+      "yield"};
   return kNames;
 }
 
@@ -208,6 +210,12 @@ std::string CommandShell::Help() {
          "  peel R POINT [TOL]                  follower R leaves its convoy for POINT; the robots behind it "
          "close\n"
          "                                      up behind the robot ahead of it\n"
+         "  yield R [for A]                     R gets out of A's way (A: the robot whose route passes R):\n"
+         "                                      it drives to the nearest spot on its own map that clears "
+         "A's\n"
+         "                                      route, waits until A has passed and comes back; refused "
+         "(with\n"
+         "                                      the reason) in manual control or a mode outside its policy\n"
          "  home R [POINT] [--z Z_M] [--wait [TIMEOUT_S]]  R drives back to where it started (or to POINT) "
          "on\n"
          "                                      its own map, from any mode; --wait as goto's\n"
@@ -360,7 +368,7 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
         "status",  "request-control", "release",     "mode", "goto",        "path",
         "plan",    "teleop",          "stop",        "wait", "map",         "snapshot",
         "help",    "explore",         "frontiers",   "home", "resume-goal", "health",
-        "restart", "convoy",          "convoy-stop", "peel"};
+        "restart", "convoy",          "convoy-stop", "peel", "yield"};
     if (arg == 1 && std::find(kRobotFirst.begin(), kRobotFirst.end(), cmd) != kRobotFirst.end()) {
       pool = client_.RobotIds();
       if (cmd == "stop") pool.push_back("all");
@@ -426,6 +434,7 @@ int CommandShell::Run(const std::string& line) {
   if (cmd == "convoy") return Convoy(args);
   if (cmd == "convoy-stop") return ConvoyStop(args);
   if (cmd == "peel") return Peel(args);
+  if (cmd == "yield") return Yield(args);
   if (cmd == "mode") return need(2, "mode R MODE") ? Mode(args) : kUsage;
   if (cmd == "stop") return need(1, "stop R|all") ? Stop(args) : kUsage;
   if (cmd == "goto" || cmd == "home") return Goto(cmd, args);
@@ -635,6 +644,10 @@ int CommandShell::Status(const std::vector<std::string>& args) {
     out_ << "\n";
     if (s.explore_task_id() != 0) out_ << "  explore   " << ExplorationText(s) << "\n";
     if (!s.convoy_ahead_ids().empty()) out_ << "  convoy    " << ConvoyText(s) << "\n";
+    if (!s.yield_state().empty()) {
+      out_ << "  yield     " << s.yield_state() << " (" << s.yield_peer_id() << "): " << s.yield_reason()
+           << "\n";
+    }
     if (s.stops() > 0) out_ << "  stops     " << s.stops() << ", last by " << s.stopped_by() << "\n";
   }
   if (v.tree && !v.tree->last_refusal().empty()) {
@@ -694,7 +707,8 @@ int CommandShell::HelpFor(const std::string& robot) {
       {"stop", "stop R|all"},
       {"convoy", "convoy LEADER R1 [R2 ...]"},
       {"peel", "peel R POINT [TOL]"},
-      {"convoy-stop", "convoy-stop [LEADER]"}};
+      {"convoy-stop", "convoy-stop [LEADER]"},
+      {"yield", "yield R [for A]"}};
   for (const auto& action : actions) {
     const std::string verb = action.substr(0, action.find(' '));
     if (auto it = kUsage.find(verb); it != kUsage.end()) out_ << "  " << it->second << "\n";

@@ -5,6 +5,8 @@
 // convoy_ahead_ids, nearest first, the leader last), so that convoy-stop and peel work from any shell of the
 // basestation that holds the robots, and after a restart of it.
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <set>
 #include <thread>
 
@@ -214,6 +216,87 @@ int CommandShell::Peel(const std::vector<std::string>& args) {
   std::vector<CommandOutcome> outcomes = {goal};
   for (CommandOutcome& o : SendConvoys(behind, relinked)) outcomes.push_back(std::move(o));
   return ReportEach("peel", robot, robots, outcomes, /*always_list=*/true);
+}
+
+int CommandShell::Yield(const std::vector<std::string>& args) {
+  constexpr const char* kUsageText = "usage: yield R [for A] (R gets out of A's way)";
+  if (args.empty() || args.size() == 2 || args.size() > 3 || (args.size() == 3 && args[1] != "for")) {
+    return UsageError("yield", kUsageText);
+  }
+  const std::string& robot = args[0];
+  if (RefuseUnknown("yield", robot)) return kRefused;
+  if (args.size() == 3 && RefuseUnknown("yield", args[2])) return kRefused;
+  if (args.size() == 3 && args[2] == robot)
+    return UsageError("yield", robot + " cannot get out of its own way");
+  client_.WaitUntil(robot, 3.0, [](const RobotView& v) { return v.state.has_value() || v.lost; });
+  const auto view = FreshView(robot);
+  CommandOutcome o;
+  o.result = outcome::kRefused;
+  if (!view || !view->state) {
+    o.reason = "no state from " + robot + " yet";
+    return Report("yield", robot, o);
+  }
+  const std::string passing =
+      args.size() == 3 ? args[2] : RobotWhoseRoutePasses(client_.Robots(), *view, 1.5);
+  if (passing.empty()) {
+    o.reason =
+        "no robot's route passes " + robot + ": name the robot to let pass (yield " + robot + " for A)";
+    return Report("yield", robot, o);
+  }
+  const auto other = client_.Robot(passing);
+  if (!other || !other->state || !other->global_path || other->global_path->path_M().empty()) {
+    o.reason = passing + " has no route to keep clear (send it a goal first)";
+    return Report("yield", robot, o);
+  }
+  // Its route from where it is: from the path's point nearest it on, at most 32 points (the IDL's bound).
+  const auto& pose = other->state->pose_MB().position();
+  const auto& path = other->global_path->path_M();
+  std::size_t nearest = 0;
+  double nearest_d = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    const double d = std::hypot(path[i].x_m() - pose.x_m(), path[i].y_m() - pose.y_m());
+    if (d < nearest_d) {
+      nearest_d = d;
+      nearest = i;
+    }
+  }
+  std::vector<Eigen::Vector2d> keep_clear = {{pose.x_m(), pose.y_m()}};
+  const std::size_t left = path.size() - nearest;
+  const std::size_t stride = (left + 30) / 31;
+  for (std::size_t i = nearest; i < path.size(); i += std::max<std::size_t>(stride, 1))
+    keep_clear.emplace_back(path[i].x_m(), path[i].y_m());
+  if (keep_clear.back() != Eigen::Vector2d(path.back().x_m(), path.back().y_m()) && keep_clear.size() < 32)
+    keep_clear.emplace_back(path.back().x_m(), path.back().y_m());
+  const double radius_m = other->footprint_radius_m > 0 ? other->footprint_radius_m : 0.35;
+  // The answer is the robot's yield state; the request goes again once if none came.
+  auto answered = [&](const RobotView& v) {
+    return v.lost || (v.state && v.state->yield_peer_id() == passing && !v.state->yield_state().empty() &&
+                      v.state->yield_state() != "returning");
+  };
+  std::optional<RobotView> answer;
+  for (int attempt = 0; attempt < 2 && !answer; ++attempt) {
+    if (!client_.SendYield(robot, passing, radius_m, keep_clear)) {
+      o.result = outcome::kFailed;
+      o.reason = "the yield request could not be sent (DDS history full)";
+      return Report("yield", robot, o);
+    }
+    answer = client_.WaitUntil(robot, 2.5, answered);
+  }
+  if (!answer || !answer->state || answer->lost) {
+    o.result = outcome::kTimedOut;
+    o.reason = robot + " did not answer within 5 s";
+    return Report("yield", robot, o);
+  }
+  const std::string& state = answer->state->yield_state();
+  o.ok = state != "refused";
+  o.answered = true;
+  o.result = o.ok ? outcome::kAccepted : outcome::kRefused;
+  o.reason = (o.ok ? "gets out of " + passing + "'s way: " : "refused to yield to " + passing + ": ") +
+             answer->state->yield_reason();
+  o.robot_reason = answer->state->yield_reason();
+  o.mode = answer->state->mode();
+  o.holder_id = answer->state->holder_id();
+  return Report("yield", robot, o);
 }
 
 }  // namespace cairn::base

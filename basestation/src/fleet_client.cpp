@@ -182,6 +182,9 @@ class FleetClient::Impl {
             v.max_reverse_speed_mps =
                 std::isfinite(m.max_reverse_speed_mps()) ? std::max(0.0, m.max_reverse_speed_mps()) : 0.0;
             v.max_yaw_rate_radps = std::isfinite(m.max_yaw_rate_radps()) ? std::max(0.0, m.max_yaw_rate_radps()) : 0.0;
+            v.footprint_radius_m = std::isfinite(m.footprint_radius_m()) && m.footprint_radius_m() <= 5.0
+                                       ? std::max(0.0, m.footprint_radius_m())
+                                       : 0.0;
           });
           // How long the announcement took to arrive, by the robot's wall clock against ours (a figure of
           // discovery when the clocks are synchronized; the fleet join test reads it).
@@ -590,6 +593,9 @@ class FleetClient::Impl {
   std::mutex command_writers_mutex_;
   std::map<std::string, std::shared_ptr<void>> command_writers_;  // by topic name: core::Writer<...>
   std::unique_ptr<core::Writer<msgs::PingPongPubSubType>> probe_writer_;
+  std::mutex yield_mutex_;                                                    // guards the two below
+  std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>> yield_writer_;  // made by the first SendYield
+  std::uint32_t next_yield_id_ = 1;
   // Under DDS Security: the robots this base may command ("*": all; empty: an observer). Unset without it.
   std::optional<std::vector<std::string>> commandable_;
   std::unique_ptr<core::Reader<msgs::PingPongPubSubType>> probe_reply_reader_;
@@ -805,6 +811,31 @@ CommandOutcome FleetClient::SendConvoy(const std::string& robot_id,
     m.ahead_ids(ahead_ids);
     return impl_->CommandWriter<msgs::ConvoyRequestPubSubType>("cairn/convoy_request", robot_id).Write(m);
   });
+}
+
+bool FleetClient::SendYield(const std::string& robot_id, const std::string& passing_id,
+                            double passing_radius_m, const std::vector<Eigen::Vector2d>& keep_clear_M) {
+  std::lock_guard<std::mutex> lock(impl_->yield_mutex_);
+  if (!impl_->yield_writer_) {
+    impl_->yield_writer_ = std::make_unique<core::Writer<msgs::YieldRequestPubSubType>>(
+        *impl_->participant_, "cairn/yield_request", "cairn.command");
+    // A new writer's first sample would reach only the readers already matched: give discovery a moment.
+    impl_->yield_writer_->WaitForMatched(1, std::chrono::milliseconds(1500));
+  }
+  msgs::YieldRequest m;
+  m.robot_id(robot_id);
+  m.sender_id(base_id());
+  m.request_id(impl_->next_yield_id_++);
+  m.action(msgs::YIELD_ACTION_ASK);
+  m.passing_id(passing_id);
+  m.passing_radius_m(static_cast<float>(passing_radius_m));
+  for (const Eigen::Vector2d& p : keep_clear_M) {
+    msgs::PeerPathPoint q;
+    q.x_m(static_cast<float>(p.x()));
+    q.y_m(static_cast<float>(p.y()));
+    m.keep_clear_M().push_back(q);
+  }
+  return impl_->yield_writer_->Write(m);
 }
 
 CommandOutcome FleetClient::SendHome(const std::string& robot_id, const std::optional<Eigen::Vector3d>& point_M) {

@@ -86,6 +86,8 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
     now.convoy_state = view.state->convoy_state();
     const auto& ahead = view.state->convoy_ahead_ids();
     now.convoy_ahead = ahead.empty() ? "" : ahead.front();
+    now.yield_state = view.state->yield_state();
+    now.yield_peer = view.state->yield_peer_id();
   }
   // Joining is presence, not old news: a basestation that starts hears who is there.
   if (now.announced && (found == last_.end() || !found->second.announced)) {
@@ -121,6 +123,8 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
     last.nav_reason = first.nav_reason();
     last.convoy_state = first.convoy_state();
     last.convoy_ahead = first.convoy_ahead_ids().empty() ? "" : first.convoy_ahead_ids().front();
+    last.yield_state = first.yield_state();
+    last.yield_peer = first.yield_peer_id();
     last.has_state = true;
   }
   if (now.left && !last.left) {
@@ -173,6 +177,36 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
                               r + " now follows " + now.convoy_ahead + " (was " + last.convoy_ahead + ")");
       e.other = now.convoy_ahead;
       events->push_back(e);
+    }
+    // Get-out-of-the-way: a yield starting, refused, ended; a robot asking, or blocked by a refusal.
+    if ((now.yield_state != last.yield_state || now.yield_peer != last.yield_peer) &&
+        (now.yield_state != "aside" || last.yield_state != "moving_aside")) {
+      const std::string& peer = now.yield_state.empty() ? last.yield_peer : now.yield_peer;
+      const std::string& why = s.yield_reason();
+      std::string kind, message;
+      if (now.yield_state == "moving_aside" || now.yield_state == "aside") {
+        kind = "yield_moving_aside";
+        message = r + " gets out of " + peer + "'s way: " + why;
+      } else if (now.yield_state == "refused") {
+        kind = "yield_refused";
+        message = r + " refused to yield to " + peer + ": " + why;
+      } else if (now.yield_state == "asking") {
+        kind = "yield_asking";
+        message = r + ": " + why;
+      } else if (now.yield_state == "blocked") {
+        kind = "yield_blocked";
+        message = r + " " + why;
+      } else if (now.yield_state.empty() && (last.yield_state == "aside" || last.yield_state == "returning" ||
+                                             last.yield_state == "moving_aside")) {
+        kind = "yield_returned";
+        message = r + ": " + why;
+      }
+      if (!kind.empty()) {
+        OperatorEvent e = Event(kind, r, message);
+        e.other = peer;
+        e.reason = why;
+        events->push_back(e);
+      }
     }
     if (now.stops > last.stops) {
       OperatorEvent e = Event("stopped", r, r + " stopped by " + s.stopped_by());

@@ -70,6 +70,10 @@ OperatorReason ExplainReason(const std::string& robot_id, const std::string& rea
        }},
       {"HasExploreTask", [](const std::string& r,
                             const std::string&) { return "explore mode needs a task: use explore " + r; }},
+      {"HasYieldTask",
+       [](const std::string& r, const std::string&) {
+         return r + " gets out of the way only when asked: use yield " + r;
+       }},
       {"HasConvoyTask",
        [](const std::string& r, const std::string&) {
          return "convoy mode needs the robots ahead: use convoy LEADER ... " + r + " (in order)";
@@ -90,8 +94,16 @@ OperatorReason ExplainReason(const std::string& robot_id, const std::string& rea
 std::vector<std::string> ValidActions(const RobotView& view, const std::string& base_id) {
   if (view.lost || !view.state) return {"stop"};  // a stop is always allowed (and sent even to a lost robot)
   const std::string& holder = view.state->holder_id();
-  if (holder.empty()) return {"request-control", "stop"};
-  if (holder != base_id) return {"stop"};
+  // Get out of the way: any basestation may ask (the robot's yield policy decides, not the lock), but never
+  // a robot an operator drives, nor one already yielding.
+  const std::string& now = view.state->mode();
+  const bool can_yield = now != "manual" && now != "smart_joystick" && now != "yield";
+  if (holder.empty()) {
+    return can_yield ? std::vector<std::string>{"request-control", "yield", "stop"}
+                     : std::vector<std::string>{"request-control", "stop"};
+  }
+  if (holder != base_id)
+    return can_yield ? std::vector<std::string>{"yield", "stop"} : std::vector<std::string>{"stop"};
   std::vector<std::string> actions;
   std::string modes;
   bool can_teleop = false, can_goto = false, can_explore = false;
@@ -120,9 +132,33 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
     actions.push_back("convoy-stop");
   }
   if (can_teleop) actions.push_back("teleop");
+  if (can_yield) actions.push_back("yield");
   actions.push_back("release");
   actions.push_back("stop");
   return actions;
+}
+
+std::string RobotWhoseRoutePasses(const std::vector<RobotView>& fleet, const RobotView& robot,
+                                  double within_m) {
+  if (!robot.state) return "";
+  const Eigen::Vector2d p(robot.state->pose_MB().position().x_m(), robot.state->pose_MB().position().y_m());
+  std::string best;
+  double best_d = within_m;
+  for (const RobotView& other : fleet) {
+    if (other.robot_id == robot.robot_id || other.lost || !other.global_path || !other.state) continue;
+    const auto& path = other.global_path->path_M();
+    for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+      const Eigen::Vector2d a(path[i].x_m(), path[i].y_m()), b(path[i + 1].x_m(), path[i + 1].y_m());
+      const Eigen::Vector2d ab = b - a;
+      const double t = ab.squaredNorm() > 0 ? std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+      const double d = (a + t * ab - p).norm();
+      if (d <= best_d) {
+        best_d = d;
+        best = other.robot_id;
+      }
+    }
+  }
+  return best;
 }
 
 std::string DescribeAgent(const RobotView& view) {

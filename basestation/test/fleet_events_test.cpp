@@ -135,6 +135,44 @@ TEST(FleetEventDetector, EachRecoveryAttemptIsToldAsItFails) {
   EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"arrived"}));
 }
 
+// Get-out-of-the-way (issue 16): the robot asked moving aside, refusing and back; the robot asking and
+// blocked. Moving aside then standing aside is one event.
+TEST(FleetEventDetector, EachStepOfAYieldIsToldOnceOnBothRobots) {
+  FleetEventDetector detector;
+  RobotView ya = Robot("ya", 0, 0), yb = Robot("yb", 10, 0);
+  EXPECT_TRUE(detector.Observe({ya, yb}).empty());
+  ya.state->yield_state("asking");
+  ya.state->yield_peer_id("yb");
+  ya.state->yield_reason("asked yb, 8.0 m ahead in a passage too narrow to pass, to get out of the way");
+  yb.state->yield_state("moving_aside");
+  yb.state->yield_peer_id("ya");
+  yb.state->yield_reason("moving aside for ya to (19.5, 6.2), 6.0 m away");
+  auto events = detector.Observe({ya, yb});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"yield_asking", "yield_moving_aside"}));
+  EXPECT_EQ(events[0].other, "yb");
+  EXPECT_EQ(events[1].message, "yb gets out of ya's way: moving aside for ya to (19.5, 6.2), 6.0 m away");
+  yb.state->yield_state("aside");
+  EXPECT_TRUE(detector.Observe({ya, yb}).empty()) << "standing aside is the same step";
+  yb.state->yield_state("returning");
+  EXPECT_TRUE(detector.Observe({ya, yb}).empty());
+  yb.state->yield_state("");
+  yb.state->yield_reason("back at (14.0, 5.0) after yielding to ya");
+  events = detector.Observe({ya, yb});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"yield_returned"}));
+  EXPECT_EQ(events[0].message, "yb: back at (14.0, 5.0) after yielding to ya");
+  EXPECT_EQ(events[0].other, "ya");
+
+  yb.state->yield_state("refused");
+  yb.state->yield_reason("in manual control: its operator drives it");
+  ya.state->yield_state("blocked");
+  ya.state->yield_reason(
+      "blocked by yb 7.8 m ahead; it refused to yield: in manual control: its operator drives it");
+  events = detector.Observe({ya, yb});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"yield_blocked", "yield_refused"}));
+  EXPECT_EQ(events[1].message, "yb refused to yield to ya: in manual control: its operator drives it");
+  EXPECT_TRUE(detector.Observe({ya, yb}).empty()) << "told once";
+}
+
 // The grant of this basestation's own request-control reached it before the detector's first look at r1:
 // the first whole state it received is the baseline, so the grant is still told; older news is not.
 TEST(FleetEventDetector, ChangesAfterTheFirstWholeStateAreToldEvenBeforeTheFirstLook) {

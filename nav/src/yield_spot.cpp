@@ -63,6 +63,7 @@ YieldSpot FindYieldSpot(const TraversabilityGrid& grid, const YieldSpotRequest& 
   std::vector<double> dist(static_cast<std::size_t>(nx) * static_cast<std::size_t>(grid.ny()),
                            std::numeric_limits<double>::infinity());
   using Entry = std::pair<double, int>;  // (drive metres, cell index)
+  std::vector<int> parent(dist.size(), -1);
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
   dist[static_cast<std::size_t>(sy) * nx + sx] = 0.0;
   open.push({0.0, sy * nx + sx});
@@ -84,6 +85,10 @@ YieldSpot FindYieldSpot(const TraversabilityGrid& grid, const YieldSpotRequest& 
         spot.p_W = c;
         spot.drive_m = d;
         spot.clearance_m = clear;
+        for (int k = index; k >= 0; k = parent[static_cast<std::size_t>(k)])
+          spot.path_W.push_back(grid.CellCenter(k % nx, k / nx));
+        std::reverse(spot.path_W.begin(), spot.path_W.end());
+        if (spot.path_W.size() > 1) spot.path_W.front() = request.from_W;  // from the robot itself
         return spot;
       }
     }
@@ -97,6 +102,7 @@ YieldSpot FindYieldSpot(const TraversabilityGrid& grid, const YieldSpotRequest& 
       const std::size_t j = static_cast<std::size_t>(jy) * nx + jx;
       if (nd < dist[j]) {
         dist[j] = nd;
+        parent[j] = index;
         open.push({nd, jy * nx + jx});
       }
     }
@@ -105,6 +111,24 @@ YieldSpot FindYieldSpot(const TraversabilityGrid& grid, const YieldSpotRequest& 
                 Num(request.max_drive_m) + " m of driving (" + std::to_string(searched) + " cells of " +
                 Num(cell) + " m searched)";
   return spot;
+}
+
+bool CanPassBeside(const TraversabilityGrid& grid, const Eigen::Vector2d& peer_W,
+                   const Eigen::Vector2d& direction_W, double offset_m, double robot_radius_m,
+                   double along_m) {
+  if (!(direction_W.norm() > 1e-9) || !peer_W.allFinite()) return false;
+  const Eigen::Vector2d along = direction_W.normalized();
+  const Eigen::Vector2d across(-along.y(), along.x());
+  const double step = grid.cell_size_m();
+  for (double t = -along_m; t <= along_m + 1e-9; t += step) {
+    for (const double side : {-1.0, 1.0}) {
+      const Eigen::Vector2d q = peer_W + t * along + side * offset_m * across;
+      int ix = 0, iy = 0;
+      if (grid.CellOf(q.x(), q.y(), &ix, &iy) && grid.IsTraversableFor(ix, iy, robot_radius_m)) return true;
+    }
+    if (along_m <= 0) break;
+  }
+  return false;
 }
 
 }  // namespace cairn::nav

@@ -46,6 +46,35 @@ TEST(YieldSpotTest, ARobotInANarrowTunnelStandsAsideInTheSidePassage) {
   EXPECT_GE(spot.clearance_m, 0.9);
   EXPECT_NEAR(spot.drive_m, 3.9, 0.8) << "about 3.3 m east and 0.9 m north, on 8-connected cells";
   EXPECT_TRUE(grid.IsFootprintFree(spot.p_W.x(), spot.p_W.y(), 0.3));
+  // The way there starts at the robot, ends at the spot, steps from cell to cell and stays drivable.
+  ASSERT_GE(spot.path_W.size(), 2u);
+  EXPECT_EQ(spot.path_W.front(), Eigen::Vector2d(8.0, 10.0));
+  EXPECT_EQ(spot.path_W.back(), spot.p_W);
+  double length_m = 0.0;
+  for (std::size_t i = 1; i < spot.path_W.size(); ++i) {
+    const double step_m = (spot.path_W[i] - spot.path_W[i - 1]).norm();
+    // Cell to cell (8-connected); the first step is from the robot to its cell's neighbour.
+    EXPECT_LE(step_m, grid.cell_size_m() * (i == 1 ? 2.2 : 1.5)) << i;
+    length_m += step_m;
+    EXPECT_TRUE(grid.IsFootprintFree(spot.path_W[i].x(), spot.path_W[i].y(), 0.3)) << i;
+  }
+  EXPECT_NEAR(length_m, spot.drive_m, grid.cell_size_m());
+}
+
+// A robot of radius 0.3 m cannot pass a peer of radius 0.3 m in the middle of the 2 m tunnel (it needs 0.9 m
+// beside the peer's centre, and the walls leave 1.0 - 0.3 m), but can beside the side passage's mouth, and
+// in a room.
+TEST(YieldSpotTest, CanPassBesideAPeerOnlyWhereThePassageIsWideEnough) {
+  const TraversabilityGrid tunnel(Tunnel(true));
+  EXPECT_FALSE(CanPassBeside(tunnel, {8.0, 10.0}, {1.0, 0.0}, 0.9, 0.3));
+  EXPECT_FALSE(CanPassBeside(tunnel, {8.0, 10.0}, {1.0, 0.0}, 0.9, 0.3, /*along_m=*/1.0));
+  EXPECT_TRUE(CanPassBeside(tunnel, {12.0, 10.0}, {1.0, 0.0}, 0.9, 0.3));
+  EXPECT_TRUE(CanPassBeside(tunnel, {9.5, 10.0}, {1.0, 0.0}, 0.9, 0.3, /*along_m=*/2.5))
+      << "the passage's mouth 1.5 m on";
+  EXPECT_FALSE(CanPassBeside(tunnel, {8.0, 10.0}, {0.0, 0.0}, 0.9, 0.3)) << "no direction: not assumed wide";
+  EXPECT_FALSE(CanPassBeside(tunnel, {80.0, 10.0}, {1.0, 0.0}, 0.9, 0.3)) << "off the grid";
+  const TraversabilityGrid room(FlatWorld(20, 16));
+  EXPECT_TRUE(CanPassBeside(room, {8.0, 8.0}, {1.0, 1.0}, 0.9, 0.3));
 }
 
 // Without the side passage no spot in a 2 m tunnel clears the path (the tunnel's west end is behind the

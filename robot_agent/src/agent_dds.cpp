@@ -64,7 +64,7 @@ msgs::CommandResult ResultOf(CommandResult result) {
 AgentDdsHandlers Checked(AgentDdsHandlers h) {
   if (!h.control || !h.mode || !h.goal || !h.explore || !h.convoy || !h.home || !h.stop || !h.restart ||
       !h.teleop || !h.base_announced || !h.base_liveliness || !h.path_query || !h.map_sync ||
-      !h.explore_claim || !h.peer_state) {
+      !h.explore_claim || !h.peer_state || !h.yield) {
     throw std::invalid_argument("AgentDds: every handler is required");
   }
   return h;
@@ -121,6 +121,7 @@ class AgentDds::Impl {
   ~Impl() {
     // Readers first so that no callback runs while the rest is torn down.
     probe_reader_.reset();
+    yield_reader_.reset();
     claim_reader_.reset();
     peer_reader_.reset();
     map_sync_reader_.reset();
@@ -217,6 +218,10 @@ class AgentDds::Impl {
                     : std::make_pair(std::uint64_t{0}, std::uint64_t{0});
     sent.first += peer_writer_->bytes_written();
     sent.second += peer_writer_->samples_written();
+    if (yield_writer_) {
+      sent.first += yield_writer_->bytes_written();
+      sent.second += yield_writer_->samples_written();
+    }
     return sent;
   }
 
@@ -255,6 +260,26 @@ class AgentDds::Impl {
     listening_ = true;
     core::Participant& p = *participant_;
     const std::string& robot = options_.robot_id;
+    // Yield requests (get-out-of-the-way), from any robot or basestation: not a command topic (a peer robot
+    // asks too); the policy, not the lock, decides (YieldOptions::modes).
+    yield_reader_ = std::make_unique<core::Reader<msgs::YieldRequestPubSubType>>(
+        p, "cairn/yield_request", "cairn.command",
+        [this, robot](const msgs::YieldRequest& m, const SampleInfo&) {
+          if (m.robot_id() != robot || !ValidPeerId("cairn/yield_request", "sender id", m.sender_id()))
+            return;
+          YieldCommand c;
+          c.sender_id = m.sender_id();
+          c.request_id = m.request_id();
+          c.passing_id = m.passing_id();
+          c.passing_radius_m = m.passing_radius_m();
+          for (const msgs::PeerPathPoint& q : m.keep_clear_M()) c.keep_clear_M.emplace_back(q.x_m(), q.y_m());
+          const std::string fault = m.action() == msgs::YIELD_ACTION_ASK
+                                        ? ""
+                                        : "cairn/yield_request from " + m.sender_id() +
+                                              ": action = " + std::to_string(static_cast<int>(m.action())) +
+                                              " is not ASK (0)";
+          handlers_.yield(c, fault);
+        });
     // A basestation's link probe, echoed at once: its round trip is the link's, not the control loop's.
     probe_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
         p, "cairn/link_probe", "cairn.command", [this, robot](const msgs::PingPong& m, const SampleInfo&) {
@@ -460,6 +485,8 @@ class AgentDds::Impl {
   std::unique_ptr<core::Reader<msgs::PeerStatePubSubType>>
       peer_reader_;  // team_mutex_, made by ListenToPeers()
   std::unique_ptr<core::Writer<msgs::PeerStatePubSubType>> peer_writer_;
+  std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>> yield_writer_;  // team_mutex_, made by Send()
+  std::unique_ptr<core::Reader<msgs::YieldRequestPubSubType>> yield_reader_;
   std::unique_ptr<core::Reader<msgs::MapSyncRequestPubSubType>> map_sync_reader_;
   std::unique_ptr<core::Reader<msgs::PathRequestPubSubType>> path_request_reader_;
   std::unique_ptr<core::Reader<msgs::ControlRequestPubSubType>> control_reader_;
@@ -596,6 +623,28 @@ void AgentDds::ListenToPeers() {
   impl_->MakePeerReader();
 }
 
+bool AgentDds::Send(const std::string& robot_id, const YieldCommand& request) {
+  std::lock_guard<std::mutex> guard(impl_->team_mutex_);
+  if (!impl_->yield_writer_) {
+    impl_->yield_writer_ = std::make_unique<core::Writer<msgs::YieldRequestPubSubType>>(
+        *impl_->participant_, "cairn/yield_request", "cairn.command");
+  }
+  msgs::YieldRequest m;
+  m.robot_id(robot_id);
+  m.sender_id(request.sender_id);
+  m.request_id(request.request_id);
+  m.action(msgs::YIELD_ACTION_ASK);
+  m.passing_id(request.passing_id);
+  m.passing_radius_m(static_cast<float>(request.passing_radius_m));
+  for (const Eigen::Vector2d& p : request.keep_clear_M) {
+    msgs::PeerPathPoint q;
+    q.x_m(static_cast<float>(p.x()));
+    q.y_m(static_cast<float>(p.y()));
+    m.keep_clear_M().push_back(q);
+  }
+  return impl_->yield_writer_->Write(m);
+}
+
 PeerBody PeerFromMessage(const msgs::PeerState& m) {
   PeerBody peer;
   peer.robot_id = m.robot_id();
@@ -610,6 +659,9 @@ PeerBody PeerFromMessage(const msgs::PeerState& m) {
   peer.path_ahead_M.reserve(m.path_ahead_M().size());
   for (const msgs::PeerPathPoint& p : m.path_ahead_M())
     peer.path_ahead_M.emplace_back(p.x_m(), p.y_m(), p.z_m());
+  peer.yield_state = m.yield_state();
+  peer.yield_to_id = m.yield_to_id();
+  peer.yield_reason = m.yield_reason();
   return peer;
 }
 

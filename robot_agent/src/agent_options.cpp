@@ -33,7 +33,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto config = core::ConfigSection::LoadFile(path);
   config.RejectUnknownKeys(
       {"command_interface", "mux", "navigation", "local_planner", "controller", "platform", "traversability",
-       "telemetry", "perception", "explore", "peers", "convoy", "health",
+       "telemetry", "perception", "explore", "peers", "convoy", "yield", "health",
        "simulation"});  // `simulation` is the simulated platform's (sim::SimulatedPlatformOptions)
   const auto ci = config.Section("command_interface");
   ci.RejectUnknownKeys({"lock_keep_s"});
@@ -166,6 +166,21 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   convoy_section.ReadDouble("gap_gain_per_s", &convoy.gap_gain_per_s);
   convoy_section.ReadDouble("lost_after_s", &convoy.lost_after_s);
   convoy_section.ReadDouble("max_trail_m", &convoy.max_trail_m);
+  const auto yield_section = config.Section("yield");
+  yield_section.RejectUnknownKeys({"modes", "ask_peers", "margin_m", "max_drive_m", "max_wait_s",
+                                   "lookahead_m", "standoff_m", "ask_every_s"});
+  std::string yield_modes;
+  for (const std::string& m : yield.modes) yield_modes += (yield_modes.empty() ? "" : " ") + m;
+  yield_section.ReadString("modes", &yield_modes);
+  if (const std::string why = ParseYieldModes(yield_modes, &yield.modes); !why.empty())
+    throw core::ConfigError(path + ": " + why);
+  yield_section.ReadBool("ask_peers", &yield.ask_peers);
+  yield_section.ReadDouble("margin_m", &yield.margin_m);
+  yield_section.ReadDouble("max_drive_m", &yield.max_drive_m);
+  yield_section.ReadDouble("max_wait_s", &yield.max_wait_s);
+  yield_section.ReadDouble("lookahead_m", &yield.lookahead_m);
+  yield_section.ReadDouble("standoff_m", &yield.standoff_m);
+  yield_section.ReadDouble("ask_every_s", &yield.ask_every_s);
   const auto telemetry = config.Section("telemetry");
   telemetry.RejectUnknownKeys({"state_rate_hz", "local_plan_rate_hz"});
   telemetry.ReadDouble("state_rate_hz", &state_rate_hz);
@@ -260,6 +275,7 @@ bool AgentOptions::IsValid(std::string* why) const {
   if (!explore.IsValid(why)) return false;
   if (!peers.IsValid(why)) return false;
   if (!convoy.IsValid(why)) return false;
+  if (!yield.IsValid(why)) return false;
   if (!InRange("navigation.obstacle_window_s", obstacle_window_s, 0, 30, true, why)) return false;
   if (!InRange("navigation.path_requests_per_s", path_requests_per_s, 0, 1000, true, why)) return false;
   std::string inner;

@@ -34,18 +34,6 @@ Navigation* Required(Navigation* navigation) {
   return navigation;
 }
 
-// The trail as a plan navigation drives (the path the robot ahead drove: traversable when it drove it).
-nav::GlobalPlan PlanAlong(const std::vector<Eigen::Vector3d>& path_M, std::uint64_t map_version) {
-  nav::GlobalPlan plan;
-  plan.result.status = nav::PlanResult::Status::kSuccess;
-  plan.result.path_W = path_M;
-  for (std::size_t i = 0; i + 1 < path_M.size(); ++i)
-    plan.result.length_m += (path_M[i + 1] - path_M[i]).head<2>().norm();
-  plan.result.message = "the trail of the robot ahead";
-  plan.map_version = map_version;
-  return plan;
-}
-
 // A follower re-tries a blocked way once its target moved this far from where navigation gave up, metres.
 constexpr double kBlockedRetryM = 1.0;
 
@@ -155,8 +143,9 @@ ModeOutput ConvoyMode::Step(const ModeInputs& in) {
     return Stop(ConvoyStatus::State::kBlocked, status_.reason, in);
   }
   if (!has_goal_ || !navigation_->has_goal() || (target - goal_M_).norm() >= kRefreshM) {
-    navigation_->AcceptGoal(PlanAlong(decision.path_M, navigation_->global_plan().map_version), target.x(),
-                            target.y(), 0.0, in.now_s);
+    navigation_->AcceptGoal(
+        PlanAlong(decision.path_M, navigation_->global_plan().map_version, "the trail of the robot ahead"),
+        target.x(), target.y(), 0.0, in.now_s);
     goal_serial_ = navigation_->goal_serial();
     goal_M_ = target;
     has_goal_ = true;

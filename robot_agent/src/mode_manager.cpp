@@ -93,6 +93,12 @@ void ModeManager::RegisterModeNodes(bt::TreeFactory& factory, const std::shared_
                                                : Fail(&ctx->failure,
                                                       "HasConvoyTask: not in a convoy (send convoy first)");
                                   }));
+  factory.RegisterSimpleCondition(
+      "HasYieldTask", Traced(ctx, [ctx](bt::TreeNode&) {
+        return ctx->conditions.has_yield_task
+                   ? NodeStatus::kSuccess
+                   : Fail(&ctx->failure, "HasYieldTask: no yield request accepted (a peer or yield R asks)");
+      }));
   factory.RegisterSimpleCondition("IsMappingHealthy", Traced(ctx, [ctx](bt::TreeNode&) {
     const ModeConditions& c = ctx->conditions;
     return c.mapping_healthy ? NodeStatus::kSuccess : Fail(&ctx->failure, "IsMappingHealthy: " + c.mapping_problem);

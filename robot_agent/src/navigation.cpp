@@ -522,6 +522,14 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
                                 ? std::min(speed_mps, options_.platform.limits.max_speed_mps)
                                 : options_.platform.cruise_speed_mps;
   if (!goal_) return {};
+  if (!hold_reason_.empty()) {
+    // Held (a peer getting out of the way): at rest, and the time does not count against the goal.
+    goal_->anchor_time_s = now_s;
+    goal_->best_time_s = now_s;
+    track_W_.clear();
+    local_status_ = "held: " + hold_reason_;
+    return {};
+  }
   const Eigen::Vector2d p_W(state.x_m, state.y_m);
   const double to_goal = (goal_->p_W - p_W).norm();
   // Arrived: within the tolerance and (nearly) at rest, so the robot stops where it reports arriving; on the
@@ -704,6 +712,18 @@ NavigationStep Navigation::StepJoystick(const core::BaseState& state, double vx_
   request.max_required_free_length_m = options_.required_free_length_m;
   RunLocalPlanner(state, request, now_s, std::nullopt);
   return Control(state, speed, now_s);
+}
+
+nav::GlobalPlan PlanAlong(const std::vector<Eigen::Vector3d>& path_M, std::uint64_t map_version,
+                          const std::string& what) {
+  nav::GlobalPlan plan;
+  plan.result.status = nav::PlanResult::Status::kSuccess;
+  plan.result.path_W = path_M;
+  for (std::size_t i = 0; i + 1 < path_M.size(); ++i)
+    plan.result.length_m += (path_M[i + 1] - path_M[i]).head<2>().norm();
+  plan.result.message = what;
+  plan.map_version = map_version;
+  return plan;
 }
 
 }  // namespace cairn::agent

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "cairn/core/peer_input.h"
 #include "range_check.h"
 
 namespace cairn::agent {
@@ -47,6 +48,14 @@ std::string CheckPeerBody(const PeerBody& peer) {
     why << "w_B_radps = " << p.w_radps << " must be finite, within 20 rad/s";
   } else if (!(peer.footprint_radius_m > 0 && peer.footprint_radius_m <= 5.0)) {
     why << "footprint_radius_m = " << peer.footprint_radius_m << " must be in (0, 5]";
+  } else if (!peer.yield_state.empty() && peer.yield_state != "moving_aside" && peer.yield_state != "aside" &&
+             peer.yield_state != "returning" && peer.yield_state != "refused") {
+    why << "yield_state = \"" << peer.yield_state.substr(0, 40)
+        << "\" is not \"\", moving_aside, aside, returning or refused";
+  } else if (!peer.yield_to_id.empty() && !core::CheckId("yield_to_id", peer.yield_to_id).empty()) {
+    why << core::CheckId("yield_to_id", peer.yield_to_id);
+  } else if (peer.yield_reason.size() > 512) {
+    why << "yield_reason is " << peer.yield_reason.size() << " bytes (at most 512)";
   } else {
     for (std::size_t i = 0; i < peer.path_ahead_M.size(); ++i) {
       const Eigen::Vector3d& q = peer.path_ahead_M[i];

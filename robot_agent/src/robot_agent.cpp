@@ -38,6 +38,7 @@
 #include "cairn/agent/trajectory_library_cache.h"
 #include "cairn/agent/waypoint_mode.h"
 #include "cairn/agent/waypoint_recovery.h"
+#include "cairn/agent/yield.h"
 #include "cairn/core/health_monitor.h"
 #include "cairn/core/peer_input.h"
 #include "cairn/core/shutdown.h"
@@ -139,6 +140,7 @@ class RobotAgent::Impl {
     if (health_) health_->StopAll();  // the component threads end before what they use
     dds_.reset();                     // no handler runs while the rest goes
     if (home_plan_.valid()) navigation_.Abandon(std::move(home_plan_));
+    if (resume_plan_.valid()) navigation_.Abandon(std::move(resume_plan_));
   }
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
@@ -170,6 +172,25 @@ class RobotAgent::Impl {
   // A convoy follower's request (CommandInterface::Hooks::convoy): follow the robots ahead, or leave the
   // convoy.
   CommandOutcome OnConvoy(const ConvoyCommand& c);
+  // With mutex_ held: a yield request (a peer's or an operator's): refused by the policy (the mode, no spot
+  // aside), or the robot moves aside in yield mode, keeping what it did to resume it (ResumeAfterYield).
+  void OnYieldRequest(const YieldCommand& c, const std::string& fault);
+  // With mutex_ held, once per control cycle, before the mode's step: a robot driving a goal whose route a
+  // peer blocks in a narrow passage asks it to yield (sent by Run()) and holds before it meanwhile.
+  void AskPeersToYield(double now_s, const std::vector<PeerBody>& peers);
+  // With mutex_ held, once per control cycle, after the mode's step: a yield that ended by itself hands back
+  // to the robot's task (its waypoint goal, planned again from the spot, or its exploration).
+  void ResumeAfterYield(double now_s);
+  // With mutex_ held: what the robot state reports now.
+  RobotStateInputs StateInputs() const {
+    // As the robot asked while it yields (or last yielded: how it ended), else as the robot asking.
+    const YieldStatus& own = yield_->status();
+    const YieldStatus& asking = yield_asker_.status();
+    const bool own_first = own.state != YieldStatus::State::kNone ||
+                           (asking.state == YieldStatus::State::kNone && !own.reason.empty());
+    return RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_,
+                            own_first ? own : asking};
+  }
   void SendClaim(const ExploreClaim& claim) {
     if (!dds_->Publish(claim)) spdlog::warn("robot {}: explore claim not sent (DDS history full)", options_.robot_id);
   }
@@ -195,6 +216,14 @@ class RobotAgent::Impl {
   WaypointMode* waypoint_ = nullptr;               // owned by modes_; holds the waypoint goal
   ExploreMode* explore_ = nullptr;                 // owned by modes_; holds the exploration task
   ConvoyMode* convoy_ = nullptr;                   // owned by modes_; holds the convoy follower's task
+  YieldMode* yield_ = nullptr;                     // owned by modes_; gets out of a peer's way
+  YieldAsker yield_asker_;                         // asks peers in the way to yield
+  std::string yield_logged_;                       // the asking status last logged
+  std::optional<std::pair<std::string, YieldCommand>> yield_to_send_;  // Step()'s, sent by Run() unlocked
+  // What a yielding robot was doing, resumed when the yield ends by itself: a waypoint goal or a task.
+  std::optional<WaypointGoal> yield_resume_goal_;
+  std::optional<ExploreTask> yield_resume_explore_;
+  std::future<nav::GlobalPlan> resume_plan_;  // ResumeAfterYield(): the goal planned again, from the spot
   ExploreTeam team_;                               // peers' explore claims and coverage (thread-safe)
   PeerTracker peers_;                              // peers' poses, footprints and paths (thread-safe)
   core::WarningLimiter peer_warnings_;             // a bad peer state is named once per 5 s per robot
@@ -251,6 +280,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       planner_(MakePlanner(options, start_M_)),
       pose_(start_M_),
       navigation_(options.navigation, planner_, LocalPlannerLibrary(options)),
+      yield_asker_(options.yield, options.robot_id),
       team_(options.robot_id, options.explore.team),
       peers_(options.robot_id, options.peers),
       faults_(
@@ -405,6 +435,7 @@ ModeRegistry RobotAgent::Impl::MakeModes(const std::string& tree_file) {
       std::make_unique<WaypointRecovery>(tree_file, &navigation_,
                                          WaypointRecovery::Hooks{[this] { perception_->ClearObstacleMemory(); }}));
   convoy_ = &modes.Emplace<ConvoyMode>(options_.convoy, options_.waypoint_timeout_s, &navigation_);
+  yield_ = &modes.Emplace<YieldMode>(options_.yield, options_.waypoint_timeout_s, &navigation_);
   return modes;
 }
 
@@ -465,6 +496,113 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
   return CommandOutcome{true, "following " + c.ahead_ids.front() + " (ahead: " + order + ")", 0};
 }
 
+void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const std::string& fault) {
+  const double now_s = NowS(SteadyClock::now());
+  const std::string& own = options_.robot_id;
+  if (const std::string why = fault.empty() ? CheckYieldCommand(c) : fault; !why.empty()) {
+    spdlog::warn("robot {}: {}; refused", own, why);
+    // Shown to the peer only under a valid id (a bad one would spoil this robot's own peer state).
+    if (core::CheckId("passing_id", c.passing_id).empty()) yield_->Refuse(c.passing_id, why, now_s);
+    return;
+  }
+  if (c.passing_id == own) return;
+  if (yield_->active()) {
+    if (yield_->passing_id() != c.passing_id) {
+      spdlog::info("robot {}: yield for {} (asked by {}) refused: already yielding to {}", own, c.passing_id,
+                   c.sender_id, yield_->passing_id());
+    }
+    return;  // a repeat of the request being served
+  }
+  const std::string mode = modes_->mode();
+  auto refuse = [&](const std::string& why) {
+    const bool repeated = yield_->status().state == YieldStatus::State::kRefused &&
+                          yield_->status().peer_id == c.passing_id && yield_->status().reason == why;
+    yield_->Refuse(c.passing_id, why, now_s);
+    if (!repeated)
+      spdlog::warn("robot {}: yield for {} (asked by {}) refused: {}", own, c.passing_id, c.sender_id, why);
+  };
+  const std::shared_ptr<const nav::TraversabilityGrid> grid =
+      planner_->Grid(options_.navigation.platform.name);
+  const YieldDecision decision = DecideYield(options_.yield, c, mode, pose_,
+                                             options_.navigation.platform.footprint_radius_m, grid.get());
+  if (!decision.accepted) return refuse(decision.refusal);
+  yield_resume_goal_.reset();
+  yield_resume_explore_.reset();
+  if (mode == waypoint_->name() && waypoint_->has_goal()) yield_resume_goal_ = waypoint_->goal();
+  if (mode == explore_->name() && explore_->exploring()) yield_resume_explore_ = explore_->status().task;
+  yield_->Start(c, decision.spot, pose_, decision.clearance_m, /*return_home=*/mode == ModeManager::kIdleMode,
+                now_s);
+  const ModeDecision d = modes_->Request(yield_->name(), Conditions());
+  if (!d.accepted) {
+    yield_->Deactivate(d.reason);
+    yield_resume_goal_.reset();
+    yield_resume_explore_.reset();
+    return refuse(d.reason);
+  }
+  spdlog::info("robot {}: yielding to {} (asked by {}, was {}): {}", own, c.passing_id, c.sender_id, mode,
+               yield_->status().reason);
+}
+
+void RobotAgent::Impl::AskPeersToYield(double now_s, const std::vector<PeerBody>& peers) {
+  const std::string mode = modes_->mode();
+  YieldAskInputs in;
+  if (options_.yield.ask_peers && (mode == waypoint_->name() || mode == explore_->name())) {
+    in.pose_M = pose_;
+    in.radius_m = options_.navigation.platform.footprint_radius_m;
+    in.route_M = navigation_.AsPeer(options_.robot_id, pose_, mode).path_ahead_M;
+    in.peers = peers;
+    in.grid = [this] { return planner_->Grid(options_.navigation.platform.name); };
+    in.now_s = now_s;
+  }
+  YieldAsk ask = yield_asker_.Update(in);  // no route: nothing asked, nothing held
+  navigation_.SetHold(ask.hold_reason);
+  if (ask.request) yield_to_send_ = std::make_pair(ask.to_id, std::move(*ask.request));
+  const YieldStatus& status = yield_asker_.status();
+  const std::string logged = std::string(ToString(status.state)) + status.peer_id;
+  if (logged != yield_logged_) {
+    yield_logged_ = logged;
+    if (status.state == YieldStatus::State::kBlocked) {
+      spdlog::warn("robot {}: {}", options_.robot_id, status.reason);
+    } else if (status.state != YieldStatus::State::kNone) {
+      spdlog::info("robot {}: {}", options_.robot_id, status.reason);
+    }
+  }
+}
+
+void RobotAgent::Impl::ResumeAfterYield(double now_s) {
+  if (resume_plan_.valid()) {
+    if (PlanRunning(resume_plan_)) return;
+    const nav::GlobalPlan plan = resume_plan_.get();
+    const WaypointGoal goal = *yield_resume_goal_;
+    yield_resume_goal_.reset();
+    if (!plan.IsUsable()) {
+      spdlog::error("robot {}: cannot resume its goal to ({:.2f}, {:.2f}) after yielding: {}",
+                    options_.robot_id, goal.x_m, goal.y_m, plan.reason);
+      return;
+    }
+    const GoalStart start =
+        waypoint_->Start(plan, goal.x_m, goal.y_m, goal.tolerance_m, goal.z_m, now_s,
+                         [this] { return modes_->Request(waypoint_->name(), Conditions()); });
+    spdlog::info("robot {}: {} its goal to ({:.2f}, {:.2f}) after yielding{}", options_.robot_id,
+                 start.accepted ? "resumed" : "cannot resume", goal.x_m, goal.y_m,
+                 start.accepted ? " (waypoint " + std::to_string(start.goal_id) + ")" : ": " + start.reason);
+    return;
+  }
+  if (!yield_->TakeFinished()) return;
+  spdlog::info("robot {}: {}", options_.robot_id, yield_->status().reason);
+  if (yield_resume_goal_) {
+    resume_plan_ = navigation_.PlanGoalAsync(pose_, yield_resume_goal_->x_m, yield_resume_goal_->y_m,
+                                             yield_resume_goal_->z_m);
+  } else if (yield_resume_explore_) {
+    const ExploreTask task = *yield_resume_explore_;
+    yield_resume_explore_.reset();
+    const std::string refused =
+        explore_->Start(task, now_s, [this] { return modes_->Request(explore_->name(), Conditions()); });
+    spdlog::info("robot {}: {} exploring after yielding{}", options_.robot_id,
+                 refused.empty() ? "resumed" : "cannot resume", refused.empty() ? "" : ": " + refused);
+  }
+}
+
 void RobotAgent::Impl::PublishPeerState() {
   const PeerBody self = navigation_.AsPeer(options_.robot_id, pose_, modes_->mode());
   cairn_msgs::PeerState m;
@@ -478,6 +616,12 @@ void RobotAgent::Impl::PublishPeerState() {
   m.w_B_radps(static_cast<float>(self.pose_M.w_radps));
   m.footprint_radius_m(static_cast<float>(self.footprint_radius_m));
   m.mode(self.mode);
+  const YieldStatus& yield = yield_->status();
+  if (yield.state != YieldStatus::State::kNone) {
+    m.yield_state(ToString(yield.state));
+    m.yield_to_id(yield.peer_id);
+    m.yield_reason(yield.reason.size() > 480 ? yield.reason.substr(0, 477) + "..." : yield.reason);
+  }
   for (const Eigen::Vector3d& p : self.path_ahead_M) {
     cairn_msgs::PeerPathPoint q;
     q.x_m(static_cast<float>(p.x()));
@@ -529,6 +673,10 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
           suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
     }
   };
+  h.yield = [this](const YieldCommand& c, const std::string& fault) {
+    std::lock_guard<std::mutex> guard(mutex_);
+    OnYieldRequest(c, fault);
+  };
   h.map_sync = [this](const std::string& requester) {
     spdlog::info("robot {}: map snapshot requested by {}", options_.robot_id, requester);
     perception_->RequestMapSnapshot();
@@ -566,6 +714,7 @@ ModeConditions RobotAgent::Impl::Conditions() const {
       navigation_.ObstacleSensingAlive(NowS(SteadyClock::now()), &c.local_planner_problem);
   c.has_explore_task = explore_->exploring();
   c.has_convoy_task = convoy_->active();
+  c.has_yield_task = yield_->active();
   c.mapping_healthy = perception_->MappingHealthy(&c.mapping_problem);
   if (health_) c.components_down = health_->Down();
   return c;
@@ -644,10 +793,14 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     // The team: what peers go for and have seen shapes the choice; this robot's claim goes out when due.
     explore_->SetPeerClaims(team_.LiveClaims(now_s));
     explore_->SetTeamView(team_.ExploringPeers(now_s), team_.PeerSeenM2());
-    convoy_->SetPeers(peers_.Live(now_s), now_s);  // the robot followed extends the trail
+    const std::vector<PeerBody> live_peers = peers_.Live(now_s);
+    convoy_->SetPeers(live_peers, now_s);  // the robot followed extends the trail
+    yield_->SetPeers(live_peers, now_s);   // the robot let past goes by
+    AskPeersToYield(now_s, live_peers);
     perception_->SetPeerCoverage(team_.Coverage());
     if (modes_->Step(inputs))
       modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
+    ResumeAfterYield(now_s);
     ComeHomeIfSilent(now);
     // Written by Run() once the agent lock is released: Fast DDS hands the sample to this participant's own
     // claim reader on the writing thread, and the liveliness callbacks that come with it take the agent lock.
@@ -826,6 +979,7 @@ void RobotAgent::Impl::Run() {
                    options_.robot_id, 1000 * late_s);
     }
     std::optional<ExploreClaim> claim;
+    std::optional<std::pair<std::string, YieldCommand>> yield_request;
     bool listen_to_peers = false;
     {
       std::lock_guard<std::mutex> guard(mutex_);
@@ -835,8 +989,7 @@ void RobotAgent::Impl::Run() {
       if (resumable_goal_M_ && modes_->mode() != "idle") resumable_goal_M_.reset();  // the operator moved on
       if (journal_ && cycle % 10 == 0) journal_->Submit(JournalNow());
       if (cycle % state_every == 0) {
-        telemetry_->PublishState(
-            RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_});
+        telemetry_->PublishState(StateInputs());
       }
       if (cycle % local_plan_every == 0) telemetry_->PublishLocalPlan();
       if (cycle % peer_every == 0) PublishPeerState();
@@ -844,6 +997,8 @@ void RobotAgent::Impl::Run() {
       telemetry_->PublishTreeStateIfChanged();
       claim = std::move(claim_to_send_);
       claim_to_send_.reset();
+      yield_request = std::move(yield_to_send_);
+      yield_to_send_.reset();
       // A late cycle is a robot driving blind: say where the time went (waiting for the lock, or working).
       const double lock_wait_s = core::SecondsBetween(wanted, now);
       const double work_s = core::SecondsBetween(now, SteadyClock::now());
@@ -856,6 +1011,10 @@ void RobotAgent::Impl::Run() {
       }
     }
     if (claim) SendClaim(*claim);
+    if (yield_request && !dds_->Send(yield_request->first, yield_request->second)) {
+      spdlog::warn("robot {}: yield request to {} not sent (DDS history full)", options_.robot_id,
+                   yield_request->first);
+    }
     if (listen_to_peers) {
       // A robot that drives keeps clear of its peers: it reads their states from now on (outside the agent
       // lock, as the explore claims' endpoints are made).
@@ -873,8 +1032,7 @@ void RobotAgent::Impl::Run() {
   {
     std::lock_guard<std::mutex> guard(mutex_);
     modes_->Stop("agent shutting down");
-    telemetry_->PublishState(
-        RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_});
+    telemetry_->PublishState(StateInputs());
     release = DueClaim(*explore_, team_, NowS(SteadyClock::now()), {});  // an exploring robot lets go of its claim
   }
   if (release) SendClaim(*release);
@@ -900,8 +1058,7 @@ void RobotAgent::Impl::Run() {
   while (!finished) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     std::lock_guard<std::mutex> guard(mutex_);
-    telemetry_->PublishState(
-        RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_});
+    telemetry_->PublishState(StateInputs());
   }
   finisher.join();
   if (failure) std::rethrow_exception(failure);

@@ -59,6 +59,8 @@ SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::Pl
   waypoint.robot_id = options_.robot_id;
   waypoint_ = std::make_unique<WaypointMode>(waypoint, navigation_.get(), nullptr);
   convoy_ = std::make_unique<ConvoyMode>(options_.convoy, waypoint.channel_timeout_s, navigation_.get());
+  yield_ = std::make_unique<YieldMode>(options_.yield, waypoint.channel_timeout_s, navigation_.get());
+  yield_asker_ = std::make_unique<YieldAsker>(options_.yield, options_.robot_id);
   active_ = explore_.get();
   next_map_update_s_ = options_.nav_map.update_period_s;
 }
@@ -69,11 +71,50 @@ std::optional<ExploreClaim> SteppedRobot::ClaimToSend(double now_s) {
   });
 }
 
-PeerBody SteppedRobot::PeerState() const {
+std::string SteppedRobot::mode() const {
   const bool busy = active_ == explore_.get()    ? explore_->exploring()
                     : active_ == waypoint_.get() ? waypoint_->has_goal()
+                    : active_ == yield_.get()    ? yield_->active()
                                                  : convoy_->active();
-  return navigation_->AsPeer(options_.robot_id, pose_M_, busy ? active_->name() : std::string("idle"));
+  return busy ? active_->name() : std::string("idle");
+}
+
+PeerBody SteppedRobot::PeerState() const {
+  PeerBody self = navigation_->AsPeer(options_.robot_id, pose_M_, mode());
+  const YieldStatus& yield = yield_->status();
+  if (yield.state != YieldStatus::State::kNone) {
+    self.yield_state = ToString(yield.state);
+    self.yield_to_id = yield.peer_id;
+    self.yield_reason = yield.reason;
+  }
+  return self;
+}
+
+std::optional<std::pair<std::string, YieldCommand>> SteppedRobot::YieldRequestToSend() {
+  auto request = std::move(yield_to_send_);
+  yield_to_send_.reset();
+  return request;
+}
+
+std::string SteppedRobot::OnYieldRequest(const YieldCommand& request, double now_s) {
+  if (std::string why = CheckYieldCommand(request); !why.empty()) return why;
+  if (yield_->active()) return yield_->passing_id() == request.passing_id ? "" : "already yielding";
+  const std::string now_mode = mode();
+  const std::shared_ptr<const nav::TraversabilityGrid> grid =
+      planner_->Grid(options_.navigation.platform.name);
+  const YieldDecision d = DecideYield(options_.yield, request, now_mode, pose_M_,
+                                      options_.navigation.platform.footprint_radius_m, grid.get());
+  if (!d.accepted) {
+    yield_->Refuse(request.passing_id, d.refusal, now_s);
+    return d.refusal;
+  }
+  yield_resume_goal_.reset();
+  if (now_mode == WaypointMode::kName) yield_resume_goal_ = waypoint_->goal();
+  before_yield_ = active_;
+  yield_->Start(request, d.spot, pose_M_, d.clearance_m, /*return_home=*/now_mode == "idle", now_s);
+  if (active_ != yield_.get()) active_->Deactivate("getting out of the way");
+  active_ = yield_.get();
+  return "";
 }
 
 // As in the agent (ModeControl), the mode taking over starts first (its goal set), then the one it replaces
@@ -148,9 +189,34 @@ void SteppedRobot::Step(double now_s) {
   start = WallClock::now();
   explore_->SetPeerClaims(team_.LiveClaims(now_s));
   explore_->SetTeamView(team_.ExploringPeers(now_s), team_.PeerSeenM2());
-  convoy_->SetPeers(peers_.Live(now_s), now_s);
+  const std::vector<PeerBody> live = peers_.Live(now_s);
+  convoy_->SetPeers(live, now_s);
+  yield_->SetPeers(live, now_s);
+  // As the agent: a robot driving a goal asks a peer that blocks it in a narrow passage to yield.
+  const std::string now_mode = mode();
+  YieldAskInputs ask_in;
+  if (options_.yield.ask_peers && (now_mode == WaypointMode::kName || now_mode == ExploreMode::kName)) {
+    ask_in.pose_M = pose;
+    ask_in.radius_m = options_.navigation.platform.footprint_radius_m;
+    ask_in.route_M = navigation_->AsPeer(options_.robot_id, pose, now_mode).path_ahead_M;
+    ask_in.peers = live;
+    ask_in.grid = [this] { return planner_->Grid(options_.navigation.platform.name); };
+    ask_in.now_s = now_s;
+  }
+  YieldAsk ask = yield_asker_->Update(ask_in);
+  navigation_->SetHold(ask.hold_reason);
+  if (ask.request) yield_to_send_ = std::make_pair(ask.to_id, std::move(*ask.request));
   const ModeInputs in{AsSteady(now_s), now_s, pose};
   ModeOutput out = active_->Step(in);
+  if (active_ == yield_.get() && yield_->TakeFinished()) {
+    // Back to what the yield interrupted: the goal planned again from here, or idle where it stood.
+    active_ = before_yield_ != nullptr ? before_yield_ : explore_.get();
+    if (yield_resume_goal_) {
+      const WaypointGoal goal = *yield_resume_goal_;
+      yield_resume_goal_.reset();
+      Goto(goal.x_m, goal.y_m, now_s);
+    }
+  }
   const Twist2 twist = out.twist_B.value_or(Twist2{0.0, 0.0});
   platform_->CommandTwist(twist.linear_x_mps, twist.angular_z_radps, now_s);
   const core::PlatformStatus status = platform_->ReadStatus();

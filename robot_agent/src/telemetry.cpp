@@ -84,6 +84,7 @@ Telemetry::Telemetry(const AgentOptions& options, AgentDds* dds, const ModeContr
       platform_(options.platform),
       nav_platform_(options.navigation.platform.name),
       limits_(options.navigation.platform.limits),
+      footprint_radius_m_(options.navigation.platform.footprint_radius_m),
       link_(options.link),
       map_resolution_m_(options.perception.enabled ? options.perception.map.resolution_m : 0.0),
       dds_(Required(dds, "dds")),
@@ -105,6 +106,7 @@ void Telemetry::PublishAgentInfo(const core::PlatformCapabilities& capabilities,
   info.max_speed_mps(limits_.max_speed_mps);
   info.max_reverse_speed_mps(limits_.max_reverse_speed_mps);
   info.max_yaw_rate_radps(limits_.max_yaw_rate_radps);
+  info.footprint_radius_m(footprint_radius_m_);
   std::vector<std::string> sensors;
   if (capabilities.has_lidar) sensors.push_back("lidar");
   if (capabilities.has_camera) sensors.push_back("camera");
@@ -176,6 +178,9 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
   m.convoy_ahead_ids(convoy_->active() ? convoy.ahead_ids : std::vector<std::string>{});
   m.convoy_gap_m(convoy.gap_m);
   m.convoy_reason(convoy.reason);
+  m.yield_state(ToString(in.yield.state));
+  m.yield_peer_id(in.yield.peer_id);
+  m.yield_reason(in.yield.reason);
   m.has_resumable_goal(in.resumable_goal_M.has_value());
   if (in.resumable_goal_M) {
     m.resumable_goal_M().x_m(in.resumable_goal_M->x());

@@ -39,6 +39,7 @@ struct Robot {
     r.Emplace<StickMode>("waypoint", "waypoint");
     r.Emplace<StickMode>("explore", "explore");
     r.Emplace<StickMode>("convoy", "convoy");
+    r.Emplace<StickMode>("yield", "yield");
     modes = std::make_unique<ModeControl>(kTree, std::move(r), "r1");
     CommandInterface::Hooks hooks;
     hooks.conditions = [this] { return Conditions(); };

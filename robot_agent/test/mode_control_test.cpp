@@ -63,6 +63,7 @@ ModeRegistry FakeRegistry(Modes* modes) {
   modes->waypoint = &r.Emplace<FakeMode>("waypoint", "waypoint");
   r.Emplace<FakeMode>("explore", "explore");
   r.Emplace<FakeMode>("convoy", "convoy");
+  r.Emplace<FakeMode>("yield", "yield");
   return r;
 }
 
@@ -130,7 +131,8 @@ TEST(ModeRegistry, MuxChannelsAreTheModulesChannelsOnceWithoutNone) {
   const ModeRegistry r = FakeRegistry(&m);
   std::vector<std::string> names;
   for (const auto& c : r.MuxChannels()) names.push_back(c.name);
-  EXPECT_EQ(names, (std::vector<std::string>{"teleop", "smart_joystick", "waypoint", "explore", "convoy"}));
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"teleop", "smart_joystick", "waypoint", "explore", "convoy", "yield"}));
   EXPECT_EQ(r.ModeChannels().at("idle"), "none");
   EXPECT_EQ(r.ModeChannels().at("manual"), "teleop");
 }
@@ -141,7 +143,7 @@ TEST(ModeControl, TheShippedTreeLoadsWithTheBuiltInModes) {
   EXPECT_EQ(control.mode(), "idle");
   EXPECT_EQ(control.active().name(), "idle");
   EXPECT_EQ(control.mux().channel_names(),
-            (std::vector<std::string>{"convoy", "explore", "smart_joystick", "teleop", "waypoint"}));
+            (std::vector<std::string>{"convoy", "explore", "smart_joystick", "teleop", "waypoint", "yield"}));
   EXPECT_EQ(control.last_output().active_channel, "none");
 }
 
@@ -168,11 +170,12 @@ TEST(ModeControl, RefusesATreeChannelTheMuxLacks) {
   r.Emplace<FakeMode>("waypoint", "goal");
   r.Emplace<FakeMode>("explore", "explore");
   r.Emplace<FakeMode>("convoy", "convoy");
+  r.Emplace<FakeMode>("yield", "yield");
   const std::string error = LoadError(kTree, std::move(r));
   EXPECT_NE(error.find("branch 'waypoint'"), std::string::npos) << error;
   EXPECT_NE(error.find(
                 "names mux channel 'waypoint', which the mux does not have (channels: none, convoy, explore, "
-                "goal, smart_joystick, teleop)"),
+                "goal, smart_joystick, teleop, yield)"),
             std::string::npos)
       << error;
   EXPECT_NE(error.find("mode_tree.xml:"), std::string::npos) << "the file and line are named: " << error;
@@ -182,13 +185,14 @@ TEST(ModeManager, RefusesATreeChannelOtherThanItsModulesNamingModeAndChannels) {
   // The mux has both channels; the tree's manual selects one its module does not feed.
   const std::string error = [] {
     try {
-      ModeManager tree(kTree, {"teleop", "smart_joystick", "waypoint", "explore", "convoy"},
+      ModeManager tree(kTree, {"teleop", "smart_joystick", "waypoint", "explore", "convoy", "yield"},
                        {{"idle", "none"},
                         {"manual", "smart_joystick"},
                         {"smart_joystick", "smart_joystick"},
                         {"waypoint", "waypoint"},
                         {"explore", "explore"},
-                        {"convoy", "convoy"}});
+                        {"convoy", "convoy"},
+                        {"yield", "yield"}});
     } catch (const bt::TreeError& e) {
       return std::string(e.what());
     }
@@ -321,7 +325,7 @@ TEST(ModeControl, ANewModeIsOneModuleAndOneSubtree) {
   ModeControl control(tree, std::move(r), "r1");
   EXPECT_EQ(control.tree().known_modes(),
             (std::vector<std::string>{"idle", "manual", "smart_joystick", "dock", "waypoint", "explore",
-                                      "convoy"}));
+                                      "convoy", "yield"}));
   ASSERT_TRUE(control.Request("dock", Held()).accepted);
   control.Step(ModeInputs{At(0), 0.0, {}});
   const MuxOutput out = control.Compute(At(0));

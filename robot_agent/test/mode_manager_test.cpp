@@ -12,7 +12,8 @@ namespace {
 
 const std::string kTree = std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml";
 // The agent's mux channels.
-const std::vector<std::string> kChannels = {"teleop", "smart_joystick", "waypoint", "explore", "convoy"};
+const std::vector<std::string> kChannels = {"teleop",  "smart_joystick", "waypoint",
+                                            "explore", "convoy",         "yield"};
 
 using mode_testing::Held;
 
@@ -20,8 +21,8 @@ TEST(ModeManager, ShippedTreeLoadsWithItsModes) {
   ModeManager modes(kTree, kChannels);
   EXPECT_EQ(modes.mode(), "idle");
   EXPECT_EQ(modes.channel(), "none");
-  EXPECT_EQ(modes.known_modes(),
-            (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint", "explore", "convoy"}));
+  EXPECT_EQ(modes.known_modes(), (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint",
+                                                           "explore", "convoy", "yield"}));
 }
 
 TEST(ModeManager, AcceptsManualWhenConditionsHoldAndSelectsTeleop) {
@@ -48,7 +49,8 @@ TEST(ModeManager, RefusalNamesTheFailedConditionAndKeepsTheMode) {
 
   d = modes.Request("warp", Held());
   EXPECT_FALSE(d.accepted);
-  EXPECT_EQ(d.reason, "unknown mode 'warp' (valid: idle, manual, smart_joystick, waypoint, explore, convoy)");
+  EXPECT_EQ(d.reason,
+            "unknown mode 'warp' (valid: idle, manual, smart_joystick, waypoint, explore, convoy, yield)");
 }
 
 TEST(ModeManager, RecheckFallsBackToIdleWhenHolderIsLost) {
@@ -119,6 +121,27 @@ TEST(ModeManager, ModesNeedingAComponentThatIsDownAreRefusedUntilItIsBack) {
   EXPECT_EQ(modes.ValidModes(c), (std::vector<std::string>{"idle", "manual", "smart_joystick", "explore"}));
   c.components_down.clear();
   EXPECT_TRUE(modes.Request("smart_joystick", c).accepted);
+}
+
+// Issue 16: a robot asked to get out of the way needs no lock (its policy decides, not its operator), only a
+// yield it accepted, its pose and a healthy local planner.
+TEST(ModeManager, YieldNeedsAnAcceptedRequestButNoLock) {
+  ModeManager modes(kTree, kChannels);
+  ModeConditions c = Held();
+  c.holder_id = "";
+  c.holder_alive = false;
+  ModeDecision d = modes.Request("yield", c);
+  EXPECT_FALSE(d.accepted);
+  EXPECT_EQ(d.reason, "HasYieldTask: no yield request accepted (a peer or yield R asks)");
+  c.has_yield_task = true;
+  d = modes.Request("yield", c);
+  EXPECT_TRUE(d.accepted) << d.reason;
+  EXPECT_EQ(d.channel, "yield");
+  c.local_planner_healthy = false;
+  c.local_planner_problem = "no fresh obstacle input";
+  d = modes.Recheck(c);
+  EXPECT_FALSE(d.accepted);
+  EXPECT_EQ(modes.mode(), "idle");
 }
 
 // Issue 14: explore needs a task, a healthy local planner and a robot that maps; a refusal names which.

@@ -55,6 +55,19 @@ TEST(PeersTest, BadPeerStatesAreRefusedNamingTheFieldAndValue) {
   EXPECT_NE(CheckPeerBody(p).find("path_ahead_M[1] = (2, nan, 0)"), std::string::npos) << CheckPeerBody(p);
   p = Peer("", 1, 2);
   EXPECT_NE(CheckPeerBody(p).find("robot_id is empty"), std::string::npos);
+  // Its answer to a yield request (issue 16).
+  p = Peer("r2", 1, 2);
+  p.yield_state = "aside";
+  p.yield_to_id = "r1";
+  EXPECT_EQ(CheckPeerBody(p), "");
+  p.yield_state = "dancing";
+  EXPECT_NE(CheckPeerBody(p).find("yield_state = \"dancing\" is not"), std::string::npos) << CheckPeerBody(p);
+  p.yield_state = "refused";
+  p.yield_to_id = std::string("r\x7f", 2);
+  EXPECT_NE(CheckPeerBody(p).find("yield_to_id"), std::string::npos) << CheckPeerBody(p);
+  p.yield_to_id = "r1";
+  p.yield_reason = std::string(600, 'x');
+  EXPECT_NE(CheckPeerBody(p).find("yield_reason is 600 bytes (at most 512)"), std::string::npos);
 }
 
 TEST(PeersTest, TheTrackerKeepsTheNewestOfEachPeerForItsTimeoutAndIgnoresItself) {

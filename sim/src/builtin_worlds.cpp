@@ -156,6 +156,38 @@ World MakeTunnels(std::uint32_t seed) {
                           /*floor_bottom_m=*/-0.2, /*wall_thickness_m=*/0.3, column_at);
 }
 
+// ---- "narrow" -------------------------------------------------------------------------------------------
+
+World MakeNarrow(std::uint32_t seed) {
+  // Two 2 m wide tunnels along x (centre lines y = 5 and y = 15, x in [2, 32]) joined at their west end by a
+  // 2 m wide tunnel at x = 2, each with a 2 x 2.5 m bay on its north wall at x in [19, 21]: a tunnel too
+  // narrow for two robots to pass, and the one spot where one can stand aside (get-out-of-the-way).
+  static const Segment kSegments[] = {
+      {2.0, 5.0, 32.0, 5.0},
+      {2.0, 15.0, 32.0, 15.0},
+      {2.0, 5.0, 2.0, 15.0},
+  };
+  constexpr double kHalfWidth = 1.0;
+  auto column_at = [seed](double x, double y) {
+    Column col;
+    double d = 1e9;
+    for (const Segment& s : kSegments) {
+      d = std::min(
+          d, std::max(std::abs(x - std::clamp(x, s.ax, s.bx)), std::abs(y - std::clamp(y, s.ay, s.by))));
+    }
+    const bool in_tunnel = d <= kHalfWidth;
+    const bool in_bay = x >= 19.0 && x <= 21.0 && ((y > 5.0 && y <= 8.5) || (y > 15.0 && y <= 18.5));
+    if (!in_tunnel && !in_bay) return col;
+    col.free = true;
+    col.solid_top_m = 0.0;
+    col.ceiling_m = 2.5 + 0.2 * ValueNoise(x, y, 2.0, seed, 4);
+    return col;
+  };
+  return BuildFromColumns("builtin:narrow", Eigen::Vector3d(0.0, 0.0, -0.3), 0.1,
+                          Eigen::Vector3i(340, 200, 33),
+                          /*floor_bottom_m=*/-0.2, /*wall_thickness_m=*/0.3, column_at);
+}
+
 // ---- "arena" ---------------------------------------------------------------------------------------------
 
 World MakeArena() {
@@ -260,6 +292,13 @@ const std::vector<BuiltinWorldInfo>& Infos() {
        // The room's staircase (see MakeTunnels): risers at x = 50, 50.5, .., 52, from y = 22.5 to the room
        // wall at y = 25 (rough by up to 0.24 m).
        {{Eigen::Vector3d(50.0, 23.75, 0.0), 0.0, 0.2, 0.5, 2.5, 5}}},
+      {"narrow",
+       "34 x 20 m: two 2 m wide, 30 m long tunnels (y = 5 and 15) joined at their west end, each with a 2 x "
+       "2.5 m bay on its north wall at x = 19..21",
+       0.1,
+       0.0,
+       {{4.0, 5.0, 0.0}, {4.0, 15.0, 0.0}, {26.0, 5.0, kPi}, {26.0, 15.0, kPi}},
+       {30.0, 15.0, 0.0}},
       {"arena",
        "20 x 14 m walled yard without ceiling, three pillars and a 0.1 m plate",
        0.1,
@@ -267,14 +306,15 @@ const std::vector<BuiltinWorldInfo>& Infos() {
        {{2.0, 7.0, 0.0}, {18.0, 7.0, kPi}, {10.0, 2.0, kPi / 2}},
        {17.0, 12.0, 0.0}},
       {"building",
-       "24 x 14 m building, two floors (3.2 m apart) of a corridor and six rooms with 1.0 m doorways, joined by "
+       "24 x 14 m building, two floors (3.2 m apart) of a corridor and six rooms with 1.0 m doorways, joined "
+       "by "
        "a switchback stairwell of 1.0 m wide flights (0.2 m rise, 0.3 m run)",
        0.1,
        0.0,
        {{2.0, 7.1, 0.0}, {6.0, 7.1, 0.0}, {10.0, 7.1, 0.0}, {14.0, 7.1, 0.0}},
        {15.1, 3.0, 0.0},
-       // The stairwell (see MakeBuilding): the lower flight up +x to the mid landing (its edge the 8th riser),
-       // the upper flight back along -x to floor 2 (its edge the 8th riser).
+       // The stairwell (see MakeBuilding): the lower flight up +x to the mid landing (its edge the 8th
+       // riser), the upper flight back along -x to floor 2 (its edge the 8th riser).
        {{Eigen::Vector3d(19.4, 6.5, 0.0), 0.0, 0.2, 0.3, 1.0, 8},
         {Eigen::Vector3d(21.5, 7.7, 1.6), kPi, 0.2, 0.3, 1.0, 8}}},
   };
@@ -306,6 +346,7 @@ World MakeBuiltinWorld(const std::string& name, std::uint32_t seed) {
   GetBuiltinWorldInfo(name);  // Throws for unknown names.
   if (name == "tunnels") return MakeTunnels(seed);
   if (name == "building") return MakeBuilding();
+  if (name == "narrow") return MakeNarrow(seed);
   return MakeArena();
 }
 

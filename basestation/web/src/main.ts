@@ -58,6 +58,16 @@ interface Robot {
   control_period_max_ms: number;
   exploration?: Exploration;
   convoy?: Convoy;
+  yield?: YieldRecord;
+}
+
+// Get-out-of-the-way (cairn_base's `status --json` yield block): as the robot asked (moving_aside, aside,
+// returning, refused) or as the robot asking (asking, blocked); `for`: the robot whose route passes it now.
+interface YieldRecord {
+  state: string;
+  peer: string;
+  reason: string;
+  for: string;
 }
 
 // A convoy follower's record (cairn_base's `status --json` convoy block): the robots ahead of it, nearest
@@ -306,6 +316,9 @@ function actionButtons(r: Robot): string {
       b.push(`<button class="act" data-peel="1">${
           state.pickingGoal && state.goalVerb === 'peel' ? 'Tap the map… (Esc)' :
                                                            'Peel off… (tap the map)'}</button>`);
+    else if (action === 'yield' && r.yield?.for)
+      b.push(`<button class="act" data-cmd="yield ${r.id} for ${r.yield.for}">Get out of ${
+          r.yield.for}'s way</button>`);
     else if (action === 'convoy-stop' && r.convoy?.ahead.length)
       b.push(`<button class="act" data-cmd="convoy-stop ${
           r.convoy.ahead[r.convoy.ahead.length - 1]}">Stop the convoy</button>`);
@@ -335,7 +348,7 @@ function renderRobot(): void {
           r.nav_reason ? `<br><span class="reason">${r.nav_reason}</span>` : ''}</p>
     <p class="small">local planner: ${r.local_planner_status || '–'} · speed ${
           fmt(Math.abs(r.speed_mps), 2, ' m/s')}</p>
-    ${explorationHtml(r.exploration)}${convoyHtml(r.convoy)}`);
+    ${explorationHtml(r.exploration)}${convoyHtml(r.convoy)}${yieldHtml(r.yield)}`);
   setHtml($("actions"), actionButtons(r) + `<button class="act stop" data-cmd="stop ${r.id}">STOP</button>`);
   $("actions").dataset.robot = r.id;
   const cam = state.cameraUrls.get(r.id);
@@ -368,6 +381,15 @@ function convoyHtml(c: Convoy|undefined): string {
       gap}
     <br><span class="small">order: ${order} ← ${state.selected}</span>
     ${c.reason ? `<br><span class="reason">${c.reason}</span>` : ''}</p>`;
+}
+
+// The yield block of the robot tab: getting out of a peer's way, or waiting for one to.
+function yieldHtml(y: YieldRecord|undefined): string {
+  if (!y || !y.state) return '';
+  const bad = y.state === 'refused' || y.state === 'blocked';
+  return `<p id="yield">get out of the way: <b${bad ? ' class="bad"' : ''}>${
+      y.state.replace(
+          '_', ' ')}</b> (${y.peer})${y.reason ? `<br><span class="reason">${y.reason}</span>` : ''}</p>`;
 }
 
 // One robot's link cells: probe round trip, state samples lost (10 s), what it sends against its budget.

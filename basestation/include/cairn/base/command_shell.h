@@ -89,6 +89,9 @@ class CommandShell {
   int Convoy(const std::vector<std::string>& args);
   int ConvoyStop(const std::vector<std::string>& args);
   int Peel(const std::vector<std::string>& args);
+  // yield R [for A]: R gets out of A's way (A: by default the robot whose route passes R); waits up to 5 s
+  // for R's answer (its yield_state).
+  int Yield(const std::vector<std::string>& args);
   // "" when this basestation holds every robot of `robots` (waits up to 3 s for a state from each), else
   // why not, naming the first robot it does not hold.
   std::string RefuseUnlessHeld(const std::string& command, const std::vector<std::string>& robots);

@@ -32,6 +32,7 @@ struct RobotView {
   double max_speed_mps = 0.0;          ///< from its agent info: largest forward speed (0 = unknown)
   double max_reverse_speed_mps = 0.0;  ///< largest reverse speed, a magnitude (0 = unknown)
   double max_yaw_rate_radps = 0.0;     ///< largest yaw rate, a magnitude (0 = unknown)
+  double footprint_radius_m = 0.0;     ///< the disk its body fits in, metres (0 = unknown)
   std::vector<std::string> sensors;    ///< from its agent info: "lidar", "camera"
   double map_resolution_m = 0.0;       ///< voxel edge of the map it sends, metres (0 = no map)
   std::string version;                 ///< its cairn version
@@ -146,6 +147,12 @@ class FleetClient {
   /// Tells convoy follower `robot_id` to follow `ahead_ids` (the robots ahead of it, nearest first, the
   /// leader last; at most 16) on the path they drove, or, with none, to leave the convoy (ConvoyRequest).
   CommandOutcome SendConvoy(const std::string& robot_id, const std::vector<std::string>& ahead_ids);
+  /// Asks `robot_id` to get out of `passing_id`'s way (YieldRequest on cairn/yield_request, not a command
+  /// topic: the robot's yield policy decides, not the lock): `keep_clear_M` is the passing robot's route from
+  /// where it is (1..32 points, metres, frame map), `passing_radius_m` its footprint radius. No reply: the
+  /// answer is the robot's yield_state (RobotState). false when Fast DDS refuses the sample.
+  bool SendYield(const std::string& robot_id, const std::string& passing_id, double passing_radius_m,
+                 const std::vector<Eigen::Vector2d>& keep_clear_M);
   /// Sends `robot_id` home (HomeRequest): a waypoint goal the robot plans to its start, or to `point_M`
   /// (x, y metres, frame map; z its level, NaN = the robot's). The answer carries the goal id.
   CommandOutcome SendHome(const std::string& robot_id, const std::optional<Eigen::Vector3d>& point_M = std::nullopt);

@@ -28,7 +28,11 @@ struct OperatorEvent {
   /// the busiest topic class) | "lock_granted" | "lock_released" | "lock_taken" | "stopped" (an operator's
   /// stop) | "staircase" | "proximity" | "component_failed" (a part of its agent threw or stalled and waits
   /// for its restart; `other`: the component, `reason`: why) | "component_restarted" |
-  /// "component_restart_failed".
+  /// "component_restart_failed" | get-out-of-the-way: "yield_moving_aside" (it gets out of `other`'s way:
+  /// where to, in `reason`), "yield_refused" (it refused `other`: why), "yield_returned" (its yield ended:
+  /// back, or how), "yield_asking" (its route is blocked by `other` in a narrow passage: it asked it to
+  /// yield), "yield_blocked" (`other` refused or found no spot: it holds, blocked; why).
+  /// A yield is told to both operators: each basestation hears both robots' states.
   std::string kind;
   std::string robot_id;     ///< the robot concerned ("" for a fleet staircase)
   std::string other;        ///< proximity: the other robot; locks: the basestation; stopped: who stopped it
@@ -81,6 +85,8 @@ class FleetEventDetector {
     std::string nav_reason;
     std::string convoy_state;  // RobotState::convoy_state ("" before a state)
     std::string convoy_ahead;  // the robot it follows ("" when not in a convoy)
+    std::string yield_state;   // RobotState::yield_state
+    std::string yield_peer;    // RobotState::yield_peer_id
     bool has_health = false;
     uint32_t health_events = 0;  // AgentHealth::events
   };

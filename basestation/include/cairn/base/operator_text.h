@@ -35,8 +35,13 @@ OperatorReason ExplainReason(const std::string& robot_id, const std::string& rea
 
 /// The commands `base_id` may send `view`'s robot now, e.g. {"mode idle|manual|waypoint", "goto", "teleop",
 /// "release", "stop"} for its holder; {"stop"} when another basestation holds it; {"request-control",
-/// "stop"} when free; {"stop"} when the robot is lost or its state has not arrived. Modes come from the robot's behavior-tree state
-/// (valid_modes); "waypoint" is offered as `goto`, which sets the goal and enters it.
+/// "stop"} when free; {"stop"} when the robot is lost or its state has not arrived. Modes come from the
+/// robot's behavior-tree state (valid_modes); "waypoint" is offered as `goto`, which sets the goal and enters
+/// it. The robot of `fleet` (not `robot` itself, not lost) whose global path comes nearest `robot`'s
+/// position, within `within_m` (metres, frame map): the one `yield` lets pass by default. "" when none.
+std::string RobotWhoseRoutePasses(const std::vector<RobotView>& fleet, const RobotView& robot,
+                                  double within_m);
+
 std::vector<std::string> ValidActions(const RobotView& view, const std::string& base_id);
 
 /// ValidActions as one line: "valid now: mode idle|manual, goto, teleop, release, stop".

@@ -91,14 +91,15 @@ inline cairn_msgs::RobotState SlowPartOf(cairn_msgs::RobotState state) {
 
 /// True when `a` and `b` differ in what an operator or a script waits on: mode, mux channel, lock holder, its
 /// liveness and process, goal id and status, operator stops, exploration task and state, convoy state and
-/// order. A robot sends such a change at once; the rest of
+/// order, yield state and peer. A robot sends such a change at once; the rest of
 /// the slow part (reasons, status texts, counters) may wait up to half a second.
 inline bool UrgentChange(const cairn_msgs::RobotState& a, const cairn_msgs::RobotState& b) {
   return a.mode() != b.mode() || a.active_channel() != b.active_channel() || a.holder_id() != b.holder_id() ||
          a.holder_alive() != b.holder_alive() || a.holder_participant() != b.holder_participant() ||
          a.nav_goal_id() != b.nav_goal_id() || a.nav_status() != b.nav_status() || a.stops() != b.stops() ||
          a.explore_task_id() != b.explore_task_id() || a.explore_state() != b.explore_state() ||
-         a.convoy_state() != b.convoy_state() || a.convoy_ahead_ids() != b.convoy_ahead_ids();
+         a.convoy_state() != b.convoy_state() || a.convoy_ahead_ids() != b.convoy_ahead_ids() ||
+         a.yield_state() != b.yield_state() || a.yield_peer_id() != b.yield_peer_id();
 }
 
 /// When a robot sends its whole state besides the 10 Hz pose: its first, after an urgent change

@@ -39,6 +39,9 @@ struct YieldSpot {
   double drive_m = 0.0;      ///< driving distance to it on the grid (8-connected cells), metres
   double clearance_m = 0.0;  ///< its distance to keep_clear_W, metres
   std::string reason;        ///< !found: why (the field and value of a bad request, or what was searched)
+  /// found: the way there, from from_W through the searched cells' centres to p_W (>= 1 point), metres,
+  /// frame W. Traversable for robot_radius_m when searched; never within clearance_m of the passing robot.
+  std::vector<Eigen::Vector2d> path_W;
 };
 
 /// The nearest spot by driving distance (Dijkstra over 8-connected traversable cells from the robot's cell)
@@ -46,6 +49,15 @@ struct YieldSpot {
 /// to get there (back to a junction). Not found: a bad request (named), a start off the grid or not
 /// traversable, or no such spot within max_drive_m (the reason gives the cells searched).
 YieldSpot FindYieldSpot(const TraversabilityGrid& grid, const YieldSpotRequest& request);
+
+/// True when a robot of radius `robot_radius_m` (metres, > 0) can drive past a peer standing at `peer_W`
+/// (metres, frame W) in the direction `direction_W` (any length > 0): a cell on either side of the peer,
+/// `offset_m` (metres: both radii and a margin) from its centre across that direction, is traversable for
+/// the robot, within `along_m` (metres, >= 0) before or after the peer along it (a wide spot beside it).
+/// False for a peer off the grid or a zero direction: a passage is not assumed wide where nothing is known.
+bool CanPassBeside(const TraversabilityGrid& grid, const Eigen::Vector2d& peer_W,
+                   const Eigen::Vector2d& direction_W, double offset_m, double robot_radius_m,
+                   double along_m = 0.0);
 
 /// Distance from `p` to the polyline `path` (a single point: to it), metres; infinity for an empty path.
 double DistanceToPolyline(const std::vector<Eigen::Vector2d>& path, const Eigen::Vector2d& p);

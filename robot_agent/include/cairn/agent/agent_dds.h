@@ -28,6 +28,7 @@
 #include "cairn/agent/commands.h"
 #include "cairn/agent/explore_claims.h"
 #include "cairn/agent/peers.h"
+#include "cairn/agent/yield.h"
 #include "cairn/core/link_options.h"
 
 namespace cairn_msgs {
@@ -89,6 +90,10 @@ struct AgentDdsHandlers {
   /// A peer robot's state (cairn/peer_state; its own are not handed on), after ListenToPeers(). Not checked
   /// here: the receiver checks it (CheckPeerBody).
   std::function<void(const PeerBody& peer)> peer_state;
+  /// A yield request for this robot (cairn/yield_request, from a peer robot or a basestation); `fault` is ""
+  /// or why it cannot be read (an unknown action, named with its value; it must then be refused, not acted
+  /// on). Not checked otherwise: the receiver checks it (CheckYieldCommand).
+  std::function<void(const YieldCommand& request, const std::string& fault)> yield;
 };
 
 /// The robot's DDS entities. Construction is a checked chain (participant, writers); Listen() adds the
@@ -139,6 +144,10 @@ class AgentDds {
   /// when the robot first drives, outside any lock a handler takes. @throws std::logic_error before Listen(),
   /// core::DdsError.
   void ListenToPeers();
+  /// Asks robot `robot_id` to yield (cairn/yield_request, class "team"). The first call makes the writer;
+  /// call it outside any lock a handler takes (Fast DDS delivers to this participant's own reader on the
+  /// calling thread). false when Fast DDS refuses the sample. @throws core::DdsError.
+  bool Send(const std::string& robot_id, const YieldCommand& request);
   /// What every writer has sent so far, grouped into the link's topic classes, in priority order: command
   /// (command and path answers, probe replies), state (robot state and pose, local plan, agent info,
   /// staircases), tree (behavior tree, global path), team (explore claims, peer states), map, camera.

@@ -13,6 +13,7 @@
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/peers.h"
 #include "cairn/agent/perception_pipeline.h"
+#include "cairn/agent/yield.h"
 #include "cairn/core/kinematics.h"
 #include "cairn/core/link_options.h"
 #include "cairn/nav/local_planner.h"
@@ -68,6 +69,8 @@ struct AgentOptions {
   PeerOptions peers;
   /// Convoy: a follower's spacing to the robot ahead and when it counts it lost (config `convoy`).
   ConvoyOptions convoy;
+  /// Get-out-of-the-way: the modes in which this robot yields, and how it asks peers (config `yield`).
+  YieldOptions yield;
   /// Local planner library: collision radius = footprint + collision_margin_m; the heading range comes
   /// from the platform profile.
   nav::TrajectoryLibraryOptions library = DefaultLibraryOptions();

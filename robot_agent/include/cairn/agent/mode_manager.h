@@ -27,6 +27,7 @@ struct ModeConditions {
   bool has_explore_task = false;
   /// A convoy follower's task is running (sent with convoy L R1 R2 ...).
   bool has_convoy_task = false;
+  bool has_yield_task = false;  ///< a yield request accepted (YieldMode::active)
   /// The robot maps: fresh lidar scans reach its map and its navigation map is updated; when false,
   /// mapping_problem says why.
   bool mapping_healthy = false;

@@ -85,6 +85,12 @@ struct NavigationStep {
   std::string reason;          ///< Why it failed.
 };
 
+/// A driven path as a plan navigation follows (Navigation::AcceptGoal) without a search: the path a convoy's
+/// robot ahead drove, or a yielding robot's way to its spot on its own grid. `path_M` frame M, metres (>= 1
+/// point); `map_version` the planner's map it was taken on; `what` the plan's message.
+nav::GlobalPlan PlanAlong(const std::vector<Eigen::Vector3d>& path_M, std::uint64_t map_version,
+                          const std::string& what);
+
 /// True if `plan` (a future from Navigation::PlanGoalAsync() or a replan) holds a finished search: get() will
 /// not block. False for an empty future.
 inline bool PlanReady(const std::future<nav::GlobalPlan>& plan) {
@@ -183,6 +189,11 @@ class Navigation {
   NavigationStep StepWaypoint(const core::BaseState& state, double now_s,
                               double speed_mps = std::numeric_limits<double>::quiet_NaN(),
                               bool follow_path = false);
+  /// Holds the robot at rest with its goal kept (a non-empty `why`, e.g. waiting for a peer to get out of
+  /// the way, YieldAsker) until called with "": StepWaypoint() then gives a zero twist, and the time held
+  /// counts neither as a lack of progress nor as a stall. The local planner's status says `why`.
+  void SetHold(const std::string& why) { hold_reason_ = why; }
+  const std::string& hold_reason() const { return hold_reason_; }
   /// StepWaypoint(follow_path): the track along the global path, metres, and its clearance beyond the
   /// footprint radius, metres.
   static constexpr double kFollowTrackM = 2.0;
@@ -299,6 +310,7 @@ class Navigation {
   bool follow_path_ = false;
   std::uint64_t goal_serial_ = 0;  // see goal_serial()  // StepWaypoint(follow_path) of the step under way
   bool reduced_clearance_ = false;
+  std::string hold_reason_;          // SetHold()
   bool awaiting_obstacles_ = false;  // obstacle memory cleared: no local plan before the next SetObstacles()
 
   std::vector<Eigen::Vector3f> obstacles_B_;

@@ -45,6 +45,11 @@ struct PeerBody {
   std::string mode;                 ///< its mode ("idle", "manual", "waypoint", ...)
   /// The next metres of the global path it follows, frame M (metres, z the ground); empty: none.
   std::vector<Eigen::Vector3d> path_ahead_M;
+  /// Its answer to a yield request (get-out-of-the-way, yield.h): "" | "moving_aside" | "aside" |
+  /// "returning" | "refused"; the robot it yields to (or refused), and why refused / where it stands aside.
+  std::string yield_state;
+  std::string yield_to_id;
+  std::string yield_reason;
 };
 
 /// Spacing of the points of PeerState.path_ahead_M, metres, and their largest number (the IDL's bound).

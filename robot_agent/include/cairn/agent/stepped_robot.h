@@ -23,6 +23,7 @@
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
 #include "cairn/agent/waypoint_mode.h"
+#include "cairn/agent/yield.h"
 #include "cairn/core/platform_io.h"
 
 namespace cairn::agent {
@@ -38,6 +39,8 @@ class SteppedRobot {
 
   /// Starts exploring `task` at `now_s`; "" or why not (CheckExploreTask).
   std::string Explore(const ExploreTask& task, double now_s);
+  /// The mode running now: its name, or "idle" when it has no task.
+  std::string mode() const;
   /// Drives to (x_m, y_m) (frame M, metres) in waypoint mode, planned now on this thread; "" or why not (the
   /// plan's reason).
   std::string Goto(double x_m, double y_m, double now_s);
@@ -62,6 +65,15 @@ class SteppedRobot {
   /// takes a peer's, heard at `now_s` ("" or why it was dropped). Peers heard within options.peers.timeout_s
   /// are obstacles from the next Step() on, as in the agent.
   PeerBody PeerState() const;
+  /// Get-out-of-the-way, as the agents do over cairn/yield_request: YieldRequestToSend() is the request this
+  /// robot's last Step() made (to the robot named first), if any; OnYieldRequest() takes one at `now_s` and
+  /// decides by the policy (DecideYield, the mode "idle" when no task runs): "" when the robot now moves
+  /// aside, else why not. A yield that ends by itself hands back to the waypoint goal it interrupted (planned
+  /// again from the spot) or leaves an idle robot where it stood.
+  std::optional<std::pair<std::string, YieldCommand>> YieldRequestToSend();
+  std::string OnYieldRequest(const YieldCommand& request, double now_s);
+  const YieldMode& yield() const { return *yield_; }
+  const YieldAsker& yield_asker() const { return *yield_asker_; }
   std::string OnPeerState(const PeerBody& peer, double now_s) { return peers_.OnPeerState(peer, now_s); }
   /// The target this robot holds now (none: none).
   std::optional<nav::PeerClaim> OwnClaim(double now_s) const { return explore_->OwnClaim(now_s); }
@@ -96,6 +108,11 @@ class SteppedRobot {
   std::unique_ptr<ExploreMode> explore_;
   std::unique_ptr<WaypointMode> waypoint_;
   std::unique_ptr<ConvoyMode> convoy_;
+  std::unique_ptr<YieldMode> yield_;
+  std::unique_ptr<YieldAsker> yield_asker_;
+  std::optional<std::pair<std::string, YieldCommand>> yield_to_send_;
+  std::optional<WaypointGoal> yield_resume_goal_;  // the goal a yield interrupted
+  ModeModule* before_yield_ = nullptr;             // the mode a yield interrupted
   ModeModule* active_ = nullptr;  // the mode started last (explore_ until another one is)
   core::LidarScan scan_;
   std::vector<Eigen::Vector3f> points_B_;

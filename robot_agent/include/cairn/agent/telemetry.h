@@ -21,6 +21,7 @@
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
 #include "cairn/agent/waypoint_mode.h"
+#include "cairn/agent/yield.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/msgs/robot_state.h"
 
@@ -33,6 +34,9 @@ struct RobotStateInputs {
   double control_period_max_ms = 0.0;  ///< the control loop's worst period lately, milliseconds
   /// A restarted robot's old goal, offered to resume (frame M, metres; z NaN: the robot's level).
   std::optional<Eigen::Vector3d> resumable_goal_M;
+  /// Get-out-of-the-way: as the robot asked (YieldMode::status) when it has a yield state, else as the robot
+  /// asking (YieldAsker::status).
+  YieldStatus yield;
 };
 
 /// Builds and publishes the robot's telemetry. The control-loop methods run under the agent's lock (they read
@@ -73,6 +77,7 @@ class Telemetry {
   std::string platform_;      // AgentOptions::platform (RobotState, AgentInfo)
   std::string nav_platform_;  // navigation's platform profile (GlobalPath)
   core::VelocityLimits limits_;
+  double footprint_radius_m_;
   core::LinkOptions link_;
   double map_resolution_m_;  // 0: perception off, no map sent
   LinkUsageMeter link_usage_;

@@ -56,12 +56,16 @@ struct BuiltinWorldInfo {
   std::vector<StaircaseFlight> staircases = {};
 };
 
-/// Names of the built-in worlds, without the "builtin:" prefix: {"tunnels", "arena", "building"}.
+/// Names of the built-in worlds, without the "builtin:" prefix: {"tunnels", "narrow", "arena", "building"}.
 ///  - "tunnels": about 60 x 40 m (x in [0, 60], y in [0, 40], z in [-0.3, 3.8]) at 0.1 m: tunnels ~3 m wide
 ///    and ~3 m high with rough walls and ceilings, an X junction at (30, 20), two L bends at (30, 5) and
 ///    (30, 35), a 10 x 10 m room (x in [46, 56], y in [15, 25], 3.5 m high) with a staircase (5 steps of
 ///    0.2 m rise, 0.5 m run, x in [50, 52.5], y in [22.5, 25]) up to a 1.0 m platform (x in [52.5, 56]);
 ///    floor surface at z = 0; floor, walls and ceiling are occupied shells (0.2-0.3 m thick).
+///  - "narrow": 34 x 20 m (x in [0, 34], y in [0, 20], z in [-0.3, 3.0]) at 0.1 m: two tunnels 2 m wide and
+///    ~2.5 m high along x in [1, 33] (centre lines y = 5 and y = 15), joined by a third at x = 2, each with a
+///    2 m wide bay on its north wall (x in [19, 21], 2.5 m deep): two robots cannot pass in the tunnels, one
+///    can stand aside in a bay (get-out-of-the-way). Smooth walls; the seed varies the ceilings.
 ///  - "arena": 20 x 14 m walled yard at 0.1 m (x in [0, 20], y in [0, 14], z in [-0.2, 1.5]), no ceiling,
 ///    walls 1.5 m high, three 1 x 1 m pillars and a 0.1 m high plate (x in [3, 6], y in [2, 5]); floor
 ///    surface at z = 0.

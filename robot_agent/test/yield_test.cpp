@@ -1,0 +1,317 @@
+// Get-out-of-the-way (issue 16): the policy (DecideYield), the asking robot's choice (YieldAsker) on
+// builtin:narrow's grid, and a parked robot yielding to one driving through its 2 m tunnel with every robot's
+// autonomy stepped on a simulated clock in process (SteppedRobot), peer states at 5 Hz and yield requests as
+// over DDS, scored on the simulator's ground truth. The same over real processes and DDS is
+// tests/yield_integration_test.
+
+#include "cairn/agent/yield.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cairn/agent/stepped_robot.h"
+#include "cairn/nav/traversability.h"
+#include "cairn/sim/builtin_worlds.h"
+#include "cairn/sim/simulated_platform.h"
+
+namespace cairn::agent {
+namespace {
+
+std::shared_ptr<const nav::TraversabilityGrid> NarrowGrid() {
+  static const auto grid = std::make_shared<const nav::TraversabilityGrid>(sim::MakeBuiltinWorld("narrow"));
+  return grid;
+}
+
+core::BaseState At(double x, double y, double yaw = 0.0) {
+  core::BaseState s;
+  s.x_m = x;
+  s.y_m = y;
+  s.yaw_rad = yaw;
+  return s;
+}
+
+// ya at (4, 5) driving the south tunnel to (30, 5).
+YieldCommand FromYa(double x_m = 4.0) {
+  YieldCommand c;
+  c.sender_id = "ya";
+  c.request_id = 1;
+  c.passing_id = "ya";
+  c.passing_radius_m = 0.3;
+  c.keep_clear_M = {{x_m, 5.0}, {30.0, 5.0}};
+  return c;
+}
+
+TEST(YieldPolicyTest, BadOptionsAndRequestsAreNamed) {
+  std::vector<std::string> modes;
+  EXPECT_EQ(ParseYieldModes("idle, waypoint explore", &modes), "");
+  EXPECT_EQ(modes, (std::vector<std::string>{"idle", "waypoint", "explore"}));
+  EXPECT_NE(ParseYieldModes("idle manual", &modes).find("yield.modes: 'manual' cannot yield"),
+            std::string::npos);
+  EXPECT_NE(ParseYieldModes("smart_joystick", &modes).find("'smart_joystick' cannot yield"),
+            std::string::npos);
+  EXPECT_NE(ParseYieldModes("idle;waypoint", &modes).find("';' is not part of a mode name"),
+            std::string::npos);
+  EXPECT_EQ(ParseYieldModes("", &modes), "");
+  EXPECT_TRUE(modes.empty()) << "an empty policy: the robot never yields";
+  YieldOptions o;
+  std::string why;
+  EXPECT_TRUE(o.IsValid(&why)) << why;
+  o.margin_m = -1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("yield.margin_m = -1"), std::string::npos) << why;
+  o = YieldOptions{};
+  o.modes = {"manual"};
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("'manual' cannot yield"), std::string::npos) << why;
+
+  YieldCommand c = FromYa();
+  EXPECT_EQ(CheckYieldCommand(c), "");
+  c.passing_radius_m = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(CheckYieldCommand(c).find("passing_radius_m = nan must be in (0, 5]"), std::string::npos)
+      << CheckYieldCommand(c);
+  c = FromYa();
+  c.keep_clear_M.clear();
+  EXPECT_NE(CheckYieldCommand(c).find("keep_clear_M has 0 points (1..32)"), std::string::npos);
+  c = FromYa();
+  c.keep_clear_M[1].y() = std::numeric_limits<double>::infinity();
+  EXPECT_NE(CheckYieldCommand(c).find("keep_clear_M[1]"), std::string::npos);
+  c = FromYa();
+  c.passing_id = std::string("y\x01", 2);
+  EXPECT_NE(CheckYieldCommand(c).find("passing_id"), std::string::npos);
+}
+
+// Parked idle at (14, 5) in the 2 m tunnel, yb's spot is in the bay (x 19..21), 1.1 m (both footprints and
+// the 0.5 m margin) or more off ya's route; in manual control, or in a mode outside the policy, it refuses
+// and says why; a drive limit short of the bay finds none.
+TEST(YieldPolicyTest, AnIdleRobotStandsAsideInTheBayAndOneInManualControlRefuses) {
+  const YieldOptions options;
+  const auto grid = NarrowGrid();
+  const YieldDecision idle = DecideYield(options, FromYa(), "idle", At(14, 5), 0.3, grid.get());
+  ASSERT_TRUE(idle.accepted) << idle.refusal;
+  EXPECT_NEAR(idle.clearance_m, 1.1, 1e-9);
+  EXPECT_GE(idle.spot.p_W.x(), 19.0);
+  EXPECT_LE(idle.spot.p_W.x(), 21.0);
+  EXPECT_GE(idle.spot.p_W.y(), 6.1 - 1e-9);
+  EXPECT_NEAR(idle.spot.drive_m, 6.6, 1.0);
+
+  const YieldDecision manual = DecideYield(options, FromYa(), "manual", At(14, 5), 0.3, grid.get());
+  EXPECT_FALSE(manual.accepted);
+  EXPECT_EQ(manual.refusal, "in manual control: its operator drives it");
+  EXPECT_EQ(DecideYield(options, FromYa(), "smart_joystick", At(14, 5), 0.3, grid.get()).refusal,
+            "driven by its operator (smart joystick)");
+  EXPECT_EQ(DecideYield(options, FromYa(), "convoy", At(14, 5), 0.3, grid.get()).refusal,
+            "in mode convoy, which does not yield (yield.modes: idle, waypoint, explore)");
+  EXPECT_EQ(DecideYield(options, FromYa(), "idle", At(14, 5), 0.3, nullptr).refusal,
+            "no navigation map to find a spot on");
+  YieldOptions short_drive;
+  short_drive.max_drive_m = 3.0;
+  const YieldDecision none = DecideYield(short_drive, FromYa(), "idle", At(14, 5), 0.3, grid.get());
+  EXPECT_FALSE(none.accepted);
+  EXPECT_NE(
+      none.refusal.find("no spot to stand aside on its map: no spot 1.1 m clear of the path within 3 m"),
+      std::string::npos)
+      << none.refusal;
+}
+
+PeerBody Parked(const std::string& id, double x, double y) {
+  PeerBody p;
+  p.robot_id = id;
+  p.pose_M = At(x, y);
+  p.footprint_radius_m = 0.3;
+  p.mode = "idle";
+  return p;
+}
+
+YieldAskInputs Driving(double x, const std::vector<PeerBody>& peers, double now_s) {
+  YieldAskInputs in;
+  in.pose_M = At(x, 5.0);
+  in.radius_m = 0.3;
+  for (double px = x + 1; px <= 30.0; px += 1.0) in.route_M.emplace_back(px, 5.0, 0.0);
+  in.peers = peers;
+  in.grid = [] { return NarrowGrid(); };
+  in.now_s = now_s;
+  return in;
+}
+
+// ya asks yb, parked in its tunnel within lookahead, once per ask_every_s, and holds standoff_m before its
+// body; a refusal is shown as blocked with the peer's reason and asked again only after 5 x ask_every_s; a
+// peer aside for ya, one off the route (in the bay) or one that can be passed (where the bay widens the
+// tunnel) blocks nothing; with no route the status clears.
+TEST(YieldAskerTest, AsksAParkedPeerInANarrowPassageHoldsBeforeItAndReportsARefusal) {
+  const YieldOptions options;
+  YieldAsker asker(options, "ya");
+  PeerBody yb = Parked("yb", 14.0, 5.0);
+  YieldAsk ask = asker.Update(Driving(4.0, {yb}, 0.0));
+  EXPECT_FALSE(ask.request) << "10 m ahead: beyond lookahead_m (8 m)";
+  ask = asker.Update(Driving(7.0, {yb}, 1.0));
+  ASSERT_TRUE(ask.request);
+  EXPECT_EQ(ask.to_id, "yb");
+  EXPECT_EQ(ask.request->passing_id, "ya");
+  EXPECT_EQ(ask.request->keep_clear_M.front(), Eigen::Vector2d(7.0, 5.0));
+  EXPECT_EQ(CheckYieldCommand(*ask.request), "");
+  EXPECT_TRUE(ask.hold_reason.empty()) << "7 m ahead: drives on toward it";
+  EXPECT_EQ(asker.status().state, YieldStatus::State::kAsking);
+  EXPECT_FALSE(asker.Update(Driving(8.0, {yb}, 2.0)).request) << "asked 1 s ago";
+  ask = asker.Update(Driving(12.0, {yb}, 3.1));
+  EXPECT_TRUE(ask.request) << "no answer in ask_every_s: again";
+  EXPECT_FALSE(ask.hold_reason.empty()) << "1.4 m from its body: holds";
+
+  yb.yield_state = "refused";
+  yb.yield_to_id = "ya";
+  yb.yield_reason = "in manual control: its operator drives it";
+  ask = asker.Update(Driving(12.0, {yb}, 4.0));
+  EXPECT_FALSE(ask.request);
+  EXPECT_EQ(asker.status().state, YieldStatus::State::kBlocked);
+  EXPECT_NE(asker.status().reason.find("it refused to yield: in manual control"), std::string::npos)
+      << asker.status().reason;
+  EXPECT_FALSE(ask.hold_reason.empty());
+  EXPECT_FALSE(asker.Update(Driving(12.0, {yb}, 12.0)).request) << "after a refusal: 5 x 2 s";
+  EXPECT_TRUE(asker.Update(Driving(12.0, {yb}, 13.2)).request);
+
+  yb.yield_state = "moving_aside";
+  ask = asker.Update(Driving(12.0, {yb}, 14.0));
+  EXPECT_FALSE(ask.request);
+  EXPECT_FALSE(ask.hold_reason.empty()) << "still on the route, moving aside: wait";
+  yb.yield_state = "aside";
+  EXPECT_TRUE(asker.Update(Driving(12.0, {yb}, 15.0)).hold_reason.empty()) << "aside: out of the way";
+  EXPECT_EQ(asker.status().state, YieldStatus::State::kNone);
+  EXPECT_TRUE(asker.Update(Driving(12.0, {Parked("yb", 20.0, 7.0)}, 16.0)).hold_reason.empty())
+      << "in the bay: off the route";
+  EXPECT_FALSE(asker.Update(Driving(14.0, {Parked("yc", 20.0, 5.0)}, 17.0)).request)
+      << "beside the bay there is room to pass";
+  YieldAskInputs none;
+  EXPECT_FALSE(asker.Update(none).request);
+  EXPECT_EQ(asker.status().state, YieldStatus::State::kNone);
+}
+
+// Robots in builtin:narrow at `starts`, stepped in process.
+struct Robots {
+  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
+  std::vector<std::unique_ptr<SteppedRobot>> robots;
+};
+Robots MakeRobots(const std::vector<std::pair<std::string, core::PlanarPose>>& starts) {
+  Robots r;
+  for (const auto& [id, start] : starts) {
+    AgentOptions options;
+    options.robot_id = id;
+    options.SetPlatform("wheeled");
+    sim::SimulatedPlatformOptions sim_options;
+    sim_options.world = "builtin:narrow";
+    sim_options.start_W = start;
+    sim_options.SetProfile(options.navigation.platform);
+    r.platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
+    r.robots.push_back(std::make_unique<SteppedRobot>(options, r.platforms.back(), ""));
+  }
+  return r;
+}
+
+struct YieldRun {
+  double ya_s = -1, ye_s = -1;  // from the goto to arrival, simulated seconds
+  double closest_m = std::numeric_limits<double>::infinity();
+  bool moved_aside = false, aside_in_bay = false, contact = false, ya_arrived = false;
+  std::string yb_mode, yb_reason;
+  Eigen::Vector2d yb_end = Eigen::Vector2d::Zero(), yb_parked = Eigen::Vector2d::Zero();
+};
+
+// yb drives from `yb_start` to `park` and stays there (idle); then ya drives the south tunnel from (4, 5) to
+// (30, 5) through yb, and ye the empty north tunnel from (4, 15) to (30, 15) at the same time. Every robot
+// steps at 50 Hz simulated; peer states go to all at 5 Hz, yield requests at once (both as over DDS). Scored
+// on the simulator's ground truth.
+YieldRun RunYield(const core::PlanarPose& yb_start, const Eigen::Vector2d& park) {
+  constexpr double kDt = 0.02;
+  auto [platforms, robots] =
+      MakeRobots({{"ya", {4.0, 5.0, 0.0}}, {"yb", yb_start}, {"ye", {4.0, 15.0, 0.0}}});
+  SteppedRobot& ya = *robots[0];
+  SteppedRobot& yb = *robots[1];
+  SteppedRobot& ye = *robots[2];
+  YieldRun run;
+  double t = 0;
+  int cycle = 0;
+  auto step = [&] {
+    t += kDt;
+    ++cycle;
+    for (const auto& robot : robots) {
+      robot->Step(t);
+      while (robot->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    for (std::size_t i = 0; i < robots.size(); ++i) {
+      if (auto request = robots[i]->YieldRequestToSend()) {
+        for (const auto& other : robots) {
+          if (other->PeerState().robot_id == request->first) other->OnYieldRequest(request->second, t);
+        }
+      }
+      if (cycle % 10 != 0) continue;
+      const PeerBody self = robots[i]->PeerState();
+      for (std::size_t j = 0; j < robots.size(); ++j) {
+        if (j != i) {
+          EXPECT_EQ(robots[j]->OnPeerState(self, t), "");
+        }
+      }
+    }
+  };
+  EXPECT_EQ(yb.Goto(park.x(), park.y(), 0.0), "");
+  while (yb.waypoint().has_goal() && t < 60) step();
+  EXPECT_LT(t, 60) << "yb parks";
+  for (int i = 0; i < 50; ++i) step();  // at rest
+  run.yb_parked = {platforms[1]->TrueState().x_m, platforms[1]->TrueState().y_m};
+  EXPECT_EQ(ya.Goto(30.0, 5.0, t), "");
+  EXPECT_EQ(ye.Goto(30.0, 15.0, t), "");
+  const double start_s = t;
+  while (t < start_s + 150) {
+    step();
+    if (run.ya_s < 0 && !ya.waypoint().has_goal()) run.ya_s = t - start_s;
+    if (run.ye_s < 0 && !ye.waypoint().has_goal()) run.ye_s = t - start_s;
+    const sim::UnicycleState a = platforms[0]->TrueState(), b = platforms[1]->TrueState();
+    run.closest_m = std::min(run.closest_m, std::hypot(a.x_m - b.x_m, a.y_m - b.y_m));
+    const YieldStatus::State s = yb.yield().status().state;
+    run.moved_aside = run.moved_aside || s == YieldStatus::State::kMovingAside;
+    run.aside_in_bay =
+        run.aside_in_bay || (s == YieldStatus::State::kAside && b.y_m > 5.9 && b.x_m > 19 && b.x_m < 21);
+    for (const auto& p : platforms) run.contact = run.contact || p->ReadStatus().in_contact;
+    if (run.ya_s > 0 && run.ye_s > 0 && yb.mode() == "idle") break;
+  }
+  run.ya_arrived = ya.waypoint().goal().status == GoalStatus::kArrived;
+  run.yb_mode = yb.mode();
+  run.yb_reason = yb.yield().status().reason;
+  run.yb_end = {platforms[1]->TrueState().x_m, platforms[1]->TrueState().y_m};
+  std::printf(
+      "FIGURE yield_in_process yb parked at (%.0f, %.0f): ya %.1f s through yb, ye %.1f s through the "
+      "empty tunnel: %.1f s lost; closest %.2f m\n",
+      park.x(), park.y(), run.ya_s, run.ye_s, run.ya_s - run.ye_s, run.closest_m);
+  return run;
+}
+
+void ExpectYielded(const YieldRun& run) {
+  ASSERT_GT(run.ya_s, 0) << "ya arrives; yb: " << run.yb_reason;
+  ASSERT_GT(run.ye_s, 0);
+  EXPECT_TRUE(run.ya_arrived);
+  EXPECT_TRUE(run.moved_aside);
+  EXPECT_TRUE(run.aside_in_bay) << "yb stood aside in the bay";
+  EXPECT_EQ(run.yb_mode, "idle");
+  EXPECT_EQ(run.yb_reason.find("back at"), 0u) << run.yb_reason;
+  EXPECT_LT((run.yb_end - run.yb_parked).norm(), 0.5) << "yb returned to where it stood";
+  EXPECT_GT(run.closest_m, 0.6) << "never touching";
+  EXPECT_FALSE(run.contact);
+  EXPECT_LT(run.ya_s - run.ye_s, 40.0) << "the yield costs a bounded wait, not a stall";
+}
+
+// yb parked west of the bay (ya's side): it drives on east, ahead of ya, into the bay.
+TEST(YieldTest, ARobotParkedBeforeTheBayDrivesOnIntoItAndReturns) {
+  ExpectYielded(RunYield({26.0, 5.0, M_PI}, {14.0, 5.0}));
+}
+
+// yb parked east of the bay: it drives toward ya, into the bay, while ya holds short of it.
+TEST(YieldTest, ARobotParkedBeyondTheBayBacksIntoItWhileTheOtherHolds) {
+  ExpectYielded(RunYield({16.0, 5.0, 0.0}, {24.0, 5.0}));
+}
+
+}  // namespace
+}  // namespace cairn::agent
