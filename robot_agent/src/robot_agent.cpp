@@ -506,6 +506,19 @@ void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const std::string& 
     return;
   }
   if (c.passing_id == own) return;
+  if (yield_->InTheWayOf(c)) {
+    // Aside, but the passing robot's route now runs by the spot: on to another one.
+    const std::shared_ptr<const nav::TraversabilityGrid> grid =
+        planner_->Grid(options_.navigation.platform.name);
+    const YieldDecision moved = DecideYield(
+        options_.yield, c,
+        YieldSituation{own, ModeManager::kIdleMode, pose_, options_.navigation.platform.footprint_radius_m,
+                       grid.get(), YieldStatus{}, false});
+    if (moved.accepted && yield_->MoveOn(c, moved.spot, now_s)) {
+      spdlog::info("robot {}: {}", own, yield_->status().reason);
+    }
+    return;
+  }
   if (yield_->active()) {
     if (yield_->passing_id() != c.passing_id) {
       spdlog::info("robot {}: yield for {} (asked by {}) refused: already yielding to {}", own, c.passing_id,
@@ -523,8 +536,14 @@ void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const std::string& 
   };
   const std::shared_ptr<const nav::TraversabilityGrid> grid =
       planner_->Grid(options_.navigation.platform.name);
-  const YieldDecision decision = DecideYield(options_.yield, c, mode, pose_,
-                                             options_.navigation.platform.footprint_radius_m, grid.get());
+  YieldSituation situation{
+      own,  mode, pose_, options_.navigation.platform.footprint_radius_m, grid.get(), yield_asker_.status(),
+      false};
+  for (const PeerBody& p : peers_.Live(now_s)) {
+    if (p.robot_id == c.passing_id) situation.passing_yields_to_me = YieldsTo(p, own);
+  }
+  const YieldDecision decision = DecideYield(options_.yield, c, situation);
+  if (decision.ignore) return;  // it gets out of this robot's way itself
   if (!decision.accepted) return refuse(decision.refusal);
   yield_resume_goal_.reset();
   yield_resume_explore_.reset();
@@ -549,7 +568,7 @@ void RobotAgent::Impl::AskPeersToYield(double now_s, const std::vector<PeerBody>
   if (options_.yield.ask_peers && (mode == waypoint_->name() || mode == explore_->name())) {
     in.pose_M = pose_;
     in.radius_m = options_.navigation.platform.footprint_radius_m;
-    in.route_M = navigation_.AsPeer(options_.robot_id, pose_, mode).path_ahead_M;
+    in.route_M = YieldRouteAhead(navigation_, pose_);
     in.peers = peers;
     in.grid = [this] { return planner_->Grid(options_.navigation.platform.name); };
     in.now_s = now_s;

@@ -98,12 +98,24 @@ std::optional<std::pair<std::string, YieldCommand>> SteppedRobot::YieldRequestTo
 
 std::string SteppedRobot::OnYieldRequest(const YieldCommand& request, double now_s) {
   if (std::string why = CheckYieldCommand(request); !why.empty()) return why;
-  if (yield_->active()) return yield_->passing_id() == request.passing_id ? "" : "already yielding";
-  const std::string now_mode = mode();
   const std::shared_ptr<const nav::TraversabilityGrid> grid =
       planner_->Grid(options_.navigation.platform.name);
-  const YieldDecision d = DecideYield(options_.yield, request, now_mode, pose_M_,
-                                      options_.navigation.platform.footprint_radius_m, grid.get());
+  const double radius_m = options_.navigation.platform.footprint_radius_m;
+  if (yield_->InTheWayOf(request)) {  // aside, but the route now runs by the spot: on to another one
+    const YieldDecision moved =
+        DecideYield(options_.yield, request,
+                    YieldSituation{options_.robot_id, "idle", pose_M_, radius_m, grid.get(), {}, false});
+    return moved.accepted && yield_->MoveOn(request, moved.spot, now_s) ? "" : moved.refusal;
+  }
+  if (yield_->active()) return yield_->passing_id() == request.passing_id ? "" : "already yielding";
+  const std::string now_mode = mode();
+  YieldSituation situation{options_.robot_id,      now_mode, pose_M_, radius_m, grid.get(),
+                           yield_asker_->status(), false};
+  for (const PeerBody& p : peers_.Live(now_s)) {
+    if (p.robot_id == request.passing_id) situation.passing_yields_to_me = YieldsTo(p, options_.robot_id);
+  }
+  const YieldDecision d = DecideYield(options_.yield, request, situation);
+  if (d.ignore) return d.refusal;
   if (!d.accepted) {
     yield_->Refuse(request.passing_id, d.refusal, now_s);
     return d.refusal;
@@ -198,7 +210,7 @@ void SteppedRobot::Step(double now_s) {
   if (options_.yield.ask_peers && (now_mode == WaypointMode::kName || now_mode == ExploreMode::kName)) {
     ask_in.pose_M = pose;
     ask_in.radius_m = options_.navigation.platform.footprint_radius_m;
-    ask_in.route_M = navigation_->AsPeer(options_.robot_id, pose, now_mode).path_ahead_M;
+    ask_in.route_M = YieldRouteAhead(*navigation_, pose);
     ask_in.peers = live;
     ask_in.grid = [this] { return planner_->Grid(options_.navigation.platform.name); };
     ask_in.now_s = now_s;

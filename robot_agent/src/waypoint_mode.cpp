@@ -26,6 +26,7 @@ GoalStart WaypointMode::Start(const nav::GlobalPlan& plan, double x_m, double y_
   const WaypointGoal previous = goal_;
   if (recovery_) recovery_->Halt();  // a recovering previous goal is superseded
   navigation_->AcceptGoal(plan, x_m, y_m, tolerance_m, now_s, z_m);
+  own_serial_ = navigation_->goal_serial();
   WaypointGoal goal;
   goal.goal_id = next_goal_id_++;
   goal.x_m = x_m;
@@ -51,18 +52,22 @@ GoalStart WaypointMode::Start(const nav::GlobalPlan& plan, double x_m, double y_
   return GoalStart{false, d.reason, 0};
 }
 
-void WaypointMode::Finish(GoalStatus status, const std::string& reason) {
+void WaypointMode::Finish(GoalStatus status, const std::string& reason, bool only_own) {
   goal_.status = status;
   goal_.reason = reason;
   if (recovery_) recovery_->Halt();
-  navigation_->ClearGoal();
+  if (only_own) {
+    navigation_->ClearGoal(own_serial_);
+  } else {
+    navigation_->ClearGoal();
+  }
   if (status == GoalStatus::kFailed) {
     spdlog::warn("robot {}: waypoint {} failed: {}", options_.robot_id, goal_.goal_id, reason);
   }
 }
 
 void WaypointMode::Deactivate(const std::string& why) {
-  if (has_goal()) Finish(GoalStatus::kFailed, "cancelled: " + why);
+  if (has_goal()) Finish(GoalStatus::kFailed, "cancelled: " + why, /*only_own=*/true);
 }
 
 ModeOutput WaypointMode::Step(const ModeInputs& in) {
@@ -87,6 +92,7 @@ ModeOutput WaypointMode::Step(const ModeInputs& in) {
       step = NavigationStep{};  // brake this cycle; the recovery tree runs from the next
     }
   }
+  own_serial_ = navigation_->goal_serial();  // the recovery may have planned the goal again
   goal_.distance_left_m = navigation_->distance_left_m();
   if (step.arrived) {
     spdlog::info("robot {}: waypoint {} arrived ({:.2f} m from the goal)", options_.robot_id, goal_.goal_id,

@@ -111,9 +111,17 @@ std::string CheckYieldCommand(const YieldCommand& c) {
   return "";
 }
 
-YieldDecision DecideYield(const YieldOptions& options, const YieldCommand& c, const std::string& mode,
-                          const core::BaseState& pose_M, double radius_m,
-                          const nav::TraversabilityGrid* grid) {
+bool YieldsTo(const PeerBody& peer, const std::string& robot_id) {
+  return peer.yield_to_id == robot_id && (peer.yield_state == "moving_aside" || peer.yield_state == "aside" ||
+                                          peer.yield_state == "returning");
+}
+
+YieldDecision DecideYield(const YieldOptions& options, const YieldCommand& c,
+                          const YieldSituation& situation) {
+  const std::string& mode = situation.mode;
+  const core::BaseState& pose_M = situation.pose_M;
+  const double radius_m = situation.radius_m;
+  const nav::TraversabilityGrid* grid = situation.grid;
   YieldDecision d;
   if (std::find(options.modes.begin(), options.modes.end(), mode) == options.modes.end()) {
     std::string allowed;
@@ -122,6 +130,17 @@ YieldDecision DecideYield(const YieldOptions& options, const YieldCommand& c, co
                 : mode == "smart_joystick" ? "driven by its operator (smart joystick)"
                                            : "in mode " + mode + ", which does not yield (yield.modes: " +
                                                  (allowed.empty() ? std::string("none") : allowed) + ")";
+    return d;
+  }
+  if (situation.passing_yields_to_me) {
+    d.refusal = c.passing_id + " is getting out of " + situation.own_id + "'s way";
+    d.ignore = true;
+    return d;
+  }
+  if (situation.asking.peer_id == c.passing_id && situation.asking.state == YieldStatus::State::kAsking &&
+      situation.own_id < c.passing_id) {
+    d.refusal =
+        "both asked each other: " + c.passing_id + " gives way (the larger id does, unless it cannot)";
     return d;
   }
   if (grid == nullptr) {
@@ -192,6 +211,26 @@ void YieldMode::Start(const YieldCommand& command, const nav::YieldSpot& spot, c
   Drive(way_M_, z_m_, "the way to a spot aside", now_s);
 }
 
+bool YieldMode::InTheWayOf(const YieldCommand& command) const {
+  return status_.state == YieldStatus::State::kAside && command.passing_id == passing_id_ &&
+         !way_M_.empty() && nav::DistanceToPolyline(command.keep_clear_M, way_M_.back()) < clearance_m_;
+}
+
+bool YieldMode::MoveOn(const YieldCommand& command, const nav::YieldSpot& spot, double now_s) {
+  if (!InTheWayOf(command) || spot.path_W.empty()) return false;
+  // The way back goes through the spot it leaves: home -> old spot -> new spot, reversed on return.
+  way_M_.insert(way_M_.end(), spot.path_W.begin() + 1, spot.path_W.end());
+  passed_ = false;
+  passed_reason_.clear();
+  last_heard_s_ = now_s;
+  aside_since_s_ = now_s;
+  status_.state = YieldStatus::State::kMovingAside;
+  status_.reason = "moving on for " + passing_id_ + " (its route changed) to " + Point(spot.p_W) + ", " +
+                   Fixed(spot.drive_m, 1) + " m away";
+  Drive(spot.path_W, z_m_, "the way to a spot aside", now_s);
+  return true;
+}
+
 void YieldMode::Refuse(const std::string& passing_id, const std::string& why, double now_s) {
   if (active()) return;  // already yielding (to another robot): the refusal is the caller's log line only
   status_.state = YieldStatus::State::kRefused;
@@ -218,6 +257,9 @@ void YieldMode::SetPeers(const std::vector<PeerBody>& peers, double now_s) {
     if (nearest_m >= clearance_m_) {
       passed_ = true;
       passed_reason_ = passing_id_ + " has passed";
+    } else if (it->path_ahead_M.empty() && std::abs(it->pose_M.v_mps) < 0.05) {
+      passed_ = true;  // it no longer drives (arrived, or its operator stopped it): the way is not needed
+      passed_reason_ = passing_id_ + " has stopped with no route";
     }
   } else if (now_s - last_heard_s_ > kUnheardS) {
     passed_ = true;
@@ -313,6 +355,14 @@ ModeOutput YieldMode::Step(const ModeInputs& in) {
   return out;
 }
 
+std::vector<Eigen::Vector3d> YieldRouteAhead(const Navigation& navigation, const core::BaseState& pose_M) {
+  if (!navigation.has_goal()) return {};
+  const std::vector<Eigen::Vector3d>& path = navigation.global_plan().result.path_W;
+  double length_m = 0.0;
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) length_m += (path[i + 1] - path[i]).head<2>().norm();
+  return PathAhead(path, {pose_M.x_m, pose_M.y_m}, std::max(1.0, length_m / 30.0), 31);
+}
+
 // ---- YieldAsker -------------------------------------------------------------------------------------------
 
 YieldAsker::YieldAsker(const YieldOptions& options, std::string own_id)
@@ -335,11 +385,9 @@ YieldAsk YieldAsker::Update(const YieldAskInputs& in) {
   double blocker_s = std::numeric_limits<double>::infinity();
   for (const PeerBody& peer : in.peers) {
     if (std::abs(peer.pose_M.z_m - in.pose_M.z_m) > 1.0) continue;  // another level
+    // Moving aside for this robot: wait for it. Aside (or on its way back) it is out of the way unless this
+    // robot's route changed to pass within reach of its spot: then it is asked again (it moves on).
     const bool yielding_to_me = peer.yield_to_id == own_id_ && peer.yield_state == "moving_aside";
-    // At its spot (or on its way back, behind this robot): out of the way; the local planner keeps clear of
-    // it as of any peer.
-    if (peer.yield_to_id == own_id_ && (peer.yield_state == "aside" || peer.yield_state == "returning"))
-      continue;
     if (std::abs(peer.pose_M.v_mps) > 0.2 && !yielding_to_me)
       continue;  // it drives on: not parked in the way
     const Eigen::Vector2d p(peer.pose_M.x_m, peer.pose_M.y_m);
@@ -374,7 +422,7 @@ YieldAsk YieldAsker::Update(const YieldAskInputs& in) {
   const PeerBody& peer = *blocker;
   const double gap_m = blocker_s - in.radius_m - peer.footprint_radius_m;
   const bool refused = peer.yield_to_id == own_id_ && peer.yield_state == "refused";
-  const bool yielding = peer.yield_to_id == own_id_ && !refused && !peer.yield_state.empty();
+  const bool yielding = peer.yield_to_id == own_id_ && peer.yield_state == "moving_aside";
   const auto asked = last_ask_s_.find(peer.robot_id);
   const double since_ask_s =
       asked == last_ask_s_.end() ? std::numeric_limits<double>::infinity() : in.now_s - asked->second;

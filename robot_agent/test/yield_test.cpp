@@ -88,13 +88,18 @@ TEST(YieldPolicyTest, BadOptionsAndRequestsAreNamed) {
   EXPECT_NE(CheckYieldCommand(c).find("passing_id"), std::string::npos);
 }
 
+// yb at (14, 5) in `mode`, not asking anyone.
+YieldSituation Situation(const std::string& mode, const nav::TraversabilityGrid* grid) {
+  return YieldSituation{"yb", mode, At(14, 5), 0.3, grid, YieldStatus{}, false};
+}
+
 // Parked idle at (14, 5) in the 2 m tunnel, yb's spot is in the bay (x 19..21), 1.1 m (both footprints and
 // the 0.5 m margin) or more off ya's route; in manual control, or in a mode outside the policy, it refuses
 // and says why; a drive limit short of the bay finds none.
 TEST(YieldPolicyTest, AnIdleRobotStandsAsideInTheBayAndOneInManualControlRefuses) {
   const YieldOptions options;
   const auto grid = NarrowGrid();
-  const YieldDecision idle = DecideYield(options, FromYa(), "idle", At(14, 5), 0.3, grid.get());
+  const YieldDecision idle = DecideYield(options, FromYa(), Situation("idle", grid.get()));
   ASSERT_TRUE(idle.accepted) << idle.refusal;
   EXPECT_NEAR(idle.clearance_m, 1.1, 1e-9);
   EXPECT_GE(idle.spot.p_W.x(), 19.0);
@@ -102,18 +107,30 @@ TEST(YieldPolicyTest, AnIdleRobotStandsAsideInTheBayAndOneInManualControlRefuses
   EXPECT_GE(idle.spot.p_W.y(), 6.1 - 1e-9);
   EXPECT_NEAR(idle.spot.drive_m, 6.6, 1.0);
 
-  const YieldDecision manual = DecideYield(options, FromYa(), "manual", At(14, 5), 0.3, grid.get());
+  const YieldDecision manual = DecideYield(options, FromYa(), Situation("manual", grid.get()));
   EXPECT_FALSE(manual.accepted);
   EXPECT_EQ(manual.refusal, "in manual control: its operator drives it");
-  EXPECT_EQ(DecideYield(options, FromYa(), "smart_joystick", At(14, 5), 0.3, grid.get()).refusal,
+  EXPECT_EQ(DecideYield(options, FromYa(), Situation("smart_joystick", grid.get())).refusal,
             "driven by its operator (smart joystick)");
-  EXPECT_EQ(DecideYield(options, FromYa(), "convoy", At(14, 5), 0.3, grid.get()).refusal,
+  EXPECT_EQ(DecideYield(options, FromYa(), Situation("convoy", grid.get())).refusal,
             "in mode convoy, which does not yield (yield.modes: idle, waypoint, explore)");
-  EXPECT_EQ(DecideYield(options, FromYa(), "idle", At(14, 5), 0.3, nullptr).refusal,
+  EXPECT_EQ(DecideYield(options, FromYa(), Situation("idle", nullptr)).refusal,
             "no navigation map to find a spot on");
+  // Head-on (both asked each other): the larger id gives way, unless the other already refused it; a robot
+  // never yields to one that is getting out of its own way.
+  YieldSituation head_on = Situation("waypoint", grid.get());
+  head_on.asking = YieldStatus{YieldStatus::State::kAsking, "ya", "asked ya"};
+  EXPECT_TRUE(DecideYield(options, FromYa(), head_on).accepted) << "yb > ya: yb gives way";
+  head_on.own_id = "aa";
+  EXPECT_EQ(DecideYield(options, FromYa(), head_on).refusal,
+            "both asked each other: ya gives way (the larger id does, unless it cannot)");
+  head_on.asking.state = YieldStatus::State::kBlocked;
+  EXPECT_TRUE(DecideYield(options, FromYa(), head_on).accepted) << "ya refused aa: aa gives way if it can";
+  head_on.passing_yields_to_me = true;
+  EXPECT_EQ(DecideYield(options, FromYa(), head_on).refusal, "ya is getting out of aa's way");
   YieldOptions short_drive;
   short_drive.max_drive_m = 3.0;
-  const YieldDecision none = DecideYield(short_drive, FromYa(), "idle", At(14, 5), 0.3, grid.get());
+  const YieldDecision none = DecideYield(short_drive, FromYa(), Situation("idle", grid.get()));
   EXPECT_FALSE(none.accepted);
   EXPECT_NE(
       none.refusal.find("no spot to stand aside on its map: no spot 1.1 m clear of the path within 3 m"),
@@ -181,10 +198,16 @@ TEST(YieldAskerTest, AsksAParkedPeerInANarrowPassageHoldsBeforeItAndReportsARefu
   EXPECT_FALSE(ask.request);
   EXPECT_FALSE(ask.hold_reason.empty()) << "still on the route, moving aside: wait";
   yb.yield_state = "aside";
-  EXPECT_TRUE(asker.Update(Driving(12.0, {yb}, 15.0)).hold_reason.empty()) << "aside: out of the way";
+  ask = asker.Update(Driving(12.0, {yb}, 15.5));
+  EXPECT_TRUE(ask.request)
+      << "aside for ya but still on its route (its route changed): asked again, to move on";
+  EXPECT_FALSE(ask.hold_reason.empty());
+  PeerBody in_bay = Parked("yb", 20.0, 7.0);
+  in_bay.yield_state = "aside";
+  in_bay.yield_to_id = "ya";
+  EXPECT_TRUE(asker.Update(Driving(12.0, {in_bay}, 16.0)).hold_reason.empty())
+      << "aside in the bay: off the route";
   EXPECT_EQ(asker.status().state, YieldStatus::State::kNone);
-  EXPECT_TRUE(asker.Update(Driving(12.0, {Parked("yb", 20.0, 7.0)}, 16.0)).hold_reason.empty())
-      << "in the bay: off the route";
   EXPECT_FALSE(asker.Update(Driving(14.0, {Parked("yc", 20.0, 5.0)}, 17.0)).request)
       << "beside the bay there is room to pass";
   YieldAskInputs none;
@@ -197,12 +220,14 @@ struct Robots {
   std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
   std::vector<std::unique_ptr<SteppedRobot>> robots;
 };
-Robots MakeRobots(const std::vector<std::pair<std::string, core::PlanarPose>>& starts) {
+Robots MakeRobots(const std::vector<std::pair<std::string, core::PlanarPose>>& starts,
+                  double peer_margin_m = 0.25) {
   Robots r;
   for (const auto& [id, start] : starts) {
     AgentOptions options;
     options.robot_id = id;
     options.SetPlatform("wheeled");
+    options.peers.margin_m = peer_margin_m;
     sim::SimulatedPlatformOptions sim_options;
     sim_options.world = "builtin:narrow";
     sim_options.start_W = start;
@@ -311,6 +336,58 @@ TEST(YieldTest, ARobotParkedBeforeTheBayDrivesOnIntoItAndReturns) {
 // yb parked east of the bay: it drives toward ya, into the bay, while ya holds short of it.
 TEST(YieldTest, ARobotParkedBeyondTheBayBacksIntoItWhileTheOtherHolds) {
   ExpectYielded(RunYield({16.0, 5.0, 0.0}, {24.0, 5.0}));
+}
+
+// Head-on in the 2 m tunnel: ya drives east to (30, 5) while yb drives west to (4, 5). With the default peer
+// margin (0.25 m) two wheeled robots squeeze past each other there; a team that keeps 0.6 m from peers
+// cannot, so they stop before each other and one asks the other (both, at once: the larger id gives way). The
+// one asked drives back to the nearest spot clear of the other's route (the bay or the west junction,
+// whichever it can reach without passing the other), waits until the other has passed or stopped, and then
+// drives on to its own goal, planned again from there (asking in turn, if the other now stands in its way).
+// Exactly one gives way at first; both arrive; nobody touches.
+TEST(YieldTest, HeadOnInATunnelOneGivesWayAndBothArrive) {
+  constexpr double kDt = 0.02;
+  auto [platforms, robots] =
+      MakeRobots({{"ya", {4.0, 5.0, 0.0}}, {"yb", {26.0, 5.0, M_PI}}}, /*peer_margin_m=*/0.6);
+  SteppedRobot& ya = *robots[0];
+  SteppedRobot& yb = *robots[1];
+  ASSERT_EQ(ya.Goto(30.0, 5.0, 0.0), "");
+  ASSERT_EQ(yb.Goto(4.0, 5.0, 0.0), "");
+  double t = 0, closest_m = std::numeric_limits<double>::infinity();
+  bool yb_yielded = false, ya_yielded = false, both_at_once = false, contact = false;
+  auto at = [&](std::size_t i, double x, double y) {
+    const sim::UnicycleState s = platforms[i]->TrueState();
+    return std::hypot(s.x_m - x, s.y_m - y) < 0.5 && robots[i]->mode() == "idle";
+  };
+  for (int cycle = 1; t < 200 && !(at(0, 30, 5) && at(1, 4, 5)); ++cycle) {
+    t += kDt;
+    for (const auto& robot : robots) {
+      robot->Step(t);
+      while (robot->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    for (std::size_t i = 0; i < robots.size(); ++i) {
+      if (auto request = robots[i]->YieldRequestToSend()) robots[1 - i]->OnYieldRequest(request->second, t);
+      if (cycle % 10 == 0) {
+        EXPECT_EQ(robots[1 - i]->OnPeerState(robots[i]->PeerState(), t), "");
+      }
+    }
+    const sim::UnicycleState a = platforms[0]->TrueState(), b = platforms[1]->TrueState();
+    closest_m = std::min(closest_m, std::hypot(a.x_m - b.x_m, a.y_m - b.y_m));
+    both_at_once = both_at_once || (yb.yield().active() && ya.yield().active());
+    yb_yielded = yb_yielded || yb.yield().active();
+    ya_yielded = ya_yielded || ya.yield().active();
+    for (const auto& p : platforms) contact = contact || p->ReadStatus().in_contact;
+  }
+  EXPECT_TRUE(ya_yielded || yb_yielded);
+  EXPECT_FALSE(both_at_once) << "never both at once";
+  EXPECT_EQ(ya.waypoint().goal().status, GoalStatus::kArrived) << ya.waypoint().goal().reason;
+  EXPECT_EQ(yb.waypoint().goal().status, GoalStatus::kArrived) << yb.waypoint().goal().reason;
+  EXPECT_TRUE(at(0, 30, 5)) << ya.yield().status().reason;
+  EXPECT_TRUE(at(1, 4, 5)) << yb.yield().status().reason;
+  EXPECT_GT(closest_m, 0.6);
+  EXPECT_FALSE(contact);
+  std::printf("FIGURE yield_head_on: both arrived after %.1f s (%s gave way first); closest %.2f m\n", t,
+              ya_yielded ? "ya" : "yb", closest_m);
 }
 
 }  // namespace

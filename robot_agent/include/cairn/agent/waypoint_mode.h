@@ -87,13 +87,16 @@ class WaypointMode : public ModeModule {
   bool uses_local_planner() const override { return true; }
 
  private:
-  void Finish(GoalStatus status, const std::string& reason);
+  // Ends the goal with `status`; navigation's goal is dropped, or with `only_own`, only while it is still
+  // the one this mode drove last (a mode taking over has set its own before this one is deactivated).
+  void Finish(GoalStatus status, const std::string& reason, bool only_own = false);
 
   WaypointModeOptions options_;
   Navigation* navigation_;
   std::unique_ptr<WaypointRecovery> recovery_;
   WaypointGoal goal_;
   uint32_t next_goal_id_;
+  std::uint64_t own_serial_ = 0;  // Navigation::goal_serial() of the goal this mode drove last
   ContactTimer contact_;  // the task's contact with occupied space
 };
 

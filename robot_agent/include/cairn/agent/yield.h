@@ -79,15 +79,10 @@ struct YieldDecision {
   nav::YieldSpot spot;       ///< accepted: where to stand aside and the way there
   double clearance_m = 0.0;  ///< the spot's clearance asked for: both footprint radii + margin, metres
   std::string refusal;       ///< !accepted: why, for the asking robot and both operators
+  /// !accepted and not to be shown as a refusal: the passing robot is itself getting out of this robot's way
+  /// (its state may lag by a peer period; it asks again if it still needs to).
+  bool ignore = false;
 };
-
-/// The policy on a checked request `c` to a robot in `mode` at `pose_M` (frame M) of footprint `radius_m`
-/// (metres), on its traversability `grid` (null: no map): refused in a mode outside options.modes (manual
-/// control and smart joystick named as such), or when no spot clears the passing robot's route within
-/// options.max_drive_m (nav::FindYieldSpot's reason).
-YieldDecision DecideYield(const YieldOptions& options, const YieldCommand& c, const std::string& mode,
-                          const core::BaseState& pose_M, double radius_m,
-                          const nav::TraversabilityGrid* grid);
 
 /// Where a robot stands in a yield (RobotState::yield_state; the first four also PeerState::yield_state).
 struct YieldStatus {
@@ -106,6 +101,28 @@ struct YieldStatus {
 };
 
 const char* ToString(YieldStatus::State state);
+
+/// True when `peer`'s state says it is getting out of `robot_id`'s way (moving aside, aside or returning).
+bool YieldsTo(const PeerBody& peer, const std::string& robot_id);
+
+/// What the robot asked to yield is doing when the request comes (DecideYield()).
+struct YieldSituation {
+  std::string own_id;
+  std::string mode;                               ///< its mode now ("idle" when it has no task)
+  core::BaseState pose_M;                         ///< frame M
+  double radius_m = 0.3;                          ///< its footprint radius, metres
+  const nav::TraversabilityGrid* grid = nullptr;  ///< its traversability grid; null: no map
+  YieldStatus asking;                             ///< its own asking status (YieldAsker::status())
+  bool passing_yields_to_me = false;  ///< the passing robot's peer state says it yields to this robot
+};
+
+/// The policy on a checked request `c`: refused in a mode outside options.modes (manual control and smart
+/// joystick named as such); when the passing robot is already getting out of this robot's way; when the two
+/// robots asked each other (head-on in a tunnel), by the one with the smaller id, unless the other already
+/// refused it (so that exactly one gives way); or when no spot clears the passing robot's route within
+/// options.max_drive_m on the robot's grid (nav::FindYieldSpot's reason).
+YieldDecision DecideYield(const YieldOptions& options, const YieldCommand& c,
+                          const YieldSituation& situation);
 
 /// The robot asked to yield: drives to the spot, waits there until the passing robot has passed, and returns
 /// to where it stood (or ends there, for the agent to resume its task). Not thread-safe (the agent calls it
@@ -129,6 +146,13 @@ class YieldMode : public ModeModule {
   /// the passing robot's route must stay from the robot's way to the spot and back for it to count as passed.
   void Start(const YieldCommand& command, const nav::YieldSpot& spot, const core::BaseState& pose_M,
              double spot_clearance_m, bool return_home, double now_s);
+  /// While aside for `command`'s passing robot, which asks again with a route that now comes within the
+  /// clearance of the spot (its route changed): moves on to `spot` (found from where it stands), keeping the
+  /// way back to where it first stood. False (nothing changes) when not aside for that robot, or when the
+  /// spot is still clear of the new route.
+  bool MoveOn(const YieldCommand& command, const nav::YieldSpot& spot, double now_s);
+  /// True while aside for `command`'s passing robot at a spot within the clearance of its route (MoveOn()).
+  bool InTheWayOf(const YieldCommand& command) const;
   /// Refuses `passing_id` with `why` at `now_s` (the state shows it for kRefusalShownS).
   void Refuse(const std::string& passing_id, const std::string& why, double now_s);
   /// The peers heard lately (PeerTracker::Live()) at `now_s`: the passing robot's progress; a refusal
@@ -174,11 +198,16 @@ class YieldMode : public ModeModule {
   std::uint64_t goal_serial_ = 0;
 };
 
+/// The route a robot asks peers to keep clear of: its global path from where it stands (`pose_M`, frame M)
+/// to the goal, in at most 31 points at least 1 m apart (the whole way, not only the next metres a peer state
+/// carries: a spot beyond those may still be on it). Empty without a goal.
+std::vector<Eigen::Vector3d> YieldRouteAhead(const Navigation& navigation, const core::BaseState& pose_M);
+
 /// What YieldAsker::Update() reads, once per control cycle of a robot driving a goal.
 struct YieldAskInputs {
   core::BaseState pose_M;  ///< the robot, frame M
   double radius_m = 0.3;   ///< its footprint radius, metres
-  /// Its route ahead from where it is, frame M (Navigation::AsPeer's path: 1 m apart); empty: no route.
+  /// Its route ahead from where it is, frame M (YieldRouteAhead()); empty: no route.
   std::vector<Eigen::Vector3d> route_M;
   std::vector<PeerBody> peers;  ///< heard lately (PeerTracker::Live())
   /// Its traversability grid (the passage's width), fetched only when a peer is on the route; null: no peer
