@@ -39,6 +39,8 @@ std::string CheckRequest(const YieldSpotRequest& r) {
     return "YieldSpotRequest::clearance_m = " + Num(r.clearance_m) + " must be finite and > 0";
   if (!(r.robot_radius_m > 0) || !std::isfinite(r.robot_radius_m))
     return "YieldSpotRequest::robot_radius_m = " + Num(r.robot_radius_m) + " must be finite and > 0";
+  if (!(r.keep_off_m >= 0) || !std::isfinite(r.keep_off_m))
+    return "YieldSpotRequest::keep_off_m = " + Num(r.keep_off_m) + " must be finite and >= 0";
   if (!(r.max_drive_m > 0) || !std::isfinite(r.max_drive_m))
     return "YieldSpotRequest::max_drive_m = " + Num(r.max_drive_m) + " must be finite and > 0";
   return "";
@@ -95,7 +97,11 @@ YieldSpot FindYieldSpot(const TraversabilityGrid& grid, const YieldSpotRequest& 
     for (int k = 0; k < 8; ++k) {
       const int jx = ix + kDx[k], jy = iy + kDy[k];
       if (!grid.InGrid(jx, jy) || !grid.IsTraversableFor(jx, jy, request.robot_radius_m)) continue;
-      if ((grid.CellCenter(jx, jy) - request.keep_clear_W.front()).norm() < request.clearance_m) continue;
+      // Never toward the passing robot within touching distance (in a tunnel a spot behind it cannot be
+      // reached); away from it is fine, even from a start already that close.
+      const Eigen::Vector2d& passing = request.keep_clear_W.front();
+      const double to_passing = (grid.CellCenter(jx, jy) - passing).norm();
+      if (to_passing < request.keep_off_m && to_passing <= (c - passing).norm()) continue;
       const double step = k < 4 ? cell : cell * std::sqrt(2.0);
       const double nd = d + step;
       if (nd > request.max_drive_m) continue;

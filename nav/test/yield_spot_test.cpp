@@ -91,6 +91,18 @@ TEST(YieldSpotTest, NoSpotInATunnelWithoutASidePassageOrBeyondTheLongestDrive) {
 }
 
 // In a room the robot only steps aside: the spot is about clearance_m from the path, next to the robot.
+// A robot already within keep_off_m of the passing robot (it drove up close) may still move away from it to
+// a spot; it is never let closer.
+TEST(YieldSpotTest, ARobotTooCloseToThePassingOneMovesAwayFromIt) {
+  const TraversabilityGrid grid(Tunnel(true));
+  YieldSpotRequest r = PassingAlongTheTunnel({8.0, 10.0});
+  r.keep_clear_W = {{7.5, 10.0}, {20.0, 10.0}};  // the passing robot 0.5 m behind
+  const YieldSpot spot = FindYieldSpot(grid, r);
+  ASSERT_TRUE(spot.found) << spot.reason;
+  EXPECT_GE(spot.p_W.x(), 11.0) << "in the side passage ahead";
+  for (const Eigen::Vector2d& p : spot.path_W) EXPECT_GE(p.x(), 7.95) << "never back toward it";
+}
+
 TEST(YieldSpotTest, InARoomTheRobotStepsAside) {
   const TraversabilityGrid grid(FlatWorld(10, 10));
   YieldSpotRequest r;

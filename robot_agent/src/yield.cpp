@@ -152,6 +152,7 @@ YieldDecision DecideYield(const YieldOptions& options, const YieldCommand& c,
   request.keep_clear_W = c.keep_clear_M;
   request.clearance_m = radius_m + c.passing_radius_m + options.margin_m;
   request.robot_radius_m = radius_m;
+  request.keep_off_m = request.clearance_m;  // not even squeezing past it
   request.max_drive_m = options.max_drive_m;
   d.clearance_m = request.clearance_m;
   d.spot = nav::FindYieldSpot(*grid, request);

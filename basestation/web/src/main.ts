@@ -338,10 +338,11 @@ function renderRobot(): void {
   setHtml($("robot-head"), `<h2>${r.id} <span class="chip" style="background:${modeColor(r.mode)}">${r.mode || "?"}</span></h2>
     <p>${r.platform} · ${holder} · ${r.online ? "online" : `<b class="bad">lost</b> ${r.lost_reason}`}</p>`);
   // In explore mode the robot drives to its frontiers itself: its last waypoint goal's status is stale.
-  const nav = r.mode === "explore" ? "following the exploration's targets"
-    : r.nav_status === "active"
-    ? `to (${fmt(r.goal?.x_m, 2)}, ${fmt(r.goal?.y_m, 2)}) · ${fmt(r.distance_left_m, 1, " m")} left · ETA ${fmt(r.eta_s, 0, " s")}`
-    : r.nav_status;
+  const nav = r.mode === 'explore' ? 'following the exploration\'s targets' :
+      r.mode === 'yield'           ? `getting out of ${r.yield?.peer || 'a robot'          }'s way` :
+                r.nav_status === 'active' ? `to (${fmt(r.goal?.x_m, 2)}, ${fmt(r.goal?.y_m, 2)}) · ${
+                                      fmt(r.distance_left_m, 1, ' m')} left · ETA ${fmt(r.eta_s, 0, ' s')}` :
+                                            r.nav_status;
   setHtml(
       $('robot-nav'),
       `<p>navigation: <b>${nav}</b>${

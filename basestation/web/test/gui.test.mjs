@@ -339,6 +339,29 @@ test("the holder puts a convoy together by tapping its robots in order; the foll
   await waitFor("r1 idle after the convoy", async () => (await robotState(page1, "r1"))?.mode === "idle", 10000);
 });
 
+test("a robot another one's route passes offers Get out of the way; pressed, it stands aside and comes back", async () => {
+  // r1 (behind r2 after the convoy) is sent through r2's position, down the main tunnel.
+  const goal = await page1.evaluate(() => window.cairn.run("goto r1 26 20", true));
+  assert.equal(goal.ok, true, JSON.stringify(goal));
+  await page1.locator('#tabs button[data-tab="fleet"]').click();
+  await page1.locator('#fleet-rows tr[data-robot="r2"]').click();
+  const label = "Get out of r1's way";
+  await waitFor("r2's Get out of r1's way button", async () => (await page1.locator("#actions button").allInnerTexts()).includes(label), 10000);
+  await page1.evaluate(() => { window.cairn.state.lastResult = undefined; });
+  await page1.getByRole("button", { name: label }).click();
+  const result = await waitFor("the yield answer", () => page1.evaluate(() => window.cairn.state.lastResult), 10000);
+  assert.equal(result.ok, true, JSON.stringify(result));
+  assert.equal(result.command, "yield");
+  await waitFor("r2's yield block", async () => /get out of the way: (moving aside|aside) \(r1\)/.test(await page1.locator("#robot-nav").innerText()), 10000);
+  await screenshot(page1, "16_yield");
+  // r1 passes; r2 comes back where it stood and says so.
+  await waitFor("r2 back", async () => {
+    const r = await robotState(page1, "r2");
+    return r?.mode === "idle" && /^back at/.test(r?.yield?.reason ?? "");
+  }, 60000);
+  await waitFor("r1 arrived", async () => (await robotState(page1, "r1"))?.nav_status === "arrived", 60000);
+});
+
 test("the pages raised no script error", () => {
   assert.deepEqual(page1.errors, [], `op1's page: ${page1.errors}\n${tail("op1")}`);
   assert.deepEqual(page2.errors, [], `op2's page: ${page2.errors}`);

@@ -18,9 +18,8 @@ namespace cairn::nav {
 struct YieldSpotRequest {
   /// Where the yielding robot stands, metres, frame W of the grid.
   Eigen::Vector2d from_W = Eigen::Vector2d::Zero();
-  /// The passing robot's path (its next metres, from where it is: the first point is the passing robot),
-  /// metres, frame W; >= 1 point. The search does not drive through the passing robot (within clearance_m of
-  /// the first point): a spot behind it cannot be reached in a tunnel.
+  /// The passing robot's path (from where it is: the first point is the passing robot), metres, frame W;
+  /// >= 1 point.
   std::vector<Eigen::Vector2d> keep_clear_W;
   /// A spot's centre stays at least this far from every segment of keep_clear_W, metres, > 0: the two
   /// footprint radii plus a margin.
@@ -28,6 +27,10 @@ struct YieldSpotRequest {
   /// The yielding robot's footprint radius, metres, > 0: the cells it drives over and stands on are
   /// traversable for it (TraversabilityGrid::IsTraversableFor).
   double robot_radius_m = 0.3;
+  /// The search never drives toward the passing robot within this of its centre, metres, >= 0 (both footprint
+  /// radii at least; DecideYield uses clearance_m): in a tunnel a spot behind it cannot be reached. Moving
+  /// away from it is allowed, even from a start that close.
+  double keep_off_m = 0.9;
   /// Longest drive to a spot, metres, > 0.
   double max_drive_m = 30.0;
 };
@@ -45,9 +48,10 @@ struct YieldSpot {
 };
 
 /// The nearest spot by driving distance (Dijkstra over 8-connected traversable cells from the robot's cell)
-/// whose centre is at least `clearance_m` from the passing robot's path. The robot may drive along that path
-/// to get there (back to a junction). Not found: a bad request (named), a start off the grid or not
-/// traversable, or no such spot within max_drive_m (the reason gives the cells searched).
+/// whose centre is at least `clearance_m` from the passing robot's path, never driving toward the passing
+/// robot within keep_off_m. The robot may drive along that path to get there (back to a junction). Not found:
+/// a bad request (named), a start off the grid or not traversable, or no such spot within max_drive_m (the
+/// reason gives the cells searched).
 YieldSpot FindYieldSpot(const TraversabilityGrid& grid, const YieldSpotRequest& request);
 
 /// True when a robot of radius `robot_radius_m` (metres, > 0) can drive past a peer standing at `peer_W`
