@@ -4,7 +4,8 @@
 // (agent::CheckGoal), explore claims with their zstd coverage (agent::ClaimFromMessage, CheckExploreClaim),
 // map updates (FleetMap::Apply), staircases (base::StaircaseFromMessage), path requests (the agent's id
 // and frame checks, then a real global planner over a small map, from and to the requested points), and peer
-// states (agent::PeerFromMessage, PeerTracker, AppendPeerObstacles). Every
+// states (agent::PeerFromMessage, PeerTracker, AppendPeerObstacles), yield requests (agent::YieldFromMessage,
+// CheckYieldCommand, DecideYield's spot search on a small room). Every
 // input must decode or be refused; no crash, no unbounded allocation.
 #include <fastdds/rtps/common/SerializedPayload.h>
 
@@ -19,6 +20,7 @@
 #include "cairn/agent/commands.h"
 #include "cairn/agent/explore_claims.h"
 #include "cairn/agent/peers.h"
+#include "cairn/agent/yield.h"
 #include "cairn/base/fleet_perception.h"
 #include "cairn/core/peer_input.h"
 #include "cairn/core/voxel_grid.h"
@@ -120,11 +122,34 @@ void Peer(const msgs::PeerState& m) {
                                     cairn::agent::PeerOptions{}, &points_B);
 }
 
+// A yield request as a robot takes it (AgentDds's id check, YieldFromMessage, CheckYieldCommand), then the
+// policy's spot search (DecideYield, nav::FindYieldSpot) for an idle robot in the middle of the room.
+void Yield(const msgs::YieldRequest& m) {
+  if (!cairn::core::CheckId("sender id", m.sender_id()).empty()) return;
+  std::string fault;
+  const cairn::agent::YieldCommand c = cairn::agent::YieldFromMessage(m, &fault);
+  if (!fault.empty() || !cairn::agent::CheckYieldCommand(c).empty()) return;
+  static const std::shared_ptr<const cairn::nav::TraversabilityGrid> grid = [] {
+    cairn::core::VoxelGrid room("room", Eigen::Vector3d(0, 0, -0.1), 0.1, Eigen::Vector3i(40, 40, 20));
+    for (int x = 0; x < 40; ++x) {
+      for (int y = 0; y < 40; ++y) room.SetOccupied({x, y, 0});
+    }
+    return std::make_shared<const cairn::nav::TraversabilityGrid>(room);
+  }();
+  cairn::agent::YieldSituation situation;
+  situation.own_id = "r1";
+  situation.mode = "idle";
+  situation.pose_M.x_m = 2.0;
+  situation.pose_M.y_m = 2.0;
+  situation.grid = grid.get();
+  (void)cairn::agent::DecideYield(cairn::agent::YieldOptions{}, c, situation);
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
-  const std::uint8_t kind = data[0] % 9;
+  const std::uint8_t kind = data[0] % 10;
   ++data;
   --size;
   switch (kind) {
@@ -169,6 +194,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     case 8: {
       msgs::PeerState m;
       if (Deserialize<msgs::PeerStatePubSubType>(data, size, &m)) Peer(m);
+      break;
+    }
+    case 9: {
+      msgs::YieldRequest m;
+      if (Deserialize<msgs::YieldRequestPubSubType>(data, size, &m)) Yield(m);
       break;
     }
     default: {

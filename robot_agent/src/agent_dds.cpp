@@ -267,17 +267,8 @@ class AgentDds::Impl {
         [this, robot](const msgs::YieldRequest& m, const SampleInfo&) {
           if (m.robot_id() != robot || !ValidPeerId("cairn/yield_request", "sender id", m.sender_id()))
             return;
-          YieldCommand c;
-          c.sender_id = m.sender_id();
-          c.request_id = m.request_id();
-          c.passing_id = m.passing_id();
-          c.passing_radius_m = m.passing_radius_m();
-          for (const msgs::PeerPathPoint& q : m.keep_clear_M()) c.keep_clear_M.emplace_back(q.x_m(), q.y_m());
-          const std::string fault = m.action() == msgs::YIELD_ACTION_ASK
-                                        ? ""
-                                        : "cairn/yield_request from " + m.sender_id() +
-                                              ": action = " + std::to_string(static_cast<int>(m.action())) +
-                                              " is not ASK (0)";
+          std::string fault;
+          const YieldCommand c = YieldFromMessage(m, &fault);
           handlers_.yield(c, fault);
         });
     // A basestation's link probe, echoed at once: its round trip is the link's, not the control loop's.
@@ -643,6 +634,20 @@ bool AgentDds::Send(const std::string& robot_id, const YieldCommand& request) {
     m.keep_clear_M().push_back(q);
   }
   return impl_->yield_writer_->Write(m);
+}
+
+YieldCommand YieldFromMessage(const msgs::YieldRequest& m, std::string* fault) {
+  YieldCommand c;
+  c.sender_id = m.sender_id();
+  c.request_id = m.request_id();
+  c.passing_id = m.passing_id();
+  c.passing_radius_m = m.passing_radius_m();
+  for (const msgs::PeerPathPoint& q : m.keep_clear_M()) c.keep_clear_M.emplace_back(q.x_m(), q.y_m());
+  *fault = m.action() == msgs::YIELD_ACTION_ASK
+               ? ""
+               : "cairn/yield_request from " + m.sender_id().substr(0, 64) +
+                     ": action = " + std::to_string(static_cast<int>(m.action())) + " is not ASK (0)";
+  return c;
 }
 
 PeerBody PeerFromMessage(const msgs::PeerState& m) {

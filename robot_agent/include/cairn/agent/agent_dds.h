@@ -44,6 +44,7 @@ class CompressedImage;
 class StaircaseDetection;
 class ExploreClaim;
 class PeerState;
+class YieldRequest;
 }  // namespace cairn_msgs
 
 namespace cairn::agent {
@@ -175,6 +176,11 @@ class AgentDds {
 /// claim has none. The receiver still checks it (CheckExploreClaim). Also the fuzz harness's way in
 /// (fuzz/peer_message_fuzz.cpp).
 ExploreClaim ClaimFromMessage(const cairn_msgs::ExploreClaim& m, std::string* fault);
+
+/// A yield request as it came off cairn/yield_request; `*fault` (not null) is "" or why it cannot be acted on
+/// (an unknown action, named with its value). The receiver still checks it (CheckYieldCommand). Also the fuzz
+/// harness's way in.
+YieldCommand YieldFromMessage(const cairn_msgs::YieldRequest& m, std::string* fault);
 
 /// A peer's state as it came off cairn/peer_state (the receiver checks it: CheckPeerBody). Also the fuzz
 /// harness's way in.
