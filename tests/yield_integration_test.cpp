@@ -133,6 +133,7 @@ TEST(YieldOverDds, AParkedRobotGetsOutOfTheWayAndOneInManualRefuses) {
   Figure("ya_through_yb_s", ya_s);
   Figure("ye_empty_tunnel_s", ye_s);
   Figure("time_lost_to_yield_s", ya_s - ye_s);
+  Figure("ya_over_ye_ratio", ya_s / ye_s);
   Figure("closest_ya_yb_m", closest_m);
   EXPECT_TRUE(Told(op.events(), "yield_asking", "ya"));
   EXPECT_TRUE(Told(op.events(), "yield_moving_aside", "yb"));

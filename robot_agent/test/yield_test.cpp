@@ -309,8 +309,8 @@ YieldRun RunYield(const core::PlanarPose& yb_start, const Eigen::Vector2d& park)
   run.yb_end = {platforms[1]->TrueState().x_m, platforms[1]->TrueState().y_m};
   std::printf(
       "FIGURE yield_in_process yb parked at (%.0f, %.0f): ya %.1f s through yb, ye %.1f s through the "
-      "empty tunnel: %.1f s lost; closest %.2f m\n",
-      park.x(), park.y(), run.ya_s, run.ye_s, run.ya_s - run.ye_s, run.closest_m);
+      "empty tunnel: %.1f s lost (x%.2f); closest %.2f m\n",
+      park.x(), park.y(), run.ya_s, run.ye_s, run.ya_s - run.ye_s, run.ya_s / run.ye_s, run.closest_m);
   return run;
 }
 
