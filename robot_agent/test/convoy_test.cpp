@@ -22,9 +22,14 @@
 #include "cairn/agent/stepped_robot.h"
 #include "cairn/nav/platform.h"
 #include "cairn/sim/simulated_platform.h"
+#include "stepped_team.h"
 
 namespace cairn::agent {
 namespace {
+
+using team_testing::MakeSteppedTeam;
+using team_testing::StepAll;
+using team_testing::SteppedTeam;
 
 // Feeds `trail` the robot ahead driving `path` (metres, frame M) at 1 m/s from t = 0, one pose per 0.1 s;
 // returns the time of the last pose.
@@ -138,31 +143,11 @@ TEST(ConvoyModeTest, ABadOrderIsRefusedNamingTheId) {
 // ---- The convoy through the X junction ------------------------------------------------------------------
 
 // Wheeled robots r1, r2, ... in builtin:tunnels at `starts` (frame W = M at the start), stepped in process.
-struct Team {
-  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
-  std::vector<std::unique_ptr<SteppedRobot>> robots;
-};
-// One control cycle of every robot at `now_s`, each waiting (wall time) for the plan its next step needs.
-void StepAll(const std::vector<std::unique_ptr<SteppedRobot>>& robots, double now_s) {
-  for (const auto& robot : robots) {
-    robot->Step(now_s);
-    while (robot->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-}
-Team MakeTeam(const std::vector<core::PlanarPose>& starts) {
-  Team team;
-  for (const core::PlanarPose& start : starts) {
-    AgentOptions options;
-    options.robot_id = "r" + std::to_string(team.robots.size() + 1);
-    options.SetPlatform("wheeled");
-    sim::SimulatedPlatformOptions sim_options;
-    sim_options.world = "builtin:tunnels";
-    sim_options.start_W = start;
-    sim_options.SetProfile(options.navigation.platform);
-    team.platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
-    team.robots.push_back(std::make_unique<SteppedRobot>(options, team.platforms.back(), ""));
-  }
-  return team;
+SteppedTeam MakeTeam(const std::vector<core::PlanarPose>& starts) {
+  std::vector<std::pair<std::string, core::PlanarPose>> named;
+  for (const core::PlanarPose& start : starts)
+    named.emplace_back("r" + std::to_string(named.size() + 1), start);
+  return MakeSteppedTeam("builtin:tunnels", named);
 }
 
 struct ConvoyRun {

@@ -21,9 +21,13 @@
 #include "cairn/nav/traversability.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/simulated_platform.h"
+#include "stepped_team.h"
 
 namespace cairn::agent {
 namespace {
+
+using team_testing::MakeSteppedTeam;
+using team_testing::StepAll;
 
 std::shared_ptr<const nav::TraversabilityGrid> NarrowGrid() {
   static const auto grid = std::make_shared<const nav::TraversabilityGrid>(sim::MakeBuiltinWorld("narrow"));
@@ -215,29 +219,6 @@ TEST(YieldAskerTest, AsksAParkedPeerInANarrowPassageHoldsBeforeItAndReportsARefu
   EXPECT_EQ(asker.status().state, YieldStatus::State::kNone);
 }
 
-// Robots in builtin:narrow at `starts`, stepped in process.
-struct Robots {
-  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
-  std::vector<std::unique_ptr<SteppedRobot>> robots;
-};
-Robots MakeRobots(const std::vector<std::pair<std::string, core::PlanarPose>>& starts,
-                  double peer_margin_m = 0.25) {
-  Robots r;
-  for (const auto& [id, start] : starts) {
-    AgentOptions options;
-    options.robot_id = id;
-    options.SetPlatform("wheeled");
-    options.peers.margin_m = peer_margin_m;
-    sim::SimulatedPlatformOptions sim_options;
-    sim_options.world = "builtin:narrow";
-    sim_options.start_W = start;
-    sim_options.SetProfile(options.navigation.platform);
-    r.platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
-    r.robots.push_back(std::make_unique<SteppedRobot>(options, r.platforms.back(), ""));
-  }
-  return r;
-}
-
 struct YieldRun {
   double ya_s = -1, ye_s = -1;  // from the goto to arrival, simulated seconds
   double closest_m = std::numeric_limits<double>::infinity();
@@ -252,8 +233,8 @@ struct YieldRun {
 // on the simulator's ground truth.
 YieldRun RunYield(const core::PlanarPose& yb_start, const Eigen::Vector2d& park) {
   constexpr double kDt = 0.02;
-  auto [platforms, robots] =
-      MakeRobots({{"ya", {4.0, 5.0, 0.0}}, {"yb", yb_start}, {"ye", {4.0, 15.0, 0.0}}});
+  auto [platforms, robots] = MakeSteppedTeam(
+      "builtin:narrow", {{"ya", {4.0, 5.0, 0.0}}, {"yb", yb_start}, {"ye", {4.0, 15.0, 0.0}}});
   SteppedRobot& ya = *robots[0];
   SteppedRobot& yb = *robots[1];
   SteppedRobot& ye = *robots[2];
@@ -263,10 +244,7 @@ YieldRun RunYield(const core::PlanarPose& yb_start, const Eigen::Vector2d& park)
   auto step = [&] {
     t += kDt;
     ++cycle;
-    for (const auto& robot : robots) {
-      robot->Step(t);
-      while (robot->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
+    StepAll(robots, t);
     for (std::size_t i = 0; i < robots.size(); ++i) {
       if (auto request = robots[i]->YieldRequestToSend()) {
         for (const auto& other : robots) {
@@ -347,8 +325,8 @@ TEST(YieldTest, ARobotParkedBeyondTheBayBacksIntoItWhileTheOtherHolds) {
 // Exactly one gives way at first; both arrive; nobody touches.
 TEST(YieldTest, HeadOnInATunnelOneGivesWayAndBothArrive) {
   constexpr double kDt = 0.02;
-  auto [platforms, robots] =
-      MakeRobots({{"ya", {4.0, 5.0, 0.0}}, {"yb", {26.0, 5.0, M_PI}}}, /*peer_margin_m=*/0.6);
+  auto [platforms, robots] = MakeSteppedTeam(
+      "builtin:narrow", {{"ya", {4.0, 5.0, 0.0}}, {"yb", {26.0, 5.0, M_PI}}}, /*peer_margin_m=*/0.6);
   SteppedRobot& ya = *robots[0];
   SteppedRobot& yb = *robots[1];
   ASSERT_EQ(ya.Goto(30.0, 5.0, 0.0), "");
@@ -361,10 +339,7 @@ TEST(YieldTest, HeadOnInATunnelOneGivesWayAndBothArrive) {
   };
   for (int cycle = 1; t < 200 && !(at(0, 30, 5) && at(1, 4, 5)); ++cycle) {
     t += kDt;
-    for (const auto& robot : robots) {
-      robot->Step(t);
-      while (robot->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
+    StepAll(robots, t);
     for (std::size_t i = 0; i < robots.size(); ++i) {
       if (auto request = robots[i]->YieldRequestToSend()) robots[1 - i]->OnYieldRequest(request->second, t);
       if (cycle % 10 == 0) {
