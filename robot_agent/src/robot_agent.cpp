@@ -513,7 +513,7 @@ void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const std::string& 
     const YieldDecision moved = DecideYield(
         options_.yield, c,
         YieldSituation{own, ModeManager::kIdleMode, pose_, options_.navigation.platform.footprint_radius_m,
-                       grid.get(), YieldStatus{}, false});
+                       grid.get(), YieldStatus{}, false, ""});
     if (moved.accepted && yield_->MoveOn(c, moved.spot, now_s)) {
       spdlog::info("robot {}: {}", own, yield_->status().reason);
     }
@@ -537,11 +537,12 @@ void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const std::string& 
   const std::shared_ptr<const nav::TraversabilityGrid> grid =
       planner_->Grid(options_.navigation.platform.name);
   YieldSituation situation{
-      own,  mode, pose_, options_.navigation.platform.footprint_radius_m, grid.get(), yield_asker_.status(),
-      false};
+      own,   mode, pose_, options_.navigation.platform.footprint_radius_m, grid.get(), yield_asker_.status(),
+      false, ""};
   for (const PeerBody& p : peers_.Live(now_s)) {
     if (p.robot_id == c.passing_id) situation.passing_yields_to_me = YieldsTo(p, own);
   }
+  situation.ended_lately = yield_->EndedLately(c.passing_id, now_s);
   const YieldDecision decision = DecideYield(options_.yield, c, situation);
   if (decision.ignore) return;  // it gets out of this robot's way itself
   if (!decision.accepted) return refuse(decision.refusal);

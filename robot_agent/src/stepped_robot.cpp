@@ -104,16 +104,17 @@ std::string SteppedRobot::OnYieldRequest(const YieldCommand& request, double now
   if (yield_->InTheWayOf(request)) {  // aside, but the route now runs by the spot: on to another one
     const YieldDecision moved =
         DecideYield(options_.yield, request,
-                    YieldSituation{options_.robot_id, "idle", pose_M_, radius_m, grid.get(), {}, false});
+                    YieldSituation{options_.robot_id, "idle", pose_M_, radius_m, grid.get(), {}, false, ""});
     return moved.accepted && yield_->MoveOn(request, moved.spot, now_s) ? "" : moved.refusal;
   }
   if (yield_->active()) return yield_->passing_id() == request.passing_id ? "" : "already yielding";
   const std::string now_mode = mode();
   YieldSituation situation{options_.robot_id,      now_mode, pose_M_, radius_m, grid.get(),
-                           yield_asker_->status(), false};
+                           yield_asker_->status(), false,    ""};
   for (const PeerBody& p : peers_.Live(now_s)) {
     if (p.robot_id == request.passing_id) situation.passing_yields_to_me = YieldsTo(p, options_.robot_id);
   }
+  situation.ended_lately = yield_->EndedLately(request.passing_id, now_s);
   const YieldDecision d = DecideYield(options_.yield, request, situation);
   if (d.ignore) return d.refusal;
   if (!d.accepted) {

@@ -132,6 +132,10 @@ YieldDecision DecideYield(const YieldOptions& options, const YieldCommand& c,
                                                  (allowed.empty() ? std::string("none") : allowed) + ")";
     return d;
   }
+  if (!situation.ended_lately.empty()) {
+    d.refusal = situation.ended_lately;
+    return d;
+  }
   if (situation.passing_yields_to_me) {
     d.refusal = c.passing_id + " is getting out of " + situation.own_id + "'s way";
     d.ignore = true;
@@ -241,6 +245,7 @@ void YieldMode::Refuse(const std::string& passing_id, const std::string& why, do
 }
 
 void YieldMode::SetPeers(const std::vector<PeerBody>& peers, double now_s) {
+  if (!ended_for_.empty() && ended_at_s_ < 0) ended_at_s_ = now_s;
   if (status_.state == YieldStatus::State::kRefused && now_s - refused_at_s_ > kRefusalShownS) {
     status_ = YieldStatus{};
   }
@@ -273,8 +278,17 @@ void YieldMode::SetPeers(const std::vector<PeerBody>& peers, double now_s) {
   }
 }
 
+std::string YieldMode::EndedLately(const std::string& passing_id, double now_s) const {
+  if (passing_id != ended_for_ || ended_at_s_ < 0 || now_s - ended_at_s_ >= kEndedHoldOffS) return "";
+  return "its last yield for " + passing_id + " was ended " + Fixed(now_s - ended_at_s_, 0) + " s ago (" +
+         ended_why_ + "): not again for " + Fixed(kEndedHoldOffS, 0) + " s";
+}
+
 void YieldMode::Deactivate(const std::string& why) {
   if (!active()) return;
+  ended_for_ = passing_id_;
+  ended_why_ = why;
+  ended_at_s_ = -1.0;  // stamped by the next SetPeers()
   DropGoal();
   status_ =
       YieldStatus{YieldStatus::State::kNone, passing_id_, "yield for " + passing_id_ + " ended: " + why};

@@ -94,7 +94,7 @@ TEST(YieldPolicyTest, BadOptionsAndRequestsAreNamed) {
 
 // yb at (14, 5) in `mode`, not asking anyone.
 YieldSituation Situation(const std::string& mode, const nav::TraversabilityGrid* grid) {
-  return YieldSituation{"yb", mode, At(14, 5), 0.3, grid, YieldStatus{}, false};
+  return YieldSituation{"yb", mode, At(14, 5), 0.3, grid, YieldStatus{}, false, ""};
 }
 
 // Parked idle at (14, 5) in the 2 m tunnel, yb's spot is in the bay (x 19..21), 1.1 m (both footprints and
@@ -132,6 +132,10 @@ TEST(YieldPolicyTest, AnIdleRobotStandsAsideInTheBayAndOneInManualControlRefuses
   EXPECT_TRUE(DecideYield(options, FromYa(), head_on).accepted) << "ya refused aa: aa gives way if it can";
   head_on.passing_yields_to_me = true;
   EXPECT_EQ(DecideYield(options, FromYa(), head_on).refusal, "ya is getting out of aa's way");
+  // Its operator ended the last yield for ya (a stop): not taken up again at once.
+  YieldSituation stopped = Situation("idle", grid.get());
+  stopped.ended_lately = "its last yield for ya was ended 3 s ago (stopped by op1): not again for 30 s";
+  EXPECT_EQ(DecideYield(options, FromYa(), stopped).refusal, stopped.ended_lately);
   YieldOptions short_drive;
   short_drive.max_drive_m = 3.0;
   const YieldDecision none = DecideYield(short_drive, FromYa(), Situation("idle", grid.get()));

@@ -10,11 +10,13 @@
 // cairn/agent_info, cairn/bt_state, cairn/global_path, cairn/staircase, cairn/robot_state, cairn/health
 // (cairn.latched), cairn/robot_pose, cairn/local_plan (cairn.state), cairn/map_update (cairn.map, flow
 // controller "cairn.map"), cairn/camera (cairn.camera, flow controller "cairn.camera"). Robots read one
-// another on two topics only, each read from the moment the robot needs it, so that an idle fleet's discovery
-// stays O(robots) (a reader matches every robot's writer; a discovery server relays a robot's endpoints only
-// to the processes that match them): cairn/explore_claim (cairn.latched), written and read from the robot's
-// first claim on, and cairn/peer_state (cairn.state), written from the start and read once the robot first
-// drives (ListenToPeers()). It answers every basestation's link probe (cairn/link_probe ->
+// another on three topics only, each written or read from the moment the robot needs it, so that an idle
+// fleet's discovery stays O(robots) (a reader matches every robot's writer; a discovery server relays a
+// robot's endpoints only to the processes that match them): cairn/explore_claim (cairn.latched), written and
+// read from the robot's first claim on; cairn/peer_state (cairn.state), written from the start and read once
+// the robot first drives (ListenToPeers()); cairn/yield_request (cairn.command), read from the start (a
+// parked robot may be asked to get out of the way) and written from the robot's first request (a
+// basestation's `yield` writes it too). It answers every basestation's link probe (cairn/link_probe ->
 // cairn/link_probe_reply, cairn.command) on the spot.
 #pragma once
 

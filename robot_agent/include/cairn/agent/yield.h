@@ -114,10 +114,12 @@ struct YieldSituation {
   const nav::TraversabilityGrid* grid = nullptr;  ///< its traversability grid; null: no map
   YieldStatus asking;                             ///< its own asking status (YieldAsker::status())
   bool passing_yields_to_me = false;  ///< the passing robot's peer state says it yields to this robot
+  std::string ended_lately;           ///< YieldMode::EndedLately() for the passing robot
 };
 
 /// The policy on a checked request `c`: refused in a mode outside options.modes (manual control and smart
-/// joystick named as such); when the passing robot is already getting out of this robot's way; when the two
+/// joystick named as such); while an operator's ending of the last yield for that robot is recent
+/// (situation.ended_lately); when the passing robot is already getting out of this robot's way; when the two
 /// robots asked each other (head-on in a tunnel), by the one with the smaller id, unless the other already
 /// refused it (so that exactly one gives way); or when no spot clears the passing robot's route within
 /// options.max_drive_m on the robot's grid (nav::FindYieldSpot's reason).
@@ -160,6 +162,11 @@ class YieldMode : public ModeModule {
   void SetPeers(const std::vector<PeerBody>& peers, double now_s);
   /// Leaves the yield (an operator's stop or mode switch): the goal is dropped, no task is resumed.
   void Deactivate(const std::string& why) override;
+  /// A yield for `passing_id` ended by Deactivate() (an operator's stop or mode switch) less than
+  /// kEndedHoldOffS before `now_s`: why it is not taken up again yet, else "". The robot's operator took
+  /// over; a robot asking right away would otherwise undo that.
+  std::string EndedLately(const std::string& passing_id, double now_s) const;
+  static constexpr double kEndedHoldOffS = 30.0;
   /// One control cycle: a navigation step to the spot or back, or held at rest at the spot. `done` when back
   /// (or at the spot without return_home, or the way failed).
   ModeOutput Step(const ModeInputs& in) override;
@@ -193,6 +200,9 @@ class YieldMode : public ModeModule {
   double last_heard_s_ = 0.0;
   double refused_at_s_ = 0.0;
   bool passed_ = false;  // SetPeers: the passing robot has passed (or is gone, or the wait is over)
+  // Deactivate(): the yield ended early, for whom and why; stamped by the next SetPeers() (no clock there).
+  std::string ended_for_, ended_why_;
+  double ended_at_s_ = -1.0;
   std::string passed_reason_;
   bool has_goal_ = false;
   std::uint64_t goal_serial_ = 0;
