@@ -174,6 +174,9 @@ TEST(Security, PermissionsSayWhoCommandsWhichRobotAndAnObserverOnlyReads) {
   // The observer's basestation sees r1 and its holder, and is refused every command, naming why.
   r = watcher.Run("wait r1 online 20", 30s);
   EXPECT_TRUE(r["ok"]) << r;
+  // Its first whole state may predate opA's grant: the state with the mode opA set has the holder too.
+  r = watcher.Run("wait r1 mode=manual 10", 15s);
+  EXPECT_TRUE(r["ok"]) << r;
   r = watcher.Run("status r1");
   EXPECT_EQ(r["holder"], "opA") << r;
   for (const std::string command : {"request-control r1", "stop r1", "mode r1 idle"}) {

@@ -595,6 +595,11 @@ void RobotAgent::Impl::ResumeAfterYield(double now_s) {
     const nav::GlobalPlan plan = resume_plan_.get();
     const WaypointGoal goal = *yield_resume_goal_;
     yield_resume_goal_.reset();
+    if (modes_->mode() != ModeManager::kIdleMode) {  // an operator gave it something else meanwhile
+      spdlog::info("robot {}: its goal to ({:.2f}, {:.2f}) is not resumed after yielding: now in mode {}",
+                   options_.robot_id, goal.x_m, goal.y_m, modes_->mode());
+      return;
+    }
     if (!plan.IsUsable()) {
       spdlog::error("robot {}: cannot resume its goal to ({:.2f}, {:.2f}) after yielding: {}",
                     options_.robot_id, goal.x_m, goal.y_m, plan.reason);

@@ -350,8 +350,9 @@ ModeOutput YieldMode::Step(const ModeInputs& in) {
                                      : "could not reach the spot aside: ") +
                               step.reason};
     refused_at_s_ = in.now_s;
+    finished_ = true;  // the task it interrupted goes on from here (an idle robot stays where it is)
     ModeOutput out = Hold(in);
-    out.done = true;  // idle where it is: the operator decides
+    out.done = true;
     return out;
   }
   if (step.arrived) {

@@ -85,7 +85,8 @@ test("a subscription to each channel delivers a message that decodes and matches
   const fleet = firstMessage.get("/fleet");
   assert.equal(fleet.base_id, "op1");
   assert.equal(fleet.robots[0].id, "r1");
-  assert.deepEqual(fleet.robots[0].valid_actions, ["request-control", "stop"]);
+  // A free idle robot: take its lock, ask it to get out of the way (its policy decides), or stop it.
+  assert.deepEqual(fleet.robots[0].valid_actions, ["request-control", "yield", "stop"]);
   const tf = firstMessage.get("/tf").transforms[0];
   assert.equal(tf.parent_frame_id, "map");
   assert.equal(tf.child_frame_id, "r1");

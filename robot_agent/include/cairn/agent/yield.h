@@ -175,8 +175,8 @@ class YieldMode : public ModeModule {
   const YieldStatus& status() const { return status_; }
   /// True while moving aside, aside or returning.
   bool active() const;
-  /// True once after a yield ended by itself (the other passed; not a Deactivate): the agent resumes the
-  /// task.
+  /// True once after a yield ended by itself (the other passed, or the way there or back failed; not a
+  /// Deactivate): the agent resumes the task it interrupted.
   bool TakeFinished();
   /// The robot the current (or last) yield was for.
   const std::string& passing_id() const { return passing_id_; }
