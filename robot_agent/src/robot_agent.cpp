@@ -536,13 +536,10 @@ void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const std::string& 
   };
   const std::shared_ptr<const nav::TraversabilityGrid> grid =
       planner_->Grid(options_.navigation.platform.name);
-  YieldSituation situation{
-      own,   mode, pose_, options_.navigation.platform.footprint_radius_m, grid.get(), yield_asker_.status(),
-      false, ""};
-  for (const PeerBody& p : peers_.Live(now_s)) {
-    if (p.robot_id == c.passing_id) situation.passing_yields_to_me = YieldsTo(p, own);
-  }
-  situation.ended_lately = yield_->EndedLately(c.passing_id, now_s);
+  const YieldSituation situation =
+      WithPeerAndHistory(YieldSituation{own, mode, pose_, options_.navigation.platform.footprint_radius_m,
+                                        grid.get(), yield_asker_.status(), false, ""},
+                         c, peers_.Live(now_s), *yield_, now_s);
   const YieldDecision decision = DecideYield(options_.yield, c, situation);
   if (decision.ignore) return;  // it gets out of this robot's way itself
   if (!decision.accepted) return refuse(decision.refusal);
@@ -565,16 +562,9 @@ void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const std::string& 
 
 void RobotAgent::Impl::AskPeersToYield(double now_s, const std::vector<PeerBody>& peers) {
   const std::string mode = modes_->mode();
-  YieldAskInputs in;
-  if (options_.yield.ask_peers && (mode == waypoint_->name() || mode == explore_->name())) {
-    in.pose_M = pose_;
-    in.radius_m = options_.navigation.platform.footprint_radius_m;
-    in.route_M = YieldRouteAhead(navigation_, pose_);
-    in.peers = peers;
-    in.grid = [this] { return planner_->Grid(options_.navigation.platform.name); };
-    in.now_s = now_s;
-  }
-  YieldAsk ask = yield_asker_.Update(in);  // no route: nothing asked, nothing held
+  YieldAsk ask = yield_asker_.Update(AskInputs(
+      options_.yield, mode, navigation_, pose_, options_.navigation.platform.footprint_radius_m, peers,
+      [this] { return planner_->Grid(options_.navigation.platform.name); }, now_s));
   navigation_.SetHold(ask.hold_reason);
   if (ask.request) yield_to_send_ = std::make_pair(ask.to_id, std::move(*ask.request));
   const YieldStatus& status = yield_asker_.status();

@@ -109,12 +109,10 @@ std::string SteppedRobot::OnYieldRequest(const YieldCommand& request, double now
   }
   if (yield_->active()) return yield_->passing_id() == request.passing_id ? "" : "already yielding";
   const std::string now_mode = mode();
-  YieldSituation situation{options_.robot_id,      now_mode, pose_M_, radius_m, grid.get(),
-                           yield_asker_->status(), false,    ""};
-  for (const PeerBody& p : peers_.Live(now_s)) {
-    if (p.robot_id == request.passing_id) situation.passing_yields_to_me = YieldsTo(p, options_.robot_id);
-  }
-  situation.ended_lately = yield_->EndedLately(request.passing_id, now_s);
+  const YieldSituation situation =
+      WithPeerAndHistory(YieldSituation{options_.robot_id, now_mode, pose_M_, radius_m, grid.get(),
+                                        yield_asker_->status(), false, ""},
+                         request, peers_.Live(now_s), *yield_, now_s);
   const YieldDecision d = DecideYield(options_.yield, request, situation);
   if (d.ignore) return d.refusal;
   if (!d.accepted) {
@@ -207,16 +205,9 @@ void SteppedRobot::Step(double now_s) {
   yield_->SetPeers(live, now_s);
   // As the agent: a robot driving a goal asks a peer that blocks it in a narrow passage to yield.
   const std::string now_mode = mode();
-  YieldAskInputs ask_in;
-  if (options_.yield.ask_peers && (now_mode == WaypointMode::kName || now_mode == ExploreMode::kName)) {
-    ask_in.pose_M = pose;
-    ask_in.radius_m = options_.navigation.platform.footprint_radius_m;
-    ask_in.route_M = YieldRouteAhead(*navigation_, pose);
-    ask_in.peers = live;
-    ask_in.grid = [this] { return planner_->Grid(options_.navigation.platform.name); };
-    ask_in.now_s = now_s;
-  }
-  YieldAsk ask = yield_asker_->Update(ask_in);
+  YieldAsk ask = yield_asker_->Update(AskInputs(
+      options_.yield, now_mode, *navigation_, pose, options_.navigation.platform.footprint_radius_m, live,
+      [this] { return planner_->Grid(options_.navigation.platform.name); }, now_s));
   navigation_->SetHold(ask.hold_reason);
   if (ask.request) yield_to_send_ = std::make_pair(ask.to_id, std::move(*ask.request));
   const ModeInputs in{AsSteady(now_s), now_s, pose};

@@ -379,6 +379,29 @@ std::vector<Eigen::Vector3d> YieldRouteAhead(const Navigation& navigation, const
   return PathAhead(path, {pose_M.x_m, pose_M.y_m}, std::max(1.0, length_m / 30.0), 31);
 }
 
+YieldAskInputs AskInputs(const YieldOptions& options, const std::string& mode, const Navigation& navigation,
+                         const core::BaseState& pose_M, double radius_m, std::vector<PeerBody> peers,
+                         std::function<std::shared_ptr<const nav::TraversabilityGrid>()> grid, double now_s) {
+  YieldAskInputs in;
+  if (!options.ask_peers || (mode != "waypoint" && mode != "explore") || peers.empty()) return in;
+  in.pose_M = pose_M;
+  in.radius_m = radius_m;
+  in.route_M = YieldRouteAhead(navigation, pose_M);
+  in.peers = std::move(peers);
+  in.grid = std::move(grid);
+  in.now_s = now_s;
+  return in;
+}
+
+YieldSituation WithPeerAndHistory(YieldSituation situation, const YieldCommand& c,
+                                  const std::vector<PeerBody>& peers, const YieldMode& yield, double now_s) {
+  for (const PeerBody& p : peers) {
+    if (p.robot_id == c.passing_id) situation.passing_yields_to_me = YieldsTo(p, situation.own_id);
+  }
+  situation.ended_lately = yield.EndedLately(c.passing_id, now_s);
+  return situation;
+}
+
 // ---- YieldAsker -------------------------------------------------------------------------------------------
 
 YieldAsker::YieldAsker(const YieldOptions& options, std::string own_id)

@@ -226,6 +226,18 @@ struct YieldAskInputs {
   double now_s = 0.0;
 };
 
+/// YieldAsker::Update()'s inputs for a robot in `mode` at `pose_M` (frame M) of footprint `radius_m`: empty
+/// (nothing asked, nothing held) unless options.ask_peers, the mode drives a goal (waypoint, explore) and a
+/// peer is heard; only then is the route taken from `navigation` (YieldRouteAhead: not every control cycle).
+YieldAskInputs AskInputs(const YieldOptions& options, const std::string& mode, const Navigation& navigation,
+                         const core::BaseState& pose_M, double radius_m, std::vector<PeerBody> peers,
+                         std::function<std::shared_ptr<const nav::TraversabilityGrid>()> grid, double now_s);
+
+/// `situation` with what the passing robot's state and this robot's last yield say: passing_yields_to_me
+/// (YieldsTo, from `peers`: PeerTracker::Live()) and ended_lately (yield.EndedLately()).
+YieldSituation WithPeerAndHistory(YieldSituation situation, const YieldCommand& c,
+                                  const std::vector<PeerBody>& peers, const YieldMode& yield, double now_s);
+
 /// YieldAsker::Update()'s answer.
 struct YieldAsk {
   std::optional<YieldCommand> request;  ///< to send now to `to_id`
