@@ -5,6 +5,8 @@
 #include <cmath>
 #include <functional>
 
+#include "builtin_plant.h"
+
 namespace cairn::sim {
 namespace {
 
@@ -219,43 +221,43 @@ struct Box {
 };
 
 World MakeBuilding() {
-  constexpr double kFloor2 = 3.2;   // Floor surface of the upper floor, metres.
-  constexpr double kRoof = 6.2;     // Bottom of the roof slab, metres.
-  constexpr double kTop = 6.4;      // Top of the roof slab, metres.
-  constexpr double kRise = 0.2;     // Step rise, metres.
-  constexpr double kRun = 0.3;      // Step run (tread depth), metres.
-  constexpr double kFlightX = 19.4; // x where the lower flight starts and the upper flight ends.
+  constexpr double kFloor2 = 3.2;     // Floor surface of the upper floor, metres.
+  constexpr double kRoof = 6.2;       // Bottom of the roof slab, metres.
+  constexpr double kTop = 6.4;        // Top of the roof slab, metres.
+  constexpr double kRise = 0.2;       // Step rise, metres.
+  constexpr double kRun = 0.3;        // Step run (tread depth), metres.
+  constexpr double kFlightX = 19.4;   // x where the lower flight starts and the upper flight ends.
   constexpr double kLandingX = 21.5;  // x where the mid landing starts.
   std::vector<Box> solid = {
-      {0.0, 24.0, 0.0, 14.0, -0.2, 0.0},             // floor 1 slab
+      {0.0, 24.0, 0.0, 14.0, -0.2, 0.0},                   // floor 1 slab
       {0.0, kFlightX, 0.0, 14.0, kFloor2 - 0.2, kFloor2},  // floor 2 slab (open over the stairwell)
-      {0.0, 24.0, 0.0, 14.0, kRoof, kTop},           // roof
-      {0.0, 0.2, 0.0, 14.0, -0.2, kTop},             // outer walls
+      {0.0, 24.0, 0.0, 14.0, kRoof, kTop},                 // roof
+      {0.0, 0.2, 0.0, 14.0, -0.2, kTop},                   // outer walls
       {23.8, 24.0, 0.0, 14.0, -0.2, kTop},
       {0.0, 24.0, 0.0, 0.2, -0.2, kTop},
       {0.0, 24.0, 13.8, 14.0, -0.2, kTop},
-      {18.0, 24.0, 0.0, 6.0, -0.2, kTop},            // service core around the stairwell
+      {18.0, 24.0, 0.0, 6.0, -0.2, kTop},  // service core around the stairwell
       {18.0, 24.0, 8.2, 14.0, -0.2, kTop},
-      {0.0, 18.0, 5.8, 6.0, -0.2, kTop},             // corridor walls
+      {0.0, 18.0, 5.8, 6.0, -0.2, kTop},  // corridor walls
       {0.0, 18.0, 8.2, 8.4, -0.2, kTop},
-      {6.0, 6.2, 0.0, 5.8, -0.2, kTop},              // room partitions
+      {6.0, 6.2, 0.0, 5.8, -0.2, kTop},  // room partitions
       {6.0, 6.2, 8.4, 14.0, -0.2, kTop},
       {12.0, 12.2, 0.0, 5.8, -0.2, kTop},
       {12.0, 12.2, 8.4, 14.0, -0.2, kTop},
-      {18.0, 18.2, 6.0, 8.2, -0.2, kTop},            // stairwell wall with its entrances
-      {kFlightX, kLandingX, 7.0, 7.2, 0.0, kFloor2 + 1.0},  // wall between the flights
+      {18.0, 18.2, 6.0, 8.2, -0.2, kTop},                            // stairwell wall with its entrances
+      {kFlightX, kLandingX, 7.0, 7.2, 0.0, kFloor2 + 1.0},           // wall between the flights
       {kFlightX, kFlightX + 0.1, 6.0, 7.0, kFloor2, kFloor2 + 1.0},  // railing over the lower flight
-      {kLandingX, 23.8, 6.0, 8.2, 1.6 - 0.2, 1.6},   // mid landing (1.6 m), free space below it
+      {kLandingX, 23.8, 6.0, 8.2, 1.6 - 0.2, 1.6},  // mid landing (1.6 m), free space below it
   };
   for (int k = 1; k <= 7; ++k) {
     // Lower flight (y in [6.0, 7.0]) rises along +x, filled to the floor; upper flight (y in [7.2, 8.2])
     // rises along -x from the mid landing, 0.4 m thick with free space below.
     solid.push_back({kFlightX + kRun * (k - 1), kFlightX + kRun * k, 6.0, 7.0, 0.0, kRise * k});
-    solid.push_back({kLandingX - kRun * k, kLandingX - kRun * (k - 1), 7.2, 8.2, 1.6 + kRise * k - 0.4,
-                     1.6 + kRise * k});
+    solid.push_back(
+        {kLandingX - kRun * k, kLandingX - kRun * (k - 1), 7.2, 8.2, 1.6 + kRise * k - 0.4, 1.6 + kRise * k});
   }
   std::vector<Box> open = {
-      {18.0, 18.2, 6.4, 7.6, 0.0, 2.2},        // stairwell entrance, floor 1 (1.2 m)
+      {18.0, 18.2, 6.4, 7.6, 0.0, 2.2},                // stairwell entrance, floor 1 (1.2 m)
       {18.0, 18.2, 6.8, 8.0, kFloor2, kFloor2 + 2.2},  // stairwell entrance, floor 2 (1.2 m)
   };
   for (const double floor : {0.0, kFloor2}) {
@@ -317,6 +319,7 @@ const std::vector<BuiltinWorldInfo>& Infos() {
        // riser), the upper flight back along -x to floor 2 (its edge the 8th riser).
        {{Eigen::Vector3d(19.4, 6.5, 0.0), 0.0, 0.2, 0.3, 1.0, 8},
         {Eigen::Vector3d(21.5, 7.7, 1.6), kPi, 0.2, 0.3, 1.0, 8}}},
+      internal::PlantInfo(),
   };
   return kInfos;
 }
@@ -347,6 +350,7 @@ World MakeBuiltinWorld(const std::string& name, std::uint32_t seed) {
   if (name == "tunnels") return MakeTunnels(seed);
   if (name == "building") return MakeBuilding();
   if (name == "narrow") return MakeNarrow(seed);
+  if (name == "plant") return internal::MakePlant(seed);
   return MakeArena();
 }
 

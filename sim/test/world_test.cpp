@@ -90,7 +90,7 @@ TEST(WorldTest, RejectsBadGrids) {
 
 TEST(BuiltinWorldTest, NamesAndInfo) {
   const std::vector<std::string> names = BuiltinWorldNames();
-  EXPECT_EQ(names, (std::vector<std::string>{"tunnels", "narrow", "arena", "building"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"tunnels", "narrow", "arena", "building", "plant"}));
   for (const std::string& name : names) {
     const BuiltinWorldInfo& info = GetBuiltinWorldInfo(name);
     EXPECT_EQ(info.name, name);
@@ -134,7 +134,7 @@ TEST(BuiltinWorldTest, DeclaredStaircasesMatchTheVoxels) {
 TEST(BuiltinWorldTest, UnknownNameListsValidOnes) {
   const std::string message = WorldErrorOf([] { LoadWorld("builtin:caves"); });
   EXPECT_CONTAINS(message, "'builtin:caves'");
-  EXPECT_CONTAINS(message, "valid names: tunnels, narrow, arena, building");
+  EXPECT_CONTAINS(message, "valid names: tunnels, narrow, arena, building, plant");
 }
 
 TEST(BuiltinWorldTest, TunnelsLayout) {
