@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <condition_variable>
+#include <cstdio>
 
 #include "cairn/core/shutdown.h"
 
@@ -89,11 +90,9 @@ SteadyTime Component::last_heartbeat() const {
 }
 
 void Component::ReportFailure(const std::string& what) {
-  {
-    std::lock_guard<std::mutex> guard(error_mutex_);
-    if (failed_) return;  // the first cause, not its consequences
-    last_error_ = what;
-  }
+  std::lock_guard<std::mutex> guard(error_mutex_);
+  if (failed_) return;  // the first cause, not its consequences
+  last_error_ = what;
   failed_ = true;
 }
 
@@ -141,6 +140,7 @@ struct ThreadedComponent::Running {
   std::shared_ptr<std::atomic<bool>> done;
   std::thread thread;
   int index = 0;
+  SteadyTime abandoned_at{};  // when it was asked to stop and did not
 };
 
 ThreadedComponent::ThreadedComponent(std::string name, double target_rate_hz, double stop_grace_s)
@@ -151,20 +151,19 @@ ThreadedComponent::ThreadedComponent(std::string name, double target_rate_hz, do
 
 ThreadedComponent::~ThreadedComponent() {
   // Subclasses stop their loops in their own destructors (their loops use their members); this is the
-  // backstop.
+  // backstop. A loop that did not stop is joined, however long it takes: detached, it would go on using this
+  // component and what its owner frees next (owners that cannot wait end the process instead).
   StopLoops();
   std::lock_guard<std::mutex> guard(loops_mutex_);
-  const SteadyTime deadline = SteadyClock::now() + std::chrono::seconds(5);
   for (auto& r : abandoned_) {
-    while (!*r->done && SteadyClock::now() < deadline)
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    if (*r->done) {
-      r->thread.join();
-    } else {
-      spdlog::error("{}: loop {} still hangs at exit; left running", name(), r->index);
-      r->thread.detach();
-      (void)r.release();  // its WorkLoop stays valid for the thread
+    for (int waited_s = 5; !*r->done; waited_s += 5) {
+      const SteadyTime until = SteadyClock::now() + std::chrono::seconds(5);
+      while (!*r->done && SteadyClock::now() < until)
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      if (!*r->done)
+        spdlog::error("{}: loop {} still runs after {} s; waiting for it", name(), r->index, waited_s);
     }
+    r->thread.join();
   }
 }
 
@@ -176,7 +175,30 @@ SteadyTime ThreadedComponent::last_heartbeat() const {
   return SteadyTime(SteadyClock::duration(oldest));
 }
 
+std::string ThreadedComponent::StillRunning() {
+  std::lock_guard<std::mutex> guard(loops_mutex_);
+  std::string running;
+  const SteadyTime now = SteadyClock::now();
+  for (auto it = abandoned_.begin(); it != abandoned_.end();) {
+    if (*(*it)->done) {
+      (*it)->thread.join();
+      it = abandoned_.erase(it);
+      continue;
+    }
+    char buffer[128];
+    std::snprintf(buffer, sizeof buffer, "loop %d still runs %.1f s after it was asked to stop", (*it)->index,
+                  SecondsBetween((*it)->abandoned_at, now));
+    running += (running.empty() ? "" : "; ") + std::string(buffer);
+    ++it;
+  }
+  return running;
+}
+
 void ThreadedComponent::OnActivate() {
+  // A loop of the last run that is still at work would run beside the fresh one on the same state.
+  if (const std::string running = StillRunning(); !running.empty()) {
+    throw std::runtime_error(running + ": not started again while it runs");
+  }
   std::vector<std::function<void(WorkLoop&)>> loops = Loops();
   std::lock_guard<std::mutex> guard(loops_mutex_);
   int index = 0;
@@ -221,9 +243,10 @@ void ThreadedComponent::StopLoops() {
     if (*r->done) {
       r->thread.join();
     } else {
-      spdlog::error("{}: loop {} did not stop within {:.1f} s; abandoned (fresh loops take over)", name(),
+      spdlog::error("{}: loop {} did not stop within {:.1f} s; it is not started again while it runs", name(),
                     r->index, stop_grace_s_);
       ++abandoned_count_;
+      r->abandoned_at = SteadyClock::now();
       abandoned_.push_back(std::move(r));
     }
   }

@@ -39,6 +39,8 @@ const char* ToString(HealthEvent::Kind kind) {
       return "restarted";
     case HealthEvent::Kind::kRestartFailed:
       return "restart_failed";
+    case HealthEvent::Kind::kEscalated:
+      return "escalated";
   }
   return "?";
 }
@@ -125,24 +127,57 @@ HealthMonitor::Entry* HealthMonitor::Find(const std::string& name) {
 }
 
 void HealthMonitor::ScheduleRestart(Entry& e, SteadyTime from) {
-  e.backoff_s = e.backoff_s <= 0 ? e.policy.first_backoff_s : std::min(2 * e.backoff_s, e.policy.max_backoff_s);
-  e.restart_at = from + std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(e.backoff_s));
+  e.backoff_s =
+      e.backoff_s <= 0 ? e.policy.first_backoff_s : std::min(2 * e.backoff_s, e.policy.max_backoff_s);
+  e.restart_at =
+      from + std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(e.backoff_s));
 }
 
-HealthEvent HealthMonitor::TakeDown(Entry& e, const std::string& reason, SteadyTime now) {
+std::vector<HealthEvent> HealthMonitor::TakeDown(Entry& e, const std::string& reason, SteadyTime now) {
   try {
-    e.component->Deactivate();  // stops its loops (those that hang are abandoned)
+    e.component->Deactivate();  // stops its loops (waiting up to its grace period for each)
   } catch (const std::exception& ex) {
     spdlog::error("{}: deactivation failed: {}", e.component->name(), ex.what());
   }
+  const std::string still_running = e.component->StillRunning();
+  const std::string& name = e.component->name();
   std::lock_guard<std::mutex> guard(mutex_);
   e.down = true;
   e.down_since = now;
   // The back-off counts from when its loops have stopped (a hung one is waited for up to its grace period).
   ScheduleRestart(e, std::max(now, SteadyClock::now()));
   e.down_reason = reason;
-  return {HealthEvent::Kind::kFailed, e.component->name(),
-          e.component->name() + " failed: " + reason + "; restart in " + Fixed1(e.backoff_s) + " s"};
+  if (still_running.empty()) {
+    return {{HealthEvent::Kind::kFailed, name,
+             name + " failed: " + reason + "; restart in " + Fixed1(e.backoff_s) + " s"}};
+  }
+  // Started again, it would run beside the work that did not stop, on the same state: the process must go.
+  e.still_running = true;
+  e.down_reason = reason + "; " + still_running;
+  return {{HealthEvent::Kind::kFailed, name, name + " failed: " + reason},
+          {HealthEvent::Kind::kEscalated, name,
+           name + " did not stop when asked (" + still_running +
+               "): not restarted in this process while it runs; the agent must restart"}};
+}
+
+std::vector<HealthEvent> HealthMonitor::StopForRestart(Entry& e, const std::string& by, SteadyTime now) {
+  try {
+    e.component->Deactivate();
+  } catch (const std::exception& ex) {
+    spdlog::error("{}: deactivation failed: {}", e.component->name(), ex.what());
+  }
+  const std::string still_running = e.component->StillRunning();
+  if (still_running.empty()) return {};
+  const std::string& name = e.component->name();
+  std::lock_guard<std::mutex> guard(mutex_);
+  e.down = true;
+  e.down_since = now;
+  ScheduleRestart(e, now);
+  e.still_running = true;
+  e.down_reason = "restart by " + by + "; " + still_running;
+  return {{HealthEvent::Kind::kEscalated, name,
+           name + " did not stop for its restart by " + by + " (" + still_running +
+               "): not restarted in this process while it runs; the agent must restart"}};
 }
 
 void HealthMonitor::Check(SteadyTime now) {
@@ -203,24 +238,35 @@ void HealthMonitor::Check(SteadyTime now) {
         }
       }
       if (!reason.empty()) {
-        events.push_back(TakeDown(e, reason, now));
-        spdlog::error("{}", events.back().message);
+        for (HealthEvent& event : TakeDown(e, reason, now)) {
+          spdlog::error("{}", event.message);
+          events.push_back(std::move(event));
+        }
         continue;
       }
       bool bring_up = false;
+      bool still_running = false;
       {
         std::lock_guard<std::mutex> guard(mutex_);
         bring_up = e.down && (now >= e.restart_at || !by.empty());
+        still_running = e.still_running;
       }
       if (!by.empty() && c.state() == LifecycleState::kActive) {
-        try {
-          c.Deactivate();
-        } catch (const std::exception& ex) {
-          spdlog::error("{}: deactivation failed: {}", c.name(), ex.what());
+        std::vector<HealthEvent> stuck = StopForRestart(e, by, now);
+        if (!stuck.empty()) {
+          spdlog::error("{}", stuck.front().message);
+          events.push_back(std::move(stuck.front()));
+          continue;
         }
         bring_up = true;
       }
       if (!bring_up) continue;
+      if (still_running) {
+        // Its work that did not stop may have ended since (slow, not hung): only then is a restart safe.
+        if (!c.StillRunning().empty()) continue;
+        std::lock_guard<std::mutex> guard(mutex_);
+        e.still_running = false;
+      }
       const double down_s = e.down ? SecondsBetween(e.down_since, now) : 0.0;
       try {
         c.Activate();
@@ -261,6 +307,10 @@ std::string HealthMonitor::RequestRestart(const std::string& name, const std::st
     for (const Entry& x : entries_) names += (names.empty() ? "" : ", ") + x.component->name();
     return "no component \"" + name + "\" (the components are " + names + ")";
   }
+  if (e->still_running) {
+    return name + " cannot be restarted in this process: its work did not stop when asked (" +
+           e->down_reason + "); restart the agent";
+  }
   e->restart_requested_by = by.empty() ? "an operator" : by;
   return "";
 }
@@ -270,7 +320,10 @@ std::map<std::string, std::string> HealthMonitor::Down() const {
   const SteadyTime now = SteadyClock::now();
   std::lock_guard<std::mutex> guard(mutex_);
   for (const Entry& e : entries_) {
-    if (e.down) {
+    if (e.down && e.still_running) {
+      down[e.component->name()] = e.component->name() + " is down (" + e.down_reason +
+                                  "); not restarted in this process while that runs";
+    } else if (e.down) {
       down[e.component->name()] = e.component->name() + " is down (" + e.down_reason + "); restart in " +
                                   Fixed1(std::max(0.0, SecondsBetween(now, e.restart_at))) + " s";
     } else if (e.component->state() != LifecycleState::kActive) {

@@ -1,13 +1,12 @@
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+#include <gtest/gtest.h>
+
 #include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <random>
 #include <thread>
-
-#include <gtest/gtest.h>
-
-#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
-#include <fastrtps/utils/IPLocator.h>
 
 #include "cairn/core/component.h"
 #include "cairn/core/config.h"
@@ -27,6 +26,28 @@ std::string WriteTemp(const std::string& name, const std::string& text) {
 
 // The word-wise column scan against a voxel-by-voxel one, on columns that straddle 64-bit words (z = 70 and
 // 130 voxels: columns start at every bit offset) with sparse and dense occupancy.
+TEST(VoxelGrid, ForEachOccupiedVisitsExactlyTheOccupiedVoxels) {
+  std::mt19937 random(11);
+  for (const int nz : {1, 63, 64, 65, 130}) {
+    VoxelGrid grid("test", Eigen::Vector3d::Zero(), 0.1, Eigen::Vector3i(7, 5, nz));
+    std::bernoulli_distribution occupied(0.1);
+    std::vector<Eigen::Vector3i> expected;
+    for (int ix = 0; ix < 7; ++ix) {
+      for (int iy = 0; iy < 5; ++iy) {
+        for (int iz = 0; iz < nz; ++iz) {
+          if (!occupied(random)) continue;
+          grid.SetOccupied({ix, iy, iz});
+          expected.emplace_back(ix, iy, iz);
+        }
+      }
+    }
+    std::vector<Eigen::Vector3i> visited;
+    grid.ForEachOccupied([&](const Eigen::Vector3i& index) { visited.push_back(index); });
+    ASSERT_EQ(visited.size(), expected.size()) << "nz " << nz;
+    for (std::size_t i = 0; i < visited.size(); ++i) ASSERT_EQ(visited[i], expected[i]) << "nz " << nz;
+  }
+}
+
 TEST(VoxelGrid, HighestOccupiedInColumnMatchesAVoxelByVoxelScan) {
   std::mt19937 random(7);
   for (const int nz : {1, 64, 70, 130}) {
@@ -68,9 +89,11 @@ TEST(PeerInput, IdsAreCheckedAsTheClisTakeThemAndLongOnesAreShownCut) {
   EXPECT_EQ(core::CheckId("base id", std::string(64, 'a')), "");
   EXPECT_EQ(core::CheckId("base id", ""), "base id '' must be 1-64 characters of A-Z a-z 0-9 _ -");
   EXPECT_EQ(core::CheckId("robot id", "r 1"), "robot id 'r 1' must be 1-64 characters of A-Z a-z 0-9 _ -");
-  EXPECT_EQ(core::CheckId("robot id", "r\x1b[2J"), "robot id 'r?[2J' must be 1-64 characters of A-Z a-z 0-9 _ -");
+  EXPECT_EQ(core::CheckId("robot id", "r\x1b[2J"),
+            "robot id 'r?[2J' must be 1-64 characters of A-Z a-z 0-9 _ -");
   EXPECT_EQ(core::CheckId("base id", std::string(100000, 'x')),
-            "base id '" + std::string(64, 'x') + "...' (100000 characters) must be 1-64 characters of A-Z a-z 0-9 _ -");
+            "base id '" + std::string(64, 'x') +
+                "...' (100000 characters) must be 1-64 characters of A-Z a-z 0-9 _ -");
 }
 
 TEST(PeerInput, AWarningLimiterAllowsOnePerKeyPerPeriodAndCountsTheRest) {
@@ -243,30 +266,41 @@ TEST(Participant, RefusesMissingFilesProfilesAndNetworkProfiles) {
 // A profiles file whose participant "<name>" is the shipped loopback one plus `extra` inside <builtin> or
 // <rtps>, and whose "<name>.writer" / "<name>.reader" profiles hold `endpoint` (inside <data_writer> or
 // <data_reader>).
-std::string LoopbackProfiles(const std::string& name, const std::string& builtin_extra, const std::string& rtps_extra,
-                             const std::string& writer_extra = "", const std::string& reader_extra = "") {
+std::string LoopbackProfiles(const std::string& name, const std::string& builtin_extra,
+                             const std::string& rtps_extra, const std::string& writer_extra = "",
+                             const std::string& reader_extra = "") {
   const std::string udp = "<locator><udpv4><address>127.0.0.1</address></udpv4></locator>";
-  // Each list once (Fast DDS refuses a repeated element): the shipped loopback list unless `extra` replaces it.
+  // Each list once (Fast DDS refuses a repeated element): the shipped loopback list unless `extra` replaces
+  // it.
   const auto list = [&udp](const std::string& tag, const std::string& extra) {
-    return extra.find("<" + tag + ">") != std::string::npos ? std::string() : "<" + tag + ">" + udp + "</" + tag + ">";
+    return extra.find("<" + tag + ">") != std::string::npos ? std::string()
+                                                            : "<" + tag + ">" + udp + "</" + tag + ">";
   };
-  return WriteTemp(name + ".xml",
-                   "<?xml version=\"1.0\"?><dds xmlns=\"http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles\"><profiles>"
-                   "<transport_descriptors><transport_descriptor><transport_id>" + name + "_udp</transport_id>"
-                   "<type>UDPv4</type><interfaceWhiteList><address>127.0.0.1</address></interfaceWhiteList>"
-                   "</transport_descriptor></transport_descriptors>"
-                   "<participant profile_name=\"" + name + "\"><rtps><userTransports><transport_id>" + name +
-                   "_udp</transport_id></userTransports><useBuiltinTransports>false</useBuiltinTransports><builtin>" +
-                   list("metatrafficUnicastLocatorList", builtin_extra) + list("initialPeersList", builtin_extra) +
-                   builtin_extra + "</builtin>" + list("defaultUnicastLocatorList", rtps_extra) + rtps_extra +
-                   "</rtps></participant>"
-                   "<data_writer profile_name=\"" + name + ".writer\">" + writer_extra + "</data_writer>"
-                   "<data_reader profile_name=\"" + name + ".reader\">" + reader_extra + "</data_reader>"
-                   "</profiles></dds>");
+  return WriteTemp(
+      name + ".xml",
+      "<?xml version=\"1.0\"?><dds xmlns=\"http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles\"><profiles>"
+      "<transport_descriptors><transport_descriptor><transport_id>" +
+          name +
+          "_udp</transport_id>"
+          "<type>UDPv4</type><interfaceWhiteList><address>127.0.0.1</address></interfaceWhiteList>"
+          "</transport_descriptor></transport_descriptors>"
+          "<participant profile_name=\"" +
+          name + "\"><rtps><userTransports><transport_id>" + name +
+          "_udp</transport_id></userTransports><useBuiltinTransports>false</useBuiltinTransports><builtin>" +
+          list("metatrafficUnicastLocatorList", builtin_extra) + list("initialPeersList", builtin_extra) +
+          builtin_extra + "</builtin>" + list("defaultUnicastLocatorList", rtps_extra) + rtps_extra +
+          "</rtps></participant>"
+          "<data_writer profile_name=\"" +
+          name + ".writer\">" + writer_extra +
+          "</data_writer>"
+          "<data_reader profile_name=\"" +
+          name + ".reader\">" + reader_extra +
+          "</data_reader>"
+          "</profiles></dds>");
 }
 
-void ExpectParticipantRefused(const std::string& name, const std::string& builtin_extra, const std::string& rtps_extra,
-                              const std::string& needle) {
+void ExpectParticipantRefused(const std::string& name, const std::string& builtin_extra,
+                              const std::string& rtps_extra, const std::string& needle) {
   ParticipantOptions options;
   options.profiles_file = LoopbackProfiles(name, builtin_extra, rtps_extra);
   options.participant_profile = name;
@@ -274,12 +308,15 @@ void ExpectParticipantRefused(const std::string& name, const std::string& builti
     Participant p{options};
     ADD_FAILURE() << name << ": a participant started";
   } catch (const DdsError& e) {
-    EXPECT_NE(std::string(e.what()).find("not loopback-only: " + needle), std::string::npos) << name << ": " << e.what();
+    EXPECT_NE(std::string(e.what()).find("not loopback-only: " + needle), std::string::npos)
+        << name << ": " << e.what();
   }
 }
 
 TEST(Participant, RefusesLoopbackProfilesWithALocatorOutsideLoopback) {
-  const auto udp = [](const std::string& a) { return "<locator><udpv4><address>" + a + "</address></udpv4></locator>"; };
+  const auto udp = [](const std::string& a) {
+    return "<locator><udpv4><address>" + a + "</address></udpv4></locator>";
+  };
   // The baseline file itself is accepted (the checks below fail for the added locator, nothing else).
   {
     ParticipantOptions options;
@@ -290,30 +327,37 @@ TEST(Participant, RefusesLoopbackProfilesWithALocatorOutsideLoopback) {
   }
   ExpectParticipantRefused("guard_peer", "<initialPeersList>" + udp("10.0.0.5") + "</initialPeersList>", "",
                            "its initialPeersList holds 10.0.0.5:");
-  ExpectParticipantRefused("guard_meta", "<metatrafficUnicastLocatorList>" + udp("192.168.1.7") +
-                                             "</metatrafficUnicastLocatorList>", "",
-                           "its metatrafficUnicastLocatorList holds 192.168.1.7:");
-  ExpectParticipantRefused("guard_metamc", "<metatrafficMulticastLocatorList>" + udp("239.255.0.1") +
-                                               "</metatrafficMulticastLocatorList>", "",
-                           "its metatrafficMulticastLocatorList holds 239.255.0.1:");
-  ExpectParticipantRefused("guard_default", "", "<defaultUnicastLocatorList>" + udp("172.16.0.2") +
-                                                    "</defaultUnicastLocatorList>",
+  ExpectParticipantRefused(
+      "guard_meta",
+      "<metatrafficUnicastLocatorList>" + udp("192.168.1.7") + "</metatrafficUnicastLocatorList>", "",
+      "its metatrafficUnicastLocatorList holds 192.168.1.7:");
+  ExpectParticipantRefused(
+      "guard_metamc",
+      "<metatrafficMulticastLocatorList>" + udp("239.255.0.1") + "</metatrafficMulticastLocatorList>", "",
+      "its metatrafficMulticastLocatorList holds 239.255.0.1:");
+  ExpectParticipantRefused("guard_default", "",
+                           "<defaultUnicastLocatorList>" + udp("172.16.0.2") + "</defaultUnicastLocatorList>",
                            "its defaultUnicastLocatorList holds 172.16.0.2:");
-  ExpectParticipantRefused("guard_defaultmc", "", "<defaultMulticastLocatorList>" + udp("239.255.0.2") +
-                                                      "</defaultMulticastLocatorList>",
-                           "its defaultMulticastLocatorList holds 239.255.0.2:");
-  ExpectParticipantRefused("guard_any", "", "<defaultUnicastLocatorList>" + udp("0.0.0.0") + "</defaultUnicastLocatorList>",
+  ExpectParticipantRefused(
+      "guard_defaultmc", "",
+      "<defaultMulticastLocatorList>" + udp("239.255.0.2") + "</defaultMulticastLocatorList>",
+      "its defaultMulticastLocatorList holds 239.255.0.2:");
+  ExpectParticipantRefused("guard_any", "",
+                           "<defaultUnicastLocatorList>" + udp("0.0.0.0") + "</defaultUnicastLocatorList>",
                            "its defaultUnicastLocatorList holds 0.0.0.0:");
-  ExpectParticipantRefused("guard_server",
-                           "<discovery_config><discoveryProtocol>CLIENT</discoveryProtocol><discoveryServersList>"
-                           "<RemoteServer prefix=\"44.53.00.5f.45.50.52.4f.53.49.4d.41\"><metatrafficUnicastLocatorList>" +
-                               udp("10.9.9.9") +
-                               "</metatrafficUnicastLocatorList></RemoteServer></discoveryServersList></discovery_config>",
-                           "", "its discovery server's metatrafficUnicastLocatorList holds 10.9.9.9:");
+  ExpectParticipantRefused(
+      "guard_server",
+      "<discovery_config><discoveryProtocol>CLIENT</discoveryProtocol><discoveryServersList>"
+      "<RemoteServer prefix=\"44.53.00.5f.45.50.52.4f.53.49.4d.41\"><metatrafficUnicastLocatorList>" +
+          udp("10.9.9.9") +
+          "</metatrafficUnicastLocatorList></RemoteServer></discoveryServersList></discovery_config>",
+      "", "its discovery server's metatrafficUnicastLocatorList holds 10.9.9.9:");
 }
 
 TEST(Participant, RefusesEndpointProfilesWithALocatorOutsideLoopback) {
-  const auto udp = [](const std::string& a) { return "<locator><udpv4><address>" + a + "</address></udpv4></locator>"; };
+  const auto udp = [](const std::string& a) {
+    return "<locator><udpv4><address>" + a + "</address></udpv4></locator>";
+  };
   struct Case {
     std::string name, writer, reader, needle;
   };
@@ -337,7 +381,8 @@ TEST(Participant, RefusesEndpointProfilesWithALocatorOutsideLoopback) {
       if (!c.writer.empty()) {
         Writer<cairn_msgs::ModeRequestPubSubType> writer(participant, "test/guard", c.name);
       } else {
-        Reader<cairn_msgs::ModeRequestPubSubType> reader(participant, "test/guard", c.name, [](const auto&, const auto&) {});
+        Reader<cairn_msgs::ModeRequestPubSubType> reader(participant, "test/guard", c.name,
+                                                         [](const auto&, const auto&) {});
       }
       ADD_FAILURE() << c.name << ": the endpoint was created";
     } catch (const DdsError& e) {
@@ -354,8 +399,9 @@ TEST(NetworkScope, ParsesSubnetsAndRefusesWhatIsNotACidrNamingIt) {
   EXPECT_TRUE(s.Contains(0x0A4D00FEu));
   EXPECT_FALSE(s.Contains(0x0A4E0001u));
   EXPECT_TRUE(ParseIpv4Subnet("0.0.0.0/0").Contains(0xC0A80101u));
-  for (const std::string bad : {"10.77.0.0", "10.77.0.0/33", "10.77.0/24", "10.77.0.256/24", "ten/8", "10.77.0.0/",
-                                " 10.77.0.0/24", "10.77.0.0/24 ", "10..0.0/8", "10.77.0.0.1/24"}) {
+  for (const std::string bad :
+       {"10.77.0.0", "10.77.0.0/33", "10.77.0/24", "10.77.0.256/24", "ten/8", "10.77.0.0/", " 10.77.0.0/24",
+        "10.77.0.0/24 ", "10..0.0/8", "10.77.0.0.1/24"}) {
     try {
       ParseIpv4Subnet(bad);
       ADD_FAILURE() << "accepted '" << bad << "'";
@@ -379,7 +425,8 @@ eprosima::fastdds::dds::DomainParticipantQos LanQos(const std::string& whitelist
   const auto locator = Udpv4Locator;
   qos.wire_protocol().builtin.metatrafficUnicastLocatorList.push_back(locator(whitelist, 7410));
   if (!peer.empty()) qos.wire_protocol().builtin.initialPeersList.push_back(locator(peer, 7410));
-  if (!multicast.empty()) qos.wire_protocol().builtin.metatrafficMulticastLocatorList.push_back(locator(multicast, 7400));
+  if (!multicast.empty())
+    qos.wire_protocol().builtin.metatrafficMulticastLocatorList.push_back(locator(multicast, 7400));
   return qos;
 }
 
@@ -406,7 +453,8 @@ TEST(LinkOptions, ALanLinkResolvesToTheOneAddressNamedAndRefusesAnythingElseNami
   };
   lan.interface_name.clear();
   lan.subnet = "10.99.0.0/24";
-  refused(lan, "--subnet 10.99.0.0/24: no interface of this host has an IPv4 address there (seen: lo 127.0.0.1)");
+  refused(lan,
+          "--subnet 10.99.0.0/24: no interface of this host has an IPv4 address there (seen: lo 127.0.0.1)");
   lan.subnet.clear();
   lan.interface_name = "eth7";
   refused(lan, "--interface 'eth7': no interface of this host has an IPv4 address there");
@@ -415,14 +463,17 @@ TEST(LinkOptions, ALanLinkResolvesToTheOneAddressNamedAndRefusesAnythingElseNami
   refused(lan, "--interface 'lo' in --subnet 10.99.0.0/24: no interface");
   refused(LinkOptions{"lan", "", "", 0, ""}, "--link lan needs --subnet CIDR or --interface NAME");
   refused(LinkOptions{"wifi", "", "", 0, ""}, "--link 'wifi' must be loopback, lan or radio");
-  refused(LinkOptions{"radio", "10.77.0.0/24", "", 0, ""}, "--link-kbps 0.000000: a radio link needs its budget");
-  refused(LinkOptions{"lan", "10.77.0.0/24", "", 1000, ""}, "--link-kbps names a radio link's budget: add --link radio");
+  refused(LinkOptions{"radio", "10.77.0.0/24", "", 0, ""},
+          "--link-kbps 0.000000: a radio link needs its budget");
+  refused(LinkOptions{"lan", "10.77.0.0/24", "", 1000, ""},
+          "--link-kbps names a radio link's budget: add --link radio");
   refused(LinkOptions{"radio", "", "", 1000, ""}, "--link radio needs --subnet CIDR or --interface NAME");
   refused(LinkOptions{"loopback", "10.77.0.0/24", "", 0, ""}, "add --link lan");
   refused(LinkOptions{"lan", "10.77.0.0", "", 0, ""}, "subnet '10.77.0.0' must be an IPv4 CIDR");
   refused(LinkOptions{"lan", "10.77.0.0/24", "", 0, "10.77.0.2"},
           "--discovery-server '10.77.0.2' must be IPV4_ADDRESS:PORT, e.g. 10.77.0.2:11811");
-  refused(LinkOptions{"lan", "10.77.0.0/24", "", 0, "10.77.0.2:70000"}, "--discovery-server '10.77.0.2:70000'");
+  refused(LinkOptions{"lan", "10.77.0.0/24", "", 0, "10.77.0.2:70000"},
+          "--discovery-server '10.77.0.2:70000'");
   refused(LinkOptions{"loopback", "", "", 0, "127.0.0.1:11811"},
           "--discovery-server names a server on a lan or radio link: add --link lan");
 }
@@ -460,7 +511,9 @@ TEST(NetworkScope, ANamedSubnetAdmitsItsAddressesOnlyAndMulticastOnlyWhenNamed) 
   EXPECT_NE(why.find("whitelist contains 10.77.0.1"), std::string::npos) << why;
   // An interface or a peer outside the named subnet.
   EXPECT_FALSE(WithinNetworkScope(LanQos("10.78.0.1", "", ""), lan, &why));
-  EXPECT_NE(why.find("whitelist contains 10.78.0.1, outside loopback (127.0.0.0/8) and 10.77.0.0/24"), std::string::npos) << why;
+  EXPECT_NE(why.find("whitelist contains 10.78.0.1, outside loopback (127.0.0.0/8) and 10.77.0.0/24"),
+            std::string::npos)
+      << why;
   EXPECT_FALSE(WithinNetworkScope(LanQos("10.77.0.1", "192.168.1.20", ""), lan, &why));
   EXPECT_NE(why.find("initialPeersList holds 192.168.1.20:7410, outside loopback"), std::string::npos) << why;
   EXPECT_FALSE(WithinNetworkScope(LanQos("eth0", "", ""), lan, &why));
@@ -487,11 +540,11 @@ TEST(Participant, LoopbackPublishSubscribeRoundTrip) {
   std::string last_robot;
   std::mutex mutex;
   Reader<cairn_msgs::ModeRequestPubSubType> reader(b, "test/mode", "cairn.command",
-                                                  [&](const cairn_msgs::ModeRequest& m, const auto&) {
-                                                    std::lock_guard<std::mutex> lock(mutex);
-                                                    last_robot = m.robot_id();
-                                                    ++received;
-                                                  });
+                                                   [&](const cairn_msgs::ModeRequest& m, const auto&) {
+                                                     std::lock_guard<std::mutex> lock(mutex);
+                                                     last_robot = m.robot_id();
+                                                     ++received;
+                                                   });
   Writer<cairn_msgs::ModeRequestPubSubType> writer(a, "test/mode", "cairn.command");
   ASSERT_TRUE(writer.WaitForMatched(1, std::chrono::seconds(5)));
   ASSERT_TRUE(reader.WaitForMatched(1, std::chrono::seconds(5)));
@@ -508,8 +561,8 @@ TEST(Participant, LoopbackPublishSubscribeRoundTrip) {
   EXPECT_EQ(last_robot, "r7");
 }
 
-// On a network link a writer's and a reader's 1 s liveliness lease (cairn.latched) is raised to 2 s, so that a
-// lossy radio does not lapse it, and the two still match; loopback keeps the profile's 1 s.
+// On a network link a writer's and a reader's 1 s liveliness lease (cairn.latched) is raised to 2 s, so that
+// a lossy radio does not lapse it, and the two still match; loopback keeps the profile's 1 s.
 TEST(LinkOptions, ANetworkLinkRaisesShortLivelinessLeasesAndItsEndpointsStillMatch) {
   const auto lease_s = [](const auto& qos) {
     const auto& d = qos.liveliness().lease_duration;
@@ -535,8 +588,8 @@ TEST(LinkOptions, ANetworkLinkRaisesShortLivelinessLeasesAndItsEndpointsStillMat
   EXPECT_THROW(a.WriterQos("no.such.writer"), DdsError);
 
   std::atomic<int> received{0};
-  Reader<cairn_msgs::ModeRequestPubSubType> reader(b, "test/latched", "cairn.latched",
-                                                  [&](const cairn_msgs::ModeRequest&, const auto&) { ++received; });
+  Reader<cairn_msgs::ModeRequestPubSubType> reader(
+      b, "test/latched", "cairn.latched", [&](const cairn_msgs::ModeRequest&, const auto&) { ++received; });
   Writer<cairn_msgs::ModeRequestPubSubType> writer(a, "test/latched", "cairn.latched");
   ASSERT_TRUE(writer.WaitForMatched(1, std::chrono::seconds(5)));
   ASSERT_TRUE(reader.WaitForMatched(1, std::chrono::seconds(5)));

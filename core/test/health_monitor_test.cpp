@@ -202,8 +202,8 @@ TEST(HealthMonitor, OperatorRestartAndRefusals) {
   monitor.StopAll();
 }
 
-// A threaded component: a loop that throws reports it; one that hangs is abandoned on restart and fresh loops
-// take over.
+// A threaded component: a loop that throws reports it and fresh loops take over; one that does not stop when
+// asked is never run twice: the component stays down (escalated) until that loop has ended.
 class Looping : public ThreadedComponent {
  public:
   Looping() : ThreadedComponent("looping", 100.0, 0.2) {}
@@ -215,17 +215,33 @@ class Looping : public ThreadedComponent {
   std::atomic<bool> hang_now{false};
   std::atomic<bool> release{false};
   std::atomic<int> starts{0};
+  // Loops inside their work at once, over every run (> 2: two runs overlap).
+  std::atomic<int> working{0};
+  std::atomic<int> most_working{0};
 
  protected:
   std::vector<std::function<void(WorkLoop&)>> Loops() override {
     ++starts;
-    return {[this](WorkLoop& loop) {
+    auto work = [this](auto&& body) {
+      const int now = ++working;
+      int seen = most_working.load();
+      while (now > seen && !most_working.compare_exchange_weak(seen, now)) {
+      }
+      body();
+      --working;
+    };
+    return {[this, work](WorkLoop& loop) {
               while (loop.Running()) {
                 loop.Beat();
-                if (throw_now.exchange(false)) throw std::runtime_error("injected");
-                if (hang_now.exchange(false)) {
-                  while (!release) std::this_thread::sleep_for(milliseconds(5));  // ignores its stop
-                }
+                work([&] {
+                  if (throw_now.exchange(false)) {
+                    --working;
+                    throw std::runtime_error("injected");
+                  }
+                  if (hang_now.exchange(false)) {
+                    while (!release) std::this_thread::sleep_for(milliseconds(5));  // ignores its stop
+                  }
+                });
                 loop.WaitFor(milliseconds(10));
               }
             },
@@ -238,14 +254,16 @@ class Looping : public ThreadedComponent {
   }
 };
 
-TEST(ThreadedComponent, ThrowAndHangAreRestartedWithFreshLoops) {
+TEST(ThreadedComponent, AThrowIsRestartedAndALoopThatDoesNotStopIsNeverRunTwice) {
+  // The component outlives its monitor (declared first): a failed assertion returns while the monitor's
+  // thread still checks it.
+  Looping c;
   std::vector<HealthEvent> events;
   std::mutex events_mutex;
   HealthMonitor monitor([&](const HealthEvent& e) {
     std::lock_guard<std::mutex> guard(events_mutex);
     events.push_back(e);
   });
-  Looping c;
   RestartPolicy p;
   p.heartbeat_deadline_s = 0.1;
   p.missed_deadlines_to_fail = 3;
@@ -266,14 +284,73 @@ TEST(ThreadedComponent, ThrowAndHangAreRestartedWithFreshLoops) {
   ASSERT_TRUE(wait_for([&] { return count(HealthEvent::Kind::kRestarted) == 1; }));
   EXPECT_EQ(c.last_error(), "injected");
   EXPECT_EQ(c.starts.load(), 2);
+
+  // A loop that ignores its stop: stalled, taken down, escalated once, and not started again meanwhile.
   c.hang_now = true;
-  ASSERT_TRUE(wait_for([&] { return count(HealthEvent::Kind::kRestarted) == 2; }));
+  ASSERT_TRUE(wait_for([&] { return count(HealthEvent::Kind::kEscalated) == 1; }));
   EXPECT_EQ(c.abandoned_loops(), 1);
   EXPECT_NE(c.last_error().find("stalled"), std::string::npos) << c.last_error();
-  // The fresh loops beat.
+  {
+    std::lock_guard<std::mutex> guard(events_mutex);
+    EXPECT_NE(events.back().message.find("not restarted in this process"), std::string::npos)
+        << events.back().message;
+  }
+  std::this_thread::sleep_for(milliseconds(600));  // three back-offs' worth
+  EXPECT_EQ(c.starts.load(), 2) << "started again beside the loop that did not stop";
+  EXPECT_EQ(count(HealthEvent::Kind::kRestarted), 1);
+  EXPECT_EQ(count(HealthEvent::Kind::kEscalated), 1) << "escalated more than once";
+  EXPECT_NE(c.state(), LifecycleState::kActive);
+  EXPECT_NE(monitor.Down().at("looping").find("still runs"), std::string::npos)
+      << monitor.Down().at("looping");
+  EXPECT_NE(monitor.RequestRestart("looping", "opA").find("cannot be restarted in this process"),
+            std::string::npos);
+
+  // The loop ends by itself (it was slow, not hung): only now is the component started again.
+  c.release = true;
+  ASSERT_TRUE(wait_for([&] { return count(HealthEvent::Kind::kRestarted) == 2; }));
+  EXPECT_EQ(c.starts.load(), 3);
   const std::uint64_t beats = c.heartbeats();
   std::this_thread::sleep_for(milliseconds(100));
   EXPECT_GT(c.heartbeats(), beats + 5);
+  EXPECT_EQ(c.state(), LifecycleState::kActive);
+  EXPECT_LE(c.most_working.load(), 1) << "two runs' loops worked at once";
+  monitor.StopAll();
+}
+
+// An operator's restart of a component whose loop does not stop: escalated, not started twice.
+TEST(ThreadedComponent, AnOperatorRestartOfALoopThatDoesNotStopEscalates) {
+  // The component outlives its monitor (declared first): a failed assertion returns while the monitor's
+  // thread still checks it.
+  Looping c;
+  std::vector<HealthEvent> events;
+  std::mutex events_mutex;
+  HealthMonitor monitor([&](const HealthEvent& e) {
+    std::lock_guard<std::mutex> guard(events_mutex);
+    events.push_back(e);
+  });
+  RestartPolicy p;
+  p.heartbeat_deadline_s = 5.0;  // no stall is judged: only the operator's restart stops it
+  p.first_backoff_s = 0.2;
+  monitor.Add(&c, p);
+  monitor.StartAll();
+  c.hang_now = true;
+  std::this_thread::sleep_for(milliseconds(50));
+  ASSERT_EQ(monitor.RequestRestart("looping", "opA"), "");
+  monitor.Check(SteadyClock::now());
+  {
+    std::lock_guard<std::mutex> guard(events_mutex);
+    ASSERT_EQ(events.size(), 1u);
+    EXPECT_EQ(events[0].kind, HealthEvent::Kind::kEscalated);
+    EXPECT_NE(events[0].message.find("did not stop for its restart by opA"), std::string::npos)
+        << events[0].message;
+  }
+  EXPECT_EQ(c.starts.load(), 1);
+  monitor.Check(SteadyClock::now() + std::chrono::seconds(1));
+  EXPECT_EQ(c.starts.load(), 1);
+  c.release = true;
+  std::this_thread::sleep_for(milliseconds(50));
+  monitor.Check(SteadyClock::now() + std::chrono::seconds(2));
+  EXPECT_EQ(c.starts.load(), 2);
   EXPECT_EQ(c.state(), LifecycleState::kActive);
   monitor.StopAll();
 }

@@ -1,13 +1,12 @@
 #include "cairn/agent/agent_dds.h"
 
-#include <cmath>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <mutex>
 #include <stdexcept>
-
-#include <spdlog/spdlog.h>
 
 #include "cairn/core/dds.h"
 #include "cairn/core/peer_input.h"
@@ -110,7 +109,8 @@ class AgentDds::Impl {
     // change a controller's budget once the participant exists. Other links need only the whole budget.
     for (int share : kBulkShares) {
       if (share != 1 && !core::IsRadioLink(options.link)) continue;
-      p.flow_controllers.push_back({BulkController("cairn.map", share), options.map_budget_bits_per_s / share, 100});
+      p.flow_controllers.push_back(
+          {BulkController("cairn.map", share), options.map_budget_bits_per_s / share, 100});
       p.flow_controllers.push_back(
           {BulkController("cairn.camera", share), options.camera_budget_bits_per_s / share, 100});
     }
@@ -118,8 +118,10 @@ class AgentDds::Impl {
     MakeWriters();
   }
 
-  ~Impl() {
-    // Readers first so that no callback runs while the rest is torn down.
+  ~Impl() { StopListening(); }
+
+  // Readers first so that no callback runs while the rest is torn down.
+  void StopListening() {
     probe_reader_.reset();
     yield_reader_.reset();
     claim_reader_.reset();
@@ -166,8 +168,8 @@ class AgentDds::Impl {
     MakeBulkWriters(1);
     staircase_writer_ = std::make_unique<core::Writer<msgs::StaircaseDetectionPubSubType>>(
         p, "cairn/staircase", "cairn.latched");
-    probe_reply_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(p, "cairn/link_probe_reply",
-                                                                                   "cairn.command");
+    probe_reply_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(
+        p, "cairn/link_probe_reply", "cairn.command");
     peer_writer_ =
         std::make_unique<core::Writer<msgs::PeerStatePubSubType>>(p, "cairn/peer_state", "cairn.state");
   }
@@ -175,10 +177,12 @@ class AgentDds::Impl {
   // The map and camera writers on the flow controllers of `share` (bulk_mutex_ held, or before any Publish).
   // What the old writers had sent stays counted.
   void MakeBulkWriters(int share) {
-    if (map_writer_) retired_map_ = {retired_map_.first + map_writer_->bytes_written(),
-                                     retired_map_.second + map_writer_->samples_written()};
-    if (camera_writer_) retired_camera_ = {retired_camera_.first + camera_writer_->bytes_written(),
-                                           retired_camera_.second + camera_writer_->samples_written()};
+    if (map_writer_)
+      retired_map_ = {retired_map_.first + map_writer_->bytes_written(),
+                      retired_map_.second + map_writer_->samples_written()};
+    if (camera_writer_)
+      retired_camera_ = {retired_camera_.first + camera_writer_->bytes_written(),
+                         retired_camera_.second + camera_writer_->samples_written()};
     map_writer_.reset();
     camera_writer_.reset();
     map_writer_ = std::make_unique<core::Writer<msgs::MapUpdatePubSubType>>(
@@ -192,18 +196,19 @@ class AgentDds::Impl {
     return share == 1 ? std::string(name) : std::string(name) + "/" + std::to_string(share);
   }
 
-  // The explore-claim writer and reader, made when the robot first explores (team_mutex_ held): robots read one
-  // another on this topic only, and only robots that explore, so that an idle fleet's discovery stays O(robots)
-  // (every endpoint of every robot would otherwise go to every robot: cairn_fleet_join_test's ten robots were
-  // seen 4.3 s after they started instead of 3 s).
+  // The explore-claim writer and reader, made when the robot first explores (team_mutex_ held): robots read
+  // one another on this topic only, and only robots that explore, so that an idle fleet's discovery stays
+  // O(robots) (every endpoint of every robot would otherwise go to every robot: cairn_fleet_join_test's ten
+  // robots were seen 4.3 s after they started instead of 3 s).
   void MakeTeamEndpoints() {
     if (claim_writer_) return;
     core::Participant& p = *participant_;
     const std::string& robot = options_.robot_id;
-    claim_writer_ =
-        std::make_unique<core::Writer<msgs::ExploreClaimPubSubType>>(p, "cairn/explore_claim", "cairn.latched");
+    claim_writer_ = std::make_unique<core::Writer<msgs::ExploreClaimPubSubType>>(p, "cairn/explore_claim",
+                                                                                 "cairn.latched");
     claim_reader_ = std::make_unique<core::Reader<msgs::ExploreClaimPubSubType>>(
-        p, "cairn/explore_claim", "cairn.latched", [this, robot](const msgs::ExploreClaim& m, const SampleInfo&) {
+        p, "cairn/explore_claim", "cairn.latched",
+        [this, robot](const msgs::ExploreClaim& m, const SampleInfo&) {
           if (m.robot_id() == robot || !ValidPeerId("cairn/explore_claim", "robot id", m.robot_id())) return;
           std::string fault;
           const ExploreClaim c = ClaimFromMessage(m, &fault);
@@ -247,8 +252,9 @@ class AgentDds::Impl {
     if (why.empty()) return true;
     std::uint64_t suppressed = 0;
     if (peer_warnings_.Allow(topic, core::SteadyClock::now(), &suppressed)) {
-      spdlog::warn("robot {}: a message on {} dropped: {}{}", options_.robot_id, topic, why,
-                   suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+      spdlog::warn(
+          "robot {}: a message on {} dropped: {}{}", options_.robot_id, topic, why,
+          suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
     }
     return false;
   }
@@ -276,12 +282,15 @@ class AgentDds::Impl {
         p, "cairn/link_probe", "cairn.command", [this, robot](const msgs::PingPong& m, const SampleInfo&) {
           if (!m.robot_id().empty() && m.robot_id() != robot) return;
           // Echoed: a body or id no basestation sends would make the robot an amplifier.
-          if (!ValidPeerId("cairn/link_probe", "base id", m.base_id()) || m.body().size() > kMaxProbeBodyBytes) return;
+          if (!ValidPeerId("cairn/link_probe", "base id", m.base_id()) ||
+              m.body().size() > kMaxProbeBodyBytes)
+            return;
           msgs::PingPong reply;
           reply.request_id(m.request_id());
           reply.base_id(m.base_id());
           reply.robot_id(robot);
-          reply.body(m.body());  // the probing process's identity: bases sharing an id tell their probes apart
+          reply.body(
+              m.body());  // the probing process's identity: bases sharing an id tell their probes apart
           probe_reply_writer_->Write(reply);
         });
     map_sync_reader_ = std::make_unique<core::Reader<msgs::MapSyncRequestPubSubType>>(
@@ -313,16 +322,18 @@ class AgentDds::Impl {
     info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
         p, "cairn/base_info", "cairn.latched",
         [this](const msgs::AgentInfo& m, const SampleInfo& info) {
-          if (m.kind() != msgs::AGENT_KIND_BASESTATION || !ValidPeerId("cairn/base_info", "base id", m.agent_id())) return;
+          if (m.kind() != msgs::AGENT_KIND_BASESTATION ||
+              !ValidPeerId("cairn/base_info", "base id", m.agent_id()))
+            return;
           const std::string writer = core::WriterIdOf(info.publication_handle);
           {
             std::lock_guard<std::mutex> guard(robots_heard_mutex_);
             robots_heard_by_base_[writer] = {m.robots_heard(), true};
           }
           const auto& caps = m.capabilities();
-          handlers_.base_announced(BaseAnnouncement{writer, core::ParticipantIdOf(info.publication_handle),
-                                                    m.agent_id(),
-                                                    std::find(caps.begin(), caps.end(), "joystick") != caps.end()});
+          handlers_.base_announced(
+              BaseAnnouncement{writer, core::ParticipantIdOf(info.publication_handle), m.agent_id(),
+                               std::find(caps.begin(), caps.end(), "joystick") != caps.end()});
         },
         [this](const eprosima::fastdds::dds::LivelinessChangedStatus& status) {
           WriterLiveliness change;
@@ -350,7 +361,8 @@ class AgentDds::Impl {
         [this, robot](const msgs::ControlRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
           if (!ValidPeerId("cairn/control_request", "base id", m.base_id())) return;
-          ControlCommand c{SenderOf(m.base_id(), info), m.request_id(), m.action() == msgs::CONTROL_ACTION_RELEASE, ""};
+          ControlCommand c{SenderOf(m.base_id(), info), m.request_id(),
+                           m.action() == msgs::CONTROL_ACTION_RELEASE, ""};
           if (m.action() != msgs::CONTROL_ACTION_REQUEST && m.action() != msgs::CONTROL_ACTION_RELEASE) {
             c.malformed = "action " + std::to_string(static_cast<int>(m.action())) + " is neither REQUEST (" +
                           std::to_string(static_cast<int>(msgs::CONTROL_ACTION_REQUEST)) + ") nor RELEASE (" +
@@ -497,6 +509,7 @@ AgentDds::AgentDds(const AgentDdsOptions& options) : impl_(std::make_unique<Impl
 void AgentDds::Listen(AgentDdsHandlers handlers) { impl_->MakeReaders(std::move(handlers)); }
 
 AgentDds::~AgentDds() = default;
+void AgentDds::StopListening() { impl_->StopListening(); }
 
 std::vector<std::string> AgentDds::TakeGoneParticipants() {
   std::vector<std::string> gone;
@@ -672,7 +685,8 @@ PeerBody PeerFromMessage(const msgs::PeerState& m) {
 
 std::vector<SentTraffic> AgentDds::SentByClass() const {
   const Impl& i = *impl_;
-  auto sum = [](const char* topic_class, std::initializer_list<std::pair<std::uint64_t, std::uint64_t>> writers) {
+  auto sum = [](const char* topic_class,
+                std::initializer_list<std::pair<std::uint64_t, std::uint64_t>> writers) {
     SentTraffic t{topic_class, 0, 0};
     for (const auto& [bytes, samples] : writers) {
       t.bytes += bytes;
@@ -680,7 +694,9 @@ std::vector<SentTraffic> AgentDds::SentByClass() const {
     }
     return t;
   };
-  auto of = [](const auto& writer) { return std::make_pair(writer->bytes_written(), writer->samples_written()); };
+  auto of = [](const auto& writer) {
+    return std::make_pair(writer->bytes_written(), writer->samples_written());
+  };
   std::lock_guard<std::mutex> guard(i.bulk_mutex_);
   return {sum("command", {of(i.response_writer_), of(i.path_response_writer_), of(i.probe_reply_writer_)}),
           sum("state", {of(i.state_writer_), of(i.pose_writer_), of(i.local_plan_writer_), of(i.info_writer_),

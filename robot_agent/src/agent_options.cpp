@@ -44,12 +44,18 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   mux.ReadDouble("waypoint_timeout_s", &waypoint_timeout_s);
   NavigationOptions& n = navigation;
   const auto nav = config.Section("navigation");
-  nav.RejectUnknownKeys({"cruise_speed_mps", "goal_tolerance_m", "blocked_timeout_s", "stall_timeout_s", "contact_timeout_s",
-                         "carrot_distance_m", "required_free_length_m", "tight_free_length_m",
-                         "tight_spot_deviation_rad", "sensor_range_m", "local_planner_period_s", "obstacle_timeout_s", "obstacle_lost_s", "replan_check_period_s", "max_path_deviation_m",
-                         "joystick_turn_lookahead_s", "map_half_extent_m", "map_max_extent_m", "map_grow_margin_m", "map_grow_step_m",
-                         "map_update_period_s",
-                         "obstacle_window_s", "path_requests_per_s"});
+  nav.RejectUnknownKeys({"cruise_speed_mps",         "goal_tolerance_m",
+                         "blocked_timeout_s",        "stall_timeout_s",
+                         "contact_timeout_s",        "carrot_distance_m",
+                         "required_free_length_m",   "tight_free_length_m",
+                         "tight_spot_deviation_rad", "sensor_range_m",
+                         "local_planner_period_s",   "obstacle_timeout_s",
+                         "obstacle_lost_s",          "replan_check_period_s",
+                         "max_path_deviation_m",     "joystick_turn_lookahead_s",
+                         "map_half_extent_m",        "map_max_extent_m",
+                         "map_grow_margin_m",        "map_grow_step_m",
+                         "map_update_period_s",      "map_update_budget_s",
+                         "obstacle_window_s",        "path_requests_per_s"});
   nav.ReadDouble("cruise_speed_mps", &n.platform.cruise_speed_mps);
   nav.ReadDouble("goal_tolerance_m", &n.goal_tolerance_m);
   nav.ReadDouble("blocked_timeout_s", &n.blocked_timeout_s);
@@ -71,12 +77,13 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   nav.ReadDouble("map_grow_margin_m", &nav_map.grow_margin_m);
   nav.ReadDouble("map_grow_step_m", &nav_map.grow_step_m);
   nav.ReadDouble("map_update_period_s", &nav_map.update_period_s);
+  nav.ReadDouble("map_update_budget_s", &nav_map.update_budget_s);
   nav.ReadDouble("obstacle_window_s", &obstacle_window_s);
   nav.ReadDouble("path_requests_per_s", &path_requests_per_s);
   const auto local = config.Section("local_planner");
   local.RejectUnknownKeys({"collision_margin_m", "clearance_band_m", "voxel_size_m", "goal_direction_weight",
-                           "heading_change_weight", "clearance_weight", "hysteresis_weight", "min_free_length_m",
-                           "library_cache_dir"});
+                           "heading_change_weight", "clearance_weight", "hysteresis_weight",
+                           "min_free_length_m", "library_cache_dir"});
   local.ReadDouble("collision_margin_m", &collision_margin_m);
   local.ReadString("library_cache_dir", &library_cache_dir);
   local.ReadDouble("clearance_band_m", &library.clearance_band_m);
@@ -87,8 +94,8 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   local.ReadDouble("hysteresis_weight", &n.local_planner.hysteresis_weight);
   local.ReadDouble("min_free_length_m", &n.local_planner.min_free_length_m);
   const auto controller = config.Section("controller");
-  controller.RejectUnknownKeys({"horizon_steps", "dt_s", "max_iterations", "cross_track_weight", "heading_weight",
-                                "speed_weight"});
+  controller.RejectUnknownKeys(
+      {"horizon_steps", "dt_s", "max_iterations", "cross_track_weight", "heading_weight", "speed_weight"});
   controller.ReadInt("horizon_steps", &n.controller.horizon_steps);
   controller.ReadDouble("dt_s", &n.controller.dt_s);
   controller.ReadInt("max_iterations", &n.controller.max_iterations);
@@ -111,11 +118,13 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   trav.ReadDouble("robot_height_m", &n.platform.traversability.robot_height_m);
   trav.ReadDouble("max_step_m", &n.platform.traversability.max_step_m);
   const auto ex = config.Section("explore");
-  ex.RejectUnknownKeys({"target_tolerance_m", "settle_s", "complete_settle_s", "map_wait_s", "min_gain_m2", "gain_radius_m",
-                        "max_cluster_extent_m", "unknown_reach_m", "switch_utility_ratio", "blacklist_radius_m",
-                        "visited_radius_m", "same_place_dz_m", "tight_gap_stall_s", "retry_after_s", "claim_radius_m", "peer_influence_m",
-                        "claim_period_s",
-                        "coverage_period_s", "claim_lease_s", "coverage_cell_m", "levels"});
+  ex.RejectUnknownKeys({"target_tolerance_m",   "settle_s",         "complete_settle_s",
+                        "map_wait_s",           "min_gain_m2",      "gain_radius_m",
+                        "max_cluster_extent_m", "unknown_reach_m",  "switch_utility_ratio",
+                        "blacklist_radius_m",   "visited_radius_m", "same_place_dz_m",
+                        "tight_gap_stall_s",    "retry_after_s",    "claim_radius_m",
+                        "peer_influence_m",     "claim_period_s",   "coverage_period_s",
+                        "claim_lease_s",        "coverage_cell_m",  "levels"});
   if (std::string levels; ex.ReadString("levels", &levels), !levels.empty()) {
     using Levels = ExploreModeOptions::Levels;
     if (levels == "auto") {
@@ -192,8 +201,9 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   PerceptionOptions& pe = perception;
   const auto per = config.Section("perception");
   per.RejectUnknownKeys({"enabled", "map_resolution_m", "map_insert_period_s", "map_keyframe_distance_m",
-                         "map_keyframe_angle_rad", "map_keyframe_max_interval_s", "staircase_period_s", "map_coarse_levels", "map_budget_bits_per_s",
-                         "map_period_s", "camera_rate_hz", "jpeg_quality", "camera_budget_bits_per_s"});
+                         "map_keyframe_angle_rad", "map_keyframe_max_interval_s", "staircase_period_s",
+                         "map_coarse_levels", "map_budget_bits_per_s", "map_period_s", "camera_rate_hz",
+                         "jpeg_quality", "camera_budget_bits_per_s"});
   per.ReadBool("enabled", &pe.enabled);
   per.ReadDouble("map_resolution_m", &pe.map.resolution_m);
   per.ReadDouble("map_insert_period_s", &pe.map_insert_period_s);
@@ -220,19 +230,21 @@ std::string AgentOptions::ApplyLinkBudget() {
   const auto lower = [&](const char* name, double share, double* value) {
     const double limit = share * budget_bits_per_s;
     if (*value <= limit) return;
-    changed += (changed.empty() ? "" : ", ") + std::string(name) + " " + std::to_string(static_cast<long>(*value)) +
-               " -> " + std::to_string(static_cast<long>(limit)) + " bit/s";
+    changed += (changed.empty() ? "" : ", ") + std::string(name) + " " +
+               std::to_string(static_cast<long>(*value)) + " -> " + std::to_string(static_cast<long>(limit)) +
+               " bit/s";
     *value = limit;
   };
   lower("map telemetry", core::kRadioMapShare, &perception.telemetry.budget_bits_per_s);
   lower("camera", core::kRadioCameraShare, &perception.camera_budget_bits_per_s);
   std::string why;
   if (!perception.telemetry.IsValid(&why)) {
-    throw std::invalid_argument("--link-kbps " + std::to_string(link.link_kbps) + ": map telemetry's share (" +
-                                std::to_string(static_cast<long>(perception.telemetry.budget_bits_per_s)) +
-                                " bit/s) cannot carry one map message (" + why +
-                                "): give the radio a larger budget, or turn perception off (perception.enabled: "
-                                "false)");
+    throw std::invalid_argument(
+        "--link-kbps " + std::to_string(link.link_kbps) + ": map telemetry's share (" +
+        std::to_string(static_cast<long>(perception.telemetry.budget_bits_per_s)) +
+        " bit/s) cannot carry one map message (" + why +
+        "): give the radio a larger budget, or turn perception off (perception.enabled: "
+        "false)");
   }
   return changed;
 }
@@ -259,7 +271,8 @@ bool AgentOptions::IsValid(std::string* why) const {
   // Combinations: fresh obstacle input must be possible, and the sensor must see as far as a local path.
   if (navigation.obstacle_timeout_s <= navigation.local_planner_period_s + 0.02) {
     *why = "navigation.obstacle_timeout_s = " + std::to_string(navigation.obstacle_timeout_s) +
-           " must exceed navigation.local_planner_period_s (" + std::to_string(navigation.local_planner_period_s) +
+           " must exceed navigation.local_planner_period_s (" +
+           std::to_string(navigation.local_planner_period_s) +
            ") plus one 0.02 s control cycle, or the input is always stale";
     return false;
   }

@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <iterator>
@@ -32,15 +33,17 @@ int main(int argc, char** argv) {
   std::string worlds;
   for (const auto& name : cairn::sim::BuiltinWorldNames()) worlds += (worlds.empty() ? "" : ", ") + name;
 
-  CLI::App app{"cairn_agent: one Cairn robot (command interface, mode tree, mux, navigation, perception) on "
-               "Fast DDS, driving the simulated platform (--world)."};
+  CLI::App app{
+      "cairn_agent: one Cairn robot (command interface, mode tree, mux, navigation, perception) on "
+      "Fast DDS, driving the simulated platform (--world)."};
   app.add_option("--robot-id", options.robot_id, "robot id, unique in the fleet ([A-Za-z0-9_-]{1,64})")
       ->required();
   app.add_option("--world", options.world,
                  "world: builtin:NAME (" + worlds + "), an OctoMap .bt file or a .pcd point cloud")
       ->capture_default_str();
-  app.add_option("--start", start_text, "start pose X,Y[,YAW] in metres/radians, frame map, or slot:K for the "
-                                        "K-th free start of the world (default: chosen from the robot id)");
+  app.add_option("--start", start_text,
+                 "start pose X,Y[,YAW] in metres/radians, frame map, or slot:K for the "
+                 "K-th free start of the world (default: chosen from the robot id)");
   app.add_option("--platform", platform, "wheeled | legged (limits, step height, local planner headings)")
       ->capture_default_str();
   app.add_option("--domain", domain_text, "DDS domain id, 0..232")->capture_default_str();
@@ -49,8 +52,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   cairn::core::AddLinkFlags(app, &options.link);
   cairn::core::AddSecureFlag(app, &options.security);
-  app.add_option("--dds-profiles", options.dds_profiles_file, "Fast DDS XML profiles file (default: shipped "
-                                                              "loopback-only config/dds_profiles.xml)");
+  app.add_option("--dds-profiles", options.dds_profiles_file,
+                 "Fast DDS XML profiles file (default: shipped "
+                 "loopback-only config/dds_profiles.xml)");
   app.add_option("--map-save", options.map_save_path,
                  "save the robot's map (OctoMap .bt, full resolution, SLAM frame) to this file at exit");
   app.add_option("--journal", options.journal_dir,
@@ -71,10 +75,12 @@ int main(int argc, char** argv) {
                  "test hook: make COMPONENT throw, or hang, AFTER_S seconds after start "
                  "(COMPONENT:throw|hang:AFTER_S; repeatable); the health monitor restarts it");
   app.add_option("--mode-tree", options.mode_tree_file, "mode tree XML (default: config/mode_tree.xml)");
-  app.add_flag("--print-tree-nodes-model",
-               "print the mode tree's <TreeNodesModel> (Groot2) for the nodes this agent registers, and exit");
-  app.add_option("--update-tree-nodes-model", "rewrite the <TreeNodesModel> of mode tree FILE.xml in place (so "
-                                               "Groot2 opens it with this agent's nodes), and exit");
+  app.add_flag(
+      "--print-tree-nodes-model",
+      "print the mode tree's <TreeNodesModel> (Groot2) for the nodes this agent registers, and exit");
+  app.add_option("--update-tree-nodes-model",
+                 "rewrite the <TreeNodesModel> of mode tree FILE.xml in place (so "
+                 "Groot2 opens it with this agent's nodes), and exit");
   for (int i = 1; i < argc; ++i) {  // these need no other option (not even --robot-id)
     const std::string arg = argv[i];
     if (arg == "--print-tree-nodes-model") {
@@ -157,12 +163,15 @@ int main(int argc, char** argv) {
     options.SetPlatform(platform);
     if (!config_file.empty()) options.LoadConfigFile(config_file);
     const std::string budget = options.ApplyLinkBudget();
-    if (!budget.empty()) spdlog::info("cairn_agent {}: radio link of {} kbit/s: {}", options.robot_id, options.link.link_kbps, budget);
+    if (!budget.empty())
+      spdlog::info("cairn_agent {}: radio link of {} kbit/s: {}", options.robot_id, options.link.link_kbps,
+                   budget);
     std::string why;
     if (!options.IsValid(&why)) throw std::invalid_argument(why);
     if (!options.map_save_path.empty()) {
       // Written at exit: a missing folder found only then lost the map and exited 0.
-      if (const std::string fault = cairn::core::CheckOutputFile("--map-save", options.map_save_path); !fault.empty()) {
+      if (const std::string fault = cairn::core::CheckOutputFile("--map-save", options.map_save_path);
+          !fault.empty()) {
         throw std::invalid_argument(fault);
       }
     }
@@ -182,9 +191,17 @@ int main(int argc, char** argv) {
     sim.SetProfile(options.navigation.platform);
     if (!config_file.empty()) sim.LoadConfigFile(config_file);
     auto platform = std::make_shared<cairn::sim::SimulatedPlatform>(sim);
+    options.supervised = std::getenv("CAIRN_SUPERVISED") != nullptr;
     cairn::agent::RobotAgent agent(options, platform);
     std::cout << "READY " << options.robot_id << std::endl;
     agent.Run();
+    if (agent.restart_requested()) {
+      // A component's work did not stop and may still use the agent's state: no destructor runs.
+      spdlog::error("cairn_agent {}: exiting for a restart by the supervisor", options.robot_id);
+      spdlog::default_logger()->flush();
+      std::cout.flush();
+      std::_Exit(cairn::agent::RobotAgent::kRestartExitStatus);
+    }
   } catch (const std::exception& e) {
     spdlog::error("cairn_agent {}: {}", options.robot_id, e.what());
     return 2;

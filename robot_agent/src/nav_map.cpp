@@ -54,7 +54,8 @@ bool NavMapOptions::IsValid(std::string* why) const {
          InRange("navigation.map_above_m", above_m, 0.5, 50, false, why) &&
          InRange("navigation.map_ground_band_below_m", ground_band_below_m, 0.1, 10, false, why) &&
          InRange("navigation.map_ground_band_above_m", ground_band_above_m, 0.1, 10, false, why) &&
-         InRange("navigation.map_update_period_s", update_period_s, 0.1, 10, false, why);
+         InRange("navigation.map_update_period_s", update_period_s, 0.1, 10, false, why) &&
+         InRange("navigation.map_update_budget_s", update_budget_s, 0.05, 10, false, why);
 }
 
 nav::MapReading NavMap::Reading(const NavMapOptions& options, const core::BaseState& start_M) {
@@ -67,8 +68,8 @@ nav::MapReading NavMap::Reading(const NavMapOptions& options, const core::BaseSt
 }
 
 std::shared_ptr<nav::GlobalPlanner> NavMap::MakePlanner(const NavMapOptions& options, double resolution_m,
-                                                       const core::BaseState& start_M,
-                                                       std::vector<nav::PlatformProfile> profiles) {
+                                                        const core::BaseState& start_M,
+                                                        std::vector<nav::PlatformProfile> profiles) {
   nav::GlobalPlannerOptions planner_options;
   planner_options.reading = Reading(options, start_M);
   return std::make_shared<nav::GlobalPlanner>(EmptyGrid(options, resolution_m, start_M), std::move(profiles),
@@ -82,8 +83,10 @@ std::shared_ptr<const core::VoxelGrid> NavMap::EmptyGrid(const NavMapOptions& op
   const Eigen::Vector3d lo(start_M.x_m - options.half_extent_m, start_M.y_m - options.half_extent_m,
                            start_M.z_m - options.below_m);
   const Eigen::Vector3d p_min = (lo / resolution_m).array().floor().matrix() * resolution_m;
-  const Eigen::Vector3d size(2 * options.half_extent_m, 2 * options.half_extent_m, options.below_m + options.above_m);
-  const Eigen::Vector3i dims = (size / resolution_m).array().ceil().cast<int>().matrix() + Eigen::Vector3i::Ones();
+  const Eigen::Vector3d size(2 * options.half_extent_m, 2 * options.half_extent_m,
+                             options.below_m + options.above_m);
+  const Eigen::Vector3i dims =
+      (size / resolution_m).array().ceil().cast<int>().matrix() + Eigen::Vector3i::Ones();
   return std::make_shared<const core::VoxelGrid>("robot map", p_min, resolution_m, dims);
 }
 
@@ -96,25 +99,32 @@ NavMap::NavMap(const NavMapOptions& options, double resolution_m, const core::Ba
       seen_free_(std::make_shared<core::VoxelGrid>(*voxels_)) {
   if (!planner_) throw std::invalid_argument("NavMap: planner is null");
   if (planner_->Profile(platform) == nullptr) {
-    throw std::invalid_argument("NavMap: platform '" + platform + "' is not served by the planner (valid: " +
-                                planner_->PlatformList() + ")");
+    throw std::invalid_argument("NavMap: platform '" + platform +
+                                "' is not served by the planner (valid: " + planner_->PlatformList() + ")");
   }
   extent_M_ = Eigen::AlignedBox2d(voxels_->p_W_min().head<2>(), voxels_->p_W_max().head<2>());
   RebuildGrids();
   Publish({});
 }
 
+void NavMap::Wait(const Eigen::Vector2i& tile) {
+  if (waiting_set_.insert({tile.x(), tile.y()}).second) waiting_tiles_.push_back(tile);
+}
+
 void NavMap::RebuildGrids() {
   const nav::PlatformProfile& profile = *planner_->Profile(platform_);
   grid_ = std::make_shared<nav::TraversabilityGrid>(*voxels_, planner_->TerrainOptionsFor(profile),
                                                     seen_free_.get(), sensor_max_z_m_);
+  Progress();
   diagnose_grid_.reset();
   if (const auto relaxed = planner_->DiagnoseTerrainOptionsFor(profile)) {
     diagnose_grid_ =
         std::make_shared<nav::TraversabilityGrid>(*voxels_, *relaxed, seen_free_.get(), sensor_max_z_m_);
+    Progress();
   }
   nav::TraversabilityOptions level_options = planner_->LevelOptionsFor(profile);
   levels_ = std::make_shared<nav::MultiLevelGrid>(voxels_, level_options, seen_free_, sensor_max_z_m_);
+  Progress();
   diagnose_levels_.reset();
   if (const auto relaxed = planner_->DiagnoseTerrainOptionsFor(profile)) {
     level_options.max_step_m = relaxed->max_step_m;
@@ -124,13 +134,14 @@ void NavMap::RebuildGrids() {
 }
 
 void NavMap::AddStairFrontiers(const Eigen::Vector3d& robot_M, const nav::FrontierOptions& options,
-                                nav::FrontierSet* set) const {
+                               nav::FrontierSet* set) const {
   const nav::MultiLevelGrid& levels = *levels_;
   for (const perception::Staircase& stairs : stair_priors_) {
     const Eigen::Vector2d dir(std::cos(stairs.yaw_rad), std::sin(stairs.yaw_rad));
     const Eigen::Vector2d foot = stairs.p_W_first_step.head<2>();
     const double length_m = (stairs.num_steps - 1) * stairs.run_m;
-    // Each end, kStairEndM off the flight: the floor at its foot, and the landing or floor past its last riser.
+    // Each end, kStairEndM off the flight: the floor at its foot, and the landing or floor past its last
+    // riser.
     const std::array<std::pair<Eigen::Vector2d, double>, 2> ends = {
         std::make_pair(Eigen::Vector2d(foot - kStairEndM * dir), stairs.p_W_first_step.z()),
         std::make_pair(Eigen::Vector2d(foot + (length_m + kStairEndM) * dir),
@@ -158,7 +169,8 @@ void NavMap::AddStairFrontiers(const Eigen::Vector3d& robot_M, const nav::Fronti
       if (c.gain_m2 < options.min_gain_m2) continue;
       // The robot to the other end, then along the flight: an estimate (straight lines), the search over the
       // map's surfaces does not cross a flight its 0.1 m cells show narrower than the robot.
-      const Eigen::Vector2d other = (end_M - foot).norm() < kStairEndM + 1e-6 ? Eigen::Vector2d(foot + length_m * dir) : foot;
+      const Eigen::Vector2d other =
+          (end_M - foot).norm() < kStairEndM + 1e-6 ? Eigen::Vector2d(foot + length_m * dir) : foot;
       c.travel_cost_m = (robot_M.head<2>() - other).norm() + (end_M - other).norm();
       c.utility = c.gain_m2 / (c.travel_cost_m + options.cost_offset_m);
       set->clusters.push_back(c);
@@ -167,8 +179,8 @@ void NavMap::AddStairFrontiers(const Eigen::Vector3d& robot_M, const nav::Fronti
   nav::SortFrontierClusters(&set->clusters);
 }
 
-nav::FrontierSet NavMap::Frontiers(const Eigen::Vector3d& robot_M, nav::FrontierOptions options, bool every_level,
-                                   const nav::PeerCoverage* peers) const {
+nav::FrontierSet NavMap::Frontiers(const Eigen::Vector3d& robot_M, nav::FrontierOptions options,
+                                   bool every_level, const nav::PeerCoverage* peers) const {
   if (!every_level) return nav::FindFrontiers(*grid_, robot_M.head<2>(), options, peers);
   options.peer_coverage_min_z_m = grid_->options().ground_search_min_z_m;
   options.peer_coverage_max_z_m = grid_->options().ground_search_max_z_m;
@@ -202,10 +214,12 @@ bool NavMap::CanCover(const Eigen::Vector2d& p_M, std::string* why) const {
   if (size.maxCoeff() <= options_.max_extent_m) return true;
   if (why != nullptr) {
     *why = "(" + internal::Fixed(p_M.x(), 2) + ", " + internal::Fixed(p_M.y(), 2) +
-           ") is too far for the robot's navigation map: it spans x in [" + internal::Fixed(extent.min().x(), 1) +
-           ", " + internal::Fixed(extent.max().x(), 1) + "], y in [" + internal::Fixed(extent.min().y(), 1) + ", " +
-           internal::Fixed(extent.max().y(), 1) + "] and may grow to " + internal::Fixed(options_.max_extent_m, 0) +
-           " m along x and y (navigation.map_max_extent_m = " + internal::Fixed(options_.max_extent_m, 0) + ")";
+           ") is too far for the robot's navigation map: it spans x in [" +
+           internal::Fixed(extent.min().x(), 1) + ", " + internal::Fixed(extent.max().x(), 1) + "], y in [" +
+           internal::Fixed(extent.min().y(), 1) + ", " + internal::Fixed(extent.max().y(), 1) +
+           "] and may grow to " + internal::Fixed(options_.max_extent_m, 0) +
+           " m along x and y (navigation.map_max_extent_m = " + internal::Fixed(options_.max_extent_m, 0) +
+           ")";
   }
   return false;
 }
@@ -224,7 +238,8 @@ std::string NavMap::Cover(const Eigen::Vector2d& p_M) {
   return "";
 }
 
-Eigen::AlignedBox2d NavMap::GrownExtent(const Eigen::AlignedBox2d& current_M, const Eigen::AlignedBox2d& want_M) const {
+Eigen::AlignedBox2d NavMap::GrownExtent(const Eigen::AlignedBox2d& current_M,
+                                        const Eigen::AlignedBox2d& want_M) const {
   if (want_M.isEmpty()) return current_M;
   // Within the margin of an edge (or beyond): grow that side to cover it plus grow_step_m.
   const Eigen::Vector2d margin = Eigen::Vector2d::Constant(options_.grow_margin_m);
@@ -262,18 +277,13 @@ void NavMap::Reallocate(const Eigen::AlignedBox2d& extent_M) {
   const Eigen::Vector3i dims = voxels_->dims() + offset + Eigen::Vector3i(grow_hi.x(), grow_hi.y(), 0);
   auto copy = [&](const core::VoxelGrid& from) {
     core::VoxelGrid to(from.name(), p_min, res, dims);
-    const Eigen::Vector3i& d = from.dims();
-    for (int ix = 0; ix < d.x(); ++ix) {
-      for (int iy = 0; iy < d.y(); ++iy) {
-        for (int iz = 0; iz < d.z(); ++iz) {
-          if (from.IsOccupiedIndex({ix, iy, iz})) to.SetOccupied(Eigen::Vector3i(ix, iy, iz) + offset);
-        }
-      }
-    }
+    from.ForEachOccupied([&](const Eigen::Vector3i& index) { to.SetOccupied(index + offset); });
     return to;
   };
   voxels_ = std::make_shared<core::VoxelGrid>(copy(*voxels_));
+  Progress();
   seen_free_ = std::make_shared<core::VoxelGrid>(copy(*seen_free_));
+  Progress();
 }
 
 std::size_t NavMap::MemoryBytes() const {
@@ -302,7 +312,9 @@ std::size_t NavMap::UnpublishedMemoryBytes() const {
 void NavMap::Publish(const std::vector<Eigen::AlignedBox2d>& columns) {
   if (!columns.empty()) {
     Writable(&levels_).Update(voxels_, seen_free_, columns, sensor_max_z_m_);
+    Progress();
     if (diagnose_levels_) Writable(&diagnose_levels_).Update(voxels_, seen_free_, columns, sensor_max_z_m_);
+    Progress();
   }
   // Handed over, not copied: the planner plans on these very grids, and the next update copies any it
   // changes.
@@ -345,7 +357,8 @@ void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
   const double res = voxels_->resolution_m();
   const double half_width = 0.5 * stairs.width_m - kStairSideMargin_m;
   const FlightAxes axes(stairs);
-  if (!(half_width > 0) || !(axes.depth_m > 0) || !(stairs.rise_m > 0) || !stairs.p_W_first_step.allFinite()) {
+  if (!(half_width > 0) || !(axes.depth_m > 0) || !(stairs.rise_m > 0) ||
+      !stairs.p_W_first_step.allFinite()) {
     return;
   }
   // Voxels of one rise below a tread's top: a ray through any of them went through the step's body.
@@ -361,7 +374,8 @@ void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
     for (int iy = y_lo; iy <= y_hi; ++iy) {
       const Eigen::Vector2d c = voxels_->CenterOf({ix, iy, 0}).head<2>() - axes.origin;
       const double a = c.dot(axes.along);  // along the ascent from the first riser
-      if (std::abs(c.dot(axes.across)) > half_width + 1e-6 || a < -stairs.run_m || a >= axes.depth_m) continue;
+      if (std::abs(c.dot(axes.across)) > half_width + 1e-6 || a < -stairs.run_m || a >= axes.depth_m)
+        continue;
       // A column across a riser holds the higher tread's top; step 0 is the floor at the flight's foot (one
       // run deep), the lidar's blind spot when the robot stands there.
       const int step = std::clamp(static_cast<int>(std::floor((a + 0.5 * res + 1e-6) / stairs.run_m)) + 1, 0,
@@ -370,9 +384,9 @@ void NavMap::ApplyStairPrior(const perception::Staircase& stairs) {
       const int iz_top = static_cast<int>(std::lround((top_z - voxels_->p_W_min().z()) / res)) - 1;
       if (iz_top < 0 || iz_top > last.z()) continue;
       // A ray through the step's body below its top voxel: no tread there (the floor before the flight, where
-      // the model's first riser lies a little off). The top voxel itself does not count: a ray grazing a tread
-      // on its way to the next riser clears it (an OctoMap miss), which left holes in the treads of the flight
-      // a robot stood at the foot of, and no plan onto it.
+      // the model's first riser lies a little off). The top voxel itself does not count: a ray grazing a
+      // tread on its way to the next riser clears it (an OctoMap miss), which left holes in the treads of the
+      // flight a robot stood at the foot of, and no plan onto it.
       const int body_top = body_voxels >= 2 ? iz_top - 1 : iz_top;
       bool seen_through = false;
       for (int iz = std::max(0, iz_top - body_voxels + 1); iz <= body_top && !seen_through; ++iz) {
@@ -414,8 +428,9 @@ bool SameStairs(const std::vector<perception::Staircase>& a, const std::vector<p
 
 }  // namespace
 
-NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& changed,
-                                 double tile_m, double sensor_max_z_m,
+NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map,
+                                 const std::vector<Eigen::Vector2i>& changed, double tile_m,
+                                 double sensor_max_z_m,
                                  const std::vector<perception::Staircase>& staircases) {
   NavMapUpdateStats stats;
   Eigen::AlignedBox2d want;  // what must be covered: changed tiles and requests
@@ -426,14 +441,14 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     pending_cover_M_.setEmpty();
     current = extent_M_;
   }
-  // Only flights the platform climbs: one that cannot gains nothing from their treads (its map shows the steps
-  // the lidar saw, and a refusal names the one it saw).
+  // Only flights the platform climbs: one that cannot gains nothing from their treads (its map shows the
+  // steps the lidar saw, and a refusal names the one it saw).
   const double max_step_m = planner_->Profile(platform_)->traversability.max_step_m;
   std::vector<perception::Staircase> climbable;
   std::copy_if(staircases.begin(), staircases.end(), std::back_inserter(climbable),
                [max_step_m](const perception::Staircase& stairs) { return stairs.rise_m <= max_step_m; });
   const bool stairs_changed = !SameStairs(climbable, stair_priors_);
-  if (!(tile_m > 0) || (changed.empty() && want.isEmpty() && !stairs_changed)) {
+  if (!(tile_m > 0) || (changed.empty() && waiting_tiles_.empty() && want.isEmpty() && !stairs_changed)) {
     stats.extent_M = current;
     return stats;
   }
@@ -441,8 +456,8 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
   for (const Eigen::Vector2i& tile : changed) {
     want.extend(Eigen::Vector2d(tile.cast<double>() * tile_m));
     want.extend(Eigen::Vector2d((tile + Eigen::Vector2i::Ones()).cast<double>() * tile_m));
+    Wait(tile);
   }
-  std::vector<Eigen::Vector2i> tiles = changed;
   const Eigen::AlignedBox2d grown = GrownExtent(current, want);
   if (!grown.isApprox(current)) {
     Reallocate(grown);
@@ -452,8 +467,9 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     const Eigen::Vector2i t_hi = (hi / tile_m).array().ceil().cast<int>().matrix() - Eigen::Vector2i::Ones();
     for (int tx = t_lo.x(); tx <= t_hi.x(); ++tx) {
       for (int ty = t_lo.y(); ty <= t_hi.y(); ++ty) {
-        const Eigen::AlignedBox2d box(Eigen::Vector2d(tx, ty) * tile_m, Eigen::Vector2d(tx + 1, ty + 1) * tile_m);
-        if (!current.contains(box)) tiles.emplace_back(tx, ty);
+        const Eigen::AlignedBox2d box(Eigen::Vector2d(tx, ty) * tile_m,
+                                      Eigen::Vector2d(tx + 1, ty + 1) * tile_m);
+        if (!current.contains(box)) Wait(Eigen::Vector2i(tx, ty));
       }
     }
     stats.grown = true;
@@ -469,7 +485,7 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
       const Eigen::Vector2i t_lo = (box.min() / tile_m).array().floor().cast<int>().matrix();
       const Eigen::Vector2i t_hi = (box.max() / tile_m).array().floor().cast<int>().matrix();
       for (int tx = t_lo.x(); tx <= t_hi.x(); ++tx) {
-        for (int ty = t_lo.y(); ty <= t_hi.y(); ++ty) tiles.emplace_back(tx, ty);
+        for (int ty = t_lo.y(); ty <= t_hi.y(); ++ty) Wait(Eigen::Vector2i(tx, ty));
       }
     };
     std::for_each(stair_priors_.begin(), stair_priors_.end(), read_again);
@@ -479,11 +495,19 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
   const double res = voxels_->resolution_m();
   const Eigen::Vector3i last = voxels_->dims() - Eigen::Vector3i::Ones();
   std::vector<Eigen::AlignedBox2d> columns;
-  if (!tiles.empty()) {
+  if (!waiting_tiles_.empty()) {
     Writable(&voxels_);
     Writable(&seen_free_);
   }
-  for (const Eigen::Vector2i& tile : tiles) {
+  Progress();
+  // Oldest first, until the budget is spent (at least one tile: the map always moves on).
+  const auto read_until = start + std::chrono::duration_cast<Clock::duration>(
+                                      std::chrono::duration<double>(options_.update_budget_s));
+  for (int read = 0; !waiting_tiles_.empty() && (read == 0 || Clock::now() < read_until); ++read) {
+    const Eigen::Vector2i tile = waiting_tiles_.front();
+    waiting_tiles_.pop_front();
+    waiting_set_.erase({tile.x(), tile.y()});
+    if (read % 16 == 15) Progress();
     const Eigen::Vector2d lo_W = tile.cast<double>() * tile_m;
     const Eigen::Vector2d hi_W = lo_W + Eigen::Vector2d::Constant(tile_m);
     // Voxel index range of the tile (inclusive), over the extent's full height.
@@ -526,12 +550,15 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     if (!read) continue;
     ApplyStairPrior(stairs);
     // One cell more: the neighbours' analysis changes too.
-    columns.emplace_back(box.min() - Eigen::Vector2d::Constant(res), box.max() + Eigen::Vector2d::Constant(res));
+    columns.emplace_back(box.min() - Eigen::Vector2d::Constant(res),
+                         box.max() + Eigen::Vector2d::Constant(res));
     ++stats.stair_priors;
   }
   stats.extent_M = extent_M();
+  stats.tiles_waiting = tiles_waiting();
   if (columns.empty() && !stats.grown) return stats;
   stats.read_ms = MsSince(start);
+  Progress();
   start = Clock::now();
   sensor_max_z_m_ = sensor_max_z_m;
   if (stats.grown) {
@@ -542,12 +569,14 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map, const std:
     grid.SetObserverHeight(sensor_max_z_m);
     grid.Update(*voxels_, seen_free_.get(), columns);
     if (diagnose_grid_) {
+      Progress();
       nav::TraversabilityGrid& diagnose_grid = Writable(&diagnose_grid_);
       diagnose_grid.SetObserverHeight(sensor_max_z_m);
       diagnose_grid.Update(*voxels_, seen_free_.get(), columns);
     }
   }
   stats.traversability_ms = MsSince(start);
+  Progress();
   start = Clock::now();
   Publish(columns);
   stats.publish_ms = MsSince(start);

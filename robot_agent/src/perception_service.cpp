@@ -138,8 +138,17 @@ void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
       std::chrono::duration<double>(options_.nav_map.update_period_s));
   // The first update at once: exploring needs a map updated lately (MappingHealthy()).
   core::SteadyTime next = core::SteadyClock::now();
-  // Beats at least every 100 ms while it waits for its next update.
+  // Beats at least every 100 ms while it waits for its next update, and between the steps of an update (a
+  // growth over a large map takes seconds: slow, not hung).
   const auto beat_every = std::chrono::milliseconds(100);
+  nav_map_->SetProgressHook([this, &loop] {
+    loop.Beat();
+    map_progress_s_ = NowS();
+  });
+  struct ClearHook {
+    NavMap* map;
+    ~ClearHook() { map->SetProgressHook({}); }
+  } clear_hook{nav_map_.get()};
   while (loop.Running()) {
     loop.Beat();
     const auto now = core::SteadyClock::now();
@@ -151,14 +160,17 @@ void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
     next += period;
     if (next < core::SteadyClock::now()) next = core::SteadyClock::now() + period;
     core::ScopedCpu cpu(loop.component());
-    map_update_started_s_ = NowS();
+    if (fault_hook_) fault_hook_("navigation_map");
+    const double work_start_s = NowS();
+    map_progress_s_ = work_start_s;
+    map_work_started_s_ = work_start_s;
     const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
     // With no changed tile, Update() still grows the map when a goal beyond it asked to.
     const NavMapUpdateStats stats =
         nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m(),
                          perception_->max_sensor_z_m(), perception_->Staircases());
-    last_map_update_s_ = NowS();
-    map_update_started_s_ = -1e9;
+    loop.Beat();
+    map_progress_s_ = NowS();
     std::optional<nav::FrontierOptions> search;
     Eigen::Vector3d robot_p_M;
     bool every_level = false;
@@ -184,6 +196,16 @@ void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
       frontiers_ = std::move(set);
       frontiers_at_s_ = NowS();
     }
+    // The map and what is computed on it (frontiers, seen coverage) are done: how long that took sets how old
+    // the map may grow before it counts as not kept up (MappingHealthy()).
+    const double done_s = NowS();
+    const double work_s = done_s - work_start_s;
+    const double slowest_s = map_work_slowest_s_.load();
+    // The slowest of the recent iterations: one slow update raises it at once; it decays by 10 % a time.
+    map_work_slowest_s_ = std::max(work_s, 0.9 * slowest_s);
+    last_map_update_s_ = done_s;
+    map_progress_s_ = done_s;
+    map_work_started_s_ = -1e9;
     if (stats.grown) {
       spdlog::info(
           "robot {}: navigation map grown to x [{:.1f}, {:.1f}], y [{:.1f}, {:.1f}] (v{}, {:.0f} ms)",
@@ -202,7 +224,8 @@ void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
   }
 }
 
-void PerceptionService::SetFrontierSearch(const std::optional<nav::FrontierOptions>& search, bool every_level) {
+void PerceptionService::SetFrontierSearch(const std::optional<nav::FrontierOptions>& search,
+                                          bool every_level) {
   std::lock_guard<std::mutex> guard(frontier_mutex_);
   frontier_search_ = search;
   frontier_every_level_ = every_level;
@@ -230,26 +253,37 @@ void PerceptionService::SetRobotPosition(const Eigen::Vector3d& p_M) {
 std::optional<std::pair<nav::FrontierSet, double>> PerceptionService::TakeFrontiers() {
   std::lock_guard<std::mutex> guard(frontier_mutex_);
   if (!frontiers_) return std::nullopt;
-  std::optional<std::pair<nav::FrontierSet, double>> out(std::in_place, std::move(*frontiers_), frontiers_at_s_);
+  std::optional<std::pair<nav::FrontierSet, double>> out(std::in_place, std::move(*frontiers_),
+                                                         frontiers_at_s_);
   frontiers_.reset();
   return out;
+}
+
+double PerceptionService::MapAgeLimitS() const {
+  const double period_s = options_.nav_map.update_period_s;
+  return std::max({kMinMapAgeLimitS, 3 * period_s, 3 * map_work_slowest_s_.load() + period_s});
 }
 
 bool PerceptionService::MappingHealthy(std::string* why) const {
   const double now_s = NowS();
   std::string problem;
+  const double limit_s = MapAgeLimitS();
   if (!capabilities_.has_lidar) {
     problem = "the platform has no lidar to map with";
   } else if (const double age = now_s - last_scan_s_.load(); age > options_.navigation.obstacle_lost_s) {
     problem = last_scan_s_.load() < -1e8 ? "no lidar scan yet"
-                                          : "no lidar scan for " + internal::Fixed(age, 1) + " s";
-  } else if (const double map_age = now_s - last_map_update_s_.load();
-             map_age > std::max(3.0, 3 * options_.nav_map.update_period_s) && now_s > 3.0 &&
-             !(now_s - map_update_started_s_.load() < kMaxMapUpdateS)) {
-    // An update under way (a growth over a large area takes seconds) is a map at work, not a stalled one.
+                                         : "no lidar scan for " + internal::Fixed(age, 1) + " s";
+  } else if (const double idle_s = now_s - map_progress_s_.load(); map_work_started_s_.load() > -1e8) {
+    // An update under way: healthy while it makes progress (a growth over a large map takes seconds).
+    if (idle_s > limit_s) {
+      problem = "the navigation map update made no progress for " + internal::Fixed(idle_s, 1) + " s";
+    }
+  } else if (const double map_age = now_s - last_map_update_s_.load(); map_age > limit_s && now_s > limit_s) {
     problem = last_map_update_s_.load() < -1e8
                   ? "the navigation map was never updated"
-                  : "the navigation map was not updated for " + internal::Fixed(map_age, 1) + " s";
+                  : "the navigation map was not updated for " + internal::Fixed(map_age, 1) + " s (limit " +
+                        internal::Fixed(limit_s, 1) + " s: its updates take up to " +
+                        internal::Fixed(map_work_slowest_s_.load(), 1) + " s)";
   }
   if (!problem.empty() && why != nullptr) *why = problem;
   return problem.empty();

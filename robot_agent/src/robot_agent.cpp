@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <exception>
 #include <filesystem>
 #include <future>
@@ -137,14 +138,39 @@ class RobotAgent::Impl {
  public:
   Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform);
   ~Impl() {
+    if (dds_) dds_->StopListening();  // no handler runs while the rest goes (the handlers use dds_ too)
     if (health_) health_->StopAll();  // the component threads end before what they use
-    dds_.reset();                     // no handler runs while the rest goes
+    ExitIfWorkStillRuns();
+    dds_.reset();
     if (home_plan_.valid()) navigation_.Abandon(std::move(home_plan_));
     if (resume_plan_.valid()) navigation_.Abandon(std::move(resume_plan_));
   }
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
   void Run();
+  bool restart_requested() const { return restart_requested_.load(); }
+  // What of the threaded components' work did not stop when asked ("" = nothing). Their transitions' thread
+  // (the health monitor's, or after StopAll() any).
+  std::string WorkStillRunning() const {
+    std::string running;
+    for (core::Component* c : {static_cast<core::Component*>(platform_c_.get()),
+                               static_cast<core::Component*>(perception_c_.get()),
+                               static_cast<core::Component*>(planning_c_.get())}) {
+      if (c == nullptr) continue;
+      if (const std::string r = c->StillRunning(); !r.empty())
+        running += (running.empty() ? "" : "; ") + c->name() + ": " + r;
+    }
+    return running;
+  }
+  // A loop that did not stop still uses what the agent is about to free (its map, planner, DDS writers): the
+  // process ends here instead, as at a crash (the journal has the last safe state).
+  void ExitIfWorkStillRuns() const {
+    const std::string running = WorkStillRunning();
+    if (running.empty()) return;
+    spdlog::error("robot {}: {}; leaving the process without tearing down", options_.robot_id, running);
+    spdlog::default_logger()->flush();
+    std::_Exit(restart_requested_ ? RobotAgent::kRestartExitStatus : 0);
+  }
 
  private:
   // The mode modules: idle, manual, smart joystick, waypoint (a new mode is one more here and its subtree).
@@ -192,7 +218,8 @@ class RobotAgent::Impl {
                             own_first ? own : asking};
   }
   void SendClaim(const ExploreClaim& claim) {
-    if (!dds_->Publish(claim)) spdlog::warn("robot {}: explore claim not sent (DDS history full)", options_.robot_id);
+    if (!dds_->Publish(claim))
+      spdlog::warn("robot {}: explore claim not sent (DDS history full)", options_.robot_id);
   }
   double NowS(SteadyTime t) const { return core::SecondsBetween(start_time_, t); }
 
@@ -224,13 +251,13 @@ class RobotAgent::Impl {
   std::optional<WaypointGoal> yield_resume_goal_;
   std::optional<ExploreTask> yield_resume_explore_;
   std::future<nav::GlobalPlan> resume_plan_;  // ResumeAfterYield(): the goal planned again, from the spot
-  ExploreTeam team_;                               // peers' explore claims and coverage (thread-safe)
-  PeerTracker peers_;                              // peers' poses, footprints and paths (thread-safe)
-  core::WarningLimiter peer_warnings_;             // a bad peer state is named once per 5 s per robot
+  ExploreTeam team_;                          // peers' explore claims and coverage (thread-safe)
+  PeerTracker peers_;                         // peers' poses, footprints and paths (thread-safe)
+  core::WarningLimiter peer_warnings_;        // a bad peer state is named once per 5 s per robot
   bool listening_to_peers_ = false;  // Run(): AgentDds::ListenToPeers() done, once the robot first left idle
-  std::optional<ExploreClaim> claim_to_send_;      // Step()'s, sent by Run() outside the agent lock
-  std::future<nav::GlobalPlan> home_plan_;         // ComeHomeIfSilent(): the way back, being planned
-  std::unique_ptr<ModeControl> modes_;             // the mode tree, the mode modules and the mux
+  std::optional<ExploreClaim> claim_to_send_;  // Step()'s, sent by Run() outside the agent lock
+  std::future<nav::GlobalPlan> home_plan_;     // ComeHomeIfSilent(): the way back, being planned
+  std::unique_ptr<ModeControl> modes_;         // the mode tree, the mode modules and the mux
   std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
   std::unique_ptr<PlanningService> planning_;  // the planning thread: goals, then peers' path queries
   std::unique_ptr<Telemetry> telemetry_;
@@ -250,6 +277,8 @@ class RobotAgent::Impl {
   uint32_t health_events_ = 0;
   core::HealthEvent last_health_event_{core::HealthEvent::Kind::kFailed, "", ""};
   std::atomic<bool> health_due_{true};
+  // A component's work did not stop and the agent is supervised: Run() ends for a restart of the process.
+  std::atomic<bool> restart_requested_{false};
   SteadyTime last_health_publish_{};
   double last_process_cpu_s_ = 0.0;
   double process_cpu_percent_ = 0.0;
@@ -401,7 +430,8 @@ void RobotAgent::Impl::ShareRadioLink() {
   spdlog::info(
       "robot {}: {} robots share the {} kbit/s radio link: map telemetry {:.0f} bit/s, camera {:.0f} bit/s "
       "(DDS flow controllers at 1/{} of theirs)",
-      options_.robot_id, robots, options_.link.link_kbps, options_.perception.telemetry.budget_bits_per_s / robots,
+      options_.robot_id, robots, options_.link.link_kbps,
+      options_.perception.telemetry.budget_bits_per_s / robots,
       options_.perception.camera_budget_bits_per_s / robots, flow_share);
 }
 
@@ -432,8 +462,8 @@ ModeRegistry RobotAgent::Impl::MakeModes(const std::string& tree_file) {
   explore.first_task_id = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
   explore_ = &modes.Emplace<ExploreMode>(
       explore, &navigation_,
-      std::make_unique<WaypointRecovery>(tree_file, &navigation_,
-                                         WaypointRecovery::Hooks{[this] { perception_->ClearObstacleMemory(); }}));
+      std::make_unique<WaypointRecovery>(
+          tree_file, &navigation_, WaypointRecovery::Hooks{[this] { perception_->ClearObstacleMemory(); }}));
   convoy_ = &modes.Emplace<ConvoyMode>(options_.convoy, options_.waypoint_timeout_s, &navigation_);
   yield_ = &modes.Emplace<YieldMode>(options_.yield, options_.waypoint_timeout_s, &navigation_);
   return modes;
@@ -710,9 +740,9 @@ CommandOutcome RobotAgent::Impl::StartGoal(const GoalCommand& goal, const nav::G
                start.goal_id, goal.x_m, goal.y_m, goal.sender.base_id, plan.result.length_m);
   telemetry_
       ->PublishGlobalPathIfChanged();  // before the acknowledgement, so `path R` right after `goto` shows it
-  const std::string home = goal.kind == CommandKind::kHome ? "home to (" + internal::Fixed(goal.x_m, 2) + ", " +
-                                                                  internal::Fixed(goal.y_m, 2) + "): "
-                                                            : "";
+  const std::string home = goal.kind == CommandKind::kHome ? "home to (" + internal::Fixed(goal.x_m, 2) +
+                                                                 ", " + internal::Fixed(goal.y_m, 2) + "): "
+                                                           : "";
   return {true,
           home + "path " + internal::Fixed(plan.result.length_m, 1) + " m, ETA " +
               internal::Fixed(navigation_.eta_s(), 0) + " s",
@@ -740,18 +770,19 @@ void RobotAgent::Impl::ComeHomeIfSilent(SteadyTime now) {
     if (PlanRunning(home_plan_)) return;
     const nav::GlobalPlan plan = home_plan_.get();
     if (!plan.IsUsable()) {
-      spdlog::error("robot {}: no way back to its start ({:.2f}, {:.2f}): {}; it stays here", options_.robot_id,
-                    start_M_.x_m, start_M_.y_m, plan.reason);
+      spdlog::error("robot {}: no way back to its start ({:.2f}, {:.2f}): {}; it stays here",
+                    options_.robot_id, start_M_.x_m, start_M_.y_m, plan.reason);
       return;
     }
     const GoalStart start =
         waypoint_->Start(plan, start_M_.x_m, start_M_.y_m, 0.0, start_M_.z_m, NowS(now),
                          [this] { return modes_->Request(waypoint_->name(), Conditions()); });
     if (start.accepted) {
-      spdlog::warn("robot {}: driving back to its start ({:.2f}, {:.2f}), {:.1f} m (waypoint {})", options_.robot_id,
-                   start_M_.x_m, start_M_.y_m, plan.result.length_m, start.goal_id);
+      spdlog::warn("robot {}: driving back to its start ({:.2f}, {:.2f}), {:.1f} m (waypoint {})",
+                   options_.robot_id, start_M_.x_m, start_M_.y_m, plan.result.length_m, start.goal_id);
     } else {
-      spdlog::error("robot {}: cannot drive back to its start: {}; it stays here", options_.robot_id, start.reason);
+      spdlog::error("robot {}: cannot drive back to its start: {}; it stays here", options_.robot_id,
+                    start.reason);
     }
     return;
   }
@@ -916,6 +947,13 @@ void RobotAgent::Impl::OnHealthEvent(const core::HealthEvent& event) {
     last_health_event_ = event;
   }
   health_due_ = true;
+  if (event.kind == core::HealthEvent::Kind::kEscalated && options_.supervised) {
+    // The work that did not stop may hold the component's state: the process restarts from its journal (the
+    // control loop stops the robot and tells the basestations on its way out).
+    spdlog::error("robot {}: {}: restarting the process (supervised)", options_.robot_id, event.message);
+    restart_requested_ = true;
+    core::RequestShutdown();
+  }
 }
 
 void RobotAgent::Impl::PublishHealthIfDue(SteadyTime now) {
@@ -1048,17 +1086,32 @@ void RobotAgent::Impl::Run() {
     std::lock_guard<std::mutex> guard(mutex_);
     modes_->Stop("agent shutting down");
     telemetry_->PublishState(StateInputs());
-    release = DueClaim(*explore_, team_, NowS(SteadyClock::now()), {});  // an exploring robot lets go of its claim
+    release =
+        DueClaim(*explore_, team_, NowS(SteadyClock::now()), {});  // an exploring robot lets go of its claim
   }
   if (release) SendClaim(*release);
-  // Leaving takes a moment (the threads finish, the last map changes go out, the map is saved: over a second on
-  // a busy link): the robot keeps sending its pose meanwhile, so that basestations see it leave when its
+  // Leaving takes a moment (the threads finish, the last map changes go out, the map is saved: over a second
+  // on a busy link): the robot keeps sending its pose meanwhile, so that basestations see it leave when its
   // participant goes, not fall silent and be shown lost first.
   std::atomic<bool> finished{false};
   std::exception_ptr failure;
   std::thread finisher([&] {
     try {
+      if (restart_requested_) {
+        // A component's work still runs: its state is not to be read (map telemetry, map file) nor its
+        // threads waited for; the journal has the last safe state.
+        spdlog::warn("robot {}: leaving for a restart: the map is not flushed or saved at exit",
+                     options_.robot_id);
+        finished = true;
+        return;
+      }
       health_->StopAll();  // the component threads end (they see the shutdown)
+      if (const std::string running = WorkStillRunning(); !running.empty()) {
+        // The map is still in use by a loop that did not stop: neither flushed nor saved.
+        spdlog::error("robot {}: {}: the map is not flushed or saved at exit", options_.robot_id, running);
+        finished = true;
+        return;
+      }
       if (options_.perception.enabled) {
         // The last changes (within the budget), and a moment for the asynchronous writer to deliver them.
         telemetry_->PublishPerception(perception_->Flush());
@@ -1083,5 +1136,6 @@ RobotAgent::RobotAgent(const AgentOptions& options, std::shared_ptr<core::Platfo
     : impl_(std::make_unique<Impl>(options, std::move(platform))) {}
 RobotAgent::~RobotAgent() = default;
 void RobotAgent::Run() { impl_->Run(); }
+bool RobotAgent::restart_requested() const { return impl_->restart_requested(); }
 
 }  // namespace cairn::agent

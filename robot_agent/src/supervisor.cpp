@@ -11,6 +11,7 @@
 #include <chrono>
 #include <thread>
 
+#include "cairn/agent/robot_agent.h"
 #include "cairn/core/shutdown.h"
 
 namespace cairn::agent {
@@ -41,6 +42,7 @@ int SuperviseAgent(std::vector<std::string> argv, const std::string& robot_id) {
       return 1;
     }
     if (child == 0) {
+      ::setenv("CAIRN_SUPERVISED", "1", 1);  // the agent asks for a restart rather than run a part twice
       ::execv(args[0], args.data());
       _exit(127);
     }
@@ -65,9 +67,11 @@ int SuperviseAgent(std::vector<std::string> argv, const std::string& robot_id) {
       return WEXITSTATUS(status);  // shut down, or bad input that a restart would not mend
     }
     if (ran_s >= kHealthyRunS) backoff_s = kFirstBackoffS;
+    const bool asked = WIFEXITED(status) && WEXITSTATUS(status) == RobotAgent::kRestartExitStatus;
     spdlog::error(
-        "supervisor of {}: the agent died ({}) after {:.1f} s; starting it again with --resume in {:.0f} s",
-        robot_id, Describe(status), ran_s, backoff_s);
+        "supervisor of {}: the agent {} ({}) after {:.1f} s; starting it again with --resume in {:.0f} s",
+        robot_id, asked ? "asked for a restart: a part of it did not stop" : "died", Describe(status), ran_s,
+        backoff_s);
     if (core::WaitForShutdown(std::chrono::milliseconds(static_cast<int>(backoff_s * 1000)))) return 0;
     backoff_s = std::min(kMaxBackoffS, backoff_s * 2);
     if (std::find(argv.begin(), argv.end(), "--resume") == argv.end()) argv.push_back("--resume");

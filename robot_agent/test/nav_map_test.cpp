@@ -1,12 +1,13 @@
-// The navigation map on the robot's own OctoMap, driven through a built-in world faster than real time without
-// DDS: the simulated platform's scans -> perception's map -> changed tiles -> NavMap -> planner. Scored against
-// the simulator's ground truth (which the map never reads).
+// The navigation map on the robot's own OctoMap, driven through a built-in world faster than real time
+// without DDS: the simulated platform's scans -> perception's map -> changed tiles -> NavMap -> planner.
+// Scored against the simulator's ground truth (which the map never reads).
 #include "cairn/agent/nav_map.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstdio>
+#include <thread>
 
 #include "cairn/agent/live_obstacles.h"
 #include "cairn/agent/perception_pipeline.h"
@@ -19,7 +20,7 @@ namespace {
 // A wheeled robot on the simulated platform in builtin:tunnels at (4, 20) facing east, its perception and a
 // navigation map with `map_options` feeding a planner.
 struct TunnelsRig {
-  explicit TunnelsRig(const NavMapOptions& map_options = {})
+  explicit TunnelsRig(const NavMapOptions& map_options = Unbudgeted())
       : profile(nav::GetPlatformProfile("wheeled")),
         platform(PlatformOptions(profile)),
         start_M(Started(platform)),
@@ -37,6 +38,13 @@ struct TunnelsRig {
   static core::BaseState Started(sim::SimulatedPlatform& platform) {
     platform.Update(0.0);
     return platform.ReadPose().PlanarState();
+  }
+  // Every changed tile read in the update it arrives with, however long that takes (a busy or sanitized build
+  // would otherwise leave some for the next update, and the map would lag what the tests compare it with).
+  static NavMapOptions Unbudgeted() {
+    NavMapOptions o;
+    o.update_budget_s = 10.0;
+    return o;
   }
   static PerceptionOptions Perception() {
     PerceptionOptions o;
@@ -97,10 +105,11 @@ TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFlo
   }
   ASSERT_GE(update_ms.size(), 20u);
   std::sort(update_ms.begin(), update_ms.end());
-  std::printf("FIGURE nav map update: %zu updates, %.1f tiles each, median %.1f ms, max %.1f ms (read + "
-              "traversability + hand-over; %d growths; extent %.0f x %.0f m at 0.1 m)\n",
-              update_ms.size(), static_cast<double>(tiles_total) / update_ms.size(), update_ms[update_ms.size() / 2],
-              update_ms.back(), nav_map.growths(), nav_map.extent_M().sizes().x(), nav_map.extent_M().sizes().y());
+  std::printf(
+      "FIGURE nav map update: %zu updates, %.1f tiles each, median %.1f ms, max %.1f ms (read + "
+      "traversability + hand-over; %d growths; extent %.0f x %.0f m at 0.1 m)\n",
+      update_ms.size(), static_cast<double>(tiles_total) / update_ms.size(), update_ms[update_ms.size() / 2],
+      update_ms.back(), nav_map.growths(), nav_map.extent_M().sizes().x(), nav_map.extent_M().sizes().y());
 
   // The incremental grid equals a full rebuild from the same voxels.
   const nav::TraversabilityGrid& incremental = nav_map.grid();
@@ -111,11 +120,12 @@ TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFlo
   int differing = 0;
   for (int ix = 0; ix < full.nx(); ++ix) {
     for (int iy = 0; iy < full.ny(); ++iy) {
-      const bool same = full.State(ix, iy) == incremental.State(ix, iy) &&
-                        full.IsLethal(ix, iy) == incremental.IsLethal(ix, iy) &&
-                        full.IsTraversable(ix, iy) == incremental.IsTraversable(ix, iy) &&
-                        (full.ClearanceM(ix, iy) > 2.0 ? incremental.ClearanceM(ix, iy) > 2.0
-                                                       : full.ClearanceM(ix, iy) == incremental.ClearanceM(ix, iy));
+      const bool same =
+          full.State(ix, iy) == incremental.State(ix, iy) &&
+          full.IsLethal(ix, iy) == incremental.IsLethal(ix, iy) &&
+          full.IsTraversable(ix, iy) == incremental.IsTraversable(ix, iy) &&
+          (full.ClearanceM(ix, iy) > 2.0 ? incremental.ClearanceM(ix, iy) > 2.0
+                                         : full.ClearanceM(ix, iy) == incremental.ClearanceM(ix, iy));
       differing += !same;
     }
   }
@@ -153,8 +163,77 @@ TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFlo
 // goal on floor 2 is refused naming the step it cannot climb (the multi-process floors test asks the same of
 // the agent; here without DDS or timing).
 // A frontier the main level holds is on_main_level (a plan to it may read that level alone) only while the
-// robot is on that level too: from a robot a storey up at the same x-y, a plan with no goal level would search
-// the robot's floor, so none is.
+// robot is on that level too: from a robot a storey up at the same x-y, a plan with no goal level would
+// search the robot's floor, so none is. Cell for cell: state, lethal, traversable and clearance (up to 2 m,
+// beyond which it is only "far").
+int DifferingCells(const nav::TraversabilityGrid& a, const nav::TraversabilityGrid& b) {
+  int differing = 0;
+  for (int ix = 0; ix < a.nx(); ++ix) {
+    for (int iy = 0; iy < a.ny(); ++iy) {
+      const bool same = a.State(ix, iy) == b.State(ix, iy) && a.IsLethal(ix, iy) == b.IsLethal(ix, iy) &&
+                        a.IsTraversable(ix, iy) == b.IsTraversable(ix, iy) &&
+                        (a.ClearanceM(ix, iy) > 2.0 ? b.ClearanceM(ix, iy) > 2.0
+                                                    : a.ClearanceM(ix, iy) == b.ClearanceM(ix, iy));
+      differing += !same;
+    }
+  }
+  return differing;
+}
+
+// An update reads changed tiles for about its budget and leaves the rest, oldest first, to the next updates
+// (which run with no new tile meanwhile); once they are read, the map is what reading them at once gives.
+TEST(NavMapTest, AnUpdateReadsTilesWithinItsBudgetAndLeavesTheRestToTheNextOnes) {
+  NavMapOptions budgeted;
+  budgeted.update_budget_s = 0.05;
+  TunnelsRig rig(budgeted);
+  auto& [profile, platform, start_M, perception, planner, nav_map] = rig;
+  // Slow progress (a busy machine): every 16 tiles read take 30 ms more, so the budget ends the reading.
+  int progress_calls = 0;
+  nav_map.SetProgressHook([&progress_calls] {
+    ++progress_calls;
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+  });
+  const NavMapOptions all = TunnelsRig::Unbudgeted();
+  auto reference_planner =
+      NavMap::MakePlanner(all, TunnelsRig::Perception().map.resolution_m, start_M, {profile});
+  NavMap reference(all, TunnelsRig::Perception().map.resolution_m, start_M, reference_planner, "wheeled");
+
+  // One drive, both maps fed the same tiles of the same OctoMap.
+  int updates = 0, waited = 0;
+  for (int k = 1; k <= 30; ++k) {
+    const double now_s = k * 0.1;
+    sim::UnicycleState s = platform.TrueState();
+    s.x_m = 4.0 + 0.1 * k;
+    s.v_mps = 1.0;
+    platform.SetTrueState(s);
+    platform.Update(now_s);
+    core::LidarScan scan;
+    ASSERT_TRUE(platform.ReadLidarScan(now_s, &scan));
+    perception.Tick(now_s, &scan, nullptr);
+    if (k % 10 != 0) continue;
+    const std::vector<Eigen::Vector2i> tiles = perception.TakeChangedTiles();
+    reference.Update(*perception.map(), tiles, perception.change_tile_m(), perception.max_sensor_z_m());
+    const NavMapUpdateStats stats =
+        nav_map.Update(*perception.map(), tiles, perception.change_tile_m(), perception.max_sensor_z_m());
+    ++updates;
+    EXPECT_GE(stats.tiles, 1) << "an update read no tile";
+    EXPECT_EQ(stats.tiles_waiting, nav_map.tiles_waiting());
+    waited = std::max(waited, stats.tiles_waiting);
+    // Reading stops soon after the budget: the tiles read since the last progress call at most.
+    EXPECT_LT(stats.read_ms, 1000 * budgeted.update_budget_s + 200) << "update " << updates;
+  }
+  EXPECT_GT(waited, 0) << "no update left tiles for the next: the budget did not bound the reading";
+  EXPECT_GT(progress_calls, updates) << "long updates report progress between their steps";
+  // The next updates read what waits, with no new tile.
+  for (int i = 0; i < 200 && nav_map.tiles_waiting() > 0; ++i) {
+    EXPECT_TRUE(nav_map.Update(*perception.map(), {}, perception.change_tile_m(), perception.max_sensor_z_m())
+                    .applied);
+  }
+  EXPECT_EQ(nav_map.tiles_waiting(), 0);
+  EXPECT_EQ(DifferingCells(nav_map.grid(), reference.grid()), 0);
+  EXPECT_EQ(nav_map.voxels().CountOccupied(), reference.voxels().CountOccupied());
+}
+
 TEST(NavMapTest, FrontiersAreOnTheMainLevelOnlyForARobotOnIt) {
   TunnelsRig rig;
   rig.DriveEast(40);
@@ -319,8 +398,8 @@ TEST(NavMapTest, GrowsAsTheRobotMapsBeyondItOrIsSentBeyondWithinItsLargestExtent
   // Every occupied voxel of the OctoMap within the grown extent is in the navigation map's voxels.
   const core::VoxelGrid& voxels = nav_map.voxels();
   const Eigen::Vector3d shrink = Eigen::Vector3d::Constant(0.25 * voxels.resolution_m());
-  const auto occupied =
-      perception.map()->OccupiedInBox(Eigen::AlignedBox3d(voxels.p_W_min() + shrink, voxels.p_W_max() - shrink));
+  const auto occupied = perception.map()->OccupiedInBox(
+      Eigen::AlignedBox3d(voxels.p_W_min() + shrink, voxels.p_W_max() - shrink));
   EXPECT_GT(occupied.size(), 1000u);
   EXPECT_EQ(static_cast<std::int64_t>(occupied.size()), voxels.CountOccupied());
   for (const Eigen::Vector3d& p : occupied) ASSERT_TRUE(voxels.IsOccupied(p)) << p.transpose();
@@ -334,7 +413,8 @@ TEST(NavMapTest, GrowsAsTheRobotMapsBeyondItOrIsSentBeyondWithinItsLargestExtent
   int differing = 0;
   for (int ix = 0; ix < full.nx(); ++ix) {
     for (int iy = 0; iy < full.ny(); ++iy) {
-      differing += full.State(ix, iy) != grid.State(ix, iy) || full.IsTraversable(ix, iy) != grid.IsTraversable(ix, iy);
+      differing += full.State(ix, iy) != grid.State(ix, iy) ||
+                   full.IsTraversable(ix, iy) != grid.IsTraversable(ix, iy);
     }
   }
   EXPECT_EQ(differing, 0);
@@ -353,7 +433,8 @@ TEST(NavMapTest, GrowsAsTheRobotMapsBeyondItOrIsSentBeyondWithinItsLargestExtent
   EXPECT_TRUE(edge.result.partial);
   EXPECT_NEAR(edge.result.path_W.back().x(), grown.max().x() - 1.0, 0.15);
   nav_map.RequestCover(request.goal_W);
-  EXPECT_TRUE(nav_map.Update(*perception.map(), {}, perception.change_tile_m(), perception.max_sensor_z_m()).grown);
+  EXPECT_TRUE(
+      nav_map.Update(*perception.map(), {}, perception.change_tile_m(), perception.max_sensor_z_m()).grown);
   EXPECT_TRUE(nav_map.extent_M().contains(request.goal_W));
   EXPECT_LE(nav_map.extent_M().sizes().maxCoeff(), 90.0 + 1e-6);
   const nav::GlobalPlan whole = planner->Plan(request);
@@ -387,12 +468,16 @@ TEST(NavMapTest, InvalidOptionsNameTheField) {
   o.update_period_s = 0;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("navigation.map_update_period_s"), std::string::npos) << why;
+  o = NavMapOptions();
+  o.update_budget_s = 0.01;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("navigation.map_update_budget_s"), std::string::npos) << why;
 }
 
 // A wheeled robot drives up to the first riser of the tunnels' staircase (0.2 m, above its 0.15 m step) and
-// stands 0.45 m from it while another robot climbs: the riser lies under its lidar's lowest beam from there, so
-// no scan shows it again. It stays among the local planner's obstacles for as long as it stays unseen (it was
-// forgotten after 30 s, and the robot, sent on, drove its corner into the step).
+// stands 0.45 m from it while another robot climbs: the riser lies under its lidar's lowest beam from there,
+// so no scan shows it again. It stays among the local planner's obstacles for as long as it stays unseen (it
+// was forgotten after 30 s, and the robot, sent on, drove its corner into the step).
 TEST(LiveObstaclesTest, AStepBesideARobotStandingStillStaysAnObstacleWhileItCannotBeSeen) {
   AgentOptions options;
   options.SetPlatform("wheeled");
@@ -438,7 +523,9 @@ TEST(LiveObstaclesTest, AStepBesideARobotStandingStillStaysAnObstacleWhileItCann
     scan_at(48.05);
   }
   EXPECT_GT(std::count_if(points_B.begin(), points_B.end(),
-                          [](const Eigen::Vector3f& p) { return p.x() > 1.75f && p.x() < 2.15f && std::abs(p.y()) < 0.3f; }),
+                          [](const Eigen::Vector3f& p) {
+                            return p.x() > 1.75f && p.x() < 2.15f && std::abs(p.y()) < 0.3f;
+                          }),
             0);
 }
 
@@ -528,9 +615,11 @@ TEST(NavMapTest, ADetectedFlightsTreadsAreGroundUntilItIsNoLongerDetected) {
   ASSERT_TRUE(nav_map.levels().CellOf(2.45, 0.05, &ix, &iy));
   EXPECT_GE(nav_map.levels().NodeNear(ix, iy, 0.4, 0.05), 0) << "a grazing ray left a hole in the 2nd tread";
   ASSERT_TRUE(nav_map.levels().CellOf(2.45, -0.15, &ix, &iy));
-  EXPECT_LT(nav_map.levels().NodeNear(ix, iy, 0.4, 0.05), 0) << "a tread written where a ray went through the step";
+  EXPECT_LT(nav_map.levels().NodeNear(ix, iy, 0.4, 0.05), 0)
+      << "a tread written where a ray went through the step";
   ASSERT_TRUE(nav_map.levels().CellOf(2.75, 0.25, &ix, &iy));
-  EXPECT_GE(nav_map.levels().NodeNear(ix, iy, 0.6, 0.05), 0) << "the 3rd tread read a voxel high stayed a bump";
+  EXPECT_GE(nav_map.levels().NodeNear(ix, iy, 0.6, 0.05), 0)
+      << "the 3rd tread read a voxel high stayed a bump";
   ASSERT_TRUE(nav_map.levels().CellOf(2.75, -0.25, &ix, &iy));
   EXPECT_LT(nav_map.levels().NodeNear(ix, iy, 0.6, 0.05), 0) << "an obstacle on the 3rd tread was erased";
   ASSERT_TRUE(nav_map.Update(seen, {}, 2.0, 0.5, {}).applied);
@@ -543,10 +632,10 @@ TEST(NavMapTest, ADetectedFlightsTreadsAreGroundUntilItIsNoLongerDetected) {
   EXPECT_EQ(wheeled_map.levels().node_count(), 0);
 }
 
-// A detected flight the map cannot cross yet gets a frontier at each end the map shows no surface at (the floor
-// before its foot, the landing past its last riser). An end where the map holds a surface it cannot stand on
-// (ragged treads above a flight detected part way up) gets none: a plan there is refused at once, and that
-// failure would bar the flight's own frontiers around it.
+// A detected flight the map cannot cross yet gets a frontier at each end the map shows no surface at (the
+// floor before its foot, the landing past its last riser). An end where the map holds a surface it cannot
+// stand on (ragged treads above a flight detected part way up) gets none: a plan there is refused at once,
+// and that failure would bar the flight's own frontiers around it.
 TEST(NavMapTest, AFlightsEndsAreFrontiersWhereTheMapShowsNoSurface) {
   const core::BaseState start_M{};
   NavMapOptions map_options;
@@ -555,7 +644,8 @@ TEST(NavMapTest, AFlightsEndsAreFrontiersWhereTheMapShowsNoSurface) {
   perception::OccupancyMap seen;
   auto planner = NavMap::MakePlanner(map_options, seen.resolution_m(), start_M, {legged});
   NavMap nav_map(map_options, seen.resolution_m(), start_M, planner, "legged");
-  perception::Staircase flight;  // 5 risers of 0.2 m up +x from x = 2, 1 m wide: its top end at (3.8, 0), z 1.0
+  perception::Staircase
+      flight;  // 5 risers of 0.2 m up +x from x = 2, 1 m wide: its top end at (3.8, 0), z 1.0
   flight.p_W_first_step = Eigen::Vector3d(2.0, 0.0, 0.0);
   flight.rise_m = 0.2;
   flight.run_m = 0.3;
@@ -587,7 +677,8 @@ TEST(NavMapTest, AFlightsEndsAreFrontiersWhereTheMapShowsNoSurface) {
   }
   Eigen::Isometry3d T_W_S = Eigen::Isometry3d::Identity();
   T_W_S.translation() = Eigen::Vector3d(2.0, 0.05, 1.3);
-  seen.InsertScan({Eigen::Vector3f(1.85f, 0.0f, -0.35f)}, T_W_S);  // the floor voxel at (3.85, 0.05), z 0.9-1.0
+  seen.InsertScan({Eigen::Vector3f(1.85f, 0.0f, -0.35f)},
+                  T_W_S);  // the floor voxel at (3.85, 0.05), z 0.9-1.0
   const std::vector<Eigen::Vector2i> tiles = {{0, -1}, {1, -1}, {0, 0}, {1, 0}};
   ASSERT_TRUE(nav_map.Update(seen, tiles, 2.0, 1.3, {flight}).applied);
   int ix = 0, iy = 0;
@@ -597,7 +688,8 @@ TEST(NavMapTest, AFlightsEndsAreFrontiersWhereTheMapShowsNoSurface) {
   EXPECT_FALSE(nav_map.levels().IsTraversable(node));
   ends = stair_ends();
   ASSERT_EQ(ends.size(), 1u);
-  EXPECT_LT((ends[0].head<2>() - foot_end).norm(), 1e-9) << "the top end is a frontier on a surface it cannot stand on";
+  EXPECT_LT((ends[0].head<2>() - foot_end).norm(), 1e-9)
+      << "the top end is a frontier on a surface it cannot stand on";
   // Something seen in the body space over the foot end (its column no longer unknown at z 0, no surface there
   // either): a plan to it would be refused at once, so it is no stair frontier.
   T_W_S.translation() = Eigen::Vector3d(1.0, 0.05, 0.45);

@@ -77,6 +77,10 @@ class Component {
   double cpu_s() const { return 1e-9 * static_cast<double>(cpu_ns_.load()); }
   /// Memory the component's own data takes, bytes (0 = not reported). Thread-safe when overridden.
   virtual std::size_t MemoryBytes() const { return 0; }
+  /// What of its last run still runs after it was deactivated ("" = nothing: it may be activated again), e.g.
+  /// "loop 1 still runs 4.2 s after it was asked to stop". A component whose work still runs is never
+  /// activated again (it would run twice on the same state). Call from the thread that makes its transitions.
+  virtual std::string StillRunning() { return ""; }
 
  protected:
   virtual void OnConfigure() {}
@@ -137,8 +141,9 @@ class WorkLoop {
 
 /// A component whose work runs on threads of its own, started on activation and stopped on deactivation. A
 /// loop that throws reports the failure (its other loops are stopped by the restart). A loop that does not
-/// stop within the grace period on deactivation is abandoned (left running, still joined at destruction):
-/// the component starts fresh loops on activation.
+/// stop within the grace period on deactivation is left running (joined once it ends, or at destruction) and
+/// the component cannot be activated again until it has ended: two runs of its loops never share its state.
+/// Its owner escalates meanwhile (HealthMonitor: HealthEvent::Kind::kEscalated).
 class ThreadedComponent : public Component {
  public:
   /// `stop_grace_s`: how long deactivation waits for each loop to end, seconds, > 0.
@@ -150,11 +155,15 @@ class ThreadedComponent : public Component {
   SteadyTime last_heartbeat() const override;
   /// Loops abandoned so far (did not stop within the grace period).
   int abandoned_loops() const { return abandoned_count_.load(); }
+  /// Joins the abandoned loops that have ended since; describes those that still run ("" = none).
+  std::string StillRunning() override;
 
  protected:
   /// The loops to run on activation, in order; each gets its WorkLoop (call Beat() every iteration).
   /// Called on each activation.
   virtual std::vector<std::function<void(WorkLoop&)>> Loops() = 0;
+  /// Starts fresh loops. @throws std::runtime_error while a loop of an earlier run still runs
+  /// (StillRunning()).
   void OnActivate() override;
   void OnDeactivate() override;
   /// Subclasses that override this call StopLoops() first.

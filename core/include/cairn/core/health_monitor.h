@@ -50,7 +50,9 @@ struct ComponentHealth {
 
 /// A change the operator is told about.
 struct HealthEvent {
-  enum class Kind { kFailed, kRestarted, kRestartFailed };
+  /// kEscalated: a component that failed did not stop when asked (a loop still runs); it is not restarted in
+  /// this process while that runs, and the process should be restarted (the agent's supervisor does).
+  enum class Kind { kFailed, kRestarted, kRestartFailed, kEscalated };
   Kind kind;
   std::string component;
   std::string message;  ///< e.g. "perception failed: stalled (no heartbeat for 6.0 s); restart in 1.0 s"
@@ -78,12 +80,15 @@ class HealthMonitor {
   void StartChecking(std::chrono::milliseconds period = std::chrono::milliseconds(100));
   /// One pass at `now`: a failed or stalled active component is deactivated and its restart scheduled; a down
   /// one whose back-off has passed is activated again. A pass coming more than a heartbeat deadline after the
-  /// previous one (this process was not scheduled: every thread stalled alike) judges no stall.
+  /// previous one (this process was not scheduled: every thread stalled alike) judges no stall. A component
+  /// whose work did not stop when deactivated (Component::StillRunning()) is never activated while it runs: a
+  /// kEscalated event says so once, and it is restarted only if that work ends by itself.
   void Check(SteadyTime now);
 
   /// An operator's restart (`restart R COMPONENT`, by basestation `by`): done by the next Check(), without
   /// back-off (a down component is brought up at once). "" when queued, else why not (no such component,
-  /// naming those there are). Never waits for the component: any thread, any lock held.
+  /// naming those there are; one whose work did not stop). Never waits for the component: any thread, any
+  /// lock held.
   std::string RequestRestart(const std::string& name, const std::string& by);
 
   /// Components that are not up now, with why (e.g. "perception is down: stalled ...; restart in 0.6 s").
@@ -112,12 +117,18 @@ class HealthMonitor {
     double cpu_percent = 0.0;
     SteadyTime no_stall_before{};      // after this process stalled as a whole
     std::string restart_requested_by;  // RequestRestart(), done by the next Check()
+    bool still_running = false;  // down, and its work did not stop when asked: never activated meanwhile
   };
   Entry* Find(const std::string& name);
-  // The next back-off (the first, or the last doubled up to its cap) and the restart at `from` plus it. Lock held.
+  // The next back-off (the first, or the last doubled up to its cap) and the restart at `from` plus it. Lock
+  // held.
   void ScheduleRestart(Entry& e, SteadyTime from);
-  // Deactivates a failed component (the lock not held: it may wait for its loops) and returns the event.
-  HealthEvent TakeDown(Entry& e, const std::string& reason, SteadyTime now);
+  // Deactivates a failed component (the lock not held: it may wait for its loops) and returns the events: its
+  // failure, and kEscalated when its work did not stop.
+  std::vector<HealthEvent> TakeDown(Entry& e, const std::string& reason, SteadyTime now);
+  // Deactivates an active component for an operator's restart; the events when its work did not stop (it is
+  // then down, as TakeDown leaves it).
+  std::vector<HealthEvent> StopForRestart(Entry& e, const std::string& by, SteadyTime now);
 
   std::function<void(const HealthEvent&)> on_event_;
   mutable std::mutex mutex_;     // guards entries_' bookkeeping

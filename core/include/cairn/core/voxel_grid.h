@@ -1,7 +1,7 @@
 // Copyright Cairn authors.
 //
-// A dense 3D occupancy grid, one bit per voxel: the simulator's ground-truth world (cairn::sim::World) and the
-// robot's own map as navigation reads it (built from its OctoMap). DDS-free.
+// A dense 3D occupancy grid, one bit per voxel: the simulator's ground-truth world (cairn::sim::World) and
+// the robot's own map as navigation reads it (built from its OctoMap). DDS-free.
 #pragma once
 
 #include <Eigen/Core>
@@ -20,7 +20,8 @@ class VoxelGridError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// A dense, axis-aligned 3D occupancy grid in the world frame W (the frame its producer names: the simulated world, or the robot's map frame M) (z up), one bit per voxel.
+/// A dense, axis-aligned 3D occupancy grid in the world frame W (the frame its producer names: the simulated
+/// world, or the robot's map frame M) (z up), one bit per voxel.
 ///
 /// Voxel (ix, iy, iz), with 0 <= ix < dims().x() etc., covers the box
 /// [p_W_min + (ix, iy, iz) * resolution_m, p_W_min + (ix+1, iy+1, iz+1) * resolution_m). Points outside the
@@ -33,8 +34,8 @@ class VoxelGrid {
   /// Builds an all-free grid named `name` with min corner `p_W_min` (metres, frame W), voxel edge
   /// `resolution_m` (> 0, finite) and `dims` voxels per axis (each >= 1).
   /// Throws VoxelGridError if a value is invalid or dims.prod() > max_voxels.
-  VoxelGrid(std::string name, const Eigen::Vector3d& p_W_min, double resolution_m, const Eigen::Vector3i& dims,
-        std::int64_t max_voxels = kDefaultMaxVoxels);
+  VoxelGrid(std::string name, const Eigen::Vector3d& p_W_min, double resolution_m,
+            const Eigen::Vector3i& dims, std::int64_t max_voxels = kDefaultMaxVoxels);
 
   /// Name given at construction (for loaded worlds: the spec, e.g. "builtin:tunnels" or the file path).
   const std::string& name() const { return name_; }
@@ -79,6 +80,19 @@ class VoxelGrid {
   bool SetOccupiedAt(const Eigen::Vector3d& p_W, bool occupied = true);
   /// Number of occupied voxels.
   std::int64_t CountOccupied() const;
+  /// Calls `visit(index)` (an Eigen::Vector3i) for every occupied voxel, in storage order. Skips free space
+  /// 64 voxels at a time: costs about one load per 64 voxels plus one call per occupied voxel.
+  template <class Visit>
+  void ForEachOccupied(Visit&& visit) const {
+    const std::int64_t column = dims_.z(), plane = static_cast<std::int64_t>(dims_.y()) * column;
+    for (std::size_t w = 0; w < bits_.size(); ++w) {
+      for (std::uint64_t word = bits_[w]; word != 0; word &= word - 1) {
+        const std::int64_t i = static_cast<std::int64_t>(w) * 64 + __builtin_ctzll(word);
+        visit(Eigen::Vector3i(static_cast<int>(i / plane), static_cast<int>((i % plane) / column),
+                              static_cast<int>(i % column)));
+      }
+    }
+  }
   /// The highest occupied voxel z index of column (ix, iy) at or below `iz` (clamped to the grid's top), or
   /// -1 when there is none or the column is outside the grid. Reads the column 64 voxels at a time, so a scan
   /// down a mostly free column costs a few loads instead of one test per voxel.

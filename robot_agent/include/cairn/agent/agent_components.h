@@ -65,7 +65,9 @@ class ControlLoopComponent : public core::Component {
   /// ran and did not throw.
   template <class Work>
   bool Run(Work&& work, bool beat = true) {
-    if (state() != core::LifecycleState::kActive || failed()) return false;
+    // Not before its state was reset after a restart (TakeRestart()): a restart landing between the control
+    // cycle's resets and this part's turn waits for the next cycle.
+    if (state() != core::LifecycleState::kActive || failed() || restarted_.load()) return false;
     core::ScopedCpu cpu(*this);
     try {
       if (faults_ != nullptr) faults_->Check(name());

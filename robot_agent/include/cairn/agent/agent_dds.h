@@ -66,8 +66,9 @@ struct AgentDdsOptions {
 
 /// What the agent has sent in one topic class (AgentDds::SentByClass), cumulative since it started.
 struct SentTraffic {
-  std::string topic_class;        ///< "command" | "state" | "tree" | "team" | "map" | "camera" (cairn_msgs::LinkClassUsage)
-  std::uint64_t bytes = 0;        ///< serialized samples (CDR with encapsulation), bytes
+  std::string
+      topic_class;  ///< "command" | "state" | "tree" | "team" | "map" | "camera" (cairn_msgs::LinkClassUsage)
+  std::uint64_t bytes = 0;  ///< serialized samples (CDR with encapsulation), bytes
   std::uint64_t samples = 0;
 };
 
@@ -112,6 +113,9 @@ class AgentDds {
   /// std::logic_error for a second call, core::DdsError as the constructor.
   void Listen(AgentDdsHandlers handlers);
   ~AgentDds();
+  /// Deletes the readers: once it returns no handler runs (nor will), while the writers still send. Call
+  /// before tearing down what the handlers use. Not thread-safe with Listen().
+  void StopListening();
   AgentDds(const AgentDds&) = delete;
   AgentDds& operator=(const AgentDds&) = delete;
 
@@ -136,9 +140,9 @@ class AgentDds {
   bool Publish(const cairn_msgs::CompressedImage& image);
   bool Publish(const cairn_msgs::StaircaseDetection& staircase);
   /// This robot's explore claim (its coverage compressed here). The first call makes the claim writer and the
-  /// reader of peers' claims (their handler runs from then on); call it outside any lock a handler takes (Fast
-  /// DDS delivers to this participant's own reader, with liveliness callbacks, on the calling thread). false
-  /// when Fast DDS refuses the sample. @throws std::logic_error before Listen(), core::DdsError.
+  /// reader of peers' claims (their handler runs from then on); call it outside any lock a handler takes
+  /// (Fast DDS delivers to this participant's own reader, with liveliness callbacks, on the calling thread).
+  /// false when Fast DDS refuses the sample. @throws std::logic_error before Listen(), core::DdsError.
   bool Publish(const ExploreClaim& claim);
   /// This robot's state for its peers (class "team"): written only while a reader of the topic is matched
   /// (its own too, once it listens). false when Fast DDS refuses the sample.

@@ -23,43 +23,48 @@ namespace cairn::agent {
 /// Everything that configures one robot agent. Defaults are valid (tested).
 struct AgentOptions {
   // From the command line.
-  std::string robot_id;                           ///< required; [A-Za-z0-9_-]{1,64}
+  std::string robot_id;  ///< required; [A-Za-z0-9_-]{1,64}
   // The simulated platform's (cairn_agent --world/--start/--pcd-resolution; main.cpp hands them to
   // sim::SimulatedPlatform). The autonomy itself never reads them.
-  std::string world = "builtin:tunnels";          ///< world spec: builtin:NAME, a .bt or a .pcd path
-  std::optional<core::PlanarPose> start_W;        ///< start pose (m, m, rad) in W
+  std::string world = "builtin:tunnels";    ///< world spec: builtin:NAME, a .bt or a .pcd path
+  std::optional<core::PlanarPose> start_W;  ///< start pose (m, m, rad) in W
   /// Start slot K (when no start_W): the K-th suggested start of a builtin world, or the K-th of a fixed
   /// seeded sample of free starts >= 2 m apart in other worlds. None = a free cell chosen from the robot id.
   std::optional<int> start_slot;
-  std::string platform = "wheeled";               ///< "wheeled" | "legged"; set with SetPlatform()
-  int domain_id = 0;                              ///< DDS domain [0, 232]
-  std::string dds_profiles_file;                  ///< "" = core::DefaultProfilesFile()
-  core::LinkOptions link;                         ///< loopback (default) or a named lan (core::LinkOptions)
-  core::SecurityOptions security;                 ///< DDS Security (--secure DIR), off by default
-  std::string mode_tree_file;                     ///< "" = config/mode_tree.xml of the source tree
-  double pcd_resolution_m = 0.1;                  ///< voxel size when the world is a PCD cloud, (0.02, 2]
-  std::string map_save_path;                      ///< "" = none; else the robot's map is saved here (.bt) at exit
+  std::string platform = "wheeled";  ///< "wheeled" | "legged"; set with SetPlatform()
+  int domain_id = 0;                 ///< DDS domain [0, 232]
+  std::string dds_profiles_file;     ///< "" = core::DefaultProfilesFile()
+  core::LinkOptions link;            ///< loopback (default) or a named lan (core::LinkOptions)
+  core::SecurityOptions security;    ///< DDS Security (--secure DIR), off by default
+  std::string mode_tree_file;        ///< "" = config/mode_tree.xml of the source tree
+  double pcd_resolution_m = 0.1;     ///< voxel size when the world is a PCD cloud, (0.02, 2]
+  std::string map_save_path;         ///< "" = none; else the robot's map is saved here (.bt) at exit
   /// The journal's folder (--journal): the last known safe state, kept while the robot runs; "" = none.
   std::string journal_dir;
   double journal_map_every_s = 10.0;  ///< map snapshots into the journal, seconds, > 0
   /// The journal read at start (--resume, main.cpp): the robot comes up idle with its lock, its map and its
   /// old goal offered. Unset: a fresh start.
   std::optional<JournalEntry> resumed;
+  /// Run by a supervisor that starts it again (--supervise: SuperviseAgent sets CAIRN_SUPERVISED in its
+  /// child, main.cpp): a component whose work does not stop when asked ends the process for a restart from
+  /// the journal (RobotAgent::restart_requested()); otherwise the component stays down and the operator is
+  /// told.
+  bool supervised = false;
   /// Test hook (--inject-fault COMPONENT:throw|hang:AFTER_S, agent_components.h): faults to inject, checked
   /// at start (ParseFaultInjection).
   std::vector<std::string> inject_faults;
 
   // From the config file.
   ControlLockOptions lock;
-  double teleop_timeout_s = 0.5;      ///< (0, 60]
-  double waypoint_timeout_s = 0.5;    ///< (0, 60]; also the smart_joystick channel's staleness
-  double contact_timeout_s = 1.0;     ///< (0, 60]
-  double state_rate_hz = 10.0;        ///< (0, 100]
+  double teleop_timeout_s = 0.5;    ///< (0, 60]
+  double waypoint_timeout_s = 0.5;  ///< (0, 60]; also the smart_joystick channel's staleness
+  double contact_timeout_s = 1.0;   ///< (0, 60]
+  double state_rate_hz = 10.0;      ///< (0, 100]
   /// A failed or stalled component waits this long before its first restart, seconds, (0, 3600]; the wait
   /// doubles with each failure in a row up to restart_backoff_max_s, [restart_backoff_s, 3600].
   double restart_backoff_s = 1.0;
   double restart_backoff_max_s = 30.0;
-  double local_plan_rate_hz = 2.0;    ///< local plan display messages, (0, 20]
+  double local_plan_rate_hz = 2.0;  ///< local plan display messages, (0, 20]
   /// Navigation: platform profile (set from `platform` by SetPlatform(), then overridden by the config
   /// file's platform and traversability sections), local planner scoring, iLQR, mission timing.
   NavigationOptions navigation;
@@ -74,7 +79,7 @@ struct AgentOptions {
   /// Local planner library: collision radius = footprint + collision_margin_m; the heading range comes
   /// from the platform profile.
   nav::TrajectoryLibraryOptions library = DefaultLibraryOptions();
-  double collision_margin_m = 0.03;   ///< [0, 1], metres added to the footprint for the local planner
+  double collision_margin_m = 0.03;  ///< [0, 1], metres added to the footprint for the local planner
   /// Folder of built trajectory libraries (trajectory_library_cache.h): "" = $XDG_CACHE_HOME/cairn or
   /// $HOME/.cache/cairn; "off" = build at every start.
   std::string library_cache_dir;

@@ -53,7 +53,8 @@ class PerceptionService {
   void ClearObstacleMemory();
   /// A basestation asked for a full map snapshot; the perception thread sends it.
   void RequestMapSnapshot() { map_snapshot_requested_ = true; }
-  /// Map telemetry and camera at `share` of their budgets, (0, 1] (PerceptionPipeline::SetLinkShare). Any thread.
+  /// Map telemetry and camera at `share` of their budgets, (0, 1] (PerceptionPipeline::SetLinkShare). Any
+  /// thread.
   void SetLinkShare(double share) { perception_->SetLinkShare(share); }
   /// The robot has a task (a waypoint goal): its map follows the world while it stands (see
   /// PerceptionPipeline::set_refresh_at_rest). Any thread.
@@ -74,16 +75,22 @@ class PerceptionService {
   /// search. Any thread.
   void SetPeerCoverage(std::shared_ptr<const nav::PeerCoverage> coverage);
   /// The robot's seen floor for its peers: the newest nav::SeenCoverage(cell_m) of the navigation map made
-  /// since the last call, if any; each call asks the map thread for a new one after its next update. Any thread.
+  /// since the last call, if any; each call asks the map thread for a new one after its next update. Any
+  /// thread.
   std::optional<nav::CoverageBitmap> TakeSeenCoverage(double cell_m);
   /// The newest frontier set not taken yet, and when it was computed (seconds on the agent's clock). Any
   /// thread.
   std::optional<std::pair<nav::FrontierSet, double>> TakeFrontiers();
-  /// True when the robot's mapping works: a lidar scan came within navigation.obstacle_lost_s and the
-  /// navigation map was updated within 3 of its periods (or 3 s), or an update has been under way for less
-  /// than 30 s (a growth over a large area takes seconds); otherwise false and `*why` (if not null) says
-  /// which and for how long. Any thread.
+  /// True when the robot's mapping keeps the navigation map up: a lidar scan came within
+  /// navigation.obstacle_lost_s, and either the map's last update (with the frontier search on it) ended
+  /// within MapAgeLimitS(), or an update is under way and made progress within it (a growth over a large map
+  /// takes seconds and is not a stall). Otherwise false and `*why` (if not null) says which and for how long.
+  /// Any thread.
   bool MappingHealthy(std::string* why) const;
+  /// How old the navigation map may be, seconds: the larger of 3 s, 3 update periods, and 3 times its recent
+  /// slowest update plus a period (a large map's updates take longer: the limit follows what they take, not a
+  /// fixed figure). Any thread.
+  double MapAgeLimitS() const;
 
   /// The staircases detected so far (PerceptionPipeline::Staircases()). Thread-safe.
   std::vector<perception::Staircase> Staircases() const { return perception_->Staircases(); }
@@ -99,8 +106,9 @@ class PerceptionService {
   /// map every update_period_s, growing it as the robot maps beyond it or is sent beyond it, until `loop`
   /// stops. A fault is thrown.
   void NavMapLoop(core::WorkLoop& loop);
-  /// Test hook (--inject-fault): called with the component's name at the top of every iteration of its loops;
-  /// it may throw or hang. Set before the loops start.
+  /// Test hook (--inject-fault): called with the component's name at the top of every iteration of its loops
+  /// ("platform", "perception"; "navigation_map" at the top of each navigation map update, on the perception
+  /// component's second loop); it may throw, hang or be slow. Set before the loops start.
   void SetFaultHook(std::function<void(const char* component)> hook) { fault_hook_ = std::move(hook); }
   /// The map's memory as the perception thread last measured it, bytes (never waits for the map). Any thread.
   std::size_t map_memory_bytes() const { return map_memory_bytes_.load(); }
@@ -147,10 +155,13 @@ class PerceptionService {
   std::atomic<bool> map_snapshot_requested_{false};
   std::function<void(const char*)> fault_hook_;
   std::atomic<std::size_t> map_memory_bytes_{0};
-  std::atomic<double> last_scan_s_{-1e9};        // agent clock of the newest scan read
-  std::atomic<double> last_map_update_s_{-1e9};  // ... of the newest navigation map update that succeeded
-  std::atomic<double> map_update_started_s_{-1e9};  // ... when the update under way started (-1e9: none)
-  static constexpr double kMaxMapUpdateS = 30.0;    // an update running longer than this counts as stalled
+  std::atomic<double> last_scan_s_{-1e9};         // agent clock of the newest scan read
+  std::atomic<double> last_map_update_s_{-1e9};   // ... when the newest navigation map update (and its
+                                                  // frontier search) ended
+  std::atomic<double> map_work_started_s_{-1e9};  // ... when the update under way started (-1e9: none)
+  std::atomic<double> map_progress_s_{-1e9};      // ... of the map thread's newest progress
+  std::atomic<double> map_work_slowest_s_{0.0};   // the slowest recent update, seconds (decays by 10 % each)
+  static constexpr double kMinMapAgeLimitS = 3.0;
   std::mutex frontier_mutex_;  // guards the seven below
   std::shared_ptr<const nav::PeerCoverage> peer_coverage_;
   double coverage_cell_m_ = 0.0;  // > 0: SeenCoverage() asked for

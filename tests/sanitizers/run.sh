@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Builds the in-process tests of core, nav, perception and robot_agent with a sanitizer, each kind in a build
+# folder of its own (ccache shared with the main build), and runs them (each in its own network namespace).
+#   tests/sanitizers/run.sh address|thread BUILD_DIR [ctest args...]
+# address: AddressSanitizer + UndefinedBehaviorSanitizer (any report fails the test); thread: ThreadSanitizer.
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+kind="${1:?address|thread}"
+build="${2:?build folder}"
+shift 2
+case "$kind" in address | thread) ;; *) echo "sanitizers: kind '$kind' is neither address nor thread" >&2; exit 2 ;; esac
+
+# The tests that run in one process (no cairn_agent or cairn_base child processes).
+TESTS=(
+  cairn_core_test cairn_bt_test
+  cairn_nav_traversability_test cairn_nav_astar_test cairn_nav_global_planner_test cairn_nav_local_planner_test
+  cairn_nav_ilqr_test cairn_nav_sampling_test cairn_nav_scan_obstacles_test cairn_nav_multilevel_test
+  cairn_nav_frontier_test cairn_nav_geb079_test
+  cairn_perception_map_test cairn_perception_telemetry_test cairn_perception_staircase_test cairn_perception_jpeg_test
+  cairn_agent_unit_test cairn_agent_navigation_test cairn_agent_team_test cairn_agent_explore_test
+  cairn_agent_perception_test
+)
+
+export CCACHE_BASEDIR="$ROOT" CCACHE_NOHASHDIR=true
+if [ ! -f "$build/CMakeCache.txt" ]; then
+  cmake -S "$ROOT" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCAIRN_SANITIZER="$kind" >/dev/null
+fi
+cmake --build "$build" -j "${CAIRN_JOBS:-$(nproc)}" --target "${TESTS[@]}"
+
+supp="$ROOT/tests/sanitizers"
+# halt_on_error: the first report fails the test (its output names the race or the fault).
+export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
+export LSAN_OPTIONS="suppressions=$supp/lsan.supp:print_suppressions=0"
+export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:suppressions=$supp/ubsan.supp"
+export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$supp/tsan.supp:print_suppressions=0"
+export XDG_CACHE_HOME="$build/cache"
+regex="^($(IFS='|'; echo "${TESTS[*]}"))\$"
+cd "$build"
+# Sanitized code runs 2-15x slower: the tests' time limits are scaled (cmake/CairnTesting.cmake).
+ctest --output-on-failure -j "${CAIRN_JOBS:-$(nproc)}" -R "$regex" "$@"
