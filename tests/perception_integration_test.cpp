@@ -117,7 +117,11 @@ TEST(PerceptionOverDds, StaircaseSnapshotMapBudgetAndLateJoiner) {
     if (e["event"] == "staircase") staircase_events.push_back(e);
   }
   ASSERT_EQ(staircase_events.size(), 1u) << json(early.events()).dump();
-  EXPECT_EQ(staircase_events[0]["message"].get<std::string>().rfind("new staircase: ", 0), 0u) << staircase_events[0];
+  EXPECT_EQ(staircase_events[0]["id"], s["id"]) << "the staircase listed is the one announced";
+  EXPECT_EQ(staircase_events[0]["message"].get<std::string>().rfind(
+                "new staircase " + std::to_string(s["id"].get<int>()) + ": ", 0),
+            0u)
+      << staircase_events[0];
   Figure("staircase_rise_m", s["rise_m"].get<double>());
   Figure("staircase_run_m", s["run_m"].get<double>());
   Figure("staircase_width_m", s["width_m"].get<double>());

@@ -127,6 +127,7 @@ json EventJson(const OperatorEvent& e) {
   if (!e.reason.empty()) j["reason"] = e.reason;
   if (!e.condition.empty()) j["condition"] = e.condition;
   if (e.kind == "proximity") j["distance_m"] = e.distance_m;
+  if (e.kind == "staircase_merged") j["merged_id"] = e.merged_staircase_id;
   return j;
 }
 

@@ -435,7 +435,9 @@ class FleetClient::Impl {
         OperatorEvent e;
         e.kind = f.kind;
         e.message = f.message;
+        e.reason = f.reason;
         e.staircase = f.staircase;
+        e.merged_staircase_id = f.merged_id;
         events.push_back(e);
       }
       lock.lock();

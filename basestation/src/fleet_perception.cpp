@@ -25,7 +25,8 @@ using core::SteadyClock;
 namespace {
 
 constexpr double kSyncRequestPeriodS = 1.0;  // at most one snapshot request per robot per second
-constexpr std::size_t kMaxStaircaseInstances = 4096;  // (robot, staircase) pairs kept from peers
+constexpr std::size_t kMaxStaircaseInstances = 4096;  // (robot, staircase) reports kept from peers
+constexpr std::size_t kMaxStaircaseEvents = 1000;     // untaken events kept; the oldest go first
 
 // Farthest a map coordinate from a robot may be from the map's origin, metres: beyond any site (a staircase at
 // x = 1e300 was announced to every operator).
@@ -79,6 +80,31 @@ std::string DescribeStaircase(const perception::StaircaseRegistry::Entry& entry)
   std::string sources;
   for (const auto& source : entry.sources) sources += (sources.empty() ? "" : ", ") + source;
   return std::string(text) + ", seen by " + sources;
+}
+
+FleetEvent StaircaseEvent(const StaircaseChange& change) {
+  FleetEvent event;
+  event.staircase = change.staircase;
+  const std::string id = std::to_string(change.staircase.id);
+  switch (change.kind) {
+    case StaircaseChange::Kind::kNew:
+      event.kind = "staircase";
+      event.message = "new staircase " + id + ": " + DescribeStaircase(change.staircase);
+      break;
+    case StaircaseChange::Kind::kMerged:
+      event.kind = "staircase_merged";
+      event.merged_id = change.merged_id;
+      event.message = "staircase " + std::to_string(change.merged_id) + " merged into staircase " + id +
+                      " (same flight): " + DescribeStaircase(change.staircase);
+      break;
+    case StaircaseChange::Kind::kRemoved:
+      event.kind = "staircase_removed";
+      event.reason = change.reason;
+      event.message = "staircase " + id + " removed: " + change.reason + " (was " +
+                      DescribeStaircase(change.staircase) + ")";
+      break;
+  }
+  return event;
 }
 
 class FleetPerception::Impl {
@@ -207,26 +233,20 @@ class FleetPerception::Impl {
       return;
     }
     std::lock_guard<std::mutex> lock(mutex_);
-    const std::pair<std::string, uint32_t> key{m.robot_id(), m.staircase_id()};
-    if (latest_.count(key) == 0 && latest_.size() >= kMaxStaircaseInstances) {
-      spdlog::warn("staircase {} from {} dropped: {} staircases already kept", m.staircase_id(), m.robot_id(),
-                   kMaxStaircaseInstances);
-      return;
-    }
-    latest_[key] = staircase;
-    // The fleet view is every robot's latest estimate merged afresh (so a robot's repeated updates of one
-    // staircase do not outweigh another robot's); `notified_` remembers which fleet staircases the operator
-    // has been told about, so each is announced once.
-    fleet_ = std::make_unique<perception::StaircaseRegistry>();
-    for (const auto& [key, s] : latest_) fleet_->Add(s, key.first);
-    for (const auto& entry : fleet_->Entries()) {
-      if (!notified_.Add(entry.staircase, "fleet").is_new) continue;
-      FleetEvent event;
-      event.kind = "staircase";
-      event.staircase = entry;
-      event.message = "new staircase: " + DescribeStaircase(entry);
-      events_.push_back(event);
+    // Each fleet staircase keeps its id as robots refine it; new ones, merges and removals are told once.
+    std::string refused;
+    for (const StaircaseChange& change :
+         staircases_.Report(m.robot_id(), m.staircase_id(), staircase, &refused)) {
+      FleetEvent event = StaircaseEvent(change);
       spdlog::info("basestation {}: {}", base_id_, event.message);
+      events_.push_back(std::move(event));
+      if (events_.size() > kMaxStaircaseEvents) events_.pop_front();
+    }
+    std::uint64_t suppressed = 0;
+    if (!refused.empty() && warnings_.Allow("staircases kept", core::SteadyClock::now(), &suppressed)) {
+      spdlog::warn(
+          "staircase {} from {} dropped: {}{}", m.staircase_id(), m.robot_id(), refused,
+          suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
     }
   }
 
@@ -236,11 +256,9 @@ class FleetPerception::Impl {
   mutable std::condition_variable cv_;
   std::map<std::string, core::SteadyTime> last_sync_request_;
   std::map<std::string, CameraView> frames_;
-  std::map<std::pair<std::string, uint32_t>, perception::Staircase> latest_;
   core::WarningLimiter warnings_;  // bad staircase messages from peers
-  std::unique_ptr<perception::StaircaseRegistry> fleet_ = std::make_unique<perception::StaircaseRegistry>();
-  perception::StaircaseRegistry notified_;
-  std::deque<FleetEvent> events_;
+  FleetStaircases staircases_{FleetStaircasesOptions{{}, kMaxStaircaseInstances}};
+  std::deque<FleetEvent> events_;      // not yet taken, at most kMaxStaircaseEvents
   std::set<std::string> seen_robots_;  // robots seen announcing a map
   bool stop_ = false;
   std::thread sync_thread_;
@@ -355,7 +373,7 @@ std::optional<CameraView> FleetPerception::WaitForFrame(const std::string& robot
 
 std::vector<perception::StaircaseRegistry::Entry> FleetPerception::Staircases() const {
   std::lock_guard<std::mutex> lock(impl_->mutex_);
-  return impl_->fleet_->Entries();
+  return impl_->staircases_.Entries();
 }
 
 std::vector<FleetEvent> FleetPerception::TakeEvents() {

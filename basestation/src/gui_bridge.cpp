@@ -140,6 +140,8 @@ std::string NavStatusName(cairn_msgs::NavStatus s) {
 int LogLevel(const std::string& kind) {
   if (kind == "failed" || kind == "lost" || kind == "lock_taken") return 3;  // WARNING
   if (kind == "stopped" || kind == "component_failed" || kind == "component_restart_failed") return 3;
+  // A staircase the operator may have relied on is gone.
+  if (kind == "staircase_removed") return 3;
   return 2;  // INFO
 }
 
@@ -660,10 +662,17 @@ class GuiBridge::Impl {
       if (!entries.empty()) Send(stairs_, ns, scene.dump(), only);
       return;
     }
-    std::string text = scene["entities"].dump();
+    // A staircase merged into another or removed: its id is retired, its steps go from every view.
+    std::set<int> shown;
+    for (const auto& entry : entries) shown.insert(entry.id);
+    for (const int id : stairs_shown_) {
+      if (shown.count(id) == 0) scene["deletions"].push_back(Deletion("stairs/" + std::to_string(id), ns));
+    }
+    stairs_shown_ = std::move(shown);
+    std::string text = scene.dump();
     if (text == last_stairs_) return;
-    last_stairs_ = std::move(text);
-    Send(stairs_, ns, scene.dump(), only);
+    last_stairs_ = text;
+    Send(stairs_, ns, text, only);
   }
 
   // The fleet map's occupied voxels by 4 x 4 m column: changed columns to every subscriber, or every column
@@ -800,6 +809,7 @@ class GuiBridge::Impl {
   std::map<std::string, std::deque<TrailPoint>> trails_;
   std::map<std::string, std::string> last_paths_;
   std::string last_stairs_;
+  std::set<int> stairs_shown_;  // fleet staircase ids last sent to every subscriber
   struct SentColumn {
     std::string cubes;  // the column's cubes as last sent
     Clock::time_point sent_at;

@@ -1593,7 +1593,11 @@ Staircase ShiftSteps(const Staircase& s, int k) {
   return out;
 }
 
-struct StaircaseRegistry::Accumulator {
+namespace {
+
+// Weighted sums of views of one staircase, all described from one first riser (the entry's estimate is
+// Estimate()); each view weighs confidence x support_points.
+struct ViewSums {
   double weight = 0;
   Eigen::Vector3d p_W = Eigen::Vector3d::Zero();
   double cos_yaw = 0, sin_yaw = 0, rise = 0, run = 0, width = 0;
@@ -1642,7 +1646,70 @@ struct StaircaseRegistry::Accumulator {
     s.support_points = static_cast<int>(std::min<std::int64_t>(support, std::numeric_limits<int>::max()));
     return s;
   }
+
+  // Adds `view`, `shift` whole steps up the flight from the first riser of what was merged so far (see
+  // StaircaseMatch::shift_steps): a view that starts lower re-indexes everything merged so far down to it.
+  void AddShifted(const Staircase& view, int shift) {
+    if (shift >= 0) {
+      Add(ShiftSteps(view, -shift));  // Described from the first riser merged so far.
+    } else {
+      Shift(shift);
+      Add(view);
+    }
+  }
 };
+
+}  // namespace
+
+struct StaircaseRegistry::Accumulator : ViewSums {};
+
+StaircaseMatch MatchStaircases(const Staircase& a, const Staircase& b,
+                               const StaircaseRegistryOptions& options) {
+  StaircaseMatch match;
+  if (!IsUsableDetection(a) || !IsUsableDetection(b)) return match;
+  // Whole steps between the two first risers (a view of the upper part only starts higher), counted along
+  // the flight: the riser positions are measured on many points, the floor of a partial view is not.
+  const Eigen::Vector2d u(std::cos(a.yaw_rad), std::sin(a.yaw_rad));
+  const double ds = u.dot((b.p_W_first_step - a.p_W_first_step).head<2>());
+  const double steps = std::clamp(ds / a.run_m, -1e6, 1e6);  // Far apart: no int overflow.
+  const int k = static_cast<int>(std::lround(steps));
+  match.shift_steps = k;
+  if (std::abs(WrapAngle(a.yaw_rad - b.yaw_rad)) > options.max_yaw_difference_rad) return match;
+  if (std::abs(k) > std::max(a.num_steps, b.num_steps) - 1) return match;
+  if (std::abs(ds - k * a.run_m) > 0.5 * a.run_m) return match;
+  // Heights k rises apart. Two views of the same first riser (k = 0) must agree on the floor; the floor of
+  // a view that starts k steps up is the tread the viewer stands on or looks over (few points, partly
+  // hidden): within half a rise (a robot on the stairs saw 3 steps from the 2nd riser, its floor 8 cm low).
+  const double dz = b.p_W_first_step.z() - a.p_W_first_step.z();
+  const double height_tolerance =
+      k == 0 ? options.max_floor_difference_m : std::max(options.max_floor_difference_m, 0.5 * a.rise_m);
+  if (std::abs(dz - k * a.rise_m) > height_tolerance) return match;
+  const Polygon fa = Footprint(a);
+  const Polygon fb = Footprint(b);
+  const double smaller = std::min(Area(fa), Area(fb));
+  if (smaller <= 0) return match;
+  match.overlap = Area(Intersect(fb, fa)) / smaller;
+  match.same = match.overlap >= options.min_overlap_fraction;
+  return match;
+}
+
+Staircase MergeStaircaseViews(const std::vector<Staircase>& views, const StaircaseRegistryOptions& options) {
+  ViewSums sums;
+  for (const Staircase& view : views) {
+    if (!IsUsableDetection(view)) continue;
+    if (sums.weight <= 0) {
+      sums.Add(view);
+      continue;
+    }
+    // Views of one staircase are at most the longer flight apart; a view beyond that (an estimate that
+    // drifted) must not stretch the merged flight to it.
+    const Staircase so_far = sums.Estimate();
+    const int reach = std::max(so_far.num_steps, view.num_steps) - 1;
+    sums.AddShifted(view, std::clamp(MatchStaircases(so_far, view, options).shift_steps, -reach, reach));
+  }
+  if (sums.weight <= 0) return Staircase{};
+  return sums.Estimate();
+}
 
 bool StaircaseRegistryOptions::IsValid(std::string* why) const {
   constexpr const char* kType = "StaircaseRegistryOptions";
@@ -1660,37 +1727,16 @@ StaircaseRegistry::StaircaseRegistry(const StaircaseRegistryOptions& options) : 
 StaircaseRegistry::MergeResult StaircaseRegistry::Add(const Staircase& staircase, const std::string& source) {
   MergeResult result;
   if (!IsUsableDetection(staircase)) return result;
-  const Polygon fp = Footprint(staircase);
-  const double area = Area(fp);
   std::lock_guard<std::mutex> lock(mutex_);
   int best = -1;
   int best_shift = 0;
   double best_overlap = 0;
   for (std::size_t i = 0; i < entries_.size(); ++i) {
-    const Staircase& e = entries_[i].staircase;
-    if (std::abs(WrapAngle(e.yaw_rad - staircase.yaw_rad)) > options_.max_yaw_difference_rad) continue;
-    // Whole steps between the two first risers (a view of the upper part only starts higher), counted along
-    // the flight: the riser positions are measured on many points, the floor of a partial view is not.
-    const Eigen::Vector2d u(std::cos(e.yaw_rad), std::sin(e.yaw_rad));
-    const double ds = u.dot((staircase.p_W_first_step - e.p_W_first_step).head<2>());
-    const int k = static_cast<int>(std::lround(ds / e.run_m));
-    if (std::abs(k) > std::max(e.num_steps, staircase.num_steps) - 1) continue;
-    if (std::abs(ds - k * e.run_m) > 0.5 * e.run_m) continue;
-    // Heights k rises apart. Two views of the same first riser (k = 0) must agree on the floor; the floor of
-    // a view that starts k steps up is the tread the viewer stands on or looks over (few points, partly
-    // hidden): within half a rise (a robot on the stairs saw 3 steps from the 2nd riser, its floor 8 cm low).
-    const double dz = staircase.p_W_first_step.z() - e.p_W_first_step.z();
-    const double height_tolerance =
-        k == 0 ? options_.max_floor_difference_m : std::max(options_.max_floor_difference_m, 0.5 * e.rise_m);
-    if (std::abs(dz - k * e.rise_m) > height_tolerance) continue;
-    const Polygon efp = Footprint(e);
-    const double smaller = std::min(area, Area(efp));
-    if (smaller <= 0) continue;
-    const double overlap = Area(Intersect(fp, efp)) / smaller;
-    if (overlap >= options_.min_overlap_fraction && overlap > best_overlap) {
-      best_overlap = overlap;
+    const StaircaseMatch match = MatchStaircases(entries_[i].staircase, staircase, options_);
+    if (match.same && match.overlap > best_overlap) {
+      best_overlap = match.overlap;
       best = static_cast<int>(i);
-      best_shift = k;
+      best_shift = match.shift_steps;
     }
   }
   if (best < 0) {
@@ -1710,12 +1756,7 @@ StaircaseRegistry::MergeResult StaircaseRegistry::Add(const Staircase& staircase
   }
   Entry& entry = entries_[static_cast<std::size_t>(best)];
   Accumulator& acc = *accumulators_[static_cast<std::size_t>(best)];
-  if (best_shift >= 0) {
-    acc.Add(ShiftSteps(staircase, -best_shift));  // Described from the entry's first riser.
-  } else {
-    acc.Shift(best_shift);  // The detection starts lower: re-index the entry down to it.
-    acc.Add(staircase);
-  }
+  acc.AddShifted(staircase, best_shift);
   const Staircase before = entry.staircase;
   entry.staircase = acc.Estimate();
   ++entry.detections;

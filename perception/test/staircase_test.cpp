@@ -883,6 +883,77 @@ TEST(StaircaseRegistryTest, RejectsUnusableDetections) {
   EXPECT_EQ(registry.size(), 0u);
 }
 
+// A robot publishes its entries' ids as its staircase ids: an id names one staircase for good, also when a
+// later view extends the entry down the flight, and a new staircase never gets an id given before.
+TEST(StaircaseRegistryTest, AnEntryKeepsItsIdAsItGrowsAndIdsAreNeverReused) {
+  StaircaseRegistry registry;
+  const Staircase whole = TunnelsStairs();
+  Staircase upper = whole;  // Risers 3-5 only, seen from the top.
+  upper.p_W_first_step += Eigen::Vector3d(2 * 0.5, 0.0, 2 * 0.2);
+  upper.num_steps = 3;
+  Staircase other = whole;
+  other.p_W_first_step = Eigen::Vector3d(10.0, 5.0, -3.0);
+  other.yaw_rad = kPi / 2;
+  EXPECT_EQ(registry.Add(upper, "scan").id, 1);
+  EXPECT_EQ(registry.Add(other, "scan").id, 2);
+  const auto grown = registry.Add(whole, "scan");
+  EXPECT_FALSE(grown.is_new);
+  EXPECT_EQ(grown.id, 1);
+  Staircase upstairs = whole;
+  upstairs.p_W_first_step.z() += 3.0;
+  EXPECT_EQ(registry.Add(upstairs, "scan").id, 3);
+  EXPECT_EQ(registry.Add(other, "scan").id, 2);
+  const std::vector<StaircaseRegistry::Entry> entries = registry.Entries();
+  ASSERT_EQ(entries.size(), 3u);
+  EXPECT_EQ(entries[0].id, 1);
+  EXPECT_NEAR((entries[0].staircase.p_W_first_step - whole.p_W_first_step).norm(), 0.0, 1e-9);
+  EXPECT_EQ(entries[0].staircase.num_steps, 5);
+  EXPECT_EQ(entries[1].id, 2);
+  EXPECT_NEAR((entries[1].staircase.p_W_first_step - other.p_W_first_step).norm(), 0.0, 1e-9);
+  EXPECT_EQ(entries[2].id, 3);
+  EXPECT_NEAR(entries[2].staircase.p_W_first_step.z(), 3.0, 1e-9);
+}
+
+TEST(StaircaseMatchTest, PartsOfOneFlightLineUpByWholeSteps) {
+  const StaircaseRegistryOptions options;
+  const Staircase whole = TunnelsStairs();
+  Staircase upper = whole;  // Risers 3-5.
+  upper.p_W_first_step += Eigen::Vector3d(2 * 0.5, 0.0, 2 * 0.2);
+  upper.num_steps = 3;
+  Staircase lower = whole;  // Risers 1-2.
+  lower.num_steps = 2;
+  StaircaseMatch m = MatchStaircases(whole, upper, options);
+  EXPECT_TRUE(m.same);
+  EXPECT_EQ(m.shift_steps, 2);
+  EXPECT_NEAR(m.overlap, 1.0, 1e-9);
+  m = MatchStaircases(upper, whole, options);
+  EXPECT_TRUE(m.same);
+  EXPECT_EQ(m.shift_steps, -2);
+  // The two parts touch but do not overlap: by themselves, not (yet) one staircase.
+  m = MatchStaircases(lower, upper, options);
+  EXPECT_FALSE(m.same);
+  EXPECT_EQ(m.shift_steps, 2);
+  EXPECT_NEAR(m.overlap, 0.0, 1e-9);
+  // The same footprint described descending contradicts it.
+  Staircase down = whole;
+  down.yaw_rad = kPi;
+  down.p_W_first_step.x() = 52.5;
+  EXPECT_FALSE(MatchStaircases(whole, down, options).same);
+  Staircase bad = whole;
+  bad.width_m = 0.0;
+  EXPECT_FALSE(MatchStaircases(whole, bad, options).same);
+
+  // Merged, the two parts are the whole flight, described from its foot.
+  const Staircase merged = MergeStaircaseViews({upper, lower}, options);
+  EXPECT_EQ(merged.num_steps, 5);
+  EXPECT_NEAR((merged.p_W_first_step - whole.p_W_first_step).norm(), 0.0, 1e-9);
+  EXPECT_NEAR(merged.rise_m, 0.2, 1e-9);
+  EXPECT_NEAR(merged.run_m, 0.5, 1e-9);
+  EXPECT_EQ(merged.support_points, 2 * whole.support_points);
+  EXPECT_EQ(MergeStaircaseViews({bad}, options).num_steps, 0);
+  EXPECT_EQ(MergeStaircaseViews({}, options).num_steps, 0);
+}
+
 TEST(StaircaseRegistryTest, BottomAndTopViewsOfTheTunnelsStairsMerge) {
   const StaircaseDetector detector;
   StaircaseRegistry registry;

@@ -32,16 +32,23 @@ struct OperatorEvent {
   /// where to, in `reason`), "yield_refused" (it refused `other`: why), "yield_returned" (its yield ended:
   /// back, or how), "yield_asking" (its route is blocked by `other` in a narrow passage: it asked it to
   /// yield), "yield_blocked" (`other` refused or found no spot: it holds, blocked; why).
-  /// A yield is told to both operators: each basestation hears both robots' states.
+  /// A yield is told to both operators: each basestation hears both robots' states. Fleet staircases
+  /// (robot_id "", see FleetStaircases): "staircase" (a new one) | "staircase_merged" (two were one flight:
+  /// the younger id, `merged_staircase_id`, merged into the older) | "staircase_removed" (no robot reports it
+  /// any more; `reason`: why).
   std::string kind;
   std::string robot_id;     ///< the robot concerned ("" for a fleet staircase)
   std::string other;        ///< proximity: the other robot; locks: the basestation; stopped: who stopped it
   std::string message;      ///< one line for people, e.g. "r2 arrived at (30.00, 10.00) (goal 12)"
-  std::string reason;       ///< failed: why (operator words); lost: why
+  std::string reason;       ///< failed: why (operator words); lost: why; staircase_removed: why
   std::string condition;    ///< failed: the mode-tree condition behind it ("IsLocalPlannerHealthy"), or ""
   double distance_m = 0.0;  ///< proximity: centre distance, metres, frame map
   std::chrono::system_clock::time_point time = std::chrono::system_clock::now();
-  std::optional<perception::StaircaseRegistry::Entry> staircase;  ///< kind "staircase"
+  /// Kinds "staircase" (the new one), "staircase_merged" (the one kept, after the merge), "staircase_removed"
+  /// (its last estimate): the fleet staircase, frame map.
+  std::optional<perception::StaircaseRegistry::Entry> staircase;
+  /// staircase_merged: the fleet staircase id merged away (never used again); 0 otherwise.
+  int merged_staircase_id = 0;
   std::uint64_t seq = 0;  ///< order of detection in this basestation, from 1 (FleetClient::EventsSince)
 };
 

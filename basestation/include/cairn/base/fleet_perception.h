@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "cairn/base/fleet_staircases.h"
 #include "cairn/core/time.h"
 #include "cairn/perception/map_telemetry.h"
 #include "cairn/perception/staircase.h"
@@ -30,9 +31,16 @@ struct CameraView {
 
 /// Something the operator should be told about once (printed by the shell between commands).
 struct FleetEvent {
-  std::string kind;     ///< "staircase"
-  std::string message;  ///< one line for people
-  perception::StaircaseRegistry::Entry staircase;  ///< kind "staircase": the new fleet staircase
+  /// "staircase" (a new fleet staircase) | "staircase_merged" (two fleet staircases were one flight: the
+  /// younger id merged into the older) | "staircase_removed" (no robot reports it any more); see
+  /// FleetStaircases.
+  std::string kind;
+  std::string message;  ///< one line for people, e.g. "new staircase 2: 5 steps at (50.00, ...), seen by r1"
+  /// The fleet staircase, frame M: "staircase" the new one; "staircase_merged" the one kept, after the merge;
+  /// "staircase_removed" its last estimate.
+  perception::StaircaseRegistry::Entry staircase;
+  int merged_id = 0;   ///< "staircase_merged": the id merged away (never used again); 0 otherwise
+  std::string reason;  ///< "staircase_removed": why, in operator words; "" otherwise
 };
 
 /// Outcome of FleetPerception::SaveMap().
@@ -47,6 +55,12 @@ struct MapSaveResult {
 /// One line for people: "5 steps at (50.00, 23.72, 0.00) heading 0 deg, rise 0.201 m, run 0.500 m, width
 /// 2.38 m, seen by r1, r2".
 std::string DescribeStaircase(const perception::StaircaseRegistry::Entry& entry);
+
+/// The operator's event for one change among the fleet staircases: kind, message and fields as FleetEvent
+/// documents them. Messages: "new staircase 2: <DescribeStaircase>", "staircase 3 merged into staircase 2
+/// (same flight): <DescribeStaircase of the merged one>", "staircase 2 removed: <reason> (was
+/// <DescribeStaircase>)".
+FleetEvent StaircaseEvent(const StaircaseChange& change);
 
 /// A robot's staircase detection as the basestation takes it (frame M = the fleet's map frame): its robot id
 /// (core::CheckId) and every field checked, finite and within its physical range (position within 1e5 m of
@@ -92,7 +106,9 @@ class FleetPerception {
   std::optional<CameraView> WaitForFrame(const std::string& robot_id, std::uint64_t after_received,
                                          double timeout_s) const;
 
-  /// Fleet staircases: every robot's latest estimates merged (same staircase seen by several robots = one).
+  /// Fleet staircases in id order: every robot's latest estimates merged (same staircase seen by several
+  /// robots = one), frame M. An id names one staircase for good (FleetStaircases): kept as robots refine it,
+  /// retired when it merges into an older one or is removed, never reused.
   std::vector<perception::StaircaseRegistry::Entry> Staircases() const;
 
   /// Events not yet taken, oldest first.

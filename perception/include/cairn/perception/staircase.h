@@ -270,6 +270,33 @@ struct StaircaseRegistryOptions {
   bool IsValid(std::string* why) const;
 };
 
+/// How two descriptions of straight staircases line up (frame W for both), by StaircaseRegistry's
+/// same-staircase rule.
+struct StaircaseMatch {
+  /// True when `b` is the same staircase as `a` (all three conditions of the rule hold).
+  bool same = false;
+  /// Whole steps from a's first riser to b's, counted along a's ascending direction (negative: b starts
+  /// lower on the flight). Set whenever both descriptions are usable, even if they are not the same
+  /// staircase.
+  int shift_steps = 0;
+  /// Area of the intersection of the two footprints over the smaller footprint's area, [0, 1]; 0 unless
+  /// the directions, whole steps and heights agree (conditions 1 and 2).
+  double overlap = 0.0;
+};
+
+/// Compares `b` with `a` by the same-staircase rule of StaircaseRegistry (see there). A description with a
+/// non-finite field, num_steps < 1 or a non-positive rise, run or width matches nothing.
+StaircaseMatch MatchStaircases(const Staircase& a, const Staircase& b,
+                               const StaircaseRegistryOptions& options);
+
+/// One estimate from `views` (frame W) of a single staircase, as StaircaseRegistry merges the detections of
+/// one entry: in order, each view is re-indexed onto the estimate so far (or the estimate onto the view, if
+/// the view starts lower), then weighted means and the num_steps vote (see StaircaseRegistry). The caller
+/// knows the views are one staircase; a view whose first riser is more whole steps away than the longer of
+/// the two flights is counted from the nearest riser within that reach, and unusable views (see
+/// MatchStaircases) are skipped. With no usable view, a Staircase with num_steps 0.
+Staircase MergeStaircaseViews(const std::vector<Staircase>& views, const StaircaseRegistryOptions& options);
+
 /// Merges staircase detections from many scans and robots into one estimate per physical staircase.
 /// Thread-safe: every method may be called from any thread.
 ///
@@ -295,7 +322,9 @@ class StaircaseRegistry {
  public:
   /// One merged staircase.
   struct Entry {
-    /// Identifier, unique in this registry, assigned in order from 1.
+    /// Identifier, unique in this registry, assigned in order from 1. Entries are never removed or merged, so
+    /// an id names one staircase for the registry's life and is never reused (a robot publishes it as its
+    /// staircase id).
     int id = 0;
     /// Merged estimate.
     Staircase staircase;
