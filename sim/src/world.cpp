@@ -35,7 +35,8 @@ bool WorldLoadOptions::IsValid(std::string* why) const {
     msg << "WorldLoadOptions::max_voxels = " << max_voxels << " must be in [1, 2e9]";
   } else if (!std::isfinite(support_radius_m) ||
              (support_radius_m != 0.0 && (support_radius_m < 0.01 || support_radius_m > 1.0))) {
-    msg << "WorldLoadOptions::support_radius_m = " << support_radius_m << " must be 0 (off) or in [0.01, 1] m";
+    msg << "WorldLoadOptions::support_radius_m = " << support_radius_m
+        << " must be 0 (off) or in [0.01, 1] m";
   } else if (min_support_neighbors < 1 || min_support_neighbors > 100) {
     msg << "WorldLoadOptions::min_support_neighbors = " << min_support_neighbors << " must be in [1, 100]";
   } else if (pcd_min_points_per_voxel < 1 || pcd_min_points_per_voxel > 1000) {
@@ -44,6 +45,10 @@ bool WorldLoadOptions::IsValid(std::string* why) const {
   } else if (!std::isfinite(fill_hole_max_m) ||
              (fill_hole_max_m != 0.0 && (fill_hole_max_m < 0.05 || fill_hole_max_m > 3.0))) {
     msg << "WorldLoadOptions::fill_hole_max_m = " << fill_hole_max_m << " must be 0 (off) or in [0.05, 3] m";
+  } else if (!std::isfinite(fill_strip_max_m) ||
+             (fill_strip_max_m != 0.0 && (fill_strip_max_m < 0.05 || fill_strip_max_m > 3.0))) {
+    msg << "WorldLoadOptions::fill_strip_max_m = " << fill_strip_max_m
+        << " must be 0 (off) or in [0.05, 3] m";
   } else if (!std::isfinite(fill_clearance_m) || fill_clearance_m < 0.05 || fill_clearance_m > 5.0) {
     msg << "WorldLoadOptions::fill_clearance_m = " << fill_clearance_m << " must be in [0.05, 5] m";
   } else if (!std::isfinite(fill_gap_depth_m) || fill_gap_depth_m < 0.05 || fill_gap_depth_m > 5.0) {
@@ -68,9 +73,10 @@ std::string WorldLoadReport::Summary() const {
     out << leaves_occupied << " occupied leaves -> ";
   }
   out << voxels_read << " voxels; " << voxels_removed_unsupported << " unsupported voxels removed; "
-      << voxels_filled_floor << " floor-hole voxels filled (" << floor_surface_voxels << " floor and "
-      << overhead_surface_voxels << " overhead surface voxels, " << holes_seen_through
-      << " holes seen through left open); clean-up " << static_cast<int>(std::lround(cleanup_ms)) << " ms";
+      << voxels_filled_floor << " floor-hole voxels filled (" << voxels_filled_strip << " in strips, "
+      << floor_surface_voxels << " floor and " << overhead_surface_voxels << " overhead surface voxels, "
+      << holes_seen_through << " holes seen through left open); clean-up "
+      << static_cast<int>(std::lround(cleanup_ms)) << " ms";
   return out.str();
 }
 

@@ -6,7 +6,10 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -15,10 +18,12 @@
 namespace cairn::sim::internal {
 namespace {
 
-constexpr int kSectors = 8;  // Directions (45 deg sectors) in which a hole must be closed.
+constexpr int kSectors = 8;               // Directions (45 deg sectors) in which a hole must be closed.
 constexpr double kGapSearchDepthM = 5.0;  // Depth below a hole searched for a seen gap bottom, metres.
 
-int CeilVoxels(double length_m, double res_m) { return std::max(1, static_cast<int>(std::ceil(length_m / res_m - 1e-9))); }
+int CeilVoxels(double length_m, double res_m) {
+  return std::max(1, static_cast<int>(std::ceil(length_m / res_m - 1e-9)));
+}
 
 // 1. Support filter. A voxel stays if (PCD) it holds pcd_min_points_per_voxel points, or it has
 // min_support_neighbors occupied voxels in the cube of half-edge r around it (counted on the input grid, so
@@ -102,10 +107,139 @@ std::vector<SectorOffset> DiskOffsets(int radius) {
   return out;
 }
 
-// 2. Floor hole filling (see WorldLoadOptions::fill_hole_max_m), one pass: classifies the surfaces of
-// `world`, fills the holes found and returns how many voxels it filled. Counts surfaces and seen-through
-// holes into `report` (overwritten by each pass).
-std::int64_t FillFloorHolesPass(World* world, const WorldLoadOptions& options, WorldLoadReport* report) {
+// Directions across a strip: x, y and the two diagonals (a strip at any angle is within 22.5 deg of one, so
+// its width along that one is at most 1.09 times its true width).
+constexpr std::array<std::array<int, 2>, 4> kAcross = {{{1, 0}, {0, 1}, {1, 1}, {1, -1}}};
+// A strip is at least this many times as long as its largest width (WorldLoadOptions::fill_strip_max_m). The
+// narrow part of a wedge (the corner of a larger opening) is shorter: width w ends at w / (2 tan(a / 2)) from
+// the tip of a wedge of angle a, so wedges of more than 28 deg are never taken for strips.
+constexpr double kStripMinLengthPerWidth = 2.0;
+
+// Lines of cells along a direction (dx, dy) of an nx x ny grid (cell (x, y) at index x * ny + y), with dx =
+// 1, or dx = 0 and dy = 1 (a line read backwards is the same line).
+struct Lines {
+  int nx, ny, dx, dy;
+  // Index step from a cell to the next one on its line.
+  std::ptrdiff_t Step() const { return static_cast<std::ptrdiff_t>(dx) * ny + dy; }
+  // Calls visit(id, c) for every cell c, in order along each line, reading the grid in memory order. The
+  // line through (x, y) has id y (direction (1, 0)), x ((0, 1)), y - x + nx - 1 ((1, 1)) or x + y ((1, -1)),
+  // in [0, nx + ny).
+  template <typename Visit>
+  void Sweep(const Visit& visit) const {
+    for (int x = 0; x < nx; ++x) {
+      // id = base + per_y * y.
+      const int base = dx == 0 ? x : dy == 0 ? 0 : dy == 1 ? nx - 1 - x : x;
+      const int per_y = dx == 0 ? 0 : 1;
+      const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(x) * ny;
+      for (int y = 0; y < ny; ++y) visit(base + per_y * y, row + y);
+    }
+  }
+};
+
+// `out` = `in` (nx x ny, cell (x, y) at x * ny + y) dilated by r cells both ways along direction (dx, dy).
+void DilateAlong(const std::vector<std::uint8_t>& in, int nx, int ny, int dx, int dy, int r,
+                 std::vector<std::uint8_t>* out) {
+  out->assign(in.size(), 0);
+  for (int j = -r; j <= r; ++j) {
+    const int sx = j * dx, sy = j * dy;
+    const int y0 = std::max(0, -sy), y1 = std::min(ny, ny - sy);
+    for (int x = std::max(0, -sx); x < std::min(nx, nx - sx); ++x) {
+      std::uint8_t* o = out->data() + static_cast<std::size_t>(x) * ny;
+      const std::uint8_t* i = in.data() + static_cast<std::size_t>(x + sx) * ny + sy;
+      int y = y0;
+      for (; y + 8 <= y1; y += 8) {  // Eight cells at a time (the rows do not overlap: out != in).
+        std::uint64_t a = 0, b = 0;
+        std::memcpy(&a, o + y, 8);
+        std::memcpy(&b, i + y, 8);
+        a |= b;
+        std::memcpy(o + y, &a, 8);
+      }
+      for (; y < y1; ++y) o[y] |= i[y];
+    }
+  }
+}
+
+// Strips of one level (see WorldLoadOptions::fill_strip_max_m): marks in `strip` the cells of gaps of the
+// sampled floor `band` (nx x ny, cell (x, y) at x * ny + y) across one direction of kAcross, between floor on
+// both sides, with no cell of `barrier` in the gap (an obstacle standing on the level, or the scan saw
+// something below the level there: the gap is a real opening, e.g. between two racks over the floor), that
+// run on along the strip for kStripMinLengthPerWidth * strip_cells. A sparse floor's edges are ragged (at 20
+// points/m^2 and 0.1 m, 82 % of the edge voxels are empty), so:
+//  - the floor is first dilated along the strip by half the largest width (which does not narrow the gap
+//    across), so that floor seen within that distance along the edge marks the edge;
+//  - edges are then found as in hysteresis thresholding (Canny, "A Computational Approach to Edge
+//    Detection", PAMI 1986): a run along the strip of gaps at most 1.5 * strip_cells wide is a strip when
+//    half of kStripMinLengthPerWidth * strip_cells of its gaps are at most strip_cells wide; a gap that is
+//    wider everywhere is no strip.
+void MarkStrips(const std::vector<std::uint8_t>& band, const std::vector<std::uint8_t>& barrier, int nx,
+                int ny, double strip_cells, std::vector<std::uint8_t>* strip) {
+  strip->assign(band.size(), 0);
+  std::vector<std::uint8_t> floor(band.size());
+  std::vector<std::uint8_t> narrow(band.size());  // 2: at most strip_cells wide, 1: at most 1.5 times that.
+  std::vector<std::ptrdiff_t> last(static_cast<std::size_t>(nx + ny));  // Per line: a cell index, or -1.
+  std::vector<int> run(static_cast<std::size_t>(nx + ny));              // Per line: cells since `last`.
+  std::vector<int> strict(static_cast<std::size_t>(nx + ny));           // Per line: of them, narrow == 2.
+  for (const auto& d : kAcross) {
+    // Across and along the strip: d turned by 90 deg, (-d.y, d.x), or its opposite, as Lines takes it.
+    const Lines across{nx, ny, d[0], d[1]};
+    const int flip = d[1] > 0 ? -1 : 1;
+    const Lines along{nx, ny, -d[1] * flip, d[0] * flip};
+    const double step = std::hypot(d[0], d[1]);
+    const int edge_r = std::max(1, static_cast<int>(std::ceil(0.5 * strip_cells / step - 1e-9)));
+    DilateAlong(band, nx, ny, along.dx, along.dy, edge_r, &floor);
+    // Gaps across: `run` cells without floor after a floor cell (`last`), closed by a floor cell; as wide as
+    // the distance between the two floor cells less one cell (the hole rule's measure).
+    std::fill(narrow.begin(), narrow.end(), 0);
+    std::fill(last.begin(), last.end(), -1);
+    std::fill(run.begin(), run.end(), 0);
+    across.Sweep([&](int id, std::ptrdiff_t c) {
+      const auto i = static_cast<std::size_t>(id);
+      if (floor[static_cast<std::size_t>(c)] == 0) {
+        ++run[i];
+        if (barrier[static_cast<std::size_t>(c)] != 0) last[i] = -1;
+        return;
+      }
+      const double width = (run[i] + 1) * step - 1.0;
+      if (last[i] >= 0 && run[i] > 0 && width <= 1.5 * strip_cells + 1e-9) {
+        const std::uint8_t mark = width <= strip_cells + 1e-9 ? 2 : 1;
+        for (int j = 1; j <= run[i]; ++j) narrow[static_cast<std::size_t>(c - j * across.Step())] = mark;
+      }
+      last[i] = c;
+      run[i] = 0;
+    });
+    // Strips: runs along the strip of `run` gap cells up to `last`, `strict` of them narrow == 2.
+    const int min_run = static_cast<int>(std::ceil(kStripMinLengthPerWidth * strip_cells / step - 1e-9));
+    std::fill(run.begin(), run.end(), 0);
+    std::fill(strict.begin(), strict.end(), 0);
+    const auto flush = [&](std::size_t i) {
+      if (run[i] >= min_run && 2 * strict[i] >= min_run) {
+        for (int j = 0; j < run[i]; ++j) (*strip)[static_cast<std::size_t>(last[i] - j * along.Step())] = 1;
+      }
+      run[i] = 0;
+      strict[i] = 0;
+    };
+    along.Sweep([&](int id, std::ptrdiff_t c) {
+      const auto i = static_cast<std::size_t>(id);
+      const std::uint8_t n = narrow[static_cast<std::size_t>(c)];
+      if (n == 0) {
+        flush(i);
+        return;
+      }
+      ++run[i];
+      strict[i] += n == 2;
+      last[i] = c;
+    });
+    for (std::size_t i = 0; i < run.size(); ++i) flush(i);
+  }
+}
+
+// 2. Floor hole filling (see WorldLoadOptions::fill_hole_max_m and fill_strip_max_m), one pass: classifies
+// the surfaces of `world`, fills the holes and strips found and returns how many voxels it filled, of which
+// `*strips` (set) in strips only. Counts surfaces and seen-through holes into `report` (overwritten by each
+// pass).
+std::int64_t FillFloorHolesPass(World* world, const WorldLoadOptions& options, WorldLoadReport* report,
+                                std::int64_t* strips) {
+  *strips = 0;
   report->floor_surface_voxels = 0;
   report->overhead_surface_voxels = 0;
   report->holes_seen_through = 0;
@@ -165,7 +299,8 @@ std::int64_t FillFloorHolesPass(World* world, const WorldLoadOptions& options, W
         if (bottom - below_top - 1 >= clearance) {
           const int lo = bottom - gap_max, hi = bottom - 1 - clearance;
           for (int dx = -near; dx <= near && !overhead; ++dx) {
-            for (int dy = -near; dy <= near && !overhead; ++dy) overhead = occupied_in(ix + dx, iy + dy, lo, hi);
+            for (int dy = -near; dy <= near && !overhead; ++dy)
+              overhead = occupied_in(ix + dx, iy + dy, lo, hi);
           }
         }
         if (overhead) {
@@ -186,9 +321,12 @@ std::int64_t FillFloorHolesPass(World* world, const WorldLoadOptions& options, W
   //      than 2 * close_r cells and never grows past a straight or convex edge (a drop);
   //  (b) a cell outside the closed mask C is a hole when C, or an obstacle standing on level k (a wall),
   //      closes it in all kSectors directions within `radius` cells and the hole through it is at most
-  //      fill_hole_max_m wide in every direction.
-  // Cells of C \ B must be closed in all directions too (the closing alone would round the corners of a
-  // stairwell).
+  //      fill_hole_max_m wide in every direction;
+  //  (c) a cell outside B lies in a strip of B (MarkStrips(): at most fill_strip_max_m wide across, floor on
+  //      both sides, however long; measured on B: the closing fills part of a narrow strip and would cut it
+  //      into pieces too short to be strips).
+  // Cells of C \ B must be closed in all directions too, or lie in a strip (the closing alone would round
+  // the corners of a stairwell).
   // Either way the voxel at k must be free with `clearance` free voxels above it, the level k must be the
   // most common floor level around it, and nothing may be seen gap_min .. gap_max voxels below it.
   const int close_r =
@@ -198,9 +336,21 @@ std::int64_t FillFloorHolesPass(World* world, const WorldLoadOptions& options, W
   std::vector<std::uint8_t> band(static_cast<std::size_t>(nx) * ny);
   std::vector<std::uint8_t> dilated(band.size());
   std::vector<std::uint8_t> closed(band.size());
-  std::vector<std::uint8_t> wall(band.size());  // An obstacle stands on level k (occupied in k .. k + clearance).
+  std::vector<std::uint8_t> strip(band.size(), 0);
+  const bool fill_strips = options.fill_strip_max_m > 0.0;
+  const double strip_cells = options.fill_strip_max_m / res;
+  // An obstacle stands on level k (occupied in k .. k + clearance).
+  std::vector<std::uint8_t> wall(band.size());
+  // A strip may not cross a wall, nor a column within `near` cells of one in which the scan saw something
+  // 2 .. gap_max voxels below level k: below the band a floor may spread over, so the gap is an opening over
+  // a lower surface (between two racks, beside a step or a pallet over the floor). Within `near`, as for
+  // overhead surfaces: a sparse scan misses the floor right below.
+  std::vector<std::uint8_t> seen_below(band.size());
+  std::vector<std::uint8_t> barrier(band.size());
   std::vector<std::int32_t> sat(static_cast<std::size_t>(nx + 1) * (ny + 1));  // Summed-area table of C.
-  auto sat_at = [&sat, ny](int x, int y) -> std::int32_t& { return sat[static_cast<std::size_t>(x) * (ny + 1) + y]; };
+  auto sat_at = [&sat, ny](int x, int y) -> std::int32_t& {
+    return sat[static_cast<std::size_t>(x) * (ny + 1) + y];
+  };
   auto in_grid = [nx, ny](int x, int y) { return x >= 0 && y >= 0 && x < nx && y < ny; };
   std::vector<Eigen::Vector3i> fill;
   for (int k = 0; k + clearance < nz; ++k) {
@@ -213,6 +363,7 @@ std::int64_t FillFloorHolesPass(World* world, const WorldLoadOptions& options, W
       for (int iy = 0; iy < ny; ++iy) {
         band[column(ix, iy)] = floor.Near(column(ix, iy), k) >= 0 ? 1 : 0;
         wall[column(ix, iy)] = occupied_in(ix, iy, k, k + clearance) ? 1 : 0;
+        if (fill_strips) seen_below[column(ix, iy)] = occupied_in(ix, iy, k - gap_max, k - 2) ? 1 : 0;
       }
     }
     for (int ix = 0; ix < nx; ++ix) {  // Dilation.
@@ -237,14 +388,23 @@ std::int64_t FillFloorHolesPass(World* world, const WorldLoadOptions& options, W
     }
     for (int ix = 0; ix < nx; ++ix) {
       for (int iy = 0; iy < ny; ++iy) {
-        sat_at(ix + 1, iy + 1) = closed[column(ix, iy)] + sat_at(ix, iy + 1) + sat_at(ix + 1, iy) - sat_at(ix, iy);
+        sat_at(ix + 1, iy + 1) =
+            closed[column(ix, iy)] + sat_at(ix, iy + 1) + sat_at(ix + 1, iy) - sat_at(ix, iy);
       }
+    }
+    if (fill_strips) {
+      DilateAlong(seen_below, nx, ny, 1, 0, near, &barrier);
+      DilateAlong(barrier, nx, ny, 0, 1, near, &seen_below);
+      for (std::size_t c = 0; c < barrier.size(); ++c)
+        barrier[c] = wall[c] != 0 || seen_below[c] != 0 ? 1 : 0;
+      MarkStrips(band, barrier, nx, ny, strip_cells, &strip);
     }
     for (int ix = 0; ix < nx; ++ix) {
       for (int iy = 0; iy < ny; ++iy) {
         if (band[column(ix, iy)] != 0) continue;
         const bool by_closing = closed[column(ix, iy)] != 0;
-        if (!by_closing) {
+        const bool by_strip = strip[column(ix, iy)] != 0;
+        if (!by_closing && !by_strip) {
           const int x0 = std::max(0, ix - radius), x1 = std::min(nx, ix + radius + 1);
           const int y0 = std::max(0, iy - radius), y1 = std::min(ny, iy + radius + 1);
           if (sat_at(x1, y1) - sat_at(x0, y1) - sat_at(x1, y0) + sat_at(x0, y0) < kSectors / 2) continue;
@@ -255,7 +415,7 @@ std::int64_t FillFloorHolesPass(World* world, const WorldLoadOptions& options, W
         if (!clear) continue;
         // Nearest closed-surface cell per direction; level votes from the sampled floor (B) around.
         std::array<const SectorOffset*, kSectors> nearest{};  // Nearest closed cell per sector.
-        std::array<int, 3> votes{0, 0, 0};  // Floor levels k - 1, k, k + 1 seen around.
+        std::array<int, 3> votes{0, 0, 0};                    // Floor levels k - 1, k, k + 1 seen around.
         int found = 0;
         int floor_sectors = 0;  // Sectors closed by floor (the others by a wall).
         for (const SectorOffset& o : disk) {
@@ -274,17 +434,16 @@ std::int64_t FillFloorHolesPass(World* world, const WorldLoadOptions& options, W
         }
         // Enclosed: floor or a wall in every direction (so a floor edge, a drop, is never grown).
         // At least half of them floor: a nook between walls whose floor nobody saw stays unknown.
-        if (found < kSectors || floor_sectors < kSectors / 2) continue;
-        if (!by_closing) {
+        bool hole = found == kSectors && floor_sectors >= kSectors / 2;
+        if (hole && !by_closing) {
           // Narrow: the gap between the nearest cells of opposite directions is at most hole_cells.
-          bool narrow = true;
-          for (int s = 0; s < kSectors / 2 && narrow; ++s) {
+          for (int s = 0; s < kSectors / 2 && hole; ++s) {
             const SectorOffset& a = *nearest[static_cast<std::size_t>(s)];
             const SectorOffset& b = *nearest[static_cast<std::size_t>(s + kSectors / 2)];
-            narrow = std::hypot(a.dx - b.dx, a.dy - b.dy) - 1.0 <= hole_cells + 1e-9;
+            hole = std::hypot(a.dx - b.dx, a.dy - b.dy) - 1.0 <= hole_cells + 1e-9;
           }
-          if (!narrow) continue;
         }
+        if (!hole && !by_strip) continue;
         // The surface around is at this level (one fill per hole, at the most common level).
         if (votes[1] == 0 || votes[1] < votes[0] || votes[1] < votes[2]) continue;
         // Not a real gap: nothing seen gap_min..gap_max voxels below.
@@ -297,6 +456,7 @@ std::int64_t FillFloorHolesPass(World* world, const WorldLoadOptions& options, W
           continue;
         }
         fill.emplace_back(ix, iy, k);
+        *strips += !hole;
       }
     }
   }
@@ -306,14 +466,16 @@ std::int64_t FillFloorHolesPass(World* world, const WorldLoadOptions& options, W
 
 // Passes of FillFloorHolesPass() until nothing changes (at most kMaxFillPasses): a sparse floor's holes have
 // rough edges, which the cells filled by a pass smooth for the next one. A pass never fills a cell without
-// floor within fill_hole_max_m in every direction, so passes cannot grow the floor past an edge or across a
-// wide gap.
+// floor within fill_hole_max_m in every direction or, in a strip, on both sides within 1.5 *
+// fill_strip_max_m, so passes cannot grow the floor past an edge or across a wide gap.
 void FillFloorHoles(World* world, const WorldLoadOptions& options, WorldLoadReport* report) {
   if (options.fill_hole_max_m <= 0.0) return;
   constexpr int kMaxFillPasses = 2;
   for (int pass = 0; pass < kMaxFillPasses; ++pass) {
-    const std::int64_t filled = FillFloorHolesPass(world, options, report);
+    std::int64_t strips = 0;
+    const std::int64_t filled = FillFloorHolesPass(world, options, report, &strips);
     report->voxels_filled_floor += filled;
+    report->voxels_filled_strip += strips;
     if (filled == 0) break;
   }
 }
@@ -329,7 +491,8 @@ void CleanUpScannedWorld(World* world, const WorldLoadOptions& options, const Po
   report->cleanup_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   if (world->CountOccupied() == 0) {
-    throw WorldError("world file '" + world->name() + "' has no occupied voxel left after the support filter (" +
+    throw WorldError("world file '" + world->name() +
+                     "' has no occupied voxel left after the support filter (" +
                      std::to_string(report->voxels_read) +
                      " read, all unsupported; lower WorldLoadOptions::min_support_neighbors or set "
                      "support_radius_m = 0)");

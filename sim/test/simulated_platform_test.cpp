@@ -6,6 +6,10 @@
 
 #include <cmath>
 
+#include "cairn/sim/survey_scan.h"
+#include "sparse_corridor.h"
+#include "test_util.h"
+
 namespace cairn::sim {
 namespace {
 
@@ -23,14 +27,14 @@ TEST(SimulatedPlatformTest, DrivesOnCommandAndStopsWhenCommandsStop) {
   EXPECT_TRUE(platform.Capabilities().has_lidar);
   platform.Update(0.0);
   EXPECT_NEAR(platform.ReadPose().PlanarState().x_m, 8.0, 1e-9);  // the map frame starts at the true start
-  for (int k = 1; k <= 100; ++k) {  // 2 s at 0.5 m/s, a command every 20 ms
+  for (int k = 1; k <= 100; ++k) {                                // 2 s at 0.5 m/s, a command every 20 ms
     platform.CommandTwist(0.5, 0.0, 0.02 * k);
     platform.Update(0.02 * k);
   }
   const double x_driving = platform.TrueState().x_m;
   EXPECT_GT(x_driving, 8.7);
   EXPECT_NEAR(platform.ReadPose().PlanarState().x_m, x_driving, 0.05);  // the estimate drifts, a little
-  for (int k = 101; k <= 200; ++k) platform.Update(0.02 * k);  // commands stop: the watchdog brakes
+  for (int k = 101; k <= 200; ++k) platform.Update(0.02 * k);           // commands stop: the watchdog brakes
   EXPECT_EQ(platform.TrueState().v_mps, 0.0);
   EXPECT_LT(platform.TrueState().x_m - x_driving, 0.5);
   const double x_stopped = platform.TrueState().x_m;
@@ -59,7 +63,8 @@ TEST(SimulatedPlatformTest, ScansAreRegisteredAndARockfallIsSeenAndBlocks) {
     return n;
   };
   EXPECT_EQ(hits_near(scan, 9.5, 11.0), 0);
-  EXPECT_GT(platform.DropRock(Eigen::AlignedBox2d(Eigen::Vector2d(9.3, 10.5), Eigen::Vector2d(9.7, 11.5)), 0.6), 0);
+  EXPECT_GT(
+      platform.DropRock(Eigen::AlignedBox2d(Eigen::Vector2d(9.3, 10.5), Eigen::Vector2d(9.7, 11.5)), 0.6), 0);
   ASSERT_TRUE(platform.ReadLidarScan(0.2, &scan));
   EXPECT_GT(hits_near(scan, 9.5, 11.0), 20);
   EXPECT_FALSE(platform.terrain()->IsFootprintFree(9.5, 11.0, 0.3));
@@ -71,9 +76,12 @@ TEST(SimulatedPlatformTest, RockfallClearTimeParsesAndErrorsNameTheField) {
   EXPECT_EQ(rocks[0].clear_s.value_or(-1.0), 9.5);
   EXPECT_FALSE(rocks[1].clear_s.has_value());
   const std::pair<std::string, std::string> cases[] = {
-      {"5:0,0,1,1,1:3", "CLEAR_S = 3 must be > AT_S = 5"}, {"5:0,0,1,1,1:soon", "CLEAR_S = 'soon' is not a number"},
-      {"1:3,0,1,1,1", "X0 = 3 must be < X1 = 1"},          {"1:0,0,1,1,0", "HEIGHT_M = 0 must be in (0, 10]"},
-      {"-1:0,0,1,1,1", "AT_S = -1 must be >= 0"},          {"1:0,b,1,1,1", "Y0 = 'b' is not a number"}};
+      {"5:0,0,1,1,1:3", "CLEAR_S = 3 must be > AT_S = 5"},
+      {"5:0,0,1,1,1:soon", "CLEAR_S = 'soon' is not a number"},
+      {"1:3,0,1,1,1", "X0 = 3 must be < X1 = 1"},
+      {"1:0,0,1,1,0", "HEIGHT_M = 0 must be in (0, 10]"},
+      {"-1:0,0,1,1,1", "AT_S = -1 must be >= 0"},
+      {"1:0,b,1,1,1", "Y0 = 'b' is not a number"}};
   for (const auto& [bad, message] : cases) {
     try {
       ParseRockfalls(bad);
@@ -162,7 +170,8 @@ TEST(SimulatedPlatformTest, ProximityRockfallsParseOrNameTheField) {
       ADD_FAILURE() << bad << " was accepted";
     } catch (const std::invalid_argument& e) {
       EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("simulation.rockfalls entry '" + bad + "'"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("simulation.rockfalls entry '" + bad + "'"), std::string::npos)
+          << e.what();
     }
   }
 }
@@ -172,13 +181,14 @@ TEST(SimulatedPlatformTest, RockfallsParseOrNameTheEntry) {
   ASSERT_EQ(rocks.size(), 2u);
   EXPECT_EQ(rocks[0].at_s, 2.0);  // sorted by time
   EXPECT_EQ(rocks[1].area_W.max().y(), 4.0);
-  for (const std::string bad : {"1,2,3,4,5", "1:1,2,3", "1:3,0,1,1,1", "1:0,0,1,1,0", "-1:0,0,1,1,1", "1:a,0,1,1,1",
-                                "5:0,0,1,1,1:3", "5:0,0,1,1,1:x", "5:0,0,1,1,1:6:7"}) {
+  for (const std::string bad : {"1,2,3,4,5", "1:1,2,3", "1:3,0,1,1,1", "1:0,0,1,1,0", "-1:0,0,1,1,1",
+                                "1:a,0,1,1,1", "5:0,0,1,1,1:3", "5:0,0,1,1,1:x", "5:0,0,1,1,1:6:7"}) {
     try {
       ParseRockfalls(bad);
       ADD_FAILURE() << bad << " was accepted";
     } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find("simulation.rockfalls entry '" + bad + "'"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("simulation.rockfalls entry '" + bad + "'"), std::string::npos)
+          << e.what();
     }
   }
 }
@@ -205,6 +215,51 @@ TEST(SimulatedPlatformTest, LeggedBodyClimbsOntoALandingOverTheFloorBelow) {
   EXPECT_FALSE(contact) << "contact at x " << platform.TrueState().x_m << ", z " << platform.TrueState().z_m;
   EXPECT_GE(platform.TrueState().x_m, 22.6);
   EXPECT_NEAR(platform.TrueState().z_m, 1.6, 1e-6) << "not on the landing";
+}
+
+// A wheeled body on a corridor from a sparse survey scan (.pcd, default load options) whose floor has a strip
+// of missing returns, 9 m long and 0.5 m wide, 0.6 m from the south wall: the body stands anywhere the walls
+// leave it room, over the strip and beside it (the platform's own check), and drives the strip's length
+// beside it (its edge 0.35 m from the body centre, where a robot on such a scan was held in contact) and on
+// it.
+TEST(SimulatedPlatformTest, WheeledBodyDrivesAlongAStripOfMissingFloorReturns) {
+  testing::SparseCorridorOptions corridor;
+  corridor.strip_width_m = 0.5;
+  const testing::SparseCorridorScan scan = testing::MakeSparseCorridorScan(corridor, 7);
+  SimulatedPlatformOptions o;
+  o.world = testing::MakeTempDir() + "/corridor.pcd";
+  WritePcd(o.world, scan.points_W);
+  o.start_W = core::PlanarPose{1.0, 2.0, 0.0};
+  o.SetProfile(nav::GetPlatformProfile("wheeled"));
+  SimulatedPlatform platform(o);
+  const double r = o.footprint_radius_m;
+  const std::shared_ptr<const nav::LeveledTerrain> terrain = platform.body_terrain();
+  int blocked = 0;
+  for (double x = 0.5; x <= corridor.length_m - 0.5; x += 0.1) {
+    for (double y = 0.45; y <= corridor.width_m - 0.45; y += 0.1) {
+      if (!terrain->IsFootprintFreeNear(x, y, 0.0, r) && blocked++ < 5) {
+        ADD_FAILURE() << "body blocked at " << x << ", " << y;
+      }
+    }
+  }
+  EXPECT_EQ(blocked, 0);
+  const double beside_y = scan.strip_W.max().y() + 0.35;
+  double t = 0.0;
+  platform.Update(t);
+  for (const double y : {beside_y, scan.strip_W.center().y()}) {
+    platform.SetTrueState(UnicycleState{scan.strip_W.min().x() - 1.0, y, 0.0});
+    bool contact = false;
+    for (int k = 0; k < 1000 && platform.TrueState().x_m < scan.strip_W.max().x() + 1.0; ++k) {
+      t += 0.02;
+      platform.CommandTwist(0.8, 0.0, t);
+      platform.Update(t);
+      contact = contact || platform.ReadStatus().in_contact;
+    }
+    EXPECT_FALSE(contact) << "y " << y << ": contact at x " << platform.TrueState().x_m;
+    EXPECT_GE(platform.TrueState().x_m, scan.strip_W.max().x() + 1.0) << "y " << y;
+    EXPECT_NEAR(platform.TrueState().y_m, y, 1e-9);
+    EXPECT_NEAR(platform.TrueState().z_m, 0.0, 0.1 + 1e-9) << "y " << y;
+  }
 }
 
 }  // namespace

@@ -15,9 +15,11 @@
 #include <string>
 #include <vector>
 
+#include "cairn/nav/platform.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/sim/survey_scan.h"
 #include "cairn/sim/world.h"
+#include "sparse_corridor.h"
 #include "test_util.h"
 
 namespace cairn::sim {
@@ -40,9 +42,9 @@ struct Box2 {
 // The degraded copy of geb079 (MakeSurveyScan with DegradedGeb079Options()) and what was done to it.
 struct DegradedScan {
   std::vector<Eigen::Vector3f> points;
-  std::vector<Eigen::Vector3d> strays;       // Single points in open space.
+  std::vector<Eigen::Vector3d> strays;        // Single points in open space.
   std::vector<Eigen::Vector2d> hole_centres;  // Floor holes of kHoleRadius.
-  double floor_points_per_m2 = 0.0;          // Measured on the corridor floor.
+  double floor_points_per_m2 = 0.0;           // Measured on the corridor floor.
 };
 
 constexpr double kFloorDensity = 50.0;  // Points per m^2.
@@ -107,15 +109,16 @@ class DegradedGeb079Test : public ::testing::Test {
     for (int ix = 0; ix < dims.x(); ++ix) {
       for (int iy = 0; iy < dims.y(); ++iy) {
         for (int iz = 0; iz < dims.z(); ++iz) {
-          if (truth_->IsOccupiedIndex({ix, iy, iz})) dense.push_back(truth_->CenterOf({ix, iy, iz}).cast<float>());
+          if (truth_->IsOccupiedIndex({ix, iy, iz}))
+            dense.push_back(truth_->CenterOf({ix, iy, iz}).cast<float>());
         }
       }
     }
     const std::string dense_path = MakeTempDir() + "/geb079_dense.pcd";
     WritePcd(dense_path, dense);
     dense_ = new World(LoadWorld(dense_path));
-    std::printf("FIGURE degraded_geb079 points %zu floor_points_per_m2 %.1f strays %zu\n", scan_->points.size(),
-                scan_->floor_points_per_m2, scan_->strays.size());
+    std::printf("FIGURE degraded_geb079 points %zu floor_points_per_m2 %.1f strays %zu\n",
+                scan_->points.size(), scan_->floor_points_per_m2, scan_->strays.size());
     std::printf("FIGURE degraded_geb079_load %s\n", report_->Summary().c_str());
   }
   static void TearDownTestSuite() {
@@ -185,10 +188,10 @@ TEST_F(DegradedGeb079Test, CorridorStartIsFreeGround) {
   const nav::TraversabilityGrid grid(*world_);
   const nav::TraversabilityGrid truth_grid(*truth_);
   const nav::TraversabilityGrid dense_grid(*dense_);
-  std::printf("FIGURE degraded_geb079_traversable_m2 raw %.1f cleaned %.1f dense_0.1m %.1f truth_0.08m %.1f\n",
-              raw_grid.summary().cells_traversable * 0.01, grid.summary().cells_traversable * 0.01,
-              dense_grid.summary().cells_traversable * 0.01,
-              truth_grid.summary().cells_traversable * 0.08 * 0.08);
+  std::printf(
+      "FIGURE degraded_geb079_traversable_m2 raw %.1f cleaned %.1f dense_0.1m %.1f truth_0.08m %.1f\n",
+      raw_grid.summary().cells_traversable * 0.01, grid.summary().cells_traversable * 0.01,
+      dense_grid.summary().cells_traversable * 0.01, truth_grid.summary().cells_traversable * 0.08 * 0.08);
   // The reported failure: in the raw sparse world the corridor start is not free ground.
   EXPECT_FALSE(raw_grid.IsTraversableAt(-4.0, 0.0));
   EXPECT_EQ(raw_grid.summary().cells_traversable, 0);
@@ -199,7 +202,8 @@ TEST_F(DegradedGeb079Test, CorridorStartIsFreeGround) {
     int ix = 0, iy = 0;
     ASSERT_TRUE(truth_grid.CellOf(x, 0.0, &ix, &iy));
     if (truth_grid.ClearanceM(ix, iy) < 0.45) continue;
-    if (std::abs(x - 0.5 * (kWellA.x0 + kWellA.x1)) < 1.0 || std::abs(x - 0.5 * (kWellB.x0 + kWellB.x1)) < 1.2) {
+    if (std::abs(x - 0.5 * (kWellA.x0 + kWellA.x1)) < 1.0 ||
+        std::abs(x - 0.5 * (kWellB.x0 + kWellB.x1)) < 1.2) {
       continue;  // The wells cut into the copy are holes the true scan does not have.
     }
     ++starts;
@@ -279,7 +283,8 @@ TEST(SparseRoomTest, CeilingAndPipeAreNeverFloor) {
   for (double z : {1.65, 2.45}) {
     int filled = 0;
     for (double x = 0.05; x < 6.0; x += 0.1) {
-      for (double y = 0.05; y < 4.0; y += 0.1) filled += world.IsOccupied({x, y, z}) && !raw.IsOccupied({x, y, z});
+      for (double y = 0.05; y < 4.0; y += 0.1)
+        filled += world.IsOccupied({x, y, z}) && !raw.IsOccupied({x, y, z});
     }
     EXPECT_EQ(filled, 0) << "z " << z;
   }
@@ -298,6 +303,71 @@ TEST(SparseRoomTest, CeilingAndPipeAreNeverFloor) {
   EXPECT_EQ(not_floor, 0);
   EXPECT_TRUE(grid.IsTraversableAt(3.0, 1.0));
 }
+
+// A 3 m x 15 m corridor from a sparse survey scan (20 or 60 floor points/m^2, +-2 cm, nothing 0.02 m to 2.5 m
+// above the floor but the walls) whose floor has a strip of missing returns 9 m long and 0.3 to 0.5 m wide
+// near the south wall, loaded with the default options: the strip is floor (seen floor on both sides of it, a
+// gap no wider than a sampling gap), no voxel appears in the corridor above the floor, and the floor around
+// and over the strip is free ground for nav's traversability (the grid the simulated platform judges its body
+// with). 20 points/m^2 is the density of the real survey of an industrial building on which a robot was held
+// in contact beside such a strip.
+struct StripCase {
+  double strip_width_m;
+  double floor_points_per_m2;
+};
+
+class SparseCorridorTest : public ::testing::TestWithParam<StripCase> {};
+
+TEST_P(SparseCorridorTest, StripOfMissingFloorReturnsIsFloorAndNoObstacle) {
+  testing::SparseCorridorOptions o;
+  o.strip_width_m = GetParam().strip_width_m;
+  o.floor_points_per_m2 = GetParam().floor_points_per_m2;
+  const testing::SparseCorridorScan scan = testing::MakeSparseCorridorScan(o, 44);
+  const std::string path = MakeTempDir() + "/corridor.pcd";
+  WritePcd(path, scan.points_W);
+  WorldLoadReport report;
+  const World world = LoadWorld(path, {}, &report);
+  std::printf("FIGURE sparse_corridor_strip_%.1f_m_%.0f_per_m2_load %s\n", o.strip_width_m,
+              o.floor_points_per_m2, report.Summary().c_str());
+  ASSERT_DOUBLE_EQ(world.resolution_m(), 0.1);
+  // Nothing occupied in the corridor (a voxel away from the walls) from 0.1 m to 2 m above the floor.
+  int invented = 0;
+  for (double x = 0.15; x < o.length_m - 0.1; x += 0.1) {
+    for (double y = 0.15; y < o.width_m - 0.1; y += 0.1) {
+      for (double z = 0.15; z < 2.0; z += 0.1) invented += world.IsOccupied({x, y, z});
+    }
+  }
+  EXPECT_EQ(invented, 0);
+  // Every column of the strip has its floor voxel (the floor's points fall in [-0.1, 0.1)).
+  int strip_columns = 0, no_floor = 0;
+  for (double x = scan.strip_W.min().x() + 0.05; x < scan.strip_W.max().x(); x += 0.1) {
+    for (double y = scan.strip_W.min().y() + 0.05; y < scan.strip_W.max().y(); y += 0.1) {
+      ++strip_columns;
+      no_floor += !world.IsOccupied({x, y, -0.05}) && !world.IsOccupied({x, y, 0.05});
+    }
+  }
+  EXPECT_GE(strip_columns, 3 * 90);
+  EXPECT_EQ(no_floor, 0) << "of " << strip_columns << " strip columns";
+  EXPECT_GT(report.voxels_filled_strip, 0);  // Too long for a hole: filled as a strip.
+  // Free ground for a 0.3 m body wherever the walls leave it room (0.45 m: the radius plus the voxel that
+  // may bring a wall face closer), over the strip and beside it.
+  nav::TraversabilityOptions t = nav::GetPlatformProfile("wheeled").traversability;
+  const nav::TraversabilityGrid grid(world, t);
+  int blocked = 0, checked = 0;
+  for (double x = 0.5; x <= o.length_m - 0.5; x += 0.1) {
+    for (double y = 0.45; y <= o.width_m - 0.45; y += 0.1) {
+      ++checked;
+      const bool free =
+          grid.IsFootprintFree(x, y, 0.3) && std::abs(grid.GroundHeight(x, y).value_or(-9.0)) <= 0.1;
+      if (!free && blocked++ < 5) ADD_FAILURE() << "no free ground for the body at " << x << ", " << y;
+    }
+  }
+  EXPECT_EQ(blocked, 0) << "of " << checked << " body positions";
+}
+
+INSTANTIATE_TEST_SUITE_P(StripWidthsAndDensities, SparseCorridorTest,
+                         ::testing::Values(StripCase{0.3, 60.0}, StripCase{0.4, 60.0}, StripCase{0.5, 60.0},
+                                           StripCase{0.4, 20.0}, StripCase{0.5, 20.0}));
 
 }  // namespace
 }  // namespace cairn::sim

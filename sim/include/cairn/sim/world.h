@@ -30,9 +30,9 @@ struct WorldLoadOptions {
   /// (500 M voxels) takes 62.5 MB as a bit grid.
   std::int64_t max_voxels = 500'000'000;
 
-  // Clean-up of scanned worlds (.bt, .ot, .pcd; builtin worlds are exact and never touched). The defaults suit
-  // a sparse, noisy survey scan (~50 floor points per m^2, holes in walls and floor, single stray returns in
-  // open space) loaded at pcd_resolution_m = 0.1 m, and leave dense scans nearly unchanged.
+  // Clean-up of scanned worlds (.bt, .ot, .pcd; builtin worlds are exact and never touched). The defaults
+  // suit a sparse, noisy survey scan (~50 floor points per m^2, holes in walls and floor, single stray
+  // returns in open space) loaded at pcd_resolution_m = 0.1 m, and leave dense scans nearly unchanged.
 
   /// Support filter: a voxel is kept when it has at least min_support_neighbors occupied voxels within this
   /// distance (a cube of half-edge max(1, round(support_radius_m / resolution)) voxels around it, itself
@@ -49,6 +49,15 @@ struct WorldLoadOptions {
   /// anything from fill_gap_depth_m to 5 m below the floor (a stairwell, a shaft, a pit) are never bridged.
   /// Metres, 0 (off) or range [0.05, 3].
   double fill_hole_max_m = 0.6;
+  /// Floor strip filling (with hole filling on): a free voxel is made floor when it lies in a gap at most
+  /// this wide across (along x, y or a diagonal) between floor of the same level on both sides, and the gap
+  /// runs on for at least twice this width along it, however long; where a sparse scan's ragged edges widen
+  /// it, up to 1.5 times this, provided half of that length is at most this wide. A strip of missing returns
+  /// (a band a survey scanner never sampled, a dark floor marking) is floor, not a hole too long for
+  /// fill_hole_max_m. The corner of a larger opening (a wedge) and a compact hole are no strips; floor edges,
+  /// gaps with an obstacle in them and gaps over which the scan saw something lower (between racks or pallets
+  /// standing on the floor, over a shaft) are never bridged. Metres, 0 (off) or range [0.05, 3].
+  double fill_strip_max_m = 0.6;
   /// Free height a floor surface needs above it, inside the map (so a ceiling at the top of the map is never
   /// floor), and the free height below a surface that makes it overhead (a ceiling, a pipe, a shelf: never
   /// floor, never filled, never support for filling), metres, range [0.05, 5]; at least one voxel is used.
@@ -80,8 +89,11 @@ struct WorldLoadReport {
   std::int64_t voxels_read = 0;
   /// Voxels removed by the support filter (WorldLoadOptions::support_radius_m).
   std::int64_t voxels_removed_unsupported = 0;
-  /// Free voxels made floor by hole filling (WorldLoadOptions::fill_hole_max_m).
+  /// Free voxels made floor by hole filling (WorldLoadOptions::fill_hole_max_m and fill_strip_max_m).
   std::int64_t voxels_filled_floor = 0;
+  /// Of voxels_filled_floor, those that lie in a strip (WorldLoadOptions::fill_strip_max_m) and not in a
+  /// hole.
+  std::int64_t voxels_filled_strip = 0;
   /// Floor surface voxels the hole filling found (occupied, fill_clearance_m free above, not overhead).
   std::int64_t floor_surface_voxels = 0;
   /// Surface voxels classified overhead (free space of at least fill_clearance_m below them, then something
@@ -106,11 +118,12 @@ struct WorldLoadReport {
 ///    NaN/inf points are dropped and counted in `report`.
 /// Files are then cleaned up, in this order (see the WorldLoadOptions fields; counts in `report`):
 ///  1. support filter: unsupported voxels (stray returns) are removed;
-///  2. floor hole filling: holes narrower than fill_hole_max_m in floor surfaces are filled, one voxel thick,
-///     at the floor level. A floor surface is an occupied voxel with fill_clearance_m of free voxels above it
-///     inside the map and not overhead; ceilings at the top of the map and overhead surfaces (pipes, ceilings
-///     with the floor seen below) are never floor, so a hole under a pipe is filled at the floor level and the
-///     pipe stays the only thing above.
+///  2. floor hole filling: holes narrower than fill_hole_max_m in floor surfaces, and strips narrower than
+///     fill_strip_max_m across between floor on both sides, are filled, one voxel thick, at the floor level.
+///     A floor surface is an occupied voxel with fill_clearance_m of free voxels above it inside the map and
+///     not overhead; ceilings at the top of the map and overhead surfaces (pipes, ceilings with the floor
+///     seen below) are never floor, so a hole under a pipe is filled at the floor level and the pipe stays
+///     the only thing above.
 /// Frames: the file's frame is taken as W, z up. Units: metres.
 /// Throws WorldError naming the path/field and value when: options are invalid, the builtin name is
 /// unknown (the message lists valid names), the extension is unknown, the file is missing or unreadable,
