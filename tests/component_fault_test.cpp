@@ -243,6 +243,9 @@ TEST(ComponentFaults, ASupervisedAgentWhosePartDoesNotStopRestartsFromItsJournal
   }
   EXPECT_EQ(back.holder_id(), "opA");
   EXPECT_EQ(back.mode(), "idle");
+  op.Run("sleep 0.5");  // the events of the last seconds print before the next answer
+  EXPECT_TRUE(SawEvent(op, "component_escalated", "perception"))
+      << "the operator was not told why it restarts";
   const std::string log = ReadFile(logs + "/r1.log");
   EXPECT_NE(log.find("restarting the process (supervised)"), std::string::npos) << "see " << logs;
   EXPECT_NE(log.find("asked for a restart: a part of it did not stop"), std::string::npos) << "see " << logs;

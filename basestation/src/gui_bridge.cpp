@@ -1,6 +1,8 @@
 // The GUI's server side: FleetClient -> Foxglove WebSocket channels, services -> CommandShell (gui_bridge.h).
 #include "cairn/base/gui_bridge.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -10,13 +12,11 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <thread>
 #include <unordered_map>
-
-#include <nlohmann/json.hpp>
-#include <spdlog/spdlog.h>
 
 #include "cairn/base/operator_text.h"
 #include "cairn/core/time.h"
@@ -48,10 +48,11 @@ json PoseJson(double x, double y, double z, double yaw) {
 
 // An empty foxglove.SceneEntity with every field the schema names.
 json Entity(const std::string& id, std::uint64_t ns) {
-  return {{"timestamp", Stamp(ns)}, {"frame_id", "map"},      {"id", id},           {"lifetime", Stamp(0)},
-          {"frame_locked", false},  {"metadata", json::array()}, {"arrows", json::array()}, {"cubes", json::array()},
-          {"spheres", json::array()}, {"cylinders", json::array()}, {"lines", json::array()},
-          {"triangles", json::array()}, {"texts", json::array()}, {"models", json::array()}};
+  return {{"timestamp", Stamp(ns)},     {"frame_id", "map"},      {"id", id},
+          {"lifetime", Stamp(0)},       {"frame_locked", false},  {"metadata", json::array()},
+          {"arrows", json::array()},    {"cubes", json::array()}, {"spheres", json::array()},
+          {"cylinders", json::array()}, {"lines", json::array()}, {"triangles", json::array()},
+          {"texts", json::array()},     {"models", json::array()}};
 }
 
 json Cube(double x, double y, double z, double yaw, double sx, double sy, double sz, const json& color) {
@@ -61,11 +62,19 @@ json Cube(double x, double y, double z, double yaw, double sx, double sy, double
 json LineStrip(const std::vector<std::array<double, 3>>& points, double thickness, const json& color) {
   json pts = json::array();
   for (const auto& p : points) pts.push_back(Vec3(p[0], p[1], p[2]));
-  return {{"type", 0},          {"pose", PoseJson(0, 0, 0, 0)}, {"thickness", thickness}, {"scale_invariant", false},
-          {"points", pts},      {"color", color},                {"colors", json::array()}, {"indices", json::array()}};
+  return {{"type", 0},
+          {"pose", PoseJson(0, 0, 0, 0)},
+          {"thickness", thickness},
+          {"scale_invariant", false},
+          {"points", pts},
+          {"color", color},
+          {"colors", json::array()},
+          {"indices", json::array()}};
 }
 
-json Deletion(const std::string& id, std::uint64_t ns) { return {{"timestamp", Stamp(ns)}, {"type", 0}, {"id", id}}; }
+json Deletion(const std::string& id, std::uint64_t ns) {
+  return {{"timestamp", Stamp(ns)}, {"type", 0}, {"id", id}};
+}
 
 // Height colour of a map voxel (a blue-green-yellow-red ramp over [-1, 7] m), as "r,g,b" in [0, 1].
 void HeightColor(double z, double* r, double* g, double* b) {
@@ -80,7 +89,8 @@ json LoadSchemas(const std::string& web_root) {
   const std::string path = web_root + "/foxglove-schemas.json";
   std::ifstream in(path);
   if (!in) {
-    throw std::invalid_argument("the GUI's schema file '" + path + "' cannot be read (build the web app: ./cairn build)");
+    throw std::invalid_argument("the GUI's schema file '" + path +
+                                "' cannot be read (build the web app: ./cairn build)");
   }
   json j;
   try {
@@ -88,7 +98,8 @@ json LoadSchemas(const std::string& web_root) {
   } catch (const std::exception& e) {
     throw std::invalid_argument("the GUI's schema file '" + path + "' is not JSON: " + e.what());
   }
-  for (const char* name : {"foxglove.SceneUpdate", "foxglove.FrameTransforms", "foxglove.CompressedImage", "foxglove.Log"}) {
+  for (const char* name :
+       {"foxglove.SceneUpdate", "foxglove.FrameTransforms", "foxglove.CompressedImage", "foxglove.Log"}) {
     if (!j.contains(name)) throw std::invalid_argument("the GUI's schema file '" + path + "' has no " + name);
   }
   return j;
@@ -124,22 +135,30 @@ const char* kFleetStateSchema =
 "state_stamp":{"type":"object","description":"the robot's stamp of its latest state (wall clock)","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},
 "received_stamp":{"type":"object","description":"when this basestation received that state (wall clock)","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}}}}}}})json";
 
-const char* kCommandRequestSchema = R"json({"title":"cairn.CommandRequest","description":"One cairn_base command line, e.g. goto r1 12 4 (see cairn_base --help)","type":"object","properties":{"command":{"type":"string"}},"required":["command"]})json";
+const char* kCommandRequestSchema =
+    R"json({"title":"cairn.CommandRequest","description":"One cairn_base command line, e.g. goto r1 12 4 (see cairn_base --help)","type":"object","properties":{"command":{"type":"string"}},"required":["command"]})json";
 
-const char* kCommandResponseSchema = R"json({"title":"cairn.CommandResponse","description":"The CLI's --json result of the command: command, robot, ok, result (accepted|refused|failed|timed out|invalid), reason, holder, mode, valid_actions, ...","type":"object","properties":{"ok":{"type":"boolean"},"result":{"type":"string"},"reason":{"type":"string"},"exit_code":{"type":"integer"},"lines":{"type":"array","items":{"type":"object"}}}})json";
+const char* kCommandResponseSchema =
+    R"json({"title":"cairn.CommandResponse","description":"The CLI's --json result of the command: command, robot, ok, result (accepted|refused|failed|timed out|invalid), reason, holder, mode, valid_actions, ...","type":"object","properties":{"ok":{"type":"boolean"},"result":{"type":"string"},"reason":{"type":"string"},"exit_code":{"type":"integer"},"lines":{"type":"array","items":{"type":"object"}}}})json";
 
 std::string NavStatusName(cairn_msgs::NavStatus s) {
   switch (s) {
-    case cairn_msgs::NAV_STATUS_ACTIVE: return "active";
-    case cairn_msgs::NAV_STATUS_ARRIVED: return "arrived";
-    case cairn_msgs::NAV_STATUS_FAILED: return "failed";
-    default: return "none";
+    case cairn_msgs::NAV_STATUS_ACTIVE:
+      return "active";
+    case cairn_msgs::NAV_STATUS_ARRIVED:
+      return "arrived";
+    case cairn_msgs::NAV_STATUS_FAILED:
+      return "failed";
+    default:
+      return "none";
   }
 }
 
 int LogLevel(const std::string& kind) {
   if (kind == "failed" || kind == "lost" || kind == "lock_taken") return 3;  // WARNING
-  if (kind == "stopped" || kind == "component_failed" || kind == "component_restart_failed") return 3;
+  if (kind == "stopped" || kind == "component_failed" || kind == "component_restart_failed" ||
+      kind == "component_escalated")
+    return 3;
   // A staircase the operator may have relied on is gone.
   if (kind == "staircase_removed") return 3;
   return 2;  // INFO
@@ -166,11 +185,16 @@ bool GuiOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = text;
     return false;
   };
-  if (!(state_rate_hz > 0 && state_rate_hz <= 50)) return bad("GuiOptions::state_rate_hz " + std::to_string(state_rate_hz) + " must be in (0, 50]");
-  if (!(map_period_s >= 0.1 && map_period_s <= 60)) return bad("GuiOptions::map_period_s " + std::to_string(map_period_s) + " must be in [0.1, 60]");
-  if (!(map_budget_kBps >= 1 && map_budget_kBps <= 1e6)) return bad("GuiOptions::map_budget_kBps " + std::to_string(map_budget_kBps) + " must be in [1, 1e6]");
-  if (!(map_resend_s >= 0 && map_resend_s <= 600)) return bad("GuiOptions::map_resend_s " + std::to_string(map_resend_s) + " must be in [0, 600]");
-  if (!(trail_s >= 0 && trail_s <= 3600)) return bad("GuiOptions::trail_s " + std::to_string(trail_s) + " must be in [0, 3600]");
+  if (!(state_rate_hz > 0 && state_rate_hz <= 50))
+    return bad("GuiOptions::state_rate_hz " + std::to_string(state_rate_hz) + " must be in (0, 50]");
+  if (!(map_period_s >= 0.1 && map_period_s <= 60))
+    return bad("GuiOptions::map_period_s " + std::to_string(map_period_s) + " must be in [0.1, 60]");
+  if (!(map_budget_kBps >= 1 && map_budget_kBps <= 1e6))
+    return bad("GuiOptions::map_budget_kBps " + std::to_string(map_budget_kBps) + " must be in [1, 1e6]");
+  if (!(map_resend_s >= 0 && map_resend_s <= 600))
+    return bad("GuiOptions::map_resend_s " + std::to_string(map_resend_s) + " must be in [0, 600]");
+  if (!(trail_s >= 0 && trail_s <= 3600))
+    return bad("GuiOptions::trail_s " + std::to_string(trail_s) + " must be in [0, 3600]");
   return true;
 }
 
@@ -179,14 +203,21 @@ class GuiBridge::Impl {
   Impl(FleetClient& client, const GuiOptions& options) : client_(client), options_(options) {
     std::string why;
     if (!options.IsValid(&why)) throw std::invalid_argument(why);
-    if (options.server.web_root.empty()) throw std::invalid_argument("the GUI needs a web root (--gui-root DIR)");
+    if (options.server.web_root.empty())
+      throw std::invalid_argument("the GUI needs a web root (--gui-root DIR)");
     const json schemas = LoadSchemas(options.server.web_root);
     FoxgloveServer::Handlers handlers;
-    handlers.on_subscribe = [this](FoxgloveServer::ClientId c, std::uint32_t channel) { OnSubscribe(c, channel); };
-    handlers.on_client_message = [this](FoxgloveServer::ClientId c, const std::string& topic, const std::string& encoding,
-                                        const std::string& payload) { OnClientMessage(c, topic, encoding, payload); };
-    handlers.on_service_call = [this](FoxgloveServer::ClientId, std::uint32_t service, const std::string& request,
-                                      FoxgloveServer::Responder respond) { OnServiceCall(service, request, std::move(respond)); };
+    handlers.on_subscribe = [this](FoxgloveServer::ClientId c, std::uint32_t channel) {
+      OnSubscribe(c, channel);
+    };
+    handlers.on_client_message = [this](FoxgloveServer::ClientId c, const std::string& topic,
+                                        const std::string& encoding, const std::string& payload) {
+      OnClientMessage(c, topic, encoding, payload);
+    };
+    handlers.on_service_call = [this](FoxgloveServer::ClientId, std::uint32_t service,
+                                      const std::string& request, FoxgloveServer::Responder respond) {
+      OnServiceCall(service, request, std::move(respond));
+    };
     FoxgloveServerOptions server_options = options.server;
     server_options.name = "cairn_base " + client.base_id();
     server_ = std::make_unique<FoxgloveServer>(server_options, std::move(handlers));
@@ -214,8 +245,8 @@ class GuiBridge::Impl {
     command.response_schema_name = "cairn.CommandResponse";
     command.response_schema = kCommandResponseSchema;
     command_service_ = server_->AddService(command);
-    // Every event the FleetClient still keeps, also those from before the GUI started (a staircase found while
-    // the basestation was starting); the console prints its own, the shell below prints none.
+    // Every event the FleetClient still keeps, also those from before the GUI started (a staircase found
+    // while the basestation was starting); the console prints its own, the shell below prints none.
     ShellOptions shell_options;
     shell_options.json = true;
     shell_options.places_file = options.places_file;
@@ -291,15 +322,23 @@ class GuiBridge::Impl {
       if (first == "teleop" || first == "watch" || first == "wait" || first == "sleep" ||
           line.find("--wait") != std::string::npos) {
         // The GUI drives with /cairn/teleop and follows progress on /fleet: nothing here may hold the queue.
-        answer = {{"command", first}, {"ok", false}, {"result", outcome::kInvalid},
-                  {"reason", "'" + first + (line.find("--wait") != std::string::npos ? " --wait" : "") +
-                                 "' is for the CLI: the GUI streams teleop on /cairn/teleop and shows progress on /fleet"}};
+        answer = {
+            {"command", first},
+            {"ok", false},
+            {"result", outcome::kInvalid},
+            {"reason",
+             "'" + first + (line.find("--wait") != std::string::npos ? " --wait" : "") +
+                 "' is for the CLI: the GUI streams teleop on /cairn/teleop and shows progress on /fleet"}};
       } else {
         shell_out_.str("");
         try {
           code = shell_->Execute(line);
         } catch (const std::exception& e) {
-          shell_out_ << json{{"command", first}, {"ok", false}, {"result", outcome::kFailed}, {"reason", e.what()}}.dump()
+          shell_out_ << json{{"command", first},
+                             {"ok", false},
+                             {"result", outcome::kFailed},
+                             {"reason", e.what()}}
+                            .dump()
                      << "\n";
         }
         json lines = json::array();
@@ -334,7 +373,8 @@ class GuiBridge::Impl {
       vx = j.at("linear_x_mps").get<double>();
       wz = j.at("angular_z_radps").get<double>();
       vy = j.value("linear_y_mps", 0.0);
-      if (!std::isfinite(vx) || !std::isfinite(wz) || !std::isfinite(vy)) throw std::invalid_argument("a speed is not finite");
+      if (!std::isfinite(vx) || !std::isfinite(wz) || !std::isfinite(vy))
+        throw std::invalid_argument("a speed is not finite");
     } catch (const std::exception& e) {
       std::lock_guard<std::mutex> lock(mutex_);
       ++stats_.teleop_rejected;
@@ -350,7 +390,8 @@ class GuiBridge::Impl {
     // The robot's limits, as the CLI's teleop command applies them.
     if (view->max_speed_mps > 0) vx = std::clamp(vx, -view->max_reverse_speed_mps, view->max_speed_mps);
     if (view->max_speed_mps > 0) vy = std::clamp(vy, -view->max_speed_mps, view->max_speed_mps);
-    if (view->max_yaw_rate_radps > 0) wz = std::clamp(wz, -view->max_yaw_rate_radps, view->max_yaw_rate_radps);
+    if (view->max_yaw_rate_radps > 0)
+      wz = std::clamp(wz, -view->max_yaw_rate_radps, view->max_yaw_rate_radps);
     if (client_.PublishTeleop(robot, vx, wz, vy)) {
       std::lock_guard<std::mutex> lock(mutex_);
       ++stats_.teleop_messages;
@@ -370,7 +411,8 @@ class GuiBridge::Impl {
         const std::uint64_t ns = NowNs();
         const std::vector<RobotView> robots = client_.Robots();
         PublishState(robots, ns);
-        if (tick % std::max(1, static_cast<int>(std::lround(options_.state_rate_hz / 2))) == 0) PublishPaths(robots, ns, {});
+        if (tick % std::max(1, static_cast<int>(std::lround(options_.state_rate_hz / 2))) == 0)
+          PublishPaths(robots, ns, {});
         PublishCameras(robots, ns);
         PublishEvents(ns);
         PublishStairs(ns, {});
@@ -402,7 +444,8 @@ class GuiBridge::Impl {
     json scene = {{"deletions", json::array()}, {"entities", json::array()}};
     const auto now = core::SteadyClock::now();
     for (const RobotView& v : robots) {
-      json r = {{"id", v.robot_id}, {"platform", v.platform}, {"online", !v.lost}, {"lost_reason", v.lost_reason}};
+      json r = {
+          {"id", v.robot_id}, {"platform", v.platform}, {"online", !v.lost}, {"lost_reason", v.lost_reason}};
       r["heard_s_ago"] = v.state ? core::SecondsBetween(v.state_received, now) : -1.0;
       r["link"] = shell::LinkFieldsJson(v.link);
       r["link"]["class"] = v.link.link;
@@ -438,7 +481,8 @@ class GuiBridge::Impl {
         r["nav_status"] = NavStatusName(s.nav_status());
         r["nav_reason"] = s.nav_reason();
         r["nav_goal_id"] = s.nav_goal_id();
-        r["goal"] = {{"x_m", s.nav_goal_M().x_m()}, {"y_m", s.nav_goal_M().y_m()}, {"z_m", s.nav_goal_M().z_m()}};
+        r["goal"] = {
+            {"x_m", s.nav_goal_M().x_m()}, {"y_m", s.nav_goal_M().y_m()}, {"z_m", s.nav_goal_M().z_m()}};
         r["distance_left_m"] = s.nav_distance_left_m();
         r["eta_s"] = s.nav_eta_s();
         r["local_planner_status"] = s.local_planner_status();
@@ -452,35 +496,47 @@ class GuiBridge::Impl {
                       {"peer", s.yield_peer_id()},
                       {"reason", s.yield_reason()},
                       {"for", RobotWhoseRoutePasses(robots, v, 1.5)}};
-        const std::uint64_t state_ns = s.stamp().sec() < 0 ? 0
+        const std::uint64_t state_ns = s.stamp().sec() < 0
+                                           ? 0
                                            : static_cast<std::uint64_t>(s.stamp().sec()) * 1000000000ULL +
                                                  std::min<std::uint64_t>(s.stamp().nanosec(), 999999999ULL);
         const double received_ago_s = core::SecondsBetween(v.state_received, now);
         r["state_stamp"] = Stamp(state_ns);
-        r["received_stamp"] = Stamp(ns - std::min<std::uint64_t>(ns, static_cast<std::uint64_t>(std::max(0.0, received_ago_s) * 1e9)));
+        r["received_stamp"] =
+            Stamp(ns - std::min<std::uint64_t>(
+                           ns, static_cast<std::uint64_t>(std::max(0.0, received_ago_s) * 1e9)));
         // The pose at the time the robot stamped it (a peer's stamp in the future or far past: ours).
-        const bool stamp_plausible = state_ns > 0 && state_ns <= ns + 1000000000ULL && ns - std::min(ns, state_ns) < 3600000000000ULL;
+        const bool stamp_plausible =
+            state_ns > 0 && state_ns <= ns + 1000000000ULL && ns - std::min(ns, state_ns) < 3600000000000ULL;
         tf["transforms"].push_back({{"timestamp", Stamp(stamp_plausible ? state_ns : ns)},
-                                     {"parent_frame_id", "map"},
-                                     {"child_frame_id", v.robot_id},
-                                     {"translation", Vec3(p.x_m(), p.y_m(), p.z_m())},
-                                     {"rotation",
-                                      {{"x", s.pose_MB().orientation().x()},
-                                       {"y", s.pose_MB().orientation().y()},
-                                       {"z", s.pose_MB().orientation().z()},
-                                       {"w", s.pose_MB().orientation().w()}}}});
+                                    {"parent_frame_id", "map"},
+                                    {"child_frame_id", v.robot_id},
+                                    {"translation", Vec3(p.x_m(), p.y_m(), p.z_m())},
+                                    {"rotation",
+                                     {{"x", s.pose_MB().orientation().x()},
+                                      {"y", s.pose_MB().orientation().y()},
+                                      {"z", s.pose_MB().orientation().z()},
+                                      {"w", s.pose_MB().orientation().w()}}}});
         double cr = 0, cg = 0, cb = 0;
         ModeColor(s.mode(), &cr, &cg, &cb);
         const double alpha = v.lost ? 0.35 : 1.0;
         json e = Entity("robot/" + v.robot_id, ns);
-        e["cubes"].push_back(Cube(p.x_m(), p.y_m(), p.z_m() + 0.2, yaw, 0.7, 0.5, 0.35, Color(cr, cg, cb, alpha)));
+        e["cubes"].push_back(
+            Cube(p.x_m(), p.y_m(), p.z_m() + 0.2, yaw, 0.7, 0.5, 0.35, Color(cr, cg, cb, alpha)));
         e["arrows"].push_back({{"pose", PoseJson(p.x_m(), p.y_m(), p.z_m() + 0.45, yaw)},
-                               {"shaft_length", 0.45}, {"shaft_diameter", 0.06}, {"head_length", 0.2},
-                               {"head_diameter", 0.16}, {"color", Color(1, 1, 1, alpha)}});
+                               {"shaft_length", 0.45},
+                               {"shaft_diameter", 0.06},
+                               {"head_length", 0.2},
+                               {"head_diameter", 0.16},
+                               {"color", Color(1, 1, 1, alpha)}});
         const std::string holder = s.holder_id().empty() ? "free" : "held by " + s.holder_id();
-        e["texts"].push_back({{"pose", PoseJson(p.x_m(), p.y_m(), p.z_m() + 0.9, 0)}, {"billboard", true},
-                              {"font_size", 14.0}, {"scale_invariant", true}, {"color", Color(1, 1, 1, 1)},
-                              {"text", v.robot_id + " · " + s.mode() + " · " + holder + (v.lost ? " · LOST" : "")}});
+        e["texts"].push_back(
+            {{"pose", PoseJson(p.x_m(), p.y_m(), p.z_m() + 0.9, 0)},
+             {"billboard", true},
+             {"font_size", 14.0},
+             {"scale_invariant", true},
+             {"color", Color(1, 1, 1, 1)},
+             {"text", v.robot_id + " · " + s.mode() + " · " + holder + (v.lost ? " · LOST" : "")}});
         e["metadata"].push_back({{"key", "holder"}, {"value", s.holder_id()}});
         e["metadata"].push_back({{"key", "mode"}, {"value", s.mode()}});
         scene["entities"].push_back(e);
@@ -501,23 +557,29 @@ class GuiBridge::Impl {
   void UpdateTrail(const std::string& id, double x, double y, double z) {
     auto& trail = trails_[id];
     const auto now = Clock::now();
-    if (trail.empty() || std::hypot(trail.back().p[0] - x, trail.back().p[1] - y) > 0.2) trail.push_back({{x, y, z + 0.05}, now});
-    while (!trail.empty() && std::chrono::duration<double>(now - trail.front().t).count() > options_.trail_s) trail.pop_front();
+    if (trail.empty() || std::hypot(trail.back().p[0] - x, trail.back().p[1] - y) > 0.2)
+      trail.push_back({{x, y, z + 0.05}, now});
+    while (!trail.empty() && std::chrono::duration<double>(now - trail.front().t).count() > options_.trail_s)
+      trail.pop_front();
   }
 
-  // Global paths, local plans, goals, exploration targets and trails: changed ones to every subscriber, or all to `only`.
-  void PublishPaths(const std::vector<RobotView>& robots, std::uint64_t ns, std::optional<FoxgloveServer::ClientId> only) {
+  // Global paths, local plans, goals, exploration targets and trails: changed ones to every subscriber, or
+  // all to `only`.
+  void PublishPaths(const std::vector<RobotView>& robots, std::uint64_t ns,
+                    std::optional<FoxgloveServer::ClientId> only) {
     json scene = {{"deletions", json::array()}, {"entities", json::array()}};
     for (const RobotView& v : robots) {
       if (!v.state) continue;
       json e = Entity("path/" + v.robot_id, ns);
       const auto& s = *v.state;
-      if (v.global_path && s.nav_status() == cairn_msgs::NAV_STATUS_ACTIVE && !v.global_path->path_M().empty()) {
+      if (v.global_path && s.nav_status() == cairn_msgs::NAV_STATUS_ACTIVE &&
+          !v.global_path->path_M().empty()) {
         std::vector<std::array<double, 3>> pts;
         for (const auto& p : v.global_path->path_M()) pts.push_back({p.x_m(), p.y_m(), p.z_m() + 0.1});
         e["lines"].push_back(LineStrip(pts, 0.08, Color(0.2, 0.85, 1.0, 0.9)));
         const auto& g = s.nav_goal_M();
-        e["spheres"].push_back({{"pose", PoseJson(g.x_m(), g.y_m(), g.z_m() + 0.15, 0)}, {"size", Vec3(0.3, 0.3, 0.3)},
+        e["spheres"].push_back({{"pose", PoseJson(g.x_m(), g.y_m(), g.z_m() + 0.15, 0)},
+                                {"size", Vec3(0.3, 0.3, 0.3)},
                                 {"color", Color(0.2, 0.85, 1.0, 0.9)}});
       }
       if (s.explore_has_target() && s.explore_state() == "exploring") {
@@ -527,7 +589,8 @@ class GuiBridge::Impl {
         ModeColor("explore", &r, &g, &b);
         e["lines"].push_back(LineStrip({{t.x_m(), t.y_m(), t.z_m()}, {t.x_m(), t.y_m(), t.z_m() + 1.0}}, 0.05,
                                        Color(r, g, b, 0.9)));
-        e["spheres"].push_back({{"pose", PoseJson(t.x_m(), t.y_m(), t.z_m() + 1.0, 0)}, {"size", Vec3(0.35, 0.35, 0.35)},
+        e["spheres"].push_back({{"pose", PoseJson(t.x_m(), t.y_m(), t.z_m() + 1.0, 0)},
+                                {"size", Vec3(0.35, 0.35, 0.35)},
                                 {"color", Color(r, g, b, 0.95)}});
       }
       if (v.local_plan && !v.local_plan->chosen_path_B().empty()) {
@@ -584,10 +647,11 @@ class GuiBridge::Impl {
       channel->second.frames_sent = frame->frames_received;
       if (!server_->HasSubscribers(channel->second.id)) continue;
       const auto& data = frame->frame.data();
-      const json image = {{"timestamp", {{"sec", frame->frame.stamp().sec()}, {"nsec", frame->frame.stamp().nanosec()}}},
-                          {"frame_id", v.robot_id + "/camera"},
-                          {"data", Base64(data)},
-                          {"format", frame->frame.format()}};
+      const json image = {
+          {"timestamp", {{"sec", frame->frame.stamp().sec()}, {"nsec", frame->frame.stamp().nanosec()}}},
+          {"frame_id", v.robot_id + "/camera"},
+          {"data", Base64(data)},
+          {"format", frame->frame.format()}};
       server_->Publish(channel->second.id, ns, image.dump());
     }
   }
@@ -621,12 +685,13 @@ class GuiBridge::Impl {
   }
 
   void PublishEvents(std::uint64_t ns) {
-    for (const OperatorEvent& e : client_.EventsSince(&event_cursor_)) server_->Publish(events_, ns, LogPayload(e));
+    for (const OperatorEvent& e : client_.EventsSince(&event_cursor_))
+      server_->Publish(events_, ns, LogPayload(e));
   }
 
   // The events the FleetClient keeps that went out before, each with its own time, to a new /events
-  // subscriber (a GUI opened late still lists the staircases found and robots lost before it). One it also got
-  // live is sent twice: the Cairn GUI drops it (same time, name and message).
+  // subscriber (a GUI opened late still lists the staircases found and robots lost before it). One it also
+  // got live is sent twice: the Cairn GUI drops it (same time, name and message).
   void ReplayEvents(std::uint64_t ns, FoxgloveServer::ClientId client) {
     for (const OperatorEvent& e : client_.RecentEvents()) {
       if (e.seq <= event_cursor_) server_->SendTo(client, events_, ns, LogPayload(e));
@@ -652,10 +717,12 @@ class GuiBridge::Impl {
       for (const auto& src : entry.sources) sources += (sources.empty() ? "" : ", ") + src;
       e["texts"].push_back({{"pose", PoseJson(st.p_W_first_step.x(), st.p_W_first_step.y(),
                                               st.p_W_first_step.z() + st.num_steps * st.rise_m + 0.5, 0)},
-                            {"billboard", true}, {"font_size", 12.0}, {"scale_invariant", true},
+                            {"billboard", true},
+                            {"font_size", 12.0},
+                            {"scale_invariant", true},
                             {"color", Color(1.0, 0.85, 0.3, 1)},
-                            {"text", "staircase " + std::to_string(entry.id) + ": " + std::to_string(st.num_steps) +
-                                         " steps (seen by " + sources + ")"}});
+                            {"text", "staircase " + std::to_string(entry.id) + ": " +
+                                         std::to_string(st.num_steps) + " steps (seen by " + sources + ")"}});
       scene["entities"].push_back(e);
     }
     if (only) {
@@ -690,20 +757,23 @@ class GuiBridge::Impl {
         const double x = (v.ix + 0.5) * res, y = (v.iy + 0.5) * res, z = (v.iz + 0.5) * res;
         HeightColor(z, &r, &g, &b);
         char buf[256];
-        std::snprintf(buf, sizeof(buf),
-                      "%s{\"pose\":{\"position\":{\"x\":%.2f,\"y\":%.2f,\"z\":%.2f},\"orientation\":{\"x\":0,\"y\":0,"
-                      "\"z\":0,\"w\":1}},\"size\":{\"x\":%.3f,\"y\":%.3f,\"z\":%.3f},\"color\":{\"r\":%.2f,\"g\":%.2f,"
-                      "\"b\":%.2f,\"a\":1}}",
-                      cubes.empty() ? "" : ",", x, y, z, res, res, res, r, g, b);
+        std::snprintf(
+            buf, sizeof(buf),
+            "%s{\"pose\":{\"position\":{\"x\":%.2f,\"y\":%.2f,\"z\":%.2f},\"orientation\":{\"x\":0,\"y\":0,"
+            "\"z\":0,\"w\":1}},\"size\":{\"x\":%.3f,\"y\":%.3f,\"z\":%.3f},\"color\":{\"r\":%.2f,\"g\":%.2f,"
+            "\"b\":%.2f,\"a\":1}}",
+            cubes.empty() ? "" : ",", x, y, z, res, res, res, r, g, b);
         cubes += buf;
       }
-      // The link budget (GuiOptions::map_budget_kBps): a token bucket filled at the budget, holding at most two
-      // seconds of it. Columns never sent go first (new ground shows at once), then changed ones, least recently
-      // sent first, each at most every map_resend_s: a map that keeps changing as robots drive costs the budget,
-      // not every change; what waits goes out at a later period.
+      // The link budget (GuiOptions::map_budget_kBps): a token bucket filled at the budget, holding at most
+      // two seconds of it. Columns never sent go first (new ground shows at once), then changed ones, least
+      // recently sent first, each at most every map_resend_s: a map that keeps changing as robots drive costs
+      // the budget, not every change; what waits goes out at a later period.
       const auto now = Clock::now();
       const double budget_Bps = options_.map_budget_kBps * 1000.0;
-      const double dt = map_tokens_at_ == Clock::time_point{} ? 2.0 : std::chrono::duration<double>(now - map_tokens_at_).count();
+      const double dt = map_tokens_at_ == Clock::time_point{}
+                            ? 2.0
+                            : std::chrono::duration<double>(now - map_tokens_at_).count();
       map_tokens_at_ = now;
       map_tokens_ = std::min(2.0 * budget_Bps, map_tokens_ + dt * budget_Bps);
       // Each changed column with when it was last sent (never: the epoch, so it sorts first).
@@ -718,7 +788,8 @@ class GuiBridge::Impl {
         if (sent == map_sent_.end()) {
           changed.push_back({key, &cubes, Clock::time_point{}});
         } else if (sent->second.cubes != cubes &&
-                   std::chrono::duration<double>(now - sent->second.sent_at).count() >= options_.map_resend_s) {
+                   std::chrono::duration<double>(now - sent->second.sent_at).count() >=
+                       options_.map_resend_s) {
           changed.push_back({key, &cubes, sent->second.sent_at});
         }
       }
@@ -744,13 +815,15 @@ class GuiBridge::Impl {
         it = map_sent_.erase(it);
       }
       // At most ~64 columns per message so that no single frame grows past a few MB.
-      for (std::size_t i = 0; i < std::max<std::size_t>(entities.size(), deletions.empty() ? 0 : 1); i += 64) {
+      for (std::size_t i = 0; i < std::max<std::size_t>(entities.size(), deletions.empty() ? 0 : 1);
+           i += 64) {
         std::string msg = "{\"deletions\":[";
         if (i == 0) msg += Join(deletions);
         msg += "],\"entities\":[";
         const std::size_t end = std::min(entities.size(), i + 64);
-        msg += Join(std::vector<std::string>(entities.begin() + static_cast<std::ptrdiff_t>(std::min(i, entities.size())),
-                                             entities.begin() + static_cast<std::ptrdiff_t>(end)));
+        msg += Join(std::vector<std::string>(
+            entities.begin() + static_cast<std::ptrdiff_t>(std::min(i, entities.size())),
+            entities.begin() + static_cast<std::ptrdiff_t>(end)));
         msg += "]}";
         server_->Publish(map_, ns, msg);
         std::lock_guard<std::mutex> lock(mutex_);
@@ -762,11 +835,12 @@ class GuiBridge::Impl {
     for (const auto& [key, sent] : map_sent_) entities.push_back(ChunkEntity(key, sent.cubes, ns));
     for (std::size_t i = 0; i < entities.size(); i += 64) {
       const std::size_t end = std::min(entities.size(), i + 64);
-      server_->SendTo(*only, map_, ns,
-                      "{\"deletions\":[],\"entities\":[" +
-                          Join(std::vector<std::string>(entities.begin() + static_cast<std::ptrdiff_t>(i),
-                                                        entities.begin() + static_cast<std::ptrdiff_t>(end))) +
-                          "]}");
+      server_->SendTo(
+          *only, map_, ns,
+          "{\"deletions\":[],\"entities\":[" +
+              Join(std::vector<std::string>(entities.begin() + static_cast<std::ptrdiff_t>(i),
+                                            entities.begin() + static_cast<std::ptrdiff_t>(end))) +
+              "]}");
     }
   }
 
@@ -830,7 +904,8 @@ class GuiBridge::Impl {
   std::thread commander_;
 };
 
-GuiBridge::GuiBridge(FleetClient& client, const GuiOptions& options) : impl_(std::make_unique<Impl>(client, options)) {}
+GuiBridge::GuiBridge(FleetClient& client, const GuiOptions& options)
+    : impl_(std::make_unique<Impl>(client, options)) {}
 GuiBridge::~GuiBridge() = default;
 std::string GuiBridge::url() const { return impl_->url(); }
 GuiStats GuiBridge::Stats() const { return impl_->Stats(); }

@@ -2,13 +2,14 @@
 #include "cairn/nav/frontier.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <optional>
 #include <queue>
 #include <sstream>
-#include <unordered_map>
 #include <stdexcept>
+#include <unordered_map>
 #include <utility>
 
 #include "multilevel_search.h"
@@ -22,6 +23,8 @@ constexpr int kDx4[4] = {1, -1, 0, 0};
 constexpr int kDy4[4] = {0, 0, 1, -1};
 constexpr int kDx8[8] = {1, 1, 0, -1, -1, -1, 0, 1};
 constexpr int kDy8[8] = {0, 1, 1, 1, 0, -1, -1, -1};
+// FrontierOptions::progress is called once per this many states taken from a search's queue (about 10 ms).
+constexpr std::size_t kProgressEvery = 1 << 15;
 
 // How far from the robot's position a traversable start cell is looked for, metres.
 constexpr double kStartSearchM = 1.0;
@@ -33,8 +36,8 @@ constexpr double kTargetMarginM = 0.15;
 // Unknown cells a lidar at cell (tx, ty) could see within `radius_m`: rays from the cell's centre, as many as
 // there are cells around the circle of that radius (every cell within it is crossed by one),
 // each marching cell by cell through known-free and unknown cells until a cell with an obstacle (a wall) or
-// the radius; a cell crossed by several rays counts once (`stamp`, marked with `id`), a cell `peer_seen` marks
-// (when not empty) not at all.
+// the radius; a cell crossed by several rays counts once (`stamp`, marked with `id`), a cell `peer_seen`
+// marks (when not empty) not at all.
 std::int64_t VisibleUnknownCells(const TraversabilityGrid& grid, int tx, int ty, double radius_m, int id,
                                  std::vector<int>* stamp, const std::vector<char>& peer_seen) {
   const double cell_m = grid.cell_size_m();
@@ -67,7 +70,9 @@ std::int64_t VisibleUnknownCells(const TraversabilityGrid& grid, int tx, int ty,
 // to the nearest cell `known(ix, iy)` marks; infinity when none is.
 template <class Known>
 std::vector<float> ChamferToKnown(int nx, int ny, Known&& known) {
-  auto index = [nx](int ix, int iy) { return static_cast<std::size_t>(ix) + static_cast<std::size_t>(nx) * iy; };
+  auto index = [nx](int ix, int iy) {
+    return static_cast<std::size_t>(ix) + static_cast<std::size_t>(nx) * iy;
+  };
   std::vector<float> to_known(static_cast<std::size_t>(nx) * ny, std::numeric_limits<float>::infinity());
   for (int iy = 0; iy < ny; ++iy) {
     for (int ix = 0; ix < nx; ++ix) {
@@ -113,9 +118,11 @@ std::vector<char> PeerSeenCells(const Grid& grid, const PeerCoverage* peers) {
     const Eigen::Vector2d lo = corner.cwiseMax(grid.p_W_min());
     const Eigen::Vector2d hi = (corner.array() + c).matrix().cwiseMin(grid.p_W_max());
     if (lo.x() >= hi.x() || lo.y() >= hi.y()) return;
-    if (!grid.CellOf(lo.x(), lo.y(), &x0, &y0) || !grid.CellOf(hi.x() - 1e-9, hi.y() - 1e-9, &x1, &y1)) return;
+    if (!grid.CellOf(lo.x(), lo.y(), &x0, &y0) || !grid.CellOf(hi.x() - 1e-9, hi.y() - 1e-9, &x1, &y1))
+      return;
     for (int iy = y0; iy <= y1; ++iy) {
-      for (int ix = x0; ix <= x1; ++ix) seen[static_cast<std::size_t>(ix) + static_cast<std::size_t>(grid.nx()) * iy] = 1;
+      for (int ix = x0; ix <= x1; ++ix)
+        seen[static_cast<std::size_t>(ix) + static_cast<std::size_t>(grid.nx()) * iy] = 1;
     }
   });
   return seen;
@@ -124,8 +131,8 @@ std::vector<char> PeerSeenCells(const Grid& grid, const PeerCoverage* peers) {
 // The frontier cells of one 8-connected component cut into pieces of at most `piece_cells` cells along x and
 // along y, counted from the component's minimum cell (`cell_xy` gives a cell's column indices).
 template <class Cell, class CellXY>
-std::map<std::pair<int, int>, std::vector<Cell>> CutIntoPieces(const std::vector<Cell>& component, CellXY&& cell_xy,
-                                                                int piece_cells) {
+std::map<std::pair<int, int>, std::vector<Cell>> CutIntoPieces(const std::vector<Cell>& component,
+                                                               CellXY&& cell_xy, int piece_cells) {
   int min_x = std::numeric_limits<int>::max();
   int min_y = std::numeric_limits<int>::max();
   for (const Cell& c : component) {
@@ -167,29 +174,29 @@ Cell ChooseTarget(const std::vector<Cell>& cells, const Eigen::Vector2d& centroi
   return best_reachable == kInf ? fallback : target;
 }
 
-// How a search reads its cells (a 2.5D cell, or a surface of the map's levels) for AppendClusters(): callables
-// taking a cell.
+// How a search reads its cells (a 2.5D cell, or a surface of the map's levels) for AppendClusters():
+// callables taking a cell.
 template <class Center, class Clearance, class Cost, class ViaTight, class GroundZ, class UnknownCells>
 struct CellView {
-  Center center_m;              // x-y of its centre, metres, frame M
-  Clearance clearance_m;        // to the nearest lethal cell, metres
-  Cost cost_m;                  // travel cost from the robot, metres; infinity when unreachable
-  ViaTight via_tight;           // the cheapest path to it passes a tight cell
-  GroundZ ground_z_m;           // its ground height, metres, frame M
-  UnknownCells unknown_cells;   // the unknown cells visible around it (the gain, in cells)
+  Center center_m;             // x-y of its centre, metres, frame M
+  Clearance clearance_m;       // to the nearest lethal cell, metres
+  Cost cost_m;                 // travel cost from the robot, metres; infinity when unreachable
+  ViaTight via_tight;          // the cheapest path to it passes a tight cell
+  GroundZ ground_z_m;          // its ground height, metres, frame M
+  UnknownCells unknown_cells;  // the unknown cells visible around it (the gain, in cells)
 };
 template <class... Fn>
 CellView<Fn...> MakeCellView(Fn... fn) {
   return {std::move(fn)...};
 }
 
-// Appends to `clusters` one FrontierCluster per piece (CutIntoPieces()) of at least options.min_cells cells and
-// options.min_gain_m2 gain, the same way for both searches; `view` (a CellView) reads the cells, each
+// Appends to `clusters` one FrontierCluster per piece (CutIntoPieces()) of at least options.min_cells cells
+// and options.min_gain_m2 gain, the same way for both searches; `view` (a CellView) reads the cells, each
 // cell_area_m2.
 template <class Cell, class View>
-void AppendClusters(const std::map<std::pair<int, int>, std::vector<Cell>>& pieces, const FrontierOptions& options,
-                    double robot_radius_m, double cell_area_m2, const View& view,
-                    std::vector<FrontierCluster>* clusters) {
+void AppendClusters(const std::map<std::pair<int, int>, std::vector<Cell>>& pieces,
+                    const FrontierOptions& options, double robot_radius_m, double cell_area_m2,
+                    const View& view, std::vector<FrontierCluster>* clusters) {
   for (const auto& [key, cells] : pieces) {
     if (static_cast<int>(cells.size()) < options.min_cells) continue;
     FrontierCluster cluster;
@@ -198,14 +205,16 @@ void AppendClusters(const std::map<std::pair<int, int>, std::vector<Cell>>& piec
     cluster.centroid_M /= cluster.cells;
     const Cell target = ChooseTarget(
         cells, cluster.centroid_M, robot_radius_m, [&view](const Cell& c) { return view.center_m(c); },
-        [&view](const Cell& c) { return view.clearance_m(c); }, [&view](const Cell& c) { return view.cost_m(c); });
+        [&view](const Cell& c) { return view.clearance_m(c); },
+        [&view](const Cell& c) { return view.cost_m(c); });
     cluster.gain_m2 = static_cast<double>(view.unknown_cells(target)) * cell_area_m2;
     if (cluster.gain_m2 < options.min_gain_m2) continue;
     cluster.target_M = view.center_m(target);
     cluster.target_ground_z_m = view.ground_z_m(target);
     cluster.travel_cost_m = view.cost_m(target);
     cluster.through_tight_gap = view.via_tight(target);
-    cluster.utility = cluster.reachable() ? cluster.gain_m2 / (cluster.travel_cost_m + options.cost_offset_m) : 0.0;
+    cluster.utility =
+        cluster.reachable() ? cluster.gain_m2 / (cluster.travel_cost_m + options.cost_offset_m) : 0.0;
     clusters->push_back(cluster);
   }
 }
@@ -217,10 +226,13 @@ bool FrontierOptions::IsValid(std::string* why) const {
   auto range = [&msg](const char* field, double value, double lo, double hi, bool lo_open) {
     return internal::InOptionRange(msg, "FrontierOptions", field, value, lo, hi, lo_open);
   };
-  bool ok = range("min_gain_m2", min_gain_m2, 0, 1e4, false) && range("gain_radius_m", gain_radius_m, 0, 100, true) &&
+  bool ok = range("min_gain_m2", min_gain_m2, 0, 1e4, false) &&
+            range("gain_radius_m", gain_radius_m, 0, 100, true) &&
             range("max_cluster_extent_m", max_cluster_extent_m, 0.5, 100, false) &&
-            range("cost_offset_m", cost_offset_m, 0, 1000, true) && range("unknown_cost", unknown_cost, 0, 100, false) &&
-            range("unknown_reach_m", unknown_reach_m, 0, 50, false) && range("tight_cost", tight_cost, 0, 100, false);
+            range("cost_offset_m", cost_offset_m, 0, 1000, true) &&
+            range("unknown_cost", unknown_cost, 0, 100, false) &&
+            range("unknown_reach_m", unknown_reach_m, 0, 50, false) &&
+            range("tight_cost", tight_cost, 0, 100, false);
   if (ok && !(tight_radius_m > 0)) {
     msg << "FrontierOptions::tight_radius_m = " << tight_radius_m << " must be > 0 (infinity: off)";
     ok = false;
@@ -248,15 +260,16 @@ bool FrontierOptions::IsValid(std::string* why) const {
 }
 
 void SortFrontierClusters(std::vector<FrontierCluster>* clusters) {
-  std::stable_sort(clusters->begin(), clusters->end(), [](const FrontierCluster& a, const FrontierCluster& b) {
-    if (a.reachable() != b.reachable()) return a.reachable();
-    return a.reachable() ? a.utility > b.utility : a.gain_m2 > b.gain_m2;
-  });
+  std::stable_sort(clusters->begin(), clusters->end(),
+                   [](const FrontierCluster& a, const FrontierCluster& b) {
+                     if (a.reachable() != b.reachable()) return a.reachable();
+                     return a.reachable() ? a.utility > b.utility : a.gain_m2 > b.gain_m2;
+                   });
 }
 
 int FrontierSet::reachable() const {
-  return static_cast<int>(
-      std::count_if(clusters.begin(), clusters.end(), [](const FrontierCluster& c) { return c.reachable(); }));
+  return static_cast<int>(std::count_if(clusters.begin(), clusters.end(),
+                                        [](const FrontierCluster& c) { return c.reachable(); }));
 }
 
 PeerCoverage::PeerCoverage(double cell_m) : cell_m_(cell_m) {
@@ -268,7 +281,7 @@ PeerCoverage::PeerCoverage(double cell_m) : cell_m_(cell_m) {
 std::int64_t PeerCoverage::Key(const Eigen::Vector2d& p_M) const {
   const auto ix = static_cast<std::int64_t>(std::floor(p_M.x() / cell_m_));
   const auto iy = static_cast<std::int64_t>(std::floor(p_M.y() / cell_m_));
-  return (ix << 32) ^ (iy & 0xffffffffLL);
+  return static_cast<std::int64_t>(static_cast<std::uint64_t>(ix) << 32) ^ (iy & 0xffffffffLL);
 }
 
 Eigen::Vector2d PeerCoverage::Corner(std::int64_t key) const {
@@ -281,19 +294,22 @@ void PeerCoverage::Mark(const Eigen::Vector2d& p_M) {
   if (p_M.allFinite()) cells_.insert(Key(p_M));
 }
 
-bool PeerCoverage::Covered(const Eigen::Vector2d& p_M) const { return p_M.allFinite() && cells_.count(Key(p_M)) > 0; }
+bool PeerCoverage::Covered(const Eigen::Vector2d& p_M) const {
+  return p_M.allFinite() && cells_.count(Key(p_M)) > 0;
+}
 
 void PeerCoverage::Add(const CoverageBitmap& bitmap) {
   if (std::abs(bitmap.cell_m - cell_m_) > 1e-9) {
     throw std::invalid_argument("PeerCoverage::Add: bitmap cell_m = " + std::to_string(bitmap.cell_m) +
                                 " differs from the coverage's " + std::to_string(cell_m_));
   }
-  if (const std::string why = bitmap.Check(); !why.empty()) throw std::invalid_argument("PeerCoverage::Add: " + why);
+  if (const std::string why = bitmap.Check(); !why.empty())
+    throw std::invalid_argument("PeerCoverage::Add: " + why);
   for (int j = 0; j < bitmap.ny; ++j) {
     for (int i = 0; i < bitmap.nx; ++i) {
       if (!bitmap.Covered(i, j)) continue;
       const std::int64_t ix = bitmap.origin_cell.x() + i, iy = bitmap.origin_cell.y() + j;
-      cells_.insert((ix << 32) ^ (iy & 0xffffffffLL));
+      cells_.insert(static_cast<std::int64_t>(static_cast<std::uint64_t>(ix) << 32) ^ (iy & 0xffffffffLL));
     }
   }
 }
@@ -323,13 +339,15 @@ std::string CoverageBitmap::Check() const {
 
 CoverageBitmap SeenCoverage(const TraversabilityGrid& grid, double cell_m) {
   if (!(cell_m > 0 && cell_m <= 10) || cell_m < grid.cell_size_m() - 1e-9) {
-    throw std::invalid_argument("SeenCoverage: cell_m = " + std::to_string(cell_m) + " must be in (0, 10] and at " +
-                                "least the grid's cell of " + std::to_string(grid.cell_size_m()) + " m");
+    throw std::invalid_argument("SeenCoverage: cell_m = " + std::to_string(cell_m) +
+                                " must be in (0, 10] and at " + "least the grid's cell of " +
+                                std::to_string(grid.cell_size_m()) + " m");
   }
   CoverageBitmap out;
   out.cell_m = cell_m;
   const Eigen::Vector2d lo = grid.p_W_min(), hi = grid.p_W_max();
-  out.origin_cell = {static_cast<int>(std::floor(lo.x() / cell_m)), static_cast<int>(std::floor(lo.y() / cell_m))};
+  out.origin_cell = {static_cast<int>(std::floor(lo.x() / cell_m)),
+                     static_cast<int>(std::floor(lo.y() / cell_m))};
   out.nx = static_cast<int>(std::ceil(hi.x() / cell_m)) - out.origin_cell.x();
   out.ny = static_cast<int>(std::ceil(hi.y() / cell_m)) - out.origin_cell.y();
   const std::size_t n = static_cast<std::size_t>(out.nx) * out.ny;
@@ -337,8 +355,10 @@ CoverageBitmap SeenCoverage(const TraversabilityGrid& grid, double cell_m) {
   for (int y = 0; y < grid.ny(); ++y) {
     for (int x = 0; x < grid.nx(); ++x) {
       const Eigen::Vector2d c = grid.CellCenter(x, y);
-      const int i = std::clamp(static_cast<int>(std::floor(c.x() / cell_m)) - out.origin_cell.x(), 0, out.nx - 1);
-      const int j = std::clamp(static_cast<int>(std::floor(c.y() / cell_m)) - out.origin_cell.y(), 0, out.ny - 1);
+      const int i =
+          std::clamp(static_cast<int>(std::floor(c.x() / cell_m)) - out.origin_cell.x(), 0, out.nx - 1);
+      const int j =
+          std::clamp(static_cast<int>(std::floor(c.y() / cell_m)) - out.origin_cell.y(), 0, out.ny - 1);
       const std::size_t k = static_cast<std::size_t>(j) * out.nx + i;
       ++total[k];
       if (grid.State(x, y) != CellState::kUnknown) ++seen[k];
@@ -359,7 +379,9 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
   const int ny = grid.ny();
   const double cell_m = grid.cell_size_m();
   const std::size_t n = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
-  auto index = [nx](int ix, int iy) { return static_cast<std::size_t>(ix) + static_cast<std::size_t>(nx) * iy; };
+  auto index = [nx](int ix, int iy) {
+    return static_cast<std::size_t>(ix) + static_cast<std::size_t>(nx) * iy;
+  };
   auto in_scope = [&](int ix, int iy) {
     if (!options.region_M.isEmpty() && !options.region_M.contains(grid.CellCenter(ix, iy))) return false;
     const double z = grid.Ground(ix, iy);
@@ -415,13 +437,15 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
     double best = kInf;
     int cx = 0;
     int cy = 0;
-    const bool inside = grid.CellOf(std::clamp(robot_M.x(), grid.p_W_min().x(), grid.p_W_max().x() - 1e-9),
-                                    std::clamp(robot_M.y(), grid.p_W_min().y(), grid.p_W_max().y() - 1e-9), &cx, &cy);
+    const bool inside =
+        grid.CellOf(std::clamp(robot_M.x(), grid.p_W_min().x(), grid.p_W_max().x() - 1e-9),
+                    std::clamp(robot_M.y(), grid.p_W_min().y(), grid.p_W_max().y() - 1e-9), &cx, &cy);
     for (int dy = -reach; inside && dy <= reach; ++dy) {
       for (int dx = -reach; dx <= reach; ++dx) {
         const int jx = cx + dx;
         const int jy = cy + dy;
-        if (!grid.InGrid(jx, jy) || grid.State(jx, jy) != CellState::kFree || !grid.IsTraversable(jx, jy)) continue;
+        if (!grid.InGrid(jx, jy) || grid.State(jx, jy) != CellState::kFree || !grid.IsTraversable(jx, jy))
+          continue;
         const double d = (grid.CellCenter(jx, jy) - robot_M).norm();
         if (d <= kStartSearchM && d < best) {
           best = d;
@@ -437,9 +461,11 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
     std::priority_queue<Item, std::vector<Item>, std::greater<Item>> open;
     cost[index(sx, sy)] = 0.0;
     open.emplace(0.0, index(sx, sy));
+    std::size_t pops = 0;
     while (!open.empty()) {
       const auto [c, i] = open.top();
       open.pop();
+      if (options.progress && ++pops % kProgressEvery == 0) options.progress();
       if (c > cost[i]) continue;
       const int ix = static_cast<int>(i % static_cast<std::size_t>(nx));
       const int iy = static_cast<int>(i / static_cast<std::size_t>(nx));
@@ -470,15 +496,15 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
   std::vector<int> gain_stamp(n, -1);
   int gain_id = 0;
   using Cell2 = std::pair<int, int>;
-  const auto view = MakeCellView(
-      [&](const Cell2& c) { return grid.CellCenter(c.first, c.second); },
-      [&](const Cell2& c) { return grid.ClearanceM(c.first, c.second); },
-      [&](const Cell2& c) { return cost[index(c.first, c.second)]; },
-      [&](const Cell2& c) { return via_tight[index(c.first, c.second)] != 0; },
-      [&](const Cell2& c) { return grid.Ground(c.first, c.second); },
-      [&](const Cell2& c) {
-        return VisibleUnknownCells(grid, c.first, c.second, options.gain_radius_m, ++gain_id, &gain_stamp, peer_seen);
-      });
+  const auto view = MakeCellView([&](const Cell2& c) { return grid.CellCenter(c.first, c.second); },
+                                 [&](const Cell2& c) { return grid.ClearanceM(c.first, c.second); },
+                                 [&](const Cell2& c) { return cost[index(c.first, c.second)]; },
+                                 [&](const Cell2& c) { return via_tight[index(c.first, c.second)] != 0; },
+                                 [&](const Cell2& c) { return grid.Ground(c.first, c.second); },
+                                 [&](const Cell2& c) {
+                                   return VisibleUnknownCells(grid, c.first, c.second, options.gain_radius_m,
+                                                              ++gain_id, &gain_stamp, peer_seen);
+                                 });
   std::vector<std::pair<int, int>> component;
   std::vector<std::pair<int, int>> stack;
   const int piece_cells = std::max(1, static_cast<int>(std::floor(options.max_cluster_extent_m / cell_m)));
@@ -500,14 +526,14 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
           stack.emplace_back(jx, jy);
         }
       }
-      AppendClusters(CutIntoPieces(component, [](const std::pair<int, int>& c) { return c; }, piece_cells), options,
-                     grid.options().robot_radius_m, cell_m * cell_m, view, &result.clusters);
+      AppendClusters(CutIntoPieces(
+                         component, [](const std::pair<int, int>& c) { return c; }, piece_cells),
+                     options, grid.options().robot_radius_m, cell_m * cell_m, view, &result.clusters);
     }
   }
   SortFrontierClusters(&result.clusters);
   return result;
 }
-
 
 namespace {
 
@@ -516,9 +542,9 @@ namespace {
 // height through unknown space and stops at a blocked column (a wall, a drop, a step too high). A column
 // counts once (`stamp`), not at all when `peer_seen` marks it and the height lies in [peer_min_z_m,
 // peer_max_z_m].
-std::int64_t VisibleUnknownOnLevels(const MultiLevelGrid& grid, int tx, int ty, double z0, double radius_m, int id,
-                                    std::vector<int>* stamp, const std::vector<char>& peer_seen, double peer_min_z_m,
-                                    double peer_max_z_m) {
+std::int64_t VisibleUnknownOnLevels(const MultiLevelGrid& grid, int tx, int ty, double z0, double radius_m,
+                                    int id, std::vector<int>* stamp, const std::vector<char>& peer_seen,
+                                    double peer_min_z_m, double peer_max_z_m) {
   const double cell_m = grid.cell_size_m();
   const Eigen::Vector2d origin = grid.CellCenter(tx, ty);
   const int steps = static_cast<int>(std::ceil(radius_m / (0.5 * cell_m)));
@@ -588,7 +614,8 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
   FrontierSet result;
   const std::vector<char> peer_seen = PeerSeenCells(grid, peers);  // per column
 
-  // 1. Frontier surfaces (traversable, in scope, a 4-neighbour unknown at their height) and the explored area.
+  // 1. Frontier surfaces (traversable, in scope, a 4-neighbour unknown at their height) and the explored
+  // area.
   std::vector<char> frontier(nodes, 0);
   int known_nodes = 0;
   for (int node = 0; node < grid.node_count(); ++node) {
@@ -617,12 +644,13 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
   AStarOptions moves;
   moves.robot_radius_m = options.tight_radius_m;  // the search takes the least of this and the grid's radius
   const MultiLevelSearch search(grid, moves);
-  const std::vector<float> to_known = ChamferToKnown(
-      nx, ny, [&](int ix, int iy) { return grid.FirstNode(grid.Column(ix, iy)) < grid.FirstNode(grid.Column(ix, iy) + 1); });
+  const std::vector<float> to_known = ChamferToKnown(nx, ny, [&](int ix, int iy) {
+    return grid.FirstNode(grid.Column(ix, iy)) < grid.FirstNode(grid.Column(ix, iy) + 1);
+  });
   const float reach_cells = static_cast<float>(options.unknown_reach_m / cell_m);
   std::vector<double> cost(nodes, kInf);
   std::vector<char> via_tight(nodes, 0);  // the cheapest path to the surface passes a tight surface
-  struct Virtual {  // an unknown state's cost and via_tight, one hash lookup for both
+  struct Virtual {                        // an unknown state's cost and via_tight, one hash lookup for both
     double cost = kInf;
     char via_tight = 0;
   };
@@ -636,7 +664,8 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
     if (const int m = grid.NodeNear(rx, ry, robot_M.z(), dz); m >= 0 && grid.IsTraversable(m)) {
       starts.emplace_back(State{rx, ry, grid.NodeZ(m), m}, 0.0);
     } else {
-      if (m < 0 && grid.IsUnknownAt(rx, ry, robot_M.z())) starts.emplace_back(State{rx, ry, robot_M.z(), -1}, 0.0);
+      if (m < 0 && grid.IsUnknownAt(rx, ry, robot_M.z()))
+        starts.emplace_back(State{rx, ry, robot_M.z(), -1}, 0.0);
       const int reach = static_cast<int>(std::ceil(kStartSearchM / cell_m));
       for (int dy = -reach; dy <= reach; ++dy) {
         for (int dx = -reach; dx <= reach; ++dx) {
@@ -648,14 +677,15 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
       }
     }
   }
-  auto cost_of = [&](const State& s) -> double& {
-    if (s.node >= 0) return cost[static_cast<std::size_t>(s.node)];
-    return virtual_states[search.Key(s)].cost;
+  // A state's cost and via_tight, one look-up for both.
+  auto slot_of = [&](const State& s) -> std::pair<double*, char*> {
+    if (s.node >= 0) {
+      return {&cost[static_cast<std::size_t>(s.node)], &via_tight[static_cast<std::size_t>(s.node)]};
+    }
+    Virtual& v = virtual_states[search.Key(s)];
+    return {&v.cost, &v.via_tight};
   };
-  auto via_tight_of = [&](const State& s) -> char& {
-    if (s.node >= 0) return via_tight[static_cast<std::size_t>(s.node)];
-    return virtual_states[search.Key(s)].via_tight;
-  };
+  auto cost_of = [&](const State& s) -> double& { return *slot_of(s).first; };
   if (!starts.empty()) {
     result.robot_on_grid = true;
     struct Item {
@@ -671,28 +701,36 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
         open.push({d, state});
       }
     }
+    std::size_t pops = 0;
     while (!open.empty()) {
       const Item item = open.top();
       open.pop();
+      if (options.progress && ++pops % kProgressEvery == 0) options.progress();
       const State& s = item.state;
       if (item.cost > cost_of(s)) continue;
+      // The four sides first (even d), then the corners (odd d, between sides d - 1 and d + 1), entered only
+      // when both sides are: no corner cutting past a wall. Each neighbour is entered once.
+      std::array<std::optional<State>, 8> enter;
+      for (int d = 0; d < 8; d += 2) enter[d] = search.Enter(s.ix + kDx8[d], s.iy + kDy8[d], s.z);
+      for (int d = 1; d < 8; d += 2) {
+        if (enter[d - 1] && enter[(d + 1) % 8]) enter[d] = search.Enter(s.ix + kDx8[d], s.iy + kDy8[d], s.z);
+      }
+      const char from_tight = *slot_of(s).second;
       for (int d = 0; d < 8; ++d) {
-        std::optional<State> next = search.Enter(s.ix + kDx8[d], s.iy + kDy8[d], s.z);
+        const std::optional<State>& next = enter[d];
         if (!next) continue;
-        const bool diagonal = kDx8[d] != 0 && kDy8[d] != 0;
-        if (diagonal && (!search.Enter(s.ix + kDx8[d], s.iy, s.z) || !search.Enter(s.ix, s.iy + kDy8[d], s.z))) {
-          continue;  // no corner cutting past a wall
-        }
+        const bool diagonal = d % 2 == 1;
         const double length_m = (diagonal ? std::sqrt(2.0) : 1.0) * cell_m;
-        if (next->node < 0 && to_known[static_cast<std::size_t>(grid.Column(next->ix, next->iy))] > reach_cells) continue;
+        if (next->node < 0 &&
+            to_known[static_cast<std::size_t>(grid.Column(next->ix, next->iy))] > reach_cells)
+          continue;
         const bool tight = next->node >= 0 && !grid.IsTraversable(next->node);
         const double c = item.cost + length_m * ((next->node < 0 ? 1.0 + options.unknown_cost : 1.0) +
                                                  (tight ? options.tight_cost : 0.0));
-        double& best = cost_of(*next);
-        if (c < best) {
-          best = c;
-          const char from_tight = via_tight_of(s);
-          via_tight_of(*next) = static_cast<char>(from_tight || tight);
+        const auto [best, best_via_tight] = slot_of(*next);
+        if (c < *best) {
+          *best = c;
+          *best_via_tight = static_cast<char>(from_tight || tight);
           open.push({c, *next});
         }
       }
@@ -707,17 +745,20 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
   const auto view = MakeCellView(
       node_center, [&](int node) { return grid.ClearanceM(node); },
       [&](int node) { return cost[static_cast<std::size_t>(node)]; },
-      [&](int node) { return via_tight[static_cast<std::size_t>(node)] != 0; }, [&](int node) { return grid.NodeZ(node); },
+      [&](int node) { return via_tight[static_cast<std::size_t>(node)] != 0; },
+      [&](int node) { return grid.NodeZ(node); },
       [&](int node) {
         const auto [tx, ty] = column_xy(grid.NodeColumn(node));
-        return VisibleUnknownOnLevels(grid, tx, ty, grid.NodeZ(node), options.gain_radius_m, ++gain_id, &gain_stamp,
-                                      peer_seen, options.peer_coverage_min_z_m, options.peer_coverage_max_z_m);
+        return VisibleUnknownOnLevels(grid, tx, ty, grid.NodeZ(node), options.gain_radius_m, ++gain_id,
+                                      &gain_stamp, peer_seen, options.peer_coverage_min_z_m,
+                                      options.peer_coverage_max_z_m);
       });
   std::vector<int> component;
   std::vector<int> stack;
   const int piece_cells = std::max(1, static_cast<int>(std::floor(options.max_cluster_extent_m / cell_m)));
   for (int node0 = 0; node0 < grid.node_count(); ++node0) {
     if (!frontier[static_cast<std::size_t>(node0)] || seen[static_cast<std::size_t>(node0)]) continue;
+    if (options.progress) options.progress();  // each cluster's gain reads the map around it
     component.clear();
     stack.assign(1, node0);
     seen[static_cast<std::size_t>(node0)] = 1;
@@ -733,7 +774,8 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
         stack.push_back(m);
       }
     }
-    AppendClusters(CutIntoPieces(component, [&](int node) { return column_xy(grid.NodeColumn(node)); }, piece_cells),
+    AppendClusters(CutIntoPieces(
+                       component, [&](int node) { return column_xy(grid.NodeColumn(node)); }, piece_cells),
                    options, grid.options().robot_radius_m, cell_m * cell_m, view, &result.clusters);
   }
   for (FrontierCluster& cluster : result.clusters) cluster.on_main_level = false;  // see FrontierCluster

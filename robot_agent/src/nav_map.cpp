@@ -181,6 +181,7 @@ void NavMap::AddStairFrontiers(const Eigen::Vector3d& robot_M, const nav::Fronti
 
 nav::FrontierSet NavMap::Frontiers(const Eigen::Vector3d& robot_M, nav::FrontierOptions options,
                                    bool every_level, const nav::PeerCoverage* peers) const {
+  if (!options.progress) options.progress = progress_;
   if (!every_level) return nav::FindFrontiers(*grid_, robot_M.head<2>(), options, peers);
   options.peer_coverage_min_z_m = grid_->options().ground_search_min_z_m;
   options.peer_coverage_max_z_m = grid_->options().ground_search_max_z_m;

@@ -1081,6 +1081,8 @@ void RobotAgent::Impl::Run() {
     if (next < now) next = now;  // overrun: do not try to catch up
     core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
   }
+  // The escalation that ends the process reaches the basestations first (the health message is reliable).
+  PublishHealthIfDue(SteadyClock::now());
   std::optional<ExploreClaim> release;
   {
     std::lock_guard<std::mutex> guard(mutex_);
@@ -1102,6 +1104,8 @@ void RobotAgent::Impl::Run() {
         // threads waited for; the journal has the last safe state.
         spdlog::warn("robot {}: leaving for a restart: the map is not flushed or saved at exit",
                      options_.robot_id);
+        // A moment for the health message that says why, and the stopped state, to reach the basestations.
+        std::this_thread::sleep_for(std::chrono::milliseconds(500));
         finished = true;
         return;
       }

@@ -29,7 +29,9 @@ cmake --build "$build" -j "${CAIRN_JOBS:-$(nproc)}" --target "${TESTS[@]}"
 
 supp="$ROOT/tests/sanitizers"
 # halt_on_error: the first report fails the test (its output names the race or the fault).
-export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
+# new_delete_type_mismatch=0: Fast DDS 2.9.1 deletes its statistics readers through the wrong type when a participant
+# goes (RTPSReader::~RTPSReader from StatisticsReaderImpl; inside libfastrtps, not built with ASan).
+export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1:new_delete_type_mismatch=0"
 export LSAN_OPTIONS="suppressions=$supp/lsan.supp:print_suppressions=0"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:suppressions=$supp/ubsan.supp"
 export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$supp/tsan.supp:print_suppressions=0"

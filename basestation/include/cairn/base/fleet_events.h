@@ -28,14 +28,15 @@ struct OperatorEvent {
   /// the busiest topic class) | "lock_granted" | "lock_released" | "lock_taken" | "stopped" (an operator's
   /// stop) | "staircase" | "proximity" | "component_failed" (a part of its agent threw or stalled and waits
   /// for its restart; `other`: the component, `reason`: why) | "component_restarted" |
-  /// "component_restart_failed" | get-out-of-the-way: "yield_moving_aside" (it gets out of `other`'s way:
-  /// where to, in `reason`), "yield_refused" (it refused `other`: why), "yield_returned" (its yield ended:
-  /// back, or how), "yield_asking" (its route is blocked by `other` in a narrow passage: it asked it to
-  /// yield), "yield_blocked" (`other` refused or found no spot: it holds, blocked; why).
-  /// A yield is told to both operators: each basestation hears both robots' states. Fleet staircases
-  /// (robot_id "", see FleetStaircases): "staircase" (a new one) | "staircase_merged" (two were one flight:
-  /// the younger id, `merged_staircase_id`, merged into the older) | "staircase_removed" (no robot reports it
-  /// any more; `reason`: why).
+  /// "component_restart_failed" | "component_escalated" (a part did not stop when asked: it is not restarted
+  /// in the agent's process; a supervised agent restarts the process) | get-out-of-the-way:
+  /// "yield_moving_aside" (it gets out of `other`'s way: where to, in `reason`), "yield_refused" (it refused
+  /// `other`: why), "yield_returned" (its yield ended: back, or how), "yield_asking" (its route is blocked by
+  /// `other` in a narrow passage: it asked it to yield), "yield_blocked" (`other` refused or found no spot:
+  /// it holds, blocked; why). A yield is told to both operators: each basestation hears both robots' states.
+  /// Fleet staircases (robot_id "", see FleetStaircases): "staircase" (a new one) | "staircase_merged" (two
+  /// were one flight: the younger id, `merged_staircase_id`, merged into the older) | "staircase_removed" (no
+  /// robot reports it any more; `reason`: why).
   std::string kind;
   std::string robot_id;     ///< the robot concerned ("" for a fleet staircase)
   std::string other;        ///< proximity: the other robot; locks: the basestation; stopped: who stopped it

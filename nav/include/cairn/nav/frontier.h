@@ -14,6 +14,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
 #include <unordered_set>
@@ -44,8 +45,8 @@ struct FrontierOptions {
   /// [0, 100], as the global planner reads the map (AStarOptions::unknown_cost: 0.5, unseen space costs
   /// 1.5x). A sparse lidar leaves gaps in the floor it saw far away: the robot drives through them.
   double unknown_cost = 0.5;
-  /// ...but only unknown cells within this of known ground, metres, [0, 50]: the gaps between patches of floor
-  /// seen far away, not routes across the whole unseen map (which also keeps the search small).
+  /// ...but only unknown cells within this of known ground, metres, [0, 50]: the gaps between patches of
+  /// floor seen far away, not routes across the whole unseen map (which also keeps the search small).
   double unknown_reach_m = 2.0;
   /// Travel may pass cells whose clearance lies in (tight_radius_m, the grid's robot_radius_m], metres, > 0;
   /// infinity (the default) = only the grid's traversable cells. A robot-built map on 0.1 m cells closes
@@ -55,23 +56,28 @@ struct FrontierOptions {
   double tight_radius_m = std::numeric_limits<double>::infinity();
   /// Travel through such tight cells costs this much more per metre, [0, 100].
   double tight_cost = 2.0;
-  /// Only frontier cells inside this x-y box count (metres, frame M); an empty box (the default) = everywhere.
-  /// Their gain counts unknown cells beyond the box too: counting only those inside left 1-2 m strips along a
-  /// region's edge unexplored (their gain under min_gain_m2; 85 % of a region against 97 % in
-  /// cairn_agent_explore_test). Where the box's edge cuts a branch, a robot may visit the edge more than once;
-  /// dropping frontier cells whose unknown neighbours lie outside the box ended that but left a lone robot
-  /// 78 % of the region instead of 84 % (the same test, the teammate killed).
+  /// Only frontier cells inside this x-y box count (metres, frame M); an empty box (the default) =
+  /// everywhere. Their gain counts unknown cells beyond the box too: counting only those inside left 1-2 m
+  /// strips along a region's edge unexplored (their gain under min_gain_m2; 85 % of a region against 97 % in
+  /// cairn_agent_explore_test). Where the box's edge cuts a branch, a robot may visit the edge more than
+  /// once; dropping frontier cells whose unknown neighbours lie outside the box ended that but left a lone
+  /// robot 78 % of the region instead of 84 % (the same test, the teammate killed).
   Eigen::AlignedBox2d region_M;
   /// Only frontier cells whose ground lies in [min_z_m, max_z_m] count (metres, frame M; a floor of a
   /// building). Default: every height.
   double min_z_m = -std::numeric_limits<double>::infinity();
   double max_z_m = std::numeric_limits<double>::infinity();
   /// FindFrontiersMultiLevel() counts peers' coverage (a bitmap of x-y cells) only at heights in
-  /// [peer_coverage_min_z_m, peer_coverage_max_z_m] (metres, frame M): the band of ground their bitmaps describe
-  /// (their main level, SeenCoverage()), so that a floor above a branch a peer explored keeps its gain. The
-  /// single-level FindFrontiers() reads only its main level and ignores these. Default: every height.
+  /// [peer_coverage_min_z_m, peer_coverage_max_z_m] (metres, frame M): the band of ground their bitmaps
+  /// describe (their main level, SeenCoverage()), so that a floor above a branch a peer explored keeps its
+  /// gain. The single-level FindFrontiers() reads only its main level and ignores these. Default: every
+  /// height.
   double peer_coverage_min_z_m = -std::numeric_limits<double>::infinity();
   double peer_coverage_max_z_m = std::numeric_limits<double>::infinity();
+
+  /// Called every few thousand steps of the search (may be empty): the work goes on (e.g. its thread's
+  /// heartbeat: on a large map with much unknown space the search takes seconds).
+  std::function<void()> progress;
 
   /// True when every field is in range; otherwise false with `*why` (if not null) naming the field, its value
   /// and the rule.
@@ -80,17 +86,17 @@ struct FrontierOptions {
 
 /// One cluster of frontier cells.
 struct FrontierCluster {
-  /// Where to go: the cluster's reachable frontier cell nearest its centroid (a known-free, traversable cell),
-  /// each 0.1 m short of 0.15 m clearance beyond the footprint counting as 0.4 m farther (away from walls), its
-  /// centre, metres, frame M.
+  /// Where to go: the cluster's reachable frontier cell nearest its centroid (a known-free, traversable
+  /// cell), each 0.1 m short of 0.15 m clearance beyond the footprint counting as 0.4 m farther (away from
+  /// walls), its centre, metres, frame M.
   Eigen::Vector2d target_M = Eigen::Vector2d::Zero();
-  double target_ground_z_m = 0.0;  ///< the target cell's ground height, metres, frame M
+  double target_ground_z_m = 0.0;                        ///< the target cell's ground height, metres, frame M
   Eigen::Vector2d centroid_M = Eigen::Vector2d::Zero();  ///< mean of its cells' centres, metres, frame M
-  int cells = 0;                                          ///< frontier cells
+  int cells = 0;                                         ///< frontier cells
   /// Unknown area a lidar at the target could see: cells crossed by rays from the target (one per cell on the
   /// circle of radius gain_radius_m) out to gain_radius_m through known-free and unknown cells, each ray
-  /// stopped by the first obstacle cell (a wall), m². Rock behind a wall the map saw whole is not counted; unknown floor along a
-  /// wall the lidar grazed is, but little of it.
+  /// stopped by the first obstacle cell (a wall), m². Rock behind a wall the map saw whole is not counted;
+  /// unknown floor along a wall the lidar grazed is, but little of it.
   double gain_m2 = 0.0;
   /// Cost of the shortest 8-connected path from the robot's cell to the target over traversable cells, known
   /// or unknown (those cost 1 + unknown_cost per metre), metres; infinity when there is none (the frontier is
@@ -99,8 +105,8 @@ struct FrontierCluster {
   /// gain_m2 / (travel_cost_m + cost_offset_m); 0 when unreachable.
   double utility = 0.0;
   /// True when a planner reading the main level (TraversabilityGrid) may plan to the target there: always
-  /// for FindFrontiers(); FindFrontiersMultiLevel() sets false (the caller, who has the main level, may set it
-  /// where that level finds the target traversable at its height, e.g. agent::NavMap::Frontiers()).
+  /// for FindFrontiers(); FindFrontiersMultiLevel() sets false (the caller, who has the main level, may set
+  /// it where that level finds the target traversable at its height, e.g. agent::NavMap::Frontiers()).
   bool on_main_level = true;
   /// True when the cheapest path to the target passes a tight cell (FrontierOptions::tight_radius_m): a
   /// planner needs the reduced radius to reach it.
@@ -118,14 +124,14 @@ struct FrontierSet {
   int reachable() const;       ///< clusters with a finite travel cost
 };
 
-/// Orders clusters as FindFrontiers() does: reachable ones by utility (highest first), then unreachable ones by
-/// gain; stable.
+/// Orders clusters as FindFrontiers() does: reachable ones by utility (highest first), then unreachable ones
+/// by gain; stable.
 void SortFrontierClusters(std::vector<FrontierCluster>* clusters);
 
-/// A robot's explored floor, coarse, for its peers (issue 14: "their maps reach each other"; the coverage of an
-/// ExploreClaim): which cell_m x cell_m cells of an x-y box, frame M (shared by the team), hold mostly known
-/// ground in the robot's navigation map. Cell (i, j) has its minimum corner at (origin_cell + (i, j)) * cell_m,
-/// metres; it is bit k % 8 (least significant first) of bits[k / 8], k = j * nx + i.
+/// A robot's explored floor, coarse, for its peers (issue 14: "their maps reach each other"; the coverage of
+/// an ExploreClaim): which cell_m x cell_m cells of an x-y box, frame M (shared by the team), hold mostly
+/// known ground in the robot's navigation map. Cell (i, j) has its minimum corner at (origin_cell + (i, j)) *
+/// cell_m, metres; it is bit k % 8 (least significant first) of bits[k / 8], k = j * nx + i.
 struct CoverageBitmap {
   static constexpr int kMaxCells = 1 << 24;  ///< nx * ny at most (2 MB of bits)
   double cell_m = 0.5;
@@ -146,13 +152,14 @@ struct CoverageBitmap {
 
 /// The cells of `grid` (any state but kUnknown counts as seen: floor, walls, drops) gathered into cells of
 /// `cell_m` aligned on multiples of cell_m in frame M; a coarse cell is marked when at least half of the grid
-/// cells whose centres fall in it are seen. The box is the grid's, rounded out. Cost: linear in the grid's cells.
+/// cells whose centres fall in it are seen. The box is the grid's, rounded out. Cost: linear in the grid's
+/// cells.
 /// @throws std::invalid_argument unless 0 < cell_m <= 10 and cell_m >= the grid's cell size.
 CoverageBitmap SeenCoverage(const TraversabilityGrid& grid, double cell_m);
 
-/// Where peer robots have seen (issue 14: their maps reach each other): x-y cells of cell_m() marked from their
-/// map telemetry. FindFrontiers counts none of it as gain: a frontier into a branch a peer explored is worth
-/// nothing. Frame M (shared by the team), metres. Not thread-safe.
+/// Where peer robots have seen (issue 14: their maps reach each other): x-y cells of cell_m() marked from
+/// their map telemetry. FindFrontiers counts none of it as gain: a frontier into a branch a peer explored is
+/// worth nothing. Frame M (shared by the team), metres. Not thread-safe.
 class PeerCoverage {
  public:
   /// @throws std::invalid_argument unless 0 < cell_m <= 10.
@@ -187,25 +194,26 @@ class PeerCoverage {
 /// height band with at least one 4-neighbour of State kUnknown. Frontier cells are grouped by 8-connectivity,
 /// then cut into pieces of at most max_cluster_extent_m; pieces with fewer than min_cells cells or less than
 /// min_gain_m2 of gain are dropped. Travel costs come from one Dijkstra search from the robot's cell over
-/// traversable cells, known-free or unknown within unknown_reach_m of known-free ones (the robot's own cell counts even if it is not traversable, e.g.
-/// next to a wall; when it is off the grid or not free, the nearest traversable free cell within 1 m is
-/// used). Cost: linear in the grid's cells plus the search (cairn_bench_nav_map).
+/// traversable cells, known-free or unknown within unknown_reach_m of known-free ones (the robot's own cell
+/// counts even if it is not traversable, e.g. next to a wall; when it is off the grid or not free, the
+/// nearest traversable free cell within 1 m is used). Cost: linear in the grid's cells plus the search
+/// (cairn_bench_nav_map).
 /// @throws std::invalid_argument if `options` is invalid (IsValid()'s message).
 /// `peers` (may be null): what peer robots have seen, counted as no gain.
 FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d& robot_M,
                           const FrontierOptions& options = {}, const PeerCoverage* peers = nullptr);
 
 /// Frontiers of every level of `grid` (a robot-built multi-level map read optimistically, unknown_is_lethal
-/// false), seen from the robot standing at `robot_M` (x, y and the height of the ground under it; metres, frame
-/// M): FindFrontiers() on the map's surfaces, so that the floors above and below the robot, and the stairs
-/// between them, hold frontiers a legged robot can go for (issue 14: "it finds and uses the stairs").
+/// false), seen from the robot standing at `robot_M` (x, y and the height of the ground under it; metres,
+/// frame M): FindFrontiers() on the map's surfaces, so that the floors above and below the robot, and the
+/// stairs between them, hold frontiers a legged robot can go for (issue 14: "it finds and uses the stairs").
 ///
 /// A frontier surface is a traversable surface inside the region and height band with a 4-neighbouring column
 /// that has no surface within max_step_m of its height and is unknown there (MultiLevelGrid::IsUnknownAt: no
 /// ray through where its floor would be) or holds a step up whose top the map has not seen
 /// (MultiLevelGrid::IsUnseenStepAt: the next riser of a flight seen from below). Clusters join frontier
-/// surfaces of 8-neighbouring columns within max_step_m of each other (a flight of stairs is one cluster), then
-/// are cut and filtered as FindFrontiers()'s.
+/// surfaces of 8-neighbouring columns within max_step_m of each other (a flight of stairs is one cluster),
+/// then are cut and filtered as FindFrontiers()'s.
 ///
 /// Travel costs: one Dijkstra search with PlanPathMultiLevel()'s moves (connected traversable surfaces, or
 /// unknown space entered at the height of the surface left) from the robot's surface (the one within
@@ -215,16 +223,16 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
 /// crossed only within unknown_reach_m of a column with a known surface, at 1 + unknown_cost per metre.
 ///
 /// Gain: rays from the target follow the surface of each column they cross and stop at a blocked one (a wall,
-/// a drop, a step too high); unknown columns and unseen steps count once. known_free_m2 counts the surfaces in
-/// scope (each cell of each level). FrontierCluster::on_main_level is false for every cluster.
-/// Cost: linear in the surfaces plus the search (cairn_bench_nav_map).
+/// a drop, a step too high); unknown columns and unseen steps count once. known_free_m2 counts the surfaces
+/// in scope (each cell of each level). FrontierCluster::on_main_level is false for every cluster. Cost:
+/// linear in the surfaces plus the search (cairn_bench_nav_map).
 /// @throws std::invalid_argument if `options` is invalid (IsValid()'s message).
 FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& robot_M,
                                     const FrontierOptions& options = {}, const PeerCoverage* peers = nullptr);
 
-/// The unknown area a lidar at `p_M` (x, y, and the height of a floor there; metres, frame M) could see within
-/// `radius_m` (metres, capped at 100) on `grid`'s levels, as FindFrontiersMultiLevel()'s gain: rays following
-/// the surfaces from that height, m². 0 when p_M is off the grid, not finite, or radius_m <= 0.
+/// The unknown area a lidar at `p_M` (x, y, and the height of a floor there; metres, frame M) could see
+/// within `radius_m` (metres, capped at 100) on `grid`'s levels, as FindFrontiersMultiLevel()'s gain: rays
+/// following the surfaces from that height, m². 0 when p_M is off the grid, not finite, or radius_m <= 0.
 double VisibleUnknownM2(const MultiLevelGrid& grid, const Eigen::Vector3d& p_M, double radius_m);
 
 }  // namespace cairn::nav

@@ -142,9 +142,10 @@ class NavMap {
   NavMapUpdateStats Update(const perception::OccupancyMap& map, const std::vector<Eigen::Vector2i>& tiles,
                            double tile_m, double sensor_max_z_m,
                            const std::vector<perception::Staircase>& staircases = {});
-  /// Called by Update() between its steps (every few tiles read, each grid rebuilt or updated): the work goes
-  /// on (e.g. its thread's heartbeat, so that a long update on a large map is not taken for a hung one).
-  /// Empty = none. Same thread as Update().
+  /// Called by Update() between its steps (every few tiles read, each grid rebuilt or updated), and by
+  /// Frontiers() as its search goes (FrontierOptions::progress, unless the options set one): the work goes on
+  /// (e.g. its thread's heartbeat, so that a long update or search on a large map is not taken for a hung
+  /// one). Empty = none. Same thread as Update().
   void SetProgressHook(std::function<void()> progress) { progress_ = std::move(progress); }
   /// Changed tiles that wait for the next updates. Same thread as Update().
   int tiles_waiting() const { return static_cast<int>(waiting_tiles_.size()); }
