@@ -36,6 +36,9 @@ SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::Pl
       peers_(options.robot_id, options.peers) {
   const core::BaseState start_M = StartPose(*platform_);
   pose_M_ = start_M;
+  // On a simulated clock a wall-clock budget would make the map depend on how busy the machine is: every
+  // changed tile is read in the update it arrives with (the largest budget).
+  options_.nav_map.update_budget_s = 10.0;
   PerceptionOptions perception = options_.perception;
   perception.camera_rate_hz = 0;
   perception_ = std::make_unique<PerceptionPipeline>(perception, options_.robot_id);
@@ -43,9 +46,11 @@ SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::Pl
                                  {options_.navigation.platform});
   nav_map_ = std::make_unique<NavMap>(options_.nav_map, perception.map.resolution_m, start_M, planner_,
                                       options_.navigation.platform.name);
-  navigation_ = std::make_unique<Navigation>(options_.navigation, planner_,
-                                             std::make_shared<const nav::TrajectoryLibrary>(options_.LibraryForPlatform()));
-  live_obstacles_ = std::make_unique<LiveObstacles>(options_, platform_->Capabilities().lidar_min_elevation_rad);
+  navigation_ = std::make_unique<Navigation>(
+      options_.navigation, planner_,
+      std::make_shared<const nav::TrajectoryLibrary>(options_.LibraryForPlatform()));
+  live_obstacles_ =
+      std::make_unique<LiveObstacles>(options_, platform_->Capabilities().lidar_min_elevation_rad);
   std::unique_ptr<WaypointRecovery> recovery;
   if (!tree_file.empty()) {
     recovery = std::make_unique<WaypointRecovery>(
@@ -67,7 +72,8 @@ SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::Pl
 
 std::optional<ExploreClaim> SteppedRobot::ClaimToSend(double now_s) {
   return DueClaim(*explore_, team_, now_s, [this] {
-    return std::optional<nav::CoverageBitmap>(nav::SeenCoverage(nav_map_->grid(), team_.options().coverage_cell_m));
+    return std::optional<nav::CoverageBitmap>(
+        nav::SeenCoverage(nav_map_->grid(), team_.options().coverage_cell_m));
   });
 }
 
@@ -144,8 +150,9 @@ std::string SteppedRobot::Goto(double x_m, double y_m, double now_s) {
   const nav::GlobalPlan plan = navigation_->PlanGoalAsync(pose_M_, x_m, y_m).get();
   if (!plan.IsUsable()) return plan.reason.empty() ? plan.result.message : plan.reason;
   const GoalStart start =
-      waypoint_->Start(plan, x_m, y_m, 0.0, std::numeric_limits<double>::quiet_NaN(), now_s,
-                       [] { return ModeDecision{true, WaypointMode::kName, WaypointMode::kChannel, ""}; });
+      waypoint_->Start(plan, x_m, y_m, 0.0, std::numeric_limits<double>::quiet_NaN(), now_s, [] {
+        return ModeDecision{true, WaypointMode::kName, WaypointMode::kChannel, ""};
+      });
   if (!start.accepted) return start.reason;
   if (active_ != waypoint_.get()) active_->Deactivate("driving to a waypoint instead");
   active_ = waypoint_.get();

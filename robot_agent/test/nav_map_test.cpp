@@ -225,7 +225,7 @@ TEST(NavMapTest, AnUpdateReadsTilesWithinItsBudgetAndLeavesTheRestToTheNextOnes)
   EXPECT_GT(waited, 0) << "no update left tiles for the next: the budget did not bound the reading";
   EXPECT_GT(progress_calls, updates) << "long updates report progress between their steps";
   // The next updates read what waits, with no new tile.
-  for (int i = 0; i < 200 && nav_map.tiles_waiting() > 0; ++i) {
+  for (int i = 0; i < 10000 && nav_map.tiles_waiting() > 0; ++i) {
     EXPECT_TRUE(nav_map.Update(*perception.map(), {}, perception.change_tile_m(), perception.max_sensor_z_m())
                     .applied);
   }
@@ -263,7 +263,7 @@ TEST(NavMapTest, AWheeledRobotAtTheFootOfTheStairsIsRefusedTheFloorAboveNamingTh
   PerceptionOptions perception_options;
   perception_options.camera_rate_hz = 0;
   PerceptionPipeline perception(perception_options, "r2");
-  NavMapOptions map_options;
+  NavMapOptions map_options = TunnelsRig::Unbudgeted();
   auto planner = NavMap::MakePlanner(map_options, perception_options.map.resolution_m, start_M,
                                      {profile, nav::GetPlatformProfile("legged")});
   NavMap nav_map(map_options, perception_options.map.resolution_m, start_M, planner, "wheeled");
@@ -350,7 +350,7 @@ TEST(NavMapTest, SharesItsGridsWithThePlannerAndCopiesOnlyWhatAnUpdateChanges) {
 }
 
 TEST(NavMapTest, GrowsAsTheRobotMapsBeyondItOrIsSentBeyondWithinItsLargestExtent) {
-  NavMapOptions map_options;
+  NavMapOptions map_options = TunnelsRig::Unbudgeted();
   map_options.half_extent_m = 10.0;
   map_options.max_extent_m = 90.0;
   map_options.grow_margin_m = 5.0;
@@ -536,7 +536,7 @@ TEST(LiveObstaclesTest, AStepBesideARobotStandingStillStaysAnObstacleWhileItCann
 TEST(NavMapTest, ADetectedFlightsTreadsAreGroundUntilItIsNoLongerDetected) {
   const perception::OccupancyMap octomap;  // empty: every voxel unknown
   const core::BaseState start_M{};         // at the origin
-  NavMapOptions map_options;
+  NavMapOptions map_options = TunnelsRig::Unbudgeted();
   map_options.half_extent_m = 10.0;
   const nav::PlatformProfile legged = nav::GetPlatformProfile("legged");
   auto planner = NavMap::MakePlanner(map_options, octomap.resolution_m(), start_M, {legged});
@@ -638,7 +638,7 @@ TEST(NavMapTest, ADetectedFlightsTreadsAreGroundUntilItIsNoLongerDetected) {
 // and that failure would bar the flight's own frontiers around it.
 TEST(NavMapTest, AFlightsEndsAreFrontiersWhereTheMapShowsNoSurface) {
   const core::BaseState start_M{};
-  NavMapOptions map_options;
+  NavMapOptions map_options = TunnelsRig::Unbudgeted();
   map_options.half_extent_m = 10.0;
   const nav::PlatformProfile legged = nav::GetPlatformProfile("legged");
   perception::OccupancyMap seen;
