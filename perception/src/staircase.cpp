@@ -378,10 +378,12 @@ class DetectorRun {
           const Eigen::Vector2d d = (upper.p_W_first_step - lower.p_W_first_step).head<2>();
           const double along = u.dot(d);
           const int k = static_cast<int>(std::lround(along / lower.run_m));
-          if (k < 1 || k > lower.num_steps + 2 || std::abs(along - k * lower.run_m) > lower.run_m / 3.0) continue;
+          if (k < 1 || k > lower.num_steps + 2 || std::abs(along - k * lower.run_m) > lower.run_m / 3.0)
+            continue;
           const double dz = upper.p_W_first_step.z() - lower.p_W_first_step.z();
           if (std::abs(dz - k * lower.rise_m) > 0.5 * lower.rise_m) continue;
-          if (std::abs(u.x() * d.y() - u.y() * d.x()) > 0.5 * std::min(lower.width_m, upper.width_m)) continue;
+          if (std::abs(u.x() * d.y() - u.y() * d.x()) > 0.5 * std::min(lower.width_m, upper.width_m))
+            continue;
           const double wl = std::max(1, lower.support_points), wu = std::max(1, upper.support_points);
           const double w = wl + wu;
           lower.rise_m = (wl * lower.rise_m + wu * upper.rise_m) / w;
@@ -657,7 +659,8 @@ class DetectorRun {
   }
 
   // 5. Side view along axis `theta`: blobs of edge cells in (s, h), chained into risers of consistent rise
-  // and run. Appends chains with >= min_steps risers (at most one riser unobserved).
+  // and run. Appends chains with >= min_risers risers (at most one riser unobserved: FitAndCheck() counts the
+  // risers the points show).
   void FindChains(double theta, std::vector<Chain>* chains) {
     const double c = std::cos(theta);
     const double s = std::sin(theta);
@@ -832,7 +835,7 @@ class DetectorRun {
         }
         const int first = members.begin()->first;
         const int num_risers = members.rbegin()->first - first + 1;
-        if (num_risers < o_.min_steps) continue;
+        if (num_risers < o_.min_risers) continue;
         // A chain seeded across an unobserved riser explains every step edge inside its span: an edge there
         // between two of its risers means the spacing is an alias (three of four risers read as two of
         // three). An edge at one of its risers, lower than its nose, is that riser seen from below.
@@ -896,8 +899,6 @@ class DetectorRun {
     }
   }
 
-  // 6-7. Ceres fit of the staircase model seeded by `chain`, then the checks. Marks the edge cells inside an
-  // accepted staircase as used.
   // Refines the axis of `chain` from all its step edges at once: they are parallel lines, so the major axis
   // of the pooled scatter of the edge cells about their own edge's centroid is their direction (more precise
   // than the local normals that seeded the axis; it matters when no riser is seen, e.g. from the top). Then
@@ -962,7 +963,8 @@ class DetectorRun {
   static constexpr double kWallBinM = 0.05;
   static std::size_t WallBin(const Chain& chain, double t_m) {
     const double b = std::floor((t_m - chain.t_lo_m) / kWallBinM);
-    return static_cast<std::size_t>(std::clamp(b, 0.0, std::floor((chain.t_hi_m - chain.t_lo_m) / kWallBinM)));
+    return static_cast<std::size_t>(
+        std::clamp(b, 0.0, std::floor((chain.t_hi_m - chain.t_lo_m) / kWallBinM)));
   }
   template <typename LocalPoints>
   static std::vector<bool> WallColumns(const Model& m, const Chain& chain, const LocalPoints& near) {
@@ -984,6 +986,15 @@ class DetectorRun {
     return wall;
   }
 
+  // A point near a candidate staircase in the frame of its fit: offset (dx, dy) from the reference position,
+  // position s along the ascending axis and t across it, height z; metres, frame W.
+  struct Local {
+    double dx, dy, s, t, z;
+  };
+
+  // 6-7. Ceres fit of the staircase model seeded by `chain`, the count of the risers the points show, then
+  // the checks. Fills `out` and marks the edge cells inside an accepted staircase as used; otherwise writes
+  // the reason to `why`.
   bool FitAndCheck(Chain chain, Staircase* out, std::string* why) {
     RefineAxis(&chain);
     Model m;
@@ -993,8 +1004,20 @@ class DetectorRun {
     m.run = chain.run_m;
     m.s0 = chain.s_first_m;
     m.z0 = chain.h_first_m - chain.rise_m;
-    double c = std::cos(m.theta), s = std::sin(m.theta);
-    // Points near the staircase, voxel-filtered (PCL) to even out the lidar's density, in the fit frame.
+    std::vector<Local> near;
+    if (!GatherNear(chain, m, &near, why)) return false;
+    if (!FitModel(chain, 0, &m, &near, why)) return false;
+    // Risers of the chain below the model's first riser (dropped or left out as unobserved).
+    int first_chain_riser = DropPhantomFirstSteps(chain, near, &m);
+    if (!KeepObservedRisers(chain, &m, &near, &first_chain_riser, why)) return false;
+    return CheckAndDescribe(chain, m, first_chain_riser, near, out, why);
+  }
+
+  // Points near the staircase `m` seeded by `chain` (0.3 m beyond its lateral extent, a run and 0.2 m beyond
+  // its first and last risers, from 0.2 m below its floor to 1.2 m above its top tread), voxel-filtered (PCL)
+  // to even out the lidar's density, in the fit frame. False, with the reason, if fewer than 50 raw points.
+  bool GatherNear(const Chain& chain, const Model& m, std::vector<Local>* near, std::string* why) const {
+    const double c = std::cos(m.theta), s = std::sin(m.theta);
     const double t_lo = chain.t_lo_m - 0.3, t_hi = chain.t_hi_m + 0.3;
     std::vector<Eigen::Vector3f> raw;
     for (const Eigen::Vector3f& p : pts_) {
@@ -1010,28 +1033,33 @@ class DetectorRun {
       *why = "too few points near the chain (" + std::to_string(raw.size()) + ")";
       return false;
     }
-    struct Local {
-      double dx, dy, s, t, z;
-    };
-    std::vector<Local> near;
-    const std::vector<Eigen::Vector3f> vox = VoxelFilter(raw, o_.fit_voxel_m);
-    for (const Eigen::Vector3f& p : vox) {
+    near->clear();
+    for (const Eigen::Vector3f& p : VoxelFilter(raw, o_.fit_voxel_m)) {
       const double dx = p.x() - p_ref_.x();
       const double dy = p.y() - p_ref_.y();
-      near.push_back({dx, dy, c * dx + s * dy, -s * dx + c * dy, p.z()});
+      near->push_back({dx, dy, c * dx + s * dy, -s * dx + c * dy, p.z()});
     }
-    // Iteratively reclassify and refit (like ICP), with tightening tolerances (tread height, riser position).
+    return true;
+  }
+
+  // Fits `m` to `near` with Ceres, like ICP: classify the points as tread or riser points of the current
+  // model, solve, re-express `near` in the new frame; rounds `first_round`..2 with tightening tolerances
+  // (tread height, riser position). Without refine_with_ceres, nothing. False, with the reason, if a round
+  // finds fewer than 10 tread points.
+  bool FitModel(const Chain& chain, int first_round, Model* model, std::vector<Local>* near,
+                std::string* why) const {
+    Model& m = *model;
     const double tols[][2] = {{0.05, 0.10}, {0.035, 0.06}, {0.03, 0.04}};
-    const std::size_t stride = std::max<std::size_t>(1, near.size() / 1500);
+    const std::size_t stride = std::max<std::size_t>(1, near->size() / 1500);
     std::vector<Observation> observations;
     const int rounds = o_.refine_with_ceres ? 3 : 0;
-    for (int round = 0; round < rounds; ++round) {
+    for (int round = first_round; round < rounds; ++round) {
       const double* tol = tols[round];
       observations.clear();
       int treads = 0;
-      const std::vector<bool> wall = WallColumns(m, chain, near);
-      for (std::size_t i = 0; i < near.size(); i += stride) {
-        const Local& p = near[i];
+      const std::vector<bool> wall = WallColumns(m, chain, *near);
+      for (std::size_t i = 0; i < near->size(); i += stride) {
+        const Local& p = (*near)[i];
         // Only the inner part of the width: the ends meet walls and side faces.
         if (p.t < chain.t_lo_m + 0.1 || p.t > chain.t_hi_m - 0.1) continue;
         if (wall[WallBin(chain, p.t)]) continue;
@@ -1076,20 +1104,25 @@ class DetectorRun {
       m.z0 = x[2];
       m.rise = x[3];
       m.run = x[4];
-      c = std::cos(m.theta);
-      s = std::sin(m.theta);
-      for (Local& p : near) {
+      const double c = std::cos(m.theta), s = std::sin(m.theta);
+      for (Local& p : *near) {
         p.s = c * p.dx + s * p.dy;
         p.t = -s * p.dx + c * p.dy;
       }
     }
-    // A first riser is a step up from the floor in front of it. A fit that slipped a step down the flight (a
-    // "first riser" in front of the real one, its floor a rise below the real floor) finds the surface in
-    // front of its first riser at its first tread's height, not at its floor's: such phantom lowest steps are
-    // dropped. (Seen from the top, the floor in front may be hidden: no point either way, nothing dropped.)
+    return true;
+  }
+
+  // A first riser is a step up from the floor in front of it. A fit that slipped a step down the flight (a
+  // "first riser" in front of the real one, its floor a rise below the real floor) finds the surface in
+  // front of its first riser at its first tread's height, not at its floor's: such phantom lowest steps are
+  // dropped from `m`; returns how many. (Seen from the top, the floor in front may be hidden: no point either
+  // way, nothing dropped.)
+  int DropPhantomFirstSteps(const Chain& chain, const std::vector<Local>& near, Model* model) const {
+    Model& m = *model;
+    int dropped = 0;
     constexpr int kMinFloorPoints = 5;
-    int dropped_steps = 0;
-    while (m.n >= o_.min_steps) {
+    while (m.n >= o_.min_risers) {
       int floor_points = 0, raised_points = 0;
       for (const Local& p : near) {
         if (p.t < chain.t_lo_m + 0.1 || p.t > chain.t_hi_m - 0.1) continue;
@@ -1101,8 +1134,177 @@ class DetectorRun {
       m.s0 += m.run;
       m.z0 += m.rise;
       --m.n;
-      ++dropped_steps;
+      ++dropped;
     }
+    return dropped;
+  }
+
+  // What the points show of one riser of a fitted model (see ObserveRisers()).
+  struct RiserEvidence {
+    double rise_m = 0.0;  // Median tread step of the bins that show it as a step, metres; NaN: none does.
+    double seen_fraction = 0.0;          // Fraction of the lateral bins (over the inner width) that show it.
+    double contradicted_fraction = 0.0;  // Fraction of the bins whose two flat treads differ by another rise.
+    bool observed = false;               // Shown over enough of the width, and rarely contradicted.
+  };
+
+  // Lateral bins of the riser evidence (across the ascending axis), metres.
+  static constexpr double kEvidenceBinM = 0.1;
+  // Points within this distance of a riser along the axis lie on its face, metres (the fit's last tolerance).
+  static constexpr double kRiserFaceM = 0.04;
+  // A tread is flat where this fraction of its points lie within kFlatM of their median height (sensor noise
+  // of 2 cm keeps ~85 %; a patchwork of two heights, e.g. a coarse scan's voxels straddling a surface, does
+  // not), metres.
+  static constexpr double kFlatFraction = 0.7;
+  static constexpr double kFlatM = 0.03;
+  // Fewest of the lateral bins over the inner width that must show a riser for it to be observed: a riser
+  // runs across the flight; a terrace of a coarse scan, a box or a patch of clutter shows in a few bins.
+  static constexpr double kMinRiserSeenFraction = 0.25;
+
+  // The riser-counting step: how the points show each riser of `m`, in lateral bins of kEvidenceBinM over
+  // the inner width of `chain` (0.1 m in from each side, wall columns left out). The points on tread k (along
+  // the axis from S - run to S, S = RiserS(k) the riser's foot) and on tread k + 1 (S to S + run), at least
+  // kRiserFaceM from either riser and within half a rise of the two treads' heights, are its lower and upper
+  // side. A bin shows riser k as
+  //  - a step between its treads: both sides flat (kFlatFraction within kFlatM of their median), their
+  //    median heights differing by the model's rise within riser_rise_tolerance_m; or else
+  //  - a vertical face: points within kRiserFaceM of S in the upper three quarters of the riser, the highest
+  //    of them at most the rise (plus the tolerance) above the lower side (measured where seen, else the
+  //    model's lower tread), none in the 0.3 m above the nose (a wall or a cabinet's front is no riser: its
+  //    face goes on up), and no side contradicting it (most of the lower side's points in the lower half of
+  //    the riser's height, most of the upper side's in the upper half). From below, a riser may be hit by one
+  //    beam between its foot and its nose, and its upper tread is out of sight: a face shows part of a rise.
+  // A bin whose two sides are flat but differ by another rise contradicts the riser (a tread running on at
+  // one height, a patchwork of terraces). A riser is observed when at least kMinRiserSeenFraction of the bins
+  // show it and more bins show it than contradict it: every riser counted is seen, across the flight, with a
+  // rise consistent with the others'.
+  std::vector<RiserEvidence> ObserveRisers(const Chain& chain, const Model& m,
+                                           const std::vector<Local>& near) const {
+    const double t_lo = chain.t_lo_m + 0.1, t_hi = chain.t_hi_m - 0.1;
+    const int bins = std::max(1, static_cast<int>(std::ceil((t_hi - t_lo) / kEvidenceBinM)));
+    const std::vector<bool> wall = WallColumns(m, chain, near);
+    struct Bin {
+      std::vector<double> lower, upper;  // Heights of the points on the lower and upper side.
+      double face_top = -std::numeric_limits<double>::infinity();  // Highest face point.
+      bool above_nose = false;                                     // A point over the nose: a wall.
+    };
+    std::vector<Bin> grid(static_cast<std::size_t>(m.n) * static_cast<std::size_t>(bins));
+    auto bin_of = [&](int riser, int b) -> Bin& {
+      return grid[static_cast<std::size_t>(riser) * static_cast<std::size_t>(bins) +
+                  static_cast<std::size_t>(b)];
+    };
+    const double half_rise = 0.5 * m.rise;
+    for (const Local& p : near) {
+      if (p.t < t_lo || p.t > t_hi || wall[WallBin(chain, p.t)]) continue;
+      const int b = std::clamp(static_cast<int>(std::floor((p.t - t_lo) / kEvidenceBinM)), 0, bins - 1);
+      const double from_first = (p.s - m.s0) / m.run;
+      // On a face: the nearest riser.
+      const int k = static_cast<int>(std::lround(from_first));
+      if (k >= 0 && k < m.n && std::abs(p.s - m.RiserS(k)) <= kRiserFaceM) {
+        Bin& bin = bin_of(k, b);
+        const double nose = m.TreadZ(k + 1);
+        if (p.z > m.TreadZ(k) + 0.25 * m.rise && p.z <= nose + half_rise) {
+          bin.face_top = std::max(bin.face_top, p.z);
+        } else if (p.z > nose + half_rise && p.z <= nose + half_rise + 0.3) {
+          bin.above_nose = true;
+        }
+        continue;
+      }
+      // On a tread: the upper side of the riser behind it, the lower side of the riser ahead.
+      const int behind = static_cast<int>(std::floor(from_first));
+      for (int riser : {behind, behind + 1}) {
+        if (riser < 0 || riser >= m.n) continue;
+        if (p.z < m.TreadZ(riser) - half_rise || p.z > m.TreadZ(riser + 1) + half_rise) continue;
+        Bin& bin = bin_of(riser, b);
+        (riser == behind ? bin.upper : bin.lower).push_back(p.z);
+      }
+    }
+    auto flat = [](const std::vector<double>& z, double median) {
+      const auto near_median =
+          std::count_if(z.begin(), z.end(), [median](double h) { return std::abs(h - median) <= kFlatM; });
+      return !z.empty() && static_cast<double>(near_median) >= kFlatFraction * static_cast<double>(z.size());
+    };
+    // Most of `z` below (sign -1) or above (sign +1) `mid`; true when empty.
+    auto on_side = [](const std::vector<double>& z, double mid, int sign) {
+      const auto on =
+          std::count_if(z.begin(), z.end(), [mid, sign](double h) { return sign * (h - mid) > 0; });
+      return 2 * on >= static_cast<std::ptrdiff_t>(z.size());
+    };
+    std::vector<RiserEvidence> evidence(static_cast<std::size_t>(m.n));
+    const double tol = o_.riser_rise_tolerance_m;
+    for (int k = 0; k < m.n; ++k) {
+      const double mid = m.TreadZ(k) + half_rise;
+      std::vector<double> steps;  // Tread steps of the bins that show the riser as one.
+      int shown = 0, contradicted = 0;
+      for (int b = 0; b < bins; ++b) {
+        const Bin& bin = bin_of(k, b);
+        const double lower = bin.lower.empty() ? m.TreadZ(k) : Median(bin.lower);
+        const double upper = bin.upper.empty() ? m.TreadZ(k + 1) : Median(bin.upper);
+        if (flat(bin.lower, lower) && flat(bin.upper, upper)) {
+          if (std::abs(upper - lower - m.rise) <= tol) {
+            steps.push_back(upper - lower);
+            ++shown;
+          } else {
+            ++contradicted;
+          }
+        } else if (std::isfinite(bin.face_top) && !bin.above_nose && bin.face_top - lower <= m.rise + tol &&
+                   on_side(bin.lower, mid, -1) && on_side(bin.upper, mid, 1)) {
+          ++shown;
+        }
+      }
+      RiserEvidence& e = evidence[static_cast<std::size_t>(k)];
+      e.rise_m = steps.empty() ? std::numeric_limits<double>::quiet_NaN() : Median(steps);
+      e.seen_fraction = static_cast<double>(shown) / bins;
+      e.contradicted_fraction = static_cast<double>(contradicted) / bins;
+      e.observed = e.seen_fraction >= kMinRiserSeenFraction && shown > contradicted;
+    }
+    return evidence;
+  }
+
+  // Restricts `m` to its longest run of consecutive observed risers (ObserveRisers(); the lowest run if
+  // tied), refits it when that dropped a riser, and checks the refit model's risers once more (the count
+  // must not rest on risers the refit no longer shows); adds the risers left out below to `*first_riser`.
+  // False, with the reason, if fewer than min_risers risers remain.
+  bool KeepObservedRisers(const Chain& chain, Model* model, std::vector<Local>* near, int* first_riser,
+                          std::string* why) const {
+    Model& m = *model;
+    for (int pass = 0; pass < 2; ++pass) {
+      const std::vector<RiserEvidence> evidence = ObserveRisers(chain, m, *near);
+      int best_first = 0, best_count = 0;
+      for (int k = 0, run = 0; k < m.n; ++k) {
+        run = evidence[static_cast<std::size_t>(k)].observed ? run + 1 : 0;
+        if (run > best_count) {
+          best_count = run;
+          best_first = k - run + 1;
+        }
+      }
+      if (best_count < o_.min_risers) {
+        std::ostringstream reason;
+        reason << best_count << " consecutive risers observed of " << m.n << " fitted (< min_risers "
+               << o_.min_risers << "); rise " << m.rise << " m, measured";
+        for (const RiserEvidence& e : evidence) {
+          reason << " " << (e.observed ? "" : "!") << e.rise_m << " (seen " << e.seen_fraction
+                 << ", contradicted " << e.contradicted_fraction << ")";
+        }
+        *why = reason.str();
+        return false;
+      }
+      if (best_count == m.n) return true;
+      m.s0 += best_first * m.run;
+      m.z0 += best_first * m.rise;
+      m.n = best_count;
+      *first_riser += best_first;
+      if (pass == 0 && !FitModel(chain, 2, &m, near, why)) return false;
+    }
+    return true;
+  }
+
+  // 7. The checks of a fitted model `m` of `chain` with observed risers (its riser k is the chain's riser
+  // first_chain_riser + k): residuals, each step's lateral extent and coverage, free space above the treads,
+  // ranges, risers facing the sensor, support of the risers the chain skipped, confidence. Fills `out` and
+  // marks the edge cells inside the staircase as used, or writes the reason to `why`.
+  bool CheckAndDescribe(const Chain& chain, const Model& m, int first_chain_riser,
+                        const std::vector<Local>& near, Staircase* out, std::string* why) {
+    const double c = std::cos(m.theta), s = std::sin(m.theta);
     // Residuals, support and the lateral extent of every step.
     double sq = 0;
     int inliers = 0;
@@ -1127,23 +1329,23 @@ class DetectorRun {
     }
     const double rms = inliers > 0 ? std::sqrt(sq / inliers) : 1.0;
     // A riser the chain skipped (no edge blob there) must still be in the points: at least a quarter of the
-    // median support of the observed ones, half when only two risers were observed (then the skipped one is a
-    // third of the evidence). Two walls and a box two "steps" apart leave little in between.
-    std::vector<bool> observed(static_cast<std::size_t>(m.n), false);
+    // median support of the risers with a blob, half when only two have one (then the skipped one is a third
+    // of the evidence). Two walls and a box two "steps" apart leave little in between.
+    std::vector<bool> has_blob(static_cast<std::size_t>(m.n), false);
     for (int k : chain.riser) {
-      const int model_k = k - dropped_steps;
-      if (model_k >= 0 && model_k < m.n) observed[static_cast<std::size_t>(model_k)] = true;
+      const int model_k = k - first_chain_riser;
+      if (model_k >= 0 && model_k < m.n) has_blob[static_cast<std::size_t>(model_k)] = true;
     }
-    std::vector<double> observed_support;
+    std::vector<double> blob_support;
     for (int k = 0; k < m.n; ++k) {
       const auto u = static_cast<std::size_t>(k);
-      if (observed[u]) observed_support.push_back(riser_support[u]);
+      if (has_blob[u]) blob_support.push_back(riser_support[u]);
     }
     int unsupported_riser = -1;
-    if (!observed_support.empty()) {
-      const double need = (observed_support.size() <= 2 ? 0.5 : 0.25) * Median(observed_support);
+    if (!blob_support.empty()) {
+      const double need = (blob_support.size() <= 2 ? 0.5 : 0.25) * Median(blob_support);
       for (int k = 1; k + 1 < m.n && unsupported_riser < 0; ++k) {
-        if (!observed[static_cast<std::size_t>(k)] && riser_support[static_cast<std::size_t>(k)] < need)
+        if (!has_blob[static_cast<std::size_t>(k)] && riser_support[static_cast<std::size_t>(k)] < need)
           unsupported_riser = k;
       }
     }
@@ -1154,7 +1356,8 @@ class DetectorRun {
     for (int k = 0; k < m.n; ++k) {
       const int support = riser_support[static_cast<std::size_t>(k)];
       riser_points += support;
-      const bool behind_and_below = m.RiserS(k) < -0.1 && m.TreadZ(k) - p_ref_.z() > kSensorAboveReferenceMaxM;
+      const bool behind_and_below =
+          m.RiserS(k) < -0.1 && m.TreadZ(k) - p_ref_.z() > kSensorAboveReferenceMaxM;
       if (behind_and_below) unseeable_riser_points += support;
     }
     std::vector<std::pair<double, double>> extent(static_cast<std::size_t>(m.n), {0.0, 0.0});
@@ -1203,9 +1406,9 @@ class DetectorRun {
       coverage_sum += static_cast<double>(std::count(hit.begin(), hit.end(), 1)) / bins;
     }
     const double coverage = coverage_sum / m.n;
-    // Free space above the treads inside each step's lateral extent, shrunk by 0.25 m on each side: side walls
-    // (a stairwell; a sparse wall whose gaps let the tread's extent reach into it) are not above the treads,
-    // shelves and terraces span the width.
+    // Free space above the treads inside each step's lateral extent, shrunk by 0.25 m on each side: side
+    // walls (a stairwell; a sparse wall whose gaps let the tread's extent reach into it) are not above the
+    // treads, shelves and terraces span the width.
     int violations = 0;
     for (const Local& p : near) {
       const int k = static_cast<int>(std::floor((p.s - m.s0) / m.run));  // Step index (0-based) at s.
@@ -1220,10 +1423,8 @@ class DetectorRun {
     const double violation = static_cast<double>(violations) / std::max(1, inliers);
     const double confidence = std::clamp(coverage, 0.0, 1.0) *
                               std::clamp(1.0 - rms / o_.max_fit_rms_m, 0.0, 1.0) *
-                              std::min(1.0, static_cast<double>(m.n) / (o_.min_steps + 2));
-    if (m.n < o_.min_steps) {
-      reason << "num_steps " << m.n << " < " << o_.min_steps;
-    } else if (m.rise < o_.min_rise_m - 0.01 || m.rise > o_.max_rise_m + 0.01) {
+                              std::min(1.0, static_cast<double>(m.n) / (o_.min_risers + 2));
+    if (m.rise < o_.min_rise_m - 0.01 || m.rise > o_.max_rise_m + 0.01) {
       reason << "rise " << m.rise << " m out of range";
     } else if (m.run < o_.min_run_m - 0.01 || m.run > o_.max_run_m + 0.01) {
       reason << "run " << m.run << " m out of range";
@@ -1239,7 +1440,7 @@ class DetectorRun {
       reason << "risers face away from the sensor (" << unseeable_riser_points << " of " << riser_points
              << " riser points behind and above it: the underside of a flight)";
     } else if (unsupported_riser >= 0) {
-      reason << "riser " << unsupported_riser << " unseen and unsupported ("
+      reason << "riser " << unsupported_riser << " unseen by the chain and unsupported ("
              << riser_support[static_cast<std::size_t>(unsupported_riser)] << " points)";
     } else if (confidence < o_.min_confidence) {
       reason << "confidence " << confidence << " < " << o_.min_confidence;
@@ -1303,7 +1504,8 @@ bool StaircaseDetectorOptions::IsValid(std::string* why) const {
                     " (from cell_size_m)") &&
          CheckRange(kType, "max_run_m", max_run_m, 0.0, true, 1.0, false, why) &&
          CheckRange(kType, "min_run_m", min_run_m, 0.0, true, max_run_m, true, why, " (below max_run_m)") &&
-         CheckRange(kType, "min_steps", min_steps, 2, false, 50, false, why) &&
+         CheckRange(kType, "min_risers", min_risers, 3, false, 50, false, why) &&
+         CheckRange(kType, "riser_rise_tolerance_m", riser_rise_tolerance_m, 0.01, false, 0.1, false, why) &&
          CheckRange(kType, "min_width_m", min_width_m, 0.2, false, 10.0, false, why) &&
          CheckRange(kType, "max_fit_rms_m", max_fit_rms_m, 0.0, true, 0.1, false, why) &&
          CheckRange(kType, "min_step_coverage", min_step_coverage, 0.0, false, 1.0, false, why) &&
@@ -1341,8 +1543,8 @@ bool LocalCloudOptions::IsValid(std::string* why) const {
          CheckRange(kType, "window_s", window_s, 0.0, true, 600.0, false, why) &&
          CheckRange(kType, "max_points", static_cast<double>(max_points), 1000.0, false, 1e7, false, why) &&
          (std::isnan(blind_below_elevation_rad) ||
-          CheckRange(kType, "blind_below_elevation_rad", blind_below_elevation_rad, -kPi / 2, false, kPi / 2, false,
-                     why)) &&
+          CheckRange(kType, "blind_below_elevation_rad", blind_below_elevation_rad, -kPi / 2, false, kPi / 2,
+                     false, why)) &&
          CheckRange(kType, "blind_window_s", blind_window_s, window_s, false, 600.0, false, why);
 }
 

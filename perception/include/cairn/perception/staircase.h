@@ -25,9 +25,12 @@
 //     give along-axis residuals, Huber-robustified, points reclassified between three rounds; width and
 //     centre come from the lateral extent of each step's points;
 //  7. a lowest step that is no step up from the floor in front of it (a fit slipped a step down the flight)
-//     is dropped; the fit is rejected unless it explains the data: enough steps, rise/run/width in range,
-//     small residuals, each step covered across its width, and free space above the treads away from the
-//     sides (shelves and terraced surfaces fail here);
+//     is dropped; the risers are counted where the points show them (across the width, a step in height
+//     between a riser's two treads or a vertical face that ends at the nose, with a rise consistent with the
+//     fit's) and the staircase keeps its longest run of such risers, refitted: one step and clutter behind
+//     it never adds up to a flight. The fit is rejected unless it explains the data: min_risers observed
+//     risers, rise/run/width in range, small residuals, each step covered across its width, and free space
+//     above the treads away from the sides (shelves and terraced surfaces fail here);
 //  8. a detection that continues another one up the same flight (whole runs and rises apart, same direction,
 //     side by side) is merged into it: one flight, one detection.
 // Accuracy over the built-in worlds, survey copies and synthetic scenes: bench/staircase_accuracy.cpp and
@@ -61,10 +64,12 @@ struct Staircase {
   double run_m = 0.0;
   /// Width across the ascending direction, metres.
   double width_m = 0.0;
-  /// Number of risers (>= 1).
+  /// Number of risers (>= 1). From StaircaseDetector: the risers its points show, consecutive and of
+  /// consistent rise (>= StaircaseDetectorOptions::min_risers), rise_m and run_m fitted to them; two
+  /// detections of one flight merged into one (step 8) also count the at most two risers between them.
   int num_steps = 0;
   /// Heuristic confidence in [0, 1]: (mean fraction of the width covered by each step's points) x (1 - fit
-  /// RMS / max_fit_rms_m) x min(1, num_steps / (min_steps + 2)). Typically 0.5-0.8 for a well seen flight.
+  /// RMS / max_fit_rms_m) x min(1, num_steps / (min_risers + 2)). Typically 0.5-0.8 for a well seen flight.
   double confidence = 0.0;
   /// Number of cloud points (after filtering) that the fitted model explains as tread or riser points; for
   /// a registry entry, the sum over its merged detections.
@@ -103,8 +108,17 @@ struct StaircaseDetectorOptions {
   double min_run_m = 0.20;
   /// Largest run accepted, metres, range (min_run_m, 1.0].
   double max_run_m = 0.50;
-  /// Fewest risers of a staircase, range [2, 50].
-  int min_steps = 3;
+  /// Fewest risers of a staircase, each observed in the points over at least 25 % of its width (in 0.1 m
+  /// lateral bins): as a step in height between its two flat treads, or as a vertical face below its nose
+  /// that does not go on up, with a rise within riser_rise_tolerance_m of the staircase's, and shown in more
+  /// bins than contradict it (two flat treads at other heights). Counted consecutively: an unseen riser
+  /// splits a flight, the longest part is reported, refitted. Range [3, 50]: one or two steps (a platform, a
+  /// podium, a curb), and clutter behind them, are not a staircase.
+  int min_risers = 3;
+  /// Largest difference between a riser's rise measured in one lateral bin (median height of its upper tread
+  /// minus its lower tread's) and the staircase's fitted rise, metres, range [0.01, 0.1]; a face seen below
+  /// its nose may reach at most this above the rise.
+  double riser_rise_tolerance_m = 0.03;
   /// Narrowest staircase, metres, range [0.2, 10].
   double min_width_m = 0.5;
   /// Largest RMS residual of the model fit over its inlier points, metres, range (0, 0.1].
@@ -143,9 +157,9 @@ struct DetectStats {
   std::int64_t edge_cells = 0;
   /// Ascending-axis hypotheses tried.
   int axis_hypotheses = 0;
-  /// Chains of >= min_steps risers that were fitted (at most 8 per call, the longest first).
+  /// Chains of >= min_risers risers that were fitted (at most 8 per call, the longest first).
   int chains_fitted = 0;
-  /// Fitted chains rejected by a check (fit, coverage, free space, ranges, confidence).
+  /// Fitted chains rejected by a check (observed risers, fit, coverage, free space, ranges, confidence).
   int chains_rejected = 0;
   /// Why the last rejected chain was rejected (empty if none).
   std::string last_rejection;
@@ -174,8 +188,8 @@ class StaircaseDetector {
   /// cylinder and the reference of its height band and of the line-of-sight rule). Non-finite points are
   /// dropped and counted; an empty cloud, or one without staircase, gives an empty result; never throws on
   /// bad data. Results are sorted by decreasing confidence, at most options.max_detections, each with
-  /// num_steps >= options.min_steps. If `stats` is not null it is filled. Cost on one core (bench/
-  /// staircase.cpp): about 4 ms for 65-80k points without staircase, 6 ms with one.
+  /// num_steps >= options.min_risers observed risers. If `stats` is not null it is filled. Cost on one core
+  /// (bench/staircase.cpp): about 4 ms for 65-80k points without staircase, 6 ms with one.
   ///
   /// Limits: a flight is counted from its lowest seen riser; a 16-beam lidar near the floor sees low-rise
   /// risers far away as single beams and misses them until closer (detections then grow; StaircaseRegistry
