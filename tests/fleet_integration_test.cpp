@@ -1,5 +1,6 @@
 // Multi-process integration test of the walking skeleton: 2 cairn_agent processes, 2 cairn_base processes
 // and this test as a DDS observer, all in this test's private network namespace (tests/netns_run.sh).
+#include <gtest/gtest.h>
 #include <signal.h>
 
 #include <cmath>
@@ -7,8 +8,6 @@
 #include <fstream>
 #include <map>
 #include <mutex>
-
-#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "cairn/core/dds.h"
@@ -40,7 +39,8 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   std::string spec = world_case.spec;
   if (spec.rfind("builtin:", 0) != 0) {
     spec = std::string(CAIRN_SOURCE_DIR) + "/" + spec;
-    if (!std::filesystem::exists(spec)) GTEST_SKIP() << spec << " is absent (no ../shared); builtin worlds cover this";
+    if (!std::filesystem::exists(spec))
+      GTEST_SKIP() << spec << " is absent (no ../shared); builtin worlds cover this";
   }
   const int domain = world_case.domain;
   const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/" + world_case.name;
@@ -58,11 +58,13 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   for (int i = 1; i <= 2; ++i) {
     const std::string id = "r" + std::to_string(i);
     agents.push_back(std::make_unique<ChildProcess>(
-        std::vector<std::string>{kAgent, "--robot-id", id, "--world", spec, "--start", "slot:" + std::to_string(i - 1),
-                                 "--domain", std::to_string(domain), "--config", config},
+        std::vector<std::string>{kAgent, "--robot-id", id, "--world", spec, "--start",
+                                 "slot:" + std::to_string(i - 1), "--domain", std::to_string(domain),
+                                 "--config", config},
         logs + "/" + id + ".log"));
   }
-  for (auto& agent : agents) ASSERT_TRUE(agent->WaitForLine("READY", 60s)) << "agent did not start; see " << logs;
+  for (auto& agent : agents)
+    ASSERT_TRUE(agent->WaitForLine("READY", 60s)) << "agent did not start; see " << logs;
 
   // Discovery: a fresh basestation sees both robots within 2 s of its start.
   const auto base_start = Clock::now();
@@ -127,7 +129,8 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   const auto& progress = opA.progress_lines();
   ASSERT_FALSE(progress.empty()) << "no progress lines while driving";
   EXPECT_GT(progress.front()["eta_s"].get<double>(), 0.0);
-  EXPECT_LT(progress.back()["distance_left_m"].get<double>(), progress.front()["distance_left_m"].get<double>());
+  EXPECT_LT(progress.back()["distance_left_m"].get<double>(),
+            progress.front()["distance_left_m"].get<double>());
   Figure("progress_lines", static_cast<double>(progress.size()));
   const cairn_msgs::RobotState arrived = observer.FreshState("r1");
   const double miss_m = std::hypot(arrived.pose_MB().position().x_m() - goal->x(),
@@ -252,8 +255,8 @@ TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
   ChildProcess legged({kAgent, "--robot-id", "leg1", "--platform", "legged", "--start", "48,20,0", "--domain",
                        std::to_string(domain)},
                       logs + "/leg1.log");
-  ChildProcess wheeled({kAgent, "--robot-id", "whl1", "--platform", "wheeled", "--start", "52,18,0", "--domain",
-                        std::to_string(domain)},
+  ChildProcess wheeled({kAgent, "--robot-id", "whl1", "--platform", "wheeled", "--start", "52,18,0",
+                        "--domain", std::to_string(domain)},
                        logs + "/whl1.log");
   ASSERT_TRUE(legged.WaitForLine("READY", 60s)) << "see " << logs;
   ASSERT_TRUE(wheeled.WaitForLine("READY", 60s)) << "see " << logs;
@@ -279,7 +282,8 @@ TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
               wheeled_reason.find("step") != std::string::npos)
       << r;
   EXPECT_LT(observer.FreshState("whl1").pose_MB().position().z_m(), 0.15);
-  for (const auto& s : observer.History("whl1")) EXPECT_FALSE(s.in_contact()) << "whl1 touched occupied space";
+  for (const auto& s : observer.History("whl1"))
+    EXPECT_FALSE(s.in_contact()) << "whl1 touched occupied space";
   std::printf("%s", TrackBeforeContact(observer.History("whl1")).c_str());
   // Now its map holds the staircase: its path service refuses its own platform with the step.
   r = op.Run("plan whl1 54.5 23.8 --from 48,20");
@@ -298,7 +302,8 @@ TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
   EXPECT_TRUE(r["ok"]) << r;
   const auto top = observer.FreshState("leg1");
   EXPECT_NEAR(top.pose_MB().position().z_m(), 1.0, 0.11);
-  for (const auto& s : observer.History("leg1")) EXPECT_FALSE(s.in_contact()) << "leg1 touched occupied space";
+  for (const auto& s : observer.History("leg1"))
+    EXPECT_FALSE(s.in_contact()) << "leg1 touched occupied space";
   std::printf("%s", TrackBeforeContact(observer.History("leg1")).c_str());
   Figure("stairs_top_z_m", top.pose_MB().position().z_m());
 
@@ -344,9 +349,9 @@ INSTANTIATE_TEST_SUITE_P(Worlds, FleetIntegration,
                          [](const auto& info) { return info.param.name; });
 
 // Navigation on the robot's own knowledge (issue 11): a goal around a corner the robot has never seen, beyond
-// its navigation map (started at start +- 10 m here), is accepted with a plan to the map's edge, the map grows
-// over it and the goal is reached; a rockfall dropped into the simulated world mid-drive (in no map) is seen by
-// the lidar, avoided by the local planner and planned around, with no contact.
+// its navigation map (started at start +- 10 m here), is accepted with a plan to the map's edge, the map
+// grows over it and the goal is reached; a rockfall dropped into the simulated world mid-drive (in no map) is
+// seen by the lidar, avoided by the local planner and planned around, with no contact.
 TEST(NavigationOverDds, GoalInUnknownSpaceAndARockfallPlannedAround) {
   const int domain = 64;
   const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/rockfall";
@@ -371,7 +376,8 @@ TEST(NavigationOverDds, GoalInUnknownSpaceAndARockfallPlannedAround) {
   json r = op.Run("goto r1 30 10 --wait 120", 130s);
   EXPECT_TRUE(r["ok"]) << r << " (see " << logs << ")";
   const auto arrived = observer.FreshState("r1");
-  EXPECT_LT(std::hypot(arrived.pose_MB().position().x_m() - 30.0, arrived.pose_MB().position().y_m() - 10.0), 0.3);
+  EXPECT_LT(std::hypot(arrived.pose_MB().position().x_m() - 30.0, arrived.pose_MB().position().y_m() - 10.0),
+            0.3);
   EXPECT_GE(arrived.nav_replans(), 1u) << "the path through the rock was never replanned";
   double passed_at_y = 1e9;  // the robot's lowest y beside the rock
   for (const auto& s : observer.History("r1")) {
@@ -387,20 +393,21 @@ TEST(NavigationOverDds, GoalInUnknownSpaceAndARockfallPlannedAround) {
   // The navigation map (x in [-6, 14] at first) grew over the goal.
   std::ifstream log(logs + "/r1.log");
   int growths = 0;
-  for (std::string line; std::getline(log, line);) growths += line.find("navigation map grown") != std::string::npos;
+  for (std::string line; std::getline(log, line);)
+    growths += line.find("navigation map grown") != std::string::npos;
   EXPECT_GE(growths, 1) << "the navigation map never grew (see " << logs << ")";
   Figure("nav_map_growths", growths);
 }
 
 // Narrow passages and recovery (issue 11 section 3) on the robot's own map: a 0.6 m wheeled robot in a room
 // whose only way out is a 1.0 m doorway, sent to the corridor outside. As it comes within 4.3 m of the
-// doorway a rock falls into it and boxes the robot in: its map (every wall of the room seen) holds no way out.
-// The rock is cleared 4 s later, like a person or dust that moves on; the robot, stopped about 3 m short of
-// the doorway, sees its floor again through the low beams and its map lets it through. (Closer than ~2.5 m
+// doorway a rock falls into it and boxes the robot in: its map (every wall of the room seen) holds no way
+// out. The rock is cleared 4 s later, like a person or dust that moves on; the robot, stopped about 3 m short
+// of the doorway, sees its floor again through the low beams and its map lets it through. (Closer than ~2.5 m
 // a VLP-16 0.5 m up sees too little of the floor there to clear the rock's foot, which stays on its map as a
-// step: a limit of any map built from rays; the recovery's back-up of 0.4 m does not get it that far.) The goal does not fail: the recovery
-// tree runs (reported in the robot's state), and once the doorway is open again on its own map the robot
-// drives through it and arrives, with no contact.
+// step: a limit of any map built from rays; the recovery's back-up of 0.4 m does not get it that far.) The
+// goal does not fail: the recovery tree runs (reported in the robot's state), and once the doorway is open
+// again on its own map the robot drives through it and arrives, with no contact.
 TEST(NavigationOverDds, ABoxedInRobotRecoversAndPassesAOneMetreDoorway) {
   const int domain = 66;
   const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/doorway";
@@ -413,8 +420,8 @@ TEST(NavigationOverDds, ABoxedInRobotRecoversAndPassesAOneMetreDoorway) {
   }
   Observer observer(domain);
   // In the room south of the corridor (x 6.2-12.0, y 0.2-5.8), facing the doorway.
-  ChildProcess agent({kAgent, "--robot-id", "r1", "--platform", "wheeled", "--world", "builtin:building", "--start",
-                      "9.1,0.8,1.5708", "--domain", std::to_string(domain), "--config", config},
+  ChildProcess agent({kAgent, "--robot-id", "r1", "--platform", "wheeled", "--world", "builtin:building",
+                      "--start", "9.1,0.8,1.5708", "--domain", std::to_string(domain), "--config", config},
                      logs + "/r1.log");
   ASSERT_TRUE(agent.WaitForLine("READY", 60s)) << "see " << logs;
   Base op("op", domain, logs);
@@ -423,7 +430,8 @@ TEST(NavigationOverDds, ABoxedInRobotRecoversAndPassesAOneMetreDoorway) {
   json r = op.Run("goto r1 9.1 7.1 --wait 120", 130s);
   EXPECT_TRUE(r["ok"]) << r << " (see " << logs << ")";
   const auto arrived = observer.FreshState("r1");
-  EXPECT_LT(std::hypot(arrived.pose_MB().position().x_m() - 9.1, arrived.pose_MB().position().y_m() - 7.1), 0.3);
+  EXPECT_LT(std::hypot(arrived.pose_MB().position().x_m() - 9.1, arrived.pose_MB().position().y_m() - 7.1),
+            0.3);
   std::string recovery_report;  // the longest report seen while the goal was active
   double closest_to_rock_m = 1e9;
   double door_x_m = 1e9;  // x where the robot crossed the wall's line y = 5.9
@@ -436,29 +444,31 @@ TEST(NavigationOverDds, ABoxedInRobotRecoversAndPassesAOneMetreDoorway) {
       recovery_report = s.nav_reason();
     }
     if (recovery_report.empty()) {  // before the recovery: how close it came to the rock (which then stood)
-      closest_to_rock_m = std::min(closest_to_rock_m, std::hypot(std::max({8.5 - x, 0.0, x - 9.7}), 5.65 - y));
+      closest_to_rock_m =
+          std::min(closest_to_rock_m, std::hypot(std::max({8.5 - x, 0.0, x - 9.7}), 5.65 - y));
     }
     if (previous_y < 5.9 && y >= 5.9) door_x_m = x;
     previous_y = y;
   }
-  EXPECT_FALSE(recovery_report.empty()) << "no recovery was reported: was the robot boxed in? (see " << logs << ")";
+  EXPECT_FALSE(recovery_report.empty())
+      << "no recovery was reported: was the robot boxed in? (see " << logs << ")";
   std::printf("recovery report: %s\n", recovery_report.c_str());
   EXPECT_NEAR(door_x_m, 9.1, 0.2) << "r1 did not pass through the doorway's middle";
   Figure("door_crossing_x_m", door_x_m);
   Figure("closest_to_rock_before_recovery_m", closest_to_rock_m);
 }
 
-// Several floors on the robots' own maps (issue 11 section 4): a legged robot sent to a room on floor 2 of the
-// two-floor building, which its map has never seen, climbs the switchback stairwell with partial plans that
-// grow with its map and arrives on floor 2; a wheeled robot that has seen the stairs is refused the upper
-// floor naming their step.
+// Several floors on the robots' own maps (issue 11 section 4): a legged robot sent to a room on floor 2 of
+// the two-floor building, which its map has never seen, climbs the switchback stairwell with partial plans
+// that grow with its map and arrives on floor 2; a wheeled robot that has seen the stairs is refused the
+// upper floor naming their step.
 TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) {
   const int domain = 65;
   const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/floors";
   std::filesystem::create_directories(logs);
   Observer observer(domain);
-  ChildProcess legged({kAgent, "--robot-id", "r1", "--platform", "legged", "--world", "builtin:building", "--start",
-                       "14,7.1,0", "--domain", std::to_string(domain)},
+  ChildProcess legged({kAgent, "--robot-id", "r1", "--platform", "legged", "--world", "builtin:building",
+                       "--start", "14,7.1,0", "--domain", std::to_string(domain)},
                       logs + "/r1.log");
   ASSERT_TRUE(legged.WaitForLine("READY", 60s)) << "see " << logs;
   Base op("op", domain, logs);
@@ -501,7 +511,8 @@ TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) 
   double highest_z = 0.0;
   for (const auto& s : observer.History("r1")) {
     EXPECT_FALSE(s.in_contact()) << "r1 touched occupied space at (" << s.pose_MB().position().x_m() << ", "
-                                 << s.pose_MB().position().y_m() << ", " << s.pose_MB().position().z_m() << ")";
+                                 << s.pose_MB().position().y_m() << ", " << s.pose_MB().position().z_m()
+                                 << ")";
     highest_z = std::max(highest_z, s.pose_MB().position().z_m());
   }
   std::printf("%s", TrackBeforeContact(observer.History("r1")).c_str());
@@ -530,7 +541,8 @@ TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) 
 // A's way. A simulated lidar does not see another robot (each agent simulates its own world): A keeps clear
 // of B only because B tells its peers where it is (cairn/peer_state). A either passes B or stops short of it
 // (its goal then fails as blocked, or it is still in its recovery attempts when the wait ends: seen both ways
-// in two runs); it never comes within touching distance, and B never moves.
+// in two runs); it never comes within touching distance. B moves only if A asks it to get out of the way
+// (the tunnel's map may leave too little room beside it), and then returns to where it stood.
 TEST(PeersOverDds, ARobotParkedInATunnelIsNeverDrivenInto) {
   const int domain = 91;
   const std::string logs = FreshLogs("peers", "parked_in_tunnel");
@@ -571,10 +583,26 @@ TEST(PeersOverDds, ARobotParkedInATunnelIsNeverDrivenInto) {
   }
   const double touching_m = 2 * 0.3;  // two wheeled footprints (nav::GetPlatformProfile("wheeled"))
   EXPECT_GT(closest_m, touching_m + 0.1) << "pa came within " << closest_m << " m of pb (" << outcome << ")";
-  EXPECT_LT(Distance(observer.FreshState("pb"), b_start), 0.1) << "pb moved";
+  // pb moves only to get out of pa's way when pa asks (pa's map of the 3 m tunnel leaves too little room
+  // beside pb: 3 of 3 runs on 2026-11-26), and an idle robot that yielded returns to where it stood.
+  bool b_yielded = false;
+  for (const auto& sb : b_track) b_yielded |= sb.yield_peer_id() == "pa" && !sb.yield_state().empty();
+  double b_moved_m = Distance(observer.FreshState("pb"), b_start);
+  if (b_yielded) {
+    const auto back_by = Clock::now() + 90s;
+    while (Clock::now() < back_by && (b_moved_m >= 0.3 || !observer.FreshState("pb").yield_state().empty())) {
+      std::this_thread::sleep_for(500ms);
+      b_moved_m = Distance(observer.FreshState("pb"), b_start);
+    }
+    EXPECT_LT(b_moved_m, 0.3) << "pb yielded to pa and did not return to where it stood (see " << logs << ")";
+  } else {
+    EXPECT_LT(b_moved_m, 0.1) << "pb moved without being asked to yield (see " << logs << ")";
+  }
   const cairn_msgs::RobotState a_end = observer.FreshState("pa");
-  std::printf("FIGURE peers_parked_in_tunnel outcome '%s' closest_centre_distance_m %.2f pa_end_x_m %.1f\n",
-              outcome.c_str(), closest_m, a_end.pose_MB().position().x_m());
+  std::printf(
+      "FIGURE peers_parked_in_tunnel outcome '%s' closest_centre_distance_m %.2f pa_end_x_m %.1f pb_yielded "
+      "%d\n",
+      outcome.c_str(), closest_m, a_end.pose_MB().position().x_m(), b_yielded ? 1 : 0);
 }
 
 }  // namespace

@@ -41,6 +41,26 @@ bool OperatorDriven(const std::string& mode) { return mode == "manual" || mode =
 
 std::string Point(const Eigen::Vector2d& p) { return "(" + Fixed(p.x(), 1) + ", " + Fixed(p.y(), 1) + ")"; }
 
+// `way` (>= 1 point) up to its point nearest `p`, then `p`: the part of the way a robot that stopped at `p`
+// has driven.
+std::vector<Eigen::Vector2d> WayTo(const std::vector<Eigen::Vector2d>& way, const Eigen::Vector2d& p) {
+  std::size_t best_i = 0;
+  double best_d = (way.front() - p).norm();
+  for (std::size_t i = 0; i + 1 < way.size(); ++i) {
+    const Eigen::Vector2d ab = way[i + 1] - way[i];
+    const double len2 = ab.squaredNorm();
+    const double t = len2 > 1e-18 ? std::clamp((p - way[i]).dot(ab) / len2, 0.0, 1.0) : 0.0;
+    const double d = (way[i] + t * ab - p).norm();
+    if (d < best_d) {
+      best_d = d;
+      best_i = i;
+    }
+  }
+  std::vector<Eigen::Vector2d> driven(way.begin(), way.begin() + static_cast<std::ptrdiff_t>(best_i) + 1);
+  driven.push_back(p);
+  return driven;
+}
+
 }  // namespace
 
 std::string ParseYieldModes(const std::string& text, std::vector<std::string>* modes) {
@@ -345,6 +365,18 @@ ModeOutput YieldMode::Step(const ModeInputs& in) {
     has_goal_ = false;
     const bool returning = status_.state == YieldStatus::State::kReturning;
     DropGoal();
+    const Eigen::Vector2d here(in.pose_M.x_m, in.pose_M.y_m);
+    if (!returning && !way_M_.empty() && (here - way_M_.front()).norm() > kShortOfSpotM) {
+      // Stopped short of the spot (the map there changed): it has left where it stood, so it waits here and
+      // later returns along the part of the way it drove, as from the spot; the asking robot asks it again
+      // if it is still in the way.
+      way_M_ = WayTo(way_M_, here);
+      status_.state = YieldStatus::State::kAside;
+      status_.reason = "aside at " + Point(here) + ", short of the spot (" + step.reason + "), waiting for " +
+                       passing_id_ + " to pass";
+      aside_since_s_ = in.now_s;
+      return Hold(in);
+    }
     status_ = YieldStatus{returning ? YieldStatus::State::kNone : YieldStatus::State::kRefused, passing_id_,
                           (returning ? "could not return to " + Point(way_M_.front()) + ": "
                                      : "could not reach the spot aside: ") +

@@ -320,6 +320,44 @@ TEST(YieldTest, ARobotParkedBeyondTheBayBacksIntoItWhileTheOtherHolds) {
   ExpectYielded(RunYield({16.0, 5.0, 0.0}, {24.0, 5.0}));
 }
 
+// yb, idle at (24, 5), is asked by ya (not otherwise heard) to clear the south tunnel and drives toward the
+// bay; a rock then falls on the bay, so its way to the spot fails. Having left where it stood, yb waits where
+// it stopped (it does not end the yield out of place), and once ya counts as gone it drives back.
+TEST(YieldTest, ARobotStoppedShortOfItsSpotWaitsThereAndReturns) {
+  constexpr double kDt = 0.02;
+  auto [platforms, robots] = MakeSteppedTeam("builtin:narrow", {{"yb", {24.0, 5.0, M_PI}}});
+  SteppedRobot& yb = *robots[0];
+  double t = 0;
+  for (int i = 0; i < 100; ++i) StepAll(robots, t += kDt);  // a map first
+  const Eigen::Vector2d parked(platforms[0]->TrueState().x_m, platforms[0]->TrueState().y_m);
+  ASSERT_EQ(yb.OnYieldRequest(FromYa(12.0), t), "");
+  ASSERT_EQ(yb.yield().status().state, YieldStatus::State::kMovingAside) << yb.yield().status().reason;
+  auto moved_m = [&] {
+    return (Eigen::Vector2d(platforms[0]->TrueState().x_m, platforms[0]->TrueState().y_m) - parked).norm();
+  };
+  while (t < 30 && moved_m() < 0.6 && yb.yield().status().state == YieldStatus::State::kMovingAside)
+    StepAll(robots, t += kDt);
+  ASSERT_GE(moved_m(), 0.6) << yb.yield().status().reason;
+  platforms[0]->DropRock(Eigen::AlignedBox2d(Eigen::Vector2d(18.5, 5.8), Eigen::Vector2d(21.5, 8.0)), 1.5);
+  bool waited_short = false;
+  std::string short_reason;
+  const double rock_s = t;
+  while (t < rock_s + 60 && yb.mode() != "idle") {
+    StepAll(robots, t += kDt);
+    if (yb.yield().status().state == YieldStatus::State::kAside &&
+        yb.yield().status().reason.find("short of the spot") != std::string::npos) {
+      waited_short = true;
+      short_reason = yb.yield().status().reason;
+    }
+    EXPECT_FALSE(platforms[0]->ReadStatus().in_contact);
+  }
+  std::printf("yb aside: %s; at the end: %s\n", short_reason.c_str(), yb.yield().status().reason.c_str());
+  EXPECT_TRUE(waited_short) << yb.yield().status().reason;
+  EXPECT_EQ(yb.mode(), "idle");
+  EXPECT_EQ(yb.yield().status().reason.find("back at"), 0u) << yb.yield().status().reason;
+  EXPECT_LT(moved_m(), 0.5) << "yb returned to where it stood";
+}
+
 // Head-on in the 2 m tunnel: ya drives east to (30, 5) while yb drives west to (4, 5). With the default peer
 // margin (0.25 m) two wheeled robots squeeze past each other there; a team that keeps 0.6 m from peers
 // cannot, so they stop before each other and one asks the other (both, at once: the larger id gives way). The

@@ -137,6 +137,9 @@ class YieldMode : public ModeModule {
   static constexpr double kRefusalShownS = 10.0;
   /// The passing robot not heard for this long counts as gone (passed, or out of radio range), seconds.
   static constexpr double kUnheardS = 10.0;
+  /// A robot that cannot reach its spot aside but has moved this far from where it stood, metres, waits
+  /// where it stopped (and returns from there) instead of ending the yield.
+  static constexpr double kShortOfSpotM = 0.25;
 
   /// `navigation` (not owned) outlives this. @throws std::invalid_argument for a null navigation or invalid
   /// options.
