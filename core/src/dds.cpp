@@ -117,12 +117,14 @@ using eprosima::fastrtps::rtps::Locator_t;
 using eprosima::fastrtps::rtps::LocatorList_t;
 
 std::string LocatorText(const Locator_t& locator) {
-  if (locator.kind != LOCATOR_KIND_UDPv4) return "a locator of kind " + std::to_string(locator.kind) + " (not UDPv4)";
+  if (locator.kind != LOCATOR_KIND_UDPv4)
+    return "a locator of kind " + std::to_string(locator.kind) + " (not UDPv4)";
   return IPLocator::toIPv4string(locator) + ":" + std::to_string(locator.port);
 }
 
 std::uint32_t LocatorAddress(const Locator_t& locator) {
-  return (static_cast<std::uint32_t>(locator.address[12]) << 24) | (static_cast<std::uint32_t>(locator.address[13]) << 16) |
+  return (static_cast<std::uint32_t>(locator.address[12]) << 24) |
+         (static_cast<std::uint32_t>(locator.address[13]) << 16) |
          (static_cast<std::uint32_t>(locator.address[14]) << 8) | locator.address[15];
 }
 
@@ -141,7 +143,8 @@ bool LocatorsInScope(const LocatorList_t& locators, const std::string& list, boo
   for (const Locator_t& locator : locators) {
     const std::string text = LocatorText(locator);
     if (multicast_list) {
-      if (!scope.multicast || locator.kind != LOCATOR_KIND_UDPv4 || !IsMulticastAddress(LocatorAddress(locator))) {
+      if (!scope.multicast || locator.kind != LOCATOR_KIND_UDPv4 ||
+          !IsMulticastAddress(LocatorAddress(locator))) {
         *why = "its " + list + " holds " + text +
                (scope.multicast ? " (not a UDPv4 multicast group)" : " (multicast leaves loopback)");
         return false;
@@ -163,7 +166,8 @@ bool EndpointInScope(const dds::RTPSEndpointQos& endpoint, const NetworkScope& s
 }
 
 std::string ScopeRefusal(const NetworkScope& scope) {
-  return scope.subnets.empty() ? "is not loopback-only: " : "leaves its network scope (" + scope.Describe() + "): ";
+  return scope.subnets.empty() ? "is not loopback-only: "
+                               : "leaves its network scope (" + scope.Describe() + "): ";
 }
 
 }  // namespace
@@ -180,7 +184,8 @@ Ipv4Subnet ParseIpv4Subnet(const std::string& text) {
   while (ok && at <= address.size() && parts < 4) {
     const std::size_t dot = std::min(address.find('.', at), address.size());
     const std::string part = address.substr(at, dot - at);
-    ok = !part.empty() && part.size() <= 3 && std::all_of(part.begin(), part.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
+    ok = !part.empty() && part.size() <= 3 &&
+         std::all_of(part.begin(), part.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
          std::stoi(part) <= 255;
     if (ok) value = (value << 8) | static_cast<std::uint32_t>(std::stoi(part));
     ++parts;
@@ -201,7 +206,8 @@ bool Ipv4Subnet::Contains(std::uint32_t address) const {
 
 bool NetworkScope::Contains(std::uint32_t address) const {
   if (IsLoopbackAddress(address)) return true;
-  return std::any_of(subnets.begin(), subnets.end(), [address](const Ipv4Subnet& s) { return s.Contains(address); });
+  return std::any_of(subnets.begin(), subnets.end(),
+                     [address](const Ipv4Subnet& s) { return s.Contains(address); });
 }
 
 std::string NetworkScope::Describe() const {
@@ -241,7 +247,8 @@ bool WithinNetworkScope(const dds::DomainParticipantQos& qos, const NetworkScope
         }
       }
       if (!in_scope) {
-        *why = "its UDPv4 whitelist contains " + address + (loopback_only ? "" : ", outside " + scope.Describe());
+        *why = "its UDPv4 whitelist contains " + address +
+               (loopback_only ? "" : ", outside " + scope.Describe());
         return false;
       }
     }
@@ -261,10 +268,10 @@ bool WithinNetworkScope(const dds::DomainParticipantQos& qos, const NetworkScope
     if (!LocatorsInScope(*list, name, /*multicast_list=*/true, scope, why)) return false;
   }
   for (const auto& server : builtin.discovery_config.m_DiscoveryServers) {
-    if (!LocatorsInScope(server.metatrafficUnicastLocatorList, "discovery server's metatrafficUnicastLocatorList",
-                         false, scope, why) ||
-        !LocatorsInScope(server.metatrafficMulticastLocatorList, "discovery server's metatrafficMulticastLocatorList",
-                         true, scope, why)) {
+    if (!LocatorsInScope(server.metatrafficUnicastLocatorList,
+                         "discovery server's metatrafficUnicastLocatorList", false, scope, why) ||
+        !LocatorsInScope(server.metatrafficMulticastLocatorList,
+                         "discovery server's metatrafficMulticastLocatorList", true, scope, why)) {
       return false;
     }
   }
@@ -280,7 +287,8 @@ EndpointQos EndpointQosFor(const char* kind, const std::string& profile, const P
                            const Load& load) {
   EndpointQos qos;
   if (load(profile, qos) != ReturnCode_t::RETCODE_OK) {
-    throw DdsError(std::string(kind) + " QoS profile '" + profile + "' is not defined in " + options.profiles_file);
+    throw DdsError(std::string(kind) + " QoS profile '" + profile + "' is not defined in " +
+                   options.profiles_file);
   }
   std::string why;
   if (!EndpointInScope(qos.endpoint(), options.network, &why)) {
@@ -291,7 +299,8 @@ EndpointQos EndpointQosFor(const char* kind, const std::string& profile, const P
   auto& liveliness = qos.liveliness();
   const eprosima::fastrtps::Duration_t shortest(kNetworkLivelinessLeaseS);
   if (IsNamedNetworkLink(options.link) && liveliness.kind == dds::AUTOMATIC_LIVELINESS_QOS &&
-      liveliness.lease_duration != eprosima::fastrtps::c_TimeInfinite && liveliness.lease_duration < shortest) {
+      liveliness.lease_duration != eprosima::fastrtps::c_TimeInfinite &&
+      liveliness.lease_duration < shortest) {
     liveliness.lease_duration = shortest;
   }
   return qos;
@@ -300,15 +309,17 @@ EndpointQos EndpointQosFor(const char* kind, const std::string& profile, const P
 }  // namespace
 
 dds::DataWriterQos Participant::WriterQos(const std::string& profile) const {
-  return EndpointQosFor<dds::DataWriterQos>("writer", profile, options_, [this](const std::string& p, auto& qos) {
-    return publisher_->get_datawriter_qos_from_profile(p, qos);
-  });
+  return EndpointQosFor<dds::DataWriterQos>("writer", profile, options_,
+                                            [this](const std::string& p, auto& qos) {
+                                              return publisher_->get_datawriter_qos_from_profile(p, qos);
+                                            });
 }
 
 dds::DataReaderQos Participant::ReaderQos(const std::string& profile) const {
-  return EndpointQosFor<dds::DataReaderQos>("reader", profile, options_, [this](const std::string& p, auto& qos) {
-    return subscriber_->get_datareader_qos_from_profile(p, qos);
-  });
+  return EndpointQosFor<dds::DataReaderQos>("reader", profile, options_,
+                                            [this](const std::string& p, auto& qos) {
+                                              return subscriber_->get_datareader_qos_from_profile(p, qos);
+                                            });
 }
 
 void CheckLinkOptions(const LinkOptions& link) {
@@ -323,11 +334,13 @@ void CheckLinkOptions(const LinkOptions& link) {
     throw std::invalid_argument("--link-kbps names a radio link's budget: add --link radio");
   }
   if (link.link == "loopback" && (!link.subnet.empty() || !link.interface_name.empty())) {
-    throw std::invalid_argument("--subnet and --interface name a lan link: add --link lan (the loopback link "
-                                "binds to 127.0.0.1 only)");
+    throw std::invalid_argument(
+        "--subnet and --interface name a lan link: add --link lan (the loopback link "
+        "binds to 127.0.0.1 only)");
   }
   if (IsNamedNetworkLink(link) && link.subnet.empty() && link.interface_name.empty()) {
-    throw std::invalid_argument("--link " + link.link + " needs --subnet CIDR or --interface NAME: it binds only "
+    throw std::invalid_argument("--link " + link.link +
+                                " needs --subnet CIDR or --interface NAME: it binds only "
                                 "to the network you name, never to every interface");
   }
   if (!link.subnet.empty()) ParseIpv4Subnet(link.subnet);
@@ -352,7 +365,8 @@ std::pair<std::string, std::uint32_t> ParseDiscoveryServer(const std::string& te
     ok = ok && port >= 1 && port <= 65535;
   }
   if (!ok) {
-    throw std::invalid_argument("--discovery-server '" + text + "' must be IPV4_ADDRESS:PORT, e.g. 10.77.0.2:11811");
+    throw std::invalid_argument("--discovery-server '" + text +
+                                "' must be IPV4_ADDRESS:PORT, e.g. 10.77.0.2:11811");
   }
   return {text.substr(0, colon), port};
 }
@@ -369,7 +383,9 @@ std::string ResolveLinkAddress(const LinkOptions& link, Ipv4Subnet* subnet) {
     if (i->ifa_addr == nullptr || i->ifa_addr->sa_family != AF_INET) continue;
     const std::uint32_t address = ntohl(reinterpret_cast<const sockaddr_in*>(i->ifa_addr)->sin_addr.s_addr);
     const std::uint32_t mask =
-        i->ifa_netmask != nullptr ? ntohl(reinterpret_cast<const sockaddr_in*>(i->ifa_netmask)->sin_addr.s_addr) : ~0u;
+        i->ifa_netmask != nullptr
+            ? ntohl(reinterpret_cast<const sockaddr_in*>(i->ifa_netmask)->sin_addr.s_addr)
+            : ~0u;
     char text[INET_ADDRSTRLEN] = {};
     const in_addr raw = reinterpret_cast<const sockaddr_in*>(i->ifa_addr)->sin_addr;
     inet_ntop(AF_INET, &raw, text, sizeof(text));
@@ -385,16 +401,16 @@ std::string ResolveLinkAddress(const LinkOptions& link, Ipv4Subnet* subnet) {
     matches.emplace_back(text, own);
   }
   freeifaddrs(list);
-  const std::string what = !link.interface_name.empty()
-                               ? "--interface '" + link.interface_name + "'" + (named ? " in --subnet " + named->text : "")
-                               : "--subnet " + named->text;
+  const std::string what = !link.interface_name.empty() ? "--interface '" + link.interface_name + "'" +
+                                                              (named ? " in --subnet " + named->text : "")
+                                                        : "--subnet " + named->text;
   if (matches.empty()) {
     throw std::invalid_argument(what + ": no interface of this host has an IPv4 address there (seen: " +
                                 (seen.empty() ? "none" : seen) + ")");
   }
   if (matches.size() > 1) {
-    throw std::invalid_argument(what + ": " + std::to_string(matches.size()) + " addresses match (seen: " + seen +
-                                "); name one with --interface");
+    throw std::invalid_argument(what + ": " + std::to_string(matches.size()) +
+                                " addresses match (seen: " + seen + "); name one with --interface");
   }
   *subnet = named ? *named : matches.front().second;
   return matches.front().first;
@@ -428,8 +444,8 @@ void ApplyLanLink(const std::string& address, int domain_id, const std::string& 
   udp->interfaceWhiteList = {address};
   qos->transport().use_builtin_transports = false;
   qos->transport().user_transports = {udp};
-  // The discovery multicast group's port is RTPS's well-known PB + DG * domain + d0 (7400 + 250 d + 0); unicast
-  // ports are left to Fast DDS (0: chosen per participant).
+  // The discovery multicast group's port is RTPS's well-known PB + DG * domain + d0 (7400 + 250 d + 0);
+  // unicast ports are left to Fast DDS (0: chosen per participant).
   const std::uint32_t base = 7400 + 250 * static_cast<std::uint32_t>(domain_id);
   auto& builtin = qos->wire_protocol().builtin;
   builtin.metatrafficUnicastLocatorList.clear();
@@ -442,7 +458,8 @@ void ApplyLanLink(const std::string& address, int domain_id, const std::string& 
   qos->wire_protocol().default_multicast_locator_list.clear();
   if (radio) {
     auto& discovery = builtin.discovery_config;
-    discovery.leaseDuration_announcementperiod = eprosima::fastrtps::Duration_t(kRadioAnnouncementPeriodMs / 1000.0);
+    discovery.leaseDuration_announcementperiod =
+        eprosima::fastrtps::Duration_t(kRadioAnnouncementPeriodMs / 1000.0);
     discovery.leaseDuration = eprosima::fastrtps::Duration_t(kRadioLeaseS, 0);
     discovery.initial_announcements.count = kRadioInitialAnnouncements;
     discovery.initial_announcements.period =
@@ -455,7 +472,8 @@ void ApplyLanLink(const std::string& address, int domain_id, const std::string& 
     server.ReadguidPrefix(kDiscoveryServerGuidPrefix);
     server.metatrafficUnicastLocatorList.push_back(Udpv4Locator(server_address, server_port));
     builtin.discovery_config.discoveryProtocol = eprosima::fastrtps::rtps::DiscoveryProtocol_t::CLIENT;
-    // Until the server answers, a client pings it this often (Fast DDS default 450 ms, most of a join's time).
+    // Until the server answers, a client pings it this often (Fast DDS default 450 ms, most of a join's
+    // time).
     builtin.discovery_config.discoveryServer_client_syncperiod = eprosima::fastrtps::Duration_t(0.1);
     builtin.discovery_config.m_DiscoveryServers.clear();
     builtin.discovery_config.m_DiscoveryServers.push_back(server);
@@ -556,7 +574,8 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
     throw DdsError("DDS profiles file '" + options.profiles_file + "' is not valid Fast DDS XML");
   }
   dds::DomainParticipantQos qos;
-  if (factory->get_participant_qos_from_profile(options.participant_profile, qos) != ReturnCode_t::RETCODE_OK) {
+  if (factory->get_participant_qos_from_profile(options.participant_profile, qos) !=
+      ReturnCode_t::RETCODE_OK) {
     throw DdsError("participant profile '" + options.participant_profile + "' is not defined in " +
                    options.profiles_file);
   }
@@ -571,8 +590,8 @@ Participant::Participant(const ParticipantOptions& options) : options_(options) 
   }
   std::string why;
   if (!WithinNetworkScope(qos, options_.network, &why)) {
-    throw DdsError("participant profile '" + options.participant_profile + "' " + ScopeRefusal(options_.network) +
-                   why + "; refusing to start it");
+    throw DdsError("participant profile '" + options.participant_profile + "' " +
+                   ScopeRefusal(options_.network) + why + "; refusing to start it");
   }
   qos.name(options.name);
   if (options.security.enabled()) ApplySecurity(options.security, &qos);
@@ -628,7 +647,8 @@ Participant::~Participant() {
 
 void Participant::CreateEntities() {
   auto* factory = dds::DomainParticipantFactory::get_instance();
-  // The listener hears participant discovery only (StatusMask::none: entity callbacks stay with the entities).
+  // The listener hears participant discovery only (StatusMask::none: entity callbacks stay with the
+  // entities).
   participant_ = factory->create_participant(static_cast<dds::DomainId_t>(options_.domain_id), qos_, this,
                                              dds::StatusMask::none());
   if (participant_ == nullptr) {
@@ -685,8 +705,9 @@ void Participant::Rebuild(const std::string& why) {
     ++rebuilds_;
   }
   {
-    // Writers publish what waited (AfterRebuild takes the entities lock shared); an endpoint being destroyed
-    // meanwhile waits in Unregister.
+    // Writers publish what waited, under the entities lock shared (taken before endpoints_mutex_, the order
+    // Register keeps); an endpoint being destroyed meanwhile waits in Unregister.
+    std::shared_lock<std::shared_mutex> entities(entities_mutex_);
     std::lock_guard<std::mutex> lock(endpoints_mutex_);
     for (ParticipantEndpoint* endpoint : endpoints_) endpoint->AfterRebuild();
   }
@@ -726,7 +747,8 @@ void Participant::on_participant_discovery(dds::DomainParticipant*,
   using Status = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
   if (!options_.on_participant_gone) return;
   if (info.status == Status::REMOVED_PARTICIPANT || info.status == Status::DROPPED_PARTICIPANT) {
-    options_.on_participant_gone(ParticipantIdOf(info.info.m_guid), info.status == Status::DROPPED_PARTICIPANT);
+    options_.on_participant_gone(ParticipantIdOf(info.info.m_guid),
+                                 info.status == Status::DROPPED_PARTICIPANT);
   }
 }
 

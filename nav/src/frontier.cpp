@@ -233,6 +233,11 @@ bool FrontierOptions::IsValid(std::string* why) const {
             range("unknown_cost", unknown_cost, 0, 100, false) &&
             range("unknown_reach_m", unknown_reach_m, 0, 50, false) &&
             range("tight_cost", tight_cost, 0, 100, false);
+  if (ok && !(search_horizon_m > 0)) {
+    msg << "FrontierOptions::search_horizon_m = " << search_horizon_m
+        << " must be > 0 (infinity: no horizon)";
+    ok = false;
+  }
   if (ok && !(tight_radius_m > 0)) {
     msg << "FrontierOptions::tight_radius_m = " << tight_radius_m << " must be > 0 (infinity: off)";
     ok = false;
@@ -702,12 +707,19 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
       }
     }
     std::size_t pops = 0;
+    double stop_cost = kInf;  // the first frontier surface settled + search_horizon_m
     while (!open.empty()) {
       const Item item = open.top();
       open.pop();
       if (options.progress && ++pops % kProgressEvery == 0) options.progress();
       const State& s = item.state;
       if (item.cost > cost_of(s)) continue;
+      if (item.cost > stop_cost) {
+        result.searched_to_cost_m = stop_cost;
+        break;
+      }
+      if (s.node >= 0 && frontier[static_cast<std::size_t>(s.node)] && stop_cost == kInf)
+        stop_cost = item.cost + options.search_horizon_m;
       // The four sides first (even d), then the corners (odd d, between sides d - 1 and d + 1), entered only
       // when both sides are: no corner cutting past a wall. Each neighbour is entered once.
       std::array<std::optional<State>, 8> enter;
@@ -780,6 +792,12 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
   }
   for (FrontierCluster& cluster : result.clusters) cluster.on_main_level = false;  // see FrontierCluster
   SortFrontierClusters(&result.clusters);
+  if (result.reachable() == 0 && std::isfinite(result.searched_to_cost_m)) {
+    // The frontiers within the horizon were too small or too poor to keep: the whole map decides.
+    FrontierOptions whole_map = options;
+    whole_map.search_horizon_m = kInf;
+    return FindFrontiersMultiLevel(grid, robot_M, whole_map, peers);
+  }
   return result;
 }
 

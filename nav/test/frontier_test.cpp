@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "cairn/nav/platform.h"
 #include "cairn/sim/builtin_worlds.h"
@@ -135,8 +137,8 @@ TEST(FrontierTest, AWideOpeningIsCutIntoPiecesAndTheNearestPieceComesFirst) {
 
 TEST(FrontierTest, AFrontierBehindAWallIsUnreachableAndARegionOrAHeightBandLeavesFrontiersOut) {
   sim::World world = RoomWithADoor();
-  FillBox(&world, {0.0, 8.0, 0.0}, {10.0, 8.2, 2.0});             // a wall across room A
-  FillBox(&world, {1.0, 8.6, -0.2}, {4.0, 10.0, 0.0}, false);    // unknown floor behind it
+  FillBox(&world, {0.0, 8.0, 0.0}, {10.0, 8.2, 2.0});          // a wall across room A
+  FillBox(&world, {1.0, 8.6, -0.2}, {4.0, 10.0, 0.0}, false);  // unknown floor behind it
   const TraversabilityGrid grid(world, RobotMapReading());
   FrontierSet set = FindFrontiers(grid, {2.0, 5.0});
   ASSERT_EQ(set.clusters.size(), 2u);
@@ -159,8 +161,8 @@ TEST(FrontierTest, AFrontierBehindAWallIsUnreachableAndARegionOrAHeightBandLeave
   EXPECT_EQ(set.known_free_m2, 0.0);
 }
 
-// A sparse lidar's far floor: a patch seen across a 1 m gap of unseen floor is reached through the gap (at the
-// unknown cost), one across a 5 m gap is not (beyond unknown_reach_m of known ground).
+// A sparse lidar's far floor: a patch seen across a 1 m gap of unseen floor is reached through the gap (at
+// the unknown cost), one across a 5 m gap is not (beyond unknown_reach_m of known ground).
 TEST(FrontierTest, AGapOfUnseenFloorIsCrossedOnlyWhenNarrow) {
   sim::World world = FlatWorld(30.0, 10.0, 0.1, 2.0);
   FillBox(&world, {8.0, 0.0, -0.2}, {9.0, 10.0, 0.0}, false);    // a 1 m gap
@@ -203,9 +205,9 @@ TEST(FrontierTest, ARobotOffTheMapReachesNothingAndAnExploredMapHasNoFrontier) {
 }
 
 // A 0.4 m door (the walls' cells 0.5 m apart, centre to centre) into a room seen 2 m deep: no cell in it has
-// more than 0.2 m of clearance, so the room's frontier is unreachable for a 0.3 m radius unless travel may pass
-// tight cells (FrontierOptions::tight_radius_m, here 0.15 m); then it is reachable, flagged as through a tight
-// gap, and the door's cells cost tight_cost more per metre.
+// more than 0.2 m of clearance, so the room's frontier is unreachable for a 0.3 m radius unless travel may
+// pass tight cells (FrontierOptions::tight_radius_m, here 0.15 m); then it is reachable, flagged as through a
+// tight gap, and the door's cells cost tight_cost more per metre.
 TEST(FrontierTest, ATightDoorIsPassedOnlyWithATightRadiusAndIsFlagged) {
   sim::World world = FlatWorld(20.0, 10.0, 0.1, 2.0);
   FillBox(&world, {12.0, 0.0, -0.2}, {20.0, 10.0, 0.0}, false);  // unseen beyond 2 m into room B
@@ -219,7 +221,8 @@ TEST(FrontierTest, ATightDoorIsPassedOnlyWithATightRadiusAndIsFlagged) {
   for (const bool multi_level : {false, true}) {
     SCOPED_TRACE(multi_level ? "FindFrontiersMultiLevel" : "FindFrontiers");
     auto find = [&](const FrontierOptions& o) {
-      return multi_level ? FindFrontiersMultiLevel(levels, {2.0, 5.0, 0.0}, o) : FindFrontiers(grid, {2.0, 5.0}, o);
+      return multi_level ? FindFrontiersMultiLevel(levels, {2.0, 5.0, 0.0}, o)
+                         : FindFrontiers(grid, {2.0, 5.0}, o);
     };
     const FrontierSet strict = find(FrontierOptions{});
     ASSERT_FALSE(strict.clusters.empty());
@@ -244,7 +247,8 @@ TEST(FrontierTest, ATightDoorIsPassedOnlyWithATightRadiusAndIsFlagged) {
   EXPECT_FALSE(bad.IsValid(&why));
   EXPECT_EQ(why, "FrontierOptions::tight_radius_m = 0 must be > 0 (infinity: off)");
   // A door the footprint fits through is no tight gap.
-  const FrontierSet door = FindFrontiers(TraversabilityGrid(RoomWithADoor(), RobotMapReading()), {2.0, 5.0}, tight);
+  const FrontierSet door =
+      FindFrontiers(TraversabilityGrid(RoomWithADoor(), RobotMapReading()), {2.0, 5.0}, tight);
   ASSERT_EQ(door.clusters.size(), 1u);
   EXPECT_FALSE(door.clusters[0].through_tight_gap);
 }
@@ -274,10 +278,54 @@ TEST(MultiLevelFrontierTest, OnOneLevelTheDoorIsFoundAsByTheSingleLevelSearch) {
   EXPECT_THROW(FindFrontiersMultiLevel(levels, {2.0, 5.0, 0.0}, o), std::invalid_argument);
 }
 
+// A 60 x 6 m hall seen from its west end, unknown beyond two doors: one 4 m from the robot, one 50 m away.
+// With a 20 m search horizon the far door lies beyond it (unreachable for this search, which stops early);
+// with the near door too small to keep (min_cells), the search runs again over the whole map and finds the
+// far one.
+TEST(MultiLevelFrontierTest, TheSearchStopsAtItsHorizonUnlessNothingUsableLiesWithinIt) {
+  sim::World world = FlatWorld(60.0, 10.0, 0.1, 2.0);
+  FillBox(&world, {0.0, 6.2, -0.2}, {60.0, 10.0, 0.0}, false);  // beyond the north wall: unknown
+  FillBox(&world, {0.0, 6.0, 0.0}, {60.0, 6.2, 2.0});           // the north wall...
+  FillBox(&world, {4.0, 6.0, 0.0}, {4.2, 6.2, 2.0}, false);     // ...with a 0.2 m slot at x = 4
+  FillBox(&world, {50.0, 6.0, 0.0}, {52.0, 6.2, 2.0}, false);   // ...and a 2 m door at x = 50
+  const auto grid = std::make_shared<const core::VoxelGrid>(std::move(world));
+  TraversabilityOptions reading = RobotMapReading();
+  reading.robot_radius_m = 0.05;  // the slot is a frontier too
+  const MultiLevelGrid levels(grid, reading);
+  FrontierOptions whole;
+  whole.search_horizon_m = std::numeric_limits<double>::infinity();
+  whole.min_cells = 1;
+  whole.min_gain_m2 = 0.0;
+  const FrontierSet all = FindFrontiersMultiLevel(levels, {1.0, 3.0, 0.0}, whole);
+  EXPECT_FALSE(std::isfinite(all.searched_to_cost_m));
+  ASSERT_EQ(all.reachable(), 2) << all.clusters.size() << " clusters";
+  FrontierOptions near = whole;
+  near.search_horizon_m = 20.0;
+  const FrontierSet cut = FindFrontiersMultiLevel(levels, {1.0, 3.0, 0.0}, near);
+  EXPECT_LT(cut.searched_to_cost_m, 30.0);
+  ASSERT_EQ(cut.reachable(), 1);
+  EXPECT_NEAR(cut.clusters[0].target_M.x(), 4.1, 0.2);
+  for (const FrontierCluster& c : cut.clusters) {
+    if (c.target_M.x() > 40) {
+      EXPECT_FALSE(c.reachable()) << "beyond the horizon";
+    }
+  }
+  // The slot's cluster is two cells: with min_cells 3 nothing usable lies within the horizon.
+  near.min_cells = 3;
+  const FrontierSet again = FindFrontiersMultiLevel(levels, {1.0, 3.0, 0.0}, near);
+  ASSERT_EQ(again.reachable(), 1);
+  EXPECT_NEAR(again.clusters[0].target_M.x(), 51.0, 1.0);
+  near.search_horizon_m = 0.0;
+  std::string why;
+  EXPECT_FALSE(near.IsValid(&why));
+  EXPECT_EQ(why, "FrontierOptions::search_horizon_m = 0 must be > 0 (infinity: no horizon)");
+}
+
 // The two-floor building as a legged robot on floor 1 has seen it (everything up to 2.0 m, and the free space
-// over the flights up to 2.8 m, as rays passing over the treads): the stairs lead on into unknown space, a reachable frontier above the robot's floor; a wheeled robot cannot climb to it. Peers'
-// coverage of floor 1 leaves the stairs' gain alone when it is counted on floor 1's band only. Seen whole, the
-// building has no frontier left.
+// over the flights up to 2.8 m, as rays passing over the treads): the stairs lead on into unknown space, a
+// reachable frontier above the robot's floor; a wheeled robot cannot climb to it. Peers' coverage of floor 1
+// leaves the stairs' gain alone when it is counted on floor 1's band only. Seen whole, the building has no
+// frontier left.
 TEST(MultiLevelFrontierTest, TheStairsAreAFrontierOnlyALeggedRobotReaches) {
   const auto truth = std::make_shared<const core::VoxelGrid>(sim::MakeBuiltinWorld("building"));
   std::shared_ptr<core::VoxelGrid> world, seen_free;
@@ -292,9 +340,10 @@ TEST(MultiLevelFrontierTest, TheStairsAreAFrontierOnlyALeggedRobotReaches) {
     return c.reachable() && c.target_ground_z_m > 1.0;
   });
   ASSERT_NE(stairs, set.clusters.end()) << set.clusters.size() << " clusters, none reachable above floor 1";
-  std::printf("  %zu clusters; stairs: target (%.2f, %.2f, z %.2f), %.1f m², %.1f m away; %.0f m² of surfaces\n",
-              set.clusters.size(), stairs->target_M.x(), stairs->target_M.y(), stairs->target_ground_z_m,
-              stairs->gain_m2, stairs->travel_cost_m, set.known_free_m2);
+  std::printf(
+      "  %zu clusters; stairs: target (%.2f, %.2f, z %.2f), %.1f m², %.1f m away; %.0f m² of surfaces\n",
+      set.clusters.size(), stairs->target_M.x(), stairs->target_M.y(), stairs->target_ground_z_m,
+      stairs->gain_m2, stairs->travel_cost_m, set.known_free_m2);
   EXPECT_GT(stairs->target_M.x(), 18.0);  // in the stairwell
   EXPECT_LT(stairs->target_ground_z_m, 2.1);
   EXPECT_GT(stairs->travel_cost_m, 17.0);  // at least the walk along the corridor
@@ -304,7 +353,8 @@ TEST(MultiLevelFrontierTest, TheStairsAreAFrontierOnlyALeggedRobotReaches) {
   wheeled.unknown_is_lethal = false;
   const FrontierSet rolling = FindFrontiersMultiLevel(MultiLevelGrid(world, wheeled, seen_free), robot_M);
   for (const FrontierCluster& c : rolling.clusters) {
-    EXPECT_FALSE(c.reachable() && c.target_ground_z_m > 0.5) << c.target_M.transpose() << " z " << c.target_ground_z_m;
+    EXPECT_FALSE(c.reachable() && c.target_ground_z_m > 0.5)
+        << c.target_M.transpose() << " z " << c.target_ground_z_m;
   }
 
   PeerCoverage peers(0.5);
@@ -315,17 +365,18 @@ TEST(MultiLevelFrontierTest, TheStairsAreAFrontierOnlyALeggedRobotReaches) {
   floor1_band.peer_coverage_min_z_m = -1.0;
   floor1_band.peer_coverage_max_z_m = 1.5;
   const FrontierSet with_peers = FindFrontiersMultiLevel(levels, robot_M, floor1_band, &peers);
-  EXPECT_TRUE(std::any_of(with_peers.clusters.begin(), with_peers.clusters.end(), [](const FrontierCluster& c) {
-    return c.reachable() && c.target_ground_z_m > 1.0;
-  }));
+  EXPECT_TRUE(
+      std::any_of(with_peers.clusters.begin(), with_peers.clusters.end(),
+                  [](const FrontierCluster& c) { return c.reachable() && c.target_ground_z_m > 1.0; }));
   const FrontierSet everywhere = FindFrontiersMultiLevel(levels, robot_M, {}, &peers);
   EXPECT_TRUE(everywhere.clusters.empty()) << everywhere.clusters.size();
 
   std::shared_ptr<core::VoxelGrid> all, all_free;
   testing::SeenBelow(*truth, 100.0, &all, &all_free);
   const FrontierSet done = FindFrontiersMultiLevel(MultiLevelGrid(all, legged, all_free), robot_M);
-  EXPECT_EQ(done.reachable(), 0) << done.clusters.size() << " clusters, the first at "
-                                 << (done.clusters.empty() ? Eigen::Vector2d::Zero() : done.clusters[0].target_M).transpose();
+  EXPECT_EQ(done.reachable(), 0)
+      << done.clusters.size() << " clusters, the first at "
+      << (done.clusters.empty() ? Eigen::Vector2d::Zero() : done.clusters[0].target_M).transpose();
   EXPECT_GT(done.known_free_m2, 1.8 * set.known_free_m2 * 0.9);  // two floors
 }
 

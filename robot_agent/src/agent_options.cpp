@@ -118,13 +118,17 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   trav.ReadDouble("robot_height_m", &n.platform.traversability.robot_height_m);
   trav.ReadDouble("max_step_m", &n.platform.traversability.max_step_m);
   const auto ex = config.Section("explore");
-  ex.RejectUnknownKeys({"target_tolerance_m",   "settle_s",         "complete_settle_s",
-                        "map_wait_s",           "min_gain_m2",      "gain_radius_m",
-                        "max_cluster_extent_m", "unknown_reach_m",  "switch_utility_ratio",
-                        "blacklist_radius_m",   "visited_radius_m", "same_place_dz_m",
-                        "tight_gap_stall_s",    "retry_after_s",    "claim_radius_m",
-                        "peer_influence_m",     "claim_period_s",   "coverage_period_s",
-                        "claim_lease_s",        "coverage_cell_m",  "levels"});
+  ex.RejectUnknownKeys({"target_tolerance_m",   "settle_s",
+                        "complete_settle_s",    "map_wait_s",
+                        "min_gain_m2",          "gain_radius_m",
+                        "max_cluster_extent_m", "unknown_reach_m",
+                        "search_horizon_m",     "switch_utility_ratio",
+                        "blacklist_radius_m",   "visited_radius_m",
+                        "same_place_dz_m",      "tight_gap_stall_s",
+                        "retry_after_s",        "claim_radius_m",
+                        "peer_influence_m",     "claim_period_s",
+                        "coverage_period_s",    "claim_lease_s",
+                        "coverage_cell_m",      "levels"});
   if (std::string levels; ex.ReadString("levels", &levels), !levels.empty()) {
     using Levels = ExploreModeOptions::Levels;
     if (levels == "auto") {
@@ -146,6 +150,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   ex.ReadDouble("gain_radius_m", &explore.frontiers.gain_radius_m);
   ex.ReadDouble("max_cluster_extent_m", &explore.frontiers.max_cluster_extent_m);
   ex.ReadDouble("unknown_reach_m", &explore.frontiers.unknown_reach_m);
+  ex.ReadDouble("search_horizon_m", &explore.frontiers.search_horizon_m, /*allow_infinity=*/true);
   ex.ReadDouble("switch_utility_ratio", &explore.explorer.switch_utility_ratio);
   ex.ReadDouble("blacklist_radius_m", &explore.explorer.blacklist_radius_m);
   ex.ReadDouble("visited_radius_m", &explore.explorer.visited_radius_m);

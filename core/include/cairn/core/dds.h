@@ -50,8 +50,8 @@ class DdsError : public std::runtime_error {
 /// calls exit(1), so every id is checked here first.
 inline constexpr long kMaxDomainId = 232;
 
-/// Shortest AUTOMATIC liveliness lease on a network link (lan, radio), in seconds: eight of the profiles' 250 ms
-/// assertions, so that a cut or a dead process lapses it, not a fade of a second (Participant::WriterQos).
+/// Shortest AUTOMATIC liveliness lease on a network link (lan, radio), in seconds: eight of the profiles' 250
+/// ms assertions, so that a cut or a dead process lapses it, not a fade of a second (Participant::WriterQos).
 inline constexpr double kNetworkLivelinessLeaseS = 2.0;
 
 /// Checks a domain id given as text (CLI flag, config) and returns it.
@@ -128,15 +128,15 @@ const std::vector<std::string>& CommandTopics();
 
 /// How a participant is created.
 struct ParticipantOptions {
-  int domain_id = 0;                                    ///< DDS domain, [0, 232].
-  std::string profiles_file = DefaultProfilesFile();    ///< Fast DDS XML profiles file.
+  int domain_id = 0;                                   ///< DDS domain, [0, 232].
+  std::string profiles_file = DefaultProfilesFile();   ///< Fast DDS XML profiles file.
   std::string participant_profile = "cairn.loopback";  ///< participant profile name in that file.
-  std::string name = "cairn";                           ///< participant name seen by peers.
+  std::string name = "cairn";                          ///< participant name seen by peers.
   /// The networks the participant may use (network safety, DESIGN.md): loopback only by default; a profile
   /// that would listen on, announce or send to anything else is refused with the reason.
   NetworkScope network;
-  /// The link (LinkOptions): `lan` rebuilds the profile's transport and locators on the named network and sets
-  /// `network` to it.
+  /// The link (LinkOptions): `lan` rebuilds the profile's transport and locators on the named network and
+  /// sets `network` to it.
   LinkOptions link;
   /// Flow controllers to register; names must be unique. @see FlowControllerOptions.
   std::vector<FlowControllerOptions> flow_controllers;
@@ -166,7 +166,8 @@ class ParticipantEndpoint {
   virtual void DeleteEntity() = 0;
   /// Creates it again on the new participant; called with the rebuild lock held.
   virtual void CreateEntity() = 0;
-  /// After every endpoint is back and the lock released: publish what waited for the rebuild.
+  /// After every endpoint is back and the exclusive lock released: publish what waited for the rebuild;
+  /// called with the entities lock held shared (do not take it again).
   virtual void AfterRebuild() {}
 };
 
@@ -211,8 +212,8 @@ class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
 
   /// The registered flow controller's name as Fast DDS holds it, or nullptr if none has that name.
   const char* FlowControllerName(const std::string& name) const;
-  /// The QoS of writer profile `profile` (e.g. "cairn.latched.writer") as this participant uses it; Writer and
-  /// Reader create their endpoints with these.
+  /// The QoS of writer profile `profile` (e.g. "cairn.latched.writer") as this participant uses it; Writer
+  /// and Reader create their endpoints with these.
   ///  - Network safety for endpoints: a profile whose unicast, remote or multicast locators leave
   ///    options().network is refused.
   ///  - On a network link (lan, radio) a finite AUTOMATIC liveliness lease shorter than
@@ -262,13 +263,13 @@ class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   std::mutex mutex_;
-  // Fast DDS keeps `const char*` names of flow controllers: the strings live here, as long as the participant.
+  // Fast DDS keeps `const char*` names of flow controllers: the strings live here, as long as the
+  // participant.
   std::deque<std::string> flow_controller_names_;
   // Locks. Rebuilds run one at a time (rebuild_mutex_, taken first). entities_mutex_ is held exclusively by
   // Rebuild while it deletes and creates, and shared by an endpoint while it uses its entity.
-  // endpoints_mutex_ guards endpoints_: taken after the exclusive lock in Rebuild and after a shared one in
-  // Register; AfterRebuild takes it before a shared lock, which is safe because only Rebuild, serialised,
-  // ever waits for the exclusive lock.
+  // endpoints_mutex_ guards endpoints_: always taken after entities_mutex_ when both are held (the exclusive
+  // lock in Rebuild, a shared one in Register and around AfterRebuild), never before it.
   std::mutex rebuild_mutex_;
   std::shared_mutex entities_mutex_;
   std::mutex endpoints_mutex_;
@@ -288,7 +289,8 @@ class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
 /// DDS 2.9 reports a participant whose lease expired. Seen in tests with five participants on one host:
 /// the writer-liveliness path alone did not fire after a SIGKILL, the participant lease did.
 inline bool IsLivelinessLoss(const eprosima::fastdds::dds::LivelinessChangedStatus& status) {
-  return status.not_alive_count_change > 0 || (status.alive_count_change < 0 && status.not_alive_count_change == 0);
+  return status.not_alive_count_change > 0 ||
+         (status.alive_count_change < 0 && status.not_alive_count_change == 0);
 }
 
 /// Identity of the process behind a DDS entity: its participant's GUID prefix as 12 dotted hex bytes
@@ -308,6 +310,24 @@ bool WaitForCount(const std::atomic<int>& value, int count, std::chrono::millise
 
 /// Typed writer for a fastddsgen type. `PubSubT` is the generated `XPubSubType`; `PubSubT::type` is X.
 /// QoS comes from the XML profile "<qos_class>.writer" (e.g. "cairn.command.writer").
+/// A fastddsgen type support whose getKey() runs one call at a time. Fast DDS shares one type support per
+/// participant among every writer and reader of the type, and the generated getKey() fills a key buffer the
+/// type support owns: two writers of a keyed type writing on different threads raced on it (ThreadSanitizer,
+/// a latched re-publish after a rebuild beside an application write), which can give a sample another
+/// instance's key.
+template <class PubSubT>
+class KeySafePubSubType : public PubSubT {
+ public:
+  bool getKey(void* data, eprosima::fastrtps::rtps::InstanceHandle_t* handle,
+              bool force_md5 = false) override {
+    std::lock_guard<std::mutex> lock(key_mutex_);
+    return PubSubT::getKey(data, handle, force_md5);
+  }
+
+ private:
+  std::mutex key_mutex_;
+};
+
 template <class PubSubT>
 class Writer : private eprosima::fastdds::dds::DataWriterListener, private ParticipantEndpoint {
  public:
@@ -367,7 +387,8 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
            eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK;
   }
 
-  /// Serialized bytes (CDR, encapsulation included; no RTPS headers, no resends) of the samples written so far.
+  /// Serialized bytes (CDR, encapsulation included; no RTPS headers, no resends) of the samples written so
+  /// far.
   std::uint64_t bytes_written() const { return bytes_written_.load(std::memory_order_relaxed); }
   /// Samples written so far.
   std::uint64_t samples_written() const { return samples_written_.load(std::memory_order_relaxed); }
@@ -388,7 +409,8 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
   }
 
   /// Waits until MatchedWith(participant_id) holds or `deadline` passes; returns whether it holds.
-  bool WaitMatchedWith(const std::string& participant_id, std::chrono::steady_clock::time_point deadline) const {
+  bool WaitMatchedWith(const std::string& participant_id,
+                       std::chrono::steady_clock::time_point deadline) const {
     std::unique_lock<std::mutex> lock(matched_mutex_);
     return matched_cv_.wait_until(lock, deadline, [&] { return MatchedLocked(participant_id); });
   }
@@ -399,7 +421,8 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
  private:
   void CreateEntity() override {
     eprosima::fastdds::dds::DataWriterQos qos = participant_.WriterQos(qos_class_ + ".writer");
-    auto* topic = participant_.GetTopic(topic_name_, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
+    auto* topic = participant_.GetTopic(
+        topic_name_, eprosima::fastdds::dds::TypeSupport(new KeySafePubSubType<PubSubT>()));
     if (!flow_controller_.empty()) {
       const char* name = participant_.FlowControllerName(flow_controller_);
       if (name == nullptr) {
@@ -429,7 +452,6 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
     matched_cv_.notify_all();
   }
   void AfterRebuild() override {
-    std::shared_lock<std::shared_mutex> lock(participant_.entities_mutex_);
     if (FlushHeld() > 0 || !latched_) return;
     // The new writer's history is empty: re-publish the last sample for the peers that join it now.
     std::optional<Msg> last;
@@ -480,7 +502,8 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
       std::lock_guard<std::mutex> lock(matched_mutex_);
       const std::string participant = ParticipantIdOf(status.last_subscription_handle);
       if (status.current_count_change > 0) ++matched_readers_[participant];
-      if (status.current_count_change < 0 && --matched_readers_[participant] <= 0) matched_readers_.erase(participant);
+      if (status.current_count_change < 0 && --matched_readers_[participant] <= 0)
+        matched_readers_.erase(participant);
     }
     matched_cv_.notify_all();
     matched_.store(status.current_count);
@@ -497,7 +520,7 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
   mutable std::condition_variable matched_cv_;  // notified on every match change
   std::map<std::string, int> matched_readers_;  // ParticipantIdOf -> matched readers of that participant
   std::mutex held_mutex_;
-  std::vector<Msg> held_;  // written during a rebuild, published after it
+  std::vector<Msg> held_;    // written during a rebuild, published after it
   std::optional<Msg> last_;  // the last sample written, when latched_
   std::atomic<std::uint64_t> bytes_written_{0};
   std::atomic<std::uint64_t> samples_written_{0};
@@ -546,7 +569,8 @@ class Reader : private eprosima::fastdds::dds::DataReaderListener, private Parti
  private:
   void CreateEntity() override {
     const eprosima::fastdds::dds::DataReaderQos qos = participant_.ReaderQos(qos_class_ + ".reader");
-    auto* topic = participant_.GetTopic(topic_name_, eprosima::fastdds::dds::TypeSupport(new PubSubT()));
+    auto* topic = participant_.GetTopic(
+        topic_name_, eprosima::fastdds::dds::TypeSupport(new KeySafePubSubType<PubSubT>()));
     reader_ = participant_.subscriber()->create_datareader(topic, qos, this);
     if (reader_ == nullptr) {
       throw DdsError("cannot create reader on topic '" + topic_name_ + "' with QoS profile '" + qos_class_ +

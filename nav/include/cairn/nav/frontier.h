@@ -56,6 +56,13 @@ struct FrontierOptions {
   double tight_radius_m = std::numeric_limits<double>::infinity();
   /// Travel through such tight cells costs this much more per metre, [0, 100].
   double tight_cost = 2.0;
+  /// FindFrontiersMultiLevel() only: the travel-cost search ends this far (metres of travel cost) beyond the
+  /// first frontier surface it reaches, > 0; infinity = the whole map. Clusters beyond it are unreachable for
+  /// this search (they come within it as nearer frontiers are explored); a search that reaches no usable
+  /// cluster within it runs again over the whole map, so exploration never ends because of it. On a large
+  /// sparse survey (270 k points of a 90 x 60 m building) the whole-map search took 3.5 s at the median and
+  /// up to 21 s for a legged robot (docs/PERFORMANCE.md).
+  double search_horizon_m = 40.0;
   /// Only frontier cells inside this x-y box count (metres, frame M); an empty box (the default) =
   /// everywhere. Their gain counts unknown cells beyond the box too: counting only those inside left 1-2 m
   /// strips along a region's edge unexplored (their gain under min_gain_m2; 85 % of a region against 97 % in
@@ -121,7 +128,10 @@ struct FrontierSet {
   int frontier_cells = 0;      ///< frontier cells in the region, before clusters were filtered
   double known_free_m2 = 0.0;  ///< known-free ground in the region (State kFree), m²: the explored area
   bool robot_on_grid = false;  ///< the robot's cell (or a traversable cell within 1 m of it) was found
-  int reachable() const;       ///< clusters with a finite travel cost
+  /// The travel cost where the search stopped (FrontierOptions::search_horizon_m), metres; infinity when it
+  /// ran out of states.
+  double searched_to_cost_m = std::numeric_limits<double>::infinity();
+  int reachable() const;  ///< clusters with a finite travel cost
 };
 
 /// Orders clusters as FindFrontiers() does: reachable ones by utility (highest first), then unreachable ones
