@@ -216,6 +216,63 @@ TEST(ComponentFaults, PerceptionThatDoesNotStopIsNeverRunTwiceAndOnlyTheHolderRe
 
 // Supervised, the agent whose perception does not stop leaves for a restart from its journal: it comes back
 // with every part up, idle, with its lock holder.
+// Interrupted is not ended: an exploration whose perception throws pauses (its task kept under its id, the
+// operator told), and resumes by itself once perception is back; an operator's stop then ends it for good.
+TEST(ComponentFaults, AnExplorationPausedByARestartingPartResumesByItself) {
+  const int domain = 92;
+  const std::string logs = FreshLogs("component_faults", "mission_paused");
+  Observer observer(domain);
+  auto agent =
+      StartAgentIn(kWorld, "r1", domain, logs,
+                   {"--config", ConfigWithBackoff(logs, 3.0), "--inject-fault", "perception:throw:10"});
+  Base op("opA", domain, logs);
+  ASSERT_TRUE(op.Run("request-control r1")["ok"]);
+  json r = op.Run("explore r1");
+  ASSERT_TRUE(r["ok"]) << r;
+  const uint32_t task_id = r["goal_id"].get<uint32_t>();  // the exploration task id
+  // Paused while perception is down: explore_state "paused" under the same task id, with the reason.
+  msgs::RobotState s;
+  const auto deadline = Clock::now() + 40s;
+  while (Clock::now() < deadline && s.mission_state() != "paused") {
+    s = observer.FreshState("r1");
+    std::this_thread::sleep_for(50ms);
+  }
+  ASSERT_EQ(s.mission_state(), "paused") << "see " << logs << "/r1.log";
+  const auto paused_at = Clock::now();
+  EXPECT_EQ(s.mission_kind(), "explore");
+  EXPECT_EQ(s.explore_state(), "paused");
+  EXPECT_EQ(s.explore_task_id(), task_id);
+  EXPECT_NE(s.mission_reason().find("perception"), std::string::npos) << s.mission_reason();
+  EXPECT_EQ(s.mode(), "idle");
+  // Resumed by itself after the restart (3 s back-off), under the same task id.
+  while (Clock::now() < paused_at + 30s && !(s.mission_state().empty() && s.mode() == "explore")) {
+    s = observer.FreshState("r1");
+    std::this_thread::sleep_for(50ms);
+  }
+  const double paused_s = std::chrono::duration<double>(Clock::now() - paused_at).count();
+  Figure("exploration_paused_s", paused_s);
+  EXPECT_EQ(s.mode(), "explore") << "not resumed; see " << logs << "/r1.log";
+  EXPECT_EQ(s.explore_state(), "exploring");
+  EXPECT_EQ(s.explore_task_id(), task_id);
+  EXPECT_EQ(s.mission_reason().rfind("resumed after", 0), 0u) << s.mission_reason();
+  op.Run("sleep 0.5");  // the events of the last seconds print before the next answer
+  auto saw = [&](const std::string& kind, const std::string& words) {
+    for (const json& e : op.events()) {
+      if (e["event"] == kind && e.dump().find(words) != std::string::npos) return true;
+    }
+    return false;
+  };
+  EXPECT_TRUE(saw("mission_paused", "perception")) << "the operator was not told";
+  EXPECT_TRUE(saw("mission_resumed", "resumed after")) << "the operator was not told";
+  // An operator's stop ends it: it is not resumed.
+  ASSERT_TRUE(op.Run("stop r1")["ok"]);
+  std::this_thread::sleep_for(2500ms);
+  s = observer.FreshState("r1");
+  EXPECT_EQ(s.mode(), "idle");
+  EXPECT_EQ(s.explore_state(), "stopped");
+  EXPECT_TRUE(s.mission_state().empty());
+}
+
 TEST(ComponentFaults, ASupervisedAgentWhosePartDoesNotStopRestartsFromItsJournal) {
   const int domain = 91;
   const std::string logs = FreshLogs("component_faults", "supervised_hang");

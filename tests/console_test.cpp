@@ -237,7 +237,7 @@ TEST(Console, WordsEventsForgivingInputPlacesAndEStop) {
   EXPECT_EQ(stopped.holder_id(), "opA");
   opA.Run("events 50");
   EXPECT_TRUE(HasEvent(opA.events(), "stopped", "r1")) << "opA was not told that opB stopped r1";
-  EXPECT_TRUE(HasEvent(opA.events(), "failed", "r1"))
+  EXPECT_TRUE(HasEvent(opA.events(), "goal_abandoned", "r1"))
       << "the cancelled goal " << goal_id << " was not reported";
   EXPECT_TRUE(HasEvent(opA.events(), "proximity", "r1")) << "robots 60 m apart raise no proximity event";
   EXPECT_TRUE(HasEvent(opB.events(), "lock_granted", "r1"));

@@ -48,6 +48,8 @@ const char* NavStatusName(msgs::NavStatus s) {
       return "arrived";
     case msgs::NAV_STATUS_FAILED:
       return "failed";
+    case msgs::NAV_STATUS_PAUSED:
+      return "paused";
   }
   return "?";
 }

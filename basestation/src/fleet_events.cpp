@@ -31,7 +31,8 @@ std::string BusiestClass(const LinkView& link) {
   for (const ClassUsage& u : link.usage) {
     if (busiest == nullptr || u.sent_kbps > busiest->sent_kbps) busiest = &u;
   }
-  return busiest == nullptr ? "no usage reported" : busiest->topic_class + " " + Fixed1(busiest->sent_kbps) + " kbit/s";
+  return busiest == nullptr ? "no usage reported"
+                            : busiest->topic_class + " " + Fixed1(busiest->sent_kbps) + " kbit/s";
 }
 
 OperatorEvent Event(const std::string& kind, const std::string& robot, std::string message) {
@@ -69,6 +70,45 @@ std::vector<OperatorEvent> FleetEventDetector::Observe(const std::vector<RobotVi
   return events;
 }
 
+void FleetEventDetector::ObserveMission(const std::string& r, const cairn_msgs::RobotState& s,
+                                        const Last& last, const Last& now,
+                                        std::vector<OperatorEvent>* events) {
+  if (now.mission_state == "paused" && last.mission_state != "paused") {
+    OperatorEvent e =
+        Event("mission_paused", r,
+              r + " " + s.mission_kind() + " paused: " + s.mission_reason() + " (it resumes by itself)");
+    e.reason = s.mission_reason();
+    events->push_back(e);
+  } else if (now.mission_state != "paused" && last.mission_state == "paused" &&
+             s.mission_reason().rfind("resumed", 0) == 0) {
+    OperatorEvent e = Event("mission_resumed", r, r + " " + s.mission_reason());
+    e.reason = s.mission_reason();
+    events->push_back(e);
+  }
+  const bool explore_changed =
+      now.explore_state != last.explore_state || now.explore_task_id != last.explore_task_id;
+  if (explore_changed && now.explore_state == "complete") {
+    const double minutes =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - last.explore_seen).count() / 60.0;
+    OperatorEvent e =
+        Event("exploration_complete", r,
+              r + " exploration " + std::to_string(now.explore_task_id) +
+                  " complete: " + Fixed1(s.explored_m2()) + " m² in " + Fixed1(minutes) +
+                  " min (as heard here), " + std::to_string(s.explore_targets_reached()) +
+                  " frontiers reached, " + std::to_string(s.explore_targets_failed()) + " given up");
+    e.reason = s.explore_reason();
+    events->push_back(e);
+  } else if (explore_changed && (now.explore_state == "stopped" || now.explore_state == "failed")) {
+    const OperatorReason why = ExplainReason(r, s.explore_reason());
+    OperatorEvent e = Event("exploration_stopped", r,
+                            r + " exploration " + std::to_string(now.explore_task_id) + " " +
+                                now.explore_state + ": " + why.text);
+    e.reason = why.text;
+    e.condition = why.condition;
+    events->push_back(e);
+  }
+}
+
 void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<OperatorEvent>* events) {
   const std::string& r = view.robot_id;
   auto found = last_.find(r);
@@ -88,6 +128,12 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
     now.convoy_ahead = ahead.empty() ? "" : ahead.front();
     now.yield_state = view.state->yield_state();
     now.yield_peer = view.state->yield_peer_id();
+    now.mission_state = view.state->mission_state();
+    now.explore_state = view.state->explore_state();
+    now.explore_task_id = view.state->explore_task_id();
+    now.explore_seen = found != last_.end() && found->second.explore_task_id == now.explore_task_id
+                           ? found->second.explore_seen
+                           : std::chrono::steady_clock::now();
   }
   // Joining is presence, not old news: a basestation that starts hears who is there.
   if (now.announced && (found == last_.end() || !found->second.announced)) {
@@ -97,7 +143,8 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
   // Over budget from the first view on; back within it below 90 % (no flapping at the edge).
   const LinkView& link = view.link;
   const bool was_over = found != last_.end() && found->second.over_budget;
-  now.over_budget = was_over ? link.budget_kbps > 0 && link.sent_kbps > 0.9 * link.budget_kbps : link.over_budget;
+  now.over_budget =
+      was_over ? link.budget_kbps > 0 && link.sent_kbps > 0.9 * link.budget_kbps : link.over_budget;
   if (now.over_budget && !was_over) {
     const std::string busiest = BusiestClass(link);
     OperatorEvent e = Event("over_budget", r,
@@ -125,6 +172,9 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
     last.convoy_ahead = first.convoy_ahead_ids().empty() ? "" : first.convoy_ahead_ids().front();
     last.yield_state = first.yield_state();
     last.yield_peer = first.yield_peer_id();
+    last.mission_state = first.mission_state();
+    last.explore_state = first.explore_state();
+    last.explore_task_id = first.explore_task_id();
     last.has_state = true;
   }
   if (now.left && !last.left) {
@@ -147,7 +197,8 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
                                   ")"));
     } else if (goal_changed && now.nav_status == msgs::NAV_STATUS_FAILED) {
       const OperatorReason why = ExplainReason(r, s.nav_reason());
-      OperatorEvent e = Event("failed", r, r + " goal " + std::to_string(now.goal_id) + " failed: " + why.text);
+      OperatorEvent e =
+          Event("goal_abandoned", r, r + " goal " + std::to_string(now.goal_id) + " abandoned: " + why.text);
       e.reason = why.text;
       e.condition = why.condition;
       events->push_back(e);
@@ -162,8 +213,20 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
       e.reason = added;
       events->push_back(e);
     }
-    // A convoy follower that stops on its own (lost or blocked) or re-links is news; following and holding
-    // are its normal course.
+    ObserveMission(r, s, last, now, events);
+    // A convoy follower that stops on its own (lost or blocked) or re-links is news, and so are its forming
+    // (following at first) and its holding.
+    if (now.convoy_state != last.convoy_state && now.convoy_state == "following" &&
+        (last.convoy_state.empty() || last.convoy_state == "none")) {
+      OperatorEvent e = Event("convoy_formed", r, r + " follows " + now.convoy_ahead + " in the convoy");
+      e.other = now.convoy_ahead;
+      events->push_back(e);
+    } else if (now.convoy_state != last.convoy_state && now.convoy_state == "holding") {
+      OperatorEvent e = Event("convoy_holding", r, r + " holds in the convoy: " + s.convoy_reason());
+      e.reason = s.convoy_reason();
+      e.other = now.convoy_ahead;
+      events->push_back(e);
+    }
     if (now.convoy_state != last.convoy_state &&
         (now.convoy_state == "lost" || now.convoy_state == "blocked")) {
       OperatorEvent e = Event("convoy_" + now.convoy_state, r,

@@ -120,7 +120,7 @@ const char* kFleetStateSchema =
 "usage":{"type":"array","items":{"type":"object","properties":{"topic_class":{"type":"string"},"sent_kbps":{"type":"number"},"sent_bytes":{"type":"integer"}}}}}},
 "mode":{"type":"string"},"holder":{"type":"string","description":"basestation holding the control lock, empty when free"},
 "holder_alive":{"type":"boolean"},"you_hold":{"type":"boolean"},
-"nav_status":{"type":"string","enum":["none","active","arrived","failed"]},"nav_reason":{"type":"string"},"nav_goal_id":{"type":"integer"},
+"nav_status":{"type":"string","enum":["none","active","arrived","failed","paused"]},"nav_reason":{"type":"string"},"nav_goal_id":{"type":"integer"},
 "goal":{"type":"object","properties":{"x_m":{"type":"number"},"y_m":{"type":"number"},"z_m":{"type":"number"}}},
 "distance_left_m":{"type":"number"},"eta_s":{"type":"number"},"local_planner_status":{"type":"string"},
 "pose":{"type":"object","properties":{"x_m":{"type":"number"},"y_m":{"type":"number"},"z_m":{"type":"number"},"yaw_rad":{"type":"number"}}},
@@ -149,13 +149,17 @@ std::string NavStatusName(cairn_msgs::NavStatus s) {
       return "arrived";
     case cairn_msgs::NAV_STATUS_FAILED:
       return "failed";
+    case cairn_msgs::NAV_STATUS_PAUSED:
+      return "paused";
     default:
       return "none";
   }
 }
 
 int LogLevel(const std::string& kind) {
-  if (kind == "failed" || kind == "lost" || kind == "lock_taken") return 3;  // WARNING
+  if (kind == "goal_abandoned" || kind == "lost" || kind == "lock_taken" || kind == "exploration_stopped" ||
+      kind == "mission_paused")
+    return 3;  // WARNING
   if (kind == "stopped" || kind == "component_failed" || kind == "component_restart_failed" ||
       kind == "component_escalated")
     return 3;

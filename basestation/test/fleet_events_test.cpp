@@ -24,6 +24,67 @@ std::vector<std::string> Kinds(const std::vector<OperatorEvent>& events) {
   return kinds;
 }
 
+// A mission paused by a transient condition and resumed; an exploration that completes and one that stops; a
+// convoy follower forming and holding. Each is told once.
+TEST(FleetEventDetector, MissionsPauseResumeAndEndAndConvoysFormAndHold) {
+  FleetEventDetector detector;
+  RobotView r1 = Robot("r1", 0, 0);
+  r1.state->explore_task_id(4);
+  r1.state->explore_state("exploring");
+  EXPECT_TRUE(detector.Observe({r1}).empty());
+  r1.state->mission_state("paused");
+  r1.state->mission_kind("explore");
+  r1.state->mission_reason("IsComponentUp: perception is down");
+  r1.state->explore_state("paused");
+  auto events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"mission_paused"}));
+  EXPECT_EQ(events[0].reason, "IsComponentUp: perception is down");
+  EXPECT_EQ(events[0].message, "r1 explore paused: IsComponentUp: perception is down (it resumes by itself)");
+  EXPECT_TRUE(detector.Observe({r1}).empty()) << "told once";
+  r1.state->mission_state("");
+  r1.state->mission_reason("resumed after 4.2 s paused: IsComponentUp: perception is down");
+  r1.state->explore_state("exploring");
+  events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"mission_resumed"}));
+  r1.state->explore_state("complete");
+  r1.state->explored_m2(812.5);
+  r1.state->explore_targets_reached(31);
+  r1.state->explore_targets_failed(2);
+  events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"exploration_complete"}));
+  EXPECT_NE(events[0].message.find("812.5 m²"), std::string::npos) << events[0].message;
+  EXPECT_NE(events[0].message.find("2 given up"), std::string::npos) << events[0].message;
+  r1.state->explore_task_id(5);
+  r1.state->explore_state("exploring");
+  EXPECT_TRUE(detector.Observe({r1}).empty());
+  r1.state->explore_state("stopped");
+  r1.state->explore_reason("paused for 61 s (mission.resume_within_s 60) and not resumed: IsLocalized: lost");
+  events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"exploration_stopped"}));
+  // A paused mission that ends without resuming is told by how it ends, not as resumed.
+  r1.state->mission_state("paused");
+  EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"mission_paused"}));
+  r1.state->mission_state("");
+  r1.state->mission_reason("dropped: an operator's command came");
+  EXPECT_TRUE(detector.Observe({r1}).empty());
+
+  RobotView r2 = Robot("r2", 10, 0);
+  r2.state->convoy_state("none");
+  EXPECT_TRUE(detector.Observe({r2}).empty());
+  r2.state->convoy_state("following");
+  r2.state->convoy_ahead_ids({"r1"});
+  events = detector.Observe({r2});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"convoy_formed"}));
+  EXPECT_EQ(events[0].other, "r1");
+  r2.state->convoy_state("holding");
+  r2.state->convoy_reason("the gap to r1 is 2.1 m, under 3.0 m");
+  events = detector.Observe({r2});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"convoy_holding"}));
+  EXPECT_EQ(events[0].reason, "the gap to r1 is 2.1 m, under 3.0 m");
+  r2.state->convoy_state("following");
+  EXPECT_TRUE(detector.Observe({r2}).empty()) << "following again after holding is its normal course";
+}
+
 TEST(FleetEventDetector, FirstSightIsABaselineThenEachChangeIsToldOnce) {
   FleetEventDetector detector;
   RobotView r2 = Robot("r2", 0, 0);
@@ -46,7 +107,7 @@ TEST(FleetEventDetector, FirstSightIsABaselineThenEachChangeIsToldOnce) {
   r2.state->nav_status(cairn_msgs::NAV_STATUS_FAILED);
   r2.state->nav_reason("blocked: no progress for 10 s");
   events = detector.Observe({r2});
-  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"failed"}));
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"goal_abandoned"}));
   EXPECT_EQ(events[0].reason, "blocked: no progress for 10 s");
 }
 
@@ -65,7 +126,8 @@ TEST(FleetEventDetector, JoinedOnceWithWhatItOffersThenLeftOrLostAndBack) {
   auto events = detector.Observe({r1});
   ASSERT_EQ(Kinds(events), (std::vector<std::string>{"joined"}));
   EXPECT_EQ(events[0].message,
-            "r1 joined: wheeled, cairn 0.1.0, modes idle manual, sensors lidar, map 0.10 m, link radio 1000 kbit/s");
+            "r1 joined: wheeled, cairn 0.1.0, modes idle manual, sensors lidar, map 0.10 m, link radio 1000 "
+            "kbit/s");
   EXPECT_TRUE(detector.Observe({r1}).empty()) << "told once";
 
   r1.lost = r1.left = true;
@@ -98,7 +160,8 @@ TEST(FleetEventDetector, OverBudgetOnceUntilBackUnderNinetyPercent) {
   r1.link.over_budget = true;
   auto events = detector.Observe({r1});  // a present fact: told at first sight
   ASSERT_EQ(Kinds(events), (std::vector<std::string>{"over_budget"}));
-  EXPECT_EQ(events[0].message, "r1 sends 110.0 kbit/s, over its link budget of 100.0 kbit/s (camera 80.0 kbit/s)");
+  EXPECT_EQ(events[0].message,
+            "r1 sends 110.0 kbit/s, over its link budget of 100.0 kbit/s (camera 80.0 kbit/s)");
   EXPECT_EQ(events[0].reason, "camera 80.0 kbit/s");
   r1.link.sent_kbps = 95;  // under the budget, not under 90 %: still the same episode
   r1.link.over_budget = false;
@@ -125,8 +188,9 @@ TEST(FleetEventDetector, EachRecoveryAttemptIsToldAsItFails) {
   ASSERT_EQ(Kinds(events), (std::vector<std::string>{"recovering"}));
   EXPECT_EQ(events[0].message, "r1 goal 3 recovering after: blocked: no progress for 10.0 s");
   EXPECT_TRUE(detector.Observe({r1}).empty()) << "told once";
-  r1.state->nav_reason("recovering after: blocked: no progress for 10.0 s; attempt 1 (clear the local obstacle "
-                       "memory): blocked: no progress for 10.0 s");
+  r1.state->nav_reason(
+      "recovering after: blocked: no progress for 10.0 s; attempt 1 (clear the local obstacle "
+      "memory): blocked: no progress for 10.0 s");
   events = detector.Observe({r1});
   ASSERT_EQ(Kinds(events), (std::vector<std::string>{"recovering"}));
   EXPECT_EQ(events[0].reason, "attempt 1 (clear the local obstacle memory): blocked: no progress for 10.0 s");

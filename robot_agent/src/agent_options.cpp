@@ -33,7 +33,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto config = core::ConfigSection::LoadFile(path);
   config.RejectUnknownKeys(
       {"command_interface", "mux", "navigation", "local_planner", "controller", "platform", "traversability",
-       "telemetry", "perception", "explore", "peers", "convoy", "yield", "health",
+       "telemetry", "perception", "explore", "peers", "convoy", "yield", "mission", "health",
        "simulation"});  // `simulation` is the simulated platform's (sim::SimulatedPlatformOptions)
   const auto ci = config.Section("command_interface");
   ci.RejectUnknownKeys({"lock_keep_s"});
@@ -195,6 +195,10 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   yield_section.ReadDouble("lookahead_m", &yield.lookahead_m);
   yield_section.ReadDouble("standoff_m", &yield.standoff_m);
   yield_section.ReadDouble("ask_every_s", &yield.ask_every_s);
+  const auto mission_section = config.Section("mission");
+  mission_section.RejectUnknownKeys({"resume_within_s", "retry_every_s"});
+  mission_section.ReadDouble("resume_within_s", &mission.resume_within_s);
+  mission_section.ReadDouble("retry_every_s", &mission.retry_every_s);
   const auto telemetry = config.Section("telemetry");
   telemetry.RejectUnknownKeys({"state_rate_hz", "local_plan_rate_hz"});
   telemetry.ReadDouble("state_rate_hz", &state_rate_hz);
@@ -294,6 +298,7 @@ bool AgentOptions::IsValid(std::string* why) const {
   if (!peers.IsValid(why)) return false;
   if (!convoy.IsValid(why)) return false;
   if (!yield.IsValid(why)) return false;
+  if (!mission.IsValid(why)) return false;
   if (!InRange("navigation.obstacle_window_s", obstacle_window_s, 0, 30, true, why)) return false;
   if (!InRange("navigation.path_requests_per_s", path_requests_per_s, 0, 1000, true, why)) return false;
   std::string inner;

@@ -16,7 +16,8 @@ std::string CheckGoal(const GoalCommand& goal) {
     return text;
   }
   if (std::isinf(goal.z_m)) {
-    return "goal z_m = " + std::to_string(goal.z_m) + " must be a level's height (finite) or NaN (the robot's level)";
+    return "goal z_m = " + std::to_string(goal.z_m) +
+           " must be a level's height (finite) or NaN (the robot's level)";
   }
   if (!std::isfinite(goal.tolerance_m) || goal.tolerance_m < 0 || goal.tolerance_m > 5) {
     return "goal tolerance_m = " + std::to_string(goal.tolerance_m) + " must be in [0, 5]";
@@ -76,6 +77,9 @@ void CommandInterface::Respond(const CommandSender& sender, uint32_t request_id,
   ValidActions valid = ValidNow();
   r.valid_modes = std::move(valid.modes);
   r.goal_acceptable = valid.goal_acceptable;
+  if (result == CommandResult::kAccepted && kind != CommandKind::kControlRequest &&
+      kind != CommandKind::kRestart)
+    ++mission_commands_;
   hooks_.send(r);
   replies_.Insert(CommandKey{sender.writer, static_cast<uint32_t>(kind), request_id}, std::move(r));
   // The behavior-tree state follows from the control loop (<= 20 ms), off the command path.
@@ -94,8 +98,8 @@ void CommandInterface::OnControl(const ControlCommand& command, core::SteadyTime
   const CommandKind kind = command.release ? CommandKind::kControlRelease : CommandKind::kControlRequest;
   if (ReplayIfDuplicate(sender, kind, command.request_id)) return;
   if (!command.malformed.empty()) {
-    spdlog::warn("robot {}: control command {} from {} refused: {}", robot_id_, command.request_id, sender.base_id,
-                 command.malformed);
+    spdlog::warn("robot {}: control command {} from {} refused: {}", robot_id_, command.request_id,
+                 sender.base_id, command.malformed);
     return Respond(sender, command.request_id, kind, CommandResult::kDenied, "refused: " + command.malformed);
   }
   const LockDecision d = command.release ? lock_.Release(sender.base_id)
@@ -221,8 +225,9 @@ void CommandInterface::OnExplore(const ExploreCommand& command) {
   if (!problem.empty()) return Respond(sender, command.request_id, kind, CommandResult::kDenied, problem);
   const CommandOutcome outcome = hooks_.start_explore(command);
   if (outcome.accepted) lock_.NoteHolderCommand(sender.participant);  // this process speaks for the holder
-  Respond(sender, command.request_id, kind, outcome.accepted ? CommandResult::kAccepted : CommandResult::kDenied,
-          outcome.reason, outcome.goal_id);
+  Respond(sender, command.request_id, kind,
+          outcome.accepted ? CommandResult::kAccepted : CommandResult::kDenied, outcome.reason,
+          outcome.goal_id);
 }
 
 void CommandInterface::OnConvoy(const ConvoyCommand& command) {
@@ -249,9 +254,10 @@ void CommandInterface::OnTeleop(const TeleopCommand& command, core::SteadyTime n
     // At the teleop rate (20 Hz) a bad joystick would fill the log: one warning per 5 s, with the count.
     std::uint64_t suppressed = 0;
     if (teleop_warnings_.Allow("non-finite", now, &suppressed)) {
-      spdlog::warn("robot {}: teleop twist ({}, {}, {}) from {} dropped: not finite{}", robot_id_, t.vx_mps,
-                   t.vy_mps, t.wz_radps, command.base_id,
-                   suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+      spdlog::warn(
+          "robot {}: teleop twist ({}, {}, {}) from {} dropped: not finite{}", robot_id_, t.vx_mps, t.vy_mps,
+          t.wz_radps, command.base_id,
+          suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
     }
     return;
   }

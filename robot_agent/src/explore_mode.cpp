@@ -32,7 +32,8 @@ std::string CheckExploreTask(const ExploreTask& task) {
     if (!(lo.x() < hi.x()) || !(lo.y() < hi.y())) return region + ": x0 must be below x1 and y0 below y1";
   }
   if (std::isnan(task.min_z_m) || std::isnan(task.max_z_m) || !(task.min_z_m < task.max_z_m)) {
-    why << "z range (" << task.min_z_m << ", " << task.max_z_m << ") must be two numbers, the first below the "
+    why << "z range (" << task.min_z_m << ", " << task.max_z_m
+        << ") must be two numbers, the first below the "
         << "second, metres";
   } else if (!(task.home_after_silence_s >= 0 && task.home_after_silence_s <= 86400)) {
     why << "home_after_silence_s = " << task.home_after_silence_s << " must be in [0, 86400] (0 = never)";
@@ -42,11 +43,16 @@ std::string CheckExploreTask(const ExploreTask& task) {
 
 const char* ToString(ExplorationState state) {
   switch (state) {
-    case ExplorationState::kNone: return "none";
-    case ExplorationState::kExploring: return "exploring";
-    case ExplorationState::kComplete: return "complete";
-    case ExplorationState::kFailed: return "failed";
-    case ExplorationState::kStopped: return "stopped";
+    case ExplorationState::kNone:
+      return "none";
+    case ExplorationState::kExploring:
+      return "exploring";
+    case ExplorationState::kComplete:
+      return "complete";
+    case ExplorationState::kFailed:
+      return "failed";
+    case ExplorationState::kStopped:
+      return "stopped";
   }
   return "?";
 }
@@ -101,13 +107,13 @@ ExploreMode::~ExploreMode() {
 }
 
 std::string ExploreMode::Start(const ExploreTask& task, double now_s,
-                               const std::function<ModeDecision()>& enter_mode) {
+                               const std::function<ModeDecision()>& enter_mode, uint32_t resume_task_id) {
   if (std::string why = CheckExploreTask(task); !why.empty()) return why;
   const ExplorationStatus previous = status_;
   const bool was_exploring = exploring();
   DropTarget();
   ExplorationStatus s;
-  s.task_id = next_task_id_++;
+  s.task_id = resume_task_id != 0 ? resume_task_id : next_task_id_++;
   s.state = ExplorationState::kExploring;
   s.reason = "waiting for the first frontiers of the map";
   s.task = task;
@@ -121,9 +127,9 @@ std::string ExploreMode::Start(const ExploreTask& task, double now_s,
   contact_.Reset();
   const ModeDecision d = enter_mode();
   if (d.accepted) {
-    spdlog::info("robot {}: exploration {} started{}", options_.robot_id, s.task_id,
-                 task.region_M ? " in region " + Point(task.region_M->min()) + "-" + Point(task.region_M->max())
-                               : "");
+    spdlog::info(
+        "robot {}: exploration {} started{}", options_.robot_id, s.task_id,
+        task.region_M ? " in region " + Point(task.region_M->min()) + "-" + Point(task.region_M->max()) : "");
     return "";
   }
   if (status_.task_id == s.task_id && status_.active()) {
@@ -139,7 +145,8 @@ std::optional<nav::FrontierOptions> ExploreMode::frontier_search() const {
   o.region_M = status_.task.region_M.value_or(Eigen::AlignedBox2d());
   o.min_z_m = status_.task.min_z_m;
   o.max_z_m = status_.task.max_z_m;
-  o.tight_radius_m = navigation_->reduced_radius_m();  // a gap the map closes that navigation squeezes through
+  o.tight_radius_m =
+      navigation_->reduced_radius_m();  // a gap the map closes that navigation squeezes through
   return o;
 }
 
@@ -193,8 +200,16 @@ void ExploreMode::Finish(ExplorationState state, const std::string& reason) {
                  options_.robot_id, status_.task_id, reason, status_.explored_m2, status_.targets_reached,
                  status_.targets_failed);
   } else {
-    spdlog::warn("robot {}: exploration {} {}: {}", options_.robot_id, status_.task_id, ToString(state), reason);
+    spdlog::warn("robot {}: exploration {} {}: {}", options_.robot_id, status_.task_id, ToString(state),
+                 reason);
   }
+}
+
+void ExploreMode::EndPaused(uint32_t task_id, const std::string& reason) {
+  if (status_.task_id != task_id || exploring()) return;
+  status_.state = ExplorationState::kStopped;
+  status_.reason = reason;
+  spdlog::warn("robot {}: exploration {} stopped: {}", options_.robot_id, task_id, reason);
 }
 
 void ExploreMode::Deactivate(const std::string& why) {
@@ -212,8 +227,8 @@ void ExploreMode::EndTarget(bool reached, const std::string& reason, double now_
   } else {
     explorer_.Fail(reason, now_s);
     ++status_.targets_failed;
-    spdlog::warn("robot {}: exploration {} gave up the frontier at {}: {}", options_.robot_id, status_.task_id,
-                 Point(target), reason);
+    spdlog::warn("robot {}: exploration {} gave up the frontier at {}: {}", options_.robot_id,
+                 status_.task_id, Point(target), reason);
   }
   settle_until_s_ = now_s + options_.settle_s;
 }
@@ -227,7 +242,8 @@ void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput
   if (!set.robot_on_grid || set.known_free_m2 < kMinKnownFreeM2) {
     if (now_s - status_.started_s > options_.map_wait_s) {
       Finish(ExplorationState::kFailed,
-             std::string("no map around the robot after ") + internal::Fixed(options_.map_wait_s, 0) + " s (" +
+             std::string("no map around the robot after ") + internal::Fixed(options_.map_wait_s, 0) +
+                 " s (" +
                  (set.robot_on_grid ? internal::Fixed(set.known_free_m2, 1) + " m² known free"
                                     : "the robot is on no traversable cell of its map") +
                  ")");
@@ -235,7 +251,8 @@ void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput
     }
     return;
   }
-  const nav::ExplorerDecision d = explorer_.Decide(set, nav::TeamView{options_.robot_id, now_s, peer_claims_});
+  const nav::ExplorerDecision d =
+      explorer_.Decide(set, nav::TeamView{options_.robot_id, now_s, peer_claims_});
   if (d.kind == nav::ExplorerDecision::Kind::kWait) {
     if (status_.has_target || status_.reason != d.reason) {
       spdlog::info("robot {}: exploration {}: {}", options_.robot_id, status_.task_id, d.reason);
@@ -267,19 +284,20 @@ void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput
   status_.has_target = true;
   status_.target_M = d.target.target_M;
   status_.target_z_m = d.target.target_ground_z_m;
-  // A target the main level holds, with the robot on it too, is planned there (NaN: the start's level, robust to
-  // the holes a robot-built map shows around the robot). Any other names its surface: one only the map's levels
-  // hold (a flight of stairs, an upper floor, the pocket under a landing), and any while the robot stands on
-  // another floor (NaN would plan to the same x-y on the robot's floor).
+  // A target the main level holds, with the robot on it too, is planned there (NaN: the start's level, robust
+  // to the holes a robot-built map shows around the robot). Any other names its surface: one only the map's
+  // levels hold (a flight of stairs, an upper floor, the pocket under a landing), and any while the robot
+  // stands on another floor (NaN would plan to the same x-y on the robot's floor).
   goal_z_m_ = d.target.on_main_level ? std::numeric_limits<double>::quiet_NaN() : d.target.target_ground_z_m;
   // Reached only through a gap the map shows narrower than the footprint's inflation: planned (and driven)
   // with reduced clearance, as the waypoint recovery's last attempt would.
   navigation_->SetReducedClearance(d.target.through_tight_gap);
   target_through_tight_gap_ = d.target.through_tight_gap;
   plan_ = navigation_->PlanGoalAsync(pose_M, d.target.target_M.x(), d.target.target_M.y(), goal_z_m_);
-  spdlog::info("robot {}: exploration {} to the frontier at {} ({:.0f} m² unknown behind it, {:.1f} m away{}): {}",
-               options_.robot_id, status_.task_id, Point(d.target.target_M), d.target.gain_m2,
-               d.target.travel_cost_m, d.target.through_tight_gap ? ", through a tight gap" : "", d.reason);
+  spdlog::info(
+      "robot {}: exploration {} to the frontier at {} ({:.0f} m² unknown behind it, {:.1f} m away{}): {}",
+      options_.robot_id, status_.task_id, Point(d.target.target_M), d.target.gain_m2, d.target.travel_cost_m,
+      d.target.through_tight_gap ? ", through a tight gap" : "", d.reason);
 }
 
 ModeOutput ExploreMode::Step(const ModeInputs& in) {
@@ -290,8 +308,9 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
   // While this mode steps, navigation's goal is its own (its recovery may have planned it again).
   if (driving_) goal_serial_ = navigation_->goal_serial();
   // A peer claimed the same frontier first (both chose it before either heard of the other): leave it now.
-  if (std::string by; status_.has_target &&
-                      explorer_.CurrentClaimedByPeer(nav::TeamView{options_.robot_id, in.now_s, peer_claims_}, &by)) {
+  if (std::string by;
+      status_.has_target &&
+      explorer_.CurrentClaimedByPeer(nav::TeamView{options_.robot_id, in.now_s, peer_claims_}, &by)) {
     const Eigen::Vector2d target = status_.target_M;
     DropTarget();
     explorer_.ClearTarget();
@@ -303,7 +322,8 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
     plan_ = {};
     if (plan.IsUsable()) {
       navigation_->AcceptGoal(plan, status_.target_M.x(), status_.target_M.y(), options_.target_tolerance_m,
-                              in.now_s, goal_z_m_, target_through_tight_gap_ ? options_.tight_gap_stall_s : 0.0);
+                              in.now_s, goal_z_m_,
+                              target_through_tight_gap_ ? options_.tight_gap_stall_s : 0.0);
       driving_ = true;
       goal_serial_ = navigation_->goal_serial();
     } else {

@@ -28,6 +28,7 @@
 #include "cairn/agent/convoy_mode.h"
 #include "cairn/agent/explore_mode.h"
 #include "cairn/agent/journal.h"
+#include "cairn/agent/mission.h"
 #include "cairn/agent/mode_control.h"
 #include "cairn/agent/modes.h"
 #include "cairn/agent/nav_map.h"
@@ -199,14 +200,22 @@ class RobotAgent::Impl {
   // convoy.
   CommandOutcome OnConvoy(const ConvoyCommand& c);
   // With mutex_ held: a yield request (a peer's or an operator's): refused by the policy (the mode, no spot
-  // aside), or the robot moves aside in yield mode, keeping what it did to resume it (ResumeAfterYield).
+  // aside), or the robot moves aside in yield mode, its mission paused until the yield ends (ResumeMission).
   void OnYieldRequest(const YieldCommand& c, const std::string& fault);
   // With mutex_ held, once per control cycle, before the mode's step: a robot driving a goal whose route a
   // peer blocks in a narrow passage asks it to yield (sent by Run()) and holds before it meanwhile.
   void AskPeersToYield(double now_s, const std::vector<PeerBody>& peers);
-  // With mutex_ held, once per control cycle, after the mode's step: a yield that ended by itself hands back
-  // to the robot's task (its waypoint goal, planned again from the spot, or its exploration).
-  void ResumeAfterYield(double now_s);
+  // With mutex_ held: the operator's mission the robot runs now (a waypoint goal or an exploration), to be
+  // kept when a transient condition interrupts it.
+  std::optional<PausedMission> RunningMission(double now_s) const;
+  // With mutex_ held: keeps `mission`, interrupted because of `reason`, to resume it (MissionKeeper).
+  void PauseMission(PausedMission mission, const std::string& reason);
+  // With mutex_ held, once per control cycle, after the mode's step: a yield that ended hands back; a paused
+  // mission is tried again when due (a goal planned again from here, or the exploration), resumed once the
+  // tree allows it, dropped when an operator commanded something else, ended when it waited too long or the
+  // condition is not transient.
+  void ResumeMission(double now_s);
+  void EndPausedMission(const PausedMission& mission, const std::string& reason);
   // With mutex_ held: what the robot state reports now.
   RobotStateInputs StateInputs() const {
     // As the robot asked while it yields (or last yielded: how it ended), else as the robot asking.
@@ -214,8 +223,17 @@ class RobotAgent::Impl {
     const YieldStatus& asking = yield_asker_.status();
     const bool own_first = own.state != YieldStatus::State::kNone ||
                            (asking.state == YieldStatus::State::kNone && !own.reason.empty());
-    return RobotStateInputs{pose_, in_contact_, control_periods_.WorstMs(), resumable_goal_M_,
-                            own_first ? own : asking};
+    RobotStateInputs in;
+    in.pose_M = pose_;
+    in.in_contact = in_contact_;
+    in.control_period_max_ms = control_periods_.WorstMs();
+    in.resumable_goal_M = resumable_goal_M_;
+    in.yield = own_first ? own : asking;
+    in.paused_mission = mission_.paused();
+    if (in.paused_mission)
+      in.mission_paused_s = std::max(0.0, NowS(SteadyClock::now()) - in.paused_mission->since_s);
+    in.mission_note = mission_note_;
+    return in;
   }
   void SendClaim(const ExploreClaim& claim) {
     if (!dds_->Publish(claim))
@@ -247,13 +265,14 @@ class RobotAgent::Impl {
   YieldAsker yield_asker_;                         // asks peers in the way to yield
   std::string yield_logged_;                       // the asking status last logged
   std::optional<std::pair<std::string, YieldCommand>> yield_to_send_;  // Step()'s, sent by Run() unlocked
-  // What a yielding robot was doing, resumed when the yield ends by itself: a waypoint goal or a task.
-  std::optional<WaypointGoal> yield_resume_goal_;
-  std::optional<ExploreTask> yield_resume_explore_;
-  std::future<nav::GlobalPlan> resume_plan_;  // ResumeAfterYield(): the goal planned again, from the spot
-  ExploreTeam team_;                          // peers' explore claims and coverage (thread-safe)
-  PeerTracker peers_;                         // peers' poses, footprints and paths (thread-safe)
-  core::WarningLimiter peer_warnings_;        // a bad peer state is named once per 5 s per robot
+  // The operator's mission a transient condition (or a yield) paused, resumed by ResumeMission().
+  MissionKeeper mission_;
+  std::uint64_t mission_commands_at_pause_ = 0;  // CommandInterface::mission_commands() when it paused
+  std::string mission_note_;                     // how the last pause ended (RobotState.mission_reason)
+  std::future<nav::GlobalPlan> resume_plan_;     // ResumeMission(): a paused goal planned again, from here
+  ExploreTeam team_;                             // peers' explore claims and coverage (thread-safe)
+  PeerTracker peers_;                            // peers' poses, footprints and paths (thread-safe)
+  core::WarningLimiter peer_warnings_;           // a bad peer state is named once per 5 s per robot
   bool listening_to_peers_ = false;  // Run(): AgentDds::ListenToPeers() done, once the robot first left idle
   std::optional<ExploreClaim> claim_to_send_;  // Step()'s, sent by Run() outside the agent lock
   std::future<nav::GlobalPlan> home_plan_;     // ComeHomeIfSilent(): the way back, being planned
@@ -310,6 +329,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       pose_(start_M_),
       navigation_(options.navigation, planner_, LocalPlannerLibrary(options)),
       yield_asker_(options.yield, options.robot_id),
+      mission_(options.mission),
       team_(options.robot_id, options.explore.team),
       peers_(options.robot_id, options.peers),
       faults_(
@@ -573,17 +593,17 @@ void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const std::string& 
   const YieldDecision decision = DecideYield(options_.yield, c, situation);
   if (decision.ignore) return;  // it gets out of this robot's way itself
   if (!decision.accepted) return refuse(decision.refusal);
-  yield_resume_goal_.reset();
-  yield_resume_explore_.reset();
-  if (mode == waypoint_->name() && waypoint_->has_goal()) yield_resume_goal_ = waypoint_->goal();
-  if (mode == explore_->name() && explore_->exploring()) yield_resume_explore_ = explore_->status().task;
+  // Its mission waits for the yield's end (held: no retry, no expiry meanwhile).
+  if (std::optional<PausedMission> running = RunningMission(now_s)) {
+    running->held = true;
+    PauseMission(std::move(*running), "yielding to " + c.passing_id);
+  }
   yield_->Start(c, decision.spot, pose_, decision.clearance_m, /*return_home=*/mode == ModeManager::kIdleMode,
                 now_s);
   const ModeDecision d = modes_->Request(yield_->name(), Conditions());
   if (!d.accepted) {
     yield_->Deactivate(d.reason);
-    yield_resume_goal_.reset();
-    yield_resume_explore_.reset();
+    if (mission_.paused() && mission_.paused()->held) mission_.Take();  // it never stopped
     return refuse(d.reason);
   }
   spdlog::info("robot {}: yielding to {} (asked by {}, was {}): {}", own, c.passing_id, c.sender_id, mode,
@@ -609,42 +629,127 @@ void RobotAgent::Impl::AskPeersToYield(double now_s, const std::vector<PeerBody>
   }
 }
 
-void RobotAgent::Impl::ResumeAfterYield(double now_s) {
-  if (resume_plan_.valid()) {
-    if (PlanRunning(resume_plan_)) return;
-    const nav::GlobalPlan plan = resume_plan_.get();
-    const WaypointGoal goal = *yield_resume_goal_;
-    yield_resume_goal_.reset();
-    if (modes_->mode() != ModeManager::kIdleMode) {  // an operator gave it something else meanwhile
-      spdlog::info("robot {}: its goal to ({:.2f}, {:.2f}) is not resumed after yielding: now in mode {}",
-                   options_.robot_id, goal.x_m, goal.y_m, modes_->mode());
-      return;
-    }
-    if (!plan.IsUsable()) {
-      spdlog::error("robot {}: cannot resume its goal to ({:.2f}, {:.2f}) after yielding: {}",
-                    options_.robot_id, goal.x_m, goal.y_m, plan.reason);
-      return;
-    }
-    const GoalStart start =
-        waypoint_->Start(plan, goal.x_m, goal.y_m, goal.tolerance_m, goal.z_m, now_s,
-                         [this] { return modes_->Request(waypoint_->name(), Conditions()); });
-    spdlog::info("robot {}: {} its goal to ({:.2f}, {:.2f}) after yielding{}", options_.robot_id,
-                 start.accepted ? "resumed" : "cannot resume", goal.x_m, goal.y_m,
-                 start.accepted ? " (waypoint " + std::to_string(start.goal_id) + ")" : ": " + start.reason);
+std::optional<PausedMission> RobotAgent::Impl::RunningMission(double now_s) const {
+  PausedMission m;
+  m.since_s = now_s;
+  if (modes_->mode() == waypoint_->name() && waypoint_->has_goal()) {
+    m.kind = PausedMission::Kind::kWaypoint;
+    m.goal = waypoint_->goal();
+    return m;
+  }
+  if (modes_->mode() == explore_->name() && explore_->exploring()) {
+    m.kind = PausedMission::Kind::kExplore;
+    m.task = explore_->status().task;
+    m.task_id = explore_->status().task_id;
+    return m;
+  }
+  return std::nullopt;
+}
+
+void RobotAgent::Impl::PauseMission(PausedMission mission, const std::string& reason) {
+  mission.reason = reason;
+  const uint32_t id = mission.kind == PausedMission::Kind::kWaypoint ? mission.goal.goal_id : mission.task_id;
+  spdlog::warn("robot {}: mission paused ({} {}): {}; it resumes by itself{}", options_.robot_id,
+               ToString(mission.kind), id, reason,
+               mission.held
+                   ? " when the yield ends"
+                   : " when that clears (within " + internal::Fixed(mission_.options().resume_within_s, 0) +
+                         " s, mission.resume_within_s)");
+  if (resume_plan_.valid()) navigation_.Abandon(std::move(resume_plan_));
+  mission_.Pause(std::move(mission));
+  mission_commands_at_pause_ = command_->mission_commands();
+}
+
+void RobotAgent::Impl::EndPausedMission(const PausedMission& mission, const std::string& reason) {
+  if (mission.kind == PausedMission::Kind::kWaypoint) {
+    waypoint_->EndPaused(mission.goal.goal_id, reason);
+  } else {
+    explore_->EndPaused(mission.task_id, reason);
+  }
+  mission_note_ = reason;
+  mission_.Take();
+}
+
+void RobotAgent::Impl::ResumeMission(double now_s) {
+  if (yield_->TakeFinished()) {
+    spdlog::info("robot {}: {}", options_.robot_id, yield_->status().reason);
+    mission_.Release(now_s);
+  }
+  if (!mission_.paused()) {
+    if (resume_plan_.valid()) navigation_.Abandon(std::move(resume_plan_));
     return;
   }
-  if (!yield_->TakeFinished()) return;
-  spdlog::info("robot {}: {}", options_.robot_id, yield_->status().reason);
-  if (yield_resume_goal_) {
-    resume_plan_ = navigation_.PlanGoalAsync(pose_, yield_resume_goal_->x_m, yield_resume_goal_->y_m,
-                                             yield_resume_goal_->z_m);
-  } else if (yield_resume_explore_) {
-    const ExploreTask task = *yield_resume_explore_;
-    yield_resume_explore_.reset();
-    const std::string refused =
-        explore_->Start(task, now_s, [this] { return modes_->Request(explore_->name(), Conditions()); });
-    spdlog::info("robot {}: {} exploring after yielding{}", options_.robot_id,
-                 refused.empty() ? "resumed" : "cannot resume", refused.empty() ? "" : ": " + refused);
+  const PausedMission paused = *mission_.paused();
+  const std::string what =
+      std::string(ToString(paused.kind)) + " " +
+      std::to_string(paused.kind == PausedMission::Kind::kWaypoint ? paused.goal.goal_id : paused.task_id);
+  // An operator's command (a mode, a goal, an exploration, a stop, a release) ends it: they decided.
+  if (command_->mission_commands() != mission_commands_at_pause_ ||
+      (!paused.held && modes_->mode() != ModeManager::kIdleMode)) {
+    spdlog::info("robot {}: paused mission ({}) dropped: an operator's command came (mode {})",
+                 options_.robot_id, what, modes_->mode());
+    mission_note_ = "dropped: an operator's command came";
+    mission_.Take();
+    if (resume_plan_.valid()) navigation_.Abandon(std::move(resume_plan_));
+    return;
+  }
+  auto resumed = [&] {
+    const double paused_s = now_s - paused.since_s;
+    spdlog::info("robot {}: mission resumed ({}) after {:.1f} s paused ({})", options_.robot_id, what,
+                 paused_s, paused.reason);
+    mission_note_ = "resumed after " + internal::Fixed(paused_s, 1) + " s paused: " + paused.reason;
+    mission_.Take();
+  };
+  auto refused = [&](const std::string& why) {
+    if (IsTransientFailure(why)) {
+      mission_.SetReason(why);  // still paused, now for this
+    } else {
+      EndPausedMission(paused, "not resumed: " + why);
+    }
+  };
+  if (resume_plan_.valid()) {  // a paused goal, planned again from here
+    if (PlanRunning(resume_plan_)) return;
+    const nav::GlobalPlan plan = resume_plan_.get();
+    if (!plan.IsUsable()) {
+      mission_.SetReason("no path from here yet: " + plan.reason);  // the map may still be coming back
+      return;
+    }
+    const GoalStart start = waypoint_->Start(
+        plan, paused.goal.x_m, paused.goal.y_m, paused.goal.tolerance_m, paused.goal.z_m, now_s,
+        [this] { return modes_->Request(waypoint_->name(), Conditions()); }, paused.goal.goal_id);
+    if (start.accepted) {
+      resumed();
+    } else {
+      refused(start.reason);
+    }
+    return;
+  }
+  switch (mission_.Check(now_s)) {
+    case MissionKeeper::Due::kNothing:
+    case MissionKeeper::Due::kWait:
+      return;
+    case MissionKeeper::Due::kExpired:
+      EndPausedMission(paused, "paused for " + internal::Fixed(now_s - paused.since_s, 0) +
+                                   " s (mission.resume_within_s " +
+                                   internal::Fixed(mission_.options().resume_within_s, 0) +
+                                   ") and not resumed: " + paused.reason);
+      return;
+    case MissionKeeper::Due::kTry:
+      break;
+  }
+  mission_.Tried(now_s);
+  if (paused.kind == PausedMission::Kind::kWaypoint) {
+    // Planned (off this thread) only once the tree would take a goal again: no search per retry meanwhile.
+    if (!command_->ValidNow().goal_acceptable) return;
+    resume_plan_ = navigation_.PlanGoalAsync(pose_, paused.goal.x_m, paused.goal.y_m, paused.goal.z_m);
+    return;
+  }
+  const std::string why = explore_->Start(
+      paused.task, now_s, [this] { return modes_->Request(explore_->name(), Conditions()); }, paused.task_id);
+  if (why.empty()) {
+    resumed();
+  } else {
+    refused(why);
   }
 }
 
@@ -743,9 +848,10 @@ CommandOutcome RobotAgent::Impl::StartGoal(const GoalCommand& goal, const nav::G
   const std::string home = goal.kind == CommandKind::kHome ? "home to (" + internal::Fixed(goal.x_m, 2) +
                                                                  ", " + internal::Fixed(goal.y_m, 2) + "): "
                                                            : "";
+  const std::string notice = GoalNotice(options_.robot_id, plan);  // a goal where the map has not seen
   return {true,
           home + "path " + internal::Fixed(plan.result.length_m, 1) + " m, ETA " +
-              internal::Fixed(navigation_.eta_s(), 0) + " s",
+              internal::Fixed(navigation_.eta_s(), 0) + " s" + (notice.empty() ? "" : "; " + notice),
           start.goal_id};
 }
 
@@ -798,12 +904,21 @@ void RobotAgent::Impl::ComeHomeIfSilent(SteadyTime now) {
 void RobotAgent::Impl::Step(SteadyTime now) {
   ResetRestartedParts();
   command_c_->Run([&] { command_->Update(now); });
+  const double now_s = NowS(now);
   mode_tree_c_->Run([&] {
+    std::optional<PausedMission> running = RunningMission(now_s);
     const ModeDecision recheck = modes_->Recheck(Conditions());
-    if (!recheck.accepted) spdlog::warn("robot {}: {} -> idle", options_.robot_id, recheck.reason);
+    if (!recheck.accepted) {
+      spdlog::warn("robot {}: {} -> idle", options_.robot_id, recheck.reason);
+      // A condition that clears by itself (a component restarting, localization lost) pauses the mission.
+      if (running && IsTransientFailure(recheck.reason)) {
+        const std::size_t colon = recheck.reason.find(" no longer allowed: ");
+        PauseMission(std::move(*running),
+                     colon == std::string::npos ? recheck.reason : recheck.reason.substr(colon + 20));
+      }
+    }
   });
 
-  const double now_s = NowS(now);
   // The robot as its platform reports it: pose estimate (SLAM), health. A platform call that throws takes the
   // platform component down (its restart re-reads the sensors); the robot is told zero twist meanwhile.
   bool platform_ok = true;
@@ -846,7 +961,7 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     perception_->SetPeerCoverage(team_.Coverage());
     if (modes_->Step(inputs))
       modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
-    ResumeAfterYield(now_s);
+    ResumeMission(now_s);
     ComeHomeIfSilent(now);
     // Written by Run() once the agent lock is released: Fast DDS hands the sample to this participant's own
     // claim reader on the writing thread, and the liveliness callbacks that come with it take the agent lock.
@@ -863,6 +978,9 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   if (!(muxed && navigated && platform_ok && mode_tree_c_->up() && navigation_c_->up() && mux_c_->up())) {
     twist_B = Twist2{};
     if (modes_->mode() != ModeManager::kIdleMode) {
+      if (std::optional<PausedMission> running = RunningMission(now_s))
+        PauseMission(std::move(*running),
+                     "a component of the driving chain is down (health " + options_.robot_id + ")");
       try {
         modes_->Stop("a component of the driving chain is down (health " + options_.robot_id + ")");
       } catch (const std::exception& e) {

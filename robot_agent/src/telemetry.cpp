@@ -181,6 +181,27 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
   m.yield_state(ToString(in.yield.state));
   m.yield_peer_id(in.yield.peer_id);
   m.yield_reason(in.yield.reason);
+  if (in.paused_mission) {
+    const PausedMission& p = *in.paused_mission;
+    m.mission_state("paused");
+    m.mission_kind(ToString(p.kind));
+    m.mission_reason(p.reason);
+    m.mission_paused_s(in.mission_paused_s);
+    // The mission goes on under its id: --wait and the operator see it paused, not ended.
+    if (p.kind == PausedMission::Kind::kWaypoint) {
+      m.nav_status(msgs::NAV_STATUS_PAUSED);
+      m.nav_reason("paused: " + p.reason);
+      m.nav_goal_id(p.goal.goal_id);
+      m.nav_goal_M().x_m(p.goal.x_m);
+      m.nav_goal_M().y_m(p.goal.y_m);
+    } else {
+      m.explore_state("paused");
+      m.explore_reason("paused: " + p.reason);
+      m.explore_task_id(p.task_id);
+    }
+  } else {
+    m.mission_reason(in.mission_note);
+  }
   m.has_resumable_goal(in.resumable_goal_M.has_value());
   if (in.resumable_goal_M) {
     m.resumable_goal_M().x_m(in.resumable_goal_M->x());
@@ -219,7 +240,8 @@ void Telemetry::PublishTreeStateIfChanged() {
   const ValidActions valid = command_->ValidNow();
   const ModeManager& tree = modes_->tree();
   std::string signature = tree.mode() + "|" + tree.channel() + "|" + tree.last_refusal() + "|" +
-                          (valid.goal_acceptable ? "goal" : "") + (valid.explore_acceptable ? "|explore" : "");
+                          (valid.goal_acceptable ? "goal" : "") +
+                          (valid.explore_acceptable ? "|explore" : "");
   for (const auto& v : valid.modes) signature += "|" + v;
   if (signature == last_tree_signature_) return;
   last_tree_signature_ = signature;

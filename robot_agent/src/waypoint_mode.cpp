@@ -20,7 +20,8 @@ WaypointMode::WaypointMode(WaypointModeOptions options, Navigation* navigation,
 }
 
 GoalStart WaypointMode::Start(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m,
-                              double z_m, double now_s, const std::function<ModeDecision()>& enter_mode) {
+                              double z_m, double now_s, const std::function<ModeDecision()>& enter_mode,
+                              uint32_t resume_goal_id) {
   if (!plan.IsUsable())
     throw std::invalid_argument("WaypointMode::Start: the plan is not usable: " + plan.reason);
   const WaypointGoal previous = goal_;
@@ -28,7 +29,7 @@ GoalStart WaypointMode::Start(const nav::GlobalPlan& plan, double x_m, double y_
   navigation_->AcceptGoal(plan, x_m, y_m, tolerance_m, now_s, z_m);
   own_serial_ = navigation_->goal_serial();
   WaypointGoal goal;
-  goal.goal_id = next_goal_id_++;
+  goal.goal_id = resume_goal_id != 0 ? resume_goal_id : next_goal_id_++;
   goal.x_m = x_m;
   goal.y_m = y_m;
   goal.tolerance_m = tolerance_m;
@@ -66,6 +67,13 @@ void WaypointMode::Finish(GoalStatus status, const std::string& reason, bool onl
   }
 }
 
+void WaypointMode::EndPaused(uint32_t goal_id, const std::string& reason) {
+  if (goal_.goal_id != goal_id || goal_.active()) return;
+  goal_.status = GoalStatus::kFailed;
+  goal_.reason = reason;
+  spdlog::warn("robot {}: waypoint {} failed: {}", options_.robot_id, goal_id, reason);
+}
+
 void WaypointMode::Deactivate(const std::string& why) {
   if (has_goal()) Finish(GoalStatus::kFailed, "cancelled: " + why, /*only_own=*/true);
 }
@@ -85,7 +93,7 @@ ModeOutput WaypointMode::Step(const ModeInputs& in) {
     }
   } else {
     step = navigation_->StepWaypoint(s, in.now_s);
-    if (step.failed && recovery_enabled()) {
+    if (step.failed && !step.abandoned && recovery_enabled()) {  // an abandoned goal is not retried
       recovery_->Start(goal_.x_m, goal_.y_m, goal_.tolerance_m, step.reason, goal_.z_m);
       goal_.reason = recovery_->Report();
       spdlog::warn("robot {}: waypoint {} {}", options_.robot_id, goal_.goal_id, goal_.reason);

@@ -36,7 +36,12 @@ struct OperatorEvent {
   /// it holds, blocked; why). A yield is told to both operators: each basestation hears both robots' states.
   /// Fleet staircases (robot_id "", see FleetStaircases): "staircase" (a new one) | "staircase_merged" (two
   /// were one flight: the younger id, `merged_staircase_id`, merged into the older) | "staircase_removed" (no
-  /// robot reports it any more; `reason`: why).
+  /// robot reports it any more; `reason`: why). Missions: "mission_paused" (a transient condition interrupted
+  /// the operator's waypoint goal or exploration; `reason`: why; the robot resumes it by itself) |
+  /// "mission_resumed" | "exploration_complete" (area, time, frontiers given up, in `message`) |
+  /// "exploration_stopped" (it failed or was stopped; `reason`) | "goal_abandoned" (a goal ended without
+  /// arriving; `reason`, `condition`) | "convoy_formed" (a follower found the robot ahead; `other`) |
+  /// "convoy_holding" (a follower holds: the gap closed or the trail is not yet long enough).
   std::string kind;
   std::string robot_id;     ///< the robot concerned ("" for a fleet staircase)
   std::string other;        ///< proximity: the other robot; locks: the basestation; stopped: who stopped it
@@ -80,6 +85,9 @@ class FleetEventDetector {
   const FleetEventOptions& options() const { return options_; }
 
  private:
+  struct Last;
+  void ObserveMission(const std::string& robot_id, const cairn_msgs::RobotState& state, const Last& last,
+                      const Last& now, std::vector<OperatorEvent>* events);
   struct Last {
     bool lost = false;
     bool left = false;
@@ -91,10 +99,15 @@ class FleetEventDetector {
     cairn_msgs::NavStatus nav_status = cairn_msgs::NAV_STATUS_NONE;
     uint32_t stops = 0;
     std::string nav_reason;
-    std::string convoy_state;  // RobotState::convoy_state ("" before a state)
-    std::string convoy_ahead;  // the robot it follows ("" when not in a convoy)
-    std::string yield_state;   // RobotState::yield_state
-    std::string yield_peer;    // RobotState::yield_peer_id
+    std::string convoy_state;   // RobotState::convoy_state ("" before a state)
+    std::string convoy_ahead;   // the robot it follows ("" when not in a convoy)
+    std::string yield_state;    // RobotState::yield_state
+    std::string yield_peer;     // RobotState::yield_peer_id
+    std::string mission_state;  // RobotState::mission_state ("" | "paused")
+    std::string explore_state;  // RobotState::explore_state
+    uint32_t explore_task_id = 0;
+    /// When this basestation first saw explore_task_id exploring (its clock): the exploration's time so far.
+    std::chrono::steady_clock::time_point explore_seen;
     bool has_health = false;
     uint32_t health_events = 0;  // AgentHealth::events
   };

@@ -84,6 +84,7 @@ inline cairn_msgs::RobotState SlowPartOf(cairn_msgs::RobotState state) {
   state.link_usage().clear();
   state.convoy_gap_m(
       0.0);  // changes every cycle while following: it rides on the whole states that go anyway
+  state.mission_paused_s(0.0);  // grows while paused: it rides on the whole states that go anyway
   // NaN (the robot's level) never equals itself: compared as 0, or every state would differ from the last.
   if (std::isnan(state.resumable_goal_M().z_m())) state.resumable_goal_M().z_m(0.0);
   return state;
@@ -98,6 +99,7 @@ inline bool UrgentChange(const cairn_msgs::RobotState& a, const cairn_msgs::Robo
          a.holder_alive() != b.holder_alive() || a.holder_participant() != b.holder_participant() ||
          a.nav_goal_id() != b.nav_goal_id() || a.nav_status() != b.nav_status() || a.stops() != b.stops() ||
          a.explore_task_id() != b.explore_task_id() || a.explore_state() != b.explore_state() ||
+         a.mission_state() != b.mission_state() ||
          a.convoy_state() != b.convoy_state() || a.convoy_ahead_ids() != b.convoy_ahead_ids() ||
          a.yield_state() != b.yield_state() || a.yield_peer_id() != b.yield_peer_id();
 }

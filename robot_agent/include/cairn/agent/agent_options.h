@@ -13,6 +13,7 @@
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/peers.h"
 #include "cairn/agent/perception_pipeline.h"
+#include "cairn/agent/mission.h"
 #include "cairn/agent/yield.h"
 #include "cairn/core/kinematics.h"
 #include "cairn/core/link_options.h"
@@ -76,6 +77,8 @@ struct AgentOptions {
   ConvoyOptions convoy;
   /// Get-out-of-the-way: the modes in which this robot yields, and how it asks peers (config `yield`).
   YieldOptions yield;
+  /// Missions a transient condition paused: how long the robot keeps them (config `mission`).
+  MissionOptions mission;
   /// Local planner library: collision radius = footprint + collision_margin_m; the heading range comes
   /// from the platform profile.
   nav::TrajectoryLibraryOptions library = DefaultLibraryOptions();

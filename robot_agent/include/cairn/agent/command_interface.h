@@ -30,9 +30,9 @@ struct StopRecord {
 
 /// The operator's valid actions now (lesson L4).
 struct ValidActions {
-  std::vector<std::string> modes;  ///< modes the tree would accept now
-  bool goal_acceptable = false;    ///< a waypoint goal would be accepted now
-  bool explore_acceptable = false; ///< an exploration task would be accepted now
+  std::vector<std::string> modes;   ///< modes the tree would accept now
+  bool goal_acceptable = false;     ///< a waypoint goal would be accepted now
+  bool explore_acceptable = false;  ///< an exploration task would be accepted now
 };
 
 /// Applies operator commands. Not thread-safe: the agent calls it under its lock.
@@ -87,8 +87,8 @@ class CommandInterface {
   /// home R [POINT]: the holder's only; a waypoint goal to `home_M` (the robot's start, frame M, with its
   /// ground height) or the point sent, then as OnGoal() (the reply's kind is kHome).
   void OnHome(const HomeCommand& command, const core::BaseState& home_M);
-  /// explore R: the holder's only; checked (frame, CheckExploreTask), then started (Hooks::start_explore), which
-  /// asks the mode tree.
+  /// explore R: the holder's only; checked (frame, CheckExploreTask), then started (Hooks::start_explore),
+  /// which asks the mode tree.
   void OnExplore(const ExploreCommand& command);
   /// A convoy follower's request (convoy, convoy-stop, peel): the holder's only; a malformed one is refused
   /// naming the value; else Hooks::convoy, which asks the mode tree.
@@ -117,6 +117,9 @@ class CommandInterface {
   /// After a restart: `base_id` (the journal's holder) holds the lock again (ControlLock::Restore).
   void RestoreHolder(const std::string& base_id, core::SteadyTime now) { lock_.Restore(base_id, now); }
   const StopRecord& stops() const { return stops_; }
+  /// Accepted commands that change what the robot does (a mode, a goal, an exploration, home, a convoy, a
+  /// stop, a release), counted from 0: a paused mission ends when one comes (MissionKeeper).
+  std::uint64_t mission_commands() const { return mission_commands_; }
 
  private:
   // Answers a retry (same writer, kind and request id) from the cache. true when it was one.
@@ -147,7 +150,8 @@ class CommandInterface {
   std::vector<CommandKey> pending_goals_;     // goals being planned
   std::map<std::string, BaseProcess> bases_;  // agent-info writer -> its process
   StopRecord stops_;
-  core::WarningLimiter teleop_warnings_;  // non-finite teleop twists
+  std::uint64_t mission_commands_ = 0;
+  core::WarningLimiter teleop_warnings_;                         // non-finite teleop twists
   core::SteadyTime last_base_alive_ = core::SteadyClock::now();  // Update() notes a live base process
 };
 

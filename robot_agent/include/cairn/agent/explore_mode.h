@@ -1,10 +1,10 @@
-// Explore mode (issue 14; Sriganesh et al. 2024, § Behavior Tree and Mux: exploration, the top level of sliding
-// autonomy): the robot maps the unknown by itself. Frontiers of its own navigation map (nav::FindFrontiers, run
-// on the map's thread after each update and handed in with OnFrontiers()) feed the target choice
-// (nav::Explorer); each target is driven as a waypoint goal through navigation, with the waypoint recovery tree
-// when navigation gives up; a target that still fails is barred with its reason. Exploration ends by itself
-// when no reachable frontier is left ("exploration complete: no reachable frontier ...") and the robot goes
-// idle.
+// Explore mode (issue 14; Sriganesh et al. 2024, § Behavior Tree and Mux: exploration, the top level of
+// sliding autonomy): the robot maps the unknown by itself. Frontiers of its own navigation map
+// (nav::FindFrontiers, run on the map's thread after each update and handed in with OnFrontiers()) feed the
+// target choice (nav::Explorer); each target is driven as a waypoint goal through navigation, with the
+// waypoint recovery tree when navigation gives up; a target that still fails is barred with its reason.
+// Exploration ends by itself when no reachable frontier is left ("exploration complete: no reachable frontier
+// ...") and the robot goes idle.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -31,7 +31,8 @@ namespace cairn::agent {
 struct ExploreTask {
   /// Only frontiers inside this x-y box (metres, frame M); none (the default) = everywhere.
   std::optional<Eigen::AlignedBox2d> region_M;
-  /// Only frontiers whose ground lies in [min_z_m, max_z_m] (metres, frame M; a floor); default: every height.
+  /// Only frontiers whose ground lies in [min_z_m, max_z_m] (metres, frame M; a floor); default: every
+  /// height.
   double min_z_m = -std::numeric_limits<double>::infinity();
   double max_z_m = std::numeric_limits<double>::infinity();
   /// No basestation heard for this long while exploring -> the robot ends the exploration and drives back to
@@ -40,8 +41,8 @@ struct ExploreTask {
 };
 
 /// Why `task` cannot be explored as sent ("" when it can): a region corner that is not finite, a region with
-/// x0 >= x1 or y0 >= y1, a NaN height bound, min_z_m >= max_z_m, home_after_silence_s not in [0, 86400]. Names
-/// the field and the value.
+/// x0 >= x1 or y0 >= y1, a NaN height bound, min_z_m >= max_z_m, home_after_silence_s not in [0, 86400].
+/// Names the field and the value.
 std::string CheckExploreTask(const ExploreTask& task);
 
 /// How an exploration stands (RobotState.explore_*).
@@ -58,32 +59,31 @@ const char* ToString(ExplorationState state);
 struct ExplorationStatus {
   uint32_t task_id = 0;  ///< robot-assigned; 0 = none yet
   ExplorationState state = ExplorationState::kNone;
-  std::string reason;    ///< how it ended ("exploration complete: ..."), or what it is doing now
+  std::string reason;  ///< how it ended ("exploration complete: ..."), or what it is doing now
   ExploreTask task;
   int frontier_clusters = 0;    ///< clusters in the latest frontier set (reachable or not)
   int reachable_frontiers = 0;  ///< of which reachable
   double explored_m2 = 0.0;     ///< known-free ground of the map in the task's region and height band, m²
   bool has_target = false;      ///< a frontier is being driven to
   Eigen::Vector2d target_M = Eigen::Vector2d::Zero();  ///< its target, metres, frame M
-  double target_z_m = 0.0;                              ///< its ground height, metres, frame M
-  double target_gain_m2 = 0.0;                          ///< unknown area behind it, m²
+  double target_z_m = 0.0;                             ///< its ground height, metres, frame M
+  double target_gain_m2 = 0.0;                         ///< unknown area behind it, m²
   int targets_reached = 0;
   int targets_failed = 0;
-  int peers = 0;                ///< exploring peers heard within their claims' lease (ExploreTeam)
-  double peer_seen_m2 = 0.0;    ///< floor the peers have seen (their coverage), m²
-  double started_s = 0.0;  ///< agent clock, seconds
+  int peers = 0;              ///< exploring peers heard within their claims' lease (ExploreTeam)
+  double peer_seen_m2 = 0.0;  ///< floor the peers have seen (their coverage), m²
+  double started_s = 0.0;     ///< agent clock, seconds
   bool active() const { return state == ExplorationState::kExploring; }
 };
 
-
 /// Options of ExploreMode (from AgentOptions, config section `explore`).
 struct ExploreModeOptions {
-  std::string robot_id;                ///< names the robot in log lines
-  double channel_timeout_s = 0.5;      ///< the explore channel's staleness, seconds, (0, 60]
-  double contact_timeout_s = 1.0;      ///< in contact longer than this -> exploration fails, seconds, > 0
-  nav::FrontierOptions frontiers;      ///< frontier search (the task's region and heights are set per task)
-  nav::ExplorerOptions explorer;       ///< target choice
-  ExploreTeamOptions team;             ///< claims and coverage shared with peers (ExploreTeam)
+  std::string robot_id;            ///< names the robot in log lines
+  double channel_timeout_s = 0.5;  ///< the explore channel's staleness, seconds, (0, 60]
+  double contact_timeout_s = 1.0;  ///< in contact longer than this -> exploration fails, seconds, > 0
+  nav::FrontierOptions frontiers;  ///< frontier search (the task's region and heights are set per task)
+  nav::ExplorerOptions explorer;   ///< target choice
+  ExploreTeamOptions team;         ///< claims and coverage shared with peers (ExploreTeam)
   /// A frontier target counts as reached within this of it (navigation's arrival radius), metres, (0, 3].
   double target_tolerance_m = 0.6;
   /// After a target is reached or fails, the next choice waits for a frontier set computed at least this
@@ -115,8 +115,8 @@ struct ExploreModeOptions {
   /// A stair rise a platform must climb for kAuto to explore every level, metres (a building's rise is
   /// 0.15-0.20 m; the legged profile climbs 0.30, the wheeled one 0.15).
   static constexpr double kStairRiseM = 0.18;
-  /// The platform's highest step (nav::PlatformProfile::traversability.max_step_m), metres, [0, 10]: the agent
-  /// sets it from its platform.
+  /// The platform's highest step (nav::PlatformProfile::traversability.max_step_m), metres, [0, 10]: the
+  /// agent sets it from its platform.
   double platform_max_step_m = 0.0;
   /// True when frontiers are searched on every level (see Levels).
   bool EveryLevel() const {
@@ -133,8 +133,8 @@ class ExploreMode : public ModeModule {
   static constexpr const char* kName = "explore";
   static constexpr const char* kChannel = "explore";
 
-  /// `navigation` (not owned) outlives this; `recovery` runs when navigation gives up on a target (null or not
-  /// enabled = the target fails at once). @throws std::invalid_argument for a null navigation or invalid
+  /// `navigation` (not owned) outlives this; `recovery` runs when navigation gives up on a target (null or
+  /// not enabled = the target fails at once). @throws std::invalid_argument for a null navigation or invalid
   /// options.
   ExploreMode(ExploreModeOptions options, Navigation* navigation, std::unique_ptr<WaypointRecovery> recovery);
   ~ExploreMode() override;
@@ -142,8 +142,12 @@ class ExploreMode : public ModeModule {
   /// Starts exploring `task` (checked with CheckExploreTask) at `now_s`, then `enter_mode` asks the mode tree
   /// for this mode with the task in place. Refused (the reason is the tree's failed condition, or the
   /// task's fault): the previous record is kept. Accepted: any previous exploration is replaced. Returns the
-  /// reason when refused, "" when accepted.
-  std::string Start(const ExploreTask& task, double now_s, const std::function<ModeDecision()>& enter_mode);
+  /// reason when refused, "" when accepted. `resume_task_id` != 0: a paused exploration goes on under its id
+  /// (MissionKeeper), else a new id is drawn.
+  std::string Start(const ExploreTask& task, double now_s, const std::function<ModeDecision()>& enter_mode,
+                    uint32_t resume_task_id = 0);
+  /// A paused exploration `task_id` (not running) that will not be resumed ends as stopped with `reason`.
+  void EndPaused(uint32_t task_id, const std::string& reason);
 
   /// The frontier search the map thread should run now (the task's region and heights), while exploring.
   std::optional<nav::FrontierOptions> frontier_search() const;
@@ -203,13 +207,14 @@ class ExploreMode : public ModeModule {
   std::vector<nav::PeerClaim> peer_claims_;
   std::optional<nav::FrontierSet> frontiers_;  // newest set not used yet
   double frontiers_at_s_ = -1e9;
-  double settle_until_s_ = -1e9;  // no choice from a set computed before this
+  double settle_until_s_ = -1e9;   // no choice from a set computed before this
   bool complete_pending_ = false;  // the last set had no target: confirm with the next one, at rest
   std::future<nav::GlobalPlan> plan_;
-  bool driving_ = false;  // navigation (or the recovery) holds the target as its goal
+  bool driving_ = false;           // navigation (or the recovery) holds the target as its goal
   std::uint64_t goal_serial_ = 0;  // Navigation::goal_serial() of that goal (DropTarget clears only it)
   bool target_through_tight_gap_ = false;  // the current target's FrontierCluster::through_tight_gap
-  // Where the last tight-gap stall happened (NaN: none yet); a second one within kWedgedRadiusM runs the recovery.
+  // Where the last tight-gap stall happened (NaN: none yet); a second one within kWedgedRadiusM runs the
+  // recovery.
   static constexpr double kWedgedRadiusM = 0.5;
   Eigen::Vector2d last_tight_stall_M_ = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   ContactTimer contact_;  // the task's contact with occupied space

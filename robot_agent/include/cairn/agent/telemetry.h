@@ -17,6 +17,7 @@
 #include "cairn/agent/convoy_mode.h"
 #include "cairn/agent/explore_mode.h"
 #include "cairn/agent/link_usage.h"
+#include "cairn/agent/mission.h"
 #include "cairn/agent/mode_control.h"
 #include "cairn/agent/navigation.h"
 #include "cairn/agent/perception_pipeline.h"
@@ -37,6 +38,12 @@ struct RobotStateInputs {
   /// Get-out-of-the-way: as the robot asked (YieldMode::status) when it has a yield state, else as the robot
   /// asking (YieldAsker::status).
   YieldStatus yield;
+  /// The operator's mission a transient condition paused (MissionKeeper), if any, and its pause's age,
+  /// seconds; `mission_note`: how the last pause ended (resumed, or ended with why), shown when none is
+  /// paused.
+  std::optional<PausedMission> paused_mission;
+  double mission_paused_s = 0.0;
+  std::string mission_note;
 };
 
 /// Builds and publishes the robot's telemetry. The control-loop methods run under the agent's lock (they read
@@ -52,10 +59,11 @@ class Telemetry {
   /// sensors (lidar, camera), map resolution (0 with perception off), link class and budget.
   void PublishAgentInfo(const core::PlatformCapabilities& capabilities, const std::string& version);
   /// RobotPose every call (the 10 Hz stream: planar pose, measured and commanded twist, distance and time
-  /// left, contact), and before it the whole RobotState (mode, mux, lock, waypoint goal, navigation, stops, its
-  /// link budget...) when due: at once after an urgent change (cairn::msgs::UrgentChange) or a command's answer
-  /// (RequestWholeState), 0.5 s after the last one for any other change of its slow part, and at least once a
-  /// second, then with what the robot sends per topic class (LinkUsageMeter over AgentDds::SentByClass).
+  /// left, contact), and before it the whole RobotState (mode, mux, lock, waypoint goal, navigation, stops,
+  /// its link budget...) when due: at once after an urgent change (cairn::msgs::UrgentChange) or a command's
+  /// answer (RequestWholeState), 0.5 s after the last one for any other change of its slow part, and at least
+  /// once a second, then with what the robot sends per topic class (LinkUsageMeter over
+  /// AgentDds::SentByClass).
   void PublishState(const RobotStateInputs& in);
   /// The next PublishState sends the whole state: a command was answered, and its sender reads the state it
   /// left behind (the basestation's `status` after a command).
@@ -83,8 +91,8 @@ class Telemetry {
   LinkUsageMeter link_usage_;
   double next_link_usage_s_ = 0.0;  // steady clock, seconds
   // A change of the slow part that no one waits on (a reason, a status text) waits 0.5 s after the last whole
-  // state: a text that changes every cycle (the local planner's clearance in a tight spot) costs 2 whole states
-  // a second, not 10. At least one a second, with the link usage.
+  // state: a text that changes every cycle (the local planner's clearance in a tight spot) costs 2 whole
+  // states a second, not 10. At least one a second, with the link usage.
   cairn::msgs::WholeStateSchedule whole_state_{0.5, 1.0};
   AgentDds* dds_;
   const ModeControl* modes_;

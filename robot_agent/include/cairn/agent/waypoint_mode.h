@@ -7,8 +7,8 @@
 
 #include <cstdint>
 #include <functional>
-#include <memory>
 #include <limits>
+#include <memory>
 #include <string>
 
 #include "cairn/agent/mode_manager.h"
@@ -27,7 +27,8 @@ struct WaypointGoal {
   double x_m = 0.0;      ///< goal point, frame M, metres
   double y_m = 0.0;
   double tolerance_m = 0.0;  ///< arrival radius as asked, metres; 0 = navigation's default
-  double z_m = std::numeric_limits<double>::quiet_NaN();  ///< level asked for, metres, frame M; NaN = the robot's
+  double z_m =
+      std::numeric_limits<double>::quiet_NaN();  ///< level asked for, metres, frame M; NaN = the robot's
   GoalStatus status = GoalStatus::kNone;
   std::string reason;            ///< why it failed; while recovering, the recovery's report
   double distance_left_m = 0.0;  ///< along the global path, metres
@@ -67,9 +68,12 @@ class WaypointMode : public ModeModule {
   /// halted), then `enter_mode` asks the mode tree for this mode with the new goal in place. Accepted: the
   /// goal is active and replaces any previous one. Refused: the record is the previous goal again, which ends
   /// ("cancelled: a new goal was refused: ...") since navigation already dropped it. Either way the goal id
-  /// is used up. @throws std::invalid_argument for an unusable plan.
-  GoalStart Start(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double z_m, double now_s,
-                  const std::function<ModeDecision()>& enter_mode);
+  /// is used up. `resume_goal_id` != 0: a paused goal goes on under its id (MissionKeeper), else a new id is
+  /// drawn. @throws std::invalid_argument for an unusable plan.
+  GoalStart Start(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double z_m,
+                  double now_s, const std::function<ModeDecision()>& enter_mode, uint32_t resume_goal_id = 0);
+  /// A paused goal `goal_id` (not active) that will not be resumed ends as failed with `reason`.
+  void EndPaused(uint32_t goal_id, const std::string& reason);
 
   /// The goal record (see WaypointGoal).
   const WaypointGoal& goal() const { return goal_; }
@@ -97,7 +101,7 @@ class WaypointMode : public ModeModule {
   WaypointGoal goal_;
   uint32_t next_goal_id_;
   std::uint64_t own_serial_ = 0;  // Navigation::goal_serial() of the goal this mode drove last
-  ContactTimer contact_;  // the task's contact with occupied space
+  ContactTimer contact_;          // the task's contact with occupied space
 };
 
 }  // namespace cairn::agent
