@@ -58,6 +58,15 @@ fi
 if ! [[ "$ROBOTS" =~ ^[0-9]+$ ]] || [ "$ROBOTS" -lt 1 ] || [ "$ROBOTS" -gt 20 ]; then
   echo "demo: --robots '$ROBOTS' must be an integer in 1..20" >&2; exit 2
 fi
+# What N robots need: an agent with full perception and navigation on the simulated platform took 0.38-0.53 of
+# a core on this kind of machine (docs/PERFORMANCE.md, fleet_cpu). Past the cores here their loops run slow:
+# perception defers map insertions and staircase runs, and health shows the parts "degraded".
+CORES="$(nproc)"
+NEED_CENTI=$((ROBOTS * 50))
+if [ "$NEED_CENTI" -gt $((CORES * 80)) ]; then
+  echo "demo: warning: $ROBOTS robots need about $((NEED_CENTI / 100)).$(((NEED_CENTI % 100) / 10)) cores" \
+       "(0.5 each, simulator included); this machine has $CORES: expect degraded rates (health R shows them)" >&2
+fi
 if ! [[ "$GUI_PORT" =~ ^[0-9]+$ ]] || [ "$GUI_PORT" -lt 1 ] || [ "$GUI_PORT" -gt 65535 ]; then
   echo "demo: --gui-port '$GUI_PORT' must be an integer in 1..65535" >&2; exit 2
 fi

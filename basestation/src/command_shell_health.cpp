@@ -29,6 +29,7 @@ json HealthJson(const cairn_msgs::AgentHealth& h) {
            {"cpu_percent", c.cpu_percent()},
            {"memory_bytes", c.memory_bytes()},
            {"restarts", c.restarts()},
+           {"degraded", c.degraded()},
            {"last_error", c.last_error()}};
     if (c.state() == "down") {
       j["restart_in_s"] = c.restart_in_s();
@@ -39,8 +40,11 @@ json HealthJson(const cairn_msgs::AgentHealth& h) {
   return json{{"components", components},
               {"rss_bytes", h.rss_bytes()},
               {"process_cpu_percent", h.process_cpu_percent()},
+              {"late_control_cycles", h.late_control_cycles()},
               {"events", h.events()},
-              {"last_event", h.last_event()}};
+              {"last_event", h.last_event()},
+              {"forged_senders", h.forged_senders()},
+              {"last_forged_sender", h.last_forged_sender()}};
 }
 
 }  // namespace
@@ -80,7 +84,8 @@ int CommandShell::Health(const std::vector<std::string>& args) {
     return kOk;
   }
   out_ << robot << ": " << (all_up ? "all components up" : "COMPONENTS DOWN") << ", process "
-       << Megabytes(h.rss_bytes()) << " MB resident, " << Fixed(h.process_cpu_percent(), 0) << " % CPU"
+       << Megabytes(h.rss_bytes()) << " MB resident, " << Fixed(h.process_cpu_percent(), 0) << " % CPU, "
+       << h.late_control_cycles() << " late control cycles"
        << (view->lost ? " (LOST: the last health heard)" : "") << "\n";
   std::vector<std::vector<std::string>> rows = {
       {"COMPONENT", "STATE", "RATE HZ", "TARGET", "CPU %", "MEM MB", "RESTARTS", "LAST ERROR"}};
@@ -88,6 +93,8 @@ int CommandShell::Health(const std::vector<std::string>& args) {
     std::string state = c.state();
     if (state == "down") {
       state = "DOWN " + Fixed(c.down_for_s(), 1) + " s, restart in " + Fixed(c.restart_in_s(), 1) + " s";
+    } else if (c.degraded()) {
+      state = "DEGRADED (slow: " + Fixed(c.loop_rate_hz(), 1) + " of " + Fixed(c.target_rate_hz(), 0) + " Hz)";
     }
     std::string error = c.last_error().empty() ? "-" : c.last_error();
     if (error.size() > 60) error = error.substr(0, 57) + "...";
@@ -97,6 +104,11 @@ int CommandShell::Health(const std::vector<std::string>& args) {
   }
   PrintTable(out_, rows);
   if (!h.last_event().empty()) out_ << "  last event: " << h.last_event() << "\n";
+  if (h.forged_senders() > 0) {
+    out_ << "  FORGED SENDERS: " << h.forged_senders()
+         << " message(s) dropped, the sender id not the certificate's; last: " << h.last_forged_sender()
+         << "\n";
+  }
   out_ << std::flush;
   return kOk;
 }

@@ -41,6 +41,10 @@ const char* ToString(HealthEvent::Kind kind) {
       return "restart_failed";
     case HealthEvent::Kind::kEscalated:
       return "escalated";
+    case HealthEvent::Kind::kDegraded:
+      return "degraded";
+    case HealthEvent::Kind::kRecovered:
+      return "recovered";
   }
   return "?";
 }
@@ -180,6 +184,29 @@ std::vector<HealthEvent> HealthMonitor::StopForRestart(Entry& e, const std::stri
                "): not restarted in this process while it runs; the agent must restart"}};
 }
 
+std::optional<HealthEvent> HealthMonitor::JudgeRate(Entry& e) {
+  Component& c = *e.component;
+  const double target_hz = c.target_rate_hz();
+  if (e.down || c.state() != LifecycleState::kActive || !(target_hz > 0)) {
+    e.degraded = false;
+    e.slow_windows = 0;
+    return std::nullopt;
+  }
+  // No beat at all in the window is a stall in the making (the stall check judges it), not slowness.
+  const bool off = e.degraded ? e.rate_hz >= kRecoveredAbove * target_hz
+                              : e.rate_hz > 0 && e.rate_hz < kDegradedBelow * target_hz;
+  e.slow_windows = off ? e.slow_windows + 1 : 0;
+  if (e.slow_windows < kDegradedWindows) return std::nullopt;
+  e.slow_windows = 0;
+  e.degraded = !e.degraded;
+  const std::string rates = Fixed1(e.rate_hz) + " of " + Fixed1(target_hz) + " Hz";
+  if (e.degraded) {
+    return HealthEvent{HealthEvent::Kind::kDegraded, c.name(),
+                       c.name() + " degraded: " + rates + " (slow, not hung: not restarted)"};
+  }
+  return HealthEvent{HealthEvent::Kind::kRecovered, c.name(), c.name() + " back at its rate: " + rates};
+}
+
 void HealthMonitor::Check(SteadyTime now) {
   std::vector<HealthEvent> events;
   {
@@ -212,6 +239,10 @@ void HealthMonitor::Check(SteadyTime now) {
           e.window_start = now;
           e.window_beats = beats;
           e.window_cpu_s = cpu_s;
+          if (std::optional<HealthEvent> slow = JudgeRate(e); slow) {
+            spdlog::warn("{}", slow->message);
+            events.push_back(std::move(*slow));
+          }
         }
         if (process_stalled) {
           e.no_stall_before = now + std::chrono::duration_cast<SteadyClock::duration>(
@@ -342,6 +373,7 @@ std::vector<ComponentHealth> HealthMonitor::Snapshot(SteadyTime now) const {
     h.name = c.name();
     h.state = e.down ? "down" : ToString(c.state());
     h.loop_rate_hz = e.down ? 0.0 : e.rate_hz;
+    h.degraded = e.degraded;
     h.target_rate_hz = c.target_rate_hz();
     h.last_error = c.last_error();
     h.cpu_percent = e.cpu_percent;

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <thread>
 
 namespace cairn::core {
@@ -135,6 +136,43 @@ TEST(HealthMonitor, AStalledComponentIsRestartedAfterNMissedDeadlines) {
             std::string::npos)
       << events[0].message;
   EXPECT_EQ(a.deactivations, 1);
+  monitor.StopAll();
+}
+
+// Slow is not hung: a component that beats at 3 of its 10 Hz is degraded (told once, never restarted) and
+// back once it beats at its rate again.
+TEST(HealthMonitor, ASlowComponentIsDegradedNotRestartedAndComesBack) {
+  std::vector<HealthEvent> events;
+  HealthMonitor monitor([&](const HealthEvent& e) { events.push_back(e); });
+  Manual a("perception");
+  monitor.Add(&a, Policy());
+  monitor.StartAll();
+  const SteadyTime t0 = SteadyClock::now();
+  double t = 0;
+  double next_beat_s = 0;
+  auto run = [&](double until_s, double rate_hz) {
+    for (; t < until_s; t += 0.05) {
+      if (t >= next_beat_s) {
+        a.Heartbeat(At(t0, t));
+        next_beat_s = t + 1.0 / rate_hz;
+      }
+      monitor.Check(At(t0, t));
+    }
+  };
+  run(2.5, 10.0);
+  EXPECT_TRUE(events.empty());
+  run(8.0, 3.0);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, HealthEvent::Kind::kDegraded);
+  EXPECT_NE(events[0].message.find("perception degraded:"), std::string::npos) << events[0].message;
+  EXPECT_NE(events[0].message.find("of 10.0 Hz (slow, not hung: not restarted)"), std::string::npos)
+      << events[0].message;
+  EXPECT_EQ(a.deactivations, 0) << "a slow component is not restarted";
+  EXPECT_TRUE(monitor.Snapshot(At(t0, t))[0].degraded);
+  run(14.0, 10.0);
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[1].kind, HealthEvent::Kind::kRecovered);
+  EXPECT_FALSE(monitor.Snapshot(At(t0, t))[0].degraded);
   monitor.StopAll();
 }
 

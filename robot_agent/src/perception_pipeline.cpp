@@ -124,7 +124,8 @@ std::vector<perception::MapUpdate> PerceptionPipeline::FlushMapTelemetry(double 
   return updates;
 }
 
-PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* scan, const core::CameraImage* image) {
+PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* scan,
+                                          const core::CameraImage* image) {
   PerceptionOutput out;
   if (scan != nullptr) {  // the map is built even when perception's outputs are off: navigation plans on it
     ++stats_.scans;
@@ -133,6 +134,7 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* s
     auto start = Clock::now();
     local_cloud_.AddScan(scan->points_S, T_W_S_estimate, now_s);
     stats_.local_cloud_ms_total += MsSince(start);
+    if (progress_) progress_();
     const bool keyframe =
         !T_W_S_last_keyframe_ ||
         (T_W_S_estimate.translation() - T_W_S_last_keyframe_->translation()).norm() >=
@@ -140,7 +142,9 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* s
         Eigen::AngleAxisd(T_W_S_last_keyframe_->linear().transpose() * T_W_S_estimate.linear()).angle() >=
             options_.map_keyframe_angle_rad ||
         (refresh_at_rest_ && now_s - last_keyframe_s_ >= options_.map_keyframe_max_interval_s);
-    if (now_s >= next_insert_s_ && keyframe) {
+    const bool insert_due = now_s >= next_insert_s_ && keyframe;
+    if (insert_due && now_s < insert_after_s_) ++stats_.scans_deferred;
+    if (insert_due && now_s >= insert_after_s_) {
       next_insert_s_ = std::max(next_insert_s_ + options_.map_insert_period_s, now_s);
       T_W_S_last_keyframe_ = T_W_S_estimate;
       last_keyframe_s_ = now_s;
@@ -148,14 +152,21 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* s
       const perception::InsertStats inserted = map_->InsertScan(scan->points_S, T_W_S_estimate);
       const double z = T_W_S_estimate.translation().z();
       if (!(z <= max_sensor_z_m_.load())) max_sensor_z_m_ = z;  // also replaces NaN
-      stats_.map_ms_total += MsSince(start);
+      const double insert_ms = MsSince(start);
+      stats_.map_ms_total += insert_ms;
+      if (adapt_to_load_) insert_after_s_ = now_s + kLoadWait * insert_ms / 1000.0;
       stats_.points_dropped_non_finite += inserted.dropped_non_finite;
       ++stats_.scans_inserted;
       CollectChanges();
+      if (progress_) progress_();
     }
   }
 
   if (!options_.enabled) return out;
+  if (now_s >= next_staircase_s_ && now_s < staircase_after_s_) {
+    ++stats_.staircase_runs_deferred;
+    next_staircase_s_ = staircase_after_s_;
+  }
   if (now_s >= next_staircase_s_) {
     next_staircase_s_ = std::max(next_staircase_s_ + options_.staircase_period_s, now_s);
     const auto start = Clock::now();
@@ -178,8 +189,11 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* s
       std::lock_guard<std::mutex> guard(staircases_mutex_);
       staircases_ = std::move(confirmed);
     }
-    stats_.staircase_ms_total += MsSince(start);
+    const double staircase_ms = MsSince(start);
+    stats_.staircase_ms_total += staircase_ms;
+    if (adapt_to_load_) staircase_after_s_ = now_s + kLoadWait * staircase_ms / 1000.0;
     ++stats_.staircase_runs;
+    if (progress_) progress_();
   }
 
   if (now_s >= next_telemetry_s_) {
@@ -195,8 +209,8 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* s
     frame.width_px = image->width_px;
     frame.height_px = image->height_px;
     frame.T_W_C = image->T_MC;
-    frame.jpeg = perception::EncodeGrayJpeg(perception::GrayFrame{image->width_px, image->height_px, image->pixels},
-                                            options_.jpeg_quality);
+    frame.jpeg = perception::EncodeGrayJpeg(
+        perception::GrayFrame{image->width_px, image->height_px, image->pixels}, options_.jpeg_quality);
     // Within the camera's budget: a frame of B bytes holds the next one back B * 8 / budget seconds, so the
     // robot never renders frames its link would only drop (on a radio link the budget is a share of it).
     next_camera_s_ = std::max(next_camera_s_, now_s + static_cast<double>(frame.jpeg.size()) * 8.0 /

@@ -107,6 +107,13 @@ void PerceptionService::PerceptionLoop(core::WorkLoop& loop) {
       std::chrono::duration_cast<core::SteadyClock::duration>(std::chrono::duration<double>(0.5 / rate_hz));
   core::CameraImage image;
   core::SteadyTime next = core::SteadyClock::now();
+  // Between the steps of a tick: a slow tick still beats (slow, not hung). Dropped when this loop ends.
+  perception_->SetProgress([&loop] { loop.Beat(); });
+  perception_->set_adapt_to_load(true);
+  struct DropProgress {
+    PerceptionPipeline* pipeline;
+    ~DropProgress() { pipeline->SetProgress({}); }
+  } drop_progress{perception_.get()};
   while (loop.Running()) {
     loop.Beat();
     const double now_s = NowS();
@@ -306,10 +313,12 @@ void PerceptionService::Finish(const std::string& path) {
   }
   const PerceptionStats& ps = perception_->stats();
   spdlog::info(
-      "robot {}: shutting down; perception: {} scans ({:.1f} ms map per inserted scan), {} staircase "
-      "runs ({:.1f} ms each), {} camera frames; navigation map version {}",
+      "robot {}: shutting down; perception: {} scans ({:.1f} ms map per inserted scan; {} keyframes "
+      "deferred under load), {} staircase runs ({:.1f} ms each; {} deferred), {} camera frames; navigation "
+      "map version {}",
       options_.robot_id, ps.scans, ps.scans_inserted ? ps.map_ms_total / ps.scans_inserted : 0.0,
-      ps.staircase_runs, ps.staircase_runs ? ps.staircase_ms_total / ps.staircase_runs : 0.0,
+      ps.scans_deferred, ps.staircase_runs,
+      ps.staircase_runs ? ps.staircase_ms_total / ps.staircase_runs : 0.0, ps.staircase_runs_deferred,
       ps.camera_frames, planner_->map_version());
 }
 

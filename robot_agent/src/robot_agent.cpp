@@ -255,6 +255,7 @@ class RobotAgent::Impl {
   std::string pose_problem_;
   bool in_contact_ = false;
   PeriodWindow control_periods_;
+  std::atomic<std::uint64_t> late_control_cycles_{0};  // Run(): cycles started over half a period late
   int robots_on_link_ = 1;  // ShareRadioLink()
   Navigation navigation_;
   std::unique_ptr<PerceptionService> perception_;  // sensor, perception and navigation map threads
@@ -1103,10 +1104,12 @@ void RobotAgent::Impl::PublishHealthIfDue(SteadyTime now) {
     c.restarts(h.restarts);
     c.restart_in_s(static_cast<float>(h.restart_in_s));
     c.down_for_s(static_cast<float>(h.down_for_s));
+    c.degraded(h.degraded);
     m.components().push_back(std::move(c));
   }
   m.rss_bytes(ProcessRssBytes());
   m.process_cpu_percent(static_cast<float>(process_cpu_percent_));
+  m.late_control_cycles(late_control_cycles_.load());
   {
     std::lock_guard<std::mutex> guard(health_event_mutex_);
     m.events(health_events_);
@@ -1145,7 +1148,9 @@ void RobotAgent::Impl::Run() {
   for (uint64_t cycle = 0; !core::ShutdownRequested(); ++cycle) {
     const SteadyTime wanted = SteadyClock::now();
     control_periods_.Note(wanted);
-    if (const double late_s = core::SecondsBetween(next, wanted); late_s > 0.1) {
+    const double late_s = core::SecondsBetween(next, wanted);
+    if (late_s > 0.5 * kLoopPeriodS) ++late_control_cycles_;
+    if (late_s > 0.1) {
       spdlog::warn("robot {}: control loop woke {:.0f} ms late (the process was not scheduled)",
                    options_.robot_id, 1000 * late_s);
     }

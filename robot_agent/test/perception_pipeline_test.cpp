@@ -16,7 +16,6 @@
 #include "cairn/sim/camera.h"
 #include "cairn/sim/lidar.h"
 #include "cairn/sim/slam_drift.h"
-#include "cairn/sim/lidar.h"
 
 namespace cairn::agent {
 namespace {
@@ -89,7 +88,8 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
   Eigen::Isometry3d T_BS = Eigen::Isometry3d::Identity();
   T_BS.translation().z() = 0.5;
   PerceptionPipeline pipeline(options, "r1");
-  // Reference for recall: world voxels hit by the same rays without noise or drift (what the lidar could see).
+  // Reference for recall: world voxels hit by the same rays without noise or drift (what the lidar could
+  // see).
   sim::LidarOptions exact = lidar_options;
   exact.range_noise_stddev_m = 0.0;
   sim::SimulatedLidar reference(exact, 1);
@@ -119,8 +119,8 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
     if (pipeline.CameraDue(now_s)) {
       sim::GrayImage gray;
       sim::RenderShadedDepth(*world_, poses[k] * T_BS, camera_options, &gray);
-      image = core::CameraImage{now_s, static_cast<std::uint32_t>(k), gray.width_px, gray.height_px, gray.pixels,
-                                T_MB * T_BS};
+      image = core::CameraImage{
+          now_s, static_cast<std::uint32_t>(k), gray.width_px, gray.height_px, gray.pixels, T_MB * T_BS};
     }
     const PerceptionOutput out =
         pipeline.Tick(now_s, &platform_scan, image.pixels.empty() ? nullptr : &image);
@@ -155,7 +155,8 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
   }
   ASSERT_EQ(late_requests, 1);
   // The map stands still from here: send what the last scans changed (within the budget).
-  for (double now_s = poses.size() * dt_s; pipeline.telemetry().stats().voxels_pending > 0 || now_s < poses.size() * dt_s + 1;
+  for (double now_s = poses.size() * dt_s;
+       pipeline.telemetry().stats().voxels_pending > 0 || now_s < poses.size() * dt_s + 1;
        now_s += options.telemetry.period_s) {
     for (const auto& update : pipeline.FlushMapTelemetry(now_s)) {
       std::string error;
@@ -170,14 +171,17 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
   double total_bits = 0;
   for (std::size_t i = 0; i < sent.size(); ++i) {
     double bits = 0;
-    for (std::size_t j = i; j < sent.size() && sent[j].first < sent[i].first + 5.0; ++j) bits += sent[j].second * 8.0;
-    EXPECT_LE(bits, budget * (5.0 + options.telemetry.burst_s) + 1e-6) << "window at " << sent[i].first << " s";
+    for (std::size_t j = i; j < sent.size() && sent[j].first < sent[i].first + 5.0; ++j)
+      bits += sent[j].second * 8.0;
+    EXPECT_LE(bits, budget * (5.0 + options.telemetry.burst_s) + 1e-6)
+        << "window at " << sent[i].first << " s";
     peak_bits_per_s = std::max(peak_bits_per_s, bits / 5.0);
     total_bits += sent[i].second * 8.0;
   }
   const double duration_s = poses.size() * dt_s;
-  std::printf("FIGURE telemetry: %zu messages, mean %.1f kbit/s, peak 5 s window %.1f kbit/s, budget %.0f kbit/s\n",
-              sent.size(), total_bits / duration_s / 1000, peak_bits_per_s / 1000, budget / 1000);
+  std::printf(
+      "FIGURE telemetry: %zu messages, mean %.1f kbit/s, peak 5 s window %.1f kbit/s, budget %.0f kbit/s\n",
+      sent.size(), total_bits / duration_s / 1000, peak_bits_per_s / 1000, budget / 1000);
   EXPECT_LE(total_bits / duration_s, budget);
 
   // Nothing lost: after the hold, both basestations hold exactly the robot's coarse map.
@@ -189,12 +193,13 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
               robot.size(), AsMap(early.Voxels("r1")) == robot, AsMap(late.Voxels("r1")) == robot);
 
   // Mapping precision and recall at 0.1 m: a map voxel counts as right when an occupied world voxel is within
-  // 0.1 m of it (26-neighbourhood), and a world voxel the lidar saw counts as mapped when an occupied map voxel
-  // is within 0.1 m. The strict figures (same voxel) are printed too.
+  // 0.1 m of it (26-neighbourhood), and a world voxel the lidar saw counts as mapped when an occupied map
+  // voxel is within 0.1 m. The strict figures (same voxel) are printed too.
   const double res = options.map.resolution_m;
   const Eigen::Vector3d p_min = world_->p_W_min().array() - 1.0;
   const Eigen::Vector3d p_max = world_->p_W_max().array() + 1.0;
-  const std::vector<Eigen::Vector3d> map_occupied = pipeline.map()->OccupiedInBox(Eigen::AlignedBox3d(p_min, p_max));
+  const std::vector<Eigen::Vector3d> map_occupied =
+      pipeline.map()->OccupiedInBox(Eigen::AlignedBox3d(p_min, p_max));
   ASSERT_GT(map_occupied.size(), 10000u);
   auto world_near = [&](const Eigen::Vector3d& p, int reach) {
     for (int dx = -reach; dx <= reach; ++dx)
@@ -231,12 +236,14 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
   }
   const double precision = static_cast<double>(precise) / map_occupied.size();
   const double recall = static_cast<double>(recalled) / observed.size();
-  std::printf("FIGURE mapping: %zu occupied map voxels, %zu observed world voxels; precision %.3f (strict %.3f), "
-              "recall %.3f (strict %.3f); SLAM error %.3f m after %.1f m\n",
-              map_occupied.size(), observed.size(), precision,
-              static_cast<double>(precise_strict) / map_occupied.size(), recall,
-              static_cast<double>(recalled_strict) / observed.size(), (slam.Estimate(poses.back()).translation() - poses.back().translation()).norm(),
-              slam.distance_travelled_m());
+  std::printf(
+      "FIGURE mapping: %zu occupied map voxels, %zu observed world voxels; precision %.3f (strict %.3f), "
+      "recall %.3f (strict %.3f); SLAM error %.3f m after %.1f m\n",
+      map_occupied.size(), observed.size(), precision,
+      static_cast<double>(precise_strict) / map_occupied.size(), recall,
+      static_cast<double>(recalled_strict) / observed.size(),
+      (slam.Estimate(poses.back()).translation() - poses.back().translation()).norm(),
+      slam.distance_travelled_m());
   EXPECT_GE(precision, 0.9);
   EXPECT_GE(recall, 0.9);
 
@@ -246,10 +253,11 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
   for (const auto& e : staircase_updates) ids.insert(e.id);
   EXPECT_EQ(ids.size(), 1u);
   const perception::Staircase& s = staircase_updates.back().staircase;
-  std::printf("FIGURE staircase: %d steps at (%.2f, %.2f, %.2f) yaw %.3f, rise %.3f, run %.3f, width %.2f after %d "
-              "detections\n",
-              s.num_steps, s.p_W_first_step.x(), s.p_W_first_step.y(), s.p_W_first_step.z(), s.yaw_rad, s.rise_m,
-              s.run_m, s.width_m, staircase_updates.back().detections);
+  std::printf(
+      "FIGURE staircase: %d steps at (%.2f, %.2f, %.2f) yaw %.3f, rise %.3f, run %.3f, width %.2f after %d "
+      "detections\n",
+      s.num_steps, s.p_W_first_step.x(), s.p_W_first_step.y(), s.p_W_first_step.z(), s.yaw_rad, s.rise_m,
+      s.run_m, s.width_m, staircase_updates.back().detections);
   EXPECT_EQ(s.num_steps, 5);
   EXPECT_NEAR(s.rise_m, 0.2, 0.01);
   EXPECT_NEAR(s.run_m, 0.5, 0.01);
@@ -257,14 +265,16 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
   EXPECT_GT(frames, 10);
 
   const PerceptionStats& st = pipeline.stats();
-  std::printf("FIGURE perception cost per robot (sensors simulated apart): local cloud %.2f ms/scan, map %.2f "
-              "ms/insert, staircase %.2f ms/run, JPEG %.2f ms/frame, telemetry %.3f ms total per s; %.0f ms of CPU "
-              "per s\n",
-              st.local_cloud_ms_total / st.scans, st.map_ms_total / st.scans_inserted,
-              st.staircase_ms_total / st.staircase_runs, st.camera_ms_total / std::max<int64_t>(1, st.camera_frames),
-              st.telemetry_ms_total / duration_s,
-              (st.local_cloud_ms_total + st.map_ms_total + st.staircase_ms_total + st.camera_ms_total +
-               st.telemetry_ms_total) / duration_s);
+  std::printf(
+      "FIGURE perception cost per robot (sensors simulated apart): local cloud %.2f ms/scan, map %.2f "
+      "ms/insert, staircase %.2f ms/run, JPEG %.2f ms/frame, telemetry %.3f ms total per s; %.0f ms of CPU "
+      "per s\n",
+      st.local_cloud_ms_total / st.scans, st.map_ms_total / st.scans_inserted,
+      st.staircase_ms_total / st.staircase_runs, st.camera_ms_total / std::max<int64_t>(1, st.camera_frames),
+      st.telemetry_ms_total / duration_s,
+      (st.local_cloud_ms_total + st.map_ms_total + st.staircase_ms_total + st.camera_ms_total +
+       st.telemetry_ms_total) /
+          duration_s);
 }
 
 // Keyframes: an idle robot at rest inserts one scan and leaves its map alone; with a task it waits on
@@ -297,6 +307,45 @@ TEST_F(PerceptionPipelineTest, ARobotAtRestRefreshesItsMapOnlyWhileItHasATask) {
   pipeline.set_refresh_at_rest(false);
   for (int k = 32; k < 48; ++k) tick(0.25 * k);
   EXPECT_EQ(pipeline.stats().scans_inserted, 5);
+}
+
+// On a busy machine the map is updated less often instead of the thread falling behind: a scan whose
+// insertion takes long (40 k rays) makes the next keyframes wait kLoadWait times as long; each step of a tick
+// beats (slow, not hung).
+TEST(PerceptionPipelineLoad, ASlowInsertionDefersTheNextKeyframesAndEveryStepBeats) {
+  PerceptionOptions options;
+  options.camera_rate_hz = 0;
+  options.map_insert_period_s = 0.05;
+  options.map_keyframe_distance_m = 0.0;  // every scan is a keyframe
+  PerceptionPipeline pipeline(options, "r1");
+  pipeline.set_adapt_to_load(true);
+  int beats = 0;
+  pipeline.SetProgress([&] { ++beats; });
+  core::LidarScan scan;
+  scan.T_BS = Eigen::Isometry3d::Identity();
+  for (int i = 0; i < 40000; ++i) {  // a dense sphere of returns 8 m away
+    const double a = 0.001 * i * 2.399963, z = -0.9 + 1.8 * (i % 1000) / 1000.0;
+    scan.points_S.emplace_back(8.0 * std::cos(a) * std::sqrt(1 - z * z),
+                               8.0 * std::sin(a) * std::sqrt(1 - z * z), 8.0 * z);
+  }
+  const int ticks = 40;
+  for (int k = 0; k < ticks; ++k) {
+    const double now_s = 0.05 * k;
+    scan.stamp_s = now_s;
+    scan.T_MS = Pose(0.01 * k, 0.0, 0.0);  // moving a little: each scan a keyframe
+    pipeline.Tick(now_s, &scan, nullptr);
+  }
+  const PerceptionStats& stats = pipeline.stats();
+  const double insert_ms = stats.map_ms_total / stats.scans_inserted;
+  std::printf("insertion %.0f ms: %lld of %d keyframes inserted, %lld deferred\n", insert_ms,
+              static_cast<long long>(stats.scans_inserted), ticks,
+              static_cast<long long>(stats.scans_deferred));
+  ASSERT_GT(insert_ms, 1000 * options.map_insert_period_s / PerceptionPipeline::kLoadWait)
+      << "this machine inserted 40 k rays faster than the test assumes";
+  EXPECT_GT(stats.scans_deferred, 0);
+  EXPECT_EQ(stats.scans_inserted + stats.scans_deferred, ticks);
+  EXPECT_GE(beats, ticks + static_cast<int>(stats.scans_inserted))
+      << "a beat after the local cloud and each insertion";
 }
 
 TEST(PerceptionOptionsTest, InvalidValuesNameTheField) {

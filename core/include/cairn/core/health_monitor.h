@@ -46,13 +46,18 @@ struct ComponentHealth {
   std::uint32_t restarts = 0;      ///< automatic and manual restarts so far
   double restart_in_s = 0.0;       ///< "down": seconds until the next restart attempt
   double down_for_s = 0.0;         ///< "down": seconds since it went down
+  /// "active" and beating, but slowly: its loop rate stayed under kDegradedBelow of its target for
+  /// kDegradedWindows measuring windows in a row (a busy machine); it is not restarted for that.
+  bool degraded = false;
 };
 
 /// A change the operator is told about.
 struct HealthEvent {
   /// kEscalated: a component that failed did not stop when asked (a loop still runs); it is not restarted in
   /// this process while that runs, and the process should be restarted (the agent's supervisor does).
-  enum class Kind { kFailed, kRestarted, kRestartFailed, kEscalated };
+  /// kDegraded: an active component beats, but under half its rate for a few seconds (slow, not hung: it is
+  /// not restarted); kRecovered: back at its rate.
+  enum class Kind { kFailed, kRestarted, kRestartFailed, kEscalated, kDegraded, kRecovered };
   Kind kind;
   std::string component;
   std::string message;  ///< e.g. "perception failed: stalled (no heartbeat for 6.0 s); restart in 1.0 s"
@@ -63,6 +68,11 @@ const char* ToString(HealthEvent::Kind kind);
 /// or a test's clock). Thread-safe.
 class HealthMonitor {
  public:
+  /// A component beating under this fraction of its target rate for kDegradedWindows windows (of about a
+  /// second) in a row is degraded; at or over kRecoveredAbove for as many, it is back.
+  static constexpr double kDegradedBelow = 0.5;
+  static constexpr double kRecoveredAbove = 0.8;
+  static constexpr int kDegradedWindows = 3;
   /// `on_event` (may be empty) is called on the checking thread, without the monitor's lock held.
   explicit HealthMonitor(std::function<void(const HealthEvent&)> on_event = {});
   ~HealthMonitor();
@@ -115,11 +125,15 @@ class HealthMonitor {
     double window_cpu_s = 0.0;
     double rate_hz = 0.0;
     double cpu_percent = 0.0;
+    bool degraded = false;
+    int slow_windows = 0;  // windows in a row under kDegradedBelow (or, degraded, at or over kRecoveredAbove)
     SteadyTime no_stall_before{};      // after this process stalled as a whole
     std::string restart_requested_by;  // RequestRestart(), done by the next Check()
     bool still_running = false;  // down, and its work did not stop when asked: never activated meanwhile
   };
   Entry* Find(const std::string& name);
+  // After a measuring window (lock held): enters or leaves `degraded` (the event), from the window's rate.
+  std::optional<HealthEvent> JudgeRate(Entry& e);
   // The next back-off (the first, or the last doubled up to its cap) and the restart at `from` plus it. Lock
   // held.
   void ScheduleRestart(Entry& e, SteadyTime from);

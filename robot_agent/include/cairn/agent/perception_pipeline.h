@@ -5,19 +5,18 @@
 // publishes what it returns; tests drive it faster than real time.
 #pragma once
 
-#include <atomic>
-#include <limits>
-
 #include <Eigen/Geometry>
+#include <atomic>
 #include <cstdint>
+#include <functional>
+#include <limits>
 #include <memory>
-#include <optional>
-#include <string>
-#include <vector>
-
 #include <mutex>
+#include <optional>
 #include <set>
+#include <string>
 #include <utility>
+#include <vector>
 
 #include "cairn/core/platform_io.h"
 #include "cairn/perception/map_telemetry.h"
@@ -28,9 +27,10 @@ namespace cairn::agent {
 
 /// Options of the perception component (config section `perception`). Defaults are valid (tested).
 struct PerceptionOptions {
-  bool enabled = true;  ///< false: no stairs, telemetry or camera (the map is still built: navigation's input)
-  perception::OccupancyMapOptions map;       ///< OctoMap at 0.1 m
-  double map_insert_period_s = 0.2;          ///< insert one scan per period, [0.05, 10]
+  bool enabled =
+      true;  ///< false: no stairs, telemetry or camera (the map is still built: navigation's input)
+  perception::OccupancyMapOptions map;  ///< OctoMap at 0.1 m
+  double map_insert_period_s = 0.2;     ///< insert one scan per period, [0.05, 10]
   /// Keyframes: a scan goes into the map once the sensor moved this far or turned this much since the last
   /// inserted one (as LIO-SAM-style mappers do), [0, 10] m, [0, pi] rad; 0 and 0 insert every period...
   double map_keyframe_distance_m = 0.05;
@@ -39,12 +39,12 @@ struct PerceptionOptions {
   /// that what changes while the robot waits (a rock or a person leaves the doorway it waits at) reaches its
   /// map. An idle robot at rest leaves its map (and its map telemetry) unchanged. Seconds, [0.05, 600].
   double map_keyframe_max_interval_s = 0.2;
-  double staircase_period_s = 1.0;           ///< run the detector this often, [0.1, 60]
+  double staircase_period_s = 1.0;  ///< run the detector this often, [0.1, 60]
   perception::StaircaseDetectorOptions staircase;
-  int map_coarse_levels = 1;                 ///< telemetry voxels are 2^levels x the map's, [0, 6]
-  perception::MapTelemetryOptions telemetry; ///< budget (default 100 kbit/s) and period
-  double camera_rate_hz = 1.0;               ///< frames published per second, [0, 30]; 0 = no camera
-  int jpeg_quality = 75;                     ///< [1, 100]
+  int map_coarse_levels = 1;                  ///< telemetry voxels are 2^levels x the map's, [0, 6]
+  perception::MapTelemetryOptions telemetry;  ///< budget (default 100 kbit/s) and period
+  double camera_rate_hz = 1.0;                ///< frames published per second, [0, 30]; 0 = no camera
+  int jpeg_quality = 75;                      ///< [1, 100]
   /// Camera frames' budget, bit/s, [1000, 1e9]: the frame rate drops below camera_rate_hz when frames are too
   /// big for it (a frame of B bytes delays the next by B * 8 / budget s); also the DDS flow controller's.
   double camera_budget_bits_per_s = 400000;
@@ -66,7 +66,7 @@ struct CameraFrame {
 
 /// What one Tick() produced.
 struct PerceptionOutput {
-  std::vector<perception::MapUpdate> map_messages;    ///< in order
+  std::vector<perception::MapUpdate> map_messages;               ///< in order
   std::vector<perception::StaircaseRegistry::Entry> staircases;  ///< new or changed merged staircases
   std::optional<CameraFrame> camera;
 };
@@ -75,6 +75,11 @@ struct PerceptionOutput {
 struct PerceptionStats {
   std::int64_t scans = 0;
   std::int64_t scans_inserted = 0;
+  /// Keyframes due by map_insert_period_s but left out because the last insertion took long: on a busy
+  /// machine the map is updated less often (each insertion waits kLoadWait times as long as the last took)
+  /// instead of the thread falling behind.
+  std::int64_t scans_deferred = 0;
+  std::int64_t staircase_runs_deferred = 0;  ///< likewise for the staircase detector
   std::int64_t points_dropped_non_finite = 0;
   std::int64_t staircase_runs = 0;
   std::int64_t camera_frames = 0;
@@ -94,6 +99,15 @@ class PerceptionPipeline {
   /// staircase detection and telemetry at their periods; with a new `image` (may be null) a JPEG frame. A
   /// late tick does each due thing once (no catch-up bursts).
   PerceptionOutput Tick(double now_s, const core::LidarScan* scan, const core::CameraImage* image);
+  /// With set_adapt_to_load(true), each step of Tick() waits at least this many times as long as its last
+  /// run took (wall clock) before it runs again (map insertion, staircase detection): a slow machine gets
+  /// fewer runs, not a stalled thread.
+  static constexpr double kLoadWait = 2.0;
+  /// On for a robot on the wall clock (the agent's perception thread); off (the default) where `now_s` is a
+  /// simulated clock, whose runs must not depend on how busy the machine is.
+  void set_adapt_to_load(bool on) { adapt_to_load_ = on; }
+  /// Called between the steps of Tick() (may be empty): the work goes on (its thread's heartbeat).
+  void SetProgress(std::function<void()> progress) { progress_ = std::move(progress); }
 
   /// True when a camera frame is due at `now_s` (camera_rate_hz): the caller reads one from the platform.
   bool CameraDue(double now_s) const;
@@ -161,6 +175,9 @@ class PerceptionPipeline {
   std::atomic<bool> refresh_at_rest_{false};
   std::atomic<double> link_share_{1.0};  // SetLinkShare()
   double next_insert_s_ = 0, next_staircase_s_ = 0, next_telemetry_s_ = 0, next_camera_s_ = 0;
+  double insert_after_s_ = 0, staircase_after_s_ = 0;  // kLoadWait after the last run's duration
+  std::function<void()> progress_;
+  bool adapt_to_load_ = false;
   std::mutex changed_mutex_;
   std::set<std::pair<int, int>> changed_tiles_;
   std::uint32_t camera_seq_ = 0;
