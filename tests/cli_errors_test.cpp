@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -71,7 +72,7 @@ TEST(AgentCli, RefusesBadFlagsNamingTheValue) {
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--inject-fault", "lidar:throw:5"}),
                 "no component \"lidar\" (the components are platform, perception");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--inject-fault", "perception:crash:5"}),
-                "kind \"crash\" is neither throw nor hang");
+                "kind \"crash\" is not throw, hang or stuck");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--inject-fault", "perception:throw:-1"}),
                 "AFTER_S \"-1\" is not a number of seconds >= 0");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--inject-fault", "mux:hang:5"}),
@@ -113,6 +114,72 @@ TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
                                          "<rtps></rtps></participant></profiles></dds>");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--dds-profiles", profiles}),
                 "not loopback-only");
+}
+
+// The shipped mode tree with `copies` more manual branches in front of its own.
+std::string ShippedTreeWithBranches(int copies) {
+  std::ifstream shipped(std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml");
+  std::string xml((std::istreambuf_iterator<char>(shipped)), std::istreambuf_iterator<char>());
+  const std::string fallback = R"(<Fallback name="select_mode">)";
+  std::string branches;
+  for (int i = 0; i < copies; ++i) {
+    branches += R"(<ReactiveSequence><IsModeRequested mode="manual"/><IsControlHeld/><IsHolderAlive/>)"
+                R"(<SelectMode mode="manual" channel="teleop"/></ReactiveSequence>)";
+  }
+  xml.insert(xml.find(fallback) + fallback.size(), branches);
+  return xml;
+}
+
+// Input built to exhaust the process: nested YAML aliases ("billion laughs", 9 levels: 9^9 nodes to walk) and
+// mode trees of thousands of branches hung the agent at start, or stalled every component once running. Each
+// is refused at once, naming the file and what is wrong.
+TEST(AgentCli, RefusesInputBuiltToExhaustItWithinASecond) {
+  std::string laughs = "a0: &a0 [\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\"]\n";
+  for (int i = 1; i <= 9; ++i) {
+    laughs += "a" + std::to_string(i) + ": &a" + std::to_string(i) + " [";
+    for (int k = 0; k < 9; ++k) laughs += (k == 0 ? "*a" : ",*a") + std::to_string(i - 1);
+    laughs += "]\n";
+  }
+  const std::string config = WriteFile("laughs.yaml", laughs);
+  // The process's start (the world is built before the mode tree is read) counts in the trees' bound.
+  auto timed = [](const std::vector<std::string>& argv, double bound_s = 1.0) {
+    const auto start = std::chrono::steady_clock::now();
+    Outcome o = RunProcess(argv);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_LT(s, bound_s) << "refused only after " << s << " s";
+    return o;
+  };
+  ExpectRefused(timed({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--config", config}),
+                config + ":2:10: YAML alias '*a0' is not allowed");
+  // The basestation's one YAML file, its places.
+  const std::string places = WriteFile("laughs_places.yaml", laughs + "places: {}\n");
+  ExpectRefused(timed({kBase, "--base-id", "opA", "--domain", "72", "--places", places, "--", "robots"}),
+                "places file " + places + ":2:10: YAML alias '*a0' is not allowed");
+  for (const int copies : {3000, 10000}) {
+    const std::string tree = WriteFile("wide_tree.xml", ShippedTreeWithBranches(copies));
+    ExpectRefused(timed({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--mode-tree", tree}, 5.0),
+                  "the document's trees have " + std::to_string(71 + 5 * copies) +
+                      " nodes, more than the limit of 1000 (max_nodes)");
+  }
+  std::string deep = ShippedTreeWithBranches(0);
+  std::string nested = "<AlwaysFailure/>";
+  for (int i = 0; i < 40; ++i) nested = "<Inverter>" + nested + "</Inverter>";
+  deep.insert(deep.find(R"(<Fallback name="select_mode">)") + 29, nested);
+  ExpectRefused(timed({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--mode-tree",
+                       WriteFile("deep_tree.xml", deep)},
+                      5.0),
+                "is at depth 33, deeper than the limit of 32 (max_depth)");
+  std::string nonexistent = ShippedTreeWithBranches(0);
+  const std::string perception = R"(<IsComponentUp component="perception"/>)";
+  nonexistent.replace(nonexistent.find(perception), perception.size(),
+                      R"(<IsComponentUp component="nonexistent"/>)");
+  const Outcome refused = timed({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--mode-tree",
+                                 WriteFile("nonexistent_tree.xml", nonexistent)},
+                                5.0);
+  ExpectRefused(refused, "IsComponentUp");
+  ExpectRefused(refused,
+                "component \"nonexistent\" is not a component of cairn_agent (its components: platform, "
+                "perception");
 }
 
 // --secure: a folder that is not one, and a fleet folder without this id's identity, are named.

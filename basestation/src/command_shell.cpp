@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <deque>
 #include <limits>
 #include <sstream>
 #include <thread>
@@ -771,17 +772,35 @@ int CommandShell::Mode(const std::vector<std::string>& args) {
 
 int CommandShell::Stop(const std::vector<std::string>& args) {
   if (args[0] != "all") return Report("stop", args[0], client_.Stop(args[0]));
-  std::this_thread::sleep_until(client_.started() + std::chrono::milliseconds(1500));  // discovery
-  std::vector<std::string> robots;  // lost ones too: a robot that looks lost may still hear a stop
-  for (const auto& v : client_.Robots()) robots.push_back(v.robot_id);
-  // Every stop at once: a fleet stop must not wait for one robot's round trip before the next.
-  std::vector<CommandOutcome> outcomes(robots.size());
+  // Each robot's stop goes out as soon as the robot is heard, all in parallel: a fleet stop must neither wait
+  // for one robot's round trip before the next nor for discovery to end before the first (a one-shot
+  // `cairn_base -- stop all` reached the robots only after it). Robots heard until discovery ends are stopped
+  // too, lost ones included: a robot that looks lost may still hear a stop.
+  const auto discovery_end = client_.started() + std::chrono::milliseconds(1500);
+  std::vector<std::string> robots;
+  std::deque<CommandOutcome> outcomes;  // a deque: each sender keeps the address of its own
   std::vector<std::thread> senders;
-  for (std::size_t i = 0; i < robots.size(); ++i) {
-    senders.emplace_back([&, i] { outcomes[i] = client_.Stop(robots[i]); });
+  while (true) {
+    for (const std::string& id : client_.RobotIds()) {
+      if (std::find(robots.begin(), robots.end(), id) != robots.end()) continue;
+      robots.push_back(id);
+      CommandOutcome* outcome = &outcomes.emplace_back();
+      senders.emplace_back([this, id, outcome] { *outcome = client_.Stop(id); });
+    }
+    if (core::SteadyClock::now() >= discovery_end) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   for (auto& t : senders) t.join();
-  return ReportEach("stop", "all", robots, outcomes, /*always_list=*/true);
+  std::vector<std::size_t> order(robots.size());  // listed by robot id, whatever order they were heard in
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return robots[a] < robots[b]; });
+  std::vector<std::string> sorted_robots;
+  std::vector<CommandOutcome> sorted_outcomes;
+  for (const std::size_t i : order) {
+    sorted_robots.push_back(robots[i]);
+    sorted_outcomes.push_back(outcomes[i]);
+  }
+  return ReportEach("stop", "all", sorted_robots, sorted_outcomes, /*always_list=*/true);
 }
 
 bool CommandShell::ParsePoint(const std::vector<std::string>& args, std::size_t first, double* x_m,

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <deque>
+#include <iterator>
 #include <set>
 #include <thread>
 
@@ -290,19 +291,30 @@ class FleetClient::Impl {
   }
 
   // Robots whose process left cleanly (participant removed, not dropped) since the last call: shown "left".
+  // A participant removed after its lease had expired here is not a process that exited: it is a process
+  // that stalled (SIGSTOP, a frozen machine) and, running again, replaces its participant (core::Participant
+  // re-creates one after a stall); its robot stays lost until its new participant is heard.
   void ApplyGoneParticipants() {
     std::vector<std::pair<std::string, bool>> gone;
     {
       std::lock_guard<std::mutex> guard(gone_mutex_);
       gone.swap(gone_participants_);
     }
+    const auto now = SteadyClock::now();
+    for (auto it = dropped_at_.begin(); it != dropped_at_.end();) {
+      it = core::SecondsBetween(it->second, now) > kDroppedKeptS ? dropped_at_.erase(it) : std::next(it);
+    }
     for (const auto& [participant, dropped] : gone) {
+      const bool stalled = !dropped && dropped_at_.count(participant) > 0;
+      if (dropped) dropped_at_[participant] = now;
       for (auto& [robot_id, robot_participant] : participant_of_robot_) {
         if (robot_participant != participant) continue;
         RobotView& v = robots_[robot_id];
         v.lost = true;
-        v.left = !dropped;
-        v.lost_reason = dropped ? "its participant's lease expired" : "its process exited";
+        v.left = !dropped && !stalled;
+        v.lost_reason = dropped   ? "its participant's lease expired"
+                        : stalled ? "its process stalled past its lease and is replacing its participant"
+                                  : "its process exited";
       }
     }
   }
@@ -582,6 +594,11 @@ class FleetClient::Impl {
   int announced_robots_heard_ = 0;  // MonitorLoop only: the robots_heard of the last Announce
   std::mutex gone_mutex_;  // guards gone_participants_ only (taken on Fast DDS's discovery thread)
   std::vector<std::pair<std::string, bool>> gone_participants_;  // (participant, dropped)
+  // Participants whose lease expired here, and when (under mutex_): one removed later stalled, it did not
+  // exit. Kept kDroppedKeptS: a robot cut off longer and then shut down cleanly is shown lost rather than
+  // left.
+  std::map<std::string, core::SteadyTime> dropped_at_;
+  static constexpr double kDroppedKeptS = 600.0;
   std::map<std::string, msgs::CommandResponse> responses_;  // answers to awaited_ requests only
   std::map<uint32_t, msgs::PathResponse> path_responses_;    // answers to awaited_paths_ only
   std::set<std::string> awaited_;

@@ -1,25 +1,25 @@
 // cairn_base: one operator's basestation. Interactive REPL on a terminal, line-by-line commands otherwise,
 // or one command after `--`. See --help.
+#include <editline/readline.h>
 #include <poll.h>
 #include <signal.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
 #include <termios.h>
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <atomic>
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <thread>
 #include <iostream>
 #include <optional>
 #include <sstream>
-
-#include <CLI/CLI.hpp>
-#include <editline/readline.h>
-#include <spdlog/sinks/stdout_color_sinks.h>
-#include <spdlog/spdlog.h>
+#include <thread>
 
 #include "cairn/base/command_shell.h"
 #include "cairn/base/fleet_client.h"
@@ -188,6 +188,46 @@ int RunScript(cairn::base::CommandShell& shell, std::istream& in, bool keep_goin
   return first_failure;
 }
 
+// Runs the lines of a pipe or file on stdin (not a terminal) as they arrive, every one (--keep-going is
+// implied: a controlling program reads each result), and prints events while it waits for the next line:
+// reading with std::getline left them until the next command, seconds late. Ends at EOF, "quit"/"exit", or
+// shutdown; the exit code is the first failure's.
+int RunPiped(cairn::base::CommandShell& shell, cairn::base::FleetClient& client) {
+  constexpr int kPollMs = 50;  // events print within this of their arrival here
+  std::string buffer;
+  int first_failure = cairn::base::kOk;
+  bool eof = false;
+  while (!cairn::core::ShutdownRequested()) {
+    std::size_t newline = buffer.find('\n');
+    if (newline == std::string::npos && eof) {
+      if (buffer.empty()) break;
+      newline = buffer.size();  // a last line without a newline
+      buffer += '\n';
+    }
+    if (newline != std::string::npos) {
+      std::string line = buffer.substr(0, newline);
+      buffer.erase(0, newline + 1);
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      if (line == "quit" || line == "exit") break;
+      const int code = shell.Execute(line);
+      if (code != cairn::base::kOk && first_failure == cairn::base::kOk) first_failure = code;
+      continue;
+    }
+    pollfd input{STDIN_FILENO, POLLIN, 0};
+    if (poll(&input, 1, kPollMs) > 0) {
+      char chunk[4096];
+      const ssize_t n = read(STDIN_FILENO, chunk, sizeof(chunk));
+      if (n > 0) {
+        buffer.append(chunk, static_cast<std::size_t>(n));
+      } else if (n == 0 || (errno != EINTR && errno != EAGAIN)) {
+        eof = true;
+      }
+    }
+    if (client.HasEvents()) shell.PrintEvents();
+  }
+  return first_failure;
+}
+
 // The web app built by ./cairn build: BUILD/web, the executable being BUILD/basestation/cairn_base.
 std::string DefaultWebRoot(const char* argv0) {
   std::error_code ec;
@@ -342,7 +382,7 @@ int main(int argc, char** argv) {
     }
     if (!script.empty()) return RunScript(shell, script_file, keep_going);
     if (interactive) return RunInteractive(shell, client, options.base_id);
-    const int code = RunScript(shell, std::cin, /*keep_going=*/true);
+    const int code = RunPiped(shell, client);
     // A GUI outlives the end of stdin (cairn_base --gui </dev/null): it serves until SIGINT or SIGTERM.
     if (gui_bridge) spdlog::info("cairn_base {}: stdin ended; the GUI serves {} until SIGINT or SIGTERM", options.base_id, gui_bridge->url());
     while (gui_bridge && !cairn::core::ShutdownRequested()) std::this_thread::sleep_for(std::chrono::milliseconds(100));

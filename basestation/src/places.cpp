@@ -6,8 +6,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <regex>
 #include <stdexcept>
+
+#include "cairn/core/config.h"
 
 namespace cairn::base {
 
@@ -24,7 +27,13 @@ Places Places::Load(const std::string& path) {
   if (path.empty() || !std::filesystem::exists(path)) return places;
   YAML::Node root;
   try {
-    root = YAML::LoadFile(path);
+    std::ifstream in(path);
+    if (!in) throw std::invalid_argument("places file " + path + " cannot be read");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    core::RejectYamlAliases(text, "places file " + path);
+    root = YAML::Load(text);
+  } catch (const core::ConfigError& e) {
+    throw std::invalid_argument(e.what());
   } catch (const YAML::Exception& e) {
     throw std::invalid_argument("places file " + path + ": not valid YAML: " + e.what());
   }

@@ -55,6 +55,9 @@ TEST(Places, BadFilesAndNamesAreRefusedNamingTheField) {
   EXPECT_NE(message(Write("p4.yaml", "places:\n  9lives: {x_m: 1, y_m: 2}\n")).find("place name '9lives'"),
             std::string::npos);
   EXPECT_NE(message(Write("p5.yaml", "places: [\n")).find("not valid YAML"), std::string::npos);
+  EXPECT_NE(
+      message(Write("p6.yaml", "a: &a {x_m: 1, y_m: 2}\nplaces:\n  room: *a\n")).find("YAML alias '*a'"),
+      std::string::npos);
   Places places;
   EXPECT_THROW(places.Add({"a", std::nan(""), 0, 0}), std::invalid_argument);
   EXPECT_THROW(places.Add({"has space", 0, 0, 0}), std::invalid_argument);

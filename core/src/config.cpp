@@ -1,19 +1,21 @@
 #include "cairn/core/config.h"
 
+#include <unistd.h>
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/yaml.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <set>
 
-#include <unistd.h>
-#include <yaml-cpp/yaml.h>
-
 namespace cairn::core {
 
 struct ConfigSection::Impl {
   YAML::Node node;
   std::string origin;  // file name
+#include <sstream>
   std::string path;    // dotted path of this section ("" at top level)
 };
 
@@ -50,9 +52,44 @@ void RejectDuplicateKeys(const YAML::Node& node, const std::string& origin, cons
   }
 }
 
+// Parser events of a YAML text: throws at the first alias. yaml-cpp shares an aliased node rather than
+// copying it, so loading is fast, but every walk of the tree (the duplicate-key check, lookups) visits each
+// alias again: nested aliases ("billion laughs") made a 486-byte file take minutes.
+class AliasRefuser : public YAML::EventHandler {
+ public:
+  AliasRefuser(const std::string& text, const std::string& origin) : text_(text), origin_(origin) {}
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override {
+    // The parser numbers anchors; the alias's name is read back from the text at its mark ('*name').
+    std::string name;
+    if (mark.pos >= 0 && static_cast<std::size_t>(mark.pos) < text_.size()) {
+      const std::size_t end = text_.find_first_of(" \t\r\n,]}", static_cast<std::size_t>(mark.pos));
+      name = text_.substr(static_cast<std::size_t>(mark.pos), end - static_cast<std::size_t>(mark.pos));
+    }
+    if (name.size() > 64) name = name.substr(0, 64) + "...";
+    throw ConfigError(origin_ + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1) +
+                      ": YAML alias '" + name +
+                      "' is not allowed (Cairn's config files refuse aliases: write the value out)");
+  }
+  void OnDocumentStart(const YAML::Mark&) override {}
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+  }
+  void OnMapEnd() override {}
+
+ private:
+  const std::string& text_;
+  const std::string& origin_;
+};
+
 ConfigSection::Impl Parse(const std::string& text, const std::string& origin) {
   ConfigSection::Impl impl;
   impl.origin = origin;
+  RejectYamlAliases(text, origin);
   try {
     impl.node = YAML::Load(text);
   } catch (const YAML::Exception& e) {
@@ -65,6 +102,18 @@ ConfigSection::Impl Parse(const std::string& text, const std::string& origin) {
 }
 
 }  // namespace
+
+void RejectYamlAliases(const std::string& text, const std::string& origin) {
+  std::istringstream in(text);
+  AliasRefuser refuser(text, origin);
+  try {
+    YAML::Parser parser(in);
+    while (parser.HandleNextDocument(refuser)) {
+    }
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(origin + ": not valid YAML: " + e.what());
+  }
+}
 
 ConfigSection ConfigSection::LoadFile(const std::string& path) {
   std::ifstream in(path);

@@ -140,6 +140,38 @@ TEST(Config, AKeyWrittenTwiceInOneMappingIsRefusedNamingItAndItsLine) {
   EXPECT_THROW(ConfigSection::LoadText("c: [{x: 1, x: 2}]\n", "t.yaml"), ConfigError);
 }
 
+// Nested aliases, each level naming the one before 9 times ("billion laughs"): a walk of the loaded tree
+// visits 9^levels nodes. 9 levels of it hung the agent's start for minutes; any alias is refused at once.
+std::string BillionLaughs(int levels) {
+  std::string text = "a0: &a0 [\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\"]\n";
+  for (int i = 1; i <= levels; ++i) {
+    const std::string prev = "*a" + std::to_string(i - 1);
+    text += "a" + std::to_string(i) + ": &a" + std::to_string(i) + " [";
+    for (int k = 0; k < 9; ++k) text += (k == 0 ? "" : ",") + prev;
+    text += "]\n";
+  }
+  return text;
+}
+
+TEST(Config, YamlAliasesAreRefusedAtOnceNamingFileLineAndAlias) {
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    ConfigSection::LoadText(BillionLaughs(9), "laughs.yaml");
+    FAIL() << "nested aliases were accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_STREQ(
+        e.what(),
+        "laughs.yaml:2:10: YAML alias '*a0' is not allowed (Cairn's config files refuse aliases: write the "
+        "value out)");
+  }
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 1.0);
+  // A merge key is an alias too; an anchor alone is harmless.
+  EXPECT_THROW(ConfigSection::LoadText("base: &b {x: 1}\nmux:\n  <<: *b\n", "m.yaml"), ConfigError);
+  EXPECT_NO_THROW(ConfigSection::LoadText("mux: &m\n  teleop_timeout_s: 0.5\n", "m.yaml"));
+  EXPECT_THROW(RejectYamlAliases("a: *undefined\n", "u.yaml"), ConfigError);
+  EXPECT_NO_THROW(RejectYamlAliases("a: '*not an alias'\nb: x*y\n", "q.yaml"));
+}
+
 TEST(Config, AnOutputFileIsCheckedBeforeAnythingIsWritten) {
   EXPECT_EQ(CheckOutputFile("--map-save", ::testing::TempDir() + "/map.bt"), "");
   EXPECT_EQ(CheckOutputFile("--map-save", "map.bt"), "");  // the working folder

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <fstream>
 #include <stdexcept>
+#include <thread>
 
 #include "cairn/agent/mode_manager.h"
 #include "cairn/core/shutdown.h"
@@ -20,7 +21,7 @@ FaultInjection ParseFaultInjection(const std::string& text) {
   const auto first = text.find(':');
   const auto second = first == std::string::npos ? std::string::npos : text.find(':', first + 1);
   if (second == std::string::npos)
-    throw std::invalid_argument(flag + ": expected COMPONENT:throw|hang:AFTER_S");
+    throw std::invalid_argument(flag + ": expected COMPONENT:throw|hang|stuck:AFTER_S");
   FaultInjection f;
   f.component = text.substr(0, first);
   const std::string kind = text.substr(first + 1, second - first - 1);
@@ -34,16 +35,16 @@ FaultInjection ParseFaultInjection(const std::string& text) {
   }
   if (kind == "throw") {
     f.kind = FaultInjection::Kind::kThrow;
-  } else if (kind == "hang") {
-    f.kind = FaultInjection::Kind::kHang;
+  } else if (kind == "hang" || kind == "stuck") {
+    f.kind = kind == "hang" ? FaultInjection::Kind::kHang : FaultInjection::Kind::kStuck;
     if (f.component != "platform" && f.component != "perception" && f.component != "planning") {
       throw std::invalid_argument(
-          flag + ": a hang of " + f.component +
+          flag + (kind == "hang" ? ": a hang of " : ": stuck work in ") + f.component +
           " would hang the control cycle, which cannot be restarted within the process "
           "(hang platform, perception or planning)");
     }
   } else {
-    throw std::invalid_argument(flag + ": kind \"" + kind + "\" is neither throw nor hang");
+    throw std::invalid_argument(flag + ": kind \"" + kind + "\" is not throw, hang or stuck");
   }
   std::size_t used = 0;
   double seconds = -1.0;
@@ -75,6 +76,10 @@ void FaultInjector::Check(const std::string& component) {
     if (p->fault.kind == FaultInjection::Kind::kThrow) {
       spdlog::warn("{}: injected fault: throwing (--inject-fault)", component);
       throw std::runtime_error("injected fault (--inject-fault " + component + ":throw)");
+    }
+    if (p->fault.kind == FaultInjection::Kind::kStuck) {
+      spdlog::warn("{}: injected fault: stuck for good, even at shutdown (--inject-fault)", component);
+      while (true) std::this_thread::sleep_for(std::chrono::seconds(1));
     }
     spdlog::warn("{}: injected fault: hanging until the process ends (--inject-fault)", component);
     while (!core::WaitForShutdown(std::chrono::milliseconds(1000))) {

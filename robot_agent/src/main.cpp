@@ -23,6 +23,10 @@
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/simulated_platform.h"
 
+// With --map-save, how long a SIGINT/SIGTERM's shutdown may take before the process is ended (the map is
+// written at exit; without it, core::kDefaultShutdownDeadline).
+constexpr std::chrono::seconds kMapSaveShutdownDeadline{10};
+
 int main(int argc, char** argv) {
   cairn::core::InstallShutdownHandler();
   cairn::agent::ReturnLargeBlocksWhenFreed();  // a grown map's old grids go back to the system
@@ -71,9 +75,11 @@ int main(int argc, char** argv) {
   app.add_option("--journal-map-every", options.journal_map_every_s,
                  "with --journal: seconds between map snapshots")
       ->capture_default_str();
-  app.add_option("--inject-fault", options.inject_faults,
-                 "test hook: make COMPONENT throw, or hang, AFTER_S seconds after start "
-                 "(COMPONENT:throw|hang:AFTER_S; repeatable); the health monitor restarts it");
+  app.add_option(
+      "--inject-fault", options.inject_faults,
+      "test hook: make COMPONENT throw, or hang, AFTER_S seconds after start "
+      "(COMPONENT:throw|hang|stuck:AFTER_S; repeatable); the health monitor restarts it; stuck work "
+      "does not stop even at shutdown");
   app.add_option("--mode-tree", options.mode_tree_file, "mode tree XML (default: config/mode_tree.xml)");
   app.add_flag(
       "--print-tree-nodes-model",
@@ -174,6 +180,8 @@ int main(int argc, char** argv) {
           !fault.empty()) {
         throw std::invalid_argument(fault);
       }
+      // Writing a large map takes seconds: a signal's shutdown waits longer for it before ending the process.
+      cairn::core::SetShutdownDeadline(kMapSaveShutdownDeadline);
     }
     // The platform driver: the simulator (the seam is core::PlatformIO; see docs/PLATFORM.md for a real one).
     cairn::sim::SimulatedPlatformOptions sim;

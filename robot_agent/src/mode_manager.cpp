@@ -121,7 +121,18 @@ void ModeManager::RegisterModeNodes(bt::TreeFactory& factory, const std::shared_
                           ? NodeStatus::kSuccess
                           : Fail(&ctx->failure, "IsComponentUp: " + down->second);
              }),
-      {bt::InputPort("component", "an agent component (AgentComponentNames())")});
+      {bt::InputPort("component", "an agent component (AgentComponentNames())")},
+      // A literal name that is no component would fail every tick: the branch could never be taken.
+      [](const std::map<std::string, std::string>& ports, std::size_t) {
+        const auto component = ports.find("component");
+        if (component == ports.end() || bt::TreeNode::BlackboardKey(component->second, "component")) return;
+        const std::vector<std::string>& known = AgentComponentNames();
+        if (std::find(known.begin(), known.end(), component->second) != known.end()) return;
+        std::string names;
+        for (const auto& k : known) names += (names.empty() ? "" : ", ") + k;
+        throw std::invalid_argument("component \"" + component->second +
+                                    "\" is not a component of cairn_agent (its components: " + names + ")");
+      });
   factory.RegisterSimpleCondition("IsJoystickAlive", Traced(ctx, [ctx](bt::TreeNode&) {
     return ctx->conditions.joystick_alive
                ? NodeStatus::kSuccess

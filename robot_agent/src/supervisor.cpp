@@ -29,6 +29,15 @@ int SuperviseAgent(std::vector<std::string> argv, const std::string& robot_id) {
   // SIGINT and SIGTERM reach this process as core's shutdown request (core::InstallShutdownHandler, which
   // main() installed); the child inherits their blocked mask and installs its own.
   core::InstallShutdownHandler();
+  // The agent has core::kDefaultShutdownDeadline from the forwarded SIGTERM (10 s with --map-save, which
+  // writes the map at exit); one that is still there 200 ms later (stopped, or its deadline thread starved)
+  // is killed, and this process ends 200 ms after that.
+  const bool saves_map = std::any_of(argv.begin(), argv.end(),
+                                     [](const std::string& a) { return a.rfind("--map-save", 0) == 0; });
+  const auto kill_child_after =
+      (saves_map ? std::chrono::milliseconds(10000) : core::kDefaultShutdownDeadline) +
+      std::chrono::milliseconds(200);
+  core::SetShutdownDeadline(kill_child_after + std::chrono::milliseconds(200));
   constexpr double kFirstBackoffS = 1.0, kMaxBackoffS = 30.0, kHealthyRunS = 60.0;
   double backoff_s = kFirstBackoffS;
   for (int start = 1;; ++start) {
@@ -48,13 +57,21 @@ int SuperviseAgent(std::vector<std::string> argv, const std::string& robot_id) {
     }
     spdlog::info("supervisor of {}: agent started (pid {}, start {})", robot_id, child, start);
     int status = 0;
-    bool forwarded = false;
+    bool forwarded = false, killed = false;
+    std::chrono::steady_clock::time_point forwarded_at;
     for (;;) {
       const pid_t done = ::waitpid(child, &status, WNOHANG);
       if (done == child || (done < 0 && errno != EINTR)) break;
       if (core::ShutdownRequested() && !forwarded) {
         ::kill(child, SIGTERM);  // the agent stops the robot and leaves the DDS domain cleanly
         forwarded = true;
+        forwarded_at = std::chrono::steady_clock::now();
+      }
+      if (forwarded && !killed && std::chrono::steady_clock::now() - forwarded_at > kill_child_after) {
+        spdlog::error("supervisor of {}: the agent (pid {}) did not end {} ms after SIGTERM: killing it",
+                      robot_id, child, kill_child_after.count());
+        ::kill(child, SIGKILL);
+        killed = true;
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }

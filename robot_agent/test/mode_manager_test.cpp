@@ -250,6 +250,31 @@ TEST(ModeManager, RefusesABranchWhoseChannelIsNotAMuxChannelNamingBranchAndChann
       << idle_message;
 }
 
+// A condition naming a component the agent does not have failed every tick (its branch could never be taken);
+// it is refused at load, naming the node, the value and the components.
+TEST(ModeManager, IsComponentUpNamingNoComponentIsRefusedAtLoad) {
+  std::ifstream in(kTree);
+  std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string good = R"(<IsComponentUp component="perception"/>)";
+  ASSERT_NE(xml.find(good), std::string::npos);
+  xml.replace(xml.find(good), good.size(), R"(<IsComponentUp component="nonexistent"/>)");
+  const std::string path = ::testing::TempDir() + "/nonexistent_component.xml";
+  std::ofstream(path) << xml;
+  try {
+    ModeManager modes(path, kChannels);
+    FAIL() << "a tree naming no component loaded";
+  } catch (const bt::TreeError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("nonexistent_component.xml:"), std::string::npos) << what;
+    EXPECT_NE(what.find("IsComponentUp"), std::string::npos) << what;
+    EXPECT_NE(
+        what.find("component \"nonexistent\" is not a component of cairn_agent (its components: platform, "
+                  "perception"),
+        std::string::npos)
+        << what;
+  }
+}
+
 TEST(ModeManager, ForceIdleStopsWhateverTheTreeSays) {
   ModeManager modes(kTree, kChannels);
   ASSERT_TRUE(modes.Request("manual", Held()).accepted);

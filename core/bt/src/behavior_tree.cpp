@@ -923,6 +923,7 @@ class TreeBuilder {
       }
       main_id = tree_id;
     }
+    CheckExpandedSize(main_id);
     Tree tree;
     tree.blackboard_ = blackboard ? std::move(blackboard) : Blackboard::Create();
     TreeNode* root = Instantiate(trees_.at(main_id), tree.blackboard_, tree);
@@ -991,6 +992,8 @@ class TreeBuilder {
     }
     if (tree_elements.empty()) Fail(root->GetLineNum(), "<root> contains no <BehaviorTree>");
 
+    CheckDocumentSize(tree_elements);
+
     // Pass 2: parse and validate every tree.
     for (const auto& [id, element] : tree_elements) {
       int count = 0;
@@ -1019,6 +1022,75 @@ class TreeBuilder {
                                    " BehaviorTrees but no main_tree_to_execute attribute");
     }
     return tree_elements.front().first;
+  }
+
+  // Counts the node elements of every tree and finds the deepest one, without recursion (a document nested
+  // thousands deep must not exhaust the stack), before anything is parsed further: TreeError when the count
+  // passes max_nodes or a node lies deeper than max_depth.
+  void CheckDocumentSize(
+      const std::vector<std::pair<std::string, const tinyxml2::XMLElement*>>& tree_elements) const {
+    const TreeLimits& limits = factory_.limits_;
+    long count = 0;
+    int first_line_over = 0;
+    std::vector<std::pair<const tinyxml2::XMLElement*, int>> stack;
+    for (const auto& [id, element] : tree_elements) {
+      for (const tinyxml2::XMLElement* c = element->FirstChildElement(); c != nullptr;
+           c = c->NextSiblingElement()) {
+        stack.emplace_back(c, 0);
+      }
+      while (!stack.empty()) {
+        const auto [node, depth] = stack.back();
+        stack.pop_back();
+        if (++count == limits.max_nodes + 1L) first_line_over = node->GetLineNum();
+        if (depth > limits.max_depth) {
+          Fail(node->GetLineNum(), "<" + std::string(node->Name()) + "> in tree '" + id + "' is at depth " +
+                                       std::to_string(depth) + ", deeper than the limit of " +
+                                       std::to_string(limits.max_depth) + " (max_depth)");
+        }
+        for (const tinyxml2::XMLElement* c = node->FirstChildElement(); c != nullptr;
+             c = c->NextSiblingElement()) {
+          stack.emplace_back(c, depth + 1);
+        }
+      }
+    }
+    if (count > limits.max_nodes) {
+      Fail(first_line_over, "the document's trees have " + std::to_string(count) +
+                                " nodes, more than the limit of " + std::to_string(limits.max_nodes) +
+                                " (max_nodes)");
+    }
+  }
+
+  // The instantiated main tree (each SubTree expanded where it is used: a few small trees used by one another
+  // many times would multiply) within max_nodes and max_depth. Sizes saturate just past the limit.
+  void CheckExpandedSize(const std::string& main_id) const {
+    const TreeLimits& limits = factory_.limits_;
+    std::map<std::string, std::pair<long, int>> memo;  // tree ID -> (nodes, depth of its deepest node)
+    const std::function<std::pair<long, int>(const NodeSpec&)> measure = [&](const NodeSpec& spec) {
+      long nodes = 1;
+      int depth = 0;
+      if (spec.id == kSubTreeId) {
+        auto found = memo.find(spec.subtree_id);
+        if (found == memo.end())
+          found = memo.emplace(spec.subtree_id, measure(trees_.at(spec.subtree_id))).first;
+        nodes += found->second.first;
+        depth = found->second.second + 1;
+      }
+      for (const NodeSpec& child : spec.children) {
+        const auto [child_nodes, child_depth] = measure(child);
+        nodes = std::min<long>(nodes + child_nodes, limits.max_nodes + 1L);
+        depth = std::max(depth, child_depth + 1);
+      }
+      return std::make_pair(std::min<long>(nodes, limits.max_nodes + 1L), depth);
+    };
+    const auto [nodes, depth] = measure(trees_.at(main_id));
+    if (nodes > limits.max_nodes) {
+      Fail(0, "tree '" + main_id + "' with its SubTrees expanded has more than " +
+                  std::to_string(limits.max_nodes) + " nodes, the limit (max_nodes)");
+    }
+    if (depth > limits.max_depth) {
+      Fail(0, "tree '" + main_id + "' with its SubTrees expanded is " + std::to_string(depth) +
+                  " deep, deeper than the limit of " + std::to_string(limits.max_depth) + " (max_depth)");
+    }
   }
 
   // Reads <TreeNodesModel>: keeps the SubTree port declarations, checks the categories of registered IDs.
@@ -1369,13 +1441,14 @@ void TreeFactory::RegisterBuilder(const std::string& id, NodeType type, PortsLis
 }
 
 void TreeFactory::RegisterSimpleCondition(const std::string& id, std::function<NodeStatus(TreeNode&)> tick,
-                                          PortsList ports) {
+                                          PortsList ports, XmlValidator validator) {
   if (!tick) throw std::logic_error("TreeFactory: registering '" + id + "': empty tick function");
   RegisterBuilder(
       id, NodeType::kCondition, std::move(ports),
       [tick = std::move(tick)](const std::string& name, const NodeConfig& config) {
         return std::unique_ptr<TreeNode>(std::make_unique<SimpleConditionNode>(name, config, tick));
-      });
+      },
+      std::move(validator));
 }
 
 void TreeFactory::RegisterSimpleAction(const std::string& id, std::function<NodeStatus(TreeNode&)> tick,
@@ -1516,6 +1589,24 @@ std::string TreeFactory::AddTreeNodesModel(const std::string& tree_xml, bool inc
     models->InsertEndChild(entry->DeepClone(&doc));
   }
   return Print(doc);
+}
+
+bool TreeLimits::IsValid(std::string* why) const {
+  if (max_nodes < 1 || max_nodes > 1000000) {
+    *why = "max_nodes " + std::to_string(max_nodes) + " is not in [1, 1000000]";
+    return false;
+  }
+  if (max_depth < 1 || max_depth > 10000) {
+    *why = "max_depth " + std::to_string(max_depth) + " is not in [1, 10000]";
+    return false;
+  }
+  return true;
+}
+
+void TreeFactory::SetLimits(const TreeLimits& limits) {
+  std::string why;
+  if (!limits.IsValid(&why)) throw std::invalid_argument("TreeLimits: " + why);
+  limits_ = limits;
 }
 
 Tree TreeFactory::CreateTree(const std::string& xml, std::shared_ptr<Blackboard> blackboard,

@@ -491,6 +491,45 @@ TEST_F(BehaviorTreeTest, RejectsRecursiveSubTrees) {
   EXPECT_PRED2(Contains, ErrorOf(unused), "recursive SubTree 'Loop'");
 }
 
+// A tree is ticked many times a second: one of thousands of nodes, or nested thousands deep, stalled its
+// process instead of failing at load. The error names the limit and the document's value.
+TEST_F(BehaviorTreeTest, TreesBeyondTheSizeAndDepthLimitsAreRefusedNamingLimitAndValue) {
+  std::string wide;
+  for (int i = 0; i < 3000; ++i) wide += "<AlwaysFailure/>";
+  EXPECT_PRED2(Contains, ErrorOf(Wrap("<Fallback>" + wide + "</Fallback>")),
+               "the document's trees have 3001 nodes, more than the limit of 1000 (max_nodes)");
+  std::string deep = "<AlwaysSuccess/>";
+  for (int i = 0; i < 40; ++i) deep = "<Inverter>" + deep + "</Inverter>";
+  EXPECT_PRED2(Contains, ErrorOf(Wrap(deep)),
+               "<Inverter> in tree 'Main' is at depth 33, deeper than the limit of 32 (max_depth)");
+  // 10,000 deep: refused before any recursion (a stack overflow would crash instead).
+  std::string very_deep = "<AlwaysSuccess/>";
+  for (int i = 0; i < 10000; ++i) very_deep = "<Inverter>" + very_deep + "</Inverter>";
+  EXPECT_THROW(factory_.CreateTreeFromText(Wrap(very_deep), blackboard_), TreeError);
+  // Small trees that use one another ten times each multiply when expanded: 10^4 leaves from 40 elements.
+  std::string nested = R"(<root BTCPP_format="4" main_tree_to_execute="T0">)";
+  for (int level = 0; level < 4; ++level) {
+    nested += "<BehaviorTree ID=\"T" + std::to_string(level) + "\"><Sequence>";
+    for (int k = 0; k < 10; ++k) nested += "<SubTree ID=\"T" + std::to_string(level + 1) + "\"/>";
+    nested += "</Sequence></BehaviorTree>";
+  }
+  nested += R"(<BehaviorTree ID="T4"><AlwaysSuccess/></BehaviorTree></root>)";
+  EXPECT_PRED2(Contains, ErrorOf(nested), "tree 'T0' with its SubTrees expanded has more than 1000 nodes");
+  // Within the limits it loads; the limits can be set, and invalid ones are refused naming the field.
+  EXPECT_NO_THROW(factory_.CreateTreeFromText(Wrap("<Fallback>" + wide.substr(0, 999 * 16) + "</Fallback>"),
+                                              blackboard_));
+  TreeLimits limits;
+  limits.max_nodes = 5000;
+  factory_.SetLimits(limits);
+  EXPECT_NO_THROW(factory_.CreateTreeFromText(Wrap("<Fallback>" + wide + "</Fallback>"), blackboard_));
+  limits.max_depth = 0;
+  std::string why;
+  EXPECT_FALSE(limits.IsValid(&why));
+  EXPECT_EQ(why, "max_depth 0 is not in [1, 10000]");
+  EXPECT_THROW(factory_.SetLimits(limits), std::invalid_argument);
+  EXPECT_TRUE(TreeLimits{}.IsValid(&why));
+}
+
 TEST_F(BehaviorTreeTest, ErrorsInUnusedTreesAreReported) {
   const std::string xml = R"(<root BTCPP_format="4" main_tree_to_execute="Main">
 <BehaviorTree ID="Main"><AlwaysSuccess/></BehaviorTree>

@@ -20,7 +20,8 @@ class ConfigError : public std::runtime_error {
 /// typo such as `lock_keep_sec` is reported instead of silently ignored.
 class ConfigSection {
  public:
-  /// Parses `path`. @throws ConfigError when the file is missing, unreadable, not YAML, or not a mapping.
+  /// Parses `path`. @throws ConfigError when the file is missing, unreadable, not YAML, uses an alias
+  /// (RejectYamlAliases), or is not a mapping.
   static ConfigSection LoadFile(const std::string& path);
   /// Parses YAML text (for tests); `origin` names it in errors.
   static ConfigSection LoadText(const std::string& text, const std::string& origin);
@@ -51,6 +52,13 @@ class ConfigSection {
   explicit ConfigSection(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
+
+/// Throws ConfigError when YAML `text` uses an alias (`*name`), naming `origin` (the file), the line, the
+/// column and the alias; also when the text is not valid YAML. Every YAML file Cairn reads is checked with it
+/// before it is loaded: yaml-cpp shares aliased nodes, and walking a tree of nested aliases ("billion
+/// laughs": each level refers 9 times to the one before) visits 9^levels nodes. Anchors (`&name`) alone are
+/// harmless and allowed. Runs in time linear in the text's length.
+void RejectYamlAliases(const std::string& text, const std::string& origin);
 
 /// "" when a file can be written at `path` (its folder exists and is writable, the path is not a folder, an
 /// existing file is writable), else the fault naming `field` (a flag, e.g. "--map-save") and the path: checked

@@ -26,14 +26,16 @@ namespace cairn::agent {
 
 /// A fault to inject into a component (test hook: `cairn_agent --inject-fault COMPONENT:KIND:AFTER_S`).
 struct FaultInjection {
-  enum class Kind { kThrow, kHang };
+  /// kThrow: the work throws. kHang: it stops making progress until the process shuts down. kStuck: it never
+  /// returns, even at shutdown (a loop that does not stop: the process must end without it).
+  enum class Kind { kThrow, kHang, kStuck };
   std::string component;  ///< one of AgentComponentNames()
   Kind kind = Kind::kThrow;
   double after_s = 0.0;  ///< seconds after the agent started, >= 0
 };
 
-/// Parses "COMPONENT:throw|hang:AFTER_S". A hang is for threaded components only (platform, perception,
-/// planning): a control cycle that hangs cannot be restarted within the process.
+/// Parses "COMPONENT:throw|hang|stuck:AFTER_S". A hang or stuck work is for threaded components only
+/// (platform, perception, planning): a control cycle that hangs cannot be restarted within the process.
 /// @throws std::invalid_argument naming the part and the value at fault.
 FaultInjection ParseFaultInjection(const std::string& text);
 
@@ -42,7 +44,7 @@ class FaultInjector {
  public:
   FaultInjector(std::vector<FaultInjection> faults, core::SteadyTime start);
   /// In `component`'s work: throws std::runtime_error("injected fault ...") or hangs (ignoring its
-  /// component's stop, until the process shuts down) when one of its faults is due.
+  /// component's stop, until the process shuts down; stuck: for good) when one of its faults is due.
   void Check(const std::string& component);
   bool empty() const { return faults_.empty(); }
 

@@ -441,6 +441,21 @@ struct HasValidateXml<T, std::void_t<decltype(T::ValidateXml(
     : std::true_type {};
 }  // namespace detail
 
+/// Bounds on the trees a TreeFactory loads, checked before any node is constructed: a tree is ticked many
+/// times a second (and dry-run once per mode to find the valid ones), so a huge or deep document would stall
+/// its process rather than fail. Defaults allow ten times the shipped mode tree (103 elements, depth 5).
+struct TreeLimits {
+  /// Most nodes: the node elements of every <BehaviorTree> of the document together, and the nodes of the
+  /// instantiated tree (each SubTree expanded where it is used); range [1, 1000000].
+  int max_nodes = 1000;
+  /// Deepest node: a <BehaviorTree>'s root node is at depth 0, its children at 1; in the instantiated tree a
+  /// SubTree's root is one deeper than the SubTree node; range [1, 10000].
+  int max_depth = 32;
+
+  /// True when both fields are in range; else false and `*why` names the field, its value and the range.
+  bool IsValid(std::string* why) const;
+};
+
 /// Registry of node types and XML loader. Copyable; holds no global state.
 class TreeFactory {
  public:
@@ -485,9 +500,10 @@ class TreeFactory {
   }
 
   /// Registers a condition whose tick is `tick` (returning kSuccess/kFailure; kRunning throws
-  /// std::logic_error when ticked). Same registration errors as RegisterNodeType.
+  /// std::logic_error when ticked), with `validator` (may be empty) checking each of its XML elements at
+  /// load. Same registration errors as RegisterNodeType.
   void RegisterSimpleCondition(const std::string& id, std::function<NodeStatus(TreeNode&)> tick,
-                               PortsList ports = {});
+                               PortsList ports = {}, XmlValidator validator = nullptr);
   /// Registers a synchronous action whose tick is `tick` (kSuccess/kFailure; kRunning throws
   /// std::logic_error when ticked — write a StatefulActionNode for long actions). Same errors as above.
   void RegisterSimpleAction(const std::string& id, std::function<NodeStatus(TreeNode&)> tick,
@@ -507,6 +523,12 @@ class TreeFactory {
   void SetClock(Clock clock);
   /// The time source given to new trees.
   const Clock& clock() const { return clock_; }
+
+  /// Sets the bounds of the documents loaded from now on. Throws std::invalid_argument naming the field and
+  /// value when `limits` is not valid (TreeLimits::IsValid).
+  void SetLimits(const TreeLimits& limits);
+  /// The bounds checked at load (TreeLimits defaults unless SetLimits was called).
+  const TreeLimits& limits() const { return limits_; }
 
   /// The Groot2 node palette: a <TreeNodesModel> element (text, ending in a newline) with one entry per
   /// registered node type, sorted by ID, in the format of BehaviorTree.CPP's writeTreeNodesModelXML:
@@ -533,7 +555,8 @@ class TreeFactory {
 
   /// Parses and validates BehaviorTree.CPP v4 XML and instantiates the main tree on `blackboard` (a new empty
   /// blackboard if null). Throws TreeError (see class TreeError; message starts with "line N: "), or
-  /// TreeError wrapping the message of an exception thrown by a node constructor.
+  /// TreeError wrapping the message of an exception thrown by a node constructor; also TreeError naming the
+  /// limit and the document's value when it exceeds limits() (too many nodes, a node too deep).
   Tree CreateTreeFromText(const std::string& xml, std::shared_ptr<Blackboard> blackboard) const;
   /// As CreateTreeFromText, reading `path`. Throws TreeError naming the path if it cannot be read; error
   /// messages start with "<path>:N: ".
@@ -563,6 +586,7 @@ class TreeFactory {
 
   std::map<std::string, Entry> entries_;
   Clock clock_ = SteadyClockNow;
+  TreeLimits limits_;
 };
 
 }  // namespace cairn::bt
