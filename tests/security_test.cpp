@@ -6,14 +6,20 @@
 //    basestation, naming its permissions; its writer on r1's command topics cannot even be made, and a
 //    command for r1 sent on its own robot's topic never reaches r1) but may stop it (an e-stop), and an
 //    observer reads states but commands nothing, not even stop; the robot never moves;
-//  - discovery with security against without it, in the same run (figures).
+//  - discovery with security against without it, in the same run (figures);
+//  - a base id (or robot id) is bound to the certificate that sends it: an allowed commander of r1 sending
+//    commands, teleop and announcements under another commander's base id is dropped, counted in the
+//    robot's health and logged naming both; yield requests come only from robots (for themselves) and from
+//    r1's commanders, and only for a robot r1 hears, with security and without it.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "cairn/core/dds.h"
 #include "cairn/msgs/stamp.h"
@@ -77,6 +83,25 @@ class Peer {
   std::unique_ptr<core::Writer<msgs::ControlRequestPubSubType>> ControlWriter(const std::string& topic) {
     return std::make_unique<core::Writer<msgs::ControlRequestPubSubType>>(*participant_, topic,
                                                                           "cairn.command");
+  }
+  // A writer of `PubSubT` on `topic` with QoS `profile`. @throws core::DdsError as ControlWriter.
+  template <class PubSubT>
+  std::unique_ptr<core::Writer<PubSubT>> WriterOf(const std::string& topic,
+                                                  const std::string& profile = "cairn.command") {
+    return std::make_unique<core::Writer<PubSubT>>(*participant_, topic, profile);
+  }
+  // Waits up to `timeout` for a state of `robot` that satisfies `pred`; the last one heard otherwise.
+  template <class Pred>
+  std::optional<msgs::RobotState> WaitFor(const std::string& robot, std::chrono::milliseconds timeout,
+                                          Pred pred) {
+    const auto deadline = Clock::now() + timeout;
+    std::optional<msgs::RobotState> last;
+    while (Clock::now() < deadline) {
+      last = Last(robot);
+      if (last && pred(*last)) return last;
+      std::this_thread::sleep_for(50ms);
+    }
+    return last;
   }
 
  private:
@@ -220,6 +245,311 @@ TEST(Security, PermissionsSayWhoCommandsWhichRobotAndAnObserverOnlyReads) {
   EXPECT_LT(Distance(before, after), 0.01) << "r1 moved";
   r = op_a.Run("mode r1 idle");
   EXPECT_TRUE(r["ok"]) << "r1's commander lost it: " << r;
+}
+
+msgs::YieldRequest AskToYield(const std::string& robot, const std::string& sender, const std::string& passing,
+                              uint32_t request_id) {
+  msgs::YieldRequest m;
+  m.robot_id(robot);
+  m.sender_id(sender);
+  m.request_id(request_id);
+  m.action(msgs::YIELD_ACTION_ASK);
+  m.passing_id(passing);
+  m.passing_radius_m(0.3f);
+  // A route through where the robot stands (slot 0 of builtin:tunnels), as a blocked robot would send.
+  for (double x : {-3.0, 0.0, 3.0, 6.0}) {
+    msgs::PeerPathPoint q;
+    q.x_m(static_cast<float>(x));
+    q.y_m(0.0f);
+    m.keep_clear_M().push_back(q);
+  }
+  return m;
+}
+
+// Writes one `PubSubT` sample for r1 carrying base id `base_id` on r1's own command topic `topic` from `peer`
+// (fields other than the ids left at their defaults); false when the writer did not match r1.
+template <class PubSubT, class Peer>
+bool SendAs(Peer& peer, const std::string& topic, const std::string& base_id) {
+  auto writer = peer.template WriterOf<PubSubT>(core::CommandTopicFor(topic, "r1", true));
+  if (!writer->WaitForMatched(1, std::chrono::milliseconds(10000))) return false;
+  typename PubSubT::type m;
+  m.robot_id("r1");
+  m.base_id(base_id);
+  m.request_id(7);
+  writer->Write(m);
+  return writer->WaitForAcknowledgments(std::chrono::milliseconds(2000));
+}
+
+// r1's health as `base` shows it, once it counts at least `forged` forged senders (or after 8 s).
+json HealthWithForged(Base& base, std::uint64_t forged) {
+  const auto deadline = Clock::now() + 8s;
+  json r = base.Run("health r1");
+  while (r.value("forged_senders", std::uint64_t{0}) < forged && Clock::now() < deadline) {
+    std::this_thread::sleep_for(500ms);
+    r = base.Run("health r1");
+  }
+  return r;
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Attacker: op3, an allowed commander of r1, sends as op1 (the holder). Every message it sends under op1's
+// base id is dropped by r1 (the lock, the mode, the stick, the announcement), counted in r1's health and
+// logged naming op1 and op3; op3 under its own id is still heard. Yield requests under security: an observer
+// cannot even make a writer; a robot's certificate may ask only as itself and only for a robot r1 hears; r1's
+// commander asks on r1's own topic, also only for a robot r1 hears. r1 never moves.
+TEST(Security, ASenderIdIsBoundToItsCertificateAndYieldsNeedAHeardRobot) {
+  const int domain = 85;
+  const std::string logs = FreshLogs("security", "forged_sender");
+  const std::string keys =
+      MakeKeys(logs + "/keys", "--robots r1,r2,r3 --commander op1=r1 --commander op3=r1 --observer opW");
+  auto agent = StartAgent("r1", domain, logs, {"--secure", keys});
+  Base op1("op1", domain, logs, {"--secure", keys});
+  ASSERT_TRUE(op1.Run("wait r1 online 20", 30s)["ok"]);
+  ASSERT_TRUE(op1.Run("request-control r1")["ok"]);
+  ASSERT_TRUE(op1.Run("mode r1 manual")["ok"]);
+
+  Peer op3(domain, keys, "op3");
+  // The PKI-DH handshake admits a participant only with the GUID prefix of its certificate's subject: what r1
+  // checks a sender id against.
+  const auto& prefix = op3.participant().get()->guid().guidPrefix;
+  EXPECT_TRUE(core::GuidPrefixHoldsIdentity(prefix, "op3"));
+  EXPECT_FALSE(core::GuidPrefixHoldsIdentity(prefix, "op1"));
+  const auto before = op3.WaitFor("r1", 10s, [](const msgs::RobotState& s) { return s.mode() == "manual"; });
+  ASSERT_TRUE(before && before->holder_id() == "op1") << "op3 does not see r1 held by op1 in manual";
+
+  auto control = op3.ControlWriter(core::CommandTopicFor("cairn/control_request", "r1", true));
+  auto mode =
+      op3.WriterOf<msgs::ModeRequestPubSubType>(core::CommandTopicFor("cairn/mode_request", "r1", true));
+  auto teleop = op3.WriterOf<msgs::TeleopTwistPubSubType>(core::CommandTopicFor("cairn/teleop", "r1", true),
+                                                          "cairn.teleop");
+  auto announce = op3.WriterOf<msgs::AgentInfoPubSubType>("cairn/base_info", "cairn.latched");
+  ASSERT_TRUE(control->WaitForMatched(1, 10s) && mode->WaitForMatched(1, 10s) &&
+              teleop->WaitForMatched(1, 10s))
+      << "r1's command readers did not match op3's writers (op3 may command r1)";
+  msgs::AgentInfo as_op1;
+  as_op1.agent_id("op1");
+  as_op1.kind(msgs::AGENT_KIND_BASESTATION);
+  as_op1.platform("basestation");
+  as_op1.capabilities({"joystick"});
+  announce->Write(as_op1);
+  for (uint32_t id = 1; id <= 30; ++id) {  // 3 s: release op1's lock, idle r1, drive it, all as op1
+    msgs::ControlRequest release = Grab("r1", "op1", id);
+    release.action(msgs::CONTROL_ACTION_RELEASE);
+    control->Write(release);
+    msgs::ModeRequest idle;
+    idle.robot_id("r1");
+    idle.base_id("op1");
+    idle.request_id(id);
+    idle.mode("idle");
+    mode->Write(idle);
+    msgs::TeleopTwist twist;
+    twist.robot_id("r1");
+    twist.base_id("op1");
+    twist.sequence_number(id);
+    twist.stamp(cairn::msgs::WallStampNow());
+    twist.twist().linear_x_mps(0.8);
+    teleop->Write(twist);
+    std::this_thread::sleep_for(100ms);
+  }
+  json r = op1.Run("status r1");
+  EXPECT_EQ(r["holder"], "op1") << "op3 released op1's lock under op1's id: " << r;
+  EXPECT_EQ(r["mode"], "manual") << "op3 set r1's mode under op1's id: " << r;
+  const auto after = op3.Last("r1");
+  ASSERT_TRUE(after);
+  EXPECT_LT(Distance(*before, *after), 0.02) << "op3's teleop under op1's id drove r1";
+  // Counted in r1's health (sent every 2 s) and named in its log.
+  // 30 releases and 30 modes (reliable), 30 twists (best effort: most of them), 1 announcement.
+  // Every other command reader checks the same way (one each: a goal, an exploration, home, a convoy, a
+  // restart, and a stop, which op3 may send under its own id).
+  EXPECT_TRUE(SendAs<msgs::WaypointGoalPubSubType>(op3, "cairn/waypoint_goal", "op1"));
+  EXPECT_TRUE(SendAs<msgs::ExploreRequestPubSubType>(op3, "cairn/explore_request", "op1"));
+  EXPECT_TRUE(SendAs<msgs::HomeRequestPubSubType>(op3, "cairn/home_request", "op1"));
+  EXPECT_TRUE(SendAs<msgs::ConvoyRequestPubSubType>(op3, "cairn/convoy_request", "op1"));
+  EXPECT_TRUE(SendAs<msgs::RestartRequestPubSubType>(op3, "cairn/restart_request", "op1"));
+  EXPECT_TRUE(SendAs<msgs::StopRequestPubSubType>(op3, "cairn/stop_request", "op1"));
+  r = HealthWithForged(op1, 86);
+  EXPECT_GE(r.value("forged_senders", std::uint64_t{0}), 86u) << r;
+  const std::string last = r.value("last_forged_sender", "");
+  EXPECT_NE(last.find("'op1'"), std::string::npos) << last;
+  EXPECT_NE(last.find("'op3'"), std::string::npos) << last;
+  const std::string log = ReadAll(logs + "/r1.log");
+  EXPECT_NE(
+      log.find(
+          "forged message dropped: cairn/mode_request: base id 'op1' sent under the certificate of 'op3'"),
+      std::string::npos)
+      << "see " << logs << "/r1.log";
+  for (const std::string topic : {"cairn/control_request", "cairn/teleop", "cairn/base_info",
+                                  "cairn/waypoint_goal", "cairn/explore_request", "cairn/home_request",
+                                  "cairn/convoy_request", "cairn/restart_request", "cairn/stop_request"}) {
+    EXPECT_NE(
+        log.find("forged message dropped: " + topic + ": base id 'op1' sent under the certificate of 'op3'"),
+        std::string::npos)
+        << topic << "; see " << logs << "/r1.log";
+  }
+  // op3 under its own id is heard: the lock refuses it, naming op1.
+  Base op3_base("op3", domain, logs, {"--secure", keys});
+  ASSERT_TRUE(op3_base.Run("wait r1 online 20", 30s)["ok"]);
+  r = op3_base.Run("request-control r1");
+  EXPECT_FALSE(r["ok"]) << r;
+  EXPECT_NE(r.dump().find("op1"), std::string::npos) << r;
+
+  // Yield requests. r1 idle (it would yield in that mode), and it never drove.
+  ASSERT_TRUE(op1.Run("mode r1 idle")["ok"]);
+  Peer observer(domain, keys, "opW");
+  EXPECT_THROW(observer.WriterOf<msgs::YieldRequestPubSubType>("cairn/yield_request"), core::DdsError)
+      << "an observer may ask robots to yield";
+  EXPECT_THROW(observer.WriterOf<msgs::YieldRequestPubSubType>(
+                   core::CommandTopicFor("cairn/yield_request", "r1", true)),
+               core::DdsError);
+  // A robot's certificate (r2, not running) asks for a robot that does not exist, then as r3 for itself.
+  Peer r2(domain, keys, "r2");
+  auto r2_yield = r2.WriterOf<msgs::YieldRequestPubSubType>("cairn/yield_request");
+  ASSERT_TRUE(r2_yield->WaitForMatched(1, 10s));
+  const auto asks_until = [&](auto& writer, const msgs::YieldRequest& m, const std::string& reason) {
+    const auto deadline = Clock::now() + 8s;
+    std::optional<msgs::RobotState> s;
+    while (Clock::now() < deadline) {
+      writer->Write(m);
+      s = op3.WaitFor("r1", 1s, [&](const msgs::RobotState& x) {
+        return x.yield_state() == "refused" && x.yield_reason().find(reason) != std::string::npos;
+      });
+      if (s && s->yield_reason().find(reason) != std::string::npos) return s->yield_reason();
+    }
+    return s ? s->yield_state() + ": " + s->yield_reason() : std::string("no state");
+  };
+  std::string why = asks_until(r2_yield, AskToYield("r1", "r2", "r9", 1), "r9 is not heard");
+  EXPECT_NE(why.find("passing robot r9 is not heard by r1"), std::string::npos) << why;
+  const std::uint64_t forged_before = op1.Run("health r1").value("forged_senders", std::uint64_t{0});
+  for (uint32_t id = 2; id <= 6; ++id) r2_yield->Write(AskToYield("r1", "r3", "r3", id));  // r2 as r3
+  // r1's commander asks on r1's own topic: heard, but refused for a robot r1 does not hear.
+  Peer op1_peer(domain, keys, "op1");
+  auto op1_yield = op1_peer.WriterOf<msgs::YieldRequestPubSubType>(
+      core::CommandTopicFor("cairn/yield_request", "r1", true));
+  ASSERT_TRUE(op1_yield->WaitForMatched(1, 10s));
+  why = asks_until(op1_yield, AskToYield("r1", "op1", "r8", 1), "r8 is not heard");
+  EXPECT_NE(why.find("(asked by op1) refused: passing robot r8 is not heard"), std::string::npos) << why;
+  r = HealthWithForged(op1, forged_before + 5);
+  EXPECT_GE(r.value("forged_senders", std::uint64_t{0}), forged_before + 5) << "r2 asking as r3: " << r;
+  const auto end = op3.Last("r1");
+  ASSERT_TRUE(end);
+  EXPECT_EQ(end->mode(), "idle");
+  EXPECT_LT(Distance(*before, *end), 0.02) << "r1 moved for a forged or unheard yield";
+
+  // What robots publish (states, peer states, claims, maps, staircases), no basestation may.
+  for (Peer* base : {&observer, &op3}) {
+    EXPECT_THROW(base->WriterOf<msgs::PeerStatePubSubType>("cairn/peer_state", "cairn.state"),
+                 core::DdsError);
+    EXPECT_THROW(base->WriterOf<msgs::ExploreClaimPubSubType>("cairn/explore_claim", "cairn.latched"),
+                 core::DdsError);
+    EXPECT_THROW(base->WriterOf<msgs::RobotStatePubSubType>("cairn/robot_state", "cairn.latched"),
+                 core::DdsError);
+    EXPECT_THROW(base->WriterOf<msgs::MapUpdatePubSubType>("cairn/map_update", "cairn.latched"),
+                 core::DdsError);
+    EXPECT_THROW(base->WriterOf<msgs::StaircaseDetectionPubSubType>("cairn/staircase", "cairn.latched"),
+                 core::DdsError);
+  }
+  // A robot's certificate may, but only under its own id: r2's peer state and explore claim as r3 are dropped
+  // (r1 reads claims once it explores).
+  ASSERT_TRUE(op1.Run("explore r1")["ok"]);
+  auto peer_state = r2.WriterOf<msgs::PeerStatePubSubType>("cairn/peer_state", "cairn.state");
+  auto claim = r2.WriterOf<msgs::ExploreClaimPubSubType>("cairn/explore_claim", "cairn.latched");
+  const auto claim_deadline = Clock::now() + 10s;
+  while (claim->matched() == 0 && Clock::now() < claim_deadline) std::this_thread::sleep_for(100ms);
+  ASSERT_GT(claim->matched(), 0) << "r1 exploring never read explore claims";
+  ASSERT_GT(peer_state->matched(), 0);
+  msgs::PeerState as_r3;
+  as_r3.robot_id("r3");
+  as_r3.mode("idle");
+  as_r3.footprint_radius_m(0.3f);
+  msgs::ExploreClaim claim_r3;
+  claim_r3.robot_id("r3");
+  claim_r3.active(true);
+  for (int i = 0; i < 5; ++i) {
+    peer_state->Write(as_r3);
+    claim->Write(claim_r3);
+    std::this_thread::sleep_for(100ms);
+  }
+  EXPECT_TRUE(op1.Run("stop r1")["ok"]);
+  const std::string robot_log = ReadAll(logs + "/r1.log");
+  for (const std::string topic : {"cairn/peer_state", "cairn/explore_claim"}) {
+    EXPECT_NE(robot_log.find("forged message dropped: " + topic +
+                             ": robot id 'r3' sent under the certificate of 'r2'"),
+              std::string::npos)
+        << topic << "; see " << logs << "/r1.log";
+  }
+}
+
+// Without security any process may send anything; still, a robot yields only for a robot it hears, and only
+// when asked by that robot's own process (its peer states) or by an announced basestation. The idle robot
+// that drove 5.8 m aside for a robot that does not exist now stays.
+TEST(Security, WithoutSecurityAYieldNeedsAHeardRobotAndAKnownSender) {
+  const int domain = 87;
+  const std::string logs = FreshLogs("security", "plain_yield");
+  auto r1 = StartAgent("r1", domain, logs);
+  ChildProcess r2({kAgent, "--robot-id", "r2", "--world", kWorld, "--start", "slot:1", "--domain",
+                   std::to_string(domain)},
+                  logs + "/r2.log");
+  ASSERT_TRUE(r2.WaitForLine("READY", 60s)) << "r2 did not start; see " << logs;
+  Peer rogue(domain);
+  const auto before = rogue.WaitFor("r1", 10s, [](const msgs::RobotState&) { return true; });
+  ASSERT_TRUE(before) << "no state from r1";
+  auto yield = rogue.WriterOf<msgs::YieldRequestPubSubType>("cairn/yield_request");
+  ASSERT_TRUE(yield->WaitForMatched(2, 10s));
+  const auto asks_until = [&](const msgs::YieldRequest& m, const std::string& reason) {
+    const auto deadline = Clock::now() + 8s;
+    std::optional<msgs::RobotState> s;
+    while (Clock::now() < deadline) {
+      yield->Write(m);
+      s = rogue.WaitFor("r1", 1s, [&](const msgs::RobotState& x) {
+        return x.yield_state() == "refused" && x.yield_reason().find(reason) != std::string::npos;
+      });
+      if (s && s->yield_reason().find(reason) != std::string::npos) return s->yield_reason();
+    }
+    return s ? s->yield_state() + ": " + s->yield_reason() : std::string("no state");
+  };
+  // For a robot that does not exist, asked by it or by anyone.
+  std::string why = asks_until(AskToYield("r1", "r9", "r9", 1), "r9 is not heard");
+  EXPECT_NE(why.find("passing robot r9 is not heard by r1"), std::string::npos) << why;
+  why = asks_until(AskToYield("r1", "rogue", "r9", 2),
+                   "(asked by rogue) refused: passing robot r9 is not heard");
+  EXPECT_NE(why.find("(asked by rogue) refused: passing robot r9 is not heard"), std::string::npos) << why;
+  // For r2, which r1 hears, from a process that is neither r2's nor an announced basestation's.
+  why = asks_until(AskToYield("r1", "r2", "r2", 3), "sender r2 is neither");
+  EXPECT_NE(why.find("sender r2 is neither a robot r1 hears"), std::string::npos) << why;
+  why = asks_until(AskToYield("r1", "rogue", "r2", 4), "sender rogue is neither");
+  EXPECT_NE(why.find("nor a basestation allowed to command r1"), std::string::npos) << why;
+  // But any process may publish peer states as any robot, and r1 then hears that robot: a request for the
+  // made-up r5 gets past "not heard" (and is refused for its sender).
+  auto peer_state = rogue.WriterOf<msgs::PeerStatePubSubType>("cairn/peer_state", "cairn.state");
+  msgs::PeerState as_r5;
+  as_r5.robot_id("r5");
+  as_r5.mode("idle");
+  as_r5.x_MB_m(40.0);
+  as_r5.y_MB_m(20.0);
+  as_r5.footprint_radius_m(0.3f);
+  const auto forged_deadline = Clock::now() + 8s;
+  std::optional<msgs::RobotState> heard_r5;
+  while (!heard_r5 && Clock::now() < forged_deadline) {
+    peer_state->Write(as_r5);
+    yield->Write(AskToYield("r1", "rogue", "r5", 5));
+    heard_r5 = rogue.WaitFor("r1", 300ms, [](const msgs::RobotState& x) {
+      return x.yield_reason().find("yield for r5 (asked by rogue) refused: sender rogue is neither") == 0;
+    });
+    if (heard_r5 && heard_r5->yield_reason().find("yield for r5") != 0) heard_r5.reset();
+  }
+  EXPECT_TRUE(heard_r5) << "r1 did not take a forged peer state for a heard robot";
+  const std::string log = ReadAll(logs + "/r1.log");
+  EXPECT_NE(log.find("passing robot r9 is not heard"), std::string::npos) << "see " << logs << "/r1.log";
+  const auto end = rogue.Last("r1");
+  ASSERT_TRUE(end);
+  EXPECT_EQ(end->mode(), "idle");
+  EXPECT_LT(Distance(*before, *end), 0.02) << "r1 moved for a yield nobody could ask";
 }
 
 }  // namespace

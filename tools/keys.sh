@@ -9,9 +9,10 @@
 #                                 (GMAC); read and write access control on every topic. Signed by the CA.
 #   DIR/ID/cert.pem, key.pem      one identity per robot, commander and observer (ECDSA P-256, CN=ID, O=Cairn).
 #   DIR/ID/permissions.xml, .p7s  what ID may publish and read, signed by the CA:
-#                                   robot R      publishes its state, maps, paths and answers, and reads
-#                                                everything (its commands come on topics of its own,
-#                                                <command topic>/R, e.g. cairn/mode_request/R);
+#                                   robot R      publishes its state, maps, paths, answers and its yield
+#                                                requests to peers, and reads everything (its commands come
+#                                                on topics of its own, <command topic>/R, e.g.
+#                                                cairn/mode_request/R, cairn/yield_request/R);
 #                                   commander B  announces itself, probes links, asks for maps, reads
 #                                                everything, publishes the command topics of the robots it was
 #                                                given only (ROBOTS: r1+r2, or * for every robot), and may stop
@@ -97,11 +98,12 @@ chmod 644 "$DIR/ca.pem"
 ROBOT_TOPICS=(cairn/agent_info cairn/robot_state cairn/robot_pose cairn/bt_state cairn/global_path cairn/local_plan
               cairn/staircase cairn/camera cairn/map_update cairn/command_response cairn/path_response
               cairn/link_probe_reply cairn/explore_claim cairn/peer_state cairn/health cairn/yield_request)
-# cairn/yield_request is not a command topic: robots ask one another to get out of the way, operators too.
-BASE_TOPICS=(cairn/base_info cairn/link_probe cairn/map_sync_request cairn/yield_request)
+# cairn/yield_request is the robots' own: they ask one another to get out of the way. An operator asks on the
+# robot's command topic cairn/yield_request/R, so only R's commanders may.
+BASE_TOPICS=(cairn/base_info cairn/link_probe cairn/map_sync_request)
 COMMAND_TOPICS=(cairn/control_request cairn/mode_request cairn/waypoint_goal cairn/explore_request
                 cairn/home_request cairn/stop_request cairn/teleop cairn/path_request cairn/restart_request
-                cairn/convoy_request)
+                cairn/convoy_request cairn/yield_request)
 
 topics() { for t in "$@"; do printf '            <topic>%s</topic>\n' "$t"; done; }
 # command_topics ROBOT...: every command topic of each robot (core::CommandTopicFor: "<topic>/<robot>"; * for all).

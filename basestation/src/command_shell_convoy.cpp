@@ -275,9 +275,9 @@ int CommandShell::Yield(const std::vector<std::string>& args) {
   };
   std::optional<RobotView> answer;
   for (int attempt = 0; attempt < 2 && !answer; ++attempt) {
-    if (!client_.SendYield(robot, passing, radius_m, keep_clear)) {
-      o.result = outcome::kFailed;
-      o.reason = "the yield request could not be sent (DDS history full)";
+    if (std::string why = client_.SendYield(robot, passing, radius_m, keep_clear); !why.empty()) {
+      o.result = why.find("DDS Security") != std::string::npos ? outcome::kRefused : outcome::kFailed;
+      o.reason = why;
       return Report("yield", robot, o);
     }
     answer = client_.WaitUntil(robot, 2.5, answered);

@@ -612,8 +612,9 @@ class FleetClient::Impl {
   std::mutex command_writers_mutex_;
   std::map<std::string, std::shared_ptr<void>> command_writers_;  // by topic name: core::Writer<...>
   std::unique_ptr<core::Writer<msgs::PingPongPubSubType>> probe_writer_;
-  std::mutex yield_mutex_;                                                    // guards the two below
-  std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>> yield_writer_;  // made by the first SendYield
+  std::mutex yield_mutex_;  // guards the two below
+  // One per topic (under DDS Security one per robot), made by the first SendYield to it.
+  std::map<std::string, std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>>> yield_writers_;
   std::uint32_t next_yield_id_ = 1;
   // Under DDS Security: the robots this base may command ("*": all; empty: an observer). Unset without it.
   std::optional<std::vector<std::string>> commandable_;
@@ -832,14 +833,21 @@ CommandOutcome FleetClient::SendConvoy(const std::string& robot_id,
   });
 }
 
-bool FleetClient::SendYield(const std::string& robot_id, const std::string& passing_id,
-                            double passing_radius_m, const std::vector<Eigen::Vector2d>& keep_clear_M) {
+std::string FleetClient::SendYield(const std::string& robot_id, const std::string& passing_id,
+                                   double passing_radius_m,
+                                   const std::vector<Eigen::Vector2d>& keep_clear_M) {
+  if (std::string why = impl_->NotPermittedReason(robot_id); !why.empty()) return why;
   std::lock_guard<std::mutex> lock(impl_->yield_mutex_);
-  if (!impl_->yield_writer_) {
-    impl_->yield_writer_ = std::make_unique<core::Writer<msgs::YieldRequestPubSubType>>(
-        *impl_->participant_, "cairn/yield_request", "cairn.command");
-    // A new writer's first sample would reach only the readers already matched: give discovery a moment.
-    impl_->yield_writer_->WaitForMatched(1, std::chrono::milliseconds(1500));
+  // Under DDS Security on the robot's own command topic (only its commanders may write it), else on the topic
+  // robots ask one another on. A new writer's first sample would reach only the readers already matched: give
+  // discovery a moment.
+  const std::string topic =
+      core::CommandTopicFor("cairn/yield_request", robot_id, impl_->options_.security.enabled());
+  std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>>& writer = impl_->yield_writers_[topic];
+  if (!writer) {
+    writer = std::make_unique<core::Writer<msgs::YieldRequestPubSubType>>(*impl_->participant_, topic,
+                                                                          "cairn.command");
+    writer->WaitForMatched(1, std::chrono::milliseconds(1500));
   }
   msgs::YieldRequest m;
   m.robot_id(robot_id);
@@ -854,7 +862,7 @@ bool FleetClient::SendYield(const std::string& robot_id, const std::string& pass
     q.y_m(static_cast<float>(p.y()));
     m.keep_clear_M().push_back(q);
   }
-  return impl_->yield_writer_->Write(m);
+  return writer->Write(m) ? "" : "the yield request could not be sent (DDS history full)";
 }
 
 CommandOutcome FleetClient::SendHome(const std::string& robot_id, const std::optional<Eigen::Vector3d>& point_M) {

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <ifaddrs.h>
 #include <netinet/in.h>
+#include <openssl/sha.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -98,6 +99,45 @@ std::string WriterIdOf(const eprosima::fastrtps::rtps::InstanceHandle_t& handle)
   std::copy(guid.guidPrefix.value, guid.guidPrefix.value + 12, bytes);
   std::copy(guid.entityId.value, guid.entityId.value + 4, bytes + 12);
   return DottedHex(bytes, sizeof(bytes));
+}
+
+bool GuidPrefixHoldsIdentity(const eprosima::fastrtps::rtps::GuidPrefix_t& prefix, const std::string& id) {
+  // The subject tools/keys.sh gives every identity, "/O=Cairn/CN=<id>", in DER as openssl writes it (a
+  // SEQUENCE of two SETs, each one SEQUENCE of an attribute OID and a UTF8String). Ids are at most 64
+  // characters, so every length fits one byte.
+  if (!CheckId("identity", id).empty()) return false;
+  const auto tlv = [](unsigned char tag, const std::string& content) {
+    return std::string(1, static_cast<char>(tag)) + std::string(1, static_cast<char>(content.size())) +
+           content;
+  };
+  const auto rdn = [&](unsigned char oid_last, const std::string& value) {
+    const std::string oid =
+        tlv(0x06, std::string("\x55\x04", 2) + std::string(1, static_cast<char>(oid_last)));
+    return tlv(0x31, tlv(0x30, oid + tlv(0x0c, value)));
+  };
+  const std::string subject = tlv(0x30, rdn(0x0a, "Cairn") + rdn(0x03, id));
+  unsigned char md[SHA256_DIGEST_LENGTH];
+  SHA256(reinterpret_cast<const unsigned char*>(subject.data()), subject.size(), md);
+  // Fast DDS PKIDH adjust_participant_key: byte 0 = 0x80 | md[0] >> 1, byte k = md[k-1] << 7 | md[k] >> 1.
+  const unsigned char* p = prefix.value;
+  if (p[0] != (0x80 | (md[0] >> 1))) return false;
+  for (int k = 1; k < 6; ++k) {
+    if (p[k] != static_cast<unsigned char>((md[k - 1] << 7) | (md[k] >> 1))) return false;
+  }
+  return true;
+}
+
+std::string IdentityOfSubject(const std::string& subject) {
+  const std::size_t at = subject.rfind("/CN=");
+  if (at == std::string::npos) return "";
+  const std::size_t end = subject.find('/', at + 4);
+  return subject.substr(at + 4, end == std::string::npos ? std::string::npos : end - at - 4);
+}
+
+std::string Participant::CertifiedIdOf(const std::string& participant_id) const {
+  std::lock_guard<std::mutex> lock(certified_mutex_);
+  const auto it = certified_ids_.find(participant_id);
+  return it == certified_ids_.end() ? "" : it->second;
 }
 
 std::string Participant::participant_id() const {
@@ -550,9 +590,9 @@ std::string CommandTopicFor(const std::string& topic, const std::string& robot_i
 
 const std::vector<std::string>& CommandTopics() {
   static const std::vector<std::string> topics = {
-      "cairn/control_request", "cairn/mode_request",  "cairn/waypoint_goal", "cairn/explore_request",
-      "cairn/home_request",    "cairn/stop_request",  "cairn/teleop",        "cairn/path_request",
-      "cairn/restart_request", "cairn/convoy_request"};
+      "cairn/control_request", "cairn/mode_request",   "cairn/waypoint_goal", "cairn/explore_request",
+      "cairn/home_request",    "cairn/stop_request",   "cairn/teleop",        "cairn/path_request",
+      "cairn/restart_request", "cairn/convoy_request", "cairn/yield_request"};
   return topics;
 }
 
@@ -745,10 +785,26 @@ void Participant::WatchForStalls() {
 void Participant::on_participant_discovery(dds::DomainParticipant*,
                                            eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) {
   using Status = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
+  const std::string id = ParticipantIdOf(info.info.m_guid);
+  if (options_.security.enabled()) {
+    // The certificate's id, for naming who sent a forged message (CertifiedIdOf): the identity token is not
+    // itself authenticated, so it is kept only when the GUID prefix (which is) agrees.
+    std::lock_guard<std::mutex> lock(certified_mutex_);
+    if (info.status == Status::DISCOVERED_PARTICIPANT || info.status == Status::CHANGED_QOS_PARTICIPANT) {
+      std::string certified;
+      for (const auto& property : info.info.identity_token_.properties()) {
+        if (property.name() == "dds.cert.sn") certified = IdentityOfSubject(property.value());
+      }
+      if (!certified.empty() && GuidPrefixHoldsIdentity(info.info.m_guid.guidPrefix, certified)) {
+        certified_ids_[id] = certified;
+      }
+    } else if (info.status == Status::REMOVED_PARTICIPANT || info.status == Status::DROPPED_PARTICIPANT) {
+      certified_ids_.erase(id);
+    }
+  }
   if (!options_.on_participant_gone) return;
   if (info.status == Status::REMOVED_PARTICIPANT || info.status == Status::DROPPED_PARTICIPANT) {
-    options_.on_participant_gone(ParticipantIdOf(info.info.m_guid),
-                                 info.status == Status::DROPPED_PARTICIPANT);
+    options_.on_participant_gone(id, info.status == Status::DROPPED_PARTICIPANT);
   }
 }
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 #include <mutex>
+#include <set>
 #include <stdexcept>
 
 #include "cairn/core/dds.h"
@@ -102,6 +103,10 @@ class AgentDds::Impl {
     p.name = "cairn_agent/" + options.robot_id;
     p.security = options.security;
     p.on_participant_gone = [this](const std::string& participant, bool /*dropped*/) {
+      {
+        std::lock_guard<std::mutex> guard(senders_mutex_);
+        bases_of_participant_.erase(participant);
+      }
       std::lock_guard<std::mutex> guard(gone_mutex_);
       gone_participants_.push_back(participant);
     };
@@ -124,6 +129,7 @@ class AgentDds::Impl {
   void StopListening() {
     probe_reader_.reset();
     yield_reader_.reset();
+    commander_yield_reader_.reset();
     claim_reader_.reset();
     peer_reader_.reset();
     map_sync_reader_.reset();
@@ -208,8 +214,10 @@ class AgentDds::Impl {
                                                                                  "cairn.latched");
     claim_reader_ = std::make_unique<core::Reader<msgs::ExploreClaimPubSubType>>(
         p, "cairn/explore_claim", "cairn.latched",
-        [this, robot](const msgs::ExploreClaim& m, const SampleInfo&) {
-          if (m.robot_id() == robot || !ValidPeerId("cairn/explore_claim", "robot id", m.robot_id())) return;
+        [this, robot](const msgs::ExploreClaim& m, const SampleInfo& info) {
+          if (m.robot_id() == robot || !ValidPeerId("cairn/explore_claim", "robot id", m.robot_id()) ||
+              !Certified("cairn/explore_claim", "robot id", m.robot_id(), info))
+            return;
           std::string fault;
           const ExploreClaim c = ClaimFromMessage(m, &fault);
           handlers_.explore_claim(c, fault);
@@ -236,10 +244,16 @@ class AgentDds::Impl {
     const std::string& robot = options_.robot_id;
     peer_reader_ = std::make_unique<core::Reader<msgs::PeerStatePubSubType>>(
         *participant_, "cairn/peer_state", "cairn.state",
-        [this, robot](const msgs::PeerState& m, const SampleInfo&) {
+        [this, robot](const msgs::PeerState& m, const SampleInfo& info) {
           if (m.robot_id() == robot || !ValidPeerId("cairn/peer_state", "robot id", m.robot_id()) ||
-              !ValidPeerId("cairn/peer_state", "mode", m.mode())) {
+              !ValidPeerId("cairn/peer_state", "mode", m.mode()) ||
+              !Certified("cairn/peer_state", "robot id", m.robot_id(), info)) {
             return;
+          }
+          {
+            std::lock_guard<std::mutex> guard(senders_mutex_);
+            if (participant_of_robot_.size() < kMaxSenders || participant_of_robot_.count(m.robot_id()) > 0)
+              participant_of_robot_[m.robot_id()] = core::ParticipantIdOf(info.publication_handle);
           }
           handlers_.peer_state(PeerFromMessage(m));
         });
@@ -259,6 +273,47 @@ class AgentDds::Impl {
     return false;
   }
 
+  // Under DDS Security: true when the writer of `info` holds the certificate of `claimed`, the sender id the
+  // message carries in `field`; else the message is dropped, counted (AgentHealth.forged_senders) and logged
+  // (at most every 5 s per topic) naming the id claimed and the certificate's. Always true without security.
+  bool Certified(const char* topic, const char* field, const std::string& claimed, const SampleInfo& info) {
+    if (!options_.security.enabled()) return true;
+    eprosima::fastrtps::rtps::GUID_t guid;
+    eprosima::fastrtps::rtps::iHandle2GUID(guid, info.publication_handle);
+    if (core::GuidPrefixHoldsIdentity(guid.guidPrefix, claimed)) return true;
+    const std::string participant = core::ParticipantIdOf(guid);
+    const std::string real = participant_->CertifiedIdOf(participant);
+    const std::string what =
+        std::string(topic) + ": " + field + " '" + claimed + "' sent under the certificate of " +
+        (real.empty() ? "another identity" : "'" + real + "'") + " (participant " + participant + ")";
+    {
+      std::lock_guard<std::mutex> guard(forged_mutex_);
+      ++forged_.count;
+      forged_.last = what;
+    }
+    std::uint64_t suppressed = 0;
+    if (peer_warnings_.Allow(std::string("forged ") + topic, core::SteadyClock::now(), &suppressed)) {
+      spdlog::warn(
+          "robot {}: a forged message dropped: {}{}", options_.robot_id, what,
+          suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+    }
+    return false;
+  }
+
+  // Where a yield request on `topic` came from (`commander_topic`: this robot's own, under DDS Security).
+  YieldOrigin OriginOf(const msgs::YieldRequest& m, const SampleInfo& info, bool commander_topic) {
+    const std::string participant = core::ParticipantIdOf(info.publication_handle);
+    YieldOrigin origin;
+    origin.secure = options_.security.enabled();
+    origin.commander_topic = commander_topic;
+    std::lock_guard<std::mutex> guard(senders_mutex_);
+    const auto bases = bases_of_participant_.find(participant);
+    origin.announced_base = bases != bases_of_participant_.end() && bases->second.count(m.sender_id()) > 0;
+    const auto robot = participant_of_robot_.find(m.sender_id());
+    origin.peer_robot = robot != participant_of_robot_.end() && robot->second == participant;
+    return origin;
+  }
+
   // Each reader keeps only what is addressed to this robot and hands it on as a plain struct.
   void MakeReaders(AgentDdsHandlers handlers) {
     if (listening_) throw std::logic_error("AgentDds::Listen called twice");
@@ -266,24 +321,35 @@ class AgentDds::Impl {
     listening_ = true;
     core::Participant& p = *participant_;
     const std::string& robot = options_.robot_id;
-    // Yield requests (get-out-of-the-way), from any robot or basestation: not a command topic (a peer robot
-    // asks too); the policy, not the lock, decides (YieldOptions::modes).
+    // Yield requests (get-out-of-the-way) from peer robots on the shared topic (a peer robot asks too, so it
+    // is not a command topic) and, under DDS Security, from this robot's commanders on its own topic; who may
+    // ask is the receiver's policy (CheckYieldSender), whether to yield its mode's (YieldOptions::modes).
+    auto on_yield = [this, robot](const char* topic, bool commander_topic) {
+      return [this, robot, topic, commander_topic](const msgs::YieldRequest& m, const SampleInfo& info) {
+        if (m.robot_id() != robot || !ValidPeerId(topic, "sender id", m.sender_id()) ||
+            !Certified(topic, "sender id", m.sender_id(), info))
+          return;
+        std::string fault;
+        const YieldCommand c = YieldFromMessage(m, &fault);
+        handlers_.yield(c, OriginOf(m, info, commander_topic), fault);
+      };
+    };
     yield_reader_ = std::make_unique<core::Reader<msgs::YieldRequestPubSubType>>(
-        p, "cairn/yield_request", "cairn.command",
-        [this, robot](const msgs::YieldRequest& m, const SampleInfo&) {
-          if (m.robot_id() != robot || !ValidPeerId("cairn/yield_request", "sender id", m.sender_id()))
-            return;
-          std::string fault;
-          const YieldCommand c = YieldFromMessage(m, &fault);
-          handlers_.yield(c, fault);
-        });
+        p, "cairn/yield_request", "cairn.command", on_yield("cairn/yield_request", false));
+    if (options_.security.enabled()) {
+      commander_yield_reader_ = std::make_unique<core::Reader<msgs::YieldRequestPubSubType>>(
+          p, CommandTopic("cairn/yield_request"), "cairn.command",
+          on_yield("cairn/yield_request/<robot>", true));
+    }
     // A basestation's link probe, echoed at once: its round trip is the link's, not the control loop's.
     probe_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
-        p, "cairn/link_probe", "cairn.command", [this, robot](const msgs::PingPong& m, const SampleInfo&) {
+        p, "cairn/link_probe", "cairn.command",
+        [this, robot](const msgs::PingPong& m, const SampleInfo& info) {
           if (!m.robot_id().empty() && m.robot_id() != robot) return;
           // Echoed: a body or id no basestation sends would make the robot an amplifier.
           if (!ValidPeerId("cairn/link_probe", "base id", m.base_id()) ||
-              m.body().size() > kMaxProbeBodyBytes)
+              m.body().size() > kMaxProbeBodyBytes ||
+              !Certified("cairn/link_probe", "base id", m.base_id(), info))
             return;
           msgs::PingPong reply;
           reply.request_id(m.request_id());
@@ -295,9 +361,10 @@ class AgentDds::Impl {
         });
     map_sync_reader_ = std::make_unique<core::Reader<msgs::MapSyncRequestPubSubType>>(
         p, "cairn/map_sync_request", "cairn.command",
-        [this, robot](const msgs::MapSyncRequest& m, const auto&) {
+        [this, robot](const msgs::MapSyncRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot ||
-              !ValidPeerId("cairn/map_sync_request", "requester id", m.requester_id())) {
+              !ValidPeerId("cairn/map_sync_request", "requester id", m.requester_id()) ||
+              !Certified("cairn/map_sync_request", "requester id", m.requester_id(), info)) {
             return;
           }
           handlers_.map_sync(m.requester_id());
@@ -307,7 +374,8 @@ class AgentDds::Impl {
         [this, robot](const msgs::PathRequest& m, const SampleInfo& info) {
           // The requester id and the platform name ride into the answer and the log: bounded as ids are.
           if (m.robot_id() != robot || !ValidPeerId("cairn/path_request", "requester id", m.requester_id()) ||
-              (!m.platform().empty() && !ValidPeerId("cairn/path_request", "platform", m.platform()))) {
+              (!m.platform().empty() && !ValidPeerId("cairn/path_request", "platform", m.platform())) ||
+              !Certified("cairn/path_request", "requester id", m.requester_id(), info)) {
             return;
           }
           handlers_.path_query(PathQuery{core::ParticipantIdOf(info.publication_handle),
@@ -323,9 +391,16 @@ class AgentDds::Impl {
         p, "cairn/base_info", "cairn.latched",
         [this](const msgs::AgentInfo& m, const SampleInfo& info) {
           if (m.kind() != msgs::AGENT_KIND_BASESTATION ||
-              !ValidPeerId("cairn/base_info", "base id", m.agent_id()))
+              !ValidPeerId("cairn/base_info", "base id", m.agent_id()) ||
+              !Certified("cairn/base_info", "base id", m.agent_id(), info))
             return;
           const std::string writer = core::WriterIdOf(info.publication_handle);
+          {
+            std::lock_guard<std::mutex> guard(senders_mutex_);
+            const std::string participant = core::ParticipantIdOf(info.publication_handle);
+            if (bases_of_participant_.size() < kMaxSenders || bases_of_participant_.count(participant) > 0)
+              bases_of_participant_[participant].insert(m.agent_id());
+          }
           {
             std::lock_guard<std::mutex> guard(robots_heard_mutex_);
             robots_heard_by_base_[writer] = {m.robots_heard(), true};
@@ -360,7 +435,9 @@ class AgentDds::Impl {
         p, CommandTopic("cairn/control_request"), "cairn.command",
         [this, robot](const msgs::ControlRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/control_request", "base id", m.base_id())) return;
+          if (!ValidPeerId("cairn/control_request", "base id", m.base_id()) ||
+              !Certified("cairn/control_request", "base id", m.base_id(), info))
+            return;
           ControlCommand c{SenderOf(m.base_id(), info), m.request_id(),
                            m.action() == msgs::CONTROL_ACTION_RELEASE, ""};
           if (m.action() != msgs::CONTROL_ACTION_REQUEST && m.action() != msgs::CONTROL_ACTION_RELEASE) {
@@ -374,14 +451,18 @@ class AgentDds::Impl {
         p, CommandTopic("cairn/mode_request"), "cairn.command",
         [this, robot](const msgs::ModeRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/mode_request", "base id", m.base_id())) return;
+          if (!ValidPeerId("cairn/mode_request", "base id", m.base_id()) ||
+              !Certified("cairn/mode_request", "base id", m.base_id(), info))
+            return;
           handlers_.mode(ModeCommand{SenderOf(m.base_id(), info), m.request_id(), m.mode()});
         });
     goal_reader_ = std::make_unique<core::Reader<msgs::WaypointGoalPubSubType>>(
         p, CommandTopic("cairn/waypoint_goal"), "cairn.command",
         [this, robot](const msgs::WaypointGoal& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/waypoint_goal", "base id", m.base_id())) return;
+          if (!ValidPeerId("cairn/waypoint_goal", "base id", m.base_id()) ||
+              !Certified("cairn/waypoint_goal", "base id", m.base_id(), info))
+            return;
           handlers_.goal(GoalCommand{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.x_m(),
                                      m.y_m(), m.tolerance_m(), m.z_m()});
         });
@@ -389,7 +470,9 @@ class AgentDds::Impl {
         p, CommandTopic("cairn/explore_request"), "cairn.command",
         [this, robot](const msgs::ExploreRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/explore_request", "base id", m.base_id())) return;
+          if (!ValidPeerId("cairn/explore_request", "base id", m.base_id()) ||
+              !Certified("cairn/explore_request", "base id", m.base_id(), info))
+            return;
           ExploreCommand c{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), {}};
           if (m.has_region()) {
             // Corners as sent (not sorted: CheckExploreTask refuses a box whose corners are swapped).
@@ -407,7 +490,9 @@ class AgentDds::Impl {
         p, CommandTopic("cairn/home_request"), "cairn.command",
         [this, robot](const msgs::HomeRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/home_request", "base id", m.base_id())) return;
+          if (!ValidPeerId("cairn/home_request", "base id", m.base_id()) ||
+              !Certified("cairn/home_request", "base id", m.base_id(), info))
+            return;
           handlers_.home(HomeCommand{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.has_point(),
                                      m.x_m(), m.y_m(), m.z_m()});
         });
@@ -415,7 +500,9 @@ class AgentDds::Impl {
         p, CommandTopic("cairn/convoy_request"), "cairn.command",
         [this, robot](const msgs::ConvoyRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/convoy_request", "base id", m.base_id())) return;
+          if (!ValidPeerId("cairn/convoy_request", "base id", m.base_id()) ||
+              !Certified("cairn/convoy_request", "base id", m.base_id(), info))
+            return;
           ConvoyCommand c{SenderOf(m.base_id(), info), m.request_id(), false, {}, ""};
           if (m.action() == msgs::CONVOY_ACTION_STOP) {
             c.stop = true;
@@ -431,21 +518,27 @@ class AgentDds::Impl {
         p, CommandTopic("cairn/restart_request"), "cairn.command",
         [this, robot](const msgs::RestartRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/restart_request", "base id", m.base_id())) return;
+          if (!ValidPeerId("cairn/restart_request", "base id", m.base_id()) ||
+              !Certified("cairn/restart_request", "base id", m.base_id(), info))
+            return;
           handlers_.restart(RestartCommand{SenderOf(m.base_id(), info), m.request_id(), m.component_name()});
         });
     stop_reader_ = std::make_unique<core::Reader<msgs::StopRequestPubSubType>>(
         p, CommandTopic("cairn/stop_request"), "cairn.command",
         [this, robot](const msgs::StopRequest& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/stop_request", "base id", m.base_id())) return;
+          if (!ValidPeerId("cairn/stop_request", "base id", m.base_id()) ||
+              !Certified("cairn/stop_request", "base id", m.base_id(), info))
+            return;
           handlers_.stop(StopCommand{SenderOf(m.base_id(), info), m.request_id()});
         });
     teleop_reader_ = std::make_unique<core::Reader<msgs::TeleopTwistPubSubType>>(
         p, CommandTopic("cairn/teleop"), "cairn.teleop",
-        [this, robot](const msgs::TeleopTwist& m, const SampleInfo&) {
+        [this, robot](const msgs::TeleopTwist& m, const SampleInfo& info) {
           if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/teleop", "base id", m.base_id())) return;
+          if (!ValidPeerId("cairn/teleop", "base id", m.base_id()) ||
+              !Certified("cairn/teleop", "base id", m.base_id(), info))
+            return;
           const msgs::Twist& t = m.twist();
           handlers_.teleop(TeleopCommand{
               m.base_id(), OperatorTwist{t.linear_x_mps(), t.linear_y_mps(), t.angular_z_radps()}});
@@ -453,6 +546,7 @@ class AgentDds::Impl {
   }
 
   static constexpr std::size_t kMaxProbeBodyBytes = 256;
+  static constexpr std::size_t kMaxSenders = 1024;  // processes and robots remembered (ids come from peers)
   AgentDdsOptions options_;
   AgentDdsHandlers handlers_;
   core::WarningLimiter peer_warnings_;
@@ -460,6 +554,11 @@ class AgentDds::Impl {
   mutable std::mutex robots_heard_mutex_;  // guards robots_heard_by_base_ only (taken on DDS threads)
   // A basestation's info writer -> (the robots it hears, alive).
   std::map<std::string, std::pair<int, bool>> robots_heard_by_base_;
+  mutable std::mutex forged_mutex_;  // guards forged_ (taken on DDS threads)
+  ForgedSenders forged_;
+  std::mutex senders_mutex_;  // guards the two below (taken on DDS threads)
+  std::map<std::string, std::set<std::string>> bases_of_participant_;  // process -> base ids it announced
+  std::map<std::string, std::string> participant_of_robot_;  // robot id -> process of its peer states
   std::mutex gone_mutex_;  // guards gone_participants_ only (taken on a DDS thread)
   std::vector<std::string>
       gone_participants_;  // reported by participant discovery, taken by the control loop
@@ -490,6 +589,8 @@ class AgentDds::Impl {
   std::unique_ptr<core::Writer<msgs::PeerStatePubSubType>> peer_writer_;
   std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>> yield_writer_;  // team_mutex_, made by Send()
   std::unique_ptr<core::Reader<msgs::YieldRequestPubSubType>> yield_reader_;
+  // This robot's commanders' yield requests (cairn/yield_request/<robot>, DDS Security only).
+  std::unique_ptr<core::Reader<msgs::YieldRequestPubSubType>> commander_yield_reader_;
   std::unique_ptr<core::Reader<msgs::MapSyncRequestPubSubType>> map_sync_reader_;
   std::unique_ptr<core::Reader<msgs::PathRequestPubSubType>> path_request_reader_;
   std::unique_ptr<core::Reader<msgs::ControlRequestPubSubType>> control_reader_;
@@ -560,7 +661,18 @@ void AgentDds::Send(const PathAnswer& answer) {
 
 bool AgentDds::Publish(const msgs::AgentInfo& info) { return impl_->info_writer_->Write(info); }
 bool AgentDds::Publish(const msgs::RobotState& state) { return impl_->state_writer_->Write(state); }
-bool AgentDds::Publish(const msgs::AgentHealth& health) { return impl_->health_writer_->Write(health); }
+bool AgentDds::Publish(const msgs::AgentHealth& health) {
+  msgs::AgentHealth m = health;
+  const ForgedSenders forged = ForgedSendersSoFar();
+  m.forged_senders(forged.count);
+  m.last_forged_sender(forged.last);
+  return impl_->health_writer_->Write(m);
+}
+
+ForgedSenders AgentDds::ForgedSendersSoFar() const {
+  std::lock_guard<std::mutex> guard(impl_->forged_mutex_);
+  return impl_->forged_;
+}
 bool AgentDds::Publish(const msgs::RobotPose& pose) { return impl_->pose_writer_->Write(pose); }
 bool AgentDds::Publish(const msgs::BehaviorTreeState& tree) { return impl_->tree_writer_->Write(tree); }
 bool AgentDds::Publish(const msgs::GlobalPath& path) { return impl_->global_path_writer_->Write(path); }

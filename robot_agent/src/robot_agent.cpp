@@ -41,6 +41,7 @@
 #include "cairn/agent/waypoint_mode.h"
 #include "cairn/agent/waypoint_recovery.h"
 #include "cairn/agent/yield.h"
+#include "cairn/agent/yield_sender.h"
 #include "cairn/core/health_monitor.h"
 #include "cairn/core/peer_input.h"
 #include "cairn/core/shutdown.h"
@@ -201,7 +202,7 @@ class RobotAgent::Impl {
   CommandOutcome OnConvoy(const ConvoyCommand& c);
   // With mutex_ held: a yield request (a peer's or an operator's): refused by the policy (the mode, no spot
   // aside), or the robot moves aside in yield mode, its mission paused until the yield ends (ResumeMission).
-  void OnYieldRequest(const YieldCommand& c, const std::string& fault);
+  void OnYieldRequest(const YieldCommand& c, const YieldOrigin& origin, const std::string& fault);
   // With mutex_ held, once per control cycle, before the mode's step: a robot driving a goal whose route a
   // peer blocks in a narrow passage asks it to yield (sent by Run()) and holds before it meanwhile.
   void AskPeersToYield(double now_s, const std::vector<PeerBody>& peers);
@@ -274,7 +275,13 @@ class RobotAgent::Impl {
   ExploreTeam team_;                             // peers' explore claims and coverage (thread-safe)
   PeerTracker peers_;                            // peers' poses, footprints and paths (thread-safe)
   core::WarningLimiter peer_warnings_;           // a bad peer state is named once per 5 s per robot
-  bool listening_to_peers_ = false;  // Run(): AgentDds::ListenToPeers() done, once the robot first left idle
+  // Run(): AgentDds::ListenToPeers() done, once the robot first left idle or was asked to yield.
+  std::atomic<bool> listening_to_peers_{false};
+  // A yield request that came before this robot listened to its peers (mutex_): decided once it has heard
+  // them for kYieldHearingS (CheckYieldSender needs the passing robot heard).
+  std::optional<std::pair<YieldCommand, YieldOrigin>> unheard_yield_;
+  double unheard_yield_at_s_ = 0.0;
+  static constexpr double kYieldHearingS = 1.5;
   std::optional<ExploreClaim> claim_to_send_;  // Step()'s, sent by Run() outside the agent lock
   std::future<nav::GlobalPlan> home_plan_;     // ComeHomeIfSilent(): the way back, being planned
   std::unique_ptr<ModeControl> modes_;         // the mode tree, the mode modules and the mux
@@ -547,7 +554,8 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
   return CommandOutcome{true, "following " + c.ahead_ids.front() + " (ahead: " + order + ")", 0};
 }
 
-void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const std::string& fault) {
+void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const YieldOrigin& origin,
+                                      const std::string& fault) {
   const double now_s = NowS(SteadyClock::now());
   const std::string& own = options_.robot_id;
   if (const std::string why = fault.empty() ? CheckYieldCommand(c) : fault; !why.empty()) {
@@ -557,6 +565,23 @@ void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const std::string& 
     return;
   }
   if (c.passing_id == own) return;
+  if (!listening_to_peers_) {
+    // Its peers are not read yet (an idle robot that never drove): Run() starts reading them, and the
+    // request is decided once they could be heard.
+    if (!unheard_yield_)
+      spdlog::info("robot {}: yield for {} (asked by {}): listening to peers first", own, c.passing_id,
+                   c.sender_id);
+    unheard_yield_ = std::make_pair(c, origin);
+    unheard_yield_at_s_ = now_s;
+    return;
+  }
+  if (const std::string why = CheckYieldSender(own, c, origin, peers_.Live(now_s)); !why.empty()) {
+    const bool repeated = yield_->status().state == YieldStatus::State::kRefused &&
+                          yield_->status().peer_id == c.passing_id && yield_->status().reason == why;
+    if (!yield_->active()) yield_->Refuse(c.passing_id, why, now_s);
+    if (!repeated) spdlog::warn("robot {}: {}", own, why);
+    return;
+  }
   if (yield_->InTheWayOf(c)) {
     // Aside, but the passing robot's route now runs by the spot: on to another one.
     const std::shared_ptr<const nav::TraversabilityGrid> grid =
@@ -824,9 +849,9 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
           suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
     }
   };
-  h.yield = [this](const YieldCommand& c, const std::string& fault) {
+  h.yield = [this](const YieldCommand& c, const YieldOrigin& origin, const std::string& fault) {
     std::lock_guard<std::mutex> guard(mutex_);
-    OnYieldRequest(c, fault);
+    OnYieldRequest(c, origin, fault);
   };
   h.map_sync = [this](const std::string& requester) {
     spdlog::info("robot {}: map snapshot requested by {}", options_.robot_id, requester);
@@ -1169,7 +1194,13 @@ void RobotAgent::Impl::Run() {
       }
       if (cycle % local_plan_every == 0) telemetry_->PublishLocalPlan();
       if (cycle % peer_every == 0) PublishPeerState();
-      listen_to_peers = !listening_to_peers_ && modes_->mode() != ModeManager::kIdleMode;
+      listen_to_peers =
+          !listening_to_peers_ && (modes_->mode() != ModeManager::kIdleMode || unheard_yield_.has_value());
+      if (unheard_yield_ && listening_to_peers_ && NowS(now) - unheard_yield_at_s_ >= kYieldHearingS) {
+        const auto [request, origin] = std::move(*unheard_yield_);
+        unheard_yield_.reset();
+        OnYieldRequest(request, origin, "");
+      }
       telemetry_->PublishTreeStateIfChanged();
       claim = std::move(claim_to_send_);
       claim_to_send_.reset();

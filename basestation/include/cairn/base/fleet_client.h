@@ -147,12 +147,14 @@ class FleetClient {
   /// Tells convoy follower `robot_id` to follow `ahead_ids` (the robots ahead of it, nearest first, the
   /// leader last; at most 16) on the path they drove, or, with none, to leave the convoy (ConvoyRequest).
   CommandOutcome SendConvoy(const std::string& robot_id, const std::vector<std::string>& ahead_ids);
-  /// Asks `robot_id` to get out of `passing_id`'s way (YieldRequest on cairn/yield_request, not a command
-  /// topic: the robot's yield policy decides, not the lock): `keep_clear_M` is the passing robot's route from
-  /// where it is (1..32 points, metres, frame map), `passing_radius_m` its footprint radius. No reply: the
-  /// answer is the robot's yield_state (RobotState). false when Fast DDS refuses the sample.
-  bool SendYield(const std::string& robot_id, const std::string& passing_id, double passing_radius_m,
-                 const std::vector<Eigen::Vector2d>& keep_clear_M);
+  /// Asks `robot_id` to get out of `passing_id`'s way (YieldRequest on cairn/yield_request; under DDS
+  /// Security on the robot's own cairn/yield_request/<robot>, which only its commanders may write; the
+  /// robot's yield policy decides, not the lock): `keep_clear_M` is the passing robot's route from where it
+  /// is (1..32 points, metres, frame map), `passing_radius_m` its footprint radius. No reply: the answer is
+  /// the robot's yield_state (RobotState). "" when sent, else why not: this base may not command the robot
+  /// under DDS Security (naming its permissions), or Fast DDS refused the sample.
+  std::string SendYield(const std::string& robot_id, const std::string& passing_id, double passing_radius_m,
+                        const std::vector<Eigen::Vector2d>& keep_clear_M);
   /// Sends `robot_id` home (HomeRequest): a waypoint goal the robot plans to its start, or to `point_M`
   /// (x, y metres, frame map; z its level, NaN = the robot's). The answer carries the goal id.
   CommandOutcome SendHome(const std::string& robot_id, const std::optional<Eigen::Vector3d>& point_M = std::nullopt);

@@ -123,8 +123,22 @@ eprosima::fastrtps::rtps::Locator_t Udpv4Locator(const std::string& address, std
 std::string CommandTopicFor(const std::string& topic, const std::string& robot_id, bool secure);
 
 /// The topics a basestation commands a robot on (control, mode, goal, explore, home, stop, teleop, path
-/// queries); tools/keys.sh lists the same.
+/// queries, restart, convoy, yield); tools/keys.sh lists the same. Robots ask one another to yield on the
+/// shared cairn/yield_request, which under DDS Security only robots may write.
 const std::vector<std::string>& CommandTopics();
+
+/// Whether the participant whose GUID prefix is `prefix` holds the certificate `./cairn keys` makes for `id`
+/// (subject O=Cairn, CN=id). Under DDS Security the PKI-DH handshake refuses a participant unless the first
+/// 47 bits of its GUID prefix are 1 followed by the first 47 bits of SHA-256 of its certificate's subject
+/// (DER; DDS Security 1.1 section 9.3.2.5.2, Fast DDS PKIDH "Bad participant_key's 47bits"), and the fleet's
+/// governance signs every RTPS message per pair of participants: so a sample's writer GUID names the
+/// certificate it was sent under, and a message whose sender id (a base id, a robot id) is not that
+/// certificate's was forged by another identity of the fleet. Meaningless without security (any prefix).
+bool GuidPrefixHoldsIdentity(const eprosima::fastrtps::rtps::GuidPrefix_t& prefix, const std::string& id);
+
+/// The id in a certificate subject as Fast DDS's identity token carries it (X509_NAME_oneline, e.g.
+/// "/O=Cairn/CN=op3"): the value of its last CN; "" when it has none.
+std::string IdentityOfSubject(const std::string& subject);
 
 /// How a participant is created.
 struct ParticipantOptions {
@@ -226,6 +240,12 @@ class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
   /// The same for reader profile `profile` (e.g. "cairn.latched.reader").
   eprosima::fastdds::dds::DataReaderQos ReaderQos(const std::string& profile) const;
 
+  /// Under DDS Security, the id of the certificate the remote participant `participant_id` (ParticipantIdOf)
+  /// authenticated with, as its identity token names it and checked against its GUID prefix
+  /// (GuidPrefixHoldsIdentity); "" when unknown (no security, not discovered yet, gone, or a token that does
+  /// not match). Thread-safe.
+  std::string CertifiedIdOf(const std::string& participant_id) const;
+
   /// This participant's identity (ParticipantIdOf its GUID): what peers see as the sender of its samples.
   /// Changes with every Rebuild().
   std::string participant_id() const;
@@ -274,6 +294,8 @@ class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
   std::shared_mutex entities_mutex_;
   std::mutex endpoints_mutex_;
   std::set<ParticipantEndpoint*> endpoints_;
+  mutable std::mutex certified_mutex_;                // guards certified_ids_ (taken on a DDS thread)
+  std::map<std::string, std::string> certified_ids_;  // remote ParticipantIdOf -> its certificate's id
   mutable std::mutex id_mutex_;
   std::string participant_id_;
   std::atomic<int> rebuilds_{0};

@@ -16,7 +16,8 @@
 // read from the robot's first claim on; cairn/peer_state (cairn.state), written from the start and read once
 // the robot first drives (ListenToPeers()); cairn/yield_request (cairn.command), read from the start (a
 // parked robot may be asked to get out of the way) and written from the robot's first request (a
-// basestation's `yield` writes it too). It answers every basestation's link probe (cairn/link_probe ->
+// basestation's `yield` writes it too; under DDS Security a basestation writes cairn/yield_request/<robot>,
+// which only the robot's commanders may). It answers every basestation's link probe (cairn/link_probe ->
 // cairn/link_probe_reply, cairn.command) on the spot.
 #pragma once
 
@@ -31,6 +32,7 @@
 #include "cairn/agent/explore_claims.h"
 #include "cairn/agent/peers.h"
 #include "cairn/agent/yield.h"
+#include "cairn/agent/yield_sender.h"
 #include "cairn/core/link_options.h"
 
 namespace cairn_msgs {
@@ -59,9 +61,19 @@ struct AgentDdsOptions {
   core::LinkOptions link;                 ///< the network the participant talks on
   double map_budget_bits_per_s = 1e6;     ///< flow controller "cairn.map", > 0
   double camera_budget_bits_per_s = 1e6;  ///< flow controller "cairn.camera", > 0
-  /// DDS Security (--secure DIR; identity = robot_id): commands are then read from the robot's
-  /// core::CommandPartition only, where its permissions let only the basestations given it publish.
+  /// DDS Security (--secure DIR; identity = robot_id): commands (and operators' yield requests) are then
+  /// read from the robot's own topics only (core::CommandTopicFor), which its permissions let only the
+  /// basestations given it publish, and every message that names its sender (a base id, a robot id) is
+  /// dropped, counted and logged when that sender is not the certificate it came under
+  /// (core::GuidPrefixHoldsIdentity).
   core::SecurityOptions security;
+};
+
+/// Messages dropped because the sender id they carry is not the certificate they came under (DDS Security
+/// only; AgentHealth.forged_senders).
+struct ForgedSenders {
+  std::uint64_t count = 0;
+  std::string last;  ///< the newest: topic, the id claimed and the certificate's id
 };
 
 /// What the agent has sent in one topic class (AgentDds::SentByClass), cumulative since it started.
@@ -97,7 +109,7 @@ struct AgentDdsHandlers {
   /// A yield request for this robot (cairn/yield_request, from a peer robot or a basestation); `fault` is ""
   /// or why it cannot be read (an unknown action, named with its value; it must then be refused, not acted
   /// on). Not checked otherwise: the receiver checks it (CheckYieldCommand).
-  std::function<void(const YieldCommand& request, const std::string& fault)> yield;
+  std::function<void(const YieldCommand& request, const YieldOrigin& origin, const std::string& fault)> yield;
 };
 
 /// The robot's DDS entities. Construction is a checked chain (participant, writers); Listen() adds the
@@ -129,6 +141,7 @@ class AgentDds {
   /// A path query's answer, as a PathResponse.
   void Send(const PathAnswer& answer);
   /// Telemetry as built by the caller. Each returns false when Fast DDS refuses the sample (history full).
+  /// The health message gets forged_senders and last_forged_sender (ForgedSendersSoFar()) here.
   bool Publish(const cairn_msgs::AgentInfo& info);
   bool Publish(const cairn_msgs::RobotState& state);
   bool Publish(const cairn_msgs::AgentHealth& health);
@@ -155,6 +168,8 @@ class AgentDds {
   /// call it outside any lock a handler takes (Fast DDS delivers to this participant's own reader on the
   /// calling thread). false when Fast DDS refuses the sample. @throws core::DdsError.
   bool Send(const std::string& robot_id, const YieldCommand& request);
+  /// Messages dropped so far because their sender id is not the certificate they came under. Thread-safe.
+  ForgedSenders ForgedSendersSoFar() const;
   /// What every writer has sent so far, grouped into the link's topic classes, in priority order: command
   /// (command and path answers, probe replies), state (robot state and pose, local plan, agent info,
   /// staircases), tree (behavior tree, global path), team (explore claims, peer states), map, camera.
