@@ -168,6 +168,9 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   std::snprintf(bx, sizeof(bx), "goto r1 %.3f %.3f", blocked->x(), blocked->y());
   r = opB.Run(bx);
   EXPECT_EQ(r["result"], "refused") << r;
+  // ...at once, naming the nearest point where the robot fits.
+  EXPECT_NE(r.dump().find("is inside an obstacle on r1's map"), std::string::npos) << r;
+  EXPECT_NE(r.dump().find("; nearest free point ("), std::string::npos) << r;
   // A NaN goal straight on DDS (bypassing the CLI's checks) is refused by the robot itself.
   cairn_msgs::WaypointGoal nan_goal;
   nan_goal.robot_id("r1");

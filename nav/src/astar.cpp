@@ -56,7 +56,10 @@ std::string DescribeCell(const TraversabilityGrid& grid, int ix, int iy) {
   std::ostringstream out;
   out.precision(2);
   out << std::fixed << "cell state " << ToString(grid.State(ix, iy));
-  if (grid.State(ix, iy) == CellState::kFree) {
+  // Unknown space a robot's own map counts as traversable is, like free ground, blocked by a nearby wall.
+  const bool open = grid.State(ix, iy) == CellState::kFree ||
+                    (grid.State(ix, iy) == CellState::kUnknown && !grid.options().unknown_is_lethal);
+  if (open) {
     if (grid.IsLethal(ix, iy)) {
       out << ", top of a step higher than max_step_m " << grid.options().max_step_m << " m";
     } else {

@@ -331,6 +331,16 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
     return plan;
   }
   plan.result = PlanPath(*grid, request.start_W, request.goal_W, astar);
+  if (grid->CellOf(request.goal_W.x(), request.goal_W.y(), &cell_x, &cell_y)) {
+    plan.goal_unmapped = grid->State(cell_x, cell_y) == CellState::kUnknown;
+  }
+  if (plan.result.status == PlanResult::Status::kGoalBlocked) {
+    const double radius_m =
+        std::isfinite(astar.robot_radius_m) ? astar.robot_radius_m : grid->options().robot_radius_m;
+    if (const auto free = NearestTraversable(*grid, request.goal_W, radius_m, kNearestFreeSearchM)) {
+      plan.nearest_free_W = *free;
+    }
+  }
   if (!plan.result.IsUsable()) {
     plan.reason = plan.result.message;
     if (plan.result.status == PlanResult::Status::kUnreachable ||
@@ -362,12 +372,14 @@ GlobalPlan GlobalPlanner::PlanToMapEdge(const GlobalPlanRequest& request, const 
     GlobalPlan plan = Plan(inner);  // inside the map: no recursion
     if (plan.IsUsable()) {
       plan.result.partial = true;
+      plan.goal_unmapped = true;
       plan.result.message = "the goal " + goal + " lies beyond the navigation map (" + extent +
                             "): planned to its edge, the map grows as the robot maps toward it";
       return plan;
     }
     if (i == 0) first = plan;
   }
+  first.goal_unmapped = true;
   first.reason = "the goal " + goal + " lies beyond the navigation map (" + extent +
                  ") and the map shows no way to its edge toward it: " + first.reason;
   return first;
@@ -460,6 +472,44 @@ PathCheck GlobalPlanner::CheckPath(const std::vector<Eigen::Vector3d>& path_W, c
     }
   }
   return check;
+}
+
+std::optional<Eigen::Vector2d> NearestTraversable(const TraversabilityGrid& grid, const Eigen::Vector2d& p_W,
+                                                  double radius_m, double max_distance_m) {
+  if (!p_W.allFinite() || !(max_distance_m >= 0.0)) return std::nullopt;
+  const double c = grid.cell_size_m();
+  // The cell containing p_W, possibly outside the grid (its rings may still reach into it).
+  const int cx = static_cast<int>(std::floor((p_W.x() - grid.p_W_min().x()) / c));
+  const int cy = static_cast<int>(std::floor((p_W.y() - grid.p_W_min().y()) / c));
+  const int max_ring = static_cast<int>(std::ceil(max_distance_m / c)) + 1;
+  std::optional<Eigen::Vector2d> best[2];  // [0]: ground seen, [1]: unknown space
+  double best_d[2] = {kInf, kInf};
+  // Square rings around the cell: every cell of ring r is at least (r - 1) cells from p_W, so the search
+  // stops once that exceeds the best seen distance found (or the limit).
+  auto visit = [&](int ix, int iy) {
+    if (!grid.InGrid(ix, iy) || !grid.IsTraversableFor(ix, iy, radius_m)) return;
+    const Eigen::Vector2d q = grid.CellCenter(ix, iy);
+    const double d = (q - p_W).norm();
+    const int kind = grid.State(ix, iy) == CellState::kUnknown ? 1 : 0;
+    if (d <= max_distance_m && d < best_d[kind]) {
+      best_d[kind] = d;
+      best[kind] = q;
+    }
+  };
+  for (int r = 0; r <= max_ring; ++r) {
+    if ((r - 1) * c > std::min(best_d[0], max_distance_m)) break;
+    if (r == 0) {
+      visit(cx, cy);
+      continue;
+    }
+    for (int k = -r; k < r; ++k) {  // the ring's four sides, each from one corner to the next
+      visit(cx + k, cy - r);
+      visit(cx + r, cy + k);
+      visit(cx - k, cy + r);
+      visit(cx - r, cy - k);
+    }
+  }
+  return best[0] ? best[0] : best[1];
 }
 
 void LethalCellsNear(const TraversabilityGrid& grid, double x_WB_m, double y_WB_m, double yaw_WB_rad,

@@ -113,6 +113,44 @@ TEST(GlobalPlannerTest, UnreachableAndBadGoalsHaveReasons) {
   EXPECT_NE(plan.reason.find("wheeled, legged"), std::string::npos) << plan.reason;
 }
 
+// A goal inside a wall block is refused with the nearest traversable cell: seen floor beside the block, not
+// the unknown space a robot's optimistic map also calls traversable; a goal on unseen ground is marked
+// unmapped, one on seen floor is not.
+TEST(GlobalPlannerTest, ABlockedGoalNamesTheNearestTraversablePointAndAnUnseenOneIsUnmapped) {
+  sim::World w = FlatWorld(12, 8);
+  FillBox(&w, {5.0, 2.0, 0.0}, {7.0, 6.0, 1.6});                        // a 2 x 4 m block of rock
+  FillBox(&w, {9.0, 0.0, -0.2}, {12.0, 8.0, 1.6}, /*occupied=*/false);  // nothing seen east of x = 9
+  GlobalPlannerOptions options;
+  options.reading.unknown_is_lethal = false;  // read as a robot reads its own map
+  GlobalPlanner planner(std::make_shared<const sim::World>(std::move(w)), BothPlatforms(), options);
+  GlobalPlan plan = planner.Plan({{1.0, 4.0}, {6.0, 4.3}, "wheeled"});
+  ASSERT_EQ(plan.result.status, PlanResult::Status::kGoalBlocked) << plan.reason;
+  EXPECT_FALSE(plan.goal_unmapped);
+  ASSERT_TRUE(plan.nearest_free_W.allFinite());
+  // The block's west face is at x = 5, its east face at x = 7: with the 0.3 m radius, free from x < 4.7.
+  EXPECT_NEAR(plan.nearest_free_W.x(), 4.65, 0.11);
+  EXPECT_NEAR(plan.nearest_free_W.y(), 4.3, 0.11);
+  const auto grid = planner.Grid("wheeled");
+  EXPECT_TRUE(grid->IsTraversableAt(plan.nearest_free_W.x(), plan.nearest_free_W.y()));
+
+  plan = planner.Plan({{1.0, 4.0}, {10.5, 4.0}, "wheeled"});  // unseen ground: planned, optimistically
+  ASSERT_TRUE(plan.IsUsable()) << plan.reason;
+  EXPECT_TRUE(plan.goal_unmapped);
+  EXPECT_FALSE(plan.nearest_free_W.allFinite());
+  plan = planner.Plan({{1.0, 4.0}, {8.0, 1.0}, "wheeled"});  // seen floor
+  ASSERT_TRUE(plan.IsUsable()) << plan.reason;
+  EXPECT_FALSE(plan.goal_unmapped);
+
+  EXPECT_FALSE(NearestTraversable(*grid, {6.0, 4.0}, 0.3, 0.5)) << "1.3 m from the block's faces";
+  const auto seen = NearestTraversable(*grid, {9.3, 4.0}, 0.3, 1.0);
+  ASSERT_TRUE(seen);
+  EXPECT_LT(seen->x(), 9.0) << "seen floor 0.35 m away before unknown space under the point";
+  const auto unknown = NearestTraversable(*grid, {10.5, 4.0}, 0.3, 0.5);
+  ASSERT_TRUE(unknown) << "no seen floor within 0.5 m: unknown space";
+  EXPECT_LE((*unknown - Eigen::Vector2d(10.5, 4.0)).norm(), 0.1);
+  EXPECT_FALSE(NearestTraversable(*grid, {std::nan(""), 4.0}, 0.3, 5.0));
+}
+
 // The built-in tunnels world has a staircase (5 steps of 0.2 m rise, 0.5 m run) from the room floor to a
 // 1 m platform at x in [52.5, 56], y in [22.5, 25].
 class StaircaseTest : public ::testing::Test {

@@ -44,18 +44,33 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   mux.ReadDouble("waypoint_timeout_s", &waypoint_timeout_s);
   NavigationOptions& n = navigation;
   const auto nav = config.Section("navigation");
-  nav.RejectUnknownKeys({"cruise_speed_mps",         "goal_tolerance_m",
-                         "blocked_timeout_s",        "stall_timeout_s",
-                         "contact_timeout_s",        "carrot_distance_m",
-                         "required_free_length_m",   "tight_free_length_m",
-                         "tight_spot_deviation_rad", "sensor_range_m",
-                         "local_planner_period_s",   "obstacle_timeout_s",
-                         "obstacle_lost_s",          "replan_check_period_s",
-                         "max_path_deviation_m",     "joystick_turn_lookahead_s",
-                         "map_half_extent_m",        "map_max_extent_m",
-                         "map_grow_margin_m",        "map_grow_step_m",
-                         "map_update_period_s",      "map_update_budget_s",
-                         "obstacle_window_s",        "path_requests_per_s"});
+  nav.RejectUnknownKeys({"cruise_speed_mps",
+                         "goal_tolerance_m",
+                         "blocked_timeout_s",
+                         "stall_timeout_s",
+                         "contact_timeout_s",
+                         "carrot_distance_m",
+                         "required_free_length_m",
+                         "tight_free_length_m",
+                         "tight_spot_deviation_rad",
+                         "sensor_range_m",
+                         "local_planner_period_s",
+                         "obstacle_timeout_s",
+                         "obstacle_lost_s",
+                         "replan_check_period_s",
+                         "max_path_deviation_m",
+                         "joystick_turn_lookahead_s",
+                         "map_half_extent_m",
+                         "map_max_extent_m",
+                         "map_grow_margin_m",
+                         "map_grow_step_m",
+                         "map_update_period_s",
+                         "map_update_budget_s",
+                         "obstacle_window_s",
+                         "path_requests_per_s",
+                         "unmapped_goal_max_replans",
+                         "unmapped_goal_timeout_s",
+                         "max_hold_s"});
   nav.ReadDouble("cruise_speed_mps", &n.platform.cruise_speed_mps);
   nav.ReadDouble("goal_tolerance_m", &n.goal_tolerance_m);
   nav.ReadDouble("blocked_timeout_s", &n.blocked_timeout_s);
@@ -72,6 +87,9 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   nav.ReadDouble("replan_check_period_s", &n.replan_check_period_s);
   nav.ReadDouble("max_path_deviation_m", &n.max_path_deviation_m);
   nav.ReadDouble("joystick_turn_lookahead_s", &n.joystick_turn_lookahead_s);
+  nav.ReadInt("unmapped_goal_max_replans", &n.unmapped_goal_max_replans);
+  nav.ReadDouble("unmapped_goal_timeout_s", &n.unmapped_goal_timeout_s);
+  nav.ReadDouble("max_hold_s", &n.max_hold_s);
   nav.ReadDouble("map_half_extent_m", &nav_map.half_extent_m);
   nav.ReadDouble("map_max_extent_m", &nav_map.max_extent_m);
   nav.ReadDouble("map_grow_margin_m", &nav_map.grow_margin_m);

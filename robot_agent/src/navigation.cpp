@@ -22,6 +22,8 @@ constexpr double kArrivalLevelM = 0.5;     // ...and this close to the height of
 constexpr double kMinReplanIntervalS = 1.0;
 constexpr double kPartialWaitS = 8.0;      // a partial plan's end is a dead end after this long without a way on
 constexpr double kGoalSnapM = 0.25;        // largest hop from a free local path sample to the goal
+// A goal in unmapped space progresses when the distance left falls this far below its least so far.
+constexpr double kUnmappedProgressM = 0.5;
 
 using internal::Fixed;
 
@@ -56,7 +58,8 @@ bool NavigationOptions::IsValid(std::string* why) const {
          InRange("navigation.stall_timeout_s", stall_timeout_s, 0, 3600, true, why) &&
          InRange("navigation.carrot_distance_m", carrot_distance_m, 0, 10, true, why) &&
          InRange("navigation.required_free_length_m", required_free_length_m, 0, 10, true, why) &&
-         InRange("navigation.tight_free_length_m", tight_free_length_m, 0, required_free_length_m, true, why) &&
+         InRange("navigation.tight_free_length_m", tight_free_length_m, 0, required_free_length_m, true,
+                 why) &&
          InRange("navigation.tight_spot_deviation_rad", tight_spot_deviation_rad, 0, kPi, true, why) &&
          InRange("navigation.sensor_range_m", sensor_range_m, 0, 20, true, why) &&
          InRange("navigation.local_planner_period_s", local_planner_period_s, 0, 1, true, why) &&
@@ -64,7 +67,10 @@ bool NavigationOptions::IsValid(std::string* why) const {
          InRange("navigation.obstacle_lost_s", obstacle_lost_s, obstacle_timeout_s, 60, false, why) &&
          InRange("navigation.replan_check_period_s", replan_check_period_s, 0, 60, true, why) &&
          InRange("navigation.max_path_deviation_m", max_path_deviation_m, 0, 20, true, why) &&
-         InRange("navigation.joystick_turn_lookahead_s", joystick_turn_lookahead_s, 0, 5, false, why);
+         InRange("navigation.joystick_turn_lookahead_s", joystick_turn_lookahead_s, 0, 5, false, why) &&
+         InRange("navigation.unmapped_goal_max_replans", unmapped_goal_max_replans, 1, 1000, false, why) &&
+         InRange("navigation.unmapped_goal_timeout_s", unmapped_goal_timeout_s, 0, 3600, true, why) &&
+         InRange("navigation.max_hold_s", max_hold_s, 0, 3600, true, why);
 }
 
 namespace {
@@ -137,6 +143,20 @@ void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m,
   goal_ = goal;
   ++goal_serial_;
   plan_ = plan;
+  const bool same_unmapped_goal = unmapped_.active && (unmapped_.p_W - goal.p_W).norm() < 1e-6 &&
+                                  now_s - unmapped_.last_s <= options_.unmapped_goal_timeout_s;
+  if (!plan.goal_unmapped) {
+    unmapped_.active = false;
+  } else if (same_unmapped_goal) {
+    ++unmapped_.replans;  // accepted again: as a replan, without a fresh bound
+  } else {
+    unmapped_.active = true;
+    unmapped_.p_W = goal.p_W;
+    unmapped_.best_left_m = plan.result.length_m + (plan.result.partial ? PartialRemaining(plan) : 0.0);
+    unmapped_.best_time_s = now_s;
+    unmapped_.replans = 0;
+  }
+  unmapped_.last_s = now_s;
   path_segment_ = 0;
   segment_start_along_m_ = 0.0;
   projection_along_m_ = 0.0;
@@ -376,6 +396,7 @@ void Navigation::AdoptPlan(const nav::GlobalPlan& plan, double now_s) {
   goal_->best_distance_m = plan.result.length_m;  // a detour is not a lack of progress
   goal_->best_time_s = now_s;
   ++replans_;
+  ++unmapped_.replans;
   ++path_revision_;
 }
 
@@ -522,13 +543,10 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
                                 ? std::min(speed_mps, options_.platform.limits.max_speed_mps)
                                 : options_.platform.cruise_speed_mps;
   if (!goal_) return {};
-  if (!hold_reason_.empty()) {
-    // Held (a peer getting out of the way): at rest, and the time does not count against the goal.
-    goal_->anchor_time_s = now_s;
-    goal_->best_time_s = now_s;
-    track_W_.clear();
-    local_status_ = "held: " + hold_reason_;
-    return {};
+  if (!hold_reason_.empty()) return StepHeld(now_s);
+  if (goal_->held_since_s >= 0.0) {  // a hold ended: its time counts until the robot makes progress
+    goal_->held_s += now_s - goal_->held_since_s;
+    goal_->held_since_s = -1.0;
   }
   const Eigen::Vector2d p_W(state.x_m, state.y_m);
   const double to_goal = (goal_->p_W - p_W).norm();
@@ -541,6 +559,7 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   if (to_goal <= goal_->tolerance_m && on_goal_level && std::abs(state.v_mps) <= kArrivalSpeedMps) {
     NavigationStep step;
     step.arrived = true;
+    unmapped_.active = false;
     ClearGoal();
     return step;
   }
@@ -623,9 +642,11 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     stalled.stalled = true;
     return stalled;
   }
+  if (auto abandoned = CheckUnmappedProgress(now_s)) return *abandoned;
   if (distance_left_m_ < goal_->best_distance_m - 0.05) {
     goal_->best_distance_m = distance_left_m_;
     goal_->best_time_s = now_s;
+    goal_->held_s = 0.0;
   } else if (now_s - goal_->best_time_s > options_.blocked_timeout_s) {
     return Fail("blocked: no progress for " + Fixed(options_.blocked_timeout_s, 1) + " s (" +
                 Fixed(distance_left_m_, 1) + " m left" +
@@ -671,6 +692,58 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     return turn;
   }
   return Control(state, (creeping_ ? 0.5 : 1.0) * cruise_mps, now_s);
+}
+
+NavigationStep Navigation::StepHeld(double now_s) {
+  // Held (a peer getting out of the way): at rest, and the time counts neither as a lack of progress nor as a
+  // stall, up to max_hold_s since the last progress.
+  if (goal_->held_since_s < 0.0) goal_->held_since_s = now_s;
+  const double held_s = goal_->held_s + now_s - goal_->held_since_s;
+  if (held_s > options_.max_hold_s) {
+    const std::string by = hold_by_.empty() ? "blocked" : "blocked by " + hold_by_;
+    NavigationStep step =
+        Fail(by + ": held " + Fixed(held_s, 0) + " s without progress (navigation.max_hold_s " +
+             Fixed(options_.max_hold_s, 0) + " s): " + hold_reason_);
+    step.abandoned = true;
+    return step;
+  }
+  goal_->anchor_time_s = now_s;
+  goal_->best_time_s = now_s;
+  unmapped_.best_time_s = now_s;  // waiting for a peer is no lack of progress toward an unmapped goal either
+  unmapped_.last_s = now_s;
+  track_W_.clear();
+  local_status_ = "held: " + hold_reason_;
+  return {};
+}
+
+std::optional<NavigationStep> Navigation::CheckUnmappedProgress(double now_s) {
+  if (!unmapped_.active) return std::nullopt;
+  unmapped_.last_s = now_s;
+  const double left_m = distance_left_m_ + (plan_.result.partial ? PartialRemaining(plan_) : 0.0);
+  if (left_m < unmapped_.best_left_m - kUnmappedProgressM) {
+    unmapped_.best_left_m = left_m;
+    unmapped_.best_time_s = now_s;
+    unmapped_.replans = 0;
+    return std::nullopt;
+  }
+  const int replans = unmapped_.replans;
+  const double waited_s = now_s - unmapped_.best_time_s;
+  if (replans < options_.unmapped_goal_max_replans && waited_s <= options_.unmapped_goal_timeout_s) {
+    return std::nullopt;
+  }
+  const std::string bound = replans >= options_.unmapped_goal_max_replans
+                                ? std::to_string(replans) +
+                                      " replans (navigation.unmapped_goal_max_replans " +
+                                      std::to_string(options_.unmapped_goal_max_replans) + ")"
+                                : Fixed(waited_s, 0) + " s (navigation.unmapped_goal_timeout_s " +
+                                      Fixed(options_.unmapped_goal_timeout_s, 0) + " s)";
+  NavigationStep step =
+      Fail("goal in unmapped space abandoned: no progress toward (" + Fixed(goal_->p_W.x(), 2) + ", " +
+           Fixed(goal_->p_W.y(), 2) + ") in " + bound + "; at least " + Fixed(left_m, 1) + " m left, " +
+           Fixed(unmapped_.best_left_m, 1) + " m at best: the map shows no way there yet");
+  step.abandoned = true;
+  unmapped_.active = false;
+  return step;
 }
 
 NavigationStep Navigation::StepJoystick(const core::BaseState& state, double vx_mps, double vy_mps,

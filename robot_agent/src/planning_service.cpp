@@ -12,6 +12,33 @@
 
 namespace cairn::agent {
 
+std::string GoalPlanReason(const std::string& robot_id, const nav::GlobalPlan& plan,
+                           const Eigen::Vector2d& goal_M) {
+  // The main level's message, "goal (x, y) is not traversable (cell state ...)", whose parenthesis says why;
+  // a reason the planner extended (the step that stops the platform) or a level's message is kept.
+  const std::string& message = plan.result.message;
+  const std::size_t open = message.find(" (cell ");
+  if (plan.result.status != nav::PlanResult::Status::kGoalBlocked || !plan.platform_known ||
+      open == std::string::npos || plan.reason != message) {
+    return plan.reason.empty() ? message : plan.reason;
+  }
+  const std::string cell = message.substr(open);
+  // Centimetres: the nearest free point is a cell centre, and rounded to decimetres it may leave its cell.
+  std::string reason = "goal (" + internal::Fixed(goal_M.x(), 2) + ", " + internal::Fixed(goal_M.y(), 2) +
+                       ") is inside an obstacle on " + robot_id + "'s map" + cell;
+  if (plan.nearest_free_W.allFinite()) {
+    reason += "; nearest free point (" + internal::Fixed(plan.nearest_free_W.x(), 2) + ", " +
+              internal::Fixed(plan.nearest_free_W.y(), 2) + ")";
+  } else {
+    reason += "; no free point within " + internal::Fixed(nav::kNearestFreeSearchM, 0) + " m";
+  }
+  return reason;
+}
+
+std::string GoalNotice(const std::string& robot_id, const nav::GlobalPlan& plan) {
+  return plan.goal_unmapped ? "goal in unmapped space: " + robot_id + " will look" : "";
+}
+
 PlanningService::PlanningService(PlanningServiceOptions options, std::shared_ptr<nav::GlobalPlanner> planner,
                                  Hooks hooks)
     : options_(std::move(options)), planner_(std::move(planner)), hooks_(std::move(hooks)) {
@@ -99,6 +126,9 @@ bool PlanningService::RunOnce(std::chrono::milliseconds wait) {
         hooks_.goal_planned(goal->goal, refused);
       } else {
         nav::GlobalPlan plan = planner_->Plan(goal->request);
+        if (plan.result.status == nav::PlanResult::Status::kGoalBlocked) {
+          plan.reason = GoalPlanReason(options_.robot_id, plan, goal->request.goal_W);  // refused at once
+        }
         if (!plan.IsUsable() && plan.platform_known && std::isfinite(goal->request.goal_z_m) &&
             plan.reason.find("step") == std::string::npos && hooks_.staircases) {
           plan.reason += StairNote(*planner_, goal->request.platform, hooks_.staircases(), goal->request.start_W);

@@ -641,7 +641,7 @@ void RobotAgent::Impl::AskPeersToYield(double now_s, const std::vector<PeerBody>
   YieldAsk ask = yield_asker_.Update(AskInputs(
       options_.yield, mode, navigation_, pose_, options_.navigation.platform.footprint_radius_m, peers,
       [this] { return planner_->Grid(options_.navigation.platform.name); }, now_s));
-  navigation_.SetHold(ask.hold_reason);
+  navigation_.SetHold(ask.hold_reason, yield_asker_.status().peer_id);
   if (ask.request) yield_to_send_ = std::make_pair(ask.to_id, std::move(*ask.request));
   const YieldStatus& status = yield_asker_.status();
   const std::string logged = std::string(ToString(status.state)) + status.peer_id;

@@ -4,6 +4,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "cairn/agent/planning_service.h"
 #include "cairn/agent/waypoint_recovery.h"
 #include "cairn/nav/frontier.h"
 
@@ -148,7 +149,7 @@ std::string SteppedRobot::Explore(const ExploreTask& task, double now_s) {
 
 std::string SteppedRobot::Goto(double x_m, double y_m, double now_s) {
   const nav::GlobalPlan plan = navigation_->PlanGoalAsync(pose_M_, x_m, y_m).get();
-  if (!plan.IsUsable()) return plan.reason.empty() ? plan.result.message : plan.reason;
+  if (!plan.IsUsable()) return GoalPlanReason(options_.robot_id, plan, {x_m, y_m});
   const GoalStart start =
       waypoint_->Start(plan, x_m, y_m, 0.0, std::numeric_limits<double>::quiet_NaN(), now_s, [] {
         return ModeDecision{true, WaypointMode::kName, WaypointMode::kChannel, ""};
@@ -215,7 +216,7 @@ void SteppedRobot::Step(double now_s) {
   YieldAsk ask = yield_asker_->Update(AskInputs(
       options_.yield, now_mode, *navigation_, pose, options_.navigation.platform.footprint_radius_m, live,
       [this] { return planner_->Grid(options_.navigation.platform.name); }, now_s));
-  navigation_->SetHold(ask.hold_reason);
+  navigation_->SetHold(ask.hold_reason, yield_asker_->status().peer_id);
   if (ask.request) yield_to_send_ = std::make_pair(ask.to_id, std::move(*ask.request));
   const ModeInputs in{AsSteady(now_s), now_s, pose};
   ModeOutput out = active_->Step(in);

@@ -59,6 +59,7 @@ struct WaypointRecovery::Context {
   int attempt = 0;             // number of the attempt under way (1-based), 0 before the first
   std::string attempt_label;   // e.g. "back up 0.30 m"
   std::vector<std::string> log;  // one line per finished attempt or failed action
+  bool abandoned = false;  // an attempt's goal was abandoned (NavigationStep::abandoned): no further attempt
 
   void Stop() {
     linear_x_mps = 0.0;
@@ -242,7 +243,10 @@ class FollowGoal : public bt::StatefulActionNode {
       ctx_->navigation->SetReducedClearance(false);
       return NodeStatus::kSuccess;
     }
-    if (step.failed) return Failed(step.reason);
+    if (step.failed) {
+      ctx_->abandoned = ctx_->abandoned || step.abandoned;
+      return Failed(step.reason);
+    }
     ctx_->linear_x_mps = step.linear_x_mps;
     ctx_->angular_z_radps = step.angular_z_radps;
     return NodeStatus::kRunning;
@@ -337,6 +341,7 @@ void WaypointRecovery::Start(double x_m, double y_m, double tolerance_m, const s
   c.attempt_label.clear();
   c.log.clear();
   c.arrived = false;
+  c.abandoned = false;
   c.Stop();
   c.active = true;
 }
@@ -349,7 +354,7 @@ NavigationStep WaypointRecovery::Step(const core::BaseState& state, double now_s
   c.now_s = now_s;
   c.Stop();
   const NodeStatus status = tree_.TickOnce();
-  if (status == NodeStatus::kRunning) {
+  if (status == NodeStatus::kRunning && !c.abandoned) {
     out.linear_x_mps = c.linear_x_mps;
     out.angular_z_radps = c.angular_z_radps;
     return out;
@@ -361,6 +366,7 @@ NavigationStep WaypointRecovery::Step(const core::BaseState& state, double now_s
     return out;
   }
   out.failed = true;  // a tree that ends without arriving has not recovered the goal
+  out.abandoned = c.abandoned;
   std::string attempts;
   for (const std::string& line : c.log) attempts += (attempts.empty() ? "" : "; ") + line;
   out.reason = c.first_failure + "; recovery failed: " + (attempts.empty() ? "no attempt made" : attempts);

@@ -3,18 +3,23 @@
 // the built-in tunnels, the staircase for legged and wheeled robots, smart joystick at a wall and an
 // off-centre doorway, and replanning when the map changes under the path.
 #include "cairn/agent/navigation.h"
-#include "cairn/agent/waypoint_recovery.h"
 
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <functional>
 #include <map>
 #include <thread>
 
 #include "../../nav/test/nav_test_util.h"
 #include "../../sim/test/test_util.h"
+#include "cairn/agent/planning_service.h"
+#include "cairn/agent/stepped_robot.h"
+#include "cairn/agent/waypoint_recovery.h"
 #include "cairn/sim/builtin_worlds.h"
+#include "cairn/sim/simulated_platform.h"
 
 namespace cairn::agent {
 namespace {
@@ -140,6 +145,19 @@ TEST(NavigationOptionsTest, DefaultsAreValidAndBadValuesAreNamed) {
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("controller: "), std::string::npos) << why;
   EXPECT_NE(why.find("horizon_steps"), std::string::npos) << why;
+  o = NavigationOptions{};
+  o.unmapped_goal_max_replans = 1001;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("navigation.unmapped_goal_max_replans = 1001 must be in [1, 1000]"), std::string::npos)
+      << why;
+  o = NavigationOptions{};
+  o.unmapped_goal_timeout_s = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("navigation.unmapped_goal_timeout_s = 0"), std::string::npos) << why;
+  o = NavigationOptions{};
+  o.max_hold_s = 4000;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("navigation.max_hold_s = 4000"), std::string::npos) << why;
 }
 
 TEST(NavigationTest, WaypointMissionInTheTunnelsArrivesWithoutContact) {
@@ -492,6 +510,33 @@ TEST(WaypointRecoveryTest, AGhostThatStaysFailsTheGoalWithEveryAttemptAndTheRobo
   EXPECT_TRUE(back.arrived) << back.reason;
 }
 
+// A retry of the recovery tree held before a peer that never gets out of the way (here from attempt 2 on)
+// ends the recovery when navigation abandons the goal after max_hold_s: no further attempt repeats the wait.
+TEST(WaypointRecoveryTest, AnAttemptWhoseGoalIsAbandonedEndsTheRecovery) {
+  GhostRobot g(2.0);
+  ASSERT_TRUE(g.recovery.enabled());
+  ASSERT_TRUE(
+      g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
+  NavigationStep step;
+  double held_from_s = -1.0;
+  while (g.robot.t_s < 300.0 && !step.arrived && !step.failed) {
+    if (held_from_s < 0 && g.report.find("attempt 1 ") != std::string::npos) held_from_s = g.robot.t_s;
+    if (held_from_s >= 0) g.robot.navigation.SetHold("asked r9 to get out of the way", "r9");
+    step = g.Tick();
+  }
+  ASSERT_TRUE(step.failed) << step.reason;
+  std::printf("recovery ended after %.1f s (held from %.1f s): %s\n", g.robot.t_s, held_from_s,
+              step.reason.c_str());
+  EXPECT_TRUE(step.abandoned);
+  EXPECT_FALSE(g.recovery.active());
+  EXPECT_NE(step.reason.find("; attempt 2 (back up 0.40 m): blocked by r9: held 90 s without progress "
+                             "(navigation.max_hold_s 90 s): asked r9 to get out of the way"),
+            std::string::npos)
+      << step.reason;
+  EXPECT_EQ(step.reason.find("attempt 3"), std::string::npos) << step.reason;
+  EXPECT_LT(g.robot.t_s - held_from_s, NavigationOptions{}.max_hold_s + 5.0);
+}
+
 // A robot that does not move loses its goal after stall_timeout_s whatever else navigation counts as
 // progress (a new plan resets the blocked_timeout_s clock, so a robot whose plans kept changing on the stairs
 // kept its goal for 240 s): here the blocked rule alone would wait 600 s.
@@ -625,6 +670,87 @@ TEST(NavigationPeersTest, TwoRobotsMeetingHeadOnPassWithoutTouching) {
   EXPECT_EQ(a.contacts + b.contacts, 0);
   std::printf("FIGURE peers_head_on closest_centre_distance_m %.2f (touching %.2f) time_s %.1f\n", closest_m,
               touching_m, std::max(a.t_s, b.t_s));
+}
+
+// ---- Goals that cannot be reached: one robot's autonomy (SteppedRobot, the agent's components on a
+// simulated clock) in builtin:tunnels, planning on its own map as the agent does. Walls are 0.3 m thick:
+// behind them the world is solid rock that no lidar ever sees.
+
+std::shared_ptr<sim::SimulatedPlatform> TunnelPlatform(const AgentOptions& options,
+                                                       const core::PlanarPose& start) {
+  sim::SimulatedPlatformOptions o;
+  o.world = "builtin:tunnels";
+  o.start_W = start;
+  o.SetProfile(options.navigation.platform);
+  return std::make_shared<sim::SimulatedPlatform>(o);
+}
+
+AgentOptions TunnelOptions() {
+  AgentOptions o;
+  o.robot_id = "r2";
+  o.SetPlatform("wheeled");
+  return o;
+}
+
+// Steps `robot` at 50 Hz from *t_s for up to `seconds` (simulated), until `done` returns true.
+void StepFor(SteppedRobot& robot, double* t_s, double seconds, const std::function<bool()>& done = {}) {
+  const double end_s = *t_s + seconds;
+  while (*t_s < end_s) {
+    *t_s += kDt;
+    robot.Step(*t_s);
+    while (robot.planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    if (done && done()) return;
+  }
+}
+
+// r2 looks along the main tunnel from its west end, then is sent to a point of the north wall it has seen:
+// refused at once, naming the nearest free point, which is free ground beside the wall.
+TEST(UnreachableGoalTest, AGoalTheMapKnowsIsInsideAnObstacleIsRefusedNamingTheNearestFreePoint) {
+  const AgentOptions options = TunnelOptions();
+  const auto platform = TunnelPlatform(options, {4.0, 20.0, 0.0});
+  SteppedRobot robot(options, platform, "");
+  double t = 0.0;
+  StepFor(robot, &t, 3.0);  // at rest: the map and the planner's grid take in the first scans
+  const std::string refused = robot.Goto(8.0, 21.6, t);
+  std::printf("FIGURE goal_in_obstacle: refused: %s\n", refused.c_str());
+  EXPECT_EQ(refused.rfind("goal (8.00, 21.60) is inside an obstacle on r2's map", 0), 0u) << refused;
+  EXPECT_FALSE(robot.waypoint().has_goal());
+  double x = 0, y = 0;
+  const std::size_t at = refused.find("nearest free point (");
+  ASSERT_NE(at, std::string::npos) << refused;
+  ASSERT_EQ(std::sscanf(refused.c_str() + at, "nearest free point (%lf, %lf)", &x, &y), 2) << refused;
+  EXPECT_LT(std::hypot(x - 8.0, y - 21.6), 1.2) << refused;
+  // The judge: the simulated world itself, where the robot's body fits at that point.
+  const nav::TraversabilityGrid truth(sim::LoadWorld("builtin:tunnels"));
+  EXPECT_TRUE(truth.IsFootprintFree(x, y, options.navigation.platform.footprint_radius_m)) << refused;
+  EXPECT_EQ(robot.Goto(x, y, t), "") << "the point it names is taken";
+}
+
+// r2 is sent into the rock between the main tunnel and the south branch, where its map has seen nothing: the
+// goal is accepted as one in unmapped space, and abandoned with the reason once its replans make no progress,
+// not driven at for minutes.
+TEST(UnreachableGoalTest, AGoalInUnmappedSpaceIsAcceptedWithANoticeAndAbandonedWithinItsBound) {
+  const AgentOptions options = TunnelOptions();  // the shipped bounds: 20 replans, 60 s
+  const auto platform = TunnelPlatform(options, {4.0, 20.0, 0.0});
+  SteppedRobot robot(options, platform, "");
+  double t = 0.0;
+  StepFor(robot, &t, 3.0);
+  ASSERT_EQ(robot.Goto(20.0, 12.0, t), "");
+  EXPECT_TRUE(robot.navigation().global_plan().goal_unmapped);
+  EXPECT_EQ(GoalNotice("r2", robot.navigation().global_plan()), "goal in unmapped space: r2 will look");
+  const double start_s = t;
+  int most_replans = 0;
+  StepFor(robot, &t, 300.0, [&] {
+    most_replans = std::max(most_replans, robot.navigation().replans());
+    return !robot.waypoint().has_goal();
+  });
+  const WaypointGoal& goal = robot.waypoint().goal();
+  std::printf("FIGURE unmapped_goal: ended after %.1f s (%d replans of its last plan): %s\n", t - start_s,
+              most_replans, goal.reason.c_str());
+  ASSERT_EQ(goal.status, GoalStatus::kFailed) << goal.reason;
+  EXPECT_EQ(goal.reason.rfind("goal in unmapped space abandoned: no progress toward (20.00, 12.00)", 0), 0u)
+      << goal.reason;
+  EXPECT_LT(t - start_s, 120.0);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "../../nav/test/nav_test_util.h"
 #include "cairn/agent/nav_map.h"
 
 namespace cairn::agent {
@@ -159,6 +160,58 @@ TEST(PlanningService, GoalsBeyondTheMapArePlannedToItsEdgeOrRefused) {
   EXPECT_FALSE(refused.IsUsable());
   EXPECT_EQ(refused.result.status, nav::PlanResult::Status::kOutOfMap);
   EXPECT_EQ(s.service->PlanReason(refused), "too far: navigation.map_max_extent_m");
+}
+
+// A goal the robot's map knows is inside an obstacle is refused at once, naming the nearest free point; a
+// goal where the map has seen nothing is accepted with a notice; a goal on seen floor with none.
+TEST(PlanningService,
+     AGoalInsideAnObstacleIsRefusedNamingTheNearestFreePointAndAnUnmappedOneComesWithANotice) {
+  sim::World world = nav::testing::FlatWorld(16, 8);
+  nav::testing::FillBox(&world, {10.0, 2.0, 0.0}, {12.0, 6.0, 1.6});  // rock the robot saw
+  nav::testing::FillBox(&world, {13.0, 0.0, -0.2}, {16.0, 8.0, 1.6}, /*occupied=*/false);  // not seen
+  nav::GlobalPlannerOptions options;
+  options.reading.unknown_is_lethal = false;  // as the robot reads its own map
+  const auto planner = std::make_shared<nav::GlobalPlanner>(
+      std::make_shared<const sim::World>(std::move(world)),
+      std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled")}, options);
+  std::vector<nav::GlobalPlan> plans;
+  PlanningServiceOptions o;
+  o.robot_id = "r2";
+  o.platform = "wheeled";
+  PlanningService service(
+      o, planner,
+      PlanningService::Hooks{[&](const GoalCommand&, const nav::GlobalPlan& p) { plans.push_back(p); },
+                             [](const PathAnswer&) {},
+                             {},
+                             {}});
+  auto submit = [&](uint32_t id, double x, double y) {
+    nav::GlobalPlanRequest request;
+    request.start_W = {2.0, 4.0};
+    request.goal_W = {x, y};
+    request.platform = "wheeled";
+    request.start_is_robot = true;
+    request.allow_partial = true;
+    service.SubmitGoal(GoalCommand{CommandSender{"opA", "pA", "wA"}, id, "map", x, y, 0.0}, request);
+    EXPECT_TRUE(service.RunOnce(std::chrono::milliseconds(0)));
+  };
+  submit(1, 10.5, 3.52);
+  submit(2, 14.5, 4.0);
+  submit(3, 6.0, 4.0);
+  ASSERT_EQ(plans.size(), 3u);
+  EXPECT_FALSE(plans[0].IsUsable());
+  const std::string reason = service.PlanReason(plans[0]);
+  EXPECT_EQ(
+      reason,
+      "goal (10.50, 3.52) is inside an obstacle on r2's map (cell state obstacle); nearest free point (9.65, "
+      "3.55)");
+  // The block's west face is at x = 10: cells are free of it for the 0.3 m radius from centre x = 9.65.
+  EXPECT_NEAR(plans[0].nearest_free_W.x(), 9.65, 0.01) << reason;
+  EXPECT_NEAR(plans[0].nearest_free_W.y(), 3.55, 0.01) << reason;
+  EXPECT_EQ(GoalNotice("r2", plans[0]), "");
+  ASSERT_TRUE(plans[1].IsUsable()) << plans[1].reason;
+  EXPECT_EQ(GoalNotice("r2", plans[1]), "goal in unmapped space: r2 will look");
+  ASSERT_TRUE(plans[2].IsUsable()) << plans[2].reason;
+  EXPECT_EQ(GoalNotice("r2", plans[2]), "");
 }
 
 // A goal on another level the planner finds no route to, with no step in its reason, is told of the nearest

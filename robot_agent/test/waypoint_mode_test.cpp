@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
+#include <string>
 
 #include "../../nav/test/nav_test_util.h"
 
@@ -140,6 +142,41 @@ TEST(WaypointMode, ContactLongerThanTheTimeoutFailsTheGoal) {
   EXPECT_TRUE(f.waypoint.OnPlatformStatus(contact, ModeInputs{At(2.2), 2.2, f.start}).done);
   EXPECT_EQ(f.waypoint.goal().status, GoalStatus::kFailed);
   EXPECT_EQ(f.waypoint.goal().reason, "blocked: in contact with occupied space at (1.00, 2.00)");
+}
+
+// A goal navigation abandons (a peer held the robot for max_hold_s) fails at once: the recovery tree, though
+// loaded, does not retry it.
+TEST(WaypointMode, AnAbandonedGoalIsNotRecovered) {
+  NavigationOptions options;
+  options.max_hold_s = 5.0;
+  const auto planner = std::make_shared<nav::GlobalPlanner>(
+      std::make_shared<const sim::World>(nav::testing::FlatWorld(10, 8)),
+      std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled")});
+  Navigation navigation(options, planner, Fixture::Library());
+  WaypointMode waypoint(Fixture::Options(), &navigation,
+                        std::make_unique<WaypointRecovery>(std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml",
+                                                           &navigation, WaypointRecovery::Hooks{}));
+  ASSERT_TRUE(waypoint.recovery_enabled());
+  core::BaseState start;
+  start.x_m = 1.0;
+  start.y_m = 2.0;
+  const nav::GlobalPlan plan = planner->Plan(navigation.GoalRequest(start, 8.0, 5.0));
+  ASSERT_TRUE(waypoint.Start(plan, 8.0, 5.0, 0.0, std::nan(""), 0.0, Accept).accepted);
+  navigation.SetHold("asked r9, 1.7 m ahead in a passage too narrow to pass, to get out of the way", "r9");
+  ModeOutput out;
+  double t = 0.0;
+  for (; t < 10.0 && !out.done; t += 0.02) {
+    navigation.SetObstacles({}, start, t);
+    out = waypoint.Step(ModeInputs{At(t), t, start});
+  }
+  ASSERT_TRUE(out.done) << waypoint.goal().reason;
+  EXPECT_NEAR(t, 5.0, 0.1);
+  EXPECT_EQ(waypoint.goal().status, GoalStatus::kFailed);
+  EXPECT_EQ(
+      waypoint.goal().reason,
+      "blocked by r9: held 5 s without progress (navigation.max_hold_s 5 s): asked r9, 1.7 m ahead in a "
+      "passage too narrow to pass, to get out of the way");
+  EXPECT_FALSE(navigation.has_goal());
 }
 
 TEST(WaypointMode, AnUnusablePlanIsAProgrammingError) {

@@ -407,5 +407,76 @@ TEST(YieldTest, HeadOnInATunnelOneGivesWayAndBothArrive) {
               ya_yielded ? "ya" : "yb", closest_m);
 }
 
+// A peer state that says a robot stands in ya's 2 m tunnel at (14, 5), sent at 5 Hz by no robot at all (a
+// forged one: it never answers a yield request) until `silent_after_s` (simulated seconds after ya's goto).
+// ya, with navigation.max_hold_s `max_hold_s`, drives from (4, 5) to (30, 5). Returns ya's goal as it ended
+// (or stood after 120 s), where ya got to and how long it was held.
+struct ForgedBlockRun {
+  WaypointGoal goal;
+  double farthest_x_m = 0.0;  // ground truth
+  double held_s = 0.0;
+  double ended_s = -1.0;  // since the goto
+};
+ForgedBlockRun RunForgedBlock(double max_hold_s, double silent_after_s) {
+  constexpr double kDt = 0.02;
+  AgentOptions options;
+  options.robot_id = "ya";
+  options.SetPlatform("wheeled");
+  options.navigation.max_hold_s = max_hold_s;
+  sim::SimulatedPlatformOptions sim_options;
+  sim_options.world = "builtin:narrow";
+  sim_options.start_W = core::PlanarPose{4.0, 5.0, 0.0};
+  sim_options.SetProfile(options.navigation.platform);
+  const auto platform = std::make_shared<sim::SimulatedPlatform>(sim_options);
+  SteppedRobot ya(options, platform, "");
+  double t = 0;
+  for (int i = 0; i < 100; ++i) ya.Step(t += kDt);  // a map first
+  EXPECT_EQ(ya.Goto(30.0, 5.0, t), "");
+  const double start_s = t;
+  ForgedBlockRun run;
+  for (int cycle = 1; t < start_s + 120 && ya.waypoint().has_goal(); ++cycle) {
+    ya.Step(t += kDt);
+    while (ya.planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    if (cycle % 10 == 0 && t - start_s < silent_after_s) {
+      EXPECT_EQ(ya.OnPeerState(Parked("r9", 14.0, 5.0), t), "");
+    }
+    (void)ya.YieldRequestToSend();  // asked: nobody answers
+    if (ya.navigation().local_status().rfind("held: ", 0) == 0) run.held_s += kDt;
+    run.farthest_x_m = std::max(run.farthest_x_m, platform->TrueState().x_m);
+  }
+  if (!ya.waypoint().has_goal()) run.ended_s = t - start_s;
+  run.goal = ya.waypoint().goal();
+  std::printf(
+      "FIGURE forged_peer_block (max_hold_s %.0f, forged state for %.0f s): %s after %.1f s, held %.1f s, "
+      "got to x %.2f: %s\n",
+      max_hold_s, silent_after_s, run.goal.status == GoalStatus::kArrived ? "arrived" : "ended", run.ended_s,
+      run.held_s, run.farthest_x_m, run.goal.reason.c_str());
+  return run;
+}
+
+// The forged robot never moves and never answers: ya holds before it and asks, and after max_hold_s abandons
+// the goal naming it, instead of waiting for good.
+TEST(YieldTest, APeerThatNeverGetsOutOfTheWayHoldsARobotOnlyForItsBoundedWait) {
+  const ForgedBlockRun run = RunForgedBlock(/*max_hold_s=*/20.0, /*silent_after_s=*/1e9);
+  EXPECT_EQ(run.goal.status, GoalStatus::kFailed) << run.goal.reason;
+  EXPECT_EQ(
+      run.goal.reason.rfind("blocked by r9: held 20 s without progress (navigation.max_hold_s 20 s): ", 0),
+      0u)
+      << run.goal.reason;
+  EXPECT_NEAR(run.held_s, 20.0, 0.5);
+  EXPECT_GT(run.ended_s, 20.0);
+  EXPECT_LT(run.ended_s, 60.0);
+  EXPECT_LT(run.farthest_x_m, 14.0 - 0.6) << "never into the body the state claims";
+}
+
+// The forged state stops 15 s after the goto: past the peer timeout (its lease) it is ignored, and ya, held
+// before it until then, drives on through where it claimed to stand and arrives.
+TEST(YieldTest, APeerStatePastItsLeaseIsIgnored) {
+  const ForgedBlockRun run = RunForgedBlock(/*max_hold_s=*/90.0, /*silent_after_s=*/15.0);
+  EXPECT_EQ(run.goal.status, GoalStatus::kArrived) << run.goal.reason;
+  EXPECT_GT(run.held_s, 1.0) << "held while the state was live";
+  EXPECT_GT(run.farthest_x_m, 29.0);
+}
+
 }  // namespace
 }  // namespace cairn::agent

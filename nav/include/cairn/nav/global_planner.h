@@ -101,6 +101,15 @@ struct GlobalPlan {
   std::uint64_t map_version = 0;
   /// Wall-clock time of the whole request (including a lazy grid build), seconds.
   double total_time_s = 0.0;
+  /// result.status kGoalBlocked on the main level's grid: the centre of the traversable cell nearest the goal
+  /// (metres, frame W; a cell with ground seen before one of unknown space, see NearestTraversable()), within
+  /// kNearestFreeSearchM. NaN otherwise.
+  Eigen::Vector2d nearest_free_W = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  /// The goal lies in space the map has not seen: beyond its extent (a plan to its edge) or, on the main
+  /// level, in a cell with no ground seen (CellState::kUnknown; traversable on a robot's own map, which is
+  /// read optimistically). Such a goal may turn out to be inside rock: Navigation bounds how long it is
+  /// pursued.
+  bool goal_unmapped = false;
 
   /// True when result.status is kSuccess.
   bool IsUsable() const { return platform_known && result.IsUsable(); }
@@ -226,6 +235,18 @@ class GlobalPlanner {
   std::map<std::string, std::shared_ptr<const MultiLevelGrid>> diagnose_levels_;      // by platform
   double sensor_max_z_m_ = std::numeric_limits<double>::quiet_NaN();
 };
+
+/// How far from a blocked goal GlobalPlanner::Plan() looks for the nearest traversable cell, metres.
+inline constexpr double kNearestFreeSearchM = 10.0;
+
+/// The centre of the cell of `grid` nearest `p_W` ((x, y), metres, frame W) that is traversable for a robot
+/// of radius `radius_m` (metres, >= 0; TraversabilityGrid::IsTraversableFor), no farther than
+/// `max_distance_m` (metres) from it. A cell whose ground was seen (kFree) is preferred to one of unknown
+/// space, which a robot's optimistic map also counts as traversable (behind a wall, say): the unknown one is
+/// returned only when no seen one lies within the distance. nullopt when there is none (or `p_W` is not
+/// finite).
+std::optional<Eigen::Vector2d> NearestTraversable(const TraversabilityGrid& grid, const Eigen::Vector2d& p_W,
+                                                  double radius_m, double max_distance_m);
 
 /// Obstacle points for the local planner from a traversability grid, standing in for a sensor until the
 /// perception issue: the centres of lethal cells (no ground, walls, the top of a step the platform cannot

@@ -70,6 +70,17 @@ struct NavigationOptions {
   /// Smart joystick: the yaw rate bends the joystick direction by wz * this (capped at 90 deg), seconds,
   /// [0, 5].
   double joystick_turn_lookahead_s = 1.0;
+  /// A goal in unmapped space (nav::GlobalPlan::goal_unmapped: beyond the map or on ground not seen yet,
+  /// which may be inside rock) is abandoned after this many replans without progress, [1, 1000]. Progress:
+  /// the distance left (along the plan, plus a partial plan's remaining straight line) 0.5 m below its least
+  /// so far; replans adopt longer routes as the map reveals walls, so they do not count as progress here.
+  int unmapped_goal_max_replans = 20;
+  /// ...or after this long without progress, seconds, (0, 3600].
+  double unmapped_goal_timeout_s = 60.0;
+  /// A robot held before a peer (SetHold(): waiting for it to get out of the way) abandons its goal ("blocked
+  /// by r9: ...") once it was held this long without progress toward the goal, seconds, (0, 3600]: a peer
+  /// that never moves (or a forged peer state) cannot hold it forever.
+  double max_hold_s = 90.0;
 
   /// @return false and sets `*why` (field, value, rule) when a field is invalid.
   bool IsValid(std::string* why) const;
@@ -82,6 +93,9 @@ struct NavigationStep {
   bool arrived = false;        ///< The goal was reached this step (the goal is cleared).
   bool failed = false;         ///< The goal failed this step (the goal is cleared); see reason.
   bool stalled = false;        ///< With failed: the robot moved less than 0.5 m in the goal's stall timeout.
+  /// With failed: the goal is given up for good (a goal in unmapped space without progress, a peer that held
+  /// the robot for max_hold_s): trying again (a recovery) would only repeat the wait.
+  bool abandoned = false;
   std::string reason;          ///< Why it failed.
 };
 
@@ -191,8 +205,13 @@ class Navigation {
                               bool follow_path = false);
   /// Holds the robot at rest with its goal kept (a non-empty `why`, e.g. waiting for a peer to get out of
   /// the way, YieldAsker) until called with "": StepWaypoint() then gives a zero twist, and the time held
-  /// counts neither as a lack of progress nor as a stall. The local planner's status says `why`.
-  void SetHold(const std::string& why) { hold_reason_ = why; }
+  /// counts neither as a lack of progress nor as a stall, up to options().max_hold_s in all without progress:
+  /// then the goal is abandoned, "blocked by <by_id>: ..." (`by_id`: the robot that holds it; "" = none
+  /// named). The local planner's status says `why`.
+  void SetHold(const std::string& why, const std::string& by_id = "") {
+    hold_reason_ = why;
+    hold_by_ = by_id;
+  }
   const std::string& hold_reason() const { return hold_reason_; }
   /// StepWaypoint(follow_path): the track along the global path, metres, and its clearance beyond the
   /// footprint radius, metres.
@@ -248,7 +267,27 @@ class Navigation {
     // Where the robot last was 0.5 m away from (stall_timeout_s), NaN until its first step, and since when.
     Eigen::Vector2d anchor_W = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
     double anchor_time_s = 0.0;
+    // Held before a peer (max_hold_s): seconds held since the last progress, and since when the current
+    // hold runs (-1: not held).
+    double held_s = 0.0;
+    double held_since_s = -1.0;
   };
+  // Progress toward a goal in unmapped space (unmapped_goal_max_replans). Kept across the goal's end: the
+  // same goal accepted again within unmapped_goal_timeout_s (a recovery's retry, a resumed mission) goes on
+  // with this record, so retries do not renew the bound; an abandoned or reached goal ends it.
+  struct UnmappedWatch {
+    bool active = false;
+    Eigen::Vector2d p_W = Eigen::Vector2d::Zero();
+    double best_left_m = 0.0;  // least distance left so far, metres
+    double best_time_s = 0.0;  // ...since when
+    double last_s = 0.0;       // last checked
+    int replans = 0;           // replans (and acceptances again) since best_left_m
+  };
+  // Abandons a goal in unmapped space that made no progress within its bounds (the step that fails it), or
+  // nullopt.
+  std::optional<NavigationStep> CheckUnmappedProgress(double now_s);
+  // The held branch of StepWaypoint(): at rest, or the goal abandoned after max_hold_s.
+  NavigationStep StepHeld(double now_s);
   // How far a (partial) plan's end is from the goal (nav::PartialRemainingM).
   double PartialRemaining(const nav::GlobalPlan& plan) const;
   // Makes `plan` (usable, for the current goal) the one followed, from its start.
@@ -311,6 +350,8 @@ class Navigation {
   std::uint64_t goal_serial_ = 0;  // see goal_serial()  // StepWaypoint(follow_path) of the step under way
   bool reduced_clearance_ = false;
   std::string hold_reason_;          // SetHold()
+  std::string hold_by_;              // ...and the robot that holds it
+  UnmappedWatch unmapped_;
   bool awaiting_obstacles_ = false;  // obstacle memory cleared: no local plan before the next SetObstacles()
 
   std::vector<Eigen::Vector3f> obstacles_B_;

@@ -31,6 +31,20 @@ struct PlanningServiceOptions {
       200.0;  ///< the navigation map's largest extent, metres (named by out-of-map reasons)
 };
 
+/// Why robot `robot_id` cannot take a goal whose `plan` is not usable, for operators: a goal the map knows is
+/// inside an obstacle (kGoalBlocked) names the nearest free point when the planner found one, "goal
+/// (12.00, 3.00) is inside an obstacle on r2's map (cell state obstacle); nearest free point (12.05, 4.15)"
+/// (centimetres: the point is a cell centre, which decimetres could move out of its cell); other failures
+/// give the plan's reason (so does a blocked goal whose reason the planner extended, e.g. with the step that
+/// stops the platform, or one on another level).
+std::string GoalPlanReason(const std::string& robot_id, const nav::GlobalPlan& plan,
+                           const Eigen::Vector2d& goal_M);
+
+/// The notice an accepted goal comes with: "goal in unmapped space: r2 will look" when `plan` says the goal
+/// lies where the map has not seen (nav::GlobalPlan::goal_unmapped; the goal is abandoned if no way there
+/// appears, NavigationOptions::unmapped_goal_max_replans), else "".
+std::string GoalNotice(const std::string& robot_id, const nav::GlobalPlan& plan);
+
 /// Goal planning and the path query service. Thread-safe: Submit*() from any thread, Run() on one thread.
 class PlanningService {
  public:

@@ -65,7 +65,9 @@ class WaypointRecovery {
   /// Navigation::StepWaypoint does: the twist for the waypoint channel (frame B) while recovering; `arrived`
   /// when a retry reached the goal; `failed` when every attempt failed, `reason` naming each, e.g. "blocked:
   /// no progress ...; recovery failed: attempt 1 (clear the local obstacle memory): blocked: ...; attempt 2
-  /// (back up 0.40 m): obstacle behind ...". Both false and no twist when not active().
+  /// (back up 0.40 m): obstacle behind ...". An attempt whose goal navigation abandoned (NavigationStep::
+  /// abandoned: unmapped space without progress, held by a peer) ends the recovery at once, `failed` and
+  /// `abandoned`. Both false and no twist when not active().
   NavigationStep Step(const core::BaseState& state, double now_s);
   /// Stops a running recovery (a new goal, a stop, a mode change): the actions are halted, nothing moves.
   void Halt();
