@@ -476,6 +476,31 @@ TEST(Security, ASenderIdIsBoundToItsCertificateAndYieldsNeedAHeardRobot) {
     std::this_thread::sleep_for(100ms);
   }
   EXPECT_TRUE(op1.Run("stop r1")["ok"]);
+  // Basestations check the robot id too: r2's certificate publishing r1's state far off and a staircase of
+  // r1's is dropped (op1 keeps r1 where it is) and logged.
+  auto state = r2.WriterOf<msgs::RobotStatePubSubType>("cairn/robot_state", "cairn.latched");
+  auto stairs = r2.WriterOf<msgs::StaircaseDetectionPubSubType>("cairn/staircase", "cairn.latched");
+  ASSERT_TRUE(state->WaitForMatched(1, 10s) && stairs->WaitForMatched(1, 10s));
+  msgs::RobotState far_off = op3.Last("r1").value_or(msgs::RobotState{});
+  far_off.pose_MB().position().x_m(far_off.pose_MB().position().x_m() + 50.0);
+  msgs::StaircaseDetection staircase;
+  staircase.robot_id("r1");
+  staircase.staircase_id(1);
+  staircase.num_steps(5);
+  for (int i = 0; i < 10; ++i) {
+    state->Write(far_off);
+    stairs->Write(staircase);
+    std::this_thread::sleep_for(100ms);
+  }
+  r = op1.Run("status r1");
+  ASSERT_TRUE(r.contains("x_m")) << r;
+  EXPECT_GT(std::abs(r["x_m"].get<double>() - far_off.pose_MB().position().x_m()), 40.0)
+      << "op1 took r2's state of r1: " << r;
+  const std::string base_log = ReadAll(logs + "/op1.log");
+  for (const std::string topic : {"cairn/robot_state", "cairn/staircase"}) {
+    EXPECT_NE(base_log.find("a forged message dropped: " + topic + ": robot id 'r1'"), std::string::npos)
+        << topic << "; see " << logs << "/op1.log";
+  }
   const std::string robot_log = ReadAll(logs + "/r1.log");
   for (const std::string topic : {"cairn/peer_state", "cairn/explore_claim"}) {
     EXPECT_NE(robot_log.find("forged message dropped: " + topic +

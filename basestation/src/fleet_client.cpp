@@ -76,13 +76,16 @@ class FleetClient::Impl {
     }
     response_reader_ = std::make_unique<core::Reader<msgs::CommandResponsePubSubType>>(
         *participant_, "cairn/command_response", "cairn.command",
-        [this](const msgs::CommandResponse& m, const auto&) { OnResponse(m); });
+        [this](const msgs::CommandResponse& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          if (FromRobot("cairn/command_response", m.robot_id(), info)) OnResponse(m);
+        });
     // A robot's whole state (on change, at least once a second; reliable, latched) and its 10 Hz pose stream,
     // applied to the last whole state (idl/cairn_msgs.idl RobotPose). Either keeps the robot from being lost;
     // the gaps in the pose stream's sequence numbers are the link's losses.
     state_reader_ = std::make_unique<core::Reader<msgs::RobotStatePubSubType>>(
         *participant_, "cairn/robot_state", "cairn.latched",
         [this](const msgs::RobotState& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          if (!FromRobot("cairn/robot_state", m.robot_id(), info)) return;
           const auto now = SteadyClock::now();
           std::vector<ClassUsage> usage;
           for (const msgs::LinkClassUsage& u : m.link_usage()) {
@@ -103,6 +106,7 @@ class FleetClient::Impl {
     pose_reader_ = std::make_unique<core::Reader<msgs::RobotPosePubSubType>>(
         *participant_, "cairn/robot_pose", "cairn.state",
         [this](const msgs::RobotPose& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          if (!FromRobot("cairn/robot_pose", m.robot_id(), info)) return;
           const auto now = SteadyClock::now();
           Update(m.robot_id(), [&](RobotView& v) {
             if (v.state) cairn::msgs::MergePose(m, &*v.state);  // else its whole state is on the way
@@ -115,7 +119,9 @@ class FleetClient::Impl {
     // Component health: kept with the robot's view (the robot must be known by its state or agent info); it
     // does not keep a robot from being shown lost.
     health_reader_ = std::make_unique<core::Reader<msgs::AgentHealthPubSubType>>(
-        *participant_, "cairn/health", "cairn.latched", [this](const msgs::AgentHealth& m, const auto&) {
+        *participant_, "cairn/health", "cairn.latched",
+        [this](const msgs::AgentHealth& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          if (!FromRobot("cairn/health", m.robot_id(), info)) return;
           {
             std::lock_guard<std::mutex> lock(mutex_);
             auto it = robots_.find(m.robot_id());
@@ -151,19 +157,25 @@ class FleetClient::Impl {
         });
     global_path_reader_ = std::make_unique<core::Reader<msgs::GlobalPathPubSubType>>(
         *participant_, "cairn/global_path", "cairn.latched",
-        [this](const msgs::GlobalPath& m, const auto&) { Update(m.robot_id(), [&](RobotView& v) { v.global_path = m; }); });
+        [this](const msgs::GlobalPath& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          if (FromRobot("cairn/global_path", m.robot_id(), info))
+            Update(m.robot_id(), [&](RobotView& v) { v.global_path = m; });
+        });
     local_plan_reader_ = std::make_unique<core::Reader<msgs::LocalPlanPubSubType>>(
         *participant_, "cairn/local_plan", "cairn.state",
-        [this](const msgs::LocalPlan& m, const auto&) { Update(m.robot_id(), [&](RobotView& v) { v.local_plan = m; }); });
+        [this](const msgs::LocalPlan& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          if (FromRobot("cairn/local_plan", m.robot_id(), info))
+            Update(m.robot_id(), [&](RobotView& v) { v.local_plan = m; });
+        });
     tree_reader_ = std::make_unique<core::Reader<msgs::BehaviorTreeStatePubSubType>>(
         *participant_, "cairn/bt_state", "cairn.latched",
-        [this](const msgs::BehaviorTreeState& m, const auto&) {
-          Update(m.robot_id(), [&](RobotView& v) { v.tree = m; });
+        [this](const msgs::BehaviorTreeState& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          if (FromRobot("cairn/bt_state", m.robot_id(), info)) Update(m.robot_id(), [&](RobotView& v) { v.tree = m; });
         });
     info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
         *participant_, "cairn/agent_info", "cairn.latched",
         [this](const msgs::AgentInfo& m, const eprosima::fastdds::dds::SampleInfo& info) {
-          if (m.kind() != msgs::AGENT_KIND_ROBOT) return;
+          if (m.kind() != msgs::AGENT_KIND_ROBOT || !FromRobot("cairn/agent_info", m.agent_id(), info)) return;
           {
             std::lock_guard<std::mutex> lock(mutex_);
             robot_by_writer_[info.publication_handle] = m.agent_id();
@@ -522,6 +534,25 @@ class FleetClient::Impl {
   }
   // The commands whose writers a command waits for (WaitForCommandPath).
   static const std::vector<CommandKind> kCommandKinds;
+
+  // Under DDS Security: true when the writer of `info` holds the certificate of `robot_id`, the robot the
+  // message is about; else it is dropped (a robot's certificate publishing another robot's state, path or
+  // answers) and logged at most every 5 s per topic, naming both. Always true without security.
+  bool FromRobot(const char* topic, const std::string& robot_id, const eprosima::fastdds::dds::SampleInfo& info) {
+    if (core::SentUnder(options_.security, info, robot_id)) return true;
+    std::uint64_t suppressed = 0;
+    if (forged_warnings_.Allow(topic, SteadyClock::now(), &suppressed)) {
+      const std::string participant = core::ParticipantIdOf(info.publication_handle);
+      const std::string real = participant_->CertifiedIdOf(participant);
+      spdlog::warn("basestation {}: a forged message dropped: {}: robot id '{}' sent under the certificate of {} "
+                   "(participant {}){}",
+                   options_.base_id, topic, robot_id.substr(0, 64), real.empty() ? "another identity" : "'" + real + "'",
+                   participant,
+                   suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+    }
+    return false;
+  }
+  core::WarningLimiter forged_warnings_;
 
   // False for an observer under DDS Security (no robot to command).
   bool MayCommandAny() const { return !commandable_ || !commandable_->empty(); }

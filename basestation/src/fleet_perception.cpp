@@ -1,16 +1,16 @@
 #include "cairn/base/fleet_perception.h"
 
+#include <spdlog/spdlog.h>
+
 #include <cmath>
-#include <sstream>
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
 #include <map>
 #include <mutex>
 #include <set>
+#include <sstream>
 #include <thread>
-
-#include <spdlog/spdlog.h>
 
 #include "cairn/core/dds.h"
 #include "cairn/core/peer_input.h"
@@ -109,17 +109,25 @@ FleetEvent StaircaseEvent(const StaircaseChange& change) {
 
 class FleetPerception::Impl {
  public:
-  Impl(core::Participant& participant, const std::string& base_id) : base_id_(base_id) {
+  Impl(core::Participant& participant, const std::string& base_id)
+      : base_id_(base_id), security_(participant.options().security) {
     sync_writer_ = std::make_unique<core::Writer<msgs::MapSyncRequestPubSubType>>(
         participant, "cairn/map_sync_request", "cairn.command");
     map_reader_ = std::make_unique<core::Reader<msgs::MapUpdatePubSubType>>(
-        participant, "cairn/map_update", "cairn.map", [this](const msgs::MapUpdate& m, const auto&) { OnMap(m); });
+        participant, "cairn/map_update", "cairn.map",
+        [this](const msgs::MapUpdate& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          if (FromRobot("cairn/map_update", m.robot_id(), info)) OnMap(m);
+        });
     camera_reader_ = std::make_unique<core::Reader<msgs::CompressedImagePubSubType>>(
         participant, "cairn/camera", "cairn.camera",
-        [this](const msgs::CompressedImage& m, const auto&) { OnCamera(m); });
+        [this](const msgs::CompressedImage& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          if (FromRobot("cairn/camera", m.robot_id(), info)) OnCamera(m);
+        });
     staircase_reader_ = std::make_unique<core::Reader<msgs::StaircaseDetectionPubSubType>>(
         participant, "cairn/staircase", "cairn.latched",
-        [this](const msgs::StaircaseDetection& m, const auto&) { OnStaircase(m); });
+        [this](const msgs::StaircaseDetection& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          if (FromRobot("cairn/staircase", m.robot_id(), info)) OnStaircase(m);
+        });
     // Requests can be lost before discovery completes (the command QoS is volatile) and a robot at rest sends
     // no deltas that would reveal the gap: keep asking, once a second, until every seen robot's map is whole.
     sync_thread_ = std::thread([this] {
@@ -251,6 +259,22 @@ class FleetPerception::Impl {
   }
 
   const std::string base_id_;
+  const core::SecurityOptions security_;
+  core::WarningLimiter forged_warnings_;
+  // Under DDS Security: true when the writer of `info` holds the certificate of `robot_id`, the robot the
+  // message is about; else it is dropped (a robot's certificate publishing another robot's map, camera or
+  // staircases) and logged at most every 5 s per topic. Always true without security.
+  bool FromRobot(const char* topic, const std::string& robot_id, const eprosima::fastdds::dds::SampleInfo& info) {
+    if (core::SentUnder(security_, info, robot_id)) return true;
+    std::uint64_t suppressed = 0;
+    if (forged_warnings_.Allow(topic, core::SteadyClock::now(), &suppressed)) {
+      spdlog::warn("basestation {}: a forged message dropped: {}: robot id '{}' not sent under its certificate "
+                   "(participant {}){}",
+                   base_id_, topic, robot_id.substr(0, 64), core::ParticipantIdOf(info.publication_handle),
+                   suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+    }
+    return false;
+  }
   perception::FleetMap map_;  // thread-safe
   mutable std::mutex mutex_;
   mutable std::condition_variable cv_;

@@ -127,6 +127,13 @@ bool GuidPrefixHoldsIdentity(const eprosima::fastrtps::rtps::GuidPrefix_t& prefi
   return true;
 }
 
+bool SentUnder(const SecurityOptions& security, const dds::SampleInfo& info, const std::string& claimed) {
+  if (!security.enabled()) return true;
+  eprosima::fastrtps::rtps::GUID_t guid;
+  eprosima::fastrtps::rtps::iHandle2GUID(guid, info.publication_handle);
+  return GuidPrefixHoldsIdentity(guid.guidPrefix, claimed);
+}
+
 std::string IdentityOfSubject(const std::string& subject) {
   const std::size_t at = subject.rfind("/CN=");
   if (at == std::string::npos) return "";

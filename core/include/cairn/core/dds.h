@@ -136,6 +136,12 @@ const std::vector<std::string>& CommandTopics();
 /// certificate's was forged by another identity of the fleet. Meaningless without security (any prefix).
 bool GuidPrefixHoldsIdentity(const eprosima::fastrtps::rtps::GuidPrefix_t& prefix, const std::string& id);
 
+/// Whether a sample (`info`: its writer) came under the certificate of `claimed`, the sender id it carries:
+/// GuidPrefixHoldsIdentity on the writer's GUID prefix under DDS Security (`security` enabled); always true
+/// without it (no identity exists then).
+bool SentUnder(const SecurityOptions& security, const eprosima::fastdds::dds::SampleInfo& info,
+               const std::string& claimed);
+
 /// The id in a certificate subject as Fast DDS's identity token carries it (X509_NAME_oneline, e.g.
 /// "/O=Cairn/CN=op3"): the value of its last CN; "" when it has none.
 std::string IdentityOfSubject(const std::string& subject);
