@@ -379,7 +379,8 @@ TEST(NavigationOverDds, GoalInUnknownSpaceAndARockfallPlannedAround) {
   // so accepted with a notice.
   json r = op.Run("goto r1 30 10");
   ASSERT_TRUE(r["ok"]) << r << " (see " << logs << ")";
-  EXPECT_NE(r["reason"].get<std::string>().find("; goal in unmapped space: r1 will look"), std::string::npos) << r;
+  EXPECT_NE(r["reason"].get<std::string>().find("; goal in unmapped space: r1 will look"), std::string::npos)
+      << r;
   r = op.Run("wait r1 arrived 120", 130s);
   EXPECT_TRUE(r["ok"]) << r << " (see " << logs << ")";
   const auto arrived = observer.FreshState("r1");
