@@ -160,7 +160,7 @@ TEST(Shutdown, ABaseExitsWithin2sOfSigtermOrSigintWhateverItIsDoing) {
 }
 
 // A basestation reading commands from a pipe prints an event when it happens, not with the next command's
-// result: here a robot joining while no command is sent, in text and in --json.
+// result: a robot joining while no command is sent, in text and in --json, and leaving during a `sleep`.
 TEST(PipedBase, PrintsEventsWhenTheyHappen) {
   const std::string logs = FreshLogs("robustness", "piped_events");
   for (const bool as_json : {false, true}) {
@@ -183,7 +183,17 @@ TEST(PipedBase, PrintsEventsWhenTheyHappen) {
       EXPECT_EQ(json::parse(line).value("event", ""), "joined") << line;
     } else {
       EXPECT_EQ(line.rfind("[", 0), 0u) << line;
+      continue;
     }
+    // And while a command runs: the robot leaves during a `sleep 3`, told before the sleep's answer.
+    base.WriteLine("sleep 3");
+    std::this_thread::sleep_for(500ms);
+    agent->Signal(SIGTERM);
+    seen.clear();
+    EXPECT_NE(WaitForOutput(base, "r1 left", 10s, &seen), "") << seen;
+    EXPECT_EQ(seen.find("\"command\":\"sleep\""), std::string::npos) << "told only after the sleep:\n"
+                                                                     << seen;
+    EXPECT_NE(WaitForOutput(base, "\"command\":\"sleep\"", 10s, &seen), "") << seen;
   }
 }
 

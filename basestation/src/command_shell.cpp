@@ -1165,6 +1165,7 @@ int CommandShell::Sleep(const std::vector<std::string>& args) {
     std::this_thread::sleep_for(std::min<core::SteadyClock::duration>(std::chrono::milliseconds(50),
                                                                       until - core::SteadyClock::now()));
     cancelled = Cancelled();
+    PrintEvents();  // as they happen, not after the sleep
   }
   if (json_) {  // one JSON object per command, so that a program driving --json never waits for nothing
     out_ << Dump(json{{"command", "sleep"},
