@@ -876,8 +876,13 @@ std::string FleetClient::SendYield(const std::string& robot_id, const std::strin
       core::CommandTopicFor("cairn/yield_request", robot_id, impl_->options_.security.enabled());
   std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>>& writer = impl_->yield_writers_[topic];
   if (!writer) {
-    writer = std::make_unique<core::Writer<msgs::YieldRequestPubSubType>>(*impl_->participant_, topic,
-                                                                          "cairn.command");
+    try {
+      writer = std::make_unique<core::Writer<msgs::YieldRequestPubSubType>>(*impl_->participant_, topic,
+                                                                            "cairn.command");
+    } catch (const core::DdsError& e) {
+      // Keys made before operators' yield requests had the robot's own topic lack it: make them again.
+      return std::string("the yield request cannot be sent: ") + e.what();
+    }
     writer->WaitForMatched(1, std::chrono::milliseconds(1500));
   }
   msgs::YieldRequest m;
