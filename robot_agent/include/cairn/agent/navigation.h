@@ -199,7 +199,9 @@ class Navigation {
   /// `follow_path`: the controller tracks the global path itself (its next kFollowTrackM) whenever no live
   /// obstacle point comes within the footprint radius plus kFollowMarginM of it, the local planner's path
   /// otherwise: a convoy follower drives the corners the robot ahead drove instead of cutting them toward a
-  /// point ahead, which adds up along a convoy.
+  /// point ahead, which adds up along a convoy. A goal whose plan said it lies in unmapped space
+  /// (nav::GlobalPlan::goal_unmapped) fails `abandoned` after unmapped_goal_max_replans replans or
+  /// unmapped_goal_timeout_s without progress ("goal in unmapped space abandoned: ..."); see also SetHold().
   NavigationStep StepWaypoint(const core::BaseState& state, double now_s,
                               double speed_mps = std::numeric_limits<double>::quiet_NaN(),
                               bool follow_path = false);
