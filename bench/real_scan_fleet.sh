@@ -16,17 +16,11 @@ BUILD="${1:?usage: real_scan_fleet.sh BUILD_DIR [DURATION_S] [OUT_DIR] [FILE.pcd
 DURATION_S="${2:-600}"
 OUT="${3:-$(mktemp -d)}"
 PCD="${4:-}"
-[[ "$DURATION_S" =~ ^[0-9]+$ ]] && [ "$DURATION_S" -ge 60 ] ||
-  { echo "real_scan_fleet: DURATION_S '$DURATION_S' must be an integer >= 60" >&2; exit 2; }
+source "$(dirname "$0")/fleet_bench_lib.sh"
+fleet_bench_duration real_scan_fleet "$DURATION_S"
 [ "${CAIRN_IN_NETNS:-}" = 1 ] || { echo "real_scan_fleet: run it inside tests/netns_run.sh" >&2; exit 2; }
 DOMAIN=71
 mkdir -p "$OUT"
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null || true; done
-  wait 2>/dev/null || true
-}
-trap cleanup EXIT
 export XDG_CACHE_HOME="${XDG_CACHE_HOME:-$BUILD/cache}"
 
 if [ -z "$PCD" ]; then
@@ -50,19 +44,10 @@ for k in 0 1 2; do
     >"$OUT/${IDS[$k]}.out" 2>"$OUT/${IDS[$k]}.log" &
   pids+=($!)
 done
-for id in "${IDS[@]}"; do
-  for _ in $(seq 1800); do grep -q READY "$OUT/$id.out" && break; sleep 0.1; done
-  grep -q READY "$OUT/$id.out" || { echo "real_scan_fleet: $id did not start" >&2; tail -3 "$OUT/$id.log" >&2; exit 1; }
-done
+fleet_bench_wait_ready real_scan_fleet "$OUT" "${IDS[@]}"
 echo "FIGURE real_scan_fleet start_to_ready_s $(($(date +%s) - started))"
 
-fifo="$OUT/base.in"
-rm -f "$fifo"
-mkfifo "$fifo"
-"$BUILD/basestation/cairn_base" --base-id op1 --domain "$DOMAIN" --keep-going --json <"$fifo" >"$OUT/base.out" \
-  2>"$OUT/base.log" &
-pids+=($!)
-exec 3>"$fifo"
+fleet_bench_start_base "$BUILD" "$OUT" "$DOMAIN"
 for id in "${IDS[@]}"; do echo "wait $id online 60" >&3; done
 echo "request-control r1 r2 r3" >&3
 for id in "${IDS[@]}"; do echo "explore $id" >&3; done
@@ -77,39 +62,20 @@ echo "stop all" >&3
 sleep 2
 exec 3>&-
 
-python3 - "$OUT" "$DURATION_S" <<'EOF'
-import json, re, sys
+PYTHONPATH="$(dirname "$0")" python3 - "$OUT" "$DURATION_S" <<'EOF'
+import re, sys
+from base_answers import read_answers, explorations, event_counts
 out, duration = sys.argv[1], int(sys.argv[2])
-text = open(f"{out}/base.out").read()
-decoder, i, answers = json.JSONDecoder(), 0, []
-while i < len(text):
-    if text[i].isspace():
-        i += 1
-        continue
-    try:
-        obj, i = decoder.raw_decode(text, i)
-        answers.append(obj)
-    except ValueError:
-        i = text.find("\n", i) + 1 or len(text)
-explored, states, events = {}, {}, []
-for a in answers:
-    if a.get("event"):
-        events.append(a)
-    r = a.get("robot") or a.get("robot_id")
-    ex = a.get("exploration")
-    if r and isinstance(ex, dict):
-        explored.setdefault(r, []).append(ex.get("explored_m2", 0.0))
-        states[r] = (ex.get("state"), ex.get("reason", ""))
+answers = read_answers(f"{out}/base.out")
+explored, states = explorations(answers)
 print(f"FIGURE real_scan_fleet ran_s {duration}")
 for r in sorted(explored):
     print(f"FIGURE real_scan_fleet {r}_explored_m2 {explored[r][-1]:.0f} (samples every 30 s: "
           + " ".join(f"{v:.0f}" for v in explored[r]) + f"); exploration {states[r][0]}: {states[r][1]}")
-kinds = {}
-for e in events:
-    kinds[e["event"]] = kinds.get(e["event"], 0) + 1
+kinds = event_counts(answers)
 print("FIGURE real_scan_fleet events " + (", ".join(f"{k} {n}" for k, n in sorted(kinds.items())) or "none"))
-for e in events:
-    if e["event"].startswith("component_") or e["event"] in ("exploration_stopped", "lost"):
+for e in answers:
+    if e.get("event", "").startswith("component_") or e.get("event") in ("exploration_stopped", "lost"):
         print(f"  {e.get('robot', '')}: {e['event']}: {e.get('message', '')}")
 for r in ("r1", "r2", "r3"):
     log = open(f"{out}/{r}.log", errors="replace").read()

@@ -21,12 +21,7 @@ BASELINE_S=$(( DURATION_S >= 600 ? 300 : DURATION_S / 2 ))
 DOMAIN=69
 ROBOTS=5
 mkdir -p "$OUT"
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null || true; done
-  wait 2>/dev/null || true
-}
-trap cleanup EXIT
+source "$(dirname "$0")/fleet_bench_lib.sh"
 export XDG_CACHE_HOME="${XDG_CACHE_HOME:-$BUILD/cache}"
 for k in $(seq 0 $((ROBOTS - 1))); do
   "$BUILD/robot_agent/cairn_agent" --robot-id "r$k" --start "slot:$k" --domain "$DOMAIN" \

@@ -711,7 +711,7 @@ void RobotAgent::Impl::ResumeMission(double now_s) {
       std::to_string(paused.kind == PausedMission::Kind::kWaypoint ? paused.goal.goal_id : paused.task_id);
   // An operator's command (a mode, a goal, an exploration, a stop, a release) ends it: they decided.
   if (command_->mission_commands() != mission_commands_at_pause_ ||
-      (!paused.held && modes_->mode() != ModeManager::kIdleMode)) {
+      (!paused.held && modes_->mode() != ModeManager::kIdleMode && modes_->mode() != yield_->name())) {
     spdlog::info("robot {}: paused mission ({}) dropped: an operator's command came (mode {})",
                  options_.robot_id, what, modes_->mode());
     mission_note_ = "dropped: an operator's command came";
@@ -719,6 +719,7 @@ void RobotAgent::Impl::ResumeMission(double now_s) {
     if (resume_plan_.valid()) navigation_.Abandon(std::move(resume_plan_));
     return;
   }
+  if (modes_->mode() == yield_->name()) return;  // out of a peer's way now: tried once the yield ends
   auto resumed = [&] {
     const double paused_s = now_s - paused.since_s;
     spdlog::info("robot {}: mission resumed ({}) after {:.1f} s paused ({})", options_.robot_id, what,
