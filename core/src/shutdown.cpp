@@ -42,7 +42,11 @@ void ArmDeadline(int signal_number) {
         std::string(program_invocation_short_name) + ": still running " + std::to_string(deadline.count()) +
         " ms after " + (signal_number == SIGINT ? "SIGINT" : "SIGTERM") +
         " (a part of it did not stop): exiting now with status " + std::to_string(kForcedExitStatus) + "\n");
-    std::fflush(stdout);
+    // What stdout holds goes out, unless another thread holds it (blocked writing to a full pipe, perhaps).
+    if (ftrylockfile(stdout) == 0) {
+      fflush_unlocked(stdout);
+      funlockfile(stdout);
+    }
     ::_exit(kForcedExitStatus);
   }).detach();
 }
