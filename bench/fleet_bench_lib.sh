@@ -17,8 +17,8 @@ fleet_bench_wait_ready() {
   local name="$1" out="$2" id
   shift 2
   for id in "$@"; do
-    for _ in $(seq 1800); do grep -q READY "$out/$id.out" && break; sleep 0.1; done
-    grep -q READY "$out/$id.out" || { echo "$name: $id did not start" >&2; tail -3 "$out/$id.log" >&2; exit 1; }
+    for _ in $(seq 1800); do grep -qs READY "$out/$id.out" && break; sleep 0.1; done
+    grep -qs READY "$out/$id.out" || { echo "$name: $id did not start" >&2; tail -3 "$out/$id.log" >&2; exit 1; }
   done
 }
 
