@@ -776,7 +776,7 @@ int CommandShell::Stop(const std::vector<std::string>& args) {
   // for one robot's round trip before the next nor for discovery to end before the first (a one-shot
   // `cairn_base -- stop all` reached the robots only after it). Robots heard until discovery ends are stopped
   // too, lost ones included: a robot that looks lost may still hear a stop.
-  const auto discovery_end = client_.started() + std::chrono::milliseconds(1500);
+  const auto discovery_end = client_.discovery_end();
   std::vector<std::string> robots;
   std::deque<CommandOutcome> outcomes;  // a deque: each sender keeps the address of its own
   std::vector<std::thread> senders;

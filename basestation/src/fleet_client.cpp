@@ -717,6 +717,11 @@ bool FleetClient::Knows(const std::string& robot_id) const {
 
 core::SteadyTime FleetClient::started() const { return impl_->created_; }
 
+core::SteadyTime FleetClient::discovery_end() const {
+  return impl_->created_ + std::chrono::duration_cast<SteadyClock::duration>(
+                               std::chrono::duration<double>(impl_->options_.discovery_s));
+}
+
 std::string FleetClient::UnknownRobotReason(const std::string& robot_id) const {
   return impl_->UnknownRobotReason(robot_id);
 }

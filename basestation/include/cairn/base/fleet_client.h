@@ -198,6 +198,9 @@ class FleetClient {
   /// When this client (its DDS participant) started: discovery is measured from it, by the client and by
   /// every shell on it (`robots`, `links` wait until 1.5 s / 2.5 s after it).
   core::SteadyTime started() const;
+  /// The end of discovery: started() + FleetClientOptions::discovery_s (a robot not heard of by then is
+  /// unknown).
+  core::SteadyTime discovery_end() const;
   /// "unknown robot 'r9' (did you mean r1?) (known: r1, r2)" or "robot r1 is lost (...)".
   std::string UnknownRobotReason(const std::string& robot_id) const;
 
