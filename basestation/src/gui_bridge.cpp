@@ -130,7 +130,7 @@ const char* kFleetStateSchema =
 "max_speed_mps":{"type":"number"},"max_reverse_speed_mps":{"type":"number"},"max_yaw_rate_radps":{"type":"number"},
 "camera_age_s":{"type":"number","description":"age of its latest camera frame, -1 = none"},
 "control_period_max_ms":{"type":"number"},
-"components":{"type":"array","description":"its agent's components as its health monitor judges them (cairn_base health R)","items":{"type":"object","properties":{"name":{"type":"string"},"state":{"type":"string","enum":["active","down","inactive","unconfigured"]},"loop_rate_hz":{"type":"number"},"target_rate_hz":{"type":"number"},"cpu_percent":{"type":"number"},"restarts":{"type":"integer"},"restart_in_s":{"type":"number"},"last_error":{"type":"string"}}}},
+"components":{"type":"array","description":"its agent's components as its health monitor judges them (cairn_base health R)","items":{"type":"object","properties":{"name":{"type":"string"},"state":{"type":"string","enum":["active","down","inactive","unconfigured"]},"loop_rate_hz":{"type":"number"},"target_rate_hz":{"type":"number"},"cpu_percent":{"type":"number"},"restarts":{"type":"integer"},"restart_in_s":{"type":"number"},"last_error":{"type":"string"},"degraded":{"type":"boolean"}}}},
 "exploration":{"type":"object","description":"the robot's exploration (as status --json): state, reason, task_id, explored_m2, frontiers, reachable_frontiers, targets_reached, targets_failed, peers, peer_seen_m2, target {x_m, y_m, z_m} when it has one"},"convoy":{"type":"object","description":"a convoy follower's record (as status --json): state (none|following|holding|lost|blocked), ahead (the robots ahead, nearest first, the leader last), reason, gap_m when known"},"yield":{"type":"object","description":"get-out-of-the-way: state ('' | moving_aside | aside | returning | refused as the robot asked; asking | blocked as the robot asking), peer (the other robot), reason, for (the robot whose route passes this one now: yield offers to let it pass; '' = none)"},
 "state_stamp":{"type":"object","description":"the robot's stamp of its latest state (wall clock)","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},
 "received_stamp":{"type":"object","description":"when this basestation received that state (wall clock)","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}}}}}}})json";
@@ -471,7 +471,8 @@ class GuiBridge::Impl {
                                      {"cpu_percent", c.cpu_percent()},
                                      {"restarts", c.restarts()},
                                      {"restart_in_s", c.restart_in_s()},
-                                     {"last_error", c.last_error()}});
+                                     {"last_error", c.last_error()},
+                                     {"degraded", c.degraded()}});
         }
       }
       if (v.state) {

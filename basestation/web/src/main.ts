@@ -15,6 +15,7 @@ interface Component {
   restarts: number;
   restart_in_s: number;
   last_error: string;
+  degraded: boolean;  // beating, but under half its rate for a few seconds: slow, not hung
 }
 
 interface Robot {
@@ -423,13 +424,16 @@ function renderHealth(): void {
   setHtml($("component-rows"), robots.filter((r) => (r.components ?? []).length > 0).map((r) => {
     const head = `<tr class="group"><td colspan="6"><b>${r.id}</b>${hasDown(r) ? ' <b class="bad">component down</b>' : ""}</td></tr>`;
     return head + (r.components ?? []).map((c) => {
-      const stateText = c.state === "down" ? `<b class="bad">DOWN</b> ${c.restart_in_s.toFixed(0)} s` : c.state;
+      const stateText = c.state === "down" ? `<b class="bad">DOWN</b> ${c.restart_in_s.toFixed(0)} s`
+        : c.degraded ? '<b class="slow">degraded</b>' : c.state;
+      // A rate under half its target is shown in the warning colour (slow, not down).
+      const slow = c.state === "active" && (c.degraded || c.loop_rate_hz < 0.5 * c.target_rate_hz);
       const restart = r.you_hold && r.online
         ? `<button class="restart" title="restart ${c.name}" data-cmd="restart ${r.id} ${c.name}">restart</button>` : "";
       // The last error under the component's name (the panel is narrow): what made it fail last.
       const error = c.last_error ? `<br><span class="reason error">${c.last_error}</span>` : "";
       return `<tr data-robot-id="${r.id}"><td>${c.name}${error}</td><td>${stateText}</td>
-        <td>${c.loop_rate_hz.toFixed(0)}/${c.target_rate_hz.toFixed(0)}</td><td>${c.cpu_percent.toFixed(0)}</td>
+        <td${slow ? ' class="slow"' : ""}>${c.loop_rate_hz.toFixed(0)}/${c.target_rate_hz.toFixed(0)}</td><td>${c.cpu_percent.toFixed(0)}</td>
         <td>${c.restarts}</td><td>${restart}</td></tr>`;
     }).join("");
   }).join(""));
