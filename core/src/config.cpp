@@ -107,9 +107,10 @@ void RejectYamlAliases(const std::string& text, const std::string& origin) {
   std::istringstream in(text);
   AliasRefuser refuser(text, origin);
   try {
+    // The first document only: the one YAML::Load reads. (yaml-cpp 0.7's HandleNextDocument can report a
+    // next document forever on some malformed input, e.g. the 5 bytes ",\xadQ\b\x91": a fuzzed config.)
     YAML::Parser parser(in);
-    while (parser.HandleNextDocument(refuser)) {
-    }
+    parser.HandleNextDocument(refuser);
   } catch (const YAML::Exception& e) {
     throw ConfigError(origin + ": not valid YAML: " + e.what());
   }
