@@ -214,8 +214,6 @@ TEST(ComponentFaults, PerceptionThatDoesNotStopIsNeverRunTwiceAndOnlyTheHolderRe
   EXPECT_LT(moved_m, 0.05) << "the robot moved";
 }
 
-// Supervised, the agent whose perception does not stop leaves for a restart from its journal: it comes back
-// with every part up, idle, with its lock holder.
 // Interrupted is not ended: an exploration whose perception throws pauses (its task kept under its id, the
 // operator told), and resumes by itself once perception is back; an operator's stop then ends it for good.
 TEST(ComponentFaults, AnExplorationPausedByARestartingPartResumesByItself) {
@@ -277,6 +275,8 @@ TEST(ComponentFaults, AnExplorationPausedByARestartingPartResumesByItself) {
   EXPECT_TRUE(s.mission_state().empty());
 }
 
+// Supervised, the agent whose perception does not stop leaves for a restart from its journal: it comes back
+// with every part up, idle, with its lock holder.
 TEST(ComponentFaults, ASupervisedAgentWhosePartDoesNotStopRestartsFromItsJournal) {
   const int domain = 91;
   const std::string logs = FreshLogs("component_faults", "supervised_hang");
