@@ -103,7 +103,7 @@ double PlainAStar(const Grid2D& g, double sx, double sy, double gx, double gy, i
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string path = std::string(CAIRN_SOURCE_DIR) + "/../shared/data/geb079.bt";
+  std::string path = std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
   int repeats = 20;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeats") == 0 && i + 1 < argc) {
@@ -113,7 +113,7 @@ int main(int argc, char** argv) {
     }
   }
   if (!std::filesystem::exists(path)) {
-    std::printf("global planner bench: %s is absent (no ../shared/data); nothing measured\n", path.c_str());
+    std::printf("global planner bench: %s is absent (no data/ in the repository); nothing measured\n", path.c_str());
     return 0;
   }
   const auto t_load = Clock::now();

@@ -142,9 +142,9 @@ void RunCase(const Case& c, int repeats, Totals* totals) {
 
 int main(int argc, char** argv) {
 #ifdef CAIRN_SOURCE_DIR
-  std::string geb079_path = std::string(CAIRN_SOURCE_DIR) + "/../shared/data/geb079.bt";
+  std::string geb079_path = std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
 #else
-  std::string geb079_path = "../shared/data/geb079.bt";  // Relative to the repository root.
+  std::string geb079_path = "data/geb079.bt";  // Relative to the repository root.
 #endif
   int repeats = 20;
   for (int i = 1; i < argc; ++i) {
@@ -171,7 +171,7 @@ int main(int argc, char** argv) {
     cases.push_back({"geb079/middle", &*geb079, {6.0, 0.0, 0.5}, 0.0});
     cases.push_back({"geb079/east", &*geb079, {20.0, 0.0, 0.5}, 3.1});
   } else {
-    std::printf("geb079: %s is absent (no ../shared/data); measuring builtin:tunnels only\n",
+    std::printf("geb079: %s is absent (no data/ in the repository); measuring builtin:tunnels only\n",
                 geb079_path.c_str());
   }
 

@@ -3,7 +3,7 @@
 // resolution and sensor model, measured in the same run, plus the agreement of the two maps (occupied and
 // known voxels); also InsertScan with one_ray_per_endpoint_voxel = false, which must agree exactly. Data
 // sets:
-//  - spherical_scan: OctoMap's ScanGraph ../shared/data/spherical_scan.graph (one scan of 10201 points,
+//  - spherical_scan: OctoMap's ScanGraph data/spherical_scan.graph (one scan of 10201 points,
 //    inserted --scans times; skipped when absent);
 //  - tunnels: a simulated VLP-16 (16 x 1800 rays, 30 m, 1 cm noise; cairn::sim::SimulatedLidar) driven
 //    through builtin:tunnels;
@@ -52,9 +52,9 @@ double Ms(Clock::time_point a, Clock::time_point b) {
 
 std::string GraphPath() {
 #ifdef CAIRN_SOURCE_DIR
-  return std::string(CAIRN_SOURCE_DIR) + "/../shared/data/spherical_scan.graph";
+  return std::string(CAIRN_SOURCE_DIR) + "/data/spherical_scan.graph";
 #else
-  return "../shared/data/spherical_scan.graph";
+  return "data/spherical_scan.graph";
 #endif
 }
 

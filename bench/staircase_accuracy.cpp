@@ -3,7 +3,7 @@
 //  - every built-in world (sim::BuiltinWorldNames(), so a new world is picked up), exact;
 //  - a survey copy of every built-in world (sim::MakeSurveyScan: floors thinned to 50 points/m², walls keep
 //    70 %, 300 strays; written as a PCD and loaded with the default clean-up, as a user's sparse scan is);
-//  - the degraded copy of ../shared/data/geb079.bt (sim::DegradedGeb079Options(), seed 79; skipped with a
+//  - the degraded copy of data/geb079.bt (sim::DegradedGeb079Options(), seed 79; skipped with a
 //    message when the file is absent);
 //  - synthetic scenes at 1 cm voxels with the classic false positives (a wall, crates, a curb, a table, a
 //    ramp, a flight seen side-on) and flights of 0.25 m run and 0.17-0.20 m rise (straight, rotated, open or
@@ -494,7 +494,7 @@ std::vector<SceneMaker> AllScenes(const std::string& geb079_path) {
     scene.group = "degraded geb079 (0.1 m)";
     scene.name = "geb079-degraded";
     if (!std::ifstream(geb079_path).good()) {
-      std::printf("  %s is absent: degraded geb079 skipped (it lives in ../shared/data)\n", geb079_path.c_str());
+      std::printf("  %s is absent: degraded geb079 skipped (it lives in data)\n", geb079_path.c_str());
       return scene;
     }
     cairn::sim::WorldLoadOptions raw;
@@ -700,7 +700,7 @@ int main(int argc, char** argv) {
   std::string only;
   bool verbose = false;
   int only_view = -1;
-  std::string geb079 = std::string(CAIRN_SOURCE_DIR) + "/../shared/data/geb079.bt";
+  std::string geb079 = std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--only") == 0 && i + 1 < argc) {
       only = argv[++i];

@@ -40,7 +40,7 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   if (spec.rfind("builtin:", 0) != 0) {
     spec = std::string(CAIRN_SOURCE_DIR) + "/" + spec;
     if (!std::filesystem::exists(spec))
-      GTEST_SKIP() << spec << " is absent (no ../shared); builtin worlds cover this";
+      GTEST_SKIP() << spec << " is absent (no data/); builtin worlds cover this";
   }
   const int domain = world_case.domain;
   const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/" + world_case.name;
@@ -347,7 +347,7 @@ TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Worlds, FleetIntegration,
-                         ::testing::Values(WorldCase{"geb079", "../shared/data/geb079.bt", 61},
+                         ::testing::Values(WorldCase{"geb079", "data/geb079.bt", 61},
                                            WorldCase{"tunnels", "builtin:tunnels", 62}),
                          [](const auto& info) { return info.param.name; });
 

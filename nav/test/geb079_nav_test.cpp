@@ -1,7 +1,7 @@
 // Copyright Cairn authors.
 //
 // Navigation on the real scan geb079.bt (a building floor, OctoMap sample data): traversability, sampling,
-// planning and closed-loop driving. Skipped when ../shared/data/geb079.bt is absent.
+// planning and closed-loop driving. Skipped when data/geb079.bt is absent.
 //
 // The scan was taken from the corridor: the corridor floor (about 39 x 2.4 m, along x, y ~ 0) is well
 // covered; the offices beside it were seen through their doors, so most of their floor is missing

@@ -2,7 +2,7 @@
 //
 // Tests of cairn::perception::OccupancyMap: queries, ray casting, boxes, robustness to bad input, .bt files,
 // coarse change tracking, agreement with OctoMap's insertPointCloud, and the real scan
-// ../shared/data/spherical_scan.graph (skipped when absent).
+// data/spherical_scan.graph (skipped when absent).
 #include "cairn/perception/occupancy_map.h"
 
 #include <gtest/gtest.h>
@@ -33,20 +33,20 @@ constexpr double kPi = 3.14159265358979323846;
 
 // ---- helpers ----------------------------------------------------------------------------------------------
 
-/// Path of the real scan shared beside the repository: <repo root>/../shared/data/spherical_scan.graph.
+/// Path of the real scan shared beside the repository: <repo root>/data/spherical_scan.graph.
 std::string SphericalScanPath() {
 #ifdef CAIRN_SOURCE_DIR
-  return std::string(CAIRN_SOURCE_DIR) + "/../shared/data/spherical_scan.graph";
+  return std::string(CAIRN_SOURCE_DIR) + "/data/spherical_scan.graph";
 #else
-  return "../shared/data/spherical_scan.graph";
+  return "data/spherical_scan.graph";
 #endif
 }
 
 std::string Geb079Path() {
 #ifdef CAIRN_SOURCE_DIR
-  return std::string(CAIRN_SOURCE_DIR) + "/../shared/data/geb079.bt";
+  return std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
 #else
-  return "../shared/data/geb079.bt";
+  return "data/geb079.bt";
 #endif
 }
 
@@ -639,7 +639,7 @@ TEST(OccupancyMapFileTest, SaveLoadRoundTrip) {
 TEST(OccupancyMapFileTest, LoadsOctomapsOwnFile) {
   if (!FileExists(Geb079Path())) {
     GTEST_SKIP() << "real map " << Geb079Path()
-                 << " is absent (it lives in ../shared/data beside the repository)";
+                 << " is absent (it ships in data/)";
   }
   const OccupancyMap map = OccupancyMap::LoadBt(Geb079Path());
   octomap::OcTree tree(0.1);
@@ -885,7 +885,7 @@ TEST(OccupancyMapTest, ConcurrentQueriesDuringInsertion) {
 TEST(OccupancyMapRealScanTest, SphericalScanGraph) {
   const std::string path = SphericalScanPath();
   if (!FileExists(path)) {
-    GTEST_SKIP() << "real scan " << path << " is absent (it lives in ../shared/data beside the repository)";
+    GTEST_SKIP() << "real scan " << path << " is absent (it ships in data/)";
   }
   octomap::ScanGraph graph;
   ASSERT_TRUE(graph.readBinary(path));

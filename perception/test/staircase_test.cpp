@@ -417,16 +417,16 @@ TEST(StaircaseFalsePositiveTest, RampCurbPodiumAndTableAreNotStaircases) {
 
 std::string Geb079Path() {
 #ifdef CAIRN_SOURCE_DIR
-  return std::string(CAIRN_SOURCE_DIR) + "/../shared/data/geb079.bt";
+  return std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
 #else
-  return "../shared/data/geb079.bt";
+  return "data/geb079.bt";
 #endif
 }
 
 TEST(StaircaseFalsePositiveTest, Geb079CorridorWithoutStairs) {
   const std::string path = Geb079Path();
   if (!std::ifstream(path).good()) {
-    GTEST_SKIP() << "real scan " << path << " is absent (it lives in ../shared/data beside the repository)";
+    GTEST_SKIP() << "real scan " << path << " is absent (it ships in data/)";
   }
   const sim::World world = sim::LoadWorld(path);
   // The corridor runs along x at y ~ 0 with its floor surface at z = 0 (see nav/test/geb079_nav_test.cpp).

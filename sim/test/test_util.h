@@ -30,12 +30,12 @@ inline std::string ReadFile(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-/// Path of the real scan shared beside the repository: <repo root>/../shared/data/geb079.bt.
+/// Path of the real scan shared beside the repository: <repo root>/data/geb079.bt.
 inline std::string Geb079Path() {
 #ifdef CAIRN_SOURCE_DIR
-  return std::string(CAIRN_SOURCE_DIR) + "/../shared/data/geb079.bt";
+  return std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
 #else
-  return "../shared/data/geb079.bt";
+  return "data/geb079.bt";
 #endif
 }
 
@@ -56,10 +56,10 @@ inline bool FileExists(const std::string& path) { return std::ifstream(path).goo
 #define EXPECT_CONTAINS(haystack, needle) \
   EXPECT_PRED_FORMAT2(::cairn::sim::testing::AssertContains, haystack, needle)
 
-/// Skips the current test when the shared geb079.bt scan is absent (e.g. a fresh clone without ../shared).
+/// Skips the current test when the shared geb079.bt scan is absent (data/ missing from the checkout).
 #define CAIRN_SKIP_WITHOUT_GEB079()                                                                        \
   if (!::cairn::sim::testing::FileExists(::cairn::sim::testing::Geb079Path())) {                           \
     GTEST_SKIP() << "real scan " << ::cairn::sim::testing::Geb079Path()                                    \
-                 << " is absent (it lives in ../shared/data beside the repository); builtin worlds cover " \
+                 << " is absent (it ships in data/); builtin worlds cover " \
                     "the same behaviour";                                                                  \
   }

@@ -100,7 +100,7 @@ struct SurveyScan {
 /// `options` is invalid.
 SurveyScan MakeSurveyScan(const World& truth, const SurveyScanOptions& options, std::uint32_t seed);
 
-/// The degraded copy of the real scan ../shared/data/geb079.bt used by the sparse-scan tests and benches
+/// The degraded copy of the real scan data/geb079.bt used by the sparse-scan tests and benches
 /// (with seed 79): floor below z = 0 thinned to 50 points/m², walls and ceiling keep 70 %, ten 0.4 m floor
 /// holes along the corridor (x = 0, 2, ..., 18), well A (x in [8, 8.5], y in [-1.2, -0.7], bottom seen at
 /// -2.03 m: a shaft) and well B (x in [20, 21.2], y in [-1.4, -0.4], nothing seen below), 300 strays in x in
