@@ -461,20 +461,7 @@ class GuiBridge::Impl {
       r["goal_acceptable"] = v.tree ? v.tree->goal_acceptable() : false;
       const auto frame = client_.perception().LatestFrame(v.robot_id);
       r["camera_age_s"] = frame ? core::SecondsBetween(frame->received, now) : -1.0;
-      r["components"] = json::array();
-      if (v.health) {
-        for (const auto& c : v.health->components()) {
-          r["components"].push_back({{"name", c.name()},
-                                     {"state", c.state()},
-                                     {"loop_rate_hz", c.loop_rate_hz()},
-                                     {"target_rate_hz", c.target_rate_hz()},
-                                     {"cpu_percent", c.cpu_percent()},
-                                     {"restarts", c.restarts()},
-                                     {"restart_in_s", c.restart_in_s()},
-                                     {"last_error", c.last_error()},
-                                     {"degraded", c.degraded()}});
-        }
-      }
+      r["components"] = ComponentsJson(v);
       if (v.state) {
         const cairn_msgs::RobotState& s = *v.state;
         const auto& p = s.pose_MB().position();
@@ -513,37 +500,8 @@ class GuiBridge::Impl {
         // The pose at the time the robot stamped it (a peer's stamp in the future or far past: ours).
         const bool stamp_plausible =
             state_ns > 0 && state_ns <= ns + 1000000000ULL && ns - std::min(ns, state_ns) < 3600000000000ULL;
-        tf["transforms"].push_back({{"timestamp", Stamp(stamp_plausible ? state_ns : ns)},
-                                    {"parent_frame_id", "map"},
-                                    {"child_frame_id", v.robot_id},
-                                    {"translation", Vec3(p.x_m(), p.y_m(), p.z_m())},
-                                    {"rotation",
-                                     {{"x", s.pose_MB().orientation().x()},
-                                      {"y", s.pose_MB().orientation().y()},
-                                      {"z", s.pose_MB().orientation().z()},
-                                      {"w", s.pose_MB().orientation().w()}}}});
-        double cr = 0, cg = 0, cb = 0;
-        ModeColor(s.mode(), &cr, &cg, &cb);
-        const double alpha = v.lost ? 0.35 : 1.0;
-        json e = Entity("robot/" + v.robot_id, ns);
-        e["cubes"].push_back(
-            Cube(p.x_m(), p.y_m(), p.z_m() + 0.2, yaw, 0.7, 0.5, 0.35, Color(cr, cg, cb, alpha)));
-        e["arrows"].push_back({{"pose", PoseJson(p.x_m(), p.y_m(), p.z_m() + 0.45, yaw)},
-                               {"shaft_length", 0.45},
-                               {"shaft_diameter", 0.06},
-                               {"head_length", 0.2},
-                               {"head_diameter", 0.16},
-                               {"color", Color(1, 1, 1, alpha)}});
-        const std::string holder = s.holder_id().empty() ? "free" : "held by " + s.holder_id();
-        e["texts"].push_back(
-            {{"pose", PoseJson(p.x_m(), p.y_m(), p.z_m() + 0.9, 0)},
-             {"billboard", true},
-             {"font_size", 14.0},
-             {"scale_invariant", true},
-             {"color", Color(1, 1, 1, 1)},
-             {"text", v.robot_id + " · " + s.mode() + " · " + holder + (v.lost ? " · LOST" : "")}});
-        e["metadata"].push_back({{"key", "holder"}, {"value", s.holder_id()}});
-        e["metadata"].push_back({{"key", "mode"}, {"value", s.mode()}});
+        tf["transforms"].push_back(RobotTransform(v.robot_id, s, stamp_plausible ? state_ns : ns));
+        json e = RobotEntity(v, s, ns);
         scene["entities"].push_back(e);
         UpdateTrail(v.robot_id, p.x_m(), p.y_m(), p.z_m());
       } else {
@@ -557,6 +515,68 @@ class GuiBridge::Impl {
     server_->Publish(fleet_, ns, fleet.dump());
     if (!tf["transforms"].empty()) server_->Publish(tf_, ns, tf.dump());
     server_->Publish(robots_, ns, scene.dump());
+  }
+
+  // The robot's agent's components as its health monitor judges them (Health tab).
+  static json ComponentsJson(const RobotView& v) {
+    json components = json::array();
+    if (!v.health) return components;
+    for (const auto& c : v.health->components()) {
+      components.push_back({{"name", c.name()},
+                            {"state", c.state()},
+                            {"loop_rate_hz", c.loop_rate_hz()},
+                            {"target_rate_hz", c.target_rate_hz()},
+                            {"cpu_percent", c.cpu_percent()},
+                            {"restarts", c.restarts()},
+                            {"restart_in_s", c.restart_in_s()},
+                            {"last_error", c.last_error()},
+                            {"degraded", c.degraded()}});
+    }
+    return components;
+  }
+
+  // map -> the robot's base, stamped `stamp_ns` (/tf).
+  static json RobotTransform(const std::string& robot_id, const cairn_msgs::RobotState& s,
+                             std::uint64_t stamp_ns) {
+    const auto& p = s.pose_MB().position();
+    return {{"timestamp", Stamp(stamp_ns)},
+            {"parent_frame_id", "map"},
+            {"child_frame_id", robot_id},
+            {"translation", Vec3(p.x_m(), p.y_m(), p.z_m())},
+            {"rotation",
+             {{"x", s.pose_MB().orientation().x()},
+              {"y", s.pose_MB().orientation().y()},
+              {"z", s.pose_MB().orientation().z()},
+              {"w", s.pose_MB().orientation().w()}}}};
+  }
+
+  // The robot's body in the 3D view: a box in its mode's colour, a heading arrow and a label.
+  static json RobotEntity(const RobotView& v, const cairn_msgs::RobotState& s, std::uint64_t ns) {
+    const auto& p = s.pose_MB().position();
+    const double yaw = YawOf(s.pose_MB().orientation());
+    double cr = 0, cg = 0, cb = 0;
+    ModeColor(s.mode(), &cr, &cg, &cb);
+    const double alpha = v.lost ? 0.35 : 1.0;
+    json e = Entity("robot/" + v.robot_id, ns);
+    e["cubes"].push_back(
+        Cube(p.x_m(), p.y_m(), p.z_m() + 0.2, yaw, 0.7, 0.5, 0.35, Color(cr, cg, cb, alpha)));
+    e["arrows"].push_back({{"pose", PoseJson(p.x_m(), p.y_m(), p.z_m() + 0.45, yaw)},
+                           {"shaft_length", 0.45},
+                           {"shaft_diameter", 0.06},
+                           {"head_length", 0.2},
+                           {"head_diameter", 0.16},
+                           {"color", Color(1, 1, 1, alpha)}});
+    const std::string holder = s.holder_id().empty() ? "free" : "held by " + s.holder_id();
+    e["texts"].push_back(
+        {{"pose", PoseJson(p.x_m(), p.y_m(), p.z_m() + 0.9, 0)},
+         {"billboard", true},
+         {"font_size", 14.0},
+         {"scale_invariant", true},
+         {"color", Color(1, 1, 1, 1)},
+         {"text", v.robot_id + " · " + s.mode() + " · " + holder + (v.lost ? " · LOST" : "")}});
+    e["metadata"].push_back({{"key", "holder"}, {"value", s.holder_id()}});
+    e["metadata"].push_back({{"key", "mode"}, {"value", s.mode()}});
+    return e;
   }
 
   void UpdateTrail(const std::string& id, double x, double y, double z) {
