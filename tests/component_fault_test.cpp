@@ -275,6 +275,74 @@ TEST(ComponentFaults, AnExplorationPausedByARestartingPartResumesByItself) {
   EXPECT_TRUE(s.mission_state().empty());
 }
 
+// A convoy place is a mission too: a follower whose platform throws keeps its place (convoy_state "paused",
+// the same robot ahead), resumes by itself once the platform is back, and follows the leader on, on the trail
+// the leader drove meanwhile.
+TEST(ComponentFaults, AConvoyFollowerWhosePlatformRestartsKeepsItsPlace) {
+  const int domain = 95;
+  const std::string logs = FreshLogs("component_faults", "convoy_paused");
+  Observer observer(domain);
+  // The default world's main tunnel (y = 20), the follower 3 m (the convoy spacing) behind the leader.
+  auto start = [&](const std::string& id, const std::string& at, std::vector<std::string> extra) {
+    std::vector<std::string> argv = {kAgent,     "--robot-id",          id, "--start", at,
+                                     "--domain", std::to_string(domain)};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    auto agent = std::make_unique<ChildProcess>(argv, logs + "/" + id + ".log");
+    EXPECT_TRUE(agent->WaitForLine("READY", 60s)) << id << " did not start; see " << logs;
+    return agent;
+  };
+  auto leader = start("cl", "14,20,0", {});
+  auto follower = start("c1", "11,20,0",
+                        {"--config", ConfigWithBackoff(logs, 3.0), "--inject-fault", "platform:throw:12"});
+  Base op("opA", domain, logs);
+  ASSERT_TRUE(op.Run("wait cl online 10")["ok"]);
+  ASSERT_TRUE(op.Run("wait c1 online 10")["ok"]);
+  ASSERT_TRUE(op.Run("request-control cl c1")["ok"]);
+  json r = op.Run("convoy cl c1");
+  ASSERT_TRUE(r["ok"]) << r;
+  msgs::RobotState s;
+  for (const auto deadline = Clock::now() + 40s; Clock::now() < deadline && s.mission_state() != "paused";) {
+    s = observer.FreshState("c1");
+    std::this_thread::sleep_for(50ms);
+  }
+  ASSERT_EQ(s.mission_state(), "paused") << "see " << logs << "/c1.log";
+  EXPECT_EQ(s.mission_kind(), "convoy");
+  EXPECT_EQ(s.convoy_state(), "paused") << s.convoy_reason();
+  ASSERT_FALSE(s.convoy_ahead_ids().empty());
+  EXPECT_EQ(s.convoy_ahead_ids().front(), "cl");
+  EXPECT_NE(s.mission_reason().find("platform"), std::string::npos) << s.mission_reason();
+  EXPECT_EQ(s.mode(), "idle");
+  // The leader drives on while its follower waits; the follower resumes by itself and follows.
+  ASSERT_TRUE(op.Run("goto cl 24 20")["ok"]);
+  for (const auto until = Clock::now() + 30s;
+       Clock::now() < until && !(s.mission_state().empty() && s.mode() == "convoy");) {
+    s = observer.FreshState("c1");
+    std::this_thread::sleep_for(50ms);
+  }
+  EXPECT_EQ(s.mode(), "convoy") << "not resumed; see " << logs << "/c1.log";
+  EXPECT_EQ(s.mission_reason().rfind("resumed after", 0), 0u) << s.mission_reason();
+  r = op.Run("wait cl arrived 60", 70s);
+  ASSERT_TRUE(r["ok"]) << r;
+  // Closed up behind the stopped leader: holding at the spacing (3 m, within 1 m) behind it.
+  for (const auto until = Clock::now() + 30s; Clock::now() < until;) {
+    s = observer.FreshState("c1");
+    if (s.convoy_state() == "holding" && s.pose_MB().position().x_m() > 19.0) break;
+    std::this_thread::sleep_for(200ms);
+  }
+  EXPECT_EQ(s.mode(), "convoy");
+  EXPECT_EQ(s.convoy_state(), "holding") << s.convoy_reason();
+  EXPECT_NEAR(s.pose_MB().position().x_m(), 21.0, 1.0) << "see " << logs << "/c1.log";
+  auto told = [&](const std::string& kind) {
+    return std::any_of(op.events().begin(), op.events().end(),
+                       [&](const json& e) { return e["event"] == kind && e.value("robot", "") == "c1"; });
+  };
+  for (const auto until = Clock::now() + 10s; Clock::now() < until && !told("mission_resumed");)
+    op.Run("sleep 0.5");
+  EXPECT_TRUE(told("mission_paused")) << "the operator was not told";
+  EXPECT_TRUE(told("mission_resumed")) << "the operator was not told";
+  for (const auto& state : observer.History("c1")) EXPECT_FALSE(state.in_contact());
+}
+
 // Supervised, the agent whose perception does not stop leaves for a restart from its journal: it comes back
 // with every part up, idle, with its lock holder.
 TEST(ComponentFaults, ASupervisedAgentWhosePartDoesNotStopRestartsFromItsJournal) {

@@ -23,6 +23,8 @@ const char* ToString(ConvoyStatus::State state) {
       return "lost";
     case ConvoyStatus::State::kBlocked:
       return "blocked";
+    case ConvoyStatus::State::kPaused:
+      return "paused";
   }
   return "none";
 }
@@ -45,7 +47,8 @@ ConvoyMode::ConvoyMode(const ConvoyOptions& options, double channel_timeout_s, N
       navigation_(Required(navigation)),
       trail_(options) {}
 
-std::string ConvoyMode::Start(const std::string& own_id, const std::vector<std::string>& ahead_ids, double now_s) {
+std::string ConvoyMode::Start(const std::string& own_id, const std::vector<std::string>& ahead_ids,
+                              double now_s) {
   if (ahead_ids.empty()) return "a convoy follower needs the robot ahead of it";
   std::set<std::string> seen;
   for (const std::string& id : ahead_ids) {
@@ -102,6 +105,15 @@ void ConvoyMode::SetPeers(const std::vector<PeerBody>& peers, double now_s) {
   }
 }
 
+void ConvoyMode::Pause(const std::vector<std::string>& ahead_ids, const std::string& why) {
+  if (ahead_ids.empty()) return;
+  DropGoal();
+  status_.state = ConvoyStatus::State::kPaused;
+  status_.ahead_ids = ahead_ids;
+  status_.ahead_id = ahead_ids.front();
+  status_.reason = "paused: " + why;
+}
+
 void ConvoyMode::Deactivate(const std::string& why) {
   if (!active()) return;
   DropGoal();
@@ -155,8 +167,8 @@ ModeOutput ConvoyMode::Step(const ModeInputs& in) {
   if (step.failed) {
     blocked_at_M_ = target;
     has_goal_ = false;  // navigation dropped it
-    return Stop(ConvoyStatus::State::kBlocked, "blocked on the way after " + status_.ahead_id + ": " + step.reason,
-                in);
+    return Stop(ConvoyStatus::State::kBlocked,
+                "blocked on the way after " + status_.ahead_id + ": " + step.reason, in);
   }
   if (step.arrived) {
     has_goal_ = false;

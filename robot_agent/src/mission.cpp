@@ -31,7 +31,15 @@ bool IsTransientFailure(const std::string& failure) {
 }
 
 const char* ToString(PausedMission::Kind kind) {
-  return kind == PausedMission::Kind::kWaypoint ? "waypoint" : "explore";
+  switch (kind) {
+    case PausedMission::Kind::kWaypoint:
+      return "waypoint";
+    case PausedMission::Kind::kExplore:
+      return "explore";
+    case PausedMission::Kind::kConvoy:
+      return "convoy";
+  }
+  return "waypoint";
 }
 
 MissionKeeper::MissionKeeper(const MissionOptions& options) : options_(options) {

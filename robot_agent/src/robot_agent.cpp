@@ -206,8 +206,8 @@ class RobotAgent::Impl {
   // With mutex_ held, once per control cycle, before the mode's step: a robot driving a goal whose route a
   // peer blocks in a narrow passage asks it to yield (sent by Run()) and holds before it meanwhile.
   void AskPeersToYield(double now_s, const std::vector<PeerBody>& peers);
-  // With mutex_ held: the operator's mission the robot runs now (a waypoint goal or an exploration), to be
-  // kept when a transient condition interrupts it.
+  // With mutex_ held: the operator's mission the robot runs now (a waypoint goal, an exploration or a place
+  // in a convoy), to be kept when a transient condition interrupts it.
   std::optional<PausedMission> RunningMission(double now_s) const;
   // With mutex_ held: keeps `mission`, interrupted because of `reason`, to resume it (MissionKeeper).
   void PauseMission(PausedMission mission, const std::string& reason);
@@ -217,6 +217,10 @@ class RobotAgent::Impl {
   // condition is not transient.
   void ResumeMission(double now_s);
   void EndPausedMission(const PausedMission& mission, const std::string& reason);
+  // "waypoint 12", "explore 7", "convoy behind r1": the mission in the agent's log lines.
+  static std::string MissionName(const PausedMission& mission);
+  // A convoy place kept for a paused mission is given up (the mission ended or was dropped).
+  void LeavePausedConvoy(const std::string& why);
   // With mutex_ held: what the robot state reports now.
   RobotStateInputs StateInputs() const {
     // As the robot asked while it yields (or last yielded: how it ended), else as the robot asking.
@@ -257,7 +261,7 @@ class RobotAgent::Impl {
   bool in_contact_ = false;
   PeriodWindow control_periods_;
   std::atomic<std::uint64_t> late_control_cycles_{0};  // Run(): cycles started over half a period late
-  int robots_on_link_ = 1;  // ShareRadioLink()
+  int robots_on_link_ = 1;                             // ShareRadioLink()
   Navigation navigation_;
   std::unique_ptr<PerceptionService> perception_;  // sensor, perception and navigation map threads
   WaypointMode* waypoint_ = nullptr;               // owned by modes_; holds the waypoint goal
@@ -669,14 +673,20 @@ std::optional<PausedMission> RobotAgent::Impl::RunningMission(double now_s) cons
     m.task_id = explore_->status().task_id;
     return m;
   }
+  if (modes_->mode() == convoy_->name() && convoy_->active()) {
+    m.kind = PausedMission::Kind::kConvoy;
+    m.convoy_ahead_ids = convoy_->status().ahead_ids;
+    return m;
+  }
   return std::nullopt;
 }
 
 void RobotAgent::Impl::PauseMission(PausedMission mission, const std::string& reason) {
   mission.reason = reason;
-  const uint32_t id = mission.kind == PausedMission::Kind::kWaypoint ? mission.goal.goal_id : mission.task_id;
-  spdlog::warn("robot {}: mission paused ({} {}): {}; it resumes by itself{}", options_.robot_id,
-               ToString(mission.kind), id, reason,
+  // Its place in the convoy is kept (the trail still extended) while it waits.
+  if (mission.kind == PausedMission::Kind::kConvoy) convoy_->Pause(mission.convoy_ahead_ids, reason);
+  spdlog::warn("robot {}: mission paused ({}): {}; it resumes by itself{}", options_.robot_id,
+               MissionName(mission), reason,
                mission.held
                    ? " when the yield ends"
                    : " when that clears (within " + internal::Fixed(mission_.options().resume_within_s, 0) +
@@ -686,11 +696,34 @@ void RobotAgent::Impl::PauseMission(PausedMission mission, const std::string& re
   mission_commands_at_pause_ = command_->mission_commands();
 }
 
+std::string RobotAgent::Impl::MissionName(const PausedMission& mission) {
+  switch (mission.kind) {
+    case PausedMission::Kind::kWaypoint:
+      return "waypoint " + std::to_string(mission.goal.goal_id);
+    case PausedMission::Kind::kExplore:
+      return "explore " + std::to_string(mission.task_id);
+    case PausedMission::Kind::kConvoy:
+      return "convoy behind " +
+             (mission.convoy_ahead_ids.empty() ? std::string("?") : mission.convoy_ahead_ids.front());
+  }
+  return "mission";
+}
+
+void RobotAgent::Impl::LeavePausedConvoy(const std::string& why) {
+  if (convoy_->status().state == ConvoyStatus::State::kPaused) convoy_->Deactivate(why);
+}
+
 void RobotAgent::Impl::EndPausedMission(const PausedMission& mission, const std::string& reason) {
-  if (mission.kind == PausedMission::Kind::kWaypoint) {
-    waypoint_->EndPaused(mission.goal.goal_id, reason);
-  } else {
-    explore_->EndPaused(mission.task_id, reason);
+  switch (mission.kind) {
+    case PausedMission::Kind::kWaypoint:
+      waypoint_->EndPaused(mission.goal.goal_id, reason);
+      break;
+    case PausedMission::Kind::kExplore:
+      explore_->EndPaused(mission.task_id, reason);
+      break;
+    case PausedMission::Kind::kConvoy:
+      LeavePausedConvoy(reason);
+      break;
   }
   mission_note_ = reason;
   mission_.Take();
@@ -706,15 +739,14 @@ void RobotAgent::Impl::ResumeMission(double now_s) {
     return;
   }
   const PausedMission paused = *mission_.paused();
-  const std::string what =
-      std::string(ToString(paused.kind)) + " " +
-      std::to_string(paused.kind == PausedMission::Kind::kWaypoint ? paused.goal.goal_id : paused.task_id);
+  const std::string what = MissionName(paused);
   // An operator's command (a mode, a goal, an exploration, a stop, a release) ends it: they decided.
   if (command_->mission_commands() != mission_commands_at_pause_ ||
       (!paused.held && modes_->mode() != ModeManager::kIdleMode && modes_->mode() != yield_->name())) {
     spdlog::info("robot {}: paused mission ({}) dropped: an operator's command came (mode {})",
                  options_.robot_id, what, modes_->mode());
     mission_note_ = "dropped: an operator's command came";
+    LeavePausedConvoy(mission_note_);
     mission_.Take();
     if (resume_plan_.valid()) navigation_.Abandon(std::move(resume_plan_));
     return;
@@ -765,6 +797,17 @@ void RobotAgent::Impl::ResumeMission(double now_s) {
       break;
   }
   mission_.Tried(now_s);
+  if (paused.kind == PausedMission::Kind::kConvoy) {
+    // Back in line behind the same robots, on the trail kept while it waited.
+    if (const std::string why = convoy_->Start(options_.robot_id, paused.convoy_ahead_ids, now_s);
+        !why.empty())
+      return EndPausedMission(paused, "not resumed: " + why);
+    convoy_->SetPeers(peers_.Live(now_s), now_s);
+    const ModeDecision d = modes_->Request(convoy_->name(), Conditions());
+    if (d.accepted) return resumed();
+    convoy_->Pause(paused.convoy_ahead_ids, paused.reason);
+    return refused(d.reason);
+  }
   if (paused.kind == PausedMission::Kind::kWaypoint) {
     // Planned (off this thread) only once the tree would take a goal again: no search per retry meanwhile.
     if (!command_->ValidNow().goal_acceptable) return;
@@ -1005,14 +1048,15 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   if (!(muxed && navigated && platform_ok && mode_tree_c_->up() && navigation_c_->up() && mux_c_->up())) {
     twist_B = Twist2{};
     if (modes_->mode() != ModeManager::kIdleMode) {
-      if (std::optional<PausedMission> running = RunningMission(now_s))
-        PauseMission(std::move(*running),
-                     "a component of the driving chain is down (health " + options_.robot_id + ")");
+      const std::string why = "a component of the driving chain is down (health " + options_.robot_id + ")";
+      std::optional<PausedMission> running = RunningMission(now_s);
       try {
-        modes_->Stop("a component of the driving chain is down (health " + options_.robot_id + ")");
+        modes_->Stop(why);
       } catch (const std::exception& e) {
         spdlog::error("robot {}: cannot go idle: {}", options_.robot_id, e.what());
       }
+      // After the mode has left: a convoy place is kept by the pause, not dropped by leaving the mode.
+      if (running) PauseMission(std::move(*running), why);
     }
   }
   try {

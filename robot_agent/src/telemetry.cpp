@@ -194,10 +194,14 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
       m.nav_goal_id(p.goal.goal_id);
       m.nav_goal_M().x_m(p.goal.x_m);
       m.nav_goal_M().y_m(p.goal.y_m);
-    } else {
+    } else if (p.kind == PausedMission::Kind::kExplore) {
       m.explore_state("paused");
       m.explore_reason("paused: " + p.reason);
       m.explore_task_id(p.task_id);
+    } else {
+      m.convoy_state("paused");
+      m.convoy_ahead_ids(p.convoy_ahead_ids);
+      m.convoy_reason("paused: " + p.reason);
     }
   } else {
     m.mission_reason(in.mission_note);

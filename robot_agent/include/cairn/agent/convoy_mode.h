@@ -30,12 +30,13 @@ struct ConvoyStatus {
     kHolding,    ///< at the spacing (or waiting to hear the robot ahead): at rest
     kLost,       ///< no robot ahead heard: stopped
     kBlocked,    ///< navigation gave up on the way: stopped until the target moves on
+    kPaused,     ///< the robot's mission is paused (a part of it down): at rest, the trail still extended
   };
   State state = State::kNone;
-  std::string ahead_id;                 ///< the robot followed now
-  std::vector<std::string> ahead_ids;   ///< the robots ahead, nearest first (the leader last)
-  double gap_m = 0.0;                   ///< along the trail to the robot followed, metres (NaN: unknown)
-  std::string reason;                   ///< why it holds, is lost or blocked; the last re-link
+  std::string ahead_id;                ///< the robot followed now
+  std::vector<std::string> ahead_ids;  ///< the robots ahead, nearest first (the leader last)
+  double gap_m = 0.0;                  ///< along the trail to the robot followed, metres (NaN: unknown)
+  std::string reason;                  ///< why it holds, is lost or blocked; the last re-link
 };
 
 const char* ToString(ConvoyStatus::State state);
@@ -54,9 +55,13 @@ class ConvoyMode : public ModeModule {
   /// `now_s` on: with a new trail, or, already in a convoy and re-linked to one of the robots that were ahead
   /// (one peeled off), with the trail kept (it drove it). "" or why not (naming the id).
   std::string Start(const std::string& own_id, const std::vector<std::string>& ahead_ids, double now_s);
-  /// The peers heard lately (PeerTracker::Live()) at `now_s`: the robot followed extends the trail; a lost one
-  /// is replaced by the nearest one further ahead that is heard.
+  /// The peers heard lately (PeerTracker::Live()) at `now_s`: the robot followed extends the trail; a lost
+  /// one is replaced by the nearest one further ahead that is heard.
   void SetPeers(const std::vector<PeerBody>& peers, double now_s);
+  /// Keeps this robot's place in the convoy while its mission is paused (MissionKeeper): `ahead_ids` as
+  /// status().ahead_ids was when it paused, the trail kept and still extended by SetPeers, so that Start with
+  /// the same robots ahead resumes on it. The status goes to kPaused with "paused: `why`".
+  void Pause(const std::vector<std::string>& ahead_ids, const std::string& why);
   /// Leaves the convoy: the goal is dropped, the status goes to kNone with `why`.
   void Deactivate(const std::string& why) override;
   /// One control cycle: hold (zero twist), lost (zero twist), or a navigation step toward the target.
@@ -66,7 +71,7 @@ class ConvoyMode : public ModeModule {
   const ConvoyStatus& status() const { return status_; }
   /// The trail being followed (breadcrumbs not yet passed), frame M.
   const std::vector<Eigen::Vector3d>& trail_M() const { return trail_.trail_M(); }
-  /// True while in a convoy (started, not deactivated).
+  /// True while in a convoy (started or paused, not deactivated).
   bool active() const { return status_.state != ConvoyStatus::State::kNone; }
 
   /// The target is handed to navigation again when it moved this far from the last one, metres.
@@ -84,8 +89,9 @@ class ConvoyMode : public ModeModule {
   Eigen::Vector2d goal_M_ = Eigen::Vector2d::Zero();  // the target last handed to navigation
   bool has_goal_ = false;
   int skipped_ = 0;  // robots ahead re-linked past since the operator's last order (silent ones)
-  std::uint64_t goal_serial_ = 0;        // Navigation::goal_serial() of that target
-  double blocked_target_moved_m_ = 0.0;  // kBlocked: retry once the target moved this far from where it failed
+  std::uint64_t goal_serial_ = 0;  // Navigation::goal_serial() of that target
+  double blocked_target_moved_m_ =
+      0.0;  // kBlocked: retry once the target moved this far from where it failed
   Eigen::Vector2d blocked_at_M_ = Eigen::Vector2d::Zero();
 };
 

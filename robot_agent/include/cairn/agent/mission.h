@@ -1,20 +1,23 @@
 // Missions that outlast interruptions (Sriganesh et al. 2024, § Lessons learned: component failures are
-// normal, the operator decides). An operator's mission — a waypoint goal or an exploration — ends only by an
-// operator's command (stop, another mode, release, a new goal) or a permanent failure. A transient condition
-// (a component down or restarting, localization lost, the mapping or the local planner unhealthy, a yield to
-// another robot) pauses it: the robot keeps the mission, retries it while the condition lasts, resumes it by
-// itself once the mode tree allows it again, and ends it with the reason if that takes longer than
-// MissionOptions::resume_within_s.
+// normal, the operator decides). An operator's mission — a waypoint goal, an exploration or a place in a
+// convoy — ends only by an operator's command (stop, another mode, release, a new goal) or a permanent
+// failure. A transient condition (a component down or restarting, localization lost, the mapping or the local
+// planner unhealthy, a yield to another robot) pauses it: the robot keeps the mission, retries it while the
+// condition lasts, resumes it by itself once the mode tree allows it again, and ends it with the reason if
+// that takes longer than MissionOptions::resume_within_s.
 //
 // The paused mission rides on RobotState (mission_state "paused", mission_kind, mission_reason,
-// mission_paused_s; explore_state "paused" or nav_status NAV_STATUS_PAUSED with the same task or goal id), so
+// mission_paused_s; explore_state "paused", nav_status NAV_STATUS_PAUSED with the same task or goal id, or
+// convoy_state "paused" with the same robots ahead), so
 // `explore --wait` and `goto --wait` wait through it and basestations tell their operators (events
 // mission_paused / mission_resumed).
 #pragma once
 
 #include <optional>
 #include <string>
+#include <vector>
 
+#include "cairn/agent/convoy_mode.h"
 #include "cairn/agent/explore_mode.h"
 #include "cairn/agent/waypoint_mode.h"
 
@@ -39,11 +42,13 @@ bool IsTransientFailure(const std::string& failure);
 
 /// A mission interrupted by a transient condition, kept to be resumed.
 struct PausedMission {
-  enum class Kind { kWaypoint, kExplore };
+  enum class Kind { kWaypoint, kExplore, kConvoy };
   Kind kind = Kind::kWaypoint;
   WaypointGoal goal;     ///< kWaypoint: the goal (its id is kept when it resumes)
   ExploreTask task;      ///< kExplore: the task...
   uint32_t task_id = 0;  ///< ...and its id (kept when it resumes)
+  /// kConvoy: the robots ahead, nearest first, as they were when it paused (ConvoyStatus::ahead_ids).
+  std::vector<std::string> convoy_ahead_ids;
   std::string reason;    ///< why it is paused (the condition's words)
   double since_s = 0.0;  ///< when it was paused, seconds (the agent's clock)
   /// While true the pause does not expire and is not retried on its own (a yield in progress: the yield's
@@ -51,7 +56,7 @@ struct PausedMission {
   bool held = false;
 };
 
-/// "waypoint" | "explore".
+/// "waypoint" | "explore" | "convoy".
 const char* ToString(PausedMission::Kind kind);
 
 /// The robot's paused mission, if any, and when to try it again. Not thread-safe (the agent calls it under
