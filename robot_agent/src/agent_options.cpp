@@ -31,10 +31,11 @@ nav::TrajectoryLibraryOptions AgentOptions::LibraryForPlatform() const {
 
 void AgentOptions::LoadConfigFile(const std::string& path) {
   const auto config = core::ConfigSection::LoadFile(path);
-  config.RejectUnknownKeys(
-      {"command_interface", "mux", "navigation", "local_planner", "controller", "platform", "traversability",
-       "telemetry", "perception", "explore", "peers", "convoy", "yield", "mission", "health",
-       "simulation"});  // `simulation` is the simulated platform's (sim::SimulatedPlatformOptions)
+  config.RejectUnknownKeys({"command_interface", "mux", "navigation", "local_planner", "controller",
+                            "platform", "traversability", "telemetry", "perception", "explore", "peers",
+                            "convoy", "yield", "mission", "health", "simulation",
+                            "ros2"});  // the simulated platform's (sim::SimulatedPlatformOptions) and the ROS
+                                       // 2 driver's (ros2::Ros2PlatformOptions)
   const auto ci = config.Section("command_interface");
   ci.RejectUnknownKeys({"lock_keep_s"});
   ci.ReadDouble("lock_keep_s", &lock.lock_keep_s, /*allow_infinity=*/true);

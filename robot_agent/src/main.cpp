@@ -20,6 +20,7 @@
 #include "cairn/core/dds.h"
 #include "cairn/core/link_cli.h"
 #include "cairn/core/shutdown.h"
+#include "cairn/ros2/ros2_platform.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/simulated_platform.h"
 
@@ -33,13 +34,15 @@ int main(int argc, char** argv) {
   // Logs go to stderr: stdout carries command output (cairn_base) and the READY line (cairn_agent).
   spdlog::set_default_logger(spdlog::stderr_color_mt("cairn"));
   cairn::agent::AgentOptions options;
-  std::string start_text, domain_text = "0", config_file, platform = "wheeled";
+  std::string start_text, domain_text = "0", config_file, platform = "wheeled", driver = "sim";
+  // The robot's own ROS 2 domain: ROS_DOMAIN_ID as ROS 2 itself reads it, else 0.
+  std::string ros2_domain_text = std::getenv("ROS_DOMAIN_ID") ? std::getenv("ROS_DOMAIN_ID") : "0";
   std::string worlds;
   for (const auto& name : cairn::sim::BuiltinWorldNames()) worlds += (worlds.empty() ? "" : ", ") + name;
 
   CLI::App app{
       "cairn_agent: one Cairn robot (command interface, mode tree, mux, navigation, perception) on "
-      "Fast DDS, driving the simulated platform (--world)."};
+      "Fast DDS, driving the simulated platform (--world) or a robot's own ROS 2 stack (--driver ros2)."};
   app.add_option("--robot-id", options.robot_id, "robot id, unique in the fleet ([A-Za-z0-9_-]{1,64})")
       ->required();
   app.add_option("--world", options.world,
@@ -51,6 +54,14 @@ int main(int argc, char** argv) {
   app.add_option("--platform", platform, "wheeled | legged (limits, step height, local planner headings)")
       ->capture_default_str();
   app.add_option("--domain", domain_text, "DDS domain id, 0..232")->capture_default_str();
+  app.add_option(
+         "--driver", driver,
+         "platform driver: sim (the simulator, --world) | ros2 (the robot's ROS 2 topics: config section "
+         "ros2, docs/PLATFORM.md)")
+      ->capture_default_str();
+  app.add_option("--ros2-domain", ros2_domain_text,
+                 "with --driver ros2: the robot's ROS 2 domain id, 0..232 (default: ROS_DOMAIN_ID, else 0)")
+      ->capture_default_str();
   app.add_option("--config", config_file, "YAML config file (see config/agent.yaml)");
   app.add_option("--pcd-resolution", options.pcd_resolution_m, "voxel size for .pcd worlds, metres")
       ->capture_default_str();
@@ -183,22 +194,40 @@ int main(int argc, char** argv) {
       // Writing a large map takes seconds: a signal's shutdown waits longer for it before ending the process.
       cairn::core::SetShutdownDeadline(kMapSaveShutdownDeadline);
     }
-    // The platform driver: the simulator (the seam is core::PlatformIO; see docs/PLATFORM.md for a real one).
-    cairn::sim::SimulatedPlatformOptions sim;
-    sim.world = options.world;
-    sim.pcd_resolution_m = options.pcd_resolution_m;
-    sim.start_W = options.start_W;
-    if (options.resumed) {
-      // The simulator stands in for a robot that stayed where it stopped: it starts at the journal's pose
-      // (the pose estimate, so within the SLAM drift of where the robot was).
-      sim.start_W =
-          cairn::core::PlanarPose{options.resumed->x_m, options.resumed->y_m, options.resumed->yaw_rad};
+    // The platform driver behind the seam core::PlatformIO (docs/PLATFORM.md): the simulator, or the robot's
+    // own ROS 2 stack.
+    std::shared_ptr<cairn::core::PlatformIO> platform;
+    if (driver == "ros2") {
+      cairn::ros2::Ros2PlatformOptions ros2;
+      try {
+        ros2.domain_id = cairn::core::ParseDomainId(ros2_domain_text);
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument("--ros2-domain (or ROS_DOMAIN_ID): " + std::string(e.what()));
+      }
+      ros2.limits = options.navigation.platform.limits;
+      ros2.footprint_radius_m = options.navigation.platform.footprint_radius_m;
+      if (!options.dds_profiles_file.empty()) ros2.profiles_file = options.dds_profiles_file;
+      if (!config_file.empty()) ros2.LoadConfigFile(config_file);
+      platform = std::make_shared<cairn::ros2::Ros2Platform>(ros2);
+    } else if (driver == "sim") {
+      cairn::sim::SimulatedPlatformOptions sim;
+      sim.world = options.world;
+      sim.pcd_resolution_m = options.pcd_resolution_m;
+      sim.start_W = options.start_W;
+      if (options.resumed) {
+        // The simulator stands in for a robot that stayed where it stopped: it starts at the journal's pose
+        // (the pose estimate, so within the SLAM drift of where the robot was).
+        sim.start_W =
+            cairn::core::PlanarPose{options.resumed->x_m, options.resumed->y_m, options.resumed->yaw_rad};
+      }
+      sim.start_slot = options.start_slot;
+      sim.start_key = options.robot_id;
+      sim.SetProfile(options.navigation.platform);
+      if (!config_file.empty()) sim.LoadConfigFile(config_file);
+      platform = std::make_shared<cairn::sim::SimulatedPlatform>(sim);
+    } else {
+      throw std::invalid_argument("--driver '" + driver + "' is neither sim nor ros2");
     }
-    sim.start_slot = options.start_slot;
-    sim.start_key = options.robot_id;
-    sim.SetProfile(options.navigation.platform);
-    if (!config_file.empty()) sim.LoadConfigFile(config_file);
-    auto platform = std::make_shared<cairn::sim::SimulatedPlatform>(sim);
     options.supervised = std::getenv("CAIRN_SUPERVISED") != nullptr;
     cairn::agent::RobotAgent agent(options, platform);
     std::cout << "READY " << options.robot_id << std::endl;
