@@ -199,11 +199,7 @@ int main(int argc, char** argv) {
     std::shared_ptr<cairn::core::PlatformIO> platform;
     if (driver == "ros2") {
       cairn::ros2::Ros2PlatformOptions ros2;
-      try {
-        ros2.domain_id = cairn::core::ParseDomainId(ros2_domain_text);
-      } catch (const std::invalid_argument& e) {
-        throw std::invalid_argument("--ros2-domain (or ROS_DOMAIN_ID): " + std::string(e.what()));
-      }
+      ros2.domain_id = cairn::core::ParseDomainId(ros2_domain_text, "--ros2-domain (or ROS_DOMAIN_ID)");
       ros2.limits = options.navigation.platform.limits;
       ros2.footprint_radius_m = options.navigation.platform.footprint_radius_m;
       if (!options.dds_profiles_file.empty()) ros2.profiles_file = options.dds_profiles_file;

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "cairn/core/shutdown.h"
 #include "range_check.h"
 
 namespace cairn::agent {
@@ -39,7 +40,8 @@ bool PerceptionService::WaitForFirstScan(std::chrono::milliseconds timeout) {
   if (!capabilities_.has_lidar) return false;
   const core::SteadyTime deadline = core::SteadyClock::now() + timeout;
   while (!ReadScan(NowS())) {
-    if (core::SteadyClock::now() >= deadline) return false;
+    // A shutdown meanwhile (SIGINT, SIGTERM) ends the wait: the process exits promptly even without a lidar.
+    if (core::SteadyClock::now() >= deadline || core::ShutdownRequested()) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return true;

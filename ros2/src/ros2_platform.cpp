@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "cairn/core/config.h"
+#include "cairn/core/shutdown.h"
 
 namespace cairn::ros2 {
 namespace {
@@ -299,7 +300,7 @@ Ros2Platform::Ros2Platform(const Ros2PlatformOptions& options) {
   // The robot's pose first: the autonomy starts from it.
   const auto deadline =
       std::chrono::steady_clock::now() + std::chrono::duration<double>(options.start_wait_s);
-  while (std::chrono::steady_clock::now() < deadline) {
+  while (std::chrono::steady_clock::now() < deadline && !core::ShutdownRequested()) {
     {
       std::lock_guard<std::mutex> lock(impl->mutex);
       if (impl->odom_received_s >= 0 && (options.map_frame.empty() || impl->map_odom_received_s >= 0)) break;
