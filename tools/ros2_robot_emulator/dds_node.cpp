@@ -32,8 +32,9 @@ std::string LoopbackCycloneConfig() {
   // Element names as in Cyclone DDS 0.10's configuration reference (docs/manual/options.md):
   // General/Interfaces/NetworkInterface[@name], General/AllowMulticast, Discovery/ParticipantIndex,
   // Discovery/MaxAutoParticipantIndex, Discovery/Peers/Peer[@Address],
-  // Internal/SocketReceiveBufferSize[@min]. A peer without a port is probed on the unicast discovery ports of
-  // participant indices 0..MaxAutoParticipantIndex-1.
+  // Internal/SocketReceiveBufferSize[@max] (asked for, less accepted: Linux caps it at net.core.rmem_max). A
+  // peer without a port is probed on the unicast discovery ports of participant indices
+  // 0..MaxAutoParticipantIndex-1.
   return "<CycloneDDS><Domain id=\"any\">"
          "<General>"
          "<Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
@@ -44,7 +45,7 @@ std::string LoopbackCycloneConfig() {
          "<MaxAutoParticipantIndex>60</MaxAutoParticipantIndex>"
          "<Peers><Peer Address=\"127.0.0.1\"/></Peers>"
          "</Discovery>"
-         "<Internal><SocketReceiveBufferSize min=\"4MiB\"/></Internal>"
+         "<Internal><SocketReceiveBufferSize max=\"4MiB\"/></Internal>"
          "</Domain></CycloneDDS>";
 }
 

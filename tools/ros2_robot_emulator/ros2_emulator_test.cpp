@@ -216,7 +216,7 @@ const char* const kLoopbackConfig =
     "<CycloneDDS><Domain id=\"any\"><General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
     "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
     "<MaxAutoParticipantIndex>60</MaxAutoParticipantIndex><Peers><Peer Address=\"127.0.0.1\"/></Peers>"
-    "</Discovery><Internal><SocketReceiveBufferSize min=\"4MiB\"/></Internal></Domain></CycloneDDS>";
+    "</Discovery><Internal><SocketReceiveBufferSize max=\"4MiB\"/></Internal></Domain></CycloneDDS>";
 
 class TestParticipant {
  public:
