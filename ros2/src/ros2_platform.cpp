@@ -112,30 +112,6 @@ void Ros2PlatformOptions::LoadConfigFile(const std::string& path) {
   if (!IsValid(&why)) throw std::invalid_argument(path + ": " + why);
 }
 
-std::string DdsTopicName(const std::string& ros_topic) {
-  if (ros_topic.empty()) return "";
-  return "rt/" + ros_topic.substr(ros_topic[0] == '/' ? 1 : 0);
-}
-
-double WallNowS() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
-
-double StampS(const builtin_interfaces::msg::dds_::Time_& stamp) {
-  return static_cast<double>(stamp.sec()) + 1e-9 * static_cast<double>(stamp.nanosec());
-}
-
-Eigen::Isometry3d ToIsometry(const Eigen::Vector3d& translation, double qx, double qy, double qz, double qw) {
-  Eigen::Quaterniond q(qw, qx, qy, qz);
-  const double norm = q.norm();
-  q = norm > 1e-9 && std::isfinite(norm) ? Eigen::Quaterniond(q.coeffs() / norm)
-                                         : Eigen::Quaterniond::Identity();
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = q.toRotationMatrix();
-  T.translation() = translation;
-  return T;
-}
-
 struct Ros2Platform::Impl {
   explicit Impl(const Ros2PlatformOptions& o)
       : options(o),
@@ -436,9 +412,7 @@ void Ros2Platform::CommandTwist(double linear_x_mps, double angular_z_radps, dou
     return;
   }
   gm::TwistStamped_ stamped;
-  const double wall_s = WallNowS();
-  stamped.header().stamp().sec(static_cast<std::int32_t>(std::floor(wall_s)));
-  stamped.header().stamp().nanosec(static_cast<std::uint32_t>((wall_s - std::floor(wall_s)) * 1e9));
+  stamped.header().stamp(ToStamp(WallNowS()));
   stamped.header().frame_id(impl_->options.base_frame);
   stamped.twist(twist);
   impl_->twist_stamped_writer->Write(stamped);

@@ -31,6 +31,7 @@
 #include "cairn/core/platform_io.h"
 #include "cairn/ros2/point_cloud2.h"
 #include "cairn/ros2/tf_buffer.h"
+#include "cairn/ros2/wire.h"
 #include "ros2_msgsPubSubTypes.h"
 
 namespace cairn::ros2 {
@@ -76,16 +77,6 @@ struct Ros2PlatformOptions {
   /// "twist" | "twist_stamped"). @throws std::invalid_argument naming the file, key and value.
   void LoadConfigFile(const std::string& path);
 };
-
-/// "/points" -> "rt/points" (ROS 2's DDS topic name for a topic); "" stays "".
-std::string DdsTopicName(const std::string& ros_topic);
-
-/// The wall clock now, seconds since the Unix epoch (what ROS 2 stamps count).
-double WallNowS();
-/// builtin_interfaces/Time as seconds.
-double StampS(const builtin_interfaces::msg::dds_::Time_& stamp);
-/// geometry_msgs Pose or Transform parts as an isometry (the quaternion normalised; a zero one is identity).
-Eigen::Isometry3d ToIsometry(const Eigen::Vector3d& translation, double qx, double qy, double qz, double qw);
 
 class Ros2Platform : public core::PlatformIO {
  public:
