@@ -26,6 +26,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -80,15 +81,15 @@ struct ProcessResult {
   std::string stderr_text;
 };
 
-/// Runs the emulator with `args` to its end (it must exit within timeout_s), capturing stderr.
-ProcessResult RunEmulatorToExit(const std::vector<std::string>& args, double timeout_s = 10.0) {
+/// Runs `program` with `args` to its end (it must exit within timeout_s), capturing stderr.
+ProcessResult RunToExit(const char* program, const std::vector<std::string>& args, double timeout_s = 10.0) {
   int err_pipe[2];
   EXPECT_EQ(pipe(err_pipe), 0);
   const pid_t pid = fork();
   if (pid == 0) {
     dup2(err_pipe[1], STDERR_FILENO);
     close(err_pipe[0]);
-    std::vector<char*> argv{const_cast<char*>(CAIRN_ROS2_EMULATOR)};
+    std::vector<char*> argv{const_cast<char*>(program)};
     for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
     argv.push_back(nullptr);
     execv(argv[0], argv.data());
@@ -115,6 +116,10 @@ ProcessResult RunEmulatorToExit(const std::vector<std::string>& args, double tim
   waitpid(pid, &status, 0);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
+}
+
+ProcessResult RunEmulatorToExit(const std::vector<std::string>& args) {
+  return RunToExit(CAIRN_ROS2_EMULATOR, args);
 }
 
 /// A running emulator: started with `args`, READY awaited; stopped with SIGTERM (see Stop()).
@@ -235,8 +240,8 @@ class TestParticipant {
     return dds_create_reader(participant_, Topic(topic, type), Qos(reliable, transient_local, depth).get(),
                              nullptr);
   }
-  dds_entity_t Writer(const char* topic, const dds_topic_descriptor_t& type) {
-    return dds_create_writer(participant_, Topic(topic, type), Qos(true, false, 10).get(), nullptr);
+  dds_entity_t Writer(const char* topic, const dds_topic_descriptor_t& type, bool transient_local = false) {
+    return dds_create_writer(participant_, Topic(topic, type), Qos(true, transient_local, 10).get(), nullptr);
   }
 
  private:
@@ -655,6 +660,252 @@ TEST(Ros2EmulatorTest, SlamMapToOdomMakesMapToBaseLinkTheTruthAndTwistStampedDri
             << " m; odometry alone off by " << odom_error_m << " m\n";
   EXPECT_EQ(emulator.Stop(3.0).first, 0);
   std::filesystem::remove_all(dir);
+}
+
+// ---- cairn_ros2_echo ----
+
+/// cairn_ros2_echo running in the background; its stdout collected by Pump(), stderr passed through.
+class EchoProcess {
+ public:
+  explicit EchoProcess(const std::vector<std::string>& args) {
+    int out_pipe[2];
+    if (pipe(out_pipe) != 0) return;
+    pid_ = fork();
+    if (pid_ == 0) {
+      dup2(out_pipe[1], STDOUT_FILENO);
+      close(out_pipe[0]);
+      std::vector<char*> argv{const_cast<char*>(CAIRN_ROS2_ECHO)};
+      for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+      argv.push_back(nullptr);
+      execv(argv[0], argv.data());
+      _exit(127);
+    }
+    close(out_pipe[1]);
+    stdout_fd_ = out_pipe[0];
+  }
+  ~EchoProcess() {
+    if (pid_ > 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+    if (stdout_fd_ >= 0) close(stdout_fd_);
+  }
+
+  /// Reads what stdout has for up to wait_ms; false once it is closed (the process is ending).
+  bool Pump(int wait_ms) {
+    pollfd fd{stdout_fd_, POLLIN, 0};
+    if (poll(&fd, 1, wait_ms) <= 0) return true;
+    char buffer[65536];
+    const ssize_t n = read(stdout_fd_, buffer, sizeof buffer);
+    if (n <= 0) return false;
+    out_.append(buffer, static_cast<std::size_t>(n));
+    return true;
+  }
+  /// Pumps until stdout holds `text` (true) or timeout_s passes or stdout closes (false).
+  bool PumpUntil(const std::string& text, double timeout_s) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (out_.find(text) == std::string::npos) {
+      if (std::chrono::steady_clock::now() > deadline || !Pump(20))
+        return out_.find(text) != std::string::npos;
+    }
+    return true;
+  }
+  /// Reads stdout to its end and waits for the exit (both within timeout_s); the exit code, -1 if none.
+  int Finish(double timeout_s) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (std::chrono::steady_clock::now() < deadline && Pump(20)) {
+    }
+    while (std::chrono::steady_clock::now() < deadline) {
+      int status = 0;
+      if (waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return -1;
+  }
+  void Signal(int signal_number) { kill(pid_, signal_number); }
+  const std::string& out() const { return out_; }
+
+ private:
+  pid_t pid_ = -1;
+  int stdout_fd_ = -1;
+  std::string out_;
+};
+
+/// The JSON objects of the echo's stdout lines after READY; a line that does not parse fails the test.
+std::vector<nlohmann::json> EchoLines(const std::string& out) {
+  std::vector<nlohmann::json> lines;
+  std::istringstream in(out);
+  std::string line;
+  EXPECT_TRUE(std::getline(in, line) && line == "READY") << "first line: " << line;
+  while (std::getline(in, line)) {
+    try {
+      lines.push_back(nlohmann::json::parse(line));
+    } catch (const nlohmann::json::exception& e) {
+      ADD_FAILURE() << "not JSON: " << line.substr(0, 200) << ": " << e.what();
+    }
+  }
+  return lines;
+}
+
+std::vector<double> Doubles(const nlohmann::json& array) { return array.get<std::vector<double>>(); }
+
+TEST(Ros2EchoTest, RejectsBadFlagsNamingThem) {
+  ASSERT_TRUE(InPrivateNetns()) << "run through tests/netns_run.sh (ctest does)";
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"--domain", "300", "/tf:tf2_msgs/TFMessage"}, "--domain '300'"},
+      {{"--count", "0", "/tf:tf2_msgs/TFMessage"}, "--count '0'"},
+      {{"--timeout-s", "-1", "/tf:tf2_msgs/TFMessage"}, "--timeout-s '-1'"},
+      {{"--durability", "latched", "/tf:tf2_msgs/TFMessage"}, "--durability 'latched'"},
+      {{"--reliability", "maybe", "/tf:tf2_msgs/TFMessage"}, "--reliability 'maybe'"},
+      {{"--frobnicate", "/tf:tf2_msgs/TFMessage"}, "'--frobnicate'"},
+      {{"/tf:tf2_msgs/TFMessage", "--count"}, "--count needs a value"},
+      {{"/tf"}, "'/tf' is not TOPIC:TYPE"},
+      {{"/tf:tf2_msgs/TF"}, "unknown type 'tf2_msgs/TF'"},
+      {{"/2d/points:sensor_msgs/PointCloud2"}, "'/2d/points' is not a valid ROS 2 topic name"},
+      {{"/tf:tf2_msgs/TFMessage", "tf:tf2_msgs/TFMessage"}, "topic /tf is already given"},
+      {{"--domain", "3"}, "no TOPIC:TYPE given"},
+  };
+  for (const auto& [args, expected] : cases) {
+    const ProcessResult r = RunToExit(CAIRN_ROS2_ECHO, args);
+    EXPECT_EQ(r.exit_code, 2) << args.front();
+    EXPECT_NE(r.stderr_text.find(expected), std::string::npos) << r.stderr_text;
+  }
+}
+
+TEST(Ros2EchoTest, PrintsTheEmulatorsTopicsAndOursAsJsonLines) {
+  ASSERT_TRUE(InPrivateNetns())
+      << "run through tests/netns_run.sh (ctest does): no DDS in the host's namespace";
+  EmulatorProcess emulator({"--world", "corner", "--domain", std::to_string(kDomainId)});
+  ASSERT_TRUE(emulator.WaitReady(15.0)) << "the emulator did not print READY";
+  const std::string domain = std::to_string(kDomainId);
+
+  // --count 3: three samples in total, whichever topics they come from, then exit 0.
+  {
+    EchoProcess echo({"--domain", domain, "--count", "3", "/odom:nav_msgs/Odometry",
+                      "/tf_static:tf2_msgs/TFMessage", "/points:sensor_msgs/PointCloud2"});
+    ASSERT_EQ(echo.Finish(10.0), 0);
+    const std::vector<nlohmann::json> lines = EchoLines(echo.out());
+    ASSERT_EQ(lines.size(), 3u) << echo.out().substr(0, 1000);
+    for (const nlohmann::json& line : lines) {
+      const std::string topic = line.at("topic");
+      EXPECT_TRUE(topic == "/odom" || topic == "/tf_static" || topic == "/points") << topic;
+    }
+  }
+
+  // Our own writers beside the emulator's: two latched Paths (transient local, written before the echo
+  // starts) and a volatile Twist (written once the echo's readers matched it).
+  TestParticipant dds;
+  ASSERT_TRUE(dds.ok());
+  const dds_entity_t path_writer = dds.Writer("rt/echo_test/path", nav_msgs_msg_dds__Path__desc, true);
+  const dds_entity_t mixed_writer = dds.Writer("rt/echo_test/mixed_path", nav_msgs_msg_dds__Path__desc, true);
+  const dds_entity_t twist_writer = dds.Writer("rt/echo_test/twist", geometry_msgs_msg_dds__Twist__desc);
+  ASSERT_GT(path_writer, 0);
+  ASSERT_GT(mixed_writer, 0);
+  ASSERT_GT(twist_writer, 0);
+  geometry_msgs_msg_dds__PoseStamped_ poses[3]{};
+  const double positions[3][3] = {{1.0, 2.0, 0.0}, {2.0, 3.0, 0.25}, {3.0, 4.000001, 0.5}};
+  for (int i = 0; i < 3; ++i) {
+    poses[i].header.frame_id = const_cast<char*>("map");
+    poses[i].pose.position = {positions[i][0], positions[i][1], positions[i][2]};
+    poses[i].pose.orientation.w = 1.0;
+  }
+  nav_msgs_msg_dds__Path_ path{};
+  path.header.frame_id = const_cast<char*>("map");
+  path.header.stamp = {1795733665, 123000000};
+  path.poses = {3, 3, poses, false};
+  ASSERT_EQ(dds_write(path_writer, &path), 0);
+  poses[1].header.frame_id = const_cast<char*>("odom");
+  path.header.frame_id = const_cast<char*>("a \"map\"\n\xc3\xa9\xff");  // escaped; not UTF-8 -> U+FFFD
+  ASSERT_EQ(dds_write(mixed_writer, &path), 0);
+
+  EchoProcess echo({"--domain", domain, "--count-each", "1", "--timeout-s", "10", "/odom:nav_msgs/Odometry",
+                    "/tf_static:tf2_msgs/TFMessage", "/points:sensor_msgs/PointCloud2",
+                    "/echo_test/path:nav_msgs/Path", "/echo_test/mixed_path:nav_msgs/Path",
+                    "echo_test/twist:geometry_msgs/msg/Twist"});
+  ASSERT_TRUE(echo.PumpUntil("READY\n", 10.0)) << "cairn_ros2_echo did not print READY";
+  ASSERT_TRUE(WaitFor(10.0, [&] {
+    dds_publication_matched_status_t matched{};
+    dds_get_publication_matched_status(twist_writer, &matched);
+    return matched.current_count >= 2;  // a reliable volatile writer: the echo's two volatile readers
+  })) << "the echo's readers did not match our Twist writer";
+  geometry_msgs_msg_dds__Twist_ twist{};
+  twist.linear.x = 0.25;
+  twist.angular.z = -0.5;
+  ASSERT_EQ(dds_write(twist_writer, &twist), 0);
+  ASSERT_EQ(echo.Finish(12.0), 0);
+
+  std::map<std::string, std::vector<nlohmann::json>> by_topic;
+  for (const nlohmann::json& line : EchoLines(echo.out())) by_topic[line.at("topic")].push_back(line);
+  ASSERT_EQ(by_topic.size(), 6u) << echo.out().substr(0, 2000);
+  const double now_s = RealtimeNow_s();
+
+  const nlohmann::json& odom = by_topic["/odom"].front();
+  EXPECT_EQ(odom.at("type"), "nav_msgs/Odometry");
+  EXPECT_EQ(odom.at("frame_id"), "odom");
+  EXPECT_EQ(odom.at("child_frame_id"), "base_link");
+  EXPECT_NEAR(odom.at("stamp").get<double>(), now_s, 5.0);
+  EXPECT_EQ(Doubles(odom.at("position")).size(), 3u);
+  EXPECT_NEAR(Doubles(odom.at("orientation"))[3], 1.0, 1e-9) << "at rest, facing +x";
+  EXPECT_EQ(Doubles(odom.at("linear")), (std::vector<double>{0, 0, 0}));
+
+  ASSERT_EQ(by_topic["/tf_static"].size(), 1u) << "one latched sample, read once";
+  const nlohmann::json& mount = by_topic["/tf_static"].front().at("transforms");
+  ASSERT_EQ(mount.size(), 1u);
+  EXPECT_EQ(mount[0].at("frame_id"), "base_link");
+  EXPECT_EQ(mount[0].at("child_frame_id"), "velodyne");
+  const std::vector<double> translation = Doubles(mount[0].at("translation"));
+  EXPECT_NEAR(translation[0], 0.1, 1e-9);
+  EXPECT_NEAR(translation[1], 0.0, 1e-9);
+  EXPECT_NEAR(translation[2], 0.5, 1e-9);
+  EXPECT_EQ(Doubles(mount[0].at("rotation")), (std::vector<double>{0, 0, 0, 1}));
+
+  const nlohmann::json& cloud = by_topic["/points"].front();
+  EXPECT_EQ(cloud.at("frame_id"), "velodyne");
+  ASSERT_EQ(cloud.at("fields").size(), 5u);
+  EXPECT_EQ(cloud.at("fields")[2],
+            (nlohmann::json{{"name", "z"}, {"offset", 8}, {"datatype", 7}, {"count", 1}}));
+  EXPECT_EQ(cloud.at("fields")[4].at("name"), "ring");
+  EXPECT_EQ(cloud.at("point_step"), 32);
+  EXPECT_EQ(cloud.at("is_bigendian"), false);
+  EXPECT_EQ(cloud.at("is_dense"), true);
+  const std::uint64_t points_read = cloud.at("points_read");
+  EXPECT_GT(points_read, 10000u);
+  EXPECT_EQ(points_read, cloud.at("width").get<std::uint64_t>() * cloud.at("height").get<std::uint64_t>());
+  EXPECT_EQ(cloud.at("data_bytes").get<std::uint64_t>(), 32u * points_read);
+  const std::vector<double> min = Doubles(cloud.at("min")), max = Doubles(cloud.at("max"));
+  EXPECT_NEAR(min[2], -0.5, 0.06) << "the floor, 0.5 m below the lidar";
+  EXPECT_LT(max[2], 2.06) << "walls 2.5 m high, the lidar 0.5 m up";
+  EXPECT_NEAR(max[0], 10.9, 0.1) << "the far wall at x = 12, the lidar at x = 1.1";
+
+  const nlohmann::json& good_path = by_topic["/echo_test/path"].front();
+  EXPECT_EQ(good_path.at("frame_id"), "map");
+  EXPECT_EQ(good_path.at("stamp").get<double>(), 1795733665.123);
+  EXPECT_EQ(good_path.at("poses"), 3);
+  EXPECT_EQ(Doubles(good_path.at("first")), (std::vector<double>{1.0, 2.0, 0.0}));
+  EXPECT_EQ(Doubles(good_path.at("last")), (std::vector<double>{3.0, 4.000001, 0.5})) << "exact, not rounded";
+  EXPECT_EQ(good_path.at("pose_frames_ok"), true);
+  const nlohmann::json& mixed_path = by_topic["/echo_test/mixed_path"].front();
+  EXPECT_EQ(mixed_path.at("pose_frames_ok"), false);
+  EXPECT_EQ(mixed_path.at("frame_id"), "a \"map\"\n\xc3\xa9\xef\xbf\xbd");
+
+  const nlohmann::json& echoed_twist = by_topic["/echo_test/twist"].front();
+  EXPECT_EQ(echoed_twist.at("type"), "geometry_msgs/Twist");
+  EXPECT_EQ(Doubles(echoed_twist.at("linear")), (std::vector<double>{0.25, 0, 0}));
+  EXPECT_EQ(Doubles(echoed_twist.at("angular")), (std::vector<double>{0, 0, -0.5}));
+  std::cout << "echo: " << echo.out().size() << " bytes; " << by_topic["/odom"].size() << " odom, "
+            << by_topic["/points"].size() << " clouds (" << points_read << " points)\n";
+
+  // No limit but the signal: SIGTERM ends it with 0 at once.
+  EchoProcess endless({"--domain", domain, "--timeout-s", "0", "/odom:nav_msgs/Odometry"});
+  ASSERT_TRUE(endless.PumpUntil("\"/odom\"", 10.0)) << "no odometry printed";
+  const auto sent = std::chrono::steady_clock::now();
+  endless.Signal(SIGTERM);
+  EXPECT_EQ(endless.Finish(3.0), 0);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count(), 1.0);
+  EXPECT_EQ(emulator.Stop(3.0).first, 0);
 }
 
 }  // namespace
