@@ -24,6 +24,7 @@
 #include "cairn/base/command_shell.h"
 #include "cairn/base/fleet_client.h"
 #include "cairn/base/gui_bridge.h"
+#include "cairn/base/ros2_fleet_bridge.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/link_cli.h"
 #include "cairn/core/shutdown.h"
@@ -300,6 +301,10 @@ int main(int argc, char** argv) {
                  "with --gui: the fleet map's share of the link to each GUI client, kB/s (changed map columns wait "
                  "when it is spent)")
       ->capture_default_str();
+  std::string ros2_domain_text;
+  app.add_option("--ros2-domain", ros2_domain_text,
+                 "also publish the fleet for ROS 2 tools (RViz2: config/rviz/cairn.rviz) on ROS 2 domain N, "
+                 "0..232: /tf map -> ROBOT/base_link, /ROBOT/path, /cairn/fleet_map");
   app.add_option("command", command, "one command to run, after --");
   try {
     app.parse(argc, argv);
@@ -367,7 +372,18 @@ int main(int argc, char** argv) {
     } else if (app.count("--listen") > 0 || app.count("--gui-root") > 0 || app.count("--gui-map-kBps") > 0) {
       throw std::invalid_argument("--listen, --gui-root and --gui-map-kBps need --gui");
     }
+    cairn::base::Ros2FleetOptions ros2_options;
+    if (!ros2_domain_text.empty()) {
+      ros2_options.domain_id = cairn::core::ParseDomainId(ros2_domain_text, "--ros2-domain");
+      if (!options.dds_profiles_file.empty()) ros2_options.profiles_file = options.dds_profiles_file;
+    }
     cairn::base::FleetClient client(options);
+    std::unique_ptr<cairn::base::Ros2FleetBridge> ros2_bridge;
+    if (!ros2_domain_text.empty()) {
+      ros2_bridge = std::make_unique<cairn::base::Ros2FleetBridge>(client, ros2_options);
+      spdlog::info("cairn_base {}: publishing the fleet for ROS 2 tools on ROS 2 domain {}", options.base_id,
+                   ros2_options.domain_id);
+    }
     std::unique_ptr<cairn::base::GuiBridge> gui_bridge;
     if (gui) {
       gui_bridge = std::make_unique<cairn::base::GuiBridge>(client, gui_options);
@@ -383,9 +399,12 @@ int main(int argc, char** argv) {
     if (!script.empty()) return RunScript(shell, script_file, keep_going);
     if (interactive) return RunInteractive(shell, client, options.base_id);
     const int code = RunPiped(shell, client);
-    // A GUI outlives the end of stdin (cairn_base --gui </dev/null): it serves until SIGINT or SIGTERM.
+    // A GUI or a ROS 2 publisher outlives the end of stdin (cairn_base --gui </dev/null): it serves until
+    // SIGINT or SIGTERM.
     if (gui_bridge) spdlog::info("cairn_base {}: stdin ended; the GUI serves {} until SIGINT or SIGTERM", options.base_id, gui_bridge->url());
-    while (gui_bridge && !cairn::core::ShutdownRequested()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (ros2_bridge) spdlog::info("cairn_base {}: stdin ended; the fleet is published for ROS 2 until SIGINT or SIGTERM", options.base_id);
+    while ((gui_bridge || ros2_bridge) && !cairn::core::ShutdownRequested())
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
     return code;
   } catch (const std::exception& e) {
     spdlog::error("cairn_base {}: {}", options.base_id, e.what());
