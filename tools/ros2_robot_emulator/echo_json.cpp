@@ -117,6 +117,11 @@ void MemberUnsigned(std::string& out, const char* key, std::uint64_t value) {
   AppendUnsigned(out, value);
 }
 
+void MemberSigned(std::string& out, const char* key, std::int64_t value) {
+  Key(out, key);
+  out += std::to_string(value);
+}
+
 void MemberBool(std::string& out, const char* key, bool value) {
   Key(out, key);
   out += value ? "true" : "false";
@@ -291,12 +296,53 @@ void AppendTwist(std::string& out, const void* sample) {
   MemberArray(out, "angular", Xyz(twist.angular));
 }
 
+void AppendMarkerArray(std::string& out, const void* sample) {
+  const auto& array = *static_cast<const visualization_msgs_msg_dds__MarkerArray_*>(sample);
+  Key(out, "markers");
+  out += '[';
+  for (std::uint32_t i = 0; i < array.markers._length; ++i) {
+    const visualization_msgs_msg_dds__Marker_& marker = array.markers._buffer[i];
+    Separate(out);
+    out += '{';
+    MemberString(out, "ns", marker.ns);
+    MemberSigned(out, "id", marker.id);
+    MemberSigned(out, "type", marker.type);
+    MemberSigned(out, "action", marker.action);
+    MemberString(out, "frame_id", marker.header.frame_id);
+    MemberArray(out, "position", Xyz(marker.pose.position));
+    MemberArray(out, "orientation", Xyzw(marker.pose.orientation));
+    MemberArray(out, "scale", Xyz(marker.scale));
+    MemberArray(out, "color",
+                std::array<float, 4>{marker.color.r, marker.color.g, marker.color.b, marker.color.a});
+    MemberString(out, "text", marker.text);
+    MemberUnsigned(out, "points", marker.points._length);
+    out += '}';
+  }
+  out += ']';
+}
+
+void AppendCompressedImage(std::string& out, const void* sample) {
+  const auto& image = *static_cast<const sensor_msgs_msg_dds__CompressedImage_*>(sample);
+  MemberString(out, "frame_id", image.header.frame_id);
+  MemberStamp(out, "stamp", image.header.stamp);
+  MemberString(out, "format", image.format);
+  const std::uint32_t n = image.data._length;
+  MemberUnsigned(out, "data_bytes", n);
+  // A JPEG starts with SOI (FF D8) and ends with EOI (FF D9).
+  const std::uint8_t* data = image.data._buffer;
+  const bool jpeg_soi =
+      n >= 4 && data[0] == 0xFF && data[1] == 0xD8 && data[n - 2] == 0xFF && data[n - 1] == 0xD9;
+  MemberBool(out, "jpeg_soi", jpeg_soi);
+}
+
 const EchoType kEchoTypes[] = {
     {"tf2_msgs/TFMessage", &tf2_msgs_msg_dds__TFMessage__desc, AppendTfMessage},
     {"nav_msgs/Path", &nav_msgs_msg_dds__Path__desc, AppendPath},
     {"sensor_msgs/PointCloud2", &sensor_msgs_msg_dds__PointCloud2__desc, AppendPointCloud2},
     {"nav_msgs/Odometry", &nav_msgs_msg_dds__Odometry__desc, AppendOdometry},
     {"geometry_msgs/Twist", &geometry_msgs_msg_dds__Twist__desc, AppendTwist},
+    {"visualization_msgs/MarkerArray", &visualization_msgs_msg_dds__MarkerArray__desc, AppendMarkerArray},
+    {"sensor_msgs/CompressedImage", &sensor_msgs_msg_dds__CompressedImage__desc, AppendCompressedImage},
 };
 
 }  // namespace

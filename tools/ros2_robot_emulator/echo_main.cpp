@@ -80,8 +80,9 @@ DDS (loopback only: 127.0.0.1, no multicast). Run it in a private network namesp
 
 Usage: cairn_ros2_echo [flags] TOPIC:TYPE [TOPIC:TYPE ...]
   TOPIC                 a ROS 2 topic name, e.g. /tf (the DDS topic rt/tf)
-  TYPE                  tf2_msgs/TFMessage, nav_msgs/Path, sensor_msgs/PointCloud2, nav_msgs/Odometry or
-                        geometry_msgs/Twist (pkg/msg/Type is accepted too)
+  TYPE                  tf2_msgs/TFMessage, nav_msgs/Path, sensor_msgs/PointCloud2, nav_msgs/Odometry,
+                        geometry_msgs/Twist, visualization_msgs/MarkerArray (Humble's Marker) or
+                        sensor_msgs/CompressedImage (pkg/msg/Type is accepted too)
   --domain N            DDS domain id 0..232 (default: ROS_DOMAIN_ID, else 0)
   --count K             exit after K samples in total (default: no limit)
   --count-each K        exit once every topic has had K samples (default: off)

@@ -821,10 +821,52 @@ TEST(Ros2EchoTest, PrintsTheEmulatorsTopicsAndOursAsJsonLines) {
   path.header.frame_id = const_cast<char*>("a \"map\"\n\xc3\xa9\xff");  // escaped; not UTF-8 -> U+FFFD
   ASSERT_EQ(dds_write(mixed_writer, &path), 0);
 
+  // A latched MarkerArray (Humble's Marker) of two markers and a latched CompressedImage holding a JPEG.
+  const dds_entity_t markers_writer =
+      dds.Writer("rt/echo_test/markers", visualization_msgs_msg_dds__MarkerArray__desc, true);
+  const dds_entity_t image_writer =
+      dds.Writer("rt/echo_test/image/compressed", sensor_msgs_msg_dds__CompressedImage__desc, true);
+  ASSERT_GT(markers_writer, 0);
+  ASSERT_GT(image_writer, 0);
+  geometry_msgs_msg_dds__Point_ line_points[3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}};
+  visualization_msgs_msg_dds__Marker_ markers[2]{};
+  for (visualization_msgs_msg_dds__Marker_& marker : markers) {
+    char* const empty = const_cast<char*>("");
+    marker.header.frame_id = const_cast<char*>("map");
+    marker.ns = marker.text = marker.texture_resource = marker.mesh_resource = empty;
+    marker.texture.header.frame_id = marker.texture.format = marker.mesh_file.filename = empty;
+    marker.pose.orientation.w = 1.0;
+  }
+  markers[0].ns = const_cast<char*>("robots");
+  markers[0].id = -3;
+  markers[0].type = 9;  // TEXT_VIEW_FACING
+  markers[0].pose.position = {1.5, -2.0, 0.25};
+  markers[0].scale = {0.1, 0.2, 0.3};
+  markers[0].color = {1.0f, 0.5f, 0.25f, 0.75f};
+  markers[0].text = const_cast<char*>("robot \"a\"");
+  markers[1].ns = const_cast<char*>("paths");
+  markers[1].id = 7;
+  markers[1].type = 4;    // LINE_STRIP
+  markers[1].action = 2;  // DELETE
+  markers[1].pose.orientation = {0.0, 0.0, 0.5, 0.5};
+  markers[1].points = {3, 3, line_points, false};
+  visualization_msgs_msg_dds__MarkerArray_ marker_array{};
+  marker_array.markers = {2, 2, markers, false};
+  ASSERT_EQ(dds_write(markers_writer, &marker_array), 0);
+  std::uint8_t jpeg[] = {0xFF, 0xD8, 0xFF, 0xE0, 0x00, 0x10, 0x4A, 0x46, 0x49, 0x46, 0xFF, 0xD9};
+  sensor_msgs_msg_dds__CompressedImage_ image{};
+  image.header.frame_id = const_cast<char*>("camera");
+  image.header.stamp = {1795733666, 5};
+  image.format = const_cast<char*>("jpeg");
+  image.data = {sizeof jpeg, sizeof jpeg, jpeg, false};
+  ASSERT_EQ(dds_write(image_writer, &image), 0);
+
   EchoProcess echo({"--domain", domain, "--count-each", "1", "--timeout-s", "10", "/odom:nav_msgs/Odometry",
                     "/tf_static:tf2_msgs/TFMessage", "/points:sensor_msgs/PointCloud2",
                     "/echo_test/path:nav_msgs/Path", "/echo_test/mixed_path:nav_msgs/Path",
-                    "echo_test/twist:geometry_msgs/msg/Twist"});
+                    "echo_test/twist:geometry_msgs/msg/Twist",
+                    "/echo_test/markers:visualization_msgs/MarkerArray",
+                    "/echo_test/image/compressed:sensor_msgs/msg/CompressedImage"});
   ASSERT_TRUE(echo.PumpUntil("READY\n", 10.0)) << "cairn_ros2_echo did not print READY";
   ASSERT_TRUE(WaitFor(10.0, [&] {
     dds_publication_matched_status_t matched{};
@@ -839,7 +881,7 @@ TEST(Ros2EchoTest, PrintsTheEmulatorsTopicsAndOursAsJsonLines) {
 
   std::map<std::string, std::vector<nlohmann::json>> by_topic;
   for (const nlohmann::json& line : EchoLines(echo.out())) by_topic[line.at("topic")].push_back(line);
-  ASSERT_EQ(by_topic.size(), 6u) << echo.out().substr(0, 2000);
+  ASSERT_EQ(by_topic.size(), 8u) << echo.out().substr(0, 2000);
   const double now_s = RealtimeNow_s();
 
   const nlohmann::json& odom = by_topic["/odom"].front();
@@ -895,6 +937,39 @@ TEST(Ros2EchoTest, PrintsTheEmulatorsTopicsAndOursAsJsonLines) {
   EXPECT_EQ(echoed_twist.at("type"), "geometry_msgs/Twist");
   EXPECT_EQ(Doubles(echoed_twist.at("linear")), (std::vector<double>{0.25, 0, 0}));
   EXPECT_EQ(Doubles(echoed_twist.at("angular")), (std::vector<double>{0, 0, -0.5}));
+
+  const nlohmann::json& echoed_markers = by_topic["/echo_test/markers"].front();
+  EXPECT_EQ(echoed_markers.at("type"), "visualization_msgs/MarkerArray");
+  ASSERT_EQ(echoed_markers.at("markers").size(), 2u);
+  const nlohmann::json& text_marker = echoed_markers.at("markers")[0];
+  EXPECT_EQ(text_marker.at("ns"), "robots");
+  EXPECT_EQ(text_marker.at("id"), -3);
+  EXPECT_EQ(text_marker.at("type"), 9);
+  EXPECT_EQ(text_marker.at("action"), 0);
+  EXPECT_EQ(text_marker.at("frame_id"), "map");
+  EXPECT_EQ(Doubles(text_marker.at("position")), (std::vector<double>{1.5, -2.0, 0.25}));
+  EXPECT_EQ(Doubles(text_marker.at("orientation")), (std::vector<double>{0, 0, 0, 1}));
+  EXPECT_EQ(Doubles(text_marker.at("scale")), (std::vector<double>{0.1, 0.2, 0.3}));
+  EXPECT_EQ(Doubles(text_marker.at("color")), (std::vector<double>{1.0, 0.5, 0.25, 0.75}));
+  EXPECT_EQ(text_marker.at("text"), "robot \"a\"");
+  EXPECT_EQ(text_marker.at("points"), 0);
+  const nlohmann::json& line_marker = echoed_markers.at("markers")[1];
+  EXPECT_EQ(line_marker.at("ns"), "paths");
+  EXPECT_EQ(line_marker.at("id"), 7);
+  EXPECT_EQ(line_marker.at("type"), 4);
+  EXPECT_EQ(line_marker.at("action"), 2);
+  EXPECT_EQ(Doubles(line_marker.at("orientation")), (std::vector<double>{0, 0, 0.5, 0.5}));
+  EXPECT_EQ(line_marker.at("text"), "");
+  EXPECT_EQ(line_marker.at("points"), 3);
+
+  const nlohmann::json& echoed_image = by_topic["/echo_test/image/compressed"].front();
+  EXPECT_EQ(echoed_image.at("type"), "sensor_msgs/CompressedImage");
+  EXPECT_EQ(echoed_image.at("frame_id"), "camera");
+  EXPECT_EQ(echoed_image.at("stamp").get<double>(), 1795733666.000000005);
+  EXPECT_EQ(echoed_image.at("format"), "jpeg");
+  EXPECT_EQ(echoed_image.at("data_bytes"), sizeof jpeg);
+  EXPECT_EQ(echoed_image.at("jpeg_soi"), true);
+  EXPECT_NE(echo.out().find("\"stamp\":1795733666.000000005,"), std::string::npos) << "the stamp exact";
   std::cout << "echo: " << echo.out().size() << " bytes; " << by_topic["/odom"].size() << " odom, "
             << by_topic["/points"].size() << " clouds (" << points_read << " points)\n";
 
