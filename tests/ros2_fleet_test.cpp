@@ -1,7 +1,8 @@
 // cairn_base --ros2-domain: the fleet as ROS 2 tools see it, read back by a subscriber that is not ours
 // (cairn_ros2_echo on Eclipse Cyclone DDS, tools/ros2_robot_emulator), in this test's private network
 // namespace: the robot's frame on /tf where the robot reports itself, its global path on /ROBOT/path, the
-// fleet map on /cairn/fleet_map, each decoded field by field against what Cairn's own topics say.
+// fleet map on /cairn/fleet_map, its label on /cairn/markers and its camera frames, each decoded field by
+// field against what Cairn's own topics say.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -52,11 +53,15 @@ TEST(Ros2Fleet, RobotsPathsAndTheMapReachAros2SubscriberThatIsNotOurs) {
   std::this_thread::sleep_for(4s);  // the map grows and goes out (every 2 s)
   const std::vector<json> samples =
       Echo({"--domain", std::to_string(ros2_domain), "--count-each", "1", "--timeout-s", "20",
-            "/tf:tf2_msgs/TFMessage", "/r1/path:nav_msgs/Path", "/cairn/fleet_map:sensor_msgs/PointCloud2"},
+            "/tf:tf2_msgs/TFMessage", "/r1/path:nav_msgs/Path", "/cairn/fleet_map:sensor_msgs/PointCloud2",
+            "/cairn/markers:visualization_msgs/MarkerArray",
+            "/r1/camera/image/compressed:sensor_msgs/CompressedImage"},
            logs + "/echo.log");
   const cairn_msgs::RobotState s = observer.FreshState("r1");
-  json tf, path, map;
+  json tf, path, map, markers, camera;
   for (const json& m : samples) {
+    if (m["topic"] == "/cairn/markers") markers = m;
+    if (m["topic"] == "/r1/camera/image/compressed") camera = m;
     if (m["topic"] == "/tf") tf = m;
     if (m["topic"] == "/r1/path") path = m;
     if (m["topic"] == "/cairn/fleet_map") map = m;
@@ -102,6 +107,19 @@ TEST(Ros2Fleet, RobotsPathsAndTheMapReachAros2SubscriberThatIsNotOurs) {
   EXPECT_LT(map["max"][0].get<double>(), 70.0) << map;
   EXPECT_GT(map["min"][2].get<double>(), -2.0) << map;
   EXPECT_LT(map["max"][2].get<double>(), 6.0) << map;
+
+  // /cairn/markers: the robot's label (id and mode) above it; /r1/camera/image/compressed: a whole JPEG.
+  ASSERT_FALSE(markers.is_null()) << "no /cairn/markers heard; see " << logs;
+  bool labelled = false;
+  for (const json& m : markers["markers"]) {
+    labelled = labelled || (m["ns"] == "robots" && m["text"] == "r1 (waypoint)" && m["frame_id"] == "map");
+  }
+  EXPECT_TRUE(labelled) << markers;
+  ASSERT_FALSE(camera.is_null()) << "no camera frame heard; see " << logs;
+  EXPECT_EQ(camera["format"], "jpeg");
+  EXPECT_EQ(camera["frame_id"], "r1/camera");
+  EXPECT_TRUE(camera["jpeg_soi"].get<bool>()) << camera;
+  EXPECT_GT(camera["data_bytes"].get<int>(), 500) << camera;
   EXPECT_EQ(op.Run("stop r1")["ok"], true);
 }
 

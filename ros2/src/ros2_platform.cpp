@@ -9,6 +9,7 @@
 
 #include "cairn/core/config.h"
 #include "cairn/core/shutdown.h"
+#include "cairn/ros2/image.h"
 
 namespace cairn::ros2 {
 namespace {
@@ -52,7 +53,8 @@ bool Ros2PlatformOptions::IsValid(std::string* why) const {
   for (const auto& [field, topic] :
        {std::pair<const char*, const std::string*>{"points_topic", &points_topic},
         {"odom_topic", &odom_topic},
-        {"cmd_vel_topic", &cmd_vel_topic}}) {
+        {"cmd_vel_topic", &cmd_vel_topic},
+        {"camera_topic", &camera_topic}}) {
     if (!topic->empty() && (*topic)[0] != '/') {
       *why = std::string("ros2.") + field + " '" + *topic + "' must start with '/' (a ROS 2 topic name)";
       return false;
@@ -80,10 +82,10 @@ void Ros2PlatformOptions::LoadConfigFile(const std::string& path) {
   try {
     const auto config = core::ConfigSection::LoadFile(path);
     const auto s = config.Section("ros2");
-    s.RejectUnknownKeys({"points_topic", "odom_topic", "cmd_vel_topic", "cmd_vel_type", "map_frame",
-                         "odom_frame", "base_frame", "pose_timeout_s", "tf_history_s", "start_wait_s",
-                         "lidar_rate_hz", "lidar_min_range_m", "lidar_max_range_m",
-                         "lidar_min_elevation_deg"});
+    s.RejectUnknownKeys({"points_topic", "odom_topic", "cmd_vel_topic", "cmd_vel_type", "camera_topic",
+                         "camera_type", "camera_optical_frame", "map_frame", "odom_frame", "base_frame",
+                         "pose_timeout_s", "tf_history_s", "start_wait_s", "lidar_rate_hz",
+                         "lidar_min_range_m", "lidar_max_range_m", "lidar_min_elevation_deg"});
     s.ReadString("points_topic", &points_topic);
     s.ReadString("odom_topic", &odom_topic);
     s.ReadString("cmd_vel_topic", &cmd_vel_topic);
@@ -93,6 +95,14 @@ void Ros2PlatformOptions::LoadConfigFile(const std::string& path) {
       throw core::ConfigError(s.Where("cmd_vel_type") + " '" + cmd_type +
                               "' is neither twist nor twist_stamped");
     cmd_vel_stamped = cmd_type == "twist_stamped";
+    s.ReadString("camera_topic", &camera_topic);
+    std::string camera_type = camera_compressed ? "compressed" : "raw";
+    s.ReadString("camera_type", &camera_type);
+    if (camera_type != "compressed" && camera_type != "raw")
+      throw core::ConfigError(s.Where("camera_type") + " '" + camera_type +
+                              "' is neither compressed nor raw");
+    camera_compressed = camera_type == "compressed";
+    s.ReadBool("camera_optical_frame", &camera_optical_frame);
     s.ReadString("map_frame", &map_frame);
     s.ReadString("odom_frame", &odom_frame);
     s.ReadString("base_frame", &base_frame);
@@ -176,6 +186,12 @@ struct Ros2Platform::Impl {
     }
   }
 
+  void OnImage(std::optional<sm::Image_> raw, std::optional<sm::CompressedImage_> compressed) {
+    std::lock_guard<std::mutex> lock(mutex);
+    image = std::move(raw);
+    compressed_image = std::move(compressed);
+  }
+
   void OnCloud(const sm::PointCloud2_& m) {
     std::lock_guard<std::mutex> lock(mutex);
     ++counts.clouds;
@@ -231,6 +247,10 @@ struct Ros2Platform::Impl {
   double v_mps = 0.0, w_radps = 0.0;
   std::string odom_problem, last_tf_problem, last_cloud_problem;
   std::optional<sm::PointCloud2_> cloud;
+  std::optional<sm::Image_> image;  // the newest camera frame not read yet (one of the two)
+  std::optional<sm::CompressedImage_> compressed_image;
+  std::uint32_t image_seq = 0;
+  std::string last_image_problem;
   double cloud_received_s = 0.0;
   std::uint64_t scan_seq = 0;
   Counts counts;
@@ -240,6 +260,8 @@ struct Ros2Platform::Impl {
   std::unique_ptr<core::Reader<nm::Odometry_PubSubType>> odom_reader;
   std::unique_ptr<core::Reader<tm::TFMessage_PubSubType>> tf_reader, tf_static_reader;
   std::unique_ptr<core::Reader<sm::PointCloud2_PubSubType>> points_reader;
+  std::unique_ptr<core::Reader<sm::Image_PubSubType>> image_reader;
+  std::unique_ptr<core::Reader<sm::CompressedImage_PubSubType>> compressed_image_reader;
   std::unique_ptr<core::Writer<gm::Twist_PubSubType>> twist_writer;
   std::unique_ptr<core::Writer<gm::TwistStamped_PubSubType>> twist_stamped_writer;
 };
@@ -265,6 +287,19 @@ Ros2Platform::Ros2Platform(const Ros2PlatformOptions& options) {
     impl->points_reader = std::make_unique<core::Reader<sm::PointCloud2_PubSubType>>(
         impl->participant, DdsTopicName(options.points_topic), "ros2.sensor_data",
         [impl](const sm::PointCloud2_& m, const eprosima::fastdds::dds::SampleInfo&) { impl->OnCloud(m); });
+  }
+  if (!options.camera_topic.empty() && options.camera_compressed) {
+    impl->compressed_image_reader = std::make_unique<core::Reader<sm::CompressedImage_PubSubType>>(
+        impl->participant, DdsTopicName(options.camera_topic), "ros2.sensor_data",
+        [impl](const sm::CompressedImage_& m, const eprosima::fastdds::dds::SampleInfo&) {
+          impl->OnImage(std::nullopt, m);
+        });
+  } else if (!options.camera_topic.empty()) {
+    impl->image_reader = std::make_unique<core::Reader<sm::Image_PubSubType>>(
+        impl->participant, DdsTopicName(options.camera_topic), "ros2.sensor_data",
+        [impl](const sm::Image_& m, const eprosima::fastdds::dds::SampleInfo&) {
+          impl->OnImage(m, std::nullopt);
+        });
   }
   if (options.cmd_vel_stamped) {
     impl->twist_stamped_writer = std::make_unique<core::Writer<gm::TwistStamped_PubSubType>>(
@@ -314,7 +349,7 @@ core::PlatformCapabilities Ros2Platform::Capabilities() const {
   c.has_lidar = !o.points_topic.empty();
   c.lidar_rate_hz = c.has_lidar ? o.lidar_rate_hz : 0.0;
   c.lidar_min_elevation_rad = o.lidar_min_elevation_rad;
-  c.has_camera = false;
+  c.has_camera = !o.camera_topic.empty();
   return c;
 }
 
@@ -401,7 +436,44 @@ bool Ros2Platform::ReadLidarScan(double /*now_s*/, core::LidarScan* scan) {
   return true;
 }
 
-bool Ros2Platform::ReadCameraImage(double /*now_s*/, core::CameraImage* /*image*/) { return false; }
+bool Ros2Platform::ReadCameraImage(double /*now_s*/, core::CameraImage* out) {
+  Impl& impl = *impl_;
+  std::optional<sm::Image_> raw;
+  std::optional<sm::CompressedImage_> compressed;
+  {
+    std::lock_guard<std::mutex> lock(impl.mutex);
+    raw = std::move(impl.image);
+    compressed = std::move(impl.compressed_image);
+    impl.image.reset();
+    impl.compressed_image.reset();
+  }
+  if (!raw && !compressed) return false;
+  const std_msgs::msg::dds_::Header_& header = raw ? raw->header() : compressed->header();
+  GrayImage gray;
+  std::string why = raw ? ImageToGray(*raw, &gray) : CompressedImageToGray(*compressed, &gray);
+  std::optional<Eigen::Isometry3d> T_M_frame;
+  std::lock_guard<std::mutex> lock(impl.mutex);
+  if (why.empty()) {
+    T_M_frame = impl.tf.Lookup(impl.map_frame, header.frame_id(), StampS(header.stamp()), &why);
+    if (!T_M_frame) why = "no pose of camera frame '" + FrameId(header.frame_id()) + "': " + why;
+  }
+  if (!why.empty()) {
+    ++impl.counts.bad_images;
+    if (why != impl.last_image_problem)
+      spdlog::warn("ros2 driver: image on {} not used: {}", impl.options.camera_topic, why);
+    impl.last_image_problem = why;
+    return false;
+  }
+  impl.last_image_problem.clear();
+  ++impl.counts.images;
+  out->stamp_s = StampS(header.stamp()) + impl.wall_to_agent_s;
+  out->seq = ++impl.image_seq;
+  out->width_px = gray.width_px;
+  out->height_px = gray.height_px;
+  out->pixels = std::move(gray.pixels);
+  out->T_MC = impl.options.camera_optical_frame ? *T_M_frame * OpticalFromCameraC() : *T_M_frame;
+  return true;
+}
 
 void Ros2Platform::CommandTwist(double linear_x_mps, double angular_z_radps, double /*now_s*/) {
   gm::Twist_ twist;

@@ -48,6 +48,12 @@ struct Ros2PlatformOptions {
   std::string points_topic = "/points";
   std::string odom_topic = "/odom";
   std::string cmd_vel_topic = "/cmd_vel";
+  /// The camera ("" for none): sensor_msgs/CompressedImage (JPEG, `camera_compressed`) or sensor_msgs/Image
+  /// (mono8, rgb8, bgr8, rgba8, bgra8); its frame_id an optical frame (z along the axis, REP-103) unless
+  /// `camera_optical_frame` is false (then x along the axis, as Cairn's frame C).
+  std::string camera_topic;
+  bool camera_compressed = true;
+  bool camera_optical_frame = true;
   /// True: geometry_msgs/TwistStamped on cmd_vel_topic (newer ROS 2 distributions), else Twist.
   bool cmd_vel_stamped = false;
   /// Frames (REP-105). map_frame "" takes the odometry frame as the map frame M.
@@ -101,6 +107,8 @@ class Ros2Platform : public core::PlatformIO {
     std::uint64_t bad_clouds = 0;      ///< refused layouts (the last reason in last_cloud_problem)
     std::uint64_t unregistered = 0;    ///< no pose or extrinsics at their stamp
     std::uint64_t bad_transforms = 0;  ///< transforms refused (loops, second parents, not rigid)
+    std::uint64_t images = 0;          ///< camera frames handed to the autonomy
+    std::uint64_t bad_images = 0;      ///< camera frames not read (encoding, size, no pose)
   };
   Counts counts() const;
   /// The last reason a cloud was not used ("" if none).
