@@ -2,7 +2,9 @@
 # CPU of one agent driving through its ROS 2 driver against the ROS 2 robot emulator on Cyclone DDS (lidar
 # 16 x 900 at 10 Hz as sensor_msgs/PointCloud2, odometry at 50 Hz), beside the same agent on the simulated
 # platform (whose own lidar rendering, 16 x 1800 at 10 Hz, is in its process), over a 20 s window while each
-# robot drives a goal; the emulator's own CPU is shown apart (a real robot's drivers). Prints FIGURE lines.
+# robot drives a goal; the emulator's own CPU is shown apart (a real robot's drivers). Also each agent's
+# scan-to-map latency (a scan's stamp to its insertion into the map finished; its shutdown summary). Prints
+# FIGURE lines.
 # Must run in a private network namespace:
 #   tests/netns_run.sh bench/ros2_driver_cpu.sh BUILD_DIR
 set -euo pipefail
@@ -44,13 +46,18 @@ agent=$!; pids+=($agent)
 measure ros2 "9.75 8" "$agent" "$emu"
 ros2_pct=$agent_pct; emu_pct=$other_pct
 kill "$agent" "$emu"; wait "$agent" "$emu" 2>/dev/null || true
+ros2_latency=$(grep -o 'scan to map [0-9.]* ms mean, [0-9.]* ms max' "$OUT/ros2.log" || echo "scan to map ?")
 
 # The same agent on the simulated platform (builtin:tunnels, a far goal).
 "$BUILD/robot_agent/cairn_agent" --robot-id r1 --start slot:0 --domain 71 >"$OUT/sim.out" 2>"$OUT/sim.log" &
 agent=$!; pids+=($agent)
 measure sim "40 20" "$agent"
 sim_pct=$agent_pct
+kill "$agent"; wait "$agent" 2>/dev/null || true
+sim_latency=$(grep -o 'scan to map [0-9.]* ms mean, [0-9.]* ms max' "$OUT/sim.log" || echo "scan to map ?")
 
 echo "FIGURE ros2_driver_cpu agent_ros2_driver_pct_of_core $ros2_pct (emulated robot's drivers apart: $emu_pct)"
 echo "FIGURE ros2_driver_cpu agent_sim_platform_pct_of_core $sim_pct (simulated lidar rendering included)"
 awk -v a="$ros2_pct" -v b="$sim_pct" 'BEGIN{printf "FIGURE ros2_driver_cpu ratio_ros2_over_sim %.2f\n", a / b}'
+echo "FIGURE ros2_driver_cpu ros2_driver $ros2_latency"
+echo "FIGURE ros2_driver_cpu sim_platform $sim_latency"

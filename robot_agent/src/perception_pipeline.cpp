@@ -1,5 +1,6 @@
 #include "cairn/agent/perception_pipeline.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -154,6 +155,9 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* s
       if (!(z <= max_sensor_z_m_.load())) max_sensor_z_m_ = z;  // also replaces NaN
       const double insert_ms = MsSince(start);
       stats_.map_ms_total += insert_ms;
+      const double scan_to_map_ms = 1000.0 * (now_s - scan->stamp_s) + insert_ms;
+      stats_.scan_to_map_ms_total += scan_to_map_ms;
+      stats_.scan_to_map_ms_max = std::max(stats_.scan_to_map_ms_max, scan_to_map_ms);
       if (adapt_to_load_) insert_after_s_ = now_s + kLoadWait * insert_ms / 1000.0;
       stats_.points_dropped_non_finite += inserted.dropped_non_finite;
       ++stats_.scans_inserted;

@@ -85,6 +85,9 @@ struct PerceptionStats {
   std::int64_t camera_frames = 0;
   double local_cloud_ms_total = 0, map_ms_total = 0, staircase_ms_total = 0, camera_ms_total = 0,
          telemetry_ms_total = 0;
+  /// Scan-to-map latency of the inserted scans: from a scan's stamp (the platform's, agent clock) to its
+  /// insertion into the map finished, milliseconds; summed (divide by scans_inserted) and the largest.
+  double scan_to_map_ms_total = 0, scan_to_map_ms_max = 0;
 };
 
 /// Runs the robot's perception. Not thread-safe except map() and TakeChangedRegion(), which are.
