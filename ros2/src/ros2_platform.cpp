@@ -197,6 +197,34 @@ struct Ros2Platform::Impl {
     ++counts.clouds;
     cloud = m;  // the newest replaces one not read yet: the autonomy wants the latest scan
     cloud_received_s = WallNowS();
+    MeasureLidarRate(StampS(m.header().stamp()));
+  }
+
+  // With mutex held: the lidar's rate as the stream shows it (by the clouds' stamps, every kRateWindow
+  // clouds), told once, and again whenever it strays over 20 % from what the autonomy was told
+  // (ros2.lidar_rate_hz).
+  void MeasureLidarRate(double stamp_s) {
+    constexpr int kRateWindow = 50;
+    if (rate_clouds == 0) rate_window_start_s = stamp_s;
+    if (++rate_clouds < kRateWindow) return;
+    const double span_s = stamp_s - rate_window_start_s;
+    rate_clouds = 0;
+    if (!(span_s > 0)) return;
+    measured_lidar_rate_hz = (kRateWindow - 1) / span_s;
+    const bool off = std::abs(measured_lidar_rate_hz - options.lidar_rate_hz) > 0.2 * options.lidar_rate_hz;
+    if (!rate_told || off != rate_off) {
+      if (off) {
+        spdlog::warn(
+            "ros2 driver: lidar on {} at {:.1f} Hz (by its stamps), not ros2.lidar_rate_hz {:.1f}: set it "
+            "to the lidar's rate",
+            options.points_topic, measured_lidar_rate_hz, options.lidar_rate_hz);
+      } else {
+        spdlog::info("ros2 driver: lidar on {} at {:.1f} Hz (by its stamps; ros2.lidar_rate_hz {:.1f})",
+                     options.points_topic, measured_lidar_rate_hz, options.lidar_rate_hz);
+      }
+    }
+    rate_told = true;
+    rate_off = off;
   }
 
   // With mutex held: the pose estimate as of wall time `wall_s`.
@@ -250,6 +278,9 @@ struct Ros2Platform::Impl {
   std::optional<sm::Image_> image;  // the newest camera frame not read yet (one of the two)
   std::optional<sm::CompressedImage_> compressed_image;
   std::uint32_t image_seq = 0;
+  int rate_clouds = 0;  // MeasureLidarRate's window
+  double rate_window_start_s = 0.0, measured_lidar_rate_hz = 0.0;
+  bool rate_told = false, rate_off = false;
   std::string last_image_problem;
   double cloud_received_s = 0.0;
   std::uint64_t scan_seq = 0;
