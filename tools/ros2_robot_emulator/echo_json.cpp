@@ -138,6 +138,21 @@ void MemberArray(std::string& out, const char* key, const std::array<Float, N>& 
   out += ']';
 }
 
+/// An array of objects, one per element of a DDS sequence; append_members(out, element) writes the members.
+template <typename Sequence, typename AppendMembers>
+void MemberObjects(std::string& out, const char* key, const Sequence& sequence,
+                   AppendMembers append_members) {
+  Key(out, key);
+  out += '[';
+  for (std::uint32_t i = 0; i < sequence._length; ++i) {
+    Separate(out);
+    out += '{';
+    append_members(out, sequence._buffer[i]);
+    out += '}';
+  }
+  out += ']';
+}
+
 /// A builtin_interfaces/Time in seconds, exact: sec.nanosec with 9 decimals (e.g. 1795733665.123000000).
 void MemberStamp(std::string& out, const char* key, const builtin_interfaces_msg_dds__Time_& stamp) {
   Key(out, key);
@@ -163,20 +178,14 @@ bool SameString(const char* a, const char* b) {
 
 void AppendTfMessage(std::string& out, const void* sample) {
   const auto& message = *static_cast<const tf2_msgs_msg_dds__TFMessage_*>(sample);
-  Key(out, "transforms");
-  out += '[';
-  for (std::uint32_t i = 0; i < message.transforms._length; ++i) {
-    const geometry_msgs_msg_dds__TransformStamped_& t = message.transforms._buffer[i];
-    Separate(out);
-    out += '{';
-    MemberString(out, "frame_id", t.header.frame_id);
-    MemberString(out, "child_frame_id", t.child_frame_id);
-    MemberStamp(out, "stamp", t.header.stamp);
-    MemberArray(out, "translation", Xyz(t.transform.translation));
-    MemberArray(out, "rotation", Xyzw(t.transform.rotation));
-    out += '}';
-  }
-  out += ']';
+  MemberObjects(out, "transforms", message.transforms,
+                [](std::string& o, const geometry_msgs_msg_dds__TransformStamped_& t) {
+                  MemberString(o, "frame_id", t.header.frame_id);
+                  MemberString(o, "child_frame_id", t.child_frame_id);
+                  MemberStamp(o, "stamp", t.header.stamp);
+                  MemberArray(o, "translation", Xyz(t.transform.translation));
+                  MemberArray(o, "rotation", Xyzw(t.transform.rotation));
+                });
 }
 
 void AppendPath(std::string& out, const void* sample) {
@@ -218,25 +227,20 @@ void AppendPointCloud2(std::string& out, const void* sample) {
   MemberUnsigned(out, "row_step", cloud.row_step);
   MemberBool(out, "is_bigendian", cloud.is_bigendian);
   MemberBool(out, "is_dense", cloud.is_dense);
-  Key(out, "fields");
-  out += '[';
   // x, y, z: the first field of each name, when it is FLOAT32.
   const sensor_msgs_msg_dds__PointField_* xyz_fields[3] = {nullptr, nullptr, nullptr};
-  for (std::uint32_t i = 0; i < cloud.fields._length; ++i) {
-    const sensor_msgs_msg_dds__PointField_& field = cloud.fields._buffer[i];
-    Separate(out);
-    out += '{';
-    MemberString(out, "name", field.name);
-    MemberUnsigned(out, "offset", field.offset);
-    MemberUnsigned(out, "datatype", field.datatype);
-    MemberUnsigned(out, "count", field.count);
-    out += '}';
-    for (int axis = 0; axis < 3; ++axis) {
-      const char name[2] = {static_cast<char>('x' + axis), '\0'};
-      if (xyz_fields[axis] == nullptr && SameString(field.name, name)) xyz_fields[axis] = &field;
-    }
-  }
-  out += ']';
+  MemberObjects(out, "fields", cloud.fields,
+                [&xyz_fields](std::string& o, const sensor_msgs_msg_dds__PointField_& field) {
+                  MemberString(o, "name", field.name);
+                  MemberUnsigned(o, "offset", field.offset);
+                  MemberUnsigned(o, "datatype", field.datatype);
+                  MemberUnsigned(o, "count", field.count);
+                  for (int axis = 0; axis < 3; ++axis) {
+                    const char name[2] = {static_cast<char>('x' + axis), '\0'};
+                    if (xyz_fields[axis] == nullptr && SameString(field.name, name))
+                      xyz_fields[axis] = &field;
+                  }
+                });
   const std::uint64_t data_bytes = cloud.data._length;
   MemberUnsigned(out, "data_bytes", data_bytes);
   for (const sensor_msgs_msg_dds__PointField_* field : xyz_fields) {
@@ -298,27 +302,21 @@ void AppendTwist(std::string& out, const void* sample) {
 
 void AppendMarkerArray(std::string& out, const void* sample) {
   const auto& array = *static_cast<const visualization_msgs_msg_dds__MarkerArray_*>(sample);
-  Key(out, "markers");
-  out += '[';
-  for (std::uint32_t i = 0; i < array.markers._length; ++i) {
-    const visualization_msgs_msg_dds__Marker_& marker = array.markers._buffer[i];
-    Separate(out);
-    out += '{';
-    MemberString(out, "ns", marker.ns);
-    MemberSigned(out, "id", marker.id);
-    MemberSigned(out, "type", marker.type);
-    MemberSigned(out, "action", marker.action);
-    MemberString(out, "frame_id", marker.header.frame_id);
-    MemberArray(out, "position", Xyz(marker.pose.position));
-    MemberArray(out, "orientation", Xyzw(marker.pose.orientation));
-    MemberArray(out, "scale", Xyz(marker.scale));
-    MemberArray(out, "color",
-                std::array<float, 4>{marker.color.r, marker.color.g, marker.color.b, marker.color.a});
-    MemberString(out, "text", marker.text);
-    MemberUnsigned(out, "points", marker.points._length);
-    out += '}';
-  }
-  out += ']';
+  MemberObjects(
+      out, "markers", array.markers, [](std::string& o, const visualization_msgs_msg_dds__Marker_& marker) {
+        MemberString(o, "ns", marker.ns);
+        MemberSigned(o, "id", marker.id);
+        MemberSigned(o, "type", marker.type);
+        MemberSigned(o, "action", marker.action);
+        MemberString(o, "frame_id", marker.header.frame_id);
+        MemberArray(o, "position", Xyz(marker.pose.position));
+        MemberArray(o, "orientation", Xyzw(marker.pose.orientation));
+        MemberArray(o, "scale", Xyz(marker.scale));
+        MemberArray(o, "color",
+                    std::array<float, 4>{marker.color.r, marker.color.g, marker.color.b, marker.color.a});
+        MemberString(o, "text", marker.text);
+        MemberUnsigned(o, "points", marker.points._length);
+      });
 }
 
 void AppendCompressedImage(std::string& out, const void* sample) {

@@ -122,17 +122,18 @@ ProcessResult RunEmulatorToExit(const std::vector<std::string>& args) {
   return RunToExit(CAIRN_ROS2_EMULATOR, args);
 }
 
-/// A running emulator: started with `args`, READY awaited; stopped with SIGTERM (see Stop()).
-class EmulatorProcess {
+/// A child process (`binary` run with `args`) whose stdout is collected by Pump() (its stderr passes
+/// through); killed with SIGKILL if it is still running when this goes.
+class ChildProcess {
  public:
-  explicit EmulatorProcess(const std::vector<std::string>& args) {
+  ChildProcess(const char* binary, const std::vector<std::string>& args) {
     int out_pipe[2];
     if (pipe(out_pipe) != 0) return;
     pid_ = fork();
     if (pid_ == 0) {
       dup2(out_pipe[1], STDOUT_FILENO);
       close(out_pipe[0]);
-      std::vector<char*> argv{const_cast<char*>(CAIRN_ROS2_EMULATOR)};
+      std::vector<char*> argv{const_cast<char*>(binary)};
       for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
       argv.push_back(nullptr);
       execv(argv[0], argv.data());
@@ -141,50 +142,80 @@ class EmulatorProcess {
     close(out_pipe[1]);
     stdout_fd_ = out_pipe[0];
   }
-  ~EmulatorProcess() {
+  ~ChildProcess() {
     if (pid_ > 0) {
       kill(pid_, SIGKILL);
       waitpid(pid_, nullptr, 0);
     }
     if (stdout_fd_ >= 0) close(stdout_fd_);
   }
+  ChildProcess(const ChildProcess&) = delete;
+  ChildProcess& operator=(const ChildProcess&) = delete;
 
-  /// True once the emulator printed READY (within timeout_s).
-  bool WaitReady(double timeout_s) {
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    std::string out;
-    while (std::chrono::steady_clock::now() < deadline) {
-      pollfd fd{stdout_fd_, POLLIN, 0};
-      if (poll(&fd, 1, 100) <= 0) continue;
-      char buffer[256];
-      const ssize_t n = read(stdout_fd_, buffer, sizeof buffer);
-      if (n <= 0) return false;  // exited
-      out.append(buffer, static_cast<std::size_t>(n));
-      if (out.find("READY\n") != std::string::npos) return true;
-    }
-    return false;
+  /// Reads what stdout has for up to wait_ms; false once it is closed (the process is ending).
+  bool Pump(int wait_ms) {
+    pollfd fd{stdout_fd_, POLLIN, 0};
+    if (poll(&fd, 1, wait_ms) <= 0) return true;
+    char buffer[65536];
+    const ssize_t n = read(stdout_fd_, buffer, sizeof buffer);
+    if (n <= 0) return false;
+    out_.append(buffer, static_cast<std::size_t>(n));
+    return true;
   }
+  /// Pumps until stdout holds `text` (true) or timeout_s passes or stdout closes (false).
+  bool PumpUntil(const std::string& text, double timeout_s) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (out_.find(text) == std::string::npos) {
+      if (std::chrono::steady_clock::now() > deadline || !Pump(20))
+        return out_.find(text) != std::string::npos;
+    }
+    return true;
+  }
+  /// True once the process printed READY (within timeout_s).
+  bool WaitReady(double timeout_s) { return PumpUntil("READY\n", timeout_s); }
 
   /// SIGTERM, then waits up to timeout_s; returns the exit code (-1 if it did not exit in time or crashed)
   /// and how long it took, seconds.
   std::pair<int, double> Stop(double timeout_s) {
     const auto start = std::chrono::steady_clock::now();
-    kill(pid_, SIGTERM);
-    int status = 0;
-    while (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() < timeout_s) {
+    Signal(SIGTERM);
+    int exit_code = -1;
+    if (!Reap(start + std::chrono::duration<double>(timeout_s), exit_code)) return {-1, timeout_s};
+    return {exit_code, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
+  }
+  /// Reads stdout to its end and waits for the exit (both within timeout_s); the exit code, -1 if none.
+  int Finish(double timeout_s) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (std::chrono::steady_clock::now() < deadline && Pump(20)) {
+    }
+    int exit_code = -1;
+    Reap(deadline, exit_code);
+    return exit_code;
+  }
+  void Signal(int signal_number) {
+    if (pid_ > 0) kill(pid_, signal_number);
+  }
+  const std::string& out() const { return out_; }
+
+ private:
+  /// Waits for the exit until `deadline`; true once it exited, with its exit code (-1 if it crashed).
+  template <typename TimePoint>
+  bool Reap(TimePoint deadline, int& exit_code) {
+    while (pid_ > 0 && std::chrono::steady_clock::now() < deadline) {
+      int status = 0;
       if (waitpid(pid_, &status, WNOHANG) == pid_) {
         pid_ = -1;
-        const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, took_s};
+        exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+        return true;
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
-    return {-1, timeout_s};
+    return false;
   }
 
- private:
   pid_t pid_ = -1;
   int stdout_fd_ = -1;
+  std::string out_;
 };
 
 // ---- Ground truth ----
@@ -386,8 +417,8 @@ TEST(Ros2EmulatorTest, PublishesCloudOdomAndTfAndObeysCmdVelLikeARos2Robot) {
   std::filesystem::create_directories(dir);
   const std::string truth_path = dir + "/truth.txt";
 
-  EmulatorProcess emulator(
-      {"--world", "corner", "--truth-out", truth_path, "--domain", std::to_string(kDomainId), "--seed", "3"});
+  ChildProcess emulator(CAIRN_ROS2_EMULATOR, {"--world", "corner", "--truth-out", truth_path, "--domain",
+                                              std::to_string(kDomainId), "--seed", "3"});
   ASSERT_TRUE(emulator.WaitReady(15.0)) << "the emulator did not print READY";
 
   TestParticipant dds;
@@ -586,9 +617,9 @@ TEST(Ros2EmulatorTest, SlamMapToOdomMakesMapToBaseLinkTheTruthAndTwistStampedDri
   std::filesystem::create_directories(dir);
   const std::string truth_path = dir + "/truth.txt";
   // A strong drift (5x: 0.01 rad/s, 5 %), so that odometry and truth part visibly.
-  EmulatorProcess emulator({"--world", "room", "--slam", "--drift", "5", "--cmd-type", "twist_stamped",
-                            "--cmd-topic", "/robot/cmd_vel", "--truth-out", truth_path, "--domain",
-                            std::to_string(kDomainId)});
+  ChildProcess emulator(CAIRN_ROS2_EMULATOR, {"--world", "room", "--slam", "--drift", "5", "--cmd-type",
+                                              "twist_stamped", "--cmd-topic", "/robot/cmd_vel", "--truth-out",
+                                              truth_path, "--domain", std::to_string(kDomainId)});
   ASSERT_TRUE(emulator.WaitReady(15.0)) << "the emulator did not print READY";
   TestParticipant dds;
   ASSERT_TRUE(dds.ok());
@@ -664,76 +695,6 @@ TEST(Ros2EmulatorTest, SlamMapToOdomMakesMapToBaseLinkTheTruthAndTwistStampedDri
 
 // ---- cairn_ros2_echo ----
 
-/// cairn_ros2_echo running in the background; its stdout collected by Pump(), stderr passed through.
-class EchoProcess {
- public:
-  explicit EchoProcess(const std::vector<std::string>& args) {
-    int out_pipe[2];
-    if (pipe(out_pipe) != 0) return;
-    pid_ = fork();
-    if (pid_ == 0) {
-      dup2(out_pipe[1], STDOUT_FILENO);
-      close(out_pipe[0]);
-      std::vector<char*> argv{const_cast<char*>(CAIRN_ROS2_ECHO)};
-      for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-      argv.push_back(nullptr);
-      execv(argv[0], argv.data());
-      _exit(127);
-    }
-    close(out_pipe[1]);
-    stdout_fd_ = out_pipe[0];
-  }
-  ~EchoProcess() {
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-    if (stdout_fd_ >= 0) close(stdout_fd_);
-  }
-
-  /// Reads what stdout has for up to wait_ms; false once it is closed (the process is ending).
-  bool Pump(int wait_ms) {
-    pollfd fd{stdout_fd_, POLLIN, 0};
-    if (poll(&fd, 1, wait_ms) <= 0) return true;
-    char buffer[65536];
-    const ssize_t n = read(stdout_fd_, buffer, sizeof buffer);
-    if (n <= 0) return false;
-    out_.append(buffer, static_cast<std::size_t>(n));
-    return true;
-  }
-  /// Pumps until stdout holds `text` (true) or timeout_s passes or stdout closes (false).
-  bool PumpUntil(const std::string& text, double timeout_s) {
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    while (out_.find(text) == std::string::npos) {
-      if (std::chrono::steady_clock::now() > deadline || !Pump(20))
-        return out_.find(text) != std::string::npos;
-    }
-    return true;
-  }
-  /// Reads stdout to its end and waits for the exit (both within timeout_s); the exit code, -1 if none.
-  int Finish(double timeout_s) {
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    while (std::chrono::steady_clock::now() < deadline && Pump(20)) {
-    }
-    while (std::chrono::steady_clock::now() < deadline) {
-      int status = 0;
-      if (waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return -1;
-  }
-  void Signal(int signal_number) { kill(pid_, signal_number); }
-  const std::string& out() const { return out_; }
-
- private:
-  pid_t pid_ = -1;
-  int stdout_fd_ = -1;
-  std::string out_;
-};
-
 /// The JSON objects of the echo's stdout lines after READY; a line that does not parse fails the test.
 std::vector<nlohmann::json> EchoLines(const std::string& out) {
   std::vector<nlohmann::json> lines;
@@ -778,14 +739,14 @@ TEST(Ros2EchoTest, RejectsBadFlagsNamingThem) {
 TEST(Ros2EchoTest, PrintsTheEmulatorsTopicsAndOursAsJsonLines) {
   ASSERT_TRUE(InPrivateNetns())
       << "run through tests/netns_run.sh (ctest does): no DDS in the host's namespace";
-  EmulatorProcess emulator({"--world", "corner", "--domain", std::to_string(kDomainId)});
+  ChildProcess emulator(CAIRN_ROS2_EMULATOR, {"--world", "corner", "--domain", std::to_string(kDomainId)});
   ASSERT_TRUE(emulator.WaitReady(15.0)) << "the emulator did not print READY";
   const std::string domain = std::to_string(kDomainId);
 
   // --count 3: three samples in total, whichever topics they come from, then exit 0.
   {
-    EchoProcess echo({"--domain", domain, "--count", "3", "/odom:nav_msgs/Odometry",
-                      "/tf_static:tf2_msgs/TFMessage", "/points:sensor_msgs/PointCloud2"});
+    ChildProcess echo(CAIRN_ROS2_ECHO, {"--domain", domain, "--count", "3", "/odom:nav_msgs/Odometry",
+                                        "/tf_static:tf2_msgs/TFMessage", "/points:sensor_msgs/PointCloud2"});
     ASSERT_EQ(echo.Finish(10.0), 0);
     const std::vector<nlohmann::json> lines = EchoLines(echo.out());
     ASSERT_EQ(lines.size(), 3u) << echo.out().substr(0, 1000);
@@ -861,12 +822,13 @@ TEST(Ros2EchoTest, PrintsTheEmulatorsTopicsAndOursAsJsonLines) {
   image.data = {sizeof jpeg, sizeof jpeg, jpeg, false};
   ASSERT_EQ(dds_write(image_writer, &image), 0);
 
-  EchoProcess echo({"--domain", domain, "--count-each", "1", "--timeout-s", "10", "/odom:nav_msgs/Odometry",
-                    "/tf_static:tf2_msgs/TFMessage", "/points:sensor_msgs/PointCloud2",
-                    "/echo_test/path:nav_msgs/Path", "/echo_test/mixed_path:nav_msgs/Path",
-                    "echo_test/twist:geometry_msgs/msg/Twist",
-                    "/echo_test/markers:visualization_msgs/MarkerArray",
-                    "/echo_test/image/compressed:sensor_msgs/msg/CompressedImage"});
+  ChildProcess echo(
+      CAIRN_ROS2_ECHO,
+      {"--domain", domain, "--count-each", "1", "--timeout-s", "10", "/odom:nav_msgs/Odometry",
+       "/tf_static:tf2_msgs/TFMessage", "/points:sensor_msgs/PointCloud2", "/echo_test/path:nav_msgs/Path",
+       "/echo_test/mixed_path:nav_msgs/Path", "echo_test/twist:geometry_msgs/msg/Twist",
+       "/echo_test/markers:visualization_msgs/MarkerArray",
+       "/echo_test/image/compressed:sensor_msgs/msg/CompressedImage"});
   ASSERT_TRUE(echo.PumpUntil("READY\n", 10.0)) << "cairn_ros2_echo did not print READY";
   ASSERT_TRUE(WaitFor(10.0, [&] {
     dds_publication_matched_status_t matched{};
@@ -974,7 +936,7 @@ TEST(Ros2EchoTest, PrintsTheEmulatorsTopicsAndOursAsJsonLines) {
             << by_topic["/points"].size() << " clouds (" << points_read << " points)\n";
 
   // No limit but the signal: SIGTERM ends it with 0 at once.
-  EchoProcess endless({"--domain", domain, "--timeout-s", "0", "/odom:nav_msgs/Odometry"});
+  ChildProcess endless(CAIRN_ROS2_ECHO, {"--domain", domain, "--timeout-s", "0", "/odom:nav_msgs/Odometry"});
   ASSERT_TRUE(endless.PumpUntil("\"/odom\"", 10.0)) << "no odometry printed";
   const auto sent = std::chrono::steady_clock::now();
   endless.Signal(SIGTERM);
