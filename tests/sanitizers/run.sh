@@ -19,7 +19,7 @@ TESTS=(
   cairn_nav_ilqr_test cairn_nav_sampling_test cairn_nav_scan_obstacles_test cairn_nav_multilevel_test
   cairn_nav_frontier_test cairn_nav_geb079_test
   cairn_perception_map_test cairn_perception_telemetry_test cairn_perception_staircase_test cairn_perception_jpeg_test
-  cairn_agent_unit_test cairn_agent_watchdog_test cairn_ros2_test
+  cairn_agent_unit_test cairn_agent_watchdog_test cairn_ros2_test cairn_fuzz_ros2_message_replay
 )
 # ThreadSanitizer looks for races between threads: the single-threaded detector and local planner tests (2-4
 # minutes each under TSan, the suite's long pole) run under ASan + UBSan only.
