@@ -27,23 +27,13 @@
 #include "cairn/nav/global_planner.h"
 #include "cairn/perception/map_telemetry.h"
 #include "cairn_msgsPubSubTypes.h"
+#include "fuzz_input.h"
 
 namespace {
 
 namespace msgs = cairn_msgs;
 
-template <class PubSubT>
-bool Deserialize(const std::uint8_t* data, std::size_t size, typename PubSubT::type* out) {
-  PubSubT type;
-  eprosima::fastrtps::rtps::SerializedPayload_t payload(static_cast<std::uint32_t>(size));
-  if (size > 0) std::memcpy(payload.data, data, size);
-  payload.length = static_cast<std::uint32_t>(size);
-  try {
-    return type.deserialize(&payload, out);
-  } catch (...) {
-    return false;
-  }
-}
+using cairn::fuzz::DeserializeCdr;
 
 void Goal(const msgs::WaypointGoal& m) {
   (void)cairn::core::CheckId("base id", m.base_id());
@@ -155,55 +145,55 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   switch (kind) {
     case 0: {
       msgs::WaypointGoal m;
-      if (Deserialize<msgs::WaypointGoalPubSubType>(data, size, &m)) Goal(m);
+      if (DeserializeCdr<msgs::WaypointGoalPubSubType>(data, size, &m)) Goal(m);
       break;
     }
     case 1: {
       msgs::ExploreClaim m;
-      if (Deserialize<msgs::ExploreClaimPubSubType>(data, size, &m)) Claim(m);
+      if (DeserializeCdr<msgs::ExploreClaimPubSubType>(data, size, &m)) Claim(m);
       break;
     }
     case 2: {
       msgs::MapUpdate m;
-      if (Deserialize<msgs::MapUpdatePubSubType>(data, size, &m)) Map(m);
+      if (DeserializeCdr<msgs::MapUpdatePubSubType>(data, size, &m)) Map(m);
       break;
     }
     case 3: {
       msgs::ControlRequest m;
-      if (Deserialize<msgs::ControlRequestPubSubType>(data, size, &m))
+      if (DeserializeCdr<msgs::ControlRequestPubSubType>(data, size, &m))
         (void)cairn::core::CheckId("base id", m.base_id());
       break;
     }
     case 4: {
       msgs::StaircaseDetection m;
-      if (Deserialize<msgs::StaircaseDetectionPubSubType>(data, size, &m)) Staircase(m);
+      if (DeserializeCdr<msgs::StaircaseDetectionPubSubType>(data, size, &m)) Staircase(m);
       break;
     }
     case 5: {
       msgs::PathRequest m;
-      if (Deserialize<msgs::PathRequestPubSubType>(data, size, &m)) Path(m);
+      if (DeserializeCdr<msgs::PathRequestPubSubType>(data, size, &m)) Path(m);
       break;
     }
     case 6: {
       msgs::RestartRequest m;
-      if (Deserialize<msgs::RestartRequestPubSubType>(data, size, &m)) {
+      if (DeserializeCdr<msgs::RestartRequestPubSubType>(data, size, &m)) {
         (void)cairn::core::CheckId("base id", m.base_id());
       }
       break;
     }
     case 8: {
       msgs::PeerState m;
-      if (Deserialize<msgs::PeerStatePubSubType>(data, size, &m)) Peer(m);
+      if (DeserializeCdr<msgs::PeerStatePubSubType>(data, size, &m)) Peer(m);
       break;
     }
     case 9: {
       msgs::YieldRequest m;
-      if (Deserialize<msgs::YieldRequestPubSubType>(data, size, &m)) Yield(m);
+      if (DeserializeCdr<msgs::YieldRequestPubSubType>(data, size, &m)) Yield(m);
       break;
     }
     default: {
       msgs::RobotState m;
-      (void)Deserialize<msgs::RobotStatePubSubType>(data, size, &m);
+      (void)DeserializeCdr<msgs::RobotStatePubSubType>(data, size, &m);
       break;
     }
   }

@@ -14,24 +14,14 @@
 #include "cairn/ros2/point_cloud2.h"
 #include "cairn/ros2/tf_buffer.h"
 #include "cairn/ros2/wire.h"
+#include "fuzz_input.h"
 #include "ros2_msgsPubSubTypes.h"
 
 namespace {
 
 namespace sm = sensor_msgs::msg::dds_;
 
-template <class PubSubT>
-bool Deserialize(const std::uint8_t* data, std::size_t size, typename PubSubT::type* out) {
-  PubSubT type;
-  eprosima::fastrtps::rtps::SerializedPayload_t payload(static_cast<std::uint32_t>(size));
-  if (size > 0) std::memcpy(payload.data, data, size);
-  payload.length = static_cast<std::uint32_t>(size);
-  try {
-    return type.deserialize(&payload, out);
-  } catch (...) {
-    return false;
-  }
-}
+using cairn::fuzz::DeserializeCdr;
 
 void Cloud(const sm::PointCloud2_& m) {
   std::vector<Eigen::Vector3f> points;
@@ -73,29 +63,29 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   switch (kind) {
     case 0: {
       sm::PointCloud2_ m;
-      if (Deserialize<sm::PointCloud2_PubSubType>(data, size, &m)) Cloud(m);
+      if (DeserializeCdr<sm::PointCloud2_PubSubType>(data, size, &m)) Cloud(m);
       break;
     }
     case 1: {
       tf2_msgs::msg::dds_::TFMessage_ m;
-      if (Deserialize<tf2_msgs::msg::dds_::TFMessage_PubSubType>(data, size, &m)) Transforms(m);
+      if (DeserializeCdr<tf2_msgs::msg::dds_::TFMessage_PubSubType>(data, size, &m)) Transforms(m);
       break;
     }
     case 2: {
       nav_msgs::msg::dds_::Odometry_ m;
-      if (Deserialize<nav_msgs::msg::dds_::Odometry_PubSubType>(data, size, &m)) Odometry(m);
+      if (DeserializeCdr<nav_msgs::msg::dds_::Odometry_PubSubType>(data, size, &m)) Odometry(m);
       break;
     }
     case 3: {
       sm::Image_ m;
       cairn::ros2::GrayImage gray;
-      if (Deserialize<sm::Image_PubSubType>(data, size, &m)) (void)cairn::ros2::ImageToGray(m, &gray);
+      if (DeserializeCdr<sm::Image_PubSubType>(data, size, &m)) (void)cairn::ros2::ImageToGray(m, &gray);
       break;
     }
     case 4: {
       sm::CompressedImage_ m;
       cairn::ros2::GrayImage gray;
-      if (Deserialize<sm::CompressedImage_PubSubType>(data, size, &m))
+      if (DeserializeCdr<sm::CompressedImage_PubSubType>(data, size, &m))
         (void)cairn::ros2::CompressedImageToGray(m, &gray);
       break;
     }
