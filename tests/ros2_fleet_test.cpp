@@ -6,8 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <mutex>
 #include <nlohmann/json.hpp>
 
+#include "cairn/ros2/raw_cdr.h"
 #include "integration_util.h"
 #include "process.h"
 
@@ -19,6 +22,38 @@ using namespace testing_util;
 using nlohmann::json;
 
 const std::string kEcho = std::string(CAIRN_BINARY_DIR) + "/tools/ros2_robot_emulator/cairn_ros2_echo";
+const std::string kDecode = std::string(CAIRN_SOURCE_DIR) + "/basestation/web/test/decode_ros2_cdr.mjs";
+const std::string kRos2Msgs = std::string(CAIRN_SOURCE_DIR) + "/ros2/cairn_msgs_ros2/msg";
+
+struct RobotStateName {
+  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::RobotState_";
+};
+
+// The first sample of /cairn/robot_state (cairn_msgs/msg/RobotState) heard on `ros2_domain` for `robot`, as
+// raw CDR bytes (decoded below by Foxglove's reader, not by Cairn).
+std::vector<std::uint8_t> RobotStateCdr(int ros2_domain) {
+  core::ParticipantOptions options;
+  options.domain_id = ros2_domain;
+  options.participant_profile = "cairn.ros2.loopback";
+  options.name = "raw_reader";
+  core::Participant participant(options);
+  std::mutex mutex;
+  std::vector<std::uint8_t> payload;
+  core::Reader<ros2::RawCdrPubSubType<RobotStateName>> reader(
+      participant, "rt/cairn/robot_state", "ros2.reliable",
+      [&](const ros2::RawCdrSample& s, const eprosima::fastdds::dds::SampleInfo&) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (payload.empty()) payload = s.payload;
+      });
+  for (const auto deadline = Clock::now() + 15s; Clock::now() < deadline;) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!payload.empty()) return payload;
+    }
+    std::this_thread::sleep_for(50ms);
+  }
+  return {};
+}
 
 // Every JSON line `cairn_ros2_echo ARGS...` prints until it exits (it stops after --count samples).
 std::vector<json> Echo(const std::vector<std::string>& args, const std::string& log) {
@@ -120,6 +155,31 @@ TEST(Ros2Fleet, RobotsPathsAndTheMapReachAros2SubscriberThatIsNotOurs) {
   EXPECT_EQ(camera["frame_id"], "r1/camera");
   EXPECT_TRUE(camera["jpeg_soi"].get<bool>()) << camera;
   EXPECT_GT(camera["data_bytes"].get<int>(), 500) << camera;
+
+  // /cairn/robot_state: Cairn's own RobotState under ROS 2's name, decoded by Foxglove's ROS 2 reader from
+  // the generated cairn_msgs/msg/RobotState.msg (a field out of order or of another size fails the decode).
+  const std::vector<std::uint8_t> cdr = RobotStateCdr(ros2_domain);
+  ASSERT_FALSE(cdr.empty()) << "no /cairn/robot_state heard; see " << logs;
+  const std::string cdr_file = logs + "/robot_state.cdr";
+  {
+    std::ofstream out(cdr_file, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(cdr.data()), static_cast<std::streamsize>(cdr.size()));
+  }
+  ChildProcess decode({"/usr/bin/node", kDecode, kRos2Msgs, "cairn_msgs/msg/RobotState", cdr_file},
+                      logs + "/decode.log");
+  const std::optional<std::string> line = decode.ReadLine(30s);
+  ASSERT_TRUE(line) << "the decoder printed nothing; see " << logs << "/decode.log";
+  const json state = json::parse(*line);
+  EXPECT_EQ(state["robot_id"], "r1") << state;
+  EXPECT_EQ(state["platform"], "wheeled") << state;
+  EXPECT_EQ(state["frame_id"], "map") << state;
+  EXPECT_EQ(state["mode"], "waypoint") << state;
+  EXPECT_EQ(state["holder_id"], "op1") << state;
+  EXPECT_NEAR(state["nav_goal_m"]["x_m"].get<double>(), 40.0, 1e-9) << state;
+  EXPECT_NEAR(state["nav_goal_m"]["y_m"].get<double>(), 20.0, 1e-9) << state;
+  EXPECT_NEAR(state["pose_mb"]["position"]["y_m"].get<double>(), s.pose_MB().position().y_m(), 0.5) << state;
+  EXPECT_NEAR(state["pose_mb"]["orientation"]["w"].get<double>(), s.pose_MB().orientation().w(), 0.2)
+      << state;
   EXPECT_EQ(op.Run("stop r1")["ok"], true);
 }
 

@@ -12,7 +12,9 @@
 #include <stdexcept>
 #include <thread>
 
+#include "cairn/ros2/raw_cdr.h"
 #include "cairn/ros2/wire.h"
+#include "cairn_msgsPubSubTypes.h"
 #include "ros2_msgsPubSubTypes.h"
 
 namespace cairn::base {
@@ -29,6 +31,41 @@ constexpr std::int32_t kCube = 1, kSphere = 2, kTextViewFacing = 9;
 constexpr std::int32_t kDeleteAll = 3;
 
 constexpr const char* kMapFrame = "map";
+
+// ROS 2's names of Cairn's types (ros2/cairn_msgs_ros2): what a ROS 2 reader of the forwarded topics matches.
+struct RobotStateName {
+  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::RobotState_";
+};
+struct BehaviorTreeStateName {
+  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::BehaviorTreeState_";
+};
+struct GlobalPathName {
+  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::GlobalPath_";
+};
+struct AgentHealthName {
+  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::AgentHealth_";
+};
+
+// One of Cairn's own topics forwarded unchanged (the same CDR) under ROS 2's names, each robot's sample when
+// it changed.
+template <class Name>
+class Forwarded {
+ public:
+  Forwarded(core::Participant& participant, const std::string& topic)
+      : writer_(participant, topic, "ros2.reliable") {}
+  // Writes `cdr` for `robot_id` unless it is what was written for that robot last. True if written.
+  bool Write(const std::string& robot_id, ros2::RawCdrSample cdr) {
+    if (cdr.payload.empty()) return false;
+    std::vector<std::uint8_t>& last = last_[robot_id];
+    if (cdr.payload == last) return false;
+    last = cdr.payload;
+    return writer_.Write(cdr);
+  }
+
+ private:
+  core::Writer<ros2::RawCdrPubSubType<Name>> writer_;
+  std::map<std::string, std::vector<std::uint8_t>> last_;  // robot -> the CDR last written
+};
 
 std_msgs::msg::dds_::Header_ Header(double wall_s, const std::string& frame) {
   std_msgs::msg::dds_::Header_ h;
@@ -98,7 +135,11 @@ class Ros2FleetBridge::Impl {
         }()),
         tf_writer_(participant_, "rt/tf", "ros2.reliable"),
         map_writer_(participant_, "rt/cairn/fleet_map", "ros2.latched"),
-        markers_writer_(participant_, "rt/cairn/markers", "ros2.reliable") {
+        markers_writer_(participant_, "rt/cairn/markers", "ros2.reliable"),
+        robot_state_(participant_, "rt/cairn/robot_state"),
+        bt_state_(participant_, "rt/cairn/bt_state"),
+        global_path_(participant_, "rt/cairn/global_path"),
+        health_(participant_, "rt/cairn/health") {
     thread_ = std::thread([this] { Run(); });
   }
   ~Impl() {
@@ -127,6 +168,7 @@ class Ros2FleetBridge::Impl {
         PublishTransforms(robots);
         PublishPaths(robots);
         PublishCameras(robots);
+        ForwardCairnTopics(robots);
         if (std::chrono::steady_clock::now() >= next_map) {
           PublishMap();
           PublishMarkers(robots);
@@ -241,6 +283,25 @@ class Ros2FleetBridge::Impl {
     ++stats_.marker_arrays;
   }
 
+  // Cairn's robot state, behaviour-tree state, global paths and health, as they are, under ROS 2's names.
+  void ForwardCairnTopics(const std::vector<RobotView>& robots) {
+    std::uint64_t written = 0;
+    for (const RobotView& v : robots) {
+      if (v.state)
+        written += robot_state_.Write(v.robot_id, ros2::ToCdr<cairn_msgs::RobotStatePubSubType>(*v.state));
+      if (v.tree)
+        written += bt_state_.Write(v.robot_id, ros2::ToCdr<cairn_msgs::BehaviorTreeStatePubSubType>(*v.tree));
+      if (v.global_path) {
+        written +=
+            global_path_.Write(v.robot_id, ros2::ToCdr<cairn_msgs::GlobalPathPubSubType>(*v.global_path));
+      }
+      if (v.health)
+        written += health_.Write(v.robot_id, ros2::ToCdr<cairn_msgs::AgentHealthPubSubType>(*v.health));
+    }
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.forwarded += written;
+  }
+
   // Each robot's newest camera frame (JPEG), once, on /ROBOT/camera/image/compressed.
   void PublishCameras(const std::vector<RobotView>& robots) {
     for (const RobotView& v : robots) {
@@ -317,6 +378,10 @@ class Ros2FleetBridge::Impl {
   core::Writer<tm::TFMessage_PubSubType> tf_writer_;
   core::Writer<sm::PointCloud2_PubSubType> map_writer_;
   core::Writer<vm::MarkerArray_PubSubType> markers_writer_;
+  Forwarded<RobotStateName> robot_state_;
+  Forwarded<BehaviorTreeStateName> bt_state_;
+  Forwarded<GlobalPathName> global_path_;
+  Forwarded<AgentHealthName> health_;
   std::map<std::string, std::unique_ptr<core::Writer<sm::CompressedImage_PubSubType>>> camera_writers_;
   std::map<std::string, std::uint64_t> camera_sent_;  // robot -> frames_received of the frame last published
   std::map<std::string, std::unique_ptr<core::Writer<nm::Path_PubSubType>>>

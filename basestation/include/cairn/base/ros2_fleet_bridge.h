@@ -13,6 +13,13 @@
 //                                             each exploring robot drives to
 //   /ROBOT_ID/camera/image/compressed  sensor_msgs/CompressedImage  the robot's JPEG frames, as they arrive
 //                                             (frame ROBOT_ID/camera)
+// Cairn's own topics, forwarded unchanged (the same CDR) under ROS 2's names so that `ros2 topic echo` reads
+// them once the generated package cairn_msgs (ros2/cairn_msgs_ros2, tools/gen_ros2_msgs.py) is built:
+//   /cairn/robot_state  cairn_msgs/msg/RobotState   every robot's whole state (its latest pose applied), on change
+//   /cairn/bt_state     cairn_msgs/msg/BehaviorTreeState
+//   /cairn/global_path  cairn_msgs/msg/GlobalPath
+//   /cairn/health       cairn_msgs/msg/AgentHealth
+// (ROS 2 topics have no keys: every robot's samples share the topic; robot_id tells them apart.)
 // QoS: reliable (a reliable writer serves RViz's reliable and best-effort subscriptions alike); paths and the
 // map transient local, keep-last 1, so that a viewer started later gets them at once.
 #pragma once
@@ -46,6 +53,7 @@ struct Ros2FleetStats {
   std::uint64_t map_points = 0;  ///< in the last cloud
   std::uint64_t marker_arrays = 0;
   std::uint64_t camera_frames = 0;
+  std::uint64_t forwarded = 0;  ///< Cairn's own samples forwarded (/cairn/robot_state, ...)
 };
 
 /// Publishes `client`'s fleet until destroyed (its own thread). Thread-safe.
