@@ -40,7 +40,10 @@ sm::PointCloud2_ Cloud(const std::vector<sm::PointField_>& fields, std::uint32_t
     std::uint8_t* p = data.data() + row * c.row_step() + col * point_step;
     for (const auto& f : fields) {
       const int axis = f.name() == "x" ? 0 : f.name() == "y" ? 1 : f.name() == "z" ? 2 : -1;
-      if (axis >= 0) std::memcpy(p + f.offset(), &points[i][axis], sizeof(float));
+      // A field placed outside the point (a bad layout under test) is not written.
+      if (axis >= 0 && f.offset() + sizeof(float) <= point_step) {
+        std::memcpy(p + f.offset(), &points[i][axis], sizeof(float));
+      }
     }
   }
   c.data(data);

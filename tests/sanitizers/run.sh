@@ -33,9 +33,8 @@ if [ "${CAIRN_SANITIZE_SCENARIOS:-0}" = 1 ]; then
 fi
 
 export CCACHE_BASEDIR="$ROOT" CCACHE_NOHASHDIR=true
-if [ ! -f "$build/CMakeCache.txt" ]; then
-  cmake -S "$ROOT" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCAIRN_SANITIZER="$kind" >/dev/null
-fi
+# Configured every time (seconds): a build folder from before a new test target was added then has it too.
+cmake -S "$ROOT" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCAIRN_SANITIZER="$kind" >/dev/null
 # cairn_agent_watchdog_test is a ctest entry of the cairn_agent_perception_test binary.
 targets=("${TESTS[@]/cairn_agent_watchdog_test/cairn_agent_perception_test}")
 cmake --build "$build" -j "${CAIRN_JOBS:-$(nproc)}" --target "${targets[@]}"
