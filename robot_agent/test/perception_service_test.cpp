@@ -25,6 +25,17 @@ namespace {
 using Clock = core::SteadyClock;
 using std::chrono::milliseconds;
 
+// The watchdog's heartbeat deadline, and how long the slow navigation map update takes: longer than the stall
+// limit (3 deadlines) plus the stop's grace (2 s) by a second. ThreadSanitizer runs the perception steps 5-15
+// times slower: a step between two beats can then take longer than 0.6 s, so the deadline grows with it.
+#if defined(__SANITIZE_THREAD__)
+constexpr double kHeartbeatDeadlineS = 0.5;
+#else
+constexpr double kHeartbeatDeadlineS = 0.2;
+#endif
+constexpr auto kSlowUpdate =
+    std::chrono::milliseconds(static_cast<int>(1000 * (3 * kHeartbeatDeadlineS + 2.0 + 1.0)));
+
 // One call of the navigation map loop's fault hook: which thread, and when it entered and left it.
 struct HookCall {
   std::thread::id thread;
@@ -50,15 +61,15 @@ TEST(PerceptionService, ASlowNavigationMapUpdatePastTheWatchdogIsNeverRunTwice) 
   const Clock::time_point t0 = Clock::now();
   PerceptionService service(options, platform, start_M, planner, t0, [](const PerceptionOutput&) {});
 
-  // The 8th navigation map update is slow: 3 s, longer than the stall limit (3 x 0.2 s) plus the stop's
-  // grace (2 s), and it does not look at its stop meanwhile.
+  // The 8th navigation map update is slow (kSlowUpdate: longer than the stall limit plus the stop's grace),
+  // and it does not look at its stop meanwhile.
   std::mutex calls_mutex;
   std::vector<HookCall> calls;
   std::atomic<int> map_updates{0};
   service.SetFaultHook([&](const char* where) {
     if (std::string(where) != "navigation_map") return;
     HookCall call{std::this_thread::get_id(), Clock::now(), {}};
-    if (++map_updates == 8) std::this_thread::sleep_for(std::chrono::seconds(3));
+    if (++map_updates == 8) std::this_thread::sleep_for(kSlowUpdate);
     call.left = Clock::now();
     std::lock_guard<std::mutex> guard(calls_mutex);
     calls.push_back(call);
@@ -73,7 +84,7 @@ TEST(PerceptionService, ASlowNavigationMapUpdatePastTheWatchdogIsNeverRunTwice) 
   PlatformComponent platform_c(&service, 20.0);
   PerceptionComponent perception_c(&service, 20.0);
   core::RestartPolicy policy;
-  policy.heartbeat_deadline_s = 0.2;
+  policy.heartbeat_deadline_s = kHeartbeatDeadlineS;
   policy.missed_deadlines_to_fail = 3;
   policy.first_backoff_s = 0.2;
   monitor.Add(&platform_c, policy);
