@@ -45,8 +45,10 @@ OperatorReason ExplainReason(const std::string& robot_id, const std::string& rea
        [](const std::string& r, const std::string& d) {
          return "the basestation holding " + r + " is not connected (" + d + ")";
        }},
-      {"IsLocalized", [](const std::string& r,
-                         const std::string&) { return r + " does not know where it is (not localized)"; }},
+      {"IsLocalized",
+       [](const std::string& r, const std::string& d) {
+         return r + " does not know where it is (not localized" + (d.empty() ? "" : ": " + d) + ")";
+       }},
       {"HasWaypointGoal",
        [](const std::string& r, const std::string&) {
          return "waypoint mode needs a goal: use goto " + r + " X Y";

@@ -38,6 +38,11 @@ TEST(ExplainReason, RewritesTreeConditionsInOperatorWordsKeepingTheId) {
   r = ExplainReason("r1", "IsMappingHealthy: no lidar scan for 3.5 s");
   EXPECT_EQ(r.text, "r1 is not mapping: no lidar scan for 3.5 s");
   EXPECT_EQ(r.condition, "IsMappingHealthy");
+  // Why the robot is not localized: its platform's words (the driver's topic), kept.
+  EXPECT_EQ(
+      ExplainReason("r1", "IsLocalized: no valid pose estimate: no odometry on /odom for 1.5 s").text,
+      "r1 does not know where it is (not localized: no valid pose estimate: no odometry on /odom for 1.5 s)");
+  EXPECT_EQ(ExplainReason("r1", "IsLocalized:").text, "r1 does not know where it is (not localized)");
   EXPECT_EQ(ExplainReason("r1", "HasExploreTask: no exploration task (send explore first)").text,
             "explore mode needs a task: use explore r1");
   // A reason with no condition id is already in operator words.

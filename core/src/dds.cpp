@@ -488,6 +488,16 @@ constexpr int kRadioInitialAnnouncementPeriodMs = 100;
 void ApplyLanLink(const std::string& address, int domain_id, const std::string& discovery_server, bool radio,
                   dds::DomainParticipantQos* qos) {
   auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+  // The profile's socket buffers and message size carry over (the ROS 2 driver's 4 MiB for clouds).
+  for (const auto& transport : qos->transport().user_transports) {
+    if (const auto* profile =
+            dynamic_cast<const eprosima::fastdds::rtps::UDPv4TransportDescriptor*>(transport.get())) {
+      udp->sendBufferSize = profile->sendBufferSize;
+      udp->receiveBufferSize = profile->receiveBufferSize;
+      udp->maxMessageSize = profile->maxMessageSize;
+      break;
+    }
+  }
   udp->interfaceWhiteList = {address};
   qos->transport().use_builtin_transports = false;
   qos->transport().user_transports = {udp};

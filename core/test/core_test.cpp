@@ -528,6 +528,19 @@ TEST(LinkOptions, ALanParticipantStartsOnTheNamedNetworkOnly) {
   ASSERT_NE(udp, nullptr);
   EXPECT_EQ(udp->interfaceWhiteList, std::vector<std::string>{"127.0.0.1"});
   EXPECT_FALSE(qos.transport().use_builtin_transports);
+  // The profile's socket buffers carry over (the ROS 2 driver's 4 MiB for clouds; the default profile none).
+  EXPECT_EQ(udp->receiveBufferSize, 0u);
+  ParticipantOptions ros2 = options;
+  ros2.participant_profile = "cairn.ros2.loopback";
+  Participant on_ros2_profile(ros2);
+  on_ros2_profile.get()->get_qos(qos);
+  ASSERT_EQ(qos.transport().user_transports.size(), 1u);
+  udp = dynamic_cast<const eprosima::fastdds::rtps::UDPv4TransportDescriptor*>(
+      qos.transport().user_transports[0].get());
+  ASSERT_NE(udp, nullptr);
+  EXPECT_EQ(udp->interfaceWhiteList, std::vector<std::string>{"127.0.0.1"});
+  EXPECT_EQ(udp->receiveBufferSize, 4194304u);
+  EXPECT_EQ(udp->sendBufferSize, 4194304u);
   // A lan link on a subnet this host has no address in never creates a participant.
   options.link.subnet = "10.99.0.0/24";
   EXPECT_THROW(Participant{options}, std::invalid_argument);

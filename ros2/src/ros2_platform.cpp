@@ -60,6 +60,11 @@ bool Ros2PlatformOptions::IsValid(std::string* why) const {
       return false;
     }
   }
+  if (interface_name.size() > 15 || interface_name.find_first_of("/ \t") != std::string::npos) {
+    *why = "ros2.interface '" + interface_name +
+           "' is not a network interface name (1-15 characters, no '/' or spaces; \"\" = loopback)";
+    return false;
+  }
   if (odom_topic.empty() || cmd_vel_topic.empty()) {
     *why = "ros2.odom_topic and ros2.cmd_vel_topic must name topics (the pose and the base's commands)";
     return false;
@@ -82,10 +87,11 @@ void Ros2PlatformOptions::LoadConfigFile(const std::string& path) {
   try {
     const auto config = core::ConfigSection::LoadFile(path);
     const auto s = config.Section("ros2");
-    s.RejectUnknownKeys({"points_topic", "odom_topic", "cmd_vel_topic", "cmd_vel_type", "camera_topic",
-                         "camera_type", "camera_optical_frame", "map_frame", "odom_frame", "base_frame",
-                         "pose_timeout_s", "tf_history_s", "start_wait_s", "lidar_rate_hz",
+    s.RejectUnknownKeys({"interface", "points_topic", "odom_topic", "cmd_vel_topic", "cmd_vel_type",
+                         "camera_topic", "camera_type", "camera_optical_frame", "map_frame", "odom_frame",
+                         "base_frame", "pose_timeout_s", "tf_history_s", "start_wait_s", "lidar_rate_hz",
                          "lidar_min_range_m", "lidar_max_range_m", "lidar_min_elevation_deg"});
+    s.ReadString("interface", &interface_name);
     s.ReadString("points_topic", &points_topic);
     s.ReadString("odom_topic", &odom_topic);
     s.ReadString("cmd_vel_topic", &cmd_vel_topic);
@@ -131,6 +137,10 @@ struct Ros2Platform::Impl {
           p.profiles_file = o.profiles_file;
           p.participant_profile = o.participant_profile;
           p.name = "cairn_ros2_driver";
+          if (!o.interface_name.empty()) {
+            p.link.link = "lan";
+            p.link.interface_name = o.interface_name;
+          }
           return p;
         }()),
         tf(TfBufferOptions{o.tf_history_s, 0.05}),

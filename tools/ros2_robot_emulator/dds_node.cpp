@@ -28,35 +28,45 @@ QosPtr MakeQos(const EndpointQos& spec) {
 
 }  // namespace
 
-std::string LoopbackCycloneConfig() {
+std::string CycloneConfig(const std::string& interface_name) {
   // Element names as in Cyclone DDS 0.10's configuration reference (docs/manual/options.md):
   // General/Interfaces/NetworkInterface[@name], General/AllowMulticast, Discovery/ParticipantIndex,
   // Discovery/MaxAutoParticipantIndex, Discovery/Peers/Peer[@Address],
   // Internal/SocketReceiveBufferSize[@max] (asked for, less accepted: Linux caps it at net.core.rmem_max). A
   // peer without a port is probed on the unicast discovery ports of participant indices
-  // 0..MaxAutoParticipantIndex-1.
-  return "<CycloneDDS><Domain id=\"any\">"
-         "<General>"
-         "<Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
-         "<AllowMulticast>false</AllowMulticast>"
-         "</General>"
-         "<Discovery>"
-         "<ParticipantIndex>auto</ParticipantIndex>"
-         "<MaxAutoParticipantIndex>60</MaxAutoParticipantIndex>"
-         "<Peers><Peer Address=\"127.0.0.1\"/></Peers>"
-         "</Discovery>"
+  // 0..MaxAutoParticipantIndex-1. AllowMulticast "spdp": multicast for participant discovery only.
+  const std::string discovery = interface_name.empty()
+                                    ? "<General>"
+                                      "<Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
+                                      "<AllowMulticast>false</AllowMulticast>"
+                                      "</General>"
+                                      "<Discovery>"
+                                      "<ParticipantIndex>auto</ParticipantIndex>"
+                                      "<MaxAutoParticipantIndex>60</MaxAutoParticipantIndex>"
+                                      "<Peers><Peer Address=\"127.0.0.1\"/></Peers>"
+                                      "</Discovery>"
+                                    : "<General>"
+                                      "<Interfaces><NetworkInterface name=\"" +
+                                          interface_name +
+                                          "\"/></Interfaces>"
+                                          "<AllowMulticast>spdp</AllowMulticast>"
+                                          "</General>";
+  return "<CycloneDDS><Domain id=\"any\">" + discovery +
          "<Internal><SocketReceiveBufferSize max=\"4MiB\"/></Internal>"
          "</Domain></CycloneDDS>";
 }
 
-DdsNode::DdsNode(std::uint32_t domain_id) {
+DdsNode::DdsNode(std::uint32_t domain_id, const std::string& interface_name) {
   // A config string given here is all Cyclone reads: CYCLONEDDS_URI in the environment is not consulted,
   // so nobody's environment can turn multicast or another interface back on.
-  domain_ = dds_create_domain(domain_id, LoopbackCycloneConfig().c_str());
+  domain_ = dds_create_domain(domain_id, CycloneConfig(interface_name).c_str());
   if (domain_ < 0) {
-    throw DdsError(Failure("creating DDS domain " + std::to_string(domain_id) +
-                               " (loopback only, 4 MiB receive buffer: is net.core.rmem_max >= 4194304?)",
-                           domain_));
+    throw DdsError(
+        Failure("creating DDS domain " + std::to_string(domain_id) +
+                    (interface_name.empty() ? " (loopback only"
+                                            : " (interface " + interface_name + ": does this host have it?") +
+                    ", 4 MiB receive buffer: is net.core.rmem_max >= 4194304?)",
+                domain_));
   }
   participant_ = dds_create_participant(domain_id, nullptr, nullptr);
   if (participant_ < 0) {

@@ -19,11 +19,13 @@ class DdsError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// The Cyclone DDS configuration of every emulator process (network safety: nothing may leave the host):
-/// the loopback interface only, no multicast, unicast discovery to 127.0.0.1 (participant indices 0..59,
-/// ports 7400 + 250 * domain + 10 + 2 * index, as Fast DDS's initial peers use), and a 4 MiB socket receive
+/// The Cyclone DDS configuration of every emulator process. With `interface_name` "" (network safety: nothing
+/// may leave the host): the loopback interface only, no multicast, unicast discovery to 127.0.0.1
+/// (participant indices 0..59, ports 7400 + 250 * domain + 10 + 2 * index, as Fast DDS's initial peers use).
+/// With an interface: that interface only, discovery by SPDP multicast on it (239.255.0.1, port 7400 + 250 *
+/// domain, as every ROS 2 middleware announces by default), data unicast. Either way a 4 MiB socket receive
 /// buffer for ~0.5 MB clouds (the kernel's net.core.rmem_max must allow it).
-std::string LoopbackCycloneConfig();
+std::string CycloneConfig(const std::string& interface_name);
 
 /// The QoS of one endpoint, as ROS 2 profiles set it (KEEP_LAST history of `depth`).
 struct EndpointQos {
@@ -32,12 +34,13 @@ struct EndpointQos {
   std::int32_t depth = 10;       // history depth, samples (> 0)
 };
 
-/// A domain (created with LoopbackCycloneConfig(), never from CYCLONEDDS_URI) and a participant in it.
+/// A domain (created with CycloneConfig(), never from CYCLONEDDS_URI) and a participant in it.
 /// Deleting it deletes every writer, reader and topic created through it.
 class DdsNode {
  public:
-  /// Throws DdsError if the domain or the participant cannot be created (e.g. the socket buffer is refused).
-  explicit DdsNode(std::uint32_t domain_id);
+  /// On `interface_name` ("" = loopback only; see CycloneConfig). Throws DdsError if the domain or the
+  /// participant cannot be created (the socket buffer refused, no such interface).
+  DdsNode(std::uint32_t domain_id, const std::string& interface_name);
   ~DdsNode();
   DdsNode(const DdsNode&) = delete;
   DdsNode& operator=(const DdsNode&) = delete;

@@ -32,6 +32,7 @@
 #include <utility>
 #include <vector>
 
+#include "cli_values.h"
 #include "dds_node.h"
 #include "echo_json.h"
 
@@ -39,19 +40,12 @@ namespace ros2_emulator {
 namespace {
 
 constexpr const char* kName = "cairn_ros2_echo";
-constexpr unsigned long long kMaxDomainId = 232;  // RTPS ports (7400 + 250 * domain + ...) fit in 16 bits
-constexpr std::int32_t kReaderDepth = 100;        // KEEP_LAST history of every reader, samples
-constexpr double kPollPeriod_s = 0.1;             // the longest wait between two looks at the stop flag
+constexpr std::int32_t kReaderDepth = 100;  // KEEP_LAST history of every reader, samples
+constexpr double kPollPeriod_s = 0.1;       // the longest wait between two looks at the stop flag
 
 std::atomic<bool> g_stop_requested{false};
 
 extern "C" void OnStopSignal(int /*signal*/) { g_stop_requested = true; }
-
-/// A command-line error: what() names the flag or argument and says what was expected (exit code 2).
-class EchoUsageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 enum class Reliability { kAuto, kReliable, kBestEffort };
 enum class Durability { kAuto, kTransientLocal, kVolatile };
@@ -66,6 +60,7 @@ struct TopicSpec {
 struct EchoOptions {
   bool help = false;
   std::uint32_t domain_id = 0;   // --domain (ROS_DOMAIN_ID when unset, else 0)
+  std::string interface_name;    // --interface ("" = loopback only)
   std::uint64_t count = 0;       // --count: exit after this many samples in total; 0 = unlimited
   std::uint64_t count_each = 0;  // --count-each: exit once every topic has this many; 0 = off
   double timeout_s = 30.0;       // --timeout-s: exit after this long; 0 = never
@@ -84,6 +79,8 @@ Usage: cairn_ros2_echo [flags] TOPIC:TYPE [TOPIC:TYPE ...]
                         geometry_msgs/Twist, visualization_msgs/MarkerArray (Humble's Marker) or
                         sensor_msgs/CompressedImage (pkg/msg/Type is accepted too)
   --domain N            DDS domain id 0..232 (default: ROS_DOMAIN_ID, else 0)
+  --interface NAME      speak DDS on this network interface only, with multicast discovery there
+                        (default: loopback only)
   --count K             exit after K samples in total (default: no limit)
   --count-each K        exit once every topic has had K samples (default: off)
   --timeout-s T         exit after T seconds from READY, 0 = never (default 30)
@@ -100,62 +97,19 @@ closes; 2 on a bad flag or argument.
 )";
 }
 
-std::string Quote(const std::string& value) { return "'" + value + "'"; }
-
-/// Parses a whole string as a decimal integer no greater than max into *value; false if it is not one.
-bool ToUnsigned(const std::string& text, unsigned long long max, unsigned long long* value) {
-  if (text.empty() || !std::all_of(text.begin(), text.end(), [](char c) { return std::isdigit(c) != 0; })) {
-    return false;
-  }
-  errno = 0;
-  *value = std::strtoull(text.c_str(), nullptr, 10);
-  return errno != ERANGE && *value <= max;
-}
-
-std::uint32_t ParseDomain(const std::string& source, const std::string& text) {
-  unsigned long long domain = 0;
-  if (!ToUnsigned(text, kMaxDomainId, &domain)) {
-    throw EchoUsageError(source + " " + Quote(text) + " is not a DDS domain id (an integer 0.." +
-                         std::to_string(kMaxDomainId) + ")");
-  }
-  return static_cast<std::uint32_t>(domain);
-}
-
-/// The DDS topic of a ROS 2 topic name as rmw maps it ("/tf" and "tf" -> "rt/tf"), and the absolute name.
-/// Throws naming `argument` if it is not a valid ROS 2 topic name.
-std::pair<std::string, std::string> ResolveRosTopic(const std::string& argument, const std::string& name) {
-  const auto bad = [&](const std::string& why) {
-    return EchoUsageError(Quote(argument) + ": " + Quote(name) + " is not a valid ROS 2 topic name: " + why);
-  };
-  if (name.empty() || name == "/") throw bad("it is empty");
-  for (const char c : name) {
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/')) {
-      throw bad(std::string("character '") + c + "' (allowed: letters, digits, '_' and '/')");
-    }
-  }
-  if (name.back() == '/') throw bad("it ends with '/'");
-  if (name.find("//") != std::string::npos) throw bad("it contains '//'");
-  const std::string relative = name.front() == '/' ? name.substr(1) : name;
-  std::stringstream tokens(relative);
-  for (std::string token; std::getline(tokens, token, '/');) {
-    if (std::isdigit(static_cast<unsigned char>(token.front())))
-      throw bad(Quote(token) + " starts with a digit");
-  }
-  return {"/" + relative, "rt/" + relative};  // a relative name resolves in the root namespace
-}
-
 TopicSpec ParseTopicSpec(const std::string& argument) {
   const std::size_t colon = argument.find(':');
   if (colon == std::string::npos) {
-    throw EchoUsageError(Quote(argument) + " is not TOPIC:TYPE (e.g. /tf:tf2_msgs/TFMessage) nor a flag");
+    throw UsageError(Quote(argument) + " is not TOPIC:TYPE (e.g. /tf:tf2_msgs/TFMessage) nor a flag");
   }
   TopicSpec spec;
-  std::tie(spec.ros_name, spec.dds_name) = ResolveRosTopic(argument, argument.substr(0, colon));
+  spec.dds_name = RosTopicToDds(Quote(argument) + ":", argument.substr(0, colon));
+  spec.ros_name = "/" + spec.dds_name.substr(3);  // "rt/tf" -> "/tf"
   const std::string type_name = argument.substr(colon + 1);
   spec.type = FindEchoType(type_name);
   if (spec.type == nullptr) {
-    throw EchoUsageError(Quote(argument) + ": unknown type " + Quote(type_name) +
-                         " (known: " + EchoTypeNames() + ")");
+    throw UsageError(Quote(argument) + ": unknown type " + Quote(type_name) + " (known: " + EchoTypeNames() +
+                     ")");
   }
   return spec;
 }
@@ -175,36 +129,33 @@ EchoOptions ParseOptions(int argc, const char* const* argv, const char* ros_doma
       TopicSpec spec = ParseTopicSpec(argument);
       for (const TopicSpec& other : options.topics) {
         if (other.dds_name == spec.dds_name) {
-          throw EchoUsageError(Quote(argument) + ": topic " + spec.ros_name + " is already given");
+          throw UsageError(Quote(argument) + ": topic " + spec.ros_name + " is already given");
         }
       }
       options.topics.push_back(std::move(spec));
       continue;
     }
-    static const char* const kValueFlags[] = {"--domain",    "--count",       "--count-each",
-                                              "--timeout-s", "--reliability", "--durability"};
+    static const char* const kValueFlags[] = {"--domain",      "--count",      "--count-each", "--timeout-s",
+                                              "--reliability", "--durability", "--interface"};
     if (std::find(std::begin(kValueFlags), std::end(kValueFlags), argument) == std::end(kValueFlags)) {
-      throw EchoUsageError("unknown flag " + Quote(argument) + " (see --help)");
+      throw UsageError("unknown flag " + Quote(argument) + " (see --help)");
     }
-    if (i + 1 >= argc) throw EchoUsageError(argument + " needs a value (see --help)");
+    if (i + 1 >= argc) throw UsageError(argument + " needs a value (see --help)");
     const std::string value = argv[++i];
     if (argument == "--domain") {
       options.domain_id = ParseDomain("--domain", value);
+    } else if (argument == "--interface") {
+      options.interface_name = ParseInterfaceName(argument, value);
     } else if (argument == "--count" || argument == "--count-each") {
-      unsigned long long count = 0;
-      if (!ToUnsigned(value, UINT64_MAX, &count) || count == 0) {
-        throw EchoUsageError(argument + " " + Quote(value) + " must be an integer >= 1");
-      }
-      (argument == "--count" ? options.count : options.count_each) = count;
+      const std::optional<unsigned long long> count = ToUnsigned(value, UINT64_MAX);
+      if (!count || *count == 0) throw UsageError(argument + " " + Quote(value) + " must be an integer >= 1");
+      (argument == "--count" ? options.count : options.count_each) = *count;
     } else if (argument == "--timeout-s") {
-      char* end = nullptr;
-      errno = 0;
-      const double timeout_s = std::strtod(value.c_str(), &end);
-      if (value.empty() || end != value.c_str() + value.size() || errno == ERANGE ||
-          !std::isfinite(timeout_s) || timeout_s < 0.0) {
-        throw EchoUsageError("--timeout-s " + Quote(value) + " must be a number of seconds >= 0 (0 = never)");
+      const std::optional<double> timeout_s = ToDouble(value);
+      if (!timeout_s || *timeout_s < 0.0) {
+        throw UsageError("--timeout-s " + Quote(value) + " must be a number of seconds >= 0 (0 = never)");
       }
-      options.timeout_s = timeout_s;
+      options.timeout_s = *timeout_s;
     } else if (argument == "--reliability") {
       if (value == "auto") {
         options.reliability = Reliability::kAuto;
@@ -213,7 +164,7 @@ EchoOptions ParseOptions(int argc, const char* const* argv, const char* ros_doma
       } else if (value == "best_effort") {
         options.reliability = Reliability::kBestEffort;
       } else {
-        throw EchoUsageError("--reliability " + Quote(value) + " must be auto, reliable or best_effort");
+        throw UsageError("--reliability " + Quote(value) + " must be auto, reliable or best_effort");
       }
     } else if (argument == "--durability") {
       if (value == "auto") {
@@ -223,12 +174,12 @@ EchoOptions ParseOptions(int argc, const char* const* argv, const char* ros_doma
       } else if (value == "volatile") {
         options.durability = Durability::kVolatile;
       } else {
-        throw EchoUsageError("--durability " + Quote(value) + " must be auto, transient_local or volatile");
+        throw UsageError("--durability " + Quote(value) + " must be auto, transient_local or volatile");
       }
     }
   }
   if (options.topics.empty()) {
-    throw EchoUsageError("no TOPIC:TYPE given (e.g. /tf:tf2_msgs/TFMessage; see --help)");
+    throw UsageError("no TOPIC:TYPE given (e.g. /tf:tf2_msgs/TFMessage; see --help)");
   }
   return options;
 }
@@ -338,7 +289,8 @@ double MonotonicNow_s() {
 
 class Echo {
  public:
-  explicit Echo(const EchoOptions& options) : options_(options), node_(options.domain_id) {
+  explicit Echo(const EchoOptions& options)
+      : options_(options), node_(options.domain_id, options.interface_name) {
     for (const TopicSpec& spec : options.topics) {
       TopicReaders topic;
       topic.spec = spec;
@@ -457,7 +409,7 @@ int main(int argc, char** argv) {
   EchoOptions options;
   try {
     options = ParseOptions(argc, argv, std::getenv("ROS_DOMAIN_ID"));
-  } catch (const EchoUsageError& e) {
+  } catch (const UsageError& e) {
     std::fprintf(stderr, "%s: %s\n", kName, e.what());
     return 2;
   }

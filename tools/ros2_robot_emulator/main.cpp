@@ -118,7 +118,7 @@ class Emulator {
         model_(options_.world, model_options_, options.start),
         rng_(options.seed),
         truth_out_(truth_out),
-        node_(options.domain_id) {
+        node_(options.domain_id, options.interface_name) {
     // ROS 2's default QoS profiles: sensor data (best effort, keep last 5) for the cloud; the default
     // profile (reliable, volatile, keep last 10) for odometry and commands; tf2's broadcasters (keep last
     // 100) and static broadcaster (transient local, keep last 1: late joiners still get it).
@@ -345,13 +345,15 @@ int main(int argc, char** argv) {
   int exit_code = 0;
   try {
     Emulator emulator(options, truth_out);
-    std::fprintf(
-        stderr,
-        "%s: world %s (%zu walls), start %.2f,%.2f,%.3f, domain %u, topics %s %s %s (%s), drift x%.2f%s\n",
-        kName, options.world.name.c_str(), options.world.walls.size(), options.start.x_m, options.start.y_m,
-        options.start.yaw_rad, options.domain_id, options.points_topic.c_str(), options.odom_topic.c_str(),
-        options.cmd_topic.c_str(), options.cmd_type == CmdType::kTwist ? "Twist" : "TwistStamped",
-        options.drift_factor, options.slam ? ", map -> odom (--slam)" : "");
+    std::fprintf(stderr,
+                 "%s: world %s (%zu walls), start %.2f,%.2f,%.3f, domain %u on %s, topics %s %s %s (%s), "
+                 "drift x%.2f%s\n",
+                 kName, options.world.name.c_str(), options.world.walls.size(), options.start.x_m,
+                 options.start.y_m, options.start.yaw_rad, options.domain_id,
+                 options.interface_name.empty() ? "loopback" : options.interface_name.c_str(),
+                 options.points_topic.c_str(), options.odom_topic.c_str(), options.cmd_topic.c_str(),
+                 options.cmd_type == CmdType::kTwist ? "Twist" : "TwistStamped", options.drift_factor,
+                 options.slam ? ", map -> odom (--slam)" : "");
     std::fputs("READY\n", stdout);
     std::fflush(stdout);
     emulator.Run();

@@ -2,10 +2,8 @@
 #include "options.h"
 
 #include <algorithm>
-#include <cctype>
-#include <cerrno>
-#include <cmath>
-#include <cstdlib>
+#include <iterator>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -13,42 +11,6 @@
 
 namespace ros2_emulator {
 namespace {
-
-/// Highest DDS domain id whose RTPS ports (7400 + 250 * domain + ...) still fit in 16 bits.
-constexpr long kMaxDomainId = 232;
-
-std::string Quote(const std::string& value) { return "'" + value + "'"; }
-
-/// Parses a whole string as a finite double; nullopt otherwise.
-std::optional<double> ToDouble(const std::string& text) {
-  errno = 0;
-  char* end = nullptr;
-  const double value = std::strtod(text.c_str(), &end);
-  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(value)) {
-    return std::nullopt;
-  }
-  return value;
-}
-
-/// Parses a whole string as a non-negative decimal integer no greater than max; nullopt otherwise.
-std::optional<unsigned long long> ToUnsigned(const std::string& text, unsigned long long max) {
-  if (text.empty() || !std::all_of(text.begin(), text.end(), [](char c) { return std::isdigit(c) != 0; })) {
-    return std::nullopt;
-  }
-  errno = 0;
-  const unsigned long long value = std::strtoull(text.c_str(), nullptr, 10);
-  if (errno == ERANGE || value > max) return std::nullopt;
-  return value;
-}
-
-std::uint32_t ParseDomain(const std::string& source, const std::string& text) {
-  const std::optional<unsigned long long> domain = ToUnsigned(text, kMaxDomainId);
-  if (!domain) {
-    throw UsageError(source + " " + Quote(text) + " is not a DDS domain id (an integer 0.." +
-                     std::to_string(kMaxDomainId) + ")");
-  }
-  return static_cast<std::uint32_t>(*domain);
-}
 
 Pose2 ParseStart(const std::string& text) {
   std::vector<double> values;
@@ -71,7 +33,7 @@ Pose2 ParseStart(const std::string& text) {
 
 std::string Usage() {
   return R"(cairn_ros2_robot_emulator: a differential-drive robot with a VLP-16-like lidar, presented as a ROS 2
-driver stack would present it, on Eclipse Cyclone DDS (loopback only: 127.0.0.1, no multicast).
+driver stack would present it, on Eclipse Cyclone DDS (loopback only unless --interface: 127.0.0.1, no multicast).
 
 Publishes  rt/points      sensor_msgs/PointCloud2 10 Hz, frame velodyne (best effort, keep last 5)
            rt/odom        nav_msgs/Odometry 50 Hz, odom -> base_link, drifting (reliable, keep last 10)
@@ -87,6 +49,8 @@ Usage: cairn_ros2_robot_emulator [flags]
   --start X,Y,YAW       start pose in the world, metres, metres, radians (default: the world's; origin for
                         a world file)
   --domain N            DDS domain id 0..232 (default: ROS_DOMAIN_ID, else 0)
+  --interface NAME      speak DDS on this network interface only, with multicast discovery there, as the
+                        computers of a ROS 2 robot do (default: loopback only)
   --points-topic NAME   ROS name of the cloud topic (default /points)
   --odom-topic NAME     ROS name of the odometry topic (default /odom)
   --cmd-topic NAME      ROS name of the velocity command topic (default /cmd_vel)
@@ -99,28 +63,6 @@ Usage: cairn_ros2_robot_emulator [flags]
   --help                this text
 Exit codes: 0 after SIGINT/SIGTERM, 1 on a DDS failure, 2 on a bad flag or world file.
 )";
-}
-
-std::string RosTopicToDds(const std::string& flag, const std::string& ros_name) {
-  const auto bad = [&](const std::string& why) {
-    return UsageError(flag + " " + Quote(ros_name) + " is not a valid ROS 2 topic name: " + why);
-  };
-  if (ros_name.empty() || ros_name == "/") throw bad("it is empty");
-  for (char c : ros_name) {
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/')) {
-      throw bad(std::string("character '") + c + "' (allowed: letters, digits, '_' and '/')");
-    }
-  }
-  if (ros_name.back() == '/') throw bad("it ends with '/'");
-  if (ros_name.find("//") != std::string::npos) throw bad("it contains '//'");
-  const std::string relative = ros_name.front() == '/' ? ros_name.substr(1) : ros_name;
-  std::stringstream tokens(relative);
-  for (std::string token; std::getline(tokens, token, '/');) {
-    if (std::isdigit(static_cast<unsigned char>(token.front())))
-      throw bad("'" + token + "' starts with a digit");
-  }
-  // A relative name resolves in the root namespace (the emulator's node lives there).
-  return "rt/" + relative;
 }
 
 EmulatorOptions ParseOptions(int argc, const char* const* argv, const char* ros_domain_id_env) {
@@ -142,7 +84,7 @@ EmulatorOptions ParseOptions(int argc, const char* const* argv, const char* ros_
     }
     static const char* const kValueFlags[] = {"--world",        "--world-file", "--start",     "--domain",
                                               "--points-topic", "--odom-topic", "--cmd-topic", "--cmd-type",
-                                              "--drift",        "--seed",       "--truth-out"};
+                                              "--drift",        "--seed",       "--truth-out", "--interface"};
     if (std::find(std::begin(kValueFlags), std::end(kValueFlags), flag) == std::end(kValueFlags)) {
       throw UsageError("unknown flag " + Quote(flag) + " (see --help)");
     }
@@ -156,6 +98,8 @@ EmulatorOptions ParseOptions(int argc, const char* const* argv, const char* ros_
       start_text = value;
     } else if (flag == "--domain") {
       options.domain_id = ParseDomain("--domain", value);
+    } else if (flag == "--interface") {
+      options.interface_name = ParseInterfaceName(flag, value);
     } else if (flag == "--points-topic") {
       options.points_topic = RosTopicToDds(flag, value);
     } else if (flag == "--odom-topic") {

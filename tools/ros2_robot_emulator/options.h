@@ -5,19 +5,12 @@
 #pragma once
 
 #include <cstdint>
-#include <optional>
-#include <stdexcept>
 #include <string>
 
+#include "cli_values.h"
 #include "world.h"
 
 namespace ros2_emulator {
-
-/// A command-line error: what() names the flag and the value and says what was expected.
-class UsageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 /// Which message type the velocity command topic carries.
 enum class CmdType { kTwist, kTwistStamped };
@@ -32,6 +25,9 @@ struct EmulatorOptions {
   Pose2 start;
   /// --domain N: the DDS domain (ROS_DOMAIN_ID when unset, else 0), 0..232.
   std::uint32_t domain_id = 0;
+  /// --interface NAME: the network interface DDS uses, with multicast discovery on it as a ROS 2 robot's
+  /// computers find each other on their own network; "" = loopback only (127.0.0.1, no multicast).
+  std::string interface_name;
   /// DDS topic names (already mapped from the ROS names: "/points" -> "rt/points").
   std::string points_topic = "rt/points";
   std::string odom_topic = "rt/odom";
@@ -56,10 +52,5 @@ std::string Usage();
 /// UsageError on an unknown flag, a missing or bad value, a bad world file (its message names the file, line
 /// and value), or a start pose at which the robot would overlap a wall.
 EmulatorOptions ParseOptions(int argc, const char* const* argv, const char* ros_domain_id_env);
-
-/// Maps a ROS 2 topic name to its DDS topic as rmw does: "/points" and "points" -> "rt/points". Throws
-/// UsageError naming `flag` when `ros_name` is not a valid ROS 2 name (empty, "~", "//", a trailing "/", a
-/// character outside [A-Za-z0-9_/], or a name token starting with a digit).
-std::string RosTopicToDds(const std::string& flag, const std::string& ros_name);
 
 }  // namespace ros2_emulator

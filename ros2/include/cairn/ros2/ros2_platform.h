@@ -44,6 +44,12 @@ struct Ros2PlatformOptions {
   /// robot's own computer), with 4 MiB socket buffers for clouds.
   std::string profiles_file = core::DefaultProfilesFile();
   std::string participant_profile = "cairn.ros2.loopback";
+  /// The network interface of the robot's ROS 2 computers (config `ros2.interface`, e.g. "eth1" when the
+  /// lidar driver and the SLAM run on another computer of the robot): the participant binds to that
+  /// interface's address only, finds the ROS 2 nodes by multicast discovery there (239.255.0.1, port 7400 +
+  /// 250 * domain, as every ROS 2 middleware announces by default) and keeps the profile's socket buffers.
+  /// "" = loopback only (the nodes run on this computer).
+  std::string interface_name;
   /// ROS 2 topic names ("/points"; "" for none: a base with odometry only can still be teleoperated).
   std::string points_topic = "/points";
   std::string odom_topic = "/odom";
