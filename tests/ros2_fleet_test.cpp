@@ -25,10 +25,6 @@ const std::string kEcho = std::string(CAIRN_BINARY_DIR) + "/tools/ros2_robot_emu
 const std::string kDecode = std::string(CAIRN_SOURCE_DIR) + "/basestation/web/test/decode_ros2_cdr.mjs";
 const std::string kRos2Msgs = std::string(CAIRN_SOURCE_DIR) + "/ros2/cairn_msgs_ros2/msg";
 
-struct RobotStateName {
-  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::RobotState_";
-};
-
 // The first sample of /cairn/robot_state (cairn_msgs/msg/RobotState) heard on `ros2_domain` for `robot`, as
 // raw CDR bytes (decoded below by Foxglove's reader, not by Cairn).
 std::vector<std::uint8_t> RobotStateCdr(int ros2_domain) {
@@ -39,7 +35,7 @@ std::vector<std::uint8_t> RobotStateCdr(int ros2_domain) {
   core::Participant participant(options);
   std::mutex mutex;
   std::vector<std::uint8_t> payload;
-  core::Reader<ros2::RawCdrPubSubType<RobotStateName>> reader(
+  core::Reader<ros2::RawCdrPubSubType<ros2::RobotStateName>> reader(
       participant, "rt/cairn/robot_state", "ros2.reliable",
       [&](const ros2::RawCdrSample& s, const eprosima::fastdds::dds::SampleInfo&) {
         std::lock_guard<std::mutex> lock(mutex);

@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -9,9 +10,11 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 
+#include "cairn/core/time.h"
 #include "cairn/ros2/raw_cdr.h"
 #include "cairn/ros2/wire.h"
 #include "cairn_msgsPubSubTypes.h"
@@ -31,20 +34,6 @@ constexpr std::int32_t kCube = 1, kSphere = 2, kTextViewFacing = 9;
 constexpr std::int32_t kDeleteAll = 3;
 
 constexpr const char* kMapFrame = "map";
-
-// ROS 2's names of Cairn's types (ros2/cairn_msgs_ros2): what a ROS 2 reader of the forwarded topics matches.
-struct RobotStateName {
-  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::RobotState_";
-};
-struct BehaviorTreeStateName {
-  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::BehaviorTreeState_";
-};
-struct GlobalPathName {
-  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::GlobalPath_";
-};
-struct AgentHealthName {
-  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::AgentHealth_";
-};
 
 // One of Cairn's own topics forwarded unchanged (the same CDR) under ROS 2's names, each robot's sample when
 // it changed.
@@ -186,7 +175,7 @@ class Ros2FleetBridge::Impl {
 
   void PublishTransforms(const std::vector<RobotView>& robots) {
     tm::TFMessage_ message;
-    const double now_s = ros2::WallNowS();
+    const double now_s = core::WallNowS();
     for (const RobotView& v : robots) {
       if (!v.state || v.lost) continue;
       const auto& pose = v.state->pose_MB();
@@ -220,7 +209,7 @@ class Ros2FleetBridge::Impl {
             participant_, "rt/" + v.robot_id + "/path", "ros2.latched");
       }
       nm::Path_ path;
-      const double now_s = ros2::WallNowS();
+      const double now_s = core::WallNowS();
       path.header(Header(now_s, kMapFrame));
       for (const auto& p : v.global_path->path_M()) {
         gm::PoseStamped_ pose;
@@ -242,7 +231,7 @@ class Ros2FleetBridge::Impl {
   // exploring robot drives to, as one MarkerArray (DELETEALL first: what is gone disappears).
   void PublishMarkers(const std::vector<RobotView>& robots) {
     vm::MarkerArray_ array;
-    const double now_s = ros2::WallNowS();
+    const double now_s = core::WallNowS();
     vm::Marker_ clear;
     clear.header(Header(now_s, kMapFrame));
     clear.action(kDeleteAll);
@@ -316,7 +305,7 @@ class Ros2FleetBridge::Impl {
             participant_, "rt/" + v.robot_id + "/camera/image/compressed", "ros2.reliable");
       }
       sm::CompressedImage_ image;
-      image.header(Header(ros2::WallNowS(), v.robot_id + "/camera"));
+      image.header(Header(core::WallNowS(), v.robot_id + "/camera"));
       image.format("jpeg");
       image.data(frame->frame.data());
       writer->Write(image);
@@ -328,6 +317,11 @@ class Ros2FleetBridge::Impl {
   void PublishMap() {
     const double res = client_.perception().MapResolution();
     if (!(res > 0)) return;
+    // The merged map changes only when a robot's map message is applied: unchanged since the last cloud, it
+    // is not built nor sent again (the topic is latched).
+    const perception::FleetMapStats stats = client_.perception().MapStats();
+    const std::array<std::uint64_t, 3> version = {stats.updates_applied, stats.voxels, stats.robots};
+    if (map_version_sent_ && *map_version_sent_ == version) return;
     const std::vector<perception::CoarseVoxel> voxels = client_.perception().MapVoxels();
     std::vector<float> xyz;
     xyz.reserve(voxels.size() * 3);
@@ -338,16 +332,8 @@ class Ros2FleetBridge::Impl {
       xyz.push_back(static_cast<float>((v.iz + 0.5) * res));
     }
     const std::size_t points = xyz.size() / 3;
-    // Unchanged since the last cloud (FNV-1a over the coordinates): not sent again (it is latched).
-    std::uint64_t hash = 1469598103934665603ull;
-    for (float f : xyz) {
-      std::uint32_t bits;
-      std::memcpy(&bits, &f, sizeof(bits));
-      hash = (hash ^ bits) * 1099511628211ull;
-    }
-    if (hash == map_hash_sent_ && points > 0) return;
     sm::PointCloud2_ cloud;
-    cloud.header(Header(ros2::WallNowS(), kMapFrame));
+    cloud.header(Header(core::WallNowS(), kMapFrame));
     cloud.height(1);
     cloud.width(static_cast<std::uint32_t>(points));
     const char* names[3] = {"x", "y", "z"};
@@ -366,7 +352,7 @@ class Ros2FleetBridge::Impl {
     if (!xyz.empty()) std::memcpy(cloud.data().data(), xyz.data(), cloud.data().size());
     cloud.is_dense(true);
     map_writer_.Write(cloud);
-    map_hash_sent_ = hash;
+    map_version_sent_ = version;
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.map_clouds;
     stats_.map_points = points;
@@ -378,17 +364,17 @@ class Ros2FleetBridge::Impl {
   core::Writer<tm::TFMessage_PubSubType> tf_writer_;
   core::Writer<sm::PointCloud2_PubSubType> map_writer_;
   core::Writer<vm::MarkerArray_PubSubType> markers_writer_;
-  Forwarded<RobotStateName> robot_state_;
-  Forwarded<BehaviorTreeStateName> bt_state_;
-  Forwarded<GlobalPathName> global_path_;
-  Forwarded<AgentHealthName> health_;
+  Forwarded<ros2::RobotStateName> robot_state_;
+  Forwarded<ros2::BehaviorTreeStateName> bt_state_;
+  Forwarded<ros2::GlobalPathName> global_path_;
+  Forwarded<ros2::AgentHealthName> health_;
   std::map<std::string, std::unique_ptr<core::Writer<sm::CompressedImage_PubSubType>>> camera_writers_;
   std::map<std::string, std::uint64_t> camera_sent_;  // robot -> frames_received of the frame last published
   std::map<std::string, std::unique_ptr<core::Writer<nm::Path_PubSubType>>>
       path_writers_;                              // publisher thread
   std::map<std::string, std::string> path_sent_;  // robot -> PathKey of the path last published
-  std::uint64_t map_hash_sent_ = 0;
-  std::mutex mutex_;  // guards stop_
+  std::optional<std::array<std::uint64_t, 3>> map_version_sent_;  // the map's MapStats as last published
+  std::mutex mutex_;                                              // guards stop_
   std::condition_variable wake_;
   bool stop_ = false;
   mutable std::mutex stats_mutex_;

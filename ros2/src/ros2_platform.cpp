@@ -9,6 +9,7 @@
 
 #include "cairn/core/config.h"
 #include "cairn/core/shutdown.h"
+#include "cairn/core/time.h"
 #include "cairn/ros2/image.h"
 
 namespace cairn::ros2 {
@@ -148,7 +149,7 @@ struct Ros2Platform::Impl {
 
   // What the odometry says; called on a Fast DDS thread.
   void OnOdometry(const nm::Odometry_& m) {
-    const double received = WallNowS();
+    const double received = core::WallNowS();
     const gm::Pose_& p = m.pose().pose();
     const Eigen::Isometry3d T_odom_base =
         ToIsometry({p.position().x(), p.position().y(), p.position().z()}, p.orientation().x(),
@@ -177,7 +178,7 @@ struct Ros2Platform::Impl {
   }
 
   void OnTransforms(const tm::TFMessage_& m, bool is_static) {
-    const double received = WallNowS();
+    const double received = core::WallNowS();
     std::lock_guard<std::mutex> lock(mutex);
     for (const gm::TransformStamped_& t : m.transforms()) {
       const std::string parent = FrameId(t.header().frame_id()), child = FrameId(t.child_frame_id());
@@ -206,7 +207,7 @@ struct Ros2Platform::Impl {
     std::lock_guard<std::mutex> lock(mutex);
     ++counts.clouds;
     cloud = m;  // the newest replaces one not read yet: the autonomy wants the latest scan
-    cloud_received_s = WallNowS();
+    cloud_received_s = core::WallNowS();
     MeasureLidarRate(StampS(m.header().stamp()));
   }
 
@@ -360,7 +361,7 @@ Ros2Platform::Ros2Platform(const Ros2PlatformOptions& options) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   std::lock_guard<std::mutex> lock(impl->mutex);
-  const core::PoseEstimate pose = impl->PoseAt(WallNowS());
+  const core::PoseEstimate pose = impl->PoseAt(core::WallNowS());
   if (pose.healthy) {
     spdlog::info("ros2 driver: ROS 2 domain {}: odometry on {} ({} -> {}){}", options.domain_id,
                  options.odom_topic, options.odom_frame, options.base_frame,
@@ -395,7 +396,7 @@ core::PlatformCapabilities Ros2Platform::Capabilities() const {
 }
 
 void Ros2Platform::Update(double now_s) {
-  const double wall_s = WallNowS();
+  const double wall_s = core::WallNowS();
   std::lock_guard<std::mutex> lock(impl_->mutex);
   impl_->wall_to_agent_s = now_s - wall_s;
   impl_->pose = impl_->PoseAt(wall_s);
@@ -419,56 +420,52 @@ bool Ros2Platform::ReadLidarScan(double /*now_s*/, core::LidarScan* scan) {
     impl.cloud.reset();
     received_s = impl.cloud_received_s;
   }
-  auto drop = [&](const std::string& why) {
-    std::lock_guard<std::mutex> lock(impl.mutex);
+  // The cloud is parsed without the lock (the readers' callbacks keep storing); everything after it under
+  // one.
+  CloudReadCounts read;
+  const std::string why_unreadable = ReadPointCloud2(
+      *cloud, CloudRangeFilter{impl.options.lidar_min_range_m, impl.options.lidar_max_range_m},
+      &scan->points_S, &read);
+  const std::string frame = FrameId(cloud->header().frame_id());
+  const double stamp_wall_s = StampS(cloud->header().stamp());
+  std::lock_guard<std::mutex> lock(impl.mutex);
+  // With the lock held: logs a new problem once, keeps it for "used again".
+  const auto drop = [&](const std::string& why) {
     if (why != impl.last_cloud_problem)
       spdlog::warn("ros2 driver: cloud on {} not used: {}", impl.options.points_topic, why);
     impl.last_cloud_problem = why;
     return false;
   };
-  CloudReadCounts read;
-  if (std::string why = ReadPointCloud2(
-          *cloud, CloudRangeFilter{impl.options.lidar_min_range_m, impl.options.lidar_max_range_m},
-          &scan->points_S, &read);
-      !why.empty()) {
-    {
-      std::lock_guard<std::mutex> lock(impl.mutex);
-      ++impl.counts.bad_clouds;
-    }
-    return drop("PointCloud2 on " + impl.options.points_topic + " " + why);
+  if (!why_unreadable.empty()) {
+    ++impl.counts.bad_clouds;
+    return drop("PointCloud2 on " + impl.options.points_topic + " " + why_unreadable);
   }
-  const std::string frame = FrameId(cloud->header().frame_id());
-  const double stamp_wall_s = StampS(cloud->header().stamp());
   std::string why_T_BS, why_T_MS;
-  std::optional<Eigen::Isometry3d> T_BS, T_MS;
-  double wall_to_agent_s = 0.0;
-  {
-    std::lock_guard<std::mutex> lock(impl.mutex);
-    T_BS = impl.tf.Lookup(impl.options.base_frame, frame, stamp_wall_s, &why_T_BS);
-    T_MS = impl.tf.Lookup(impl.map_frame, frame, stamp_wall_s, &why_T_MS);
-    wall_to_agent_s = impl.wall_to_agent_s;
-    if (!T_BS || !T_MS) {
-      // The pose of its time may still be on its way: kept for the next call (unless a newer scan came).
-      const std::optional<double> newest =
-          impl.tf.NewestStamp(impl.options.odom_frame, impl.options.base_frame);
-      const bool pose_not_yet = newest && stamp_wall_s > *newest && WallNowS() - received_s < kScanPoseWaitS;
-      if (pose_not_yet && !impl.cloud) {
-        impl.cloud = std::move(cloud);
-        impl.cloud_received_s = received_s;
-        return false;
-      }
-      ++impl.counts.unregistered;
+  const std::optional<Eigen::Isometry3d> T_BS =
+      impl.tf.Lookup(impl.options.base_frame, frame, stamp_wall_s, &why_T_BS);
+  const std::optional<Eigen::Isometry3d> T_MS =
+      impl.tf.Lookup(impl.map_frame, frame, stamp_wall_s, &why_T_MS);
+  if (!T_BS || !T_MS) {
+    // The pose of its time may still be on its way: kept for the next call (unless a newer scan came).
+    const std::optional<double> newest =
+        impl.tf.NewestStamp(impl.options.odom_frame, impl.options.base_frame);
+    const bool pose_not_yet =
+        newest && stamp_wall_s > *newest && core::WallNowS() - received_s < kScanPoseWaitS;
+    if (pose_not_yet && !impl.cloud) {
+      impl.cloud = std::move(cloud);
+      impl.cloud_received_s = received_s;
+      return false;
     }
+    ++impl.counts.unregistered;
   }
   if (!T_BS) {
     return drop("cloud frame '" + frame + "' has no transform to " + impl.options.base_frame +
                 " in /tf_static or /tf: " + why_T_BS);
   }
   if (!T_MS) return drop("no pose at the cloud's stamp: " + why_T_MS);
-  scan->stamp_s = stamp_wall_s + wall_to_agent_s;
+  scan->stamp_s = stamp_wall_s + impl.wall_to_agent_s;
   scan->T_BS = *T_BS;
   scan->T_MS = *T_MS;
-  std::lock_guard<std::mutex> lock(impl.mutex);
   scan->seq = ++impl.scan_seq;
   ++impl.counts.scans;
   if (!impl.last_cloud_problem.empty())
@@ -525,7 +522,7 @@ void Ros2Platform::CommandTwist(double linear_x_mps, double angular_z_radps, dou
     return;
   }
   gm::TwistStamped_ stamped;
-  stamped.header().stamp(ToStamp(WallNowS()));
+  stamped.header().stamp(ToStamp(core::WallNowS()));
   stamped.header().frame_id(impl_->options.base_frame);
   stamped.twist(twist);
   impl_->twist_stamped_writer->Write(stamped);

@@ -1,7 +1,6 @@
 #include "cairn/ros2/wire.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
 namespace cairn::ros2 {
@@ -9,10 +8,6 @@ namespace cairn::ros2 {
 std::string DdsTopicName(const std::string& ros_topic) {
   if (ros_topic.empty()) return "";
   return "rt/" + ros_topic.substr(ros_topic[0] == '/' ? 1 : 0);
-}
-
-double WallNowS() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 double StampS(const builtin_interfaces::msg::dds_::Time_& stamp) {

@@ -10,7 +10,9 @@ using SteadyClock = std::chrono::steady_clock;
 using SteadyTime = SteadyClock::time_point;
 
 /// Seconds between two steady times (b - a).
-inline double SecondsBetween(SteadyTime a, SteadyTime b) { return std::chrono::duration<double>(b - a).count(); }
+inline double SecondsBetween(SteadyTime a, SteadyTime b) {
+  return std::chrono::duration<double>(b - a).count();
+}
 
 /// Wall-clock now as (seconds, nanoseconds) since the Unix epoch.
 struct WallStamp {
@@ -18,5 +20,7 @@ struct WallStamp {
   uint32_t nanosec = 0;
 };
 WallStamp WallNow();
+/// Wall-clock now as seconds since the Unix epoch (what ROS 2 stamps count; double: microsecond precision).
+double WallNowS();
 
 }  // namespace cairn::core

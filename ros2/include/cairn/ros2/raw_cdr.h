@@ -75,4 +75,19 @@ class RawCdrPubSubType : public eprosima::fastdds::dds::TopicDataType {
   bool getKey(void*, eprosima::fastrtps::rtps::InstanceHandle_t*, bool) override { return false; }
 };
 
+/// ROS 2's names of the Cairn types the basestation forwards (ros2/cairn_msgs_ros2): the Name parameter of
+/// RawCdrPubSubType, what a ROS 2 reader of the forwarded topics matches.
+struct RobotStateName {
+  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::RobotState_";
+};
+struct BehaviorTreeStateName {
+  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::BehaviorTreeState_";
+};
+struct GlobalPathName {
+  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::GlobalPath_";
+};
+struct AgentHealthName {
+  static constexpr const char* kTypeName = "cairn_msgs::msg::dds_::AgentHealth_";
+};
+
 }  // namespace cairn::ros2

@@ -12,8 +12,6 @@ namespace cairn::ros2 {
 /// "/points" -> "rt/points" (the DDS topic of a ROS 2 topic; rmw adds "rt/" to topics); "" stays "".
 std::string DdsTopicName(const std::string& ros_topic);
 
-/// The wall clock now, seconds since the Unix epoch (what ROS 2 stamps count).
-double WallNowS();
 /// builtin_interfaces/Time as seconds.
 double StampS(const builtin_interfaces::msg::dds_::Time_& stamp);
 /// Seconds (>= 0) as builtin_interfaces/Time (nanoseconds rounded down).
