@@ -4,10 +4,10 @@
 // namespace). Usage: cairn_bench_command_rtt [--count N] [--domain D]
 #include <algorithm>
 #include <atomic>
-#include <cstdlib>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <string>
@@ -47,19 +47,20 @@ int RunEcho(int domain) {
   options.domain_id = domain;
   options.name = "raw-echo";
   cairn::core::Participant participant(options);
-  cairn::core::Writer<msgs::CommandResponsePubSubType> writer(participant, "cairn/command_response", "cairn.command");
-  cairn::core::Reader<msgs::ModeRequestPubSubType> reader(
-      participant, "cairn/mode_request", "cairn.command", [&](const msgs::ModeRequest& m, const auto&) {
-        msgs::CommandResponse r;
-        r.robot_id(m.robot_id());
-        r.base_id(m.base_id());
-        r.request_id(m.request_id());
-        r.kind(msgs::COMMAND_KIND_MODE);
-        r.result(msgs::COMMAND_RESULT_ACCEPTED);
-        r.holder_id(m.base_id());
-        r.mode(m.mode());
-        writer.Write(r);
-      });
+  cairn::core::Writer<msgs::CommandResponsePubSubType> writer(participant, "cairn/command_response",
+                                                              "cairn.command");
+  cairn::core::Reader<msgs::ModeRequestPubSubType> reader(participant, "cairn/mode_request", "cairn.command",
+                                                          [&](const msgs::ModeRequest& m, const auto&) {
+                                                            msgs::CommandResponse r;
+                                                            r.robot_id(m.robot_id());
+                                                            r.base_id(m.base_id());
+                                                            r.request_id(m.request_id());
+                                                            r.kind(msgs::COMMAND_KIND_MODE);
+                                                            r.result(msgs::COMMAND_RESULT_ACCEPTED);
+                                                            r.holder_id(m.base_id());
+                                                            r.mode(m.mode());
+                                                            writer.Write(r);
+                                                          });
   std::printf("READY echo\n");
   std::fflush(stdout);
   while (!cairn::core::WaitForShutdown(std::chrono::milliseconds(200))) {
@@ -77,7 +78,8 @@ std::vector<double> RawPingPong(int domain, int count) {
   std::condition_variable cv;
   uint32_t answered = 0;
   cairn::core::Reader<msgs::CommandResponsePubSubType> reader(
-      participant, "cairn/command_response", "cairn.command", [&](const msgs::CommandResponse& r, const auto&) {
+      participant, "cairn/command_response", "cairn.command",
+      [&](const msgs::CommandResponse& r, const auto&) {
         {
           std::lock_guard<std::mutex> lock(mutex);
           answered = r.request_id();
@@ -108,9 +110,11 @@ std::vector<double> RawPingPong(int domain, int count) {
 }
 
 void Print(const char* name, const Stats& s, const Stats* baseline) {
-  std::printf("  %-44s median %7.3f ms   p99 %7.3f ms   mean %7.3f ms", name, s.median_ms, s.p99_ms, s.mean_ms);
-  if (baseline) std::printf("   ratio(median) %.2fx  ratio(p99) %.2fx", s.median_ms / baseline->median_ms,
-                            s.p99_ms / baseline->p99_ms);
+  std::printf("  %-44s median %7.3f ms   p99 %7.3f ms   mean %7.3f ms", name, s.median_ms, s.p99_ms,
+              s.mean_ms);
+  if (baseline)
+    std::printf("   ratio(median) %.2fx  ratio(p99) %.2fx", s.median_ms / baseline->median_ms,
+                s.p99_ms / baseline->p99_ms);
   std::printf("\n");
 }
 
@@ -135,7 +139,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   const std::string self = argv[0];
-  std::printf("Command round trip on loopback (UDPv4 127.0.0.1, profile cairn.command), %d commands each\n", count);
+  std::printf("Command round trip on loopback (UDPv4 127.0.0.1, profile cairn.command), %d commands each\n",
+              count);
 
   // 1. Raw Fast DDS ping-pong against an echo process (domain+1 so that nothing else is on the topics).
   std::vector<double> raw;
@@ -148,14 +153,15 @@ int main(int argc, char** argv) {
     raw = RawPingPong(domain + 1, count);
   }
 
-  // 2. Cairn: basestation FleetClient -> cairn_agent command interface (+ mode tree + mux) -> acknowledgement.
+  // 2. Cairn: basestation FleetClient -> cairn_agent command interface (+ mode tree + mux) ->
+  // acknowledgement.
   const std::string agent_bin = std::string(CAIRN_BINARY_DIR) + "/robot_agent/cairn_agent";
   const std::string config = "/tmp/cairn_bench_agent.yaml";
   std::FILE* f = std::fopen(config.c_str(), "w");
   std::fprintf(f, "telemetry:\n  state_rate_hz: 100\n");
   std::fclose(f);
-  cairn::testing::ChildProcess agent({agent_bin, "--robot-id", "r1", "--world", "builtin:arena", "--start", "slot:0",
-                                      "--domain", std::to_string(domain), "--config", config},
+  cairn::testing::ChildProcess agent({agent_bin, "--robot-id", "r1", "--world", "builtin:arena", "--start",
+                                      "slot:0", "--domain", std::to_string(domain), "--config", config},
                                      "/tmp/cairn_bench_agent.log");
   if (!agent.WaitForLine("READY", std::chrono::seconds(30))) {
     std::fprintf(stderr, "agent did not start (see /tmp/cairn_bench_agent.log)\n");
@@ -229,7 +235,8 @@ int main(int argc, char** argv) {
     flood_options.domain_id = domain;
     flood_options.name = "flooder";
     cairn::core::Participant flooder(flood_options);
-    cairn::core::Writer<msgs::PathRequestPubSubType> path_writer(flooder, "cairn/path_request", "cairn.command");
+    cairn::core::Writer<msgs::PathRequestPubSubType> path_writer(flooder, "cairn/path_request",
+                                                                 "cairn.command");
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // discovery
     std::atomic<bool> flooding{true};
     std::thread flood([&] {
@@ -280,22 +287,26 @@ int main(int argc, char** argv) {
   Print("cairn control command -> ack", Summarize(control), &raw_stats);
   Print("cairn mode command -> ack (mux switched)", Summarize(mode), &raw_stats);
   Print("mode request -> state shows new mux channel", Summarize(switch_to_state), nullptr);
-  std::printf("  (%zu mode-switch samples; the state is published at 100 Hz by a 50 Hz loop, so this includes\n"
-              "   up to 20 ms of loop and publication phase: the mux itself switched before the ack above)\n",
-              switch_to_state.size());
+  std::printf(
+      "  (%zu mode-switch samples; the state is published at 100 Hz by a 50 Hz loop, so this includes\n"
+      "   up to 20 ms of loop and publication phase: the mux itself switched before the ack above)\n",
+      switch_to_state.size());
   const Stats mode_stats = Summarize(mode);
   if (mode_under_flood.size() >= 100) {
-    Print("cairn mode command -> ack during a 2000-request path flood", Summarize(mode_under_flood), &mode_stats);
+    Print("cairn mode command -> ack during a 2000-request path flood", Summarize(mode_under_flood),
+          &mode_stats);
   } else {
     std::printf("mode commands during the flood: only %zu of 200 answered\n", mode_under_flood.size());
   }
-  std::printf("control loop worst period (the robot's RobotState.control_period_max_ms): %.1f ms during the flood "
-              "and %d waypoint goals, %.1f ms idle for 21 s after it (ratio %.2f; nominal period 20 ms)\n",
-              loaded_loop_worst_ms, goals_accepted, idle_loop_worst_ms,
-              idle_loop_worst_ms > 0 ? loaded_loop_worst_ms / idle_loop_worst_ms : 0.0);
+  std::printf(
+      "control loop worst period (the robot's RobotState.control_period_max_ms): %.1f ms during the flood "
+      "and %d waypoint goals, %.1f ms idle for 21 s after it (ratio %.2f; nominal period 20 ms)\n",
+      loaded_loop_worst_ms, goals_accepted, idle_loop_worst_ms,
+      idle_loop_worst_ms > 0 ? loaded_loop_worst_ms / idle_loop_worst_ms : 0.0);
   std::printf("  (%d path requests sent by another process; control loop: %s)\n", flood_sent.load(),
               late_lines == 0 ? "no period over 100 ms in the whole run"
                               : ("worst period " + std::to_string(static_cast<int>(worst_late_ms)) + " ms, " +
-                                 std::to_string(late_lines) + " late cycles logged").c_str());
+                                 std::to_string(late_lines) + " late cycles logged")
+                                    .c_str());
   return 0;
 }

@@ -1,16 +1,18 @@
-// Bench: exploration coverage against time for a team of 1, 2 and 3 robots (issue 14), in process on a simulated
-// clock (agent::SteppedRobot each: lidar -> OctoMap -> navigation map -> frontiers -> explore mode ->
-// navigation, explore claims and coverage shared as the agents send them), scored against the world's ground truth. The
-// baseline is one robot in the same run: the figure is its time to 90 % coverage over the team's.
+// Bench: exploration coverage against time for a team of 1, 2 and 3 robots (issue 14), in process on a
+// simulated clock (agent::SteppedRobot each: lidar -> OctoMap -> navigation map -> frontiers -> explore mode
+// -> navigation, explore claims and coverage shared as the agents send them), scored against the world's
+// ground truth. The baseline is one robot in the same run: the figure is its time to 90 % coverage over the
+// team's.
 //
 //   build/bench/cairn_bench_explore [--world builtin:NAME] [--robots 1,2,3] [--kill]
-//                                   [--csv FILE] [--timeout S] [--platform wheeled|legged] [--floors Z0:Z1,...]
+//                                   [--csv FILE] [--timeout S] [--platform wheeled|legged] [--floors
+//                                   Z0:Z1,...]
 //                                   [--start X,Y[,YAW]]
-//     robots start from a gate: the world's first suggested start (--start: this one, e.g. in a .bt world) and
-//     2 m steps along its heading; --kill also
-//     runs the largest team with robot 2 gone for good at 60 s; --csv writes "robots,t_s,coverage" rows (the
-//     plot: tools/plot_explore_coverage.sh); --floors scores each height band (a building's floors, metres) over
-//     the map's levels at the end (e.g. builtin:building with a legged robot: --floors -0.5:0.5,2.7:3.7).
+//     robots start from a gate: the world's first suggested start (--start: this one, e.g. in a .bt world)
+//     and 2 m steps along its heading; --kill also runs the largest team with robot 2 gone for good at 60 s;
+//     --csv writes "robots,t_s,coverage" rows (the plot: tools/plot_explore_coverage.sh); --floors scores
+//     each height band (a building's floors, metres) over the map's levels at the end (e.g. builtin:building
+//     with a legged robot: --floors -0.5:0.5,2.7:3.7).
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -30,13 +32,14 @@ using agent::explore_team::RunTeam;
 using agent::explore_team::TeamOptions;
 using agent::explore_team::TeamRun;
 
-std::vector<core::PlanarPose> Gate(const std::string& world, int robots, const std::optional<core::PlanarPose>& start) {
+std::vector<core::PlanarPose> Gate(const std::string& world, int robots,
+                                   const std::optional<core::PlanarPose>& start) {
   const std::string name = world.rfind("builtin:", 0) == 0 ? world.substr(8) : world;
   const core::PlanarPose first = start ? *start : sim::GetBuiltinWorldInfo(name).suggested_starts.front();
   std::vector<core::PlanarPose> starts;
   for (int i = 0; i < robots; ++i) {
-    starts.push_back({first.x_m + 2.0 * i * std::cos(first.yaw_rad), first.y_m + 2.0 * i * std::sin(first.yaw_rad),
-                      first.yaw_rad});
+    starts.push_back({first.x_m + 2.0 * i * std::cos(first.yaw_rad),
+                      first.y_m + 2.0 * i * std::sin(first.yaw_rad), first.yaw_rad});
   }
   return starts;
 }
@@ -50,13 +53,16 @@ void Print(const char* label, int robots, const TeamRun& r, double baseline_90_s
   // Claims on the wire: 88 bytes of CDR (encapsulation, a 2-character id, the fixed fields, the sequence's
   // length) plus the compressed coverage.
   const double claim_bits_per_s =
-      robots > 0 && r.end_s > 0 ? 8.0 * (88.0 * r.claims_sent + r.coverage_bytes_sent) / r.end_s / robots : 0.0;
-  std::printf("%-22s robots %d: 90 %% after %6.0f s (ratio 1 robot / team %.2f), end %5.0f s at %.1f %%, "
-              "%d claim overlaps, %.0f targets, %.0f m driven, contact %s, claims %.0f bit/s per robot, "
-              "%.0f s wall\n",
-              label, robots, r.time_to_90_s, baseline_90_s > 0 && r.time_to_90_s > 0 ? baseline_90_s / r.time_to_90_s : 0.0,
-              r.end_s, 100 * r.coverage, r.claim_overlaps, reached, driven, r.contact ? "YES" : "no",
-              claim_bits_per_s, r.wall_s);
+      robots > 0 && r.end_s > 0 ? 8.0 * (88.0 * r.claims_sent + r.coverage_bytes_sent) / r.end_s / robots
+                                : 0.0;
+  std::printf(
+      "%-22s robots %d: 90 %% after %6.0f s (ratio 1 robot / team %.2f), end %5.0f s at %.1f %%, "
+      "%d claim overlaps, %.0f targets, %.0f m driven, contact %s, claims %.0f bit/s per robot, "
+      "%.0f s wall\n",
+      label, robots, r.time_to_90_s,
+      baseline_90_s > 0 && r.time_to_90_s > 0 ? baseline_90_s / r.time_to_90_s : 0.0, r.end_s,
+      100 * r.coverage, r.claim_overlaps, reached, driven, r.contact ? "YES" : "no", claim_bits_per_s,
+      r.wall_s);
 }
 
 }  // namespace
@@ -95,7 +101,8 @@ int main(int argc, char** argv) {
     } else if (a == "--region" && i + 1 < argc) {
       double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
       if (std::sscanf(argv[++i], "%lf,%lf,%lf,%lf", &x0, &y0, &x1, &y1) != 4 || !(x0 < x1) || !(y0 < y1)) {
-        std::fprintf(stderr, "--region '%s' must be X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1 (metres)\n", argv[i]);
+        std::fprintf(stderr, "--region '%s' must be X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1 (metres)\n",
+                     argv[i]);
         return 2;
       }
       region = Eigen::AlignedBox2d(Eigen::Vector2d(x0, y0), Eigen::Vector2d(x1, y1));
@@ -112,10 +119,11 @@ int main(int argc, char** argv) {
         floors.emplace_back(std::stod(band.substr(0, colon)), std::stod(band.substr(colon + 1)));
       }
     } else {
-      std::fprintf(stderr,
-                   "usage: %s [--world builtin:NAME] [--robots 1,2,3] [--kill] [--csv FILE] [--timeout S] "
-                   "[--platform wheeled|legged] [--floors Z0:Z1,...] [--start X,Y[,YAW]] [--region X0,Y0,X1,Y1]\n",
-                   argv[0]);
+      std::fprintf(
+          stderr,
+          "usage: %s [--world builtin:NAME] [--robots 1,2,3] [--kill] [--csv FILE] [--timeout S] "
+          "[--platform wheeled|legged] [--floors Z0:Z1,...] [--start X,Y[,YAW]] [--region X0,Y0,X1,Y1]\n",
+          argv[0]);
       return 2;
     }
   }
@@ -134,17 +142,18 @@ int main(int argc, char** argv) {
     o.platform = platform;
     o.level_bands = floors;
     o.task.region_M = region;
-    if (!floors.empty()) o.stop_at_coverage = 2.0;  // the floors are scored at the end: run until every robot ends
+    if (!floors.empty())
+      o.stop_at_coverage = 2.0;  // the floors are scored at the end: run until every robot ends
     const TeamRun r = RunTeam(o);
     if (robots == 1) baseline_90_s = r.time_to_90_s;
     Print(world.c_str(), robots, r, baseline_90_s);
     for (std::size_t k = 0; k < floors.size(); ++k) {
-      std::printf("  floor z [%.1f, %.1f] m: %.1f %% of its reachable surfaces in the robots' maps\n", floors[k].first,
-                  floors[k].second, 100 * r.level_coverage[k]);
+      std::printf("  floor z [%.1f, %.1f] m: %.1f %% of its reachable surfaces in the robots' maps\n",
+                  floors[k].first, floors[k].second, 100 * r.level_coverage[k]);
     }
     if (!floors.empty()) {
-      std::printf("  highest ground stood on: z %.2f m; %s: %s\n", r.highest_z_m, agent::ToString(r.statuses[0].state),
-                  r.statuses[0].reason.c_str());
+      std::printf("  highest ground stood on: z %.2f m; %s: %s\n", r.highest_z_m,
+                  agent::ToString(r.statuses[0].state), r.statuses[0].reason.c_str());
     }
     for (const auto& [t, c] : r.coverage_over_time) out << robots << "," << t << "," << c << "\n";
     std::fflush(stdout);

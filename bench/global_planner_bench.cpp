@@ -23,7 +23,9 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using cairn::nav::GlobalPlanner;
 
-double Ms(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
+double Ms(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
 
 double Median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -64,7 +66,9 @@ Grid2D Project(const cairn::sim::World& world, double floor_z_m, double band_lo_
 double PlainAStar(const Grid2D& g, double sx, double sy, double gx, double gy, int* expansions) {
   const int si = static_cast<int>((sx - g.x0) / g.res), sj = static_cast<int>((sy - g.y0) / g.res);
   const int gi = static_cast<int>((gx - g.x0) / g.res), gj = static_cast<int>((gy - g.y0) / g.res);
-  const auto index = [&](int i, int j) { return static_cast<std::size_t>(i) + static_cast<std::size_t>(g.nx) * j; };
+  const auto index = [&](int i, int j) {
+    return static_cast<std::size_t>(i) + static_cast<std::size_t>(g.nx) * j;
+  };
   std::vector<double> cost(g.blocked.size(), 1e300);
   std::vector<std::uint8_t> closed(g.blocked.size(), 0);
   using Item = std::pair<double, std::size_t>;
@@ -113,20 +117,21 @@ int main(int argc, char** argv) {
     }
   }
   if (!std::filesystem::exists(path)) {
-    std::printf("global planner bench: %s is absent (no data/ in the repository); nothing measured\n", path.c_str());
+    std::printf("global planner bench: %s is absent (no data/ in the repository); nothing measured\n",
+                path.c_str());
     return 0;
   }
   const auto t_load = Clock::now();
   auto world = std::make_shared<const cairn::sim::World>(cairn::sim::LoadWorld(path));
   const auto t_loaded = Clock::now();
-  std::printf("geb079: %d x %d x %d voxels at %.2f m, loaded in %.0f ms\n", world->dims().x(), world->dims().y(),
-              world->dims().z(), world->resolution_m(), Ms(t_load, t_loaded));
+  std::printf("geb079: %d x %d x %d voxels at %.2f m, loaded in %.0f ms\n", world->dims().x(),
+              world->dims().y(), world->dims().z(), world->resolution_m(), Ms(t_load, t_loaded));
 
   struct Pair {
     double sx, sy, gx, gy;
   };
-  const std::vector<Pair> pairs = {{-4.0, 0.0, 24.0, 0.0}, {24.0, 0.0, -4.0, 0.0}, {2.0, 0.0, 13.0, 0.0},
-                                   {-4.0, 0.0, 13.0, 0.0}};
+  const std::vector<Pair> pairs = {
+      {-4.0, 0.0, 24.0, 0.0}, {24.0, 0.0, -4.0, 0.0}, {2.0, 0.0, 13.0, 0.0}, {-4.0, 0.0, 13.0, 0.0}};
 
   // Cold: a new planner per run (traversability grid built inside the first request).
   std::vector<double> cold_ms;
@@ -141,8 +146,8 @@ int main(int argc, char** argv) {
   GlobalPlanner planner(world, {cairn::nav::GetPlatformProfile("wheeled")});
   planner.Grid("wheeled");
   const Grid2D grid2d = Project(*world, 0.0, 0.1, 0.8);
-  std::printf("%-26s %12s %12s %12s %12s %10s\n", "start -> goal", "cairn ms", "cairn m", "2D A* ms", "2D A* m",
-              "ratio");
+  std::printf("%-26s %12s %12s %12s %12s %10s\n", "start -> goal", "cairn ms", "cairn m", "2D A* ms",
+              "2D A* m", "ratio");
   std::vector<double> all_cairn, all_plain;
   for (const Pair& p : pairs) {
     std::vector<double> cairn_ms, plain_ms;
@@ -159,17 +164,18 @@ int main(int argc, char** argv) {
     }
     char label[64];
     std::snprintf(label, sizeof(label), "(%.0f,%.0f) -> (%.0f,%.0f)", p.sx, p.sy, p.gx, p.gy);
-    std::printf("%-26s %12.2f %12.2f %12.2f %12.2f %9.2fx\n", label, Median(cairn_ms), cairn_len, Median(plain_ms),
-                plain_len, Median(cairn_ms) / std::max(1e-9, Median(plain_ms)));
+    std::printf("%-26s %12.2f %12.2f %12.2f %12.2f %9.2fx\n", label, Median(cairn_ms), cairn_len,
+                Median(plain_ms), plain_len, Median(cairn_ms) / std::max(1e-9, Median(plain_ms)));
     all_cairn.insert(all_cairn.end(), cairn_ms.begin(), cairn_ms.end());
     all_plain.insert(all_plain.end(), plain_ms.begin(), plain_ms.end());
   }
   std::printf("median over all pairs: cairn %.2f ms, plain 2D A* %.2f ms, ratio %.2fx (goal <= 20 ms: %s)\n",
               Median(all_cairn), Median(all_plain), Median(all_cairn) / std::max(1e-9, Median(all_plain)),
               Median(all_cairn) <= 20.0 ? "met" : "NOT met");
-  std::printf("cold request (traversability grid built inside): median %.1f ms over %zu runs\n", Median(cold_ms),
-              cold_ms.size());
-  std::printf("note: the 2D baseline has no inflation and no step test, so its paths touch walls and would cross "
-              "stairs; its length is a lower bound\n");
+  std::printf("cold request (traversability grid built inside): median %.1f ms over %zu runs\n",
+              Median(cold_ms), cold_ms.size());
+  std::printf(
+      "note: the 2D baseline has no inflation and no step test, so its paths touch walls and would cross "
+      "stairs; its length is a lower bound\n");
   return 0;
 }

@@ -50,8 +50,11 @@ int main(int argc, char** argv) {
     return 1;
   }
   const std::string dir = pattern;
-  std::printf("trajectory library of the agent: built (baseline) against loaded from the cache, median of %d\n", runs);
-  std::printf("%-8s %10s %10s %7s %10s %10s\n", "platform", "build ms", "load ms", "ratio", "file MB", "memory MB");
+  std::printf(
+      "trajectory library of the agent: built (baseline) against loaded from the cache, median of %d\n",
+      runs);
+  std::printf("%-8s %10s %10s %7s %10s %10s\n", "platform", "build ms", "load ms", "ratio", "file MB",
+              "memory MB");
   for (const std::string platform : {"wheeled", "legged"}) {
     cairn::agent::AgentOptions options;
     options.SetPlatform(platform);

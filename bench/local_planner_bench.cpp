@@ -15,9 +15,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <string>
 #include <memory>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "cairn/nav/local_planner.h"
@@ -125,7 +125,8 @@ int main(int argc, char** argv) {
     } else if (!std::strcmp(argv[i], "--collision-radius") && i + 1 < argc) {
       library_options.collision_radius_m = std::atof(argv[++i]);  // the agent: footprint 0.3 + margin 0.03
     } else {
-      std::fprintf(stderr, "usage: %s [--runs N] [--brute-runs M] [--range R_m] [--voxel M] [--collision-radius M]\n",
+      std::fprintf(stderr,
+                   "usage: %s [--runs N] [--brute-runs M] [--range R_m] [--voxel M] [--collision-radius M]\n",
                    argv[0]);
       return 2;
     }
@@ -200,8 +201,8 @@ int main(int argc, char** argv) {
   // Points near the robot (within near_origin_radius_m()) are tested against every path's first samples
   // exactly instead of through the correspondence. Their cost, in two tight spots added to the 20k tunnel
   // cloud: the robot 0.1 m off the centre of a 1.0 m doorway (jambs 0.4 and 0.6 m away), and wedged 0.32 m
-  // from a wall's end (inside the collision radius). Baseline: the same cloud without the spot's points. Paths
-  // must be free for 1.5 m, as the agent's.
+  // from a wall's end (inside the collision radius). Baseline: the same cloud without the spot's points.
+  // Paths must be free for 1.5 m, as the agent's.
   std::printf("\nnear points (within %.3f m): Plan() median of %d, same cloud without the spot = baseline\n",
               library->near_origin_radius_m(), runs);
   std::printf("%-26s %6s %9s %9s %9s %7s %s\n", "spot", "near", "plan ms", "p99 ms", "base ms", "ratio",

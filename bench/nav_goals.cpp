@@ -1,16 +1,17 @@
 // Bench: goal success rate and time to goal over a fixed set of goals per built-in world (issue 11), for the
 // navigation stack on the robot's own knowledge (simulated platform: lidar scans -> OctoMap -> navigation map
-// -> global planner; live lidar obstacles -> local planner; SLAM pose -> controller), against the ground-truth
-// stack of before issue 11 (planner on the simulator's world, lethal cells of the world as obstacles, true
-// pose), in the same run. Each goal starts a fresh robot (no prior map) at the world's first suggested start.
-// In process, on a simulated clock (50 Hz control, 10 Hz lidar, 1 Hz map updates), no DDS.
+// -> global planner; live lidar obstacles -> local planner; SLAM pose -> controller), against the
+// ground-truth stack of before issue 11 (planner on the simulator's world, lethal cells of the world as
+// obstacles, true pose), in the same run. Each goal starts a fresh robot (no prior map) at the world's first
+// suggested start. In process, on a simulated clock (50 Hz control, 10 Hz lidar, 1 Hz map updates), no DDS.
 //
 //   build/bench/cairn_bench_nav_goals [--goals N] [--half-extent M (navigation map, default 40)]
 //                                     [--world builtin:NAME]...
 //   build/bench/cairn_bench_nav_goals --floors N
 //     a legged robot from N corridor starts in builtin:building to floor 2, with and without the staircase
 //     prior (RunFloors).
-//   build/bench/cairn_bench_nav_goals [--verbose] [--platform wheeled|legged] [--z GZ] [--pause S] [--then GX GY]...
+//   build/bench/cairn_bench_nav_goals [--verbose] [--platform wheeled|legged] [--z GZ] [--pause S] [--then GX
+//   GY]...
 //                                     --one WORLD SX SY SYAW GX GY
 //     one robot from (SX, SY, SYAW) to (GX, GY), then on to each --then goal (given before --one; the last
 //     goal on the level nearest GZ, metres: an upper floor), own map against ground truth for the first goal
@@ -48,7 +49,7 @@ struct Outcome {
   bool contact = false;
   double time_s = 0.0;
   std::string reason;
-  int recoveries = 0;  // times the recovery tree ran (own map)
+  int recoveries = 0;        // times the recovery tree ran (own map)
   double highest_z_m = 0.0;  // highest true height of the body (own map)
 };
 
@@ -56,11 +57,12 @@ double g_half_extent_m = agent::NavMapOptions().half_extent_m;
 bool g_verbose = false;
 bool g_recovery = true;  // run the recovery tree when navigation gives up (--no-recovery: fail at once)
 std::vector<Eigen::Vector2d> g_then_goals;  // --then GX GY: further goals for the same robot (--one)
-std::string g_platform = "wheeled";          // --platform (--one)
+std::string g_platform = "wheeled";         // --platform (--one)
 double g_goal_z_m = std::numeric_limits<double>::quiet_NaN();  // --z: the first goal's level (--one)
-bool g_verbose_columns_along_y = std::getenv("CAIRN_BENCH_COLUMNS_ALONG_Y") != nullptr;  // PrintLevels' column list along y (true) or x (false)
+bool g_verbose_columns_along_y = std::getenv("CAIRN_BENCH_COLUMNS_ALONG_Y") !=
+                                 nullptr;  // PrintLevels' column list along y (true) or x (false)
 bool g_stair_prior = true;  // --no-stair-prior: detected flights are not written into the navigation map
-double g_pause_s = 0.0;  // --pause: the robot stands still this long before each --then goal (--one)
+double g_pause_s = 0.0;     // --pause: the robot stands still this long before each --then goal (--one)
 
 agent::AgentOptions Options() {
   agent::AgentOptions o;
@@ -73,8 +75,8 @@ agent::AgentOptions Options() {
 // A 4 m x 3 m picture around `center_W`: ground truth | navigation map. '#' lethal, '+' free but not
 // traversable, '.' traversable, '?' unknown (nav map, traversable), 'R' the robot; then the nav map's column
 // at the centre (occupied and seen-free voxel heights).
-void PrintPicture(const nav::TraversabilityGrid& truth, const agent::NavMap& nav_map, const core::BaseState& pose,
-                  const Eigen::Vector2d& center_W) {
+void PrintPicture(const nav::TraversabilityGrid& truth, const agent::NavMap& nav_map,
+                  const core::BaseState& pose, const Eigen::Vector2d& center_W) {
   const nav::TraversabilityGrid& grid = nav_map.grid();
   auto glyph = [&](const nav::TraversabilityGrid& g, double x, double y) {
     int ix = 0, iy = 0;
@@ -96,7 +98,8 @@ void PrintPicture(const nav::TraversabilityGrid& truth, const agent::NavMap& nav
   if (!index) return;
   std::printf("      column at (%.2f, %.2f), occupied z:", center_W.x(), center_W.y());
   for (int iz = 0; iz < voxels.dims().z(); ++iz) {
-    if (voxels.IsOccupiedIndex({index->x(), index->y(), iz})) std::printf(" %.2f", voxels.CenterOf({0, 0, iz}).z());
+    if (voxels.IsOccupiedIndex({index->x(), index->y(), iz}))
+      std::printf(" %.2f", voxels.CenterOf({0, 0, iz}).z());
   }
   std::printf("; seen free z:");
   for (int iz = 0; iz < voxels.dims().z(); ++iz) {
@@ -126,12 +129,14 @@ void PrintLevels(const agent::NavMap& nav_map, const Eigen::Vector2d& center_W, 
         continue;
       }
       const int dz = static_cast<int>(std::lround((levels.NodeZ(node) - z_m) / 0.1));
-      row += levels.IsTraversable(node) ? static_cast<char>('0' + std::clamp(dz + 3, 0, 9)) : static_cast<char>('a' + std::clamp(dz + 3, 0, 9));
+      row += levels.IsTraversable(node) ? static_cast<char>('0' + std::clamp(dz + 3, 0, 9))
+                                        : static_cast<char>('a' + std::clamp(dz + 3, 0, 9));
     }
     std::printf("      %s  y %.2f\n", row.c_str(), y);
   }
-  std::printf("      (x from %.2f; digit = 3 + surface height above z %.2f in dm, letter = not traversable)\n",
-              center_W.x() - 1.5, z_m);
+  std::printf(
+      "      (x from %.2f; digit = 3 + surface height above z %.2f in dm, letter = not traversable)\n",
+      center_W.x() - 1.5, z_m);
   // The columns along y = center's y: voxels (o occupied, f seen free, . unknown) from z_m - 0.5 up, and
   // the surfaces (height, clearance).
   const core::VoxelGrid& voxels = nav_map.voxels();
@@ -146,7 +151,8 @@ void PrintLevels(const agent::NavMap& nav_map, const Eigen::Vector2d& center_W, 
       const Eigen::Vector3i v(index->x(), index->y(), index->z() + dz);
       column += voxels.IsOccupiedIndex(v) ? 'o' : nav_map.seen_free().IsOccupiedIndex(v) ? 'f' : '.';
     }
-    std::printf("      x %.2f y %.2f z %.2f..: %s surfaces:", x, y, voxels.CenterOf(*index).z() - 0.5, column.c_str());
+    std::printf("      x %.2f y %.2f z %.2f..: %s surfaces:", x, y, voxels.CenterOf(*index).z() - 0.5,
+                column.c_str());
     const int c = levels.Column(ix, iy);
     for (int n = levels.FirstNode(c); n < levels.FirstNode(c + 1); ++n) {
       std::printf(" %.2f(%.2f)", levels.NodeZ(n), levels.ClearanceM(n));
@@ -196,7 +202,8 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
     }
     if (std::fmod(t + 1e-9, 1.0) < kDt) {
       nav_map.Update(*perception.map(), perception.TakeChangedTiles(), perception.change_tile_m(),
-                     perception.max_sensor_z_m(), g_stair_prior ? perception.Staircases() : std::vector<perception::Staircase>{});
+                     perception.max_sensor_z_m(),
+                     g_stair_prior ? perception.Staircases() : std::vector<perception::Staircase>{});
     }
     // A goal on another level waits for the first map updates (the agent is sent one when it has a map).
     if (!goal_set && t >= pause_until_s && (next_goal > 0 || !std::isfinite(g_goal_z_m) || t >= 2.0)) {
@@ -206,15 +213,17 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
         out.reason = "refused: " + why;
         return out;
       }
-      active_goal_z_m = next_goal == g_then_goals.size() ? g_goal_z_m : std::numeric_limits<double>::quiet_NaN();
+      active_goal_z_m =
+          next_goal == g_then_goals.size() ? g_goal_z_m : std::numeric_limits<double>::quiet_NaN();
       const nav::GlobalPlan plan = navigation.SetGoal(pose, goal.x(), goal.y(), 0.0, t, active_goal_z_m);
       if (!plan.IsUsable()) {
         out.reason = "refused: " + plan.reason;
         if (g_verbose) {
           for (const perception::Staircase& st : perception.Staircases()) {
-            std::printf("      staircase at (%.2f, %.2f, %.2f) yaw %.2f rise %.3f run %.3f width %.2f, %d steps\n",
-                        st.p_W_first_step.x(), st.p_W_first_step.y(), st.p_W_first_step.z(), st.yaw_rad,
-                        st.rise_m, st.run_m, st.width_m, st.num_steps);
+            std::printf(
+                "      staircase at (%.2f, %.2f, %.2f) yaw %.2f rise %.3f run %.3f width %.2f, %d steps\n",
+                st.p_W_first_step.x(), st.p_W_first_step.y(), st.p_W_first_step.z(), st.yaw_rad, st.rise_m,
+                st.run_m, st.width_m, st.num_steps);
           }
           PrintLevels(nav_map, {pose.x_m + 1.0, pose.y_m}, pose.z_m);
           PrintLevels(nav_map, {pose.x_m + 1.0, pose.y_m}, pose.z_m + 0.5);
@@ -224,7 +233,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
       goal_set = true;
     }
     perception.set_refresh_at_rest(goal_set);  // as the agent: a robot waiting on a goal watches the world
-    if (!goal_set) {  // standing still, sensing, until the next goal
+    if (!goal_set) {                           // standing still, sensing, until the next goal
       platform.CommandTwist(0.0, 0.0, t);
       out.contact = out.contact || platform.ReadStatus().in_contact;
       continue;
@@ -251,24 +260,29 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
     platform.CommandTwist(step.linear_x_mps, step.angular_z_radps, t);
     if (platform.ReadStatus().in_contact && !out.contact) {
       const auto truth = platform.TrueState();
-      std::printf("  t %.2f CONTACT at true (%.2f, %.2f, %.2f) yaw %.2f, estimate (%.2f, %.2f, %.2f) yaw %.2f, cmd (%.2f, %.2f)\n", t,
-                  truth.x_m, truth.y_m, truth.z_m, truth.yaw_rad, pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad,
-                  step.linear_x_mps, step.angular_z_radps);
+      std::printf(
+          "  t %.2f CONTACT at true (%.2f, %.2f, %.2f) yaw %.2f, estimate (%.2f, %.2f, %.2f) yaw %.2f, cmd "
+          "(%.2f, %.2f)\n",
+          t, truth.x_m, truth.y_m, truth.z_m, truth.yaw_rad, pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad,
+          step.linear_x_mps, step.angular_z_radps);
     }
     out.contact = out.contact || platform.ReadStatus().in_contact;
     out.highest_z_m = std::max(out.highest_z_m, platform.TrueState().z_m);
     if (g_verbose && std::fmod(t + 1e-9, 0.5) < kDt) {
-      std::printf("    t %5.1f pose (%.2f, %.2f, %.2f) v %.2f w %.2f cmd (%.2f, %.2f) left %.1f local '%s'\n", t, pose.x_m,
-                  pose.y_m, pose.yaw_rad, pose.v_mps, pose.w_radps, step.linear_x_mps, step.angular_z_radps,
-                  navigation.distance_left_m(), navigation.local_status().c_str());
+      std::printf("    t %5.1f pose (%.2f, %.2f, %.2f) v %.2f w %.2f cmd (%.2f, %.2f) left %.1f local '%s'\n",
+                  t, pose.x_m, pose.y_m, pose.yaw_rad, pose.v_mps, pose.w_radps, step.linear_x_mps,
+                  step.angular_z_radps, navigation.distance_left_m(), navigation.local_status().c_str());
       const auto& path_W = navigation.global_plan().result.path_W;
       std::printf("      global path (%zu points):", path_W.size());
-      for (std::size_t i = 0; i < path_W.size() && i < 6; ++i) std::printf(" (%.2f, %.2f)", path_W[i].x(), path_W[i].y());
+      for (std::size_t i = 0; i < path_W.size() && i < 6; ++i)
+        std::printf(" (%.2f, %.2f)", path_W[i].x(), path_W[i].y());
       const nav::LocalPlanResult& local = navigation.local_result();
       std::printf("\n      local: %s free %.2f of %.2f m, %d free paths, end (%.2f, %.2f) frame B\n",
-                  local.message.c_str(), local.free_length_m, local.required_free_length_m, local.num_free_paths,
-                  local.path_B.empty() ? 0.0f : local.path_B.back().x(), local.path_B.empty() ? 0.0f : local.path_B.back().y());
-      if (std::fabs(t - 2.5) < 0.5 * kDt) PrintPicture(*platform.terrain(), nav_map, pose, {pose.x_m, pose.y_m});
+                  local.message.c_str(), local.free_length_m, local.required_free_length_m,
+                  local.num_free_paths, local.path_B.empty() ? 0.0f : local.path_B.back().x(),
+                  local.path_B.empty() ? 0.0f : local.path_B.back().y());
+      if (std::fabs(t - 2.5) < 0.5 * kDt)
+        PrintPicture(*platform.terrain(), nav_map, pose, {pose.x_m, pose.y_m});
       // Obstacles within 1 m, frame M, and what the ground truth and the navigation map say there.
       const auto truth = platform.terrain();
       for (const auto& p : points_B) {
@@ -280,12 +294,13 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
         const nav::TraversabilityGrid& grid = nav_map.grid();
         std::printf("      obstacle (%.2f, %.2f) z %.2f: truth %s, nav map %s ground %.2f%s%s\n", x, y, p.z(),
                     truth->IsTraversableAt(x, y) ? "traversable" : "blocked",
-                    in_map ? nav::ToString(grid.State(ix, iy)) : "outside", in_map ? grid.Ground(ix, iy) : NAN,
-                    in_map && grid.IsLethal(ix, iy) ? " lethal" : "",
+                    in_map ? nav::ToString(grid.State(ix, iy)) : "outside",
+                    in_map ? grid.Ground(ix, iy) : NAN, in_map && grid.IsLethal(ix, iy) ? " lethal" : "",
                     in_map && grid.IsTraversable(ix, iy) ? " traversable" : "");
       }
     }
-    // CAIRN_BENCH_DUMP="T X Y Z": the navigation map's surfaces around (X, Y) near height Z at time T (debugging).
+    // CAIRN_BENCH_DUMP="T X Y Z": the navigation map's surfaces around (X, Y) near height Z at time T
+    // (debugging).
     if (static const char* dump = std::getenv("CAIRN_BENCH_DUMP"); dump != nullptr) {
       double dt = 0, dx = 0, dy = 0, dz = 0;
       if (std::sscanf(dump, "%lf %lf %lf %lf", &dt, &dx, &dy, &dz) == 4 && std::fabs(t - dt) < 0.5 * kDt) {
@@ -309,8 +324,8 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
       return out;
     }
     if (step.failed && next_goal < g_then_goals.size()) {
-      std::printf("  failed at (%.2f, %.2f) after %.1f s, robot at (%.2f, %.2f) yaw %.2f: %s; next goal\n", goal.x(), goal.y(), t,
-                  pose.x_m, pose.y_m, pose.yaw_rad, step.reason.c_str());
+      std::printf("  failed at (%.2f, %.2f) after %.1f s, robot at (%.2f, %.2f) yaw %.2f: %s; next goal\n",
+                  goal.x(), goal.y(), t, pose.x_m, pose.y_m, pose.yaw_rad, step.reason.c_str());
       goal = g_then_goals[next_goal++];
       goal_set = false;
       pause_until_s = t + g_pause_s;
@@ -327,8 +342,10 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
             int ix = 0, iy = 0;
             char c = ' ';
             if (grid.CellOf(x, y, &ix, &iy)) {
-              c = grid.IsLethal(ix, iy) ? '#' : grid.State(ix, iy) == nav::CellState::kUnknown ? '?'
-                                              : grid.IsTraversable(ix, iy) ? '.' : '+';
+              c = grid.IsLethal(ix, iy)                            ? '#'
+                  : grid.State(ix, iy) == nav::CellState::kUnknown ? '?'
+                  : grid.IsTraversable(ix, iy)                     ? '.'
+                                                                   : '+';
             }
             row += c;
           }
@@ -337,9 +354,10 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
         std::printf("      (x from %.1f to %.1f)\n", x0, x1);
         PrintPicture(*platform.terrain(), nav_map, pose, goal);
         for (const perception::Staircase& st : perception.Staircases()) {
-          std::printf("      staircase at (%.2f, %.2f, %.2f) yaw %.2f rise %.3f run %.3f width %.2f, %d steps\n",
-                      st.p_W_first_step.x(), st.p_W_first_step.y(), st.p_W_first_step.z(), st.yaw_rad, st.rise_m,
-                      st.run_m, st.width_m, st.num_steps);
+          std::printf(
+              "      staircase at (%.2f, %.2f, %.2f) yaw %.2f rise %.3f run %.3f width %.2f, %d steps\n",
+              st.p_W_first_step.x(), st.p_W_first_step.y(), st.p_W_first_step.z(), st.yaw_rad, st.rise_m,
+              st.run_m, st.width_m, st.num_steps);
         }
         // Around the end of the last plan (a partial plan's end: where the map showed no way on), at the
         // robot's height and half a metre above.
@@ -348,7 +366,8 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
                                                       : Eigen::Vector2d(last_path.back().head<2>());
         PrintLevels(nav_map, end, pose.z_m);
         PrintLevels(nav_map, end, pose.z_m + 0.5);
-        if (std::getenv("CAIRN_BENCH_AT_X")) PrintLevels(nav_map, {std::atof(std::getenv("CAIRN_BENCH_AT_X")), end.y()}, pose.z_m);
+        if (std::getenv("CAIRN_BENCH_AT_X"))
+          PrintLevels(nav_map, {std::atof(std::getenv("CAIRN_BENCH_AT_X")), end.y()}, pose.z_m);
         for (double x = goal.x() - 0.35; x < goal.x() + 0.4; x += 0.1) {
           std::printf("      octomap x %.2f:", x);
           for (double z = -0.05; z < 0.4; z += 0.1) {
@@ -366,12 +385,12 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
 }
 
 // The stack before issue 11: the simulator's world is the map, its lethal cells the obstacles, the true pose.
-Outcome RunGroundTruth(const std::string& world_spec, const core::PlanarPose& start, const Eigen::Vector2d& goal,
-                       double timeout_s) {
+Outcome RunGroundTruth(const std::string& world_spec, const core::PlanarPose& start,
+                       const Eigen::Vector2d& goal, double timeout_s) {
   const agent::AgentOptions options = Options();
   auto world = std::make_shared<const sim::World>(sim::LoadWorld(world_spec));
-  auto planner = std::make_shared<nav::GlobalPlanner>(world, std::vector<nav::PlatformProfile>{
-                                                                 options.navigation.platform});
+  auto planner = std::make_shared<nav::GlobalPlanner>(
+      world, std::vector<nav::PlatformProfile>{options.navigation.platform});
   const auto grid = planner->Grid("wheeled");
   agent::Navigation navigation(options.navigation, planner,
                                std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
@@ -434,11 +453,12 @@ int RunFloors(int starts) {
                   o.contact ? " WITH CONTACT" : "", o.reason.c_str());
     }
   }
-  std::printf("goal on floor 2 reached: with the staircase prior %d/%d (mean %.1f s), baseline %d/%d\n"
-              "body on floor 2 (z >= 3.1 m): with the staircase prior %d/%d, baseline %d/%d; contacts %d vs %d\n",
-              with_prior.arrived, starts, with_prior.arrived ? with_prior.time_s / with_prior.arrived : 0.0,
-              baseline.arrived, starts, with_prior.on_floor2, starts, baseline.on_floor2, starts,
-              with_prior.contacts, baseline.contacts);
+  std::printf(
+      "goal on floor 2 reached: with the staircase prior %d/%d (mean %.1f s), baseline %d/%d\n"
+      "body on floor 2 (z >= 3.1 m): with the staircase prior %d/%d, baseline %d/%d; contacts %d vs %d\n",
+      with_prior.arrived, starts, with_prior.arrived ? with_prior.time_s / with_prior.arrived : 0.0,
+      baseline.arrived, starts, with_prior.on_floor2, starts, baseline.on_floor2, starts, with_prior.contacts,
+      baseline.contacts);
   return 0;
 }
 
@@ -476,14 +496,16 @@ int main(int argc, char** argv) {
                   own.contact ? " WITH CONTACT" : "", own.reason.c_str());
       if (std::isfinite(g_goal_z_m)) return own.arrived && !own.contact ? 0 : 1;
       const Outcome gt = RunGroundTruth(world, start, goal, 120.0);
-      std::printf("ground truth: %s after %.1f s %s\n", gt.arrived ? "arrived" : "FAILED", gt.time_s, gt.reason.c_str());
+      std::printf("ground truth: %s after %.1f s %s\n", gt.arrived ? "arrived" : "FAILED", gt.time_s,
+                  gt.reason.c_str());
       return own.arrived ? 0 : 1;
     } else if (!std::strcmp(argv[i], "--floors") && i + 1 < argc) {
       return RunFloors(std::max(1, std::atoi(argv[++i])));
     } else if (!std::strcmp(argv[i], "--world") && i + 1 < argc) {
       worlds.push_back(argv[++i]);
     } else {
-      std::fprintf(stderr, "usage: %s [--goals N] [--half-extent M] [--no-recovery] [--world builtin:NAME]...\n",
+      std::fprintf(stderr,
+                   "usage: %s [--goals N] [--half-extent M] [--no-recovery] [--world builtin:NAME]...\n",
                    argv[0]);
       return 2;
     }
@@ -493,10 +515,12 @@ int main(int argc, char** argv) {
     const auto& info = sim::GetBuiltinWorldInfo(world.substr(8));
     const core::PlanarPose start = info.suggested_starts.front();
     // Fixed goals: free cells of the ground truth at least 4 m from the start, seeded.
-    const nav::TraversabilityGrid truth(sim::LoadWorld(world), nav::GetPlatformProfile("wheeled").traversability);
+    const nav::TraversabilityGrid truth(sim::LoadWorld(world),
+                                        nav::GetPlatformProfile("wheeled").traversability);
     std::vector<Eigen::Vector2d> goals;
     for (const Eigen::Vector3d& p : nav::SampleFreeStarts(truth, 4 * goals_per_world, 1.5, /*seed=*/11)) {
-      if (std::hypot(p.x() - start.x_m, p.y() - start.y_m) >= 4.0 && static_cast<int>(goals.size()) < goals_per_world) {
+      if (std::hypot(p.x() - start.x_m, p.y() - start.y_m) >= 4.0 &&
+          static_cast<int>(goals.size()) < goals_per_world) {
         goals.emplace_back(p.x(), p.y());
       }
     }
@@ -516,20 +540,21 @@ int main(int argc, char** argv) {
         truth_time += gt.time_s;
         ++both;
       }
-      std::printf("  %s goal %2zu (%5.1f, %5.1f): own map %s %5.1f s%s%s | ground truth %s %5.1f s%s\n",
-                  world.c_str(), g, goals[g].x(), goals[g].y(), own.arrived ? "arrived" : "FAILED ", own.time_s,
-                  own.recoveries > 0 ? (" after " + std::to_string(own.recoveries) + " recovery").c_str() : "",
-                  own.arrived ? "" : (" (" + own.reason + ")").c_str(), gt.arrived ? "arrived" : "FAILED ",
-                  gt.time_s, gt.arrived ? "" : (" (" + gt.reason + ")").c_str());
+      std::printf(
+          "  %s goal %2zu (%5.1f, %5.1f): own map %s %5.1f s%s%s | ground truth %s %5.1f s%s\n",
+          world.c_str(), g, goals[g].x(), goals[g].y(), own.arrived ? "arrived" : "FAILED ", own.time_s,
+          own.recoveries > 0 ? (" after " + std::to_string(own.recoveries) + " recovery").c_str() : "",
+          own.arrived ? "" : (" (" + own.reason + ")").c_str(), gt.arrived ? "arrived" : "FAILED ", gt.time_s,
+          gt.arrived ? "" : (" (" + gt.reason + ")").c_str());
     }
-    std::printf("%s, %zu goals from (%.1f, %.1f): success own map %d/%zu (%d after a recovery), ground truth "
-                "%d/%zu (ratio %.2f); contacts %d vs %d; mean time to goal on the %d both reached: own %.1f s, "
-                "ground truth %.1f s (ratio %.2f)\n",
-                world.c_str(), goals.size(), start.x_m, start.y_m, own_ok, goals.size(), recovered, truth_ok,
-                goals.size(),
-                truth_ok ? static_cast<double>(own_ok) / truth_ok : 0.0, own_contacts, truth_contacts, both,
-                both ? own_time / both : 0.0, both ? truth_time / both : 0.0,
-                truth_time > 0 ? own_time / truth_time : 0.0);
+    std::printf(
+        "%s, %zu goals from (%.1f, %.1f): success own map %d/%zu (%d after a recovery), ground truth "
+        "%d/%zu (ratio %.2f); contacts %d vs %d; mean time to goal on the %d both reached: own %.1f s, "
+        "ground truth %.1f s (ratio %.2f)\n",
+        world.c_str(), goals.size(), start.x_m, start.y_m, own_ok, goals.size(), recovered, truth_ok,
+        goals.size(), truth_ok ? static_cast<double>(own_ok) / truth_ok : 0.0, own_contacts, truth_contacts,
+        both, both ? own_time / both : 0.0, both ? truth_time / both : 0.0,
+        truth_time > 0 ? own_time / truth_time : 0.0);
   }
   return 0;
 }

@@ -1,17 +1,18 @@
 // Bench: the navigation map on the robot's own OctoMap (issue 11). A simulated wheeled robot drives the
-// tunnels' main corridor (4,20) -> (26,20) at 1 m/s scanning at 10 Hz; every second the map's changed tiles are
-// applied incrementally (NavMap::Update). Baseline, in the same run on the same voxels: a full rebuild of the
-// traversability grid. Then plan time on the robot's own map against the ground-truth planner (the planner
-// before issue 11, on the simulator's world) for the same goals. And the frontier update (issue 14) after each map
-// update, against that update and the full rebuild.
+// tunnels' main corridor (4,20) -> (26,20) at 1 m/s scanning at 10 Hz; every second the map's changed tiles
+// are applied incrementally (NavMap::Update). Baseline, in the same run on the same voxels: a full rebuild of
+// the traversability grid. Then plan time on the robot's own map against the ground-truth planner (the
+// planner before issue 11, on the simulator's world) for the same goals. And the frontier update (issue 14)
+// after each map update, against that update and the full rebuild.
 //
 //   build/bench/cairn_bench_nav_map
+#include "cairn/agent/nav_map.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <vector>
 
-#include "cairn/agent/nav_map.h"
 #include "cairn/agent/perception_pipeline.h"
 #include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
@@ -20,7 +21,9 @@
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double MsSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+double MsSince(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
 
 double Median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -44,7 +47,8 @@ int main() {
   perception_options.camera_rate_hz = 0;
   agent::PerceptionPipeline perception(perception_options, "r1");
   agent::NavMapOptions map_options;
-  auto planner = agent::NavMap::MakePlanner(map_options, perception_options.map.resolution_m, start_M, {profile});
+  auto planner =
+      agent::NavMap::MakePlanner(map_options, perception_options.map.resolution_m, start_M, {profile});
   agent::NavMap nav_map(map_options, perception_options.map.resolution_m, start_M, planner, "wheeled");
 
   std::vector<double> incremental_ms, full_ms, tiles, frontier_ms, level_frontier_ms;
@@ -76,25 +80,29 @@ int main() {
     last_level_frontiers = nav::FindFrontiersMultiLevel(nav_map.levels(), {s.x_m, s.y_m, s.z_m});
     level_frontier_ms.push_back(MsSince(t));
   }
-  std::printf("nav map update (80 x 80 m extent, 0.1 m, %zu updates at 1 Hz, median %.0f changed 2 m tiles):\n",
-              incremental_ms.size(), Median(tiles));
-  std::printf("  incremental (read tiles + re-analyse)  median %7.1f ms  max %7.1f ms\n", Median(incremental_ms),
-              *std::max_element(incremental_ms.begin(), incremental_ms.end()));
+  std::printf(
+      "nav map update (80 x 80 m extent, 0.1 m, %zu updates at 1 Hz, median %.0f changed 2 m tiles):\n",
+      incremental_ms.size(), Median(tiles));
+  std::printf("  incremental (read tiles + re-analyse)  median %7.1f ms  max %7.1f ms\n",
+              Median(incremental_ms), *std::max_element(incremental_ms.begin(), incremental_ms.end()));
   std::printf("  full rebuild (baseline)                median %7.1f ms  max %7.1f ms\n", Median(full_ms),
               *std::max_element(full_ms.begin(), full_ms.end()));
   std::printf("  ratio full / incremental (median)      %7.1fx\n", Median(full_ms) / Median(incremental_ms));
-  std::printf("frontier update per map change (FindFrontiers on the updated grid, issue 14): median %.1f ms, max "
-              "%.1f ms; ratio to the incremental update %.2f, to the full rebuild %.2f; last: %zu clusters (%d "
-              "reachable), %d frontier cells, %.0f m^2 known free\n",
-              Median(frontier_ms), *std::max_element(frontier_ms.begin(), frontier_ms.end()),
-              Median(frontier_ms) / Median(incremental_ms), Median(frontier_ms) / Median(full_ms),
-              last_frontiers.clusters.size(), last_frontiers.reachable(), last_frontiers.frontier_cells,
-              last_frontiers.known_free_m2);
-  std::printf("  on every level (FindFrontiersMultiLevel, same maps): median %.1f ms, max %.1f ms; ratio to the main "
-              "level's search %.2f; last: %zu clusters (%d reachable), %d frontier surfaces, %.0f m^2 of surfaces\n",
-              Median(level_frontier_ms), *std::max_element(level_frontier_ms.begin(), level_frontier_ms.end()),
-              Median(level_frontier_ms) / Median(frontier_ms), last_level_frontiers.clusters.size(),
-              last_level_frontiers.reachable(), last_level_frontiers.frontier_cells, last_level_frontiers.known_free_m2);
+  std::printf(
+      "frontier update per map change (FindFrontiers on the updated grid, issue 14): median %.1f ms, max "
+      "%.1f ms; ratio to the incremental update %.2f, to the full rebuild %.2f; last: %zu clusters (%d "
+      "reachable), %d frontier cells, %.0f m^2 known free\n",
+      Median(frontier_ms), *std::max_element(frontier_ms.begin(), frontier_ms.end()),
+      Median(frontier_ms) / Median(incremental_ms), Median(frontier_ms) / Median(full_ms),
+      last_frontiers.clusters.size(), last_frontiers.reachable(), last_frontiers.frontier_cells,
+      last_frontiers.known_free_m2);
+  std::printf(
+      "  on every level (FindFrontiersMultiLevel, same maps): median %.1f ms, max %.1f ms; ratio to the main "
+      "level's search %.2f; last: %zu clusters (%d reachable), %d frontier surfaces, %.0f m^2 of surfaces\n",
+      Median(level_frontier_ms), *std::max_element(level_frontier_ms.begin(), level_frontier_ms.end()),
+      Median(level_frontier_ms) / Median(frontier_ms), last_level_frontiers.clusters.size(),
+      last_level_frontiers.reachable(), last_level_frontiers.frontier_cells,
+      last_level_frontiers.known_free_m2);
 
   // Column scans (what every grid rebuild does per x-y column): the word-wise scan down each column of the
   // robot's map after the drive, and of an empty map (the agent's start), against a voxel-by-voxel scan.
@@ -124,16 +132,17 @@ int main() {
       }
     }
     const double voxel_ms = MsSince(t);
-    std::printf("column scans of the %s (%d x %d columns of %d voxels): word-wise %.1f ms, voxel by voxel "
-                "(baseline) %.1f ms, ratio %.1fx%s\n",
-                empty ? "empty map (the agent's start)" : "robot's map after the drive", dims.x(), dims.y(),
-                dims.z(), word_ms, voxel_ms, voxel_ms / word_ms,
-                word_sum == voxel_sum ? "" : " (DIFFERENT OCCUPANCY: a bug)");
+    std::printf(
+        "column scans of the %s (%d x %d columns of %d voxels): word-wise %.1f ms, voxel by voxel "
+        "(baseline) %.1f ms, ratio %.1fx%s\n",
+        empty ? "empty map (the agent's start)" : "robot's map after the drive", dims.x(), dims.y(), dims.z(),
+        word_ms, voxel_ms, voxel_ms / word_ms, word_sum == voxel_sum ? "" : " (DIFFERENT OCCUPANCY: a bug)");
     if (word_sum != voxel_sum) return 1;
   }
 
   // Plan time: the robot's own map (after the drive) against the ground-truth planner on the world.
-  auto truth_planner = std::make_shared<nav::GlobalPlanner>(platform.world(), std::vector<nav::PlatformProfile>{profile});
+  auto truth_planner =
+      std::make_shared<nav::GlobalPlanner>(platform.world(), std::vector<nav::PlatformProfile>{profile});
   const core::BaseState here = platform.ReadPose().PlanarState();
   const std::vector<Eigen::Vector2d> goals = {{30, 12}, {30, 30}, {40, 5}, {20, 35}, {14, 20}};
   std::vector<double> own_ms, truth_ms;
@@ -151,9 +160,10 @@ int main() {
     truth_ok += truth_planner->Plan(request).IsUsable();
     truth_ms.push_back(MsSince(t));
   }
-  std::printf("plan time from (%.1f, %.1f) to %zu goals: own map median %.1f ms (%d planned), ground truth median "
-              "%.1f ms (%d planned), ratio own / truth %.2f\n",
-              here.x_m, here.y_m, goals.size(), Median(own_ms), own_ok, Median(truth_ms), truth_ok,
-              Median(own_ms) / Median(truth_ms));
+  std::printf(
+      "plan time from (%.1f, %.1f) to %zu goals: own map median %.1f ms (%d planned), ground truth median "
+      "%.1f ms (%d planned), ratio own / truth %.2f\n",
+      here.x_m, here.y_m, goals.size(), Median(own_ms), own_ok, Median(truth_ms), truth_ok,
+      Median(own_ms) / Median(truth_ms));
   return 0;
 }

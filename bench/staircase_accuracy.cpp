@@ -1,5 +1,5 @@
-// Staircase detection accuracy (issue 11 §5): precision, recall, rise and run errors of StaircaseDetector over
-// fixed sets of views in
+// Staircase detection accuracy (issue 11 §5): precision, recall, rise and run errors of StaircaseDetector
+// over fixed sets of views in
 //  - every built-in world (sim::BuiltinWorldNames(), so a new world is picked up), exact;
 //  - a survey copy of every built-in world (sim::MakeSurveyScan: floors thinned to 50 points/m², walls keep
 //    70 %, 300 strays; written as a PCD and loaded with the default clean-up, as a user's sparse scan is);
@@ -18,16 +18,18 @@
 // above (on the exact world).
 // Scoring per view: a detection is a true positive when it matches a true flight of the scene: ascending
 // direction within 15 deg, first riser within 0.15 m along the flight and 0.10 m in height of one of the
-// flight's risers (a partial view may start higher), its centre within half the flight's width of the flight's
-// centre line; a second detection of the same flight in a view, and any other detection, is a false
+// flight's risers (a partial view may start higher), its centre within half the flight's width of the
+// flight's centre line; a second detection of the same flight in a view, and any other detection, is a false
 // positive. A flight is expected (counts for recall) in a view whose last sensor position stands on the
-// flight's floor 1.0-4.0 m before its foot inside a 35 deg cone around its axis, with the centres of its first
-// three treads in the lidar's field of view and in line of sight, and at least 3 points of the view's cloud on
-// each of its first three step edges (the top 5 cm of the riser or the first 10 cm of the tread: from a few
-// metres no beam of a 16-beam lidar may fall there, the robot sees them closer). Errors: |rise - true rise|, |run - true run|
-// of the true positives.
-// Usage: cairn_bench_staircase_accuracy [--only SUBSTRING [--view INDEX]] [--verbose] [--geb079 PATH]
+// flight's floor 1.0-4.0 m before its foot inside a 35 deg cone around its axis, with the centres of its
+// first three treads in the lidar's field of view and in line of sight, and at least 3 points of the view's
+// cloud on each of its first three step edges (the top 5 cm of the riser or the first 10 cm of the tread:
+// from a few metres no beam of a 16-beam lidar may fall there, the robot sees them closer). Errors: |rise -
+// true rise|, |run - true run| of the true positives. Usage: cairn_bench_staircase_accuracy [--only SUBSTRING
+// [--view INDEX]] [--verbose] [--geb079 PATH]
 // (--only: scenes whose name contains SUBSTRING; --view: only that view of each; --verbose: every detection.)
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -40,7 +42,6 @@
 #include <memory>
 #include <optional>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 #include "cairn/perception/staircase.h"
@@ -57,14 +58,16 @@ using cairn::sim::World;
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
-// ---- Scoring rules (see the header) ------------------------------------------------------------------------
+// ---- Scoring rules (see the header)
+// ------------------------------------------------------------------------
 constexpr double kMatchYawRad = 15.0 * kDeg;
 constexpr double kMatchAlongM = 0.15;
 constexpr double kMatchHeightM = 0.10;
 constexpr double kExpectMinM = 1.0, kExpectMaxM = 4.0;
 constexpr double kExpectConeRad = 35.0 * kDeg;
 constexpr double kLidarHalfFovRad = 15.0 * kDeg;
-// ---- Views -------------------------------------------------------------------------------------------------
+// ---- Views
+// -------------------------------------------------------------------------------------------------
 constexpr double kSensorHeightM = 0.5;
 constexpr double kDriveM = 1.5;
 constexpr int kScansPerView = 4;
@@ -144,7 +147,8 @@ std::optional<View> Drive(const World& w, const std::string& kind, const Eigen::
 // Views looking at `target` (x, y; on a floor at floor_z_m) along `facing_rad`: from each distance and each
 // angle off that direction.
 void AddViewsOf(Scene* scene, const std::string& kind, const Eigen::Vector2d& target, double facing_rad,
-                double floor_z_m, const std::vector<double>& distances_m, const std::vector<double>& angles_rad) {
+                double floor_z_m, const std::vector<double>& distances_m,
+                const std::vector<double>& angles_rad) {
   for (double d : distances_m) {
     for (double a : angles_rad) {
       const Eigen::Vector2d end = target - d * Dir(facing_rad + a);
@@ -210,7 +214,8 @@ void AddGridViews(Scene* scene) {
   }
 }
 
-// ---- Synthetic scenes (1 cm voxels) ------------------------------------------------------------------------
+// ---- Synthetic scenes (1 cm voxels)
+// ------------------------------------------------------------------------
 
 // Voxels of the scenes with flights (rises of 0.17-0.20 m need 1 cm) and of the other scenes.
 constexpr double kFlightSceneRes = 0.01;
@@ -244,8 +249,8 @@ void FillPrism(World* w, const Eigen::Vector2d& origin, double yaw_rad, double s
   }
 }
 
-void FillBox(World* w, const Eigen::Vector2d& origin, double yaw_rad, double s0, double s1, double t0, double t1,
-             double z0, double z1) {
+void FillBox(World* w, const Eigen::Vector2d& origin, double yaw_rad, double s0, double s1, double t0,
+             double t1, double z0, double z1) {
   FillPrism(w, origin, yaw_rad, s0, s1, t0, t1, z0, [z1](double) { return z1; });
 }
 
@@ -265,7 +270,9 @@ void AddFlight(World* w, const StaircaseFlight& f, double landing_m, bool walls)
   const double len = f.num_steps * f.run_m;
   const double z0 = f.p_W_first_riser.z();
   FillPrism(w, foot, f.yaw_rad, 0.0, len + landing_m, -0.5 * f.width_m, 0.5 * f.width_m, 0.0,
-            [&f, len, z0](double s) { return z0 + f.rise_m * (s < len ? std::floor(s / f.run_m) + 1.0 : f.num_steps); });
+            [&f, len, z0](double s) {
+              return z0 + f.rise_m * (s < len ? std::floor(s / f.run_m) + 1.0 : f.num_steps);
+            });
   if (!walls) return;
   for (int side : {1, -1}) {
     const double t0 = side > 0 ? 0.5 * f.width_m : -0.5 * f.width_m - 0.1;
@@ -298,44 +305,47 @@ struct ObjectTarget {
   Eigen::Vector2d target;
   double facing_rad;
 };
-SceneMaker Synthetic(const std::string& name,
-                     std::function<void(World*, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>*)> build,
-                     bool approach_flights = true, double res_m = kFlightSceneRes) {
+SceneMaker Synthetic(
+    const std::string& name,
+    std::function<void(World*, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>*)> build,
+    bool approach_flights = true, double res_m = kFlightSceneRes) {
   return {name, [name, build, approach_flights, res_m] {
-    auto w = EmptyScene(name, res_m);
-    Scene scene;
-    scene.group = "synthetic scenes (1-2 cm voxels)";
-    scene.name = name;
-    std::vector<ObjectTarget> objects;
-    build(w.get(), &scene.flights, &objects);
-    scene.truth = w;
-    scene.scanned = w;
-    for (const ObjectTarget& o : objects) {
-      AddViewsOf(&scene, "object", o.target, o.facing_rad, 0.0, {1.5, 2.5, 3.5}, {0.0, 30 * kDeg, -30 * kDeg});
-    }
-    if (approach_flights) {
-      AddFlightViews(&scene);
-    } else {  // Side-on only: from both sides, along the flight, looking across the run.
-      for (const StaircaseFlight& f : scene.flights) {
-        const Eigen::Vector2d u = Dir(f.yaw_rad), v(-u.y(), u.x());
-        for (int side : {1, -1}) {
-          for (double along : {0.25, 0.5, 0.75}) {
-            const Eigen::Vector2d at = f.p_W_first_riser.head<2>() + along * f.num_steps * f.run_m * u +
-                                       side * 0.5 * f.width_m * v;
-            AddViewsOf(&scene, "side-on", at, f.yaw_rad - side * 0.5 * kPi, 0.0, {1.5, 2.5, 3.5},
-                       {0.0, 15 * kDeg, -15 * kDeg});
-          }
-        }
-      }
-    }
-    AddGridViews(&scene);
-    return scene;
-  }};
+            auto w = EmptyScene(name, res_m);
+            Scene scene;
+            scene.group = "synthetic scenes (1-2 cm voxels)";
+            scene.name = name;
+            std::vector<ObjectTarget> objects;
+            build(w.get(), &scene.flights, &objects);
+            scene.truth = w;
+            scene.scanned = w;
+            for (const ObjectTarget& o : objects) {
+              AddViewsOf(&scene, "object", o.target, o.facing_rad, 0.0, {1.5, 2.5, 3.5},
+                         {0.0, 30 * kDeg, -30 * kDeg});
+            }
+            if (approach_flights) {
+              AddFlightViews(&scene);
+            } else {  // Side-on only: from both sides, along the flight, looking across the run.
+              for (const StaircaseFlight& f : scene.flights) {
+                const Eigen::Vector2d u = Dir(f.yaw_rad), v(-u.y(), u.x());
+                for (int side : {1, -1}) {
+                  for (double along : {0.25, 0.5, 0.75}) {
+                    const Eigen::Vector2d at = f.p_W_first_riser.head<2>() +
+                                               along * f.num_steps * f.run_m * u + side * 0.5 * f.width_m * v;
+                    AddViewsOf(&scene, "side-on", at, f.yaw_rad - side * 0.5 * kPi, 0.0, {1.5, 2.5, 3.5},
+                               {0.0, 15 * kDeg, -15 * kDeg});
+                  }
+                }
+              }
+            }
+            AddGridViews(&scene);
+            return scene;
+          }};
 }
 
 // A scene without flights, at kObjectSceneRes.
-SceneMaker ObjectScene(const std::string& name,
-                       std::function<void(World*, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>*)> build) {
+SceneMaker ObjectScene(
+    const std::string& name,
+    std::function<void(World*, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>*)> build) {
   return Synthetic(name, std::move(build), true, kObjectSceneRes);
 }
 
@@ -343,49 +353,55 @@ std::vector<SceneMaker> SyntheticScenes() {
   std::vector<SceneMaker> makers;
   const Eigen::Vector2d c(6.0, 6.0);  // Scene centre.
   // A wall, 4 m wide and 2.5 m high, and a 0.9 m parapet at 20 deg.
-  makers.push_back(ObjectScene("wall", [c](World* w, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>* o) {
-    FillBox(w, c + Eigen::Vector2d(0.0, -2.0), 0.5 * kPi, 0.0, 4.0, 0.0, 0.2, 0.0, 2.5);
-    const Eigen::Vector2d parapet = c + Eigen::Vector2d(-4.0, 3.5);
-    FillBox(w, parapet, 20 * kDeg, 0.0, 3.0, 0.0, 0.15, 0.0, 0.9);
-    o->push_back({c, 0.0});
-    o->push_back({parapet + 1.5 * Dir(20 * kDeg), 20 * kDeg + 0.5 * kPi});
-  }));
+  makers.push_back(
+      ObjectScene("wall", [c](World* w, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>* o) {
+        FillBox(w, c + Eigen::Vector2d(0.0, -2.0), 0.5 * kPi, 0.0, 4.0, 0.0, 0.2, 0.0, 2.5);
+        const Eigen::Vector2d parapet = c + Eigen::Vector2d(-4.0, 3.5);
+        FillBox(w, parapet, 20 * kDeg, 0.0, 3.0, 0.0, 0.15, 0.0, 0.9);
+        o->push_back({c, 0.0});
+        o->push_back({parapet + 1.5 * Dir(20 * kDeg), 20 * kDeg + 0.5 * kPi});
+      }));
   // Crates: one 0.6 x 0.4 x 0.45 m; a 1.2 x 1.0 m pallet (0.15 m) with a 0.8 m cube set back on it; a stack
   // of two crates (0.6 x 0.4 x 0.3 m each) at 15 deg.
-  makers.push_back(ObjectScene("crates", [c](World* w, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>* o) {
-    FillBox(w, c + Eigen::Vector2d(0.0, -2.5), 0.0, 0.0, 0.4, 0.0, 0.6, 0.0, 0.45);
-    FillBox(w, c + Eigen::Vector2d(0.0, -0.6), 0.0, 0.0, 1.0, 0.0, 1.2, 0.0, 0.15);
-    FillBox(w, c + Eigen::Vector2d(0.1, -0.4), 0.0, 0.1, 0.9, 0.0, 0.8, 0.15, 0.95);
-    FillBox(w, c + Eigen::Vector2d(0.0, 2.0), 15 * kDeg, 0.0, 0.4, 0.0, 0.6, 0.0, 0.6);
-    for (double dy : {-2.2, 0.0, 2.3}) o->push_back({c + Eigen::Vector2d(0.0, dy), 0.0});
-  }));
+  makers.push_back(
+      ObjectScene("crates", [c](World* w, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>* o) {
+        FillBox(w, c + Eigen::Vector2d(0.0, -2.5), 0.0, 0.0, 0.4, 0.0, 0.6, 0.0, 0.45);
+        FillBox(w, c + Eigen::Vector2d(0.0, -0.6), 0.0, 0.0, 1.0, 0.0, 1.2, 0.0, 0.15);
+        FillBox(w, c + Eigen::Vector2d(0.1, -0.4), 0.0, 0.1, 0.9, 0.0, 0.8, 0.15, 0.95);
+        FillBox(w, c + Eigen::Vector2d(0.0, 2.0), 15 * kDeg, 0.0, 0.4, 0.0, 0.6, 0.0, 0.6);
+        for (double dy : {-2.2, 0.0, 2.3}) o->push_back({c + Eigen::Vector2d(0.0, dy), 0.0});
+      }));
   // A 0.15 m curb, 6 m long, and a 0.27 m kerb 0.3 m behind it (two edges).
-  makers.push_back(ObjectScene("curb", [c](World* w, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>* o) {
-    FillBox(w, c + Eigen::Vector2d(0.0, -3.0), 0.5 * kPi, 0.0, 6.0, -0.2, 0.0, 0.0, 0.15);
-    FillBox(w, c + Eigen::Vector2d(0.3, -3.0), 0.5 * kPi, 0.0, 6.0, -0.2, 0.0, 0.0, 0.27);
-    o->push_back({c, 0.0});
-  }));
+  makers.push_back(
+      ObjectScene("curb", [c](World* w, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>* o) {
+        FillBox(w, c + Eigen::Vector2d(0.0, -3.0), 0.5 * kPi, 0.0, 6.0, -0.2, 0.0, 0.0, 0.15);
+        FillBox(w, c + Eigen::Vector2d(0.3, -3.0), 0.5 * kPi, 0.0, 6.0, -0.2, 0.0, 0.0, 0.27);
+        o->push_back({c, 0.0});
+      }));
   // A table (1.2 x 0.8 m, top 0.72-0.76 m, four legs) and a 0.45 m bench in front of it.
-  makers.push_back(ObjectScene("table", [c](World* w, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>* o) {
-    FillBox(w, c + Eigen::Vector2d(0.5, -0.6), 0.0, 0.0, 0.8, 0.0, 1.2, 0.72, 0.76);
-    for (double ls : {0.0, 0.76}) {
-      for (double lt : {0.0, 1.16}) FillBox(w, c + Eigen::Vector2d(0.5 + ls, -0.6 + lt), 0.0, 0.0, 0.04, 0.0, 0.04, 0.0, 0.72);
-    }
-    FillBox(w, c + Eigen::Vector2d(0.0, -0.6), 0.0, 0.0, 0.3, 0.0, 1.2, 0.0, 0.45);
-    o->push_back({c, 0.0});
-  }));
+  makers.push_back(
+      ObjectScene("table", [c](World* w, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>* o) {
+        FillBox(w, c + Eigen::Vector2d(0.5, -0.6), 0.0, 0.0, 0.8, 0.0, 1.2, 0.72, 0.76);
+        for (double ls : {0.0, 0.76}) {
+          for (double lt : {0.0, 1.16})
+            FillBox(w, c + Eigen::Vector2d(0.5 + ls, -0.6 + lt), 0.0, 0.0, 0.04, 0.0, 0.04, 0.0, 0.72);
+        }
+        FillBox(w, c + Eigen::Vector2d(0.0, -0.6), 0.0, 0.0, 0.3, 0.0, 1.2, 0.0, 0.45);
+        o->push_back({c, 0.0});
+      }));
   // A 15 deg ramp up to 0.8 m, 1.5 m wide, then a platform; a 7 deg ramp beside it.
-  makers.push_back(ObjectScene("ramp", [c](World* w, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>* o) {
-    const double len = 0.8 / std::tan(15 * kDeg);
-    FillPrism(w, c + Eigen::Vector2d(0.0, -2.0), 0.0, 0.0, len + 1.0, 0.0, 1.5, 0.0,
-              [len](double s) { return 0.8 * std::min(s, len) / len; });
-    FillPrism(w, c + Eigen::Vector2d(0.0, 1.0), 0.0, 0.0, 4.0, 0.0, 1.5, 0.0,
-              [](double s) { return s * std::tan(7 * kDeg); });
-    o->push_back({c + Eigen::Vector2d(0.0, -1.25), 0.0});
-    o->push_back({c + Eigen::Vector2d(0.0, 1.75), 0.0});
-  }));
-  // Flights of 8 steps of 0.25 m run, 1 m landing, foot at the centre: (rise, yaw, width, walls), straight and
-  // rotated, open or between walls.
+  makers.push_back(
+      ObjectScene("ramp", [c](World* w, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>* o) {
+        const double len = 0.8 / std::tan(15 * kDeg);
+        FillPrism(w, c + Eigen::Vector2d(0.0, -2.0), 0.0, 0.0, len + 1.0, 0.0, 1.5, 0.0,
+                  [len](double s) { return 0.8 * std::min(s, len) / len; });
+        FillPrism(w, c + Eigen::Vector2d(0.0, 1.0), 0.0, 0.0, 4.0, 0.0, 1.5, 0.0,
+                  [](double s) { return s * std::tan(7 * kDeg); });
+        o->push_back({c + Eigen::Vector2d(0.0, -1.25), 0.0});
+        o->push_back({c + Eigen::Vector2d(0.0, 1.75), 0.0});
+      }));
+  // Flights of 8 steps of 0.25 m run, 1 m landing, foot at the centre: (rise, yaw, width, walls), straight
+  // and rotated, open or between walls.
   struct FlightSpec {
     const char* name;
     double rise_m, yaw_rad, width_m;
@@ -396,26 +412,27 @@ std::vector<SceneMaker> SyntheticScenes() {
                                  FlightSpec{"flight_r19_walled", 0.19, 0.0, 1.0, true},
                                  FlightSpec{"flight_r20_open_yaw-60", 0.20, -60 * kDeg, 1.2, false},
                                  FlightSpec{"flight_r19_open_yaw45", 0.19, 45 * kDeg, 1.0, false}}) {
-    makers.push_back(Synthetic(spec.name, [c, spec](World* w, std::vector<StaircaseFlight>* flights,
-                                                    std::vector<ObjectTarget>*) {
-      flights->push_back(Flight({c.x(), c.y(), 0.0}, spec.yaw_rad, spec.rise_m, spec.width_m));
-      AddFlight(w, flights->back(), 1.0, spec.walls);
-    }));
+    makers.push_back(Synthetic(
+        spec.name, [c, spec](World* w, std::vector<StaircaseFlight>* flights, std::vector<ObjectTarget>*) {
+          flights->push_back(Flight({c.x(), c.y(), 0.0}, spec.yaw_rad, spec.rise_m, spec.width_m));
+          AddFlight(w, flights->back(), 1.0, spec.walls);
+        }));
   }
   // A switchback stairwell: two 1.0 m flights of 8 steps (rise 0.19 m, run 0.25 m) side by side, a 1.2 m
   // landing across both, the upper flight ascending back above the floor beside the lower one (solid below).
-  makers.push_back(Synthetic("switchback", [c](World* w, std::vector<StaircaseFlight>* flights,
-                                               std::vector<ObjectTarget>*) {
-    const StaircaseFlight lower = Flight({c.x(), c.y(), 0.0}, 0.0, 0.19, 1.0);
-    const StaircaseFlight upper = Flight({c.x() + 2.0, c.y() + 1.0, 8 * 0.19}, kPi, 0.19, 1.0);
-    AddFlight(w, lower, 1.2, false);
-    AddFlight(w, upper, 0.5, false);
-    FillBox(w, c + Eigen::Vector2d(2.0, 0.5), 0.0, 0.0, 1.2, 0.0, 1.0, 0.0, 8 * 0.19);  // Landing's other half.
-    flights->push_back(lower);
-    flights->push_back(upper);
-  }));
-  // A flight seen only side-on (8 steps, rise 0.18 m, run 0.25 m, 1.2 m wide, solid to the floor: its sides are
-  // sawtooth profiles on vertical planes).
+  makers.push_back(Synthetic(
+      "switchback", [c](World* w, std::vector<StaircaseFlight>* flights, std::vector<ObjectTarget>*) {
+        const StaircaseFlight lower = Flight({c.x(), c.y(), 0.0}, 0.0, 0.19, 1.0);
+        const StaircaseFlight upper = Flight({c.x() + 2.0, c.y() + 1.0, 8 * 0.19}, kPi, 0.19, 1.0);
+        AddFlight(w, lower, 1.2, false);
+        AddFlight(w, upper, 0.5, false);
+        FillBox(w, c + Eigen::Vector2d(2.0, 0.5), 0.0, 0.0, 1.2, 0.0, 1.0, 0.0,
+                8 * 0.19);  // Landing's other half.
+        flights->push_back(lower);
+        flights->push_back(upper);
+      }));
+  // A flight seen only side-on (8 steps, rise 0.18 m, run 0.25 m, 1.2 m wide, solid to the floor: its sides
+  // are sawtooth profiles on vertical planes).
   makers.push_back(Synthetic(
       "side_on",
       [c](World* w, std::vector<StaircaseFlight>* flights, std::vector<ObjectTarget>*) {
@@ -426,7 +443,8 @@ std::vector<SceneMaker> SyntheticScenes() {
   return makers;
 }
 
-// ---- Worlds ------------------------------------------------------------------------------------------------
+// ---- Worlds
+// ------------------------------------------------------------------------------------------------
 
 std::string TempDir() {
   char pattern[] = "/tmp/cairn_staircase_accuracy_XXXXXX";
@@ -457,16 +475,17 @@ std::shared_ptr<World> SurveyCopy(const World& truth, const cairn::sim::SurveySc
 // at 0.1 m, walls are as sparse as in the copy of geb079 (70 % of the voxels of a face).
 SceneMaker SurveyOf(const SceneMaker& exact, const std::string& group, double res_m = 0.1) {
   return {"survey:" + exact.name, [exact, group, res_m] {
-    Scene scene = exact();
-    scene.group = group;
-    cairn::sim::SurveyScanOptions options;
-    const double scale = scene.truth->resolution_m() / 0.1;
-    options.wall_keep_fraction = std::min(1.0, options.wall_keep_fraction * scale * scale);
-    options.num_strays = 100;  // 144 m² of floor: about the density of the geb079 copy (300 over ~400 m²).
-    scene.scanned = SurveyCopy(*scene.truth, options, 11, scene.name, res_m);
-    scene.name = "survey:" + scene.name;
-    return scene;
-  }};
+            Scene scene = exact();
+            scene.group = group;
+            cairn::sim::SurveyScanOptions options;
+            const double scale = scene.truth->resolution_m() / 0.1;
+            options.wall_keep_fraction = std::min(1.0, options.wall_keep_fraction * scale * scale);
+            options.num_strays =
+                100;  // 144 m² of floor: about the density of the geb079 copy (300 over ~400 m²).
+            scene.scanned = SurveyCopy(*scene.truth, options, 11, scene.name, res_m);
+            scene.name = "survey:" + scene.name;
+            return scene;
+          }};
 }
 
 std::vector<SceneMaker> AllScenes(const std::string& geb079_path) {
@@ -474,38 +493,39 @@ std::vector<SceneMaker> AllScenes(const std::string& geb079_path) {
   std::vector<SceneMaker> surveys;
   for (const std::string& name : cairn::sim::BuiltinWorldNames()) {
     const SceneMaker exact{"builtin:" + name, [name] {
-      auto truth = std::make_shared<World>(cairn::sim::MakeBuiltinWorld(name));
-      Scene scene;
-      scene.group = "built-in worlds";
-      scene.name = "builtin:" + name;
-      scene.truth = truth;
-      scene.scanned = truth;
-      scene.flights = cairn::sim::GetBuiltinWorldInfo(name).staircases;
-      AddFlightViews(&scene);
-      AddGridViews(&scene);
-      return scene;
-    }};
+                             auto truth = std::make_shared<World>(cairn::sim::MakeBuiltinWorld(name));
+                             Scene scene;
+                             scene.group = "built-in worlds";
+                             scene.name = "builtin:" + name;
+                             scene.truth = truth;
+                             scene.scanned = truth;
+                             scene.flights = cairn::sim::GetBuiltinWorldInfo(name).staircases;
+                             AddFlightViews(&scene);
+                             AddGridViews(&scene);
+                             return scene;
+                           }};
     makers.push_back(exact);
     surveys.push_back(SurveyOf(exact, "survey copies (0.1 m) of the built-in worlds"));
   }
   makers.insert(makers.end(), surveys.begin(), surveys.end());
   makers.push_back({"geb079-degraded", [geb079_path] {
-    Scene scene;
-    scene.group = "degraded geb079 (0.1 m)";
-    scene.name = "geb079-degraded";
-    if (!std::ifstream(geb079_path).good()) {
-      std::printf("  %s is absent: degraded geb079 skipped (it lives in data)\n", geb079_path.c_str());
-      return scene;
-    }
-    cairn::sim::WorldLoadOptions raw;
-    raw.support_radius_m = 0.0;
-    raw.fill_hole_max_m = 0.0;
-    auto truth = std::make_shared<World>(cairn::sim::LoadWorld(geb079_path, raw));
-    scene.truth = truth;
-    scene.scanned = SurveyCopy(*truth, cairn::sim::DegradedGeb079Options(), 79, "geb079");
-    AddGridViews(&scene);
-    return scene;
-  }});
+                      Scene scene;
+                      scene.group = "degraded geb079 (0.1 m)";
+                      scene.name = "geb079-degraded";
+                      if (!std::ifstream(geb079_path).good()) {
+                        std::printf("  %s is absent: degraded geb079 skipped (it lives in data)\n",
+                                    geb079_path.c_str());
+                        return scene;
+                      }
+                      cairn::sim::WorldLoadOptions raw;
+                      raw.support_radius_m = 0.0;
+                      raw.fill_hole_max_m = 0.0;
+                      auto truth = std::make_shared<World>(cairn::sim::LoadWorld(geb079_path, raw));
+                      scene.truth = truth;
+                      scene.scanned = SurveyCopy(*truth, cairn::sim::DegradedGeb079Options(), 79, "geb079");
+                      AddGridViews(&scene);
+                      return scene;
+                    }});
   const std::vector<SceneMaker> synthetic = SyntheticScenes();
   makers.insert(makers.end(), synthetic.begin(), synthetic.end());
   // Survey copies: objects at the loader's default 0.1 m (the false positives users met); flights at 0.05 m,
@@ -518,7 +538,8 @@ std::vector<SceneMaker> AllScenes(const std::string& geb079_path) {
   return makers;
 }
 
-// ---- Scoring -----------------------------------------------------------------------------------------------
+// ---- Scoring
+// -----------------------------------------------------------------------------------------------
 
 // Match of a detection with a true flight: the flight riser its first riser lies on, or nothing.
 std::optional<int> MatchRiser(const Staircase& d, const StaircaseFlight& f) {
@@ -528,7 +549,8 @@ std::optional<int> MatchRiser(const Staircase& d, const StaircaseFlight& f) {
   const int k = static_cast<int>(std::lround(u.dot(rel) / f.run_m));
   if (k < 0 || k >= f.num_steps) return std::nullopt;
   if (std::abs(u.dot(rel) - k * f.run_m) > kMatchAlongM) return std::nullopt;
-  if (std::abs(d.p_W_first_step.z() - (f.p_W_first_riser.z() + k * f.rise_m)) > kMatchHeightM) return std::nullopt;
+  if (std::abs(d.p_W_first_step.z() - (f.p_W_first_riser.z() + k * f.rise_m)) > kMatchHeightM)
+    return std::nullopt;
   if (std::abs(v.dot(rel)) > 0.5 * f.width_m) return std::nullopt;
   return k;
 }
@@ -604,9 +626,10 @@ std::string Ratio(int num, int den) {
 
 std::string Describe(const Staircase& d) {
   char buf[200];
-  std::snprintf(buf, sizeof(buf), "(%.2f, %.2f, %.2f) yaw %.0f deg, %d steps, rise %.3f, run %.3f, width %.2f",
-                d.p_W_first_step.x(), d.p_W_first_step.y(), d.p_W_first_step.z(), d.yaw_rad / kDeg, d.num_steps,
-                d.rise_m, d.run_m, d.width_m);
+  std::snprintf(buf, sizeof(buf),
+                "(%.2f, %.2f, %.2f) yaw %.0f deg, %d steps, rise %.3f, run %.3f, width %.2f",
+                d.p_W_first_step.x(), d.p_W_first_step.y(), d.p_W_first_step.z(), d.yaw_rad / kDeg,
+                d.num_steps, d.rise_m, d.run_m, d.width_m);
   return buf;
 }
 
@@ -642,7 +665,8 @@ Tally RunScene(const Scene& scene, const cairn::perception::StaircaseDetector& d
     ++t.views;
     std::vector<bool> expected(scene.flights.size()), seen(scene.flights.size(), false);
     for (std::size_t i = 0; i < scene.flights.size(); ++i) {
-      expected[i] = Expected(*scene.truth, scene.flights[i], p, view.floor_z_m) && StepEdgesSeen(points, scene.flights[i]);
+      expected[i] = Expected(*scene.truth, scene.flights[i], p, view.floor_z_m) &&
+                    StepEdgesSeen(points, scene.flights[i]);
       t.expected += expected[i];
     }
     for (const Staircase& d : found) {
@@ -653,7 +677,8 @@ Tally RunScene(const Scene& scene, const cairn::perception::StaircaseDetector& d
       if (match < 0) {
         ++t.fp;
         std::printf("    FP %s view %zu (%s) at (%.2f, %.2f, %.2f) yaw %.0f: %s\n", scene.name.c_str(), vi,
-                    view.kind.c_str(), p.x(), p.y(), p.z(), view.poses.back().yaw_rad / kDeg, Describe(d).c_str());
+                    view.kind.c_str(), p.x(), p.y(), p.z(), view.poses.back().yaw_rad / kDeg,
+                    Describe(d).c_str());
         continue;
       }
       const StaircaseFlight& f = scene.flights[static_cast<std::size_t>(match)];
@@ -679,9 +704,10 @@ Tally RunScene(const Scene& scene, const cairn::perception::StaircaseDetector& d
     }
     for (std::size_t i = 0; i < scene.flights.size(); ++i) {
       if (expected[i] && !seen[i]) {
-        std::printf("    FN %s view %zu (%s) at (%.2f, %.2f, %.2f) yaw %.0f: flight %zu missed (rejected: %s)\n",
-                    scene.name.c_str(), vi, view.kind.c_str(), p.x(), p.y(), p.z(),
-                    view.poses.back().yaw_rad / kDeg, i, Rejections(stats).c_str());
+        std::printf(
+            "    FN %s view %zu (%s) at (%.2f, %.2f, %.2f) yaw %.0f: flight %zu missed (rejected: %s)\n",
+            scene.name.c_str(), vi, view.kind.c_str(), p.x(), p.y(), p.z(), view.poses.back().yaw_rad / kDeg,
+            i, Rejections(stats).c_str());
       }
     }
   }
@@ -689,9 +715,10 @@ Tally RunScene(const Scene& scene, const cairn::perception::StaircaseDetector& d
 }
 
 void PrintRow(const std::string& name, const Tally& t) {
-  std::printf("| %s | %d | %d | %d | %d | %d | %s | %s | %s | %s |\n", name.c_str(), t.views, t.expected, t.tp, t.fp,
-              t.expected - t.found, Ratio(t.tp, t.tp + t.fp).c_str(), Ratio(t.found, t.expected).c_str(),
-              MedianMaxCm(t.rise_err_m).c_str(), MedianMaxCm(t.run_err_m).c_str());
+  std::printf("| %s | %d | %d | %d | %d | %d | %s | %s | %s | %s |\n", name.c_str(), t.views, t.expected,
+              t.tp, t.fp, t.expected - t.found, Ratio(t.tp, t.tp + t.fp).c_str(),
+              Ratio(t.found, t.expected).c_str(), MedianMaxCm(t.rise_err_m).c_str(),
+              MedianMaxCm(t.run_err_m).c_str());
 }
 
 }  // namespace
@@ -711,12 +738,14 @@ int main(int argc, char** argv) {
     } else if (std::strcmp(argv[i], "--verbose") == 0) {
       verbose = true;
     } else {
-      std::fprintf(stderr, "usage: %s [--only SUBSTRING [--view INDEX]] [--verbose] [--geb079 PATH]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--only SUBSTRING [--view INDEX]] [--verbose] [--geb079 PATH]\n",
+                   argv[0]);
       return 2;
     }
   }
   const auto t0 = std::chrono::steady_clock::now();
-  std::printf("Staircase detection accuracy (scoring rules: bench/staircase_accuracy.cpp)\nBuilding scenes:\n");
+  std::printf(
+      "Staircase detection accuracy (scoring rules: bench/staircase_accuracy.cpp)\nBuilding scenes:\n");
   const std::vector<SceneMaker> makers = AllScenes(geb079);
   const cairn::perception::StaircaseDetector detector;
   std::map<std::string, Tally> groups;
@@ -737,13 +766,16 @@ int main(int argc, char** argv) {
     if (groups.count(scene.group) == 0) group_order.push_back(scene.group);
     groups[scene.group].Add(t);
   }
-  std::printf("\nPer scene: views, expected flights (view x flight), true positives, false positives, missed, "
-              "precision, recall, |rise error| and |run error| median / max (cm)\n\n");
-  std::printf("| scene | views | expected | TP | FP | missed | precision | recall | rise err cm | run err cm |\n");
+  std::printf(
+      "\nPer scene: views, expected flights (view x flight), true positives, false positives, missed, "
+      "precision, recall, |rise error| and |run error| median / max (cm)\n\n");
+  std::printf(
+      "| scene | views | expected | TP | FP | missed | precision | recall | rise err cm | run err cm |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& [name, t] : rows) PrintRow(name, t);
   std::printf("\nPer group\n\n");
-  std::printf("| group | views | expected | TP | FP | missed | precision | recall | rise err cm | run err cm |\n");
+  std::printf(
+      "| group | views | expected | TP | FP | missed | precision | recall | rise err cm | run err cm |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   Tally all;
   for (const std::string& g : group_order) {
@@ -751,12 +783,14 @@ int main(int argc, char** argv) {
     all.Add(groups[g]);
   }
   PrintRow("**all**", all);
-  std::printf("\nFIGURE staircase_accuracy views %d expected %d tp %d fp %d missed %d precision %s recall %s "
-              "rise_err_cm(median/max) %s run_err_cm(median/max) %s run_err_cm_on_0.25m_runs(median/max) %s "
-              "(%zu detections) wall_s %.0f\n",
-              all.views, all.expected, all.tp, all.fp, all.expected - all.found, Ratio(all.tp, all.tp + all.fp).c_str(),
-              Ratio(all.found, all.expected).c_str(), MedianMaxCm(all.rise_err_m).c_str(),
-              MedianMaxCm(all.run_err_m).c_str(), MedianMaxCm(all.run25_err_m).c_str(), all.run25_err_m.size(),
-              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  std::printf(
+      "\nFIGURE staircase_accuracy views %d expected %d tp %d fp %d missed %d precision %s recall %s "
+      "rise_err_cm(median/max) %s run_err_cm(median/max) %s run_err_cm_on_0.25m_runs(median/max) %s "
+      "(%zu detections) wall_s %.0f\n",
+      all.views, all.expected, all.tp, all.fp, all.expected - all.found,
+      Ratio(all.tp, all.tp + all.fp).c_str(), Ratio(all.found, all.expected).c_str(),
+      MedianMaxCm(all.rise_err_m).c_str(), MedianMaxCm(all.run_err_m).c_str(),
+      MedianMaxCm(all.run25_err_m).c_str(), all.run25_err_m.size(),
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   return 0;
 }

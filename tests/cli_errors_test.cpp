@@ -51,21 +51,29 @@ void ExpectRefused(const Outcome& o, const std::string& needle) {
   EXPECT_NE(o.exit_code, 0);
   EXPECT_EQ(o.stdout_text.find("READY"), std::string::npos) << "the agent started despite bad input";
   EXPECT_NE((o.stderr_text + o.stdout_text).find(needle), std::string::npos)
-      << "expected '" << needle << "' in:\n" << o.stderr_text << o.stdout_text;
+      << "expected '" << needle << "' in:\n"
+      << o.stderr_text << o.stdout_text;
 }
 
 TEST(AgentCli, RefusesBadFlagsNamingTheValue) {
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", "300"}), "--domain 300 is out of range");
-  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", "x1"}), "--domain 'x1' is not an integer");
-  // Issue 15: ' 150' was taken while '150 ' was refused; a missing --map-save folder was found at exit (exit 0).
-  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", " 150"}), "--domain ' 150' is not an integer");
-  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", "150 "}), "--domain '150 ' is not an integer");
-  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--map-save", "/nonexistent/dir/map.bt"}),
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", "x1"}),
+                "--domain 'x1' is not an integer");
+  // Issue 15: ' 150' was taken while '150 ' was refused; a missing --map-save folder was found at exit (exit
+  // 0).
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", " 150"}),
+                "--domain ' 150' is not an integer");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", "150 "}),
+                "--domain '150 ' is not an integer");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--map-save",
+                            "/nonexistent/dir/map.bt"}),
                 "--map-save '/nonexistent/dir/map.bt': its folder '/nonexistent/dir' does not exist");
-  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--map-save", ::testing::TempDir()}),
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--map-save",
+                            ::testing::TempDir()}),
                 "is a directory, not a file");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--start", "1,nan"}), "'nan' is not a finite number");
-  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--platform", "hover"}), "platform 'hover' is not supported");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--platform", "hover"}),
+                "platform 'hover' is not supported");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r 1"}), "robot id 'r 1'");
   ExpectRefused(RunProcess({kAgent}), "--robot-id is required");
   // The fault-injection test hook names the part at fault.
@@ -77,12 +85,14 @@ TEST(AgentCli, RefusesBadFlagsNamingTheValue) {
                 "AFTER_S \"-1\" is not a number of seconds >= 0");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--inject-fault", "mux:hang:5"}),
                 "a hang of mux would hang the control cycle");
-  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--start", "-50,-50", "--domain", "71"}),
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--start", "-50,-50",
+                            "--domain", "71"}),
                 "is not free ground");
 }
 
 TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
-  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "/nonexistent/map.bt"}), "/nonexistent/map.bt");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "/nonexistent/map.bt"}),
+                "/nonexistent/map.bt");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:atlantis"}), "atlantis");
   const std::string corrupt = WriteFile("corrupt.bt", "# Octomap OcTree binary file\nthis is not a tree\n");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", corrupt}), corrupt);
@@ -90,13 +100,16 @@ TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--config", config}),
                 "mux.teleop_timeout_s = 'fast' is not a number");
   // Issue 15: a key written twice was accepted (the first one read, the second silently ignored).
-  const std::string twice = WriteFile("twice.yaml", "mux:\n  teleop_timeout_s: 0.5\nexplore:\n  settle_s: 1\n"
-                                                    "mux:\n  teleop_timeout_s: 2\n");
+  const std::string twice = WriteFile("twice.yaml",
+                                      "mux:\n  teleop_timeout_s: 0.5\nexplore:\n  settle_s: 1\n"
+                                      "mux:\n  teleop_timeout_s: 2\n");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--config", twice}),
                 "twice.yaml: mux appears twice (line 5): remove one");
-  const std::string tree = WriteFile("tree.xml", "<root BTCPP_format=\"4\"><BehaviorTree ID=\"T\"><Nope/>"
-                                                 "</BehaviorTree></root>");
-  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--mode-tree", tree}), "Nope");
+  const std::string tree = WriteFile("tree.xml",
+                                     "<root BTCPP_format=\"4\"><BehaviorTree ID=\"T\"><Nope/>"
+                                     "</BehaviorTree></root>");
+  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--mode-tree", tree}),
+                "Nope");
   // Issue 9: a branch naming a channel the mux does not have is refused at load, naming branch and channel
   // (it used to load, and `stop` then left the twist on).
   std::ifstream shipped(std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml");
@@ -105,15 +118,18 @@ TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
   ASSERT_NE(xml.find(teleop), std::string::npos);
   xml.replace(xml.find(teleop), teleop.size(), R"(channel="warp")");
   const std::string warp = WriteFile("warp_tree.xml", xml);
-  const Outcome refused = RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--mode-tree", warp});
+  const Outcome refused =
+      RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--mode-tree", warp});
   ExpectRefused(refused, "branch 'manual'");
   ExpectRefused(refused, "mux channel 'warp', which the mux does not have");
-  const std::string profiles = WriteFile("wide.xml",
-                                         "<?xml version=\"1.0\"?><dds xmlns=\"http://www.eprosima.com/XMLSchemas/"
-                                         "fastRTPS_Profiles\"><profiles><participant profile_name=\"cairn.loopback\">"
-                                         "<rtps></rtps></participant></profiles></dds>");
-  ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--dds-profiles", profiles}),
-                "not loopback-only");
+  const std::string profiles =
+      WriteFile("wide.xml",
+                "<?xml version=\"1.0\"?><dds xmlns=\"http://www.eprosima.com/XMLSchemas/"
+                "fastRTPS_Profiles\"><profiles><participant profile_name=\"cairn.loopback\">"
+                "<rtps></rtps></participant></profiles></dds>");
+  ExpectRefused(
+      RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--dds-profiles", profiles}),
+      "not loopback-only");
 }
 
 // The shipped mode tree with `copies` more manual branches in front of its own.
@@ -200,8 +216,10 @@ TEST(SecureFlag, RefusesAMissingFolderAndAMissingIdentityNamingThem) {
 }
 
 TEST(BaseCli, RefusesBadFlagsAndCommands) {
-  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "233", "--", "robots"}), "--domain 233 is out of range");
-  ExpectRefused(RunProcess({kBase, "--base-id", "op A", "--domain", "72", "--", "robots"}), "--base-id 'op A'");
+  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "233", "--", "robots"}),
+                "--domain 233 is out of range");
+  ExpectRefused(RunProcess({kBase, "--base-id", "op A", "--domain", "72", "--", "robots"}),
+                "--base-id 'op A'");
   // Issue 15: a folder as --script ran nothing and exited 0.
   ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--script", ::testing::TempDir()}),
                 "is a folder, not a file");
@@ -214,16 +232,20 @@ TEST(BaseCli, RefusesBadFlagsAndCommands) {
   o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--", "warp", "r1"});
   EXPECT_EQ(o.exit_code, 2);
   EXPECT_NE(o.stdout_text.find("unknown command 'warp'"), std::string::npos) << o.stdout_text;
-  o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--command-timeout", "1", "--", "request-control", "r9"});
+  o = RunProcess(
+      {kBase, "--base-id", "opA", "--domain", "72", "--command-timeout", "1", "--", "request-control", "r9"});
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_NE(o.stdout_text.find("unknown robot 'r9'"), std::string::npos) << o.stdout_text;
-  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--discovery-wait", "0", "--", "robots"}),
-                "--discovery-wait 0.000000 must be in (0, 60] s");
+  ExpectRefused(
+      RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--discovery-wait", "0", "--", "robots"}),
+      "--discovery-wait 0.000000 must be in (0, 60] s");
   // The GUI's flags.
-  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--gui", "--listen", "localhost:8080"}),
-                "--listen 'localhost:8080': 'localhost' is not an IP address");
-  ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--gui", "--listen", "127.0.0.1:80800"}),
-                "port '80800' must be an integer in [0, 65535]");
+  ExpectRefused(
+      RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--gui", "--listen", "localhost:8080"}),
+      "--listen 'localhost:8080': 'localhost' is not an IP address");
+  ExpectRefused(
+      RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--gui", "--listen", "127.0.0.1:80800"}),
+      "port '80800' must be an integer in [0, 65535]");
   ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--listen", "127.0.0.1:9000"}),
                 "--listen, --gui-root and --gui-map-kBps need --gui");
   ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--gui", "--listen", "127.0.0.1:0",

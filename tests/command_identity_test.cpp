@@ -86,8 +86,8 @@ double SecondsToRest(Observer& observer, const std::string& robot, std::chrono::
 TEST(CommandIdentity, AFirstCommandWaitsForARobotNotYetDiscoveredBeyondItsTimeout) {
   const int domain = 57;
   const std::string logs = Logs("discovery_wait");
-  ChildProcess base({kBase, "--base-id", "opA", "--domain", std::to_string(domain), "--json", "--command-timeout",
-                     "0.5", "--discovery-wait", "20", "--", "request-control", "r1"},
+  ChildProcess base({kBase, "--base-id", "opA", "--domain", std::to_string(domain), "--json",
+                     "--command-timeout", "0.5", "--discovery-wait", "20", "--", "request-control", "r1"},
                     logs + "/base.log");
   base.CloseStdin();
   auto agent = StartAgent("r1", domain, logs);  // ready after the command's 0.5 s have passed
@@ -238,8 +238,8 @@ class RawBasestation {
           received_.push_back(m);
         });
     msgs::AgentInfo info;
-    // Announced with at most 64 characters: agent_id is AgentInfo's key, which Fast DDS hashes through a buffer
-    // sized for 255 (a longer one throws in the writer).
+    // Announced with at most 64 characters: agent_id is AgentInfo's key, which Fast DDS hashes through a
+    // buffer sized for 255 (a longer one throws in the writer).
     info.agent_id(base_id.substr(0, 64));
     info.kind(msgs::AGENT_KIND_BASESTATION);
     info.platform("basestation");
@@ -361,9 +361,9 @@ TEST(CommandIdentity, AGenuineRetryIsAnsweredFromTheCacheAndAppliedOnce) {
   EXPECT_EQ(count("waypoint " + std::to_string(goal_id) + " to"), 1u) << text;
 }
 
-// Issue 15, found with a rogue peer: a ControlRequest with a 100 kB base id got the lock (and the id then rode
-// in every state message), and an unknown action (99) was taken as REQUEST. Now the first is dropped (one
-// warning, not one per message) and the second refused, naming the action; the lock stays free.
+// Issue 15, found with a rogue peer: a ControlRequest with a 100 kB base id got the lock (and the id then
+// rode in every state message), and an unknown action (99) was taken as REQUEST. Now the first is dropped
+// (one warning, not one per message) and the second refused, naming the action; the lock stays free.
 TEST(CommandIdentity, ARoguePeersOversizedIdAndUnknownActionAreRefused) {
   const int domain = 75;
   const std::string logs = Logs("rogue");
@@ -404,8 +404,9 @@ TEST(CommandIdentity, ARoguePeersOversizedIdAndUnknownActionAreRefused) {
     ++warnings;
   }
   EXPECT_EQ(warnings, 1u) << "20 messages in 2 s: one warning (at most one per 5 s)";
-  EXPECT_NE(text.find("base id '" + std::string(64, 'x') + "...' (100000 characters) must be 1-64 characters"),
-            std::string::npos);
+  EXPECT_NE(
+      text.find("base id '" + std::string(64, 'x') + "...' (100000 characters) must be 1-64 characters"),
+      std::string::npos);
 }
 
 // Issue 15: two basestations race for r1's lock, each from its own process and thread: request-control, and

@@ -1,10 +1,11 @@
 // Exploration over DDS, multi-process (issue 14): two wheeled robots that know nothing are sent exploring the
-// west half of builtin:tunnels and its X junction (a region) from a basestation's CLI; only the lock's holder may
-// send one, a malformed region is refused naming it, and the robots explore by themselves, sharing claims and
-// coverage over cairn/explore_claim (never one frontier for two, neither mapping it all, the traffic measured),
-// until each reports "exploration complete", then stand idle with their explored area and frontier count shown
-// by `status` and `frontiers`; they never touch a wall. Scored against the world's ground truth. Then `home` brings it back to its start, and a robot exploring
-// with --home-after-silence comes back by itself once no basestation is left. All processes run in this test's private network namespace
+// west half of builtin:tunnels and its X junction (a region) from a basestation's CLI; only the lock's holder
+// may send one, a malformed region is refused naming it, and the robots explore by themselves, sharing claims
+// and coverage over cairn/explore_claim (never one frontier for two, neither mapping it all, the traffic
+// measured), until each reports "exploration complete", then stand idle with their explored area and frontier
+// count shown by `status` and `frontiers`; they never touch a wall. Scored against the world's ground truth.
+// Then `home` brings it back to its start, and a robot exploring with --home-after-silence comes back by
+// itself once no basestation is left. All processes run in this test's private network namespace
 // (tests/netns_run.sh).
 #include <filesystem>
 #include <map>
@@ -49,9 +50,10 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
   Observer observer(domain);
   Base op("opA", domain, logs);
   Base other("opB", domain, logs);
-  auto robot = std::make_unique<ChildProcess>(
-      std::vector<std::string>{kAgent, "--robot-id", "ex1", "--start", "4,20,0", "--domain", std::to_string(domain)},
-      logs + "/ex1.log");
+  auto robot =
+      std::make_unique<ChildProcess>(std::vector<std::string>{kAgent, "--robot-id", "ex1", "--start",
+                                                              "4,20,0", "--domain", std::to_string(domain)},
+                                     logs + "/ex1.log");
   ASSERT_TRUE(robot->WaitForLine("READY", 60s)) << "see " << logs;
   ASSERT_TRUE(op.Run("wait ex1 online 5")["ok"]);
 
@@ -77,9 +79,10 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
 
   // A second robot, 3 m down the tunnel: the two share the region. Each tells the other what it goes for and,
   // every few seconds, the floor it has seen (cairn/explore_claim), so neither explores the other's branch.
-  auto robot2 = std::make_unique<ChildProcess>(
-      std::vector<std::string>{kAgent, "--robot-id", "ex2", "--start", "7,20,0", "--domain", std::to_string(domain)},
-      logs + "/ex2.log");
+  auto robot2 =
+      std::make_unique<ChildProcess>(std::vector<std::string>{kAgent, "--robot-id", "ex2", "--start",
+                                                              "7,20,0", "--domain", std::to_string(domain)},
+                                     logs + "/ex2.log");
   ASSERT_TRUE(robot2->WaitForLine("READY", 60s)) << "see " << logs;
   ASSERT_TRUE(op.Run("wait ex2 online 5")["ok"]);
   ASSERT_TRUE(op.Run("request-control ex2")["ok"]);
@@ -92,7 +95,8 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
   r = op.Run("explore ex1 --region 0,15,32,25 --wait 300", 320s);
   const double explore_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_TRUE(r["ok"]) << r << "; see " << logs;
-  EXPECT_NE(r["reason"].get<std::string>().find("exploration complete: no reachable frontier"), std::string::npos)
+  EXPECT_NE(r["reason"].get<std::string>().find("exploration complete: no reachable frontier"),
+            std::string::npos)
       << r;
   EXPECT_FALSE(op.progress_lines().empty()) << "--wait prints progress";
   for (auto deadline = Clock::now() + 240s;
@@ -111,11 +115,12 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
     own_m2.push_back(e["explored_m2"].get<double>());
     peer_seen_m2.push_back(e["peer_seen_m2"].get<double>());
   }
-  // Each mapped the region (they drive the same tunnel: the lidar sees it all) and heard what the other had seen
-  // (the peer's coverage bitmap over DDS: no gain in it for its frontiers).
+  // Each mapped the region (they drive the same tunnel: the lidar sees it all) and heard what the other had
+  // seen (the peer's coverage bitmap over DDS: no gain in it for its frontiers).
   const double truth_m2 = TrueFloorM2(0, 15, 32, 25);
   EXPECT_GE(std::max(own_m2[0], own_m2[1]), 0.85 * truth_m2) << own_m2[0] << ", " << own_m2[1];
-  EXPECT_GE(std::min(peer_seen_m2[0], peer_seen_m2[1]), 0.5 * truth_m2) << peer_seen_m2[0] << ", " << peer_seen_m2[1];
+  EXPECT_GE(std::min(peer_seen_m2[0], peer_seen_m2[1]), 0.5 * truth_m2)
+      << peer_seen_m2[0] << ", " << peer_seen_m2[1];
   r = op.Run("frontiers ex1");
   ASSERT_TRUE(r["ok"]) << r;
   EXPECT_EQ(r["state"], "complete") << r;
@@ -158,7 +163,8 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
   double team_bits_per_s = 0;
   for (const auto& robot_link : r["robots"]) {
     for (const auto& usage : robot_link["usage"]) {
-      if (usage["topic_class"] == "team") team_bits_per_s += 8.0 * usage["sent_bytes"].get<double>() / team_s / 2;
+      if (usage["topic_class"] == "team")
+        team_bits_per_s += 8.0 * usage["sent_bytes"].get<double>() / team_s / 2;
     }
   }
   EXPECT_GT(team_bits_per_s, 0) << r;
@@ -167,7 +173,8 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
   // Neither touched a wall, and they stand still.
   for (const char* id : {"ex1", "ex2"}) {
     for (const auto& s : observer.History(id)) {
-      ASSERT_FALSE(s.in_contact()) << "contact at " << FormatState(s) << "\n" << TrackBeforeContact(observer.History(id));
+      ASSERT_FALSE(s.in_contact()) << "contact at " << FormatState(s) << "\n"
+                                   << TrackBeforeContact(observer.History(id));
     }
     EXPECT_LT(std::abs(observer.FreshState(id).twist_B().linear_x_mps()), 0.05);
   }
@@ -190,7 +197,8 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
   r = op.Run("home ex1 --wait 120", 130s);
   ASSERT_TRUE(r["ok"]) << r;
   cairn_msgs::RobotState at = observer.FreshState("ex1");
-  const double home_error_m = std::hypot(at.pose_MB().position().x_m() - 4.0, at.pose_MB().position().y_m() - 20.0);
+  const double home_error_m =
+      std::hypot(at.pose_MB().position().x_m() - 4.0, at.pose_MB().position().y_m() - 20.0);
   EXPECT_LT(home_error_m, 1.0) << FormatState(at);
   Figure("home_from_m", away_m);
   Figure("home_error_m", home_error_m);
@@ -217,7 +225,8 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
            std::hypot(at.pose_MB().position().x_m() - 4.0, at.pose_MB().position().y_m() - 20.0) < 1.0;
     std::this_thread::sleep_for(200ms);
   }
-  ASSERT_TRUE(home) << FormatState(at) << ", exploration " << at.explore_state() << ": " << at.explore_reason();
+  ASSERT_TRUE(home) << FormatState(at) << ", exploration " << at.explore_state() << ": "
+                    << at.explore_reason();
   EXPECT_EQ(at.explore_state(), "stopped");
   EXPECT_NE(at.explore_reason().find("no basestation heard for"), std::string::npos) << at.explore_reason();
   Figure("lost_link_home_s", std::chrono::duration<double>(Clock::now() - silent_since).count());

@@ -2,11 +2,11 @@
 // cairn_sim and cairn_nav).
 #pragma once
 
-#include <cstdio>
-#include <string>
+#include <gtest/gtest.h>
 
 #include <Eigen/Core>
-#include <gtest/gtest.h>
+#include <cstdio>
+#include <string>
 
 #include "cairn/nav/astar.h"
 #include "cairn/nav/sampling.h"
@@ -24,7 +24,8 @@ inline Eigen::Vector2d GoalAtPathLength(const cairn_msgs::RobotState& start, dou
   const Eigen::Vector2d p_start(start.pose_MB().position().x_m(), start.pose_MB().position().y_m());
   for (const auto& c : nav::SampleFreeStarts(grid, 80, 1.0, 4321)) {
     const nav::PlanResult plan = nav::PlanPath(grid, p_start, c.head<2>(), nav::AStarOptions{});
-    if (plan.status == nav::PlanResult::Status::kSuccess && plan.length_m >= min_m && plan.length_m <= max_m) {
+    if (plan.status == nav::PlanResult::Status::kSuccess && plan.length_m >= min_m &&
+        plan.length_m <= max_m) {
       return c.head<2>();
     }
   }

@@ -2,22 +2,21 @@
 // --json mode, and figure reporting. Everything runs in the test's private network namespace.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <signal.h>
 
 #include <chrono>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
-#include <memory>
 #include <map>
+#include <memory>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <thread>
 #include <vector>
-
-#include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include "cairn/core/dds.h"
 #include "cairn/msgs/robot_state.h"
@@ -28,8 +27,8 @@
 namespace cairn::testing_util {
 
 using namespace std::chrono_literals;
-using nlohmann::json;
 using ::cairn::testing::ChildProcess;
+using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 const std::string kAgent = std::string(CAIRN_BINARY_DIR) + "/robot_agent/cairn_agent";
@@ -71,11 +70,12 @@ class Observer {
           std::lock_guard<std::mutex> lock(mutex_);
           last_teleop_[t.robot_id()] = t;
         });
-    goals_ = std::make_unique<core::Writer<cairn_msgs::WaypointGoalPubSubType>>(*participant_, "cairn/waypoint_goal",
-                                                                               "cairn.command");
+    goals_ = std::make_unique<core::Writer<cairn_msgs::WaypointGoalPubSubType>>(
+        *participant_, "cairn/waypoint_goal", "cairn.command");
     // Exploring robots' claims, as their peers hear them, with their arrival time.
     claims_ = std::make_unique<core::Reader<cairn_msgs::ExploreClaimPubSubType>>(
-        *participant_, "cairn/explore_claim", "cairn.latched", [this](const cairn_msgs::ExploreClaim& c, const auto&) {
+        *participant_, "cairn/explore_claim", "cairn.latched",
+        [this](const cairn_msgs::ExploreClaim& c, const auto&) {
           std::lock_guard<std::mutex> lock(mutex_);
           claim_log_.push_back({Clock::now(), c});
         });
@@ -146,36 +146,41 @@ inline double YawOf(const cairn_msgs::RobotState& s) {
   return std::atan2(2.0 * (q.w() * q.z() + q.x() * q.y()), 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z()));
 }
 
-// One state as a line: stamp, pose (metres, degrees), measured and commanded twist, the mux's and navigation's
-// reasons.
+// One state as a line: stamp, pose (metres, degrees), measured and commanded twist, the mux's and
+// navigation's reasons.
 inline std::string FormatState(const cairn_msgs::RobotState& s) {
   const auto& p = s.pose_MB().position();
   const double yaw_deg = YawOf(s) * 180.0 / M_PI;
   char line[512];
-  std::snprintf(line, sizeof(line), "  t %.2f (%.2f, %.2f, %.2f) yaw %.0f v %.2f w %.2f cmd %.2f %.2f%s mux '%s' nav '%.160s'\n",
+  std::snprintf(line, sizeof(line),
+                "  t %.2f (%.2f, %.2f, %.2f) yaw %.0f v %.2f w %.2f cmd %.2f %.2f%s mux '%s' nav '%.160s'\n",
                 WallSeconds(s.stamp()), p.x_m(), p.y_m(), p.z_m(), yaw_deg, s.twist_B().linear_x_mps(),
-                s.twist_B().angular_z_radps(), s.cmd_twist_B().linear_x_mps(), s.cmd_twist_B().angular_z_radps(),
-                s.in_contact() ? " CONTACT" : "", s.mux_reason().c_str(), s.nav_reason().c_str());
+                s.twist_B().angular_z_radps(), s.cmd_twist_B().linear_x_mps(),
+                s.cmd_twist_B().angular_z_radps(), s.in_contact() ? " CONTACT" : "", s.mux_reason().c_str(),
+                s.nav_reason().c_str());
   return line;
 }
 
 // The states of `history` up to the first one in contact (at most `count` of them, oldest first); "" when
-// none is in contact. Printed by tests next to a contact failure, so that a rare one can be diagnosed from the
-// log.
-inline std::string TrackBeforeContact(const std::vector<cairn_msgs::RobotState>& history, std::size_t count = 25) {
+// none is in contact. Printed by tests next to a contact failure, so that a rare one can be diagnosed from
+// the log.
+inline std::string TrackBeforeContact(const std::vector<cairn_msgs::RobotState>& history,
+                                      std::size_t count = 25) {
   std::size_t first = history.size();
   for (std::size_t i = 0; i < history.size() && first == history.size(); ++i) {
     if (history[i].in_contact()) first = i;
   }
   if (first == history.size()) return "";
   std::string out = "the states before the first contact:\n";
-  for (std::size_t i = first + 1 > count ? first + 1 - count : 0; i <= first; ++i) out += FormatState(history[i]);
+  for (std::size_t i = first + 1 > count ? first + 1 - count : 0; i <= first; ++i)
+    out += FormatState(history[i]);
   return out;
 }
 
 // The last `span_s` seconds of `history`, one state every `every_s` seconds: what a robot did before a goal
 // failed or timed out.
-inline std::string TrackTail(const std::vector<cairn_msgs::RobotState>& history, double span_s, double every_s) {
+inline std::string TrackTail(const std::vector<cairn_msgs::RobotState>& history, double span_s,
+                             double every_s) {
   if (history.empty()) return "";
   const double end_s = WallSeconds(history.back().stamp());
   std::string out;
@@ -191,7 +196,8 @@ inline std::string TrackTail(const std::vector<cairn_msgs::RobotState>& history,
 // A basestation process driven line by line in --json mode.
 class Base {
  public:
-  Base(const std::string& id, int domain, const std::string& log_dir, const std::vector<std::string>& extra = {})
+  Base(const std::string& id, int domain, const std::string& log_dir,
+       const std::vector<std::string>& extra = {})
       : process_(Args(id, domain, extra), log_dir + "/" + id + ".log") {}
   void Kill() { process_.Signal(SIGKILL); }
   /// Sends `sig` to the basestation process (SIGSTOP / SIGCONT freeze and resume it).
@@ -228,7 +234,8 @@ class Base {
   std::vector<json> progress_lines_;
   std::vector<json> events_;
 
-  static std::vector<std::string> Args(const std::string& id, int domain, const std::vector<std::string>& extra) {
+  static std::vector<std::string> Args(const std::string& id, int domain,
+                                       const std::vector<std::string>& extra) {
     std::vector<std::string> args = {kBase, "--base-id", id, "--domain", std::to_string(domain), "--json"};
     args.insert(args.end(), extra.begin(), extra.end());
     return args;
@@ -238,7 +245,8 @@ class Base {
 // Starts `cairn_agent --robot-id ID --world WORLD --start slot:0 --domain DOMAIN EXTRA...` (stderr into
 // LOGS/ID.log) and waits for its READY line; a test failure when it does not come within 60 s.
 inline std::unique_ptr<ChildProcess> StartAgentIn(const std::string& world, const std::string& id, int domain,
-                                                  const std::string& logs, const std::vector<std::string>& extra = {}) {
+                                                  const std::string& logs,
+                                                  const std::vector<std::string>& extra = {}) {
   std::vector<std::string> argv = {
       kAgent, "--robot-id", id, "--world", world, "--start", "slot:0", "--domain", std::to_string(domain)};
   argv.insert(argv.end(), extra.begin(), extra.end());

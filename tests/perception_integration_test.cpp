@@ -1,6 +1,6 @@
-// Perception over DDS, multi-process: a legged robot drives to the built-in staircase; the basestation is told
-// about the staircase once and lists it; a camera snapshot is a valid JPEG; map telemetry stays within its
-// budget; a basestation that joins late gets the same map as the early one and as the robot's own (at the
+// Perception over DDS, multi-process: a legged robot drives to the built-in staircase; the basestation is
+// told about the staircase once and lists it; a camera snapshot is a valid JPEG; map telemetry stays within
+// its budget; a basestation that joins late gets the same map as the early one and as the robot's own (at the
 // coarse resolution); malformed peer messages are dropped without touching the fleet map. All processes run
 // in this test's private network namespace (tests/netns_run.sh).
 #include <filesystem>
@@ -36,8 +36,8 @@ class MapTap {
           std::lock_guard<std::mutex> lock(mutex_);
           if (m.robot_id() == "leg1" && m.kind() == 0) deltas_.emplace_back(Clock::now(), m.data().size());
         });
-    map_writer_ =
-        std::make_unique<core::Writer<cairn_msgs::MapUpdatePubSubType>>(*participant_, "cairn/map_update", "cairn.map");
+    map_writer_ = std::make_unique<core::Writer<cairn_msgs::MapUpdatePubSubType>>(
+        *participant_, "cairn/map_update", "cairn.map");
     staircase_writer_ = std::make_unique<core::Writer<cairn_msgs::StaircaseDetectionPubSubType>>(
         *participant_, "cairn/staircase", "cairn.latched");
   }
@@ -111,7 +111,7 @@ TEST(PerceptionOverDds, StaircaseSnapshotMapBudgetAndLateJoiner) {
   EXPECT_NEAR(s["run_m"].get<double>(), 0.5, 0.01) << s;
   EXPECT_NEAR(s["x_m"].get<double>(), 50.0, 0.1) << s;
   std::this_thread::sleep_for(2s);  // more detections merge into the same staircase: no second announcement
-  early.Run("stairs");             // (events print between commands)
+  early.Run("stairs");              // (events print between commands)
   std::vector<json> staircase_events;  // other news (lock granted, arrived) prints too
   for (const auto& e : early.events()) {
     if (e["event"] == "staircase") staircase_events.push_back(e);
@@ -131,7 +131,8 @@ TEST(PerceptionOverDds, StaircaseSnapshotMapBudgetAndLateJoiner) {
   r = early.Run("snapshot leg1 " + jpeg_path);
   ASSERT_TRUE(r["ok"]) << r;
   std::ifstream file(jpeg_path, std::ios::binary);
-  const std::vector<std::uint8_t> jpeg((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  const std::vector<std::uint8_t> jpeg((std::istreambuf_iterator<char>(file)),
+                                       std::istreambuf_iterator<char>());
   int width = 0;
   int height = 0;
   perception::ReadJpegSize(jpeg, &width, &height);
@@ -153,7 +154,8 @@ TEST(PerceptionOverDds, StaircaseSnapshotMapBudgetAndLateJoiner) {
     peak_bits = std::max(peak_bits, bits);
     total_bits += (deltas[i].second + 120) * 8.0;
   }
-  const double span_s = std::chrono::duration<double>(deltas.back().first - deltas.front().first).count() + 0.5;
+  const double span_s =
+      std::chrono::duration<double>(deltas.back().first - deltas.front().first).count() + 0.5;
   EXPECT_LE(peak_bits, 100000.0 * 6.0);
   Figure("map_peak_5s_kbit_per_s", peak_bits / 5.0 / 1000.0);
   Figure("map_mean_kbit_per_s", total_bits / span_s / 1000.0);
@@ -218,7 +220,8 @@ TEST(PerceptionOverDds, StaircaseSnapshotMapBudgetAndLateJoiner) {
   const VoxelSet robot_coarse = LoadCoarse(robot_map, 1);
   const std::size_t differ = Differences(robot_coarse, early_map);
   Figure("robot_vs_basestation_differing_voxels", static_cast<double>(differ));
-  EXPECT_EQ(differ, 0u) << robot_coarse.size() << " robot voxels, " << early_map.size() << " basestation voxels";
+  EXPECT_EQ(differ, 0u) << robot_coarse.size() << " robot voxels, " << early_map.size()
+                        << " basestation voxels";
 }
 
 }  // namespace

@@ -21,8 +21,8 @@ namespace msgs = cairn_msgs;
 using nlohmann::json;
 using shell::Dump;
 using shell::Fixed;
-using shell::PrintTable;
 using shell::ParseNumber;
+using shell::PrintTable;
 using shell::StaircaseJson;
 using shell::YawOf;
 
@@ -891,7 +891,8 @@ int CommandShell::Goto(const std::string& command, const std::vector<std::string
       if (i + 1 >= all_args.size()) return UsageError(command, "--z needs a height Z_M (metres, map frame)");
       if (!ParseNumber(all_args[i + 1], "Z_M", &z_m, &error)) return UsageError(command, error);
       if (!std::isfinite(z_m) || std::abs(z_m) > 10000) {
-        return UsageError(command, "Z_M '" + all_args[i + 1] + "' must be a finite height in [-10000, 10000] m");
+        return UsageError(command,
+                          "Z_M '" + all_args[i + 1] + "' must be a finite height in [-10000, 10000] m");
       }
       ++i;
       continue;
@@ -918,10 +919,12 @@ int CommandShell::Goto(const std::string& command, const std::vector<std::string
   if (args.size() > rest + (home ? 0 : 1)) return UsageError(command, kUsageText);
   if (args.size() == rest + 1 && !ParseNumber(args[rest], "TOL", &tolerance, &error))
     return UsageError(command, error);
-  if (home && used == 0 && std::isfinite(z_m)) return UsageError(command, "--z names the level of a POINT: give one");
+  if (home && used == 0 && std::isfinite(z_m))
+    return UsageError(command, "--z names the level of a POINT: give one");
   const CommandOutcome o =
-      !home ? client_.SendWaypoint(args[0], x, y, tolerance, z_m)
-            : client_.SendHome(args[0], used == 0 ? std::nullopt : std::optional<Eigen::Vector3d>({x, y, z_m}));
+      !home
+          ? client_.SendWaypoint(args[0], x, y, tolerance, z_m)
+          : client_.SendHome(args[0], used == 0 ? std::nullopt : std::optional<Eigen::Vector3d>({x, y, z_m}));
   if (o.ok) last_goal_id_[args[0]] = o.goal_id;
   if (!o.ok || !wait) return Report(command, args[0], o);
   // With --wait, one result line ends the command (JSON: the acceptance is a progress line before it).

@@ -30,7 +30,8 @@ bool ParseList(const std::string& flag, const std::string& text, std::size_t n, 
     start = comma + 1;
   }
   if (parts.size() != n) {
-    *error = flag + " '" + text + "' must be " + std::to_string(n) + " comma-separated numbers (metres, map frame)";
+    *error = flag + " '" + text + "' must be " + std::to_string(n) +
+             " comma-separated numbers (metres, map frame)";
     return false;
   }
   for (std::size_t i = 0; i < n; ++i) {
@@ -72,7 +73,8 @@ std::string ExplorationText(const cairn_msgs::RobotState& s) {
                      std::to_string(s.explore_targets_reached()) + " reached, " +
                      std::to_string(s.explore_targets_failed()) + " given up";
   if (s.explore_has_target()) {
-    text += "; target (" + Fixed(s.explore_target_M().x_m(), 2) + ", " + Fixed(s.explore_target_M().y_m(), 2) + ")";
+    text += "; target (" + Fixed(s.explore_target_M().x_m(), 2) + ", " +
+            Fixed(s.explore_target_M().y_m(), 2) + ")";
   }
   if (s.explore_peers() > 0 || s.explore_peer_seen_m2() > 0) {
     text += "; " + std::to_string(s.explore_peers()) + (s.explore_peers() == 1 ? " peer" : " peers") +
@@ -102,24 +104,28 @@ int CommandShell::Explore(const std::vector<std::string>& all_args) {
         double v[4];
         if (!ParseList(a, all_args[i + 1], 4, v, &error)) return UsageError("explore", error);
         if (!(v[0] < v[2]) || !(v[1] < v[3])) {
-          return UsageError("explore", "--region '" + all_args[i + 1] + "': X0 must be below X1 and Y0 below Y1");
+          return UsageError("explore",
+                            "--region '" + all_args[i + 1] + "': X0 must be below X1 and Y0 below Y1");
         }
         region_M = Eigen::AlignedBox2d(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]));
       } else {
         double v[2];
         if (!ParseList(a, all_args[i + 1], 2, v, &error)) return UsageError("explore", error);
-        if (!(v[0] < v[1])) return UsageError("explore", "--z-range '" + all_args[i + 1] + "': Z0 must be below Z1");
+        if (!(v[0] < v[1]))
+          return UsageError("explore", "--z-range '" + all_args[i + 1] + "': Z0 must be below Z1");
         min_z_m = v[0];
         max_z_m = v[1];
       }
       ++i;
     } else if (a == "--home-after-silence") {
-      if (i + 1 >= all_args.size() || !shell::ParseNumber(all_args[i + 1], "S", &home_after_silence_s, &error) ||
+      if (i + 1 >= all_args.size() ||
+          !shell::ParseNumber(all_args[i + 1], "S", &home_after_silence_s, &error) ||
           !(home_after_silence_s > 0 && home_after_silence_s <= 86400)) {
-        return UsageError("explore", error.empty() ? "--home-after-silence needs S in (0, 86400] seconds" +
-                                                         (i + 1 < all_args.size() ? ", not '" + all_args[i + 1] + "'"
-                                                                                  : std::string())
-                                                   : error);
+        return UsageError(
+            "explore", error.empty()
+                           ? "--home-after-silence needs S in (0, 86400] seconds" +
+                                 (i + 1 < all_args.size() ? ", not '" + all_args[i + 1] + "'" : std::string())
+                           : error);
       }
       ++i;
     } else if (a == "--wait") {
@@ -127,8 +133,8 @@ int CommandShell::Explore(const std::vector<std::string>& all_args) {
       if (i + 1 < all_args.size() && all_args[i + 1].rfind("--", 0) != 0) {
         if (!shell::ParseNumber(all_args[i + 1], "TIMEOUT_S", &timeout_s, &error) || timeout_s <= 0 ||
             timeout_s > 86400) {
-          return UsageError("explore",
-                            error.empty() ? "TIMEOUT_S '" + all_args[i + 1] + "' must be in (0, 86400]" : error);
+          return UsageError(
+              "explore", error.empty() ? "TIMEOUT_S '" + all_args[i + 1] + "' must be in (0, 86400]" : error);
         }
         ++i;
       }
@@ -200,7 +206,10 @@ int CommandShell::WaitExplored(const std::string& robot, uint32_t task_id, doubl
   }
   CommandOutcome o;
   o.ok = view.has_value() && failure.empty();
-  o.result = o.ok ? outcome::kAccepted : cancelled ? "cancelled" : view ? outcome::kFailed : outcome::kTimedOut;
+  o.result = o.ok        ? outcome::kAccepted
+             : cancelled ? "cancelled"
+             : view      ? outcome::kFailed
+                         : outcome::kTimedOut;
   const std::string elapsed = Fixed(core::SecondsBetween(start, core::SteadyClock::now()), 1);
   if (cancelled) {
     o.reason = "stopped waiting after " + elapsed + " s (Ctrl-C); " + robot + " explores on: stop " + robot +
@@ -208,8 +217,8 @@ int CommandShell::WaitExplored(const std::string& robot, uint32_t task_id, doubl
   } else if (!failure.empty()) {
     o.reason = failure;
   } else if (view) {
-    o.reason = view->state->explore_reason() + " after " + elapsed + " s, " + Fixed(view->state->explored_m2(), 0) +
-               " m² explored";
+    o.reason = view->state->explore_reason() + " after " + elapsed + " s, " +
+               Fixed(view->state->explored_m2(), 0) + " m² explored";
   } else {
     o.reason = "robot " + robot + " still exploring after " + Fixed(timeout_s, 0) + " s";
   }

@@ -94,7 +94,8 @@ int CommandShell::Health(const std::vector<std::string>& args) {
     if (state == "down") {
       state = "DOWN " + Fixed(c.down_for_s(), 1) + " s, restart in " + Fixed(c.restart_in_s(), 1) + " s";
     } else if (c.degraded()) {
-      state = "DEGRADED (slow: " + Fixed(c.loop_rate_hz(), 1) + " of " + Fixed(c.target_rate_hz(), 0) + " Hz)";
+      state =
+          "DEGRADED (slow: " + Fixed(c.loop_rate_hz(), 1) + " of " + Fixed(c.target_rate_hz(), 0) + " Hz)";
     }
     std::string error = c.last_error().empty() ? "-" : c.last_error();
     if (error.size() > 60) error = error.substr(0, 57) + "...";

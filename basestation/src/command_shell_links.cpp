@@ -61,8 +61,9 @@ int CommandShell::Links(const std::vector<std::string>& args) {
     const LinkView& l = v.link;
     const std::string link =
         l.link.empty() ? "?" : l.link + (l.budget_kbps > 0 ? " " + Fixed(l.budget_kbps, 0) + " kbit/s" : "");
-    const std::string heard = v.lost ? "LOST (" + v.lost_reason + ")"
-                                     : Fixed(core::SecondsBetween(v.last_seen, core::SteadyClock::now()), 1) + " s ago";
+    const std::string heard =
+        v.lost ? "LOST (" + v.lost_reason + ")"
+               : Fixed(core::SecondsBetween(v.last_seen, core::SteadyClock::now()), 1) + " s ago";
     const std::string rtt = l.rtt_ms < 0 ? "-" : Fixed(l.rtt_ms, 1) + " (" + Fixed(l.rtt_max_ms, 1) + ")";
     const std::string loss = Fixed(l.loss_pct, 1) + " % (" + std::to_string(l.state_lost) + " of " +
                              std::to_string(l.state_received + l.state_lost) + ")";

@@ -1,5 +1,7 @@
 #include "cairn/base/fleet_client.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -8,10 +10,7 @@
 #include <set>
 #include <thread>
 
-#include <spdlog/spdlog.h>
-
 #include "cairn/base/operator_text.h"
-
 #include "cairn/core/dds.h"
 #include "cairn/core/peer_input.h"
 #include "cairn/msgs/robot_state.h"
@@ -41,10 +40,12 @@ class FleetClient::Impl {
     std::string why;
     if (!options.events.IsValid(&why)) throw std::invalid_argument("events: " + why);
     if (!(options.discovery_s > 0 && options.discovery_s <= 60)) {
-      throw std::invalid_argument("discovery_s = " + std::to_string(options.discovery_s) + " must be in (0, 60]");
+      throw std::invalid_argument("discovery_s = " + std::to_string(options.discovery_s) +
+                                  " must be in (0, 60]");
     }
     if (options.events_kept < 1 || options.events_kept > 100000) {
-      throw std::invalid_argument("events_kept = " + std::to_string(options.events_kept) + " must be in [1, 100000]");
+      throw std::invalid_argument("events_kept = " + std::to_string(options.events_kept) +
+                                  " must be in [1, 100000]");
     }
     detector_ = FleetEventDetector(options.events);
     core::ParticipantOptions p;
@@ -65,8 +66,8 @@ class FleetClient::Impl {
     }
     participant_ = std::make_unique<core::Participant>(p);
     // Announced on cairn/base_info, which only robots read; robots announce on cairn/agent_info.
-    info_writer_ =
-        std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/base_info", "cairn.latched");
+    info_writer_ = std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/base_info",
+                                                                             "cairn.latched");
     perception_ = std::make_unique<FleetPerception>(*participant_, options.base_id);
     if (!options.security.enabled()) {
       // The shared command topics, matched before the first command needs them.
@@ -130,8 +131,8 @@ class FleetClient::Impl {
           }
           cv_.notify_all();
         });
-    probe_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(*participant_, "cairn/link_probe",
-                                                                           "cairn.command");
+    probe_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(
+        *participant_, "cairn/link_probe", "cairn.command");
     probe_reply_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
         *participant_, "cairn/link_probe_reply", "cairn.command",
         [this](const msgs::PingPong& m, const auto&) {
@@ -143,7 +144,8 @@ class FleetClient::Impl {
           links_.OnProbeReply(m.robot_id(), m.request_id(), now);
         });
     path_response_reader_ = std::make_unique<core::Reader<msgs::PathResponsePubSubType>>(
-        *participant_, "cairn/path_response", "cairn.command", [this](const msgs::PathResponse& m, const auto&) {
+        *participant_, "cairn/path_response", "cairn.command",
+        [this](const msgs::PathResponse& m, const auto&) {
           // Answers to another process with this base id (same request ids) are not ours.
           if (m.requester_id() != options_.base_id ||
               m.requester_participant() != participant_->participant_id())
@@ -170,12 +172,14 @@ class FleetClient::Impl {
     tree_reader_ = std::make_unique<core::Reader<msgs::BehaviorTreeStatePubSubType>>(
         *participant_, "cairn/bt_state", "cairn.latched",
         [this](const msgs::BehaviorTreeState& m, const eprosima::fastdds::dds::SampleInfo& info) {
-          if (FromRobot("cairn/bt_state", m.robot_id(), info)) Update(m.robot_id(), [&](RobotView& v) { v.tree = m; });
+          if (FromRobot("cairn/bt_state", m.robot_id(), info))
+            Update(m.robot_id(), [&](RobotView& v) { v.tree = m; });
         });
     info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
         *participant_, "cairn/agent_info", "cairn.latched",
         [this](const msgs::AgentInfo& m, const eprosima::fastdds::dds::SampleInfo& info) {
-          if (m.kind() != msgs::AGENT_KIND_ROBOT || !FromRobot("cairn/agent_info", m.agent_id(), info)) return;
+          if (m.kind() != msgs::AGENT_KIND_ROBOT || !FromRobot("cairn/agent_info", m.agent_id(), info))
+            return;
           {
             std::lock_guard<std::mutex> lock(mutex_);
             robot_by_writer_[info.publication_handle] = m.agent_id();
@@ -194,7 +198,8 @@ class FleetClient::Impl {
             v.max_speed_mps = std::isfinite(m.max_speed_mps()) ? std::max(0.0, m.max_speed_mps()) : 0.0;
             v.max_reverse_speed_mps =
                 std::isfinite(m.max_reverse_speed_mps()) ? std::max(0.0, m.max_reverse_speed_mps()) : 0.0;
-            v.max_yaw_rate_radps = std::isfinite(m.max_yaw_rate_radps()) ? std::max(0.0, m.max_yaw_rate_radps()) : 0.0;
+            v.max_yaw_rate_radps =
+                std::isfinite(m.max_yaw_rate_radps()) ? std::max(0.0, m.max_yaw_rate_radps()) : 0.0;
             v.footprint_radius_m = std::isfinite(m.footprint_radius_m()) && m.footprint_radius_m() <= 5.0
                                        ? std::max(0.0, m.footprint_radius_m())
                                        : 0.0;
@@ -203,8 +208,8 @@ class FleetClient::Impl {
           // discovery when the clocks are synchronized; the fleet join test reads it).
           const double age_s =
               cairn::msgs::WallSeconds(cairn::msgs::WallStampNow()) - cairn::msgs::WallSeconds(m.stamp());
-          spdlog::info("basestation {}: {} announced itself on link {} ({:.3f} s ago by its clock)", options_.base_id,
-                       m.agent_id(), m.link().empty() ? "?" : m.link(), age_s);
+          spdlog::info("basestation {}: {} announced itself on link {} ({:.3f} s ago by its clock)",
+                       options_.base_id, m.agent_id(), m.link().empty() ? "?" : m.link(), age_s);
           perception_->OnRobotSeen(m.agent_id(), m.map_resolution_m());
         },
         [this](const eprosima::fastdds::dds::LivelinessChangedStatus& status) { OnLiveliness(status); });
@@ -344,7 +349,8 @@ class FleetClient::Impl {
   // Sends with `send(request_id)` every command_retry_s until `answered()` holds (checked under mutex_) or
   // command_timeout_s passes. Returns false on timeout (and sets *reason). The lock is held on return.
   bool SendUntil(const std::string& robot_id, uint32_t request_id, const std::function<bool(uint32_t)>& send,
-                 const std::function<bool()>& answered, std::unique_lock<std::mutex>* lock, std::string* reason) {
+                 const std::function<bool()>& answered, std::unique_lock<std::mutex>* lock,
+                 std::string* reason) {
     const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
                                                    std::chrono::duration<double>(options_.command_timeout_s));
     const auto retry = std::chrono::duration_cast<SteadyClock::duration>(
@@ -367,8 +373,8 @@ class FleetClient::Impl {
   // `require_live`: refuse a robot that is unknown or lost instead of sending (every command but stop, which
   // is sent at once whatever this basestation believes: a robot that looks lost on a congested link may
   // still hear it).
-  CommandOutcome Call(const std::string& robot_id, msgs::CommandKind kind, const std::function<bool(uint32_t)>& send,
-                      bool require_live = true) {
+  CommandOutcome Call(const std::string& robot_id, msgs::CommandKind kind,
+                      const std::function<bool(uint32_t)>& send, bool require_live = true) {
     CommandOutcome outcome;
     outcome.request_id = next_request_id_++;
     // No robot can have such an id (robots check theirs at start), and one longer than a DDS key holds would
@@ -393,9 +399,9 @@ class FleetClient::Impl {
     const auto start = SteadyClock::now();
     std::unique_lock<std::mutex> lock(mutex_);
     awaited_.insert(key);
-    const bool answered =
-        SendUntil(robot_id, outcome.request_id, send, [&] { return responses_.count(key) > 0; }, &lock,
-                  &outcome.reason);
+    const bool answered = SendUntil(
+        robot_id, outcome.request_id, send, [&] { return responses_.count(key) > 0; }, &lock,
+        &outcome.reason);
     awaited_.erase(key);
     if (!answered) {
       outcome.result = outcome::kTimedOut;
@@ -538,17 +544,19 @@ class FleetClient::Impl {
   // Under DDS Security: true when the writer of `info` holds the certificate of `robot_id`, the robot the
   // message is about; else it is dropped (a robot's certificate publishing another robot's state, path or
   // answers) and logged at most every 5 s per topic, naming both. Always true without security.
-  bool FromRobot(const char* topic, const std::string& robot_id, const eprosima::fastdds::dds::SampleInfo& info) {
+  bool FromRobot(const char* topic, const std::string& robot_id,
+                 const eprosima::fastdds::dds::SampleInfo& info) {
     if (core::SentUnder(options_.security, info, robot_id)) return true;
     std::uint64_t suppressed = 0;
     if (forged_warnings_.Allow(topic, SteadyClock::now(), &suppressed)) {
       const std::string participant = core::ParticipantIdOf(info.publication_handle);
       const std::string real = participant_->CertifiedIdOf(participant);
-      spdlog::warn("basestation {}: a forged message dropped: {}: robot id '{}' sent under the certificate of {} "
-                   "(participant {}){}",
-                   options_.base_id, topic, robot_id.substr(0, 64), real.empty() ? "another identity" : "'" + real + "'",
-                   participant,
-                   suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+      spdlog::warn(
+          "basestation {}: a forged message dropped: {}: robot id '{}' sent under the certificate of {} "
+          "(participant {}){}",
+          options_.base_id, topic, robot_id.substr(0, 64),
+          real.empty() ? "another identity" : "'" + real + "'", participant,
+          suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
     }
     return false;
   }
@@ -594,7 +602,8 @@ class FleetClient::Impl {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = robots_.find(robot_id);
     if (it != robots_.end()) {
-      return "robot " + robot_id + " is lost (" + WithStaleness(it->second, SteadyClock::now()).lost_reason + ")";
+      return "robot " + robot_id + " is lost (" + WithStaleness(it->second, SteadyClock::now()).lost_reason +
+             ")";
     }
     std::string known;
     std::vector<std::string> ids;
@@ -618,12 +627,14 @@ class FleetClient::Impl {
   mutable std::condition_variable cv_;
   std::map<std::string, RobotView> robots_;
   std::map<eprosima::fastrtps::rtps::InstanceHandle_t, std::string> robot_by_writer_;
-  std::map<std::string, eprosima::fastrtps::rtps::InstanceHandle_t> current_writer_;  // newest agent-info writer
-  std::map<std::string, std::string> participant_of_robot_;  // robot id -> its newest process (ParticipantIdOf)
+  std::map<std::string, eprosima::fastrtps::rtps::InstanceHandle_t>
+      current_writer_;  // newest agent-info writer
+  std::map<std::string, std::string>
+      participant_of_robot_;  // robot id -> its newest process (ParticipantIdOf)
   LinkMonitor links_;
   std::uint32_t last_probe_id_ = 0;
   int announced_robots_heard_ = 0;  // MonitorLoop only: the robots_heard of the last Announce
-  std::mutex gone_mutex_;  // guards gone_participants_ only (taken on Fast DDS's discovery thread)
+  std::mutex gone_mutex_;           // guards gone_participants_ only (taken on Fast DDS's discovery thread)
   std::vector<std::pair<std::string, bool>> gone_participants_;  // (participant, dropped)
   // Participants whose lease expired here, and when (under mutex_): one removed later stalled, it did not
   // exit. Kept kDroppedKeptS: a robot cut off longer and then shut down cleanly is shown lost rather than
@@ -631,7 +642,7 @@ class FleetClient::Impl {
   std::map<std::string, core::SteadyTime> dropped_at_;
   static constexpr double kDroppedKeptS = 600.0;
   std::map<std::string, msgs::CommandResponse> responses_;  // answers to awaited_ requests only
-  std::map<uint32_t, msgs::PathResponse> path_responses_;    // answers to awaited_paths_ only
+  std::map<uint32_t, msgs::PathResponse> path_responses_;   // answers to awaited_paths_ only
   std::set<std::string> awaited_;
   std::set<uint32_t> awaited_paths_;
   std::atomic<uint32_t> next_request_id_{1};
@@ -709,8 +720,9 @@ std::vector<OperatorEvent> FleetClient::EventsSince(std::uint64_t* cursor) const
 
 bool FleetClient::Knows(const std::string& robot_id) const {
   std::unique_lock<std::mutex> lock(impl_->mutex_);
-  const auto discovered_by = impl_->created_ + std::chrono::duration_cast<SteadyClock::duration>(
-                                                   std::chrono::duration<double>(impl_->options_.discovery_s));
+  const auto discovered_by =
+      impl_->created_ + std::chrono::duration_cast<SteadyClock::duration>(
+                            std::chrono::duration<double>(impl_->options_.discovery_s));
   impl_->cv_.wait_until(lock, discovered_by, [&] { return impl_->robots_.count(robot_id) > 0; });
   return impl_->robots_.count(robot_id) > 0;
 }
@@ -752,11 +764,12 @@ bool FleetClient::WaitForRobot(const std::string& robot_id, double timeout_s) co
   return impl_->WaitForRobot(robot_id, timeout_s);
 }
 
-std::optional<RobotView> FleetClient::WaitUntil(const std::string& robot_id, double timeout_s,
-                                                const std::function<bool(const RobotView&)>& predicate) const {
+std::optional<RobotView> FleetClient::WaitUntil(
+    const std::string& robot_id, double timeout_s,
+    const std::function<bool(const RobotView&)>& predicate) const {
   std::unique_lock<std::mutex> lock(impl_->mutex_);
-  const auto deadline =
-      SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(timeout_s));
+  const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                                 std::chrono::duration<double>(timeout_s));
   std::optional<RobotView> match;
   auto check = [&] {
     auto it = impl_->robots_.find(robot_id);
@@ -818,8 +831,8 @@ CommandOutcome FleetClient::RequestMode(const std::string& robot_id, const std::
   });
 }
 
-CommandOutcome FleetClient::SendWaypoint(const std::string& robot_id, double x_m, double y_m, double tolerance_m,
-                                         double z_m) {
+CommandOutcome FleetClient::SendWaypoint(const std::string& robot_id, double x_m, double y_m,
+                                         double tolerance_m, double z_m) {
   return impl_->Call(robot_id, msgs::COMMAND_KIND_WAYPOINT, [&](uint32_t id) {
     msgs::WaypointGoal m;
     m.robot_id(robot_id);
@@ -834,8 +847,9 @@ CommandOutcome FleetClient::SendWaypoint(const std::string& robot_id, double x_m
   });
 }
 
-CommandOutcome FleetClient::SendExplore(const std::string& robot_id, const std::optional<Eigen::AlignedBox2d>& region_M,
-                                        double min_z_m, double max_z_m, double home_after_silence_s) {
+CommandOutcome FleetClient::SendExplore(const std::string& robot_id,
+                                        const std::optional<Eigen::AlignedBox2d>& region_M, double min_z_m,
+                                        double max_z_m, double home_after_silence_s) {
   return impl_->Call(robot_id, msgs::COMMAND_KIND_EXPLORE, [&](uint32_t id) {
     msgs::ExploreRequest m;
     m.robot_id(robot_id);
@@ -906,7 +920,8 @@ std::string FleetClient::SendYield(const std::string& robot_id, const std::strin
   return writer->Write(m) ? "" : "the yield request could not be sent (DDS history full)";
 }
 
-CommandOutcome FleetClient::SendHome(const std::string& robot_id, const std::optional<Eigen::Vector3d>& point_M) {
+CommandOutcome FleetClient::SendHome(const std::string& robot_id,
+                                     const std::optional<Eigen::Vector3d>& point_M) {
   return impl_->Call(robot_id, msgs::COMMAND_KIND_HOME, [&](uint32_t id) {
     msgs::HomeRequest m;
     m.robot_id(robot_id);
@@ -950,8 +965,8 @@ bool FleetClient::PublishTeleop(const std::string& robot_id, double linear_x_mps
   return impl_->CommandWriter<msgs::TeleopTwistPubSubType>("cairn/teleop", robot_id, "cairn.teleop").Write(m);
 }
 
-PathAnswer FleetClient::RequestPath(const std::string& robot_id, const std::string& platform, double start_x_m,
-                                    double start_y_m, double goal_x_m, double goal_y_m) {
+PathAnswer FleetClient::RequestPath(const std::string& robot_id, const std::string& platform,
+                                    double start_x_m, double start_y_m, double goal_x_m, double goal_y_m) {
   PathAnswer answer;
   const uint32_t request_id = impl_->next_request_id_++;
   if (std::string why = impl_->NotPermittedReason(robot_id); !why.empty()) {

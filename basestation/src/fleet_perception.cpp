@@ -24,12 +24,12 @@ using core::SteadyClock;
 
 namespace {
 
-constexpr double kSyncRequestPeriodS = 1.0;  // at most one snapshot request per robot per second
+constexpr double kSyncRequestPeriodS = 1.0;           // at most one snapshot request per robot per second
 constexpr std::size_t kMaxStaircaseInstances = 4096;  // (robot, staircase) reports kept from peers
 constexpr std::size_t kMaxStaircaseEvents = 1000;     // untaken events kept; the oldest go first
 
-// Farthest a map coordinate from a robot may be from the map's origin, metres: beyond any site (a staircase at
-// x = 1e300 was announced to every operator).
+// Farthest a map coordinate from a robot may be from the map's origin, metres: beyond any site (a staircase
+// at x = 1e300 was announced to every operator).
 constexpr double kMaxMapCoordinateM = 1e5;
 
 // A robot's detection, checked: false and the fault (the field and its value, the rule) if a field is not
@@ -46,9 +46,11 @@ bool ToStaircase(const msgs::StaircaseDetection& m, perception::Staircase* s, st
   if (!in_range("p_M_first_step.x_m", p.x_m(), -kMaxMapCoordinateM, kMaxMapCoordinateM, false) ||
       !in_range("p_M_first_step.y_m", p.y_m(), -kMaxMapCoordinateM, kMaxMapCoordinateM, false) ||
       !in_range("p_M_first_step.z_m", p.z_m(), -kMaxMapCoordinateM, kMaxMapCoordinateM, false) ||
-      !in_range("yaw_rad", m.yaw_rad(), -10.0, 10.0, false) || !in_range("rise_m", m.rise_m(), 0.0, 1.0, true) ||
-      !in_range("run_m", m.run_m(), 0.0, 2.0, true) || !in_range("width_m", m.width_m(), 0.0, 20.0, true) ||
-      !in_range("num_steps", m.num_steps(), 1, 500, false) || !in_range("confidence", m.confidence(), 0.0, 1.0, false)) {
+      !in_range("yaw_rad", m.yaw_rad(), -10.0, 10.0, false) ||
+      !in_range("rise_m", m.rise_m(), 0.0, 1.0, true) || !in_range("run_m", m.run_m(), 0.0, 2.0, true) ||
+      !in_range("width_m", m.width_m(), 0.0, 20.0, true) ||
+      !in_range("num_steps", m.num_steps(), 1, 500, false) ||
+      !in_range("confidence", m.confidence(), 0.0, 1.0, false)) {
     return false;
   }
   s->p_W_first_step = {p.x_m(), p.y_m(), p.z_m()};
@@ -74,9 +76,9 @@ std::string DescribeStaircase(const perception::StaircaseRegistry::Entry& entry)
   const perception::Staircase& s = entry.staircase;
   char text[256];
   std::snprintf(text, sizeof(text),
-                "%d steps at (%.2f, %.2f, %.2f) heading %.0f deg, rise %.3f m, run %.3f m, width %.2f m", s.num_steps,
-                s.p_W_first_step.x(), s.p_W_first_step.y(), s.p_W_first_step.z(), s.yaw_rad * 180.0 / M_PI,
-                s.rise_m, s.run_m, s.width_m);
+                "%d steps at (%.2f, %.2f, %.2f) heading %.0f deg, rise %.3f m, run %.3f m, width %.2f m",
+                s.num_steps, s.p_W_first_step.x(), s.p_W_first_step.y(), s.p_W_first_step.z(),
+                s.yaw_rad * 180.0 / M_PI, s.rise_m, s.run_m, s.width_m);
   std::string sources;
   for (const auto& source : entry.sources) sources += (sources.empty() ? "" : ", ") + source;
   return std::string(text) + ", seen by " + sources;
@@ -193,7 +195,8 @@ class FleetPerception::Impl {
       std::lock_guard<std::mutex> lock(mutex_);
       const auto now = SteadyClock::now();
       auto it = last_sync_request_.find(robot_id);
-      if (it != last_sync_request_.end() && core::SecondsBetween(it->second, now) < kSyncRequestPeriodS) return;
+      if (it != last_sync_request_.end() && core::SecondsBetween(it->second, now) < kSyncRequestPeriodS)
+        return;
       last_sync_request_[robot_id] = now;
     }
     msgs::MapSyncRequest request;
@@ -235,8 +238,10 @@ class FleetPerception::Impl {
     if (!StaircaseFromMessage(m, &staircase, &why)) {
       std::uint64_t suppressed = 0;
       if (warnings_.Allow("staircase", core::SteadyClock::now(), &suppressed)) {
-        spdlog::warn("staircase {} from {} dropped: {}{}", m.staircase_id(), m.robot_id().substr(0, core::kMaxIdLength),
-                     why, suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+        spdlog::warn(
+            "staircase {} from {} dropped: {}{}", m.staircase_id(),
+            m.robot_id().substr(0, core::kMaxIdLength), why,
+            suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
       }
       return;
     }
@@ -264,14 +269,16 @@ class FleetPerception::Impl {
   // Under DDS Security: true when the writer of `info` holds the certificate of `robot_id`, the robot the
   // message is about; else it is dropped (a robot's certificate publishing another robot's map, camera or
   // staircases) and logged at most every 5 s per topic. Always true without security.
-  bool FromRobot(const char* topic, const std::string& robot_id, const eprosima::fastdds::dds::SampleInfo& info) {
+  bool FromRobot(const char* topic, const std::string& robot_id,
+                 const eprosima::fastdds::dds::SampleInfo& info) {
     if (core::SentUnder(security_, info, robot_id)) return true;
     std::uint64_t suppressed = 0;
     if (forged_warnings_.Allow(topic, core::SteadyClock::now(), &suppressed)) {
-      spdlog::warn("basestation {}: a forged message dropped: {}: robot id '{}' not sent under its certificate "
-                   "(participant {}){}",
-                   base_id_, topic, robot_id.substr(0, 64), core::ParticipantIdOf(info.publication_handle),
-                   suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+      spdlog::warn(
+          "basestation {}: a forged message dropped: {}: robot id '{}' not sent under its certificate "
+          "(participant {}){}",
+          base_id_, topic, robot_id.substr(0, 64), core::ParticipantIdOf(info.publication_handle),
+          suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
     }
     return false;
   }
@@ -328,7 +335,8 @@ bool FleetPerception::WaitForMapSync(const std::string& robot_id, double timeout
   while (!impl_->HasBase(robot_id)) {
     impl_->MaybeRequestSync(robot_id);
     std::unique_lock<std::mutex> lock(impl_->mutex_);
-    if (impl_->cv_.wait_until(lock, std::min(deadline, SteadyClock::now() + std::chrono::milliseconds(100))) ==
+    if (impl_->cv_.wait_until(lock,
+                              std::min(deadline, SteadyClock::now() + std::chrono::milliseconds(100))) ==
             std::cv_status::timeout &&
         SteadyClock::now() >= deadline) {
       return impl_->HasBase(robot_id);
@@ -337,7 +345,8 @@ bool FleetPerception::WaitForMapSync(const std::string& robot_id, double timeout
   return true;
 }
 
-MapSaveResult FleetPerception::SaveMap(const std::string& target, const std::string& path, double sync_timeout_s) {
+MapSaveResult FleetPerception::SaveMap(const std::string& target, const std::string& path,
+                                       double sync_timeout_s) {
   MapSaveResult result;
   const bool fleet = target == "fleet";
   std::vector<std::string> robots = impl_->map_.Robots();
@@ -354,7 +363,8 @@ MapSaveResult FleetPerception::SaveMap(const std::string& target, const std::str
       }
     }
   } else if (!WaitForMapSync(target, sync_timeout_s)) {
-    result.error = "no complete map of robot " + target + " within " + std::to_string(sync_timeout_s).substr(0, 4) +
+    result.error = "no complete map of robot " + target + " within " +
+                   std::to_string(sync_timeout_s).substr(0, 4) +
                    " s (unknown robot, or its snapshot has not arrived)";
     return result;
   }
@@ -382,7 +392,8 @@ std::optional<CameraView> FleetPerception::LatestFrame(const std::string& robot_
   return it->second;
 }
 
-std::optional<CameraView> FleetPerception::WaitForFrame(const std::string& robot_id, std::uint64_t after_received,
+std::optional<CameraView> FleetPerception::WaitForFrame(const std::string& robot_id,
+                                                        std::uint64_t after_received,
                                                         double timeout_s) const {
   std::unique_lock<std::mutex> lock(impl_->mutex_);
   std::optional<CameraView> found;

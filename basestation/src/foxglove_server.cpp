@@ -3,8 +3,7 @@
 #define ASIO_STANDALONE
 #include "cairn/base/foxglove_server.h"
 
-#include <websocketpp/config/asio_no_tls.hpp>
-#include <websocketpp/server.hpp>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <atomic>
@@ -13,13 +12,13 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
-
-#include <nlohmann/json.hpp>
-#include <spdlog/spdlog.h>
+#include <websocketpp/config/asio_no_tls.hpp>
+#include <websocketpp/server.hpp>
 
 namespace cairn::base {
 namespace {
@@ -44,16 +43,20 @@ void PutU64(std::string* out, std::uint64_t v) {
 bool GetU32(const std::string& in, std::size_t at, std::uint32_t* v) {
   if (at + 4 > in.size()) return false;
   *v = 0;
-  for (int i = 0; i < 4; ++i) *v |= static_cast<std::uint32_t>(static_cast<unsigned char>(in[at + i])) << (8 * i);
+  for (int i = 0; i < 4; ++i)
+    *v |= static_cast<std::uint32_t>(static_cast<unsigned char>(in[at + i])) << (8 * i);
   return true;
 }
 
 std::string ContentType(const std::filesystem::path& path) {
-  static const std::map<std::string, std::string> kTypes = {
-      {".html", "text/html; charset=utf-8"}, {".js", "text/javascript; charset=utf-8"},
-      {".css", "text/css; charset=utf-8"},   {".json", "application/json"},
-      {".png", "image/png"},                 {".svg", "image/svg+xml"},
-      {".map", "application/json"},          {".ico", "image/x-icon"}};
+  static const std::map<std::string, std::string> kTypes = {{".html", "text/html; charset=utf-8"},
+                                                            {".js", "text/javascript; charset=utf-8"},
+                                                            {".css", "text/css; charset=utf-8"},
+                                                            {".json", "application/json"},
+                                                            {".png", "image/png"},
+                                                            {".svg", "image/svg+xml"},
+                                                            {".map", "application/json"},
+                                                            {".ico", "image/x-icon"}};
   const auto it = kTypes.find(path.extension().string());
   return it == kTypes.end() ? "application/octet-stream" : it->second;
 }
@@ -69,10 +72,11 @@ void ParseListenAddress(const std::string& text, std::string* address, int* port
   if (addr.size() >= 2 && addr.front() == '[' && addr.back() == ']') addr = addr.substr(1, addr.size() - 2);
   const std::string port_text = text.substr(colon + 1);
   const bool digits = port_text.size() <= 5 && std::all_of(port_text.begin(), port_text.end(),
-                                                            [](char c) { return c >= '0' && c <= '9'; });
+                                                           [](char c) { return c >= '0' && c <= '9'; });
   const int value = digits ? std::stoi(port_text) : -1;
   if (!digits || value > 65535) {
-    throw std::invalid_argument("--listen '" + text + "': port '" + port_text + "' must be an integer in [0, 65535]");
+    throw std::invalid_argument("--listen '" + text + "': port '" + port_text +
+                                "' must be an integer in [0, 65535]");
   }
   std::error_code ec;
   asio::ip::make_address(addr, ec);
@@ -83,10 +87,13 @@ void ParseListenAddress(const std::string& text, std::string* address, int* port
 
 class FoxgloveServer::Impl {
  public:
-  Impl(const FoxgloveServerOptions& options, Handlers handlers) : options_(options), handlers_(std::move(handlers)) {
+  Impl(const FoxgloveServerOptions& options, Handlers handlers)
+      : options_(options), handlers_(std::move(handlers)) {
     std::error_code ec;
     const asio::ip::address address = asio::ip::make_address(options.address, ec);
-    if (ec) throw std::invalid_argument("FoxgloveServerOptions::address '" + options.address + "' is not an IP address");
+    if (ec)
+      throw std::invalid_argument("FoxgloveServerOptions::address '" + options.address +
+                                  "' is not an IP address");
     if (options.port < 0 || options.port > 65535) {
       throw std::invalid_argument("FoxgloveServerOptions::port " + std::to_string(options.port) +
                                   " must be in [0, 65535]");
@@ -107,12 +114,14 @@ class FoxgloveServer::Impl {
     server_.set_http_handler([this](Handle h) { OnHttp(h); });
     server_.listen(asio::ip::tcp::endpoint(address, static_cast<unsigned short>(options.port)), ec);
     if (ec) {
-      throw std::runtime_error("cannot listen on " + options.address + ":" + std::to_string(options.port) + ": " +
-                               ec.message());
+      throw std::runtime_error("cannot listen on " + options.address + ":" + std::to_string(options.port) +
+                               ": " + ec.message());
     }
     port_ = server_.get_local_endpoint(ec).port();
     server_.start_accept(ec);
-    if (ec) throw std::runtime_error("cannot accept on " + options.address + ":" + std::to_string(port_) + ": " + ec.message());
+    if (ec)
+      throw std::runtime_error("cannot accept on " + options.address + ":" + std::to_string(port_) + ": " +
+                               ec.message());
     thread_ = std::thread([this] {
       try {
         server_.run();
@@ -130,7 +139,8 @@ class FoxgloveServer::Impl {
       std::lock_guard<std::mutex> lock(mutex_);
       for (const auto& [handle, id] : ids_) open.push_back(handle);
     }
-    for (const Handle& h : open) server_.close(h, websocketpp::close::status::going_away, "server stopping", ec);
+    for (const Handle& h : open)
+      server_.close(h, websocketpp::close::status::going_away, "server stopping", ec);
     server_.stop();
     if (thread_.joinable()) thread_.join();
   }
@@ -138,7 +148,8 @@ class FoxgloveServer::Impl {
   int port() const { return port_; }
   std::string url() const {
     const bool v6 = options_.address.find(':') != std::string::npos;
-    return "http://" + (v6 ? "[" + options_.address + "]" : options_.address) + ":" + std::to_string(port_) + "/";
+    return "http://" + (v6 ? "[" + options_.address + "]" : options_.address) + ":" + std::to_string(port_) +
+           "/";
   }
 
   std::uint32_t AddChannel(const ChannelSpec& spec) {
@@ -164,7 +175,8 @@ class FoxgloveServer::Impl {
     std::lock_guard<std::mutex> lock(mutex_);
     const std::uint32_t id = next_service_++;
     services_[id] = spec;
-    SendTextToAll(json{{"op", "advertiseServices"}, {"services", json::array({ServiceJson(id, spec)})}}.dump());
+    SendTextToAll(
+        json{{"op", "advertiseServices"}, {"services", json::array({ServiceJson(id, spec)})}}.dump());
     return id;
   }
 
@@ -221,10 +233,14 @@ class FoxgloveServer::Impl {
             {"requestSchema", spec.request_schema},
             {"responseSchema", spec.response_schema},
             {"request",
-             {{"encoding", "json"}, {"schemaName", spec.request_schema_name}, {"schemaEncoding", "jsonschema"},
+             {{"encoding", "json"},
+              {"schemaName", spec.request_schema_name},
+              {"schemaEncoding", "jsonschema"},
               {"schema", spec.request_schema}}},
             {"response",
-             {{"encoding", "json"}, {"schemaName", spec.response_schema_name}, {"schemaEncoding", "jsonschema"},
+             {{"encoding", "json"},
+              {"schemaName", spec.response_schema_name},
+              {"schemaEncoding", "jsonschema"},
               {"schema", spec.response_schema}}}};
   }
 
@@ -270,8 +286,9 @@ class FoxgloveServer::Impl {
       }
     }
     con->set_status(websocketpp::http::status_code::bad_request);
-    con->set_body(std::string("this WebSocket speaks the Foxglove WebSocket protocol only: request subprotocol ") +
-                  kSubprotocol);
+    con->set_body(
+        std::string("this WebSocket speaks the Foxglove WebSocket protocol only: request subprotocol ") +
+        kSubprotocol);
     return false;
   }
 
@@ -337,14 +354,16 @@ class FoxgloveServer::Impl {
       SendStatus(client.handle, 2, std::string("message is not JSON: ") + e.what());
       return;
     }
-    const std::string op = j.is_object() && j.contains("op") && j["op"].is_string() ? j["op"].get<std::string>() : "";
+    const std::string op =
+        j.is_object() && j.contains("op") && j["op"].is_string() ? j["op"].get<std::string>() : "";
     try {
       if (op == "subscribe") {
         for (const json& s : j.at("subscriptions")) {
           const auto sub = s.at("id").get<std::uint32_t>();
           const auto channel = s.at("channelId").get<std::uint32_t>();
           if (!channels_.count(channel)) {
-            SendStatus(client.handle, 1, "subscribe: channel " + std::to_string(channel) + " is not advertised");
+            SendStatus(client.handle, 1,
+                       "subscribe: channel " + std::to_string(channel) + " is not advertised");
             continue;
           }
           if (client.subscriptions.count(sub)) {
@@ -384,7 +403,8 @@ class FoxgloveServer::Impl {
       std::uint32_t channel = 0;
       if (!GetU32(data, 1, &channel) || !client.advertised.count(channel)) {
         ++stats_.protocol_errors;
-        SendStatus(client.handle, 1, "client message on channel " + std::to_string(channel) + ", which it did not advertise");
+        SendStatus(client.handle, 1,
+                   "client message on channel " + std::to_string(channel) + ", which it did not advertise");
         return {};
       }
       if (!handlers_.on_client_message) return {};
@@ -404,9 +424,13 @@ class FoxgloveServer::Impl {
       const std::string encoding = data.substr(13, encoding_length);
       const std::string request = data.substr(13 + encoding_length);
       if (!services_.count(service) || encoding != "json" || !handlers_.on_service_call) {
-        const std::string why = !services_.count(service) ? "service " + std::to_string(service) + " is not advertised"
-                                                          : "encoding '" + encoding + "' is not supported (json)";
-        SendText(client.handle, json{{"op", "serviceCallFailure"}, {"serviceId", service}, {"callId", call}, {"message", why}}.dump());
+        const std::string why = !services_.count(service)
+                                    ? "service " + std::to_string(service) + " is not advertised"
+                                    : "encoding '" + encoding + "' is not supported (json)";
+        SendText(
+            client.handle,
+            json{{"op", "serviceCallFailure"}, {"serviceId", service}, {"callId", call}, {"message", why}}
+                .dump());
         return {};
       }
       const Handle handle = client.handle;
@@ -424,10 +448,15 @@ class FoxgloveServer::Impl {
           frame += payload;
           SendBinary(handle, frame);
         } else {
-          SendText(handle, json{{"op", "serviceCallFailure"}, {"serviceId", service}, {"callId", call}, {"message", payload}}.dump());
+          SendText(handle, json{{"op", "serviceCallFailure"},
+                                {"serviceId", service},
+                                {"callId", call},
+                                {"message", payload}}
+                               .dump());
         }
       };
-      return [this, id, service, request, respond] { handlers_.on_service_call(id, service, request, respond); };
+      return
+          [this, id, service, request, respond] { handlers_.on_service_call(id, service, request, respond); };
     }
     ++stats_.protocol_errors;
     SendStatus(client.handle, 1, "unsupported binary opcode " + std::to_string(opcode));
@@ -447,7 +476,8 @@ class FoxgloveServer::Impl {
     const bool escapes = relative.empty() || *relative.begin() == "..";
     const std::filesystem::path file = std::filesystem::path(options_.web_root) / relative;
     std::ifstream in;
-    if (!options_.web_root.empty() && !escapes && std::filesystem::is_regular_file(file)) in.open(file, std::ios::binary);
+    if (!options_.web_root.empty() && !escapes && std::filesystem::is_regular_file(file))
+      in.open(file, std::ios::binary);
     if (!in.is_open() || !in) {  // a stream never opened is not in a failed state
       con->set_status(websocketpp::http::status_code::not_found);
       con->set_body("not found: " + resource);
@@ -466,7 +496,8 @@ class FoxgloveServer::Impl {
   WsServer server_;
   std::thread thread_;
   int port_ = 0;
-  const std::uint64_t session_ = static_cast<std::uint64_t>(std::chrono::system_clock::now().time_since_epoch().count());
+  const std::uint64_t session_ =
+      static_cast<std::uint64_t>(std::chrono::system_clock::now().time_since_epoch().count());
   mutable std::mutex mutex_;
   std::map<Handle, ClientId, std::owner_less<Handle>> ids_;
   std::map<ClientId, Client> clients_;

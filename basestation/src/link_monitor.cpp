@@ -18,7 +18,8 @@ void LinkMonitor::OnProbeSent(std::uint32_t probe_id, core::SteadyTime now) {
 }
 
 void LinkMonitor::OnProbeReply(const std::string& robot_id, std::uint32_t probe_id, core::SteadyTime now) {
-  auto sent = std::find_if(probes_.begin(), probes_.end(), [&](const auto& p) { return p.first == probe_id; });
+  auto sent =
+      std::find_if(probes_.begin(), probes_.end(), [&](const auto& p) { return p.first == probe_id; });
   if (sent == probes_.end()) return;
   Robot& robot = robots_[robot_id];
   const double rtt_ms = 1000.0 * core::SecondsBetween(sent->second, now);
@@ -29,8 +30,8 @@ void LinkMonitor::OnProbeReply(const std::string& robot_id, std::uint32_t probe_
   robot.last_answered_probe = std::max(robot.last_answered_probe, probe_id);
 }
 
-void LinkMonitor::OnState(const std::string& robot_id, const std::string& writer_id, std::uint64_t sequence_number,
-                          core::SteadyTime now) {
+void LinkMonitor::OnState(const std::string& robot_id, const std::string& writer_id,
+                          std::uint64_t sequence_number, core::SteadyTime now) {
   Robot& robot = robots_[robot_id];
   std::uint64_t gap = 0;
   if (robot.writer_id != writer_id) {
@@ -77,7 +78,8 @@ LinkView LinkMonitor::View(const std::string& robot_id, core::SteadyTime now) co
     received += 1;
     lost += s.lost_before;
   }
-  view.loss_pct = received + lost > 0 ? 100.0 * static_cast<double>(lost) / static_cast<double>(received + lost) : 0.0;
+  view.loss_pct =
+      received + lost > 0 ? 100.0 * static_cast<double>(lost) / static_cast<double>(received + lost) : 0.0;
   // The oldest probe sent after the last answered one, once it is older than a probe period.
   if (view.rtt_ms >= 0) {
     for (const auto& [id, sent] : probes_) {

@@ -70,7 +70,8 @@ char* CompletionGenerator(const char* text, int state) {
     for (std::string w; words >> w;) before.push_back(w);
     const std::string prefix(text);
     if (!before.empty() && !prefix.empty() && before.back() == prefix) before.pop_back();
-    matches = g_interactive.shell ? g_interactive.shell->Complete(before, prefix) : std::vector<std::string>{};
+    matches =
+        g_interactive.shell ? g_interactive.shell->Complete(before, prefix) : std::vector<std::string>{};
     next = 0;
   }
   if (next >= matches.size()) return nullptr;
@@ -126,7 +127,8 @@ void PrintEventsKeepingLine(cairn::base::CommandShell& shell) {
 
 // Reads lines from a terminal with history (libedit) until Ctrl-D, "quit", or SIGTERM. Input is polled so
 // that events print while nothing is being run, above the line being typed.
-int RunInteractive(cairn::base::CommandShell& shell, cairn::base::FleetClient& client, const std::string& base_id) {
+int RunInteractive(cairn::base::CommandShell& shell, cairn::base::FleetClient& client,
+                   const std::string& base_id) {
   // Before anything initializes libedit (read_history does): it must not install signal handlers, which
   // would run on any thread, DDS ones included. Ctrl-C is ours (cancel a wait, clear the line).
   rl_catch_signals = 0;
@@ -134,10 +136,11 @@ int RunInteractive(cairn::base::CommandShell& shell, cairn::base::FleetClient& c
   const std::string history = std::string(home ? home : ".") + "/.cairn_base_history";
   read_history(history.c_str());
   cairn::core::SetInterruptHandler(OnInterrupt);
-  std::cout << "cairn_base " << base_id
-            << ": type help for commands, Tab to complete, Ctrl-C to cancel a wait or clear the line, quit or "
-               "Ctrl-D to leave (robots keep running)."
-            << std::endl;
+  std::cout
+      << "cairn_base " << base_id
+      << ": type help for commands, Tab to complete, Ctrl-C to cancel a wait or clear the line, quit or "
+         "Ctrl-D to leave (robots keep running)."
+      << std::endl;
   const std::string prompt = base_id + "> ";
   int last = cairn::base::kOk;
   g_interactive.shell = &shell;
@@ -258,9 +261,10 @@ int main(int argc, char** argv) {
   bool keep_going = false, no_joystick = false, gui = false;
   std::vector<std::string> command;
 
-  CLI::App app{"cairn_base: a Cairn basestation. Commands come from the terminal (REPL), from stdin line by "
-               "line, from --script FILE, or as one command after --.\n\n" +
-               cairn::base::CommandShell::Help()};
+  CLI::App app{
+      "cairn_base: a Cairn basestation. Commands come from the terminal (REPL), from stdin line by "
+      "line, from --script FILE, or as one command after --.\n\n" +
+      cairn::base::CommandShell::Help()};
   app.add_option("--base-id", options.base_id, "basestation id, unique in the fleet ([A-Za-z0-9_-]{1,64})")
       ->required();
   app.add_option("--domain", domain_text, "DDS domain id, 0..232")->capture_default_str();
@@ -269,18 +273,21 @@ int main(int argc, char** argv) {
   app.add_flag("--keep-going", keep_going, "with a script or stdin: run every line even after a failure");
   cairn::core::AddLinkFlags(app, &options.link);
   cairn::core::AddSecureFlag(app, &options.security);
-  app.add_option("--dds-profiles", options.dds_profiles_file, "Fast DDS XML profiles file (default: shipped "
-                                                              "loopback-only config/dds_profiles.xml)");
+  app.add_option("--dds-profiles", options.dds_profiles_file,
+                 "Fast DDS XML profiles file (default: shipped "
+                 "loopback-only config/dds_profiles.xml)");
   app.add_option("--command-timeout", options.command_timeout_s, "seconds to wait for a robot's answer")
       ->capture_default_str();
   double discovery_wait_s = 0;
-  app.add_option("--discovery-wait", discovery_wait_s,
-                 "after this basestation starts, a command to a robot it has not seen yet waits this long for it "
-                 "before refusing it as unknown, seconds (default 5 on lan and radio links, 1.5 on loopback)");
+  app.add_option(
+      "--discovery-wait", discovery_wait_s,
+      "after this basestation starts, a command to a robot it has not seen yet waits this long for it "
+      "before refusing it as unknown, seconds (default 5 on lan and radio links, 1.5 on loopback)");
   double lost_after_s = 0;
-  app.add_option("--lost-after", lost_after_s,
-                 "show a robot lost when its state (10 Hz) has been silent this long, seconds (default 0.8 on lan "
-                 "and radio links, 3 on loopback)");
+  app.add_option(
+      "--lost-after", lost_after_s,
+      "show a robot lost when its state (10 Hz) has been silent this long, seconds (default 0.8 on lan "
+      "and radio links, 3 on loopback)");
   app.add_flag("--no-joystick", no_joystick,
                "do not advertise a joystick: robots then refuse smart_joystick mode from this basestation");
   app.add_option("--places", shell_options.places_file,
@@ -288,18 +295,22 @@ int main(int argc, char** argv) {
   app.add_option("--proximity-m", options.events.proximity_m,
                  "event when two robots are closer than this, metres (centre to centre)")
       ->capture_default_str();
-  app.add_flag("--gui", gui,
-               "also serve the operator GUI (web app and Foxglove WebSocket protocol) on --listen; the console "
-               "keeps working beside it");
-  app.add_option("--listen", listen, "with --gui: ADDR:PORT to serve on (any address other than loopback only "
-                                     "when given)")
+  app.add_flag(
+      "--gui", gui,
+      "also serve the operator GUI (web app and Foxglove WebSocket protocol) on --listen; the console "
+      "keeps working beside it");
+  app.add_option("--listen", listen,
+                 "with --gui: ADDR:PORT to serve on (any address other than loopback only "
+                 "when given)")
       ->capture_default_str();
-  app.add_option("--gui-root", gui_root, "with --gui: the built web app (default: web/ beside the build's "
-                                         "basestation/ directory)");
+  app.add_option("--gui-root", gui_root,
+                 "with --gui: the built web app (default: web/ beside the build's "
+                 "basestation/ directory)");
   double gui_map_kBps = cairn::base::GuiOptions{}.map_budget_kBps;
-  app.add_option("--gui-map-kBps", gui_map_kBps,
-                 "with --gui: the fleet map's share of the link to each GUI client, kB/s (changed map columns wait "
-                 "when it is spent)")
+  app.add_option(
+         "--gui-map-kBps", gui_map_kBps,
+         "with --gui: the fleet map's share of the link to each GUI client, kB/s (changed map columns wait "
+         "when it is spent)")
       ->capture_default_str();
   std::string ros2_domain_text;
   app.add_option("--ros2-domain", ros2_domain_text,
@@ -332,7 +343,8 @@ int main(int argc, char** argv) {
     }
     if (app.count("--lost-after") > 0) {
       if (!(lost_after_s >= 0.2 && lost_after_s <= 60)) {
-        throw std::invalid_argument("--lost-after " + std::to_string(lost_after_s) + " must be in [0.2, 60] s");
+        throw std::invalid_argument("--lost-after " + std::to_string(lost_after_s) +
+                                    " must be in [0.2, 60] s");
       }
       options.lost_after_s = lost_after_s;
     }
@@ -345,11 +357,13 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("--proximity-m " + std::to_string(options.events.proximity_m) +
                                   " must be in (0, 100]");
     }
-    options.events.proximity_clear_m = std::max(options.events.proximity_clear_m, options.events.proximity_m + 1.0);
+    options.events.proximity_clear_m =
+        std::max(options.events.proximity_clear_m, options.events.proximity_m + 1.0);
     std::ifstream script_file;
     if (!script.empty()) {
       // A folder opens as a stream that reads nothing: it ran no command and exited 0.
-      if (std::filesystem::is_directory(script)) throw std::invalid_argument("--script '" + script + "' is a folder, not a file");
+      if (std::filesystem::is_directory(script))
+        throw std::invalid_argument("--script '" + script + "' is a folder, not a file");
       script_file.open(script);
       if (!script_file) throw std::invalid_argument("--script '" + script + "' cannot be read");
     }
@@ -401,8 +415,12 @@ int main(int argc, char** argv) {
     const int code = RunPiped(shell, client);
     // A GUI or a ROS 2 publisher outlives the end of stdin (cairn_base --gui </dev/null): it serves until
     // SIGINT or SIGTERM.
-    if (gui_bridge) spdlog::info("cairn_base {}: stdin ended; the GUI serves {} until SIGINT or SIGTERM", options.base_id, gui_bridge->url());
-    if (ros2_bridge) spdlog::info("cairn_base {}: stdin ended; the fleet is published for ROS 2 until SIGINT or SIGTERM", options.base_id);
+    if (gui_bridge)
+      spdlog::info("cairn_base {}: stdin ended; the GUI serves {} until SIGINT or SIGTERM", options.base_id,
+                   gui_bridge->url());
+    if (ros2_bridge)
+      spdlog::info("cairn_base {}: stdin ended; the fleet is published for ROS 2 until SIGINT or SIGTERM",
+                   options.base_id);
     while ((gui_bridge || ros2_bridge) && !cairn::core::ShutdownRequested())
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     return code;

@@ -1,12 +1,12 @@
 // Helpers shared by the command shell's translation units (internal to cairn_base_lib).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <algorithm>
 #include <iomanip>
-#include <ostream>
 #include <nlohmann/json.hpp>
+#include <ostream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -105,13 +105,19 @@ inline nlohmann::json StaircaseJson(const perception::StaircaseRegistry::Entry& 
 inline nlohmann::json LinkFieldsJson(const LinkView& l) {
   nlohmann::json usage = nlohmann::json::array();
   for (const ClassUsage& u : l.usage) {
-    usage.push_back({{"topic_class", u.topic_class}, {"sent_kbps", u.sent_kbps}, {"sent_bytes", u.sent_bytes}});
+    usage.push_back(
+        {{"topic_class", u.topic_class}, {"sent_kbps", u.sent_kbps}, {"sent_bytes", u.sent_bytes}});
   }
-  return {{"budget_kbps", l.budget_kbps}, {"rtt_ms", l.rtt_ms},
-          {"rtt_max_ms", l.rtt_max_ms},   {"probe_wait_s", l.probe_wait_s},
-          {"state_received", l.state_received}, {"state_lost", l.state_lost},
-          {"loss_pct", l.loss_pct},       {"sent_kbps", l.sent_kbps},
-          {"over_budget", l.over_budget}, {"usage", usage}};
+  return {{"budget_kbps", l.budget_kbps},
+          {"rtt_ms", l.rtt_ms},
+          {"rtt_max_ms", l.rtt_max_ms},
+          {"probe_wait_s", l.probe_wait_s},
+          {"state_received", l.state_received},
+          {"state_lost", l.state_lost},
+          {"loss_pct", l.loss_pct},
+          {"sent_kbps", l.sent_kbps},
+          {"over_budget", l.over_budget},
+          {"usage", usage}};
 }
 
 }  // namespace cairn::base::shell

@@ -2,8 +2,7 @@
 // advertise, subscriptions and Message Data frames, service calls, client publish, malformed input, and the
 // static files on the same port. Runs inside the test's private network namespace (loopback only).
 #define ASIO_STANDALONE
-#include <websocketpp/client.hpp>
-#include <websocketpp/config/asio_no_tls_client.hpp>
+#include "cairn/base/foxglove_server.h"
 
 #include <gtest/gtest.h>
 
@@ -14,12 +13,11 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
-
-#include <nlohmann/json.hpp>
-
-#include "cairn/base/foxglove_server.h"
+#include <websocketpp/client.hpp>
+#include <websocketpp/config/asio_no_tls_client.hpp>
 
 namespace cairn::base {
 namespace {
@@ -40,8 +38,9 @@ TEST(ParseListenAddress, AcceptsIpv4AndBracketedIpv6WithAPort) {
 }
 
 TEST(ParseListenAddress, RefusesWhatIsNotAddrPortNamingTheText) {
-  for (const std::string bad : {"127.0.0.1", "127.0.0.1:", ":8080", "127.0.0.1:99999", "127.0.0.1:-1",
-                                "127.0.0.1: 80", "127.0.0.1:80 ", "127.0.0.1:8o", "localhost:8080", "[::1:80"}) {
+  for (const std::string bad :
+       {"127.0.0.1", "127.0.0.1:", ":8080", "127.0.0.1:99999", "127.0.0.1:-1", "127.0.0.1: 80",
+        "127.0.0.1:80 ", "127.0.0.1:8o", "localhost:8080", "[::1:80"}) {
     std::string address;
     int port = -1;
     try {
@@ -139,7 +138,9 @@ class TestClient {
     return found;
   }
   void SendText(const json& j) { client_.send(connection_, j.dump(), websocketpp::frame::opcode::text); }
-  void SendBinary(const std::string& bytes) { client_.send(connection_, bytes, websocketpp::frame::opcode::binary); }
+  void SendBinary(const std::string& bytes) {
+    client_.send(connection_, bytes, websocketpp::frame::opcode::binary);
+  }
 
  private:
   void Set(bool* flag) {
@@ -201,8 +202,8 @@ class FoxgloveServerTest : public ::testing::Test {
       std::lock_guard<std::mutex> lock(mutex_);
       subscribed_.push_back(channel);
     };
-    handlers.on_client_message = [this](FoxgloveServer::ClientId, const std::string& topic, const std::string&,
-                                        const std::string& payload) {
+    handlers.on_client_message = [this](FoxgloveServer::ClientId, const std::string& topic,
+                                        const std::string&, const std::string& payload) {
       std::lock_guard<std::mutex> lock(mutex_);
       client_messages_.push_back(topic + " " + payload);
     };
@@ -260,7 +261,8 @@ TEST_F(FoxgloveServerTest, AdvertisesDeliversSubscribedMessagesAndAnswersService
   EXPECT_EQ(advertise["channels"][0]["encoding"], "json");
   EXPECT_EQ(client.WaitText("advertiseServices")["services"][0]["name"], "/cairn/command");
 
-  // Not subscribed: nothing arrives. Subscribed as 7: Message Data with subscription 7, the stamp, the payload.
+  // Not subscribed: nothing arrives. Subscribed as 7: Message Data with subscription 7, the stamp, the
+  // payload.
   server_->Publish(channel_, 1, R"({"before":1})");
   client.SendText({{"op", "subscribe"}, {"subscriptions", {{{"id", 7}, {"channelId", channel_}}}}});
   for (int i = 0; i < 50 && !server_->HasSubscribers(channel_); ++i) std::this_thread::sleep_for(20ms);
@@ -285,7 +287,8 @@ TEST_F(FoxgloveServerTest, AdvertisesDeliversSubscribedMessagesAndAnswersService
   EXPECT_EQ(U32(response, 5), 42u);
   EXPECT_EQ(response.substr(13, 4), "json");
   EXPECT_EQ(json::parse(response.substr(17)), json({{"echo", "hello"}}));
-  client.SendBinary(std::string(1, '\x02') + LeU32(service_) + LeU32(43) + LeU32(4) + "json" + R"({"fail":true})");
+  client.SendBinary(std::string(1, '\x02') + LeU32(service_) + LeU32(43) + LeU32(4) + "json" +
+                    R"({"fail":true})");
   const json failure = client.WaitText("serviceCallFailure");
   EXPECT_EQ(failure.value("callId", 0), 43);
   EXPECT_EQ(failure.value("message", ""), "asked to fail");
@@ -299,8 +302,9 @@ TEST_F(FoxgloveServerTest, ClientPublishReachesTheOwnerOnlyOnAnAdvertisedChannel
   client.SendBinary(std::string(1, '\x01') + LeU32(5) + R"({"x":1})");
   const json status = client.WaitText("status");
   EXPECT_NE(status.value("message", "").find("did not advertise"), std::string::npos) << status.dump();
-  client.SendText({{"op", "advertise"},
-                   {"channels", {{{"id", 5}, {"topic", "/cairn/teleop"}, {"encoding", "json"}, {"schemaName", "t"}}}}});
+  client.SendText(
+      {{"op", "advertise"},
+       {"channels", {{{"id", 5}, {"topic", "/cairn/teleop"}, {"encoding", "json"}, {"schemaName", "t"}}}}});
   client.SendBinary(std::string(1, '\x01') + LeU32(5) + R"({"x":2})");
   for (int i = 0; i < 100; ++i) {
     {

@@ -1,10 +1,10 @@
 #include "cairn/base/link_monitor.h"
 
+#include <gtest/gtest.h>
+
 #include <chrono>
 #include <cmath>
 #include <limits>
-
-#include <gtest/gtest.h>
 
 namespace cairn::base {
 namespace {
@@ -61,7 +61,8 @@ TEST(LinkMonitor, LostStateSamplesFromSequenceGapsOverTenSeconds) {
   links.OnState("r1", "w2", 1, t0 + milliseconds(5200));
   EXPECT_EQ(links.View("r1", t0 + milliseconds(5200)).state_lost, 10u);
   // Ten clean seconds later the recent loss is 0; the totals stay.
-  for (std::uint64_t seq = 2; seq <= 110; ++seq) links.OnState("r1", "w2", seq, t0 + milliseconds(5200 + 100 * seq));
+  for (std::uint64_t seq = 2; seq <= 110; ++seq)
+    links.OnState("r1", "w2", seq, t0 + milliseconds(5200 + 100 * seq));
   v = links.View("r1", t0 + milliseconds(16200));
   EXPECT_EQ(v.loss_pct, 0.0);
   EXPECT_EQ(v.state_lost, 10u);

@@ -16,7 +16,7 @@ struct ConfigSection::Impl {
   YAML::Node node;
   std::string origin;  // file name
 #include <sstream>
-  std::string path;    // dotted path of this section ("" at top level)
+  std::string path;  // dotted path of this section ("" at top level)
 };
 
 ConfigSection::ConfigSection(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -29,9 +29,9 @@ ConfigSection::~ConfigSection() = default;
 
 namespace {
 
-// yaml-cpp keeps both entries of a key written twice in one mapping (its lookup then reads the first): a second
-// `lock_keep_s` further down a file would be ignored silently. Throws ConfigError naming the key, its mapping
-// and the line of its second appearance.
+// yaml-cpp keeps both entries of a key written twice in one mapping (its lookup then reads the first): a
+// second `lock_keep_s` further down a file would be ignored silently. Throws ConfigError naming the key, its
+// mapping and the line of its second appearance.
 void RejectDuplicateKeys(const YAML::Node& node, const std::string& origin, const std::string& path) {
   if (node.IsSequence()) {
     for (std::size_t i = 0; i < node.size(); ++i) {
@@ -45,8 +45,8 @@ void RejectDuplicateKeys(const YAML::Node& node, const std::string& origin, cons
     const std::string key = it->first.IsScalar() ? it->first.Scalar() : "(a non-scalar key)";
     const std::string where = path.empty() ? key : path + "." + key;
     if (!seen.insert(key).second) {
-      throw ConfigError(origin + ": " + where + " appears twice (line " + std::to_string(it->first.Mark().line + 1) +
-                        "): remove one");
+      throw ConfigError(origin + ": " + where + " appears twice (line " +
+                        std::to_string(it->first.Mark().line + 1) + "): remove one");
     }
     RejectDuplicateKeys(it->second, origin, where);
   }
@@ -210,11 +210,13 @@ std::string CheckOutputFile(const std::string& field, const std::string& path) {
   if (path.empty()) return field + " '' names no file";
   if (fs::is_directory(file, ec)) return field + " '" + path + "' is a directory, not a file";
   const fs::path folder = file.has_parent_path() ? file.parent_path() : fs::path(".");
-  if (!fs::is_directory(folder, ec)) return field + " '" + path + "': its folder '" + folder.string() + "' does not exist";
+  if (!fs::is_directory(folder, ec))
+    return field + " '" + path + "': its folder '" + folder.string() + "' does not exist";
   if (::access(folder.c_str(), W_OK | X_OK) != 0) {
     return field + " '" + path + "': its folder '" + folder.string() + "' is not writable";
   }
-  if (fs::exists(file, ec) && ::access(file.c_str(), W_OK) != 0) return field + " '" + path + "' is not writable";
+  if (fs::exists(file, ec) && ::access(file.c_str(), W_OK) != 0)
+    return field + " '" + path + "' is not writable";
   return "";
 }
 

@@ -9,11 +9,12 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-bool CheckRange(const char* field, double value, double lo, bool lo_open, double hi, std::ostringstream* msg) {
+bool CheckRange(const char* field, double value, double lo, bool lo_open, double hi,
+                std::ostringstream* msg) {
   const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
   if (!ok) {
-    *msg << "VelocityLimits::" << field << " = " << value << " must be finite and in " << (lo_open ? "(" : "[")
-         << lo << ", " << hi << "]";
+    *msg << "VelocityLimits::" << field << " = " << value << " must be finite and in "
+         << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
   }
   return ok;
 }

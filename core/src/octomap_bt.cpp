@@ -194,16 +194,19 @@ BtFile ParseOctomapFile(const std::string& bytes, const std::string& where, Form
       throw std::invalid_argument(where + " has an invalid header line '" + line.substr(0, 80) + "'");
     }
   }
-  if (!data_found) throw std::invalid_argument(where + " is truncated or corrupt: its header has no 'data' line");
+  if (!data_found)
+    throw std::invalid_argument(where + " is truncated or corrupt: its header has no 'data' line");
   if (id != "OcTree") {
-    throw std::invalid_argument(where + " holds an OctoMap tree of type '" + id + "'; only 'OcTree' is supported");
+    throw std::invalid_argument(where + " holds an OctoMap tree of type '" + id +
+                                "'; only 'OcTree' is supported");
   }
   if (!size || *size > std::numeric_limits<std::uint32_t>::max()) {
     throw std::invalid_argument(where + " has no valid 'size' in its header");
   }
   if (!res) throw std::invalid_argument(where + " has no 'res' (resolution) in its header");
   if (!std::isfinite(*res) || *res <= 0.0) {
-    throw std::invalid_argument(where + " has an invalid resolution " + std::to_string(*res) + " in its header");
+    throw std::invalid_argument(where + " has an invalid resolution " + std::to_string(*res) +
+                                " in its header");
   }
 
   BtFile contents;
@@ -215,7 +218,7 @@ BtFile ParseOctomapFile(const std::string& bytes, const std::string& where, Form
   if (!error.empty()) throw std::invalid_argument(where + " is " + error);
   if (contents.num_nodes != *size) {
     throw std::invalid_argument(where + " is corrupt or truncated: its header says " + std::to_string(*size) +
-                   " nodes but its data holds " + std::to_string(contents.num_nodes));
+                                " nodes but its data holds " + std::to_string(contents.num_nodes));
   }
   return contents;
 }

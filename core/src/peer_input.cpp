@@ -6,18 +6,19 @@
 namespace cairn::core {
 
 std::string CheckId(const std::string& field, const std::string& id) {
-  const bool valid = !id.empty() && id.size() <= kMaxIdLength &&
-                     std::all_of(id.begin(), id.end(), [](char c) {
-                       return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
-                              c == '_' || c == '-';
-                     });
+  const bool valid =
+      !id.empty() && id.size() <= kMaxIdLength && std::all_of(id.begin(), id.end(), [](char c) {
+        return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' ||
+               c == '-';
+      });
   if (valid) return "";
   std::string shown;
   for (const char c : id.substr(0, kMaxIdLength)) {
     const auto u = static_cast<unsigned char>(c);
     shown += u >= 0x20 && u < 0x7f ? std::string(1, c) : "?";  // no control bytes into a log or a terminal
   }
-  return field + " '" + shown + (id.size() > kMaxIdLength ? "...' (" + std::to_string(id.size()) + " characters)" : "'") +
+  return field + " '" + shown +
+         (id.size() > kMaxIdLength ? "...' (" + std::to_string(id.size()) + " characters)" : "'") +
          " must be 1-64 characters of A-Z a-z 0-9 _ -";
 }
 

@@ -9,11 +9,11 @@
 namespace cairn::core {
 
 VoxelGrid::VoxelGrid(std::string name, const Eigen::Vector3d& p_W_min, double resolution_m,
-             const Eigen::Vector3i& dims, std::int64_t max_voxels)
+                     const Eigen::Vector3i& dims, std::int64_t max_voxels)
     : name_(std::move(name)), p_W_min_(p_W_min), resolution_m_(resolution_m), dims_(dims), num_voxels_(0) {
   if (!std::isfinite(resolution_m) || resolution_m <= 0.0) {
     throw VoxelGridError("voxel grid '" + name_ + "': resolution_m = " + std::to_string(resolution_m) +
-                     " must be finite and > 0");
+                         " must be finite and > 0");
   }
   if (!p_W_min.allFinite()) {
     throw VoxelGridError("voxel grid '" + name_ + "': p_W_min must be finite");
@@ -27,8 +27,8 @@ VoxelGrid::VoxelGrid(std::string name, const Eigen::Vector3d& p_W_min, double re
   const double n = static_cast<double>(dims.x()) * dims.y() * dims.z();
   if (n > static_cast<double>(max_voxels)) {
     std::ostringstream msg;
-    msg << "voxel grid '" << name_ << "': grid of " << dims.x() << " x " << dims.y() << " x " << dims.z() << " = "
-        << n << " voxels is too large (limit " << max_voxels << " voxels, max_voxels)";
+    msg << "voxel grid '" << name_ << "': grid of " << dims.x() << " x " << dims.y() << " x " << dims.z()
+        << " = " << n << " voxels is too large (limit " << max_voxels << " voxels, max_voxels)";
     throw VoxelGridError(msg.str());
   }
   num_voxels_ = static_cast<std::int64_t>(dims.x()) * dims.y() * dims.z();

@@ -1,10 +1,6 @@
 // Copyright Cairn authors.
 #include "cairn/nav/astar.h"
 
-#include "path_internal.h"
-
-#include "search_scratch.h"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -15,6 +11,9 @@
 #include <sstream>
 #include <stdexcept>
 #include <utility>
+
+#include "path_internal.h"
+#include "search_scratch.h"
 
 namespace cairn::nav {
 namespace {
@@ -106,15 +105,16 @@ bool AStarOptions::IsValid(std::string* why) const {
         << "]";
     return false;
   };
-  const bool ok = range("step_height_cost", step_height_cost, 0.0, 100.0) &&
-                  range("preferred_clearance_m", preferred_clearance_m, 0.0, 10.0) &&
-                  range("clearance_cost", clearance_cost, 0.0, 100.0) &&
-                  range("unknown_cost", unknown_cost, 0.0, 100.0) &&
-                  range("start_escape_radius_m", start_escape_radius_m, 0.0, 5.0) &&
-                  range("start_footprint_radius_m", start_footprint_radius_m, 0.0, 5.0) &&
-                  (std::isnan(robot_radius_m) || range("robot_radius_m", robot_radius_m, 0.0, 5.0)) &&
-                  (std::isnan(partial_min_climb_m) || range("partial_min_climb_m", partial_min_climb_m, 0.0, 5.0)) &&
-                  range("max_expansions", max_expansions, 1000, 1e8);
+  const bool ok =
+      range("step_height_cost", step_height_cost, 0.0, 100.0) &&
+      range("preferred_clearance_m", preferred_clearance_m, 0.0, 10.0) &&
+      range("clearance_cost", clearance_cost, 0.0, 100.0) &&
+      range("unknown_cost", unknown_cost, 0.0, 100.0) &&
+      range("start_escape_radius_m", start_escape_radius_m, 0.0, 5.0) &&
+      range("start_footprint_radius_m", start_footprint_radius_m, 0.0, 5.0) &&
+      (std::isnan(robot_radius_m) || range("robot_radius_m", robot_radius_m, 0.0, 5.0)) &&
+      (std::isnan(partial_min_climb_m) || range("partial_min_climb_m", partial_min_climb_m, 0.0, 5.0)) &&
+      range("max_expansions", max_expansions, 1000, 1e8);
   if (!ok && why != nullptr) *why = msg.str();
   return ok;
 }
@@ -177,8 +177,8 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
   const auto t0 = std::chrono::steady_clock::now();
   PlanResult result;
   // Traversable for this plan: the grid's layer, or clearance above a reduced radius.
-  const bool reduced = std::isfinite(options.robot_radius_m) &&
-                       options.robot_radius_m < grid.options().robot_radius_m - 1e-9;
+  const bool reduced =
+      std::isfinite(options.robot_radius_m) && options.robot_radius_m < grid.options().robot_radius_m - 1e-9;
   const double radius_m = reduced ? options.robot_radius_m : grid.options().robot_radius_m;
   auto traversable = [&grid, radius_m](int cx, int cy) { return grid.IsTraversableFor(cx, cy, radius_m); };
   auto finish = [&](PlanResult::Status status, std::string message) {
@@ -291,8 +291,7 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
       const int my = cy + kDy[k];
       if (!grid.InGrid(mx, my) || !traversable(mx, my)) continue;
       const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
-      if (diagonal && (!traversable(cx + kDx[k], cy) || !traversable(cx, cy + kDy[k])))
-        continue;
+      if (diagonal && (!traversable(cx + kDx[k], cy) || !traversable(cx, cy + kDy[k]))) continue;
       const std::size_t mi = grid.Index(mx, my);
       if (closed[mi]) continue;
       const double move = (diagonal ? kSqrt2 : 1.0) * c;
@@ -358,11 +357,12 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
   }
 
   if (options.simplify_path) {
-    internal::ShortcutPath(options.preferred_clearance_m, clearance,
-                           [&](std::size_t anchor, std::size_t j, double need) {
-                             return SegmentTraversable(grid, points[anchor].head<2>(), points[j].head<2>(), need);
-                           },
-                           &points);
+    internal::ShortcutPath(
+        options.preferred_clearance_m, clearance,
+        [&](std::size_t anchor, std::size_t j, double need) {
+          return SegmentTraversable(grid, points[anchor].head<2>(), points[j].head<2>(), need);
+        },
+        &points);
   }
   result.path_W = std::move(points);
   result.length_m = PathLength2D(result.path_W);

@@ -33,8 +33,10 @@ Explorer::Explorer(ExplorerOptions options) : options_(options) {
   if (!options_.IsValid(&why)) throw std::invalid_argument(why);
 }
 
-bool Explorer::SamePlace(const FrontierCluster& a, const Eigen::Vector2d& b_M, double b_z_m, double radius_m) const {
-  return (a.target_M - b_M).norm() <= radius_m && std::abs(a.target_ground_z_m - b_z_m) <= options_.same_place_dz_m;
+bool Explorer::SamePlace(const FrontierCluster& a, const Eigen::Vector2d& b_M, double b_z_m,
+                         double radius_m) const {
+  return (a.target_M - b_M).norm() <= radius_m &&
+         std::abs(a.target_ground_z_m - b_z_m) <= options_.same_place_dz_m;
 }
 
 Explorer::Bar Explorer::Barred(const FrontierCluster& c, double now_s) const {
@@ -60,7 +62,8 @@ bool Explorer::ClaimedByPeer(const FrontierCluster& c, bool is_current, const Te
   for (const PeerClaim& claim : team.claims) {
     if (claim.robot_id == team.own_id) continue;
     if ((claim.target_M - c.target_M).norm() > options_.claim_radius_m) continue;
-    if (!is_current) {  // a peer's claim, however fresh, is the peer's: a robot never takes a claimed frontier
+    if (!is_current) {  // a peer's claim, however fresh, is the peer's: a robot never takes a claimed
+                        // frontier
       *by = claim.robot_id;
       return true;
     }
@@ -86,8 +89,8 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
   int claimed = 0;
   std::vector<std::string> claimers;
   // Coordination (Burgard et al., "Coordinated Multi-Robot Exploration", IEEE T-RO 21(3), 2005): what a peer
-  // will see from its target is worth less here, so the team spreads out. Utility scaled by the distance to the
-  // nearest peer claim over peer_influence_m (linear, within it).
+  // will see from its target is worth less here, so the team spreads out. Utility scaled by the distance to
+  // the nearest peer claim over peer_influence_m (linear, within it).
   std::vector<FrontierCluster> clusters = set.clusters;
   if (options_.peer_influence_m > 0) {
     for (FrontierCluster& c : clusters) {
@@ -95,7 +98,8 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
       for (const PeerClaim& claim : team.claims) {
         if (claim.robot_id != team.own_id) nearest = std::min(nearest, (claim.target_M - c.target_M).norm());
       }
-      if (nearest < options_.peer_influence_m) c.utility *= std::max(0.05, nearest / options_.peer_influence_m);
+      if (nearest < options_.peer_influence_m)
+        c.utility *= std::max(0.05, nearest / options_.peer_influence_m);
     }
   }
   for (const FrontierCluster& c : clusters) {
@@ -125,9 +129,8 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
     }
     ++candidates;
     if (best == nullptr || c.utility > best->utility) best = &c;
-    if (is_current &&
-        (followed == nullptr ||
-         (c.target_M - current_->target_M).norm() < (followed->target_M - current_->target_M).norm())) {
+    if (is_current && (followed == nullptr || (c.target_M - current_->target_M).norm() <
+                                                  (followed->target_M - current_->target_M).norm())) {
       followed = &c;
     }
   }
@@ -164,8 +167,8 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
   } else if (followed != nullptr && !(best->utility > options_.switch_utility_ratio * followed->utility)) {
     decision.kind = ExplorerDecision::Kind::kKeep;
     decision.target = *followed;
-    decision.reason = "the current frontier is still the one to explore (" + std::to_string(candidates) +
-                      " reachable)";
+    decision.reason =
+        "the current frontier is still the one to explore (" + std::to_string(candidates) + " reachable)";
   } else {
     decision.kind = ExplorerDecision::Kind::kGoTo;
     decision.target = *best;

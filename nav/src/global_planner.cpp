@@ -94,8 +94,8 @@ bool GlobalPlannerOptions::IsValid(std::string* why) const {
   return InRange("GlobalPlannerOptions::diagnose_max_step_m", diagnose_max_step_m, 0.0, 2.0, false, why);
 }
 
-GlobalPlanner::GlobalPlanner(std::shared_ptr<const core::VoxelGrid> world, std::vector<PlatformProfile> profiles,
-                             const GlobalPlannerOptions& options)
+GlobalPlanner::GlobalPlanner(std::shared_ptr<const core::VoxelGrid> world,
+                             std::vector<PlatformProfile> profiles, const GlobalPlannerOptions& options)
     : options_(options), profiles_(std::move(profiles)), world_(std::move(world)) {
   std::string why;
   if (!options_.IsValid(&why)) throw std::invalid_argument(why);
@@ -104,8 +104,8 @@ GlobalPlanner::GlobalPlanner(std::shared_ptr<const core::VoxelGrid> world, std::
   std::set<std::string> names;
   for (const auto& p : profiles_) {
     if (!p.IsValid(&why)) throw std::invalid_argument(why);
-    if (!names.insert(p.name).second) throw std::invalid_argument("GlobalPlanner: platform '" + p.name +
-                                                                   "' given twice");
+    if (!names.insert(p.name).second)
+      throw std::invalid_argument("GlobalPlanner: platform '" + p.name + "' given twice");
   }
   map_memory_bytes_ = world_->MemoryBytes();
 }
@@ -158,8 +158,8 @@ void GlobalPlanner::UpdateMap(std::shared_ptr<const core::VoxelGrid> world, cons
                               std::shared_ptr<const MultiLevelGrid> diagnose_levels) {
   if (!world || !grid) throw std::invalid_argument("GlobalPlanner::UpdateMap: world or grid is null");
   if (Profile(platform) == nullptr) {
-    throw std::invalid_argument("GlobalPlanner::UpdateMap: platform '" + platform + "' is not served (valid: " +
-                                PlatformList() + ")");
+    throw std::invalid_argument("GlobalPlanner::UpdateMap: platform '" + platform +
+                                "' is not served (valid: " + PlatformList() + ")");
   }
   std::lock_guard<std::mutex> guard(mutex_);
   world_ = std::move(world);
@@ -191,7 +191,8 @@ std::shared_ptr<const MultiLevelGrid> GlobalPlanner::Levels(const std::string& p
   return LevelsLocked(platform, false);
 }
 
-std::shared_ptr<const MultiLevelGrid> GlobalPlanner::LevelsLocked(const std::string& platform, bool diagnose) {
+std::shared_ptr<const MultiLevelGrid> GlobalPlanner::LevelsLocked(const std::string& platform,
+                                                                  bool diagnose) {
   const PlatformProfile* profile = Profile(platform);
   if (profile == nullptr) return nullptr;
   auto& cache = diagnose ? diagnose_levels_ : levels_;
@@ -221,7 +222,8 @@ TraversabilityOptions GlobalPlanner::TerrainOptionsFor(const PlatformProfile& pr
   return t;
 }
 
-std::optional<TraversabilityOptions> GlobalPlanner::DiagnoseTerrainOptionsFor(const PlatformProfile& profile) const {
+std::optional<TraversabilityOptions> GlobalPlanner::DiagnoseTerrainOptionsFor(
+    const PlatformProfile& profile) const {
   if (options_.diagnose_max_step_m <= profile.traversability.max_step_m) return std::nullopt;
   TraversabilityOptions t = TerrainOptionsFor(profile);
   t.max_step_m = options_.diagnose_max_step_m;
@@ -233,7 +235,8 @@ std::shared_ptr<const TraversabilityGrid> GlobalPlanner::Grid(const std::string&
   return GridLocked(platform, false);
 }
 
-std::shared_ptr<const TraversabilityGrid> GlobalPlanner::GridLocked(const std::string& platform, bool diagnose) {
+std::shared_ptr<const TraversabilityGrid> GlobalPlanner::GridLocked(const std::string& platform,
+                                                                    bool diagnose) {
   const PlatformProfile* profile = Profile(platform);
   if (profile == nullptr) return nullptr;
   auto& cache = diagnose ? diagnose_grids_ : grids_;
@@ -257,8 +260,8 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
   const PlatformProfile* profile = Profile(request.platform);
   if (profile == nullptr) {
     plan.platform_known = false;
-    plan.reason = "platform '" + request.platform + "' is not served by this planner (valid: " + PlatformList() +
-                  ")";
+    plan.reason =
+        "platform '" + request.platform + "' is not served by this planner (valid: " + PlatformList() + ")";
     plan.result.message = plan.reason;
     return plan;
   }
@@ -268,7 +271,8 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
   if (std::isfinite(request.preferred_clearance_m)) {
     astar.preferred_clearance_m = std::clamp(request.preferred_clearance_m, 0.0, 10.0);
   }
-  if (std::isfinite(request.robot_radius_m)) astar.robot_radius_m = std::clamp(request.robot_radius_m, 0.0, 5.0);
+  if (std::isfinite(request.robot_radius_m))
+    astar.robot_radius_m = std::clamp(request.robot_radius_m, 0.0, 5.0);
   const auto grid = GridLocked(request.platform, false);
   int cell_x = 0, cell_y = 0;
   if (request.allow_partial && request.goal_W.allFinite() &&
@@ -287,7 +291,8 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
     astar.allow_partial = request.allow_partial;
     plan.result = PlanPathMultiLevel(*levels, start, request.goal_W, request.goal_z_m, astar);
     const bool short_of_goal = plan.result.partial || plan.result.status == PlanResult::Status::kUnreachable;
-    if (short_of_goal && request.diagnose && options_.diagnose_max_step_m > profile->traversability.max_step_m) {
+    if (short_of_goal && request.diagnose &&
+        options_.diagnose_max_step_m > profile->traversability.max_step_m) {
       // The same request allowing higher steps: when that reaches the goal (or gets 0.5 m higher toward
       // its level), this platform's step limit is what stops it; name the first step above it, cell by cell.
       guard.lock();
@@ -295,14 +300,15 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
       guard.unlock();
       AStarOptions cells = astar;
       cells.simplify_path = false;
-      cells.partial_min_climb_m = profile->traversability.max_step_m;  // progress measured in this platform's steps
+      cells.partial_min_climb_m =
+          profile->traversability.max_step_m;  // progress measured in this platform's steps
       const PlanResult r = PlanPathMultiLevel(*relaxed, start, request.goal_W, request.goal_z_m, cells);
       const double goal_z = std::isfinite(request.goal_z_m) ? request.goal_z_m : start.z();
       auto height_gap = [goal_z](const PlanResult& p) {
         return p.path_W.empty() || !std::isfinite(goal_z) ? kInf : std::abs(p.path_W.back().z() - goal_z);
       };
-      const bool relaxed_better =
-          r.IsUsable() && (!r.partial || !plan.result.IsUsable() || height_gap(r) < height_gap(plan.result) - 0.5);
+      const bool relaxed_better = r.IsUsable() && (!r.partial || !plan.result.IsUsable() ||
+                                                   height_gap(r) < height_gap(plan.result) - 0.5);
       double step = 0.0;
       Eigen::Vector2d at = request.start_W;
       for (std::size_t i = 1; relaxed_better && i < r.path_W.size(); ++i) {
@@ -316,8 +322,9 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
       // A route that is only partial either way names a step only when another platform served here climbs it
       // (stairs for a wheeled robot), not an artefact of the relaxed limit (a wall's edge seen at 0.4 m).
       bool another_climbs = !r.partial;
-      for (const auto& other : profiles_) another_climbs = another_climbs || (other.name != profile->name &&
-                                                                              other.traversability.max_step_m + 1e-9 >= step);
+      for (const auto& other : profiles_)
+        another_climbs =
+            another_climbs || (other.name != profile->name && other.traversability.max_step_m + 1e-9 >= step);
       const std::string diagnosis = relaxed_better && another_climbs ? DescribeStep(*profile, step, at) : "";
       if (!diagnosis.empty()) {
         plan.result.status = PlanResult::Status::kUnreachable;
@@ -358,11 +365,13 @@ GlobalPlan GlobalPlanner::PlanToMapEdge(const GlobalPlanRequest& request, const 
   // start until one is reachable (the projection may fall in a wall the map shows).
   constexpr double kEdgeInsetM = 1.0;
   constexpr int kEdgeTries = 10;
-  const Eigen::Vector2d inset = Eigen::Vector2d::Constant(kEdgeInsetM).cwiseMin(0.25 * (grid.p_W_max() - grid.p_W_min()));
+  const Eigen::Vector2d inset =
+      Eigen::Vector2d::Constant(kEdgeInsetM).cwiseMin(0.25 * (grid.p_W_max() - grid.p_W_min()));
   const Eigen::Vector2d lo = grid.p_W_min() + inset, hi = grid.p_W_max() - inset;
   const Eigen::Vector2d edge = request.goal_W.cwiseMax(lo).cwiseMin(hi);
   const Eigen::Vector2d back = request.start_W - edge;
-  const Eigen::Vector2d toward_start = back.norm() > 0 ? Eigen::Vector2d(back.normalized()) : Eigen::Vector2d::Zero();
+  const Eigen::Vector2d toward_start =
+      back.norm() > 0 ? Eigen::Vector2d(back.normalized()) : Eigen::Vector2d::Zero();
   const std::string extent = internal::MapExtent(grid);
   const std::string goal = internal::FormatPoint(request.goal_W);
   GlobalPlan first;
@@ -385,8 +394,8 @@ GlobalPlan GlobalPlanner::PlanToMapEdge(const GlobalPlanRequest& request, const 
   return first;
 }
 
-std::string GlobalPlanner::DiagnoseUnreachable(const PlatformProfile& profile, const GlobalPlanRequest& request,
-                                               const AStarOptions& astar) {
+std::string GlobalPlanner::DiagnoseUnreachable(const PlatformProfile& profile,
+                                               const GlobalPlanRequest& request, const AStarOptions& astar) {
   if (options_.diagnose_max_step_m <= profile.traversability.max_step_m) return "";
   std::shared_ptr<const TraversabilityGrid> relaxed;
   {
@@ -422,8 +431,9 @@ std::string GlobalPlanner::DescribeStep(const PlatformProfile& profile, double w
                                         const Eigen::Vector2d& worst_at) const {
   if (worst_step <= profile.traversability.max_step_m + 1e-9) return "";
   std::string text = "unreachable for platform " + profile.name + ": the only route climbs a " +
-                     Fixed2(worst_step) + " m step at (" + Fixed2(worst_at.x()) + ", " + Fixed2(worst_at.y()) +
-                     "), above its max_step_m " + Fixed2(profile.traversability.max_step_m) + " m";
+                     Fixed2(worst_step) + " m step at (" + Fixed2(worst_at.x()) + ", " +
+                     Fixed2(worst_at.y()) + "), above its max_step_m " +
+                     Fixed2(profile.traversability.max_step_m) + " m";
   for (const auto& other : profiles_) {
     if (other.name != profile.name && other.traversability.max_step_m + 1e-9 >= worst_step) {
       text += " (platform " + other.name + " climbs up to " + Fixed2(other.traversability.max_step_m) + " m)";
@@ -440,7 +450,8 @@ PathCheck GlobalPlanner::CheckPath(const std::vector<Eigen::Vector3d>& path_W, c
   const auto grid = GridLocked(platform, false);
   if (grid == nullptr) {
     check.valid = false;
-    check.message = "platform '" + platform + "' is not served by this planner (valid: " + PlatformList() + ")";
+    check.message =
+        "platform '" + platform + "' is not served by this planner (valid: " + PlatformList() + ")";
     return check;
   }
   if (path_W.empty()) {
@@ -515,7 +526,8 @@ std::optional<Eigen::Vector2d> NearestTraversable(const TraversabilityGrid& grid
 void LethalCellsNear(const TraversabilityGrid& grid, double x_WB_m, double y_WB_m, double yaw_WB_rad,
                      double range_m, std::vector<Eigen::Vector3f>* points_B) {
   points_B->clear();
-  if (!(range_m > 0.0) || !std::isfinite(x_WB_m) || !std::isfinite(y_WB_m) || !std::isfinite(yaw_WB_rad)) return;
+  if (!(range_m > 0.0) || !std::isfinite(x_WB_m) || !std::isfinite(y_WB_m) || !std::isfinite(yaw_WB_rad))
+    return;
   const double c = grid.cell_size_m();
   const int x_lo = static_cast<int>(std::floor((x_WB_m - range_m - grid.p_W_min().x()) / c));
   const int x_hi = static_cast<int>(std::floor((x_WB_m + range_m - grid.p_W_min().x()) / c));

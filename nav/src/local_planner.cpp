@@ -7,8 +7,8 @@
 #include <cstdio>
 #include <cstring>
 #include <sstream>
-#include <type_traits>
 #include <stdexcept>
+#include <type_traits>
 #include <utility>
 
 namespace cairn::nav {
@@ -38,8 +38,8 @@ struct Geometry {
   double voxel_block_m = 0.0;          // point_block + blocking half diagonal
   double band_reach_m = 0.0;  // collision + clearance half diagonal + band: clearance voxel centres within it
   double near_origin_m = 0.0;  // voxel_block + spacing: points nearer the origin are tested exactly
-  int block_grid_half = 0;    // Voxels from the origin to an edge of the blocking grid.
-  int band_grid_half = 0;     // ... of the clearance grid.
+  int block_grid_half = 0;     // Voxels from the origin to an edge of the blocking grid.
+  int band_grid_half = 0;      // ... of the clearance grid.
 };
 
 Geometry ComputeGeometry(const TrajectoryLibraryOptions& o) {
@@ -586,7 +586,8 @@ bool RowsValid(const std::vector<std::uint32_t>& offsets, const std::vector<Entr
 // The rows restricted to the entries of the nodes marked in `keep` (one flag per node).
 template <typename Entry>
 void KeepRows(const std::vector<std::uint32_t>& offsets, const std::vector<Entry>& entries,
-              const std::vector<char>& keep, std::vector<std::uint32_t>* kept_offsets, std::vector<Entry>* kept) {
+              const std::vector<char>& keep, std::vector<std::uint32_t>* kept_offsets,
+              std::vector<Entry>* kept) {
   kept_offsets->assign(1, 0);
   kept->clear();
   for (std::size_t v = 0; v + 1 < offsets.size(); ++v) {
@@ -599,7 +600,8 @@ void KeepRows(const std::vector<std::uint32_t>& offsets, const std::vector<Entry
 
 template <typename Entry>
 bool SameEntries(const std::vector<Entry>& a, const std::vector<Entry>& b) {
-  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(Entry)) == 0);
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(Entry)) == 0);
 }
 
 }  // namespace
@@ -694,8 +696,10 @@ std::unique_ptr<TrajectoryLibrary> TrajectoryLibrary::Deserialize(const std::str
   // Spot check: one heading's correspondence built again.
   const int slot = lib.num_kept_headings_ / 2;
   std::vector<char> in_slot(static_cast<std::size_t>(lib.num_nodes_));
-  for (int node = 0; node < lib.num_nodes_; ++node) in_slot[static_cast<std::size_t>(node)] = lib.HeadingSlotOfNode(node) == slot;
-  const Correspondence fresh = lib.BuildCorrespondence([&in_slot](int node) { return in_slot[static_cast<std::size_t>(node)] != 0; });
+  for (int node = 0; node < lib.num_nodes_; ++node)
+    in_slot[static_cast<std::size_t>(node)] = lib.HeadingSlotOfNode(node) == slot;
+  const Correspondence fresh =
+      lib.BuildCorrespondence([&in_slot](int node) { return in_slot[static_cast<std::size_t>(node)] != 0; });
   Correspondence stored;
   KeepRows(lib.blocking_offsets_, lib.blocking_, in_slot, &stored.blocking_offsets, &stored.blocking);
   KeepRows(lib.band_offsets_, lib.band_, in_slot, &stored.band_offsets, &stored.band);
@@ -1085,7 +1089,8 @@ std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
   std::vector<Eigen::Vector2d> band_centres;
   block_centres.reserve(obstacles_B.size());
   band_centres.reserve(obstacles_B.size());
-  std::vector<Eigen::Vector3d> near_points;  // (x, y, squared blocking distance): tested exactly (IsNearOrigin)
+  std::vector<Eigen::Vector3d>
+      near_points;  // (x, y, squared blocking distance): tested exactly (IsNearOrigin)
   for (const Eigen::Vector3f& p : obstacles_B) {
     if (!IsFinite(p) || !InZBand(p, o)) continue;
     band_centres.emplace_back(

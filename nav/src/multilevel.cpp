@@ -1,11 +1,6 @@
 // Copyright Cairn authors.
 #include "cairn/nav/multilevel.h"
 
-#include "path_internal.h"
-
-#include "multilevel_search.h"
-#include "search_scratch.h"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -16,6 +11,10 @@
 #include <stdexcept>
 #include <unordered_map>
 #include <utility>
+
+#include "multilevel_search.h"
+#include "path_internal.h"
+#include "search_scratch.h"
 
 namespace cairn::nav {
 namespace {
@@ -49,17 +48,21 @@ std::string Fixed(double v) {
 
 }  // namespace
 
-MultiLevelGrid::MultiLevelGrid(std::shared_ptr<const core::VoxelGrid> world, const TraversabilityOptions& options,
+MultiLevelGrid::MultiLevelGrid(std::shared_ptr<const core::VoxelGrid> world,
+                               const TraversabilityOptions& options,
                                std::shared_ptr<const core::VoxelGrid> seen_free, double sensor_max_z_m)
-    : options_(options), world_(std::move(world)), seen_free_(std::move(seen_free)), sensor_max_z_m_(sensor_max_z_m) {
+    : options_(options),
+      world_(std::move(world)),
+      seen_free_(std::move(seen_free)),
+      sensor_max_z_m_(sensor_max_z_m) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
   if (!world_) throw std::invalid_argument("MultiLevelGrid: world is null");
   res_m_ = world_->resolution_m();
   if (options.cell_size_m != 0.0 && std::abs(options.cell_size_m - res_m_) > kEps_m) {
-    throw std::invalid_argument("TraversabilityOptions::cell_size_m = " + std::to_string(options.cell_size_m) +
-                                " must be 0 or the map resolution " + std::to_string(res_m_) +
-                                " m for a multi-level grid");
+    throw std::invalid_argument(
+        "TraversabilityOptions::cell_size_m = " + std::to_string(options.cell_size_m) +
+        " must be 0 or the map resolution " + std::to_string(res_m_) + " m for a multi-level grid");
   }
   options_.cell_size_m = res_m_;
   cell_m_ = res_m_;
@@ -116,7 +119,8 @@ int MultiLevelGrid::NodeNear(int ix, int iy, double z_m, double max_dz_m) const 
   const int column = Column(ix, iy);
   int best = -1;
   double best_dz = max_dz_m + kEps_m;
-  for (int n = first_[static_cast<std::size_t>(column)]; n < first_[static_cast<std::size_t>(column) + 1]; ++n) {
+  for (int n = first_[static_cast<std::size_t>(column)]; n < first_[static_cast<std::size_t>(column) + 1];
+       ++n) {
     const double dz = std::abs(z_m_[static_cast<std::size_t>(n)] - z_m);
     if (dz <= best_dz) {
       best = n;
@@ -131,10 +135,11 @@ bool MultiLevelGrid::IsUnknownAt(int ix, int iy, double z_m) const {
   if (!observed_[static_cast<std::size_t>(Column(ix, iy))]) return true;  // nothing seen in the whole column
   // The voxel a floor at z_m would be, or the one below it (a floor on a voxel boundary reads a voxel high in
   // one column and low in the next): both seen free means a ray went through, no floor there. Then the body
-  // space above (anything occupied: a wall or a step). Body space seen free says nothing about the floor below
-  // it (a lidar does not see the floor right around itself).
+  // space above (anything occupied: a wall or a step). Body space seen free says nothing about the floor
+  // below it (a lidar does not see the floor right around itself).
   const int iz0 = static_cast<int>(std::lround((z_m - world_p_min_.z()) / res_m_));
-  if (seen_free_ && seen_free_->IsOccupiedIndex({ix, iy, iz0 - 1}) && seen_free_->IsOccupiedIndex({ix, iy, iz0 - 2})) {
+  if (seen_free_ && seen_free_->IsOccupiedIndex({ix, iy, iz0 - 1}) &&
+      seen_free_->IsOccupiedIndex({ix, iy, iz0 - 2})) {
     return false;
   }
   for (int iz = iz0; iz < iz0 + need_voxels_; ++iz) {
@@ -147,7 +152,8 @@ bool MultiLevelGrid::IsUnseenStepAt(int ix, int iy, double z_m) const {
   if (options_.unknown_is_lethal || !seen_free_ || !InGrid(ix, iy) || !std::isfinite(z_m)) return false;
   // Voxel iz has its top at TopOf(iz); the steps: tops in (z_m, z_m + max_step_m].
   const int iz_first = static_cast<int>(std::lround((z_m - world_p_min_.z()) / res_m_));  // top at z_m + res
-  const int iz_last = static_cast<int>(std::floor((z_m + options_.max_step_m + kEps_m - world_p_min_.z()) / res_m_)) - 1;
+  const int iz_last =
+      static_cast<int>(std::floor((z_m + options_.max_step_m + kEps_m - world_p_min_.z()) / res_m_)) - 1;
   for (int iz = std::max(0, iz_first); iz <= iz_last && iz < world_dims_.z(); ++iz) {
     if (!world_->IsOccupiedIndex({ix, iy, iz})) continue;
     bool unseen = false;
@@ -272,7 +278,8 @@ void MultiLevelGrid::Recompute(const std::vector<std::array<int, 4>>& windows, b
     for (int y = y0; y <= y1; ++y) {
       for (int x = x0; x <= x1; ++x) {
         std::uint8_t any = 0;
-        for (int d = -r; d <= r && !any; ++d) any = rows[static_cast<std::size_t>(y + d - (y0 - r)) * wx + (x - x0)];
+        for (int d = -r; d <= r && !any; ++d)
+          any = rows[static_cast<std::size_t>(y + d - (y0 - r)) * wx + (x - x0)];
         observed_near_[static_cast<std::size_t>(Column(x, y))] = any;
       }
     }
@@ -299,7 +306,8 @@ void MultiLevelGrid::Recompute(const std::vector<std::array<int, 4>>& windows, b
   for (int iy = window[1]; iy <= window[3]; ++iy) {
     for (int ix = window[0]; ix <= window[2]; ++ix) {
       const int column = Column(ix, iy);
-      for (int n = first_[static_cast<std::size_t>(column)]; n < first_[static_cast<std::size_t>(column) + 1]; ++n) {
+      for (int n = first_[static_cast<std::size_t>(column)]; n < first_[static_cast<std::size_t>(column) + 1];
+           ++n) {
         const double z = z_m_[static_cast<std::size_t>(n)];
         for (int k = 0; k < 8; ++k) {
           const int jx = ix + kDx[k];
@@ -313,7 +321,8 @@ void MultiLevelGrid::Recompute(const std::vector<std::array<int, 4>>& windows, b
             seed_y[static_cast<std::size_t>(n)] = jy;
           }
         }
-        if (std::isfinite(dist[static_cast<std::size_t>(n)])) open.emplace(dist[static_cast<std::size_t>(n)], n);
+        if (std::isfinite(dist[static_cast<std::size_t>(n)]))
+          open.emplace(dist[static_cast<std::size_t>(n)], n);
       }
     }
   }
@@ -348,7 +357,8 @@ void MultiLevelGrid::Recompute(const std::vector<std::array<int, 4>>& windows, b
     for (int ix = written[0]; ix <= written[2]; ++ix) {
       const int column = Column(ix, iy);
       const double border_m = std::min({ix + 1, nx_ - ix, iy + 1, ny_ - iy}) * cell_m_;
-      for (int n = first_[static_cast<std::size_t>(column)]; n < first_[static_cast<std::size_t>(column) + 1]; ++n) {
+      for (int n = first_[static_cast<std::size_t>(column)]; n < first_[static_cast<std::size_t>(column) + 1];
+           ++n) {
         clearance_m_[static_cast<std::size_t>(n)] =
             static_cast<float>(std::min(static_cast<double>(dist[static_cast<std::size_t>(n)]), border_m));
       }
@@ -405,7 +415,8 @@ std::optional<double> MultiLevelGrid::GroundHeight(double x_m, double y_m) const
   int iy = 0;
   if (!CellOf(x_m, y_m, &ix, &iy)) return std::nullopt;
   const int column = Column(ix, iy);
-  if (first_[static_cast<std::size_t>(column)] == first_[static_cast<std::size_t>(column) + 1]) return std::nullopt;
+  if (first_[static_cast<std::size_t>(column)] == first_[static_cast<std::size_t>(column) + 1])
+    return std::nullopt;
   return NodeZ(first_[static_cast<std::size_t>(column)]);
 }
 
@@ -414,7 +425,8 @@ bool MultiLevelGrid::IsFootprintFree(double x_m, double y_m, double radius_m) co
   return z.has_value() && IsFootprintFreeNear(x_m, y_m, *z, radius_m);
 }
 
-// ---- LeveledTerrain ----------------------------------------------------------------------------------------
+// ---- LeveledTerrain
+// ----------------------------------------------------------------------------------------
 
 LeveledTerrain::LeveledTerrain(std::shared_ptr<const TraversabilityGrid> main_level,
                                std::shared_ptr<const MultiLevelGrid> levels)
@@ -443,10 +455,12 @@ bool LeveledTerrain::IsFootprintFreeNear(double x_m, double y_m, double z_m, dou
 }
 
 std::optional<double> LeveledTerrain::GroundHeightNear(double x_m, double y_m, double z_m) const {
-  return OnMainLevel(x_m, y_m, z_m) ? main_->GroundHeight(x_m, y_m) : levels_->GroundHeightNear(x_m, y_m, z_m);
+  return OnMainLevel(x_m, y_m, z_m) ? main_->GroundHeight(x_m, y_m)
+                                    : levels_->GroundHeightNear(x_m, y_m, z_m);
 }
 
-// ---- A* over (cell, surface) --------------------------------------------------------------------------------
+// ---- A* over (cell, surface)
+// --------------------------------------------------------------------------------
 
 namespace {
 
@@ -482,7 +496,6 @@ internal::ScratchPool<LevelSearchScratch>& LevelScratchPool() {
 
 }  // namespace
 
-
 namespace {
 
 // Walks a -> b (x, y, surface z; metres, frame W) in quarter-cell steps over connected traversable surfaces
@@ -513,14 +526,15 @@ bool WalkSegment(const MultiLevelSearch& search, const MultiLevelGrid& grid, con
 double PartialRemainingM(const Eigen::Vector3d& p_W, const Eigen::Vector2d& goal_W, double goal_z_m,
                          double level_tolerance_m) {
   constexpr double kHeightWeight = 30.0;
-  const double off_level = std::isfinite(goal_z_m)
-                               ? std::max(0.0, std::abs(p_W.z() - goal_z_m) - std::max(0.0, level_tolerance_m) - kEps_m)
-                               : 0.0;
+  const double off_level =
+      std::isfinite(goal_z_m)
+          ? std::max(0.0, std::abs(p_W.z() - goal_z_m) - std::max(0.0, level_tolerance_m) - kEps_m)
+          : 0.0;
   return (p_W.head<2>() - goal_W).norm() + kHeightWeight * off_level;
 }
 
-bool SegmentTraversableMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& a_W, const Eigen::Vector3d& b_W,
-                                  double min_clearance_m, double robot_radius_m) {
+bool SegmentTraversableMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& a_W,
+                                  const Eigen::Vector3d& b_W, double min_clearance_m, double robot_radius_m) {
   AStarOptions options;
   options.robot_radius_m = robot_radius_m;
   const MultiLevelSearch search(grid, options);
@@ -546,7 +560,8 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
     return finish(Status::kInvalidStart, "start " + Point2(start_W.head<2>()) + " is not finite");
   }
   if (!goal_W.allFinite() || std::isinf(goal_z_m)) {
-    return finish(Status::kInvalidGoal, "goal " + Point2(goal_W) + " (z " + Fixed(goal_z_m) + ") is not finite");
+    return finish(Status::kInvalidGoal,
+                  "goal " + Point2(goal_W) + " (z " + Fixed(goal_z_m) + ") is not finite");
   }
   int sx = 0, sy = 0, gx = 0, gy = 0;
   if (!grid.CellOf(start_W.x(), start_W.y(), &sx, &sy)) {
@@ -565,7 +580,8 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
     return grid.FirstNode(column) < grid.FirstNode(column + 1) ? grid.FirstNode(column) : -1;
   };
   double start_z = start_W.z();
-  int start_node = std::isfinite(start_z) ? grid.NodeNear(sx, sy, start_z, std::max(0.5, step_m)) : lowest(start_column);
+  int start_node =
+      std::isfinite(start_z) ? grid.NodeNear(sx, sy, start_z, std::max(0.5, step_m)) : lowest(start_column);
   if (start_node >= 0) start_z = grid.NodeZ(start_node);
   std::optional<State> start;
   if (start_node >= 0 && search.Traversable(start_node)) {
@@ -573,8 +589,8 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
   } else if (start_node < 0 && std::isfinite(start_z) && grid.IsUnknownAt(sx, sy, start_z)) {
     start = State{sx, sy, start_z, -1};
   } else if (start_node >= 0 && options.start_escape_radius_m > 0.0 &&
-             (options.start_is_robot ||
-              grid.IsFootprintFreeNear(start_W.x(), start_W.y(), start_z, options.start_footprint_radius_m))) {
+             (options.start_is_robot || grid.IsFootprintFreeNear(start_W.x(), start_W.y(), start_z,
+                                                                 options.start_footprint_radius_m))) {
     const int span = static_cast<int>(std::ceil(options.start_escape_radius_m / c)) + 1;
     double best_d = kInf;
     for (int cx = sx - span; cx <= sx + span; ++cx) {
@@ -591,10 +607,11 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
     result.used_start_escape = start.has_value();
   }
   if (!start) {
-    std::string what = start_node < 0 ? "has no walkable surface near z " + Fixed(start_W.z())
-                                      : "is not traversable (clearance " + Fixed(grid.ClearanceM(start_node)) +
-                                            " m <= robot_radius_m " + Fixed(search.radius_m()) +
-                                            " m) and no traversable cell lies within start_escape_radius_m";
+    std::string what = start_node < 0
+                           ? "has no walkable surface near z " + Fixed(start_W.z())
+                           : "is not traversable (clearance " + Fixed(grid.ClearanceM(start_node)) +
+                                 " m <= robot_radius_m " + Fixed(search.radius_m()) +
+                                 " m) and no traversable cell lies within start_escape_radius_m";
     return finish(Status::kStartBlocked, "start " + Point2(start_W.head<2>()) + " " + what);
   }
 
@@ -609,14 +626,16 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
     for (int n = grid.FirstNode(goal_column); n < grid.FirstNode(goal_column + 1); ++n) {
       surfaces += (surfaces.empty() ? "" : ", ") + Fixed(grid.NodeZ(n));
     }
-    return finish(Status::kGoalBlocked, "goal " + Point2(goal_W) + " has no walkable surface within " +
-                                            Fixed(kLevelMatch_m) + " m of z " + Fixed(target_z) +
-                                            (surfaces.empty() ? " (none in that column)" : " (surfaces at z " + surfaces + ")"));
+    return finish(Status::kGoalBlocked,
+                  "goal " + Point2(goal_W) + " has no walkable surface within " + Fixed(kLevelMatch_m) +
+                      " m of z " + Fixed(target_z) +
+                      (surfaces.empty() ? " (none in that column)" : " (surfaces at z " + surfaces + ")"));
   }
   if (goal_node >= 0 && !search.Traversable(goal_node)) {
     return finish(Status::kGoalBlocked, "goal " + Point2(goal_W) + " at z " + Fixed(grid.NodeZ(goal_node)) +
-                                            " is not traversable (clearance " + Fixed(grid.ClearanceM(goal_node)) +
-                                            " m <= robot_radius_m " + Fixed(search.radius_m()) + " m)");
+                                            " is not traversable (clearance " +
+                                            Fixed(grid.ClearanceM(goal_node)) + " m <= robot_radius_m " +
+                                            Fixed(search.radius_m()) + " m)");
   }
   auto is_goal = [&](const State& s) {
     if (s.ix != gx || s.iy != gy) return false;
@@ -650,7 +669,8 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
            options.step_height_cost * std::max(0.0, std::abs(s.z - goal_level_z) - level_slack_m);
   };
   auto penalty = [&](double clearance) {
-    if (options.preferred_clearance_m <= 0.0 || options.clearance_cost <= 0.0 || !std::isfinite(clearance)) return 0.0;
+    if (options.preferred_clearance_m <= 0.0 || options.clearance_cost <= 0.0 || !std::isfinite(clearance))
+      return 0.0;
     return options.clearance_cost *
            std::clamp((options.preferred_clearance_m - clearance) / options.preferred_clearance_m, 0.0, 1.0);
   };
@@ -700,12 +720,15 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
       if (!next) continue;
       const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
       if (next->node < 0) {
-        next->unknown_run_m = (s.node < 0 ? s.unknown_run_m : 0.0f) + static_cast<float>((diagonal ? kSqrt2 : 1.0) * c);
-        if (next->unknown_run_m > kMaxUnknownBridgeOffLevelM && std::abs(next->z - goal_level_z) > kLevelMatch_m) {
+        next->unknown_run_m =
+            (s.node < 0 ? s.unknown_run_m : 0.0f) + static_cast<float>((diagonal ? kSqrt2 : 1.0) * c);
+        if (next->unknown_run_m > kMaxUnknownBridgeOffLevelM &&
+            std::abs(next->z - goal_level_z) > kLevelMatch_m) {
           continue;  // off the goal's level, unknown space only bridges gaps
         }
       }
-      if (diagonal && (!search.Enter(s.ix + kDx[k], s.iy, s.z) || !search.Enter(s.ix, s.iy + kDy[k], s.z))) continue;
+      if (diagonal && (!search.Enter(s.ix + kDx[k], s.iy, s.z) || !search.Enter(s.ix, s.iy + kDy[k], s.z)))
+        continue;
       const std::int64_t next_key = search.Key(*next);
       Record& nr = record(next_key);
       if (nr.closed) continue;
@@ -735,8 +758,8 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
       std::abs(record(best_key).state.z - goal_level_z) <
           start_dz - (std::isnan(options.partial_min_climb_m) ? step_m : options.partial_min_climb_m) -
               0.5 * grid.cell_size_m();
-  if (goal_key < 0 && options.allow_partial && best_key != start_key && best_remaining < start_remaining - 0.5 &&
-      height_progress) {
+  if (goal_key < 0 && options.allow_partial && best_key != start_key &&
+      best_remaining < start_remaining - 0.5 && height_progress) {
     const State& b = record(best_key).state;
     goal_key = best_key;
     result.partial = true;
@@ -747,8 +770,8 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
   if (goal_key < 0) {
     std::ostringstream msg;
     msg << "goal " << Point2(goal_W) << " at z " << Fixed(goal_level_z) << " is unreachable from start "
-        << Point2(start_W.head<2>()) << " at z " << Fixed(start_z) << ": no traversable path over the map's levels ("
-        << searched << ")";
+        << Point2(start_W.head<2>()) << " at z " << Fixed(start_z)
+        << ": no traversable path over the map's levels (" << searched << ")";
     return finish(Status::kUnreachable, msg.str());
   }
 
@@ -767,13 +790,14 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
   internal::AttachStart(start_point, result.used_start_escape, &points, &clearance);
   if (!result.partial) points.back() = Eigen::Vector3d(goal_W.x(), goal_W.y(), states.back().z);
   if (options.simplify_path) {
-    internal::ShortcutPath(options.preferred_clearance_m, clearance,
-                           [&](std::size_t anchor, std::size_t j, double need) {
-                             // Keep the corners of a climb: shortcuts only over points of (nearly) one height.
-                             return std::abs(points[j].z() - points[anchor].z()) <= step_m + kEps_m &&
-                                    WalkSegment(search, grid, points[anchor], points[j], need);
-                           },
-                           &points);
+    internal::ShortcutPath(
+        options.preferred_clearance_m, clearance,
+        [&](std::size_t anchor, std::size_t j, double need) {
+          // Keep the corners of a climb: shortcuts only over points of (nearly) one height.
+          return std::abs(points[j].z() - points[anchor].z()) <= step_m + kEps_m &&
+                 WalkSegment(search, grid, points[anchor], points[j], need);
+        },
+        &points);
   }
   result.path_W = std::move(points);
   result.length_m = PathLength2D(result.path_W);

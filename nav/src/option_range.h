@@ -13,8 +13,8 @@ namespace cairn::nav::internal {
 inline bool InOptionRange(std::ostream& msg, const char* owner, const char* field, double value, double lo,
                           double hi, bool lo_open) {
   if (std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi) return true;
-  msg << owner << "::" << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo << ", " << hi
-      << "]";
+  msg << owner << "::" << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo << ", "
+      << hi << "]";
   return false;
 }
 

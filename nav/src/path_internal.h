@@ -24,20 +24,20 @@ inline std::string FormatPoint(const Eigen::Vector2d& p) {
 /// "x in [.., ..], y in [.., ..]": the grid's extent, metres, for messages.
 inline std::string MapExtent(const TraversabilityGrid& grid) {
   char buf[160];
-  std::snprintf(buf, sizeof(buf), "x in [%.2f, %.2f], y in [%.2f, %.2f]", grid.p_W_min().x(), grid.p_W_max().x(),
-                grid.p_W_min().y(), grid.p_W_max().y());
+  std::snprintf(buf, sizeof(buf), "x in [%.2f, %.2f], y in [%.2f, %.2f]", grid.p_W_min().x(),
+                grid.p_W_max().x(), grid.p_W_min().y(), grid.p_W_max().y());
   return buf;
 }
 
 /// The seen-free rule for a robot-built map: a floor candidate whose voxel top is `top_z_m` (voxel (ix, iy,
-/// iz)) counts only if a ray went through the space right above it (one of the 3 x 3 columns around it, one or
-/// two voxels up), or it lies 0.1 m below the highest sensor origin so far and was not hit from below (the
+/// iz)) counts only if a ray went through the space right above it (one of the 3 x 3 columns around it, one
+/// or two voxels up), or it lies 0.1 m below the highest sensor origin so far and was not hit from below (the
 /// voxel right under it not seen free): far floor seen at a grazing angle has no free voxel observed right
 /// above it, while the underside of a flight or a landing seen from the floor below, whose space above is
 /// unseen, is no floor (it read as a ragged tread beside the real ones once a legged robot stood on the
 /// landing above it). No `seen_free`: always true.
-inline bool SeenFreeAbove(const core::VoxelGrid* seen_free, double sensor_max_z_m, double top_z_m, int ix, int iy,
-                          int iz) {
+inline bool SeenFreeAbove(const core::VoxelGrid* seen_free, double sensor_max_z_m, double top_z_m, int ix,
+                          int iy, int iz) {
   if (seen_free == nullptr) return true;
   const bool hit_from_below = iz > 0 && seen_free->IsOccupiedIndex({ix, iy, iz - 1});
   if (!hit_from_below && top_z_m <= sensor_max_z_m - 0.1) return true;
@@ -53,8 +53,8 @@ inline bool SeenFreeAbove(const core::VoxelGrid* seen_free, double sensor_max_z_
 }
 
 /// The floor candidates of a map column, as the single-level and multi-level terrain analyses read them: a
-/// voxel is one if its top lies in [band_lo_m, band_hi_m], the need_voxels voxels right above it are free (space
-/// above the map counts as free when free_above_map) and it passes SeenFreeAbove.
+/// voxel is one if its top lies in [band_lo_m, band_hi_m], the need_voxels voxels right above it are free
+/// (space above the map counts as free when free_above_map) and it passes SeenFreeAbove.
 struct FloorColumnScan {
   const core::VoxelGrid& world;
   const core::VoxelGrid* seen_free;  ///< null: every candidate counts as seen

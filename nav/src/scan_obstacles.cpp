@@ -3,9 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <sstream>
-#include <cstdint>
 #include <stdexcept>
 
 namespace cairn::nav {
@@ -14,8 +14,8 @@ namespace {
 bool Check(const char* field, double value, double lo, bool lo_open, double hi, std::ostringstream* msg) {
   const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
   if (!ok) {
-    *msg << "ScanObstacleOptions::" << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo
-         << ", " << hi << "]";
+    *msg << "ScanObstacleOptions::" << field << " = " << value << " must be in " << (lo_open ? "(" : "[")
+         << lo << ", " << hi << "]";
   }
   return ok;
 }
@@ -34,8 +34,9 @@ bool ScanObstacleOptions::IsValid(std::string* why) const {
   return ok;
 }
 
-ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points_M, const core::BaseState& pose_M,
-                                      const ScanObstacleOptions& options, std::vector<Eigen::Vector3f>* points_B) {
+ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points_M,
+                                      const core::BaseState& pose_M, const ScanObstacleOptions& options,
+                                      std::vector<Eigen::Vector3f>* points_B) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
   if (points_B == nullptr) throw std::invalid_argument("ObstaclesFromPoints: points_B is null");

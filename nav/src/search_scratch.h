@@ -1,8 +1,9 @@
 // Reusable per-search arrays for the A* searches (astar.cpp, multilevel.cpp). A search over the robot's map
-// needs arrays the size of the map (millions of entries): allocating and zeroing them per plan costs more than
-// the search, and on a robot the page faults and unmappings of those allocations stall every other thread of
-// the process (the control loop's wakes came up to 1 s late while plans ran on workers). A pool keeps a few
-// of them across searches and threads; a search leases one, resets only what it touched, and gives it back.
+// needs arrays the size of the map (millions of entries): allocating and zeroing them per plan costs more
+// than the search, and on a robot the page faults and unmappings of those allocations stall every other
+// thread of the process (the control loop's wakes came up to 1 s late while plans ran on workers). A pool
+// keeps a few of them across searches and threads; a search leases one, resets only what it touched, and
+// gives it back.
 #pragma once
 
 #include <memory>

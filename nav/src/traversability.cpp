@@ -1,14 +1,14 @@
 // Copyright Cairn authors.
 #include "cairn/nav/traversability.h"
 
-#include "path_internal.h"
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <map>
 #include <sstream>
 #include <stdexcept>
+
+#include "path_internal.h"
 
 namespace cairn::nav {
 namespace {
@@ -100,9 +100,10 @@ bool TraversabilityOptions::IsValid(std::string* why) const {
     msg << "TraversabilityOptions::fill_min_neighbors = " << fill_min_neighbors << " must be in [1, 8]";
     ok = false;
   }
-  if (ok && (!std::isfinite(clearance_exact_m) || clearance_exact_m < robot_radius_m || clearance_exact_m > 20.0)) {
-    msg << "TraversabilityOptions::clearance_exact_m = " << clearance_exact_m << " must be in [robot_radius_m = "
-        << robot_radius_m << ", 20]";
+  if (ok &&
+      (!std::isfinite(clearance_exact_m) || clearance_exact_m < robot_radius_m || clearance_exact_m > 20.0)) {
+    msg << "TraversabilityOptions::clearance_exact_m = " << clearance_exact_m
+        << " must be in [robot_radius_m = " << robot_radius_m << ", 20]";
     ok = false;
   }
   if (!ok && why != nullptr) *why = msg.str();
@@ -121,7 +122,8 @@ struct SeenFreeScope {
 struct Window {
   int x0, y0, x1, y1;
   Window Grown(int by, int nx, int ny) const {
-    return Window{std::max(0, x0 - by), std::max(0, y0 - by), std::min(nx - 1, x1 + by), std::min(ny - 1, y1 + by)};
+    return Window{std::max(0, x0 - by), std::max(0, y0 - by), std::min(nx - 1, x1 + by),
+                  std::min(ny - 1, y1 + by)};
   }
   bool Empty() const { return x1 < x0 || y1 < y0; }
 };
@@ -216,7 +218,8 @@ void TraversabilityGrid::Update(const core::VoxelGrid& world, const Eigen::Align
   Update(world, std::vector<Eigen::AlignedBox2d>{region_W});
 }
 
-void TraversabilityGrid::Update(const core::VoxelGrid& world, const std::vector<Eigen::AlignedBox2d>& regions_W) {
+void TraversabilityGrid::Update(const core::VoxelGrid& world,
+                                const std::vector<Eigen::AlignedBox2d>& regions_W) {
   Update(world, nullptr, regions_W);
 }
 
@@ -239,8 +242,8 @@ void TraversabilityGrid::Update(const core::VoxelGrid& world, const core::VoxelG
   if (!windows.empty()) Recompute(world, windows, /*whole=*/false);
 }
 
-void TraversabilityGrid::Recompute(const core::VoxelGrid& world, const std::vector<std::array<int, 4>>& changed_cells,
-                                   bool whole) {
+void TraversabilityGrid::Recompute(const core::VoxelGrid& world,
+                                   const std::vector<std::array<int, 4>>& changed_cells, bool whole) {
   const int k = k_;
   const int nxw = world_dims_.x();
   const int nyw = world_dims_.y();
@@ -261,40 +264,42 @@ void TraversabilityGrid::Recompute(const core::VoxelGrid& world, const std::vect
   const Window window = whole ? lethal : written.Grown(reach_cells, nx_, ny_);
 
   // ---- 1-2. Ground per world column, aggregated k x k into cells (changed cells only). ----
-  for (const auto& w : changed_cells) for (int cx = w[0]; cx <= w[2]; ++cx) {
-    for (int cy = w[1]; cy <= w[3]; ++cy) {
-      bool any_obstacle = false;
-      double lo = kInf;
-      double hi = -kInf;
-      for (int ix = cx * k; ix < std::min(nxw, (cx + 1) * k); ++ix) {
-        for (int iy = cy * k; iy < std::min(nyw, (cy + 1) * k); ++iy) {
-          int chosen = -1;
-          const bool band_occupied = ScanColumn(world, ix, iy, [&](int iz) {
-            if (chosen < 0 || std::abs(TopOf(iz) - reference) <= std::abs(TopOf(chosen) - reference)) chosen = iz;
-          });
-          if (chosen >= 0) {
-            lo = std::min(lo, TopOf(chosen));
-            hi = std::max(hi, TopOf(chosen));
-          } else if (band_occupied) {
-            any_obstacle = true;
+  for (const auto& w : changed_cells)
+    for (int cx = w[0]; cx <= w[2]; ++cx) {
+      for (int cy = w[1]; cy <= w[3]; ++cy) {
+        bool any_obstacle = false;
+        double lo = kInf;
+        double hi = -kInf;
+        for (int ix = cx * k; ix < std::min(nxw, (cx + 1) * k); ++ix) {
+          for (int iy = cy * k; iy < std::min(nyw, (cy + 1) * k); ++iy) {
+            int chosen = -1;
+            const bool band_occupied = ScanColumn(world, ix, iy, [&](int iz) {
+              if (chosen < 0 || std::abs(TopOf(iz) - reference) <= std::abs(TopOf(chosen) - reference))
+                chosen = iz;
+            });
+            if (chosen >= 0) {
+              lo = std::min(lo, TopOf(chosen));
+              hi = std::max(hi, TopOf(chosen));
+            } else if (band_occupied) {
+              any_obstacle = true;
+            }
           }
         }
-      }
-      const std::size_t i = Index(cx, cy);
-      inferred_[i] = 0;
-      internal_step_[i] = 0;
-      ground_[i] = std::nan("");
-      if (any_obstacle) {
-        state_[i] = CellState::kObstacle;
-      } else if (hi > -kInf) {
-        state_[i] = CellState::kFree;
-        ground_[i] = hi;
-        internal_step_[i] = (hi - lo) > options_.max_step_m + kEps_m;
-      } else {
-        state_[i] = CellState::kUnknown;
+        const std::size_t i = Index(cx, cy);
+        inferred_[i] = 0;
+        internal_step_[i] = 0;
+        ground_[i] = std::nan("");
+        if (any_obstacle) {
+          state_[i] = CellState::kObstacle;
+        } else if (hi > -kInf) {
+          state_[i] = CellState::kFree;
+          ground_[i] = hi;
+          internal_step_[i] = (hi - lo) > options_.max_step_m + kEps_m;
+        } else {
+          state_[i] = CellState::kUnknown;
+        }
       }
     }
-  }
 
   // ---- 3. Hole filling for sparse scans (cells near a change: their inferred ground is redone). ----
   for (int cx = filled.x0; cx <= filled.x1; ++cx) {
@@ -315,7 +320,8 @@ void TraversabilityGrid::Recompute(const core::VoxelGrid& world, const std::vect
       for (int iy = cy * k; iy < std::min(nyw, (cy + 1) * k); ++iy) {
         for (int iz = 0; iz < nzw; ++iz) {
           const double zc = z0 + (iz + 0.5) * res;
-          if (zc > g && zc <= g + options_.robot_height_m && world.IsOccupiedIndex({ix, iy, iz})) return false;
+          if (zc > g && zc <= g + options_.robot_height_m && world.IsOccupiedIndex({ix, iy, iz}))
+            return false;
         }
       }
     }
@@ -417,14 +423,18 @@ void TraversabilityGrid::Recompute(const core::VoxelGrid& world, const std::vect
   std::vector<double> line_in(static_cast<std::size_t>(std::max(wx, wy)));
   std::vector<double> line_out(line_in.size());
   for (int cy = window.y0; cy <= window.y1; ++cy) {  // Along x.
-    for (int cx = window.x0; cx <= window.x1; ++cx) line_in[static_cast<std::size_t>(cx - window.x0)] = d2[w_index(cx, cy)];
+    for (int cx = window.x0; cx <= window.x1; ++cx)
+      line_in[static_cast<std::size_t>(cx - window.x0)] = d2[w_index(cx, cy)];
     DistanceTransform1D(line_in.data(), wx, line_out.data(), &v, &z);
-    for (int cx = window.x0; cx <= window.x1; ++cx) d2[w_index(cx, cy)] = line_out[static_cast<std::size_t>(cx - window.x0)];
+    for (int cx = window.x0; cx <= window.x1; ++cx)
+      d2[w_index(cx, cy)] = line_out[static_cast<std::size_t>(cx - window.x0)];
   }
   for (int cx = window.x0; cx <= window.x1; ++cx) {  // Along y.
-    for (int cy = window.y0; cy <= window.y1; ++cy) line_in[static_cast<std::size_t>(cy - window.y0)] = d2[w_index(cx, cy)];
+    for (int cy = window.y0; cy <= window.y1; ++cy)
+      line_in[static_cast<std::size_t>(cy - window.y0)] = d2[w_index(cx, cy)];
     DistanceTransform1D(line_in.data(), wy, line_out.data(), &v, &z);
-    for (int cy = window.y0; cy <= window.y1; ++cy) d2[w_index(cx, cy)] = line_out[static_cast<std::size_t>(cy - window.y0)];
+    for (int cy = window.y0; cy <= window.y1; ++cy)
+      d2[w_index(cx, cy)] = line_out[static_cast<std::size_t>(cy - window.y0)];
   }
   for (int cx = written.x0; cx <= written.x1; ++cx) {
     for (int cy = written.y0; cy <= written.y1; ++cy) {

@@ -90,8 +90,10 @@ TEST(ExplorerTest, AFailedTargetIsNeverTriedAgainAndExplorationCompletesWhenNoth
   explorer.Fail("blocked again");
   d = explorer.Decide(left);
   ASSERT_EQ(d.kind, ExplorerDecision::Kind::kComplete);
-  EXPECT_EQ(d.reason, "exploration complete: no reachable frontier (1 seen but unreachable, 2 given up on, 0 reached but still "
-                     "unseen beyond)");
+  EXPECT_EQ(d.reason,
+            "exploration complete: no reachable frontier (1 seen but unreachable, 2 given up on, 0 reached "
+            "but still "
+            "unseen beyond)");
   EXPECT_FALSE(explorer.current().has_value());
   d = explorer.Decide(Set({}));
   EXPECT_EQ(d.kind, ExplorerDecision::Kind::kComplete);
@@ -122,8 +124,8 @@ TEST(ExplorerTest, AFailedTargetIsRetriedOnceAfterAWhileThenBarredForGood) {
   EXPECT_EQ(d.kind, ExplorerDecision::Kind::kComplete) << "never retried forever";
 }
 
-// Claims: a frontier a peer claimed first is the peer's; of two claims as old, the smaller id's; a robot whose
-// every reachable frontier is claimed waits instead of completing.
+// Claims: a frontier a peer claimed first is the peer's; of two claims as old, the smaller id's; a robot
+// whose every reachable frontier is claimed waits instead of completing.
 TEST(ExplorerTest, APeersOlderClaimWinsAndAllClaimedMeansWait) {
   Explorer explorer;
   TeamView team{"r2", 50.0, {{"r1", Eigen::Vector2d(5, 0.5), 10.0}}};
@@ -157,8 +159,8 @@ TEST(ExplorerTest, APeersOlderClaimWinsAndAllClaimedMeansWait) {
   EXPECT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
 }
 
-// Coordination: a frontier near a peer's claim (within peer_influence_m, here 10 m) is worth less, so a robot takes
-// one farther away that is otherwise worth less.
+// Coordination: a frontier near a peer's claim (within peer_influence_m, here 10 m) is worth less, so a robot
+// takes one farther away that is otherwise worth less.
 TEST(ExplorerTest, AFrontierNearAPeersClaimIsWorthLess) {
   const FrontierSet set = Set({Cluster(4, 0, 2.0), Cluster(15, 0, 1.0)});
   Explorer alone;
@@ -168,12 +170,13 @@ TEST(ExplorerTest, AFrontierNearAPeersClaimIsWorthLess) {
   Explorer teammate(coordinated);
   const ExplorerDecision d = teammate.Decide(set, TeamView{"r2", 0.0, {{"r1", Eigen::Vector2d(0, 0), 5.0}}});
   ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
-  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(15, 0)) << "(4, 0) is worth 2.0 * 4 / 10 = 0.8 next to r1's target";
+  EXPECT_EQ(d.target.target_M, Eigen::Vector2d(15, 0))
+      << "(4, 0) is worth 2.0 * 4 / 10 = 0.8 next to r1's target";
   EXPECT_NEAR(d.target.utility, 1.0, 1e-12);
 }
 
-// A frontier the robot stood on and whose unknown stayed unseen (below its lidar's lowest beam) is not driven to
-// again; one farther than visited_radius_m from it is.
+// A frontier the robot stood on and whose unknown stayed unseen (below its lidar's lowest beam) is not driven
+// to again; one farther than visited_radius_m from it is.
 TEST(ExplorerTest, AReachedTargetIsNotDrivenToAgain) {
   Explorer explorer;
   ExplorerDecision d = explorer.Decide(Set({Cluster(5, 0, 3.0), Cluster(0, 5, 1.0)}));
@@ -188,7 +191,8 @@ TEST(ExplorerTest, AReachedTargetIsNotDrivenToAgain) {
   d = explorer.Decide(Set({Cluster(5.5, 0, 3.0), Cluster(0, 5.2, 1.0)}));
   ASSERT_EQ(d.kind, ExplorerDecision::Kind::kComplete);
   EXPECT_EQ(d.reason,
-            "exploration complete: no reachable frontier (0 seen but unreachable, 0 given up on, 2 reached but still "
+            "exploration complete: no reachable frontier (0 seen but unreachable, 0 given up on, 2 reached "
+            "but still "
             "unseen beyond)");
   d = explorer.Decide(Set({Cluster(7, 0, 3.0)}));
   EXPECT_EQ(d.kind, ExplorerDecision::Kind::kGoTo) << "2 m from a reached target: a new frontier";
@@ -214,7 +218,8 @@ TEST(ExplorerTest, ReachedAndFailedTargetsBarOnlyTheirOwnLevel) {
   EXPECT_EQ(d.target.target_ground_z_m, 1.6) << "the landing above the pocket is a new place";
   explorer.Fail("no path: the flight is not on the map yet", 10.0);
   EXPECT_EQ(explorer.failed().at(0).target_ground_z_m, 1.6);
-  d = explorer.Decide(Set({at_height(Cluster(22.6, 7.1, 2.0), 1.7), at_height(Cluster(22.6, 7.1, 1.0), 3.2)}), {"r1", 20.0, {}});
+  d = explorer.Decide(Set({at_height(Cluster(22.6, 7.1, 2.0), 1.7), at_height(Cluster(22.6, 7.1, 1.0), 3.2)}),
+                      {"r1", 20.0, {}});
   ASSERT_EQ(d.kind, ExplorerDecision::Kind::kGoTo);
   EXPECT_EQ(d.target.target_ground_z_m, 3.2) << "the landing is barred, floor 2 above it is not";
   d = explorer.Decide(Set({at_height(Cluster(22.6, 7.1, 2.0), 1.7)}), {"r1", 30.0, {}});

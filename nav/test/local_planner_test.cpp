@@ -99,16 +99,17 @@ double ClosestApproachM(const std::vector<Eigen::Vector3f>& path_B, const Cloud&
 // How far the polyline origin, path_B[1..] comes inside the distance each obstacle point of `cloud` must be
 // kept at (metres, <= 0 when none is violated): collision_radius_m, or for a point within near_origin_m of
 // the origin that the robot already stands closer to, that distance less 1 mm (see TrajectoryLibrary).
-double WorstShortfallM(const std::vector<Eigen::Vector3f>& path_B, const Cloud& cloud, const TrajectoryLibraryOptions& o,
-                       double near_origin_m) {
+double WorstShortfallM(const std::vector<Eigen::Vector3f>& path_B, const Cloud& cloud,
+                       const TrajectoryLibraryOptions& o, double near_origin_m) {
   double worst = -std::numeric_limits<double>::infinity();
   for (const Eigen::Vector3f& p : cloud) {
     if (!IsObstacle(p, o)) continue;
     const Eigen::Vector2d q = p.head<2>().cast<double>();
-    const double required = q.norm() < near_origin_m ? std::min(o.collision_radius_m, q.norm() - 1e-3)
-                                                     : o.collision_radius_m;
+    const double required =
+        q.norm() < near_origin_m ? std::min(o.collision_radius_m, q.norm() - 1e-3) : o.collision_radius_m;
     for (std::size_t i = 1; i < path_B.size(); ++i) {
-      const Eigen::Vector2d a = path_B[i - 1].head<2>().cast<double>(), b = path_B[i].head<2>().cast<double>();
+      const Eigen::Vector2d a = path_B[i - 1].head<2>().cast<double>(),
+                            b = path_B[i].head<2>().cast<double>();
       const double len2 = (b - a).squaredNorm();
       const double t = len2 > 0 ? std::clamp((q - a).dot(b - a) / len2, 0.0, 1.0) : 0.0;
       worst = std::max(worst, required - (a + t * (b - a) - q).norm());
@@ -323,7 +324,8 @@ void ExpectSameLibrary(const TrajectoryLibrary& a, const TrajectoryLibrary& b) {
   ASSERT_EQ(a.num_blocking_entries(), b.num_blocking_entries());
   ASSERT_EQ(a.num_band_entries(), b.num_band_entries());
   for (int p = 0; p < a.num_paths(); ++p) {
-    for (int i = 0; i < a.samples_per_path(); ++i) ASSERT_EQ(a.samples_B(p)[i], b.samples_B(p)[i]) << p << " " << i;
+    for (int i = 0; i < a.samples_per_path(); ++i)
+      ASSERT_EQ(a.samples_B(p)[i], b.samples_B(p)[i]) << p << " " << i;
   }
   for (int v = 0; v < a.num_voxels(); ++v) {
     const auto ra = a.blocking_entries(v);
@@ -382,7 +384,8 @@ TEST(TrajectoryLibraryTest, DeserializeRefusesOtherVersionsOptionsAndDamagedByte
   EXPECT_EQ(refusal(other_version), "format version 2, this build reads 1");
   TrajectoryLibraryOptions wider = o;
   wider.collision_radius_m = 0.4;
-  EXPECT_EQ(refusal_for(bytes, wider), "built with collision_radius_m = 0.34999999999999998, wanted 0.40000000000000002");
+  EXPECT_EQ(refusal_for(bytes, wider),
+            "built with collision_radius_m = 0.34999999999999998, wanted 0.40000000000000002");
   EXPECT_EQ(refusal(bytes.substr(0, 100)), "truncated in its options");
   EXPECT_EQ(refusal(bytes.substr(0, bytes.size() - 1)), "truncated in its correspondence");
   EXPECT_EQ(refusal(bytes + "x"), "longer than its contents");
@@ -406,8 +409,9 @@ TEST(TrajectoryLibraryTest, DeserializeRefusesOtherVersionsOptionsAndDamagedByte
   std::string bad_sample = bytes;
   char& sample = bad_sample[blocking_at + 4 * static_cast<std::size_t>(index) + 2];
   sample = static_cast<char>(sample == 0 ? 1 : sample - 1);
-  EXPECT_EQ(refusal(bad_sample), "the correspondence of heading slot 6 differs from one built now (a file from "
-                                 "another build, or damaged)");
+  EXPECT_EQ(refusal(bad_sample),
+            "the correspondence of heading slot 6 differs from one built now (a file from "
+            "another build, or damaged)");
   EXPECT_EQ(refusal(bytes), "loaded");
   TrajectoryLibraryOptions invalid = o;
   invalid.num_headings = 0;
@@ -490,7 +494,8 @@ TEST(LocalPlannerTest, ARobotJustInsideTheCollisionRadiusOfAWallEndLeavesAlongOr
   for (int p = 0; p < lib.num_paths(); ++p) {
     const Eigen::Vector2f s0 = lib.samples_B(p)[0];
     if (std::hypot(s0.x() - 0.0, s0.y() - 0.32) < 0.32 - 1e-3) {
-      EXPECT_LT(planner.free_length_m(p), 1e-9) << "path " << p << " passes the wall's end closer than it stands";
+      EXPECT_LT(planner.free_length_m(p), 1e-9)
+          << "path " << p << " passes the wall's end closer than it stands";
     }
   }
   int ahead = -1;  // the straight path ahead (heading 0, no turn)
@@ -499,7 +504,8 @@ TEST(LocalPlannerTest, ARobotJustInsideTheCollisionRadiusOfAWallEndLeavesAlongOr
     if (std::abs(end.y()) < 1e-3 && end.x() > 2.9f) ahead = p;
   }
   ASSERT_GE(ahead, 0);
-  EXPECT_GT(planner.free_length_m(ahead), 1.5) << "the path along the wall, at the distance the robot stands, is blocked";
+  EXPECT_GT(planner.free_length_m(ahead), 1.5)
+      << "the path along the wall, at the distance the robot stands, is blocked";
   // The brute-force reference agrees path for path.
   const std::vector<double> brute = BruteForceFreeLengths(lib, cloud, r.required_free_length_m);
   for (int p = 0; p < lib.num_paths(); ++p) {

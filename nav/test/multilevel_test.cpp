@@ -159,7 +159,7 @@ TEST(MultiLevelGridTest, OwnMapIsOptimisticInUnseenSpaceOnly) {
   auto seen_free = std::make_shared<core::VoxelGrid>("seen", p_min, 0.1, Eigen::Vector3i(100, 30, 30));
   for (int ix = 0; ix < 40; ++ix) {
     for (int iy = 0; iy < 30; ++iy) {
-      world->SetOccupied({ix, iy, 4});                                  // floor top at z = 0
+      world->SetOccupied({ix, iy, 4});  // floor top at z = 0
       for (int iz = 5; iz < 15; ++iz) seen_free->SetOccupied({ix, iy, iz});
     }
   }
@@ -185,28 +185,29 @@ TEST(MultiLevelGridTest, OwnMapIsOptimisticInUnseenSpaceOnly) {
   // The same map read as complete: unseen space is not ground.
   options.unknown_is_lethal = true;
   const MultiLevelGrid complete(world, options, seen_free);
-  EXPECT_EQ(PlanPathMultiLevel(complete, {1.0, 1.5, 0.0}, {8.0, 1.5}, 0.0).status, PlanResult::Status::kGoalBlocked);
+  EXPECT_EQ(PlanPathMultiLevel(complete, {1.0, 1.5, 0.0}, {8.0, 1.5}, 0.0).status,
+            PlanResult::Status::kGoalBlocked);
 }
 
 // The building as a robot on floor 1 has seen it: everything below 2.0 m observed, nothing above. A goal on
-// floor 2 is not connected yet: a partial plan climbs as far as the map shows (the upper flight's known steps);
-// a wheeled robot is refused naming the stairs' step instead.
-// A partial plan's end is scored by its planar distance and 30 x its height off the goal's level, but a voxel
-// off counts as on the level: floor 2 at 3.2 m read 3.3 m along its corridor and 3.2 m at the top of the
-// stairs, and a robot on floor 2 was sent back to the stairs.
-// A robot-built map of a room under a 0.2 m slab (z 1.4-1.6) it saw only from below: the slab's underside
-// voxel, with unseen space above it, is no surface even once the robot's lidar has been higher (on a landing,
-// sensor 2.2 m); a floor seen from above at a grazing angle (no free voxel observed right above it) still is.
-// Seen from above too (free space observed over it), the slab is a surface.
+// floor 2 is not connected yet: a partial plan climbs as far as the map shows (the upper flight's known
+// steps); a wheeled robot is refused naming the stairs' step instead. A partial plan's end is scored by its
+// planar distance and 30 x its height off the goal's level, but a voxel off counts as on the level: floor 2
+// at 3.2 m read 3.3 m along its corridor and 3.2 m at the top of the stairs, and a robot on floor 2 was sent
+// back to the stairs. A robot-built map of a room under a 0.2 m slab (z 1.4-1.6) it saw only from below: the
+// slab's underside voxel, with unseen space above it, is no surface even once the robot's lidar has been
+// higher (on a landing, sensor 2.2 m); a floor seen from above at a grazing angle (no free voxel observed
+// right above it) still is. Seen from above too (free space observed over it), the slab is a surface.
 TEST(MultiLevelGridTest, AnUndersideSeenFromBelowIsNoSurface) {
   sim::World truth = testing::FlatWorld(6.0, 6.0, 0.1, 3.0);
   sim::World world("own", truth.p_W_min(), truth.resolution_m(), truth.dims());
   sim::World seen("seen", truth.p_W_min(), truth.resolution_m(), truth.dims());
-  testing::FillBox(&world, {0.0, 0.0, -0.1}, {6.0, 6.0, 0.0});      // the floor's top voxels, hit from above
-  testing::FillBox(&world, {2.0, 2.0, 1.4}, {4.0, 4.0, 1.5});       // the slab's underside voxels, hit from below
-  testing::FillBox(&seen, {0.0, 0.0, 0.0}, {6.0, 6.0, 1.4});        // rays below the slab (none right over the floor
+  testing::FillBox(&world, {0.0, 0.0, -0.1}, {6.0, 6.0, 0.0});  // the floor's top voxels, hit from above
+  testing::FillBox(&world, {2.0, 2.0, 1.4}, {4.0, 4.0, 1.5});   // the slab's underside voxels, hit from below
+  testing::FillBox(&seen, {0.0, 0.0, 0.0},
+                   {6.0, 6.0, 1.4});  // rays below the slab (none right over the floor
   testing::FillBox(&seen, {0.0, 0.0, 0.0}, {6.0, 6.0, 0.2}, false);  // at a grazing angle)
-  testing::FillBox(&seen, {0.0, 0.0, 1.6}, {2.0, 6.0, 3.0});        // around the slab, not over it
+  testing::FillBox(&seen, {0.0, 0.0, 1.6}, {2.0, 6.0, 3.0});         // around the slab, not over it
   auto own = std::make_shared<const core::VoxelGrid>(world);
   auto seen_free = std::make_shared<const core::VoxelGrid>(seen);
   TraversabilityOptions options = Legged();
@@ -216,7 +217,8 @@ TEST(MultiLevelGridTest, AnUndersideSeenFromBelowIsNoSurface) {
   ASSERT_TRUE(grid.CellOf(3.0, 3.0, &ix, &iy));
   EXPECT_LT(grid.NodeNear(ix, iy, 1.5, 0.3), 0) << "the underside at 1.4 is no surface";
   EXPECT_GE(grid.NodeNear(ix, iy, 0.0, 0.1), 0) << "the floor under it is";
-  testing::FillBox(&seen, {2.0, 2.0, 1.6}, {4.0, 4.0, 1.8});  // then seen from above: free space right over the slab
+  testing::FillBox(&seen, {2.0, 2.0, 1.6},
+                   {4.0, 4.0, 1.8});  // then seen from above: free space right over the slab
   testing::FillBox(&world, {2.0, 2.0, 1.5}, {4.0, 4.0, 1.6});
   const MultiLevelGrid seen_twice(std::make_shared<const core::VoxelGrid>(world), options,
                                   std::make_shared<const core::VoxelGrid>(seen), 2.2);
@@ -252,10 +254,11 @@ TEST(MultiLevelGridTest, PartialPlanClimbsAsFarAsTheMapShows) {
 
   GlobalPlannerOptions planner_options;
   planner_options.reading.unknown_is_lethal = false;
-  GlobalPlanner planner(world, {GetPlatformProfile("wheeled"), GetPlatformProfile("legged")}, planner_options);
-  planner.UpdateMap(world, "legged", std::make_shared<const TraversabilityGrid>(*world, planner.TerrainOptionsFor(
-                                                                                    GetPlatformProfile("legged")),
-                                                                                seen_free.get()),
+  GlobalPlanner planner(world, {GetPlatformProfile("wheeled"), GetPlatformProfile("legged")},
+                        planner_options);
+  planner.UpdateMap(world, "legged",
+                    std::make_shared<const TraversabilityGrid>(
+                        *world, planner.TerrainOptionsFor(GetPlatformProfile("legged")), seen_free.get()),
                     seen_free);
   GlobalPlanRequest request;
   request.start_W = {2.0, 7.1};

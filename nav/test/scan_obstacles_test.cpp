@@ -17,7 +17,8 @@ void AddPatch(double x0, double x1, double y0, double y1, double z, std::vector<
 }
 
 // A vertical face at x = x_face over [y0, y1], from z0 to z1.
-void AddFace(double x_face, double y0, double y1, double z0, double z1, std::vector<Eigen::Vector3f>* points) {
+void AddFace(double x_face, double y0, double y1, double z0, double z1,
+             std::vector<Eigen::Vector3f>* points) {
   for (double y = y0; y <= y1 + 1e-9; y += 0.02) {
     for (double z = z0; z <= z1 + 1e-9; z += 0.02) points->emplace_back(x_face, y, z);
   }
@@ -52,10 +53,10 @@ TEST(ScanObstaclesTest, FloorAndCeilingAreFreeAWallIsAnObstacleInTheBodyFrame) {
 
 TEST(ScanObstaclesTest, AStepHigherThanThePlatformClimbsIsAnObstacleALowerOneIsNot) {
   std::vector<Eigen::Vector3f> points_M;
-  AddPatch(0.0, 2.0, -1.0, 1.0, 0.0, &points_M);   // floor
-  AddFace(2.0, -1.0, 1.0, 0.0, 0.2, &points_M);    // a 0.2 m riser
-  AddPatch(2.0, 3.0, -1.0, 1.0, 0.2, &points_M);   // its tread
-  core::BaseState pose;  // at the origin, facing +x
+  AddPatch(0.0, 2.0, -1.0, 1.0, 0.0, &points_M);  // floor
+  AddFace(2.0, -1.0, 1.0, 0.0, 0.2, &points_M);   // a 0.2 m riser
+  AddPatch(2.0, 3.0, -1.0, 1.0, 0.2, &points_M);  // its tread
+  core::BaseState pose;                           // at the origin, facing +x
   std::vector<Eigen::Vector3f> points_B;
   ScanObstacleOptions wheeled;
   wheeled.max_step_m = 0.15;
@@ -96,10 +97,12 @@ TEST(ScanObstaclesTest, BadInputIsNamedOrSkipped) {
   std::string why;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("ScanObstacleOptions::cell_size_m = 0"), std::string::npos) << why;
-  EXPECT_THROW(ObstaclesFromPoints({}, core::BaseState{}, ScanObstacleOptions{}, nullptr), std::invalid_argument);
+  EXPECT_THROW(ObstaclesFromPoints({}, core::BaseState{}, ScanObstacleOptions{}, nullptr),
+               std::invalid_argument);
   const float nan = std::nanf("");
   const std::vector<Eigen::Vector3f> bad = {{nan, 0, 0}, {1, nan, 5}, {1, 1, nan}};
-  const ScanObstacleStats stats = ObstaclesFromPoints(bad, core::BaseState{}, ScanObstacleOptions{}, &points_B);
+  const ScanObstacleStats stats =
+      ObstaclesFromPoints(bad, core::BaseState{}, ScanObstacleOptions{}, &points_B);
   EXPECT_EQ(stats.points_used, 0);
   EXPECT_TRUE(points_B.empty());
 }

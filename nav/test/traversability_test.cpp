@@ -219,25 +219,24 @@ TEST(TraversabilityGridTest, BuiltinTunnels) {
   EXPECT_FALSE(grid.IsTraversableAt(2.0, 2.0));  // Outside the tunnels: no ground.
 }
 
-
 // A robot's own map: what its lidar saw of a wall 0.7 m away is only its lower part (up to 0.8 m), with
 // nothing observed above; the floor beside the wall was never hit (too close under the lidar). Without the
 // seen-free voxels the wall's seen top reads as raised ground among unseen floor; with them it is an
 // obstacle, while floor a ray came down onto stays ground.
 TEST(TraversabilityGridTest, OwnMapGroundNeedsSpaceSeenFreeAboveIt) {
   sim::World world = FlatWorld(4.0, 3.0, 0.1, 2.3);
-  FillBox(&world, {0.0, 0.0, -0.2}, {4.0, 3.0, 0.0}, false);   // no floor seen anywhere...
-  FillBox(&world, {0.0, 0.0, -0.1}, {1.5, 3.0, 0.0});           // ...but here, far from the wall
-  FillBox(&world, {3.0, 0.0, 0.0}, {3.2, 3.0, 0.8});            // the wall's seen part
+  FillBox(&world, {0.0, 0.0, -0.2}, {4.0, 3.0, 0.0}, false);  // no floor seen anywhere...
+  FillBox(&world, {0.0, 0.0, -0.1}, {1.5, 3.0, 0.0});         // ...but here, far from the wall
+  FillBox(&world, {3.0, 0.0, 0.0}, {3.2, 3.0, 0.8});          // the wall's seen part
   sim::World seen_free("seen free", world.p_W_min(), world.resolution_m(), world.dims());
-  FillBox(&seen_free, {0.0, 0.0, 0.0}, {1.5, 3.0, 0.5});        // rays came down onto that floor
-  FillBox(&seen_free, {1.5, 0.0, 0.3}, {3.0, 3.0, 0.8});        // and ran to the wall below 0.8 m
+  FillBox(&seen_free, {0.0, 0.0, 0.0}, {1.5, 3.0, 0.5});  // rays came down onto that floor
+  FillBox(&seen_free, {1.5, 0.0, 0.3}, {3.0, 3.0, 0.8});  // and ran to the wall below 0.8 m
   TraversabilityOptions options;
   options.unknown_is_lethal = false;
   options.reference_height_m = 0.0;
   options.fill_passes = 0;
   const TraversabilityGrid blind(world, options);
-  EXPECT_EQ(At(blind, 3.05, 1.5).state(), CellState::kFree);   // the failure this guards against
+  EXPECT_EQ(At(blind, 3.05, 1.5).state(), CellState::kFree);  // the failure this guards against
   EXPECT_NEAR(At(blind, 3.05, 1.5).ground(), 0.8, 1e-9);
   const TraversabilityGrid own(world, options, &seen_free);
   EXPECT_EQ(At(own, 3.05, 1.5).state(), CellState::kObstacle);
@@ -247,11 +246,14 @@ TEST(TraversabilityGridTest, OwnMapGroundNeedsSpaceSeenFreeAboveIt) {
   EXPECT_EQ(At(own, 2.25, 1.5).state(), CellState::kUnknown);  // unseen floor stays optimistic
   // Update() with the same voxels gives the same grid; a different geometry is refused, naming it.
   TraversabilityGrid updated(world, options, &seen_free);
-  updated.Update(world, &seen_free, {Eigen::AlignedBox2d(Eigen::Vector2d(2.5, 0.5), Eigen::Vector2d(3.5, 2.5))});
+  updated.Update(world, &seen_free,
+                 {Eigen::AlignedBox2d(Eigen::Vector2d(2.5, 0.5), Eigen::Vector2d(3.5, 2.5))});
   EXPECT_EQ(At(updated, 3.05, 1.5).state(), CellState::kObstacle);
-  const sim::World other("other", world.p_W_min(), world.resolution_m(), world.dims() + Eigen::Vector3i(1, 0, 0));
+  const sim::World other("other", world.p_W_min(), world.resolution_m(),
+                         world.dims() + Eigen::Vector3i(1, 0, 0));
   try {
-    updated.Update(world, &other, {Eigen::AlignedBox2d(Eigen::Vector2d(2.5, 0.5), Eigen::Vector2d(3.5, 2.5))});
+    updated.Update(world, &other,
+                   {Eigen::AlignedBox2d(Eigen::Vector2d(2.5, 0.5), Eigen::Vector2d(3.5, 2.5))});
     ADD_FAILURE() << "expected std::invalid_argument";
   } catch (const std::invalid_argument& e) {
     EXPECT_CONTAINS(std::string(e.what()), "seen_free");

@@ -265,7 +265,8 @@ void ZstdCompressAppend(const std::vector<std::uint8_t>& raw, int zstd_level, co
   ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, zstd_level);
   ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
   ZSTD_CCtx_setParameter(cctx, ZSTD_c_contentSizeFlag, 1);
-  const std::size_t written = ZSTD_compress2(cctx, out->data() + at, out->size() - at, raw.data(), raw.size());
+  const std::size_t written =
+      ZSTD_compress2(cctx, out->data() + at, out->size() - at, raw.data(), raw.size());
   if (ZSTD_isError(written)) {
     throw std::runtime_error(std::string(caller) + ": zstd: " + ZSTD_getErrorName(written));
   }
@@ -288,10 +289,12 @@ bool ZstdDecompress(const std::uint8_t* frame, std::size_t frame_size, std::size
   }
   const unsigned long long declared = ZSTD_getFrameContentSize(frame, frame_size);
   if (declared == ZSTD_CONTENTSIZE_ERROR) return Fail(error, "corrupt zstd frame header");
-  if (declared == ZSTD_CONTENTSIZE_UNKNOWN) return Fail(error, "zstd frame does not declare its content size");
+  if (declared == ZSTD_CONTENTSIZE_UNKNOWN)
+    return Fail(error, "zstd frame does not declare its content size");
   if (declared > max_bytes) {
-    return Fail(error, "zstd frame declares " + std::to_string(declared) + " decompressed bytes, over the cap of " +
-                           std::to_string(max_bytes) + " (decompression bomb?)");
+    return Fail(error, "zstd frame declares " + std::to_string(declared) +
+                           " decompressed bytes, over the cap of " + std::to_string(max_bytes) +
+                           " (decompression bomb?)");
   }
   out->resize(static_cast<std::size_t>(declared));
   ZSTD_DCtx* dctx = ThreadDCtx();

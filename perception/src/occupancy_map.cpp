@@ -23,8 +23,6 @@
 // the 0.5 threshold), at a coarse tracking level (see TakeCoarseChanges).
 #include "cairn/perception/occupancy_map.h"
 
-#include "cairn/core/octomap_bt.h"
-
 #include <octomap/OcTree.h>
 
 #include <algorithm>
@@ -41,6 +39,8 @@
 #include <sstream>
 #include <system_error>
 #include <utility>
+
+#include "cairn/core/octomap_bt.h"
 
 namespace cairn::perception {
 namespace {
@@ -735,7 +735,8 @@ InsertStats OccupancyMap::InsertScan(const std::vector<Eigen::Vector3f>& points_
   OcTreeKey origin_key;
   if (!m.tree.coordToKeyChecked(origin, origin_key)) {
     throw MapError("InsertScan: sensor origin p_W_S = " + Vec3Text(p_W_S.x(), p_W_S.y(), p_W_S.z()) +
-                   " m is outside the map (+-" + core::ShortestDecimal(kKeyOffset * m.options.resolution_m) + " m)");
+                   " m is outside the map (+-" + core::ShortestDecimal(kKeyOffset * m.options.resolution_m) +
+                   " m)");
   }
   if (points_S.empty()) return stats;
   const Eigen::Matrix3d R_W_S = T_W_S.linear();
@@ -779,7 +780,8 @@ InsertStats OccupancyMap::InsertScan(const std::vector<Eigen::Vector3f>& points_
       }
     }
     m.ray_ends.push_back(end);
-    const bool guarded = hit && guard > 0 && static_cast<int>(end_key[2]) + guard < static_cast<int>(origin_key[2]);
+    const bool guarded =
+        hit && guard > 0 && static_cast<int>(end_key[2]) + guard < static_cast<int>(origin_key[2]);
     m.ray_keep_below.push_back(guarded ? static_cast<int>(end_key[2]) + guard : 0);
     for (int i = 0; i < 3; ++i) {
       lo[i] = std::min(lo[i], static_cast<int>(end_key[i]));
@@ -828,7 +830,8 @@ std::optional<Eigen::Vector3d> OccupancyMap::CastRay(const Eigen::Vector3d& orig
                    " must be finite and non-zero");
   }
   if (!(max_range_m >= 0.0 && std::isfinite(max_range_m))) {
-    throw MapError("CastRay: max_range_m = " + core::ShortestDecimal(max_range_m) + " must be finite and >= 0");
+    throw MapError("CastRay: max_range_m = " + core::ShortestDecimal(max_range_m) +
+                   " must be finite and >= 0");
   }
   const Impl& m = *impl_;
   const double res = m.options.resolution_m;
@@ -880,7 +883,8 @@ std::vector<Eigen::Vector3d> OccupancyMap::FreeInBox(const Eigen::AlignedBox3d& 
   return VoxelsInBox(box_W, /*occupied=*/false);
 }
 
-std::vector<Eigen::Vector3d> OccupancyMap::VoxelsInBox(const Eigen::AlignedBox3d& box_W, bool occupied) const {
+std::vector<Eigen::Vector3d> OccupancyMap::VoxelsInBox(const Eigen::AlignedBox3d& box_W,
+                                                       bool occupied) const {
   if (box_W.min().hasNaN() || box_W.max().hasNaN()) {
     throw MapError(std::string(occupied ? "OccupiedInBox" : "FreeInBox") + ": box_W corner is NaN: min " +
                    Vec3Text(box_W.min().x(), box_W.min().y(), box_W.min().z()) + ", max " +
@@ -1010,8 +1014,9 @@ OccupancyMap OccupancyMap::LoadBt(const std::string& path, const OccupancyMapOpt
   // A root without children is an empty map (OctoMap would read it as one occupied root leaf).
   if (contents.num_nodes > 1) {
     // Hand OctoMap a canonical header and the validated node stream.
-    std::istringstream stream(core::BtFileHeader(static_cast<std::size_t>(contents.num_nodes), contents.resolution_m) +
-                              contents.data);
+    std::istringstream stream(
+        core::BtFileHeader(static_cast<std::size_t>(contents.num_nodes), contents.resolution_m) +
+        contents.data);
     if (!m.tree.readBinary(stream) || static_cast<std::int64_t>(m.tree.size()) != contents.num_nodes) {
       throw MapError("map file '" + path + "' could not be read by OctoMap");
     }

@@ -1,12 +1,12 @@
 // Copyright Cairn authors.
 #include "cairn/perception/jpeg.h"
-#include "cairn/perception/png.h"
-
-#include <algorithm>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
+
+#include "cairn/perception/png.h"
 
 namespace cairn::perception {
 namespace {
@@ -31,7 +31,8 @@ TEST(JpegTest, RoundTripKeepsSizeAndPixelsClose) {
   const GrayFrame decoded = DecodeGrayJpeg(jpeg);
   ASSERT_EQ(decoded.pixels.size(), frame.pixels.size());
   double error = 0;
-  for (std::size_t i = 0; i < frame.pixels.size(); ++i) error += std::abs(decoded.pixels[i] - frame.pixels[i]);
+  for (std::size_t i = 0; i < frame.pixels.size(); ++i)
+    error += std::abs(decoded.pixels[i] - frame.pixels[i]);
   EXPECT_LT(error / frame.pixels.size(), 3.0);
 }
 

@@ -310,7 +310,8 @@ double FloorKeptWhileDriving(int floor_guard_layers) {
   for (double x = 2.05; x < 8.0; x += 0.1) {
     for (double y = -0.95; y < 1.0; y += 0.1) {
       ++cells;
-      if (map.Query({x, y, -0.05}) == Occupancy::kOccupied || map.Query({x, y, 0.05}) == Occupancy::kOccupied) ++kept;
+      if (map.Query({x, y, -0.05}) == Occupancy::kOccupied || map.Query({x, y, 0.05}) == Occupancy::kOccupied)
+        ++kept;
     }
   }
   return static_cast<double>(kept) / cells;
@@ -323,7 +324,6 @@ TEST(OccupancyMapTest, FloorGuardKeepsAGrazedFloorOnAVoxelBoundary) {
   EXPECT_GT(guarded, 0.95);
   EXPECT_LT(octomap, 0.5);  // the case the guard exists for: OctoMap's own update erases this floor
 }
-
 
 TEST(OccupancyMapTest, FreeAlongRayOccupiedAtEndpointUnknownElsewhere) {
   OccupancyMap map;  // 0.1 m voxels.
@@ -638,8 +638,7 @@ TEST(OccupancyMapFileTest, SaveLoadRoundTrip) {
 
 TEST(OccupancyMapFileTest, LoadsOctomapsOwnFile) {
   if (!FileExists(Geb079Path())) {
-    GTEST_SKIP() << "real map " << Geb079Path()
-                 << " is absent (it ships in data/)";
+    GTEST_SKIP() << "real map " << Geb079Path() << " is absent (it ships in data/)";
   }
   const OccupancyMap map = OccupancyMap::LoadBt(Geb079Path());
   octomap::OcTree tree(0.1);

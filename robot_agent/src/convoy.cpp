@@ -29,7 +29,8 @@ const ConvoyOptions& Checked(const ConvoyOptions& options) {
 }
 
 // The point of segment a-b nearest p in x-y (z interpolated).
-Eigen::Vector3d NearestOnSegment2D(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& p) {
+Eigen::Vector3d NearestOnSegment2D(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                   const Eigen::Vector3d& p) {
   const Eigen::Vector2d ab = (b - a).head<2>();
   const double len2 = ab.squaredNorm();
   const double t = len2 > 0 ? std::clamp((p - a).head<2>().dot(ab) / len2, 0.0, 1.0) : 0.0;
@@ -52,7 +53,8 @@ void ConvoyTrail::OnAhead(const Eigen::Vector3d& p_M, double now_s, double speed
   ahead_speed_mps_ = std::isfinite(speed_mps) ? std::abs(speed_mps) : 0.0;
   last_heard_s_ = now_s;
   heard_ = true;
-  if (trail_M_.empty() || Distance2D(trail_M_.back(), p_M) >= options_.breadcrumb_step_m) trail_M_.push_back(p_M);
+  if (trail_M_.empty() || Distance2D(trail_M_.back(), p_M) >= options_.breadcrumb_step_m)
+    trail_M_.push_back(p_M);
   // Bound the trail: the oldest breadcrumbs go beyond max_trail_m.
   double length = 0;
   for (std::size_t i = trail_M_.size(); i-- > 1;) {

@@ -34,7 +34,8 @@ std::vector<std::uint8_t> CompressCoverageBits(const nav::CoverageBitmap& bitmap
   return out;
 }
 
-bool DecompressCoverageBits(const std::vector<std::uint8_t>& frame, nav::CoverageBitmap* bitmap, std::string* why) {
+bool DecompressCoverageBits(const std::vector<std::uint8_t>& frame, nav::CoverageBitmap* bitmap,
+                            std::string* why) {
   const std::int64_t cells = static_cast<std::int64_t>(bitmap->nx) * bitmap->ny;
   if (bitmap->nx < 0 || bitmap->ny < 0 || cells > nav::CoverageBitmap::kMaxCells) {
     if (why != nullptr) {
@@ -51,8 +52,9 @@ bool DecompressCoverageBits(const std::vector<std::uint8_t>& frame, nav::Coverag
   }
   if (bitmap->bits.size() != want) {
     if (why != nullptr) {
-      *why = "coverage_zstd holds " + std::to_string(bitmap->bits.size()) + " bytes, " + std::to_string(want) +
-             " expected for " + std::to_string(bitmap->nx) + " x " + std::to_string(bitmap->ny) + " cells";
+      *why = "coverage_zstd holds " + std::to_string(bitmap->bits.size()) + " bytes, " +
+             std::to_string(want) + " expected for " + std::to_string(bitmap->nx) + " x " +
+             std::to_string(bitmap->ny) + " cells";
     }
     bitmap->bits.clear();
     return false;
@@ -62,10 +64,11 @@ bool DecompressCoverageBits(const std::vector<std::uint8_t>& frame, nav::Coverag
 
 bool ExploreTeamOptions::IsValid(std::string* why) const {
   std::string msg;
-  bool ok = internal::InRange("explore.claim_period_s", claim_period_s, 0, 60, true, &msg) &&
-            internal::InRange("explore.coverage_period_s", coverage_period_s, claim_period_s, 600, false, &msg) &&
-            internal::InRange("explore.claim_lease_s", lease_s, claim_period_s, 600, true, &msg) &&
-            internal::InRange("explore.coverage_cell_m", coverage_cell_m, 0, 10, true, &msg);
+  bool ok =
+      internal::InRange("explore.claim_period_s", claim_period_s, 0, 60, true, &msg) &&
+      internal::InRange("explore.coverage_period_s", coverage_period_s, claim_period_s, 600, false, &msg) &&
+      internal::InRange("explore.claim_lease_s", lease_s, claim_period_s, 600, true, &msg) &&
+      internal::InRange("explore.coverage_cell_m", coverage_cell_m, 0, 10, true, &msg);
   if (!ok && why != nullptr) *why = msg;
   return ok;
 }
@@ -89,9 +92,9 @@ std::string ExploreTeam::OnPeerClaim(const ExploreClaim& claim, double now_s) {
   if (const std::string why = CheckExploreClaim(claim); !why.empty()) return why;
   if (claim.robot_id == own_id_) return "";
   if (claim.coverage && std::abs(claim.coverage->cell_m - options_.coverage_cell_m) > 1e-9) {
-    return "explore claim from \"" + claim.robot_id + "\": coverage cell_m = " +
-           std::to_string(claim.coverage->cell_m) + " differs from this robot's explore.coverage_cell_m = " +
-           std::to_string(options_.coverage_cell_m);
+    return "explore claim from \"" + claim.robot_id +
+           "\": coverage cell_m = " + std::to_string(claim.coverage->cell_m) +
+           " differs from this robot's explore.coverage_cell_m = " + std::to_string(options_.coverage_cell_m);
   }
   std::shared_ptr<nav::PeerCoverage> merged;
   if (claim.coverage) {
@@ -101,8 +104,9 @@ std::string ExploreTeam::OnPeerClaim(const ExploreClaim& claim, double now_s) {
   }
   if (merged) merged->Add(*claim.coverage);  // outside the lock: the control loop never waits for it
   std::lock_guard<std::mutex> guard(mutex_);
-  if (merged) coverage_ = std::move(merged);  // (two peers' coverage at once: the later may miss the earlier's
-                                              // newest cells until that peer's next coverage, a few seconds)
+  if (merged)
+    coverage_ = std::move(merged);  // (two peers' coverage at once: the later may miss the earlier's
+                                    // newest cells until that peer's next coverage, a few seconds)
   Heard& heard = peers_[claim.robot_id];
   heard.claim = claim;
   heard.claim.coverage.reset();
@@ -133,7 +137,8 @@ std::vector<std::string> ExploreTeam::LivePeers(double now_s) const {
 int ExploreTeam::ExploringPeers(double now_s) const {
   int n = 0;
   std::lock_guard<std::mutex> guard(mutex_);
-  for (const auto& [id, heard] : peers_) n += heard.claim.active && now_s - heard.heard_s <= heard.claim.lease_s;
+  for (const auto& [id, heard] : peers_)
+    n += heard.claim.active && now_s - heard.heard_s <= heard.claim.lease_s;
   return n;
 }
 
@@ -147,14 +152,17 @@ std::shared_ptr<const nav::PeerCoverage> ExploreTeam::Coverage() const {
   return coverage_;
 }
 
-bool ExploreTeam::ClaimDue(double now_s, bool active, bool has_target, const Eigen::Vector2d& target_M) const {
+bool ExploreTeam::ClaimDue(double now_s, bool active, bool has_target,
+                           const Eigen::Vector2d& target_M) const {
   if (active != last_active_ || has_target != last_has_target_) return true;
   if (!active) return false;  // the release went out
   if (has_target && (target_M - last_target_M_).norm() > 0.5) return true;
   return now_s - last_claim_s_ >= options_.claim_period_s;
 }
 
-bool ExploreTeam::CoverageDue(double now_s) const { return now_s - last_coverage_s_ >= options_.coverage_period_s; }
+bool ExploreTeam::CoverageDue(double now_s) const {
+  return now_s - last_coverage_s_ >= options_.coverage_period_s;
+}
 
 void ExploreTeam::Sent(const ExploreClaim& claim, double now_s) {
   last_claim_s_ = now_s;
@@ -164,8 +172,8 @@ void ExploreTeam::Sent(const ExploreClaim& claim, double now_s) {
   last_target_M_ = claim.target_M.head<2>();
 }
 
-ExploreClaim ExploreTeam::MakeClaim(std::uint32_t task_id, bool active, const std::optional<nav::PeerClaim>& own,
-                                    double target_z_m) const {
+ExploreClaim ExploreTeam::MakeClaim(std::uint32_t task_id, bool active,
+                                    const std::optional<nav::PeerClaim>& own, double target_z_m) const {
   ExploreClaim claim;
   claim.robot_id = own_id_;
   claim.task_id = task_id;

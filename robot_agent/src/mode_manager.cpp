@@ -1,9 +1,9 @@
 #include "cairn/agent/mode_manager.h"
 
-#include "cairn/agent/waypoint_recovery.h"
-
 #include <algorithm>
 #include <map>
+
+#include "cairn/agent/waypoint_recovery.h"
 
 namespace cairn::agent {
 
@@ -12,7 +12,7 @@ using bt::NodeStatus;
 // State shared between the manager and the node callbacks registered with the factory.
 struct ModeManager::Context {
   ModeConditions conditions;
-  std::string failure;           // first failed condition of the matching branch
+  std::string failure;  // first failed condition of the matching branch
   std::string selected_mode;
   std::string selected_channel;
   std::map<const bt::TreeNode*, NodeStatus> trace;  // leaf results of the current tick
@@ -37,7 +37,6 @@ std::function<NodeStatus(bt::TreeNode&)> Traced(std::shared_ptr<Context> ctx,
   };
 }
 
-
 }  // namespace
 
 void ModeManager::RegisterNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx) {
@@ -46,47 +45,59 @@ void ModeManager::RegisterNodes(bt::TreeFactory& factory, const std::shared_ptr<
   WaypointRecovery::RegisterNodes(factory, nullptr);
 }
 
-void ModeManager::RegisterModeNodes(bt::TreeFactory& factory) { RegisterModeNodes(factory, std::make_shared<Context>()); }
+void ModeManager::RegisterModeNodes(bt::TreeFactory& factory) {
+  RegisterModeNodes(factory, std::make_shared<Context>());
+}
 
 void ModeManager::RegisterModeNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx) {
   factory.RegisterSimpleCondition(
       "IsModeRequested",
-      Traced(ctx, [](bt::TreeNode& node) {
-        const auto wanted = node.GetInput<std::string>("mode");
-        const auto requested = node.GetInput<std::string>("requested_mode");
-        return (wanted && requested && *wanted == *requested) ? NodeStatus::kSuccess : NodeStatus::kFailure;
-      }),
+      Traced(ctx,
+             [](bt::TreeNode& node) {
+               const auto wanted = node.GetInput<std::string>("mode");
+               const auto requested = node.GetInput<std::string>("requested_mode");
+               return (wanted && requested && *wanted == *requested) ? NodeStatus::kSuccess
+                                                                     : NodeStatus::kFailure;
+             }),
       {bt::InputPort("mode", "mode this branch implements"),
        bt::InputPort("requested_mode", "{requested_mode}", "mode being asked for")});
   factory.RegisterSimpleCondition("IsControlHeld", Traced(ctx, [ctx](bt::TreeNode&) {
-    return ctx->conditions.holder_id.empty()
-               ? Fail(&ctx->failure, "IsControlHeld: no basestation holds the control lock")
-               : NodeStatus::kSuccess;
-  }));
-  factory.RegisterSimpleCondition("IsHolderAlive", Traced(ctx, [ctx](bt::TreeNode&) {
-    const ModeConditions& c = ctx->conditions;
-    if (c.holder_id.empty()) return Fail(&ctx->failure, "IsHolderAlive: no basestation holds the control lock");
-    return c.holder_alive ? NodeStatus::kSuccess
-                          : Fail(&ctx->failure, "IsHolderAlive: liveliness of control holder " + c.holder_id +
-                                                    " is lost (no live process speaks for it)");
-  }));
-  factory.RegisterSimpleCondition("IsLocalized", Traced(ctx, [ctx](bt::TreeNode&) {
-    return ctx->conditions.localized ? NodeStatus::kSuccess
-                                     : Fail(&ctx->failure, "IsLocalized: no valid pose estimate" +
-                                                               (ctx->conditions.localization_problem.empty()
-                                                                    ? std::string()
-                                                                    : ": " + ctx->conditions.localization_problem));
-  }));
-  factory.RegisterSimpleCondition("HasWaypointGoal", Traced(ctx, [ctx](bt::TreeNode&) {
-    return ctx->conditions.has_waypoint_goal
-               ? NodeStatus::kSuccess
-               : Fail(&ctx->failure, "HasWaypointGoal: no accepted waypoint goal (send goto first)");
-  }));
-  factory.RegisterSimpleCondition("HasExploreTask", Traced(ctx, [ctx](bt::TreeNode&) {
-    return ctx->conditions.has_explore_task
-               ? NodeStatus::kSuccess
-               : Fail(&ctx->failure, "HasExploreTask: no exploration task (send explore first)");
-  }));
+                                    return ctx->conditions.holder_id.empty()
+                                               ? Fail(&ctx->failure,
+                                                      "IsControlHeld: no basestation holds the control lock")
+                                               : NodeStatus::kSuccess;
+                                  }));
+  factory.RegisterSimpleCondition(
+      "IsHolderAlive", Traced(ctx, [ctx](bt::TreeNode&) {
+        const ModeConditions& c = ctx->conditions;
+        if (c.holder_id.empty())
+          return Fail(&ctx->failure, "IsHolderAlive: no basestation holds the control lock");
+        return c.holder_alive
+                   ? NodeStatus::kSuccess
+                   : Fail(&ctx->failure, "IsHolderAlive: liveliness of control holder " + c.holder_id +
+                                             " is lost (no live process speaks for it)");
+      }));
+  factory.RegisterSimpleCondition(
+      "IsLocalized", Traced(ctx, [ctx](bt::TreeNode&) {
+        return ctx->conditions.localized
+                   ? NodeStatus::kSuccess
+                   : Fail(&ctx->failure, "IsLocalized: no valid pose estimate" +
+                                             (ctx->conditions.localization_problem.empty()
+                                                  ? std::string()
+                                                  : ": " + ctx->conditions.localization_problem));
+      }));
+  factory.RegisterSimpleCondition(
+      "HasWaypointGoal", Traced(ctx, [ctx](bt::TreeNode&) {
+        return ctx->conditions.has_waypoint_goal
+                   ? NodeStatus::kSuccess
+                   : Fail(&ctx->failure, "HasWaypointGoal: no accepted waypoint goal (send goto first)");
+      }));
+  factory.RegisterSimpleCondition(
+      "HasExploreTask", Traced(ctx, [ctx](bt::TreeNode&) {
+        return ctx->conditions.has_explore_task
+                   ? NodeStatus::kSuccess
+                   : Fail(&ctx->failure, "HasExploreTask: no exploration task (send explore first)");
+      }));
   factory.RegisterSimpleCondition("HasConvoyTask", Traced(ctx, [ctx](bt::TreeNode&) {
                                     return ctx->conditions.has_convoy_task
                                                ? NodeStatus::kSuccess
@@ -100,9 +111,11 @@ void ModeManager::RegisterModeNodes(bt::TreeFactory& factory, const std::shared_
                    : Fail(&ctx->failure, "HasYieldTask: no yield request accepted (a peer or yield R asks)");
       }));
   factory.RegisterSimpleCondition("IsMappingHealthy", Traced(ctx, [ctx](bt::TreeNode&) {
-    const ModeConditions& c = ctx->conditions;
-    return c.mapping_healthy ? NodeStatus::kSuccess : Fail(&ctx->failure, "IsMappingHealthy: " + c.mapping_problem);
-  }));
+                                    const ModeConditions& c = ctx->conditions;
+                                    return c.mapping_healthy ? NodeStatus::kSuccess
+                                                             : Fail(&ctx->failure,
+                                                                    "IsMappingHealthy: " + c.mapping_problem);
+                                  }));
   factory.RegisterSimpleCondition(
       "IsComponentUp",
       Traced(ctx,
@@ -133,26 +146,30 @@ void ModeManager::RegisterModeNodes(bt::TreeFactory& factory, const std::shared_
         throw std::invalid_argument("component \"" + component->second +
                                     "\" is not a component of cairn_agent (its components: " + names + ")");
       });
-  factory.RegisterSimpleCondition("IsJoystickAlive", Traced(ctx, [ctx](bt::TreeNode&) {
-    return ctx->conditions.joystick_alive
-               ? NodeStatus::kSuccess
-               : Fail(&ctx->failure, "IsJoystickAlive: the control holder has no live joystick");
-  }));
+  factory.RegisterSimpleCondition(
+      "IsJoystickAlive", Traced(ctx, [ctx](bt::TreeNode&) {
+        return ctx->conditions.joystick_alive
+                   ? NodeStatus::kSuccess
+                   : Fail(&ctx->failure, "IsJoystickAlive: the control holder has no live joystick");
+      }));
   factory.RegisterSimpleCondition("IsLocalPlannerHealthy", Traced(ctx, [ctx](bt::TreeNode&) {
-    const ModeConditions& c = ctx->conditions;
-    return c.local_planner_healthy ? NodeStatus::kSuccess
-                                   : Fail(&ctx->failure, "IsLocalPlannerHealthy: " + c.local_planner_problem);
-  }));
+                                    const ModeConditions& c = ctx->conditions;
+                                    return c.local_planner_healthy
+                                               ? NodeStatus::kSuccess
+                                               : Fail(&ctx->failure,
+                                                      "IsLocalPlannerHealthy: " + c.local_planner_problem);
+                                  }));
   factory.RegisterSimpleAction(
       "SelectMode",
-      Traced(ctx, [ctx](bt::TreeNode& node) {
-        const auto mode = node.GetInput<std::string>("mode");
-        const auto channel = node.GetInput<std::string>("channel");
-        if (!mode || !channel) return Fail(&ctx->failure, "SelectMode: missing mode or channel port");
-        ctx->selected_mode = *mode;
-        ctx->selected_channel = *channel;
-        return NodeStatus::kSuccess;
-      }),
+      Traced(ctx,
+             [ctx](bt::TreeNode& node) {
+               const auto mode = node.GetInput<std::string>("mode");
+               const auto channel = node.GetInput<std::string>("channel");
+               if (!mode || !channel) return Fail(&ctx->failure, "SelectMode: missing mode or channel port");
+               ctx->selected_mode = *mode;
+               ctx->selected_channel = *channel;
+               return NodeStatus::kSuccess;
+             }),
       {bt::InputPort("mode", "mode to commit"), bt::InputPort("channel", "mux channel of that mode")});
 }
 
@@ -208,12 +225,15 @@ void ModeManager::CheckChannels(const std::string& tree_file, const std::vector<
     const auto& ports = node.config().port_values;
     const auto channel = ports.find("channel");
     const auto mode = ports.find("mode");
-    const std::string where = tree_file + ":" + std::to_string(node.config().xml_line) + ": branch '" + branch +
-                              "' (SelectMode mode=\"" + (mode == ports.end() ? "" : mode->second) + "\")";
-    if (channel == ports.end()) throw bt::TreeError(where + " has no channel port (mux channels: " + list + ")");
+    const std::string where = tree_file + ":" + std::to_string(node.config().xml_line) + ": branch '" +
+                              branch + "' (SelectMode mode=\"" + (mode == ports.end() ? "" : mode->second) +
+                              "\")";
+    if (channel == ports.end())
+      throw bt::TreeError(where + " has no channel port (mux channels: " + list + ")");
     if (mode == ports.end() || mode->second.empty() || mode->second.find('{') != std::string::npos) {
-      throw bt::TreeError(where + ": a SelectMode's mode must be a literal mode name (checked against its channel "
-                                  "at load), not empty or a blackboard entry");
+      throw bt::TreeError(where +
+                          ": a SelectMode's mode must be a literal mode name (checked against its channel "
+                          "at load), not empty or a blackboard entry");
     }
     const std::string& name = channel->second;
     if (name.find('{') != std::string::npos) {
@@ -231,8 +251,8 @@ void ModeManager::CheckChannels(const std::string& tree_file, const std::vector<
                           modules + "): a new mode needs its module registered in the agent");
     }
     if (name != "none" && std::find(mux_channels.begin(), mux_channels.end(), name) == mux_channels.end()) {
-      throw bt::TreeError(where + " names mux channel '" + name + "', which the mux does not have (channels: " +
-                          list + ")");
+      throw bt::TreeError(where + " names mux channel '" + name +
+                          "', which the mux does not have (channels: " + list + ")");
     }
     if (module_channels != nullptr && module_channels->at(mode->second) != name) {
       throw bt::TreeError(where + " selects mux channel '" + name + "', but mode module '" + mode->second +
@@ -241,7 +261,8 @@ void ModeManager::CheckChannels(const std::string& tree_file, const std::vector<
   });
 }
 
-bool ModeManager::Evaluate(const std::string& mode, const ModeConditions& conditions, std::string* channel, std::string* failure) {
+bool ModeManager::Evaluate(const std::string& mode, const ModeConditions& conditions, std::string* channel,
+                           std::string* failure) {
   context_->conditions = conditions;
   context_->failure.clear();
   context_->selected_mode.clear();

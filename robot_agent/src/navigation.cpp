@@ -1,13 +1,13 @@
 #include "cairn/agent/navigation.h"
 
-#include "range_check.h"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
 #include <stdexcept>
+
+#include "range_check.h"
 
 namespace cairn::agent {
 namespace {
@@ -16,12 +16,12 @@ using internal::InRange;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kArrivalSpeedMps = 0.1;  // arrival needs the robot at most this fast
-constexpr double kArrivalLevelM = 0.5;     // ...and this close to the height of a goal's level
+constexpr double kArrivalLevelM = 0.5;    // ...and this close to the height of a goal's level
 // Replans on the worker start at most this often (a search over the map's levels costs up to ~0.5 s of CPU on
 // a mostly unknown map; back to back they would take a core from the robot's sensing and mapping).
 constexpr double kMinReplanIntervalS = 1.0;
-constexpr double kPartialWaitS = 8.0;      // a partial plan's end is a dead end after this long without a way on
-constexpr double kGoalSnapM = 0.25;        // largest hop from a free local path sample to the goal
+constexpr double kPartialWaitS = 8.0;  // a partial plan's end is a dead end after this long without a way on
+constexpr double kGoalSnapM = 0.25;    // largest hop from a free local path sample to the goal
 // A goal in unmapped space progresses when the distance left falls this far below its least so far.
 constexpr double kUnmappedProgressM = 0.5;
 
@@ -129,8 +129,8 @@ nav::GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, do
   return plan;
 }
 
-void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s,
-                            double z_m, double stall_timeout_s) {
+void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m,
+                            double now_s, double z_m, double stall_timeout_s) {
   DropExtension();
   partial_stuck_since_s_ = -1.0;
   Goal goal;
@@ -178,23 +178,19 @@ std::future<nav::GlobalPlan> Navigation::PlanOnWorker(nav::GlobalPlanRequest req
 }
 
 std::future<nav::GlobalPlan> Navigation::PlanGoalAsync(const core::BaseState& state, double x_m, double y_m,
-                                                      double z_m) const {
+                                                       double z_m) const {
   return PlanOnWorker(GoalRequest(state, x_m, y_m, z_m));
 }
 
 void Navigation::Abandon(std::future<nav::GlobalPlan> plan) {
   // A running search finishes on its own; its future waits in abandoned_ so that nothing here blocks.
   abandoned_.erase(std::remove_if(abandoned_.begin(), abandoned_.end(),
-                                  [](const std::future<nav::GlobalPlan>& f) {
-                                    return PlanReady(f);
-                                  }),
+                                  [](const std::future<nav::GlobalPlan>& f) { return PlanReady(f); }),
                    abandoned_.end());
   if (plan.valid()) abandoned_.push_back(std::move(plan));
 }
 
-bool Navigation::replanning() const {
-  return PlanRunning(extension_);
-}
+bool Navigation::replanning() const { return PlanRunning(extension_); }
 
 void Navigation::DropExtension() { Abandon(std::move(extension_)); }
 
@@ -296,11 +292,13 @@ bool ObstacleInputFresh(double age_s, bool never, double limit_s, std::string* w
 }  // namespace
 
 bool Navigation::LocalPlannerHealthy(double now_s, std::string* why) const {
-  return ObstacleInputFresh(now_s - obstacles_time_s_, obstacles_time_s_ < -1e8, options_.obstacle_timeout_s, why);
+  return ObstacleInputFresh(now_s - obstacles_time_s_, obstacles_time_s_ < -1e8, options_.obstacle_timeout_s,
+                            why);
 }
 
 bool Navigation::ObstacleSensingAlive(double now_s, std::string* why) const {
-  return ObstacleInputFresh(now_s - obstacles_time_s_, obstacles_time_s_ < -1e8, options_.obstacle_lost_s, why);
+  return ObstacleInputFresh(now_s - obstacles_time_s_, obstacles_time_s_ < -1e8, options_.obstacle_lost_s,
+                            why);
 }
 
 NavigationStep Navigation::Fail(const std::string& reason) {
@@ -380,7 +378,8 @@ Eigen::Vector2d Navigation::Carrot(const core::BaseState& state) const {
     return true;
   };
   Eigen::Vector2d carrot = PointAhead(std::min(kMinCarrotM, options_.carrot_distance_m));
-  for (double ahead = kMinCarrotM + kCarrotStepM; ahead <= options_.carrot_distance_m + 1e-9; ahead += kCarrotStepM) {
+  for (double ahead = kMinCarrotM + kCarrotStepM; ahead <= options_.carrot_distance_m + 1e-9;
+       ahead += kCarrotStepM) {
     const Eigen::Vector2d p = PointAhead(ahead);
     if (!in_sight(p)) break;
     carrot = p;
@@ -458,9 +457,9 @@ void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalP
     return;
   }
   if (!local_result_.IsUsable()) {
-    local_status_ = local_result_.status == nav::LocalPlanResult::Status::kBoxedIn ? local_result_.message
-                                                                                   : "invalid input: " +
-                                                                                         local_result_.message;
+    local_status_ = local_result_.status == nav::LocalPlanResult::Status::kBoxedIn
+                        ? local_result_.message
+                        : "invalid input: " + local_result_.message;
     return;
   }
   local_status_ = "path";
@@ -518,7 +517,8 @@ bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state, double tra
   }
   track_stop_at_end_ = true;
   creeping_ = true;
-  local_status_ = "tight spot: following the global path, " + Fixed(clearance, 2) + " m from the nearest obstacle";
+  local_status_ =
+      "tight spot: following the global path, " + Fixed(clearance, 2) + " m from the nearest obstacle";
   return true;
 }
 
@@ -553,9 +553,9 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   // Arrived: within the tolerance and (nearly) at rest, so the robot stops where it reports arriving; on the
   // level of the plan's end when the goal names one (an upper floor lies over the same x-y).
   // A partial plan's end is not the goal.
-  const bool on_goal_level = !plan_.result.partial &&
-                             (!std::isfinite(goal_->z_m) || plan_.result.path_W.empty() ||
-                              std::abs(state.z_m - plan_.result.path_W.back().z()) <= kArrivalLevelM);
+  const bool on_goal_level =
+      !plan_.result.partial && (!std::isfinite(goal_->z_m) || plan_.result.path_W.empty() ||
+                                std::abs(state.z_m - plan_.result.path_W.back().z()) <= kArrivalLevelM);
   if (to_goal <= goal_->tolerance_m && on_goal_level && std::abs(state.v_mps) <= kArrivalSpeedMps) {
     NavigationStep step;
     step.arrived = true;
@@ -569,28 +569,30 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   // extended as the map grows and at its end, and fails when the map shows no way on from there.
   if (PlanReady(extension_)) {
     const nav::GlobalPlan extended = extension_.get();
-    const Eigen::Vector3d end = plan_.result.path_W.empty() ? Eigen::Vector3d::Zero() : plan_.result.path_W.back();
+    const Eigen::Vector3d end =
+        plan_.result.path_W.empty() ? Eigen::Vector3d::Zero() : plan_.result.path_W.back();
     const bool was_partial = plan_.result.partial;
     const double before = PartialRemaining(plan_);
     // On a partial plan, "no route" (nothing nearer the goal than where the robot stands) is the same as no
     // progress, and a goal that looks blocked lies on a part of the map seen from afar (grazing rays, a few
     // voxels): the robot goes on along its plan, sees more, and fails only after a few map updates of that.
     const auto status = extended.result.status;
-    const bool map_may_tell = was_partial && extended.platform_known &&
-                              (status == nav::PlanResult::Status::kUnreachable ||
-                               status == nav::PlanResult::Status::kGoalBlocked);
+    const bool map_may_tell =
+        was_partial && extended.platform_known &&
+        (status == nav::PlanResult::Status::kUnreachable || status == nav::PlanResult::Status::kGoalBlocked);
     if (!extended.IsUsable() && !map_may_tell) {
       return Fail(extension_cause_ + " and no new path exists: " + extended.reason);
     }
     if (extended.IsUsable()) AdoptPlan(extended, now_s);
-    const bool no_way_on = was_partial && (!extended.IsUsable() || (extension_at_end_ && extended.result.partial &&
-                                                                    PartialRemaining(extended) > before - 0.3));
+    const bool no_way_on =
+        was_partial && (!extended.IsUsable() || (extension_at_end_ && extended.result.partial &&
+                                                 PartialRemaining(extended) > before - 0.3));
     if (!no_way_on) partial_stuck_since_s_ = -1.0;
     if (no_way_on && partial_stuck_since_s_ < 0.0) partial_stuck_since_s_ = now_s;
     // At the end of what the map shows, the robot waits a few map updates (it sees further from there).
     if (no_way_on && now_s - partial_stuck_since_s_ >= kPartialWaitS) {
-      return Fail("no known route to the goal's level: the map shows no way on from (" + Fixed(end.x(), 2) + ", " +
-                  Fixed(end.y(), 2) + ") at z " + Fixed(end.z(), 2) + " (" +
+      return Fail("no known route to the goal's level: the map shows no way on from (" + Fixed(end.x(), 2) +
+                  ", " + Fixed(end.y(), 2) + ") at z " + Fixed(end.z(), 2) + " (" +
                   (extended.IsUsable() ? extended.result.message : extended.reason) + ")");
     }
   }
@@ -606,7 +608,8 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     extension_ = PlanOnWorker(std::move(request));
   };
   if (plan_.result.partial && !plan_.result.path_W.empty()) {
-    const bool at_end = (plan_.result.path_W.back().head<2>() - p_W).norm() <= std::max(goal_->tolerance_m, 0.3);
+    const bool at_end =
+        (plan_.result.path_W.back().head<2>() - p_W).norm() <= std::max(goal_->tolerance_m, 0.3);
     if ((at_end && now_s - last_partial_replan_s_ >= 1.0) ||
         (planner_->map_version() != plan_.map_version && now_s - last_partial_replan_s_ >= 4.0)) {
       replan_on_worker(at_end, "the partial plan was extended");
@@ -617,8 +620,9 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   if (now_s - last_replan_check_s_ >= options_.replan_check_period_s) {
     last_replan_check_s_ = now_s;
     const bool map_changed = planner_->map_version() != plan_.map_version;
-    if (map_changed && !planner_->CheckPath(plan_.result.path_W, options_.platform.name,
-                                            static_cast<int>(path_segment_)).valid) {
+    if (map_changed &&
+        !planner_->CheckPath(plan_.result.path_W, options_.platform.name, static_cast<int>(path_segment_))
+             .valid) {
       replan_on_worker(false, "the map changed under the path");
     } else if (map_changed) {
       plan_.map_version = planner_->map_version();  // still valid on the new map
@@ -635,10 +639,10 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     goal_->anchor_W = p_W;
     goal_->anchor_time_s = now_s;
   } else if (now_s - goal_->anchor_time_s > goal_->stall_timeout_s) {
-    NavigationStep stalled =
-        Fail("stalled: moved less than " + Fixed(kStallRadiusM, 1) + " m in " + Fixed(goal_->stall_timeout_s, 0) +
-             " s (" + Fixed(distance_left_m_, 1) + " m left, " + std::to_string(replans_) + " plans" +
-             (local_status_ != "path" && !local_status_.empty() ? "; local planner " + local_status_ : "") + ")");
+    NavigationStep stalled = Fail(
+        "stalled: moved less than " + Fixed(kStallRadiusM, 1) + " m in " + Fixed(goal_->stall_timeout_s, 0) +
+        " s (" + Fixed(distance_left_m_, 1) + " m left, " + std::to_string(replans_) + " plans" +
+        (local_status_ != "path" && !local_status_.empty() ? "; local planner " + local_status_ : "") + ")");
     stalled.stalled = true;
     return stalled;
   }
@@ -648,9 +652,10 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     goal_->best_time_s = now_s;
     goal_->held_s = 0.0;
   } else if (now_s - goal_->best_time_s > options_.blocked_timeout_s) {
-    return Fail("blocked: no progress for " + Fixed(options_.blocked_timeout_s, 1) + " s (" +
-                Fixed(distance_left_m_, 1) + " m left" +
-                (local_status_ != "path" && !local_status_.empty() ? "; local planner " + local_status_ : "") + ")");
+    return Fail(
+        "blocked: no progress for " + Fixed(options_.blocked_timeout_s, 1) + " s (" +
+        Fixed(distance_left_m_, 1) + " m left" +
+        (local_status_ != "path" && !local_status_.empty() ? "; local planner " + local_status_ : "") + ")");
   }
   // Local planner toward the carrot (the goal itself when near).
   const Eigen::Vector2d carrot = Carrot(state);
@@ -667,7 +672,8 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
                                         : "stopped: no fresh obstacle input";
     return Control(state, cruise_mps, now_s);
   }
-  RunLocalPlanner(state, request, now_s, goal_near ? std::optional<Eigen::Vector2d>(goal_->p_W) : std::nullopt);
+  RunLocalPlanner(state, request, now_s,
+                  goal_near ? std::optional<Eigen::Vector2d>(goal_->p_W) : std::nullopt);
   // Turn in place toward the path when no library path can start that way (a forward-looking platform with
   // the path behind it, e.g. at a dead end), or when boxed in with the path well to the side. A disk
   // footprint cannot collide by turning.

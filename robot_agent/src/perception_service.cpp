@@ -316,7 +316,8 @@ void PerceptionService::Finish(const std::string& path) {
   const PerceptionStats& ps = perception_->stats();
   spdlog::info(
       "robot {}: shutting down; perception: {} scans ({:.1f} ms map per inserted scan; scan to map "
-      "{:.1f} ms mean, {:.1f} ms max; {} keyframes deferred under load), {} staircase runs ({:.1f} ms each; {} "
+      "{:.1f} ms mean, {:.1f} ms max; {} keyframes deferred under load), {} staircase runs ({:.1f} ms each; "
+      "{} "
       "deferred), {} camera frames; navigation map version {}",
       options_.robot_id, ps.scans, ps.scans_inserted ? ps.map_ms_total / ps.scans_inserted : 0.0,
       ps.scans_inserted ? ps.scan_to_map_ms_total / ps.scans_inserted : 0.0, ps.scan_to_map_ms_max,

@@ -131,7 +131,8 @@ bool PlanningService::RunOnce(std::chrono::milliseconds wait) {
         }
         if (!plan.IsUsable() && plan.platform_known && std::isfinite(goal->request.goal_z_m) &&
             plan.reason.find("step") == std::string::npos && hooks_.staircases) {
-          plan.reason += StairNote(*planner_, goal->request.platform, hooks_.staircases(), goal->request.start_W);
+          plan.reason +=
+              StairNote(*planner_, goal->request.platform, hooks_.staircases(), goal->request.start_W);
         }
         hooks_.goal_planned(goal->goal, plan);
       }

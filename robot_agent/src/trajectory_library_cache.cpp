@@ -1,5 +1,6 @@
 #include "cairn/agent/trajectory_library_cache.h"
 
+#include <unistd.h>
 #include <zstd.h>
 
 #include <chrono>
@@ -10,8 +11,6 @@
 #include <fstream>
 #include <iterator>
 #include <system_error>
-
-#include <unistd.h>
 
 namespace cairn::agent {
 namespace {
@@ -32,7 +31,8 @@ std::string Ms(double ms) {
 }
 
 // The library in `path`, or nullptr with `*why`.
-std::unique_ptr<nav::TrajectoryLibrary> LoadFile(const std::string& path, const nav::TrajectoryLibraryOptions& options,
+std::unique_ptr<nav::TrajectoryLibrary> LoadFile(const std::string& path,
+                                                 const nav::TrajectoryLibraryOptions& options,
                                                  std::string* why) {
   std::error_code error;
   const std::uintmax_t size = std::filesystem::file_size(path, error);
@@ -145,8 +145,9 @@ CachedLibrary LoadOrBuildTrajectoryLibrary(const nav::TrajectoryLibraryOptions& 
   result.library = std::make_shared<const nav::TrajectoryLibrary>(options);
   result.how = "built in " + Ms(MsSince(t0));
   if (path.empty()) {
-    result.how += "; not cached: no cache folder (local_planner.library_cache_dir is off, or neither "
-                  "XDG_CACHE_HOME nor HOME is set)";
+    result.how +=
+        "; not cached: no cache folder (local_planner.library_cache_dir is off, or neither "
+        "XDG_CACHE_HOME nor HOME is set)";
     return result;
   }
   const std::string not_saved = SaveFile(*result.library, cache_dir, path);

@@ -1,13 +1,13 @@
 #include "cairn/agent/waypoint_recovery.h"
 
-#include "cairn/agent/mode_manager.h"
-#include "range_check.h"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <future>
 #include <stdexcept>
+
+#include "cairn/agent/mode_manager.h"
+#include "range_check.h"
 
 namespace cairn::agent {
 
@@ -20,7 +20,8 @@ constexpr double kPi = 3.14159265358979323846;
 using internal::Fixed;
 
 // Parses a port's text as a number in (lo, hi] for ValidateXml; throws std::invalid_argument naming both.
-void CheckNumber(const std::map<std::string, std::string>& ports, const std::string& port, double lo, double hi) {
+void CheckNumber(const std::map<std::string, std::string>& ports, const std::string& port, double lo,
+                 double hi) {
   const auto it = ports.find(port);
   if (it == ports.end() || it->second.empty() || it->second.front() == '{') return;  // default or blackboard
   std::size_t used = 0;
@@ -31,7 +32,8 @@ void CheckNumber(const std::map<std::string, std::string>& ports, const std::str
   }
   std::string why;
   if (used != it->second.size() || !internal::InRange(("port " + port).c_str(), value, lo, hi, true, &why)) {
-    throw std::invalid_argument(why.empty() ? "port " + port + " = '" + it->second + "' is not a number" : why);
+    throw std::invalid_argument(why.empty() ? "port " + port + " = '" + it->second + "' is not a number"
+                                            : why);
   }
 }
 
@@ -55,9 +57,9 @@ struct WaypointRecovery::Context {
   double goal_z_m = std::numeric_limits<double>::quiet_NaN();  // the goal's level, NaN = none named
   double goal_tolerance_m = 0.0;
   bool active = false;
-  std::string first_failure;   // navigation's reason that started the recovery
-  int attempt = 0;             // number of the attempt under way (1-based), 0 before the first
-  std::string attempt_label;   // e.g. "back up 0.30 m"
+  std::string first_failure;     // navigation's reason that started the recovery
+  int attempt = 0;               // number of the attempt under way (1-based), 0 before the first
+  std::string attempt_label;     // e.g. "back up 0.30 m"
   std::vector<std::string> log;  // one line per finished attempt or failed action
   bool abandoned = false;  // an attempt's goal was abandoned (NavigationStep::abandoned): no further attempt
 
@@ -180,7 +182,8 @@ class Spin : public bt::StatefulActionNode {
   }
   void OnHalted() override {
     ctx_->Stop();
-    if (ctx_->active) ctx_->ActionFailed(label_, "interrupted after " + Fixed(turned_rad_ * 180 / kPi, 0) + " deg");
+    if (ctx_->active)
+      ctx_->ActionFailed(label_, "interrupted after " + Fixed(turned_rad_ * 180 / kPi, 0) + " deg");
   }
 
  private:
@@ -200,11 +203,13 @@ class FollowGoal : public bt::StatefulActionNode {
   FollowGoal(const std::string& name, const bt::NodeConfig& config, std::shared_ptr<Context> context)
       : StatefulActionNode(name, config), ctx_(std::move(context)) {}
   static bt::PortsList ProvidedPorts() {
-    return {bt::InputPort("clearance", "normal",
-                          "normal, or reduced: plan with no clearance preference and squeeze through tight spots "
-                          "with no margin beyond the footprint"),
-            bt::InputPort("attempt", "", "what this attempt tried, for the report (default: what the actions "
-                                         "before it did, else \"replan\")")};
+    return {
+        bt::InputPort("clearance", "normal",
+                      "normal, or reduced: plan with no clearance preference and squeeze through tight spots "
+                      "with no margin beyond the footprint"),
+        bt::InputPort("attempt", "",
+                      "what this attempt tried, for the report (default: what the actions "
+                      "before it did, else \"replan\")")};
   }
   static void ValidateXml(const std::map<std::string, std::string>& ports, std::size_t) {
     const auto it = ports.find("clearance");
@@ -256,7 +261,8 @@ class FollowGoal : public bt::StatefulActionNode {
     ctx_->navigation->Abandon(std::move(ctx_->plan));
     ctx_->navigation->ClearGoal();
     ctx_->navigation->SetReducedClearance(false);
-    if (ctx_->active) ctx_->log.push_back("attempt " + std::to_string(ctx_->attempt) + " (" + label_ + "): interrupted");
+    if (ctx_->active)
+      ctx_->log.push_back("attempt " + std::to_string(ctx_->attempt) + " (" + label_ + "): interrupted");
   }
 
  private:
@@ -309,12 +315,14 @@ WaypointRecovery::WaypointRecovery(const std::string& tree_file, Navigation* nav
   RegisterNodes(factory, context_);
   // Timeout and Delay count on the navigation clock (Step's now_s), so that a simulated clock runs them too.
   factory.SetClock([context = context_] {
-    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(context->now_s));
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(
+        std::chrono::duration<double>(context->now_s));
   });
   try {
     tree_ = factory.CreateTreeFromFile(tree_file, bt::Blackboard::Create(), kTreeId);
   } catch (const bt::TreeError& e) {
-    if (std::string(e.what()).find(std::string("no <BehaviorTree ID=\"") + kTreeId + "\">") == std::string::npos) {
+    if (std::string(e.what()).find(std::string("no <BehaviorTree ID=\"") + kTreeId + "\">") ==
+        std::string::npos) {
       throw;
     }
   }
@@ -324,11 +332,10 @@ WaypointRecovery::~WaypointRecovery() { Halt(); }
 
 bool WaypointRecovery::active() const { return context_->active; }
 
-bool WaypointRecovery::planning() const {
-  return context_->active && PlanRunning(context_->plan);
-}
+bool WaypointRecovery::planning() const { return context_->active && PlanRunning(context_->plan); }
 
-void WaypointRecovery::Start(double x_m, double y_m, double tolerance_m, const std::string& failure, double z_m) {
+void WaypointRecovery::Start(double x_m, double y_m, double tolerance_m, const std::string& failure,
+                             double z_m) {
   if (!enabled()) throw std::logic_error("WaypointRecovery::Start: the tree file has no recovery tree");
   Halt();
   Context& c = *context_;

@@ -1,8 +1,8 @@
 #include "cairn/agent/agent_options.h"
 
-#include <fstream>
-
 #include <gtest/gtest.h>
+
+#include <fstream>
 
 #include "cairn/core/config.h"
 #include "cairn/nav/platform.h"
@@ -94,7 +94,8 @@ TEST(AgentOptions, PlatformProfilesSetLimitsAndStairs) {
   std::string why;
   EXPECT_TRUE(options.IsValid(&why)) << why;
   EXPECT_GE(options.navigation.platform.traversability.max_step_m, 0.2);
-  EXPECT_DOUBLE_EQ(options.LibraryForPlatform().heading_range_rad, options.navigation.platform.local_heading_range_rad);
+  EXPECT_DOUBLE_EQ(options.LibraryForPlatform().heading_range_rad,
+                   options.navigation.platform.local_heading_range_rad);
   // The shipped config keeps the profile's platform values (it only comments them).
   options.LoadConfigFile(std::string(CAIRN_SOURCE_DIR) + "/config/agent.yaml");
   EXPECT_GE(options.navigation.platform.traversability.max_step_m, 0.2);
@@ -102,8 +103,8 @@ TEST(AgentOptions, PlatformProfilesSetLimitsAndStairs) {
   EXPECT_THROW(options.SetPlatform("hovercraft"), std::invalid_argument);
 }
 
-// explore.levels: a legged robot (it climbs a stair rise) explores every level of its map by default, a wheeled
-// one its main level; the config names either.
+// explore.levels: a legged robot (it climbs a stair rise) explores every level of its map by default, a
+// wheeled one its main level; the config names either.
 TEST(AgentOptions, ExploreLevelsFollowThePlatformUnlessTheConfigNamesThem) {
   ExploreModeOptions explore;
   explore.platform_max_step_m = nav::GetPlatformProfile("legged").traversability.max_step_m;
@@ -196,4 +197,3 @@ TEST(AgentOptions, ARadioTooSlowForOneMapMessageIsRefusedNamingTheFlagUnlessPerc
 
 }  // namespace
 }  // namespace cairn::agent
-

@@ -336,8 +336,8 @@ TEST(CommandInterface, TheHoldersJoystickAndLivelinessComeFromItsProcesses) {
   EXPECT_FALSE(c.joystick_alive);
 }
 
-// Issue 14: explore R is the holder's; a bad frame or region is refused naming it; the tree's refusal names the
-// failed condition (mapping); an accepted one answers with the task id and the robot explores.
+// Issue 14: explore R is the holder's; a bad frame or region is refused naming it; the tree's refusal names
+// the failed condition (mapping); an accepted one answers with the task id and the robot explores.
 TEST(CommandInterface, ExploreIsTheHoldersCheckedAndDecidedByTheTree) {
   Robot r;
   ExploreCommand explore{OpA(), 1, "map", {}};

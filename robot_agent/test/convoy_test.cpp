@@ -37,7 +37,8 @@ double DriveAhead(ConvoyTrail* trail, const std::vector<Eigen::Vector3d>& path) 
   double t = 0;
   for (std::size_t i = 0; i + 1 < path.size(); ++i) {
     const double d = (path[i + 1] - path[i]).norm();
-    for (double s = 0; s < d; s += 0.1, t += 0.1) trail->OnAhead(path[i] + (s / d) * (path[i + 1] - path[i]), t);
+    for (double s = 0; s < d; s += 0.1, t += 0.1)
+      trail->OnAhead(path[i] + (s / d) * (path[i + 1] - path[i]), t);
   }
   trail->OnAhead(path.back(), t);
   return t;
@@ -74,8 +75,9 @@ TEST(ConvoyTrailTest, TheWayFollowsTheDrivenCornerAndEndsAtTheSpacing) {
   const std::vector<Eigen::Vector3d> driven = {{-1, 0, 0}, {0, 0, 0}, {10, 0, 0}, {10, 10, 0}};
   for (const Eigen::Vector3d& p : c.path_M) EXPECT_LT(DistanceToPath2D(driven, p), 0.01) << p.transpose();
   // The corner is on the way: some point within a breadcrumb of (10, 0).
-  EXPECT_TRUE(std::any_of(c.path_M.begin(), c.path_M.end(),
-                          [](const Eigen::Vector3d& p) { return (p - Eigen::Vector3d(10, 0, 0)).norm() < 0.2; }));
+  EXPECT_TRUE(std::any_of(c.path_M.begin(), c.path_M.end(), [](const Eigen::Vector3d& p) {
+    return (p - Eigen::Vector3d(10, 0, 0)).norm() < 0.2;
+  }));
 }
 
 // Within spacing + hold band it holds; the robot ahead not heard for lost_after_s is lost, as is one never
@@ -152,10 +154,10 @@ SteppedTeam MakeTeam(const std::vector<core::PlanarPose>& starts) {
 
 struct ConvoyRun {
   std::vector<Eigen::Vector3d> leader_driven;  // the leader's true positions, 5 cm apart
-  std::vector<double> spacing_error_m;         // on straight stretches, every follower, every 0.1 s, moving or not
-  double worst_deviation_m = 0;                // a follower's true position from the leader's driven path
+  std::vector<double> spacing_error_m;  // on straight stretches, every follower, every 0.1 s, moving or not
+  double worst_deviation_m = 0;         // a follower's true position from the leader's driven path
   Eigen::Vector3d worst_deviation_at_M = Eigen::Vector3d::Zero();  // where, and which follower (z: its index)
-  double closest_m = std::numeric_limits<double>::infinity();  // any two robots' centres
+  double closest_m = std::numeric_limits<double>::infinity();      // any two robots' centres
   bool contact = false;
   bool leader_arrived = false;
   std::vector<ConvoyStatus> end_status;  // the followers' at the end

@@ -76,7 +76,8 @@ TEST(ExploreClaimTest, BadClaimsAreNamedAndChangeNothing) {
             "explore claim from \"r2\": coverage: bits has 12 bytes, 13 expected for 10 x 10 cells");
   c.coverage = Bitmap(10, 10);
   c.coverage->cell_m = 1.0;
-  EXPECT_NE(team.OnPeerClaim(c, 0.0).find("differs from this robot's explore.coverage_cell_m"), std::string::npos);
+  EXPECT_NE(team.OnPeerClaim(c, 0.0).find("differs from this robot's explore.coverage_cell_m"),
+            std::string::npos);
   EXPECT_TRUE(team.LiveClaims(0.0).empty());
   EXPECT_TRUE(team.LivePeers(0.0).empty());
   EXPECT_EQ(team.Coverage(), nullptr);
@@ -100,7 +101,7 @@ TEST(ExploreClaimTest, ClaimsLiveForTheirLeaseAgeAndARobotIgnoresItsOwn) {
   std::vector<nav::PeerClaim> live = team.LiveClaims(12.0);
   ASSERT_EQ(live.size(), 1u);
   EXPECT_EQ(live[0].robot_id, "r2");
-  EXPECT_DOUBLE_EQ(live[0].held_s, 4.0);  // 2 s when sent, 2 s since
+  EXPECT_DOUBLE_EQ(live[0].held_s, 4.0);       // 2 s when sent, 2 s since
   EXPECT_TRUE(team.LiveClaims(16.5).empty());  // not renewed within its 6 s lease: r2 is lost
   EXPECT_TRUE(team.LivePeers(16.5).empty());
   // A release drops the claim at once; the peer stays live.
@@ -136,7 +137,7 @@ TEST(ExploreClaimTest, OwnClaimsGoOutAtTheirPeriodAtOnceOnANewTargetAndOnceAtThe
   c.coverage = Bitmap(4, 4);
   team.Sent(c, 0.0);
   EXPECT_FALSE(team.ClaimDue(0.5, true, true, {3.2, 0}));
-  EXPECT_TRUE(team.ClaimDue(0.5, true, true, {6, 0}));  // a new target: at once
+  EXPECT_TRUE(team.ClaimDue(0.5, true, true, {6, 0}));    // a new target: at once
   EXPECT_TRUE(team.ClaimDue(1.0, true, true, {3.2, 0}));  // the period
   EXPECT_FALSE(team.CoverageDue(4.9));
   EXPECT_TRUE(team.CoverageDue(5.0));

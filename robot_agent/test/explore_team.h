@@ -1,7 +1,8 @@
 // A team of robots exploring a simulated world in process on a simulated clock (agent::SteppedRobot each), as
-// their agents do over DDS: each live robot's explore claims (ExploreTeam: every claim_period_s, with its seen
-// floor every coverage_period_s) go to the others, delivered at once (no link). Scored against the world's ground truth. Used by
-// cairn_agent_explore_test and cairn_bench_explore; the simulator's truth is for scoring only.
+// their agents do over DDS: each live robot's explore claims (ExploreTeam: every claim_period_s, with its
+// seen floor every coverage_period_s) go to the others, delivered at once (no link). Scored against the
+// world's ground truth. Used by cairn_agent_explore_test and cairn_bench_explore; the simulator's truth is
+// for scoring only.
 #pragma once
 
 #include <algorithm>
@@ -20,10 +21,12 @@
 
 namespace cairn::agent::explore_team {
 
-/// Fraction of the floor a robot can reach from (start_x, start_y) (traversable ground-truth cells, 8-connected
-/// flood fill; only those inside `region` when it is not empty) that is known (not unknown) in any of `grids`.
-inline double Coverage(const nav::TraversabilityGrid& truth, const std::vector<const nav::TraversabilityGrid*>& grids,
-                       double start_x, double start_y, const Eigen::AlignedBox2d& region = {},
+/// Fraction of the floor a robot can reach from (start_x, start_y) (traversable ground-truth cells,
+/// 8-connected flood fill; only those inside `region` when it is not empty) that is known (not unknown) in
+/// any of `grids`.
+inline double Coverage(const nav::TraversabilityGrid& truth,
+                       const std::vector<const nav::TraversabilityGrid*>& grids, double start_x,
+                       double start_y, const Eigen::AlignedBox2d& region = {},
                        int* reachable_cells = nullptr) {
   int sx = 0, sy = 0;
   if (!truth.CellOf(start_x, start_y, &sx, &sy)) return 0.0;
@@ -62,11 +65,12 @@ inline double Coverage(const nav::TraversabilityGrid& truth, const std::vector<c
 }
 
 /// Fraction of the walkable surfaces (every level) a robot can reach from `start` (x, y, ground z; metres)
-/// on `truth` (ground truth; connected traversable surfaces, 8-neighbouring columns, flood fill) whose heights
-/// lie in [min_z_m, max_z_m] (and whose cell centre lies in `region`, frame W, unless it is empty) that any of
-/// `maps` knows: a surface within 0.3 m of its height in that column, or the column seen at that height (not
-/// MultiLevelGrid::IsUnknownAt). `reachable_surfaces`: how many there are.
-inline double CoverageOnLevels(const nav::MultiLevelGrid& truth, const std::vector<const nav::MultiLevelGrid*>& maps,
+/// on `truth` (ground truth; connected traversable surfaces, 8-neighbouring columns, flood fill) whose
+/// heights lie in [min_z_m, max_z_m] (and whose cell centre lies in `region`, frame W, unless it is empty)
+/// that any of `maps` knows: a surface within 0.3 m of its height in that column, or the column seen at that
+/// height (not MultiLevelGrid::IsUnknownAt). `reachable_surfaces`: how many there are.
+inline double CoverageOnLevels(const nav::MultiLevelGrid& truth,
+                               const std::vector<const nav::MultiLevelGrid*>& maps,
                                const Eigen::Vector3d& start, double min_z_m, double max_z_m,
                                const Eigen::AlignedBox2d& region = Eigen::AlignedBox2d(),
                                int* reachable_surfaces = nullptr) {
@@ -88,7 +92,8 @@ inline double CoverageOnLevels(const nav::MultiLevelGrid& truth, const std::vect
       ++reachable;
       for (const nav::MultiLevelGrid* map : maps) {
         int gx = 0, gy = 0;
-        if (map->CellOf(c.x(), c.y(), &gx, &gy) && (map->NodeNear(gx, gy, z, 0.3) >= 0 || !map->IsUnknownAt(gx, gy, z))) {
+        if (map->CellOf(c.x(), c.y(), &gx, &gy) &&
+            (map->NodeNear(gx, gy, z, 0.3) >= 0 || !map->IsUnknownAt(gx, gy, z))) {
           ++known;
           break;
         }
@@ -113,14 +118,14 @@ struct TeamOptions {
   std::string platform = "wheeled";
   std::vector<core::PlanarPose> starts;  ///< one per robot, frame W (the team's map frame)
   ExploreTask task;                      ///< every robot's
-  /// This robot stops for good (no step, no claim) at the first cycle at or after kill_at_s in which it holds a
-  /// claim (it goes while going somewhere; not while it waits for a peer).
+  /// This robot stops for good (no step, no claim) at the first cycle at or after kill_at_s in which it holds
+  /// a claim (it goes while going somewhere; not while it waits for a peer).
   int kill_index = -1;
   double kill_at_s = 0.0;
   double stop_at_coverage = 2.0;  ///< stop once the team's coverage reaches this (> 1: when all have ended)
   double timeout_s = 1800.0;
-  double score_period_s = 10.0;   ///< coverage is scored this often, simulated seconds
-  bool verbose = false;           ///< coverage every minute
+  double score_period_s = 10.0;  ///< coverage is scored this often, simulated seconds
+  bool verbose = false;          ///< coverage every minute
   /// Height bands (metres, frame W; e.g. the floors of a building) scored at the end over the map's levels
   /// (CoverageOnLevels, from the first start's ground at z 0, in the task's region): TeamRun::level_coverage.
   std::vector<std::pair<double, double>> level_bands;
@@ -131,18 +136,18 @@ struct TeamOptions {
 
 /// What happened.
 struct TeamRun {
-  double time_to_90_s = -1;  ///< first score at or above 90 % (-1: never)
-  double end_s = 0;          ///< simulated seconds run
-  double coverage = 0;       ///< at the end
+  double time_to_90_s = -1;                                   ///< first score at or above 90 % (-1: never)
+  double end_s = 0;                                           ///< simulated seconds run
+  double coverage = 0;                                        ///< at the end
   std::vector<std::pair<double, double>> coverage_over_time;  ///< (t, coverage) at each score
-  int claim_overlaps = 0;    ///< control cycles with two claims within 1.5 m of each other
+  int claim_overlaps = 0;  ///< control cycles with two claims within 1.5 m of each other
   bool contact = false;
-  std::vector<ExplorationStatus> statuses;  ///< each robot's at the end
-  std::vector<double> driven_m;             ///< each robot's distance travelled
+  std::vector<ExplorationStatus> statuses;     ///< each robot's at the end
+  std::vector<double> driven_m;                ///< each robot's distance travelled
   std::optional<nav::PeerClaim> killed_claim;  ///< the killed robot's claim when it went (if it had one)
   double killed_at_s = -1;                     ///< when it went, simulated seconds (-1: it did not)
-  /// Fraction of the floor cells within 2 m of killed_claim's target known in the live robots' own maps at the
-  /// end (the branch it was going for, taken over by the others), -1 without a claim.
+  /// Fraction of the floor cells within 2 m of killed_claim's target known in the live robots' own maps at
+  /// the end (the branch it was going for, taken over by the others), -1 without a claim.
   double killed_branch_known = -1;
   double wall_s = 0;
   int claims_sent = 0;                  ///< claims all robots sent
@@ -170,8 +175,8 @@ inline TeamRun RunTeam(const TeamOptions& o) {
     sim_options.start_W = o.starts[i];
     sim_options.SetProfile(options.navigation.platform);
     platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
-    robots.push_back(
-        std::make_unique<SteppedRobot>(options, platforms.back(), std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml"));
+    robots.push_back(std::make_unique<SteppedRobot>(options, platforms.back(),
+                                                    std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml"));
     robots.back()->Explore(o.task, 0.0);
   }
   std::vector<bool> alive(robots.size(), true);

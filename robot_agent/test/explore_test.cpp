@@ -1,9 +1,7 @@
 // The explore mode without DDS: its options and task checks, and robots that know nothing exploring the
 // built-in worlds and the real geb079 scan on a simulated clock (SteppedRobot, explore_team::RunTeam) until
-// they report complete, scored against the world's ground truth: one robot, teams of two and three (one of them
-// gone mid-way), a legged robot over two floors.
-#include "cairn/agent/explore_mode.h"
-
+// they report complete, scored against the world's ground truth: one robot, teams of two and three (one of
+// them gone mid-way), a legged robot over two floors.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,10 +9,11 @@
 #include <future>
 #include <string>
 
+#include "../../sim/test/test_util.h"
+#include "cairn/agent/explore_mode.h"
 #include "cairn/nav/platform.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "explore_team.h"
-#include "../../sim/test/test_util.h"
 
 namespace cairn::agent {
 namespace {
@@ -62,20 +61,21 @@ TEST(ExploreTaskTest, BadRegionsAndHeightsAreNamed) {
 void PrintTeam(const char* label, const explore_team::TeamRun& run) {
   for (std::size_t i = 0; i < run.statuses.size(); ++i) {
     const ExplorationStatus& s = run.statuses[i];
-    std::printf("  %s r%zu: %s: %s; %d reached, %d given up, %.0f m driven\n", label, i + 1, ToString(s.state),
-                s.reason.c_str(), s.targets_reached, s.targets_failed, run.driven_m[i]);
+    std::printf("  %s r%zu: %s: %s; %d reached, %d given up, %.0f m driven\n", label, i + 1,
+                ToString(s.state), s.reason.c_str(), s.targets_reached, s.targets_failed, run.driven_m[i]);
   }
-  std::printf("  %s: %.1f %% after %.0f s (90 %% after %.0f s), %d claim overlaps, robots %.2f m apart at the "
-              "closest; %.0f s wall\n",
-              label, 100 * run.coverage, run.end_s, run.time_to_90_s, run.claim_overlaps, run.closest_peer_m,
-              run.wall_s);
+  std::printf(
+      "  %s: %.1f %% after %.0f s (90 %% after %.0f s), %d claim overlaps, robots %.2f m apart at the "
+      "closest; %.0f s wall\n",
+      label, 100 * run.coverage, run.end_s, run.time_to_90_s, run.claim_overlaps, run.closest_peer_m,
+      run.wall_s);
 }
 
 // Two robots' centres closer than this touch (wheeled footprints).
 double TouchingM() { return 2 * nav::GetPlatformProfile("wheeled").footprint_radius_m; }
 
-// Two robots from a gate explore the west half of the tunnels and the X junction (a region) as a team: they never
-// go for the same frontier, both take part, the region ends up in their maps and every robot completes.
+// Two robots from a gate explore the west half of the tunnels and the X junction (a region) as a team: they
+// never go for the same frontier, both take part, the region ends up in their maps and every robot completes.
 TEST(ExploreTest, TwoRobotsShareARegionWithoutSharingAFrontier) {
   explore_team::TeamOptions o;
   o.starts = {{4.0, 20.0, 0.0}, {6.0, 20.0, 0.0}};
@@ -92,11 +92,12 @@ TEST(ExploreTest, TwoRobotsShareARegionWithoutSharingAFrontier) {
   EXPECT_GT(team.closest_peer_m, TouchingM()) << "the robots keep clear of each other (peers)";
 }
 
-// The whole of builtin:tunnels from its gate (robots 2 m apart): one robot that knows nothing explores until it
-// reports complete (>= 90 % of the reachable floor, no contact, at rest); three reach 90 % at least 1.8x sooner,
-// never going for the same frontier, each taking part (both team runs stop at 95 %); with one of the three gone for good 30 s in (at the first
-// cycle after that in which it holds a claim), the two others explore the branch it was going for (what it saw
-// before it went counts: it reached its peers as map telemetry) and reach 95 %.
+// The whole of builtin:tunnels from its gate (robots 2 m apart): one robot that knows nothing explores until
+// it reports complete (>= 90 % of the reachable floor, no contact, at rest); three reach 90 % at least 1.8x
+// sooner, never going for the same frontier, each taking part (both team runs stop at 95 %); with one of the
+// three gone for good 30 s in (at the first cycle after that in which it holds a claim), the two others
+// explore the branch it was going for (what it saw before it went counts: it reached its peers as map
+// telemetry) and reach 95 %.
 TEST(ExploreTest, ThreeRobotsExploreTheTunnelsAtLeast1p8TimesSoonerThanOneAndTakeOverAGoneRobotsBranch) {
   explore_team::TeamOptions o;
   o.starts = {{4.0, 20.0, 0.0}};
@@ -121,17 +122,19 @@ TEST(ExploreTest, ThreeRobotsExploreTheTunnelsAtLeast1p8TimesSoonerThanOneAndTak
   EXPECT_EQ(three.claim_overlaps, 0);
   EXPECT_FALSE(three.contact);
   EXPECT_GT(three.closest_peer_m, TouchingM()) << "the robots keep clear of one another (peers)";
-  for (std::size_t i = 0; i < three.statuses.size(); ++i) EXPECT_GT(three.driven_m[i], 5.0) << "every robot takes part";
+  for (std::size_t i = 0; i < three.statuses.size(); ++i)
+    EXPECT_GT(three.driven_m[i], 5.0) << "every robot takes part";
 
   o.kill_index = 1;
   o.kill_at_s = 30.0;
   const explore_team::TeamRun gone = explore_team::RunTeam(o);
   PrintTeam("r2 gone", gone);
   ASSERT_TRUE(gone.killed_claim.has_value()) << "r2 was going somewhere when it went";
-  std::printf("  r2 gone at %.1f s going for (%.2f, %.2f): %.0f %% of the floor within 2 m of it in the others' "
-              "own maps\n",
-              gone.killed_at_s, gone.killed_claim->target_M.x(), gone.killed_claim->target_M.y(),
-              100 * gone.killed_branch_known);
+  std::printf(
+      "  r2 gone at %.1f s going for (%.2f, %.2f): %.0f %% of the floor within 2 m of it in the others' "
+      "own maps\n",
+      gone.killed_at_s, gone.killed_claim->target_M.x(), gone.killed_claim->target_M.y(),
+      100 * gone.killed_branch_known);
   EXPECT_GE(gone.killed_branch_known, 0.9);
   EXPECT_GE(gone.coverage, 0.95);
   EXPECT_EQ(gone.statuses[1].state, ExplorationState::kExploring) << "r2 stopped mid-way (its process gone)";
@@ -140,7 +143,8 @@ TEST(ExploreTest, ThreeRobotsExploreTheTunnelsAtLeast1p8TimesSoonerThanOneAndTak
 
 // The real scan geb079.bt (a 39 m office corridor, offices seen through their doors), from (-4, 0): the robot
 // explores the corridor and the two side passages it reaches, which a 0.75 m door-frame narrowing at x = 11.3
-// and the floor erased at grazing incidence (OccupancyMapOptions::floor_guard_layers) used to cut off at 44 %.
+// and the floor erased at grazing incidence (OccupancyMapOptions::floor_guard_layers) used to cut off at 44
+// %.
 TEST(ExploreTest, OneRobotExploresTheRealGeb079ScanUntilComplete) {
   CAIRN_SKIP_WITHOUT_GEB079();
   explore_team::TeamOptions o;
@@ -149,10 +153,11 @@ TEST(ExploreTest, OneRobotExploresTheRealGeb079ScanUntilComplete) {
   o.timeout_s = 900.0;
   const explore_team::TeamRun run = explore_team::RunTeam(o);
   const ExplorationStatus& s = run.statuses.at(0);
-  std::printf("  geb079: %s: %s; %.1f %% of the reachable floor after %.0f s (90 %% after %.0f s), %d reached, "
-              "%d given up, %.0f m driven; %.0f s wall\n",
-              ToString(s.state), s.reason.c_str(), 100 * run.coverage, run.end_s, run.time_to_90_s, s.targets_reached,
-              s.targets_failed, run.driven_m.at(0), run.wall_s);
+  std::printf(
+      "  geb079: %s: %s; %.1f %% of the reachable floor after %.0f s (90 %% after %.0f s), %d reached, "
+      "%d given up, %.0f m driven; %.0f s wall\n",
+      ToString(s.state), s.reason.c_str(), 100 * run.coverage, run.end_s, run.time_to_90_s, s.targets_reached,
+      s.targets_failed, run.driven_m.at(0), run.wall_s);
   EXPECT_EQ(s.state, ExplorationState::kComplete) << s.reason;
   EXPECT_NE(s.reason.find("exploration complete: no reachable frontier"), std::string::npos) << s.reason;
   EXPECT_GE(run.coverage, 0.90);
@@ -161,8 +166,8 @@ TEST(ExploreTest, OneRobotExploresTheRealGeb079ScanUntilComplete) {
 
 // A legged robot on floor 1 of builtin:building (24 x 14 m, six rooms and a corridor a floor) explores the
 // building: it finds the switchback stairs on its own map, climbs them and explores floor 2 too (>= 90 % of
-// each floor's reachable surfaces, scored over the world's levels), comes back down to what it left on floor 1,
-// and completes without contact. About 18 min simulated, about 4 min of one core.
+// each floor's reachable surfaces, scored over the world's levels), comes back down to what it left on floor
+// 1, and completes without contact. About 18 min simulated, about 4 min of one core.
 //
 // The run starts on its own thread when the program starts (if this test is selected) and runs beside the
 // others, on the machine's second core: the runs share nothing, and each waits for its own plans on its
@@ -209,9 +214,10 @@ TEST(ExploreLeggedTest, ALeggedRobotFindsTheStairsAndExploresBothFloors) {
   ASSERT_TRUE(LeggedRunFuture().valid()) << "started by LeggedRunInBackground";
   const explore_team::TeamRun run = LeggedRunFuture().get();
   PrintTeam("legged", run);
-  std::printf("  floor 1 %.1f %%, floor 2 %.1f %% of their reachable surfaces; highest ground stood "
-              "on z %.2f m\n",
-              100 * run.level_coverage.at(0), 100 * run.level_coverage.at(1), run.highest_z_m);
+  std::printf(
+      "  floor 1 %.1f %%, floor 2 %.1f %% of their reachable surfaces; highest ground stood "
+      "on z %.2f m\n",
+      100 * run.level_coverage.at(0), 100 * run.level_coverage.at(1), run.highest_z_m);
   EXPECT_EQ(run.statuses[0].state, ExplorationState::kComplete) << run.statuses[0].reason;
   EXPECT_GT(run.highest_z_m, 3.0) << "it climbed to floor 2 (z 3.2 m)";
   EXPECT_GE(run.level_coverage.at(0), 0.9);

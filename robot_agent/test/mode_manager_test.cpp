@@ -1,9 +1,9 @@
 #include "cairn/agent/mode_manager.h"
 
+#include <gtest/gtest.h>
+
 #include <fstream>
 #include <iterator>
-
-#include <gtest/gtest.h>
 
 #include "mode_test_util.h"
 
@@ -63,7 +63,8 @@ TEST(ModeManager, RecheckFallsBackToIdleWhenHolderIsLost) {
   EXPECT_FALSE(d.accepted);
   EXPECT_EQ(modes.mode(), "idle");
   EXPECT_EQ(modes.channel(), "none");
-  EXPECT_NE(d.reason.find("IsHolderAlive: liveliness of control holder opA is lost"), std::string::npos) << d.reason;
+  EXPECT_NE(d.reason.find("IsHolderAlive: liveliness of control holder opA is lost"), std::string::npos)
+      << d.reason;
 }
 
 // A waypoint goal goes on through a comms drop (the lock stays held); modes driven by a live operator stop.
@@ -91,7 +92,8 @@ TEST(ModeManager, ValidModesAreTheOperatorsValidActions) {
   with_goal.has_waypoint_goal = true;
   EXPECT_EQ(modes.ValidModes(with_goal), (std::vector<std::string>{"idle", "manual", "waypoint"}));
   with_goal.joystick_alive = true;
-  EXPECT_EQ(modes.ValidModes(with_goal), (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint"}));
+  EXPECT_EQ(modes.ValidModes(with_goal),
+            (std::vector<std::string>{"idle", "manual", "smart_joystick", "waypoint"}));
   EXPECT_EQ(modes.mode(), "idle") << "ValidModes must not switch";
 }
 
@@ -220,8 +222,8 @@ TEST(ModeManager, RefusesABranchWhoseChannelIsNotAMuxChannelNamingBranchAndChann
     }
     return "(loaded)";
   };
-  const std::string warp = message(write_variant("warp.xml", R"(<SelectMode mode="manual" channel="warp"/>)"),
-                                   kChannels);
+  const std::string warp =
+      message(write_variant("warp.xml", R"(<SelectMode mode="manual" channel="warp"/>)"), kChannels);
   EXPECT_NE(warp.find("branch 'manual'"), std::string::npos) << warp;
   EXPECT_NE(warp.find("mux channel 'warp'"), std::string::npos) << warp;
   EXPECT_NE(warp.find("channels: none, teleop, smart_joystick, waypoint"), std::string::npos) << warp;
@@ -231,9 +233,10 @@ TEST(ModeManager, RefusesABranchWhoseChannelIsNotAMuxChannelNamingBranchAndChann
       message(write_variant("bb.xml", R"(<SelectMode mode="manual" channel="{channel}"/>)"), kChannels);
   EXPECT_NE(from_blackboard.find("must be a literal mux channel"), std::string::npos) << from_blackboard;
   // An idle branch that takes its mode from the blackboard cannot hide a channel behind it.
-  const std::string mode_from_blackboard =
-      message(write_variant("bb_mode.xml", R"(<SelectMode mode="{requested_mode}" channel="teleop"/>)"), kChannels);
-  EXPECT_NE(mode_from_blackboard.find("must be a literal mode name"), std::string::npos) << mode_from_blackboard;
+  const std::string mode_from_blackboard = message(
+      write_variant("bb_mode.xml", R"(<SelectMode mode="{requested_mode}" channel="teleop"/>)"), kChannels);
+  EXPECT_NE(mode_from_blackboard.find("must be a literal mode name"), std::string::npos)
+      << mode_from_blackboard;
 
   // The shipped tree against a mux without the waypoint channel: the waypoint branch is named.
   const std::string no_waypoint = message(kTree, {"teleop", "smart_joystick"});

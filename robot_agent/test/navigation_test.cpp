@@ -237,14 +237,14 @@ TEST(NavigationTest, WaypointThroughAOneMetreDoorwayWithoutContact) {
 }
 
 // A wheeled robot that overshot a doorway in the side wall of a corridor (it saw the door too late to turn)
-// stands 0.9 m past it. Its carrot, 2.5 m along the path, lay in the room behind the door jamb, where no local
-// path led and whose bearing disagreed with the path's: the robot turned back and forth past the door for a
-// minute (builtin:building on its own map: 74 s to a goal 7 m away). The carrot stops where the straight line
-// to it would pass the jamb closer than the footprint.
+// stands 0.9 m past it. Its carrot, 2.5 m along the path, lay in the room behind the door jamb, where no
+// local path led and whose bearing disagreed with the path's: the robot turned back and forth past the door
+// for a minute (builtin:building on its own map: 74 s to a goal 7 m away). The carrot stops where the
+// straight line to it would pass the jamb closer than the footprint.
 TEST(NavigationTest, TheCarrotStaysInSightOfTheRobotAtADoorwayItOvershot) {
   sim::World w = FlatWorld(10, 8, 0.1, 1.5);
-  FillBox(&w, {0.0, 3.8, 0.0}, {10.0, 4.0, 1.6});                  // the corridor's side wall, y 3.8-4.0
-  FillBox(&w, {2.6, 3.8, 0.0}, {3.6, 4.0, 1.6}, false);             // a 1.0 m doorway, x 2.6-3.6
+  FillBox(&w, {0.0, 3.8, 0.0}, {10.0, 4.0, 1.6});        // the corridor's side wall, y 3.8-4.0
+  FillBox(&w, {2.6, 3.8, 0.0}, {3.6, 4.0, 1.6}, false);  // a 1.0 m doorway, x 2.6-3.6
   auto world = std::make_shared<const sim::World>(std::move(w));
   SimRobot robot(world, "wheeled", 4.5, 4.6, -2.8);  // 0.9 m past the door's far jamb, facing back
   ASSERT_TRUE(robot.navigation.SetGoal(robot.platform.state(), 3.1, 1.5, 0.0, 0.0).IsUsable());
@@ -253,7 +253,8 @@ TEST(NavigationTest, TheCarrotStaysInSightOfTheRobotAtADoorwayItOvershot) {
   std::vector<Eigen::Vector3f> none;
   robot.navigation.SetObstacles(none, s, 0.0);
   robot.navigation.StepWaypoint(s, 0.0);
-  EXPECT_LT(robot.navigation.carrot_W().y(), 3.8) << "carrot (" << robot.navigation.carrot_W().transpose() << ")";
+  EXPECT_LT(robot.navigation.carrot_W().y(), 3.8)
+      << "carrot (" << robot.navigation.carrot_W().transpose() << ")";
   // The jamb (x 3.6, y 3.8-4.0) seen: the carrot stays on the corridor's side, near the turn's corner.
   std::vector<Eigen::Vector3f> points_B;
   nav::LethalCellsNear(*robot.planner->Grid("wheeled"), s.x_m, s.y_m, s.yaw_rad, 3.5, &points_B);
@@ -273,7 +274,8 @@ TEST(NavigationTest, SmartJoystickStraightAtAWallNeverTouchesIt) {
   SimRobot robot(world, "wheeled", 2.0, 4.0, 0.0);
   double max_x = 0;
   for (int i = 0; i < 500; ++i) {  // 10 s of full stick straight at the wall
-    robot.Tick([&] { return robot.navigation.StepJoystick(robot.platform.state(), 1.0, 0.0, 0.0, robot.t_s); });
+    robot.Tick(
+        [&] { return robot.navigation.StepJoystick(robot.platform.state(), 1.0, 0.0, 0.0, robot.t_s); });
     max_x = std::max(max_x, robot.platform.state().x_m);
   }
   EXPECT_EQ(robot.contacts, 0);
@@ -288,9 +290,11 @@ TEST(NavigationTest, SmartJoystickTakesAnOffCentreDoorway) {
   // Aimed straight ahead, 0.6 m to the side of the doorway centre: plain teleop would hit the frame.
   SimRobot robot(world, "wheeled", 2.0, 4.3, 0.0);
   for (int i = 0; i < 400 && robot.platform.state().x_m < 7.0; ++i) {
-    robot.Tick([&] { return robot.navigation.StepJoystick(robot.platform.state(), 0.8, 0.0, 0.0, robot.t_s); });
+    robot.Tick(
+        [&] { return robot.navigation.StepJoystick(robot.platform.state(), 0.8, 0.0, 0.0, robot.t_s); });
   }
-  EXPECT_GT(robot.platform.state().x_m, 6.0) << "did not pass the doorway; local: " << robot.navigation.local_status();
+  EXPECT_GT(robot.platform.state().x_m, 6.0)
+      << "did not pass the doorway; local: " << robot.navigation.local_status();
   EXPECT_EQ(robot.contacts, 0);
 
   // The same stick on plain teleop (no local planner) hits the frame.
@@ -309,11 +313,13 @@ TEST(NavigationTest, SmartJoystickPulledBackOnAWheeledRobotBrakesInsteadOfSwervi
   auto world = std::make_shared<const sim::World>(FlatWorld(10, 8));
   SimRobot robot(world, "wheeled", 5.0, 4.0, 0.0);
   for (int i = 0; i < 100; ++i) {
-    robot.Tick([&] { return robot.navigation.StepJoystick(robot.platform.state(), -0.5, 0.0, 0.0, robot.t_s); });
+    robot.Tick(
+        [&] { return robot.navigation.StepJoystick(robot.platform.state(), -0.5, 0.0, 0.0, robot.t_s); });
   }
   const auto& s = robot.platform.state();
   EXPECT_LT(std::hypot(s.x_m - 5.0, s.y_m - 4.0), 0.02);
-  EXPECT_NE(robot.navigation.local_status().find("outside the platform's local planner headings"), std::string::npos)
+  EXPECT_NE(robot.navigation.local_status().find("outside the platform's local planner headings"),
+            std::string::npos)
       << robot.navigation.local_status();
 }
 
@@ -323,7 +329,8 @@ TEST(NavigationTest, ReplansWhenTheMapChangesUnderThePath) {
   SimRobot robot(world, "wheeled", 1.0, 4.0, 0.0);
   const nav::GlobalPlan plan = robot.navigation.SetGoal(robot.platform.state(), 15.0, 4.0, 0.0, 0.0);
   ASSERT_TRUE(plan.IsUsable()) << plan.reason;
-  for (int i = 0; i < 100; ++i) robot.Tick([&] { return robot.navigation.StepWaypoint(robot.platform.state(), robot.t_s); });
+  for (int i = 0; i < 100; ++i)
+    robot.Tick([&] { return robot.navigation.StepWaypoint(robot.platform.state(), robot.t_s); });
   // A rockfall across the straight route ahead.
   FillBox(&w, {9.0, 2.0, 0.0}, {9.4, 8.0, 1.6});
   robot.planner->UpdateWorld(std::make_shared<const sim::World>(w));
@@ -383,7 +390,6 @@ TEST(NavigationTest, StopsWithoutObstacleInput) {
   EXPECT_EQ(robot.navigation.local_status(), "stopped: no fresh obstacle input");
 }
 
-
 // Recovery (the WaypointRecovery tree of the shipped mode tree file). A "ghost" in the live obstacles: a
 // U of points around the robot's nose (front and both sides, open behind), which no map holds, e.g. people
 // standing round the robot. Boxed in with the goal ahead, navigation gives up; the recovery tree clears the
@@ -414,8 +420,8 @@ struct GhostRobot {
         const double c = std::cos(s.yaw_rad), sn = std::sin(s.yaw_rad);
         for (const Eigen::Vector2d& g : ghost_W) {
           const Eigen::Vector2d d = g - Eigen::Vector2d(s.x_m, s.y_m);
-          points_B.emplace_back(static_cast<float>(c * d.x() + sn * d.y()), static_cast<float>(-sn * d.x() + c * d.y()),
-                                0.3f);
+          points_B.emplace_back(static_cast<float>(c * d.x() + sn * d.y()),
+                                static_cast<float>(-sn * d.x() + c * d.y()), 0.3f);
         }
       }
       robot.navigation.SetObstacles(points_B, s, robot.t_s);
@@ -459,7 +465,8 @@ struct GhostRobot {
 TEST(WaypointRecoveryTest, ABoxedInRobotRecoversByClearingBackingUpAndRetrying) {
   GhostRobot g(3.0);
   ASSERT_TRUE(g.recovery.enabled());
-  ASSERT_TRUE(g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
+  ASSERT_TRUE(
+      g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
   NavigationStep step;
   double backed_up_from_x = 0.0;
   bool saw_attempt_1 = false;
@@ -475,25 +482,28 @@ TEST(WaypointRecoveryTest, ABoxedInRobotRecoversByClearingBackingUpAndRetrying) 
   std::printf("recovered, arrived after %.1f s; the report on the way: %s\n", g.robot.t_s, g.report.c_str());
   EXPECT_NE(g.first_failure.find("blocked: no progress"), std::string::npos) << g.first_failure;
   EXPECT_TRUE(saw_attempt_1);
-  EXPECT_NE(g.report.find("attempt 1 (clear the local obstacle memory): blocked"), std::string::npos) << g.report;
+  EXPECT_NE(g.report.find("attempt 1 (clear the local obstacle memory): blocked"), std::string::npos)
+      << g.report;
   EXPECT_EQ(g.clears, 1);
   EXPECT_EQ(g.robot.contacts, 0);
   EXPECT_LT(backed_up_from_x, 3.05);  // it had not got past the ghost before the recovery
-  EXPECT_LT((Eigen::Vector2d(g.robot.platform.state().x_m, g.robot.platform.state().y_m) - g.goal).norm(), 0.25);
+  EXPECT_LT((Eigen::Vector2d(g.robot.platform.state().x_m, g.robot.platform.state().y_m) - g.goal).norm(),
+            0.25);
 }
 
 TEST(WaypointRecoveryTest, AGhostThatStaysFailsTheGoalWithEveryAttemptAndTheRobotGoesElsewhere) {
   GhostRobot g(2.0);
-  ASSERT_TRUE(g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
+  ASSERT_TRUE(
+      g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
   NavigationStep step;
   while (g.robot.t_s < 120.0 && !step.arrived && !step.failed) step = g.Tick();
   ASSERT_TRUE(step.failed) << "arrived through a ghost?";
   std::printf("recovery failed after %.1f s: %s\n", g.robot.t_s, step.reason.c_str());
   EXPECT_FALSE(g.recovery.active());
-  for (const char* attempt : {"attempt 1 (clear the local obstacle memory): blocked",
-                              "attempt 2 (back up 0.40 m): blocked", "attempt 3 (rotate 90 deg): ",
-                              "attempt 4 (wait 5 s): ", "attempt 5 (replan from here): ",
-                              "attempt 6 (replan, reduced clearance): "}) {
+  for (const char* attempt :
+       {"attempt 1 (clear the local obstacle memory): blocked", "attempt 2 (back up 0.40 m): blocked",
+        "attempt 3 (rotate 90 deg): ", "attempt 4 (wait 5 s): ", "attempt 5 (replan from here): ",
+        "attempt 6 (replan, reduced clearance): "}) {
     EXPECT_NE(step.reason.find(attempt), std::string::npos) << attempt << " in: " << step.reason;
   }
   EXPECT_EQ(step.reason.rfind("blocked: no progress", 0), 0u) << step.reason;
@@ -542,7 +552,8 @@ TEST(WaypointRecoveryTest, AnAttemptWhoseGoalIsAbandonedEndsTheRecovery) {
 // kept its goal for 240 s): here the blocked rule alone would wait 600 s.
 TEST(NavigationTest, ARobotThatDoesNotMoveStallsWhateverItsPlansDo) {
   GhostRobot g(/*blocked_timeout_s=*/600.0, /*stall_timeout_s=*/20.0);
-  ASSERT_TRUE(g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
+  ASSERT_TRUE(
+      g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
   NavigationStep step;
   while (g.robot.t_s < 60.0 && !step.failed && !step.arrived) {
     step = g.robot.Tick([&] { return NavigationStep{}; });  // a body that never moves
@@ -571,7 +582,8 @@ TEST(NavigationTest, AGoalsOwnStallTimeoutReplacesTheOptions) {
   const nav::GlobalPlan plan =
       g.robot.planner->Plan(navigation.GoalRequest(g.robot.platform.state(), g.goal.x(), g.goal.y()));
   ASSERT_TRUE(plan.IsUsable()) << plan.reason;
-  navigation.AcceptGoal(plan, g.goal.x(), g.goal.y(), 0.0, g.robot.t_s, std::numeric_limits<double>::quiet_NaN(),
+  navigation.AcceptGoal(plan, g.goal.x(), g.goal.y(), 0.0, g.robot.t_s,
+                        std::numeric_limits<double>::quiet_NaN(),
                         /*stall_timeout_s=*/8.0);
   auto [step, took_s] = run_until_failed();
   ASSERT_TRUE(step.failed);

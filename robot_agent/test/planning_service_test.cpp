@@ -40,8 +40,9 @@ struct Service {
                                },
                                [this](const Eigen::Vector2d& goal_M) {
                                  covered.push_back(goal_M);
-                                 return goal_M.x() > 50.0 ? std::string("too far: navigation.map_max_extent_m")
-                                                          : std::string();
+                                 return goal_M.x() > 50.0
+                                            ? std::string("too far: navigation.map_max_extent_m")
+                                            : std::string();
                                },
                                {}});
   }
@@ -229,9 +230,10 @@ TEST(PlanningService, AnUnreachableLevelNamesTheNearestStaircaseThePlatformCanno
   };
   // Nearest to (0, 1): a 0.12 m flight the wheeled robot climbs, then a 0.2 m one at x = 4, another at x = 8.
   const std::vector<perception::Staircase> seen = {flight(8.0, 0.2), flight(1.0, 0.12), flight(4.0, 0.2)};
-  EXPECT_EQ(PlanningService::StairNote(*s.planner, "wheeled", seen, {0.0, 1.0}),
-            "; the staircase seen at (4.00, 1.00, 0.00) rises 0.20 m per step, above platform wheeled's max_step_m "
-            "0.15 m");
+  EXPECT_EQ(
+      PlanningService::StairNote(*s.planner, "wheeled", seen, {0.0, 1.0}),
+      "; the staircase seen at (4.00, 1.00, 0.00) rises 0.20 m per step, above platform wheeled's max_step_m "
+      "0.15 m");
   EXPECT_EQ(PlanningService::StairNote(*s.planner, "wheeled", {flight(1.0, 0.12)}, {0.0, 1.0}), "");
   EXPECT_EQ(PlanningService::StairNote(*s.planner, "wheeled", {}, {0.0, 1.0}), "");
   EXPECT_EQ(PlanningService::StairNote(*s.planner, "hovercraft", seen, {0.0, 1.0}), "");
@@ -239,7 +241,8 @@ TEST(PlanningService, AnUnreachableLevelNamesTheNearestStaircaseThePlatformCanno
 
 TEST(PlanningService, RefusesANullPlannerMissingHooksAndABadRate) {
   Service s;
-  PlanningService::Hooks hooks{[](const GoalCommand&, const nav::GlobalPlan&) {}, [](const PathAnswer&) {}, {}, {}};
+  PlanningService::Hooks hooks{
+      [](const GoalCommand&, const nav::GlobalPlan&) {}, [](const PathAnswer&) {}, {}, {}};
   EXPECT_THROW(PlanningService(PlanningServiceOptions{}, nullptr, hooks), std::invalid_argument);
   EXPECT_THROW(PlanningService(PlanningServiceOptions{}, s.planner, PlanningService::Hooks{}),
                std::invalid_argument);

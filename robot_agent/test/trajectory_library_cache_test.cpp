@@ -65,7 +65,9 @@ TEST_F(LibraryCacheTest, ADamagedFileIsRefusedNamingWhyAndReplaced) {
     std::ifstream in(file, std::ios::binary);
     return std::string(std::istreambuf_iterator<char>(in), {});
   }();
-  auto write = [&](const std::string& bytes) { std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes; };
+  auto write = [&](const std::string& bytes) {
+    std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes;
+  };
   struct Case {
     std::string bytes, needle;
   };

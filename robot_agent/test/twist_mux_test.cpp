@@ -1,9 +1,9 @@
 #include "cairn/agent/twist_mux.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
-
-#include <gtest/gtest.h>
 
 namespace cairn::agent {
 namespace {

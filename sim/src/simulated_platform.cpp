@@ -3,9 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -19,8 +19,8 @@ bool InRange(const char* field, double value, double lo, double hi, bool lo_open
   const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
   if (!ok && why != nullptr) {
     std::ostringstream out;
-    out << "simulation." << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo << ", " << hi
-        << "]";
+    out << "simulation." << field << " = " << value << " must be in " << (lo_open ? "(" : "[") << lo << ", "
+        << hi << "]";
     *why = out.str();
   }
   return ok;
@@ -57,8 +57,9 @@ PlanarPose ChooseStart(const SimulatedPlatformOptions& options, const nav::Trave
     const PlanarPose start = *options.start_W;
     if (!terrain.IsFootprintFree(start.x_m, start.y_m, options.footprint_radius_m) ||
         !terrain.GroundHeight(start.x_m, start.y_m)) {
-      throw std::invalid_argument("--start " + Format2(start.x_m, start.y_m) + " is not free ground in world " +
-                                  options.world + " (occupied, outside the map, or no floor there)");
+      throw std::invalid_argument("--start " + Format2(start.x_m, start.y_m) +
+                                  " is not free ground in world " + options.world +
+                                  " (occupied, outside the map, or no floor there)");
     }
     return start;
   }
@@ -70,18 +71,20 @@ PlanarPose ChooseStart(const SimulatedPlatformOptions& options, const nav::Trave
     }
     const auto starts = nav::SampleFreeStarts(terrain, k + 1, 2.0, /*seed=*/7);
     if (static_cast<int>(starts.size()) <= k) {
-      throw std::invalid_argument("--start slot:" + std::to_string(k) + ": world " + options.world + " has only " +
-                                  std::to_string(starts.size()) + " free starts 2 m apart");
+      throw std::invalid_argument("--start slot:" + std::to_string(k) + ": world " + options.world +
+                                  " has only " + std::to_string(starts.size()) + " free starts 2 m apart");
     }
     return PlanarPose{starts[static_cast<std::size_t>(k)].x(), starts[static_cast<std::size_t>(k)].y(), 0.0};
   }
-  const auto starts =
-      nav::SampleFreeStarts(terrain, 1, 1.0, static_cast<std::uint32_t>(std::hash<std::string>{}(options.start_key)));
+  const auto starts = nav::SampleFreeStarts(
+      terrain, 1, 1.0, static_cast<std::uint32_t>(std::hash<std::string>{}(options.start_key)));
   if (starts.empty()) throw std::invalid_argument("world " + options.world + " has no free start cell");
   return PlanarPose{starts.front().x(), starts.front().y(), 0.0};
 }
 
-std::uint32_t SeedOf(const std::string& key) { return static_cast<std::uint32_t>(std::hash<std::string>{}(key)); }
+std::uint32_t SeedOf(const std::string& key) {
+  return static_cast<std::uint32_t>(std::hash<std::string>{}(key));
+}
 
 }  // namespace
 
@@ -92,9 +95,10 @@ std::vector<Rockfall> ParseRockfalls(const std::string& text) {
   while (std::getline(entries, entry, ';')) {
     if (entry.find_first_not_of(" \t") == std::string::npos) continue;
     auto fail = [&](const std::string& rule) {
-      throw std::invalid_argument("simulation.rockfalls entry '" + entry + "': " + rule +
-                                  " (format WHEN:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR], WHEN = AT_S or nearR_M, CLEAR = "
-                                  "CLEAR_S or +S)");
+      throw std::invalid_argument(
+          "simulation.rockfalls entry '" + entry + "': " + rule +
+          " (format WHEN:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR], WHEN = AT_S or nearR_M, CLEAR = "
+          "CLEAR_S or +S)");
     };
     auto number = [&](const std::string& field, const std::string& item) {
       double x = 0.0;
@@ -142,7 +146,8 @@ std::vector<Rockfall> ParseRockfalls(const std::string& text) {
       if (v.size() >= 5) fail("needs 5 numbers after WHEN (X0,Y0,X1,Y1,HEIGHT_M), has more");
       v.push_back(number(kFields[v.size()], item));
     }
-    if (v.size() != 5) fail("needs 5 numbers after WHEN (X0,Y0,X1,Y1,HEIGHT_M), has " + std::to_string(v.size()));
+    if (v.size() != 5)
+      fail("needs 5 numbers after WHEN (X0,Y0,X1,Y1,HEIGHT_M), has " + std::to_string(v.size()));
     if (!(v[0] < v[2])) fail("X0 = " + text_of(v[0]) + " must be < X1 = " + text_of(v[2]));
     if (!(v[1] < v[3])) fail("Y0 = " + text_of(v[1]) + " must be < Y1 = " + text_of(v[3]));
     if (!(v[4] > 0 && v[4] <= 10)) fail("HEIGHT_M = " + text_of(v[4]) + " must be in (0, 10] m");
@@ -157,7 +162,8 @@ std::vector<Rockfall> ParseRockfalls(const std::string& text) {
       } else {
         const double clear_s = number("CLEAR_S", parts[2]);
         if (rock.near_m) {
-          fail("CLEAR_S = " + text_of(clear_s) + " with a near trigger: the fall time is not known, give '+S'");
+          fail("CLEAR_S = " + text_of(clear_s) +
+               " with a near trigger: the fall time is not known, give '+S'");
         }
         if (!(clear_s > rock.at_s)) {
           fail("CLEAR_S = " + text_of(clear_s) + " must be > AT_S = " + text_of(rock.at_s) + " s");
@@ -194,7 +200,8 @@ bool SimulatedPlatformOptions::IsValid(std::string* why) const {
   if (start_slot && (*start_slot < 0 || *start_slot > 99)) {
     return fail("--start slot:" + std::to_string(*start_slot) + " must be in [0, 99]");
   }
-  if (start_W && !(std::isfinite(start_W->x_m) && std::isfinite(start_W->y_m) && std::isfinite(start_W->yaw_rad))) {
+  if (start_W &&
+      !(std::isfinite(start_W->x_m) && std::isfinite(start_W->y_m) && std::isfinite(start_W->yaw_rad))) {
     return fail("--start must be finite");
   }
   return InRange("pcd_resolution_m", pcd_resolution_m, 0.02, 2.0, false, why) &&
@@ -298,7 +305,8 @@ std::vector<Eigen::Vector3i> SimulatedPlatform::FillRock(const Eigen::AlignedBox
       if (!area_W.contains(c.head<2>())) continue;
       for (int iz = 0; iz < world->dims().z(); ++iz) {
         const double z = world->CenterOf({ix, iy, iz}).z();
-        if (z > floor_z - world->resolution_m() && z < floor_z + height_m && !changed->IsOccupiedIndex({ix, iy, iz})) {
+        if (z > floor_z - world->resolution_m() && z < floor_z + height_m &&
+            !changed->IsOccupiedIndex({ix, iy, iz})) {
           changed->SetOccupied({ix, iy, iz});
           filled.emplace_back(ix, iy, iz);
         }

@@ -1,15 +1,14 @@
 // Copyright Cairn authors.
 #include "cairn/sim/slam_drift.h"
 
-#include "cairn/core/kinematics.h"
-
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
 
+#include "cairn/core/kinematics.h"
+
 namespace cairn::sim {
 namespace {
-
 
 // Heading of a rotation: angle of its x axis projected on the x-y plane, radians, (-pi, pi].
 double YawOf(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
@@ -56,7 +55,8 @@ Eigen::Isometry3d SlamDrift::Update(const Eigen::Isometry3d& T_W_B_true) {
   }
   const Eigen::Vector3d p_W_B = T_W_B_true.translation();
   const double ds_m = (p_W_B - T_W_B_previous_.translation()).norm();
-  const double dyaw_rad = std::abs(core::WrapAngle(YawOf(T_W_B_true.linear()) - YawOf(T_W_B_previous_.linear())));
+  const double dyaw_rad =
+      std::abs(core::WrapAngle(YawOf(T_W_B_true.linear()) - YawOf(T_W_B_previous_.linear())));
   T_W_B_previous_ = T_W_B_true;
   if (ds_m == 0.0 && dyaw_rad == 0.0) return Estimate(T_W_B_true);  // At rest: no drift, no draw.
   distance_travelled_m_ += ds_m;

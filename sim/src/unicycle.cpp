@@ -63,7 +63,8 @@ UnicycleStepResult Unicycle::Step(double vx_mps, double wz_radps, double dt_s,
   const bool moves = dx != 0.0 || dy != 0.0;  // Turning in place never collides (disk footprint).
   for (int k = 1; moves && k <= checks && free; ++k) {
     const double f = static_cast<double>(k) / checks;
-    free = terrain.IsFootprintFreeNear(state_.x_m + f * dx, state_.y_m + f * dy, state_.z_m, footprint_radius_m_);
+    free = terrain.IsFootprintFreeNear(state_.x_m + f * dx, state_.y_m + f * dy, state_.z_m,
+                                       footprint_radius_m_);
   }
   state_.yaw_rad = WrapAngle(state_.yaw_rad + w * dt_s);
   state_.w_radps = w;

@@ -30,8 +30,8 @@ World WorldFromTree(const octomap::OcTree& tree, const std::string& path, const 
   if (!std::isfinite(res) || res < kMinResolutionM || res > kMaxResolutionM) {
     // A resolution of 1e30 loaded and put the robot at (1.2e32, ...).
     std::ostringstream msg;
-    msg << "OctoMap file '" << path << "' has resolution " << res << " m, outside [" << kMinResolutionM << ", "
-        << kMaxResolutionM << "] m (corrupt file?)";
+    msg << "OctoMap file '" << path << "' has resolution " << res << " m, outside [" << kMinResolutionM
+        << ", " << kMaxResolutionM << "] m (corrupt file?)";
     throw WorldError(msg.str());
   }
   // Bounds of the occupied leaves only (free space may reach far beyond the structure).

@@ -6,12 +6,12 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
-#include <cmath>
-#include <exception>
-#include <fstream>
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdint>
+#include <exception>
+#include <fstream>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -24,8 +24,9 @@ namespace {
 
 // A header value that must be a whole number >= 0 ("12"; not "-5", "1e9", "12x" or one past int64).
 bool ParseCount(const std::string& text, std::int64_t* value) {
-  if (text.empty() || text.size() > 18 ||
-      !std::all_of(text.begin(), text.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); })) {
+  if (text.empty() || text.size() > 18 || !std::all_of(text.begin(), text.end(), [](char c) {
+        return std::isdigit(static_cast<unsigned char>(c));
+      })) {
     return false;
   }
   *value = std::stoll(text);
@@ -45,8 +46,8 @@ std::string Bytes(double bytes) {
   return out.str();
 }
 
-// LZF (PCD's binary_compressed) turns 3 bytes into at most 264: a file cannot hold more than this many bytes per
-// compressed byte.
+// LZF (PCD's binary_compressed) turns 3 bytes into at most 264: a file cannot hold more than this many bytes
+// per compressed byte.
 constexpr double kMaxLzfRatio = 88.0;
 
 // PCL's header reader does not stop at the DATA line: it reads on while the lines are empty, comments (after
@@ -115,8 +116,8 @@ void CheckPcdHeader(const std::string& path) {
     if (!keys_seen.insert(key).second) fail(key.substr(0, 20) + " appears twice in the header");
     const auto one_count = [&](std::int64_t* out) {
       if (values.size() != 1 || !ParseCount(values[0], out)) {
-        fail(key + " '" + (values.empty() ? "" : values[0].substr(0, 20)) + (values.size() > 1 ? " ..." : "") +
-             "' is not a whole number >= 0");
+        fail(key + " '" + (values.empty() ? "" : values[0].substr(0, 20)) +
+             (values.size() > 1 ? " ..." : "") + "' is not a whole number >= 0");
       }
     };
     if (key == "FIELDS") {
@@ -172,10 +173,11 @@ void CheckPcdHeader(const std::string& path) {
       if (width < 0) fail("no WIDTH line");
       if (height < 0) fail("no HEIGHT line");
       if (points < 0) points = width * height;  // optional in the format
-      if (width > 0 && height > std::numeric_limits<std::int64_t>::max() / width) fail("WIDTH x HEIGHT overflows");
+      if (width > 0 && height > std::numeric_limits<std::int64_t>::max() / width)
+        fail("WIDTH x HEIGHT overflows");
       if (points != width * height) {
-        fail("POINTS " + std::to_string(points) + " is not WIDTH x HEIGHT = " + std::to_string(width) + " x " +
-             std::to_string(height));
+        fail("POINTS " + std::to_string(points) + " is not WIDTH x HEIGHT = " + std::to_string(width) +
+             " x " + std::to_string(height));
       }
       // What the data after the header must hold at least.
       const std::streamoff data_begin = in.tellg();
@@ -187,7 +189,8 @@ void CheckPcdHeader(const std::string& path) {
       std::string what;
       if (kind == "binary") {
         need = static_cast<double>(points) * static_cast<double>(point_bytes);
-        what = std::to_string(points) + " points of " + std::to_string(point_bytes) + " bytes (" + Bytes(need) + ")";
+        what = std::to_string(points) + " points of " + std::to_string(point_bytes) + " bytes (" +
+               Bytes(need) + ")";
       } else if (kind == "ascii") {
         need = static_cast<double>(points) * static_cast<double>(values_per_point) * 2.0;  // "0 " per value
         what = std::to_string(points) + " points of " + std::to_string(values_per_point) + " values (" +
@@ -199,8 +202,9 @@ void CheckPcdHeader(const std::string& path) {
         if (!in) fail("binary_compressed data without its two sizes");
         const double uncompressed = static_cast<double>(points) * static_cast<double>(point_bytes);
         if (static_cast<double>(sizes_le[1]) != uncompressed) {
-          fail("binary_compressed data of " + std::to_string(sizes_le[1]) + " bytes uncompressed, but POINTS " +
-               std::to_string(points) + " of " + std::to_string(point_bytes) + " bytes make " + Bytes(uncompressed));
+          fail("binary_compressed data of " + std::to_string(sizes_le[1]) +
+               " bytes uncompressed, but POINTS " + std::to_string(points) + " of " +
+               std::to_string(point_bytes) + " bytes make " + Bytes(uncompressed));
         }
         need = 8.0 + std::max(static_cast<double>(sizes_le[0]), uncompressed / kMaxLzfRatio);
         what = std::to_string(points) + " points of " + std::to_string(point_bytes) + " bytes (" +

@@ -57,9 +57,9 @@ inline bool FileExists(const std::string& path) { return std::ifstream(path).goo
   EXPECT_PRED_FORMAT2(::cairn::sim::testing::AssertContains, haystack, needle)
 
 /// Skips the current test when the shared geb079.bt scan is absent (data/ missing from the checkout).
-#define CAIRN_SKIP_WITHOUT_GEB079()                                                                        \
-  if (!::cairn::sim::testing::FileExists(::cairn::sim::testing::Geb079Path())) {                           \
-    GTEST_SKIP() << "real scan " << ::cairn::sim::testing::Geb079Path()                                    \
-                 << " is absent (it ships in data/); builtin worlds cover " \
-                    "the same behaviour";                                                                  \
+#define CAIRN_SKIP_WITHOUT_GEB079()                                              \
+  if (!::cairn::sim::testing::FileExists(::cairn::sim::testing::Geb079Path())) { \
+    GTEST_SKIP() << "real scan " << ::cairn::sim::testing::Geb079Path()          \
+                 << " is absent (it ships in data/); builtin worlds cover "      \
+                    "the same behaviour";                                        \
   }

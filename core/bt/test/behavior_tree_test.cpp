@@ -313,7 +313,8 @@ TEST_F(BehaviorTreeTest, CreatesANamedTreeOfTheDocumentAsBtCppCreateTreeDoes) {
     factory_.CreateTreeFromText(xml, blackboard_, "Explore");
     ADD_FAILURE() << "expected a TreeError";
   } catch (const TreeError& e) {
-    EXPECT_EQ(std::string(e.what()), "no <BehaviorTree ID=\"Explore\"> in the document (its trees: Modes, Recovery)");
+    EXPECT_EQ(std::string(e.what()),
+              "no <BehaviorTree ID=\"Explore\"> in the document (its trees: Modes, Recovery)");
   }
   const std::string broken = R"(<root BTCPP_format="4" main_tree_to_execute="Modes">
   <BehaviorTree ID="Modes"><Flag value="true"/></BehaviorTree>

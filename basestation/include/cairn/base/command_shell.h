@@ -21,8 +21,8 @@ enum ExitCode : int { kOk = 0, kRefused = 1, kUsage = 2 };
 
 /// How the shell prints and what it may use.
 struct ShellOptions {
-  bool json = false;         ///< one JSON object per line (results, progress, events)
-  std::string places_file;   ///< named places (Places); "" = places live only in this session
+  bool json = false;        ///< one JSON object per line (results, progress, events)
+  std::string places_file;  ///< named places (Places); "" = places live only in this session
   /// Interactive terminal hooks (nullptr in scripts): true once a key was pressed (ends `watch`); the key is
   /// consumed.
   std::function<bool()> key_pressed;
@@ -58,7 +58,8 @@ class CommandShell {
   /// Command names (for completion and "did you mean").
   static const std::vector<std::string>& CommandNames();
   /// Completions of the word being typed, given the words before it (robot ids, modes, places, options).
-  std::vector<std::string> Complete(const std::vector<std::string>& words_before, const std::string& prefix) const;
+  std::vector<std::string> Complete(const std::vector<std::string>& words_before,
+                                    const std::string& prefix) const;
 
  private:
   int Run(const std::string& line);
@@ -75,7 +76,8 @@ class CommandShell {
   int HelpFor(const std::string& robot);
   int Control(const std::vector<std::string>& args, bool request);
   int Mode(const std::vector<std::string>& args);
-  // goto R POINT ... and home R [POINT] ... (`command`): a waypoint goal, the robot's start by default for home.
+  // goto R POINT ... and home R [POINT] ... (`command`): a waypoint goal, the robot's start by default for
+  // home.
   int Goto(const std::string& command, const std::vector<std::string>& args);
   int ResumeGoal(const std::vector<std::string>& args);
   // explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--wait [TIMEOUT_S]] (command_shell_explore.cpp).
@@ -137,7 +139,7 @@ class CommandShell {
   bool json_;
   std::ostream& out_;
   Places places_;
-  std::map<std::string, uint32_t> last_goal_id_;  // per robot, the last waypoint this shell sent
+  std::map<std::string, uint32_t> last_goal_id_;         // per robot, the last waypoint this shell sent
   std::map<std::string, core::SteadyTime> last_answer_;  // per robot, when it last answered this shell
 };
 

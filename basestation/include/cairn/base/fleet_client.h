@@ -3,12 +3,11 @@
 #pragma once
 
 #include <Eigen/Geometry>
-
 #include <chrono>
 #include <condition_variable>
 #include <functional>
-#include <map>
 #include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -29,41 +28,41 @@ struct RobotView {
   std::string robot_id;
   std::string platform;
   std::vector<std::string> capabilities;
-  double max_speed_mps = 0.0;          ///< from its agent info: largest forward speed (0 = unknown)
-  double max_reverse_speed_mps = 0.0;  ///< largest reverse speed, a magnitude (0 = unknown)
-  double max_yaw_rate_radps = 0.0;     ///< largest yaw rate, a magnitude (0 = unknown)
-  double footprint_radius_m = 0.0;     ///< the disk its body fits in, metres (0 = unknown)
-  std::vector<std::string> sensors;    ///< from its agent info: "lidar", "camera"
-  double map_resolution_m = 0.0;       ///< voxel edge of the map it sends, metres (0 = no map)
-  std::string version;                 ///< its cairn version
-  bool announced = false;              ///< its agent info arrived (capabilities above are its own)
-  LinkView link;                       ///< its link as this basestation sees it (LinkMonitor)
-  std::optional<cairn_msgs::RobotState> state;         ///< latest whole state with the latest pose applied
+  double max_speed_mps = 0.0;                   ///< from its agent info: largest forward speed (0 = unknown)
+  double max_reverse_speed_mps = 0.0;           ///< largest reverse speed, a magnitude (0 = unknown)
+  double max_yaw_rate_radps = 0.0;              ///< largest yaw rate, a magnitude (0 = unknown)
+  double footprint_radius_m = 0.0;              ///< the disk its body fits in, metres (0 = unknown)
+  std::vector<std::string> sensors;             ///< from its agent info: "lidar", "camera"
+  double map_resolution_m = 0.0;                ///< voxel edge of the map it sends, metres (0 = no map)
+  std::string version;                          ///< its cairn version
+  bool announced = false;                       ///< its agent info arrived (capabilities above are its own)
+  LinkView link;                                ///< its link as this basestation sees it (LinkMonitor)
+  std::optional<cairn_msgs::RobotState> state;  ///< latest whole state with the latest pose applied
   /// The first whole state this basestation received from the robot: what it knew on arrival. The baseline
   /// of news (FleetEventDetector), so that a change between it and the detector's first look is still told.
   std::optional<cairn_msgs::RobotState> first_state;
-  std::optional<cairn_msgs::BehaviorTreeState> tree;   ///< latest behavior-tree state
-  std::optional<cairn_msgs::GlobalPath> global_path;   ///< global path being followed (latched)
-  std::optional<cairn_msgs::LocalPlan> local_plan;     ///< latest local planner output (2 Hz)
-  std::optional<cairn_msgs::AgentHealth> health;       ///< latest health of its agent's components (latched)
-  core::SteadyTime last_seen{};                        ///< last agent info or state
-  core::SteadyTime state_received{};                   ///< when its last whole state or pose arrived
-  core::SteadyTime whole_state_received{};             ///< when its last whole state arrived
-  bool lost = false;                                   ///< liveliness lost or state silent > lost_after_s
-  bool left = false;                                   ///< lost because its process exited cleanly
+  std::optional<cairn_msgs::BehaviorTreeState> tree;  ///< latest behavior-tree state
+  std::optional<cairn_msgs::GlobalPath> global_path;  ///< global path being followed (latched)
+  std::optional<cairn_msgs::LocalPlan> local_plan;    ///< latest local planner output (2 Hz)
+  std::optional<cairn_msgs::AgentHealth> health;      ///< latest health of its agent's components (latched)
+  core::SteadyTime last_seen{};                       ///< last agent info or state
+  core::SteadyTime state_received{};                  ///< when its last whole state or pose arrived
+  core::SteadyTime whole_state_received{};            ///< when its last whole state arrived
+  bool lost = false;                                  ///< liveliness lost or state silent > lost_after_s
+  bool left = false;                                  ///< lost because its process exited cleanly
   std::string lost_reason;
 };
 
 /// Outcome of one command as seen by the operator.
 struct CommandOutcome {
-  bool ok = false;           ///< accepted by the robot
-  std::string result;        ///< outcome::kAccepted | kRefused | kFailed | kTimedOut (operator_text.h)
-  std::string reason;        ///< why, in operator words (ExplainReason of the robot's reason), or the local error
+  bool ok = false;     ///< accepted by the robot
+  std::string result;  ///< outcome::kAccepted | kRefused | kFailed | kTimedOut (operator_text.h)
+  std::string reason;  ///< why, in operator words (ExplainReason of the robot's reason), or the local error
   std::string robot_reason;  ///< the robot's own reason, unchanged ("" when the robot did not answer)
-  std::string condition;     ///< mode-tree condition id that refused ("HasWaypointGoal"), "lock" when the sender
-                             ///< does not hold the control lock, "" otherwise
-  std::string holder_id;     ///< control holder reported by the robot
-  std::string mode;          ///< robot mode after the command
+  std::string condition;  ///< mode-tree condition id that refused ("HasWaypointGoal"), "lock" when the sender
+                          ///< does not hold the control lock, "" otherwise
+  std::string holder_id;  ///< control holder reported by the robot
+  std::string mode;       ///< robot mode after the command
   double round_trip_ms = 0;  ///< command -> acknowledgement
   uint32_t request_id = 0;   ///< id the command was sent with (unique within this process only)
   uint32_t goal_id = 0;      ///< accepted waypoint: the robot's id for the goal (RobotState::nav_goal_id)
@@ -74,21 +73,21 @@ struct CommandOutcome {
 
 /// Options of the fleet client.
 struct FleetClientOptions {
-  std::string base_id;                 ///< required; [A-Za-z0-9_-]{1,64}
-  int domain_id = 0;                   ///< [0, 232]
-  std::string dds_profiles_file;       ///< "" = shipped loopback-only profiles
-  core::LinkOptions link;              ///< loopback (default) or a named lan (core::LinkOptions)
-  double command_timeout_s = 3.0;      ///< give up waiting for an acknowledgement, (0, 60]
-  double command_retry_s = 0.5;        ///< resend an unacknowledged command (robots de-duplicate), (0, 10]
-  double lost_after_s = 3.0;           ///< a robot whose state is silent this long is shown lost, (0, 60]
+  std::string base_id;             ///< required; [A-Za-z0-9_-]{1,64}
+  int domain_id = 0;               ///< [0, 232]
+  std::string dds_profiles_file;   ///< "" = shipped loopback-only profiles
+  core::LinkOptions link;          ///< loopback (default) or a named lan (core::LinkOptions)
+  double command_timeout_s = 3.0;  ///< give up waiting for an acknowledgement, (0, 60]
+  double command_retry_s = 0.5;    ///< resend an unacknowledged command (robots de-duplicate), (0, 10]
+  double lost_after_s = 3.0;       ///< a robot whose state is silent this long is shown lost, (0, 60]
   /// Advertised in this basestation's agent info. "joystick": it can stream teleop twists, which the
   /// robots' IsJoystickAlive condition requires for smart joystick mode.
   std::vector<std::string> capabilities = {"joystick"};
   /// A robot not seen this long after start is unknown: commands to it are refused at once, (0, 60]. Until
   /// then a command to a robot not heard of yet waits for it, however short the command's timeout.
   double discovery_s = 1.5;
-  FleetEventOptions events;            ///< what raises operator events (proximity distances)
-  std::size_t events_kept = 200;       ///< recent events kept for RecentEvents(), [1, 100000]
+  FleetEventOptions events;       ///< what raises operator events (proximity distances)
+  std::size_t events_kept = 200;  ///< recent events kept for RecentEvents(), [1, 100000]
   /// DDS Security (--secure DIR; identity = base_id). Commands to robots its permissions do not give it are
   /// refused here, naming them; the robots' access control refuses them anyway.
   core::SecurityOptions security;
@@ -96,9 +95,9 @@ struct FleetClientOptions {
 
 /// Answer of the global path service (FleetClient::RequestPath()).
 struct PathAnswer {
-  bool ok = false;              ///< a path was found
-  std::string result;           ///< outcome::kAccepted (a path) | kRefused | kTimedOut
-  std::string reason;           ///< the planner's reason, or the local error
+  bool ok = false;                    ///< a path was found
+  std::string result;                 ///< outcome::kAccepted (a path) | kRefused | kTimedOut
+  std::string reason;                 ///< the planner's reason, or the local error
   cairn_msgs::PathResponse response;  ///< the full answer when one arrived
   double round_trip_ms = 0;
 };
@@ -157,7 +156,8 @@ class FleetClient {
                         const std::vector<Eigen::Vector2d>& keep_clear_M);
   /// Sends `robot_id` home (HomeRequest): a waypoint goal the robot plans to its start, or to `point_M`
   /// (x, y metres, frame map; z its level, NaN = the robot's). The answer carries the goal id.
-  CommandOutcome SendHome(const std::string& robot_id, const std::optional<Eigen::Vector3d>& point_M = std::nullopt);
+  CommandOutcome SendHome(const std::string& robot_id,
+                          const std::optional<Eigen::Vector3d>& point_M = std::nullopt);
   /// Stops `robot_id` now: zero twist, mode idle, goal cancelled. Honoured by the robot from any basestation,
   /// with or without its control lock (an e-stop); the lock stays with its holder. Sent at once even to a
   /// robot this basestation thinks lost or has not seen (retried until answered or command_timeout_s).

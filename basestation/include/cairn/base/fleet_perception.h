@@ -86,8 +86,8 @@ class FleetPerception {
   void OnRobotSeen(const std::string& robot_id, double map_resolution_m);
   /// A robot is back from lost: if it sends a map, as OnRobotSeen (a restored link lost its deltas).
   void OnRobotBack(const std::string& robot_id);
-  /// Asks `robot_id`, if it sends a map, for a snapshot again (at most once a second) while its map here has no
-  /// base: a request written before the robot's reader matched (a link just restored) is lost, and a robot
+  /// Asks `robot_id`, if it sends a map, for a snapshot again (at most once a second) while its map here has
+  /// no base: a request written before the robot's reader matched (a link just restored) is lost, and a robot
   /// standing still sends no delta that would reveal the gap.
   void SyncIfIncomplete(const std::string& robot_id);
 

@@ -1,6 +1,6 @@
 // A Foxglove WebSocket protocol server (subprotocol "foxglove.websocket.v1", docs/spec.md of
-// github.com/foxglove/ws-protocol) on one TCP port that also serves a directory of static files over HTTP (the
-// operator GUI). Channels are advertised to every client; messages go to the clients subscribed to them;
+// github.com/foxglove/ws-protocol) on one TCP port that also serves a directory of static files over HTTP
+// (the operator GUI). Channels are advertised to every client; messages go to the clients subscribed to them;
 // clients may call services and publish on channels they advertise. Built on websocketpp (Debian's
 // libwebsocketpp-dev, standalone asio): no hand-written HTTP or WebSocket framing. No DDS here.
 #pragma once
@@ -27,31 +27,31 @@ struct FoxgloveServerOptions {
 
 /// A channel the server publishes on (Advertise): JSON messages with a JSON schema by default.
 struct ChannelSpec {
-  std::string topic;                      ///< e.g. "/fleet_map"
-  std::string encoding = "json";          ///< message encoding
-  std::string schema_name;                ///< e.g. "foxglove.SceneUpdate"
-  std::string schema;                     ///< the schema text (a JSON schema for "jsonschema")
+  std::string topic;              ///< e.g. "/fleet_map"
+  std::string encoding = "json";  ///< message encoding
+  std::string schema_name;        ///< e.g. "foxglove.SceneUpdate"
+  std::string schema;             ///< the schema text (a JSON schema for "jsonschema")
   std::string schema_encoding = "jsonschema";
 };
 
 /// A service clients may call (AdvertiseServices), JSON request and response.
 struct ServiceSpec {
-  std::string name;                  ///< e.g. "/cairn/command"
-  std::string type;                  ///< e.g. "cairn.Command"
-  std::string request_schema_name;   ///< e.g. "cairn.CommandRequest"
-  std::string request_schema;        ///< JSON schema text
+  std::string name;                 ///< e.g. "/cairn/command"
+  std::string type;                 ///< e.g. "cairn.Command"
+  std::string request_schema_name;  ///< e.g. "cairn.CommandRequest"
+  std::string request_schema;       ///< JSON schema text
   std::string response_schema_name;
   std::string response_schema;
 };
 
 /// Counters of the server since it started.
 struct FoxgloveServerStats {
-  std::uint64_t clients_connected = 0;   ///< connections accepted over the server's life
-  std::uint64_t clients_now = 0;         ///< open WebSocket connections
-  std::uint64_t messages_sent = 0;       ///< Message Data frames
-  std::uint64_t bytes_sent = 0;          ///< all WebSocket payload bytes sent (text and binary)
+  std::uint64_t clients_connected = 0;  ///< connections accepted over the server's life
+  std::uint64_t clients_now = 0;        ///< open WebSocket connections
+  std::uint64_t messages_sent = 0;      ///< Message Data frames
+  std::uint64_t bytes_sent = 0;         ///< all WebSocket payload bytes sent (text and binary)
   std::uint64_t http_requests = 0;
-  std::uint64_t protocol_errors = 0;     ///< malformed client messages answered with an error status
+  std::uint64_t protocol_errors = 0;  ///< malformed client messages answered with an error status
 };
 
 /// The server. Thread-safe: channels, services and messages may be added and published from any thread.

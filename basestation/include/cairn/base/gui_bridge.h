@@ -16,7 +16,8 @@
 //   /ROBOT_ID/camera  foxglove.CompressedImage each robot's latest JPEG frame, as it arrives
 //   /events           foxglove.Log            operator events (arrived, failed, lost, locks, staircases, ...)
 // Service:  /cairn/command  {"command": "goto r1 12 4"} -> the CLI's --json result of that command line.
-// Client publish: /cairn/teleop  cairn.Teleop {"robot_id", "linear_x_mps", "angular_z_radps"[, "linear_y_mps"]}:
+// Client publish: /cairn/teleop  cairn.Teleop {"robot_id", "linear_x_mps", "angular_z_radps"[,
+// "linear_y_mps"]}:
 //   one teleop twist, clamped to the robot's limits as the CLI's teleop command does.
 #pragma once
 
@@ -38,8 +39,8 @@ struct GuiOptions {
   /// /fleet_map's share of the link to each GUI client, kB/s, [1, 1e6] (a new client's first full map is
   /// not counted). Columns that changed wait when it is spent.
   double map_budget_kBps = 150.0;
-  double map_resend_s = 3.0;     ///< a column already sent is sent again at most this often, s, [0, 600]
-  double trail_s = 120.0;        ///< trail length kept per robot, seconds, [0, 3600]
+  double map_resend_s = 3.0;  ///< a column already sent is sent again at most this often, s, [0, 600]
+  double trail_s = 120.0;     ///< trail length kept per robot, seconds, [0, 3600]
   /// @return false and sets `*why` naming the field, value and rule when invalid.
   bool IsValid(std::string* why) const;
 };

@@ -1,8 +1,8 @@
 // A basestation's view of each robot's link (issue 13, bandwidth monitoring; Sriganesh et al. 2024 § Host
 // discovery and communication): when it was last heard, the round trip of the base's link probe, how many of
 // its 10 Hz state samples (RobotPose) were lost on the way (gaps in their writer's sequence numbers), and
-// what the robot says it sends per topic class against its stated budget. Pure logic, no DDS: FleetClient feeds it
-// from its readers and probe writer. Not thread-safe (FleetClient holds its lock).
+// what the robot says it sends per topic class against its stated budget. Pure logic, no DDS: FleetClient
+// feeds it from its readers and probe writer. Not thread-safe (FleetClient holds its lock).
 #pragma once
 
 #include <cstdint>
@@ -47,8 +47,8 @@ class LinkMonitor {
   /// `robot_id` answered probe `probe_id` at `now`. Unknown or very old probe ids are ignored.
   void OnProbeReply(const std::string& robot_id, std::uint32_t probe_id, core::SteadyTime now);
   /// A 10 Hz state sample (RobotPose) of `robot_id` arrived: its writer (`writer_id`, core::WriterIdOf) and
-  /// that writer's sequence number. A new writer (the robot restarted) starts counting afresh; a sequence number that is not
-  /// newer (a duplicate) is ignored.
+  /// that writer's sequence number. A new writer (the robot restarted) starts counting afresh; a sequence
+  /// number that is not newer (a duplicate) is ignored.
   void OnState(const std::string& robot_id, const std::string& writer_id, std::uint64_t sequence_number,
                core::SteadyTime now);
   /// The robot's agent info: its link class and stated budget (kbit/s, 0 = none).
@@ -69,8 +69,8 @@ class LinkMonitor {
     std::string writer_id;
     std::uint64_t last_sequence = 0;
     std::uint32_t last_answered_probe = 0;
-    std::deque<double> rtts_ms;           // last 10 answered
-    std::deque<StateSample> recent;       // last 10 s of state samples
+    std::deque<double> rtts_ms;      // last 10 answered
+    std::deque<StateSample> recent;  // last 10 s of state samples
   };
   std::map<std::string, Robot> robots_;
   std::deque<std::pair<std::uint32_t, core::SteadyTime>> probes_;  // last 120 sent, oldest first

@@ -15,9 +15,8 @@
 //                                             (frame ROBOT_ID/camera)
 // Cairn's own topics, forwarded unchanged (the same CDR) under ROS 2's names so that `ros2 topic echo` reads
 // them once the generated package cairn_msgs (ros2/cairn_msgs_ros2, tools/gen_ros2_msgs.py) is built:
-//   /cairn/robot_state  cairn_msgs/msg/RobotState   every robot's whole state (its latest pose applied), on change
-//   /cairn/bt_state     cairn_msgs/msg/BehaviorTreeState
-//   /cairn/global_path  cairn_msgs/msg/GlobalPath
+//   /cairn/robot_state  cairn_msgs/msg/RobotState   every robot's whole state (its latest pose applied), on
+//   change /cairn/bt_state     cairn_msgs/msg/BehaviorTreeState /cairn/global_path  cairn_msgs/msg/GlobalPath
 //   /cairn/health       cairn_msgs/msg/AgentHealth
 // (ROS 2 topics have no keys: every robot's samples share the topic; robot_id tells them apart.)
 // QoS: reliable (a reliable writer serves RViz's reliable and best-effort subscriptions alike); paths and the

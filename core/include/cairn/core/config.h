@@ -61,8 +61,8 @@ class ConfigSection {
 void RejectYamlAliases(const std::string& text, const std::string& origin);
 
 /// "" when a file can be written at `path` (its folder exists and is writable, the path is not a folder, an
-/// existing file is writable), else the fault naming `field` (a flag, e.g. "--map-save") and the path: checked
-/// at start, so that a file written at exit is not found unwritable only then.
+/// existing file is writable), else the fault naming `field` (a flag, e.g. "--map-save") and the path:
+/// checked at start, so that a file written at exit is not found unwritable only then.
 std::string CheckOutputFile(const std::string& field, const std::string& path);
 
 }  // namespace cairn::core

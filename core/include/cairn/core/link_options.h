@@ -20,9 +20,9 @@ namespace cairn::core {
 ///   kRadioCameraShare) so that commands, the lock, state and events never queue behind maps and frames.
 struct LinkOptions {
   std::string link = "loopback";  ///< "loopback" | "lan" | "radio"
-  std::string subnet;              ///< lan, radio: "A.B.C.D/N", e.g. "10.77.0.0/24"
-  std::string interface_name;      ///< lan, radio: e.g. "eth1" (instead of, or besides, subnet)
-  double link_kbps = 0;            ///< radio: the link's budget, kbit/s, [8, 1e6]; 0 otherwise
+  std::string subnet;             ///< lan, radio: "A.B.C.D/N", e.g. "10.77.0.0/24"
+  std::string interface_name;     ///< lan, radio: e.g. "eth1" (instead of, or besides, subnet)
+  double link_kbps = 0;           ///< radio: the link's budget, kbit/s, [8, 1e6]; 0 otherwise
   /// lan, radio: "A.B.C.D:PORT" of a Fast DDS discovery server in the named network (`cairn discovery-server`
   /// runs one); "" = multicast discovery. With one, the participant is its client: no multicast at all, each
   /// process announces itself to the server only and learns from it who matches (fleets where multicast is

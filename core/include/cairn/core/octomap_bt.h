@@ -15,7 +15,7 @@ inline constexpr int kOctomapTreeDepth = 16;
 
 /// A parsed, validated .bt or .ot file.
 struct BtFile {
-  double resolution_m = 0.0;  ///< leaf edge at the finest depth, metres, finite and > 0
+  double resolution_m = 0.0;   ///< leaf edge at the finest depth, metres, finite and > 0
   std::int64_t num_nodes = 0;  ///< nodes in the stream, equal to the header's size
   /// The node stream, depth first: .bt, two bytes of child codes per inner node; .ot, per node its value (a
   /// 4-byte float, log-odds) and a byte of child bits.
@@ -54,7 +54,8 @@ std::string OtFileHeader(std::size_t num_nodes, double resolution_m);
 /// end) otherwise. An empty stream has 0 nodes.
 std::int64_t CountBtNodes(const char* data, std::size_t size, std::string* error);
 
-/// The shortest decimal text of `value` that reads back exactly ("0.1" for 0.1), as OctoMap writes a resolution.
+/// The shortest decimal text of `value` that reads back exactly ("0.1" for 0.1), as OctoMap writes a
+/// resolution.
 std::string ShortestDecimal(double value);
 
 /// The header OctoMap's writeBinaryConst() writes for `num_nodes` nodes at `resolution_m` (shortest exact

@@ -27,8 +27,8 @@ class WarningLimiter {
  public:
   /// `period_s` > 0, seconds.
   explicit WarningLimiter(double period_s = 5.0);
-  /// True when a warning about `key` may be logged at `now`; then `*suppressed` (may be null) is the number of
-  /// warnings about it refused since the last one allowed.
+  /// True when a warning about `key` may be logged at `now`; then `*suppressed` (may be null) is the number
+  /// of warnings about it refused since the last one allowed.
   bool Allow(const std::string& key, SteadyTime now, std::uint64_t* suppressed = nullptr);
 
  private:

@@ -90,10 +90,10 @@ struct LidarScan {
 
 /// One camera frame, 8-bit grey.
 struct CameraImage {
-  double stamp_s = 0.0;      ///< When it was taken, seconds (agent clock).
-  std::uint32_t seq = 0;     ///< Increments with every frame.
-  int width_px = 0;          ///< Columns.
-  int height_px = 0;         ///< Rows.
+  double stamp_s = 0.0;   ///< When it was taken, seconds (agent clock).
+  std::uint32_t seq = 0;  ///< Increments with every frame.
+  int width_px = 0;       ///< Columns.
+  int height_px = 0;      ///< Rows.
   /// Grey levels, row-major, top row first, width_px * height_px entries.
   std::vector<std::uint8_t> pixels;
   /// Pose of the camera in the map frame M at the frame, from the pose estimate.

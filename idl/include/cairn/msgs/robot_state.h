@@ -62,7 +62,8 @@ inline void MergePose(const cairn_msgs::RobotPose& pose, cairn_msgs::RobotState*
 /// Applies a whole state that arrived to a reader's view of the robot (`*view`, empty before the first one):
 /// the whole state replaces the view, except that a resent one older than the pose last applied keeps that
 /// pose.
-inline void ApplyWholeState(const cairn_msgs::RobotState& whole, std::optional<cairn_msgs::RobotState>* view) {
+inline void ApplyWholeState(const cairn_msgs::RobotState& whole,
+                            std::optional<cairn_msgs::RobotState>* view) {
   cairn_msgs::RobotState merged = whole;
   if (*view && (*view)->stamp().sec() + 1e-9 * (*view)->stamp().nanosec() >
                    whole.stamp().sec() + 1e-9 * whole.stamp().nanosec()) {
@@ -99,9 +100,9 @@ inline bool UrgentChange(const cairn_msgs::RobotState& a, const cairn_msgs::Robo
          a.holder_alive() != b.holder_alive() || a.holder_participant() != b.holder_participant() ||
          a.nav_goal_id() != b.nav_goal_id() || a.nav_status() != b.nav_status() || a.stops() != b.stops() ||
          a.explore_task_id() != b.explore_task_id() || a.explore_state() != b.explore_state() ||
-         a.mission_state() != b.mission_state() ||
-         a.convoy_state() != b.convoy_state() || a.convoy_ahead_ids() != b.convoy_ahead_ids() ||
-         a.yield_state() != b.yield_state() || a.yield_peer_id() != b.yield_peer_id();
+         a.mission_state() != b.mission_state() || a.convoy_state() != b.convoy_state() ||
+         a.convoy_ahead_ids() != b.convoy_ahead_ids() || a.yield_state() != b.yield_state() ||
+         a.yield_peer_id() != b.yield_peer_id();
 }
 
 /// When a robot sends its whole state besides the 10 Hz pose: its first, after an urgent change

@@ -54,8 +54,8 @@ struct AStarOptions {
   bool allow_partial = false;
   /// Multi-level partial plans only: a partial plan toward another level must climb (or descend) more than
   /// this plus half a cell (metres, [0, 5]; NaN = the grid's max_step_m), so that one step's worth of
-  /// quantized tread is not taken for progress. The planner's diagnosis of a step limit sets the platform's own step while it
-  /// plans on a grid with a relaxed one.
+  /// quantized tread is not taken for progress. The planner's diagnosis of a step limit sets the platform's
+  /// own step while it plans on a grid with a relaxed one.
   double partial_min_climb_m = std::numeric_limits<double>::quiet_NaN();
   /// Multi-level plans only: the search stops after this many expansions, [1000, 1e8] (then as if no route).
   int max_expansions = 2000000;

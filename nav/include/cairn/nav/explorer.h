@@ -1,9 +1,9 @@
 // Copyright Cairn authors.
 //
-// The exploration target choice (issue 14): from the frontiers of the robot's map (FindFrontiers), which one to
-// drive to now, when to switch to a better one as the map grows, which ones failed and must not be tried again,
-// and when exploration is complete. Pure logic, DDS-free: the agent's explore mode feeds it each new frontier
-// set and tells it when navigation gave up on a target.
+// The exploration target choice (issue 14): from the frontiers of the robot's map (FindFrontiers), which one
+// to drive to now, when to switch to a better one as the map grows, which ones failed and must not be tried
+// again, and when exploration is complete. Pure logic, DDS-free: the agent's explore mode feeds it each new
+// frontier set and tells it when navigation gave up on a target.
 //
 // Frame M (the robot's map frame), metres.
 #pragma once
@@ -38,18 +38,18 @@ struct ExplorerOptions {
   /// A cluster whose target lies within this of a peer's claim is that peer's (unless this robot has held it
   /// longer), metres, (0, 50]: two robots never drive to the same frontier.
   double claim_radius_m = 3.0;
-  /// A cluster's utility is scaled by d / peer_influence_m (at least 0.05) when its target lies d < this from a
-  /// peer's claim (Burgard et al. 2005: what the peer will see from there is worth less here), so that the team
-  /// spreads over the map instead of following one another, metres, [0, 200]; 0 = off. With it off, three
-  /// robots in builtin:tunnels drove about the same 150 m each and reached 90 % only 1.64x sooner than one;
-  /// with 10 m, 3.0x (docs/PERFORMANCE.md, "Exploration coverage"). An early version cost two robots in a
-  /// region 88 % against 99 %; since the robots' planning is waited for on the simulated clock, that region
+  /// A cluster's utility is scaled by d / peer_influence_m (at least 0.05) when its target lies d < this from
+  /// a peer's claim (Burgard et al. 2005: what the peer will see from there is worth less here), so that the
+  /// team spreads over the map instead of following one another, metres, [0, 200]; 0 = off. With it off,
+  /// three robots in builtin:tunnels drove about the same 150 m each and reached 90 % only 1.64x sooner than
+  /// one; with 10 m, 3.0x (docs/PERFORMANCE.md, "Exploration coverage"). An early version cost two robots in
+  /// a region 88 % against 99 %; since the robots' planning is waited for on the simulated clock, that region
   /// test gives 100 % either way.
   double peer_influence_m = 10.0;
   /// Two targets are one place (for the current target, the failed and the reached ones) only when their
   /// ground heights differ by at most this, metres, (0, 10]: the landing over the pocket beneath it, a floor
-  /// above another. Compared in x-y alone, the pocket reached barred the landing above it and a legged robot in
-  /// builtin:building never climbed.
+  /// above another. Compared in x-y alone, the pocket reached barred the landing above it and a legged robot
+  /// in builtin:building never climbed.
   double same_place_dz_m = 1.0;
 
   /// True when every field is in range; otherwise false with `*why` (if not null) naming the field, its value
@@ -62,7 +62,7 @@ struct ExplorerOptions {
 struct PeerClaim {
   std::string robot_id;
   Eigen::Vector2d target_M = Eigen::Vector2d::Zero();  ///< metres, frame M (shared by the team)
-  double held_s = 0.0;                                  ///< seconds
+  double held_s = 0.0;                                 ///< seconds
 };
 
 /// The team as one robot sees it when it decides.
@@ -76,22 +76,24 @@ struct TeamView {
 struct FailedTarget {
   Eigen::Vector2d target_M = Eigen::Vector2d::Zero();
   double target_ground_z_m = 0.0;  ///< its ground height, metres, frame M
-  std::string reason;    ///< the last failure's
-  int failures = 1;      ///< failures within blacklist_radius_m of target_M
-  double failed_at_s = 0.0;  ///< the last one's time (TeamView::now_s), seconds
+  std::string reason;              ///< the last failure's
+  int failures = 1;                ///< failures within blacklist_radius_m of target_M
+  double failed_at_s = 0.0;        ///< the last one's time (TeamView::now_s), seconds
 };
 
 /// What to do after a frontier update.
 struct ExplorerDecision {
   enum class Kind {
-    kGoTo,      ///< drive to `target` (new, or a better one than the current)
-    kKeep,      ///< keep driving to the current target (it moved at most follow_radius_m: `target` is where it is now)
+    kGoTo,  ///< drive to `target` (new, or a better one than the current)
+    kKeep,  ///< keep driving to the current target (it moved at most follow_radius_m: `target` is where it is
+            ///< now)
     kComplete,  ///< no reachable frontier is left: exploration ends (`reason` says so and why)
     kWait,      ///< every reachable frontier is a peer's: hold still and decide again with the next set
   };
   Kind kind = Kind::kComplete;
   FrontierCluster target;  ///< the cluster to go to (kGoTo, kKeep)
-  std::string reason;      ///< why: "best of 4 reachable frontiers", "exploration complete: no reachable frontier ..."
+  std::string
+      reason;  ///< why: "best of 4 reachable frontiers", "exploration complete: no reachable frontier ..."
 };
 
 /// See the file comment. Not thread-safe.
@@ -120,9 +122,9 @@ class Explorer {
   /// How long the current target has been held at `now_s` (the team's clock), seconds; 0 without one.
   double HeldS(double now_s) const { return current_ ? now_s - current_since_s_ : 0.0; }
 
-  /// Navigation gave up on the current target at `now_s` (no path, blocked) with `reason`: clusters near it are
-  /// barred for retry_after_s, for good after a second failure there (a frontier seen across a gap the robot
-  /// cannot cross, a doorway too narrow: never retried forever); there is no current target any more.
+  /// Navigation gave up on the current target at `now_s` (no path, blocked) with `reason`: clusters near it
+  /// are barred for retry_after_s, for good after a second failure there (a frontier seen across a gap the
+  /// robot cannot cross, a doorway too narrow: never retried forever); there is no current target any more.
   void Fail(const std::string& reason, double now_s = 0.0);
   /// The robot reached the current target (it stands at that frontier): clusters within visited_radius_m of
   /// it are left out from now on, and there is no current target any more.

@@ -9,20 +9,20 @@
 
 #include <Eigen/Core>
 #include <atomic>
-#include <limits>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <memory>
-#include <optional>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "cairn/core/voxel_grid.h"
 #include "cairn/nav/astar.h"
 #include "cairn/nav/multilevel.h"
 #include "cairn/nav/platform.h"
 #include "cairn/nav/traversability.h"
-#include "cairn/core/voxel_grid.h"
 
 namespace cairn::nav {
 
@@ -31,8 +31,8 @@ namespace cairn::nav {
 /// robot's own map is read with its floor height, a ground band around it and unknown space traversable
 /// (optimistic planning), see TraversabilityOptions.
 struct MapReading {
-  double cell_size_m = 0.0;                                               ///< 0 = map resolution
-  double reference_height_m = std::numeric_limits<double>::quiet_NaN();   ///< NaN = automatic
+  double cell_size_m = 0.0;                                              ///< 0 = map resolution
+  double reference_height_m = std::numeric_limits<double>::quiet_NaN();  ///< NaN = automatic
   double ground_search_min_z_m = -std::numeric_limits<double>::infinity();
   double ground_search_max_z_m = std::numeric_limits<double>::infinity();
   bool unknown_is_lethal = true;
@@ -117,9 +117,9 @@ struct GlobalPlan {
 
 /// Result of GlobalPlanner::CheckPath().
 struct PathCheck {
-  bool valid = true;              ///< True when every remaining segment is still traversable.
-  int first_blocked_segment = -1; ///< Index i of the first blocked segment (path_W[i] -> path_W[i+1]).
-  std::string message;            ///< Names the blocked segment and why, empty when valid.
+  bool valid = true;               ///< True when every remaining segment is still traversable.
+  int first_blocked_segment = -1;  ///< Index i of the first blocked segment (path_W[i] -> path_W[i+1]).
+  std::string message;             ///< Names the blocked segment and why, empty when valid.
 };
 
 /// The global path service over one 3D world (the robot's map). Thread-safe: Plan(), CheckPath() and
@@ -213,13 +213,14 @@ class GlobalPlanner {
   // True when the request must be planned over the map's levels (see the class comment).
   bool NeedsLevels(const GlobalPlanRequest& request, const TraversabilityGrid& grid) const;
   // The largest step of a relaxed route, "" when none exceeds the platform's limit.
-  std::string DescribeStep(const PlatformProfile& profile, double worst_step, const Eigen::Vector2d& worst_at) const;
+  std::string DescribeStep(const PlatformProfile& profile, double worst_step,
+                           const Eigen::Vector2d& worst_at) const;
   std::string DiagnoseUnreachable(const PlatformProfile& profile, const GlobalPlanRequest& request,
                                   const AStarOptions& astar);
   // Sets map_memory_bytes_ from the map and the caches (mutex_ held).
   void CountMapMemoryLocked();
-  // A plan for a goal beyond the map's extent (request.allow_partial): a partial plan to the map's edge toward
-  // the goal, or the failure to reach that edge.
+  // A plan for a goal beyond the map's extent (request.allow_partial): a partial plan to the map's edge
+  // toward the goal, or the failure to reach that edge.
   GlobalPlan PlanToMapEdge(const GlobalPlanRequest& request, const TraversabilityGrid& grid);
 
   GlobalPlannerOptions options_;
@@ -227,12 +228,12 @@ class GlobalPlanner {
   mutable std::mutex mutex_;
   std::shared_ptr<const core::VoxelGrid> world_;
   std::shared_ptr<const core::VoxelGrid> seen_free_;  // Null for a world known in full (a survey, the sim).
-  std::atomic<std::uint64_t> map_version_{0};  // read without the mutex (control loops poll it)
-  std::atomic<std::size_t> map_memory_bytes_{0};  // read without the mutex (the health monitor)
-  std::map<std::string, std::shared_ptr<const TraversabilityGrid>> grids_;            // by platform
+  std::atomic<std::uint64_t> map_version_{0};         // read without the mutex (control loops poll it)
+  std::atomic<std::size_t> map_memory_bytes_{0};      // read without the mutex (the health monitor)
+  std::map<std::string, std::shared_ptr<const TraversabilityGrid>> grids_;           // by platform
   std::map<std::string, std::shared_ptr<const TraversabilityGrid>> diagnose_grids_;  // by platform
-  std::map<std::string, std::shared_ptr<const MultiLevelGrid>> levels_;               // by platform
-  std::map<std::string, std::shared_ptr<const MultiLevelGrid>> diagnose_levels_;      // by platform
+  std::map<std::string, std::shared_ptr<const MultiLevelGrid>> levels_;              // by platform
+  std::map<std::string, std::shared_ptr<const MultiLevelGrid>> diagnose_levels_;     // by platform
   double sensor_max_z_m_ = std::numeric_limits<double>::quiet_NaN();
 };
 

@@ -130,10 +130,11 @@ struct ConstSpan {
 /// Points near the origin (within near_origin_radius_m()) skip the voxels and are tested exactly against the
 /// path's segments (origin to sample 0, sample 0 to sample 1, ...): one blocks a path from the first segment
 /// that passes it closer than collision_radius_m, or, when the robot already stands closer than that to it,
-/// closer than the robot stands now (less 1 mm): the robot may move along it or away, never closer. Through its
-/// voxel such a point would block the first samples of every path, those leading away from it too, so that a
-/// robot standing just inside the collision radius of a door jamb, or of a stair flight's side wall, could
-/// never leave; a path thus kept free keeps at least min(collision_radius_m, that distance) from the point.
+/// closer than the robot stands now (less 1 mm): the robot may move along it or away, never closer. Through
+/// its voxel such a point would block the first samples of every path, those leading away from it too, so
+/// that a robot standing just inside the collision radius of a door jamb, or of a stair flight's side wall,
+/// could never leave; a path thus kept free keeps at least min(collision_radius_m, that distance) from the
+/// point.
 ///
 /// Clearance grid (clearance_voxel_size_m) and band entries: the clearance of a voxel to an arc is (distance
 /// from the voxel centre to the arc's nearest sample) - clearance_voxel_size_m * sqrt(2) / 2 -
@@ -240,28 +241,30 @@ class TrajectoryLibrary {
   /// Wall-clock time the constructor (or Deserialize) took, seconds.
   double build_time_s() const { return build_time_s_; }
 
-  /// Version of the Serialize() format. Bumped whenever the format or what the build computes changes, so that
-  /// a cache written by an older build is refused rather than used.
+  /// Version of the Serialize() format. Bumped whenever the format or what the build computes changes, so
+  /// that a cache written by an older build is refused rather than used.
   static constexpr std::uint32_t kFormatVersion = 1;
 
-  /// The library as bytes, for a cache file (the agent keeps one per option set: LoadOrBuildTrajectoryLibrary):
-  /// a header (magic, kFormatVersion, a byte-order mark, the options) and the correspondence (blocking and band
-  /// rows); the paths are not stored, Deserialize rebuilds them from the options (a few ms). Native byte order:
-  /// a cache is local to one machine. With the agent's options (0.05 m voxels) ~33 MB before compression.
+  /// The library as bytes, for a cache file (the agent keeps one per option set:
+  /// LoadOrBuildTrajectoryLibrary): a header (magic, kFormatVersion, a byte-order mark, the options) and the
+  /// correspondence (blocking and band rows); the paths are not stored, Deserialize rebuilds them from the
+  /// options (a few ms). Native byte order: a cache is local to one machine. With the agent's options (0.05 m
+  /// voxels) ~33 MB before compression.
   std::string Serialize() const;
 
   /// A 64-bit fingerprint (FNV-1a) of kFormatVersion and `options` as Serialize() stores them: equal options
   /// give equal fingerprints; a cache names its files by it.
   static std::uint64_t Fingerprint(const TrajectoryLibraryOptions& options);
 
-  /// The library that `bytes` (from Serialize()) holds, or nullptr with `*why` (not null) saying what does not
-  /// match: the magic, the version, the byte order, an option (named, both values), an array size, offset or id
-  /// out of range, or the spot check. Spot check: the correspondence of one heading is built again and must
-  /// equal the stored one (catches a file from a build that computed it differently, and most damage). Never
-  /// reads outside `bytes`, whatever they hold.
+  /// The library that `bytes` (from Serialize()) holds, or nullptr with `*why` (not null) saying what does
+  /// not match: the magic, the version, the byte order, an option (named, both values), an array size, offset
+  /// or id out of range, or the spot check. Spot check: the correspondence of one heading is built again and
+  /// must equal the stored one (catches a file from a build that computed it differently, and most damage).
+  /// Never reads outside `bytes`, whatever they hold.
   /// @throws std::invalid_argument if `options` is invalid (as the constructor).
   static std::unique_ptr<TrajectoryLibrary> Deserialize(const std::string& bytes,
-                                                        const TrajectoryLibraryOptions& options, std::string* why);
+                                                        const TrajectoryLibraryOptions& options,
+                                                        std::string* why);
 
  private:
   // The paths, their descriptions and the path tree of `options` (validated), without the correspondence.

@@ -98,8 +98,8 @@ class MultiLevelGrid : public core::FootprintChecker {
   int NodeColumn(int node) const { return column_of_[static_cast<std::size_t>(node)]; }
   /// True if surface `node` is traversable (clearance above robot_radius_m).
   bool IsTraversable(int node) const { return IsTraversableFor(node, options_.robot_radius_m); }
-  /// True if surface `node` is traversable for a robot of radius `radius_m` (>= 0), metres (clearance above it;
-  /// TraversabilityGrid::IsTraversableFor()).
+  /// True if surface `node` is traversable for a robot of radius `radius_m` (>= 0), metres (clearance above
+  /// it; TraversabilityGrid::IsTraversableFor()).
   bool IsTraversableFor(int node, double radius_m) const { return ClearanceM(node) > radius_m + 1e-9; }
   /// The surface of cell (ix, iy) nearest z_m within max_dz_m (metres); -1 if none or outside the grid.
   int NodeNear(int ix, int iy, double z_m, double max_dz_m) const;
@@ -107,14 +107,16 @@ class MultiLevelGrid : public core::FootprintChecker {
   /// map read with unknown_is_lethal.
   bool IsUnknownAt(int ix, int iy, double z_m) const;
   /// True if the in-grid cell (ix, iy) holds a step up from z_m the map has not seen the top of: its lowest
-  /// occupied voxel whose top lies in (z_m, z_m + max_step_m] has no occupied voxel within robot_height_m above
-  /// it but one there not seen free (a flight's riser seen from below, its tread above the sensor; a robot-built
-  /// map, seen_free given). Such a column has no surface at the step (MultiLevelGrid needs the space above a
-  /// floor seen free) and is not unknown at z_m (the riser fills the body space): the frontier search counts
-  /// it as unseen. Always false on a map read with unknown_is_lethal or without seen_free.
+  /// occupied voxel whose top lies in (z_m, z_m + max_step_m] has no occupied voxel within robot_height_m
+  /// above it but one there not seen free (a flight's riser seen from below, its tread above the sensor; a
+  /// robot-built map, seen_free given). Such a column has no surface at the step (MultiLevelGrid needs the
+  /// space above a floor seen free) and is not unknown at z_m (the riser fills the body space): the frontier
+  /// search counts it as unseen. Always false on a map read with unknown_is_lethal or without seen_free.
   bool IsUnseenStepAt(int ix, int iy, double z_m) const;
   /// True if no column within robot_radius_m of (ix, iy) holds an observed voxel (occupied or seen free).
-  bool IsUnobservedAround(int ix, int iy) const { return !observed_near_[static_cast<std::size_t>(Column(ix, iy))]; }
+  bool IsUnobservedAround(int ix, int iy) const {
+    return !observed_near_[static_cast<std::size_t>(Column(ix, iy))];
+  }
   /// Largest number of surfaces of one column (1 for a single-level map).
   int max_levels() const { return max_levels_; }
 
@@ -153,10 +155,10 @@ class MultiLevelGrid : public core::FootprintChecker {
   double cell_m_ = 0.0;
   Eigen::Vector2d p_W_min_ = Eigen::Vector2d::Zero();
   int max_levels_ = 0;
-  std::vector<int> first_;            // nx * ny + 1 offsets into the node arrays
-  std::vector<float> z_m_;            // per node
-  std::vector<float> clearance_m_;    // per node
-  std::vector<int> column_of_;        // per node
+  std::vector<int> first_;              // nx * ny + 1 offsets into the node arrays
+  std::vector<float> z_m_;              // per node
+  std::vector<float> clearance_m_;      // per node
+  std::vector<int> column_of_;          // per node
   std::vector<std::uint8_t> observed_;  // per column: any voxel occupied or seen free (else wholly unknown)
   // per column: an observed column lies within robot_radius_m (a square of that half side); else a body in
   // unknown space there touches nothing known (a fast path of the search)
@@ -171,7 +173,8 @@ class MultiLevelGrid : public core::FootprintChecker {
 class LeveledTerrain : public core::FootprintChecker {
  public:
   /// @throws std::invalid_argument if either is null.
-  LeveledTerrain(std::shared_ptr<const TraversabilityGrid> main_level, std::shared_ptr<const MultiLevelGrid> levels);
+  LeveledTerrain(std::shared_ptr<const TraversabilityGrid> main_level,
+                 std::shared_ptr<const MultiLevelGrid> levels);
   bool IsFootprintFree(double x_m, double y_m, double radius_m) const override;
   std::optional<double> GroundHeight(double x_m, double y_m) const override;
   bool IsFootprintFreeNear(double x_m, double y_m, double z_m, double radius_m) const override;
@@ -188,8 +191,8 @@ class LeveledTerrain : public core::FootprintChecker {
 /// How far point p_W (x, y, z; metres, frame W) is from a goal at (goal_W, goal_z_m) for a partial plan
 /// (AStarOptions::allow_partial): planar distance + 30 x height difference (metres; height progress first: a
 /// robot climbs the stairs it sees rather than waiting under the goal). goal_z_m NaN: planar distance only.
-/// Heights within `level_tolerance_m` of goal_z_m count as on the goal's level (metres, >= 0; default one 0.1 m
-/// voxel): a floor on a voxel boundary reads a voxel high in one column and low in the next, and 30 x 0.1 m
+/// Heights within `level_tolerance_m` of goal_z_m count as on the goal's level (metres, >= 0; default one 0.1
+/// m voxel): a floor on a voxel boundary reads a voxel high in one column and low in the next, and 30 x 0.1 m
 /// sent a robot on floor 2 back to the top of the stairs, which read the floor's height exactly, instead of
 /// on along its corridor, which read a voxel high.
 double PartialRemainingM(const Eigen::Vector3d& p_W, const Eigen::Vector2d& goal_W, double goal_z_m,
@@ -205,13 +208,14 @@ double PartialRemainingM(const Eigen::Vector3d& p_W, const Eigen::Vector2d& goal
 /// a goal with no walkable surface within 1 m of goal_z_m is kGoalBlocked naming the surfaces there.
 /// @throws std::invalid_argument for invalid `options`.
 PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& start_W,
-                              const Eigen::Vector2d& goal_W, double goal_z_m, const AStarOptions& options = {});
+                              const Eigen::Vector2d& goal_W, double goal_z_m,
+                              const AStarOptions& options = {});
 
 /// True if walking from a_W to b_W (x, y, surface z; metres, frame W) in quarter-cell steps stays on
 /// connected surfaces (or unknown space, on an optimistic map) that are traversable for robot_radius_m (NaN:
 /// the grid's) with a clearance of at least min_clearance_m, and ends within max_step_m of b_W's height.
-bool SegmentTraversableMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& a_W, const Eigen::Vector3d& b_W,
-                                  double min_clearance_m = 0.0,
+bool SegmentTraversableMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& a_W,
+                                  const Eigen::Vector3d& b_W, double min_clearance_m = 0.0,
                                   double robot_radius_m = std::numeric_limits<double>::quiet_NaN());
 
 }  // namespace cairn::nav

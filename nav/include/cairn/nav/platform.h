@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "cairn/nav/traversability.h"
 #include "cairn/core/kinematics.h"
+#include "cairn/nav/traversability.h"
 
 namespace cairn::nav {
 
@@ -38,7 +38,8 @@ struct PlatformProfile {
 
 /// The built-in profiles:
 ///  - "wheeled": a skid-steer rover, 1.5 m/s max (cruise 1.0), 1.0 m/s^2, 1.5 rad/s, steps <= 0.15 m (no
-///    stairs), forward-looking local planner (headings within +-100 deg: it does not back into space behind it);
+///    stairs), forward-looking local planner (headings within +-100 deg: it does not back into space behind
+///    it);
 ///  - "legged": a quadruped, 0.6 m/s max (cruise 0.5), 0.6 m/s^2, 1.0 rad/s, steps <= 0.30 m (Boston
 ///    Dynamics Spot's rated maximum step height), all-around local planner. Stairs of 0.15-0.2 m rise read
 ///    as steps of up to 0.3 m on a 0.1 m voxel map (a tread's top falls in the voxel below or above a

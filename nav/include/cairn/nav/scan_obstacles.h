@@ -40,21 +40,22 @@ struct ScanObstacleOptions {
 
 /// Counts of one ObstaclesFromPoints() call, for logs and tests.
 struct ScanObstacleStats {
-  int points_used = 0;      ///< Points inside the analysed band.
-  int cells_observed = 0;   ///< Cells holding at least one point.
-  int cells_lethal = 0;     ///< Cells reported as obstacles.
+  int points_used = 0;     ///< Points inside the analysed band.
+  int cells_observed = 0;  ///< Cells holding at least one point.
+  int cells_lethal = 0;    ///< Cells reported as obstacles.
 };
 
 /// Lethal cells near the robot, from `points_M` (metres, map frame M; e.g. the last half second of
-/// registered scans) around the robot at `pose_M` (frame M). A cell holding at least min_points_per_cell points
-/// is lethal when its points
-/// span more than max_step_m in height, or its lowest point is more than max_step_m above the lowest point of
-/// an 8-neighbour that holds enough points. Cells with no point are not obstacles (the global planner's map and the
-/// blocked timeout cover space the sensor does not see). Output: `points_B` cleared, then one point per lethal
-/// cell, its point nearest the robot in x-y (the surface as measured, not the cell centre, which lies up to
-/// half a cell off it), in the body frame B of `pose_M`, at z = 0. Non-finite points are skipped.
+/// registered scans) around the robot at `pose_M` (frame M). A cell holding at least min_points_per_cell
+/// points is lethal when its points span more than max_step_m in height, or its lowest point is more than
+/// max_step_m above the lowest point of an 8-neighbour that holds enough points. Cells with no point are not
+/// obstacles (the global planner's map and the blocked timeout cover space the sensor does not see). Output:
+/// `points_B` cleared, then one point per lethal cell, its point nearest the robot in x-y (the surface as
+/// measured, not the cell centre, which lies up to half a cell off it), in the body frame B of `pose_M`, at z
+/// = 0. Non-finite points are skipped.
 /// @throws std::invalid_argument if `options` is invalid or `points_B` is null.
-ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points_M, const core::BaseState& pose_M,
-                                      const ScanObstacleOptions& options, std::vector<Eigen::Vector3f>* points_B);
+ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points_M,
+                                      const core::BaseState& pose_M, const ScanObstacleOptions& options,
+                                      std::vector<Eigen::Vector3f>* points_B);
 
 }  // namespace cairn::nav

@@ -175,9 +175,11 @@ class TraversabilityGrid : public core::FootprintChecker {
   /// the tolerance makes a lethal cell exactly robot_radius_m away count as within the radius).
   bool IsTraversable(int ix, int iy) const { return IsTraversableFor(ix, iy, options_.robot_radius_m); }
   /// True if the in-grid cell is traversable for a robot of radius `radius_m` (>= 0), metres: ClearanceM() >
-  /// radius_m + 1e-9 m, the same rule as IsTraversable(). A reduced radius (a tight gap: waypoint recovery's last
-  /// attempt, FrontierOptions::tight_radius_m) passes cells the grid's own radius does not.
-  bool IsTraversableFor(int ix, int iy, double radius_m) const { return ClearanceM(ix, iy) > radius_m + 1e-9; }
+  /// radius_m + 1e-9 m, the same rule as IsTraversable(). A reduced radius (a tight gap: waypoint recovery's
+  /// last attempt, FrontierOptions::tight_radius_m) passes cells the grid's own radius does not.
+  bool IsTraversableFor(int ix, int iy, double radius_m) const {
+    return ClearanceM(ix, iy) > radius_m + 1e-9;
+  }
   /// True if the cell containing (x_m, y_m) exists and is traversable.
   bool IsTraversableAt(double x_m, double y_m) const;
 
@@ -188,10 +190,10 @@ class TraversabilityGrid : public core::FootprintChecker {
   /// the cell has no ground.
   std::optional<double> GroundHeight(double x_m, double y_m) const override;
   /// True if the point (x_m, y_m, z_m) (metres, frame W; z the height a robot there stands at) is on this
-  /// grid's level: within max_step_m + 0.05 m of the ground of its cell, or, where the cell has no ground (the
-  /// floor right under a lidar is not seen yet), z_m inside [ground_search_min_z_m, ground_search_max_z_m].
-  /// False for a robot on an upper floor or the pocket under a landing. A planner searches this grid alone
-  /// from a start on its level (GlobalPlanner).
+  /// grid's level: within max_step_m + 0.05 m of the ground of its cell, or, where the cell has no ground
+  /// (the floor right under a lidar is not seen yet), z_m inside [ground_search_min_z_m,
+  /// ground_search_max_z_m]. False for a robot on an upper floor or the pocket under a landing. A planner
+  /// searches this grid alone from a start on its level (GlobalPlanner).
   bool OnLevel(double x_m, double y_m, double z_m) const;
 
   /// Re-analyses the cells whose columns intersect `region_W` (x-y box, metres, frame of the grid) from
@@ -225,7 +227,8 @@ class TraversabilityGrid : public core::FootprintChecker {
   bool ScanColumn(const core::VoxelGrid& world, int ix, int iy, Visit&& visit) const;
   // Steps 1-6 for the cell windows {x0, y0, x1, y1} (inclusive) and the cells they affect; whole = the full
   // grid.
-  void Recompute(const core::VoxelGrid& world, const std::vector<std::array<int, 4>>& changed_cells, bool whole);
+  void Recompute(const core::VoxelGrid& world, const std::vector<std::array<int, 4>>& changed_cells,
+                 bool whole);
 
   TraversabilityOptions options_;
   int k_ = 1;  // world columns per cell edge

@@ -65,13 +65,14 @@ std::vector<std::uint8_t> EncodeCoarseVoxels(std::vector<CoarseVoxel> voxels, in
 
 /// Appends to `out` one zstd frame (content size declared, XXH64 checksum on) of `raw`, at `zstd_level` in
 /// [1, 19]. The codec under EncodeCoarseVoxels, shared with other payloads (the explore claims' coverage).
-/// @throws std::invalid_argument for a level out of range (naming `caller`), std::runtime_error if zstd fails.
+/// @throws std::invalid_argument for a level out of range (naming `caller`), std::runtime_error if zstd
+/// fails.
 void ZstdCompressAppend(const std::vector<std::uint8_t>& raw, int zstd_level, const char* caller,
                         std::vector<std::uint8_t>* out);
 
 /// Decompresses exactly one zstd frame `frame[0, frame_size)` made by ZstdCompressAppend into `out`. Returns
-/// false, with `*error` (if not null) saying why and `out` empty, when the frame magic is missing, the frame is
-/// corrupt or truncated or followed by extra bytes, it does not declare its size or declares more than
+/// false, with `*error` (if not null) saying why and `out` empty, when the frame magic is missing, the frame
+/// is corrupt or truncated or followed by extra bytes, it does not declare its size or declares more than
 /// `max_bytes` (checked before any allocation), or the checksum fails. `out` must not be null.
 bool ZstdDecompress(const std::uint8_t* frame, std::size_t frame_size, std::size_t max_bytes,
                     std::vector<std::uint8_t>* out, std::string* error);
@@ -256,7 +257,7 @@ class MapTelemetrySender {
   double last_now_s_ = 0.0;
   double next_send_s_ = 0.0;
   double tokens_bits_ = 0.0;
-  double rate_share_ = 1.0;  // SetRateShare()
+  double rate_share_ = 1.0;       // SetRateShare()
   double bytes_per_voxel_ = 2.0;  // Running estimate of payload bytes per DELTA voxel, to size messages.
   MapTelemetryStats stats_;
 };

@@ -47,8 +47,8 @@ struct ControlCommand {
   CommandSender sender;
   uint32_t request_id = 0;  ///< the writer's request id
   bool release = false;     ///< true: release the lock; false: request it
-  /// Non-empty: the message holds a value no basestation sends (e.g. an unknown action), named with the value;
-  /// the command is refused with it and nothing else is read.
+  /// Non-empty: the message holds a value no basestation sends (e.g. an unknown action), named with the
+  /// value; the command is refused with it and nothing else is read.
   std::string malformed;
 };
 

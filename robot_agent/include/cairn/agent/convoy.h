@@ -30,7 +30,8 @@ struct ConvoyOptions {
   /// The robot ahead is lost when not heard for this long, seconds, (0, 60]: the follower stops.
   double lost_after_s = 2.0;
   /// Trail kept ahead of the follower, metres, [10, 1000]: beyond it the oldest breadcrumbs go (a robot
-  /// ahead that drove that far without its follower moving; the follower then drives to the nearest kept one).
+  /// ahead that drove that far without its follower moving; the follower then drives to the nearest kept
+  /// one).
   double max_trail_m = 300.0;
 
   /// @return false and sets `*why` (field, value, rule) when a field is invalid.
@@ -65,9 +66,9 @@ class ConvoyTrail {
   /// @throws std::invalid_argument for invalid options (IsValid()'s message).
   explicit ConvoyTrail(const ConvoyOptions& options);
 
-  /// The robot ahead was at `p_M` (frame M, metres) moving at `speed_mps` (its measured forward speed, m/s) at
-  /// `now_s` (seconds, the follower's clock): a breadcrumb when it is breadcrumb_step_m or more from the last
-  /// one. Non-finite points are ignored (a non-finite speed counts as 0).
+  /// The robot ahead was at `p_M` (frame M, metres) moving at `speed_mps` (its measured forward speed, m/s)
+  /// at `now_s` (seconds, the follower's clock): a breadcrumb when it is breadcrumb_step_m or more from the
+  /// last one. Non-finite points are ignored (a non-finite speed counts as 0).
   void OnAhead(const Eigen::Vector3d& p_M, double now_s, double speed_mps = 0.0);
   /// What the follower at `follower_M` does at `now_s`. Its place on the trail only moves forward (a trail
   /// that loops back past the follower is not taken as a shortcut); breadcrumbs behind it are dropped.

@@ -1,11 +1,12 @@
 // The team side of exploration (issue 14: "robots share what they are going for over DDS ... and their maps
 // reach each other"). Each exploring robot sends an ExploreClaim (idl/cairn_msgs.idl, topic
 // cairn/explore_claim) every claim_period_s: the frontier it goes for and how long it has held it; every
-// coverage_period_s the claim also carries the floor the robot has seen, as a coarse bitmap (nav::SeenCoverage)
-// compressed with zstd. Its peers keep the claims they heard (each expires lease_s after it arrived, on the
-// receiver's clock: a lost robot's claim goes by itself, with no clock sync) and the union of the coverage
-// (counted as no gain by their frontier search). Plain C++ without DDS: the agent's DDS adapter converts the
-// messages; the in-process team (SteppedRobot) passes the same structs through the same rules.
+// coverage_period_s the claim also carries the floor the robot has seen, as a coarse bitmap
+// (nav::SeenCoverage) compressed with zstd. Its peers keep the claims they heard (each expires lease_s after
+// it arrived, on the receiver's clock: a lost robot's claim goes by itself, with no clock sync) and the union
+// of the coverage (counted as no gain by their frontier search). Plain C++ without DDS: the agent's DDS
+// adapter converts the messages; the in-process team (SteppedRobot) passes the same structs through the same
+// rules.
 #pragma once
 
 #include <Eigen/Core>
@@ -26,11 +27,11 @@ namespace cairn::agent {
 struct ExploreClaim {
   std::string robot_id;
   std::uint32_t task_id = 0;
-  bool active = false;      ///< exploring; false releases any claim at once
-  bool has_target = false;  ///< a frontier is claimed
+  bool active = false;                                 ///< exploring; false releases any claim at once
+  bool has_target = false;                             ///< a frontier is claimed
   Eigen::Vector3d target_M = Eigen::Vector3d::Zero();  ///< metres, frame M (shared by the team)
-  double held_s = 0.0;      ///< seconds the sender has held the target, >= 0
-  double lease_s = 6.0;     ///< (0, 600]: receivers drop the claim this long after it arrived
+  double held_s = 0.0;                                 ///< seconds the sender has held the target, >= 0
+  double lease_s = 6.0;  ///< (0, 600]: receivers drop the claim this long after it arrived
   /// The sender's seen floor (nav::SeenCoverage); none in most messages.
   std::optional<nav::CoverageBitmap> coverage;
 };
@@ -45,7 +46,8 @@ std::vector<std::uint8_t> CompressCoverageBits(const nav::CoverageBitmap& bitmap
 /// Fills `bitmap->bits` from `frame` made by CompressCoverageBits for the bitmap's nx and ny (set before).
 /// Returns false with `*why` naming the fault: nx or ny negative or nx * ny over the limit, a bad zstd frame
 /// (perception::ZstdDecompress), or a size other than ceil(nx * ny / 8) bytes.
-bool DecompressCoverageBits(const std::vector<std::uint8_t>& frame, nav::CoverageBitmap* bitmap, std::string* why);
+bool DecompressCoverageBits(const std::vector<std::uint8_t>& frame, nav::CoverageBitmap* bitmap,
+                            std::string* why);
 
 /// How the team side runs (config section explore: claim_period_s, coverage_period_s, claim_lease_s,
 /// coverage_cell_m).

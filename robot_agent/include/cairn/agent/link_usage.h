@@ -24,9 +24,9 @@ class LinkUsageMeter {
   explicit LinkUsageMeter(double window_s = 2.0);
 
   /// Adds the counters read at `now_s` (seconds of any monotonic clock, non-decreasing) and returns each
-  /// class's rate over the last window_s (from the oldest reading within it; 0 for the first reading). A class
-  /// that is new since the oldest reading counts from zero; a counter that went down (a restart) restarts the
-  /// window.
+  /// class's rate over the last window_s (from the oldest reading within it; 0 for the first reading). A
+  /// class that is new since the oldest reading counts from zero; a counter that went down (a restart)
+  /// restarts the window.
   std::vector<SentRate> Update(double now_s, const std::vector<SentTraffic>& sent);
 
  private:

@@ -1,7 +1,7 @@
 // The local planner's obstacles from the live lidar: the points seen within AgentOptions::obstacle_window_s,
 // and, for as long as they stay there (up to 10 min), those under the lidar's lowest beam near the robot (a
-// deduplicated perception::LocalCloud around the robot) analysed by nav::ObstaclesFromPoints. Used by the agent's sensor thread and by in-process tests
-// and benches, so all sense exactly alike. Not thread-safe.
+// deduplicated perception::LocalCloud around the robot) analysed by nav::ObstaclesFromPoints. Used by the
+// agent's sensor thread and by in-process tests and benches, so all sense exactly alike. Not thread-safe.
 #pragma once
 
 #include <algorithm>
@@ -49,7 +49,8 @@ class LiveObstacles {
   // waiting beside a step while another robot climbs (30 s was too short for that).
   static constexpr double kBlindWindow_s = 600.0;
 
-  static perception::LocalCloudOptions CloudOptions(const AgentOptions& options, double lidar_min_elevation_rad) {
+  static perception::LocalCloudOptions CloudOptions(const AgentOptions& options,
+                                                    double lidar_min_elevation_rad) {
     perception::LocalCloudOptions o;
     o.voxel_size_m = 0.05;
     o.window_s = options.obstacle_window_s;

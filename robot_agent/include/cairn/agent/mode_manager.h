@@ -13,11 +13,11 @@ namespace cairn::agent {
 
 /// Facts the mode tree's conditions read. Filled by the agent before each tick.
 struct ModeConditions {
-  std::string holder_id;          ///< basestation holding the control lock ("" = free)
-  bool holder_alive = false;      ///< the holder's liveliness is alive
-  bool localized = false;         ///< the pose estimate is valid
+  std::string holder_id;             ///< basestation holding the control lock ("" = free)
+  bool holder_alive = false;         ///< the holder's liveliness is alive
+  bool localized = false;            ///< the pose estimate is valid
   std::string localization_problem;  ///< why not (the platform's estimator), e.g. "SLAM diverged"
-  bool has_waypoint_goal = false; ///< an accepted, unfinished waypoint goal exists
+  bool has_waypoint_goal = false;    ///< an accepted, unfinished waypoint goal exists
   /// The control holder has a joystick: it advertises the "joystick" capability and is alive.
   bool joystick_alive = false;
   /// The local planner ran on fresh obstacle input recently; when false, local_planner_problem says why.

@@ -48,8 +48,8 @@ struct ModeOutput {
   bool done = false;  ///< the mode's task ended this cycle (a goal arrived or failed): the agent goes idle
 };
 
-/// How long the platform has stayed in contact with occupied space, for the modes that drive a task (waypoint,
-/// explore): a task fails when contact lasts longer than a timeout.
+/// How long the platform has stayed in contact with occupied space, for the modes that drive a task
+/// (waypoint, explore): a task fails when contact lasts longer than a timeout.
 class ContactTimer {
  public:
   /// Forgets any contact (a new task starts).

@@ -88,15 +88,15 @@ struct NavigationOptions {
 
 /// Output of one Navigation step.
 struct NavigationStep {
-  double linear_x_mps = 0.0;   ///< Twist to send through the mux, frame B.
+  double linear_x_mps = 0.0;  ///< Twist to send through the mux, frame B.
   double angular_z_radps = 0.0;
-  bool arrived = false;        ///< The goal was reached this step (the goal is cleared).
-  bool failed = false;         ///< The goal failed this step (the goal is cleared); see reason.
-  bool stalled = false;        ///< With failed: the robot moved less than 0.5 m in the goal's stall timeout.
+  bool arrived = false;  ///< The goal was reached this step (the goal is cleared).
+  bool failed = false;   ///< The goal failed this step (the goal is cleared); see reason.
+  bool stalled = false;  ///< With failed: the robot moved less than 0.5 m in the goal's stall timeout.
   /// With failed: the goal is given up for good (a goal in unmapped space without progress, a peer that held
   /// the robot for max_hold_s): trying again (a recovery) would only repeat the wait.
   bool abandoned = false;
-  std::string reason;          ///< Why it failed.
+  std::string reason;  ///< Why it failed.
 };
 
 /// A driven path as a plan navigation follows (Navigation::AcceptGoal) without a search: the path a convoy's
@@ -175,7 +175,8 @@ class Navigation {
   /// Share of the footprint radius obstacles are inflated by under reduced clearance.
   static constexpr double kReducedRadiusRatio = 0.7;
   /// The radius global plans inflate obstacles by under reduced clearance, metres: kReducedRadiusRatio x
-  /// the platform's footprint radius (the frontier search passes gaps this wide, FrontierOptions::tight_radius_m).
+  /// the platform's footprint radius (the frontier search passes gaps this wide,
+  /// FrontierOptions::tight_radius_m).
   double reduced_radius_m() const { return kReducedRadiusRatio * options_.platform.footprint_radius_m; }
   bool has_goal() const { return goal_.has_value(); }
 
@@ -302,10 +303,10 @@ class Navigation {
   // the robot to the path.
   double UpdateProgress(const Eigen::Vector2d& p_W);
   // Point carrot_distance_m ahead of the robot's projection on the global path.
-  // Up to carrot_distance_m, but no farther than the robot at `state` sees in a straight line free of the live
-  // obstacle points (footprint clearance, or the clearance it has now if less): at a doorway off a corridor,
-  // the turn's corner, not a point in the room behind the door jamb, which no local path reaches and whose
-  // bearing disagrees with the path's (the robot turned back and forth past the door for a minute).
+  // Up to carrot_distance_m, but no farther than the robot at `state` sees in a straight line free of the
+  // live obstacle points (footprint clearance, or the clearance it has now if less): at a doorway off a
+  // corridor, the turn's corner, not a point in the room behind the door jamb, which no local path reaches
+  // and whose bearing disagrees with the path's (the robot turned back and forth past the door for a minute).
   Eigen::Vector2d Carrot(const core::BaseState& state) const;
   // Point `ahead_m` along the global path from the robot's projection (its end when shorter).
   Eigen::Vector2d PointAhead(double ahead_m) const;
@@ -330,9 +331,9 @@ class Navigation {
 
   std::optional<Goal> goal_;
   nav::GlobalPlan plan_;
-  std::size_t path_segment_ = 0;       // segment of the global path the robot projects on
+  std::size_t path_segment_ = 0;        // segment of the global path the robot projects on
   double segment_start_along_m_ = 0.0;  // arc length at the start of path_segment_
-  double projection_along_m_ = 0.0;  // arc length of the robot's projection on the global path
+  double projection_along_m_ = 0.0;     // arc length of the robot's projection on the global path
   double distance_left_m_ = 0.0;
   double eta_s_ = -1.0;
   double mean_speed_mps_ = 0.0;
@@ -340,8 +341,8 @@ class Navigation {
   Eigen::Vector2d carrot_W_ = Eigen::Vector2d::Zero();
   std::uint64_t path_revision_ = 0;
   double last_replan_check_s_ = -1e9;
-  double last_partial_replan_s_ = -1e9;  // last extension of a partial plan (the map grew)
-  double last_worker_replan_s_ = -1e9;   // last replan started on the worker
+  double last_partial_replan_s_ = -1e9;     // last extension of a partial plan (the map grew)
+  double last_worker_replan_s_ = -1e9;      // last replan started on the worker
   std::future<nav::GlobalPlan> extension_;  // a replan (or a partial plan's extension) running on a worker
   bool extension_at_end_ = false;           // ...asked for at the partial plan's end
   std::string extension_cause_;             // ...and why it was asked for, for a failure's reason
@@ -351,8 +352,8 @@ class Navigation {
   bool follow_path_ = false;
   std::uint64_t goal_serial_ = 0;  // see goal_serial()  // StepWaypoint(follow_path) of the step under way
   bool reduced_clearance_ = false;
-  std::string hold_reason_;          // SetHold()
-  std::string hold_by_;              // ...and the robot that holds it
+  std::string hold_reason_;  // SetHold()
+  std::string hold_by_;      // ...and the robot that holds it
   UnmappedWatch unmapped_;
   bool awaiting_obstacles_ = false;  // obstacle memory cleared: no local plan before the next SetObstacles()
 

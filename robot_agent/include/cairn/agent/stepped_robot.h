@@ -55,15 +55,16 @@ class SteppedRobot {
   /// stepping on, so that results do not depend on the machine's speed.
   bool planning() const { return explore_->planning(); }
 
-  /// Team exploration, as the agents do over DDS (ExploreTeam): ClaimToSend() is the claim this robot sends at
-  /// `now_s` if one is due (with its seen floor when that is due too); OnPeerClaim() takes a peer's, heard at
-  /// `now_s` ("" or why it was refused). The peers' live claims and coverage feed the next choice and search.
+  /// Team exploration, as the agents do over DDS (ExploreTeam): ClaimToSend() is the claim this robot sends
+  /// at `now_s` if one is due (with its seen floor when that is due too); OnPeerClaim() takes a peer's, heard
+  /// at `now_s` ("" or why it was refused). The peers' live claims and coverage feed the next choice and
+  /// search.
   std::optional<ExploreClaim> ClaimToSend(double now_s);
   std::string OnPeerClaim(const ExploreClaim& claim, double now_s) { return team_.OnPeerClaim(claim, now_s); }
   /// Peers, as the agents do over cairn/peer_state (PeerTracker): PeerState() is this robot as its peers see
-  /// it after the last Step() (Navigation::AsPeer; mode "explore" while exploring, else "idle"); OnPeerState()
-  /// takes a peer's, heard at `now_s` ("" or why it was dropped). Peers heard within options.peers.timeout_s
-  /// are obstacles from the next Step() on, as in the agent.
+  /// it after the last Step() (Navigation::AsPeer; mode "explore" while exploring, else "idle");
+  /// OnPeerState() takes a peer's, heard at `now_s` ("" or why it was dropped). Peers heard within
+  /// options.peers.timeout_s are obstacles from the next Step() on, as in the agent.
   PeerBody PeerState() const;
   /// Get-out-of-the-way, as the agents do over cairn/yield_request: YieldRequestToSend() is the request this
   /// robot's last Step() made (to the robot named first), if any; OnYieldRequest() takes one at `now_s` and
@@ -113,7 +114,7 @@ class SteppedRobot {
   std::optional<std::pair<std::string, YieldCommand>> yield_to_send_;
   std::optional<WaypointGoal> yield_resume_goal_;  // the goal a yield interrupted
   ModeModule* before_yield_ = nullptr;             // the mode a yield interrupted
-  ModeModule* active_ = nullptr;  // the mode started last (explore_ until another one is)
+  ModeModule* active_ = nullptr;                   // the mode started last (explore_ until another one is)
   core::LidarScan scan_;
   std::vector<Eigen::Vector3f> points_B_;
   double next_map_update_s_ = 0.0;

@@ -1,7 +1,7 @@
 // The agent's cache of built trajectory libraries (nav::TrajectoryLibrary): building the local planner's
 // library is the largest part of an agent's start (~0.15-0.25 s of ~0.65 s on a 2-core x86-64 VM with the
-// agent's 0.05 m voxels, more on an ARM robot computer), and it is the same every start with the same options.
-// CMU's FALCO planner loads its precomputed correspondence from files the same way.
+// agent's 0.05 m voxels, more on an ARM robot computer), and it is the same every start with the same
+// options. CMU's FALCO planner loads its precomputed correspondence from files the same way.
 //
 // One file per option set, a zstd frame (with its content checksum) of TrajectoryLibrary::Serialize(), named
 // by TrajectoryLibrary::Fingerprint. A file that does not load (damaged, from another build or format, other
@@ -35,8 +35,8 @@ struct CachedLibrary {
 };
 
 /// The library of `options`, from `cache_dir` (TrajectoryLibraryCacheDir; "" = no cache) when a valid file is
-/// there, else built and written there (atomically: a temporary file renamed, so that agents starting together
-/// never read a half-written file).
+/// there, else built and written there (atomically: a temporary file renamed, so that agents starting
+/// together never read a half-written file).
 /// @throws std::invalid_argument if `options` is invalid (as nav::TrajectoryLibrary).
 CachedLibrary LoadOrBuildTrajectoryLibrary(const nav::TrajectoryLibraryOptions& options,
                                            const std::string& cache_dir);

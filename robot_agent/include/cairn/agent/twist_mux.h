@@ -26,8 +26,8 @@ struct MuxChannelOptions {
 struct MuxOutput {
   Twist2 twist_B;              ///< command for the driver (zero unless the active channel is fresh)
   std::string active_channel;  ///< selected channel ("none" when nothing is selected)
-  std::string reason;          ///< why: "teleop fresh (0.05 s old)", "teleop stale: no input for 0.62 s > 0.5 s"
-  bool forwarding = false;     ///< true when twist_B comes from the channel (not a fail-safe zero)
+  std::string reason;       ///< why: "teleop fresh (0.05 s old)", "teleop stale: no input for 0.62 s > 0.5 s"
+  bool forwarding = false;  ///< true when twist_B comes from the channel (not a fail-safe zero)
 };
 
 /// Channel multiplexer with per-channel staleness.

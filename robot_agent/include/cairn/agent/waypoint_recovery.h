@@ -1,10 +1,10 @@
-// Recovery of a blocked waypoint goal, run as a behavior tree (the <BehaviorTree ID="WaypointRecovery"> of the
-// mode tree file), Nav2-style: when navigation gives up on a goal ("blocked: no progress", "the map changed
-// under the path and no new path exists", ...) the agent does not fail it at once but ticks this tree, whose
-// shipped form tries in turn: clear the local obstacle memory, back up, rotate, wait 5 s, replan from where the
-// robot is, and replan with reduced clearance, each followed by a new attempt at the goal. Every attempt is
-// reported; only when all fail does the goal fail, with the reason of each attempt. Timeout and Delay in the
-// tree count on the navigation clock (Step's now_s).
+// Recovery of a blocked waypoint goal, run as a behavior tree (the <BehaviorTree ID="WaypointRecovery"> of
+// the mode tree file), Nav2-style: when navigation gives up on a goal ("blocked: no progress", "the map
+// changed under the path and no new path exists", ...) the agent does not fail it at once but ticks this
+// tree, whose shipped form tries in turn: clear the local obstacle memory, back up, rotate, wait 5 s, replan
+// from where the robot is, and replan with reduced clearance, each followed by a new attempt at the goal.
+// Every attempt is reported; only when all fail does the goal fail, with the reason of each attempt. Timeout
+// and Delay in the tree count on the navigation clock (Step's now_s).
 //
 // The actions are the nodes registered by RegisterNodes() (BehaviorTree.CPP v4 node types, listed in the
 // tree file's TreeNodesModel); their composition (order, Timeout, RetryUntilSuccessful, ...) is the tree's.

@@ -27,10 +27,10 @@
 namespace cairn::sim {
 
 /// A rockfall: the columns of `area_W` (x-y box, metres, frame W) fill from the floor up to `height_m` above
-/// it: an obstacle that is in no map the robot has. It falls at `at_s` (seconds on the agent's clock) or, with
-/// `near_m` set, when the robot's true position first comes within near_m of the box (x-y), so that a test
-/// can drop it in front of the robot whatever the robot's speed. It stays, or is removed again (the voxels it
-/// filled become free) at `clear_s` or `clear_after_s` after it fell.
+/// it: an obstacle that is in no map the robot has. It falls at `at_s` (seconds on the agent's clock) or,
+/// with `near_m` set, when the robot's true position first comes within near_m of the box (x-y), so that a
+/// test can drop it in front of the robot whatever the robot's speed. It stays, or is removed again (the
+/// voxels it filled become free) at `clear_s` or `clear_after_s` after it fell.
 struct Rockfall {
   /// When the rock falls, seconds on the agent's clock (>= 0); ignored when near_m is set.
   double at_s = 0.0;
@@ -46,12 +46,13 @@ struct Rockfall {
   std::optional<double> clear_after_s;
 };
 
-/// Parses rockfalls "WHEN:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR]" separated by ';'. WHEN is AT_S (seconds on the agent's
-/// clock) or "nearR_M" (falls when the robot comes within R_M metres of the box); CLEAR is CLEAR_S (seconds
-/// on the agent's clock, time trigger only) or "+S" (seconds after the fall). E.g. "5:14,19,15,21,1.2",
-/// "5:14,19,15,21,1.2:30", "near1.0:8.5,5.7,9.7,6.1,1.0:+8". Throws std::invalid_argument naming the entry,
-/// the field and its value and the rule (numbers, AT_S >= 0, R_M in (0, 100], X0 < X1, Y0 < Y1, HEIGHT_M in
-/// (0, 10], CLEAR_S > AT_S, S > 0). Time-triggered entries come first, sorted by AT_S.
+/// Parses rockfalls "WHEN:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR]" separated by ';'. WHEN is AT_S (seconds on the
+/// agent's clock) or "nearR_M" (falls when the robot comes within R_M metres of the box); CLEAR is CLEAR_S
+/// (seconds on the agent's clock, time trigger only) or "+S" (seconds after the fall). E.g.
+/// "5:14,19,15,21,1.2", "5:14,19,15,21,1.2:30", "near1.0:8.5,5.7,9.7,6.1,1.0:+8". Throws
+/// std::invalid_argument naming the entry, the field and its value and the rule (numbers, AT_S >= 0, R_M in
+/// (0, 100], X0 < X1, Y0 < Y1, HEIGHT_M in (0, 10], CLEAR_S > AT_S, S > 0). Time-triggered entries come
+/// first, sorted by AT_S.
 std::vector<Rockfall> ParseRockfalls(const std::string& text);
 
 /// Options of SimulatedPlatform (cairn_agent: --world, --start, --pcd-resolution and the config file's

@@ -561,9 +561,9 @@ class TreeFactory {
   /// As CreateTreeFromText, reading `path`. Throws TreeError naming the path if it cannot be read; error
   /// messages start with "<path>:N: ".
   Tree CreateTreeFromFile(const std::string& path, std::shared_ptr<Blackboard> blackboard) const;
-  /// As above, instantiating the <BehaviorTree> whose ID is `tree_id` instead of the main tree (BehaviorTree.CPP:
-  /// registerBehaviorTreeFromFile + createTree(tree_id)); the whole document is still validated. Throws
-  /// TreeError naming `tree_id` and the IDs present if no tree has it.
+  /// As above, instantiating the <BehaviorTree> whose ID is `tree_id` instead of the main tree
+  /// (BehaviorTree.CPP: registerBehaviorTreeFromFile + createTree(tree_id)); the whole document is still
+  /// validated. Throws TreeError naming `tree_id` and the IDs present if no tree has it.
   Tree CreateTreeFromText(const std::string& xml, std::shared_ptr<Blackboard> blackboard,
                           const std::string& tree_id) const;
   Tree CreateTreeFromFile(const std::string& path, std::shared_ptr<Blackboard> blackboard,
