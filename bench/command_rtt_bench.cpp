@@ -224,7 +224,7 @@ int main(int argc, char** argv) {
     return worst;
   };
 
-  // Mode commands from the holder while another process floods the robot with path requests (issue 11: paths
+  // Mode commands from the holder while another process floods the robot with path requests (paths
   // are planned on the planning thread within a per-process rate, never on the DDS thread the commands use),
   // and the holder sends a waypoint goal (planned on the same thread, first) every 10th command.
   std::vector<double> mode_under_flood;

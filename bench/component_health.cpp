@@ -1,4 +1,4 @@
-// Cost of the agent's component health (issue 15): the control cycle's five parts run through
+// Cost of the agent's component health: the control cycle's five parts run through
 // ControlLoopComponent::Run (heartbeat, CPU accounting, failure capture) against the same work called
 // plainly, in the same run; one HealthMonitor pass over the agent's eight components; and the size of
 // AgentHealth on the wire (its bit rate at one message every 2 s, 10 s on a radio link). Usage:

@@ -1,4 +1,4 @@
-// Bench: exploration coverage against time for a team of 1, 2 and 3 robots (issue 14), in process on a
+// Bench: exploration coverage against time for a team of 1, 2 and 3 robots, in process on a
 // simulated clock (agent::SteppedRobot each: lidar -> OctoMap -> navigation map -> frontiers -> explore mode
 // -> navigation, explore claims and coverage shared as the agents send them), scored against the world's
 // ground truth. The baseline is one robot in the same run: the figure is its time to 90 % coverage over the

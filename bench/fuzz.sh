@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Coverage-guided fuzzing (issue 15) of every decoder of peer data and files (fuzz/*_fuzz.cpp) with libFuzzer:
+# Coverage-guided fuzzing of every decoder of peer data and files (fuzz/*_fuzz.cpp) with libFuzzer:
 # builds the harnesses with clang (-fsanitize=fuzzer,address; Debian's clang and libclang-rt-dev) in
 # BUILD_DIR (default build-fuzz), then runs each for RUNS executions (default 10^6) from a copy of its corpus
 # (fuzz/corpus/<name>/, new inputs land in BUILD_DIR/corpus/<name>/), and prints executions, time and speed.

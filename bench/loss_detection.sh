@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Loss detection time against false loss, on simulated 1 Mbit/s radio links (issue 13, docs/PERFORMANCE.md).
+# Loss detection time against false loss, on simulated 1 Mbit/s radio links (docs/PERFORMANCE.md).
 #
 # Three robots (light simulation, no perception) on linksim hosts r1..r3 and four basestations on hosts b0..b3,
 # each with its own `--lost-after` (0.3, 0.5, 0.8 and 1.5 s by default), all watching the same robots over the

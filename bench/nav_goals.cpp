@@ -1,7 +1,7 @@
-// Bench: goal success rate and time to goal over a fixed set of goals per built-in world (issue 11), for the
+// Bench: goal success rate and time to goal over a fixed set of goals per built-in world, for the
 // navigation stack on the robot's own knowledge (simulated platform: lidar scans -> OctoMap -> navigation map
 // -> global planner; live lidar obstacles -> local planner; SLAM pose -> controller), against the
-// ground-truth stack of before issue 11 (planner on the simulator's world, lethal cells of the world as
+// ground-truth stack (planner on the simulator's world, lethal cells of the world as
 // obstacles, true pose), in the same run. Each goal starts a fresh robot (no prior map) at the world's first
 // suggested start. In process, on a simulated clock (50 Hz control, 10 Hz lidar, 1 Hz map updates), no DDS.
 //
@@ -161,7 +161,7 @@ void PrintLevels(const agent::NavMap& nav_map, const Eigen::Vector2d& center_W, 
   }
 }
 
-// The stack of issue 11: everything from the simulated platform's sensors and pose estimate.
+// The robot's own stack: everything from the simulated platform's sensors and pose estimate.
 Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const Eigen::Vector2d& first_goal,
                   double timeout_s) {
   Eigen::Vector2d goal = first_goal;
@@ -384,7 +384,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
   return out;
 }
 
-// The stack before issue 11: the simulator's world is the map, its lethal cells the obstacles, the true pose.
+// The ground-truth stack: the simulator's world is the map, its lethal cells the obstacles, the true pose.
 Outcome RunGroundTruth(const std::string& world_spec, const core::PlanarPose& start,
                        const Eigen::Vector2d& goal, double timeout_s) {
   const agent::AgentOptions options = Options();

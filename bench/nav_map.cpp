@@ -1,8 +1,8 @@
-// Bench: the navigation map on the robot's own OctoMap (issue 11). A simulated wheeled robot drives the
+// Bench: the navigation map on the robot's own OctoMap. A simulated wheeled robot drives the
 // tunnels' main corridor (4,20) -> (26,20) at 1 m/s scanning at 10 Hz; every second the map's changed tiles
 // are applied incrementally (NavMap::Update). Baseline, in the same run on the same voxels: a full rebuild of
 // the traversability grid. Then plan time on the robot's own map against the ground-truth planner (the
-// planner before issue 11, on the simulator's world) for the same goals. And the frontier update (issue 14)
+// planner on the simulator's world) for the same goals. And the frontier update
 // after each map update, against that update and the full rebuild.
 //
 //   build/bench/cairn_bench_nav_map
@@ -71,7 +71,7 @@ int main() {
     auto t = Clock::now();
     const nav::TraversabilityGrid full(nav_map.voxels(), planner->TerrainOptionsFor(profile));
     full_ms.push_back(MsSince(t));
-    // Exploration's frontier update on the map just updated (issue 14), from where the robot is.
+    // Exploration's frontier update on the map just updated, from where the robot is.
     t = Clock::now();
     last_frontiers = nav::FindFrontiers(nav_map.grid(), {s.x_m, s.y_m});
     frontier_ms.push_back(MsSince(t));
@@ -89,7 +89,7 @@ int main() {
               *std::max_element(full_ms.begin(), full_ms.end()));
   std::printf("  ratio full / incremental (median)      %7.1fx\n", Median(full_ms) / Median(incremental_ms));
   std::printf(
-      "frontier update per map change (FindFrontiers on the updated grid, issue 14): median %.1f ms, max "
+      "frontier update per map change (FindFrontiers on the updated grid): median %.1f ms, max "
       "%.1f ms; ratio to the incremental update %.2f, to the full rebuild %.2f; last: %zu clusters (%d "
       "reachable), %d frontier cells, %.0f m^2 known free\n",
       Median(frontier_ms), *std::max_element(frontier_ms.begin(), frontier_ms.end()),

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Soak (issue 15): 5 robots in builtin:tunnels patrol between two places each (a new goal every 40 s, the
+# Soak: 5 robots in builtin:tunnels patrol between two places each (a new goal every 40 s, the
 # other end of their patrol) with the full perception pipeline, and one basestation commands and watches them,
 # for DURATION_S (default 3600) on this machine. Every 10 s it samples each process's resident memory (RSS,
 # /proc/PID/status VmRSS), its CPU use over the last 10 s (per cent of one core) and the robot's missed control

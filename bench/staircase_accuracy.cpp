@@ -1,4 +1,4 @@
-// Staircase detection accuracy (issue 11 §5): precision, recall, rise and run errors of StaircaseDetector
+// Staircase detection accuracy: precision, recall, rise and run errors of StaircaseDetector
 // over fixed sets of views in
 //  - every built-in world (sim::BuiltinWorldNames(), so a new world is picked up), exact;
 //  - a survey copy of every built-in world (sim::MakeSurveyScan: floors thinned to 50 points/m², walls keep

@@ -1,4 +1,4 @@
-# Layering rules of the build (issue 11): the robot's autonomy never links the simulator. A target named in
+# Layering rules of the build: the robot's autonomy never links the simulator. A target named in
 # cairn_forbid_link() must not reach a forbidden library through any chain of LINK_LIBRARIES or
 # INTERFACE_LINK_LIBRARIES; configuring fails naming the chain. tests/layering_check.cmake checks the sources'
 # #include lines as a test.

@@ -59,7 +59,7 @@ TEST(AgentCli, RefusesBadFlagsNamingTheValue) {
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", "300"}), "--domain 300 is out of range");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", "x1"}),
                 "--domain 'x1' is not an integer");
-  // Issue 15: ' 150' was taken while '150 ' was refused; a missing --map-save folder was found at exit (exit
+  // ' 150' was taken while '150 ' was refused; a missing --map-save folder was found at exit (exit
   // 0).
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--domain", " 150"}),
                 "--domain ' 150' is not an integer");
@@ -99,7 +99,7 @@ TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
   const std::string config = WriteFile("bad.yaml", "mux:\n  teleop_timeout_s: fast\n");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--config", config}),
                 "mux.teleop_timeout_s = 'fast' is not a number");
-  // Issue 15: a key written twice was accepted (the first one read, the second silently ignored).
+  // A key written twice was accepted (the first one read, the second silently ignored).
   const std::string twice = WriteFile("twice.yaml",
                                       "mux:\n  teleop_timeout_s: 0.5\nexplore:\n  settle_s: 1\n"
                                       "mux:\n  teleop_timeout_s: 2\n");
@@ -110,7 +110,7 @@ TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
                                      "</BehaviorTree></root>");
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r1", "--world", "builtin:arena", "--mode-tree", tree}),
                 "Nope");
-  // Issue 9: a branch naming a channel the mux does not have is refused at load, naming branch and channel
+  // A branch naming a channel the mux does not have is refused at load, naming branch and channel
   // (it used to load, and `stop` then left the twist on).
   std::ifstream shipped(std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml");
   std::string xml((std::istreambuf_iterator<char>(shipped)), std::istreambuf_iterator<char>());
@@ -220,7 +220,7 @@ TEST(BaseCli, RefusesBadFlagsAndCommands) {
                 "--domain 233 is out of range");
   ExpectRefused(RunProcess({kBase, "--base-id", "op A", "--domain", "72", "--", "robots"}),
                 "--base-id 'op A'");
-  // Issue 15: a folder as --script ran nothing and exited 0.
+  // A folder as --script ran nothing and exited 0.
   ExpectRefused(RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--script", ::testing::TempDir()}),
                 "is a folder, not a file");
   Outcome o = RunProcess({kBase, "--base-id", "opA", "--domain", "72", "--", "goto", "r1", "1", "inf"});

@@ -1,4 +1,4 @@
-// Command identity across basestation processes (issue 9), through real cairn_agent and cairn_base processes
+// Command identity across basestation processes, through real cairn_agent and cairn_base processes
 // in this test's private network namespace:
 //  - a command is identified by its sending DDS writer, not by base id + request id: one-shot CLI calls with
 //    one base id (each numbering its requests from 1) all run, and a restarted basestation's commands run;
@@ -109,7 +109,7 @@ TEST(CommandIdentity, AFirstCommandWaitsForARobotNotYetDiscoveredBeyondItsTimeou
   EXPECT_LT(std::chrono::duration<double>(Clock::now() - start).count(), 10.0);
 }
 
-// Issue 9, defect 1: the README's one-shot form. Each process numbers its requests from 1; the second goal
+// The README's one-shot form. Each process numbers its requests from 1; the second goal
 // used to get the first goal's cached denial and never ran.
 TEST(CommandIdentity, OneShotCommandsWithOneBaseIdAllRun) {
   const int domain = 71;
@@ -157,7 +157,7 @@ TEST(CommandIdentity, OneShotCommandsWithOneBaseIdAllRun) {
   Figure("one_shot_stop_to_rest_s", rest_s);
 }
 
-// Issue 9, defect 1 with a restarted basestation: its goto used to be answered "arrived after 0.02 s" (an old
+// With a restarted basestation: its goto used to be answered "arrived after 0.02 s" (an old
 // goal's id) and its stop "ok, mode idle" (an old reply) while the robot kept driving.
 TEST(CommandIdentity, RestartedBasestationsGotoAndStopTakeEffect) {
   const int domain = 72;
@@ -361,7 +361,7 @@ TEST(CommandIdentity, AGenuineRetryIsAnsweredFromTheCacheAndAppliedOnce) {
   EXPECT_EQ(count("waypoint " + std::to_string(goal_id) + " to"), 1u) << text;
 }
 
-// Issue 15, found with a rogue peer: a ControlRequest with a 100 kB base id got the lock (and the id then
+// Found with a rogue peer: a ControlRequest with a 100 kB base id got the lock (and the id then
 // rode in every state message), and an unknown action (99) was taken as REQUEST. Now the first is dropped
 // (one warning, not one per message) and the second refused, naming the action; the lock stays free.
 TEST(CommandIdentity, ARoguePeersOversizedIdAndUnknownActionAreRefused) {
@@ -409,7 +409,7 @@ TEST(CommandIdentity, ARoguePeersOversizedIdAndUnknownActionAreRefused) {
       std::string::npos);
 }
 
-// Issue 15: two basestations race for r1's lock, each from its own process and thread: request-control, and
+// Two basestations race for r1's lock, each from its own process and thread: request-control, and
 // when granted give a command only the holder may give (mode r1 idle) and release, 100 times each. A grant is
 // certainly held from its answer's arrival until the release is sent (the robot granted it before the answer
 // and freed it after the release); no two such spans of opA and opB may overlap, the holder's command and
@@ -492,7 +492,7 @@ double Travel(Observer& observer, const std::string& robot, std::size_t from) {
   return travel_m;
 }
 
-// Issue 15 fault suite: an agent frozen (SIGSTOP) for 5 s in the middle of a teleop is shown lost; resumed
+// Fault suite: an agent frozen (SIGSTOP) for 5 s in the middle of a teleop is shown lost; resumed
 // (SIGCONT) after the operator's teleop has ended, it is back online with its holder and lock, comes to rest
 // and stays there: the twists sent before and while it was frozen do not drive it. Its holder commands it as
 // before. A freeze longer than the participant lease used to leave one basestation deaf to the robot for good
@@ -538,7 +538,7 @@ TEST(CommandIdentity, AFrozenAgentComesBackWithItsLockAndDoesNotDriveOnStaleTwis
   EXPECT_TRUE(r["ok"]) << r;
 }
 
-// Issue 15 fault suite: the holder's basestation frozen (SIGSTOP) while it teleoperates r1: the robot stops
+// Fault suite: the holder's basestation frozen (SIGSTOP) while it teleoperates r1: the robot stops
 // (holder lost: idle, zero twist) and keeps the lock; resumed (SIGCONT), the basestation is the live holder
 // again with no command repeated: the robot stays idle and at rest although the frozen process's teleop had
 // time left, nobody else may take it, and the holder commands it at once. The same fault as the frozen
@@ -582,7 +582,7 @@ TEST(CommandIdentity, AFrozenBasestationGetsItsRobotBackIdleWithNoCommandRepeate
   EXPECT_TRUE(r["ok"]) << r;
 }
 
-// Issue 9, defect 2: a one-shot process with the holder's id that starts and exits used to make the robot
+// A one-shot process with the holder's id that starts and exits used to make the robot
 // mark the holder lost for 8 s and refuse the live REPL's commands.
 TEST(CommandIdentity, AShortLivedSecondProcessWithTheHoldersIdLeavesTheHolderAlive) {
   const int domain = 74;
@@ -622,7 +622,7 @@ TEST(CommandIdentity, AShortLivedSecondProcessWithTheHoldersIdLeavesTheHolderAli
   Figure("holder_not_alive_samples", not_alive);
 }
 
-// Issue 9, defect 3: with a 60 s teleop timeout the last twist stays fresh for a minute; stop must still
+// With a 60 s teleop timeout the last twist stays fresh for a minute; stop must still
 // zero it within one control period, and from a basestation without the lock too (an e-stop).
 TEST(CommandIdentity, StopHaltsATeleoperatedRobotWithinOneControlPeriod) {
   const int domain = 75;

@@ -1,4 +1,4 @@
-// The operator console (issue 10), through real cairn_agent and cairn_base processes in this test's private
+// The operator console, through real cairn_agent and cairn_base processes in this test's private
 // network namespace: the REPL on a pseudo-terminal (events above the line being typed, Tab completion,
 // Ctrl-C), operator words, news without asking, forgiving input, named places, an e-stop anyone can use,
 // and a second console attached to a running demo.

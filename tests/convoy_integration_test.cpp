@@ -1,4 +1,4 @@
-// Convoy over real processes and DDS (issue 16): four cairn_agent processes in builtin:tunnels and one
+// Convoy over real processes and DDS: four cairn_agent processes in builtin:tunnels and one
 // cairn_base, the convoy started and driven with the operator's commands (request-control, convoy, goto,
 // peel). Each robot sees only its own sensors and pose estimate, and its peers' states over cairn/peer_state;
 // the measures below are taken from the robots' own pose estimates as an observer hears them (10 Hz).

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# End-to-end test of `./cairn demo --link radio` and `./cairn link` (issue 13): two robots and the basestation
+# End-to-end test of `./cairn demo --link radio` and `./cairn link`: two robots and the basestation
 # each on a simulated host sharing a 1 Mbit/s radio (tools/demo.sh over tests/linksim). A headless mission
 # drives r1 to the junction and shows `links`; meanwhile this test cuts r2's link with `./cairn link r2 --loss 100`
 # (the basestation must show r2 lost) and restores it (r2 back online). Run by ctest inside tests/netns_run.sh.

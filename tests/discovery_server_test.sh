@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Discovery on a simulated 1 Mbit/s radio (tests/linksim), three robots and a basestation on four hosts,
 # first with simple discovery (multicast announcements), then with a Fast DDS discovery server on the
-# basestation's host (tools/discovery_server.sh; every process its client, no multicast) (issue 13). Checks:
+# basestation's host (tools/discovery_server.sh; every process its client, no multicast). Checks:
 #   1. a discovery server address outside the named subnet is refused, naming it;
 #   2. with either kind of discovery the basestation sees the three and commands one; the time it takes from
 #      the basestation's start, and the bytes the hub delivers over 10 s with the three robots idle and no

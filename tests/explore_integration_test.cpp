@@ -1,4 +1,4 @@
-// Exploration over DDS, multi-process (issue 14): two wheeled robots that know nothing are sent exploring the
+// Exploration over DDS, multi-process: two wheeled robots that know nothing are sent exploring the
 // west half of builtin:tunnels and its X junction (a region) from a basestation's CLI; only the lock's holder
 // may send one, a malformed region is refused naming it, and the robots explore by themselves, sharing claims
 // and coverage over cairn/explore_claim (never one frontier for two, neither mapping it all, the traffic

@@ -351,7 +351,7 @@ INSTANTIATE_TEST_SUITE_P(Worlds, FleetIntegration,
                                            WorldCase{"tunnels", "builtin:tunnels", 62}),
                          [](const auto& info) { return info.param.name; });
 
-// Navigation on the robot's own knowledge (issue 11): a goal around a corner the robot has never seen, beyond
+// Navigation on the robot's own knowledge: a goal around a corner the robot has never seen, beyond
 // its navigation map (started at start +- 10 m here), is accepted with a plan to the map's edge, the map
 // grows over it and the goal is reached; a rockfall dropped into the simulated world mid-drive (in no map) is
 // seen by the lidar, avoided by the local planner and planned around, with no contact.
@@ -407,7 +407,7 @@ TEST(NavigationOverDds, GoalInUnknownSpaceAndARockfallPlannedAround) {
   Figure("nav_map_growths", growths);
 }
 
-// Narrow passages and recovery (issue 11 section 3) on the robot's own map: a 0.6 m wheeled robot in a room
+// Narrow passages and recovery on the robot's own map: a 0.6 m wheeled robot in a room
 // whose only way out is a 1.0 m doorway, sent to the corridor outside. As it comes within 4.3 m of the
 // doorway a rock falls into it and boxes the robot in: its map (every wall of the room seen) holds no way
 // out. The rock is cleared 4 s later, like a person or dust that moves on; the robot, stopped about 3 m short
@@ -466,7 +466,7 @@ TEST(NavigationOverDds, ABoxedInRobotRecoversAndPassesAOneMetreDoorway) {
   Figure("closest_to_rock_before_recovery_m", closest_to_rock_m);
 }
 
-// Several floors on the robots' own maps (issue 11 section 4): a legged robot sent to a room on floor 2 of
+// Several floors on the robots' own maps: a legged robot sent to a room on floor 2 of
 // the two-floor building, which its map has never seen, climbs the switchback stairwell with partial plans
 // that grow with its map and arrives on floor 2; a wheeled robot that has seen the stairs is refused the
 // upper floor naming their step.
@@ -545,7 +545,7 @@ TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) 
   EXPECT_NE(reason.find("max_step_m 0.15"), std::string::npos) << reason;
 }
 
-// Peers over DDS (issue 16): robot B stands idle in the main tunnel of builtin:tunnels (3 m wide) on robot
+// Peers over DDS: robot B stands idle in the main tunnel of builtin:tunnels (3 m wide) on robot
 // A's way. A simulated lidar does not see another robot (each agent simulates its own world): A keeps clear
 // of B only because B tells its peers where it is (cairn/peer_state). A either passes B or stops short of it
 // (its goal then fails as blocked, or it is still in its recovery attempts when the wait ends: seen both ways

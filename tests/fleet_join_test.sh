@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Robots joining one basestation over a simulated 1 Mbit/s radio (tests/linksim: a host each), every
 # process on the radio link class, first with simple discovery (multicast announcements), then as clients of a
-# Fast DDS discovery server on the basestation's host (issue 13). In each round:
+# Fast DDS discovery server on the basestation's host. In each round:
 #   1. the robots start one after the other; with the server each is visible at the basestation (its
 #      announcement arrived) within 1 s (p95) of announcing itself, which it does once ready to take commands
 #      (its DDS participant starts first, so discovery overlaps its own start); with simple discovery a figure
@@ -12,7 +12,7 @@
 #   4. 5 % random loss on every link for 20 s: no robot is shown lost (no false loss);
 #   5. the basestation quits; the idle traffic of N, 5 and 1 robots alone (discovery and liveliness) is a
 #      figure.
-# ctest runs the issue's 10 robots with the server (CAIRN_FLEET_JOIN_ROBOTS) and 5 with simple discovery
+# ctest runs 10 robots with the server (CAIRN_FLEET_JOIN_ROBOTS) and 5 with simple discovery
 # (CAIRN_FLEET_JOIN_SIMPLE_ROBOTS: with 10, the 7th and later robots are not seen at all within 15 s on 1 Mbit/s
 # links, and the test fails: docs/PERFORMANCE.md). CAIRN_FLEET_JOIN_ROUNDS="server" runs one round;
 # CAIRN_FLEET_JOIN_KBIT the links' rate (default 1000). Run by hand with CAIRN_FLEET_JOIN_LINK=lan for the lan

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # A robot and a basestation on two hosts joined by a simulated 1 Mbit/s radio (tests/linksim), each talking DDS
-# on the lan link bound to the test subnet only (issue 13, first part). Checks, in order:
+# on the lan link bound to the test subnet only (first part). Checks, in order:
 #   1. the link simulator: a 1 Mbit/s link carries about 1 Mbit/s, and 20 % loss drops about 20 %;
 #   2. bad link flags are refused naming the flag and the value, before any participant starts;
 #   3. a lan participant in a subnet this host has no address in is refused, naming the interfaces seen;
@@ -126,7 +126,7 @@ command_round_trips lan_1mbit
 # 7. A camera that saturates the link (20 frames/s at JPEG quality 95, budget 4 Mbit/s: about 2-3 Mbit/s
 #    offered to a 1 Mbit/s link). As configured (lan), commands queue behind the frames; on the radio link the
 #    robot holds its camera and map to shares of the stated budget, and commands keep their round trip
-#    (issue 13: p99 <= 100 ms, none lost).
+#    (p99 <= 100 ms, none lost).
 cat >"$LOGS/heavy.yaml" <<'YAML'
 perception:
   camera_rate_hz: 20

@@ -202,7 +202,7 @@ TEST(PerceptionOverDds, StaircaseSnapshotMapBudgetAndLateJoiner) {
   nan_stairs.width_m(1.0);
   nan_stairs.num_steps(4);
   ASSERT_TRUE(tap.staircase_writer().Write(nan_stairs));
-  // Issue 15: finite but absurd, x = 1e300, was announced to every operator.
+  // Finite but absurd, x = 1e300, was announced to every operator.
   cairn_msgs::StaircaseDetection far_stairs = nan_stairs;
   far_stairs.staircase_id(2);
   far_stairs.rise_m(0.18);

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Three robots and a basestation on four hosts joined by a simulated 1 Mbit/s radio (tests/linksim), every
-# process on the radio link class (issue 13). Each robot's camera alone would fill the link (20 frames/s at
+# process on the radio link class. Each robot's camera alone would fill the link (20 frames/s at
 # JPEG quality 95). Checks, in order:
 #   1. each robot sees the other two on its link and takes a third of the radio's bulk shares;
 #   2. the basestation hears each robot join, with what it offers (sensors, map resolution, link);

@@ -1,4 +1,4 @@
-// Restart into the last known safe state (issue 15), through real processes in this test's private network
+// Restart into the last known safe state, through real processes in this test's private network
 // namespace: a cairn_agent run by its supervisor (--supervise --journal) is SIGKILLed in the middle of a
 // goal; the supervisor starts it again with --resume, and the robot comes back idle where it was, with its
 // lock's holder, its map reloaded and the old goal offered (never resumed by itself) until the holder resumes

@@ -1,4 +1,4 @@
-// DDS Security (issue 15), through real cairn_agent and cairn_base processes started with --secure, in this
+// DDS Security, through real cairn_agent and cairn_base processes started with --secure, in this
 // test's private network namespace, with the keys `./cairn keys` makes (tools/keys.sh):
 //  - a participant without a certificate from the fleet's CA neither discovers a robot, nor reads its state,
 //    nor reaches it with a command; one with a certificate from another CA does no better;

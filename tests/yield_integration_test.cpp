@@ -1,4 +1,4 @@
-// Get-out-of-the-way over real processes and DDS (issue 16): three cairn_agent processes in builtin:narrow
+// Get-out-of-the-way over real processes and DDS: three cairn_agent processes in builtin:narrow
 // (two 2 m wide tunnels, each with one bay on its north wall) and one cairn_base. Robot "ya" drives along the
 // south tunnel through "yb", parked in it; "ye" drives the same route in the empty north tunnel at the same
 // time (the time ya loses to the yield). Each robot sees only its own sensors and pose estimate, and its

@@ -1,4 +1,4 @@
-// The command shell's convoy commands (issue 16): `convoy LEADER R1 R2 ...`, `convoy-stop [LEADER]` and
+// The command shell's convoy commands: `convoy LEADER R1 R2 ...`, `convoy-stop [LEADER]` and
 // `peel R X Y|X,Y|PLACE [TOL]` (see command_shell.h), and the convoy fields of `status`.
 //
 // A convoy is the followers' state, not the shell's: each follower says whom it follows (RobotState's

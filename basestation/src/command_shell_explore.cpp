@@ -1,4 +1,4 @@
-// The command shell's exploration commands (issue 14): `explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1]
+// The command shell's exploration commands: `explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1]
 // [--wait [TIMEOUT_S]]` and `frontiers R` (see command_shell.h), and the exploration fields of `status`.
 #include <cmath>
 #include <limits>

@@ -1,5 +1,5 @@
 // The command shell's `health R` and `restart R COMPONENT` (see command_shell.h): the components of a robot's
-// agent as its health monitor judges them, and an operator's restart of one (issue 15).
+// agent as its health monitor judges them, and an operator's restart of one.
 #include <cstdio>
 
 #include "cairn/base/command_shell.h"

@@ -199,7 +199,7 @@ TEST(FleetEventDetector, EachRecoveryAttemptIsToldAsItFails) {
   EXPECT_EQ(Kinds(detector.Observe({r1})), (std::vector<std::string>{"arrived"}));
 }
 
-// Get-out-of-the-way (issue 16): the robot asked moving aside, refusing and back; the robot asking and
+// Get-out-of-the-way: the robot asked moving aside, refusing and back; the robot asking and
 // blocked. Moving aside then standing aside is one event.
 TEST(FleetEventDetector, EachStepOfAYieldIsToldOnceOnBothRobots) {
   FleetEventDetector detector;

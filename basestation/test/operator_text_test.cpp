@@ -61,14 +61,14 @@ TEST(ValidActions, OfferOnlyWhatTheRobotWouldAcceptFromThisBasestation) {
                                                                  "teleop", "yield", "release", "stop"}));
   EXPECT_EQ(ValidActionsText(mine, "op1"),
             "valid now: mode idle|manual, goto, home, convoy, teleop, yield, release, stop");
-  // Issue 14: explore when the tree would take a task (a mapping robot); the explore mode itself is not a
+  // Explore when the tree would take a task (a mapping robot); the explore mode itself is not a
   // `mode` action (explore sets the task).
   RobotView explorer = HeldBy("op1", {"idle", "manual", "waypoint", "explore"}, true);
   explorer.tree->explore_acceptable(true);
   EXPECT_EQ(ValidActions(explorer, "op1"),
             (std::vector<std::string>{"mode idle|manual", "goto", "home", "explore", "convoy", "teleop",
                                       "yield", "release", "stop"}));
-  // Issue 16: a convoy follower may peel off or end the convoy; convoy mode itself is set by convoy.
+  // A convoy follower may peel off or end the convoy; convoy mode itself is set by convoy.
   RobotView follower = HeldBy("op1", {"idle", "manual", "waypoint", "convoy"}, true);
   follower.state->convoy_ahead_ids({"r0"});
   EXPECT_EQ(ValidActions(follower, "op1"),

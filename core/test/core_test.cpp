@@ -128,7 +128,7 @@ TEST(DomainId, AcceptsRangeAndNamesBadValues) {
   EXPECT_THROW(Participant{options}, std::invalid_argument);
 }
 
-// Issue 15: a key written twice was read once and the other silently ignored.
+// A key written twice was read once and the other silently ignored.
 TEST(Config, AKeyWrittenTwiceInOneMappingIsRefusedNamingItAndItsLine) {
   try {
     ConfigSection::LoadText("agent:\n  lock_keep_s: 5\n  name: r1\n  lock_keep_s: 9\n", "t.yaml");

@@ -1,6 +1,6 @@
 // Copyright Cairn authors.
 //
-// Get-out-of-the-way spots (issue 16) on hand-made worlds: a 2 m tunnel with a side passage, the same tunnel
+// Get-out-of-the-way spots on hand-made worlds: a 2 m tunnel with a side passage, the same tunnel
 // without one, and a room.
 #include "cairn/nav/yield_spot.h"
 

@@ -450,7 +450,7 @@ TEST(StaircaseFalsePositiveTest, Geb079CorridorWithoutStairs) {
   ExpectNoStairs(world, stretches, "geb079_no_stairs");
 }
 
-// ---- Walls, crates, flights seen side-on; 0.25 m runs (issue 11 §5) -------------------------------------
+// ---- Walls, crates, flights seen side-on; 0.25 m runs -------------------------------------
 // Scenes at 1 cm voxels: an 8 x 8 m floor (surface z = 0) and what stands on it. bench/staircase_accuracy.cpp
 // scores the same kinds of scene over many views.
 
@@ -567,7 +567,7 @@ TEST(StaircaseRejectionTest, FlightSeenSideOnIsNeverAStaircaseAlongTheRay) {
   EXPECT_EQ(views, 12);
 }
 
-// Run error on 0.25 m runs (issue 11 §5: <= 2 cm): flights of rise 0.17-0.20 m between walls, straight and at
+// Run error on 0.25 m runs (target <= 2 cm): flights of rise 0.17-0.20 m between walls, straight and at
 // 30 deg, approached from 1.5 m and 2.5 m; one detection per flight.
 TEST(StaircaseDetectorTest, QuarterMetreRunsWithinTwoCentimetres) {
   std::uint32_t seed = 40;

@@ -244,7 +244,7 @@ TEST(CommandInterface, AGoalIsAnsweredOnceItsPlanIsDoneAndARetryMeanwhileIsIgnor
   EXPECT_EQ(r.last().goal_id, 42u);
 }
 
-// Issue 14: home R is a goal to the robot's start (its level too), or to the point sent; its answer is a home
+// Home R is a goal to the robot's start (its level too), or to the point sent; its answer is a home
 // answer, and it is the holder's only.
 TEST(CommandInterface, HomeIsAGoalToTheStartOrThePointSent) {
   Robot r;
@@ -336,7 +336,7 @@ TEST(CommandInterface, TheHoldersJoystickAndLivelinessComeFromItsProcesses) {
   EXPECT_FALSE(c.joystick_alive);
 }
 
-// Issue 14: explore R is the holder's; a bad frame or region is refused naming it; the tree's refusal names
+// Explore R is the holder's; a bad frame or region is refused naming it; the tree's refusal names
 // the failed condition (mapping); an accepted one answers with the task id and the robot explores.
 TEST(CommandInterface, ExploreIsTheHoldersCheckedAndDecidedByTheTree) {
   Robot r;

@@ -82,7 +82,7 @@ TEST(ControlLock, KeepsLockForeverAfterLivelinessLossByDefault) {
   EXPECT_FALSE(lock.Request("opB", kB, t0 + 24h).accepted);
 }
 
-// Issue 9, defect 2: a one-shot process with the holder's id that starts and exits leaves the holder alive.
+// A one-shot process with the holder's id that starts and exits leaves the holder alive.
 TEST(ControlLock, AShortLivedSecondProcessWithTheHoldersIdLeavesItAlive) {
   ControlLock lock("r1", {});
   const auto t0 = core::SteadyClock::now();

@@ -1,4 +1,4 @@
-// Convoy (issue 16): the follower's trail (ConvoyTrail) on made-up paths, and a leader driven by waypoints
+// Convoy: the follower's trail (ConvoyTrail) on made-up paths, and a leader driven by waypoints
 // through builtin:tunnels' X junction with three followers behind it, every robot's autonomy stepped on a
 // simulated clock in process (SteppedRobot: perception, navigation map, local planner, controller), peer
 // states exchanged at 5 Hz as over cairn/peer_state. The convoy over real processes and DDS is

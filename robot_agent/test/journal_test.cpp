@@ -1,4 +1,4 @@
-// The journal (issue 15): what a restarted robot reads back, and what it refuses, naming the field.
+// The journal: what a restarted robot reads back, and what it refuses, naming the field.
 #include "cairn/agent/journal.h"
 
 #include <gtest/gtest.h>

@@ -147,7 +147,7 @@ TEST(ModeControl, TheShippedTreeLoadsWithTheBuiltInModes) {
   EXPECT_EQ(control.last_output().active_channel, "none");
 }
 
-// Issue 11 §6: every mode the tree can select exists as a module, with that module's channel, on the mux.
+// Every mode the tree can select exists as a module, with that module's channel, on the mux.
 TEST(ModeControl, RefusesATreeModeWithoutAModuleNamingFileLineModeAndBranch) {
   ModeRegistry r;
   r.Emplace<IdleMode>();

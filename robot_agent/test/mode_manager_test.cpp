@@ -97,7 +97,7 @@ TEST(ModeManager, ValidModesAreTheOperatorsValidActions) {
   EXPECT_EQ(modes.mode(), "idle") << "ValidModes must not switch";
 }
 
-// Issue 15: a mode that needs a component that is down is refused naming it, falls back to idle on its
+// A mode that needs a component that is down is refused naming it, falls back to idle on its
 // re-check, and is valid again once the component is back; the others go on.
 TEST(ModeManager, ModesNeedingAComponentThatIsDownAreRefusedUntilItIsBack) {
   ModeManager modes(kTree, kChannels);
@@ -125,7 +125,7 @@ TEST(ModeManager, ModesNeedingAComponentThatIsDownAreRefusedUntilItIsBack) {
   EXPECT_TRUE(modes.Request("smart_joystick", c).accepted);
 }
 
-// Issue 16: a robot asked to get out of the way needs no lock (its policy decides, not its operator), only a
+// A robot asked to get out of the way needs no lock (its policy decides, not its operator), only a
 // yield it accepted, its pose and a healthy local planner.
 TEST(ModeManager, YieldNeedsAnAcceptedRequestButNoLock) {
   ModeManager modes(kTree, kChannels);
@@ -146,7 +146,7 @@ TEST(ModeManager, YieldNeedsAnAcceptedRequestButNoLock) {
   EXPECT_EQ(modes.mode(), "idle");
 }
 
-// Issue 14: explore needs a task, a healthy local planner and a robot that maps; a refusal names which.
+// Explore needs a task, a healthy local planner and a robot that maps; a refusal names which.
 TEST(ModeManager, ExploreNeedsATaskAndMappingAndTheRefusalNamesWhich) {
   ModeManager modes(kTree, kChannels);
   ModeConditions c = Held();
@@ -201,7 +201,7 @@ TEST(ModeManager, RejectsTreesWithoutIdleOrBroken) {
   EXPECT_THROW((ModeManager{"/nonexistent/tree.xml", kChannels}), bt::TreeError);
 }
 
-// Issue 9, defect 3: a branch naming a channel the mux lacks loaded, and `stop` then left the twist on.
+// A branch naming a channel the mux lacks loaded, and `stop` then left the twist on.
 TEST(ModeManager, RefusesABranchWhoseChannelIsNotAMuxChannelNamingBranchAndChannel) {
   std::ifstream in(kTree);
   std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

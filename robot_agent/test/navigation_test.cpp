@@ -224,7 +224,7 @@ sim::World WallWorld(bool with_doorway) {
 }
 
 TEST(NavigationTest, WaypointThroughAOneMetreDoorwayWithoutContact) {
-  // Issue 11: a 0.6 m wheeled robot passes a 1.0 m doorway (0.2 m each side) to a goal behind the wall.
+  // A 0.6 m wheeled robot passes a 1.0 m doorway (0.2 m each side) to a goal behind the wall.
   sim::World w = FlatWorld(10, 8, 0.1, 1.5);
   FillBox(&w, {5.0, 0.0, 0.0}, {5.2, 8.0, 1.6});
   FillBox(&w, {5.0, 4.4, 0.0}, {5.2, 5.4, 1.6}, false);  // 1.0 m door, centre y = 4.9
@@ -598,7 +598,7 @@ TEST(NavigationTest, AGoalsOwnStallTimeoutReplacesTheOptions) {
   EXPECT_NEAR(took_s, 20.0, 0.5);
 }
 
-// Peers (issue 16): each robot is told where the other is (PeerTracker::Live() as the agent would, here every
+// Peers: each robot is told where the other is (PeerTracker::Live() as the agent would, here every
 // 0.2 s as at peers.rate_hz 5) and keeps clear of it; a simulated robot's lidar never sees another robot.
 PeerBody PeerOf(const std::string& id, const SimRobot& robot) {
   PeerBody peer;

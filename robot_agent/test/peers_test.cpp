@@ -1,4 +1,4 @@
-// Peer awareness (issue 16): checks of a peer's state, the tracker's timeout, the obstacle points that stand
+// Peer awareness: checks of a peer's state, the tracker's timeout, the obstacle points that stand
 // for a peer, and the path ahead a robot tells its peers.
 #include "cairn/agent/peers.h"
 
@@ -55,7 +55,7 @@ TEST(PeersTest, BadPeerStatesAreRefusedNamingTheFieldAndValue) {
   EXPECT_NE(CheckPeerBody(p).find("path_ahead_M[1] = (2, nan, 0)"), std::string::npos) << CheckPeerBody(p);
   p = Peer("", 1, 2);
   EXPECT_NE(CheckPeerBody(p).find("robot_id is empty"), std::string::npos);
-  // Its answer to a yield request (issue 16).
+  // Its answer to a yield request.
   p = Peer("r2", 1, 2);
   p.yield_state = "aside";
   p.yield_to_id = "r1";

@@ -11,7 +11,7 @@ TEST(ReplyCache, ARetryFromTheSameWriterHitsAnyOtherWriterMisses) {
   cache.Insert(first, "denied: outside the map");
   ASSERT_NE(cache.Find(first), nullptr);
   EXPECT_EQ(*cache.Find(first), "denied: outside the map");
-  // Issue 9, defect 1: a new process with the same base id numbers its requests from 1 again.
+  // A new process with the same base id numbers its requests from 1 again.
   const CommandKey new_process{"01.0f.aa.aa.00.00.00.02.00.00.00.01.00.00.01.03", 2, 1};
   EXPECT_EQ(cache.Find(new_process), nullptr);
   EXPECT_EQ(cache.Find(CommandKey{first.writer_id, 3, 1}), nullptr) << "another kind";

@@ -1,4 +1,4 @@
-// Get-out-of-the-way (issue 16): the policy (DecideYield), the asking robot's choice (YieldAsker) on
+// Get-out-of-the-way: the policy (DecideYield), the asking robot's choice (YieldAsker) on
 // builtin:narrow's grid, and a parked robot yielding to one driving through its 2 m tunnel with every robot's
 // autonomy stepped on a simulated clock in process (SteppedRobot), peer states at 5 Hz and yield requests as
 // over DDS, scored on the simulator's ground truth. The same over real processes and DDS is

@@ -1,6 +1,6 @@
 // Copyright Cairn authors.
 //
-// Sparse, noisy scans as worlds (issue 11): a degraded copy of the real scan geb079.bt (floor thinned to ~50
+// Sparse, noisy scans as worlds: a degraded copy of the real scan geb079.bt (floor thinned to ~50
 // points/m^2, walls and ceiling with holes, floor holes, two wells cut into the corridor floor, single stray
 // points in open space) is written as a PCD and loaded at the default resolution; the clean-up must remove
 // the strays, fill the small holes, leave the wells open and give nav a drivable corridor. A synthetic room

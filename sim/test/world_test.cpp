@@ -472,7 +472,7 @@ TEST_F(WorldFileTest, PcdErrors) {
   EXPECT_CONTAINS(WorldErrorOf([&] { LoadWorld(garbage); }), "'" + garbage + "' is not a valid PCD file");
 }
 
-// Issue 15's crafted headers: each is refused before PCL reads (or allocates) anything, naming the field and
+// Crafted headers: each is refused before PCL reads (or allocates) anything, naming the field and
 // its value.
 TEST_F(WorldFileTest, PcdHeadersThatLieAreRefusedNamingTheField) {
   const auto header = [](const std::string& type, const std::string& points, const std::string& data) {

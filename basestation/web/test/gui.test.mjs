@@ -1,4 +1,4 @@
-// Browser tests of the operator GUI (issue 12), in headless Chromium against real processes: two simulated
+// Browser tests of the operator GUI, in headless Chromium against real processes: two simulated
 // robots in builtin:tunnels, two basestations op1 and op2 each with its GUI. Each step saves a screenshot in
 // build/test-logs/gui/gui/. Run by ctest inside a private network namespace (node --test).
 import assert from "node:assert/strict";

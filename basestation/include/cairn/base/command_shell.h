@@ -40,7 +40,7 @@ class CommandShell {
  public:
   /// @throws std::invalid_argument when the places file is malformed (names file, place and field).
   CommandShell(FleetClient& client, ShellOptions options, std::ostream& out);
-  /// The pre-issue-10 form: no places file, no terminal hooks.
+  /// The minimal form: no places file, no terminal hooks.
   CommandShell(FleetClient& client, bool json, std::ostream& out);
 
   /// Runs `line` ("" and "# comment" do nothing). @return kOk, kRefused (refused, failed, timed out or

@@ -1,4 +1,4 @@
-// A basestation's view of each robot's link (issue 13, bandwidth monitoring; Sriganesh et al. 2024 § Host
+// A basestation's view of each robot's link (bandwidth monitoring; Sriganesh et al. 2024 § Host
 // discovery and communication): when it was last heard, the round trip of the base's link probe, how many of
 // its 10 Hz state samples (RobotPose) were lost on the way (gaps in their writer's sequence numbers), and
 // what the robot says it sends per topic class against its stated budget. Pure logic, no DDS: FleetClient

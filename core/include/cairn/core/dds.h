@@ -62,7 +62,7 @@ int ParseDomainId(const std::string& text, const std::string& field = "--domain"
 /// with the environment variable CAIRN_DDS_PROFILES.
 std::string DefaultProfilesFile();
 
-/// A flow controller the participant registers (DESIGN.md: map and camera writers are flow-controlled so
+/// A flow controller the participant registers (docs/DESIGN.md: map and camera writers are flow-controlled so
 /// that they never starve commands). Writers opt in by name (Writer's `flow_controller` argument).
 struct FlowControllerOptions {
   std::string name;                ///< e.g. "cairn.map"; unique per participant
@@ -152,8 +152,8 @@ struct ParticipantOptions {
   std::string profiles_file = DefaultProfilesFile();   ///< Fast DDS XML profiles file.
   std::string participant_profile = "cairn.loopback";  ///< participant profile name in that file.
   std::string name = "cairn";                          ///< participant name seen by peers.
-  /// The networks the participant may use (network safety, DESIGN.md): loopback only by default; a profile
-  /// that would listen on, announce or send to anything else is refused with the reason.
+  /// The networks the participant may use (network safety, docs/DESIGN.md): loopback only by default; a
+  /// profile that would listen on, announce or send to anything else is refused with the reason.
   NetworkScope network;
   /// The link (LinkOptions): `lan` rebuilds the profile's transport and locators on the named network and
   /// sets `network` to it.

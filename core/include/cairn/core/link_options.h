@@ -7,7 +7,7 @@
 
 namespace cairn::core {
 
-/// Which network a participant talks on (issue 13's link classes; DESIGN.md "QoS and links").
+/// Which network a participant talks on.
 ///
 /// - `loopback` (default): the participant profile as it is, which must stay on 127.0.0.0/8.
 /// - `lan`: one named network. The participant's UDPv4 transport, its metatraffic and default unicast

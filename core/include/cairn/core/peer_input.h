@@ -1,5 +1,5 @@
 // Checks of what peers send (robot and basestation ids) and rate-limited warnings about bad peer input: a
-// peer's messages are untrusted input (issue 15), checked before anything reads them, and a flood of bad ones
+// peer's messages are untrusted input, checked before anything reads them, and a flood of bad ones
 // must not flood the log.
 #pragma once
 

@@ -1,6 +1,6 @@
 // Copyright Cairn authors.
 //
-// The exploration target choice (issue 14): from the frontiers of the robot's map (FindFrontiers), which one
+// The exploration target choice: from the frontiers of the robot's map (FindFrontiers), which one
 // to drive to now, when to switch to a better one as the map grows, which ones failed and must not be tried
 // again, and when exploration is complete. Pure logic, DDS-free: the agent's explore mode feeds it each new
 // frontier set and tells it when navigation gave up on a target.

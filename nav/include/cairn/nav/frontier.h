@@ -138,10 +138,10 @@ struct FrontierSet {
 /// by gain; stable.
 void SortFrontierClusters(std::vector<FrontierCluster>* clusters);
 
-/// A robot's explored floor, coarse, for its peers (issue 14: "their maps reach each other"; the coverage of
-/// an ExploreClaim): which cell_m x cell_m cells of an x-y box, frame M (shared by the team), hold mostly
-/// known ground in the robot's navigation map. Cell (i, j) has its minimum corner at (origin_cell + (i, j)) *
-/// cell_m, metres; it is bit k % 8 (least significant first) of bits[k / 8], k = j * nx + i.
+/// A robot's explored floor, coarse, for its peers (the coverage of an ExploreClaim): which cell_m x cell_m
+/// cells of an x-y box, frame M (shared by the team), hold mostly known ground in the robot's navigation map.
+/// Cell (i, j) has its minimum corner at (origin_cell + (i, j)) * cell_m, metres; it is bit k % 8 (least
+/// significant first) of bits[k / 8], k = j * nx + i.
 struct CoverageBitmap {
   static constexpr int kMaxCells = 1 << 24;  ///< nx * ny at most (2 MB of bits)
   double cell_m = 0.5;
@@ -167,7 +167,7 @@ struct CoverageBitmap {
 /// @throws std::invalid_argument unless 0 < cell_m <= 10 and cell_m >= the grid's cell size.
 CoverageBitmap SeenCoverage(const TraversabilityGrid& grid, double cell_m);
 
-/// Where peer robots have seen (issue 14: their maps reach each other): x-y cells of cell_m() marked from
+/// Where peer robots have seen (their maps reach each other): x-y cells of cell_m() marked from
 /// their map telemetry. FindFrontiers counts none of it as gain: a frontier into a branch a peer explored is
 /// worth nothing. Frame M (shared by the team), metres. Not thread-safe.
 class PeerCoverage {
@@ -216,7 +216,7 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
 /// Frontiers of every level of `grid` (a robot-built multi-level map read optimistically, unknown_is_lethal
 /// false), seen from the robot standing at `robot_M` (x, y and the height of the ground under it; metres,
 /// frame M): FindFrontiers() on the map's surfaces, so that the floors above and below the robot, and the
-/// stairs between them, hold frontiers a legged robot can go for (issue 14: "it finds and uses the stairs").
+/// stairs between them, hold frontiers a legged robot can go for.
 ///
 /// A frontier surface is a traversable surface inside the region and height band with a 4-neighbouring column
 /// that has no surface within max_step_m of its height and is unknown there (MultiLevelGrid::IsUnknownAt: no

@@ -1,6 +1,6 @@
 // Copyright Cairn authors.
 //
-// Get-out-of-the-way (issue 16; Sriganesh et al. 2024, § Advanced Multi-agent Coordination): where a robot
+// Get-out-of-the-way (Sriganesh et al. 2024, § Advanced Multi-agent Coordination): where a robot
 // blocking a peer's route in a passage too narrow to pass can stand aside. The spot is the nearest one, by
 // driving distance on the robot's own traversability grid, whose centre is far enough from the peer's path
 // for both footprints and a margin: a side passage, a junction's arm or a wide spot of the tunnel.

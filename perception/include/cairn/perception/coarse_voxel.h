@@ -2,7 +2,7 @@
 //
 // A voxel of the coarse map that robots send to basestations (map telemetry). Shared by the mapping library
 // (which extracts coarse changes from its OctoMap) and the telemetry codec (which encodes, budgets and merges
-// them). See DESIGN.md "Messages and topics" and perception/README.md.
+// them). See docs/DESIGN.md "Messages and topics" and perception/README.md.
 #pragma once
 
 #include <cstdint>

@@ -1,7 +1,7 @@
 // Copyright Cairn authors.
 //
-// JPEG compression of camera frames for telemetry, with libjpeg-turbo's TurboJPEG API (issue 4: "JPEG-
-// compressed with libturbojpeg"). Grayscale only: the simulated camera renders shaded depth.
+// JPEG compression of camera frames for telemetry, with libjpeg-turbo's TurboJPEG API. Grayscale only: the
+// simulated camera renders shaded depth.
 #pragma once
 
 #include <cstdint>

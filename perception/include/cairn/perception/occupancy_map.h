@@ -1,8 +1,8 @@
 // Copyright Cairn authors.
 //
 // The robot's 3D occupancy map: an OctoMap built from lidar scans and SLAM poses, queried by planners and
-// exploration, and diffed into coarse voxels for map telemetry. See DESIGN.md "Perception" and
-// perception/README.md. OctoMap stays behind a pimpl: only occupancy_map.cpp includes its headers.
+// exploration, and diffed into coarse voxels for map telemetry. See perception/README.md. OctoMap stays
+// behind a pimpl: only occupancy_map.cpp includes its headers.
 #pragma once
 
 #include <Eigen/Core>

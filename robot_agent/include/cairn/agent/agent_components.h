@@ -1,4 +1,4 @@
-// The parts of cairn_agent as core::Components watched by core::HealthMonitor (issue 15; Sriganesh et al.
+// The parts of cairn_agent as core::Components watched by core::HealthMonitor (Sriganesh et al.
 // 2024, § Resilience): each beats a heartbeat, reports what it throws, and is restarted alone.
 //
 //   platform           the sensor thread: lidar scans from the platform (live obstacles, the map's input)

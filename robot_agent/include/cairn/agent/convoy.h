@@ -1,4 +1,4 @@
-// Convoy (issue 16; Sriganesh et al. 2024, § Advanced Multi-agent Coordination): followers keep behind the
+// Convoy (Sriganesh et al. 2024, § Advanced Multi-agent Coordination): followers keep behind the
 // robot ahead of them on the path it actually drove, at a spacing along that path. The robot ahead's pose
 // comes from its peer state (cairn/peer_state, peers.h); a follower keeps those poses as breadcrumbs (its
 // trail), places itself on the trail and drives along it at the robot ahead's speed, corrected by its spacing

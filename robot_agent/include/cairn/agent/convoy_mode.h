@@ -1,4 +1,4 @@
-// Convoy mode (issue 16): a follower drives behind the robot ahead of it in a convoy, on the path that robot
+// Convoy mode: a follower drives behind the robot ahead of it in a convoy, on the path that robot
 // drove (ConvoyTrail), through navigation's local planner and controller (Navigation::AcceptGoal with the
 // trail as the global path, StepWaypoint), so that peers and live obstacles are avoided as in waypoint mode.
 // It drives at the robot ahead's speed plus a gain times its spacing error (ConvoyTrail::Next), so that it

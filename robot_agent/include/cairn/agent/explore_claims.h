@@ -1,5 +1,4 @@
-// The team side of exploration (issue 14: "robots share what they are going for over DDS ... and their maps
-// reach each other"). Each exploring robot sends an ExploreClaim (idl/cairn_msgs.idl, topic
+// The team side of exploration. Each exploring robot sends an ExploreClaim (idl/cairn_msgs.idl, topic
 // cairn/explore_claim) every claim_period_s: the frontier it goes for and how long it has held it; every
 // coverage_period_s the claim also carries the floor the robot has seen, as a coarse bitmap
 // (nav::SeenCoverage) compressed with zstd. Its peers keep the claims they heard (each expires lease_s after

@@ -1,4 +1,4 @@
-// Explore mode (issue 14; Sriganesh et al. 2024, § Behavior Tree and Mux: exploration, the top level of
+// Explore mode (Sriganesh et al. 2024, § Behavior Tree and Mux: exploration, the top level of
 // sliding autonomy): the robot maps the unknown by itself. Frontiers of its own navigation map
 // (nav::FindFrontiers, run on the map's thread after each update and handed in with OnFrontiers()) feed the
 // target choice (nav::Explorer); each target is driven as a waypoint goal through navigation, with the

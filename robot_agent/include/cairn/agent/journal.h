@@ -1,4 +1,4 @@
-// The robot's last known safe state on disk (issue 15): who held its control lock, its mode, the waypoint
+// The robot's last known safe state on disk: who held its control lock, its mode, the waypoint
 // goal it was driving, its pose estimate and a snapshot of its map. Written atomically (temporary file,
 // fsync, rename, fsync of the folder) whenever it changes, so that a robot restarted after a crash
 // (cairn_agent

@@ -1,5 +1,5 @@
-// What a robot sends on its link, per topic class, as rates: the agent's half of bandwidth monitoring
-// (issue 13). Cumulative counters (AgentDds::SentByClass) in, kbit/s over a sliding window out; the robot
+// What a robot sends on its link, per topic class, as rates: the agent's half of bandwidth monitoring.
+// Cumulative counters (AgentDds::SentByClass) in, kbit/s over a sliding window out; the robot
 // publishes them in RobotState::link_usage and every basestation shows them (`links`). Pure logic, no DDS.
 #pragma once
 

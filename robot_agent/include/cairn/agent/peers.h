@@ -1,4 +1,4 @@
-// Peer robots as obstacles (issue 16; Sriganesh et al. 2024, § Advanced Multi-agent Coordination): every
+// Peer robots as obstacles (Sriganesh et al. 2024, § Advanced Multi-agent Coordination): every
 // robot tells the others where it is, how big it is and where it is going (cairn/peer_state, a few times a
 // second), and each robot keeps clear of the bodies it hears. A simulated robot's lidar does not see its
 // peers (each agent simulates its own world), and a real one sees a peer only once it is in line of sight and

@@ -1,5 +1,5 @@
 // cairn_agent --supervise: the process runs the agent as its child and starts it again after a crash, with
-// --resume (issue 15), as a systemd unit with Restart=on-failure would (config/cairn-agent@.service).
+// --resume, as a systemd unit with Restart=on-failure would (config/cairn-agent@.service).
 #pragma once
 
 #include <string>

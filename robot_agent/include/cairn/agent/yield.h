@@ -1,4 +1,4 @@
-// Get-out-of-the-way (issue 16; Sriganesh et al. 2024, § Advanced Multi-agent Coordination): a robot whose
+// Get-out-of-the-way (Sriganesh et al. 2024, § Advanced Multi-agent Coordination): a robot whose
 // route is blocked by a peer in a passage too narrow to pass asks that peer to yield (YieldAsker), and a peer
 // asked (by a robot, or by an operator's `yield R`) that is idle or in a yieldable mode drives to the nearest
 // spot on its own map that clears the other's route (nav::FindYieldSpot: a side passage, a junction's arm, a

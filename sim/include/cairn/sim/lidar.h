@@ -2,7 +2,7 @@
 //
 // Simulated spinning lidar on a voxel World: exact ray casting through the occupancy grid (3D DDA of
 // Amanatides & Woo, "A Fast Voxel Traversal Algorithm for Ray Tracing", Eurographics 1987) and a
-// multi-beam scanner with Velodyne VLP-16-like defaults. See DESIGN.md "Simulation".
+// multi-beam scanner with Velodyne VLP-16-like defaults. See docs/DESIGN.md "Simulation".
 #pragma once
 
 #include <Eigen/Core>

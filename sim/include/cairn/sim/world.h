@@ -1,7 +1,7 @@
 // Copyright Cairn authors.
 //
 // Dense 3D voxel occupancy worlds for simulation: built-in procedural worlds, OctoMap (.bt/.ot) files and
-// PCD point clouds. See DESIGN.md "Simulation".
+// PCD point clouds. See docs/DESIGN.md "Simulation".
 #pragma once
 
 #include <Eigen/Core>
