@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "cairn/agent/agent_options.h"
-#include "cairn/agent/trajectory_library_cache.h"
+#include "cairn/agent/services/trajectory_library_cache.h"
 
 namespace {
 

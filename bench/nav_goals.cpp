@@ -27,11 +27,11 @@
 #include <vector>
 
 #include "cairn/agent/agent_options.h"
-#include "cairn/agent/live_obstacles.h"
-#include "cairn/agent/nav_map.h"
-#include "cairn/agent/navigation.h"
-#include "cairn/agent/perception_pipeline.h"
-#include "cairn/agent/waypoint_recovery.h"
+#include "cairn/agent/modes/waypoint_recovery.h"
+#include "cairn/agent/services/live_obstacles.h"
+#include "cairn/agent/services/nav_map.h"
+#include "cairn/agent/services/navigation.h"
+#include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/nav/sampling.h"
 #include "cairn/nav/scan_obstacles.h"
@@ -182,7 +182,8 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
   agent::NavMap nav_map(options.nav_map, perception_options.map.resolution_m, start_M, planner, g_platform);
   agent::Navigation navigation(options.navigation, planner,
                                std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
-  agent::LiveObstacles live_obstacles(options, platform.Capabilities().lidar_min_elevation_rad);
+  agent::LiveObstacles live_obstacles(options.navigation, options.obstacle_window_s,
+                                      platform.Capabilities().lidar_min_elevation_rad);
   agent::WaypointRecovery recovery(std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml", &navigation,
                                    agent::WaypointRecovery::Hooks{[&] { live_obstacles.Clear(); }});
   std::vector<Eigen::Vector3f> points_B;

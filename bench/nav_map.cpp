@@ -6,14 +6,14 @@
 // after each map update, against that update and the full rebuild.
 //
 //   build/bench/cairn_bench_nav_map
-#include "cairn/agent/nav_map.h"
+#include "cairn/agent/services/nav_map.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <vector>
 
-#include "cairn/agent/perception_pipeline.h"
+#include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/sim/simulated_platform.h"

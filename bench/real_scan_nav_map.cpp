@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "cairn/agent/nav_map.h"
-#include "cairn/agent/perception_pipeline.h"
+#include "cairn/agent/services/nav_map.h"
+#include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/sim/builtin_worlds.h"

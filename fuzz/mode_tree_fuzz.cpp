@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <exception>
 
-#include "cairn/agent/mode_manager.h"
+#include "cairn/agent/modes/mode_manager.h"
 #include "fuzz_input.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -16,11 +16,11 @@
 #include <string>
 #include <vector>
 
-#include "cairn/agent/agent_dds.h"
-#include "cairn/agent/commands.h"
-#include "cairn/agent/explore_claims.h"
-#include "cairn/agent/peers.h"
-#include "cairn/agent/yield.h"
+#include "cairn/agent/command/commands.h"
+#include "cairn/agent/communication/agent_dds.h"
+#include "cairn/agent/team/explore_claims.h"
+#include "cairn/agent/team/peers.h"
+#include "cairn/agent/team/yield.h"
 #include "cairn/base/fleet_perception.h"
 #include "cairn/core/peer_input.h"
 #include "cairn/core/voxel_grid.h"

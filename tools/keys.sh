@@ -94,7 +94,7 @@ ossl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -sha256 -
   -keyout "$DIR/ca.key" -out "$DIR/ca.pem" -subj "/O=Cairn/CN=Cairn fleet CA"
 chmod 644 "$DIR/ca.pem"
 
-# Topics by who publishes them (robot_agent/src/agent_dds.cpp, basestation/src/fleet_client.cpp).
+# Topics by who publishes them (robot_agent/src/communication/agent_dds.cpp, basestation/src/fleet_client.cpp).
 ROBOT_TOPICS=(cairn/agent_info cairn/robot_state cairn/robot_pose cairn/bt_state cairn/global_path cairn/local_plan
               cairn/staircase cairn/camera cairn/map_update cairn/command_response cairn/path_response
               cairn/link_probe_reply cairn/explore_claim cairn/peer_state cairn/health cairn/yield_request)

@@ -11,7 +11,7 @@
 #include <stdexcept>
 #include <thread>
 
-#include "cairn/agent/mode_manager.h"
+#include "cairn/agent/modes/mode_manager.h"
 #include "cairn/core/shutdown.h"
 
 namespace cairn::agent {

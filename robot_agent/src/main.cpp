@@ -13,7 +13,7 @@
 
 #include "cairn/agent/agent_components.h"
 #include "cairn/agent/journal.h"
-#include "cairn/agent/mode_manager.h"
+#include "cairn/agent/modes/mode_manager.h"
 #include "cairn/agent/robot_agent.h"
 #include "cairn/agent/supervisor.h"
 #include "cairn/core/config.h"

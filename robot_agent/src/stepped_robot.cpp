@@ -4,8 +4,8 @@
 #include <limits>
 #include <stdexcept>
 
-#include "cairn/agent/planning_service.h"
-#include "cairn/agent/waypoint_recovery.h"
+#include "cairn/agent/modes/waypoint_recovery.h"
+#include "cairn/agent/services/planning_service.h"
 #include "cairn/nav/frontier.h"
 
 namespace cairn::agent {
@@ -50,8 +50,8 @@ SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::Pl
   navigation_ = std::make_unique<Navigation>(
       options_.navigation, planner_,
       std::make_shared<const nav::TrajectoryLibrary>(options_.LibraryForPlatform()));
-  live_obstacles_ =
-      std::make_unique<LiveObstacles>(options_, platform_->Capabilities().lidar_min_elevation_rad);
+  live_obstacles_ = std::make_unique<LiveObstacles>(options_.navigation, options_.obstacle_window_s,
+                                                    platform_->Capabilities().lidar_min_elevation_rad);
   std::unique_ptr<WaypointRecovery> recovery;
   if (!tree_file.empty()) {
     recovery = std::make_unique<WaypointRecovery>(

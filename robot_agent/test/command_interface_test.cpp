@@ -1,14 +1,14 @@
 // The command interface's rules without DDS: who may command (the lock; a stop from anyone), one answer per
 // command (retries from the reply cache, applied once), goals checked before planning and answered after it,
 // the stick to the running mode only, and the holder's processes coming and going.
-#include "cairn/agent/command_interface.h"
+#include "cairn/agent/command/command_interface.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 
-#include "cairn/agent/modes.h"
+#include "cairn/agent/modes/modes.h"
 
 namespace cairn::agent {
 namespace {

@@ -1,4 +1,4 @@
-#include "cairn/agent/control_lock.h"
+#include "cairn/agent/command/control_lock.h"
 
 #include <gtest/gtest.h>
 

@@ -4,7 +4,7 @@
 // states exchanged at 5 Hz as over cairn/peer_state. The convoy over real processes and DDS is
 // tests/convoy_integration_test (when the operator's commands exist).
 
-#include "cairn/agent/convoy.h"
+#include "cairn/agent/team/convoy.h"
 
 #include <gtest/gtest.h>
 
@@ -18,7 +18,7 @@
 #include <thread>
 #include <vector>
 
-#include "cairn/agent/convoy_mode.h"
+#include "cairn/agent/modes/convoy_mode.h"
 #include "cairn/agent/stepped_robot.h"
 #include "cairn/nav/platform.h"
 #include "cairn/sim/simulated_platform.h"

@@ -1,5 +1,5 @@
 // Copyright Cairn authors.
-#include "cairn/agent/explore_claims.h"
+#include "cairn/agent/team/explore_claims.h"
 
 #include <gtest/gtest.h>
 

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "../../sim/test/test_util.h"
-#include "cairn/agent/explore_mode.h"
+#include "cairn/agent/modes/explore_mode.h"
 #include "cairn/nav/platform.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "explore_team.h"

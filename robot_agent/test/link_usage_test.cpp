@@ -1,4 +1,4 @@
-#include "cairn/agent/link_usage.h"
+#include "cairn/agent/communication/link_usage.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Paused missions (MissionKeeper): which conditions pause rather than end a mission, and when a paused one is
 // tried again or ends. The agent's wiring of it runs in tests/component_fault_test (real processes).
-#include "cairn/agent/mission.h"
+#include "cairn/agent/modes/mission.h"
 
 #include <gtest/gtest.h>
 

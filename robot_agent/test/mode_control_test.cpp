@@ -1,14 +1,14 @@
 // The mode tree running mode modules through the mux, without DDS: the registry's rules, the load-time check
 // of the tree against the modules and the mux, switching (activate/deactivate), stop, and a new mode added as
 // one module plus one subtree.
-#include "cairn/agent/mode_control.h"
+#include "cairn/agent/modes/mode_control.h"
 
 #include <gtest/gtest.h>
 
 #include <fstream>
 #include <iterator>
 
-#include "cairn/agent/modes.h"
+#include "cairn/agent/modes/modes.h"
 #include "mode_test_util.h"
 
 namespace cairn::agent {

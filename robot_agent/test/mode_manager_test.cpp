@@ -1,4 +1,4 @@
-#include "cairn/agent/mode_manager.h"
+#include "cairn/agent/modes/mode_manager.h"
 
 #include <gtest/gtest.h>
 

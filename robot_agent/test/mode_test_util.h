@@ -1,7 +1,7 @@
 // Shared by the mode tree's tests: the conditions under which an operator holds a robot.
 #pragma once
 
-#include "cairn/agent/mode_manager.h"
+#include "cairn/agent/modes/mode_manager.h"
 
 namespace cairn::agent::mode_testing {
 

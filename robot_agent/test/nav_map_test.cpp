@@ -1,7 +1,7 @@
 // The navigation map on the robot's own OctoMap, driven through a built-in world faster than real time
 // without DDS: the simulated platform's scans -> perception's map -> changed tiles -> NavMap -> planner.
 // Scored against the simulator's ground truth (which the map never reads).
-#include "cairn/agent/nav_map.h"
+#include "cairn/agent/services/nav_map.h"
 
 #include <gtest/gtest.h>
 
@@ -9,8 +9,9 @@
 #include <cstdio>
 #include <thread>
 
-#include "cairn/agent/live_obstacles.h"
-#include "cairn/agent/perception_pipeline.h"
+#include "cairn/agent/agent_options.h"
+#include "cairn/agent/services/live_obstacles.h"
+#include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/sim/simulated_platform.h"
 
@@ -496,7 +497,8 @@ TEST(LiveObstaclesTest, AStepBesideARobotStandingStillStaysAnObstacleWhileItCann
   sim_options.SetProfile(options.navigation.platform);
   sim::SimulatedPlatform platform(sim_options);
   platform.Update(0.0);
-  LiveObstacles live(options, platform.Capabilities().lidar_min_elevation_rad);
+  LiveObstacles live(options.navigation, options.obstacle_window_s,
+                     platform.Capabilities().lidar_min_elevation_rad);
   std::vector<Eigen::Vector3f> points_B;
   core::BaseState pose_M;
   // Obstacle points of the riser: ahead of the robot, 0.3-0.7 m (the riser at x = 50, the robot's centre at

@@ -2,7 +2,7 @@
 // simulated platform, faster than real time and without DDS: waypoint missions on the real scan geb079.bt and
 // the built-in tunnels, the staircase for legged and wheeled robots, smart joystick at a wall and an
 // off-centre doorway, and replanning when the map changes under the path.
-#include "cairn/agent/navigation.h"
+#include "cairn/agent/services/navigation.h"
 
 #include <gtest/gtest.h>
 
@@ -15,9 +15,9 @@
 
 #include "../../nav/test/nav_test_util.h"
 #include "../../sim/test/test_util.h"
-#include "cairn/agent/planning_service.h"
+#include "cairn/agent/modes/waypoint_recovery.h"
+#include "cairn/agent/services/planning_service.h"
 #include "cairn/agent/stepped_robot.h"
-#include "cairn/agent/waypoint_recovery.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/simulated_platform.h"
 

@@ -1,6 +1,6 @@
 // Peer awareness: checks of a peer's state, the tracker's timeout, the obstacle points that stand
 // for a peer, and the path ahead a robot tells its peers.
-#include "cairn/agent/peers.h"
+#include "cairn/agent/team/peers.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // The perception component driven through a built-in world faster than real time, without DDS: mapping
 // precision and recall against the world, map telemetry within its budget and complete (early and late
 // basestations end with the robot's coarse map), staircases found once, camera frames that decode.
-#include "cairn/agent/perception_pipeline.h"
+#include "cairn/agent/services/perception_pipeline.h"
 
 #include <gtest/gtest.h>
 

@@ -3,7 +3,7 @@
 // multi-level grid. Its component is taken down, but never started again beside the loop still in its update
 // (two navigation map loops on one map crashed an agent in MultiLevelGrid::NodeNear); it comes back once that
 // loop has ended. Run under ThreadSanitizer too (tests/sanitizers/run.sh), which flags any overlap.
-#include "cairn/agent/perception_service.h"
+#include "cairn/agent/services/perception_service.h"
 
 #include <gtest/gtest.h>
 
@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "cairn/agent/agent_components.h"
-#include "cairn/agent/nav_map.h"
+#include "cairn/agent/services/nav_map.h"
 #include "cairn/core/health_monitor.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/sim/simulated_platform.h"

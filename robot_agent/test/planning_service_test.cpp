@@ -1,11 +1,11 @@
 // The planning service without DDS or threads: the holder's goals before peers' queries, the per-process rate
 // limit and the queue bound with the answers they give, and the answers to queries.
-#include "cairn/agent/planning_service.h"
+#include "cairn/agent/services/planning_service.h"
 
 #include <gtest/gtest.h>
 
 #include "../../nav/test/nav_test_util.h"
-#include "cairn/agent/nav_map.h"
+#include "cairn/agent/services/nav_map.h"
 
 namespace cairn::agent {
 namespace {

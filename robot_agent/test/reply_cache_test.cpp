@@ -1,4 +1,4 @@
-#include "cairn/agent/reply_cache.h"
+#include "cairn/agent/command/reply_cache.h"
 
 #include <gtest/gtest.h>
 

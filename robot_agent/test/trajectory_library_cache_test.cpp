@@ -1,4 +1,4 @@
-#include "cairn/agent/trajectory_library_cache.h"
+#include "cairn/agent/services/trajectory_library_cache.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "cairn/agent/twist_mux.h"
+#include "cairn/agent/modes/twist_mux.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // The waypoint mode's one record of the goal, without DDS: a goal the tree accepts or refuses, a goal
 // cancelled by a mode switch, and a goal failed by contact.
-#include "cairn/agent/waypoint_mode.h"
+#include "cairn/agent/modes/waypoint_mode.h"
 
 #include <gtest/gtest.h>
 

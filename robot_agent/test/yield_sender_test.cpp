@@ -1,6 +1,6 @@
 // Who may ask a robot to yield (CheckYieldSender): the passing robot must be heard; the sender is a heard
 // robot asking for itself from the process of its peer states, or a basestation allowed to command the robot.
-#include "cairn/agent/yield_sender.h"
+#include "cairn/agent/team/yield_sender.h"
 
 #include <gtest/gtest.h>
 

@@ -4,7 +4,7 @@
 // over DDS, scored on the simulator's ground truth. The same over real processes and DDS is
 // tests/yield_integration_test.
 
-#include "cairn/agent/yield.h"
+#include "cairn/agent/team/yield.h"
 
 #include <gtest/gtest.h>
 

@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "cairn/agent/perception_service.h"
-#include "cairn/agent/planning_service.h"
+#include "cairn/agent/services/perception_service.h"
+#include "cairn/agent/services/planning_service.h"
 #include "cairn/core/component.h"
 #include "cairn/core/health_monitor.h"
 

@@ -16,14 +16,14 @@
 #include <vector>
 
 #include "cairn/agent/agent_options.h"
-#include "cairn/agent/convoy_mode.h"
-#include "cairn/agent/explore_mode.h"
-#include "cairn/agent/live_obstacles.h"
-#include "cairn/agent/nav_map.h"
-#include "cairn/agent/navigation.h"
-#include "cairn/agent/perception_pipeline.h"
-#include "cairn/agent/waypoint_mode.h"
-#include "cairn/agent/yield.h"
+#include "cairn/agent/modes/convoy_mode.h"
+#include "cairn/agent/modes/explore_mode.h"
+#include "cairn/agent/modes/waypoint_mode.h"
+#include "cairn/agent/services/live_obstacles.h"
+#include "cairn/agent/services/nav_map.h"
+#include "cairn/agent/services/navigation.h"
+#include "cairn/agent/services/perception_pipeline.h"
+#include "cairn/agent/team/yield.h"
 #include "cairn/core/platform_io.h"
 
 namespace cairn::agent {
