@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <map>
 
-#include "cairn/agent/modes/waypoint_recovery.h"
+#include "cairn/agent/modes/tree_file.h"
 
 namespace cairn::agent {
 
@@ -41,8 +41,8 @@ std::function<NodeStatus(bt::TreeNode&)> Traced(std::shared_ptr<Context> ctx,
 
 void ModeManager::RegisterNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx) {
   RegisterModeNodes(factory, ctx);
-  // The recovery tree of the same file (WaypointRecovery) uses these; they run only there.
-  WaypointRecovery::RegisterNodes(factory, nullptr);
+  // The other trees of the same file (the waypoint recovery) use these; they run only there.
+  RegisterOtherTreeNodeTypes(factory, TreeInFile::kModeTree);
 }
 
 void ModeManager::RegisterModeNodes(bt::TreeFactory& factory) {

@@ -6,7 +6,7 @@
 #include <future>
 #include <stdexcept>
 
-#include "cairn/agent/modes/mode_manager.h"
+#include "cairn/agent/modes/tree_file.h"
 #include "range_check.h"
 
 namespace cairn::agent {
@@ -311,7 +311,7 @@ WaypointRecovery::WaypointRecovery(const std::string& tree_file, Navigation* nav
   // The mode tree file holds the mode conditions too: the factory knows every node type the agent
   // registers, so that the whole document validates (mode nodes cannot run here: their context is absent).
   bt::TreeFactory factory;
-  ModeManager::RegisterModeNodes(factory);
+  RegisterOtherTreeNodeTypes(factory, TreeInFile::kWaypointRecovery);
   RegisterNodes(factory, context_);
   // Timeout and Delay count on the navigation clock (Step's now_s), so that a simulated clock runs them too.
   factory.SetClock([context = context_] {
