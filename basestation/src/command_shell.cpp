@@ -13,6 +13,7 @@
 
 #include "cairn/base/operator_text.h"
 #include "cairn/core/shutdown.h"
+#include "command_table.h"
 #include "shell_util.h"
 
 namespace cairn::base {
@@ -151,110 +152,15 @@ CommandShell::CommandShell(FleetClient& client, bool json, std::ostream& out)
     : CommandShell(client, ShellOptions{json, "", nullptr, nullptr}, out) {}
 
 const std::vector<std::string>& CommandShell::CommandNames() {
-  static const std::vector<std::string> kNames = {
-      "robots", "watch",   "status",   "request-control", "release",     "mode",
-      "goto",   "path",    "plan",     "teleop",          "stop",        "wait",
-      "sleep",  "map",     "snapshot", "stairs",          "events",      "place",
-      "places", "links",   "explore",  "frontiers",       "home",        "resume-goal",
-      "health", "restart", "help",     "convoy",          "convoy-stop", "peel",
-      "yield"};
+  static const std::vector<std::string> kNames = [] {
+    std::vector<std::string> names;
+    for (const CommandSpec& spec : CommandTable()) names.push_back(spec.name);
+    return names;
+  }();
   return kNames;
 }
 
-std::string CommandShell::Help() {
-  return "commands (R: a robot id; a point is X Y, X,Y or a place name, metres, frame map):\n"
-         "  robots                              the fleet: mode, holder, goal status, distance left, ETA, "
-         "last\n"
-         "                                      heard, last refusal\n"
-         "  watch [PERIOD_S] [--count N]        the robots table refreshed in place until a key is pressed\n"
-         "                                      (in scripts: N times, default 1)\n"
-         "  status R                            R at a glance: pose, control, goal, refusal, valid actions\n"
-         "  links [R]                           each robot's link: class and budget, last heard, probe "
-         "round\n"
-         "                                      trip, state samples lost, what it sends per topic class; "
-         "warns\n"
-         "                                      when a robot sends more than its budget or stops answering\n"
-         "  help R                              what you may do with R now, and how\n"
-         "  health R                            R's software components: state, loop rate against its "
-         "target,\n"
-         "                                      CPU, memory, restarts, last error (a failed part restarts "
-         "by\n"
-         "                                      itself, alone, with a growing back-off)\n"
-         "  restart R COMPONENT                 restart one component of R now (the lock holder's only)\n"
-         "  request-control R [R2 ...]          ask for R's control lock (refused if another basestation "
-         "holds it)\n"
-         "  release R [R2 ...]                  give R's control lock back (the robot stops)\n"
-         "  mode R MODE                         switch R to idle | manual | smart_joystick (waypoint: use "
-         "goto)\n"
-         "  goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]  drive R to POINT (on the level nearest Z_M,\n"
-         "                                      default the robot's); --wait prints progress (distance "
-         "left,\n"
-         "                                      ETA) until it arrives or fails (default 600 s)\n"
-         "  resume-goal R [--wait [TIMEOUT_S]]  drive R again to the goal it was driving when it crashed (a\n"
-         "                                      robot restarted with --resume offers it, never resumes it)\n"
-         "  explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait "
-         "[TIMEOUT_S]]\n"
-         "                                      R explores by itself (frontiers of its own map, in the "
-         "region\n"
-         "                                      and height band when given) until no reachable frontier is\n"
-         "                                      left, then goes idle; --home-after-silence: it drives back "
-         "to\n"
-         "                                      its start when it hears no basestation for S s; --wait "
-         "prints\n"
-         "                                      progress until it ends (default 3600 s)\n"
-         "  frontiers R                         R's exploration: explored area, frontiers, current target\n"
-         "  convoy LEADER R1 [R2 ...]           R1 follows LEADER, R2 follows R1, ... on the path each robot "
-         "ahead\n"
-         "                                      drove, at the configured spacing (this basestation must hold "
-         "every\n"
-         "                                      lock); drive the leader as usual (goto, teleop, "
-         "smart_joystick)\n"
-         "  convoy-stop [LEADER]                the followers (of LEADER's convoy, or of every convoy) go "
-         "idle\n"
-         "  peel R POINT [TOL]                  follower R leaves its convoy for POINT; the robots behind it "
-         "close\n"
-         "                                      up behind the robot ahead of it\n"
-         "  yield R [for A]                     R gets out of A's way (A: the robot whose route passes R):\n"
-         "                                      it drives to the nearest spot on its own map that clears "
-         "A's\n"
-         "                                      route, waits until A has passed and comes back; refused "
-         "(with\n"
-         "                                      the reason) in manual control or a mode outside its policy\n"
-         "  home R [POINT] [--z Z_M] [--wait [TIMEOUT_S]]  R drives back to where it started (or to POINT) "
-         "on\n"
-         "                                      its own map, from any mode; --wait as goto's\n"
-         "  path R                              the global path R is following (waypoints, length)\n"
-         "  plan R POINT [--from POINT] [--platform P]  ask R's global planner for a path (from R's pose, "
-         "for\n"
-         "                                      R's platform by default); prints the path or the reason\n"
-         "  teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]  drive R for DURATION_S, then stop sending: manual\n"
-         "                                      mode unless R is in smart_joystick, where the twist is the\n"
-         "                                      direction the local planner follows; speeds beyond R's "
-         "limits\n"
-         "                                      are clamped, with a notice\n"
-         "  stop R|all                          stop now: zero twist, mode idle, goal cancelled; from any\n"
-         "                                      basestation, without the control lock (the lock stays)\n"
-         "  wait R arrived|idle|mode=M|online|lost [TIMEOUT_S]  block until R reaches that state (default 60 "
-         "s)\n"
-         "  events [N]                          the last N events (default 20)\n"
-         "  place add NAME POINT [Z] | place remove NAME   name a point (saved to the --places file)\n"
-         "  places                              the named places\n"
-         "  map R|fleet --save FILE.bt          save R's coarse map (or the fleet map merged from every "
-         "robot) as\n"
-         "                                      an OctoMap .bt; asks for a snapshot first if it is "
-         "incomplete\n"
-         "  snapshot R FILE.jpg|FILE.png [TIMEOUT_S]  save R's next camera frame (default 5 s)\n"
-         "  stairs                              staircases found by the fleet (merged across robots)\n"
-         "  sleep S                             pause a script for S seconds\n"
-         "  help                                this text\n"
-         "Outcomes: accepted, refused, failed, timed out, invalid (a malformed command), cancelled "
-         "(Ctrl-C).\n"
-         "Refusals say why and what is valid now; a refused, failed, timed-out or cancelled command exits "
-         "1,\n"
-         "an invalid one 2. Events (robots joining, arrivals, failures, losses, robots leaving or over their "
-         "link\n"
-         "budget, locks, stops, staircases, robots close to each other) print as they happen.";
-}
+std::string CommandShell::Help() { return CommandHelp(); }
 
 bool CommandShell::Cancelled() {
   // SIGTERM (and SIGINT in scripts) requests shutdown: a long wait or teleop ends then too.
@@ -368,21 +274,16 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
   } else {
     const std::string& cmd = before[0];
     const std::size_t arg = before.size();  // index of the word being completed, 1-based after the command
-    static const std::vector<std::string> kRobotFirst = {
-        "status",  "request-control", "release",     "mode", "goto",        "path",
-        "plan",    "teleop",          "stop",        "wait", "map",         "snapshot",
-        "help",    "explore",         "frontiers",   "home", "resume-goal", "health",
-        "restart", "convoy",          "convoy-stop", "peel", "yield"};
-    if (arg == 1 && std::find(kRobotFirst.begin(), kRobotFirst.end(), cmd) != kRobotFirst.end()) {
-      pool = client_.RobotIds();
-      if (cmd == "stop") pool.push_back("all");
-      if (cmd == "map") pool.push_back("fleet");
+    const CommandSpec* spec = FindCommand(cmd);
+    const FirstArgument first = spec != nullptr ? spec->first : FirstArgument::kNone;
+    if ((arg == 1 && first != FirstArgument::kNone) || first == FirstArgument::kRobots) {
+      pool = client_.RobotIds();  // kRobots: every word (the robots of a convoy, in order)
+      if (first == FirstArgument::kRobotOrAll) pool.push_back("all");
+      if (first == FirstArgument::kRobotOrFleet) pool.push_back("fleet");
     } else if (cmd == "mode" && arg == 2) {
       pool = {"idle", "manual", "smart_joystick"};
       if (const auto view = client_.Robot(before[1]); view && view->tree) pool = view->tree->valid_modes();
-    } else if (cmd == "convoy" || (cmd == "request-control" || cmd == "release")) {
-      pool = client_.RobotIds();  // every word: the robots of a convoy, in order
-    } else if ((cmd == "goto" || cmd == "plan" || cmd == "home" || cmd == "peel") && arg == 2) {
+    } else if (spec != nullptr && spec->place_second && arg == 2) {
       pool = places_.Names();
     } else if (cmd == "wait" && arg == 2) {
       pool = {"arrived", "idle", "online", "lost", "mode="};
@@ -408,11 +309,12 @@ int CommandShell::Run(const std::string& line) {
   if (t.empty()) return kOk;
   const std::string& cmd = t[0];
   const std::vector<std::string> args(t.begin() + 1, t.end());
-  auto need = [&](std::size_t n, const char* usage) -> bool {
-    if (args.size() == n) return true;
-    UsageError(cmd, std::string("usage: ") + usage);
-    return false;
-  };
+  const CommandSpec* spec = FindCommand(cmd);
+  if (spec == nullptr) {
+    return UsageError(cmd,
+                      "unknown command '" + cmd + "'" + DidYouMeanText(cmd, CommandNames()) + " (try help)");
+  }
+  if (args.size() < spec->min_args || args.size() > spec->max_args) return UsageError(cmd, UsageOf(cmd));
   if (cmd == "help") {
     if (args.size() == 1) return HelpFor(args[0]);
     if (json_) {
@@ -423,51 +325,37 @@ int CommandShell::Run(const std::string& line) {
     }
     return kOk;
   }
-  if (cmd == "robots") return args.empty() ? Robots() : UsageError(cmd, "usage: robots");
+  if (cmd == "robots") return Robots();
   if (cmd == "watch") return Watch(args);
   if (cmd == "links") return Links(args);
   if (cmd == "events") return Events(args);
-  if (cmd == "status") return need(1, "status R") ? Status(args) : kUsage;
-  if (cmd == "health") return need(1, "health R") ? Health(args) : kUsage;
-  if (cmd == "restart") return need(2, "restart R COMPONENT") ? Restart(args) : kUsage;
-  if (cmd == "request-control") {
-    return args.empty() ? UsageError(cmd, "usage: request-control R [R2 ...]") : Control(args, true);
-  }
-  if (cmd == "release")
-    return args.empty() ? UsageError(cmd, "usage: release R [R2 ...]") : Control(args, false);
+  if (cmd == "status") return Status(args);
+  if (cmd == "health") return Health(args);
+  if (cmd == "restart") return Restart(args);
+  if (cmd == "request-control") return Control(args, true);
+  if (cmd == "release") return Control(args, false);
   if (cmd == "convoy") return Convoy(args);
   if (cmd == "convoy-stop") return ConvoyStop(args);
   if (cmd == "peel") return Peel(args);
   if (cmd == "yield") return Yield(args);
-  if (cmd == "mode") return need(2, "mode R MODE") ? Mode(args) : kUsage;
-  if (cmd == "stop") return need(1, "stop R|all") ? Stop(args) : kUsage;
+  if (cmd == "mode") return Mode(args);
+  if (cmd == "stop") return Stop(args);
   if (cmd == "goto" || cmd == "home") return Goto(cmd, args);
   if (cmd == "resume-goal") return ResumeGoal(args);
   if (cmd == "explore") return Explore(args);
-  if (cmd == "frontiers") return need(1, "frontiers R") ? Frontiers(args) : kUsage;
-  if (cmd == "teleop") {
-    return (args.size() == 4 || args.size() == 5)
-               ? Teleop(args)
-               : UsageError(cmd, "usage: teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]");
-  }
-  if (cmd == "path") return need(1, "path R") ? Path(args) : kUsage;
+  if (cmd == "frontiers") return Frontiers(args);
+  if (cmd == "teleop") return Teleop(args);
+  if (cmd == "path") return Path(args);
   if (cmd == "plan") return Plan(args);
   if (cmd == "wait") return Wait(args);
-  if (cmd == "sleep") return need(1, "sleep S") ? Sleep(args) : kUsage;
+  if (cmd == "sleep") return Sleep(args);
   if (cmd == "place") return Place(args);
-  if (cmd == "places") return args.empty() ? ListPlaces() : UsageError(cmd, "usage: places");
-  if (cmd == "map") {
-    return (args.size() == 3 && args[1] == "--save") ? Map(args)
-                                                     : UsageError(cmd, "usage: map R|fleet --save FILE.bt");
-  }
-  if (cmd == "snapshot") {
-    return (args.size() == 2 || args.size() == 3)
-               ? Snapshot(args)
-               : UsageError(cmd, "usage: snapshot R FILE.jpg|FILE.png [TIMEOUT_S]");
-  }
-  if (cmd == "stairs") return args.empty() ? Stairs() : UsageError(cmd, "usage: stairs");
-  return UsageError(cmd,
-                    "unknown command '" + cmd + "'" + DidYouMeanText(cmd, CommandNames()) + " (try help)");
+  if (cmd == "places") return ListPlaces();
+  if (cmd == "map") return args[1] == "--save" ? Map(args) : UsageError(cmd, UsageOf(cmd));
+  if (cmd == "snapshot") return Snapshot(args);
+  if (cmd == "stairs") return Stairs();
+  // Every command of the table has a branch above.
+  throw std::logic_error("command '" + cmd + "' is in the table but has no handler");
 }
 
 void CommandShell::PrintRobotsTable() {
@@ -514,7 +402,7 @@ int CommandShell::Robots() {
 }
 
 int CommandShell::Watch(const std::vector<std::string>& args) {
-  static const char* kUsageText = "usage: watch [PERIOD_S] [--count N]";
+  const std::string usage = UsageOf("watch");
   double period_s = 1.0, count = options_.key_pressed ? 0 : 1;  // 0: until a key is pressed
   std::string error;
   for (std::size_t i = 0; i < args.size(); ++i) {
@@ -529,7 +417,7 @@ int CommandShell::Watch(const std::vector<std::string>& args) {
         return UsageError("watch", error.empty() ? "PERIOD_S '" + args[i] + "' must be in [0.1, 60]" : error);
       }
     } else {
-      return UsageError("watch", kUsageText);
+      return UsageError("watch", usage);
     }
   }
   std::this_thread::sleep_until(client_.started() + std::chrono::milliseconds(1500));
@@ -569,7 +457,7 @@ int CommandShell::Watch(const std::vector<std::string>& args) {
 int CommandShell::Events(const std::vector<std::string>& args) {
   double n = 20;
   std::string error;
-  if (args.size() > 1) return UsageError("events", "usage: events [N]");
+
   if (args.size() == 1 &&
       (!ParseNumber(args[0], "N", &n, &error) || n < 1 || n > 100000 || n != std::floor(n))) {
     return UsageError("events",
@@ -698,24 +586,9 @@ int CommandShell::HelpFor(const std::string& robot) {
     return kOk;
   }
   out_ << robot << ": " << ValidActionsText(*view, client_.base_id()) << "\n";
-  static const std::map<std::string, std::string> kUsage = {
-      {"request-control", "request-control R"},
-      {"release", "release R"},
-      {"mode", "mode R MODE"},
-      {"goto", "goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]"},
-      {"explore",
-       "explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait [TIMEOUT_S]]"},
-      {"home", "home R [POINT] [--z Z_M] [--wait [TIMEOUT_S]]"},
-      {"resume-goal", "resume-goal R [--wait [TIMEOUT_S]]"},
-      {"teleop", "teleop R VX_MPS WZ_RADPS DURATION_S [VY_MPS]"},
-      {"stop", "stop R|all"},
-      {"convoy", "convoy LEADER R1 [R2 ...]"},
-      {"peel", "peel R POINT [TOL]"},
-      {"convoy-stop", "convoy-stop [LEADER]"},
-      {"yield", "yield R [for A]"}};
   for (const auto& action : actions) {
     const std::string verb = action.substr(0, action.find(' '));
-    if (auto it = kUsage.find(verb); it != kUsage.end()) out_ << "  " << it->second << "\n";
+    if (const CommandSpec* spec = FindCommand(verb); spec != nullptr) out_ << "  " << spec->usage << "\n";
   }
   out_.flush();
   return kOk;
@@ -852,7 +725,7 @@ bool CommandShell::ParsePoint(const std::vector<std::string>& args, std::size_t 
 }
 
 int CommandShell::ResumeGoal(const std::vector<std::string>& args) {
-  const std::string usage = "usage: resume-goal R [--wait [TIMEOUT_S]]";
+  const std::string usage = UsageOf("resume-goal");
   if (args.empty() || args[0].rfind("--", 0) == 0) return UsageError("resume-goal", usage);
   const std::string& robot = args[0];
   if (RefuseUnknown("resume-goal", robot)) return kRefused;
@@ -878,9 +751,7 @@ int CommandShell::ResumeGoal(const std::vector<std::string>& args) {
 
 int CommandShell::Goto(const std::string& command, const std::vector<std::string>& all_args) {
   const bool home = command == "home";
-  const std::string usage = home ? "usage: home R [X Y|X,Y|PLACE] [--z Z_M] [--wait [TIMEOUT_S]]"
-                                 : "usage: goto R X Y|X,Y|PLACE [TOL] [--z Z_M] [--wait [TIMEOUT_S]]";
-  const char* kUsageText = usage.c_str();
+  const std::string usage = UsageOf(command);
   std::vector<std::string> args;
   bool wait = false;
   double timeout = 600;
@@ -907,16 +778,16 @@ int CommandShell::Goto(const std::string& command, const std::vector<std::string
         return UsageError(
             command, error.empty() ? "TIMEOUT_S '" + all_args[i + 1] + "' must be in (0, 86400]" : error);
       }
-      if (i + 2 != all_args.size()) return UsageError(command, kUsageText);
+      if (i + 2 != all_args.size()) return UsageError(command, usage);
       break;
     }
   }
-  if (args.size() < (home ? 1u : 2u)) return UsageError(command, kUsageText);
+  if (args.size() < (home ? 1u : 2u)) return UsageError(command, usage);
   double x = 0, y = 0, tolerance = 0;
   std::size_t used = 0;
   if (args.size() > 1 && !ParsePoint(args, 1, &x, &y, &used, &error)) return UsageError(command, error);
   const std::size_t rest = 1 + used;
-  if (args.size() > rest + (home ? 0 : 1)) return UsageError(command, kUsageText);
+  if (args.size() > rest + (home ? 0 : 1)) return UsageError(command, usage);
   if (args.size() == rest + 1 && !ParseNumber(args[rest], "TOL", &tolerance, &error))
     return UsageError(command, error);
   if (home && used == 0 && std::isfinite(z_m))
@@ -1103,7 +974,7 @@ int CommandShell::Teleop(const std::vector<std::string>& args) {
 
 int CommandShell::Wait(const std::vector<std::string>& args) {
   if (args.size() != 2 && args.size() != 3) {
-    return UsageError("wait", "usage: wait R arrived|idle|mode=M|online|lost [TIMEOUT_S]");
+    return UsageError("wait", UsageOf("wait"));
   }
   const std::string& robot = args[0];
   const std::string& what = args[1];
@@ -1180,8 +1051,8 @@ int CommandShell::Sleep(const std::vector<std::string>& args) {
 }
 
 int CommandShell::Place(const std::vector<std::string>& args) {
-  static const char* kUsageText = "usage: place add NAME X Y|X,Y [Z] | place remove NAME";
-  if (args.empty()) return UsageError("place", kUsageText);
+  const std::string usage = UsageOf("place");
+  if (args.empty()) return UsageError("place", usage);
   // Other consoles share the file: start from what it holds now, so that their places are kept.
   try {
     places_ = Places::Load(options_.places_file);
@@ -1203,7 +1074,7 @@ int CommandShell::Place(const std::vector<std::string>& args) {
       return UsageError("place", error);
     }
     if (!ParsePoint(args, 2, &place.x_m, &place.y_m, &used, &error)) return UsageError("place", error);
-    if (args.size() > 2 + used + 1) return UsageError("place", kUsageText);
+    if (args.size() > 2 + used + 1) return UsageError("place", usage);
     if (args.size() == 2 + used + 1 && !ParseNumber(args[2 + used], "Z", &place.z_m, &error)) {
       return UsageError("place", error);
     }
@@ -1217,7 +1088,7 @@ int CommandShell::Place(const std::vector<std::string>& args) {
     }
     message = "place " + args[1] + " removed";
   } else {
-    return UsageError("place", kUsageText);
+    return UsageError("place", usage);
   }
   std::string where = options_.places_file.empty()
                           ? " (this session only: start cairn_base with --places FILE "

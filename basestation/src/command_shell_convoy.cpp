@@ -12,6 +12,7 @@
 
 #include "cairn/base/command_shell.h"
 #include "cairn/base/operator_text.h"
+#include "command_table.h"
 #include "shell_util.h"
 
 namespace cairn::base {
@@ -86,9 +87,8 @@ std::vector<CommandOutcome> CommandShell::SendConvoys(const std::vector<std::str
 }
 
 int CommandShell::Convoy(const std::vector<std::string>& args) {
-  constexpr const char* kUsageText =
-      "usage: convoy LEADER R1 [R2 ...] (followers in order behind the leader)";
-  if (args.size() < 2) return UsageError("convoy", kUsageText);
+  const std::string usage = UsageOf("convoy") + " (followers in order behind the leader)";
+  if (args.size() < 2) return UsageError("convoy", usage);
   if (args.size() > kMaxAhead + 1) {
     return UsageError("convoy", std::to_string(args.size()) + " robots named: a convoy has at most " +
                                     std::to_string(kMaxAhead + 1) + " (a leader and " +
@@ -143,7 +143,6 @@ std::vector<std::pair<std::string, std::vector<std::string>>> CommandShell::Conv
 }
 
 int CommandShell::ConvoyStop(const std::vector<std::string>& args) {
-  if (args.size() > 1) return UsageError("convoy-stop", "usage: convoy-stop [LEADER]");
   const std::string leader = args.empty() ? "" : args[0];
   if (!leader.empty() && RefuseUnknown("convoy-stop", leader)) return kRefused;
   std::this_thread::sleep_until(client_.started() + std::chrono::milliseconds(1500));  // discovery
@@ -167,14 +166,14 @@ int CommandShell::ConvoyStop(const std::vector<std::string>& args) {
 }
 
 int CommandShell::Peel(const std::vector<std::string>& args) {
-  constexpr const char* kUsageText = "usage: peel R X Y|X,Y|PLACE [TOL]";
-  if (args.size() < 2) return UsageError("peel", kUsageText);
+  const std::string usage = UsageOf("peel");
+  if (args.size() < 2) return UsageError("peel", usage);
   const std::string& robot = args[0];
   double x = 0, y = 0, tolerance = 0;
   std::size_t used = 0;
   std::string error;
   if (!ParsePoint(args, 1, &x, &y, &used, &error)) return UsageError("peel", error);
-  if (args.size() > 2 + used) return UsageError("peel", kUsageText);
+  if (args.size() > 2 + used) return UsageError("peel", usage);
   if (args.size() == 2 + used && !shell::ParseNumber(args[1 + used], "TOL", &tolerance, &error)) {
     return UsageError("peel", error);
   }
@@ -219,9 +218,9 @@ int CommandShell::Peel(const std::vector<std::string>& args) {
 }
 
 int CommandShell::Yield(const std::vector<std::string>& args) {
-  constexpr const char* kUsageText = "usage: yield R [for A] (R gets out of A's way)";
+  const std::string usage = UsageOf("yield") + " (R gets out of A's way)";
   if (args.empty() || args.size() == 2 || args.size() > 3 || (args.size() == 3 && args[1] != "for")) {
-    return UsageError("yield", kUsageText);
+    return UsageError("yield", usage);
   }
   const std::string& robot = args[0];
   if (RefuseUnknown("yield", robot)) return kRefused;

@@ -5,6 +5,7 @@
 
 #include "cairn/base/command_shell.h"
 #include "cairn/base/operator_text.h"
+#include "command_table.h"
 #include "shell_util.h"
 
 namespace cairn::base {
@@ -14,9 +15,6 @@ using shell::Dump;
 using shell::Fixed;
 
 namespace {
-
-constexpr const char* kExploreUsage =
-    "usage: explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait [TIMEOUT_S]]";
 
 // "A,B[,C,D]" -> `n` numbers named `names` (for messages); false with `*error` naming the flag and the value.
 bool ParseList(const std::string& flag, const std::string& text, std::size_t n, double* values,
@@ -139,12 +137,12 @@ int CommandShell::Explore(const std::vector<std::string>& all_args) {
         ++i;
       }
     } else if (a.rfind("--", 0) == 0) {
-      return UsageError("explore", "unknown option '" + a + "'; " + kExploreUsage);
+      return UsageError("explore", "unknown option '" + a + "'; " + UsageOf("explore"));
     } else {
       args.push_back(a);
     }
   }
-  if (args.size() != 1) return UsageError("explore", kExploreUsage);
+  if (args.size() != 1) return UsageError("explore", UsageOf("explore"));
   const std::string& robot = args[0];
   const CommandOutcome o = client_.SendExplore(robot, region_M, min_z_m, max_z_m, home_after_silence_s);
   if (!o.ok || !wait) return Report("explore", robot, o);

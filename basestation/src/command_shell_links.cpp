@@ -37,7 +37,6 @@ std::string UsageText(const LinkView& l) {
 }  // namespace
 
 int CommandShell::Links(const std::vector<std::string>& args) {
-  if (args.size() > 1) return UsageError("links", "usage: links [R]");
   // A fresh basestation needs discovery and a probe's round trip before its table means anything.
   std::this_thread::sleep_until(client_.started() + std::chrono::milliseconds(2500));
   std::vector<RobotView> views;

@@ -5,6 +5,7 @@
 #include "cairn/base/operator_text.h"
 #include "cairn/perception/jpeg.h"
 #include "cairn/perception/png.h"
+#include "command_table.h"
 #include "shell_util.h"
 
 namespace cairn::base {
@@ -187,7 +188,7 @@ int CommandShell::Path(const std::vector<std::string>& args) {
 }
 
 int CommandShell::Plan(const std::vector<std::string>& args) {
-  static const char* kUsageText = "usage: plan R X Y|X,Y|PLACE [--from X,Y|PLACE] [--platform P]";
+  const std::string usage = UsageOf("plan");
   std::vector<std::string> positional;
   std::string platform, from;
   for (std::size_t i = 0; i < args.size(); ++i) {
@@ -195,19 +196,19 @@ int CommandShell::Plan(const std::vector<std::string>& args) {
       (args[i] == "--from" ? from : platform) = args[i + 1];
       ++i;
     } else if (args[i].rfind("--", 0) == 0) {
-      return UsageError("plan", "unknown or incomplete option '" + args[i] + "'; " + kUsageText);
+      return UsageError("plan", "unknown or incomplete option '" + args[i] + "'; " + usage);
     } else {
       positional.push_back(args[i]);
     }
   }
-  if (positional.size() < 2) return UsageError("plan", kUsageText);
+  if (positional.size() < 2) return UsageError("plan", usage);
   const std::string& robot = positional[0];
   if (RefuseUnknown("plan", robot)) return kRefused;
   double gx = 0, gy = 0, sx = 0, sy = 0;
   std::string error;
   std::size_t used = 0;
   if (!ParsePoint(positional, 1, &gx, &gy, &used, &error)) return UsageError("plan", error);
-  if (1 + used != positional.size()) return UsageError("plan", kUsageText);
+  if (1 + used != positional.size()) return UsageError("plan", usage);
   if (!from.empty()) {
     if (!ParsePoint({from}, 0, &sx, &sy, &used, &error)) return UsageError("plan", "--from: " + error);
   } else {

@@ -1,0 +1,55 @@
+// The console's command table: what help, usage errors, completion and "did you mean" read.
+#include "../src/command_table.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+namespace cairn::base {
+namespace {
+
+TEST(CommandTable, EveryCommandOnceWithItsSynopsisAndHelp) {
+  std::set<std::string> names;
+  for (const CommandSpec& spec : CommandTable()) {
+    EXPECT_TRUE(names.insert(spec.name).second) << spec.name << " is in the table twice";
+    EXPECT_EQ(spec.usage.rfind(spec.name, 0), 0u) << spec.name << ": the synopsis starts with the name";
+    EXPECT_FALSE(spec.help.empty()) << spec.name;
+    EXPECT_LE(spec.min_args, spec.max_args) << spec.name;
+    // A command whose first word is a robot has at least one word, but `links [R]`, `help [R]`.
+    if (spec.first == FirstArgument::kRobot && spec.usage.find(" [R]") == std::string::npos &&
+        spec.usage.find(" [LEADER]") == std::string::npos) {
+      EXPECT_GE(spec.min_args, 1u) << spec.name;
+    }
+    EXPECT_EQ(FindCommand(spec.name), &spec);
+    EXPECT_EQ(UsageOf(spec.name), "usage: " + spec.usage);
+  }
+  EXPECT_GE(names.size(), 30u);
+  EXPECT_EQ(FindCommand("gotoo"), nullptr);
+  EXPECT_THROW(UsageOf("gotoo"), std::logic_error);
+}
+
+TEST(CommandTable, HelpListsEveryCommandWithinItsWidth) {
+  const std::string help = CommandHelp(104);
+  for (const CommandSpec& spec : CommandTable()) {
+    EXPECT_NE(help.find("\n  " + spec.usage), std::string::npos) << spec.name << " missing from help";
+  }
+  std::istringstream lines(help);
+  for (std::string line; std::getline(lines, line);) {
+    // A synopsis longer than the width stands alone; every other line fits.
+    bool long_synopsis = false;
+    for (const CommandSpec& spec : CommandTable()) long_synopsis |= line == "  " + spec.usage;
+    if (!long_synopsis) {
+      EXPECT_LE(line.size(), 104u) << line;
+    }
+  }
+  // The help of a long synopsis starts on the next line, at the help column.
+  EXPECT_NE(help.find("[--wait [TIMEOUT_S]]\n                                      R explores by itself"),
+            std::string::npos)
+      << help;
+  EXPECT_NE(help.find("  robots                              the fleet:"), std::string::npos) << help;
+}
+
+}  // namespace
+}  // namespace cairn::base
