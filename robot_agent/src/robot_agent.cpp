@@ -25,6 +25,7 @@
 #include "cairn/agent/agent_components.h"
 #include "cairn/agent/command/command_interface.h"
 #include "cairn/agent/communication/agent_dds.h"
+#include "cairn/agent/communication/health_report.h"
 #include "cairn/agent/communication/telemetry.h"
 #include "cairn/agent/journal.h"
 #include "cairn/agent/modes/convoy_mode.h"
@@ -304,21 +305,17 @@ class RobotAgent::Impl {
   std::unique_ptr<PlanningComponent> planning_c_;
   std::unique_ptr<ControlLoopComponent> command_c_, mode_tree_c_, mux_c_, navigation_c_, telemetry_c_;
   std::unique_ptr<core::HealthMonitor> health_;
-  std::mutex health_event_mutex_;  // guards the two below (the monitor's thread writes them)
-  uint32_t health_events_ = 0;
-  core::HealthEvent last_health_event_{core::HealthEvent::Kind::kFailed, "", ""};
-  std::atomic<bool> health_due_{true};
+  // What the basestations are told of the components (cairn/health): at once after an event, else every 2 s
+  // (10 s on a radio link).
+  HealthReport health_report_{options_.robot_id, core::IsRadioLink(options_.link) ? 10.0 : 2.0};
   // A component's work did not stop and the agent is supervised: Run() ends for a restart of the process.
   std::atomic<bool> restart_requested_{false};
-  SteadyTime last_health_publish_{};
-  double last_process_cpu_s_ = 0.0;
-  double process_cpu_percent_ = 0.0;
 
   // In the constructor: the components and their monitor (not started).
   void MakeComponents();
   // The monitor's event: logged there; published at once.
   void OnHealthEvent(const core::HealthEvent& event);
-  // Control thread, outside the agent lock: the health message when due (health_due_, or its period).
+  // Control thread, outside the agent lock: the health message when due (an event, or its period).
   void PublishHealthIfDue(SteadyTime now);
   // With mutex_ held, at the top of a control cycle: a control-loop part restarted since the last cycle has
   // its state reset.
@@ -1130,12 +1127,7 @@ void RobotAgent::Impl::MakeComponents() {
 }
 
 void RobotAgent::Impl::OnHealthEvent(const core::HealthEvent& event) {
-  {
-    std::lock_guard<std::mutex> guard(health_event_mutex_);
-    ++health_events_;
-    last_health_event_ = event;
-  }
-  health_due_ = true;
+  health_report_.OnEvent(event);
   if (event.kind == core::HealthEvent::Kind::kEscalated && options_.supervised) {
     // The work that did not stop may hold the component's state: the process restarts from its journal (the
     // control loop stops the robot and tells the basestations on its way out).
@@ -1146,50 +1138,10 @@ void RobotAgent::Impl::OnHealthEvent(const core::HealthEvent& event) {
 }
 
 void RobotAgent::Impl::PublishHealthIfDue(SteadyTime now) {
-  const double period_s = core::IsRadioLink(options_.link) ? 10.0 : 2.0;
-  if (!health_due_.exchange(false) && core::SecondsBetween(last_health_publish_, now) < period_s) return;
-  const double window_s = core::SecondsBetween(last_health_publish_, now);
-  const double cpu_s = ProcessCpuSeconds();
-  if (last_health_publish_ != SteadyTime{} && window_s > 0.2) {
-    process_cpu_percent_ = 100.0 * (cpu_s - last_process_cpu_s_) / window_s;
-  }
-  if (last_health_publish_ == SteadyTime{} || window_s > 0.2) {
-    last_process_cpu_s_ = cpu_s;
-    last_health_publish_ = now;
-  }
-  cairn_msgs::AgentHealth m;
-  m.robot_id(options_.robot_id);
-  const core::WallStamp stamp = core::WallNow();
-  m.stamp().sec(stamp.sec);
-  m.stamp().nanosec(stamp.nanosec);
-  for (const core::ComponentHealth& h : health_->Snapshot(now)) {
-    cairn_msgs::ComponentHealth c;
-    c.name(h.name);
-    c.state(h.state);
-    c.loop_rate_hz(static_cast<float>(h.loop_rate_hz));
-    c.target_rate_hz(static_cast<float>(h.target_rate_hz));
-    c.last_error(h.last_error.size() > 240 ? h.last_error.substr(0, 237) + "..." : h.last_error);
-    c.cpu_percent(static_cast<float>(h.cpu_percent));
-    c.memory_bytes(h.memory_bytes);
-    c.restarts(h.restarts);
-    c.restart_in_s(static_cast<float>(h.restart_in_s));
-    c.down_for_s(static_cast<float>(h.down_for_s));
-    c.degraded(h.degraded);
-    m.components().push_back(std::move(c));
-  }
-  m.rss_bytes(ProcessRssBytes());
-  m.process_cpu_percent(static_cast<float>(process_cpu_percent_));
-  m.late_control_cycles(late_control_cycles_.load());
-  {
-    std::lock_guard<std::mutex> guard(health_event_mutex_);
-    m.events(health_events_);
-    if (health_events_ > 0) {
-      m.last_event(last_health_event_.message);
-      m.last_event_kind(core::ToString(last_health_event_.kind));
-      m.last_event_component(last_health_event_.component);
-    }
-  }
-  if (!dds_->Publish(m)) spdlog::warn("robot {}: health not sent (DDS history full)", options_.robot_id);
+  const std::optional<cairn_msgs::AgentHealth> m =
+      health_report_.MessageIfDue(now, *health_, late_control_cycles_.load());
+  if (m && !dds_->Publish(*m))
+    spdlog::warn("robot {}: health not sent (DDS history full)", options_.robot_id);
 }
 
 void RobotAgent::Impl::Run() {
