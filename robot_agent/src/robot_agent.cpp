@@ -28,6 +28,7 @@
 #include "cairn/agent/communication/health_report.h"
 #include "cairn/agent/communication/telemetry.h"
 #include "cairn/agent/journal.h"
+#include "cairn/agent/modes/come_home.h"
 #include "cairn/agent/modes/convoy_mode.h"
 #include "cairn/agent/modes/explore_mode.h"
 #include "cairn/agent/modes/mission.h"
@@ -145,7 +146,7 @@ class RobotAgent::Impl {
     if (health_) health_->StopAll();  // the component threads end before what they use
     ExitIfWorkStillRuns();
     dds_.reset();
-    if (home_plan_.valid()) navigation_.Abandon(std::move(home_plan_));
+    come_home_.Abandon(navigation_);
     if (resume_plan_.valid()) navigation_.Abandon(std::move(resume_plan_));
   }
   Impl(const Impl&) = delete;
@@ -186,10 +187,6 @@ class RobotAgent::Impl {
   CommandOutcome StartGoal(const GoalCommand& goal, const nav::GlobalPlan& plan);
   // With mutex_ held: the mode tree's facts now.
   ModeConditions Conditions() const;
-  // With mutex_ held, once per control cycle: an exploring robot that has heard no basestation for its task's
-  // home_after_silence_s ends the exploration and drives back to its start by itself (plans on a worker,
-  // then a waypoint goal).
-  void ComeHomeIfSilent(SteadyTime now);
   // With mutex_ held: one control cycle (mode re-check, pose, obstacles, the running mode, the mux, the
   // driver).
   void Step(SteadyTime now);
@@ -287,9 +284,9 @@ class RobotAgent::Impl {
   std::optional<std::pair<YieldCommand, YieldOrigin>> unheard_yield_;
   double unheard_yield_at_s_ = 0.0;
   static constexpr double kYieldHearingS = 1.5;
-  std::optional<ExploreClaim> claim_to_send_;  // Step()'s, sent by Run() outside the agent lock
-  std::future<nav::GlobalPlan> home_plan_;     // ComeHomeIfSilent(): the way back, being planned
-  std::unique_ptr<ModeControl> modes_;         // the mode tree, the mode modules and the mux
+  std::optional<ExploreClaim> claim_to_send_;        // Step()'s, sent by Run() outside the agent lock
+  ComeHome come_home_{options_.robot_id, start_M_};  // an exploring robot that hears no one drives back
+  std::unique_ptr<ModeControl> modes_;               // the mode tree, the mode modules and the mux
   std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
   std::unique_ptr<PlanningService> planning_;  // the planning thread: goals, then peers' path queries
   std::unique_ptr<Telemetry> telemetry_;
@@ -938,36 +935,6 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   return c;
 }
 
-void RobotAgent::Impl::ComeHomeIfSilent(SteadyTime now) {
-  if (home_plan_.valid()) {
-    if (PlanRunning(home_plan_)) return;
-    const nav::GlobalPlan plan = home_plan_.get();
-    if (!plan.IsUsable()) {
-      spdlog::error("robot {}: no way back to its start ({:.2f}, {:.2f}): {}; it stays here",
-                    options_.robot_id, start_M_.x_m, start_M_.y_m, plan.reason);
-      return;
-    }
-    const GoalStart start =
-        waypoint_->Start(plan, start_M_.x_m, start_M_.y_m, 0.0, start_M_.z_m, NowS(now),
-                         [this] { return modes_->Request(waypoint_->name(), Conditions()); });
-    if (start.accepted) {
-      spdlog::warn("robot {}: driving back to its start ({:.2f}, {:.2f}), {:.1f} m (waypoint {})",
-                   options_.robot_id, start_M_.x_m, start_M_.y_m, plan.result.length_m, start.goal_id);
-    } else {
-      spdlog::error("robot {}: cannot drive back to its start: {}; it stays here", options_.robot_id,
-                    start.reason);
-    }
-    return;
-  }
-  if (!explore_->exploring()) return;
-  const double limit_s = explore_->status().task.home_after_silence_s;
-  const double silence_s = command_->SecondsSinceBaseHeard(now);
-  if (limit_s <= 0 || silence_s <= limit_s) return;
-  explore_->Deactivate("no basestation heard for " + internal::Fixed(silence_s, 1) +
-                       " s: driving back to the start");
-  home_plan_ = navigation_.PlanGoalAsync(pose_, start_M_.x_m, start_M_.y_m, start_M_.z_m);
-}
-
 void RobotAgent::Impl::Step(SteadyTime now) {
   ResetRestartedParts();
   command_c_->Run([&] { command_->Update(now); });
@@ -1029,7 +996,12 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     if (modes_->Step(inputs))
       modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
     ResumeMission(now_s);
-    ComeHomeIfSilent(now);
+    come_home_.Step(command_->SecondsSinceBaseHeard(now), pose_, *explore_, navigation_,
+                    [&](const nav::GlobalPlan& plan, const core::BaseState& goal_M) {
+                      return waypoint_->Start(plan, goal_M.x_m, goal_M.y_m, 0.0, goal_M.z_m, now_s, [this] {
+                        return modes_->Request(waypoint_->name(), Conditions());
+                      });
+                    });
     // Written by Run() once the agent lock is released: Fast DDS hands the sample to this participant's own
     // claim reader on the writing thread, and the liveliness callbacks that come with it take the agent lock.
     claim_to_send_ = DueClaim(*explore_, team_, now_s, [this] {
