@@ -202,6 +202,13 @@ void CommandInterface::OnGoal(const GoalCommand& command) {
   hooks_.plan_goal(command);
 }
 
+void CommandInterface::RespondWithOutcome(const CommandSender& sender, uint32_t request_id, CommandKind kind,
+                                          const CommandOutcome& outcome) {
+  if (outcome.accepted) lock_.NoteHolderCommand(sender.participant);  // this process speaks for the holder
+  Respond(sender, request_id, kind, outcome.accepted ? CommandResult::kAccepted : CommandResult::kDenied,
+          outcome.reason, outcome.goal_id);
+}
+
 void CommandInterface::OnGoalPlanned(const GoalCommand& command, const nav::GlobalPlan& plan) {
   const CommandSender& sender = command.sender;
   const CommandKind kind = command.kind;
@@ -209,10 +216,7 @@ void CommandInterface::OnGoalPlanned(const GoalCommand& command, const nav::Glob
   pending_goals_.erase(std::remove(pending_goals_.begin(), pending_goals_.end(), key), pending_goals_.end());
   if (DiscardUnlessHolder(sender, command.request_id, kind)) return;  // the lock moved while it was planned
   const CommandOutcome outcome = hooks_.start_goal(command, plan);
-  if (outcome.accepted) lock_.NoteHolderCommand(sender.participant);  // this process speaks for the holder
-  Respond(sender, command.request_id, kind,
-          outcome.accepted ? CommandResult::kAccepted : CommandResult::kDenied, outcome.reason,
-          outcome.goal_id);
+  RespondWithOutcome(sender, command.request_id, kind, outcome);
 }
 
 void CommandInterface::OnExplore(const ExploreCommand& command) {
@@ -224,10 +228,7 @@ void CommandInterface::OnExplore(const ExploreCommand& command) {
                                                   : CheckExploreTask(command.task);
   if (!problem.empty()) return Respond(sender, command.request_id, kind, CommandResult::kDenied, problem);
   const CommandOutcome outcome = hooks_.start_explore(command);
-  if (outcome.accepted) lock_.NoteHolderCommand(sender.participant);  // this process speaks for the holder
-  Respond(sender, command.request_id, kind,
-          outcome.accepted ? CommandResult::kAccepted : CommandResult::kDenied, outcome.reason,
-          outcome.goal_id);
+  RespondWithOutcome(sender, command.request_id, kind, outcome);
 }
 
 void CommandInterface::OnConvoy(const ConvoyCommand& command) {
@@ -239,9 +240,7 @@ void CommandInterface::OnConvoy(const ConvoyCommand& command) {
     return Respond(sender, command.request_id, kind, CommandResult::kDenied, command.malformed);
   }
   const CommandOutcome outcome = hooks_.convoy(command);
-  if (outcome.accepted) lock_.NoteHolderCommand(sender.participant);
-  Respond(sender, command.request_id, kind,
-          outcome.accepted ? CommandResult::kAccepted : CommandResult::kDenied, outcome.reason);
+  RespondWithOutcome(sender, command.request_id, kind, outcome);
 }
 
 void CommandInterface::OnTeleop(const TeleopCommand& command, core::SteadyTime now) {

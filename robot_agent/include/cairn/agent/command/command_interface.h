@@ -126,6 +126,10 @@ class CommandInterface {
   bool ReplayIfDuplicate(const CommandSender& sender, CommandKind kind, uint32_t request_id);
   void Respond(const CommandSender& sender, uint32_t request_id, CommandKind kind, CommandResult result,
                const std::string& reason, uint32_t goal_id = 0);
+  // The answer to a command the holder's service took or refused (`outcome`); an accepted one notes that the
+  // sender's process speaks for the holder.
+  void RespondWithOutcome(const CommandSender& sender, uint32_t request_id, CommandKind kind,
+                          const CommandOutcome& outcome);
   // The sender is not the holder: counted, answered "discarded" naming the holder. true then.
   bool DiscardUnlessHolder(const CommandSender& sender, uint32_t request_id, CommandKind kind);
   // The process `participant` is gone or silent; re-checks the mode (a holder without a live process stops
