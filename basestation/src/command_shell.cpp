@@ -819,8 +819,9 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
   std::string failure;
   bool seen_goal = false;
   // Evaluated under the fleet client's lock: decide only, print nothing here.
+  shell::LostRobotGrace lost_grace;
   auto done = [&](const RobotView& v) {
-    if (v.lost) failure = "robot lost (" + v.lost_reason + ")";
+    failure = lost_grace.Check(v, core::SteadyClock::now());
     if (!v.state) return !failure.empty();
     const auto& s = *v.state;
     if (goal_id != 0 && s.nav_goal_id() != goal_id) {

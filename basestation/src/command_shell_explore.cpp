@@ -164,8 +164,9 @@ int CommandShell::Explore(const std::vector<std::string>& all_args) {
 int CommandShell::WaitExplored(const std::string& robot, uint32_t task_id, double timeout_s) {
   std::string failure;
   // Evaluated under the fleet client's lock: decide only, print nothing here.
+  shell::LostRobotGrace lost_grace;
   auto done = [&](const RobotView& v) {
-    if (v.lost) failure = "robot lost (" + v.lost_reason + ")";
+    failure = lost_grace.Check(v, core::SteadyClock::now());
     if (!v.state) return !failure.empty();
     const auto& s = *v.state;
     if (s.explore_task_id() != task_id) return !failure.empty();  // its state from before the command

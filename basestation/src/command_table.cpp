@@ -64,7 +64,8 @@ const std::vector<CommandSpec>& CommandTable() {
        FirstArgument::kRobot, false},
       {"goto", "goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]",
        "drive R to POINT (on the level nearest Z_M, default the robot's); --wait prints progress (distance "
-       "left, ETA) until it arrives or fails (default 600 s)",
+       "left, ETA) until it arrives or fails (default 600 s; a robot lost for 5 s, or whose process exited, "
+       "fails it)",
        1, kAny, FirstArgument::kRobot, true},
       {"resume-goal", "resume-goal R [--wait [TIMEOUT_S]]",
        "drive R again to the goal it was driving when it crashed (a robot restarted with --resume offers it, "

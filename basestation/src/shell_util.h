@@ -6,16 +6,46 @@
 #include <cstdio>
 #include <iomanip>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <ostream>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "cairn/base/fleet_client.h"
 #include "cairn/base/link_monitor.h"
+#include "cairn/core/time.h"
 #include "cairn/perception/staircase.h"
 #include "cairn_msgs.h"
 
 namespace cairn::base::shell {
+
+/// A wait on a robot (goto --wait, explore --wait) gives up on a lost robot only once it has stayed lost for
+/// `grace_s`, or at once if its process exited: on a lossy link a state gap of a second is not the end of a
+/// mission (the robot drives on), and the wait goes on through it.
+class LostRobotGrace {
+ public:
+  explicit LostRobotGrace(double grace_s = 5.0) : grace_s_(grace_s) {}
+  /// The failure ("robot lost for 5.0 s (REASON)") once `view` has been lost long enough at `now`, else "".
+  std::string Check(const RobotView& view, core::SteadyTime now) {
+    if (!view.lost) {
+      lost_since_.reset();
+      return "";
+    }
+    if (!lost_since_) lost_since_ = now;
+    const double lost_s = core::SecondsBetween(*lost_since_, now);
+    if (!view.left && lost_s < grace_s_) return "";
+    std::ostringstream out;
+    out << "robot lost";
+    if (!view.left) out << " for " << std::fixed << std::setprecision(1) << lost_s << " s";
+    out << " (" << view.lost_reason << ")";
+    return out.str();
+  }
+
+ private:
+  double grace_s_;
+  std::optional<core::SteadyTime> lost_since_;
+};
 
 /// One JSON object as one output line's text; invalid UTF-8 from operator input is replaced, never thrown.
 inline std::string Dump(const nlohmann::json& j) {

@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "../src/shell_util.h"
+
 namespace cairn::base {
 namespace {
 
@@ -49,6 +51,35 @@ TEST(CommandTable, HelpListsEveryCommandWithinItsWidth) {
             std::string::npos)
       << help;
   EXPECT_NE(help.find("  robots                              the fleet:"), std::string::npos) << help;
+}
+
+}  // namespace
+}  // namespace cairn::base
+
+namespace cairn::base {
+namespace {
+
+// A wait on a robot goes on through a short loss (a state gap on a lossy link) and fails once the robot stays
+// lost for the grace, or at once when its process exited.
+TEST(LostRobotGrace, AShortLossIsWaitedThroughALongOneOrAnExitEndsTheWait) {
+  shell::LostRobotGrace grace(5.0);
+  RobotView v;
+  v.robot_id = "r1";
+  const core::SteadyTime t0 = core::SteadyClock::now();
+  EXPECT_EQ(grace.Check(v, t0), "");
+  v.lost = true;
+  v.lost_reason = "no state for 0.8 s";
+  EXPECT_EQ(grace.Check(v, t0 + std::chrono::seconds(1)), "");
+  EXPECT_EQ(grace.Check(v, t0 + std::chrono::seconds(4)), "");
+  v.lost = false;  // back: the grace starts again at the next loss
+  EXPECT_EQ(grace.Check(v, t0 + std::chrono::seconds(5)), "");
+  v.lost = true;
+  EXPECT_EQ(grace.Check(v, t0 + std::chrono::seconds(6)), "");
+  EXPECT_EQ(grace.Check(v, t0 + std::chrono::seconds(11)), "robot lost for 5.0 s (no state for 0.8 s)");
+  shell::LostRobotGrace exited(5.0);
+  v.left = true;
+  v.lost_reason = "its process exited";
+  EXPECT_EQ(exited.Check(v, t0), "robot lost (its process exited)");
 }
 
 }  // namespace
