@@ -33,7 +33,9 @@ void AppendWrapped(const std::string& text, std::size_t column, std::size_t inde
 }  // namespace
 
 const std::vector<CommandSpec>& CommandTable() {
-  // Help text is a paragraph: CommandHelp wraps it. Argument counts are words after the name.
+  // One data table, kept whole on purpose (one entry per command, in help order): splitting it would scatter
+  // what the table exists to keep in one place. Help text is a paragraph: CommandHelp wraps it. Argument
+  // counts are words after the name.
   static const std::vector<CommandSpec> kTable = {
       {"robots", "robots",
        "the fleet: mode, holder, goal status, distance left, ETA, last heard, last refusal", 0, 0,
