@@ -93,21 +93,20 @@ TEST(ExploreTest, TwoRobotsShareARegionWithoutSharingAFrontier) {
 }
 
 // The whole of builtin:tunnels from its gate (robots 2 m apart): one robot that knows nothing explores until
-// it reports complete (>= 90 % of the reachable floor, no contact, at rest); three reach 90 % at least 1.8x
-// sooner, never going for the same frontier, each taking part (both team runs stop at 95 %); with one of the
-// three gone for good 30 s in (at the first cycle after that in which it holds a claim), the two others
-// explore the branch it was going for (what it saw before it went counts: it reached its peers as map
-// telemetry) and reach 95 %.
+// 90 % of the reachable floor is in its map, with no contact (exploring to completion, and standing at rest
+// then, is the geb079 test's and the two-robot test's); three reach 90 % at least 1.8x sooner, never going
+// for the same frontier, each taking part (both team runs stop at 95 %); with one of the three gone for good
+// 30 s in (at the first cycle after that in which it holds a claim), the two others explore the branch it was
+// going for (what it saw before it went counts: it reached its peers as map telemetry) and reach 95 %.
 TEST(ExploreTest, ThreeRobotsExploreTheTunnelsAtLeast1p8TimesSoonerThanOneAndTakeOverAGoneRobotsBranch) {
   explore_team::TeamOptions o;
   o.starts = {{4.0, 20.0, 0.0}};
+  o.stop_at_coverage = 0.90;  // the baseline's figure is its time to 90 %
   const explore_team::TeamRun one = explore_team::RunTeam(o);
   PrintTeam("one robot", one);
-  ASSERT_EQ(one.statuses[0].state, ExplorationState::kComplete) << one.statuses[0].reason;
-  EXPECT_NE(one.statuses[0].reason.find("exploration complete: no reachable frontier"), std::string::npos);
+  EXPECT_EQ(one.statuses[0].state, ExplorationState::kExploring) << one.statuses[0].reason;
   EXPECT_GE(one.coverage, 0.90);
   EXPECT_FALSE(one.contact);
-  EXPECT_LT(one.end_speed_mps, 0.05) << "the robot is at rest at the end";
   ASSERT_GT(one.time_to_90_s, 0.0);
 
   o.starts = {{4.0, 20.0, 0.0}, {6.0, 20.0, 0.0}, {8.0, 20.0, 0.0}};
@@ -162,6 +161,7 @@ TEST(ExploreTest, OneRobotExploresTheRealGeb079ScanUntilComplete) {
   EXPECT_NE(s.reason.find("exploration complete: no reachable frontier"), std::string::npos) << s.reason;
   EXPECT_GE(run.coverage, 0.90);
   EXPECT_FALSE(run.contact);
+  EXPECT_LT(run.end_speed_mps, 0.05) << "the robot is at rest at the end";
 }
 
 // A legged robot on floor 1 of builtin:building (24 x 14 m, six rooms and a corridor a floor) explores the
