@@ -32,6 +32,7 @@
 #include "cairn/agent/modes/convoy_mode.h"
 #include "cairn/agent/modes/explore_mode.h"
 #include "cairn/agent/modes/mission.h"
+#include "cairn/agent/modes/mission_resumption.h"
 #include "cairn/agent/modes/mode_control.h"
 #include "cairn/agent/modes/modes.h"
 #include "cairn/agent/modes/waypoint_mode.h"
@@ -147,7 +148,7 @@ class RobotAgent::Impl {
     ExitIfWorkStillRuns();
     dds_.reset();
     come_home_.Abandon(navigation_);
-    if (resume_plan_.valid()) navigation_.Abandon(std::move(resume_plan_));
+    if (missions_) missions_->Abandon();
   }
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
@@ -199,26 +200,12 @@ class RobotAgent::Impl {
   // convoy.
   CommandOutcome OnConvoy(const ConvoyCommand& c);
   // With mutex_ held: a yield request (a peer's or an operator's): refused by the policy (the mode, no spot
-  // aside), or the robot moves aside in yield mode, its mission paused until the yield ends (ResumeMission).
+  // aside), or the robot moves aside in yield mode, its mission paused until the yield ends
+  // (MissionResumption).
   void OnYieldRequest(const YieldCommand& c, const YieldOrigin& origin, const std::string& fault);
   // With mutex_ held, once per control cycle, before the mode's step: a robot driving a goal whose route a
   // peer blocks in a narrow passage asks it to yield (sent by Run()) and holds before it meanwhile.
   void AskPeersToYield(double now_s, const std::vector<PeerBody>& peers);
-  // With mutex_ held: the operator's mission the robot runs now (a waypoint goal, an exploration or a place
-  // in a convoy), to be kept when a transient condition interrupts it.
-  std::optional<PausedMission> RunningMission(double now_s) const;
-  // With mutex_ held: keeps `mission`, interrupted because of `reason`, to resume it (MissionKeeper).
-  void PauseMission(PausedMission mission, const std::string& reason);
-  // With mutex_ held, once per control cycle, after the mode's step: a yield that ended hands back; a paused
-  // mission is tried again when due (a goal planned again from here, or the exploration), resumed once the
-  // tree allows it, dropped when an operator commanded something else, ended when it waited too long or the
-  // condition is not transient.
-  void ResumeMission(double now_s);
-  void EndPausedMission(const PausedMission& mission, const std::string& reason);
-  // "waypoint 12", "explore 7", "convoy behind r1": the mission in the agent's log lines.
-  static std::string MissionName(const PausedMission& mission);
-  // A convoy place kept for a paused mission is given up (the mission ended or was dropped).
-  void LeavePausedConvoy(const std::string& why);
   // With mutex_ held: what the robot state reports now.
   RobotStateInputs StateInputs() const {
     // As the robot asked while it yields (or last yielded: how it ended), else as the robot asking.
@@ -232,10 +219,10 @@ class RobotAgent::Impl {
     in.control_period_max_ms = control_periods_.WorstMs();
     in.resumable_goal_M = resumable_goal_M_;
     in.yield = own_first ? own : asking;
-    in.paused_mission = mission_.paused();
+    in.paused_mission = missions_->paused();
     if (in.paused_mission)
       in.mission_paused_s = std::max(0.0, NowS(SteadyClock::now()) - in.paused_mission->since_s);
-    in.mission_note = mission_note_;
+    in.mission_note = missions_->note();
     return in;
   }
   void SendClaim(const ExploreClaim& claim) {
@@ -269,14 +256,9 @@ class RobotAgent::Impl {
   YieldAsker yield_asker_;                         // asks peers in the way to yield
   std::string yield_logged_;                       // the asking status last logged
   std::optional<std::pair<std::string, YieldCommand>> yield_to_send_;  // Step()'s, sent by Run() unlocked
-  // The operator's mission a transient condition (or a yield) paused, resumed by ResumeMission().
-  MissionKeeper mission_;
-  std::uint64_t mission_commands_at_pause_ = 0;  // CommandInterface::mission_commands() when it paused
-  std::string mission_note_;                     // how the last pause ended (RobotState.mission_reason)
-  std::future<nav::GlobalPlan> resume_plan_;     // ResumeMission(): a paused goal planned again, from here
-  ExploreTeam team_;                             // peers' explore claims and coverage (thread-safe)
-  PeerTracker peers_;                            // peers' poses, footprints and paths (thread-safe)
-  core::WarningLimiter peer_warnings_;           // a bad peer state is named once per 5 s per robot
+  ExploreTeam team_;                    // peers' explore claims and coverage (thread-safe)
+  PeerTracker peers_;                   // peers' poses, footprints and paths (thread-safe)
+  core::WarningLimiter peer_warnings_;  // a bad peer state is named once per 5 s per robot
   // Run(): AgentDds::ListenToPeers() done, once the robot first left idle or was asked to yield.
   std::atomic<bool> listening_to_peers_{false};
   // A yield request that came before this robot listened to its peers (mutex_): decided once it has heard
@@ -287,6 +269,8 @@ class RobotAgent::Impl {
   std::optional<ExploreClaim> claim_to_send_;        // Step()'s, sent by Run() outside the agent lock
   ComeHome come_home_{options_.robot_id, start_M_};  // an exploring robot that hears no one drives back
   std::unique_ptr<ModeControl> modes_;               // the mode tree, the mode modules and the mux
+  // The operator's mission a transient condition (or a yield) paused, resumed when it clears.
+  std::unique_ptr<MissionResumption> missions_;
   std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
   std::unique_ptr<PlanningService> planning_;  // the planning thread: goals, then peers' path queries
   std::unique_ptr<Telemetry> telemetry_;
@@ -335,7 +319,6 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       pose_(start_M_),
       navigation_(options.navigation, planner_, LocalPlannerLibrary(options)),
       yield_asker_(options.yield, options.robot_id),
-      mission_(options.mission),
       team_(options.robot_id, options.explore.team),
       peers_(options.robot_id, options.peers),
       faults_(
@@ -350,6 +333,10 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       [this](const PerceptionOutput& out) { telemetry_->PublishPerception(out); });
   const std::string tree_file = options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file;
   modes_ = std::make_unique<ModeControl>(tree_file, MakeModes(tree_file), options.robot_id);
+  missions_ = std::make_unique<MissionResumption>(
+      options.robot_id, options.mission,
+      MissionResumption::Modes{modes_.get(), waypoint_, explore_, convoy_, yield_, &navigation_},
+      [this](const std::string& mode) { return modes_->Request(mode, Conditions()); });
   command_ = std::make_unique<CommandInterface>(options.robot_id, options.lock, modes_.get(),
                                                 waypoint_->name(), CommandHooks());
   PlanningServiceOptions planning;
@@ -618,16 +605,16 @@ void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const YieldOrigin& 
   if (decision.ignore) return;  // it gets out of this robot's way itself
   if (!decision.accepted) return refuse(decision.refusal);
   // Its mission waits for the yield's end (held: no retry, no expiry meanwhile).
-  if (std::optional<PausedMission> running = RunningMission(now_s)) {
+  if (std::optional<PausedMission> running = missions_->Running(now_s)) {
     running->held = true;
-    PauseMission(std::move(*running), "yielding to " + c.passing_id);
+    missions_->Pause(std::move(*running), "yielding to " + c.passing_id, command_->mission_commands());
   }
   yield_->Start(c, decision.spot, pose_, decision.clearance_m, /*return_home=*/mode == ModeManager::kIdleMode,
                 now_s);
   const ModeDecision d = modes_->Request(yield_->name(), Conditions());
   if (!d.accepted) {
     yield_->Deactivate(d.reason);
-    if (mission_.paused() && mission_.paused()->held) mission_.Take();  // it never stopped
+    missions_->DropHeld();
     return refuse(d.reason);
   }
   spdlog::info("robot {}: yielding to {} (asked by {}, was {}): {}", own, c.passing_id, c.sender_id, mode,
@@ -650,170 +637,6 @@ void RobotAgent::Impl::AskPeersToYield(double now_s, const std::vector<PeerBody>
     } else if (status.state != YieldStatus::State::kNone) {
       spdlog::info("robot {}: {}", options_.robot_id, status.reason);
     }
-  }
-}
-
-std::optional<PausedMission> RobotAgent::Impl::RunningMission(double now_s) const {
-  PausedMission m;
-  m.since_s = now_s;
-  if (modes_->mode() == waypoint_->name() && waypoint_->has_goal()) {
-    m.kind = PausedMission::Kind::kWaypoint;
-    m.goal = waypoint_->goal();
-    return m;
-  }
-  if (modes_->mode() == explore_->name() && explore_->exploring()) {
-    m.kind = PausedMission::Kind::kExplore;
-    m.task = explore_->status().task;
-    m.task_id = explore_->status().task_id;
-    return m;
-  }
-  if (modes_->mode() == convoy_->name() && convoy_->active()) {
-    m.kind = PausedMission::Kind::kConvoy;
-    m.convoy_ahead_ids = convoy_->status().ahead_ids;
-    return m;
-  }
-  return std::nullopt;
-}
-
-void RobotAgent::Impl::PauseMission(PausedMission mission, const std::string& reason) {
-  mission.reason = reason;
-  // Its place in the convoy is kept (the trail still extended) while it waits.
-  if (mission.kind == PausedMission::Kind::kConvoy) convoy_->Pause(mission.convoy_ahead_ids, reason);
-  spdlog::warn("robot {}: mission paused ({}): {}; it resumes by itself{}", options_.robot_id,
-               MissionName(mission), reason,
-               mission.held
-                   ? " when the yield ends"
-                   : " when that clears (within " + internal::Fixed(mission_.options().resume_within_s, 0) +
-                         " s, mission.resume_within_s)");
-  if (resume_plan_.valid()) navigation_.Abandon(std::move(resume_plan_));
-  mission_.Pause(std::move(mission));
-  mission_commands_at_pause_ = command_->mission_commands();
-}
-
-std::string RobotAgent::Impl::MissionName(const PausedMission& mission) {
-  switch (mission.kind) {
-    case PausedMission::Kind::kWaypoint:
-      return "waypoint " + std::to_string(mission.goal.goal_id);
-    case PausedMission::Kind::kExplore:
-      return "explore " + std::to_string(mission.task_id);
-    case PausedMission::Kind::kConvoy:
-      return "convoy behind " +
-             (mission.convoy_ahead_ids.empty() ? std::string("?") : mission.convoy_ahead_ids.front());
-  }
-  return "mission";
-}
-
-void RobotAgent::Impl::LeavePausedConvoy(const std::string& why) {
-  if (convoy_->status().state == ConvoyStatus::State::kPaused) convoy_->Deactivate(why);
-}
-
-void RobotAgent::Impl::EndPausedMission(const PausedMission& mission, const std::string& reason) {
-  switch (mission.kind) {
-    case PausedMission::Kind::kWaypoint:
-      waypoint_->EndPaused(mission.goal.goal_id, reason);
-      break;
-    case PausedMission::Kind::kExplore:
-      explore_->EndPaused(mission.task_id, reason);
-      break;
-    case PausedMission::Kind::kConvoy:
-      LeavePausedConvoy(reason);
-      break;
-  }
-  mission_note_ = reason;
-  mission_.Take();
-}
-
-void RobotAgent::Impl::ResumeMission(double now_s) {
-  if (yield_->TakeFinished()) {
-    spdlog::info("robot {}: {}", options_.robot_id, yield_->status().reason);
-    mission_.Release(now_s);
-  }
-  if (!mission_.paused()) {
-    if (resume_plan_.valid()) navigation_.Abandon(std::move(resume_plan_));
-    return;
-  }
-  const PausedMission paused = *mission_.paused();
-  const std::string what = MissionName(paused);
-  // An operator's command (a mode, a goal, an exploration, a stop, a release) ends it: they decided.
-  if (command_->mission_commands() != mission_commands_at_pause_ ||
-      (!paused.held && modes_->mode() != ModeManager::kIdleMode && modes_->mode() != yield_->name())) {
-    spdlog::info("robot {}: paused mission ({}) dropped: an operator's command came (mode {})",
-                 options_.robot_id, what, modes_->mode());
-    mission_note_ = "dropped: an operator's command came";
-    LeavePausedConvoy(mission_note_);
-    mission_.Take();
-    if (resume_plan_.valid()) navigation_.Abandon(std::move(resume_plan_));
-    return;
-  }
-  if (modes_->mode() == yield_->name()) return;  // out of a peer's way now: tried once the yield ends
-  auto resumed = [&] {
-    const double paused_s = now_s - paused.since_s;
-    spdlog::info("robot {}: mission resumed ({}) after {:.1f} s paused ({})", options_.robot_id, what,
-                 paused_s, paused.reason);
-    mission_note_ = "resumed after " + internal::Fixed(paused_s, 1) + " s paused: " + paused.reason;
-    mission_.Take();
-  };
-  auto refused = [&](const std::string& why) {
-    if (IsTransientFailure(why)) {
-      mission_.SetReason(why);  // still paused, now for this
-    } else {
-      EndPausedMission(paused, "not resumed: " + why);
-    }
-  };
-  if (resume_plan_.valid()) {  // a paused goal, planned again from here
-    if (PlanRunning(resume_plan_)) return;
-    const nav::GlobalPlan plan = resume_plan_.get();
-    if (!plan.IsUsable()) {
-      mission_.SetReason("no path from here yet: " + plan.reason);  // the map may still be coming back
-      return;
-    }
-    const GoalStart start = waypoint_->Start(
-        plan, paused.goal.x_m, paused.goal.y_m, paused.goal.tolerance_m, paused.goal.z_m, now_s,
-        [this] { return modes_->Request(waypoint_->name(), Conditions()); }, paused.goal.goal_id);
-    if (start.accepted) {
-      resumed();
-    } else {
-      refused(start.reason);
-    }
-    return;
-  }
-  switch (mission_.Check(now_s)) {
-    case MissionKeeper::Due::kNothing:
-    case MissionKeeper::Due::kWait:
-      return;
-    case MissionKeeper::Due::kExpired:
-      EndPausedMission(paused, "paused for " + internal::Fixed(now_s - paused.since_s, 0) +
-                                   " s (mission.resume_within_s " +
-                                   internal::Fixed(mission_.options().resume_within_s, 0) +
-                                   ") and not resumed: " + paused.reason);
-      return;
-    case MissionKeeper::Due::kTry:
-      break;
-  }
-  mission_.Tried(now_s);
-  if (paused.kind == PausedMission::Kind::kConvoy) {
-    // Back in line behind the same robots, on the trail kept while it waited.
-    if (const std::string why = convoy_->Start(options_.robot_id, paused.convoy_ahead_ids, now_s);
-        !why.empty())
-      return EndPausedMission(paused, "not resumed: " + why);
-    convoy_->SetPeers(peers_.Live(now_s), now_s);
-    const ModeDecision d = modes_->Request(convoy_->name(), Conditions());
-    if (d.accepted) return resumed();
-    convoy_->Pause(paused.convoy_ahead_ids, paused.reason);
-    return refused(d.reason);
-  }
-  if (paused.kind == PausedMission::Kind::kWaypoint) {
-    // Planned (off this thread) only once the tree would take a goal again: no search per retry meanwhile.
-    if (!command_->ValidNow().goal_acceptable) return;
-    resume_plan_ = navigation_.PlanGoalAsync(pose_, paused.goal.x_m, paused.goal.y_m, paused.goal.z_m);
-    return;
-  }
-  const std::string why = explore_->Start(
-      paused.task, now_s, [this] { return modes_->Request(explore_->name(), Conditions()); }, paused.task_id);
-  if (why.empty()) {
-    resumed();
-  } else {
-    refused(why);
   }
 }
 
@@ -940,15 +763,16 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   command_c_->Run([&] { command_->Update(now); });
   const double now_s = NowS(now);
   mode_tree_c_->Run([&] {
-    std::optional<PausedMission> running = RunningMission(now_s);
+    std::optional<PausedMission> running = missions_->Running(now_s);
     const ModeDecision recheck = modes_->Recheck(Conditions());
     if (!recheck.accepted) {
       spdlog::warn("robot {}: {} -> idle", options_.robot_id, recheck.reason);
       // A condition that clears by itself (a component restarting, localization lost) pauses the mission.
       if (running && IsTransientFailure(recheck.reason)) {
         const std::size_t colon = recheck.reason.find(" no longer allowed: ");
-        PauseMission(std::move(*running),
-                     colon == std::string::npos ? recheck.reason : recheck.reason.substr(colon + 20));
+        missions_->Pause(std::move(*running),
+                         colon == std::string::npos ? recheck.reason : recheck.reason.substr(colon + 20),
+                         command_->mission_commands());
       }
     }
   });
@@ -995,7 +819,8 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     perception_->SetPeerCoverage(team_.Coverage());
     if (modes_->Step(inputs))
       modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
-    ResumeMission(now_s);
+    missions_->Step(now_s, pose_, live_peers, command_->mission_commands(),
+                    [this] { return command_->ValidNow().goal_acceptable; });
     come_home_.Step(command_->SecondsSinceBaseHeard(now), pose_, *explore_, navigation_,
                     [&](const nav::GlobalPlan& plan, const core::BaseState& goal_M) {
                       return waypoint_->Start(plan, goal_M.x_m, goal_M.y_m, 0.0, goal_M.z_m, now_s, [this] {
@@ -1018,14 +843,14 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     twist_B = Twist2{};
     if (modes_->mode() != ModeManager::kIdleMode) {
       const std::string why = "a component of the driving chain is down (health " + options_.robot_id + ")";
-      std::optional<PausedMission> running = RunningMission(now_s);
+      std::optional<PausedMission> running = missions_->Running(now_s);
       try {
         modes_->Stop(why);
       } catch (const std::exception& e) {
         spdlog::error("robot {}: cannot go idle: {}", options_.robot_id, e.what());
       }
       // After the mode has left: a convoy place is kept by the pause, not dropped by leaving the mode.
-      if (running) PauseMission(std::move(*running), why);
+      if (running) missions_->Pause(std::move(*running), why, command_->mission_commands());
     }
   }
   try {
