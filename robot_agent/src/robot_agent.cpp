@@ -44,6 +44,7 @@
 #include "cairn/agent/services/trajectory_library_cache.h"
 #include "cairn/agent/team/peers.h"
 #include "cairn/agent/team/yield.h"
+#include "cairn/agent/team/yield_coordination.h"
 #include "cairn/agent/team/yield_sender.h"
 #include "cairn/core/health_monitor.h"
 #include "cairn/core/peer_input.h"
@@ -199,18 +200,15 @@ class RobotAgent::Impl {
   // A convoy follower's request (CommandInterface::Hooks::convoy): follow the robots ahead, or leave the
   // convoy.
   CommandOutcome OnConvoy(const ConvoyCommand& c);
-  // With mutex_ held: a yield request (a peer's or an operator's): refused by the policy (the mode, no spot
-  // aside), or the robot moves aside in yield mode, its mission paused until the yield ends
-  // (MissionResumption).
-  void OnYieldRequest(const YieldCommand& c, const YieldOrigin& origin, const std::string& fault);
-  // With mutex_ held, once per control cycle, before the mode's step: a robot driving a goal whose route a
-  // peer blocks in a narrow passage asks it to yield (sent by Run()) and holds before it meanwhile.
-  void AskPeersToYield(double now_s, const std::vector<PeerBody>& peers);
+  // With mutex_ held: the robot as a yield, asked or asking, sees it at `now_s` with `live_peers`.
+  YieldCoordination::Robot ForYield(double now_s, std::vector<PeerBody> live_peers) const {
+    return {now_s, modes_->mode(), pose_, std::move(live_peers), listening_to_peers_};
+  }
   // With mutex_ held: what the robot state reports now.
   RobotStateInputs StateInputs() const {
     // As the robot asked while it yields (or last yielded: how it ended), else as the robot asking.
     const YieldStatus& own = yield_->status();
-    const YieldStatus& asking = yield_asker_.status();
+    const YieldStatus& asking = yielding_->asking();
     const bool own_first = own.state != YieldStatus::State::kNone ||
                            (asking.state == YieldStatus::State::kNone && !own.reason.empty());
     RobotStateInputs in;
@@ -253,26 +251,19 @@ class RobotAgent::Impl {
   ExploreMode* explore_ = nullptr;                 // owned by modes_; holds the exploration task
   ConvoyMode* convoy_ = nullptr;                   // owned by modes_; holds the convoy follower's task
   YieldMode* yield_ = nullptr;                     // owned by modes_; gets out of a peer's way
-  YieldAsker yield_asker_;                         // asks peers in the way to yield
-  std::string yield_logged_;                       // the asking status last logged
-  std::optional<std::pair<std::string, YieldCommand>> yield_to_send_;  // Step()'s, sent by Run() unlocked
-  ExploreTeam team_;                    // peers' explore claims and coverage (thread-safe)
-  PeerTracker peers_;                   // peers' poses, footprints and paths (thread-safe)
-  core::WarningLimiter peer_warnings_;  // a bad peer state is named once per 5 s per robot
+  ExploreTeam team_;                               // peers' explore claims and coverage (thread-safe)
+  PeerTracker peers_;                              // peers' poses, footprints and paths (thread-safe)
+  core::WarningLimiter peer_warnings_;             // a bad peer state is named once per 5 s per robot
   // Run(): AgentDds::ListenToPeers() done, once the robot first left idle or was asked to yield.
   std::atomic<bool> listening_to_peers_{false};
-  // A yield request that came before this robot listened to its peers (mutex_): decided once it has heard
-  // them for kYieldHearingS (CheckYieldSender needs the passing robot heard).
-  std::optional<std::pair<YieldCommand, YieldOrigin>> unheard_yield_;
-  double unheard_yield_at_s_ = 0.0;
-  static constexpr double kYieldHearingS = 1.5;
   std::optional<ExploreClaim> claim_to_send_;        // Step()'s, sent by Run() outside the agent lock
   ComeHome come_home_{options_.robot_id, start_M_};  // an exploring robot that hears no one drives back
   std::unique_ptr<ModeControl> modes_;               // the mode tree, the mode modules and the mux
   // The operator's mission a transient condition (or a yield) paused, resumed when it clears.
   std::unique_ptr<MissionResumption> missions_;
-  std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
-  std::unique_ptr<PlanningService> planning_;  // the planning thread: goals, then peers' path queries
+  std::unique_ptr<YieldCoordination> yielding_;  // asked to get out of the way, and asking peers to
+  std::unique_ptr<CommandInterface> command_;    // the lock, the reply cache and the rules of who may command
+  std::unique_ptr<PlanningService> planning_;    // the planning thread: goals, then peers' path queries
   std::unique_ptr<Telemetry> telemetry_;
   std::optional<Eigen::Vector3d>
       resumable_goal_M_;                    // a resumed robot's old goal, offered until it leaves idle
@@ -318,7 +309,6 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       planner_(MakePlanner(options, start_M_)),
       pose_(start_M_),
       navigation_(options.navigation, planner_, LocalPlannerLibrary(options)),
-      yield_asker_(options.yield, options.robot_id),
       team_(options.robot_id, options.explore.team),
       peers_(options.robot_id, options.peers),
       faults_(
@@ -337,6 +327,11 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       options.robot_id, options.mission,
       MissionResumption::Modes{modes_.get(), waypoint_, explore_, convoy_, yield_, &navigation_},
       [this](const std::string& mode) { return modes_->Request(mode, Conditions()); });
+  yielding_ = std::make_unique<YieldCoordination>(
+      options.robot_id, options.yield, options.navigation.platform.footprint_radius_m, yield_,
+      missions_.get(), &navigation_, [this] { return planner_->Grid(options_.navigation.platform.name); },
+      [this](const std::string& mode) { return modes_->Request(mode, Conditions()); },
+      [this] { return command_->mission_commands(); });
   command_ = std::make_unique<CommandInterface>(options.robot_id, options.lock, modes_.get(),
                                                 waypoint_->name(), CommandHooks());
   PlanningServiceOptions planning;
@@ -539,107 +534,6 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
   return CommandOutcome{true, "following " + c.ahead_ids.front() + " (ahead: " + order + ")", 0};
 }
 
-void RobotAgent::Impl::OnYieldRequest(const YieldCommand& c, const YieldOrigin& origin,
-                                      const std::string& fault) {
-  const double now_s = NowS(SteadyClock::now());
-  const std::string& own = options_.robot_id;
-  if (const std::string why = fault.empty() ? CheckYieldCommand(c) : fault; !why.empty()) {
-    spdlog::warn("robot {}: {}; refused", own, why);
-    // Shown to the peer only under a valid id (a bad one would spoil this robot's own peer state).
-    if (core::CheckId("passing_id", c.passing_id).empty()) yield_->Refuse(c.passing_id, why, now_s);
-    return;
-  }
-  if (c.passing_id == own) return;
-  if (!listening_to_peers_) {
-    // Its peers are not read yet (an idle robot that never drove): Run() starts reading them, and the
-    // request is decided once they could be heard.
-    if (!unheard_yield_)
-      spdlog::info("robot {}: yield for {} (asked by {}): listening to peers first", own, c.passing_id,
-                   c.sender_id);
-    unheard_yield_ = std::make_pair(c, origin);
-    unheard_yield_at_s_ = now_s;
-    return;
-  }
-  if (const std::string why = CheckYieldSender(own, c, origin, peers_.Live(now_s)); !why.empty()) {
-    const bool repeated = yield_->status().state == YieldStatus::State::kRefused &&
-                          yield_->status().peer_id == c.passing_id && yield_->status().reason == why;
-    if (!yield_->active()) yield_->Refuse(c.passing_id, why, now_s);
-    if (!repeated) spdlog::warn("robot {}: {}", own, why);
-    return;
-  }
-  if (yield_->InTheWayOf(c)) {
-    // Aside, but the passing robot's route now runs by the spot: on to another one.
-    const std::shared_ptr<const nav::TraversabilityGrid> grid =
-        planner_->Grid(options_.navigation.platform.name);
-    const YieldDecision moved = DecideYield(
-        options_.yield, c,
-        YieldSituation{own, ModeManager::kIdleMode, pose_, options_.navigation.platform.footprint_radius_m,
-                       grid.get(), YieldStatus{}, false, ""});
-    if (moved.accepted && yield_->MoveOn(c, moved.spot, now_s)) {
-      spdlog::info("robot {}: {}", own, yield_->status().reason);
-    }
-    return;
-  }
-  if (yield_->active()) {
-    if (yield_->passing_id() != c.passing_id) {
-      spdlog::info("robot {}: yield for {} (asked by {}) refused: already yielding to {}", own, c.passing_id,
-                   c.sender_id, yield_->passing_id());
-    }
-    return;  // a repeat of the request being served
-  }
-  const std::string mode = modes_->mode();
-  auto refuse = [&](const std::string& why) {
-    const bool repeated = yield_->status().state == YieldStatus::State::kRefused &&
-                          yield_->status().peer_id == c.passing_id && yield_->status().reason == why;
-    yield_->Refuse(c.passing_id, why, now_s);
-    if (!repeated)
-      spdlog::warn("robot {}: yield for {} (asked by {}) refused: {}", own, c.passing_id, c.sender_id, why);
-  };
-  const std::shared_ptr<const nav::TraversabilityGrid> grid =
-      planner_->Grid(options_.navigation.platform.name);
-  const YieldSituation situation =
-      WithPeerAndHistory(YieldSituation{own, mode, pose_, options_.navigation.platform.footprint_radius_m,
-                                        grid.get(), yield_asker_.status(), false, ""},
-                         c, peers_.Live(now_s), *yield_, now_s);
-  const YieldDecision decision = DecideYield(options_.yield, c, situation);
-  if (decision.ignore) return;  // it gets out of this robot's way itself
-  if (!decision.accepted) return refuse(decision.refusal);
-  // Its mission waits for the yield's end (held: no retry, no expiry meanwhile).
-  if (std::optional<PausedMission> running = missions_->Running(now_s)) {
-    running->held = true;
-    missions_->Pause(std::move(*running), "yielding to " + c.passing_id, command_->mission_commands());
-  }
-  yield_->Start(c, decision.spot, pose_, decision.clearance_m, /*return_home=*/mode == ModeManager::kIdleMode,
-                now_s);
-  const ModeDecision d = modes_->Request(yield_->name(), Conditions());
-  if (!d.accepted) {
-    yield_->Deactivate(d.reason);
-    missions_->DropHeld();
-    return refuse(d.reason);
-  }
-  spdlog::info("robot {}: yielding to {} (asked by {}, was {}): {}", own, c.passing_id, c.sender_id, mode,
-               yield_->status().reason);
-}
-
-void RobotAgent::Impl::AskPeersToYield(double now_s, const std::vector<PeerBody>& peers) {
-  const std::string mode = modes_->mode();
-  YieldAsk ask = yield_asker_.Update(AskInputs(
-      options_.yield, mode, navigation_, pose_, options_.navigation.platform.footprint_radius_m, peers,
-      [this] { return planner_->Grid(options_.navigation.platform.name); }, now_s));
-  navigation_.SetHold(ask.hold_reason, yield_asker_.status().peer_id);
-  if (ask.request) yield_to_send_ = std::make_pair(ask.to_id, std::move(*ask.request));
-  const YieldStatus& status = yield_asker_.status();
-  const std::string logged = std::string(ToString(status.state)) + status.peer_id;
-  if (logged != yield_logged_) {
-    yield_logged_ = logged;
-    if (status.state == YieldStatus::State::kBlocked) {
-      spdlog::warn("robot {}: {}", options_.robot_id, status.reason);
-    } else if (status.state != YieldStatus::State::kNone) {
-      spdlog::info("robot {}: {}", options_.robot_id, status.reason);
-    }
-  }
-}
-
 void RobotAgent::Impl::PublishPeerState() {
   const PeerBody self = navigation_.AsPeer(options_.robot_id, pose_, modes_->mode());
   cairn_msgs::PeerState m;
@@ -712,7 +606,8 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   };
   h.yield = [this](const YieldCommand& c, const YieldOrigin& origin, const std::string& fault) {
     std::lock_guard<std::mutex> guard(mutex_);
-    OnYieldRequest(c, origin, fault);
+    const double now_s = NowS(SteadyClock::now());
+    yielding_->OnRequest(c, origin, fault, ForYield(now_s, peers_.Live(now_s)));
   };
   h.map_sync = [this](const std::string& requester) {
     spdlog::info("robot {}: map snapshot requested by {}", options_.robot_id, requester);
@@ -815,7 +710,7 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     const std::vector<PeerBody> live_peers = peers_.Live(now_s);
     convoy_->SetPeers(live_peers, now_s);  // the robot followed extends the trail
     yield_->SetPeers(live_peers, now_s);   // the robot let past goes by
-    AskPeersToYield(now_s, live_peers);
+    yielding_->AskPeers(ForYield(now_s, live_peers));
     perception_->SetPeerCoverage(team_.Coverage());
     if (modes_->Step(inputs))
       modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
@@ -988,18 +883,16 @@ void RobotAgent::Impl::Run() {
       }
       if (cycle % local_plan_every == 0) telemetry_->PublishLocalPlan();
       if (cycle % peer_every == 0) PublishPeerState();
-      listen_to_peers =
-          !listening_to_peers_ && (modes_->mode() != ModeManager::kIdleMode || unheard_yield_.has_value());
-      if (unheard_yield_ && listening_to_peers_ && NowS(now) - unheard_yield_at_s_ >= kYieldHearingS) {
-        const auto [request, origin] = std::move(*unheard_yield_);
-        unheard_yield_.reset();
-        OnYieldRequest(request, origin, "");
+      listen_to_peers = !listening_to_peers_ &&
+                        (modes_->mode() != ModeManager::kIdleMode || yielding_->waiting_to_hear_peers());
+      if (yielding_->waiting_to_hear_peers() && listening_to_peers_) {
+        const double now_s = NowS(now);
+        yielding_->DecideWaitingRequest(ForYield(now_s, peers_.Live(now_s)));
       }
       telemetry_->PublishTreeStateIfChanged();
       claim = std::move(claim_to_send_);
       claim_to_send_.reset();
-      yield_request = std::move(yield_to_send_);
-      yield_to_send_.reset();
+      yield_request = yielding_->TakeRequestToSend();
       // A late cycle is a robot driving blind: say where the time went (waiting for the lock, or working).
       const double lock_wait_s = core::SecondsBetween(wanted, now);
       const double work_s = core::SecondsBetween(now, SteadyClock::now());

@@ -1,7 +1,7 @@
 // The operator's mission across interruptions, without DDS: the shipped mode tree with the real mode modules
-// on a flat yard; a mission paused by a condition that clears by itself is retried while it lasts and resumed
-// under its old id once it clears, dropped when an operator's command comes, and ended with its reason when
-// it stays paused too long.
+// on a flat yard (agent_modes_fixture.h); a mission paused by a condition that clears by itself is retried
+// while it lasts and resumed under its old id once it clears, dropped when an operator's command comes, and
+// ended with its reason when it stays paused too long.
 #include "cairn/agent/modes/mission_resumption.h"
 
 #include <gtest/gtest.h>
@@ -12,99 +12,12 @@
 #include <string>
 #include <thread>
 
-#include "../../nav/test/nav_test_util.h"
-#include "cairn/agent/modes/modes.h"
+#include "agent_modes_fixture.h"
 
 namespace cairn::agent {
 namespace {
 
-const std::string kTree = std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml";
-
-std::shared_ptr<const nav::TrajectoryLibrary> Library() {
-  static auto library = [] {
-    nav::TrajectoryLibraryOptions o;
-    o.heading_range_rad = nav::GetPlatformProfile("wheeled").local_heading_range_rad;
-    return std::make_shared<const nav::TrajectoryLibrary>(o);
-  }();
-  return library;
-}
-
-// One robot's modes on a 10 x 8 m yard, held by opA; `localized` is the condition that comes and goes.
-struct Robot {
-  Robot()
-      : planner(std::make_shared<nav::GlobalPlanner>(
-            std::make_shared<const sim::World>(nav::testing::FlatWorld(10, 8)),
-            std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled")})),
-        navigation(NavigationOptions{}, planner, Library()),
-        control(kTree, Registry(), "r1"),
-        missions("r1", Options(), {&control, waypoint, explore, convoy, yield, &navigation},
-                 [this](const std::string& mode) { return control.Request(mode, Conditions()); }) {
-    pose_M.x_m = 1.0;
-    pose_M.y_m = 4.0;
-  }
-
-  static MissionOptions Options() {
-    MissionOptions o;
-    o.resume_within_s = 10.0;
-    o.retry_every_s = 1.0;
-    return o;
-  }
-  ModeRegistry Registry() {
-    ModeRegistry r;
-    r.Emplace<IdleMode>();
-    r.Emplace<ManualMode>(0.5);
-    r.Emplace<SmartJoystickMode>(&navigation, 0.5, 0.5);
-    WaypointModeOptions w;
-    w.robot_id = "r1";
-    w.first_goal_id = 40;
-    waypoint = &r.Emplace<WaypointMode>(w, &navigation, nullptr);
-    ExploreModeOptions e;
-    e.robot_id = "r1";
-    e.first_task_id = 70;
-    explore = &r.Emplace<ExploreMode>(e, &navigation, nullptr);
-    convoy = &r.Emplace<ConvoyMode>(ConvoyOptions{}, 0.5, &navigation);
-    yield = &r.Emplace<YieldMode>(YieldOptions{}, 0.5, &navigation);
-    return r;
-  }
-  ModeConditions Conditions() const {
-    ModeConditions c;
-    c.holder_id = "opA";
-    c.holder_alive = true;
-    c.localized = localized;
-    c.local_planner_healthy = true;
-    c.mapping_healthy = true;
-    c.has_waypoint_goal = waypoint->has_goal();
-    c.has_explore_task = explore->exploring();
-    c.has_convoy_task = convoy->active();
-    c.has_yield_task = yield->active();
-    return c;
-  }
-  // The agent's handling of a lost condition: the tree re-checks, the mode goes idle, the mission pauses.
-  void LoseLocalization(double now_s) {
-    std::optional<PausedMission> running = missions.Running(now_s);
-    ASSERT_TRUE(running.has_value()) << "a mission runs in " << control.mode();
-    localized = false;
-    const ModeDecision d = control.Recheck(Conditions());
-    ASSERT_FALSE(d.accepted);
-    ASSERT_EQ(control.mode(), "idle");
-    missions.Pause(std::move(*running), "IsLocalized: no pose estimate", mission_commands);
-  }
-  void Step(double now_s) {
-    missions.Step(now_s, pose_M, {}, mission_commands, [this] { return localized; });
-  }
-
-  std::shared_ptr<nav::GlobalPlanner> planner;
-  Navigation navigation;
-  WaypointMode* waypoint = nullptr;
-  ExploreMode* explore = nullptr;
-  ConvoyMode* convoy = nullptr;
-  YieldMode* yield = nullptr;
-  ModeControl control;
-  MissionResumption missions;
-  core::BaseState pose_M;
-  bool localized = true;
-  std::uint64_t mission_commands = 0;
-};
+using mode_testing::Robot;
 
 TEST(MissionResumption, AnExplorationPausedWhileLocalizationIsLostResumesUnderItsIdOnceItComesBack) {
   Robot r;
