@@ -189,9 +189,38 @@ class RobotAgent::Impl {
   CommandOutcome StartGoal(const GoalCommand& goal, const nav::GlobalPlan& plan);
   // With mutex_ held: the mode tree's facts now.
   ModeConditions Conditions() const;
+  // Control cycles between two publications of the state, the local plan and the peer state.
+  struct CycleRates {
+    int state = 1;
+    int local_plan = 1;
+    int peer_state = 1;
+  };
+  // What a control cycle hands out, sent once the agent lock is released: Fast DDS hands a sample to this
+  // participant's own readers on the writing thread, and their callbacks take the agent lock.
+  struct CycleOutbox {
+    std::optional<ExploreClaim> claim;
+    std::optional<std::pair<std::string, YieldCommand>> yield_request;  // to the robot named first
+    bool listen_to_peers = false;                                       // start reading the peers' states
+  };
+  // With mutex_ held: control cycle `cycle` (Step), woken at `wanted`, and what is due after it: the journal,
+  // the state, the local plan, the peer state, the tree's state, a yield request that waited for the peers.
+  CycleOutbox LockedCycle(uint64_t cycle, SteadyTime wanted, const CycleRates& every);
+  // Without mutex_: sends what the cycle handed out, and starts reading the peers when asked.
+  void SendOutbox(CycleOutbox out);
+  // After the control loop: the last health and state, the claim let go, the components stopped and the map
+  // flushed and saved, the pose sent meanwhile.
+  void Leave();
   // With mutex_ held: one control cycle (mode re-check, pose, obstacles, the running mode, the mux, the
   // driver).
   void Step(SteadyTime now);
+  // With mutex_ held: the robot as its platform reports it: pose estimate (SLAM), health. A platform call
+  // that throws takes the platform component down (its restart re-reads the sensors) and returns false.
+  bool ReadPose(double now_s);
+  // With mutex_ held, as the navigation component: live obstacles and peers, the explore mode's frontiers and
+  // team, yields asked of peers, the running mode's step, the paused mission, coming home, the claim due.
+  void StepNavigation(SteadyTime now, const ModeInputs& inputs);
+  // With mutex_ held: a part of the driving chain is down; the robot leaves its mode, its mission paused.
+  void LeaveModeForADownChain(double now_s);
   // On a radio link: the robots on it share its bulk budget (map telemetry, camera), so a robot's share is
   // 1 / n of what one robot alone would send (AgentOptions::ApplyLinkBudget). Control thread, once a second.
   void ShareRadioLink();
@@ -672,62 +701,9 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     }
   });
 
-  // The robot as its platform reports it: pose estimate (SLAM), health. A platform call that throws takes the
-  // platform component down (its restart re-reads the sensors); the robot is told zero twist meanwhile.
-  bool platform_ok = true;
-  try {
-    platform_->Update(now_s);
-    const core::PoseEstimate estimate = platform_->ReadPose();
-    pose_ = estimate.PlanarState();
-    if (estimate.healthy != pose_healthy_) {
-      if (estimate.healthy) {
-        spdlog::info("robot {}: localization recovered", options_.robot_id);
-      } else {
-        spdlog::warn("robot {}: localization lost: {}", options_.robot_id, estimate.problem);
-      }
-    }
-    pose_healthy_ = estimate.healthy;
-    pose_problem_ = estimate.healthy ? "" : estimate.problem;
-  } catch (const std::exception& e) {
-    platform_c_->ReportFailure(std::string("pose estimate: ") + e.what());
-    platform_ok = false;
-  }
+  const bool platform_ok = ReadPose(now_s);
   const ModeInputs inputs{now, now_s, pose_};
-  // Navigation: live obstacles, the explore mode's frontiers and team, the running mode's step.
-  const bool navigated = navigation_c_->Run([&] {
-    // Peers heard lately are obstacles too (added to the next live points: no robot drives into another).
-    navigation_.SetPeers(peers_.Live(now_s), peers_.options());
-    perception_->FeedObstacles(navigation_);  // obstacles from live lidar points, at the sensor's rate
-    // A robot waiting on a goal (or between frontiers) watches the world.
-    perception_->SetMapRefreshAtRest(waypoint_->has_goal() || explore_->exploring());
-    perception_->SetFrontierSearch(explore_->frontier_search(), explore_->every_level());
-    perception_->SetRobotPosition({pose_.x_m, pose_.y_m, pose_.z_m});
-    if (auto frontiers = perception_->TakeFrontiers())
-      explore_->OnFrontiers(std::move(frontiers->first), frontiers->second);
-    // The team: what peers go for and have seen shapes the choice; this robot's claim goes out when due.
-    explore_->SetPeerClaims(team_.LiveClaims(now_s));
-    explore_->SetTeamView(team_.ExploringPeers(now_s), team_.PeerSeenM2());
-    const std::vector<PeerBody> live_peers = peers_.Live(now_s);
-    convoy_->SetPeers(live_peers, now_s);  // the robot followed extends the trail
-    yield_->SetPeers(live_peers, now_s);   // the robot let past goes by
-    yielding_->AskPeers(ForYield(now_s, live_peers));
-    perception_->SetPeerCoverage(team_.Coverage());
-    if (modes_->Step(inputs))
-      modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
-    missions_->Step(now_s, pose_, live_peers, command_->mission_commands(),
-                    [this] { return command_->ValidNow().goal_acceptable; });
-    come_home_.Step(command_->SecondsSinceBaseHeard(now), pose_, *explore_, navigation_,
-                    [&](const nav::GlobalPlan& plan, const core::BaseState& goal_M) {
-                      return waypoint_->Start(plan, goal_M.x_m, goal_M.y_m, 0.0, goal_M.z_m, now_s, [this] {
-                        return modes_->Request(waypoint_->name(), Conditions());
-                      });
-                    });
-    // Written by Run() once the agent lock is released: Fast DDS hands the sample to this participant's own
-    // claim reader on the writing thread, and the liveliness callbacks that come with it take the agent lock.
-    claim_to_send_ = DueClaim(*explore_, team_, now_s, [this] {
-      return perception_->TakeSeenCoverage(team_.options().coverage_cell_m);
-    });
-  });
+  const bool navigated = navigation_c_->Run([&] { StepNavigation(now, inputs); });
   telemetry_c_->Run([&] { telemetry_->PublishGlobalPathIfChanged(); });
 
   Twist2 twist_B;
@@ -736,17 +712,7 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   // driven by a half-working chain when the part comes back).
   if (!(muxed && navigated && platform_ok && mode_tree_c_->up() && navigation_c_->up() && mux_c_->up())) {
     twist_B = Twist2{};
-    if (modes_->mode() != ModeManager::kIdleMode) {
-      const std::string why = "a component of the driving chain is down (health " + options_.robot_id + ")";
-      std::optional<PausedMission> running = missions_->Running(now_s);
-      try {
-        modes_->Stop(why);
-      } catch (const std::exception& e) {
-        spdlog::error("robot {}: cannot go idle: {}", options_.robot_id, e.what());
-      }
-      // After the mode has left: a convoy place is kept by the pause, not dropped by leaving the mode.
-      if (running) missions_->Pause(std::move(*running), why, command_->mission_commands());
-    }
+    LeaveModeForADownChain(now_s);
   }
   try {
     platform_->CommandTwist(twist_B.linear_x_mps, twist_B.angular_z_radps, now_s);
@@ -763,6 +729,75 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   } catch (const std::exception& e) {
     platform_c_->ReportFailure(std::string("driver: ") + e.what());
   }
+}
+
+bool RobotAgent::Impl::ReadPose(double now_s) {
+  try {
+    platform_->Update(now_s);
+    const core::PoseEstimate estimate = platform_->ReadPose();
+    pose_ = estimate.PlanarState();
+    if (estimate.healthy != pose_healthy_) {
+      if (estimate.healthy) {
+        spdlog::info("robot {}: localization recovered", options_.robot_id);
+      } else {
+        spdlog::warn("robot {}: localization lost: {}", options_.robot_id, estimate.problem);
+      }
+    }
+    pose_healthy_ = estimate.healthy;
+    pose_problem_ = estimate.healthy ? "" : estimate.problem;
+    return true;
+  } catch (const std::exception& e) {
+    platform_c_->ReportFailure(std::string("pose estimate: ") + e.what());
+    return false;
+  }
+}
+
+void RobotAgent::Impl::StepNavigation(SteadyTime now, const ModeInputs& inputs) {
+  const double now_s = inputs.now_s;
+  // Peers heard lately are obstacles too (added to the next live points: no robot drives into another).
+  navigation_.SetPeers(peers_.Live(now_s), peers_.options());
+  perception_->FeedObstacles(navigation_);  // obstacles from live lidar points, at the sensor's rate
+  // A robot waiting on a goal (or between frontiers) watches the world.
+  perception_->SetMapRefreshAtRest(waypoint_->has_goal() || explore_->exploring());
+  perception_->SetFrontierSearch(explore_->frontier_search(), explore_->every_level());
+  perception_->SetRobotPosition({pose_.x_m, pose_.y_m, pose_.z_m});
+  if (auto frontiers = perception_->TakeFrontiers())
+    explore_->OnFrontiers(std::move(frontiers->first), frontiers->second);
+  // The team: what peers go for and have seen shapes the choice; this robot's claim goes out when due.
+  explore_->SetPeerClaims(team_.LiveClaims(now_s));
+  explore_->SetTeamView(team_.ExploringPeers(now_s), team_.PeerSeenM2());
+  const std::vector<PeerBody> live_peers = peers_.Live(now_s);
+  convoy_->SetPeers(live_peers, now_s);  // the robot followed extends the trail
+  yield_->SetPeers(live_peers, now_s);   // the robot let past goes by
+  yielding_->AskPeers(ForYield(now_s, live_peers));
+  perception_->SetPeerCoverage(team_.Coverage());
+  if (modes_->Step(inputs)) modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
+  missions_->Step(now_s, pose_, live_peers, command_->mission_commands(),
+                  [this] { return command_->ValidNow().goal_acceptable; });
+  come_home_.Step(command_->SecondsSinceBaseHeard(now), pose_, *explore_, navigation_,
+                  [&](const nav::GlobalPlan& plan, const core::BaseState& goal_M) {
+                    return waypoint_->Start(plan, goal_M.x_m, goal_M.y_m, 0.0, goal_M.z_m, now_s, [this] {
+                      return modes_->Request(waypoint_->name(), Conditions());
+                    });
+                  });
+  // Written by Run() once the agent lock is released: Fast DDS hands the sample to this participant's own
+  // claim reader on the writing thread, and the liveliness callbacks that come with it take the agent lock.
+  claim_to_send_ = DueClaim(*explore_, team_, now_s, [this] {
+    return perception_->TakeSeenCoverage(team_.options().coverage_cell_m);
+  });
+}
+
+void RobotAgent::Impl::LeaveModeForADownChain(double now_s) {
+  if (modes_->mode() == ModeManager::kIdleMode) return;
+  const std::string why = "a component of the driving chain is down (health " + options_.robot_id + ")";
+  std::optional<PausedMission> running = missions_->Running(now_s);
+  try {
+    modes_->Stop(why);
+  } catch (const std::exception& e) {
+    spdlog::error("robot {}: cannot go idle: {}", options_.robot_id, e.what());
+  }
+  // After the mode has left: a convoy place is kept by the pause, not dropped by leaving the mode.
+  if (running) missions_->Pause(std::move(*running), why, command_->mission_commands());
 }
 
 void RobotAgent::Impl::ResetRestartedParts() {
@@ -836,15 +871,64 @@ void RobotAgent::Impl::PublishHealthIfDue(SteadyTime now) {
     spdlog::warn("robot {}: health not sent (DDS history full)", options_.robot_id);
 }
 
+RobotAgent::Impl::CycleOutbox RobotAgent::Impl::LockedCycle(uint64_t cycle, SteadyTime wanted,
+                                                            const CycleRates& every) {
+  CycleOutbox out;
+  const SteadyTime now = SteadyClock::now();
+  command_->OnParticipantsGone(dds_->TakeGoneParticipants(), now);
+  Step(now);
+  if (resumable_goal_M_ && modes_->mode() != "idle") resumable_goal_M_.reset();  // the operator moved on
+  if (journal_ && cycle % 10 == 0) journal_->Submit(JournalNow());
+  if (cycle % every.state == 0) {
+    telemetry_->PublishState(StateInputs());
+  }
+  if (cycle % every.local_plan == 0) telemetry_->PublishLocalPlan();
+  if (cycle % every.peer_state == 0) PublishPeerState();
+  out.listen_to_peers = !listening_to_peers_ &&
+                        (modes_->mode() != ModeManager::kIdleMode || yielding_->waiting_to_hear_peers());
+  if (yielding_->waiting_to_hear_peers() && listening_to_peers_) {
+    const double now_s = NowS(now);
+    yielding_->DecideWaitingRequest(ForYield(now_s, peers_.Live(now_s)));
+  }
+  telemetry_->PublishTreeStateIfChanged();
+  out.claim = std::move(claim_to_send_);
+  claim_to_send_.reset();
+  out.yield_request = yielding_->TakeRequestToSend();
+  // A late cycle is a robot driving blind: say where the time went (waiting for the lock, or working).
+  const double lock_wait_s = core::SecondsBetween(wanted, now);
+  const double work_s = core::SecondsBetween(now, SteadyClock::now());
+  if (lock_wait_s + work_s > 0.1) {
+    spdlog::warn(
+        "robot {}: control cycle took {:.0f} ms ({:.0f} ms waiting for the agent lock, {:.0f} ms "
+        "working; period {:.0f} ms)",
+        options_.robot_id, 1000 * (lock_wait_s + work_s), 1000 * lock_wait_s, 1000 * work_s,
+        1000 * kLoopPeriodS);
+  }
+  return out;
+}
+
+void RobotAgent::Impl::SendOutbox(CycleOutbox out) {
+  if (out.claim) SendClaim(*out.claim);
+  if (out.yield_request && !dds_->Send(out.yield_request->first, out.yield_request->second)) {
+    spdlog::warn("robot {}: yield request to {} not sent (DDS history full)", options_.robot_id,
+                 out.yield_request->first);
+  }
+  if (out.listen_to_peers) {
+    // A robot that drives keeps clear of its peers: it reads their states from now on (outside the agent
+    // lock, as the explore claims' endpoints are made).
+    dds_->ListenToPeers();
+    listening_to_peers_ = true;
+  }
+}
+
 void RobotAgent::Impl::Run() {
   const auto period =
       std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(kLoopPeriodS));
-  const int state_every =
-      std::max(1, static_cast<int>(std::lround(1.0 / (options_.state_rate_hz * kLoopPeriodS))));
-  const int local_plan_every =
-      std::max(1, static_cast<int>(std::lround(1.0 / (options_.local_plan_rate_hz * kLoopPeriodS))));
-  const int peer_every =
-      std::max(1, static_cast<int>(std::lround(1.0 / (options_.peers.rate_hz * kLoopPeriodS))));
+  auto cycles_per = [](double rate_hz) {
+    return std::max(1, static_cast<int>(std::lround(1.0 / (rate_hz * kLoopPeriodS))));
+  };
+  const CycleRates every{cycles_per(options_.state_rate_hz), cycles_per(options_.local_plan_rate_hz),
+                         cycles_per(options_.peers.rate_hz)};
   // The components' threads (sensor, perception, navigation map, planning) start, and their monitor watches
   // every component from now on. The lidar feeds navigation (live obstacles, the navigation map) even with
   // perception's outputs disabled.
@@ -868,53 +952,12 @@ void RobotAgent::Impl::Run() {
       spdlog::warn("robot {}: control loop woke {:.0f} ms late (the process was not scheduled)",
                    options_.robot_id, 1000 * late_s);
     }
-    std::optional<ExploreClaim> claim;
-    std::optional<std::pair<std::string, YieldCommand>> yield_request;
-    bool listen_to_peers = false;
+    CycleOutbox outbox;
     {
       std::lock_guard<std::mutex> guard(mutex_);
-      const SteadyTime now = SteadyClock::now();
-      command_->OnParticipantsGone(dds_->TakeGoneParticipants(), now);
-      Step(now);
-      if (resumable_goal_M_ && modes_->mode() != "idle") resumable_goal_M_.reset();  // the operator moved on
-      if (journal_ && cycle % 10 == 0) journal_->Submit(JournalNow());
-      if (cycle % state_every == 0) {
-        telemetry_->PublishState(StateInputs());
-      }
-      if (cycle % local_plan_every == 0) telemetry_->PublishLocalPlan();
-      if (cycle % peer_every == 0) PublishPeerState();
-      listen_to_peers = !listening_to_peers_ &&
-                        (modes_->mode() != ModeManager::kIdleMode || yielding_->waiting_to_hear_peers());
-      if (yielding_->waiting_to_hear_peers() && listening_to_peers_) {
-        const double now_s = NowS(now);
-        yielding_->DecideWaitingRequest(ForYield(now_s, peers_.Live(now_s)));
-      }
-      telemetry_->PublishTreeStateIfChanged();
-      claim = std::move(claim_to_send_);
-      claim_to_send_.reset();
-      yield_request = yielding_->TakeRequestToSend();
-      // A late cycle is a robot driving blind: say where the time went (waiting for the lock, or working).
-      const double lock_wait_s = core::SecondsBetween(wanted, now);
-      const double work_s = core::SecondsBetween(now, SteadyClock::now());
-      if (lock_wait_s + work_s > 0.1) {
-        spdlog::warn(
-            "robot {}: control cycle took {:.0f} ms ({:.0f} ms waiting for the agent lock, {:.0f} ms "
-            "working; period {:.0f} ms)",
-            options_.robot_id, 1000 * (lock_wait_s + work_s), 1000 * lock_wait_s, 1000 * work_s,
-            1000 * kLoopPeriodS);
-      }
+      outbox = LockedCycle(cycle, wanted, every);
     }
-    if (claim) SendClaim(*claim);
-    if (yield_request && !dds_->Send(yield_request->first, yield_request->second)) {
-      spdlog::warn("robot {}: yield request to {} not sent (DDS history full)", options_.robot_id,
-                   yield_request->first);
-    }
-    if (listen_to_peers) {
-      // A robot that drives keeps clear of its peers: it reads their states from now on (outside the agent
-      // lock, as the explore claims' endpoints are made).
-      dds_->ListenToPeers();
-      listening_to_peers_ = true;
-    }
+    SendOutbox(std::move(outbox));
     PublishHealthIfDue(SteadyClock::now());
     if (cycle % 50 == 0) ShareRadioLink();
     next += period;
@@ -922,6 +965,10 @@ void RobotAgent::Impl::Run() {
     if (next < now) next = now;  // overrun: do not try to catch up
     core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
   }
+  Leave();
+}
+
+void RobotAgent::Impl::Leave() {
   // The escalation that ends the process reaches the basestations first (the health message is reliable).
   PublishHealthIfDue(SteadyClock::now());
   std::optional<ExploreClaim> release;
