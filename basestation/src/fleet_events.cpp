@@ -109,6 +109,21 @@ void FleetEventDetector::ObserveMission(const std::string& r, const cairn_msgs::
   }
 }
 
+void FleetEventDetector::Last::SetFromState(const cairn_msgs::RobotState& state) {
+  holder = state.holder_id();
+  goal_id = state.nav_goal_id();
+  nav_status = state.nav_status();
+  stops = state.stops();
+  nav_reason = state.nav_reason();
+  convoy_state = state.convoy_state();
+  convoy_ahead = state.convoy_ahead_ids().empty() ? "" : state.convoy_ahead_ids().front();
+  yield_state = state.yield_state();
+  yield_peer = state.yield_peer_id();
+  mission_state = state.mission_state();
+  explore_state = state.explore_state();
+  explore_task_id = state.explore_task_id();
+}
+
 void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<OperatorEvent>* events) {
   const std::string& r = view.robot_id;
   auto found = last_.find(r);
@@ -118,41 +133,12 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
   now.announced = view.announced;
   now.has_state = view.state.has_value();
   if (view.state) {
-    now.holder = view.state->holder_id();
-    now.goal_id = view.state->nav_goal_id();
-    now.nav_status = view.state->nav_status();
-    now.stops = view.state->stops();
-    now.nav_reason = view.state->nav_reason();
-    now.convoy_state = view.state->convoy_state();
-    const auto& ahead = view.state->convoy_ahead_ids();
-    now.convoy_ahead = ahead.empty() ? "" : ahead.front();
-    now.yield_state = view.state->yield_state();
-    now.yield_peer = view.state->yield_peer_id();
-    now.mission_state = view.state->mission_state();
-    now.explore_state = view.state->explore_state();
-    now.explore_task_id = view.state->explore_task_id();
+    now.SetFromState(*view.state);
     now.explore_seen = found != last_.end() && found->second.explore_task_id == now.explore_task_id
                            ? found->second.explore_seen
                            : std::chrono::steady_clock::now();
   }
-  // Joining is presence, not old news: a basestation that starts hears who is there.
-  if (now.announced && (found == last_.end() || !found->second.announced)) {
-    OperatorEvent e = Event("joined", r, r + " joined: " + DescribeAgent(view));
-    events->push_back(e);
-  }
-  // Over budget from the first view on; back within it below 90 % (no flapping at the edge).
-  const LinkView& link = view.link;
-  const bool was_over = found != last_.end() && found->second.over_budget;
-  now.over_budget =
-      was_over ? link.budget_kbps > 0 && link.sent_kbps > 0.9 * link.budget_kbps : link.over_budget;
-  if (now.over_budget && !was_over) {
-    const std::string busiest = BusiestClass(link);
-    OperatorEvent e = Event("over_budget", r,
-                            r + " sends " + Fixed1(link.sent_kbps) + " kbit/s, over its link budget of " +
-                                Fixed1(link.budget_kbps) + " kbit/s (" + busiest + ")");
-    e.reason = busiest;
-    events->push_back(e);
-  }
+  ObservePresence(view, found == last_.end() ? nullptr : &found->second, &now, events);
   if (found == last_.end()) {
     // First sight: presence and loss are as they are now; the state's baseline is the first whole state this
     // basestation received (below), so that what changed since (its own request-control, granted before
@@ -162,151 +148,18 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
   }
   Last& last = found->second;
   if (view.state && !last.has_state && view.first_state) {
-    const cairn_msgs::RobotState& first = *view.first_state;
-    last.holder = first.holder_id();
-    last.goal_id = first.nav_goal_id();
-    last.nav_status = first.nav_status();
-    last.stops = first.stops();
-    last.nav_reason = first.nav_reason();
-    last.convoy_state = first.convoy_state();
-    last.convoy_ahead = first.convoy_ahead_ids().empty() ? "" : first.convoy_ahead_ids().front();
-    last.yield_state = first.yield_state();
-    last.yield_peer = first.yield_peer_id();
-    last.mission_state = first.mission_state();
-    last.explore_state = first.explore_state();
-    last.explore_task_id = first.explore_task_id();
+    last.SetFromState(*view.first_state);
     last.has_state = true;
-  }
-  if (now.left && !last.left) {
-    OperatorEvent e = Event("left", r, r + " left (" + view.lost_reason + ")");
-    e.reason = view.lost_reason;
-    events->push_back(e);
-  } else if (now.lost != last.lost && !(now.lost && now.left)) {
-    OperatorEvent e = Event(now.lost ? "lost" : "back", r,
-                            now.lost ? r + " lost (" + view.lost_reason + ")" : r + " is back");
-    e.reason = now.lost ? view.lost_reason : "";
-    events->push_back(e);
   }
   if (view.state && last.has_state) {
     const auto& s = *view.state;
-    const bool goal_changed = now.goal_id != last.goal_id || now.nav_status != last.nav_status;
-    if (goal_changed && now.nav_status == msgs::NAV_STATUS_ARRIVED) {
-      events->push_back(Event("arrived", r,
-                              r + " arrived at (" + Fixed2(s.nav_goal_M().x_m()) + ", " +
-                                  Fixed2(s.nav_goal_M().y_m()) + ") (goal " + std::to_string(now.goal_id) +
-                                  ")"));
-    } else if (goal_changed && now.nav_status == msgs::NAV_STATUS_FAILED) {
-      const OperatorReason why = ExplainReason(r, s.nav_reason());
-      OperatorEvent e =
-          Event("goal_abandoned", r, r + " goal " + std::to_string(now.goal_id) + " abandoned: " + why.text);
-      e.reason = why.text;
-      e.condition = why.condition;
-      events->push_back(e);
-    }
-    if (now.nav_status == msgs::NAV_STATUS_ACTIVE && now.goal_id == last.goal_id && !now.nav_reason.empty() &&
-        now.nav_reason != last.nav_reason) {
-      // The recovery report grows by one "; attempt N (...): why" per failed attempt: show what is new.
-      const std::string added = now.nav_reason.rfind(last.nav_reason, 0) == 0 && !last.nav_reason.empty()
-                                    ? now.nav_reason.substr(last.nav_reason.size() + 2)
-                                    : now.nav_reason;
-      OperatorEvent e = Event("recovering", r, r + " goal " + std::to_string(now.goal_id) + " " + added);
-      e.reason = added;
-      events->push_back(e);
-    }
+    ObserveGoal(r, s, last, now, events);
     ObserveMission(r, s, last, now, events);
-    // A convoy follower that stops on its own (lost or blocked) or re-links is news, and so are its forming
-    // (following at first) and its holding.
-    if (now.convoy_state != last.convoy_state && now.convoy_state == "following" &&
-        (last.convoy_state.empty() || last.convoy_state == "none")) {
-      OperatorEvent e = Event("convoy_formed", r, r + " follows " + now.convoy_ahead + " in the convoy");
-      e.other = now.convoy_ahead;
-      events->push_back(e);
-    } else if (now.convoy_state != last.convoy_state && now.convoy_state == "holding") {
-      OperatorEvent e = Event("convoy_holding", r, r + " holds in the convoy: " + s.convoy_reason());
-      e.reason = s.convoy_reason();
-      e.other = now.convoy_ahead;
-      events->push_back(e);
-    }
-    if (now.convoy_state != last.convoy_state &&
-        (now.convoy_state == "lost" || now.convoy_state == "blocked")) {
-      OperatorEvent e = Event("convoy_" + now.convoy_state, r,
-                              r + " stopped in the convoy (" + now.convoy_state + "): " + s.convoy_reason());
-      e.reason = s.convoy_reason();
-      e.other = now.convoy_ahead;
-      events->push_back(e);
-    } else if (!now.convoy_ahead.empty() && !last.convoy_ahead.empty() &&
-               now.convoy_ahead != last.convoy_ahead) {
-      OperatorEvent e = Event("convoy_relinked", r,
-                              r + " now follows " + now.convoy_ahead + " (was " + last.convoy_ahead + ")");
-      e.other = now.convoy_ahead;
-      events->push_back(e);
-    }
-    // Get-out-of-the-way: a yield starting, refused, ended; a robot asking, or blocked by a refusal.
-    if ((now.yield_state != last.yield_state || now.yield_peer != last.yield_peer) &&
-        (now.yield_state != "aside" || last.yield_state != "moving_aside")) {
-      const std::string& peer = now.yield_state.empty() ? last.yield_peer : now.yield_peer;
-      const std::string& why = s.yield_reason();
-      std::string kind, message;
-      if (now.yield_state == "moving_aside" || now.yield_state == "aside") {
-        kind = "yield_moving_aside";
-        message = r + " gets out of " + peer + "'s way: " + why;
-      } else if (now.yield_state == "refused") {
-        kind = "yield_refused";
-        message = r + " refused to yield to " + peer + ": " + why;
-      } else if (now.yield_state == "asking") {
-        kind = "yield_asking";
-        message = r + ": " + why;
-      } else if (now.yield_state == "blocked") {
-        kind = "yield_blocked";
-        message = r + " " + why;
-      } else if (now.yield_state.empty() && (last.yield_state == "aside" || last.yield_state == "returning" ||
-                                             last.yield_state == "moving_aside")) {
-        kind = "yield_returned";
-        message = r + ": " + why;
-      }
-      if (!kind.empty()) {
-        OperatorEvent e = Event(kind, r, message);
-        e.other = peer;
-        e.reason = why;
-        events->push_back(e);
-      }
-    }
-    if (now.stops > last.stops) {
-      OperatorEvent e = Event("stopped", r, r + " stopped by " + s.stopped_by());
-      e.other = s.stopped_by();
-      events->push_back(e);
-    }
-    if (now.holder != last.holder) {
-      OperatorEvent e;
-      if (last.holder.empty()) {
-        e = Event("lock_granted", r, r + " control granted to " + now.holder);
-        e.other = now.holder;
-      } else if (now.holder.empty()) {
-        e = Event("lock_released", r, r + " control released by " + last.holder);
-        e.other = last.holder;
-      } else {
-        e = Event("lock_taken", r, r + " control taken by " + now.holder + " from " + last.holder);
-        e.other = now.holder;
-      }
-      events->push_back(e);
-    }
+    ObserveConvoy(r, s, last, now, events);
+    ObserveYield(r, s, last, now, events);
+    ObserveStopAndLock(r, s, last, now, events);
   }
-  // Its components' failures and restarts: each new one once (a restarted agent counts from 0 again: its
-  // first health is a new baseline).
-  if (view.health) {
-    const cairn_msgs::AgentHealth& h = *view.health;
-    now.has_health = true;
-    now.health_events = h.events();
-    if (last.has_health && h.events() > last.health_events && !h.last_event_kind().empty()) {
-      OperatorEvent e = Event("component_" + h.last_event_kind(), r, r + ": " + h.last_event());
-      e.other = h.last_event_component();
-      e.reason = h.last_event();
-      events->push_back(e);
-    }
-  } else {
-    now.has_health = last.has_health;
-    now.health_events = last.health_events;
-  }
+  ObserveHealth(view, last, &now, events);
   if (!view.state) {
     now.holder = last.holder;
     now.goal_id = last.goal_id;
@@ -316,6 +169,177 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
     now.has_state = last.has_state;
   }
   last = now;
+}
+
+void FleetEventDetector::ObservePresence(const RobotView& view, const Last* last, Last* now,
+                                         std::vector<OperatorEvent>* events) {
+  const std::string& r = view.robot_id;
+  // Joining is presence, not old news: a basestation that starts hears who is there.
+  if (now->announced && (last == nullptr || !last->announced)) {
+    events->push_back(Event("joined", r, r + " joined: " + DescribeAgent(view)));
+  }
+  // Over budget from the first view on; back within it below 90 % (no flapping at the edge).
+  const LinkView& link = view.link;
+  const bool was_over = last != nullptr && last->over_budget;
+  now->over_budget =
+      was_over ? link.budget_kbps > 0 && link.sent_kbps > 0.9 * link.budget_kbps : link.over_budget;
+  if (now->over_budget && !was_over) {
+    const std::string busiest = BusiestClass(link);
+    OperatorEvent e = Event("over_budget", r,
+                            r + " sends " + Fixed1(link.sent_kbps) + " kbit/s, over its link budget of " +
+                                Fixed1(link.budget_kbps) + " kbit/s (" + busiest + ")");
+    e.reason = busiest;
+    events->push_back(e);
+  }
+  // At first sight loss and leaving are as they are now: not news.
+  const bool last_left = last != nullptr ? last->left : now->left;
+  const bool last_lost = last != nullptr ? last->lost : now->lost;
+  if (now->left && !last_left) {
+    OperatorEvent e = Event("left", r, r + " left (" + view.lost_reason + ")");
+    e.reason = view.lost_reason;
+    events->push_back(e);
+  } else if (now->lost != last_lost && !(now->lost && now->left)) {
+    OperatorEvent e = Event(now->lost ? "lost" : "back", r,
+                            now->lost ? r + " lost (" + view.lost_reason + ")" : r + " is back");
+    e.reason = now->lost ? view.lost_reason : "";
+    events->push_back(e);
+  }
+}
+
+void FleetEventDetector::ObserveGoal(const std::string& r, const cairn_msgs::RobotState& s, const Last& last,
+                                     const Last& now, std::vector<OperatorEvent>* events) {
+  const bool goal_changed = now.goal_id != last.goal_id || now.nav_status != last.nav_status;
+  if (goal_changed && now.nav_status == msgs::NAV_STATUS_ARRIVED) {
+    events->push_back(Event("arrived", r,
+                            r + " arrived at (" + Fixed2(s.nav_goal_M().x_m()) + ", " +
+                                Fixed2(s.nav_goal_M().y_m()) + ") (goal " + std::to_string(now.goal_id) +
+                                ")"));
+  } else if (goal_changed && now.nav_status == msgs::NAV_STATUS_FAILED) {
+    const OperatorReason why = ExplainReason(r, s.nav_reason());
+    OperatorEvent e =
+        Event("goal_abandoned", r, r + " goal " + std::to_string(now.goal_id) + " abandoned: " + why.text);
+    e.reason = why.text;
+    e.condition = why.condition;
+    events->push_back(e);
+  }
+  if (now.nav_status == msgs::NAV_STATUS_ACTIVE && now.goal_id == last.goal_id && !now.nav_reason.empty() &&
+      now.nav_reason != last.nav_reason) {
+    // The recovery report grows by one "; attempt N (...): why" per failed attempt: show what is new.
+    const std::string added = now.nav_reason.rfind(last.nav_reason, 0) == 0 && !last.nav_reason.empty()
+                                  ? now.nav_reason.substr(last.nav_reason.size() + 2)
+                                  : now.nav_reason;
+    OperatorEvent e = Event("recovering", r, r + " goal " + std::to_string(now.goal_id) + " " + added);
+    e.reason = added;
+    events->push_back(e);
+  }
+}
+
+void FleetEventDetector::ObserveConvoy(const std::string& r, const cairn_msgs::RobotState& s,
+                                       const Last& last, const Last& now,
+                                       std::vector<OperatorEvent>* events) {
+  // A convoy follower that stops on its own (lost or blocked) or re-links is news, and so are its forming
+  // (following at first) and its holding.
+  if (now.convoy_state != last.convoy_state && now.convoy_state == "following" &&
+      (last.convoy_state.empty() || last.convoy_state == "none")) {
+    OperatorEvent e = Event("convoy_formed", r, r + " follows " + now.convoy_ahead + " in the convoy");
+    e.other = now.convoy_ahead;
+    events->push_back(e);
+  } else if (now.convoy_state != last.convoy_state && now.convoy_state == "holding") {
+    OperatorEvent e = Event("convoy_holding", r, r + " holds in the convoy: " + s.convoy_reason());
+    e.reason = s.convoy_reason();
+    e.other = now.convoy_ahead;
+    events->push_back(e);
+  }
+  if (now.convoy_state != last.convoy_state &&
+      (now.convoy_state == "lost" || now.convoy_state == "blocked")) {
+    OperatorEvent e = Event("convoy_" + now.convoy_state, r,
+                            r + " stopped in the convoy (" + now.convoy_state + "): " + s.convoy_reason());
+    e.reason = s.convoy_reason();
+    e.other = now.convoy_ahead;
+    events->push_back(e);
+  } else if (!now.convoy_ahead.empty() && !last.convoy_ahead.empty() &&
+             now.convoy_ahead != last.convoy_ahead) {
+    OperatorEvent e = Event("convoy_relinked", r,
+                            r + " now follows " + now.convoy_ahead + " (was " + last.convoy_ahead + ")");
+    e.other = now.convoy_ahead;
+    events->push_back(e);
+  }
+}
+
+void FleetEventDetector::ObserveYield(const std::string& r, const cairn_msgs::RobotState& s, const Last& last,
+                                      const Last& now, std::vector<OperatorEvent>* events) {
+  // Get-out-of-the-way: a yield starting, refused, ended; a robot asking, or blocked by a refusal.
+  if ((now.yield_state == last.yield_state && now.yield_peer == last.yield_peer) ||
+      (now.yield_state == "aside" && last.yield_state == "moving_aside"))
+    return;
+  const std::string& peer = now.yield_state.empty() ? last.yield_peer : now.yield_peer;
+  const std::string& why = s.yield_reason();
+  std::string kind, message;
+  if (now.yield_state == "moving_aside" || now.yield_state == "aside") {
+    kind = "yield_moving_aside";
+    message = r + " gets out of " + peer + "'s way: " + why;
+  } else if (now.yield_state == "refused") {
+    kind = "yield_refused";
+    message = r + " refused to yield to " + peer + ": " + why;
+  } else if (now.yield_state == "asking") {
+    kind = "yield_asking";
+    message = r + ": " + why;
+  } else if (now.yield_state == "blocked") {
+    kind = "yield_blocked";
+    message = r + " " + why;
+  } else if (now.yield_state.empty() && (last.yield_state == "aside" || last.yield_state == "returning" ||
+                                         last.yield_state == "moving_aside")) {
+    kind = "yield_returned";
+    message = r + ": " + why;
+  }
+  if (kind.empty()) return;
+  OperatorEvent e = Event(kind, r, message);
+  e.other = peer;
+  e.reason = why;
+  events->push_back(e);
+}
+
+void FleetEventDetector::ObserveStopAndLock(const std::string& r, const cairn_msgs::RobotState& s,
+                                            const Last& last, const Last& now,
+                                            std::vector<OperatorEvent>* events) {
+  if (now.stops > last.stops) {
+    OperatorEvent e = Event("stopped", r, r + " stopped by " + s.stopped_by());
+    e.other = s.stopped_by();
+    events->push_back(e);
+  }
+  if (now.holder == last.holder) return;
+  OperatorEvent e;
+  if (last.holder.empty()) {
+    e = Event("lock_granted", r, r + " control granted to " + now.holder);
+    e.other = now.holder;
+  } else if (now.holder.empty()) {
+    e = Event("lock_released", r, r + " control released by " + last.holder);
+    e.other = last.holder;
+  } else {
+    e = Event("lock_taken", r, r + " control taken by " + now.holder + " from " + last.holder);
+    e.other = now.holder;
+  }
+  events->push_back(e);
+}
+
+void FleetEventDetector::ObserveHealth(const RobotView& view, const Last& last, Last* now,
+                                       std::vector<OperatorEvent>* events) {
+  // A restarted agent counts from 0 again: its first health is a new baseline.
+  if (!view.health) {
+    now->has_health = last.has_health;
+    now->health_events = last.health_events;
+    return;
+  }
+  const cairn_msgs::AgentHealth& h = *view.health;
+  now->has_health = true;
+  now->health_events = h.events();
+  if (last.has_health && h.events() > last.health_events && !h.last_event_kind().empty()) {
+    OperatorEvent e =
+        Event("component_" + h.last_event_kind(), view.robot_id, view.robot_id + ": " + h.last_event());
+    e.other = h.last_event_component();
+    e.reason = h.last_event();
+    events->push_back(e);
+  }
 }
 
 void FleetEventDetector::ObserveProximity(const std::vector<RobotView>& views,

@@ -86,8 +86,23 @@ class FleetEventDetector {
 
  private:
   struct Last;
+  // What changed between `last` and `now` (both from whole states) of robot `robot_id` whose newest state is
+  // `state`, one concern each, appended to `events`.
+  void ObserveGoal(const std::string& robot_id, const cairn_msgs::RobotState& state, const Last& last,
+                   const Last& now, std::vector<OperatorEvent>* events);
   void ObserveMission(const std::string& robot_id, const cairn_msgs::RobotState& state, const Last& last,
                       const Last& now, std::vector<OperatorEvent>* events);
+  void ObserveConvoy(const std::string& robot_id, const cairn_msgs::RobotState& state, const Last& last,
+                     const Last& now, std::vector<OperatorEvent>* events);
+  void ObserveYield(const std::string& robot_id, const cairn_msgs::RobotState& state, const Last& last,
+                    const Last& now, std::vector<OperatorEvent>* events);
+  void ObserveStopAndLock(const std::string& robot_id, const cairn_msgs::RobotState& state, const Last& last,
+                          const Last& now, std::vector<OperatorEvent>* events);
+  // Presence: joined, over its link budget, left, lost or back.
+  void ObservePresence(const RobotView& view, const Last* last, Last* now,
+                       std::vector<OperatorEvent>* events);
+  // Its components' failures and restarts, each new one once.
+  void ObserveHealth(const RobotView& view, const Last& last, Last* now, std::vector<OperatorEvent>* events);
   struct Last {
     bool lost = false;
     bool left = false;
@@ -110,6 +125,9 @@ class FleetEventDetector {
     std::chrono::steady_clock::time_point explore_seen;
     bool has_health = false;
     uint32_t health_events = 0;  // AgentHealth::events
+
+    /// The fields a whole state carries (not explore_seen, presence or health).
+    void SetFromState(const cairn_msgs::RobotState& state);
   };
   void ObserveRobot(const RobotView& view, std::vector<OperatorEvent>* events);
   void ObserveProximity(const std::vector<RobotView>& views, std::vector<OperatorEvent>* events);
