@@ -814,6 +814,33 @@ int CommandShell::Goto(const std::string& command, const std::vector<std::string
   return WaitArrived(command, args[0], timeout);
 }
 
+void CommandShell::PrintGoalProgress(const std::string& command, const std::string& robot, uint32_t goal_id) {
+  const auto now_view = client_.Robot(robot);  // progress, printed outside the client's lock
+  if (!now_view || !now_view->state || now_view->state->nav_status() != msgs::NAV_STATUS_ACTIVE ||
+      (goal_id != 0 && now_view->state->nav_goal_id() != goal_id)) {
+    return;
+  }
+  const auto& s = *now_view->state;
+  const std::string eta = s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "unknown";
+  if (json_) {
+    out_ << Dump(json{{"command", command},
+                      {"robot", robot},
+                      {"progress", true},
+                      {"distance_left_m", s.nav_distance_left_m()},
+                      {"eta_s", s.nav_eta_s()},
+                      {"local_planner", s.local_planner_status()},
+                      {"replans", s.nav_replans()}})
+         << std::endl;
+  } else {
+    out_ << command << " " << robot << ": " << Fixed(s.nav_distance_left_m(), 1) << " m left, ETA " << eta;
+    if (!s.local_planner_status().empty() && s.local_planner_status() != "path") {
+      out_ << " (" << s.local_planner_status() << ")";
+    }
+    if (s.nav_replans() > 0) out_ << ", " << s.nav_replans() << " replans";
+    out_ << std::endl;
+  }
+}
+
 int CommandShell::WaitArrived(const std::string& command, const std::string& robot, double timeout_s) {
   const uint32_t goal_id = last_goal_id_.count(robot) ? last_goal_id_[robot] : 0;
   std::string failure;
@@ -854,30 +881,7 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
     PrintEvents();  // news about the rest of the fleet while this robot drives
     if (core::SecondsBetween(last_progress, core::SteadyClock::now()) < 2.0) continue;
     last_progress = core::SteadyClock::now();
-    const auto now_view = client_.Robot(robot);  // progress, printed outside the client's lock
-    if (!now_view || !now_view->state || now_view->state->nav_status() != msgs::NAV_STATUS_ACTIVE ||
-        (goal_id != 0 && now_view->state->nav_goal_id() != goal_id)) {
-      continue;
-    }
-    const auto& s = *now_view->state;
-    const std::string eta = s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "unknown";
-    if (json_) {
-      out_ << Dump(json{{"command", command},
-                        {"robot", robot},
-                        {"progress", true},
-                        {"distance_left_m", s.nav_distance_left_m()},
-                        {"eta_s", s.nav_eta_s()},
-                        {"local_planner", s.local_planner_status()},
-                        {"replans", s.nav_replans()}})
-           << std::endl;
-    } else {
-      out_ << command << " " << robot << ": " << Fixed(s.nav_distance_left_m(), 1) << " m left, ETA " << eta;
-      if (!s.local_planner_status().empty() && s.local_planner_status() != "path") {
-        out_ << " (" << s.local_planner_status() << ")";
-      }
-      if (s.nav_replans() > 0) out_ << ", " << s.nav_replans() << " replans";
-      out_ << std::endl;
-    }
+    PrintGoalProgress(command, robot, goal_id);
   }
   CommandOutcome o;
   o.ok = view.has_value() && failure.empty();

@@ -112,6 +112,9 @@ class CommandShell {
   // Waits for the last goal of `robot` to arrive or fail, printing progress (distance left, ETA) every
   // 2 s and events as they come; `command` names the output lines. Returns the exit code.
   int WaitArrived(const std::string& command, const std::string& robot, double timeout_s);
+  // While `robot` drives goal `goal_id` (0: any): its distance left, ETA, local planner and replans, one line
+  // (a JSON progress line with --json).
+  void PrintGoalProgress(const std::string& command, const std::string& robot, uint32_t goal_id);
   int Sleep(const std::vector<std::string>& args);
   int Report(const std::string& command, const std::string& robot, const CommandOutcome& outcome,
              const std::string& notice = "");
