@@ -17,6 +17,7 @@
 
 namespace cairn::agent::mode_testing {
 
+/// The wheeled platform's trajectory library, built once per process (about a second).
 inline std::shared_ptr<const nav::TrajectoryLibrary> Library() {
   static auto library = [] {
     nav::TrajectoryLibraryOptions o;

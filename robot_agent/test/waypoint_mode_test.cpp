@@ -8,7 +8,7 @@
 #include <memory>
 #include <string>
 
-#include "../../nav/test/nav_test_util.h"
+#include "agent_modes_fixture.h"
 
 namespace cairn::agent {
 namespace {
@@ -29,7 +29,7 @@ struct Fixture {
       : planner(std::make_shared<nav::GlobalPlanner>(
             std::make_shared<const sim::World>(nav::testing::FlatWorld(10, 8)),
             std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled")})),
-        navigation(NavigationOptions{}, planner, Library()),
+        navigation(NavigationOptions{}, planner, mode_testing::Library()),
         waypoint(Options(), &navigation, nullptr) {
     start.x_m = 1.0;
     start.y_m = 2.0;
@@ -39,14 +39,6 @@ struct Fixture {
     o.robot_id = "r1";
     o.first_goal_id = 7;
     return o;
-  }
-  static std::shared_ptr<const nav::TrajectoryLibrary> Library() {
-    static auto library = [] {
-      nav::TrajectoryLibraryOptions o;
-      o.heading_range_rad = nav::GetPlatformProfile("wheeled").local_heading_range_rad;
-      return std::make_shared<const nav::TrajectoryLibrary>(o);
-    }();
-    return library;
   }
   nav::GlobalPlan Plan(double x, double y) { return planner->Plan(navigation.GoalRequest(start, x, y)); }
   GoalStart Start(double x, double y, ModeDecision (*decision)()) {
@@ -152,7 +144,7 @@ TEST(WaypointMode, AnAbandonedGoalIsNotRecovered) {
   const auto planner = std::make_shared<nav::GlobalPlanner>(
       std::make_shared<const sim::World>(nav::testing::FlatWorld(10, 8)),
       std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled")});
-  Navigation navigation(options, planner, Fixture::Library());
+  Navigation navigation(options, planner, mode_testing::Library());
   WaypointMode waypoint(Fixture::Options(), &navigation,
                         std::make_unique<WaypointRecovery>(std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml",
                                                            &navigation, WaypointRecovery::Hooks{}));
