@@ -182,11 +182,14 @@ test("a gamepad drives the robot while the deadman is held; releasing it, or a s
   const after = await robotState(page1, "r1");
   assert.ok(after.pose.x_m - before.pose.x_m > 0.3, `r1 moved ${after.pose.x_m - before.pose.x_m} m`);
   console.log(`FIGURE gui_deadman_release_to_stop_s ${stopS.toFixed(2)}`);
-  // Deadman held again, then the stick falls silent (its timestamp stops): the GUI sends zero.
+  // Deadman held again with the stick pulled back, then the stick falls silent (its timestamp stops): the GUI
+  // sends zero. Backwards, r1 drives the way it came, which is free whatever its heading after the goal (forward
+  // again, a robot that arrived turned towards the tunnel's wall met it under load).
   await page1.evaluate(() => {
+    window.__pad.axes[1] = 0.6;
     window.__pad.buttons[4] = { pressed: true, value: 1 };
   });
-  await waitFor("r1 driving again", async () => (await robotState(page1, "r1")).speed_mps > 0.2, 5000).catch(async (e) => {
+  await waitFor("r1 driving again (backwards)", async () => (await robotState(page1, "r1")).speed_mps < -0.2, 5000).catch(async (e) => {
     const why = await page1.evaluate(() => ({ drive: window.cairn.state.drive, r1: window.cairn.state.robots.find((r) => r.id === "r1") }));
     throw new Error(`${e.message}: ${JSON.stringify(why)}`);
   });
