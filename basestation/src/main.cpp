@@ -240,8 +240,6 @@ std::string DefaultWebRoot(const char* argv0) {
   return (exe.parent_path().parent_path() / "web").string();
 }
 
-}  // namespace
-
 // How long a basestation on a lan or radio link waits for robots it has not seen before it calls one unknown
 // (FleetClientOptions::discovery_s; 1.5 s on loopback).
 constexpr double kNetworkDiscoveryS = 5.0;
@@ -251,72 +249,145 @@ constexpr double kNetworkDiscoveryS = 5.0;
 // seen to go by their liveliness (1 s lease) and their participants leaving.
 constexpr double kNetworkLostAfterS = 0.8;
 
+// The command line's values, before they are checked.
+struct BaseCommandLine {
+  cairn::base::FleetClientOptions options;
+  cairn::base::ShellOptions shell_options;
+  std::string domain_text = "0", script, listen = "127.0.0.1:8080", gui_root, ros2_domain_text;
+  bool keep_going = false, no_joystick = false, gui = false;
+  std::vector<std::string> command;
+  double discovery_wait_s = 0, lost_after_s = 0;
+  double gui_map_kBps = cairn::base::GuiOptions{}.map_budget_kBps;
+};
+
+// cairn_base's flags, read into `cl`.
+void AddFlags(CLI::App& app, BaseCommandLine* cl) {
+  app.add_option("--base-id", cl->options.base_id,
+                 "basestation id, unique in the fleet ([A-Za-z0-9_-]{1,64})")
+      ->required();
+  app.add_option("--domain", cl->domain_text, "DDS domain id, 0..232")->capture_default_str();
+  app.add_flag("--json", cl->shell_options.json,
+               "print one JSON object per command, progress line and event");
+  app.add_option("--script", cl->script, "run the commands of FILE, stop at the first failure");
+  app.add_flag("--keep-going", cl->keep_going, "with a script or stdin: run every line even after a failure");
+  cairn::core::AddLinkFlags(app, &cl->options.link);
+  cairn::core::AddSecureFlag(app, &cl->options.security);
+  app.add_option("--dds-profiles", cl->options.dds_profiles_file,
+                 "Fast DDS XML profiles file (default: shipped "
+                 "loopback-only config/dds_profiles.xml)");
+  app.add_option("--command-timeout", cl->options.command_timeout_s, "seconds to wait for a robot's answer")
+      ->capture_default_str();
+  app.add_option(
+      "--discovery-wait", cl->discovery_wait_s,
+      "after this basestation starts, a command to a robot it has not seen yet waits this long for it "
+      "before refusing it as unknown, seconds (default 5 on lan and radio links, 1.5 on loopback)");
+  app.add_option(
+      "--lost-after", cl->lost_after_s,
+      "show a robot lost when its state (10 Hz) has been silent this long, seconds (default 0.8 on lan "
+      "and radio links, 3 on loopback)");
+  app.add_flag("--no-joystick", cl->no_joystick,
+               "do not advertise a joystick: robots then refuse smart_joystick mode from this basestation");
+  app.add_option("--places", cl->shell_options.places_file,
+                 "named places file (YAML), read at start and written by `place add`");
+  app.add_option("--proximity-m", cl->options.events.proximity_m,
+                 "event when two robots are closer than this, metres (centre to centre)")
+      ->capture_default_str();
+  app.add_flag(
+      "--gui", cl->gui,
+      "also serve the operator GUI (web app and Foxglove WebSocket protocol) on --listen; the console "
+      "keeps working beside it");
+  app.add_option("--listen", cl->listen,
+                 "with --gui: ADDR:PORT to serve on (any address other than loopback only "
+                 "when given)")
+      ->capture_default_str();
+  app.add_option("--gui-root", cl->gui_root,
+                 "with --gui: the built web app (default: web/ beside the build's "
+                 "basestation/ directory)");
+  app.add_option(
+         "--gui-map-kBps", cl->gui_map_kBps,
+         "with --gui: the fleet map's share of the link to each GUI client, kB/s (changed map columns wait "
+         "when it is spent)")
+      ->capture_default_str();
+  app.add_option("--ros2-domain", cl->ros2_domain_text,
+                 "also publish the fleet for ROS 2 tools (RViz2: config/rviz/cairn.rviz) on ROS 2 domain N, "
+                 "0..232: /tf map -> ROBOT/base_link, /ROBOT/path, /cairn/fleet_map");
+  app.add_option("command", cl->command, "one command to run, after --");
+}
+
+// The fleet client's options checked and completed from the flags (domain, link, discovery wait, lost after,
+// joystick, command timeout, proximity). @throws std::invalid_argument naming the flag and the value.
+void CheckFleetOptions(const CLI::App& app, BaseCommandLine* cl) {
+  cairn::base::FleetClientOptions& options = cl->options;
+  options.domain_id = cairn::core::ParseDomainId(cl->domain_text);
+  cairn::core::CheckLinkOptions(options.link);
+  cairn::core::CheckSecureFlag(options.base_id, &options.security);
+  // Across hosts a lost announcement or endpoint message waits for the next one: 5 % loss took a fresh
+  // basestation past 1.5 s to know a robot (cairn_lan_link_test), so a robot it has not seen yet is given
+  // longer before a command to it is refused as unknown.
+  if (cairn::core::IsNamedNetworkLink(options.link)) {
+    options.discovery_s = kNetworkDiscoveryS;
+    options.lost_after_s = kNetworkLostAfterS;
+  }
+  if (app.count("--discovery-wait") > 0) {
+    if (!(cl->discovery_wait_s > 0 && cl->discovery_wait_s <= 60)) {
+      throw std::invalid_argument("--discovery-wait " + std::to_string(cl->discovery_wait_s) +
+                                  " must be in (0, 60] s");
+    }
+    options.discovery_s = cl->discovery_wait_s;
+  }
+  if (app.count("--lost-after") > 0) {
+    if (!(cl->lost_after_s >= 0.2 && cl->lost_after_s <= 60)) {
+      throw std::invalid_argument("--lost-after " + std::to_string(cl->lost_after_s) +
+                                  " must be in [0.2, 60] s");
+    }
+    options.lost_after_s = cl->lost_after_s;
+  }
+  if (cl->no_joystick) options.capabilities.clear();
+  if (!(options.command_timeout_s > 0 && options.command_timeout_s <= 60)) {
+    throw std::invalid_argument("--command-timeout " + std::to_string(options.command_timeout_s) +
+                                " must be in (0, 60]");
+  }
+  if (!(options.events.proximity_m > 0 && options.events.proximity_m <= 100)) {
+    throw std::invalid_argument("--proximity-m " + std::to_string(options.events.proximity_m) +
+                                " must be in (0, 100]");
+  }
+  options.events.proximity_clear_m =
+      std::max(options.events.proximity_clear_m, options.events.proximity_m + 1.0);
+}
+
+// The GUI's options from the flags (--gui, --listen, --gui-root, --gui-map-kBps); `argv0` finds the web app
+// beside the build. @throws std::invalid_argument naming the flag and the value.
+cairn::base::GuiOptions GuiOptionsFrom(const CLI::App& app, const BaseCommandLine& cl, const char* argv0) {
+  cairn::base::GuiOptions gui_options;
+  if (cl.gui) {
+    cairn::base::ParseListenAddress(cl.listen, &gui_options.server.address, &gui_options.server.port);
+    gui_options.server.web_root = cl.gui_root.empty() ? DefaultWebRoot(argv0) : cl.gui_root;
+    gui_options.places_file = cl.shell_options.places_file;
+    gui_options.map_budget_kBps = cl.gui_map_kBps;
+    std::string why;
+    if (!gui_options.IsValid(&why)) {
+      throw std::invalid_argument("--gui-map-kBps " + std::to_string(cl.gui_map_kBps) + ": " + why);
+    }
+  } else if (app.count("--listen") > 0 || app.count("--gui-root") > 0 || app.count("--gui-map-kBps") > 0) {
+    throw std::invalid_argument("--listen, --gui-root and --gui-map-kBps need --gui");
+  }
+  return gui_options;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   cairn::core::InstallShutdownHandler();
   // Logs go to stderr: stdout carries command output (cairn_base) and the READY line (cairn_agent).
   spdlog::set_default_logger(spdlog::stderr_color_mt("cairn"));
-  cairn::base::FleetClientOptions options;
-  cairn::base::ShellOptions shell_options;
-  std::string domain_text = "0", script, listen = "127.0.0.1:8080", gui_root;
-  bool keep_going = false, no_joystick = false, gui = false;
-  std::vector<std::string> command;
-
+  BaseCommandLine cl;
+  cairn::base::FleetClientOptions& options = cl.options;
+  cairn::base::ShellOptions& shell_options = cl.shell_options;
   CLI::App app{
       "cairn_base: a Cairn basestation. Commands come from the terminal (REPL), from stdin line by "
       "line, from --script FILE, or as one command after --.\n\n" +
       cairn::base::CommandShell::Help()};
-  app.add_option("--base-id", options.base_id, "basestation id, unique in the fleet ([A-Za-z0-9_-]{1,64})")
-      ->required();
-  app.add_option("--domain", domain_text, "DDS domain id, 0..232")->capture_default_str();
-  app.add_flag("--json", shell_options.json, "print one JSON object per command, progress line and event");
-  app.add_option("--script", script, "run the commands of FILE, stop at the first failure");
-  app.add_flag("--keep-going", keep_going, "with a script or stdin: run every line even after a failure");
-  cairn::core::AddLinkFlags(app, &options.link);
-  cairn::core::AddSecureFlag(app, &options.security);
-  app.add_option("--dds-profiles", options.dds_profiles_file,
-                 "Fast DDS XML profiles file (default: shipped "
-                 "loopback-only config/dds_profiles.xml)");
-  app.add_option("--command-timeout", options.command_timeout_s, "seconds to wait for a robot's answer")
-      ->capture_default_str();
-  double discovery_wait_s = 0;
-  app.add_option(
-      "--discovery-wait", discovery_wait_s,
-      "after this basestation starts, a command to a robot it has not seen yet waits this long for it "
-      "before refusing it as unknown, seconds (default 5 on lan and radio links, 1.5 on loopback)");
-  double lost_after_s = 0;
-  app.add_option(
-      "--lost-after", lost_after_s,
-      "show a robot lost when its state (10 Hz) has been silent this long, seconds (default 0.8 on lan "
-      "and radio links, 3 on loopback)");
-  app.add_flag("--no-joystick", no_joystick,
-               "do not advertise a joystick: robots then refuse smart_joystick mode from this basestation");
-  app.add_option("--places", shell_options.places_file,
-                 "named places file (YAML), read at start and written by `place add`");
-  app.add_option("--proximity-m", options.events.proximity_m,
-                 "event when two robots are closer than this, metres (centre to centre)")
-      ->capture_default_str();
-  app.add_flag(
-      "--gui", gui,
-      "also serve the operator GUI (web app and Foxglove WebSocket protocol) on --listen; the console "
-      "keeps working beside it");
-  app.add_option("--listen", listen,
-                 "with --gui: ADDR:PORT to serve on (any address other than loopback only "
-                 "when given)")
-      ->capture_default_str();
-  app.add_option("--gui-root", gui_root,
-                 "with --gui: the built web app (default: web/ beside the build's "
-                 "basestation/ directory)");
-  double gui_map_kBps = cairn::base::GuiOptions{}.map_budget_kBps;
-  app.add_option(
-         "--gui-map-kBps", gui_map_kBps,
-         "with --gui: the fleet map's share of the link to each GUI client, kB/s (changed map columns wait "
-         "when it is spent)")
-      ->capture_default_str();
-  std::string ros2_domain_text;
-  app.add_option("--ros2-domain", ros2_domain_text,
-                 "also publish the fleet for ROS 2 tools (RViz2: config/rviz/cairn.rviz) on ROS 2 domain N, "
-                 "0..232: /tf map -> ROBOT/base_link, /ROBOT/path, /cairn/fleet_map");
-  app.add_option("command", command, "one command to run, after --");
+  AddFlags(app, &cl);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -324,93 +395,47 @@ int main(int argc, char** argv) {
   }
 
   try {
-    options.domain_id = cairn::core::ParseDomainId(domain_text);
-    cairn::core::CheckLinkOptions(options.link);
-    cairn::core::CheckSecureFlag(options.base_id, &options.security);
-    // Across hosts a lost announcement or endpoint message waits for the next one: 5 % loss took a fresh
-    // basestation past 1.5 s to know a robot (cairn_lan_link_test), so a robot it has not seen yet is given
-    // longer before a command to it is refused as unknown.
-    if (cairn::core::IsNamedNetworkLink(options.link)) {
-      options.discovery_s = kNetworkDiscoveryS;
-      options.lost_after_s = kNetworkLostAfterS;
-    }
-    if (app.count("--discovery-wait") > 0) {
-      if (!(discovery_wait_s > 0 && discovery_wait_s <= 60)) {
-        throw std::invalid_argument("--discovery-wait " + std::to_string(discovery_wait_s) +
-                                    " must be in (0, 60] s");
-      }
-      options.discovery_s = discovery_wait_s;
-    }
-    if (app.count("--lost-after") > 0) {
-      if (!(lost_after_s >= 0.2 && lost_after_s <= 60)) {
-        throw std::invalid_argument("--lost-after " + std::to_string(lost_after_s) +
-                                    " must be in [0.2, 60] s");
-      }
-      options.lost_after_s = lost_after_s;
-    }
-    if (no_joystick) options.capabilities.clear();
-    if (!(options.command_timeout_s > 0 && options.command_timeout_s <= 60)) {
-      throw std::invalid_argument("--command-timeout " + std::to_string(options.command_timeout_s) +
-                                  " must be in (0, 60]");
-    }
-    if (!(options.events.proximity_m > 0 && options.events.proximity_m <= 100)) {
-      throw std::invalid_argument("--proximity-m " + std::to_string(options.events.proximity_m) +
-                                  " must be in (0, 100]");
-    }
-    options.events.proximity_clear_m =
-        std::max(options.events.proximity_clear_m, options.events.proximity_m + 1.0);
+    CheckFleetOptions(app, &cl);
     std::ifstream script_file;
-    if (!script.empty()) {
+    if (!cl.script.empty()) {
       // A folder opens as a stream that reads nothing: it ran no command and exited 0.
-      if (std::filesystem::is_directory(script))
-        throw std::invalid_argument("--script '" + script + "' is a folder, not a file");
-      script_file.open(script);
-      if (!script_file) throw std::invalid_argument("--script '" + script + "' cannot be read");
+      if (std::filesystem::is_directory(cl.script))
+        throw std::invalid_argument("--script '" + cl.script + "' is a folder, not a file");
+      script_file.open(cl.script);
+      if (!script_file) throw std::invalid_argument("--script '" + cl.script + "' cannot be read");
     }
-    const bool interactive = command.empty() && script.empty() && isatty(STDIN_FILENO);
+    const bool interactive = cl.command.empty() && cl.script.empty() && isatty(STDIN_FILENO);
     if (interactive) {
       spdlog::set_level(spdlog::level::warn);  // the terminal is the operator's: only what needs attention
       shell_options.key_pressed = KeyPressed;
       shell_options.cancel = &g_interrupt;
     }
-    cairn::base::GuiOptions gui_options;
-    if (gui) {
-      cairn::base::ParseListenAddress(listen, &gui_options.server.address, &gui_options.server.port);
-      gui_options.server.web_root = gui_root.empty() ? DefaultWebRoot(argv[0]) : gui_root;
-      gui_options.places_file = shell_options.places_file;
-      gui_options.map_budget_kBps = gui_map_kBps;
-      std::string why;
-      if (!gui_options.IsValid(&why)) {
-        throw std::invalid_argument("--gui-map-kBps " + std::to_string(gui_map_kBps) + ": " + why);
-      }
-    } else if (app.count("--listen") > 0 || app.count("--gui-root") > 0 || app.count("--gui-map-kBps") > 0) {
-      throw std::invalid_argument("--listen, --gui-root and --gui-map-kBps need --gui");
-    }
+    const cairn::base::GuiOptions gui_options = GuiOptionsFrom(app, cl, argv[0]);
     cairn::base::Ros2FleetOptions ros2_options;
-    if (!ros2_domain_text.empty()) {
-      ros2_options.domain_id = cairn::core::ParseDomainId(ros2_domain_text, "--ros2-domain");
+    if (!cl.ros2_domain_text.empty()) {
+      ros2_options.domain_id = cairn::core::ParseDomainId(cl.ros2_domain_text, "--ros2-domain");
       if (!options.dds_profiles_file.empty()) ros2_options.profiles_file = options.dds_profiles_file;
     }
     cairn::base::FleetClient client(options);
     std::unique_ptr<cairn::base::Ros2FleetBridge> ros2_bridge;
-    if (!ros2_domain_text.empty()) {
+    if (!cl.ros2_domain_text.empty()) {
       ros2_bridge = std::make_unique<cairn::base::Ros2FleetBridge>(client, ros2_options);
       spdlog::info("cairn_base {}: publishing the fleet for ROS 2 tools on ROS 2 domain {}", options.base_id,
                    ros2_options.domain_id);
     }
     std::unique_ptr<cairn::base::GuiBridge> gui_bridge;
-    if (gui) {
+    if (cl.gui) {
       gui_bridge = std::make_unique<cairn::base::GuiBridge>(client, gui_options);
       // The URL on stdout's first line: scripts and the demo read it from there.
       std::cout << "GUI " << gui_bridge->url() << std::endl;
     }
     cairn::base::CommandShell shell(client, shell_options, std::cout);
-    if (!command.empty()) {
+    if (!cl.command.empty()) {
       std::string line;
-      for (const auto& word : command) line += (line.empty() ? "" : " ") + word;
+      for (const auto& word : cl.command) line += (line.empty() ? "" : " ") + word;
       return shell.Execute(line);
     }
-    if (!script.empty()) return RunScript(shell, script_file, keep_going);
+    if (!cl.script.empty()) return RunScript(shell, script_file, cl.keep_going);
     if (interactive) return RunInteractive(shell, client, options.base_id);
     const int code = RunPiped(shell, client);
     // A GUI or a ROS 2 publisher outlives the end of stdin (cairn_base --gui </dev/null): it serves until
