@@ -229,9 +229,10 @@ class RobotAgent::Impl {
   // A convoy follower's request (CommandInterface::Hooks::convoy): follow the robots ahead, or leave the
   // convoy.
   CommandOutcome OnConvoy(const ConvoyCommand& c);
-  // With mutex_ held: the robot as a yield, asked or asking, sees it at `now_s` with `live_peers`.
-  YieldCoordination::Robot ForYield(double now_s, std::vector<PeerBody> live_peers) const {
-    return {now_s, modes_->mode(), pose_, std::move(live_peers), listening_to_peers_};
+  // With mutex_ held: the robot as a yield, asked or asking, sees it at `now_s` with `live_peers` (which
+  // outlive the answer).
+  YieldCoordination::Robot ForYield(double now_s, const std::vector<PeerBody>& live_peers) const {
+    return {now_s, modes_->mode(), pose_, &live_peers, listening_to_peers_};
   }
   // With mutex_ held: what the robot state reports now.
   RobotStateInputs StateInputs() const {
@@ -352,15 +353,17 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       [this](const PerceptionOutput& out) { telemetry_->PublishPerception(out); });
   const std::string tree_file = options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file;
   modes_ = std::make_unique<ModeControl>(tree_file, MakeModes(tree_file), options.robot_id);
+  const MissionResumption::RequestMode request_mode = [this](const std::string& mode) {
+    return modes_->Request(mode, Conditions());
+  };
   missions_ = std::make_unique<MissionResumption>(
       options.robot_id, options.mission,
       MissionResumption::Modes{modes_.get(), waypoint_, explore_, convoy_, yield_, &navigation_},
-      [this](const std::string& mode) { return modes_->Request(mode, Conditions()); });
+      request_mode);
   yielding_ = std::make_unique<YieldCoordination>(
       options.robot_id, options.yield, options.navigation.platform.footprint_radius_m, yield_,
       missions_.get(), &navigation_, [this] { return planner_->Grid(options_.navigation.platform.name); },
-      [this](const std::string& mode) { return modes_->Request(mode, Conditions()); },
-      [this] { return command_->mission_commands(); });
+      request_mode, [this] { return command_->mission_commands(); });
   command_ = std::make_unique<CommandInterface>(options.robot_id, options.lock, modes_.get(),
                                                 waypoint_->name(), CommandHooks());
   PlanningServiceOptions planning;
@@ -636,7 +639,8 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   h.yield = [this](const YieldCommand& c, const YieldOrigin& origin, const std::string& fault) {
     std::lock_guard<std::mutex> guard(mutex_);
     const double now_s = NowS(SteadyClock::now());
-    yielding_->OnRequest(c, origin, fault, ForYield(now_s, peers_.Live(now_s)));
+    const std::vector<PeerBody> live_peers = peers_.Live(now_s);
+    yielding_->OnRequest(c, origin, fault, ForYield(now_s, live_peers));
   };
   h.map_sync = [this](const std::string& requester) {
     spdlog::info("robot {}: map snapshot requested by {}", options_.robot_id, requester);
@@ -692,12 +696,8 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     if (!recheck.accepted) {
       spdlog::warn("robot {}: {} -> idle", options_.robot_id, recheck.reason);
       // A condition that clears by itself (a component restarting, localization lost) pauses the mission.
-      if (running && IsTransientFailure(recheck.reason)) {
-        const std::size_t colon = recheck.reason.find(" no longer allowed: ");
-        missions_->Pause(std::move(*running),
-                         colon == std::string::npos ? recheck.reason : recheck.reason.substr(colon + 20),
-                         command_->mission_commands());
-      }
+      if (running && IsTransientFailure(recheck.reason))
+        missions_->Pause(std::move(*running), FailedCondition(recheck.reason), command_->mission_commands());
     }
   });
 
@@ -754,8 +754,9 @@ bool RobotAgent::Impl::ReadPose(double now_s) {
 
 void RobotAgent::Impl::StepNavigation(SteadyTime now, const ModeInputs& inputs) {
   const double now_s = inputs.now_s;
+  const std::vector<PeerBody> live_peers = peers_.Live(now_s);
   // Peers heard lately are obstacles too (added to the next live points: no robot drives into another).
-  navigation_.SetPeers(peers_.Live(now_s), peers_.options());
+  navigation_.SetPeers(live_peers, peers_.options());
   perception_->FeedObstacles(navigation_);  // obstacles from live lidar points, at the sensor's rate
   // A robot waiting on a goal (or between frontiers) watches the world.
   perception_->SetMapRefreshAtRest(waypoint_->has_goal() || explore_->exploring());
@@ -766,7 +767,6 @@ void RobotAgent::Impl::StepNavigation(SteadyTime now, const ModeInputs& inputs) 
   // The team: what peers go for and have seen shapes the choice; this robot's claim goes out when due.
   explore_->SetPeerClaims(team_.LiveClaims(now_s));
   explore_->SetTeamView(team_.ExploringPeers(now_s), team_.PeerSeenM2());
-  const std::vector<PeerBody> live_peers = peers_.Live(now_s);
   convoy_->SetPeers(live_peers, now_s);  // the robot followed extends the trail
   yield_->SetPeers(live_peers, now_s);   // the robot let past goes by
   yielding_->AskPeers(ForYield(now_s, live_peers));
@@ -888,7 +888,8 @@ RobotAgent::Impl::CycleOutbox RobotAgent::Impl::LockedCycle(uint64_t cycle, Stea
                         (modes_->mode() != ModeManager::kIdleMode || yielding_->waiting_to_hear_peers());
   if (yielding_->waiting_to_hear_peers() && listening_to_peers_) {
     const double now_s = NowS(now);
-    yielding_->DecideWaitingRequest(ForYield(now_s, peers_.Live(now_s)));
+    const std::vector<PeerBody> live_peers = peers_.Live(now_s);
+    yielding_->DecideWaitingRequest(ForYield(now_s, live_peers));
   }
   telemetry_->PublishTreeStateIfChanged();
   out.claim = std::move(claim_to_send_);

@@ -57,12 +57,14 @@ struct Yb {
             [this] { return robot.planner->Grid("wheeled"); },
             [this](const std::string& mode) { return robot.control.Request(mode, robot.Conditions()); },
             [this] { return robot.mission_commands; }) {}
-  // yb as the agent sees it at `now_s`, hearing `peers`.
-  YieldCoordination::Robot At(double now_s, std::vector<PeerBody> peers, bool listening = true) const {
-    return {now_s, robot.control.mode(), robot.pose_M, std::move(peers), listening};
+  // yb as the agent sees it at `now_s`, hearing `peers` (kept here while it is used).
+  YieldCoordination::Robot At(double now_s, std::vector<PeerBody> peers, bool listening = true) {
+    heard = std::move(peers);
+    return {now_s, robot.control.mode(), robot.pose_M, &heard, listening};
   }
   Robot robot;
   YieldCoordination yielding;
+  std::vector<PeerBody> heard;
 };
 
 TEST(YieldCoordination, ARequestBeforeThePeersAreReadWaitsUntilTheyCouldBeHeardThenYbStandsAside) {

@@ -15,12 +15,15 @@ bool MissionOptions::IsValid(std::string* why) const {
          InRange("mission.retry_every_s", retry_every_s, 0, 60, true, why);
 }
 
-bool IsTransientFailure(const std::string& failure) {
-  // The condition is the first word of the tree's failure, after "<mode> no longer allowed: " on a re-check.
+std::string FailedCondition(const std::string& failure) {
   static const std::string kNoLonger = " no longer allowed: ";
   const std::size_t after = failure.find(kNoLonger);
-  const std::string condition_text =
-      after == std::string::npos ? failure : failure.substr(after + kNoLonger.size());
+  return after == std::string::npos ? failure : failure.substr(after + kNoLonger.size());
+}
+
+bool IsTransientFailure(const std::string& failure) {
+  // The condition is the first word of the tree's failure (after a re-check's prefix).
+  const std::string condition_text = FailedCondition(failure);
   const std::string condition = condition_text.substr(0, condition_text.find(':'));
   static const std::array<const char*, 4> kTransient = {"IsComponentUp", "IsLocalized", "IsMappingHealthy",
                                                         "IsLocalPlannerHealthy"};

@@ -29,10 +29,14 @@ YieldCoordination::YieldCoordination(std::string robot_id, const YieldOptions& o
         "YieldCoordination: the yield mode, missions, navigation or a source is missing");
 }
 
-void YieldCoordination::Refuse(const YieldCommand& c, const std::string& why, double now_s) {
+bool YieldCoordination::AlreadyRefused(const YieldCommand& c, const std::string& why) const {
   const YieldStatus& status = yield_->status();
-  const bool repeated =
-      status.state == YieldStatus::State::kRefused && status.peer_id == c.passing_id && status.reason == why;
+  return status.state == YieldStatus::State::kRefused && status.peer_id == c.passing_id &&
+         status.reason == why;
+}
+
+void YieldCoordination::Refuse(const YieldCommand& c, const std::string& why, double now_s) {
+  const bool repeated = AlreadyRefused(c, why);
   yield_->Refuse(c.passing_id, why, now_s);
   if (!repeated)
     spdlog::warn("robot {}: yield for {} (asked by {}) refused: {}", robot_id_, c.passing_id, c.sender_id,
@@ -59,10 +63,8 @@ void YieldCoordination::OnRequest(const YieldCommand& c, const YieldOrigin& orig
     unheard_at_s_ = now_s;
     return;
   }
-  if (const std::string why = CheckYieldSender(robot_id_, c, origin, robot.peers); !why.empty()) {
-    const YieldStatus& status = yield_->status();
-    const bool repeated = status.state == YieldStatus::State::kRefused && status.peer_id == c.passing_id &&
-                          status.reason == why;
+  if (const std::string why = CheckYieldSender(robot_id_, c, origin, *robot.peers); !why.empty()) {
+    const bool repeated = AlreadyRefused(c, why);
     if (!yield_->active()) yield_->Refuse(c.passing_id, why, now_s);
     if (!repeated) spdlog::warn("robot {}: {}", robot_id_, why);
     return;
@@ -86,7 +88,7 @@ void YieldCoordination::OnRequest(const YieldCommand& c, const YieldOrigin& orig
   }
   const YieldSituation situation = WithPeerAndHistory(
       YieldSituation{robot_id_, robot.mode, robot.pose_M, radius_m_, grid.get(), asker_.status(), false, ""},
-      c, robot.peers, *yield_, now_s);
+      c, *robot.peers, *yield_, now_s);
   const YieldDecision decision = DecideYield(options_, c, situation);
   if (decision.ignore) return;  // it gets out of this robot's way itself
   if (!decision.accepted) return Refuse(c, decision.refusal, now_s);
@@ -116,7 +118,7 @@ void YieldCoordination::DecideWaitingRequest(const Robot& robot) {
 
 void YieldCoordination::AskPeers(const Robot& robot) {
   YieldAsk ask = asker_.Update(AskInputs(options_, robot.mode, *navigation_, robot.pose_M, radius_m_,
-                                         robot.peers, grid_, robot.now_s));
+                                         *robot.peers, grid_, robot.now_s));
   navigation_->SetHold(ask.hold_reason, asker_.status().peer_id);
   if (ask.request) to_send_ = std::make_pair(ask.to_id, std::move(*ask.request));
   const YieldStatus& status = asker_.status();

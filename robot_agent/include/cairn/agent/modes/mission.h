@@ -40,6 +40,10 @@ struct MissionOptions {
 /// and the task conditions (HasWaypointGoal, HasExploreTask) are an operator's business: not transient.
 bool IsTransientFailure(const std::string& failure);
 
+/// The condition's part of a mode-tree failure: "Condition: text", without the "<mode> no longer allowed: "
+/// a re-check puts before it (ModeManager::Recheck); `failure` itself when it has none.
+std::string FailedCondition(const std::string& failure);
+
 /// A mission interrupted by a transient condition, kept to be resumed.
 struct PausedMission {
   enum class Kind { kWaypoint, kExplore, kConvoy };

@@ -33,10 +33,10 @@ class YieldCoordination {
  public:
   /// What the robot is and has, as the agent knows it now.
   struct Robot {
-    double now_s = 0.0;               ///< the agent's clock, seconds
-    std::string mode;                 ///< the mode now (ModeControl::mode())
-    core::BaseState pose_M;           ///< the pose estimate, frame M
-    std::vector<PeerBody> peers;      ///< peers heard lately (PeerTracker::Live())
+    double now_s = 0.0;                            ///< the agent's clock, seconds
+    std::string mode;                              ///< the mode now (ModeControl::mode())
+    core::BaseState pose_M;                        ///< the pose estimate, frame M
+    const std::vector<PeerBody>* peers = nullptr;  ///< peers heard lately (PeerTracker::Live()); not null
     bool listening_to_peers = false;  ///< peers' states are read (AgentDds::ListenToPeers() done)
   };
   /// The traversability grid of the robot's platform (the passage's width, the spots aside); null: no map.
@@ -72,6 +72,8 @@ class YieldCoordination {
   const YieldStatus& asking() const { return asker_.status(); }
 
  private:
+  // True when the yield mode already shows `why` as its refusal of `c`'s passing robot (logged once).
+  bool AlreadyRefused(const YieldCommand& c, const std::string& why) const;
   void Refuse(const YieldCommand& c, const std::string& why, double now_s);
 
   const std::string robot_id_;
