@@ -37,6 +37,7 @@
 #include "cairn/nav/scan_obstacles.h"
 #include "cairn/perception/staircase.h"
 #include "cairn/sim/builtin_worlds.h"
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 
 namespace {
@@ -170,10 +171,16 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
   sim::SimulatedPlatformOptions sim_options;
   sim_options.world = world;
   sim_options.start_W = start;
-  sim_options.SetProfile(options.navigation.platform);
+  sim::ApplyPlatformProfile(options.navigation.platform, &sim_options);
   sim::SimulatedPlatform platform(sim_options);
   platform.Update(0.0);
   const core::BaseState start_M = platform.ReadPose().PlanarState();
+  // What navigation's classifier makes of the true world (verbose pictures only; contact is the simulator's).
+  auto truth_grid = [&] {
+    nav::TraversabilityOptions t = options.navigation.platform.traversability;
+    t.robot_radius_m = options.navigation.platform.footprint_radius_m;
+    return std::make_shared<const nav::TraversabilityGrid>(*platform.world(), t);
+  };
   agent::PerceptionOptions perception_options = options.perception;
   perception_options.camera_rate_hz = 0;
   agent::PerceptionPipeline perception(perception_options, "bench");
@@ -282,10 +289,9 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
                   local.message.c_str(), local.free_length_m, local.required_free_length_m,
                   local.num_free_paths, local.path_B.empty() ? 0.0f : local.path_B.back().x(),
                   local.path_B.empty() ? 0.0f : local.path_B.back().y());
-      if (std::fabs(t - 2.5) < 0.5 * kDt)
-        PrintPicture(*platform.terrain(), nav_map, pose, {pose.x_m, pose.y_m});
+      if (std::fabs(t - 2.5) < 0.5 * kDt) PrintPicture(*truth_grid(), nav_map, pose, {pose.x_m, pose.y_m});
       // Obstacles within 1 m, frame M, and what the ground truth and the navigation map say there.
-      const auto truth = platform.terrain();
+      const auto truth = truth_grid();
       for (const auto& p : points_B) {
         if (p.head<2>().norm() > 1.0) continue;
         const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
@@ -353,7 +359,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
           std::printf("      %s  y %.2f\n", row.c_str(), y);
         }
         std::printf("      (x from %.1f to %.1f)\n", x0, x1);
-        PrintPicture(*platform.terrain(), nav_map, pose, goal);
+        PrintPicture(*truth_grid(), nav_map, pose, goal);
         for (const perception::Staircase& st : perception.Staircases()) {
           std::printf(
               "      staircase at (%.2f, %.2f, %.2f) yaw %.2f rise %.3f run %.3f width %.2f, %d steps\n",

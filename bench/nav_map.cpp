@@ -16,6 +16,7 @@
 #include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 
 namespace {
@@ -38,7 +39,7 @@ int main() {
   sim::SimulatedPlatformOptions sim_options;
   sim_options.world = "builtin:tunnels";
   sim_options.start_W = core::PlanarPose{4.0, 20.0, 0.0};
-  sim_options.SetProfile(profile);
+  sim::ApplyPlatformProfile(profile, &sim_options);
   sim::SimulatedPlatform platform(sim_options);
   platform.Update(0.0);
   const core::BaseState start_M = platform.ReadPose().PlanarState();

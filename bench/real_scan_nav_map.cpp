@@ -23,6 +23,7 @@
 #include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/sim/builtin_worlds.h"
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 #include "cairn/sim/survey_scan.h"
 
@@ -52,7 +53,7 @@ Run Drive(const std::string& world, double budget_s) {
   sim::SimulatedPlatformOptions sim_options;
   sim_options.world = world;
   sim_options.start_W = core::PlanarPose{13.8, 45.0, M_PI};
-  sim_options.SetProfile(profile);
+  sim::ApplyPlatformProfile(profile, &sim_options);
   sim::SimulatedPlatform platform(sim_options);
   platform.Update(0.0);
   const core::BaseState start_M = platform.ReadPose().PlanarState();

@@ -39,13 +39,15 @@ endfunction()
 
 # cairn_forbid_link(TARGET t FORBIDDEN lib...): fails the configuration if `t` links any of the libraries.
 function(cairn_forbid_link)
-  cmake_parse_arguments(ARG "" "TARGET" "FORBIDDEN" ${ARGN})
+  cmake_parse_arguments(ARG "" "TARGET;REASON" "FORBIDDEN" ${ARGN})
+  if(NOT ARG_REASON)
+    set(ARG_REASON "the autonomy never depends on the simulator; use cairn_types and the PlatformIO seam")
+  endif()
   foreach(forbidden IN LISTS ARG_FORBIDDEN)
     set(CAIRN_LAYERING_VISITED "")
     _cairn_link_chain(${ARG_TARGET} ${forbidden} "${ARG_TARGET}" chain)
     if(chain)
-      message(FATAL_ERROR "layering: ${ARG_TARGET} must not link ${forbidden} (the autonomy never depends on the "
-                          "simulator; use cairn_types and the PlatformIO seam), but it does: ${chain}")
+      message(FATAL_ERROR "layering: ${ARG_TARGET} must not link ${forbidden} (${ARG_REASON}), but it does: ${chain}")
     endif()
   endforeach()
 endfunction()

@@ -27,3 +27,21 @@ if(violations)
                       "${violations}")
 endif()
 message(STATUS "layering: ${n} autonomy sources include no cairn/sim header")
+
+# The judge apart: the simulator's library sources include no navigation header, so that its ground truth
+# never shares navigation's classifier. platform_profile.h (header-only, numbers from a profile) is the one
+# exception.
+file(GLOB_RECURSE sim_sources "${SOURCE_DIR}/sim/include/*.h" "${SOURCE_DIR}/sim/src/*.cpp" "${SOURCE_DIR}/sim/src/*.h")
+list(FILTER sim_sources EXCLUDE REGEX "/sim/include/cairn/sim/platform_profile\\.h$")
+foreach(file IN LISTS sim_sources)
+  file(STRINGS "${file}" lines REGEX "^[ \t]*#[ \t]*include[ \t]*[\"<]cairn/nav/")
+  foreach(line IN LISTS lines)
+    file(RELATIVE_PATH rel "${SOURCE_DIR}" "${file}")
+    string(APPEND violations "\n  ${rel}: ${line}")
+  endforeach()
+endforeach()
+list(LENGTH sim_sources n_sim)
+if(violations)
+  message(FATAL_ERROR "the simulator includes navigation headers (its ground truth is its own):${violations}")
+endif()
+message(STATUS "layering: ${n_sim} simulator sources include no cairn/nav header")

@@ -26,6 +26,7 @@
 #include "cairn/core/shutdown.h"
 #include "cairn/ros2/ros2_platform.h"
 #include "cairn/sim/builtin_worlds.h"
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 
 // With --map-save, how long a SIGINT/SIGTERM's shutdown may take before the process is ended (the map is
@@ -137,7 +138,7 @@ std::shared_ptr<cairn::core::PlatformIO> MakePlatform(const std::string& driver,
     }
     sim.start_slot = options.start_slot;
     sim.start_key = options.robot_id;
-    sim.SetProfile(options.navigation.platform);
+    cairn::sim::ApplyPlatformProfile(options.navigation.platform, &sim);
     if (!config_file.empty()) sim.LoadConfigFile(config_file);
     return std::make_shared<cairn::sim::SimulatedPlatform>(sim);
   }

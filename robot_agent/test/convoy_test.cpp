@@ -21,6 +21,7 @@
 #include "cairn/agent/modes/convoy_mode.h"
 #include "cairn/agent/stepped_robot.h"
 #include "cairn/nav/platform.h"
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 #include "stepped_team.h"
 
@@ -132,7 +133,7 @@ TEST(ConvoyModeTest, ABadOrderIsRefusedNamingTheId) {
   sim::SimulatedPlatformOptions sim_options;
   sim_options.world = "builtin:tunnels";
   sim_options.start_W = core::PlanarPose{11.0, 20.0, 0.0};
-  sim_options.SetProfile(options.navigation.platform);
+  sim::ApplyPlatformProfile(options.navigation.platform, &sim_options);
   SteppedRobot robot(options, std::make_shared<sim::SimulatedPlatform>(sim_options), "");
   EXPECT_EQ(robot.Follow({}, 0.0), "a convoy follower needs the robot ahead of it");
   EXPECT_EQ(robot.Follow({"r2"}, 0.0), "robot r2 cannot follow itself");

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "cairn/agent/stepped_robot.h"
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 
 namespace cairn::agent::explore_team {
@@ -173,14 +174,20 @@ inline TeamRun RunTeam(const TeamOptions& o) {
     sim::SimulatedPlatformOptions sim_options;
     sim_options.world = o.world;
     sim_options.start_W = o.starts[i];
-    sim_options.SetProfile(options.navigation.platform);
+    sim::ApplyPlatformProfile(options.navigation.platform, &sim_options);
     platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
     robots.push_back(std::make_unique<SteppedRobot>(options, platforms.back(),
                                                     std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml"));
     robots.back()->Explore(o.task, 0.0);
   }
   std::vector<bool> alive(robots.size(), true);
-  const auto truth = platforms.front()->terrain();
+  // The floor coverage is scored over: the true world's cells classified by navigation's traversability
+  // rules (what counts as a cell of floor), never a robot's map. Collisions are the simulator's own
+  // (SimulatedPlatform::ground_truth).
+  nav::TraversabilityOptions floor_options = robots.front()->navigation().options().platform.traversability;
+  floor_options.robot_radius_m = robots.front()->navigation().options().platform.footprint_radius_m;
+  const auto truth =
+      std::make_shared<const nav::TraversabilityGrid>(*platforms.front()->world(), floor_options);
   const Eigen::AlignedBox2d region = o.task.region_M.value_or(Eigen::AlignedBox2d());
   auto score = [&] {
     std::vector<const nav::TraversabilityGrid*> grids;
@@ -258,11 +265,14 @@ inline TeamRun RunTeam(const TeamOptions& o) {
   }
   run.coverage = score();
   if (run.time_to_90_s < 0 && run.coverage >= 0.9) run.time_to_90_s = t;
+  std::shared_ptr<const nav::MultiLevelGrid> truth_levels;
+  if (!o.level_bands.empty())
+    truth_levels = std::make_shared<const nav::MultiLevelGrid>(platforms.front()->world(), floor_options);
   std::vector<const nav::MultiLevelGrid*> level_maps;
   for (const auto& r : robots) level_maps.push_back(&r->nav_map().levels());
   for (const auto& [z0, z1] : o.level_bands) {
-    run.level_coverage.push_back(CoverageOnLevels(platforms.front()->body_terrain()->levels(), level_maps,
-                                                  {o.starts[0].x_m, o.starts[0].y_m, 0.0}, z0, z1, region));
+    run.level_coverage.push_back(
+        CoverageOnLevels(*truth_levels, level_maps, {o.starts[0].x_m, o.starts[0].y_m, 0.0}, z0, z1, region));
   }
   run.end_s = t;
   for (std::size_t i = 0; i < robots.size(); ++i) {

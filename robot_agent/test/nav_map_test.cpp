@@ -13,6 +13,7 @@
 #include "cairn/agent/services/live_obstacles.h"
 #include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/nav/global_planner.h"
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 
 namespace cairn::agent {
@@ -33,7 +34,7 @@ struct TunnelsRig {
     sim::SimulatedPlatformOptions o;
     o.world = "builtin:tunnels";
     o.start_W = core::PlanarPose{4.0, 20.0, 0.0};
-    o.SetProfile(profile);
+    sim::ApplyPlatformProfile(profile, &o);
     return o;
   }
   static core::BaseState Started(sim::SimulatedPlatform& platform) {
@@ -147,7 +148,7 @@ TEST(NavMapTest, DrivingTheTunnelsBuildsAnIncrementalMapThatPlansOnlyOverRealFlo
   request.start_is_robot = true;
   const nav::GlobalPlan plan = planner->Plan(request);
   ASSERT_TRUE(plan.IsUsable()) << plan.reason;
-  const auto& truth = *platform.terrain();
+  const sim::BodyTerrain& truth = *platform.ground_truth();  // the simulator's own judge
   int off_floor = 0;
   for (std::size_t i = 0; i + 1 < plan.result.path_W.size(); ++i) {
     const Eigen::Vector2d a = plan.result.path_W[i].head<2>();
@@ -266,7 +267,7 @@ TEST(NavMapTest, AWheeledRobotAtTheFootOfTheStairsIsRefusedTheFloorAboveNamingTh
   sim_options.world = "builtin:building";
   sim_options.start_W = core::PlanarPose{10.0, 7.1, 0.0};
   const nav::PlatformProfile profile = nav::GetPlatformProfile("wheeled");
-  sim_options.SetProfile(profile);
+  sim::ApplyPlatformProfile(profile, &sim_options);
   sim::SimulatedPlatform platform(sim_options);
   platform.Update(0.0);
   const core::BaseState start_M = platform.ReadPose().PlanarState();
@@ -494,7 +495,7 @@ TEST(LiveObstaclesTest, AStepBesideARobotStandingStillStaysAnObstacleWhileItCann
   sim::SimulatedPlatformOptions sim_options;
   sim_options.world = "builtin:tunnels";
   sim_options.start_W = core::PlanarPose{47.0, 23.75, 0.0};
-  sim_options.SetProfile(options.navigation.platform);
+  sim::ApplyPlatformProfile(options.navigation.platform, &sim_options);
   sim::SimulatedPlatform platform(sim_options);
   platform.Update(0.0);
   LiveObstacles live(options.navigation, options.obstacle_window_s,

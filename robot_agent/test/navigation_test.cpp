@@ -19,6 +19,7 @@
 #include "cairn/agent/services/planning_service.h"
 #include "cairn/agent/stepped_robot.h"
 #include "cairn/sim/builtin_worlds.h"
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 
 namespace cairn::agent {
@@ -693,7 +694,7 @@ std::shared_ptr<sim::SimulatedPlatform> TunnelPlatform(const AgentOptions& optio
   sim::SimulatedPlatformOptions o;
   o.world = "builtin:tunnels";
   o.start_W = start;
-  o.SetProfile(options.navigation.platform);
+  sim::ApplyPlatformProfile(options.navigation.platform, &o);
   return std::make_shared<sim::SimulatedPlatform>(o);
 }
 

@@ -17,6 +17,7 @@
 #include "cairn/agent/services/nav_map.h"
 #include "cairn/core/health_monitor.h"
 #include "cairn/nav/global_planner.h"
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 
 namespace cairn::agent {
@@ -47,7 +48,7 @@ TEST(PerceptionService, ASlowNavigationMapUpdatePastTheWatchdogIsNeverRunTwice) 
   sim::SimulatedPlatformOptions sim_options;
   sim_options.world = "builtin:tunnels";
   sim_options.start_W = core::PlanarPose{4.0, 20.0, 0.0};
-  sim_options.SetProfile(profile);
+  sim::ApplyPlatformProfile(profile, &sim_options);
   auto platform = std::make_shared<sim::SimulatedPlatform>(sim_options);
   platform->Update(0.0);
   const core::BaseState start_M = platform->ReadPose().PlanarState();

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "cairn/agent/stepped_robot.h"
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 
 namespace cairn::agent::team_testing {
@@ -32,7 +33,7 @@ inline SteppedTeam MakeSteppedTeam(const std::string& world,
     sim::SimulatedPlatformOptions sim_options;
     sim_options.world = world;
     sim_options.start_W = start;
-    sim_options.SetProfile(options.navigation.platform);
+    sim::ApplyPlatformProfile(options.navigation.platform, &sim_options);
     team.platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
     team.robots.push_back(std::make_unique<SteppedRobot>(options, team.platforms.back(), ""));
   }

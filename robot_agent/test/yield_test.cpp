@@ -20,6 +20,7 @@
 #include "cairn/agent/stepped_robot.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/sim/builtin_worlds.h"
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 #include "stepped_team.h"
 
@@ -426,7 +427,7 @@ ForgedBlockRun RunForgedBlock(double max_hold_s, double silent_after_s) {
   sim::SimulatedPlatformOptions sim_options;
   sim_options.world = "builtin:narrow";
   sim_options.start_W = core::PlanarPose{4.0, 5.0, 0.0};
-  sim_options.SetProfile(options.navigation.platform);
+  sim::ApplyPlatformProfile(options.navigation.platform, &sim_options);
   const auto platform = std::make_shared<sim::SimulatedPlatform>(sim_options);
   SteppedRobot ya(options, platform, "");
   double t = 0;

@@ -10,7 +10,6 @@
 #include <stdexcept>
 
 #include "cairn/core/config.h"
-#include "cairn/nav/sampling.h"
 
 namespace cairn::sim {
 namespace {
@@ -45,14 +44,8 @@ std::shared_ptr<const World> LoadChecked(const SimulatedPlatformOptions& options
   return world;
 }
 
-nav::TraversabilityOptions TerrainOptions(const SimulatedPlatformOptions& options) {
-  nav::TraversabilityOptions t = options.terrain;
-  t.robot_radius_m = options.footprint_radius_m;
-  return t;
-}
-
 // Start pose: given, or chosen deterministically among free cells of the ground truth.
-PlanarPose ChooseStart(const SimulatedPlatformOptions& options, const nav::TraversabilityGrid& terrain) {
+PlanarPose ChooseStart(const SimulatedPlatformOptions& options, const BodyTerrain& terrain) {
   if (options.start_W) {
     const PlanarPose start = *options.start_W;
     if (!terrain.IsFootprintFree(start.x_m, start.y_m, options.footprint_radius_m) ||
@@ -69,15 +62,16 @@ PlanarPose ChooseStart(const SimulatedPlatformOptions& options, const nav::Trave
       const auto& starts = GetBuiltinWorldInfo(options.world.substr(8)).suggested_starts;
       return starts[static_cast<std::size_t>(k) % starts.size()];
     }
-    const auto starts = nav::SampleFreeStarts(terrain, k + 1, 2.0, /*seed=*/7);
+    const auto starts = terrain.SampleFreeStarts(k + 1, 2.0, options.footprint_radius_m, /*seed=*/7);
     if (static_cast<int>(starts.size()) <= k) {
       throw std::invalid_argument("--start slot:" + std::to_string(k) + ": world " + options.world +
                                   " has only " + std::to_string(starts.size()) + " free starts 2 m apart");
     }
     return PlanarPose{starts[static_cast<std::size_t>(k)].x(), starts[static_cast<std::size_t>(k)].y(), 0.0};
   }
-  const auto starts = nav::SampleFreeStarts(
-      terrain, 1, 1.0, static_cast<std::uint32_t>(std::hash<std::string>{}(options.start_key)));
+  const auto starts =
+      terrain.SampleFreeStarts(1, 1.0, options.footprint_radius_m,
+                               static_cast<std::uint32_t>(std::hash<std::string>{}(options.start_key)));
   if (starts.empty()) throw std::invalid_argument("world " + options.world + " has no free start cell");
   return PlanarPose{starts.front().x(), starts.front().y(), 0.0};
 }
@@ -180,12 +174,6 @@ std::vector<Rockfall> ParseRockfalls(const std::string& text) {
   return out;
 }
 
-void SimulatedPlatformOptions::SetProfile(const nav::PlatformProfile& profile) {
-  limits = profile.limits;
-  footprint_radius_m = profile.footprint_radius_m;
-  terrain = profile.traversability;
-}
-
 bool SimulatedPlatformOptions::IsValid(std::string* why) const {
   std::string inner;
   auto fail = [&](const std::string& message) {
@@ -193,7 +181,7 @@ bool SimulatedPlatformOptions::IsValid(std::string* why) const {
     return false;
   };
   if (!limits.IsValid(&inner)) return fail("simulation: " + inner);
-  if (!terrain.IsValid(&inner)) return fail("simulation: " + inner);
+  if (!body.IsValid(&inner)) return fail("simulation." + inner);
   if (!lidar.IsValid(&inner)) return fail("simulation.lidar: " + inner);
   if (!slam.IsValid(&inner)) return fail("simulation.slam: " + inner);
   if (!camera.IsValid(&inner)) return fail("simulation.camera: " + inner);
@@ -243,18 +231,16 @@ void SimulatedPlatformOptions::LoadConfigFile(const std::string& path) {
 SimulatedPlatform::SimulatedPlatform(const SimulatedPlatformOptions& options)
     : options_(options),
       world_(LoadChecked(options)),
-      terrain_(std::make_shared<const nav::TraversabilityGrid>(*world_, TerrainOptions(options))),
-      body_terrain_(std::make_shared<const nav::LeveledTerrain>(
-          terrain_, std::make_shared<const nav::MultiLevelGrid>(world_, TerrainOptions(options)))),
+      ground_truth_(std::make_shared<const BodyTerrain>(world_, options.body)),
       base_(options.limits, options.footprint_radius_m),
       slam_(options.slam, SeedOf(options.start_key) + 1),
       lidar_(options.lidar, SeedOf(options.start_key)) {
-  const PlanarPose start = ChooseStart(options_, *terrain_);
+  const PlanarPose start = ChooseStart(options_, *ground_truth_);
   UnicycleState state;
   state.x_m = start.x_m;
   state.y_m = start.y_m;
   state.yaw_rad = start.yaw_rad;
-  state.z_m = terrain_->GroundHeight(start.x_m, start.y_m).value_or(0.0);
+  state.z_m = ground_truth_->GroundHeight(start.x_m, start.y_m).value_or(0.0);
   base_.set_state(state);
   T_MB_estimate_ = slam_.Update(TrueBodyPose());
   rock_dropped_.assign(options_.rockfalls.size(), false);
@@ -289,11 +275,11 @@ core::PlatformCapabilities SimulatedPlatform::Capabilities() const {
 
 std::vector<Eigen::Vector3i> SimulatedPlatform::FillRock(const Eigen::AlignedBox2d& area_W, double height_m) {
   std::shared_ptr<const World> world;
-  std::shared_ptr<const nav::TraversabilityGrid> terrain;
+  std::shared_ptr<const BodyTerrain> terrain;
   {
     std::lock_guard<std::mutex> guard(world_mutex_);
     world = world_;
-    terrain = terrain_;
+    terrain = ground_truth_;
   }
   auto changed = std::make_shared<World>(*world);
   const double floor_z =
@@ -313,21 +299,15 @@ std::vector<Eigen::Vector3i> SimulatedPlatform::FillRock(const Eigen::AlignedBox
       }
     }
   }
-  SwapWorld(std::move(changed), area_W);
+  SwapWorld(std::move(changed));
   return filled;
 }
 
-void SimulatedPlatform::SwapWorld(std::shared_ptr<const World> changed, const Eigen::AlignedBox2d& area_W) {
-  auto new_terrain = std::make_shared<const nav::TraversabilityGrid>(*changed, TerrainOptions(options_));
-  auto levels = std::make_shared<nav::MultiLevelGrid>(body_terrain()->levels());
-  // One cell around the area: the voxels on its border columns changed too.
-  const Eigen::Vector2d margin = Eigen::Vector2d::Constant(changed->resolution_m());
-  levels->Update(changed, nullptr, {Eigen::AlignedBox2d(area_W.min() - margin, area_W.max() + margin)});
-  auto new_body = std::make_shared<const nav::LeveledTerrain>(new_terrain, std::move(levels));
+void SimulatedPlatform::SwapWorld(std::shared_ptr<const World> changed) {
+  auto truth = std::make_shared<const BodyTerrain>(changed, options_.body);
   std::lock_guard<std::mutex> guard(world_mutex_);
   world_ = std::move(changed);
-  terrain_ = std::move(new_terrain);
-  body_terrain_ = std::move(new_body);
+  ground_truth_ = std::move(truth);
 }
 
 std::int64_t SimulatedPlatform::DropRock(const Eigen::AlignedBox2d& area_W, double height_m) {
@@ -342,15 +322,13 @@ std::int64_t SimulatedPlatform::ClearRock(const std::vector<Eigen::Vector3i>& fi
   }
   auto changed = std::make_shared<World>(*world);
   std::int64_t freed = 0;
-  Eigen::AlignedBox2d area_W;  // empty
   for (const Eigen::Vector3i& index : filled) {
     if (!changed->IsOccupiedIndex(index)) continue;
     changed->SetOccupied(index, false);
-    area_W.extend(changed->CenterOf(index).head<2>());
     ++freed;
   }
   if (freed == 0) return 0;
-  SwapWorld(std::move(changed), area_W);
+  SwapWorld(std::move(changed));
   return freed;
 }
 
@@ -381,7 +359,7 @@ void SimulatedPlatform::Update(double now_s) {
     ClearRock(it->filled);
     it = pending_clears_.erase(it);
   }
-  const std::shared_ptr<const nav::LeveledTerrain> terrain = body_terrain();
+  const std::shared_ptr<const BodyTerrain> terrain = ground_truth();
   std::lock_guard<std::mutex> guard(mutex_);
   if (last_update_s_ < 0.0 || !(now_s > last_update_s_)) {
     last_update_s_ = std::max(last_update_s_, now_s);
@@ -487,14 +465,9 @@ std::shared_ptr<const World> SimulatedPlatform::world() const {
   return world_;
 }
 
-std::shared_ptr<const nav::TraversabilityGrid> SimulatedPlatform::terrain() const {
+std::shared_ptr<const BodyTerrain> SimulatedPlatform::ground_truth() const {
   std::lock_guard<std::mutex> guard(world_mutex_);
-  return terrain_;
-}
-
-std::shared_ptr<const nav::LeveledTerrain> SimulatedPlatform::body_terrain() const {
-  std::lock_guard<std::mutex> guard(world_mutex_);
-  return body_terrain_;
+  return ground_truth_;
 }
 
 double SimulatedPlatform::distance_travelled_m() const {

@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/survey_scan.h"
 #include "sparse_corridor.h"
 #include "test_util.h"
@@ -13,11 +14,16 @@
 namespace cairn::sim {
 namespace {
 
+// A body on the floor (z = 0) at (x_m, y_m), by the platform's ground truth.
+bool FreeOnTheFloor(const SimulatedPlatform& platform, double x_m, double y_m, double radius_m) {
+  return platform.ground_truth()->IsFootprintFreeNear(x_m, y_m, 0.0, radius_m);
+}
+
 SimulatedPlatformOptions Arena() {
   SimulatedPlatformOptions o;
   o.world = "builtin:arena";
   o.start_W = core::PlanarPose{8.0, 11.0, 0.0};
-  o.SetProfile(nav::GetPlatformProfile("wheeled"));
+  sim::ApplyPlatformProfile(nav::GetPlatformProfile("wheeled"), &o);
   return o;
 }
 
@@ -67,7 +73,7 @@ TEST(SimulatedPlatformTest, ScansAreRegisteredAndARockfallIsSeenAndBlocks) {
       platform.DropRock(Eigen::AlignedBox2d(Eigen::Vector2d(9.3, 10.5), Eigen::Vector2d(9.7, 11.5)), 0.6), 0);
   ASSERT_TRUE(platform.ReadLidarScan(0.2, &scan));
   EXPECT_GT(hits_near(scan, 9.5, 11.0), 20);
-  EXPECT_FALSE(platform.terrain()->IsFootprintFree(9.5, 11.0, 0.3));
+  EXPECT_FALSE(FreeOnTheFloor(platform, 9.5, 11.0, 0.3));
 }
 
 TEST(SimulatedPlatformTest, RockfallClearTimeParsesAndErrorsNameTheField) {
@@ -100,14 +106,14 @@ TEST(SimulatedPlatformTest, RockfallIsClearedAtItsClearTime) {
   SimulatedPlatform platform(options);
   const std::int64_t occupied = platform.world()->CountOccupied();
   platform.Update(0.5);
-  EXPECT_TRUE(platform.terrain()->IsFootprintFree(9.5, 20.0, 0.3));
+  EXPECT_TRUE(FreeOnTheFloor(platform, 9.5, 20.0, 0.3));
   platform.Update(1.0);
-  EXPECT_FALSE(platform.terrain()->IsFootprintFree(9.5, 20.0, 0.3));
+  EXPECT_FALSE(FreeOnTheFloor(platform, 9.5, 20.0, 0.3));
   EXPECT_GT(platform.world()->CountOccupied(), occupied);
   platform.Update(2.9);
-  EXPECT_FALSE(platform.terrain()->IsFootprintFree(9.5, 20.0, 0.3));
+  EXPECT_FALSE(FreeOnTheFloor(platform, 9.5, 20.0, 0.3));
   platform.Update(3.0);
-  EXPECT_TRUE(platform.terrain()->IsFootprintFree(9.5, 20.0, 0.3));
+  EXPECT_TRUE(FreeOnTheFloor(platform, 9.5, 20.0, 0.3));
   EXPECT_EQ(platform.world()->CountOccupied(), occupied);  // Exactly the rock's voxels freed, the floor kept.
 }
 
@@ -123,16 +129,16 @@ TEST(SimulatedPlatformTest, ARockfallTriggeredByTheRobotsApproachFallsThenClears
   const std::int64_t occupied = platform.world()->CountOccupied();
   double t_s = 0.0;
   platform.Update(t_s);
-  EXPECT_TRUE(platform.terrain()->IsFootprintFree(7.2, 20.0, 0.3));
+  EXPECT_TRUE(FreeOnTheFloor(platform, 7.2, 20.0, 0.3));
   platform.Update(t_s += 30.0);  // time alone does not drop it
-  EXPECT_TRUE(platform.terrain()->IsFootprintFree(7.2, 20.0, 0.3));
+  EXPECT_TRUE(FreeOnTheFloor(platform, 7.2, 20.0, 0.3));
   // Drive along +x at 0.5 m/s until the rock is there; it falls between 5.5 and 5.6 m (1.5 m from x = 7.0).
   double fell_at_x_m = 0.0;
   double fell_at_s = 0.0;
   while (t_s < 60.0) {
     platform.CommandTwist(0.5, 0.0, t_s);
     platform.Update(t_s += 0.05);
-    if (!platform.terrain()->IsFootprintFree(7.2, 20.0, 0.3)) {
+    if (!FreeOnTheFloor(platform, 7.2, 20.0, 0.3)) {
       fell_at_x_m = platform.TrueState().x_m;
       fell_at_s = t_s;
       break;
@@ -142,9 +148,9 @@ TEST(SimulatedPlatformTest, ARockfallTriggeredByTheRobotsApproachFallsThenClears
   EXPECT_GT(platform.world()->CountOccupied(), occupied);
   platform.CommandTwist(0.0, 0.0, t_s);
   platform.Update(fell_at_s + 1.9);
-  EXPECT_FALSE(platform.terrain()->IsFootprintFree(7.2, 20.0, 0.3));
+  EXPECT_FALSE(FreeOnTheFloor(platform, 7.2, 20.0, 0.3));
   platform.Update(fell_at_s + 2.0);
-  EXPECT_TRUE(platform.terrain()->IsFootprintFree(7.2, 20.0, 0.3));
+  EXPECT_TRUE(FreeOnTheFloor(platform, 7.2, 20.0, 0.3));
   EXPECT_EQ(platform.world()->CountOccupied(), occupied);
   EXPECT_FALSE(platform.ReadStatus().in_contact);
 }
@@ -200,7 +206,7 @@ TEST(SimulatedPlatformTest, LeggedBodyClimbsOntoALandingOverTheFloorBelow) {
   SimulatedPlatformOptions o;
   o.world = "builtin:building";
   o.start_W = core::PlanarPose{19.0, 6.5, 0.0};
-  o.SetProfile(nav::GetPlatformProfile("legged"));
+  sim::ApplyPlatformProfile(nav::GetPlatformProfile("legged"), &o);
   SimulatedPlatform platform(o);
   platform.Update(0.0);
   ASSERT_NEAR(platform.TrueState().z_m, 0.0, 1e-9);
@@ -230,10 +236,10 @@ TEST(SimulatedPlatformTest, WheeledBodyDrivesAlongAStripOfMissingFloorReturns) {
   o.world = testing::MakeTempDir() + "/corridor.pcd";
   WritePcd(o.world, scan.points_W);
   o.start_W = core::PlanarPose{1.0, 2.0, 0.0};
-  o.SetProfile(nav::GetPlatformProfile("wheeled"));
+  sim::ApplyPlatformProfile(nav::GetPlatformProfile("wheeled"), &o);
   SimulatedPlatform platform(o);
   const double r = o.footprint_radius_m;
-  const std::shared_ptr<const nav::LeveledTerrain> terrain = platform.body_terrain();
+  const std::shared_ptr<const BodyTerrain> terrain = platform.ground_truth();
   int blocked = 0;
   for (double x = 0.5; x <= corridor.length_m - 0.5; x += 0.1) {
     for (double y = 0.45; y <= corridor.width_m - 0.45; y += 0.1) {

@@ -14,9 +14,7 @@
 #include <vector>
 
 #include "cairn/core/platform_io.h"
-#include "cairn/nav/multilevel.h"
-#include "cairn/nav/platform.h"
-#include "cairn/nav/traversability.h"
+#include "cairn/sim/body_terrain.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/camera.h"
 #include "cairn/sim/lidar.h"
@@ -72,9 +70,9 @@ struct SimulatedPlatformOptions {
   /// Base limits and footprint (the platform profile's).
   core::VelocityLimits limits;
   double footprint_radius_m = 0.3;
-  /// Ground truth terrain for the physics: step height, body height (the platform profile's traversability
-  /// with robot_radius_m unused).
-  nav::TraversabilityOptions terrain;
+  /// The body on the ground truth: step height, body height (the platform profile's; see BodyTerrain and
+  /// ApplyPlatformProfile in platform_profile.h).
+  BodyOptions body;
   /// Lidar: VLP-16-like, 10 Hz.
   LidarOptions lidar;
   /// Lidar (and camera) height above the ground under the robot, metres, [0, 3].
@@ -91,8 +89,6 @@ struct SimulatedPlatformOptions {
   /// ParseRockfalls()).
   std::vector<Rockfall> rockfalls;
 
-  /// Takes the base limits, footprint and terrain (step height, body height) of a navigation profile.
-  void SetProfile(const nav::PlatformProfile& profile);
   /// @return false and sets `*why` (field prefixed "simulation.", value, rule) when a field is invalid.
   bool IsValid(std::string* why) const;
   /// Reads the `simulation` section of a YAML config file (other sections are ignored). Throws
@@ -127,11 +123,9 @@ class SimulatedPlatform : public core::PlatformIO {
   void SetTrueState(const UnicycleState& state);
   /// The simulated world (ground truth).
   std::shared_ptr<const World> world() const;
-  /// Ground-truth traversability of the main level (one ground per column; starts, rock heights).
-  std::shared_ptr<const nav::TraversabilityGrid> terrain() const;
-  /// Ground truth the base moves on: the main level and every other walkable surface of the world (an
-  /// upper floor, a landing over the floor below), see nav::LeveledTerrain.
-  std::shared_ptr<const nav::LeveledTerrain> body_terrain() const;
+  /// Ground truth the base moves on (the simulator's own, not navigation's classifier): where the body
+  /// stands on every level of the world, what it touches, which steps it climbs. See BodyTerrain.
+  std::shared_ptr<const BodyTerrain> ground_truth() const;
   /// Distance the base travelled, metres, and the SLAM position error now, metres (truth vs estimate).
   double distance_travelled_m() const;
   double slam_error_m() const;
@@ -142,10 +136,9 @@ class SimulatedPlatform : public core::PlatformIO {
   Eigen::Isometry3d SensorOnBody() const;
 
   SimulatedPlatformOptions options_;
-  mutable std::mutex world_mutex_;  // guards the three pointers below (copy-on-write on a rockfall)
+  mutable std::mutex world_mutex_;  // guards the two pointers below (copy-on-write on a rockfall)
   std::shared_ptr<const World> world_;
-  std::shared_ptr<const nav::TraversabilityGrid> terrain_;
-  std::shared_ptr<const nav::LeveledTerrain> body_terrain_;
+  std::shared_ptr<const BodyTerrain> ground_truth_;
   std::vector<bool> rock_dropped_;  // per options_.rockfalls entry; control thread
   // Voxels each dropped rockfall with a clear time filled, and when to free them; control thread.
   struct PendingClear {
@@ -155,8 +148,8 @@ class SimulatedPlatform : public core::PlatformIO {
   std::vector<PendingClear> pending_clears_;
   // Fills the rock's voxels into a copy of the world, swaps it in; returns the voxels it filled.
   std::vector<Eigen::Vector3i> FillRock(const Eigen::AlignedBox2d& area_W, double height_m);
-  // Makes `changed` the world and rebuilds the ground-truth terrain from it (the levels in `area_W` only).
-  void SwapWorld(std::shared_ptr<const World> changed, const Eigen::AlignedBox2d& area_W);
+  // Makes `changed` the world and rebuilds the ground truth from it.
+  void SwapWorld(std::shared_ptr<const World> changed);
   mutable std::mutex mutex_;  // base, SLAM, command and status below
   Unicycle base_;
   SlamDrift slam_;
