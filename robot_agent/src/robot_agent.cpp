@@ -19,7 +19,6 @@
 #include <future>
 #include <map>
 #include <mutex>
-#include <random>
 #include <thread>
 
 #include "cairn/agent/agent_components.h"
@@ -34,9 +33,8 @@
 #include "cairn/agent/modes/mission.h"
 #include "cairn/agent/modes/mission_resumption.h"
 #include "cairn/agent/modes/mode_control.h"
-#include "cairn/agent/modes/modes.h"
+#include "cairn/agent/modes/robot_modes.h"
 #include "cairn/agent/modes/waypoint_mode.h"
-#include "cairn/agent/modes/waypoint_recovery.h"
 #include "cairn/agent/services/nav_map.h"
 #include "cairn/agent/services/navigation.h"
 #include "cairn/agent/services/perception_service.h"
@@ -149,7 +147,7 @@ class RobotAgent::Impl {
     ExitIfWorkStillRuns();
     dds_.reset();
     come_home_.Abandon(navigation_);
-    if (missions_) missions_->Abandon();
+    if (modes_) modes_->missions().Abandon();
   }
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
@@ -179,8 +177,6 @@ class RobotAgent::Impl {
   }
 
  private:
-  // The mode modules: idle, manual, smart joystick, waypoint (a new mode is one more here and its subtree).
-  ModeRegistry MakeModes(const std::string& tree_file);
   // The command interface's hooks into the modes, the planning service and the DDS adapter.
   CommandInterface::Hooks CommandHooks();
   // The DDS adapter's handlers: each applies a message to its component under mutex_.
@@ -232,13 +228,13 @@ class RobotAgent::Impl {
   // With mutex_ held: the robot as a yield, asked or asking, sees it at `now_s` with `live_peers` (which
   // outlive the answer).
   YieldCoordination::Robot ForYield(double now_s, const std::vector<PeerBody>& live_peers) const {
-    return {now_s, modes_->mode(), pose_, &live_peers, listening_to_peers_};
+    return {now_s, modes_->control().mode(), pose_, &live_peers, listening_to_peers_};
   }
   // With mutex_ held: what the robot state reports now.
   RobotStateInputs StateInputs() const {
     // As the robot asked while it yields (or last yielded: how it ended), else as the robot asking.
-    const YieldStatus& own = yield_->status();
-    const YieldStatus& asking = yielding_->asking();
+    const YieldStatus& own = modes_->yield().status();
+    const YieldStatus& asking = modes_->yielding().asking();
     const bool own_first = own.state != YieldStatus::State::kNone ||
                            (asking.state == YieldStatus::State::kNone && !own.reason.empty());
     RobotStateInputs in;
@@ -247,10 +243,10 @@ class RobotAgent::Impl {
     in.control_period_max_ms = control_periods_.WorstMs();
     in.resumable_goal_M = resumable_goal_M_;
     in.yield = own_first ? own : asking;
-    in.paused_mission = missions_->paused();
+    in.paused_mission = modes_->missions().paused();
     if (in.paused_mission)
       in.mission_paused_s = std::max(0.0, NowS(SteadyClock::now()) - in.paused_mission->since_s);
-    in.mission_note = missions_->note();
+    in.mission_note = modes_->missions().note();
     return in;
   }
   void SendClaim(const ExploreClaim& claim) {
@@ -277,10 +273,6 @@ class RobotAgent::Impl {
   int robots_on_link_ = 1;                             // ShareRadioLink()
   Navigation navigation_;
   std::unique_ptr<PerceptionService> perception_;  // sensor, perception and navigation map threads
-  WaypointMode* waypoint_ = nullptr;               // owned by modes_; holds the waypoint goal
-  ExploreMode* explore_ = nullptr;                 // owned by modes_; holds the exploration task
-  ConvoyMode* convoy_ = nullptr;                   // owned by modes_; holds the convoy follower's task
-  YieldMode* yield_ = nullptr;                     // owned by modes_; gets out of a peer's way
   ExploreTeam team_;                               // peers' explore claims and coverage (thread-safe)
   PeerTracker peers_;                              // peers' poses, footprints and paths (thread-safe)
   core::WarningLimiter peer_warnings_;             // a bad peer state is named once per 5 s per robot
@@ -288,12 +280,10 @@ class RobotAgent::Impl {
   std::atomic<bool> listening_to_peers_{false};
   std::optional<ExploreClaim> claim_to_send_;        // Step()'s, sent by Run() outside the agent lock
   ComeHome come_home_{options_.robot_id, start_M_};  // an exploring robot that hears no one drives back
-  std::unique_ptr<ModeControl> modes_;               // the mode tree, the mode modules and the mux
-  // The operator's mission a transient condition (or a yield) paused, resumed when it clears.
-  std::unique_ptr<MissionResumption> missions_;
-  std::unique_ptr<YieldCoordination> yielding_;  // asked to get out of the way, and asking peers to
-  std::unique_ptr<CommandInterface> command_;    // the lock, the reply cache and the rules of who may command
-  std::unique_ptr<PlanningService> planning_;    // the planning thread: goals, then peers' path queries
+  // The mode tree, the mode modules and the mux; the operator's mission across interruptions; yields.
+  std::unique_ptr<RobotModes> modes_;
+  std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
+  std::unique_ptr<PlanningService> planning_;  // the planning thread: goals, then peers' path queries
   std::unique_ptr<Telemetry> telemetry_;
   std::optional<Eigen::Vector3d>
       resumable_goal_M_;                    // a resumed robot's old goal, offered until it leaves idle
@@ -352,20 +342,14 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       options, platform_, start_M_, planner_, start_time_,
       [this](const PerceptionOutput& out) { telemetry_->PublishPerception(out); });
   const std::string tree_file = options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file;
-  modes_ = std::make_unique<ModeControl>(tree_file, MakeModes(tree_file), options.robot_id);
-  const MissionResumption::RequestMode request_mode = [this](const std::string& mode) {
-    return modes_->Request(mode, Conditions());
-  };
-  missions_ = std::make_unique<MissionResumption>(
-      options.robot_id, options.mission,
-      MissionResumption::Modes{modes_.get(), waypoint_, explore_, convoy_, yield_, &navigation_},
-      request_mode);
-  yielding_ = std::make_unique<YieldCoordination>(
-      options.robot_id, options.yield, options.navigation.platform.footprint_radius_m, yield_,
-      missions_.get(), &navigation_, [this] { return planner_->Grid(options_.navigation.platform.name); },
-      request_mode, [this] { return command_->mission_commands(); });
-  command_ = std::make_unique<CommandInterface>(options.robot_id, options.lock, modes_.get(),
-                                                waypoint_->name(), CommandHooks());
+  RobotModes::Hooks hooks;
+  hooks.conditions = [this] { return Conditions(); };
+  hooks.clear_obstacle_memory = [this] { perception_->ClearObstacleMemory(); };
+  hooks.mission_commands = [this] { return command_->mission_commands(); };
+  hooks.grid = [this] { return planner_->Grid(options_.navigation.platform.name); };
+  modes_ = std::make_unique<RobotModes>(options_, tree_file, &navigation_, std::move(hooks));
+  command_ = std::make_unique<CommandInterface>(options.robot_id, options.lock, &modes_->control(),
+                                                modes_->waypoint().name(), CommandHooks());
   PlanningServiceOptions planning;
   planning.robot_id = options.robot_id;
   planning.platform = options.navigation.platform.name;
@@ -388,8 +372,9 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
                    options.robot_id);
     }
   }
-  telemetry_ = std::make_unique<Telemetry>(options, dds_.get(), modes_.get(), waypoint_, explore_, convoy_,
-                                           &navigation_, command_.get());
+  telemetry_ =
+      std::make_unique<Telemetry>(options, dds_.get(), &modes_->control(), &modes_->waypoint(),
+                                  &modes_->explore(), &modes_->convoy(), &navigation_, command_.get());
   if (options.resumed) Resume(*options.resumed);
   if (!options.journal_dir.empty()) {
     std::function<void(const std::string&)> save_map;
@@ -438,9 +423,9 @@ JournalEntry RobotAgent::Impl::JournalNow() const {
   JournalEntry e;
   e.robot_id = options_.robot_id;
   e.holder_id = command_->lock().holder_id();
-  e.mode = modes_->mode();
-  if (waypoint_->has_goal()) {
-    const WaypointGoal& goal = waypoint_->goal();
+  e.mode = modes_->control().mode();
+  if (modes_->waypoint().has_goal()) {
+    const WaypointGoal& goal = modes_->waypoint().goal();
     e.has_goal = true;
     e.goal_id = goal.goal_id;
     e.goal_x_m = goal.x_m;
@@ -475,40 +460,6 @@ void RobotAgent::Impl::ShareRadioLink() {
       options_.perception.camera_budget_bits_per_s / robots, flow_share);
 }
 
-ModeRegistry RobotAgent::Impl::MakeModes(const std::string& tree_file) {
-  auto recovery = std::make_unique<WaypointRecovery>(
-      tree_file, &navigation_, WaypointRecovery::Hooks{[this] { perception_->ClearObstacleMemory(); }});
-  if (!recovery->enabled()) {
-    spdlog::warn(
-        "robot {}: the mode tree file has no {} tree: a blocked waypoint goal fails without recovery",
-        options_.robot_id, WaypointRecovery::kTreeId);
-  }
-  WaypointModeOptions waypoint;
-  waypoint.robot_id = options_.robot_id;
-  waypoint.channel_timeout_s = options_.waypoint_timeout_s;
-  waypoint.contact_timeout_s = options_.contact_timeout_s;
-  std::random_device entropy;  // goal ids of a restarted robot do not repeat old ones
-  waypoint.first_goal_id = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
-  ModeRegistry modes;
-  modes.Emplace<IdleMode>();
-  modes.Emplace<ManualMode>(options_.teleop_timeout_s);
-  modes.Emplace<SmartJoystickMode>(&navigation_, options_.waypoint_timeout_s, options_.teleop_timeout_s);
-  waypoint_ = &modes.Emplace<WaypointMode>(waypoint, &navigation_, std::move(recovery));
-  ExploreModeOptions explore = options_.explore;
-  explore.robot_id = options_.robot_id;
-  explore.platform_max_step_m = options_.navigation.platform.traversability.max_step_m;
-  explore.channel_timeout_s = options_.waypoint_timeout_s;
-  explore.contact_timeout_s = options_.contact_timeout_s;
-  explore.first_task_id = std::uniform_int_distribution<uint32_t>(1, 1u << 30)(entropy);
-  explore_ = &modes.Emplace<ExploreMode>(
-      explore, &navigation_,
-      std::make_unique<WaypointRecovery>(
-          tree_file, &navigation_, WaypointRecovery::Hooks{[this] { perception_->ClearObstacleMemory(); }}));
-  convoy_ = &modes.Emplace<ConvoyMode>(options_.convoy, options_.waypoint_timeout_s, &navigation_);
-  yield_ = &modes.Emplace<YieldMode>(options_.yield, options_.waypoint_timeout_s, &navigation_);
-  return modes;
-}
-
 CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
   CommandInterface::Hooks hooks;
   hooks.conditions = [this] { return Conditions(); };
@@ -524,12 +475,11 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
     return StartGoal(goal, plan);
   };
   hooks.start_explore = [this](const ExploreCommand& explore) {
-    const std::string refused = explore_->Start(explore.task, NowS(SteadyClock::now()), [this] {
-      return modes_->Request(explore_->name(), Conditions());
-    });
+    const std::string refused = modes_->explore().Start(
+        explore.task, NowS(SteadyClock::now()), [this] { return modes_->Request(modes_->explore().name()); });
     if (!refused.empty()) return CommandOutcome{false, refused, 0};
-    return CommandOutcome{true, "exploring " + std::to_string(explore_->status().task_id),
-                          explore_->status().task_id};
+    return CommandOutcome{true, "exploring " + std::to_string(modes_->explore().status().task_id),
+                          modes_->explore().status().task_id};
   };
   hooks.convoy = [this](const ConvoyCommand& c) { return OnConvoy(c); };
   // Queued for the monitor's thread: a component's threads are never waited for under the agent lock.
@@ -541,21 +491,21 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
 
 CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
   if (c.stop) {
-    if (!convoy_->active()) return CommandOutcome{true, "not in a convoy", 0};
-    convoy_->Deactivate("convoy stopped by " + c.sender.base_id);
+    if (!modes_->convoy().active()) return CommandOutcome{true, "not in a convoy", 0};
+    modes_->convoy().Deactivate("convoy stopped by " + c.sender.base_id);
     spdlog::info("robot {}: convoy stopped by {}", options_.robot_id, c.sender.base_id);
-    if (modes_->mode() == convoy_->name()) modes_->GoIdle(Conditions());
+    if (modes_->control().mode() == modes_->convoy().name()) modes_->control().GoIdle(Conditions());
     return CommandOutcome{true, "left the convoy: idle", 0};
   }
-  const bool was_following = convoy_->active() && modes_->mode() == convoy_->name();
+  const bool was_following = modes_->convoy().active() && modes_->control().mode() == modes_->convoy().name();
   const double now_s = NowS(SteadyClock::now());
-  const std::string refused = convoy_->Start(options_.robot_id, c.ahead_ids, now_s);
+  const std::string refused = modes_->convoy().Start(options_.robot_id, c.ahead_ids, now_s);
   if (!refused.empty()) return CommandOutcome{false, refused, 0};
-  convoy_->SetPeers(peers_.Live(now_s), now_s);
+  modes_->convoy().SetPeers(peers_.Live(now_s), now_s);
   if (!was_following) {
-    const ModeDecision d = modes_->Request(convoy_->name(), Conditions());
+    const ModeDecision d = modes_->Request(modes_->convoy().name());
     if (!d.accepted) {
-      convoy_->Deactivate(d.reason);
+      modes_->convoy().Deactivate(d.reason);
       return CommandOutcome{false, d.reason, 0};
     }
   }
@@ -567,7 +517,7 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
 }
 
 void RobotAgent::Impl::PublishPeerState() {
-  const PeerBody self = navigation_.AsPeer(options_.robot_id, pose_, modes_->mode());
+  const PeerBody self = navigation_.AsPeer(options_.robot_id, pose_, modes_->control().mode());
   cairn_msgs::PeerState m;
   m.robot_id(self.robot_id);
   m.platform(options_.navigation.platform.name);
@@ -579,7 +529,7 @@ void RobotAgent::Impl::PublishPeerState() {
   m.w_B_radps(static_cast<float>(self.pose_M.w_radps));
   m.footprint_radius_m(static_cast<float>(self.footprint_radius_m));
   m.mode(self.mode);
-  const YieldStatus& yield = yield_->status();
+  const YieldStatus& yield = modes_->yield().status();
   if (yield.state != YieldStatus::State::kNone) {
     m.yield_state(ToString(yield.state));
     m.yield_to_id(yield.peer_id);
@@ -640,7 +590,7 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
     std::lock_guard<std::mutex> guard(mutex_);
     const double now_s = NowS(SteadyClock::now());
     const std::vector<PeerBody> live_peers = peers_.Live(now_s);
-    yielding_->OnRequest(c, origin, fault, ForYield(now_s, live_peers));
+    modes_->yielding().OnRequest(c, origin, fault, ForYield(now_s, live_peers));
   };
   h.map_sync = [this](const std::string& requester) {
     spdlog::info("robot {}: map snapshot requested by {}", options_.robot_id, requester);
@@ -653,8 +603,8 @@ CommandOutcome RobotAgent::Impl::StartGoal(const GoalCommand& goal, const nav::G
   if (!plan.IsUsable())
     return {false, "no path: " + planning_->PlanReason(plan), 0};  // the previous goal goes on
   const GoalStart start =
-      waypoint_->Start(plan, goal.x_m, goal.y_m, goal.tolerance_m, goal.z_m, NowS(SteadyClock::now()),
-                       [this] { return modes_->Request(waypoint_->name(), Conditions()); });
+      modes_->waypoint().Start(plan, goal.x_m, goal.y_m, goal.tolerance_m, goal.z_m, NowS(SteadyClock::now()),
+                               [this] { return modes_->Request(modes_->waypoint().name()); });
   if (!start.accepted) return {false, start.reason, 0};
   spdlog::info("robot {}: waypoint {} to ({:.2f}, {:.2f}) from {} accepted, path {:.1f} m", options_.robot_id,
                start.goal_id, goal.x_m, goal.y_m, goal.sender.base_id, plan.result.length_m);
@@ -675,12 +625,12 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   command_->FillConditions(&c);  // holder, its liveliness, its joystick
   c.localized = pose_healthy_;
   c.localization_problem = pose_problem_;
-  c.has_waypoint_goal = waypoint_->has_goal();
+  c.has_waypoint_goal = modes_->waypoint().has_goal();
   c.local_planner_healthy =
       navigation_.ObstacleSensingAlive(NowS(SteadyClock::now()), &c.local_planner_problem);
-  c.has_explore_task = explore_->exploring();
-  c.has_convoy_task = convoy_->active();
-  c.has_yield_task = yield_->active();
+  c.has_explore_task = modes_->explore().exploring();
+  c.has_convoy_task = modes_->convoy().active();
+  c.has_yield_task = modes_->yield().active();
   c.mapping_healthy = perception_->MappingHealthy(&c.mapping_problem);
   if (health_) c.components_down = health_->Down();
   return c;
@@ -690,16 +640,7 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   ResetRestartedParts();
   command_c_->Run([&] { command_->Update(now); });
   const double now_s = NowS(now);
-  mode_tree_c_->Run([&] {
-    std::optional<PausedMission> running = missions_->Running(now_s);
-    const ModeDecision recheck = modes_->Recheck(Conditions());
-    if (!recheck.accepted) {
-      spdlog::warn("robot {}: {} -> idle", options_.robot_id, recheck.reason);
-      // A condition that clears by itself (a component restarting, localization lost) pauses the mission.
-      if (running && IsTransientFailure(recheck.reason))
-        missions_->Pause(std::move(*running), FailedCondition(recheck.reason), command_->mission_commands());
-    }
-  });
+  mode_tree_c_->Run([&] { modes_->Recheck(now_s); });
 
   const bool platform_ok = ReadPose(now_s);
   const ModeInputs inputs{now, now_s, pose_};
@@ -707,7 +648,7 @@ void RobotAgent::Impl::Step(SteadyTime now) {
   telemetry_c_->Run([&] { telemetry_->PublishGlobalPathIfChanged(); });
 
   Twist2 twist_B;
-  const bool muxed = mux_c_->Run([&] { twist_B = modes_->Compute(now).twist_B; });
+  const bool muxed = mux_c_->Run([&] { twist_B = modes_->control().Compute(now).twist_B; });
   // A part of the driving chain that failed or is down: zero twist, and the robot leaves its mode (it is not
   // driven by a half-working chain when the part comes back).
   if (!(muxed && navigated && platform_ok && mode_tree_c_->up() && navigation_c_->up() && mux_c_->up())) {
@@ -719,12 +660,8 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     const core::PlatformStatus status = platform_->ReadStatus();
     in_contact_ = status.in_contact;
     if (navigated && mode_tree_c_->up()) {
-      mode_tree_c_->Run(
-          [&] {
-            if (modes_->OnPlatformStatus(status, inputs))
-              modes_->GoIdle(Conditions());  // e.g. a goal blocked in contact
-          },
-          /*beat=*/false);
+      mode_tree_c_->Run([&] { modes_->OnPlatformStatus(status, inputs); },
+                        /*beat=*/false);
     }
   } catch (const std::exception& e) {
     platform_c_->ReportFailure(std::string("driver: ") + e.what());
@@ -759,52 +696,38 @@ void RobotAgent::Impl::StepNavigation(SteadyTime now, const ModeInputs& inputs) 
   navigation_.SetPeers(live_peers, peers_.options());
   perception_->FeedObstacles(navigation_);  // obstacles from live lidar points, at the sensor's rate
   // A robot waiting on a goal (or between frontiers) watches the world.
-  perception_->SetMapRefreshAtRest(waypoint_->has_goal() || explore_->exploring());
-  perception_->SetFrontierSearch(explore_->frontier_search(), explore_->every_level());
+  perception_->SetMapRefreshAtRest(modes_->waypoint().has_goal() || modes_->explore().exploring());
+  perception_->SetFrontierSearch(modes_->explore().frontier_search(), modes_->explore().every_level());
   perception_->SetRobotPosition({pose_.x_m, pose_.y_m, pose_.z_m});
   if (auto frontiers = perception_->TakeFrontiers())
-    explore_->OnFrontiers(std::move(frontiers->first), frontiers->second);
-  // The team: what peers go for and have seen shapes the choice; this robot's claim goes out when due.
-  explore_->SetPeerClaims(team_.LiveClaims(now_s));
-  explore_->SetTeamView(team_.ExploringPeers(now_s), team_.PeerSeenM2());
-  convoy_->SetPeers(live_peers, now_s);  // the robot followed extends the trail
-  yield_->SetPeers(live_peers, now_s);   // the robot let past goes by
-  yielding_->AskPeers(ForYield(now_s, live_peers));
+    modes_->explore().OnFrontiers(std::move(frontiers->first), frontiers->second);
   perception_->SetPeerCoverage(team_.Coverage());
-  if (modes_->Step(inputs)) modes_->GoIdle(Conditions());  // the mode's task ended (a goal arrived or failed)
-  missions_->Step(now_s, pose_, live_peers, command_->mission_commands(),
-                  [this] { return command_->ValidNow().goal_acceptable; });
-  come_home_.Step(command_->SecondsSinceBaseHeard(now), pose_, *explore_, navigation_,
+  modes_->Step(inputs, ForYield(now_s, live_peers), team_);
+  come_home_.Step(command_->SecondsSinceBaseHeard(now), pose_, modes_->explore(), navigation_,
                   [&](const nav::GlobalPlan& plan, const core::BaseState& goal_M) {
-                    return waypoint_->Start(plan, goal_M.x_m, goal_M.y_m, 0.0, goal_M.z_m, now_s, [this] {
-                      return modes_->Request(waypoint_->name(), Conditions());
-                    });
+                    return modes_->waypoint().Start(
+                        plan, goal_M.x_m, goal_M.y_m, 0.0, goal_M.z_m, now_s,
+                        [this] { return modes_->Request(modes_->waypoint().name()); });
                   });
   // Written by Run() once the agent lock is released: Fast DDS hands the sample to this participant's own
   // claim reader on the writing thread, and the liveliness callbacks that come with it take the agent lock.
-  claim_to_send_ = DueClaim(*explore_, team_, now_s, [this] {
+  claim_to_send_ = DueClaim(modes_->explore(), team_, now_s, [this] {
     return perception_->TakeSeenCoverage(team_.options().coverage_cell_m);
   });
 }
 
 void RobotAgent::Impl::LeaveModeForADownChain(double now_s) {
-  if (modes_->mode() == ModeManager::kIdleMode) return;
-  const std::string why = "a component of the driving chain is down (health " + options_.robot_id + ")";
-  std::optional<PausedMission> running = missions_->Running(now_s);
-  try {
-    modes_->Stop(why);
-  } catch (const std::exception& e) {
-    spdlog::error("robot {}: cannot go idle: {}", options_.robot_id, e.what());
-  }
-  // After the mode has left: a convoy place is kept by the pause, not dropped by leaving the mode.
-  if (running) missions_->Pause(std::move(*running), why, command_->mission_commands());
+  if (modes_->control().mode() == ModeManager::kIdleMode) return;
+  modes_->StopKeepingMission("a component of the driving chain is down (health " + options_.robot_id + ")",
+                             now_s);
 }
 
 void RobotAgent::Impl::ResetRestartedParts() {
   for (ControlLoopComponent* part : {mode_tree_c_.get(), mux_c_.get(), navigation_c_.get()}) {
     if (part->TakeRestart()) {
       try {
-        modes_->Stop(part->name() + " restarted");  // idle, no goal: the operator decides what comes next
+        modes_->control().Stop(part->name() +
+                               " restarted");  // idle, no goal: the operator decides what comes next
       } catch (const std::exception& e) {
         part->ReportFailure(std::string("reset after restart: ") + e.what());
       }
@@ -877,24 +800,25 @@ RobotAgent::Impl::CycleOutbox RobotAgent::Impl::LockedCycle(uint64_t cycle, Stea
   const SteadyTime now = SteadyClock::now();
   command_->OnParticipantsGone(dds_->TakeGoneParticipants(), now);
   Step(now);
-  if (resumable_goal_M_ && modes_->mode() != "idle") resumable_goal_M_.reset();  // the operator moved on
+  if (resumable_goal_M_ && modes_->control().mode() != "idle")
+    resumable_goal_M_.reset();  // the operator moved on
   if (journal_ && cycle % 10 == 0) journal_->Submit(JournalNow());
   if (cycle % every.state == 0) {
     telemetry_->PublishState(StateInputs());
   }
   if (cycle % every.local_plan == 0) telemetry_->PublishLocalPlan();
   if (cycle % every.peer_state == 0) PublishPeerState();
-  out.listen_to_peers = !listening_to_peers_ &&
-                        (modes_->mode() != ModeManager::kIdleMode || yielding_->waiting_to_hear_peers());
-  if (yielding_->waiting_to_hear_peers() && listening_to_peers_) {
+  out.listen_to_peers = !listening_to_peers_ && (modes_->control().mode() != ModeManager::kIdleMode ||
+                                                 modes_->yielding().waiting_to_hear_peers());
+  if (modes_->yielding().waiting_to_hear_peers() && listening_to_peers_) {
     const double now_s = NowS(now);
     const std::vector<PeerBody> live_peers = peers_.Live(now_s);
-    yielding_->DecideWaitingRequest(ForYield(now_s, live_peers));
+    modes_->yielding().DecideWaitingRequest(ForYield(now_s, live_peers));
   }
   telemetry_->PublishTreeStateIfChanged();
   out.claim = std::move(claim_to_send_);
   claim_to_send_.reset();
-  out.yield_request = yielding_->TakeRequestToSend();
+  out.yield_request = modes_->yielding().TakeRequestToSend();
   // A late cycle is a robot driving blind: say where the time went (waiting for the lock, or working).
   const double lock_wait_s = core::SecondsBetween(wanted, now);
   const double work_s = core::SecondsBetween(now, SteadyClock::now());
@@ -975,10 +899,10 @@ void RobotAgent::Impl::Leave() {
   std::optional<ExploreClaim> release;
   {
     std::lock_guard<std::mutex> guard(mutex_);
-    modes_->Stop("agent shutting down");
+    modes_->control().Stop("agent shutting down");
     telemetry_->PublishState(StateInputs());
-    release =
-        DueClaim(*explore_, team_, NowS(SteadyClock::now()), {});  // an exploring robot lets go of its claim
+    release = DueClaim(modes_->explore(), team_, NowS(SteadyClock::now()),
+                       {});  // an exploring robot lets go of its claim
   }
   if (release) SendClaim(*release);
   // Leaving takes a moment (the threads finish, the last map changes go out, the map is saved: over a second

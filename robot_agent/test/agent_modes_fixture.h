@@ -1,5 +1,5 @@
 // Shared by the tests of the pieces the agent composes around its modes (missions, yields), without DDS: one
-// robot's real mode modules under the shipped mode tree, with its navigation on a world's grid.
+// robot's modes as the agent composes them (RobotModes), with its navigation on a world's grid.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -11,8 +11,8 @@
 #include <utility>
 
 #include "../../nav/test/nav_test_util.h"
-#include "cairn/agent/modes/mission_resumption.h"
-#include "cairn/agent/modes/modes.h"
+#include "cairn/agent/agent_options.h"
+#include "cairn/agent/modes/robot_modes.h"
 #include "cairn/agent/team/yield.h"
 
 namespace cairn::agent::mode_testing {
@@ -27,8 +27,9 @@ inline std::shared_ptr<const nav::TrajectoryLibrary> Library() {
   return library;
 }
 
-/// One wheeled robot `id`'s modes, the shipped mode tree and the mission it runs, in `world` (default: a
-/// 10 x 8 m yard) at `pose_M` (default (1, 4)), held by opA; `localized` is a condition that comes and goes.
+/// One wheeled robot `id`'s modes as the agent composes them (RobotModes: the shipped mode tree, the real
+/// modules, missions and yields), in `world` (default: a 10 x 8 m yard) at `pose_M` (default (1, 4)), held by
+/// opA; `localized` is a condition that comes and goes.
 struct Robot {
   explicit Robot(std::shared_ptr<const sim::World> world = nullptr, std::string id = "r1",
                  core::BaseState pose = At(1.0, 4.0))
@@ -37,9 +38,13 @@ struct Robot {
             world ? world : std::make_shared<const sim::World>(nav::testing::FlatWorld(10, 8)),
             std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled")})),
         navigation(NavigationOptions{}, planner, Library()),
-        control(TreeFile(), Registry(), robot_id),
-        missions(robot_id, Options(), {&control, waypoint, explore, convoy, yield, &navigation},
-                 [this](const std::string& mode) { return control.Request(mode, Conditions()); }),
+        modes(Options(robot_id), TreeFile(), &navigation, Hooks(), RobotModes::Ids::kFromOne),
+        control(modes.control()),
+        missions(modes.missions()),
+        waypoint(&modes.waypoint()),
+        explore(&modes.explore()),
+        convoy(&modes.convoy()),
+        yield(&modes.yield()),
         pose_M(pose) {}
 
   static core::BaseState At(double x_m, double y_m) {
@@ -50,28 +55,21 @@ struct Robot {
   }
   static std::string TreeFile() { return std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml"; }
 
-  static MissionOptions Options() {
-    MissionOptions o;
-    o.resume_within_s = 10.0;
-    o.retry_every_s = 1.0;
+  static AgentOptions Options(const std::string& robot_id) {
+    AgentOptions o;
+    o.robot_id = robot_id;
+    o.SetPlatform("wheeled");
+    o.mission.resume_within_s = 10.0;
+    o.mission.retry_every_s = 1.0;
     return o;
   }
-  ModeRegistry Registry() {
-    ModeRegistry r;
-    r.Emplace<IdleMode>();
-    r.Emplace<ManualMode>(0.5);
-    r.Emplace<SmartJoystickMode>(&navigation, 0.5, 0.5);
-    WaypointModeOptions w;
-    w.robot_id = robot_id;
-    w.first_goal_id = 40;
-    waypoint = &r.Emplace<WaypointMode>(w, &navigation, nullptr);
-    ExploreModeOptions e;
-    e.robot_id = robot_id;
-    e.first_task_id = 70;
-    explore = &r.Emplace<ExploreMode>(e, &navigation, nullptr);
-    convoy = &r.Emplace<ConvoyMode>(ConvoyOptions{}, 0.5, &navigation);
-    yield = &r.Emplace<YieldMode>(YieldOptions{}, 0.5, &navigation);
-    return r;
+  RobotModes::Hooks Hooks() {
+    RobotModes::Hooks h;
+    h.conditions = [this] { return Conditions(); };
+    h.clear_obstacle_memory = [] {};
+    h.mission_commands = [this] { return mission_commands; };
+    h.grid = [this] { return planner->Grid("wheeled"); };
+    return h;
   }
   ModeConditions Conditions() const {
     ModeConditions c;
@@ -88,13 +86,11 @@ struct Robot {
   }
   // The agent's handling of a lost condition: the tree re-checks, the mode goes idle, the mission pauses.
   void LoseLocalization(double now_s) {
-    std::optional<PausedMission> running = missions.Running(now_s);
-    ASSERT_TRUE(running.has_value()) << "a mission runs in " << control.mode();
+    ASSERT_TRUE(missions.Running(now_s).has_value()) << "a mission runs in " << control.mode();
     localized = false;
-    const ModeDecision d = control.Recheck(Conditions());
-    ASSERT_FALSE(d.accepted);
+    modes.Recheck(now_s);
     ASSERT_EQ(control.mode(), "idle");
-    missions.Pause(std::move(*running), "IsLocalized: no pose estimate", mission_commands);
+    ASSERT_TRUE(missions.paused().has_value());
   }
   void Step(double now_s) {
     missions.Step(now_s, pose_M, {}, mission_commands, [this] { return localized; });
@@ -103,12 +99,13 @@ struct Robot {
   std::string robot_id;
   std::shared_ptr<nav::GlobalPlanner> planner;
   Navigation navigation;
-  WaypointMode* waypoint = nullptr;
-  ExploreMode* explore = nullptr;
-  ConvoyMode* convoy = nullptr;
-  YieldMode* yield = nullptr;
-  ModeControl control;
-  MissionResumption missions;
+  RobotModes modes;
+  ModeControl& control;
+  MissionResumption& missions;
+  WaypointMode* waypoint;
+  ExploreMode* explore;
+  ConvoyMode* convoy;
+  YieldMode* yield;
   core::BaseState pose_M;
   bool localized = true;
   std::uint64_t mission_commands = 0;

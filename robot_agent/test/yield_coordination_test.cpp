@@ -49,21 +49,16 @@ PeerBody Ya() {
   return p;
 }
 
+// yb, with the agent's yield coordination (RobotModes::yielding()).
 struct Yb {
-  Yb()
-      : robot(Narrow(), "yb", Robot::At(14.0, 5.0)),
-        yielding(
-            "yb", YieldOptions{}, 0.3, robot.yield, &robot.missions, &robot.navigation,
-            [this] { return robot.planner->Grid("wheeled"); },
-            [this](const std::string& mode) { return robot.control.Request(mode, robot.Conditions()); },
-            [this] { return robot.mission_commands; }) {}
+  Yb() : robot(Narrow(), "yb", Robot::At(14.0, 5.0)), yielding(robot.modes.yielding()) {}
   // yb as the agent sees it at `now_s`, hearing `peers` (kept here while it is used).
   YieldCoordination::Robot At(double now_s, std::vector<PeerBody> peers, bool listening = true) {
     heard = std::move(peers);
     return {now_s, robot.control.mode(), robot.pose_M, &heard, listening};
   }
   Robot robot;
-  YieldCoordination yielding;
+  YieldCoordination& yielding;
   std::vector<PeerBody> heard;
 };
 

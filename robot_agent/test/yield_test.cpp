@@ -321,9 +321,10 @@ TEST(YieldTest, ARobotParkedBeyondTheBayBacksIntoItWhileTheOtherHolds) {
   ExpectYielded(RunYield({16.0, 5.0, 0.0}, {24.0, 5.0}));
 }
 
-// yb, idle at (24, 5), is asked by ya (not otherwise heard) to clear the south tunnel and drives toward the
-// bay; a rock then falls on the bay, so its way to the spot fails. Having left where it stood, yb waits where
-// it stopped (it does not end the yield out of place), and once ya counts as gone it drives back.
+// yb, idle at (24, 5), hears ya once (a peer state at (12, 5), as a robot passing out of radio range), is
+// asked by it to clear the south tunnel and drives toward the bay; a rock then falls on the bay, so its way
+// to the spot fails. Having left where it stood, yb waits where it stopped (it does not end the yield out of
+// place), and once ya counts as gone it drives back.
 TEST(YieldTest, ARobotStoppedShortOfItsSpotWaitsThereAndReturns) {
   constexpr double kDt = 0.02;
   auto [platforms, robots] = MakeSteppedTeam("builtin:narrow", {{"yb", {24.0, 5.0, M_PI}}});
@@ -331,6 +332,13 @@ TEST(YieldTest, ARobotStoppedShortOfItsSpotWaitsThereAndReturns) {
   double t = 0;
   for (int i = 0; i < 100; ++i) StepAll(robots, t += kDt);  // a map first
   const Eigen::Vector2d parked(platforms[0]->TrueState().x_m, platforms[0]->TrueState().y_m);
+  PeerBody ya;  // a robot yields only to a robot it hears (CheckYieldSender)
+  ya.robot_id = "ya";
+  ya.pose_M.x_m = 12.0;
+  ya.pose_M.y_m = 5.0;
+  ya.footprint_radius_m = 0.3;
+  ya.mode = "waypoint";
+  ASSERT_EQ(yb.OnPeerState(ya, t), "");
   ASSERT_EQ(yb.OnYieldRequest(FromYa(12.0), t), "");
   ASSERT_EQ(yb.yield().status().state, YieldStatus::State::kMovingAside) << yb.yield().status().reason;
   auto moved_m = [&] {

@@ -1,24 +1,24 @@
 // One robot's autonomy stepped on the caller's clock, on the caller's thread, with no DDS: the components the
 // agent runs on its threads (live obstacles, perception's map, the navigation map, the frontier search,
-// navigation and the explore mode with its recovery tree), fed from a core::PlatformIO the same way. For
-// long scenarios that must run faster than real time (exploration coverage, several robots, benches): each
-// capability's end-to-end test across real processes runs the agent itself.
+// navigation) fed from a core::PlatformIO the same way, and the agent's own modes (RobotModes: the mode
+// tree and the mux over the mode modules, missions across interruptions, yields asked and asking) in the
+// agent's order. For long scenarios that must run faster than real time (exploration coverage, several
+// robots, benches): each capability's end-to-end test across real processes runs the agent itself.
 //
-// What differs from the agent: no mode tree (no lock or operator: the explore task, a waypoint goal or a
-// convoy is started directly, the last one started runs), the
-// navigation map and the frontier search run inline at their period, and the caller waits in wall time for a
-// plan computed on a worker (SteppedRobot::planning()) instead of the robot holding still meanwhile.
+// What differs from the agent: no command interface and no DDS (one operator holds the lock; a mission is
+// started by a call, a peer's claim, state or yield request is handed in by the caller), the navigation map
+// and the frontier search run inline at their period, and the caller waits in wall time for a plan computed
+// on a worker (SteppedRobot::planning()) instead of the robot holding still meanwhile.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "cairn/agent/agent_options.h"
-#include "cairn/agent/modes/convoy_mode.h"
-#include "cairn/agent/modes/explore_mode.h"
-#include "cairn/agent/modes/waypoint_mode.h"
+#include "cairn/agent/modes/robot_modes.h"
 #include "cairn/agent/services/live_obstacles.h"
 #include "cairn/agent/services/nav_map.h"
 #include "cairn/agent/services/navigation.h"
@@ -32,15 +32,17 @@ namespace cairn::agent {
 class SteppedRobot {
  public:
   /// `platform` is read and commanded at each Step(); its pose at time 0 centres the navigation map.
-  /// `tree_file`: the mode tree file whose WaypointRecovery tree runs when navigation gives up ("" = none).
-  /// @throws std::invalid_argument for a null platform or invalid options (as the components throw).
+  /// `tree_file`: the mode tree (and its recovery trees) the agent would load ("" = the shipped
+  /// config/mode_tree.xml). Goal and task ids count from 1 (deterministic runs).
+  /// @throws std::invalid_argument for a null platform or invalid options (as the components throw);
+  ///         bt::TreeError for a bad tree file.
   SteppedRobot(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
                const std::string& tree_file);
 
   /// Starts exploring `task` at `now_s`; "" or why not (CheckExploreTask).
   std::string Explore(const ExploreTask& task, double now_s);
-  /// The mode running now: its name, or "idle" when it has no task.
-  std::string mode() const;
+  /// The mode running now (the mode tree's).
+  std::string mode() const { return modes_->control().mode(); }
   /// Drives to (x_m, y_m) (frame M, metres) in waypoint mode, planned now on this thread; "" or why not (the
   /// plan's reason).
   std::string Goto(double x_m, double y_m, double now_s);
@@ -53,7 +55,7 @@ class SteppedRobot {
   void Step(double now_s);
   /// True while a plan the next Step() needs is computed on a worker: the caller waits (wall time) before
   /// stepping on, so that results do not depend on the machine's speed.
-  bool planning() const { return explore_->planning(); }
+  bool planning() const { return modes_->explore().planning() || modes_->missions().planning(); }
 
   /// Team exploration, as the agents do over DDS (ExploreTeam): ClaimToSend() is the claim this robot sends
   /// at `now_s` if one is due (with its seen floor when that is due too); OnPeerClaim() takes a peer's, heard
@@ -66,23 +68,25 @@ class SteppedRobot {
   /// OnPeerState() takes a peer's, heard at `now_s` ("" or why it was dropped). Peers heard within
   /// options.peers.timeout_s are obstacles from the next Step() on, as in the agent.
   PeerBody PeerState() const;
-  /// Get-out-of-the-way, as the agents do over cairn/yield_request: YieldRequestToSend() is the request this
-  /// robot's last Step() made (to the robot named first), if any; OnYieldRequest() takes one at `now_s` and
-  /// decides by the policy (DecideYield, the mode "idle" when no task runs): "" when the robot now moves
-  /// aside, else why not. A yield that ends by itself hands back to the waypoint goal it interrupted (planned
-  /// again from the spot) or leaves an idle robot where it stood.
-  std::optional<std::pair<std::string, YieldCommand>> YieldRequestToSend();
+  /// Get-out-of-the-way, as the agents do over cairn/yield_request (YieldCoordination): YieldRequestToSend()
+  /// is the request this robot's last Step() made (to the robot named first), if any; OnYieldRequest() takes
+  /// a peer's at `now_s` (sent by the robot it names as sender, whose states this robot hears): "" when the
+  /// robot now moves aside, else why not. A yield that ends by itself hands back the mission it interrupted
+  /// (MissionResumption) or leaves an idle robot where it stood.
+  std::optional<std::pair<std::string, YieldCommand>> YieldRequestToSend() {
+    return modes_->yielding().TakeRequestToSend();
+  }
   std::string OnYieldRequest(const YieldCommand& request, double now_s);
-  const YieldMode& yield() const { return *yield_; }
-  const YieldAsker& yield_asker() const { return *yield_asker_; }
+  const YieldMode& yield() const { return modes_->yield(); }
   std::string OnPeerState(const PeerBody& peer, double now_s) { return peers_.OnPeerState(peer, now_s); }
   /// The target this robot holds now (none: none).
-  std::optional<nav::PeerClaim> OwnClaim(double now_s) const { return explore_->OwnClaim(now_s); }
+  std::optional<nav::PeerClaim> OwnClaim(double now_s) const { return modes_->explore().OwnClaim(now_s); }
   const ExploreTeam& team() const { return team_; }
 
-  const ExploreMode& explore() const { return *explore_; }
-  const WaypointMode& waypoint() const { return *waypoint_; }
-  const ConvoyMode& convoy() const { return *convoy_; }
+  const ExploreMode& explore() const { return modes_->explore(); }
+  const WaypointMode& waypoint() const { return modes_->waypoint(); }
+  const ConvoyMode& convoy() const { return modes_->convoy(); }
+  const RobotModes& modes() const { return *modes_; }
   const NavMap& nav_map() const { return *nav_map_; }
   const Navigation& navigation() const { return *navigation_; }
   const PerceptionPipeline& perception() const { return *perception_; }
@@ -99,6 +103,12 @@ class SteppedRobot {
   bool ever_in_contact() const { return ever_in_contact_; }
 
  private:
+  // The mode tree's facts now: one operator holds the lock; localization as the platform reports it.
+  ModeConditions Conditions() const;
+  // The platform's pose and scan, the live obstacles and the map, at its period the navigation map and the
+  // frontier search.
+  void StepPerception(double now_s);
+
   AgentOptions options_;
   std::shared_ptr<core::PlatformIO> platform_;
   std::unique_ptr<PerceptionPipeline> perception_;
@@ -106,21 +116,16 @@ class SteppedRobot {
   std::unique_ptr<NavMap> nav_map_;
   std::unique_ptr<Navigation> navigation_;
   std::unique_ptr<LiveObstacles> live_obstacles_;
-  std::unique_ptr<ExploreMode> explore_;
-  std::unique_ptr<WaypointMode> waypoint_;
-  std::unique_ptr<ConvoyMode> convoy_;
-  std::unique_ptr<YieldMode> yield_;
-  std::unique_ptr<YieldAsker> yield_asker_;
-  std::optional<std::pair<std::string, YieldCommand>> yield_to_send_;
-  std::optional<WaypointGoal> yield_resume_goal_;  // the goal a yield interrupted
-  ModeModule* before_yield_ = nullptr;             // the mode a yield interrupted
-  ModeModule* active_ = nullptr;                   // the mode started last (explore_ until another one is)
+  std::unique_ptr<RobotModes> modes_;
   core::LidarScan scan_;
   std::vector<Eigen::Vector3f> points_B_;
   double next_map_update_s_ = 0.0;
   ExploreTeam team_;
   PeerTracker peers_;
-  core::BaseState pose_M_;  // at the last Step()
+  core::BaseState pose_M_;              // at the last Step()
+  bool localized_ = true;               // the platform's pose estimate is healthy
+  double now_s_ = 0.0;                  // the last Step()'s
+  std::uint64_t mission_commands_ = 0;  // the operator's commands so far (Explore, Goto, Follow)
   double frontier_search_s_ = 0.0;
   int frontier_searches_ = 0;
   bool ever_in_contact_ = false;

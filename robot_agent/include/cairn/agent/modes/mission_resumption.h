@@ -7,6 +7,7 @@
 // Not thread-safe: the agent's control thread, under its lock.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <future>
@@ -66,6 +67,11 @@ class MissionResumption {
   void Abandon();
 
   const std::optional<PausedMission>& paused() const { return keeper_.paused(); }
+  /// True while a paused goal is planned again on a worker (a caller on a simulated clock waits for it).
+  bool planning() const {
+    return resume_plan_.valid() &&
+           resume_plan_.wait_for(std::chrono::seconds(0)) != std::future_status::ready;
+  }
   /// How the last pause ended ("resumed after 3.2 s paused: ...", "dropped: ...", "not resumed: ..."), for
   /// RobotState.mission_reason; "" before any.
   const std::string& note() const { return note_; }
