@@ -15,21 +15,19 @@
 #include <string>
 #include <vector>
 
+#include "bench_util.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/sim/world.h"
 
 namespace {
+
+using cairn::bench::Median;
 
 using Clock = std::chrono::steady_clock;
 using cairn::nav::GlobalPlanner;
 
 double Ms(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
-}
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
 }
 
 // Plain 2D occupancy grid at the world resolution.

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_util.h"
 #include "cairn/nav/multilevel.h"
 #include "cairn/nav/platform.h"
 #include "cairn/nav/traversability.h"
@@ -24,16 +25,8 @@
 
 namespace {
 
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
-double TimeMs(const std::function<void()>& f) {
-  const auto t0 = std::chrono::steady_clock::now();
-  f();
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
+using cairn::bench::Median;
+using cairn::bench::TimeMs;
 
 }  // namespace
 

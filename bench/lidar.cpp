@@ -18,11 +18,14 @@
 #include <string>
 #include <vector>
 
+#include "bench_util.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/camera.h"
 #include "cairn/sim/world.h"
 
 namespace {
+
+using cairn::bench::Median;
 
 // CPU time of the calling thread: time spent descheduled on a shared machine does not count, so the
 // figures are per core actually used (cache sharing with other processes still shows).
@@ -37,11 +40,6 @@ struct Clock {
 using cairn::sim::World;
 
 double Ms(Clock::time_point a, Clock::time_point b) { return (b - a).count(); }
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
 
 // Baseline: march along the ray in fixed steps of resolution / 4 and return the first sample's range that
 // falls in an occupied voxel (overshoots the true range by up to one step; may skip voxel corners).

@@ -20,9 +20,12 @@
 #include <string>
 #include <vector>
 
+#include "bench_util.h"
 #include "cairn/nav/local_planner.h"
 
 namespace {
+
+using cairn::bench::Median;
 
 using Clock = std::chrono::steady_clock;
 using cairn::nav::BruteForceFreeLengths;
@@ -33,11 +36,6 @@ using cairn::nav::TrajectoryLibrary;
 
 double Seconds(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
-}
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
 }
 
 double Percentile(std::vector<double> v, double q) {

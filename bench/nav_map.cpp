@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "bench_util.h"
 #include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
@@ -21,14 +22,11 @@
 
 namespace {
 
+using cairn::bench::Median;
+
 using Clock = std::chrono::steady_clock;
 double MsSince(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-}
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
 }
 
 }  // namespace

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_util.h"
 #include "cairn/agent/services/nav_map.h"
 #include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/nav/frontier.h"
@@ -28,6 +29,8 @@
 #include "cairn/sim/survey_scan.h"
 
 namespace {
+
+using cairn::bench::Median;
 
 using Clock = std::chrono::steady_clock;
 double MsSince(Clock::time_point t) {
@@ -42,11 +45,6 @@ struct Run {
 };
 
 double Max(const std::vector<double>& v) { return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end()); }
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
-
 Run Drive(const std::string& world, double budget_s) {
   using namespace cairn;
   const nav::PlatformProfile profile = nav::GetPlatformProfile("legged");
