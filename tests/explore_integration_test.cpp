@@ -65,15 +65,21 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
   EXPECT_EQ(r["result"], "invalid") << r;
   EXPECT_NE(r["reason"].get<std::string>().find("--region '16,16,0,24'"), std::string::npos) << r;
   // The holder's valid actions come with the robot's next mode-tree state (a control cycle after the grant,
-  // later on a loaded machine): within a few seconds.
-  bool explore_valid = false;
-  for (int attempt = 0; attempt < 50 && !explore_valid; ++attempt) {
-    if (attempt > 0) std::this_thread::sleep_for(100ms);
-    r = op.Run("status ex1");
-    explore_valid = std::find(r["valid_actions"].begin(), r["valid_actions"].end(), "explore") !=
-                    r["valid_actions"].end();
-  }
-  EXPECT_TRUE(explore_valid) << "explore is a valid action for the holder within 5 s: " << r;
+  // later on a loaded machine; a robot just started also waits for its perception's first cycle, which the
+  // tree requires): within a few seconds.
+  auto wait_explore_valid = [&](const std::string& robot) {
+    bool explore_valid = false;
+    json status;
+    for (int attempt = 0; attempt < 50 && !explore_valid; ++attempt) {
+      if (attempt > 0) std::this_thread::sleep_for(100ms);
+      status = op.Run("status " + robot);
+      explore_valid = std::find(status["valid_actions"].begin(), status["valid_actions"].end(), "explore") !=
+                      status["valid_actions"].end();
+    }
+    EXPECT_TRUE(explore_valid) << "explore is a valid action for the holder of " << robot
+                               << " within 5 s: " << status;
+  };
+  wait_explore_valid("ex1");
   r = other.Run("explore ex1");
   EXPECT_EQ(r["result"], "refused") << r;
 
@@ -86,6 +92,7 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
   ASSERT_TRUE(robot2->WaitForLine("READY", 60s)) << "see " << logs;
   ASSERT_TRUE(op.Run("wait ex2 online 5")["ok"]);
   ASSERT_TRUE(op.Run("request-control ex2")["ok"]);
+  wait_explore_valid("ex2");
 
   // The west half of the main tunnel and the X junction (x < 32, the branches cut at y 15 and 25): explored
   // until no reachable frontier is left in it.
