@@ -36,17 +36,13 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--runs" && i + 1 < argc) {
-      runs = std::atoi(argv[++i]);
+      runs = cairn::bench::RunsOrExit(argv[++i]);
     } else if (!arg.empty() && arg[0] != '-') {
       worlds.push_back(arg);
     } else {
       std::fprintf(stderr, "usage: %s [--runs N] [WORLD...]\n", argv[0]);
       return 2;
     }
-  }
-  if (runs < 1 || runs > 100) {
-    std::fprintf(stderr, "--runs %d must be in [1, 100]\n", runs);
-    return 2;
   }
   if (worlds.empty()) {
     worlds = {"builtin:tunnels", "builtin:building", "builtin:arena"};

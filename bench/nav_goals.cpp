@@ -175,11 +175,18 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
   sim::SimulatedPlatform platform(sim_options);
   platform.Update(0.0);
   const core::BaseState start_M = platform.ReadPose().PlanarState();
-  // What navigation's classifier makes of the true world (verbose pictures only; contact is the simulator's).
+  // What navigation's classifier makes of the true world (verbose pictures only; contact is the simulator's),
+  // built again only when the world changed (a rockfall swaps it).
+  std::shared_ptr<const sim::World> truth_world;
+  std::shared_ptr<const nav::TraversabilityGrid> truth_classified;
   auto truth_grid = [&] {
-    nav::TraversabilityOptions t = options.navigation.platform.traversability;
-    t.robot_radius_m = options.navigation.platform.footprint_radius_m;
-    return std::make_shared<const nav::TraversabilityGrid>(*platform.world(), t);
+    if (platform.world() != truth_world) {
+      truth_world = platform.world();
+      nav::TraversabilityOptions t = options.navigation.platform.traversability;
+      t.robot_radius_m = options.navigation.platform.footprint_radius_m;
+      truth_classified = std::make_shared<const nav::TraversabilityGrid>(*truth_world, t);
+    }
+    return truth_classified;
   };
   agent::PerceptionOptions perception_options = options.perception;
   perception_options.camera_rate_hz = 0;
@@ -291,7 +298,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
                   local.path_B.empty() ? 0.0f : local.path_B.back().y());
       if (std::fabs(t - 2.5) < 0.5 * kDt) PrintPicture(*truth_grid(), nav_map, pose, {pose.x_m, pose.y_m});
       // Obstacles within 1 m, frame M, and what the ground truth and the navigation map say there.
-      const auto truth = truth_grid();
+      const auto truth_now = truth_grid();
       for (const auto& p : points_B) {
         if (p.head<2>().norm() > 1.0) continue;
         const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
@@ -300,7 +307,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
         const bool in_map = nav_map.grid().CellOf(x, y, &ix, &iy);
         const nav::TraversabilityGrid& grid = nav_map.grid();
         std::printf("      obstacle (%.2f, %.2f) z %.2f: truth %s, nav map %s ground %.2f%s%s\n", x, y, p.z(),
-                    truth->IsTraversableAt(x, y) ? "traversable" : "blocked",
+                    truth_now->IsTraversableAt(x, y) ? "traversable" : "blocked",
                     in_map ? nav::ToString(grid.State(ix, iy)) : "outside",
                     in_map ? grid.Ground(ix, iy) : NAN, in_map && grid.IsLethal(ix, iy) ? " lethal" : "",
                     in_map && grid.IsTraversable(ix, iy) ? " traversable" : "");

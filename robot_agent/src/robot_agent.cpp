@@ -475,8 +475,7 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
     return StartGoal(goal, plan);
   };
   hooks.start_explore = [this](const ExploreCommand& explore) {
-    const std::string refused = modes_->explore().Start(
-        explore.task, NowS(SteadyClock::now()), [this] { return modes_->Request(modes_->explore().name()); });
+    const std::string refused = modes_->StartExplore(explore.task, NowS(SteadyClock::now()));
     if (!refused.empty()) return CommandOutcome{false, refused, 0};
     return CommandOutcome{true, "exploring " + std::to_string(modes_->explore().status().task_id),
                           modes_->explore().status().task_id};
@@ -497,18 +496,9 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
     if (modes_->control().mode() == modes_->convoy().name()) modes_->control().GoIdle(Conditions());
     return CommandOutcome{true, "left the convoy: idle", 0};
   }
-  const bool was_following = modes_->convoy().active() && modes_->control().mode() == modes_->convoy().name();
   const double now_s = NowS(SteadyClock::now());
-  const std::string refused = modes_->convoy().Start(options_.robot_id, c.ahead_ids, now_s);
+  const std::string refused = modes_->StartConvoy(c.ahead_ids, peers_.Live(now_s), now_s);
   if (!refused.empty()) return CommandOutcome{false, refused, 0};
-  modes_->convoy().SetPeers(peers_.Live(now_s), now_s);
-  if (!was_following) {
-    const ModeDecision d = modes_->Request(modes_->convoy().name());
-    if (!d.accepted) {
-      modes_->convoy().Deactivate(d.reason);
-      return CommandOutcome{false, d.reason, 0};
-    }
-  }
   std::string order;
   for (const std::string& id : c.ahead_ids) order += (order.empty() ? "" : ", ") + id;
   spdlog::info("robot {}: convoy from {}: following {} (ahead: {})", options_.robot_id, c.sender.base_id,
@@ -517,7 +507,7 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
 }
 
 void RobotAgent::Impl::PublishPeerState() {
-  const PeerBody self = navigation_.AsPeer(options_.robot_id, pose_, modes_->control().mode());
+  const PeerBody self = modes_->AsPeer(pose_);
   cairn_msgs::PeerState m;
   m.robot_id(self.robot_id);
   m.platform(options_.navigation.platform.name);
@@ -529,12 +519,10 @@ void RobotAgent::Impl::PublishPeerState() {
   m.w_B_radps(static_cast<float>(self.pose_M.w_radps));
   m.footprint_radius_m(static_cast<float>(self.footprint_radius_m));
   m.mode(self.mode);
-  const YieldStatus& yield = modes_->yield().status();
-  if (yield.state != YieldStatus::State::kNone) {
-    m.yield_state(ToString(yield.state));
-    m.yield_to_id(yield.peer_id);
-    m.yield_reason(yield.reason.size() > 480 ? yield.reason.substr(0, 477) + "..." : yield.reason);
-  }
+  m.yield_state(self.yield_state);
+  m.yield_to_id(self.yield_to_id);
+  m.yield_reason(self.yield_reason.size() > 480 ? self.yield_reason.substr(0, 477) + "..."
+                                                : self.yield_reason);
   for (const Eigen::Vector3d& p : self.path_ahead_M) {
     cairn_msgs::PeerPathPoint q;
     q.x_m(static_cast<float>(p.x()));
@@ -603,8 +591,7 @@ CommandOutcome RobotAgent::Impl::StartGoal(const GoalCommand& goal, const nav::G
   if (!plan.IsUsable())
     return {false, "no path: " + planning_->PlanReason(plan), 0};  // the previous goal goes on
   const GoalStart start =
-      modes_->waypoint().Start(plan, goal.x_m, goal.y_m, goal.tolerance_m, goal.z_m, NowS(SteadyClock::now()),
-                               [this] { return modes_->Request(modes_->waypoint().name()); });
+      modes_->StartGoal(plan, goal.x_m, goal.y_m, goal.tolerance_m, goal.z_m, NowS(SteadyClock::now()));
   if (!start.accepted) return {false, start.reason, 0};
   spdlog::info("robot {}: waypoint {} to ({:.2f}, {:.2f}) from {} accepted, path {:.1f} m", options_.robot_id,
                start.goal_id, goal.x_m, goal.y_m, goal.sender.base_id, plan.result.length_m);
@@ -705,9 +692,7 @@ void RobotAgent::Impl::StepNavigation(SteadyTime now, const ModeInputs& inputs) 
   modes_->Step(inputs, ForYield(now_s, live_peers), team_);
   come_home_.Step(command_->SecondsSinceBaseHeard(now), pose_, modes_->explore(), navigation_,
                   [&](const nav::GlobalPlan& plan, const core::BaseState& goal_M) {
-                    return modes_->waypoint().Start(
-                        plan, goal_M.x_m, goal_M.y_m, 0.0, goal_M.z_m, now_s,
-                        [this] { return modes_->Request(modes_->waypoint().name()); });
+                    return modes_->StartGoal(plan, goal_M.x_m, goal_M.y_m, 0.0, goal_M.z_m, now_s);
                   });
   // Written by Run() once the agent lock is released: Fast DDS hands the sample to this participant's own
   // claim reader on the writing thread, and the liveliness callbacks that come with it take the agent lock.

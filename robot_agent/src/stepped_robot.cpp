@@ -89,17 +89,6 @@ std::optional<ExploreClaim> SteppedRobot::ClaimToSend(double now_s) {
   });
 }
 
-PeerBody SteppedRobot::PeerState() const {
-  PeerBody self = navigation_->AsPeer(options_.robot_id, pose_M_, mode());
-  const YieldStatus& yield = modes_->yield().status();
-  if (yield.state != YieldStatus::State::kNone) {
-    self.yield_state = ToString(yield.state);
-    self.yield_to_id = yield.peer_id;
-    self.yield_reason = yield.reason;
-  }
-  return self;
-}
-
 std::string SteppedRobot::OnYieldRequest(const YieldCommand& request, double now_s) {
   YieldOrigin origin;
   origin.peer_robot = true;  // handed in from the robot that sent it, whose states this robot hears
@@ -114,7 +103,7 @@ std::string SteppedRobot::OnYieldRequest(const YieldCommand& request, double now
 // switches to it and the one it replaces is deactivated.
 std::string SteppedRobot::Explore(const ExploreTask& task, double now_s) {
   ++mission_commands_;
-  return modes_->explore().Start(task, now_s, [this] { return modes_->Request(ExploreMode::kName); });
+  return modes_->StartExplore(task, now_s);
 }
 
 std::string SteppedRobot::Goto(double x_m, double y_m, double now_s) {
@@ -122,22 +111,13 @@ std::string SteppedRobot::Goto(double x_m, double y_m, double now_s) {
   const nav::GlobalPlan plan = navigation_->PlanGoalAsync(pose_M_, x_m, y_m).get();
   if (!plan.IsUsable()) return GoalPlanReason(options_.robot_id, plan, {x_m, y_m});
   const GoalStart start =
-      modes_->waypoint().Start(plan, x_m, y_m, 0.0, std::numeric_limits<double>::quiet_NaN(), now_s,
-                               [this] { return modes_->Request(WaypointMode::kName); });
+      modes_->StartGoal(plan, x_m, y_m, 0.0, std::numeric_limits<double>::quiet_NaN(), now_s);
   return start.accepted ? "" : start.reason;
 }
 
 std::string SteppedRobot::Follow(const std::vector<std::string>& ahead_ids, double now_s) {
   ++mission_commands_;
-  ConvoyMode& convoy = modes_->convoy();
-  const bool was_following = convoy.active() && mode() == convoy.name();
-  const std::string why = convoy.Start(options_.robot_id, ahead_ids, now_s);
-  if (!why.empty()) return why;
-  convoy.SetPeers(peers_.Live(now_s), now_s);
-  if (was_following) return "";
-  const ModeDecision d = modes_->Request(convoy.name());
-  if (!d.accepted) convoy.Deactivate(d.reason);
-  return d.accepted ? "" : d.reason;
+  return modes_->StartConvoy(ahead_ids, peers_.Live(now_s), now_s);
 }
 
 void SteppedRobot::StepPerception(double now_s) {

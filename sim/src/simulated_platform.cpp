@@ -8,6 +8,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "cairn/core/config.h"
 
@@ -80,92 +81,109 @@ std::uint32_t SeedOf(const std::string& key) {
   return static_cast<std::uint32_t>(std::hash<std::string>{}(key));
 }
 
+// Strips blanks around a field, so "near 1.0" and " +8" read as written.
+std::string Trimmed(const std::string& item) {
+  const std::size_t first = item.find_first_not_of(" \t");
+  if (first == std::string::npos) return std::string();
+  return item.substr(first, item.find_last_not_of(" \t") - first + 1);
+}
+
+std::string TextOf(double x) {
+  std::ostringstream o;
+  o << x;
+  return o.str();
+}
+
+// One entry of simulation.rockfalls, WHEN:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR]; every error names the entry.
+class RockfallEntry {
+ public:
+  explicit RockfallEntry(std::string entry) : entry_(std::move(entry)) {}
+
+  Rockfall Parse() const {
+    std::vector<std::string> parts;  // WHEN, the box and height, CLEAR
+    std::stringstream colons(entry_);
+    for (std::string part; std::getline(colons, part, ':');) parts.push_back(part);
+    if (parts.size() < 2) Fail("missing ':' after the time");
+    if (parts.size() > 3) Fail("too many ':' (at most WHEN:BOX,HEIGHT_M:CLEAR)");
+    Rockfall rock;
+    ReadWhen(parts[0], &rock);
+    ReadBox(parts[1], &rock);
+    if (parts.size() == 3) ReadClear(parts[2], &rock);
+    return rock;
+  }
+
+ private:
+  [[noreturn]] void Fail(const std::string& rule) const {
+    throw std::invalid_argument("simulation.rockfalls entry '" + entry_ + "': " + rule +
+                                " (format WHEN:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR], WHEN = AT_S or nearR_M, CLEAR = "
+                                "CLEAR_S or +S)");
+  }
+  double Number(const std::string& field, const std::string& item) const {
+    double x = 0.0;
+    std::size_t used = 0;
+    try {
+      x = std::stod(item, &used);
+    } catch (const std::logic_error&) {
+      Fail(field + " = '" + item + "' is not a number");
+    }
+    if (item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(x)) {
+      Fail(field + " = '" + item + "' is not a number");
+    }
+    return x;
+  }
+  void ReadWhen(const std::string& part, Rockfall* rock) const {
+    const std::string when = Trimmed(part);
+    if (when.rfind("near", 0) == 0) {
+      const double near_m = Number("R_M", when.substr(4));
+      if (!(near_m > 0 && near_m <= 100)) Fail("R_M = " + TextOf(near_m) + " must be in (0, 100] m");
+      rock->near_m = near_m;
+    } else {
+      rock->at_s = Number("AT_S", part);
+      if (rock->at_s < 0) Fail("AT_S = " + TextOf(rock->at_s) + " must be >= 0 s");
+    }
+  }
+  void ReadBox(const std::string& part, Rockfall* rock) const {
+    static const char* const kFields[] = {"X0", "Y0", "X1", "Y1", "HEIGHT_M"};
+    std::vector<double> v;
+    std::stringstream numbers(part);
+    for (std::string item; std::getline(numbers, item, ',');) {
+      if (v.size() >= 5) Fail("needs 5 numbers after WHEN (X0,Y0,X1,Y1,HEIGHT_M), has more");
+      v.push_back(Number(kFields[v.size()], item));
+    }
+    if (v.size() != 5)
+      Fail("needs 5 numbers after WHEN (X0,Y0,X1,Y1,HEIGHT_M), has " + std::to_string(v.size()));
+    if (!(v[0] < v[2])) Fail("X0 = " + TextOf(v[0]) + " must be < X1 = " + TextOf(v[2]));
+    if (!(v[1] < v[3])) Fail("Y0 = " + TextOf(v[1]) + " must be < Y1 = " + TextOf(v[3]));
+    if (!(v[4] > 0 && v[4] <= 10)) Fail("HEIGHT_M = " + TextOf(v[4]) + " must be in (0, 10] m");
+    rock->area_W = Eigen::AlignedBox2d(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]));
+    rock->height_m = v[4];
+  }
+  void ReadClear(const std::string& part, Rockfall* rock) const {
+    const std::string clear = Trimmed(part);
+    if (!clear.empty() && clear.front() == '+') {
+      const double after_s = Number("CLEAR (+S)", clear.substr(1));
+      if (!(after_s > 0)) Fail("CLEAR = '" + clear + "': S must be > 0 s");
+      rock->clear_after_s = after_s;
+      return;
+    }
+    const double clear_s = Number("CLEAR_S", part);
+    if (rock->near_m)
+      Fail("CLEAR_S = " + TextOf(clear_s) + " with a near trigger: the fall time is not known, give '+S'");
+    if (!(clear_s > rock->at_s))
+      Fail("CLEAR_S = " + TextOf(clear_s) + " must be > AT_S = " + TextOf(rock->at_s) + " s");
+    rock->clear_s = clear_s;
+  }
+
+  const std::string entry_;
+};
+
 }  // namespace
 
 std::vector<Rockfall> ParseRockfalls(const std::string& text) {
   std::vector<Rockfall> out;
   std::stringstream entries(text);
-  std::string entry;
-  while (std::getline(entries, entry, ';')) {
-    if (entry.find_first_not_of(" \t") == std::string::npos) continue;
-    auto fail = [&](const std::string& rule) {
-      throw std::invalid_argument(
-          "simulation.rockfalls entry '" + entry + "': " + rule +
-          " (format WHEN:X0,Y0,X1,Y1,HEIGHT_M[:CLEAR], WHEN = AT_S or nearR_M, CLEAR = "
-          "CLEAR_S or +S)");
-    };
-    auto number = [&](const std::string& field, const std::string& item) {
-      double x = 0.0;
-      std::size_t used = 0;
-      try {
-        x = std::stod(item, &used);
-      } catch (const std::logic_error&) {
-        fail(field + " = '" + item + "' is not a number");
-      }
-      if (item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(x)) {
-        fail(field + " = '" + item + "' is not a number");
-      }
-      return x;
-    };
-    auto text_of = [](double x) {
-      std::ostringstream o;
-      o << x;
-      return o.str();
-    };
-    // Strips blanks around a field, so "near 1.0" and " +8" read as written.
-    auto trimmed = [](const std::string& item) {
-      const std::size_t first = item.find_first_not_of(" \t");
-      if (first == std::string::npos) return std::string();
-      return item.substr(first, item.find_last_not_of(" \t") - first + 1);
-    };
-    std::vector<std::string> parts;  // WHEN, the box and height, CLEAR
-    std::stringstream colons(entry);
-    for (std::string part; std::getline(colons, part, ':');) parts.push_back(part);
-    if (parts.size() < 2) fail("missing ':' after the time");
-    if (parts.size() > 3) fail("too many ':' (at most WHEN:BOX,HEIGHT_M:CLEAR)");
-    Rockfall rock;
-    const std::string when = trimmed(parts[0]);
-    if (when.rfind("near", 0) == 0) {
-      const double near_m = number("R_M", when.substr(4));
-      if (!(near_m > 0 && near_m <= 100)) fail("R_M = " + text_of(near_m) + " must be in (0, 100] m");
-      rock.near_m = near_m;
-    } else {
-      rock.at_s = number("AT_S", parts[0]);
-      if (rock.at_s < 0) fail("AT_S = " + text_of(rock.at_s) + " must be >= 0 s");
-    }
-    static const char* const kFields[] = {"X0", "Y0", "X1", "Y1", "HEIGHT_M"};
-    std::vector<double> v;
-    std::stringstream numbers(parts[1]);
-    for (std::string item; std::getline(numbers, item, ',');) {
-      if (v.size() >= 5) fail("needs 5 numbers after WHEN (X0,Y0,X1,Y1,HEIGHT_M), has more");
-      v.push_back(number(kFields[v.size()], item));
-    }
-    if (v.size() != 5)
-      fail("needs 5 numbers after WHEN (X0,Y0,X1,Y1,HEIGHT_M), has " + std::to_string(v.size()));
-    if (!(v[0] < v[2])) fail("X0 = " + text_of(v[0]) + " must be < X1 = " + text_of(v[2]));
-    if (!(v[1] < v[3])) fail("Y0 = " + text_of(v[1]) + " must be < Y1 = " + text_of(v[3]));
-    if (!(v[4] > 0 && v[4] <= 10)) fail("HEIGHT_M = " + text_of(v[4]) + " must be in (0, 10] m");
-    rock.area_W = Eigen::AlignedBox2d(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]));
-    rock.height_m = v[4];
-    if (parts.size() == 3) {
-      const std::string clear = trimmed(parts[2]);
-      if (!clear.empty() && clear.front() == '+') {
-        const double after_s = number("CLEAR (+S)", clear.substr(1));
-        if (!(after_s > 0)) fail("CLEAR = '" + clear + "': S must be > 0 s");
-        rock.clear_after_s = after_s;
-      } else {
-        const double clear_s = number("CLEAR_S", parts[2]);
-        if (rock.near_m) {
-          fail("CLEAR_S = " + text_of(clear_s) +
-               " with a near trigger: the fall time is not known, give '+S'");
-        }
-        if (!(clear_s > rock.at_s)) {
-          fail("CLEAR_S = " + text_of(clear_s) + " must be > AT_S = " + text_of(rock.at_s) + " s");
-        }
-        rock.clear_s = clear_s;
-      }
-    }
-    out.push_back(rock);
+  for (std::string entry; std::getline(entries, entry, ';');) {
+    if (entry.find_first_not_of(" \t") != std::string::npos) out.push_back(RockfallEntry(entry).Parse());
   }
   std::stable_sort(out.begin(), out.end(), [](const Rockfall& a, const Rockfall& b) {
     if (a.near_m.has_value() != b.near_m.has_value()) return !a.near_m.has_value();

@@ -84,6 +84,39 @@ ModeDecision RobotModes::Request(const std::string& mode) {
   return control_->Request(mode, hooks_.conditions());
 }
 
+GoalStart RobotModes::StartGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m,
+                                double z_m, double now_s) {
+  return waypoint_->Start(plan, x_m, y_m, tolerance_m, z_m, now_s,
+                          [this] { return Request(waypoint_->name()); });
+}
+
+std::string RobotModes::StartExplore(const ExploreTask& task, double now_s) {
+  return explore_->Start(task, now_s, [this] { return Request(explore_->name()); });
+}
+
+std::string RobotModes::StartConvoy(const std::vector<std::string>& ahead_ids,
+                                    const std::vector<PeerBody>& live_peers, double now_s) {
+  const bool was_following = convoy_->active() && control_->mode() == convoy_->name();
+  const std::string refused = convoy_->Start(robot_id_, ahead_ids, now_s);
+  if (!refused.empty()) return refused;
+  convoy_->SetPeers(live_peers, now_s);
+  if (was_following) return "";
+  const ModeDecision d = Request(convoy_->name());
+  if (!d.accepted) convoy_->Deactivate(d.reason);
+  return d.accepted ? "" : d.reason;
+}
+
+PeerBody RobotModes::AsPeer(const core::BaseState& pose_M) const {
+  PeerBody self = navigation_->AsPeer(robot_id_, pose_M, control_->mode());
+  const YieldStatus& yield = yield_->status();
+  if (yield.state != YieldStatus::State::kNone) {
+    self.yield_state = ToString(yield.state);
+    self.yield_to_id = yield.peer_id;
+    self.yield_reason = yield.reason;
+  }
+  return self;
+}
+
 void RobotModes::Recheck(double now_s) {
   std::optional<PausedMission> running = missions_->Running(now_s);
   const ModeDecision recheck = control_->Recheck(hooks_.conditions());

@@ -67,7 +67,7 @@ class SteppedRobot {
   /// it after the last Step() (Navigation::AsPeer; mode "explore" while exploring, else "idle");
   /// OnPeerState() takes a peer's, heard at `now_s` ("" or why it was dropped). Peers heard within
   /// options.peers.timeout_s are obstacles from the next Step() on, as in the agent.
-  PeerBody PeerState() const;
+  PeerBody PeerState() const { return modes_->AsPeer(pose_M_); }
   /// Get-out-of-the-way, as the agents do over cairn/yield_request (YieldCoordination): YieldRequestToSend()
   /// is the request this robot's last Step() made (to the robot named first), if any; OnYieldRequest() takes
   /// a peer's at `now_s` (sent by the robot it names as sender, whose states this robot hears): "" when the

@@ -58,6 +58,22 @@ class RobotModes {
   /// Asks the tree for `mode` under the conditions now (ModeControl::Request).
   ModeDecision Request(const std::string& mode);
 
+  // The operator's missions, one path for every caller: the mode's task is set first, then the tree is asked
+  // for the mode (the mode it replaces is deactivated).
+  /// Drives `plan` to (x_m, y_m) (frame M, metres; tolerance and goal height as WaypointMode::Start) from
+  /// `now_s` in waypoint mode.
+  GoalStart StartGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double z_m,
+                      double now_s);
+  /// Explores `task` from `now_s`: "" or why not.
+  std::string StartExplore(const ExploreTask& task, double now_s);
+  /// Follows the robots `ahead_ids` (nearest first, the leader last; `live_peers` heard now) in convoy mode:
+  /// "" or why not. A robot already following only changes whom it follows.
+  std::string StartConvoy(const std::vector<std::string>& ahead_ids, const std::vector<PeerBody>& live_peers,
+                          double now_s);
+  /// This robot as its peers see it at `pose_M`: navigation's body and path ahead, the mode, and its answer
+  /// to a yield request (YieldStatus), if any.
+  PeerBody AsPeer(const core::BaseState& pose_M) const;
+
   /// The top of a control cycle at `now_s`: the tree re-checks the current mode; when it is no longer
   /// allowed the robot goes idle, and a mission a transient condition stopped (IsTransientFailure) is paused.
   void Recheck(double now_s);
