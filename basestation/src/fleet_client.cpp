@@ -33,7 +33,34 @@ std::string ResponseKey(const std::string& robot_id, msgs::CommandKind kind, uin
 
 class FleetClient::Impl {
  public:
-  explicit Impl(const FleetClientOptions& options) : options_(options) {
+  explicit Impl(const FleetClientOptions& options) : options_(CheckedOptions(options)) {
+    detector_ = FleetEventDetector(options.events);
+    MakeParticipant();
+    // Announced on cairn/base_info, which only robots read; robots announce on cairn/agent_info.
+    info_writer_ = std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/base_info",
+                                                                             "cairn.latched");
+    perception_ = std::make_unique<FleetPerception>(*participant_, options.base_id);
+    if (!options.security.enabled()) {
+      // The shared command topics, matched before the first command needs them.
+      for (const CommandKind& kind : kCommandKinds) kind.make(*this, "");
+      CommandWriter<msgs::TeleopTwistPubSubType>("cairn/teleop", "", "cairn.teleop");
+      CommandWriter<msgs::PathRequestPubSubType>("cairn/path_request", "");
+    }
+    response_reader_ = std::make_unique<core::Reader<msgs::CommandResponsePubSubType>>(
+        *participant_, "cairn/command_response", "cairn.command",
+        [this](const msgs::CommandResponse& m, const eprosima::fastdds::dds::SampleInfo& info) {
+          if (FromRobot("cairn/command_response", m.robot_id(), info)) OnResponse(m);
+        });
+    MakeStateReaders();
+    MakeLinkProbe();
+    MakeViewReaders();
+    MakeInfoReader();
+    Announce(0);
+    monitor_ = std::thread([this] { MonitorLoop(); });
+  }
+
+  // `options`, or std::invalid_argument naming the field and its value.
+  static const FleetClientOptions& CheckedOptions(const FleetClientOptions& options) {
     if (const std::string fault = core::CheckId("--base-id", options.base_id); !fault.empty()) {
       throw std::invalid_argument(fault);
     }
@@ -47,7 +74,11 @@ class FleetClient::Impl {
       throw std::invalid_argument("events_kept = " + std::to_string(options.events_kept) +
                                   " must be in [1, 100000]");
     }
-    detector_ = FleetEventDetector(options.events);
+    return options;
+  }
+
+  void MakeParticipant() {
+    const FleetClientOptions& options = options_;
     core::ParticipantOptions p;
     p.domain_id = options.domain_id;
     if (!options.dds_profiles_file.empty()) p.profiles_file = options.dds_profiles_file;
@@ -65,21 +96,10 @@ class FleetClient::Impl {
       commandable_ = options.security.CommandableRobots();
     }
     participant_ = std::make_unique<core::Participant>(p);
-    // Announced on cairn/base_info, which only robots read; robots announce on cairn/agent_info.
-    info_writer_ = std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/base_info",
-                                                                             "cairn.latched");
-    perception_ = std::make_unique<FleetPerception>(*participant_, options.base_id);
-    if (!options.security.enabled()) {
-      // The shared command topics, matched before the first command needs them.
-      for (const CommandKind& kind : kCommandKinds) kind.make(*this, "");
-      CommandWriter<msgs::TeleopTwistPubSubType>("cairn/teleop", "", "cairn.teleop");
-      CommandWriter<msgs::PathRequestPubSubType>("cairn/path_request", "");
-    }
-    response_reader_ = std::make_unique<core::Reader<msgs::CommandResponsePubSubType>>(
-        *participant_, "cairn/command_response", "cairn.command",
-        [this](const msgs::CommandResponse& m, const eprosima::fastdds::dds::SampleInfo& info) {
-          if (FromRobot("cairn/command_response", m.robot_id(), info)) OnResponse(m);
-        });
+  }
+
+  // A robot's whole state (reliable, latched), its pose stream and its components' health.
+  void MakeStateReaders() {
     // A robot's whole state (on change, at least once a second; reliable, latched) and its 10 Hz pose stream,
     // applied to the last whole state (idl/cairn_msgs.idl RobotPose). Either keeps the robot from being lost;
     // the gaps in the pose stream's sequence numbers are the link's losses.
@@ -131,6 +151,10 @@ class FleetClient::Impl {
           }
           cv_.notify_all();
         });
+  }
+
+  // This base's link probes and the robots' echoes (round trips: LinkMonitor).
+  void MakeLinkProbe() {
     probe_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(
         *participant_, "cairn/link_probe", "cairn.command");
     probe_reply_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
@@ -157,6 +181,10 @@ class FleetClient::Impl {
           }
           cv_.notify_all();
         });
+  }
+
+  // What a robot shows: its global path, local plan and mode tree, kept with its view.
+  void MakeViewReaders() {
     global_path_reader_ = std::make_unique<core::Reader<msgs::GlobalPathPubSubType>>(
         *participant_, "cairn/global_path", "cairn.latched",
         [this](const msgs::GlobalPath& m, const eprosima::fastdds::dds::SampleInfo& info) {
@@ -175,6 +203,10 @@ class FleetClient::Impl {
           if (FromRobot("cairn/bt_state", m.robot_id(), info))
             Update(m.robot_id(), [&](RobotView& v) { v.tree = m; });
         });
+  }
+
+  // Robots' announcements (platform, capabilities, limits, link) and their writers' liveliness.
+  void MakeInfoReader() {
     info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
         *participant_, "cairn/agent_info", "cairn.latched",
         [this](const msgs::AgentInfo& m, const eprosima::fastdds::dds::SampleInfo& info) {
@@ -213,9 +245,6 @@ class FleetClient::Impl {
           perception_->OnRobotSeen(m.agent_id(), m.map_resolution_m());
         },
         [this](const eprosima::fastdds::dds::LivelinessChangedStatus& status) { OnLiveliness(status); });
-
-    Announce(0);
-    monitor_ = std::thread([this] { MonitorLoop(); });
   }
 
   ~Impl() {

@@ -203,6 +203,24 @@ void ConfigSection::RejectUnknownKeys(const std::vector<std::string>& known) con
   }
 }
 
+void ConfigSection::ReadFields(const std::vector<ConfigField>& fields) const {
+  std::vector<std::string> known;
+  known.reserve(fields.size());
+  for (const ConfigField& field : fields) known.push_back(field.key);
+  RejectUnknownKeys(known);
+  for (const ConfigField& field : fields) {
+    if (auto* const* d = std::get_if<double*>(&field.value)) {
+      ReadDouble(field.key, *d, field.allow_infinity);
+    } else if (auto* const* i = std::get_if<int*>(&field.value)) {
+      ReadInt(field.key, *i);
+    } else if (auto* const* b = std::get_if<bool*>(&field.value)) {
+      ReadBool(field.key, *b);
+    } else {
+      ReadString(field.key, std::get<std::string*>(field.value));
+    }
+  }
+}
+
 std::string CheckOutputFile(const std::string& field, const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;

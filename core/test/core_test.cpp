@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <random>
@@ -215,6 +216,39 @@ TEST(Config, ReadsValuesAndNamesFieldValueAndRule) {
   EXPECT_THROW(ConfigSection::LoadText("[1, 2", "c.yaml"), ConfigError);
   EXPECT_THROW(ConfigSection::LoadText("- 1\n- 2\n", "d.yaml"), ConfigError);
   EXPECT_THROW(ConfigSection::LoadFile("/nonexistent/cairn.yaml"), ConfigError);
+}
+
+TEST(Config, ReadFieldsReadsEachKnownKeyAndRefusesAnUnknownOne) {
+  const auto config =
+      ConfigSection::LoadText("a:\n  keep_s: .inf\n  count: 3\n  on: true\n  name: r1\n", "f.yaml");
+  double keep_s = 1.0, absent_m = 2.5;
+  int count = 0;
+  bool on = false;
+  std::string name;
+  config.Section("a").ReadFields({{"keep_s", &keep_s, /*allow_infinity=*/true},
+                                  {"count", &count},
+                                  {"on", &on},
+                                  {"name", &name},
+                                  {"absent_m", &absent_m}});
+  EXPECT_TRUE(std::isinf(keep_s));
+  EXPECT_EQ(count, 3);
+  EXPECT_TRUE(on);
+  EXPECT_EQ(name, "r1");
+  EXPECT_EQ(absent_m, 2.5) << "an absent key keeps its value";
+  try {
+    config.Section("a").ReadFields({{"keep_s", &keep_s}, {"count", &count}, {"on", &on}});
+    FAIL() << "name is not among the fields";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("f.yaml: a.name is not a known setting"), std::string::npos)
+        << e.what();
+  }
+  try {
+    config.Section("a").ReadFields(
+        {{"keep_s", &keep_s}, {"count", &count}, {"on", &on}, {"name", &name}});  // infinity not allowed
+    FAIL() << "keep_s is infinite";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("a.keep_s"), std::string::npos) << e.what();
+  }
 }
 
 class Recorder : public Component {

@@ -29,222 +29,186 @@ nav::TrajectoryLibraryOptions AgentOptions::LibraryForPlatform() const {
   return o;
 }
 
+namespace {
+
+using core::ConfigField;
+using core::ConfigSection;
+
+void ReadNavigation(const ConfigSection& config, AgentOptions* o) {
+  NavigationOptions& n = o->navigation;
+  config.Section("navigation")
+      .ReadFields({{"cruise_speed_mps", &n.platform.cruise_speed_mps},
+                   {"goal_tolerance_m", &n.goal_tolerance_m},
+                   {"blocked_timeout_s", &n.blocked_timeout_s},
+                   {"stall_timeout_s", &n.stall_timeout_s},
+                   {"contact_timeout_s", &o->contact_timeout_s},
+                   {"carrot_distance_m", &n.carrot_distance_m},
+                   {"required_free_length_m", &n.required_free_length_m},
+                   {"tight_free_length_m", &n.tight_free_length_m},
+                   {"tight_spot_deviation_rad", &n.tight_spot_deviation_rad},
+                   {"sensor_range_m", &n.sensor_range_m},
+                   {"local_planner_period_s", &n.local_planner_period_s},
+                   {"obstacle_timeout_s", &n.obstacle_timeout_s},
+                   {"obstacle_lost_s", &n.obstacle_lost_s},
+                   {"replan_check_period_s", &n.replan_check_period_s},
+                   {"max_path_deviation_m", &n.max_path_deviation_m},
+                   {"joystick_turn_lookahead_s", &n.joystick_turn_lookahead_s},
+                   {"unmapped_goal_max_replans", &n.unmapped_goal_max_replans},
+                   {"unmapped_goal_timeout_s", &n.unmapped_goal_timeout_s},
+                   {"max_hold_s", &n.max_hold_s},
+                   {"map_half_extent_m", &o->nav_map.half_extent_m},
+                   {"map_max_extent_m", &o->nav_map.max_extent_m},
+                   {"map_grow_margin_m", &o->nav_map.grow_margin_m},
+                   {"map_grow_step_m", &o->nav_map.grow_step_m},
+                   {"map_update_period_s", &o->nav_map.update_period_s},
+                   {"map_update_budget_s", &o->nav_map.update_budget_s},
+                   {"obstacle_window_s", &o->obstacle_window_s},
+                   {"path_requests_per_s", &o->path_requests_per_s}});
+  nav::LocalPlannerOptions& local = n.local_planner;
+  config.Section("local_planner")
+      .ReadFields({{"collision_margin_m", &o->collision_margin_m},
+                   {"library_cache_dir", &o->library_cache_dir},
+                   {"clearance_band_m", &o->library.clearance_band_m},
+                   {"voxel_size_m", &o->library.voxel_size_m},
+                   {"goal_direction_weight", &local.goal_direction_weight},
+                   {"heading_change_weight", &local.heading_change_weight},
+                   {"clearance_weight", &local.clearance_weight},
+                   {"hysteresis_weight", &local.hysteresis_weight},
+                   {"min_free_length_m", &local.min_free_length_m}});
+  nav::IlqrOptions& controller = n.controller;
+  config.Section("controller")
+      .ReadFields({{"horizon_steps", &controller.horizon_steps},
+                   {"dt_s", &controller.dt_s},
+                   {"max_iterations", &controller.max_iterations},
+                   {"cross_track_weight", &controller.cross_track_weight},
+                   {"heading_weight", &controller.heading_weight},
+                   {"speed_weight", &controller.speed_weight}});
+  core::VelocityLimits& limits = n.platform.limits;
+  config.Section("platform")
+      .ReadFields({{"footprint_radius_m", &n.platform.footprint_radius_m},
+                   {"max_speed_mps", &limits.max_speed_mps},
+                   {"max_reverse_speed_mps", &limits.max_reverse_speed_mps},
+                   {"max_accel_mps2", &limits.max_accel_mps2},
+                   {"max_yaw_rate_radps", &limits.max_yaw_rate_radps},
+                   {"max_yaw_accel_radps2", &limits.max_yaw_accel_radps2}});
+  nav::TraversabilityOptions& trav = n.platform.traversability;
+  config.Section("traversability")
+      .ReadFields({{"robot_radius_m", &trav.robot_radius_m},
+                   {"robot_height_m", &trav.robot_height_m},
+                   {"max_step_m", &trav.max_step_m}});
+}
+
+void ReadExplore(const ConfigSection& config, const std::string& path, ExploreModeOptions* explore) {
+  std::string levels;
+  nav::FrontierOptions& frontiers = explore->frontiers;
+  nav::ExplorerOptions& explorer = explore->explorer;
+  config.Section("explore").ReadFields(
+      {{"levels", &levels},
+       {"target_tolerance_m", &explore->target_tolerance_m},
+       {"settle_s", &explore->settle_s},
+       {"complete_settle_s", &explore->complete_settle_s},
+       {"map_wait_s", &explore->map_wait_s},
+       {"tight_gap_stall_s", &explore->tight_gap_stall_s},
+       {"min_gain_m2", &frontiers.min_gain_m2},
+       {"gain_radius_m", &frontiers.gain_radius_m},
+       {"max_cluster_extent_m", &frontiers.max_cluster_extent_m},
+       {"unknown_reach_m", &frontiers.unknown_reach_m},
+       {"search_horizon_m", &frontiers.search_horizon_m, /*allow_infinity=*/true},
+       {"switch_utility_ratio", &explorer.switch_utility_ratio},
+       {"blacklist_radius_m", &explorer.blacklist_radius_m},
+       {"visited_radius_m", &explorer.visited_radius_m},
+       {"same_place_dz_m", &explorer.same_place_dz_m},
+       {"retry_after_s", &explorer.retry_after_s},
+       {"claim_radius_m", &explorer.claim_radius_m},
+       {"peer_influence_m", &explorer.peer_influence_m},
+       {"claim_period_s", &explore->team.claim_period_s},
+       {"coverage_period_s", &explore->team.coverage_period_s},
+       {"claim_lease_s", &explore->team.lease_s},
+       {"coverage_cell_m", &explore->team.coverage_cell_m}});
+  using Levels = ExploreModeOptions::Levels;
+  if (levels.empty()) return;
+  if (levels == "auto") {
+    explore->levels = Levels::kAuto;
+  } else if (levels == "main") {
+    explore->levels = Levels::kMain;
+  } else if (levels == "all") {
+    explore->levels = Levels::kAll;
+  } else {
+    throw core::ConfigError(path + ": explore.levels = '" + levels + "' must be auto, main or all");
+  }
+}
+
+// Peers, convoy, get out of the way, missions across interruptions.
+void ReadTeam(const ConfigSection& config, const std::string& path, AgentOptions* o) {
+  PeerOptions& peers = o->peers;
+  config.Section("peers").ReadFields({{"rate_hz", &peers.rate_hz},
+                                      {"timeout_s", &peers.timeout_s},
+                                      {"margin_m", &peers.margin_m},
+                                      {"prediction_s", &peers.prediction_s},
+                                      {"same_level_dz_m", &peers.same_level_dz_m},
+                                      {"avoid", &peers.avoid}});
+  ConvoyOptions& convoy = o->convoy;
+  config.Section("convoy").ReadFields({{"spacing_m", &convoy.spacing_m},
+                                       {"hold_band_m", &convoy.hold_band_m},
+                                       {"breadcrumb_step_m", &convoy.breadcrumb_step_m},
+                                       {"gap_gain_per_s", &convoy.gap_gain_per_s},
+                                       {"lost_after_s", &convoy.lost_after_s},
+                                       {"max_trail_m", &convoy.max_trail_m}});
+  YieldOptions& yield = o->yield;
+  std::string yield_modes;
+  for (const std::string& m : yield.modes) yield_modes += (yield_modes.empty() ? "" : " ") + m;
+  config.Section("yield").ReadFields({{"modes", &yield_modes},
+                                      {"ask_peers", &yield.ask_peers},
+                                      {"margin_m", &yield.margin_m},
+                                      {"max_drive_m", &yield.max_drive_m},
+                                      {"max_wait_s", &yield.max_wait_s},
+                                      {"lookahead_m", &yield.lookahead_m},
+                                      {"standoff_m", &yield.standoff_m},
+                                      {"ask_every_s", &yield.ask_every_s}});
+  if (const std::string why = ParseYieldModes(yield_modes, &yield.modes); !why.empty())
+    throw core::ConfigError(path + ": " + why);
+  config.Section("mission").ReadFields(
+      {{"resume_within_s", &o->mission.resume_within_s}, {"retry_every_s", &o->mission.retry_every_s}});
+}
+
+void ReadPerception(const ConfigSection& config, PerceptionOptions* pe) {
+  config.Section("perception")
+      .ReadFields({{"enabled", &pe->enabled},
+                   {"map_resolution_m", &pe->map.resolution_m},
+                   {"map_insert_period_s", &pe->map_insert_period_s},
+                   {"map_keyframe_distance_m", &pe->map_keyframe_distance_m},
+                   {"map_keyframe_angle_rad", &pe->map_keyframe_angle_rad},
+                   {"map_keyframe_max_interval_s", &pe->map_keyframe_max_interval_s},
+                   {"staircase_period_s", &pe->staircase_period_s},
+                   {"map_coarse_levels", &pe->map_coarse_levels},
+                   {"map_budget_bits_per_s", &pe->telemetry.budget_bits_per_s},
+                   {"map_period_s", &pe->telemetry.period_s},
+                   {"camera_rate_hz", &pe->camera_rate_hz},
+                   {"jpeg_quality", &pe->jpeg_quality},
+                   {"camera_budget_bits_per_s", &pe->camera_budget_bits_per_s}});
+}
+
+}  // namespace
+
 void AgentOptions::LoadConfigFile(const std::string& path) {
-  const auto config = core::ConfigSection::LoadFile(path);
+  const auto config = ConfigSection::LoadFile(path);
   config.RejectUnknownKeys({"command_interface", "mux", "navigation", "local_planner", "controller",
                             "platform", "traversability", "telemetry", "perception", "explore", "peers",
                             "convoy", "yield", "mission", "health", "simulation",
                             "ros2"});  // the simulated platform's (sim::SimulatedPlatformOptions) and the ROS
                                        // 2 driver's (ros2::Ros2PlatformOptions)
-  const auto ci = config.Section("command_interface");
-  ci.RejectUnknownKeys({"lock_keep_s"});
-  ci.ReadDouble("lock_keep_s", &lock.lock_keep_s, /*allow_infinity=*/true);
-  const auto mux = config.Section("mux");
-  mux.RejectUnknownKeys({"teleop_timeout_s", "waypoint_timeout_s"});
-  mux.ReadDouble("teleop_timeout_s", &teleop_timeout_s);
-  mux.ReadDouble("waypoint_timeout_s", &waypoint_timeout_s);
-  NavigationOptions& n = navigation;
-  const auto nav = config.Section("navigation");
-  nav.RejectUnknownKeys({"cruise_speed_mps",
-                         "goal_tolerance_m",
-                         "blocked_timeout_s",
-                         "stall_timeout_s",
-                         "contact_timeout_s",
-                         "carrot_distance_m",
-                         "required_free_length_m",
-                         "tight_free_length_m",
-                         "tight_spot_deviation_rad",
-                         "sensor_range_m",
-                         "local_planner_period_s",
-                         "obstacle_timeout_s",
-                         "obstacle_lost_s",
-                         "replan_check_period_s",
-                         "max_path_deviation_m",
-                         "joystick_turn_lookahead_s",
-                         "map_half_extent_m",
-                         "map_max_extent_m",
-                         "map_grow_margin_m",
-                         "map_grow_step_m",
-                         "map_update_period_s",
-                         "map_update_budget_s",
-                         "obstacle_window_s",
-                         "path_requests_per_s",
-                         "unmapped_goal_max_replans",
-                         "unmapped_goal_timeout_s",
-                         "max_hold_s"});
-  nav.ReadDouble("cruise_speed_mps", &n.platform.cruise_speed_mps);
-  nav.ReadDouble("goal_tolerance_m", &n.goal_tolerance_m);
-  nav.ReadDouble("blocked_timeout_s", &n.blocked_timeout_s);
-  nav.ReadDouble("stall_timeout_s", &n.stall_timeout_s);
-  nav.ReadDouble("contact_timeout_s", &contact_timeout_s);
-  nav.ReadDouble("carrot_distance_m", &n.carrot_distance_m);
-  nav.ReadDouble("required_free_length_m", &n.required_free_length_m);
-  nav.ReadDouble("tight_free_length_m", &n.tight_free_length_m);
-  nav.ReadDouble("tight_spot_deviation_rad", &n.tight_spot_deviation_rad);
-  nav.ReadDouble("sensor_range_m", &n.sensor_range_m);
-  nav.ReadDouble("local_planner_period_s", &n.local_planner_period_s);
-  nav.ReadDouble("obstacle_timeout_s", &n.obstacle_timeout_s);
-  nav.ReadDouble("obstacle_lost_s", &n.obstacle_lost_s);
-  nav.ReadDouble("replan_check_period_s", &n.replan_check_period_s);
-  nav.ReadDouble("max_path_deviation_m", &n.max_path_deviation_m);
-  nav.ReadDouble("joystick_turn_lookahead_s", &n.joystick_turn_lookahead_s);
-  nav.ReadInt("unmapped_goal_max_replans", &n.unmapped_goal_max_replans);
-  nav.ReadDouble("unmapped_goal_timeout_s", &n.unmapped_goal_timeout_s);
-  nav.ReadDouble("max_hold_s", &n.max_hold_s);
-  nav.ReadDouble("map_half_extent_m", &nav_map.half_extent_m);
-  nav.ReadDouble("map_max_extent_m", &nav_map.max_extent_m);
-  nav.ReadDouble("map_grow_margin_m", &nav_map.grow_margin_m);
-  nav.ReadDouble("map_grow_step_m", &nav_map.grow_step_m);
-  nav.ReadDouble("map_update_period_s", &nav_map.update_period_s);
-  nav.ReadDouble("map_update_budget_s", &nav_map.update_budget_s);
-  nav.ReadDouble("obstacle_window_s", &obstacle_window_s);
-  nav.ReadDouble("path_requests_per_s", &path_requests_per_s);
-  const auto local = config.Section("local_planner");
-  local.RejectUnknownKeys({"collision_margin_m", "clearance_band_m", "voxel_size_m", "goal_direction_weight",
-                           "heading_change_weight", "clearance_weight", "hysteresis_weight",
-                           "min_free_length_m", "library_cache_dir"});
-  local.ReadDouble("collision_margin_m", &collision_margin_m);
-  local.ReadString("library_cache_dir", &library_cache_dir);
-  local.ReadDouble("clearance_band_m", &library.clearance_band_m);
-  local.ReadDouble("voxel_size_m", &library.voxel_size_m);
-  local.ReadDouble("goal_direction_weight", &n.local_planner.goal_direction_weight);
-  local.ReadDouble("heading_change_weight", &n.local_planner.heading_change_weight);
-  local.ReadDouble("clearance_weight", &n.local_planner.clearance_weight);
-  local.ReadDouble("hysteresis_weight", &n.local_planner.hysteresis_weight);
-  local.ReadDouble("min_free_length_m", &n.local_planner.min_free_length_m);
-  const auto controller = config.Section("controller");
-  controller.RejectUnknownKeys(
-      {"horizon_steps", "dt_s", "max_iterations", "cross_track_weight", "heading_weight", "speed_weight"});
-  controller.ReadInt("horizon_steps", &n.controller.horizon_steps);
-  controller.ReadDouble("dt_s", &n.controller.dt_s);
-  controller.ReadInt("max_iterations", &n.controller.max_iterations);
-  controller.ReadDouble("cross_track_weight", &n.controller.cross_track_weight);
-  controller.ReadDouble("heading_weight", &n.controller.heading_weight);
-  controller.ReadDouble("speed_weight", &n.controller.speed_weight);
-  auto& limits = n.platform.limits;
-  const auto platform_section = config.Section("platform");
-  platform_section.RejectUnknownKeys({"footprint_radius_m", "max_speed_mps", "max_reverse_speed_mps",
-                                      "max_accel_mps2", "max_yaw_rate_radps", "max_yaw_accel_radps2"});
-  platform_section.ReadDouble("footprint_radius_m", &n.platform.footprint_radius_m);
-  platform_section.ReadDouble("max_speed_mps", &limits.max_speed_mps);
-  platform_section.ReadDouble("max_reverse_speed_mps", &limits.max_reverse_speed_mps);
-  platform_section.ReadDouble("max_accel_mps2", &limits.max_accel_mps2);
-  platform_section.ReadDouble("max_yaw_rate_radps", &limits.max_yaw_rate_radps);
-  platform_section.ReadDouble("max_yaw_accel_radps2", &limits.max_yaw_accel_radps2);
-  const auto trav = config.Section("traversability");
-  trav.RejectUnknownKeys({"robot_radius_m", "robot_height_m", "max_step_m"});
-  trav.ReadDouble("robot_radius_m", &n.platform.traversability.robot_radius_m);
-  trav.ReadDouble("robot_height_m", &n.platform.traversability.robot_height_m);
-  trav.ReadDouble("max_step_m", &n.platform.traversability.max_step_m);
-  const auto ex = config.Section("explore");
-  ex.RejectUnknownKeys({"target_tolerance_m",   "settle_s",
-                        "complete_settle_s",    "map_wait_s",
-                        "min_gain_m2",          "gain_radius_m",
-                        "max_cluster_extent_m", "unknown_reach_m",
-                        "search_horizon_m",     "switch_utility_ratio",
-                        "blacklist_radius_m",   "visited_radius_m",
-                        "same_place_dz_m",      "tight_gap_stall_s",
-                        "retry_after_s",        "claim_radius_m",
-                        "peer_influence_m",     "claim_period_s",
-                        "coverage_period_s",    "claim_lease_s",
-                        "coverage_cell_m",      "levels"});
-  if (std::string levels; ex.ReadString("levels", &levels), !levels.empty()) {
-    using Levels = ExploreModeOptions::Levels;
-    if (levels == "auto") {
-      explore.levels = Levels::kAuto;
-    } else if (levels == "main") {
-      explore.levels = Levels::kMain;
-    } else if (levels == "all") {
-      explore.levels = Levels::kAll;
-    } else {
-      throw core::ConfigError(path + ": explore.levels = '" + levels + "' must be auto, main or all");
-    }
-  }
-  ex.ReadDouble("target_tolerance_m", &explore.target_tolerance_m);
-  ex.ReadDouble("settle_s", &explore.settle_s);
-  ex.ReadDouble("complete_settle_s", &explore.complete_settle_s);
-  ex.ReadDouble("map_wait_s", &explore.map_wait_s);
-  ex.ReadDouble("tight_gap_stall_s", &explore.tight_gap_stall_s);
-  ex.ReadDouble("min_gain_m2", &explore.frontiers.min_gain_m2);
-  ex.ReadDouble("gain_radius_m", &explore.frontiers.gain_radius_m);
-  ex.ReadDouble("max_cluster_extent_m", &explore.frontiers.max_cluster_extent_m);
-  ex.ReadDouble("unknown_reach_m", &explore.frontiers.unknown_reach_m);
-  ex.ReadDouble("search_horizon_m", &explore.frontiers.search_horizon_m, /*allow_infinity=*/true);
-  ex.ReadDouble("switch_utility_ratio", &explore.explorer.switch_utility_ratio);
-  ex.ReadDouble("blacklist_radius_m", &explore.explorer.blacklist_radius_m);
-  ex.ReadDouble("visited_radius_m", &explore.explorer.visited_radius_m);
-  ex.ReadDouble("same_place_dz_m", &explore.explorer.same_place_dz_m);
-  ex.ReadDouble("retry_after_s", &explore.explorer.retry_after_s);
-  ex.ReadDouble("claim_radius_m", &explore.explorer.claim_radius_m);
-  ex.ReadDouble("peer_influence_m", &explore.explorer.peer_influence_m);
-  ex.ReadDouble("claim_period_s", &explore.team.claim_period_s);
-  ex.ReadDouble("coverage_period_s", &explore.team.coverage_period_s);
-  ex.ReadDouble("claim_lease_s", &explore.team.lease_s);
-  ex.ReadDouble("coverage_cell_m", &explore.team.coverage_cell_m);
-  const auto pe_section = config.Section("peers");
-  pe_section.RejectUnknownKeys(
-      {"rate_hz", "timeout_s", "margin_m", "prediction_s", "same_level_dz_m", "avoid"});
-  pe_section.ReadDouble("rate_hz", &peers.rate_hz);
-  pe_section.ReadDouble("timeout_s", &peers.timeout_s);
-  pe_section.ReadDouble("margin_m", &peers.margin_m);
-  pe_section.ReadDouble("prediction_s", &peers.prediction_s);
-  pe_section.ReadDouble("same_level_dz_m", &peers.same_level_dz_m);
-  pe_section.ReadBool("avoid", &peers.avoid);
-  const auto convoy_section = config.Section("convoy");
-  convoy_section.RejectUnknownKeys(
-      {"spacing_m", "hold_band_m", "breadcrumb_step_m", "gap_gain_per_s", "lost_after_s", "max_trail_m"});
-  convoy_section.ReadDouble("spacing_m", &convoy.spacing_m);
-  convoy_section.ReadDouble("hold_band_m", &convoy.hold_band_m);
-  convoy_section.ReadDouble("breadcrumb_step_m", &convoy.breadcrumb_step_m);
-  convoy_section.ReadDouble("gap_gain_per_s", &convoy.gap_gain_per_s);
-  convoy_section.ReadDouble("lost_after_s", &convoy.lost_after_s);
-  convoy_section.ReadDouble("max_trail_m", &convoy.max_trail_m);
-  const auto yield_section = config.Section("yield");
-  yield_section.RejectUnknownKeys({"modes", "ask_peers", "margin_m", "max_drive_m", "max_wait_s",
-                                   "lookahead_m", "standoff_m", "ask_every_s"});
-  std::string yield_modes;
-  for (const std::string& m : yield.modes) yield_modes += (yield_modes.empty() ? "" : " ") + m;
-  yield_section.ReadString("modes", &yield_modes);
-  if (const std::string why = ParseYieldModes(yield_modes, &yield.modes); !why.empty())
-    throw core::ConfigError(path + ": " + why);
-  yield_section.ReadBool("ask_peers", &yield.ask_peers);
-  yield_section.ReadDouble("margin_m", &yield.margin_m);
-  yield_section.ReadDouble("max_drive_m", &yield.max_drive_m);
-  yield_section.ReadDouble("max_wait_s", &yield.max_wait_s);
-  yield_section.ReadDouble("lookahead_m", &yield.lookahead_m);
-  yield_section.ReadDouble("standoff_m", &yield.standoff_m);
-  yield_section.ReadDouble("ask_every_s", &yield.ask_every_s);
-  const auto mission_section = config.Section("mission");
-  mission_section.RejectUnknownKeys({"resume_within_s", "retry_every_s"});
-  mission_section.ReadDouble("resume_within_s", &mission.resume_within_s);
-  mission_section.ReadDouble("retry_every_s", &mission.retry_every_s);
-  const auto telemetry = config.Section("telemetry");
-  telemetry.RejectUnknownKeys({"state_rate_hz", "local_plan_rate_hz"});
-  telemetry.ReadDouble("state_rate_hz", &state_rate_hz);
-  telemetry.ReadDouble("local_plan_rate_hz", &local_plan_rate_hz);
-  const auto health_section = config.Section("health");
-  health_section.RejectUnknownKeys({"restart_backoff_s", "restart_backoff_max_s"});
-  health_section.ReadDouble("restart_backoff_s", &restart_backoff_s);
-  health_section.ReadDouble("restart_backoff_max_s", &restart_backoff_max_s);
-  PerceptionOptions& pe = perception;
-  const auto per = config.Section("perception");
-  per.RejectUnknownKeys({"enabled", "map_resolution_m", "map_insert_period_s", "map_keyframe_distance_m",
-                         "map_keyframe_angle_rad", "map_keyframe_max_interval_s", "staircase_period_s",
-                         "map_coarse_levels", "map_budget_bits_per_s", "map_period_s", "camera_rate_hz",
-                         "jpeg_quality", "camera_budget_bits_per_s"});
-  per.ReadBool("enabled", &pe.enabled);
-  per.ReadDouble("map_resolution_m", &pe.map.resolution_m);
-  per.ReadDouble("map_insert_period_s", &pe.map_insert_period_s);
-  per.ReadDouble("map_keyframe_distance_m", &pe.map_keyframe_distance_m);
-  per.ReadDouble("map_keyframe_angle_rad", &pe.map_keyframe_angle_rad);
-  per.ReadDouble("map_keyframe_max_interval_s", &pe.map_keyframe_max_interval_s);
-  per.ReadDouble("staircase_period_s", &pe.staircase_period_s);
-  per.ReadInt("map_coarse_levels", &pe.map_coarse_levels);
-  per.ReadDouble("map_budget_bits_per_s", &pe.telemetry.budget_bits_per_s);
-  per.ReadDouble("map_period_s", &pe.telemetry.period_s);
-  per.ReadDouble("camera_rate_hz", &pe.camera_rate_hz);
-  per.ReadInt("jpeg_quality", &pe.jpeg_quality);
-  per.ReadDouble("camera_budget_bits_per_s", &pe.camera_budget_bits_per_s);
+  config.Section("command_interface")
+      .ReadFields({{"lock_keep_s", &lock.lock_keep_s, /*allow_infinity=*/true}});
+  config.Section("mux").ReadFields(
+      {{"teleop_timeout_s", &teleop_timeout_s}, {"waypoint_timeout_s", &waypoint_timeout_s}});
+  ReadNavigation(config, this);
+  ReadExplore(config, path, &explore);
+  ReadTeam(config, path, this);
+  config.Section("telemetry")
+      .ReadFields({{"state_rate_hz", &state_rate_hz}, {"local_plan_rate_hz", &local_plan_rate_hz}});
+  config.Section("health").ReadFields(
+      {{"restart_backoff_s", &restart_backoff_s}, {"restart_backoff_max_s", &restart_backoff_max_s}});
+  ReadPerception(config, &perception);
   std::string why;
   if (!IsValid(&why)) throw core::ConfigError(path + ": " + why);
 }

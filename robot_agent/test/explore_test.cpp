@@ -6,8 +6,8 @@
 
 #include <cmath>
 #include <cstdio>
-#include <future>
 #include <string>
+#include <vector>
 
 #include "../../sim/test/test_util.h"
 #include "cairn/agent/modes/explore_mode.h"
@@ -74,6 +74,11 @@ void PrintTeam(const char* label, const explore_team::TeamRun& run) {
 // Two robots' centres closer than this touch (wheeled footprints).
 double TouchingM() { return 2 * nav::GetPlatformProfile("wheeled").footprint_radius_m; }
 
+// Three robots 2 m apart at the gate of builtin:tunnels, frame W.
+std::vector<core::PlanarPose> TunnelTeamStarts() {
+  return {{4.0, 20.0, 0.0}, {6.0, 20.0, 0.0}, {8.0, 20.0, 0.0}};
+}
+
 // Two robots from a gate explore the west half of the tunnels and the X junction (a region) as a team: they
 // never go for the same frontier, both take part, the region ends up in their maps and every robot completes.
 TEST(ExploreTest, TwoRobotsShareARegionWithoutSharingAFrontier) {
@@ -95,10 +100,8 @@ TEST(ExploreTest, TwoRobotsShareARegionWithoutSharingAFrontier) {
 // The whole of builtin:tunnels from its gate (robots 2 m apart): one robot that knows nothing explores until
 // 90 % of the reachable floor is in its map, with no contact (exploring to completion, and standing at rest
 // then, is the geb079 test's and the two-robot test's); three reach 90 % at least 1.8x sooner, never going
-// for the same frontier, each taking part (both team runs stop at 95 %); with one of the three gone for good
-// 30 s in (at the first cycle after that in which it holds a claim), the two others explore the branch it was
-// going for (what it saw before it went counts: it reached its peers as map telemetry) and reach 95 %.
-TEST(ExploreTest, ThreeRobotsExploreTheTunnelsAtLeast1p8TimesSoonerThanOneAndTakeOverAGoneRobotsBranch) {
+// for the same frontier, each taking part (the team stops at 95 %).
+TEST(ExploreTest, ThreeRobotsExploreTheTunnelsAtLeast1p8TimesSoonerThanOne) {
   explore_team::TeamOptions o;
   o.starts = {{4.0, 20.0, 0.0}};
   o.stop_at_coverage = 0.90;  // the baseline's figure is its time to 90 %
@@ -109,7 +112,7 @@ TEST(ExploreTest, ThreeRobotsExploreTheTunnelsAtLeast1p8TimesSoonerThanOneAndTak
   EXPECT_FALSE(one.contact);
   ASSERT_GT(one.time_to_90_s, 0.0);
 
-  o.starts = {{4.0, 20.0, 0.0}, {6.0, 20.0, 0.0}, {8.0, 20.0, 0.0}};
+  o.starts = TunnelTeamStarts();
   o.stop_at_coverage = 0.95;  // the 90 % figure and a little beyond; the rest is the last corners
   const explore_team::TeamRun three = explore_team::RunTeam(o);
   PrintTeam("three robots", three);
@@ -123,7 +126,15 @@ TEST(ExploreTest, ThreeRobotsExploreTheTunnelsAtLeast1p8TimesSoonerThanOneAndTak
   EXPECT_GT(three.closest_peer_m, TouchingM()) << "the robots keep clear of one another (peers)";
   for (std::size_t i = 0; i < three.statuses.size(); ++i)
     EXPECT_GT(three.driven_m[i], 5.0) << "every robot takes part";
+}
 
+// The same team with r2 gone for good 30 s in (at the first cycle after that in which it holds a claim): the
+// two others explore the branch it was going for (what it saw before it went counts: it reached its peers as
+// map telemetry) and reach 95 %.
+TEST(ExploreTest, TwoRobotsTakeOverTheBranchOfAGoneThird) {
+  explore_team::TeamOptions o;
+  o.starts = TunnelTeamStarts();
+  o.stop_at_coverage = 0.95;
   o.kill_index = 1;
   o.kill_at_s = 30.0;
   const explore_team::TeamRun gone = explore_team::RunTeam(o);
@@ -167,52 +178,15 @@ TEST(ExploreTest, OneRobotExploresTheRealGeb079ScanUntilComplete) {
 // A legged robot on floor 1 of builtin:building (24 x 14 m, six rooms and a corridor a floor) explores the
 // building: it finds the switchback stairs on its own map, climbs them and explores floor 2 too (>= 90 % of
 // each floor's reachable surfaces, scored over the world's levels), comes back down to what it left on floor
-// 1, and completes without contact. About 18 min simulated, about 4 min of one core.
-//
-// The run starts on its own thread when the program starts (if this test is selected) and runs beside the
-// others, on the machine's second core: the runs share nothing, and each waits for its own plans on its
-// simulated clock, so it gives the same figures as alone. The test, last, waits for it.
-explore_team::TeamRun LeggedBuildingRun() {
+// 1, and completes without contact.
+TEST(ExploreLeggedTest, ALeggedRobotFindsTheStairsAndExploresBothFloors) {
   explore_team::TeamOptions o;
   o.world = "builtin:building";
   o.platform = "legged";
   o.starts = {sim::GetBuiltinWorldInfo("building").suggested_starts.front()};
   o.level_bands = {{-0.5, 0.5}, {2.7, 3.7}};
   o.timeout_s = 1500.0;
-  return explore_team::RunTeam(o);
-}
-
-std::future<explore_team::TeamRun>& LeggedRunFuture() {
-  static std::future<explore_team::TeamRun> future;
-  return future;
-}
-
-class LeggedRunInBackground : public ::testing::Environment {
- public:
-  void SetUp() override {
-    const ::testing::UnitTest& unit = *::testing::UnitTest::GetInstance();
-    for (int i = 0; i < unit.total_test_suite_count(); ++i) {
-      const ::testing::TestSuite& suite = *unit.GetTestSuite(i);
-      for (int j = 0; j < suite.total_test_count(); ++j) {
-        const ::testing::TestInfo& test = *suite.GetTestInfo(j);
-        if (std::string(test.test_suite_name()) == "ExploreLeggedTest" && test.should_run()) {
-          LeggedRunFuture() = std::async(std::launch::async, LeggedBuildingRun);
-          return;
-        }
-      }
-    }
-  }
-  void TearDown() override {
-    if (LeggedRunFuture().valid()) LeggedRunFuture().wait();
-  }
-};
-
-[[maybe_unused]] ::testing::Environment* const kLeggedRunInBackground =
-    ::testing::AddGlobalTestEnvironment(new LeggedRunInBackground);
-
-TEST(ExploreLeggedTest, ALeggedRobotFindsTheStairsAndExploresBothFloors) {
-  ASSERT_TRUE(LeggedRunFuture().valid()) << "started by LeggedRunInBackground";
-  const explore_team::TeamRun run = LeggedRunFuture().get();
+  const explore_team::TeamRun run = explore_team::RunTeam(o);
   PrintTeam("legged", run);
   std::printf(
       "  floor 1 %.1f %%, floor 2 %.1f %% of their reachable surfaces; highest ground stood "

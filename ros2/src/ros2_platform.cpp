@@ -88,39 +88,35 @@ void Ros2PlatformOptions::LoadConfigFile(const std::string& path) {
   try {
     const auto config = core::ConfigSection::LoadFile(path);
     const auto s = config.Section("ros2");
-    s.RejectUnknownKeys({"interface", "points_topic", "odom_topic", "cmd_vel_topic", "cmd_vel_type",
-                         "camera_topic", "camera_type", "camera_optical_frame", "map_frame", "odom_frame",
-                         "base_frame", "pose_timeout_s", "tf_history_s", "start_wait_s", "lidar_rate_hz",
-                         "lidar_min_range_m", "lidar_max_range_m", "lidar_min_elevation_deg"});
-    s.ReadString("interface", &interface_name);
-    s.ReadString("points_topic", &points_topic);
-    s.ReadString("odom_topic", &odom_topic);
-    s.ReadString("cmd_vel_topic", &cmd_vel_topic);
     std::string cmd_type = cmd_vel_stamped ? "twist_stamped" : "twist";
-    s.ReadString("cmd_vel_type", &cmd_type);
+    std::string camera_type = camera_compressed ? "compressed" : "raw";
+    double min_elevation_deg = lidar_min_elevation_rad * 180.0 / M_PI;
+    s.ReadFields({{"interface", &interface_name},
+                  {"points_topic", &points_topic},
+                  {"odom_topic", &odom_topic},
+                  {"cmd_vel_topic", &cmd_vel_topic},
+                  {"cmd_vel_type", &cmd_type},
+                  {"camera_topic", &camera_topic},
+                  {"camera_type", &camera_type},
+                  {"camera_optical_frame", &camera_optical_frame},
+                  {"map_frame", &map_frame},
+                  {"odom_frame", &odom_frame},
+                  {"base_frame", &base_frame},
+                  {"pose_timeout_s", &pose_timeout_s},
+                  {"tf_history_s", &tf_history_s},
+                  {"start_wait_s", &start_wait_s},
+                  {"lidar_rate_hz", &lidar_rate_hz},
+                  {"lidar_min_range_m", &lidar_min_range_m},
+                  {"lidar_max_range_m", &lidar_max_range_m},
+                  {"lidar_min_elevation_deg", &min_elevation_deg}});
     if (cmd_type != "twist" && cmd_type != "twist_stamped")
       throw core::ConfigError(s.Where("cmd_vel_type") + " '" + cmd_type +
                               "' is neither twist nor twist_stamped");
     cmd_vel_stamped = cmd_type == "twist_stamped";
-    s.ReadString("camera_topic", &camera_topic);
-    std::string camera_type = camera_compressed ? "compressed" : "raw";
-    s.ReadString("camera_type", &camera_type);
     if (camera_type != "compressed" && camera_type != "raw")
       throw core::ConfigError(s.Where("camera_type") + " '" + camera_type +
                               "' is neither compressed nor raw");
     camera_compressed = camera_type == "compressed";
-    s.ReadBool("camera_optical_frame", &camera_optical_frame);
-    s.ReadString("map_frame", &map_frame);
-    s.ReadString("odom_frame", &odom_frame);
-    s.ReadString("base_frame", &base_frame);
-    s.ReadDouble("pose_timeout_s", &pose_timeout_s);
-    s.ReadDouble("tf_history_s", &tf_history_s);
-    s.ReadDouble("start_wait_s", &start_wait_s);
-    s.ReadDouble("lidar_rate_hz", &lidar_rate_hz);
-    s.ReadDouble("lidar_min_range_m", &lidar_min_range_m);
-    s.ReadDouble("lidar_max_range_m", &lidar_max_range_m);
-    double min_elevation_deg = lidar_min_elevation_rad * 180.0 / M_PI;
-    s.ReadDouble("lidar_min_elevation_deg", &min_elevation_deg);
     lidar_min_elevation_rad = min_elevation_deg * M_PI / 180.0;
   } catch (const core::ConfigError& e) {
     throw std::invalid_argument(e.what());

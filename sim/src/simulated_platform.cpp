@@ -221,23 +221,19 @@ void SimulatedPlatformOptions::LoadConfigFile(const std::string& path) {
   try {
     const auto config = core::ConfigSection::LoadFile(path);
     const auto s = config.Section("simulation");
-    s.RejectUnknownKeys({"lidar_rate_hz", "lidar_beams", "lidar_points_per_beam", "lidar_max_range_m",
-                         "lidar_range_noise_m", "lidar_height_m", "slam_position_drift_per_sqrt_m",
-                         "slam_yaw_drift_rad_per_sqrt_m", "camera_width_px", "camera_height_px",
-                         "command_timeout_s", "rockfalls"});
-    s.ReadDouble("lidar_rate_hz", &lidar.rate_hz);
-    s.ReadInt("lidar_beams", &lidar.num_beams);
-    s.ReadInt("lidar_points_per_beam", &lidar.points_per_beam);
-    s.ReadDouble("lidar_max_range_m", &lidar.max_range_m);
-    s.ReadDouble("lidar_range_noise_m", &lidar.range_noise_stddev_m);
-    s.ReadDouble("lidar_height_m", &lidar_height_m);
-    s.ReadDouble("slam_position_drift_per_sqrt_m", &slam.position_drift_per_sqrt_m);
-    s.ReadDouble("slam_yaw_drift_rad_per_sqrt_m", &slam.yaw_drift_rad_per_sqrt_m);
-    s.ReadInt("camera_width_px", &camera.width_px);
-    s.ReadInt("camera_height_px", &camera.height_px);
-    s.ReadDouble("command_timeout_s", &command_timeout_s);
     std::string rockfall_text;
-    s.ReadString("rockfalls", &rockfall_text);
+    s.ReadFields({{"lidar_rate_hz", &lidar.rate_hz},
+                  {"lidar_beams", &lidar.num_beams},
+                  {"lidar_points_per_beam", &lidar.points_per_beam},
+                  {"lidar_max_range_m", &lidar.max_range_m},
+                  {"lidar_range_noise_m", &lidar.range_noise_stddev_m},
+                  {"lidar_height_m", &lidar_height_m},
+                  {"slam_position_drift_per_sqrt_m", &slam.position_drift_per_sqrt_m},
+                  {"slam_yaw_drift_rad_per_sqrt_m", &slam.yaw_drift_rad_per_sqrt_m},
+                  {"camera_width_px", &camera.width_px},
+                  {"camera_height_px", &camera.height_px},
+                  {"command_timeout_s", &command_timeout_s},
+                  {"rockfalls", &rockfall_text}});
     if (!rockfall_text.empty()) rockfalls = ParseRockfalls(rockfall_text);
   } catch (const core::ConfigError& e) {
     throw std::invalid_argument(e.what());

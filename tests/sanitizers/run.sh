@@ -19,7 +19,7 @@ TESTS=(
   cairn_nav_ilqr_test cairn_nav_sampling_test cairn_nav_scan_obstacles_test cairn_nav_multilevel_test
   cairn_nav_frontier_test cairn_nav_geb079_test
   cairn_perception_map_test cairn_perception_telemetry_test cairn_perception_staircase_test cairn_perception_jpeg_test
-  cairn_agent_unit_test cairn_agent_watchdog_test cairn_ros2_test cairn_fuzz_ros2_message_replay
+  cairn_agent_unit_test cairn_agent_perception_test_watchdog cairn_ros2_test cairn_fuzz_ros2_message_replay
 )
 # ThreadSanitizer looks for races between threads: the single-threaded detector and local planner tests (2-4
 # minutes each under TSan, the suite's long pole) run under ASan + UBSan only.
@@ -29,14 +29,16 @@ if [ "$kind" = thread ]; then
   TESTS=($(printf '%s\n' "${TESTS[@]}" | grep -v '^$'))
 fi
 if [ "${CAIRN_SANITIZE_SCENARIOS:-0}" = 1 ]; then
-  TESTS+=(cairn_agent_navigation_test cairn_agent_team_test cairn_agent_explore_test cairn_agent_perception_test)
+  TESTS+=(cairn_agent_navigation_test cairn_agent_team_test cairn_agent_team_test_convoy cairn_agent_explore_test
+          cairn_agent_explore_test_team cairn_agent_explore_test_gone cairn_agent_explore_test_legged
+          cairn_agent_perception_test)
 fi
 
 export CCACHE_BASEDIR="$ROOT" CCACHE_NOHASHDIR=true
 # Configured every time (seconds): a build folder from before a new test target was added then has it too.
 cmake -S "$ROOT" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCAIRN_SANITIZER="$kind" >/dev/null
-# cairn_agent_watchdog_test is a ctest entry of the cairn_agent_perception_test binary.
-targets=("${TESTS[@]/cairn_agent_watchdog_test/cairn_agent_perception_test}")
+# A shard's ctest entry (<binary>_<suffix>, cmake/CairnTesting.cmake) runs its binary.
+targets=($(printf '%s\n' "${TESTS[@]}" | sed -E 's/^(cairn_agent_(perception|team|explore)_test)_[a-z]+$/\1/' | sort -u))
 cmake --build "$build" -j "${CAIRN_JOBS:-$(nproc)}" --target "${targets[@]}"
 
 supp="$ROOT/tests/sanitizers"

@@ -386,9 +386,16 @@ class AgentDds::Impl {
                                          {m.goal_M().x_m(), m.goal_M().y_m()},
                                          m.platform()});
         });
+    MakeBaseInfoReader();
+    MakeCommandReaders();
+  }
+
+  // Basestations' announcements (who they are, which processes they run in, the robots they hear) and their
+  // liveliness.
+  void MakeBaseInfoReader() {
     // Basestations' announcements only: robots announce themselves on cairn/agent_info, which no robot reads.
     info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
-        p, "cairn/base_info", "cairn.latched",
+        *participant_, "cairn/base_info", "cairn.latched",
         [this](const msgs::AgentInfo& m, const SampleInfo& info) {
           if (m.kind() != msgs::AGENT_KIND_BASESTATION ||
               !ValidPeerId("cairn/base_info", "base id", m.agent_id()) ||
@@ -431,13 +438,29 @@ class AgentDds::Impl {
           }
           handlers_.base_liveliness(change);
         });
-    control_reader_ = std::make_unique<core::Reader<msgs::ControlRequestPubSubType>>(
-        p, CommandTopic("cairn/control_request"), "cairn.command",
-        [this, robot](const msgs::ControlRequest& m, const SampleInfo& info) {
-          if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/control_request", "base id", m.base_id()) ||
-              !Certified("cairn/control_request", "base id", m.base_id(), info))
+  }
+
+  // A reader of the command topic `name` (this robot's own under DDS Security, CommandTopic) that hands
+  // `handle` each message addressed to this robot from a valid base id (certified under DDS Security).
+  template <typename PubSub, typename Handle>
+  std::unique_ptr<core::Reader<PubSub>> CommandReader(const char* name, const char* qos_class,
+                                                      Handle handle) {
+    using Msg = typename core::Reader<PubSub>::Msg;
+    return std::make_unique<core::Reader<PubSub>>(
+        *participant_, CommandTopic(name), qos_class,
+        [this, name, handle = std::move(handle)](const Msg& m, const SampleInfo& info) {
+          if (m.robot_id() != options_.robot_id) return;
+          if (!ValidPeerId(name, "base id", m.base_id()) || !Certified(name, "base id", m.base_id(), info))
             return;
+          handle(m, info);
+        });
+  }
+
+  // The operators' commands, each handed on as a plain struct (malformed fields named, not dropped).
+  void MakeCommandReaders() {
+    control_reader_ = CommandReader<msgs::ControlRequestPubSubType>(
+        "cairn/control_request", "cairn.command",
+        [this](const msgs::ControlRequest& m, const SampleInfo& info) {
           ControlCommand c{SenderOf(m.base_id(), info), m.request_id(),
                            m.action() == msgs::CONTROL_ACTION_RELEASE, ""};
           if (m.action() != msgs::CONTROL_ACTION_REQUEST && m.action() != msgs::CONTROL_ACTION_RELEASE) {
@@ -447,32 +470,18 @@ class AgentDds::Impl {
           }
           handlers_.control(c);
         });
-    mode_reader_ = std::make_unique<core::Reader<msgs::ModeRequestPubSubType>>(
-        p, CommandTopic("cairn/mode_request"), "cairn.command",
-        [this, robot](const msgs::ModeRequest& m, const SampleInfo& info) {
-          if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/mode_request", "base id", m.base_id()) ||
-              !Certified("cairn/mode_request", "base id", m.base_id(), info))
-            return;
+    mode_reader_ = CommandReader<msgs::ModeRequestPubSubType>(
+        "cairn/mode_request", "cairn.command", [this](const msgs::ModeRequest& m, const SampleInfo& info) {
           handlers_.mode(ModeCommand{SenderOf(m.base_id(), info), m.request_id(), m.mode()});
         });
-    goal_reader_ = std::make_unique<core::Reader<msgs::WaypointGoalPubSubType>>(
-        p, CommandTopic("cairn/waypoint_goal"), "cairn.command",
-        [this, robot](const msgs::WaypointGoal& m, const SampleInfo& info) {
-          if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/waypoint_goal", "base id", m.base_id()) ||
-              !Certified("cairn/waypoint_goal", "base id", m.base_id(), info))
-            return;
+    goal_reader_ = CommandReader<msgs::WaypointGoalPubSubType>(
+        "cairn/waypoint_goal", "cairn.command", [this](const msgs::WaypointGoal& m, const SampleInfo& info) {
           handlers_.goal(GoalCommand{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.x_m(),
                                      m.y_m(), m.tolerance_m(), m.z_m()});
         });
-    explore_reader_ = std::make_unique<core::Reader<msgs::ExploreRequestPubSubType>>(
-        p, CommandTopic("cairn/explore_request"), "cairn.command",
-        [this, robot](const msgs::ExploreRequest& m, const SampleInfo& info) {
-          if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/explore_request", "base id", m.base_id()) ||
-              !Certified("cairn/explore_request", "base id", m.base_id(), info))
-            return;
+    explore_reader_ = CommandReader<msgs::ExploreRequestPubSubType>(
+        "cairn/explore_request", "cairn.command",
+        [this](const msgs::ExploreRequest& m, const SampleInfo& info) {
           ExploreCommand c{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), {}};
           if (m.has_region()) {
             // Corners as sent (not sorted: CheckExploreTask refuses a box whose corners are swapped).
@@ -486,23 +495,14 @@ class AgentDds::Impl {
           c.task.home_after_silence_s = m.home_after_silence_s();
           handlers_.explore(c);
         });
-    home_reader_ = std::make_unique<core::Reader<msgs::HomeRequestPubSubType>>(
-        p, CommandTopic("cairn/home_request"), "cairn.command",
-        [this, robot](const msgs::HomeRequest& m, const SampleInfo& info) {
-          if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/home_request", "base id", m.base_id()) ||
-              !Certified("cairn/home_request", "base id", m.base_id(), info))
-            return;
+    home_reader_ = CommandReader<msgs::HomeRequestPubSubType>(
+        "cairn/home_request", "cairn.command", [this](const msgs::HomeRequest& m, const SampleInfo& info) {
           handlers_.home(HomeCommand{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.has_point(),
                                      m.x_m(), m.y_m(), m.z_m()});
         });
-    convoy_reader_ = std::make_unique<core::Reader<msgs::ConvoyRequestPubSubType>>(
-        p, CommandTopic("cairn/convoy_request"), "cairn.command",
-        [this, robot](const msgs::ConvoyRequest& m, const SampleInfo& info) {
-          if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/convoy_request", "base id", m.base_id()) ||
-              !Certified("cairn/convoy_request", "base id", m.base_id(), info))
-            return;
+    convoy_reader_ = CommandReader<msgs::ConvoyRequestPubSubType>(
+        "cairn/convoy_request", "cairn.command",
+        [this](const msgs::ConvoyRequest& m, const SampleInfo& info) {
           ConvoyCommand c{SenderOf(m.base_id(), info), m.request_id(), false, {}, ""};
           if (m.action() == msgs::CONVOY_ACTION_STOP) {
             c.stop = true;
@@ -514,31 +514,17 @@ class AgentDds::Impl {
           }
           handlers_.convoy(c);
         });
-    restart_reader_ = std::make_unique<core::Reader<msgs::RestartRequestPubSubType>>(
-        p, CommandTopic("cairn/restart_request"), "cairn.command",
-        [this, robot](const msgs::RestartRequest& m, const SampleInfo& info) {
-          if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/restart_request", "base id", m.base_id()) ||
-              !Certified("cairn/restart_request", "base id", m.base_id(), info))
-            return;
+    restart_reader_ = CommandReader<msgs::RestartRequestPubSubType>(
+        "cairn/restart_request", "cairn.command",
+        [this](const msgs::RestartRequest& m, const SampleInfo& info) {
           handlers_.restart(RestartCommand{SenderOf(m.base_id(), info), m.request_id(), m.component_name()});
         });
-    stop_reader_ = std::make_unique<core::Reader<msgs::StopRequestPubSubType>>(
-        p, CommandTopic("cairn/stop_request"), "cairn.command",
-        [this, robot](const msgs::StopRequest& m, const SampleInfo& info) {
-          if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/stop_request", "base id", m.base_id()) ||
-              !Certified("cairn/stop_request", "base id", m.base_id(), info))
-            return;
+    stop_reader_ = CommandReader<msgs::StopRequestPubSubType>(
+        "cairn/stop_request", "cairn.command", [this](const msgs::StopRequest& m, const SampleInfo& info) {
           handlers_.stop(StopCommand{SenderOf(m.base_id(), info), m.request_id()});
         });
-    teleop_reader_ = std::make_unique<core::Reader<msgs::TeleopTwistPubSubType>>(
-        p, CommandTopic("cairn/teleop"), "cairn.teleop",
-        [this, robot](const msgs::TeleopTwist& m, const SampleInfo& info) {
-          if (m.robot_id() != robot) return;
-          if (!ValidPeerId("cairn/teleop", "base id", m.base_id()) ||
-              !Certified("cairn/teleop", "base id", m.base_id(), info))
-            return;
+    teleop_reader_ = CommandReader<msgs::TeleopTwistPubSubType>(
+        "cairn/teleop", "cairn.teleop", [this](const msgs::TeleopTwist& m, const SampleInfo&) {
           const msgs::Twist& t = m.twist();
           handlers_.teleop(TeleopCommand{
               m.base_id(), OperatorTwist{t.linear_x_mps(), t.linear_y_mps(), t.angular_z_radps()}});

@@ -6,6 +6,8 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <variant>
 #include <vector>
 
 namespace cairn::core {
@@ -14,6 +16,20 @@ namespace cairn::core {
 class ConfigError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+};
+
+/// One key of a config section and the variable its value is read into (ConfigSection::ReadFields). A double
+/// may allow infinity (YAML `.inf`).
+struct ConfigField {
+  ConfigField(std::string key_in, double* value_in, bool allow_infinity_in = false)
+      : key(std::move(key_in)), value(value_in), allow_infinity(allow_infinity_in) {}
+  ConfigField(std::string key_in, int* value_in) : key(std::move(key_in)), value(value_in) {}
+  ConfigField(std::string key_in, bool* value_in) : key(std::move(key_in)), value(value_in) {}
+  ConfigField(std::string key_in, std::string* value_in) : key(std::move(key_in)), value(value_in) {}
+
+  std::string key;
+  std::variant<double*, int*, bool*, std::string*> value;
+  bool allow_infinity = false;
 };
 
 /// Read-only view of one YAML mapping (a config file or a section of it). Unknown keys are an error, so a
@@ -42,6 +58,9 @@ class ConfigSection {
 
   /// Throws ConfigError when a key other than `known` is present.
   void RejectUnknownKeys(const std::vector<std::string>& known) const;
+  /// The section's keys are exactly some of `fields`' (else ConfigError, as RejectUnknownKeys); each present
+  /// is read into its variable (as ReadDouble, ReadInt, ReadBool, ReadString), each absent keeps its value.
+  void ReadFields(const std::vector<ConfigField>& fields) const;
 
   /// "file.yaml: agent.lock_keep_s" — the dotted path of `key` for error messages.
   std::string Where(const std::string& key) const;
