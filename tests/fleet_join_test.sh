@@ -12,9 +12,9 @@
 #   4. 5 % random loss on every link for 20 s: no robot is shown lost (no false loss);
 #   5. the basestation quits; the idle traffic of N, 5 and 1 robots alone (discovery and liveliness) is a
 #      figure.
-# ctest runs 10 robots with the server (CAIRN_FLEET_JOIN_ROBOTS) and 5 with simple discovery
-# (CAIRN_FLEET_JOIN_SIMPLE_ROBOTS: with 10, the 7th and later robots are not seen at all within 15 s on 1 Mbit/s
-# links, and the test fails: docs/PERFORMANCE.md). CAIRN_FLEET_JOIN_ROUNDS="server" runs one round;
+# By default it runs 5 robots with simple discovery (CAIRN_FLEET_JOIN_SIMPLE_ROBOTS: with 10, the 7th and later
+# robots are not seen at all within 15 s on 1 Mbit/s links, and the test fails: docs/PERFORMANCE.md), then 10
+# with the server (CAIRN_FLEET_JOIN_ROBOTS). CAIRN_FLEET_JOIN_ROUNDS="server" runs one round (ctest does);
 # CAIRN_FLEET_JOIN_KBIT the links' rate (default 1000). Run by hand with CAIRN_FLEET_JOIN_LINK=lan for the lan
 # link's figures (250 ms announcements).
 # The robots run a light simulation (no perception, a sparse lidar at 5 Hz) so that a dozen processes fit two
