@@ -772,96 +772,108 @@ class GuiBridge::Impl {
   void PublishMap(std::uint64_t ns, std::optional<FoxgloveServer::ClientId> only) {
     const double res = client_.perception().MapResolution();
     if (!(res > 0)) return;
-    if (!only) {
-      std::map<std::pair<int, int>, std::string> chunks;
-      for (const perception::CoarseVoxel& v : client_.perception().MapVoxels()) {
-        if (v.state != perception::CoarseState::kOccupied) continue;
-        const std::pair<int, int> key{FloorDiv(v.ix, kChunkVoxels), FloorDiv(v.iy, kChunkVoxels)};
-        std::string& cubes = chunks[key];
-        double r = 0, g = 0, b = 0;
-        const double x = (v.ix + 0.5) * res, y = (v.iy + 0.5) * res, z = (v.iz + 0.5) * res;
-        HeightColor(z, &r, &g, &b);
-        char buf[256];
-        std::snprintf(
-            buf, sizeof(buf),
-            "%s{\"pose\":{\"position\":{\"x\":%.2f,\"y\":%.2f,\"z\":%.2f},\"orientation\":{\"x\":0,\"y\":0,"
-            "\"z\":0,\"w\":1}},\"size\":{\"x\":%.3f,\"y\":%.3f,\"z\":%.3f},\"color\":{\"r\":%.2f,\"g\":%.2f,"
-            "\"b\":%.2f,\"a\":1}}",
-            cubes.empty() ? "" : ",", x, y, z, res, res, res, r, g, b);
-        cubes += buf;
-      }
-      // The link budget (GuiOptions::map_budget_kBps): a token bucket filled at the budget, holding at most
-      // two seconds of it. Columns never sent go first (new ground shows at once), then changed ones, least
-      // recently sent first, each at most every map_resend_s: a map that keeps changing as robots drive costs
-      // the budget, not every change; what waits goes out at a later period.
-      const auto now = Clock::now();
-      const double budget_Bps = options_.map_budget_kBps * 1000.0;
-      const double dt = map_tokens_at_ == Clock::time_point{}
-                            ? 2.0
-                            : std::chrono::duration<double>(now - map_tokens_at_).count();
-      map_tokens_at_ = now;
-      map_tokens_ = std::min(2.0 * budget_Bps, map_tokens_ + dt * budget_Bps);
-      // Each changed column with when it was last sent (never: the epoch, so it sorts first).
-      struct Changed {
-        std::pair<int, int> key;
-        const std::string* cubes;
-        Clock::time_point sent_at;
-      };
-      std::vector<Changed> changed;
-      for (const auto& [key, cubes] : chunks) {
-        const auto sent = map_sent_.find(key);
-        if (sent == map_sent_.end()) {
-          changed.push_back({key, &cubes, Clock::time_point{}});
-        } else if (sent->second.cubes != cubes &&
-                   std::chrono::duration<double>(now - sent->second.sent_at).count() >=
-                       options_.map_resend_s) {
-          changed.push_back({key, &cubes, sent->second.sent_at});
-        }
-      }
-      std::stable_sort(changed.begin(), changed.end(),
-                       [](const Changed& a, const Changed& b) { return a.sent_at < b.sent_at; });
-      std::vector<std::string> entities, deletions;
-      for (const Changed& c : changed) {
-        if (map_tokens_ <= 0) {
-          std::lock_guard<std::mutex> lock(mutex_);
-          stats_.map_chunks_deferred += 1;
-          continue;
-        }
-        entities.push_back(ChunkEntity(c.key, *c.cubes, ns));
-        map_tokens_ -= static_cast<double>(entities.back().size());
-        map_sent_[c.key] = {*c.cubes, now};
-      }
-      for (auto it = map_sent_.begin(); it != map_sent_.end();) {
-        if (chunks.count(it->first)) {
-          ++it;
-          continue;
-        }
-        deletions.push_back(Deletion(ChunkId(it->first), ns).dump());
-        it = map_sent_.erase(it);
-      }
-      // At most ~64 columns per message so that no single frame grows past a few MB.
-      for (std::size_t i = 0; i < std::max<std::size_t>(entities.size(), deletions.empty() ? 0 : 1);
-           i += 64) {
-        std::string msg = "{\"deletions\":[";
-        if (i == 0) msg += Join(deletions);
-        msg += "],\"entities\":[";
-        const std::size_t end = std::min(entities.size(), i + 64);
-        msg += Join(std::vector<std::string>(
-            entities.begin() + static_cast<std::ptrdiff_t>(std::min(i, entities.size())),
-            entities.begin() + static_cast<std::ptrdiff_t>(end)));
-        msg += "]}";
-        server_->Publish(map_, ns, msg);
-        std::lock_guard<std::mutex> lock(mutex_);
-        stats_.map_chunks_sent += end - std::min(i, end);
-      }
-      return;
+    if (only) {
+      SendAllColumns(ns, *only);
+    } else {
+      PublishChangedColumns(MapColumns(res), ns);
     }
+  }
+
+  // The occupied voxels as scene cubes (JSON, coloured by height), by column.
+  std::map<std::pair<int, int>, std::string> MapColumns(double res) const {
+    std::map<std::pair<int, int>, std::string> chunks;
+    for (const perception::CoarseVoxel& v : client_.perception().MapVoxels()) {
+      if (v.state != perception::CoarseState::kOccupied) continue;
+      const std::pair<int, int> key{FloorDiv(v.ix, kChunkVoxels), FloorDiv(v.iy, kChunkVoxels)};
+      std::string& cubes = chunks[key];
+      double r = 0, g = 0, b = 0;
+      const double x = (v.ix + 0.5) * res, y = (v.iy + 0.5) * res, z = (v.iz + 0.5) * res;
+      HeightColor(z, &r, &g, &b);
+      char buf[256];
+      std::snprintf(
+          buf, sizeof(buf),
+          "%s{\"pose\":{\"position\":{\"x\":%.2f,\"y\":%.2f,\"z\":%.2f},\"orientation\":{\"x\":0,\"y\":0,"
+          "\"z\":0,\"w\":1}},\"size\":{\"x\":%.3f,\"y\":%.3f,\"z\":%.3f},\"color\":{\"r\":%.2f,\"g\":%.2f,"
+          "\"b\":%.2f,\"a\":1}}",
+          cubes.empty() ? "" : ",", x, y, z, res, res, res, r, g, b);
+      cubes += buf;
+    }
+    return chunks;
+  }
+
+  void PublishChangedColumns(const std::map<std::pair<int, int>, std::string>& chunks, std::uint64_t ns) {
+    // The link budget (GuiOptions::map_budget_kBps): a token bucket filled at the budget, holding at most
+    // two seconds of it. Columns never sent go first (new ground shows at once), then changed ones, least
+    // recently sent first, each at most every map_resend_s: a map that keeps changing as robots drive costs
+    // the budget, not every change; what waits goes out at a later period.
+    const auto now = Clock::now();
+    const double budget_Bps = options_.map_budget_kBps * 1000.0;
+    const double dt = map_tokens_at_ == Clock::time_point{}
+                          ? 2.0
+                          : std::chrono::duration<double>(now - map_tokens_at_).count();
+    map_tokens_at_ = now;
+    map_tokens_ = std::min(2.0 * budget_Bps, map_tokens_ + dt * budget_Bps);
+    // Each changed column with when it was last sent (never: the epoch, so it sorts first).
+    struct Changed {
+      std::pair<int, int> key;
+      const std::string* cubes;
+      Clock::time_point sent_at;
+    };
+    std::vector<Changed> changed;
+    for (const auto& [key, cubes] : chunks) {
+      const auto sent = map_sent_.find(key);
+      if (sent == map_sent_.end()) {
+        changed.push_back({key, &cubes, Clock::time_point{}});
+      } else if (sent->second.cubes != cubes &&
+                 std::chrono::duration<double>(now - sent->second.sent_at).count() >= options_.map_resend_s) {
+        changed.push_back({key, &cubes, sent->second.sent_at});
+      }
+    }
+    std::stable_sort(changed.begin(), changed.end(),
+                     [](const Changed& a, const Changed& b) { return a.sent_at < b.sent_at; });
+    std::vector<std::string> entities, deletions;
+    for (const Changed& c : changed) {
+      if (map_tokens_ <= 0) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        stats_.map_chunks_deferred += 1;
+        continue;
+      }
+      entities.push_back(ChunkEntity(c.key, *c.cubes, ns));
+      map_tokens_ -= static_cast<double>(entities.back().size());
+      map_sent_[c.key] = {*c.cubes, now};
+    }
+    for (auto it = map_sent_.begin(); it != map_sent_.end();) {
+      if (chunks.count(it->first)) {
+        ++it;
+        continue;
+      }
+      deletions.push_back(Deletion(ChunkId(it->first), ns).dump());
+      it = map_sent_.erase(it);
+    }
+    // At most ~64 columns per message so that no single frame grows past a few MB.
+    for (std::size_t i = 0; i < std::max<std::size_t>(entities.size(), deletions.empty() ? 0 : 1); i += 64) {
+      std::string msg = "{\"deletions\":[";
+      if (i == 0) msg += Join(deletions);
+      msg += "],\"entities\":[";
+      const std::size_t end = std::min(entities.size(), i + 64);
+      msg += Join(std::vector<std::string>(
+          entities.begin() + static_cast<std::ptrdiff_t>(std::min(i, entities.size())),
+          entities.begin() + static_cast<std::ptrdiff_t>(end)));
+      msg += "]}";
+      server_->Publish(map_, ns, msg);
+      std::lock_guard<std::mutex> lock(mutex_);
+      stats_.map_chunks_sent += end - std::min(i, end);
+    }
+  }
+
+  // Every column sent so far, to a new subscriber.
+  void SendAllColumns(std::uint64_t ns, FoxgloveServer::ClientId only) {
     std::vector<std::string> entities;
     for (const auto& [key, sent] : map_sent_) entities.push_back(ChunkEntity(key, sent.cubes, ns));
     for (std::size_t i = 0; i < entities.size(); i += 64) {
       const std::size_t end = std::min(entities.size(), i + 64);
       server_->SendTo(
-          *only, map_, ns,
+          only, map_, ns,
           "{\"deletions\":[],\"entities\":[" +
               Join(std::vector<std::string>(entities.begin() + static_cast<std::ptrdiff_t>(i),
                                             entities.begin() + static_cast<std::ptrdiff_t>(end))) +

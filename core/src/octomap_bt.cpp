@@ -133,43 +133,58 @@ namespace {
 
 enum class Format { kBinary, kFull };
 
-// The header of a .bt or .ot file (they differ in their first line only) and the node stream after it, walked
-// by the format's counter.
-BtFile ParseOctomapFile(const std::string& bytes, const std::string& where, Format format) {
-  const bool binary = format == Format::kBinary;
-  const char* kind = binary ? "an OctoMap binary (.bt) file" : "an OctoMap full (.ot) file";
-  if (bytes.empty()) throw std::invalid_argument(where + " is empty");
-  std::size_t pos = 0;
-  // Reads the next header line (without '\n'); false at the end of the file.
-  auto next_line = [&](std::string* line) {
-    if (pos >= bytes.size()) return false;
-    std::size_t eol = bytes.find('\n', pos);
-    if (eol == std::string::npos || eol - pos > 1024) eol = std::min(bytes.size(), pos + 1024);
-    *line = bytes.substr(pos, eol - pos);
-    pos = std::min(bytes.size(), eol + 1);  // a last line without '\n' ends the file (found by fuzzing)
+// The header's lines, one at a time: each without its '\n' (and '\r'), at most 1024 bytes.
+class HeaderLines {
+ public:
+  explicit HeaderLines(const std::string& bytes) : bytes_(bytes) {}
+  // The next line; false at the end of the file.
+  bool Next(std::string* line) {
+    if (pos_ >= bytes_.size()) return false;
+    std::size_t eol = bytes_.find('\n', pos_);
+    if (eol == std::string::npos || eol - pos_ > 1024) eol = std::min(bytes_.size(), pos_ + 1024);
+    *line = bytes_.substr(pos_, eol - pos_);
+    pos_ = std::min(bytes_.size(), eol + 1);  // a last line without '\n' ends the file (found by fuzzing)
     if (!line->empty() && line->back() == '\r') line->pop_back();
     return true;
-  };
-  std::string line;
-  next_line(&line);
+  }
+  // Where the next line starts (after the header: the node stream).
+  std::size_t pos() const { return pos_; }
+
+ private:
+  const std::string& bytes_;
+  std::size_t pos_ = 0;
+};
+
+// Throws unless `line` is the first line of the format (naming the other format when it is that one's).
+void CheckFirstLine(const std::string& line, const std::string& where, bool binary) {
   const std::string first_line = binary ? kBtFirstLine : kOtFirstLine;
   // "# Octomap OcTree file" is a prefix of neither form's other first line, so the order of the checks
   // matters only for the message.
-  if (line.rfind(first_line, 0) != 0) {
-    if (binary && line.rfind(kOtFirstLine, 0) == 0) {
-      throw std::invalid_argument(where + " is an OctoMap full (.ot) file, not a binary (.bt) file");
-    }
-    if (!binary && line.rfind(kBtFirstLine, 0) == 0) {
-      throw std::invalid_argument(where + " is an OctoMap binary (.bt) file, not a full (.ot) file");
-    }
-    throw std::invalid_argument(where + " is not " + kind + ": its first line is not '" + first_line + "'");
+  if (line.rfind(first_line, 0) == 0) return;
+  if (binary && line.rfind(kOtFirstLine, 0) == 0) {
+    throw std::invalid_argument(where + " is an OctoMap full (.ot) file, not a binary (.bt) file");
   }
+  if (!binary && line.rfind(kBtFirstLine, 0) == 0) {
+    throw std::invalid_argument(where + " is an OctoMap binary (.bt) file, not a full (.ot) file");
+  }
+  const char* kind = binary ? "an OctoMap binary (.bt) file" : "an OctoMap full (.ot) file";
+  throw std::invalid_argument(where + " is not " + kind + ": its first line is not '" + first_line + "'");
+}
+
+struct OctomapHeader {
+  std::int64_t size = 0;  // nodes
+  double resolution_m = 0.0;
+};
+
+// The header's lines after the first, up to and including 'data': id OcTree, size and res, each checked.
+OctomapHeader ReadHeader(HeaderLines* lines, const std::string& where) {
   std::string id;
   std::optional<std::int64_t> size;
   std::optional<double> res;
   bool data_found = false;
+  std::string line;
   for (int n = 0; n < 256 && !data_found; ++n) {
-    if (!next_line(&line)) break;
+    if (!lines->Next(&line)) break;
     std::istringstream s(line);
     std::string keyword;
     if (!(s >> keyword) || keyword[0] == '#') continue;
@@ -208,17 +223,30 @@ BtFile ParseOctomapFile(const std::string& bytes, const std::string& where, Form
     throw std::invalid_argument(where + " has an invalid resolution " + std::to_string(*res) +
                                 " in its header");
   }
+  return {*size, *res};
+}
 
+// The header of a .bt or .ot file (they differ in their first line only) and the node stream after it, walked
+// by the format's counter.
+BtFile ParseOctomapFile(const std::string& bytes, const std::string& where, Format format) {
+  const bool binary = format == Format::kBinary;
+  if (bytes.empty()) throw std::invalid_argument(where + " is empty");
+  HeaderLines lines(bytes);
+  std::string line;
+  lines.Next(&line);
+  CheckFirstLine(line, where, binary);
+  const OctomapHeader header = ReadHeader(&lines, where);
   BtFile contents;
-  contents.resolution_m = *res;
-  contents.data = bytes.substr(pos);
+  contents.resolution_m = header.resolution_m;
+  contents.data = bytes.substr(lines.pos());
   std::string error;
   contents.num_nodes = binary ? CountBtNodes(contents.data.data(), contents.data.size(), &error)
                               : CountOtNodes(contents.data.data(), contents.data.size(), &error);
   if (!error.empty()) throw std::invalid_argument(where + " is " + error);
-  if (contents.num_nodes != *size) {
-    throw std::invalid_argument(where + " is corrupt or truncated: its header says " + std::to_string(*size) +
-                                " nodes but its data holds " + std::to_string(contents.num_nodes));
+  if (contents.num_nodes != header.size) {
+    throw std::invalid_argument(where + " is corrupt or truncated: its header says " +
+                                std::to_string(header.size) + " nodes but its data holds " +
+                                std::to_string(contents.num_nodes));
   }
   return contents;
 }

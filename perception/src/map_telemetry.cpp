@@ -109,38 +109,41 @@ bool Fail(std::string* error, const std::string& message) {
   return false;
 }
 
-// Parses the decompressed body of `count` voxels into `out`.
-bool ParseBody(const std::uint8_t* body, std::size_t size, std::size_t count, std::vector<CoarseVoxel>* out,
-               std::string* error) {
-  std::size_t pos = 0;
-  const auto read_varint = [&](std::uint32_t* value, std::size_t voxel, const char* axis) {
-    std::uint64_t v = 0;
-    for (std::size_t i = 0;; ++i) {
-      if (i == kMaxVarintBytes) {
-        std::ostringstream msg;
-        msg << "varint of voxel #" << voxel << " axis " << axis << " at body byte " << pos
-            << " is longer than " << kMaxVarintBytes << " bytes";
-        return Fail(error, msg.str());
-      }
-      if (pos >= size) {
-        std::ostringstream msg;
-        msg << "truncated varint: body ends (" << size << " bytes) inside voxel #" << voxel << " axis "
-            << axis << " of " << count;
-        return Fail(error, msg.str());
-      }
-      const std::uint8_t b = body[pos++];
-      v |= static_cast<std::uint64_t>(b & 0x7F) << (7 * i);
-      if ((b & 0x80) == 0) break;
-    }
-    if (v > 0xFFFFFFFFull) {
+// Reads the varint at body[*pos] (voxel #`voxel` of `count`, its index on `axis`) into `value`, moving *pos
+// past it; false (and `error`) for one too long, cut off by the body's end, or over 32 bits.
+bool ReadVarint(const std::uint8_t* body, std::size_t size, std::size_t* pos, std::size_t count,
+                std::size_t voxel, const char* axis, std::uint32_t* value, std::string* error) {
+  std::uint64_t v = 0;
+  for (std::size_t i = 0;; ++i) {
+    if (i == kMaxVarintBytes) {
       std::ostringstream msg;
-      msg << "varint of voxel #" << voxel << " axis " << axis << " overflows 32 bits";
+      msg << "varint of voxel #" << voxel << " axis " << axis << " at body byte " << *pos
+          << " is longer than " << kMaxVarintBytes << " bytes";
       return Fail(error, msg.str());
     }
-    *value = static_cast<std::uint32_t>(v);
-    return true;
-  };
+    if (*pos >= size) {
+      std::ostringstream msg;
+      msg << "truncated varint: body ends (" << size << " bytes) inside voxel #" << voxel << " axis " << axis
+          << " of " << count;
+      return Fail(error, msg.str());
+    }
+    const std::uint8_t b = body[(*pos)++];
+    v |= static_cast<std::uint64_t>(b & 0x7F) << (7 * i);
+    if ((b & 0x80) == 0) break;
+  }
+  if (v > 0xFFFFFFFFull) {
+    std::ostringstream msg;
+    msg << "varint of voxel #" << voxel << " axis " << axis << " overflows 32 bits";
+    return Fail(error, msg.str());
+  }
+  *value = static_cast<std::uint32_t>(v);
+  return true;
+}
 
+// The body's first part: `count` voxel indices, each axis a zigzag varint of the difference to the voxel
+// before, strictly ascending in (ix, iy, iz), into `out` (states not set); *pos moves past them.
+bool ParseIndices(const std::uint8_t* body, std::size_t size, std::size_t count, std::size_t* pos,
+                  std::vector<CoarseVoxel>* out, std::string* error) {
   out->clear();
   out->reserve(count);
   std::int64_t prev[3] = {0, 0, 0};
@@ -149,7 +152,7 @@ bool ParseBody(const std::uint8_t* body, std::size_t size, std::size_t count, st
     std::int64_t cur[3];
     for (int a = 0; a < 3; ++a) {
       std::uint32_t u = 0;
-      if (!read_varint(&u, k, kAxis[a])) return false;
+      if (!ReadVarint(body, size, pos, count, k, kAxis[a], &u, error)) return false;
       cur[a] = prev[a] + UnZigZag(u);
       if (!IndexInRange(cur[a])) {
         std::ostringstream msg;
@@ -178,6 +181,14 @@ bool ParseBody(const std::uint8_t* body, std::size_t size, std::size_t count, st
     out->push_back(v);
     std::copy(cur, cur + 3, prev);
   }
+  return true;
+}
+
+// The body's second part, from body[pos]: a 2-bit state per voxel of `out`, four to a byte, zero padding, and
+// nothing after.
+bool ParseStates(const std::uint8_t* body, std::size_t size, std::size_t pos, std::vector<CoarseVoxel>* out,
+                 std::string* error) {
+  const std::size_t count = out->size();
   const std::size_t state_bytes = (count + 3) / 4;
   if (size - pos < state_bytes) {
     std::ostringstream msg;
@@ -207,6 +218,13 @@ bool ParseBody(const std::uint8_t* body, std::size_t size, std::size_t count, st
     return Fail(error, msg.str());
   }
   return true;
+}
+
+// Parses the decompressed body of `count` voxels into `out`.
+bool ParseBody(const std::uint8_t* body, std::size_t size, std::size_t count, std::vector<CoarseVoxel>* out,
+               std::string* error) {
+  std::size_t pos = 0;
+  return ParseIndices(body, size, count, &pos, out, error) && ParseStates(body, size, pos, out, error);
 }
 
 }  // namespace

@@ -245,7 +245,7 @@ class RobotAgent::Impl {
     in.yield = own_first ? own : asking;
     in.paused_mission = modes_->missions().paused();
     if (in.paused_mission)
-      in.mission_paused_s = std::max(0.0, NowS(SteadyClock::now()) - in.paused_mission->since_s);
+      in.mission_paused_s = std::max(0.0, NowS(clock_->Now()) - in.paused_mission->since_s);
     in.mission_note = modes_->missions().note();
     return in;
   }
@@ -256,7 +256,10 @@ class RobotAgent::Impl {
   double NowS(SteadyTime t) const { return core::SecondsBetween(start_time_, t); }
 
   AgentOptions options_;
-  SteadyTime start_time_ = SteadyClock::now();
+  // What the agent's logic reads the time from (the modes, the command interface, missions, claims); the
+  // control loop paces itself on the machine's clock (Run).
+  std::shared_ptr<const core::Clock> clock_ = core::RealClock();
+  SteadyTime start_time_ = clock_->Now();
   // The DDS participant and writers come first, so that discovery runs while the rest is built (~0.5 s: the
   // trajectory library, the navigation grids); the readers come last (Listen). Destroyed first (~Impl).
   std::unique_ptr<AgentDds> dds_;
@@ -347,6 +350,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
   hooks.clear_obstacle_memory = [this] { perception_->ClearObstacleMemory(); };
   hooks.mission_commands = [this] { return command_->mission_commands(); };
   hooks.grid = [this] { return planner_->Grid(options_.navigation.platform.name); };
+  hooks.clock = clock_;
   modes_ = std::make_unique<RobotModes>(options_, tree_file, &navigation_, std::move(hooks));
   command_ = std::make_unique<CommandInterface>(options.robot_id, options.lock, &modes_->control(),
                                                 modes_->waypoint().name(), CommandHooks());
@@ -408,7 +412,7 @@ void RobotAgent::Impl::Resume(const JournalEntry& entry) {
       spdlog::error("robot {}: resuming without its map: {}", options_.robot_id, e.what());
     }
   }
-  command_->RestoreHolder(entry.holder_id, SteadyClock::now());
+  command_->RestoreHolder(entry.holder_id, clock_->Now());
   if (entry.has_goal) resumable_goal_M_ = Eigen::Vector3d(entry.goal_x_m, entry.goal_y_m, entry.goal_z_m);
   spdlog::warn(
       "robot {}: resumed from its journal: idle (was {}), lock {}, {}; {}", options_.robot_id, entry.mode,
@@ -475,7 +479,7 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
     return StartGoal(goal, plan);
   };
   hooks.start_explore = [this](const ExploreCommand& explore) {
-    const std::string refused = modes_->StartExplore(explore.task, NowS(SteadyClock::now()));
+    const std::string refused = modes_->StartExplore(explore.task, NowS(clock_->Now()));
     if (!refused.empty()) return CommandOutcome{false, refused, 0};
     return CommandOutcome{true, "exploring " + std::to_string(modes_->explore().status().task_id),
                           modes_->explore().status().task_id};
@@ -496,7 +500,7 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
     if (modes_->control().mode() == modes_->convoy().name()) modes_->control().GoIdle(Conditions());
     return CommandOutcome{true, "left the convoy: idle", 0};
   }
-  const double now_s = NowS(SteadyClock::now());
+  const double now_s = NowS(clock_->Now());
   const std::string refused = modes_->StartConvoy(c.ahead_ids, peers_.Live(now_s), now_s);
   if (!refused.empty()) return CommandOutcome{false, refused, 0};
   std::string order;
@@ -542,7 +546,7 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
     };
   };
   AgentDdsHandlers h;
-  h.control = locked([this](const ControlCommand& c) { command_->OnControl(c, SteadyClock::now()); });
+  h.control = locked([this](const ControlCommand& c) { command_->OnControl(c, clock_->Now()); });
   h.mode = locked([this](const ModeCommand& c) { command_->OnMode(c); });
   h.goal = locked([this](const GoalCommand& c) { command_->OnGoal(c); });
   h.explore = locked([this](const ExploreCommand& c) { command_->OnExplore(c); });
@@ -550,22 +554,22 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   h.home = locked([this](const HomeCommand& c) { command_->OnHome(c, start_M_); });
   h.stop = locked([this](const StopCommand& c) { command_->OnStop(c); });
   h.restart = locked([this](const RestartCommand& c) { command_->OnRestart(c); });
-  h.teleop = locked([this](const TeleopCommand& c) { command_->OnTeleop(c, SteadyClock::now()); });
+  h.teleop = locked([this](const TeleopCommand& c) { command_->OnTeleop(c, clock_->Now()); });
   h.base_announced = locked([this](const BaseAnnouncement& b) { command_->OnBaseAnnounced(b); });
   h.base_liveliness =
-      locked([this](const WriterLiveliness& l) { command_->OnBaseLiveliness(l, SteadyClock::now()); });
+      locked([this](const WriterLiveliness& l) { command_->OnBaseLiveliness(l, clock_->Now()); });
   // No planning on a DDS thread: the query waits for the planning thread, within a per-process rate.
-  h.path_query = [this](const PathQuery& q) { planning_->SubmitPathQuery(q, SteadyClock::now()); };
+  h.path_query = [this](const PathQuery& q) { planning_->SubmitPathQuery(q, clock_->Now()); };
   // Peers' claims need no agent lock (ExploreTeam has its own); a bad one is named and dropped.
   h.explore_claim = [this](const ExploreClaim& claim, const std::string& fault) {
-    const std::string refused = fault.empty() ? team_.OnPeerClaim(claim, NowS(SteadyClock::now()))
+    const std::string refused = fault.empty() ? team_.OnPeerClaim(claim, NowS(clock_->Now()))
                                               : "explore claim from \"" + claim.robot_id + "\": " + fault;
     if (!refused.empty()) spdlog::warn("robot {}: {}; dropped", options_.robot_id, refused);
   };
   // Peers' states need no agent lock either (PeerTracker has its own); at 5 Hz a bad one is named once per 5
   // s.
   h.peer_state = [this](const PeerBody& peer) {
-    const SteadyTime now = SteadyClock::now();
+    const SteadyTime now = clock_->Now();
     const std::string refused = peers_.OnPeerState(peer, NowS(now));
     std::uint64_t suppressed = 0;
     if (!refused.empty() && peer_warnings_.Allow(peer.robot_id, now, &suppressed)) {
@@ -576,7 +580,7 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   };
   h.yield = [this](const YieldCommand& c, const YieldOrigin& origin, const std::string& fault) {
     std::lock_guard<std::mutex> guard(mutex_);
-    const double now_s = NowS(SteadyClock::now());
+    const double now_s = NowS(clock_->Now());
     const std::vector<PeerBody> live_peers = peers_.Live(now_s);
     modes_->yielding().OnRequest(c, origin, fault, ForYield(now_s, live_peers));
   };
@@ -591,7 +595,7 @@ CommandOutcome RobotAgent::Impl::StartGoal(const GoalCommand& goal, const nav::G
   if (!plan.IsUsable())
     return {false, "no path: " + planning_->PlanReason(plan), 0};  // the previous goal goes on
   const GoalStart start =
-      modes_->StartGoal(plan, goal.x_m, goal.y_m, goal.tolerance_m, goal.z_m, NowS(SteadyClock::now()));
+      modes_->StartGoal(plan, goal.x_m, goal.y_m, goal.tolerance_m, goal.z_m, NowS(clock_->Now()));
   if (!start.accepted) return {false, start.reason, 0};
   spdlog::info("robot {}: waypoint {} to ({:.2f}, {:.2f}) from {} accepted, path {:.1f} m", options_.robot_id,
                start.goal_id, goal.x_m, goal.y_m, goal.sender.base_id, plan.result.length_m);
@@ -613,8 +617,7 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   c.localized = pose_healthy_;
   c.localization_problem = pose_problem_;
   c.has_waypoint_goal = modes_->waypoint().has_goal();
-  c.local_planner_healthy =
-      navigation_.ObstacleSensingAlive(NowS(SteadyClock::now()), &c.local_planner_problem);
+  c.local_planner_healthy = navigation_.ObstacleSensingAlive(NowS(clock_->Now()), &c.local_planner_problem);
   c.has_explore_task = modes_->explore().exploring();
   c.has_convoy_task = modes_->convoy().active();
   c.has_yield_task = modes_->yield().active();
@@ -782,7 +785,8 @@ void RobotAgent::Impl::PublishHealthIfDue(SteadyTime now) {
 RobotAgent::Impl::CycleOutbox RobotAgent::Impl::LockedCycle(uint64_t cycle, SteadyTime wanted,
                                                             const CycleRates& every) {
   CycleOutbox out;
-  const SteadyTime now = SteadyClock::now();
+  const SteadyTime now = clock_->Now();
+  const SteadyTime started = SteadyClock::now();
   command_->OnParticipantsGone(dds_->TakeGoneParticipants(), now);
   Step(now);
   if (resumable_goal_M_ && modes_->control().mode() != "idle")
@@ -805,8 +809,8 @@ RobotAgent::Impl::CycleOutbox RobotAgent::Impl::LockedCycle(uint64_t cycle, Stea
   claim_to_send_.reset();
   out.yield_request = modes_->yielding().TakeRequestToSend();
   // A late cycle is a robot driving blind: say where the time went (waiting for the lock, or working).
-  const double lock_wait_s = core::SecondsBetween(wanted, now);
-  const double work_s = core::SecondsBetween(now, SteadyClock::now());
+  const double lock_wait_s = core::SecondsBetween(wanted, started);
+  const double work_s = core::SecondsBetween(started, SteadyClock::now());
   if (lock_wait_s + work_s > 0.1) {
     spdlog::warn(
         "robot {}: control cycle took {:.0f} ms ({:.0f} ms waiting for the agent lock, {:.0f} ms "
@@ -868,7 +872,7 @@ void RobotAgent::Impl::Run() {
       outbox = LockedCycle(cycle, wanted, every);
     }
     SendOutbox(std::move(outbox));
-    PublishHealthIfDue(SteadyClock::now());
+    PublishHealthIfDue(clock_->Now());
     if (cycle % 50 == 0) ShareRadioLink();
     next += period;
     const auto now = SteadyClock::now();
@@ -880,13 +884,13 @@ void RobotAgent::Impl::Run() {
 
 void RobotAgent::Impl::Leave() {
   // The escalation that ends the process reaches the basestations first (the health message is reliable).
-  PublishHealthIfDue(SteadyClock::now());
+  PublishHealthIfDue(clock_->Now());
   std::optional<ExploreClaim> release;
   {
     std::lock_guard<std::mutex> guard(mutex_);
     modes_->control().Stop("agent shutting down");
     telemetry_->PublishState(StateInputs());
-    release = DueClaim(modes_->explore(), team_, NowS(SteadyClock::now()),
+    release = DueClaim(modes_->explore(), team_, NowS(clock_->Now()),
                        {});  // an exploring robot lets go of its claim
   }
   if (release) SendClaim(*release);

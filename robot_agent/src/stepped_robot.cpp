@@ -25,11 +25,6 @@ std::string TreeFileOrDefault(const std::string& tree_file) {
   return tree_file.empty() ? std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml" : tree_file;
 }
 
-core::SteadyTime AsSteady(double now_s) {
-  return core::SteadyTime{} +
-         std::chrono::duration_cast<core::SteadyClock::duration>(std::chrono::duration<double>(now_s));
-}
-
 }  // namespace
 
 SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
@@ -60,6 +55,7 @@ SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::Pl
   hooks.clear_obstacle_memory = [this] { live_obstacles_->Clear(); };
   hooks.mission_commands = [this] { return mission_commands_; };
   hooks.grid = [this] { return planner_->Grid(options_.navigation.platform.name); };
+  hooks.clock = clock_;
   modes_ = std::make_unique<RobotModes>(options_, TreeFileOrDefault(tree_file), navigation_.get(),
                                         std::move(hooks), RobotModes::Ids::kFromOne);
   next_map_update_s_ = options_.nav_map.update_period_s;
@@ -161,12 +157,13 @@ void SteppedRobot::StepPerception(double now_s) {
 }
 
 void SteppedRobot::Step(double now_s) {
+  clock_->SetSeconds(now_s);
   now_s_ = now_s;
   StepPerception(now_s);
   const auto start = std::chrono::steady_clock::now();
   // The agent's control cycle, as RobotAgent runs it: re-check, the modes' step, the mux, the driver.
   modes_->Recheck(now_s);
-  const ModeInputs in{AsSteady(now_s), now_s, pose_M_};
+  const ModeInputs in{clock_->Now(), now_s, pose_M_};
   const std::vector<PeerBody> live = peers_.Live(now_s);
   modes_->Step(in, {now_s, mode(), pose_M_, &live, true}, team_);
   const Twist2 twist = modes_->control().Compute(in.now).twist_B;

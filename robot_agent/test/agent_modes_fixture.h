@@ -69,6 +69,7 @@ struct Robot {
     h.clear_obstacle_memory = [] {};
     h.mission_commands = [this] { return mission_commands; };
     h.grid = [this] { return planner->Grid("wheeled"); };
+    h.clock = core::RealClock();
     return h;
   }
   ModeConditions Conditions() const {

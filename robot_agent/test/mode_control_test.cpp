@@ -5,8 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <iterator>
+#include <memory>
 
 #include "cairn/agent/modes/modes.h"
 #include "mode_test_util.h"
@@ -26,7 +28,10 @@ class FakeMode : public ModeModule {
  public:
   FakeMode(const std::string& name, const std::string& channel, Twist2 twist = {0.3, 0.1})
       : ModeModule(name, MuxChannelOptions{channel, 0.5}), twist_(twist) {}
-  void Activate(core::SteadyTime) override { ++activations; }
+  void Activate(core::SteadyTime now) override {
+    ++activations;
+    activated_at = now;
+  }
   void Deactivate(const std::string& why) override { deactivations.push_back(why); }
   ModeOutput Step(const ModeInputs& in) override {
     ++steps;
@@ -39,6 +44,7 @@ class FakeMode : public ModeModule {
   void OnOperatorTwist(const OperatorTwist& twist, core::SteadyTime) override { sticks.push_back(twist); }
 
   int activations = 0;
+  core::SteadyTime activated_at;
   int steps = 0;
   bool finish_next_step = false;
   std::vector<std::string> deactivations;
@@ -145,6 +151,25 @@ TEST(ModeControl, TheShippedTreeLoadsWithTheBuiltInModes) {
   EXPECT_EQ(control.mux().channel_names(),
             (std::vector<std::string>{"convoy", "explore", "smart_joystick", "teleop", "waypoint", "yield"}));
   EXPECT_EQ(control.last_output().active_channel, "none");
+}
+
+// Activations are stamped by the clock the control is given (a simulated one in stepped runs), never by the
+// machine's; a null clock is refused.
+TEST(ModeControl, StampsActivationsWithTheClockItIsGiven) {
+  Modes m;
+  auto clock = std::make_shared<core::SimulatedClock>();
+  clock->SetSeconds(42.5);
+  ModeControl control(kTree, FakeRegistry(&m), "r1", clock);
+  ASSERT_TRUE(control.Request("manual", Held()).accepted);
+  EXPECT_EQ(m.manual->activated_at, clock->Now());
+  clock->SetSeconds(43.0);
+  ASSERT_TRUE(control.Request("smart_joystick", Held()).accepted);
+  EXPECT_EQ(m.joystick->activated_at, clock->Now());
+  EXPECT_DOUBLE_EQ(std::chrono::duration<double>(m.joystick->activated_at.time_since_epoch()).count(), 43.0);
+  EXPECT_THROW(clock->SetSeconds(42.0), std::invalid_argument) << "a clock never runs backwards";
+  EXPECT_THROW(clock->SetSeconds(std::nan("")), std::invalid_argument);
+  Modes other;
+  EXPECT_THROW(ModeControl(kTree, FakeRegistry(&other), "r1", nullptr), std::invalid_argument);
 }
 
 // Every mode the tree can select exists as a module, with that module's channel, on the mux.

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <exception>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -77,6 +78,104 @@ void CheckNoHeaderAfterData(std::istream& in, const Fail& fail) {
   }
 }
 
+// A PCD header's lines as read, before they are checked against one another.
+struct PcdHeader {
+  std::vector<std::string> fields, sizes, types, counts;
+  std::int64_t width = -1, height = -1, points = -1;  // -1: no such line
+};
+
+using PcdFail = std::function<void(const std::string&)>;  // throws WorldError
+
+// Bytes and values of one point, from the fields' SIZE, TYPE and COUNT (each checked, naming the field).
+std::pair<std::int64_t, std::int64_t> PcdPointLayout(PcdHeader* h, const PcdFail& fail) {
+  if (h->fields.empty()) fail("no FIELDS line");
+  const std::set<std::string> names(h->fields.begin(), h->fields.end());
+  if (!names.count("x") || !names.count("y") || !names.count("z")) fail("FIELDS lacks x, y or z");
+  if (h->counts.empty()) h->counts.assign(h->fields.size(), "1");
+  for (const auto& [name, list] : {std::make_pair("SIZE", &h->sizes), std::make_pair("TYPE", &h->types),
+                                   std::make_pair("COUNT", &h->counts)}) {
+    if (list->size() != h->fields.size()) {
+      fail(std::string(name) + " has " + std::to_string(list->size()) + " values for " +
+           std::to_string(h->fields.size()) + " FIELDS");
+    }
+  }
+  std::int64_t point_bytes = 0;
+  std::int64_t values_per_point = 0;
+  for (std::size_t f = 0; f < h->fields.size(); ++f) {
+    const std::string& field = h->fields[f];
+    const std::string& size = h->sizes[f];
+    const std::string& type = h->types[f];
+    if (size != "1" && size != "2" && size != "4" && size != "8") {
+      fail("SIZE '" + size + "' of field '" + field + "' is not 1, 2, 4 or 8");
+    }
+    if (type != "I" && type != "U" && type != "F") {
+      fail("TYPE '" + type.substr(0, 8) + "' of field '" + field + "' is not I, U or F");
+    }
+    if (type == "F" && size != "4" && size != "8") {
+      fail("field '" + field + "' is TYPE F with SIZE " + size + " (a float has 4 or 8 bytes)");
+    }
+    std::int64_t count = 0;
+    if (!ParseCount(h->counts[f], &count) || count < 1 || count > 1000000) {
+      fail("COUNT '" + h->counts[f].substr(0, 20) + "' of field '" + field + "' is not in [1, 1000000]");
+    }
+    point_bytes += count * std::stoll(size);
+    values_per_point += count;
+  }
+  return {point_bytes, values_per_point};
+}
+
+// Checks the header's fields and point count, then that the data after the header (from `in`'s position,
+// the line after DATA) holds what they declare for data `kind`.
+void CheckPcdLayout(PcdHeader header, const std::string& kind, std::ifstream& in, const PcdFail& fail) {
+  const auto [point_bytes, values_per_point] = PcdPointLayout(&header, fail);
+  const std::int64_t width = header.width;
+  const std::int64_t height = header.height;
+  std::int64_t points = header.points;
+  if (width < 0) fail("no WIDTH line");
+  if (height < 0) fail("no HEIGHT line");
+  if (points < 0) points = width * height;  // optional in the format
+  if (width > 0 && height > std::numeric_limits<std::int64_t>::max() / width)
+    fail("WIDTH x HEIGHT overflows");
+  if (points != width * height) {
+    fail("POINTS " + std::to_string(points) + " is not WIDTH x HEIGHT = " + std::to_string(width) + " x " +
+         std::to_string(height));
+  }
+  // What the data after the header must hold at least.
+  const std::streamoff data_begin = in.tellg();
+  CheckNoHeaderAfterData(in, fail);
+  in.clear();
+  in.seekg(0, std::ios::end);
+  const double data_bytes = static_cast<double>(in.tellg() - data_begin);
+  double need = 0.0;
+  std::string what;
+  if (kind == "binary") {
+    need = static_cast<double>(points) * static_cast<double>(point_bytes);
+    what =
+        std::to_string(points) + " points of " + std::to_string(point_bytes) + " bytes (" + Bytes(need) + ")";
+  } else if (kind == "ascii") {
+    need = static_cast<double>(points) * static_cast<double>(values_per_point) * 2.0;  // "0 " per value
+    what = std::to_string(points) + " points of " + std::to_string(values_per_point) + " values (" +
+           Bytes(need) + " of text at least)";
+  } else {
+    in.seekg(data_begin);
+    std::uint32_t sizes_le[2] = {0, 0};  // compressed, uncompressed
+    in.read(reinterpret_cast<char*>(sizes_le), sizeof(sizes_le));
+    if (!in) fail("binary_compressed data without its two sizes");
+    const double uncompressed = static_cast<double>(points) * static_cast<double>(point_bytes);
+    if (static_cast<double>(sizes_le[1]) != uncompressed) {
+      fail("binary_compressed data of " + std::to_string(sizes_le[1]) + " bytes uncompressed, but POINTS " +
+           std::to_string(points) + " of " + std::to_string(point_bytes) + " bytes make " +
+           Bytes(uncompressed));
+    }
+    need = 8.0 + std::max(static_cast<double>(sizes_le[0]), uncompressed / kMaxLzfRatio);
+    what = std::to_string(points) + " points of " + std::to_string(point_bytes) + " bytes (" +
+           Bytes(uncompressed) + ", at least " + Bytes(need) + " compressed)";
+  }
+  if (need > data_bytes) {
+    fail("the header declares " + what + " but the file holds " + Bytes(data_bytes) + " after it");
+  }
+}
+
 // Checks the PCD header (format: https://pointclouds.org/documentation/tutorials/pcd_file_format.html)
 // before PCL reads the file, and that the data it declares fits in the file: PCL 1.13's PCDReader
 // dereferences missing fields of a file without a header and crashes, sizes the cloud from POINTS before
@@ -87,13 +186,7 @@ void CheckPcdHeader(const std::string& path) {
   const auto fail = [&path](const std::string& why) {
     throw WorldError("world file '" + path + "' is not a valid PCD file (" + why + ")");
   };
-  std::vector<std::string> fields;
-  std::vector<std::string> sizes;
-  std::vector<std::string> types;
-  std::vector<std::string> counts;
-  std::int64_t width = -1;
-  std::int64_t height = -1;
-  std::int64_t points = -1;
+  PcdHeader header;
   std::set<std::string> keys_seen;
   std::string line;
   for (int n = 0; n < 64 && std::getline(in, line); ++n) {
@@ -121,98 +214,25 @@ void CheckPcdHeader(const std::string& path) {
       }
     };
     if (key == "FIELDS") {
-      fields = values;
+      header.fields = values;
     } else if (key == "SIZE") {
-      sizes = values;
+      header.sizes = values;
     } else if (key == "TYPE") {
-      types = values;
+      header.types = values;
     } else if (key == "COUNT") {
-      counts = values;
+      header.counts = values;
     } else if (key == "WIDTH") {
-      one_count(&width);
+      one_count(&header.width);
     } else if (key == "HEIGHT") {
-      one_count(&height);
+      one_count(&header.height);
     } else if (key == "POINTS") {
-      one_count(&points);
+      one_count(&header.points);
     } else if (key == "DATA") {
       const std::string kind = values.empty() ? "" : values[0];
       if (kind != "ascii" && kind != "binary" && kind != "binary_compressed") {
         fail("DATA '" + kind + "' is not ascii, binary or binary_compressed");
       }
-      if (fields.empty()) fail("no FIELDS line");
-      const std::set<std::string> names(fields.begin(), fields.end());
-      if (!names.count("x") || !names.count("y") || !names.count("z")) fail("FIELDS lacks x, y or z");
-      if (counts.empty()) counts.assign(fields.size(), "1");
-      for (const auto& [name, list] : {std::make_pair("SIZE", &sizes), std::make_pair("TYPE", &types),
-                                       std::make_pair("COUNT", &counts)}) {
-        if (list->size() != fields.size()) {
-          fail(std::string(name) + " has " + std::to_string(list->size()) + " values for " +
-               std::to_string(fields.size()) + " FIELDS");
-        }
-      }
-      std::int64_t point_bytes = 0;
-      std::int64_t values_per_point = 0;
-      for (std::size_t f = 0; f < fields.size(); ++f) {
-        const std::string& field = fields[f];
-        if (sizes[f] != "1" && sizes[f] != "2" && sizes[f] != "4" && sizes[f] != "8") {
-          fail("SIZE '" + sizes[f] + "' of field '" + field + "' is not 1, 2, 4 or 8");
-        }
-        if (types[f] != "I" && types[f] != "U" && types[f] != "F") {
-          fail("TYPE '" + types[f].substr(0, 8) + "' of field '" + field + "' is not I, U or F");
-        }
-        if (types[f] == "F" && sizes[f] != "4" && sizes[f] != "8") {
-          fail("field '" + field + "' is TYPE F with SIZE " + sizes[f] + " (a float has 4 or 8 bytes)");
-        }
-        std::int64_t count = 0;
-        if (!ParseCount(counts[f], &count) || count < 1 || count > 1000000) {
-          fail("COUNT '" + counts[f].substr(0, 20) + "' of field '" + field + "' is not in [1, 1000000]");
-        }
-        point_bytes += count * std::stoll(sizes[f]);
-        values_per_point += count;
-      }
-      if (width < 0) fail("no WIDTH line");
-      if (height < 0) fail("no HEIGHT line");
-      if (points < 0) points = width * height;  // optional in the format
-      if (width > 0 && height > std::numeric_limits<std::int64_t>::max() / width)
-        fail("WIDTH x HEIGHT overflows");
-      if (points != width * height) {
-        fail("POINTS " + std::to_string(points) + " is not WIDTH x HEIGHT = " + std::to_string(width) +
-             " x " + std::to_string(height));
-      }
-      // What the data after the header must hold at least.
-      const std::streamoff data_begin = in.tellg();
-      CheckNoHeaderAfterData(in, fail);
-      in.clear();
-      in.seekg(0, std::ios::end);
-      const double data_bytes = static_cast<double>(in.tellg() - data_begin);
-      double need = 0.0;
-      std::string what;
-      if (kind == "binary") {
-        need = static_cast<double>(points) * static_cast<double>(point_bytes);
-        what = std::to_string(points) + " points of " + std::to_string(point_bytes) + " bytes (" +
-               Bytes(need) + ")";
-      } else if (kind == "ascii") {
-        need = static_cast<double>(points) * static_cast<double>(values_per_point) * 2.0;  // "0 " per value
-        what = std::to_string(points) + " points of " + std::to_string(values_per_point) + " values (" +
-               Bytes(need) + " of text at least)";
-      } else {
-        in.seekg(data_begin);
-        std::uint32_t sizes_le[2] = {0, 0};  // compressed, uncompressed
-        in.read(reinterpret_cast<char*>(sizes_le), sizeof(sizes_le));
-        if (!in) fail("binary_compressed data without its two sizes");
-        const double uncompressed = static_cast<double>(points) * static_cast<double>(point_bytes);
-        if (static_cast<double>(sizes_le[1]) != uncompressed) {
-          fail("binary_compressed data of " + std::to_string(sizes_le[1]) +
-               " bytes uncompressed, but POINTS " + std::to_string(points) + " of " +
-               std::to_string(point_bytes) + " bytes make " + Bytes(uncompressed));
-        }
-        need = 8.0 + std::max(static_cast<double>(sizes_le[0]), uncompressed / kMaxLzfRatio);
-        what = std::to_string(points) + " points of " + std::to_string(point_bytes) + " bytes (" +
-               Bytes(uncompressed) + ", at least " + Bytes(need) + " compressed)";
-      }
-      if (need > data_bytes) {
-        fail("the header declares " + what + " but the file holds " + Bytes(data_bytes) + " after it");
-      }
+      CheckPcdLayout(header, kind, in, fail);
       return;
     } else if (key != "VERSION" && key != "VIEWPOINT") {
       fail("unexpected header line '" + line.substr(0, 40) + "'");

@@ -75,6 +75,60 @@ T* Required(T* pointer, const char* name) {
   return pointer;
 }
 
+void SetExploration(const ExplorationStatus& ex, msgs::RobotState* state) {
+  msgs::RobotState& m = *state;
+  m.explore_state(ToString(ex.state));
+  m.explore_reason(ex.reason);
+  m.explore_task_id(ex.task_id);
+  m.explored_m2(ex.explored_m2);
+  m.frontier_clusters(static_cast<uint32_t>(ex.frontier_clusters));
+  m.reachable_frontiers(static_cast<uint32_t>(ex.reachable_frontiers));
+  m.explore_has_target(ex.has_target);
+  m.explore_target_M().x_m(ex.target_M.x());
+  m.explore_target_M().y_m(ex.target_M.y());
+  m.explore_target_M().z_m(ex.target_z_m);
+  m.explore_targets_reached(static_cast<uint32_t>(ex.targets_reached));
+  m.explore_targets_failed(static_cast<uint32_t>(ex.targets_failed));
+  m.explore_peers(static_cast<uint32_t>(ex.peers));
+  m.explore_peer_seen_m2(ex.peer_seen_m2);
+}
+
+// The mission an interruption paused (it goes on under its id: --wait and the operator see it paused, not
+// ended), else the last note about missions; the goal a restarted robot offers to resume.
+void SetMission(const RobotStateInputs& in, msgs::RobotState* state) {
+  msgs::RobotState& m = *state;
+  if (in.paused_mission) {
+    const PausedMission& p = *in.paused_mission;
+    m.mission_state("paused");
+    m.mission_kind(ToString(p.kind));
+    m.mission_reason(p.reason);
+    m.mission_paused_s(in.mission_paused_s);
+    if (p.kind == PausedMission::Kind::kWaypoint) {
+      m.nav_status(msgs::NAV_STATUS_PAUSED);
+      m.nav_reason("paused: " + p.reason);
+      m.nav_goal_id(p.goal.goal_id);
+      m.nav_goal_M().x_m(p.goal.x_m);
+      m.nav_goal_M().y_m(p.goal.y_m);
+    } else if (p.kind == PausedMission::Kind::kExplore) {
+      m.explore_state("paused");
+      m.explore_reason("paused: " + p.reason);
+      m.explore_task_id(p.task_id);
+    } else {
+      m.convoy_state("paused");
+      m.convoy_ahead_ids(p.convoy_ahead_ids);
+      m.convoy_reason("paused: " + p.reason);
+    }
+  } else {
+    m.mission_reason(in.mission_note);
+  }
+  m.has_resumable_goal(in.resumable_goal_M.has_value());
+  if (in.resumable_goal_M) {
+    m.resumable_goal_M().x_m(in.resumable_goal_M->x());
+    m.resumable_goal_M().y_m(in.resumable_goal_M->y());
+    m.resumable_goal_M().z_m(in.resumable_goal_M->z());
+  }
+}
+
 }  // namespace
 
 Telemetry::Telemetry(const AgentOptions& options, AgentDds* dds, const ModeControl* modes,
@@ -158,21 +212,7 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
   m.stopped_at().sec(stops.at.sec);
   m.stopped_at().nanosec(stops.at.nanosec);
   m.link_budget_kbps(core::StatedBudgetKbps(link_));
-  const ExplorationStatus& ex = explore_->status();
-  m.explore_state(ToString(ex.state));
-  m.explore_reason(ex.reason);
-  m.explore_task_id(ex.task_id);
-  m.explored_m2(ex.explored_m2);
-  m.frontier_clusters(static_cast<uint32_t>(ex.frontier_clusters));
-  m.reachable_frontiers(static_cast<uint32_t>(ex.reachable_frontiers));
-  m.explore_has_target(ex.has_target);
-  m.explore_target_M().x_m(ex.target_M.x());
-  m.explore_target_M().y_m(ex.target_M.y());
-  m.explore_target_M().z_m(ex.target_z_m);
-  m.explore_targets_reached(static_cast<uint32_t>(ex.targets_reached));
-  m.explore_targets_failed(static_cast<uint32_t>(ex.targets_failed));
-  m.explore_peers(static_cast<uint32_t>(ex.peers));
-  m.explore_peer_seen_m2(ex.peer_seen_m2);
+  SetExploration(explore_->status(), &m);
   const ConvoyStatus& convoy = convoy_->status();
   m.convoy_state(ToString(convoy.state));
   m.convoy_ahead_ids(convoy_->active() ? convoy.ahead_ids : std::vector<std::string>{});
@@ -181,37 +221,7 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
   m.yield_state(ToString(in.yield.state));
   m.yield_peer_id(in.yield.peer_id);
   m.yield_reason(in.yield.reason);
-  if (in.paused_mission) {
-    const PausedMission& p = *in.paused_mission;
-    m.mission_state("paused");
-    m.mission_kind(ToString(p.kind));
-    m.mission_reason(p.reason);
-    m.mission_paused_s(in.mission_paused_s);
-    // The mission goes on under its id: --wait and the operator see it paused, not ended.
-    if (p.kind == PausedMission::Kind::kWaypoint) {
-      m.nav_status(msgs::NAV_STATUS_PAUSED);
-      m.nav_reason("paused: " + p.reason);
-      m.nav_goal_id(p.goal.goal_id);
-      m.nav_goal_M().x_m(p.goal.x_m);
-      m.nav_goal_M().y_m(p.goal.y_m);
-    } else if (p.kind == PausedMission::Kind::kExplore) {
-      m.explore_state("paused");
-      m.explore_reason("paused: " + p.reason);
-      m.explore_task_id(p.task_id);
-    } else {
-      m.convoy_state("paused");
-      m.convoy_ahead_ids(p.convoy_ahead_ids);
-      m.convoy_reason("paused: " + p.reason);
-    }
-  } else {
-    m.mission_reason(in.mission_note);
-  }
-  m.has_resumable_goal(in.resumable_goal_M.has_value());
-  if (in.resumable_goal_M) {
-    m.resumable_goal_M().x_m(in.resumable_goal_M->x());
-    m.resumable_goal_M().y_m(in.resumable_goal_M->y());
-    m.resumable_goal_M().z_m(in.resumable_goal_M->z());
-  }
+  SetMission(in, &m);
   const cairn_msgs::RobotPose pose = cairn::msgs::PoseOf(m);
   // The whole state (~360 bytes, most of it unchanged from one cycle to the next) only when due. It goes
   // before the pose of the same cycle, so a reader that has the pose has (or is being repaired) the state it

@@ -30,15 +30,22 @@ ModeRegistry Checked(ModeRegistry registry) {
   return registry;
 }
 
+std::shared_ptr<const core::Clock> CheckedClock(std::shared_ptr<const core::Clock> clock) {
+  if (!clock) throw std::invalid_argument("ModeControl: clock is null");
+  return clock;
+}
+
 }  // namespace
 
-ModeControl::ModeControl(const std::string& tree_file, ModeRegistry registry, std::string robot_id)
+ModeControl::ModeControl(const std::string& tree_file, ModeRegistry registry, std::string robot_id,
+                         std::shared_ptr<const core::Clock> clock)
     : robot_id_(std::move(robot_id)),
+      clock_(CheckedClock(std::move(clock))),
       registry_(Checked(std::move(registry))),
       mux_(registry_.MuxChannels()),
       tree_(tree_file, mux_.channel_names(), registry_.ModeChannels()),
       active_(&IdleModule(registry_)) {
-  last_output_ = mux_.Compute(core::SteadyClock::now());
+  last_output_ = mux_.Compute(clock_->Now());
 }
 
 bool ModeControl::Apply(const ModeDecision& decision) {
@@ -65,7 +72,7 @@ bool ModeControl::Apply(const ModeDecision& decision) {
     ModeModule* previous = active_;
     active_ = next;
     previous->Deactivate(decision.reason.empty() ? "mode switched to " + decision.mode : decision.reason);
-    next->Activate(core::SteadyClock::now());
+    next->Activate(clock_->Now());
   }
   return true;
 }
@@ -96,7 +103,7 @@ void ModeControl::Stop(const std::string& reason, bool fault) {
   mux_.Select("none");  // always succeeds: no channel, zero twist
   active_ = &IdleModule(registry_);
   for (ModeModule* module : registry_.modules()) module->Deactivate(reason);
-  last_output_ = mux_.Compute(core::SteadyClock::now());  // the state shows the zero command at once
+  last_output_ = mux_.Compute(clock_->Now());  // the state shows the zero command at once
 }
 
 bool ModeControl::Step(const ModeInputs& in) {

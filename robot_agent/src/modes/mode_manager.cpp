@@ -37,7 +37,55 @@ std::function<NodeStatus(bt::TreeNode&)> Traced(std::shared_ptr<Context> ctx,
   };
 }
 
+// A fact of ModeConditions the tree checks: a condition node that succeeds when it holds and otherwise fails
+// saying why (the refusal an operator reads).
+struct Fact {
+  const char* node;
+  bool (*holds)(const ModeConditions&);
+  std::string (*why)(const ModeConditions&);
+};
+
+const Fact kFacts[] = {
+    {"IsControlHeld", [](const ModeConditions& c) { return !c.holder_id.empty(); },
+     [](const ModeConditions&) { return std::string("no basestation holds the control lock"); }},
+    {"IsHolderAlive", [](const ModeConditions& c) { return !c.holder_id.empty() && c.holder_alive; },
+     [](const ModeConditions& c) {
+       return c.holder_id.empty() ? std::string("no basestation holds the control lock")
+                                  : "liveliness of control holder " + c.holder_id +
+                                        " is lost (no live process speaks for it)";
+     }},
+    {"IsLocalized", [](const ModeConditions& c) { return c.localized; },
+     [](const ModeConditions& c) {
+       return "no valid pose estimate" +
+              (c.localization_problem.empty() ? std::string() : ": " + c.localization_problem);
+     }},
+    {"HasWaypointGoal", [](const ModeConditions& c) { return c.has_waypoint_goal; },
+     [](const ModeConditions&) { return std::string("no accepted waypoint goal (send goto first)"); }},
+    {"HasExploreTask", [](const ModeConditions& c) { return c.has_explore_task; },
+     [](const ModeConditions&) { return std::string("no exploration task (send explore first)"); }},
+    {"HasConvoyTask", [](const ModeConditions& c) { return c.has_convoy_task; },
+     [](const ModeConditions&) { return std::string("not in a convoy (send convoy first)"); }},
+    {"HasYieldTask", [](const ModeConditions& c) { return c.has_yield_task; },
+     [](const ModeConditions&) { return std::string("no yield request accepted (a peer or yield R asks)"); }},
+    {"IsMappingHealthy", [](const ModeConditions& c) { return c.mapping_healthy; },
+     [](const ModeConditions& c) { return c.mapping_problem; }},
+    {"IsJoystickAlive", [](const ModeConditions& c) { return c.joystick_alive; },
+     [](const ModeConditions&) { return std::string("the control holder has no live joystick"); }},
+    {"IsLocalPlannerHealthy", [](const ModeConditions& c) { return c.local_planner_healthy; },
+     [](const ModeConditions& c) { return c.local_planner_problem; }},
+};
+
 }  // namespace
+
+void ModeManager::RegisterFactNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx) {
+  for (const Fact& fact : kFacts) {
+    factory.RegisterSimpleCondition(fact.node, Traced(ctx, [ctx, fact](bt::TreeNode&) {
+                                      if (fact.holds(ctx->conditions)) return NodeStatus::kSuccess;
+                                      return Fail(&ctx->failure,
+                                                  std::string(fact.node) + ": " + fact.why(ctx->conditions));
+                                    }));
+  }
+}
 
 void ModeManager::RegisterNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx) {
   RegisterModeNodes(factory, ctx);
@@ -61,61 +109,7 @@ void ModeManager::RegisterModeNodes(bt::TreeFactory& factory, const std::shared_
              }),
       {bt::InputPort("mode", "mode this branch implements"),
        bt::InputPort("requested_mode", "{requested_mode}", "mode being asked for")});
-  factory.RegisterSimpleCondition("IsControlHeld", Traced(ctx, [ctx](bt::TreeNode&) {
-                                    return ctx->conditions.holder_id.empty()
-                                               ? Fail(&ctx->failure,
-                                                      "IsControlHeld: no basestation holds the control lock")
-                                               : NodeStatus::kSuccess;
-                                  }));
-  factory.RegisterSimpleCondition(
-      "IsHolderAlive", Traced(ctx, [ctx](bt::TreeNode&) {
-        const ModeConditions& c = ctx->conditions;
-        if (c.holder_id.empty())
-          return Fail(&ctx->failure, "IsHolderAlive: no basestation holds the control lock");
-        return c.holder_alive
-                   ? NodeStatus::kSuccess
-                   : Fail(&ctx->failure, "IsHolderAlive: liveliness of control holder " + c.holder_id +
-                                             " is lost (no live process speaks for it)");
-      }));
-  factory.RegisterSimpleCondition(
-      "IsLocalized", Traced(ctx, [ctx](bt::TreeNode&) {
-        return ctx->conditions.localized
-                   ? NodeStatus::kSuccess
-                   : Fail(&ctx->failure, "IsLocalized: no valid pose estimate" +
-                                             (ctx->conditions.localization_problem.empty()
-                                                  ? std::string()
-                                                  : ": " + ctx->conditions.localization_problem));
-      }));
-  factory.RegisterSimpleCondition(
-      "HasWaypointGoal", Traced(ctx, [ctx](bt::TreeNode&) {
-        return ctx->conditions.has_waypoint_goal
-                   ? NodeStatus::kSuccess
-                   : Fail(&ctx->failure, "HasWaypointGoal: no accepted waypoint goal (send goto first)");
-      }));
-  factory.RegisterSimpleCondition(
-      "HasExploreTask", Traced(ctx, [ctx](bt::TreeNode&) {
-        return ctx->conditions.has_explore_task
-                   ? NodeStatus::kSuccess
-                   : Fail(&ctx->failure, "HasExploreTask: no exploration task (send explore first)");
-      }));
-  factory.RegisterSimpleCondition("HasConvoyTask", Traced(ctx, [ctx](bt::TreeNode&) {
-                                    return ctx->conditions.has_convoy_task
-                                               ? NodeStatus::kSuccess
-                                               : Fail(&ctx->failure,
-                                                      "HasConvoyTask: not in a convoy (send convoy first)");
-                                  }));
-  factory.RegisterSimpleCondition(
-      "HasYieldTask", Traced(ctx, [ctx](bt::TreeNode&) {
-        return ctx->conditions.has_yield_task
-                   ? NodeStatus::kSuccess
-                   : Fail(&ctx->failure, "HasYieldTask: no yield request accepted (a peer or yield R asks)");
-      }));
-  factory.RegisterSimpleCondition("IsMappingHealthy", Traced(ctx, [ctx](bt::TreeNode&) {
-                                    const ModeConditions& c = ctx->conditions;
-                                    return c.mapping_healthy ? NodeStatus::kSuccess
-                                                             : Fail(&ctx->failure,
-                                                                    "IsMappingHealthy: " + c.mapping_problem);
-                                  }));
+  RegisterFactNodes(factory, ctx);
   factory.RegisterSimpleCondition(
       "IsComponentUp",
       Traced(ctx,
@@ -146,19 +140,6 @@ void ModeManager::RegisterModeNodes(bt::TreeFactory& factory, const std::shared_
         throw std::invalid_argument("component \"" + component->second +
                                     "\" is not a component of cairn_agent (its components: " + names + ")");
       });
-  factory.RegisterSimpleCondition(
-      "IsJoystickAlive", Traced(ctx, [ctx](bt::TreeNode&) {
-        return ctx->conditions.joystick_alive
-                   ? NodeStatus::kSuccess
-                   : Fail(&ctx->failure, "IsJoystickAlive: the control holder has no live joystick");
-      }));
-  factory.RegisterSimpleCondition("IsLocalPlannerHealthy", Traced(ctx, [ctx](bt::TreeNode&) {
-                                    const ModeConditions& c = ctx->conditions;
-                                    return c.local_planner_healthy
-                                               ? NodeStatus::kSuccess
-                                               : Fail(&ctx->failure,
-                                                      "IsLocalPlannerHealthy: " + c.local_planner_problem);
-                                  }));
   factory.RegisterSimpleAction(
       "SelectMode",
       Traced(ctx,

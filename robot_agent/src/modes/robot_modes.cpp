@@ -15,7 +15,8 @@ namespace cairn::agent {
 namespace {
 
 RobotModes::Hooks Checked(RobotModes::Hooks hooks) {
-  if (!hooks.conditions || !hooks.clear_obstacle_memory || !hooks.mission_commands || !hooks.grid)
+  if (!hooks.conditions || !hooks.clear_obstacle_memory || !hooks.mission_commands || !hooks.grid ||
+      !hooks.clock)
     throw std::invalid_argument("RobotModes: a hook is not set");
   return hooks;
 }
@@ -26,7 +27,8 @@ RobotModes::RobotModes(const AgentOptions& options, const std::string& tree_file
                        Hooks hooks, Ids ids)
     : robot_id_(options.robot_id), navigation_(navigation), hooks_(Checked(std::move(hooks))) {
   if (navigation_ == nullptr) throw std::invalid_argument("RobotModes: navigation is null");
-  control_ = std::make_unique<ModeControl>(tree_file, MakeModules(options, tree_file, ids), robot_id_);
+  control_ =
+      std::make_unique<ModeControl>(tree_file, MakeModules(options, tree_file, ids), robot_id_, hooks_.clock);
   const MissionResumption::RequestMode request_mode = [this](const std::string& mode) {
     return Request(mode);
   };

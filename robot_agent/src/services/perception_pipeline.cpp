@@ -128,102 +128,107 @@ std::vector<perception::MapUpdate> PerceptionPipeline::FlushMapTelemetry(double 
 PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* scan,
                                           const core::CameraImage* image) {
   PerceptionOutput out;
-  if (scan != nullptr) {  // the map is built even when perception's outputs are off: navigation plans on it
-    ++stats_.scans;
-    const Eigen::Isometry3d& T_W_S_estimate = scan->T_MS;  // registered where SLAM says the sensor was
-    T_W_B_estimate_ = scan->T_MS * scan->T_BS.inverse();
-    auto start = Clock::now();
-    local_cloud_.AddScan(scan->points_S, T_W_S_estimate, now_s);
-    stats_.local_cloud_ms_total += MsSince(start);
-    if (progress_) progress_();
-    const bool keyframe =
-        !T_W_S_last_keyframe_ ||
-        (T_W_S_estimate.translation() - T_W_S_last_keyframe_->translation()).norm() >=
-            options_.map_keyframe_distance_m ||
-        Eigen::AngleAxisd(T_W_S_last_keyframe_->linear().transpose() * T_W_S_estimate.linear()).angle() >=
-            options_.map_keyframe_angle_rad ||
-        (refresh_at_rest_ && now_s - last_keyframe_s_ >= options_.map_keyframe_max_interval_s);
-    const bool insert_due = now_s >= next_insert_s_ && keyframe;
-    if (insert_due && now_s < insert_after_s_) ++stats_.scans_deferred;
-    if (insert_due && now_s >= insert_after_s_) {
-      next_insert_s_ = std::max(next_insert_s_ + options_.map_insert_period_s, now_s);
-      T_W_S_last_keyframe_ = T_W_S_estimate;
-      last_keyframe_s_ = now_s;
-      start = Clock::now();
-      const perception::InsertStats inserted = map_->InsertScan(scan->points_S, T_W_S_estimate);
-      const double z = T_W_S_estimate.translation().z();
-      if (!(z <= max_sensor_z_m_.load())) max_sensor_z_m_ = z;  // also replaces NaN
-      const double insert_ms = MsSince(start);
-      stats_.map_ms_total += insert_ms;
-      const double scan_to_map_ms = 1000.0 * (now_s - scan->stamp_s) + insert_ms;
-      stats_.scan_to_map_ms_total += scan_to_map_ms;
-      stats_.scan_to_map_ms_max = std::max(stats_.scan_to_map_ms_max, scan_to_map_ms);
-      if (adapt_to_load_) insert_after_s_ = now_s + kLoadWait * insert_ms / 1000.0;
-      stats_.points_dropped_non_finite += inserted.dropped_non_finite;
-      ++stats_.scans_inserted;
-      CollectChanges();
-      if (progress_) progress_();
-    }
-  }
-
+  // The map is built even when perception's outputs are off: navigation plans on it.
+  if (scan != nullptr) MapScan(now_s, *scan);
   if (!options_.enabled) return out;
   if (now_s >= next_staircase_s_ && now_s < staircase_after_s_) {
     ++stats_.staircase_runs_deferred;
     next_staircase_s_ = staircase_after_s_;
   }
-  if (now_s >= next_staircase_s_) {
-    next_staircase_s_ = std::max(next_staircase_s_ + options_.staircase_period_s, now_s);
-    const auto start = Clock::now();
-    const std::vector<perception::Staircase> found =
-        detector_.Detect(local_cloud_.Points(), T_W_B_estimate_.translation());
-    bool registry_changed = false;
-    for (const perception::Staircase& staircase : found) {
-      const auto merged = registry_.Add(staircase, "scan");
-      if (!merged.is_new && !merged.changed) continue;
-      registry_changed = true;
-      for (const auto& entry : registry_.Entries()) {
-        if (entry.id == merged.id) out.staircases.push_back(entry);
-      }
-    }
-    if (registry_changed) {
-      std::vector<perception::Staircase> confirmed;
-      for (const auto& entry : registry_.Entries()) {
-        if (entry.detections >= kStairPriorDetections) confirmed.push_back(entry.staircase);
-      }
-      std::lock_guard<std::mutex> guard(staircases_mutex_);
-      staircases_ = std::move(confirmed);
-    }
-    const double staircase_ms = MsSince(start);
-    stats_.staircase_ms_total += staircase_ms;
-    if (adapt_to_load_) staircase_after_s_ = now_s + kLoadWait * staircase_ms / 1000.0;
-    ++stats_.staircase_runs;
-    if (progress_) progress_();
-  }
-
+  if (now_s >= next_staircase_s_) DetectStaircases(now_s, &out);
   if (now_s >= next_telemetry_s_) {
     next_telemetry_s_ = std::max(next_telemetry_s_ + options_.telemetry.period_s, now_s);
     out.map_messages = FlushMapTelemetry(now_s);
   }
-
-  if (image != nullptr && CameraDue(now_s)) {
-    next_camera_s_ = std::max(next_camera_s_ + 1.0 / options_.camera_rate_hz, now_s);
-    const auto start = Clock::now();
-    CameraFrame frame;
-    frame.seq = ++camera_seq_;
-    frame.width_px = image->width_px;
-    frame.height_px = image->height_px;
-    frame.T_W_C = image->T_MC;
-    frame.jpeg = perception::EncodeGrayJpeg(
-        perception::GrayFrame{image->width_px, image->height_px, image->pixels}, options_.jpeg_quality);
-    // Within the camera's budget: a frame of B bytes holds the next one back B * 8 / budget seconds, so the
-    // robot never renders frames its link would only drop (on a radio link the budget is a share of it).
-    next_camera_s_ = std::max(next_camera_s_, now_s + static_cast<double>(frame.jpeg.size()) * 8.0 /
-                                                          (link_share_ * options_.camera_budget_bits_per_s));
-    out.camera = std::move(frame);
-    stats_.camera_ms_total += MsSince(start);
-    ++stats_.camera_frames;
-  }
+  if (image != nullptr && CameraDue(now_s)) EncodeCameraFrame(now_s, *image, &out);
   return out;
+}
+
+void PerceptionPipeline::MapScan(double now_s, const core::LidarScan& scan) {
+  ++stats_.scans;
+  const Eigen::Isometry3d& T_W_S_estimate = scan.T_MS;  // registered where SLAM says the sensor was
+  T_W_B_estimate_ = scan.T_MS * scan.T_BS.inverse();
+  auto start = Clock::now();
+  local_cloud_.AddScan(scan.points_S, T_W_S_estimate, now_s);
+  stats_.local_cloud_ms_total += MsSince(start);
+  if (progress_) progress_();
+  const bool keyframe =
+      !T_W_S_last_keyframe_ ||
+      (T_W_S_estimate.translation() - T_W_S_last_keyframe_->translation()).norm() >=
+          options_.map_keyframe_distance_m ||
+      Eigen::AngleAxisd(T_W_S_last_keyframe_->linear().transpose() * T_W_S_estimate.linear()).angle() >=
+          options_.map_keyframe_angle_rad ||
+      (refresh_at_rest_ && now_s - last_keyframe_s_ >= options_.map_keyframe_max_interval_s);
+  const bool insert_due = now_s >= next_insert_s_ && keyframe;
+  if (insert_due && now_s < insert_after_s_) ++stats_.scans_deferred;
+  if (insert_due && now_s >= insert_after_s_) {
+    next_insert_s_ = std::max(next_insert_s_ + options_.map_insert_period_s, now_s);
+    T_W_S_last_keyframe_ = T_W_S_estimate;
+    last_keyframe_s_ = now_s;
+    start = Clock::now();
+    const perception::InsertStats inserted = map_->InsertScan(scan.points_S, T_W_S_estimate);
+    const double z = T_W_S_estimate.translation().z();
+    if (!(z <= max_sensor_z_m_.load())) max_sensor_z_m_ = z;  // also replaces NaN
+    const double insert_ms = MsSince(start);
+    stats_.map_ms_total += insert_ms;
+    const double scan_to_map_ms = 1000.0 * (now_s - scan.stamp_s) + insert_ms;
+    stats_.scan_to_map_ms_total += scan_to_map_ms;
+    stats_.scan_to_map_ms_max = std::max(stats_.scan_to_map_ms_max, scan_to_map_ms);
+    if (adapt_to_load_) insert_after_s_ = now_s + kLoadWait * insert_ms / 1000.0;
+    stats_.points_dropped_non_finite += inserted.dropped_non_finite;
+    ++stats_.scans_inserted;
+    CollectChanges();
+    if (progress_) progress_();
+  }
+}
+
+void PerceptionPipeline::DetectStaircases(double now_s, PerceptionOutput* out) {
+  next_staircase_s_ = std::max(next_staircase_s_ + options_.staircase_period_s, now_s);
+  const auto start = Clock::now();
+  const std::vector<perception::Staircase> found =
+      detector_.Detect(local_cloud_.Points(), T_W_B_estimate_.translation());
+  bool registry_changed = false;
+  for (const perception::Staircase& staircase : found) {
+    const auto merged = registry_.Add(staircase, "scan");
+    if (!merged.is_new && !merged.changed) continue;
+    registry_changed = true;
+    for (const auto& entry : registry_.Entries()) {
+      if (entry.id == merged.id) out->staircases.push_back(entry);
+    }
+  }
+  if (registry_changed) {
+    std::vector<perception::Staircase> confirmed;
+    for (const auto& entry : registry_.Entries()) {
+      if (entry.detections >= kStairPriorDetections) confirmed.push_back(entry.staircase);
+    }
+    std::lock_guard<std::mutex> guard(staircases_mutex_);
+    staircases_ = std::move(confirmed);
+  }
+  const double staircase_ms = MsSince(start);
+  stats_.staircase_ms_total += staircase_ms;
+  if (adapt_to_load_) staircase_after_s_ = now_s + kLoadWait * staircase_ms / 1000.0;
+  ++stats_.staircase_runs;
+  if (progress_) progress_();
+}
+
+void PerceptionPipeline::EncodeCameraFrame(double now_s, const core::CameraImage& image,
+                                           PerceptionOutput* out) {
+  next_camera_s_ = std::max(next_camera_s_ + 1.0 / options_.camera_rate_hz, now_s);
+  const auto start = Clock::now();
+  CameraFrame frame;
+  frame.seq = ++camera_seq_;
+  frame.width_px = image.width_px;
+  frame.height_px = image.height_px;
+  frame.T_W_C = image.T_MC;
+  frame.jpeg = perception::EncodeGrayJpeg(
+      perception::GrayFrame{image.width_px, image.height_px, image.pixels}, options_.jpeg_quality);
+  // Within the camera's budget: a frame of B bytes holds the next one back B * 8 / budget seconds, so the
+  // robot never renders frames its link would only drop (on a radio link the budget is a share of it).
+  next_camera_s_ = std::max(next_camera_s_, now_s + static_cast<double>(frame.jpeg.size()) * 8.0 /
+                                                        (link_share_ * options_.camera_budget_bits_per_s));
+  out->camera = std::move(frame);
+  stats_.camera_ms_total += MsSince(start);
+  ++stats_.camera_frames;
 }
 
 }  // namespace cairn::agent

@@ -19,6 +19,22 @@ T Required(T pointer, const char* name) {
   return pointer;
 }
 
+void LogUpdate(const std::string& robot_id, const NavMapUpdateStats& stats) {
+  if (stats.grown) {
+    spdlog::info("robot {}: navigation map grown to x [{:.1f}, {:.1f}], y [{:.1f}, {:.1f}] (v{}, {:.0f} ms)",
+                 robot_id, stats.extent_M.min().x(), stats.extent_M.max().x(), stats.extent_M.min().y(),
+                 stats.extent_M.max().y(), stats.map_version,
+                 stats.read_ms + stats.traversability_ms + stats.publish_ms);
+  }
+  if (stats.applied) {
+    spdlog::debug(
+        "robot {}: navigation map v{}: {} tiles in {:.1f} x {:.1f} m, {} occupied voxels, read {:.1f} "
+        "ms, traversability {:.1f} ms, publish {:.1f} ms, {} staircase priors",
+        robot_id, stats.map_version, stats.tiles, stats.region_M.sizes().x(), stats.region_M.sizes().y(),
+        stats.occupied_voxels, stats.read_ms, stats.traversability_ms, stats.publish_ms, stats.stair_priors);
+  }
+}
+
 }  // namespace
 
 PerceptionService::PerceptionService(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
@@ -143,6 +159,34 @@ void PerceptionService::PerceptionLoop(core::WorkLoop& loop) {
   }
 }
 
+void PerceptionService::SearchTheNewMap() {
+  std::optional<nav::FrontierOptions> search;
+  Eigen::Vector3d robot_p_M;
+  bool every_level = false;
+  std::shared_ptr<const nav::PeerCoverage> peers;
+  double coverage_cell_m = 0.0;
+  {
+    std::lock_guard<std::mutex> guard(frontier_mutex_);
+    search = frontier_search_;
+    robot_p_M = robot_p_M_;
+    every_level = frontier_every_level_;
+    peers = peer_coverage_;
+    coverage_cell_m = coverage_cell_m_;
+  }
+  if (coverage_cell_m > 0) {
+    nav::CoverageBitmap seen = nav::SeenCoverage(nav_map_->grid(), coverage_cell_m);
+    std::lock_guard<std::mutex> guard(frontier_mutex_);
+    seen_coverage_ = std::move(seen);
+    coverage_cell_m_ = 0.0;
+  }
+  if (search) {
+    nav::FrontierSet set = nav_map_->Frontiers(robot_p_M, *search, every_level, peers.get());
+    std::lock_guard<std::mutex> guard(frontier_mutex_);
+    frontiers_ = std::move(set);
+    frontiers_at_s_ = NowS();
+  }
+}
+
 void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
   const auto period = std::chrono::duration_cast<core::SteadyClock::duration>(
       std::chrono::duration<double>(options_.nav_map.update_period_s));
@@ -181,31 +225,7 @@ void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
                          perception_->max_sensor_z_m(), perception_->Staircases());
     loop.Beat();
     map_progress_s_ = NowS();
-    std::optional<nav::FrontierOptions> search;
-    Eigen::Vector3d robot_p_M;
-    bool every_level = false;
-    std::shared_ptr<const nav::PeerCoverage> peers;
-    double coverage_cell_m = 0.0;
-    {
-      std::lock_guard<std::mutex> guard(frontier_mutex_);
-      search = frontier_search_;
-      robot_p_M = robot_p_M_;
-      every_level = frontier_every_level_;
-      peers = peer_coverage_;
-      coverage_cell_m = coverage_cell_m_;
-    }
-    if (coverage_cell_m > 0) {
-      nav::CoverageBitmap seen = nav::SeenCoverage(nav_map_->grid(), coverage_cell_m);
-      std::lock_guard<std::mutex> guard(frontier_mutex_);
-      seen_coverage_ = std::move(seen);
-      coverage_cell_m_ = 0.0;
-    }
-    if (search) {
-      nav::FrontierSet set = nav_map_->Frontiers(robot_p_M, *search, every_level, peers.get());
-      std::lock_guard<std::mutex> guard(frontier_mutex_);
-      frontiers_ = std::move(set);
-      frontiers_at_s_ = NowS();
-    }
+    SearchTheNewMap();
     // The map and what is computed on it (frontiers, seen coverage) are done: how long that took sets how old
     // the map may grow before it counts as not kept up (MappingHealthy()).
     const double done_s = NowS();
@@ -216,21 +236,7 @@ void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
     last_map_update_s_ = done_s;
     map_progress_s_ = done_s;
     map_work_started_s_ = -1e9;
-    if (stats.grown) {
-      spdlog::info(
-          "robot {}: navigation map grown to x [{:.1f}, {:.1f}], y [{:.1f}, {:.1f}] (v{}, {:.0f} ms)",
-          options_.robot_id, stats.extent_M.min().x(), stats.extent_M.max().x(), stats.extent_M.min().y(),
-          stats.extent_M.max().y(), stats.map_version,
-          stats.read_ms + stats.traversability_ms + stats.publish_ms);
-    }
-    if (stats.applied) {
-      spdlog::debug(
-          "robot {}: navigation map v{}: {} tiles in {:.1f} x {:.1f} m, {} occupied voxels, read {:.1f} "
-          "ms, traversability {:.1f} ms, publish {:.1f} ms, {} staircase priors",
-          options_.robot_id, stats.map_version, stats.tiles, stats.region_M.sizes().x(),
-          stats.region_M.sizes().y(), stats.occupied_voxels, stats.read_ms, stats.traversability_ms,
-          stats.publish_ms, stats.stair_priors);
-    }
+    LogUpdate(options_.robot_id, stats);
   }
 }
 

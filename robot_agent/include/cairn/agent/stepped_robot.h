@@ -110,6 +110,8 @@ class SteppedRobot {
   void StepPerception(double now_s);
 
   AgentOptions options_;
+  // The modes' clock: the time of the last Step() (0 before the first).
+  std::shared_ptr<core::SimulatedClock> clock_ = std::make_shared<core::SimulatedClock>();
   std::shared_ptr<core::PlatformIO> platform_;
   std::unique_ptr<PerceptionPipeline> perception_;
   std::shared_ptr<nav::GlobalPlanner> planner_;

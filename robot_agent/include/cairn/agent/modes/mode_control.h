@@ -4,12 +4,14 @@
 // it the tree's conditions and the robot's state; tests drive it with their own modules.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "cairn/agent/modes/mode_manager.h"
 #include "cairn/agent/modes/mode_module.h"
 #include "cairn/agent/modes/twist_mux.h"
+#include "cairn/core/time.h"
 
 namespace cairn::agent {
 
@@ -17,11 +19,13 @@ namespace cairn::agent {
 class ModeControl {
  public:
   /// Builds the mux from the modules' channels and loads the tree, checked against both (ModeManager).
-  /// `robot_id` names the robot in log lines.
+  /// `robot_id` names the robot in log lines; `clock` stamps a module's activation and the zero command of a
+  /// Stop() (the agent's clock: real, or simulated in scenario tests).
   /// @throws std::invalid_argument when the registry has no module for the fail-safe mode "idle" feeding
   ///         channel "none", or a channel is invalid (TwistMux); bt::TreeError as ModeManager (file, line,
   ///         branch, mode and channel named).
-  ModeControl(const std::string& tree_file, ModeRegistry registry, std::string robot_id);
+  ModeControl(const std::string& tree_file, ModeRegistry registry, std::string robot_id,
+              std::shared_ptr<const core::Clock> clock = core::RealClock());
 
   /// Asks the tree for `mode` under `conditions`; on acceptance switches the mux channel and the running
   /// module (the one left is deactivated, the new one activated). A channel switch that fails (impossible
@@ -70,6 +74,7 @@ class ModeControl {
   bool Apply(const ModeDecision& decision);
 
   std::string robot_id_;
+  std::shared_ptr<const core::Clock> clock_;
   ModeRegistry registry_;
   TwistMux mux_;
   ModeManager tree_;

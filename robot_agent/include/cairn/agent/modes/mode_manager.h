@@ -124,6 +124,8 @@ class ModeManager {
   // Registers the mode tree's condition and action nodes, whose callbacks read and write `ctx`.
   static void RegisterNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx);
   static void RegisterModeNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx);
+  // The condition nodes that check one fact of ModeConditions each (IsControlHeld, IsLocalized, ...).
+  static void RegisterFactNodes(bt::TreeFactory& factory, const std::shared_ptr<Context>& ctx);
   std::shared_ptr<Context> context_;
   bt::Tree tree_;
   std::vector<std::string> known_modes_;

@@ -5,7 +5,8 @@
 // other's way, asked and asking (YieldCoordination); and the modes' part of a control cycle, in the agent's
 // order.
 //
-// DDS-free and clock-free: the caller gives the time, the tree's conditions and the peers. Not thread-safe
+// DDS-free: the caller gives the time (and the clock the modes stamp activations with), the tree's conditions
+// and the peers. Not thread-safe
 // (the agent calls it under its lock).
 #pragma once
 
@@ -41,6 +42,8 @@ class RobotModes {
     std::function<std::uint64_t()> mission_commands;
     /// The traversability grid of the robot's platform (yields: the passage's width, the spots aside).
     YieldCoordination::GridSource grid;
+    /// The robot's clock (ModeControl's): the real one in the agent, a simulated one in stepped runs.
+    std::shared_ptr<const core::Clock> clock;
   };
   /// Goal and task ids: random (a restarted robot never repeats old ones) or from 1 (a deterministic run).
   enum class Ids { kRandom, kFromOne };

@@ -163,6 +163,12 @@ class PerceptionPipeline {
   std::atomic<double> max_sensor_z_m_{std::numeric_limits<double>::quiet_NaN()};
   // Takes the map's coarse changes: extends the changed region (navigation) and queues them for telemetry.
   void CollectChanges();
+  // The scan into the local cloud, and into the map when a keyframe is due.
+  void MapScan(double now_s, const core::LidarScan& scan);
+  // The detector on the local cloud; new or changed staircases into out->staircases.
+  void DetectStaircases(double now_s, PerceptionOutput* out);
+  // A JPEG of `image` into out->camera, the next frame held back by the camera's budget.
+  void EncodeCameraFrame(double now_s, const core::CameraImage& image, PerceptionOutput* out);
 
   PerceptionOptions options_;
   std::shared_ptr<perception::OccupancyMap> map_;

@@ -125,6 +125,9 @@ class PerceptionService {
   void Finish(const std::string& path);
 
  private:
+  // On a navigation map just updated: the frontiers (when exploring asked for them) and the floor seen (when
+  // a claim is due to carry it).
+  void SearchTheNewMap();
   // Reads a scan if the platform has a new one: obstacles for the control loop, the scan for perception.
   bool ReadScan(double now_s);
   double NowS() const { return core::SecondsBetween(start_time_, core::SteadyClock::now()); }
