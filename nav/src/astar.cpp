@@ -170,6 +170,181 @@ bool SegmentTraversable(const TraversabilityGrid& grid, const Eigen::Vector2d& a
   return false;  // Rounding made the walk miss the end cell: be conservative.
 }
 
+namespace {
+
+// A start on a cell this plan may not cross (the robot's centre over a step's edge, near a wall after a
+// recovery): the nearest traversable cell within start_escape_radius_m, if the body there is free. False,
+// and why, otherwise.
+template <typename Traversable>
+bool EscapeStart(const TraversabilityGrid& grid, const Eigen::Vector2d& start_W, const AStarOptions& options,
+                 const Traversable& traversable, int* sx, int* sy, std::string* why) {
+  const double c = grid.cell_size_m();
+  const bool body_free = options.start_is_robot ||
+                         grid.IsFootprintFree(start_W.x(), start_W.y(), options.start_footprint_radius_m);
+  int best_x = -1;
+  int best_y = -1;
+  if (body_free && options.start_escape_radius_m > 0.0) {
+    const double r = options.start_escape_radius_m;
+    const int span = static_cast<int>(std::ceil(r / c)) + 1;
+    double best_d = kInf;
+    for (int cx = *sx - span; cx <= *sx + span; ++cx) {
+      for (int cy = *sy - span; cy <= *sy + span; ++cy) {
+        if (!grid.InGrid(cx, cy) || !traversable(cx, cy)) continue;
+        const double dist = (grid.CellCenter(cx, cy) - start_W).norm();
+        if (dist <= r && dist < best_d) {
+          best_d = dist;
+          best_x = cx;
+          best_y = cy;
+        }
+      }
+    }
+  }
+  if (best_x < 0) {
+    std::ostringstream msg;
+    msg << "start " << FormatPoint(start_W) << " is not traversable (" << DescribeCell(grid, *sx, *sy)
+        << ") and ";
+    if (!body_free) {
+      msg << "the robot body (radius " << options.start_footprint_radius_m << " m) there is not free";
+    } else {
+      msg << "no traversable cell lies within start_escape_radius_m " << options.start_escape_radius_m
+          << " m";
+    }
+    *why = msg.str();
+    return false;
+  }
+  *sx = best_x;
+  *sy = best_y;
+  return true;
+}
+
+// A* over the grid's 8-connected cells from (sx, sy) to (gx, gy) (octile heuristic; costs: distance, the
+// clearance penalty, unknown ground, steps); true when the goal was reached. `scratch` holds the costs and
+// parents; expansions are counted into `expansions`.
+template <typename Traversable>
+bool SearchGrid(const TraversabilityGrid& grid, const AStarOptions& options, const Traversable& traversable,
+                int sx, int sy, int gx, int gy, GridSearchScratch* scratch, int* expansions) {
+  const double c = grid.cell_size_m();
+  const int nx = grid.nx();
+  const std::size_t n = static_cast<std::size_t>(nx) * grid.ny();
+  scratch->Prepare(n);
+  std::vector<double>& g = scratch->g;
+  std::vector<int>& parent = scratch->parent;
+  std::vector<std::uint8_t>& closed = scratch->closed;
+  std::vector<int>& touched = scratch->touched;
+  using Entry = std::pair<double, int>;  // (f, linear index)
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
+  auto heuristic = [&](int cx, int cy) { return Octile(cx - gx, cy - gy) * c; };
+  auto penalty = [&](int cx, int cy) {
+    if (options.preferred_clearance_m <= 0.0 || options.clearance_cost <= 0.0) return 0.0;
+    const double deficit =
+        (options.preferred_clearance_m - grid.ClearanceM(cx, cy)) / options.preferred_clearance_m;
+    return options.clearance_cost * std::clamp(deficit, 0.0, 1.0);
+  };
+  const int start_index = static_cast<int>(grid.Index(sx, sy));
+  const int goal_index = static_cast<int>(grid.Index(gx, gy));
+  g[static_cast<std::size_t>(start_index)] = 0.0;
+  touched.push_back(start_index);
+  open.emplace(heuristic(sx, sy), start_index);
+  static const int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1};
+  static const int kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+  bool found = false;
+  while (!open.empty()) {
+    const auto [f, index] = open.top();
+    open.pop();
+    const auto ui = static_cast<std::size_t>(index);
+    if (closed[ui]) continue;
+    closed[ui] = 1;
+    ++*expansions;
+    if (index == goal_index) {
+      found = true;
+      break;
+    }
+    const int cx = index % nx;
+    const int cy = index / nx;
+    for (int k = 0; k < 8; ++k) {
+      const int mx = cx + kDx[k];
+      const int my = cy + kDy[k];
+      if (!grid.InGrid(mx, my) || !traversable(mx, my)) continue;
+      const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
+      if (diagonal && (!traversable(cx + kDx[k], cy) || !traversable(cx, cy + kDy[k]))) continue;
+      const std::size_t mi = grid.Index(mx, my);
+      if (closed[mi]) continue;
+      const double move = (diagonal ? kSqrt2 : 1.0) * c;
+      // Unknown ground (NaN) adds no step cost but the unknown-space factor.
+      const double dz = grid.Ground(mx, my) - grid.Ground(cx, cy);
+      const double unknown = grid.State(mx, my) == CellState::kUnknown ? options.unknown_cost : 0.0;
+      const double cost = move * (1.0 + penalty(mx, my) + unknown) +
+                          (std::isfinite(dz) ? options.step_height_cost * std::abs(dz) : 0.0);
+      const double candidate = g[ui] + cost;
+      if (candidate < g[mi]) {
+        if (!std::isfinite(g[mi])) touched.push_back(static_cast<int>(mi));
+        g[mi] = candidate;
+        parent[mi] = index;
+        open.emplace(candidate + heuristic(mx, my), static_cast<int>(mi));
+      }
+    }
+  }
+  return found;
+}
+
+// The path of cells the search found, from the start point to the goal point (heights over unknown cells
+// carried from the nearest known point), shortcut when the options say so.
+std::vector<Eigen::Vector3d> PathOfCells(const TraversabilityGrid& grid, const AStarOptions& options,
+                                         const std::vector<int>& parent, int goal_index, int gx, int gy,
+                                         const Eigen::Vector2d& start_W, const Eigen::Vector2d& goal_W,
+                                         bool used_start_escape) {
+  const int nx = grid.nx();
+  std::vector<int> cells;
+  for (int i = goal_index; i >= 0; i = parent[static_cast<std::size_t>(i)]) cells.push_back(i);
+  std::reverse(cells.begin(), cells.end());
+  auto vertex = [&](int index) {
+    const int cx = index % nx;
+    const int cy = index / nx;
+    const Eigen::Vector2d p = grid.CellCenter(cx, cy);
+    return Eigen::Vector3d(p.x(), p.y(), grid.Ground(cx, cy));
+  };
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> clearance;  // Per point: clearance of its cell.
+  for (const int index : cells) {
+    points.push_back(vertex(index));
+    clearance.push_back(grid.ClearanceM(index % nx, index / nx));
+  }
+  // The exact start replaces the first cell centre, unless the search started from an escape cell (then the
+  // start is prepended); the exact goal replaces the last cell centre.
+  const double start_z = grid.GroundHeight(start_W.x(), start_W.y()).value_or(points.front().z());
+  const Eigen::Vector3d start_point(start_W.x(), start_W.y(), start_z);
+  internal::AttachStart(start_point, used_start_escape, &points, &clearance);
+  points.back() = Eigen::Vector3d(goal_W.x(), goal_W.y(), grid.Ground(gx, gy));
+  {  // Heights over unknown cells: carried from the nearest known point before (else after) on the path.
+    double known = grid.summary().reference_height_m;
+    for (const auto& p : points) {
+      if (std::isfinite(p.z())) {
+        known = p.z();
+        break;
+      }
+    }
+    for (auto& p : points) {
+      if (std::isfinite(p.z())) {
+        known = p.z();
+      } else {
+        p.z() = known;
+      }
+    }
+  }
+
+  if (options.simplify_path) {
+    internal::ShortcutPath(
+        options.preferred_clearance_m, clearance,
+        [&](std::size_t anchor, std::size_t j, double need) {
+          return SegmentTraversable(grid, points[anchor].head<2>(), points[j].head<2>(), need);
+        },
+        &points);
+  }
+  return points;
+}
+
+}  // namespace
+
 PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start_W,
                     const Eigen::Vector2d& goal_W, const AStarOptions& options) {
   std::string why;
@@ -208,163 +383,22 @@ PlanResult PlanPath(const TraversabilityGrid& grid, const Eigen::Vector2d& start
     return finish(Status::kGoalBlocked,
                   "goal " + FormatPoint(goal_W) + " is not traversable (" + DescribeCell(grid, gx, gy) + ")");
   }
-  const double c = grid.cell_size_m();
   if (!traversable(sx, sy)) {
-    const bool body_free = options.start_is_robot ||
-                           grid.IsFootprintFree(start_W.x(), start_W.y(), options.start_footprint_radius_m);
-    int best_x = -1;
-    int best_y = -1;
-    if (body_free && options.start_escape_radius_m > 0.0) {
-      const double r = options.start_escape_radius_m;
-      const int span = static_cast<int>(std::ceil(r / c)) + 1;
-      double best_d = kInf;
-      for (int cx = sx - span; cx <= sx + span; ++cx) {
-        for (int cy = sy - span; cy <= sy + span; ++cy) {
-          if (!grid.InGrid(cx, cy) || !traversable(cx, cy)) continue;
-          const double dist = (grid.CellCenter(cx, cy) - start_W).norm();
-          if (dist <= r && dist < best_d) {
-            best_d = dist;
-            best_x = cx;
-            best_y = cy;
-          }
-        }
-      }
-    }
-    if (best_x < 0) {
-      std::ostringstream msg;
-      msg << "start " << FormatPoint(start_W) << " is not traversable (" << DescribeCell(grid, sx, sy)
-          << ") and ";
-      if (!body_free) {
-        msg << "the robot body (radius " << options.start_footprint_radius_m << " m) there is not free";
-      } else {
-        msg << "no traversable cell lies within start_escape_radius_m " << options.start_escape_radius_m
-            << " m";
-      }
-      return finish(Status::kStartBlocked, msg.str());
-    }
+    std::string blocked;
+    if (!EscapeStart(grid, start_W, options, traversable, &sx, &sy, &blocked))
+      return finish(Status::kStartBlocked, blocked);
     result.used_start_escape = true;
-    sx = best_x;
-    sy = best_y;
   }
-
-  // ---- A* search. ----
-  const int nx = grid.nx();
-  const std::size_t n = static_cast<std::size_t>(nx) * grid.ny();
   auto scratch = GridScratchPool().Take();
-  scratch->Prepare(n);
-  std::vector<double>& g = scratch->g;
-  std::vector<int>& parent = scratch->parent;
-  std::vector<std::uint8_t>& closed = scratch->closed;
-  std::vector<int>& touched = scratch->touched;
-  using Entry = std::pair<double, int>;  // (f, linear index)
-  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
-  auto heuristic = [&](int cx, int cy) { return Octile(cx - gx, cy - gy) * c; };
-  auto penalty = [&](int cx, int cy) {
-    if (options.preferred_clearance_m <= 0.0 || options.clearance_cost <= 0.0) return 0.0;
-    const double deficit =
-        (options.preferred_clearance_m - grid.ClearanceM(cx, cy)) / options.preferred_clearance_m;
-    return options.clearance_cost * std::clamp(deficit, 0.0, 1.0);
-  };
-  const int start_index = static_cast<int>(grid.Index(sx, sy));
-  const int goal_index = static_cast<int>(grid.Index(gx, gy));
-  g[static_cast<std::size_t>(start_index)] = 0.0;
-  touched.push_back(start_index);
-  open.emplace(heuristic(sx, sy), start_index);
-  static const int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1};
-  static const int kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
-  bool found = false;
-  while (!open.empty()) {
-    const auto [f, index] = open.top();
-    open.pop();
-    const auto ui = static_cast<std::size_t>(index);
-    if (closed[ui]) continue;
-    closed[ui] = 1;
-    ++result.expansions;
-    if (index == goal_index) {
-      found = true;
-      break;
-    }
-    const int cx = index % nx;
-    const int cy = index / nx;
-    for (int k = 0; k < 8; ++k) {
-      const int mx = cx + kDx[k];
-      const int my = cy + kDy[k];
-      if (!grid.InGrid(mx, my) || !traversable(mx, my)) continue;
-      const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
-      if (diagonal && (!traversable(cx + kDx[k], cy) || !traversable(cx, cy + kDy[k]))) continue;
-      const std::size_t mi = grid.Index(mx, my);
-      if (closed[mi]) continue;
-      const double move = (diagonal ? kSqrt2 : 1.0) * c;
-      // Unknown ground (NaN) adds no step cost but the unknown-space factor.
-      const double dz = grid.Ground(mx, my) - grid.Ground(cx, cy);
-      const double unknown = grid.State(mx, my) == CellState::kUnknown ? options.unknown_cost : 0.0;
-      const double cost = move * (1.0 + penalty(mx, my) + unknown) +
-                          (std::isfinite(dz) ? options.step_height_cost * std::abs(dz) : 0.0);
-      const double candidate = g[ui] + cost;
-      if (candidate < g[mi]) {
-        if (!std::isfinite(g[mi])) touched.push_back(static_cast<int>(mi));
-        g[mi] = candidate;
-        parent[mi] = index;
-        open.emplace(candidate + heuristic(mx, my), static_cast<int>(mi));
-      }
-    }
-  }
-  if (!found) {
+  if (!SearchGrid(grid, options, traversable, sx, sy, gx, gy, &*scratch, &result.expansions)) {
     std::ostringstream msg;
     msg << "goal " << FormatPoint(goal_W) << " is unreachable from start " << FormatPoint(start_W)
         << ": no traversable path (" << result.expansions
         << " cells expanded; they lie in different regions)";
     return finish(Status::kUnreachable, msg.str());
   }
-
-  // ---- Path: start point, cell centres, goal point. ----
-  std::vector<int> cells;
-  for (int i = goal_index; i >= 0; i = parent[static_cast<std::size_t>(i)]) cells.push_back(i);
-  std::reverse(cells.begin(), cells.end());
-  auto vertex = [&](int index) {
-    const int cx = index % nx;
-    const int cy = index / nx;
-    const Eigen::Vector2d p = grid.CellCenter(cx, cy);
-    return Eigen::Vector3d(p.x(), p.y(), grid.Ground(cx, cy));
-  };
-  std::vector<Eigen::Vector3d> points;
-  std::vector<double> clearance;  // Per point: clearance of its cell.
-  for (const int index : cells) {
-    points.push_back(vertex(index));
-    clearance.push_back(grid.ClearanceM(index % nx, index / nx));
-  }
-  // The exact start replaces the first cell centre, unless the search started from an escape cell (then the
-  // start is prepended); the exact goal replaces the last cell centre.
-  const double start_z = grid.GroundHeight(start_W.x(), start_W.y()).value_or(points.front().z());
-  const Eigen::Vector3d start_point(start_W.x(), start_W.y(), start_z);
-  internal::AttachStart(start_point, result.used_start_escape, &points, &clearance);
-  points.back() = Eigen::Vector3d(goal_W.x(), goal_W.y(), grid.Ground(gx, gy));
-  {  // Heights over unknown cells: carried from the nearest known point before (else after) on the path.
-    double known = grid.summary().reference_height_m;
-    for (const auto& p : points) {
-      if (std::isfinite(p.z())) {
-        known = p.z();
-        break;
-      }
-    }
-    for (auto& p : points) {
-      if (std::isfinite(p.z())) {
-        known = p.z();
-      } else {
-        p.z() = known;
-      }
-    }
-  }
-
-  if (options.simplify_path) {
-    internal::ShortcutPath(
-        options.preferred_clearance_m, clearance,
-        [&](std::size_t anchor, std::size_t j, double need) {
-          return SegmentTraversable(grid, points[anchor].head<2>(), points[j].head<2>(), need);
-        },
-        &points);
-  }
-  result.path_W = std::move(points);
+  result.path_W = PathOfCells(grid, options, scratch->parent, static_cast<int>(grid.Index(gx, gy)), gx, gy,
+                              start_W, goal_W, result.used_start_escape);
   result.length_m = PathLength2D(result.path_W);
   std::ostringstream msg;
   msg.precision(2);

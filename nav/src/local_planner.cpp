@@ -824,6 +824,67 @@ double LocalPlanner::clearance_m(int path_id) const {
   return library_->BucketClearanceM(clearance_bucket_[static_cast<std::size_t>(path_id)]);
 }
 
+namespace {
+
+// Empties `r` for a new cycle, keeping (and growing once to their largest size) its buffers, so that later
+// cycles do not allocate.
+void ResetResult(int num_paths, int samples_per_path, LocalPlanResult* result) {
+  LocalPlanResult& r = *result;
+  r.status = LocalPlanResult::Status::kInvalidInput;
+  r.path_id = -1;
+  r.path_B.clear();
+  r.free_length_m = 0.0;
+  r.required_free_length_m = 0.0;
+  r.score = 0.0;
+  r.clearance_m = 0.0;
+  r.num_free_paths = 0;
+  r.num_candidate_paths = 0;
+  r.free_mask.assign((static_cast<std::size_t>(num_paths) + 63) / 64, 0);
+  r.path_B.reserve(static_cast<std::size_t>(samples_per_path) + 1);
+  r.message.reserve(kMessageCapacity);
+  r.num_points_used = 0;
+  r.num_points_outside_grid = 0;
+  r.num_points_outside_z_band = 0;
+  r.num_points_non_finite = 0;
+  r.num_occupied_voxels = 0;
+  r.num_occupied_clearance_voxels = 0;
+  r.nearest_obstacle_m = std::numeric_limits<double>::infinity();
+}
+
+// False (and why, in buf) when `request` is not one the planner can answer with a library of `num_paths`.
+bool CheckRequest(const LocalPlanRequest& request, int num_paths, char (&buf)[kMessageCapacity]) {
+  const Eigen::Vector2d& goal = request.goal_B;
+  if (!std::isfinite(goal.x()) || !std::isfinite(goal.y())) {
+    std::snprintf(buf, sizeof(buf), "LocalPlanRequest::goal_B (%g, %g) must be finite", goal.x(), goal.y());
+    return false;
+  }
+  const double goal_distance_m = goal.norm();
+  if (!(goal_distance_m > 1e-6)) {
+    std::snprintf(buf, sizeof(buf),
+                  "LocalPlanRequest::goal_B (%g, %g) must be longer than 1e-6 m (it sets the %s)", goal.x(),
+                  goal.y(), request.mode == LocalPlanMode::kGoal ? "goal direction" : "joystick direction");
+    return false;
+  }
+  if (!(request.max_required_free_length_m > 0.0)) {
+    std::snprintf(buf, sizeof(buf), "LocalPlanRequest::max_required_free_length_m = %g must be > 0",
+                  request.max_required_free_length_m);
+    return false;
+  }
+  if (request.previous_path_id < -1 || request.previous_path_id >= num_paths) {
+    std::snprintf(buf, sizeof(buf), "LocalPlanRequest::previous_path_id = %d must be -1 or in [0, %d]",
+                  request.previous_path_id, num_paths - 1);
+    return false;
+  }
+  if (request.mode != LocalPlanMode::kGoal && request.mode != LocalPlanMode::kJoystick) {
+    std::snprintf(buf, sizeof(buf), "LocalPlanRequest::mode = %d is not kGoal or kJoystick",
+                  static_cast<int>(request.mode));
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 LocalPlanResult LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B,
                                    const LocalPlanRequest& request) {
   LocalPlanResult result;
@@ -835,76 +896,74 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
                         LocalPlanResult* result) {
   const auto t0 = std::chrono::steady_clock::now();
   const TrajectoryLibrary& lib = *library_;
-  const TrajectoryLibraryOptions& lo = lib.options();
   const int num_paths = lib.num_paths();
   const int n = lib.samples_per_path();
   LocalPlanResult& r = *result;
   using Status = LocalPlanResult::Status;
-  // Reset, keeping buffers.
-  r.status = Status::kInvalidInput;
-  r.path_id = -1;
-  r.path_B.clear();
-  r.free_length_m = 0.0;
-  r.required_free_length_m = 0.0;
-  r.score = 0.0;
-  r.clearance_m = 0.0;
-  r.num_free_paths = 0;
-  r.num_candidate_paths = 0;
-  r.free_mask.assign((static_cast<std::size_t>(num_paths) + 63) / 64, 0);
-  // Grow the buffers once to their largest size, so that later cycles do not allocate.
-  r.path_B.reserve(static_cast<std::size_t>(n) + 1);
-  r.message.reserve(kMessageCapacity);
-  r.num_points_used = 0;
-  r.num_points_outside_grid = 0;
-  r.num_points_outside_z_band = 0;
-  r.num_points_non_finite = 0;
-  r.num_occupied_voxels = 0;
-  r.num_occupied_clearance_voxels = 0;
-  r.nearest_obstacle_m = std::numeric_limits<double>::infinity();
+  ResetResult(num_paths, n, result);
   char buf[kMessageCapacity];
   auto finish = [&](Status status) {
     r.status = status;
     r.message.assign(buf);
     r.planning_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
-
-  // Request.
+  if (!CheckRequest(request, num_paths, buf)) return finish(Status::kInvalidInput);
   const Eigen::Vector2d& goal = request.goal_B;
-  if (!std::isfinite(goal.x()) || !std::isfinite(goal.y())) {
-    std::snprintf(buf, sizeof(buf), "LocalPlanRequest::goal_B (%g, %g) must be finite", goal.x(), goal.y());
-    return finish(Status::kInvalidInput);
-  }
-  const double goal_distance_m = goal.norm();
-  if (!(goal_distance_m > 1e-6)) {
-    std::snprintf(buf, sizeof(buf),
-                  "LocalPlanRequest::goal_B (%g, %g) must be longer than 1e-6 m (it sets the %s)", goal.x(),
-                  goal.y(), request.mode == LocalPlanMode::kGoal ? "goal direction" : "joystick direction");
-    return finish(Status::kInvalidInput);
-  }
-  if (!(request.max_required_free_length_m > 0.0)) {
-    std::snprintf(buf, sizeof(buf), "LocalPlanRequest::max_required_free_length_m = %g must be > 0",
-                  request.max_required_free_length_m);
-    return finish(Status::kInvalidInput);
-  }
-  if (request.previous_path_id < -1 || request.previous_path_id >= num_paths) {
-    std::snprintf(buf, sizeof(buf), "LocalPlanRequest::previous_path_id = %d must be -1 or in [0, %d]",
-                  request.previous_path_id, num_paths - 1);
-    return finish(Status::kInvalidInput);
-  }
-  if (request.mode != LocalPlanMode::kGoal && request.mode != LocalPlanMode::kJoystick) {
-    std::snprintf(buf, sizeof(buf), "LocalPlanRequest::mode = %d is not kGoal or kJoystick",
-                  static_cast<int>(request.mode));
-    return finish(Status::kInvalidInput);
-  }
   const bool joystick = request.mode == LocalPlanMode::kJoystick;
-  const double length_m = lo.path_length_m;
   double required_m = request.max_required_free_length_m;
-  if (!joystick) required_m = std::min(required_m, goal_distance_m);
-  required_m = std::min(std::max(required_m, options_.min_free_length_m), length_m);
+  if (!joystick) required_m = std::min(required_m, goal.norm());
+  required_m = std::min(std::max(required_m, options_.min_free_length_m), lib.options().path_length_m);
   const int required_samples = RequiredSamples(required_m, lib.sample_spacing_m(), n);
   r.required_free_length_m = required_m;
+  MarkOccupiedVoxels(obstacles_B, &r);
+  BlockPaths(required_samples);
+  float best_score = 0.0f;
+  const int best = ChoosePath(request, required_samples, &r, &best_score);
 
-  // Points -> distinct occupied voxels of both grids (no allocation: stamps and lists are preallocated).
+  char nearest[48];
+  if (std::isfinite(r.nearest_obstacle_m)) {
+    std::snprintf(nearest, sizeof(nearest), "nearest obstacle %.2f m", r.nearest_obstacle_m);
+  } else {
+    std::snprintf(nearest, sizeof(nearest), "no obstacles");
+  }
+  if (best < 0) {
+    if (joystick) {
+      std::snprintf(
+          buf, sizeof(buf),
+          "boxed in: 0 of %d paths free for %.2f m within %.0f deg of the joystick direction %.0f deg "
+          "(%d free elsewhere), %s",
+          num_paths, required_m, options_.max_joystick_deviation_rad * 180.0 / kPi,
+          std::atan2(goal.y(), goal.x()) * 180.0 / kPi, r.num_free_paths, nearest);
+    } else {
+      std::snprintf(buf, sizeof(buf), "boxed in: 0 of %d paths free for %.2f m, %s", num_paths, required_m,
+                    nearest);
+    }
+    return finish(Status::kBoxedIn);
+  }
+  const std::size_t bi = static_cast<std::size_t>(best);
+  r.path_id = best;
+  r.score = best_score;
+  r.free_length_m = first_blocked_[bi] * lib.sample_spacing_m();
+  r.clearance_m = lib.BucketClearanceM(clearance_bucket_[bi]);
+  const Eigen::Vector2f* samples = lib.samples_B(best);
+  r.path_B.emplace_back(0.0f, 0.0f, 0.0f);
+  for (int i = 0; i < first_blocked_[bi]; ++i) r.path_B.emplace_back(samples[i].x(), samples[i].y(), 0.0f);
+  const TrajectoryInfo& info = lib.info(best);
+  std::snprintf(buf, sizeof(buf),
+                "path %d (heading %.0f deg, group %d, end bearing %.0f deg): free %.2f m (%.2f m required), "
+                "clearance %.2f m, %d of %d paths free, %s",
+                best, info.heading_rad * 180.0 / kPi, info.group, info.end_bearing_rad * 180.0 / kPi,
+                r.free_length_m, required_m, r.clearance_m, r.num_free_paths, num_paths, nearest);
+  finish(Status::kPathFound);
+}
+
+// Points -> the distinct occupied voxels of both grids, and the points near the origin (no allocation: stamps
+// and lists are preallocated); counts into `r`.
+void LocalPlanner::MarkOccupiedVoxels(const std::vector<Eigen::Vector3f>& obstacles_B,
+                                      LocalPlanResult* result) {
+  const TrajectoryLibrary& lib = *library_;
+  const TrajectoryLibraryOptions& lo = lib.options();
+  LocalPlanResult& r = *result;
   if (++cycle_ == 0) {
     std::fill(voxel_stamp_.begin(), voxel_stamp_.end(), 0u);
     std::fill(band_stamp_.begin(), band_stamp_.end(), 0u);
@@ -946,8 +1005,14 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
   r.num_occupied_voxels = static_cast<int>(occupied_.size());
   r.num_occupied_clearance_voxels = static_cast<int>(occupied_band_.size());
   r.nearest_obstacle_m = std::sqrt(static_cast<double>(nearest2));
+}
 
-  // Voxels -> path tree nodes -> paths.
+// Voxels -> path tree nodes -> paths: each path's first blocked sample and least clearance bucket (counted
+// within `required_samples`).
+void LocalPlanner::BlockPaths(int required_samples) {
+  const TrajectoryLibrary& lib = *library_;
+  const int num_paths = lib.num_paths();
+  const int n = lib.samples_per_path();
   std::fill(node_first_blocked_.begin(), node_first_blocked_.end(), static_cast<std::uint8_t>(n));
   std::fill(node_bucket_.begin(), node_bucket_.end(), kNone);
   std::uint8_t* const node_first = node_first_blocked_.data();
@@ -994,8 +1059,20 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
     first_blocked[p] = std::min({node_first[nodes[0]], node_first[nodes[1]], node_first[nodes[2]]});
     bucket[p] = std::min({node_bucket[nodes[0]], node_bucket[nodes[1]], node_bucket[nodes[2]]});
   }
+}
 
-  // Scoring (see LocalPlannerOptions).
+// The free path (for `required_samples`) of the best score (see LocalPlannerOptions), -1 if none; the free
+// and candidate counts and the free mask into `r`.
+int LocalPlanner::ChoosePath(const LocalPlanRequest& request, int required_samples, LocalPlanResult* result,
+                             float* best_score_out) const {
+  const TrajectoryLibraryOptions& lo = library_->options();
+  const int num_paths = library_->num_paths();
+  const int req = required_samples;
+  const bool joystick = request.mode == LocalPlanMode::kJoystick;
+  const Eigen::Vector2d& goal = request.goal_B;
+  LocalPlanResult& r = *result;
+  const std::uint8_t* const first_blocked = first_blocked_.data();
+  const std::uint8_t* const bucket = clearance_bucket_.data();
   const float pi_f = static_cast<float>(kPi);
   // |a - b| wrapped to [0, pi], for a, b in [-pi, pi].
   auto angle_between = [pi_f](float a, float b) {
@@ -1031,41 +1108,8 @@ void LocalPlanner::Plan(const std::vector<Eigen::Vector3f>& obstacles_B, const L
     }
   }
 
-  char nearest[48];
-  if (std::isfinite(r.nearest_obstacle_m)) {
-    std::snprintf(nearest, sizeof(nearest), "nearest obstacle %.2f m", r.nearest_obstacle_m);
-  } else {
-    std::snprintf(nearest, sizeof(nearest), "no obstacles");
-  }
-  if (best < 0) {
-    if (joystick) {
-      std::snprintf(
-          buf, sizeof(buf),
-          "boxed in: 0 of %d paths free for %.2f m within %.0f deg of the joystick direction %.0f deg "
-          "(%d free elsewhere), %s",
-          num_paths, required_m, options_.max_joystick_deviation_rad * 180.0 / kPi,
-          std::atan2(goal.y(), goal.x()) * 180.0 / kPi, r.num_free_paths, nearest);
-    } else {
-      std::snprintf(buf, sizeof(buf), "boxed in: 0 of %d paths free for %.2f m, %s", num_paths, required_m,
-                    nearest);
-    }
-    return finish(Status::kBoxedIn);
-  }
-  const std::size_t bi = static_cast<std::size_t>(best);
-  r.path_id = best;
-  r.score = best_score;
-  r.free_length_m = first_blocked[bi] * lib.sample_spacing_m();
-  r.clearance_m = lib.BucketClearanceM(bucket[bi]);
-  const Eigen::Vector2f* samples = lib.samples_B(best);
-  r.path_B.emplace_back(0.0f, 0.0f, 0.0f);
-  for (int i = 0; i < first_blocked[bi]; ++i) r.path_B.emplace_back(samples[i].x(), samples[i].y(), 0.0f);
-  const TrajectoryInfo& info = lib.info(best);
-  std::snprintf(buf, sizeof(buf),
-                "path %d (heading %.0f deg, group %d, end bearing %.0f deg): free %.2f m (%.2f m required), "
-                "clearance %.2f m, %d of %d paths free, %s",
-                best, info.heading_rad * 180.0 / kPi, info.group, info.end_bearing_rad * 180.0 / kPi,
-                r.free_length_m, required_m, r.clearance_m, r.num_free_paths, num_paths, nearest);
-  finish(Status::kPathFound);
+  *best_score_out = best_score;
+  return best;
 }
 
 // ---------------------------------------------------------------------------------------------------------

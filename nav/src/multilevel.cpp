@@ -541,6 +541,264 @@ bool SegmentTraversableMultiLevel(const MultiLevelGrid& grid, const Eigen::Vecto
   return a_W.allFinite() && b_W.allFinite() && WalkSegment(search, grid, a_W, b_W, min_clearance_m);
 }
 
+namespace {
+
+// The goal of a multi-level plan: a known surface, or unknown space at a height.
+struct LevelGoal {
+  int ix = 0, iy = 0;
+  int node = -1;          // -1: unknown space
+  double target_z = 0.0;  // the height asked for (default: the start's level)
+  double level_z = 0.0;   // the goal surface's height, or target_z in unknown space
+  bool Reached(const State& s) const {
+    if (s.ix != ix || s.iy != iy) return false;
+    return node >= 0 ? s.node == node : std::abs(s.z - target_z) <= kLevelMatch_m;
+  }
+};
+
+int LowestNode(const MultiLevelGrid& grid, int column) {
+  return grid.FirstNode(column) < grid.FirstNode(column + 1) ? grid.FirstNode(column) : -1;
+}
+
+// The start state: the surface under the robot nearest its height, unknown space there, or the nearest
+// traversable cell within start_escape_radius_m (`used_escape`). `start_z` becomes the start surface's
+// height. nullopt, and why, when there is none.
+std::optional<State> FindLevelStart(const MultiLevelGrid& grid, const MultiLevelSearch& search,
+                                    const AStarOptions& options, const Eigen::Vector3d& start_W, int sx,
+                                    int sy, double* start_z_out, bool* used_escape, std::string* why) {
+  const double step_m = grid.options().max_step_m;
+  const double c = grid.cell_size_m();
+  double start_z = start_W.z();
+  const int start_node = std::isfinite(start_z) ? grid.NodeNear(sx, sy, start_z, std::max(0.5, step_m))
+                                                : LowestNode(grid, grid.Column(sx, sy));
+  if (start_node >= 0) start_z = grid.NodeZ(start_node);
+  *start_z_out = start_z;
+  std::optional<State> start;
+  if (start_node >= 0 && search.Traversable(start_node)) {
+    start = State{sx, sy, start_z, start_node};
+  } else if (start_node < 0 && std::isfinite(start_z) && grid.IsUnknownAt(sx, sy, start_z)) {
+    start = State{sx, sy, start_z, -1};
+  } else if (start_node >= 0 && options.start_escape_radius_m > 0.0 &&
+             (options.start_is_robot || grid.IsFootprintFreeNear(start_W.x(), start_W.y(), start_z,
+                                                                 options.start_footprint_radius_m))) {
+    const int span = static_cast<int>(std::ceil(options.start_escape_radius_m / c)) + 1;
+    double best_d = kInf;
+    for (int cx = sx - span; cx <= sx + span; ++cx) {
+      for (int cy = sy - span; cy <= sy + span; ++cy) {
+        const int n = grid.NodeNear(cx, cy, start_z, step_m);
+        if (n < 0 || !search.Traversable(n)) continue;
+        const double d = (grid.CellCenter(cx, cy) - start_W.head<2>()).norm();
+        if (d <= options.start_escape_radius_m && d < best_d) {
+          best_d = d;
+          start = State{cx, cy, grid.NodeZ(n), n};
+        }
+      }
+    }
+    *used_escape = start.has_value();
+  }
+  if (!start) {
+    *why = "start " + Point2(start_W.head<2>()) + " " +
+           (start_node < 0 ? "has no walkable surface near z " + Fixed(start_W.z())
+                           : "is not traversable (clearance " + Fixed(grid.ClearanceM(start_node)) +
+                                 " m <= robot_radius_m " + Fixed(search.radius_m()) +
+                                 " m) and no traversable cell lies within start_escape_radius_m");
+  }
+  return start;
+}
+
+// The goal: the surface nearest the named height (default: the start's level, else the lowest), or unknown
+// space there. "" or why not.
+std::string FindLevelGoal(const MultiLevelGrid& grid, const MultiLevelSearch& search,
+                          const Eigen::Vector2d& goal_W, double goal_z_m, double start_z, int gx, int gy,
+                          LevelGoal* goal) {
+  const int goal_column = grid.Column(gx, gy);
+  goal->ix = gx;
+  goal->iy = gy;
+  goal->target_z = std::isfinite(goal_z_m) ? goal_z_m : start_z;
+  goal->node = grid.NodeNear(gx, gy, goal->target_z, kLevelMatch_m);
+  if (goal->node < 0 && !std::isfinite(goal_z_m)) goal->node = LowestNode(grid, goal_column);
+  const bool goal_unknown = goal->node < 0 && grid.IsUnknownAt(gx, gy, goal->target_z);
+  if (goal->node < 0 && !goal_unknown) {
+    std::string surfaces;
+    for (int n = grid.FirstNode(goal_column); n < grid.FirstNode(goal_column + 1); ++n) {
+      surfaces += (surfaces.empty() ? "" : ", ") + Fixed(grid.NodeZ(n));
+    }
+    return "goal " + Point2(goal_W) + " has no walkable surface within " + Fixed(kLevelMatch_m) + " m of z " +
+           Fixed(goal->target_z) +
+           (surfaces.empty() ? " (none in that column)" : " (surfaces at z " + surfaces + ")");
+  }
+  if (goal->node >= 0 && !search.Traversable(goal->node)) {
+    return "goal " + Point2(goal_W) + " at z " + Fixed(grid.NodeZ(goal->node)) +
+           " is not traversable (clearance " + Fixed(grid.ClearanceM(goal->node)) + " m <= robot_radius_m " +
+           Fixed(search.radius_m()) + " m)";
+  }
+  goal->level_z = goal->node >= 0 ? grid.NodeZ(goal->node) : goal->target_z;
+  return "";
+}
+
+// A*'s records of one search: known surfaces in flat arrays (reset where written), unknown-space states in a
+// hash map.
+class LevelRecords {
+ public:
+  LevelRecords(LevelSearchScratch* scratch, int n_nodes) : scratch_(*scratch), n_nodes_(n_nodes) {
+    scratch_.Prepare(static_cast<std::size_t>(n_nodes));
+  }
+  Record& operator[](std::int64_t key) {
+    return key < n_nodes_ ? scratch_.known[static_cast<std::size_t>(key)] : scratch_.virtuals[key];
+  }
+  // A known surface's record leaves its reset state.
+  void NoteWritten(std::int64_t key) {
+    if (key < n_nodes_) scratch_.touched.push_back(static_cast<int>(key));
+  }
+
+ private:
+  LevelSearchScratch& scratch_;
+  int n_nodes_;
+};
+
+// Where a search ended: the goal's key (-1: not reached), and for a partial plan the reachable state nearest
+// the goal (PartialRemainingM).
+struct LevelSearchEnd {
+  std::int64_t goal_key = -1;
+  std::int64_t best_key = -1;
+  double best_remaining = 0.0;
+  double start_remaining = 0.0;
+  bool capped = false;  // stopped at max_expansions
+  int max_expansions = 0;
+};
+
+// A* over (cell, surface) from `start` to `goal`; expansions counted into `expansions`.
+LevelSearchEnd SearchLevels(const MultiLevelGrid& grid, const MultiLevelSearch& search,
+                            const AStarOptions& options, const State& start, const LevelGoal& goal,
+                            const Eigen::Vector2d& goal_W, LevelRecords* records_in, int* expansions) {
+  LevelRecords& record = *records_in;
+  const double c = grid.cell_size_m();
+  using Entry = std::pair<double, std::int64_t>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
+  // Octile distance plus the height still to climb or descend at step_height_cost per metre: every path
+  // changes height by at least that much, so the heuristic stays admissible and consistent, and a search
+  // toward another floor follows the stairs before it fills the floor it stands on.
+  const double level_slack_m = goal.node >= 0 ? 0.0 : kLevelMatch_m;  // an unknown goal matches within this
+  auto heuristic = [&](const State& s) {
+    const int a = std::abs(s.ix - goal.ix);
+    const int b = std::abs(s.iy - goal.iy);
+    return (std::max(a, b) + (kSqrt2 - 1.0) * std::min(a, b)) * c +
+           options.step_height_cost * std::max(0.0, std::abs(s.z - goal.level_z) - level_slack_m);
+  };
+  auto penalty = [&](double clearance) {
+    if (options.preferred_clearance_m <= 0.0 || options.clearance_cost <= 0.0 || !std::isfinite(clearance))
+      return 0.0;
+    return options.clearance_cost *
+           std::clamp((options.preferred_clearance_m - clearance) / options.preferred_clearance_m, 0.0, 1.0);
+  };
+  // How far a state is from the goal, for a partial plan (PartialRemainingM).
+  auto remaining = [&](const State& s) {
+    const Eigen::Vector2d p = grid.CellCenter(s.ix, s.iy);
+    return PartialRemainingM(Eigen::Vector3d(p.x(), p.y(), s.z), goal_W, goal.level_z, grid.cell_size_m());
+  };
+  const std::int64_t start_key = search.Key(start);
+  record[start_key] = Record{0.0, -1, false, start};
+  record.NoteWritten(start_key);
+  open.emplace(heuristic(start), start_key);
+  LevelSearchEnd end;
+  end.best_key = start_key;
+  end.best_remaining = remaining(start);
+  end.start_remaining = end.best_remaining;
+  // A partial plan is a best effort: its search is bounded tighter (an unreachable level would otherwise
+  // expand every cell of a mostly unknown map).
+  end.max_expansions = options.allow_partial ? std::min(options.max_expansions, kPartialMaxExpansions)
+                                             : options.max_expansions;
+  while (!open.empty()) {
+    const auto [f, key] = open.top();
+    open.pop();
+    Record& rec = record[key];
+    if (rec.closed) continue;
+    rec.closed = true;
+    if (++*expansions > end.max_expansions) {
+      end.capped = true;
+      break;
+    }
+    const State s = rec.state;
+    const double g_here = rec.g;
+    if (goal.Reached(s)) {
+      end.goal_key = key;
+      break;
+    }
+    if (options.allow_partial) {
+      const double r = remaining(s);
+      if (r < end.best_remaining - 1e-9) {
+        end.best_remaining = r;
+        end.best_key = key;
+      }
+    }
+    for (int k = 0; k < 8; ++k) {
+      std::optional<State> next = search.Enter(s.ix + kDx[k], s.iy + kDy[k], s.z);
+      if (!next) continue;
+      const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
+      if (next->node < 0) {
+        next->unknown_run_m =
+            (s.node < 0 ? s.unknown_run_m : 0.0f) + static_cast<float>((diagonal ? kSqrt2 : 1.0) * c);
+        if (next->unknown_run_m > kMaxUnknownBridgeOffLevelM &&
+            std::abs(next->z - goal.level_z) > kLevelMatch_m) {
+          continue;  // off the goal's level, unknown space only bridges gaps
+        }
+      }
+      if (diagonal && (!search.Enter(s.ix + kDx[k], s.iy, s.z) || !search.Enter(s.ix, s.iy + kDy[k], s.z)))
+        continue;
+      const std::int64_t next_key = search.Key(*next);
+      Record& nr = record[next_key];
+      if (nr.closed) continue;
+      const double move = (diagonal ? kSqrt2 : 1.0) * c;
+      const double unknown = next->node < 0 ? options.unknown_cost : 0.0;
+      const double cost = move * (1.0 + penalty(search.Clearance(*next)) + unknown) +
+                          options.step_height_cost * std::abs(next->z - s.z);
+      const double candidate = g_here + cost;
+      if (candidate < nr.g) {
+        if (!std::isfinite(nr.g)) record.NoteWritten(next_key);
+        nr.g = candidate;
+        nr.parent = key;
+        nr.state = *next;
+        open.emplace(candidate + heuristic(*next), next_key);
+      }
+    }
+  }
+  return end;
+}
+
+// The path the search found to `end_key`: start point, cell centres with their surface heights, the goal
+// point (unless partial); shortcuts only over points of one level.
+std::vector<Eigen::Vector3d> LevelPathPoints(const MultiLevelGrid& grid, const MultiLevelSearch& search,
+                                             const AStarOptions& options, LevelRecords* records_in,
+                                             std::int64_t end_key, const Eigen::Vector3d& start_point,
+                                             const Eigen::Vector2d& goal_W, const PlanResult& result) {
+  LevelRecords& record = *records_in;
+  std::vector<State> states;
+  for (std::int64_t key = end_key; key >= 0; key = record[key].parent) states.push_back(record[key].state);
+  std::reverse(states.begin(), states.end());
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> clearance;
+  for (const State& s : states) {
+    const Eigen::Vector2d p = grid.CellCenter(s.ix, s.iy);
+    points.emplace_back(p.x(), p.y(), s.z);
+    clearance.push_back(search.Clearance(s));
+  }
+  internal::AttachStart(start_point, result.used_start_escape, &points, &clearance);
+  if (!result.partial) points.back() = Eigen::Vector3d(goal_W.x(), goal_W.y(), states.back().z);
+  if (options.simplify_path) {
+    const double step_m = grid.options().max_step_m;
+    internal::ShortcutPath(
+        options.preferred_clearance_m, clearance,
+        [&](std::size_t anchor, std::size_t j, double need) {
+          // Keep the corners of a climb: shortcuts only over points of (nearly) one height.
+          return std::abs(points[j].z() - points[anchor].z()) <= step_m + kEps_m &&
+                 WalkSegment(search, grid, points[anchor], points[j], need);
+        },
+        &points);
+  }
+  return points;
+}
+
+}  // namespace
+
 PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& start_W,
                               const Eigen::Vector2d& goal_W, double goal_z_m, const AStarOptions& options) {
   std::string why;
@@ -571,235 +829,50 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
     return finish(Status::kOutOfMap, "goal " + Point2(goal_W) + " is outside the map " + extent);
   }
   const MultiLevelSearch search(grid, options);
-  const double step_m = grid.options().max_step_m;
-  const double c = grid.cell_size_m();
-
-  // ---- Start: the surface under the robot (nearest its height), an escape cell, or unknown space. ----
-  const int start_column = grid.Column(sx, sy);
-  auto lowest = [&grid](int column) {
-    return grid.FirstNode(column) < grid.FirstNode(column + 1) ? grid.FirstNode(column) : -1;
-  };
   double start_z = start_W.z();
-  int start_node =
-      std::isfinite(start_z) ? grid.NodeNear(sx, sy, start_z, std::max(0.5, step_m)) : lowest(start_column);
-  if (start_node >= 0) start_z = grid.NodeZ(start_node);
-  std::optional<State> start;
-  if (start_node >= 0 && search.Traversable(start_node)) {
-    start = State{sx, sy, start_z, start_node};
-  } else if (start_node < 0 && std::isfinite(start_z) && grid.IsUnknownAt(sx, sy, start_z)) {
-    start = State{sx, sy, start_z, -1};
-  } else if (start_node >= 0 && options.start_escape_radius_m > 0.0 &&
-             (options.start_is_robot || grid.IsFootprintFreeNear(start_W.x(), start_W.y(), start_z,
-                                                                 options.start_footprint_radius_m))) {
-    const int span = static_cast<int>(std::ceil(options.start_escape_radius_m / c)) + 1;
-    double best_d = kInf;
-    for (int cx = sx - span; cx <= sx + span; ++cx) {
-      for (int cy = sy - span; cy <= sy + span; ++cy) {
-        const int n = grid.NodeNear(cx, cy, start_z, step_m);
-        if (n < 0 || !search.Traversable(n)) continue;
-        const double d = (grid.CellCenter(cx, cy) - start_W.head<2>()).norm();
-        if (d <= options.start_escape_radius_m && d < best_d) {
-          best_d = d;
-          start = State{cx, cy, grid.NodeZ(n), n};
-        }
-      }
-    }
-    result.used_start_escape = start.has_value();
-  }
-  if (!start) {
-    std::string what = start_node < 0
-                           ? "has no walkable surface near z " + Fixed(start_W.z())
-                           : "is not traversable (clearance " + Fixed(grid.ClearanceM(start_node)) +
-                                 " m <= robot_radius_m " + Fixed(search.radius_m()) +
-                                 " m) and no traversable cell lies within start_escape_radius_m";
-    return finish(Status::kStartBlocked, "start " + Point2(start_W.head<2>()) + " " + what);
-  }
+  const std::optional<State> start =
+      FindLevelStart(grid, search, options, start_W, sx, sy, &start_z, &result.used_start_escape, &why);
+  if (!start) return finish(Status::kStartBlocked, why);
+  LevelGoal goal;
+  why = FindLevelGoal(grid, search, goal_W, goal_z_m, start_z, gx, gy, &goal);
+  if (!why.empty()) return finish(Status::kGoalBlocked, why);
 
-  // ---- Goal: the surface nearest the named height (default: the start's level, else the lowest). ----
-  const int goal_column = grid.Column(gx, gy);
-  const double target_z = std::isfinite(goal_z_m) ? goal_z_m : start_z;
-  int goal_node = grid.NodeNear(gx, gy, target_z, kLevelMatch_m);
-  if (goal_node < 0 && !std::isfinite(goal_z_m)) goal_node = lowest(goal_column);
-  const bool goal_unknown = goal_node < 0 && grid.IsUnknownAt(gx, gy, target_z);
-  if (goal_node < 0 && !goal_unknown) {
-    std::string surfaces;
-    for (int n = grid.FirstNode(goal_column); n < grid.FirstNode(goal_column + 1); ++n) {
-      surfaces += (surfaces.empty() ? "" : ", ") + Fixed(grid.NodeZ(n));
-    }
-    return finish(Status::kGoalBlocked,
-                  "goal " + Point2(goal_W) + " has no walkable surface within " + Fixed(kLevelMatch_m) +
-                      " m of z " + Fixed(target_z) +
-                      (surfaces.empty() ? " (none in that column)" : " (surfaces at z " + surfaces + ")"));
-  }
-  if (goal_node >= 0 && !search.Traversable(goal_node)) {
-    return finish(Status::kGoalBlocked, "goal " + Point2(goal_W) + " at z " + Fixed(grid.NodeZ(goal_node)) +
-                                            " is not traversable (clearance " +
-                                            Fixed(grid.ClearanceM(goal_node)) + " m <= robot_radius_m " +
-                                            Fixed(search.radius_m()) + " m)");
-  }
-  auto is_goal = [&](const State& s) {
-    if (s.ix != gx || s.iy != gy) return false;
-    return goal_node >= 0 ? s.node == goal_node : std::abs(s.z - target_z) <= kLevelMatch_m;
-  };
-
-  // ---- A*: known surfaces in flat arrays, unknown-space states in a hash map. ----
-  const int n_nodes = grid.node_count();
   auto scratch = LevelScratchPool().Take();
-  scratch->Prepare(static_cast<std::size_t>(n_nodes));
-  std::vector<Record>& known = scratch->known;
-  std::vector<int>& touched = scratch->touched;
-  std::unordered_map<std::int64_t, Record>& virtuals = scratch->virtuals;
-  auto record = [&](std::int64_t key) -> Record& {
-    return key < n_nodes ? known[static_cast<std::size_t>(key)] : virtuals[key];
-  };
-  auto note_written = [&](std::int64_t key) {  // a known surface's record leaves its reset state
-    if (key < n_nodes) touched.push_back(static_cast<int>(key));
-  };
-  using Entry = std::pair<double, std::int64_t>;
-  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
-  // Octile distance plus the height still to climb or descend at step_height_cost per metre: every path
-  // changes height by at least that much, so the heuristic stays admissible and consistent, and a search
-  // toward another floor follows the stairs before it fills the floor it stands on.
-  const double goal_level_z = goal_node >= 0 ? grid.NodeZ(goal_node) : target_z;
-  const double level_slack_m = goal_node >= 0 ? 0.0 : kLevelMatch_m;  // an unknown goal matches within this
-  auto heuristic = [&](const State& s) {
-    const int a = std::abs(s.ix - gx);
-    const int b = std::abs(s.iy - gy);
-    return (std::max(a, b) + (kSqrt2 - 1.0) * std::min(a, b)) * c +
-           options.step_height_cost * std::max(0.0, std::abs(s.z - goal_level_z) - level_slack_m);
-  };
-  auto penalty = [&](double clearance) {
-    if (options.preferred_clearance_m <= 0.0 || options.clearance_cost <= 0.0 || !std::isfinite(clearance))
-      return 0.0;
-    return options.clearance_cost *
-           std::clamp((options.preferred_clearance_m - clearance) / options.preferred_clearance_m, 0.0, 1.0);
-  };
-  // How far a state is from the goal, for a partial plan (PartialRemainingM).
-  auto remaining = [&](const State& s) {
-    const Eigen::Vector2d p = grid.CellCenter(s.ix, s.iy);
-    return PartialRemainingM(Eigen::Vector3d(p.x(), p.y(), s.z), goal_W, goal_level_z, grid.cell_size_m());
-  };
-  const std::int64_t start_key = search.Key(*start);
-  record(start_key) = Record{0.0, -1, false, *start};
-  note_written(start_key);
-  open.emplace(heuristic(*start), start_key);
-  std::int64_t goal_key = -1;
-  std::int64_t best_key = start_key;
-  double best_remaining = remaining(*start);
-  const double start_remaining = best_remaining;
-  bool capped = false;
-  // A partial plan is a best effort: its search is bounded tighter (an unreachable level would otherwise
-  // expand every cell of a mostly unknown map).
-  const int max_expansions = options.allow_partial ? std::min(options.max_expansions, kPartialMaxExpansions)
-                                                   : options.max_expansions;
-  while (!open.empty()) {
-    const auto [f, key] = open.top();
-    open.pop();
-    Record& rec = record(key);
-    if (rec.closed) continue;
-    rec.closed = true;
-    if (++result.expansions > max_expansions) {
-      capped = true;
-      break;
-    }
-    const State s = rec.state;
-    const double g_here = rec.g;
-    if (is_goal(s)) {
-      goal_key = key;
-      break;
-    }
-    if (options.allow_partial) {
-      const double r = remaining(s);
-      if (r < best_remaining - 1e-9) {
-        best_remaining = r;
-        best_key = key;
-      }
-    }
-    for (int k = 0; k < 8; ++k) {
-      std::optional<State> next = search.Enter(s.ix + kDx[k], s.iy + kDy[k], s.z);
-      if (!next) continue;
-      const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
-      if (next->node < 0) {
-        next->unknown_run_m =
-            (s.node < 0 ? s.unknown_run_m : 0.0f) + static_cast<float>((diagonal ? kSqrt2 : 1.0) * c);
-        if (next->unknown_run_m > kMaxUnknownBridgeOffLevelM &&
-            std::abs(next->z - goal_level_z) > kLevelMatch_m) {
-          continue;  // off the goal's level, unknown space only bridges gaps
-        }
-      }
-      if (diagonal && (!search.Enter(s.ix + kDx[k], s.iy, s.z) || !search.Enter(s.ix, s.iy + kDy[k], s.z)))
-        continue;
-      const std::int64_t next_key = search.Key(*next);
-      Record& nr = record(next_key);
-      if (nr.closed) continue;
-      const double move = (diagonal ? kSqrt2 : 1.0) * c;
-      const double unknown = next->node < 0 ? options.unknown_cost : 0.0;
-      const double cost = move * (1.0 + penalty(search.Clearance(*next)) + unknown) +
-                          options.step_height_cost * std::abs(next->z - s.z);
-      const double candidate = g_here + cost;
-      if (candidate < nr.g) {
-        if (!std::isfinite(nr.g)) note_written(next_key);
-        nr.g = candidate;
-        nr.parent = key;
-        nr.state = *next;
-        open.emplace(candidate + heuristic(*next), next_key);
-      }
-    }
-  }
+  LevelRecords record(&*scratch, grid.node_count());
+  const LevelSearchEnd end =
+      SearchLevels(grid, search, options, *start, goal, goal_W, &record, &result.expansions);
   const std::string searched = std::to_string(result.expansions) + " cells expanded" +
-                               (capped ? ", the search limit " + std::to_string(max_expansions) : "");
+                               (end.capped ? ", the search limit " + std::to_string(end.max_expansions) : "");
+  std::int64_t path_end = end.goal_key;
   std::string partial_note;
   // A partial plan toward another level must climb (or descend) more than one step of the platform: one that
   // only comes nearer in x-y leads a robot under the goal, not to it (a wheeled robot at the foot of stairs
   // it cannot climb), and one step's worth can be a quantized tread (a 0.2 m rise read as 0.1 m).
-  const double start_dz = std::abs(start_z - goal_level_z);
+  const double step_m = grid.options().max_step_m;
+  const double start_dz = std::abs(start_z - goal.level_z);
   const bool height_progress =
       start_dz <= kLevelMatch_m ||
-      std::abs(record(best_key).state.z - goal_level_z) <
+      std::abs(record[end.best_key].state.z - goal.level_z) <
           start_dz - (std::isnan(options.partial_min_climb_m) ? step_m : options.partial_min_climb_m) -
               0.5 * grid.cell_size_m();
-  if (goal_key < 0 && options.allow_partial && best_key != start_key &&
-      best_remaining < start_remaining - 0.5 && height_progress) {
-    const State& b = record(best_key).state;
-    goal_key = best_key;
+  if (path_end < 0 && options.allow_partial && end.best_key != search.Key(*start) &&
+      end.best_remaining < end.start_remaining - 0.5 && height_progress) {
+    const State& b = record[end.best_key].state;
+    path_end = end.best_key;
     result.partial = true;
-    partial_note = "; partial: the map connects no route to the goal at z " + Fixed(goal_level_z) +
+    partial_note = "; partial: the map connects no route to the goal at z " + Fixed(goal.level_z) +
                    " yet, this path ends at the reachable point nearest it, " +
                    Point2(grid.CellCenter(b.ix, b.iy)) + " at z " + Fixed(b.z);
   }
-  if (goal_key < 0) {
+  if (path_end < 0) {
     std::ostringstream msg;
-    msg << "goal " << Point2(goal_W) << " at z " << Fixed(goal_level_z) << " is unreachable from start "
+    msg << "goal " << Point2(goal_W) << " at z " << Fixed(goal.level_z) << " is unreachable from start "
         << Point2(start_W.head<2>()) << " at z " << Fixed(start_z)
         << ": no traversable path over the map's levels (" << searched << ")";
     return finish(Status::kUnreachable, msg.str());
   }
-
-  // ---- Path: start point, cell centres with their surface heights, goal point; shortcuts on one level. ----
-  std::vector<State> states;
-  for (std::int64_t key = goal_key; key >= 0; key = record(key).parent) states.push_back(record(key).state);
-  std::reverse(states.begin(), states.end());
-  std::vector<Eigen::Vector3d> points;
-  std::vector<double> clearance;
-  for (const State& s : states) {
-    const Eigen::Vector2d p = grid.CellCenter(s.ix, s.iy);
-    points.emplace_back(p.x(), p.y(), s.z);
-    clearance.push_back(search.Clearance(s));
-  }
-  const Eigen::Vector3d start_point(start_W.x(), start_W.y(), start_z);
-  internal::AttachStart(start_point, result.used_start_escape, &points, &clearance);
-  if (!result.partial) points.back() = Eigen::Vector3d(goal_W.x(), goal_W.y(), states.back().z);
-  if (options.simplify_path) {
-    internal::ShortcutPath(
-        options.preferred_clearance_m, clearance,
-        [&](std::size_t anchor, std::size_t j, double need) {
-          // Keep the corners of a climb: shortcuts only over points of (nearly) one height.
-          return std::abs(points[j].z() - points[anchor].z()) <= step_m + kEps_m &&
-                 WalkSegment(search, grid, points[anchor], points[j], need);
-        },
-        &points);
-  }
-  result.path_W = std::move(points);
+  result.path_W = LevelPathPoints(grid, search, options, &record, path_end,
+                                  Eigen::Vector3d(start_W.x(), start_W.y(), start_z), goal_W, result);
   result.length_m = PathLength2D(result.path_W);
   std::ostringstream msg;
   msg << "path from " << Point2(start_W.head<2>()) << " at z " << Fixed(start_z) << " to " << Point2(goal_W)

@@ -244,11 +244,6 @@ void TraversabilityGrid::Update(const core::VoxelGrid& world, const core::VoxelG
 
 void TraversabilityGrid::Recompute(const core::VoxelGrid& world,
                                    const std::vector<std::array<int, 4>>& changed_cells, bool whole) {
-  const int k = k_;
-  const int nxw = world_dims_.x();
-  const int nyw = world_dims_.y();
-  const int nzw = world_dims_.z();
-  const double reference = summary_.reference_height_m;
   Window changed{nx_, ny_, -1, -1};  // the union of the changed windows
   for (const auto& w : changed_cells) {
     changed = Window{std::min(changed.x0, w[0]), std::min(changed.y0, w[1]), std::max(changed.x1, w[2]),
@@ -263,7 +258,22 @@ void TraversabilityGrid::Recompute(const core::VoxelGrid& world,
   const Window written = whole ? lethal : lethal.Grown(reach_cells, nx_, ny_);
   const Window window = whole ? lethal : written.Grown(reach_cells, nx_, ny_);
 
-  // ---- 1-2. Ground per world column, aggregated k x k into cells (changed cells only). ----
+  ClassifyCells(world, changed_cells);
+  FillHoles(world, {filled.x0, filled.y0, filled.x1, filled.y1});
+  MarkLethal({lethal.x0, lethal.y0, lethal.x1, lethal.y1});
+  ComputeClearance({window.x0, window.y0, window.x1, window.y1},
+                   {written.x0, written.y0, written.x1, written.y1});
+  Summarize();
+}
+
+// Steps 1-2: the ground per world column, aggregated k x k into the changed cells (free, obstacle or
+// unknown).
+void TraversabilityGrid::ClassifyCells(const core::VoxelGrid& world,
+                                       const std::vector<std::array<int, 4>>& changed_cells) {
+  const int k = k_;
+  const int nxw = world_dims_.x();
+  const int nyw = world_dims_.y();
+  const double reference = summary_.reference_height_m;
   for (const auto& w : changed_cells)
     for (int cx = w[0]; cx <= w[2]; ++cx) {
       for (int cy = w[1]; cy <= w[3]; ++cy) {
@@ -300,8 +310,16 @@ void TraversabilityGrid::Recompute(const core::VoxelGrid& world,
         }
       }
     }
+}
 
-  // ---- 3. Hole filling for sparse scans (cells near a change: their inferred ground is redone). ----
+// Step 3: hole filling for sparse scans in `filled_box` (cells near a change: their inferred ground is
+// redone).
+void TraversabilityGrid::FillHoles(const core::VoxelGrid& world, const std::array<int, 4>& filled_box) {
+  const int k = k_;
+  const int nxw = world_dims_.x();
+  const int nyw = world_dims_.y();
+  const int nzw = world_dims_.z();
+  const Window filled{filled_box[0], filled_box[1], filled_box[2], filled_box[3]};
   for (int cx = filled.x0; cx <= filled.x1; ++cx) {
     for (int cy = filled.y0; cy <= filled.y1; ++cy) {
       const std::size_t i = Index(cx, cy);
@@ -359,9 +377,12 @@ void TraversabilityGrid::Recompute(const core::VoxelGrid& world,
       inferred_[i] = 1;
     }
   }
+}
 
-  // ---- 4. Lethal layer: non-free cells (unknown ones only if unknown_is_lethal) and the high side of too
-  // high steps. ----
+// Step 4: the lethal layer in `lethal_box`: non-free cells (unknown ones only if unknown_is_lethal) and the
+// high side of too high steps.
+void TraversabilityGrid::MarkLethal(const std::array<int, 4>& lethal_box) {
+  const Window lethal{lethal_box[0], lethal_box[1], lethal_box[2], lethal_box[3]};
   for (int cx = lethal.x0; cx <= lethal.x1; ++cx) {
     for (int cy = lethal.y0; cy <= lethal.y1; ++cy) {
       const std::size_t i = Index(cx, cy);
@@ -406,9 +427,14 @@ void TraversabilityGrid::Recompute(const core::VoxelGrid& world,
       }
     }
   }
+}
 
-  // ---- 5. Clearance: exact Euclidean distance to the nearest lethal cell, and to the outside, computed on
-  // `window` and written for `written` (exact up to clearance_exact_m there, see ClearanceM()). ----
+// Step 5: clearance, the exact Euclidean distance to the nearest lethal cell and to the outside, computed on
+// `window_box` and written for `written_box` (exact up to clearance_exact_m there, see ClearanceM()).
+void TraversabilityGrid::ComputeClearance(const std::array<int, 4>& window_box,
+                                          const std::array<int, 4>& written_box) {
+  const Window window{window_box[0], window_box[1], window_box[2], window_box[3]};
+  const Window written{written_box[0], written_box[1], written_box[2], written_box[3]};
   const int wx = window.x1 - window.x0 + 1;
   const int wy = window.y1 - window.y0 + 1;
   std::vector<double> d2(static_cast<std::size_t>(wx) * wy);
@@ -443,8 +469,10 @@ void TraversabilityGrid::Recompute(const core::VoxelGrid& world,
       clearance_m_[Index(cx, cy)] = std::min(d, static_cast<double>(border_cells)) * cell_m_;
     }
   }
+}
 
-  // ---- 6. Summary. ----
+// Step 6: the summary's counts.
+void TraversabilityGrid::Summarize() {
   const double reference_height_m = summary_.reference_height_m;
   summary_ = TraversabilitySummary{};
   summary_.reference_height_m = reference_height_m;

@@ -65,6 +65,42 @@ Exit codes: 0 after SIGINT/SIGTERM, 1 on a DDS failure, 2 on a bad flag or world
 )";
 }
 
+namespace {
+
+// The world (--world or --world-file, the built-in "corner" by default) and the start in it (--start, or the
+// world's own), checked: the robot must not overlap a wall there.
+void SetWorldAndStart(const std::optional<std::string>& world_name,
+                      const std::optional<std::string>& world_file,
+                      const std::optional<std::string>& start_text, EmulatorOptions* out) {
+  EmulatorOptions& options = *out;
+  if (world_name && world_file) throw UsageError("--world and --world-file exclude each other: give one");
+  if (world_file) {
+    try {
+      options.world = LoadWorldFile(*world_file);
+    } catch (const WorldFileError& e) {
+      throw UsageError(std::string("--world-file: ") + e.what());
+    }
+  } else {
+    const std::string name = world_name.value_or("corner");
+    std::optional<World> world = BuiltinWorld(name);
+    if (!world)
+      throw UsageError("--world " + Quote(name) + " is not a built-in world (" + BuiltinWorldNames() + ")");
+    options.world = *world;
+  }
+  options.start = start_text ? ParseStart(*start_text) : options.world.default_start;
+  const RobotModelOptions model;
+  if (!RobotModel::Fits(options.world, model, options.start)) {
+    std::ostringstream why;
+    why << (start_text ? "--start " + Quote(*start_text) : "the default start of world " + options.world.name)
+        << ": the robot (a disk of radius " << model.radius_m << " m) would overlap a wall (nearest at "
+        << DistanceToNearestWall(options.world, options.start.x_m, options.start.y_m) << " m)"
+        << (start_text ? "" : "; give --start X,Y,YAW");
+    throw UsageError(why.str());
+  }
+}
+
+}  // namespace
+
 EmulatorOptions ParseOptions(int argc, const char* const* argv, const char* ros_domain_id_env) {
   EmulatorOptions options;
   if (ros_domain_id_env != nullptr && *ros_domain_id_env != '\0') {
@@ -128,30 +164,7 @@ EmulatorOptions ParseOptions(int argc, const char* const* argv, const char* ros_
     }
   }
 
-  if (world_name && world_file) throw UsageError("--world and --world-file exclude each other: give one");
-  if (world_file) {
-    try {
-      options.world = LoadWorldFile(*world_file);
-    } catch (const WorldFileError& e) {
-      throw UsageError(std::string("--world-file: ") + e.what());
-    }
-  } else {
-    const std::string name = world_name.value_or("corner");
-    std::optional<World> world = BuiltinWorld(name);
-    if (!world)
-      throw UsageError("--world " + Quote(name) + " is not a built-in world (" + BuiltinWorldNames() + ")");
-    options.world = *world;
-  }
-  options.start = start_text ? ParseStart(*start_text) : options.world.default_start;
-  const RobotModelOptions model;
-  if (!RobotModel::Fits(options.world, model, options.start)) {
-    std::ostringstream why;
-    why << (start_text ? "--start " + Quote(*start_text) : "the default start of world " + options.world.name)
-        << ": the robot (a disk of radius " << model.radius_m << " m) would overlap a wall (nearest at "
-        << DistanceToNearestWall(options.world, options.start.x_m, options.start.y_m) << " m)"
-        << (start_text ? "" : "; give --start X,Y,YAW");
-    throw UsageError(why.str());
-  }
+  SetWorldAndStart(world_name, world_file, start_text, &options);
   return options;
 }
 

@@ -477,6 +477,12 @@ class LocalPlanner {
   double clearance_m(int path_id) const;
 
  private:
+  // The steps of Plan(), in order (see local_planner.cpp).
+  void MarkOccupiedVoxels(const std::vector<Eigen::Vector3f>& obstacles_B, LocalPlanResult* result);
+  void BlockPaths(int required_samples);
+  int ChoosePath(const LocalPlanRequest& request, int required_samples, LocalPlanResult* result,
+                 float* best_score) const;
+
   std::shared_ptr<const TrajectoryLibrary> library_;
   LocalPlannerOptions options_;
   std::uint32_t cycle_ = 0;

@@ -229,6 +229,12 @@ class TraversabilityGrid : public core::FootprintChecker {
   // grid.
   void Recompute(const core::VoxelGrid& world, const std::vector<std::array<int, 4>>& changed_cells,
                  bool whole);
+  // Recompute()'s steps, in order; a box is {x0, y0, x1, y1}, cells, inclusive.
+  void ClassifyCells(const core::VoxelGrid& world, const std::vector<std::array<int, 4>>& changed_cells);
+  void FillHoles(const core::VoxelGrid& world, const std::array<int, 4>& filled_box);
+  void MarkLethal(const std::array<int, 4>& lethal_box);
+  void ComputeClearance(const std::array<int, 4>& window_box, const std::array<int, 4>& written_box);
+  void Summarize();
 
   TraversabilityOptions options_;
   int k_ = 1;  // world columns per cell edge
