@@ -34,7 +34,7 @@ std::string ResponseKey(const std::string& robot_id, msgs::CommandKind kind, uin
 class FleetClient::Impl {
  public:
   explicit Impl(const FleetClientOptions& options) : options_(CheckedOptions(options)) {
-    detector_ = FleetEventDetector(options.events);
+    events_.detector = FleetEventDetector(options.events);
     MakeParticipant();
     // Announced on cairn/base_info, which only robots read; robots announce on cairn/agent_info.
     info_writer_ = std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(*participant_, "cairn/base_info",
@@ -46,7 +46,7 @@ class FleetClient::Impl {
       CommandWriter<msgs::TeleopTwistPubSubType>("cairn/teleop", "", "cairn.teleop");
       CommandWriter<msgs::PathRequestPubSubType>("cairn/path_request", "");
     }
-    response_reader_ = std::make_unique<core::Reader<msgs::CommandResponsePubSubType>>(
+    readers_.response = std::make_unique<core::Reader<msgs::CommandResponsePubSubType>>(
         *participant_, "cairn/command_response", "cairn.command",
         [this](const msgs::CommandResponse& m, const eprosima::fastdds::dds::SampleInfo& info) {
           if (FromRobot("cairn/command_response", m.robot_id(), info)) OnResponse(m);
@@ -103,7 +103,7 @@ class FleetClient::Impl {
     // A robot's whole state (on change, at least once a second; reliable, latched) and its 10 Hz pose stream,
     // applied to the last whole state (idl/cairn_msgs.idl RobotPose). Either keeps the robot from being lost;
     // the gaps in the pose stream's sequence numbers are the link's losses.
-    state_reader_ = std::make_unique<core::Reader<msgs::RobotStatePubSubType>>(
+    readers_.state = std::make_unique<core::Reader<msgs::RobotStatePubSubType>>(
         *participant_, "cairn/robot_state", "cairn.latched",
         [this](const msgs::RobotState& m, const eprosima::fastdds::dds::SampleInfo& info) {
           if (!FromRobot("cairn/robot_state", m.robot_id(), info)) return;
@@ -124,7 +124,7 @@ class FleetClient::Impl {
             if (!usage.empty()) links_.OnUsage(m.robot_id(), std::move(usage));  // once a second
           });
         });
-    pose_reader_ = std::make_unique<core::Reader<msgs::RobotPosePubSubType>>(
+    readers_.pose = std::make_unique<core::Reader<msgs::RobotPosePubSubType>>(
         *participant_, "cairn/robot_pose", "cairn.state",
         [this](const msgs::RobotPose& m, const eprosima::fastdds::dds::SampleInfo& info) {
           if (!FromRobot("cairn/robot_pose", m.robot_id(), info)) return;
@@ -139,7 +139,7 @@ class FleetClient::Impl {
         });
     // Component health: kept with the robot's view (the robot must be known by its state or agent info); it
     // does not keep a robot from being shown lost.
-    health_reader_ = std::make_unique<core::Reader<msgs::AgentHealthPubSubType>>(
+    readers_.health = std::make_unique<core::Reader<msgs::AgentHealthPubSubType>>(
         *participant_, "cairn/health", "cairn.latched",
         [this](const msgs::AgentHealth& m, const eprosima::fastdds::dds::SampleInfo& info) {
           if (!FromRobot("cairn/health", m.robot_id(), info)) return;
@@ -157,7 +157,7 @@ class FleetClient::Impl {
   void MakeLinkProbe() {
     probe_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(
         *participant_, "cairn/link_probe", "cairn.command");
-    probe_reply_reader_ = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
+    readers_.probe_reply = std::make_unique<core::Reader<msgs::PingPongPubSubType>>(
         *participant_, "cairn/link_probe_reply", "cairn.command",
         [this](const msgs::PingPong& m, const auto&) {
           if (m.base_id() != options_.base_id || m.body() != participant_->participant_id())
@@ -167,7 +167,7 @@ class FleetClient::Impl {
           if (robots_.count(m.robot_id()) == 0) return;  // announces itself first
           links_.OnProbeReply(m.robot_id(), m.request_id(), now);
         });
-    path_response_reader_ = std::make_unique<core::Reader<msgs::PathResponsePubSubType>>(
+    readers_.path_response = std::make_unique<core::Reader<msgs::PathResponsePubSubType>>(
         *participant_, "cairn/path_response", "cairn.command",
         [this](const msgs::PathResponse& m, const auto&) {
           // Answers to another process with this base id (same request ids) are not ours.
@@ -176,8 +176,8 @@ class FleetClient::Impl {
             return;
           {
             std::lock_guard<std::mutex> lock(mutex_);
-            if (awaited_paths_.count(m.request_id()) == 0) return;  // a late duplicate of an answered request
-            path_responses_[m.request_id()] = m;
+            if (awaited_.paths.count(m.request_id()) == 0) return;  // a late duplicate of an answered request
+            awaited_.path_answers[m.request_id()] = m;
           }
           cv_.notify_all();
         });
@@ -185,19 +185,19 @@ class FleetClient::Impl {
 
   // What a robot shows: its global path, local plan and mode tree, kept with its view.
   void MakeViewReaders() {
-    global_path_reader_ = std::make_unique<core::Reader<msgs::GlobalPathPubSubType>>(
+    readers_.global_path = std::make_unique<core::Reader<msgs::GlobalPathPubSubType>>(
         *participant_, "cairn/global_path", "cairn.latched",
         [this](const msgs::GlobalPath& m, const eprosima::fastdds::dds::SampleInfo& info) {
           if (FromRobot("cairn/global_path", m.robot_id(), info))
             Update(m.robot_id(), [&](RobotView& v) { v.global_path = m; });
         });
-    local_plan_reader_ = std::make_unique<core::Reader<msgs::LocalPlanPubSubType>>(
+    readers_.local_plan = std::make_unique<core::Reader<msgs::LocalPlanPubSubType>>(
         *participant_, "cairn/local_plan", "cairn.state",
         [this](const msgs::LocalPlan& m, const eprosima::fastdds::dds::SampleInfo& info) {
           if (FromRobot("cairn/local_plan", m.robot_id(), info))
             Update(m.robot_id(), [&](RobotView& v) { v.local_plan = m; });
         });
-    tree_reader_ = std::make_unique<core::Reader<msgs::BehaviorTreeStatePubSubType>>(
+    readers_.tree = std::make_unique<core::Reader<msgs::BehaviorTreeStatePubSubType>>(
         *participant_, "cairn/bt_state", "cairn.latched",
         [this](const msgs::BehaviorTreeState& m, const eprosima::fastdds::dds::SampleInfo& info) {
           if (FromRobot("cairn/bt_state", m.robot_id(), info))
@@ -207,7 +207,7 @@ class FleetClient::Impl {
 
   // Robots' announcements (platform, capabilities, limits, link) and their writers' liveliness.
   void MakeInfoReader() {
-    info_reader_ = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
+    readers_.info = std::make_unique<core::Reader<msgs::AgentInfoPubSubType>>(
         *participant_, "cairn/agent_info", "cairn.latched",
         [this](const msgs::AgentInfo& m, const eprosima::fastdds::dds::SampleInfo& info) {
           if (m.kind() != msgs::AGENT_KIND_ROBOT || !FromRobot("cairn/agent_info", m.agent_id(), info))
@@ -254,17 +254,8 @@ class FleetClient::Impl {
     }
     cv_.notify_all();
     if (monitor_.joinable()) monitor_.join();
-    response_reader_.reset();
-    probe_reply_reader_.reset();
-    path_response_reader_.reset();
-    global_path_reader_.reset();
-    local_plan_reader_.reset();
-    state_reader_.reset();
-    pose_reader_.reset();
-    health_reader_.reset();
-    tree_reader_.reset();
-    info_reader_.reset();
-    perception_.reset();  // after info_reader_, whose callback uses it
+    readers_ = Readers{};
+    perception_.reset();  // after readers_.info, whose callback uses it
   }
 
   // Publishes this basestation's AgentInfo with the number of robots it hears (robots size their share of a
@@ -330,8 +321,8 @@ class FleetClient::Impl {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       const std::string key = ResponseKey(m.robot_id(), m.kind(), m.request_id());
-      if (awaited_.count(key) == 0) return;  // a replayed answer to a request already answered
-      responses_[key] = m;
+      if (awaited_.commands.count(key) == 0) return;  // a replayed answer to a request already answered
+      awaited_.answers[key] = m;
     }
     cv_.notify_all();
   }
@@ -427,17 +418,17 @@ class FleetClient::Impl {
     const std::string key = ResponseKey(robot_id, kind, outcome.request_id);
     const auto start = SteadyClock::now();
     std::unique_lock<std::mutex> lock(mutex_);
-    awaited_.insert(key);
+    awaited_.commands.insert(key);
     const bool answered = SendUntil(
-        robot_id, outcome.request_id, send, [&] { return responses_.count(key) > 0; }, &lock,
+        robot_id, outcome.request_id, send, [&] { return awaited_.answers.count(key) > 0; }, &lock,
         &outcome.reason);
-    awaited_.erase(key);
+    awaited_.commands.erase(key);
     if (!answered) {
       outcome.result = outcome::kTimedOut;
       return outcome;
     }
-    const msgs::CommandResponse r = responses_[key];
-    responses_.erase(key);
+    const msgs::CommandResponse r = awaited_.answers[key];
+    awaited_.answers.erase(key);
     outcome.round_trip_ms = std::chrono::duration<double, std::milli>(SteadyClock::now() - start).count();
     outcome.ok = r.result() == msgs::COMMAND_RESULT_ACCEPTED;
     outcome.result = outcome.ok ? outcome::kAccepted : outcome::kRefused;
@@ -473,7 +464,7 @@ class FleetClient::Impl {
       std::vector<RobotView> views;
       const auto now = SteadyClock::now();
       for (const auto& [id, view] : robots_) views.push_back(WithStaleness(view, now));
-      std::vector<OperatorEvent> events = detector_.Observe(views);
+      std::vector<OperatorEvent> events = events_.detector.Observe(views);
       const int robots_heard = static_cast<int>(
           std::count_if(views.begin(), views.end(), [](const RobotView& v) { return v.state && !v.lost; }));
       lock.unlock();
@@ -501,11 +492,11 @@ class FleetClient::Impl {
       }
       lock.lock();
       for (auto& e : events) {
-        e.seq = ++event_seq_;
-        pending_events_.push_back(e);
-        recent_events_.push_back(std::move(e));
-        if (recent_events_.size() > options_.events_kept) recent_events_.pop_front();
-        if (pending_events_.size() > options_.events_kept) pending_events_.pop_front();
+        e.seq = ++events_.seq;
+        events_.pending.push_back(e);
+        events_.recent.push_back(std::move(e));
+        if (events_.recent.size() > options_.events_kept) events_.recent.pop_front();
+        if (events_.pending.size() > options_.events_kept) events_.pending.pop_front();
       }
       if (!events.empty()) cv_.notify_all();
       cv_.wait_for(lock, std::chrono::milliseconds(100), [this] { return stop_monitor_; });
@@ -647,10 +638,14 @@ class FleetClient::Impl {
   FleetClientOptions options_;
   const core::SteadyTime created_ = SteadyClock::now();
   mutable std::mutex mutex_;
-  FleetEventDetector detector_;
-  std::deque<OperatorEvent> pending_events_;
-  std::deque<OperatorEvent> recent_events_;
-  std::uint64_t event_seq_ = 0;
+  // The operator's events (under mutex_): detected from the views, pending for the next poll, the recent ones
+  // kept, and the last event's number.
+  struct Events {
+    FleetEventDetector detector;
+    std::deque<OperatorEvent> pending;
+    std::deque<OperatorEvent> recent;
+    std::uint64_t seq = 0;
+  } events_;
   bool stop_monitor_ = false;
   std::thread monitor_;
   mutable std::condition_variable cv_;
@@ -670,10 +665,13 @@ class FleetClient::Impl {
   // left.
   std::map<std::string, core::SteadyTime> dropped_at_;
   static constexpr double kDroppedKeptS = 600.0;
-  std::map<std::string, msgs::CommandResponse> responses_;  // answers to awaited_ requests only
-  std::map<uint32_t, msgs::PathResponse> path_responses_;   // answers to awaited_paths_ only
-  std::set<std::string> awaited_;
-  std::set<uint32_t> awaited_paths_;
+  // Commands and path requests sent and not yet answered, and their answers (under mutex_).
+  struct Awaited {
+    std::set<std::string> commands;                        // ResponseKey()s
+    std::map<std::string, msgs::CommandResponse> answers;  // answers to `commands` only
+    std::set<uint32_t> paths;                              // path request ids
+    std::map<uint32_t, msgs::PathResponse> path_answers;   // answers to `paths` only
+  } awaited_;
   std::atomic<uint32_t> next_request_id_{1};
   std::atomic<uint64_t> teleop_sequence_{0};
 
@@ -683,22 +681,28 @@ class FleetClient::Impl {
   std::mutex command_writers_mutex_;
   std::map<std::string, std::shared_ptr<void>> command_writers_;  // by topic name: core::Writer<...>
   std::unique_ptr<core::Writer<msgs::PingPongPubSubType>> probe_writer_;
-  std::mutex yield_mutex_;  // guards the two below
-  // One per topic (under DDS Security one per robot), made by the first SendYield to it.
-  std::map<std::string, std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>>> yield_writers_;
-  std::uint32_t next_yield_id_ = 1;
+  // Yield requests' writers, one per topic (under DDS Security one per robot), made by the first SendYield to
+  // it, and the next request's id.
+  struct YieldWriters {
+    std::mutex mutex;  // guards the two below
+    std::map<std::string, std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>>> by_topic;
+    std::uint32_t next_id = 1;
+  } yield_;
   // Under DDS Security: the robots this base may command ("*": all; empty: an observer). Unset without it.
   std::optional<std::vector<std::string>> commandable_;
-  std::unique_ptr<core::Reader<msgs::PingPongPubSubType>> probe_reply_reader_;
-  std::unique_ptr<core::Reader<msgs::CommandResponsePubSubType>> response_reader_;
-  std::unique_ptr<core::Reader<msgs::PathResponsePubSubType>> path_response_reader_;
-  std::unique_ptr<core::Reader<msgs::GlobalPathPubSubType>> global_path_reader_;
-  std::unique_ptr<core::Reader<msgs::LocalPlanPubSubType>> local_plan_reader_;
-  std::unique_ptr<core::Reader<msgs::RobotStatePubSubType>> state_reader_;
-  std::unique_ptr<core::Reader<msgs::RobotPosePubSubType>> pose_reader_;
-  std::unique_ptr<core::Reader<msgs::AgentHealthPubSubType>> health_reader_;
-  std::unique_ptr<core::Reader<msgs::BehaviorTreeStatePubSubType>> tree_reader_;
-  std::unique_ptr<core::Reader<msgs::AgentInfoPubSubType>> info_reader_;
+  // What the robots publish and this base reads (reset first: no callback runs while the rest goes).
+  struct Readers {
+    std::unique_ptr<core::Reader<msgs::PingPongPubSubType>> probe_reply;
+    std::unique_ptr<core::Reader<msgs::CommandResponsePubSubType>> response;
+    std::unique_ptr<core::Reader<msgs::PathResponsePubSubType>> path_response;
+    std::unique_ptr<core::Reader<msgs::GlobalPathPubSubType>> global_path;
+    std::unique_ptr<core::Reader<msgs::LocalPlanPubSubType>> local_plan;
+    std::unique_ptr<core::Reader<msgs::RobotStatePubSubType>> state;
+    std::unique_ptr<core::Reader<msgs::RobotPosePubSubType>> pose;
+    std::unique_ptr<core::Reader<msgs::AgentHealthPubSubType>> health;
+    std::unique_ptr<core::Reader<msgs::BehaviorTreeStatePubSubType>> tree;
+    std::unique_ptr<core::Reader<msgs::AgentInfoPubSubType>> info;
+  } readers_;
 };
 
 const std::vector<FleetClient::Impl::CommandKind> FleetClient::Impl::kCommandKinds = {
@@ -722,28 +726,28 @@ FleetPerception& FleetClient::perception() { return *impl_->perception_; }
 
 std::vector<OperatorEvent> FleetClient::TakeEvents() {
   std::lock_guard<std::mutex> lock(impl_->mutex_);
-  std::vector<OperatorEvent> events(impl_->pending_events_.begin(), impl_->pending_events_.end());
-  impl_->pending_events_.clear();
+  std::vector<OperatorEvent> events(impl_->events_.pending.begin(), impl_->events_.pending.end());
+  impl_->events_.pending.clear();
   return events;
 }
 
 bool FleetClient::HasEvents() const {
   std::lock_guard<std::mutex> lock(impl_->mutex_);
-  return !impl_->pending_events_.empty();
+  return !impl_->events_.pending.empty();
 }
 
 std::vector<OperatorEvent> FleetClient::RecentEvents() const {
   std::lock_guard<std::mutex> lock(impl_->mutex_);
-  return {impl_->recent_events_.begin(), impl_->recent_events_.end()};
+  return {impl_->events_.recent.begin(), impl_->events_.recent.end()};
 }
 
 std::vector<OperatorEvent> FleetClient::EventsSince(std::uint64_t* cursor) const {
   std::lock_guard<std::mutex> lock(impl_->mutex_);
   std::vector<OperatorEvent> events;
-  for (const OperatorEvent& e : impl_->recent_events_) {
+  for (const OperatorEvent& e : impl_->events_.recent) {
     if (e.seq > *cursor) events.push_back(e);
   }
-  *cursor = std::max(*cursor, impl_->event_seq_);
+  *cursor = std::max(*cursor, impl_->events_.seq);
   return events;
 }
 
@@ -916,13 +920,13 @@ std::string FleetClient::SendYield(const std::string& robot_id, const std::strin
                                    double passing_radius_m,
                                    const std::vector<Eigen::Vector2d>& keep_clear_M) {
   if (std::string why = impl_->NotPermittedReason(robot_id); !why.empty()) return why;
-  std::lock_guard<std::mutex> lock(impl_->yield_mutex_);
+  std::lock_guard<std::mutex> lock(impl_->yield_.mutex);
   // Under DDS Security on the robot's own command topic (only its commanders may write it), else on the topic
   // robots ask one another on. A new writer's first sample would reach only the readers already matched: give
   // discovery a moment.
   const std::string topic =
       core::CommandTopicFor("cairn/yield_request", robot_id, impl_->options_.security.enabled());
-  std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>>& writer = impl_->yield_writers_[topic];
+  std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>>& writer = impl_->yield_.by_topic[topic];
   if (!writer) {
     try {
       writer = std::make_unique<core::Writer<msgs::YieldRequestPubSubType>>(*impl_->participant_, topic,
@@ -936,7 +940,7 @@ std::string FleetClient::SendYield(const std::string& robot_id, const std::strin
   msgs::YieldRequest m;
   m.robot_id(robot_id);
   m.sender_id(base_id());
-  m.request_id(impl_->next_yield_id_++);
+  m.request_id(impl_->yield_.next_id++);
   m.action(msgs::YIELD_ACTION_ASK);
   m.passing_id(passing_id);
   m.passing_radius_m(static_cast<float>(passing_radius_m));
@@ -1023,17 +1027,17 @@ PathAnswer FleetClient::RequestPath(const std::string& robot_id, const std::stri
     m.goal_M().y_m(goal_y_m);
     return impl_->CommandWriter<msgs::PathRequestPubSubType>("cairn/path_request", robot_id).Write(m);
   };
-  impl_->awaited_paths_.insert(request_id);
+  impl_->awaited_.paths.insert(request_id);
   const bool answered = impl_->SendUntil(
-      robot_id, request_id, send, [&] { return impl_->path_responses_.count(request_id) > 0; }, &lock,
+      robot_id, request_id, send, [&] { return impl_->awaited_.path_answers.count(request_id) > 0; }, &lock,
       &answer.reason);
-  impl_->awaited_paths_.erase(request_id);
+  impl_->awaited_.paths.erase(request_id);
   if (!answered) {
     answer.result = outcome::kTimedOut;
     return answer;
   }
-  answer.response = impl_->path_responses_[request_id];
-  impl_->path_responses_.erase(request_id);
+  answer.response = impl_->awaited_.path_answers[request_id];
+  impl_->awaited_.path_answers.erase(request_id);
   answer.round_trip_ms = std::chrono::duration<double, std::milli>(SteadyClock::now() - start).count();
   answer.ok = answer.response.success();
   answer.result = answer.ok ? outcome::kAccepted : outcome::kRefused;

@@ -143,7 +143,7 @@ class RobotAgent::Impl {
   Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform);
   ~Impl() {
     if (dds_) dds_->StopListening();  // no handler runs while the rest goes (the handlers use dds_ too)
-    if (health_) health_->StopAll();  // the component threads end before what they use
+    if (parts_.monitor) parts_.monitor->StopAll();  // the component threads end before what they use
     ExitIfWorkStillRuns();
     dds_.reset();
     come_home_.Abandon(navigation_);
@@ -157,9 +157,9 @@ class RobotAgent::Impl {
   // (the health monitor's, or after StopAll() any).
   std::string WorkStillRunning() const {
     std::string running;
-    for (core::Component* c : {static_cast<core::Component*>(platform_c_.get()),
-                               static_cast<core::Component*>(perception_c_.get()),
-                               static_cast<core::Component*>(planning_c_.get())}) {
+    for (core::Component* c : {static_cast<core::Component*>(parts_.platform.get()),
+                               static_cast<core::Component*>(parts_.perception.get()),
+                               static_cast<core::Component*>(parts_.planning.get())}) {
       if (c == nullptr) continue;
       if (const std::string r = c->StillRunning(); !r.empty())
         running += (running.empty() ? "" : "; ") + c->name() + ": " + r;
@@ -228,7 +228,7 @@ class RobotAgent::Impl {
   // With mutex_ held: the robot as a yield, asked or asking, sees it at `now_s` with `live_peers` (which
   // outlive the answer).
   YieldCoordination::Robot ForYield(double now_s, const std::vector<PeerBody>& live_peers) const {
-    return {now_s, modes_->control().mode(), pose_, &live_peers, listening_to_peers_};
+    return {now_s, modes_->control().mode(), reading_.pose_M, &live_peers, listening_to_peers_};
   }
   // With mutex_ held: what the robot state reports now.
   RobotStateInputs StateInputs() const {
@@ -238,8 +238,8 @@ class RobotAgent::Impl {
     const bool own_first = own.state != YieldStatus::State::kNone ||
                            (asking.state == YieldStatus::State::kNone && !own.reason.empty());
     RobotStateInputs in;
-    in.pose_M = pose_;
-    in.in_contact = in_contact_;
+    in.pose_M = reading_.pose_M;
+    in.in_contact = reading_.in_contact;
     in.control_period_max_ms = control_periods_.WorstMs();
     in.resumable_goal_M = resumable_goal_M_;
     in.yield = own_first ? own : asking;
@@ -267,10 +267,14 @@ class RobotAgent::Impl {
   core::PlatformCapabilities capabilities_;
   core::BaseState start_M_;                      // pose estimate at start (the navigation map's centre)
   std::shared_ptr<nav::GlobalPlanner> planner_;  // thread-safe: goals and peers' path queries
-  core::BaseState pose_;                         // latest pose estimate, map frame (control thread)
-  bool pose_healthy_ = true;
-  std::string pose_problem_;
-  bool in_contact_ = false;
+  // What the platform said at the last control cycle (control thread).
+  struct PlatformReading {
+    explicit PlatformReading(const core::BaseState& start_M) : pose_M(start_M) {}
+    core::BaseState pose_M;  // latest pose estimate, map frame
+    bool pose_healthy = true;
+    std::string pose_problem;
+    bool in_contact = false;
+  } reading_;
   PeriodWindow control_periods_;
   std::atomic<std::uint64_t> late_control_cycles_{0};  // Run(): cycles started over half a period late
   int robots_on_link_ = 1;                             // ShareRadioLink()
@@ -294,12 +298,15 @@ class RobotAgent::Impl {
   std::mutex mutex_;
 
   // The components (agent_components.h) and their health monitor; made last, stopped first (~Impl).
-  FaultInjector faults_;
-  std::unique_ptr<PlatformComponent> platform_c_;
-  std::unique_ptr<PerceptionComponent> perception_c_;
-  std::unique_ptr<PlanningComponent> planning_c_;
-  std::unique_ptr<ControlLoopComponent> command_c_, mode_tree_c_, mux_c_, navigation_c_, telemetry_c_;
-  std::unique_ptr<core::HealthMonitor> health_;
+  struct Components {
+    explicit Components(FaultInjector faults_in) : faults(std::move(faults_in)) {}
+    FaultInjector faults;
+    std::unique_ptr<PlatformComponent> platform;
+    std::unique_ptr<PerceptionComponent> perception;
+    std::unique_ptr<PlanningComponent> planning;
+    std::unique_ptr<ControlLoopComponent> command, mode_tree, mux, navigation, telemetry;
+    std::unique_ptr<core::HealthMonitor> monitor;
+  } parts_;
   // What the basestations are told of the components (cairn/health): at once after an event, else every 2 s
   // (10 s on a radio link).
   HealthReport health_report_{options_.robot_id, core::IsRadioLink(options_.link) ? 10.0 : 2.0};
@@ -330,17 +337,17 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       capabilities_(platform_->Capabilities()),
       start_M_(StartPose(*platform_)),
       planner_(MakePlanner(options, start_M_)),
-      pose_(start_M_),
+      reading_(start_M_),
       navigation_(options.navigation, planner_, LocalPlannerLibrary(options)),
       team_(options.robot_id, options.explore.team),
       peers_(options.robot_id, options.peers),
-      faults_(
+      parts_(FaultInjector(
           [&] {
             std::vector<FaultInjection> faults;
             for (const std::string& f : options.inject_faults) faults.push_back(ParseFaultInjection(f));
             return faults;
           }(),
-          start_time_) {
+          start_time_)) {
   perception_ = std::make_unique<PerceptionService>(
       options, platform_, start_M_, planner_, start_time_,
       [this](const PerceptionOutput& out) { telemetry_->PublishPerception(out); });
@@ -442,10 +449,10 @@ JournalEntry RobotAgent::Impl::JournalNow() const {
     e.goal_y_m = resumable_goal_M_->y();
     e.goal_z_m = resumable_goal_M_->z();
   }
-  e.x_m = pose_.x_m;
-  e.y_m = pose_.y_m;
-  e.z_m = pose_.z_m;
-  e.yaw_rad = pose_.yaw_rad;
+  e.x_m = reading_.pose_M.x_m;
+  e.y_m = reading_.pose_M.y_m;
+  e.z_m = reading_.pose_M.z_m;
+  e.yaw_rad = reading_.pose_M.yaw_rad;
   return e;
 }
 
@@ -473,7 +480,7 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
   };
   // Planned on the planning thread, never on the DDS thread that holds the agent lock.
   hooks.plan_goal = [this](const GoalCommand& goal) {
-    planning_->SubmitGoal(goal, navigation_.GoalRequest(pose_, goal.x_m, goal.y_m, goal.z_m));
+    planning_->SubmitGoal(goal, navigation_.GoalRequest(reading_.pose_M, goal.x_m, goal.y_m, goal.z_m));
   };
   hooks.start_goal = [this](const GoalCommand& goal, const nav::GlobalPlan& plan) {
     return StartGoal(goal, plan);
@@ -487,7 +494,7 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
   hooks.convoy = [this](const ConvoyCommand& c) { return OnConvoy(c); };
   // Queued for the monitor's thread: a component's threads are never waited for under the agent lock.
   hooks.restart_component = [this](const std::string& component, const std::string& by) {
-    return health_->RequestRestart(component, by);
+    return parts_.monitor->RequestRestart(component, by);
   };
   return hooks;
 }
@@ -511,7 +518,7 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
 }
 
 void RobotAgent::Impl::PublishPeerState() {
-  const PeerBody self = modes_->AsPeer(pose_);
+  const PeerBody self = modes_->AsPeer(reading_.pose_M);
   cairn_msgs::PeerState m;
   m.robot_id(self.robot_id);
   m.platform(options_.navigation.platform.name);
@@ -614,47 +621,48 @@ CommandOutcome RobotAgent::Impl::StartGoal(const GoalCommand& goal, const nav::G
 ModeConditions RobotAgent::Impl::Conditions() const {
   ModeConditions c;
   command_->FillConditions(&c);  // holder, its liveliness, its joystick
-  c.localized = pose_healthy_;
-  c.localization_problem = pose_problem_;
+  c.localized = reading_.pose_healthy;
+  c.localization_problem = reading_.pose_problem;
   c.has_waypoint_goal = modes_->waypoint().has_goal();
   c.local_planner_healthy = navigation_.ObstacleSensingAlive(NowS(clock_->Now()), &c.local_planner_problem);
   c.has_explore_task = modes_->explore().exploring();
   c.has_convoy_task = modes_->convoy().active();
   c.has_yield_task = modes_->yield().active();
   c.mapping_healthy = perception_->MappingHealthy(&c.mapping_problem);
-  if (health_) c.components_down = health_->Down();
+  if (parts_.monitor) c.components_down = parts_.monitor->Down();
   return c;
 }
 
 void RobotAgent::Impl::Step(SteadyTime now) {
   ResetRestartedParts();
-  command_c_->Run([&] { command_->Update(now); });
+  parts_.command->Run([&] { command_->Update(now); });
   const double now_s = NowS(now);
-  mode_tree_c_->Run([&] { modes_->Recheck(now_s); });
+  parts_.mode_tree->Run([&] { modes_->Recheck(now_s); });
 
   const bool platform_ok = ReadPose(now_s);
-  const ModeInputs inputs{now, now_s, pose_};
-  const bool navigated = navigation_c_->Run([&] { StepNavigation(now, inputs); });
-  telemetry_c_->Run([&] { telemetry_->PublishGlobalPathIfChanged(); });
+  const ModeInputs inputs{now, now_s, reading_.pose_M};
+  const bool navigated = parts_.navigation->Run([&] { StepNavigation(now, inputs); });
+  parts_.telemetry->Run([&] { telemetry_->PublishGlobalPathIfChanged(); });
 
   Twist2 twist_B;
-  const bool muxed = mux_c_->Run([&] { twist_B = modes_->control().Compute(now).twist_B; });
+  const bool muxed = parts_.mux->Run([&] { twist_B = modes_->control().Compute(now).twist_B; });
   // A part of the driving chain that failed or is down: zero twist, and the robot leaves its mode (it is not
   // driven by a half-working chain when the part comes back).
-  if (!(muxed && navigated && platform_ok && mode_tree_c_->up() && navigation_c_->up() && mux_c_->up())) {
+  if (!(muxed && navigated && platform_ok && parts_.mode_tree->up() && parts_.navigation->up() &&
+        parts_.mux->up())) {
     twist_B = Twist2{};
     LeaveModeForADownChain(now_s);
   }
   try {
     platform_->CommandTwist(twist_B.linear_x_mps, twist_B.angular_z_radps, now_s);
     const core::PlatformStatus status = platform_->ReadStatus();
-    in_contact_ = status.in_contact;
-    if (navigated && mode_tree_c_->up()) {
-      mode_tree_c_->Run([&] { modes_->OnPlatformStatus(status, inputs); },
-                        /*beat=*/false);
+    reading_.in_contact = status.in_contact;
+    if (navigated && parts_.mode_tree->up()) {
+      parts_.mode_tree->Run([&] { modes_->OnPlatformStatus(status, inputs); },
+                            /*beat=*/false);
     }
   } catch (const std::exception& e) {
-    platform_c_->ReportFailure(std::string("driver: ") + e.what());
+    parts_.platform->ReportFailure(std::string("driver: ") + e.what());
   }
 }
 
@@ -662,19 +670,19 @@ bool RobotAgent::Impl::ReadPose(double now_s) {
   try {
     platform_->Update(now_s);
     const core::PoseEstimate estimate = platform_->ReadPose();
-    pose_ = estimate.PlanarState();
-    if (estimate.healthy != pose_healthy_) {
+    reading_.pose_M = estimate.PlanarState();
+    if (estimate.healthy != reading_.pose_healthy) {
       if (estimate.healthy) {
         spdlog::info("robot {}: localization recovered", options_.robot_id);
       } else {
         spdlog::warn("robot {}: localization lost: {}", options_.robot_id, estimate.problem);
       }
     }
-    pose_healthy_ = estimate.healthy;
-    pose_problem_ = estimate.healthy ? "" : estimate.problem;
+    reading_.pose_healthy = estimate.healthy;
+    reading_.pose_problem = estimate.healthy ? "" : estimate.problem;
     return true;
   } catch (const std::exception& e) {
-    platform_c_->ReportFailure(std::string("pose estimate: ") + e.what());
+    parts_.platform->ReportFailure(std::string("pose estimate: ") + e.what());
     return false;
   }
 }
@@ -688,12 +696,12 @@ void RobotAgent::Impl::StepNavigation(SteadyTime now, const ModeInputs& inputs) 
   // A robot waiting on a goal (or between frontiers) watches the world.
   perception_->SetMapRefreshAtRest(modes_->waypoint().has_goal() || modes_->explore().exploring());
   perception_->SetFrontierSearch(modes_->explore().frontier_search(), modes_->explore().every_level());
-  perception_->SetRobotPosition({pose_.x_m, pose_.y_m, pose_.z_m});
+  perception_->SetRobotPosition({reading_.pose_M.x_m, reading_.pose_M.y_m, reading_.pose_M.z_m});
   if (auto frontiers = perception_->TakeFrontiers())
     modes_->explore().OnFrontiers(std::move(frontiers->first), frontiers->second);
   perception_->SetPeerCoverage(team_.Coverage());
   modes_->Step(inputs, ForYield(now_s, live_peers), team_);
-  come_home_.Step(command_->SecondsSinceBaseHeard(now), pose_, modes_->explore(), navigation_,
+  come_home_.Step(command_->SecondsSinceBaseHeard(now), reading_.pose_M, modes_->explore(), navigation_,
                   [&](const nav::GlobalPlan& plan, const core::BaseState& goal_M) {
                     return modes_->StartGoal(plan, goal_M.x_m, goal_M.y_m, 0.0, goal_M.z_m, now_s);
                   });
@@ -711,7 +719,7 @@ void RobotAgent::Impl::LeaveModeForADownChain(double now_s) {
 }
 
 void RobotAgent::Impl::ResetRestartedParts() {
-  for (ControlLoopComponent* part : {mode_tree_c_.get(), mux_c_.get(), navigation_c_.get()}) {
+  for (ControlLoopComponent* part : {parts_.mode_tree.get(), parts_.mux.get(), parts_.navigation.get()}) {
     if (part->TakeRestart()) {
       try {
         modes_->control().Stop(part->name() +
@@ -721,25 +729,27 @@ void RobotAgent::Impl::ResetRestartedParts() {
       }
     }
   }
-  if (telemetry_c_->TakeRestart()) telemetry_->RequestWholeState();
-  command_c_->TakeRestart();  // the lock, its holder and the reply cache are kept: nothing to reset
+  if (parts_.telemetry->TakeRestart()) telemetry_->RequestWholeState();
+  parts_.command->TakeRestart();  // the lock, its holder and the reply cache are kept: nothing to reset
 }
 
 void RobotAgent::Impl::MakeComponents() {
   const double lidar_hz = capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0;
-  platform_c_ = std::make_unique<PlatformComponent>(perception_.get(), 2 * lidar_hz);
-  perception_c_ = std::make_unique<PerceptionComponent>(perception_.get(), 2 * lidar_hz);
-  planning_c_ = std::make_unique<PlanningComponent>(planning_.get(), faults_.empty() ? nullptr : &faults_);
-  FaultInjector* faults = faults_.empty() ? nullptr : &faults_;
+  parts_.platform = std::make_unique<PlatformComponent>(perception_.get(), 2 * lidar_hz);
+  parts_.perception = std::make_unique<PerceptionComponent>(perception_.get(), 2 * lidar_hz);
+  parts_.planning =
+      std::make_unique<PlanningComponent>(planning_.get(), parts_.faults.empty() ? nullptr : &parts_.faults);
+  FaultInjector* faults = parts_.faults.empty() ? nullptr : &parts_.faults;
   const double control_hz = 1.0 / kLoopPeriodS;
-  command_c_ = std::make_unique<ControlLoopComponent>("command_interface", control_hz, faults);
-  mode_tree_c_ = std::make_unique<ControlLoopComponent>("mode_tree", control_hz, faults);
-  mux_c_ = std::make_unique<ControlLoopComponent>("mux", control_hz, faults);
-  navigation_c_ = std::make_unique<ControlLoopComponent>("navigation", control_hz, faults);
-  telemetry_c_ = std::make_unique<ControlLoopComponent>("telemetry", control_hz, faults);
+  parts_.command = std::make_unique<ControlLoopComponent>("command_interface", control_hz, faults);
+  parts_.mode_tree = std::make_unique<ControlLoopComponent>("mode_tree", control_hz, faults);
+  parts_.mux = std::make_unique<ControlLoopComponent>("mux", control_hz, faults);
+  parts_.navigation = std::make_unique<ControlLoopComponent>("navigation", control_hz, faults);
+  parts_.telemetry = std::make_unique<ControlLoopComponent>("telemetry", control_hz, faults);
   if (faults != nullptr)
     perception_->SetFaultHook([faults](const char* component) { faults->Check(component); });
-  health_ = std::make_unique<core::HealthMonitor>([this](const core::HealthEvent& e) { OnHealthEvent(e); });
+  parts_.monitor =
+      std::make_unique<core::HealthMonitor>([this](const core::HealthEvent& e) { OnHealthEvent(e); });
   // Deadlines: a loop beats every iteration; perception's ticks (a map insert, a staircase search, a
   // navigation map update) and planning's plans may each take seconds on a big map, the control cycle 20 ms.
   core::RestartPolicy base;
@@ -753,14 +763,15 @@ void RobotAgent::Impl::MakeComponents() {
   planning.heartbeat_deadline_s = 10.0;
   core::RestartPolicy control = base;
   control.heartbeat_deadline_s = 2.0;
-  health_->Add(platform_c_.get(), sensor);
-  health_->Add(perception_c_.get(), perception);
-  health_->Add(planning_c_.get(), planning);
-  for (core::Component* c :
-       {static_cast<core::Component*>(command_c_.get()), static_cast<core::Component*>(mode_tree_c_.get()),
-        static_cast<core::Component*>(mux_c_.get()), static_cast<core::Component*>(navigation_c_.get()),
-        static_cast<core::Component*>(telemetry_c_.get())}) {
-    health_->Add(c, control);
+  parts_.monitor->Add(parts_.platform.get(), sensor);
+  parts_.monitor->Add(parts_.perception.get(), perception);
+  parts_.monitor->Add(parts_.planning.get(), planning);
+  for (core::Component* c : {static_cast<core::Component*>(parts_.command.get()),
+                             static_cast<core::Component*>(parts_.mode_tree.get()),
+                             static_cast<core::Component*>(parts_.mux.get()),
+                             static_cast<core::Component*>(parts_.navigation.get()),
+                             static_cast<core::Component*>(parts_.telemetry.get())}) {
+    parts_.monitor->Add(c, control);
   }
 }
 
@@ -777,7 +788,7 @@ void RobotAgent::Impl::OnHealthEvent(const core::HealthEvent& event) {
 
 void RobotAgent::Impl::PublishHealthIfDue(SteadyTime now) {
   const std::optional<cairn_msgs::AgentHealth> m =
-      health_report_.MessageIfDue(now, *health_, late_control_cycles_.load());
+      health_report_.MessageIfDue(now, *parts_.monitor, late_control_cycles_.load());
   if (m && !dds_->Publish(*m))
     spdlog::warn("robot {}: health not sent (DDS history full)", options_.robot_id);
 }
@@ -846,7 +857,7 @@ void RobotAgent::Impl::Run() {
   // The components' threads (sensor, perception, navigation map, planning) start, and their monitor watches
   // every component from now on. The lidar feeds navigation (live obstacles, the navigation map) even with
   // perception's outputs disabled.
-  health_->StartAll();
+  parts_.monitor->StartAll();
   // Stops them however Run() ends (an exception would otherwise leave threads running).
   struct StopOnExit {
     core::HealthMonitor* health;
@@ -854,8 +865,8 @@ void RobotAgent::Impl::Run() {
       core::RequestShutdown();
       health->StopAll();
     }
-  } stop_on_exit{health_.get()};
-  health_->StartChecking();
+  } stop_on_exit{parts_.monitor.get()};
+  parts_.monitor->StartChecking();
   SteadyTime next = SteadyClock::now();
   for (uint64_t cycle = 0; !core::ShutdownRequested(); ++cycle) {
     const SteadyTime wanted = SteadyClock::now();
@@ -911,7 +922,7 @@ void RobotAgent::Impl::Leave() {
         finished = true;
         return;
       }
-      health_->StopAll();  // the component threads end (they see the shutdown)
+      parts_.monitor->StopAll();  // the component threads end (they see the shutdown)
       if (const std::string running = WorkStillRunning(); !running.empty()) {
         // The map is still in use by a loop that did not stop: neither flushed nor saved.
         spdlog::error("robot {}: {}: the map is not flushed or saved at exit", options_.robot_id, running);

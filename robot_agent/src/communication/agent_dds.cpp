@@ -104,8 +104,8 @@ class AgentDds::Impl {
     p.security = options.security;
     p.on_participant_gone = [this](const std::string& participant, bool /*dropped*/) {
       {
-        std::lock_guard<std::mutex> guard(senders_mutex_);
-        bases_of_participant_.erase(participant);
+        std::lock_guard<std::mutex> guard(senders_.mutex);
+        senders_.bases_of_participant.erase(participant);
       }
       std::lock_guard<std::mutex> guard(gone_mutex_);
       gone_participants_.push_back(participant);
@@ -128,21 +128,13 @@ class AgentDds::Impl {
   // Readers first so that no callback runs while the rest is torn down.
   void StopListening() {
     probe_reader_.reset();
-    yield_reader_.reset();
-    commander_yield_reader_.reset();
-    claim_reader_.reset();
-    peer_reader_.reset();
+    team_.yield_reader.reset();
+    team_.commander_yield_reader.reset();
+    team_.claim_reader.reset();
+    team_.peer_reader.reset();
     map_sync_reader_.reset();
     path_request_reader_.reset();
-    control_reader_.reset();
-    mode_reader_.reset();
-    goal_reader_.reset();
-    explore_reader_.reset();
-    convoy_reader_.reset();
-    home_reader_.reset();
-    stop_reader_.reset();
-    restart_reader_.reset();
-    teleop_reader_.reset();
+    commands_ = CommandReaders{};
     info_reader_.reset();
   }
 
@@ -153,49 +145,49 @@ class AgentDds::Impl {
 
   void MakeWriters() {
     core::Participant& p = *participant_;
-    info_writer_ =
+    writers_.info =
         std::make_unique<core::Writer<msgs::AgentInfoPubSubType>>(p, "cairn/agent_info", "cairn.latched");
-    state_writer_ =
+    writers_.state =
         std::make_unique<core::Writer<msgs::RobotStatePubSubType>>(p, "cairn/robot_state", "cairn.latched");
-    pose_writer_ =
+    writers_.pose =
         std::make_unique<core::Writer<msgs::RobotPosePubSubType>>(p, "cairn/robot_pose", "cairn.state");
-    health_writer_ =
+    writers_.health =
         std::make_unique<core::Writer<msgs::AgentHealthPubSubType>>(p, "cairn/health", "cairn.latched");
-    tree_writer_ = std::make_unique<core::Writer<msgs::BehaviorTreeStatePubSubType>>(p, "cairn/bt_state",
-                                                                                     "cairn.latched");
-    response_writer_ = std::make_unique<core::Writer<msgs::CommandResponsePubSubType>>(
+    writers_.tree = std::make_unique<core::Writer<msgs::BehaviorTreeStatePubSubType>>(p, "cairn/bt_state",
+                                                                                      "cairn.latched");
+    writers_.response = std::make_unique<core::Writer<msgs::CommandResponsePubSubType>>(
         p, "cairn/command_response", "cairn.command");
-    path_response_writer_ = std::make_unique<core::Writer<msgs::PathResponsePubSubType>>(
+    writers_.path_response = std::make_unique<core::Writer<msgs::PathResponsePubSubType>>(
         p, "cairn/path_response", "cairn.command");
-    global_path_writer_ =
+    writers_.global_path =
         std::make_unique<core::Writer<msgs::GlobalPathPubSubType>>(p, "cairn/global_path", "cairn.latched");
-    local_plan_writer_ =
+    writers_.local_plan =
         std::make_unique<core::Writer<msgs::LocalPlanPubSubType>>(p, "cairn/local_plan", "cairn.state");
     MakeBulkWriters(1);
-    staircase_writer_ = std::make_unique<core::Writer<msgs::StaircaseDetectionPubSubType>>(
+    writers_.staircase = std::make_unique<core::Writer<msgs::StaircaseDetectionPubSubType>>(
         p, "cairn/staircase", "cairn.latched");
-    probe_reply_writer_ = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(
+    writers_.probe_reply = std::make_unique<core::Writer<msgs::PingPongPubSubType>>(
         p, "cairn/link_probe_reply", "cairn.command");
-    peer_writer_ =
+    team_.peer_writer =
         std::make_unique<core::Writer<msgs::PeerStatePubSubType>>(p, "cairn/peer_state", "cairn.state");
   }
 
   // The map and camera writers on the flow controllers of `share` (bulk_mutex_ held, or before any Publish).
   // What the old writers had sent stays counted.
   void MakeBulkWriters(int share) {
-    if (map_writer_)
-      retired_map_ = {retired_map_.first + map_writer_->bytes_written(),
-                      retired_map_.second + map_writer_->samples_written()};
-    if (camera_writer_)
-      retired_camera_ = {retired_camera_.first + camera_writer_->bytes_written(),
-                         retired_camera_.second + camera_writer_->samples_written()};
-    map_writer_.reset();
-    camera_writer_.reset();
-    map_writer_ = std::make_unique<core::Writer<msgs::MapUpdatePubSubType>>(
+    if (bulk_.map)
+      bulk_.retired_map = {bulk_.retired_map.first + bulk_.map->bytes_written(),
+                           bulk_.retired_map.second + bulk_.map->samples_written()};
+    if (bulk_.camera)
+      bulk_.retired_camera = {bulk_.retired_camera.first + bulk_.camera->bytes_written(),
+                              bulk_.retired_camera.second + bulk_.camera->samples_written()};
+    bulk_.map.reset();
+    bulk_.camera.reset();
+    bulk_.map = std::make_unique<core::Writer<msgs::MapUpdatePubSubType>>(
         *participant_, "cairn/map_update", "cairn.map", BulkController("cairn.map", share));
-    camera_writer_ = std::make_unique<core::Writer<msgs::CompressedImagePubSubType>>(
+    bulk_.camera = std::make_unique<core::Writer<msgs::CompressedImagePubSubType>>(
         *participant_, "cairn/camera", "cairn.camera", BulkController("cairn.camera", share));
-    bulk_share_ = share;
+    bulk_.share = share;
   }
 
   static std::string BulkController(const char* name, int share) {
@@ -207,12 +199,12 @@ class AgentDds::Impl {
   // O(robots) (every endpoint of every robot would otherwise go to every robot: cairn_fleet_join_test's ten
   // robots were seen 4.3 s after they started instead of 3 s).
   void MakeTeamEndpoints() {
-    if (claim_writer_) return;
+    if (team_.claim_writer) return;
     core::Participant& p = *participant_;
     const std::string& robot = options_.robot_id;
-    claim_writer_ = std::make_unique<core::Writer<msgs::ExploreClaimPubSubType>>(p, "cairn/explore_claim",
-                                                                                 "cairn.latched");
-    claim_reader_ = std::make_unique<core::Reader<msgs::ExploreClaimPubSubType>>(
+    team_.claim_writer = std::make_unique<core::Writer<msgs::ExploreClaimPubSubType>>(
+        p, "cairn/explore_claim", "cairn.latched");
+    team_.claim_reader = std::make_unique<core::Reader<msgs::ExploreClaimPubSubType>>(
         p, "cairn/explore_claim", "cairn.latched",
         [this, robot](const msgs::ExploreClaim& m, const SampleInfo& info) {
           if (m.robot_id() == robot || !ValidPeerId("cairn/explore_claim", "robot id", m.robot_id()) ||
@@ -226,23 +218,23 @@ class AgentDds::Impl {
 
   std::pair<std::uint64_t, std::uint64_t> TeamSent() const {
     std::lock_guard<std::mutex> guard(team_mutex_);
-    auto sent = claim_writer_
-                    ? std::make_pair(claim_writer_->bytes_written(), claim_writer_->samples_written())
-                    : std::make_pair(std::uint64_t{0}, std::uint64_t{0});
-    sent.first += peer_writer_->bytes_written();
-    sent.second += peer_writer_->samples_written();
-    if (yield_writer_) {
-      sent.first += yield_writer_->bytes_written();
-      sent.second += yield_writer_->samples_written();
+    auto sent = team_.claim_writer ? std::make_pair(team_.claim_writer->bytes_written(),
+                                                    team_.claim_writer->samples_written())
+                                   : std::make_pair(std::uint64_t{0}, std::uint64_t{0});
+    sent.first += team_.peer_writer->bytes_written();
+    sent.second += team_.peer_writer->samples_written();
+    if (team_.yield_writer) {
+      sent.first += team_.yield_writer->bytes_written();
+      sent.second += team_.yield_writer->samples_written();
     }
     return sent;
   }
 
   // The reader of the peers' states (team_mutex_ held), made when the robot first drives.
   void MakePeerReader() {
-    if (peer_reader_) return;
+    if (team_.peer_reader) return;
     const std::string& robot = options_.robot_id;
-    peer_reader_ = std::make_unique<core::Reader<msgs::PeerStatePubSubType>>(
+    team_.peer_reader = std::make_unique<core::Reader<msgs::PeerStatePubSubType>>(
         *participant_, "cairn/peer_state", "cairn.state",
         [this, robot](const msgs::PeerState& m, const SampleInfo& info) {
           if (m.robot_id() == robot || !ValidPeerId("cairn/peer_state", "robot id", m.robot_id()) ||
@@ -251,9 +243,10 @@ class AgentDds::Impl {
             return;
           }
           {
-            std::lock_guard<std::mutex> guard(senders_mutex_);
-            if (participant_of_robot_.size() < kMaxSenders || participant_of_robot_.count(m.robot_id()) > 0)
-              participant_of_robot_[m.robot_id()] = core::ParticipantIdOf(info.publication_handle);
+            std::lock_guard<std::mutex> guard(senders_.mutex);
+            if (senders_.participant_of_robot.size() < kMaxSenders ||
+                senders_.participant_of_robot.count(m.robot_id()) > 0)
+              senders_.participant_of_robot[m.robot_id()] = core::ParticipantIdOf(info.publication_handle);
           }
           handlers_.peer_state(PeerFromMessage(m));
         });
@@ -287,9 +280,9 @@ class AgentDds::Impl {
         std::string(topic) + ": " + field + " '" + claimed + "' sent under the certificate of " +
         (real.empty() ? "another identity" : "'" + real + "'") + " (participant " + participant + ")";
     {
-      std::lock_guard<std::mutex> guard(forged_mutex_);
-      ++forged_.count;
-      forged_.last = what;
+      std::lock_guard<std::mutex> guard(senders_.forged_mutex);
+      ++senders_.forged.count;
+      senders_.forged.last = what;
     }
     std::uint64_t suppressed = 0;
     if (peer_warnings_.Allow(std::string("forged ") + topic, core::SteadyClock::now(), &suppressed)) {
@@ -306,11 +299,12 @@ class AgentDds::Impl {
     YieldOrigin origin;
     origin.secure = options_.security.enabled();
     origin.commander_topic = commander_topic;
-    std::lock_guard<std::mutex> guard(senders_mutex_);
-    const auto bases = bases_of_participant_.find(participant);
-    origin.announced_base = bases != bases_of_participant_.end() && bases->second.count(m.sender_id()) > 0;
-    const auto robot = participant_of_robot_.find(m.sender_id());
-    origin.peer_robot = robot != participant_of_robot_.end() && robot->second == participant;
+    std::lock_guard<std::mutex> guard(senders_.mutex);
+    const auto bases = senders_.bases_of_participant.find(participant);
+    origin.announced_base =
+        bases != senders_.bases_of_participant.end() && bases->second.count(m.sender_id()) > 0;
+    const auto robot = senders_.participant_of_robot.find(m.sender_id());
+    origin.peer_robot = robot != senders_.participant_of_robot.end() && robot->second == participant;
     return origin;
   }
 
@@ -334,10 +328,10 @@ class AgentDds::Impl {
         handlers_.yield(c, OriginOf(m, info, commander_topic), fault);
       };
     };
-    yield_reader_ = std::make_unique<core::Reader<msgs::YieldRequestPubSubType>>(
+    team_.yield_reader = std::make_unique<core::Reader<msgs::YieldRequestPubSubType>>(
         p, "cairn/yield_request", "cairn.command", on_yield("cairn/yield_request", false));
     if (options_.security.enabled()) {
-      commander_yield_reader_ = std::make_unique<core::Reader<msgs::YieldRequestPubSubType>>(
+      team_.commander_yield_reader = std::make_unique<core::Reader<msgs::YieldRequestPubSubType>>(
           p, CommandTopic("cairn/yield_request"), "cairn.command",
           on_yield("cairn/yield_request/<robot>", true));
     }
@@ -357,7 +351,7 @@ class AgentDds::Impl {
           reply.robot_id(robot);
           reply.body(
               m.body());  // the probing process's identity: bases sharing an id tell their probes apart
-          probe_reply_writer_->Write(reply);
+          writers_.probe_reply->Write(reply);
         });
     map_sync_reader_ = std::make_unique<core::Reader<msgs::MapSyncRequestPubSubType>>(
         p, "cairn/map_sync_request", "cairn.command",
@@ -403,14 +397,15 @@ class AgentDds::Impl {
             return;
           const std::string writer = core::WriterIdOf(info.publication_handle);
           {
-            std::lock_guard<std::mutex> guard(senders_mutex_);
+            std::lock_guard<std::mutex> guard(senders_.mutex);
             const std::string participant = core::ParticipantIdOf(info.publication_handle);
-            if (bases_of_participant_.size() < kMaxSenders || bases_of_participant_.count(participant) > 0)
-              bases_of_participant_[participant].insert(m.agent_id());
+            if (senders_.bases_of_participant.size() < kMaxSenders ||
+                senders_.bases_of_participant.count(participant) > 0)
+              senders_.bases_of_participant[participant].insert(m.agent_id());
           }
           {
-            std::lock_guard<std::mutex> guard(robots_heard_mutex_);
-            robots_heard_by_base_[writer] = {m.robots_heard(), true};
+            std::lock_guard<std::mutex> guard(senders_.robots_heard_mutex);
+            senders_.robots_heard_by_base[writer] = {m.robots_heard(), true};
           }
           const auto& caps = m.capabilities();
           handlers_.base_announced(
@@ -426,11 +421,11 @@ class AgentDds::Impl {
           change.lost = core::IsLivelinessLoss(status);
           change.regained = status.alive_count_change > 0;
           {
-            std::lock_guard<std::mutex> guard(robots_heard_mutex_);
-            auto base = robots_heard_by_base_.find(change.writer);
-            if (base != robots_heard_by_base_.end()) {
+            std::lock_guard<std::mutex> guard(senders_.robots_heard_mutex);
+            auto base = senders_.robots_heard_by_base.find(change.writer);
+            if (base != senders_.robots_heard_by_base.end()) {
               if (change.unmatched) {
-                robots_heard_by_base_.erase(base);
+                senders_.robots_heard_by_base.erase(base);
               } else if (change.lost || change.regained) {
                 base->second.second = change.regained && !change.lost;
               }
@@ -458,7 +453,7 @@ class AgentDds::Impl {
 
   // The operators' commands, each handed on as a plain struct (malformed fields named, not dropped).
   void MakeCommandReaders() {
-    control_reader_ = CommandReader<msgs::ControlRequestPubSubType>(
+    commands_.control = CommandReader<msgs::ControlRequestPubSubType>(
         "cairn/control_request", "cairn.command",
         [this](const msgs::ControlRequest& m, const SampleInfo& info) {
           ControlCommand c{SenderOf(m.base_id(), info), m.request_id(),
@@ -470,16 +465,16 @@ class AgentDds::Impl {
           }
           handlers_.control(c);
         });
-    mode_reader_ = CommandReader<msgs::ModeRequestPubSubType>(
+    commands_.mode = CommandReader<msgs::ModeRequestPubSubType>(
         "cairn/mode_request", "cairn.command", [this](const msgs::ModeRequest& m, const SampleInfo& info) {
           handlers_.mode(ModeCommand{SenderOf(m.base_id(), info), m.request_id(), m.mode()});
         });
-    goal_reader_ = CommandReader<msgs::WaypointGoalPubSubType>(
+    commands_.goal = CommandReader<msgs::WaypointGoalPubSubType>(
         "cairn/waypoint_goal", "cairn.command", [this](const msgs::WaypointGoal& m, const SampleInfo& info) {
           handlers_.goal(GoalCommand{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.x_m(),
                                      m.y_m(), m.tolerance_m(), m.z_m()});
         });
-    explore_reader_ = CommandReader<msgs::ExploreRequestPubSubType>(
+    commands_.explore = CommandReader<msgs::ExploreRequestPubSubType>(
         "cairn/explore_request", "cairn.command",
         [this](const msgs::ExploreRequest& m, const SampleInfo& info) {
           ExploreCommand c{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), {}};
@@ -495,12 +490,12 @@ class AgentDds::Impl {
           c.task.home_after_silence_s = m.home_after_silence_s();
           handlers_.explore(c);
         });
-    home_reader_ = CommandReader<msgs::HomeRequestPubSubType>(
+    commands_.home = CommandReader<msgs::HomeRequestPubSubType>(
         "cairn/home_request", "cairn.command", [this](const msgs::HomeRequest& m, const SampleInfo& info) {
           handlers_.home(HomeCommand{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), m.has_point(),
                                      m.x_m(), m.y_m(), m.z_m()});
         });
-    convoy_reader_ = CommandReader<msgs::ConvoyRequestPubSubType>(
+    commands_.convoy = CommandReader<msgs::ConvoyRequestPubSubType>(
         "cairn/convoy_request", "cairn.command",
         [this](const msgs::ConvoyRequest& m, const SampleInfo& info) {
           ConvoyCommand c{SenderOf(m.base_id(), info), m.request_id(), false, {}, ""};
@@ -514,16 +509,16 @@ class AgentDds::Impl {
           }
           handlers_.convoy(c);
         });
-    restart_reader_ = CommandReader<msgs::RestartRequestPubSubType>(
+    commands_.restart = CommandReader<msgs::RestartRequestPubSubType>(
         "cairn/restart_request", "cairn.command",
         [this](const msgs::RestartRequest& m, const SampleInfo& info) {
           handlers_.restart(RestartCommand{SenderOf(m.base_id(), info), m.request_id(), m.component_name()});
         });
-    stop_reader_ = CommandReader<msgs::StopRequestPubSubType>(
+    commands_.stop = CommandReader<msgs::StopRequestPubSubType>(
         "cairn/stop_request", "cairn.command", [this](const msgs::StopRequest& m, const SampleInfo& info) {
           handlers_.stop(StopCommand{SenderOf(m.base_id(), info), m.request_id()});
         });
-    teleop_reader_ = CommandReader<msgs::TeleopTwistPubSubType>(
+    commands_.teleop = CommandReader<msgs::TeleopTwistPubSubType>(
         "cairn/teleop", "cairn.teleop", [this](const msgs::TeleopTwist& m, const SampleInfo&) {
           const msgs::Twist& t = m.twist();
           handlers_.teleop(TeleopCommand{
@@ -537,57 +532,75 @@ class AgentDds::Impl {
   AgentDdsHandlers handlers_;
   core::WarningLimiter peer_warnings_;
   bool listening_ = false;
-  mutable std::mutex robots_heard_mutex_;  // guards robots_heard_by_base_ only (taken on DDS threads)
-  // A basestation's info writer -> (the robots it hears, alive).
-  std::map<std::string, std::pair<int, bool>> robots_heard_by_base_;
-  mutable std::mutex forged_mutex_;  // guards forged_ (taken on DDS threads)
-  ForgedSenders forged_;
-  std::mutex senders_mutex_;  // guards the two below (taken on DDS threads)
-  std::map<std::string, std::set<std::string>> bases_of_participant_;  // process -> base ids it announced
-  std::map<std::string, std::string> participant_of_robot_;  // robot id -> process of its peer states
+  // Who is who among the senders this robot hears (taken on DDS threads, each map under its own mutex):
+  // the base ids each process announced, the process each robot's peer states come from, the robots each
+  // basestation hears, and the senders caught forging an id.
+  struct Senders {
+    std::mutex mutex;                                                   // guards the two maps below
+    std::map<std::string, std::set<std::string>> bases_of_participant;  // process -> base ids it announced
+    std::map<std::string, std::string> participant_of_robot;  // robot id -> process of its peer states
+    std::mutex robots_heard_mutex;                            // guards robots_heard_by_base
+    // A basestation's info writer -> (the robots it hears, alive).
+    std::map<std::string, std::pair<int, bool>> robots_heard_by_base;
+    std::mutex forged_mutex;  // guards forged
+    ForgedSenders forged;
+  };
+  mutable Senders senders_;
   std::mutex gone_mutex_;  // guards gone_participants_ only (taken on a DDS thread)
   std::vector<std::string>
       gone_participants_;  // reported by participant discovery, taken by the control loop
   std::unique_ptr<core::Participant> participant_;
-  std::unique_ptr<core::Writer<msgs::AgentInfoPubSubType>> info_writer_;
-  std::unique_ptr<core::Writer<msgs::RobotStatePubSubType>> state_writer_;
-  std::unique_ptr<core::Writer<msgs::AgentHealthPubSubType>> health_writer_;
-  std::unique_ptr<core::Writer<msgs::RobotPosePubSubType>> pose_writer_;
-  std::unique_ptr<core::Writer<msgs::BehaviorTreeStatePubSubType>> tree_writer_;
-  std::unique_ptr<core::Writer<msgs::CommandResponsePubSubType>> response_writer_;
-  std::unique_ptr<core::Writer<msgs::PathResponsePubSubType>> path_response_writer_;
-  std::unique_ptr<core::Writer<msgs::GlobalPathPubSubType>> global_path_writer_;
-  std::unique_ptr<core::Writer<msgs::LocalPlanPubSubType>> local_plan_writer_;
+  // What this robot publishes about itself: its announcement, state, health, telemetry and answers.
+  struct StateWriters {
+    std::unique_ptr<core::Writer<msgs::AgentInfoPubSubType>> info;
+    std::unique_ptr<core::Writer<msgs::RobotStatePubSubType>> state;
+    std::unique_ptr<core::Writer<msgs::AgentHealthPubSubType>> health;
+    std::unique_ptr<core::Writer<msgs::RobotPosePubSubType>> pose;
+    std::unique_ptr<core::Writer<msgs::BehaviorTreeStatePubSubType>> tree;
+    std::unique_ptr<core::Writer<msgs::CommandResponsePubSubType>> response;
+    std::unique_ptr<core::Writer<msgs::PathResponsePubSubType>> path_response;
+    std::unique_ptr<core::Writer<msgs::GlobalPathPubSubType>> global_path;
+    std::unique_ptr<core::Writer<msgs::LocalPlanPubSubType>> local_plan;
+    std::unique_ptr<core::Writer<msgs::StaircaseDetectionPubSubType>> staircase;
+    std::unique_ptr<core::Writer<msgs::PingPongPubSubType>> probe_reply;
+  } writers_;
   static constexpr int kBulkShares[] = {1, 2, 3, 4, 6, 8, 12, 16};
-  mutable std::mutex bulk_mutex_;  // guards the two bulk writers, replaced by SetBulkShare
-  std::unique_ptr<core::Writer<msgs::MapUpdatePubSubType>> map_writer_;
-  std::unique_ptr<core::Writer<msgs::CompressedImagePubSubType>> camera_writer_;
-  int bulk_share_ = 1;
-  std::pair<std::uint64_t, std::uint64_t> retired_map_{0, 0}, retired_camera_{0, 0};  // (bytes, samples)
-  std::unique_ptr<core::Writer<msgs::StaircaseDetectionPubSubType>> staircase_writer_;
-  std::unique_ptr<core::Writer<msgs::PingPongPubSubType>> probe_reply_writer_;
+  mutable std::mutex bulk_mutex_;  // guards bulk_: its writers are replaced by SetBulkShare
+  // The bulk topics (map updates, camera frames) on the flow controller of this robot's share of the link.
+  struct BulkWriters {
+    std::unique_ptr<core::Writer<msgs::MapUpdatePubSubType>> map;
+    std::unique_ptr<core::Writer<msgs::CompressedImagePubSubType>> camera;
+    int share = 1;
+    std::pair<std::uint64_t, std::uint64_t> retired_map{0, 0}, retired_camera{0, 0};  // (bytes, samples)
+  } bulk_;
+  mutable std::mutex team_mutex_;  // guards team_'s endpoints made on first use (see below)
+  // The team topics: explore claims (made by the first Publish(ExploreClaim)), peer states (the reader made
+  // by ListenToPeers()) and yield requests (the writer made by Send()).
+  struct TeamEndpoints {
+    std::unique_ptr<core::Writer<msgs::ExploreClaimPubSubType>> claim_writer;
+    std::unique_ptr<core::Reader<msgs::ExploreClaimPubSubType>> claim_reader;
+    std::unique_ptr<core::Reader<msgs::PeerStatePubSubType>> peer_reader;
+    std::unique_ptr<core::Writer<msgs::PeerStatePubSubType>> peer_writer;
+    std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>> yield_writer;
+    std::unique_ptr<core::Reader<msgs::YieldRequestPubSubType>> yield_reader;
+    // This robot's commanders' yield requests (cairn/yield_request/<robot>, DDS Security only).
+    std::unique_ptr<core::Reader<msgs::YieldRequestPubSubType>> commander_yield_reader;
+  } team_;
   std::unique_ptr<core::Reader<msgs::PingPongPubSubType>> probe_reader_;
-  mutable std::mutex team_mutex_;  // guards the two below, made by the first Publish(ExploreClaim)
-  std::unique_ptr<core::Writer<msgs::ExploreClaimPubSubType>> claim_writer_;
-  std::unique_ptr<core::Reader<msgs::ExploreClaimPubSubType>> claim_reader_;
-  std::unique_ptr<core::Reader<msgs::PeerStatePubSubType>>
-      peer_reader_;  // team_mutex_, made by ListenToPeers()
-  std::unique_ptr<core::Writer<msgs::PeerStatePubSubType>> peer_writer_;
-  std::unique_ptr<core::Writer<msgs::YieldRequestPubSubType>> yield_writer_;  // team_mutex_, made by Send()
-  std::unique_ptr<core::Reader<msgs::YieldRequestPubSubType>> yield_reader_;
-  // This robot's commanders' yield requests (cairn/yield_request/<robot>, DDS Security only).
-  std::unique_ptr<core::Reader<msgs::YieldRequestPubSubType>> commander_yield_reader_;
   std::unique_ptr<core::Reader<msgs::MapSyncRequestPubSubType>> map_sync_reader_;
   std::unique_ptr<core::Reader<msgs::PathRequestPubSubType>> path_request_reader_;
-  std::unique_ptr<core::Reader<msgs::ControlRequestPubSubType>> control_reader_;
-  std::unique_ptr<core::Reader<msgs::ModeRequestPubSubType>> mode_reader_;
-  std::unique_ptr<core::Reader<msgs::WaypointGoalPubSubType>> goal_reader_;
-  std::unique_ptr<core::Reader<msgs::ExploreRequestPubSubType>> explore_reader_;
-  std::unique_ptr<core::Reader<msgs::ConvoyRequestPubSubType>> convoy_reader_;
-  std::unique_ptr<core::Reader<msgs::HomeRequestPubSubType>> home_reader_;
-  std::unique_ptr<core::Reader<msgs::StopRequestPubSubType>> stop_reader_;
-  std::unique_ptr<core::Reader<msgs::RestartRequestPubSubType>> restart_reader_;
-  std::unique_ptr<core::Reader<msgs::TeleopTwistPubSubType>> teleop_reader_;
+  // The operators' command topics (MakeCommandReaders).
+  struct CommandReaders {
+    std::unique_ptr<core::Reader<msgs::ControlRequestPubSubType>> control;
+    std::unique_ptr<core::Reader<msgs::ModeRequestPubSubType>> mode;
+    std::unique_ptr<core::Reader<msgs::WaypointGoalPubSubType>> goal;
+    std::unique_ptr<core::Reader<msgs::ExploreRequestPubSubType>> explore;
+    std::unique_ptr<core::Reader<msgs::ConvoyRequestPubSubType>> convoy;
+    std::unique_ptr<core::Reader<msgs::HomeRequestPubSubType>> home;
+    std::unique_ptr<core::Reader<msgs::StopRequestPubSubType>> stop;
+    std::unique_ptr<core::Reader<msgs::RestartRequestPubSubType>> restart;
+    std::unique_ptr<core::Reader<msgs::TeleopTwistPubSubType>> teleop;
+  } commands_;
   std::unique_ptr<core::Reader<msgs::AgentInfoPubSubType>> info_reader_;
 };
 
@@ -619,7 +632,7 @@ void AgentDds::Send(const CommandReply& reply) {
   r.goal_id(reply.goal_id);
   r.valid_modes(reply.valid_modes);
   r.goal_acceptable(reply.goal_acceptable);
-  impl_->response_writer_->Write(r);
+  impl_->writers_.response->Write(r);
 }
 
 void AgentDds::Send(const PathAnswer& answer) {
@@ -642,34 +655,34 @@ void AgentDds::Send(const PathAnswer& answer) {
   r.length_m(answer.length_m);
   r.map_version(answer.map_version);
   r.planning_time_s(answer.planning_time_s);
-  impl_->path_response_writer_->Write(r);
+  impl_->writers_.path_response->Write(r);
 }
 
-bool AgentDds::Publish(const msgs::AgentInfo& info) { return impl_->info_writer_->Write(info); }
-bool AgentDds::Publish(const msgs::RobotState& state) { return impl_->state_writer_->Write(state); }
+bool AgentDds::Publish(const msgs::AgentInfo& info) { return impl_->writers_.info->Write(info); }
+bool AgentDds::Publish(const msgs::RobotState& state) { return impl_->writers_.state->Write(state); }
 bool AgentDds::Publish(const msgs::AgentHealth& health) {
   msgs::AgentHealth m = health;
   const ForgedSenders forged = ForgedSendersSoFar();
   m.forged_senders(forged.count);
   m.last_forged_sender(forged.last);
-  return impl_->health_writer_->Write(m);
+  return impl_->writers_.health->Write(m);
 }
 
 ForgedSenders AgentDds::ForgedSendersSoFar() const {
-  std::lock_guard<std::mutex> guard(impl_->forged_mutex_);
-  return impl_->forged_;
+  std::lock_guard<std::mutex> guard(impl_->senders_.forged_mutex);
+  return impl_->senders_.forged;
 }
-bool AgentDds::Publish(const msgs::RobotPose& pose) { return impl_->pose_writer_->Write(pose); }
-bool AgentDds::Publish(const msgs::BehaviorTreeState& tree) { return impl_->tree_writer_->Write(tree); }
-bool AgentDds::Publish(const msgs::GlobalPath& path) { return impl_->global_path_writer_->Write(path); }
-bool AgentDds::Publish(const msgs::LocalPlan& plan) { return impl_->local_plan_writer_->Write(plan); }
+bool AgentDds::Publish(const msgs::RobotPose& pose) { return impl_->writers_.pose->Write(pose); }
+bool AgentDds::Publish(const msgs::BehaviorTreeState& tree) { return impl_->writers_.tree->Write(tree); }
+bool AgentDds::Publish(const msgs::GlobalPath& path) { return impl_->writers_.global_path->Write(path); }
+bool AgentDds::Publish(const msgs::LocalPlan& plan) { return impl_->writers_.local_plan->Write(plan); }
 bool AgentDds::Publish(const msgs::MapUpdate& update) {
   std::lock_guard<std::mutex> guard(impl_->bulk_mutex_);
-  return impl_->map_writer_->Write(update);
+  return impl_->bulk_.map->Write(update);
 }
 bool AgentDds::Publish(const msgs::CompressedImage& image) {
   std::lock_guard<std::mutex> guard(impl_->bulk_mutex_);
-  return impl_->camera_writer_->Write(image);
+  return impl_->bulk_.camera->Write(image);
 }
 
 int AgentDds::SetBulkShare(int robots) {
@@ -680,11 +693,11 @@ int AgentDds::SetBulkShare(int robots) {
     if (s >= robots) break;
   }
   std::lock_guard<std::mutex> guard(impl_->bulk_mutex_);
-  if (share != impl_->bulk_share_) impl_->MakeBulkWriters(share);
+  if (share != impl_->bulk_.share) impl_->MakeBulkWriters(share);
   return share;
 }
 bool AgentDds::Publish(const msgs::StaircaseDetection& staircase) {
-  return impl_->staircase_writer_->Write(staircase);
+  return impl_->writers_.staircase->Write(staircase);
 }
 
 bool AgentDds::Publish(const ExploreClaim& claim) {
@@ -710,13 +723,13 @@ bool AgentDds::Publish(const ExploreClaim& claim) {
   std::lock_guard<std::mutex> guard(impl_->team_mutex_);
   if (!impl_->listening_) throw std::logic_error("AgentDds::Publish(ExploreClaim) before Listen()");
   impl_->MakeTeamEndpoints();
-  return impl_->claim_writer_->Write(m);
+  return impl_->team_.claim_writer->Write(m);
 }
 
 bool AgentDds::Publish(const msgs::PeerState& state) {
   // No reader anywhere (every robot idle): nothing to send, and nothing counted as sent on the link.
-  if (impl_->peer_writer_->matched() == 0) return true;
-  return impl_->peer_writer_->Write(state);
+  if (impl_->team_.peer_writer->matched() == 0) return true;
+  return impl_->team_.peer_writer->Write(state);
 }
 
 void AgentDds::ListenToPeers() {
@@ -727,8 +740,8 @@ void AgentDds::ListenToPeers() {
 
 bool AgentDds::Send(const std::string& robot_id, const YieldCommand& request) {
   std::lock_guard<std::mutex> guard(impl_->team_mutex_);
-  if (!impl_->yield_writer_) {
-    impl_->yield_writer_ = std::make_unique<core::Writer<msgs::YieldRequestPubSubType>>(
+  if (!impl_->team_.yield_writer) {
+    impl_->team_.yield_writer = std::make_unique<core::Writer<msgs::YieldRequestPubSubType>>(
         *impl_->participant_, "cairn/yield_request", "cairn.command");
   }
   msgs::YieldRequest m;
@@ -744,7 +757,7 @@ bool AgentDds::Send(const std::string& robot_id, const YieldCommand& request) {
     q.y_m(static_cast<float>(p.y()));
     m.keep_clear_M().push_back(q);
   }
-  return impl_->yield_writer_->Write(m);
+  return impl_->team_.yield_writer->Write(m);
 }
 
 YieldCommand YieldFromMessage(const msgs::YieldRequest& m, std::string* fault) {
@@ -796,19 +809,20 @@ std::vector<SentTraffic> AgentDds::SentByClass() const {
     return std::make_pair(writer->bytes_written(), writer->samples_written());
   };
   std::lock_guard<std::mutex> guard(i.bulk_mutex_);
-  return {sum("command", {of(i.response_writer_), of(i.path_response_writer_), of(i.probe_reply_writer_)}),
-          sum("state", {of(i.state_writer_), of(i.pose_writer_), of(i.local_plan_writer_), of(i.info_writer_),
-                        of(i.staircase_writer_), of(i.health_writer_)}),
-          sum("tree", {of(i.tree_writer_), of(i.global_path_writer_)}),
-          sum("team", {i.TeamSent()}),
-          sum("map", {of(i.map_writer_), i.retired_map_}),
-          sum("camera", {of(i.camera_writer_), i.retired_camera_})};
+  const auto& w = i.writers_;
+  return {
+      sum("command", {of(w.response), of(w.path_response), of(w.probe_reply)}),
+      sum("state", {of(w.state), of(w.pose), of(w.local_plan), of(w.info), of(w.staircase), of(w.health)}),
+      sum("tree", {of(w.tree), of(w.global_path)}),
+      sum("team", {i.TeamSent()}),
+      sum("map", {of(i.bulk_.map), i.bulk_.retired_map}),
+      sum("camera", {of(i.bulk_.camera), i.bulk_.retired_camera})};
 }
 
 int AgentDds::RobotsOnLink() const {
   int robots = 1;
-  std::lock_guard<std::mutex> guard(impl_->robots_heard_mutex_);
-  for (const auto& [writer, heard] : impl_->robots_heard_by_base_) {
+  std::lock_guard<std::mutex> guard(impl_->senders_.robots_heard_mutex);
+  for (const auto& [writer, heard] : impl_->senders_.robots_heard_by_base) {
     if (heard.second) robots = std::max(robots, heard.first);
   }
   return robots;
@@ -816,7 +830,7 @@ int AgentDds::RobotsOnLink() const {
 
 void AgentDds::WaitForMapDelivery(std::chrono::milliseconds timeout) {
   std::lock_guard<std::mutex> guard(impl_->bulk_mutex_);
-  impl_->map_writer_->WaitForAcknowledgments(timeout);
+  impl_->bulk_.map->WaitForAcknowledgments(timeout);
 }
 
 }  // namespace cairn::agent

@@ -132,7 +132,7 @@ nav::GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, do
 void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m,
                             double now_s, double z_m, double stall_timeout_s) {
   DropExtension();
-  partial_stuck_since_s_ = -1.0;
+  replan_.partial_stuck_since_s = -1.0;
   Goal goal;
   goal.p_W = {x_m, y_m};
   goal.z_m = z_m;
@@ -157,19 +157,19 @@ void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m,
     unmapped_.replans = 0;
   }
   unmapped_.last_s = now_s;
-  path_segment_ = 0;
-  segment_start_along_m_ = 0.0;
-  projection_along_m_ = 0.0;
-  distance_left_m_ = plan.result.length_m;
-  mean_speed_mps_ = options_.platform.cruise_speed_mps;
-  eta_s_ = distance_left_m_ / mean_speed_mps_;
-  replans_ = 0;
-  ++path_revision_;
-  last_replan_check_s_ = now_s;
-  track_W_.clear();
-  last_local_time_s_ = -1e9;  // plan locally at once
+  progress_.segment = 0;
+  progress_.segment_start_along_m = 0.0;
+  progress_.projection_along_m = 0.0;
+  progress_.distance_left_m = plan.result.length_m;
+  progress_.mean_speed_mps = options_.platform.cruise_speed_mps;
+  progress_.eta_s = progress_.distance_left_m / progress_.mean_speed_mps;
+  replan_.count = 0;
+  ++replan_.path_revision;
+  replan_.last_check_s = now_s;
+  local_.track_W.clear();
+  local_.last_time_s = -1e9;  // plan locally at once
   controller_.Reset();
-  turning_in_place_ = false;
+  control_.turning_in_place = false;
 }
 
 std::future<nav::GlobalPlan> Navigation::PlanOnWorker(nav::GlobalPlanRequest request) const {
@@ -183,16 +183,16 @@ std::future<nav::GlobalPlan> Navigation::PlanGoalAsync(const core::BaseState& st
 }
 
 void Navigation::Abandon(std::future<nav::GlobalPlan> plan) {
-  // A running search finishes on its own; its future waits in abandoned_ so that nothing here blocks.
-  abandoned_.erase(std::remove_if(abandoned_.begin(), abandoned_.end(),
-                                  [](const std::future<nav::GlobalPlan>& f) { return PlanReady(f); }),
-                   abandoned_.end());
-  if (plan.valid()) abandoned_.push_back(std::move(plan));
+  // A running search finishes on its own; its future waits in replan_.abandoned so that nothing here blocks.
+  replan_.abandoned.erase(std::remove_if(replan_.abandoned.begin(), replan_.abandoned.end(),
+                                         [](const std::future<nav::GlobalPlan>& f) { return PlanReady(f); }),
+                          replan_.abandoned.end());
+  if (plan.valid()) replan_.abandoned.push_back(std::move(plan));
 }
 
-bool Navigation::replanning() const { return PlanRunning(extension_); }
+bool Navigation::replanning() const { return PlanRunning(replan_.extension); }
 
-void Navigation::DropExtension() { Abandon(std::move(extension_)); }
+void Navigation::DropExtension() { Abandon(std::move(replan_.extension)); }
 
 void Navigation::ClearGoal() {
   DropExtension();
@@ -200,8 +200,8 @@ void Navigation::ClearGoal() {
   goal_.reset();
   plan_.result.path_W.clear();
   plan_.result.length_m = 0.0;
-  ++path_revision_;
-  track_W_.clear();
+  ++replan_.path_revision;
+  local_.track_W.clear();
 }
 
 void Navigation::ClearGoal(std::uint64_t serial) {
@@ -209,9 +209,9 @@ void Navigation::ClearGoal(std::uint64_t serial) {
 }
 
 void Navigation::ClearObstacles() {
-  obstacles_B_.clear();
-  awaiting_obstacles_ = true;
-  track_W_.clear();
+  obstacles_.points_B.clear();
+  obstacles_.awaiting = true;
+  local_.track_W.clear();
 }
 
 bool Navigation::IsObstacle(const Eigen::Vector3f& p_B) const {
@@ -224,10 +224,10 @@ bool Navigation::ClearBehind(const core::BaseState& state, double distance_m, do
   const double radius = options_.platform.footprint_radius_m + std::max(0.0, margin_m);
   double nearest = 1e18;
   Eigen::Vector2d nearest_W = Eigen::Vector2d::Zero();
-  for (const Eigen::Vector3f& o : obstacles_B_) {
+  for (const Eigen::Vector3f& o : obstacles_.points_B) {
     if (!IsObstacle(o)) continue;
-    // Obstacles are kept in frame B of obstacles_pose_; the segment runs from `state` backwards.
-    const Eigen::Vector2d p_B = ToBody(state, ToWorld(obstacles_pose_, o.head<2>().cast<double>()));
+    // Obstacles are kept in frame B of obstacles_.pose; the segment runs from `state` backwards.
+    const Eigen::Vector2d p_B = ToBody(state, ToWorld(obstacles_.pose, o.head<2>().cast<double>()));
     const double along = std::clamp(p_B.x(), -std::max(0.0, distance_m), 0.0);
     const double d = (p_B - Eigen::Vector2d(along, 0.0)).norm();
     // Points ahead of the robot's centre that it already touches do not block moving away from them.
@@ -247,21 +247,22 @@ bool Navigation::ClearBehind(const core::BaseState& state, double distance_m, do
 
 void Navigation::SetObstacles(const std::vector<Eigen::Vector3f>& points_B, const core::BaseState& state,
                               double now_s) {
-  obstacles_B_ = points_B;
-  if (peer_options_.avoid && !peers_.empty()) {
+  obstacles_.points_B = points_B;
+  if (obstacles_.peer_options.avoid && !obstacles_.peers.empty()) {
     const auto& band = local_planner_.library().options();
-    AppendPeerObstacles(peers_, state, options_.sensor_range_m,
-                        0.5 * (band.obstacle_min_z_m + band.obstacle_max_z_m), peer_options_, &obstacles_B_);
+    AppendPeerObstacles(obstacles_.peers, state, options_.sensor_range_m,
+                        0.5 * (band.obstacle_min_z_m + band.obstacle_max_z_m), obstacles_.peer_options,
+                        &obstacles_.points_B);
   }
-  awaiting_obstacles_ = false;
+  obstacles_.awaiting = false;
   // Kept in frame B of `state`; RunLocalPlanner re-expresses them if the robot moved since.
-  obstacles_pose_ = state;
-  obstacles_time_s_ = now_s;
+  obstacles_.pose = state;
+  obstacles_.time_s = now_s;
 }
 
 void Navigation::SetPeers(std::vector<PeerBody> peers, const PeerOptions& options) {
-  peers_ = std::move(peers);
-  peer_options_ = options;
+  obstacles_.peers = std::move(peers);
+  obstacles_.peer_options = options;
 }
 
 PeerBody Navigation::AsPeer(const std::string& robot_id, const core::BaseState& pose_M,
@@ -292,12 +293,12 @@ bool ObstacleInputFresh(double age_s, bool never, double limit_s, std::string* w
 }  // namespace
 
 bool Navigation::LocalPlannerHealthy(double now_s, std::string* why) const {
-  return ObstacleInputFresh(now_s - obstacles_time_s_, obstacles_time_s_ < -1e8, options_.obstacle_timeout_s,
+  return ObstacleInputFresh(now_s - obstacles_.time_s, obstacles_.time_s < -1e8, options_.obstacle_timeout_s,
                             why);
 }
 
 bool Navigation::ObstacleSensingAlive(double now_s, std::string* why) const {
-  return ObstacleInputFresh(now_s - obstacles_time_s_, obstacles_time_s_ < -1e8, options_.obstacle_lost_s,
+  return ObstacleInputFresh(now_s - obstacles_.time_s, obstacles_.time_s < -1e8, options_.obstacle_lost_s,
                             why);
 }
 
@@ -312,16 +313,18 @@ NavigationStep Navigation::Fail(const std::string& reason) {
 double Navigation::UpdateProgress(const Eigen::Vector2d& p_W) {
   const auto& path = plan_.result.path_W;
   if (path.size() < 2) {
-    distance_left_m_ = goal_ ? (goal_->p_W - p_W).norm() : 0.0;
-    return distance_left_m_;
+    progress_.distance_left_m = goal_ ? (goal_->p_W - p_W).norm() : 0.0;
+    return progress_.distance_left_m;
   }
   // Project on the segments from the current one on (a short window ahead), keep the nearest.
-  double best_d = 1e18, best_along = projection_along_m_, best_seg_start = segment_start_along_m_;
-  std::size_t best_seg = path_segment_;
-  double along = segment_start_along_m_;
+  double best_d = 1e18, best_along = progress_.projection_along_m,
+         best_seg_start = progress_.segment_start_along_m;
+  std::size_t best_seg = progress_.segment;
+  double along = progress_.segment_start_along_m;
   // Window: the current and next segment, and on up to 10 m beyond the current projection.
-  for (std::size_t i = path_segment_;
-       i + 1 < path.size() && (i <= path_segment_ + 1 || along - projection_along_m_ < 10.0); ++i) {
+  for (std::size_t i = progress_.segment;
+       i + 1 < path.size() && (i <= progress_.segment + 1 || along - progress_.projection_along_m < 10.0);
+       ++i) {
     const Eigen::Vector2d a = path[i].head<2>(), b = path[i + 1].head<2>();
     const double len = (b - a).norm();
     const double t = len > 1e-9 ? std::clamp((p_W - a).dot(b - a) / (len * len), 0.0, 1.0) : 0.0;
@@ -334,19 +337,19 @@ double Navigation::UpdateProgress(const Eigen::Vector2d& p_W) {
     }
     along += len;
   }
-  path_segment_ = best_seg;
-  segment_start_along_m_ = best_seg_start;
-  projection_along_m_ = best_along;
-  distance_left_m_ = std::max(0.0, plan_.result.length_m - best_along) + best_d;
+  progress_.segment = best_seg;
+  progress_.segment_start_along_m = best_seg_start;
+  progress_.projection_along_m = best_along;
+  progress_.distance_left_m = std::max(0.0, plan_.result.length_m - best_along) + best_d;
   return best_d;
 }
 
 Eigen::Vector2d Navigation::PointAhead(double ahead_m) const {
   const auto& path = plan_.result.path_W;
   if (path.size() < 2) return goal_ ? goal_->p_W : Eigen::Vector2d::Zero();
-  const double target = projection_along_m_ + ahead_m;
-  double along = segment_start_along_m_;
-  for (std::size_t i = path_segment_; i + 1 < path.size(); ++i) {
+  const double target = progress_.projection_along_m + ahead_m;
+  double along = progress_.segment_start_along_m;
+  for (std::size_t i = progress_.segment; i + 1 < path.size(); ++i) {
     const Eigen::Vector2d a = path[i].head<2>(), b = path[i + 1].head<2>();
     const double len = (b - a).norm();
     if (along + len >= target && len > 1e-9) return a + (b - a) * ((target - along) / len);
@@ -359,15 +362,15 @@ Eigen::Vector2d Navigation::Carrot(const core::BaseState& state) const {
   constexpr double kMinCarrotM = 0.5;   // never nearer: the local planner needs a direction
   constexpr double kCarrotStepM = 0.1;  // along the path
   const Eigen::Vector2d full = PointAhead(options_.carrot_distance_m);
-  if (obstacles_B_.empty()) return full;
+  if (obstacles_.points_B.empty()) return full;
   // Segment from the robot to a path point, in the frame the obstacles are kept in.
-  const Eigen::Vector2d robot_O = ToBody(obstacles_pose_, Eigen::Vector2d(state.x_m, state.y_m));
+  const Eigen::Vector2d robot_O = ToBody(obstacles_.pose, Eigen::Vector2d(state.x_m, state.y_m));
   const double radius = options_.platform.footprint_radius_m;
   auto in_sight = [&](const Eigen::Vector2d& p_W) {
-    const Eigen::Vector2d end_O = ToBody(obstacles_pose_, p_W);
+    const Eigen::Vector2d end_O = ToBody(obstacles_.pose, p_W);
     const Eigen::Vector2d d = end_O - robot_O;
     const double len2 = d.squaredNorm();
-    for (const Eigen::Vector3f& o : obstacles_B_) {
+    for (const Eigen::Vector3f& o : obstacles_.points_B) {
       if (!IsObstacle(o)) continue;
       const Eigen::Vector2d q = o.head<2>().cast<double>();
       const double t = len2 > 1e-12 ? std::clamp((q - robot_O).dot(d) / len2, 0.0, 1.0) : 0.0;
@@ -389,36 +392,36 @@ Eigen::Vector2d Navigation::Carrot(const core::BaseState& state) const {
 
 void Navigation::AdoptPlan(const nav::GlobalPlan& plan, double now_s) {
   plan_ = plan;
-  path_segment_ = 0;
-  segment_start_along_m_ = 0.0;
-  projection_along_m_ = 0.0;
+  progress_.segment = 0;
+  progress_.segment_start_along_m = 0.0;
+  progress_.projection_along_m = 0.0;
   goal_->best_distance_m = plan.result.length_m;  // a detour is not a lack of progress
   goal_->best_time_s = now_s;
-  ++replans_;
+  ++replan_.count;
   ++unmapped_.replans;
-  ++path_revision_;
+  ++replan_.path_revision;
 }
 
 void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalPlanRequest& request,
                                  double now_s, const std::optional<Eigen::Vector2d>& goal_W) {
-  if (now_s - last_local_time_s_ < options_.local_planner_period_s - 1e-9) return;
-  last_local_time_s_ = now_s;
+  if (now_s - local_.last_time_s < options_.local_planner_period_s - 1e-9) return;
+  local_.last_time_s = now_s;
   // Re-express the latest obstacles in the current body frame (in place).
-  const bool moved = std::abs(obstacles_pose_.x_m - state.x_m) > 1e-9 ||
-                     std::abs(obstacles_pose_.y_m - state.y_m) > 1e-9 ||
-                     std::abs(obstacles_pose_.yaw_rad - state.yaw_rad) > 1e-9;
+  const bool moved = std::abs(obstacles_.pose.x_m - state.x_m) > 1e-9 ||
+                     std::abs(obstacles_.pose.y_m - state.y_m) > 1e-9 ||
+                     std::abs(obstacles_.pose.yaw_rad - state.yaw_rad) > 1e-9;
   if (moved) {
-    for (auto& p : obstacles_B_) {
-      const Eigen::Vector2d q = ToBody(state, ToWorld(obstacles_pose_, p.head<2>().cast<double>()));
+    for (auto& p : obstacles_.points_B) {
+      const Eigen::Vector2d q = ToBody(state, ToWorld(obstacles_.pose, p.head<2>().cast<double>()));
       p.x() = static_cast<float>(q.x());
       p.y() = static_cast<float>(q.y());
     }
-    obstacles_pose_ = state;
+    obstacles_.pose = state;
   }
-  local_pose_ = state;
+  local_.pose = state;
   nav::LocalPlanRequest r = request;
-  r.previous_path_id = local_result_.IsUsable() ? local_result_.path_id : -1;
-  local_planner_.Plan(obstacles_B_, r, &local_result_);
+  r.previous_path_id = local_.result.IsUsable() ? local_.result.path_id : -1;
+  local_planner_.Plan(obstacles_.points_B, r, &local_.result);
   bool aligned = true;
   if (r.mode == nav::LocalPlanMode::kGoal) {
     // Tight spot: the paths free for the full length all turn away from the carrot. Shorter required
@@ -429,23 +432,23 @@ void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalP
       const Eigen::Vector3f& end = result.path_B.back();
       return std::abs(std::remainder(std::atan2(end.y(), end.x()) - target, 2 * kPi));
     };
-    double best = deviation(local_result_);
+    double best = deviation(local_.result);
     double length = std::min(r.max_required_free_length_m, options_.required_free_length_m);
     while (best > options_.tight_spot_deviation_rad && length > options_.tight_free_length_m + 1e-9) {
       length = std::max(options_.tight_free_length_m, 0.5 * length);
       nav::LocalPlanRequest shorter = r;
       shorter.max_required_free_length_m = length;
       nav::LocalPlanResult result;
-      local_planner_.Plan(obstacles_B_, shorter, &result);
+      local_planner_.Plan(obstacles_.points_B, shorter, &result);
       const double d = deviation(result);
       if (d < best) {
         best = d;
-        local_result_ = std::move(result);
+        local_.result = std::move(result);
       }
     }
     aligned = best <= options_.tight_spot_deviation_rad;
   }
-  track_W_.clear();
+  local_.track_W.clear();
   creeping_ = false;
   if (r.mode == nav::LocalPlanMode::kGoal && follow_path_ &&
       TrackGlobalPathIfClear(state, kFollowTrackM, kFollowMarginM, /*tight=*/false)) {
@@ -456,22 +459,23 @@ void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalP
       TrackGlobalPathIfClear(state, 1.0, reduced_clearance_ ? 0.0 : 0.01, /*tight=*/true)) {
     return;
   }
-  if (!local_result_.IsUsable()) {
-    local_status_ = local_result_.status == nav::LocalPlanResult::Status::kBoxedIn
-                        ? local_result_.message
-                        : "invalid input: " + local_result_.message;
+  if (!local_.result.IsUsable()) {
+    local_.status = local_.result.status == nav::LocalPlanResult::Status::kBoxedIn
+                        ? local_.result.message
+                        : "invalid input: " + local_.result.message;
     return;
   }
-  local_status_ = "path";
-  for (const auto& p : local_result_.path_B) track_W_.push_back(ToWorld(state, p.head<2>().cast<double>()));
+  local_.status = "path";
+  for (const auto& p : local_.result.path_B)
+    local_.track_W.push_back(ToWorld(state, p.head<2>().cast<double>()));
   const double full = local_planner_.library().options().path_length_m;
-  track_stop_at_end_ = local_result_.free_length_m < full - 1e-6;
+  local_.track_stop_at_end = local_.result.free_length_m < full - 1e-6;
   if (goal_W) {
     // The goal lies within reach of this path: follow it to its sample nearest the goal, then to the goal.
     std::size_t nearest = 0;
     double nearest_d = 1e18;
-    for (std::size_t i = 0; i < track_W_.size(); ++i) {
-      const double d = (track_W_[i] - *goal_W).norm();
+    for (std::size_t i = 0; i < local_.track_W.size(); ++i) {
+      const double d = (local_.track_W[i] - *goal_W).norm();
       if (d < nearest_d) {
         nearest_d = d;
         nearest = i;
@@ -479,13 +483,13 @@ void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalP
     }
     // Only when the goal is next to the free part of this path and no farther along the global path than
     // that free part: a short hop from a checked sample to a goal the global planner found traversable.
-    if (nearest_d <= kGoalSnapM && distance_left_m_ <= local_result_.free_length_m + kGoalSnapM) {
-      track_W_.resize(nearest + 1);
-      if (nearest_d > 1e-3) track_W_.push_back(*goal_W);
-      track_stop_at_end_ = true;
+    if (nearest_d <= kGoalSnapM && progress_.distance_left_m <= local_.result.free_length_m + kGoalSnapM) {
+      local_.track_W.resize(nearest + 1);
+      if (nearest_d > 1e-3) local_.track_W.push_back(*goal_W);
+      local_.track_stop_at_end = true;
     }
   }
-  if (track_W_.size() < 2) track_W_.clear();
+  if (local_.track_W.size() < 2) local_.track_W.clear();
 }
 
 bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state, double track_m, double margin_m,
@@ -502,22 +506,22 @@ bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state, double tra
   double clearance = 1e18;
   for (const Eigen::Vector2d& p_W : track) {
     const Eigen::Vector2d p_B = ToBody(state, p_W);
-    for (const Eigen::Vector3f& o : obstacles_B_) {
+    for (const Eigen::Vector3f& o : obstacles_.points_B) {
       if (!IsObstacle(o)) continue;
       clearance = std::min(clearance, (o.head<2>().cast<double>() - p_B).norm());
     }
     if (clearance <= radius) return false;
   }
-  track_W_ = std::move(track);
+  local_.track_W = std::move(track);
   if (!tight) {
     // Stops at its end only where the path ends there.
-    track_stop_at_end_ = distance_left_m_ <= track_m + 1e-6;
-    local_status_ = "path";
+    local_.track_stop_at_end = progress_.distance_left_m <= track_m + 1e-6;
+    local_.status = "path";
     return true;
   }
-  track_stop_at_end_ = true;
+  local_.track_stop_at_end = true;
   creeping_ = true;
-  local_status_ =
+  local_.status =
       "tight spot: following the global path, " + Fixed(clearance, 2) + " m from the nearest obstacle";
   return true;
 }
@@ -525,13 +529,14 @@ bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state, double tra
 NavigationStep Navigation::Control(const core::BaseState& state, double cruise_mps, double now_s) {
   nav::IlqrState x0;
   x0 << state.x_m, state.y_m, state.yaw_rad, state.v_mps, state.w_radps;
-  const double elapsed = last_solve_time_s_ < 0 ? 0.0 : std::max(0.0, now_s - last_solve_time_s_);
-  last_solve_time_s_ = now_s;
-  solution_ = controller_.Solve(x0, track_W_, cruise_mps, track_stop_at_end_, elapsed);
+  const double elapsed =
+      control_.last_solve_time_s < 0 ? 0.0 : std::max(0.0, now_s - control_.last_solve_time_s);
+  control_.last_solve_time_s = now_s;
+  control_.solution = controller_.Solve(x0, local_.track_W, cruise_mps, local_.track_stop_at_end, elapsed);
   NavigationStep step;
-  if (solution_.IsUsable()) {
-    step.linear_x_mps = solution_.command_v_mps;
-    step.angular_z_radps = solution_.command_w_radps;
+  if (control_.solution.IsUsable()) {
+    step.linear_x_mps = control_.solution.command_v_mps;
+    step.angular_z_radps = control_.solution.command_w_radps;
   }
   return step;
 }
@@ -543,7 +548,7 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
                                 ? std::min(speed_mps, options_.platform.limits.max_speed_mps)
                                 : options_.platform.cruise_speed_mps;
   if (!goal_) return {};
-  if (!hold_reason_.empty()) return StepHeld(now_s);
+  if (!hold_.reason.empty()) return StepHeld(now_s);
   if (goal_->held_since_s >= 0.0) {  // a hold ended: its time counts until the robot makes progress
     goal_->held_s += now_s - goal_->held_since_s;
     goal_->held_since_s = -1.0;
@@ -567,8 +572,8 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   // the lidar sees): the control loop never waits for a search, which takes up to ~1 s over the map's levels
   // on a mostly unknown map. A partial plan (the map connects no route to the goal's level yet) is also
   // extended as the map grows and at its end, and fails when the map shows no way on from there.
-  if (PlanReady(extension_)) {
-    const nav::GlobalPlan extended = extension_.get();
+  if (PlanReady(replan_.extension)) {
+    const nav::GlobalPlan extended = replan_.extension.get();
     const Eigen::Vector3d end =
         plan_.result.path_W.empty() ? Eigen::Vector3d::Zero() : plan_.result.path_W.back();
     const bool was_partial = plan_.result.partial;
@@ -581,47 +586,47 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
         was_partial && extended.platform_known &&
         (status == nav::PlanResult::Status::kUnreachable || status == nav::PlanResult::Status::kGoalBlocked);
     if (!extended.IsUsable() && !map_may_tell) {
-      return Fail(extension_cause_ + " and no new path exists: " + extended.reason);
+      return Fail(replan_.extension_cause + " and no new path exists: " + extended.reason);
     }
     if (extended.IsUsable()) AdoptPlan(extended, now_s);
     const bool no_way_on =
-        was_partial && (!extended.IsUsable() || (extension_at_end_ && extended.result.partial &&
+        was_partial && (!extended.IsUsable() || (replan_.extension_at_end && extended.result.partial &&
                                                  PartialRemaining(extended) > before - 0.3));
-    if (!no_way_on) partial_stuck_since_s_ = -1.0;
-    if (no_way_on && partial_stuck_since_s_ < 0.0) partial_stuck_since_s_ = now_s;
+    if (!no_way_on) replan_.partial_stuck_since_s = -1.0;
+    if (no_way_on && replan_.partial_stuck_since_s < 0.0) replan_.partial_stuck_since_s = now_s;
     // At the end of what the map shows, the robot waits a few map updates (it sees further from there).
-    if (no_way_on && now_s - partial_stuck_since_s_ >= kPartialWaitS) {
+    if (no_way_on && now_s - replan_.partial_stuck_since_s >= kPartialWaitS) {
       return Fail("no known route to the goal's level: the map shows no way on from (" + Fixed(end.x(), 2) +
                   ", " + Fixed(end.y(), 2) + ") at z " + Fixed(end.z(), 2) + " (" +
                   (extended.IsUsable() ? extended.result.message : extended.reason) + ")");
     }
   }
   auto replan_on_worker = [&](bool at_end, std::string cause) {
-    if (extension_.valid()) return;  // one at a time; the next check asks again if still needed
-    if (now_s - last_worker_replan_s_ < kMinReplanIntervalS) return;
-    last_worker_replan_s_ = now_s;
-    if (plan_.result.partial) last_partial_replan_s_ = now_s;
-    extension_at_end_ = at_end;
-    extension_cause_ = std::move(cause);
+    if (replan_.extension.valid()) return;  // one at a time; the next check asks again if still needed
+    if (now_s - replan_.last_worker_s < kMinReplanIntervalS) return;
+    replan_.last_worker_s = now_s;
+    if (plan_.result.partial) replan_.last_partial_s = now_s;
+    replan_.extension_at_end = at_end;
+    replan_.extension_cause = std::move(cause);
     nav::GlobalPlanRequest request = GoalRequest(state, goal_->p_W.x(), goal_->p_W.y(), goal_->z_m);
     request.diagnose = at_end;  // naming a step matters when the robot can go no further
-    extension_ = PlanOnWorker(std::move(request));
+    replan_.extension = PlanOnWorker(std::move(request));
   };
   if (plan_.result.partial && !plan_.result.path_W.empty()) {
     const bool at_end =
         (plan_.result.path_W.back().head<2>() - p_W).norm() <= std::max(goal_->tolerance_m, 0.3);
-    if ((at_end && now_s - last_partial_replan_s_ >= 1.0) ||
-        (planner_->map_version() != plan_.map_version && now_s - last_partial_replan_s_ >= 4.0)) {
+    if ((at_end && now_s - replan_.last_partial_s >= 1.0) ||
+        (planner_->map_version() != plan_.map_version && now_s - replan_.last_partial_s >= 4.0)) {
       replan_on_worker(at_end, "the partial plan was extended");
     }
   }
   const double off_path = UpdateProgress(p_W);
   // The map changed under the path, or the robot is far off it: plan again from here.
-  if (now_s - last_replan_check_s_ >= options_.replan_check_period_s) {
-    last_replan_check_s_ = now_s;
+  if (now_s - replan_.last_check_s >= options_.replan_check_period_s) {
+    replan_.last_check_s = now_s;
     const bool map_changed = planner_->map_version() != plan_.map_version;
     if (map_changed &&
-        !planner_->CheckPath(plan_.result.path_W, options_.platform.name, static_cast<int>(path_segment_))
+        !planner_->CheckPath(plan_.result.path_W, options_.platform.name, static_cast<int>(progress_.segment))
              .valid) {
       replan_on_worker(false, "the map changed under the path");
     } else if (map_changed) {
@@ -631,8 +636,9 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     }
   }
   // Progress bookkeeping: ETA from a slow mean of the speed, blocked when no progress.
-  mean_speed_mps_ += 0.02 * (std::abs(state.v_mps) - mean_speed_mps_);
-  eta_s_ = distance_left_m_ / std::max(mean_speed_mps_, 0.2 * options_.platform.cruise_speed_mps);
+  progress_.mean_speed_mps += 0.02 * (std::abs(state.v_mps) - progress_.mean_speed_mps);
+  progress_.eta_s = progress_.distance_left_m /
+                    std::max(progress_.mean_speed_mps, 0.2 * options_.platform.cruise_speed_mps);
   // Stall: whatever the plans did, the robot must move (Nav2's progress checker, 0.5 m).
   constexpr double kStallRadiusM = 0.5;
   if (!goal_->anchor_W.allFinite() || (p_W - goal_->anchor_W).norm() >= kStallRadiusM) {
@@ -641,34 +647,35 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   } else if (now_s - goal_->anchor_time_s > goal_->stall_timeout_s) {
     NavigationStep stalled = Fail(
         "stalled: moved less than " + Fixed(kStallRadiusM, 1) + " m in " + Fixed(goal_->stall_timeout_s, 0) +
-        " s (" + Fixed(distance_left_m_, 1) + " m left, " + std::to_string(replans_) + " plans" +
-        (local_status_ != "path" && !local_status_.empty() ? "; local planner " + local_status_ : "") + ")");
+        " s (" + Fixed(progress_.distance_left_m, 1) + " m left, " + std::to_string(replan_.count) +
+        " plans" +
+        (local_.status != "path" && !local_.status.empty() ? "; local planner " + local_.status : "") + ")");
     stalled.stalled = true;
     return stalled;
   }
   if (auto abandoned = CheckUnmappedProgress(now_s)) return *abandoned;
-  if (distance_left_m_ < goal_->best_distance_m - 0.05) {
-    goal_->best_distance_m = distance_left_m_;
+  if (progress_.distance_left_m < goal_->best_distance_m - 0.05) {
+    goal_->best_distance_m = progress_.distance_left_m;
     goal_->best_time_s = now_s;
     goal_->held_s = 0.0;
   } else if (now_s - goal_->best_time_s > options_.blocked_timeout_s) {
     return Fail(
         "blocked: no progress for " + Fixed(options_.blocked_timeout_s, 1) + " s (" +
-        Fixed(distance_left_m_, 1) + " m left" +
-        (local_status_ != "path" && !local_status_.empty() ? "; local planner " + local_status_ : "") + ")");
+        Fixed(progress_.distance_left_m, 1) + " m left" +
+        (local_.status != "path" && !local_.status.empty() ? "; local planner " + local_.status : "") + ")");
   }
   // Local planner toward the carrot (the goal itself when near).
   const Eigen::Vector2d carrot = Carrot(state);
-  carrot_W_ = carrot;
+  progress_.carrot_W = carrot;
   nav::LocalPlanRequest request;
   request.mode = nav::LocalPlanMode::kGoal;
   request.goal_B = ToBody(state, carrot);
   request.max_required_free_length_m = options_.required_free_length_m;
   if (request.goal_B.norm() < 1e-3) request.goal_B = ToBody(state, goal_->p_W);
   const bool goal_near = to_goal <= local_planner_.library().options().path_length_m;
-  if (!LocalPlannerHealthy(now_s, nullptr) || awaiting_obstacles_) {
-    track_W_.clear();
-    local_status_ = awaiting_obstacles_ ? "stopped: obstacle memory cleared, waiting for a fresh scan"
+  if (!LocalPlannerHealthy(now_s, nullptr) || obstacles_.awaiting) {
+    local_.track_W.clear();
+    local_.status = obstacles_.awaiting ? "stopped: obstacle memory cleared, waiting for a fresh scan"
                                         : "stopped: no fresh obstacle input";
     return Control(state, cruise_mps, now_s);
   }
@@ -679,17 +686,17 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   // footprint cannot collide by turning.
   const double bearing = std::atan2(request.goal_B.y(), request.goal_B.x());
   const bool behind = std::abs(bearing) > options_.platform.local_heading_range_rad * 0.9;
-  const bool boxed_in = local_result_.status == nav::LocalPlanResult::Status::kBoxedIn;
+  const bool boxed_in = local_.result.status == nav::LocalPlanResult::Status::kBoxedIn;
   // Rotation shim (as Nav2's RotationShimController): once turning in place, keep turning until the carrot is
   // within kAlignedRad of the heading, so that a robot turning round in a corridor does not hand over to the
   // local planner half-way and swing back (a limit cycle seen on geb079).
   constexpr double kAlignedRad = 20.0 * kPi / 180.0;
-  if (turning_in_place_ && std::abs(bearing) < kAlignedRad) turning_in_place_ = false;
-  if (behind || (boxed_in && std::abs(bearing) > kPi / 4)) turning_in_place_ = true;
-  if (turning_in_place_) {
-    track_W_.clear();
+  if (control_.turning_in_place && std::abs(bearing) < kAlignedRad) control_.turning_in_place = false;
+  if (behind || (boxed_in && std::abs(bearing) > kPi / 4)) control_.turning_in_place = true;
+  if (control_.turning_in_place) {
+    local_.track_W.clear();
     controller_.Reset();
-    local_status_ = std::string("turning in place toward the path") + (boxed_in ? " (boxed in ahead)" : "");
+    local_.status = std::string("turning in place toward the path") + (boxed_in ? " (boxed in ahead)" : "");
     NavigationStep turn;
     if (std::abs(state.v_mps) <= 0.05) {  // brake first, then turn
       const double max_w = options_.platform.limits.max_yaw_rate_radps;
@@ -706,10 +713,10 @@ NavigationStep Navigation::StepHeld(double now_s) {
   if (goal_->held_since_s < 0.0) goal_->held_since_s = now_s;
   const double held_s = goal_->held_s + now_s - goal_->held_since_s;
   if (held_s > options_.max_hold_s) {
-    const std::string by = hold_by_.empty() ? "blocked" : "blocked by " + hold_by_;
+    const std::string by = hold_.by.empty() ? "blocked" : "blocked by " + hold_.by;
     NavigationStep step =
         Fail(by + ": held " + Fixed(held_s, 0) + " s without progress (navigation.max_hold_s " +
-             Fixed(options_.max_hold_s, 0) + " s): " + hold_reason_);
+             Fixed(options_.max_hold_s, 0) + " s): " + hold_.reason);
     step.abandoned = true;
     return step;
   }
@@ -717,15 +724,15 @@ NavigationStep Navigation::StepHeld(double now_s) {
   goal_->best_time_s = now_s;
   unmapped_.best_time_s = now_s;  // waiting for a peer is no lack of progress toward an unmapped goal either
   unmapped_.last_s = now_s;
-  track_W_.clear();
-  local_status_ = "held: " + hold_reason_;
+  local_.track_W.clear();
+  local_.status = "held: " + hold_.reason;
   return {};
 }
 
 std::optional<NavigationStep> Navigation::CheckUnmappedProgress(double now_s) {
   if (!unmapped_.active) return std::nullopt;
   unmapped_.last_s = now_s;
-  const double left_m = distance_left_m_ + (plan_.result.partial ? PartialRemaining(plan_) : 0.0);
+  const double left_m = progress_.distance_left_m + (plan_.result.partial ? PartialRemaining(plan_) : 0.0);
   if (left_m < unmapped_.best_left_m - kUnmappedProgressM) {
     unmapped_.best_left_m = left_m;
     unmapped_.best_time_s = now_s;
@@ -756,32 +763,32 @@ NavigationStep Navigation::StepJoystick(const core::BaseState& state, double vx_
                                         double wz_radps, double now_s) {
   NavigationStep stop;
   if (!std::isfinite(vx_mps) || !std::isfinite(vy_mps) || !std::isfinite(wz_radps)) {
-    track_W_.clear();
-    local_status_ = "stopped: joystick twist not finite";
+    local_.track_W.clear();
+    local_.status = "stopped: joystick twist not finite";
     return Control(state, 0.0, now_s);
   }
   const double speed = std::min(std::hypot(vx_mps, vy_mps), options_.platform.limits.max_speed_mps);
   if (speed < 0.05) {
     // Turn in place (or stop): a disk footprint cannot collide by turning.
-    track_W_.clear();
+    local_.track_W.clear();
     controller_.Reset();
-    local_status_ = "";
+    local_.status = "";
     stop.angular_z_radps = std::clamp(wz_radps, -options_.platform.limits.max_yaw_rate_radps,
                                       options_.platform.limits.max_yaw_rate_radps);
     if (std::abs(state.v_mps) > 0.05) stop.angular_z_radps = 0.0;  // brake first
     return stop;
   }
   if (!LocalPlannerHealthy(now_s, nullptr)) {
-    track_W_.clear();
-    local_status_ = "stopped: no fresh obstacle input";
+    local_.track_W.clear();
+    local_.status = "stopped: no fresh obstacle input";
     return Control(state, 0.0, now_s);
   }
   const double bend = std::clamp(wz_radps * options_.joystick_turn_lookahead_s, -kPi / 2, kPi / 2);
   const double direction = std::remainder(std::atan2(vy_mps, vx_mps) + bend, 2 * kPi);
   if (std::abs(direction) > options_.platform.local_heading_range_rad) {
     // E.g. stick pulled back on a forward-looking platform: brake rather than swerve sideways.
-    track_W_.clear();
-    local_status_ = "stopped: joystick direction " + Fixed(direction * 180 / kPi, 0) +
+    local_.track_W.clear();
+    local_.status = "stopped: joystick direction " + Fixed(direction * 180 / kPi, 0) +
                     " deg is outside the platform's local planner headings";
     return Control(state, 0.0, now_s);
   }

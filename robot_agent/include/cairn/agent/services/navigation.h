@@ -187,7 +187,7 @@ class Navigation {
   /// (valid). An empty list: none.
   void SetPeers(std::vector<PeerBody> peers, const PeerOptions& options);
   /// Peers of the last SetPeers().
-  const std::vector<PeerBody>& peers() const { return peers_; }
+  const std::vector<PeerBody>& peers() const { return obstacles_.peers; }
   /// This robot as its peers see it (cairn/peer_state): at `pose_M` (frame M) in `mode`, with the platform's
   /// footprint radius and, with a goal, the next kPeerPathPoints points of its global path from the pose,
   /// kPeerPathSpacingM apart (PathAhead).
@@ -212,10 +212,10 @@ class Navigation {
   /// then the goal is abandoned, "blocked by <by_id>: ..." (`by_id`: the robot that holds it; "" = none
   /// named). The local planner's status says `why`.
   void SetHold(const std::string& why, const std::string& by_id = "") {
-    hold_reason_ = why;
-    hold_by_ = by_id;
+    hold_.reason = why;
+    hold_.by = by_id;
   }
-  const std::string& hold_reason() const { return hold_reason_; }
+  const std::string& hold_reason() const { return hold_.reason; }
   /// StepWaypoint(follow_path): the track along the global path, metres, and its clearance beyond the
   /// footprint radius, metres.
   static constexpr double kFollowTrackM = 2.0;
@@ -236,25 +236,25 @@ class Navigation {
   /// The active (or last) global plan; empty path when none.
   const nav::GlobalPlan& global_plan() const { return plan_; }
   /// Waypoint goal id-independent progress: distance left along the global path, metres.
-  double distance_left_m() const { return distance_left_m_; }
+  double distance_left_m() const { return progress_.distance_left_m; }
   /// Estimated time to arrival, seconds (distance left / recent mean speed); -1 without a goal.
-  double eta_s() const { return goal_ ? eta_s_ : -1.0; }
+  double eta_s() const { return goal_ ? progress_.eta_s : -1.0; }
   /// Global replans of the current goal.
-  int replans() const { return replans_; }
+  int replans() const { return replan_.count; }
   /// Bumped whenever the global path changes (new goal, replan, clear), to republish it.
-  std::uint64_t path_revision() const { return path_revision_; }
+  std::uint64_t path_revision() const { return replan_.path_revision; }
   /// Last local planner result (frame B of local_pose()).
-  const nav::LocalPlanResult& local_result() const { return local_result_; }
+  const nav::LocalPlanResult& local_result() const { return local_.result; }
   /// The point the local planner last aimed at in waypoint mode ((x, y), metres, map frame): up to
   /// carrot_distance_m along the global path, no farther than the robot sees it in a straight line (see
   /// Carrot()).
-  const Eigen::Vector2d& carrot_W() const { return carrot_W_; }
+  const Eigen::Vector2d& carrot_W() const { return progress_.carrot_W; }
   /// Pose the last local plan was made from.
-  const core::BaseState& local_pose() const { return local_pose_; }
+  const core::BaseState& local_pose() const { return local_.pose; }
   /// "" (not run), "path", "boxed in: ..." or "invalid input: ...".
-  const std::string& local_status() const { return local_status_; }
+  const std::string& local_status() const { return local_.status; }
   /// Last controller solution.
-  const nav::IlqrSolution& controller_solution() const { return solution_; }
+  const nav::IlqrSolution& controller_solution() const { return control_.solution; }
   const NavigationOptions& options() const { return options_; }
   /// The local planner's trajectory library (path geometry for display).
   const nav::TrajectoryLibrary& library() const { return local_planner_.library(); }
@@ -299,8 +299,8 @@ class Navigation {
   void DropExtension();
   // Runs `request` on a new thread.
   std::future<nav::GlobalPlan> PlanOnWorker(nav::GlobalPlanRequest request) const;
-  // Progress along the global path: updates path_segment_ and distance_left_m_; returns the distance from
-  // the robot to the path.
+  // Progress along the global path: updates progress_.segment and progress_.distance_left_m; returns the
+  // distance from the robot to the path.
   double UpdateProgress(const Eigen::Vector2d& p_W);
   // Point carrot_distance_m ahead of the robot's projection on the global path.
   // Up to carrot_distance_m, but no farther than the robot at `state` sees in a straight line free of the
@@ -317,10 +317,10 @@ class Navigation {
   bool TrackGlobalPathIfClear(const core::BaseState& state, double track_m, double margin_m, bool tight);
   // True if the obstacle point (frame B) is finite and in the local planner's obstacle z band.
   bool IsObstacle(const Eigen::Vector3f& p_B) const;
-  // Runs the local planner if its period elapsed; fills track_W_ and track_stop_at_end_.
+  // Runs the local planner if its period elapsed; fills local_.track_W and local_.track_stop_at_end.
   void RunLocalPlanner(const core::BaseState& state, const nav::LocalPlanRequest& request, double now_s,
                        const std::optional<Eigen::Vector2d>& goal_W);
-  // iLQR on track_W_; zero twist (braking) when there is no track.
+  // iLQR on local_.track_W; zero twist (braking) when there is no track.
   NavigationStep Control(const core::BaseState& state, double cruise_mps, double now_s);
   NavigationStep Fail(const std::string& reason);
 
@@ -331,47 +331,63 @@ class Navigation {
 
   std::optional<Goal> goal_;
   nav::GlobalPlan plan_;
-  std::size_t path_segment_ = 0;        // segment of the global path the robot projects on
-  double segment_start_along_m_ = 0.0;  // arc length at the start of path_segment_
-  double projection_along_m_ = 0.0;     // arc length of the robot's projection on the global path
-  double distance_left_m_ = 0.0;
-  double eta_s_ = -1.0;
-  double mean_speed_mps_ = 0.0;
-  int replans_ = 0;
-  Eigen::Vector2d carrot_W_ = Eigen::Vector2d::Zero();
-  std::uint64_t path_revision_ = 0;
-  double last_replan_check_s_ = -1e9;
-  double last_partial_replan_s_ = -1e9;     // last extension of a partial plan (the map grew)
-  double last_worker_replan_s_ = -1e9;      // last replan started on the worker
-  std::future<nav::GlobalPlan> extension_;  // a replan (or a partial plan's extension) running on a worker
-  bool extension_at_end_ = false;           // ...asked for at the partial plan's end
-  std::string extension_cause_;             // ...and why it was asked for, for a failure's reason
-  double partial_stuck_since_s_ = -1.0;     // at a partial plan's end with no way on since; -1 = not
-  std::vector<std::future<nav::GlobalPlan>> abandoned_;  // plans of dropped goals, still running
+  // The robot's progress along plan_'s path.
+  struct PathProgress {
+    std::size_t segment = 0;             // segment of the global path the robot projects on
+    double segment_start_along_m = 0.0;  // arc length at the start of segment
+    double projection_along_m = 0.0;     // arc length of the robot's projection on the global path
+    double distance_left_m = 0.0;
+    double eta_s = -1.0;
+    double mean_speed_mps = 0.0;
+    Eigen::Vector2d carrot_W = Eigen::Vector2d::Zero();
+  } progress_;
+  // Replanning: when it last ran, and the plans running on workers.
+  struct Replanning {
+    int count = 0;
+    std::uint64_t path_revision = 0;
+    double last_check_s = -1e9;
+    double last_partial_s = -1e9;            // last extension of a partial plan (the map grew)
+    double last_worker_s = -1e9;             // last replan started on the worker
+    std::future<nav::GlobalPlan> extension;  // a replan (or a partial plan's extension) on a worker
+    bool extension_at_end = false;           // ...asked for at the partial plan's end
+    std::string extension_cause;             // ...and why it was asked for, for a failure's reason
+    double partial_stuck_since_s = -1.0;     // at a partial plan's end with no way on since; -1 = not
+    std::vector<std::future<nav::GlobalPlan>> abandoned;  // plans of dropped goals, still running
+  } replan_;
   bool creeping_ = false;  // the track is the global path through a tight spot (half speed)
   bool follow_path_ = false;
   std::uint64_t goal_serial_ = 0;  // see goal_serial()  // StepWaypoint(follow_path) of the step under way
   bool reduced_clearance_ = false;
-  std::string hold_reason_;  // SetHold()
-  std::string hold_by_;      // ...and the robot that holds it
+  // SetHold(): why the robot holds, and the robot that holds it.
+  struct Hold {
+    std::string reason;
+    std::string by;
+  } hold_;
   UnmappedWatch unmapped_;
-  bool awaiting_obstacles_ = false;  // obstacle memory cleared: no local plan before the next SetObstacles()
-
-  std::vector<Eigen::Vector3f> obstacles_B_;
-  double obstacles_time_s_ = -1e9;
-  std::vector<PeerBody> peers_;
-  PeerOptions peer_options_;
-  double last_local_time_s_ = -1e9;
-  nav::LocalPlanResult local_result_;
-  core::BaseState local_pose_;      // pose of the last local plan
-  core::BaseState obstacles_pose_;  // pose the obstacle points are expressed from
-  std::string local_status_;
-  std::vector<Eigen::Vector2d> track_W_;  // path for the controller, frame W
-  bool track_stop_at_end_ = true;
-
-  nav::IlqrSolution solution_;
-  double last_solve_time_s_ = -1.0;
-  bool turning_in_place_ = false;  // rotation shim: turning toward the path until aligned
+  // The live obstacle input (SetObstacles, SetPeers).
+  struct ObstacleInput {
+    std::vector<Eigen::Vector3f> points_B;
+    double time_s = -1e9;
+    core::BaseState pose;   // pose the points are expressed from
+    bool awaiting = false;  // obstacle memory cleared: no local plan before the next SetObstacles()
+    std::vector<PeerBody> peers;
+    PeerOptions peer_options;
+  } obstacles_;
+  // The local planner's last cycle and the track it gave the controller.
+  struct LocalPlanning {
+    double last_time_s = -1e9;
+    nav::LocalPlanResult result;
+    core::BaseState pose;  // pose of the last local plan
+    std::string status;
+    std::vector<Eigen::Vector2d> track_W;  // path for the controller, frame W
+    bool track_stop_at_end = true;
+  } local_;
+  // The controller's last solve.
+  struct Tracking {
+    nav::IlqrSolution solution;
+    double last_solve_time_s = -1.0;
+    bool turning_in_place = false;  // rotation shim: turning toward the path until aligned
+  } control_;
 };
 
 }  // namespace cairn::agent
