@@ -29,17 +29,6 @@ using shell::YawOf;
 
 namespace {
 
-std::vector<std::string> Tokenize(const std::string& line) {
-  std::vector<std::string> tokens;
-  std::istringstream in(line);
-  std::string token;
-  while (in >> token) {
-    if (token[0] == '#') break;
-    tokens.push_back(token);
-  }
-  return tokens;
-}
-
 const char* NavStatusName(msgs::NavStatus s) {
   switch (s) {
     case msgs::NAV_STATUS_NONE:
@@ -141,14 +130,14 @@ std::string Truncate(const std::string& text, std::size_t n) {
 
 }  // namespace
 
-CommandShell::CommandShell(FleetClient& client, ShellOptions options, std::ostream& out)
+CommandShell::CommandShell(Fleet& client, ShellOptions options, std::ostream& out)
     : client_(client),
       options_(std::move(options)),
       json_(options_.json),
       out_(out),
       places_(Places::Load(options_.places_file)) {}
 
-CommandShell::CommandShell(FleetClient& client, bool json, std::ostream& out)
+CommandShell::CommandShell(Fleet& client, bool json, std::ostream& out)
     : CommandShell(client, ShellOptions{json, "", nullptr, nullptr}, out) {}
 
 const std::vector<std::string>& CommandShell::CommandNames() {
@@ -248,9 +237,11 @@ int CommandShell::Report(const std::string& command, const std::string& robot, c
   return o.ok ? kOk : o.result == outcome::kInvalid ? kUsage : kRefused;
 }
 
-int CommandShell::Execute(const std::string& line) {
+int CommandShell::Execute(const std::string& line) { return Execute(SplitCommandLine(line)); }
+
+int CommandShell::Execute(const std::vector<std::string>& words) {
   PrintEvents();
-  const int code = Run(line);
+  const int code = Run(words);
   PrintEvents();
   return code;
 }
@@ -304,8 +295,7 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
   return matches;
 }
 
-int CommandShell::Run(const std::string& line) {
-  const std::vector<std::string> t = Tokenize(line);
+int CommandShell::Run(const std::vector<std::string>& t) {
   if (t.empty()) return kOk;
   const std::string& cmd = t[0];
   const std::vector<std::string> args(t.begin() + 1, t.end());

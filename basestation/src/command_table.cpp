@@ -32,6 +32,16 @@ void AppendWrapped(const std::string& text, std::size_t column, std::size_t inde
 
 }  // namespace
 
+std::vector<std::string> SplitCommandLine(const std::string& line) {
+  std::vector<std::string> words;
+  std::istringstream in(line);
+  for (std::string word; in >> word;) {
+    if (word[0] == '#') break;
+    words.push_back(word);
+  }
+  return words;
+}
+
 const std::vector<CommandSpec>& CommandTable() {
   // One data table, kept whole on purpose (one entry per command, in help order): splitting it would scatter
   // what the table exists to keep in one place. Help text is a paragraph: CommandHelp wraps it. Argument

@@ -41,6 +41,10 @@ const CommandSpec* FindCommand(const std::string& name);
 /// "usage: " and the command's synopsis; throws std::logic_error for a name not in the table (a bug).
 std::string UsageOf(const std::string& name);
 
+/// The words of a command line as the console splits them: at whitespace, up to a word starting with '#' (a
+/// comment). "" and "# note" have none.
+std::vector<std::string> SplitCommandLine(const std::string& line);
+
 /// The `help` text: every command's synopsis and help, wrapped to `width` columns, then the outcomes.
 std::string CommandHelp(std::size_t width = 104);
 

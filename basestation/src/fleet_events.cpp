@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <stdexcept>
 
-#include "cairn/base/fleet_client.h"
+#include "cairn/base/fleet.h"
 #include "cairn/base/operator_text.h"
 
 namespace cairn::base {

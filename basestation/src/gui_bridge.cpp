@@ -20,6 +20,7 @@
 
 #include "cairn/base/operator_text.h"
 #include "cairn/core/time.h"
+#include "gui_command.h"
 #include "shell_util.h"
 
 namespace cairn::base {
@@ -136,7 +137,7 @@ const char* kFleetStateSchema =
 "received_stamp":{"type":"object","description":"when this basestation received that state (wall clock)","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}}}}}}})json";
 
 const char* kCommandRequestSchema =
-    R"json({"title":"cairn.CommandRequest","description":"One cairn_base command line, e.g. goto r1 12 4 (see cairn_base --help)","type":"object","properties":{"command":{"type":"string"}},"required":["command"]})json";
+    R"json({"title":"cairn.CommandRequest","description":"One cairn_base command (see cairn_base --help): structured, {\"name\":\"goto\",\"robot\":\"r1\",\"args\":[12,4],\"options\":{\"z\":1.2}}, or a console line, {\"command\":\"goto r1 12 4 --z 1.2\"}","type":"object","oneOf":[{"properties":{"name":{"type":"string"},"robot":{"type":"string"},"args":{"type":"array","items":{"type":["string","number"]}},"options":{"type":"object","additionalProperties":{"type":["string","number","boolean"]}}},"required":["name"],"additionalProperties":false},{"properties":{"command":{"type":"string"}},"required":["command"],"additionalProperties":false}]})json";
 
 const char* kCommandResponseSchema =
     R"json({"title":"cairn.CommandResponse","description":"The CLI's --json result of the command: command, robot, ok, result (accepted|refused|failed|timed out|invalid), reason, holder, mode, valid_actions, ...","type":"object","properties":{"ok":{"type":"boolean"},"result":{"type":"string"},"reason":{"type":"string"},"exit_code":{"type":"integer"},"lines":{"type":"array","items":{"type":"object"}}}})json";
@@ -298,71 +299,75 @@ class GuiBridge::Impl {
       respond(false, "unknown service " + std::to_string(service));
       return;
     }
-    std::string line;
+    std::vector<std::string> words;
     try {
-      const json j = json::parse(request);
-      line = j.at("command").get<std::string>();
+      words = CommandRequestWords(json::parse(request));
     } catch (const std::exception& e) {
-      respond(false, std::string("the request must be {\"command\": \"CLI command line\"}: ") + e.what());
+      respond(false, e.what());
       return;
     }
     std::lock_guard<std::mutex> lock(mutex_);
-    commands_.emplace_back(std::move(line), std::move(respond));
+    commands_.emplace_back(std::move(words), std::move(respond));
     cv_.notify_all();
   }
 
-  // Commands run one at a time on their own thread, as lines of the CLI (its --json output is the answer).
+  // Commands run one at a time on their own thread, as the CLI runs the same words (its --json output is the
+  // answer).
   void CommandLoop() {
     std::unique_lock<std::mutex> lock(mutex_);
     while (!stop_) {
       cv_.wait(lock, [this] { return stop_ || !commands_.empty(); });
       if (stop_) break;
-      auto [line, respond] = std::move(commands_.front());
+      auto [words, respond] = std::move(commands_.front());
       commands_.pop_front();
       lock.unlock();
-      json answer;
-      int code = kUsage;
-      const std::string first = line.substr(0, line.find(' '));
-      if (first == "teleop" || first == "watch" || first == "wait" || first == "sleep" ||
-          line.find("--wait") != std::string::npos) {
-        // The GUI drives with /cairn/teleop and follows progress on /fleet: nothing here may hold the queue.
-        answer = {
-            {"command", first},
-            {"ok", false},
-            {"result", outcome::kInvalid},
-            {"reason",
-             "'" + first + (line.find("--wait") != std::string::npos ? " --wait" : "") +
-                 "' is for the CLI: the GUI streams teleop on /cairn/teleop and shows progress on /fleet"}};
-      } else {
-        shell_out_.str("");
-        try {
-          code = shell_->Execute(line);
-        } catch (const std::exception& e) {
-          shell_out_ << json{{"command", first},
-                             {"ok", false},
-                             {"result", outcome::kFailed},
-                             {"reason", e.what()}}
-                            .dump()
-                     << "\n";
-        }
-        json lines = json::array();
-        std::istringstream out(shell_out_.str());
-        for (std::string text; std::getline(out, text);) {
-          try {
-            lines.push_back(json::parse(text));
-          } catch (const std::exception&) {
-            lines.push_back({{"text", text}});
-          }
-        }
-        answer = lines.empty() ? json{{"ok", code == kOk}} : lines.back();
-        answer["lines"] = lines;
-      }
-      answer["exit_code"] = code;
-      if (!answer.contains("ok")) answer["ok"] = code == kOk;
+      json answer = RunCommand(words);
       respond(true, answer.dump());
       lock.lock();
       ++stats_.commands;
     }
+  }
+
+  // The answer to one command: the last JSON line the shell printed, with every line and the exit code.
+  json RunCommand(const std::vector<std::string>& words) {
+    const std::string first = words.empty() ? "" : words.front();
+    const bool waits = std::find(words.begin(), words.end(), "--wait") != words.end();
+    if (first == "teleop" || first == "watch" || first == "wait" || first == "sleep" || waits) {
+      // The GUI drives with /cairn/teleop and follows progress on /fleet: nothing here may hold the queue.
+      return {{"command", first},
+              {"ok", false},
+              {"result", outcome::kInvalid},
+              {"exit_code", kUsage},
+              {"reason",
+               "'" + first + (waits ? " --wait" : "") +
+                   "' is for the CLI: the GUI streams teleop on /cairn/teleop and shows progress on /fleet"}};
+    }
+    int code = kUsage;
+    shell_out_.str("");
+    try {
+      code = shell_->Execute(words);
+    } catch (const std::exception& e) {
+      shell_out_ << json{{"command", first},
+                         {"ok", false},
+                         {"result", outcome::kFailed},
+                         {"reason", e.what()}}
+                        .dump()
+                 << "\n";
+    }
+    json lines = json::array();
+    std::istringstream out(shell_out_.str());
+    for (std::string text; std::getline(out, text);) {
+      try {
+        lines.push_back(json::parse(text));
+      } catch (const std::exception&) {
+        lines.push_back({{"text", text}});
+      }
+    }
+    json answer = lines.empty() ? json{{"ok", code == kOk}} : lines.back();
+    answer["lines"] = lines;
+    answer["exit_code"] = code;
+    if (!answer.contains("ok")) answer["ok"] = code == kOk;
+    return answer;
   }
 
   void OnClientMessage(FoxgloveServer::ClientId, const std::string& topic, const std::string& encoding,
@@ -935,7 +940,7 @@ class GuiBridge::Impl {
   std::condition_variable cv_;
   bool stop_ = false;
   std::vector<Snapshot> snapshots_;
-  std::deque<std::pair<std::string, FoxgloveServer::Responder>> commands_;
+  std::deque<std::pair<std::vector<std::string>, FoxgloveServer::Responder>> commands_;
   GuiStats stats_;
   std::thread publisher_;
   std::thread commander_;

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "cairn/base/fleet_client.h"
+#include "cairn/base/fleet.h"
 #include "cairn/base/link_monitor.h"
 #include "cairn/core/time.h"
 #include "cairn/perception/staircase.h"

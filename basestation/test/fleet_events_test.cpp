@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "cairn/base/fleet_client.h"
+#include "cairn/base/fleet.h"
 
 namespace cairn::base {
 namespace {

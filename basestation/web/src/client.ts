@@ -1,21 +1,10 @@
 // The GUI's link to cairn_base: the Foxglove WebSocket protocol (@foxglove/ws-protocol's client), JSON
-// messages on the channels gui_bridge.h lists, the /cairn/command service and the /cairn/teleop client channel.
+// messages on the channels wire.ts lists, the /cairn/command service and the /cairn/teleop client channel.
 import { FoxgloveClient } from "@foxglove/ws-protocol";
 import type { Channel, Service } from "@foxglove/ws-protocol";
+import { Topic, type CommandRequest, type CommandResult, type TeleopMessage } from "./wire";
 
 export type Listener = (topic: string, message: any, receivedNs: bigint) => void;
-
-/** Result of one command line, as the CLI prints it with --json (plus exit_code and the lines printed). */
-export interface CommandResult {
-  ok: boolean;
-  result?: string;
-  reason?: string;
-  command?: string;
-  robot?: string;
-  exit_code?: number;
-  valid_actions?: string[];
-  [key: string]: unknown;
-}
 
 export class CairnLink {
   private client?: FoxgloveClient;
@@ -31,7 +20,10 @@ export class CairnLink {
   bytesReceived = 0;
   onState: (connected: boolean, text: string) => void = () => {};
 
-  constructor(private url: string, private wanted: (topic: string) => boolean, private listener: Listener) {}
+  /** Each message of a wanted channel, decoded from JSON (wire.ts types it by topic). */
+  onMessage: Listener = () => {};
+
+  constructor(private url: string, private wanted: (topic: string) => boolean) {}
 
   connect(): void {
     const ws = new WebSocket(this.url, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]);
@@ -59,7 +51,7 @@ export class CairnLink {
     client.on("serverInfo", (info) => {
       this.onState(true, info.name);
       if (info.capabilities.includes("clientPublish")) {
-        this.teleopChannel = client.advertise({ topic: "/cairn/teleop", encoding: "json", schemaName: "cairn.Teleop" });
+        this.teleopChannel = client.advertise({ topic: Topic.teleop, encoding: "json", schemaName: "cairn.Teleop" });
       }
     });
     client.on("advertise", (channels) => {
@@ -84,7 +76,7 @@ export class CairnLink {
       } catch {
         return;
       }
-      this.listener(topic, message, event.timestamp);
+      this.onMessage(topic, message, event.timestamp);
     });
     client.on("serviceCallResponse", (response) => {
       const p = this.pending.get(response.callId);
@@ -106,9 +98,9 @@ export class CairnLink {
     });
   }
 
-  /** Runs one cairn_base command line (the CLI's semantics) and resolves with its --json result. */
-  command(line: string, timeoutMs = 15000): Promise<CommandResult> {
-    const service = this.services.get("/cairn/command");
+  /** Runs one cairn_base command (the CLI's semantics) and resolves with its --json result. */
+  command(request: CommandRequest, timeoutMs = 15000): Promise<CommandResult> {
+    const service = this.services.get(Topic.commandService);
     if (!this.client || !this.connected || !service) {
       return Promise.resolve({ ok: false, result: "failed", reason: "not connected to cairn_base" });
     }
@@ -123,7 +115,7 @@ export class CairnLink {
         serviceId: service.id,
         callId,
         encoding: "json",
-        data: new DataView(this.encoder.encode(JSON.stringify({ command: line })).buffer),
+        data: new DataView(this.encoder.encode(JSON.stringify(request)).buffer),
       });
     });
   }
@@ -131,7 +123,7 @@ export class CairnLink {
   /** One teleop twist (frame B of the robot): forward m/s, yaw rate rad/s. false when it cannot be sent. */
   teleop(robotId: string, linearX: number, angularZ: number): boolean {
     if (!this.client || !this.connected || this.teleopChannel === undefined) return false;
-    const msg = { robot_id: robotId, linear_x_mps: linearX, angular_z_radps: angularZ };
+    const msg: TeleopMessage = { robot_id: robotId, linear_x_mps: linearX, angular_z_radps: angularZ };
     this.client.sendMessage(this.teleopChannel, this.encoder.encode(JSON.stringify(msg)));
     return true;
   }

@@ -14,7 +14,10 @@ import WebSocket from "ws";
 
 const { FoxgloveClient } = wsProtocol;
 
-import { BUILD, startBase, startRobot, stopAll, waitFor } from "./harness.mjs";
+import { BUILD, loadWire, startBase, startRobot, stopAll, waitFor } from "./harness.mjs";
+
+// The GUI's own wire module (src/wire.ts, built into wire.mjs): channel names and the commands it sends.
+const { Command, Topic, commandText } = await loadWire();
 
 const DOMAIN = 74;
 let base, client;
@@ -45,20 +48,27 @@ test("the server lists every channel with a JSON schema, and the command service
   await waitFor("r1's camera channel", () => [...channels.values()].some((c) => c.topic === "/r1/camera"), 20000);
   const topics = Object.fromEntries([...channels.values()].map((c) => [c.topic, c.schemaName]));
   assert.deepEqual(topics, {
-    "/fleet": "cairn.FleetState",
-    "/tf": "foxglove.FrameTransforms",
-    "/robots": "foxglove.SceneUpdate",
-    "/paths": "foxglove.SceneUpdate",
-    "/staircases": "foxglove.SceneUpdate",
-    "/fleet_map": "foxglove.SceneUpdate",
-    "/events": "foxglove.Log",
+    [Topic.fleet]: "cairn.FleetState",
+    [Topic.tf]: "foxglove.FrameTransforms",
+    [Topic.robots]: "foxglove.SceneUpdate",
+    [Topic.paths]: "foxglove.SceneUpdate",
+    [Topic.staircases]: "foxglove.SceneUpdate",
+    [Topic.fleetMap]: "foxglove.SceneUpdate",
+    [Topic.events]: "foxglove.Log",
     "/r1/camera": "foxglove.CompressedImage",
   });
   for (const c of channels.values()) {
     assert.equal(c.encoding, "json", c.topic);
     assert.equal(c.schemaEncoding, "jsonschema", c.topic);
   }
-  assert.ok(services.has("/cairn/command"), [...services.keys()].join(", "));
+  assert.ok(services.has(Topic.commandService), [...services.keys()].join(", "));
+  // Every command the GUI sends, and a console line, match the service's request schema.
+  const validate = new Ajv({ strict: false }).compile(JSON.parse(services.get(Topic.commandService).requestSchema));
+  const requests = [Command.requestControl("r1"), Command.mode("r1", "manual"), Command.goto("r1", 1.5, -2),
+    Command.goto("r1", 1, 2, 3.2), Command.convoy(["r1", "r2", "r3"]), Command.peel("r2", 3, 4),
+    Command.yieldFor("r2", "r1"), Command.restart("r1", "perception"), Command.stopAll(), { command: "robots" }];
+  for (const request of requests) assert.ok(validate(request), `${JSON.stringify(request)}: ${JSON.stringify(validate.errors)}`);
+  assert.ok(!validate({ name: "goto", robot: "r1", line: "goto r1 1 2" }), "a field of neither form");
 });
 
 test("a subscription to each channel delivers a message that decodes and matches its schema", async () => {
@@ -104,14 +114,14 @@ test("a subscription to each channel delivers a message that decodes and matches
   await waitFor("a staircase event", () => eventMessages.some((m) => /staircase/.test(m)), 20000);
 });
 
-/** Calls /cairn/command with `line` and returns the decoded answer. */
-async function command(line) {
+/** Calls /cairn/command with `request` (a wire.ts CommandRequest, or {command: LINE}); the decoded answer. */
+async function command(request) {
   const callId = Math.floor(Math.random() * 1e9);
   client.sendServiceCallRequest({
-    serviceId: services.get("/cairn/command").id, callId, encoding: "json",
-    data: new TextEncoder().encode(JSON.stringify({ command: line })),
+    serviceId: services.get(Topic.commandService).id, callId, encoding: "json",
+    data: new TextEncoder().encode(JSON.stringify(request)),
   });
-  return waitFor(`the answer to '${line}'`, () => responses.get(callId), 10000);
+  return waitFor(`the answer to ${JSON.stringify(request)}`, () => responses.get(callId), 10000);
 }
 
 /** The CLI's --json answer to `line` from a one-shot cairn_base with another base id. */
@@ -123,24 +133,34 @@ function cli(line) {
 }
 
 test("the command service has the CLI's semantics: the same refusal and reason", async () => {
-  const viaGui = await command("mode r1 manual");
+  const viaGui = await command(Command.mode("r1", "manual"));
   assert.equal(viaGui.ok, false);
   assert.equal(viaGui.result, "refused");
   const viaCli = cli("mode r1 manual");
   assert.equal(viaCli.result, "refused", JSON.stringify(viaCli));
   assert.equal(viaGui.reason.replaceAll("op1", "BASE"), viaCli.reason.replaceAll("cli1", "BASE"));
 
-  const bad = await command("goto r1 nowhere-known");
+  // A console line has the same answer as the structured command it spells.
+  const asLine = await command({ command: commandText(Command.mode("r1", "manual")) });
+  const answer = (a) => ({ ok: a.ok, result: a.result, reason: a.reason, command: a.command, robot: a.robot });
+  assert.deepEqual(answer(asLine), answer(viaGui));
+
+  const bad = await command({ name: "goto", robot: "r1", args: ["nowhere-known"] });
   assert.equal(bad.ok, false);
   assert.equal(bad.result, cli("goto r1 nowhere-known").result);
 
-  const held = await command("request-control r1");
+  // A malformed request is refused before it runs, naming the field and the value.
+  const malformed = await command({ name: "goto", robot: "r1", args: [1, null] });
+  assert.match(malformed.failure ?? "", /args\[1\] null must be a string or a number/, JSON.stringify(malformed));
+  assert.match((await command({ name: "goto", robot: "r1", args: [1, 2, "--wait"] })).failure ?? "", /options go in "options"/);
+
+  const held = await command(Command.requestControl("r1"));
   assert.equal(held.ok, true, JSON.stringify(held));
   const blocked = cli("request-control r1");
   assert.equal(blocked.result, "refused");
   assert.match(blocked.reason, /op1/);
 
-  const stream = await command("teleop r1 0.5 0 2");
+  const stream = await command({ name: "teleop", robot: "r1", args: [0.5, 0, 2] });
   assert.equal(stream.result, "invalid");
   assert.match(stream.reason, /\/cairn\/teleop/);
 });
@@ -151,7 +171,7 @@ test("client publish on /cairn/teleop: malformed twists are dropped and move not
     const t = JSON.parse(decoder.decode(data)).transforms?.find((tr) => tr.child_frame_id === "r1");
     if (t) x = t.translation.x;
   });
-  assert.equal((await command("mode r1 manual")).ok, true);
+  assert.equal((await command(Command.mode("r1", "manual"))).ok, true);
   const teleop = client.advertise({ topic: "/cairn/teleop", encoding: "json", schemaName: "cairn.Teleop" });
   const send = (text) => client.sendMessage(teleop, new TextEncoder().encode(text));
   const x0 = x;
@@ -169,5 +189,5 @@ test("client publish on /cairn/teleop: malformed twists are dropped and move not
     await new Promise((r) => setTimeout(r, 100));
   }
   await waitFor("r1 backing up", () => x0 - x > 0.1, 3000);
-  assert.equal((await command("release r1")).ok, true);
+  assert.equal((await command(Command.release("r1"))).ok, true);
 });

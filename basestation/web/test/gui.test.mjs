@@ -5,8 +5,10 @@ import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
 
 import {
-  launchBrowser, openGui, robotState, screenshot, sleep, startBase, startRobot, stopAll, tail, waitFor,
+  launchBrowser, openGui, robotState, screenshot, sleep, startBase, startRobot, stopAll, tail, waitFor, loadWire
 } from "./harness.mjs";
+
+const { Command } = await loadWire(); // the GUI's own commands (src/wire.ts)
 
 const DOMAIN = 71;
 let browser, op1, op2, page1, page2;
@@ -126,7 +128,11 @@ test("the Health tab shows each robot's link (probe round trip, states lost, wha
   assert.ok(parts.every((t) => /\sactive\s/.test(t)), parts.join("\n"));
   assert.ok(parts.some((t) => /^perception\s+active\s+\d+\/20\s/.test(t)), parts.join("\n"));
   const holds = (await robotState(page1, "r1")).you_hold;
-  assert.equal(await page1.locator('#component-rows button[data-cmd^="restart r1 "]').count(), holds ? 8 : 0);
+  const restarts = await page1.locator('#component-rows tr[data-robot-id="r1"] button.restart').evaluateAll(
+    (buttons) => buttons.map((b) => JSON.parse(b.dataset.command)));
+  assert.equal(restarts.length, holds ? 8 : 0);
+  // Each button sends the GUI's structured restart of its own component.
+  for (const [i, request] of restarts.entries()) assert.deepEqual(request, Command.restart("r1", parts[i].split(/\s/)[0]));
   await screenshot(page1, "07b_health_links");
   await page1.locator('#tabs button[data-tab="robot"]').click();
 });
@@ -344,7 +350,7 @@ test("the holder puts a convoy together by tapping its robots in order; the foll
 
 test("a robot another one's route passes offers Get out of the way; pressed, it stands aside and comes back", async () => {
   // r1 (behind r2 after the convoy) is sent through r2's position, down the main tunnel.
-  const goal = await page1.evaluate(() => window.cairn.run("goto r1 26 20", true));
+  const goal = await page1.evaluate((request) => window.cairn.run(request, true), Command.goto("r1", 26, 20));
   assert.equal(goal.ok, true, JSON.stringify(goal));
   await page1.locator('#tabs button[data-tab="fleet"]').click();
   await page1.locator('#fleet-rows tr[data-robot="r2"]').click();

@@ -4,12 +4,19 @@
 import { spawn } from "node:child_process";
 import { createWriteStream, mkdirSync, readFileSync } from "node:fs";
 import { basename, join } from "node:path";
+import { pathToFileURL } from "node:url";
 import { chromium } from "playwright-core";
 
 export const BUILD = process.env.CAIRN_BUILD_DIR ?? new URL("../../../build", import.meta.url).pathname;
 // One folder per test or bench file (gui, foxglove, gui_bench...): each keeps its own process logs.
 export const LOGS = join(BUILD, "test-logs", "gui", basename(process.argv[1] ?? "gui", ".mjs").replace(/\.test$/, ""));
 mkdirSync(LOGS, { recursive: true });
+
+/** The GUI's wire module (src/wire.ts: channels, message types, the commands it sends), as the build emits it
+ *  for tests (web/wire.mjs): the tests send what the GUI sends. */
+export function loadWire() {
+  return import(pathToFileURL(join(BUILD, "web", "wire.mjs")).href);
+}
 
 const children = [];
 export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "cairn/base/fleet_client.h"
+#include "cairn/base/fleet.h"
 #include "cairn/base/places.h"
 
 namespace cairn::base {
@@ -39,14 +39,17 @@ struct ShellOptions {
 class CommandShell {
  public:
   /// @throws std::invalid_argument when the places file is malformed (names file, place and field).
-  CommandShell(FleetClient& client, ShellOptions options, std::ostream& out);
+  CommandShell(Fleet& client, ShellOptions options, std::ostream& out);
   /// The minimal form: no places file, no terminal hooks.
-  CommandShell(FleetClient& client, bool json, std::ostream& out);
+  CommandShell(Fleet& client, bool json, std::ostream& out);
 
   /// Runs `line` ("" and "# comment" do nothing). @return kOk, kRefused (refused, failed, timed out or
   /// cancelled; the reason is printed) or kUsage (malformed command: the message names the argument and
   /// value, with "did you mean" for commands and robot ids).
   int Execute(const std::string& line);
+  /// Runs a command given as its words, the name first (as SplitCommandLine splits a line; a structured
+  /// command from the GUI): nothing is split or joined again. Same results as Execute(line).
+  int Execute(const std::vector<std::string>& words);
 
   /// Prints events not yet shown (arrivals, failures, losses, locks, stops, staircases, proximity), once
   /// each. Execute() calls it before and after each command and during waits; an interactive loop also
@@ -62,7 +65,7 @@ class CommandShell {
                                     const std::string& prefix) const;
 
  private:
-  int Run(const std::string& line);
+  int Run(const std::vector<std::string>& words);
   int Map(const std::vector<std::string>& args);
   int Snapshot(const std::vector<std::string>& args);
   int Stairs();
@@ -137,7 +140,7 @@ class CommandShell {
   // so that what it shows follows from the commands just sent.
   std::optional<RobotView> FreshView(const std::string& robot);
 
-  FleetClient& client_;
+  Fleet& client_;
   ShellOptions options_;
   bool json_;
   std::ostream& out_;

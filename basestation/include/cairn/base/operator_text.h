@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "cairn/base/fleet_client.h"
+#include "cairn/base/fleet.h"
 
 namespace cairn::base {
 

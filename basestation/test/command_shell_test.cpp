@@ -1,0 +1,133 @@
+// The console in process against a fake fleet: what each command sends to which robot, what it prints, and
+// how it refuses malformed input (naming the argument and value) without sending anything.
+#include "cairn/base/command_shell.h"
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "fake_fleet.h"
+
+namespace cairn::base {
+namespace {
+
+using Sent = std::vector<std::string>;
+
+class CommandShellTest : public ::testing::Test {
+ protected:
+  CommandShellTest() : fleet_("op1"), shell_(fleet_, /*json=*/false, out_) {
+    fleet_.AddRobot("r1", "idle", "op1", 1.0, 2.0);
+    fleet_.AddRobot("r2", "idle", "op1", 4.0, 2.0);
+    fleet_.AddRobot("r3", "idle", "op1", 7.0, 2.0);
+  }
+  // What the shell printed since the last call.
+  std::string Printed() {
+    const std::string text = out_.str();
+    out_.str("");
+    return text;
+  }
+
+  testing::FakeFleet fleet_;
+  std::ostringstream out_;
+  CommandShell shell_;
+};
+
+TEST_F(CommandShellTest, GotoSendsTheWaypointAndReportsTheAnswer) {
+  EXPECT_EQ(shell_.Execute("goto r1 12 4.5"), kOk);
+  EXPECT_EQ(fleet_.sent(), (Sent{"SendWaypoint r1 12 4.5 tol=0 z=nan"}));
+  EXPECT_NE(Printed().find("goto r1: accepted"), std::string::npos);
+  EXPECT_EQ(shell_.Execute("goto r2 3,4 0.5 --z 2.5"), kOk);
+  EXPECT_EQ(fleet_.sent().back(), "SendWaypoint r2 3 4 tol=0.5 z=2.5");
+}
+
+TEST_F(CommandShellTest, WordsAndTheirLineRunTheSameCommand) {
+  EXPECT_EQ(shell_.Execute(std::vector<std::string>{"goto", "r1", "12", "4", "--z", "1.5"}), kOk);
+  const std::string from_words = Printed();
+  EXPECT_EQ(shell_.Execute("goto r1 12 4 --z 1.5"), kOk);
+  EXPECT_EQ(Printed(), from_words);
+  EXPECT_EQ(fleet_.sent(), (Sent{"SendWaypoint r1 12 4 tol=0 z=1.5", "SendWaypoint r1 12 4 tol=0 z=1.5"}));
+  EXPECT_EQ(shell_.Execute(std::vector<std::string>{}), kOk);
+}
+
+TEST_F(CommandShellTest, MalformedCommandsNameTheArgumentAndSendNothing) {
+  EXPECT_EQ(shell_.Execute("goto r1 twelve 4"), kUsage);
+  EXPECT_NE(Printed().find("twelve"), std::string::npos);
+  EXPECT_EQ(shell_.Execute("goto r1 1 2 --z"), kUsage);
+  EXPECT_NE(Printed().find("--z needs a height"), std::string::npos);
+  EXPECT_EQ(shell_.Execute("goto r1 1 2 --z 1e9"), kUsage);
+  EXPECT_NE(Printed().find("Z_M '1e9'"), std::string::npos);
+  EXPECT_EQ(shell_.Execute("gotoo r1 1 2"), kUsage);
+  EXPECT_NE(Printed().find("unknown command 'gotoo' (did you mean goto?)"), std::string::npos);
+  EXPECT_EQ(shell_.Execute("mode r1"), kUsage);
+  EXPECT_NE(Printed().find("usage: mode R MODE"), std::string::npos);
+  EXPECT_TRUE(fleet_.sent().empty());
+}
+
+TEST_F(CommandShellTest, ARefusalPrintsTheRobotsReasonAndExitsRefused) {
+  fleet_.RefuseCommandsTo("r2", "manual is not valid now");
+  EXPECT_EQ(shell_.Execute("mode r2 manual"), kRefused);
+  const std::string printed = Printed();
+  EXPECT_NE(printed.find("mode r2: refused"), std::string::npos) << printed;
+  EXPECT_EQ(fleet_.sent(), (Sent{"RequestMode r2 manual"}));
+  fleet_.RefuseCommandsTo("r2", "");
+  EXPECT_EQ(shell_.Execute("mode r2 manual"), kOk);
+}
+
+TEST_F(CommandShellTest, StopAllStopsEveryRobot) {
+  EXPECT_EQ(shell_.Execute("stop all"), kOk);
+  Sent sent = fleet_.sent();
+  std::sort(sent.begin(), sent.end());
+  EXPECT_EQ(sent, (Sent{"Stop r1", "Stop r2", "Stop r3"}));
+}
+
+TEST_F(CommandShellTest, AConvoyTellsEachFollowerTheRobotsAheadOfIt) {
+  EXPECT_EQ(shell_.Execute("convoy r1 r2 r3"), kOk) << Printed();
+  Sent sent = fleet_.sent();
+  std::sort(sent.begin(), sent.end());
+  EXPECT_EQ(sent, (Sent{"SendConvoy r2 r1", "SendConvoy r3 r2 r1"}));
+}
+
+TEST_F(CommandShellTest, AConvoyOfRobotsThisBaseDoesNotHoldIsRefusedBeforeAnythingIsSent) {
+  fleet_.AddRobot("r3", "idle", "op2", 7.0, 2.0);
+  EXPECT_EQ(shell_.Execute("convoy r1 r2 r3"), kRefused);
+  const std::string printed = Printed();
+  EXPECT_NE(printed.find("r3"), std::string::npos) << printed;
+  EXPECT_NE(printed.find("op2"), std::string::npos) << printed;
+  EXPECT_TRUE(fleet_.sent().empty());
+}
+
+TEST_F(CommandShellTest, JsonAnswersCarryTheCommandRobotAndOutcome) {
+  std::ostringstream out;
+  CommandShell shell(fleet_, /*json=*/true, out);
+  EXPECT_EQ(shell.Execute("explore r3 --region 0,0,10,5"), kOk);
+  EXPECT_EQ(fleet_.sent(), (Sent{"SendExplore r3 region=0,0,10,5 z=nan..nan home_after=0"}));
+  std::istringstream lines(out.str());
+  std::string last;
+  for (std::string line; std::getline(lines, line);) last = line;
+  const auto answer = nlohmann::json::parse(last);
+  EXPECT_EQ(answer.at("command"), "explore");
+  EXPECT_EQ(answer.at("robot"), "r3");
+  EXPECT_EQ(answer.at("ok"), true);
+  EXPECT_EQ(answer.at("result"), "accepted");
+}
+
+TEST_F(CommandShellTest, EventsArePrintedAroundCommands) {
+  fleet_.RaiseEvent("r2 arrived at (4.00, 2.00)");
+  EXPECT_EQ(shell_.Execute("stop r1"), kOk);
+  const std::string printed = Printed();
+  EXPECT_NE(printed.find("] r2 arrived at (4.00, 2.00)"), std::string::npos) << printed;
+  EXPECT_LT(printed.find("r2 arrived"), printed.find("stop r1"));
+}
+
+TEST_F(CommandShellTest, RobotsListsEveryRobotWithItsModeAndHolder) {
+  fleet_.AddRobot("r2", "manual", "op2", 4.0, 2.0);
+  EXPECT_EQ(shell_.Execute("robots"), kOk);
+  const std::string printed = Printed();
+  for (const char* expected : {"r1", "r2", "r3", "manual", "op2"}) {
+    EXPECT_NE(printed.find(expected), std::string::npos) << expected << " in\n" << printed;
+  }
+}
+
+}  // namespace
+}  // namespace cairn::base

@@ -1,0 +1,237 @@
+// The side panel, drawn from the state: the fleet list, the selected robot (its valid actions as buttons, its
+// navigation, exploration, convoy and yield), health (links and components), events, and notifications.
+// Action buttons carry their command as JSON (data-command: a wire.ts CommandRequest); input.ts sends it.
+import { modeColor } from "./scene";
+import { $, link, scene, selectedRobot, state } from "./state";
+import { Command, type CommandRequest, type Convoy, type Exploration, type Robot, type YieldRecord } from "./wire";
+
+// ---- Notifications ------------------------------------------------------------------------------------
+export const kToastMaxAgeMs = 10000; // an event older than this when it arrives goes to the Events tab only
+export const seenEvents = new Set<string>();
+
+/** A notification for 5 s; `eventMs` is when it happened (state.toasts keeps both times for tests). */
+export function toast(text: string, kind: "info" | "warn" | "ok" | "bad" = "info", eventMs = Date.now()): void {
+  state.toasts.push({ text, shownMs: Date.now(), eventMs });
+  if (state.toasts.length > 500) state.toasts.shift();
+  const el = document.createElement("div");
+  el.className = `toast ${kind}`;
+  el.textContent = text;
+  $("toasts").prepend(el);
+  window.setTimeout(() => el.classList.add("gone"), 5000);
+  window.setTimeout(() => el.remove(), 5600);
+  while ($("toasts").children.length > 5) $("toasts").lastElementChild?.remove();
+}
+
+// ---- Rendering of the side panel ------------------------------------------------------------------------
+export function setTab(tab: string): void {
+  state.tab = tab;
+  for (const b of document.querySelectorAll<HTMLButtonElement>("#tabs button")) b.classList.toggle("active", b.dataset.tab === tab);
+  for (const p of document.querySelectorAll<HTMLElement>(".tab")) p.hidden = p.id !== `tab-${tab}`;
+  render();
+  if (tab === "events") renderEvents();
+}
+
+function fmt(v: number | undefined, digits = 1, unit = ""): string {
+  return v === undefined || v < 0 || !isFinite(v) ? "–" : `${v.toFixed(digits)}${unit}`;
+}
+
+// Sets an element's HTML only when it changed, so that elements under a finger (or a test's click) are not
+// replaced by the 10 Hz /fleet updates.
+const shownHtml = new WeakMap<HTMLElement, string>();
+function setHtml(el: HTMLElement, html: string): void {
+  if (shownHtml.get(el) === html) return;
+  shownHtml.set(el, html);
+  el.innerHTML = html;
+}
+
+export function render(): void {
+  $("base").textContent = state.baseId ? `basestation ${state.baseId}` : "";
+  renderFleet();
+  renderRobot();
+  renderHealth();
+}
+
+function renderFleet(): void {
+  // One row per robot, kept across updates (only its cells change).
+  const body = $("fleet-rows");
+  const ids = state.robots.map((r) => r.id);
+  for (const row of Array.from(body.children) as HTMLElement[]) {
+    if (!ids.includes(row.dataset.robot ?? "")) row.remove();
+  }
+  let previous: Element | null = null;
+  for (const r of state.robots) {
+    let row = body.querySelector<HTMLElement>(`tr[data-robot="${CSS.escape(r.id)}"]`);
+    if (!row) {
+      row = document.createElement("tr");
+      row.dataset.robot = r.id;
+    }
+    if (row.previousElementSibling !== previous || row.parentElement !== body) {
+      if (previous) previous.after(row);
+      else body.prepend(row);
+    }
+    previous = row;
+    row.className = `row ${r.id === state.selected ? "sel" : ""}`;
+    const holder = r.holder ? (r.you_hold ? `${r.holder} (you)` : r.holder) : "free";
+    setHtml(
+        row,
+        `<td><span class="dot ${r.online ? 'on' : 'off'}"></span>${r.id}</td>
+      <td><span class="chip" style="background:${modeColor(r.mode)}">${r.mode || '?'}</span>${
+            r.convoy?.ahead.length ? ` <span class="small">→ ${r.convoy.ahead[0]}</span>` : ''}</td>
+      <td>${holder}</td><td>${r.online ? fmt(r.heard_s_ago, 1, ' s') : 'lost'}</td>`);
+  }
+  $("fleet-empty").hidden = state.robots.length > 0;
+}
+
+/** The attribute that makes an element send `request` when tapped (input.ts reads it back). */
+export function commandAttribute(request: CommandRequest): string {
+  const json = JSON.stringify(request).replace(/&/g, "&amp;").replace(/"/g, "&quot;").replace(/</g, "&lt;");
+  return `data-command="${json}"`;
+}
+
+// The buttons of the robot's valid actions (ValidActions of cairn_base for this basestation).
+function actionButtons(r: Robot): string {
+  const b: string[] = [];
+  const button = (request: CommandRequest, label: string, style = "") =>
+    b.push(`<button class="act${style ? " mode" : ""}" ${commandAttribute(request)}${style ? ` style="${style}"` : ""}>${label}</button>`);
+  for (const action of r.valid_actions) {
+    if (action === "request-control") button(Command.requestControl(r.id), "Request control");
+    else if (action === "release") button(Command.release(r.id), "Release control");
+    else if (action.startsWith("mode ")) {
+      for (const mode of action.slice(5).split("|")) {
+        if (mode === r.mode) continue;
+        button(Command.mode(r.id, mode), `Mode ${mode.replace("_", " ")}`, `border-color:${modeColor(mode)}`);
+      }
+    } else if (action === "goto") b.push(`<button class="act" data-goto="1">${state.pickingGoal ? "Tap the map… (Esc)" : "Go to… (tap the map)"}</button>`);
+    else if (action === "teleop") b.push(`<button class="act" data-drive="1">${state.driving ? "Stop driving" : "Drive (keys / gamepad)"}</button>`);
+    else if (action === "explore") button(Command.explore(r.id), "Explore");
+    else if (action === "home") button(Command.home(r.id), "Return home");
+    else if (action === "convoy" && !state.convoyOrder) b.push(`<button class="act" data-convoy="${r.id}">Lead a convoy…</button>`);
+    else if (action === "peel")
+      b.push(`<button class="act" data-peel="1">${
+          state.pickingGoal && state.goalVerb === "peel" ? "Tap the map… (Esc)" : "Peel off… (tap the map)"}</button>`);
+    else if (action === "yield" && r.yield?.for) button(Command.yieldFor(r.id, r.yield.for), `Get out of ${r.yield.for}'s way`);
+    else if (action === "convoy-stop" && r.convoy?.ahead.length)
+      button(Command.convoyStop(r.convoy.ahead[r.convoy.ahead.length - 1]), "Stop the convoy");
+  }
+  return b.join("");
+}
+
+export function renderRobot(): void {
+  const r = selectedRobot();
+  if (!r) {
+    setHtml($("robot-head"), `<p>Tap a robot in the 3D view or the fleet list.</p>`);
+    setHtml($("actions"), "");
+    setHtml($("robot-nav"), "");
+    return;
+  }
+  const holder = r.holder ? `held by <b>${r.holder}</b>${r.you_hold ? " (you)" : ""}${r.holder_alive ? "" : " (not heard)"}` : "free";
+  setHtml($("robot-head"), `<h2>${r.id} <span class="chip" style="background:${modeColor(r.mode)}">${r.mode || "?"}</span></h2>
+    <p>${r.platform} · ${holder} · ${r.online ? "online" : `<b class="bad">lost</b> ${r.lost_reason}`}</p>`);
+  // In explore mode the robot drives to its frontiers itself: its last waypoint goal's status is stale.
+  const nav = r.mode === 'explore' ? 'following the exploration\'s targets' :
+      r.mode === 'yield'           ? `getting out of ${r.yield?.peer || 'a robot'          }'s way` :
+                r.nav_status === 'active' ? `to (${fmt(r.goal?.x_m, 2)}, ${fmt(r.goal?.y_m, 2)}) · ${
+                                      fmt(r.distance_left_m, 1, ' m')} left · ETA ${fmt(r.eta_s, 0, ' s')}` :
+                                            r.nav_status;
+  setHtml(
+      $('robot-nav'),
+      `<p>navigation: <b>${nav}</b>${
+          r.nav_reason ? `<br><span class="reason">${r.nav_reason}</span>` : ''}</p>
+    <p class="small">local planner: ${r.local_planner_status || '–'} · speed ${
+          fmt(Math.abs(r.speed_mps), 2, ' m/s')}</p>
+    ${explorationHtml(r.exploration)}${convoyHtml(r.convoy)}${yieldHtml(r.yield)}`);
+  setHtml($("actions"), actionButtons(r) + `<button class="act stop" ${commandAttribute(Command.stop(r.id))}>STOP</button>`);
+  $("actions").dataset.robot = r.id;
+  const cam = state.cameraUrls.get(r.id);
+  $("camera-age").textContent = cam ? `camera: ${((Date.now() - cam.stamp) / 1000).toFixed(1)} s old` : "camera: no frame yet";
+  const d = state.drive;
+  $("drive-state").textContent = !state.driving ? ""
+    : d.active ? `driving ${r.id}: ${d.source} v ${d.vx.toFixed(2)} m/s, w ${d.wz.toFixed(2)} rad/s`
+    : d.stale ? `driving ${r.id}: gamepad stick silent for over 0.5 s: zero sent (move it to drive again)`
+    : `driving ${r.id}: ${d.source || "no input"}: zero sent`;
+}
+
+// The exploration block of the robot tab: state, explored area, frontiers, target, team (nothing before the
+// robot's first exploration).
+function explorationHtml(e: Exploration | undefined): string {
+  if (!e || !e.state || e.state === "none") return "";
+  const target = e.target ? ` · target (${fmt(e.target.x_m, 1)}, ${fmt(e.target.y_m, 1)}, z ${fmt(e.target.z_m, 1)})` : "";
+  const team = e.peers > 0 ? ` · ${e.peers} peer${e.peers > 1 ? "s" : ""} (${fmt(e.peer_seen_m2, 0, " m²")} seen)` : "";
+  return `<p id="exploration">exploration ${e.task_id}: <b>${e.state}</b> · ${fmt(e.explored_m2, 0, " m²")} explored ·
+    ${e.frontiers} frontiers (${e.reachable_frontiers} reachable)${target}${team} · ${e.targets_reached} reached, ${e.targets_failed} given up
+    ${e.reason ? `<br><span class="reason">${e.reason}</span>` : ""}</p>`;
+}
+
+// The convoy block of the robot tab: whom it follows, how far behind along the path, the order to the leader.
+function convoyHtml(c: Convoy|undefined): string {
+  if (!c || c.ahead.length === 0) return '';
+  const order = [...c.ahead].reverse().join(' ← ');
+  const gap = c.gap_m === undefined ? '' : ` · ${fmt(c.gap_m, 1, ' m')} behind along its path`;
+  const bad = c.state === 'lost' || c.state === 'blocked';
+  return `<p id="convoy">convoy: <b${bad ? ' class="bad"' : ''}>${c.state}</b> behind <b>${c.ahead[0]}</b>${
+      gap}
+    <br><span class="small">order: ${order} ← ${state.selected}</span>
+    ${c.reason ? `<br><span class="reason">${c.reason}</span>` : ''}</p>`;
+}
+
+// The yield block of the robot tab: getting out of a peer's way, or waiting for one to.
+function yieldHtml(y: YieldRecord|undefined): string {
+  if (!y || !y.state) return '';
+  const bad = y.state === 'refused' || y.state === 'blocked';
+  return `<p id="yield">get out of the way: <b${bad ? ' class="bad"' : ''}>${
+      y.state.replace(
+          '_', ' ')}</b> (${y.peer})${y.reason ? `<br><span class="reason">${y.reason}</span>` : ''}</p>`;
+}
+
+// One robot's link cells: probe round trip, state samples lost (10 s), what it sends against its budget.
+function linkCells(r: Robot): string {
+  const l = r.link;
+  if (!l) return "<td>–</td><td>–</td><td>–</td>";
+  const rtt = l.rtt_ms < 0 ? "–"
+    : l.probe_wait_s > 0 ? `<b class="bad">no answer ${l.probe_wait_s.toFixed(0)} s</b>`
+    : `${l.rtt_ms.toFixed(l.rtt_ms < 10 ? 1 : 0)} ms`;
+  const loss = `${l.loss_pct.toFixed(0)} %`;
+  const classes = l.usage.map((u) => `${u.topic_class} ${u.sent_kbps.toFixed(0)}`).join(", ");
+  const budget = l.budget_kbps > 0 ? ` / ${l.budget_kbps.toFixed(0)}` : "";
+  const sends = `<span title="${classes}">${l.sent_kbps.toFixed(0)}${budget} kbit/s</span>`;
+  return `<td>${rtt}</td><td${l.loss_pct >= 5 ? ' class="bad"' : ""}>${loss}</td><td${l.over_budget ? ' class="bad"' : ""}>${l.over_budget ? "OVER " : ""}${sends}</td>`;
+}
+
+function hasDown(r: Robot): boolean {
+  return (r.components ?? []).some((c) => c.state !== "active");
+}
+
+export function renderHealth(): void {
+  const rows = state.robots.map(
+    (r) => `<tr><td>${r.id}</td><td>${r.online ? "online" : "lost"}</td><td>${fmt(r.heard_s_ago, 1, " s")}</td>
+      ${linkCells(r)}<td>${fmt(r.control_period_max_ms, 0, " ms")}</td><td>${r.in_contact ? "CONTACT" : "–"}</td><td>${fmt(r.camera_age_s, 1, " s")}</td></tr>`,
+  );
+  setHtml($("health-rows"), rows.join(""));
+  // Components, robot by robot (those with a part down first): a restart button where this basestation holds
+  // the robot's lock (the only ones a robot accepts it from).
+  const robots = [...state.robots].sort((a, b) => Number(hasDown(b)) - Number(hasDown(a)));
+  setHtml($("component-rows"), robots.filter((r) => (r.components ?? []).length > 0).map((r) => {
+    const head = `<tr class="group"><td colspan="6"><b>${r.id}</b>${hasDown(r) ? ' <b class="bad">component down</b>' : ""}</td></tr>`;
+    return head + (r.components ?? []).map((c) => {
+      const stateText = c.state === "down" ? `<b class="bad">DOWN</b> ${c.restart_in_s.toFixed(0)} s`
+        : c.degraded ? '<b class="slow">degraded</b>' : c.state;
+      // A rate under half its target is shown in the warning colour (slow, not down).
+      const slow = c.state === "active" && (c.degraded || c.loop_rate_hz < 0.5 * c.target_rate_hz);
+      const restart = r.you_hold && r.online
+        ? `<button class="restart" title="restart ${c.name}" ${commandAttribute(Command.restart(r.id, c.name))}>restart</button>` : "";
+      // The last error under the component's name (the panel is narrow): what made it fail last.
+      const error = c.last_error ? `<br><span class="reason error">${c.last_error}</span>` : "";
+      return `<tr data-robot-id="${r.id}"><td>${c.name}${error}</td><td>${stateText}</td>
+        <td${slow ? ' class="slow"' : ""}>${c.loop_rate_hz.toFixed(0)}/${c.target_rate_hz.toFixed(0)}</td><td>${c.cpu_percent.toFixed(0)}</td>
+        <td>${c.restarts}</td><td>${restart}</td></tr>`;
+    }).join("");
+  }).join(""));
+  $("health-link").textContent = `link: ${state.statusText} · received ${(link.bytesReceived / 1e6).toFixed(1)} MB · 3D: ${scene.voxelCount} voxels, ${scene.fps.toFixed(0)} fps`;
+}
+
+export function renderEvents(): void {
+  $("event-rows").innerHTML = state.events
+    .map((e) => `<li class="${e.level >= 3 ? "warn" : ""}"><time>${e.time.toLocaleTimeString()}</time> ${e.message}</li>`)
+    .join("");
+}
+
