@@ -211,63 +211,11 @@ void HealthMonitor::Check(SteadyTime now) {
   std::vector<HealthEvent> events;
   {
     std::lock_guard<std::mutex> transition(transition_mutex_);
-    std::vector<Entry*> entries;
     bool process_stalled = false;
-    {
-      std::lock_guard<std::mutex> guard(mutex_);
-      double shortest_deadline_s = 1e9;
-      for (Entry& e : entries_) {
-        entries.push_back(&e);
-        shortest_deadline_s = std::min(shortest_deadline_s, e.policy.heartbeat_deadline_s);
-      }
-      process_stalled = last_check_ != SteadyTime{} && SecondsBetween(last_check_, now) > shortest_deadline_s;
-      last_check_ = now;
-    }
-    for (Entry* entry : entries) {
+    for (Entry* entry : EntriesToCheck(now, &process_stalled)) {
       Entry& e = *entry;
-      Component& c = *e.component;
-      std::string reason;
       std::string by;
-      {
-        std::lock_guard<std::mutex> guard(mutex_);
-        // Loop rate and CPU over windows of about a second.
-        if (const double window_s = SecondsBetween(e.window_start, now); window_s >= 1.0) {
-          const std::uint64_t beats = c.heartbeats();
-          const double cpu_s = c.cpu_s();
-          e.rate_hz = static_cast<double>(beats - e.window_beats) / window_s;
-          e.cpu_percent = 100.0 * (cpu_s - e.window_cpu_s) / window_s;
-          e.window_start = now;
-          e.window_beats = beats;
-          e.window_cpu_s = cpu_s;
-          if (std::optional<HealthEvent> slow = JudgeRate(e); slow) {
-            spdlog::warn("{}", slow->message);
-            events.push_back(std::move(*slow));
-          }
-        }
-        if (process_stalled) {
-          e.no_stall_before = now + std::chrono::duration_cast<SteadyClock::duration>(
-                                        std::chrono::duration<double>(e.policy.heartbeat_deadline_s));
-        }
-        by = std::move(e.restart_requested_by);
-        e.restart_requested_by.clear();
-        if (c.state() == LifecycleState::kActive) {
-          if (c.failed()) {
-            reason = c.last_error();
-          } else if (now >= e.no_stall_before) {
-            const double age_s = SecondsBetween(c.last_heartbeat(), now);
-            const int missed = static_cast<int>(std::floor(age_s / e.policy.heartbeat_deadline_s));
-            if (missed >= e.policy.missed_deadlines_to_fail) {
-              reason = "stalled: no heartbeat for " + Fixed1(age_s) + " s (" + std::to_string(missed) +
-                       " deadlines of " + Fixed1(e.policy.heartbeat_deadline_s) + " s missed)";
-              c.ReportFailure(reason);
-            }
-          }
-          if (reason.empty() && e.backoff_s > 0 &&
-              SecondsBetween(e.up_since, now) >= e.policy.stable_after_s) {
-            e.backoff_s = 0;  // up long enough: the next failure waits the first back-off again
-          }
-        }
-      }
+      const std::string reason = Judge(e, now, process_stalled, &by, &events);
       if (!reason.empty()) {
         for (HealthEvent& event : TakeDown(e, reason, now)) {
           spdlog::error("{}", event.message);
@@ -275,58 +223,120 @@ void HealthMonitor::Check(SteadyTime now) {
         }
         continue;
       }
-      bool bring_up = false;
-      bool still_running = false;
-      {
-        std::lock_guard<std::mutex> guard(mutex_);
-        bring_up = e.down && (now >= e.restart_at || !by.empty());
-        still_running = e.still_running;
-      }
-      if (!by.empty() && c.state() == LifecycleState::kActive) {
-        std::vector<HealthEvent> stuck = StopForRestart(e, by, now);
-        if (!stuck.empty()) {
-          spdlog::error("{}", stuck.front().message);
-          events.push_back(std::move(stuck.front()));
-          continue;
-        }
-        bring_up = true;
-      }
-      if (!bring_up) continue;
-      if (still_running) {
-        // Its work that did not stop may have ended since (slow, not hung): only then is a restart safe.
-        if (!c.StillRunning().empty()) continue;
-        std::lock_guard<std::mutex> guard(mutex_);
-        e.still_running = false;
-      }
-      const double down_s = e.down ? SecondsBetween(e.down_since, now) : 0.0;
-      try {
-        c.Activate();
-        std::lock_guard<std::mutex> guard(mutex_);
-        e.down = false;
-        e.up_since = now;
-        e.down_reason.clear();
-        ++e.restarts;
-        std::string message = c.name() + " restarted";
-        message += by.empty() ? "" : " by " + by;
-        message += down_s > 0 ? " after " + Fixed1(down_s) + " s down" : "";
-        message += " (restart " + std::to_string(e.restarts) + ")";
-        events.push_back({HealthEvent::Kind::kRestarted, c.name(), message});
-        spdlog::warn("{}", message);
-      } catch (const std::exception& ex) {
-        std::lock_guard<std::mutex> guard(mutex_);
-        if (!e.down) e.down_since = now;
-        e.down = true;
-        ScheduleRestart(e, now);
-        e.down_reason = ex.what();
-        events.push_back({HealthEvent::Kind::kRestartFailed, c.name(),
-                          c.name() + " did not come back up: " + ex.what() + "; next try in " +
-                              Fixed1(e.backoff_s) + " s"});
-        spdlog::error("{}", events.back().message);
-      }
+      BringUpIfDue(e, by, now, &events);
     }
   }
   if (on_event_) {
     for (const HealthEvent& event : events) on_event_(event);
+  }
+}
+
+std::vector<HealthMonitor::Entry*> HealthMonitor::EntriesToCheck(SteadyTime now, bool* process_stalled) {
+  std::lock_guard<std::mutex> guard(mutex_);
+  std::vector<Entry*> entries;
+  double shortest_deadline_s = 1e9;
+  for (Entry& e : entries_) {
+    entries.push_back(&e);
+    shortest_deadline_s = std::min(shortest_deadline_s, e.policy.heartbeat_deadline_s);
+  }
+  *process_stalled = last_check_ != SteadyTime{} && SecondsBetween(last_check_, now) > shortest_deadline_s;
+  last_check_ = now;
+  return entries;
+}
+
+std::string HealthMonitor::Judge(Entry& e, SteadyTime now, bool process_stalled, std::string* by,
+                                 std::vector<HealthEvent>* events) {
+  Component& c = *e.component;
+  std::lock_guard<std::mutex> guard(mutex_);
+  // Loop rate and CPU over windows of about a second.
+  if (const double window_s = SecondsBetween(e.window_start, now); window_s >= 1.0) {
+    const std::uint64_t beats = c.heartbeats();
+    const double cpu_s = c.cpu_s();
+    e.rate_hz = static_cast<double>(beats - e.window_beats) / window_s;
+    e.cpu_percent = 100.0 * (cpu_s - e.window_cpu_s) / window_s;
+    e.window_start = now;
+    e.window_beats = beats;
+    e.window_cpu_s = cpu_s;
+    if (std::optional<HealthEvent> slow = JudgeRate(e); slow) {
+      spdlog::warn("{}", slow->message);
+      events->push_back(std::move(*slow));
+    }
+  }
+  if (process_stalled) {
+    e.no_stall_before = now + std::chrono::duration_cast<SteadyClock::duration>(
+                                  std::chrono::duration<double>(e.policy.heartbeat_deadline_s));
+  }
+  *by = std::move(e.restart_requested_by);
+  e.restart_requested_by.clear();
+  if (c.state() != LifecycleState::kActive) return "";
+  std::string reason;
+  if (c.failed()) {
+    reason = c.last_error();
+  } else if (now >= e.no_stall_before) {
+    const double age_s = SecondsBetween(c.last_heartbeat(), now);
+    const int missed = static_cast<int>(std::floor(age_s / e.policy.heartbeat_deadline_s));
+    if (missed >= e.policy.missed_deadlines_to_fail) {
+      reason = "stalled: no heartbeat for " + Fixed1(age_s) + " s (" + std::to_string(missed) +
+               " deadlines of " + Fixed1(e.policy.heartbeat_deadline_s) + " s missed)";
+      c.ReportFailure(reason);
+    }
+  }
+  if (reason.empty() && e.backoff_s > 0 && SecondsBetween(e.up_since, now) >= e.policy.stable_after_s) {
+    e.backoff_s = 0;  // up long enough: the next failure waits the first back-off again
+  }
+  return reason;
+}
+
+void HealthMonitor::BringUpIfDue(Entry& e, const std::string& by, SteadyTime now,
+                                 std::vector<HealthEvent>* events) {
+  Component& c = *e.component;
+  bool bring_up = false;
+  bool still_running = false;
+  {
+    std::lock_guard<std::mutex> guard(mutex_);
+    bring_up = e.down && (now >= e.restart_at || !by.empty());
+    still_running = e.still_running;
+  }
+  if (!by.empty() && c.state() == LifecycleState::kActive) {
+    std::vector<HealthEvent> stuck = StopForRestart(e, by, now);
+    if (!stuck.empty()) {
+      spdlog::error("{}", stuck.front().message);
+      events->push_back(std::move(stuck.front()));
+      return;
+    }
+    bring_up = true;
+  }
+  if (!bring_up) return;
+  if (still_running) {
+    // Its work that did not stop may have ended since (slow, not hung): only then is a restart safe.
+    if (!c.StillRunning().empty()) return;
+    std::lock_guard<std::mutex> guard(mutex_);
+    e.still_running = false;
+  }
+  const double down_s = e.down ? SecondsBetween(e.down_since, now) : 0.0;
+  try {
+    c.Activate();
+    std::lock_guard<std::mutex> guard(mutex_);
+    e.down = false;
+    e.up_since = now;
+    e.down_reason.clear();
+    ++e.restarts;
+    std::string message = c.name() + " restarted";
+    message += by.empty() ? "" : " by " + by;
+    message += down_s > 0 ? " after " + Fixed1(down_s) + " s down" : "";
+    message += " (restart " + std::to_string(e.restarts) + ")";
+    events->push_back({HealthEvent::Kind::kRestarted, c.name(), message});
+    spdlog::warn("{}", message);
+  } catch (const std::exception& ex) {
+    std::lock_guard<std::mutex> guard(mutex_);
+    if (!e.down) e.down_since = now;
+    e.down = true;
+    ScheduleRestart(e, now);
+    e.down_reason = ex.what();
+    events->push_back(
+        {HealthEvent::Kind::kRestartFailed, c.name(),
+         c.name() + " did not come back up: " + ex.what() + "; next try in " + Fixed1(e.backoff_s) + " s"});
+    spdlog::error("{}", events->back().message);
   }
 }
 

@@ -376,166 +376,213 @@ CoverageBitmap SeenCoverage(const TraversabilityGrid& grid, double cell_m) {
   return out;
 }
 
-FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d& robot_M,
-                          const FrontierOptions& options, const PeerCoverage* peers) {
-  std::string why;
-  if (!options.IsValid(&why)) throw std::invalid_argument(why);
-  const int nx = grid.nx();
-  const int ny = grid.ny();
-  const double cell_m = grid.cell_size_m();
-  const std::size_t n = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
-  auto index = [nx](int ix, int iy) {
-    return static_cast<std::size_t>(ix) + static_cast<std::size_t>(nx) * iy;
-  };
-  auto in_scope = [&](int ix, int iy) {
-    if (!options.region_M.isEmpty() && !options.region_M.contains(grid.CellCenter(ix, iy))) return false;
-    const double z = grid.Ground(ix, iy);
-    return z >= options.min_z_m && z <= options.max_z_m;
-  };
+namespace {
 
-  FrontierSet result;
-  const std::vector<char> peer_seen = PeerSeenCells(grid, peers);  // on this grid's cells
-  // 1. Frontier cells, and the explored area.
-  std::vector<char> frontier(n, 0);
-  int free_cells = 0;
-  for (int iy = 0; iy < ny; ++iy) {
-    for (int ix = 0; ix < nx; ++ix) {
-      if (grid.State(ix, iy) != CellState::kFree || !in_scope(ix, iy)) continue;
-      ++free_cells;
-      if (!grid.IsTraversable(ix, iy)) continue;
-      for (int d = 0; d < 4; ++d) {
-        const int jx = ix + kDx4[d];
-        const int jy = iy + kDy4[d];
-        if (grid.InGrid(jx, jy) && grid.State(jx, jy) == CellState::kUnknown) {
-          frontier[index(ix, iy)] = 1;
-          ++result.frontier_cells;
-          break;
+// FindFrontiers' search on one traversability grid: its frontier cells, the travel cost to each cell from the
+// robot, and the clusters of frontier cells.
+class GridFrontierSearch {
+ public:
+  GridFrontierSearch(const TraversabilityGrid& grid, const FrontierOptions& options)
+      : grid_(grid),
+        options_(options),
+        nx_(grid.nx()),
+        ny_(grid.ny()),
+        cell_m_(grid.cell_size_m()),
+        n_(static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_)),
+        reach_cells_(static_cast<float>(options.unknown_reach_m / cell_m_)),
+        pass_radius_m_(std::min(grid.options().robot_radius_m, options.tight_radius_m)) {
+    to_known_ =
+        ChamferToKnown(nx_, ny_, [&](int ix, int iy) { return grid.State(ix, iy) == CellState::kFree; });
+  }
+
+  // 1. Frontier cells (traversable known-free cells in scope beside an unknown one), and the explored area.
+  void MarkFrontierCells(FrontierSet* result) {
+    frontier_.assign(n_, 0);
+    int free_cells = 0;
+    for (int iy = 0; iy < ny_; ++iy) {
+      for (int ix = 0; ix < nx_; ++ix) {
+        if (grid_.State(ix, iy) != CellState::kFree || !InScope(ix, iy)) continue;
+        ++free_cells;
+        if (!grid_.IsTraversable(ix, iy)) continue;
+        for (int d = 0; d < 4; ++d) {
+          const int jx = ix + kDx4[d];
+          const int jy = iy + kDy4[d];
+          if (grid_.InGrid(jx, jy) && grid_.State(jx, jy) == CellState::kUnknown) {
+            frontier_[Index(ix, iy)] = 1;
+            ++result->frontier_cells;
+            break;
+          }
         }
       }
     }
+    result->known_free_m2 = free_cells * cell_m_ * cell_m_;
   }
-  result.known_free_m2 = free_cells * cell_m * cell_m;
 
-  // 2. Travel cost: Dijkstra from the robot's cell over traversable cells, known-free or unknown.
-  const std::vector<float> to_known =
-      ChamferToKnown(nx, ny, [&](int ix, int iy) { return grid.State(ix, iy) == CellState::kFree; });
-  const float reach_cells = static_cast<float>(options.unknown_reach_m / cell_m);
-  const double pass_radius_m = std::min(grid.options().robot_radius_m, options.tight_radius_m);
-  auto clear = [&](int ix, int iy) { return grid.IsTraversableFor(ix, iy, pass_radius_m); };
-  auto passable = [&](int ix, int iy) {
-    const CellState state = grid.State(ix, iy);
-    if (state == CellState::kUnknown) return to_known[index(ix, iy)] <= reach_cells && clear(ix, iy);
-    return state == CellState::kFree && clear(ix, iy);
-  };
-  std::vector<char> via_tight(n, 0);  // the cheapest path to the cell passes a tight cell
-  std::vector<double> cost(n, kInf);
-  int sx = -1;
-  int sy = -1;
   // The robot's own cell: known free, or unknown but passable (it stands in its lidar's blind ring, where no
-  // beam reaches the floor).
-  if (int rx = 0, ry = 0; grid.CellOf(robot_M.x(), robot_M.y(), &rx, &ry) &&
-                          (grid.State(rx, ry) == CellState::kFree || passable(rx, ry))) {
-    sx = rx;
-    sy = ry;
-  } else {
-    const int reach = static_cast<int>(std::ceil(kStartSearchM / cell_m));
+  // beam reaches the floor); else the nearest traversable free cell within kStartSearchM. false: none.
+  bool StartCell(const Eigen::Vector2d& robot_M, int* sx, int* sy) const {
+    if (int rx = 0, ry = 0; grid_.CellOf(robot_M.x(), robot_M.y(), &rx, &ry) &&
+                            (grid_.State(rx, ry) == CellState::kFree || Passable(rx, ry))) {
+      *sx = rx;
+      *sy = ry;
+      return true;
+    }
+    const int reach = static_cast<int>(std::ceil(kStartSearchM / cell_m_));
     double best = kInf;
     int cx = 0;
     int cy = 0;
     const bool inside =
-        grid.CellOf(std::clamp(robot_M.x(), grid.p_W_min().x(), grid.p_W_max().x() - 1e-9),
-                    std::clamp(robot_M.y(), grid.p_W_min().y(), grid.p_W_max().y() - 1e-9), &cx, &cy);
+        grid_.CellOf(std::clamp(robot_M.x(), grid_.p_W_min().x(), grid_.p_W_max().x() - 1e-9),
+                     std::clamp(robot_M.y(), grid_.p_W_min().y(), grid_.p_W_max().y() - 1e-9), &cx, &cy);
     for (int dy = -reach; inside && dy <= reach; ++dy) {
       for (int dx = -reach; dx <= reach; ++dx) {
         const int jx = cx + dx;
         const int jy = cy + dy;
-        if (!grid.InGrid(jx, jy) || grid.State(jx, jy) != CellState::kFree || !grid.IsTraversable(jx, jy))
+        if (!grid_.InGrid(jx, jy) || grid_.State(jx, jy) != CellState::kFree || !grid_.IsTraversable(jx, jy))
           continue;
-        const double d = (grid.CellCenter(jx, jy) - robot_M).norm();
+        const double d = (grid_.CellCenter(jx, jy) - robot_M).norm();
         if (d <= kStartSearchM && d < best) {
           best = d;
-          sx = jx;
-          sy = jy;
+          *sx = jx;
+          *sy = jy;
         }
       }
     }
+    return best < kInf;
   }
-  if (sx >= 0) {
-    result.robot_on_grid = true;
+
+  // 2. Travel cost: Dijkstra from (sx, sy) over passable cells, known-free or unknown (sx < 0: none reached).
+  void TravelCosts(int sx, int sy) {
+    via_tight_.assign(n_, 0);
+    cost_.assign(n_, kInf);
+    if (sx < 0) return;
     using Item = std::pair<double, std::size_t>;
     std::priority_queue<Item, std::vector<Item>, std::greater<Item>> open;
-    cost[index(sx, sy)] = 0.0;
-    open.emplace(0.0, index(sx, sy));
+    cost_[Index(sx, sy)] = 0.0;
+    open.emplace(0.0, Index(sx, sy));
     std::size_t pops = 0;
     while (!open.empty()) {
       const auto [c, i] = open.top();
       open.pop();
-      if (options.progress && ++pops % kProgressEvery == 0) options.progress();
-      if (c > cost[i]) continue;
-      const int ix = static_cast<int>(i % static_cast<std::size_t>(nx));
-      const int iy = static_cast<int>(i / static_cast<std::size_t>(nx));
+      if (options_.progress && ++pops % kProgressEvery == 0) options_.progress();
+      if (c > cost_[i]) continue;
+      const int ix = static_cast<int>(i % static_cast<std::size_t>(nx_));
+      const int iy = static_cast<int>(i / static_cast<std::size_t>(nx_));
       for (int d = 0; d < 8; ++d) {
         const int jx = ix + kDx8[d];
         const int jy = iy + kDy8[d];
-        if (!grid.InGrid(jx, jy) || !passable(jx, jy)) continue;
+        if (!grid_.InGrid(jx, jy) || !Passable(jx, jy)) continue;
         // A diagonal step needs both cells beside it passable too (no corner cutting past a wall).
-        if (kDx8[d] != 0 && kDy8[d] != 0 && (!passable(ix + kDx8[d], iy) || !passable(ix, iy + kDy8[d]))) {
+        if (kDx8[d] != 0 && kDy8[d] != 0 && (!Passable(ix + kDx8[d], iy) || !Passable(ix, iy + kDy8[d]))) {
           continue;
         }
-        const bool tight = !grid.IsTraversable(jx, jy);
-        const double per_m = (grid.State(jx, jy) == CellState::kUnknown ? 1.0 + options.unknown_cost : 1.0) +
-                             (tight ? options.tight_cost : 0.0);
-        const double step = (kDx8[d] != 0 && kDy8[d] != 0 ? std::sqrt(2.0) : 1.0) * cell_m * per_m;
-        const std::size_t j = index(jx, jy);
-        if (c + step < cost[j]) {
-          cost[j] = c + step;
-          via_tight[j] = static_cast<char>(via_tight[i] || tight);
-          open.emplace(cost[j], j);
+        const bool tight = !grid_.IsTraversable(jx, jy);
+        const double per_m =
+            (grid_.State(jx, jy) == CellState::kUnknown ? 1.0 + options_.unknown_cost : 1.0) +
+            (tight ? options_.tight_cost : 0.0);
+        const double step = (kDx8[d] != 0 && kDy8[d] != 0 ? std::sqrt(2.0) : 1.0) * cell_m_ * per_m;
+        const std::size_t j = Index(jx, jy);
+        if (c + step < cost_[j]) {
+          cost_[j] = c + step;
+          via_tight_[j] = static_cast<char>(via_tight_[i] || tight);
+          open.emplace(cost_[j], j);
         }
       }
     }
   }
 
-  // 3. Clusters: 8-connected components of frontier cells, cut into pieces of at most max_cluster_extent_m.
-  std::vector<char> seen(n, 0);
-  std::vector<int> gain_stamp(n, -1);
-  int gain_id = 0;
-  using Cell2 = std::pair<int, int>;
-  const auto view = MakeCellView([&](const Cell2& c) { return grid.CellCenter(c.first, c.second); },
-                                 [&](const Cell2& c) { return grid.ClearanceM(c.first, c.second); },
-                                 [&](const Cell2& c) { return cost[index(c.first, c.second)]; },
-                                 [&](const Cell2& c) { return via_tight[index(c.first, c.second)] != 0; },
-                                 [&](const Cell2& c) { return grid.Ground(c.first, c.second); },
-                                 [&](const Cell2& c) {
-                                   return VisibleUnknownCells(grid, c.first, c.second, options.gain_radius_m,
-                                                              ++gain_id, &gain_stamp, peer_seen);
-                                 });
-  std::vector<std::pair<int, int>> component;
-  std::vector<std::pair<int, int>> stack;
-  const int piece_cells = std::max(1, static_cast<int>(std::floor(options.max_cluster_extent_m / cell_m)));
-  for (int iy0 = 0; iy0 < ny; ++iy0) {
-    for (int ix0 = 0; ix0 < nx; ++ix0) {
-      if (!frontier[index(ix0, iy0)] || seen[index(ix0, iy0)]) continue;
-      component.clear();
-      stack.assign(1, {ix0, iy0});
-      seen[index(ix0, iy0)] = 1;
-      while (!stack.empty()) {
-        const auto [ix, iy] = stack.back();
-        stack.pop_back();
-        component.emplace_back(ix, iy);
-        for (int d = 0; d < 8; ++d) {
-          const int jx = ix + kDx8[d];
-          const int jy = iy + kDy8[d];
-          if (!grid.InGrid(jx, jy) || !frontier[index(jx, jy)] || seen[index(jx, jy)]) continue;
-          seen[index(jx, jy)] = 1;
-          stack.emplace_back(jx, jy);
+  // 3. Clusters: 8-connected components of frontier cells, cut into pieces of at most max_cluster_extent_m,
+  // with their costs and gains (unknown cells visible from them that no peer saw: `peer_seen`).
+  void Cluster(const std::vector<char>& peer_seen, FrontierSet* result) {
+    std::vector<char> seen(n_, 0);
+    std::vector<int> gain_stamp(n_, -1);
+    int gain_id = 0;
+    using Cell2 = std::pair<int, int>;
+    const auto view =
+        MakeCellView([&](const Cell2& c) { return grid_.CellCenter(c.first, c.second); },
+                     [&](const Cell2& c) { return grid_.ClearanceM(c.first, c.second); },
+                     [&](const Cell2& c) { return cost_[Index(c.first, c.second)]; },
+                     [&](const Cell2& c) { return via_tight_[Index(c.first, c.second)] != 0; },
+                     [&](const Cell2& c) { return grid_.Ground(c.first, c.second); },
+                     [&](const Cell2& c) {
+                       return VisibleUnknownCells(grid_, c.first, c.second, options_.gain_radius_m, ++gain_id,
+                                                  &gain_stamp, peer_seen);
+                     });
+    std::vector<Cell2> component;
+    std::vector<Cell2> stack;
+    const int piece_cells =
+        std::max(1, static_cast<int>(std::floor(options_.max_cluster_extent_m / cell_m_)));
+    for (int iy0 = 0; iy0 < ny_; ++iy0) {
+      for (int ix0 = 0; ix0 < nx_; ++ix0) {
+        if (!frontier_[Index(ix0, iy0)] || seen[Index(ix0, iy0)]) continue;
+        component.clear();
+        stack.assign(1, {ix0, iy0});
+        seen[Index(ix0, iy0)] = 1;
+        while (!stack.empty()) {
+          const auto [ix, iy] = stack.back();
+          stack.pop_back();
+          component.emplace_back(ix, iy);
+          for (int d = 0; d < 8; ++d) {
+            const int jx = ix + kDx8[d];
+            const int jy = iy + kDy8[d];
+            if (!grid_.InGrid(jx, jy) || !frontier_[Index(jx, jy)] || seen[Index(jx, jy)]) continue;
+            seen[Index(jx, jy)] = 1;
+            stack.emplace_back(jx, jy);
+          }
         }
+        AppendClusters(CutIntoPieces(
+                           component, [](const Cell2& c) { return c; }, piece_cells),
+                       options_, grid_.options().robot_radius_m, cell_m_ * cell_m_, view, &result->clusters);
       }
-      AppendClusters(CutIntoPieces(
-                         component, [](const std::pair<int, int>& c) { return c; }, piece_cells),
-                     options, grid.options().robot_radius_m, cell_m * cell_m, view, &result.clusters);
     }
   }
+
+ private:
+  std::size_t Index(int ix, int iy) const {
+    return static_cast<std::size_t>(ix) + static_cast<std::size_t>(nx_) * iy;
+  }
+  bool InScope(int ix, int iy) const {
+    if (!options_.region_M.isEmpty() && !options_.region_M.contains(grid_.CellCenter(ix, iy))) return false;
+    const double z = grid_.Ground(ix, iy);
+    return z >= options_.min_z_m && z <= options_.max_z_m;
+  }
+  // Passable for the search: known free, or unknown within unknown_reach_m of known free; clear for a body of
+  // pass_radius_m either way.
+  bool Passable(int ix, int iy) const {
+    const CellState state = grid_.State(ix, iy);
+    if (state == CellState::kUnknown) {
+      return to_known_[Index(ix, iy)] <= reach_cells_ && grid_.IsTraversableFor(ix, iy, pass_radius_m_);
+    }
+    return state == CellState::kFree && grid_.IsTraversableFor(ix, iy, pass_radius_m_);
+  }
+
+  const TraversabilityGrid& grid_;
+  const FrontierOptions& options_;
+  const int nx_, ny_;
+  const double cell_m_;
+  const std::size_t n_;
+  const float reach_cells_;
+  const double pass_radius_m_;
+  std::vector<float> to_known_;  // distance to the nearest known-free cell, cells (chamfer)
+  std::vector<char> frontier_;   // frontier cells
+  std::vector<double> cost_;     // travel cost from the robot, m (kInf: not reached)
+  std::vector<char> via_tight_;  // the cheapest path to the cell passes a tight cell
+};
+
+}  // namespace
+
+FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d& robot_M,
+                          const FrontierOptions& options, const PeerCoverage* peers) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  FrontierSet result;
+  GridFrontierSearch search(grid, options);
+  search.MarkFrontierCells(&result);
+  int sx = -1;
+  int sy = -1;
+  result.robot_on_grid = search.StartCell(robot_M, &sx, &sy);
+  search.TravelCosts(result.robot_on_grid ? sx : -1, sy);
+  search.Cluster(PeerSeenCells(grid, peers), &result);
   SortFrontierClusters(&result.clusters);
   return result;
 }
@@ -595,104 +642,88 @@ double VisibleUnknownM2(const MultiLevelGrid& grid, const Eigen::Vector3d& p_M, 
          grid.cell_size_m() * grid.cell_size_m();
 }
 
-FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& robot_M,
-                                    const FrontierOptions& options, const PeerCoverage* peers) {
-  std::string why;
-  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+namespace {
+
+// FindFrontiersMultiLevel's search on a multi-level grid: its frontier surfaces, the travel cost to each
+// surface (and to unknown space near them) from the robot, and the clusters of frontier surfaces.
+class LevelFrontierSearch {
+ public:
   using State = internal::LevelState;
-  const int nx = grid.nx();
-  const int ny = grid.ny();
-  const double cell_m = grid.cell_size_m();
-  const double max_step_m = grid.options().max_step_m;
-  const std::size_t columns = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
-  const std::size_t nodes = static_cast<std::size_t>(grid.node_count());
-  auto column_xy = [nx](int column) { return std::pair<int, int>(column % nx, column / nx); };
-  auto node_center = [&](int node) {
-    const auto [ix, iy] = column_xy(grid.NodeColumn(node));
-    return grid.CellCenter(ix, iy);
-  };
-  auto in_scope = [&](int node) {
-    if (!options.region_M.isEmpty() && !options.region_M.contains(node_center(node))) return false;
-    const double z = grid.NodeZ(node);
-    return z >= options.min_z_m && z <= options.max_z_m;
-  };
-  FrontierSet result;
-  const std::vector<char> peer_seen = PeerSeenCells(grid, peers);  // per column
+
+  LevelFrontierSearch(const MultiLevelGrid& grid, const FrontierOptions& options)
+      : grid_(grid),
+        options_(options),
+        nx_(grid.nx()),
+        cell_m_(grid.cell_size_m()),
+        max_step_m_(grid.options().max_step_m),
+        nodes_(static_cast<std::size_t>(grid.node_count())),
+        reach_cells_(static_cast<float>(options.unknown_reach_m / cell_m_)),
+        moves_(grid, MovesFor(options)),
+        cost_(nodes_, kInf),
+        via_tight_(nodes_, 0) {
+    to_known_ = ChamferToKnown(nx_, grid.ny(), [&](int ix, int iy) {
+      return grid.FirstNode(grid.Column(ix, iy)) < grid.FirstNode(grid.Column(ix, iy) + 1);
+    });
+  }
 
   // 1. Frontier surfaces (traversable, in scope, a 4-neighbour unknown at their height) and the explored
   // area.
-  std::vector<char> frontier(nodes, 0);
-  int known_nodes = 0;
-  for (int node = 0; node < grid.node_count(); ++node) {
-    if (!in_scope(node)) continue;
-    ++known_nodes;
-    if (!grid.IsTraversable(node)) continue;
-    const auto [ix, iy] = column_xy(grid.NodeColumn(node));
-    const double z = grid.NodeZ(node);
-    for (int d = 0; d < 4; ++d) {
-      const int jx = ix + kDx4[d];
-      const int jy = iy + kDy4[d];
-      if (grid.InGrid(jx, jy) && grid.NodeNear(jx, jy, z, max_step_m) < 0 &&
-          (grid.IsUnknownAt(jx, jy, z) || grid.IsUnseenStepAt(jx, jy, z))) {
-        frontier[static_cast<std::size_t>(node)] = 1;
-        ++result.frontier_cells;
-        break;
-      }
-    }
-  }
-  result.known_free_m2 = known_nodes * cell_m * cell_m;
-
-  // 2. Travel cost: Dijkstra from the robot's surface over connected traversable surfaces and unknown space
-  // entered at the height of the surface left (PlanPathMultiLevel's moves), unknown columns only within
-  // unknown_reach_m of a column with a known surface (the robot stands in its lidar's blind ring, unseen
-  // floor all around it).
-  AStarOptions moves;
-  moves.robot_radius_m = options.tight_radius_m;  // the search takes the least of this and the grid's radius
-  const MultiLevelSearch search(grid, moves);
-  const std::vector<float> to_known = ChamferToKnown(nx, ny, [&](int ix, int iy) {
-    return grid.FirstNode(grid.Column(ix, iy)) < grid.FirstNode(grid.Column(ix, iy) + 1);
-  });
-  const float reach_cells = static_cast<float>(options.unknown_reach_m / cell_m);
-  std::vector<double> cost(nodes, kInf);
-  std::vector<char> via_tight(nodes, 0);  // the cheapest path to the surface passes a tight surface
-  struct Virtual {                        // an unknown state's cost and via_tight, one hash lookup for both
-    double cost = kInf;
-    char via_tight = 0;
-  };
-  std::unordered_map<std::int64_t, Virtual> virtual_states;
-  // Start: the robot's surface when traversable; else every traversable surface within kStartSearchM of it
-  // (at its height, within max(0.5 m, a step)) at its planar distance — a robot-built map shows a ragged,
-  // holed floor right around the robot, which its lidar does not see — and its unknown column at its height.
-  std::vector<std::pair<State, double>> starts;
-  if (int rx = 0, ry = 0; std::isfinite(robot_M.z()) && grid.CellOf(robot_M.x(), robot_M.y(), &rx, &ry)) {
-    const double dz = std::max(0.5, max_step_m);
-    if (const int m = grid.NodeNear(rx, ry, robot_M.z(), dz); m >= 0 && grid.IsTraversable(m)) {
-      starts.emplace_back(State{rx, ry, grid.NodeZ(m), m}, 0.0);
-    } else {
-      if (m < 0 && grid.IsUnknownAt(rx, ry, robot_M.z()))
-        starts.emplace_back(State{rx, ry, robot_M.z(), -1}, 0.0);
-      const int reach = static_cast<int>(std::ceil(kStartSearchM / cell_m));
-      for (int dy = -reach; dy <= reach; ++dy) {
-        for (int dx = -reach; dx <= reach; ++dx) {
-          const int n = grid.NodeNear(rx + dx, ry + dy, robot_M.z(), dz);
-          if (n < 0 || !grid.IsTraversable(n)) continue;
-          const double d = (grid.CellCenter(rx + dx, ry + dy) - robot_M.head<2>()).norm();
-          if (d <= kStartSearchM) starts.emplace_back(State{rx + dx, ry + dy, grid.NodeZ(n), n}, d);
+  void MarkFrontierSurfaces(FrontierSet* result) {
+    frontier_.assign(nodes_, 0);
+    int known_nodes = 0;
+    for (int node = 0; node < grid_.node_count(); ++node) {
+      if (!InScope(node)) continue;
+      ++known_nodes;
+      if (!grid_.IsTraversable(node)) continue;
+      const auto [ix, iy] = ColumnXy(grid_.NodeColumn(node));
+      const double z = grid_.NodeZ(node);
+      for (int d = 0; d < 4; ++d) {
+        const int jx = ix + kDx4[d];
+        const int jy = iy + kDy4[d];
+        if (grid_.InGrid(jx, jy) && grid_.NodeNear(jx, jy, z, max_step_m_) < 0 &&
+            (grid_.IsUnknownAt(jx, jy, z) || grid_.IsUnseenStepAt(jx, jy, z))) {
+          frontier_[static_cast<std::size_t>(node)] = 1;
+          ++result->frontier_cells;
+          break;
         }
       }
     }
+    result->known_free_m2 = known_nodes * cell_m_ * cell_m_;
   }
-  // A state's cost and via_tight, one look-up for both.
-  auto slot_of = [&](const State& s) -> std::pair<double*, char*> {
-    if (s.node >= 0) {
-      return {&cost[static_cast<std::size_t>(s.node)], &via_tight[static_cast<std::size_t>(s.node)]};
+
+  // Start: the robot's surface when traversable; else every traversable surface within kStartSearchM of it
+  // (at its height, within max(0.5 m, a step)) at its planar distance — a robot-built map shows a ragged,
+  // holed floor right around the robot, which its lidar does not see — and its unknown column at its height.
+  std::vector<std::pair<State, double>> Starts(const Eigen::Vector3d& robot_M) const {
+    std::vector<std::pair<State, double>> starts;
+    int rx = 0, ry = 0;
+    if (!std::isfinite(robot_M.z()) || !grid_.CellOf(robot_M.x(), robot_M.y(), &rx, &ry)) return starts;
+    const double dz = std::max(0.5, max_step_m_);
+    const int m = grid_.NodeNear(rx, ry, robot_M.z(), dz);
+    if (m >= 0 && grid_.IsTraversable(m)) {
+      starts.emplace_back(State{rx, ry, grid_.NodeZ(m), m}, 0.0);
+      return starts;
     }
-    Virtual& v = virtual_states[search.Key(s)];
-    return {&v.cost, &v.via_tight};
-  };
-  auto cost_of = [&](const State& s) -> double& { return *slot_of(s).first; };
-  if (!starts.empty()) {
-    result.robot_on_grid = true;
+    if (m < 0 && grid_.IsUnknownAt(rx, ry, robot_M.z()))
+      starts.emplace_back(State{rx, ry, robot_M.z(), -1}, 0.0);
+    const int reach = static_cast<int>(std::ceil(kStartSearchM / cell_m_));
+    for (int dy = -reach; dy <= reach; ++dy) {
+      for (int dx = -reach; dx <= reach; ++dx) {
+        const int n = grid_.NodeNear(rx + dx, ry + dy, robot_M.z(), dz);
+        if (n < 0 || !grid_.IsTraversable(n)) continue;
+        const double d = (grid_.CellCenter(rx + dx, ry + dy) - robot_M.head<2>()).norm();
+        if (d <= kStartSearchM) starts.emplace_back(State{rx + dx, ry + dy, grid_.NodeZ(n), n}, d);
+      }
+    }
+    return starts;
+  }
+
+  // 2. Travel cost: Dijkstra from `starts` over connected traversable surfaces and unknown space entered at
+  // the height of the surface left (PlanPathMultiLevel's moves), unknown columns only within unknown_reach_m
+  // of a column with a known surface (the robot stands in its lidar's blind ring, unseen floor all around
+  // it); it stops search_horizon_m past the first frontier surface settled (sets searched_to_cost_m). Once
+  // per search.
+  void TravelCosts(const std::vector<std::pair<State, double>>& starts, FrontierSet* result) {
     struct Item {
       double cost;
       State state;
@@ -700,7 +731,7 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
     };
     std::priority_queue<Item, std::vector<Item>, std::greater<Item>> open;
     for (const auto& [state, d] : starts) {
-      double& c = cost_of(state);
+      double& c = *Slot(state).first;
       if (d < c) {
         c = d;
         open.push({d, state});
@@ -711,35 +742,28 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
     while (!open.empty()) {
       const Item item = open.top();
       open.pop();
-      if (options.progress && ++pops % kProgressEvery == 0) options.progress();
+      if (options_.progress && ++pops % kProgressEvery == 0) options_.progress();
       const State& s = item.state;
-      if (item.cost > cost_of(s)) continue;
+      if (item.cost > *Slot(s).first) continue;
       if (item.cost > stop_cost) {
-        result.searched_to_cost_m = stop_cost;
+        result->searched_to_cost_m = stop_cost;
         break;
       }
-      if (s.node >= 0 && frontier[static_cast<std::size_t>(s.node)] && stop_cost == kInf)
-        stop_cost = item.cost + options.search_horizon_m;
-      // The four sides first (even d), then the corners (odd d, between sides d - 1 and d + 1), entered only
-      // when both sides are: no corner cutting past a wall. Each neighbour is entered once.
-      std::array<std::optional<State>, 8> enter;
-      for (int d = 0; d < 8; d += 2) enter[d] = search.Enter(s.ix + kDx8[d], s.iy + kDy8[d], s.z);
-      for (int d = 1; d < 8; d += 2) {
-        if (enter[d - 1] && enter[(d + 1) % 8]) enter[d] = search.Enter(s.ix + kDx8[d], s.iy + kDy8[d], s.z);
-      }
-      const char from_tight = *slot_of(s).second;
+      if (s.node >= 0 && frontier_[static_cast<std::size_t>(s.node)] && stop_cost == kInf)
+        stop_cost = item.cost + options_.search_horizon_m;
+      const char from_tight = *Slot(s).second;
+      const std::array<std::optional<State>, 8> enter = Neighbours(s);
       for (int d = 0; d < 8; ++d) {
         const std::optional<State>& next = enter[d];
         if (!next) continue;
-        const bool diagonal = d % 2 == 1;
-        const double length_m = (diagonal ? std::sqrt(2.0) : 1.0) * cell_m;
+        const double length_m = (d % 2 == 1 ? std::sqrt(2.0) : 1.0) * cell_m_;
         if (next->node < 0 &&
-            to_known[static_cast<std::size_t>(grid.Column(next->ix, next->iy))] > reach_cells)
+            to_known_[static_cast<std::size_t>(grid_.Column(next->ix, next->iy))] > reach_cells_)
           continue;
-        const bool tight = next->node >= 0 && !grid.IsTraversable(next->node);
-        const double c = item.cost + length_m * ((next->node < 0 ? 1.0 + options.unknown_cost : 1.0) +
-                                                 (tight ? options.tight_cost : 0.0));
-        const auto [best, best_via_tight] = slot_of(*next);
+        const bool tight = next->node >= 0 && !grid_.IsTraversable(next->node);
+        const double c = item.cost + length_m * ((next->node < 0 ? 1.0 + options_.unknown_cost : 1.0) +
+                                                 (tight ? options_.tight_cost : 0.0));
+        const auto [best, best_via_tight] = Slot(*next);
         if (c < *best) {
           *best = c;
           *best_via_tight = static_cast<char>(from_tight || tight);
@@ -750,46 +774,123 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
   }
 
   // 3. Clusters: components of frontier surfaces connected across 8-neighbouring columns (within a step),
-  // cut into pieces of at most max_cluster_extent_m along x and y.
-  std::vector<char> seen(nodes, 0);
-  std::vector<int> gain_stamp(columns, -1);
-  int gain_id = 0;
-  const auto view = MakeCellView(
-      node_center, [&](int node) { return grid.ClearanceM(node); },
-      [&](int node) { return cost[static_cast<std::size_t>(node)]; },
-      [&](int node) { return via_tight[static_cast<std::size_t>(node)] != 0; },
-      [&](int node) { return grid.NodeZ(node); },
-      [&](int node) {
-        const auto [tx, ty] = column_xy(grid.NodeColumn(node));
-        return VisibleUnknownOnLevels(grid, tx, ty, grid.NodeZ(node), options.gain_radius_m, ++gain_id,
-                                      &gain_stamp, peer_seen, options.peer_coverage_min_z_m,
-                                      options.peer_coverage_max_z_m);
-      });
-  std::vector<int> component;
-  std::vector<int> stack;
-  const int piece_cells = std::max(1, static_cast<int>(std::floor(options.max_cluster_extent_m / cell_m)));
-  for (int node0 = 0; node0 < grid.node_count(); ++node0) {
-    if (!frontier[static_cast<std::size_t>(node0)] || seen[static_cast<std::size_t>(node0)]) continue;
-    if (options.progress) options.progress();  // each cluster's gain reads the map around it
-    component.clear();
-    stack.assign(1, node0);
-    seen[static_cast<std::size_t>(node0)] = 1;
-    while (!stack.empty()) {
-      const int node = stack.back();
-      stack.pop_back();
-      component.push_back(node);
-      const auto [ix, iy] = column_xy(grid.NodeColumn(node));
-      for (int d = 0; d < 8; ++d) {
-        const int m = grid.NodeNear(ix + kDx8[d], iy + kDy8[d], grid.NodeZ(node), max_step_m);
-        if (m < 0 || !frontier[static_cast<std::size_t>(m)] || seen[static_cast<std::size_t>(m)]) continue;
-        seen[static_cast<std::size_t>(m)] = 1;
-        stack.push_back(m);
+  // cut into pieces of at most max_cluster_extent_m along x and y, with their costs and gains (unknown space
+  // visible from them that no peer saw: `peer_seen`, per column).
+  void Cluster(const std::vector<char>& peer_seen, FrontierSet* result) {
+    std::vector<char> seen(nodes_, 0);
+    std::vector<int> gain_stamp(static_cast<std::size_t>(nx_) * static_cast<std::size_t>(grid_.ny()), -1);
+    int gain_id = 0;
+    const auto view = MakeCellView(
+        [&](int node) { return NodeCenter(node); }, [&](int node) { return grid_.ClearanceM(node); },
+        [&](int node) { return cost_[static_cast<std::size_t>(node)]; },
+        [&](int node) { return via_tight_[static_cast<std::size_t>(node)] != 0; },
+        [&](int node) { return grid_.NodeZ(node); },
+        [&](int node) {
+          const auto [tx, ty] = ColumnXy(grid_.NodeColumn(node));
+          return VisibleUnknownOnLevels(grid_, tx, ty, grid_.NodeZ(node), options_.gain_radius_m, ++gain_id,
+                                        &gain_stamp, peer_seen, options_.peer_coverage_min_z_m,
+                                        options_.peer_coverage_max_z_m);
+        });
+    std::vector<int> component;
+    std::vector<int> stack;
+    const int piece_cells =
+        std::max(1, static_cast<int>(std::floor(options_.max_cluster_extent_m / cell_m_)));
+    for (int node0 = 0; node0 < grid_.node_count(); ++node0) {
+      if (!frontier_[static_cast<std::size_t>(node0)] || seen[static_cast<std::size_t>(node0)]) continue;
+      if (options_.progress) options_.progress();  // each cluster's gain reads the map around it
+      component.clear();
+      stack.assign(1, node0);
+      seen[static_cast<std::size_t>(node0)] = 1;
+      while (!stack.empty()) {
+        const int node = stack.back();
+        stack.pop_back();
+        component.push_back(node);
+        const auto [ix, iy] = ColumnXy(grid_.NodeColumn(node));
+        for (int d = 0; d < 8; ++d) {
+          const int m = grid_.NodeNear(ix + kDx8[d], iy + kDy8[d], grid_.NodeZ(node), max_step_m_);
+          if (m < 0 || !frontier_[static_cast<std::size_t>(m)] || seen[static_cast<std::size_t>(m)]) continue;
+          seen[static_cast<std::size_t>(m)] = 1;
+          stack.push_back(m);
+        }
       }
+      AppendClusters(CutIntoPieces(
+                         component, [&](int node) { return ColumnXy(grid_.NodeColumn(node)); }, piece_cells),
+                     options_, grid_.options().robot_radius_m, cell_m_ * cell_m_, view, &result->clusters);
     }
-    AppendClusters(CutIntoPieces(
-                       component, [&](int node) { return column_xy(grid.NodeColumn(node)); }, piece_cells),
-                   options, grid.options().robot_radius_m, cell_m * cell_m, view, &result.clusters);
   }
+
+ private:
+  // An unknown state's cost and via_tight, one hash look-up for both.
+  struct Virtual {
+    double cost = kInf;
+    char via_tight = 0;
+  };
+
+  static AStarOptions MovesFor(const FrontierOptions& options) {
+    AStarOptions moves;
+    moves.robot_radius_m =
+        options.tight_radius_m;  // the search takes the least of this and the grid's radius
+    return moves;
+  }
+  std::pair<int, int> ColumnXy(int column) const { return {column % nx_, column / nx_}; }
+  Eigen::Vector2d NodeCenter(int node) const {
+    const auto [ix, iy] = ColumnXy(grid_.NodeColumn(node));
+    return grid_.CellCenter(ix, iy);
+  }
+  bool InScope(int node) const {
+    if (!options_.region_M.isEmpty() && !options_.region_M.contains(NodeCenter(node))) return false;
+    const double z = grid_.NodeZ(node);
+    return z >= options_.min_z_m && z <= options_.max_z_m;
+  }
+  // A state's cost and via_tight.
+  std::pair<double*, char*> Slot(const State& s) {
+    if (s.node >= 0) {
+      return {&cost_[static_cast<std::size_t>(s.node)], &via_tight_[static_cast<std::size_t>(s.node)]};
+    }
+    Virtual& v = virtual_states_[moves_.Key(s)];
+    return {&v.cost, &v.via_tight};
+  }
+  // The four sides first (even d), then the corners (odd d, between sides d - 1 and d + 1), entered only when
+  // both sides are: no corner cutting past a wall. Each neighbour is entered once.
+  std::array<std::optional<State>, 8> Neighbours(const State& s) const {
+    std::array<std::optional<State>, 8> enter;
+    for (int d = 0; d < 8; d += 2) enter[d] = moves_.Enter(s.ix + kDx8[d], s.iy + kDy8[d], s.z);
+    for (int d = 1; d < 8; d += 2) {
+      if (enter[d - 1] && enter[(d + 1) % 8]) enter[d] = moves_.Enter(s.ix + kDx8[d], s.iy + kDy8[d], s.z);
+    }
+    return enter;
+  }
+
+  const MultiLevelGrid& grid_;
+  const FrontierOptions& options_;
+  const int nx_;
+  const double cell_m_;
+  const double max_step_m_;
+  const std::size_t nodes_;
+  const float reach_cells_;
+  const MultiLevelSearch moves_;
+  std::vector<double> cost_;     // travel cost from the robot, m, by node (kInf: not reached)
+  std::vector<char> via_tight_;  // the cheapest path to the surface passes a tight surface
+  std::vector<float> to_known_;  // distance to the nearest column with a known surface, cells (chamfer)
+  std::vector<char> frontier_;   // frontier surfaces, by node
+  std::unordered_map<std::int64_t, Virtual> virtual_states_;
+};
+
+}  // namespace
+
+FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& robot_M,
+                                    const FrontierOptions& options, const PeerCoverage* peers) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  FrontierSet result;
+  LevelFrontierSearch search(grid, options);
+  search.MarkFrontierSurfaces(&result);
+  const auto starts = search.Starts(robot_M);
+  if (!starts.empty()) {
+    result.robot_on_grid = true;
+    search.TravelCosts(starts, &result);
+  }
+  search.Cluster(PeerSeenCells(grid, peers), &result);
   for (FrontierCluster& cluster : result.clusters) cluster.on_main_level = false;  // see FrontierCluster
   SortFrontierClusters(&result.clusters);
   if (result.reachable() == 0 && std::isfinite(result.searched_to_cost_m)) {

@@ -275,6 +275,30 @@ void SolveBoxQp2(const Mat22& H, const IlqrControl& g, const IlqrControl& lo, co
   }
 }
 
+// "" when Solve's inputs are usable, else what is wrong, naming the argument and value.
+std::string CheckSolveInput(const IlqrState& x0_F, const std::vector<Eigen::Vector2d>& path_F,
+                            double cruise_speed_mps, double elapsed_since_last_solve_s) {
+  static const char* const kStateNames[5] = {"x_m", "y_m", "yaw_rad", "v_mps", "w_radps"};
+  for (int i = 0; i < 5; ++i) {
+    if (!std::isfinite(x0_F[i])) {
+      return "x0[" + std::to_string(i) + "] (" + kStateNames[i] + ") = " + Num(x0_F[i]) + " is not finite";
+    }
+  }
+  for (std::size_t i = 0; i < path_F.size(); ++i) {
+    if (!path_F[i].allFinite()) {
+      return "path_F[" + std::to_string(i) + "] = (" + Num(path_F[i].x()) + ", " + Num(path_F[i].y()) +
+             ") is not finite";
+    }
+  }
+  if (!std::isfinite(cruise_speed_mps) || cruise_speed_mps < 0.0) {
+    return "cruise_speed_mps = " + Num(cruise_speed_mps) + " must be finite and >= 0";
+  }
+  if (!std::isfinite(elapsed_since_last_solve_s) || elapsed_since_last_solve_s < 0.0) {
+    return "elapsed_since_last_solve_s = " + Num(elapsed_since_last_solve_s) + " must be finite and >= 0";
+  }
+  return "";
+}
+
 }  // namespace
 
 bool IlqrOptions::IsValid(std::string* why) const {
@@ -591,6 +615,113 @@ struct IlqrController::Impl {
     cost += StateCost<false>(xk, ref[n], ref_dir[n], options, options.terminal_weight_s, nullptr, nullptr);
     return std::isfinite(cost) ? cost : kInf;
   }
+  // No path to follow: brakes both velocities to zero as fast as the limits allow (status kNoPath).
+  void BrakeToRest(IlqrSolution* sol) {
+    has_prev = false;
+    sol->status = IlqrSolution::Status::kNoPath;
+    sol->message = "path_F has " + std::to_string(path.size()) +
+                   " distinct point(s) (needs at least 2): braking to rest";
+    sol->states.resize(static_cast<std::size_t>(n) + 1);
+    sol->controls.resize(static_cast<std::size_t>(n));
+    IlqrState xk = x0;
+    sol->states[0] = xk;
+    for (int k = 0; k < n; ++k) {
+      const IlqrControl uk = ClampTo(IlqrControl(-xk[kV] / dt, -xk[kW] / dt), BoxAt(xk, limits, dt));
+      sol->controls[k] = uk;
+      xk = StepClamped(xk, uk, dt, limits);
+      sol->states[k + 1] = xk;
+    }
+    sol->command_v_mps = sol->states[1][kV];
+    sol->command_w_radps = sol->states[1][kW];
+  }
+
+  // Initial guess into (u, x): the cheaper of the cold guess and the previous controls shifted by the time
+  // since the last solve. Returns its cost; `*warm_started` says which.
+  double InitialGuess(double elapsed_since_last_solve_s, bool* warm_started) {
+    *warm_started = false;
+    ColdGuess();
+    std::swap(u, u_new);
+    double cost = Rollout(&u, &x);
+    const double shift_steps = elapsed_since_last_solve_s / dt;
+    if (has_prev && shift_steps < n) {
+      WarmGuess(shift_steps);
+      const double warm_cost = Rollout(&u_new, &x_new);
+      if (warm_cost <= cost) {
+        std::swap(u, u_new);
+        std::swap(x, x_new);
+        cost = warm_cost;
+        *warm_started = true;
+      }
+    }
+    return cost;
+  }
+
+  // The Levenberg-Marquardt style schedule of the backward pass's regularization mu (Tassa, Erez & Todorov
+  // 2012): grows by at least kRegFactor after a failure, shrinks after a success, 0 below kRegMin.
+  struct Regularization {
+    double mu = 0.0;
+    double factor = 1.0;
+    void Increase() {
+      factor = std::max(kRegFactor, factor * kRegFactor);
+      mu = std::max(kRegMin, mu * factor);
+    }
+    void Decrease() {
+      factor = std::min(1.0 / kRegFactor, factor / kRegFactor);
+      mu = mu * factor > kRegMin ? mu * factor : 0.0;
+    }
+  };
+
+  // iLQR iterations from the nominal (u, x) of cost `*cost` (Li & Todorov 2004; regularization and line
+  // search of Tassa, Erez & Todorov 2012), at most `max_iterations`: each accepted cost is appended to
+  // `*history`. Leaves the best trajectory in (u, x).
+  IlqrSolution::Status Iterate(int max_iterations, double* cost, int* iterations,
+                               std::vector<double>* history) {
+    const double tol = options.tolerance;
+    Regularization reg;
+    bool derivatives_current = false;  // False after an accepted step changed the nominal trajectory.
+    while (*iterations < max_iterations) {
+      ++*iterations;
+      if (!derivatives_current) ComputeDerivatives();
+      derivatives_current = true;
+      double dv1 = 0.0;
+      double dv2 = 0.0;
+      bool ok = Backward(reg.mu, &dv1, &dv2);
+      while (!ok && reg.mu < kRegMax) {
+        reg.Increase();
+        ok = Backward(reg.mu, &dv1, &dv2);
+      }
+      if (!ok) return IlqrSolution::Status::kStalled;
+      // The full step would not gain enough: converged.
+      if (-(dv1 + dv2) <= tol * *cost) return IlqrSolution::Status::kConverged;
+      double new_cost = *cost;
+      if (!LineSearch(*cost, dv1, dv2, &new_cost)) {
+        reg.Increase();
+        if (reg.mu >= kRegMax) return IlqrSolution::Status::kStalled;
+        continue;
+      }
+      std::swap(x, x_new);
+      std::swap(u, u_new);
+      derivatives_current = false;
+      reg.Decrease();
+      const double decrease = *cost - new_cost;
+      *cost = new_cost;
+      history->push_back(*cost);
+      if (decrease <= tol * (*cost + decrease)) return IlqrSolution::Status::kConverged;
+    }
+    return IlqrSolution::Status::kMaxIterations;
+  }
+
+  // Step sizes 1, 1/2, ... until one decreases the cost by at least kArmijo of the predicted decrease: true
+  // with the step's trajectory in (u_new, x_new) and its cost in `*new_cost`.
+  bool LineSearch(double cost, double dv1, double dv2, double* new_cost) {
+    double alpha = 1.0;
+    for (int i = 0; i < kLineSearchSteps; ++i, alpha *= 0.5) {
+      *new_cost = Forward(alpha);
+      const double expected = -(alpha * dv1 + alpha * alpha * dv2);
+      if (*new_cost < cost && (expected <= 0.0 || (cost - *new_cost) >= kArmijo * expected)) return true;
+    }
+    return false;
+  }
 };
 
 IlqrController::IlqrController(const IlqrOptions& options, const IlqrLimits& limits) {
@@ -626,31 +757,10 @@ IlqrSolution IlqrController::Solve(const IlqrState& x0_F, const std::vector<Eige
     sol.message = message;
     return finish();
   };
-
-  // Input checks.
-  static const char* const kStateNames[5] = {"x_m", "y_m", "yaw_rad", "v_mps", "w_radps"};
-  for (int i = 0; i < 5; ++i) {
-    if (!std::isfinite(x0_F[i])) {
-      return invalid("x0[" + std::to_string(i) + "] (" + kStateNames[i] + ") = " + Num(x0_F[i]) +
-                     " is not finite");
-    }
+  if (const std::string why = CheckSolveInput(x0_F, path_F, cruise_speed_mps, elapsed_since_last_solve_s);
+      !why.empty()) {
+    return invalid(why);
   }
-  for (std::size_t i = 0; i < path_F.size(); ++i) {
-    if (!path_F[i].allFinite()) {
-      return invalid("path_F[" + std::to_string(i) + "] = (" + Num(path_F[i].x()) + ", " +
-                     Num(path_F[i].y()) + ") is not finite");
-    }
-  }
-  if (!std::isfinite(cruise_speed_mps) || cruise_speed_mps < 0.0) {
-    return invalid("cruise_speed_mps = " + Num(cruise_speed_mps) + " must be finite and >= 0");
-  }
-  if (!std::isfinite(elapsed_since_last_solve_s) || elapsed_since_last_solve_s < 0.0) {
-    return invalid("elapsed_since_last_solve_s = " + Num(elapsed_since_last_solve_s) +
-                   " must be finite and >= 0");
-  }
-
-  const int n = m.n;
-  const double dt = m.dt;
   const IlqrLimits& lim = m.limits;
   m.x0 = x0_F;
   m.x0[kV] = std::clamp(m.x0[kV], -lim.max_reverse_speed_mps, lim.max_speed_mps);
@@ -658,47 +768,16 @@ IlqrSolution IlqrController::Solve(const IlqrState& x0_F, const std::vector<Eige
 
   CleanPath(path_F, &m.path, &m.cum);
   if (m.path.size() < 2) {
-    // Hold position: brake both velocities to zero as fast as the limits allow.
-    m.has_prev = false;
-    sol.status = IlqrSolution::Status::kNoPath;
-    sol.message = "path_F has " + std::to_string(m.path.size()) +
-                  " distinct point(s) (needs at least 2): braking to rest";
-    sol.states.resize(static_cast<std::size_t>(n) + 1);
-    sol.controls.resize(static_cast<std::size_t>(n));
-    IlqrState xk = m.x0;
-    sol.states[0] = xk;
-    for (int k = 0; k < n; ++k) {
-      const IlqrControl uk = ClampTo(IlqrControl(-xk[kV] / dt, -xk[kW] / dt), BoxAt(xk, lim, dt));
-      sol.controls[k] = uk;
-      xk = StepClamped(xk, uk, dt, lim);
-      sol.states[k + 1] = xk;
-    }
-    sol.command_v_mps = sol.states[1][kV];
-    sol.command_w_radps = sol.states[1][kW];
+    m.BrakeToRest(&sol);
     return finish();
   }
-
   const double cruise = std::min(cruise_speed_mps, lim.max_speed_mps);
   FillReference(m.path, m.cum, m.x0.head<2>(), m.x0[kV], cruise, stop_at_end,
-                m.options.reference_accel_fraction * lim.max_accel_mps2, n, dt, m.ref.data());
-  for (int k = 0; k <= n; ++k)
+                m.options.reference_accel_fraction * lim.max_accel_mps2, m.n, m.dt, m.ref.data());
+  for (int k = 0; k <= m.n; ++k) {
     m.ref_dir[k] = Eigen::Vector2d(std::cos(m.ref[k].yaw_rad), std::sin(m.ref[k].yaw_rad));
-
-  // Initial guess: the cheaper of the cold guess and the shifted previous controls.
-  m.ColdGuess();
-  std::swap(m.u, m.u_new);
-  double cost = m.Rollout(&m.u, &m.x);
-  const double shift_steps = elapsed_since_last_solve_s / dt;
-  if (m.has_prev && shift_steps < n) {
-    m.WarmGuess(shift_steps);
-    const double warm_cost = m.Rollout(&m.u_new, &m.x_new);
-    if (warm_cost <= cost) {
-      std::swap(m.u, m.u_new);
-      std::swap(m.x, m.x_new);
-      cost = warm_cost;
-      sol.warm_started = true;
-    }
   }
+  double cost = m.InitialGuess(elapsed_since_last_solve_s, &sol.warm_started);
   if (!std::isfinite(cost)) {
     return invalid("the cost of the initial guess is not finite (coordinates too large?)");
   }
@@ -706,72 +785,8 @@ IlqrSolution IlqrController::Solve(const IlqrState& x0_F, const std::vector<Eige
   const int max_iterations = sol.warm_started ? m.options.max_iterations_warm : m.options.max_iterations;
   sol.cost_history.reserve(static_cast<std::size_t>(max_iterations) + 1);
   sol.cost_history.push_back(cost);
-
-  // iLQR iterations (Li & Todorov 2004; regularization and line search of Tassa, Erez & Todorov 2012).
-  const double tol = m.options.tolerance;
-  double mu = 0.0;
-  double mu_factor = 1.0;
-  auto increase_mu = [&]() {
-    mu_factor = std::max(kRegFactor, mu_factor * kRegFactor);
-    mu = std::max(kRegMin, mu * mu_factor);
-  };
-  auto decrease_mu = [&]() {
-    mu_factor = std::min(1.0 / kRegFactor, mu_factor / kRegFactor);
-    mu = mu * mu_factor > kRegMin ? mu * mu_factor : 0.0;
-  };
-  IlqrSolution::Status status = IlqrSolution::Status::kMaxIterations;
   int iterations = 0;
-  bool derivatives_current = false;  // False after an accepted step changed the nominal trajectory.
-  while (iterations < max_iterations) {
-    ++iterations;
-    if (!derivatives_current) m.ComputeDerivatives();
-    derivatives_current = true;
-    double dv1 = 0.0;
-    double dv2 = 0.0;
-    bool ok = m.Backward(mu, &dv1, &dv2);
-    while (!ok && mu < kRegMax) {
-      increase_mu();
-      ok = m.Backward(mu, &dv1, &dv2);
-    }
-    if (!ok) {
-      status = IlqrSolution::Status::kStalled;
-      break;
-    }
-    if (-(dv1 + dv2) <= tol * cost) {  // The full step would not gain enough: converged.
-      status = IlqrSolution::Status::kConverged;
-      break;
-    }
-    bool accepted = false;
-    double new_cost = cost;
-    double alpha = 1.0;
-    for (int i = 0; i < kLineSearchSteps; ++i, alpha *= 0.5) {
-      new_cost = m.Forward(alpha);
-      const double expected = -(alpha * dv1 + alpha * alpha * dv2);
-      if (new_cost < cost && (expected <= 0.0 || (cost - new_cost) >= kArmijo * expected)) {
-        accepted = true;
-        break;
-      }
-    }
-    if (!accepted) {
-      increase_mu();
-      if (mu >= kRegMax) {
-        status = IlqrSolution::Status::kStalled;
-        break;
-      }
-      continue;
-    }
-    std::swap(m.x, m.x_new);
-    std::swap(m.u, m.u_new);
-    derivatives_current = false;
-    decrease_mu();
-    const double decrease = cost - new_cost;
-    cost = new_cost;
-    sol.cost_history.push_back(cost);
-    if (decrease <= tol * (cost + decrease)) {
-      status = IlqrSolution::Status::kConverged;
-      break;
-    }
-  }
+  const IlqrSolution::Status status = m.Iterate(max_iterations, &cost, &iterations, &sol.cost_history);
 
   // Output and warm start.
   m.prev_u = m.u;

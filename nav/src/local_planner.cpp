@@ -150,6 +150,98 @@ void Compress(std::vector<std::vector<Entry>>* lists, std::vector<std::uint32_t>
   }
 }
 
+// The library's paths of heading 0, a tree of three arcs of equal length (path_length_m / 3) each turning by
+// one of Turn()'s angles: num_groups first arcs, then sqrt(paths_per_group) second and third arcs each.
+// `samples` points per path, `spacing_m` apart along it, frame B.
+struct ArcTreePaths {
+  std::vector<Eigen::Vector2d> points;  // path p's samples at [p * samples, (p + 1) * samples)
+  std::vector<double> turn;             // heading change over the path, rad
+  std::vector<double> abs_turn;         // sum of the arcs' absolute turns, rad
+  std::vector<int> group;               // first arc
+};
+
+// The arc (0, 1, 2) that sample i (0-based, at arc length (i + 1) * spacing_m) lies on.
+int ArcOfSample(int i, double spacing_m, double arc_m) {
+  return std::min(2, static_cast<int>((i + 1) * spacing_m / arc_m));
+}
+
+ArcTreePaths MakeArcTreePaths(const TrajectoryLibraryOptions& options, int samples, double spacing_m) {
+  const int k = IntSqrt(options.paths_per_group);
+  const std::size_t pph = static_cast<std::size_t>(options.num_groups) * options.paths_per_group;
+  const double arc_m = options.path_length_m / 3.0;
+  ArcTreePaths out;
+  out.points.resize(pph * static_cast<std::size_t>(samples));
+  out.turn.resize(pph);
+  out.abs_turn.resize(pph);
+  out.group.resize(pph);
+  std::size_t b = 0;
+  for (int g = 0; g < options.num_groups; ++g) {
+    for (int i2 = 0; i2 < k; ++i2) {
+      for (int i3 = 0; i3 < k; ++i3, ++b) {
+        const double turns[3] = {Turn(g, options.num_groups, options.max_segment_turn_rad),
+                                 Turn(i2, k, options.max_segment_turn_rad),
+                                 Turn(i3, k, options.max_segment_turn_rad)};
+        // Start pose (x0, y0, th0) of each arc; point at arc length s along arc j.
+        double x0[3] = {0.0, 0.0, 0.0};
+        double y0[3] = {0.0, 0.0, 0.0};
+        double th0[3] = {0.0, 0.0, 0.0};
+        auto arc_point = [&](int j, double s) {
+          if (std::abs(turns[j]) < 1e-12) {
+            return Eigen::Vector2d(x0[j] + s * std::cos(th0[j]), y0[j] + s * std::sin(th0[j]));
+          }
+          const double kappa = turns[j] / arc_m;
+          return Eigen::Vector2d(x0[j] + (std::sin(th0[j] + kappa * s) - std::sin(th0[j])) / kappa,
+                                 y0[j] + (std::cos(th0[j]) - std::cos(th0[j] + kappa * s)) / kappa);
+        };
+        for (int j = 1; j < 3; ++j) {
+          const Eigen::Vector2d end = arc_point(j - 1, arc_m);
+          x0[j] = end.x();
+          y0[j] = end.y();
+          th0[j] = th0[j - 1] + turns[j - 1];
+        }
+        for (int i = 0; i < samples; ++i) {
+          const int j = ArcOfSample(i, spacing_m, arc_m);
+          out.points[b * samples + i] = arc_point(j, (i + 1) * spacing_m - j * arc_m);
+        }
+        out.turn[b] = turns[0] + turns[1] + turns[2];
+        out.abs_turn[b] = std::abs(turns[0]) + std::abs(turns[1]) + std::abs(turns[2]);
+        out.group[b] = g;
+      }
+    }
+  }
+  return out;
+}
+
+// The headings (of num_headings around the circle) within heading_range_rad of straight ahead.
+std::vector<int> KeptHeadings(const TrajectoryLibraryOptions& options) {
+  std::vector<int> kept;
+  for (int h = 0; h < options.num_headings; ++h) {
+    if (std::abs(WrapAngle(2.0 * kPi * h / options.num_headings)) <= options.heading_range_rad + 1e-9) {
+      kept.push_back(h);
+    }
+  }
+  return kept;
+}
+
+// The tree nodes of each path (3 per path: levels 0, 1, 2), the paths in heading-major order, each heading's
+// paths group-major, then by second arc (k per group) and third arc; level 1 nodes are numbered from
+// level1_base and level 2 nodes (one per path) from level2_base.
+std::vector<std::uint16_t> PathTreeNodes(int num_paths, int paths_per_heading, int groups, int k,
+                                         int level1_base, int level2_base) {
+  std::vector<std::uint16_t> node_of_path(static_cast<std::size_t>(num_paths) * 3);
+  for (int p = 0; p < num_paths; ++p) {
+    const int heading_slot = p / paths_per_heading;
+    const int within = p % paths_per_heading;
+    const int g = within / (k * k);
+    const int a = (within / k) % k;
+    std::uint16_t* nodes = node_of_path.data() + static_cast<std::size_t>(p) * 3;
+    nodes[0] = static_cast<std::uint16_t>(heading_slot * groups + g);
+    nodes[1] = static_cast<std::uint16_t>(level1_base + (heading_slot * groups + g) * k + a);
+    nodes[2] = static_cast<std::uint16_t>(level2_base + p);
+  }
+  return node_of_path;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------------
@@ -264,60 +356,15 @@ TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options, Pa
   block_grid_ = make_grid(options.voxel_size_m, geo.block_grid_half);
   band_grid_ = make_grid(options.clearance_voxel_size_m, geo.band_grid_half);
 
-  // Paths of heading 0: a tree of three arcs of equal length.
   const int k = IntSqrt(options.paths_per_group);
   paths_per_heading_ = options.num_groups * options.paths_per_group;
   const int n = samples_per_path_;
   const double arc_m = options.path_length_m / 3.0;
-  auto arc_of_sample = [&](int i) { return std::min(2, static_cast<int>((i + 1) * spacing_m_ / arc_m)); };
   const std::size_t pph = static_cast<std::size_t>(paths_per_heading_);
-  std::vector<Eigen::Vector2d> base(pph * static_cast<std::size_t>(n));
-  std::vector<double> base_turn(pph);
-  std::vector<double> base_abs_turn(pph);
-  std::vector<int> base_group(pph);
-  std::size_t b = 0;
-  for (int g = 0; g < options.num_groups; ++g) {
-    for (int i2 = 0; i2 < k; ++i2) {
-      for (int i3 = 0; i3 < k; ++i3, ++b) {
-        const double turns[3] = {Turn(g, options.num_groups, options.max_segment_turn_rad),
-                                 Turn(i2, k, options.max_segment_turn_rad),
-                                 Turn(i3, k, options.max_segment_turn_rad)};
-        // Start pose (x0, y0, th0) of each arc; point at arc length s along arc j.
-        double x0[3] = {0.0, 0.0, 0.0};
-        double y0[3] = {0.0, 0.0, 0.0};
-        double th0[3] = {0.0, 0.0, 0.0};
-        auto arc_point = [&](int j, double s) {
-          if (std::abs(turns[j]) < 1e-12) {
-            return Eigen::Vector2d(x0[j] + s * std::cos(th0[j]), y0[j] + s * std::sin(th0[j]));
-          }
-          const double kappa = turns[j] / arc_m;
-          return Eigen::Vector2d(x0[j] + (std::sin(th0[j] + kappa * s) - std::sin(th0[j])) / kappa,
-                                 y0[j] + (std::cos(th0[j]) - std::cos(th0[j] + kappa * s)) / kappa);
-        };
-        for (int j = 1; j < 3; ++j) {
-          const Eigen::Vector2d end = arc_point(j - 1, arc_m);
-          x0[j] = end.x();
-          y0[j] = end.y();
-          th0[j] = th0[j - 1] + turns[j - 1];
-        }
-        for (int i = 0; i < n; ++i) {
-          const int j = arc_of_sample(i);
-          base[b * n + i] = arc_point(j, (i + 1) * spacing_m_ - j * arc_m);
-        }
-        base_turn[b] = turns[0] + turns[1] + turns[2];
-        base_abs_turn[b] = std::abs(turns[0]) + std::abs(turns[1]) + std::abs(turns[2]);
-        base_group[b] = g;
-      }
-    }
-  }
+  const ArcTreePaths base = MakeArcTreePaths(options, n, spacing_m_);
 
   // Rotations to the kept headings.
-  std::vector<int> kept_headings;
-  for (int h = 0; h < options.num_headings; ++h) {
-    if (std::abs(WrapAngle(2.0 * kPi * h / options.num_headings)) <= options.heading_range_rad + 1e-9) {
-      kept_headings.push_back(h);
-    }
-  }
+  const std::vector<int> kept_headings = KeptHeadings(options);
   num_kept_headings_ = static_cast<int>(kept_headings.size());
   info_.reserve(kept_headings.size() * pph);
   samples_B_.reserve(kept_headings.size() * pph * static_cast<std::size_t>(n));
@@ -327,18 +374,18 @@ TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options, Pa
     const double s = std::sin(angle);
     for (std::size_t p = 0; p < pph; ++p) {
       for (int i = 0; i < n; ++i) {
-        const Eigen::Vector2d& q = base[p * n + i];
+        const Eigen::Vector2d& q = base.points[p * n + i];
         samples_B_.emplace_back(static_cast<float>(c * q.x() - s * q.y()),
                                 static_cast<float>(s * q.x() + c * q.y()));
       }
       TrajectoryInfo info;
-      info.group = base_group[p];
+      info.group = base.group[p];
       info.heading_index = h;
       info.heading_rad = static_cast<float>(angle);
       info.end_B = samples_B_.back();
       info.end_bearing_rad = std::atan2(info.end_B.y(), info.end_B.x());
-      info.end_heading_rad = static_cast<float>(WrapAngle(angle + base_turn[p]));
-      info.total_turn_rad = static_cast<float>(base_abs_turn[p]);
+      info.end_heading_rad = static_cast<float>(WrapAngle(angle + base.turn[p]));
+      info.total_turn_rad = static_cast<float>(base.abs_turn[p]);
       info.length_m = static_cast<float>(options.path_length_m);
       info_.push_back(info);
     }
@@ -353,20 +400,10 @@ TrajectoryLibrary::TrajectoryLibrary(const TrajectoryLibraryOptions& options, Pa
   const int level1_base = num_kept_headings_ * groups;
   const int level2_base = level1_base + num_kept_headings_ * groups * k;
   num_nodes_ = level2_base + num_paths;
-  for (int i = 0; i < n; ++i) level_end_sample_[arc_of_sample(i)] = i + 1;
+  for (int i = 0; i < n; ++i) level_end_sample_[ArcOfSample(i, spacing_m_, arc_m)] = i + 1;
   level_end_sample_[1] = std::max(level_end_sample_[1], level_end_sample_[0]);
   level_end_sample_[2] = n;
-  node_of_path_.resize(static_cast<std::size_t>(num_paths) * 3);
-  for (int p = 0; p < num_paths; ++p) {
-    const int heading_slot = p / paths_per_heading_;
-    const int within = p % paths_per_heading_;
-    const int g = within / (k * k);
-    const int a = (within / k) % k;
-    std::uint16_t* nodes = node_of_path_.data() + static_cast<std::size_t>(p) * 3;
-    nodes[0] = static_cast<std::uint16_t>(heading_slot * groups + g);
-    nodes[1] = static_cast<std::uint16_t>(level1_base + (heading_slot * groups + g) * k + a);
-    nodes[2] = static_cast<std::uint16_t>(level2_base + p);
-  }
+  node_of_path_ = PathTreeNodes(num_paths, paths_per_heading_, groups, k, level1_base, level2_base);
   build_time_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 

@@ -34,6 +34,113 @@ bool ScanObstacleOptions::IsValid(std::string* why) const {
   return ok;
 }
 
+namespace {
+
+constexpr float kNone = std::numeric_limits<float>::infinity();
+
+// The scan's points in a square grid of n x n cells centred on the robot, in frame M's axes: per cell the
+// lowest and highest point and the count, of the points within range_m in x-y and in the band from
+// depth_below_m under the robot to robot_height_m over it.
+class ScanCells {
+ public:
+  ScanCells(const core::BaseState& pose_M, const ScanObstacleOptions& options)
+      : pose_M_(pose_M),
+        options_(options),
+        cell_m_(options.cell_size_m),
+        half_(static_cast<int>(std::ceil(options.range_m / cell_m_))),
+        n_(2 * half_ + 1),
+        x0_(pose_M.x_m - (half_ + 0.5) * cell_m_),
+        y0_(pose_M.y_m - (half_ + 0.5) * cell_m_),
+        z_lo_(pose_M.z_m - options.depth_below_m),
+        z_hi_(pose_M.z_m + options.robot_height_m),
+        low_(static_cast<std::size_t>(n_) * n_, kNone),
+        high_(low_.size(), -kNone),
+        count_(low_.size(), 0) {}
+
+  std::size_t size() const { return low_.size(); }
+
+  // The cell of a point in the analysed band, or -1.
+  std::ptrdiff_t CellOf(const Eigen::Vector3f& p) const {
+    if (!p.allFinite() || p.z() < z_lo_ || p.z() > z_hi_) return -1;
+    const double dx = p.x() - pose_M_.x_m;
+    const double dy = p.y() - pose_M_.y_m;
+    if (dx * dx + dy * dy > options_.range_m * options_.range_m) return -1;
+    const int ix = static_cast<int>(std::floor((p.x() - x0_) / cell_m_));
+    const int iy = static_cast<int>(std::floor((p.y() - y0_) / cell_m_));
+    if (ix < 0 || iy < 0 || ix >= n_ || iy >= n_) return -1;
+    return static_cast<std::ptrdiff_t>(ix) + static_cast<std::ptrdiff_t>(n_) * iy;
+  }
+
+  void Add(const std::vector<Eigen::Vector3f>& points_M, ScanObstacleStats* stats) {
+    for (const Eigen::Vector3f& p : points_M) {
+      const std::ptrdiff_t cell = CellOf(p);
+      if (cell < 0) continue;
+      const std::size_t i = static_cast<std::size_t>(cell);
+      low_[i] = std::min(low_[i], p.z());
+      high_[i] = std::max(high_[i], p.z());
+      if (count_[i] < 0xffff) ++count_[i];
+      ++stats->points_used;
+    }
+  }
+
+  // Lethal cells, and per lethal cell the height above which its points are the obstacle (kNone: not
+  // lethal): above its lowest point + max_step_m when its own points span too much (a wall standing on the
+  // floor in the cell), all of them when it stands too high above a neighbour (a step's top).
+  std::vector<float> ObstacleHeights(ScanObstacleStats* stats) const {
+    const float step = Step();
+    std::vector<float> obstacle_above(low_.size(), kNone);
+    for (int iy = 0; iy < n_; ++iy) {
+      for (int ix = 0; ix < n_; ++ix) {
+        const std::size_t i = Index(ix, iy);
+        if (low_[i] == kNone) continue;
+        ++stats->cells_observed;
+        if (count_[i] < options_.min_points_per_cell) continue;  // a stray return is no obstacle
+        if (AboveNeighbour(ix, iy)) {
+          obstacle_above[i] = -kNone;
+        } else if (high_[i] - low_[i] > step) {
+          obstacle_above[i] = low_[i] + step;
+        } else {
+          continue;
+        }
+        ++stats->cells_lethal;
+      }
+    }
+    return obstacle_above;
+  }
+
+ private:
+  std::size_t Index(int ix, int iy) const {
+    return static_cast<std::size_t>(ix) + static_cast<std::size_t>(n_) * iy;
+  }
+  float Step() const { return static_cast<float>(options_.max_step_m) + 1e-4f; }
+  // The cell's lowest point stands more than a step above a neighbour's (with enough points).
+  bool AboveNeighbour(int ix, int iy) const {
+    const std::size_t i = Index(ix, iy);
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int jx = ix + dx;
+        const int jy = iy + dy;
+        if ((dx == 0 && dy == 0) || jx < 0 || jy < 0 || jx >= n_ || jy >= n_) continue;
+        const std::size_t j = Index(jx, jy);
+        if (low_[j] != kNone && count_[j] >= options_.min_points_per_cell && low_[i] - low_[j] > Step())
+          return true;
+      }
+    }
+    return false;
+  }
+
+  const core::BaseState& pose_M_;
+  const ScanObstacleOptions& options_;
+  const double cell_m_;
+  const int half_, n_;
+  const double x0_, y0_;      // the grid's corner, frame M, metres
+  const double z_lo_, z_hi_;  // the analysed band, frame M, metres
+  std::vector<float> low_, high_;
+  std::vector<std::uint16_t> count_;
+};
+
+}  // namespace
+
 ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points_M,
                                       const core::BaseState& pose_M, const ScanObstacleOptions& options,
                                       std::vector<Eigen::Vector3f>* points_B) {
@@ -46,80 +153,16 @@ ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points
       !std::isfinite(pose_M.yaw_rad)) {
     return stats;
   }
-  // A square grid of n x n cells centred on the robot, in frame M's axes.
-  const double c = options.cell_size_m;
-  const int half = static_cast<int>(std::ceil(options.range_m / c));
-  const int n = 2 * half + 1;
-  const double x0 = pose_M.x_m - (half + 0.5) * c;
-  const double y0 = pose_M.y_m - (half + 0.5) * c;
-  constexpr float kNone = std::numeric_limits<float>::infinity();
-  std::vector<float> low(static_cast<std::size_t>(n) * n, kNone);
-  std::vector<float> high(low.size(), -kNone);
-  std::vector<std::uint16_t> count(low.size(), 0);
-  const double z_lo = pose_M.z_m - options.depth_below_m;
-  const double z_hi = pose_M.z_m + options.robot_height_m;
-  const double r2 = options.range_m * options.range_m;
-  // The cell of a point in the analysed band, or -1.
-  auto cell_of = [&](const Eigen::Vector3f& p) -> std::ptrdiff_t {
-    if (!p.allFinite() || p.z() < z_lo || p.z() > z_hi) return -1;
-    const double dx = p.x() - pose_M.x_m;
-    const double dy = p.y() - pose_M.y_m;
-    if (dx * dx + dy * dy > r2) return -1;
-    const int ix = static_cast<int>(std::floor((p.x() - x0) / c));
-    const int iy = static_cast<int>(std::floor((p.y() - y0) / c));
-    if (ix < 0 || iy < 0 || ix >= n || iy >= n) return -1;
-    return static_cast<std::ptrdiff_t>(ix) + static_cast<std::ptrdiff_t>(n) * iy;
-  };
-  for (const Eigen::Vector3f& p : points_M) {
-    const std::ptrdiff_t cell = cell_of(p);
-    if (cell < 0) continue;
-    const std::size_t i = static_cast<std::size_t>(cell);
-    low[i] = std::min(low[i], p.z());
-    high[i] = std::max(high[i], p.z());
-    if (count[i] < 0xffff) ++count[i];
-    ++stats.points_used;
-  }
-  // Lethal cells, and per lethal cell the height above which its points are the obstacle: above its lowest
-  // point + max_step_m when its own points span too much (a wall standing on the floor in the cell), all of
-  // them when it stands too high above a neighbour (a step's top).
-  const float step = static_cast<float>(options.max_step_m) + 1e-4f;
-  std::vector<float> obstacle_above(low.size(), kNone);  // kNone: not lethal
-  for (int iy = 0; iy < n; ++iy) {
-    for (int ix = 0; ix < n; ++ix) {
-      const std::size_t i = static_cast<std::size_t>(ix) + static_cast<std::size_t>(n) * iy;
-      if (low[i] == kNone) continue;
-      ++stats.cells_observed;
-      if (count[i] < options.min_points_per_cell) continue;  // a stray return is no obstacle
-      bool above_neighbour = false;
-      for (int dy = -1; dy <= 1 && !above_neighbour; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int jx = ix + dx;
-          const int jy = iy + dy;
-          if ((dx == 0 && dy == 0) || jx < 0 || jy < 0 || jx >= n || jy >= n) continue;
-          const std::size_t j = static_cast<std::size_t>(jx) + static_cast<std::size_t>(n) * jy;
-          if (low[j] != kNone && count[j] >= options.min_points_per_cell && low[i] - low[j] > step) {
-            above_neighbour = true;
-            break;
-          }
-        }
-      }
-      if (above_neighbour) {
-        obstacle_above[i] = -kNone;
-      } else if (high[i] - low[i] > step) {
-        obstacle_above[i] = low[i] + step;
-      } else {
-        continue;
-      }
-      ++stats.cells_lethal;
-    }
-  }
+  ScanCells cells(pose_M, options);
+  cells.Add(points_M, &stats);
+  const std::vector<float> obstacle_above = cells.ObstacleHeights(&stats);
   // Each lethal cell is reported at its obstacle point nearest the robot in x-y: the surface as measured.
   // Its centre lies up to half a cell (5 cm) off the surface on either side and moves with the robot's
   // position modulo a cell; in a 1.0 m doorway that decides whether a 0.6 m robot fits.
-  std::vector<Eigen::Vector2f> nearest(low.size(), Eigen::Vector2f::Zero());
-  std::vector<float> nearest_d2(low.size(), kNone);
+  std::vector<Eigen::Vector2f> nearest(cells.size(), Eigen::Vector2f::Zero());
+  std::vector<float> nearest_d2(cells.size(), kNone);
   for (const Eigen::Vector3f& p : points_M) {
-    const std::ptrdiff_t cell = cell_of(p);
+    const std::ptrdiff_t cell = cells.CellOf(p);
     if (cell < 0) continue;
     const std::size_t i = static_cast<std::size_t>(cell);
     if (!(p.z() > obstacle_above[i])) continue;
@@ -133,7 +176,7 @@ ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points
   }
   const double cos_yaw = std::cos(pose_M.yaw_rad);
   const double sin_yaw = std::sin(pose_M.yaw_rad);
-  for (std::size_t i = 0; i < low.size(); ++i) {
+  for (std::size_t i = 0; i < cells.size(); ++i) {
     if (nearest_d2[i] == kNone) continue;
     const double dx = nearest[i].x();
     const double dy = nearest[i].y();

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -41,6 +42,67 @@ CoarseVoxel UnpackKey(std::uint64_t key, CoarseState state) {
   v.iz = s(key);
   v.state = state;
   return v;
+}
+
+// Why an update is dropped: the reason counted and the message returned.
+struct MapDrop {
+  MapDropReason reason;
+  std::string message;
+};
+
+// Names the update in errors, e.g. "DELTA seq 7", "SNAPSHOT 3 chunk 1/4".
+std::string UpdateName(const MapUpdate& update) {
+  std::ostringstream what;
+  if (update.kind == MapUpdateKind::kDelta) {
+    what << "DELTA seq " << update.seq;
+  } else {
+    what << "SNAPSHOT " << update.snapshot_id << " chunk " << update.chunk_index << "/" << update.chunk_count;
+  }
+  return what.str();
+}
+
+// The header's own rules (no state needed): robot id, kind, resolution, size, and the seq and chunk fields of
+// a delta or a snapshot chunk (see the protocol in map_telemetry.h).
+std::optional<MapDrop> CheckHeader(const std::string& robot_id, const MapUpdate& update,
+                                   const std::string& name, const FleetMapOptions& options) {
+  const auto bad = [](const std::string& message) { return MapDrop{MapDropReason::kBadHeader, message}; };
+  if (robot_id.empty() || robot_id.size() > kMaxRobotIdChars)
+    return bad("robot id must have 1 to 64 characters");
+  if (update.robot_id != robot_id) return bad("message robot_id '" + update.robot_id + "' differs");
+  if (update.kind != MapUpdateKind::kDelta && update.kind != MapUpdateKind::kSnapshot) {
+    return bad("unknown kind " + std::to_string(static_cast<int>(update.kind)));
+  }
+  if (!std::isfinite(update.resolution_m) || update.resolution_m <= 0.0) {
+    return bad(name + ": resolution_m = " + std::to_string(update.resolution_m) + " must be finite and > 0");
+  }
+  if (update.data.size() > options.max_update_bytes) {
+    return MapDrop{MapDropReason::kLimitExceeded,
+                   name + ": payload of " + std::to_string(update.data.size()) +
+                       " bytes exceeds max_update_bytes " + std::to_string(options.max_update_bytes)};
+  }
+  if (update.kind == MapUpdateKind::kDelta) {
+    if (update.seq == 0) return bad(name + ": DELTA seq must be >= 1");
+    if (update.chunk_index != 0 || update.chunk_count != 1) {
+      return bad(name + ": a DELTA must have chunk_index 0 and chunk_count 1");
+    }
+    if (update.base_seq != update.seq - 1) {
+      return bad(name + ": base_seq " + std::to_string(update.base_seq) + " must be seq - 1");
+    }
+    return std::nullopt;
+  }
+  if (update.snapshot_id == 0) return bad(name + ": snapshot_id must be >= 1");
+  if (update.chunk_count == 0 || update.chunk_index >= update.chunk_count) {
+    return bad(name + ": chunk_index must be < chunk_count");
+  }
+  if (update.chunk_count > options.max_chunk_count) {
+    return MapDrop{MapDropReason::kLimitExceeded,
+                   name + ": chunk_count exceeds max_chunk_count " + std::to_string(options.max_chunk_count)};
+  }
+  if (update.seq != update.base_seq) {
+    return bad(name + ": seq " + std::to_string(update.seq) + " must equal base_seq " +
+               std::to_string(update.base_seq));
+  }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -175,6 +237,136 @@ struct FleetMap::Impl {
     }
   }
 
+  // All robots send coarse voxels of one size: the first update's (or the options').
+  std::optional<MapDrop> CheckResolution(const MapUpdate& update, const std::string& name) const {
+    if (resolution_m <= 0.0 || std::abs(update.resolution_m - resolution_m) <= 1e-9 * resolution_m) {
+      return std::nullopt;
+    }
+    std::ostringstream msg;
+    msg << name << ": resolution_m " << update.resolution_m << " differs from the fleet's " << resolution_m
+        << " m ("
+        << (resolution_set_by.empty() ? "set by FleetMapOptions" : "set by robot '" + resolution_set_by + "'")
+        << "); all robots must send coarse voxels of one size";
+    return MapDrop{MapDropReason::kResolutionMismatch, msg.str()};
+  }
+
+  // The update against what `robot` (nullptr: not heard yet) already has: a delta at or below its complete
+  // seq, or received before; a snapshot chunk of a completed or older snapshot, disagreeing with the chunks
+  // received, or received before.
+  static std::optional<MapDrop> CheckSequence(const Robot* robot, const MapUpdate& update,
+                                              const std::string& name) {
+    if (robot == nullptr) return std::nullopt;
+    if (update.kind == MapUpdateKind::kDelta) {
+      if (robot->has_base && update.seq <= robot->complete_through) {
+        return MapDrop{MapDropReason::kOutOfOrder, name + " is at or below seq " +
+                                                       std::to_string(robot->complete_through) +
+                                                       ", through which the map is already complete"};
+      }
+      if (robot->received.count(update.seq) != 0)
+        return MapDrop{MapDropReason::kDuplicate, name + " already received"};
+      return std::nullopt;
+    }
+    if (update.snapshot_id <= robot->last_completed_snapshot) {
+      return MapDrop{
+          MapDropReason::kOutOfOrder,
+          name + ": snapshot " + std::to_string(robot->last_completed_snapshot) + " is already complete"};
+    }
+    if (robot->snap_id > update.snapshot_id) {
+      return MapDrop{MapDropReason::kOutOfOrder,
+                     name + ": newer snapshot " + std::to_string(robot->snap_id) + " is being received"};
+    }
+    if (robot->snap_id != update.snapshot_id) return std::nullopt;  // A new snapshot.
+    if (robot->snap_count != update.chunk_count || robot->snap_base != update.base_seq) {
+      return MapDrop{MapDropReason::kSnapshotMismatch,
+                     name + " (base_seq " + std::to_string(update.base_seq) +
+                         ") disagrees with earlier chunks: " + std::to_string(robot->snap_count) +
+                         " chunks, base_seq " + std::to_string(robot->snap_base)};
+    }
+    if (robot->snap_got[update.chunk_index])
+      return MapDrop{MapDropReason::kDuplicate, name + " already received"};
+    return std::nullopt;
+  }
+
+  // The robot's map may not grow past max_voxels_per_robot.
+  std::optional<MapDrop> CheckLimits(const Robot* robot, const std::vector<CoarseVoxel>& voxels,
+                                     const std::string& name) const {
+    const std::size_t have = robot == nullptr ? 0 : robot->voxels.size();
+    std::size_t added = voxels.size();  // Upper bound; counted exactly only when it matters.
+    if (have + added > options.max_voxels_per_robot) {
+      added = 0;
+      for (const CoarseVoxel& v : voxels) {
+        if (robot == nullptr || robot->voxels.count(PackKey(v)) == 0) ++added;
+      }
+    }
+    if (have + added <= options.max_voxels_per_robot) return std::nullopt;
+    return MapDrop{MapDropReason::kLimitExceeded,
+                   name + ": would grow the map to " + std::to_string(have + added) +
+                       " voxels, over max_voxels_per_robot " + std::to_string(options.max_voxels_per_robot)};
+  }
+
+  // Applies a checked update of `robot_id` (`robot`: nullptr when not heard yet: it is added).
+  void Commit(const std::string& robot_id, Robot* robot, const MapUpdate& update,
+              const std::vector<CoarseVoxel>& voxels) {
+    if (resolution_m == 0.0) {
+      resolution_m = update.resolution_m;
+      resolution_set_by = robot_id;
+    }
+    if (robot == nullptr) {
+      robot = &robots[robot_id];
+      robot->resolution_m = update.resolution_m;
+    }
+    if (update.kind == MapUpdateKind::kDelta) {
+      CommitDelta(robot, update, voxels);
+    } else {
+      CommitSnapshotChunk(robot, update, voxels);
+    }
+    robot->bytes_received += update.data.size();
+    bytes_received += update.data.size();
+    ++updates_applied;
+  }
+
+  void CommitDelta(Robot* robot, const MapUpdate& update, const std::vector<CoarseVoxel>& voxels) {
+    SetVoxels(robot, voxels, update.seq);
+    if (!robot->has_base && update.seq == 1)
+      robot->has_base = true;  // The empty map before DELTA 1 is a base.
+    robot->received.insert(update.seq);
+    while (robot->received.size() > kMaxTrackedSeqs) robot->received.erase(robot->received.begin());
+    robot->last_seq = std::max(robot->last_seq, update.seq);
+    robot->Advance();
+    ++robot->deltas_applied;
+  }
+
+  // A chunk of the snapshot being collected, or the first of a new one (abandoning an older, incomplete
+  // one); the last chunk completes the map through the snapshot's base seq.
+  void CommitSnapshotChunk(Robot* robot, const MapUpdate& update, const std::vector<CoarseVoxel>& voxels) {
+    if (robot->snap_id != update.snapshot_id) {
+      robot->snap_id = update.snapshot_id;
+      robot->snap_base = update.base_seq;
+      robot->snap_count = update.chunk_count;
+      robot->snap_got.assign(update.chunk_count, false);
+      robot->snap_num_got = 0;
+    }
+    SetVoxels(robot, voxels, update.base_seq);
+    robot->snap_got[update.chunk_index] = true;
+    ++robot->snap_num_got;
+    ++robot->chunks_applied;
+    if (robot->snap_num_got != robot->snap_count) return;
+    robot->last_completed_snapshot = robot->snap_id;
+    ++robot->snapshots_completed;
+    const std::uint32_t base = robot->snap_base;
+    if (!robot->has_base) {
+      robot->has_base = true;
+      robot->complete_through = base;
+    } else {
+      robot->complete_through = std::max(robot->complete_through, base);
+    }
+    robot->received.erase(robot->received.begin(), robot->received.upper_bound(robot->complete_through));
+    robot->Advance();
+    robot->snap_id = 0;
+    robot->snap_got.clear();
+    robot->snap_num_got = 0;
+  }
+
   FleetMapOptions options;
   mutable std::mutex mutex;
   double resolution_m;            // 0 until set.
@@ -199,190 +391,36 @@ bool FleetMap::Apply(const std::string& robot_id, const MapUpdate& update, std::
                      MapDropReason* reason) {
   Impl& d = *impl_;
   std::unique_lock<std::mutex> lock(d.mutex, std::defer_lock);  // Taken after the pure checks below.
-  const auto drop = [&](MapDropReason why, const std::string& message) {
+  const auto drop = [&](const MapDrop& why) {
     if (!lock.owns_lock()) lock.lock();
-    ++d.drops.count[static_cast<int>(why)];
-    if (error != nullptr) *error = "robot '" + robot_id + "': " + message;
-    if (reason != nullptr) *reason = why;
+    ++d.drops.count[static_cast<int>(why.reason)];
+    if (error != nullptr) *error = "robot '" + robot_id + "': " + why.message;
+    if (reason != nullptr) *reason = why.reason;
     return false;
   };
-
-  // 1. Header fields.
-  if (robot_id.empty() || robot_id.size() > kMaxRobotIdChars) {
-    return drop(MapDropReason::kBadHeader, "robot id must have 1 to 64 characters");
-  }
-  if (update.robot_id != robot_id) {
-    return drop(MapDropReason::kBadHeader, "message robot_id '" + update.robot_id + "' differs");
-  }
-  if (update.kind != MapUpdateKind::kDelta && update.kind != MapUpdateKind::kSnapshot) {
-    return drop(MapDropReason::kBadHeader, "unknown kind " + std::to_string(static_cast<int>(update.kind)));
-  }
-  const bool delta = update.kind == MapUpdateKind::kDelta;
-  std::ostringstream what;  // Names the message in errors, e.g. "DELTA seq 7".
-  if (delta) {
-    what << "DELTA seq " << update.seq;
-  } else {
-    what << "SNAPSHOT " << update.snapshot_id << " chunk " << update.chunk_index << "/" << update.chunk_count;
-  }
-  const std::string name = what.str();
-  if (!std::isfinite(update.resolution_m) || update.resolution_m <= 0.0) {
-    return drop(MapDropReason::kBadHeader,
-                name + ": resolution_m = " + std::to_string(update.resolution_m) + " must be finite and > 0");
-  }
-  if (update.data.size() > d.options.max_update_bytes) {  // Options are constant: no lock needed.
-    return drop(MapDropReason::kLimitExceeded, name + ": payload of " + std::to_string(update.data.size()) +
-                                                   " bytes exceeds max_update_bytes " +
-                                                   std::to_string(d.options.max_update_bytes));
-  }
-  if (delta) {
-    if (update.seq == 0) return drop(MapDropReason::kBadHeader, name + ": DELTA seq must be >= 1");
-    if (update.chunk_index != 0 || update.chunk_count != 1) {
-      return drop(MapDropReason::kBadHeader, name + ": a DELTA must have chunk_index 0 and chunk_count 1");
-    }
-    if (update.base_seq != update.seq - 1) {
-      return drop(MapDropReason::kBadHeader,
-                  name + ": base_seq " + std::to_string(update.base_seq) + " must be seq - 1");
-    }
-  } else {
-    if (update.snapshot_id == 0) return drop(MapDropReason::kBadHeader, name + ": snapshot_id must be >= 1");
-    if (update.chunk_count == 0 || update.chunk_index >= update.chunk_count) {
-      return drop(MapDropReason::kBadHeader, name + ": chunk_index must be < chunk_count");
-    }
-    if (update.chunk_count > d.options.max_chunk_count) {
-      return drop(MapDropReason::kLimitExceeded, name + ": chunk_count exceeds max_chunk_count " +
-                                                     std::to_string(d.options.max_chunk_count));
-    }
-    if (update.seq != update.base_seq) {
-      return drop(MapDropReason::kBadHeader, name + ": seq " + std::to_string(update.seq) +
-                                                 " must equal base_seq " + std::to_string(update.base_seq));
-    }
-  }
-
+  const std::string name = UpdateName(update);
+  // 1. Header fields (options are constant: no lock needed).
+  if (auto why = CheckHeader(robot_id, update, name, d.options)) return drop(*why);
   // 2. Payload (decoded before locking: the slow part).
   std::vector<CoarseVoxel> voxels;
-  std::string why;
-  if (!DecodeCoarseVoxels(update.data.data(), update.data.size(), kMaxVoxelsPerUpdate, &voxels, &why)) {
-    return drop(MapDropReason::kMalformedPayload, name + ": payload rejected: " + why);
+  std::string payload_error;
+  if (!DecodeCoarseVoxels(update.data.data(), update.data.size(), kMaxVoxelsPerUpdate, &voxels,
+                          &payload_error)) {
+    return drop({MapDropReason::kMalformedPayload, name + ": payload rejected: " + payload_error});
   }
   lock.lock();
-
-  // 3. Resolution.
-  if (d.resolution_m > 0.0 && std::abs(update.resolution_m - d.resolution_m) > 1e-9 * d.resolution_m) {
-    std::ostringstream msg;
-    msg << name << ": resolution_m " << update.resolution_m << " differs from the fleet's " << d.resolution_m
-        << " m ("
-        << (d.resolution_set_by.empty() ? "set by FleetMapOptions"
-                                        : "set by robot '" + d.resolution_set_by + "'")
-        << "); all robots must send coarse voxels of one size";
-    return drop(MapDropReason::kResolutionMismatch, msg.str());
-  }
-
-  // 4. Robot and sequencing.
+  // 3. Resolution, 4. robot and sequencing, 5. limits.
+  if (auto why = d.CheckResolution(update, name)) return drop(*why);
   const auto found = d.robots.find(robot_id);
   Impl::Robot* robot = found == d.robots.end() ? nullptr : &found->second;
   if (robot == nullptr && d.robots.size() >= d.options.max_robots) {
-    return drop(MapDropReason::kLimitExceeded,
-                "already " + std::to_string(d.robots.size()) + " robots (max_robots); new robot refused");
+    return drop({MapDropReason::kLimitExceeded,
+                 "already " + std::to_string(d.robots.size()) + " robots (max_robots); new robot refused"});
   }
-  bool new_snapshot = false;
-  if (delta) {
-    if (robot != nullptr && robot->has_base && update.seq <= robot->complete_through) {
-      return drop(MapDropReason::kOutOfOrder, name + " is at or below seq " +
-                                                  std::to_string(robot->complete_through) +
-                                                  ", through which the map is already complete");
-    }
-    if (robot != nullptr && robot->received.count(update.seq) != 0) {
-      return drop(MapDropReason::kDuplicate, name + " already received");
-    }
-  } else {
-    if (robot != nullptr && update.snapshot_id <= robot->last_completed_snapshot) {
-      return drop(
-          MapDropReason::kOutOfOrder,
-          name + ": snapshot " + std::to_string(robot->last_completed_snapshot) + " is already complete");
-    }
-    if (robot != nullptr && robot->snap_id > update.snapshot_id) {
-      return drop(MapDropReason::kOutOfOrder,
-                  name + ": newer snapshot " + std::to_string(robot->snap_id) + " is being received");
-    }
-    if (robot != nullptr && robot->snap_id == update.snapshot_id) {
-      if (robot->snap_count != update.chunk_count || robot->snap_base != update.base_seq) {
-        return drop(MapDropReason::kSnapshotMismatch,
-                    name + " (base_seq " + std::to_string(update.base_seq) +
-                        ") disagrees with earlier chunks: " + std::to_string(robot->snap_count) +
-                        " chunks, base_seq " + std::to_string(robot->snap_base));
-      }
-      if (robot->snap_got[update.chunk_index])
-        return drop(MapDropReason::kDuplicate, name + " already received");
-    } else {
-      new_snapshot = true;
-    }
-  }
-
-  // 5. Limits.
-  const std::size_t have = robot == nullptr ? 0 : robot->voxels.size();
-  std::size_t added = voxels.size();  // Upper bound; counted exactly only when it matters.
-  if (have + added > d.options.max_voxels_per_robot) {
-    added = 0;
-    for (const CoarseVoxel& v : voxels) {
-      if (robot == nullptr || robot->voxels.count(PackKey(v)) == 0) ++added;
-    }
-  }
-  if (have + added > d.options.max_voxels_per_robot) {
-    return drop(MapDropReason::kLimitExceeded,
-                name + ": would grow the map to " + std::to_string(have + added) +
-                    " voxels, over max_voxels_per_robot " + std::to_string(d.options.max_voxels_per_robot));
-  }
-
+  if (auto why = Impl::CheckSequence(robot, update, name)) return drop(*why);
+  if (auto why = d.CheckLimits(robot, voxels, name)) return drop(*why);
   // 6. Commit: nothing above changed any state (but the drop counts).
-  if (d.resolution_m == 0.0) {
-    d.resolution_m = update.resolution_m;
-    d.resolution_set_by = robot_id;
-  }
-  if (robot == nullptr) {
-    robot = &d.robots[robot_id];
-    robot->resolution_m = update.resolution_m;
-  }
-  if (delta) {
-    d.SetVoxels(robot, voxels, update.seq);
-    if (!robot->has_base && update.seq == 1)
-      robot->has_base = true;  // The empty map before DELTA 1 is a base.
-    robot->received.insert(update.seq);
-    while (robot->received.size() > kMaxTrackedSeqs) robot->received.erase(robot->received.begin());
-    robot->last_seq = std::max(robot->last_seq, update.seq);
-    robot->Advance();
-    ++robot->deltas_applied;
-  } else {
-    if (new_snapshot) {  // Abandons an older, incomplete one.
-      robot->snap_id = update.snapshot_id;
-      robot->snap_base = update.base_seq;
-      robot->snap_count = update.chunk_count;
-      robot->snap_got.assign(update.chunk_count, false);
-      robot->snap_num_got = 0;
-    }
-    d.SetVoxels(robot, voxels, update.base_seq);
-    robot->snap_got[update.chunk_index] = true;
-    ++robot->snap_num_got;
-    ++robot->chunks_applied;
-    if (robot->snap_num_got == robot->snap_count) {
-      robot->last_completed_snapshot = robot->snap_id;
-      ++robot->snapshots_completed;
-      const std::uint32_t base = robot->snap_base;
-      if (!robot->has_base) {
-        robot->has_base = true;
-        robot->complete_through = base;
-      } else {
-        robot->complete_through = std::max(robot->complete_through, base);
-      }
-      robot->received.erase(robot->received.begin(), robot->received.upper_bound(robot->complete_through));
-      robot->Advance();
-      robot->snap_id = 0;
-      robot->snap_got.clear();
-      robot->snap_num_got = 0;
-    }
-  }
-  robot->bytes_received += update.data.size();
-  d.bytes_received += update.data.size();
-  ++d.updates_applied;
+  d.Commit(robot_id, robot, update, voxels);
   return true;
 }
 

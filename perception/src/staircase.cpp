@@ -16,6 +16,7 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -541,45 +542,49 @@ class DetectorRun {
       edges_.push_back(e);
     }
     stats_->edge_cells = static_cast<std::int64_t>(edges_.size());
-    // Local normals: PCA of the edge cells at about the same height within ~0.25 m.
+    for (EdgeCell& e : edges_) EstimateNormal(&e);
+  }
+
+  // The local normal of edge cell `e` and its weight: PCA of the edge cells at about the same height within
+  // ~0.25 m (none with fewer than 4).
+  void EstimateNormal(EdgeCell* edge) const {
+    EdgeCell& e = *edge;
     const int w = std::max(2, static_cast<int>(std::lround(0.25 / cell_m_)));
-    for (EdgeCell& e : edges_) {
-      const int ix = e.cell / nx_;
-      const int iy = e.cell % nx_;
-      double n = 0, mx = 0, my = 0, sxx = 0, sxy = 0, syy = 0;
-      for (int jx = std::max(0, ix - w); jx <= std::min(nx_ - 1, ix + w); ++jx) {
-        for (int jy = std::max(0, iy - w); jy <= std::min(nx_ - 1, iy + w); ++jy) {
-          const int j = edge_of_[static_cast<std::size_t>(jx * nx_ + jy)];
-          if (j < 0) continue;
-          const EdgeCell& f = edges_[static_cast<std::size_t>(j)];
-          if (std::abs(f.h_m - e.h_m) > kRiseTol) continue;
-          const double x = (jx - ix) * cell_m_;
-          const double y = (jy - iy) * cell_m_;
-          n += 1;
-          mx += x;
-          my += y;
-          sxx += x * x;
-          sxy += x * y;
-          syy += y * y;
-        }
+    const int ix = e.cell / nx_;
+    const int iy = e.cell % nx_;
+    double n = 0, mx = 0, my = 0, sxx = 0, sxy = 0, syy = 0;
+    for (int jx = std::max(0, ix - w); jx <= std::min(nx_ - 1, ix + w); ++jx) {
+      for (int jy = std::max(0, iy - w); jy <= std::min(nx_ - 1, iy + w); ++jy) {
+        const int j = edge_of_[static_cast<std::size_t>(jx * nx_ + jy)];
+        if (j < 0) continue;
+        const EdgeCell& f = edges_[static_cast<std::size_t>(j)];
+        if (std::abs(f.h_m - e.h_m) > kRiseTol) continue;
+        const double x = (jx - ix) * cell_m_;
+        const double y = (jy - iy) * cell_m_;
+        n += 1;
+        mx += x;
+        my += y;
+        sxx += x * x;
+        sxy += x * y;
+        syy += y * y;
       }
-      if (n < 4) continue;
-      mx /= n;
-      my /= n;
-      const double cxx = sxx / n - mx * mx;
-      const double cxy = sxy / n - mx * my;
-      const double cyy = syy / n - my * my;
-      const double tr = cxx + cyy;
-      const double det = cxx * cyy - cxy * cxy;
-      const double disc = std::sqrt(std::max(0.0, 0.25 * tr * tr - det));
-      const double l1 = 0.5 * tr + disc;
-      const double l2 = 0.5 * tr - disc;
-      if (l1 <= 1e-12) continue;
-      const double line_angle = 0.5 * std::atan2(2.0 * cxy, cxx - cyy);  // Direction of largest spread.
-      e.nx = -std::sin(line_angle);
-      e.ny = std::cos(line_angle);
-      e.weight = (l1 - l2) / l1;
     }
+    if (n < 4) return;
+    mx /= n;
+    my /= n;
+    const double cxx = sxx / n - mx * mx;
+    const double cxy = sxy / n - mx * my;
+    const double cyy = syy / n - my * my;
+    const double tr = cxx + cyy;
+    const double det = cxx * cyy - cxy * cxy;
+    const double disc = std::sqrt(std::max(0.0, 0.25 * tr * tr - det));
+    const double l1 = 0.5 * tr + disc;
+    const double l2 = 0.5 * tr - disc;
+    if (l1 <= 1e-12) return;
+    const double line_angle = 0.5 * std::atan2(2.0 * cxy, cxx - cyy);  // Direction of largest spread.
+    e.nx = -std::sin(line_angle);
+    e.ny = std::cos(line_angle);
+    e.weight = (l1 - l2) / l1;
   }
 
   // A nose seen from above: walking away from the robot from cell (ix, iy), the first occupied cell lies
@@ -705,198 +710,224 @@ class DetectorRun {
           }
         }
       }
-      if (members.size() < 4) continue;
-      std::vector<double> ss, hh, tt;
-      for (int i : members) {
-        ss.push_back(es[static_cast<std::size_t>(i)]);
-        hh.push_back(edges_[static_cast<std::size_t>(i)].h_m);
-        tt.push_back(et[static_cast<std::size_t>(i)]);
-      }
-      const auto [range, count] = LongestRun(&tt, 0.25);
-      if (count < 4 || range.second - range.first < 0.25) continue;
-      Blob blob;
-      blob.s_m = Median(ss);
-      blob.h_m = Median(hh);  // Refined below on the core.
-      blob.t_lo_m = range.first;
-      blob.t_hi_m = range.second;
-      // Keep the compact core: cells near the median in s and h and inside the lateral run.
-      for (int i : members) {
-        const std::size_t u = static_cast<std::size_t>(i);
-        if (std::abs(es[u] - blob.s_m) <= 0.12 && std::abs(edges_[u].h_m - blob.h_m) <= kRiseTol &&
-            et[u] >= range.first && et[u] <= range.second) {
-          blob.edges.push_back(i);
-        }
-      }
-      if (blob.edges.size() < 4) continue;
-      std::vector<double> core, tops;
-      std::vector<bool> on_face;
-      for (int i : blob.edges) {
-        core.push_back(es[static_cast<std::size_t>(i)]);
-        tops.push_back(edges_[static_cast<std::size_t>(i)].h_m);
-        on_face.push_back(edges_[static_cast<std::size_t>(i)].riser_face);
-      }
-      std::sort(tops.begin(), tops.end());
-      blob.s_front_m = RiserPosition(core, on_face, 1);
-      blob.s_back_m = RiserPosition(core, on_face, -1);
-      // A riser seen from below is sampled by a few beams: most cell tops fall short of its nose.
-      blob.h_m = tops[tops.size() * 9 / 10];
-      blobs.push_back(std::move(blob));
+      if (auto blob = MakeBlob(members, es, et)) blobs.push_back(std::move(*blob));
     }
     std::sort(blobs.begin(), blobs.end(), [](const Blob& a, const Blob& b) { return a.h_m < b.h_m; });
     for (int sign : {1, -1}) ChainBlobs(theta, sign, blobs, chains);
+  }
+
+  // A blob of edge cells `members` (edges_ indices at positions es, et along and across the direction): its
+  // compact core (cells near the median in s and h and inside the longest lateral run), the riser's front and
+  // back, and its nose height; nullopt when fewer than 4 cells or a run narrower than 0.25 m support it.
+  std::optional<Blob> MakeBlob(const std::vector<int>& members, const std::vector<double>& es,
+                               const std::vector<double>& et) const {
+    if (members.size() < 4) return std::nullopt;
+    std::vector<double> ss, hh, tt;
+    for (int i : members) {
+      ss.push_back(es[static_cast<std::size_t>(i)]);
+      hh.push_back(edges_[static_cast<std::size_t>(i)].h_m);
+      tt.push_back(et[static_cast<std::size_t>(i)]);
+    }
+    const auto [range, count] = LongestRun(&tt, 0.25);
+    if (count < 4 || range.second - range.first < 0.25) return std::nullopt;
+    Blob blob;
+    blob.s_m = Median(ss);
+    blob.h_m = Median(hh);  // Refined below on the core.
+    blob.t_lo_m = range.first;
+    blob.t_hi_m = range.second;
+    // Keep the compact core: cells near the median in s and h and inside the lateral run.
+    for (int i : members) {
+      const std::size_t u = static_cast<std::size_t>(i);
+      if (std::abs(es[u] - blob.s_m) <= 0.12 && std::abs(edges_[u].h_m - blob.h_m) <= kRiseTol &&
+          et[u] >= range.first && et[u] <= range.second) {
+        blob.edges.push_back(i);
+      }
+    }
+    if (blob.edges.size() < 4) return std::nullopt;
+    std::vector<double> core, tops;
+    std::vector<bool> on_face;
+    for (int i : blob.edges) {
+      core.push_back(es[static_cast<std::size_t>(i)]);
+      tops.push_back(edges_[static_cast<std::size_t>(i)].h_m);
+      on_face.push_back(edges_[static_cast<std::size_t>(i)].riser_face);
+    }
+    std::sort(tops.begin(), tops.end());
+    blob.s_front_m = RiserPosition(core, on_face, 1);
+    blob.s_back_m = RiserPosition(core, on_face, -1);
+    // A riser seen from below is sampled by a few beams: most cell tops fall short of its nose.
+    blob.h_m = tops[tops.size() * 9 / 10];
+    return blob;
+  }
+
+  // A blob's riser seen along one direction: its position s along it, height h, lateral extent [tlo, thi].
+  struct ChainStep {
+    double s, h, tlo, thi;
+  };
+  static bool LaterallyOverlap(double alo, double ahi, double blo, double bhi) {
+    const double inter = std::min(ahi, bhi) - std::max(alo, blo);
+    return inter >= std::max(0.2, 0.5 * std::min(ahi - alo, bhi - blo));
+  }
+  // The step expected at (s, h) overlapping [tlo, thi], -1 if none.
+  static int FindStep(const std::vector<ChainStep>& steps, double s_exp, double h_exp, double tlo,
+                      double thi) {
+    int best = -1;
+    double best_d = std::numeric_limits<double>::infinity();
+    for (std::size_t m = 0; m < steps.size(); ++m) {
+      const ChainStep& b = steps[m];
+      if (std::abs(b.h - h_exp) > kChainRiseTol || std::abs(b.s - s_exp) > 0.8 * kRunTol) continue;
+      if (!LaterallyOverlap(b.tlo, b.thi, tlo, thi)) continue;
+      const double d = std::abs(b.s - s_exp) + std::abs(b.h - h_exp);
+      if (d < best_d) {
+        best_d = d;
+        best = static_cast<int>(m);
+      }
+    }
+    return best;
   }
 
   // Chains `blobs` (sorted by height) into staircases ascending along sign * (cos theta, sin theta), allowing
   // one unobserved riser. In that frame a blob's riser is at its front: the edge cells lie on the upper
   // tread, behind the riser (or on the riser itself).
   void ChainBlobs(double theta, int sign, const std::vector<Blob>& blobs, std::vector<Chain>* chains) const {
-    struct Step {
-      double s, h, tlo, thi;
-    };
-    std::vector<Step> steps;
+    std::vector<ChainStep> steps;
     for (const Blob& b : blobs) {
-      steps.push_back(sign > 0 ? Step{b.s_front_m, b.h_m, b.t_lo_m, b.t_hi_m}
-                               : Step{-b.s_back_m, b.h_m, -b.t_hi_m, -b.t_lo_m});
+      steps.push_back(sign > 0 ? ChainStep{b.s_front_m, b.h_m, b.t_lo_m, b.t_hi_m}
+                               : ChainStep{-b.s_back_m, b.h_m, -b.t_hi_m, -b.t_lo_m});
     }
-    auto overlap = [](double alo, double ahi, double blo, double bhi) {
-      const double inter = std::min(ahi, bhi) - std::max(alo, blo);
-      return inter >= std::max(0.2, 0.5 * std::min(ahi - alo, bhi - blo));
-    };
-    // The step expected at (s, h) overlapping [tlo, thi], -1 if none.
-    auto find = [&](double s_exp, double h_exp, double tlo, double thi) {
-      int best = -1;
-      double best_d = std::numeric_limits<double>::infinity();
-      for (std::size_t m = 0; m < steps.size(); ++m) {
-        const Step& b = steps[m];
-        if (std::abs(b.h - h_exp) > kChainRiseTol || std::abs(b.s - s_exp) > 0.8 * kRunTol) continue;
-        if (!overlap(b.tlo, b.thi, tlo, thi)) continue;
-        const double d = std::abs(b.s - s_exp) + std::abs(b.h - h_exp);
-        if (d < best_d) {
-          best_d = d;
-          best = static_cast<int>(m);
-        }
-      }
-      return best;
-    };
-    const double rise_lo = o_.min_rise_m - kRiseTol;
-    const double rise_hi = o_.max_rise_m + kRiseTol;
-    const double run_lo = o_.min_run_m - kRunTol;
-    const double run_hi = o_.max_run_m + kRunTol;
     for (std::size_t i = 0; i < steps.size(); ++i) {
       for (std::size_t j = i + 1; j < steps.size(); ++j) {
-        const Step& a = steps[i];
-        const Step& b = steps[j];
-        // A seed pair is two neighbouring risers, or two risers with one unobserved between them (from a few
-        // metres a VLP-16's beams 2 deg apart pass over a riser between two they hit). The latter only for
-        // rises well above the smallest: a ramp in a map of 0.1 m voxels reads as 0.1 m steps, and skipping
-        // one of those would turn any slope into a staircase.
-        int seed_gap = 0;
-        for (int g = 1; g <= 2 && seed_gap == 0; ++g) {
-          const double rise = (b.h - a.h) / g;
-          const double run = (b.s - a.s) / g;
-          const double lo = g == 1 ? rise_lo : o_.min_rise_m + kSkippedRiserMinExtraRise;
-          if (rise >= lo && rise <= rise_hi && run >= run_lo && run <= run_hi) seed_gap = g;
-        }
-        if (seed_gap == 0) continue;
-        const double rise = (b.h - a.h) / seed_gap;
-        const double run = (b.s - a.s) / seed_gap;
-        if (!overlap(a.tlo, a.thi, b.tlo, b.thi)) continue;
+        const ChainStep& a = steps[i];
+        const ChainStep& b = steps[j];
+        const int seed_gap = SeedGap(a, b);
+        if (seed_gap == 0 || !LaterallyOverlap(a.tlo, a.thi, b.tlo, b.thi)) continue;
         const double tlo = std::max(a.tlo, b.tlo);
         const double thi = std::min(a.thi, b.thi);
-        // Riser index -> step index, grown up and down from the seed pair.
-        std::map<int, int> members{{0, static_cast<int>(i)}, {seed_gap, static_cast<int>(j)}};
-        int missing = seed_gap - 1;
-        double rise_est = rise, run_est = run;
-        for (int dir : {1, -1}) {
-          int k = dir > 0 ? seed_gap : 0;
-          while (true) {
-            const Step& last = steps[static_cast<std::size_t>(members[k])];
-            int found = -1;
-            int gap = 1;
-            for (; gap <= (missing == 0 ? 2 : 1); ++gap) {
-              found = find(last.s + dir * gap * run_est, last.h + dir * gap * rise_est, tlo, thi);
-              if (found >= 0) break;
-            }
-            // A step already in the chain ends it (a chain never revisits a riser).
-            if (found < 0 || std::any_of(members.begin(), members.end(),
-                                         [found](const auto& km) { return km.second == found; })) {
-              break;
-            }
-            if (gap == 2) ++missing;
-            k += dir * gap;
-            members[k] = found;
-            // Mean rise and run over the chain so far.
-            const Step& lowest = steps[static_cast<std::size_t>(members.begin()->second)];
-            const Step& highest = steps[static_cast<std::size_t>(members.rbegin()->second)];
-            const int span = members.rbegin()->first - members.begin()->first;
-            rise_est = (highest.h - lowest.h) / span;
-            run_est = (highest.s - lowest.s) / span;
-          }
-        }
-        const int first = members.begin()->first;
-        const int num_risers = members.rbegin()->first - first + 1;
+        const std::map<int, int> members = GrowChain(steps, i, j, seed_gap, tlo, thi);
+        const int num_risers = members.rbegin()->first - members.begin()->first + 1;
         if (num_risers < o_.min_risers) continue;
-        // A chain seeded across an unobserved riser explains every step edge inside its span: an edge there
-        // between two of its risers means the spacing is an alias (three of four risers read as two of
-        // three). An edge at one of its risers, lower than its nose, is that riser seen from below.
-        if (seed_gap > 1) {
-          const Step& lowest = steps[static_cast<std::size_t>(members.begin()->second)];
-          const Step& highest = steps[static_cast<std::size_t>(members.rbegin()->second)];
-          const double chain_run = (highest.s - lowest.s) / (num_risers - 1);
-          bool unexplained = false;
-          for (std::size_t m = 0; m < steps.size() && !unexplained; ++m) {
-            const Step& st = steps[m];
-            if (st.s <= lowest.s + 0.5 * kRunTol || st.s >= highest.s - 0.5 * kRunTol) continue;
-            if (st.h <= lowest.h + kRiseTol || st.h >= highest.h - kRiseTol) continue;
-            if (!overlap(st.tlo, st.thi, tlo, thi)) continue;
-            const double from_riser = std::remainder(st.s - lowest.s, chain_run);
-            unexplained = std::abs(from_riser) > 0.5 * kRunTol;
-          }
-          if (unexplained) continue;
-        }
-        Chain chain;
-        chain.theta_rad = sign > 0 ? WrapAngle(theta) : WrapAngle(theta + kPi);
-        chain.num_risers = num_risers;
-        chain.t_lo_m = std::numeric_limits<double>::infinity();
-        chain.t_hi_m = -std::numeric_limits<double>::infinity();
-        // Least squares lines s(k) and h(k) over the riser index k.
-        double n = 0, sk = 0, skk = 0, ss = 0, sks = 0, sh = 0, skh = 0;
-        for (const auto& [k, m] : members) {
-          const Step& st = steps[static_cast<std::size_t>(m)];
-          const double kk = k - first;
-          chain.blobs.push_back(m);
-          chain.riser.push_back(k - first);
-          const std::vector<int>& e = blobs[static_cast<std::size_t>(m)].edges;
-          chain.edges.insert(chain.edges.end(), e.begin(), e.end());
-          chain.blob_edges.push_back(e);
-          n += 1;
-          sk += kk;
-          skk += kk * kk;
-          ss += st.s;
-          sks += kk * st.s;
-          sh += st.h;
-          skh += kk * st.h;
-          chain.t_lo_m = std::min(chain.t_lo_m, st.tlo);
-          chain.t_hi_m = std::max(chain.t_hi_m, st.thi);
-        }
-        chain.cells = static_cast<int>(chain.edges.size());
-        const double den = n * skk - sk * sk;
-        if (den <= 0) continue;
-        chain.run_m = (n * sks - sk * ss) / den;
-        chain.s_first_m = (ss - chain.run_m * sk) / n;
-        chain.rise_m = (n * skh - sk * sh) / den;
-        chain.h_first_m = (sh - chain.rise_m * sk) / n;
-        // Regularity: every observed riser close to the lines.
-        bool regular = true;
-        for (const auto& [k, m] : members) {
-          const Step& st = steps[static_cast<std::size_t>(m)];
-          const double kk = k - first;
-          regular = regular && std::abs(st.s - (chain.s_first_m + kk * chain.run_m)) <= 0.8 * kRunTol &&
-                    std::abs(st.h - (chain.h_first_m + kk * chain.rise_m)) <= kChainRiseTol;
-        }
-        if (regular) chains->push_back(std::move(chain));
+        if (seed_gap > 1 && Aliased(steps, members, tlo, thi)) continue;
+        if (auto chain = FitChain(theta, sign, blobs, steps, members)) chains->push_back(std::move(*chain));
       }
     }
+  }
+
+  // A seed pair is two neighbouring risers (1), or two risers with one unobserved between them (2: from a few
+  // metres a VLP-16's beams 2 deg apart pass over a riser between two they hit); 0: neither. The latter only
+  // for rises well above the smallest: a ramp in a map of 0.1 m voxels reads as 0.1 m steps, and skipping
+  // one of those would turn any slope into a staircase.
+  int SeedGap(const ChainStep& a, const ChainStep& b) const {
+    for (int g = 1; g <= 2; ++g) {
+      const double rise = (b.h - a.h) / g;
+      const double run = (b.s - a.s) / g;
+      const double lo = g == 1 ? o_.min_rise_m - kRiseTol : o_.min_rise_m + kSkippedRiserMinExtraRise;
+      if (rise >= lo && rise <= o_.max_rise_m + kRiseTol && run >= o_.min_run_m - kRunTol &&
+          run <= o_.max_run_m + kRunTol) {
+        return g;
+      }
+    }
+    return 0;
+  }
+
+  // Riser index -> step index, grown up and down from the seed pair (i at riser 0, j at riser seed_gap) with
+  // the chain's mean rise and run, across one unobserved riser at most.
+  static std::map<int, int> GrowChain(const std::vector<ChainStep>& steps, std::size_t i, std::size_t j,
+                                      int seed_gap, double tlo, double thi) {
+    std::map<int, int> members{{0, static_cast<int>(i)}, {seed_gap, static_cast<int>(j)}};
+    int missing = seed_gap - 1;
+    double rise_est = (steps[j].h - steps[i].h) / seed_gap, run_est = (steps[j].s - steps[i].s) / seed_gap;
+    for (int dir : {1, -1}) {
+      int k = dir > 0 ? seed_gap : 0;
+      while (true) {
+        const ChainStep& last = steps[static_cast<std::size_t>(members[k])];
+        int found = -1;
+        int gap = 1;
+        for (; gap <= (missing == 0 ? 2 : 1); ++gap) {
+          found = FindStep(steps, last.s + dir * gap * run_est, last.h + dir * gap * rise_est, tlo, thi);
+          if (found >= 0) break;
+        }
+        // A step already in the chain ends it (a chain never revisits a riser).
+        if (found < 0 || std::any_of(members.begin(), members.end(),
+                                     [found](const auto& km) { return km.second == found; })) {
+          break;
+        }
+        if (gap == 2) ++missing;
+        k += dir * gap;
+        members[k] = found;
+        // Mean rise and run over the chain so far.
+        const ChainStep& lowest = steps[static_cast<std::size_t>(members.begin()->second)];
+        const ChainStep& highest = steps[static_cast<std::size_t>(members.rbegin()->second)];
+        const int span = members.rbegin()->first - members.begin()->first;
+        rise_est = (highest.h - lowest.h) / span;
+        run_est = (highest.s - lowest.s) / span;
+      }
+    }
+    return members;
+  }
+
+  // A chain seeded across an unobserved riser explains every step edge inside its span: an edge there between
+  // two of its risers means the spacing is an alias (three of four risers read as two of three). An edge at
+  // one of its risers, lower than its nose, is that riser seen from below.
+  static bool Aliased(const std::vector<ChainStep>& steps, const std::map<int, int>& members, double tlo,
+                      double thi) {
+    const ChainStep& lowest = steps[static_cast<std::size_t>(members.begin()->second)];
+    const ChainStep& highest = steps[static_cast<std::size_t>(members.rbegin()->second)];
+    const int num_risers = members.rbegin()->first - members.begin()->first + 1;
+    const double chain_run = (highest.s - lowest.s) / (num_risers - 1);
+    for (const ChainStep& st : steps) {
+      if (st.s <= lowest.s + 0.5 * kRunTol || st.s >= highest.s - 0.5 * kRunTol) continue;
+      if (st.h <= lowest.h + kRiseTol || st.h >= highest.h - kRiseTol) continue;
+      if (!LaterallyOverlap(st.tlo, st.thi, tlo, thi)) continue;
+      if (std::abs(std::remainder(st.s - lowest.s, chain_run)) > 0.5 * kRunTol) return true;
+    }
+    return false;
+  }
+
+  // The chain of `members` (riser index -> step index): least squares lines s(k) and h(k) over the riser
+  // index k, its edges and lateral extent; nullopt unless every observed riser lies close to the lines.
+  static std::optional<Chain> FitChain(double theta, int sign, const std::vector<Blob>& blobs,
+                                       const std::vector<ChainStep>& steps,
+                                       const std::map<int, int>& members) {
+    const int first = members.begin()->first;
+    Chain chain;
+    chain.theta_rad = sign > 0 ? WrapAngle(theta) : WrapAngle(theta + kPi);
+    chain.num_risers = members.rbegin()->first - first + 1;
+    chain.t_lo_m = std::numeric_limits<double>::infinity();
+    chain.t_hi_m = -std::numeric_limits<double>::infinity();
+    double n = 0, sk = 0, skk = 0, ss = 0, sks = 0, sh = 0, skh = 0;
+    for (const auto& [k, m] : members) {
+      const ChainStep& st = steps[static_cast<std::size_t>(m)];
+      const double kk = k - first;
+      chain.blobs.push_back(m);
+      chain.riser.push_back(k - first);
+      const std::vector<int>& e = blobs[static_cast<std::size_t>(m)].edges;
+      chain.edges.insert(chain.edges.end(), e.begin(), e.end());
+      chain.blob_edges.push_back(e);
+      n += 1;
+      sk += kk;
+      skk += kk * kk;
+      ss += st.s;
+      sks += kk * st.s;
+      sh += st.h;
+      skh += kk * st.h;
+      chain.t_lo_m = std::min(chain.t_lo_m, st.tlo);
+      chain.t_hi_m = std::max(chain.t_hi_m, st.thi);
+    }
+    chain.cells = static_cast<int>(chain.edges.size());
+    const double den = n * skk - sk * sk;
+    if (den <= 0) return std::nullopt;
+    chain.run_m = (n * sks - sk * ss) / den;
+    chain.s_first_m = (ss - chain.run_m * sk) / n;
+    chain.rise_m = (n * skh - sk * sh) / den;
+    chain.h_first_m = (sh - chain.rise_m * sk) / n;
+    for (const auto& [k, m] : members) {
+      const ChainStep& st = steps[static_cast<std::size_t>(m)];
+      const double kk = k - first;
+      if (std::abs(st.s - (chain.s_first_m + kk * chain.run_m)) > 0.8 * kRunTol ||
+          std::abs(st.h - (chain.h_first_m + kk * chain.rise_m)) > kChainRiseTol) {
+        return std::nullopt;
+      }
+    }
+    return chain;
   }
 
   // Refines the axis of `chain` from all its step edges at once: they are parallel lines, so the major axis
@@ -1304,33 +1335,151 @@ class DetectorRun {
   // marks the edge cells inside the staircase as used, or writes the reason to `why`.
   bool CheckAndDescribe(const Chain& chain, const Model& m, int first_chain_riser,
                         const std::vector<Local>& near, Staircase* out, std::string* why) {
+    const StepEvidence evidence = GatherEvidence(m, near);
+    const StepExtents extents = LateralExtents(m, evidence.step_t);
+    if (extents.steps < std::max(2, m.n / 2)) {
+      std::ostringstream reason;
+      reason << "too few steps with lateral support (" << extents.steps << " of " << m.n << ")";
+      *why = reason.str();
+      return false;
+    }
+    Verdict v;
+    v.rms = evidence.inliers > 0 ? std::sqrt(evidence.squared_residuals / evidence.inliers) : 1.0;
+    v.width = extents.width_sum / extents.steps;
+    v.coverage = Coverage(m, evidence.step_t, extents);
+    v.violation = static_cast<double>(FreeSpaceViolations(m, near, extents)) / std::max(1, evidence.inliers);
+    v.confidence = std::clamp(v.coverage, 0.0, 1.0) * std::clamp(1.0 - v.rms / o_.max_fit_rms_m, 0.0, 1.0) *
+                   std::min(1.0, static_cast<double>(m.n) / (o_.min_risers + 2));
+    v.unsupported_riser = UnsupportedRiser(chain, m, first_chain_riser, evidence.riser_support);
+    CountRiserPoints(m, evidence.riser_support, &v.riser_points, &v.unseeable_riser_points);
+    if (const std::string reason = Rejection(m, v, evidence.riser_support); !reason.empty()) {
+      *why = reason;
+      return false;
+    }
     const double c = std::cos(m.theta), s = std::sin(m.theta);
-    // Residuals, support and the lateral extent of every step.
-    double sq = 0;
-    int inliers = 0;
-    std::vector<std::vector<double>> step_t(static_cast<std::size_t>(m.n));
-    std::vector<int> riser_support(static_cast<std::size_t>(m.n), 0);
+    const double centre = extents.centre_sum / extents.steps;
+    out->yaw_rad = WrapAngle(m.theta);
+    out->p_W_first_step =
+        Eigen::Vector3d(p_ref_.x() + c * m.s0 - s * centre, p_ref_.y() + s * m.s0 + c * centre, m.z0);
+    out->rise_m = m.rise;
+    out->run_m = m.run;
+    out->width_m = v.width;
+    out->num_steps = m.n;
+    out->confidence = v.confidence;
+    out->support_points = evidence.inliers;
+    MarkEdgesUsed(m, extents.all_lo, extents.all_hi);
+    return true;
+  }
+
+  // The points of `near` the model explains, step by step.
+  struct StepEvidence {
+    double squared_residuals = 0.0;           // of the inliers, m^2
+    int inliers = 0;                          // points on a tread or a riser
+    std::vector<std::vector<double>> step_t;  // lateral coordinates t of each step's points
+    std::vector<int> riser_support;           // points on each riser
+  };
+  static StepEvidence GatherEvidence(const Model& m, const std::vector<Local>& near) {
+    StepEvidence e;
+    e.step_t.resize(static_cast<std::size_t>(m.n));
+    e.riser_support.assign(static_cast<std::size_t>(m.n), 0);
     for (const Local& p : near) {
       const Classified cl = Classify(m, p.s, p.z, 0.03, 0.04);
-      if (cl.kind == PointClass::kRiser) ++riser_support[static_cast<std::size_t>(cl.index)];
+      if (cl.kind == PointClass::kRiser) ++e.riser_support[static_cast<std::size_t>(cl.index)];
       if (cl.kind == PointClass::kTread) {
         const double r = p.z - m.TreadZ(cl.index);
-        sq += r * r;
-        ++inliers;
+        e.squared_residuals += r * r;
+        ++e.inliers;
         // Tread `level` belongs to step `level` (1-based); the top tread only up to one run past its riser.
         if (cl.index >= 1 && p.s <= m.RiserS(cl.index - 1) + m.run)
-          step_t[static_cast<std::size_t>(cl.index - 1)].push_back(p.t);
+          e.step_t[static_cast<std::size_t>(cl.index - 1)].push_back(p.t);
       } else if (cl.kind == PointClass::kRiser) {
         const double r = p.s - m.RiserS(cl.index);
-        sq += r * r;
-        ++inliers;
-        if (p.z > m.TreadZ(cl.index) + 0.03) step_t[static_cast<std::size_t>(cl.index)].push_back(p.t);
+        e.squared_residuals += r * r;
+        ++e.inliers;
+        if (p.z > m.TreadZ(cl.index) + 0.03) e.step_t[static_cast<std::size_t>(cl.index)].push_back(p.t);
       }
     }
-    const double rms = inliers > 0 ? std::sqrt(sq / inliers) : 1.0;
-    // A riser the chain skipped (no edge blob there) must still be in the points: at least a quarter of the
-    // median support of the risers with a blob, half when only two have one (then the skipped one is a third
-    // of the evidence). Two walls and a box two "steps" apart leave little in between.
+    return e;
+  }
+
+  // Each step's lateral extent [t_lo, t_hi] (the longest run of its points without a 0.2 m gap, 1 % trimmed
+  // at each end: range noise of the outermost points widens it otherwise), for steps with 8 points or more.
+  struct StepExtents {
+    std::vector<std::pair<double, double>> extent;
+    std::vector<bool> has_extent;
+    int steps = 0;  // steps with an extent
+    double width_sum = 0.0, centre_sum = 0.0;
+    double all_lo = std::numeric_limits<double>::infinity(),
+           all_hi = -std::numeric_limits<double>::infinity();
+  };
+  static StepExtents LateralExtents(const Model& m, const std::vector<std::vector<double>>& step_t) {
+    StepExtents x;
+    x.extent.assign(static_cast<std::size_t>(m.n), {0.0, 0.0});
+    x.has_extent.assign(static_cast<std::size_t>(m.n), false);
+    for (int k = 0; k < m.n; ++k) {
+      const std::vector<double>& ts = step_t[static_cast<std::size_t>(k)];
+      if (ts.size() < 8) continue;
+      std::vector<double> sorted = ts;
+      const auto [span, count] = LongestRun(&sorted, 0.2);
+      if (count < 8) continue;
+      const auto first = static_cast<std::size_t>(std::lower_bound(sorted.begin(), sorted.end(), span.first) -
+                                                  sorted.begin());
+      const auto trim = static_cast<std::size_t>(count / 100);
+      const std::pair<double, double> range(sorted[first + trim],
+                                            sorted[first + static_cast<std::size_t>(count) - 1 - trim]);
+      x.extent[static_cast<std::size_t>(k)] = range;
+      x.has_extent[static_cast<std::size_t>(k)] = true;
+      x.width_sum += range.second - range.first;
+      x.centre_sum += 0.5 * (range.first + range.second);
+      ++x.steps;
+      x.all_lo = std::min(x.all_lo, range.first);
+      x.all_hi = std::max(x.all_hi, range.second);
+    }
+    return x;
+  }
+
+  // Coverage: the mean over the steps of the fraction of 0.1 m lateral bins over the staircase width that
+  // hold points of the step.
+  static double Coverage(const Model& m, const std::vector<std::vector<double>>& step_t,
+                         const StepExtents& x) {
+    constexpr double kBin = 0.1;
+    const int bins = std::max(1, static_cast<int>(std::ceil((x.all_hi - x.all_lo) / kBin)));
+    double coverage_sum = 0;
+    for (int k = 0; k < m.n; ++k) {
+      std::vector<char> hit(static_cast<std::size_t>(bins), 0);
+      for (double t : step_t[static_cast<std::size_t>(k)]) {
+        const int b = static_cast<int>(std::floor((t - x.all_lo) / kBin));
+        if (b >= 0 && b < bins) hit[static_cast<std::size_t>(b)] = 1;
+      }
+      coverage_sum += static_cast<double>(std::count(hit.begin(), hit.end(), 1)) / bins;
+    }
+    return coverage_sum / m.n;
+  }
+
+  // Points in the free space above the treads, inside each step's lateral extent shrunk by 0.25 m on each
+  // side: side walls (a stairwell; a sparse wall whose gaps let the tread's extent reach into it) are not
+  // above the treads, shelves and terraces span the width.
+  static int FreeSpaceViolations(const Model& m, const std::vector<Local>& near, const StepExtents& x) {
+    int violations = 0;
+    for (const Local& p : near) {
+      const int k = static_cast<int>(std::floor((p.s - m.s0) / m.run));  // Step index (0-based) at s.
+      if (k < 0 || k >= m.n - 1 || !x.has_extent[static_cast<std::size_t>(k)]) continue;
+      const double ds = p.s - m.RiserS(k);
+      if (ds < 0.05 || ds > m.run - 0.05) continue;
+      const auto& e = x.extent[static_cast<std::size_t>(k)];
+      if (p.t < e.first + 0.25 || p.t > e.second - 0.25) continue;
+      const double above = p.z - m.TreadZ(k + 1);
+      if (above > 0.1 && above < 1.0) ++violations;
+    }
+    return violations;
+  }
+
+  // A riser the chain skipped (no edge blob there) must still be in the points: at least a quarter of the
+  // median support of the risers with a blob, half when only two have one (then the skipped one is a third
+  // of the evidence). Two walls and a box two "steps" apart leave little in between. The first such riser
+  // that is not, or -1.
+  static int UnsupportedRiser(const Chain& chain, const Model& m, int first_chain_riser,
+                              const std::vector<int>& riser_support) {
     std::vector<bool> has_blob(static_cast<std::size_t>(m.n), false);
     for (int k : chain.riser) {
       const int model_k = k - first_chain_riser;
@@ -1341,124 +1490,65 @@ class DetectorRun {
       const auto u = static_cast<std::size_t>(k);
       if (has_blob[u]) blob_support.push_back(riser_support[u]);
     }
-    int unsupported_riser = -1;
-    if (!blob_support.empty()) {
-      const double need = (blob_support.size() <= 2 ? 0.5 : 0.25) * Median(blob_support);
-      for (int k = 1; k + 1 < m.n && unsupported_riser < 0; ++k) {
-        if (!has_blob[static_cast<std::size_t>(k)] && riser_support[static_cast<std::size_t>(k)] < need)
-          unsupported_riser = k;
-      }
+    if (blob_support.empty()) return -1;
+    const double need = (blob_support.size() <= 2 ? 0.5 : 0.25) * Median(blob_support);
+    for (int k = 1; k + 1 < m.n; ++k) {
+      if (!has_blob[static_cast<std::size_t>(k)] && riser_support[static_cast<std::size_t>(k)] < need)
+        return k;
     }
-    // A riser faces down the flight: a sensor beyond it (up the flight) and well below its foot cannot have
-    // seen it. Such "risers" are the stepped underside of a flight above (builtin:building's upper flight
-    // seen from floor 1). p_ref_ may be the body, not the sensor: 0.6 m allows for the sensor's mount.
-    int riser_points = 0, unseeable_riser_points = 0;
+    return -1;
+  }
+
+  // A riser faces down the flight: a sensor beyond it (up the flight) and well below its foot cannot have
+  // seen it. Such "risers" are the stepped underside of a flight above (builtin:building's upper flight seen
+  // from floor 1). p_ref_ may be the body, not the sensor: 0.6 m allows for the sensor's mount.
+  void CountRiserPoints(const Model& m, const std::vector<int>& riser_support, int* riser_points,
+                        int* unseeable_riser_points) const {
     for (int k = 0; k < m.n; ++k) {
       const int support = riser_support[static_cast<std::size_t>(k)];
-      riser_points += support;
+      *riser_points += support;
       const bool behind_and_below =
           m.RiserS(k) < -0.1 && m.TreadZ(k) - p_ref_.z() > kSensorAboveReferenceMaxM;
-      if (behind_and_below) unseeable_riser_points += support;
+      if (behind_and_below) *unseeable_riser_points += support;
     }
-    std::vector<std::pair<double, double>> extent(static_cast<std::size_t>(m.n), {0.0, 0.0});
-    std::vector<bool> has_extent(static_cast<std::size_t>(m.n), false);
-    double width_sum = 0, centre_sum = 0;
-    int width_n = 0;
-    double all_lo = std::numeric_limits<double>::infinity(), all_hi = -all_lo;
-    for (int k = 0; k < m.n; ++k) {
-      std::vector<double>& ts = step_t[static_cast<std::size_t>(k)];
-      if (ts.size() < 8) continue;
-      std::vector<double> sorted = ts;
-      const auto [span, count] = LongestRun(&sorted, 0.2);
-      if (count < 8) continue;
-      // Trim 1% at each end of the run: range noise of the outermost points widens the extent otherwise.
-      const auto first = static_cast<std::size_t>(std::lower_bound(sorted.begin(), sorted.end(), span.first) -
-                                                  sorted.begin());
-      const auto trim = static_cast<std::size_t>(count / 100);
-      const std::pair<double, double> range(sorted[first + trim],
-                                            sorted[first + static_cast<std::size_t>(count) - 1 - trim]);
-      extent[static_cast<std::size_t>(k)] = range;
-      has_extent[static_cast<std::size_t>(k)] = true;
-      width_sum += range.second - range.first;
-      centre_sum += 0.5 * (range.first + range.second);
-      ++width_n;
-      all_lo = std::min(all_lo, range.first);
-      all_hi = std::max(all_hi, range.second);
-    }
+  }
+
+  // What the checks found of a model.
+  struct Verdict {
+    double rms = 1.0, width = 0.0, coverage = 0.0, violation = 0.0, confidence = 0.0;
+    int unsupported_riser = -1;
+    int riser_points = 0, unseeable_riser_points = 0;
+  };
+  // Why the model is no staircase (the first check it fails), or "".
+  std::string Rejection(const Model& m, const Verdict& v, const std::vector<int>& riser_support) const {
     std::ostringstream reason;
-    if (width_n < std::max(2, m.n / 2)) {
-      reason << "too few steps with lateral support (" << width_n << " of " << m.n << ")";
-      *why = reason.str();
-      return false;
-    }
-    const double width = width_sum / width_n;
-    const double centre = centre_sum / width_n;
-    // Coverage: fraction of 0.1 m lateral bins over the staircase width that hold points of the step.
-    constexpr double kBin = 0.1;
-    const int bins = std::max(1, static_cast<int>(std::ceil((all_hi - all_lo) / kBin)));
-    double coverage_sum = 0;
-    for (int k = 0; k < m.n; ++k) {
-      std::vector<char> hit(static_cast<std::size_t>(bins), 0);
-      for (double t : step_t[static_cast<std::size_t>(k)]) {
-        const int b = static_cast<int>(std::floor((t - all_lo) / kBin));
-        if (b >= 0 && b < bins) hit[static_cast<std::size_t>(b)] = 1;
-      }
-      coverage_sum += static_cast<double>(std::count(hit.begin(), hit.end(), 1)) / bins;
-    }
-    const double coverage = coverage_sum / m.n;
-    // Free space above the treads inside each step's lateral extent, shrunk by 0.25 m on each side: side
-    // walls (a stairwell; a sparse wall whose gaps let the tread's extent reach into it) are not above the
-    // treads, shelves and terraces span the width.
-    int violations = 0;
-    for (const Local& p : near) {
-      const int k = static_cast<int>(std::floor((p.s - m.s0) / m.run));  // Step index (0-based) at s.
-      if (k < 0 || k >= m.n - 1 || !has_extent[static_cast<std::size_t>(k)]) continue;
-      const double ds = p.s - m.RiserS(k);
-      if (ds < 0.05 || ds > m.run - 0.05) continue;
-      const auto& e = extent[static_cast<std::size_t>(k)];
-      if (p.t < e.first + 0.25 || p.t > e.second - 0.25) continue;
-      const double above = p.z - m.TreadZ(k + 1);
-      if (above > 0.1 && above < 1.0) ++violations;
-    }
-    const double violation = static_cast<double>(violations) / std::max(1, inliers);
-    const double confidence = std::clamp(coverage, 0.0, 1.0) *
-                              std::clamp(1.0 - rms / o_.max_fit_rms_m, 0.0, 1.0) *
-                              std::min(1.0, static_cast<double>(m.n) / (o_.min_risers + 2));
     if (m.rise < o_.min_rise_m - 0.01 || m.rise > o_.max_rise_m + 0.01) {
       reason << "rise " << m.rise << " m out of range";
     } else if (m.run < o_.min_run_m - 0.01 || m.run > o_.max_run_m + 0.01) {
       reason << "run " << m.run << " m out of range";
-    } else if (width < o_.min_width_m) {
-      reason << "width " << width << " m < " << o_.min_width_m;
-    } else if (rms > o_.max_fit_rms_m) {
-      reason << "fit rms " << rms << " m > " << o_.max_fit_rms_m;
-    } else if (coverage < o_.min_step_coverage) {
-      reason << "step coverage " << coverage << " < " << o_.min_step_coverage;
-    } else if (violation > o_.max_free_space_violation) {
-      reason << "points above the treads: " << violation << " > " << o_.max_free_space_violation;
-    } else if (2 * unseeable_riser_points > riser_points) {
-      reason << "risers face away from the sensor (" << unseeable_riser_points << " of " << riser_points
+    } else if (v.width < o_.min_width_m) {
+      reason << "width " << v.width << " m < " << o_.min_width_m;
+    } else if (v.rms > o_.max_fit_rms_m) {
+      reason << "fit rms " << v.rms << " m > " << o_.max_fit_rms_m;
+    } else if (v.coverage < o_.min_step_coverage) {
+      reason << "step coverage " << v.coverage << " < " << o_.min_step_coverage;
+    } else if (v.violation > o_.max_free_space_violation) {
+      reason << "points above the treads: " << v.violation << " > " << o_.max_free_space_violation;
+    } else if (2 * v.unseeable_riser_points > v.riser_points) {
+      reason << "risers face away from the sensor (" << v.unseeable_riser_points << " of " << v.riser_points
              << " riser points behind and above it: the underside of a flight)";
-    } else if (unsupported_riser >= 0) {
-      reason << "riser " << unsupported_riser << " unseen by the chain and unsupported ("
-             << riser_support[static_cast<std::size_t>(unsupported_riser)] << " points)";
-    } else if (confidence < o_.min_confidence) {
-      reason << "confidence " << confidence << " < " << o_.min_confidence;
+    } else if (v.unsupported_riser >= 0) {
+      reason << "riser " << v.unsupported_riser << " unseen by the chain and unsupported ("
+             << riser_support[static_cast<std::size_t>(v.unsupported_riser)] << " points)";
+    } else if (v.confidence < o_.min_confidence) {
+      reason << "confidence " << v.confidence << " < " << o_.min_confidence;
     }
-    if (!reason.str().empty()) {
-      *why = reason.str();
-      return false;
-    }
-    out->yaw_rad = WrapAngle(m.theta);
-    out->p_W_first_step =
-        Eigen::Vector3d(p_ref_.x() + c * m.s0 - s * centre, p_ref_.y() + s * m.s0 + c * centre, m.z0);
-    out->rise_m = m.rise;
-    out->run_m = m.run;
-    out->width_m = width;
-    out->num_steps = m.n;
-    out->confidence = confidence;
-    out->support_points = inliers;
-    // Mark the edge cells of this staircase as used.
+    return reason.str();
+  }
+
+  // Marks the edge cells of the staircase `m` (lateral extent [all_lo, all_hi]) as used.
+  void MarkEdgesUsed(const Model& m, double all_lo, double all_hi) {
+    const double c = std::cos(m.theta), s = std::sin(m.theta);
     for (EdgeCell& e : edges_) {
       const double dx = e.x_m - p_ref_.x();
       const double dy = e.y_m - p_ref_.y();
@@ -1467,7 +1557,6 @@ class DetectorRun {
       if (es > m.s0 - 0.3 && es < m.RiserS(m.n - 1) + 0.3 && et > all_lo - 0.3 && et < all_hi + 0.3)
         e.used = true;
     }
-    return true;
   }
 
   const StaircaseDetectorOptions& o_;

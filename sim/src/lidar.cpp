@@ -28,20 +28,20 @@ RayHit FaceHit(const World& world, const Eigen::Vector3d& origin_W, const Eigen:
   return hit;
 }
 
-}  // namespace
-
-std::optional<RayHit> CastRay(const World& world, const Eigen::Vector3d& origin_W,
-                              const Eigen::Vector3d& direction_W, double max_range_m) {
-  if (!origin_W.allFinite() || !direction_W.allFinite() || !(max_range_m >= 0.0)) return std::nullopt;
+// Where a ray from `origin_W` along `direction_W` enters the grid within max_range_m (slab test on the box
+// [0, dims] in voxel units; `q0` is the origin in voxel units from the grid's min corner): the range t_enter,
+// the axis of the face it enters through (-1: the origin is inside) and the first voxel. nullopt: it misses.
+struct GridEntry {
+  double t_enter = 0.0;
+  int enter_axis = -1;
+  Eigen::Vector3i index;
+};
+std::optional<GridEntry> EnterGrid(const World& world, const Eigen::Vector3d& direction_W,
+                                   const Eigen::Vector3d& q0, double max_range_m) {
   const double res = world.resolution_m();
   const Eigen::Vector3i& dims = world.dims();
-  // Origin in voxel units relative to the grid's min corner; ranges t stay in metres along the ray.
-  const Eigen::Vector3d q0 = (origin_W - world.p_W_min()) / res;
-
-  // Clip the ray to the grid box [0, dims] (slab test); enter_axis = -1 when the origin is inside.
-  double t_enter = 0.0;
+  GridEntry entry;
   double t_exit = max_range_m;
-  int enter_axis = -1;
   for (int k = 0; k < 3; ++k) {
     const double d = direction_W[k];
     if (d == 0.0) {
@@ -51,35 +51,31 @@ std::optional<RayHit> CastRay(const World& world, const Eigen::Vector3d& origin_
     double t0 = -q0[k] * res / d;
     double t1 = (dims[k] - q0[k]) * res / d;
     if (t0 > t1) std::swap(t0, t1);
-    if (t0 > t_enter) {
-      t_enter = t0;
-      enter_axis = k;
+    if (t0 > entry.t_enter) {
+      entry.t_enter = t0;
+      entry.enter_axis = k;
     }
     t_exit = std::min(t_exit, t1);
   }
-  if (t_enter > t_exit) return std::nullopt;
-
+  if (entry.t_enter > t_exit) return std::nullopt;
   // First voxel: the origin's, or the one where the ray enters the grid.
-  Eigen::Vector3i index;
-  {
-    const Eigen::Vector3d q = q0 + (t_enter / res) * direction_W;
-    for (int k = 0; k < 3; ++k) {
-      int i = static_cast<int>(std::floor(q[k]));
-      if (k == enter_axis) i = direction_W[k] > 0.0 ? 0 : dims[k] - 1;
-      index[k] = std::min(std::max(i, 0), dims[k] - 1);  // Guards rounding at the faces.
-    }
+  const Eigen::Vector3d q = q0 + (entry.t_enter / res) * direction_W;
+  for (int k = 0; k < 3; ++k) {
+    int i = static_cast<int>(std::floor(q[k]));
+    if (k == entry.enter_axis) i = direction_W[k] > 0.0 ? 0 : dims[k] - 1;
+    entry.index[k] = std::min(std::max(i, 0), dims[k] - 1);  // Guards rounding at the faces.
   }
-  if (world.IsOccupiedIndex(index)) {
-    if (enter_axis >= 0) return FaceHit(world, origin_W, direction_W, index, enter_axis);
-    RayHit hit;
-    hit.range_m = 0.0;
-    hit.p_W = origin_W;
-    direction_W.cwiseAbs().maxCoeff(&hit.axis);
-    return hit;
-  }
+  return entry;
+}
 
-  // 3D DDA (Amanatides & Woo 1987): t_max[k] is the range at which the ray crosses the next voxel boundary
-  // normal to axis k, t_delta[k] the range between two such boundaries.
+// 3D DDA (Amanatides & Woo 1987) from the free voxel `index` to the first occupied one within max_range_m.
+std::optional<RayHit> Traverse(const World& world, const Eigen::Vector3d& origin_W,
+                               const Eigen::Vector3d& direction_W, const Eigen::Vector3d& q0,
+                               const Eigen::Vector3i& index, double max_range_m) {
+  const double res = world.resolution_m();
+  const Eigen::Vector3i& dims = world.dims();
+  // t_max[k] is the range at which the ray crosses the next voxel boundary normal to axis k, t_delta[k] the
+  // range between two such boundaries.
   constexpr double kInf = std::numeric_limits<double>::infinity();
   int step[3];
   double t_max[3];
@@ -132,6 +128,26 @@ std::optional<RayHit> CastRay(const World& world, const Eigen::Vector3d& origin_
       return FaceHit(world, origin_W, direction_W, next, sx ? 0 : (sy ? 1 : 2));
     }
   }
+}
+
+}  // namespace
+
+std::optional<RayHit> CastRay(const World& world, const Eigen::Vector3d& origin_W,
+                              const Eigen::Vector3d& direction_W, double max_range_m) {
+  if (!origin_W.allFinite() || !direction_W.allFinite() || !(max_range_m >= 0.0)) return std::nullopt;
+  // Origin in voxel units relative to the grid's min corner; ranges t stay in metres along the ray.
+  const Eigen::Vector3d q0 = (origin_W - world.p_W_min()) / world.resolution_m();
+  const std::optional<GridEntry> entry = EnterGrid(world, direction_W, q0, max_range_m);
+  if (!entry) return std::nullopt;
+  if (world.IsOccupiedIndex(entry->index)) {
+    if (entry->enter_axis >= 0) return FaceHit(world, origin_W, direction_W, entry->index, entry->enter_axis);
+    RayHit hit;
+    hit.range_m = 0.0;
+    hit.p_W = origin_W;
+    direction_W.cwiseAbs().maxCoeff(&hit.axis);
+    return hit;
+  }
+  return Traverse(world, origin_W, direction_W, q0, entry->index, max_range_m);
 }
 
 bool LidarOptions::IsValid(std::string* why) const {

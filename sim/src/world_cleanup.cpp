@@ -233,238 +233,325 @@ void MarkStrips(const std::vector<std::uint8_t>& band, const std::vector<std::ui
   }
 }
 
-// 2. Floor hole filling (see WorldLoadOptions::fill_hole_max_m and fill_strip_max_m), one pass: classifies
-// the surfaces of `world`, fills the holes and strips found and returns how many voxels it filled, of which
-// `*strips` (set) in strips only. Counts surfaces and seen-through holes into `report` (overwritten by each
-// pass).
-std::int64_t FillFloorHolesPass(World* world, const WorldLoadOptions& options, WorldLoadReport* report,
-                                std::int64_t* strips) {
-  *strips = 0;
-  report->floor_surface_voxels = 0;
-  report->overhead_surface_voxels = 0;
-  report->holes_seen_through = 0;
-  const double res = world->resolution_m();
-  const Eigen::Vector3i& dims = world->dims();
-  const int nx = dims.x(), ny = dims.y(), nz = dims.z();
-  const int clearance = CeilVoxels(options.fill_clearance_m, res);
-  const int gap_min = CeilVoxels(options.fill_gap_depth_m, res);
-  const int gap_max = CeilVoxels(kGapSearchDepthM, res);
-  const double hole_cells = options.fill_hole_max_m / res;
-  const int radius = std::max(1, static_cast<int>(std::ceil(hole_cells)));
-  auto column = [ny](int ix, int iy) { return static_cast<std::size_t>(ix) * ny + iy; };
+// 2. Floor hole filling (see WorldLoadOptions::fill_hole_max_m and fill_strip_max_m), one pass over `world`:
+// classifies its surfaces, then fills the holes and strips of each floor level.
+//
+// Per level k, on the band mask B (floor at k - 1 .. k + 1):
+//  (a) a morphological closing of B with a disk of `close_r` cells (Serra, "Image Analysis and Mathematical
+//      Morphology", 1982) turns the sampled floor of a sparse scan into a surface: it fills gaps narrower
+//      than 2 * close_r cells and never grows past a straight or convex edge (a drop);
+//  (b) a cell outside the closed mask C is a hole when C, or an obstacle standing on level k (a wall),
+//      closes it in all kSectors directions within `radius` cells and the hole through it is at most
+//      fill_hole_max_m wide in every direction;
+//  (c) a cell outside B lies in a strip of B (MarkStrips(): at most fill_strip_max_m wide across, floor on
+//      both sides, however long; measured on B: the closing fills part of a narrow strip and would cut it
+//      into pieces too short to be strips).
+// Cells of C \ B must be closed in all directions too, or lie in a strip (the closing alone would round
+// the corners of a stairwell).
+// Either way the voxel at k must be free with `clearance` free voxels above it, the level k must be the
+// most common floor level around it, and nothing may be seen gap_min .. gap_max voxels below it.
+class FloorHolePass {
+ public:
+  // Counts surfaces and seen-through holes into `report` (overwritten by each pass).
+  FloorHolePass(World* world, const WorldLoadOptions& options, WorldLoadReport* report)
+      : world_(world),
+        report_(report),
+        nx_(world->dims().x()),
+        ny_(world->dims().y()),
+        nz_(world->dims().z()) {
+    const double res = world->resolution_m();
+    limits_.clearance = CeilVoxels(options.fill_clearance_m, res);
+    limits_.gap_min = CeilVoxels(options.fill_gap_depth_m, res);
+    limits_.gap_max = CeilVoxels(kGapSearchDepthM, res);
+    limits_.hole_cells = options.fill_hole_max_m / res;
+    limits_.radius = std::max(1, static_cast<int>(std::ceil(limits_.hole_cells)));
+    limits_.near = std::max(1, static_cast<int>(std::lround(0.2 / res)));
+    limits_.close_r =
+        std::max(1, static_cast<int>(std::lround(std::min(0.2, 0.5 * options.fill_hole_max_m) / res)));
+    limits_.fill_strips = options.fill_strip_max_m > 0.0;
+    limits_.strip_cells = options.fill_strip_max_m / res;
+    limits_.min_support = std::max(kSectors, static_cast<int>(0.5 / (res * res)));
+  }
+
+  // Fills what it finds; returns how many voxels it filled, of which `*strips` (set) in strips only.
+  std::int64_t Run(std::int64_t* strips) {
+    *strips = 0;
+    report_->floor_surface_voxels = 0;
+    report_->overhead_surface_voxels = 0;
+    report_->holes_seen_through = 0;
+    IndexRuns();
+    ClassifySurfaces();
+    disk_ = DiskOffsets(limits_.radius);
+    close_disk_ = DiskOffsets(limits_.close_r);
+    masks_.Resize(static_cast<std::size_t>(nx_) * ny_, static_cast<std::size_t>(nx_ + 1) * (ny_ + 1));
+    std::vector<Eigen::Vector3i> fill;
+    for (int k = 0; k + limits_.clearance < nz_; ++k) {
+      if (!LevelHasFloor(k)) continue;
+      BuildMasks(k);
+      for (int ix = 0; ix < nx_; ++ix) {
+        for (int iy = 0; iy < ny_; ++iy) {
+          const CellFill verdict = Judge(ix, iy, k);
+          if (verdict == CellFill::kNone) continue;
+          fill.emplace_back(ix, iy, k);
+          *strips += verdict == CellFill::kStrip;
+        }
+      }
+    }
+    for (const Eigen::Vector3i& v : fill) world_->SetOccupied(v);
+    return static_cast<std::int64_t>(fill.size());
+  }
+
+ private:
+  // Voxel counts and cell radii from the options, at the world's resolution.
+  struct Limits {
+    int clearance = 0;             // free voxels a surface needs above it
+    int gap_min = 0, gap_max = 0;  // a hole with something seen this far below is a real gap
+    double hole_cells = 0.0;       // widest hole filled, cells
+    int radius = 0;                // cells searched around a hole cell
+    int near = 0;                  // cells within which a sparse scan may miss the floor below (0.2 m)
+    int close_r = 0;               // radius of the closing's disk, cells
+    bool fill_strips = false;
+    double strip_cells = 0.0;  // widest strip filled, cells
+    int min_support = 0;       // sampled floor cells a level needs in its band (0.5 m^2)
+  };
+  // The masks of level k (one byte per column) and the summed-area table of the closed mask.
+  struct LevelMasks {
+    std::vector<std::uint8_t> band, dilated, closed, strip, wall, seen_below, barrier;
+    std::vector<std::int32_t> sat;
+    void Resize(std::size_t cells, std::size_t sat_cells) {
+      for (auto* m : {&band, &dilated, &closed, &wall, &seen_below, &barrier}) m->assign(cells, 0);
+      strip.assign(cells, 0);
+      sat.assign(sat_cells, 0);
+    }
+  };
+  enum class CellFill { kNone, kHole, kStrip };
+  // The nearest closing cell (floor or wall) per direction sector around a cell, and the floor levels seen.
+  struct SectorScan {
+    std::array<const SectorOffset*, kSectors> nearest{};
+    std::array<int, 3> votes{0, 0, 0};  // floor levels k - 1, k, k + 1 seen around
+    int found = 0;
+    int floor_sectors = 0;  // sectors closed by floor (the others by a wall)
+  };
+
+  std::size_t Column(int ix, int iy) const { return static_cast<std::size_t>(ix) * ny_ + iy; }
+  bool InGrid(int x, int y) const { return x >= 0 && y >= 0 && x < nx_ && y < ny_; }
+  std::int32_t& Sat(int x, int y) { return masks_.sat[static_cast<std::size_t>(x) * (ny_ + 1) + y]; }
 
   // Occupied runs [bottom, top] of every column, compressed (CSR).
-  std::vector<std::int64_t> run_offset(static_cast<std::size_t>(nx) * ny + 1, 0);
-  std::vector<std::array<std::int32_t, 2>> runs;
-  for (int ix = 0; ix < nx; ++ix) {
-    for (int iy = 0; iy < ny; ++iy) {
-      for (int iz = 0; iz < nz; ++iz) {
-        if (!world->IsOccupiedIndex({ix, iy, iz})) continue;
-        const int bottom = iz;
-        while (iz + 1 < nz && world->IsOccupiedIndex({ix, iy, iz + 1})) ++iz;
-        runs.push_back({static_cast<std::int32_t>(bottom), static_cast<std::int32_t>(iz)});
+  void IndexRuns() {
+    run_offset_.assign(static_cast<std::size_t>(nx_) * ny_ + 1, 0);
+    runs_.clear();
+    for (int ix = 0; ix < nx_; ++ix) {
+      for (int iy = 0; iy < ny_; ++iy) {
+        for (int iz = 0; iz < nz_; ++iz) {
+          if (!world_->IsOccupiedIndex({ix, iy, iz})) continue;
+          const int bottom = iz;
+          while (iz + 1 < nz_ && world_->IsOccupiedIndex({ix, iy, iz + 1})) ++iz;
+          runs_.push_back({static_cast<std::int32_t>(bottom), static_cast<std::int32_t>(iz)});
+        }
+        run_offset_[Column(ix, iy) + 1] = static_cast<std::int64_t>(runs_.size());
       }
-      run_offset[column(ix, iy) + 1] = static_cast<std::int64_t>(runs.size());
     }
   }
+
   // True if column (x, y) has an occupied voxel in levels [lo, hi].
-  auto occupied_in = [&](int x, int y, int lo, int hi) {
-    if (x < 0 || y < 0 || x >= nx || y >= ny || hi < lo) return false;
-    const std::size_t c = column(x, y);
-    for (std::int64_t i = run_offset[c]; i < run_offset[c + 1]; ++i) {
-      const auto& r = runs[static_cast<std::size_t>(i)];
+  bool OccupiedIn(int x, int y, int lo, int hi) const {
+    if (!InGrid(x, y) || hi < lo) return false;
+    const std::size_t c = Column(x, y);
+    for (std::int64_t i = run_offset_[c]; i < run_offset_[c + 1]; ++i) {
+      const auto& r = runs_[static_cast<std::size_t>(i)];
       if (r[0] <= hi && r[1] >= lo) return true;
     }
     return false;
-  };
-  // Classify the top of every run: a surface has `clearance` free voxels above it inside the map (a ceiling
+  }
+
+  // Classifies the top of every run: a surface has `clearance` free voxels above it inside the map (a ceiling
   // at the top of the map is none). A surface is overhead when its own column is free for `clearance` below
   // its run and something was seen lower (clearance .. gap_max below the run) in its column or in a column
   // within `near` cells (0.2 m): a sparse scan may miss the floor right below a ceiling voxel, not all
   // around it. (So a floor rim within 0.2 m of an opening whose bottom was seen is overhead too: not filled.)
-  const int near = std::max(1, static_cast<int>(std::lround(0.2 / res)));
-  FloorLevels floor;
-  floor.offset.assign(static_cast<std::size_t>(nx) * ny + 1, 0);
-  std::vector<int> level_count(static_cast<std::size_t>(nz), 0);
-  for (int ix = 0; ix < nx; ++ix) {
-    for (int iy = 0; iy < ny; ++iy) {
-      const std::size_t c = column(ix, iy);
-      for (std::int64_t i = run_offset[c]; i < run_offset[c + 1]; ++i) {
-        const int bottom = runs[static_cast<std::size_t>(i)][0];
-        const int top = runs[static_cast<std::size_t>(i)][1];
-        const int next_bottom = i + 1 < run_offset[c + 1] ? runs[static_cast<std::size_t>(i + 1)][0] : nz;
-        if (next_bottom - top - 1 < clearance || top + clearance >= nz) continue;  // Not a surface.
-        const int below_top = i > run_offset[c] ? runs[static_cast<std::size_t>(i - 1)][1] : -1;
-        bool overhead = false;
-        if (bottom - below_top - 1 >= clearance) {
-          const int lo = bottom - gap_max, hi = bottom - 1 - clearance;
-          for (int dx = -near; dx <= near && !overhead; ++dx) {
-            for (int dy = -near; dy <= near && !overhead; ++dy)
-              overhead = occupied_in(ix + dx, iy + dy, lo, hi);
+  void ClassifySurfaces() {
+    floor_ = FloorLevels{};
+    floor_.offset.assign(static_cast<std::size_t>(nx_) * ny_ + 1, 0);
+    level_count_.assign(static_cast<std::size_t>(nz_), 0);
+    for (int ix = 0; ix < nx_; ++ix) {
+      for (int iy = 0; iy < ny_; ++iy) {
+        const std::size_t c = Column(ix, iy);
+        for (std::int64_t i = run_offset_[c]; i < run_offset_[c + 1]; ++i) {
+          const int bottom = runs_[static_cast<std::size_t>(i)][0];
+          const int top = runs_[static_cast<std::size_t>(i)][1];
+          const int next_bottom =
+              i + 1 < run_offset_[c + 1] ? runs_[static_cast<std::size_t>(i + 1)][0] : nz_;
+          if (next_bottom - top - 1 < limits_.clearance || top + limits_.clearance >= nz_) continue;
+          const int below_top = i > run_offset_[c] ? runs_[static_cast<std::size_t>(i - 1)][1] : -1;
+          if (bottom - below_top - 1 >= limits_.clearance && SeenBelowNear(ix, iy, bottom)) {
+            ++report_->overhead_surface_voxels;
+            continue;
           }
+          floor_.levels.push_back(static_cast<std::int32_t>(top));
+          ++level_count_[static_cast<std::size_t>(top)];
+          ++report_->floor_surface_voxels;
         }
-        if (overhead) {
-          ++report->overhead_surface_voxels;
-          continue;
-        }
-        floor.levels.push_back(static_cast<std::int32_t>(top));
-        ++level_count[static_cast<std::size_t>(top)];
-        ++report->floor_surface_voxels;
+        floor_.offset[c + 1] = static_cast<std::int64_t>(floor_.levels.size());
       }
-      floor.offset[c + 1] = static_cast<std::int64_t>(floor.levels.size());
     }
   }
 
-  // Per level k, on the band mask B (floor at k - 1 .. k + 1):
-  //  (a) a morphological closing of B with a disk of `close_r` cells (Serra, "Image Analysis and Mathematical
-  //      Morphology", 1982) turns the sampled floor of a sparse scan into a surface: it fills gaps narrower
-  //      than 2 * close_r cells and never grows past a straight or convex edge (a drop);
-  //  (b) a cell outside the closed mask C is a hole when C, or an obstacle standing on level k (a wall),
-  //      closes it in all kSectors directions within `radius` cells and the hole through it is at most
-  //      fill_hole_max_m wide in every direction;
-  //  (c) a cell outside B lies in a strip of B (MarkStrips(): at most fill_strip_max_m wide across, floor on
-  //      both sides, however long; measured on B: the closing fills part of a narrow strip and would cut it
-  //      into pieces too short to be strips).
-  // Cells of C \ B must be closed in all directions too, or lie in a strip (the closing alone would round
-  // the corners of a stairwell).
-  // Either way the voxel at k must be free with `clearance` free voxels above it, the level k must be the
-  // most common floor level around it, and nothing may be seen gap_min .. gap_max voxels below it.
-  const int close_r =
-      std::max(1, static_cast<int>(std::lround(std::min(0.2, 0.5 * options.fill_hole_max_m) / res)));
-  const std::vector<SectorOffset> disk = DiskOffsets(radius);
-  const std::vector<SectorOffset> close_disk = DiskOffsets(close_r);
-  std::vector<std::uint8_t> band(static_cast<std::size_t>(nx) * ny);
-  std::vector<std::uint8_t> dilated(band.size());
-  std::vector<std::uint8_t> closed(band.size());
-  std::vector<std::uint8_t> strip(band.size(), 0);
-  const bool fill_strips = options.fill_strip_max_m > 0.0;
-  const double strip_cells = options.fill_strip_max_m / res;
-  // An obstacle stands on level k (occupied in k .. k + clearance).
-  std::vector<std::uint8_t> wall(band.size());
-  // A strip may not cross a wall, nor a column within `near` cells of one in which the scan saw something
-  // 2 .. gap_max voxels below level k: below the band a floor may spread over, so the gap is an opening over
-  // a lower surface (between two racks, beside a step or a pallet over the floor). Within `near`, as for
-  // overhead surfaces: a sparse scan misses the floor right below.
-  std::vector<std::uint8_t> seen_below(band.size());
-  std::vector<std::uint8_t> barrier(band.size());
-  std::vector<std::int32_t> sat(static_cast<std::size_t>(nx + 1) * (ny + 1));  // Summed-area table of C.
-  auto sat_at = [&sat, ny](int x, int y) -> std::int32_t& {
-    return sat[static_cast<std::size_t>(x) * (ny + 1) + y];
-  };
-  auto in_grid = [nx, ny](int x, int y) { return x >= 0 && y >= 0 && x < nx && y < ny; };
-  std::vector<Eigen::Vector3i> fill;
-  for (int k = 0; k + clearance < nz; ++k) {
-    const int support = level_count[static_cast<std::size_t>(k)] +
-                        (k > 0 ? level_count[static_cast<std::size_t>(k - 1)] : 0) +
-                        level_count[static_cast<std::size_t>(k + 1)];
-    // Only levels with a floor of some extent (0.5 m^2 of sampled floor in the band): not every shelf top.
-    if (support < std::max(kSectors, static_cast<int>(0.5 / (res * res)))) continue;
-    for (int ix = 0; ix < nx; ++ix) {
-      for (int iy = 0; iy < ny; ++iy) {
-        band[column(ix, iy)] = floor.Near(column(ix, iy), k) >= 0 ? 1 : 0;
-        wall[column(ix, iy)] = occupied_in(ix, iy, k, k + clearance) ? 1 : 0;
-        if (fill_strips) seen_below[column(ix, iy)] = occupied_in(ix, iy, k - gap_max, k - 2) ? 1 : 0;
+  // Something was seen clearance .. gap_max below a run starting at `bottom`, in column (ix, iy) or within
+  // `near` cells of it.
+  bool SeenBelowNear(int ix, int iy, int bottom) const {
+    const int lo = bottom - limits_.gap_max, hi = bottom - 1 - limits_.clearance;
+    for (int dx = -limits_.near; dx <= limits_.near; ++dx) {
+      for (int dy = -limits_.near; dy <= limits_.near; ++dy) {
+        if (OccupiedIn(ix + dx, iy + dy, lo, hi)) return true;
       }
     }
-    for (int ix = 0; ix < nx; ++ix) {  // Dilation.
-      for (int iy = 0; iy < ny; ++iy) {
-        std::uint8_t d = band[column(ix, iy)];
-        for (std::size_t i = 0; i < close_disk.size() && d == 0; ++i) {
-          const int x = ix + close_disk[i].dx, y = iy + close_disk[i].dy;
-          d = in_grid(x, y) ? band[column(x, y)] : 0;
-        }
-        dilated[column(ix, iy)] = d;
+    return false;
+  }
+
+  // Only levels with a floor of some extent (0.5 m^2 of sampled floor in the band): not every shelf top.
+  bool LevelHasFloor(int k) const {
+    const int support = level_count_[static_cast<std::size_t>(k)] +
+                        (k > 0 ? level_count_[static_cast<std::size_t>(k - 1)] : 0) +
+                        level_count_[static_cast<std::size_t>(k + 1)];
+    return support >= limits_.min_support;
+  }
+
+  // The band, walls (an obstacle standing on level k: occupied in k .. k + clearance), its closing and the
+  // closing's summed-area table, and the strips of level k.
+  void BuildMasks(int k) {
+    for (int ix = 0; ix < nx_; ++ix) {
+      for (int iy = 0; iy < ny_; ++iy) {
+        const std::size_t c = Column(ix, iy);
+        masks_.band[c] = floor_.Near(c, k) >= 0 ? 1 : 0;
+        masks_.wall[c] = OccupiedIn(ix, iy, k, k + limits_.clearance) ? 1 : 0;
+        if (limits_.fill_strips)
+          masks_.seen_below[c] = OccupiedIn(ix, iy, k - limits_.gap_max, k - 2) ? 1 : 0;
       }
     }
-    for (int ix = 0; ix < nx; ++ix) {  // Erosion of the dilation (outside the grid counts as set).
-      for (int iy = 0; iy < ny; ++iy) {
-        std::uint8_t e = dilated[column(ix, iy)];
-        for (std::size_t i = 0; i < close_disk.size() && e != 0; ++i) {
-          const int x = ix + close_disk[i].dx, y = iy + close_disk[i].dy;
-          e = in_grid(x, y) ? dilated[column(x, y)] : 1;
-        }
-        closed[column(ix, iy)] = e;
+    CloseBand();
+    for (int ix = 0; ix < nx_; ++ix) {
+      for (int iy = 0; iy < ny_; ++iy) {
+        Sat(ix + 1, iy + 1) = masks_.closed[Column(ix, iy)] + Sat(ix, iy + 1) + Sat(ix + 1, iy) - Sat(ix, iy);
       }
     }
-    for (int ix = 0; ix < nx; ++ix) {
-      for (int iy = 0; iy < ny; ++iy) {
-        sat_at(ix + 1, iy + 1) =
-            closed[column(ix, iy)] + sat_at(ix, iy + 1) + sat_at(ix + 1, iy) - sat_at(ix, iy);
+    if (limits_.fill_strips) {
+      // A strip may not cross a wall, nor a column within `near` cells of one in which the scan saw something
+      // 2 .. gap_max voxels below level k: below the band a floor may spread over, so the gap is an opening
+      // over a lower surface (between two racks, beside a step or a pallet over the floor). Within `near`, as
+      // for overhead surfaces: a sparse scan misses the floor right below.
+      DilateAlong(masks_.seen_below, nx_, ny_, 1, 0, limits_.near, &masks_.barrier);
+      DilateAlong(masks_.barrier, nx_, ny_, 0, 1, limits_.near, &masks_.seen_below);
+      for (std::size_t c = 0; c < masks_.barrier.size(); ++c) {
+        masks_.barrier[c] = masks_.wall[c] != 0 || masks_.seen_below[c] != 0 ? 1 : 0;
+      }
+      MarkStrips(masks_.band, masks_.barrier, nx_, ny_, limits_.strip_cells, &masks_.strip);
+    }
+  }
+
+  // closed = the band dilated, then eroded (outside the grid counts as set), by the closing's disk.
+  void CloseBand() {
+    for (int ix = 0; ix < nx_; ++ix) {
+      for (int iy = 0; iy < ny_; ++iy) {
+        std::uint8_t d = masks_.band[Column(ix, iy)];
+        for (std::size_t i = 0; i < close_disk_.size() && d == 0; ++i) {
+          const int x = ix + close_disk_[i].dx, y = iy + close_disk_[i].dy;
+          d = InGrid(x, y) ? masks_.band[Column(x, y)] : 0;
+        }
+        masks_.dilated[Column(ix, iy)] = d;
       }
     }
-    if (fill_strips) {
-      DilateAlong(seen_below, nx, ny, 1, 0, near, &barrier);
-      DilateAlong(barrier, nx, ny, 0, 1, near, &seen_below);
-      for (std::size_t c = 0; c < barrier.size(); ++c)
-        barrier[c] = wall[c] != 0 || seen_below[c] != 0 ? 1 : 0;
-      MarkStrips(band, barrier, nx, ny, strip_cells, &strip);
-    }
-    for (int ix = 0; ix < nx; ++ix) {
-      for (int iy = 0; iy < ny; ++iy) {
-        if (band[column(ix, iy)] != 0) continue;
-        const bool by_closing = closed[column(ix, iy)] != 0;
-        const bool by_strip = strip[column(ix, iy)] != 0;
-        if (!by_closing && !by_strip) {
-          const int x0 = std::max(0, ix - radius), x1 = std::min(nx, ix + radius + 1);
-          const int y0 = std::max(0, iy - radius), y1 = std::min(ny, iy + radius + 1);
-          if (sat_at(x1, y1) - sat_at(x0, y1) - sat_at(x1, y0) + sat_at(x0, y0) < kSectors / 2) continue;
+    for (int ix = 0; ix < nx_; ++ix) {
+      for (int iy = 0; iy < ny_; ++iy) {
+        std::uint8_t e = masks_.dilated[Column(ix, iy)];
+        for (std::size_t i = 0; i < close_disk_.size() && e != 0; ++i) {
+          const int x = ix + close_disk_[i].dx, y = iy + close_disk_[i].dy;
+          e = InGrid(x, y) ? masks_.dilated[Column(x, y)] : 1;
         }
-        // The hole voxel and the clearance above it are free, inside the map.
-        bool clear = true;
-        for (int dz = 0; dz <= clearance && clear; ++dz) clear = !world->IsOccupiedIndex({ix, iy, k + dz});
-        if (!clear) continue;
-        // Nearest closed-surface cell per direction; level votes from the sampled floor (B) around.
-        std::array<const SectorOffset*, kSectors> nearest{};  // Nearest closed cell per sector.
-        std::array<int, 3> votes{0, 0, 0};                    // Floor levels k - 1, k, k + 1 seen around.
-        int found = 0;
-        int floor_sectors = 0;  // Sectors closed by floor (the others by a wall).
-        for (const SectorOffset& o : disk) {
-          const int x = ix + o.dx, y = iy + o.dy;
-          if (!in_grid(x, y)) continue;
-          if (band[column(x, y)] != 0 && votes[0] + votes[1] + votes[2] < kSectors) {
-            ++votes[static_cast<std::size_t>(floor.Near(column(x, y), k) - k + 1)];
-          }
-          if (nearest[static_cast<std::size_t>(o.sector)] != nullptr) continue;
-          // Floor, or an obstacle standing on the floor level (a wall): a hole between them is a floor hole.
-          const bool is_floor = closed[column(x, y)] != 0;
-          if (!is_floor && wall[column(x, y)] == 0) continue;
-          nearest[static_cast<std::size_t>(o.sector)] = &o;
-          floor_sectors += is_floor;
-          if (++found == kSectors && votes[0] + votes[1] + votes[2] >= kSectors) break;
-        }
-        // Enclosed: floor or a wall in every direction (so a floor edge, a drop, is never grown).
-        // At least half of them floor: a nook between walls whose floor nobody saw stays unknown.
-        bool hole = found == kSectors && floor_sectors >= kSectors / 2;
-        if (hole && !by_closing) {
-          // Narrow: the gap between the nearest cells of opposite directions is at most hole_cells.
-          for (int s = 0; s < kSectors / 2 && hole; ++s) {
-            const SectorOffset& a = *nearest[static_cast<std::size_t>(s)];
-            const SectorOffset& b = *nearest[static_cast<std::size_t>(s + kSectors / 2)];
-            hole = std::hypot(a.dx - b.dx, a.dy - b.dy) - 1.0 <= hole_cells + 1e-9;
-          }
-        }
-        if (!hole && !by_strip) continue;
-        // The surface around is at this level (one fill per hole, at the most common level).
-        if (votes[1] == 0 || votes[1] < votes[0] || votes[1] < votes[2]) continue;
-        // Not a real gap: nothing seen gap_min..gap_max voxels below.
-        bool seen_through = false;
-        for (int d = gap_min; d <= gap_max && k - d >= 0 && !seen_through; ++d) {
-          seen_through = world->IsOccupiedIndex({ix, iy, k - d});
-        }
-        if (seen_through) {
-          ++report->holes_seen_through;
-          continue;
-        }
-        fill.emplace_back(ix, iy, k);
-        *strips += !hole;
+        masks_.closed[Column(ix, iy)] = e;
       }
     }
   }
-  for (const Eigen::Vector3i& v : fill) world->SetOccupied(v);
-  return static_cast<std::int64_t>(fill.size());
-}
 
-// Passes of FillFloorHolesPass() until nothing changes (at most kMaxFillPasses): a sparse floor's holes have
+  // Whether the free cell (ix, iy) of level k is filled, and as what (rules (a) to (c) above).
+  CellFill Judge(int ix, int iy, int k) {
+    const std::size_t c = Column(ix, iy);
+    if (masks_.band[c] != 0) return CellFill::kNone;
+    const bool by_closing = masks_.closed[c] != 0;
+    const bool by_strip = masks_.strip[c] != 0;
+    if (!by_closing && !by_strip) {
+      const int r = limits_.radius;
+      const int x0 = std::max(0, ix - r), x1 = std::min(nx_, ix + r + 1);
+      const int y0 = std::max(0, iy - r), y1 = std::min(ny_, iy + r + 1);
+      if (Sat(x1, y1) - Sat(x0, y1) - Sat(x1, y0) + Sat(x0, y0) < kSectors / 2) return CellFill::kNone;
+    }
+    // The hole voxel and the clearance above it are free, inside the map.
+    for (int dz = 0; dz <= limits_.clearance; ++dz) {
+      if (world_->IsOccupiedIndex({ix, iy, k + dz})) return CellFill::kNone;
+    }
+    const SectorScan scan = ScanSectors(ix, iy, k);
+    // Enclosed: floor or a wall in every direction (so a floor edge, a drop, is never grown). At least half
+    // of them floor: a nook between walls whose floor nobody saw stays unknown.
+    bool hole = scan.found == kSectors && scan.floor_sectors >= kSectors / 2;
+    if (hole && !by_closing) hole = Narrow(scan);
+    if (!hole && !by_strip) return CellFill::kNone;
+    // The surface around is at this level (one fill per hole, at the most common level).
+    const auto& votes = scan.votes;
+    if (votes[1] == 0 || votes[1] < votes[0] || votes[1] < votes[2]) return CellFill::kNone;
+    // Not a real gap: nothing seen gap_min..gap_max voxels below.
+    for (int d = limits_.gap_min; d <= limits_.gap_max && k - d >= 0; ++d) {
+      if (world_->IsOccupiedIndex({ix, iy, k - d})) {
+        ++report_->holes_seen_through;
+        return CellFill::kNone;
+      }
+    }
+    return hole ? CellFill::kHole : CellFill::kStrip;
+  }
+
+  // The nearest closed-surface cell per direction; level votes from the sampled floor (B) around.
+  SectorScan ScanSectors(int ix, int iy, int k) const {
+    SectorScan scan;
+    for (const SectorOffset& o : disk_) {
+      const int x = ix + o.dx, y = iy + o.dy;
+      if (!InGrid(x, y)) continue;
+      const std::size_t c = Column(x, y);
+      if (masks_.band[c] != 0 && scan.votes[0] + scan.votes[1] + scan.votes[2] < kSectors) {
+        ++scan.votes[static_cast<std::size_t>(floor_.Near(c, k) - k + 1)];
+      }
+      if (scan.nearest[static_cast<std::size_t>(o.sector)] != nullptr) continue;
+      // Floor, or an obstacle standing on the floor level (a wall): a hole between them is a floor hole.
+      const bool is_floor = masks_.closed[c] != 0;
+      if (!is_floor && masks_.wall[c] == 0) continue;
+      scan.nearest[static_cast<std::size_t>(o.sector)] = &o;
+      scan.floor_sectors += is_floor;
+      if (++scan.found == kSectors && scan.votes[0] + scan.votes[1] + scan.votes[2] >= kSectors) break;
+    }
+    return scan;
+  }
+
+  // Narrow: the gap between the nearest cells of opposite directions is at most hole_cells.
+  bool Narrow(const SectorScan& scan) const {
+    for (int s = 0; s < kSectors / 2; ++s) {
+      const SectorOffset& a = *scan.nearest[static_cast<std::size_t>(s)];
+      const SectorOffset& b = *scan.nearest[static_cast<std::size_t>(s + kSectors / 2)];
+      if (std::hypot(a.dx - b.dx, a.dy - b.dy) - 1.0 > limits_.hole_cells + 1e-9) return false;
+    }
+    return true;
+  }
+
+  World* world_;
+  WorldLoadReport* report_;
+  const int nx_, ny_, nz_;
+  Limits limits_;
+  std::vector<std::int64_t> run_offset_;
+  std::vector<std::array<std::int32_t, 2>> runs_;
+  FloorLevels floor_;
+  std::vector<int> level_count_;  // floor surfaces per level
+  std::vector<SectorOffset> disk_, close_disk_;
+  LevelMasks masks_;
+};
+
+// Passes of FloorHolePass until nothing changes (at most kMaxFillPasses): a sparse floor's holes have
 // rough edges, which the cells filled by a pass smooth for the next one. A pass never fills a cell without
 // floor within fill_hole_max_m in every direction or, in a strip, on both sides within 1.5 *
 // fill_strip_max_m, so passes cannot grow the floor past an edge or across a wide gap.
@@ -473,7 +560,7 @@ void FillFloorHoles(World* world, const WorldLoadOptions& options, WorldLoadRepo
   constexpr int kMaxFillPasses = 2;
   for (int pass = 0; pass < kMaxFillPasses; ++pass) {
     std::int64_t strips = 0;
-    const std::int64_t filled = FillFloorHolesPass(world, options, report, &strips);
+    const std::int64_t filled = FloorHolePass(world, options, report).Run(&strips);
     report->voxels_filled_floor += filled;
     report->voxels_filled_strip += strips;
     if (filled == 0) break;

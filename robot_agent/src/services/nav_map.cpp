@@ -459,42 +459,77 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map,
     want.extend(Eigen::Vector2d((tile + Eigen::Vector2i::Ones()).cast<double>() * tile_m));
     Wait(tile);
   }
-  const Eigen::AlignedBox2d grown = GrownExtent(current, want);
-  if (!grown.isApprox(current)) {
-    Reallocate(grown);
-    // The new area is read from the map like changed tiles (tiles already read are read again: harmless).
-    const Eigen::Vector2d lo = voxels_->p_W_min().head<2>(), hi = voxels_->p_W_max().head<2>();
-    const Eigen::Vector2i t_lo = (lo / tile_m).array().floor().cast<int>().matrix();
-    const Eigen::Vector2i t_hi = (hi / tile_m).array().ceil().cast<int>().matrix() - Eigen::Vector2i::Ones();
-    for (int tx = t_lo.x(); tx <= t_hi.x(); ++tx) {
-      for (int ty = t_lo.y(); ty <= t_hi.y(); ++ty) {
-        const Eigen::AlignedBox2d box(Eigen::Vector2d(tx, ty) * tile_m,
-                                      Eigen::Vector2d(tx + 1, ty + 1) * tile_m);
-        if (!current.contains(box)) Wait(Eigen::Vector2i(tx, ty));
-      }
-    }
-    stats.grown = true;
-    ++growths_;
-    std::lock_guard<std::mutex> guard(extent_mutex_);
-    extent_M_ = Eigen::AlignedBox2d(lo, hi);
-  }
+  stats.grown = GrowOver(current, want, tile_m);
   if (stairs_changed) {
     // The footprints of flights that went or changed are read again from the map (their old treads go), as
     // are those of new ones (then written over).
-    auto read_again = [&](const perception::Staircase& stairs) {
-      const Eigen::AlignedBox2d box = StairArea(stairs);
-      const Eigen::Vector2i t_lo = (box.min() / tile_m).array().floor().cast<int>().matrix();
-      const Eigen::Vector2i t_hi = (box.max() / tile_m).array().floor().cast<int>().matrix();
-      for (int tx = t_lo.x(); tx <= t_hi.x(); ++tx) {
-        for (int ty = t_lo.y(); ty <= t_hi.y(); ++ty) Wait(Eigen::Vector2i(tx, ty));
-      }
-    };
-    std::for_each(stair_priors_.begin(), stair_priors_.end(), read_again);
-    std::for_each(climbable.begin(), climbable.end(), read_again);
+    for (const auto* flights : {&stair_priors_, &climbable}) {
+      for (const perception::Staircase& stairs : *flights) WaitOver(StairArea(stairs), tile_m);
+    }
     stair_priors_ = std::move(climbable);
   }
-  const double res = voxels_->resolution_m();
-  const Eigen::Vector3i last = voxels_->dims() - Eigen::Vector3i::Ones();
+  std::vector<Eigen::AlignedBox2d> columns = ReadWaitingTiles(map, tile_m, start, &stats);
+  ApplyStairPriorsOver(&columns, &stats);
+  stats.extent_M = extent_M();
+  stats.tiles_waiting = tiles_waiting();
+  if (columns.empty() && !stats.grown) return stats;
+  stats.read_ms = MsSince(start);
+  Progress();
+  start = Clock::now();
+  sensor_max_z_m_ = sensor_max_z_m;
+  if (stats.grown) {
+    RebuildGrids();  // every grid over the new extent (their geometry changed)
+    columns.clear();
+  } else {
+    for (auto* grid : {&grid_, &diagnose_grid_}) {
+      if (!*grid) continue;
+      Progress();
+      nav::TraversabilityGrid& writable = Writable(grid);
+      writable.SetObserverHeight(sensor_max_z_m);
+      writable.Update(*voxels_, seen_free_.get(), columns);
+    }
+  }
+  stats.traversability_ms = MsSince(start);
+  Progress();
+  start = Clock::now();
+  Publish(columns);
+  stats.publish_ms = MsSince(start);
+  stats.map_version = planner_->map_version();
+  stats.applied = true;
+  return stats;
+}
+
+bool NavMap::GrowOver(const Eigen::AlignedBox2d& current, const Eigen::AlignedBox2d& want, double tile_m) {
+  const Eigen::AlignedBox2d grown = GrownExtent(current, want);
+  if (grown.isApprox(current)) return false;
+  Reallocate(grown);
+  // The new area is read from the map like changed tiles (tiles already read are read again: harmless).
+  const Eigen::Vector2d lo = voxels_->p_W_min().head<2>(), hi = voxels_->p_W_max().head<2>();
+  const Eigen::Vector2i t_lo = (lo / tile_m).array().floor().cast<int>().matrix();
+  const Eigen::Vector2i t_hi = (hi / tile_m).array().ceil().cast<int>().matrix() - Eigen::Vector2i::Ones();
+  for (int tx = t_lo.x(); tx <= t_hi.x(); ++tx) {
+    for (int ty = t_lo.y(); ty <= t_hi.y(); ++ty) {
+      const Eigen::AlignedBox2d box(Eigen::Vector2d(tx, ty) * tile_m,
+                                    Eigen::Vector2d(tx + 1, ty + 1) * tile_m);
+      if (!current.contains(box)) Wait(Eigen::Vector2i(tx, ty));
+    }
+  }
+  ++growths_;
+  std::lock_guard<std::mutex> guard(extent_mutex_);
+  extent_M_ = Eigen::AlignedBox2d(lo, hi);
+  return true;
+}
+
+void NavMap::WaitOver(const Eigen::AlignedBox2d& box_M, double tile_m) {
+  const Eigen::Vector2i t_lo = (box_M.min() / tile_m).array().floor().cast<int>().matrix();
+  const Eigen::Vector2i t_hi = (box_M.max() / tile_m).array().floor().cast<int>().matrix();
+  for (int tx = t_lo.x(); tx <= t_hi.x(); ++tx) {
+    for (int ty = t_lo.y(); ty <= t_hi.y(); ++ty) Wait(Eigen::Vector2i(tx, ty));
+  }
+}
+
+std::vector<Eigen::AlignedBox2d> NavMap::ReadWaitingTiles(const perception::OccupancyMap& map, double tile_m,
+                                                          Clock::time_point start, NavMapUpdateStats* stats) {
   std::vector<Eigen::AlignedBox2d> columns;
   if (!waiting_tiles_.empty()) {
     Writable(&voxels_);
@@ -509,81 +544,65 @@ NavMapUpdateStats NavMap::Update(const perception::OccupancyMap& map,
     waiting_tiles_.pop_front();
     waiting_set_.erase({tile.x(), tile.y()});
     if (read % 16 == 15) Progress();
-    const Eigen::Vector2d lo_W = tile.cast<double>() * tile_m;
-    const Eigen::Vector2d hi_W = lo_W + Eigen::Vector2d::Constant(tile_m);
-    // Voxel index range of the tile (inclusive), over the extent's full height.
-    const Eigen::Vector2i lo = ((lo_W - voxels_->p_W_min().head<2>()) / res)
-                                   .array()
-                                   .round()
-                                   .cast<int>()
-                                   .matrix()
-                                   .cwiseMax(Eigen::Vector2i::Zero());
-    const Eigen::Vector2i hi = (((hi_W - voxels_->p_W_min().head<2>()) / res).array().round().cast<int>() - 1)
-                                   .matrix()
-                                   .cwiseMin(last.head<2>());
-    if (lo.x() > hi.x() || lo.y() > hi.y()) continue;
-    for (int ix = lo.x(); ix <= hi.x(); ++ix) {
-      for (int iy = lo.y(); iy <= hi.y(); ++iy) {
-        for (int iz = 0; iz <= last.z(); ++iz) {
-          voxels_->SetOccupied({ix, iy, iz}, false);
-          seen_free_->SetOccupied({ix, iy, iz}, false);
-        }
+    if (const auto box = ReadTile(map, tile, tile_m, stats)) {
+      columns.push_back(*box);
+      stats->region_M.extend(*box);
+      ++stats->tiles;
+    }
+  }
+  return columns;
+}
+
+std::optional<Eigen::AlignedBox2d> NavMap::ReadTile(const perception::OccupancyMap& map,
+                                                    const Eigen::Vector2i& tile, double tile_m,
+                                                    NavMapUpdateStats* stats) {
+  const double res = voxels_->resolution_m();
+  const Eigen::Vector3i last = voxels_->dims() - Eigen::Vector3i::Ones();
+  const Eigen::Vector2d lo_W = tile.cast<double>() * tile_m;
+  const Eigen::Vector2d hi_W = lo_W + Eigen::Vector2d::Constant(tile_m);
+  // Voxel index range of the tile (inclusive), over the extent's full height.
+  const Eigen::Vector2i lo = ((lo_W - voxels_->p_W_min().head<2>()) / res)
+                                 .array()
+                                 .round()
+                                 .cast<int>()
+                                 .matrix()
+                                 .cwiseMax(Eigen::Vector2i::Zero());
+  const Eigen::Vector2i hi = (((hi_W - voxels_->p_W_min().head<2>()) / res).array().round().cast<int>() - 1)
+                                 .matrix()
+                                 .cwiseMin(last.head<2>());
+  if (lo.x() > hi.x() || lo.y() > hi.y()) return std::nullopt;
+  for (int ix = lo.x(); ix <= hi.x(); ++ix) {
+    for (int iy = lo.y(); iy <= hi.y(); ++iy) {
+      for (int iz = 0; iz <= last.z(); ++iz) {
+        voxels_->SetOccupied({ix, iy, iz}, false);
+        seen_free_->SetOccupied({ix, iy, iz}, false);
       }
     }
-    // Voxel centres strictly inside the tile, so that a neighbouring voxel touching its face is not read.
-    const Eigen::Vector3d shrink = Eigen::Vector3d::Constant(0.25 * res);
-    const Eigen::AlignedBox3d query(voxels_->CenterOf({lo.x(), lo.y(), 0}) - shrink,
-                                    voxels_->CenterOf({hi.x(), hi.y(), last.z()}) + shrink);
-    for (const Eigen::Vector3d& p : map.OccupiedInBox(query))
-      stats.occupied_voxels += voxels_->SetOccupiedAt(p);
-    for (const Eigen::Vector3d& p : map.FreeInBox(query)) seen_free_->SetOccupiedAt(p);
-    const Eigen::AlignedBox2d box(voxels_->CenterOf({lo.x(), lo.y(), 0}).head<2>(),
-                                  voxels_->CenterOf({hi.x(), hi.y(), 0}).head<2>());
-    columns.push_back(box);
-    stats.region_M.extend(box);
-    ++stats.tiles;
   }
-  // The flights' treads over what was read (a growth read only the new area: the copied voxels kept them).
+  // Voxel centres strictly inside the tile, so that a neighbouring voxel touching its face is not read.
+  const Eigen::Vector3d shrink = Eigen::Vector3d::Constant(0.25 * res);
+  const Eigen::AlignedBox3d query(voxels_->CenterOf({lo.x(), lo.y(), 0}) - shrink,
+                                  voxels_->CenterOf({hi.x(), hi.y(), last.z()}) + shrink);
+  for (const Eigen::Vector3d& p : map.OccupiedInBox(query))
+    stats->occupied_voxels += voxels_->SetOccupiedAt(p);
+  for (const Eigen::Vector3d& p : map.FreeInBox(query)) seen_free_->SetOccupiedAt(p);
+  return Eigen::AlignedBox2d(voxels_->CenterOf({lo.x(), lo.y(), 0}).head<2>(),
+                             voxels_->CenterOf({hi.x(), hi.y(), 0}).head<2>());
+}
+
+void NavMap::ApplyStairPriorsOver(std::vector<Eigen::AlignedBox2d>* columns, NavMapUpdateStats* stats) {
+  const double res = voxels_->resolution_m();
   for (const perception::Staircase& stairs : stair_priors_) {
     const Eigen::AlignedBox2d box = StairArea(stairs);
-    const bool read = std::any_of(columns.begin(), columns.end(),
+    const bool read = std::any_of(columns->begin(), columns->end(),
                                   [&box](const Eigen::AlignedBox2d& c) { return c.intersects(box); });
     if (!read) continue;
     ApplyStairPrior(stairs);
     // One cell more: the neighbours' analysis changes too.
-    columns.emplace_back(box.min() - Eigen::Vector2d::Constant(res),
-                         box.max() + Eigen::Vector2d::Constant(res));
-    ++stats.stair_priors;
+    columns->emplace_back(box.min() - Eigen::Vector2d::Constant(res),
+                          box.max() + Eigen::Vector2d::Constant(res));
+    ++stats->stair_priors;
   }
-  stats.extent_M = extent_M();
-  stats.tiles_waiting = tiles_waiting();
-  if (columns.empty() && !stats.grown) return stats;
-  stats.read_ms = MsSince(start);
-  Progress();
-  start = Clock::now();
-  sensor_max_z_m_ = sensor_max_z_m;
-  if (stats.grown) {
-    RebuildGrids();  // every grid over the new extent (their geometry changed)
-    columns.clear();
-  } else {
-    nav::TraversabilityGrid& grid = Writable(&grid_);
-    grid.SetObserverHeight(sensor_max_z_m);
-    grid.Update(*voxels_, seen_free_.get(), columns);
-    if (diagnose_grid_) {
-      Progress();
-      nav::TraversabilityGrid& diagnose_grid = Writable(&diagnose_grid_);
-      diagnose_grid.SetObserverHeight(sensor_max_z_m);
-      diagnose_grid.Update(*voxels_, seen_free_.get(), columns);
-    }
-  }
-  stats.traversability_ms = MsSince(start);
-  Progress();
-  start = Clock::now();
-  Publish(columns);
-  stats.publish_ms = MsSince(start);
-  stats.map_version = planner_->map_version();
-  stats.applied = true;
-  return stats;
 }
 
 }  // namespace cairn::agent

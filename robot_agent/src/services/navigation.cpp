@@ -406,48 +406,12 @@ void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalP
                                  double now_s, const std::optional<Eigen::Vector2d>& goal_W) {
   if (now_s - local_.last_time_s < options_.local_planner_period_s - 1e-9) return;
   local_.last_time_s = now_s;
-  // Re-express the latest obstacles in the current body frame (in place).
-  const bool moved = std::abs(obstacles_.pose.x_m - state.x_m) > 1e-9 ||
-                     std::abs(obstacles_.pose.y_m - state.y_m) > 1e-9 ||
-                     std::abs(obstacles_.pose.yaw_rad - state.yaw_rad) > 1e-9;
-  if (moved) {
-    for (auto& p : obstacles_.points_B) {
-      const Eigen::Vector2d q = ToBody(state, ToWorld(obstacles_.pose, p.head<2>().cast<double>()));
-      p.x() = static_cast<float>(q.x());
-      p.y() = static_cast<float>(q.y());
-    }
-    obstacles_.pose = state;
-  }
+  ReexpressObstacles(state);
   local_.pose = state;
   nav::LocalPlanRequest r = request;
   r.previous_path_id = local_.result.IsUsable() ? local_.result.path_id : -1;
   local_planner_.Plan(obstacles_.points_B, r, &local_.result);
-  bool aligned = true;
-  if (r.mode == nav::LocalPlanMode::kGoal) {
-    // Tight spot: the paths free for the full length all turn away from the carrot. Shorter required
-    // lengths let the robot creep through a gap whose far side the library's arcs cannot all clear.
-    const double target = std::atan2(r.goal_B.y(), r.goal_B.x());
-    auto deviation = [&](const nav::LocalPlanResult& result) {
-      if (!result.IsUsable() || result.path_B.size() < 2) return kPi + 1.0;
-      const Eigen::Vector3f& end = result.path_B.back();
-      return std::abs(std::remainder(std::atan2(end.y(), end.x()) - target, 2 * kPi));
-    };
-    double best = deviation(local_.result);
-    double length = std::min(r.max_required_free_length_m, options_.required_free_length_m);
-    while (best > options_.tight_spot_deviation_rad && length > options_.tight_free_length_m + 1e-9) {
-      length = std::max(options_.tight_free_length_m, 0.5 * length);
-      nav::LocalPlanRequest shorter = r;
-      shorter.max_required_free_length_m = length;
-      nav::LocalPlanResult result;
-      local_planner_.Plan(obstacles_.points_B, shorter, &result);
-      const double d = deviation(result);
-      if (d < best) {
-        best = d;
-        local_.result = std::move(result);
-      }
-    }
-    aligned = best <= options_.tight_spot_deviation_rad;
-  }
+  const bool aligned = r.mode != nav::LocalPlanMode::kGoal || PlanTowardCarrot(r);
   local_.track_W.clear();
   creeping_ = false;
   if (r.mode == nav::LocalPlanMode::kGoal && follow_path_ &&
@@ -470,26 +434,68 @@ void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalP
     local_.track_W.push_back(ToWorld(state, p.head<2>().cast<double>()));
   const double full = local_planner_.library().options().path_length_m;
   local_.track_stop_at_end = local_.result.free_length_m < full - 1e-6;
-  if (goal_W) {
-    // The goal lies within reach of this path: follow it to its sample nearest the goal, then to the goal.
-    std::size_t nearest = 0;
-    double nearest_d = 1e18;
-    for (std::size_t i = 0; i < local_.track_W.size(); ++i) {
-      const double d = (local_.track_W[i] - *goal_W).norm();
-      if (d < nearest_d) {
-        nearest_d = d;
-        nearest = i;
-      }
-    }
-    // Only when the goal is next to the free part of this path and no farther along the global path than
-    // that free part: a short hop from a checked sample to a goal the global planner found traversable.
-    if (nearest_d <= kGoalSnapM && progress_.distance_left_m <= local_.result.free_length_m + kGoalSnapM) {
-      local_.track_W.resize(nearest + 1);
-      if (nearest_d > 1e-3) local_.track_W.push_back(*goal_W);
-      local_.track_stop_at_end = true;
+  if (goal_W) SnapTrackToGoal(*goal_W);
+  if (local_.track_W.size() < 2) local_.track_W.clear();
+}
+
+// Re-expresses the latest obstacles in the current body frame (in place).
+void Navigation::ReexpressObstacles(const core::BaseState& state) {
+  const bool moved = std::abs(obstacles_.pose.x_m - state.x_m) > 1e-9 ||
+                     std::abs(obstacles_.pose.y_m - state.y_m) > 1e-9 ||
+                     std::abs(obstacles_.pose.yaw_rad - state.yaw_rad) > 1e-9;
+  if (!moved) return;
+  for (auto& p : obstacles_.points_B) {
+    const Eigen::Vector2d q = ToBody(state, ToWorld(obstacles_.pose, p.head<2>().cast<double>()));
+    p.x() = static_cast<float>(q.x());
+    p.y() = static_cast<float>(q.y());
+  }
+  obstacles_.pose = state;
+}
+
+bool Navigation::PlanTowardCarrot(const nav::LocalPlanRequest& r) {
+  // Tight spot: the paths free for the full length all turn away from the carrot. Shorter required lengths
+  // let the robot creep through a gap whose far side the library's arcs cannot all clear.
+  const double target = std::atan2(r.goal_B.y(), r.goal_B.x());
+  auto deviation = [&](const nav::LocalPlanResult& result) {
+    if (!result.IsUsable() || result.path_B.size() < 2) return kPi + 1.0;
+    const Eigen::Vector3f& end = result.path_B.back();
+    return std::abs(std::remainder(std::atan2(end.y(), end.x()) - target, 2 * kPi));
+  };
+  double best = deviation(local_.result);
+  double length = std::min(r.max_required_free_length_m, options_.required_free_length_m);
+  while (best > options_.tight_spot_deviation_rad && length > options_.tight_free_length_m + 1e-9) {
+    length = std::max(options_.tight_free_length_m, 0.5 * length);
+    nav::LocalPlanRequest shorter = r;
+    shorter.max_required_free_length_m = length;
+    nav::LocalPlanResult result;
+    local_planner_.Plan(obstacles_.points_B, shorter, &result);
+    const double d = deviation(result);
+    if (d < best) {
+      best = d;
+      local_.result = std::move(result);
     }
   }
-  if (local_.track_W.size() < 2) local_.track_W.clear();
+  return best <= options_.tight_spot_deviation_rad;
+}
+
+void Navigation::SnapTrackToGoal(const Eigen::Vector2d& goal_W) {
+  // The goal lies within reach of this path: follow it to its sample nearest the goal, then to the goal.
+  std::size_t nearest = 0;
+  double nearest_d = 1e18;
+  for (std::size_t i = 0; i < local_.track_W.size(); ++i) {
+    const double d = (local_.track_W[i] - goal_W).norm();
+    if (d < nearest_d) {
+      nearest_d = d;
+      nearest = i;
+    }
+  }
+  // Only when the goal is next to the free part of this path and no farther along the global path than that
+  // free part: a short hop from a checked sample to a goal the global planner found traversable.
+  if (nearest_d <= kGoalSnapM && progress_.distance_left_m <= local_.result.free_length_m + kGoalSnapM) {
+    local_.track_W.resize(nearest + 1);
+    if (nearest_d > 1e-3) local_.track_W.push_back(goal_W);
+    local_.track_stop_at_end = true;
+  }
 }
 
 bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state, double track_m, double margin_m,
@@ -568,103 +574,125 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
     ClearGoal();
     return step;
   }
-  // Replans run on a worker while the robot follows the current path (the local planner keeps it off what
-  // the lidar sees): the control loop never waits for a search, which takes up to ~1 s over the map's levels
-  // on a mostly unknown map. A partial plan (the map connects no route to the goal's level yet) is also
-  // extended as the map grows and at its end, and fails when the map shows no way on from there.
-  if (PlanReady(replan_.extension)) {
-    const nav::GlobalPlan extended = replan_.extension.get();
-    const Eigen::Vector3d end =
-        plan_.result.path_W.empty() ? Eigen::Vector3d::Zero() : plan_.result.path_W.back();
-    const bool was_partial = plan_.result.partial;
-    const double before = PartialRemaining(plan_);
-    // On a partial plan, "no route" (nothing nearer the goal than where the robot stands) is the same as no
-    // progress, and a goal that looks blocked lies on a part of the map seen from afar (grazing rays, a few
-    // voxels): the robot goes on along its plan, sees more, and fails only after a few map updates of that.
-    const auto status = extended.result.status;
-    const bool map_may_tell =
-        was_partial && extended.platform_known &&
-        (status == nav::PlanResult::Status::kUnreachable || status == nav::PlanResult::Status::kGoalBlocked);
-    if (!extended.IsUsable() && !map_may_tell) {
-      return Fail(replan_.extension_cause + " and no new path exists: " + extended.reason);
-    }
-    if (extended.IsUsable()) AdoptPlan(extended, now_s);
-    const bool no_way_on =
-        was_partial && (!extended.IsUsable() || (replan_.extension_at_end && extended.result.partial &&
-                                                 PartialRemaining(extended) > before - 0.3));
-    if (!no_way_on) replan_.partial_stuck_since_s = -1.0;
-    if (no_way_on && replan_.partial_stuck_since_s < 0.0) replan_.partial_stuck_since_s = now_s;
-    // At the end of what the map shows, the robot waits a few map updates (it sees further from there).
-    if (no_way_on && now_s - replan_.partial_stuck_since_s >= kPartialWaitS) {
-      return Fail("no known route to the goal's level: the map shows no way on from (" + Fixed(end.x(), 2) +
-                  ", " + Fixed(end.y(), 2) + ") at z " + Fixed(end.z(), 2) + " (" +
-                  (extended.IsUsable() ? extended.result.message : extended.reason) + ")");
-    }
+  if (auto failed = TakeReplan(now_s)) return *failed;
+  RequestReplans(state, now_s);
+  if (auto failed = CheckProgress(state, now_s)) return *failed;
+  return DriveToCarrot(state, to_goal, cruise_mps, now_s);
+}
+
+// Replans run on a worker while the robot follows the current path (the local planner keeps it off what the
+// lidar sees): the control loop never waits for a search, which takes up to ~1 s over the map's levels on a
+// mostly unknown map. A partial plan (the map connects no route to the goal's level yet) is also extended as
+// the map grows and at its end, and fails when the map shows no way on from there.
+std::optional<NavigationStep> Navigation::TakeReplan(double now_s) {
+  if (!PlanReady(replan_.extension)) return std::nullopt;
+  const nav::GlobalPlan extended = replan_.extension.get();
+  const Eigen::Vector3d end =
+      plan_.result.path_W.empty() ? Eigen::Vector3d::Zero() : plan_.result.path_W.back();
+  const bool was_partial = plan_.result.partial;
+  const double before = PartialRemaining(plan_);
+  // On a partial plan, "no route" (nothing nearer the goal than where the robot stands) is the same as no
+  // progress, and a goal that looks blocked lies on a part of the map seen from afar (grazing rays, a few
+  // voxels): the robot goes on along its plan, sees more, and fails only after a few map updates of that.
+  const auto status = extended.result.status;
+  const bool map_may_tell =
+      was_partial && extended.platform_known &&
+      (status == nav::PlanResult::Status::kUnreachable || status == nav::PlanResult::Status::kGoalBlocked);
+  if (!extended.IsUsable() && !map_may_tell) {
+    return Fail(replan_.extension_cause + " and no new path exists: " + extended.reason);
   }
-  auto replan_on_worker = [&](bool at_end, std::string cause) {
-    if (replan_.extension.valid()) return;  // one at a time; the next check asks again if still needed
-    if (now_s - replan_.last_worker_s < kMinReplanIntervalS) return;
-    replan_.last_worker_s = now_s;
-    if (plan_.result.partial) replan_.last_partial_s = now_s;
-    replan_.extension_at_end = at_end;
-    replan_.extension_cause = std::move(cause);
-    nav::GlobalPlanRequest request = GoalRequest(state, goal_->p_W.x(), goal_->p_W.y(), goal_->z_m);
-    request.diagnose = at_end;  // naming a step matters when the robot can go no further
-    replan_.extension = PlanOnWorker(std::move(request));
-  };
+  if (extended.IsUsable()) AdoptPlan(extended, now_s);
+  const bool no_way_on =
+      was_partial && (!extended.IsUsable() || (replan_.extension_at_end && extended.result.partial &&
+                                               PartialRemaining(extended) > before - 0.3));
+  if (!no_way_on) replan_.partial_stuck_since_s = -1.0;
+  if (no_way_on && replan_.partial_stuck_since_s < 0.0) replan_.partial_stuck_since_s = now_s;
+  // At the end of what the map shows, the robot waits a few map updates (it sees further from there).
+  if (no_way_on && now_s - replan_.partial_stuck_since_s >= kPartialWaitS) {
+    return Fail("no known route to the goal's level: the map shows no way on from (" + Fixed(end.x(), 2) +
+                ", " + Fixed(end.y(), 2) + ") at z " + Fixed(end.z(), 2) + " (" +
+                (extended.IsUsable() ? extended.result.message : extended.reason) + ")");
+  }
+  return std::nullopt;
+}
+
+// A partial plan is extended at its end and as the map grows; a whole one is planned again when the map
+// changed under the path or the robot is far off it. Also updates the progress along the path.
+void Navigation::RequestReplans(const core::BaseState& state, double now_s) {
+  const Eigen::Vector2d p_W(state.x_m, state.y_m);
   if (plan_.result.partial && !plan_.result.path_W.empty()) {
     const bool at_end =
         (plan_.result.path_W.back().head<2>() - p_W).norm() <= std::max(goal_->tolerance_m, 0.3);
     if ((at_end && now_s - replan_.last_partial_s >= 1.0) ||
         (planner_->map_version() != plan_.map_version && now_s - replan_.last_partial_s >= 4.0)) {
-      replan_on_worker(at_end, "the partial plan was extended");
+      ReplanOnWorker(state, now_s, at_end, "the partial plan was extended");
     }
   }
   const double off_path = UpdateProgress(p_W);
-  // The map changed under the path, or the robot is far off it: plan again from here.
-  if (now_s - replan_.last_check_s >= options_.replan_check_period_s) {
-    replan_.last_check_s = now_s;
-    const bool map_changed = planner_->map_version() != plan_.map_version;
-    if (map_changed &&
-        !planner_->CheckPath(plan_.result.path_W, options_.platform.name, static_cast<int>(progress_.segment))
-             .valid) {
-      replan_on_worker(false, "the map changed under the path");
-    } else if (map_changed) {
-      plan_.map_version = planner_->map_version();  // still valid on the new map
-    } else if (off_path > options_.max_path_deviation_m) {
-      replan_on_worker(false, "the robot was " + Fixed(off_path, 1) + " m off the path");
-    }
+  if (now_s - replan_.last_check_s < options_.replan_check_period_s) return;
+  replan_.last_check_s = now_s;
+  const bool map_changed = planner_->map_version() != plan_.map_version;
+  if (map_changed &&
+      !planner_->CheckPath(plan_.result.path_W, options_.platform.name, static_cast<int>(progress_.segment))
+           .valid) {
+    ReplanOnWorker(state, now_s, false, "the map changed under the path");
+  } else if (map_changed) {
+    plan_.map_version = planner_->map_version();  // still valid on the new map
+  } else if (off_path > options_.max_path_deviation_m) {
+    ReplanOnWorker(state, now_s, false, "the robot was " + Fixed(off_path, 1) + " m off the path");
   }
-  // Progress bookkeeping: ETA from a slow mean of the speed, blocked when no progress.
+}
+
+void Navigation::ReplanOnWorker(const core::BaseState& state, double now_s, bool at_end, std::string cause) {
+  if (replan_.extension.valid()) return;  // one at a time; the next check asks again if still needed
+  if (now_s - replan_.last_worker_s < kMinReplanIntervalS) return;
+  replan_.last_worker_s = now_s;
+  if (plan_.result.partial) replan_.last_partial_s = now_s;
+  replan_.extension_at_end = at_end;
+  replan_.extension_cause = std::move(cause);
+  nav::GlobalPlanRequest request = GoalRequest(state, goal_->p_W.x(), goal_->p_W.y(), goal_->z_m);
+  request.diagnose = at_end;  // naming a step matters when the robot can go no further
+  replan_.extension = PlanOnWorker(std::move(request));
+}
+
+// Progress bookkeeping: ETA from a slow mean of the speed; the goal fails when the robot stalls (moves less
+// than 0.5 m for stall_timeout_s, whatever the plans did: Nav2's progress checker), makes no progress in
+// unmapped space within its bounds, or gets no nearer the goal for blocked_timeout_s.
+std::optional<NavigationStep> Navigation::CheckProgress(const core::BaseState& state, double now_s) {
+  const Eigen::Vector2d p_W(state.x_m, state.y_m);
   progress_.mean_speed_mps += 0.02 * (std::abs(state.v_mps) - progress_.mean_speed_mps);
   progress_.eta_s = progress_.distance_left_m /
                     std::max(progress_.mean_speed_mps, 0.2 * options_.platform.cruise_speed_mps);
-  // Stall: whatever the plans did, the robot must move (Nav2's progress checker, 0.5 m).
+  const std::string local_planner_note =
+      local_.status != "path" && !local_.status.empty() ? "; local planner " + local_.status : "";
   constexpr double kStallRadiusM = 0.5;
   if (!goal_->anchor_W.allFinite() || (p_W - goal_->anchor_W).norm() >= kStallRadiusM) {
     goal_->anchor_W = p_W;
     goal_->anchor_time_s = now_s;
   } else if (now_s - goal_->anchor_time_s > goal_->stall_timeout_s) {
-    NavigationStep stalled = Fail(
-        "stalled: moved less than " + Fixed(kStallRadiusM, 1) + " m in " + Fixed(goal_->stall_timeout_s, 0) +
-        " s (" + Fixed(progress_.distance_left_m, 1) + " m left, " + std::to_string(replan_.count) +
-        " plans" +
-        (local_.status != "path" && !local_.status.empty() ? "; local planner " + local_.status : "") + ")");
+    NavigationStep stalled =
+        Fail("stalled: moved less than " + Fixed(kStallRadiusM, 1) + " m in " +
+             Fixed(goal_->stall_timeout_s, 0) + " s (" + Fixed(progress_.distance_left_m, 1) + " m left, " +
+             std::to_string(replan_.count) + " plans" + local_planner_note + ")");
     stalled.stalled = true;
     return stalled;
   }
-  if (auto abandoned = CheckUnmappedProgress(now_s)) return *abandoned;
+  if (auto abandoned = CheckUnmappedProgress(now_s)) return abandoned;
   if (progress_.distance_left_m < goal_->best_distance_m - 0.05) {
     goal_->best_distance_m = progress_.distance_left_m;
     goal_->best_time_s = now_s;
     goal_->held_s = 0.0;
   } else if (now_s - goal_->best_time_s > options_.blocked_timeout_s) {
-    return Fail(
-        "blocked: no progress for " + Fixed(options_.blocked_timeout_s, 1) + " s (" +
-        Fixed(progress_.distance_left_m, 1) + " m left" +
-        (local_.status != "path" && !local_.status.empty() ? "; local planner " + local_.status : "") + ")");
+    return Fail("blocked: no progress for " + Fixed(options_.blocked_timeout_s, 1) + " s (" +
+                Fixed(progress_.distance_left_m, 1) + " m left" + local_planner_note + ")");
   }
-  // Local planner toward the carrot (the goal itself when near).
+  return std::nullopt;
+}
+
+// The local planner toward the carrot (the goal itself when near), then iLQR on its track; or a turn in place
+// toward the path when no library path can start that way.
+NavigationStep Navigation::DriveToCarrot(const core::BaseState& state, double to_goal, double cruise_mps,
+                                         double now_s) {
   const Eigen::Vector2d carrot = Carrot(state);
   progress_.carrot_W = carrot;
   nav::LocalPlanRequest request;
@@ -681,30 +709,33 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
   }
   RunLocalPlanner(state, request, now_s,
                   goal_near ? std::optional<Eigen::Vector2d>(goal_->p_W) : std::nullopt);
-  // Turn in place toward the path when no library path can start that way (a forward-looking platform with
-  // the path behind it, e.g. at a dead end), or when boxed in with the path well to the side. A disk
-  // footprint cannot collide by turning.
-  const double bearing = std::atan2(request.goal_B.y(), request.goal_B.x());
+  if (auto turn = TurnInPlace(state, request.goal_B)) return *turn;
+  return Control(state, (creeping_ ? 0.5 : 1.0) * cruise_mps, now_s);
+}
+
+// Turn in place toward the path when no library path can start that way (a forward-looking platform with the
+// path behind it, e.g. at a dead end), or when boxed in with the path well to the side. A disk footprint
+// cannot collide by turning. Rotation shim (as Nav2's RotationShimController): once turning in place, keep
+// turning until the carrot is within kAlignedRad of the heading, so that a robot turning round in a corridor
+// does not hand over to the local planner half-way and swing back (a limit cycle seen on geb079).
+std::optional<NavigationStep> Navigation::TurnInPlace(const core::BaseState& state,
+                                                      const Eigen::Vector2d& carrot_B) {
+  const double bearing = std::atan2(carrot_B.y(), carrot_B.x());
   const bool behind = std::abs(bearing) > options_.platform.local_heading_range_rad * 0.9;
   const bool boxed_in = local_.result.status == nav::LocalPlanResult::Status::kBoxedIn;
-  // Rotation shim (as Nav2's RotationShimController): once turning in place, keep turning until the carrot is
-  // within kAlignedRad of the heading, so that a robot turning round in a corridor does not hand over to the
-  // local planner half-way and swing back (a limit cycle seen on geb079).
   constexpr double kAlignedRad = 20.0 * kPi / 180.0;
   if (control_.turning_in_place && std::abs(bearing) < kAlignedRad) control_.turning_in_place = false;
   if (behind || (boxed_in && std::abs(bearing) > kPi / 4)) control_.turning_in_place = true;
-  if (control_.turning_in_place) {
-    local_.track_W.clear();
-    controller_.Reset();
-    local_.status = std::string("turning in place toward the path") + (boxed_in ? " (boxed in ahead)" : "");
-    NavigationStep turn;
-    if (std::abs(state.v_mps) <= 0.05) {  // brake first, then turn
-      const double max_w = options_.platform.limits.max_yaw_rate_radps;
-      turn.angular_z_radps = std::clamp(1.5 * bearing, -max_w, max_w);
-    }
-    return turn;
+  if (!control_.turning_in_place) return std::nullopt;
+  local_.track_W.clear();
+  controller_.Reset();
+  local_.status = std::string("turning in place toward the path") + (boxed_in ? " (boxed in ahead)" : "");
+  NavigationStep turn;
+  if (std::abs(state.v_mps) <= 0.05) {  // brake first, then turn
+    const double max_w = options_.platform.limits.max_yaw_rate_radps;
+    turn.angular_z_radps = std::clamp(1.5 * bearing, -max_w, max_w);
   }
-  return Control(state, (creeping_ ? 0.5 : 1.0) * cruise_mps, now_s);
+  return turn;
 }
 
 NavigationStep Navigation::StepHeld(double now_s) {

@@ -132,6 +132,16 @@ class HealthMonitor {
     bool still_running = false;  // down, and its work did not stop when asked: never activated meanwhile
   };
   Entry* Find(const std::string& name);
+  // Check()'s steps. Every entry, and whether this pass comes late (the whole process was not scheduled for
+  // longer than the shortest deadline: no stall is judged then).
+  std::vector<Entry*> EntriesToCheck(SteadyTime now, bool* process_stalled);
+  // Updates the entry's rate and CPU windows (a rate event into `*events`) and takes its restart request
+  // (who asked, into `*by`); returns why an active component must be taken down (it failed or stalled), or
+  // "".
+  std::string Judge(Entry& e, SteadyTime now, bool process_stalled, std::string* by,
+                    std::vector<HealthEvent>* events);
+  // Restarts a down component whose back-off is over, or any on `by`'s request (stopping it first).
+  void BringUpIfDue(Entry& e, const std::string& by, SteadyTime now, std::vector<HealthEvent>* events);
   // After a measuring window (lock held): enters or leaves `degraded` (the event), from the window's rate.
   std::optional<HealthEvent> JudgeRate(Entry& e);
   // The next back-off (the first, or the last doubled up to its cap) and the restart at `from` plus it. Lock

@@ -8,11 +8,13 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <chrono>
 #include <deque>
 #include <functional>
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <string>
 #include <utility>
@@ -184,6 +186,23 @@ class NavMap {
   void AddStairFrontiers(const Eigen::Vector3d& robot_M, const nav::FrontierOptions& options,
                          nav::FrontierSet* set) const;
   static constexpr double kStairEndM = 0.6;
+  // Update()'s steps. Grows the extent over `want_M` when it must (GrownExtent()), the new area's tiles to be
+  // read; true when it grew.
+  bool GrowOver(const Eigen::AlignedBox2d& current_M, const Eigen::AlignedBox2d& want_M, double tile_m);
+  // Every tile (tile_m square) under `box_M` is to be read again.
+  void WaitOver(const Eigen::AlignedBox2d& box_M, double tile_m);
+  // Reads waiting tiles from `map`, oldest first, until update_budget_s after `start` (one at least): the x-y
+  // boxes of the voxel columns read.
+  std::vector<Eigen::AlignedBox2d> ReadWaitingTiles(const perception::OccupancyMap& map, double tile_m,
+                                                    std::chrono::steady_clock::time_point start,
+                                                    NavMapUpdateStats* stats);
+  // Reads one tile's voxels (occupied and seen free) from `map` over the extent's height: the x-y box of its
+  // voxel columns, or nullopt when it lies outside the extent.
+  std::optional<Eigen::AlignedBox2d> ReadTile(const perception::OccupancyMap& map,
+                                              const Eigen::Vector2i& tile, double tile_m,
+                                              NavMapUpdateStats* stats);
+  // Writes the treads of each stair prior over what was read (`*columns`, which grows by its area).
+  void ApplyStairPriorsOver(std::vector<Eigen::AlignedBox2d>* columns, NavMapUpdateStats* stats);
   // Re-allocates the voxel grids over `extent_M` (aligned to the voxels), keeping what they hold.
   void Reallocate(const Eigen::AlignedBox2d& extent_M);
   // Builds every grid anew over the voxels (after Reallocate()).

@@ -291,6 +291,17 @@ class Navigation {
   std::optional<NavigationStep> CheckUnmappedProgress(double now_s);
   // The held branch of StepWaypoint(): at rest, or the goal abandoned after max_hold_s.
   NavigationStep StepHeld(double now_s);
+  // StepWaypoint()'s steps, in order: a finished replan taken (the step that fails the goal, or nullopt);
+  // replans asked of the worker; progress checked (stall, unmapped space, blocked: the failing step, or
+  // nullopt); the robot driven toward the carrot (local planner and iLQR, or a turn in place).
+  std::optional<NavigationStep> TakeReplan(double now_s);
+  void RequestReplans(const core::BaseState& state, double now_s);
+  void ReplanOnWorker(const core::BaseState& state, double now_s, bool at_end, std::string cause);
+  std::optional<NavigationStep> CheckProgress(const core::BaseState& state, double now_s);
+  NavigationStep DriveToCarrot(const core::BaseState& state, double to_goal, double cruise_mps, double now_s);
+  // A turn toward `carrot_B` (frame B) while the carrot lies behind or the robot is boxed in; nullopt
+  // otherwise.
+  std::optional<NavigationStep> TurnInPlace(const core::BaseState& state, const Eigen::Vector2d& carrot_B);
   // How far a (partial) plan's end is from the goal (nav::PartialRemainingM).
   double PartialRemaining(const nav::GlobalPlan& plan) const;
   // Makes `plan` (usable, for the current goal) the one followed, from its start.
@@ -320,6 +331,13 @@ class Navigation {
   // Runs the local planner if its period elapsed; fills local_.track_W and local_.track_stop_at_end.
   void RunLocalPlanner(const core::BaseState& state, const nav::LocalPlanRequest& request, double now_s,
                        const std::optional<Eigen::Vector2d>& goal_W);
+  // RunLocalPlanner()'s steps: the obstacles re-expressed in the body frame at `state`; for a goal, shorter
+  // required free lengths tried while every path turns away from the carrot (true when one heads toward it:
+  // within tight_spot_deviation_rad); the track cut at its sample nearest `goal_W` and ended at the goal when
+  // the goal is that near.
+  void ReexpressObstacles(const core::BaseState& state);
+  bool PlanTowardCarrot(const nav::LocalPlanRequest& request);
+  void SnapTrackToGoal(const Eigen::Vector2d& goal_W);
   // iLQR on local_.track_W; zero twist (braking) when there is no track.
   NavigationStep Control(const core::BaseState& state, double cruise_mps, double now_s);
   NavigationStep Fail(const std::string& reason);
