@@ -56,7 +56,7 @@ class FleetClient::Impl {
     MakeViewReaders();
     MakeInfoReader();
     Announce(0);
-    monitor_ = std::thread([this] { MonitorLoop(); });
+    monitor_.thread = std::thread([this] { MonitorLoop(); });
   }
 
   // `options`, or std::invalid_argument naming the field and its value.
@@ -86,8 +86,8 @@ class FleetClient::Impl {
     p.name = "cairn_base/" + options.base_id;
     // Fast DDS's discovery thread must not wait for mutex_: the monitor loop applies what it collects.
     p.on_participant_gone = [this](const std::string& participant, bool dropped) {
-      std::lock_guard<std::mutex> guard(gone_mutex_);
-      gone_participants_.emplace_back(participant, dropped);
+      std::lock_guard<std::mutex> guard(departures_.mutex);
+      departures_.gone.emplace_back(participant, dropped);
     };
     if (options.security.enabled()) {
       // Under DDS Security each robot has command topics of its own, and this base makes writers only for the
@@ -117,11 +117,11 @@ class FleetClient::Impl {
             if (!v.first_state) v.first_state = m;
             // The process sending it, for "left" when that participant goes: its agent info, which says the
             // same, may not have matched yet (a basestation just started, a lossy link).
-            participant_of_robot_[m.robot_id()] = core::ParticipantIdOf(info.publication_handle);
+            views_.participant_of_robot[m.robot_id()] = core::ParticipantIdOf(info.publication_handle);
             v.platform = m.platform();
             v.state_received = now;
             v.whole_state_received = now;
-            if (!usage.empty()) links_.OnUsage(m.robot_id(), std::move(usage));  // once a second
+            if (!usage.empty()) probing_.links.OnUsage(m.robot_id(), std::move(usage));  // once a second
           });
         });
     readers_.pose = std::make_unique<core::Reader<msgs::RobotPosePubSubType>>(
@@ -132,9 +132,9 @@ class FleetClient::Impl {
           Update(m.robot_id(), [&](RobotView& v) {
             if (v.state) cairn::msgs::MergePose(m, &*v.state);  // else its whole state is on the way
             v.state_received = now;
-            links_.OnState(m.robot_id(), core::WriterIdOf(info.publication_handle),
-                           static_cast<std::uint64_t>(info.sample_identity.sequence_number().to64long()),
-                           now);
+            probing_.links.OnState(
+                m.robot_id(), core::WriterIdOf(info.publication_handle),
+                static_cast<std::uint64_t>(info.sample_identity.sequence_number().to64long()), now);
           });
         });
     // Component health: kept with the robot's view (the robot must be known by its state or agent info); it
@@ -145,8 +145,8 @@ class FleetClient::Impl {
           if (!FromRobot("cairn/health", m.robot_id(), info)) return;
           {
             std::lock_guard<std::mutex> lock(mutex_);
-            auto it = robots_.find(m.robot_id());
-            if (it == robots_.end()) return;
+            auto it = views_.robots.find(m.robot_id());
+            if (it == views_.robots.end()) return;
             it->second.health = m;
           }
           cv_.notify_all();
@@ -164,8 +164,8 @@ class FleetClient::Impl {
             return;  // another base's probe
           const auto now = SteadyClock::now();
           std::lock_guard<std::mutex> lock(mutex_);
-          if (robots_.count(m.robot_id()) == 0) return;  // announces itself first
-          links_.OnProbeReply(m.robot_id(), m.request_id(), now);
+          if (views_.robots.count(m.robot_id()) == 0) return;  // announces itself first
+          probing_.links.OnProbeReply(m.robot_id(), m.request_id(), now);
         });
     readers_.path_response = std::make_unique<core::Reader<msgs::PathResponsePubSubType>>(
         *participant_, "cairn/path_response", "cairn.command",
@@ -214,9 +214,9 @@ class FleetClient::Impl {
             return;
           {
             std::lock_guard<std::mutex> lock(mutex_);
-            robot_by_writer_[info.publication_handle] = m.agent_id();
-            current_writer_[m.agent_id()] = info.publication_handle;
-            participant_of_robot_[m.agent_id()] = core::ParticipantIdOf(info.publication_handle);
+            views_.by_writer[info.publication_handle] = m.agent_id();
+            views_.current_writer[m.agent_id()] = info.publication_handle;
+            views_.participant_of_robot[m.agent_id()] = core::ParticipantIdOf(info.publication_handle);
           }
           Update(m.agent_id(), [&](RobotView& v) {
             v.platform = m.platform();
@@ -226,7 +226,7 @@ class FleetClient::Impl {
                 std::isfinite(m.map_resolution_m()) ? std::max(0.0, m.map_resolution_m()) : 0.0;
             v.version = m.version();
             v.announced = true;
-            links_.OnInfo(m.agent_id(), m.link(), m.link_kbps());
+            probing_.links.OnInfo(m.agent_id(), m.link(), m.link_kbps());
             v.max_speed_mps = std::isfinite(m.max_speed_mps()) ? std::max(0.0, m.max_speed_mps()) : 0.0;
             v.max_reverse_speed_mps =
                 std::isfinite(m.max_reverse_speed_mps()) ? std::max(0.0, m.max_reverse_speed_mps()) : 0.0;
@@ -250,10 +250,10 @@ class FleetClient::Impl {
   ~Impl() {
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      stop_monitor_ = true;
+      monitor_.stop = true;
     }
     cv_.notify_all();
-    if (monitor_.joinable()) monitor_.join();
+    if (monitor_.thread.joinable()) monitor_.thread.join();
     readers_ = Readers{};
     perception_.reset();  // after readers_.info, whose callback uses it
   }
@@ -278,7 +278,7 @@ class FleetClient::Impl {
   void Update(const std::string& robot_id, const std::function<void(RobotView&)>& change) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      RobotView& v = robots_[robot_id];
+      RobotView& v = views_.robots[robot_id];
       v.robot_id = robot_id;
       change(v);
       v.last_seen = SteadyClock::now();
@@ -292,22 +292,23 @@ class FleetClient::Impl {
   void OnLiveliness(const eprosima::fastdds::dds::LivelinessChangedStatus& status) {
     if (status.alive_count_change == 0 && status.not_alive_count_change < 0) {
       std::lock_guard<std::mutex> lock(mutex_);
-      robot_by_writer_.erase(status.last_publication_handle);  // a lapsed writer unmatched: gone for good
+      views_.by_writer.erase(status.last_publication_handle);  // a lapsed writer unmatched: gone for good
       return;
     }
     if (!core::IsLivelinessLoss(status)) return;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      auto it = robot_by_writer_.find(status.last_publication_handle);
-      if (it == robot_by_writer_.end()) return;
+      auto it = views_.by_writer.find(status.last_publication_handle);
+      if (it == views_.by_writer.end()) return;
       const std::string robot_id = it->second;
       // Unmatched while alive (alive -1, not_alive 0): that process is gone for good.
-      if (status.not_alive_count_change == 0) robot_by_writer_.erase(it);
+      if (status.not_alive_count_change == 0) views_.by_writer.erase(it);
       // An old process of a robot that has restarted (a new writer announces its id) does not make it lost.
-      auto current = current_writer_.find(robot_id);
-      if (current == current_writer_.end() || !(current->second == status.last_publication_handle)) return;
-      auto robot = robots_.find(robot_id);
-      if (robot == robots_.end()) return;
+      auto current = views_.current_writer.find(robot_id);
+      if (current == views_.current_writer.end() || !(current->second == status.last_publication_handle))
+        return;
+      auto robot = views_.robots.find(robot_id);
+      if (robot == views_.robots.end()) return;
       robot->second.lost = true;
       robot->second.lost_reason = "liveliness lost";
     }
@@ -334,19 +335,20 @@ class FleetClient::Impl {
   void ApplyGoneParticipants() {
     std::vector<std::pair<std::string, bool>> gone;
     {
-      std::lock_guard<std::mutex> guard(gone_mutex_);
-      gone.swap(gone_participants_);
+      std::lock_guard<std::mutex> guard(departures_.mutex);
+      gone.swap(departures_.gone);
     }
     const auto now = SteadyClock::now();
-    for (auto it = dropped_at_.begin(); it != dropped_at_.end();) {
-      it = core::SecondsBetween(it->second, now) > kDroppedKeptS ? dropped_at_.erase(it) : std::next(it);
+    for (auto it = departures_.dropped_at.begin(); it != departures_.dropped_at.end();) {
+      it = core::SecondsBetween(it->second, now) > kDroppedKeptS ? departures_.dropped_at.erase(it)
+                                                                 : std::next(it);
     }
     for (const auto& [participant, dropped] : gone) {
-      const bool stalled = !dropped && dropped_at_.count(participant) > 0;
-      if (dropped) dropped_at_[participant] = now;
-      for (auto& [robot_id, robot_participant] : participant_of_robot_) {
+      const bool stalled = !dropped && departures_.dropped_at.count(participant) > 0;
+      if (dropped) departures_.dropped_at[participant] = now;
+      for (auto& [robot_id, robot_participant] : views_.participant_of_robot) {
         if (robot_participant != participant) continue;
-        RobotView& v = robots_[robot_id];
+        RobotView& v = views_.robots[robot_id];
         v.lost = true;
         v.left = !dropped && !stalled;
         v.lost_reason = dropped   ? "its participant's lease expired"
@@ -358,7 +360,7 @@ class FleetClient::Impl {
 
   // Applies staleness and the link monitor's view to a copy of a view.
   RobotView WithStaleness(RobotView v, core::SteadyTime now) const {
-    v.link = links_.View(v.robot_id, now);
+    v.link = probing_.links.View(v.robot_id, now);
     if (!v.lost && v.state && core::SecondsBetween(v.last_seen, now) > options_.lost_after_s) {
       v.lost = true;
       v.lost_reason = fmt::format("no state for {:.1f} s", core::SecondsBetween(v.last_seen, now));
@@ -396,7 +398,7 @@ class FleetClient::Impl {
   CommandOutcome Call(const std::string& robot_id, msgs::CommandKind kind,
                       const std::function<bool(uint32_t)>& send, bool require_live = true) {
     CommandOutcome outcome;
-    outcome.request_id = next_request_id_++;
+    outcome.request_id = sequences_.request_id++;
     // No robot can have such an id (robots check theirs at start), and one longer than a DDS key holds would
     // not even serialize (found by fuzzing: `stop` with a 370-character id).
     if (std::string why = core::CheckId("robot id", robot_id); !why.empty()) {
@@ -448,10 +450,10 @@ class FleetClient::Impl {
   // Watches the fleet at 10 Hz: staleness and proximity change without a message, so polling it is.
   void MonitorLoop() {
     std::unique_lock<std::mutex> lock(mutex_);
-    for (std::uint64_t tick = 0; !stop_monitor_; ++tick) {
+    for (std::uint64_t tick = 0; !monitor_.stop; ++tick) {
       if (tick % 10 == 0) {  // the link probe, every second
-        const std::uint32_t probe_id = ++last_probe_id_;
-        links_.OnProbeSent(probe_id, SteadyClock::now());
+        const std::uint32_t probe_id = ++probing_.last_id;
+        probing_.links.OnProbeSent(probe_id, SteadyClock::now());
         lock.unlock();
         msgs::PingPong probe;
         probe.request_id(probe_id);
@@ -463,13 +465,13 @@ class FleetClient::Impl {
       ApplyGoneParticipants();
       std::vector<RobotView> views;
       const auto now = SteadyClock::now();
-      for (const auto& [id, view] : robots_) views.push_back(WithStaleness(view, now));
+      for (const auto& [id, view] : views_.robots) views.push_back(WithStaleness(view, now));
       std::vector<OperatorEvent> events = events_.detector.Observe(views);
       const int robots_heard = static_cast<int>(
           std::count_if(views.begin(), views.end(), [](const RobotView& v) { return v.state && !v.lost; }));
       lock.unlock();
-      if (robots_heard != announced_robots_heard_) {
-        announced_robots_heard_ = robots_heard;
+      if (robots_heard != probing_.announced_robots_heard) {
+        probing_.announced_robots_heard = robots_heard;
         Announce(robots_heard);
       }
       // A robot back from lost may have sent map deltas this basestation never got (a cut link unmatches the
@@ -499,7 +501,7 @@ class FleetClient::Impl {
         if (events_.pending.size() > options_.events_kept) events_.pending.pop_front();
       }
       if (!events.empty()) cv_.notify_all();
-      cv_.wait_for(lock, std::chrono::milliseconds(100), [this] { return stop_monitor_; });
+      cv_.wait_for(lock, std::chrono::milliseconds(100), [this] { return monitor_.stop; });
     }
   }
 
@@ -514,10 +516,10 @@ class FleetClient::Impl {
     const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
                                                    std::chrono::duration<double>(timeout_s));
     while (true) {
-      auto it = robots_.find(robot_id);
+      auto it = views_.robots.find(robot_id);
       const auto now = SteadyClock::now();
-      if (it != robots_.end() && !WithStaleness(it->second, now).lost) return true;
-      const auto until = it == robots_.end() ? discovered_by : deadline;
+      if (it != views_.robots.end() && !WithStaleness(it->second, now).lost) return true;
+      const auto until = it == views_.robots.end() ? discovered_by : deadline;
       if (now >= until) return false;
       cv_.wait_until(lock, std::min(until, now + std::chrono::milliseconds(100)));
     }
@@ -534,8 +536,8 @@ class FleetClient::Impl {
   core::Writer<PubSubT>& CommandWriter(const std::string& topic, const std::string& robot_id,
                                        const std::string& qos_class = "cairn.command") {
     const std::string name = core::CommandTopicFor(topic, robot_id, commandable_.has_value());
-    std::lock_guard<std::mutex> lock(command_writers_mutex_);
-    std::shared_ptr<void>& writer = command_writers_[name];
+    std::lock_guard<std::mutex> lock(command_writers_.mutex);
+    std::shared_ptr<void>& writer = command_writers_.by_topic[name];
     if (!writer) writer = std::make_shared<core::Writer<PubSubT>>(*participant_, name, qos_class);
     return *std::static_pointer_cast<core::Writer<PubSubT>>(writer);
   }
@@ -606,8 +608,8 @@ class FleetClient::Impl {
     std::string participant;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      auto it = participant_of_robot_.find(robot_id);
-      if (it != participant_of_robot_.end()) participant = it->second;
+      auto it = views_.participant_of_robot.find(robot_id);
+      if (it != views_.participant_of_robot.end()) participant = it->second;
     }
     if (participant.empty()) return false;  // known by state only (no agent info yet): nothing to wait on
     const bool e_stop_only = !NotPermittedReason(robot_id).empty();
@@ -620,14 +622,14 @@ class FleetClient::Impl {
 
   std::string UnknownRobotReason(const std::string& robot_id) const {
     std::lock_guard<std::mutex> lock(mutex_);
-    auto it = robots_.find(robot_id);
-    if (it != robots_.end()) {
+    auto it = views_.robots.find(robot_id);
+    if (it != views_.robots.end()) {
       return "robot " + robot_id + " is lost (" + WithStaleness(it->second, SteadyClock::now()).lost_reason +
              ")";
     }
     std::string known;
     std::vector<std::string> ids;
-    for (const auto& [id, view] : robots_) {
+    for (const auto& [id, view] : views_.robots) {
       known += (known.empty() ? "" : ", ") + id;
       ids.push_back(id);
     }
@@ -646,24 +648,35 @@ class FleetClient::Impl {
     std::deque<OperatorEvent> recent;
     std::uint64_t seq = 0;
   } events_;
-  bool stop_monitor_ = false;
-  std::thread monitor_;
+  // The monitor thread (events, probes, announcements, departures) and its stop flag (under mutex_).
+  struct Monitor {
+    bool stop = false;
+    std::thread thread;
+  } monitor_;
   mutable std::condition_variable cv_;
-  std::map<std::string, RobotView> robots_;
-  std::map<eprosima::fastrtps::rtps::InstanceHandle_t, std::string> robot_by_writer_;
-  std::map<std::string, eprosima::fastrtps::rtps::InstanceHandle_t>
-      current_writer_;  // newest agent-info writer
-  std::map<std::string, std::string>
-      participant_of_robot_;  // robot id -> its newest process (ParticipantIdOf)
-  LinkMonitor links_;
-  std::uint32_t last_probe_id_ = 0;
-  int announced_robots_heard_ = 0;  // MonitorLoop only: the robots_heard of the last Announce
-  std::mutex gone_mutex_;           // guards gone_participants_ only (taken on Fast DDS's discovery thread)
-  std::vector<std::pair<std::string, bool>> gone_participants_;  // (participant, dropped)
-  // Participants whose lease expired here, and when (under mutex_): one removed later stalled, it did not
-  // exit. Kept kDroppedKeptS: a robot cut off longer and then shut down cleanly is shown lost rather than
+  // The robots as this basestation sees them (under mutex_): each robot's view, and which agent-info writer
+  // and process (ParticipantIdOf) speak for it.
+  struct Views {
+    std::map<std::string, RobotView> robots;
+    std::map<eprosima::fastrtps::rtps::InstanceHandle_t, std::string> by_writer;
+    std::map<std::string, eprosima::fastrtps::rtps::InstanceHandle_t> current_writer;  // newest agent info
+    std::map<std::string, std::string> participant_of_robot;  // robot id -> its newest process
+  } views_;
+  // The links' round-trip probes (under mutex_) and what the last announcement said.
+  struct Probing {
+    LinkMonitor links;
+    std::uint32_t last_id = 0;
+    int announced_robots_heard = 0;  // MonitorLoop only: the robots_heard of the last Announce
+  } probing_;
+  // Processes that left: those Fast DDS's discovery thread reported (under `mutex`, taken there: never
+  // mutex_), and those whose lease expired here, and when (under mutex_): one removed later stalled, it did
+  // not exit. Kept kDroppedKeptS: a robot cut off longer and then shut down cleanly is shown lost rather than
   // left.
-  std::map<std::string, core::SteadyTime> dropped_at_;
+  struct Departures {
+    std::mutex mutex;
+    std::vector<std::pair<std::string, bool>> gone;  // (participant, dropped)
+    std::map<std::string, core::SteadyTime> dropped_at;
+  } departures_;
   static constexpr double kDroppedKeptS = 600.0;
   // Commands and path requests sent and not yet answered, and their answers (under mutex_).
   struct Awaited {
@@ -672,14 +685,20 @@ class FleetClient::Impl {
     std::set<uint32_t> paths;                              // path request ids
     std::map<uint32_t, msgs::PathResponse> path_answers;   // answers to `paths` only
   } awaited_;
-  std::atomic<uint32_t> next_request_id_{1};
-  std::atomic<uint64_t> teleop_sequence_{0};
+  // The next command request id and teleop sequence number.
+  struct Sequences {
+    std::atomic<uint32_t> request_id{1};
+    std::atomic<uint64_t> teleop{0};
+  } sequences_;
 
   std::unique_ptr<core::Participant> participant_;
   std::unique_ptr<core::Writer<msgs::AgentInfoPubSubType>> info_writer_;
   std::unique_ptr<FleetPerception> perception_;
-  std::mutex command_writers_mutex_;
-  std::map<std::string, std::shared_ptr<void>> command_writers_;  // by topic name: core::Writer<...>
+  // The command writers, by topic name (core::Writer<...>), made on first use.
+  struct CommandWriters {
+    std::mutex mutex;
+    std::map<std::string, std::shared_ptr<void>> by_topic;
+  } command_writers_;
   std::unique_ptr<core::Writer<msgs::PingPongPubSubType>> probe_writer_;
   // Yield requests' writers, one per topic (under DDS Security one per robot), made by the first SendYield to
   // it, and the next request's id.
@@ -756,8 +775,8 @@ bool FleetClient::Knows(const std::string& robot_id) const {
   const auto discovered_by =
       impl_->created_ + std::chrono::duration_cast<SteadyClock::duration>(
                             std::chrono::duration<double>(impl_->options_.discovery_s));
-  impl_->cv_.wait_until(lock, discovered_by, [&] { return impl_->robots_.count(robot_id) > 0; });
-  return impl_->robots_.count(robot_id) > 0;
+  impl_->cv_.wait_until(lock, discovered_by, [&] { return impl_->views_.robots.count(robot_id) > 0; });
+  return impl_->views_.robots.count(robot_id) > 0;
 }
 
 core::SteadyTime FleetClient::started() const { return impl_->created_; }
@@ -774,7 +793,7 @@ std::string FleetClient::UnknownRobotReason(const std::string& robot_id) const {
 std::vector<std::string> FleetClient::RobotIds() const {
   std::lock_guard<std::mutex> lock(impl_->mutex_);
   std::vector<std::string> ids;
-  for (const auto& [id, view] : impl_->robots_) ids.push_back(id);
+  for (const auto& [id, view] : impl_->views_.robots) ids.push_back(id);
   return ids;
 }
 
@@ -782,14 +801,14 @@ std::vector<RobotView> FleetClient::Robots() const {
   std::lock_guard<std::mutex> lock(impl_->mutex_);
   std::vector<RobotView> views;
   const auto now = SteadyClock::now();
-  for (const auto& [id, view] : impl_->robots_) views.push_back(impl_->WithStaleness(view, now));
+  for (const auto& [id, view] : impl_->views_.robots) views.push_back(impl_->WithStaleness(view, now));
   return views;
 }
 
 std::optional<RobotView> FleetClient::Robot(const std::string& robot_id) const {
   std::lock_guard<std::mutex> lock(impl_->mutex_);
-  auto it = impl_->robots_.find(robot_id);
-  if (it == impl_->robots_.end()) return std::nullopt;
+  auto it = impl_->views_.robots.find(robot_id);
+  if (it == impl_->views_.robots.end()) return std::nullopt;
   return impl_->WithStaleness(it->second, SteadyClock::now());
 }
 
@@ -805,8 +824,8 @@ std::optional<RobotView> FleetClient::WaitUntil(
                                                  std::chrono::duration<double>(timeout_s));
   std::optional<RobotView> match;
   auto check = [&] {
-    auto it = impl_->robots_.find(robot_id);
-    if (it == impl_->robots_.end()) return false;
+    auto it = impl_->views_.robots.find(robot_id);
+    if (it == impl_->views_.robots.end()) return false;
     RobotView v = impl_->WithStaleness(it->second, SteadyClock::now());
     if (!predicate(v)) return false;
     match = std::move(v);
@@ -990,7 +1009,7 @@ bool FleetClient::PublishTeleop(const std::string& robot_id, double linear_x_mps
   msgs::TeleopTwist m;
   m.robot_id(robot_id);
   m.base_id(base_id());
-  m.sequence_number(++impl_->teleop_sequence_);
+  m.sequence_number(++impl_->sequences_.teleop);
   m.stamp(cairn::msgs::WallStampNow());
   m.twist().linear_x_mps(linear_x_mps);
   m.twist().linear_y_mps(linear_y_mps);
@@ -1001,7 +1020,7 @@ bool FleetClient::PublishTeleop(const std::string& robot_id, double linear_x_mps
 PathAnswer FleetClient::RequestPath(const std::string& robot_id, const std::string& platform,
                                     double start_x_m, double start_y_m, double goal_x_m, double goal_y_m) {
   PathAnswer answer;
-  const uint32_t request_id = impl_->next_request_id_++;
+  const uint32_t request_id = impl_->sequences_.request_id++;
   if (std::string why = impl_->NotPermittedReason(robot_id); !why.empty()) {
     answer.result = outcome::kRefused;
     answer.reason = std::move(why);

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <deque>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -20,6 +21,7 @@
 
 #include "cairn/base/operator_text.h"
 #include "cairn/core/time.h"
+#include "command_table.h"
 #include "gui_command.h"
 #include "shell_util.h"
 
@@ -139,6 +141,23 @@ const char* kFleetStateSchema =
 const char* kCommandRequestSchema =
     R"json({"title":"cairn.CommandRequest","description":"One cairn_base command (see cairn_base --help): structured, {\"name\":\"goto\",\"robot\":\"r1\",\"args\":[12,4],\"options\":{\"z\":1.2}}, or a console line, {\"command\":\"goto r1 12 4 --z 1.2\"}","type":"object","oneOf":[{"properties":{"name":{"type":"string"},"robot":{"type":"string"},"args":{"type":"array","items":{"type":["string","number"]}},"options":{"type":"object","additionalProperties":{"type":["string","number","boolean"]}}},"required":["name"],"additionalProperties":false},{"properties":{"command":{"type":"string"}},"required":["command"],"additionalProperties":false}]})json";
 
+const char* kCommandTableSchema =
+    R"json({"title":"cairn.CommandTable","description":"cairn_base's commands, as its console's help lists them (sent once to each subscriber): name, usage (synopsis), help, min_args and max_args (words after the name; max_args -1: no bound)","type":"object","properties":{"commands":{"type":"array","items":{"type":"object","properties":{"name":{"type":"string"},"usage":{"type":"string"},"help":{"type":"string"},"min_args":{"type":"integer"},"max_args":{"type":"integer"}},"required":["name","usage","help","min_args","max_args"]}}},"required":["commands"]})json";
+
+// The command table as /cairn/commands carries it.
+std::string CommandTableJson() {
+  json commands = json::array();
+  for (const CommandSpec& spec : CommandTable()) {
+    const bool unbounded = spec.max_args == std::numeric_limits<std::size_t>::max();
+    commands.push_back({{"name", spec.name},
+                        {"usage", spec.usage},
+                        {"help", spec.help},
+                        {"min_args", spec.min_args},
+                        {"max_args", unbounded ? json(-1) : json(spec.max_args)}});
+  }
+  return json{{"commands", commands}}.dump();
+}
+
 const char* kCommandResponseSchema =
     R"json({"title":"cairn.CommandResponse","description":"The CLI's --json result of the command: command, robot, ok, result (accepted|refused|failed|timed out|invalid), reason, holder, mode, valid_actions, ...","type":"object","properties":{"ok":{"type":"boolean"},"result":{"type":"string"},"reason":{"type":"string"},"exit_code":{"type":"integer"},"lines":{"type":"array","items":{"type":"object"}}}})json";
 
@@ -242,6 +261,7 @@ class GuiBridge::Impl {
     stairs_ = channel("/staircases", "foxglove.SceneUpdate", scene_schema_);
     map_ = channel("/fleet_map", "foxglove.SceneUpdate", scene_schema_);
     events_ = channel("/events", "foxglove.Log", schemas["foxglove.Log"].dump());
+    command_table_ = channel("/cairn/commands", "cairn.CommandTable", kCommandTableSchema);
     ServiceSpec command;
     command.name = "/cairn/command";
     command.type = "cairn.Command";
@@ -288,8 +308,12 @@ class GuiBridge::Impl {
   };
 
   void OnSubscribe(FoxgloveServer::ClientId client, std::uint32_t channel) {
-    // The others refresh at 10 Hz; /events sends a new subscriber the events it missed (ReplayEvents).
-    if (channel != map_ && channel != stairs_ && channel != paths_ && channel != events_) return;
+    // The others refresh at 10 Hz; /events sends a new subscriber the events it missed (ReplayEvents), and
+    // /cairn/commands the command table (it never changes).
+    if (channel != map_ && channel != stairs_ && channel != paths_ && channel != events_ &&
+        channel != command_table_) {
+      return;
+    }
     std::lock_guard<std::mutex> lock(mutex_);
     snapshots_.push_back({client, channel});
   }
@@ -435,6 +459,7 @@ class GuiBridge::Impl {
           if (s.channel == stairs_) PublishStairs(ns, s.client);
           if (s.channel == paths_) PublishPaths(robots, ns, s.client);
           if (s.channel == events_) ReplayEvents(ns, s.client);
+          if (s.channel == command_table_) server_->SendTo(s.client, command_table_, ns, CommandTableJson());
         }
       } catch (const std::exception& e) {
         spdlog::warn("GUI publisher: {}", e.what());
@@ -917,6 +942,7 @@ class GuiBridge::Impl {
   std::unique_ptr<FoxgloveServer> server_;
   std::string scene_schema_, image_schema_;
   std::uint32_t fleet_ = 0, tf_ = 0, robots_ = 0, paths_ = 0, stairs_ = 0, map_ = 0, events_ = 0;
+  std::uint32_t command_table_ = 0;
   std::uint32_t command_service_ = 0;
   std::ostringstream shell_out_;
   std::unique_ptr<CommandShell> shell_;

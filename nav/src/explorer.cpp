@@ -78,16 +78,6 @@ bool Explorer::ClaimedByPeer(const FrontierCluster& c, bool is_current, const Te
 }
 
 ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) {
-  ExplorerDecision decision;
-  const FrontierCluster* best = nullptr;
-  const FrontierCluster* followed = nullptr;
-  const FrontierCluster* retry = nullptr;  // the best of those barred only until their retry
-  int candidates = 0;
-  int unreachable = 0;
-  int barred = 0;
-  int visited = 0;
-  int claimed = 0;
-  std::vector<std::string> claimers;
   // Coordination (Burgard et al., "Coordinated Multi-Robot Exploration", IEEE T-RO 21(3), 2005): what a peer
   // will see from its target is worth less here, so the team spreads out. Utility scaled by the distance to
   // the nearest peer claim over peer_influence_m (linear, within it).
@@ -102,42 +92,52 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
         c.utility *= std::max(0.05, nearest / options_.peer_influence_m);
     }
   }
+  return Choose(Classify(clusters, team), team);
+}
+
+Explorer::Tally Explorer::Classify(const std::vector<FrontierCluster>& clusters, const TeamView& team) const {
+  Tally t;
   for (const FrontierCluster& c : clusters) {
     if (!c.reachable()) {
-      ++unreachable;
+      ++t.unreachable;
       continue;
     }
     const bool is_current =
         current_ && SamePlace(c, current_->target_M, current_->target_ground_z_m, options_.follow_radius_m);
     if (const Bar bar = Barred(c, team.now_s); bar != Bar::kNone) {
-      ++barred;
+      ++t.barred;
       std::string by;
       if (bar == Bar::kUntilRetry && !Visited(c) && !ClaimedByPeer(c, is_current, team, &by) &&
-          (retry == nullptr || c.utility > retry->utility)) {
-        retry = &c;
+          (t.retry == nullptr || c.utility > t.retry->utility)) {
+        t.retry = &c;
       }
       continue;
     }
     if (Visited(c)) {
-      ++visited;
+      ++t.visited;
       continue;
     }
     if (std::string by; ClaimedByPeer(c, is_current, team, &by)) {
-      ++claimed;
-      if (std::find(claimers.begin(), claimers.end(), by) == claimers.end()) claimers.push_back(by);
+      ++t.claimed;
+      if (std::find(t.claimers.begin(), t.claimers.end(), by) == t.claimers.end()) t.claimers.push_back(by);
       continue;
     }
-    ++candidates;
-    if (best == nullptr || c.utility > best->utility) best = &c;
-    if (is_current && (followed == nullptr || (c.target_M - current_->target_M).norm() <
-                                                  (followed->target_M - current_->target_M).norm())) {
-      followed = &c;
+    ++t.candidates;
+    if (t.best == nullptr || c.utility > t.best->utility) t.best = &c;
+    if (is_current && (t.followed == nullptr || (c.target_M - current_->target_M).norm() <
+                                                    (t.followed->target_M - current_->target_M).norm())) {
+      t.followed = &c;
     }
   }
-  if (best == nullptr && claimed > 0) {
+  return t;
+}
+
+ExplorerDecision Explorer::Choose(const Tally& t, const TeamView& team) {
+  ExplorerDecision decision;
+  if (t.best == nullptr && t.claimed > 0) {
     std::ostringstream why;
-    why << "every reachable frontier (" << claimed << ") is claimed by a peer (";
-    for (std::size_t i = 0; i < claimers.size(); ++i) why << (i == 0 ? "" : ", ") << claimers[i];
+    why << "every reachable frontier (" << t.claimed << ") is claimed by a peer (";
+    for (std::size_t i = 0; i < t.claimers.size(); ++i) why << (i == 0 ? "" : ", ") << t.claimers[i];
     why << "): waiting";
     decision.kind = ExplorerDecision::Kind::kWait;
     decision.reason = why.str();
@@ -147,35 +147,37 @@ ExplorerDecision Explorer::Decide(const FrontierSet& set, const TeamView& team) 
   // Nothing else to do: a frontier barred until its retry is retried now (its second failure bars it for
   // good) rather than left behind by a completion: it failed while the map around it was thinner, and an
   // exploration that ends is never retried.
-  if (best == nullptr && retry != nullptr) {
-    const bool retrying = current_ && SamePlace(*retry, current_->target_M, current_->target_ground_z_m,
+  if (t.best == nullptr && t.retry != nullptr) {
+    const bool retrying = current_ && SamePlace(*t.retry, current_->target_M, current_->target_ground_z_m,
                                                 options_.follow_radius_m);
     decision.kind = retrying ? ExplorerDecision::Kind::kKeep : ExplorerDecision::Kind::kGoTo;
-    decision.target = *retry;
+    decision.target = *t.retry;
     decision.reason = "a frontier given up on once, retried before its time: no other reachable frontier";
-  } else if (best == nullptr) {
+  } else if (t.best == nullptr) {
     std::ostringstream why;
     why << "exploration complete: no reachable frontier";
-    if (unreachable > 0 || barred > 0 || visited > 0) {
-      why << " (" << unreachable << " seen but unreachable, " << barred << " given up on, " << visited
+    if (t.unreachable > 0 || t.barred > 0 || t.visited > 0) {
+      why << " (" << t.unreachable << " seen but unreachable, " << t.barred << " given up on, " << t.visited
           << " reached but still unseen beyond)";
     }
     decision.kind = ExplorerDecision::Kind::kComplete;
     decision.reason = why.str();
     current_.reset();
     return decision;
-  } else if (followed != nullptr && !(best->utility > options_.switch_utility_ratio * followed->utility)) {
+  } else if (t.followed != nullptr &&
+             !(t.best->utility > options_.switch_utility_ratio * t.followed->utility)) {
     decision.kind = ExplorerDecision::Kind::kKeep;
-    decision.target = *followed;
+    decision.target = *t.followed;
     decision.reason =
-        "the current frontier is still the one to explore (" + std::to_string(candidates) + " reachable)";
+        "the current frontier is still the one to explore (" + std::to_string(t.candidates) + " reachable)";
   } else {
     decision.kind = ExplorerDecision::Kind::kGoTo;
-    decision.target = *best;
-    decision.reason = followed != nullptr
-                          ? "a frontier " + std::to_string(best->utility / followed->utility).substr(0, 4) +
+    decision.target = *t.best;
+    decision.reason = t.followed != nullptr
+                          ? "a frontier " +
+                                std::to_string(t.best->utility / t.followed->utility).substr(0, 4) +
                                 " times as worth it as the current one"
-                          : "best of " + std::to_string(candidates) + " reachable frontiers";
+                          : "best of " + std::to_string(t.candidates) + " reachable frontiers";
   }
   if (decision.kind == ExplorerDecision::Kind::kGoTo) current_since_s_ = team.now_s;
   current_ = decision.target;

@@ -287,77 +287,93 @@ GlobalPlan GlobalPlanner::Plan(const GlobalPlanRequest& request) {
   const auto levels = needs_levels ? LevelsLocked(request.platform, false) : nullptr;
   guard.unlock();
   if (needs_levels) {
-    const Eigen::Vector3d start(request.start_W.x(), request.start_W.y(), request.start_z_m);
-    astar.allow_partial = request.allow_partial;
-    plan.result = PlanPathMultiLevel(*levels, start, request.goal_W, request.goal_z_m, astar);
-    const bool short_of_goal = plan.result.partial || plan.result.status == PlanResult::Status::kUnreachable;
-    if (short_of_goal && request.diagnose &&
-        options_.diagnose_max_step_m > profile->traversability.max_step_m) {
-      // The same request allowing higher steps: when that reaches the goal (or gets 0.5 m higher toward
-      // its level), this platform's step limit is what stops it; name the first step above it, cell by cell.
-      guard.lock();
-      const auto relaxed = LevelsLocked(request.platform, true);
-      guard.unlock();
-      AStarOptions cells = astar;
-      cells.simplify_path = false;
-      cells.partial_min_climb_m =
-          profile->traversability.max_step_m;  // progress measured in this platform's steps
-      const PlanResult r = PlanPathMultiLevel(*relaxed, start, request.goal_W, request.goal_z_m, cells);
-      const double goal_z = std::isfinite(request.goal_z_m) ? request.goal_z_m : start.z();
-      auto height_gap = [goal_z](const PlanResult& p) {
-        return p.path_W.empty() || !std::isfinite(goal_z) ? kInf : std::abs(p.path_W.back().z() - goal_z);
-      };
-      const bool relaxed_better = r.IsUsable() && (!r.partial || !plan.result.IsUsable() ||
-                                                   height_gap(r) < height_gap(plan.result) - 0.5);
-      double step = 0.0;
-      Eigen::Vector2d at = request.start_W;
-      for (std::size_t i = 1; relaxed_better && i < r.path_W.size(); ++i) {
-        const double dz = std::abs(r.path_W[i].z() - r.path_W[i - 1].z());
-        if (dz > profile->traversability.max_step_m + 1e-9) {
-          step = dz;
-          at = r.path_W[i].head<2>();
-          break;
-        }
-      }
-      // A route that is only partial either way names a step only when another platform served here climbs it
-      // (stairs for a wheeled robot), not an artefact of the relaxed limit (a wall's edge seen at 0.4 m).
-      bool another_climbs = !r.partial;
-      for (const auto& other : profiles_)
-        another_climbs =
-            another_climbs || (other.name != profile->name && other.traversability.max_step_m + 1e-9 >= step);
-      const std::string diagnosis = relaxed_better && another_climbs ? DescribeStep(*profile, step, at) : "";
-      if (!diagnosis.empty()) {
-        plan.result.status = PlanResult::Status::kUnreachable;
-        plan.result.path_W.clear();
-        plan.result.partial = false;
-        plan.reason = diagnosis;
-      }
-    }
-    if (!plan.result.IsUsable() && plan.reason.empty()) plan.reason = plan.result.message;
-    plan.total_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return plan;
-  }
-  plan.result = PlanPath(*grid, request.start_W, request.goal_W, astar);
-  if (grid->CellOf(request.goal_W.x(), request.goal_W.y(), &cell_x, &cell_y)) {
-    plan.goal_unmapped = grid->State(cell_x, cell_y) == CellState::kUnknown;
-  }
-  if (plan.result.status == PlanResult::Status::kGoalBlocked) {
-    const double radius_m =
-        std::isfinite(astar.robot_radius_m) ? astar.robot_radius_m : grid->options().robot_radius_m;
-    if (const auto free = NearestTraversable(*grid, request.goal_W, radius_m, kNearestFreeSearchM)) {
-      plan.nearest_free_W = *free;
-    }
-  }
-  if (!plan.result.IsUsable()) {
-    plan.reason = plan.result.message;
-    if (plan.result.status == PlanResult::Status::kUnreachable ||
-        plan.result.status == PlanResult::Status::kGoalBlocked) {
-      const std::string diagnosis = DiagnoseUnreachable(*profile, request, astar);
-      if (!diagnosis.empty()) plan.reason = diagnosis;
-    }
+    PlanOnLevels(request, *profile, astar, *levels, &plan);
+  } else {
+    PlanOnGrid(request, *profile, astar, *grid, &plan);
   }
   plan.total_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return plan;
+}
+
+void GlobalPlanner::PlanOnLevels(const GlobalPlanRequest& request, const PlatformProfile& profile,
+                                 AStarOptions astar, const MultiLevelGrid& levels, GlobalPlan* plan) {
+  const Eigen::Vector3d start(request.start_W.x(), request.start_W.y(), request.start_z_m);
+  astar.allow_partial = request.allow_partial;
+  plan->result = PlanPathMultiLevel(levels, start, request.goal_W, request.goal_z_m, astar);
+  const bool short_of_goal = plan->result.partial || plan->result.status == PlanResult::Status::kUnreachable;
+  if (short_of_goal && request.diagnose && options_.diagnose_max_step_m > profile.traversability.max_step_m) {
+    const std::string diagnosis = DiagnoseStepOnLevels(request, profile, astar, start, plan->result);
+    if (!diagnosis.empty()) {
+      plan->result.status = PlanResult::Status::kUnreachable;
+      plan->result.path_W.clear();
+      plan->result.partial = false;
+      plan->reason = diagnosis;
+    }
+  }
+  if (!plan->result.IsUsable() && plan->reason.empty()) plan->reason = plan->result.message;
+}
+
+std::string GlobalPlanner::DiagnoseStepOnLevels(const GlobalPlanRequest& request,
+                                                const PlatformProfile& profile, const AStarOptions& astar,
+                                                const Eigen::Vector3d& start_W, const PlanResult& result) {
+  std::shared_ptr<const MultiLevelGrid> relaxed;
+  {
+    std::lock_guard<std::mutex> guard(mutex_);
+    relaxed = LevelsLocked(request.platform, true);
+  }
+  AStarOptions cells = astar;
+  cells.simplify_path = false;
+  cells.partial_min_climb_m =
+      profile.traversability.max_step_m;  // progress measured in this platform's steps
+  const PlanResult r = PlanPathMultiLevel(*relaxed, start_W, request.goal_W, request.goal_z_m, cells);
+  const double goal_z = std::isfinite(request.goal_z_m) ? request.goal_z_m : start_W.z();
+  auto height_gap = [goal_z](const PlanResult& p) {
+    return p.path_W.empty() || !std::isfinite(goal_z) ? kInf : std::abs(p.path_W.back().z() - goal_z);
+  };
+  const bool relaxed_better =
+      r.IsUsable() && (!r.partial || !result.IsUsable() || height_gap(r) < height_gap(result) - 0.5);
+  if (!relaxed_better) return "";
+  double step = 0.0;
+  Eigen::Vector2d at = request.start_W;
+  for (std::size_t i = 1; i < r.path_W.size(); ++i) {
+    const double dz = std::abs(r.path_W[i].z() - r.path_W[i - 1].z());
+    if (dz > profile.traversability.max_step_m + 1e-9) {
+      step = dz;
+      at = r.path_W[i].head<2>();
+      break;
+    }
+  }
+  // A route that is only partial either way names a step only when another platform served here climbs it
+  // (stairs for a wheeled robot), not an artefact of the relaxed limit (a wall's edge seen at 0.4 m).
+  bool another_climbs = !r.partial;
+  for (const auto& other : profiles_) {
+    another_climbs =
+        another_climbs || (other.name != profile.name && other.traversability.max_step_m + 1e-9 >= step);
+  }
+  return another_climbs ? DescribeStep(profile, step, at) : "";
+}
+
+void GlobalPlanner::PlanOnGrid(const GlobalPlanRequest& request, const PlatformProfile& profile,
+                               const AStarOptions& astar, const TraversabilityGrid& grid, GlobalPlan* plan) {
+  plan->result = PlanPath(grid, request.start_W, request.goal_W, astar);
+  int cell_x = 0, cell_y = 0;
+  if (grid.CellOf(request.goal_W.x(), request.goal_W.y(), &cell_x, &cell_y)) {
+    plan->goal_unmapped = grid.State(cell_x, cell_y) == CellState::kUnknown;
+  }
+  if (plan->result.status == PlanResult::Status::kGoalBlocked) {
+    const double radius_m =
+        std::isfinite(astar.robot_radius_m) ? astar.robot_radius_m : grid.options().robot_radius_m;
+    if (const auto free = NearestTraversable(grid, request.goal_W, radius_m, kNearestFreeSearchM)) {
+      plan->nearest_free_W = *free;
+    }
+  }
+  if (plan->result.IsUsable()) return;
+  plan->reason = plan->result.message;
+  if (plan->result.status == PlanResult::Status::kUnreachable ||
+      plan->result.status == PlanResult::Status::kGoalBlocked) {
+    const std::string diagnosis = DiagnoseUnreachable(profile, request, astar);
+    if (!diagnosis.empty()) plan->reason = diagnosis;
+  }
 }
 
 GlobalPlan GlobalPlanner::PlanToMapEdge(const GlobalPlanRequest& request, const TraversabilityGrid& grid) {

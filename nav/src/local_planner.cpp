@@ -242,6 +242,72 @@ std::vector<std::uint16_t> PathTreeNodes(int num_paths, int paths_per_heading, i
   return node_of_path;
 }
 
+// For one path tree node of a trajectory library at a time, visits every voxel of a grid whose centre lies
+// within `reach` of one of the node's samples (taken from its lowest-id path): visit(voxel, sample, squared
+// distance, first visit of the voxel for this node), and keeps the voxels visited (touched()).
+class NodeVoxelVisitor {
+ public:
+  explicit NodeVoxelVisitor(const TrajectoryLibrary& library)
+      : library_(library), node_samples_(static_cast<std::size_t>(library.num_nodes())) {
+    for (int p = library.num_paths() - 1; p >= 0; --p) {
+      for (int level = 0; level < 3; ++level) {
+        NodeSamples& ns = node_samples_[library.path_nodes(p)[level]];
+        ns.path = p;
+        ns.i0 = level == 0 ? 0 : library.level_end_sample(level - 1);
+        ns.i1 = library.level_end_sample(level);
+      }
+    }
+  }
+  // A grid of `num_voxels` voxels, no node visited yet.
+  void Reset(std::size_t num_voxels) { stamp_.assign(num_voxels, -1); }
+  // Forgets the voxels the last node touched.
+  void StartNode() { touched_.clear(); }
+  const std::vector<int>& touched() const { return touched_; }
+
+  template <typename GridT, typename Visit>
+  void ForEachNear(const GridT& grid, double reach, int node, Visit&& visit) {
+    const double reach2 = reach * reach;
+    const NodeSamples& ns = node_samples_[static_cast<std::size_t>(node)];
+    const Eigen::Vector2f* samples = library_.samples_B(ns.path);
+    for (int i = ns.i0; i < ns.i1; ++i) {
+      const double sx = samples[i].x();
+      const double sy = samples[i].y();
+      const int ix0 = std::max(0, static_cast<int>(std::floor((sx - reach - grid.min_m) * grid.inv_voxel)));
+      const int ix1 =
+          std::min(grid.size - 1, static_cast<int>(std::floor((sx + reach - grid.min_m) * grid.inv_voxel)));
+      const int iy0 = std::max(0, static_cast<int>(std::floor((sy - reach - grid.min_m) * grid.inv_voxel)));
+      const int iy1 =
+          std::min(grid.size - 1, static_cast<int>(std::floor((sy + reach - grid.min_m) * grid.inv_voxel)));
+      for (int iy = iy0; iy <= iy1; ++iy) {
+        const double cy = grid.min_m + (iy + 0.5) * grid.voxel_m;
+        for (int ix = ix0; ix <= ix1; ++ix) {
+          const double d2 = SquaredDistance(grid.min_m + (ix + 0.5) * grid.voxel_m, cy, sx, sy);
+          if (d2 > reach2) continue;
+          const int v = ix + grid.size * iy;
+          const bool first_visit = stamp_[static_cast<std::size_t>(v)] != node;
+          if (first_visit) {
+            stamp_[static_cast<std::size_t>(v)] = node;
+            touched_.push_back(v);
+          }
+          visit(v, i, d2, first_visit);
+        }
+      }
+    }
+  }
+
+ private:
+  // A node's samples [i0, i1) of path `path`.
+  struct NodeSamples {
+    int path = 0;
+    int i0 = 0;
+    int i1 = 0;
+  };
+  const TrajectoryLibrary& library_;
+  std::vector<NodeSamples> node_samples_;
+  std::vector<int> stamp_;  // per voxel: the last node that visited it
+  std::vector<int> touched_;
+};
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------------
@@ -411,72 +477,21 @@ TrajectoryLibrary::Correspondence TrajectoryLibrary::BuildCorrespondence(
     const std::function<bool(int node)>& keep) const {
   const TrajectoryLibraryOptions& options = options_;
   const Geometry geo = ComputeGeometry(options);
-  const int num_paths = this->num_paths();
   Correspondence out;
-  // Each node's samples [i0, i1), taken from its lowest-id path.
-  struct NodeSamples {
-    int path = 0;
-    int i0 = 0;
-    int i1 = 0;
-  };
-  std::vector<NodeSamples> node_samples(static_cast<std::size_t>(num_nodes_));
-  for (int p = num_paths - 1; p >= 0; --p) {
-    for (int level = 0; level < 3; ++level) {
-      NodeSamples& ns = node_samples[node_of_path_[static_cast<std::size_t>(p) * 3 + level]];
-      ns.path = p;
-      ns.i0 = level == 0 ? 0 : level_end_sample_[level - 1];
-      ns.i1 = level_end_sample_[level];
-    }
-  }
-
-  // Correspondence. For each node and grid: visit every voxel whose centre lies within `reach` of one of the
-  // node's samples (d2 = squared distance) and keep per voxel what the entry needs.
-  std::vector<int> stamp;
-  std::vector<int> touched;
-  auto for_each_near = [&](const Grid& grid, double reach, int node, auto&& visit) {
-    const double reach2 = reach * reach;
-    const NodeSamples& ns = node_samples[static_cast<std::size_t>(node)];
-    const Eigen::Vector2f* samples = samples_B(ns.path);
-    for (int i = ns.i0; i < ns.i1; ++i) {
-      const double sx = samples[i].x();
-      const double sy = samples[i].y();
-      const int ix0 = std::max(0, static_cast<int>(std::floor((sx - reach - grid.min_m) * grid.inv_voxel)));
-      const int ix1 =
-          std::min(grid.size - 1, static_cast<int>(std::floor((sx + reach - grid.min_m) * grid.inv_voxel)));
-      const int iy0 = std::max(0, static_cast<int>(std::floor((sy - reach - grid.min_m) * grid.inv_voxel)));
-      const int iy1 =
-          std::min(grid.size - 1, static_cast<int>(std::floor((sy + reach - grid.min_m) * grid.inv_voxel)));
-      for (int iy = iy0; iy <= iy1; ++iy) {
-        const double cy = grid.min_m + (iy + 0.5) * grid.voxel_m;
-        for (int ix = ix0; ix <= ix1; ++ix) {
-          const double d2 = SquaredDistance(grid.min_m + (ix + 0.5) * grid.voxel_m, cy, sx, sy);
-          if (d2 > reach2) continue;
-          const int v = ix + grid.size * iy;
-          if (stamp[static_cast<std::size_t>(v)] != node) {
-            stamp[static_cast<std::size_t>(v)] = node;
-            touched.push_back(v);
-            visit(v, i, d2, true);
-          } else {
-            visit(v, i, d2, false);
-          }
-        }
-      }
-    }
-  };
-
+  NodeVoxelVisitor near(*this);
   {  // Blocking: first sample whose distance is within voxel_block_m.
     const std::size_t nv = static_cast<std::size_t>(num_voxels());
     std::vector<std::vector<BlockingEntry>> lists(nv);
     std::vector<std::uint8_t> first(nv);
-    stamp.assign(nv, -1);
+    near.Reset(nv);
     for (int node = 0; node < num_nodes_; ++node) {
       if (!keep(node)) continue;
-      touched.clear();
+      near.StartNode();
       // Samples come in increasing order, so the first visit of a voxel is its first blocked sample.
-      for_each_near(block_grid_, geo.voxel_block_m, node, [&](int v, int i, double, bool first_visit) {
+      near.ForEachNear(block_grid_, geo.voxel_block_m, node, [&](int v, int i, double, bool first_visit) {
         if (first_visit) first[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(i);
       });
-      for (int v : touched) {
+      for (int v : near.touched()) {
         BlockingEntry e;
         e.node = static_cast<std::uint16_t>(node);
         e.first_sample = first[static_cast<std::size_t>(v)];
@@ -490,18 +505,18 @@ TrajectoryLibrary::Correspondence TrajectoryLibrary::BuildCorrespondence(
     std::vector<std::vector<BandEntry>> lists(nv);
     std::vector<double> min_d2(nv);
     std::vector<std::uint8_t> closest(nv);
-    stamp.assign(nv, -1);
+    near.Reset(nv);
     for (int node = 0; node < num_nodes_ && options.clearance_band_m > 0.0; ++node) {
       if (!keep(node)) continue;
-      touched.clear();
-      for_each_near(band_grid_, geo.band_reach_m, node, [&](int v, int i, double d2, bool first_visit) {
+      near.StartNode();
+      near.ForEachNear(band_grid_, geo.band_reach_m, node, [&](int v, int i, double d2, bool first_visit) {
         const std::size_t vi = static_cast<std::size_t>(v);
         if (first_visit || d2 < min_d2[vi]) {
           min_d2[vi] = d2;
           closest[vi] = static_cast<std::uint8_t>(i);
         }
       });
-      for (int v : touched) {
+      for (int v : near.touched()) {
         const std::size_t vi = static_cast<std::size_t>(v);
         if (!(min_d2[vi] < geo.band_reach_m * geo.band_reach_m)) continue;  // Clearance must be < band.
         BandEntry e;
@@ -1152,6 +1167,67 @@ int LocalPlanner::ChoosePath(const LocalPlanRequest& request, int required_sampl
 // ---------------------------------------------------------------------------------------------------------
 // Brute force
 
+namespace {
+
+// The obstacle points as the brute force tests them: blocking and clearance voxel centres (the grids extended
+// beyond their edges), sorted by x so that each arc only scans the points in the x range of its bounding box,
+// and the points near the origin, tested exactly (IsNearOrigin): (x, y, squared blocking distance).
+struct BruteForceObstacles {
+  std::vector<Eigen::Vector2d> block_centres;
+  std::vector<Eigen::Vector2d> band_centres;
+  std::vector<Eigen::Vector3d> near_points;
+};
+
+BruteForceObstacles SortObstacles(const TrajectoryLibrary& library,
+                                  const std::vector<Eigen::Vector3f>& obstacles_B, const Geometry& geo) {
+  const TrajectoryLibraryOptions& o = library.options();
+  BruteForceObstacles out;
+  out.block_centres.reserve(obstacles_B.size());
+  out.band_centres.reserve(obstacles_B.size());
+  for (const Eigen::Vector3f& p : obstacles_B) {
+    if (!IsFinite(p) || !InZBand(p, o)) continue;
+    out.band_centres.emplace_back(
+        VoxelCentreCoordinate(p.x(), library.clearance_grid_min_m(), o.clearance_voxel_size_m),
+        VoxelCentreCoordinate(p.y(), library.clearance_grid_min_m(), o.clearance_voxel_size_m));
+    if (IsNearOrigin(p.x(), p.y(), geo.near_origin_m)) {
+      out.near_points.emplace_back(p.x(), p.y(), NearBlockSquared(p.x(), p.y(), o.collision_radius_m));
+      continue;
+    }
+    out.block_centres.emplace_back(VoxelCentreCoordinate(p.x(), library.grid_min_m(), o.voxel_size_m),
+                                   VoxelCentreCoordinate(p.y(), library.grid_min_m(), o.voxel_size_m));
+  }
+  auto by_x = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() < b.x(); };
+  std::sort(out.block_centres.begin(), out.block_centres.end(), by_x);
+  std::sort(out.band_centres.begin(), out.band_centres.end(), by_x);
+  return out;
+}
+
+// Calls visit(centre) for the centres (sorted by x) within the bounding box of samples [i0, i1) grown by
+// `reach` (a cull only: the distance tests decide).
+template <typename Visit>
+void ForEachNearBox(const std::vector<Eigen::Vector2d>& centres, const Eigen::Vector2f* s, int i0, int i1,
+                    double reach, Visit&& visit) {
+  if (i0 >= i1) return;
+  double x_lo = std::numeric_limits<double>::infinity();
+  double x_hi = -x_lo;
+  double y_lo = x_lo;
+  double y_hi = -x_lo;
+  for (int i = i0; i < i1; ++i) {
+    x_lo = std::min(x_lo, static_cast<double>(s[i].x()));
+    x_hi = std::max(x_hi, static_cast<double>(s[i].x()));
+    y_lo = std::min(y_lo, static_cast<double>(s[i].y()));
+    y_hi = std::max(y_hi, static_cast<double>(s[i].y()));
+  }
+  const double grow = reach + 1e-6;
+  auto it = std::lower_bound(centres.begin(), centres.end(), x_lo - grow,
+                             [](const Eigen::Vector2d& c, double x) { return c.x() < x; });
+  for (; it != centres.end() && it->x() <= x_hi + grow; ++it) {
+    if (it->y() >= y_lo - grow && it->y() <= y_hi + grow) visit(*it);
+  }
+}
+
+}  // namespace
+
 std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
                                           const std::vector<Eigen::Vector3f>& obstacles_B,
                                           double required_free_length_m, std::vector<double>* clearance_m) {
@@ -1163,54 +1239,7 @@ std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
   const bool with_band = o.clearance_band_m > 0.0;
   const int req = RequiredSamples(std::isnan(required_free_length_m) ? 0.0 : required_free_length_m,
                                   library.sample_spacing_m(), n);
-
-  // Blocking and clearance voxel centres of the obstacle points (the grids extended beyond their edges),
-  // sorted by x so that each arc only scans the points in the x range of its bounding box.
-  std::vector<Eigen::Vector2d> block_centres;
-  std::vector<Eigen::Vector2d> band_centres;
-  block_centres.reserve(obstacles_B.size());
-  band_centres.reserve(obstacles_B.size());
-  std::vector<Eigen::Vector3d>
-      near_points;  // (x, y, squared blocking distance): tested exactly (IsNearOrigin)
-  for (const Eigen::Vector3f& p : obstacles_B) {
-    if (!IsFinite(p) || !InZBand(p, o)) continue;
-    band_centres.emplace_back(
-        VoxelCentreCoordinate(p.x(), library.clearance_grid_min_m(), o.clearance_voxel_size_m),
-        VoxelCentreCoordinate(p.y(), library.clearance_grid_min_m(), o.clearance_voxel_size_m));
-    if (IsNearOrigin(p.x(), p.y(), geo.near_origin_m)) {
-      near_points.emplace_back(p.x(), p.y(), NearBlockSquared(p.x(), p.y(), o.collision_radius_m));
-      continue;
-    }
-    block_centres.emplace_back(VoxelCentreCoordinate(p.x(), library.grid_min_m(), o.voxel_size_m),
-                               VoxelCentreCoordinate(p.y(), library.grid_min_m(), o.voxel_size_m));
-  }
-  auto by_x = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() < b.x(); };
-  std::sort(block_centres.begin(), block_centres.end(), by_x);
-  std::sort(band_centres.begin(), band_centres.end(), by_x);
-
-  // Calls visit(centre) for the centres within the bounding box of samples [i0, i1) grown by `reach` (a cull
-  // only: the distance tests decide).
-  auto for_each_near_box = [](const std::vector<Eigen::Vector2d>& centres, const Eigen::Vector2f* s, int i0,
-                              int i1, double reach, auto&& visit) {
-    if (i0 >= i1) return;
-    double x_lo = std::numeric_limits<double>::infinity();
-    double x_hi = -x_lo;
-    double y_lo = x_lo;
-    double y_hi = -x_lo;
-    for (int i = i0; i < i1; ++i) {
-      x_lo = std::min(x_lo, static_cast<double>(s[i].x()));
-      x_hi = std::max(x_hi, static_cast<double>(s[i].x()));
-      y_lo = std::min(y_lo, static_cast<double>(s[i].y()));
-      y_hi = std::max(y_hi, static_cast<double>(s[i].y()));
-    }
-    const double grow = reach + 1e-6;
-    auto it = std::lower_bound(centres.begin(), centres.end(), x_lo - grow,
-                               [](const Eigen::Vector2d& c, double x) { return c.x() < x; });
-    for (; it != centres.end() && it->x() <= x_hi + grow; ++it) {
-      if (it->y() >= y_lo - grow && it->y() <= y_hi + grow) visit(*it);
-    }
-  };
-
+  const BruteForceObstacles obstacles = SortObstacles(library, obstacles_B, geo);
   const int num_paths = library.num_paths();
   std::vector<double> free_m(static_cast<std::size_t>(num_paths));
   if (clearance_m != nullptr) clearance_m->assign(static_cast<std::size_t>(num_paths), 0.0);
@@ -1222,7 +1251,7 @@ std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
     for (int level = 0; level < 3; ++level) {
       const int i0 = level == 0 ? 0 : library.level_end_sample(level - 1);
       const int i1 = library.level_end_sample(level);
-      for_each_near_box(block_centres, s, i0, i1, geo.voxel_block_m, [&](const Eigen::Vector2d& c) {
+      ForEachNearBox(obstacles.block_centres, s, i0, i1, geo.voxel_block_m, [&](const Eigen::Vector2d& c) {
         for (int i = i0; i < i1 && i < first_blocked; ++i) {
           if (SquaredDistance(c.x(), c.y(), s[i].x(), s[i].y()) <= block2) {
             first_blocked = i;
@@ -1231,7 +1260,7 @@ std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
         }
       });
       if (!with_band || clearance_m == nullptr) continue;
-      for_each_near_box(band_centres, s, i0, i1, geo.band_reach_m, [&](const Eigen::Vector2d& c) {
+      ForEachNearBox(obstacles.band_centres, s, i0, i1, geo.band_reach_m, [&](const Eigen::Vector2d& c) {
         int closest = 0;
         double min_d2 = std::numeric_limits<double>::infinity();
         for (int i = i0; i < i1; ++i) {
@@ -1245,9 +1274,9 @@ std::vector<double> BruteForceFreeLengths(const TrajectoryLibrary& library,
       });
     }
     for (int i = 0; i < first_blocked; ++i) {
-      const bool blocked = std::any_of(near_points.begin(), near_points.end(), [&](const Eigen::Vector3d& q) {
-        return NearPointBlocks(q.x(), q.y(), s, i, q.z());
-      });
+      const bool blocked =
+          std::any_of(obstacles.near_points.begin(), obstacles.near_points.end(),
+                      [&](const Eigen::Vector3d& q) { return NearPointBlocks(q.x(), q.y(), s, i, q.z()); });
       if (blocked) first_blocked = i;
     }
     free_m[static_cast<std::size_t>(p)] = first_blocked * library.sample_spacing_m();

@@ -201,8 +201,14 @@ void MultiLevelGrid::Update(std::shared_ptr<const core::VoxelGrid> world,
 }
 
 void MultiLevelGrid::Recompute(const std::vector<std::array<int, 4>>& windows, bool whole) {
+  const std::array<int, 4> changed = RebuildSurfaces(windows, whole);
+  UpdateObservedNear(changed);
+  RecomputeClearance(changed, whole);
+}
+
+std::array<int, 4> MultiLevelGrid::RebuildSurfaces(const std::vector<std::array<int, 4>>& windows,
+                                                   bool whole) {
   const std::size_t n_columns = static_cast<std::size_t>(nx_) * ny_;
-  // ---- 1. Surfaces of the changed columns; the others keep theirs (and their clearance for now). ----
   std::array<int, 4> changed{nx_, ny_, -1, -1};
   std::vector<std::uint8_t> is_changed;
   if (whole) {
@@ -256,37 +262,40 @@ void MultiLevelGrid::Recompute(const std::vector<std::array<int, 4>>& windows, b
   z_m_ = std::move(z_m);
   clearance_m_ = std::move(clearance_m);
   column_of_ = std::move(column_of);
+  return changed;
+}
 
-  // ---- 1b. Observed columns within the robot radius (a separable square dilation) around the change. ----
-  {
-    const int r = static_cast<int>(std::ceil(options_.robot_radius_m / cell_m_));
-    const int x0 = std::max(0, changed[0] - r), x1 = std::min(nx_ - 1, changed[2] + r);
-    const int y0 = std::max(0, changed[1] - r), y1 = std::min(ny_ - 1, changed[3] + r);
-    const int wx = x1 - x0 + 1;
-    std::vector<std::uint8_t> rows(static_cast<std::size_t>(wx) * (y1 - y0 + 1 + 2 * r), 0);
-    // rows[(y - (y0 - r)) * wx + (x - x0)]: any observed column in [x - r, x + r] of row y.
-    for (int y = y0 - r; y <= y1 + r; ++y) {
-      if (y < 0 || y >= ny_) continue;
-      for (int x = x0; x <= x1; ++x) {
-        std::uint8_t any = 0;
-        for (int d = -r; d <= r && !any; ++d) {
-          if (x + d >= 0 && x + d < nx_) any = observed_[static_cast<std::size_t>(Column(x + d, y))];
-        }
-        rows[static_cast<std::size_t>(y - (y0 - r)) * wx + (x - x0)] = any;
+void MultiLevelGrid::UpdateObservedNear(const std::array<int, 4>& changed) {
+  // A separable square dilation of the observed columns.
+  const int r = static_cast<int>(std::ceil(options_.robot_radius_m / cell_m_));
+  const int x0 = std::max(0, changed[0] - r), x1 = std::min(nx_ - 1, changed[2] + r);
+  const int y0 = std::max(0, changed[1] - r), y1 = std::min(ny_ - 1, changed[3] + r);
+  const int wx = x1 - x0 + 1;
+  std::vector<std::uint8_t> rows(static_cast<std::size_t>(wx) * (y1 - y0 + 1 + 2 * r), 0);
+  // rows[(y - (y0 - r)) * wx + (x - x0)]: any observed column in [x - r, x + r] of row y.
+  for (int y = y0 - r; y <= y1 + r; ++y) {
+    if (y < 0 || y >= ny_) continue;
+    for (int x = x0; x <= x1; ++x) {
+      std::uint8_t any = 0;
+      for (int d = -r; d <= r && !any; ++d) {
+        if (x + d >= 0 && x + d < nx_) any = observed_[static_cast<std::size_t>(Column(x + d, y))];
       }
-    }
-    for (int y = y0; y <= y1; ++y) {
-      for (int x = x0; x <= x1; ++x) {
-        std::uint8_t any = 0;
-        for (int d = -r; d <= r && !any; ++d)
-          any = rows[static_cast<std::size_t>(y + d - (y0 - r)) * wx + (x - x0)];
-        observed_near_[static_cast<std::size_t>(Column(x, y))] = any;
-      }
+      rows[static_cast<std::size_t>(y - (y0 - r)) * wx + (x - x0)] = any;
     }
   }
+  for (int y = y0; y <= y1; ++y) {
+    for (int x = x0; x <= x1; ++x) {
+      std::uint8_t any = 0;
+      for (int d = -r; d <= r && !any; ++d)
+        any = rows[static_cast<std::size_t>(y + d - (y0 - r)) * wx + (x - x0)];
+      observed_near_[static_cast<std::size_t>(Column(x, y))] = any;
+    }
+  }
+}
 
-  // ---- 2. Clearance by brushfire over connected surfaces, computed on `window` and written on `written`
-  // (a change alters the blocked points of its neighbours, which reach clearance_exact_m further). ----
+void MultiLevelGrid::RecomputeClearance(const std::array<int, 4>& changed, bool whole) {
+  // Computed on `window` and written on `written` (a change alters the blocked points of its neighbours,
+  // which reach clearance_exact_m further).
   const int reach = static_cast<int>(std::ceil(options_.clearance_exact_m / cell_m_)) + 2;
   auto grown = [&](const std::array<int, 4>& w, int by) {
     return std::array<int, 4>{std::max(0, w[0] - by), std::max(0, w[1] - by), std::min(nx_ - 1, w[2] + by),
@@ -296,8 +305,7 @@ void MultiLevelGrid::Recompute(const std::vector<std::array<int, 4>>& windows, b
   const std::array<int, 4> window = whole ? changed : grown(written, reach);
   const std::size_t n_nodes = z_m_.size();
   std::vector<float> dist(n_nodes, static_cast<float>(kInf));
-  std::vector<std::int32_t> seed_x(n_nodes, 0);
-  std::vector<std::int32_t> seed_y(n_nodes, 0);
+  std::vector<std::int32_t> seed_x(n_nodes, 0), seed_y(n_nodes, 0);  // the blocked cell nearest each surface
   using Entry = std::pair<float, int>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
   auto in_window = [&window](int ix, int iy) {
@@ -666,42 +674,99 @@ struct LevelSearchEnd {
   int max_expansions = 0;
 };
 
+// SearchLevels' costs over the grid toward `goal`: the heuristic, the cost of a move, the distance left for a
+// partial plan, and the moves themselves.
+class LevelCosts {
+ public:
+  LevelCosts(const MultiLevelGrid& grid, const MultiLevelSearch& search, const AStarOptions& options,
+             const LevelGoal& goal, const Eigen::Vector2d& goal_W)
+      : grid_(grid),
+        search_(search),
+        options_(options),
+        goal_(goal),
+        goal_W_(goal_W),
+        cell_m_(grid.cell_size_m()),
+        level_slack_m_(goal.node >= 0 ? 0.0 : kLevelMatch_m) {}  // an unknown goal matches within this
+
+  // Octile distance plus the height still to climb or descend at step_height_cost per metre: every path
+  // changes height by at least that much, so the heuristic stays admissible and consistent, and a search
+  // toward another floor follows the stairs before it fills the floor it stands on.
+  double Heuristic(const State& s) const {
+    const int a = std::abs(s.ix - goal_.ix);
+    const int b = std::abs(s.iy - goal_.iy);
+    return (std::max(a, b) + (kSqrt2 - 1.0) * std::min(a, b)) * cell_m_ +
+           options_.step_height_cost * std::max(0.0, std::abs(s.z - goal_.level_z) - level_slack_m_);
+  }
+
+  // How far a state is from the goal, for a partial plan (PartialRemainingM).
+  double Remaining(const State& s) const {
+    const Eigen::Vector2d p = grid_.CellCenter(s.ix, s.iy);
+    return PartialRemainingM(Eigen::Vector3d(p.x(), p.y(), s.z), goal_W_, goal_.level_z, cell_m_);
+  }
+
+  // The state entered from `s` in direction k (kDx, kDy), or nullopt: unknown space off the goal's level only
+  // bridges gaps, and a diagonal move needs both cells beside it enterable.
+  std::optional<State> Neighbour(const State& s, int k) const {
+    std::optional<State> next = search_.Enter(s.ix + kDx[k], s.iy + kDy[k], s.z);
+    if (!next) return std::nullopt;
+    const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
+    if (next->node < 0) {
+      next->unknown_run_m =
+          (s.node < 0 ? s.unknown_run_m : 0.0f) + static_cast<float>((diagonal ? kSqrt2 : 1.0) * cell_m_);
+      if (next->unknown_run_m > kMaxUnknownBridgeOffLevelM &&
+          std::abs(next->z - goal_.level_z) > kLevelMatch_m) {
+        return std::nullopt;
+      }
+    }
+    if (diagonal && (!search_.Enter(s.ix + kDx[k], s.iy, s.z) || !search_.Enter(s.ix, s.iy + kDy[k], s.z))) {
+      return std::nullopt;
+    }
+    return next;
+  }
+
+  // The cost of the move from `s` to `next` in direction k: its length, more where clearance is short or the
+  // space unknown, plus the height changed.
+  double MoveCost(const State& s, const State& next, int k) const {
+    const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
+    const double move = (diagonal ? kSqrt2 : 1.0) * cell_m_;
+    const double unknown = next.node < 0 ? options_.unknown_cost : 0.0;
+    return move * (1.0 + Penalty(search_.Clearance(next)) + unknown) +
+           options_.step_height_cost * std::abs(next.z - s.z);
+  }
+
+ private:
+  double Penalty(double clearance) const {
+    if (options_.preferred_clearance_m <= 0.0 || options_.clearance_cost <= 0.0 || !std::isfinite(clearance))
+      return 0.0;
+    return options_.clearance_cost *
+           std::clamp((options_.preferred_clearance_m - clearance) / options_.preferred_clearance_m, 0.0,
+                      1.0);
+  }
+
+  const MultiLevelGrid& grid_;
+  const MultiLevelSearch& search_;
+  const AStarOptions& options_;
+  const LevelGoal& goal_;
+  const Eigen::Vector2d& goal_W_;
+  const double cell_m_;
+  const double level_slack_m_;
+};
+
 // A* over (cell, surface) from `start` to `goal`; expansions counted into `expansions`.
 LevelSearchEnd SearchLevels(const MultiLevelGrid& grid, const MultiLevelSearch& search,
                             const AStarOptions& options, const State& start, const LevelGoal& goal,
                             const Eigen::Vector2d& goal_W, LevelRecords* records_in, int* expansions) {
   LevelRecords& record = *records_in;
-  const double c = grid.cell_size_m();
+  const LevelCosts costs(grid, search, options, goal, goal_W);
   using Entry = std::pair<double, std::int64_t>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
-  // Octile distance plus the height still to climb or descend at step_height_cost per metre: every path
-  // changes height by at least that much, so the heuristic stays admissible and consistent, and a search
-  // toward another floor follows the stairs before it fills the floor it stands on.
-  const double level_slack_m = goal.node >= 0 ? 0.0 : kLevelMatch_m;  // an unknown goal matches within this
-  auto heuristic = [&](const State& s) {
-    const int a = std::abs(s.ix - goal.ix);
-    const int b = std::abs(s.iy - goal.iy);
-    return (std::max(a, b) + (kSqrt2 - 1.0) * std::min(a, b)) * c +
-           options.step_height_cost * std::max(0.0, std::abs(s.z - goal.level_z) - level_slack_m);
-  };
-  auto penalty = [&](double clearance) {
-    if (options.preferred_clearance_m <= 0.0 || options.clearance_cost <= 0.0 || !std::isfinite(clearance))
-      return 0.0;
-    return options.clearance_cost *
-           std::clamp((options.preferred_clearance_m - clearance) / options.preferred_clearance_m, 0.0, 1.0);
-  };
-  // How far a state is from the goal, for a partial plan (PartialRemainingM).
-  auto remaining = [&](const State& s) {
-    const Eigen::Vector2d p = grid.CellCenter(s.ix, s.iy);
-    return PartialRemainingM(Eigen::Vector3d(p.x(), p.y(), s.z), goal_W, goal.level_z, grid.cell_size_m());
-  };
   const std::int64_t start_key = search.Key(start);
   record[start_key] = Record{0.0, -1, false, start};
   record.NoteWritten(start_key);
-  open.emplace(heuristic(start), start_key);
+  open.emplace(costs.Heuristic(start), start_key);
   LevelSearchEnd end;
   end.best_key = start_key;
-  end.best_remaining = remaining(start);
+  end.best_remaining = costs.Remaining(start);
   end.start_remaining = end.best_remaining;
   // A partial plan is a best effort: its search is bounded tighter (an unreachable level would otherwise
   // expand every cell of a mostly unknown map).
@@ -724,40 +789,25 @@ LevelSearchEnd SearchLevels(const MultiLevelGrid& grid, const MultiLevelSearch& 
       break;
     }
     if (options.allow_partial) {
-      const double r = remaining(s);
+      const double r = costs.Remaining(s);
       if (r < end.best_remaining - 1e-9) {
         end.best_remaining = r;
         end.best_key = key;
       }
     }
     for (int k = 0; k < 8; ++k) {
-      std::optional<State> next = search.Enter(s.ix + kDx[k], s.iy + kDy[k], s.z);
+      const std::optional<State> next = costs.Neighbour(s, k);
       if (!next) continue;
-      const bool diagonal = kDx[k] != 0 && kDy[k] != 0;
-      if (next->node < 0) {
-        next->unknown_run_m =
-            (s.node < 0 ? s.unknown_run_m : 0.0f) + static_cast<float>((diagonal ? kSqrt2 : 1.0) * c);
-        if (next->unknown_run_m > kMaxUnknownBridgeOffLevelM &&
-            std::abs(next->z - goal.level_z) > kLevelMatch_m) {
-          continue;  // off the goal's level, unknown space only bridges gaps
-        }
-      }
-      if (diagonal && (!search.Enter(s.ix + kDx[k], s.iy, s.z) || !search.Enter(s.ix, s.iy + kDy[k], s.z)))
-        continue;
       const std::int64_t next_key = search.Key(*next);
       Record& nr = record[next_key];
       if (nr.closed) continue;
-      const double move = (diagonal ? kSqrt2 : 1.0) * c;
-      const double unknown = next->node < 0 ? options.unknown_cost : 0.0;
-      const double cost = move * (1.0 + penalty(search.Clearance(*next)) + unknown) +
-                          options.step_height_cost * std::abs(next->z - s.z);
-      const double candidate = g_here + cost;
+      const double candidate = g_here + costs.MoveCost(s, *next, k);
       if (candidate < nr.g) {
         if (!std::isfinite(nr.g)) record.NoteWritten(next_key);
         nr.g = candidate;
         nr.parent = key;
         nr.state = *next;
-        open.emplace(candidate + heuristic(*next), next_key);
+        open.emplace(candidate + costs.Heuristic(*next), next_key);
       }
     }
   }
@@ -797,6 +847,33 @@ std::vector<Eigen::Vector3d> LevelPathPoints(const MultiLevelGrid& grid, const M
   return points;
 }
 
+// A request's start and goal: finite, on the map (their cells into (*sx, *sy) and (*gx, *gy)); else the
+// status and why.
+std::optional<std::pair<PlanResult::Status, std::string>> CheckLevelRequest(const MultiLevelGrid& grid,
+                                                                            const Eigen::Vector3d& start_W,
+                                                                            const Eigen::Vector2d& goal_W,
+                                                                            double goal_z_m, int* sx, int* sy,
+                                                                            int* gx, int* gy) {
+  using Status = PlanResult::Status;
+  const std::string extent = "x in [" + Fixed(grid.p_W_min().x()) + ", " + Fixed(grid.p_W_max().x()) +
+                             "], y in [" + Fixed(grid.p_W_min().y()) + ", " + Fixed(grid.p_W_max().y()) + "]";
+  if (!start_W.head<2>().allFinite()) {
+    return std::make_pair(Status::kInvalidStart, "start " + Point2(start_W.head<2>()) + " is not finite");
+  }
+  if (!goal_W.allFinite() || std::isinf(goal_z_m)) {
+    return std::make_pair(Status::kInvalidGoal,
+                          "goal " + Point2(goal_W) + " (z " + Fixed(goal_z_m) + ") is not finite");
+  }
+  if (!grid.CellOf(start_W.x(), start_W.y(), sx, sy)) {
+    return std::make_pair(Status::kOutOfMap,
+                          "start " + Point2(start_W.head<2>()) + " is outside the map " + extent);
+  }
+  if (!grid.CellOf(goal_W.x(), goal_W.y(), gx, gy)) {
+    return std::make_pair(Status::kOutOfMap, "goal " + Point2(goal_W) + " is outside the map " + extent);
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d& start_W,
@@ -812,21 +889,9 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
     result.planning_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return result;
   };
-  const std::string extent = "x in [" + Fixed(grid.p_W_min().x()) + ", " + Fixed(grid.p_W_max().x()) +
-                             "], y in [" + Fixed(grid.p_W_min().y()) + ", " + Fixed(grid.p_W_max().y()) + "]";
-  if (!start_W.head<2>().allFinite()) {
-    return finish(Status::kInvalidStart, "start " + Point2(start_W.head<2>()) + " is not finite");
-  }
-  if (!goal_W.allFinite() || std::isinf(goal_z_m)) {
-    return finish(Status::kInvalidGoal,
-                  "goal " + Point2(goal_W) + " (z " + Fixed(goal_z_m) + ") is not finite");
-  }
   int sx = 0, sy = 0, gx = 0, gy = 0;
-  if (!grid.CellOf(start_W.x(), start_W.y(), &sx, &sy)) {
-    return finish(Status::kOutOfMap, "start " + Point2(start_W.head<2>()) + " is outside the map " + extent);
-  }
-  if (!grid.CellOf(goal_W.x(), goal_W.y(), &gx, &gy)) {
-    return finish(Status::kOutOfMap, "goal " + Point2(goal_W) + " is outside the map " + extent);
+  if (auto bad = CheckLevelRequest(grid, start_W, goal_W, goal_z_m, &sx, &sy, &gx, &gy)) {
+    return finish(bad->first, bad->second);
   }
   const MultiLevelSearch search(grid, options);
   double start_z = start_W.z();

@@ -640,6 +640,58 @@ struct OccupancyMap::Impl {
     tree.setOccupancyThres(0.5);
   }
 
+  // Pass 1 of InsertScan: the scan's end points in W (frame of `T_W_S`), one per new end-point voxel (rays to
+  // be cast), and ends clipped at max_range_m, into ray_ends (with the floor guard of each: ray_keep_below)
+  // and occupied_keys; grows the key box [*lo, *hi] over all of them.
+  void CollectRayEnds(const std::vector<Eigen::Vector3f>& points_S, const Eigen::Isometry3d& T_W_S,
+                      const point3d& origin, const OcTreeKey& origin_key, InsertStats* stats,
+                      std::array<int, 3>* lo, std::array<int, 3>* hi) {
+    const Eigen::Matrix3d R_W_S = T_W_S.linear();
+    const Eigen::Vector3d p_W_S = T_W_S.translation();
+    const double max_range_m = options.max_range_m;
+    const bool one_ray_per_endpoint_voxel = options.one_ray_per_endpoint_voxel;
+    const int guard = options.floor_guard_layers;
+    occupied_keys.Clear();
+    ray_ends.clear();
+    ray_keep_below.clear();
+    for (const Eigen::Vector3f& p_S : points_S) {
+      if (!p_S.allFinite()) {
+        ++stats->dropped_non_finite;
+        continue;
+      }
+      const Eigen::Vector3d p_W = R_W_S * p_S.cast<double>() + p_W_S;
+      point3d end(static_cast<float>(p_W.x()), static_cast<float>(p_W.y()), static_cast<float>(p_W.z()));
+      const point3d ray_W = end - origin;
+      OcTreeKey end_key;
+      const bool hit = ray_W.norm() <= max_range_m;
+      if (hit) {
+        if (!tree.coordToKeyChecked(end, end_key)) {
+          ++stats->dropped_out_of_map;
+          continue;
+        }
+        if (!occupied_keys.Insert(PackKey(end_key)) && one_ray_per_endpoint_voxel) {
+          continue;  // A ray already reached this voxel.
+        }
+      } else {
+        ++stats->clipped_max_range;
+        // Same arithmetic as OccupancyOcTreeBase::computeUpdate.
+        end = origin + ray_W.normalized() * static_cast<float>(max_range_m);
+        if (!tree.coordToKeyChecked(end, end_key)) {
+          ++stats->dropped_out_of_map;
+          continue;
+        }
+      }
+      ray_ends.push_back(end);
+      const bool guarded =
+          hit && guard > 0 && static_cast<int>(end_key[2]) + guard < static_cast<int>(origin_key[2]);
+      ray_keep_below.push_back(guarded ? static_cast<int>(end_key[2]) + guard : 0);
+      for (int i = 0; i < 3; ++i) {
+        (*lo)[i] = std::min((*lo)[i], static_cast<int>(end_key[i]));
+        (*hi)[i] = std::max((*hi)[i], static_cast<int>(end_key[i]));
+      }
+    }
+  }
+
   /// Marks every known voxel at the tracking level as changed (after a load).
   void MarkAllKnownChanged() {
     if (tree.getRoot() == nullptr) return;
@@ -739,55 +791,11 @@ InsertStats OccupancyMap::InsertScan(const std::vector<Eigen::Vector3f>& points_
                    " m)");
   }
   if (points_S.empty()) return stats;
-  const Eigen::Matrix3d R_W_S = T_W_S.linear();
-  const double max_range_m = m.options.max_range_m;
-  const bool one_ray_per_endpoint_voxel = m.options.one_ray_per_endpoint_voxel;
 
   WriteLock lock(m.turnstile, m.mutex);
-  // Pass 1: end points in W, one per new end-point voxel (rays to be cast), and clipped ray ends; the key box
-  // of all of them.
-  m.occupied_keys.Clear();
-  m.ray_ends.clear();
-  m.ray_keep_below.clear();
-  const int guard = m.options.floor_guard_layers;
   std::array<int, 3> lo{origin_key[0], origin_key[1], origin_key[2]};
   std::array<int, 3> hi = lo;
-  for (const Eigen::Vector3f& p_S : points_S) {
-    if (!p_S.allFinite()) {
-      ++stats.dropped_non_finite;
-      continue;
-    }
-    const Eigen::Vector3d p_W = R_W_S * p_S.cast<double>() + p_W_S;
-    point3d end(static_cast<float>(p_W.x()), static_cast<float>(p_W.y()), static_cast<float>(p_W.z()));
-    const point3d ray_W = end - origin;
-    OcTreeKey end_key;
-    const bool hit = ray_W.norm() <= max_range_m;
-    if (hit) {
-      if (!m.tree.coordToKeyChecked(end, end_key)) {
-        ++stats.dropped_out_of_map;
-        continue;
-      }
-      if (!m.occupied_keys.Insert(PackKey(end_key)) && one_ray_per_endpoint_voxel) {
-        continue;  // A ray already reached this voxel.
-      }
-    } else {
-      ++stats.clipped_max_range;
-      // Same arithmetic as OccupancyOcTreeBase::computeUpdate.
-      end = origin + ray_W.normalized() * static_cast<float>(max_range_m);
-      if (!m.tree.coordToKeyChecked(end, end_key)) {
-        ++stats.dropped_out_of_map;
-        continue;
-      }
-    }
-    m.ray_ends.push_back(end);
-    const bool guarded =
-        hit && guard > 0 && static_cast<int>(end_key[2]) + guard < static_cast<int>(origin_key[2]);
-    m.ray_keep_below.push_back(guarded ? static_cast<int>(end_key[2]) + guard : 0);
-    for (int i = 0; i < 3; ++i) {
-      lo[i] = std::min(lo[i], static_cast<int>(end_key[i]));
-      hi[i] = std::max(hi[i], static_cast<int>(end_key[i]));
-    }
-  }
+  m.CollectRayEnds(points_S, T_W_S, origin, origin_key, &stats, &lo, &hi);
   // Pass 2: the voxels crossed by the rays (both ends are in the map, so computeRayKeys cannot fail).
   m.free_keys.Begin(lo, hi);
   for (std::size_t r = 0; r < m.ray_ends.size(); ++r) {

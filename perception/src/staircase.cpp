@@ -1191,6 +1191,18 @@ class DetectorRun {
   // runs across the flight; a terrace of a coarse scan, a box or a patch of clutter shows in a few bins.
   static constexpr double kMinRiserSeenFraction = 0.25;
 
+  // Heights `z` (non-empty) kFlatFraction of which lie within kFlatM of `median`.
+  static bool Flat(const std::vector<double>& z, double median) {
+    const auto near_median =
+        std::count_if(z.begin(), z.end(), [median](double h) { return std::abs(h - median) <= kFlatM; });
+    return !z.empty() && static_cast<double>(near_median) >= kFlatFraction * static_cast<double>(z.size());
+  }
+  // Most of `z` below (sign -1) or above (sign +1) `mid`; true when empty.
+  static bool OnSide(const std::vector<double>& z, double mid, int sign) {
+    const auto on = std::count_if(z.begin(), z.end(), [mid, sign](double h) { return sign * (h - mid) > 0; });
+    return 2 * on >= static_cast<std::ptrdiff_t>(z.size());
+  }
+
   // The riser-counting step: how the points show each riser of `m`, in lateral bins of kEvidenceBinM over
   // the inner width of `chain` (0.1 m in from each side, wall columns left out). The points on tread k (along
   // the axis from S - run to S, S = RiserS(k) the riser's foot) and on tread k + 1 (S to S + run), at least
@@ -1249,17 +1261,6 @@ class DetectorRun {
         (riser == behind ? bin.upper : bin.lower).push_back(p.z);
       }
     }
-    auto flat = [](const std::vector<double>& z, double median) {
-      const auto near_median =
-          std::count_if(z.begin(), z.end(), [median](double h) { return std::abs(h - median) <= kFlatM; });
-      return !z.empty() && static_cast<double>(near_median) >= kFlatFraction * static_cast<double>(z.size());
-    };
-    // Most of `z` below (sign -1) or above (sign +1) `mid`; true when empty.
-    auto on_side = [](const std::vector<double>& z, double mid, int sign) {
-      const auto on =
-          std::count_if(z.begin(), z.end(), [mid, sign](double h) { return sign * (h - mid) > 0; });
-      return 2 * on >= static_cast<std::ptrdiff_t>(z.size());
-    };
     std::vector<RiserEvidence> evidence(static_cast<std::size_t>(m.n));
     const double tol = o_.riser_rise_tolerance_m;
     for (int k = 0; k < m.n; ++k) {
@@ -1270,7 +1271,7 @@ class DetectorRun {
         const Bin& bin = bin_of(k, b);
         const double lower = bin.lower.empty() ? m.TreadZ(k) : Median(bin.lower);
         const double upper = bin.upper.empty() ? m.TreadZ(k + 1) : Median(bin.upper);
-        if (flat(bin.lower, lower) && flat(bin.upper, upper)) {
+        if (Flat(bin.lower, lower) && Flat(bin.upper, upper)) {
           if (std::abs(upper - lower - m.rise) <= tol) {
             steps.push_back(upper - lower);
             ++shown;
@@ -1278,7 +1279,7 @@ class DetectorRun {
             ++contradicted;
           }
         } else if (std::isfinite(bin.face_top) && !bin.above_nose && bin.face_top - lower <= m.rise + tol &&
-                   on_side(bin.lower, mid, -1) && on_side(bin.upper, mid, 1)) {
+                   OnSide(bin.lower, mid, -1) && OnSide(bin.upper, mid, 1)) {
           ++shown;
         }
       }

@@ -103,6 +103,40 @@ std::string Range(const char* axis, float lo, float hi) {
   return out.str();
 }
 
+// The scan's density, keep fraction and strays within their ranges; else InputError naming the flag.
+void CheckSurveyOptions(const cairn::sim::SurveyScanOptions& options) {
+  if (!(options.floor_points_per_m2 > 0.0 && options.floor_points_per_m2 <= 100.0)) {
+    throw InputError("--floor-points-per-m2 " + std::to_string(options.floor_points_per_m2) +
+                     " must be in (0, 100] points/m^2");
+  }
+  if (!(options.wall_keep_fraction >= 0.0 && options.wall_keep_fraction <= 1.0)) {
+    throw InputError("--wall-keep-fraction " + std::to_string(options.wall_keep_fraction) +
+                     " must be in [0, 1]");
+  }
+  if (options.num_strays < 0 || options.num_strays > 100000) {
+    throw InputError("--strays " + std::to_string(options.num_strays) + " must be in [0, 100000]");
+  }
+}
+
+// The built-in worlds' names, comma separated.
+std::string BuiltinWorldList() {
+  std::string worlds;
+  for (const std::string& name : cairn::sim::BuiltinWorldNames())
+    worlds += (worlds.empty() ? "" : ", ") + name;
+  return worlds;
+}
+
+// "x [lo, hi] y [lo, hi] z [lo, hi]" of non-empty `points`, metres.
+std::string ExtentText(const std::vector<Eigen::Vector3f>& points) {
+  Eigen::Vector3f lo = points.front();
+  Eigen::Vector3f hi = lo;
+  for (const Eigen::Vector3f& p : points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  return Range("x", lo.x(), hi.x()) + " " + Range("y", lo.y(), hi.y()) + " " + Range("z", lo.z(), hi.z());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -115,9 +149,7 @@ int main(int argc, char** argv) {
   // A survey is made inside the site: the outer faces of a grid that ends at the building's shell (the roof's
   // top, the outside of the outer walls) are never seen.
   options.outside_is_solid = true;
-  std::string worlds;
-  for (const std::string& name : cairn::sim::BuiltinWorldNames())
-    worlds += (worlds.empty() ? "" : ", ") + name;
+  const std::string worlds = BuiltinWorldList();
 
   CLI::App app{
       "cairn_survey_pcd: writes a sparse, noisy survey scan of a world as a PCD (binary, fields x y z, "
@@ -157,17 +189,7 @@ int main(int argc, char** argv) {
   std::uint32_t seed = 0;
   try {
     seed = ParseSeed(seed_text);
-    if (!(options.floor_points_per_m2 > 0.0 && options.floor_points_per_m2 <= 100.0)) {
-      throw InputError("--floor-points-per-m2 " + std::to_string(options.floor_points_per_m2) +
-                       " must be in (0, 100] points/m^2");
-    }
-    if (!(options.wall_keep_fraction >= 0.0 && options.wall_keep_fraction <= 1.0)) {
-      throw InputError("--wall-keep-fraction " + std::to_string(options.wall_keep_fraction) +
-                       " must be in [0, 1]");
-    }
-    if (options.num_strays < 0 || options.num_strays > 100000) {
-      throw InputError("--strays " + std::to_string(options.num_strays) + " must be in [0, 100000]");
-    }
+    CheckSurveyOptions(options);
     for (const std::string& text : strip_texts) options.missing_strips.push_back(ParseStrip(text));
     CheckOutputPath(out_path);
     cairn::sim::WorldLoadOptions load;
@@ -186,17 +208,10 @@ int main(int argc, char** argv) {
     const cairn::sim::SurveyScan scan = cairn::sim::MakeSurveyScan(*world, options, seed);
     if (scan.points_W.empty()) throw std::runtime_error("the survey of '" + world_spec + "' has no point");
     cairn::sim::WritePcd(out_path, scan.points_W);
-    Eigen::Vector3f lo = scan.points_W.front();
-    Eigen::Vector3f hi = lo;
-    for (const Eigen::Vector3f& p : scan.points_W) {
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
-    }
     std::cout << "cairn_survey_pcd: wrote " << out_path << ": " << scan.points_W.size() << " points ("
               << std::fixed << std::setprecision(1) << scan.floor_points_per_m2 << " floor points/m^2, "
               << scan.strays_W.size() << " strays, " << options.missing_strips.size()
-              << " missing strips); extent " << Range("x", lo.x(), hi.x()) << " "
-              << Range("y", lo.y(), hi.y()) << " " << Range("z", lo.z(), hi.z()) << " m" << std::endl;
+              << " missing strips); extent " << ExtentText(scan.points_W) << " m" << std::endl;
   } catch (const std::exception& e) {
     std::cerr << "cairn_survey_pcd: " << e.what() << std::endl;
     return kExitFailed;

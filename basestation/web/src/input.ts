@@ -3,13 +3,15 @@
 // cairn_base as a structured request (wire.ts), with the CLI's semantics and reasons.
 import { render, renderRobot, setTab, toast } from "./panels";
 import { $, link, scene, selectedRobot, state } from "./state";
-import { Command, commandText, type CommandRequest, type CommandResult } from "./wire";
+import { Command, checkAgainstTable, commandText, type CommandRequest, type CommandResult } from "./wire";
 
 // ---- Commands (the CLI's semantics and reasons) -----------------------------------------------------------
 /** Sends `request`; notifies its outcome (a refusal even when `quiet`) and re-renders. */
 export async function run(request: CommandRequest, quiet = false): Promise<CommandResult> {
-  const result = await link.command(request);
   const line = commandText(request);
+  // Checked against cairn_base's table first (once it arrived): a usage error needs no round trip.
+  const misfit = state.commandTable.size > 0 ? checkAgainstTable(request, state.commandTable) : "";
+  const result: CommandResult = misfit ? { ok: false, result: "invalid", reason: misfit } : await link.command(request);
   state.lastResult = result;
   if (!quiet || !result.ok) {
     const words = result.ok ? `${line}: ${result.result ?? "accepted"}` : `${line}: ${result.result ?? "failed"} — ${result.reason ?? ""}`;

@@ -10,7 +10,7 @@
 import { installInput, confirmGoal, proposeGoal, run, select } from "./input";
 import { kToastMaxAgeMs, render, renderEvents, renderHealth, renderRobot, seenEvents, setTab, toast } from "./panels";
 import { $, link, params, scene, state, type EventEntry } from "./state";
-import { Topic, type CameraMessage, type EventMessage, type FleetMessage } from "./wire";
+import { Topic, type CameraMessage, type CommandTableMessage, type EventMessage, type FleetMessage } from "./wire";
 
 link.onState = (connected, text) => {
   state.statusText = text;
@@ -51,6 +51,9 @@ function onMessage(topic: string, message: unknown): void {
     state.events.length = Math.min(state.events.length, 300);
     if (Date.now() - timeMs < kToastMaxAgeMs) toast(msg.message, msg.level >= 3 ? "warn" : "info", timeMs);
     if (state.tab === "events") renderEvents();
+  } else if (topic === Topic.commands) {
+    state.commandTable = new Map((message as CommandTableMessage).commands.map((c) => [c.name, c]));
+    render();
   } else if (topic.endsWith("/camera")) {
     const msg = message as CameraMessage;
     const robot = topic.split("/")[1];

@@ -82,10 +82,13 @@ function renderFleet(): void {
   $("fleet-empty").hidden = state.robots.length > 0;
 }
 
-/** The attribute that makes an element send `request` when tapped (input.ts reads it back). */
+const escapeAttribute = (text: string) => text.replace(/&/g, "&amp;").replace(/"/g, "&quot;").replace(/</g, "&lt;");
+
+/** The attributes that make an element send `request` when tapped (input.ts reads it back), with the
+ *  command's help from cairn_base's table as its tooltip. */
 export function commandAttribute(request: CommandRequest): string {
-  const json = JSON.stringify(request).replace(/&/g, "&amp;").replace(/"/g, "&quot;").replace(/</g, "&lt;");
-  return `data-command="${json}"`;
+  const help = state.commandTable.get(request.name)?.help;
+  return `data-command="${escapeAttribute(JSON.stringify(request))}"${help ? ` title="${escapeAttribute(help)}"` : ""}`;
 }
 
 // The buttons of the robot's valid actions (ValidActions of cairn_base for this basestation).
@@ -218,7 +221,7 @@ export function renderHealth(): void {
       // A rate under half its target is shown in the warning colour (slow, not down).
       const slow = c.state === "active" && (c.degraded || c.loop_rate_hz < 0.5 * c.target_rate_hz);
       const restart = r.you_hold && r.online
-        ? `<button class="restart" title="restart ${c.name}" ${commandAttribute(Command.restart(r.id, c.name))}>restart</button>` : "";
+        ? `<button class="restart" ${commandAttribute(Command.restart(r.id, c.name))}>restart</button>` : "";
       // The last error under the component's name (the panel is narrow): what made it fail last.
       const error = c.last_error ? `<br><span class="reason error">${c.last_error}</span>` : "";
       return `<tr data-robot-id="${r.id}"><td>${c.name}${error}</td><td>${stateText}</td>

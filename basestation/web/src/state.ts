@@ -4,7 +4,7 @@
 // (input.ts) changes it; main.ts feeds it from the link.
 import { CairnLink } from "./client";
 import { FleetScene } from "./scene";
-import { Topic, type CommandResult, type Robot } from "./wire";
+import { Topic, type CommandResult, type CommandSpec, type Robot } from "./wire";
 
 export const $ = <T extends HTMLElement>(id: string) => document.getElementById(id) as T;
 export const params = new URLSearchParams(location.search);
@@ -52,6 +52,7 @@ export const state = {
   drive: { vx: 0, wz: 0, active: false, source: "", stale: false, sent: 0 } as DriveState,
   cameraUrls: new Map<string, { url: string; stamp: number }>(),
   statusText: "connecting",
+  commandTable: new Map<string, CommandSpec>(), // cairn_base's commands (/cairn/commands), by name
   ceilingAuto: true, // hide map voxels 1.6 m above the highest robot (tunnel roofs, upper floors)
 };
 

@@ -7,6 +7,7 @@
 export const Topic = {
   fleet: "/fleet", // FleetMessage, 10 Hz
   events: "/events", // EventMessage (a new subscriber is first sent the recent ones)
+  commands: "/cairn/commands", // CommandTableMessage, once to each subscriber
   fleetMap: "/fleet_map", // foxglove.SceneUpdate: map voxels by chunk
   paths: "/paths", // foxglove.SceneUpdate: global paths and goals
   staircases: "/staircases", // foxglove.SceneUpdate: detected staircases
@@ -147,6 +148,43 @@ export interface TeleopMessage {
   linear_x_mps: number;
   angular_z_radps: number;
   linear_y_mps?: number;
+}
+
+/** One command of cairn_base's console (its command table: what `help` lists). */
+export interface CommandSpec {
+  name: string;
+  usage: string; // synopsis, name first: "goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]"
+  help: string;
+  min_args: number; // words after the name
+  max_args: number; // -1: no bound
+}
+
+/** `/cairn/commands`: the command table. */
+export interface CommandTableMessage {
+  commands: CommandSpec[];
+}
+
+/** The words `request` puts after the command's name (what the table's argument counts count). */
+export function argumentWords(request: CommandRequest): number {
+  const options = Object.values(request.options ?? {});
+  return (
+    (request.robot === undefined ? 0 : 1) +
+    (request.args?.length ?? 0) +
+    options.length +
+    options.filter((v) => v !== true).length
+  );
+}
+
+/** Why `request` does not fit the command table (unknown name, argument count outside the command's), or ""
+ *  when it does. */
+export function checkAgainstTable(request: CommandRequest, table: ReadonlyMap<string, CommandSpec>): string {
+  const spec = table.get(request.name);
+  if (!spec) return `'${request.name}' is not one of cairn_base's commands`;
+  const words = argumentWords(request);
+  if (words < spec.min_args || (spec.max_args >= 0 && words > spec.max_args)) {
+    return `${commandText(request)}: usage: ${spec.usage}`;
+  }
+  return "";
 }
 
 /** A command of cairn_base's table, as words: the command's name, the robot it addresses (when it takes one),

@@ -17,7 +17,7 @@ const { FoxgloveClient } = wsProtocol;
 import { BUILD, loadWire, startBase, startRobot, stopAll, waitFor } from "./harness.mjs";
 
 // The GUI's own wire module (src/wire.ts, built into wire.mjs): channel names and the commands it sends.
-const { Command, Topic, commandText } = await loadWire();
+const { Command, Topic, checkAgainstTable, commandText } = await loadWire();
 
 const DOMAIN = 74;
 let base, client;
@@ -55,6 +55,7 @@ test("the server lists every channel with a JSON schema, and the command service
     [Topic.staircases]: "foxglove.SceneUpdate",
     [Topic.fleetMap]: "foxglove.SceneUpdate",
     [Topic.events]: "foxglove.Log",
+    [Topic.commands]: "cairn.CommandTable",
     "/r1/camera": "foxglove.CompressedImage",
   });
   for (const c of channels.values()) {
@@ -131,6 +132,19 @@ function cli(line) {
   const lines = run.stdout.trim().split("\n").filter((l) => l.startsWith("{")).map((l) => JSON.parse(l));
   return lines.find((l) => l.command !== undefined) ?? { stdout: run.stdout, stderr: run.stderr };
 }
+
+test("the command table reaches the GUI, and every command the GUI sends fits it", async () => {
+  const table = new Map(firstMessage.get(Topic.commands).commands.map((c) => [c.name, c]));
+  assert.ok(table.size >= 30, `${table.size} commands`);
+  assert.match(table.get("goto").usage, /^goto R POINT/);
+  const sent = [Command.requestControl("r1"), Command.release("r1"), Command.stop("r1"), Command.stopAll(),
+    Command.mode("r1", "manual"), Command.goto("r1", 1, 2), Command.goto("r1", 1, 2, 3), Command.home("r1"),
+    Command.explore("r1"), Command.convoy(["r1", "r2", "r3"]), Command.convoyStop("r1"), Command.peel("r2", 1, 2),
+    Command.yieldFor("r2", "r1"), Command.restart("r1", "perception")];
+  for (const request of sent) assert.equal(checkAgainstTable(request, table), "", JSON.stringify(request));
+  assert.match(checkAgainstTable({ name: "mode", robot: "r1" }, table), /usage: mode R MODE/);
+  assert.match(checkAgainstTable({ name: "gotoo", robot: "r1" }, table), /not one of cairn_base's commands/);
+});
 
 test("the command service has the CLI's semantics: the same refusal and reason", async () => {
   const viaGui = await command(Command.mode("r1", "manual"));

@@ -273,6 +273,10 @@ test("the holder starts an exploration from the robot tab, sees its frontiers an
   assert.ok((await page2.locator("#actions button").allInnerTexts()).every((b) => b !== "Explore"), "op2 holds no lock: no Explore");
   const before = await robotState(page1, "r1");
   await page1.evaluate(() => { window.cairn.state.lastResult = undefined; });
+  // Its tooltip is the command's help from cairn_base's command table (/cairn/commands).
+  const help = await page1.evaluate(() => window.cairn.state.commandTable.get("explore")?.help);
+  assert.ok(help, "the command table reached the page");
+  assert.equal(await page1.getByRole("button", { name: "Explore" }).getAttribute("title"), help);
   await page1.getByRole("button", { name: "Explore" }).click();
   const result = await waitFor("the explore answer", () => page1.evaluate(() => window.cairn.state.lastResult));
   assert.equal(result.ok, true, JSON.stringify(result));

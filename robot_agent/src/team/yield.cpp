@@ -434,6 +434,47 @@ YieldSituation WithPeerAndHistory(YieldSituation situation, const YieldCommand& 
   return situation;
 }
 
+namespace {
+
+// The point of a route (a polyline, metres) nearest `p`: its distance from p, how far along the route it
+// lies, and the route's direction there (unit; zero on a route of one point).
+struct RoutePoint {
+  double distance_m = std::numeric_limits<double>::infinity();
+  double along_m = 0.0;
+  Eigen::Vector2d direction = Eigen::Vector2d::Zero();
+};
+RoutePoint NearestOnRoute(const std::vector<Eigen::Vector2d>& route, const Eigen::Vector2d& p) {
+  RoutePoint nearest;
+  double s_along = 0.0;
+  for (std::size_t i = 0; i + 1 < route.size(); ++i) {
+    const Eigen::Vector2d ab = route[i + 1] - route[i];
+    const double len = ab.norm();
+    const double t = len > 1e-9 ? std::clamp((p - route[i]).dot(ab) / (len * len), 0.0, 1.0) : 0.0;
+    const double d = (route[i] + t * ab - p).norm();
+    if (d < nearest.distance_m) {
+      nearest.distance_m = d;
+      nearest.along_m = s_along + t * len;
+      if (len > 1e-9) nearest.direction = ab / len;
+    }
+    s_along += len;
+  }
+  return nearest;
+}
+
+// The request `own_id` sends a peer in its way: let it pass, keeping clear its route (the first 32 points).
+YieldCommand AskToPass(const std::string& own_id, std::uint32_t request_id, double radius_m,
+                       const std::vector<Eigen::Vector2d>& route) {
+  YieldCommand c;
+  c.sender_id = own_id;
+  c.request_id = request_id;
+  c.passing_id = own_id;
+  c.passing_radius_m = radius_m;
+  for (std::size_t i = 0; i < route.size() && i < 32; ++i) c.keep_clear_M.push_back(route[i]);
+  return c;
+}
+
+}  // namespace
+
 // ---- YieldAsker -------------------------------------------------------------------------------------------
 
 YieldAsker::YieldAsker(const YieldOptions& options, std::string own_id)
@@ -463,28 +504,18 @@ YieldAsk YieldAsker::Update(const YieldAskInputs& in) {
       continue;  // it drives on: not parked in the way
     const Eigen::Vector2d p(peer.pose_M.x_m, peer.pose_M.y_m);
     const double pass_m = in.radius_m + peer.footprint_radius_m + options_.margin_m;
-    // Along the route to the point nearest the peer.
-    double s_along = 0.0, best_d = std::numeric_limits<double>::infinity(), best_s = 0.0;
-    Eigen::Vector2d best_dir = Eigen::Vector2d::Zero();
-    for (std::size_t i = 0; i + 1 < route.size(); ++i) {
-      const Eigen::Vector2d ab = route[i + 1] - route[i];
-      const double len = ab.norm();
-      const double t = len > 1e-9 ? std::clamp((p - route[i]).dot(ab) / (len * len), 0.0, 1.0) : 0.0;
-      const double d = (route[i] + t * ab - p).norm();
-      if (d < best_d) {
-        best_d = d;
-        best_s = s_along + t * len;
-        if (len > 1e-9) best_dir = ab / len;
-      }
-      s_along += len;
+    const RoutePoint nearest = NearestOnRoute(route, p);
+    if (nearest.distance_m >= pass_m || nearest.along_m > options_.lookahead_m ||
+        nearest.along_m >= blocker_s) {
+      continue;
     }
-    if (best_d >= pass_m || best_s > options_.lookahead_m || best_s >= blocker_s) continue;
     if (!yielding_to_me) {
       if (!grid && in.grid) grid = in.grid();
-      if (!grid || nav::CanPassBeside(*grid, p, best_dir, pass_m, in.radius_m, /*along_m=*/0.5)) continue;
+      if (!grid || nav::CanPassBeside(*grid, p, nearest.direction, pass_m, in.radius_m, /*along_m=*/0.5))
+        continue;
     }
     blocker = &peer;
-    blocker_s = best_s;
+    blocker_s = nearest.along_m;
   }
   if (blocker == nullptr) {
     if (status_.state != YieldStatus::State::kNone) status_ = YieldStatus{};
@@ -498,13 +529,7 @@ YieldAsk YieldAsker::Update(const YieldAskInputs& in) {
   const double since_ask_s =
       asked == last_ask_s_.end() ? std::numeric_limits<double>::infinity() : in.now_s - asked->second;
   if (!yielding && since_ask_s >= (refused ? 5.0 : 1.0) * options_.ask_every_s) {
-    YieldCommand c;
-    c.sender_id = own_id_;
-    c.request_id = next_request_id_++;
-    c.passing_id = own_id_;
-    c.passing_radius_m = in.radius_m;
-    for (std::size_t i = 0; i < route.size() && i < 32; ++i) c.keep_clear_M.push_back(route[i]);
-    ask.request = std::move(c);
+    ask.request = AskToPass(own_id_, next_request_id_++, in.radius_m, route);
     ask.to_id = peer.robot_id;
     last_ask_s_[peer.robot_id] = in.now_s;
   }

@@ -15,7 +15,10 @@
 //                                              columns that changed (a new subscriber gets all of them)
 //   /ROBOT_ID/camera  foxglove.CompressedImage each robot's latest JPEG frame, as it arrives
 //   /events           foxglove.Log            operator events (arrived, failed, lost, locks, staircases, ...)
-// Service:  /cairn/command  {"command": "goto r1 12 4"} -> the CLI's --json result of that command line.
+//   /cairn/commands   cairn.CommandTable       the console's command table (name, usage, help, argument
+//                                              counts), once to each subscriber
+// Service:  /cairn/command  a structured command, {"name": "goto", "robot": "r1", "args": [12, 4]}, or a
+//           console line, {"command": "goto r1 12 4"} (gui_command.h) -> the CLI's --json result of it.
 // Client publish: /cairn/teleop  cairn.Teleop {"robot_id", "linear_x_mps", "angular_z_radps"[,
 // "linear_y_mps"]}:
 //   one teleop twist, clamped to the robot's limits as the CLI's teleop command does.

@@ -150,6 +150,18 @@ class Explorer {
   // good after two.
   Bar Barred(const FrontierCluster& c, double now_s) const;
   bool Visited(const FrontierCluster& c) const;
+  // Decide()'s pass over the clusters: the best candidate, the one followed (near the current target), the
+  // best of those barred only until their retry, and why the others are no candidates.
+  struct Tally {
+    const FrontierCluster* best = nullptr;
+    const FrontierCluster* followed = nullptr;
+    const FrontierCluster* retry = nullptr;
+    int candidates = 0, unreachable = 0, barred = 0, visited = 0, claimed = 0;
+    std::vector<std::string> claimers;  // peers whose claims took frontiers, in order
+  };
+  Tally Classify(const std::vector<FrontierCluster>& clusters, const TeamView& team) const;
+  // The decision on a tally (updates the current target).
+  ExplorerDecision Choose(const Tally& tally, const TeamView& team);
 
   ExplorerOptions options_;
   // True when a peer's claim takes `c` from this robot (see Decide()).

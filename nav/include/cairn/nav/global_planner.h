@@ -217,6 +217,19 @@ class GlobalPlanner {
                            const Eigen::Vector2d& worst_at) const;
   std::string DiagnoseUnreachable(const PlatformProfile& profile, const GlobalPlanRequest& request,
                                   const AStarOptions& astar);
+  // Plan()'s search over the map's levels (`levels`), then, for a route short of the goal when the request
+  // asks for a diagnosis, DiagnoseStepOnLevels().
+  void PlanOnLevels(const GlobalPlanRequest& request, const PlatformProfile& profile, AStarOptions astar,
+                    const MultiLevelGrid& levels, GlobalPlan* plan);
+  // The same request allowing higher steps: when that reaches the goal (or gets 0.5 m higher toward its
+  // level), this platform's step limit is what stops it; names the first step above it ("" when none).
+  std::string DiagnoseStepOnLevels(const GlobalPlanRequest& request, const PlatformProfile& profile,
+                                   const AStarOptions& astar, const Eigen::Vector3d& start_W,
+                                   const PlanResult& result);
+  // Plan()'s search on the main level's grid, with the nearest free point to a blocked goal and the
+  // diagnosis of an unreachable one.
+  void PlanOnGrid(const GlobalPlanRequest& request, const PlatformProfile& profile, const AStarOptions& astar,
+                  const TraversabilityGrid& grid, GlobalPlan* plan);
   // Sets map_memory_bytes_ from the map and the caches (mutex_ held).
   void CountMapMemoryLocked();
   // A plan for a goal beyond the map's extent (request.allow_partial): a partial plan to the map's edge

@@ -139,6 +139,12 @@ class MultiLevelGrid : public core::FootprintChecker {
   // Rebuilds the surfaces of the columns in `windows` ({x0, y0, x1, y1} inclusive; all when empty and
   // `whole`), then the clearances they affect.
   void Recompute(const std::vector<std::array<int, 4>>& windows, bool whole);
+  // Recompute()'s steps: the surfaces of the changed columns (the others keep theirs, and their clearance for
+  // now), returning the box {x0, y0, x1, y1} that holds the change; the observed columns within the robot
+  // radius around `changed`; the clearance by brushfire over connected surfaces around `changed`.
+  std::array<int, 4> RebuildSurfaces(const std::vector<std::array<int, 4>>& windows, bool whole);
+  void UpdateObservedNear(const std::array<int, 4>& changed);
+  void RecomputeClearance(const std::array<int, 4>& changed, bool whole);
   // The connected surface of column (jx, jy) for a surface at z, or -1 (blocked or unknown: see *unknown).
   int Connected(int jx, int jy, double z, bool* unknown) const;
 
