@@ -77,7 +77,7 @@ std::shared_ptr<nav::GlobalPlanner> MakePlanner(const AgentOptions& options, con
                              std::move(profiles));
 }
 
-std::unique_ptr<AgentDds> MakeDds(const AgentOptions& options) {
+std::shared_ptr<AgentLink> MakeDds(const AgentOptions& options) {
   AgentDdsOptions dds;
   dds.robot_id = options.robot_id;
   dds.domain_id = options.domain_id;
@@ -88,7 +88,7 @@ std::unique_ptr<AgentDds> MakeDds(const AgentOptions& options) {
   // it. Camera frames rely on theirs: a frame that cannot go out in time is replaced by the next.
   dds.map_budget_bits_per_s = options.perception.telemetry.budget_bits_per_s * 1.25;
   dds.camera_budget_bits_per_s = options.perception.camera_budget_bits_per_s;
-  return std::make_unique<AgentDds>(dds);
+  return std::make_shared<AgentDds>(dds);
 }
 
 // The local planner's library, from the cache when it has it (trajectory_library_cache.h).
@@ -101,6 +101,15 @@ std::shared_ptr<const nav::TrajectoryLibrary> LocalPlannerLibrary(const AgentOpt
     spdlog::info("robot {}: local planner library {}", options.robot_id, cached.how);
   }
   return std::move(cached.library);
+}
+
+// A stepped agent's options: every changed tile is read in the navigation map update it arrives with (the
+// largest budget), since on a simulated clock a wall-clock budget would make the map depend on how busy the
+// machine is.
+template <class Hosting>
+AgentOptions Hosted(AgentOptions options, const Hosting& hosting) {
+  if (hosting.clock) options.nav_map.update_budget_s = 10.0;
+  return options;
 }
 
 std::shared_ptr<core::PlatformIO> Checked(std::shared_ptr<core::PlatformIO> platform) {
@@ -140,18 +149,30 @@ struct PeriodWindow {
 
 class RobotAgent::Impl {
  public:
-  Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform);
+  // Where the agent runs: both null for the shipping agent (DDS, the machine's clock, Run()); both set for a
+  // stepped one (RobotAgent::Stepped).
+  struct Hosting {
+    std::shared_ptr<AgentLink> link;
+    std::shared_ptr<core::SimulatedClock> clock;
+  };
+  Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform, Hosting hosting);
   ~Impl() {
-    if (dds_) dds_->StopListening();  // no handler runs while the rest goes (the handlers use dds_ too)
+    if (link_) link_->StopListening();  // no handler runs while the rest goes (the handlers use link_ too)
     if (parts_.monitor) parts_.monitor->StopAll();  // the component threads end before what they use
     ExitIfWorkStillRuns();
-    dds_.reset();
+    link_.reset();
     come_home_.Abandon(navigation_);
     if (modes_) modes_->missions().Abandon();
   }
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
   void Run();
+  // A stepped agent's cycle at `now_s` on its clock (RobotAgent::Step).
+  void StepOnce(double now_s);
+  bool planning() const { return modes_->explore().planning() || modes_->missions().planning(); }
+  bool stepped() const { return lockstep_.has_value(); }
+  const RobotModes& modes() const { return *modes_; }
+  const Navigation& navigation() const { return navigation_; }
   bool restart_requested() const { return restart_requested_.load(); }
   // What of the threaded components' work did not stop when asked ("" = nothing). Their transitions' thread
   // (the health monitor's, or after StopAll() any).
@@ -191,6 +212,14 @@ class RobotAgent::Impl {
     int local_plan = 1;
     int peer_state = 1;
   };
+  // The cycle rates of the options (state, local plan, peer state).
+  CycleRates Rates() const {
+    auto cycles_per = [](double rate_hz) {
+      return std::max(1, static_cast<int>(std::lround(1.0 / (rate_hz * kLoopPeriodS))));
+    };
+    return {cycles_per(options_.state_rate_hz), cycles_per(options_.local_plan_rate_hz),
+            cycles_per(options_.peers.rate_hz)};
+  }
   // What a control cycle hands out, sent once the agent lock is released: Fast DDS hands a sample to this
   // participant's own readers on the writing thread, and their callbacks take the agent lock.
   struct CycleOutbox {
@@ -250,19 +279,28 @@ class RobotAgent::Impl {
     return in;
   }
   void SendClaim(const ExploreClaim& claim) {
-    if (!dds_->Publish(claim))
+    if (!link_->Publish(claim))
       spdlog::warn("robot {}: explore claim not sent (DDS history full)", options_.robot_id);
   }
   double NowS(SteadyTime t) const { return core::SecondsBetween(start_time_, t); }
 
   AgentOptions options_;
-  // What the agent's logic reads the time from (the modes, the command interface, missions, claims); the
-  // control loop paces itself on the machine's clock (Run).
-  std::shared_ptr<const core::Clock> clock_ = core::RealClock();
-  SteadyTime start_time_ = clock_->Now();
-  // The DDS participant and writers come first, so that discovery runs while the rest is built (~0.5 s: the
-  // trajectory library, the navigation grids); the readers come last (Listen). Destroyed first (~Impl).
-  std::unique_ptr<AgentDds> dds_;
+  // What the agent's logic reads the time from (the modes, the command interface, missions, claims,
+  // perception): the machine's clock, on which Run() also paces the control loop, or a stepped agent's.
+  std::shared_ptr<const core::Clock> clock_;
+  SteadyTime start_time_;
+  // A stepped agent's clock and when its loops are due next (none: the agent runs its own threads).
+  struct Lockstep {
+    std::shared_ptr<core::SimulatedClock> clock;
+    std::uint64_t cycle = 0;
+    double next_perception_s = 0.0;
+    double next_nav_map_s = 0.0;
+  };
+  std::optional<Lockstep> lockstep_;
+  // The communication (DDS, or a stepped agent's link). The DDS participant and writers come first, so that
+  // discovery runs while the rest is built (~0.5 s: the trajectory library, the navigation grids); the
+  // readers come last (Listen). Destroyed first (~Impl).
+  std::shared_ptr<AgentLink> link_;
   std::shared_ptr<core::PlatformIO> platform_;  // the robot: pose estimate, sensors, twist commands
   core::PlatformCapabilities capabilities_;
   core::BaseState start_M_;                      // pose estimate at start (the navigation map's centre)
@@ -330,81 +368,91 @@ class RobotAgent::Impl {
   void Resume(const JournalEntry& entry);
 };
 
-RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform)
-    : options_(options),
-      dds_(MakeDds(options)),
+RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
+                       Hosting hosting)
+    : options_(Hosted(options, hosting)),
+      clock_(hosting.clock ? hosting.clock : core::RealClock()),
+      start_time_(clock_->Now()),
+      lockstep_(hosting.clock ? std::optional<Lockstep>(Lockstep{hosting.clock}) : std::nullopt),
+      link_(hosting.link ? std::move(hosting.link) : MakeDds(options_)),
       platform_(Checked(std::move(platform))),
       capabilities_(platform_->Capabilities()),
       start_M_(StartPose(*platform_)),
-      planner_(MakePlanner(options, start_M_)),
+      planner_(MakePlanner(options_, start_M_)),
       reading_(start_M_),
-      navigation_(options.navigation, planner_, LocalPlannerLibrary(options)),
-      team_(options.robot_id, options.explore.team),
-      peers_(options.robot_id, options.peers),
+      navigation_(options_.navigation, planner_, LocalPlannerLibrary(options_)),
+      team_(options_.robot_id, options_.explore.team),
+      peers_(options_.robot_id, options_.peers),
       parts_(FaultInjector(
           [&] {
             std::vector<FaultInjection> faults;
-            for (const std::string& f : options.inject_faults) faults.push_back(ParseFaultInjection(f));
+            for (const std::string& f : options_.inject_faults) faults.push_back(ParseFaultInjection(f));
             return faults;
           }(),
           start_time_)) {
   perception_ = std::make_unique<PerceptionService>(
-      options, platform_, start_M_, planner_, start_time_,
+      options_, platform_, start_M_, planner_, clock_, start_time_,
       [this](const PerceptionOutput& out) { telemetry_->PublishPerception(out); });
-  const std::string tree_file = options.mode_tree_file.empty() ? DefaultTreeFile() : options.mode_tree_file;
+  const std::string tree_file = options_.mode_tree_file.empty() ? DefaultTreeFile() : options_.mode_tree_file;
   RobotModes::Hooks hooks;
   hooks.conditions = [this] { return Conditions(); };
   hooks.clear_obstacle_memory = [this] { perception_->ClearObstacleMemory(); };
   hooks.mission_commands = [this] { return command_->mission_commands(); };
   hooks.grid = [this] { return planner_->Grid(options_.navigation.platform.name); };
   hooks.clock = clock_;
-  modes_ = std::make_unique<RobotModes>(options_, tree_file, &navigation_, std::move(hooks));
-  command_ = std::make_unique<CommandInterface>(options.robot_id, options.lock, &modes_->control(),
+  modes_ = std::make_unique<RobotModes>(options_, tree_file, &navigation_, std::move(hooks),
+                                        lockstep_ ? RobotModes::Ids::kFromOne : RobotModes::Ids::kRandom);
+  command_ = std::make_unique<CommandInterface>(options_.robot_id, options_.lock, &modes_->control(),
                                                 modes_->waypoint().name(), CommandHooks());
   PlanningServiceOptions planning;
-  planning.robot_id = options.robot_id;
-  planning.platform = options.navigation.platform.name;
-  planning.path_queries_per_s = options.path_requests_per_s;
-  planning.map_max_extent_m = options.nav_map.max_extent_m;
+  planning.robot_id = options_.robot_id;
+  planning.platform = options_.navigation.platform.name;
+  planning.path_queries_per_s = options_.path_requests_per_s;
+  planning.map_max_extent_m = options_.nav_map.max_extent_m;
   planning_ = std::make_unique<PlanningService>(
       planning, planner_,
       PlanningService::Hooks{[this](const GoalCommand& goal, const nav::GlobalPlan& plan) {
                                std::lock_guard<std::mutex> guard(mutex_);
                                command_->OnGoalPlanned(goal, plan);
                              },
-                             [this](const PathAnswer& answer) { dds_->Send(answer); },
+                             [this](const PathAnswer& answer) { link_->Send(answer); },
                              [this](const Eigen::Vector2d& goal_M) { return perception_->CoverGoal(goal_M); },
                              [this] { return perception_->Staircases(); }});
-  if (capabilities_.has_lidar) {
+  if (lockstep_) {
+    // The sensors read once at time 0, as a running agent has them before an operator commands it.
+    perception_->ReadSensors();
+    perception_->FeedObstacles(navigation_);
+  } else if (capabilities_.has_lidar) {
     // The first scan before the robot announces itself ready, so that it can take a goal at once.
     perception_->WaitForFirstScan(std::chrono::seconds(5));
     if (!perception_->FeedObstacles(navigation_)) {
       spdlog::warn("robot {}: no lidar scan within 5 s of start; waypoint driving waits for one",
-                   options.robot_id);
+                   options_.robot_id);
     }
   }
   telemetry_ =
-      std::make_unique<Telemetry>(options, dds_.get(), &modes_->control(), &modes_->waypoint(),
+      std::make_unique<Telemetry>(options_, link_.get(), &modes_->control(), &modes_->waypoint(),
                                   &modes_->explore(), &modes_->convoy(), &navigation_, command_.get());
-  if (options.resumed) Resume(*options.resumed);
-  if (!options.journal_dir.empty()) {
+  if (options_.resumed) Resume(*options_.resumed);
+  if (!options_.journal_dir.empty()) {
     std::function<void(const std::string&)> save_map;
-    if (options.perception.enabled) {
+    if (options_.perception.enabled) {
       save_map = [this](const std::string& path) { perception_->SaveMapSnapshot(path); };
     }
-    journal_ = std::make_unique<JournalWriter>(options.journal_dir, options.journal_map_every_s, save_map);
+    journal_ = std::make_unique<JournalWriter>(options_.journal_dir, options_.journal_map_every_s, save_map);
     std::lock_guard<std::mutex> guard(mutex_);
     journal_->Submit(JournalNow());
   }
   MakeComponents();
-  dds_->Listen(DdsHandlers());
+  if (lockstep_) parts_.monitor->StartAll();  // the control cycle's parts only: no thread of its own
+  link_->Listen(DdsHandlers());
   telemetry_->PublishAgentInfo(capabilities_, kVersion);
   telemetry_->PublishGlobalPathIfChanged();  // an empty path: late joiners see "no goal"
   spdlog::info(
       "robot {} ({}) ready on platform {} ({}) at ({:.2f}, {:.2f}, yaw {:.2f}) in its map frame on DDS "
       "domain {}",
-      options.robot_id, options.platform, capabilities_.driver, capabilities_.description, start_M_.x_m,
-      start_M_.y_m, start_M_.yaw_rad, options.domain_id);
+      options_.robot_id, options_.platform, capabilities_.driver, capabilities_.description, start_M_.x_m,
+      start_M_.y_m, start_M_.yaw_rad, options_.domain_id);
 }
 
 void RobotAgent::Impl::Resume(const JournalEntry& entry) {
@@ -458,11 +506,11 @@ JournalEntry RobotAgent::Impl::JournalNow() const {
 
 void RobotAgent::Impl::ShareRadioLink() {
   if (!core::IsRadioLink(options_.link) || !options_.perception.enabled) return;
-  const int robots = std::max(1, dds_->RobotsOnLink());
+  const int robots = std::max(1, link_->RobotsOnLink());
   if (robots == robots_on_link_) return;
   robots_on_link_ = robots;
   perception_->SetLinkShare(1.0 / robots);
-  const int flow_share = dds_->SetBulkShare(robots);
+  const int flow_share = link_->SetBulkShare(robots);
   spdlog::info(
       "robot {}: {} robots share the {} kbit/s radio link: map telemetry {:.0f} bit/s, camera {:.0f} bit/s "
       "(DDS flow controllers at 1/{} of theirs)",
@@ -475,7 +523,7 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
   CommandInterface::Hooks hooks;
   hooks.conditions = [this] { return Conditions(); };
   hooks.send = [this](const CommandReply& reply) {
-    dds_->Send(reply);
+    link_->Send(reply);
     telemetry_->RequestWholeState();  // its sender may read the state the command left behind
   };
   // Planned on the planning thread, never on the DDS thread that holds the agent lock.
@@ -541,7 +589,8 @@ void RobotAgent::Impl::PublishPeerState() {
     q.z_m(static_cast<float>(p.z()));
     m.path_ahead_M().push_back(q);
   }
-  if (!dds_->Publish(m)) spdlog::debug("robot {}: peer state not sent (DDS history full)", options_.robot_id);
+  if (!link_->Publish(m))
+    spdlog::debug("robot {}: peer state not sent (DDS history full)", options_.robot_id);
 }
 
 AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
@@ -763,9 +812,11 @@ void RobotAgent::Impl::MakeComponents() {
   planning.heartbeat_deadline_s = 10.0;
   core::RestartPolicy control = base;
   control.heartbeat_deadline_s = 2.0;
-  parts_.monitor->Add(parts_.platform.get(), sensor);
-  parts_.monitor->Add(parts_.perception.get(), perception);
-  parts_.monitor->Add(parts_.planning.get(), planning);
+  if (!lockstep_) {  // a stepped agent runs their work on its caller's thread (StepOnce)
+    parts_.monitor->Add(parts_.platform.get(), sensor);
+    parts_.monitor->Add(parts_.perception.get(), perception);
+    parts_.monitor->Add(parts_.planning.get(), planning);
+  }
   for (core::Component* c : {static_cast<core::Component*>(parts_.command.get()),
                              static_cast<core::Component*>(parts_.mode_tree.get()),
                              static_cast<core::Component*>(parts_.mux.get()),
@@ -789,7 +840,7 @@ void RobotAgent::Impl::OnHealthEvent(const core::HealthEvent& event) {
 void RobotAgent::Impl::PublishHealthIfDue(SteadyTime now) {
   const std::optional<cairn_msgs::AgentHealth> m =
       health_report_.MessageIfDue(now, *parts_.monitor, late_control_cycles_.load());
-  if (m && !dds_->Publish(*m))
+  if (m && !link_->Publish(*m))
     spdlog::warn("robot {}: health not sent (DDS history full)", options_.robot_id);
 }
 
@@ -798,7 +849,7 @@ RobotAgent::Impl::CycleOutbox RobotAgent::Impl::LockedCycle(uint64_t cycle, Stea
   CycleOutbox out;
   const SteadyTime now = clock_->Now();
   const SteadyTime started = SteadyClock::now();
-  command_->OnParticipantsGone(dds_->TakeGoneParticipants(), now);
+  command_->OnParticipantsGone(link_->TakeGoneParticipants(), now);
   Step(now);
   if (resumable_goal_M_ && modes_->control().mode() != "idle")
     resumable_goal_M_.reset();  // the operator moved on
@@ -834,14 +885,14 @@ RobotAgent::Impl::CycleOutbox RobotAgent::Impl::LockedCycle(uint64_t cycle, Stea
 
 void RobotAgent::Impl::SendOutbox(CycleOutbox out) {
   if (out.claim) SendClaim(*out.claim);
-  if (out.yield_request && !dds_->Send(out.yield_request->first, out.yield_request->second)) {
+  if (out.yield_request && !link_->Send(out.yield_request->first, out.yield_request->second)) {
     spdlog::warn("robot {}: yield request to {} not sent (DDS history full)", options_.robot_id,
                  out.yield_request->first);
   }
   if (out.listen_to_peers) {
     // A robot that drives keeps clear of its peers: it reads their states from now on (outside the agent
     // lock, as the explore claims' endpoints are made).
-    dds_->ListenToPeers();
+    link_->ListenToPeers();
     listening_to_peers_ = true;
   }
 }
@@ -849,11 +900,7 @@ void RobotAgent::Impl::SendOutbox(CycleOutbox out) {
 void RobotAgent::Impl::Run() {
   const auto period =
       std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(kLoopPeriodS));
-  auto cycles_per = [](double rate_hz) {
-    return std::max(1, static_cast<int>(std::lround(1.0 / (rate_hz * kLoopPeriodS))));
-  };
-  const CycleRates every{cycles_per(options_.state_rate_hz), cycles_per(options_.local_plan_rate_hz),
-                         cycles_per(options_.peers.rate_hz)};
+  const CycleRates every = Rates();
   // The components' threads (sensor, perception, navigation map, planning) start, and their monitor watches
   // every component from now on. The lidar feeds navigation (live obstacles, the navigation map) even with
   // perception's outputs disabled.
@@ -891,6 +938,33 @@ void RobotAgent::Impl::Run() {
     core::WaitForShutdown(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
   }
   Leave();
+}
+
+void RobotAgent::Impl::StepOnce(double now_s) {
+  Lockstep& step = *lockstep_;
+  step.clock->SetSeconds(now_s);
+  // As Run()'s cycle: the control cycle under the agent lock, what it hands out, the health when due.
+  CycleOutbox outbox;
+  {
+    std::lock_guard<std::mutex> guard(mutex_);
+    outbox = LockedCycle(step.cycle++, SteadyClock::now(), Rates());
+  }
+  SendOutbox(std::move(outbox));
+  PublishHealthIfDue(clock_->Now());
+  // Then the threads' work at their periods on this clock: the sensor loop every cycle (it polls), perception
+  // and the navigation map when due, and the planning queued meanwhile (goals answered before the next
+  // cycle).
+  perception_->ReadSensors();
+  auto due = [now_s](double* next_s, double period_s) {
+    if (now_s < *next_s) return false;
+    *next_s += period_s;
+    if (*next_s <= now_s) *next_s = now_s + period_s;  // a step longer than the period: no burst
+    return true;
+  };
+  if (due(&step.next_perception_s, perception_->perception_period_s())) perception_->PerceptionTick();
+  if (due(&step.next_nav_map_s, options_.nav_map.update_period_s)) perception_->NavMapTick();
+  while (planning_->RunOnce(std::chrono::milliseconds(0))) {
+  }
 }
 
 void RobotAgent::Impl::Leave() {
@@ -932,7 +1006,7 @@ void RobotAgent::Impl::Leave() {
       if (options_.perception.enabled) {
         // The last changes (within the budget), and a moment for the asynchronous writer to deliver them.
         telemetry_->PublishPerception(perception_->Flush());
-        dds_->WaitForMapDelivery(std::chrono::seconds(1));
+        link_->WaitForMapDelivery(std::chrono::seconds(1));
       }
       perception_->Finish(options_.map_save_path);
     } catch (...) {
@@ -950,9 +1024,31 @@ void RobotAgent::Impl::Leave() {
 }
 
 RobotAgent::RobotAgent(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform)
-    : impl_(std::make_unique<Impl>(options, std::move(platform))) {}
+    : impl_(std::make_unique<Impl>(options, std::move(platform), Impl::Hosting{})) {}
+RobotAgent::RobotAgent(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 RobotAgent::~RobotAgent() = default;
-void RobotAgent::Run() { impl_->Run(); }
+
+std::unique_ptr<RobotAgent> RobotAgent::Stepped(const AgentOptions& options,
+                                                std::shared_ptr<core::PlatformIO> platform,
+                                                std::shared_ptr<AgentLink> link,
+                                                std::shared_ptr<core::SimulatedClock> clock) {
+  if (!link) throw std::invalid_argument("RobotAgent::Stepped: link is null");
+  if (!clock) throw std::invalid_argument("RobotAgent::Stepped: clock is null");
+  return std::unique_ptr<RobotAgent>(new RobotAgent(std::make_unique<Impl>(
+      options, std::move(platform), Impl::Hosting{std::move(link), std::move(clock)})));
+}
+
+void RobotAgent::Run() {
+  if (impl_->stepped()) throw std::logic_error("RobotAgent::Run on a stepped agent (use Step)");
+  impl_->Run();
+}
+void RobotAgent::Step(double now_s) {
+  if (!impl_->stepped()) throw std::logic_error("RobotAgent::Step on an agent that runs its own threads");
+  impl_->StepOnce(now_s);
+}
+bool RobotAgent::planning() const { return impl_->planning(); }
+const RobotModes& RobotAgent::modes() const { return impl_->modes(); }
+const Navigation& RobotAgent::navigation() const { return impl_->navigation(); }
 bool RobotAgent::restart_requested() const { return impl_->restart_requested(); }
 
 }  // namespace cairn::agent

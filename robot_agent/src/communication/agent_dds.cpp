@@ -61,15 +61,6 @@ msgs::CommandResult ResultOf(CommandResult result) {
   return msgs::COMMAND_RESULT_DISCARDED;
 }
 
-AgentDdsHandlers Checked(AgentDdsHandlers h) {
-  if (!h.control || !h.mode || !h.goal || !h.explore || !h.convoy || !h.home || !h.stop || !h.restart ||
-      !h.teleop || !h.base_announced || !h.base_liveliness || !h.path_query || !h.map_sync ||
-      !h.explore_claim || !h.peer_state || !h.yield) {
-    throw std::invalid_argument("AgentDds: every handler is required");
-  }
-  return h;
-}
-
 }  // namespace
 
 ExploreClaim ClaimFromMessage(const msgs::ExploreClaim& m, std::string* fault) {
@@ -311,7 +302,8 @@ class AgentDds::Impl {
   // Each reader keeps only what is addressed to this robot and hands it on as a plain struct.
   void MakeReaders(AgentDdsHandlers handlers) {
     if (listening_) throw std::logic_error("AgentDds::Listen called twice");
-    handlers_ = Checked(std::move(handlers));
+    RequireAllHandlers(handlers);
+    handlers_ = std::move(handlers);
     listening_ = true;
     core::Participant& p = *participant_;
     const std::string& robot = options_.robot_id;

@@ -131,7 +131,7 @@ void SetMission(const RobotStateInputs& in, msgs::RobotState* state) {
 
 }  // namespace
 
-Telemetry::Telemetry(const AgentOptions& options, AgentDds* dds, const ModeControl* modes,
+Telemetry::Telemetry(const AgentOptions& options, AgentLink* link, const ModeControl* modes,
                      const WaypointMode* waypoint, const ExploreMode* explore, const ConvoyMode* convoy,
                      const Navigation* navigation, CommandInterface* command)
     : robot_id_(options.robot_id),
@@ -141,7 +141,7 @@ Telemetry::Telemetry(const AgentOptions& options, AgentDds* dds, const ModeContr
       footprint_radius_m_(options.navigation.platform.footprint_radius_m),
       link_(options.link),
       map_resolution_m_(options.perception.enabled ? options.perception.map.resolution_m : 0.0),
-      dds_(Required(dds, "dds")),
+      agent_link_(Required(link, "link")),
       modes_(Required(modes, "modes")),
       waypoint_(Required(waypoint, "waypoint")),
       explore_(Required(explore, "explore")),
@@ -169,7 +169,7 @@ void Telemetry::PublishAgentInfo(const core::PlatformCapabilities& capabilities,
   info.link(link_.link);
   info.link_kbps(core::StatedBudgetKbps(link_));
   info.stamp(cairn::msgs::WallStampNow());
-  dds_->Publish(info);
+  agent_link_->Publish(info);
 }
 
 void Telemetry::PublishState(const RobotStateInputs& in) {
@@ -234,13 +234,13 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
       next_link_usage_s_ = now_s + 1.0;
       AddLinkUsage(now_s, &m);
     }
-    dds_->Publish(m);
+    agent_link_->Publish(m);
   }
-  dds_->Publish(pose);
+  agent_link_->Publish(pose);
 }
 
 void Telemetry::AddLinkUsage(double now_s, msgs::RobotState* state) {
-  for (const SentRate& rate : link_usage_.Update(now_s, dds_->SentByClass())) {
+  for (const SentRate& rate : link_usage_.Update(now_s, agent_link_->SentByClass())) {
     msgs::LinkClassUsage usage;
     usage.topic_class(rate.total.topic_class);
     usage.sent_kbps(rate.sent_kbps);
@@ -278,7 +278,7 @@ void Telemetry::PublishTreeStateIfChanged() {
     n.status(bt::ToString(tree.LastTickStatus(node)));
     t.nodes().push_back(n);
   });
-  dds_->Publish(t);
+  agent_link_->Publish(t);
 }
 
 void Telemetry::PublishGlobalPathIfChanged() {
@@ -297,7 +297,7 @@ void Telemetry::PublishGlobalPathIfChanged() {
   }
   m.map_version(plan.map_version);
   m.replans(static_cast<uint32_t>(navigation_->replans()));
-  dds_->Publish(m);
+  agent_link_->Publish(m);
 }
 
 void Telemetry::PublishLocalPlan() {
@@ -329,7 +329,7 @@ void Telemetry::PublishLocalPlan() {
   }
   m.obstacle_points(static_cast<uint32_t>(r.num_points_used));
   m.cycle_time_ms(r.planning_time_s * 1000.0);
-  dds_->Publish(m);
+  agent_link_->Publish(m);
 }
 
 void Telemetry::PublishPerception(const PerceptionOutput& out) {
@@ -346,7 +346,7 @@ void Telemetry::PublishPerception(const PerceptionOutput& out) {
     m.resolution_m(update.resolution_m);
     m.encoding("cairn-coarse-zstd-v1");
     m.data(update.data);
-    if (!dds_->Publish(m)) {
+    if (!agent_link_->Publish(m)) {
       spdlog::warn("robot {}: map update seq {} not written (history full)", robot_id_, update.seq);
     }
   }
@@ -364,7 +364,7 @@ void Telemetry::PublishPerception(const PerceptionOutput& out) {
     m.num_steps(static_cast<uint16_t>(s.num_steps));
     m.confidence(s.confidence);
     m.detections(static_cast<uint32_t>(entry.detections));
-    dds_->Publish(m);
+    agent_link_->Publish(m);
     spdlog::info(
         "robot {}: staircase {} at ({:.2f}, {:.2f}, {:.2f}) yaw {:.2f}: {} steps, rise {:.3f} m, run {:.3f} "
         "m, "
@@ -383,7 +383,7 @@ void Telemetry::PublishPerception(const PerceptionOutput& out) {
     m.height_px(static_cast<uint16_t>(out.camera->height_px));
     m.pose_MC(PoseOf(out.camera->T_W_C));
     m.data(out.camera->jpeg);
-    dds_->Publish(m);  // keep-last 1: an unsent frame is replaced by this one (dropped, never queued)
+    agent_link_->Publish(m);  // keep-last 1: an unsent frame is replaced by this one (dropped, never queued)
   }
 }
 

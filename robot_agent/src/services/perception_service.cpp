@@ -39,12 +39,14 @@ void LogUpdate(const std::string& robot_id, const NavMapUpdateStats& stats) {
 
 PerceptionService::PerceptionService(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
                                      const core::BaseState& start_M,
-                                     std::shared_ptr<nav::GlobalPlanner> planner, core::SteadyTime start_time,
+                                     std::shared_ptr<nav::GlobalPlanner> planner,
+                                     std::shared_ptr<const core::Clock> clock, core::SteadyTime start_time,
                                      std::function<void(const PerceptionOutput&)> publish)
     : options_(options),
       platform_(Required(std::move(platform), "platform")),
       capabilities_(platform_->Capabilities()),
       planner_(Required(std::move(planner), "planner")),
+      clock_(Required(std::move(clock), "clock")),
       start_time_(start_time),
       publish_(Required(std::move(publish), "publish")),
       live_obstacle_sensor_(options.navigation, options.obstacle_window_s,
@@ -111,7 +113,7 @@ void PerceptionService::SensorLoop(core::WorkLoop& loop) {
       // input goes stale and the robot stops (navigation.obstacle_timeout_s).
       core::ScopedCpu cpu(loop.component());
       if (fault_hook_) fault_hook_("platform");
-      if (capabilities_.has_lidar) ReadScan(NowS());
+      ReadSensors();
     }
     next += period;
     const auto now = core::SteadyClock::now();
@@ -121,10 +123,8 @@ void PerceptionService::SensorLoop(core::WorkLoop& loop) {
 }
 
 void PerceptionService::PerceptionLoop(core::WorkLoop& loop) {
-  const double rate_hz = capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0;
-  const auto period =
-      std::chrono::duration_cast<core::SteadyClock::duration>(std::chrono::duration<double>(0.5 / rate_hz));
-  core::CameraImage image;
+  const auto period = std::chrono::duration_cast<core::SteadyClock::duration>(
+      std::chrono::duration<double>(perception_period_s()));
   core::SteadyTime next = core::SteadyClock::now();
   // Between the steps of a tick: a slow tick still beats (slow, not hung). Dropped when this loop ends.
   perception_->SetProgress([&loop] { loop.Beat(); });
@@ -135,28 +135,37 @@ void PerceptionService::PerceptionLoop(core::WorkLoop& loop) {
   } drop_progress{perception_.get()};
   while (loop.Running()) {
     loop.Beat();
-    const double now_s = NowS();
     {
       // A fault ends the loop: its component (perception) is restarted alone; the robot drives on without it
       // where its modes allow (the mode tree's IsComponentUp).
       core::ScopedCpu cpu(loop.component());
       if (fault_hook_) fault_hook_("perception");
-      std::shared_ptr<core::LidarScan> scan;
-      {
-        std::lock_guard<std::mutex> guard(scan_mutex_);
-        scan.swap(latest_scan_);
-      }
-      if (map_snapshot_requested_.exchange(false)) perception_->RequestMapSnapshot();
-      const bool has_image = capabilities_.has_camera && perception_->CameraDue(now_s) &&
-                             platform_->ReadCameraImage(now_s, &image);
-      publish_(perception_->Tick(now_s, scan.get(), has_image ? &image : nullptr));
-      map_memory_bytes_ = perception_->map()->MemoryBytes();
+      PerceptionTick();
     }
     next += period;
     const auto now = core::SteadyClock::now();
     if (next < now) next = now;  // over budget: the next scan comes late, never a burst
     loop.WaitFor(std::chrono::duration_cast<std::chrono::milliseconds>(next - now));
   }
+}
+
+void PerceptionService::ReadSensors() {
+  if (capabilities_.has_lidar) ReadScan(NowS());
+}
+
+void PerceptionService::PerceptionTick() {
+  const double now_s = NowS();
+  std::shared_ptr<core::LidarScan> scan;
+  {
+    std::lock_guard<std::mutex> guard(scan_mutex_);
+    scan.swap(latest_scan_);
+  }
+  if (map_snapshot_requested_.exchange(false)) perception_->RequestMapSnapshot();
+  core::CameraImage image;
+  const bool has_image =
+      capabilities_.has_camera && perception_->CameraDue(now_s) && platform_->ReadCameraImage(now_s, &image);
+  publish_(perception_->Tick(now_s, scan.get(), has_image ? &image : nullptr));
+  map_memory_bytes_ = perception_->map()->MemoryBytes();
 }
 
 void PerceptionService::SearchTheNewMap() {
@@ -215,29 +224,32 @@ void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
     if (next < core::SteadyClock::now()) next = core::SteadyClock::now() + period;
     core::ScopedCpu cpu(loop.component());
     if (fault_hook_) fault_hook_("navigation_map");
-    const double work_start_s = NowS();
-    map_progress_s_ = work_start_s;
-    map_work_started_s_ = work_start_s;
-    const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
-    // With no changed tile, Update() still grows the map when a goal beyond it asked to.
-    const NavMapUpdateStats stats =
-        nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m(),
-                         perception_->max_sensor_z_m(), perception_->Staircases());
-    loop.Beat();
-    map_progress_s_ = NowS();
-    SearchTheNewMap();
-    // The map and what is computed on it (frontiers, seen coverage) are done: how long that took sets how old
-    // the map may grow before it counts as not kept up (MappingHealthy()).
-    const double done_s = NowS();
-    const double work_s = done_s - work_start_s;
-    const double slowest_s = map_work_slowest_s_.load();
-    // The slowest of the recent iterations: one slow update raises it at once; it decays by 10 % a time.
-    map_work_slowest_s_ = std::max(work_s, 0.9 * slowest_s);
-    last_map_update_s_ = done_s;
-    map_progress_s_ = done_s;
-    map_work_started_s_ = -1e9;
-    LogUpdate(options_.robot_id, stats);
+    NavMapTick([&loop] { loop.Beat(); });
   }
+}
+
+void PerceptionService::NavMapTick(const std::function<void()>& beat) {
+  const double work_start_s = NowS();
+  map_progress_s_ = work_start_s;
+  map_work_started_s_ = work_start_s;
+  const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
+  // With no changed tile, Update() still grows the map when a goal beyond it asked to.
+  const NavMapUpdateStats stats = nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m(),
+                                                   perception_->max_sensor_z_m(), perception_->Staircases());
+  if (beat) beat();
+  map_progress_s_ = NowS();
+  SearchTheNewMap();
+  // The map and what is computed on it (frontiers, seen coverage) are done: how long that took sets how old
+  // the map may grow before it counts as not kept up (MappingHealthy()).
+  const double done_s = NowS();
+  const double work_s = done_s - work_start_s;
+  const double slowest_s = map_work_slowest_s_.load();
+  // The slowest of the recent iterations: one slow update raises it at once; it decays by 10 % a time.
+  map_work_slowest_s_ = std::max(work_s, 0.9 * slowest_s);
+  last_map_update_s_ = done_s;
+  map_progress_s_ = done_s;
+  map_work_started_s_ = -1e9;
+  LogUpdate(options_.robot_id, stats);
 }
 
 void PerceptionService::SetFrontierSearch(const std::optional<nav::FrontierOptions>& search,

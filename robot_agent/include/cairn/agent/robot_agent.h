@@ -7,7 +7,11 @@
 #include <memory>
 
 #include "cairn/agent/agent_options.h"
+#include "cairn/agent/communication/agent_link.h"
+#include "cairn/agent/modes/robot_modes.h"
+#include "cairn/agent/services/navigation.h"
 #include "cairn/core/platform_io.h"
+#include "cairn/core/time.h"
 
 namespace cairn::agent {
 
@@ -23,8 +27,34 @@ class RobotAgent {
   RobotAgent(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform);
   ~RobotAgent();
 
+  /// The same agent stepped by its caller on `clock`, on the caller's thread, talking over `link` (an
+  /// InProcessLink of an InProcessTeam: scenario tests and benches run a fleet faster than real time and
+  /// deterministically). Same components, same wiring, same command path (commands come in through `link`'s
+  /// handlers, replies go out through it); what differs: no thread of its own (each Step() runs the control
+  /// cycle, then the sensor, perception and navigation map loops when due on `clock`, then the planning
+  /// queued), the health monitor watches the control cycle's parts but never checks heartbeats (no restart
+  /// on a stall), goal and task ids count from 1, and the navigation map reads every changed tile in the
+  /// update it arrives with (no wall-clock budget). The agent's time 0 is `clock`'s time at construction.
+  /// @throws std::invalid_argument for a null link or clock, and as the constructor above.
+  static std::unique_ptr<RobotAgent> Stepped(const AgentOptions& options,
+                                             std::shared_ptr<core::PlatformIO> platform,
+                                             std::shared_ptr<AgentLink> link,
+                                             std::shared_ptr<core::SimulatedClock> clock);
+
   /// Control loop at 50 Hz until core::ShutdownRequested(). The robot is stopped when it returns.
+  /// @throws std::logic_error on a stepped agent.
   void Run();
+  /// A stepped agent's cycle: `clock` set to `now_s` (seconds since its epoch, not before its time now;
+  /// cycles expected every 0.02 s), then as described at Stepped(). @throws std::logic_error on an agent that
+  /// runs its own threads; std::invalid_argument for a time before the clock's.
+  void Step(double now_s);
+  /// A stepped agent: true while a plan its next Step() needs is computed on a worker (the explore mode's, a
+  /// mission's resumption): the caller waits (wall time) before stepping on, so that results do not depend on
+  /// the machine's speed.
+  bool planning() const;
+  /// A stepped agent, between Step() calls: its modes and navigation (what the tests read).
+  const RobotModes& modes() const;
+  const Navigation& navigation() const;
   /// After Run(): it ended because a component's work did not stop when asked and the agent is supervised
   /// (AgentOptions::supervised). That work may still run: leave with kRestartExitStatus at once (std::_Exit),
   /// without destroying the agent, and the supervisor starts the process again from its journal.
@@ -34,6 +64,7 @@ class RobotAgent {
 
  private:
   class Impl;
+  explicit RobotAgent(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
 

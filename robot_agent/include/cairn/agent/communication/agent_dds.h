@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "cairn/agent/command/commands.h"
+#include "cairn/agent/communication/agent_link.h"
 #include "cairn/agent/team/explore_claims.h"
 #include "cairn/agent/team/peers.h"
 #include "cairn/agent/team/yield.h"
@@ -69,53 +70,10 @@ struct AgentDdsOptions {
   core::SecurityOptions security;
 };
 
-/// Messages dropped because the sender id they carry is not the certificate they came under (DDS Security
-/// only; AgentHealth.forged_senders).
-struct ForgedSenders {
-  std::uint64_t count = 0;
-  std::string last;  ///< the newest: topic, the id claimed and the certificate's id
-};
-
-/// What the agent has sent in one topic class (AgentDds::SentByClass), cumulative since it started.
-struct SentTraffic {
-  std::string
-      topic_class;  ///< "command" | "state" | "tree" | "team" | "map" | "camera" (cairn_msgs::LinkClassUsage)
-  std::uint64_t bytes = 0;  ///< serialized samples (CDR with encapsulation), bytes
-  std::uint64_t samples = 0;
-};
-
-/// Where incoming messages go. Called on Fast DDS's threads, possibly concurrently: each handler does its own
-/// locking. Every handler is required.
-struct AgentDdsHandlers {
-  std::function<void(const ControlCommand&)> control;
-  std::function<void(const ModeCommand&)> mode;
-  std::function<void(const GoalCommand&)> goal;
-  std::function<void(const ExploreCommand&)> explore;
-  std::function<void(const ConvoyCommand&)> convoy;
-  std::function<void(const HomeCommand&)> home;
-  std::function<void(const StopCommand&)> stop;
-  std::function<void(const RestartCommand&)> restart;
-  std::function<void(const TeleopCommand&)> teleop;
-  std::function<void(const BaseAnnouncement&)> base_announced;   ///< agent info of a basestation
-  std::function<void(const WriterLiveliness&)> base_liveliness;  ///< its agent-info writer's liveliness
-  std::function<void(const PathQuery&)> path_query;
-  std::function<void(const std::string& requester_id)> map_sync;  ///< a map snapshot is asked for
-  /// A peer robot's explore claim (its own are not handed on); `fault` is "" or why its coverage could not be
-  /// read (the field and value; the claim is then handed on without coverage and must be dropped).
-  std::function<void(const ExploreClaim& claim, const std::string& fault)> explore_claim;
-  /// A peer robot's state (cairn/peer_state; its own are not handed on), after ListenToPeers(). Not checked
-  /// here: the receiver checks it (CheckPeerBody).
-  std::function<void(const PeerBody& peer)> peer_state;
-  /// A yield request for this robot (cairn/yield_request, from a peer robot or a basestation); `fault` is ""
-  /// or why it cannot be read (an unknown action, named with its value; it must then be refused, not acted
-  /// on). Not checked otherwise: the receiver checks it (CheckYieldCommand).
-  std::function<void(const YieldCommand& request, const YieldOrigin& origin, const std::string& fault)> yield;
-};
-
 /// The robot's DDS entities. Construction is a checked chain (participant, writers); Listen() adds the
 /// readers. Any failure throws and what exists is torn down. Readers go first at destruction, so no handler
 /// runs while the rest goes.
-class AgentDds {
+class AgentDds final : public AgentLink {
  public:
   /// Creates the participant and the writers. @throws core::DdsError naming the profile, topic or entity;
   /// std::invalid_argument for a bad domain id.
@@ -123,69 +81,69 @@ class AgentDds {
   /// Creates the readers: from now on the handlers are called (so everything they use must exist, and the
   /// writers replies go through already do). Call once. @throws std::invalid_argument for a missing handler,
   /// std::logic_error for a second call, core::DdsError as the constructor.
-  void Listen(AgentDdsHandlers handlers);
+  void Listen(AgentDdsHandlers handlers) override;
   ~AgentDds();
   /// Deletes the readers: once it returns no handler runs (nor will), while the writers still send. Call
   /// before tearing down what the handlers use. Not thread-safe with Listen().
-  void StopListening();
+  void StopListening() override;
   AgentDds(const AgentDds&) = delete;
   AgentDds& operator=(const AgentDds&) = delete;
 
   /// Remote processes that left the domain or were dropped since the last call (participant discovery sees
   /// every process, announced or not). Collected on Fast DDS's discovery thread, which must never wait for
   /// the agent's lock; the control loop takes them.
-  std::vector<std::string> TakeGoneParticipants();
+  std::vector<std::string> TakeGoneParticipants() override;
 
   /// A command's reply, as a CommandResponse.
-  void Send(const CommandReply& reply);
+  void Send(const CommandReply& reply) override;
   /// A path query's answer, as a PathResponse.
-  void Send(const PathAnswer& answer);
+  void Send(const PathAnswer& answer) override;
   /// Telemetry as built by the caller. Each returns false when Fast DDS refuses the sample (history full).
   /// The health message gets forged_senders and last_forged_sender (ForgedSendersSoFar()) here.
-  bool Publish(const cairn_msgs::AgentInfo& info);
-  bool Publish(const cairn_msgs::RobotState& state);
-  bool Publish(const cairn_msgs::AgentHealth& health);
-  bool Publish(const cairn_msgs::RobotPose& pose);
-  bool Publish(const cairn_msgs::BehaviorTreeState& tree);
-  bool Publish(const cairn_msgs::GlobalPath& path);
-  bool Publish(const cairn_msgs::LocalPlan& plan);
-  bool Publish(const cairn_msgs::MapUpdate& update);
-  bool Publish(const cairn_msgs::CompressedImage& image);
-  bool Publish(const cairn_msgs::StaircaseDetection& staircase);
+  bool Publish(const cairn_msgs::AgentInfo& info) override;
+  bool Publish(const cairn_msgs::RobotState& state) override;
+  bool Publish(const cairn_msgs::AgentHealth& health) override;
+  bool Publish(const cairn_msgs::RobotPose& pose) override;
+  bool Publish(const cairn_msgs::BehaviorTreeState& tree) override;
+  bool Publish(const cairn_msgs::GlobalPath& path) override;
+  bool Publish(const cairn_msgs::LocalPlan& plan) override;
+  bool Publish(const cairn_msgs::MapUpdate& update) override;
+  bool Publish(const cairn_msgs::CompressedImage& image) override;
+  bool Publish(const cairn_msgs::StaircaseDetection& staircase) override;
   /// This robot's explore claim (its coverage compressed here). The first call makes the claim writer and the
   /// reader of peers' claims (their handler runs from then on); call it outside any lock a handler takes
   /// (Fast DDS delivers to this participant's own reader, with liveliness callbacks, on the calling thread).
   /// false when Fast DDS refuses the sample. @throws std::logic_error before Listen(), core::DdsError.
-  bool Publish(const ExploreClaim& claim);
+  bool Publish(const ExploreClaim& claim) override;
   /// This robot's state for its peers (class "team"): written only while a reader of the topic is matched
   /// (its own too, once it listens). false when Fast DDS refuses the sample.
-  bool Publish(const cairn_msgs::PeerState& state);
+  bool Publish(const cairn_msgs::PeerState& state) override;
   /// Makes the reader of the peers' states (idempotent): the peer_state handler runs from then on. Call it
   /// when the robot first drives, outside any lock a handler takes. @throws std::logic_error before Listen(),
   /// core::DdsError.
-  void ListenToPeers();
+  void ListenToPeers() override;
   /// Asks robot `robot_id` to yield (cairn/yield_request, class "team"). The first call makes the writer;
   /// call it outside any lock a handler takes (Fast DDS delivers to this participant's own reader on the
   /// calling thread). false when Fast DDS refuses the sample. @throws core::DdsError.
-  bool Send(const std::string& robot_id, const YieldCommand& request);
+  bool Send(const std::string& robot_id, const YieldCommand& request) override;
   /// Messages dropped so far because their sender id is not the certificate they came under. Thread-safe.
-  ForgedSenders ForgedSendersSoFar() const;
+  ForgedSenders ForgedSendersSoFar() const override;
   /// What every writer has sent so far, grouped into the link's topic classes, in priority order: command
   /// (command and path answers, probe replies), state (robot state and pose, local plan, agent info,
   /// staircases), tree (behavior tree, global path), team (explore claims, peer states), map, camera.
   /// Thread-safe.
-  std::vector<SentTraffic> SentByClass() const;
+  std::vector<SentTraffic> SentByClass() const override;
   /// Robots sharing this robot's link now, itself included: the largest AgentInfo::robots_heard of the live
   /// basestations, at least 1. Robots never read one another (a fleet's discovery stays O(robots), not
   /// O(robots²)), so the basestations, which hear them all, tell them. Thread-safe.
-  int RobotsOnLink() const;
+  int RobotsOnLink() const override;
   /// A radio shared by `robots` robots: the map and camera writers move to flow controllers holding 1 / n of
   /// their budgets, n the smallest of 1, 2, 3, 4, 6, 8, 12, 16 at least `robots` (16 beyond). Replacing a
   /// writer drops its samples not yet sent (a basestation that misses map updates asks for a snapshot).
   /// Thread-safe. @return n; always 1 on a link other than radio (only a radio's controllers come in shares).
-  int SetBulkShare(int robots);
+  int SetBulkShare(int robots) override;
   /// Waits up to `timeout` for the map updates written so far to be acknowledged (at shutdown).
-  void WaitForMapDelivery(std::chrono::milliseconds timeout);
+  void WaitForMapDelivery(std::chrono::milliseconds timeout) override;
 
  private:
   class Impl;

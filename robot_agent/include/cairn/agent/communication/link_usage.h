@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "cairn/agent/communication/agent_dds.h"
+#include "cairn/agent/communication/agent_link.h"
 
 namespace cairn::agent {
 

@@ -13,7 +13,7 @@
 
 #include "cairn/agent/agent_options.h"
 #include "cairn/agent/command/command_interface.h"
-#include "cairn/agent/communication/agent_dds.h"
+#include "cairn/agent/communication/agent_link.h"
 #include "cairn/agent/communication/link_usage.h"
 #include "cairn/agent/modes/convoy_mode.h"
 #include "cairn/agent/modes/explore_mode.h"
@@ -51,7 +51,7 @@ struct RobotStateInputs {
 class Telemetry {
  public:
   /// Every pointer is required and (not owned) outlives this. @throws std::invalid_argument for a null one.
-  Telemetry(const AgentOptions& options, AgentDds* dds, const ModeControl* modes,
+  Telemetry(const AgentOptions& options, AgentLink* link, const ModeControl* modes,
             const WaypointMode* waypoint, const ExploreMode* explore, const ConvoyMode* convoy,
             const Navigation* navigation, CommandInterface* command);
 
@@ -63,7 +63,7 @@ class Telemetry {
   /// its link budget...) when due: at once after an urgent change (cairn::msgs::UrgentChange) or a command's
   /// answer (RequestWholeState), 0.5 s after the last one for any other change of its slow part, and at least
   /// once a second, then with what the robot sends per topic class (LinkUsageMeter over
-  /// AgentDds::SentByClass).
+  /// AgentLink::SentByClass).
   void PublishState(const RobotStateInputs& in);
   /// The next PublishState sends the whole state: a command was answered, and its sender reads the state it
   /// left behind (the basestation's `status` after a command).
@@ -94,7 +94,7 @@ class Telemetry {
   // state: a text that changes every cycle (the local planner's clearance in a tight spot) costs 2 whole
   // states a second, not 10. At least one a second, with the link usage.
   cairn::msgs::WholeStateSchedule whole_state_{0.5, 1.0};
-  AgentDds* dds_;
+  AgentLink* agent_link_;
   const ModeControl* modes_;
   const WaypointMode* waypoint_;
   const ExploreMode* explore_;

@@ -34,14 +34,15 @@ namespace cairn::agent {
 class PerceptionService {
  public:
   /// `platform` is read by the sensor and perception threads; `planner` is the one the navigation map feeds;
-  /// `start_M` centres the navigation map; `start_time` is the agent's clock origin (seconds since it are the
-  /// perception clock); `publish` sends one tick's telemetry (called on the perception thread).
-  /// @throws std::invalid_argument for a null platform, planner or publish; what NavMap and
-  /// PerceptionPipeline
-  ///         throw for invalid options.
+  /// `start_M` centres the navigation map; `clock` is the agent's (the machine's, or a simulated one for a
+  /// stepped agent) and `start_time` its origin (seconds since it are the perception clock); `publish` sends
+  /// one tick's telemetry (called on the perception thread).
+  /// @throws std::invalid_argument for a null platform, planner, clock or publish; what NavMap and
+  ///         PerceptionPipeline throw for invalid options.
   PerceptionService(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
                     const core::BaseState& start_M, std::shared_ptr<nav::GlobalPlanner> planner,
-                    core::SteadyTime start_time, std::function<void(const PerceptionOutput&)> publish);
+                    std::shared_ptr<const core::Clock> clock, core::SteadyTime start_time,
+                    std::function<void(const PerceptionOutput&)> publish);
 
   /// Before the threads start: waits up to `timeout` for the first scan, so that the robot can take a goal as
   /// soon as it announces itself. true when one came (and false at once without a lidar).
@@ -106,6 +107,17 @@ class PerceptionService {
   /// map every update_period_s, growing it as the robot maps beyond it or is sent beyond it, until `loop`
   /// stops. A fault is thrown.
   void NavMapLoop(core::WorkLoop& loop);
+  /// One iteration of each loop, for a stepped agent (RobotAgent::Stepped) that runs them on its own thread
+  /// at their periods on its clock: ReadSensors() the sensor loop's (a new lidar scan, if the platform has
+  /// one), PerceptionTick() the perception loop's, NavMapTick() the navigation map loop's (`beat`, if set, is
+  /// called between its steps). Not concurrently with the loops nor with one another. A fault is thrown.
+  void ReadSensors();
+  void PerceptionTick();
+  /// The perception loop's period, seconds: half the lidar's (10 Hz when the platform does not say).
+  double perception_period_s() const {
+    return 0.5 / (capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0);
+  }
+  void NavMapTick(const std::function<void()>& beat = {});
   /// Test hook (--inject-fault): called with the component's name at the top of every iteration of its loops
   /// ("platform", "perception"; "navigation_map" at the top of each navigation map update, on the perception
   /// component's second loop); it may throw, hang or be slow. Set before the loops start.
@@ -130,7 +142,7 @@ class PerceptionService {
   void SearchTheNewMap();
   // Reads a scan if the platform has a new one: obstacles for the control loop, the scan for perception.
   bool ReadScan(double now_s);
-  double NowS() const { return core::SecondsBetween(start_time_, core::SteadyClock::now()); }
+  double NowS() const { return core::SecondsBetween(start_time_, clock_->Now()); }
 
   // Obstacles from live lidar points, made on the sensor thread, taken by the control loop.
   struct ObstacleSlot {
@@ -144,6 +156,7 @@ class PerceptionService {
   std::shared_ptr<core::PlatformIO> platform_;
   core::PlatformCapabilities capabilities_;
   std::shared_ptr<nav::GlobalPlanner> planner_;
+  std::shared_ptr<const core::Clock> clock_;
   core::SteadyTime start_time_;
   std::function<void(const PerceptionOutput&)> publish_;
   std::mutex obstacles_mutex_;

@@ -1,0 +1,126 @@
+// Wheeled robots in a built-in world, each the shipping agent (RobotAgent) stepped in process on one
+// simulated clock and talking over an InProcessTeam, with one operator's basestation ("op") holding every
+// robot's control lock: the scenario tests' team (convoy, get out of the way). Commands go the way the
+// console's do (command interface, the service that owns them, the mode, the reply); peer states, claims and
+// yield requests go between the robots as the agents send them.
+#pragma once
+
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "cairn/agent/communication/in_process_link.h"
+#include "cairn/agent/robot_agent.h"
+#include "cairn/sim/platform_profile.h"
+#include "cairn/sim/simulated_platform.h"
+
+namespace cairn::agent::team_testing {
+
+class AgentTeam {
+ public:
+  static constexpr double kCycleS = 0.02;
+
+  /// Robots `starts` (id, start pose in frame W = M) in `world`, with peers.margin_m `peer_margin_m`
+  /// (metres); `configure`, if set, edits each robot's options last. The operator takes every robot's lock.
+  AgentTeam(const std::string& world, const std::vector<std::pair<std::string, core::PlanarPose>>& starts,
+            double peer_margin_m = PeerOptions{}.margin_m,
+            const std::function<void(AgentOptions*)>& configure = {}) {
+    for (const auto& [id, start] : starts) {
+      AgentOptions options;
+      options.robot_id = id;
+      options.SetPlatform("wheeled");
+      options.peers.margin_m = peer_margin_m;
+      options.perception.camera_rate_hz = 0;  // nobody looks at the frames here
+      if (configure) configure(&options);
+      sim::SimulatedPlatformOptions sim_options;
+      sim_options.world = world;
+      sim_options.start_W = start;
+      sim::ApplyPlatformProfile(options.navigation.platform, &sim_options);
+      platforms_.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
+      ids_.push_back(id);
+      robots_.push_back(RobotAgent::Stepped(options, platforms_.back(), links_.Join(id), clock_));
+      ever_in_contact_.push_back(false);
+    }
+    base_ = std::make_unique<InProcessBase>(&links_, "op");
+    for (const std::string& id : ids_) {
+      const std::uint32_t request = base_->Send(id, ControlCommand{});
+      const std::optional<CommandReply> reply = base_->Reply(id, request);
+      if (!reply || reply->result != CommandResult::kAccepted)
+        throw std::runtime_error("control of " + id +
+                                 " not granted: " + (reply ? reply->reason : "no reply"));
+    }
+  }
+
+  std::size_t size() const { return robots_.size(); }
+  RobotAgent& robot(std::size_t i) { return *robots_.at(i); }
+  const RobotModes& modes(std::size_t i) const { return robots_.at(i)->modes(); }
+  sim::SimulatedPlatform& platform(std::size_t i) { return *platforms_.at(i); }
+  /// Ground truth: robot i's true pose.
+  sim::UnicycleState truth(std::size_t i) const { return platforms_.at(i)->TrueState(); }
+  bool ever_in_contact(std::size_t i) const { return ever_in_contact_.at(i); }
+  InProcessTeam& links() { return links_; }
+  InProcessBase& base() { return *base_; }
+  double now_s() const { return now_s_; }
+
+  /// One control cycle of every robot, kCycleS later, each waiting (wall time) for the plan its next step
+  /// needs; then `each`, if set.
+  void StepOnce(const std::function<void()>& each = {}) {
+    now_s_ += kCycleS;
+    for (std::size_t i = 0; i < robots_.size(); ++i) {
+      robots_[i]->Step(now_s_);
+      while (robots_[i]->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      ever_in_contact_[i] = ever_in_contact_[i] || platforms_[i]->ReadStatus().in_contact;
+    }
+    if (each) each();
+  }
+  /// Cycles for `seconds` of simulated time.
+  void StepFor(double seconds, const std::function<void()>& each = {}) {
+    for (const double end = now_s_ + seconds - 1e-9; now_s_ < end;) StepOnce(each);
+  }
+
+  /// Sends `command` from the operator to robot i and cycles the team until it is answered (at most 100
+  /// cycles): "" when accepted, else the reply's reason (or "no reply").
+  template <class Command>
+  std::string Ask(std::size_t i, Command command) {
+    const std::uint32_t request = base_->Send(ids_.at(i), std::move(command));
+    for (int cycle = 0; cycle < 100; ++cycle) {
+      if (const std::optional<CommandReply> reply = base_->Reply(ids_.at(i), request))
+        return reply->result == CommandResult::kAccepted ? "" : reply->reason;
+      StepOnce();
+    }
+    return "no reply";
+  }
+  /// goto: robot i to (x_m, y_m), frame M.
+  std::string Goto(std::size_t i, double x_m, double y_m) {
+    GoalCommand goal;
+    goal.frame_id = "map";
+    goal.x_m = x_m;
+    goal.y_m = y_m;
+    return Ask(i, goal);
+  }
+  /// convoy: robot i follows `ahead_ids` (nearest first, the leader last).
+  std::string Follow(std::size_t i, std::vector<std::string> ahead_ids) {
+    ConvoyCommand convoy;
+    convoy.ahead_ids = std::move(ahead_ids);
+    return Ask(i, convoy);
+  }
+
+ private:
+  // Declared first: the links outlive the agents that hold them.
+  InProcessTeam links_;
+  std::shared_ptr<core::SimulatedClock> clock_ = std::make_shared<core::SimulatedClock>();
+  std::vector<std::string> ids_;
+  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms_;
+  std::vector<std::unique_ptr<RobotAgent>> robots_;
+  std::vector<bool> ever_in_contact_;
+  std::unique_ptr<InProcessBase> base_;
+  double now_s_ = 0.0;
+};
+
+}  // namespace cairn::agent::team_testing

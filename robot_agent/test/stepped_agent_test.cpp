@@ -1,0 +1,113 @@
+// The shipping agent (RobotAgent) stepped on a simulated clock in process over an InProcessTeam: commands
+// through the command interface with their replies, a goal driven to arrival, the same run twice giving the
+// same result, and bad use of the stepped agent and the in-process team named.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "agent_team.h"
+#include "cairn/agent/communication/in_process_link.h"
+#include "cairn/agent/robot_agent.h"
+#include "cairn/sim/simulated_platform.h"
+
+namespace cairn::agent {
+namespace {
+
+using team_testing::AgentTeam;
+
+// A goal sent as the console sends it is planned on the planning service (in the step after it came), driven
+// by the waypoint mode through the mux, and answered with its path; the robot arrives (ground truth).
+TEST(SteppedAgentTest, AGoalIsAnsweredDrivenAndReached) {
+  AgentTeam team("builtin:tunnels", {{"r1", {5.0, 20.0, 0.0}}});
+  GoalCommand goal;
+  goal.frame_id = "map";
+  goal.x_m = 20.0;
+  goal.y_m = 20.0;
+  const std::uint32_t request = team.base().Send("r1", goal);
+  EXPECT_FALSE(team.base().Reply("r1", request)) << "planned on the planning service, not on the way in";
+  team.StepOnce();
+  const std::optional<CommandReply> reply = team.base().Reply("r1", request);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->result, CommandResult::kAccepted) << reply->reason;
+  EXPECT_NE(reply->reason.find("path 15."), std::string::npos) << reply->reason;
+  EXPECT_EQ(reply->goal_id, 1u) << "a stepped agent's goal ids count from 1";
+  EXPECT_EQ(team.modes(0).control().mode(), "waypoint");
+  team.StepFor(30.0);
+  EXPECT_EQ(team.modes(0).waypoint().goal().status, GoalStatus::kArrived)
+      << team.modes(0).waypoint().goal().reason;
+  const sim::UnicycleState end = team.truth(0);
+  EXPECT_LT(std::hypot(end.x_m - 20.0, end.y_m - 20.0), 0.5);
+  EXPECT_FALSE(team.ever_in_contact(0));
+  EXPECT_GT(team.links().Find("r1")->samples("state"), 100u) << "the robot's telemetry goes out on its link";
+}
+
+// Commands from a basestation that does not hold the lock are discarded, as over DDS.
+TEST(SteppedAgentTest, ACommandFromAnotherBaseIsDiscarded) {
+  AgentTeam team("builtin:tunnels", {{"r1", {5.0, 20.0, 0.0}}});
+  InProcessBase other(&team.links(), "op2");
+  GoalCommand goal;
+  goal.frame_id = "map";
+  goal.x_m = 20.0;
+  goal.y_m = 20.0;
+  const std::uint32_t request = other.Send("r1", goal);
+  team.StepOnce();
+  const std::optional<CommandReply> reply = other.Reply("r1", request);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->result, CommandResult::kDiscarded) << reply->reason;
+  EXPECT_EQ(reply->holder_id, "op");
+  team.StepFor(2.0);
+  EXPECT_EQ(team.modes(0).control().mode(), "idle");
+  EXPECT_LT(std::hypot(team.truth(0).x_m - 5.0, team.truth(0).y_m - 20.0), 0.01) << "the robot never moved";
+}
+
+// Two runs of the same scenario end in the same place to the bit: nothing depends on the machine's speed.
+TEST(SteppedAgentTest, TheSameRunTwiceEndsInTheSameState) {
+  auto run = [] {
+    AgentTeam team("builtin:tunnels", {{"r1", {5.0, 20.0, 0.0}}});
+    EXPECT_EQ(team.Goto(0, 30.0, 26.0), "");
+    team.StepFor(12.0);
+    return team.truth(0);
+  };
+  const sim::UnicycleState a = run(), b = run();
+  EXPECT_EQ(a.x_m, b.x_m);
+  EXPECT_EQ(a.y_m, b.y_m);
+  EXPECT_EQ(a.yaw_rad, b.yaw_rad);
+  EXPECT_GT(std::hypot(a.x_m - 5.0, a.y_m - 20.0), 5.0) << "it drove";
+}
+
+TEST(SteppedAgentTest, BadUseIsNamed) {
+  InProcessTeam links;
+  auto clock = std::make_shared<core::SimulatedClock>();
+  AgentOptions options;
+  options.robot_id = "r1";
+  options.perception.camera_rate_hz = 0;
+  sim::SimulatedPlatformOptions sim_options;
+  sim_options.world = "builtin:tunnels";
+  sim_options.start_W = {5.0, 20.0, 0.0};
+  auto platform = std::make_shared<sim::SimulatedPlatform>(sim_options);
+  EXPECT_THROW(RobotAgent::Stepped(options, platform, nullptr, clock), std::invalid_argument);
+  EXPECT_THROW(RobotAgent::Stepped(options, platform, links.Join("r0"), nullptr), std::invalid_argument);
+  std::unique_ptr<RobotAgent> agent = RobotAgent::Stepped(options, platform, links.Join("r1"), clock);
+  EXPECT_THROW(agent->Run(), std::logic_error);
+  agent->Step(1.0);
+  EXPECT_THROW(agent->Step(0.5), std::invalid_argument) << "time runs forward";
+  try {
+    links.Join("r1");
+    ADD_FAILURE() << "a second r1 joined";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'r1' is already on the team"), std::string::npos) << e.what();
+  }
+  InProcessBase base(&links, "op");
+  try {
+    base.Send("r9", StopCommand{});
+    ADD_FAILURE() << "sent to a robot not on the team";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("no robot 'r9'"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace cairn::agent
