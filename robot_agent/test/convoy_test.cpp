@@ -1,8 +1,8 @@
 // Convoy: the follower's trail (ConvoyTrail) on made-up paths, and a leader driven by waypoints
-// through builtin:tunnels' X junction with three followers behind it, every robot's autonomy stepped on a
-// simulated clock in process (SteppedRobot: perception, navigation map, local planner, controller), peer
-// states exchanged at 5 Hz as over cairn/peer_state. The convoy over real processes and DDS is
-// tests/convoy_integration_test (when the operator's commands exist).
+// through builtin:tunnels' X junction with three followers behind it, every robot the shipping agent stepped
+// on a simulated clock in process (RobotAgent::Stepped over an InProcessTeam: the operator's commands through
+// the command interface, peer states at 5 Hz as over cairn/peer_state). The convoy over real processes and
+// DDS is tests/convoy_integration_test (when the operator's commands exist).
 
 #include "cairn/agent/team/convoy.h"
 
@@ -18,19 +18,16 @@
 #include <thread>
 #include <vector>
 
+#include "agent_team.h"
 #include "cairn/agent/modes/convoy_mode.h"
-#include "cairn/agent/stepped_robot.h"
 #include "cairn/nav/platform.h"
 #include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
-#include "stepped_team.h"
 
 namespace cairn::agent {
 namespace {
 
-using team_testing::MakeSteppedTeam;
-using team_testing::StepAll;
-using team_testing::SteppedTeam;
+using team_testing::AgentTeam;
 
 // Feeds `trail` the robot ahead driving `path` (metres, frame M) at 1 m/s from t = 0, one pose per 0.1 s;
 // returns the time of the last pose.
@@ -124,33 +121,27 @@ TEST(ConvoyTrailTest, ATrailLoopingBackPastTheFollowerIsNotAShortcut) {
   EXPECT_NEAR((c.path_M.back() - Eigen::Vector3d(1.5, 2, 0)).norm(), 0.0, 0.2) << c.path_M.back().transpose();
 }
 
-// An order a follower cannot take (from a basestation's ConvoyRequest) is refused naming the id, and the
-// robot stays out of convoy mode.
+// An order a follower cannot take (a basestation's ConvoyRequest, through the command interface) is refused
+// naming the id, and the robot stays out of convoy mode.
 TEST(ConvoyModeTest, ABadOrderIsRefusedNamingTheId) {
-  AgentOptions options;
-  options.robot_id = "r2";
-  options.SetPlatform("wheeled");
-  sim::SimulatedPlatformOptions sim_options;
-  sim_options.world = "builtin:tunnels";
-  sim_options.start_W = core::PlanarPose{11.0, 20.0, 0.0};
-  sim::ApplyPlatformProfile(options.navigation.platform, &sim_options);
-  SteppedRobot robot(options, std::make_shared<sim::SimulatedPlatform>(sim_options), "");
-  EXPECT_EQ(robot.Follow({}, 0.0), "a convoy follower needs the robot ahead of it");
-  EXPECT_EQ(robot.Follow({"r2"}, 0.0), "robot r2 cannot follow itself");
-  EXPECT_EQ(robot.Follow({"r1", "r0", "r1"}, 0.0), "robot r1 is named twice ahead of r2");
-  const std::string why = robot.Follow({"r1", "r\x1b[2J"}, 0.0);
+  AgentTeam team("builtin:tunnels", {{"r2", {11.0, 20.0, 0.0}}});
+  EXPECT_EQ(team.Follow(0, {}), "a convoy follower needs the robot ahead of it");
+  EXPECT_EQ(team.Follow(0, {"r2"}), "robot r2 cannot follow itself");
+  EXPECT_EQ(team.Follow(0, {"r1", "r0", "r1"}), "robot r1 is named twice ahead of r2");
+  const std::string why = team.Follow(0, {"r1", "r\x1b[2J"});
   EXPECT_NE(why.find("robot id 'r?[2J'"), std::string::npos) << why;
-  EXPECT_FALSE(robot.convoy().active());
+  EXPECT_FALSE(team.modes(0).convoy().active());
 }
 
 // ---- The convoy through the X junction ------------------------------------------------------------------
 
-// Wheeled robots r1, r2, ... in builtin:tunnels at `starts` (frame W = M at the start), stepped in process.
-SteppedTeam MakeTeam(const std::vector<core::PlanarPose>& starts) {
+// Wheeled robots r1, r2, ... in builtin:tunnels at `starts` (frame W = M at the start), the agents stepped in
+// process.
+std::unique_ptr<AgentTeam> MakeTeam(const std::vector<core::PlanarPose>& starts) {
   std::vector<std::pair<std::string, core::PlanarPose>> named;
   for (const core::PlanarPose& start : starts)
     named.emplace_back("r" + std::to_string(named.size() + 1), start);
-  return MakeSteppedTeam("builtin:tunnels", named);
+  return std::make_unique<AgentTeam>("builtin:tunnels", named);
 }
 
 struct ConvoyRun {
@@ -171,47 +162,33 @@ double AlongPath(const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d
   return ProjectOntoPath2D(path, p).along_m;
 }
 
-// Leader r1 at `starts[0]` drives by waypoints through `goals`; r2.. follow it in that order. Every robot
-// steps at 50 Hz simulated; peer states go to all at 5 Hz. Runs until the leader arrived at its last goal
-// and `settle_s` more, or `timeout_s`.
+// Leader r1 at `starts[0]` drives by waypoints through `goals`; r2.. follow it in that order (the operator's
+// convoy commands). Every robot steps at 50 Hz simulated and sends its peer state at 5 Hz, as the agent does.
+// Runs until the leader arrived at its last goal and `settle_s` more, or `timeout_s`.
 ConvoyRun RunConvoy(const std::vector<core::PlanarPose>& starts, const std::vector<Eigen::Vector2d>& goals,
                     double settle_s, double timeout_s) {
-  constexpr double kDt = 0.02;
   const auto wall_start = std::chrono::steady_clock::now();
   ConvoyRun run;
-  auto [platforms, robots] = MakeTeam(starts);
+  std::unique_ptr<AgentTeam> team = MakeTeam(starts);
   std::vector<std::string> ids;
   for (std::size_t i = 0; i < starts.size(); ++i) ids.push_back("r" + std::to_string(i + 1));
   // The convoy sits on the tunnel's centre line: its driven path starts at the last follower.
   run.leader_driven = {{starts.back().x_m, starts.back().y_m, 0.0}, {starts[0].x_m, starts[0].y_m, 0.0}};
-  for (std::size_t i = 1; i < robots.size(); ++i) {
+  for (std::size_t i = 1; i < team->size(); ++i) {
     std::vector<std::string> ahead(ids.rbegin() + static_cast<std::ptrdiff_t>(ids.size() - i), ids.rend());
-    EXPECT_EQ(robots[i]->Follow(ahead, 0.0), "");
+    EXPECT_EQ(team->Follow(i, ahead), "");
   }
   std::size_t next_goal = 0;
   double arrived_at_s = -1;
-  double t = 0;
-  for (int cycle = 1; t < timeout_s; ++cycle) {
-    t += kDt;
-    if (!robots[0]->waypoint().has_goal() && next_goal < goals.size()) {
-      const std::string why = robots[0]->Goto(goals[next_goal].x(), goals[next_goal].y(), t);
-      EXPECT_EQ(why, "") << "goal " << next_goal;
+  for (int cycle = 1; team->now_s() < timeout_s; ++cycle) {
+    if (!team->modes(0).waypoint().has_goal() && next_goal < goals.size()) {
+      EXPECT_EQ(team->Goto(0, goals[next_goal].x(), goals[next_goal].y()), "") << "goal " << next_goal;
       ++next_goal;
     }
-    StepAll(robots, t);
-    if (cycle % 10 == 0) {
-      for (std::size_t i = 0; i < robots.size(); ++i) {
-        const PeerBody self = robots[i]->PeerState();
-        for (std::size_t j = 0; j < robots.size(); ++j) {
-          if (j != i) {
-            EXPECT_EQ(robots[j]->OnPeerState(self, t), "");
-          }
-        }
-      }
-    }
+    team->StepOnce();
     std::vector<Eigen::Vector3d> at;
-    for (const auto& p : platforms) {
-      const sim::UnicycleState s = p->TrueState();
+    for (std::size_t i = 0; i < team->size(); ++i) {
+      const sim::UnicycleState s = team->truth(i);
       at.emplace_back(s.x_m, s.y_m, 0.0);
     }
     if ((at[0] - run.leader_driven.back()).head<2>().norm() >= 0.05) run.leader_driven.push_back(at[0]);
@@ -234,24 +211,23 @@ ConvoyRun RunConvoy(const std::vector<core::PlanarPose>& starts, const std::vect
         }
       }
     }
-    if (next_goal == goals.size() && !robots[0]->waypoint().has_goal() && arrived_at_s < 0) {
-      arrived_at_s = t;
-      run.leader_arrived = robots[0]->waypoint().goal().status == GoalStatus::kArrived;
+    if (next_goal == goals.size() && !team->modes(0).waypoint().has_goal() && arrived_at_s < 0) {
+      arrived_at_s = team->now_s();
+      run.leader_arrived = team->modes(0).waypoint().goal().status == GoalStatus::kArrived;
     }
-    if (arrived_at_s >= 0 && t >= arrived_at_s + settle_s) break;
+    if (arrived_at_s >= 0 && team->now_s() >= arrived_at_s + settle_s) break;
   }
-  for (std::size_t i = 0; i < robots.size(); ++i) {
-    run.contact = run.contact || robots[i]->ever_in_contact();
+  for (std::size_t i = 0; i < team->size(); ++i) {
+    run.contact = run.contact || team->ever_in_contact(i);
     if (i == 0) continue;
-    run.end_status.push_back(robots[i]->convoy().status());
-    const sim::UnicycleState a = platforms[i - 1]->TrueState(), b = platforms[i]->TrueState();
+    run.end_status.push_back(team->modes(i).convoy().status());
+    const sim::UnicycleState a = team->truth(i - 1), b = team->truth(i);
     run.end_gap_m.push_back(AlongPath(run.leader_driven, {a.x_m, a.y_m, 0}) -
                             AlongPath(run.leader_driven, {b.x_m, b.y_m, 0}));
   }
   run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return run;
 }
-
 // Three followers behind a leader driven by waypoints from the main tunnel through the X junction into the
 // north branch: on straight stretches every follower keeps within 1 m of the 3 m spacing along the leader's
 // driven path, no follower strays 0.5 m from that path (it takes the corner the leader took), no two robots
@@ -287,27 +263,18 @@ TEST(ConvoyTest, ThreeFollowersKeepTheSpacingOnTheLeadersPathThroughTheXJunction
 // A follower sent to a goal (peel) leaves the convoy and drives there: the convoy, deactivated after the
 // waypoint mode set its goal (the agent's order), does not drop that goal from navigation.
 TEST(ConvoyTest, AFollowerSentToAGoalLeavesTheConvoyAndArrives) {
-  auto [platforms, robots] = MakeTeam({{14.0, 20.0, 0.0}, {11.0, 20.0, 0.0}});
-  ASSERT_EQ(robots[1]->Follow({"r1"}, 0.0), "");
-  double t = 0;
-  auto step = [&](double seconds) {
-    for (const double end = t + seconds; t < end;) {
-      t += 0.02;
-      StepAll(robots, t);
-      for (std::size_t i = 0; i < robots.size(); ++i) {
-        EXPECT_EQ(robots[1 - i]->OnPeerState(robots[i]->PeerState(), t), "");
-      }
-    }
-  };
-  step(1.0);
-  EXPECT_EQ(robots[1]->convoy().status().state, ConvoyStatus::State::kHolding)
-      << robots[1]->convoy().status().reason;
-  ASSERT_EQ(robots[1]->Goto(6.0, 20.0, t), "");
-  EXPECT_FALSE(robots[1]->convoy().active());
-  EXPECT_TRUE(robots[1]->navigation().has_goal()) << "the convoy's leaving dropped the waypoint's goal";
-  step(20.0);
-  EXPECT_EQ(robots[1]->waypoint().goal().status, GoalStatus::kArrived) << robots[1]->waypoint().goal().reason;
-  const sim::UnicycleState end = platforms[1]->TrueState();
+  std::unique_ptr<AgentTeam> team = MakeTeam({{14.0, 20.0, 0.0}, {11.0, 20.0, 0.0}});
+  ASSERT_EQ(team->Follow(1, {"r1"}), "");
+  team->StepFor(1.0);
+  EXPECT_EQ(team->modes(1).convoy().status().state, ConvoyStatus::State::kHolding)
+      << team->modes(1).convoy().status().reason;
+  ASSERT_EQ(team->Goto(1, 6.0, 20.0), "");
+  EXPECT_FALSE(team->modes(1).convoy().active());
+  EXPECT_TRUE(team->robot(1).navigation().has_goal()) << "the convoy's leaving dropped the waypoint's goal";
+  team->StepFor(20.0);
+  EXPECT_EQ(team->modes(1).waypoint().goal().status, GoalStatus::kArrived)
+      << team->modes(1).waypoint().goal().reason;
+  const sim::UnicycleState end = team->truth(1);
   EXPECT_LT(std::hypot(end.x_m - 6.0, end.y_m - 20.0), 0.5);
 }
 
@@ -315,51 +282,39 @@ TEST(ConvoyTest, AFollowerSentToAGoalLeavesTheConvoyAndArrives) {
 // line, and is); then nobody hears the leader r1: r2 and r3, with nothing further ahead to follow, stop as
 // lost. Nobody touches anybody.
 TEST(ConvoyTest, AFollowerReLinksPastASilentRobotAndStopsWhenNoneAheadIsHeard) {
-  auto [platforms, robots] = MakeTeam({{14.0, 20.0, 0.0}, {11.0, 20.0, 0.0}, {8.0, 20.0, 0.0}});
-  ASSERT_EQ(robots[1]->Follow({"r1"}, 0.0), "");
-  ASSERT_EQ(robots[2]->Follow({"r2", "r1"}, 0.0), "");
-  ASSERT_EQ(robots[0]->Goto(27.0, 20.0, 0.0), "");
-  // heard[i][j]: robot j hears robot i's peer states.
-  bool heard[3][3] = {{true, true, true}, {true, true, true}, {true, true, true}};
-  double t = 0, closest_m = std::numeric_limits<double>::infinity();
-  auto step = [&](double seconds) {
-    for (const double end = t + seconds; t < end;) {
-      t += 0.02;
-      StepAll(robots, t);
-      for (std::size_t i = 0; i < 3; ++i) {
-        for (std::size_t j = 0; j < 3; ++j) {
-          if (i != j && heard[i][j]) {
-            EXPECT_EQ(robots[j]->OnPeerState(robots[i]->PeerState(), t), "");
-          }
-        }
-      }
-      for (std::size_t i = 0; i < 3; ++i) {
-        for (std::size_t j = i + 1; j < 3; ++j) {
-          const sim::UnicycleState a = platforms[i]->TrueState(), b = platforms[j]->TrueState();
-          closest_m = std::min(closest_m, std::hypot(a.x_m - b.x_m, a.y_m - b.y_m));
-        }
+  std::unique_ptr<AgentTeam> team = MakeTeam({{14.0, 20.0, 0.0}, {11.0, 20.0, 0.0}, {8.0, 20.0, 0.0}});
+  ASSERT_EQ(team->Follow(1, {"r1"}), "");
+  ASSERT_EQ(team->Follow(2, {"r2", "r1"}), "");
+  ASSERT_EQ(team->Goto(0, 27.0, 20.0), "");
+  double closest_m = std::numeric_limits<double>::infinity();
+  auto measure = [&] {
+    for (std::size_t i = 0; i < 3; ++i) {
+      for (std::size_t j = i + 1; j < 3; ++j) {
+        const sim::UnicycleState a = team->truth(i), b = team->truth(j);
+        closest_m = std::min(closest_m, std::hypot(a.x_m - b.x_m, a.y_m - b.y_m));
       }
     }
   };
-  step(3.0);
-  EXPECT_EQ(robots[2]->convoy().status().ahead_id, "r2");
-  heard[1][2] = false;  // r3 no longer hears r2
-  step(4.0);
-  const ConvoyStatus& r3 = robots[2]->convoy().status();
+  team->StepFor(3.0, measure);
+  EXPECT_EQ(team->modes(2).convoy().status().ahead_id, "r2");
+  team->links().SetHeard("r2", "r3", false);  // r3 no longer hears r2
+  team->StepFor(4.0, measure);
+  const ConvoyStatus& r3 = team->modes(2).convoy().status();
   EXPECT_EQ(r3.ahead_id, "r1") << r3.reason;
   EXPECT_EQ(r3.ahead_ids, (std::vector<std::string>{"r1"}));
-  EXPECT_EQ(robots[1]->convoy().status().state, ConvoyStatus::State::kFollowing)
-      << robots[1]->convoy().status().reason;
-  heard[0][1] = heard[0][2] = false;  // nobody hears the leader
-  step(4.0);
+  EXPECT_EQ(team->modes(1).convoy().status().state, ConvoyStatus::State::kFollowing)
+      << team->modes(1).convoy().status().reason;
+  team->links().SetHeard("r1", "r2", false);  // nobody hears the leader
+  team->links().SetHeard("r1", "r3", false);
+  team->StepFor(4.0, measure);
   for (std::size_t i = 1; i < 3; ++i) {
-    const ConvoyStatus& s = robots[i]->convoy().status();
+    const ConvoyStatus& s = team->modes(i).convoy().status();
     EXPECT_EQ(s.state, ConvoyStatus::State::kLost) << "r" << i + 1 << ": " << s.reason;
     EXPECT_NE(s.reason.find("r1 lost: the robot ahead was not heard"), std::string::npos) << s.reason;
-    EXPECT_LT(std::abs(platforms[i]->TrueState().v_mps), 0.05) << "r" << i + 1 << " stopped";
+    EXPECT_LT(std::abs(team->truth(i).v_mps), 0.05) << "r" << i + 1 << " stopped";
   }
   EXPECT_GT(closest_m, 2.0) << "r3 kept two spacings behind r1, r2 between them";
-  for (const auto& robot : robots) EXPECT_FALSE(robot->ever_in_contact());
+  for (std::size_t i = 0; i < 3; ++i) EXPECT_FALSE(team->ever_in_contact(i));
 }
 
 }  // namespace

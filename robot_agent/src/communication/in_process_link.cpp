@@ -40,7 +40,7 @@ bool InProcessLink::Publish(const ExploreClaim& claim) {
     // From its first claim on it reads its peers' claims: the newest of each first (the latched topic).
     listening_to_claims_ = true;
     for (const auto& [id, last] : team_->last_claims_) {
-      if (id != robot_id_ && listening()) listening()->explore_claim(last, "");
+      if (id != robot_id_ && team_->Hears(robot_id_, id) && listening()) listening()->explore_claim(last, "");
     }
   }
   team_->DeliverClaim(*this, claim);
@@ -48,9 +48,13 @@ bool InProcessLink::Publish(const ExploreClaim& claim) {
 }
 
 bool InProcessLink::Publish(const cairn_msgs::PeerState& state) {
-  Count("team");
-  team_->DeliverPeerState(*this, PeerFromMessage(state));
+  SendPeerState(PeerFromMessage(state));
   return true;
+}
+
+void InProcessLink::SendPeerState(const PeerBody& peer) {
+  Count("team");
+  team_->DeliverPeerState(*this, peer);
 }
 
 void InProcessLink::ListenToPeers() {
@@ -61,7 +65,8 @@ void InProcessLink::ListenToPeers() {
 bool InProcessLink::Send(const std::string& robot_id, const YieldCommand& request) {
   Count("team");
   InProcessLink* to = team_->Find(robot_id);
-  if (to == nullptr || to->listening() == nullptr) return true;  // nobody reads it: lost, as on DDS
+  // Nobody reads it, or out of reach: lost, as on DDS.
+  if (to == nullptr || to->listening() == nullptr || !team_->Hears(robot_id, robot_id_)) return true;
   YieldOrigin origin;
   origin.peer_robot = request.sender_id == robot_id_;  // its peer states come from this process
   to->listening()->yield(request, origin, "");
@@ -98,6 +103,14 @@ InProcessLink* InProcessTeam::Find(const std::string& robot_id) const {
   return nullptr;
 }
 
+void InProcessTeam::SetHeard(const std::string& from_id, const std::string& to_id, bool heard) {
+  if (heard) {
+    unheard_.erase({from_id, to_id});
+  } else {
+    unheard_.insert({from_id, to_id});
+  }
+}
+
 void InProcessTeam::Leave(InProcessLink* link) {
   links_.erase(std::remove(links_.begin(), links_.end(), link), links_.end());
 }
@@ -105,14 +118,16 @@ void InProcessTeam::Leave(InProcessLink* link) {
 void InProcessTeam::DeliverClaim(const InProcessLink& from, const ExploreClaim& claim) {
   last_claims_[from.robot_id()] = claim;
   for (InProcessLink* link : links_) {
-    if (link != &from && link->listening_to_claims_ && link->listening() != nullptr)
+    if (link != &from && link->listening_to_claims_ && link->listening() != nullptr &&
+        Hears(link->robot_id(), from.robot_id()))
       link->listening()->explore_claim(claim, "");
   }
 }
 
 void InProcessTeam::DeliverPeerState(const InProcessLink& from, const PeerBody& peer) {
   for (InProcessLink* link : links_) {
-    if (link != &from && link->listening_to_peers_ && link->listening() != nullptr)
+    if (link != &from && link->listening_to_peers_ && link->listening() != nullptr &&
+        Hears(link->robot_id(), from.robot_id()))
       link->listening()->peer_state(peer);
   }
 }

@@ -165,7 +165,12 @@ void PerceptionService::PerceptionTick() {
   const bool has_image =
       capabilities_.has_camera && perception_->CameraDue(now_s) && platform_->ReadCameraImage(now_s, &image);
   publish_(perception_->Tick(now_s, scan.get(), has_image ? &image : nullptr));
-  map_memory_bytes_ = perception_->map()->MemoryBytes();
+  // Counting the map's memory walks every leaf of the octree (7.9 % of a stepped robot's CPU when done every
+  // tick): once a second is plenty for the health report.
+  if (now_s >= memory_measured_s_ + 1.0 || now_s < memory_measured_s_) {
+    map_memory_bytes_ = perception_->map()->MemoryBytes();
+    memory_measured_s_ = now_s;
+  }
 }
 
 void PerceptionService::SearchTheNewMap() {

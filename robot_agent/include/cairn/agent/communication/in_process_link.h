@@ -15,7 +15,9 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cairn/agent/communication/agent_link.h"
@@ -59,6 +61,10 @@ class InProcessLink final : public AgentLink {
   int SetBulkShare(int /*robots*/) override { return 1; }
   void WaitForMapDelivery(std::chrono::milliseconds /*timeout*/) override {}
 
+  /// A peer state this link's robot sends, for a robot that is not an agent stepped here (a test's or a
+  /// bench's made-up peer): delivered as Publish(cairn_msgs::PeerState) delivers an agent's.
+  void SendPeerState(const PeerBody& peer);
+
   const std::string& robot_id() const { return robot_id_; }
   /// The robot's replies so far, oldest first.
   const std::vector<CommandReply>& replies() const { return replies_; }
@@ -99,6 +105,12 @@ class InProcessTeam {
   std::shared_ptr<InProcessLink> Join(const std::string& robot_id);
   /// The link of robot `robot_id`, or null.
   InProcessLink* Find(const std::string& robot_id) const;
+  /// Radio reach: robot `to_id` hears what robot `from_id` sends its peers (states, claims, yield requests)
+  /// only while `heard` (at first everyone hears everyone). Ids need not have joined yet.
+  void SetHeard(const std::string& from_id, const std::string& to_id, bool heard);
+  bool Hears(const std::string& to_id, const std::string& from_id) const {
+    return unheard_.count({from_id, to_id}) == 0;
+  }
 
  private:
   friend class InProcessLink;
@@ -108,7 +120,8 @@ class InProcessTeam {
   void DeliverPeerState(const InProcessLink& from, const PeerBody& peer);
 
   std::vector<InProcessLink*> links_;
-  std::map<std::string, ExploreClaim> last_claims_;  // the newest of each robot (the latched topic)
+  std::map<std::string, ExploreClaim> last_claims_;        // the newest of each robot (the latched topic)
+  std::set<std::pair<std::string, std::string>> unheard_;  // (from, to) pairs out of reach
 };
 
 /// An operator's basestation on an InProcessTeam: announced (alive) to every robot on the team when made and

@@ -122,7 +122,8 @@ class PerceptionService {
   /// ("platform", "perception"; "navigation_map" at the top of each navigation map update, on the perception
   /// component's second loop); it may throw, hang or be slow. Set before the loops start.
   void SetFaultHook(std::function<void(const char* component)> hook) { fault_hook_ = std::move(hook); }
-  /// The map's memory as the perception thread last measured it, bytes (never waits for the map). Any thread.
+  /// The map's memory as the perception thread last measured it (once a second), bytes (never waits for the
+  /// map). Any thread.
   std::size_t map_memory_bytes() const { return map_memory_bytes_.load(); }
 
   /// After the loops ended: the map's last changes within the telemetry budget (empty with perception off).
@@ -171,7 +172,8 @@ class PerceptionService {
   std::atomic<bool> map_snapshot_requested_{false};
   std::function<void(const char*)> fault_hook_;
   std::atomic<std::size_t> map_memory_bytes_{0};
-  std::atomic<double> last_scan_s_{-1e9};         // agent clock of the newest scan read
+  double memory_measured_s_ = -1e9;        // perception thread: when map_memory_bytes_ was last measured
+  std::atomic<double> last_scan_s_{-1e9};  // agent clock of the newest scan read
   std::atomic<double> last_map_update_s_{-1e9};   // ... when the newest navigation map update (and its
                                                   // frontier search) ended
   std::atomic<double> map_work_started_s_{-1e9};  // ... when the update under way started (-1e9: none)
