@@ -1,8 +1,8 @@
 // Bench: exploration coverage against time for a team of 1, 2 and 3 robots, in process on a
-// simulated clock (agent::SteppedRobot each: lidar -> OctoMap -> navigation map -> frontiers -> explore mode
-// -> navigation, explore claims and coverage shared as the agents send them), scored against the world's
-// ground truth. The baseline is one robot in the same run: the figure is its time to 90 % coverage over the
-// team's.
+// simulated clock (each the shipping agent stepped, RobotAgent::Stepped: lidar -> OctoMap -> navigation map
+// -> frontiers -> explore mode -> navigation, explore claims, coverage and peer states sent as the agent
+// sends them), scored against the world's ground truth. The baseline is one robot in the same run: the figure
+// is its time to 90 % coverage over the team's.
 //
 //   build/bench/cairn_bench_explore [--world builtin:NAME] [--robots 1,2,3] [--kill]
 //                                   [--csv FILE] [--timeout S] [--platform wheeled|legged] [--floors

@@ -173,6 +173,7 @@ class RobotAgent::Impl {
   bool stepped() const { return lockstep_.has_value(); }
   const RobotModes& modes() const { return *modes_; }
   const Navigation& navigation() const { return navigation_; }
+  const NavMap& nav_map() const { return perception_->nav_map(); }
   bool restart_requested() const { return restart_requested_.load(); }
   // What of the threaded components' work did not stop when asked ("" = nothing). Their transitions' thread
   // (the health monitor's, or after StopAll() any).
@@ -448,11 +449,11 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
   link_->Listen(DdsHandlers());
   telemetry_->PublishAgentInfo(capabilities_, kVersion);
   telemetry_->PublishGlobalPathIfChanged();  // an empty path: late joiners see "no goal"
-  spdlog::info(
-      "robot {} ({}) ready on platform {} ({}) at ({:.2f}, {:.2f}, yaw {:.2f}) in its map frame on DDS "
-      "domain {}",
-      options_.robot_id, options_.platform, capabilities_.driver, capabilities_.description, start_M_.x_m,
-      start_M_.y_m, start_M_.yaw_rad, options_.domain_id);
+  spdlog::info("robot {} ({}) ready on platform {} ({}) at ({:.2f}, {:.2f}, yaw {:.2f}) in its map frame {}",
+               options_.robot_id, options_.platform, capabilities_.driver, capabilities_.description,
+               start_M_.x_m, start_M_.y_m, start_M_.yaw_rad,
+               lockstep_ ? std::string("(stepped on a simulated clock, in process)")
+                         : "on DDS domain " + std::to_string(options_.domain_id));
 }
 
 void RobotAgent::Impl::Resume(const JournalEntry& entry) {
@@ -943,7 +944,25 @@ void RobotAgent::Impl::Run() {
 void RobotAgent::Impl::StepOnce(double now_s) {
   Lockstep& step = *lockstep_;
   step.clock->SetSeconds(now_s);
-  // As Run()'s cycle: the control cycle under the agent lock, what it hands out, the health when due.
+  // Sense, then act: the platform brought to now, then the threads' work at their periods on this clock (the
+  // sensor loop every cycle, as it polls; perception and the navigation map when due), then the control cycle
+  // on what they saw, as Run()'s cycle does it, then the planning it queued (a goal is answered before the
+  // next cycle).
+  try {
+    platform_->Update(now_s);
+  } catch (const std::exception& e) {
+    parts_.platform->ReportFailure(std::string("platform update: ") + e.what());
+  }
+  const bool scanned = perception_->ReadSensors();
+  auto due = [now_s](double* next_s, double period_s) {
+    if (now_s < *next_s) return false;
+    *next_s += period_s;
+    if (*next_s <= now_s) *next_s = now_s + period_s;  // a step longer than the period: no burst
+    return true;
+  };
+  if (due(&step.next_perception_s, perception_->perception_period_s()) || scanned)
+    perception_->PerceptionTick();
+  if (due(&step.next_nav_map_s, options_.nav_map.update_period_s)) perception_->NavMapTick();
   CycleOutbox outbox;
   {
     std::lock_guard<std::mutex> guard(mutex_);
@@ -951,18 +970,6 @@ void RobotAgent::Impl::StepOnce(double now_s) {
   }
   SendOutbox(std::move(outbox));
   PublishHealthIfDue(clock_->Now());
-  // Then the threads' work at their periods on this clock: the sensor loop every cycle (it polls), perception
-  // and the navigation map when due, and the planning queued meanwhile (goals answered before the next
-  // cycle).
-  perception_->ReadSensors();
-  auto due = [now_s](double* next_s, double period_s) {
-    if (now_s < *next_s) return false;
-    *next_s += period_s;
-    if (*next_s <= now_s) *next_s = now_s + period_s;  // a step longer than the period: no burst
-    return true;
-  };
-  if (due(&step.next_perception_s, perception_->perception_period_s())) perception_->PerceptionTick();
-  if (due(&step.next_nav_map_s, options_.nav_map.update_period_s)) perception_->NavMapTick();
   while (planning_->RunOnce(std::chrono::milliseconds(0))) {
   }
 }
@@ -1049,6 +1056,7 @@ void RobotAgent::Step(double now_s) {
 bool RobotAgent::planning() const { return impl_->planning(); }
 const RobotModes& RobotAgent::modes() const { return impl_->modes(); }
 const Navigation& RobotAgent::navigation() const { return impl_->navigation(); }
+const NavMap& RobotAgent::nav_map() const { return impl_->nav_map(); }
 bool RobotAgent::restart_requested() const { return impl_->restart_requested(); }
 
 }  // namespace cairn::agent

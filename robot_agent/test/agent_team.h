@@ -46,6 +46,7 @@ class AgentTeam {
       ids_.push_back(id);
       robots_.push_back(RobotAgent::Stepped(options, platforms_.back(), links_.Join(id), clock_));
       ever_in_contact_.push_back(false);
+      alive_.push_back(true);
     }
     base_ = std::make_unique<InProcessBase>(&links_, "op");
     for (const std::string& id : ids_) {
@@ -68,11 +69,17 @@ class AgentTeam {
   InProcessBase& base() { return *base_; }
   double now_s() const { return now_s_; }
 
-  /// One control cycle of every robot, kCycleS later, each waiting (wall time) for the plan its next step
-  /// needs; then `each`, if set.
+  /// Robot i's process is gone: it is no longer stepped and nothing more comes from it.
+  void Stop(std::size_t i) { alive_.at(i) = false; }
+  bool alive(std::size_t i) const { return alive_.at(i); }
+  const std::string& id(std::size_t i) const { return ids_.at(i); }
+
+  /// One control cycle of every live robot, kCycleS later, each waiting (wall time) for the plan its next
+  /// step needs; then `each`, if set.
   void StepOnce(const std::function<void()>& each = {}) {
     now_s_ += kCycleS;
     for (std::size_t i = 0; i < robots_.size(); ++i) {
+      if (!alive_[i]) continue;
       robots_[i]->Step(now_s_);
       while (robots_[i]->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
       ever_in_contact_[i] = ever_in_contact_[i] || platforms_[i]->ReadStatus().in_contact;
@@ -104,6 +111,13 @@ class AgentTeam {
     goal.y_m = y_m;
     return Ask(i, goal);
   }
+  /// explore: robot i explores `task`.
+  std::string Explore(std::size_t i, const ExploreTask& task) {
+    ExploreCommand explore;
+    explore.frame_id = "map";
+    explore.task = task;
+    return Ask(i, explore);
+  }
   /// convoy: robot i follows `ahead_ids` (nearest first, the leader last).
   std::string Follow(std::size_t i, std::vector<std::string> ahead_ids) {
     ConvoyCommand convoy;
@@ -119,6 +133,7 @@ class AgentTeam {
   std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms_;
   std::vector<std::unique_ptr<RobotAgent>> robots_;
   std::vector<bool> ever_in_contact_;
+  std::vector<bool> alive_;
   std::unique_ptr<InProcessBase> base_;
   double now_s_ = 0.0;
 };

@@ -1,8 +1,9 @@
-// A team of robots exploring a simulated world in process on a simulated clock (agent::SteppedRobot each), as
-// their agents do over DDS: each live robot's explore claims (ExploreTeam: every claim_period_s, with its
-// seen floor every coverage_period_s) go to the others, delivered at once (no link). Scored against the
-// world's ground truth. Used by cairn_agent_explore_test and cairn_bench_explore; the simulator's truth is
-// for scoring only.
+// A team of robots exploring a simulated world in process on a simulated clock, each the shipping agent
+// stepped (RobotAgent::Stepped over an InProcessTeam, team_testing::AgentTeam) and sent `explore` by the
+// operator: each live robot's explore claims (every claim_period_s, with its seen floor every
+// coverage_period_s) and peer states go to the others as its agent sends them, delivered at once. Scored
+// against the world's ground truth. Used by cairn_agent_explore_test and cairn_bench_explore; the simulator's
+// truth is for scoring only.
 #pragma once
 
 #include <algorithm>
@@ -16,11 +17,14 @@
 #include <thread>
 #include <vector>
 
-#include "cairn/agent/stepped_robot.h"
+#include "agent_team.h"
+#include "cairn/agent/communication/in_process_link.h"
 #include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 
 namespace cairn::agent::explore_team {
+
+using team_testing::AgentTeam;
 
 /// Fraction of the floor a robot can reach from (start_x, start_y) (traversable ground-truth cells,
 /// 8-connected flood fill; only those inside `region` when it is not empty) that is known (not unknown) in
@@ -130,9 +134,6 @@ struct TeamOptions {
   /// Height bands (metres, frame W; e.g. the floors of a building) scored at the end over the map's levels
   /// (CoverageOnLevels, from the first start's ground at z 0, in the task's region): TeamRun::level_coverage.
   std::vector<std::pair<double, double>> level_bands;
-  /// Robots tell one another their states at 5 Hz and keep clear of one another, as the agents do over
-  /// cairn/peer_state (SteppedRobot::PeerState()).
-  bool peers = true;
 };
 
 /// What happened.
@@ -162,90 +163,58 @@ struct TeamRun {
 };
 
 inline TeamRun RunTeam(const TeamOptions& o) {
-  constexpr double kDt = 0.02;
   const auto wall_start = std::chrono::steady_clock::now();
   TeamRun run;
-  std::vector<std::shared_ptr<sim::SimulatedPlatform>> platforms;
-  std::vector<std::unique_ptr<SteppedRobot>> robots;
-  for (std::size_t i = 0; i < o.starts.size(); ++i) {
-    AgentOptions options;
-    options.robot_id = "r" + std::to_string(i + 1);
-    options.SetPlatform(o.platform);
-    sim::SimulatedPlatformOptions sim_options;
-    sim_options.world = o.world;
-    sim_options.start_W = o.starts[i];
-    sim::ApplyPlatformProfile(options.navigation.platform, &sim_options);
-    platforms.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
-    robots.push_back(std::make_unique<SteppedRobot>(options, platforms.back(),
-                                                    std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml"));
-    robots.back()->Explore(o.task, 0.0);
+  std::vector<std::pair<std::string, core::PlanarPose>> starts;
+  for (std::size_t i = 0; i < o.starts.size(); ++i)
+    starts.emplace_back("r" + std::to_string(i + 1), o.starts[i]);
+  team_testing::AgentTeam team(o.world, starts, PeerOptions{}.margin_m,
+                               [&](AgentOptions* options) { options->SetPlatform(o.platform); });
+  for (std::size_t i = 0; i < team.size(); ++i) {
+    const std::string refused = team.Explore(i, o.task);
+    if (!refused.empty()) std::printf("explore refused by %s: %s\n", team.id(i).c_str(), refused.c_str());
   }
-  std::vector<bool> alive(robots.size(), true);
   // The floor coverage is scored over: the true world's cells classified by navigation's traversability
   // rules (what counts as a cell of floor), never a robot's map. Collisions are the simulator's own
   // (SimulatedPlatform::ground_truth).
-  nav::TraversabilityOptions floor_options = robots.front()->navigation().options().platform.traversability;
-  floor_options.robot_radius_m = robots.front()->navigation().options().platform.footprint_radius_m;
+  const NavigationOptions& navigation = team.robot(0).navigation().options();
+  nav::TraversabilityOptions floor_options = navigation.platform.traversability;
+  floor_options.robot_radius_m = navigation.platform.footprint_radius_m;
   const auto truth =
-      std::make_shared<const nav::TraversabilityGrid>(*platforms.front()->world(), floor_options);
+      std::make_shared<const nav::TraversabilityGrid>(*team.platform(0).world(), floor_options);
   const Eigen::AlignedBox2d region = o.task.region_M.value_or(Eigen::AlignedBox2d());
   auto score = [&] {
     std::vector<const nav::TraversabilityGrid*> grids;
-    for (const auto& r : robots) grids.push_back(&r->nav_map().grid());
+    for (std::size_t i = 0; i < team.size(); ++i) grids.push_back(&team.robot(i).nav_map().grid());
     return Coverage(*truth, grids, o.starts[0].x_m, o.starts[0].y_m, region);
   };
   auto any_exploring = [&] {
-    for (std::size_t i = 0; i < robots.size(); ++i) {
-      if (alive[i] && robots[i]->explore().exploring()) return true;
+    for (std::size_t i = 0; i < team.size(); ++i) {
+      if (team.alive(i) && team.modes(i).explore().exploring()) return true;
     }
     return false;
   };
-  double t = 0.0;
   double next_score_s = o.score_period_s;
-  for (int cycle = 1; any_exploring() && t < o.timeout_s; ++cycle) {
-    t += kDt;
-    if (o.kill_index >= 0 && alive[o.kill_index] && t >= o.kill_at_s && robots[o.kill_index]->OwnClaim(t)) {
-      alive[o.kill_index] = false;
-      run.killed_claim = robots[o.kill_index]->OwnClaim(t);
+  while (any_exploring() && team.now_s() < o.timeout_s) {
+    const double t = team.now_s() + AgentTeam::kCycleS;
+    const int k = o.kill_index;
+    if (k >= 0 && team.alive(k) && t >= o.kill_at_s && team.modes(k).explore().OwnClaim(t)) {
+      team.Stop(k);  // its process is gone: no step, no claim, no state from now on
+      run.killed_claim = team.modes(k).explore().OwnClaim(t);
       run.killed_at_s = t;
     }
-    // Each robot steps, then sends its claim if one is due (with its coverage when that is due): the peers
-    // hear it at once (a link without delay or loss), as the agents do over cairn/explore_claim.
-    for (std::size_t i = 0; i < robots.size(); ++i) {
-      if (!alive[i]) continue;
-      robots[i]->Step(t);
-      run.highest_z_m = std::max(run.highest_z_m, platforms[i]->TrueState().z_m);
-      while (robots[i]->planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-      if (const std::optional<ExploreClaim> claim = robots[i]->ClaimToSend(t)) {
-        ++run.claims_sent;
-        if (claim->coverage) run.coverage_bytes_sent += CompressCoverageBits(*claim->coverage).size();
-        for (std::size_t j = 0; j < robots.size(); ++j) {
-          if (j == i || !alive[j]) continue;
-          const std::string refused = robots[j]->OnPeerClaim(*claim, t);
-          if (!refused.empty()) std::printf("claim refused: %s\n", refused.c_str());
-        }
-      }
-    }
-    // Peer states at 5 Hz, heard at once; the closest approach from the true poses.
-    for (std::size_t i = 0; i < robots.size(); ++i) {
-      if (!alive[i]) continue;
-      const PeerBody self = robots[i]->PeerState();
-      for (std::size_t j = 0; j < robots.size(); ++j) {
-        if (j == i || !alive[j]) continue;
-        if (o.peers && cycle % 10 == 0) {
-          const std::string refused = robots[j]->OnPeerState(self, t);
-          if (!refused.empty()) std::printf("peer state refused: %s\n", refused.c_str());
-        }
-        if (j > i) {
-          const sim::UnicycleState a = platforms[i]->TrueState(), b = platforms[j]->TrueState();
-          run.closest_peer_m = std::min(run.closest_peer_m, std::hypot(a.x_m - b.x_m, a.y_m - b.y_m));
-        }
-      }
-    }
+    // Each robot steps, sending its claims and peer states as its agent does (heard at once, no loss).
+    team.StepOnce();
     std::vector<nav::PeerClaim> claims;
-    for (std::size_t i = 0; i < robots.size(); ++i) {
-      if (!alive[i]) continue;
-      if (auto c = robots[i]->OwnClaim(t)) claims.push_back(*c);
+    for (std::size_t i = 0; i < team.size(); ++i) {
+      if (!team.alive(i)) continue;
+      run.highest_z_m = std::max(run.highest_z_m, team.truth(i).z_m);
+      if (auto c = team.modes(i).explore().OwnClaim(t)) claims.push_back(*c);
+      for (std::size_t j = i + 1; j < team.size(); ++j) {
+        if (!team.alive(j)) continue;
+        const sim::UnicycleState a = team.truth(i), b = team.truth(j);
+        run.closest_peer_m = std::min(run.closest_peer_m, std::hypot(a.x_m - b.x_m, a.y_m - b.y_m));
+      }
     }
     for (std::size_t a = 0; a < claims.size(); ++a) {
       for (std::size_t b = a + 1; b < claims.size(); ++b) {
@@ -263,28 +232,32 @@ inline TeamRun RunTeam(const TeamOptions& o) {
       if (coverage >= o.stop_at_coverage) break;
     }
   }
+  const double t = team.now_s();
   run.coverage = score();
   if (run.time_to_90_s < 0 && run.coverage >= 0.9) run.time_to_90_s = t;
   std::shared_ptr<const nav::MultiLevelGrid> truth_levels;
   if (!o.level_bands.empty())
-    truth_levels = std::make_shared<const nav::MultiLevelGrid>(platforms.front()->world(), floor_options);
+    truth_levels = std::make_shared<const nav::MultiLevelGrid>(team.platform(0).world(), floor_options);
   std::vector<const nav::MultiLevelGrid*> level_maps;
-  for (const auto& r : robots) level_maps.push_back(&r->nav_map().levels());
+  for (std::size_t i = 0; i < team.size(); ++i) level_maps.push_back(&team.robot(i).nav_map().levels());
   for (const auto& [z0, z1] : o.level_bands) {
     run.level_coverage.push_back(
         CoverageOnLevels(*truth_levels, level_maps, {o.starts[0].x_m, o.starts[0].y_m, 0.0}, z0, z1, region));
   }
   run.end_s = t;
-  for (std::size_t i = 0; i < robots.size(); ++i) {
-    run.contact = run.contact || robots[i]->ever_in_contact();
-    run.statuses.push_back(robots[i]->explore().status());
-    run.driven_m.push_back(platforms[i]->distance_travelled_m());
-    if (alive[i]) run.end_speed_mps = std::max(run.end_speed_mps, std::abs(platforms[i]->TrueState().v_mps));
+  for (std::size_t i = 0; i < team.size(); ++i) {
+    run.contact = run.contact || team.ever_in_contact(i);
+    run.statuses.push_back(team.modes(i).explore().status());
+    run.driven_m.push_back(team.platform(i).distance_travelled_m());
+    if (team.alive(i)) run.end_speed_mps = std::max(run.end_speed_mps, std::abs(team.truth(i).v_mps));
+    const InProcessLink* link = team.links().Find(team.id(i));
+    run.claims_sent += link->claims_sent();
+    run.coverage_bytes_sent += link->coverage_bytes_sent();
   }
   if (run.killed_claim) {
     std::vector<const nav::TraversabilityGrid*> live;
-    for (std::size_t i = 0; i < robots.size(); ++i) {
-      if (alive[i]) live.push_back(&robots[i]->nav_map().grid());
+    for (std::size_t i = 0; i < team.size(); ++i) {
+      if (team.alive(i)) live.push_back(&team.robot(i).nav_map().grid());
     }
     const Eigen::Vector2d c = run.killed_claim->target_M;
     run.killed_branch_known =

@@ -15,9 +15,9 @@
 
 #include "../../nav/test/nav_test_util.h"
 #include "../../sim/test/test_util.h"
+#include "agent_team.h"
 #include "cairn/agent/modes/waypoint_recovery.h"
 #include "cairn/agent/services/planning_service.h"
-#include "cairn/agent/stepped_robot.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
@@ -685,49 +685,20 @@ TEST(NavigationPeersTest, TwoRobotsMeetingHeadOnPassWithoutTouching) {
               touching_m, std::max(a.t_s, b.t_s));
 }
 
-// ---- Goals that cannot be reached: one robot's autonomy (SteppedRobot, the agent's components on a
-// simulated clock) in builtin:tunnels, planning on its own map as the agent does. Walls are 0.3 m thick:
-// behind them the world is solid rock that no lidar ever sees.
-
-std::shared_ptr<sim::SimulatedPlatform> TunnelPlatform(const AgentOptions& options,
-                                                       const core::PlanarPose& start) {
-  sim::SimulatedPlatformOptions o;
-  o.world = "builtin:tunnels";
-  o.start_W = start;
-  sim::ApplyPlatformProfile(options.navigation.platform, &o);
-  return std::make_shared<sim::SimulatedPlatform>(o);
-}
-
-AgentOptions TunnelOptions() {
-  AgentOptions o;
-  o.robot_id = "r2";
-  o.SetPlatform("wheeled");
-  return o;
-}
-
-// Steps `robot` at 50 Hz from *t_s for up to `seconds` (simulated), until `done` returns true.
-void StepFor(SteppedRobot& robot, double* t_s, double seconds, const std::function<bool()>& done = {}) {
-  const double end_s = *t_s + seconds;
-  while (*t_s < end_s) {
-    *t_s += kDt;
-    robot.Step(*t_s);
-    while (robot.planning()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    if (done && done()) return;
-  }
-}
+// ---- Goals that cannot be reached: the agent stepped on a simulated clock (RobotAgent::Stepped) in
+// builtin:tunnels, its goals sent as the console sends them and planned on its own map. Walls are 0.3 m
+// thick: behind them the world is solid rock that no lidar ever sees.
 
 // r2 looks along the main tunnel from its west end, then is sent to a point of the north wall it has seen:
 // refused at once, naming the nearest free point, which is free ground beside the wall.
 TEST(UnreachableGoalTest, AGoalTheMapKnowsIsInsideAnObstacleIsRefusedNamingTheNearestFreePoint) {
-  const AgentOptions options = TunnelOptions();
-  const auto platform = TunnelPlatform(options, {4.0, 20.0, 0.0});
-  SteppedRobot robot(options, platform, "");
-  double t = 0.0;
-  StepFor(robot, &t, 3.0);  // at rest: the map and the planner's grid take in the first scans
-  const std::string refused = robot.Goto(8.0, 21.6, t);
+  team_testing::AgentTeam team("builtin:tunnels", {{"r2", {4.0, 20.0, 0.0}}});
+  team.StepFor(3.0);  // at rest: the map and the planner's grid take in the first scans
+  const std::string refused = team.Goto(0, 8.0, 21.6);
   std::printf("FIGURE goal_in_obstacle: refused: %s\n", refused.c_str());
-  EXPECT_EQ(refused.rfind("goal (8.00, 21.60) is inside an obstacle on r2's map", 0), 0u) << refused;
-  EXPECT_FALSE(robot.waypoint().has_goal());
+  EXPECT_NE(refused.find("goal (8.00, 21.60) is inside an obstacle on r2's map"), std::string::npos)
+      << refused;
+  EXPECT_FALSE(team.modes(0).waypoint().has_goal());
   double x = 0, y = 0;
   const std::size_t at = refused.find("nearest free point (");
   ASSERT_NE(at, std::string::npos) << refused;
@@ -735,35 +706,40 @@ TEST(UnreachableGoalTest, AGoalTheMapKnowsIsInsideAnObstacleIsRefusedNamingTheNe
   EXPECT_LT(std::hypot(x - 8.0, y - 21.6), 1.2) << refused;
   // The judge: the simulated world itself, where the robot's body fits at that point.
   const nav::TraversabilityGrid truth(sim::LoadWorld("builtin:tunnels"));
-  EXPECT_TRUE(truth.IsFootprintFree(x, y, options.navigation.platform.footprint_radius_m)) << refused;
-  EXPECT_EQ(robot.Goto(x, y, t), "") << "the point it names is taken";
+  EXPECT_TRUE(truth.IsFootprintFree(x, y, nav::GetPlatformProfile("wheeled").footprint_radius_m)) << refused;
+  EXPECT_EQ(team.Goto(0, x, y), "") << "the point it names is taken";
 }
 
 // r2 is sent into the rock between the main tunnel and the south branch, where its map has seen nothing: the
-// goal is accepted as one in unmapped space, and abandoned with the reason once its replans make no progress,
-// not driven at for minutes.
+// goal is accepted as one in unmapped space (the reply says so), and abandoned with the reason once its
+// replans make no progress, not driven at for minutes.
 TEST(UnreachableGoalTest, AGoalInUnmappedSpaceIsAcceptedWithANoticeAndAbandonedWithinItsBound) {
-  const AgentOptions options = TunnelOptions();  // the shipped bounds: 20 replans, 60 s
-  const auto platform = TunnelPlatform(options, {4.0, 20.0, 0.0});
-  SteppedRobot robot(options, platform, "");
-  double t = 0.0;
-  StepFor(robot, &t, 3.0);
-  ASSERT_EQ(robot.Goto(20.0, 12.0, t), "");
-  EXPECT_TRUE(robot.navigation().global_plan().goal_unmapped);
-  EXPECT_EQ(GoalNotice("r2", robot.navigation().global_plan()), "goal in unmapped space: r2 will look");
-  const double start_s = t;
+  team_testing::AgentTeam team("builtin:tunnels", {{"r2", {4.0, 20.0, 0.0}}});  // the shipped bounds
+  team.StepFor(3.0);
+  GoalCommand goal;
+  goal.frame_id = "map";
+  goal.x_m = 20.0;
+  goal.y_m = 12.0;
+  const std::uint32_t request = team.base().Send("r2", goal);
+  team.StepOnce();
+  const std::optional<CommandReply> reply = team.base().Reply("r2", request);
+  ASSERT_TRUE(reply);
+  ASSERT_EQ(reply->result, CommandResult::kAccepted) << reply->reason;
+  EXPECT_NE(reply->reason.find("goal in unmapped space: r2 will look"), std::string::npos) << reply->reason;
+  EXPECT_TRUE(team.robot(0).navigation().global_plan().goal_unmapped);
+  const double start_s = team.now_s();
   int most_replans = 0;
-  StepFor(robot, &t, 300.0, [&] {
-    most_replans = std::max(most_replans, robot.navigation().replans());
-    return !robot.waypoint().has_goal();
-  });
-  const WaypointGoal& goal = robot.waypoint().goal();
-  std::printf("FIGURE unmapped_goal: ended after %.1f s (%d replans of its last plan): %s\n", t - start_s,
-              most_replans, goal.reason.c_str());
-  ASSERT_EQ(goal.status, GoalStatus::kFailed) << goal.reason;
-  EXPECT_EQ(goal.reason.rfind("goal in unmapped space abandoned: no progress toward (20.00, 12.00)", 0), 0u)
-      << goal.reason;
-  EXPECT_LT(t - start_s, 120.0);
+  while (team.now_s() < start_s + 300 && team.modes(0).waypoint().has_goal()) {
+    team.StepOnce();
+    most_replans = std::max(most_replans, team.robot(0).navigation().replans());
+  }
+  const WaypointGoal& ended = team.modes(0).waypoint().goal();
+  std::printf("FIGURE unmapped_goal: ended after %.1f s (%d replans of its last plan): %s\n",
+              team.now_s() - start_s, most_replans, ended.reason.c_str());
+  ASSERT_EQ(ended.status, GoalStatus::kFailed) << ended.reason;
+  EXPECT_EQ(ended.reason.rfind("goal in unmapped space abandoned: no progress toward (20.00, 12.00)", 0), 0u)
+      << ended.reason;
+  EXPECT_LT(team.now_s() - start_s, 120.0);
 }
 
 }  // namespace

@@ -36,6 +36,8 @@ bool InProcessLink::Publish(const cairn_msgs::StaircaseDetection&) { return Coun
 bool InProcessLink::Publish(const ExploreClaim& claim) {
   if (!ever_listened_) throw std::logic_error("InProcessLink::Publish(ExploreClaim) before Listen()");
   Count("team");
+  ++claims_sent_;
+  if (claim.coverage) coverage_bytes_sent_ += CompressCoverageBits(*claim.coverage).size();
   if (!listening_to_claims_) {
     // From its first claim on it reads its peers' claims: the newest of each first (the latched topic).
     listening_to_claims_ = true;

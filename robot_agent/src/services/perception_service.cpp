@@ -149,9 +149,7 @@ void PerceptionService::PerceptionLoop(core::WorkLoop& loop) {
   }
 }
 
-void PerceptionService::ReadSensors() {
-  if (capabilities_.has_lidar) ReadScan(NowS());
-}
+bool PerceptionService::ReadSensors() { return capabilities_.has_lidar && ReadScan(NowS()); }
 
 void PerceptionService::PerceptionTick() {
   const double now_s = NowS();

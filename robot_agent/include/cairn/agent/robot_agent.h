@@ -9,6 +9,7 @@
 #include "cairn/agent/agent_options.h"
 #include "cairn/agent/communication/agent_link.h"
 #include "cairn/agent/modes/robot_modes.h"
+#include "cairn/agent/services/nav_map.h"
 #include "cairn/agent/services/navigation.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/core/time.h"
@@ -52,9 +53,11 @@ class RobotAgent {
   /// mission's resumption): the caller waits (wall time) before stepping on, so that results do not depend on
   /// the machine's speed.
   bool planning() const;
-  /// A stepped agent, between Step() calls: its modes and navigation (what the tests read).
+  /// A stepped agent, between Step() calls: its modes, navigation and navigation map (what tests and benches
+  /// read).
   const RobotModes& modes() const;
   const Navigation& navigation() const;
+  const NavMap& nav_map() const;
   /// After Run(): it ended because a component's work did not stop when asked and the agent is supervised
   /// (AgentOptions::supervised). That work may still run: leave with kRestartExitStatus at once (std::_Exit),
   /// without destroying the agent, and the supervisor starts the process again from its journal.

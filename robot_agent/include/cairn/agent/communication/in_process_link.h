@@ -70,6 +70,10 @@ class InProcessLink final : public AgentLink {
   const std::vector<CommandReply>& replies() const { return replies_; }
   /// The robot's answers to path queries so far, oldest first.
   const std::vector<PathAnswer>& path_answers() const { return path_answers_; }
+  /// Explore claims sent so far, and the bytes of their compressed coverage (CompressCoverageBits: what they
+  /// carry on the wire).
+  int claims_sent() const { return claims_sent_; }
+  std::size_t coverage_bytes_sent() const { return coverage_bytes_sent_; }
   /// Samples sent so far in topic class `topic_class` ("command", "state", "tree", "team", "map", "camera").
   std::uint64_t samples(const std::string& topic_class) const;
 
@@ -90,6 +94,8 @@ class InProcessLink final : public AgentLink {
   std::vector<CommandReply> replies_;
   std::vector<PathAnswer> path_answers_;
   std::map<std::string, std::uint64_t> samples_;
+  int claims_sent_ = 0;
+  std::size_t coverage_bytes_sent_ = 0;
 };
 
 /// The robots and basestations of one process (see the file comment). Outlives its links and bases. Not

@@ -172,8 +172,8 @@ class ExploreMode : public ModeModule {
   /// True while exploring (the tree's HasExploreTask).
   bool exploring() const { return status_.active(); }
   /// True while a plan this mode waits for runs on a worker: a target's plan (the robot holds still), a
-  /// recovery attempt's, or navigation's replan. A simulated clock waits for it (SteppedRobot), so that a
-  /// run does not depend on how busy the machine is.
+  /// recovery attempt's, or navigation's replan. A simulated clock waits for it (RobotAgent::planning()), so
+  /// that a run does not depend on how busy the machine is.
   bool planning() const;
   /// The target choice (its failed and reached targets).
   const nav::Explorer& explorer() const { return explorer_; }

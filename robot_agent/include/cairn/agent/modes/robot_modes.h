@@ -1,13 +1,10 @@
-// One robot's modes as the agent runs them, in one piece that the agent (RobotAgent, over DDS, on its
-// threads) and the stepped robot (SteppedRobot, in process, on a simulated clock) both compose: the mode
-// modules (idle, manual, smart joystick, waypoint, explore, convoy, yield) under the mode tree and the mux
-// (ModeControl), the operator's mission across interruptions (MissionResumption) and getting out of each
-// other's way, asked and asking (YieldCoordination); and the modes' part of a control cycle, in the agent's
-// order.
+// One robot's modes as the agent (RobotAgent) runs them, in one piece: the mode modules (idle, manual, smart
+// joystick, waypoint, explore, convoy, yield) under the mode tree and the mux (ModeControl), the operator's
+// mission across interruptions (MissionResumption) and getting out of each other's way, asked and asking
+// (YieldCoordination); and the modes' part of a control cycle, in the agent's order.
 //
 // DDS-free: the caller gives the time (and the clock the modes stamp activations with), the tree's conditions
-// and the peers. Not thread-safe
-// (the agent calls it under its lock).
+// and the peers. Not thread-safe (the agent calls it under its lock).
 #pragma once
 
 #include <cstdint>

@@ -65,6 +65,8 @@ class PerceptionService {
   /// its thread grows the map over it at its next update), else why not (naming navigation.map_max_extent_m).
   /// Any thread (the planning thread).
   std::string CoverGoal(const Eigen::Vector2d& goal_M) { return nav_map_->Cover(goal_M); }
+  /// The navigation map: for the navigation map thread, or a stepped agent's caller between steps.
+  const NavMap& nav_map() const { return *nav_map_; }
   /// Frontier search for the explore mode: while `search` is set, the navigation map thread runs
   /// nav::FindFrontiers with it on its map after each update, from the robot's position given with
   /// SetRobotPosition(); none = no search. Any thread.
@@ -111,7 +113,7 @@ class PerceptionService {
   /// at their periods on its clock: ReadSensors() the sensor loop's (a new lidar scan, if the platform has
   /// one), PerceptionTick() the perception loop's, NavMapTick() the navigation map loop's (`beat`, if set, is
   /// called between its steps). Not concurrently with the loops nor with one another. A fault is thrown.
-  void ReadSensors();
+  bool ReadSensors();
   void PerceptionTick();
   /// The perception loop's period, seconds: half the lidar's (10 Hz when the platform does not say).
   double perception_period_s() const {

@@ -4,8 +4,8 @@
 // (nav::SeenCoverage) compressed with zstd. Its peers keep the claims they heard (each expires lease_s after
 // it arrived, on the receiver's clock: a lost robot's claim goes by itself, with no clock sync) and the union
 // of the coverage (counted as no gain by their frontier search). Plain C++ without DDS: the agent's DDS
-// adapter converts the messages; the in-process team (SteppedRobot) passes the same structs through the same
-// rules.
+// adapter converts the messages; the in-process team (InProcessTeam, for agents stepped on a simulated clock)
+// passes the same structs through the same rules.
 #pragma once
 
 #include <Eigen/Core>

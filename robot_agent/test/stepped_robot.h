@@ -1,4 +1,5 @@
-// One robot's autonomy stepped on the caller's clock, on the caller's thread, with no DDS: the components the
+// Test-only (stepped_explore_team.h says why it is kept): one robot's autonomy stepped on the caller's clock,
+// on the caller's thread, with no DDS: the components the
 // agent runs on its threads (live obstacles, perception's map, the navigation map, the frontier search,
 // navigation) fed from a core::PlatformIO the same way, and the agent's own modes (RobotModes: the mode
 // tree and the mux over the mode modules, missions across interruptions, yields asked and asking) in the

@@ -1,4 +1,4 @@
-#include "cairn/agent/stepped_robot.h"
+#include "stepped_robot.h"
 
 #include <chrono>
 #include <limits>
