@@ -352,6 +352,11 @@ class RobotAgent::Impl {
   // A component's work did not stop and the agent is supervised: Run() ends for a restart of the process.
   std::atomic<bool> restart_requested_{false};
 
+  // In the constructor: the planning service, its answers going to the command interface and the link.
+  std::unique_ptr<PlanningService> MakePlanningService();
+  // In the constructor: the first scan before the robot announces itself ready, so that it can take a goal at
+  // once (a stepped agent reads its sensors once, at time 0).
+  void ReadFirstScan();
   // In the constructor: the components and their monitor (not started).
   void MakeComponents();
   // The monitor's event: logged there; published at once.
@@ -405,32 +410,8 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
                                         lockstep_ ? RobotModes::Ids::kFromOne : RobotModes::Ids::kRandom);
   command_ = std::make_unique<CommandInterface>(options_.robot_id, options_.lock, &modes_->control(),
                                                 modes_->waypoint().name(), CommandHooks());
-  PlanningServiceOptions planning;
-  planning.robot_id = options_.robot_id;
-  planning.platform = options_.navigation.platform.name;
-  planning.path_queries_per_s = options_.path_requests_per_s;
-  planning.map_max_extent_m = options_.nav_map.max_extent_m;
-  planning_ = std::make_unique<PlanningService>(
-      planning, planner_,
-      PlanningService::Hooks{[this](const GoalCommand& goal, const nav::GlobalPlan& plan) {
-                               std::lock_guard<std::mutex> guard(mutex_);
-                               command_->OnGoalPlanned(goal, plan);
-                             },
-                             [this](const PathAnswer& answer) { link_->Send(answer); },
-                             [this](const Eigen::Vector2d& goal_M) { return perception_->CoverGoal(goal_M); },
-                             [this] { return perception_->Staircases(); }});
-  if (lockstep_) {
-    // The sensors read once at time 0, as a running agent has them before an operator commands it.
-    perception_->ReadSensors();
-    perception_->FeedObstacles(navigation_);
-  } else if (capabilities_.has_lidar) {
-    // The first scan before the robot announces itself ready, so that it can take a goal at once.
-    perception_->WaitForFirstScan(std::chrono::seconds(5));
-    if (!perception_->FeedObstacles(navigation_)) {
-      spdlog::warn("robot {}: no lidar scan within 5 s of start; waypoint driving waits for one",
-                   options_.robot_id);
-    }
-  }
+  planning_ = MakePlanningService();
+  ReadFirstScan();
   telemetry_ =
       std::make_unique<Telemetry>(options_, link_.get(), &modes_->control(), &modes_->waypoint(),
                                   &modes_->explore(), &modes_->convoy(), &navigation_, command_.get());
@@ -454,6 +435,38 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
                start_M_.x_m, start_M_.y_m, start_M_.yaw_rad,
                lockstep_ ? std::string("(stepped on a simulated clock, in process)")
                          : "on DDS domain " + std::to_string(options_.domain_id));
+}
+
+std::unique_ptr<PlanningService> RobotAgent::Impl::MakePlanningService() {
+  PlanningServiceOptions planning;
+  planning.robot_id = options_.robot_id;
+  planning.platform = options_.navigation.platform.name;
+  planning.path_queries_per_s = options_.path_requests_per_s;
+  planning.map_max_extent_m = options_.nav_map.max_extent_m;
+  return std::make_unique<PlanningService>(
+      planning, planner_,
+      PlanningService::Hooks{[this](const GoalCommand& goal, const nav::GlobalPlan& plan) {
+                               std::lock_guard<std::mutex> guard(mutex_);
+                               command_->OnGoalPlanned(goal, plan);
+                             },
+                             [this](const PathAnswer& answer) { link_->Send(answer); },
+                             [this](const Eigen::Vector2d& goal_M) { return perception_->CoverGoal(goal_M); },
+                             [this] { return perception_->Staircases(); }});
+}
+
+void RobotAgent::Impl::ReadFirstScan() {
+  if (lockstep_) {
+    // The sensors read once at time 0, as a running agent has them before an operator commands it.
+    perception_->ReadSensors();
+    perception_->FeedObstacles(navigation_);
+  } else if (capabilities_.has_lidar) {
+    // The first scan before the robot announces itself ready, so that it can take a goal at once.
+    perception_->WaitForFirstScan(std::chrono::seconds(5));
+    if (!perception_->FeedObstacles(navigation_)) {
+      spdlog::warn("robot {}: no lidar scan within 5 s of start; waypoint driving waits for one",
+                   options_.robot_id);
+    }
+  }
 }
 
 void RobotAgent::Impl::Resume(const JournalEntry& entry) {

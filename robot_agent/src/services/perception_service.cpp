@@ -85,7 +85,7 @@ bool PerceptionService::ReadScan(double now_s) {
   if (!platform_->ReadLidarScan(now_s, scan.get())) return false;
   core::BaseState pose_M;
   if (clear_obstacle_memory_.exchange(false)) live_obstacle_sensor_.Clear();
-  last_scan_s_ = now_s;
+  map_health_.last_scan_s = now_s;
   live_obstacle_sensor_.AddScan(*scan, &obstacle_points_B_, &pose_M);
   {
     std::lock_guard<std::mutex> guard(obstacles_mutex_);
@@ -178,24 +178,24 @@ void PerceptionService::SearchTheNewMap() {
   std::shared_ptr<const nav::PeerCoverage> peers;
   double coverage_cell_m = 0.0;
   {
-    std::lock_guard<std::mutex> guard(frontier_mutex_);
-    search = frontier_search_;
-    robot_p_M = robot_p_M_;
-    every_level = frontier_every_level_;
-    peers = peer_coverage_;
-    coverage_cell_m = coverage_cell_m_;
+    std::lock_guard<std::mutex> guard(frontier_.mutex);
+    search = frontier_.search;
+    robot_p_M = frontier_.robot_p_M;
+    every_level = frontier_.every_level;
+    peers = frontier_.peer_coverage;
+    coverage_cell_m = frontier_.coverage_cell_m;
   }
   if (coverage_cell_m > 0) {
     nav::CoverageBitmap seen = nav::SeenCoverage(nav_map_->grid(), coverage_cell_m);
-    std::lock_guard<std::mutex> guard(frontier_mutex_);
-    seen_coverage_ = std::move(seen);
-    coverage_cell_m_ = 0.0;
+    std::lock_guard<std::mutex> guard(frontier_.mutex);
+    frontier_.seen_coverage = std::move(seen);
+    frontier_.coverage_cell_m = 0.0;
   }
   if (search) {
     nav::FrontierSet set = nav_map_->Frontiers(robot_p_M, *search, every_level, peers.get());
-    std::lock_guard<std::mutex> guard(frontier_mutex_);
-    frontiers_ = std::move(set);
-    frontiers_at_s_ = NowS();
+    std::lock_guard<std::mutex> guard(frontier_.mutex);
+    frontier_.frontiers = std::move(set);
+    frontier_.frontiers_at_s = NowS();
   }
 }
 
@@ -209,7 +209,7 @@ void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
   const auto beat_every = std::chrono::milliseconds(100);
   nav_map_->SetProgressHook([this, &loop] {
     loop.Beat();
-    map_progress_s_ = NowS();
+    map_health_.progress_s = NowS();
   });
   struct ClearHook {
     NavMap* map;
@@ -233,66 +233,66 @@ void PerceptionService::NavMapLoop(core::WorkLoop& loop) {
 
 void PerceptionService::NavMapTick(const std::function<void()>& beat) {
   const double work_start_s = NowS();
-  map_progress_s_ = work_start_s;
-  map_work_started_s_ = work_start_s;
+  map_health_.progress_s = work_start_s;
+  map_health_.work_started_s = work_start_s;
   const std::vector<Eigen::Vector2i> tiles = perception_->TakeChangedTiles();
   // With no changed tile, Update() still grows the map when a goal beyond it asked to.
   const NavMapUpdateStats stats = nav_map_->Update(*perception_->map(), tiles, perception_->change_tile_m(),
                                                    perception_->max_sensor_z_m(), perception_->Staircases());
   if (beat) beat();
-  map_progress_s_ = NowS();
+  map_health_.progress_s = NowS();
   SearchTheNewMap();
   // The map and what is computed on it (frontiers, seen coverage) are done: how long that took sets how old
   // the map may grow before it counts as not kept up (MappingHealthy()).
   const double done_s = NowS();
   const double work_s = done_s - work_start_s;
-  const double slowest_s = map_work_slowest_s_.load();
+  const double slowest_s = map_health_.work_slowest_s.load();
   // The slowest of the recent iterations: one slow update raises it at once; it decays by 10 % a time.
-  map_work_slowest_s_ = std::max(work_s, 0.9 * slowest_s);
-  last_map_update_s_ = done_s;
-  map_progress_s_ = done_s;
-  map_work_started_s_ = -1e9;
+  map_health_.work_slowest_s = std::max(work_s, 0.9 * slowest_s);
+  map_health_.last_update_s = done_s;
+  map_health_.progress_s = done_s;
+  map_health_.work_started_s = -1e9;
   LogUpdate(options_.robot_id, stats);
 }
 
 void PerceptionService::SetFrontierSearch(const std::optional<nav::FrontierOptions>& search,
                                           bool every_level) {
-  std::lock_guard<std::mutex> guard(frontier_mutex_);
-  frontier_search_ = search;
-  frontier_every_level_ = every_level;
-  if (!search) frontiers_.reset();
+  std::lock_guard<std::mutex> guard(frontier_.mutex);
+  frontier_.search = search;
+  frontier_.every_level = every_level;
+  if (!search) frontier_.frontiers.reset();
 }
 
 void PerceptionService::SetPeerCoverage(std::shared_ptr<const nav::PeerCoverage> coverage) {
-  std::lock_guard<std::mutex> guard(frontier_mutex_);
-  peer_coverage_ = std::move(coverage);
+  std::lock_guard<std::mutex> guard(frontier_.mutex);
+  frontier_.peer_coverage = std::move(coverage);
 }
 
 std::optional<nav::CoverageBitmap> PerceptionService::TakeSeenCoverage(double cell_m) {
-  std::lock_guard<std::mutex> guard(frontier_mutex_);
-  coverage_cell_m_ = cell_m;
-  std::optional<nav::CoverageBitmap> out = std::move(seen_coverage_);
-  seen_coverage_.reset();
+  std::lock_guard<std::mutex> guard(frontier_.mutex);
+  frontier_.coverage_cell_m = cell_m;
+  std::optional<nav::CoverageBitmap> out = std::move(frontier_.seen_coverage);
+  frontier_.seen_coverage.reset();
   return out;
 }
 
 void PerceptionService::SetRobotPosition(const Eigen::Vector3d& p_M) {
-  std::lock_guard<std::mutex> guard(frontier_mutex_);
-  robot_p_M_ = p_M;
+  std::lock_guard<std::mutex> guard(frontier_.mutex);
+  frontier_.robot_p_M = p_M;
 }
 
 std::optional<std::pair<nav::FrontierSet, double>> PerceptionService::TakeFrontiers() {
-  std::lock_guard<std::mutex> guard(frontier_mutex_);
-  if (!frontiers_) return std::nullopt;
-  std::optional<std::pair<nav::FrontierSet, double>> out(std::in_place, std::move(*frontiers_),
-                                                         frontiers_at_s_);
-  frontiers_.reset();
+  std::lock_guard<std::mutex> guard(frontier_.mutex);
+  if (!frontier_.frontiers) return std::nullopt;
+  std::optional<std::pair<nav::FrontierSet, double>> out(std::in_place, std::move(*frontier_.frontiers),
+                                                         frontier_.frontiers_at_s);
+  frontier_.frontiers.reset();
   return out;
 }
 
 double PerceptionService::MapAgeLimitS() const {
   const double period_s = options_.nav_map.update_period_s;
-  return std::max({kMinMapAgeLimitS, 3 * period_s, 3 * map_work_slowest_s_.load() + period_s});
+  return std::max({kMinMapAgeLimitS, 3 * period_s, 3 * map_health_.work_slowest_s.load() + period_s});
 }
 
 bool PerceptionService::MappingHealthy(std::string* why) const {
@@ -301,20 +301,23 @@ bool PerceptionService::MappingHealthy(std::string* why) const {
   const double limit_s = MapAgeLimitS();
   if (!capabilities_.has_lidar) {
     problem = "the platform has no lidar to map with";
-  } else if (const double age = now_s - last_scan_s_.load(); age > options_.navigation.obstacle_lost_s) {
-    problem = last_scan_s_.load() < -1e8 ? "no lidar scan yet"
-                                         : "no lidar scan for " + internal::Fixed(age, 1) + " s";
-  } else if (const double idle_s = now_s - map_progress_s_.load(); map_work_started_s_.load() > -1e8) {
+  } else if (const double age = now_s - map_health_.last_scan_s.load();
+             age > options_.navigation.obstacle_lost_s) {
+    problem = map_health_.last_scan_s.load() < -1e8 ? "no lidar scan yet"
+                                                    : "no lidar scan for " + internal::Fixed(age, 1) + " s";
+  } else if (const double idle_s = now_s - map_health_.progress_s.load();
+             map_health_.work_started_s.load() > -1e8) {
     // An update under way: healthy while it makes progress (a growth over a large map takes seconds).
     if (idle_s > limit_s) {
       problem = "the navigation map update made no progress for " + internal::Fixed(idle_s, 1) + " s";
     }
-  } else if (const double map_age = now_s - last_map_update_s_.load(); map_age > limit_s && now_s > limit_s) {
-    problem = last_map_update_s_.load() < -1e8
+  } else if (const double map_age = now_s - map_health_.last_update_s.load();
+             map_age > limit_s && now_s > limit_s) {
+    problem = map_health_.last_update_s.load() < -1e8
                   ? "the navigation map was never updated"
                   : "the navigation map was not updated for " + internal::Fixed(map_age, 1) + " s (limit " +
                         internal::Fixed(limit_s, 1) + " s: its updates take up to " +
-                        internal::Fixed(map_work_slowest_s_.load(), 1) + " s)";
+                        internal::Fixed(map_health_.work_slowest_s.load(), 1) + " s)";
   }
   if (!problem.empty() && why != nullptr) *why = problem;
   return problem.empty();

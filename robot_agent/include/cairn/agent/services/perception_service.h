@@ -174,23 +174,30 @@ class PerceptionService {
   std::atomic<bool> map_snapshot_requested_{false};
   std::function<void(const char*)> fault_hook_;
   std::atomic<std::size_t> map_memory_bytes_{0};
-  double memory_measured_s_ = -1e9;        // perception thread: when map_memory_bytes_ was last measured
-  std::atomic<double> last_scan_s_{-1e9};  // agent clock of the newest scan read
-  std::atomic<double> last_map_update_s_{-1e9};   // ... when the newest navigation map update (and its
-                                                  // frontier search) ended
-  std::atomic<double> map_work_started_s_{-1e9};  // ... when the update under way started (-1e9: none)
-  std::atomic<double> map_progress_s_{-1e9};      // ... of the map thread's newest progress
-  std::atomic<double> map_work_slowest_s_{0.0};   // the slowest recent update, seconds (decays by 10 % each)
+  double memory_measured_s_ = -1e9;  // perception thread: when map_memory_bytes_ was last measured
+  // When the sensors and the navigation map last made progress, on the agent's clock (MappingHealthy()).
+  // Written by the sensor and navigation map threads, read by any.
+  struct MapHealth {
+    std::atomic<double> last_scan_s{-1e9};  // the newest scan read
+    std::atomic<double> last_update_s{
+        -1e9};  // the newest navigation map update (and its frontier search) ended
+    std::atomic<double> work_started_s{-1e9};  // the update under way started (-1e9: none)
+    std::atomic<double> progress_s{-1e9};      // the map thread's newest progress
+    std::atomic<double> work_slowest_s{0.0};   // the slowest recent update, seconds (decays by 10 % each)
+  } map_health_;
   static constexpr double kMinMapAgeLimitS = 3.0;
-  std::mutex frontier_mutex_;  // guards the seven below
-  std::shared_ptr<const nav::PeerCoverage> peer_coverage_;
-  double coverage_cell_m_ = 0.0;  // > 0: SeenCoverage() asked for
-  std::optional<nav::CoverageBitmap> seen_coverage_;
-  std::optional<nav::FrontierOptions> frontier_search_;
-  Eigen::Vector3d robot_p_M_ = Eigen::Vector3d::Zero();
-  bool frontier_every_level_ = false;
-  std::optional<nav::FrontierSet> frontiers_;
-  double frontiers_at_s_ = 0.0;
+  // What the explore mode asks of the navigation map thread and gets back, under `mutex`.
+  struct FrontierShare {
+    std::mutex mutex;
+    std::shared_ptr<const nav::PeerCoverage> peer_coverage;
+    double coverage_cell_m = 0.0;  // > 0: SeenCoverage() asked for
+    std::optional<nav::CoverageBitmap> seen_coverage;
+    std::optional<nav::FrontierOptions> search;
+    Eigen::Vector3d robot_p_M = Eigen::Vector3d::Zero();
+    bool every_level = false;
+    std::optional<nav::FrontierSet> frontiers;
+    double frontiers_at_s = 0.0;
+  } frontier_;
 };
 
 }  // namespace cairn::agent
