@@ -258,7 +258,7 @@ class RobotAgent::Impl {
   // With mutex_ held: the robot as a yield, asked or asking, sees it at `now_s` with `live_peers` (which
   // outlive the answer).
   YieldCoordination::Robot ForYield(double now_s, const std::vector<PeerBody>& live_peers) const {
-    return {now_s, modes_->control().mode(), reading_.pose_M, &live_peers, listening_to_peers_};
+    return {now_s, modes_->control().mode(), reading_.pose_M, &live_peers, team_.listening_to_peers};
   }
   // With mutex_ held: what the robot state reports now.
   RobotStateInputs StateInputs() const {
@@ -270,7 +270,7 @@ class RobotAgent::Impl {
     RobotStateInputs in;
     in.pose_M = reading_.pose_M;
     in.in_contact = reading_.in_contact;
-    in.control_period_max_ms = control_periods_.WorstMs();
+    in.control_period_max_ms = loop_.periods.WorstMs();
     in.resumable_goal_M = resumable_goal_M_;
     in.yield = own_first ? own : asking;
     in.paused_mission = modes_->missions().paused();
@@ -314,17 +314,24 @@ class RobotAgent::Impl {
     std::string pose_problem;
     bool in_contact = false;
   } reading_;
-  PeriodWindow control_periods_;
-  std::atomic<std::uint64_t> late_control_cycles_{0};  // Run(): cycles started over half a period late
-  int robots_on_link_ = 1;                             // ShareRadioLink()
+  // How the control loop keeps time and shares the link (control thread; late_cycles read by any).
+  struct LoopRecord {
+    PeriodWindow periods;
+    std::atomic<std::uint64_t> late_cycles{0};  // Run(): cycles started over half a period late
+    int robots_on_link = 1;                     // ShareRadioLink()
+  } loop_;
   Navigation navigation_;
   std::unique_ptr<PerceptionService> perception_;  // sensor, perception and navigation map threads
-  ExploreTeam team_;                               // peers' explore claims and coverage (thread-safe)
-  PeerTracker peers_;                              // peers' poses, footprints and paths (thread-safe)
-  core::WarningLimiter peer_warnings_;             // a bad peer state is named once per 5 s per robot
-  // Run(): AgentDds::ListenToPeers() done, once the robot first left idle or was asked to yield.
-  std::atomic<bool> listening_to_peers_{false};
-  std::optional<ExploreClaim> claim_to_send_;        // Step()'s, sent by Run() outside the agent lock
+  // What this robot knows of its peers and owes them.
+  struct Team {
+    explicit Team(const AgentOptions& o) : explore(o.robot_id, o.explore.team), peers(o.robot_id, o.peers) {}
+    ExploreTeam explore;                 // peers' explore claims and coverage (thread-safe)
+    PeerTracker peers;                   // peers' poses, footprints and paths (thread-safe)
+    core::WarningLimiter peer_warnings;  // a bad peer state is named once per 5 s per robot
+    // Run(): the link's ListenToPeers() done, once the robot first left idle or was asked to yield.
+    std::atomic<bool> listening_to_peers{false};
+    std::optional<ExploreClaim> claim_to_send;  // Step()'s, sent by Run() outside the agent lock
+  } team_;
   ComeHome come_home_{options_.robot_id, start_M_};  // an exploring robot that hears no one drives back
   // The mode tree, the mode modules and the mux; the operator's mission across interruptions; yields.
   std::unique_ptr<RobotModes> modes_;
@@ -387,8 +394,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
       planner_(MakePlanner(options_, start_M_)),
       reading_(start_M_),
       navigation_(options_.navigation, planner_, LocalPlannerLibrary(options_)),
-      team_(options_.robot_id, options_.explore.team),
-      peers_(options_.robot_id, options_.peers),
+      team_(options_),
       parts_(FaultInjector(
           [&] {
             std::vector<FaultInjection> faults;
@@ -521,8 +527,8 @@ JournalEntry RobotAgent::Impl::JournalNow() const {
 void RobotAgent::Impl::ShareRadioLink() {
   if (!core::IsRadioLink(options_.link) || !options_.perception.enabled) return;
   const int robots = std::max(1, link_->RobotsOnLink());
-  if (robots == robots_on_link_) return;
-  robots_on_link_ = robots;
+  if (robots == loop_.robots_on_link) return;
+  loop_.robots_on_link = robots;
   perception_->SetLinkShare(1.0 / robots);
   const int flow_share = link_->SetBulkShare(robots);
   spdlog::info(
@@ -570,7 +576,7 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
     return CommandOutcome{true, "left the convoy: idle", 0};
   }
   const double now_s = NowS(clock_->Now());
-  const std::string refused = modes_->StartConvoy(c.ahead_ids, peers_.Live(now_s), now_s);
+  const std::string refused = modes_->StartConvoy(c.ahead_ids, team_.peers.Live(now_s), now_s);
   if (!refused.empty()) return CommandOutcome{false, refused, 0};
   std::string order;
   for (const std::string& id : c.ahead_ids) order += (order.empty() ? "" : ", ") + id;
@@ -632,7 +638,7 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   h.path_query = [this](const PathQuery& q) { planning_->SubmitPathQuery(q, clock_->Now()); };
   // Peers' claims need no agent lock (ExploreTeam has its own); a bad one is named and dropped.
   h.explore_claim = [this](const ExploreClaim& claim, const std::string& fault) {
-    const std::string refused = fault.empty() ? team_.OnPeerClaim(claim, NowS(clock_->Now()))
+    const std::string refused = fault.empty() ? team_.explore.OnPeerClaim(claim, NowS(clock_->Now()))
                                               : "explore claim from \"" + claim.robot_id + "\": " + fault;
     if (!refused.empty()) spdlog::warn("robot {}: {}; dropped", options_.robot_id, refused);
   };
@@ -640,9 +646,9 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   // s.
   h.peer_state = [this](const PeerBody& peer) {
     const SteadyTime now = clock_->Now();
-    const std::string refused = peers_.OnPeerState(peer, NowS(now));
+    const std::string refused = team_.peers.OnPeerState(peer, NowS(now));
     std::uint64_t suppressed = 0;
-    if (!refused.empty() && peer_warnings_.Allow(peer.robot_id, now, &suppressed)) {
+    if (!refused.empty() && team_.peer_warnings.Allow(peer.robot_id, now, &suppressed)) {
       spdlog::warn(
           "robot {}: {}; dropped{}", options_.robot_id, refused,
           suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
@@ -651,7 +657,7 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   h.yield = [this](const YieldCommand& c, const YieldOrigin& origin, const std::string& fault) {
     std::lock_guard<std::mutex> guard(mutex_);
     const double now_s = NowS(clock_->Now());
-    const std::vector<PeerBody> live_peers = peers_.Live(now_s);
+    const std::vector<PeerBody> live_peers = team_.peers.Live(now_s);
     modes_->yielding().OnRequest(c, origin, fault, ForYield(now_s, live_peers));
   };
   h.map_sync = [this](const std::string& requester) {
@@ -752,9 +758,9 @@ bool RobotAgent::Impl::ReadPose(double now_s) {
 
 void RobotAgent::Impl::StepNavigation(SteadyTime now, const ModeInputs& inputs) {
   const double now_s = inputs.now_s;
-  const std::vector<PeerBody> live_peers = peers_.Live(now_s);
+  const std::vector<PeerBody> live_peers = team_.peers.Live(now_s);
   // Peers heard lately are obstacles too (added to the next live points: no robot drives into another).
-  navigation_.SetPeers(live_peers, peers_.options());
+  navigation_.SetPeers(live_peers, team_.peers.options());
   perception_->FeedObstacles(navigation_);  // obstacles from live lidar points, at the sensor's rate
   // A robot waiting on a goal (or between frontiers) watches the world.
   perception_->SetMapRefreshAtRest(modes_->waypoint().has_goal() || modes_->explore().exploring());
@@ -762,16 +768,16 @@ void RobotAgent::Impl::StepNavigation(SteadyTime now, const ModeInputs& inputs) 
   perception_->SetRobotPosition({reading_.pose_M.x_m, reading_.pose_M.y_m, reading_.pose_M.z_m});
   if (auto frontiers = perception_->TakeFrontiers())
     modes_->explore().OnFrontiers(std::move(frontiers->first), frontiers->second);
-  perception_->SetPeerCoverage(team_.Coverage());
-  modes_->Step(inputs, ForYield(now_s, live_peers), team_);
+  perception_->SetPeerCoverage(team_.explore.Coverage());
+  modes_->Step(inputs, ForYield(now_s, live_peers), team_.explore);
   come_home_.Step(command_->SecondsSinceBaseHeard(now), reading_.pose_M, modes_->explore(), navigation_,
                   [&](const nav::GlobalPlan& plan, const core::BaseState& goal_M) {
                     return modes_->StartGoal(plan, goal_M.x_m, goal_M.y_m, 0.0, goal_M.z_m, now_s);
                   });
   // Written by Run() once the agent lock is released: Fast DDS hands the sample to this participant's own
   // claim reader on the writing thread, and the liveliness callbacks that come with it take the agent lock.
-  claim_to_send_ = DueClaim(modes_->explore(), team_, now_s, [this] {
-    return perception_->TakeSeenCoverage(team_.options().coverage_cell_m);
+  team_.claim_to_send = DueClaim(modes_->explore(), team_.explore, now_s, [this] {
+    return perception_->TakeSeenCoverage(team_.explore.options().coverage_cell_m);
   });
 }
 
@@ -853,7 +859,7 @@ void RobotAgent::Impl::OnHealthEvent(const core::HealthEvent& event) {
 
 void RobotAgent::Impl::PublishHealthIfDue(SteadyTime now) {
   const std::optional<cairn_msgs::AgentHealth> m =
-      health_report_.MessageIfDue(now, *parts_.monitor, late_control_cycles_.load());
+      health_report_.MessageIfDue(now, *parts_.monitor, loop_.late_cycles.load());
   if (m && !link_->Publish(*m))
     spdlog::warn("robot {}: health not sent (DDS history full)", options_.robot_id);
 }
@@ -873,16 +879,16 @@ RobotAgent::Impl::CycleOutbox RobotAgent::Impl::LockedCycle(uint64_t cycle, Stea
   }
   if (cycle % every.local_plan == 0) telemetry_->PublishLocalPlan();
   if (cycle % every.peer_state == 0) PublishPeerState();
-  out.listen_to_peers = !listening_to_peers_ && (modes_->control().mode() != ModeManager::kIdleMode ||
-                                                 modes_->yielding().waiting_to_hear_peers());
-  if (modes_->yielding().waiting_to_hear_peers() && listening_to_peers_) {
+  out.listen_to_peers = !team_.listening_to_peers && (modes_->control().mode() != ModeManager::kIdleMode ||
+                                                      modes_->yielding().waiting_to_hear_peers());
+  if (modes_->yielding().waiting_to_hear_peers() && team_.listening_to_peers) {
     const double now_s = NowS(now);
-    const std::vector<PeerBody> live_peers = peers_.Live(now_s);
+    const std::vector<PeerBody> live_peers = team_.peers.Live(now_s);
     modes_->yielding().DecideWaitingRequest(ForYield(now_s, live_peers));
   }
   telemetry_->PublishTreeStateIfChanged();
-  out.claim = std::move(claim_to_send_);
-  claim_to_send_.reset();
+  out.claim = std::move(team_.claim_to_send);
+  team_.claim_to_send.reset();
   out.yield_request = modes_->yielding().TakeRequestToSend();
   // A late cycle is a robot driving blind: say where the time went (waiting for the lock, or working).
   const double lock_wait_s = core::SecondsBetween(wanted, started);
@@ -907,7 +913,7 @@ void RobotAgent::Impl::SendOutbox(CycleOutbox out) {
     // A robot that drives keeps clear of its peers: it reads their states from now on (outside the agent
     // lock, as the explore claims' endpoints are made).
     link_->ListenToPeers();
-    listening_to_peers_ = true;
+    team_.listening_to_peers = true;
   }
 }
 
@@ -931,9 +937,9 @@ void RobotAgent::Impl::Run() {
   SteadyTime next = SteadyClock::now();
   for (uint64_t cycle = 0; !core::ShutdownRequested(); ++cycle) {
     const SteadyTime wanted = SteadyClock::now();
-    control_periods_.Note(wanted);
+    loop_.periods.Note(wanted);
     const double late_s = core::SecondsBetween(next, wanted);
-    if (late_s > 0.5 * kLoopPeriodS) ++late_control_cycles_;
+    if (late_s > 0.5 * kLoopPeriodS) ++loop_.late_cycles;
     if (late_s > 0.1) {
       spdlog::warn("robot {}: control loop woke {:.0f} ms late (the process was not scheduled)",
                    options_.robot_id, 1000 * late_s);
@@ -995,7 +1001,7 @@ void RobotAgent::Impl::Leave() {
     std::lock_guard<std::mutex> guard(mutex_);
     modes_->control().Stop("agent shutting down");
     telemetry_->PublishState(StateInputs());
-    release = DueClaim(modes_->explore(), team_, NowS(clock_->Now()),
+    release = DueClaim(modes_->explore(), team_.explore, NowS(clock_->Now()),
                        {});  // an exploring robot lets go of its claim
   }
   if (release) SendClaim(*release);

@@ -176,17 +176,23 @@ TEST(ExploreTest, OneRobotExploresTheRealGeb079ScanUntilComplete) {
   EXPECT_LT(run.end_speed_mps, 0.05) << "the robot is at rest at the end";
 }
 
-// A legged robot on floor 1 of builtin:building (24 x 14 m, six rooms and a corridor a floor) explores the
-// building (on SteppedRobot: stepped_explore_team.h says why): it finds the switchback stairs on its own map,
-// climbs them and explores floor 2 too (>= 90 % of each floor's reachable surfaces, scored over the world's
-// levels), comes back down to what it left on floor 1, and completes without contact.
-TEST(ExploreLeggedTest, ALeggedRobotFindsTheStairsAndExploresBothFloors) {
+// A legged robot at builtin:building's first suggested start, scored on both floors.
+explore_team::TeamOptions LeggedInTheBuilding() {
   explore_team::TeamOptions o;
   o.world = "builtin:building";
   o.platform = "legged";
   o.starts = {sim::GetBuiltinWorldInfo("building").suggested_starts.front()};
   o.level_bands = {{-0.5, 0.5}, {2.7, 3.7}};
   o.timeout_s = 1500.0;
+  return o;
+}
+
+// A legged robot on floor 1 of builtin:building (24 x 14 m, six rooms and a corridor a floor) explores the
+// building (on SteppedRobot: stepped_explore_team.h says why): it finds the switchback stairs on its own map,
+// climbs them and explores floor 2 too (>= 90 % of each floor's reachable surfaces, scored over the world's
+// levels), comes back down to what it left on floor 1, and completes without contact.
+TEST(ExploreLeggedTest, ALeggedRobotFindsTheStairsAndExploresBothFloors) {
+  const explore_team::TeamOptions o = LeggedInTheBuilding();
   const explore_team::TeamRun run = explore_team::RunOneSteppedRobot(o);
   PrintTeam("legged (SteppedRobot)", run);
   std::printf(
@@ -204,12 +210,7 @@ TEST(ExploreLeggedTest, ALeggedRobotFindsTheStairsAndExploresBothFloors) {
 // landing and completes there without contact, with the upper flight's frontiers seen but unreachable (the
 // gap stepped_explore_team.h names). Floor 2 is printed, not yet required.
 TEST(ExploreLeggedTest, TheLeggedAgentExploresFloor1AndReachesTheLandingWithoutContact) {
-  explore_team::TeamOptions o;
-  o.world = "builtin:building";
-  o.platform = "legged";
-  o.starts = {sim::GetBuiltinWorldInfo("building").suggested_starts.front()};
-  o.level_bands = {{-0.5, 0.5}, {2.7, 3.7}};
-  o.timeout_s = 1500.0;
+  const explore_team::TeamOptions o = LeggedInTheBuilding();
   const explore_team::TeamRun run = explore_team::RunTeam(o);
   PrintTeam("legged agent", run);
   std::printf("  floor 1 %.1f %%, floor 2 %.1f %%; highest ground stood on z %.2f m\n",

@@ -21,34 +21,14 @@
 // cairn/link_probe_reply, cairn.command) on the spot.
 #pragma once
 
-#include <chrono>
-#include <cstdint>
-#include <functional>
 #include <memory>
 #include <string>
-#include <vector>
 
-#include "cairn/agent/command/commands.h"
 #include "cairn/agent/communication/agent_link.h"
-#include "cairn/agent/team/explore_claims.h"
-#include "cairn/agent/team/peers.h"
-#include "cairn/agent/team/yield.h"
-#include "cairn/agent/team/yield_sender.h"
 #include "cairn/core/link_options.h"
 
-namespace cairn_msgs {
-class AgentInfo;
-class RobotPose;
-class RobotState;
-class AgentHealth;
-class BehaviorTreeState;
-class GlobalPath;
-class LocalPlan;
-class MapUpdate;
-class CompressedImage;
-class StaircaseDetection;
+namespace cairn_msgs {  // the message types the link's interface does not name already
 class ExploreClaim;
-class PeerState;
 class YieldRequest;
 }  // namespace cairn_msgs
 
