@@ -167,8 +167,8 @@ class RobotAgent::Impl {
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
   void Run();
-  // A stepped agent's cycle at `now_s` on its clock (RobotAgent::Step).
-  void StepOnce(double now_s);
+  // A stepped agent's cycle with its clock at `clock_s` (RobotAgent::Step).
+  void StepOnce(double clock_s);
   bool planning() const { return modes_->explore().planning() || modes_->missions().planning(); }
   bool stepped() const { return lockstep_.has_value(); }
   const RobotModes& modes() const { return *modes_; }
@@ -960,9 +960,10 @@ void RobotAgent::Impl::Run() {
   Leave();
 }
 
-void RobotAgent::Impl::StepOnce(double now_s) {
+void RobotAgent::Impl::StepOnce(double clock_s) {
   Lockstep& step = *lockstep_;
-  step.clock->SetSeconds(now_s);
+  step.clock->SetSeconds(clock_s);
+  const double now_s = NowS(clock_->Now());  // the agent's time: since its clock's time at construction
   // Sense, then act: the platform brought to now, then the threads' work at their periods on this clock (the
   // sensor loop every cycle, as it polls; perception and the navigation map when due), then the control cycle
   // on what they saw, as Run()'s cycle does it, then the planning it queued (a goal is answered before the

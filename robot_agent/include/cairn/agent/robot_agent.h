@@ -31,11 +31,12 @@ class RobotAgent {
   /// The same agent stepped by its caller on `clock`, on the caller's thread, talking over `link` (an
   /// InProcessLink of an InProcessTeam: scenario tests and benches run a fleet faster than real time and
   /// deterministically). Same components, same wiring, same command path (commands come in through `link`'s
-  /// handlers, replies go out through it); what differs: no thread of its own (each Step() runs the control
-  /// cycle, then the sensor, perception and navigation map loops when due on `clock`, then the planning
-  /// queued), the health monitor watches the control cycle's parts but never checks heartbeats (no restart
-  /// on a stall), goal and task ids count from 1, and the navigation map reads every changed tile in the
-  /// update it arrives with (no wall-clock budget). The agent's time 0 is `clock`'s time at construction.
+  /// handlers, replies go out through it); what differs: no thread of its own (each Step() brings the
+  /// platform to now, runs the sensor, perception and navigation map loops when due on `clock`, then the
+  /// control cycle, then the planning queued: sense, then act), the health monitor watches the control
+  /// cycle's parts but never checks heartbeats (no restart on a stall), goal and task ids count from 1, and
+  /// the navigation map reads every changed tile in the update it arrives with (no wall-clock budget). The
+  /// agent's time 0 is `clock`'s time at construction.
   /// @throws std::invalid_argument for a null link or clock, and as the constructor above.
   static std::unique_ptr<RobotAgent> Stepped(const AgentOptions& options,
                                              std::shared_ptr<core::PlatformIO> platform,
