@@ -112,29 +112,35 @@ test("the camera pane shows the selected robot's latest frame and its age", asyn
 
 test("the Health tab shows each robot's link (probe round trip, states lost, what it sends) and its components", async () => {
   await page1.locator('#tabs button[data-tab="health"]').click();
-  const row = await waitFor("r1's link in the Health tab", async () => {
-    const text = await page1.locator("#health-rows tr").first().innerText();
-    return /[\d.]+ ms/.test(text) && /\d+ kbit\/s/.test(text) ? text : null;
-  }, 10000);
-  assert.match(row, /^r1\s+online\s+[\d.]+ s\s+[\d.]+ ms\s+\d+ %\s+\d+ kbit\/s/);
-  const link = (await robotState(page1, "r1")).link;
-  assert.equal(link.class, "loopback");
-  assert.deepEqual(link.usage.map((u) => u.topic_class), ["command", "state", "tree", "team", "map", "camera"]);
-  // Its agent's components (health R): all up, with a restart button only where this page holds the lock.
-  const parts = await waitFor("r1's components in the Health tab", async () => {
-    const rows = await page1.locator('#component-rows tr[data-robot-id="r1"]').allInnerTexts();
-    return rows.length === 8 ? rows : null;
-  }, 10000);
-  assert.ok(parts.every((t) => /\sactive\s/.test(t)), parts.join("\n"));
-  assert.ok(parts.some((t) => /^perception\s+active\s+\d+\/20\s/.test(t)), parts.join("\n"));
-  const holds = (await robotState(page1, "r1")).you_hold;
-  const restarts = await page1.locator('#component-rows tr[data-robot-id="r1"] button.restart').evaluateAll(
-    (buttons) => buttons.map((b) => JSON.parse(b.dataset.command)));
-  assert.equal(restarts.length, holds ? 8 : 0);
-  // Each button sends the GUI's structured restart of its own component.
-  for (const [i, request] of restarts.entries()) assert.deepEqual(request, Command.restart("r1", parts[i].split(/\s/)[0]));
-  await screenshot(page1, "07b_health_links");
-  await page1.locator('#tabs button[data-tab="robot"]').click();
+  // The robot tab comes back however this ends: the tests after this one drive from it.
+  try {
+    const row = await waitFor("r1's link in the Health tab", async () => {
+      const text = await page1.locator("#health-rows tr").first().innerText();
+      return /[\d.]+ ms/.test(text) && /\d+ kbit\/s/.test(text) ? text : null;
+    }, 10000);
+    assert.match(row, /^r1\s+online\s+[\d.]+ s\s+[\d.]+ ms\s+\d+ %\s+\d+ kbit\/s/);
+    const link = (await robotState(page1, "r1")).link;
+    assert.equal(link.class, "loopback");
+    assert.deepEqual(link.usage.map((u) => u.topic_class), ["command", "state", "tree", "team", "map", "camera"]);
+    // Its agent's components (health R): all up (active, or degraded: up but below its target rate, as on a
+    // loaded 2-core machine with three agents and a browser), with a restart button only where this page holds
+    // the lock.
+    const parts = await waitFor("r1's components in the Health tab", async () => {
+      const rows = await page1.locator('#component-rows tr[data-robot-id="r1"]').allInnerTexts();
+      return rows.length === 8 ? rows : null;
+    }, 10000);
+    assert.ok(parts.every((t) => /\s(active|degraded)\s/.test(t)), parts.join("\n"));
+    assert.ok(parts.some((t) => /^perception\s+(active|degraded)\s+\d+\/20\s/.test(t)), parts.join("\n"));
+    const holds = (await robotState(page1, "r1")).you_hold;
+    const restarts = await page1.locator('#component-rows tr[data-robot-id="r1"] button.restart').evaluateAll(
+      (buttons) => buttons.map((b) => JSON.parse(b.dataset.command)));
+    assert.equal(restarts.length, holds ? 8 : 0);
+    // Each button sends the GUI's structured restart of its own component.
+    for (const [i, request] of restarts.entries()) assert.deepEqual(request, Command.restart("r1", parts[i].split(/\s/)[0]));
+    await screenshot(page1, "07b_health_links");
+  } finally {
+    await page1.locator('#tabs button[data-tab="robot"]').click();
+  }
 });
 
 test("in builtin:tunnels the staircase toast appears and the steps are drawn", async () => {
