@@ -11,6 +11,7 @@
 #include "agent_team.h"
 #include "cairn/agent/communication/in_process_link.h"
 #include "cairn/agent/robot_agent.h"
+#include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 
 namespace cairn::agent {
@@ -76,6 +77,40 @@ TEST(SteppedAgentTest, TheSameRunTwiceEndsInTheSameState) {
   EXPECT_EQ(a.y_m, b.y_m);
   EXPECT_EQ(a.yaw_rad, b.yaw_rad);
   EXPECT_GT(std::hypot(a.x_m - 5.0, a.y_m - 20.0), 5.0) << "it drove";
+}
+
+// An agent made on a shared clock that already reads 100 s counts its own time from there: the platform, the
+// loops and the modes all run on the agent's time, and a goal is driven and reached as at time 0.
+TEST(SteppedAgentTest, AnAgentMadeLateOnASharedClockCountsFromItsStart) {
+  InProcessTeam links;
+  auto clock = std::make_shared<core::SimulatedClock>();
+  clock->SetSeconds(100.0);
+  AgentOptions options;
+  options.robot_id = "r1";
+  options.SetPlatform("wheeled");
+  options.perception.camera_rate_hz = 0;
+  sim::SimulatedPlatformOptions sim_options;
+  sim_options.world = "builtin:tunnels";
+  sim_options.start_W = {5.0, 20.0, 0.0};
+  sim::ApplyPlatformProfile(options.navigation.platform, &sim_options);
+  auto platform = std::make_shared<sim::SimulatedPlatform>(sim_options);
+  std::unique_ptr<RobotAgent> agent = RobotAgent::Stepped(options, platform, links.Join("r1"), clock);
+  InProcessBase base(&links, "op");
+  base.Send("r1", ControlCommand{});
+  GoalCommand goal;
+  goal.frame_id = "map";
+  goal.x_m = 20.0;
+  goal.y_m = 20.0;
+  const std::uint32_t request = base.Send("r1", goal);
+  double t = 100.0;
+  while (t < 130.0 && !(agent->modes().waypoint().goal().status == GoalStatus::kArrived))
+    agent->Step(t += 0.02);
+  const std::optional<CommandReply> reply = base.Reply("r1", request);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->result, CommandResult::kAccepted) << reply->reason;
+  EXPECT_EQ(agent->modes().waypoint().goal().status, GoalStatus::kArrived)
+      << agent->modes().waypoint().goal().reason;
+  EXPECT_LT(std::hypot(platform->TrueState().x_m - 20.0, platform->TrueState().y_m - 20.0), 0.5);
 }
 
 TEST(SteppedAgentTest, BadUseIsNamed) {
