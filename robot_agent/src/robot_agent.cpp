@@ -106,9 +106,8 @@ std::shared_ptr<const nav::TrajectoryLibrary> LocalPlannerLibrary(const AgentOpt
 // A stepped agent's options: every changed tile is read in the navigation map update it arrives with (the
 // largest budget), since on a simulated clock a wall-clock budget would make the map depend on how busy the
 // machine is.
-template <class Hosting>
-AgentOptions Hosted(AgentOptions options, const Hosting& hosting) {
-  if (hosting.clock) options.nav_map.update_budget_s = 10.0;
+AgentOptions Hosted(AgentOptions options, bool stepped) {
+  if (stepped) options.nav_map.update_budget_s = 10.0;
   return options;
 }
 
@@ -383,7 +382,7 @@ class RobotAgent::Impl {
 
 RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
                        Hosting hosting)
-    : options_(Hosted(options, hosting)),
+    : options_(Hosted(options, hosting.clock != nullptr)),
       clock_(hosting.clock ? hosting.clock : core::RealClock()),
       start_time_(clock_->Now()),
       lockstep_(hosting.clock ? std::optional<Lockstep>(Lockstep{hosting.clock}) : std::nullopt),

@@ -22,20 +22,20 @@ void InProcessLink::Listen(AgentDdsHandlers handlers) {
   listening_ = ever_listened_ = true;
 }
 
-bool InProcessLink::Publish(const cairn_msgs::AgentInfo&) { return Count("state"), true; }
-bool InProcessLink::Publish(const cairn_msgs::RobotState&) { return Count("state"), true; }
-bool InProcessLink::Publish(const cairn_msgs::AgentHealth&) { return Count("state"), true; }
-bool InProcessLink::Publish(const cairn_msgs::RobotPose&) { return Count("state"), true; }
-bool InProcessLink::Publish(const cairn_msgs::BehaviorTreeState&) { return Count("tree"), true; }
-bool InProcessLink::Publish(const cairn_msgs::GlobalPath&) { return Count("tree"), true; }
-bool InProcessLink::Publish(const cairn_msgs::LocalPlan&) { return Count("state"), true; }
-bool InProcessLink::Publish(const cairn_msgs::MapUpdate&) { return Count("map"), true; }
-bool InProcessLink::Publish(const cairn_msgs::CompressedImage&) { return Count("camera"), true; }
-bool InProcessLink::Publish(const cairn_msgs::StaircaseDetection&) { return Count("state"), true; }
+bool InProcessLink::Publish(const cairn_msgs::AgentInfo&) { return Count(kState), true; }
+bool InProcessLink::Publish(const cairn_msgs::RobotState&) { return Count(kState), true; }
+bool InProcessLink::Publish(const cairn_msgs::AgentHealth&) { return Count(kState), true; }
+bool InProcessLink::Publish(const cairn_msgs::RobotPose&) { return Count(kState), true; }
+bool InProcessLink::Publish(const cairn_msgs::BehaviorTreeState&) { return Count(kTree), true; }
+bool InProcessLink::Publish(const cairn_msgs::GlobalPath&) { return Count(kTree), true; }
+bool InProcessLink::Publish(const cairn_msgs::LocalPlan&) { return Count(kState), true; }
+bool InProcessLink::Publish(const cairn_msgs::MapUpdate&) { return Count(kMap), true; }
+bool InProcessLink::Publish(const cairn_msgs::CompressedImage&) { return Count(kCamera), true; }
+bool InProcessLink::Publish(const cairn_msgs::StaircaseDetection&) { return Count(kState), true; }
 
 bool InProcessLink::Publish(const ExploreClaim& claim) {
   if (!ever_listened_) throw std::logic_error("InProcessLink::Publish(ExploreClaim) before Listen()");
-  Count("team");
+  Count(kTeam);
   ++claims_sent_;
   if (claim.coverage) coverage_bytes_sent_ += CompressCoverageBits(*claim.coverage).size();
   if (!listening_to_claims_) {
@@ -55,7 +55,7 @@ bool InProcessLink::Publish(const cairn_msgs::PeerState& state) {
 }
 
 void InProcessLink::SendPeerState(const PeerBody& peer) {
-  Count("team");
+  Count(kTeam);
   team_->DeliverPeerState(*this, peer);
 }
 
@@ -65,7 +65,7 @@ void InProcessLink::ListenToPeers() {
 }
 
 bool InProcessLink::Send(const std::string& robot_id, const YieldCommand& request) {
-  Count("team");
+  Count(kTeam);
   InProcessLink* to = team_->Find(robot_id);
   // Nobody reads it, or out of reach: lost, as on DDS.
   if (to == nullptr || to->listening() == nullptr || !team_->Hears(robot_id, robot_id_)) return true;
@@ -77,14 +77,15 @@ bool InProcessLink::Send(const std::string& robot_id, const YieldCommand& reques
 
 std::vector<SentTraffic> InProcessLink::SentByClass() const {
   std::vector<SentTraffic> out;
-  for (const char* topic_class : {"command", "state", "tree", "team", "map", "camera"})
-    out.push_back({topic_class, 0, samples(topic_class)});
+  for (int c = 0; c < kTopicClasses; ++c) out.push_back({kTopicClassNames[c], 0, samples_[c]});
   return out;
 }
 
 std::uint64_t InProcessLink::samples(const std::string& topic_class) const {
-  const auto it = samples_.find(topic_class);
-  return it == samples_.end() ? 0 : it->second;
+  for (int c = 0; c < kTopicClasses; ++c) {
+    if (topic_class == kTopicClassNames[c]) return samples_[c];
+  }
+  return 0;
 }
 
 // ---- InProcessTeam ----------------------------------------------------------------------------------------

@@ -11,6 +11,7 @@
 // InProcessBase::SetAlive(false)).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -39,8 +40,14 @@ class InProcessLink final : public AgentLink {
   void Listen(AgentDdsHandlers handlers) override;
   void StopListening() override { listening_ = false; }
   std::vector<std::string> TakeGoneParticipants() override { return {}; }
-  void Send(const CommandReply& reply) override { replies_.push_back(reply); }
-  void Send(const PathAnswer& answer) override { path_answers_.push_back(answer); }
+  void Send(const CommandReply& reply) override {
+    Count(kCommand);
+    replies_.push_back(reply);
+  }
+  void Send(const PathAnswer& answer) override {
+    Count(kCommand);
+    path_answers_.push_back(answer);
+  }
   bool Publish(const cairn_msgs::AgentInfo& info) override;
   bool Publish(const cairn_msgs::RobotState& state) override;
   bool Publish(const cairn_msgs::AgentHealth& health) override;
@@ -82,7 +89,11 @@ class InProcessLink final : public AgentLink {
   friend class InProcessBase;
   // The handlers, when listening (null otherwise).
   const AgentDdsHandlers* listening() const { return listening_ ? &handlers_ : nullptr; }
-  void Count(const char* topic_class) { ++samples_[topic_class]; }
+  // The topic classes in AgentLink::SentByClass's order, and the samples sent in each.
+  enum TopicClass { kCommand, kState, kTree, kTeam, kMap, kCamera, kTopicClasses };
+  static constexpr const char* kTopicClassNames[kTopicClasses] = {"command", "state", "tree",
+                                                                  "team",    "map",   "camera"};
+  void Count(TopicClass c) { ++samples_[c]; }
 
   InProcessTeam* team_;
   std::string robot_id_;
@@ -93,7 +104,7 @@ class InProcessLink final : public AgentLink {
   bool listening_to_claims_ = false;  // from its first claim on
   std::vector<CommandReply> replies_;
   std::vector<PathAnswer> path_answers_;
-  std::map<std::string, std::uint64_t> samples_;
+  std::array<std::uint64_t, kTopicClasses> samples_{};
   int claims_sent_ = 0;
   std::size_t coverage_bytes_sent_ = 0;
 };
