@@ -536,8 +536,13 @@ TEST(NavigationOverDds, LeggedRobotReachesTheFloorAboveAndAWheeledOneIsRefused) 
   ASSERT_TRUE(op.Run("request-control r2")["ok"]);
   r = op.Run("goto r2 18.9 6.9 --wait 120", 130s);
   ASSERT_TRUE(r["ok"]) << r << " (see " << logs << ")";
-  r = op.Run("goto r2 15.1 11.0 --z 3.2");
-  EXPECT_EQ(r["result"], "refused") << r;
+  // Refused naming the step when r2's navigation map already shows the flight (every run so far), or, when
+  // the map lags (a loaded machine), accepted toward the flight it has not seen and failed at the end of that
+  // partial plan naming the step: either way the operator learns why and r2 stays downstairs.
+  r = op.Run("goto r2 15.1 11.0 --z 3.2 --wait 60", 70s);
+  EXPECT_FALSE(r["ok"]) << r;
+  Figure("wheeled_refused_at_once", r["result"] == "refused" ? 1.0 : 0.0);
+  EXPECT_LT(observer.FreshState("r2").pose_MB().position().z_m(), 0.2) << "r2 climbed";
   const std::string reason = r.value("reason", "");
   EXPECT_NE(reason.find("step"), std::string::npos) << reason;
   EXPECT_NE(reason.find("max_step_m 0.15"), std::string::npos) << reason;

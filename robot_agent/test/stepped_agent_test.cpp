@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -63,6 +64,49 @@ TEST(SteppedAgentTest, ACommandFromAnotherBaseIsDiscarded) {
   EXPECT_EQ(team.modes(0).control().mode(), "idle");
   EXPECT_LT(std::hypot(team.truth(0).x_m - 5.0, team.truth(0).y_m - 20.0), 0.01) << "the robot never moved";
 }
+
+// A wheeled robot sent to the floor above as an operator types it, right after it reached the foot of the
+// stairs or a point 3 m short of it: refused naming the step when its map already shows the flight (at the
+// foot), or accepted toward the flight it has not seen and then failed at the end of the partial plan naming
+// the step (3 m short, and what a real agent whose map lags under load answers at the foot). Either way it
+// never climbs, never touches a wall, and the operator learns why.
+class WheeledUpstairsTest : public ::testing::TestWithParam<double> {};
+
+TEST_P(WheeledUpstairsTest, TheRobotIsToldTheStepItCannotClimb) {
+  const double sent_at_x_m = GetParam();
+  AgentTeam team("builtin:building", {{"r2", {10.0, 7.1, 0.0}}});
+  ASSERT_EQ(team.Goto(0, sent_at_x_m, 6.9), "");
+  for (int i = 0; i < 600 && team.modes(0).waypoint().goal().status != GoalStatus::kArrived; ++i) {
+    team.StepOnce();
+  }
+  ASSERT_EQ(team.modes(0).waypoint().goal().status, GoalStatus::kArrived)
+      << team.modes(0).waypoint().goal().reason;
+  GoalCommand upstairs;
+  upstairs.frame_id = "map";
+  upstairs.x_m = 15.1;
+  upstairs.y_m = 11.0;
+  upstairs.z_m = 3.2;
+  std::string reason = team.Ask(0, upstairs);
+  const bool accepted = reason.empty();
+  if (accepted) {
+    for (int i = 0; i < 1200 && team.modes(0).waypoint().goal().status == GoalStatus::kActive; ++i) {
+      team.StepOnce();
+    }
+    EXPECT_EQ(team.modes(0).waypoint().goal().status, GoalStatus::kFailed);
+    reason = team.modes(0).waypoint().goal().reason;
+  }
+  std::printf("sent at x %.1f m: %s, %s\n", sent_at_x_m, accepted ? "accepted, then failed" : "refused",
+              reason.c_str());
+  EXPECT_NE(reason.find("step"), std::string::npos) << reason;
+  EXPECT_NE(reason.find("max_step_m 0.15"), std::string::npos) << reason;
+  EXPECT_LT(team.truth(0).z_m, 0.2) << "the wheeled robot climbed";
+  EXPECT_FALSE(team.ever_in_contact(0));
+}
+
+INSTANTIATE_TEST_SUITE_P(SteppedAgentTest, WheeledUpstairsTest, ::testing::Values(18.9, 16.0),
+                         [](const auto& info) {
+                           return info.param > 18.0 ? "AtTheFoot" : "ThreeMetresShort";
+                         });
 
 // Two runs of the same scenario end in the same place to the bit: nothing depends on the machine's speed.
 TEST(SteppedAgentTest, TheSameRunTwiceEndsInTheSameState) {
