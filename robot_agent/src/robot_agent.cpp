@@ -169,11 +169,11 @@ class RobotAgent::Impl {
   // A stepped agent's cycle with its clock at `clock_s` (RobotAgent::Step).
   void StepOnce(double clock_s);
   bool planning() const { return modes_->explore().planning() || modes_->missions().planning(); }
-  bool stepped() const { return lockstep_.has_value(); }
+  bool stepped() const { return time_.lockstep.has_value(); }
   const RobotModes& modes() const { return *modes_; }
   const Navigation& navigation() const { return navigation_; }
   const NavMap& nav_map() const { return perception_->nav_map(); }
-  bool restart_requested() const { return restart_requested_.load(); }
+  bool restart_requested() const { return health_.restart_requested.load(); }
   // What of the threaded components' work did not stop when asked ("" = nothing). Their transitions' thread
   // (the health monitor's, or after StopAll() any).
   std::string WorkStillRunning() const {
@@ -194,7 +194,7 @@ class RobotAgent::Impl {
     if (running.empty()) return;
     spdlog::error("robot {}: {}; leaving the process without tearing down", options_.robot_id, running);
     spdlog::default_logger()->flush();
-    std::_Exit(restart_requested_ ? RobotAgent::kRestartExitStatus : 0);
+    std::_Exit(health_.restart_requested ? RobotAgent::kRestartExitStatus : 0);
   }
 
  private:
@@ -270,11 +270,11 @@ class RobotAgent::Impl {
     in.pose_M = reading_.pose_M;
     in.in_contact = reading_.in_contact;
     in.control_period_max_ms = loop_.periods.WorstMs();
-    in.resumable_goal_M = resumable_goal_M_;
+    in.resumable_goal_M = resume_.goal_M;
     in.yield = own_first ? own : asking;
     in.paused_mission = modes_->missions().paused();
     if (in.paused_mission)
-      in.mission_paused_s = std::max(0.0, NowS(clock_->Now()) - in.paused_mission->since_s);
+      in.mission_paused_s = std::max(0.0, NowS(time_.clock->Now()) - in.paused_mission->since_s);
     in.mission_note = modes_->missions().note();
     return in;
   }
@@ -282,28 +282,41 @@ class RobotAgent::Impl {
     if (!link_->Publish(claim))
       spdlog::warn("robot {}: explore claim not sent (DDS history full)", options_.robot_id);
   }
-  double NowS(SteadyTime t) const { return core::SecondsBetween(start_time_, t); }
+  double NowS(SteadyTime t) const { return core::SecondsBetween(time_.start, t); }
 
   AgentOptions options_;
-  // What the agent's logic reads the time from (the modes, the command interface, missions, claims,
-  // perception): the machine's clock, on which Run() also paces the control loop, or a stepped agent's.
-  std::shared_ptr<const core::Clock> clock_;
-  SteadyTime start_time_;
-  // A stepped agent's clock and when its loops are due next (none: the agent runs its own threads).
+  // A stepped agent's clock and when its loops are due next.
   struct Lockstep {
     std::shared_ptr<core::SimulatedClock> clock;
     std::uint64_t cycle = 0;
     double next_perception_s = 0.0;
     double next_nav_map_s = 0.0;
   };
-  std::optional<Lockstep> lockstep_;
+  // What the agent's logic reads the time from (the modes, the command interface, missions, claims,
+  // perception): the machine's clock, on which Run() also paces the control loop, or a stepped agent's (then
+  // lockstep is set; none: the agent runs its own threads).
+  struct Timing {
+    explicit Timing(std::shared_ptr<core::SimulatedClock> stepped)
+        : clock(stepped ? std::shared_ptr<const core::Clock>(stepped) : core::RealClock()),
+          start(clock->Now()),
+          lockstep(stepped ? std::optional<Lockstep>(Lockstep{stepped}) : std::nullopt) {}
+    std::shared_ptr<const core::Clock> clock;
+    SteadyTime start;
+    std::optional<Lockstep> lockstep;
+  } time_;
   // The communication (DDS, or a stepped agent's link). The DDS participant and writers come first, so that
   // discovery runs while the rest is built (~0.5 s: the trajectory library, the navigation grids); the
   // readers come last (Listen). Destroyed first (~Impl).
   std::shared_ptr<AgentLink> link_;
-  std::shared_ptr<core::PlatformIO> platform_;  // the robot: pose estimate, sensors, twist commands
-  core::PlatformCapabilities capabilities_;
-  core::BaseState start_M_;                      // pose estimate at start (the navigation map's centre)
+  // The robot: pose estimate, sensors, twist commands; what it can do; its pose estimate at start (the
+  // navigation map's centre).
+  struct Platform {
+    explicit Platform(std::shared_ptr<core::PlatformIO> platform)
+        : io(Checked(std::move(platform))), capabilities(io->Capabilities()), start_M(StartPose(*io)) {}
+    std::shared_ptr<core::PlatformIO> io;
+    core::PlatformCapabilities capabilities;
+    core::BaseState start_M;
+  } platform_;
   std::shared_ptr<nav::GlobalPlanner> planner_;  // thread-safe: goals and peers' path queries
   // What the platform said at the last control cycle (control thread).
   struct PlatformReading {
@@ -331,15 +344,19 @@ class RobotAgent::Impl {
     std::atomic<bool> listening_to_peers{false};
     std::optional<ExploreClaim> claim_to_send;  // Step()'s, sent by Run() outside the agent lock
   } team_;
-  ComeHome come_home_{options_.robot_id, start_M_};  // an exploring robot that hears no one drives back
+  ComeHome come_home_{options_.robot_id,
+                      platform_.start_M};  // an exploring robot that hears no one drives back
   // The mode tree, the mode modules and the mux; the operator's mission across interruptions; yields.
   std::unique_ptr<RobotModes> modes_;
   std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
   std::unique_ptr<PlanningService> planning_;  // the planning thread: goals, then peers' path queries
   std::unique_ptr<Telemetry> telemetry_;
-  std::optional<Eigen::Vector3d>
-      resumable_goal_M_;                    // a resumed robot's old goal, offered until it leaves idle
-  std::unique_ptr<JournalWriter> journal_;  // --journal: the last known safe state on disk
+  // A restarted robot's past: its old goal (--resume), offered until it leaves idle; the journal (--journal),
+  // the last known safe state on disk.
+  struct Resumption {
+    std::optional<Eigen::Vector3d> goal_M;
+    std::unique_ptr<JournalWriter> journal;
+  } resume_;
   std::mutex mutex_;
 
   // The components (agent_components.h) and their health monitor; made last, stopped first (~Impl).
@@ -352,11 +369,14 @@ class RobotAgent::Impl {
     std::unique_ptr<ControlLoopComponent> command, mode_tree, mux, navigation, telemetry;
     std::unique_ptr<core::HealthMonitor> monitor;
   } parts_;
-  // What the basestations are told of the components (cairn/health): at once after an event, else every 2 s
-  // (10 s on a radio link).
-  HealthReport health_report_{options_.robot_id, core::IsRadioLink(options_.link) ? 10.0 : 2.0};
-  // A component's work did not stop and the agent is supervised: Run() ends for a restart of the process.
-  std::atomic<bool> restart_requested_{false};
+  struct Health {
+    explicit Health(const AgentOptions& o) : report(o.robot_id, core::IsRadioLink(o.link) ? 10.0 : 2.0) {}
+    // What the basestations are told of the components (cairn/health): at once after an event, else every
+    // 2 s (10 s on a radio link).
+    HealthReport report;
+    // A component's work did not stop and the agent is supervised: Run() ends for a restart of the process.
+    std::atomic<bool> restart_requested{false};
+  } health_{options_};
 
   // In the constructor: the planning service, its answers going to the command interface and the link.
   std::unique_ptr<PlanningService> MakePlanningService();
@@ -383,15 +403,11 @@ class RobotAgent::Impl {
 RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
                        Hosting hosting)
     : options_(Hosted(options, hosting.clock != nullptr)),
-      clock_(hosting.clock ? hosting.clock : core::RealClock()),
-      start_time_(clock_->Now()),
-      lockstep_(hosting.clock ? std::optional<Lockstep>(Lockstep{hosting.clock}) : std::nullopt),
+      time_(hosting.clock),
       link_(hosting.link ? std::move(hosting.link) : MakeDds(options_)),
-      platform_(Checked(std::move(platform))),
-      capabilities_(platform_->Capabilities()),
-      start_M_(StartPose(*platform_)),
-      planner_(MakePlanner(options_, start_M_)),
-      reading_(start_M_),
+      platform_(std::move(platform)),
+      planner_(MakePlanner(options_, platform_.start_M)),
+      reading_(platform_.start_M),
       navigation_(options_.navigation, planner_, LocalPlannerLibrary(options_)),
       team_(options_),
       parts_(FaultInjector(
@@ -400,9 +416,9 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
             for (const std::string& f : options_.inject_faults) faults.push_back(ParseFaultInjection(f));
             return faults;
           }(),
-          start_time_)) {
+          time_.start)) {
   perception_ = std::make_unique<PerceptionService>(
-      options_, platform_, start_M_, planner_, clock_, start_time_,
+      options_, platform_.io, platform_.start_M, planner_, time_.clock, time_.start,
       [this](const PerceptionOutput& out) { telemetry_->PublishPerception(out); });
   const std::string tree_file = options_.mode_tree_file.empty() ? DefaultTreeFile() : options_.mode_tree_file;
   RobotModes::Hooks hooks;
@@ -410,9 +426,10 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
   hooks.clear_obstacle_memory = [this] { perception_->ClearObstacleMemory(); };
   hooks.mission_commands = [this] { return command_->mission_commands(); };
   hooks.grid = [this] { return planner_->Grid(options_.navigation.platform.name); };
-  hooks.clock = clock_;
-  modes_ = std::make_unique<RobotModes>(options_, tree_file, &navigation_, std::move(hooks),
-                                        lockstep_ ? RobotModes::Ids::kFromOne : RobotModes::Ids::kRandom);
+  hooks.clock = time_.clock;
+  modes_ =
+      std::make_unique<RobotModes>(options_, tree_file, &navigation_, std::move(hooks),
+                                   time_.lockstep ? RobotModes::Ids::kFromOne : RobotModes::Ids::kRandom);
   command_ = std::make_unique<CommandInterface>(options_.robot_id, options_.lock, &modes_->control(),
                                                 modes_->waypoint().name(), CommandHooks());
   planning_ = MakePlanningService();
@@ -426,20 +443,22 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
     if (options_.perception.enabled) {
       save_map = [this](const std::string& path) { perception_->SaveMapSnapshot(path); };
     }
-    journal_ = std::make_unique<JournalWriter>(options_.journal_dir, options_.journal_map_every_s, save_map);
+    resume_.journal =
+        std::make_unique<JournalWriter>(options_.journal_dir, options_.journal_map_every_s, save_map);
     std::lock_guard<std::mutex> guard(mutex_);
-    journal_->Submit(JournalNow());
+    resume_.journal->Submit(JournalNow());
   }
   MakeComponents();
-  if (lockstep_) parts_.monitor->StartAll();  // the control cycle's parts only: no thread of its own
+  if (time_.lockstep) parts_.monitor->StartAll();  // the control cycle's parts only: no thread of its own
   link_->Listen(DdsHandlers());
-  telemetry_->PublishAgentInfo(capabilities_, kVersion);
+  telemetry_->PublishAgentInfo(platform_.capabilities, kVersion);
   telemetry_->PublishGlobalPathIfChanged();  // an empty path: late joiners see "no goal"
   spdlog::info("robot {} ({}) ready on platform {} ({}) at ({:.2f}, {:.2f}, yaw {:.2f}) in its map frame {}",
-               options_.robot_id, options_.platform, capabilities_.driver, capabilities_.description,
-               start_M_.x_m, start_M_.y_m, start_M_.yaw_rad,
-               lockstep_ ? std::string("(stepped on a simulated clock, in process)")
-                         : "on DDS domain " + std::to_string(options_.domain_id));
+               options_.robot_id, options_.platform, platform_.capabilities.driver,
+               platform_.capabilities.description, platform_.start_M.x_m, platform_.start_M.y_m,
+               platform_.start_M.yaw_rad,
+               time_.lockstep ? std::string("(stepped on a simulated clock, in process)")
+                              : "on DDS domain " + std::to_string(options_.domain_id));
 }
 
 std::unique_ptr<PlanningService> RobotAgent::Impl::MakePlanningService() {
@@ -460,11 +479,11 @@ std::unique_ptr<PlanningService> RobotAgent::Impl::MakePlanningService() {
 }
 
 void RobotAgent::Impl::ReadFirstScan() {
-  if (lockstep_) {
+  if (time_.lockstep) {
     // The sensors read once at time 0, as a running agent has them before an operator commands it.
     perception_->ReadSensors();
     perception_->FeedObstacles(navigation_);
-  } else if (capabilities_.has_lidar) {
+  } else if (platform_.capabilities.has_lidar) {
     // The first scan before the robot announces itself ready, so that it can take a goal at once.
     perception_->WaitForFirstScan(std::chrono::seconds(5));
     if (!perception_->FeedObstacles(navigation_)) {
@@ -486,8 +505,8 @@ void RobotAgent::Impl::Resume(const JournalEntry& entry) {
       spdlog::error("robot {}: resuming without its map: {}", options_.robot_id, e.what());
     }
   }
-  command_->RestoreHolder(entry.holder_id, clock_->Now());
-  if (entry.has_goal) resumable_goal_M_ = Eigen::Vector3d(entry.goal_x_m, entry.goal_y_m, entry.goal_z_m);
+  command_->RestoreHolder(entry.holder_id, time_.clock->Now());
+  if (entry.has_goal) resume_.goal_M = Eigen::Vector3d(entry.goal_x_m, entry.goal_y_m, entry.goal_z_m);
   spdlog::warn(
       "robot {}: resumed from its journal: idle (was {}), lock {}, {}; {}", options_.robot_id, entry.mode,
       entry.holder_id.empty() ? "free" : "with " + entry.holder_id + " (lost until it announces itself)", map,
@@ -510,11 +529,11 @@ JournalEntry RobotAgent::Impl::JournalNow() const {
     e.goal_y_m = goal.y_m;
     e.goal_z_m = goal.z_m;
     e.goal_tolerance_m = goal.tolerance_m;
-  } else if (resumable_goal_M_) {  // still offered: a second crash keeps the offer
+  } else if (resume_.goal_M) {  // still offered: a second crash keeps the offer
     e.has_goal = true;
-    e.goal_x_m = resumable_goal_M_->x();
-    e.goal_y_m = resumable_goal_M_->y();
-    e.goal_z_m = resumable_goal_M_->z();
+    e.goal_x_m = resume_.goal_M->x();
+    e.goal_y_m = resume_.goal_M->y();
+    e.goal_z_m = resume_.goal_M->z();
   }
   e.x_m = reading_.pose_M.x_m;
   e.y_m = reading_.pose_M.y_m;
@@ -553,7 +572,7 @@ CommandInterface::Hooks RobotAgent::Impl::CommandHooks() {
     return StartGoal(goal, plan);
   };
   hooks.start_explore = [this](const ExploreCommand& explore) {
-    const std::string refused = modes_->StartExplore(explore.task, NowS(clock_->Now()));
+    const std::string refused = modes_->StartExplore(explore.task, NowS(time_.clock->Now()));
     if (!refused.empty()) return CommandOutcome{false, refused, 0};
     return CommandOutcome{true, "exploring " + std::to_string(modes_->explore().status().task_id),
                           modes_->explore().status().task_id};
@@ -574,7 +593,7 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
     if (modes_->control().mode() == modes_->convoy().name()) modes_->control().GoIdle(Conditions());
     return CommandOutcome{true, "left the convoy: idle", 0};
   }
-  const double now_s = NowS(clock_->Now());
+  const double now_s = NowS(time_.clock->Now());
   const std::string refused = modes_->StartConvoy(c.ahead_ids, team_.peers.Live(now_s), now_s);
   if (!refused.empty()) return CommandOutcome{false, refused, 0};
   std::string order;
@@ -621,30 +640,30 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
     };
   };
   AgentDdsHandlers h;
-  h.control = locked([this](const ControlCommand& c) { command_->OnControl(c, clock_->Now()); });
+  h.control = locked([this](const ControlCommand& c) { command_->OnControl(c, time_.clock->Now()); });
   h.mode = locked([this](const ModeCommand& c) { command_->OnMode(c); });
   h.goal = locked([this](const GoalCommand& c) { command_->OnGoal(c); });
   h.explore = locked([this](const ExploreCommand& c) { command_->OnExplore(c); });
   h.convoy = locked([this](const ConvoyCommand& c) { command_->OnConvoy(c); });
-  h.home = locked([this](const HomeCommand& c) { command_->OnHome(c, start_M_); });
+  h.home = locked([this](const HomeCommand& c) { command_->OnHome(c, platform_.start_M); });
   h.stop = locked([this](const StopCommand& c) { command_->OnStop(c); });
   h.restart = locked([this](const RestartCommand& c) { command_->OnRestart(c); });
-  h.teleop = locked([this](const TeleopCommand& c) { command_->OnTeleop(c, clock_->Now()); });
+  h.teleop = locked([this](const TeleopCommand& c) { command_->OnTeleop(c, time_.clock->Now()); });
   h.base_announced = locked([this](const BaseAnnouncement& b) { command_->OnBaseAnnounced(b); });
   h.base_liveliness =
-      locked([this](const WriterLiveliness& l) { command_->OnBaseLiveliness(l, clock_->Now()); });
+      locked([this](const WriterLiveliness& l) { command_->OnBaseLiveliness(l, time_.clock->Now()); });
   // No planning on a DDS thread: the query waits for the planning thread, within a per-process rate.
-  h.path_query = [this](const PathQuery& q) { planning_->SubmitPathQuery(q, clock_->Now()); };
+  h.path_query = [this](const PathQuery& q) { planning_->SubmitPathQuery(q, time_.clock->Now()); };
   // Peers' claims need no agent lock (ExploreTeam has its own); a bad one is named and dropped.
   h.explore_claim = [this](const ExploreClaim& claim, const std::string& fault) {
-    const std::string refused = fault.empty() ? team_.explore.OnPeerClaim(claim, NowS(clock_->Now()))
+    const std::string refused = fault.empty() ? team_.explore.OnPeerClaim(claim, NowS(time_.clock->Now()))
                                               : "explore claim from \"" + claim.robot_id + "\": " + fault;
     if (!refused.empty()) spdlog::warn("robot {}: {}; dropped", options_.robot_id, refused);
   };
   // Peers' states need no agent lock either (PeerTracker has its own); at 5 Hz a bad one is named once per 5
   // s.
   h.peer_state = [this](const PeerBody& peer) {
-    const SteadyTime now = clock_->Now();
+    const SteadyTime now = time_.clock->Now();
     const std::string refused = team_.peers.OnPeerState(peer, NowS(now));
     std::uint64_t suppressed = 0;
     if (!refused.empty() && team_.peer_warnings.Allow(peer.robot_id, now, &suppressed)) {
@@ -655,7 +674,7 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   };
   h.yield = [this](const YieldCommand& c, const YieldOrigin& origin, const std::string& fault) {
     std::lock_guard<std::mutex> guard(mutex_);
-    const double now_s = NowS(clock_->Now());
+    const double now_s = NowS(time_.clock->Now());
     const std::vector<PeerBody> live_peers = team_.peers.Live(now_s);
     modes_->yielding().OnRequest(c, origin, fault, ForYield(now_s, live_peers));
   };
@@ -670,7 +689,7 @@ CommandOutcome RobotAgent::Impl::StartGoal(const GoalCommand& goal, const nav::G
   if (!plan.IsUsable())
     return {false, "no path: " + planning_->PlanReason(plan), 0};  // the previous goal goes on
   const GoalStart start =
-      modes_->StartGoal(plan, goal.x_m, goal.y_m, goal.tolerance_m, goal.z_m, NowS(clock_->Now()));
+      modes_->StartGoal(plan, goal.x_m, goal.y_m, goal.tolerance_m, goal.z_m, NowS(time_.clock->Now()));
   if (!start.accepted) return {false, start.reason, 0};
   spdlog::info("robot {}: waypoint {} to ({:.2f}, {:.2f}) from {} accepted, path {:.1f} m", options_.robot_id,
                start.goal_id, goal.x_m, goal.y_m, goal.sender.base_id, plan.result.length_m);
@@ -692,7 +711,8 @@ ModeConditions RobotAgent::Impl::Conditions() const {
   c.localized = reading_.pose_healthy;
   c.localization_problem = reading_.pose_problem;
   c.has_waypoint_goal = modes_->waypoint().has_goal();
-  c.local_planner_healthy = navigation_.ObstacleSensingAlive(NowS(clock_->Now()), &c.local_planner_problem);
+  c.local_planner_healthy =
+      navigation_.ObstacleSensingAlive(NowS(time_.clock->Now()), &c.local_planner_problem);
   c.has_explore_task = modes_->explore().exploring();
   c.has_convoy_task = modes_->convoy().active();
   c.has_yield_task = modes_->yield().active();
@@ -722,8 +742,8 @@ void RobotAgent::Impl::Step(SteadyTime now) {
     LeaveModeForADownChain(now_s);
   }
   try {
-    platform_->CommandTwist(twist_B.linear_x_mps, twist_B.angular_z_radps, now_s);
-    const core::PlatformStatus status = platform_->ReadStatus();
+    platform_.io->CommandTwist(twist_B.linear_x_mps, twist_B.angular_z_radps, now_s);
+    const core::PlatformStatus status = platform_.io->ReadStatus();
     reading_.in_contact = status.in_contact;
     if (navigated && parts_.mode_tree->up()) {
       parts_.mode_tree->Run([&] { modes_->OnPlatformStatus(status, inputs); },
@@ -736,8 +756,8 @@ void RobotAgent::Impl::Step(SteadyTime now) {
 
 bool RobotAgent::Impl::ReadPose(double now_s) {
   try {
-    platform_->Update(now_s);
-    const core::PoseEstimate estimate = platform_->ReadPose();
+    platform_.io->Update(now_s);
+    const core::PoseEstimate estimate = platform_.io->ReadPose();
     reading_.pose_M = estimate.PlanarState();
     if (estimate.healthy != reading_.pose_healthy) {
       if (estimate.healthy) {
@@ -802,7 +822,8 @@ void RobotAgent::Impl::ResetRestartedParts() {
 }
 
 void RobotAgent::Impl::MakeComponents() {
-  const double lidar_hz = capabilities_.lidar_rate_hz > 0 ? capabilities_.lidar_rate_hz : 10.0;
+  const double lidar_hz =
+      platform_.capabilities.lidar_rate_hz > 0 ? platform_.capabilities.lidar_rate_hz : 10.0;
   parts_.platform = std::make_unique<PlatformComponent>(perception_.get(), 2 * lidar_hz);
   parts_.perception = std::make_unique<PerceptionComponent>(perception_.get(), 2 * lidar_hz);
   parts_.planning =
@@ -831,7 +852,7 @@ void RobotAgent::Impl::MakeComponents() {
   planning.heartbeat_deadline_s = 10.0;
   core::RestartPolicy control = base;
   control.heartbeat_deadline_s = 2.0;
-  if (!lockstep_) {  // a stepped agent runs their work on its caller's thread (StepOnce)
+  if (!time_.lockstep) {  // a stepped agent runs their work on its caller's thread (StepOnce)
     parts_.monitor->Add(parts_.platform.get(), sensor);
     parts_.monitor->Add(parts_.perception.get(), perception);
     parts_.monitor->Add(parts_.planning.get(), planning);
@@ -846,19 +867,19 @@ void RobotAgent::Impl::MakeComponents() {
 }
 
 void RobotAgent::Impl::OnHealthEvent(const core::HealthEvent& event) {
-  health_report_.OnEvent(event);
+  health_.report.OnEvent(event);
   if (event.kind == core::HealthEvent::Kind::kEscalated && options_.supervised) {
     // The work that did not stop may hold the component's state: the process restarts from its journal (the
     // control loop stops the robot and tells the basestations on its way out).
     spdlog::error("robot {}: {}: restarting the process (supervised)", options_.robot_id, event.message);
-    restart_requested_ = true;
+    health_.restart_requested = true;
     core::RequestShutdown();
   }
 }
 
 void RobotAgent::Impl::PublishHealthIfDue(SteadyTime now) {
   const std::optional<cairn_msgs::AgentHealth> m =
-      health_report_.MessageIfDue(now, *parts_.monitor, loop_.late_cycles.load());
+      health_.report.MessageIfDue(now, *parts_.monitor, loop_.late_cycles.load());
   if (m && !link_->Publish(*m))
     spdlog::warn("robot {}: health not sent (DDS history full)", options_.robot_id);
 }
@@ -866,13 +887,12 @@ void RobotAgent::Impl::PublishHealthIfDue(SteadyTime now) {
 RobotAgent::Impl::CycleOutbox RobotAgent::Impl::LockedCycle(uint64_t cycle, SteadyTime wanted,
                                                             const CycleRates& every) {
   CycleOutbox out;
-  const SteadyTime now = clock_->Now();
+  const SteadyTime now = time_.clock->Now();
   const SteadyTime started = SteadyClock::now();
   command_->OnParticipantsGone(link_->TakeGoneParticipants(), now);
   Step(now);
-  if (resumable_goal_M_ && modes_->control().mode() != "idle")
-    resumable_goal_M_.reset();  // the operator moved on
-  if (journal_ && cycle % 10 == 0) journal_->Submit(JournalNow());
+  if (resume_.goal_M && modes_->control().mode() != "idle") resume_.goal_M.reset();  // the operator moved on
+  if (resume_.journal && cycle % 10 == 0) resume_.journal->Submit(JournalNow());
   if (cycle % every.state == 0) {
     telemetry_->PublishState(StateInputs());
   }
@@ -949,7 +969,7 @@ void RobotAgent::Impl::Run() {
       outbox = LockedCycle(cycle, wanted, every);
     }
     SendOutbox(std::move(outbox));
-    PublishHealthIfDue(clock_->Now());
+    PublishHealthIfDue(time_.clock->Now());
     if (cycle % 50 == 0) ShareRadioLink();
     next += period;
     const auto now = SteadyClock::now();
@@ -960,15 +980,15 @@ void RobotAgent::Impl::Run() {
 }
 
 void RobotAgent::Impl::StepOnce(double clock_s) {
-  Lockstep& step = *lockstep_;
+  Lockstep& step = *time_.lockstep;
   step.clock->SetSeconds(clock_s);
-  const double now_s = NowS(clock_->Now());  // the agent's time: since its clock's time at construction
+  const double now_s = NowS(time_.clock->Now());  // the agent's time: since its clock's time at construction
   // Sense, then act: the platform brought to now, then the threads' work at their periods on this clock (the
   // sensor loop every cycle, as it polls; perception and the navigation map when due), then the control cycle
   // on what they saw, as Run()'s cycle does it, then the planning it queued (a goal is answered before the
   // next cycle).
   try {
-    platform_->Update(now_s);
+    platform_.io->Update(now_s);
   } catch (const std::exception& e) {
     parts_.platform->ReportFailure(std::string("platform update: ") + e.what());
   }
@@ -988,20 +1008,20 @@ void RobotAgent::Impl::StepOnce(double clock_s) {
     outbox = LockedCycle(step.cycle++, SteadyClock::now(), Rates());
   }
   SendOutbox(std::move(outbox));
-  PublishHealthIfDue(clock_->Now());
+  PublishHealthIfDue(time_.clock->Now());
   while (planning_->RunOnce(std::chrono::milliseconds(0))) {
   }
 }
 
 void RobotAgent::Impl::Leave() {
   // The escalation that ends the process reaches the basestations first (the health message is reliable).
-  PublishHealthIfDue(clock_->Now());
+  PublishHealthIfDue(time_.clock->Now());
   std::optional<ExploreClaim> release;
   {
     std::lock_guard<std::mutex> guard(mutex_);
     modes_->control().Stop("agent shutting down");
     telemetry_->PublishState(StateInputs());
-    release = DueClaim(modes_->explore(), team_.explore, NowS(clock_->Now()),
+    release = DueClaim(modes_->explore(), team_.explore, NowS(time_.clock->Now()),
                        {});  // an exploring robot lets go of its claim
   }
   if (release) SendClaim(*release);
@@ -1012,7 +1032,7 @@ void RobotAgent::Impl::Leave() {
   std::exception_ptr failure;
   std::thread finisher([&] {
     try {
-      if (restart_requested_) {
+      if (health_.restart_requested) {
         // A component's work still runs: its state is not to be read (map telemetry, map file) nor its
         // threads waited for; the journal has the last safe state.
         spdlog::warn("robot {}: leaving for a restart: the map is not flushed or saved at exit",

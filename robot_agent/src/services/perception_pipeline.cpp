@@ -65,7 +65,7 @@ PerceptionPipeline::PerceptionPipeline(const PerceptionOptions& options, const s
       sender_(robot_id, options.coarse_resolution_m(), options.telemetry) {}
 
 bool PerceptionPipeline::CameraDue(double now_s) const {
-  return options_.enabled && options_.camera_rate_hz > 0 && now_s >= next_camera_s_;
+  return options_.enabled && options_.camera_rate_hz > 0 && now_s >= schedule_.next_camera_s;
 }
 
 std::vector<perception::Staircase> PerceptionPipeline::Staircases() const {
@@ -76,8 +76,8 @@ std::vector<perception::Staircase> PerceptionPipeline::Staircases() const {
 std::vector<Eigen::Vector2i> PerceptionPipeline::TakeChangedTiles() {
   std::set<std::pair<int, int>> tiles;
   {
-    std::lock_guard<std::mutex> guard(changed_mutex_);
-    tiles.swap(changed_tiles_);
+    std::lock_guard<std::mutex> guard(changed_.mutex);
+    tiles.swap(changed_.tiles);
   }
   std::vector<Eigen::Vector2i> out;
   out.reserve(tiles.size());
@@ -111,8 +111,8 @@ void PerceptionPipeline::CollectChanges() {
   // coarse columns.
   auto tile_of = [](std::int32_t i) { return static_cast<int>(i >= 0 ? i / 10 : -((-i + 9) / 10)); };
   {
-    std::lock_guard<std::mutex> guard(changed_mutex_);
-    for (const perception::CoarseVoxel& v : changes) changed_tiles_.emplace(tile_of(v.ix), tile_of(v.iy));
+    std::lock_guard<std::mutex> guard(changed_.mutex);
+    for (const perception::CoarseVoxel& v : changes) changed_.tiles.emplace(tile_of(v.ix), tile_of(v.iy));
   }
   if (options_.enabled) sender_.AddChanges(std::move(changes));
 }
@@ -131,13 +131,13 @@ PerceptionOutput PerceptionPipeline::Tick(double now_s, const core::LidarScan* s
   // The map is built even when perception's outputs are off: navigation plans on it.
   if (scan != nullptr) MapScan(now_s, *scan);
   if (!options_.enabled) return out;
-  if (now_s >= next_staircase_s_ && now_s < staircase_after_s_) {
+  if (now_s >= schedule_.next_staircase_s && now_s < schedule_.staircase_after_s) {
     ++stats_.staircase_runs_deferred;
-    next_staircase_s_ = staircase_after_s_;
+    schedule_.next_staircase_s = schedule_.staircase_after_s;
   }
-  if (now_s >= next_staircase_s_) DetectStaircases(now_s, &out);
-  if (now_s >= next_telemetry_s_) {
-    next_telemetry_s_ = std::max(next_telemetry_s_ + options_.telemetry.period_s, now_s);
+  if (now_s >= schedule_.next_staircase_s) DetectStaircases(now_s, &out);
+  if (now_s >= schedule_.next_telemetry_s) {
+    schedule_.next_telemetry_s = std::max(schedule_.next_telemetry_s + options_.telemetry.period_s, now_s);
     out.map_messages = FlushMapTelemetry(now_s);
   }
   if (image != nullptr && CameraDue(now_s)) EncodeCameraFrame(now_s, *image, &out);
@@ -153,18 +153,18 @@ void PerceptionPipeline::MapScan(double now_s, const core::LidarScan& scan) {
   stats_.local_cloud_ms_total += MsSince(start);
   if (progress_) progress_();
   const bool keyframe =
-      !T_W_S_last_keyframe_ ||
-      (T_W_S_estimate.translation() - T_W_S_last_keyframe_->translation()).norm() >=
+      !last_keyframe_.T_W_S ||
+      (T_W_S_estimate.translation() - last_keyframe_.T_W_S->translation()).norm() >=
           options_.map_keyframe_distance_m ||
-      Eigen::AngleAxisd(T_W_S_last_keyframe_->linear().transpose() * T_W_S_estimate.linear()).angle() >=
+      Eigen::AngleAxisd(last_keyframe_.T_W_S->linear().transpose() * T_W_S_estimate.linear()).angle() >=
           options_.map_keyframe_angle_rad ||
-      (refresh_at_rest_ && now_s - last_keyframe_s_ >= options_.map_keyframe_max_interval_s);
-  const bool insert_due = now_s >= next_insert_s_ && keyframe;
-  if (insert_due && now_s < insert_after_s_) ++stats_.scans_deferred;
-  if (insert_due && now_s >= insert_after_s_) {
-    next_insert_s_ = std::max(next_insert_s_ + options_.map_insert_period_s, now_s);
-    T_W_S_last_keyframe_ = T_W_S_estimate;
-    last_keyframe_s_ = now_s;
+      (refresh_at_rest_ && now_s - last_keyframe_.stamp_s >= options_.map_keyframe_max_interval_s);
+  const bool insert_due = now_s >= schedule_.next_insert_s && keyframe;
+  if (insert_due && now_s < schedule_.insert_after_s) ++stats_.scans_deferred;
+  if (insert_due && now_s >= schedule_.insert_after_s) {
+    schedule_.next_insert_s = std::max(schedule_.next_insert_s + options_.map_insert_period_s, now_s);
+    last_keyframe_.T_W_S = T_W_S_estimate;
+    last_keyframe_.stamp_s = now_s;
     start = Clock::now();
     const perception::InsertStats inserted = map_->InsertScan(scan.points_S, T_W_S_estimate);
     const double z = T_W_S_estimate.translation().z();
@@ -174,7 +174,7 @@ void PerceptionPipeline::MapScan(double now_s, const core::LidarScan& scan) {
     const double scan_to_map_ms = 1000.0 * (now_s - scan.stamp_s) + insert_ms;
     stats_.scan_to_map_ms_total += scan_to_map_ms;
     stats_.scan_to_map_ms_max = std::max(stats_.scan_to_map_ms_max, scan_to_map_ms);
-    if (adapt_to_load_) insert_after_s_ = now_s + kLoadWait * insert_ms / 1000.0;
+    if (schedule_.adapt_to_load) schedule_.insert_after_s = now_s + kLoadWait * insert_ms / 1000.0;
     stats_.points_dropped_non_finite += inserted.dropped_non_finite;
     ++stats_.scans_inserted;
     CollectChanges();
@@ -183,7 +183,7 @@ void PerceptionPipeline::MapScan(double now_s, const core::LidarScan& scan) {
 }
 
 void PerceptionPipeline::DetectStaircases(double now_s, PerceptionOutput* out) {
-  next_staircase_s_ = std::max(next_staircase_s_ + options_.staircase_period_s, now_s);
+  schedule_.next_staircase_s = std::max(schedule_.next_staircase_s + options_.staircase_period_s, now_s);
   const auto start = Clock::now();
   const std::vector<perception::Staircase> found =
       detector_.Detect(local_cloud_.Points(), T_W_B_estimate_.translation());
@@ -206,14 +206,14 @@ void PerceptionPipeline::DetectStaircases(double now_s, PerceptionOutput* out) {
   }
   const double staircase_ms = MsSince(start);
   stats_.staircase_ms_total += staircase_ms;
-  if (adapt_to_load_) staircase_after_s_ = now_s + kLoadWait * staircase_ms / 1000.0;
+  if (schedule_.adapt_to_load) schedule_.staircase_after_s = now_s + kLoadWait * staircase_ms / 1000.0;
   ++stats_.staircase_runs;
   if (progress_) progress_();
 }
 
 void PerceptionPipeline::EncodeCameraFrame(double now_s, const core::CameraImage& image,
                                            PerceptionOutput* out) {
-  next_camera_s_ = std::max(next_camera_s_ + 1.0 / options_.camera_rate_hz, now_s);
+  schedule_.next_camera_s = std::max(schedule_.next_camera_s + 1.0 / options_.camera_rate_hz, now_s);
   const auto start = Clock::now();
   CameraFrame frame;
   frame.seq = ++camera_seq_;
@@ -224,8 +224,9 @@ void PerceptionPipeline::EncodeCameraFrame(double now_s, const core::CameraImage
       perception::GrayFrame{image.width_px, image.height_px, image.pixels}, options_.jpeg_quality);
   // Within the camera's budget: a frame of B bytes holds the next one back B * 8 / budget seconds, so the
   // robot never renders frames its link would only drop (on a radio link the budget is a share of it).
-  next_camera_s_ = std::max(next_camera_s_, now_s + static_cast<double>(frame.jpeg.size()) * 8.0 /
-                                                        (link_share_ * options_.camera_budget_bits_per_s));
+  schedule_.next_camera_s =
+      std::max(schedule_.next_camera_s, now_s + static_cast<double>(frame.jpeg.size()) * 8.0 /
+                                                    (link_share_ * options_.camera_budget_bits_per_s));
   out->camera = std::move(frame);
   stats_.camera_ms_total += MsSince(start);
   ++stats_.camera_frames;

@@ -108,7 +108,7 @@ class PerceptionPipeline {
   static constexpr double kLoadWait = 2.0;
   /// On for a robot on the wall clock (the agent's perception thread); off (the default) where `now_s` is a
   /// simulated clock, whose runs must not depend on how busy the machine is.
-  void set_adapt_to_load(bool on) { adapt_to_load_ = on; }
+  void set_adapt_to_load(bool on) { schedule_.adapt_to_load = on; }
   /// Called between the steps of Tick() (may be empty): the work goes on (its thread's heartbeat).
   void SetProgress(std::function<void()> progress) { progress_ = std::move(progress); }
 
@@ -179,16 +179,26 @@ class PerceptionPipeline {
   perception::LocalCloud local_cloud_;
   perception::MapTelemetrySender sender_;
   Eigen::Isometry3d T_W_B_estimate_ = Eigen::Isometry3d::Identity();
-  std::optional<Eigen::Isometry3d> T_W_S_last_keyframe_;
-  double last_keyframe_s_ = 0.0;
+  // The last scan inserted into the map (its sensor pose, frame W, and stamp): the next keyframe is due when
+  // the sensor moved or turned enough, or (refresh at rest) after map_keyframe_max_interval_s.
+  struct Keyframe {
+    std::optional<Eigen::Isometry3d> T_W_S;
+    double stamp_s = 0.0;
+  } last_keyframe_;
   std::atomic<bool> refresh_at_rest_{false};
   std::atomic<double> link_share_{1.0};  // SetLinkShare()
-  double next_insert_s_ = 0, next_staircase_s_ = 0, next_telemetry_s_ = 0, next_camera_s_ = 0;
-  double insert_after_s_ = 0, staircase_after_s_ = 0;  // kLoadWait after the last run's duration
+  // When each part of Tick() is due next (seconds, the caller's clock), and the wait after a slow run.
+  struct Schedule {
+    double next_insert_s = 0, next_staircase_s = 0, next_telemetry_s = 0, next_camera_s = 0;
+    double insert_after_s = 0, staircase_after_s = 0;  // kLoadWait after the last run's duration
+    bool adapt_to_load = false;                        // set_adapt_to_load()
+  } schedule_;
   std::function<void()> progress_;
-  bool adapt_to_load_ = false;
-  std::mutex changed_mutex_;
-  std::set<std::pair<int, int>> changed_tiles_;
+  // The map's coarse tiles changed since TakeChangedTiles() (perception thread in, navigation map out).
+  struct ChangedTiles {
+    std::mutex mutex;
+    std::set<std::pair<int, int>> tiles;
+  } changed_;
   std::uint32_t camera_seq_ = 0;
   PerceptionStats stats_;
 };
