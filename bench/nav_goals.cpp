@@ -31,10 +31,10 @@
 #include "cairn/agent/services/live_obstacles.h"
 #include "cairn/agent/services/nav_map.h"
 #include "cairn/agent/services/navigation.h"
-#include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/nav/sampling.h"
 #include "cairn/nav/scan_obstacles.h"
+#include "cairn/perception/perception_pipeline.h"
 #include "cairn/perception/staircase.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/platform_profile.h"
@@ -188,9 +188,9 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
     }
     return truth_classified;
   };
-  agent::PerceptionOptions perception_options = options.perception;
+  perception::PerceptionOptions perception_options = options.perception;
   perception_options.camera_rate_hz = 0;
-  agent::PerceptionPipeline perception(perception_options, "bench");
+  perception::PerceptionPipeline perception(perception_options, "bench");
   auto planner = agent::NavMap::MakePlanner(options.nav_map, perception_options.map.resolution_m, start_M,
                                             {options.navigation.platform});
   agent::NavMap nav_map(options.nav_map, perception_options.map.resolution_m, start_M, planner, g_platform);

@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "bench_util.h"
-#include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
+#include "cairn/perception/perception_pipeline.h"
 #include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 
@@ -42,9 +42,9 @@ int main() {
   platform.Update(0.0);
   const core::BaseState start_M = platform.ReadPose().PlanarState();
 
-  agent::PerceptionOptions perception_options;
+  perception::PerceptionOptions perception_options;
   perception_options.camera_rate_hz = 0;
-  agent::PerceptionPipeline perception(perception_options, "r1");
+  perception::PerceptionPipeline perception(perception_options, "r1");
   agent::NavMapOptions map_options;
   auto planner =
       agent::NavMap::MakePlanner(map_options, perception_options.map.resolution_m, start_M, {profile});

@@ -20,9 +20,9 @@
 
 #include "bench_util.h"
 #include "cairn/agent/services/nav_map.h"
-#include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
+#include "cairn/perception/perception_pipeline.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
@@ -55,9 +55,9 @@ Run Drive(const std::string& world, double budget_s) {
   sim::SimulatedPlatform platform(sim_options);
   platform.Update(0.0);
   const core::BaseState start_M = platform.ReadPose().PlanarState();
-  agent::PerceptionOptions perception_options;
+  perception::PerceptionOptions perception_options;
   perception_options.camera_rate_hz = 0;
-  agent::PerceptionPipeline perception(perception_options, "r1");
+  perception::PerceptionPipeline perception(perception_options, "r1");
   agent::NavMapOptions map_options;
   map_options.update_budget_s = budget_s;
   auto planner =

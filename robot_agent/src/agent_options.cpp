@@ -7,7 +7,7 @@
 
 #include "cairn/core/config.h"
 #include "cairn/core/peer_input.h"
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 
@@ -171,7 +171,7 @@ void ReadTeam(const ConfigSection& config, const std::string& path, AgentOptions
       {{"resume_within_s", &o->mission.resume_within_s}, {"retry_every_s", &o->mission.retry_every_s}});
 }
 
-void ReadPerception(const ConfigSection& config, PerceptionOptions* pe) {
+void ReadPerception(const ConfigSection& config, perception::PerceptionOptions* pe) {
   config.Section("perception")
       .ReadFields({{"enabled", &pe->enabled},
                    {"map_resolution_m", &pe->map.resolution_m},
@@ -213,7 +213,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
   if (!IsValid(&why)) throw core::ConfigError(path + ": " + why);
 }
 
-using internal::InRange;
+using core::InRange;
 
 std::string AgentOptions::ApplyLinkBudget() {
   if (!core::IsRadioLink(link) || !perception.enabled) return "";  // without perception: no map, no camera

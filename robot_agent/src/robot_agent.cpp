@@ -46,9 +46,9 @@
 #include "cairn/agent/team/yield_sender.h"
 #include "cairn/core/health_monitor.h"
 #include "cairn/core/peer_input.h"
+#include "cairn/core/range_check.h"
 #include "cairn/core/shutdown.h"
 #include "cairn_msgs.h"
-#include "range_check.h"
 
 #ifndef CAIRN_CONFIG_DIR
 #error "CAIRN_CONFIG_DIR must be defined by the build"
@@ -419,7 +419,7 @@ RobotAgent::Impl::Impl(const AgentOptions& options, std::shared_ptr<core::Platfo
           time_.start)) {
   perception_ = std::make_unique<PerceptionService>(
       options_, platform_.io, platform_.start_M, planner_, time_.clock, time_.start,
-      [this](const PerceptionOutput& out) { telemetry_->PublishPerception(out); });
+      [this](const perception::PerceptionOutput& out) { telemetry_->PublishPerception(out); });
   const std::string tree_file = options_.mode_tree_file.empty() ? DefaultTreeFile() : options_.mode_tree_file;
   RobotModes::Hooks hooks;
   hooks.conditions = [this] { return Conditions(); };
@@ -695,13 +695,13 @@ CommandOutcome RobotAgent::Impl::StartGoal(const GoalCommand& goal, const nav::G
                start.goal_id, goal.x_m, goal.y_m, goal.sender.base_id, plan.result.length_m);
   telemetry_
       ->PublishGlobalPathIfChanged();  // before the acknowledgement, so `path R` right after `goto` shows it
-  const std::string home = goal.kind == CommandKind::kHome ? "home to (" + internal::Fixed(goal.x_m, 2) +
-                                                                 ", " + internal::Fixed(goal.y_m, 2) + "): "
+  const std::string home = goal.kind == CommandKind::kHome ? "home to (" + core::Fixed(goal.x_m, 2) + ", " +
+                                                                 core::Fixed(goal.y_m, 2) + "): "
                                                            : "";
   const std::string notice = GoalNotice(options_.robot_id, plan);  // a goal where the map has not seen
   return {true,
-          home + "path " + internal::Fixed(plan.result.length_m, 1) + " m, ETA " +
-              internal::Fixed(navigation_.eta_s(), 0) + " s" + (notice.empty() ? "" : "; " + notice),
+          home + "path " + core::Fixed(plan.result.length_m, 1) + " m, ETA " +
+              core::Fixed(navigation_.eta_s(), 0) + " s" + (notice.empty() ? "" : "; " + notice),
           start.goal_id};
 }
 

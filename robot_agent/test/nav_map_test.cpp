@@ -11,8 +11,8 @@
 
 #include "cairn/agent/agent_options.h"
 #include "cairn/agent/services/live_obstacles.h"
-#include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/nav/global_planner.h"
+#include "cairn/perception/perception_pipeline.h"
 #include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
 
@@ -48,8 +48,8 @@ struct TunnelsRig {
     o.update_budget_s = 10.0;
     return o;
   }
-  static PerceptionOptions Perception() {
-    PerceptionOptions o;
+  static perception::PerceptionOptions Perception() {
+    perception::PerceptionOptions o;
     o.camera_rate_hz = 0;
     return o;
   }
@@ -88,7 +88,7 @@ struct TunnelsRig {
   nav::PlatformProfile profile;
   sim::SimulatedPlatform platform;
   core::BaseState start_M;
-  PerceptionPipeline perception;
+  perception::PerceptionPipeline perception;
   std::shared_ptr<nav::GlobalPlanner> planner;
   NavMap nav_map;
 };
@@ -271,9 +271,9 @@ TEST(NavMapTest, AWheeledRobotAtTheFootOfTheStairsIsRefusedTheFloorAboveNamingTh
   sim::SimulatedPlatform platform(sim_options);
   platform.Update(0.0);
   const core::BaseState start_M = platform.ReadPose().PlanarState();
-  PerceptionOptions perception_options;
+  perception::PerceptionOptions perception_options;
   perception_options.camera_rate_hz = 0;
-  PerceptionPipeline perception(perception_options, "r2");
+  perception::PerceptionPipeline perception(perception_options, "r2");
   NavMapOptions map_options = TunnelsRig::Unbudgeted();
   auto planner = NavMap::MakePlanner(map_options, perception_options.map.resolution_m, start_M,
                                      {profile, nav::GetPlatformProfile("legged")});

@@ -1,7 +1,7 @@
 // The perception component driven through a built-in world faster than real time, without DDS: mapping
 // precision and recall against the world, map telemetry within its budget and complete (early and late
 // basestations end with the robot's coarse map), staircases found once, camera frames that decode.
-#include "cairn/agent/services/perception_pipeline.h"
+#include "cairn/perception/perception_pipeline.h"
 
 #include <gtest/gtest.h>
 
@@ -72,7 +72,7 @@ class PerceptionPipelineTest : public ::testing::Test {
 std::shared_ptr<const sim::World> PerceptionPipelineTest::world_;
 
 TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase) {
-  PerceptionOptions options;
+  perception::PerceptionOptions options;
   options.camera_rate_hz = 0.5;
   // Mapping is judged at 0.1 m against the world, so the SLAM drift must stay well under that over the 46 m
   // drive: 0.1 % of the distance (the default, ~0.3 %, ends ~0.15 m off, which no 0.1 m comparison survives).
@@ -87,7 +87,7 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
   const sim::CameraOptions camera_options;
   Eigen::Isometry3d T_BS = Eigen::Isometry3d::Identity();
   T_BS.translation().z() = 0.5;
-  PerceptionPipeline pipeline(options, "r1");
+  perception::PerceptionPipeline pipeline(options, "r1");
   // Reference for recall: world voxels hit by the same rays without noise or drift (what the lidar could
   // see).
   sim::LidarOptions exact = lidar_options;
@@ -122,7 +122,7 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
       image = core::CameraImage{
           now_s, static_cast<std::uint32_t>(k), gray.width_px, gray.height_px, gray.pixels, T_MB * T_BS};
     }
-    const PerceptionOutput out =
+    const perception::PerceptionOutput out =
         pipeline.Tick(now_s, &platform_scan, image.pixels.empty() ? nullptr : &image);
     if (k % 5 == 0) {  // the reference at the map insertion rate
       const Eigen::Isometry3d T_W_S = poses[k] * T_BS;
@@ -264,7 +264,7 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
   EXPECT_NEAR(s.p_W_first_step.x(), 50.0, 0.1);
   EXPECT_GT(frames, 10);
 
-  const PerceptionStats& st = pipeline.stats();
+  const perception::PerceptionStats& st = pipeline.stats();
   std::printf(
       "FIGURE perception cost per robot (sensors simulated apart): local cloud %.2f ms/scan, map %.2f "
       "ms/insert, staircase %.2f ms/run, JPEG %.2f ms/frame, telemetry %.3f ms total per s; %.0f ms of CPU "
@@ -280,10 +280,10 @@ TEST_F(PerceptionPipelineTest, DrivingTheTunnelsMapsStreamsAndFindsTheStaircase)
 // Keyframes: an idle robot at rest inserts one scan and leaves its map alone; with a task it waits on
 // (set_refresh_at_rest) it inserts one every map_keyframe_max_interval_s, so the world's changes reach it.
 TEST_F(PerceptionPipelineTest, ARobotAtRestRefreshesItsMapOnlyWhileItHasATask) {
-  PerceptionOptions options;
+  perception::PerceptionOptions options;
   options.camera_rate_hz = 0;
   options.map_keyframe_max_interval_s = 1.0;
-  PerceptionPipeline pipeline(options, "r1");
+  perception::PerceptionPipeline pipeline(options, "r1");
   sim::SimulatedLidar lidar(sim::LidarOptions{}, /*seed=*/3);
   Eigen::Isometry3d T_BS = Eigen::Isometry3d::Identity();
   T_BS.translation().z() = 0.5;
@@ -313,11 +313,11 @@ TEST_F(PerceptionPipelineTest, ARobotAtRestRefreshesItsMapOnlyWhileItHasATask) {
 // insertion takes long (40 k rays) makes the next keyframes wait kLoadWait times as long; each step of a tick
 // beats (slow, not hung).
 TEST(PerceptionPipelineLoad, ASlowInsertionDefersTheNextKeyframesAndEveryStepBeats) {
-  PerceptionOptions options;
+  perception::PerceptionOptions options;
   options.camera_rate_hz = 0;
   options.map_insert_period_s = 0.05;
   options.map_keyframe_distance_m = 0.0;  // every scan is a keyframe
-  PerceptionPipeline pipeline(options, "r1");
+  perception::PerceptionPipeline pipeline(options, "r1");
   pipeline.set_adapt_to_load(true);
   int beats = 0;
   pipeline.SetProgress([&] { ++beats; });
@@ -335,12 +335,12 @@ TEST(PerceptionPipelineLoad, ASlowInsertionDefersTheNextKeyframesAndEveryStepBea
     scan.T_MS = Pose(0.01 * k, 0.0, 0.0);  // moving a little: each scan a keyframe
     pipeline.Tick(now_s, &scan, nullptr);
   }
-  const PerceptionStats& stats = pipeline.stats();
+  const perception::PerceptionStats& stats = pipeline.stats();
   const double insert_ms = stats.map_ms_total / stats.scans_inserted;
   std::printf("insertion %.0f ms: %lld of %d keyframes inserted, %lld deferred\n", insert_ms,
               static_cast<long long>(stats.scans_inserted), ticks,
               static_cast<long long>(stats.scans_deferred));
-  ASSERT_GT(insert_ms, 1000 * options.map_insert_period_s / PerceptionPipeline::kLoadWait)
+  ASSERT_GT(insert_ms, 1000 * options.map_insert_period_s / perception::PerceptionPipeline::kLoadWait)
       << "this machine inserted 40 k rays faster than the test assumes";
   EXPECT_GT(stats.scans_deferred, 0);
   EXPECT_EQ(stats.scans_inserted + stats.scans_deferred, ticks);
@@ -349,25 +349,25 @@ TEST(PerceptionPipelineLoad, ASlowInsertionDefersTheNextKeyframesAndEveryStepBea
 }
 
 TEST(PerceptionOptionsTest, InvalidValuesNameTheField) {
-  PerceptionOptions o;
+  perception::PerceptionOptions o;
   std::string why;
   ASSERT_TRUE(o.IsValid(&why)) << why;
   o.jpeg_quality = 0;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("perception.jpeg_quality"), std::string::npos) << why;
-  o = PerceptionOptions();
+  o = perception::PerceptionOptions();
   o.map_insert_period_s = 0;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("map_insert_period_s"), std::string::npos) << why;
-  o = PerceptionOptions();
+  o = perception::PerceptionOptions();
   o.camera_rate_hz = 31;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("camera_rate_hz"), std::string::npos) << why;
-  o = PerceptionOptions();
+  o = perception::PerceptionOptions();
   o.telemetry.budget_bits_per_s = -1;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("budget"), std::string::npos) << why;
-  EXPECT_THROW(PerceptionPipeline(o, "r"), std::invalid_argument);
+  EXPECT_THROW(perception::PerceptionPipeline(o, "r"), std::invalid_argument);
 }
 
 }  // namespace

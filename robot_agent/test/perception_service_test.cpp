@@ -61,7 +61,7 @@ TEST(PerceptionService, ASlowNavigationMapUpdatePastTheWatchdogIsNeverRunTwice) 
       NavMap::MakePlanner(options.nav_map, options.perception.map.resolution_m, start_M, {profile});
   const Clock::time_point t0 = Clock::now();
   PerceptionService service(options, platform, start_M, planner, core::RealClock(), t0,
-                            [](const PerceptionOutput&) {});
+                            [](const perception::PerceptionOutput&) {});
 
   // The 8th navigation map update is slow (kSlowUpdate: longer than the stall limit plus the stop's grace),
   // and it does not look at its stop meanwhile.

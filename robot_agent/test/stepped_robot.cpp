@@ -38,9 +38,9 @@ SteppedRobot::SteppedRobot(const AgentOptions& options, std::shared_ptr<core::Pl
   // On a simulated clock a wall-clock budget would make the map depend on how busy the machine is: every
   // changed tile is read in the update it arrives with (the largest budget).
   options_.nav_map.update_budget_s = 10.0;
-  PerceptionOptions perception = options_.perception;
+  perception::PerceptionOptions perception = options_.perception;
   perception.camera_rate_hz = 0;
-  perception_ = std::make_unique<PerceptionPipeline>(perception, options_.robot_id);
+  perception_ = std::make_unique<perception::PerceptionPipeline>(perception, options_.robot_id);
   planner_ = NavMap::MakePlanner(options_.nav_map, perception.map.resolution_m, start_M,
                                  {options_.navigation.platform});
   nav_map_ = std::make_unique<NavMap>(options_.nav_map, perception.map.resolution_m, start_M, planner_,

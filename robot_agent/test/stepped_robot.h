@@ -23,9 +23,9 @@
 #include "cairn/agent/services/live_obstacles.h"
 #include "cairn/agent/services/nav_map.h"
 #include "cairn/agent/services/navigation.h"
-#include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/agent/team/yield.h"
 #include "cairn/core/platform_io.h"
+#include "cairn/perception/perception_pipeline.h"
 
 namespace cairn::agent {
 
@@ -90,7 +90,7 @@ class SteppedRobot {
   const RobotModes& modes() const { return *modes_; }
   const NavMap& nav_map() const { return *nav_map_; }
   const Navigation& navigation() const { return *navigation_; }
-  const PerceptionPipeline& perception() const { return *perception_; }
+  const perception::PerceptionPipeline& perception() const { return *perception_; }
   /// Seconds spent in the frontier searches so far, and their number (benches).
   double frontier_search_s() const { return frontier_search_s_; }
   int frontier_searches() const { return frontier_searches_; }
@@ -114,7 +114,7 @@ class SteppedRobot {
   // The modes' clock: the time of the last Step() (0 before the first).
   std::shared_ptr<core::SimulatedClock> clock_ = std::make_shared<core::SimulatedClock>();
   std::shared_ptr<core::PlatformIO> platform_;
-  std::unique_ptr<PerceptionPipeline> perception_;
+  std::unique_ptr<perception::PerceptionPipeline> perception_;
   std::shared_ptr<nav::GlobalPlanner> planner_;
   std::unique_ptr<NavMap> nav_map_;
   std::unique_ptr<Navigation> navigation_;

@@ -332,7 +332,7 @@ void Telemetry::PublishLocalPlan() {
   agent_link_->Publish(m);
 }
 
-void Telemetry::PublishPerception(const PerceptionOutput& out) {
+void Telemetry::PublishPerception(const perception::PerceptionOutput& out) {
   for (const perception::MapUpdate& update : out.map_messages) {
     msgs::MapUpdate m;
     m.robot_id(robot_id_);

@@ -4,7 +4,7 @@
 
 #include <utility>
 
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 
@@ -34,7 +34,7 @@ void ComeHome::Step(
   if (!explore.exploring()) return;
   const double limit_s = explore.status().task.home_after_silence_s;
   if (limit_s <= 0 || silence_s <= limit_s) return;
-  explore.Deactivate("no basestation heard for " + internal::Fixed(silence_s, 1) +
+  explore.Deactivate("no basestation heard for " + core::Fixed(silence_s, 1) +
                      " s: driving back to the start");
   plan_ = navigation.PlanGoalAsync(pose_M, start_M_.x_m, start_M_.y_m, start_M_.z_m);
 }

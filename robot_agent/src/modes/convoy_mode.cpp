@@ -7,7 +7,7 @@
 #include <stdexcept>
 
 #include "cairn/core/peer_input.h"
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 
@@ -89,8 +89,7 @@ void ConvoyMode::SetPeers(const std::vector<PeerBody>& peers, double now_s) {
       if (const PeerBody* further = heard(ids[k])) {
         skipped_ += static_cast<int>(k);
         status_.reason = "re-linked to " + ids[k] + ": " + status_.ahead_id + " was not heard (keeping " +
-                         internal::Fixed(options_.spacing_m * (skipped_ + 1), 1) +
-                         " m: it may still be in line)";
+                         core::Fixed(options_.spacing_m * (skipped_ + 1), 1) + " m: it may still be in line)";
         ids.erase(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(k));
         status_.ahead_id = ids.front();
         status_.state = ConvoyStatus::State::kHolding;
@@ -173,8 +172,7 @@ ModeOutput ConvoyMode::Step(const ModeInputs& in) {
   if (step.arrived) {
     has_goal_ = false;
     return Stop(ConvoyStatus::State::kHolding,
-                internal::Fixed(decision.gap_m, 1) + " m behind " + status_.ahead_id + " (at its target)",
-                in);
+                core::Fixed(decision.gap_m, 1) + " m behind " + status_.ahead_id + " (at its target)", in);
   }
   status_.state = ConvoyStatus::State::kFollowing;
   status_.reason = "";

@@ -7,7 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 
@@ -17,7 +17,7 @@ namespace {
 constexpr double kMinKnownFreeM2 = 2.0;
 
 std::string Point(const Eigen::Vector2d& p) {
-  return "(" + internal::Fixed(p.x(), 2) + ", " + internal::Fixed(p.y(), 2) + ")";
+  return "(" + core::Fixed(p.x(), 2) + ", " + core::Fixed(p.y(), 2) + ")";
 }
 
 }  // namespace
@@ -59,14 +59,14 @@ const char* ToString(ExplorationState state) {
 
 bool ExploreModeOptions::IsValid(std::string* why) const {
   std::string msg;
-  bool ok = internal::InRange("explore.channel_timeout_s", channel_timeout_s, 0, 60, true, &msg) &&
-            internal::InRange("explore.contact_timeout_s", contact_timeout_s, 0, 3600, true, &msg) &&
-            internal::InRange("explore.target_tolerance_m", target_tolerance_m, 0, 3, true, &msg) &&
-            internal::InRange("explore.settle_s", settle_s, 0, 10, false, &msg) &&
-            internal::InRange("explore.complete_settle_s", complete_settle_s, 0, 30, false, &msg) &&
-            internal::InRange("explore.map_wait_s", map_wait_s, 0, 600, true, &msg) &&
-            internal::InRange("explore.tight_gap_stall_s", tight_gap_stall_s, 0, 600, true, &msg) &&
-            internal::InRange("explore.platform_max_step_m", platform_max_step_m, 0, 10, false, &msg);
+  bool ok = core::InRange("explore.channel_timeout_s", channel_timeout_s, 0, 60, true, &msg) &&
+            core::InRange("explore.contact_timeout_s", contact_timeout_s, 0, 3600, true, &msg) &&
+            core::InRange("explore.target_tolerance_m", target_tolerance_m, 0, 3, true, &msg) &&
+            core::InRange("explore.settle_s", settle_s, 0, 10, false, &msg) &&
+            core::InRange("explore.complete_settle_s", complete_settle_s, 0, 30, false, &msg) &&
+            core::InRange("explore.map_wait_s", map_wait_s, 0, 600, true, &msg) &&
+            core::InRange("explore.tight_gap_stall_s", tight_gap_stall_s, 0, 600, true, &msg) &&
+            core::InRange("explore.platform_max_step_m", platform_max_step_m, 0, 10, false, &msg);
   std::string nested;
   if (ok && !(frontiers.IsValid(&nested) && explorer.IsValid(&nested))) {
     msg = "explore: " + nested;  // the config section; the option struct names the field
@@ -242,9 +242,8 @@ void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput
   if (!set.robot_on_grid || set.known_free_m2 < kMinKnownFreeM2) {
     if (now_s - status_.started_s > options_.map_wait_s) {
       Finish(ExplorationState::kFailed,
-             std::string("no map around the robot after ") + internal::Fixed(options_.map_wait_s, 0) +
-                 " s (" +
-                 (set.robot_on_grid ? internal::Fixed(set.known_free_m2, 1) + " m² known free"
+             std::string("no map around the robot after ") + core::Fixed(options_.map_wait_s, 0) + " s (" +
+                 (set.robot_on_grid ? core::Fixed(set.known_free_m2, 1) + " m² known free"
                                     : "the robot is on no traversable cell of its map") +
                  ")");
       out->done = true;
@@ -371,7 +370,7 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
     Choose(in.pose_M, in.now_s, &out);
   } else if (!status_.has_target && !complete_pending_ && !frontiers_ &&
              in.now_s - status_.started_s > options_.map_wait_s && status_.explored_m2 < kMinKnownFreeM2) {
-    Finish(ExplorationState::kFailed, "no frontier search result " + internal::Fixed(options_.map_wait_s, 0) +
+    Finish(ExplorationState::kFailed, "no frontier search result " + core::Fixed(options_.map_wait_s, 0) +
                                           " s after the start (is the navigation map updated?)");
     out.done = true;
   }

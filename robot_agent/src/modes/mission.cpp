@@ -4,11 +4,11 @@
 #include <stdexcept>
 #include <utility>
 
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 
-using internal::InRange;
+using core::InRange;
 
 bool MissionOptions::IsValid(std::string* why) const {
   return InRange("mission.resume_within_s", resume_within_s, 0, 3600, true, why) &&

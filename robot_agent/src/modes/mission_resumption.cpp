@@ -6,7 +6,7 @@
 #include <utility>
 
 #include "cairn/agent/modes/mode_manager.h"
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 
@@ -58,7 +58,7 @@ void MissionResumption::Pause(PausedMission mission, const std::string& reason,
   spdlog::warn("robot {}: mission paused ({}): {}; it resumes by itself{}", robot_id_, Name(mission), reason,
                mission.held
                    ? " when the yield ends"
-                   : " when that clears (within " + internal::Fixed(keeper_.options().resume_within_s, 0) +
+                   : " when that clears (within " + core::Fixed(keeper_.options().resume_within_s, 0) +
                          " s, mission.resume_within_s)");
   Abandon();
   keeper_.Pause(std::move(mission));
@@ -106,7 +106,7 @@ void MissionResumption::Resumed(double now_s, const PausedMission& paused) {
   const double paused_s = now_s - paused.since_s;
   spdlog::info("robot {}: mission resumed ({}) after {:.1f} s paused ({})", robot_id_, Name(paused), paused_s,
                paused.reason);
-  note_ = "resumed after " + internal::Fixed(paused_s, 1) + " s paused: " + paused.reason;
+  note_ = "resumed after " + core::Fixed(paused_s, 1) + " s paused: " + paused.reason;
   keeper_.Take();
 }
 
@@ -168,8 +168,8 @@ void MissionResumption::Step(double now_s, const core::BaseState& pose_M,
     case MissionKeeper::Due::kWait:
       return;
     case MissionKeeper::Due::kExpired:
-      End(paused, "paused for " + internal::Fixed(now_s - paused.since_s, 0) +
-                      " s (mission.resume_within_s " + internal::Fixed(keeper_.options().resume_within_s, 0) +
+      End(paused, "paused for " + core::Fixed(now_s - paused.since_s, 0) + " s (mission.resume_within_s " +
+                      core::Fixed(keeper_.options().resume_within_s, 0) +
                       ") and not resumed: " + paused.reason);
       return;
     case MissionKeeper::Due::kTry:

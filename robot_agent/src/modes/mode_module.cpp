@@ -2,7 +2,7 @@
 
 #include <stdexcept>
 
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 
@@ -17,8 +17,8 @@ std::string ContactTimer::Update(const core::PlatformStatus& status, const ModeI
     return "";
   }
   if (core::SecondsBetween(since_, in.now) <= timeout_s) return "";
-  return "blocked: in contact with occupied space at (" + internal::Fixed(in.pose_M.x_m, 2) + ", " +
-         internal::Fixed(in.pose_M.y_m, 2) + ")";
+  return "blocked: in contact with occupied space at (" + core::Fixed(in.pose_M.x_m, 2) + ", " +
+         core::Fixed(in.pose_M.y_m, 2) + ")";
 }
 
 ModeModule& ModeRegistry::Add(std::unique_ptr<ModeModule> module) {
@@ -34,8 +34,8 @@ ModeModule& ModeRegistry::Add(std::unique_ptr<ModeModule> module) {
     if (channel.name != "none" && other->channel().name == channel.name &&
         other->channel().timeout_s != channel.timeout_s) {
       throw std::invalid_argument("mode registry: mode '" + name + "' declares mux channel '" + channel.name +
-                                  "' with timeout_s = " + internal::Fixed(channel.timeout_s, 3) + ", mode '" +
-                                  other->name() + "' with " + internal::Fixed(other->channel().timeout_s, 3));
+                                  "' with timeout_s = " + core::Fixed(channel.timeout_s, 3) + ", mode '" +
+                                  other->name() + "' with " + core::Fixed(other->channel().timeout_s, 3));
     }
   }
   modules_.push_back(std::move(module));

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 

@@ -7,7 +7,7 @@
 #include <stdexcept>
 
 #include "cairn/agent/modes/tree_file.h"
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 
@@ -17,7 +17,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-using internal::Fixed;
+using core::Fixed;
 
 // Parses a port's text as a number in (lo, hi] for ValidateXml; throws std::invalid_argument naming both.
 void CheckNumber(const std::map<std::string, std::string>& ports, const std::string& port, double lo,
@@ -31,7 +31,7 @@ void CheckNumber(const std::map<std::string, std::string>& ports, const std::str
   } catch (const std::exception&) {
   }
   std::string why;
-  if (used != it->second.size() || !internal::InRange(("port " + port).c_str(), value, lo, hi, true, &why)) {
+  if (used != it->second.size() || !core::InRange(("port " + port).c_str(), value, lo, hi, true, &why)) {
     throw std::invalid_argument(why.empty() ? "port " + port + " = '" + it->second + "' is not a number"
                                             : why);
   }

@@ -7,7 +7,7 @@
 #include <iterator>
 #include <stdexcept>
 
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 namespace {
@@ -35,7 +35,7 @@ const NavMapOptions& Checked(const NavMapOptions& options) {
 }  // namespace
 
 bool NavMapOptions::IsValid(std::string* why) const {
-  using internal::InRange;
+  using core::InRange;
   if (!InRange("navigation.map_half_extent_m", half_extent_m, 5, 200, false, why) ||
       !InRange("navigation.map_max_extent_m", max_extent_m, 10, 2000, false, why) ||
       !InRange("navigation.map_grow_margin_m", grow_margin_m, 0, 100, false, why) ||
@@ -44,8 +44,8 @@ bool NavMapOptions::IsValid(std::string* why) const {
   }
   if (max_extent_m < 2 * half_extent_m) {
     if (why != nullptr) {
-      *why = "navigation.map_max_extent_m = " + internal::Fixed(max_extent_m, 1) +
-             " is below 2 * navigation.map_half_extent_m = " + internal::Fixed(2 * half_extent_m, 1) +
+      *why = "navigation.map_max_extent_m = " + core::Fixed(max_extent_m, 1) +
+             " is below 2 * navigation.map_half_extent_m = " + core::Fixed(2 * half_extent_m, 1) +
              " (the map starts that large)";
     }
     return false;
@@ -214,13 +214,11 @@ bool NavMap::CanCover(const Eigen::Vector2d& p_M, std::string* why) const {
   const Eigen::Vector2d size = need.sizes();
   if (size.maxCoeff() <= options_.max_extent_m) return true;
   if (why != nullptr) {
-    *why = "(" + internal::Fixed(p_M.x(), 2) + ", " + internal::Fixed(p_M.y(), 2) +
-           ") is too far for the robot's navigation map: it spans x in [" +
-           internal::Fixed(extent.min().x(), 1) + ", " + internal::Fixed(extent.max().x(), 1) + "], y in [" +
-           internal::Fixed(extent.min().y(), 1) + ", " + internal::Fixed(extent.max().y(), 1) +
-           "] and may grow to " + internal::Fixed(options_.max_extent_m, 0) +
-           " m along x and y (navigation.map_max_extent_m = " + internal::Fixed(options_.max_extent_m, 0) +
-           ")";
+    *why = "(" + core::Fixed(p_M.x(), 2) + ", " + core::Fixed(p_M.y(), 2) +
+           ") is too far for the robot's navigation map: it spans x in [" + core::Fixed(extent.min().x(), 1) +
+           ", " + core::Fixed(extent.max().x(), 1) + "], y in [" + core::Fixed(extent.min().y(), 1) + ", " +
+           core::Fixed(extent.max().y(), 1) + "] and may grow to " + core::Fixed(options_.max_extent_m, 0) +
+           " m along x and y (navigation.map_max_extent_m = " + core::Fixed(options_.max_extent_m, 0) + ")";
   }
   return false;
 }

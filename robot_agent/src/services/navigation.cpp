@@ -7,12 +7,12 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 namespace {
 
-using internal::InRange;
+using core::InRange;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kArrivalSpeedMps = 0.1;  // arrival needs the robot at most this fast
@@ -25,7 +25,7 @@ constexpr double kGoalSnapM = 0.25;    // largest hop from a free local path sam
 // A goal in unmapped space progresses when the distance left falls this far below its least so far.
 constexpr double kUnmappedProgressM = 0.5;
 
-using internal::Fixed;
+using core::Fixed;
 
 // p_W = R(yaw) p_B + p_WB.
 Eigen::Vector2d ToWorld(const core::BaseState& s, const Eigen::Vector2d& p_B) {

@@ -6,8 +6,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include "cairn/core/range_check.h"
 #include "cairn/core/shutdown.h"
-#include "range_check.h"
 
 namespace cairn::agent {
 
@@ -41,7 +41,7 @@ PerceptionService::PerceptionService(const AgentOptions& options, std::shared_pt
                                      const core::BaseState& start_M,
                                      std::shared_ptr<nav::GlobalPlanner> planner,
                                      std::shared_ptr<const core::Clock> clock, core::SteadyTime start_time,
-                                     std::function<void(const PerceptionOutput&)> publish)
+                                     std::function<void(const perception::PerceptionOutput&)> publish)
     : options_(options),
       platform_(Required(std::move(platform), "platform")),
       capabilities_(platform_->Capabilities()),
@@ -51,7 +51,7 @@ PerceptionService::PerceptionService(const AgentOptions& options, std::shared_pt
       publish_(Required(std::move(publish), "publish")),
       live_obstacle_sensor_(options.navigation, options.obstacle_window_s,
                             capabilities_.lidar_min_elevation_rad),
-      perception_(std::make_unique<PerceptionPipeline>(options.perception, options.robot_id)),
+      perception_(std::make_unique<perception::PerceptionPipeline>(options.perception, options.robot_id)),
       nav_map_(std::make_unique<NavMap>(options.nav_map, options.perception.map.resolution_m, start_M,
                                         planner_, options.navigation.platform.name)) {}
 
@@ -130,7 +130,7 @@ void PerceptionService::PerceptionLoop(core::WorkLoop& loop) {
   perception_->SetProgress([&loop] { loop.Beat(); });
   perception_->set_adapt_to_load(true);
   struct DropProgress {
-    PerceptionPipeline* pipeline;
+    perception::PerceptionPipeline* pipeline;
     ~DropProgress() { pipeline->SetProgress({}); }
   } drop_progress{perception_.get()};
   while (loop.Running()) {
@@ -304,27 +304,27 @@ bool PerceptionService::MappingHealthy(std::string* why) const {
   } else if (const double age = now_s - map_health_.last_scan_s.load();
              age > options_.navigation.obstacle_lost_s) {
     problem = map_health_.last_scan_s.load() < -1e8 ? "no lidar scan yet"
-                                                    : "no lidar scan for " + internal::Fixed(age, 1) + " s";
+                                                    : "no lidar scan for " + core::Fixed(age, 1) + " s";
   } else if (const double idle_s = now_s - map_health_.progress_s.load();
              map_health_.work_started_s.load() > -1e8) {
     // An update under way: healthy while it makes progress (a growth over a large map takes seconds).
     if (idle_s > limit_s) {
-      problem = "the navigation map update made no progress for " + internal::Fixed(idle_s, 1) + " s";
+      problem = "the navigation map update made no progress for " + core::Fixed(idle_s, 1) + " s";
     }
   } else if (const double map_age = now_s - map_health_.last_update_s.load();
              map_age > limit_s && now_s > limit_s) {
     problem = map_health_.last_update_s.load() < -1e8
                   ? "the navigation map was never updated"
-                  : "the navigation map was not updated for " + internal::Fixed(map_age, 1) + " s (limit " +
-                        internal::Fixed(limit_s, 1) + " s: its updates take up to " +
-                        internal::Fixed(map_health_.work_slowest_s.load(), 1) + " s)";
+                  : "the navigation map was not updated for " + core::Fixed(map_age, 1) + " s (limit " +
+                        core::Fixed(limit_s, 1) + " s: its updates take up to " +
+                        core::Fixed(map_health_.work_slowest_s.load(), 1) + " s)";
   }
   if (!problem.empty() && why != nullptr) *why = problem;
   return problem.empty();
 }
 
-PerceptionOutput PerceptionService::Flush() {
-  PerceptionOutput last;
+perception::PerceptionOutput PerceptionService::Flush() {
+  perception::PerceptionOutput last;
   if (options_.perception.enabled) last.map_messages = perception_->FlushMapTelemetry(NowS());
   return last;
 }
@@ -338,7 +338,7 @@ void PerceptionService::Finish(const std::string& path) {
       spdlog::error("robot {}: cannot save the map: {}", options_.robot_id, e.what());
     }
   }
-  const PerceptionStats& ps = perception_->stats();
+  const perception::PerceptionStats& ps = perception_->stats();
   spdlog::info(
       "robot {}: shutting down; perception: {} scans ({:.1f} ms map per inserted scan; scan to map "
       "{:.1f} ms mean, {:.1f} ms max; {} keyframes deferred under load), {} staircase runs ({:.1f} ms each; "

@@ -8,7 +8,7 @@
 #include <optional>
 #include <stdexcept>
 
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 
@@ -24,13 +24,13 @@ std::string GoalPlanReason(const std::string& robot_id, const nav::GlobalPlan& p
   }
   const std::string cell = message.substr(open);
   // Centimetres: the nearest free point is a cell centre, and rounded to decimetres it may leave its cell.
-  std::string reason = "goal (" + internal::Fixed(goal_M.x(), 2) + ", " + internal::Fixed(goal_M.y(), 2) +
+  std::string reason = "goal (" + core::Fixed(goal_M.x(), 2) + ", " + core::Fixed(goal_M.y(), 2) +
                        ") is inside an obstacle on " + robot_id + "'s map" + cell;
   if (plan.nearest_free_W.allFinite()) {
-    reason += "; nearest free point (" + internal::Fixed(plan.nearest_free_W.x(), 2) + ", " +
-              internal::Fixed(plan.nearest_free_W.y(), 2) + ")";
+    reason += "; nearest free point (" + core::Fixed(plan.nearest_free_W.x(), 2) + ", " +
+              core::Fixed(plan.nearest_free_W.y(), 2) + ")";
   } else {
-    reason += "; no free point within " + internal::Fixed(nav::kNearestFreeSearchM, 0) + " m";
+    reason += "; no free point within " + core::Fixed(nav::kNearestFreeSearchM, 0) + " m";
   }
   return reason;
 }
@@ -47,7 +47,7 @@ PlanningService::PlanningService(PlanningServiceOptions options, std::shared_ptr
     throw std::invalid_argument("PlanningService: both hooks (goal_planned, answer) are required");
   }
   std::string why;
-  if (!internal::InRange("path_queries_per_s", options_.path_queries_per_s, 0.0, 1000.0, true, &why)) {
+  if (!core::InRange("path_queries_per_s", options_.path_queries_per_s, 0.0, 1000.0, true, &why)) {
     throw std::invalid_argument("PlanningService: " + why);
   }
   if (options_.max_waiting_queries < 1)
@@ -75,8 +75,8 @@ void PlanningService::SubmitPathQuery(const PathQuery& query, core::SteadyTime n
       // One refusal a second per process says why; the rest of a flood is dropped unanswered.
       if (core::SecondsBetween(budget.last_refusal, now) < 1.0) return;
       budget.last_refusal = now;
-      refusal = "rate limited: more than " + internal::Fixed(rate, 0) + " path requests/s (burst " +
-                internal::Fixed(2 * rate, 0) + ") from this process";
+      refusal = "rate limited: more than " + core::Fixed(rate, 0) + " path requests/s (burst " +
+                core::Fixed(2 * rate, 0) + ") from this process";
     } else if (queries_.size() >= options_.max_waiting_queries) {
       ++queries_refused_;
       refusal = "busy: " + std::to_string(options_.max_waiting_queries) + " path requests are waiting";
@@ -193,9 +193,9 @@ std::string PlanningService::StairNote(const nav::GlobalPlanner& planner, const 
   }
   if (nearest == nullptr) return "";
   const Eigen::Vector3d& p = nearest->p_W_first_step;
-  return "; the staircase seen at (" + internal::Fixed(p.x(), 2) + ", " + internal::Fixed(p.y(), 2) + ", " +
-         internal::Fixed(p.z(), 2) + ") rises " + internal::Fixed(nearest->rise_m, 2) +
-         " m per step, above platform " + platform + "'s max_step_m " + internal::Fixed(max_step_m, 2) + " m";
+  return "; the staircase seen at (" + core::Fixed(p.x(), 2) + ", " + core::Fixed(p.y(), 2) + ", " +
+         core::Fixed(p.z(), 2) + ") rises " + core::Fixed(nearest->rise_m, 2) +
+         " m per step, above platform " + platform + "'s max_step_m " + core::Fixed(max_step_m, 2) + " m";
 }
 
 std::string PlanningService::PlanReason(const nav::GlobalPlan& plan) const {
@@ -203,7 +203,7 @@ std::string PlanningService::PlanReason(const nav::GlobalPlan& plan) const {
       plan.reason.find("navigation.map_max_extent_m") != std::string::npos) {
     return plan.reason;
   }
-  const std::string extent = internal::Fixed(options_.map_max_extent_m, 0);
+  const std::string extent = core::Fixed(options_.map_max_extent_m, 0);
   return plan.reason + " (the robot's navigation map grows as the robot maps or is sent beyond it, up to " +
          extent + " m along x and y: navigation.map_max_extent_m = " + extent + ")";
 }

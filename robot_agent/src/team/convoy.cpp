@@ -4,18 +4,18 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 
 bool ConvoyOptions::IsValid(std::string* why) const {
   std::string msg;
-  const bool ok = internal::InRange("convoy.spacing_m", spacing_m, 1, 50, false, &msg) &&
-                  internal::InRange("convoy.hold_band_m", hold_band_m, 0, 5, false, &msg) &&
-                  internal::InRange("convoy.breadcrumb_step_m", breadcrumb_step_m, 0.05, 2, false, &msg) &&
-                  internal::InRange("convoy.gap_gain_per_s", gap_gain_per_s, 0.1, 5, false, &msg) &&
-                  internal::InRange("convoy.lost_after_s", lost_after_s, 0, 60, true, &msg) &&
-                  internal::InRange("convoy.max_trail_m", max_trail_m, 10, 1000, false, &msg);
+  const bool ok = core::InRange("convoy.spacing_m", spacing_m, 1, 50, false, &msg) &&
+                  core::InRange("convoy.hold_band_m", hold_band_m, 0, 5, false, &msg) &&
+                  core::InRange("convoy.breadcrumb_step_m", breadcrumb_step_m, 0.05, 2, false, &msg) &&
+                  core::InRange("convoy.gap_gain_per_s", gap_gain_per_s, 0.1, 5, false, &msg) &&
+                  core::InRange("convoy.lost_after_s", lost_after_s, 0, 60, true, &msg) &&
+                  core::InRange("convoy.max_trail_m", max_trail_m, 10, 1000, false, &msg);
   if (!ok && why != nullptr) *why = msg;
   return ok;
 }
@@ -76,8 +76,8 @@ ConvoyDecision ConvoyTrail::Next(const Eigen::Vector3d& follower_M, double now_s
   if (now_s - last_heard_s_ > options_.lost_after_s) {
     command.kind = ConvoyDecision::Kind::kLost;
     command.gap_m = std::numeric_limits<double>::quiet_NaN();
-    command.reason = "the robot ahead was not heard for " + internal::Fixed(now_s - last_heard_s_, 1) +
-                     " s (convoy.lost_after_s = " + internal::Fixed(options_.lost_after_s, 1) + ")";
+    command.reason = "the robot ahead was not heard for " + core::Fixed(now_s - last_heard_s_, 1) +
+                     " s (convoy.lost_after_s = " + core::Fixed(options_.lost_after_s, 1) + ")";
     return command;
   }
   // The follower's place: the nearest point of the first kPlaceSearchM of trail (a single breadcrumb: it).
@@ -109,8 +109,8 @@ ConvoyDecision ConvoyTrail::Next(const Eigen::Vector3d& follower_M, double now_s
   const double error_m = gap - spacing_m;
   const double speed = ahead_speed_mps_ + options_.gap_gain_per_s * error_m;
   if ((ahead_speed_mps_ < kAtRestMps && error_m <= options_.hold_band_m) || speed < kMinSpeedMps) {
-    command.reason = internal::Fixed(gap, 1) + " m behind the robot ahead (spacing " +
-                     internal::Fixed(spacing_m, 1) + " m)";
+    command.reason =
+        core::Fixed(gap, 1) + " m behind the robot ahead (spacing " + core::Fixed(spacing_m, 1) + " m)";
     return command;
   }
   // The way ends past the spacing point (speed matching keeps the spacing), never within half of it of the

@@ -5,8 +5,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "cairn/core/range_check.h"
 #include "cairn/perception/map_telemetry.h"
-#include "range_check.h"
 
 namespace cairn::agent {
 
@@ -64,11 +64,10 @@ bool DecompressCoverageBits(const std::vector<std::uint8_t>& frame, nav::Coverag
 
 bool ExploreTeamOptions::IsValid(std::string* why) const {
   std::string msg;
-  bool ok =
-      internal::InRange("explore.claim_period_s", claim_period_s, 0, 60, true, &msg) &&
-      internal::InRange("explore.coverage_period_s", coverage_period_s, claim_period_s, 600, false, &msg) &&
-      internal::InRange("explore.claim_lease_s", lease_s, claim_period_s, 600, true, &msg) &&
-      internal::InRange("explore.coverage_cell_m", coverage_cell_m, 0, 10, true, &msg);
+  bool ok = core::InRange("explore.claim_period_s", claim_period_s, 0, 60, true, &msg) &&
+            core::InRange("explore.coverage_period_s", coverage_period_s, claim_period_s, 600, false, &msg) &&
+            core::InRange("explore.claim_lease_s", lease_s, claim_period_s, 600, true, &msg) &&
+            core::InRange("explore.coverage_cell_m", coverage_cell_m, 0, 10, true, &msg);
   if (!ok && why != nullptr) *why = msg;
   return ok;
 }

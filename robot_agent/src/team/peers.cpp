@@ -8,17 +8,17 @@
 #include <utility>
 
 #include "cairn/core/peer_input.h"
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 
 bool PeerOptions::IsValid(std::string* why) const {
   std::string msg;
-  const bool ok = internal::InRange("peers.rate_hz", rate_hz, 0, 50, true, &msg) &&
-                  internal::InRange("peers.timeout_s", timeout_s, 0, 60, true, &msg) &&
-                  internal::InRange("peers.margin_m", margin_m, 0, 2, false, &msg) &&
-                  internal::InRange("peers.prediction_s", prediction_s, 0, 5, false, &msg) &&
-                  internal::InRange("peers.same_level_dz_m", same_level_dz_m, 0, 10, true, &msg);
+  const bool ok = core::InRange("peers.rate_hz", rate_hz, 0, 50, true, &msg) &&
+                  core::InRange("peers.timeout_s", timeout_s, 0, 60, true, &msg) &&
+                  core::InRange("peers.margin_m", margin_m, 0, 2, false, &msg) &&
+                  core::InRange("peers.prediction_s", prediction_s, 0, 5, false, &msg) &&
+                  core::InRange("peers.same_level_dz_m", same_level_dz_m, 0, 10, true, &msg);
   if (!ok && why != nullptr) *why = msg;
   return ok;
 }

@@ -7,12 +7,12 @@
 #include <stdexcept>
 
 #include "cairn/core/peer_input.h"
-#include "range_check.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::agent {
 
-using internal::Fixed;
-using internal::InRange;
+using core::Fixed;
+using core::InRange;
 
 const char* ToString(YieldStatus::State state) {
   switch (state) {

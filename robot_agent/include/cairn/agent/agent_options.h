@@ -11,13 +11,13 @@
 #include "cairn/agent/modes/mission.h"
 #include "cairn/agent/services/nav_map.h"
 #include "cairn/agent/services/navigation.h"
-#include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/agent/team/convoy.h"
 #include "cairn/agent/team/peers.h"
 #include "cairn/agent/team/yield.h"
 #include "cairn/core/kinematics.h"
 #include "cairn/core/link_options.h"
 #include "cairn/nav/local_planner.h"
+#include "cairn/perception/perception_pipeline.h"
 
 namespace cairn::agent {
 
@@ -87,7 +87,7 @@ struct AgentOptions {
   /// $HOME/.cache/cairn; "off" = build at every start.
   std::string library_cache_dir;
   /// Perception: mapping, staircases, map telemetry and camera frames (section `perception`).
-  PerceptionOptions perception;
+  perception::PerceptionOptions perception;
   /// The navigation map on the robot's own OctoMap (section `navigation`, keys map_*).
   NavMapOptions nav_map;
   /// Live lidar obstacles: points seen within this many seconds feed the local planner, (0, 30]. Long enough

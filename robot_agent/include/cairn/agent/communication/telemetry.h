@@ -21,10 +21,10 @@
 #include "cairn/agent/modes/mode_control.h"
 #include "cairn/agent/modes/waypoint_mode.h"
 #include "cairn/agent/services/navigation.h"
-#include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/agent/team/yield.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/msgs/robot_state.h"
+#include "cairn/perception/perception_pipeline.h"
 
 namespace cairn::agent {
 
@@ -75,7 +75,7 @@ class Telemetry {
   /// LocalPlan, while the running mode drives through the local planner (for display, ~1 kB).
   void PublishLocalPlan();
   /// Map updates, staircase detections and a camera frame from one perception tick.
-  void PublishPerception(const PerceptionOutput& out);
+  void PublishPerception(const perception::PerceptionOutput& out);
 
  private:
   // Appends what the robot sends per topic class (rates over the last ~2 s) to `state`.

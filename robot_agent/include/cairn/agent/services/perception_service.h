@@ -19,12 +19,12 @@
 #include "cairn/agent/services/live_obstacles.h"
 #include "cairn/agent/services/nav_map.h"
 #include "cairn/agent/services/navigation.h"
-#include "cairn/agent/services/perception_pipeline.h"
 #include "cairn/core/component.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/core/time.h"
 #include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
+#include "cairn/perception/perception_pipeline.h"
 
 namespace cairn::agent {
 
@@ -42,7 +42,7 @@ class PerceptionService {
   PerceptionService(const AgentOptions& options, std::shared_ptr<core::PlatformIO> platform,
                     const core::BaseState& start_M, std::shared_ptr<nav::GlobalPlanner> planner,
                     std::shared_ptr<const core::Clock> clock, core::SteadyTime start_time,
-                    std::function<void(const PerceptionOutput&)> publish);
+                    std::function<void(const perception::PerceptionOutput&)> publish);
 
   /// Before the threads start: waits up to `timeout` for the first scan, so that the robot can take a goal as
   /// soon as it announces itself. true when one came (and false at once without a lidar).
@@ -129,7 +129,7 @@ class PerceptionService {
   std::size_t map_memory_bytes() const { return map_memory_bytes_.load(); }
 
   /// After the loops ended: the map's last changes within the telemetry budget (empty with perception off).
-  PerceptionOutput Flush();
+  perception::PerceptionOutput Flush();
   /// Before the loops start: the map is the OctoMap file `path` (a journal's snapshot). @throws
   /// perception::MapError / std::invalid_argument naming the file.
   void LoadMap(const std::string& path) { perception_->LoadMap(path); }
@@ -161,16 +161,17 @@ class PerceptionService {
   std::shared_ptr<nav::GlobalPlanner> planner_;
   std::shared_ptr<const core::Clock> clock_;
   core::SteadyTime start_time_;
-  std::function<void(const PerceptionOutput&)> publish_;
+  std::function<void(const perception::PerceptionOutput&)> publish_;
   std::mutex obstacles_mutex_;
   ObstacleSlot live_obstacles_;
   LiveObstacles live_obstacle_sensor_;  // sensor thread only (and WaitForFirstScan, before it starts)
   std::vector<Eigen::Vector3f> obstacle_points_B_;  // sensor thread's buffer
   std::atomic<bool> clear_obstacle_memory_{false};
   std::mutex scan_mutex_;
-  std::shared_ptr<core::LidarScan> latest_scan_;    // from the sensor thread to the perception thread
-  std::unique_ptr<PerceptionPipeline> perception_;  // perception thread (and the map/tiles, thread-safe)
-  std::unique_ptr<NavMap> nav_map_;                 // navigation map thread only (but CoverGoal())
+  std::shared_ptr<core::LidarScan> latest_scan_;  // from the sensor thread to the perception thread
+  std::unique_ptr<perception::PerceptionPipeline>
+      perception_;                   // perception thread (and the map/tiles, thread-safe)
+  std::unique_ptr<NavMap> nav_map_;  // navigation map thread only (but CoverGoal())
   std::atomic<bool> map_snapshot_requested_{false};
   std::function<void(const char*)> fault_hook_;
   std::atomic<std::size_t> map_memory_bytes_{0};

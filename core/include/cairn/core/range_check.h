@@ -1,11 +1,12 @@
-// Range check of one configuration value and number formatting for messages, shared by the agent's parts.
+// Range check of one configuration value and number formatting for messages, shared by the agent's parts and
+// the libraries they use.
 #pragma once
 
 #include <cmath>
 #include <sstream>
 #include <string>
 
-namespace cairn::agent::internal {
+namespace cairn::core {
 
 /// True if `value` is finite and in [lo, hi] ((lo, hi] when lo_open); otherwise false and `*why` =
 /// "FIELD = VALUE must be in [LO, HI]".
@@ -28,4 +29,4 @@ inline std::string Fixed(double value, int digits) {
   return out.str();
 }
 
-}  // namespace cairn::agent::internal
+}  // namespace cairn::core

@@ -1,14 +1,14 @@
-#include "cairn/agent/services/perception_pipeline.h"
+#include "cairn/perception/perception_pipeline.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
 
+#include "cairn/core/range_check.h"
 #include "cairn/perception/jpeg.h"
-#include "range_check.h"
 
-namespace cairn::agent {
+namespace cairn::perception {
 
 namespace {
 
@@ -29,7 +29,7 @@ bool PerceptionOptions::IsValid(std::string* why) const {
   if (!map.IsValid(&inner)) return fail("map: " + inner);
   if (!staircase.IsValid(&inner)) return fail("staircase: " + inner);
   if (!telemetry.IsValid(&inner)) return fail("telemetry: " + inner);
-  using internal::InRange;
+  using core::InRange;
   if (!InRange("map_insert_period_s", map_insert_period_s, 0.05, 10.0, false, &inner) ||
       !InRange("staircase_period_s", staircase_period_s, 0.1, 60.0, false, &inner) ||
       !InRange("map_keyframe_distance_m", map_keyframe_distance_m, 0.0, 10.0, false, &inner) ||
@@ -60,7 +60,7 @@ const PerceptionOptions& Checked(const PerceptionOptions& options) {
 
 PerceptionPipeline::PerceptionPipeline(const PerceptionOptions& options, const std::string& robot_id)
     : options_(Checked(options)),
-      map_(std::make_shared<perception::OccupancyMap>(options.map)),
+      map_(std::make_shared<OccupancyMap>(options.map)),
       detector_(options.staircase),
       sender_(robot_id, options.coarse_resolution_m(), options.telemetry) {}
 
@@ -68,7 +68,7 @@ bool PerceptionPipeline::CameraDue(double now_s) const {
   return options_.enabled && options_.camera_rate_hz > 0 && now_s >= schedule_.next_camera_s;
 }
 
-std::vector<perception::Staircase> PerceptionPipeline::Staircases() const {
+std::vector<Staircase> PerceptionPipeline::Staircases() const {
   std::lock_guard<std::mutex> guard(staircases_mutex_);
   return staircases_;
 }
@@ -86,14 +86,14 @@ std::vector<Eigen::Vector2i> PerceptionPipeline::TakeChangedTiles() {
 }
 
 void PerceptionPipeline::LoadMap(const std::string& path) {
-  perception::OccupancyMap loaded = perception::OccupancyMap::LoadBt(path, options_.map);
+  OccupancyMap loaded = OccupancyMap::LoadBt(path, options_.map);
   if (std::abs(loaded.resolution_m() - options_.map.resolution_m) > 1e-9) {
     throw std::invalid_argument("map file '" + path + "' has resolution " +
                                 std::to_string(loaded.resolution_m()) +
                                 " m, not the robot's perception.map.resolution_m " +
                                 std::to_string(options_.map.resolution_m) + " m");
   }
-  map_ = std::make_shared<perception::OccupancyMap>(std::move(loaded));
+  map_ = std::make_shared<OccupancyMap>(std::move(loaded));
   CollectChanges();  // LoadBt marked all of it changed: the navigation map and map telemetry take it all
 }
 
@@ -105,22 +105,22 @@ void PerceptionPipeline::SetLinkShare(double share) {
 }
 
 void PerceptionPipeline::CollectChanges() {
-  std::vector<perception::CoarseVoxel> changes = map_->TakeCoarseChanges(options_.map_coarse_levels);
+  std::vector<CoarseVoxel> changes = map_->TakeCoarseChanges(options_.map_coarse_levels);
   if (changes.empty()) return;
   // Coarse voxel (ix, iy, iz) covers [i * edge, (i + 1) * edge) per axis (coarse_voxel.h); a tile is 10 x 10
   // coarse columns.
   auto tile_of = [](std::int32_t i) { return static_cast<int>(i >= 0 ? i / 10 : -((-i + 9) / 10)); };
   {
     std::lock_guard<std::mutex> guard(changed_.mutex);
-    for (const perception::CoarseVoxel& v : changes) changed_.tiles.emplace(tile_of(v.ix), tile_of(v.iy));
+    for (const CoarseVoxel& v : changes) changed_.tiles.emplace(tile_of(v.ix), tile_of(v.iy));
   }
   if (options_.enabled) sender_.AddChanges(std::move(changes));
 }
 
-std::vector<perception::MapUpdate> PerceptionPipeline::FlushMapTelemetry(double now_s) {
+std::vector<MapUpdate> PerceptionPipeline::FlushMapTelemetry(double now_s) {
   const auto start = Clock::now();
   CollectChanges();
-  std::vector<perception::MapUpdate> updates = sender_.Poll(now_s);
+  std::vector<MapUpdate> updates = sender_.Poll(now_s);
   stats_.telemetry_ms_total += MsSince(start);
   return updates;
 }
@@ -166,7 +166,7 @@ void PerceptionPipeline::MapScan(double now_s, const core::LidarScan& scan) {
     last_keyframe_.T_W_S = T_W_S_estimate;
     last_keyframe_.stamp_s = now_s;
     start = Clock::now();
-    const perception::InsertStats inserted = map_->InsertScan(scan.points_S, T_W_S_estimate);
+    const InsertStats inserted = map_->InsertScan(scan.points_S, T_W_S_estimate);
     const double z = T_W_S_estimate.translation().z();
     if (!(z <= max_sensor_z_m_.load())) max_sensor_z_m_ = z;  // also replaces NaN
     const double insert_ms = MsSince(start);
@@ -185,10 +185,9 @@ void PerceptionPipeline::MapScan(double now_s, const core::LidarScan& scan) {
 void PerceptionPipeline::DetectStaircases(double now_s, PerceptionOutput* out) {
   schedule_.next_staircase_s = std::max(schedule_.next_staircase_s + options_.staircase_period_s, now_s);
   const auto start = Clock::now();
-  const std::vector<perception::Staircase> found =
-      detector_.Detect(local_cloud_.Points(), T_W_B_estimate_.translation());
+  const std::vector<Staircase> found = detector_.Detect(local_cloud_.Points(), T_W_B_estimate_.translation());
   bool registry_changed = false;
-  for (const perception::Staircase& staircase : found) {
+  for (const Staircase& staircase : found) {
     const auto merged = registry_.Add(staircase, "scan");
     if (!merged.is_new && !merged.changed) continue;
     registry_changed = true;
@@ -197,7 +196,7 @@ void PerceptionPipeline::DetectStaircases(double now_s, PerceptionOutput* out) {
     }
   }
   if (registry_changed) {
-    std::vector<perception::Staircase> confirmed;
+    std::vector<Staircase> confirmed;
     for (const auto& entry : registry_.Entries()) {
       if (entry.detections >= kStairPriorDetections) confirmed.push_back(entry.staircase);
     }
@@ -220,8 +219,8 @@ void PerceptionPipeline::EncodeCameraFrame(double now_s, const core::CameraImage
   frame.width_px = image.width_px;
   frame.height_px = image.height_px;
   frame.T_W_C = image.T_MC;
-  frame.jpeg = perception::EncodeGrayJpeg(
-      perception::GrayFrame{image.width_px, image.height_px, image.pixels}, options_.jpeg_quality);
+  frame.jpeg =
+      EncodeGrayJpeg(GrayFrame{image.width_px, image.height_px, image.pixels}, options_.jpeg_quality);
   // Within the camera's budget: a frame of B bytes holds the next one back B * 8 / budget seconds, so the
   // robot never renders frames its link would only drop (on a radio link the budget is a share of it).
   schedule_.next_camera_s =
@@ -232,4 +231,4 @@ void PerceptionPipeline::EncodeCameraFrame(double now_s, const core::CameraImage
   ++stats_.camera_frames;
 }
 
-}  // namespace cairn::agent
+}  // namespace cairn::perception

@@ -23,14 +23,14 @@
 #include "cairn/perception/occupancy_map.h"
 #include "cairn/perception/staircase.h"
 
-namespace cairn::agent {
+namespace cairn::perception {
 
 /// Options of the perception component (config section `perception`). Defaults are valid (tested).
 struct PerceptionOptions {
   bool enabled =
       true;  ///< false: no stairs, telemetry or camera (the map is still built: navigation's input)
-  perception::OccupancyMapOptions map;  ///< OctoMap at 0.1 m
-  double map_insert_period_s = 0.2;     ///< insert one scan per period, [0.05, 10]
+  OccupancyMapOptions map;           ///< OctoMap at 0.1 m
+  double map_insert_period_s = 0.2;  ///< insert one scan per period, [0.05, 10]
   /// Keyframes: a scan goes into the map once the sensor moved this far or turned this much since the last
   /// inserted one (as LIO-SAM-style mappers do), [0, 10] m, [0, pi] rad; 0 and 0 insert every period...
   double map_keyframe_distance_m = 0.05;
@@ -40,11 +40,11 @@ struct PerceptionOptions {
   /// map. An idle robot at rest leaves its map (and its map telemetry) unchanged. Seconds, [0.05, 600].
   double map_keyframe_max_interval_s = 0.2;
   double staircase_period_s = 1.0;  ///< run the detector this often, [0.1, 60]
-  perception::StaircaseDetectorOptions staircase;
-  int map_coarse_levels = 1;                  ///< telemetry voxels are 2^levels x the map's, [0, 6]
-  perception::MapTelemetryOptions telemetry;  ///< budget (default 100 kbit/s) and period
-  double camera_rate_hz = 1.0;                ///< frames published per second, [0, 30]; 0 = no camera
-  int jpeg_quality = 75;                      ///< [1, 100]
+  StaircaseDetectorOptions staircase;
+  int map_coarse_levels = 1;      ///< telemetry voxels are 2^levels x the map's, [0, 6]
+  MapTelemetryOptions telemetry;  ///< budget (default 100 kbit/s) and period
+  double camera_rate_hz = 1.0;    ///< frames published per second, [0, 30]; 0 = no camera
+  int jpeg_quality = 75;          ///< [1, 100]
   /// Camera frames' budget, bit/s, [1000, 1e9]: the frame rate drops below camera_rate_hz when frames are too
   /// big for it (a frame of B bytes delays the next by B * 8 / budget s); also the DDS flow controller's.
   double camera_budget_bits_per_s = 400000;
@@ -66,8 +66,8 @@ struct CameraFrame {
 
 /// What one Tick() produced.
 struct PerceptionOutput {
-  std::vector<perception::MapUpdate> map_messages;               ///< in order
-  std::vector<perception::StaircaseRegistry::Entry> staircases;  ///< new or changed merged staircases
+  std::vector<MapUpdate> map_messages;               ///< in order
+  std::vector<StaircaseRegistry::Entry> staircases;  ///< new or changed merged staircases
   std::optional<CameraFrame> camera;
 };
 
@@ -127,12 +127,12 @@ class PerceptionPipeline {
 
   /// The merged staircases seen at least kStairPriorDetections times (map frame M), for the navigation map's
   /// tread prior (NavMap::Update). Thread-safe: navigation's map thread calls it while Tick() runs.
-  std::vector<perception::Staircase> Staircases() const;
+  std::vector<Staircase> Staircases() const;
   static constexpr int kStairPriorDetections = 2;
 
   /// Map telemetry only (no scan, no insertion): takes the map's changes and returns what the budget lets out
   /// at `now_s`. For shutdown (the last changes), and for tests that need the map to stand still.
-  std::vector<perception::MapUpdate> FlushMapTelemetry(double now_s);
+  std::vector<MapUpdate> FlushMapTelemetry(double now_s);
 
   /// A basestation asked for the full map: the next telemetry messages carry a snapshot.
   void RequestMapSnapshot();
@@ -147,16 +147,16 @@ class PerceptionPipeline {
 
   /// Before the first Tick(): replaces the (empty) map with the OctoMap file `path` (a journal's snapshot,
   /// written by this robot), marks all of it changed for the navigation map and sends it as map telemetry.
-  /// @throws perception::MapError naming the file; std::invalid_argument when its resolution is not the
+  /// @throws MapError naming the file; std::invalid_argument when its resolution is not the
   /// map's (perception.map.resolution_m).
   void LoadMap(const std::string& path);
 
   /// The robot's map (thread-safe queries: occupancy, ray cast, bounding box).
-  std::shared_ptr<const perception::OccupancyMap> map() const { return map_; }
+  std::shared_ptr<const OccupancyMap> map() const { return map_; }
   /// Body pose of the latest scan (the platform's estimate), map frame.
   const Eigen::Isometry3d& T_W_B_estimate() const { return T_W_B_estimate_; }
   const PerceptionStats& stats() const { return stats_; }
-  const perception::MapTelemetrySender& telemetry() const { return sender_; }
+  const MapTelemetrySender& telemetry() const { return sender_; }
   const PerceptionOptions& options() const { return options_; }
 
  private:
@@ -171,13 +171,13 @@ class PerceptionPipeline {
   void EncodeCameraFrame(double now_s, const core::CameraImage& image, PerceptionOutput* out);
 
   PerceptionOptions options_;
-  std::shared_ptr<perception::OccupancyMap> map_;
-  perception::StaircaseDetector detector_;
-  perception::StaircaseRegistry registry_;
+  std::shared_ptr<OccupancyMap> map_;
+  StaircaseDetector detector_;
+  StaircaseRegistry registry_;
   mutable std::mutex staircases_mutex_;
-  std::vector<perception::Staircase> staircases_;  // Staircases(), updated by Tick()
-  perception::LocalCloud local_cloud_;
-  perception::MapTelemetrySender sender_;
+  std::vector<Staircase> staircases_;  // Staircases(), updated by Tick()
+  LocalCloud local_cloud_;
+  MapTelemetrySender sender_;
   Eigen::Isometry3d T_W_B_estimate_ = Eigen::Isometry3d::Identity();
   // The last scan inserted into the map (its sensor pose, frame W, and stamp): the next keyframe is due when
   // the sensor moved or turned enough, or (refresh at rest) after map_keyframe_max_interval_s.
@@ -203,4 +203,4 @@ class PerceptionPipeline {
   PerceptionStats stats_;
 };
 
-}  // namespace cairn::agent
+}  // namespace cairn::perception
