@@ -177,22 +177,6 @@ inline std::string TrackBeforeContact(const std::vector<cairn_msgs::RobotState>&
   return out;
 }
 
-// The last `span_s` seconds of `history`, one state every `every_s` seconds: what a robot did before a goal
-// failed or timed out.
-inline std::string TrackTail(const std::vector<cairn_msgs::RobotState>& history, double span_s,
-                             double every_s) {
-  if (history.empty()) return "";
-  const double end_s = WallSeconds(history.back().stamp());
-  std::string out;
-  double next_s = end_s - span_s;
-  for (const auto& s : history) {
-    if (WallSeconds(s.stamp()) < next_s) continue;
-    out += FormatState(s);
-    next_s = WallSeconds(s.stamp()) + every_s;
-  }
-  return out;
-}
-
 // A basestation process driven line by line in --json mode.
 class Base {
  public:

@@ -27,10 +27,12 @@ class AgentTeam {
   static constexpr double kCycleS = 0.02;
 
   /// Robots `starts` (id, start pose in frame W = M) in `world`, with peers.margin_m `peer_margin_m`
-  /// (metres); `configure`, if set, edits each robot's options last. The operator takes every robot's lock.
+  /// (metres); `configure`, if set, edits each robot's options last, and `configure_sim` its simulated
+  /// platform's (e.g. rockfalls). The operator takes every robot's lock.
   AgentTeam(const std::string& world, const std::vector<std::pair<std::string, core::PlanarPose>>& starts,
             double peer_margin_m = PeerOptions{}.margin_m,
-            const std::function<void(AgentOptions*)>& configure = {}) {
+            const std::function<void(AgentOptions*)>& configure = {},
+            const std::function<void(sim::SimulatedPlatformOptions*)>& configure_sim = {}) {
     for (const auto& [id, start] : starts) {
       AgentOptions options;
       options.robot_id = id;
@@ -42,6 +44,7 @@ class AgentTeam {
       sim_options.world = world;
       sim_options.start_W = start;
       sim::ApplyPlatformProfile(options.navigation.platform, &sim_options);
+      if (configure_sim) configure_sim(&sim_options);
       platforms_.push_back(std::make_shared<sim::SimulatedPlatform>(sim_options));
       ids_.push_back(id);
       robots_.push_back(RobotAgent::Stepped(options, platforms_.back(), links_.Join(id), clock_));
@@ -95,13 +98,19 @@ class AgentTeam {
   /// cycles): "" when accepted, else the reply's reason (or "no reply").
   template <class Command>
   std::string Ask(std::size_t i, Command command) {
+    const std::optional<CommandReply> reply = Send(i, std::move(command));
+    if (!reply) return "no reply";
+    return reply->result == CommandResult::kAccepted ? "" : reply->reason;
+  }
+  /// `command` sent to robot i and its reply, stepping until it comes (at most 100 cycles); nullopt: none.
+  template <class Command>
+  std::optional<CommandReply> Send(std::size_t i, Command command) {
     const std::uint32_t request = base_->Send(ids_.at(i), std::move(command));
     for (int cycle = 0; cycle < 100; ++cycle) {
-      if (const std::optional<CommandReply> reply = base_->Reply(ids_.at(i), request))
-        return reply->result == CommandResult::kAccepted ? "" : reply->reason;
+      if (std::optional<CommandReply> reply = base_->Reply(ids_.at(i), request)) return reply;
       StepOnce();
     }
-    return "no reply";
+    return std::nullopt;
   }
   /// goto: robot i to (x_m, y_m), frame M.
   std::string Goto(std::size_t i, double x_m, double y_m) {
