@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -21,6 +22,17 @@
 #include "cairn/sim/simulated_platform.h"
 
 namespace cairn::agent::team_testing {
+
+/// goto's command as the console sends it: to (x_m, y_m), frame M, on the level nearest z_m (NaN: the
+/// robot's).
+inline GoalCommand MapGoal(double x_m, double y_m, double z_m = std::numeric_limits<double>::quiet_NaN()) {
+  GoalCommand goal;
+  goal.frame_id = "map";
+  goal.x_m = x_m;
+  goal.y_m = y_m;
+  goal.z_m = z_m;
+  return goal;
+}
 
 class AgentTeam {
  public:
@@ -113,13 +125,7 @@ class AgentTeam {
     return std::nullopt;
   }
   /// goto: robot i to (x_m, y_m), frame M.
-  std::string Goto(std::size_t i, double x_m, double y_m) {
-    GoalCommand goal;
-    goal.frame_id = "map";
-    goal.x_m = x_m;
-    goal.y_m = y_m;
-    return Ask(i, goal);
-  }
+  std::string Goto(std::size_t i, double x_m, double y_m) { return Ask(i, MapGoal(x_m, y_m)); }
   /// explore: robot i explores `task`.
   std::string Explore(std::size_t i, const ExploreTask& task) {
     ExploreCommand explore;

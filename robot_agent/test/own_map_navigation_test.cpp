@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <limits>
 #include <optional>
 #include <string>
 
@@ -21,15 +20,7 @@ namespace cairn::agent {
 namespace {
 
 using team_testing::AgentTeam;
-
-GoalCommand Goal(double x_m, double y_m, double z_m = std::numeric_limits<double>::quiet_NaN()) {
-  GoalCommand goal;
-  goal.frame_id = "map";
-  goal.x_m = x_m;
-  goal.y_m = y_m;
-  goal.z_m = z_m;
-  return goal;
-}
+using team_testing::MapGoal;
 
 // Steps until robot 0's goal is no longer active or `limit_s` of simulated time has passed, calling `each`
 // after every cycle; returns the goal as it ended.
@@ -53,7 +44,7 @@ TEST(OwnMapNavigationTest, AGoalInUnknownSpaceIsReachedAroundARockfall) {
       [](sim::SimulatedPlatformOptions* sim) {
         sim->rockfalls = sim::ParseRockfalls("6:14,18.3,15.5,20.4,1.2");
       });
-  const std::optional<CommandReply> reply = team.Send(0, Goal(30.0, 10.0));
+  const std::optional<CommandReply> reply = team.Send(0, MapGoal(30.0, 10.0));
   ASSERT_TRUE(reply);
   ASSERT_EQ(reply->result, CommandResult::kAccepted) << reply->reason;
   EXPECT_NE(reply->reason.find("; goal in unmapped space: r1 will look"), std::string::npos) << reply->reason;
@@ -87,7 +78,7 @@ TEST(OwnMapNavigationTest, ABoxedInRobotRecoversAndPassesAOneMetreDoorway) {
                  [](sim::SimulatedPlatformOptions* sim) {
                    sim->rockfalls = sim::ParseRockfalls("near4.3:8.5,5.65,9.7,6.15,1.0:+4");
                  });
-  ASSERT_EQ(team.Ask(0, Goal(9.1, 7.1)), "");
+  ASSERT_EQ(team.Ask(0, MapGoal(9.1, 7.1)), "");
   std::string recovery_report;  // the longest report seen while the goal was active
   double door_x_m = 1e9;        // x where the robot crossed the wall's line y = 5.9
   double previous_y = team.truth(0).y_m;
@@ -115,12 +106,12 @@ TEST(OwnMapNavigationTest, ALeggedRobotReachesTheFloorAboveUpTheStairwell) {
   AgentTeam team("builtin:building", {{"r1", {14.0, 7.1, 0.0}}}, PeerOptions{}.margin_m,
                  [](AgentOptions* options) { options->SetPlatform("legged"); });
   // To the foot of the stairwell, through its 1.2 m entrance.
-  ASSERT_EQ(team.Ask(0, Goal(19.0, 6.5)), "");
+  ASSERT_EQ(team.Ask(0, MapGoal(19.0, 6.5)), "");
   WaypointGoal goal = DriveGoal(&team, 60.0);
   ASSERT_EQ(goal.status, GoalStatus::kArrived) << goal.reason;
   const double climb_start_s = team.now_s();
   double highest_z_m = 0.0;
-  ASSERT_EQ(team.Ask(0, Goal(15.1, 11.0, 3.2)), "");
+  ASSERT_EQ(team.Ask(0, MapGoal(15.1, 11.0, 3.2)), "");
   goal = DriveGoal(&team, 120.0, [&] { highest_z_m = std::max(highest_z_m, team.truth(0).z_m); });
   std::printf("floor 2 goal: %s after %.1f s (%s); highest z %.2f m\n",
               goal.status == GoalStatus::kArrived ? "arrived" : "not arrived", team.now_s() - climb_start_s,

@@ -81,12 +81,7 @@ TEST_P(WheeledUpstairsTest, TheRobotIsToldTheStepItCannotClimb) {
   }
   ASSERT_EQ(team.modes(0).waypoint().goal().status, GoalStatus::kArrived)
       << team.modes(0).waypoint().goal().reason;
-  GoalCommand upstairs;
-  upstairs.frame_id = "map";
-  upstairs.x_m = 15.1;
-  upstairs.y_m = 11.0;
-  upstairs.z_m = 3.2;
-  std::string reason = team.Ask(0, upstairs);
+  std::string reason = team.Ask(0, team_testing::MapGoal(15.1, 11.0, 3.2));
   const bool accepted = reason.empty();
   if (accepted) {
     for (int i = 0; i < 1200 && team.modes(0).waypoint().goal().status == GoalStatus::kActive; ++i) {
