@@ -344,8 +344,8 @@ class RobotAgent::Impl {
     std::atomic<bool> listening_to_peers{false};
     std::optional<ExploreClaim> claim_to_send;  // Step()'s, sent by Run() outside the agent lock
   } team_;
-  ComeHome come_home_{options_.robot_id,
-                      platform_.start_M};  // an exploring robot that hears no one drives back
+  // An exploring robot that hears no basestation drives back to its start.
+  ComeHome come_home_{options_.robot_id, platform_.start_M};
   // The mode tree, the mode modules and the mux; the operator's mission across interruptions; yields.
   std::unique_ptr<RobotModes> modes_;
   std::unique_ptr<CommandInterface> command_;  // the lock, the reply cache and the rules of who may command
