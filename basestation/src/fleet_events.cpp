@@ -1,29 +1,17 @@
 #include "cairn/base/fleet_events.h"
 
 #include <cmath>
-#include <cstdio>
 #include <stdexcept>
 
 #include "cairn/base/fleet.h"
 #include "cairn/base/operator_text.h"
+#include "cairn/core/range_check.h"
 
 namespace cairn::base {
 
 namespace msgs = cairn_msgs;
 
 namespace {
-
-std::string Fixed2(double v) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.2f", v);
-  return text;
-}
-
-std::string Fixed1(double v) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.1f", v);
-  return text;
-}
 
 // "camera 310.2 kbit/s": the class sending most.
 std::string BusiestClass(const LinkView& link) {
@@ -32,7 +20,7 @@ std::string BusiestClass(const LinkView& link) {
     if (busiest == nullptr || u.sent_kbps > busiest->sent_kbps) busiest = &u;
   }
   return busiest == nullptr ? "no usage reported"
-                            : busiest->topic_class + " " + Fixed1(busiest->sent_kbps) + " kbit/s";
+                            : busiest->topic_class + " " + core::Fixed(busiest->sent_kbps, 1) + " kbit/s";
 }
 
 OperatorEvent Event(const std::string& kind, const std::string& robot, std::string message) {
@@ -93,7 +81,7 @@ void FleetEventDetector::ObserveMission(const std::string& r, const cairn_msgs::
     OperatorEvent e =
         Event("exploration_complete", r,
               r + " exploration " + std::to_string(now.explore_task_id) +
-                  " complete: " + Fixed1(s.explored_m2()) + " m² in " + Fixed1(minutes) +
+                  " complete: " + core::Fixed(s.explored_m2(), 1) + " m² in " + core::Fixed(minutes, 1) +
                   " min (as heard here), " + std::to_string(s.explore_targets_reached()) +
                   " frontiers reached, " + std::to_string(s.explore_targets_failed()) + " given up");
     e.reason = s.explore_reason();
@@ -185,9 +173,10 @@ void FleetEventDetector::ObservePresence(const RobotView& view, const Last* last
       was_over ? link.budget_kbps > 0 && link.sent_kbps > 0.9 * link.budget_kbps : link.over_budget;
   if (now->over_budget && !was_over) {
     const std::string busiest = BusiestClass(link);
-    OperatorEvent e = Event("over_budget", r,
-                            r + " sends " + Fixed1(link.sent_kbps) + " kbit/s, over its link budget of " +
-                                Fixed1(link.budget_kbps) + " kbit/s (" + busiest + ")");
+    OperatorEvent e =
+        Event("over_budget", r,
+              r + " sends " + core::Fixed(link.sent_kbps, 1) + " kbit/s, over its link budget of " +
+                  core::Fixed(link.budget_kbps, 1) + " kbit/s (" + busiest + ")");
     e.reason = busiest;
     events->push_back(e);
   }
@@ -211,9 +200,9 @@ void FleetEventDetector::ObserveGoal(const std::string& r, const cairn_msgs::Rob
   const bool goal_changed = now.goal_id != last.goal_id || now.nav_status != last.nav_status;
   if (goal_changed && now.nav_status == msgs::NAV_STATUS_ARRIVED) {
     events->push_back(Event("arrived", r,
-                            r + " arrived at (" + Fixed2(s.nav_goal_M().x_m()) + ", " +
-                                Fixed2(s.nav_goal_M().y_m()) + ") (goal " + std::to_string(now.goal_id) +
-                                ")"));
+                            r + " arrived at (" + core::Fixed(s.nav_goal_M().x_m(), 2) + ", " +
+                                core::Fixed(s.nav_goal_M().y_m(), 2) + ") (goal " +
+                                std::to_string(now.goal_id) + ")"));
   } else if (goal_changed && now.nav_status == msgs::NAV_STATUS_FAILED) {
     const OperatorReason why = ExplainReason(r, s.nav_reason());
     OperatorEvent e =
@@ -358,8 +347,8 @@ void FleetEventDetector::ObserveProximity(const std::vector<RobotView>& views,
       const double d = std::hypot(pa.x_m() - pb.x_m(), pa.y_m() - pb.y_m());
       if (d < options_.proximity_m && close_pairs_.insert(pair).second) {
         OperatorEvent e = Event("proximity", a.robot_id,
-                                a.robot_id + " and " + b.robot_id + " are " + Fixed2(d) +
-                                    " m apart (closer than " + Fixed2(options_.proximity_m) + " m)");
+                                a.robot_id + " and " + b.robot_id + " are " + core::Fixed(d, 2) +
+                                    " m apart (closer than " + core::Fixed(options_.proximity_m, 2) + " m)");
         e.other = b.robot_id;
         e.distance_m = d;
         events->push_back(e);

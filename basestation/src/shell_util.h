@@ -14,6 +14,7 @@
 
 #include "cairn/base/fleet.h"
 #include "cairn/base/link_monitor.h"
+#include "cairn/core/range_check.h"
 #include "cairn/core/time.h"
 #include "cairn/perception/staircase.h"
 #include "cairn_msgs.h"
@@ -52,12 +53,7 @@ inline std::string Dump(const nlohmann::json& j) {
   return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
-/// `value` with `digits` decimals.
-inline std::string Fixed(double value, int digits) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(digits) << value;
-  return out.str();
-}
+using core::Fixed;  // `value` with `digits` decimals
 
 /// Prints rows as columns separated by two spaces, each as wide as its widest cell.
 inline void PrintTable(std::ostream& out, const std::vector<std::vector<std::string>>& rows) {

@@ -4,23 +4,18 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <stdexcept>
+
+#include "cairn/core/range_check.h"
 
 namespace cairn::core {
 
 namespace {
 
-std::string Fixed1(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.1f", v);
-  return buffer;
-}
-
 void CheckPolicy(const std::string& name, const RestartPolicy& p) {
   auto bad = [&](const char* field, double value) {
-    return std::invalid_argument("component " + name + ": restart policy " + field + " " + Fixed1(value) +
-                                 " is out of range");
+    return std::invalid_argument("component " + name + ": restart policy " + field + " " +
+                                 core::Fixed(value, 1) + " is out of range");
   };
   if (!(p.heartbeat_deadline_s > 0)) throw bad("heartbeat_deadline_s", p.heartbeat_deadline_s);
   if (p.missed_deadlines_to_fail < 1) throw bad("missed_deadlines_to_fail", p.missed_deadlines_to_fail);
@@ -153,7 +148,7 @@ std::vector<HealthEvent> HealthMonitor::TakeDown(Entry& e, const std::string& re
   e.down_reason = reason;
   if (still_running.empty()) {
     return {{HealthEvent::Kind::kFailed, name,
-             name + " failed: " + reason + "; restart in " + Fixed1(e.backoff_s) + " s"}};
+             name + " failed: " + reason + "; restart in " + core::Fixed(e.backoff_s, 1) + " s"}};
   }
   // Started again, it would run beside the work that did not stop, on the same state: the process must go.
   e.still_running = true;
@@ -199,7 +194,7 @@ std::optional<HealthEvent> HealthMonitor::JudgeRate(Entry& e) {
   if (e.slow_windows < kDegradedWindows) return std::nullopt;
   e.slow_windows = 0;
   e.degraded = !e.degraded;
-  const std::string rates = Fixed1(e.rate_hz) + " of " + Fixed1(target_hz) + " Hz";
+  const std::string rates = core::Fixed(e.rate_hz, 1) + " of " + core::Fixed(target_hz, 1) + " Hz";
   if (e.degraded) {
     return HealthEvent{HealthEvent::Kind::kDegraded, c.name(),
                        c.name() + " degraded: " + rates + " (slow, not hung: not restarted)"};
@@ -276,8 +271,8 @@ std::string HealthMonitor::Judge(Entry& e, SteadyTime now, bool process_stalled,
     const double age_s = SecondsBetween(c.last_heartbeat(), now);
     const int missed = static_cast<int>(std::floor(age_s / e.policy.heartbeat_deadline_s));
     if (missed >= e.policy.missed_deadlines_to_fail) {
-      reason = "stalled: no heartbeat for " + Fixed1(age_s) + " s (" + std::to_string(missed) +
-               " deadlines of " + Fixed1(e.policy.heartbeat_deadline_s) + " s missed)";
+      reason = "stalled: no heartbeat for " + core::Fixed(age_s, 1) + " s (" + std::to_string(missed) +
+               " deadlines of " + core::Fixed(e.policy.heartbeat_deadline_s, 1) + " s missed)";
       c.ReportFailure(reason);
     }
   }
@@ -323,7 +318,7 @@ void HealthMonitor::BringUpIfDue(Entry& e, const std::string& by, SteadyTime now
     ++e.restarts;
     std::string message = c.name() + " restarted";
     message += by.empty() ? "" : " by " + by;
-    message += down_s > 0 ? " after " + Fixed1(down_s) + " s down" : "";
+    message += down_s > 0 ? " after " + core::Fixed(down_s, 1) + " s down" : "";
     message += " (restart " + std::to_string(e.restarts) + ")";
     events->push_back({HealthEvent::Kind::kRestarted, c.name(), message});
     spdlog::warn("{}", message);
@@ -333,9 +328,9 @@ void HealthMonitor::BringUpIfDue(Entry& e, const std::string& by, SteadyTime now
     e.down = true;
     ScheduleRestart(e, now);
     e.down_reason = ex.what();
-    events->push_back(
-        {HealthEvent::Kind::kRestartFailed, c.name(),
-         c.name() + " did not come back up: " + ex.what() + "; next try in " + Fixed1(e.backoff_s) + " s"});
+    events->push_back({HealthEvent::Kind::kRestartFailed, c.name(),
+                       c.name() + " did not come back up: " + ex.what() + "; next try in " +
+                           core::Fixed(e.backoff_s, 1) + " s"});
     spdlog::error("{}", events->back().message);
   }
 }
@@ -366,7 +361,7 @@ std::map<std::string, std::string> HealthMonitor::Down() const {
                                   "); not restarted in this process while that runs";
     } else if (e.down) {
       down[e.component->name()] = e.component->name() + " is down (" + e.down_reason + "); restart in " +
-                                  Fixed1(std::max(0.0, SecondsBetween(now, e.restart_at))) + " s";
+                                  core::Fixed(std::max(0.0, SecondsBetween(now, e.restart_at)), 1) + " s";
     } else if (e.component->state() != LifecycleState::kActive) {
       down[e.component->name()] = e.component->name() + " is " + ToString(e.component->state());
     }

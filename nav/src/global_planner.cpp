@@ -4,11 +4,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 
+#include "cairn/core/range_check.h"
 #include "path_internal.h"
 
 namespace cairn::nav {
@@ -27,12 +27,6 @@ bool InRange(const std::string& field, double value, double lo, double hi, bool 
     *why = out.str();
   }
   return ok;
-}
-
-std::string Fixed2(double value) {
-  char buf[48];
-  std::snprintf(buf, sizeof(buf), "%.2f", value);
-  return buf;
 }
 
 }  // namespace
@@ -447,12 +441,13 @@ std::string GlobalPlanner::DescribeStep(const PlatformProfile& profile, double w
                                         const Eigen::Vector2d& worst_at) const {
   if (worst_step <= profile.traversability.max_step_m + 1e-9) return "";
   std::string text = "unreachable for platform " + profile.name + ": the only route climbs a " +
-                     Fixed2(worst_step) + " m step at (" + Fixed2(worst_at.x()) + ", " +
-                     Fixed2(worst_at.y()) + "), above its max_step_m " +
-                     Fixed2(profile.traversability.max_step_m) + " m";
+                     core::Fixed(worst_step, 2) + " m step at (" + core::Fixed(worst_at.x(), 2) + ", " +
+                     core::Fixed(worst_at.y(), 2) + "), above its max_step_m " +
+                     core::Fixed(profile.traversability.max_step_m, 2) + " m";
   for (const auto& other : profiles_) {
     if (other.name != profile.name && other.traversability.max_step_m + 1e-9 >= worst_step) {
-      text += " (platform " + other.name + " climbs up to " + Fixed2(other.traversability.max_step_m) + " m)";
+      text += " (platform " + other.name + " climbs up to " +
+              core::Fixed(other.traversability.max_step_m, 2) + " m)";
       break;
     }
   }
@@ -492,9 +487,9 @@ PathCheck GlobalPlanner::CheckPath(const std::vector<Eigen::Vector3d>& path_W, c
     if (!traversable) {
       check.valid = false;
       check.first_blocked_segment = static_cast<int>(i);
-      check.message = "path segment " + std::to_string(i) + " from (" + Fixed2(path_W[i].x()) + ", " +
-                      Fixed2(path_W[i].y()) + ") to (" + Fixed2(path_W[i + 1].x()) + ", " +
-                      Fixed2(path_W[i + 1].y()) + ") is no longer traversable";
+      check.message = "path segment " + std::to_string(i) + " from (" + core::Fixed(path_W[i].x(), 2) + ", " +
+                      core::Fixed(path_W[i].y(), 2) + ") to (" + core::Fixed(path_W[i + 1].x(), 2) + ", " +
+                      core::Fixed(path_W[i + 1].y(), 2) + ") is no longer traversable";
       return check;
     }
   }

@@ -12,6 +12,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "cairn/core/range_check.h"
 #include "multilevel_search.h"
 #include "path_internal.h"
 #include "search_scratch.h"
@@ -37,12 +38,6 @@ constexpr int kPartialMaxExpansions = 80000;
 std::string Point2(const Eigen::Vector2d& p) {
   char buf[96];
   std::snprintf(buf, sizeof(buf), "(%.2f, %.2f)", p.x(), p.y());
-  return buf;
-}
-
-std::string Fixed(double v) {
-  char buf[48];
-  std::snprintf(buf, sizeof(buf), "%.2f", v);
   return buf;
 }
 
@@ -605,9 +600,9 @@ std::optional<State> FindLevelStart(const MultiLevelGrid& grid, const MultiLevel
   }
   if (!start) {
     *why = "start " + Point2(start_W.head<2>()) + " " +
-           (start_node < 0 ? "has no walkable surface near z " + Fixed(start_W.z())
-                           : "is not traversable (clearance " + Fixed(grid.ClearanceM(start_node)) +
-                                 " m <= robot_radius_m " + Fixed(search.radius_m()) +
+           (start_node < 0 ? "has no walkable surface near z " + core::Fixed(start_W.z(), 2)
+                           : "is not traversable (clearance " + core::Fixed(grid.ClearanceM(start_node), 2) +
+                                 " m <= robot_radius_m " + core::Fixed(search.radius_m(), 2) +
                                  " m) and no traversable cell lies within start_escape_radius_m");
   }
   return start;
@@ -628,16 +623,16 @@ std::string FindLevelGoal(const MultiLevelGrid& grid, const MultiLevelSearch& se
   if (goal->node < 0 && !goal_unknown) {
     std::string surfaces;
     for (int n = grid.FirstNode(goal_column); n < grid.FirstNode(goal_column + 1); ++n) {
-      surfaces += (surfaces.empty() ? "" : ", ") + Fixed(grid.NodeZ(n));
+      surfaces += (surfaces.empty() ? "" : ", ") + core::Fixed(grid.NodeZ(n), 2);
     }
-    return "goal " + Point2(goal_W) + " has no walkable surface within " + Fixed(kLevelMatch_m) + " m of z " +
-           Fixed(goal->target_z) +
+    return "goal " + Point2(goal_W) + " has no walkable surface within " + core::Fixed(kLevelMatch_m, 2) +
+           " m of z " + core::Fixed(goal->target_z, 2) +
            (surfaces.empty() ? " (none in that column)" : " (surfaces at z " + surfaces + ")");
   }
   if (goal->node >= 0 && !search.Traversable(goal->node)) {
-    return "goal " + Point2(goal_W) + " at z " + Fixed(grid.NodeZ(goal->node)) +
-           " is not traversable (clearance " + Fixed(grid.ClearanceM(goal->node)) + " m <= robot_radius_m " +
-           Fixed(search.radius_m()) + " m)";
+    return "goal " + Point2(goal_W) + " at z " + core::Fixed(grid.NodeZ(goal->node), 2) +
+           " is not traversable (clearance " + core::Fixed(grid.ClearanceM(goal->node), 2) +
+           " m <= robot_radius_m " + core::Fixed(search.radius_m(), 2) + " m)";
   }
   goal->level_z = goal->node >= 0 ? grid.NodeZ(goal->node) : goal->target_z;
   return "";
@@ -855,14 +850,15 @@ std::optional<std::pair<PlanResult::Status, std::string>> CheckLevelRequest(cons
                                                                             double goal_z_m, int* sx, int* sy,
                                                                             int* gx, int* gy) {
   using Status = PlanResult::Status;
-  const std::string extent = "x in [" + Fixed(grid.p_W_min().x()) + ", " + Fixed(grid.p_W_max().x()) +
-                             "], y in [" + Fixed(grid.p_W_min().y()) + ", " + Fixed(grid.p_W_max().y()) + "]";
+  const std::string extent =
+      "x in [" + core::Fixed(grid.p_W_min().x(), 2) + ", " + core::Fixed(grid.p_W_max().x(), 2) +
+      "], y in [" + core::Fixed(grid.p_W_min().y(), 2) + ", " + core::Fixed(grid.p_W_max().y(), 2) + "]";
   if (!start_W.head<2>().allFinite()) {
     return std::make_pair(Status::kInvalidStart, "start " + Point2(start_W.head<2>()) + " is not finite");
   }
   if (!goal_W.allFinite() || std::isinf(goal_z_m)) {
     return std::make_pair(Status::kInvalidGoal,
-                          "goal " + Point2(goal_W) + " (z " + Fixed(goal_z_m) + ") is not finite");
+                          "goal " + Point2(goal_W) + " (z " + core::Fixed(goal_z_m, 2) + ") is not finite");
   }
   if (!grid.CellOf(start_W.x(), start_W.y(), sx, sy)) {
     return std::make_pair(Status::kOutOfMap,
@@ -925,14 +921,14 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
     const State& b = record[end.best_key].state;
     path_end = end.best_key;
     result.partial = true;
-    partial_note = "; partial: the map connects no route to the goal at z " + Fixed(goal.level_z) +
+    partial_note = "; partial: the map connects no route to the goal at z " + core::Fixed(goal.level_z, 2) +
                    " yet, this path ends at the reachable point nearest it, " +
-                   Point2(grid.CellCenter(b.ix, b.iy)) + " at z " + Fixed(b.z);
+                   Point2(grid.CellCenter(b.ix, b.iy)) + " at z " + core::Fixed(b.z, 2);
   }
   if (path_end < 0) {
     std::ostringstream msg;
-    msg << "goal " << Point2(goal_W) << " at z " << Fixed(goal.level_z) << " is unreachable from start "
-        << Point2(start_W.head<2>()) << " at z " << Fixed(start_z)
+    msg << "goal " << Point2(goal_W) << " at z " << core::Fixed(goal.level_z, 2)
+        << " is unreachable from start " << Point2(start_W.head<2>()) << " at z " << core::Fixed(start_z, 2)
         << ": no traversable path over the map's levels (" << searched << ")";
     return finish(Status::kUnreachable, msg.str());
   }
@@ -940,10 +936,11 @@ PlanResult PlanPathMultiLevel(const MultiLevelGrid& grid, const Eigen::Vector3d&
                                   Eigen::Vector3d(start_W.x(), start_W.y(), start_z), goal_W, result);
   result.length_m = PathLength2D(result.path_W);
   std::ostringstream msg;
-  msg << "path from " << Point2(start_W.head<2>()) << " at z " << Fixed(start_z) << " to " << Point2(goal_W)
-      << " at z " << Fixed(result.path_W.back().z()) << ": " << Fixed(result.length_m) << " m, "
-      << result.path_W.size() << " waypoints, " << searched << " over the map's levels"
-      << (result.used_start_escape ? " (started from an escape cell)" : "") << partial_note;
+  msg << "path from " << Point2(start_W.head<2>()) << " at z " << core::Fixed(start_z, 2) << " to "
+      << Point2(goal_W) << " at z " << core::Fixed(result.path_W.back().z(), 2) << ": "
+      << core::Fixed(result.length_m, 2) << " m, " << result.path_W.size() << " waypoints, " << searched
+      << " over the map's levels" << (result.used_start_escape ? " (started from an escape cell)" : "")
+      << partial_note;
   return finish(Status::kSuccess, msg.str());
 }
 

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "cairn/agent/communication/in_process_link.h"
+#include "cairn/agent/modes/waypoint_mode.h"
 #include "cairn/agent/robot_agent.h"
 #include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
@@ -104,6 +105,12 @@ class AgentTeam {
   /// Cycles for `seconds` of simulated time.
   void StepFor(double seconds, const std::function<void()>& each = {}) {
     for (const double end = now_s_ + seconds - 1e-9; now_s_ < end;) StepOnce(each);
+  }  /// Steps until robot i's waypoint goal is no longer active or `limit_s` of simulated time has passed,
+  /// calling `each` after every cycle; returns the goal as it ended.
+  WaypointGoal DriveGoal(std::size_t i, double limit_s, const std::function<void()>& each = {}) {
+    const double end_s = now_s_ + limit_s;
+    while (modes(i).waypoint().goal().status == GoalStatus::kActive && now_s_ < end_s) StepOnce(each);
+    return modes(i).waypoint().goal();
   }
 
   /// Sends `command` from the operator to robot i and cycles the team until it is answered (at most 100

@@ -22,16 +22,6 @@ namespace {
 using team_testing::AgentTeam;
 using team_testing::MapGoal;
 
-// Steps until robot 0's goal is no longer active or `limit_s` of simulated time has passed, calling `each`
-// after every cycle; returns the goal as it ended.
-WaypointGoal DriveGoal(AgentTeam* team, double limit_s, const std::function<void()>& each = {}) {
-  const double end_s = team->now_s() + limit_s;
-  while (team->modes(0).waypoint().goal().status == GoalStatus::kActive && team->now_s() < end_s) {
-    team->StepOnce(each);
-  }
-  return team->modes(0).waypoint().goal();
-}
-
 // (30, 10) is down the south branch of the X junction at (30, 20): out of the lidar's sight from the start
 // and beyond the navigation map (x in [-6, 14] at first), so accepted with a notice and a plan to the map's
 // edge; the map grows over it. A rock falls 6 s after the start across the south two thirds of the 3 m main
@@ -49,7 +39,7 @@ TEST(OwnMapNavigationTest, AGoalInUnknownSpaceIsReachedAroundARockfall) {
   ASSERT_EQ(reply->result, CommandResult::kAccepted) << reply->reason;
   EXPECT_NE(reply->reason.find("; goal in unmapped space: r1 will look"), std::string::npos) << reply->reason;
   double passed_at_y = 1e9;  // the robot's lowest y beside the rock
-  const WaypointGoal goal = DriveGoal(&team, 120.0, [&] {
+  const WaypointGoal goal = team.DriveGoal(0, 120.0, [&] {
     const sim::UnicycleState s = team.truth(0);
     if (s.x_m > 14.0 && s.x_m < 15.5) passed_at_y = std::min(passed_at_y, s.y_m);
   });
@@ -82,7 +72,7 @@ TEST(OwnMapNavigationTest, ABoxedInRobotRecoversAndPassesAOneMetreDoorway) {
   std::string recovery_report;  // the longest report seen while the goal was active
   double door_x_m = 1e9;        // x where the robot crossed the wall's line y = 5.9
   double previous_y = team.truth(0).y_m;
-  const WaypointGoal goal = DriveGoal(&team, 120.0, [&] {
+  const WaypointGoal goal = team.DriveGoal(0, 120.0, [&] {
     const std::string& reason = team.modes(0).waypoint().goal().reason;
     if (reason.rfind("recovering after:", 0) == 0 && reason.size() > recovery_report.size()) {
       recovery_report = reason;
@@ -107,12 +97,12 @@ TEST(OwnMapNavigationTest, ALeggedRobotReachesTheFloorAboveUpTheStairwell) {
                  [](AgentOptions* options) { options->SetPlatform("legged"); });
   // To the foot of the stairwell, through its 1.2 m entrance.
   ASSERT_EQ(team.Ask(0, MapGoal(19.0, 6.5)), "");
-  WaypointGoal goal = DriveGoal(&team, 60.0);
+  WaypointGoal goal = team.DriveGoal(0, 60.0);
   ASSERT_EQ(goal.status, GoalStatus::kArrived) << goal.reason;
   const double climb_start_s = team.now_s();
   double highest_z_m = 0.0;
   ASSERT_EQ(team.Ask(0, MapGoal(15.1, 11.0, 3.2)), "");
-  goal = DriveGoal(&team, 120.0, [&] { highest_z_m = std::max(highest_z_m, team.truth(0).z_m); });
+  goal = team.DriveGoal(0, 120.0, [&] { highest_z_m = std::max(highest_z_m, team.truth(0).z_m); });
   std::printf("floor 2 goal: %s after %.1f s (%s); highest z %.2f m\n",
               goal.status == GoalStatus::kArrived ? "arrived" : "not arrived", team.now_s() - climb_start_s,
               goal.reason.c_str(), highest_z_m);

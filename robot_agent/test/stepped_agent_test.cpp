@@ -76,19 +76,14 @@ TEST_P(WheeledUpstairsTest, TheRobotIsToldTheStepItCannotClimb) {
   const double sent_at_x_m = GetParam();
   AgentTeam team("builtin:building", {{"r2", {10.0, 7.1, 0.0}}});
   ASSERT_EQ(team.Goto(0, sent_at_x_m, 6.9), "");
-  for (int i = 0; i < 600 && team.modes(0).waypoint().goal().status != GoalStatus::kArrived; ++i) {
-    team.StepOnce();
-  }
-  ASSERT_EQ(team.modes(0).waypoint().goal().status, GoalStatus::kArrived)
-      << team.modes(0).waypoint().goal().reason;
+  const WaypointGoal foot = team.DriveGoal(0, 12.0);
+  ASSERT_EQ(foot.status, GoalStatus::kArrived) << foot.reason;
   std::string reason = team.Ask(0, team_testing::MapGoal(15.1, 11.0, 3.2));
   const bool accepted = reason.empty();
   if (accepted) {
-    for (int i = 0; i < 1200 && team.modes(0).waypoint().goal().status == GoalStatus::kActive; ++i) {
-      team.StepOnce();
-    }
-    EXPECT_EQ(team.modes(0).waypoint().goal().status, GoalStatus::kFailed);
-    reason = team.modes(0).waypoint().goal().reason;
+    const WaypointGoal upstairs = team.DriveGoal(0, 24.0);
+    EXPECT_EQ(upstairs.status, GoalStatus::kFailed);
+    reason = upstairs.reason;
   }
   std::printf("sent at x %.1f m: %s, %s\n", sent_at_x_m, accepted ? "accepted, then failed" : "refused",
               reason.c_str());

@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "cairn/core/config.h"
+#include "cairn/core/range_check.h"
 #include "cairn/core/shutdown.h"
 #include "cairn/core/time.h"
 #include "cairn/ros2/image.h"
@@ -31,12 +32,6 @@ bool InRange(const char* field, double value, double low, double high, bool low_
     *why = std::string("ros2.") + field + " " + std::to_string(value) + " must be in " +
            (low_open ? "(" : "[") + std::to_string(low) + ", " + std::to_string(high) + "]";
   return ok;
-}
-
-std::string Fixed1(double v) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.1f", v);
-  return text;
 }
 
 Eigen::Isometry3d FromTransform(const gm::Transform_& t) {
@@ -247,8 +242,8 @@ struct Ros2Platform::Impl {
       pose.problem = "no odometry on " + options.odom_topic + " yet" + hint;
     } else if (wall_s - odom_received_s > options.pose_timeout_s) {
       pose.healthy = false;
-      pose.problem =
-          "no odometry on " + options.odom_topic + " for " + Fixed1(wall_s - odom_received_s) + " s" + hint;
+      pose.problem = "no odometry on " + options.odom_topic + " for " +
+                     core::Fixed(wall_s - odom_received_s, 1) + " s" + hint;
     }
     pose.T_MB = T_odom_base_latest;
     pose.stamp_s = odom_stamp_s + wall_to_agent_s;
@@ -263,7 +258,7 @@ struct Ros2Platform::Impl {
                                    " on /tf yet (ROS 2 domain " + std::to_string(options.domain_id) +
                                    "; is the SLAM running?)"
                              : "no transform " + map_frame + " -> " + options.odom_frame + " on /tf for " +
-                                   Fixed1(wall_s - map_odom_received_s) + " s (is the SLAM running?)";
+                                   core::Fixed(wall_s - map_odom_received_s, 1) + " s (is the SLAM running?)";
         }
       }
       pose.T_MB = T_map_odom_latest * T_odom_base_latest;

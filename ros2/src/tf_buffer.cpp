@@ -6,14 +6,10 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "cairn/core/range_check.h"
+
 namespace cairn::ros2 {
 namespace {
-
-std::string Fixed3(double v) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(3) << v;
-  return out.str();
-}
 
 std::string List(const std::vector<std::string>& names) {
   std::string text;
@@ -99,14 +95,14 @@ std::optional<Eigen::Isometry3d> TfBuffer::EdgeAt(const std::string& child, cons
   if (stamp_s > s.back().stamp_s) {
     if (stamp_s - s.back().stamp_s <= options_.future_tolerance_s)
       return make(s.back().translation, s.back().rotation);
-    *why = "transform '" + edge.parent + "' -> '" + child + "' at " + Fixed3(stamp_s) +
-           " s is newer than its last sample (" + Fixed3(s.back().stamp_s) + " s, " +
-           Fixed3(stamp_s - s.back().stamp_s) + " s before)";
+    *why = "transform '" + edge.parent + "' -> '" + child + "' at " + core::Fixed(stamp_s, 3) +
+           " s is newer than its last sample (" + core::Fixed(s.back().stamp_s, 3) + " s, " +
+           core::Fixed(stamp_s - s.back().stamp_s, 3) + " s before)";
     return std::nullopt;
   }
   if (stamp_s < s.front().stamp_s) {
-    *why = "transform '" + edge.parent + "' -> '" + child + "' at " + Fixed3(stamp_s) +
-           " s is older than its history (oldest " + Fixed3(s.front().stamp_s) + " s)";
+    *why = "transform '" + edge.parent + "' -> '" + child + "' at " + core::Fixed(stamp_s, 3) +
+           " s is older than its history (oldest " + core::Fixed(s.front().stamp_s, 3) + " s)";
     return std::nullopt;
   }
   auto after =

@@ -169,8 +169,8 @@ class PerceptionService {
   std::atomic<bool> clear_obstacle_memory_{false};
   std::mutex scan_mutex_;
   std::shared_ptr<core::LidarScan> latest_scan_;  // from the sensor thread to the perception thread
-  std::unique_ptr<perception::PerceptionPipeline>
-      perception_;                   // perception thread (and the map/tiles, thread-safe)
+  // Perception thread (and the map and changed tiles, thread-safe).
+  std::unique_ptr<perception::PerceptionPipeline> perception_;
   std::unique_ptr<NavMap> nav_map_;  // navigation map thread only (but CoverGoal())
   std::atomic<bool> map_snapshot_requested_{false};
   std::function<void(const char*)> fault_hook_;
