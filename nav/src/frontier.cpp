@@ -232,6 +232,7 @@ bool FrontierOptions::IsValid(std::string* why) const {
             range("cost_offset_m", cost_offset_m, 0, 1000, true) &&
             range("unknown_cost", unknown_cost, 0, 100, false) &&
             range("unknown_reach_m", unknown_reach_m, 0, 50, false) &&
+            range("viewpoint_radius_m", viewpoint_radius_m, 0, 10, false) &&
             range("tight_cost", tight_cost, 0, 100, false);
   if (ok && !(search_horizon_m > 0)) {
     msg << "FrontierOptions::search_horizon_m = " << search_horizon_m
@@ -819,6 +820,55 @@ class LevelFrontierSearch {
     }
   }
 
+  // 4. Viewpoints: each cluster none of whose surfaces was reached gets as its target the reachable
+  // traversable surface nearest its target within viewpoint_radius_m (3-D) from which a robot at mid-body
+  // height sees a robot standing there (MultiLevelGrid::IsSightClear), if any.
+  void AddViewpoints(FrontierSet* result) const {
+    const double radius_m = options_.viewpoint_radius_m;
+    if (!(radius_m > 0)) return;
+    const double eye_m = 0.5 * grid_.options().robot_height_m;
+    const int reach = static_cast<int>(std::ceil(radius_m / cell_m_));
+    struct Candidate {
+      double distance_m;
+      int node;
+    };
+    std::vector<Candidate> candidates;
+    for (FrontierCluster& cluster : result->clusters) {
+      if (cluster.reachable()) continue;
+      int tx = 0, ty = 0;
+      if (!grid_.CellOf(cluster.target_M.x(), cluster.target_M.y(), &tx, &ty)) continue;
+      const Eigen::Vector3d target(cluster.target_M.x(), cluster.target_M.y(), cluster.target_ground_z_m);
+      candidates.clear();
+      for (int iy = ty - reach; iy <= ty + reach; ++iy) {
+        for (int ix = tx - reach; ix <= tx + reach; ++ix) {
+          if (!grid_.InGrid(ix, iy)) continue;
+          const int column = grid_.Column(ix, iy);
+          for (int node = grid_.FirstNode(column); node < grid_.FirstNode(column + 1); ++node) {
+            if (!(cost_[static_cast<std::size_t>(node)] < kInf) || !grid_.IsTraversable(node)) continue;
+            const Eigen::Vector2d c = grid_.CellCenter(ix, iy);
+            const double d = (Eigen::Vector3d(c.x(), c.y(), grid_.NodeZ(node)) - target).norm();
+            if (d <= radius_m) candidates.push_back({d, node});
+          }
+        }
+      }
+      std::sort(candidates.begin(), candidates.end(),
+                [](const Candidate& a, const Candidate& b) { return a.distance_m < b.distance_m; });
+      for (const Candidate& candidate : candidates) {
+        const Eigen::Vector2d c = NodeCenter(candidate.node);
+        const Eigen::Vector3d eye(c.x(), c.y(), grid_.NodeZ(candidate.node) + eye_m);
+        if (!grid_.IsSightClear(eye, target + Eigen::Vector3d(0, 0, eye_m))) continue;
+        const auto i = static_cast<std::size_t>(candidate.node);
+        cluster.target_M = c;
+        cluster.target_ground_z_m = grid_.NodeZ(candidate.node);
+        cluster.travel_cost_m = cost_[i];
+        cluster.through_tight_gap = via_tight_[i] != 0;
+        cluster.utility = cluster.gain_m2 / (cluster.travel_cost_m + options_.cost_offset_m);
+        cluster.viewpoint = true;
+        break;
+      }
+    }
+  }
+
  private:
   // An unknown state's cost and via_tight, one hash look-up for both.
   struct Virtual {
@@ -891,6 +941,7 @@ FrontierSet FindFrontiersMultiLevel(const MultiLevelGrid& grid, const Eigen::Vec
     search.TravelCosts(starts, &result);
   }
   search.Cluster(PeerSeenCells(grid, peers), &result);
+  search.AddViewpoints(&result);
   for (FrontierCluster& cluster : result.clusters) cluster.on_main_level = false;  // see FrontierCluster
   SortFrontierClusters(&result.clusters);
   if (result.reachable() == 0 && std::isfinite(result.searched_to_cost_m)) {

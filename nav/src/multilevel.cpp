@@ -143,6 +143,19 @@ bool MultiLevelGrid::IsUnknownAt(int ix, int iy, double z_m) const {
   return true;
 }
 
+bool MultiLevelGrid::IsSightClear(const Eigen::Vector3d& from_W, const Eigen::Vector3d& to_W) const {
+  const std::optional<Eigen::Vector3i> first = world_->IndexOf(from_W);
+  const std::optional<Eigen::Vector3i> last = world_->IndexOf(to_W);
+  if (!first || !last) return false;
+  const int samples = static_cast<int>(std::ceil((to_W - from_W).norm() / (0.25 * res_m_)));
+  for (int k = 1; k < samples; ++k) {
+    const std::optional<Eigen::Vector3i> at =
+        world_->IndexOf(from_W + (to_W - from_W) * (static_cast<double>(k) / samples));
+    if (at && *at != *first && *at != *last && world_->IsOccupiedIndex(*at)) return false;
+  }
+  return true;
+}
+
 bool MultiLevelGrid::IsUnseenStepAt(int ix, int iy, double z_m) const {
   if (options_.unknown_is_lethal || !seen_free_ || !InGrid(ix, iy) || !std::isfinite(z_m)) return false;
   // Voxel iz has its top at TopOf(iz); the steps: tops in (z_m, z_m + max_step_m].

@@ -113,7 +113,10 @@ class ScanCells {
     return static_cast<std::size_t>(ix) + static_cast<std::size_t>(n_) * iy;
   }
   float Step() const { return static_cast<float>(options_.max_step_m) + 1e-4f; }
-  // The cell's lowest point stands more than a step above a neighbour's (with enough points).
+  // The cell's lowest point stands more than a step above a neighbour's, where the neighbour is ground
+  // (enough points, spanning no more than a step). A wall's lowest point is not ground: the face of the wall
+  // beside a stair flight reaches down to the floor under the flight, and its lowest points (seen from that
+  // floor earlier, kept in the blind zone) made every tread along the wall read as a 1.6 m step.
   bool AboveNeighbour(int ix, int iy) const {
     const std::size_t i = Index(ix, iy);
     for (int dy = -1; dy <= 1; ++dy) {
@@ -122,8 +125,10 @@ class ScanCells {
         const int jy = iy + dy;
         if ((dx == 0 && dy == 0) || jx < 0 || jy < 0 || jx >= n_ || jy >= n_) continue;
         const std::size_t j = Index(jx, jy);
-        if (low_[j] != kNone && count_[j] >= options_.min_points_per_cell && low_[i] - low_[j] > Step())
+        if (low_[j] != kNone && count_[j] >= options_.min_points_per_cell && high_[j] - low_[j] <= Step() &&
+            low_[i] - low_[j] > Step()) {
           return true;
+        }
       }
     }
     return false;

@@ -321,6 +321,57 @@ TEST(MultiLevelFrontierTest, TheSearchStopsAtItsHorizonUnlessNothingUsableLiesWi
   EXPECT_EQ(why, "FrontierOptions::search_horizon_m = 0 must be > 0 (infinity: no horizon)");
 }
 
+// A 0.5 m plateau (x in [10, 11]) a legged robot cannot step onto, unknown beyond it: its frontier is seen
+// but no surface of it is reachable. Its target becomes a viewpoint, the nearest reachable floor in sight of
+// it within viewpoint_radius_m; with that off, or with a wall hiding the plateau, it stays unreachable.
+TEST(MultiLevelFrontierTest, AnUnreachableFrontierInSightIsLookedAtFromTheNearestReachableFloor) {
+  sim::World world = FlatWorld(20.0, 10.0, 0.1, 2.0);
+  FillBox(&world, {10.0, 0.0, 0.0}, {11.0, 10.0, 0.5});          // the plateau
+  FillBox(&world, {11.0, 0.0, -0.2}, {20.0, 10.0, 0.0}, false);  // unknown beyond it
+  TraversabilityOptions legged = GetPlatformProfile("legged").traversability;
+  legged.unknown_is_lethal = false;
+  const auto grid = std::make_shared<const core::VoxelGrid>(world);
+  const MultiLevelGrid levels(grid, legged);
+  const Eigen::Vector3d robot_M(5.0, 5.0, 0.0);
+  FrontierOptions off;
+  off.viewpoint_radius_m = 0.0;
+  const FrontierSet unseen = FindFrontiersMultiLevel(levels, robot_M, off);
+  ASSERT_FALSE(unseen.clusters.empty());
+  for (const FrontierCluster& c : unseen.clusters) {
+    EXPECT_FALSE(c.reachable()) << c.target_M.transpose();
+    EXPECT_FALSE(c.viewpoint);
+    EXPECT_NEAR(c.target_ground_z_m, 0.5, 0.05);
+  }
+
+  const FrontierSet set = FindFrontiersMultiLevel(levels, robot_M);
+  ASSERT_EQ(set.clusters.size(), unseen.clusters.size());
+  for (const FrontierCluster& c : set.clusters) {
+    ASSERT_TRUE(c.reachable()) << c.target_M.transpose();
+    EXPECT_TRUE(c.viewpoint);
+    // On the floor, as near the plateau as the footprint's clearance lets it.
+    EXPECT_NEAR(c.target_ground_z_m, 0.0, 0.05);
+    EXPECT_NEAR(c.target_M.x(), 9.7, 0.1);
+    // The cluster is still on the plateau (at both its edges: without a seen-free map the floor beside it is
+    // unknown at its height).
+    EXPECT_GT(c.centroid_M.x(), 10.0);
+    EXPECT_LT(c.centroid_M.x(), 11.0);
+    EXPECT_LE(std::hypot(c.target_M.x() - c.centroid_M.x(), 0.5), FrontierOptions{}.viewpoint_radius_m);
+    EXPECT_NEAR(c.travel_cost_m, 5.5, 1.0);
+    EXPECT_GT(c.utility, 0.0);
+  }
+
+  FillBox(&world, {9.5, 0.0, 0.0}, {9.6, 10.0, 2.0});  // a wall in front of the plateau
+  const MultiLevelGrid walled(std::make_shared<const core::VoxelGrid>(world), legged);
+  const FrontierSet hidden = FindFrontiersMultiLevel(walled, {5.0, 5.0, 0.0});
+  ASSERT_FALSE(hidden.clusters.empty());
+  for (const FrontierCluster& c : hidden.clusters) EXPECT_FALSE(c.reachable()) << c.target_M.transpose();
+
+  off.viewpoint_radius_m = 11.0;
+  std::string why;
+  EXPECT_FALSE(off.IsValid(&why));
+  EXPECT_EQ(why, "FrontierOptions::viewpoint_radius_m = 11 must be in [0, 10]");
+}
+
 // The two-floor building as a legged robot on floor 1 has seen it (everything up to 2.0 m, and the free space
 // over the flights up to 2.8 m, as rays passing over the treads): the stairs lead on into unknown space, a
 // reachable frontier above the robot's floor; a wheeled robot cannot climb to it. Peers' coverage of floor 1

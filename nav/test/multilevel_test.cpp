@@ -225,6 +225,20 @@ TEST(MultiLevelGridTest, AnUndersideSeenFromBelowIsNoSurface) {
   EXPECT_GE(seen_twice.NodeNear(ix, iy, 1.6, 0.1), 0) << "the slab's top, seen from above";
 }
 
+// Sight across the building's stairwell: along the corridor it is clear, through the wall between the two
+// flights it is not, and an end outside the map sees nothing.
+TEST(MultiLevelGridTest, SightIsClearAlongTheCorridorAndBlockedByTheWallBetweenTheFlights) {
+  const MultiLevelGrid grid(Building(), Legged());
+  EXPECT_TRUE(grid.IsSightClear({2.0, 7.1, 0.4}, {16.0, 7.1, 0.4}));
+  EXPECT_TRUE(grid.IsSightClear({16.0, 7.1, 0.4}, {2.0, 7.1, 0.4}));
+  // From the lower flight's fifth tread (z 1.0) to the upper flight beside it, through the wall at y 7.0-7.2.
+  EXPECT_FALSE(grid.IsSightClear({20.75, 6.5, 1.4}, {20.75, 7.7, 2.4}));
+  // From the mid landing up the upper flight: clear over its treads.
+  EXPECT_TRUE(grid.IsSightClear({22.0, 7.7, 2.0}, {20.75, 7.7, 2.6}));
+  EXPECT_FALSE(grid.IsSightClear({2.0, 7.1, 0.4}, {-5.0, 7.1, 0.4}));
+  EXPECT_FALSE(grid.IsSightClear({2.0, 7.1, 0.4}, {std::nan(""), 7.1, 0.4}));
+}
+
 TEST(PartialRemainingTest, AFloorReadAVoxelOffIsOnTheGoalsLevel) {
   const Eigen::Vector2d goal(15.1, 11.0);
   const Eigen::Vector3d corridor(18.35, 7.55, 3.3), stairs_top(19.15, 7.85, 3.2), landing(21.8, 7.6, 1.7);

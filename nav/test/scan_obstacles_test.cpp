@@ -70,6 +70,29 @@ TEST(ScanObstaclesTest, AStepHigherThanThePlatformClimbsIsAnObstacleALowerOneIsN
 
 // The nearest obstacle is where the surface is, whatever the robot's position modulo a cell: a cell centre
 // lies up to half a cell (5 cm) off the face, which in a 1.0 m doorway decides whether a 0.6 m robot fits.
+// A robot on a landing (z 1.6) at the foot of a flight whose side wall reaches down past the landing to the
+// floor below (its lower face seen from that floor earlier): the wall is an obstacle, the first tread beside
+// it is not (a wall's lowest point is not ground the tread stands a step above).
+TEST(ScanObstaclesTest, AWallReachingDownBesideAFlightLeavesItsTreadsClimbable) {
+  std::vector<Eigen::Vector3f> points_M;
+  AddPatch(-1.0, 0.5, -0.5, 0.5, 1.6, &points_M);  // the landing
+  AddPatch(0.5, 1.5, -0.5, 0.5, 1.8, &points_M);   // the first tread, 0.2 m up
+  AddFace(0.5, -0.5, 0.5, 1.6, 1.8, &points_M);    // its riser
+  for (double x = -1.0; x <= 1.5 + 1e-9; x += 0.02) {
+    for (double z = 0.3; z <= 2.6 + 1e-9; z += 0.02) points_M.emplace_back(x, 0.55, z);  // the side wall
+  }
+  core::BaseState pose;
+  pose.z_m = 1.6;
+  ScanObstacleOptions legged;
+  legged.max_step_m = 0.3;
+  std::vector<Eigen::Vector3f> points_B;
+  ObstaclesFromPoints(points_M, pose, legged, &points_B);
+  EXPECT_TRUE(AnyObstacleNear(points_B, 1.0, 0.55, 0.06)) << "the wall";
+  for (const auto& p : points_B) {
+    EXPECT_GT(p.y(), 0.53) << "obstacle at (" << p.x() << ", " << p.y() << ") on the landing or the tread";
+  }
+}
+
 TEST(ScanObstaclesTest, TheNearestObstacleLiesOnTheSurfaceWhereverTheRobotStandsInItsCell) {
   std::vector<Eigen::Vector3f> points_M;
   AddPatch(-1.0, 3.0, -1.0, 1.0, 0.0, &points_M);

@@ -114,6 +114,7 @@ void ReadExplore(const ConfigSection& config, const std::string& path, ExploreMo
        {"max_cluster_extent_m", &frontiers.max_cluster_extent_m},
        {"unknown_reach_m", &frontiers.unknown_reach_m},
        {"search_horizon_m", &frontiers.search_horizon_m, /*allow_infinity=*/true},
+       {"viewpoint_radius_m", &frontiers.viewpoint_radius_m},
        {"switch_utility_ratio", &explorer.switch_utility_ratio},
        {"blacklist_radius_m", &explorer.blacklist_radius_m},
        {"visited_radius_m", &explorer.visited_radius_m},

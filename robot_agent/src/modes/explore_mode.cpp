@@ -293,10 +293,13 @@ void ExploreMode::Choose(const core::BaseState& pose_M, double now_s, ModeOutput
   navigation_->SetReducedClearance(d.target.through_tight_gap);
   target_through_tight_gap_ = d.target.through_tight_gap;
   plan_ = navigation_->PlanGoalAsync(pose_M, d.target.target_M.x(), d.target.target_M.y(), goal_z_m_);
-  spdlog::info(
-      "robot {}: exploration {} to the frontier at {} ({:.0f} m² unknown behind it, {:.1f} m away{}): {}",
-      options_.robot_id, status_.task_id, Point(d.target.target_M), d.target.gain_m2, d.target.travel_cost_m,
-      d.target.through_tight_gap ? ", through a tight gap" : "", d.reason);
+  const std::string where = d.target.viewpoint
+                                ? "to " + Point(d.target.target_M) + " to look at the frontier at " +
+                                      Point(d.target.centroid_M) + ", not reachable yet,"
+                                : "to the frontier at " + Point(d.target.target_M);
+  spdlog::info("robot {}: exploration {} {} ({:.0f} m² unknown behind it, {:.1f} m away{}): {}",
+               options_.robot_id, status_.task_id, where, d.target.gain_m2, d.target.travel_cost_m,
+               d.target.through_tight_gap ? ", through a tight gap" : "", d.reason);
 }
 
 ModeOutput ExploreMode::Step(const ModeInputs& in) {

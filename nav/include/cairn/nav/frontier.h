@@ -63,6 +63,13 @@ struct FrontierOptions {
   /// sparse survey (270 k points of a 90 x 60 m building) the whole-map search took 3.5 s at the median and
   /// up to 21 s for a legged robot (docs/PERFORMANCE.md).
   double search_horizon_m = 40.0;
+  /// FindFrontiersMultiLevel() only: a cluster none of whose surfaces the search reaches is still a target
+  /// when a reachable traversable surface lies within this of its target (3-D distance, metres) with a clear
+  /// line of sight to it through the map's voxels: the robot goes there to look (FrontierCluster::viewpoint).
+  /// A robot-built map of stairs seen from their side is a jagged patchwork of surfaces a voxel apart whose
+  /// clearance the footprint does not fit (the upper flight of a switchback seen from its landing), until
+  /// the robot looks up the flight from its foot. [0, 10]; 0 = off.
+  double viewpoint_radius_m = 1.5;
   /// Only frontier cells inside this x-y box count (metres, frame M); an empty box (the default) =
   /// everywhere. Their gain counts unknown cells beyond the box too: counting only those inside left 1-2 m
   /// strips along a region's edge unexplored (their gain under min_gain_m2; 85 % of a region against 97 % in
@@ -118,6 +125,10 @@ struct FrontierCluster {
   /// True when the cheapest path to the target passes a tight cell (FrontierOptions::tight_radius_m): a
   /// planner needs the reduced radius to reach it.
   bool through_tight_gap = false;
+  /// True when no surface of the cluster is reachable and the target is a viewpoint on it instead
+  /// (FrontierOptions::viewpoint_radius_m): the nearest reachable surface in sight of it. travel_cost_m is
+  /// the viewpoint's; gain_m2 and centroid_M stay the cluster's.
+  bool viewpoint = false;
   bool reachable() const { return travel_cost_m < std::numeric_limits<double>::infinity(); }
 };
 
@@ -231,6 +242,11 @@ FrontierSet FindFrontiers(const TraversabilityGrid& grid, const Eigen::Vector2d&
 /// 1 m around the robot at its planar distance and from its column when that is unknown at its height (a
 /// robot-built map shows a ragged floor around the robot, which its lidar does not see). Unknown columns are
 /// crossed only within unknown_reach_m of a column with a known surface, at 1 + unknown_cost per metre.
+///
+/// Viewpoints: a cluster none of whose surfaces the search reached takes as its target the reachable
+/// traversable surface nearest its own target within viewpoint_radius_m (3-D) from which a robot standing
+/// there sees it at mid-body height through the map's voxels (MultiLevelGrid::IsSightClear), if any
+/// (FrontierCluster::viewpoint; travel cost and utility are the viewpoint's, the gain the cluster's).
 ///
 /// Gain: rays from the target follow the surface of each column they cross and stop at a blocked one (a wall,
 /// a drop, a step too high); unknown columns and unseen steps count once. known_free_m2 counts the surfaces

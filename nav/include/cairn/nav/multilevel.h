@@ -113,6 +113,10 @@ class MultiLevelGrid : public core::FootprintChecker {
   /// space above a floor seen free) and is not unknown at z_m (the riser fills the body space): the frontier
   /// search counts it as unseen. Always false on a map read with unknown_is_lethal or without seen_free.
   bool IsUnseenStepAt(int ix, int iy, double z_m) const;
+  /// True if no occupied voxel of the map lies on the segment from `from_W` to `to_W` (metres, frame W;
+  /// points sampled a quarter voxel apart, the voxels holding the two ends excluded): a lidar at one end sees
+  /// the other. False if either end is outside the map or not finite.
+  bool IsSightClear(const Eigen::Vector3d& from_W, const Eigen::Vector3d& to_W) const;
   /// True if no column within robot_radius_m of (ix, iy) holds an observed voxel (occupied or seen free).
   bool IsUnobservedAround(int ix, int iy) const {
     return !observed_near_[static_cast<std::size_t>(Column(ix, iy))];
