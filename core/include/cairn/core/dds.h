@@ -472,10 +472,8 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
     writer_->set_listener(nullptr);
     participant_.publisher()->delete_datawriter(writer_);
     writer_ = nullptr;
-    {
-      std::lock_guard<std::mutex> lock(matched_mutex_);
-      matched_readers_.clear();
-    }
+    std::lock_guard<std::mutex> lock(matched_mutex_);
+    matched_readers_.clear();
     matched_.store(0);
     matched_cv_.notify_all();
   }
@@ -524,17 +522,19 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener, private Parti
     auto it = matched_readers_.find(participant_id);
     return it != matched_readers_.end() && it->second > 0;
   }
+  // Everything under matched_mutex_, the notify too: the callback may run on another participant's thread
+  // (one that re-creates its entities and matches them with this writer in process), and DeleteEntity() takes
+  // the same lock before the destructor frees the condition variable (ThreadSanitizer: a notify after the
+  // unlock raced with ~Writer's pthread_cond_destroy).
   void on_publication_matched(eprosima::fastdds::dds::DataWriter*,
                               const eprosima::fastdds::dds::PublicationMatchedStatus& status) override {
-    {
-      std::lock_guard<std::mutex> lock(matched_mutex_);
-      const std::string participant = ParticipantIdOf(status.last_subscription_handle);
-      if (status.current_count_change > 0) ++matched_readers_[participant];
-      if (status.current_count_change < 0 && --matched_readers_[participant] <= 0)
-        matched_readers_.erase(participant);
-    }
-    matched_cv_.notify_all();
+    std::lock_guard<std::mutex> lock(matched_mutex_);
+    const std::string participant = ParticipantIdOf(status.last_subscription_handle);
+    if (status.current_count_change > 0) ++matched_readers_[participant];
+    if (status.current_count_change < 0 && --matched_readers_[participant] <= 0)
+      matched_readers_.erase(participant);
     matched_.store(status.current_count);
+    matched_cv_.notify_all();
   }
 
   Participant& participant_;
