@@ -1,15 +1,25 @@
 # Every test process runs inside its own private network namespace (tests/netns_run.sh: unshare --net, lo up),
 # so that no packet can leave the machine even when ctest is run by hand (network safety, DESIGN.md).
 set(CAIRN_NETNS_RUN "${CMAKE_SOURCE_DIR}/tests/netns_run.sh")
+# Tests that do not run robots on the wall clock (unit tests, scenario tests on a simulated clock, fuzz corpus
+# replays, checks) run at the lowest CPU priority: ctest runs one beside a real-time test, where it takes only
+# the CPU the robots leave idle (they use 0.5-1.2 of the 2 cores) and gives way the moment a control loop wakes.
+set(CAIRN_BACKGROUND nice -n 19)
+set(CAIRN_BACKGROUND_RUN ${CAIRN_BACKGROUND} ${CAIRN_NETNS_RUN})
 
 # cairn_add_test(<name> SOURCES <files>... LIBS <libs>... [TIMEOUT <s>] [LABELS <labels>]
-#                [SHARDS <suffix>=<gtest filter>...] [CORES <n>])
+#                [SHARDS <suffix>=<gtest filter>...] [REAL_TIME])
 # SHARDS: each pair becomes a ctest entry of its own, <name>_<suffix>, running the binary's tests that match the
 # filter; the entry <name> runs the rest. Long scenario binaries are split so that ctest can run the pieces on
-# both cores. CORES: the entries hold n of the machine's cores (ctest resource "cores", see
-# tests/ctest_resources.json and cairn_real_time_tests below).
+# both cores. REAL_TIME: the test runs robots on the wall clock (cairn_real_time_tests below); any other test
+# runs in the background (CAIRN_BACKGROUND_RUN above).
 function(cairn_add_test name)
-  cmake_parse_arguments(ARG "" "TIMEOUT;CORES" "SOURCES;LIBS;LABELS;SHARDS" ${ARGN})
+  cmake_parse_arguments(ARG "REAL_TIME" "TIMEOUT" "SOURCES;LIBS;LABELS;SHARDS" ${ARGN})
+  if(ARG_REAL_TIME)
+    set(run ${CAIRN_NETNS_RUN})
+  else()
+    set(run ${CAIRN_BACKGROUND_RUN})
+  endif()
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main Threads::Threads)
   target_compile_definitions(${name} PRIVATE CAIRN_SOURCE_DIR="${CMAKE_SOURCE_DIR}"
@@ -21,15 +31,15 @@ function(cairn_add_test name)
     string(REPLACE "=" ";" parts "${shard}")
     list(GET parts 0 suffix)
     list(GET parts 1 filter)
-    add_test(NAME ${name}_${suffix} COMMAND ${CAIRN_NETNS_RUN} $<TARGET_FILE:${name}> --gtest_filter=${filter})
+    add_test(NAME ${name}_${suffix} COMMAND ${run} $<TARGET_FILE:${name}> --gtest_filter=${filter})
     list(APPEND tests ${name}_${suffix})
     string(APPEND rest_filter ":${filter}")
   endforeach()
   if(rest_filter)
     string(SUBSTRING "${rest_filter}" 1 -1 rest_filter)
-    add_test(NAME ${name} COMMAND ${CAIRN_NETNS_RUN} $<TARGET_FILE:${name}> --gtest_filter=-${rest_filter})
+    add_test(NAME ${name} COMMAND ${run} $<TARGET_FILE:${name}> --gtest_filter=-${rest_filter})
   else()
-    add_test(NAME ${name} COMMAND ${CAIRN_NETNS_RUN} $<TARGET_FILE:${name}>)
+    add_test(NAME ${name} COMMAND ${run} $<TARGET_FILE:${name}>)
   endif()
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
@@ -44,8 +54,8 @@ function(cairn_add_test name)
   if(ARG_LABELS)
     set_tests_properties(${tests} PROPERTIES LABELS "${ARG_LABELS}")
   endif()
-  if(ARG_CORES)
-    set_tests_properties(${tests} PROPERTIES RESOURCE_GROUPS "cores:${ARG_CORES}")
+  if(ARG_REAL_TIME)
+    cairn_real_time_tests(${tests})
   endif()
 endfunction()
 
@@ -53,8 +63,7 @@ endfunction()
 # an agent's threads on the wall clock), each robot with a 50 Hz control loop and a perception thread. They must
 # not overlap one another on a 2-core machine: starved control loops trip the robots' staleness guards (they
 # stop, as they must) and the tests would measure the starvation instead of Cairn. They hold the lock
-# cairn_robot_processes, and both cores when ctest is given tests/ctest_resources.json (./cairn test does) so
-# that no scenario test on a simulated clock (CORES 1, CPU-bound) runs beside them; small unit tests still do.
+# cairn_robot_processes and run at normal priority; beside one, ctest runs only a background test (niced above).
 function(cairn_real_time_tests)
-  set_tests_properties(${ARGN} PROPERTIES RESOURCE_LOCK cairn_robot_processes RESOURCE_GROUPS "cores:2")
+  set_tests_properties(${ARGN} PROPERTIES RESOURCE_LOCK cairn_robot_processes)
 endfunction()

@@ -1,13 +1,17 @@
 #!/usr/bin/env bash
 # Builds the in-process tests of core, nav, perception and robot_agent with a sanitizer, each kind in a build
 # folder of its own (ccache shared with the main build), and runs them (each in its own network namespace).
-#   tests/sanitizers/run.sh address|thread BUILD_DIR [ctest args...]
+#   tests/sanitizers/run.sh address|thread BUILD_DIR [--build-only | --tests-only] [ctest args...]
 # address: AddressSanitizer + UndefinedBehaviorSanitizer (any report fails the test); thread: ThreadSanitizer.
+# --build-only builds the tests and runs none (./cairn test builds in the background while ctest runs the main
+# build's tests); --tests-only runs them without building.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 kind="${1:?address|thread}"
 build="${2:?build folder}"
 shift 2
+step=all
+case "${1:-}" in --build-only) step=build; shift ;; --tests-only) step=tests; shift ;; esac
 case "$kind" in address | thread) ;; *) echo "sanitizers: kind '$kind' is neither address nor thread" >&2; exit 2 ;; esac
 
 # The tests that run in one process (no cairn_agent or cairn_base child processes). The scenario tests of
@@ -34,12 +38,15 @@ if [ "${CAIRN_SANITIZE_SCENARIOS:-0}" = 1 ]; then
           cairn_agent_perception_test)
 fi
 
-export CCACHE_BASEDIR="$ROOT" CCACHE_NOHASHDIR=true
-# Configured every time (seconds): a build folder from before a new test target was added then has it too.
-cmake -S "$ROOT" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCAIRN_SANITIZER="$kind" >/dev/null
-# A shard's ctest entry (<binary>_<suffix>, cmake/CairnTesting.cmake) runs its binary.
-targets=($(printf '%s\n' "${TESTS[@]}" | sed -E 's/^(cairn_agent_(perception|team|explore)_test)_[a-z]+$/\1/' | sort -u))
-cmake --build "$build" -j "${CAIRN_JOBS:-$(nproc)}" --target "${targets[@]}"
+if [ "$step" != tests ]; then
+  export CCACHE_BASEDIR="$ROOT" CCACHE_NOHASHDIR=true
+  # Configured every time (seconds): a build folder from before a new test target was added then has it too.
+  cmake -S "$ROOT" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCAIRN_SANITIZER="$kind" >/dev/null
+  # A shard's ctest entry (<binary>_<suffix>, cmake/CairnTesting.cmake) runs its binary.
+  targets=($(printf '%s\n' "${TESTS[@]}" | sed -E 's/^(cairn_agent_(perception|team|explore)_test)_[a-z]+$/\1/' | sort -u))
+  cmake --build "$build" -j "${CAIRN_JOBS:-$(nproc)}" --target "${targets[@]}"
+  [ "$step" = build ] && exit 0
+fi
 
 supp="$ROOT/tests/sanitizers"
 # halt_on_error: the first report fails the test (its output names the race or the fault).
