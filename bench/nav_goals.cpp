@@ -30,7 +30,7 @@
 #include "cairn/agent/modes/waypoint_recovery.h"
 #include "cairn/agent/services/live_obstacles.h"
 #include "cairn/agent/services/nav_map.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/nav/sampling.h"
 #include "cairn/nav/scan_obstacles.h"
@@ -194,7 +194,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
   auto planner = agent::NavMap::MakePlanner(options.nav_map, perception_options.map.resolution_m, start_M,
                                             {options.navigation.platform});
   agent::NavMap nav_map(options.nav_map, perception_options.map.resolution_m, start_M, planner, g_platform);
-  agent::Navigation navigation(options.navigation, planner,
+  nav::Navigation navigation(options.navigation, planner,
                                std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
   agent::LiveObstacles live_obstacles(options.navigation, options.obstacle_window_s,
                                       platform.Capabilities().lidar_min_elevation_rad);
@@ -255,7 +255,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
     }
     // Navigation, and the recovery tree when it gives up (as the agent's waypoint mode runs them), unless
     // --no-recovery.
-    agent::NavigationStep step;
+    nav::NavigationStep step;
     if (recovery.active()) {
       step = recovery.Step(pose, t);
       // An attempt's plan comes from a worker: wait for it in wall time (the robot holds still).
@@ -269,7 +269,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
         if (g_verbose) std::printf("  t %.1f recovery after: %s\n", t, step.reason.c_str());
         ++out.recoveries;
         recovery.Start(goal.x(), goal.y(), 0.0, step.reason, active_goal_z_m);
-        step = agent::NavigationStep{};
+        step = nav::NavigationStep{};
       }
     }
     platform.CommandTwist(step.linear_x_mps, step.angular_z_radps, t);
@@ -406,7 +406,7 @@ Outcome RunGroundTruth(const std::string& world_spec, const core::PlanarPose& st
   auto planner = std::make_shared<nav::GlobalPlanner>(
       world, std::vector<nav::PlatformProfile>{options.navigation.platform});
   const auto grid = planner->Grid("wheeled");
-  agent::Navigation navigation(options.navigation, planner,
+  nav::Navigation navigation(options.navigation, planner,
                                std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
   sim::Unicycle base(options.navigation.platform.limits, options.navigation.platform.footprint_radius_m);
   sim::UnicycleState s;
@@ -427,7 +427,7 @@ Outcome RunGroundTruth(const std::string& world_spec, const core::PlanarPose& st
                            options.navigation.sensor_range_m, &points_B);
       navigation.SetObstacles(points_B, base.state(), t);
     }
-    const agent::NavigationStep step = navigation.StepWaypoint(base.state(), t);
+    const nav::NavigationStep step = navigation.StepWaypoint(base.state(), t);
     out.contact = base.Step(step.linear_x_mps, step.angular_z_radps, kDt, *grid).contact || out.contact;
     out.time_s = t;
     if (step.arrived || step.failed) {

@@ -108,8 +108,9 @@ void Peer(const msgs::PeerState& m) {
   cairn::agent::PeerTracker tracker("r1", cairn::agent::PeerOptions{});
   (void)tracker.OnPeerState(cairn::agent::PeerFromMessage(m), 0.0);
   std::vector<Eigen::Vector3f> points_B;
-  cairn::agent::AppendPeerObstacles(tracker.Live(0.5), cairn::core::BaseState{}, 3.5, 0.3,
-                                    cairn::agent::PeerOptions{}, &points_B);
+  const std::vector<cairn::agent::Peer> live = tracker.Live(0.5);
+  cairn::nav::AppendPeerObstacles(std::vector<cairn::nav::PeerBody>(live.begin(), live.end()),
+                                  cairn::core::BaseState{}, 3.5, 0.3, cairn::nav::PeerAvoidanceOptions{}, &points_B);
 }
 
 // A yield request as a robot takes it (AgentDds's id check, YieldFromMessage, CheckYieldCommand), then the

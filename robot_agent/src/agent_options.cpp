@@ -35,7 +35,7 @@ using core::ConfigField;
 using core::ConfigSection;
 
 void ReadNavigation(const ConfigSection& config, AgentOptions* o) {
-  NavigationOptions& n = o->navigation;
+  nav::NavigationOptions& n = o->navigation;
   config.Section("navigation")
       .ReadFields({{"cruise_speed_mps", &n.platform.cruise_speed_mps},
                    {"goal_tolerance_m", &n.goal_tolerance_m},
@@ -144,10 +144,10 @@ void ReadTeam(const ConfigSection& config, const std::string& path, AgentOptions
   PeerOptions& peers = o->peers;
   config.Section("peers").ReadFields({{"rate_hz", &peers.rate_hz},
                                       {"timeout_s", &peers.timeout_s},
-                                      {"margin_m", &peers.margin_m},
-                                      {"prediction_s", &peers.prediction_s},
-                                      {"same_level_dz_m", &peers.same_level_dz_m},
-                                      {"avoid", &peers.avoid}});
+                                      {"margin_m", &peers.avoidance.margin_m},
+                                      {"prediction_s", &peers.avoidance.prediction_s},
+                                      {"same_level_dz_m", &peers.avoidance.same_level_dz_m},
+                                      {"avoid", &peers.avoidance.avoid}});
   ConvoyOptions& convoy = o->convoy;
   config.Section("convoy").ReadFields({{"spacing_m", &convoy.spacing_m},
                                        {"hold_band_m", &convoy.hold_band_m},

@@ -36,7 +36,7 @@
 #include "cairn/agent/modes/robot_modes.h"
 #include "cairn/agent/modes/waypoint_mode.h"
 #include "cairn/agent/services/nav_map.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/agent/services/perception_service.h"
 #include "cairn/agent/services/planning_service.h"
 #include "cairn/agent/services/trajectory_library_cache.h"
@@ -171,7 +171,7 @@ class RobotAgent::Impl {
   bool planning() const { return modes_->explore().planning() || modes_->missions().planning(); }
   bool stepped() const { return time_.lockstep.has_value(); }
   const RobotModes& modes() const { return *modes_; }
-  const Navigation& navigation() const { return navigation_; }
+  const nav::Navigation& navigation() const { return navigation_; }
   const NavMap& nav_map() const { return perception_->nav_map(); }
   bool restart_requested() const { return health_.restart_requested.load(); }
   // What of the threaded components' work did not stop when asked ("" = nothing). Their transitions' thread
@@ -256,7 +256,7 @@ class RobotAgent::Impl {
   CommandOutcome OnConvoy(const ConvoyCommand& c);
   // With mutex_ held: the robot as a yield, asked or asking, sees it at `now_s` with `live_peers` (which
   // outlive the answer).
-  YieldCoordination::Robot ForYield(double now_s, const std::vector<PeerBody>& live_peers) const {
+  YieldCoordination::Robot ForYield(double now_s, const std::vector<Peer>& live_peers) const {
     return {now_s, modes_->control().mode(), reading_.pose_M, &live_peers, team_.listening_to_peers};
   }
   // With mutex_ held: what the robot state reports now.
@@ -332,7 +332,7 @@ class RobotAgent::Impl {
     std::atomic<std::uint64_t> late_cycles{0};  // Run(): cycles started over half a period late
     int robots_on_link = 1;                     // ShareRadioLink()
   } loop_;
-  Navigation navigation_;
+  nav::Navigation navigation_;
   std::unique_ptr<PerceptionService> perception_;  // sensor, perception and navigation map threads
   // What this robot knows of its peers and owes them.
   struct Team {
@@ -604,7 +604,7 @@ CommandOutcome RobotAgent::Impl::OnConvoy(const ConvoyCommand& c) {
 }
 
 void RobotAgent::Impl::PublishPeerState() {
-  const PeerBody self = modes_->AsPeer(reading_.pose_M);
+  const Peer self = modes_->AsPeer(reading_.pose_M);
   cairn_msgs::PeerState m;
   m.robot_id(self.robot_id);
   m.platform(options_.navigation.platform.name);
@@ -662,7 +662,7 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   };
   // Peers' states need no agent lock either (PeerTracker has its own); at 5 Hz a bad one is named once per 5
   // s.
-  h.peer_state = [this](const PeerBody& peer) {
+  h.peer_state = [this](const Peer& peer) {
     const SteadyTime now = time_.clock->Now();
     const std::string refused = team_.peers.OnPeerState(peer, NowS(now));
     std::uint64_t suppressed = 0;
@@ -675,7 +675,7 @@ AgentDdsHandlers RobotAgent::Impl::DdsHandlers() {
   h.yield = [this](const YieldCommand& c, const YieldOrigin& origin, const std::string& fault) {
     std::lock_guard<std::mutex> guard(mutex_);
     const double now_s = NowS(time_.clock->Now());
-    const std::vector<PeerBody> live_peers = team_.peers.Live(now_s);
+    const std::vector<Peer> live_peers = team_.peers.Live(now_s);
     modes_->yielding().OnRequest(c, origin, fault, ForYield(now_s, live_peers));
   };
   h.map_sync = [this](const std::string& requester) {
@@ -777,9 +777,10 @@ bool RobotAgent::Impl::ReadPose(double now_s) {
 
 void RobotAgent::Impl::StepNavigation(SteadyTime now, const ModeInputs& inputs) {
   const double now_s = inputs.now_s;
-  const std::vector<PeerBody> live_peers = team_.peers.Live(now_s);
+  const std::vector<Peer> live_peers = team_.peers.Live(now_s);
   // Peers heard lately are obstacles too (added to the next live points: no robot drives into another).
-  navigation_.SetPeers(live_peers, team_.peers.options());
+  navigation_.SetPeers(std::vector<nav::PeerBody>(live_peers.begin(), live_peers.end()),
+                       team_.peers.options().avoidance);
   perception_->FeedObstacles(navigation_);  // obstacles from live lidar points, at the sensor's rate
   // A robot waiting on a goal (or between frontiers) watches the world.
   perception_->SetMapRefreshAtRest(modes_->waypoint().has_goal() || modes_->explore().exploring());
@@ -902,7 +903,7 @@ RobotAgent::Impl::CycleOutbox RobotAgent::Impl::LockedCycle(uint64_t cycle, Stea
                                                       modes_->yielding().waiting_to_hear_peers());
   if (modes_->yielding().waiting_to_hear_peers() && team_.listening_to_peers) {
     const double now_s = NowS(now);
-    const std::vector<PeerBody> live_peers = team_.peers.Live(now_s);
+    const std::vector<Peer> live_peers = team_.peers.Live(now_s);
     modes_->yielding().DecideWaitingRequest(ForYield(now_s, live_peers));
   }
   telemetry_->PublishTreeStateIfChanged();
@@ -1094,7 +1095,7 @@ void RobotAgent::Step(double now_s) {
 }
 bool RobotAgent::planning() const { return impl_->planning(); }
 const RobotModes& RobotAgent::modes() const { return impl_->modes(); }
-const Navigation& RobotAgent::navigation() const { return impl_->navigation(); }
+const nav::Navigation& RobotAgent::navigation() const { return impl_->navigation(); }
 const NavMap& RobotAgent::nav_map() const { return impl_->nav_map(); }
 bool RobotAgent::restart_requested() const { return impl_->restart_requested(); }
 

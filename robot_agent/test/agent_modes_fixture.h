@@ -37,7 +37,7 @@ struct Robot {
         planner(std::make_shared<nav::GlobalPlanner>(
             world ? world : std::make_shared<const sim::World>(nav::testing::FlatWorld(10, 8)),
             std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled")})),
-        navigation(NavigationOptions{}, planner, Library()),
+        navigation(nav::NavigationOptions{}, planner, Library()),
         modes(Options(robot_id), TreeFile(), &navigation, Hooks(), RobotModes::Ids::kFromOne),
         control(modes.control()),
         missions(modes.missions()),
@@ -99,7 +99,7 @@ struct Robot {
 
   std::string robot_id;
   std::shared_ptr<nav::GlobalPlanner> planner;
-  Navigation navigation;
+  nav::Navigation navigation;
   RobotModes modes;
   ModeControl& control;
   MissionResumption& missions;

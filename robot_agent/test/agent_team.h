@@ -43,14 +43,14 @@ class AgentTeam {
   /// (metres); `configure`, if set, edits each robot's options last, and `configure_sim` its simulated
   /// platform's (e.g. rockfalls). The operator takes every robot's lock.
   AgentTeam(const std::string& world, const std::vector<std::pair<std::string, core::PlanarPose>>& starts,
-            double peer_margin_m = PeerOptions{}.margin_m,
+            double peer_margin_m = nav::PeerAvoidanceOptions{}.margin_m,
             const std::function<void(AgentOptions*)>& configure = {},
             const std::function<void(sim::SimulatedPlatformOptions*)>& configure_sim = {}) {
     for (const auto& [id, start] : starts) {
       AgentOptions options;
       options.robot_id = id;
       options.SetPlatform("wheeled");
-      options.peers.margin_m = peer_margin_m;
+      options.peers.avoidance.margin_m = peer_margin_m;
       options.perception.camera_rate_hz = 0;  // nobody looks at the frames here
       if (configure) configure(&options);
       sim::SimulatedPlatformOptions sim_options;

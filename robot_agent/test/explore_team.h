@@ -168,7 +168,7 @@ inline TeamRun RunTeam(const TeamOptions& o) {
   std::vector<std::pair<std::string, core::PlanarPose>> starts;
   for (std::size_t i = 0; i < o.starts.size(); ++i)
     starts.emplace_back("r" + std::to_string(i + 1), o.starts[i]);
-  team_testing::AgentTeam team(o.world, starts, PeerOptions{}.margin_m,
+  team_testing::AgentTeam team(o.world, starts, nav::PeerAvoidanceOptions{}.margin_m,
                                [&](AgentOptions* options) { options->SetPlatform(o.platform); });
   for (std::size_t i = 0; i < team.size(); ++i) {
     const std::string refused = team.Explore(i, o.task);
@@ -177,7 +177,7 @@ inline TeamRun RunTeam(const TeamOptions& o) {
   // The floor coverage is scored over: the true world's cells classified by navigation's traversability
   // rules (what counts as a cell of floor), never a robot's map. Collisions are the simulator's own
   // (SimulatedPlatform::ground_truth).
-  const NavigationOptions& navigation = team.robot(0).navigation().options();
+  const nav::NavigationOptions& navigation = team.robot(0).navigation().options();
   nav::TraversabilityOptions floor_options = navigation.platform.traversability;
   floor_options.robot_radius_m = navigation.platform.footprint_radius_m;
   const auto truth =

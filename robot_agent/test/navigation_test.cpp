@@ -2,7 +2,7 @@
 // simulated platform, faster than real time and without DDS: waypoint missions on the real scan geb079.bt and
 // the built-in tunnels, the staircase for legged and wheeled robots, smart joystick at a wall and an
 // off-centre doorway, and replanning when the map changes under the path.
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 
 #include <gtest/gtest.h>
 
@@ -47,8 +47,8 @@ std::shared_ptr<const nav::TrajectoryLibrary> LibraryFor(const nav::PlatformProf
 // One robot: navigation + platform + stand-in obstacle sensor on the planner's grid.
 struct SimRobot {
   SimRobot(std::shared_ptr<const sim::World> world, const std::string& platform_name, double x, double y,
-           double yaw, double blocked_timeout_s = NavigationOptions{}.blocked_timeout_s,
-           double stall_timeout_s = NavigationOptions{}.stall_timeout_s)
+           double yaw, double blocked_timeout_s = nav::NavigationOptions{}.blocked_timeout_s,
+           double stall_timeout_s = nav::NavigationOptions{}.stall_timeout_s)
       : planner(std::make_shared<nav::GlobalPlanner>(
             world, std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled"),
                                                      nav::GetPlatformProfile("legged")})),
@@ -63,10 +63,10 @@ struct SimRobot {
     platform.set_state(s);
   }
 
-  static NavigationOptions MakeOptions(const std::string& platform_name,
-                                       double blocked_timeout_s = NavigationOptions{}.blocked_timeout_s,
-                                       double stall_timeout_s = NavigationOptions{}.stall_timeout_s) {
-    NavigationOptions o;
+  static nav::NavigationOptions MakeOptions(const std::string& platform_name,
+                                       double blocked_timeout_s = nav::NavigationOptions{}.blocked_timeout_s,
+                                       double stall_timeout_s = nav::NavigationOptions{}.stall_timeout_s) {
+    nav::NavigationOptions o;
     o.platform = nav::GetPlatformProfile(platform_name);
     o.blocked_timeout_s = blocked_timeout_s;
     o.stall_timeout_s = stall_timeout_s;
@@ -75,14 +75,14 @@ struct SimRobot {
 
   // Senses every 0.1 s, then runs one control step of `step` and the platform.
   template <class StepFn>
-  NavigationStep Tick(StepFn&& step) {
+  nav::NavigationStep Tick(StepFn&& step) {
     const auto grid = planner->Grid(options.platform.name);
     if (std::fmod(t_s + 1e-9, 0.1) < kDt) {
       const auto& s = platform.state();
       nav::LethalCellsNear(*grid, s.x_m, s.y_m, s.yaw_rad, options.sensor_range_m, &points_B);
       navigation.SetObstacles(points_B, s, t_s);
     }
-    const NavigationStep out = step();
+    const nav::NavigationStep out = step();
     const sim::UnicycleStepResult r = platform.Step(out.linear_x_mps, out.angular_z_radps, kDt, *grid);
     contacts += r.contact ? 1 : 0;
     const auto& s = platform.state();
@@ -108,15 +108,15 @@ struct SimRobot {
   }
 
   // Drives to (x, y) in waypoint mode; returns the final step (arrived or failed) or a timeout step.
-  NavigationStep DriveTo(double x, double y, double max_time_s) {
+  nav::NavigationStep DriveTo(double x, double y, double max_time_s) {
     const nav::GlobalPlan plan = navigation.SetGoal(platform.state(), x, y, 0.0, t_s);
     EXPECT_TRUE(plan.IsUsable()) << plan.reason;
     if (!plan.IsUsable()) return {};
     while (t_s < max_time_s) {
-      NavigationStep out = Tick([&] { return navigation.StepWaypoint(platform.state(), t_s); });
+      nav::NavigationStep out = Tick([&] { return navigation.StepWaypoint(platform.state(), t_s); });
       if (out.arrived || out.failed) return out;
     }
-    NavigationStep timeout;
+    nav::NavigationStep timeout;
     timeout.failed = true;
     timeout.reason = "test timeout; distance left " + std::to_string(navigation.distance_left_m()) +
                      ", local: " + navigation.local_status();
@@ -124,8 +124,8 @@ struct SimRobot {
   }
 
   std::shared_ptr<nav::GlobalPlanner> planner;
-  NavigationOptions options;
-  Navigation navigation;
+  nav::NavigationOptions options;
+  nav::Navigation navigation;
   sim::Unicycle platform;
   std::vector<Eigen::Vector3f> points_B;
   double t_s = 0.0;
@@ -136,26 +136,26 @@ struct SimRobot {
 
 TEST(NavigationOptionsTest, DefaultsAreValidAndBadValuesAreNamed) {
   std::string why;
-  EXPECT_TRUE(NavigationOptions{}.IsValid(&why)) << why;
-  NavigationOptions o;
+  EXPECT_TRUE(nav::NavigationOptions{}.IsValid(&why)) << why;
+  nav::NavigationOptions o;
   o.carrot_distance_m = -1;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("navigation.carrot_distance_m = -1"), std::string::npos) << why;
-  o = NavigationOptions{};
+  o = nav::NavigationOptions{};
   o.controller.horizon_steps = 0;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("controller: "), std::string::npos) << why;
   EXPECT_NE(why.find("horizon_steps"), std::string::npos) << why;
-  o = NavigationOptions{};
+  o = nav::NavigationOptions{};
   o.unmapped_goal_max_replans = 1001;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("navigation.unmapped_goal_max_replans = 1001 must be in [1, 1000]"), std::string::npos)
       << why;
-  o = NavigationOptions{};
+  o = nav::NavigationOptions{};
   o.unmapped_goal_timeout_s = 0;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("navigation.unmapped_goal_timeout_s = 0"), std::string::npos) << why;
-  o = NavigationOptions{};
+  o = nav::NavigationOptions{};
   o.max_hold_s = 4000;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("navigation.max_hold_s = 4000"), std::string::npos) << why;
@@ -165,7 +165,7 @@ TEST(NavigationTest, WaypointMissionInTheTunnelsArrivesWithoutContact) {
   auto world = std::make_shared<const sim::World>(sim::LoadWorld("builtin:tunnels"));
   SimRobot robot(world, "wheeled", 4.0, 20.0, 0.0);
   // Along the main tunnel, through the X junction, down the south branch.
-  const NavigationStep out = robot.DriveTo(30.0, 8.0, 120.0);
+  const nav::NavigationStep out = robot.DriveTo(30.0, 8.0, 120.0);
   EXPECT_TRUE(out.arrived) << out.reason;
   EXPECT_EQ(robot.contacts, 0);
   EXPECT_GT(robot.min_clearance_m, robot.options.platform.footprint_radius_m);
@@ -179,7 +179,7 @@ TEST(NavigationTest, WaypointMissionsAcrossGeb079ArriveWithoutContact) {
   CAIRN_SKIP_WITHOUT_GEB079();
   auto world = std::make_shared<const sim::World>(sim::LoadWorld(sim::testing::Geb079Path()));
   SimRobot robot(world, "wheeled", -4.0, 0.0, 0.0);
-  NavigationStep out = robot.DriveTo(24.0, 0.0, 120.0);
+  nav::NavigationStep out = robot.DriveTo(24.0, 0.0, 120.0);
   EXPECT_TRUE(out.arrived) << out.reason;
   out = robot.DriveTo(2.0, 0.0, 240.0);
   EXPECT_TRUE(out.arrived) << out.reason;
@@ -196,7 +196,7 @@ TEST(NavigationTest, WheeledRobotTurnsAroundAtADeadEnd) {
   FillBox(&w, {0.0, 3.2, 0.0}, {12.0, 4.0, 1.6});
   FillBox(&w, {11.0, 0.0, 0.0}, {12.0, 4.0, 1.6});
   SimRobot robot(std::make_shared<const sim::World>(std::move(w)), "wheeled", 10.0, 2.0, 0.0);
-  const NavigationStep out = robot.DriveTo(2.0, 2.0, 60.0);
+  const nav::NavigationStep out = robot.DriveTo(2.0, 2.0, 60.0);
   EXPECT_TRUE(out.arrived) << out.reason;
   EXPECT_EQ(robot.contacts, 0);
 }
@@ -204,7 +204,7 @@ TEST(NavigationTest, WheeledRobotTurnsAroundAtADeadEnd) {
 TEST(NavigationTest, LeggedRobotClimbsTheStaircaseAndWheeledIsRefused) {
   auto world = std::make_shared<const sim::World>(sim::LoadWorld("builtin:tunnels"));
   SimRobot legged(world, "legged", 48.0, 20.0, 0.0);
-  const NavigationStep out = legged.DriveTo(54.5, 23.8, 120.0);
+  const nav::NavigationStep out = legged.DriveTo(54.5, 23.8, 120.0);
   EXPECT_TRUE(out.arrived) << out.reason;
   EXPECT_NEAR(legged.platform.state().z_m, 1.0, 0.11);  // on top of the 1 m platform
   EXPECT_EQ(legged.contacts, 0);
@@ -230,7 +230,7 @@ TEST(NavigationTest, WaypointThroughAOneMetreDoorwayWithoutContact) {
   FillBox(&w, {5.0, 0.0, 0.0}, {5.2, 8.0, 1.6});
   FillBox(&w, {5.0, 4.4, 0.0}, {5.2, 5.4, 1.6}, false);  // 1.0 m door, centre y = 4.9
   SimRobot robot(std::make_shared<const sim::World>(std::move(w)), "wheeled", 2.0, 3.0, 0.0);
-  const NavigationStep out = robot.DriveTo(8.5, 4.9, 60.0);
+  const nav::NavigationStep out = robot.DriveTo(8.5, 4.9, 60.0);
   EXPECT_TRUE(out.arrived) << out.reason << "; local: " << robot.navigation.local_status();
   EXPECT_EQ(robot.contacts, 0);
   EXPECT_GT(robot.platform.state().x_m, 8.0);
@@ -265,7 +265,7 @@ TEST(NavigationTest, TheCarrotStaysInSightOfTheRobotAtADoorwayItOvershot) {
   EXPECT_GT(carrot.y(), 4.0) << "carrot (" << carrot.transpose() << ") behind the jamb";
   EXPECT_GE((carrot - Eigen::Vector2d(s.x_m, s.y_m)).norm(), 0.5 - 1e-6);
   // ... and the robot drives there and through the door.
-  const NavigationStep out = robot.DriveTo(3.1, 1.5, 40.0);
+  const nav::NavigationStep out = robot.DriveTo(3.1, 1.5, 40.0);
   EXPECT_TRUE(out.arrived) << out.reason << "; local: " << robot.navigation.local_status();
   EXPECT_EQ(robot.contacts, 0);
 }
@@ -335,7 +335,7 @@ TEST(NavigationTest, ReplansWhenTheMapChangesUnderThePath) {
   // A rockfall across the straight route ahead.
   FillBox(&w, {9.0, 2.0, 0.0}, {9.4, 8.0, 1.6});
   robot.planner->UpdateWorld(std::make_shared<const sim::World>(w));
-  NavigationStep out;
+  nav::NavigationStep out;
   while (robot.t_s < 60.0 && !out.arrived && !out.failed) {
     out = robot.Tick([&] { return robot.navigation.StepWaypoint(robot.platform.state(), robot.t_s); });
   }
@@ -350,7 +350,7 @@ TEST(NavigationTest, FailsWhenTheMapChangeLeavesNoPath) {
   ASSERT_TRUE(robot.navigation.SetGoal(robot.platform.state(), 15.0, 4.0, 0.0, 0.0).IsUsable());
   FillBox(&w, {9.0, 0.0, 0.0}, {9.4, 8.0, 1.6});
   robot.planner->UpdateWorld(std::make_shared<const sim::World>(w));
-  NavigationStep out;
+  nav::NavigationStep out;
   while (robot.t_s < 5.0 && !out.failed) {
     out = robot.Tick([&] { return robot.navigation.StepWaypoint(robot.platform.state(), robot.t_s); });
   }
@@ -371,7 +371,7 @@ TEST(NavigationTest, StaleObstacleInputBrakesFirstAndIsLostLater) {
   EXPECT_FALSE(robot.navigation.LocalPlannerHealthy(2.0, &why));
   EXPECT_EQ(why, "obstacle input is 2.00 s old (limit 1.00 s)");
   EXPECT_TRUE(robot.navigation.ObstacleSensingAlive(2.0, &why));
-  const NavigationStep braking = robot.navigation.StepWaypoint(robot.platform.state(), 2.0);
+  const nav::NavigationStep braking = robot.navigation.StepWaypoint(robot.platform.state(), 2.0);
   EXPECT_FALSE(braking.failed) << braking.reason;
   EXPECT_NEAR(braking.linear_x_mps, 0.0, 1e-9);
   EXPECT_FALSE(robot.navigation.ObstacleSensingAlive(3.5, &why));
@@ -386,7 +386,7 @@ TEST(NavigationTest, StopsWithoutObstacleInput) {
   std::string why;
   EXPECT_FALSE(robot.navigation.LocalPlannerHealthy(0.0, &why));
   EXPECT_EQ(why, "no obstacle input yet");
-  const NavigationStep out = robot.navigation.StepWaypoint(robot.platform.state(), 0.0);
+  const nav::NavigationStep out = robot.navigation.StepWaypoint(robot.platform.state(), 0.0);
   EXPECT_NEAR(out.linear_x_mps, 0.0, 1e-9);
   EXPECT_EQ(robot.navigation.local_status(), "stopped: no fresh obstacle input");
 }
@@ -397,7 +397,7 @@ TEST(NavigationTest, StopsWithoutObstacleInput) {
 // obstacle memory and retries (the ghost is still there: attempt 1 fails), backs up and retries after the
 // ghost has left (attempt 2 arrives).
 struct GhostRobot {
-  explicit GhostRobot(double blocked_timeout_s, double stall_timeout_s = NavigationOptions{}.stall_timeout_s)
+  explicit GhostRobot(double blocked_timeout_s, double stall_timeout_s = nav::NavigationOptions{}.stall_timeout_s)
       : world(std::make_shared<const sim::World>(FlatWorld(16.0, 8.0, 0.1, 2.0))),
         robot(world, "wheeled", 3.0, 4.0, 0.0, blocked_timeout_s, stall_timeout_s),
         recovery(std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml", &robot.navigation,
@@ -412,7 +412,7 @@ struct GhostRobot {
   }
 
   // One 50 Hz step: senses (ghost included while ghost_present) every 0.1 s, then navigation or recovery.
-  NavigationStep Tick() {
+  nav::NavigationStep Tick() {
     const auto& s = robot.platform.state();
     if (std::fmod(robot.t_s + 1e-9, 0.1) < kDt) {
       std::vector<Eigen::Vector3f> points_B;
@@ -427,7 +427,7 @@ struct GhostRobot {
       }
       robot.navigation.SetObstacles(points_B, s, robot.t_s);
     }
-    NavigationStep step;
+    nav::NavigationStep step;
     if (recovery.active()) {
       step = recovery.Step(s, robot.t_s);
       // The plan of an attempt comes from a worker thread: wait for it in wall time (the robot holds
@@ -442,7 +442,7 @@ struct GhostRobot {
       if (step.failed) {
         first_failure = step.reason;
         recovery.Start(goal.x(), goal.y(), 0.0, step.reason);
-        step = NavigationStep{};
+        step = nav::NavigationStep{};
       }
     }
     const sim::UnicycleStepResult r =
@@ -468,7 +468,7 @@ TEST(WaypointRecoveryTest, ABoxedInRobotRecoversByClearingBackingUpAndRetrying) 
   ASSERT_TRUE(g.recovery.enabled());
   ASSERT_TRUE(
       g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
-  NavigationStep step;
+  nav::NavigationStep step;
   double backed_up_from_x = 0.0;
   bool saw_attempt_1 = false;
   while (g.robot.t_s < 60.0 && !step.arrived && !step.failed) {
@@ -496,7 +496,7 @@ TEST(WaypointRecoveryTest, AGhostThatStaysFailsTheGoalWithEveryAttemptAndTheRobo
   GhostRobot g(2.0);
   ASSERT_TRUE(
       g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
-  NavigationStep step;
+  nav::NavigationStep step;
   while (g.robot.t_s < 120.0 && !step.arrived && !step.failed) step = g.Tick();
   ASSERT_TRUE(step.failed) << "arrived through a ghost?";
   std::printf("recovery failed after %.1f s: %s\n", g.robot.t_s, step.reason.c_str());
@@ -511,9 +511,9 @@ TEST(WaypointRecoveryTest, AGhostThatStaysFailsTheGoalWithEveryAttemptAndTheRobo
   EXPECT_EQ(g.robot.contacts, 0);
   // Sent elsewhere (back the way it came, where no ghost stands), it goes.
   g.goal = Eigen::Vector2d(1.0, 4.0);
-  const NavigationStep back = [&] {
+  const nav::NavigationStep back = [&] {
     EXPECT_TRUE(g.robot.navigation.SetGoal(g.robot.platform.state(), 1.0, 4.0, 0.0, g.robot.t_s).IsUsable());
-    NavigationStep s;
+    nav::NavigationStep s;
     const double until = g.robot.t_s + 40.0;
     while (g.robot.t_s < until && !s.arrived && !s.failed) s = g.Tick();
     return s;
@@ -528,7 +528,7 @@ TEST(WaypointRecoveryTest, AnAttemptWhoseGoalIsAbandonedEndsTheRecovery) {
   ASSERT_TRUE(g.recovery.enabled());
   ASSERT_TRUE(
       g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
-  NavigationStep step;
+  nav::NavigationStep step;
   double held_from_s = -1.0;
   while (g.robot.t_s < 300.0 && !step.arrived && !step.failed) {
     if (held_from_s < 0 && g.report.find("attempt 1 ") != std::string::npos) held_from_s = g.robot.t_s;
@@ -545,7 +545,7 @@ TEST(WaypointRecoveryTest, AnAttemptWhoseGoalIsAbandonedEndsTheRecovery) {
             std::string::npos)
       << step.reason;
   EXPECT_EQ(step.reason.find("attempt 3"), std::string::npos) << step.reason;
-  EXPECT_LT(g.robot.t_s - held_from_s, NavigationOptions{}.max_hold_s + 5.0);
+  EXPECT_LT(g.robot.t_s - held_from_s, nav::NavigationOptions{}.max_hold_s + 5.0);
 }
 
 // A robot that does not move loses its goal after stall_timeout_s whatever else navigation counts as
@@ -555,9 +555,9 @@ TEST(NavigationTest, ARobotThatDoesNotMoveStallsWhateverItsPlansDo) {
   GhostRobot g(/*blocked_timeout_s=*/600.0, /*stall_timeout_s=*/20.0);
   ASSERT_TRUE(
       g.robot.navigation.SetGoal(g.robot.platform.state(), g.goal.x(), g.goal.y(), 0.0, 0.0).IsUsable());
-  NavigationStep step;
+  nav::NavigationStep step;
   while (g.robot.t_s < 60.0 && !step.failed && !step.arrived) {
-    step = g.robot.Tick([&] { return NavigationStep{}; });  // a body that never moves
+    step = g.robot.Tick([&] { return nav::NavigationStep{}; });  // a body that never moves
     if (!step.failed) step = g.robot.navigation.StepWaypoint(g.robot.platform.state(), g.robot.t_s);
   }
   ASSERT_TRUE(step.failed);
@@ -570,12 +570,12 @@ TEST(NavigationTest, ARobotThatDoesNotMoveStallsWhateverItsPlansDo) {
 // options' one; the next goal without one has the options' again.
 TEST(NavigationTest, AGoalsOwnStallTimeoutReplacesTheOptions) {
   GhostRobot g(/*blocked_timeout_s=*/600.0, /*stall_timeout_s=*/20.0);
-  Navigation& navigation = g.robot.navigation;
+  nav::Navigation& navigation = g.robot.navigation;
   const auto run_until_failed = [&g, &navigation] {
     const double start_s = g.robot.t_s;
-    NavigationStep step;
+    nav::NavigationStep step;
     while (g.robot.t_s - start_s < 60.0 && !step.failed && !step.arrived) {
-      step = g.robot.Tick([&] { return NavigationStep{}; });  // a body that never moves
+      step = g.robot.Tick([&] { return nav::NavigationStep{}; });  // a body that never moves
       if (!step.failed) step = navigation.StepWaypoint(g.robot.platform.state(), g.robot.t_s);
     }
     return std::make_pair(step, g.robot.t_s - start_s);
@@ -601,8 +601,8 @@ TEST(NavigationTest, AGoalsOwnStallTimeoutReplacesTheOptions) {
 
 // Peers: each robot is told where the other is (PeerTracker::Live() as the agent would, here every
 // 0.2 s as at peers.rate_hz 5) and keeps clear of it; a simulated robot's lidar never sees another robot.
-PeerBody PeerOf(const std::string& id, const SimRobot& robot) {
-  PeerBody peer;
+nav::PeerBody PeerOf(const std::string& id, const SimRobot& robot) {
+  nav::PeerBody peer;
   peer.robot_id = id;
   const sim::UnicycleState& s = robot.platform.state();
   peer.pose_M.x_m = s.x_m;
@@ -611,7 +611,6 @@ PeerBody PeerOf(const std::string& id, const SimRobot& robot) {
   peer.pose_M.yaw_rad = s.yaw_rad;
   peer.pose_M.v_mps = s.v_mps;
   peer.footprint_radius_m = robot.options.platform.footprint_radius_m;
-  peer.mode = "waypoint";
   return peer;
 }
 
@@ -631,11 +630,11 @@ TEST(NavigationPeersTest, ARobotParkedInANarrowCorridorIsNeverDrivenInto) {
     SCOPED_TRACE(told ? "told of the peer" : "not told");
     SimRobot mover(world, "wheeled", 2.0, 3.0, 0.0, /*blocked_timeout_s=*/8.0);
     SimRobot parked(world, "wheeled", 10.0, 3.0, 0.0);
-    const PeerOptions options;
+    const nav::PeerAvoidanceOptions options;
     const nav::GlobalPlan plan = mover.navigation.SetGoal(mover.platform.state(), 18.0, 3.0, 0.0, mover.t_s);
     ASSERT_TRUE(plan.IsUsable()) << plan.reason;
     double closest_m = 1e9;
-    NavigationStep out;
+    nav::NavigationStep out;
     while (mover.t_s < 40.0 && !out.arrived && !out.failed) {
       if (told) mover.navigation.SetPeers({PeerOf("parked", parked)}, options);
       out = mover.Tick([&] { return mover.navigation.StepWaypoint(mover.platform.state(), mover.t_s); });
@@ -662,9 +661,9 @@ TEST(NavigationPeersTest, TwoRobotsMeetingHeadOnPassWithoutTouching) {
   SimRobot b(world, "wheeled", 18.0, 3.1, M_PI);
   ASSERT_TRUE(a.navigation.SetGoal(a.platform.state(), 18.0, 3.0, 0.0, a.t_s).IsUsable());
   ASSERT_TRUE(b.navigation.SetGoal(b.platform.state(), 2.0, 3.1, 0.0, b.t_s).IsUsable());
-  const PeerOptions options;
+  const nav::PeerAvoidanceOptions options;
   double closest_m = 1e9;
-  NavigationStep out_a, out_b;
+  nav::NavigationStep out_a, out_b;
   int cycle = 0;
   while (a.t_s < 60.0 && b.t_s < 60.0 && !(out_a.arrived && out_b.arrived) && !out_a.failed &&
          !out_b.failed) {

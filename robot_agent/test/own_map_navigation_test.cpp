@@ -29,7 +29,7 @@ using team_testing::MapGoal;
 // avoids it, the path is replanned around it, with no contact.
 TEST(OwnMapNavigationTest, AGoalInUnknownSpaceIsReachedAroundARockfall) {
   AgentTeam team(
-      "builtin:tunnels", {{"r1", {4.0, 20.0, 0.0}}}, PeerOptions{}.margin_m,
+      "builtin:tunnels", {{"r1", {4.0, 20.0, 0.0}}}, nav::PeerAvoidanceOptions{}.margin_m,
       [](AgentOptions* options) { options->nav_map.half_extent_m = 10.0; },
       [](sim::SimulatedPlatformOptions* sim) {
         sim->rockfalls = sim::ParseRockfalls("6:14,18.3,15.5,20.4,1.2");
@@ -64,7 +64,7 @@ TEST(OwnMapNavigationTest, AGoalInUnknownSpaceIsReachedAroundARockfall) {
 TEST(OwnMapNavigationTest, ABoxedInRobotRecoversAndPassesAOneMetreDoorway) {
   // The doorway at x = 9.1 in the corridor's south wall (y 5.8-6.0), the rock 0.15 m beyond it each side;
   // the robot in the room south of the corridor (x 6.2-12.0, y 0.2-5.8), facing the doorway.
-  AgentTeam team("builtin:building", {{"r1", {9.1, 0.8, 1.5708}}}, PeerOptions{}.margin_m, {},
+  AgentTeam team("builtin:building", {{"r1", {9.1, 0.8, 1.5708}}}, nav::PeerAvoidanceOptions{}.margin_m, {},
                  [](sim::SimulatedPlatformOptions* sim) {
                    sim->rockfalls = sim::ParseRockfalls("near4.3:8.5,5.65,9.7,6.15,1.0:+4");
                  });
@@ -93,7 +93,7 @@ TEST(OwnMapNavigationTest, ABoxedInRobotRecoversAndPassesAOneMetreDoorway) {
 // the foot of the switchback stairwell it climbs with partial plans that grow with its map and arrives on
 // floor 2 without touching a wall. (The wheeled robot's refusal: stepped_agent_test.cpp.)
 TEST(OwnMapNavigationTest, ALeggedRobotReachesTheFloorAboveUpTheStairwell) {
-  AgentTeam team("builtin:building", {{"r1", {14.0, 7.1, 0.0}}}, PeerOptions{}.margin_m,
+  AgentTeam team("builtin:building", {{"r1", {14.0, 7.1, 0.0}}}, nav::PeerAvoidanceOptions{}.margin_m,
                  [](AgentOptions* options) { options->SetPlatform("legged"); });
   // To the foot of the stairwell, through its 1.2 m entrance.
   ASSERT_EQ(team.Ask(0, MapGoal(19.0, 6.5)), "");

@@ -29,7 +29,7 @@ struct Fixture {
       : planner(std::make_shared<nav::GlobalPlanner>(
             std::make_shared<const sim::World>(nav::testing::FlatWorld(10, 8)),
             std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled")})),
-        navigation(NavigationOptions{}, planner, mode_testing::Library()),
+        navigation(nav::NavigationOptions{}, planner, mode_testing::Library()),
         waypoint(Options(), &navigation, nullptr) {
     start.x_m = 1.0;
     start.y_m = 2.0;
@@ -51,7 +51,7 @@ struct Fixture {
   }
 
   std::shared_ptr<nav::GlobalPlanner> planner;
-  Navigation navigation;
+  nav::Navigation navigation;
   WaypointMode waypoint;
   core::BaseState start;
 };
@@ -139,12 +139,12 @@ TEST(WaypointMode, ContactLongerThanTheTimeoutFailsTheGoal) {
 // A goal navigation abandons (a peer held the robot for max_hold_s) fails at once: the recovery tree, though
 // loaded, does not retry it.
 TEST(WaypointMode, AnAbandonedGoalIsNotRecovered) {
-  NavigationOptions options;
+  nav::NavigationOptions options;
   options.max_hold_s = 5.0;
   const auto planner = std::make_shared<nav::GlobalPlanner>(
       std::make_shared<const sim::World>(nav::testing::FlatWorld(10, 8)),
       std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled")});
-  Navigation navigation(options, planner, mode_testing::Library());
+  nav::Navigation navigation(options, planner, mode_testing::Library());
   WaypointMode waypoint(Fixture::Options(), &navigation,
                         std::make_unique<WaypointRecovery>(std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml",
                                                            &navigation, WaypointRecovery::Hooks{}));

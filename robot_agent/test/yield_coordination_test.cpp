@@ -40,8 +40,8 @@ YieldOrigin FromAPeer() {
   return o;
 }
 
-PeerBody Ya() {
-  PeerBody p;
+Peer Ya() {
+  Peer p;
   p.robot_id = "ya";
   p.pose_M = Robot::At(4.0, 5.0);
   p.footprint_radius_m = 0.3;
@@ -53,13 +53,13 @@ PeerBody Ya() {
 struct Yb {
   Yb() : robot(Narrow(), "yb", Robot::At(14.0, 5.0)), yielding(robot.modes.yielding()) {}
   // yb as the agent sees it at `now_s`, hearing `peers` (kept here while it is used).
-  YieldCoordination::Robot At(double now_s, std::vector<PeerBody> peers, bool listening = true) {
+  YieldCoordination::Robot At(double now_s, std::vector<Peer> peers, bool listening = true) {
     heard = std::move(peers);
     return {now_s, robot.control.mode(), robot.pose_M, &heard, listening};
   }
   Robot robot;
   YieldCoordination& yielding;
-  std::vector<PeerBody> heard;
+  std::vector<Peer> heard;
 };
 
 TEST(YieldCoordination, ARequestBeforeThePeersAreReadWaitsUntilTheyCouldBeHeardThenYbStandsAside) {

@@ -7,8 +7,8 @@
 namespace cairn::agent {
 namespace {
 
-PeerBody Heard(const std::string& id) {
-  PeerBody p;
+Peer Heard(const std::string& id) {
+  Peer p;
   p.robot_id = id;
   return p;
 }
@@ -41,7 +41,7 @@ TEST(CheckYieldSender, APassingRobotNotHeardIsRefusedWhoeverAsks) {
 }
 
 TEST(CheckYieldSender, AHeardRobotAsksOnlyForItselfFromItsOwnProcess) {
-  const std::vector<PeerBody> heard = {Heard("r2"), Heard("r3")};
+  const std::vector<Peer> heard = {Heard("r2"), Heard("r3")};
   EXPECT_EQ(CheckYieldSender("r1", Ask("r2", "r2"), PeerRobot(), heard), "");
   EXPECT_NE(CheckYieldSender("r1", Ask("r2", "r3"), PeerRobot(), heard)
                 .find("r2 may ask only for itself, not for r3"),
@@ -54,7 +54,7 @@ TEST(CheckYieldSender, AHeardRobotAsksOnlyForItselfFromItsOwnProcess) {
 }
 
 TEST(CheckYieldSender, ABasestationMustBeAllowedToCommandTheRobot) {
-  const std::vector<PeerBody> heard = {Heard("r2")};
+  const std::vector<Peer> heard = {Heard("r2")};
   YieldOrigin announced;
   announced.announced_base = true;
   EXPECT_EQ(CheckYieldSender("r1", Ask("opA", "r2"), announced, heard), "");  // no security: every base may

@@ -146,8 +146,8 @@ TEST(YieldPolicyTest, AnIdleRobotStandsAsideInTheBayAndOneInManualControlRefuses
       << none.refusal;
 }
 
-PeerBody Parked(const std::string& id, double x, double y) {
-  PeerBody p;
+Peer Parked(const std::string& id, double x, double y) {
+  Peer p;
   p.robot_id = id;
   p.pose_M = At(x, y);
   p.footprint_radius_m = 0.3;
@@ -155,7 +155,7 @@ PeerBody Parked(const std::string& id, double x, double y) {
   return p;
 }
 
-YieldAskInputs Driving(double x, const std::vector<PeerBody>& peers, double now_s) {
+YieldAskInputs Driving(double x, const std::vector<Peer>& peers, double now_s) {
   YieldAskInputs in;
   in.pose_M = At(x, 5.0);
   in.radius_m = 0.3;
@@ -173,7 +173,7 @@ YieldAskInputs Driving(double x, const std::vector<PeerBody>& peers, double now_
 TEST(YieldAskerTest, AsksAParkedPeerInANarrowPassageHoldsBeforeItAndReportsARefusal) {
   const YieldOptions options;
   YieldAsker asker(options, "ya");
-  PeerBody yb = Parked("yb", 14.0, 5.0);
+  Peer yb = Parked("yb", 14.0, 5.0);
   YieldAsk ask = asker.Update(Driving(4.0, {yb}, 0.0));
   EXPECT_FALSE(ask.request) << "10 m ahead: beyond lookahead_m (8 m)";
   ask = asker.Update(Driving(7.0, {yb}, 1.0));
@@ -210,7 +210,7 @@ TEST(YieldAskerTest, AsksAParkedPeerInANarrowPassageHoldsBeforeItAndReportsARefu
   EXPECT_TRUE(ask.request)
       << "aside for ya but still on its route (its route changed): asked again, to move on";
   EXPECT_FALSE(ask.hold_reason.empty());
-  PeerBody in_bay = Parked("yb", 20.0, 7.0);
+  Peer in_bay = Parked("yb", 20.0, 7.0);
   in_bay.yield_state = "aside";
   in_bay.yield_to_id = "ya";
   EXPECT_TRUE(asker.Update(Driving(12.0, {in_bay}, 16.0)).hold_reason.empty())
@@ -309,7 +309,7 @@ TEST(YieldTest, ARobotStoppedShortOfItsSpotWaitsThereAndReturns) {
   const Eigen::Vector2d parked(team.truth(0).x_m, team.truth(0).y_m);
   // ya is not stepped here: its link sends what it would (a robot yields only to a robot it hears).
   const std::shared_ptr<InProcessLink> ya = team.links().Join("ya");
-  PeerBody ya_state;
+  Peer ya_state;
   ya_state.robot_id = "ya";
   ya_state.pose_M.x_m = 12.0;
   ya_state.pose_M.y_m = 5.0;
@@ -401,7 +401,7 @@ struct ForgedBlockRun {
   double ended_s = -1.0;  // since the goto
 };
 ForgedBlockRun RunForgedBlock(double max_hold_s, double silent_after_s) {
-  AgentTeam team("builtin:narrow", {{"ya", {4.0, 5.0, 0.0}}}, PeerOptions{}.margin_m,
+  AgentTeam team("builtin:narrow", {{"ya", {4.0, 5.0, 0.0}}}, nav::PeerAvoidanceOptions{}.margin_m,
                  [&](AgentOptions* options) { options->navigation.max_hold_s = max_hold_s; });
   const RobotModes& ya = team.modes(0);
   const std::shared_ptr<InProcessLink> r9 = team.links().Join("r9");  // sends states, answers nothing

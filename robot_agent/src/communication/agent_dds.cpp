@@ -766,8 +766,8 @@ YieldCommand YieldFromMessage(const msgs::YieldRequest& m, std::string* fault) {
   return c;
 }
 
-PeerBody PeerFromMessage(const msgs::PeerState& m) {
-  PeerBody peer;
+Peer PeerFromMessage(const msgs::PeerState& m) {
+  Peer peer;
   peer.robot_id = m.robot_id();
   peer.pose_M.x_m = m.x_MB_m();
   peer.pose_M.y_m = m.y_MB_m();

@@ -54,7 +54,7 @@ bool InProcessLink::Publish(const cairn_msgs::PeerState& state) {
   return true;
 }
 
-void InProcessLink::SendPeerState(const PeerBody& peer) {
+void InProcessLink::SendPeerState(const Peer& peer) {
   Count(kTeam);
   team_->DeliverPeerState(*this, peer);
 }
@@ -127,7 +127,7 @@ void InProcessTeam::DeliverClaim(const InProcessLink& from, const ExploreClaim& 
   }
 }
 
-void InProcessTeam::DeliverPeerState(const InProcessLink& from, const PeerBody& peer) {
+void InProcessTeam::DeliverPeerState(const InProcessLink& from, const Peer& peer) {
   for (InProcessLink* link : links_) {
     if (link != &from && link->listening_to_peers_ && link->listening() != nullptr &&
         Hears(link->robot_id(), from.robot_id()))

@@ -133,7 +133,7 @@ void SetMission(const RobotStateInputs& in, msgs::RobotState* state) {
 
 Telemetry::Telemetry(const AgentOptions& options, AgentLink* link, const ModeControl* modes,
                      const WaypointMode* waypoint, const ExploreMode* explore, const ConvoyMode* convoy,
-                     const Navigation* navigation, CommandInterface* command)
+                     const nav::Navigation* navigation, CommandInterface* command)
     : robot_id_(options.robot_id),
       platform_(options.platform),
       nav_platform_(options.navigation.platform.name),

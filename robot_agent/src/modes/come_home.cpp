@@ -12,10 +12,10 @@ ComeHome::ComeHome(std::string robot_id, const core::BaseState& start_M)
     : robot_id_(std::move(robot_id)), start_M_(start_M) {}
 
 void ComeHome::Step(
-    double silence_s, const core::BaseState& pose_M, ExploreMode& explore, Navigation& navigation,
+    double silence_s, const core::BaseState& pose_M, ExploreMode& explore, nav::Navigation& navigation,
     const std::function<GoalStart(const nav::GlobalPlan& plan, const core::BaseState& goal_M)>& start_goal) {
   if (plan_.valid()) {
-    if (PlanRunning(plan_)) return;
+    if (nav::PlanRunning(plan_)) return;
     const nav::GlobalPlan plan = plan_.get();
     if (!plan.IsUsable()) {
       spdlog::error("robot {}: no way back to its start ({:.2f}, {:.2f}): {}; it stays here", robot_id_,
@@ -39,7 +39,7 @@ void ComeHome::Step(
   plan_ = navigation.PlanGoalAsync(pose_M, start_M_.x_m, start_M_.y_m, start_M_.z_m);
 }
 
-void ComeHome::Abandon(Navigation& navigation) {
+void ComeHome::Abandon(nav::Navigation& navigation) {
   if (plan_.valid()) navigation.Abandon(std::move(plan_));
 }
 

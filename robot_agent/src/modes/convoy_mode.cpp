@@ -31,7 +31,7 @@ const char* ToString(ConvoyStatus::State state) {
 
 namespace {
 
-Navigation* Required(Navigation* navigation) {
+nav::Navigation* Required(nav::Navigation* navigation) {
   if (navigation == nullptr) throw std::invalid_argument("ConvoyMode: navigation is null");
   return navigation;
 }
@@ -41,7 +41,7 @@ constexpr double kBlockedRetryM = 1.0;
 
 }  // namespace
 
-ConvoyMode::ConvoyMode(const ConvoyOptions& options, double channel_timeout_s, Navigation* navigation)
+ConvoyMode::ConvoyMode(const ConvoyOptions& options, double channel_timeout_s, nav::Navigation* navigation)
     : ModeModule(kName, MuxChannelOptions{kChannel, channel_timeout_s}),
       options_(options),
       navigation_(Required(navigation)),
@@ -75,18 +75,18 @@ std::string ConvoyMode::Start(const std::string& own_id, const std::vector<std::
   return "";
 }
 
-void ConvoyMode::SetPeers(const std::vector<PeerBody>& peers, double now_s) {
+void ConvoyMode::SetPeers(const std::vector<Peer>& peers, double now_s) {
   if (!active()) return;
-  auto heard = [&](const std::string& id) -> const PeerBody* {
-    auto it = std::find_if(peers.begin(), peers.end(), [&](const PeerBody& p) { return p.robot_id == id; });
+  auto heard = [&](const std::string& id) -> const Peer* {
+    auto it = std::find_if(peers.begin(), peers.end(), [&](const Peer& p) { return p.robot_id == id; });
     return it == peers.end() ? nullptr : &*it;
   };
-  const PeerBody* ahead = heard(status_.ahead_id);
+  const Peer* ahead = heard(status_.ahead_id);
   if (ahead == nullptr && status_.state == ConvoyStatus::State::kLost) {
     // The robot followed is lost: the nearest one further ahead that is heard, if any, drove the same trail.
     std::vector<std::string>& ids = status_.ahead_ids;  // ids.front() is the one followed
     for (std::size_t k = 1; k < ids.size(); ++k) {
-      if (const PeerBody* further = heard(ids[k])) {
+      if (const Peer* further = heard(ids[k])) {
         skipped_ += static_cast<int>(k);
         status_.reason = "re-linked to " + ids[k] + ": " + status_.ahead_id + " was not heard (keeping " +
                          core::Fixed(options_.spacing_m * (skipped_ + 1), 1) + " m: it may still be in line)";
@@ -155,13 +155,13 @@ ModeOutput ConvoyMode::Step(const ModeInputs& in) {
   }
   if (!has_goal_ || !navigation_->has_goal() || (target - goal_M_).norm() >= kRefreshM) {
     navigation_->AcceptGoal(
-        PlanAlong(decision.path_M, navigation_->global_plan().map_version, "the trail of the robot ahead"),
+        nav::PlanAlong(decision.path_M, navigation_->global_plan().map_version, "the trail of the robot ahead"),
         target.x(), target.y(), 0.0, in.now_s);
     goal_serial_ = navigation_->goal_serial();
     goal_M_ = target;
     has_goal_ = true;
   }
-  const NavigationStep step =
+  const nav::NavigationStep step =
       navigation_->StepWaypoint(s, in.now_s, decision.speed_mps, /*follow_path=*/true);
   if (step.failed) {
     blocked_at_M_ = target;

@@ -91,7 +91,7 @@ const ExploreModeOptions& Checked(const ExploreModeOptions& options) {
 
 }  // namespace
 
-ExploreMode::ExploreMode(ExploreModeOptions options, Navigation* navigation,
+ExploreMode::ExploreMode(ExploreModeOptions options, nav::Navigation* navigation,
                          std::unique_ptr<WaypointRecovery> recovery)
     : ModeModule(kName, MuxChannelOptions{kChannel, Checked(options).channel_timeout_s}),
       options_(std::move(options)),
@@ -175,7 +175,7 @@ std::optional<ExploreClaim> DueClaim(const ExploreMode& mode, ExploreTeam& team,
 }
 
 bool ExploreMode::planning() const {
-  return PlanRunning(plan_) || (recovery_ && recovery_->planning()) || navigation_->replanning();
+  return nav::PlanRunning(plan_) || (recovery_ && recovery_->planning()) || navigation_->replanning();
 }
 
 void ExploreMode::DropTarget() {
@@ -319,7 +319,7 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
     status_.reason = "the frontier at " + Point(target) + " is " + by + "'s (claimed first)";
     spdlog::info("robot {}: exploration {}: {}", options_.robot_id, status_.task_id, status_.reason);
   }
-  if (PlanReady(plan_)) {
+  if (nav::PlanReady(plan_)) {
     const nav::GlobalPlan plan = plan_.get();
     plan_ = {};
     if (plan.IsUsable()) {
@@ -333,7 +333,7 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
     }
   }
   if (driving_) {
-    NavigationStep step;
+    nav::NavigationStep step;
     if (recovery_ && recovery_->active()) {
       step = recovery_->Step(in.pose_M, in.now_s);
       if (recovery_->active()) status_.reason = "recovering: " + recovery_->Report();
@@ -358,7 +358,7 @@ ModeOutput ExploreMode::Step(const ModeInputs& in) {
         recovery_->Start(status_.target_M.x(), status_.target_M.y(), options_.target_tolerance_m, step.reason,
                          goal_z_m_);
         status_.reason = "recovering: " + recovery_->Report();
-        step = NavigationStep{};  // brake this cycle; the recovery tree runs from the next
+        step = nav::NavigationStep{};  // brake this cycle; the recovery tree runs from the next
       }
     }
     if (step.arrived) {

@@ -119,7 +119,7 @@ void MissionResumption::Refused(const PausedMission& paused, const std::string& 
 }
 
 void MissionResumption::StartPlannedGoal(double now_s, const PausedMission& paused) {
-  if (PlanRunning(resume_plan_)) return;
+  if (nav::PlanRunning(resume_plan_)) return;
   const nav::GlobalPlan plan = resume_plan_.get();
   if (!plan.IsUsable()) {
     keeper_.SetReason("no path from here yet: " + plan.reason);  // the map may still be coming back
@@ -137,7 +137,7 @@ void MissionResumption::StartPlannedGoal(double now_s, const PausedMission& paus
 }
 
 void MissionResumption::Step(double now_s, const core::BaseState& pose_M,
-                             const std::vector<PeerBody>& live_peers, std::uint64_t mission_commands,
+                             const std::vector<Peer>& live_peers, std::uint64_t mission_commands,
                              const std::function<bool()>& goal_acceptable) {
   YieldMode& yield = *modes_.yield;
   if (yield.TakeFinished()) {

@@ -24,7 +24,7 @@ void ManualMode::OnOperatorTwist(const OperatorTwist& twist_B, core::SteadyTime 
   has_stick_ = true;
 }
 
-SmartJoystickMode::SmartJoystickMode(Navigation* navigation, double channel_timeout_s, double stick_timeout_s)
+SmartJoystickMode::SmartJoystickMode(nav::Navigation* navigation, double channel_timeout_s, double stick_timeout_s)
     : ModeModule(kName, MuxChannelOptions{kChannel, channel_timeout_s}),
       navigation_(navigation),
       stick_timeout_s_(stick_timeout_s) {
@@ -35,7 +35,7 @@ ModeOutput SmartJoystickMode::Step(const ModeInputs& in) {
   // A silent joystick is a zero stick: the robot brakes (the mux would zero it after its timeout anyway).
   const bool fresh = core::SecondsBetween(stick_.stamp, in.now) <= stick_timeout_s_;
   const OperatorTwist stick = fresh ? stick_.twist_B : OperatorTwist{};
-  const NavigationStep step =
+  const nav::NavigationStep step =
       navigation_->StepJoystick(in.pose_M, stick.vx_mps, stick.vy_mps, stick.wz_radps, in.now_s);
   ModeOutput out;
   out.twist_B = Twist2{step.linear_x_mps, step.angular_z_radps};

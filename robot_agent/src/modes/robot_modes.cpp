@@ -23,7 +23,7 @@ RobotModes::Hooks Checked(RobotModes::Hooks hooks) {
 
 }  // namespace
 
-RobotModes::RobotModes(const AgentOptions& options, const std::string& tree_file, Navigation* navigation,
+RobotModes::RobotModes(const AgentOptions& options, const std::string& tree_file, nav::Navigation* navigation,
                        Hooks hooks, Ids ids)
     : robot_id_(options.robot_id), navigation_(navigation), hooks_(Checked(std::move(hooks))) {
   if (navigation_ == nullptr) throw std::invalid_argument("RobotModes: navigation is null");
@@ -97,7 +97,7 @@ std::string RobotModes::StartExplore(const ExploreTask& task, double now_s) {
 }
 
 std::string RobotModes::StartConvoy(const std::vector<std::string>& ahead_ids,
-                                    const std::vector<PeerBody>& live_peers, double now_s) {
+                                    const std::vector<Peer>& live_peers, double now_s) {
   const bool was_following = convoy_->active() && control_->mode() == convoy_->name();
   const std::string refused = convoy_->Start(robot_id_, ahead_ids, now_s);
   if (!refused.empty()) return refused;
@@ -108,8 +108,10 @@ std::string RobotModes::StartConvoy(const std::vector<std::string>& ahead_ids,
   return d.accepted ? "" : d.reason;
 }
 
-PeerBody RobotModes::AsPeer(const core::BaseState& pose_M) const {
-  PeerBody self = navigation_->AsPeer(robot_id_, pose_M, control_->mode());
+Peer RobotModes::AsPeer(const core::BaseState& pose_M) const {
+  Peer self;
+  static_cast<nav::PeerBody&>(self) = navigation_->AsPeer(robot_id_, pose_M);
+  self.mode = control_->mode();
   const YieldStatus& yield = yield_->status();
   if (yield.state != YieldStatus::State::kNone) {
     self.yield_state = ToString(yield.state);

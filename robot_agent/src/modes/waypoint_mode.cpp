@@ -9,7 +9,7 @@
 
 namespace cairn::agent {
 
-WaypointMode::WaypointMode(WaypointModeOptions options, Navigation* navigation,
+WaypointMode::WaypointMode(WaypointModeOptions options, nav::Navigation* navigation,
                            std::unique_ptr<WaypointRecovery> recovery)
     : ModeModule(kName, MuxChannelOptions{kChannel, options.channel_timeout_s}),
       options_(std::move(options)),
@@ -82,7 +82,7 @@ ModeOutput WaypointMode::Step(const ModeInputs& in) {
   ModeOutput out;
   if (!has_goal()) return out;
   const core::BaseState& s = in.pose_M;
-  NavigationStep step;
+  nav::NavigationStep step;
   if (recovery_ && recovery_->active()) {
     step = recovery_->Step(s, in.now_s);
     if (recovery_->active()) {
@@ -97,7 +97,7 @@ ModeOutput WaypointMode::Step(const ModeInputs& in) {
       recovery_->Start(goal_.x_m, goal_.y_m, goal_.tolerance_m, step.reason, goal_.z_m);
       goal_.reason = recovery_->Report();
       spdlog::warn("robot {}: waypoint {} {}", options_.robot_id, goal_.goal_id, goal_.reason);
-      step = NavigationStep{};  // brake this cycle; the recovery tree runs from the next
+      step = nav::NavigationStep{};  // brake this cycle; the recovery tree runs from the next
     }
   }
   own_serial_ = navigation_->goal_serial();  // the recovery may have planned the goal again

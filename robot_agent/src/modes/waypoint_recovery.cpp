@@ -41,7 +41,7 @@ void CheckNumber(const std::map<std::string, std::string>& ports, const std::str
 
 // State shared by the tree's nodes and the component.
 struct WaypointRecovery::Context {
-  Navigation* navigation = nullptr;
+  nav::Navigation* navigation = nullptr;
   Hooks hooks;
   // Input of the current tick.
   core::BaseState state;
@@ -235,13 +235,13 @@ class FollowGoal : public bt::StatefulActionNode {
   NodeStatus OnRunning() override {
     if (ctx_->plan.valid()) {
       ctx_->Stop();
-      if (PlanRunning(ctx_->plan)) return NodeStatus::kRunning;
+      if (nav::PlanRunning(ctx_->plan)) return NodeStatus::kRunning;
       const nav::GlobalPlan plan = ctx_->plan.get();
       if (!plan.IsUsable()) return Failed("no path: " + plan.reason);
       ctx_->navigation->AcceptGoal(plan, ctx_->goal_x_m, ctx_->goal_y_m, ctx_->goal_tolerance_m, ctx_->now_s,
                                    ctx_->goal_z_m);
     }
-    const NavigationStep step = ctx_->navigation->StepWaypoint(ctx_->state, ctx_->now_s);
+    const nav::NavigationStep step = ctx_->navigation->StepWaypoint(ctx_->state, ctx_->now_s);
     if (step.arrived) {
       ctx_->Stop();
       ctx_->arrived = true;
@@ -303,7 +303,7 @@ void WaypointRecovery::RegisterNodes(bt::TreeFactory& factory, const std::shared
   Register<FollowGoal>(factory, "FollowGoal", context);
 }
 
-WaypointRecovery::WaypointRecovery(const std::string& tree_file, Navigation* navigation, Hooks hooks)
+WaypointRecovery::WaypointRecovery(const std::string& tree_file, nav::Navigation* navigation, Hooks hooks)
     : context_(std::make_shared<Context>()) {
   if (navigation == nullptr) throw std::invalid_argument("WaypointRecovery: navigation is null");
   context_->navigation = navigation;
@@ -332,7 +332,7 @@ WaypointRecovery::~WaypointRecovery() { Halt(); }
 
 bool WaypointRecovery::active() const { return context_->active; }
 
-bool WaypointRecovery::planning() const { return context_->active && PlanRunning(context_->plan); }
+bool WaypointRecovery::planning() const { return context_->active && nav::PlanRunning(context_->plan); }
 
 void WaypointRecovery::Start(double x_m, double y_m, double tolerance_m, const std::string& failure,
                              double z_m) {
@@ -353,8 +353,8 @@ void WaypointRecovery::Start(double x_m, double y_m, double tolerance_m, const s
   c.active = true;
 }
 
-NavigationStep WaypointRecovery::Step(const core::BaseState& state, double now_s) {
-  NavigationStep out;
+nav::NavigationStep WaypointRecovery::Step(const core::BaseState& state, double now_s) {
+  nav::NavigationStep out;
   Context& c = *context_;
   if (!c.active) return out;
   c.state = state;

@@ -66,7 +66,7 @@ bool PerceptionService::WaitForFirstScan(std::chrono::milliseconds timeout) {
   return true;
 }
 
-bool PerceptionService::FeedObstacles(Navigation& navigation) {
+bool PerceptionService::FeedObstacles(nav::Navigation& navigation) {
   std::lock_guard<std::mutex> guard(obstacles_mutex_);
   if (!live_obstacles_.fresh) return false;
   live_obstacles_.fresh = false;

@@ -131,7 +131,7 @@ std::string CheckYieldCommand(const YieldCommand& c) {
   return "";
 }
 
-bool YieldsTo(const PeerBody& peer, const std::string& robot_id) {
+bool YieldsTo(const Peer& peer, const std::string& robot_id) {
   return peer.yield_to_id == robot_id && (peer.yield_state == "moving_aside" || peer.yield_state == "aside" ||
                                           peer.yield_state == "returning");
 }
@@ -188,7 +188,7 @@ YieldDecision DecideYield(const YieldOptions& options, const YieldCommand& c,
 // ---- YieldMode --------------------------------------------------------------------------------------------
 
 namespace {
-Navigation* Required(Navigation* navigation) {
+nav::Navigation* Required(nav::Navigation* navigation) {
   if (navigation == nullptr) throw std::invalid_argument("YieldMode: navigation is null");
   return navigation;
 }
@@ -199,7 +199,7 @@ const YieldOptions& Valid(const YieldOptions& options) {
 }
 }  // namespace
 
-YieldMode::YieldMode(const YieldOptions& options, double channel_timeout_s, Navigation* navigation)
+YieldMode::YieldMode(const YieldOptions& options, double channel_timeout_s, nav::Navigation* navigation)
     : ModeModule(kName, MuxChannelOptions{kChannel, channel_timeout_s}),
       options_(Valid(options)),
       navigation_(Required(navigation)) {}
@@ -264,14 +264,14 @@ void YieldMode::Refuse(const std::string& passing_id, const std::string& why, do
   refused_at_s_ = now_s;
 }
 
-void YieldMode::SetPeers(const std::vector<PeerBody>& peers, double now_s) {
+void YieldMode::SetPeers(const std::vector<Peer>& peers, double now_s) {
   if (!ended_for_.empty() && ended_at_s_ < 0) ended_at_s_ = now_s;
   if (status_.state == YieldStatus::State::kRefused && now_s - refused_at_s_ > kRefusalShownS) {
     status_ = YieldStatus{};
   }
   if (status_.state != YieldStatus::State::kAside || passed_) return;
   auto it =
-      std::find_if(peers.begin(), peers.end(), [&](const PeerBody& p) { return p.robot_id == passing_id_; });
+      std::find_if(peers.begin(), peers.end(), [&](const Peer& p) { return p.robot_id == passing_id_; });
   if (it != peers.end()) {
     last_heard_s_ = now_s;
     // Passed: its route from where it is no longer comes near the way here and back.
@@ -327,7 +327,7 @@ void YieldMode::Drive(const std::vector<Eigen::Vector2d>& way_M, double z_m, con
   for (const Eigen::Vector2d& p : way_M) path.emplace_back(p.x(), p.y(), z_m);
   if (path.size() == 1) path.push_back(path.front());
   const Eigen::Vector2d end = way_M.back();
-  navigation_->AcceptGoal(PlanAlong(path, navigation_->global_plan().map_version, what), end.x(), end.y(),
+  navigation_->AcceptGoal(nav::PlanAlong(path, navigation_->global_plan().map_version, what), end.x(), end.y(),
                           /*tolerance_m=*/0.0, now_s);
   goal_serial_ = navigation_->goal_serial();
   has_goal_ = true;
@@ -360,7 +360,7 @@ ModeOutput YieldMode::Step(const ModeInputs& in) {
     status_.state = YieldStatus::State::kReturning;
     status_.reason = passed_reason_ + ": returning to " + Point(way_M_.front());
   }
-  const NavigationStep step = navigation_->StepWaypoint(in.pose_M, in.now_s);
+  const nav::NavigationStep step = navigation_->StepWaypoint(in.pose_M, in.now_s);
   if (step.failed) {
     has_goal_ = false;
     const bool returning = status_.state == YieldStatus::State::kReturning;
@@ -403,16 +403,16 @@ ModeOutput YieldMode::Step(const ModeInputs& in) {
   return out;
 }
 
-std::vector<Eigen::Vector3d> YieldRouteAhead(const Navigation& navigation, const core::BaseState& pose_M) {
+std::vector<Eigen::Vector3d> YieldRouteAhead(const nav::Navigation& navigation, const core::BaseState& pose_M) {
   if (!navigation.has_goal()) return {};
   const std::vector<Eigen::Vector3d>& path = navigation.global_plan().result.path_W;
   double length_m = 0.0;
   for (std::size_t i = 0; i + 1 < path.size(); ++i) length_m += (path[i + 1] - path[i]).head<2>().norm();
-  return PathAhead(path, {pose_M.x_m, pose_M.y_m}, std::max(1.0, length_m / 30.0), 31);
+  return nav::PathAhead(path, {pose_M.x_m, pose_M.y_m}, std::max(1.0, length_m / 30.0), 31);
 }
 
-YieldAskInputs AskInputs(const YieldOptions& options, const std::string& mode, const Navigation& navigation,
-                         const core::BaseState& pose_M, double radius_m, std::vector<PeerBody> peers,
+YieldAskInputs AskInputs(const YieldOptions& options, const std::string& mode, const nav::Navigation& navigation,
+                         const core::BaseState& pose_M, double radius_m, std::vector<Peer> peers,
                          std::function<std::shared_ptr<const nav::TraversabilityGrid>()> grid, double now_s) {
   YieldAskInputs in;
   if (!options.ask_peers || (mode != "waypoint" && mode != "explore") || peers.empty()) return in;
@@ -426,8 +426,8 @@ YieldAskInputs AskInputs(const YieldOptions& options, const std::string& mode, c
 }
 
 YieldSituation WithPeerAndHistory(YieldSituation situation, const YieldCommand& c,
-                                  const std::vector<PeerBody>& peers, const YieldMode& yield, double now_s) {
-  for (const PeerBody& p : peers) {
+                                  const std::vector<Peer>& peers, const YieldMode& yield, double now_s) {
+  for (const Peer& p : peers) {
     if (p.robot_id == c.passing_id) situation.passing_yields_to_me = YieldsTo(p, situation.own_id);
   }
   situation.ended_lately = yield.EndedLately(c.passing_id, now_s);
@@ -493,9 +493,9 @@ YieldAsk YieldAsker::Update(const YieldAskInputs& in) {
   for (const Eigen::Vector3d& q : in.route_M) route.push_back(q.head<2>());
   // The nearest peer on the route (within lookahead) that cannot be passed where it stands.
   std::shared_ptr<const nav::TraversabilityGrid> grid;  // fetched for the first peer on the route
-  const PeerBody* blocker = nullptr;
+  const Peer* blocker = nullptr;
   double blocker_s = std::numeric_limits<double>::infinity();
-  for (const PeerBody& peer : in.peers) {
+  for (const Peer& peer : in.peers) {
     if (std::abs(peer.pose_M.z_m - in.pose_M.z_m) > 1.0) continue;  // another level
     // Moving aside for this robot: wait for it. Aside (or on its way back) it is out of the way unless this
     // robot's route changed to pass within reach of its spot: then it is asked again (it moves on).
@@ -521,7 +521,7 @@ YieldAsk YieldAsker::Update(const YieldAskInputs& in) {
     if (status_.state != YieldStatus::State::kNone) status_ = YieldStatus{};
     return ask;
   }
-  const PeerBody& peer = *blocker;
+  const Peer& peer = *blocker;
   const double gap_m = blocker_s - in.radius_m - peer.footprint_radius_m;
   const bool refused = peer.yield_to_id == own_id_ && peer.yield_state == "refused";
   const bool yielding = peer.yield_to_id == own_id_ && peer.yield_state == "moving_aside";

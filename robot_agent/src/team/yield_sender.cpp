@@ -5,9 +5,9 @@
 namespace cairn::agent {
 
 std::string CheckYieldSender(const std::string& own_id, const YieldCommand& c, const YieldOrigin& origin,
-                             const std::vector<PeerBody>& heard) {
+                             const std::vector<Peer>& heard) {
   const auto is_heard = [&](const std::string& id) {
-    return std::any_of(heard.begin(), heard.end(), [&](const PeerBody& p) { return p.robot_id == id; });
+    return std::any_of(heard.begin(), heard.end(), [&](const Peer& p) { return p.robot_id == id; });
   };
   const std::string request = "yield for " + c.passing_id + " (asked by " + c.sender_id + ")";
   if (!is_heard(c.passing_id)) {

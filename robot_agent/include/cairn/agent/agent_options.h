@@ -10,7 +10,7 @@
 #include "cairn/agent/modes/explore_mode.h"
 #include "cairn/agent/modes/mission.h"
 #include "cairn/agent/services/nav_map.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/convoy.h"
 #include "cairn/agent/team/peers.h"
 #include "cairn/agent/team/yield.h"
@@ -68,7 +68,7 @@ struct AgentOptions {
   double local_plan_rate_hz = 2.0;  ///< local plan display messages, (0, 20]
   /// Navigation: platform profile (set from `platform` by SetPlatform(), then overridden by the config
   /// file's platform and traversability sections), local planner scoring, iLQR, mission timing.
-  NavigationOptions navigation;
+  nav::NavigationOptions navigation;
   /// Explore mode: frontier search, target choice, timing (robot_id is filled in by the agent).
   ExploreModeOptions explore;
   /// Peers: how often this robot tells them where it is, and how it keeps clear of them (config `peers`).

@@ -10,7 +10,7 @@
 #include "cairn/agent/communication/agent_link.h"
 #include "cairn/agent/modes/robot_modes.h"
 #include "cairn/agent/services/nav_map.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/core/time.h"
 
@@ -57,7 +57,7 @@ class RobotAgent {
   /// A stepped agent, between Step() calls: its modes, navigation and navigation map (what tests and benches
   /// read).
   const RobotModes& modes() const;
-  const Navigation& navigation() const;
+  const nav::Navigation& navigation() const;
   const NavMap& nav_map() const;
   /// After Run(): it ended because a component's work did not stop when asked and the agent is supervised
   /// (AgentOptions::supervised). That work may still run: leave with kRestartExitStatus at once (std::_Exit),

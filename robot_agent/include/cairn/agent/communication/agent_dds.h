@@ -141,8 +141,8 @@ ExploreClaim ClaimFromMessage(const cairn_msgs::ExploreClaim& m, std::string* fa
 /// harness's way in.
 YieldCommand YieldFromMessage(const cairn_msgs::YieldRequest& m, std::string* fault);
 
-/// A peer's state as it came off cairn/peer_state (the receiver checks it: CheckPeerBody). Also the fuzz
+/// A peer's state as it came off cairn/peer_state (the receiver checks it: CheckPeer). Also the fuzz
 /// harness's way in.
-PeerBody PeerFromMessage(const cairn_msgs::PeerState& m);
+Peer PeerFromMessage(const cairn_msgs::PeerState& m);
 
 }  // namespace cairn::agent

@@ -68,7 +68,7 @@ struct AgentDdsHandlers {
   std::function<void(const ExploreClaim& claim, const std::string& fault)> explore_claim;
   /// A peer robot's state (cairn/peer_state; its own are not handed on), after ListenToPeers(). Not checked
   /// here: the receiver checks it (CheckPeerBody).
-  std::function<void(const PeerBody& peer)> peer_state;
+  std::function<void(const Peer& peer)> peer_state;
   /// A yield request for this robot (cairn/yield_request, from a peer robot or a basestation); `fault` is ""
   /// or why it cannot be read (an unknown action, named with its value; it must then be refused, not acted
   /// on). Not checked otherwise: the receiver checks it (CheckYieldCommand).

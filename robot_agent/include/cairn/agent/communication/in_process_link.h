@@ -70,7 +70,7 @@ class InProcessLink final : public AgentLink {
 
   /// A peer state this link's robot sends, for a robot that is not an agent stepped here (a test's or a
   /// bench's made-up peer): delivered as Publish(cairn_msgs::PeerState) delivers an agent's.
-  void SendPeerState(const PeerBody& peer);
+  void SendPeerState(const Peer& peer);
 
   const std::string& robot_id() const { return robot_id_; }
   /// The robot's replies so far, oldest first.
@@ -134,7 +134,7 @@ class InProcessTeam {
   friend class InProcessBase;
   void Leave(InProcessLink* link);
   void DeliverClaim(const InProcessLink& from, const ExploreClaim& claim);
-  void DeliverPeerState(const InProcessLink& from, const PeerBody& peer);
+  void DeliverPeerState(const InProcessLink& from, const Peer& peer);
 
   std::vector<InProcessLink*> links_;
   std::map<std::string, ExploreClaim> last_claims_;        // the newest of each robot (the latched topic)

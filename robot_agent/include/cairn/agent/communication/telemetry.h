@@ -20,7 +20,7 @@
 #include "cairn/agent/modes/mission.h"
 #include "cairn/agent/modes/mode_control.h"
 #include "cairn/agent/modes/waypoint_mode.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/yield.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/msgs/robot_state.h"
@@ -53,7 +53,7 @@ class Telemetry {
   /// Every pointer is required and (not owned) outlives this. @throws std::invalid_argument for a null one.
   Telemetry(const AgentOptions& options, AgentLink* link, const ModeControl* modes,
             const WaypointMode* waypoint, const ExploreMode* explore, const ConvoyMode* convoy,
-            const Navigation* navigation, CommandInterface* command);
+            const nav::Navigation* navigation, CommandInterface* command);
 
   /// AgentInfo (latched): id, kind robot, platform and its limits, the modes of the tree, version, world,
   /// sensors (lidar, camera), map resolution (0 with perception off), link class and budget.
@@ -99,7 +99,7 @@ class Telemetry {
   const WaypointMode* waypoint_;
   const ExploreMode* explore_;
   const ConvoyMode* convoy_;
-  const Navigation* navigation_;
+  const nav::Navigation* navigation_;
   CommandInterface* command_;
   std::uint64_t published_path_revision_ = ~0ull;
   std::string last_tree_signature_;

@@ -12,7 +12,7 @@
 
 #include "cairn/agent/modes/explore_mode.h"
 #include "cairn/agent/modes/waypoint_mode.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/core/kinematics.h"
 
 namespace cairn::agent {
@@ -27,11 +27,11 @@ class ComeHome {
   /// way back from `pose_M` on `navigation`. When that plan is found, `start_goal` drives it (a waypoint goal
   /// to the start); a plan that is not usable, or a goal refused, is logged and the robot stays where it is.
   void Step(
-      double silence_s, const core::BaseState& pose_M, ExploreMode& explore, Navigation& navigation,
+      double silence_s, const core::BaseState& pose_M, ExploreMode& explore, nav::Navigation& navigation,
       const std::function<GoalStart(const nav::GlobalPlan& plan, const core::BaseState& goal_M)>& start_goal);
 
   /// Drops a way back still being planned (the agent shuts down).
-  void Abandon(Navigation& navigation);
+  void Abandon(nav::Navigation& navigation);
 
  private:
   const std::string robot_id_;

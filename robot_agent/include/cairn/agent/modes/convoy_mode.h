@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "cairn/agent/modes/mode_module.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/convoy.h"
 #include "cairn/agent/team/peers.h"
 
@@ -49,7 +49,7 @@ class ConvoyMode : public ModeModule {
 
   /// `navigation` (not owned) outlives this. `channel_timeout_s`: the convoy channel's staleness, seconds.
   /// @throws std::invalid_argument for a null navigation or invalid options.
-  ConvoyMode(const ConvoyOptions& options, double channel_timeout_s, Navigation* navigation);
+  ConvoyMode(const ConvoyOptions& options, double channel_timeout_s, nav::Navigation* navigation);
 
   /// Follows `ahead_ids` (the robots ahead, nearest first, the leader last; ids unique, not `own_id`) from
   /// `now_s` on: with a new trail, or, already in a convoy and re-linked to one of the robots that were ahead
@@ -57,7 +57,7 @@ class ConvoyMode : public ModeModule {
   std::string Start(const std::string& own_id, const std::vector<std::string>& ahead_ids, double now_s);
   /// The peers heard lately (PeerTracker::Live()) at `now_s`: the robot followed extends the trail; a lost
   /// one is replaced by the nearest one further ahead that is heard.
-  void SetPeers(const std::vector<PeerBody>& peers, double now_s);
+  void SetPeers(const std::vector<Peer>& peers, double now_s);
   /// Keeps this robot's place in the convoy while its mission is paused (MissionKeeper): `ahead_ids` as
   /// status().ahead_ids was when it paused, the trail kept and still extended by SetPeers, so that Start with
   /// the same robots ahead resumes on it. The status goes to kPaused with "paused: `why`".
@@ -83,7 +83,7 @@ class ConvoyMode : public ModeModule {
   void DropGoal();
 
   ConvoyOptions options_;
-  Navigation* navigation_;
+  nav::Navigation* navigation_;
   ConvoyTrail trail_;
   ConvoyStatus status_;
   Eigen::Vector2d goal_M_ = Eigen::Vector2d::Zero();  // the target last handed to navigation

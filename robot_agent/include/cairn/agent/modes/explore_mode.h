@@ -20,7 +20,7 @@
 #include "cairn/agent/modes/mode_manager.h"
 #include "cairn/agent/modes/mode_module.h"
 #include "cairn/agent/modes/waypoint_recovery.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/explore_claims.h"
 #include "cairn/nav/explorer.h"
 #include "cairn/nav/frontier.h"
@@ -136,7 +136,7 @@ class ExploreMode : public ModeModule {
   /// `navigation` (not owned) outlives this; `recovery` runs when navigation gives up on a target (null or
   /// not enabled = the target fails at once). @throws std::invalid_argument for a null navigation or invalid
   /// options.
-  ExploreMode(ExploreModeOptions options, Navigation* navigation, std::unique_ptr<WaypointRecovery> recovery);
+  ExploreMode(ExploreModeOptions options, nav::Navigation* navigation, std::unique_ptr<WaypointRecovery> recovery);
   ~ExploreMode() override;
 
   /// Starts exploring `task` (checked with CheckExploreTask) at `now_s`, then `enter_mode` asks the mode tree
@@ -199,7 +199,7 @@ class ExploreMode : public ModeModule {
   void Choose(const core::BaseState& pose_M, double now_s, ModeOutput* out);
 
   ExploreModeOptions options_;
-  Navigation* navigation_;
+  nav::Navigation* navigation_;
   std::unique_ptr<WaypointRecovery> recovery_;
   nav::Explorer explorer_;
   ExplorationStatus status_;

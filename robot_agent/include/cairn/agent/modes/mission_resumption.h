@@ -20,7 +20,7 @@
 #include "cairn/agent/modes/mission.h"
 #include "cairn/agent/modes/mode_control.h"
 #include "cairn/agent/modes/waypoint_mode.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/peers.h"
 #include "cairn/agent/team/yield.h"
 #include "cairn/core/kinematics.h"
@@ -36,7 +36,7 @@ class MissionResumption {
     ExploreMode* explore = nullptr;
     ConvoyMode* convoy = nullptr;
     YieldMode* yield = nullptr;
-    Navigation* navigation = nullptr;
+    nav::Navigation* navigation = nullptr;
   };
   /// Asks the mode tree for `mode` under the robot's current conditions (ModeControl::Request).
   using RequestMode = std::function<ModeDecision(const std::string& mode)>;
@@ -61,7 +61,7 @@ class MissionResumption {
   /// again when due — a goal planned again from `pose_M` once `goal_acceptable()` (the tree would take one),
   /// a convoy place behind the same robots among `live_peers`, the exploration — and resumed under its old
   /// id, or ended with the reason.
-  void Step(double now_s, const core::BaseState& pose_M, const std::vector<PeerBody>& live_peers,
+  void Step(double now_s, const core::BaseState& pose_M, const std::vector<Peer>& live_peers,
             std::uint64_t mission_commands, const std::function<bool()>& goal_acceptable);
   /// Drops a goal still being planned again (the agent shuts down).
   void Abandon();

@@ -7,7 +7,7 @@
 
 #include "cairn/agent/modes/mode_manager.h"
 #include "cairn/agent/modes/mode_module.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 
 namespace cairn::agent {
 
@@ -48,7 +48,7 @@ class SmartJoystickMode : public ModeModule {
   static constexpr const char* kChannel = "smart_joystick";
   /// `navigation` (not owned) outlives this. `channel_timeout_s`: the channel's staleness, seconds, (0, 60].
   /// `stick_timeout_s`: a stick older than this counts as zero, seconds, (0, 60].
-  SmartJoystickMode(Navigation* navigation, double channel_timeout_s, double stick_timeout_s);
+  SmartJoystickMode(nav::Navigation* navigation, double channel_timeout_s, double stick_timeout_s);
   void Activate(core::SteadyTime) override { stick_ = Stick{}; }
   void Deactivate(const std::string&) override { stick_ = Stick{}; }
   ModeOutput Step(const ModeInputs& in) override;
@@ -60,7 +60,7 @@ class SmartJoystickMode : public ModeModule {
     OperatorTwist twist_B;
     core::SteadyTime stamp{};
   };
-  Navigation* navigation_;
+  nav::Navigation* navigation_;
   double stick_timeout_s_;
   Stick stick_;
 };

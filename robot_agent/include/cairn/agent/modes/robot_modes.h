@@ -19,7 +19,7 @@
 #include "cairn/agent/modes/mission_resumption.h"
 #include "cairn/agent/modes/mode_control.h"
 #include "cairn/agent/modes/waypoint_mode.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/explore_claims.h"
 #include "cairn/agent/team/peers.h"
 #include "cairn/agent/team/yield.h"
@@ -49,7 +49,7 @@ class RobotModes {
   /// `navigation` (outlives this object), the waypoint and explore modes with the recovery tree of
   /// `tree_file` (a warning when the file has none), and loads the tree from `tree_file`.
   /// @throws as ModeControl, MissionResumption and YieldCoordination (the file, field or value named).
-  RobotModes(const AgentOptions& options, const std::string& tree_file, Navigation* navigation, Hooks hooks,
+  RobotModes(const AgentOptions& options, const std::string& tree_file, nav::Navigation* navigation, Hooks hooks,
              Ids ids = Ids::kRandom);
   ~RobotModes();
   RobotModes(const RobotModes&) = delete;
@@ -68,11 +68,11 @@ class RobotModes {
   std::string StartExplore(const ExploreTask& task, double now_s);
   /// Follows the robots `ahead_ids` (nearest first, the leader last; `live_peers` heard now) in convoy mode:
   /// "" or why not. A robot already following only changes whom it follows.
-  std::string StartConvoy(const std::vector<std::string>& ahead_ids, const std::vector<PeerBody>& live_peers,
+  std::string StartConvoy(const std::vector<std::string>& ahead_ids, const std::vector<Peer>& live_peers,
                           double now_s);
   /// This robot as its peers see it at `pose_M`: navigation's body and path ahead, the mode, and its answer
   /// to a yield request (YieldStatus), if any.
-  PeerBody AsPeer(const core::BaseState& pose_M) const;
+  Peer AsPeer(const core::BaseState& pose_M) const;
 
   /// The top of a control cycle at `now_s`: the tree re-checks the current mode; when it is no longer
   /// allowed the robot goes idle, and a mission a transient condition stopped (IsTransientFailure) is paused.
@@ -105,7 +105,7 @@ class RobotModes {
   ModeRegistry MakeModules(const AgentOptions& options, const std::string& tree_file, Ids ids);
 
   const std::string robot_id_;
-  Navigation* const navigation_;
+  nav::Navigation* const navigation_;
   const Hooks hooks_;
   WaypointMode* waypoint_ = nullptr;  // the modules are owned by control_
   ExploreMode* explore_ = nullptr;

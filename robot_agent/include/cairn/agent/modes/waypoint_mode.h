@@ -14,7 +14,7 @@
 #include "cairn/agent/modes/mode_manager.h"
 #include "cairn/agent/modes/mode_module.h"
 #include "cairn/agent/modes/waypoint_recovery.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 
 namespace cairn::agent {
 
@@ -60,7 +60,7 @@ class WaypointMode : public ModeModule {
 
   /// `navigation` (not owned) outlives this. `recovery` runs when navigation gives up on a goal; null or not
   /// enabled() = the goal fails at once. @throws std::invalid_argument for a null navigation.
-  WaypointMode(WaypointModeOptions options, Navigation* navigation,
+  WaypointMode(WaypointModeOptions options, nav::Navigation* navigation,
                std::unique_ptr<WaypointRecovery> recovery);
 
   /// Makes the goal (x_m, y_m) (metres, frame M; arrival radius tolerance_m, 0 = navigation's default), whose
@@ -96,7 +96,7 @@ class WaypointMode : public ModeModule {
   void Finish(GoalStatus status, const std::string& reason, bool only_own = false);
 
   WaypointModeOptions options_;
-  Navigation* navigation_;
+  nav::Navigation* navigation_;
   std::unique_ptr<WaypointRecovery> recovery_;
   WaypointGoal goal_;
   uint32_t next_goal_id_;

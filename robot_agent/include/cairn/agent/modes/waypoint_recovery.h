@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/bt/behavior_tree.h"
 #include "cairn/core/kinematics.h"
 
@@ -45,7 +45,7 @@ class WaypointRecovery {
   /// Loads tree kTreeId of `tree_file` on `navigation` (not owned, outlives this). A file without that
   /// tree disables recovery (enabled() false: a blocked goal fails at once). Throws bt::TreeError for an
   /// invalid file or tree.
-  WaypointRecovery(const std::string& tree_file, Navigation* navigation, Hooks hooks);
+  WaypointRecovery(const std::string& tree_file, nav::Navigation* navigation, Hooks hooks);
   ~WaypointRecovery();
 
   /// True if the file has a recovery tree.
@@ -68,7 +68,7 @@ class WaypointRecovery {
   /// (back up 0.40 m): obstacle behind ...". An attempt whose goal navigation abandoned (NavigationStep::
   /// abandoned: unmapped space without progress, held by a peer) ends the recovery at once, `failed` and
   /// `abandoned`. Both false and no twist when not active().
-  NavigationStep Step(const core::BaseState& state, double now_s);
+  nav::NavigationStep Step(const core::BaseState& state, double now_s);
   /// Stops a running recovery (a new goal, a stop, a mode change): the actions are halted, nothing moves.
   void Halt();
   /// For operators while active(): what started the recovery and the attempts so far, e.g. "recovering

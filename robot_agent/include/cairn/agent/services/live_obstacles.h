@@ -9,7 +9,7 @@
 #include <limits>
 #include <vector>
 
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/nav/scan_obstacles.h"
 #include "cairn/perception/staircase.h"
@@ -24,7 +24,7 @@ class LiveObstacles {
   /// show them again nor clear them; up to kBlindWindow_s) instead of `window_s`: the robot does not forget a
   /// step it drove up to, however long it stands there. Once it moves so that they are in view again, the
   /// short window applies (a ghost goes, a real step is seen again).
-  LiveObstacles(const NavigationOptions& navigation, double window_s,
+  LiveObstacles(const nav::NavigationOptions& navigation, double window_s,
                 double lidar_min_elevation_rad = std::numeric_limits<double>::quiet_NaN())
       : cloud_(CloudOptions(navigation, window_s, lidar_min_elevation_rad)) {
     obstacle_options_.range_m = navigation.sensor_range_m;
@@ -51,7 +51,7 @@ class LiveObstacles {
   // waiting beside a step while another robot climbs (30 s was too short for that).
   static constexpr double kBlindWindow_s = 600.0;
 
-  static perception::LocalCloudOptions CloudOptions(const NavigationOptions& navigation, double window_s,
+  static perception::LocalCloudOptions CloudOptions(const nav::NavigationOptions& navigation, double window_s,
                                                     double lidar_min_elevation_rad) {
     perception::LocalCloudOptions o;
     o.voxel_size_m = 0.05;

@@ -18,7 +18,7 @@
 #include "cairn/agent/agent_options.h"
 #include "cairn/agent/services/live_obstacles.h"
 #include "cairn/agent/services/nav_map.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/core/component.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/core/time.h"
@@ -48,7 +48,7 @@ class PerceptionService {
   /// soon as it announces itself. true when one came (and false at once without a lidar).
   bool WaitForFirstScan(std::chrono::milliseconds timeout);
   /// Hands the obstacles of a scan not handed yet to `navigation` (control thread). true when there was one.
-  bool FeedObstacles(Navigation& navigation);
+  bool FeedObstacles(nav::Navigation& navigation);
   /// Forgets the live obstacle points (the recovery's "clear the local obstacle memory"): the sensor thread
   /// clears its window before the next scan, and obstacles from before now are never handed on.
   void ClearObstacleMemory();

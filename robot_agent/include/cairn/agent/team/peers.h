@@ -1,18 +1,16 @@
-// Peer robots as obstacles (Sriganesh et al. 2024, § Advanced Multi-agent Coordination): every
-// robot tells the others where it is, how big it is and where it is going (cairn/peer_state, a few times a
-// second), and each robot keeps clear of the bodies it hears. A simulated robot's lidar does not see its
-// peers (each agent simulates its own world), and a real one sees a peer only once it is in line of sight and
-// near: the peer's own word covers both, for the duration of its timeout. Peers share the team's map frame M
-// (the frame explore claims use).
+// The peer robots one robot hears (Sriganesh et al. 2024, § Advanced Multi-agent Coordination): every robot
+// tells the others where it is, how big it is, where it is going, its mode and its answer to a yield request
+// (cairn/peer_state, a few times a second); each keeps the newest word of each peer for a timeout, and its
+// navigation keeps clear of their bodies (nav/peers.h: the geometry). Peers share the team's map frame M (the
+// frame explore claims use).
 #pragma once
 
-#include <Eigen/Core>
 #include <map>
 #include <mutex>
 #include <string>
 #include <vector>
 
-#include "cairn/core/kinematics.h"
+#include "cairn/nav/peers.h"
 
 namespace cairn::agent {
 
@@ -22,29 +20,16 @@ struct PeerOptions {
   double rate_hz = 5.0;
   /// A peer not heard for this long is forgotten (it left, or its link did), seconds, (0, 60].
   double timeout_s = 1.0;
-  /// Peers are kept clear of by their footprint radius plus this, metres, [0, 2]: room for the error of two
-  /// pose estimates.
-  double margin_m = 0.25;
-  /// A moving peer's body is also placed where it will be after up to this long at its speed and yaw rate,
-  /// seconds, [0, 5]: two robots meeting head-on each see the other's next second.
-  double prediction_s = 1.0;
-  /// Peers within this height of the robot block it, metres, (0, 10]: a robot on the floor above does not.
-  double same_level_dz_m = 1.0;
-  /// False: peers are heard (and shown) but not avoided.
-  bool avoid = true;
+  /// How navigation keeps clear of the peers (margin, prediction, same level, avoid at all).
+  nav::PeerAvoidanceOptions avoidance;
 
   /// @return false and sets `*why` (field, value, rule) when a field is invalid.
   bool IsValid(std::string* why) const;
 };
 
-/// A peer robot as it last described itself (cairn/peer_state), frame M.
-struct PeerBody {
-  std::string robot_id;
-  core::BaseState pose_M;           ///< x, y, z, yaw (metres, radians); v_mps and w_radps as measured
-  double footprint_radius_m = 0.0;  ///< (0, 5]
-  std::string mode;                 ///< its mode ("idle", "manual", "waypoint", ...)
-  /// The next metres of the global path it follows, frame M (metres, z the ground); empty: none.
-  std::vector<Eigen::Vector3d> path_ahead_M;
+/// A peer robot as it last described itself (cairn/peer_state), frame M: its body, and what it is doing.
+struct Peer : nav::PeerBody {
+  std::string mode;  ///< its mode ("idle", "manual", "waypoint", ...)
   /// Its answer to a yield request (get-out-of-the-way, yield.h): "" | "moving_aside" | "aside" |
   /// "returning" | "refused"; the robot it yields to (or refused), and why refused / where it stands aside.
   std::string yield_state;
@@ -52,27 +37,10 @@ struct PeerBody {
   std::string yield_reason;
 };
 
-/// Spacing of the points of PeerState.path_ahead_M, metres, and their largest number (the IDL's bound).
-inline constexpr double kPeerPathSpacingM = 1.0;
-inline constexpr int kPeerPathPoints = 16;
-
-/// The path `path_M` (frame M, metres) ahead of `from_M` (x, y): from the point of the path nearest `from_M`,
-/// points `spacing_m` (> 0) apart along it (the last one its end), at most `max_points`. Empty for an empty
-/// path.
-std::vector<Eigen::Vector3d> PathAhead(const std::vector<Eigen::Vector3d>& path_M,
-                                       const Eigen::Vector2d& from_M, double spacing_m, int max_points);
-
-/// "" when `peer` is usable, else why not, naming the field and value (a peer message is dropped then).
-std::string CheckPeerBody(const PeerBody& peer);
-
-/// Obstacle points standing for `peers` around a robot at `state` (frame M), expressed in the robot's body
-/// frame B at height `z_B_m` (metres; inside the local planner's obstacle band): points 0.1 m apart (at most
-/// 64 per circle) on a circle of the peer's footprint radius plus `options.margin_m` around where it is and
-/// where it will be in options.prediction_s (half and whole, for a peer moving faster than 0.05 m/s, on its
-/// current arc). Peers more than options.same_level_dz_m above or below the robot, or whose circles lie
-/// wholly beyond `range_m` of it, give none. Appends to `*points_B`.
-void AppendPeerObstacles(const std::vector<PeerBody>& peers, const core::BaseState& state, double range_m,
-                         double z_B_m, const PeerOptions& options, std::vector<Eigen::Vector3f>* points_B);
+/// "" when `peer` is usable, else why not, naming the field and value (nav::CheckPeerBody, then the yield
+/// answer: a state of the list above, a valid id, a reason of at most 512 bytes); a peer message is dropped
+/// then.
+std::string CheckPeer(const Peer& peer);
 
 /// The peers one robot hears. Thread-safe: messages arrive on DDS threads, the control loop reads.
 class PeerTracker {
@@ -81,15 +49,15 @@ class PeerTracker {
   PeerTracker(std::string own_id, PeerOptions options);
 
   /// A peer's message arrived at `now_s` (seconds on this robot's clock: no clock sync). "" when kept, else
-  /// why it was dropped (CheckPeerBody's reason); its own messages are ignored.
-  std::string OnPeerState(const PeerBody& peer, double now_s);
+  /// why it was dropped (CheckPeer's reason); its own messages are ignored.
+  std::string OnPeerState(const Peer& peer, double now_s);
   /// The peers heard within options().timeout_s of `now_s`, by id. Forgets the others.
-  std::vector<PeerBody> Live(double now_s);
+  std::vector<Peer> Live(double now_s);
   const PeerOptions& options() const { return options_; }
 
  private:
   struct Heard {
-    PeerBody body;
+    Peer peer;
     double at_s = 0.0;
   };
   std::string own_id_;

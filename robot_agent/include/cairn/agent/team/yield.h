@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "cairn/agent/modes/mode_module.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/peers.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/nav/yield_spot.h"
@@ -103,7 +103,7 @@ struct YieldStatus {
 const char* ToString(YieldStatus::State state);
 
 /// True when `peer`'s state says it is getting out of `robot_id`'s way (moving aside, aside or returning).
-bool YieldsTo(const PeerBody& peer, const std::string& robot_id);
+bool YieldsTo(const Peer& peer, const std::string& robot_id);
 
 /// What the robot asked to yield is doing when the request comes (DecideYield()).
 struct YieldSituation {
@@ -143,7 +143,7 @@ class YieldMode : public ModeModule {
 
   /// `navigation` (not owned) outlives this. @throws std::invalid_argument for a null navigation or invalid
   /// options.
-  YieldMode(const YieldOptions& options, double channel_timeout_s, Navigation* navigation);
+  YieldMode(const YieldOptions& options, double channel_timeout_s, nav::Navigation* navigation);
 
   /// Starts standing aside for `command` at `spot` (found on this robot's map, spot.found) from `pose_M`
   /// (frame M) at `now_s`. `return_home`: drive back to where it stood once the other has passed (an idle
@@ -162,7 +162,7 @@ class YieldMode : public ModeModule {
   void Refuse(const std::string& passing_id, const std::string& why, double now_s);
   /// The peers heard lately (PeerTracker::Live()) at `now_s`: the passing robot's progress; a refusal
   /// expires.
-  void SetPeers(const std::vector<PeerBody>& peers, double now_s);
+  void SetPeers(const std::vector<Peer>& peers, double now_s);
   /// Leaves the yield (an operator's stop or mode switch): the goal is dropped, no task is resumed.
   void Deactivate(const std::string& why) override;
   /// A yield for `passing_id` ended by Deactivate() (an operator's stop or mode switch) less than
@@ -191,7 +191,7 @@ class YieldMode : public ModeModule {
   void DropGoal();
 
   YieldOptions options_;
-  Navigation* navigation_;
+  nav::Navigation* navigation_;
   YieldStatus status_;
   std::string passing_id_;
   std::vector<Eigen::Vector2d> way_M_;  // from where it stood to the spot
@@ -214,7 +214,7 @@ class YieldMode : public ModeModule {
 /// The route a robot asks peers to keep clear of: its global path from where it stands (`pose_M`, frame M)
 /// to the goal, in at most 31 points at least 1 m apart (the whole way, not only the next metres a peer state
 /// carries: a spot beyond those may still be on it). Empty without a goal.
-std::vector<Eigen::Vector3d> YieldRouteAhead(const Navigation& navigation, const core::BaseState& pose_M);
+std::vector<Eigen::Vector3d> YieldRouteAhead(const nav::Navigation& navigation, const core::BaseState& pose_M);
 
 /// What YieldAsker::Update() reads, once per control cycle of a robot driving a goal.
 struct YieldAskInputs {
@@ -222,7 +222,7 @@ struct YieldAskInputs {
   double radius_m = 0.3;   ///< its footprint radius, metres
   /// Its route ahead from where it is, frame M (YieldRouteAhead()); empty: no route.
   std::vector<Eigen::Vector3d> route_M;
-  std::vector<PeerBody> peers;  ///< heard lately (PeerTracker::Live())
+  std::vector<Peer> peers;  ///< heard lately (PeerTracker::Live())
   /// Its traversability grid (the passage's width), fetched only when a peer is on the route; null: no peer
   /// counts as blocking.
   std::function<std::shared_ptr<const nav::TraversabilityGrid>()> grid;
@@ -232,14 +232,14 @@ struct YieldAskInputs {
 /// YieldAsker::Update()'s inputs for a robot in `mode` at `pose_M` (frame M) of footprint `radius_m`: empty
 /// (nothing asked, nothing held) unless options.ask_peers, the mode drives a goal (waypoint, explore) and a
 /// peer is heard; only then is the route taken from `navigation` (YieldRouteAhead: not every control cycle).
-YieldAskInputs AskInputs(const YieldOptions& options, const std::string& mode, const Navigation& navigation,
-                         const core::BaseState& pose_M, double radius_m, std::vector<PeerBody> peers,
+YieldAskInputs AskInputs(const YieldOptions& options, const std::string& mode, const nav::Navigation& navigation,
+                         const core::BaseState& pose_M, double radius_m, std::vector<Peer> peers,
                          std::function<std::shared_ptr<const nav::TraversabilityGrid>()> grid, double now_s);
 
 /// `situation` with what the passing robot's state and this robot's last yield say: passing_yields_to_me
 /// (YieldsTo, from `peers`: PeerTracker::Live()) and ended_lately (yield.EndedLately()).
 YieldSituation WithPeerAndHistory(YieldSituation situation, const YieldCommand& c,
-                                  const std::vector<PeerBody>& peers, const YieldMode& yield, double now_s);
+                                  const std::vector<Peer>& peers, const YieldMode& yield, double now_s);
 
 /// YieldAsker::Update()'s answer.
 struct YieldAsk {

@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "cairn/agent/modes/mission_resumption.h"
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/peers.h"
 #include "cairn/agent/team/yield.h"
 #include "cairn/agent/team/yield_sender.h"
@@ -36,7 +36,7 @@ class YieldCoordination {
     double now_s = 0.0;                            ///< the agent's clock, seconds
     std::string mode;                              ///< the mode now (ModeControl::mode())
     core::BaseState pose_M;                        ///< the pose estimate, frame M
-    const std::vector<PeerBody>* peers = nullptr;  ///< peers heard lately (PeerTracker::Live()); not null
+    const std::vector<Peer>* peers = nullptr;  ///< peers heard lately (PeerTracker::Live()); not null
     bool listening_to_peers = false;  ///< peers' states are read (AgentDds::ListenToPeers() done)
   };
   /// The traversability grid of the robot's platform (the passage's width, the spots aside); null: no map.
@@ -49,7 +49,7 @@ class YieldCoordination {
   /// tree for a mode; `mission_commands` is CommandInterface::mission_commands().
   /// @throws std::invalid_argument for invalid options, an empty id or a null pointer.
   YieldCoordination(std::string robot_id, const YieldOptions& options, double radius_m, YieldMode* yield,
-                    MissionResumption* missions, Navigation* navigation, GridSource grid,
+                    MissionResumption* missions, nav::Navigation* navigation, GridSource grid,
                     MissionResumption::RequestMode request_mode,
                     std::function<std::uint64_t()> mission_commands);
 
@@ -81,7 +81,7 @@ class YieldCoordination {
   const double radius_m_;
   YieldMode* const yield_;
   MissionResumption* const missions_;
-  Navigation* const navigation_;
+  nav::Navigation* const navigation_;
   const GridSource grid_;
   const MissionResumption::RequestMode request_mode_;
   const std::function<std::uint64_t()> mission_commands_;

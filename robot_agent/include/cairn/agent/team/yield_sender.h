@@ -35,6 +35,6 @@ struct YieldOrigin {
 ///  - or a peer robot this robot hears, from the process its peer states come from, asking for itself
 ///    (sender = passing robot: robots ask only to let themselves pass).
 std::string CheckYieldSender(const std::string& own_id, const YieldCommand& c, const YieldOrigin& origin,
-                             const std::vector<PeerBody>& heard);
+                             const std::vector<Peer>& heard);
 
 }  // namespace cairn::agent

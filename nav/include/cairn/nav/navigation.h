@@ -1,4 +1,4 @@
-// Navigation component of cairn_agent (Sriganesh et al. 2024, § Navigation Layer): the global planner
+// Navigation, the agent's navigation component (Sriganesh et al. 2024, § Navigation Layer): the global planner
 // service, the FALCO trajectory-library local planner and the iLQR controller, chained behind the mux.
 // Waypoint mode: global path -> carrot -> local planner -> iLQR -> twist. Smart joystick mode: the
 // operator's direction -> local planner (closest free path) -> iLQR -> twist. DDS-free: the agent feeds it
@@ -15,23 +15,23 @@
 #include <string>
 #include <vector>
 
-#include "cairn/agent/team/peers.h"
 #include "cairn/core/kinematics.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/nav/ilqr.h"
 #include "cairn/nav/local_planner.h"
+#include "cairn/nav/peers.h"
 #include "cairn/nav/platform.h"
 
-namespace cairn::agent {
+namespace cairn::nav {
 
 /// Options of Navigation (config file sections navigation, local_planner, controller).
 struct NavigationOptions {
   /// The platform: limits, footprint, traversability, cruise speed, local planner headings.
-  nav::PlatformProfile platform = nav::GetPlatformProfile("wheeled");
+  PlatformProfile platform = GetPlatformProfile("wheeled");
   /// Local planner scoring.
-  nav::LocalPlannerOptions local_planner;
+  LocalPlannerOptions local_planner;
   /// iLQR controller (horizon, weights).
-  nav::IlqrOptions controller;
+  IlqrOptions controller;
   /// Default arrival radius when a goal gives 0, metres, (0, 5].
   double goal_tolerance_m = 0.2;
   /// No progress toward the goal for this long -> the goal fails ("blocked: ..."), seconds, (0, 600].
@@ -70,7 +70,7 @@ struct NavigationOptions {
   /// Smart joystick: the yaw rate bends the joystick direction by wz * this (capped at 90 deg), seconds,
   /// [0, 5].
   double joystick_turn_lookahead_s = 1.0;
-  /// A goal in unmapped space (nav::GlobalPlan::goal_unmapped: beyond the map or on ground not seen yet,
+  /// A goal in unmapped space (GlobalPlan::goal_unmapped: beyond the map or on ground not seen yet,
   /// which may be inside rock) is abandoned after this many replans without progress, [1, 1000]. Progress:
   /// the distance left (along the plan, plus a partial plan's remaining straight line) 0.5 m below its least
   /// so far; replans adopt longer routes as the map reveals walls, so they do not count as progress here.
@@ -102,16 +102,16 @@ struct NavigationStep {
 /// A driven path as a plan navigation follows (Navigation::AcceptGoal) without a search: the path a convoy's
 /// robot ahead drove, or a yielding robot's way to its spot on its own grid. `path_M` frame M, metres (>= 1
 /// point); `map_version` the planner's map it was taken on; `what` the plan's message.
-nav::GlobalPlan PlanAlong(const std::vector<Eigen::Vector3d>& path_M, std::uint64_t map_version,
+GlobalPlan PlanAlong(const std::vector<Eigen::Vector3d>& path_M, std::uint64_t map_version,
                           const std::string& what);
 
 /// True if `plan` (a future from Navigation::PlanGoalAsync() or a replan) holds a finished search: get() will
 /// not block. False for an empty future.
-inline bool PlanReady(const std::future<nav::GlobalPlan>& plan) {
+inline bool PlanReady(const std::future<GlobalPlan>& plan) {
   return plan.valid() && plan.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
 }
 /// True while `plan`'s search still runs on the planner's worker.
-inline bool PlanRunning(const std::future<nav::GlobalPlan>& plan) {
+inline bool PlanRunning(const std::future<GlobalPlan>& plan) {
   return plan.valid() && plan.wait_for(std::chrono::seconds(0)) != std::future_status::ready;
 }
 
@@ -122,37 +122,37 @@ class Navigation {
   /// @throws std::invalid_argument for invalid options, a null planner or library, or a planner that does
   ///         not serve the platform. The library should be built for the platform (heading range, collision
   ///         radius), see AgentOptions::LibraryForPlatform().
-  Navigation(const NavigationOptions& options, std::shared_ptr<nav::GlobalPlanner> planner,
-             std::shared_ptr<const nav::TrajectoryLibrary> library);
+  Navigation(const NavigationOptions& options, std::shared_ptr<GlobalPlanner> planner,
+             std::shared_ptr<const TrajectoryLibrary> library);
 
   /// Plans a global path from `state` to the goal (x_m, y_m) (metres, frame map). On success the goal
   /// becomes active (replacing any other) and the plan is returned; otherwise the previous goal is kept and
   /// the plan's reason says why. tolerance_m 0 = options.goal_tolerance_m.
   /// `z_m`: the goal's level, the walkable surface at (x_m, y_m) nearest this height (metres, frame M; an
-  /// upper floor); NaN = the robot's level (see nav::GlobalPlanRequest::goal_z_m).
-  nav::GlobalPlan SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
+  /// upper floor); NaN = the robot's level (see GlobalPlanRequest::goal_z_m).
+  GlobalPlan SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
                           double now_s, double z_m = std::numeric_limits<double>::quiet_NaN());
   /// The planner request SetGoal() makes (from the robot's pose, start_is_robot), for callers that plan on
   /// another thread and hand the plan to AcceptGoal().
-  nav::GlobalPlanRequest GoalRequest(const core::BaseState& state, double x_m, double y_m,
+  GlobalPlanRequest GoalRequest(const core::BaseState& state, double x_m, double y_m,
                                      double z_m = std::numeric_limits<double>::quiet_NaN()) const;
   /// Makes a goal planned elsewhere (request from GoalRequest()) active, replacing any other. `plan` must be
   /// usable. `stall_timeout_s`: this goal's stall timeout (the robot moves less than 0.5 m for this long ->
   /// the step fails with `stalled`), seconds; 0 = options.stall_timeout_s.
-  void AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s,
+  void AcceptGoal(const GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s,
                   double z_m = std::numeric_limits<double>::quiet_NaN(), double stall_timeout_s = 0.0);
   /// Plans the goal (x_m, y_m, z_m) from `state` on a worker thread, with the request GoalRequest() makes
   /// now (the current clearance setting included), so that the control loop never waits for a search (one
   /// over the map's levels takes up to ~1 s). The caller polls the future and hands a usable plan to
   /// AcceptGoal(); a future it no longer wants goes to Abandon().
-  std::future<nav::GlobalPlan> PlanGoalAsync(const core::BaseState& state, double x_m, double y_m,
+  std::future<GlobalPlan> PlanGoalAsync(const core::BaseState& state, double x_m, double y_m,
                                              double z_m = std::numeric_limits<double>::quiet_NaN()) const;
   /// True while a replan of the current goal (or a partial plan's extension) runs on the worker; the next
   /// StepWaypoint() after it ends adopts its plan.
   bool replanning() const;
   /// Keeps a plan future nobody waits for until its search ends (destroying a running std::async future
   /// would block the caller until then).
-  void Abandon(std::future<nav::GlobalPlan> plan);
+  void Abandon(std::future<GlobalPlan> plan);
   /// Drops the goal (the robot will be stopped by the caller's mode switch).
   void ClearGoal();
   /// Drops the goal only if it is still the one made active when goal_serial() was `serial`: a mode that
@@ -183,15 +183,15 @@ class Navigation {
   /// New obstacle points (frame B of `state`, metres) sensed at now_s. The peers of the last SetPeers() are
   /// added to them (AppendPeerObstacles within sensor_range_m, unless their options say not to avoid them).
   void SetObstacles(const std::vector<Eigen::Vector3f>& points_B, const core::BaseState& state, double now_s);
-  /// The peer robots to keep clear of from the next SetObstacles() on (PeerTracker::Live()), with `options`
-  /// (valid). An empty list: none.
-  void SetPeers(std::vector<PeerBody> peers, const PeerOptions& options);
+  /// The peer robots to keep clear of from the next SetObstacles() on (the agent's PeerTracker::Live()), with
+  /// `options` (valid). An empty list: none.
+  void SetPeers(std::vector<PeerBody> peers, const PeerAvoidanceOptions& options);
   /// Peers of the last SetPeers().
   const std::vector<PeerBody>& peers() const { return obstacles_.peers; }
-  /// This robot as its peers see it (cairn/peer_state): at `pose_M` (frame M) in `mode`, with the platform's
+  /// This robot's body as its peers see it (cairn/peer_state): at `pose_M` (frame M), with the platform's
   /// footprint radius and, with a goal, the next kPeerPathPoints points of its global path from the pose,
   /// kPeerPathSpacingM apart (PathAhead).
-  PeerBody AsPeer(const std::string& robot_id, const core::BaseState& pose_M, const std::string& mode) const;
+  PeerBody AsPeer(const std::string& robot_id, const core::BaseState& pose_M) const;
 
   /// One control step in waypoint mode (call at the control rate). Without a goal: a zero twist. The goal
   /// is reached when the robot is within its tolerance moving at most 0.1 m/s (the controller brakes to
@@ -201,7 +201,7 @@ class Navigation {
   /// obstacle point comes within the footprint radius plus kFollowMarginM of it, the local planner's path
   /// otherwise: a convoy follower drives the corners the robot ahead drove instead of cutting them toward a
   /// point ahead, which adds up along a convoy. A goal whose plan said it lies in unmapped space
-  /// (nav::GlobalPlan::goal_unmapped) fails `abandoned` after unmapped_goal_max_replans replans or
+  /// (GlobalPlan::goal_unmapped) fails `abandoned` after unmapped_goal_max_replans replans or
   /// unmapped_goal_timeout_s without progress ("goal in unmapped space abandoned: ..."); see also SetHold().
   NavigationStep StepWaypoint(const core::BaseState& state, double now_s,
                               double speed_mps = std::numeric_limits<double>::quiet_NaN(),
@@ -234,7 +234,7 @@ class Navigation {
   bool ObstacleSensingAlive(double now_s, std::string* why) const;
 
   /// The active (or last) global plan; empty path when none.
-  const nav::GlobalPlan& global_plan() const { return plan_; }
+  const GlobalPlan& global_plan() const { return plan_; }
   /// Waypoint goal id-independent progress: distance left along the global path, metres.
   double distance_left_m() const { return progress_.distance_left_m; }
   /// Estimated time to arrival, seconds (distance left / recent mean speed); -1 without a goal.
@@ -244,7 +244,7 @@ class Navigation {
   /// Bumped whenever the global path changes (new goal, replan, clear), to republish it.
   std::uint64_t path_revision() const { return replan_.path_revision; }
   /// Last local planner result (frame B of local_pose()).
-  const nav::LocalPlanResult& local_result() const { return local_.result; }
+  const LocalPlanResult& local_result() const { return local_.result; }
   /// The point the local planner last aimed at in waypoint mode ((x, y), metres, map frame): up to
   /// carrot_distance_m along the global path, no farther than the robot sees it in a straight line (see
   /// Carrot()).
@@ -254,10 +254,10 @@ class Navigation {
   /// "" (not run), "path", "boxed in: ..." or "invalid input: ...".
   const std::string& local_status() const { return local_.status; }
   /// Last controller solution.
-  const nav::IlqrSolution& controller_solution() const { return control_.solution; }
+  const IlqrSolution& controller_solution() const { return control_.solution; }
   const NavigationOptions& options() const { return options_; }
   /// The local planner's trajectory library (path geometry for display).
-  const nav::TrajectoryLibrary& library() const { return local_planner_.library(); }
+  const TrajectoryLibrary& library() const { return local_planner_.library(); }
 
  private:
   struct Goal {
@@ -302,14 +302,14 @@ class Navigation {
   // A turn toward `carrot_B` (frame B) while the carrot lies behind or the robot is boxed in; nullopt
   // otherwise.
   std::optional<NavigationStep> TurnInPlace(const core::BaseState& state, const Eigen::Vector2d& carrot_B);
-  // How far a (partial) plan's end is from the goal (nav::PartialRemainingM).
-  double PartialRemaining(const nav::GlobalPlan& plan) const;
+  // How far a (partial) plan's end is from the goal (PartialRemainingM).
+  double PartialRemaining(const GlobalPlan& plan) const;
   // Makes `plan` (usable, for the current goal) the one followed, from its start.
-  void AdoptPlan(const nav::GlobalPlan& plan, double now_s);
+  void AdoptPlan(const GlobalPlan& plan, double now_s);
   // Forgets a running replan without waiting for it.
   void DropExtension();
   // Runs `request` on a new thread.
-  std::future<nav::GlobalPlan> PlanOnWorker(nav::GlobalPlanRequest request) const;
+  std::future<GlobalPlan> PlanOnWorker(GlobalPlanRequest request) const;
   // Progress along the global path: updates progress_.segment and progress_.distance_left_m; returns the
   // distance from the robot to the path.
   double UpdateProgress(const Eigen::Vector2d& p_W);
@@ -329,26 +329,26 @@ class Navigation {
   // True if the obstacle point (frame B) is finite and in the local planner's obstacle z band.
   bool IsObstacle(const Eigen::Vector3f& p_B) const;
   // Runs the local planner if its period elapsed; fills local_.track_W and local_.track_stop_at_end.
-  void RunLocalPlanner(const core::BaseState& state, const nav::LocalPlanRequest& request, double now_s,
+  void RunLocalPlanner(const core::BaseState& state, const LocalPlanRequest& request, double now_s,
                        const std::optional<Eigen::Vector2d>& goal_W);
   // RunLocalPlanner()'s steps: the obstacles re-expressed in the body frame at `state`; for a goal, shorter
   // required free lengths tried while every path turns away from the carrot (true when one heads toward it:
   // within tight_spot_deviation_rad); the track cut at its sample nearest `goal_W` and ended at the goal when
   // the goal is that near.
   void ReexpressObstacles(const core::BaseState& state);
-  bool PlanTowardCarrot(const nav::LocalPlanRequest& request);
+  bool PlanTowardCarrot(const LocalPlanRequest& request);
   void SnapTrackToGoal(const Eigen::Vector2d& goal_W);
   // iLQR on local_.track_W; zero twist (braking) when there is no track.
   NavigationStep Control(const core::BaseState& state, double cruise_mps, double now_s);
   NavigationStep Fail(const std::string& reason);
 
   NavigationOptions options_;
-  std::shared_ptr<nav::GlobalPlanner> planner_;
-  nav::LocalPlanner local_planner_;
-  nav::IlqrController controller_;
+  std::shared_ptr<GlobalPlanner> planner_;
+  LocalPlanner local_planner_;
+  IlqrController controller_;
 
   std::optional<Goal> goal_;
-  nav::GlobalPlan plan_;
+  GlobalPlan plan_;
   // The robot's progress along plan_'s path.
   struct PathProgress {
     std::size_t segment = 0;             // segment of the global path the robot projects on
@@ -366,11 +366,11 @@ class Navigation {
     double last_check_s = -1e9;
     double last_partial_s = -1e9;            // last extension of a partial plan (the map grew)
     double last_worker_s = -1e9;             // last replan started on the worker
-    std::future<nav::GlobalPlan> extension;  // a replan (or a partial plan's extension) on a worker
+    std::future<GlobalPlan> extension;  // a replan (or a partial plan's extension) on a worker
     bool extension_at_end = false;           // ...asked for at the partial plan's end
     std::string extension_cause;             // ...and why it was asked for, for a failure's reason
     double partial_stuck_since_s = -1.0;     // at a partial plan's end with no way on since; -1 = not
-    std::vector<std::future<nav::GlobalPlan>> abandoned;  // plans of dropped goals, still running
+    std::vector<std::future<GlobalPlan>> abandoned;  // plans of dropped goals, still running
   } replan_;
   bool creeping_ = false;  // the track is the global path through a tight spot (half speed)
   bool follow_path_ = false;
@@ -389,12 +389,12 @@ class Navigation {
     core::BaseState pose;   // pose the points are expressed from
     bool awaiting = false;  // obstacle memory cleared: no local plan before the next SetObstacles()
     std::vector<PeerBody> peers;
-    PeerOptions peer_options;
+    PeerAvoidanceOptions peer_options;
   } obstacles_;
   // The local planner's last cycle and the track it gave the controller.
   struct LocalPlanning {
     double last_time_s = -1e9;
-    nav::LocalPlanResult result;
+    LocalPlanResult result;
     core::BaseState pose;  // pose of the last local plan
     std::string status;
     std::vector<Eigen::Vector2d> track_W;  // path for the controller, frame W
@@ -402,10 +402,10 @@ class Navigation {
   } local_;
   // The controller's last solve.
   struct Tracking {
-    nav::IlqrSolution solution;
+    IlqrSolution solution;
     double last_solve_time_s = -1.0;
     bool turning_in_place = false;  // rotation shim: turning toward the path until aligned
   } control_;
 };
 
-}  // namespace cairn::agent
+}  // namespace cairn::nav

@@ -1,4 +1,4 @@
-#include "cairn/agent/services/navigation.h"
+#include "cairn/nav/navigation.h"
 
 #include <algorithm>
 #include <chrono>
@@ -9,7 +9,7 @@
 
 #include "cairn/core/range_check.h"
 
-namespace cairn::agent {
+namespace cairn::nav {
 namespace {
 
 using core::InRange;
@@ -83,8 +83,8 @@ const NavigationOptions& Validated(const NavigationOptions& options) {
 
 }  // namespace
 
-Navigation::Navigation(const NavigationOptions& options, std::shared_ptr<nav::GlobalPlanner> planner,
-                       std::shared_ptr<const nav::TrajectoryLibrary> library)
+Navigation::Navigation(const NavigationOptions& options, std::shared_ptr<GlobalPlanner> planner,
+                       std::shared_ptr<const TrajectoryLibrary> library)
     : options_(Validated(options)),
       planner_(std::move(planner)),
       local_planner_(library, options.local_planner),
@@ -94,17 +94,17 @@ Navigation::Navigation(const NavigationOptions& options, std::shared_ptr<nav::Gl
     throw std::invalid_argument("Navigation: the global planner does not serve platform '" +
                                 options_.platform.name + "'");
   }
-  plan_.result.status = nav::PlanResult::Status::kUnreachable;
+  plan_.result.status = PlanResult::Status::kUnreachable;
 }
 
-double Navigation::PartialRemaining(const nav::GlobalPlan& plan) const {
+double Navigation::PartialRemaining(const GlobalPlan& plan) const {
   if (!goal_ || plan.result.path_W.empty()) return 0.0;
-  return nav::PartialRemainingM(plan.result.path_W.back(), goal_->p_W, goal_->z_m);
+  return PartialRemainingM(plan.result.path_W.back(), goal_->p_W, goal_->z_m);
 }
 
-nav::GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, double x_m, double y_m,
+GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, double x_m, double y_m,
                                                double z_m) const {
-  nav::GlobalPlanRequest request;
+  GlobalPlanRequest request;
   request.start_W = {state.x_m, state.y_m};
   request.start_z_m = state.z_m;  // the planner uses the map's levels when the robot is off its main level
   request.goal_W = {x_m, y_m};
@@ -122,14 +122,14 @@ nav::GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, dou
   return request;
 }
 
-nav::GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
+GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
                                     double now_s, double z_m) {
-  nav::GlobalPlan plan = planner_->Plan(GoalRequest(state, x_m, y_m, z_m));
+  GlobalPlan plan = planner_->Plan(GoalRequest(state, x_m, y_m, z_m));
   if (plan.IsUsable()) AcceptGoal(plan, x_m, y_m, tolerance_m, now_s, z_m);
   return plan;
 }
 
-void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m, double tolerance_m,
+void Navigation::AcceptGoal(const GlobalPlan& plan, double x_m, double y_m, double tolerance_m,
                             double now_s, double z_m, double stall_timeout_s) {
   DropExtension();
   replan_.partial_stuck_since_s = -1.0;
@@ -172,20 +172,20 @@ void Navigation::AcceptGoal(const nav::GlobalPlan& plan, double x_m, double y_m,
   control_.turning_in_place = false;
 }
 
-std::future<nav::GlobalPlan> Navigation::PlanOnWorker(nav::GlobalPlanRequest request) const {
+std::future<GlobalPlan> Navigation::PlanOnWorker(GlobalPlanRequest request) const {
   return std::async(std::launch::async,
                     [planner = planner_, request = std::move(request)] { return planner->Plan(request); });
 }
 
-std::future<nav::GlobalPlan> Navigation::PlanGoalAsync(const core::BaseState& state, double x_m, double y_m,
+std::future<GlobalPlan> Navigation::PlanGoalAsync(const core::BaseState& state, double x_m, double y_m,
                                                        double z_m) const {
   return PlanOnWorker(GoalRequest(state, x_m, y_m, z_m));
 }
 
-void Navigation::Abandon(std::future<nav::GlobalPlan> plan) {
+void Navigation::Abandon(std::future<GlobalPlan> plan) {
   // A running search finishes on its own; its future waits in replan_.abandoned so that nothing here blocks.
   replan_.abandoned.erase(std::remove_if(replan_.abandoned.begin(), replan_.abandoned.end(),
-                                         [](const std::future<nav::GlobalPlan>& f) { return PlanReady(f); }),
+                                         [](const std::future<GlobalPlan>& f) { return PlanReady(f); }),
                           replan_.abandoned.end());
   if (plan.valid()) replan_.abandoned.push_back(std::move(plan));
 }
@@ -260,18 +260,16 @@ void Navigation::SetObstacles(const std::vector<Eigen::Vector3f>& points_B, cons
   obstacles_.time_s = now_s;
 }
 
-void Navigation::SetPeers(std::vector<PeerBody> peers, const PeerOptions& options) {
+void Navigation::SetPeers(std::vector<PeerBody> peers, const PeerAvoidanceOptions& options) {
   obstacles_.peers = std::move(peers);
   obstacles_.peer_options = options;
 }
 
-PeerBody Navigation::AsPeer(const std::string& robot_id, const core::BaseState& pose_M,
-                            const std::string& mode) const {
+PeerBody Navigation::AsPeer(const std::string& robot_id, const core::BaseState& pose_M) const {
   PeerBody self;
   self.robot_id = robot_id;
   self.pose_M = pose_M;
   self.footprint_radius_m = options_.platform.footprint_radius_m;
-  self.mode = mode;
   if (has_goal()) {
     self.path_ahead_M =
         PathAhead(plan_.result.path_W, {pose_M.x_m, pose_M.y_m}, kPeerPathSpacingM, kPeerPathPoints);
@@ -390,7 +388,7 @@ Eigen::Vector2d Navigation::Carrot(const core::BaseState& state) const {
   return carrot;
 }
 
-void Navigation::AdoptPlan(const nav::GlobalPlan& plan, double now_s) {
+void Navigation::AdoptPlan(const GlobalPlan& plan, double now_s) {
   plan_ = plan;
   progress_.segment = 0;
   progress_.segment_start_along_m = 0.0;
@@ -402,29 +400,29 @@ void Navigation::AdoptPlan(const nav::GlobalPlan& plan, double now_s) {
   ++replan_.path_revision;
 }
 
-void Navigation::RunLocalPlanner(const core::BaseState& state, const nav::LocalPlanRequest& request,
+void Navigation::RunLocalPlanner(const core::BaseState& state, const LocalPlanRequest& request,
                                  double now_s, const std::optional<Eigen::Vector2d>& goal_W) {
   if (now_s - local_.last_time_s < options_.local_planner_period_s - 1e-9) return;
   local_.last_time_s = now_s;
   ReexpressObstacles(state);
   local_.pose = state;
-  nav::LocalPlanRequest r = request;
+  LocalPlanRequest r = request;
   r.previous_path_id = local_.result.IsUsable() ? local_.result.path_id : -1;
   local_planner_.Plan(obstacles_.points_B, r, &local_.result);
-  const bool aligned = r.mode != nav::LocalPlanMode::kGoal || PlanTowardCarrot(r);
+  const bool aligned = r.mode != LocalPlanMode::kGoal || PlanTowardCarrot(r);
   local_.track_W.clear();
   creeping_ = false;
-  if (r.mode == nav::LocalPlanMode::kGoal && follow_path_ &&
+  if (r.mode == LocalPlanMode::kGoal && follow_path_ &&
       TrackGlobalPathIfClear(state, kFollowTrackM, kFollowMarginM, /*tight=*/false)) {
     return;
   }
   // Beyond the bare footprint radius (the platform radius is the body); none with reduced clearance.
-  if (r.mode == nav::LocalPlanMode::kGoal && !aligned &&
+  if (r.mode == LocalPlanMode::kGoal && !aligned &&
       TrackGlobalPathIfClear(state, 1.0, reduced_clearance_ ? 0.0 : 0.01, /*tight=*/true)) {
     return;
   }
   if (!local_.result.IsUsable()) {
-    local_.status = local_.result.status == nav::LocalPlanResult::Status::kBoxedIn
+    local_.status = local_.result.status == LocalPlanResult::Status::kBoxedIn
                         ? local_.result.message
                         : "invalid input: " + local_.result.message;
     return;
@@ -452,11 +450,11 @@ void Navigation::ReexpressObstacles(const core::BaseState& state) {
   obstacles_.pose = state;
 }
 
-bool Navigation::PlanTowardCarrot(const nav::LocalPlanRequest& r) {
+bool Navigation::PlanTowardCarrot(const LocalPlanRequest& r) {
   // Tight spot: the paths free for the full length all turn away from the carrot. Shorter required lengths
   // let the robot creep through a gap whose far side the library's arcs cannot all clear.
   const double target = std::atan2(r.goal_B.y(), r.goal_B.x());
-  auto deviation = [&](const nav::LocalPlanResult& result) {
+  auto deviation = [&](const LocalPlanResult& result) {
     if (!result.IsUsable() || result.path_B.size() < 2) return kPi + 1.0;
     const Eigen::Vector3f& end = result.path_B.back();
     return std::abs(std::remainder(std::atan2(end.y(), end.x()) - target, 2 * kPi));
@@ -465,9 +463,9 @@ bool Navigation::PlanTowardCarrot(const nav::LocalPlanRequest& r) {
   double length = std::min(r.max_required_free_length_m, options_.required_free_length_m);
   while (best > options_.tight_spot_deviation_rad && length > options_.tight_free_length_m + 1e-9) {
     length = std::max(options_.tight_free_length_m, 0.5 * length);
-    nav::LocalPlanRequest shorter = r;
+    LocalPlanRequest shorter = r;
     shorter.max_required_free_length_m = length;
-    nav::LocalPlanResult result;
+    LocalPlanResult result;
     local_planner_.Plan(obstacles_.points_B, shorter, &result);
     const double d = deviation(result);
     if (d < best) {
@@ -533,7 +531,7 @@ bool Navigation::TrackGlobalPathIfClear(const core::BaseState& state, double tra
 }
 
 NavigationStep Navigation::Control(const core::BaseState& state, double cruise_mps, double now_s) {
-  nav::IlqrState x0;
+  IlqrState x0;
   x0 << state.x_m, state.y_m, state.yaw_rad, state.v_mps, state.w_radps;
   const double elapsed =
       control_.last_solve_time_s < 0 ? 0.0 : std::max(0.0, now_s - control_.last_solve_time_s);
@@ -586,7 +584,7 @@ NavigationStep Navigation::StepWaypoint(const core::BaseState& state, double now
 // the map grows and at its end, and fails when the map shows no way on from there.
 std::optional<NavigationStep> Navigation::TakeReplan(double now_s) {
   if (!PlanReady(replan_.extension)) return std::nullopt;
-  const nav::GlobalPlan extended = replan_.extension.get();
+  const GlobalPlan extended = replan_.extension.get();
   const Eigen::Vector3d end =
       plan_.result.path_W.empty() ? Eigen::Vector3d::Zero() : plan_.result.path_W.back();
   const bool was_partial = plan_.result.partial;
@@ -597,7 +595,7 @@ std::optional<NavigationStep> Navigation::TakeReplan(double now_s) {
   const auto status = extended.result.status;
   const bool map_may_tell =
       was_partial && extended.platform_known &&
-      (status == nav::PlanResult::Status::kUnreachable || status == nav::PlanResult::Status::kGoalBlocked);
+      (status == PlanResult::Status::kUnreachable || status == PlanResult::Status::kGoalBlocked);
   if (!extended.IsUsable() && !map_may_tell) {
     return Fail(replan_.extension_cause + " and no new path exists: " + extended.reason);
   }
@@ -650,7 +648,7 @@ void Navigation::ReplanOnWorker(const core::BaseState& state, double now_s, bool
   if (plan_.result.partial) replan_.last_partial_s = now_s;
   replan_.extension_at_end = at_end;
   replan_.extension_cause = std::move(cause);
-  nav::GlobalPlanRequest request = GoalRequest(state, goal_->p_W.x(), goal_->p_W.y(), goal_->z_m);
+  GlobalPlanRequest request = GoalRequest(state, goal_->p_W.x(), goal_->p_W.y(), goal_->z_m);
   request.diagnose = at_end;  // naming a step matters when the robot can go no further
   replan_.extension = PlanOnWorker(std::move(request));
 }
@@ -695,8 +693,8 @@ NavigationStep Navigation::DriveToCarrot(const core::BaseState& state, double to
                                          double now_s) {
   const Eigen::Vector2d carrot = Carrot(state);
   progress_.carrot_W = carrot;
-  nav::LocalPlanRequest request;
-  request.mode = nav::LocalPlanMode::kGoal;
+  LocalPlanRequest request;
+  request.mode = LocalPlanMode::kGoal;
   request.goal_B = ToBody(state, carrot);
   request.max_required_free_length_m = options_.required_free_length_m;
   if (request.goal_B.norm() < 1e-3) request.goal_B = ToBody(state, goal_->p_W);
@@ -722,7 +720,7 @@ std::optional<NavigationStep> Navigation::TurnInPlace(const core::BaseState& sta
                                                       const Eigen::Vector2d& carrot_B) {
   const double bearing = std::atan2(carrot_B.y(), carrot_B.x());
   const bool behind = std::abs(bearing) > options_.platform.local_heading_range_rad * 0.9;
-  const bool boxed_in = local_.result.status == nav::LocalPlanResult::Status::kBoxedIn;
+  const bool boxed_in = local_.result.status == LocalPlanResult::Status::kBoxedIn;
   constexpr double kAlignedRad = 20.0 * kPi / 180.0;
   if (control_.turning_in_place && std::abs(bearing) < kAlignedRad) control_.turning_in_place = false;
   if (behind || (boxed_in && std::abs(bearing) > kPi / 4)) control_.turning_in_place = true;
@@ -823,18 +821,18 @@ NavigationStep Navigation::StepJoystick(const core::BaseState& state, double vx_
                     " deg is outside the platform's local planner headings";
     return Control(state, 0.0, now_s);
   }
-  nav::LocalPlanRequest request;
-  request.mode = nav::LocalPlanMode::kJoystick;
+  LocalPlanRequest request;
+  request.mode = LocalPlanMode::kJoystick;
   request.goal_B = Eigen::Vector2d(std::cos(direction), std::sin(direction));
   request.max_required_free_length_m = options_.required_free_length_m;
   RunLocalPlanner(state, request, now_s, std::nullopt);
   return Control(state, speed, now_s);
 }
 
-nav::GlobalPlan PlanAlong(const std::vector<Eigen::Vector3d>& path_M, std::uint64_t map_version,
+GlobalPlan PlanAlong(const std::vector<Eigen::Vector3d>& path_M, std::uint64_t map_version,
                           const std::string& what) {
-  nav::GlobalPlan plan;
-  plan.result.status = nav::PlanResult::Status::kSuccess;
+  GlobalPlan plan;
+  plan.result.status = PlanResult::Status::kSuccess;
   plan.result.path_W = path_M;
   for (std::size_t i = 0; i + 1 < path_M.size(); ++i)
     plan.result.length_m += (path_M[i + 1] - path_M[i]).head<2>().norm();
@@ -843,4 +841,4 @@ nav::GlobalPlan PlanAlong(const std::vector<Eigen::Vector3d>& path_M, std::uint6
   return plan;
 }
 
-}  // namespace cairn::agent
+}  // namespace cairn::nav
