@@ -30,8 +30,8 @@
 #include "cairn/agent/modes/waypoint_recovery.h"
 #include "cairn/agent/services/live_obstacles.h"
 #include "cairn/agent/services/nav_map.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/nav/global_planner.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/nav/sampling.h"
 #include "cairn/nav/scan_obstacles.h"
 #include "cairn/perception/perception_pipeline.h"
@@ -195,7 +195,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
                                             {options.navigation.platform});
   agent::NavMap nav_map(options.nav_map, perception_options.map.resolution_m, start_M, planner, g_platform);
   nav::Navigation navigation(options.navigation, planner,
-                               std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
+                             std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
   agent::LiveObstacles live_obstacles(options.navigation, options.obstacle_window_s,
                                       platform.Capabilities().lidar_min_elevation_rad);
   agent::WaypointRecovery recovery(std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml", &navigation,
@@ -407,7 +407,7 @@ Outcome RunGroundTruth(const std::string& world_spec, const core::PlanarPose& st
       world, std::vector<nav::PlatformProfile>{options.navigation.platform});
   const auto grid = planner->Grid("wheeled");
   nav::Navigation navigation(options.navigation, planner,
-                               std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
+                             std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
   sim::Unicycle base(options.navigation.platform.limits, options.navigation.platform.footprint_radius_m);
   sim::UnicycleState s;
   s.x_m = start.x_m;

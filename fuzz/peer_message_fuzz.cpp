@@ -110,7 +110,8 @@ void Peer(const msgs::PeerState& m) {
   std::vector<Eigen::Vector3f> points_B;
   const std::vector<cairn::agent::Peer> live = tracker.Live(0.5);
   cairn::nav::AppendPeerObstacles(std::vector<cairn::nav::PeerBody>(live.begin(), live.end()),
-                                  cairn::core::BaseState{}, 3.5, 0.3, cairn::nav::PeerAvoidanceOptions{}, &points_B);
+                                  cairn::core::BaseState{}, 3.5, 0.3, cairn::nav::PeerAvoidanceOptions{},
+                                  &points_B);
 }
 
 // A yield request as a robot takes it (AgentDds's id check, YieldFromMessage, CheckYieldCommand), then the

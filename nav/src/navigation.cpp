@@ -103,7 +103,7 @@ double Navigation::PartialRemaining(const GlobalPlan& plan) const {
 }
 
 GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, double x_m, double y_m,
-                                               double z_m) const {
+                                          double z_m) const {
   GlobalPlanRequest request;
   request.start_W = {state.x_m, state.y_m};
   request.start_z_m = state.z_m;  // the planner uses the map's levels when the robot is off its main level
@@ -123,14 +123,14 @@ GlobalPlanRequest Navigation::GoalRequest(const core::BaseState& state, double x
 }
 
 GlobalPlan Navigation::SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
-                                    double now_s, double z_m) {
+                               double now_s, double z_m) {
   GlobalPlan plan = planner_->Plan(GoalRequest(state, x_m, y_m, z_m));
   if (plan.IsUsable()) AcceptGoal(plan, x_m, y_m, tolerance_m, now_s, z_m);
   return plan;
 }
 
-void Navigation::AcceptGoal(const GlobalPlan& plan, double x_m, double y_m, double tolerance_m,
-                            double now_s, double z_m, double stall_timeout_s) {
+void Navigation::AcceptGoal(const GlobalPlan& plan, double x_m, double y_m, double tolerance_m, double now_s,
+                            double z_m, double stall_timeout_s) {
   DropExtension();
   replan_.partial_stuck_since_s = -1.0;
   Goal goal;
@@ -178,7 +178,7 @@ std::future<GlobalPlan> Navigation::PlanOnWorker(GlobalPlanRequest request) cons
 }
 
 std::future<GlobalPlan> Navigation::PlanGoalAsync(const core::BaseState& state, double x_m, double y_m,
-                                                       double z_m) const {
+                                                  double z_m) const {
   return PlanOnWorker(GoalRequest(state, x_m, y_m, z_m));
 }
 
@@ -400,8 +400,8 @@ void Navigation::AdoptPlan(const GlobalPlan& plan, double now_s) {
   ++replan_.path_revision;
 }
 
-void Navigation::RunLocalPlanner(const core::BaseState& state, const LocalPlanRequest& request,
-                                 double now_s, const std::optional<Eigen::Vector2d>& goal_W) {
+void Navigation::RunLocalPlanner(const core::BaseState& state, const LocalPlanRequest& request, double now_s,
+                                 const std::optional<Eigen::Vector2d>& goal_W) {
   if (now_s - local_.last_time_s < options_.local_planner_period_s - 1e-9) return;
   local_.last_time_s = now_s;
   ReexpressObstacles(state);
@@ -830,7 +830,7 @@ NavigationStep Navigation::StepJoystick(const core::BaseState& state, double vx_
 }
 
 GlobalPlan PlanAlong(const std::vector<Eigen::Vector3d>& path_M, std::uint64_t map_version,
-                          const std::string& what) {
+                     const std::string& what) {
   GlobalPlan plan;
   plan.result.status = PlanResult::Status::kSuccess;
   plan.result.path_W = path_M;

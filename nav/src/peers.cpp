@@ -97,7 +97,8 @@ std::vector<Eigen::Vector3d> PathAhead(const std::vector<Eigen::Vector3d>& path_
 }
 
 void AppendPeerObstacles(const std::vector<PeerBody>& peers, const core::BaseState& state, double range_m,
-                         double z_B_m, const PeerAvoidanceOptions& options, std::vector<Eigen::Vector3f>* points_B) {
+                         double z_B_m, const PeerAvoidanceOptions& options,
+                         std::vector<Eigen::Vector3f>* points_B) {
   const double c = std::cos(state.yaw_rad), s = std::sin(state.yaw_rad);
   auto add_circle = [&](double x_M, double y_M, double radius_m) {
     const double dx = x_M - state.x_m, dy = y_M - state.y_m;

@@ -1,5 +1,5 @@
-// Peers as obstacles: the obstacle points that stand for a peer's body (where it is and where it will be), and
-// the path ahead a robot tells its peers.
+// Peers as obstacles: the obstacle points that stand for a peer's body (where it is and where it will be),
+// and the path ahead a robot tells its peers.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -47,7 +47,8 @@ TEST(PeerObstaclesTest, APeerIsACircleOfPointsInTheRobotsBodyFrame) {
 
   // Beyond the range, on another floor: none.
   points_B.clear();
-  AppendPeerObstacles({MakeBody("r2", 1.0, 9.0), MakeBody("r3", 1.0, 3.0, 2.5)}, robot, 5.0, 0.3, options, &points_B);
+  AppendPeerObstacles({MakeBody("r2", 1.0, 9.0), MakeBody("r3", 1.0, 3.0, 2.5)}, robot, 5.0, 0.3, options,
+                      &points_B);
   EXPECT_TRUE(points_B.empty());
 }
 

@@ -36,7 +36,6 @@
 #include "cairn/agent/modes/robot_modes.h"
 #include "cairn/agent/modes/waypoint_mode.h"
 #include "cairn/agent/services/nav_map.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/agent/services/perception_service.h"
 #include "cairn/agent/services/planning_service.h"
 #include "cairn/agent/services/trajectory_library_cache.h"
@@ -48,6 +47,7 @@
 #include "cairn/core/peer_input.h"
 #include "cairn/core/range_check.h"
 #include "cairn/core/shutdown.h"
+#include "cairn/nav/navigation.h"
 #include "cairn_msgs.h"
 
 #ifndef CAIRN_CONFIG_DIR

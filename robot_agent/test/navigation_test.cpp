@@ -63,9 +63,9 @@ struct SimRobot {
     platform.set_state(s);
   }
 
-  static nav::NavigationOptions MakeOptions(const std::string& platform_name,
-                                       double blocked_timeout_s = nav::NavigationOptions{}.blocked_timeout_s,
-                                       double stall_timeout_s = nav::NavigationOptions{}.stall_timeout_s) {
+  static nav::NavigationOptions MakeOptions(
+      const std::string& platform_name, double blocked_timeout_s = nav::NavigationOptions{}.blocked_timeout_s,
+      double stall_timeout_s = nav::NavigationOptions{}.stall_timeout_s) {
     nav::NavigationOptions o;
     o.platform = nav::GetPlatformProfile(platform_name);
     o.blocked_timeout_s = blocked_timeout_s;
@@ -397,7 +397,8 @@ TEST(NavigationTest, StopsWithoutObstacleInput) {
 // obstacle memory and retries (the ghost is still there: attempt 1 fails), backs up and retries after the
 // ghost has left (attempt 2 arrives).
 struct GhostRobot {
-  explicit GhostRobot(double blocked_timeout_s, double stall_timeout_s = nav::NavigationOptions{}.stall_timeout_s)
+  explicit GhostRobot(double blocked_timeout_s,
+                      double stall_timeout_s = nav::NavigationOptions{}.stall_timeout_s)
       : world(std::make_shared<const sim::World>(FlatWorld(16.0, 8.0, 0.1, 2.0))),
         robot(world, "wheeled", 3.0, 4.0, 0.0, blocked_timeout_s, stall_timeout_s),
         recovery(std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml", &robot.navigation,

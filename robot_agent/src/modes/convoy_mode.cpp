@@ -154,9 +154,9 @@ ModeOutput ConvoyMode::Step(const ModeInputs& in) {
     return Stop(ConvoyStatus::State::kBlocked, status_.reason, in);
   }
   if (!has_goal_ || !navigation_->has_goal() || (target - goal_M_).norm() >= kRefreshM) {
-    navigation_->AcceptGoal(
-        nav::PlanAlong(decision.path_M, navigation_->global_plan().map_version, "the trail of the robot ahead"),
-        target.x(), target.y(), 0.0, in.now_s);
+    navigation_->AcceptGoal(nav::PlanAlong(decision.path_M, navigation_->global_plan().map_version,
+                                           "the trail of the robot ahead"),
+                            target.x(), target.y(), 0.0, in.now_s);
     goal_serial_ = navigation_->goal_serial();
     goal_M_ = target;
     has_goal_ = true;

@@ -136,9 +136,8 @@ void MissionResumption::StartPlannedGoal(double now_s, const PausedMission& paus
   }
 }
 
-void MissionResumption::Step(double now_s, const core::BaseState& pose_M,
-                             const std::vector<Peer>& live_peers, std::uint64_t mission_commands,
-                             const std::function<bool()>& goal_acceptable) {
+void MissionResumption::Step(double now_s, const core::BaseState& pose_M, const std::vector<Peer>& live_peers,
+                             std::uint64_t mission_commands, const std::function<bool()>& goal_acceptable) {
   YieldMode& yield = *modes_.yield;
   if (yield.TakeFinished()) {
     spdlog::info("robot {}: {}", robot_id_, yield.status().reason);

@@ -24,7 +24,8 @@ void ManualMode::OnOperatorTwist(const OperatorTwist& twist_B, core::SteadyTime 
   has_stick_ = true;
 }
 
-SmartJoystickMode::SmartJoystickMode(nav::Navigation* navigation, double channel_timeout_s, double stick_timeout_s)
+SmartJoystickMode::SmartJoystickMode(nav::Navigation* navigation, double channel_timeout_s,
+                                     double stick_timeout_s)
     : ModeModule(kName, MuxChannelOptions{kChannel, channel_timeout_s}),
       navigation_(navigation),
       stick_timeout_s_(stick_timeout_s) {

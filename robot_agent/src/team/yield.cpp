@@ -327,7 +327,8 @@ void YieldMode::Drive(const std::vector<Eigen::Vector2d>& way_M, double z_m, con
   for (const Eigen::Vector2d& p : way_M) path.emplace_back(p.x(), p.y(), z_m);
   if (path.size() == 1) path.push_back(path.front());
   const Eigen::Vector2d end = way_M.back();
-  navigation_->AcceptGoal(nav::PlanAlong(path, navigation_->global_plan().map_version, what), end.x(), end.y(),
+  navigation_->AcceptGoal(nav::PlanAlong(path, navigation_->global_plan().map_version, what), end.x(),
+                          end.y(),
                           /*tolerance_m=*/0.0, now_s);
   goal_serial_ = navigation_->goal_serial();
   has_goal_ = true;
@@ -403,7 +404,8 @@ ModeOutput YieldMode::Step(const ModeInputs& in) {
   return out;
 }
 
-std::vector<Eigen::Vector3d> YieldRouteAhead(const nav::Navigation& navigation, const core::BaseState& pose_M) {
+std::vector<Eigen::Vector3d> YieldRouteAhead(const nav::Navigation& navigation,
+                                             const core::BaseState& pose_M) {
   if (!navigation.has_goal()) return {};
   const std::vector<Eigen::Vector3d>& path = navigation.global_plan().result.path_W;
   double length_m = 0.0;
@@ -411,8 +413,9 @@ std::vector<Eigen::Vector3d> YieldRouteAhead(const nav::Navigation& navigation, 
   return nav::PathAhead(path, {pose_M.x_m, pose_M.y_m}, std::max(1.0, length_m / 30.0), 31);
 }
 
-YieldAskInputs AskInputs(const YieldOptions& options, const std::string& mode, const nav::Navigation& navigation,
-                         const core::BaseState& pose_M, double radius_m, std::vector<Peer> peers,
+YieldAskInputs AskInputs(const YieldOptions& options, const std::string& mode,
+                         const nav::Navigation& navigation, const core::BaseState& pose_M, double radius_m,
+                         std::vector<Peer> peers,
                          std::function<std::shared_ptr<const nav::TraversabilityGrid>()> grid, double now_s) {
   YieldAskInputs in;
   if (!options.ask_peers || (mode != "waypoint" && mode != "explore") || peers.empty()) return in;

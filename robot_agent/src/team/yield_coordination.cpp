@@ -11,8 +11,9 @@
 namespace cairn::agent {
 
 YieldCoordination::YieldCoordination(std::string robot_id, const YieldOptions& options, double radius_m,
-                                     YieldMode* yield, MissionResumption* missions, nav::Navigation* navigation,
-                                     GridSource grid, MissionResumption::RequestMode request_mode,
+                                     YieldMode* yield, MissionResumption* missions,
+                                     nav::Navigation* navigation, GridSource grid,
+                                     MissionResumption::RequestMode request_mode,
                                      std::function<std::uint64_t()> mission_commands)
     : robot_id_(std::move(robot_id)),
       options_(options),

@@ -1,6 +1,6 @@
-// Navigation, the agent's navigation component (Sriganesh et al. 2024, § Navigation Layer): the global planner
-// service, the FALCO trajectory-library local planner and the iLQR controller, chained behind the mux.
-// Waypoint mode: global path -> carrot -> local planner -> iLQR -> twist. Smart joystick mode: the
+// Navigation, the agent's navigation component (Sriganesh et al. 2024, § Navigation Layer): the global
+// planner service, the FALCO trajectory-library local planner and the iLQR controller, chained behind the
+// mux. Waypoint mode: global path -> carrot -> local planner -> iLQR -> twist. Smart joystick mode: the
 // operator's direction -> local planner (closest free path) -> iLQR -> twist. DDS-free: the agent feeds it
 // poses, obstacle points and times (seconds on any monotonic clock), so it runs in tests faster than real
 // time.
@@ -103,7 +103,7 @@ struct NavigationStep {
 /// robot ahead drove, or a yielding robot's way to its spot on its own grid. `path_M` frame M, metres (>= 1
 /// point); `map_version` the planner's map it was taken on; `what` the plan's message.
 GlobalPlan PlanAlong(const std::vector<Eigen::Vector3d>& path_M, std::uint64_t map_version,
-                          const std::string& what);
+                     const std::string& what);
 
 /// True if `plan` (a future from Navigation::PlanGoalAsync() or a replan) holds a finished search: get() will
 /// not block. False for an empty future.
@@ -130,12 +130,12 @@ class Navigation {
   /// the plan's reason says why. tolerance_m 0 = options.goal_tolerance_m.
   /// `z_m`: the goal's level, the walkable surface at (x_m, y_m) nearest this height (metres, frame M; an
   /// upper floor); NaN = the robot's level (see GlobalPlanRequest::goal_z_m).
-  GlobalPlan SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m,
-                          double now_s, double z_m = std::numeric_limits<double>::quiet_NaN());
+  GlobalPlan SetGoal(const core::BaseState& state, double x_m, double y_m, double tolerance_m, double now_s,
+                     double z_m = std::numeric_limits<double>::quiet_NaN());
   /// The planner request SetGoal() makes (from the robot's pose, start_is_robot), for callers that plan on
   /// another thread and hand the plan to AcceptGoal().
   GlobalPlanRequest GoalRequest(const core::BaseState& state, double x_m, double y_m,
-                                     double z_m = std::numeric_limits<double>::quiet_NaN()) const;
+                                double z_m = std::numeric_limits<double>::quiet_NaN()) const;
   /// Makes a goal planned elsewhere (request from GoalRequest()) active, replacing any other. `plan` must be
   /// usable. `stall_timeout_s`: this goal's stall timeout (the robot moves less than 0.5 m for this long ->
   /// the step fails with `stalled`), seconds; 0 = options.stall_timeout_s.
@@ -146,7 +146,7 @@ class Navigation {
   /// over the map's levels takes up to ~1 s). The caller polls the future and hands a usable plan to
   /// AcceptGoal(); a future it no longer wants goes to Abandon().
   std::future<GlobalPlan> PlanGoalAsync(const core::BaseState& state, double x_m, double y_m,
-                                             double z_m = std::numeric_limits<double>::quiet_NaN()) const;
+                                        double z_m = std::numeric_limits<double>::quiet_NaN()) const;
   /// True while a replan of the current goal (or a partial plan's extension) runs on the worker; the next
   /// StepWaypoint() after it ends adopts its plan.
   bool replanning() const;
@@ -364,12 +364,12 @@ class Navigation {
     int count = 0;
     std::uint64_t path_revision = 0;
     double last_check_s = -1e9;
-    double last_partial_s = -1e9;            // last extension of a partial plan (the map grew)
-    double last_worker_s = -1e9;             // last replan started on the worker
-    std::future<GlobalPlan> extension;  // a replan (or a partial plan's extension) on a worker
-    bool extension_at_end = false;           // ...asked for at the partial plan's end
-    std::string extension_cause;             // ...and why it was asked for, for a failure's reason
-    double partial_stuck_since_s = -1.0;     // at a partial plan's end with no way on since; -1 = not
+    double last_partial_s = -1e9;                    // last extension of a partial plan (the map grew)
+    double last_worker_s = -1e9;                     // last replan started on the worker
+    std::future<GlobalPlan> extension;               // a replan (or a partial plan's extension) on a worker
+    bool extension_at_end = false;                   // ...asked for at the partial plan's end
+    std::string extension_cause;                     // ...and why it was asked for, for a failure's reason
+    double partial_stuck_since_s = -1.0;             // at a partial plan's end with no way on since; -1 = not
     std::vector<std::future<GlobalPlan>> abandoned;  // plans of dropped goals, still running
   } replan_;
   bool creeping_ = false;  // the track is the global path through a tight spot (half speed)

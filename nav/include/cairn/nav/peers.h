@@ -1,8 +1,8 @@
 // Peer robots as obstacles (Sriganesh et al. 2024, § Advanced Multi-agent Coordination): every robot tells
 // the others where it is, how big it is and where it is going, and each keeps clear of the bodies it hears. A
 // simulated robot's lidar does not see its peers (each agent simulates its own world), and a real one sees a
-// peer only once it is in line of sight and near: the peer's own word covers both. This is the geometry of it,
-// free of how the word travels (the agent's team/peers.h hears it over DDS). Peers share the team's map
+// peer only once it is in line of sight and near: the peer's own word covers both. This is the geometry of
+// it, free of how the word travels (the agent's team/peers.h hears it over DDS). Peers share the team's map
 // frame M.
 #pragma once
 
@@ -61,6 +61,7 @@ std::string CheckPeerBody(const PeerBody& peer);
 /// current arc). Peers more than options.same_level_dz_m above or below the robot, or whose circles lie
 /// wholly beyond `range_m` of it, give none. Appends to `*points_B`.
 void AppendPeerObstacles(const std::vector<PeerBody>& peers, const core::BaseState& state, double range_m,
-                         double z_B_m, const PeerAvoidanceOptions& options, std::vector<Eigen::Vector3f>* points_B);
+                         double z_B_m, const PeerAvoidanceOptions& options,
+                         std::vector<Eigen::Vector3f>* points_B);
 
 }  // namespace cairn::nav

@@ -10,13 +10,13 @@
 #include "cairn/agent/modes/explore_mode.h"
 #include "cairn/agent/modes/mission.h"
 #include "cairn/agent/services/nav_map.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/convoy.h"
 #include "cairn/agent/team/peers.h"
 #include "cairn/agent/team/yield.h"
 #include "cairn/core/kinematics.h"
 #include "cairn/core/link_options.h"
 #include "cairn/nav/local_planner.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/perception/perception_pipeline.h"
 
 namespace cairn::agent {

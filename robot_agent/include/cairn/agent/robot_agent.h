@@ -10,9 +10,9 @@
 #include "cairn/agent/communication/agent_link.h"
 #include "cairn/agent/modes/robot_modes.h"
 #include "cairn/agent/services/nav_map.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/core/time.h"
+#include "cairn/nav/navigation.h"
 
 namespace cairn::agent {
 

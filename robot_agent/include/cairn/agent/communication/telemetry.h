@@ -20,10 +20,10 @@
 #include "cairn/agent/modes/mission.h"
 #include "cairn/agent/modes/mode_control.h"
 #include "cairn/agent/modes/waypoint_mode.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/yield.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/msgs/robot_state.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/perception/perception_pipeline.h"
 
 namespace cairn::agent {

@@ -12,8 +12,8 @@
 
 #include "cairn/agent/modes/explore_mode.h"
 #include "cairn/agent/modes/waypoint_mode.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/core/kinematics.h"
+#include "cairn/nav/navigation.h"
 
 namespace cairn::agent {
 

@@ -16,9 +16,9 @@
 #include <vector>
 
 #include "cairn/agent/modes/mode_module.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/convoy.h"
 #include "cairn/agent/team/peers.h"
+#include "cairn/nav/navigation.h"
 
 namespace cairn::agent {
 

@@ -20,10 +20,10 @@
 #include "cairn/agent/modes/mode_manager.h"
 #include "cairn/agent/modes/mode_module.h"
 #include "cairn/agent/modes/waypoint_recovery.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/explore_claims.h"
 #include "cairn/nav/explorer.h"
 #include "cairn/nav/frontier.h"
+#include "cairn/nav/navigation.h"
 
 namespace cairn::agent {
 
@@ -136,7 +136,8 @@ class ExploreMode : public ModeModule {
   /// `navigation` (not owned) outlives this; `recovery` runs when navigation gives up on a target (null or
   /// not enabled = the target fails at once). @throws std::invalid_argument for a null navigation or invalid
   /// options.
-  ExploreMode(ExploreModeOptions options, nav::Navigation* navigation, std::unique_ptr<WaypointRecovery> recovery);
+  ExploreMode(ExploreModeOptions options, nav::Navigation* navigation,
+              std::unique_ptr<WaypointRecovery> recovery);
   ~ExploreMode() override;
 
   /// Starts exploring `task` (checked with CheckExploreTask) at `now_s`, then `enter_mode` asks the mode tree

@@ -20,10 +20,10 @@
 #include "cairn/agent/modes/mission.h"
 #include "cairn/agent/modes/mode_control.h"
 #include "cairn/agent/modes/waypoint_mode.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/peers.h"
 #include "cairn/agent/team/yield.h"
 #include "cairn/core/kinematics.h"
+#include "cairn/nav/navigation.h"
 
 namespace cairn::agent {
 

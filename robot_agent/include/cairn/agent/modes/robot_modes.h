@@ -19,11 +19,11 @@
 #include "cairn/agent/modes/mission_resumption.h"
 #include "cairn/agent/modes/mode_control.h"
 #include "cairn/agent/modes/waypoint_mode.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/explore_claims.h"
 #include "cairn/agent/team/peers.h"
 #include "cairn/agent/team/yield.h"
 #include "cairn/agent/team/yield_coordination.h"
+#include "cairn/nav/navigation.h"
 
 namespace cairn::agent {
 
@@ -49,8 +49,8 @@ class RobotModes {
   /// `navigation` (outlives this object), the waypoint and explore modes with the recovery tree of
   /// `tree_file` (a warning when the file has none), and loads the tree from `tree_file`.
   /// @throws as ModeControl, MissionResumption and YieldCoordination (the file, field or value named).
-  RobotModes(const AgentOptions& options, const std::string& tree_file, nav::Navigation* navigation, Hooks hooks,
-             Ids ids = Ids::kRandom);
+  RobotModes(const AgentOptions& options, const std::string& tree_file, nav::Navigation* navigation,
+             Hooks hooks, Ids ids = Ids::kRandom);
   ~RobotModes();
   RobotModes(const RobotModes&) = delete;
   RobotModes& operator=(const RobotModes&) = delete;

@@ -16,9 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "cairn/nav/navigation.h"
 #include "cairn/bt/behavior_tree.h"
 #include "cairn/core/kinematics.h"
+#include "cairn/nav/navigation.h"
 
 namespace cairn::agent {
 

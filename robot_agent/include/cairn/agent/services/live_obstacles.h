@@ -9,8 +9,8 @@
 #include <limits>
 #include <vector>
 
-#include "cairn/nav/navigation.h"
 #include "cairn/core/platform_io.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/nav/scan_obstacles.h"
 #include "cairn/perception/staircase.h"
 

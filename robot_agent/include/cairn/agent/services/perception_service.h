@@ -18,12 +18,12 @@
 #include "cairn/agent/agent_options.h"
 #include "cairn/agent/services/live_obstacles.h"
 #include "cairn/agent/services/nav_map.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/core/component.h"
 #include "cairn/core/platform_io.h"
 #include "cairn/core/time.h"
 #include "cairn/nav/frontier.h"
 #include "cairn/nav/global_planner.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/perception/perception_pipeline.h"
 
 namespace cairn::agent {

@@ -22,8 +22,8 @@
 #include <vector>
 
 #include "cairn/agent/modes/mode_module.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/peers.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/nav/yield_spot.h"
 
@@ -214,7 +214,8 @@ class YieldMode : public ModeModule {
 /// The route a robot asks peers to keep clear of: its global path from where it stands (`pose_M`, frame M)
 /// to the goal, in at most 31 points at least 1 m apart (the whole way, not only the next metres a peer state
 /// carries: a spot beyond those may still be on it). Empty without a goal.
-std::vector<Eigen::Vector3d> YieldRouteAhead(const nav::Navigation& navigation, const core::BaseState& pose_M);
+std::vector<Eigen::Vector3d> YieldRouteAhead(const nav::Navigation& navigation,
+                                             const core::BaseState& pose_M);
 
 /// What YieldAsker::Update() reads, once per control cycle of a robot driving a goal.
 struct YieldAskInputs {
@@ -232,8 +233,9 @@ struct YieldAskInputs {
 /// YieldAsker::Update()'s inputs for a robot in `mode` at `pose_M` (frame M) of footprint `radius_m`: empty
 /// (nothing asked, nothing held) unless options.ask_peers, the mode drives a goal (waypoint, explore) and a
 /// peer is heard; only then is the route taken from `navigation` (YieldRouteAhead: not every control cycle).
-YieldAskInputs AskInputs(const YieldOptions& options, const std::string& mode, const nav::Navigation& navigation,
-                         const core::BaseState& pose_M, double radius_m, std::vector<Peer> peers,
+YieldAskInputs AskInputs(const YieldOptions& options, const std::string& mode,
+                         const nav::Navigation& navigation, const core::BaseState& pose_M, double radius_m,
+                         std::vector<Peer> peers,
                          std::function<std::shared_ptr<const nav::TraversabilityGrid>()> grid, double now_s);
 
 /// `situation` with what the passing robot's state and this robot's last yield say: passing_yields_to_me

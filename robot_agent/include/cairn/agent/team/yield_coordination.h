@@ -20,11 +20,11 @@
 #include <vector>
 
 #include "cairn/agent/modes/mission_resumption.h"
-#include "cairn/nav/navigation.h"
 #include "cairn/agent/team/peers.h"
 #include "cairn/agent/team/yield.h"
 #include "cairn/agent/team/yield_sender.h"
 #include "cairn/core/kinematics.h"
+#include "cairn/nav/navigation.h"
 #include "cairn/nav/traversability.h"
 
 namespace cairn::agent {
@@ -33,11 +33,11 @@ class YieldCoordination {
  public:
   /// What the robot is and has, as the agent knows it now.
   struct Robot {
-    double now_s = 0.0;                            ///< the agent's clock, seconds
-    std::string mode;                              ///< the mode now (ModeControl::mode())
-    core::BaseState pose_M;                        ///< the pose estimate, frame M
+    double now_s = 0.0;                        ///< the agent's clock, seconds
+    std::string mode;                          ///< the mode now (ModeControl::mode())
+    core::BaseState pose_M;                    ///< the pose estimate, frame M
     const std::vector<Peer>* peers = nullptr;  ///< peers heard lately (PeerTracker::Live()); not null
-    bool listening_to_peers = false;  ///< peers' states are read (AgentDds::ListenToPeers() done)
+    bool listening_to_peers = false;           ///< peers' states are read (AgentDds::ListenToPeers() done)
   };
   /// The traversability grid of the robot's platform (the passage's width, the spots aside); null: no map.
   using GridSource = std::function<std::shared_ptr<const nav::TraversabilityGrid>()>;
