@@ -14,6 +14,7 @@ Prints each finding as clang-tidy does and a summary line; exits 1 when there ar
 """
 import argparse
 import concurrent.futures
+import functools
 import hashlib
 import json
 import os
@@ -40,6 +41,16 @@ def include_dirs(args, directory):
     return dirs
 
 
+@functools.lru_cache(maxsize=None)
+def read(path):
+    """A file's bytes, read once per run (a header is included by many units); None if unreadable."""
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except OSError:
+        return None
+
+
 def repository_headers(source, dirs):
     """The repository files `source` includes through quoted includes, transitively (itself first)."""
     seen, order, stack = set(), [], [source]
@@ -49,12 +60,10 @@ def repository_headers(source, dirs):
             continue
         seen.add(path)
         order.append(path)
-        try:
-            with open(path, "rb") as f:
-                text = f.read()
-        except OSError:
+        content = read(path)
+        if content is None:
             continue
-        for name in INCLUDE_RE.findall(text):
+        for name in INCLUDE_RE.findall(content):
             name = name.decode()
             for d in [os.path.dirname(path)] + dirs:
                 candidate = os.path.normpath(os.path.join(d, name))
@@ -76,8 +85,7 @@ def unit_key(entry, version, config):
     h.update(" ".join(args).replace(ROOT, "<root>").encode())
     for path in repository_headers(source, include_dirs(args, directory)):
         h.update(path.replace(ROOT, "<root>").encode())
-        with open(path, "rb") as f:
-            h.update(f.read())
+        h.update(read(path) or b"")
     return h.hexdigest()
 
 
