@@ -14,6 +14,7 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -192,6 +193,30 @@ int main(int argc, char** argv) {
       "fastest (%.1f%% of one core per robot at %.0f Hz); camera %.2f ms per 320x240 frame median\n",
       rays_per_s * 1e-6, totals.rays / totals.naive_ms * 1e-3, ratio, scan_ms, totals.best_scan_ms,
       100.0 * core_fraction, lidar_options.rate_hz, Median(totals.frame_ms));
+  // A robot standing still (most of a real-time test's robots, most of the time): the simulator's scans of a
+  // shared world from an unchanged pose reuse the true ranges and draw only the noise.
+  {
+    const auto shared = std::make_shared<const World>(tunnels);
+    Eigen::Isometry3d T_W_S = Eigen::Isometry3d::Identity();
+    T_W_S.translation() = cases.front().p_W_S;
+    cairn::sim::SimulatedLidar still(lidar_options);
+    cairn::sim::SimulatedLidar casting(lidar_options);
+    cairn::sim::LidarScan scan;
+    std::vector<double> still_ms;
+    std::vector<double> cast_ms;
+    for (int r = 0; r < repeats; ++r) {
+      auto a = Clock::now();
+      still.Scan(shared, T_W_S, &scan);
+      still_ms.push_back(Ms(a, Clock::now()));
+      a = Clock::now();
+      casting.Scan(*shared, T_W_S, &scan);
+      cast_ms.push_back(Ms(a, Clock::now()));
+    }
+    std::printf("still sensor (%s): %.2f ms per scan reusing its true ranges, %.2f ms casting: %.1fx\n",
+                cases.front().name, Median(still_ms), Median(cast_ms), Median(cast_ms) / Median(still_ms));
+    std::printf("FIGURE lidar_still_ms_per_scan %.3f\n", Median(still_ms));
+    std::printf("FIGURE lidar_still_speedup %.2f\n", Median(cast_ms) / Median(still_ms));
+  }
   std::printf("FIGURE lidar_rays_per_s %.0f\n", rays_per_s);
   std::printf("FIGURE lidar_speedup_vs_naive_march %.2f\n", ratio);
   std::printf("FIGURE lidar_ms_per_scan %.3f\n", scan_ms);

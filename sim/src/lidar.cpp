@@ -215,17 +215,45 @@ SimulatedLidar::SimulatedLidar(const LidarOptions& options, std::uint32_t seed)
 
 void SimulatedLidar::Scan(const World& world, const Eigen::Isometry3d& T_W_S, LidarScan* scan) {
   if (scan == nullptr) throw std::invalid_argument("SimulatedLidar::Scan: scan must not be null");
-  scan->points_S.clear();
+  ranges_world_.reset();  // the world may change before the next call: no reuse
+  CastRays(world, T_W_S);
+  Measure(scan);
+}
+
+void SimulatedLidar::Scan(const std::shared_ptr<const World>& world, const Eigen::Isometry3d& T_W_S,
+                          LidarScan* scan) {
+  if (scan == nullptr) throw std::invalid_argument("SimulatedLidar::Scan: scan must not be null");
+  if (world == nullptr) throw std::invalid_argument("SimulatedLidar::Scan: world must not be null");
+  // Holding the pointer keeps the world alive, so a new world can never reuse its address.
+  if (world == ranges_world_ && T_W_S.matrix() == ranges_T_W_S_.matrix()) {
+    ++reused_scans_;
+  } else {
+    CastRays(*world, T_W_S);
+    ranges_world_ = world;
+    ranges_T_W_S_ = T_W_S;
+  }
+  Measure(scan);
+}
+
+void SimulatedLidar::CastRays(const World& world, const Eigen::Isometry3d& T_W_S) {
   const Eigen::Matrix3d R_W_S = T_W_S.linear();
   const Eigen::Vector3d p_W_S = T_W_S.translation();
+  true_ranges_m_.resize(directions_S_.size());
+  for (std::size_t i = 0; i < directions_S_.size(); ++i) {
+    const std::optional<RayHit> hit = CastRay(world, p_W_S, R_W_S * directions_S_[i], options_.max_range_m);
+    true_ranges_m_[i] = hit ? hit->range_m : kNoHit;
+  }
+}
+
+void SimulatedLidar::Measure(LidarScan* scan) {
+  scan->points_S.clear();
   const double sigma_m = options_.range_noise_stddev_m;
-  for (const Eigen::Vector3d& d_S : directions_S_) {
-    const std::optional<RayHit> hit = CastRay(world, p_W_S, R_W_S * d_S, options_.max_range_m);
-    if (!hit) continue;
-    double range_m = hit->range_m;
+  for (std::size_t i = 0; i < directions_S_.size(); ++i) {
+    double range_m = true_ranges_m_[i];
+    if (range_m == kNoHit) continue;
     if (sigma_m > 0.0) range_m += sigma_m * noise_(rng_);
     if (range_m < options_.min_range_m) continue;
-    scan->points_S.push_back((range_m * d_S).cast<float>());
+    scan->points_S.push_back((range_m * directions_S_[i]).cast<float>());
   }
   scan->rays_cast = static_cast<std::int64_t>(directions_S_.size());
   scan->returns = static_cast<std::int64_t>(scan->points_S.size());

@@ -426,7 +426,7 @@ bool SimulatedPlatform::ReadLidarScan(double now_s, core::LidarScan* scan) {
     T_MB = T_MB_estimate_;
   }
   const Eigen::Isometry3d T_BS = SensorOnBody();
-  lidar_.Scan(*world(), T_WB_true * T_BS, &lidar_scan_);  // sensed from where the robot is...
+  lidar_.Scan(world(), T_WB_true * T_BS, &lidar_scan_);  // sensed from where the robot is...
   scan->stamp_s = now_s;
   scan->seq = ++lidar_seq_;
   scan->points_S = lidar_scan_.points_S;
@@ -445,13 +445,19 @@ bool SimulatedPlatform::ReadCameraImage(double now_s, core::CameraImage* image) 
     T_MB = T_MB_estimate_;
   }
   const Eigen::Isometry3d T_BC = SensorOnBody();
-  GrayImage gray;
-  RenderShadedDepth(*world(), T_WB_true * T_BC, options_.camera, &gray);
+  const Eigen::Isometry3d T_WC = T_WB_true * T_BC;
+  const std::shared_ptr<const World> shown = world();
+  std::lock_guard<std::mutex> guard(camera_mutex_);
+  if (shown != frame_world_ || T_WC.matrix() != frame_T_WC_.matrix()) {
+    RenderShadedDepth(*shown, T_WC, options_.camera, &frame_);
+    frame_world_ = shown;  // held, so a new world can never reuse its address
+    frame_T_WC_ = T_WC;
+  }
   image->stamp_s = now_s;
   image->seq = ++camera_seq_;
-  image->width_px = gray.width_px;
-  image->height_px = gray.height_px;
-  image->pixels = std::move(gray.pixels);
+  image->width_px = frame_.width_px;
+  image->height_px = frame_.height_px;
+  image->pixels = frame_.pixels;
   image->T_MC = T_MB * T_BC;
   return true;
 }

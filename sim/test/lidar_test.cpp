@@ -5,8 +5,11 @@
 
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <random>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "cairn/sim/builtin_worlds.h"
 #include "test_util.h"
@@ -367,6 +370,35 @@ TEST_F(TunnelLidarTest, RangeNoiseHasTheRequestedStatistics) {
   LidarScan other_scan;
   other.Scan(*world_, Pose(), &other_scan);
   EXPECT_NE(other_scan.points_S.front(), noisy_scan.points_S.front());
+}
+
+// A sensor that has not moved in an unchanged world gets the scans a fresh cast would give (the same
+// random draws), with new noise each time; a new pose or a new world is cast again.
+TEST_F(TunnelLidarTest, AStillSensorReusesItsTrueRangesAndGetsTheScansACastWouldGive) {
+  const auto shared = std::make_shared<const World>(*world_);
+  SimulatedLidar reusing(LidarOptions{}, 9);
+  SimulatedLidar casting(LidarOptions{}, 9);
+  LidarScan a;
+  LidarScan b;
+  Eigen::Isometry3d moved = Pose();
+  moved.translation().x() += 0.37;
+  const auto other_world = std::make_shared<const World>(*world_);
+  const std::vector<std::pair<std::shared_ptr<const World>, Eigen::Isometry3d>> sequence = {
+      {shared, Pose()}, {shared, Pose()}, {shared, Pose()},
+      {shared, moved},  {shared, moved},  {other_world, moved}};
+  std::vector<Eigen::Vector3f> previous;
+  for (std::size_t k = 0; k < sequence.size(); ++k) {
+    reusing.Scan(sequence[k].first, sequence[k].second, &a);
+    casting.Scan(*sequence[k].first, sequence[k].second, &b);
+    ASSERT_EQ(a.points_S, b.points_S) << "scan " << k;
+    EXPECT_EQ(a.rays_cast, b.rays_cast);
+    EXPECT_EQ(a.returns, b.returns);
+    EXPECT_NE(a.points_S, previous) << "scan " << k << ": the noise was not drawn again";
+    previous = a.points_S;
+  }
+  EXPECT_EQ(reusing.reused_scans(), 3) << "reused: the 2nd and 3rd at Pose(), the 2nd at moved";
+  EXPECT_EQ(casting.reused_scans(), 0);
+  EXPECT_THROW(reusing.Scan(std::shared_ptr<const World>(), Pose(), &a), std::invalid_argument);
 }
 
 }  // namespace

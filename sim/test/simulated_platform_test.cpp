@@ -69,10 +69,24 @@ TEST(SimulatedPlatformTest, ScansAreRegisteredAndARockfallIsSeenAndBlocks) {
     return n;
   };
   EXPECT_EQ(hits_near(scan, 9.5, 11.0), 0);
+  core::CameraImage before;
+  ASSERT_TRUE(platform.ReadCameraImage(0.0, &before));
   EXPECT_GT(
       platform.DropRock(Eigen::AlignedBox2d(Eigen::Vector2d(9.3, 10.5), Eigen::Vector2d(9.7, 11.5)), 0.6), 0);
+  // The robot has not moved; its sensors (which reuse what a still sensor saw in an unchanged world) show
+  // the rock at once, the camera exactly as a fresh render of the new world.
   ASSERT_TRUE(platform.ReadLidarScan(0.2, &scan));
   EXPECT_GT(hits_near(scan, 9.5, 11.0), 20);
+  core::CameraImage after;
+  ASSERT_TRUE(platform.ReadCameraImage(0.2, &after));
+  SimulatedPlatform rendering_once(Arena());  // the same robot, its first frame rendered after the rock
+  rendering_once.Update(0.0);
+  rendering_once.DropRock(Eigen::AlignedBox2d(Eigen::Vector2d(9.3, 10.5), Eigen::Vector2d(9.7, 11.5)), 0.6);
+  core::CameraImage fresh;
+  ASSERT_TRUE(rendering_once.ReadCameraImage(0.2, &fresh));
+  EXPECT_NE(after.pixels, before.pixels) << "the camera did not see the rock";
+  EXPECT_EQ(after.pixels, fresh.pixels);
+  EXPECT_EQ(after.seq, before.seq + 1);
   EXPECT_FALSE(FreeOnTheFloor(platform, 9.5, 11.0, 0.3));
 }
 

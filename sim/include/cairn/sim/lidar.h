@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <random>
 #include <string>
@@ -101,6 +102,16 @@ class SimulatedLidar {
   /// T_W_S is metres, with a proper rotation. Throws std::invalid_argument if `scan` is null.
   void Scan(const World& world, const Eigen::Isometry3d& T_W_S, LidarScan* scan);
 
+  /// Scan() of a shared, immutable world (published copy-on-write, as SimulatedPlatform does: the World
+  /// behind the pointer never changes): when `world` is the same pointer and `T_W_S` the same pose, bit for
+  /// bit, as in this overload's previous call, the true ranges of that call are reused and only the noise is
+  /// drawn again. The result is the one Scan() would give, random draws included; a robot standing still
+  /// costs its simulator no ray casting. Throws std::invalid_argument if `world` or `scan` is null.
+  void Scan(const std::shared_ptr<const World>& world, const Eigen::Isometry3d& T_W_S, LidarScan* scan);
+
+  /// Scans of the shared-world overload that reused the previous true ranges (the sensor had not moved).
+  std::int64_t reused_scans() const { return reused_scans_; }
+
   /// Options given at construction.
   const LidarOptions& options() const { return options_; }
   /// Unit ray directions, frame S, in the order Scan() casts them (column-major: all beams of column 0,
@@ -108,8 +119,19 @@ class SimulatedLidar {
   const std::vector<Eigen::Vector3d>& directions_S() const { return directions_S_; }
 
  private:
+  // True range of every ray from `T_W_S` (CastRay(); kNoHit where it meets nothing).
+  void CastRays(const World& world, const Eigen::Isometry3d& T_W_S);
+  // The points of true_ranges_m_ with fresh range noise, the blind zone dropped.
+  void Measure(LidarScan* scan);
+  static constexpr double kNoHit = -1.0;
+
   LidarOptions options_;
   std::vector<Eigen::Vector3d> directions_S_;
+  std::vector<double> true_ranges_m_;
+  // What true_ranges_m_ was cast in by the shared-world overload (null: by the other one, or never).
+  std::shared_ptr<const World> ranges_world_;
+  Eigen::Isometry3d ranges_T_W_S_ = Eigen::Isometry3d::Identity();
+  std::int64_t reused_scans_ = 0;
   std::mt19937 rng_;
   std::normal_distribution<double> noise_;
 };

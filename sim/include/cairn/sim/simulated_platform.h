@@ -162,7 +162,13 @@ class SimulatedPlatform : public core::PlatformIO {
   LidarScan lidar_scan_;
   std::uint64_t lidar_seq_ = 0;
   double next_scan_s_ = 0.0;
+  std::mutex camera_mutex_;  // the camera's last frame and sequence number (the camera's thread)
   std::uint32_t camera_seq_ = 0;
+  // The last rendered frame, the world and the camera pose it shows: a camera that has not moved in an
+  // unchanged world (copy-on-write, so the same pointer) sends it again instead of rendering (deterministic).
+  std::shared_ptr<const World> frame_world_;
+  Eigen::Isometry3d frame_T_WC_ = Eigen::Isometry3d::Identity();
+  GrayImage frame_;
 };
 
 }  // namespace cairn::sim
