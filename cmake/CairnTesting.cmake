@@ -6,17 +6,20 @@ set(CAIRN_NETNS_RUN "${CMAKE_SOURCE_DIR}/tests/netns_run.sh")
 # the CPU the robots leave idle (they use 0.5-1.2 of the 2 cores) and gives way the moment a control loop wakes.
 set(CAIRN_BACKGROUND nice -n 19)
 set(CAIRN_BACKGROUND_RUN ${CAIRN_BACKGROUND} ${CAIRN_NETNS_RUN})
+# Real-time tests' launcher (cairn_real_time_tests below): one at a time through the lock file when ctest runs
+# without ./cairn test's resource spec.
+set(CAIRN_REAL_TIME_RUN "${CMAKE_SOURCE_DIR}/tests/real_time_run.sh" "${CMAKE_BINARY_DIR}/real-time-tests.lock")
 
 # cairn_add_test(<name> SOURCES <files>... LIBS <libs>... [TIMEOUT <s>] [LABELS <labels>]
-#                [SHARDS <suffix>=<gtest filter>...] [REAL_TIME])
+#                [SHARDS <suffix>=<gtest filter>...] [REAL_TIME CPU_PERCENT <percent of a core>])
 # SHARDS: each pair becomes a ctest entry of its own, <name>_<suffix>, running the binary's tests that match the
 # filter; the entry <name> runs the rest. Long scenario binaries are split so that ctest can run the pieces on
-# both cores. REAL_TIME: the test runs robots on the wall clock (cairn_real_time_tests below); any other test
-# runs in the background (CAIRN_BACKGROUND_RUN above).
+# both cores. REAL_TIME: the test runs robots on the wall clock, using CPU_PERCENT of a core (cairn_real_time_tests
+# below); any other test runs in the background (CAIRN_BACKGROUND_RUN above).
 function(cairn_add_test name)
-  cmake_parse_arguments(ARG "REAL_TIME" "TIMEOUT" "SOURCES;LIBS;LABELS;SHARDS" ${ARGN})
+  cmake_parse_arguments(ARG "REAL_TIME" "TIMEOUT;CPU_PERCENT" "SOURCES;LIBS;LABELS;SHARDS" ${ARGN})
   if(ARG_REAL_TIME)
-    set(run ${CAIRN_NETNS_RUN})
+    set(run ${CAIRN_REAL_TIME_RUN})
   else()
     set(run ${CAIRN_BACKGROUND_RUN})
   endif()
@@ -55,19 +58,26 @@ function(cairn_add_test name)
     set_tests_properties(${tests} PROPERTIES LABELS "${ARG_LABELS}")
   endif()
   if(ARG_REAL_TIME)
-    cairn_real_time_tests(${tests})
+    cairn_real_time_tests(CPU_PERCENT ${ARG_CPU_PERCENT} ${tests})
   endif()
 endfunction()
 
-# cairn_real_time_tests(<test>...): tests that run robots in real time (cairn_agent and cairn_base processes, or
-# an agent's threads on the wall clock), each robot with a 50 Hz control loop and a perception thread. They must
-# not overlap one another on a 2-core machine: starved control loops trip the robots' staleness guards (they
-# stop, as they must) and the tests would measure the starvation instead of Cairn. They hold the lock
-# cairn_robot_processes and run at normal priority; beside one, ctest runs only background tests (niced above).
-# Their COST puts them at the head of ctest's queue (an explicit COST outranks the times ctest measured): one
-# of them always runs, one after another, and the background tests fill the rest of the machine beside them
-# (in the order of the test numbers, a clean build ran every scenario test first, with the robots' cores idle,
-# then the real-time tests alone).
+# cairn_real_time_tests(CPU_PERCENT <percent> <test>...): tests that run robots in real time (cairn_agent and
+# cairn_base processes, or an agent's threads on the wall clock), each robot with a 50 Hz control loop and a
+# perception thread, launched through CAIRN_REAL_TIME_RUN. Starved, their control loops would trip the robots'
+# staleness guards (they stop, as they must) and the tests would measure the starvation instead of Cairn. So
+# each declares the CPU it uses, in percent of one core (its mean over a run alone, measured with
+# /usr/bin/time, plus about a quarter for bursts; 100 * cores: it runs alone), as the ctest resource group
+# "cpu:<percent>". ./cairn test gives ctest a resource spec of 100 * cores (build/ctest-resources.json), so
+# real-time tests run side by side while their shares fit on the cores, at normal priority; background tests
+# (niced above) take what they leave idle. Without that spec each takes the lock file in turn (one at a time).
+# Their COST puts them at the head of ctest's queue (an explicit COST outranks the times ctest measured): the
+# real-time chain is the suite's long pole, and the background tests fill the rest of the machine beside it.
 function(cairn_real_time_tests)
-  set_tests_properties(${ARGN} PROPERTIES RESOURCE_LOCK cairn_robot_processes COST 1000)
+  cmake_parse_arguments(ARG "" "CPU_PERCENT" "" ${ARGN})
+  if(NOT ARG_CPU_PERCENT MATCHES "^[1-9][0-9]*$" OR ARG_CPU_PERCENT GREATER 200)
+    message(FATAL_ERROR "cairn_real_time_tests(${ARG_UNPARSED_ARGUMENTS}): CPU_PERCENT '${ARG_CPU_PERCENT}' must be "
+                        "an integer in [1, 200] (percent of one core, measured)")
+  endif()
+  set_tests_properties(${ARG_UNPARSED_ARGUMENTS} PROPERTIES RESOURCE_GROUPS "cpu:${ARG_CPU_PERCENT}" COST 1000)
 endfunction()
