@@ -37,6 +37,7 @@ std::vector<core::PlanarPose> Gate(const std::string& world, int robots,
   const std::string name = world.rfind("builtin:", 0) == 0 ? world.substr(8) : world;
   const core::PlanarPose first = start ? *start : sim::GetBuiltinWorldInfo(name).suggested_starts.front();
   std::vector<core::PlanarPose> starts;
+  starts.reserve(robots);
   for (int i = 0; i < robots; ++i) {
     starts.push_back({first.x_m + 2.0 * i * std::cos(first.yaw_rad),
                       first.y_m + 2.0 * i * std::sin(first.yaw_rad), first.yaw_rad});

@@ -81,7 +81,7 @@ void RunCase(const Case& c, int repeats, Totals* totals) {
   cairn::sim::LidarScan scan;
   const double max_range_m = lidar.options().max_range_m;
   std::vector<Eigen::Vector3d> dirs_W;
-  for (const Eigen::Vector3d& d_S : lidar.directions_S()) dirs_W.push_back(T_W_S.linear() * d_S);
+  for (const Eigen::Vector3d& d_S : lidar.directions_S()) dirs_W.emplace_back(T_W_S.linear() * d_S);
   std::vector<double> dda_ranges(dirs_W.size(), -1.0);
   std::vector<double> naive_ranges(dirs_W.size(), -1.0);
   std::vector<double> scan_ms;

@@ -516,7 +516,7 @@ int main(int argc, char** argv) {
     } else if (!std::strcmp(argv[i], "--floors") && i + 1 < argc) {
       return RunFloors(std::max(1, std::atoi(argv[++i])));
     } else if (!std::strcmp(argv[i], "--world") && i + 1 < argc) {
-      worlds.push_back(argv[++i]);
+      worlds.emplace_back(argv[++i]);
     } else {
       std::fprintf(stderr,
                    "usage: %s [--goals N] [--half-extent M] [--no-recovery] [--world builtin:NAME]...\n",

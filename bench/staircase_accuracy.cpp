@@ -307,7 +307,7 @@ struct ObjectTarget {
 };
 SceneMaker Synthetic(
     const std::string& name,
-    std::function<void(World*, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>*)> build,
+    const std::function<void(World*, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>*)>& build,
     bool approach_flights = true, double res_m = kFlightSceneRes) {
   return {name, [name, build, approach_flights, res_m] {
             auto w = EmptyScene(name, res_m);

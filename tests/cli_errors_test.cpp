@@ -26,7 +26,7 @@ struct Outcome {
   std::string stderr_text;
 };
 
-Outcome RunProcess(std::vector<std::string> argv) {
+Outcome RunProcess(const std::vector<std::string>& argv) {
   const std::string err = ::testing::TempDir() + "/cli_stderr.txt";
   testing::ChildProcess child(argv, err);
   child.CloseStdin();

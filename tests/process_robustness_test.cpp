@@ -166,7 +166,7 @@ TEST(PipedBase, PrintsEventsWhenTheyHappen) {
   for (const bool as_json : {false, true}) {
     const std::string domain = as_json ? "84" : "83";
     std::vector<std::string> argv = {kBase, "--base-id", "opA", "--domain", domain};
-    if (as_json) argv.push_back("--json");
+    if (as_json) argv.emplace_back("--json");
     ChildProcess base(argv, logs + (as_json ? "/opA_json.log" : "/opA.log"));
     base.WriteLine("robots");
     ASSERT_NE(WaitForOutput(base, as_json ? "\"robots\"" : "no robots discovered", 20s), "")
@@ -182,7 +182,7 @@ TEST(PipedBase, PrintsEventsWhenTheyHappen) {
     if (as_json) {
       EXPECT_EQ(json::parse(line).value("event", ""), "joined") << line;
     } else {
-      EXPECT_EQ(line.rfind("[", 0), 0u) << line;
+      EXPECT_EQ(line.rfind('[', 0), 0u) << line;
       continue;
     }
     // And while a command runs: the robot leaves during a `sleep 3`, told before the sleep's answer.
@@ -266,6 +266,7 @@ TEST(StalledAgent, IsReportedLostNotLeftAndBackWhenItRunsAgain) {
   agent->Signal(SIGCONT);
   read_events(12.0);
   std::vector<std::string> kinds;
+  kinds.reserve(events.size());
   for (const json& e : events) kinds.push_back(e.value("event", ""));
   EXPECT_GE(lost_after_s, 0) << "the stalled robot was not reported lost; printed:\n" << seen;
   EXPECT_EQ(std::count(kinds.begin(), kinds.end(), "left"), 0) << seen;

@@ -70,6 +70,7 @@ TEST(YieldOverDds, AParkedRobotGetsOutOfTheWayAndOneInManualRefuses) {
   std::vector<std::unique_ptr<ChildProcess>> agents;
   const std::vector<std::pair<std::string, std::string>> robots = {
       {"ya", "4,5,0"}, {"yb", "26,5,3.14159"}, {"ye", "4,15,0"}};
+  agents.reserve(robots.size());
   for (const auto& [id, start] : robots) {
     agents.push_back(std::make_unique<ChildProcess>(
         std::vector<std::string>{kAgent, "--robot-id", id, "--world", "builtin:narrow", "--start", start,

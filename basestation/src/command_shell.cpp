@@ -269,12 +269,13 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
     const FirstArgument first = spec != nullptr ? spec->first : FirstArgument::kNone;
     if ((arg == 1 && first != FirstArgument::kNone) || first == FirstArgument::kRobots) {
       pool = client_.RobotIds();  // kRobots: every word (the robots of a convoy, in order)
-      if (first == FirstArgument::kRobotOrAll) pool.push_back("all");
-      if (first == FirstArgument::kRobotOrFleet) pool.push_back("fleet");
+      if (first == FirstArgument::kRobotOrAll) pool.emplace_back("all");
+      if (first == FirstArgument::kRobotOrFleet) pool.emplace_back("fleet");
     } else if (cmd == "mode" && arg == 2) {
       pool = {"idle", "manual", "smart_joystick"};
       if (const auto view = client_.Robot(before[1]); view && view->tree) pool = view->tree->valid_modes();
-    } else if (spec != nullptr && spec->place_second && arg == 2) {
+    } else if ((spec != nullptr && spec->place_second && arg == 2) ||
+               (cmd == "place" && arg == 2 && before[1] == "remove")) {
       pool = places_.Names();
     } else if (cmd == "wait" && arg == 2) {
       pool = {"arrived", "idle", "online", "lost", "mode="};
@@ -284,8 +285,6 @@ std::vector<std::string> CommandShell::Complete(const std::vector<std::string>& 
       }
     } else if (cmd == "place" && arg == 1) {
       pool = {"add", "remove"};
-    } else if (cmd == "place" && arg == 2 && before[1] == "remove") {
-      pool = places_.Names();
     }
   }
   std::vector<std::string> matches;
@@ -732,7 +731,7 @@ int CommandShell::ResumeGoal(const std::vector<std::string>& args) {
   const cairn_msgs::Point& goal = view->state->resumable_goal_M();
   std::vector<std::string> goto_args = {robot, fmt::format("{:.3f},{:.3f}", goal.x_m(), goal.y_m())};
   if (std::isfinite(goal.z_m())) {
-    goto_args.push_back("--z");
+    goto_args.emplace_back("--z");
     goto_args.push_back(fmt::format("{:.3f}", goal.z_m()));
   }
   goto_args.insert(goto_args.end(), args.begin() + 1, args.end());

@@ -46,7 +46,7 @@ bool FleetStaircasesOptions::IsValid(std::string* why) const {
   return true;
 }
 
-FleetStaircases::FleetStaircases(FleetStaircasesOptions options) : options_(std::move(options)) {
+FleetStaircases::FleetStaircases(FleetStaircasesOptions options) : options_(options) {
   std::string why;
   if (!options_.IsValid(&why)) throw std::invalid_argument(why);
 }

@@ -17,6 +17,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+#include <utility>
 #include <websocketpp/config/asio_no_tls.hpp>
 #include <websocketpp/server.hpp>
 
@@ -106,12 +107,13 @@ class FoxgloveServer::Impl {
     server_.clear_error_channels(websocketpp::log::elevel::all);
     server_.init_asio();
     server_.set_reuse_addr(true);
-    server_.set_validate_handler([this](Handle h) { return Validate(h); });
-    server_.set_open_handler([this](Handle h) { OnOpen(h); });
-    server_.set_close_handler([this](Handle h) { OnClose(h); });
-    server_.set_fail_handler([](Handle) {});
-    server_.set_message_handler([this](Handle h, WsServer::message_ptr m) { OnMessage(h, m); });
-    server_.set_http_handler([this](Handle h) { OnHttp(h); });
+    server_.set_validate_handler([this](Handle h) { return Validate(std::move(h)); });
+    server_.set_open_handler([this](Handle h) { OnOpen(std::move(h)); });
+    server_.set_close_handler([this](Handle h) { OnClose(std::move(h)); });
+    server_.set_fail_handler([](const Handle&) {});
+    server_.set_message_handler(
+        [this](Handle h, WsServer::message_ptr m) { OnMessage(std::move(h), std::move(m)); });
+    server_.set_http_handler([this](Handle h) { OnHttp(std::move(h)); });
     server_.listen(asio::ip::tcp::endpoint(address, static_cast<unsigned short>(options.port)), ec);
     if (ec) {
       throw std::runtime_error("cannot listen on " + options.address + ":" + std::to_string(options.port) +
@@ -278,7 +280,7 @@ class FoxgloveServer::Impl {
   }
 
   bool Validate(Handle h) {
-    auto con = server_.get_con_from_hdl(h);
+    auto con = server_.get_con_from_hdl(std::move(h));
     for (const std::string& p : con->get_requested_subprotocols()) {
       if (p == kSubprotocol) {
         con->select_subprotocol(p);
@@ -292,7 +294,7 @@ class FoxgloveServer::Impl {
     return false;
   }
 
-  void OnOpen(Handle h) {
+  void OnOpen(const Handle& h) {
     std::lock_guard<std::mutex> lock(mutex_);
     const ClientId id = next_client_++;
     ids_[h] = id;
@@ -313,7 +315,7 @@ class FoxgloveServer::Impl {
     if (!services.empty()) SendText(h, json{{"op", "advertiseServices"}, {"services", services}}.dump());
   }
 
-  void OnClose(Handle h) {
+  void OnClose(const Handle& h) {
     std::lock_guard<std::mutex> lock(mutex_);
     const auto it = ids_.find(h);
     if (it == ids_.end()) return;
@@ -321,7 +323,7 @@ class FoxgloveServer::Impl {
     ids_.erase(it);
   }
 
-  void OnMessage(Handle h, WsServer::message_ptr message) {
+  void OnMessage(const Handle& h, const WsServer::message_ptr& message) {
     std::vector<std::pair<ClientId, std::uint32_t>> subscribed;  // handlers run without the lock
     std::function<void()> deliver;
     {
@@ -464,7 +466,7 @@ class FoxgloveServer::Impl {
   }
 
   void OnHttp(Handle h) {
-    auto con = server_.get_con_from_hdl(h);
+    auto con = server_.get_con_from_hdl(std::move(h));
     {
       std::lock_guard<std::mutex> lock(mutex_);
       ++stats_.http_requests;

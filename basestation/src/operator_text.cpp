@@ -122,21 +122,21 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
   const std::string& mode = view.state->mode();
   can_teleop = can_teleop || mode == "manual" || mode == "smart_joystick";
   if (!modes.empty()) actions.push_back("mode " + modes);
-  if (can_goto) actions.push_back("goto");
-  if (can_goto) actions.push_back("home");
-  if (can_goto && view.state->has_resumable_goal()) actions.push_back("resume-goal");
-  if (can_explore) actions.push_back("explore");
+  if (can_goto) actions.emplace_back("goto");
+  if (can_goto) actions.emplace_back("home");
+  if (can_goto && view.state->has_resumable_goal()) actions.emplace_back("resume-goal");
+  if (can_explore) actions.emplace_back("explore");
   // A convoy: any robot the tree would drive to a goal may lead or follow; a follower may peel off or stop
   // it.
-  if (can_goto) actions.push_back("convoy");
+  if (can_goto) actions.emplace_back("convoy");
   if (!view.state->convoy_ahead_ids().empty()) {
-    actions.push_back("peel");
-    actions.push_back("convoy-stop");
+    actions.emplace_back("peel");
+    actions.emplace_back("convoy-stop");
   }
-  if (can_teleop) actions.push_back("teleop");
-  if (can_yield) actions.push_back("yield");
-  actions.push_back("release");
-  actions.push_back("stop");
+  if (can_teleop) actions.emplace_back("teleop");
+  if (can_yield) actions.emplace_back("yield");
+  actions.emplace_back("release");
+  actions.emplace_back("stop");
   return actions;
 }
 

@@ -20,6 +20,7 @@ RobotView Robot(const std::string& id, double x_m, double y_m) {
 
 std::vector<std::string> Kinds(const std::vector<OperatorEvent>& events) {
   std::vector<std::string> kinds;
+  kinds.reserve(events.size());
   for (const auto& e : events) kinds.push_back(e.kind);
   return kinds;
 }

@@ -77,9 +77,9 @@ class TestClient {
     client_.clear_access_channels(websocketpp::log::alevel::all);
     client_.clear_error_channels(websocketpp::log::elevel::all);
     client_.init_asio();
-    client_.set_open_handler([this](websocketpp::connection_hdl) { Set(&opened_); });
-    client_.set_fail_handler([this](websocketpp::connection_hdl) { Set(&failed_); });
-    client_.set_message_handler([this](websocketpp::connection_hdl, WsClient::message_ptr m) {
+    client_.set_open_handler([this](const websocketpp::connection_hdl&) { Set(&opened_); });
+    client_.set_fail_handler([this](const websocketpp::connection_hdl&) { Set(&failed_); });
+    client_.set_message_handler([this](const websocketpp::connection_hdl&, const WsClient::message_ptr& m) {
       std::lock_guard<std::mutex> lock(mutex_);
       if (m->get_opcode() == websocketpp::frame::opcode::text) {
         texts_.push_back(json::parse(m->get_payload()));
@@ -208,7 +208,7 @@ class FoxgloveServerTest : public ::testing::Test {
       client_messages_.push_back(topic + " " + payload);
     };
     handlers.on_service_call = [](FoxgloveServer::ClientId, std::uint32_t, const std::string& request,
-                                  FoxgloveServer::Responder respond) {
+                                  const FoxgloveServer::Responder& respond) {
       const json j = json::parse(request);
       if (j.value("fail", false)) {
         respond(false, "asked to fail");

@@ -832,7 +832,7 @@ const char* Participant::FlowControllerName(const std::string& name) const {
   return nullptr;
 }
 
-dds::Topic* Participant::GetTopic(const std::string& topic_name, dds::TypeSupport type) {
+dds::Topic* Participant::GetTopic(const std::string& topic_name, const dds::TypeSupport& type) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (participant_->find_type(type.get_type_name()).empty()) {
     if (type.register_type(participant_) != ReturnCode_t::RETCODE_OK) {

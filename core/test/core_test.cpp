@@ -8,6 +8,7 @@
 #include <fstream>
 #include <random>
 #include <thread>
+#include <utility>
 
 #include "cairn/core/component.h"
 #include "cairn/core/config.h"
@@ -225,7 +226,7 @@ TEST(Config, ReadFieldsReadsEachKnownKeyAndRefusesAnUnknownOne) {
   int count = 0;
   bool on = false;
   std::string name;
-  config.Section("a").ReadFields({{"keep_s", &keep_s, /*allow_infinity=*/true},
+  config.Section("a").ReadFields({{"keep_s", &keep_s, /*allow_infinity_in=*/true},
                                   {"count", &count},
                                   {"on", &on},
                                   {"name", &name},
@@ -254,7 +255,7 @@ TEST(Config, ReadFieldsReadsEachKnownKeyAndRefusesAnUnknownOne) {
 class Recorder : public Component {
  public:
   Recorder(std::string name, std::vector<std::string>* log, bool fail_configure = false)
-      : Component(name), log_(log), fail_(fail_configure) {}
+      : Component(std::move(name)), log_(log), fail_(fail_configure) {}
 
  protected:
   void OnConfigure() override {

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "cairn/core/range_check.h"
 
@@ -87,7 +88,7 @@ Navigation::Navigation(const NavigationOptions& options, std::shared_ptr<GlobalP
                        std::shared_ptr<const TrajectoryLibrary> library)
     : options_(Validated(options)),
       planner_(std::move(planner)),
-      local_planner_(library, options.local_planner),
+      local_planner_(std::move(library), options.local_planner),
       controller_(options.controller, options.platform.limits) {
   if (!planner_) throw std::invalid_argument("Navigation: global planner is null");
   if (planner_->Profile(options_.platform.name) == nullptr) {

@@ -55,7 +55,7 @@ TEST(GlobalPlannerTest, RejectsBadConstruction) {
   GlobalPlannerOptions options;
   options.diagnose_max_step_m = -1;
   try {
-    GlobalPlanner(world, BothPlatforms(), options);
+    [[maybe_unused]] const GlobalPlanner planner(world, BothPlatforms(), options);
     FAIL() << "no exception";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("diagnose_max_step_m = -1"), std::string::npos) << e.what();

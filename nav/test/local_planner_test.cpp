@@ -86,7 +86,7 @@ double ClosestApproachM(const std::vector<Eigen::Vector3f>& path_B, const Cloud&
     }
     const Eigen::Vector2d b = path_B[i + 1].head<2>().cast<double>();
     const int steps = std::max(1, static_cast<int>(std::ceil((b - a).norm() / 0.005)));
-    for (int k = 0; k < steps; ++k) dense.push_back(a + (b - a) * (static_cast<double>(k) / steps));
+    for (int k = 0; k < steps; ++k) dense.emplace_back(a + (b - a) * (static_cast<double>(k) / steps));
   }
   for (const Eigen::Vector3f& p : cloud) {
     if (!IsObstacle(p, o)) continue;
@@ -456,7 +456,7 @@ TEST(LocalPlannerTest, ObstacleStraightAheadIsAvoided) {
   for (int i = 0; i < 200; ++i) {  // A 0.3 m wide pillar 1.5 m ahead.
     const double a = 2.0 * kPi * i / 50;
     cloud.emplace_back(static_cast<float>(1.5 + 0.15 * std::cos(a)), static_cast<float>(0.15 * std::sin(a)),
-                       0.25f * (i / 50));
+                       0.25f * static_cast<float>(i / 50));  // ring i / 50, 0.25 m apart
   }
   const LocalPlanResult r = planner.Plan(cloud, GoalRequest(5.0, 0.0));
   ASSERT_TRUE(r.IsUsable()) << r.message;
@@ -678,6 +678,7 @@ Cloud RandomCloud(std::mt19937* rng) {
   cloud.reserve(static_cast<std::size_t>(n));
   const int kind = static_cast<int>(u(*rng) * 3.0);
   std::vector<Eigen::Vector2d> centres;
+  centres.reserve(1 + static_cast<int>(u(*rng) * 8));
   for (int c = 0; c < 1 + static_cast<int>(u(*rng) * 8); ++c) {
     centres.emplace_back((u(*rng) * 2 - 1) * 4.0, (u(*rng) * 2 - 1) * 4.0);
   }
@@ -823,6 +824,7 @@ TEST(LocalPlannerTest, SteadyStateCycleDoesNotAllocate) {
   LocalPlanner planner(DefaultLibrary());
   std::mt19937 rng(7);
   std::vector<Cloud> clouds;
+  clouds.reserve(5);
   for (int i = 0; i < 5; ++i) clouds.push_back(RandomCloud(&rng));
   Cloud ring;
   AddRing(&ring, 1.0);

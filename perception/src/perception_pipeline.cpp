@@ -114,7 +114,7 @@ void PerceptionPipeline::CollectChanges() {
     std::lock_guard<std::mutex> guard(changed_.mutex);
     for (const CoarseVoxel& v : changes) changed_.tiles.emplace(tile_of(v.ix), tile_of(v.iy));
   }
-  if (options_.enabled) sender_.AddChanges(std::move(changes));
+  if (options_.enabled) sender_.AddChanges(changes);
 }
 
 std::vector<MapUpdate> PerceptionPipeline::FlushMapTelemetry(double now_s) {

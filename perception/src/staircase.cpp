@@ -507,11 +507,14 @@ class DetectorRun {
     // Cell tops on a grid padded by r cells, +inf where empty (so no empty cell passes the rise test).
     const int np = nx_ + 2 * r;
     std::vector<float> tops(static_cast<std::size_t>(np) * np, std::numeric_limits<float>::infinity());
-    for (int c : occupied_) {
-      tops[static_cast<std::size_t>((c / nx_ + r) * np + c % nx_ + r)] =
-          cells_[static_cast<std::size_t>(c)].top_m;
-    }
+    // Index in `tops` of cell (ix, iy), computed in std::size_t.
+    const auto padded = [np, r](int ix, int iy) {
+      return static_cast<std::size_t>(ix + r) * static_cast<std::size_t>(np) +
+             static_cast<std::size_t>(iy + r);
+    };
+    for (int c : occupied_) tops[padded(c / nx_, c % nx_)] = cells_[static_cast<std::size_t>(c)].top_m;
     std::vector<std::ptrdiff_t> deltas;
+    deltas.reserve(offsets.size());
     for (const auto& [dx, dy] : offsets) deltas.push_back(static_cast<std::ptrdiff_t>(dx) * np + dy);
     const auto lo = static_cast<float>(rise_lo);
     const auto hi = static_cast<float>(rise_hi);
@@ -524,7 +527,7 @@ class DetectorRun {
       const double extent = cell.top_m - cell.bottom_m;
       bool edge = extent >= 0.5 * o_.min_rise_m && extent <= rise_hi;
       // (b) The nose above a lower tread nearby.
-      const float* centre = tops.data() + (ix + r) * np + iy + r;
+      const float* centre = tops.data() + padded(ix, iy);
       for (std::size_t k = 0; k < deltas.size() && !edge; ++k) {
         const float drop = cell.top_m - centre[deltas[k]];
         edge = drop >= lo && drop <= hi;
@@ -555,7 +558,8 @@ class DetectorRun {
     double n = 0, mx = 0, my = 0, sxx = 0, sxy = 0, syy = 0;
     for (int jx = std::max(0, ix - w); jx <= std::min(nx_ - 1, ix + w); ++jx) {
       for (int jy = std::max(0, iy - w); jy <= std::min(nx_ - 1, iy + w); ++jy) {
-        const int j = edge_of_[static_cast<std::size_t>(jx * nx_ + jy)];
+        const int j = edge_of_[static_cast<std::size_t>(jx) * static_cast<std::size_t>(nx_) +
+                               static_cast<std::size_t>(jy)];
         if (j < 0) continue;
         const EdgeCell& f = edges_[static_cast<std::size_t>(j)];
         if (std::abs(f.h_m - e.h_m) > kRiseTol) continue;
@@ -596,7 +600,9 @@ class DetectorRun {
     if (norm2 < 1.0f) return false;
     const float inv = 1.0f / std::sqrt(norm2);
     const float ux = dx * inv, uy = dy * inv;
-    const float top = cells_[static_cast<std::size_t>(ix * nx_ + iy)].top_m;
+    const float top =
+        cells_[static_cast<std::size_t>(ix) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(iy)]
+            .top_m;
     const int steps = static_cast<int>(std::ceil((o_.max_run_m + 0.1) / cell_m_));
     int last = ix * nx_ + iy;
     for (int k = 1; k <= steps; ++k) {
@@ -790,6 +796,7 @@ class DetectorRun {
   // tread, behind the riser (or on the riser itself).
   void ChainBlobs(double theta, int sign, const std::vector<Blob>& blobs, std::vector<Chain>* chains) const {
     std::vector<ChainStep> steps;
+    steps.reserve(blobs.size());
     for (const Blob& b : blobs) {
       steps.push_back(sign > 0 ? ChainStep{b.s_front_m, b.h_m, b.t_lo_m, b.t_hi_m}
                                : ChainStep{-b.s_back_m, b.h_m, -b.t_hi_m, -b.t_lo_m});

@@ -968,6 +968,7 @@ TEST(FleetMapTest, SaveBtRoundTripsThroughOctoMap) {
 TEST(FleetMapTest, ConcurrentApplyAndReads) {
   FleetMap map;
   std::vector<std::thread> threads;
+  threads.reserve(3);
   for (int r = 0; r < 3; ++r) {
     threads.emplace_back([&map, r] {
       const std::string id = "r" + std::to_string(r);

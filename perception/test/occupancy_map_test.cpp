@@ -136,7 +136,7 @@ std::vector<Eigen::Vector3f> RoomScan(const Eigen::Isometry3d& T_W_S, int beams,
       const Eigen::Vector3d d_S(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
       const double r = RayRoomRange(T_W_S.translation(), T_W_S.linear() * d_S, room, pillars);
       if (!(r <= sensor_range_m)) continue;
-      points_S.push_back(((r + (noise_m > 0.0 ? noise(rng) : 0.0)) * d_S).cast<float>());
+      points_S.emplace_back(((r + (noise_m > 0.0 ? noise(rng) : 0.0)) * d_S).cast<float>());
     }
   }
   return points_S;
@@ -301,7 +301,7 @@ double FloorKeptWhileDriving(int floor_guard_layers) {
         const double range = 0.5 / std::tan(-elevation);
         const Eigen::Vector3d p(range * std::cos(azimuth), range * std::sin(azimuth), -0.5 + side(rng));
         if (std::abs(p.y()) > 1.2) continue;  // a corridor: no floor beyond its walls
-        points_S.push_back(p.cast<float>());
+        points_S.emplace_back(p.cast<float>());
       }
     }
     map.InsertScan(points_S, T_W_S);
@@ -587,8 +587,8 @@ TEST(OccupancyMapTest, WideScansMatchInsertPointCloudToo) {
   std::uniform_real_distribution<float> u(-40.0f, 40.0f);
   std::vector<Eigen::Vector3f> scan(150);
   for (auto& p : scan) p = Eigen::Vector3f(u(rng), u(rng), u(rng));
-  scan.push_back(scan.front());                                 // Two points in one voxel.
-  for (int i = 0; i < 20; ++i) scan.push_back(0.5f * scan[i]);  // End points on other points' rays.
+  scan.push_back(scan.front());                                    // Two points in one voxel.
+  for (int i = 0; i < 20; ++i) scan.emplace_back(0.5f * scan[i]);  // End points on other points' rays.
   const Eigen::Isometry3d T_W_S = Pose(0.3, -0.2, 1.0, 0.1);
   const InsertStats stats = map.InsertScan(scan, T_W_S);
   EXPECT_GT(stats.clipped_max_range, 0);

@@ -207,7 +207,8 @@ TEST(StaircaseDetectorTest, EmptyAndNonFiniteCloudsGiveNoDetection) {
   EXPECT_EQ(stats.points_filtered, 0);
   std::vector<Eigen::Vector3f> mixed;
   for (int i = 0; i < 3000; ++i) {
-    mixed.emplace_back(0.01f * (i % 100), 0.01f * (i / 100), 0.0f);  // A floor patch.
+    mixed.emplace_back(0.01f * static_cast<float>(i % 100), 0.01f * static_cast<float>(i / 100),
+                       0.0f);  // A floor patch, 1 cm grid.
     if (i % 3 == 0) mixed.emplace_back(nan, 1.0f, 0.0f);
     if (i % 5 == 0) mixed.emplace_back(1.0f, -inf, 0.0f);
   }
@@ -440,7 +441,8 @@ TEST(StaircaseFalsePositiveTest, Geb079CorridorWithoutStairs) {
   for (double x = -4.0; x <= 24.0; x += 3.0) {
     double y = std::numeric_limits<double>::quiet_NaN();
     for (int i = 0; i < 24 && std::isnan(y); ++i) {  // y = 0, 0.08, -0.08, 0.16, ...
-      const double candidate = (i % 2 == 0 ? 1.0 : -1.0) * 0.08 * ((i + 1) / 2);
+      const int k = (i + 1) / 2;                     // 0, 1, 1, 2, 2, ...
+      const double candidate = (i % 2 == 0 ? 1.0 : -1.0) * 0.08 * k;
       if (free_floor(x, candidate) && free_floor(x + 1.5, candidate)) y = candidate;
     }
     ASSERT_FALSE(std::isnan(y)) << "no free floor near x = " << x;
@@ -672,7 +674,7 @@ std::vector<Eigen::Vector3f> SparseScan(const SparseSite& site) {
       if (covered(p + 0.001 * n)) continue;
       Eigen::Vector3d e;
       for (int axis = 2; axis >= 0; --axis) e[axis] = noise(rng);
-      points.push_back((p + up + e).cast<float>());
+      points.emplace_back((p + up + e).cast<float>());
     }
   };
   const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY(),
@@ -689,7 +691,7 @@ std::vector<Eigen::Vector3f> SparseScan(const SparseSite& site) {
   for (int i = 0; i < site.strays; ++i) {
     Eigen::Vector3d p;
     for (int axis = 2; axis >= 0; --axis) p[axis] = unit(rng);
-    points.push_back(
+    points.emplace_back(
         (Eigen::Vector3d(-4.0 + 10.0 * p.x(), -3.0 + 6.0 * p.y(), 2.0 * p.z()) + up).cast<float>());
   }
   return points;
@@ -1305,6 +1307,7 @@ TEST(StaircaseRegistryTest, PartialFlightSeenFromOnTheStairsMergesWithTheWholeFl
 TEST(StaircaseRegistryTest, ConcurrentAddsAreSafe) {
   StaircaseRegistry registry;
   std::vector<std::thread> threads;
+  threads.reserve(4);
   for (int t = 0; t < 4; ++t) {
     threads.emplace_back([&registry, t] {
       std::mt19937 rng(40 + t);

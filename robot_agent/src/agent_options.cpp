@@ -113,7 +113,7 @@ void ReadExplore(const ConfigSection& config, const std::string& path, ExploreMo
        {"gain_radius_m", &frontiers.gain_radius_m},
        {"max_cluster_extent_m", &frontiers.max_cluster_extent_m},
        {"unknown_reach_m", &frontiers.unknown_reach_m},
-       {"search_horizon_m", &frontiers.search_horizon_m, /*allow_infinity=*/true},
+       {"search_horizon_m", &frontiers.search_horizon_m, /*allow_infinity_in=*/true},
        {"viewpoint_radius_m", &frontiers.viewpoint_radius_m},
        {"switch_utility_ratio", &explorer.switch_utility_ratio},
        {"blacklist_radius_m", &explorer.blacklist_radius_m},
@@ -199,7 +199,7 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
                             "ros2"});  // the simulated platform's (sim::SimulatedPlatformOptions) and the ROS
                                        // 2 driver's (ros2::Ros2PlatformOptions)
   config.Section("command_interface")
-      .ReadFields({{"lock_keep_s", &lock.lock_keep_s, /*allow_infinity=*/true}});
+      .ReadFields({{"lock_keep_s", &lock.lock_keep_s, /*allow_infinity_in=*/true}});
   config.Section("mux").ReadFields(
       {{"teleop_timeout_s", &teleop_timeout_s}, {"waypoint_timeout_s", &waypoint_timeout_s}});
   ReadNavigation(config, this);

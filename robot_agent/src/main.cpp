@@ -83,9 +83,9 @@ int Supervise(const cairn::agent::AgentOptions& options, int argc, char** argv) 
     return 2;
   }
   std::vector<std::string> child;
-  child.push_back("/proc/self/exe");
+  child.emplace_back("/proc/self/exe");
   for (int i = 1; i < argc; ++i) {
-    if (std::string(argv[i]) != "--supervise") child.push_back(argv[i]);
+    if (std::string(argv[i]) != "--supervise") child.emplace_back(argv[i]);
   }
   char self[4096];
   const ssize_t n = readlink("/proc/self/exe", self, sizeof(self) - 1);

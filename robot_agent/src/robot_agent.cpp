@@ -296,7 +296,7 @@ class RobotAgent::Impl {
   // perception): the machine's clock, on which Run() also paces the control loop, or a stepped agent's (then
   // lockstep is set; none: the agent runs its own threads).
   struct Timing {
-    explicit Timing(std::shared_ptr<core::SimulatedClock> stepped)
+    explicit Timing(const std::shared_ptr<core::SimulatedClock>& stepped)
         : clock(stepped ? std::shared_ptr<const core::Clock>(stepped) : core::RealClock()),
           start(clock->Now()),
           lockstep(stepped ? std::optional<Lockstep>(Lockstep{stepped}) : std::nullopt) {}

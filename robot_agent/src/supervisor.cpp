@@ -42,6 +42,7 @@ int SuperviseAgent(std::vector<std::string> argv, const std::string& robot_id) {
   double backoff_s = kFirstBackoffS;
   for (int start = 1;; ++start) {
     std::vector<char*> args;
+    args.reserve(argv.size());
     for (std::string& a : argv) args.push_back(a.data());
     args.push_back(nullptr);
     const auto started = std::chrono::steady_clock::now();
@@ -91,7 +92,7 @@ int SuperviseAgent(std::vector<std::string> argv, const std::string& robot_id) {
         backoff_s);
     if (core::WaitForShutdown(std::chrono::milliseconds(static_cast<int>(backoff_s * 1000)))) return 0;
     backoff_s = std::min(kMaxBackoffS, backoff_s * 2);
-    if (std::find(argv.begin(), argv.end(), "--resume") == argv.end()) argv.push_back("--resume");
+    if (std::find(argv.begin(), argv.end(), "--resume") == argv.end()) argv.emplace_back("--resume");
   }
 }
 

@@ -139,6 +139,7 @@ TEST(ConvoyModeTest, ABadOrderIsRefusedNamingTheId) {
 // process.
 std::unique_ptr<AgentTeam> MakeTeam(const std::vector<core::PlanarPose>& starts) {
   std::vector<std::pair<std::string, core::PlanarPose>> named;
+  named.reserve(starts.size());
   for (const core::PlanarPose& start : starts)
     named.emplace_back("r" + std::to_string(named.size() + 1), start);
   return std::make_unique<AgentTeam>("builtin:tunnels", named);

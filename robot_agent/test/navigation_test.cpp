@@ -46,8 +46,8 @@ std::shared_ptr<const nav::TrajectoryLibrary> LibraryFor(const nav::PlatformProf
 
 // One robot: navigation + platform + stand-in obstacle sensor on the planner's grid.
 struct SimRobot {
-  SimRobot(std::shared_ptr<const sim::World> world, const std::string& platform_name, double x, double y,
-           double yaw, double blocked_timeout_s = nav::NavigationOptions{}.blocked_timeout_s,
+  SimRobot(const std::shared_ptr<const sim::World>& world, const std::string& platform_name, double x,
+           double y, double yaw, double blocked_timeout_s = nav::NavigationOptions{}.blocked_timeout_s,
            double stall_timeout_s = nav::NavigationOptions{}.stall_timeout_s)
       : planner(std::make_shared<nav::GlobalPlanner>(
             world, std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled"),

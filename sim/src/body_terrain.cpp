@@ -260,6 +260,7 @@ std::vector<Eigen::Vector3d> BodyTerrain::SampleFreeStarts(int n, double min_spa
   for (int pass = 0; pass < 2 && static_cast<int>(starts.size()) < n; ++pass) {
     for (const std::int64_t c : largest) {
       if (static_cast<int>(starts.size()) >= n) break;
+      // NOLINTNEXTLINE(bugprone-integer-division): c / ny_ is the column's x index, floored on purpose
       const double x = p_W_min_.x() + (static_cast<double>(c / ny_) + 0.5) * resolution_m_;
       const double y = p_W_min_.y() + (static_cast<double>(c % ny_) + 0.5) * resolution_m_;
       const double z = *MainSurface(c);

@@ -253,7 +253,7 @@ void SimulatedLidar::Measure(LidarScan* scan) {
     if (range_m == kNoHit) continue;
     if (sigma_m > 0.0) range_m += sigma_m * noise_(rng_);
     if (range_m < options_.min_range_m) continue;
-    scan->points_S.push_back((range_m * directions_S_[i]).cast<float>());
+    scan->points_S.emplace_back((range_m * directions_S_[i]).cast<float>());
   }
   scan->rays_cast = static_cast<std::int64_t>(directions_S_.size());
   scan->returns = static_cast<std::int64_t>(scan->points_S.size());

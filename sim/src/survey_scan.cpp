@@ -137,7 +137,7 @@ SurveyScan MakeSurveyScan(const World& truth, const SurveyScanOptions& o, std::u
           const double z = below_rule ? *o.floor_below_z_m - 0.06 + 0.05 * u01(rng) : c.z() + jitter.z();
           out.points_W.emplace_back(Eigen::Vector3d(c.x() + jitter.x(), c.y() + jitter.y(), z).cast<float>());
         } else if (u01(rng) < o.wall_keep_fraction) {
-          out.points_W.push_back((c + jitter).cast<float>());
+          out.points_W.emplace_back((c + jitter).cast<float>());
         }
       }
     }
@@ -165,7 +165,7 @@ SurveyScan MakeSurveyScan(const World& truth, const SurveyScanOptions& o, std::u
     for (const Eigen::Vector3d& q : out.strays_W) open = open && (q - p).norm() > o.stray_spacing_m;
     if (!open || !InOpenSpace(truth, p, o.stray_clearance_m)) continue;
     out.strays_W.push_back(p);
-    out.points_W.push_back(p.cast<float>());
+    out.points_W.emplace_back(p.cast<float>());
   }
   return out;
 }

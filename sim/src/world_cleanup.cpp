@@ -413,7 +413,7 @@ class FloorHolePass {
   bool LevelHasFloor(int k) const {
     const int support = level_count_[static_cast<std::size_t>(k)] +
                         (k > 0 ? level_count_[static_cast<std::size_t>(k - 1)] : 0) +
-                        level_count_[static_cast<std::size_t>(k + 1)];
+                        level_count_[static_cast<std::size_t>(k) + 1];
     return support >= limits_.min_support;
   }
 
@@ -516,7 +516,8 @@ class FloorHolePass {
       if (!InGrid(x, y)) continue;
       const std::size_t c = Column(x, y);
       if (masks_.band[c] != 0 && scan.votes[0] + scan.votes[1] + scan.votes[2] < kSectors) {
-        ++scan.votes[static_cast<std::size_t>(floor_.Near(c, k) - k + 1)];
+        const int vote = floor_.Near(c, k) - k + 1;  // 0: below, 1: this level, 2: above
+        ++scan.votes[static_cast<std::size_t>(vote)];
       }
       if (scan.nearest[static_cast<std::size_t>(o.sector)] != nullptr) continue;
       // Floor, or an obstacle standing on the floor level (a wall): a hole between them is a floor hole.
@@ -533,7 +534,7 @@ class FloorHolePass {
   bool Narrow(const SectorScan& scan) const {
     for (int s = 0; s < kSectors / 2; ++s) {
       const SectorOffset& a = *scan.nearest[static_cast<std::size_t>(s)];
-      const SectorOffset& b = *scan.nearest[static_cast<std::size_t>(s + kSectors / 2)];
+      const SectorOffset& b = *scan.nearest[static_cast<std::size_t>(s) + kSectors / 2];
       if (std::hypot(a.dx - b.dx, a.dy - b.dy) - 1.0 > limits_.hole_cells + 1e-9) return false;
     }
     return true;

@@ -141,7 +141,7 @@ TEST(BodyTerrainTest, StartsAreFreeApartDeterministicAndNeverOnAPlatformOfTheirO
 
 TEST(BodyTerrainTest, BadOptionsAndANullWorldAreNamed) {
   try {
-    BodyTerrain(Floor(), BodyOptions{0.15, 0.0});
+    [[maybe_unused]] const BodyTerrain terrain(Floor(), BodyOptions{0.15, 0.0});
     ADD_FAILURE() << "a zero body height was accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("body.body_height_m = 0"), std::string::npos) << e.what();

@@ -246,7 +246,7 @@ TEST(SimulatedLidarTest, DirectionsAreUnitAndSpanTheFieldOfView) {
   EXPECT_NEAR(max_el, 15.0 * kPi / 180.0, 1e-9);
   EXPECT_TRUE(dirs[0].isApprox(Eigen::Vector3d(std::cos(min_el), 0.0, std::sin(min_el)), 1e-12));
   // Column 450 of 1800 looks along +y (azimuth 90 deg, counter-clockwise).
-  EXPECT_NEAR(dirs[450 * 16].y(), std::cos(min_el), 1e-12);
+  EXPECT_NEAR(dirs[std::size_t{450} * 16].y(), std::cos(min_el), 1e-12);
 }
 
 TEST(SimulatedLidarTest, PoseIsApplied) {

@@ -110,7 +110,7 @@ class DegradedGeb079Test : public ::testing::Test {
       for (int iy = 0; iy < dims.y(); ++iy) {
         for (int iz = 0; iz < dims.z(); ++iz) {
           if (truth_->IsOccupiedIndex({ix, iy, iz}))
-            dense.push_back(truth_->CenterOf({ix, iy, iz}).cast<float>());
+            dense.emplace_back(truth_->CenterOf({ix, iy, iz}).cast<float>());
         }
       }
     }

@@ -413,9 +413,10 @@ TEST_F(WorldFileTest, PcdVoxelizedAndNonFiniteDropped) {
 TEST_F(WorldFileTest, PcdSupportFilterKeepsRepeatedHitsAndDropsLonePoints) {
   const std::string path = dir_ + "/support.pcd";
   std::vector<std::string> rows;
+  rows.reserve(5);
   for (int i = 0; i < 5; ++i) rows.push_back("0." + std::to_string(i + 1) + "5 0.05 0.05");  // A short row.
-  rows.push_back("3.05 3.05 1.05");                                                          // A lone point.
-  for (int i = 0; i < 3; ++i) rows.push_back("1.52 2.53 0.54");  // Three hits of one lone voxel.
+  rows.emplace_back("3.05 3.05 1.05");                                                       // A lone point.
+  for (int i = 0; i < 3; ++i) rows.emplace_back("1.52 2.53 0.54");  // Three hits of one lone voxel.
   WriteFile(path, AsciiPcd(rows));
   WorldLoadReport report;
   const World world = LoadWorld(path, {}, &report);

@@ -125,7 +125,7 @@ EchoOptions ParseOptions(int argc, const char* const* argv, const char* ros_doma
       options.help = true;
       return options;
     }
-    if (argument.rfind("-", 0) != 0) {
+    if (argument.rfind('-', 0) != 0) {
       TopicSpec spec = ParseTopicSpec(argument);
       for (const TopicSpec& other : options.topics) {
         if (other.dds_name == spec.dds_name) {

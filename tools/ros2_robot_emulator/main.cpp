@@ -239,8 +239,8 @@ class Emulator {
     constexpr double kPlanarVariance = 1e-3, kUnmeasuredVariance = 1e6;
     for (int i = 0; i < 6; ++i) {
       const double variance = (i == 0 || i == 1 || i == 5) ? kPlanarVariance : kUnmeasuredVariance;
-      odom.pose.covariance[i * 7] = variance;
-      odom.twist.covariance[i * 7] = variance;
+      odom.pose.covariance[static_cast<std::size_t>(i) * 7] = variance;
+      odom.twist.covariance[static_cast<std::size_t>(i) * 7] = variance;
     }
     Write(odom_writer_, &odom, options_.odom_topic.c_str());
 

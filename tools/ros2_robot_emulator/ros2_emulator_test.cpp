@@ -354,7 +354,7 @@ Cloud CopyCloud(const sensor_msgs_msg_dds__PointCloud2_& m) {
   c.is_dense = m.is_dense;
   if (m.point_step == 32 && m.data._length == m.width * 32u) {
     for (std::uint32_t i = 0; i < m.width; ++i) {
-      const std::uint8_t* p = m.data._buffer + 32u * i;
+      const std::uint8_t* p = m.data._buffer + std::size_t{32} * i;
       std::array<float, 3> xyz{};
       std::memcpy(xyz.data(), p, 12);
       std::uint16_t ring = 0;

@@ -517,8 +517,8 @@ TEST_F(BehaviorTreeTest, TreesBeyondTheSizeAndDepthLimitsAreRefusedNamingLimitAn
   nested += R"(<BehaviorTree ID="T4"><AlwaysSuccess/></BehaviorTree></root>)";
   EXPECT_PRED2(Contains, ErrorOf(nested), "tree 'T0' with its SubTrees expanded has more than 1000 nodes");
   // Within the limits it loads; the limits can be set, and invalid ones are refused naming the field.
-  EXPECT_NO_THROW(factory_.CreateTreeFromText(Wrap("<Fallback>" + wide.substr(0, 999 * 16) + "</Fallback>"),
-                                              blackboard_));
+  EXPECT_NO_THROW(factory_.CreateTreeFromText(
+      Wrap("<Fallback>" + wide.substr(0, std::size_t{999} * 16) + "</Fallback>"), blackboard_));
   TreeLimits limits;
   limits.max_nodes = 5000;
   factory_.SetLimits(limits);

@@ -77,6 +77,7 @@ bool InProcessLink::Send(const std::string& robot_id, const YieldCommand& reques
 
 std::vector<SentTraffic> InProcessLink::SentByClass() const {
   std::vector<SentTraffic> out;
+  out.reserve(kTopicClasses);
   for (int c = 0; c < kTopicClasses; ++c) out.push_back({kTopicClassNames[c], 0, samples_[c]});
   return out;
 }

@@ -162,8 +162,8 @@ void Telemetry::PublishAgentInfo(const core::PlatformCapabilities& capabilities,
   info.max_yaw_rate_radps(limits_.max_yaw_rate_radps);
   info.footprint_radius_m(footprint_radius_m_);
   std::vector<std::string> sensors;
-  if (capabilities.has_lidar) sensors.push_back("lidar");
-  if (capabilities.has_camera) sensors.push_back("camera");
+  if (capabilities.has_lidar) sensors.emplace_back("lidar");
+  if (capabilities.has_camera) sensors.emplace_back("camera");
   info.sensors(sensors);
   info.map_resolution_m(map_resolution_m_);
   info.link(link_.link);

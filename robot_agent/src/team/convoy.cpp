@@ -123,7 +123,7 @@ ConvoyDecision ConvoyTrail::Next(const Eigen::Vector3d& follower_M, double now_s
     const double d = Distance2D(way[i], way[i + 1]);
     if (d < 1e-9) continue;
     if (d >= left) {
-      command.path_M.push_back(way[i] + (left / d) * (way[i + 1] - way[i]));
+      command.path_M.emplace_back(way[i] + (left / d) * (way[i + 1] - way[i]));
       break;
     }
     command.path_M.push_back(way[i + 1]);

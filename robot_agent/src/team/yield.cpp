@@ -276,7 +276,7 @@ void YieldMode::SetPeers(const std::vector<Peer>& peers, double now_s) {
     last_heard_s_ = now_s;
     // Passed: its route from where it is no longer comes near the way here and back.
     std::vector<Eigen::Vector2d> route = {Eigen::Vector2d(it->pose_M.x_m, it->pose_M.y_m)};
-    for (const Eigen::Vector3d& q : it->path_ahead_M) route.push_back(q.head<2>());
+    for (const Eigen::Vector3d& q : it->path_ahead_M) route.emplace_back(q.head<2>());
     double nearest_m = std::numeric_limits<double>::infinity();
     for (const Eigen::Vector2d& q : way_M_)
       nearest_m = std::min(nearest_m, nav::DistanceToPolyline(route, q));
@@ -493,7 +493,7 @@ YieldAsk YieldAsker::Update(const YieldAskInputs& in) {
     return ask;
   }
   std::vector<Eigen::Vector2d> route = {self};
-  for (const Eigen::Vector3d& q : in.route_M) route.push_back(q.head<2>());
+  for (const Eigen::Vector3d& q : in.route_M) route.emplace_back(q.head<2>());
   // The nearest peer on the route (within lookahead) that cannot be passed where it stands.
   std::shared_ptr<const nav::TraversabilityGrid> grid;  // fetched for the first peer on the route
   const Peer* blocker = nullptr;
@@ -554,7 +554,7 @@ YieldAsk YieldAsker::Update(const YieldAskInputs& in) {
     // It drives to its spot, possibly toward this robot (a bay between them): this robot keeps standoff_m
     // from the rest of its way, not only from where it is now.
     std::vector<Eigen::Vector2d> way = {Eigen::Vector2d(peer.pose_M.x_m, peer.pose_M.y_m)};
-    for (const Eigen::Vector3d& q : peer.path_ahead_M) way.push_back(q.head<2>());
+    for (const Eigen::Vector3d& q : peer.path_ahead_M) way.emplace_back(q.head<2>());
     const double to_way_m = nav::DistanceToPolyline(way, self) - in.radius_m - peer.footprint_radius_m;
     if (to_way_m < options_.standoff_m || gap_m < options_.standoff_m) ask.hold_reason = status_.reason;
   } else if (gap_m < options_.standoff_m) {

@@ -49,7 +49,7 @@ class FleetClient : public Fleet {
  public:
   /// @throws core::DdsError / std::invalid_argument naming the field at fault.
   explicit FleetClient(const FleetClientOptions& options);
-  ~FleetClient();
+  ~FleetClient() override;
 
   const std::string& base_id() const override;
   /// This process's DDS participant id (core::ParticipantIdOf): robots answer it, and show it as the

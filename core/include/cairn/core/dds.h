@@ -224,7 +224,7 @@ class Participant : private eprosima::fastdds::dds::DomainParticipantListener {
   /// Registers `type` (once per type name) and returns the topic `topic_name`, creating it on first use.
   /// @throws DdsError when registration or creation fails.
   eprosima::fastdds::dds::Topic* GetTopic(const std::string& topic_name,
-                                          eprosima::fastdds::dds::TypeSupport type);
+                                          const eprosima::fastdds::dds::TypeSupport& type);
 
   /// " (DDS Security: ...)" naming the permissions file when security is on, else "": appended to the error
   /// of an endpoint the access control may have refused.

@@ -296,6 +296,7 @@ class TrajectoryLibrary {
       return ix + size * iy;
     }
     Eigen::Vector2d Center(int index) const {
+      // NOLINTNEXTLINE(bugprone-integer-division): index / size is the cell's row, floored on purpose
       return Eigen::Vector2d(min_m + (index % size + 0.5) * voxel_m, min_m + (index / size + 0.5) * voxel_m);
     }
   };

@@ -62,7 +62,7 @@ class AgentDds final : public AgentLink {
   /// writers replies go through already do). Call once. @throws std::invalid_argument for a missing handler,
   /// std::logic_error for a second call, core::DdsError as the constructor.
   void Listen(AgentDdsHandlers handlers) override;
-  ~AgentDds();
+  ~AgentDds() override;
   /// Deletes the readers: once it returns no handler runs (nor will), while the writers still send. Call
   /// before tearing down what the handlers use. Not thread-safe with Listen().
   void StopListening() override;
