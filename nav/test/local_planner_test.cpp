@@ -678,8 +678,8 @@ Cloud RandomCloud(std::mt19937* rng) {
   cloud.reserve(static_cast<std::size_t>(n));
   const int kind = static_cast<int>(u(*rng) * 3.0);
   std::vector<Eigen::Vector2d> centres;
-  centres.reserve(1 + static_cast<int>(u(*rng) * 8));
   for (int c = 0; c < 1 + static_cast<int>(u(*rng) * 8); ++c) {
+    // NOLINTNEXTLINE(performance-inefficient-vector-operation): the bound is drawn anew on every pass
     centres.emplace_back((u(*rng) * 2 - 1) * 4.0, (u(*rng) * 2 - 1) * 4.0);
   }
   const double spread = 0.05 + 0.5 * u(*rng);
