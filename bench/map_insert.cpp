@@ -33,7 +33,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using cairn::perception::OccupancyMap;
 using cairn::perception::OccupancyMapOptions;
-constexpr double kPi = 3.14159265358979323846;
 
 struct Scan {
   std::vector<Eigen::Vector3f> points_S;

@@ -345,8 +345,8 @@ SceneMaker Synthetic(
 // A scene without flights, at kObjectSceneRes.
 SceneMaker ObjectScene(
     const std::string& name,
-    std::function<void(World*, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>*)> build) {
-  return Synthetic(name, std::move(build), true, kObjectSceneRes);
+    const std::function<void(World*, std::vector<StaircaseFlight>*, std::vector<ObjectTarget>*)>& build) {
+  return Synthetic(name, build, true, kObjectSceneRes);
 }
 
 std::vector<SceneMaker> SyntheticScenes() {

@@ -33,7 +33,7 @@ namespace msgs = cairn_msgs;
 const std::string kWorld = "builtin:tunnels";
 
 std::string Logs(const std::string& test) {
-  const std::string dir = std::string(CAIRN_BINARY_DIR) + "/test-logs/command_identity/" + test;
+  std::string dir = std::string(CAIRN_BINARY_DIR) + "/test-logs/command_identity/" + test;
   std::filesystem::create_directories(dir);
   return dir;
 }

@@ -26,7 +26,7 @@ const std::string kWorld = "builtin:tunnels";
 
 // A config whose restarts wait `backoff_s` (the window in which the degraded modes are checked).
 std::string ConfigWithBackoff(const std::string& logs, double backoff_s) {
-  const std::string path = logs + "/agent.yaml";
+  std::string path = logs + "/agent.yaml";
   std::ofstream out(path);
   out << "health:\n  restart_backoff_s: " << backoff_s << "\n  restart_backoff_max_s: 60\n";
   return path;

@@ -30,7 +30,7 @@ using nlohmann::json;
 namespace msgs = cairn_msgs;
 
 std::string Logs(const std::string& test) {
-  const std::string dir = std::string(CAIRN_BINARY_DIR) + "/test-logs/console/" + test;
+  std::string dir = std::string(CAIRN_BINARY_DIR) + "/test-logs/console/" + test;
   std::filesystem::create_directories(dir);
   return dir;
 }

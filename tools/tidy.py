@@ -96,7 +96,7 @@ def main():
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--cache", default=os.path.join(os.path.expanduser("~"), ".cache", "cairn-tidy"))
     parser.add_argument("--nice", action="store_true", help="run clang-tidy at the lowest CPU priority")
-    opts = parser.parse_args()
+    opts = parser.parse_intermixed_args()
     db_path = os.path.join(opts.build_dir, "compile_commands.json")
     if not os.path.isfile(db_path):
         print(f"tidy: {db_path} not found: build first (./cairn build)", file=sys.stderr)

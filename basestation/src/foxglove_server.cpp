@@ -108,11 +108,10 @@ class FoxgloveServer::Impl {
     server_.init_asio();
     server_.set_reuse_addr(true);
     server_.set_validate_handler([this](Handle h) { return Validate(std::move(h)); });
-    server_.set_open_handler([this](Handle h) { OnOpen(std::move(h)); });
-    server_.set_close_handler([this](Handle h) { OnClose(std::move(h)); });
+    server_.set_open_handler([this](const Handle& h) { OnOpen(h); });
+    server_.set_close_handler([this](const Handle& h) { OnClose(h); });
     server_.set_fail_handler([](const Handle&) {});
-    server_.set_message_handler(
-        [this](Handle h, WsServer::message_ptr m) { OnMessage(std::move(h), std::move(m)); });
+    server_.set_message_handler([this](const Handle& h, const WsServer::message_ptr& m) { OnMessage(h, m); });
     server_.set_http_handler([this](Handle h) { OnHttp(std::move(h)); });
     server_.listen(asio::ip::tcp::endpoint(address, static_cast<unsigned short>(options.port)), ec);
     if (ec) {

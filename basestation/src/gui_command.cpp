@@ -22,7 +22,7 @@ std::string Word(const std::string& field, const json& value) {
     return value.dump();
   }
   if (!value.is_string()) Refuse(field, value, "must be a string or a number");
-  const std::string word = value.get<std::string>();
+  std::string word = value.get<std::string>();
   if (word.empty() || word.find_first_of(" \t\r\n") != std::string::npos) {
     Refuse(field, value, "must be one word (no blanks)");
   }

@@ -23,7 +23,7 @@ class CommandShellTest : public ::testing::Test {
   }
   // What the shell printed since the last call.
   std::string Printed() {
-    const std::string text = out_.str();
+    std::string text = out_.str();
     out_.str("");
     return text;
   }

@@ -360,7 +360,7 @@ Eigen::Vector2d Navigation::PointAhead(double ahead_m) const {
 Eigen::Vector2d Navigation::Carrot(const core::BaseState& state) const {
   constexpr double kMinCarrotM = 0.5;   // never nearer: the local planner needs a direction
   constexpr double kCarrotStepM = 0.1;  // along the path
-  const Eigen::Vector2d full = PointAhead(options_.carrot_distance_m);
+  Eigen::Vector2d full = PointAhead(options_.carrot_distance_m);
   if (obstacles_.points_B.empty()) return full;
   // Segment from the robot to a path point, in the frame the obstacles are kept in.
   const Eigen::Vector2d robot_O = ToBody(obstacles_.pose, Eigen::Vector2d(state.x_m, state.y_m));

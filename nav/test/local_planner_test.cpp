@@ -455,8 +455,9 @@ TEST(LocalPlannerTest, ObstacleStraightAheadIsAvoided) {
   Cloud cloud;
   for (int i = 0; i < 200; ++i) {  // A 0.3 m wide pillar 1.5 m ahead.
     const double a = 2.0 * kPi * i / 50;
+    const int ring = i / 50;  // 50 points a ring, rings 0.25 m apart
     cloud.emplace_back(static_cast<float>(1.5 + 0.15 * std::cos(a)), static_cast<float>(0.15 * std::sin(a)),
-                       0.25f * static_cast<float>(i / 50));  // ring i / 50, 0.25 m apart
+                       0.25f * static_cast<float>(ring));
   }
   const LocalPlanResult r = planner.Plan(cloud, GoalRequest(5.0, 0.0));
   ASSERT_TRUE(r.IsUsable()) << r.message;

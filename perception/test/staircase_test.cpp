@@ -207,8 +207,8 @@ TEST(StaircaseDetectorTest, EmptyAndNonFiniteCloudsGiveNoDetection) {
   EXPECT_EQ(stats.points_filtered, 0);
   std::vector<Eigen::Vector3f> mixed;
   for (int i = 0; i < 3000; ++i) {
-    mixed.emplace_back(0.01f * static_cast<float>(i % 100), 0.01f * static_cast<float>(i / 100),
-                       0.0f);  // A floor patch, 1 cm grid.
+    const int row = i / 100;  // A floor patch, 1 cm grid, 100 points a row.
+    mixed.emplace_back(0.01f * static_cast<float>(i % 100), 0.01f * static_cast<float>(row), 0.0f);
     if (i % 3 == 0) mixed.emplace_back(nan, 1.0f, 0.0f);
     if (i % 5 == 0) mixed.emplace_back(1.0f, -inf, 0.0f);
   }

@@ -210,7 +210,7 @@ TEST(ModeManager, RefusesABranchWhoseChannelIsNotAMuxChannelNamingBranchAndChann
   auto write_variant = [&](const std::string& name, const std::string& select) {
     std::string variant = xml;
     variant.replace(variant.find(good), good.size(), select);
-    const std::string path = ::testing::TempDir() + "/" + name;
+    std::string path = ::testing::TempDir() + "/" + name;
     std::ofstream(path) << variant;
     return path;
   };

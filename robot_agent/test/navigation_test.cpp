@@ -82,7 +82,7 @@ struct SimRobot {
       nav::LethalCellsNear(*grid, s.x_m, s.y_m, s.yaw_rad, options.sensor_range_m, &points_B);
       navigation.SetObstacles(points_B, s, t_s);
     }
-    const nav::NavigationStep out = step();
+    nav::NavigationStep out = step();
     const sim::UnicycleStepResult r = platform.Step(out.linear_x_mps, out.angular_z_radps, kDt, *grid);
     contacts += r.contact ? 1 : 0;
     const auto& s = platform.state();

@@ -84,7 +84,7 @@ ModeDecision ModeControl::Request(const std::string& mode, const ModeConditions&
 }
 
 ModeDecision ModeControl::Recheck(const ModeConditions& conditions) {
-  const ModeDecision d = tree_.Recheck(conditions);
+  ModeDecision d = tree_.Recheck(conditions);
   if (!d.accepted) Apply(d);
   return d;
 }

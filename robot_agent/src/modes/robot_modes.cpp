@@ -99,7 +99,7 @@ std::string RobotModes::StartExplore(const ExploreTask& task, double now_s) {
 std::string RobotModes::StartConvoy(const std::vector<std::string>& ahead_ids,
                                     const std::vector<Peer>& live_peers, double now_s) {
   const bool was_following = convoy_->active() && control_->mode() == convoy_->name();
-  const std::string refused = convoy_->Start(robot_id_, ahead_ids, now_s);
+  std::string refused = convoy_->Start(robot_id_, ahead_ids, now_s);
   if (!refused.empty()) return refused;
   convoy_->SetPeers(live_peers, now_s);
   if (was_following) return "";

@@ -88,7 +88,7 @@ ExploreTeam::ExploreTeam(std::string own_id, ExploreTeamOptions options)
 }
 
 std::string ExploreTeam::OnPeerClaim(const ExploreClaim& claim, double now_s) {
-  if (const std::string why = CheckExploreClaim(claim); !why.empty()) return why;
+  if (std::string why = CheckExploreClaim(claim); !why.empty()) return why;
   if (claim.robot_id == own_id_) return "";
   if (claim.coverage && std::abs(claim.coverage->cell_m - options_.coverage_cell_m) > 1e-9) {
     return "explore claim from \"" + claim.robot_id +

@@ -90,8 +90,7 @@ class ConvoyMode : public ModeModule {
   bool has_goal_ = false;
   int skipped_ = 0;  // robots ahead re-linked past since the operator's last order (silent ones)
   std::uint64_t goal_serial_ = 0;  // Navigation::goal_serial() of that target
-  double blocked_target_moved_m_ =
-      0.0;  // kBlocked: retry once the target moved this far from where it failed
+  // kBlocked: where the target was when navigation failed; retried once it moves kBlockedRetryM from there.
   Eigen::Vector2d blocked_at_M_ = Eigen::Vector2d::Zero();
 };
 
