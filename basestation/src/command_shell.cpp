@@ -13,6 +13,7 @@
 
 #include "cairn/base/operator_text.h"
 #include "cairn/core/shutdown.h"
+#include "cairn/fleet/robot_status.h"
 #include "command_table.h"
 #include "shell_util.h"
 
@@ -28,22 +29,6 @@ using shell::StaircaseJson;
 using shell::YawOf;
 
 namespace {
-
-const char* NavStatusName(msgs::NavStatus s) {
-  switch (s) {
-    case msgs::NAV_STATUS_NONE:
-      return "none";
-    case msgs::NAV_STATUS_ACTIVE:
-      return "active";
-    case msgs::NAV_STATUS_ARRIVED:
-      return "arrived";
-    case msgs::NAV_STATUS_FAILED:
-      return "failed";
-    case msgs::NAV_STATUS_PAUSED:
-      return "paused";
-  }
-  return "?";
-}
 
 // Every field of a view (`status --json`, `robots --json`): machines read these, people read the summary.
 json ViewJson(const RobotView& v, const std::string& base_id) {
@@ -75,7 +60,7 @@ json ViewJson(const RobotView& v, const std::string& base_id) {
     j["active_channel"] = s.active_channel();
     j["mux_reason"] = s.mux_reason();
     j["discarded_commands"] = s.discarded_commands();
-    j["nav_status"] = NavStatusName(s.nav_status());
+    j["nav_status"] = fleet::NavStatusWord(s.nav_status());
     j["nav_reason"] = s.nav_reason();
     j["nav_goal_id"] = s.nav_goal_id();
     j["nav_distance_left_m"] = s.nav_distance_left_m();
@@ -357,7 +342,7 @@ void CommandShell::PrintRobotsTable() {
       const auto& s = *v.state;
       mode = s.mode();
       holder = s.holder_id().empty() ? "-" : s.holder_id() + (s.holder_alive() ? "" : " (lost)");
-      nav = NavStatusName(s.nav_status());
+      nav = fleet::NavStatusWord(s.nav_status());
       if (s.nav_status() == msgs::NAV_STATUS_ACTIVE) {
         left = Fixed(s.nav_distance_left_m(), 1) + " m";
         eta = s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "?";
@@ -511,7 +496,7 @@ int CommandShell::Status(const std::vector<std::string>& args) {
       out_ << "none";
     } else {
       out_ << s.nav_goal_id() << " to (" << Fixed(s.nav_goal_M().x_m(), 2) << ", "
-           << Fixed(s.nav_goal_M().y_m(), 2) << "): " << NavStatusName(s.nav_status());
+           << Fixed(s.nav_goal_M().y_m(), 2) << "): " << fleet::NavStatusWord(s.nav_status());
       if (s.nav_status() == msgs::NAV_STATUS_ACTIVE) {
         out_ << ", " << Fixed(s.nav_distance_left_m(), 1) << " m left, ETA "
              << (s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "unknown") << ", " << s.nav_replans()

@@ -12,6 +12,7 @@
 
 #include "cairn/base/command_shell.h"
 #include "cairn/base/operator_text.h"
+#include "cairn/fleet/robot_status.h"
 #include "command_table.h"
 #include "shell_util.h"
 
@@ -270,7 +271,7 @@ int CommandShell::Yield(const std::vector<std::string>& args) {
   // The answer is the robot's yield state; the request goes again once if none came.
   auto answered = [&](const RobotView& v) {
     return v.lost || (v.state && v.state->yield_peer_id() == passing && !v.state->yield_state().empty() &&
-                      v.state->yield_state() != "returning");
+                      v.state->yield_state() != fleet::yield_state::kReturning);
   };
   std::optional<RobotView> answer;
   for (int attempt = 0; attempt < 2 && !answer; ++attempt) {
@@ -287,7 +288,7 @@ int CommandShell::Yield(const std::vector<std::string>& args) {
     return Report("yield", robot, o);
   }
   const std::string& state = answer->state->yield_state();
-  o.ok = state != "refused";
+  o.ok = state != fleet::yield_state::kRefused;
   o.answered = true;
   o.result = o.ok ? outcome::kAccepted : outcome::kRefused;
   o.reason = (o.ok ? "gets out of " + passing + "'s way: " : "refused to yield to " + passing + ": ") +

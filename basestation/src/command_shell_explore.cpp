@@ -5,6 +5,7 @@
 
 #include "cairn/base/command_shell.h"
 #include "cairn/base/operator_text.h"
+#include "cairn/fleet/robot_status.h"
 #include "command_table.h"
 #include "shell_util.h"
 
@@ -64,7 +65,7 @@ json ExplorationJson(const cairn_msgs::RobotState& s) {
 }
 
 std::string ExplorationText(const cairn_msgs::RobotState& s) {
-  if (s.explore_state().empty() || s.explore_state() == "none") return "none";
+  if (s.explore_state().empty() || s.explore_state() == fleet::explore_state::kNone) return "none";
   std::string text = std::to_string(s.explore_task_id()) + ": " + s.explore_state() + ", " +
                      Fixed(s.explored_m2(), 0) + " m² explored, " + std::to_string(s.frontier_clusters()) +
                      " frontiers (" + std::to_string(s.reachable_frontiers()) + " reachable), " +
@@ -170,10 +171,11 @@ int CommandShell::WaitExplored(const std::string& robot, uint32_t task_id, doubl
     if (!v.state) return !failure.empty();
     const auto& s = *v.state;
     if (s.explore_task_id() != task_id) return !failure.empty();  // its state from before the command
-    if (s.explore_state() == "failed" || s.explore_state() == "stopped") {
+    if (s.explore_state() == fleet::explore_state::kFailed ||
+        s.explore_state() == fleet::explore_state::kStopped) {
       failure = "exploration " + s.explore_state() + ": " + ExplainReason(robot, s.explore_reason()).text;
     }
-    return s.explore_state() == "complete" || !failure.empty();
+    return s.explore_state() == fleet::explore_state::kComplete || !failure.empty();
   };
   const auto start = core::SteadyClock::now();
   auto last_progress = start;

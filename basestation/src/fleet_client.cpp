@@ -13,6 +13,7 @@
 #include "cairn/base/operator_text.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/peer_input.h"
+#include "cairn/fleet/robot_status.h"
 #include "cairn/msgs/robot_state.h"
 #include "cairn/msgs/stamp.h"
 #include "cairn_msgsPubSubTypes.h"
@@ -108,6 +109,7 @@ class FleetClient::Impl {
         [this](const msgs::RobotState& m, const eprosima::fastdds::dds::SampleInfo& info) {
           if (!FromRobot("cairn/robot_state", m.robot_id(), info)) return;
           const auto now = SteadyClock::now();
+          WarnOfUnknownWords(m, now);
           std::vector<ClassUsage> usage;
           for (const msgs::LinkClassUsage& u : m.link_usage()) {
             usage.push_back({u.topic_class(), u.sent_kbps(), u.sent_bytes()});
@@ -583,6 +585,19 @@ class FleetClient::Impl {
     return false;
   }
   core::WarningLimiter forged_warnings_;
+
+  // A state word this basestation does not know (fleet/robot_status.h: a newer robot, or a broken one) is
+  // shown as the robot said it, and logged at most every 5 s per robot, naming the field and the value.
+  void WarnOfUnknownWords(const msgs::RobotState& m, core::SteadyTime now) {
+    const std::string why = fleet::CheckStateWords(m);
+    std::uint64_t suppressed = 0;
+    if (why.empty() || !word_warnings_.Allow(m.robot_id(), now, &suppressed)) return;
+    spdlog::warn(
+        "basestation {}: robot '{}' reports a state this basestation does not know: {}{}", options_.base_id,
+        m.robot_id().substr(0, 64), why,
+        suppressed > 0 ? " (and " + std::to_string(suppressed) + " more since the last warning)" : "");
+  }
+  core::WarningLimiter word_warnings_;
 
   // False for an observer under DDS Security (no robot to command).
   bool MayCommandAny() const { return !commandable_ || !commandable_->empty(); }

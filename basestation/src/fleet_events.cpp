@@ -6,6 +6,7 @@
 #include "cairn/base/fleet.h"
 #include "cairn/base/operator_text.h"
 #include "cairn/core/range_check.h"
+#include "cairn/fleet/robot_status.h"
 
 namespace cairn::base {
 
@@ -61,13 +62,15 @@ std::vector<OperatorEvent> FleetEventDetector::Observe(const std::vector<RobotVi
 void FleetEventDetector::ObserveMission(const std::string& r, const cairn_msgs::RobotState& s,
                                         const Last& last, const Last& now,
                                         std::vector<OperatorEvent>* events) {
-  if (now.mission_state == "paused" && last.mission_state != "paused") {
+  if (now.mission_state == fleet::mission_state::kPaused &&
+      last.mission_state != fleet::mission_state::kPaused) {
     OperatorEvent e =
         Event("mission_paused", r,
               r + " " + s.mission_kind() + " paused: " + s.mission_reason() + " (it resumes by itself)");
     e.reason = s.mission_reason();
     events->push_back(e);
-  } else if (now.mission_state != "paused" && last.mission_state == "paused" &&
+  } else if (now.mission_state != fleet::mission_state::kPaused &&
+             last.mission_state == fleet::mission_state::kPaused &&
              s.mission_reason().rfind("resumed", 0) == 0) {
     OperatorEvent e = Event("mission_resumed", r, r + " " + s.mission_reason());
     e.reason = s.mission_reason();
@@ -75,7 +78,7 @@ void FleetEventDetector::ObserveMission(const std::string& r, const cairn_msgs::
   }
   const bool explore_changed =
       now.explore_state != last.explore_state || now.explore_task_id != last.explore_task_id;
-  if (explore_changed && now.explore_state == "complete") {
+  if (explore_changed && now.explore_state == fleet::explore_state::kComplete) {
     const double minutes =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - last.explore_seen).count() / 60.0;
     OperatorEvent e =
@@ -86,7 +89,8 @@ void FleetEventDetector::ObserveMission(const std::string& r, const cairn_msgs::
                   " frontiers reached, " + std::to_string(s.explore_targets_failed()) + " given up");
     e.reason = s.explore_reason();
     events->push_back(e);
-  } else if (explore_changed && (now.explore_state == "stopped" || now.explore_state == "failed")) {
+  } else if (explore_changed && (now.explore_state == fleet::explore_state::kStopped ||
+                                 now.explore_state == fleet::explore_state::kFailed)) {
     const OperatorReason why = ExplainReason(r, s.explore_reason());
     OperatorEvent e = Event("exploration_stopped", r,
                             r + " exploration " + std::to_string(now.explore_task_id) + " " +
@@ -228,19 +232,19 @@ void FleetEventDetector::ObserveConvoy(const std::string& r, const cairn_msgs::R
                                        std::vector<OperatorEvent>* events) {
   // A convoy follower that stops on its own (lost or blocked) or re-links is news, and so are its forming
   // (following at first) and its holding.
-  if (now.convoy_state != last.convoy_state && now.convoy_state == "following" &&
-      (last.convoy_state.empty() || last.convoy_state == "none")) {
+  if (now.convoy_state != last.convoy_state && now.convoy_state == fleet::convoy_state::kFollowing &&
+      (last.convoy_state.empty() || last.convoy_state == fleet::convoy_state::kNone)) {
     OperatorEvent e = Event("convoy_formed", r, r + " follows " + now.convoy_ahead + " in the convoy");
     e.other = now.convoy_ahead;
     events->push_back(e);
-  } else if (now.convoy_state != last.convoy_state && now.convoy_state == "holding") {
+  } else if (now.convoy_state != last.convoy_state && now.convoy_state == fleet::convoy_state::kHolding) {
     OperatorEvent e = Event("convoy_holding", r, r + " holds in the convoy: " + s.convoy_reason());
     e.reason = s.convoy_reason();
     e.other = now.convoy_ahead;
     events->push_back(e);
   }
   if (now.convoy_state != last.convoy_state &&
-      (now.convoy_state == "lost" || now.convoy_state == "blocked")) {
+      (now.convoy_state == fleet::convoy_state::kLost || now.convoy_state == fleet::convoy_state::kBlocked)) {
     OperatorEvent e = Event("convoy_" + now.convoy_state, r,
                             r + " stopped in the convoy (" + now.convoy_state + "): " + s.convoy_reason());
     e.reason = s.convoy_reason();
@@ -259,25 +263,24 @@ void FleetEventDetector::ObserveYield(const std::string& r, const cairn_msgs::Ro
                                       const Last& now, std::vector<OperatorEvent>* events) {
   // Get-out-of-the-way: a yield starting, refused, ended; a robot asking, or blocked by a refusal.
   if ((now.yield_state == last.yield_state && now.yield_peer == last.yield_peer) ||
-      (now.yield_state == "aside" && last.yield_state == "moving_aside"))
+      (now.yield_state == fleet::yield_state::kAside && last.yield_state == fleet::yield_state::kMovingAside))
     return;
   const std::string& peer = now.yield_state.empty() ? last.yield_peer : now.yield_peer;
   const std::string& why = s.yield_reason();
   std::string kind, message;
-  if (now.yield_state == "moving_aside" || now.yield_state == "aside") {
+  if (now.yield_state == fleet::yield_state::kMovingAside || now.yield_state == fleet::yield_state::kAside) {
     kind = "yield_moving_aside";
     message = r + " gets out of " + peer + "'s way: " + why;
-  } else if (now.yield_state == "refused") {
+  } else if (now.yield_state == fleet::yield_state::kRefused) {
     kind = "yield_refused";
     message = r + " refused to yield to " + peer + ": " + why;
-  } else if (now.yield_state == "asking") {
+  } else if (now.yield_state == fleet::yield_state::kAsking) {
     kind = "yield_asking";
     message = r + ": " + why;
-  } else if (now.yield_state == "blocked") {
+  } else if (now.yield_state == fleet::yield_state::kBlocked) {
     kind = "yield_blocked";
     message = r + " " + why;
-  } else if (now.yield_state.empty() && (last.yield_state == "aside" || last.yield_state == "returning" ||
-                                         last.yield_state == "moving_aside")) {
+  } else if (now.yield_state.empty() && fleet::GivesWay(last.yield_state)) {
     kind = "yield_returned";
     message = r + ": " + why;
   }

@@ -21,6 +21,7 @@
 
 #include "cairn/base/operator_text.h"
 #include "cairn/core/time.h"
+#include "cairn/fleet/robot_status.h"
 #include "command_table.h"
 #include "gui_command.h"
 #include "shell_util.h"
@@ -160,21 +161,6 @@ std::string CommandTableJson() {
 
 const char* kCommandResponseSchema =
     R"json({"title":"cairn.CommandResponse","description":"The CLI's --json result of the command: command, robot, ok, result (accepted|refused|failed|timed out|invalid), reason, holder, mode, valid_actions, ...","type":"object","properties":{"ok":{"type":"boolean"},"result":{"type":"string"},"reason":{"type":"string"},"exit_code":{"type":"integer"},"lines":{"type":"array","items":{"type":"object"}}}})json";
-
-std::string NavStatusName(cairn_msgs::NavStatus s) {
-  switch (s) {
-    case cairn_msgs::NAV_STATUS_ACTIVE:
-      return "active";
-    case cairn_msgs::NAV_STATUS_ARRIVED:
-      return "arrived";
-    case cairn_msgs::NAV_STATUS_FAILED:
-      return "failed";
-    case cairn_msgs::NAV_STATUS_PAUSED:
-      return "paused";
-    default:
-      return "none";
-  }
-}
 
 int LogLevel(const std::string& kind) {
   if (kind == "goal_abandoned" || kind == "lost" || kind == "lock_taken" || kind == "exploration_stopped" ||
@@ -500,7 +486,7 @@ class GuiBridge::Impl {
         r["holder"] = s.holder_id();
         r["holder_alive"] = s.holder_alive();
         r["you_hold"] = s.holder_id() == client_.base_id();
-        r["nav_status"] = NavStatusName(s.nav_status());
+        r["nav_status"] = fleet::NavStatusWord(s.nav_status());
         r["nav_reason"] = s.nav_reason();
         r["nav_goal_id"] = s.nav_goal_id();
         r["goal"] = {
@@ -637,7 +623,7 @@ class GuiBridge::Impl {
                                 {"size", Vec3(0.3, 0.3, 0.3)},
                                 {"color", Color(0.2, 0.85, 1.0, 0.9)}});
       }
-      if (s.explore_has_target() && s.explore_state() == "exploring") {
+      if (s.explore_has_target() && s.explore_state() == fleet::explore_state::kExploring) {
         // The frontier the robot explores toward: a sphere on a 1 m post, in the explore mode's colour.
         const auto& t = s.explore_target_M();
         double r = 0, g = 0, b = 0;

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "cairn/core/time.h"
+#include "cairn/fleet/robot_status.h"
 #include "cairn/msgs/robot_state.h"
 #include "cairn/msgs/stamp.h"
 #include "cairn_msgs.h"
@@ -99,7 +100,7 @@ void SetMission(const RobotStateInputs& in, msgs::RobotState* state) {
   msgs::RobotState& m = *state;
   if (in.paused_mission) {
     const PausedMission& p = *in.paused_mission;
-    m.mission_state("paused");
+    m.mission_state(fleet::mission_state::kPaused);
     m.mission_kind(ToString(p.kind));
     m.mission_reason(p.reason);
     m.mission_paused_s(in.mission_paused_s);
@@ -110,11 +111,11 @@ void SetMission(const RobotStateInputs& in, msgs::RobotState* state) {
       m.nav_goal_M().x_m(p.goal.x_m);
       m.nav_goal_M().y_m(p.goal.y_m);
     } else if (p.kind == PausedMission::Kind::kExplore) {
-      m.explore_state("paused");
+      m.explore_state(fleet::explore_state::kPaused);
       m.explore_reason("paused: " + p.reason);
       m.explore_task_id(p.task_id);
     } else {
-      m.convoy_state("paused");
+      m.convoy_state(fleet::convoy_state::kPaused);
       m.convoy_ahead_ids(p.convoy_ahead_ids);
       m.convoy_reason("paused: " + p.reason);
     }

@@ -8,25 +8,26 @@
 
 #include "cairn/core/peer_input.h"
 #include "cairn/core/range_check.h"
+#include "cairn/fleet/robot_status.h"
 
 namespace cairn::agent {
 
 const char* ToString(ConvoyStatus::State state) {
   switch (state) {
     case ConvoyStatus::State::kNone:
-      return "none";
+      return fleet::convoy_state::kNone;
     case ConvoyStatus::State::kFollowing:
-      return "following";
+      return fleet::convoy_state::kFollowing;
     case ConvoyStatus::State::kHolding:
-      return "holding";
+      return fleet::convoy_state::kHolding;
     case ConvoyStatus::State::kLost:
-      return "lost";
+      return fleet::convoy_state::kLost;
     case ConvoyStatus::State::kBlocked:
-      return "blocked";
+      return fleet::convoy_state::kBlocked;
     case ConvoyStatus::State::kPaused:
-      return "paused";
+      return fleet::convoy_state::kPaused;
   }
-  return "none";
+  return fleet::convoy_state::kNone;
 }
 
 namespace {
@@ -52,7 +53,7 @@ std::string ConvoyMode::Start(const std::string& own_id, const std::vector<std::
   if (ahead_ids.empty()) return "a convoy follower needs the robot ahead of it";
   std::set<std::string> seen;
   for (const std::string& id : ahead_ids) {
-    if (const std::string why = core::CheckId("robot id", id); !why.empty()) return why;
+    if (std::string why = core::CheckId("robot id", id); !why.empty()) return why;
     if (id == own_id) return "robot " + own_id + " cannot follow itself";
     if (!seen.insert(id).second) return "robot " + id + " is named twice ahead of " + own_id;
   }

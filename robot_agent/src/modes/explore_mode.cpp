@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "cairn/core/range_check.h"
+#include "cairn/fleet/robot_status.h"
 
 namespace cairn::agent {
 
@@ -44,17 +45,17 @@ std::string CheckExploreTask(const ExploreTask& task) {
 const char* ToString(ExplorationState state) {
   switch (state) {
     case ExplorationState::kNone:
-      return "none";
+      return fleet::explore_state::kNone;
     case ExplorationState::kExploring:
-      return "exploring";
+      return fleet::explore_state::kExploring;
     case ExplorationState::kComplete:
-      return "complete";
+      return fleet::explore_state::kComplete;
     case ExplorationState::kFailed:
-      return "failed";
+      return fleet::explore_state::kFailed;
     case ExplorationState::kStopped:
-      return "stopped";
+      return fleet::explore_state::kStopped;
   }
-  return "?";
+  return fleet::explore_state::kNone;
 }
 
 bool ExploreModeOptions::IsValid(std::string* why) const {

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "cairn/core/range_check.h"
+#include "cairn/fleet/robot_status.h"
 
 namespace cairn::agent {
 
@@ -36,13 +37,13 @@ bool IsTransientFailure(const std::string& failure) {
 const char* ToString(PausedMission::Kind kind) {
   switch (kind) {
     case PausedMission::Kind::kWaypoint:
-      return "waypoint";
+      return fleet::mission_kind::kWaypoint;
     case PausedMission::Kind::kExplore:
-      return "explore";
+      return fleet::mission_kind::kExplore;
     case PausedMission::Kind::kConvoy:
-      return "convoy";
+      return fleet::mission_kind::kConvoy;
   }
-  return "waypoint";
+  return fleet::mission_kind::kWaypoint;
 }
 
 MissionKeeper::MissionKeeper(const MissionOptions& options) : options_(options) {

@@ -5,6 +5,7 @@
 
 #include "cairn/core/peer_input.h"
 #include "cairn/core/range_check.h"
+#include "cairn/fleet/robot_status.h"
 
 namespace cairn::agent {
 
@@ -22,8 +23,9 @@ namespace {
 
 // "" when a peer's answer to a yield request is usable, else why not (the field and value).
 std::string CheckYieldAnswer(const Peer& peer) {
-  if (!peer.yield_state.empty() && peer.yield_state != "moving_aside" && peer.yield_state != "aside" &&
-      peer.yield_state != "returning" && peer.yield_state != "refused") {
+  // A peer tells only its answer as the robot asked to yield (none, giving way or refused).
+  if (peer.yield_state != fleet::yield_state::kNone && !fleet::GivesWay(peer.yield_state) &&
+      peer.yield_state != fleet::yield_state::kRefused) {
     return "yield_state = \"" + peer.yield_state.substr(0, 40) +
            "\" is not \"\", moving_aside, aside, returning or refused";
   }

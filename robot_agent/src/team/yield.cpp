@@ -8,6 +8,7 @@
 
 #include "cairn/core/peer_input.h"
 #include "cairn/core/range_check.h"
+#include "cairn/fleet/robot_status.h"
 
 namespace cairn::agent {
 
@@ -17,21 +18,21 @@ using core::InRange;
 const char* ToString(YieldStatus::State state) {
   switch (state) {
     case YieldStatus::State::kNone:
-      return "";
+      return fleet::yield_state::kNone;
     case YieldStatus::State::kMovingAside:
-      return "moving_aside";
+      return fleet::yield_state::kMovingAside;
     case YieldStatus::State::kAside:
-      return "aside";
+      return fleet::yield_state::kAside;
     case YieldStatus::State::kReturning:
-      return "returning";
+      return fleet::yield_state::kReturning;
     case YieldStatus::State::kRefused:
-      return "refused";
+      return fleet::yield_state::kRefused;
     case YieldStatus::State::kAsking:
-      return "asking";
+      return fleet::yield_state::kAsking;
     case YieldStatus::State::kBlocked:
-      return "blocked";
+      return fleet::yield_state::kBlocked;
   }
-  return "";
+  return fleet::yield_state::kNone;
 }
 
 namespace {
@@ -132,8 +133,7 @@ std::string CheckYieldCommand(const YieldCommand& c) {
 }
 
 bool YieldsTo(const Peer& peer, const std::string& robot_id) {
-  return peer.yield_to_id == robot_id && (peer.yield_state == "moving_aside" || peer.yield_state == "aside" ||
-                                          peer.yield_state == "returning");
+  return peer.yield_to_id == robot_id && fleet::GivesWay(peer.yield_state);
 }
 
 YieldDecision DecideYield(const YieldOptions& options, const YieldCommand& c,
@@ -502,7 +502,8 @@ YieldAsk YieldAsker::Update(const YieldAskInputs& in) {
     if (std::abs(peer.pose_M.z_m - in.pose_M.z_m) > 1.0) continue;  // another level
     // Moving aside for this robot: wait for it. Aside (or on its way back) it is out of the way unless this
     // robot's route changed to pass within reach of its spot: then it is asked again (it moves on).
-    const bool yielding_to_me = peer.yield_to_id == own_id_ && peer.yield_state == "moving_aside";
+    const bool yielding_to_me =
+        peer.yield_to_id == own_id_ && peer.yield_state == fleet::yield_state::kMovingAside;
     if (std::abs(peer.pose_M.v_mps) > 0.2 && !yielding_to_me)
       continue;  // it drives on: not parked in the way
     const Eigen::Vector2d p(peer.pose_M.x_m, peer.pose_M.y_m);
@@ -526,8 +527,8 @@ YieldAsk YieldAsker::Update(const YieldAskInputs& in) {
   }
   const Peer& peer = *blocker;
   const double gap_m = blocker_s - in.radius_m - peer.footprint_radius_m;
-  const bool refused = peer.yield_to_id == own_id_ && peer.yield_state == "refused";
-  const bool yielding = peer.yield_to_id == own_id_ && peer.yield_state == "moving_aside";
+  const bool refused = peer.yield_to_id == own_id_ && peer.yield_state == fleet::yield_state::kRefused;
+  const bool yielding = peer.yield_to_id == own_id_ && peer.yield_state == fleet::yield_state::kMovingAside;
   const auto asked = last_ask_s_.find(peer.robot_id);
   const double since_ask_s =
       asked == last_ask_s_.end() ? std::numeric_limits<double>::infinity() : in.now_s - asked->second;

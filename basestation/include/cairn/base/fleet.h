@@ -15,39 +15,12 @@
 #include "cairn/base/fleet_perception.h"
 #include "cairn/base/link_monitor.h"
 #include "cairn/core/time.h"
+#include "cairn/fleet/robot_view.h"
 #include "cairn_msgs.h"
 
 namespace cairn::base {
 
-/// What the basestation knows about one robot.
-struct RobotView {
-  std::string robot_id;
-  std::string platform;
-  std::vector<std::string> capabilities;
-  double max_speed_mps = 0.0;                   ///< from its agent info: largest forward speed (0 = unknown)
-  double max_reverse_speed_mps = 0.0;           ///< largest reverse speed, a magnitude (0 = unknown)
-  double max_yaw_rate_radps = 0.0;              ///< largest yaw rate, a magnitude (0 = unknown)
-  double footprint_radius_m = 0.0;              ///< the disk its body fits in, metres (0 = unknown)
-  std::vector<std::string> sensors;             ///< from its agent info: "lidar", "camera"
-  double map_resolution_m = 0.0;                ///< voxel edge of the map it sends, metres (0 = no map)
-  std::string version;                          ///< its cairn version
-  bool announced = false;                       ///< its agent info arrived (capabilities above are its own)
-  LinkView link;                                ///< its link as this basestation sees it (LinkMonitor)
-  std::optional<cairn_msgs::RobotState> state;  ///< latest whole state with the latest pose applied
-  /// The first whole state this basestation received from the robot: what it knew on arrival. The baseline
-  /// of news (FleetEventDetector), so that a change between it and the detector's first look is still told.
-  std::optional<cairn_msgs::RobotState> first_state;
-  std::optional<cairn_msgs::BehaviorTreeState> tree;  ///< latest behavior-tree state
-  std::optional<cairn_msgs::GlobalPath> global_path;  ///< global path being followed (latched)
-  std::optional<cairn_msgs::LocalPlan> local_plan;    ///< latest local planner output (2 Hz)
-  std::optional<cairn_msgs::AgentHealth> health;      ///< latest health of its agent's components (latched)
-  core::SteadyTime last_seen{};                       ///< last agent info or state
-  core::SteadyTime state_received{};                  ///< when its last whole state or pose arrived
-  core::SteadyTime whole_state_received{};            ///< when its last whole state arrived
-  bool lost = false;                                  ///< liveliness lost or state silent > lost_after_s
-  bool left = false;                                  ///< lost because its process exited cleanly
-  std::string lost_reason;
-};
+using fleet::RobotView;
 
 /// Outcome of one command as seen by the operator.
 struct CommandOutcome {

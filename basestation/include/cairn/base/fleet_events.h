@@ -15,9 +15,13 @@
 #include "cairn/perception/staircase.h"
 #include "cairn_msgs.h"
 
+namespace cairn::fleet {
+struct RobotView;
+}  // namespace cairn::fleet
+
 namespace cairn::base {
 
-struct RobotView;
+using fleet::RobotView;
 
 /// One thing an operator should hear about.
 struct OperatorEvent {

@@ -12,32 +12,12 @@
 #include <vector>
 
 #include "cairn/core/time.h"
+#include "cairn/fleet/robot_view.h"
 
 namespace cairn::base {
 
-/// What a robot sends in one topic class, as it reports it (cairn_msgs::LinkClassUsage).
-struct ClassUsage {
-  std::string topic_class;  ///< "command" | "state" | "tree" | "team" | "map" | "camera"
-  double sent_kbps = 0.0;   ///< over the robot's last ~2 s, kbit/s
-  std::uint64_t sent_bytes = 0;
-};
-
-/// One robot's link as this basestation sees it.
-struct LinkView {
-  std::string link;          ///< the robot's link class from its agent info ("" until it arrives)
-  double budget_kbps = 0.0;  ///< its stated budget (radio), kbit/s; 0 = none stated
-  double rtt_ms = -1.0;      ///< round trip of the last answered link probe, ms; -1 = none answered yet
-  double rtt_max_ms = -1.0;  ///< worst of the last 10 answered probes, ms; -1 = none
-  /// Seconds since the oldest probe sent after the last one it answered (0: none outstanding for more than
-  /// the probe period): a link that stalls shows here before the robot is declared lost.
-  double probe_wait_s = 0.0;
-  std::uint64_t state_received = 0;  ///< state samples received since the robot was first heard
-  std::uint64_t state_lost = 0;      ///< state samples its writer sent that never arrived (sequence gaps)
-  double loss_pct = 0.0;             ///< state samples lost over the last 10 s, % of those sent
-  std::vector<ClassUsage> usage;     ///< from its latest state, in priority order
-  double sent_kbps = 0.0;            ///< sum of usage
-  bool over_budget = false;          ///< budget_kbps > 0 and sent_kbps > budget_kbps
-};
+using fleet::ClassUsage;
+using fleet::LinkView;
 
 /// Tracks every robot's link. Times are steady-clock (core::SteadyTime).
 class LinkMonitor {
