@@ -85,4 +85,6 @@ function(cairn_real_time_tests)
                         "an integer in [1, 200] (percent of one core, measured)")
   endif()
   set_tests_properties(${ARG_UNPARSED_ARGUMENTS} PROPERTIES RESOURCE_GROUPS "cpu:${ARG_CPU_PERCENT}" COST 1000)
+  # The label lists them (ctest -N -L real_time; ./cairn test marks them in its table of the slowest tests).
+  set_property(TEST ${ARG_UNPARSED_ARGUMENTS} APPEND PROPERTY LABELS real_time)
 endfunction()

@@ -429,7 +429,8 @@ bool SimulatedPlatform::ReadLidarScan(double now_s, core::LidarScan* scan) {
   lidar_.Scan(world(), T_WB_true * T_BS, &lidar_scan_);  // sensed from where the robot is...
   scan->stamp_s = now_s;
   scan->seq = ++lidar_seq_;
-  scan->points_S = lidar_scan_.points_S;
+  // Swapped, not copied: the next Scan() rewrites lidar_scan_.points_S whole, in the caller's old buffer.
+  scan->points_S.swap(lidar_scan_.points_S);
   scan->T_BS = T_BS;
   scan->T_MS = T_MB * T_BS;  // ...and registered where SLAM says it is
   return true;
