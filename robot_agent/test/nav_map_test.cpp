@@ -224,8 +224,10 @@ TEST(NavMapTest, AnUpdateReadsTilesWithinItsBudgetAndLeavesTheRestToTheNextOnes)
     EXPECT_GE(stats.tiles, 1) << "an update read no tile";
     EXPECT_EQ(stats.tiles_waiting, nav_map.tiles_waiting());
     waited = std::max(waited, stats.tiles_waiting);
-    // Reading stops soon after the budget: the tiles read since the last progress call at most.
-    EXPECT_LT(stats.read_ms, 1000 * budgeted.update_budget_s + 200) << "update " << updates;
+    // Reading stops soon after the budget: the tiles read since the last progress call at most. A generous
+    // bound: as a background test (nice 19) on a machine busy with robots, 16 tiles once took 263 ms of wall
+    // time past the budget. That the budget bounds the reading at all is checked below (tiles left waiting).
+    EXPECT_LT(stats.read_ms, 1000 * budgeted.update_budget_s + 1000) << "update " << updates;
   }
   EXPECT_GT(waited, 0) << "no update left tiles for the next: the budget did not bound the reading";
   EXPECT_GT(progress_calls, updates) << "long updates report progress between their steps";
