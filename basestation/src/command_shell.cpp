@@ -970,7 +970,8 @@ int CommandShell::Wait(const std::vector<std::string>& args) {
     const std::string mode = what == "idle" ? "idle" : what.substr(5);
     done = [mode](const RobotView& v) { return v.state && !v.lost && v.state->mode() == mode; };
   } else if (what == "online") {
-    done = [](const RobotView& v) { return !v.lost; };
+    // Heard from: its state comes from the control loop, which runs once its components do.
+    done = [](const RobotView& v) { return v.state && !v.lost; };
   } else if (what == "lost") {
     done = [](const RobotView& v) { return v.lost; };
   } else {

@@ -74,6 +74,15 @@ TEST_F(CommandShellTest, ARefusalPrintsTheRobotsReasonAndExitsRefused) {
   EXPECT_EQ(shell_.Execute("mode r2 manual"), kOk);
 }
 
+// A robot is online once its state is heard (its control loop runs, so do its components), not when its
+// participant is discovered: commands sent in between would find its parts still starting.
+TEST_F(CommandShellTest, WaitOnlineWaitsForTheRobotsState) {
+  fleet_.AnnounceRobot("r4");
+  EXPECT_NE(shell_.Execute("wait r4 online 0"), kOk);
+  fleet_.AddRobot("r4");
+  EXPECT_EQ(shell_.Execute("wait r4 online 0"), kOk);
+}
+
 TEST_F(CommandShellTest, StopAllStopsEveryRobot) {
   EXPECT_EQ(shell_.Execute("stop all"), kOk);
   Sent sent = fleet_.sent();

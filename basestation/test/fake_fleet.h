@@ -40,6 +40,15 @@ class FakeFleet : public Fleet {
     v.state = s;
     v.last_seen = v.state_received = v.whole_state_received = core::SteadyClock::now();
   }
+  /// Robot `id` discovered (its participant announced) before any state of it was heard.
+  void AnnounceRobot(const std::string& id) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    RobotView& v = robots_[id];
+    v.robot_id = id;
+    v.announced = true;
+    v.state.reset();
+    v.last_seen = core::SteadyClock::now();
+  }
   /// The next commands to `id` are refused with `reason` (the robot's words); "" accepts them again.
   void RefuseCommandsTo(const std::string& id, const std::string& reason) {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -35,6 +35,13 @@ TEST(ExplainReason, RewritesTreeConditionsInOperatorWordsKeepingTheId) {
       << r.text;
   r = ExplainReason("r1", "IsLocalPlannerHealthy: obstacle input is 0.80 s old (limit 0.50 s)");
   EXPECT_EQ(r.text, "r1's obstacle sensing is not ready: obstacle input is 0.80 s old (limit 0.50 s)");
+  // A component that is starting is not one that went down.
+  EXPECT_EQ(ExplainReason("r1", "IsComponentUp: platform is starting").text,
+            "r1 is still starting its software: platform is starting; try again in a moment");
+  EXPECT_EQ(
+      ExplainReason("r1", "IsComponentUp: perception is down (stalled); restart in 0.6 s").text,
+      "a part of r1's software is down and restarting by itself: perception is down (stalled); restart in "
+      "0.6 s (health r1)");
   r = ExplainReason("r1", "IsMappingHealthy: no lidar scan for 3.5 s");
   EXPECT_EQ(r.text, "r1 is not mapping: no lidar scan for 3.5 s");
   EXPECT_EQ(r.condition, "IsMappingHealthy");

@@ -87,6 +87,7 @@ void HealthMonitor::StartAll() {
     e.window_beats = e.component->heartbeats();
     e.window_cpu_s = e.component->cpu_s();
   }
+  started_ = true;
 }
 
 void HealthMonitor::StopAll() noexcept {
@@ -362,6 +363,8 @@ std::map<std::string, std::string> HealthMonitor::Down() const {
     } else if (e.down) {
       down[e.component->name()] = e.component->name() + " is down (" + e.down_reason + "); restart in " +
                                   core::Fixed(std::max(0.0, SecondsBetween(now, e.restart_at)), 1) + " s";
+    } else if (!started_) {
+      down[e.component->name()] = e.component->name() + " is starting";
     } else if (e.component->state() != LifecycleState::kActive) {
       down[e.component->name()] = e.component->name() + " is " + ToString(e.component->state());
     }

@@ -50,7 +50,10 @@ TEST(HealthMonitor, RestartsAFailedComponentAloneWithAGrowingBackoff) {
   Manual a("perception"), b("telemetry");
   monitor.Add(&a, Policy());
   monitor.Add(&b, Policy());
+  ASSERT_EQ(monitor.Down().size(), 2u);  // before StartAll(): starting, not down
+  EXPECT_EQ(monitor.Down().at("perception"), "perception is starting");
   monitor.StartAll();
+  EXPECT_TRUE(monitor.Down().empty());
   const SteadyTime t0 = SteadyClock::now();
   auto beat_both = [&](double s) {
     a.Heartbeat(At(t0, s));

@@ -272,8 +272,8 @@ int main(int argc, char** argv) {
     const std::shared_ptr<cairn::core::PlatformIO> platform_io =
         MakePlatform(cl.driver, options, cl.config_file, cl.ros2_domain_text);
     cairn::agent::RobotAgent agent(options, platform_io);
-    std::cout << "READY " << options.robot_id << std::endl;
-    agent.Run();
+    // READY once the components run: a command that needs one is refused before then.
+    agent.Run([&options] { std::cout << "READY " << options.robot_id << std::endl; });
     if (agent.restart_requested()) {
       // A component's work did not stop and may still use the agent's state: no destructor runs.
       spdlog::error("cairn_agent {}: exiting for a restart by the supervisor", options.robot_id);

@@ -165,7 +165,7 @@ class RobotAgent::Impl {
   }
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
-  void Run();
+  void Run(const std::function<void()>& on_started);
   // A stepped agent's cycle with its clock at `clock_s` (RobotAgent::Step).
   void StepOnce(double clock_s);
   bool planning() const { return modes_->explore().planning() || modes_->missions().planning(); }
@@ -937,7 +937,7 @@ void RobotAgent::Impl::SendOutbox(CycleOutbox out) {
   }
 }
 
-void RobotAgent::Impl::Run() {
+void RobotAgent::Impl::Run(const std::function<void()>& on_started) {
   const auto period =
       std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(kLoopPeriodS));
   const CycleRates every = Rates();
@@ -954,6 +954,7 @@ void RobotAgent::Impl::Run() {
     }
   } stop_on_exit{parts_.monitor.get()};
   parts_.monitor->StartChecking();
+  if (on_started) on_started();
   SteadyTime next = SteadyClock::now();
   for (uint64_t cycle = 0; !core::ShutdownRequested(); ++cycle) {
     const SteadyTime wanted = SteadyClock::now();
@@ -1085,9 +1086,9 @@ std::unique_ptr<RobotAgent> RobotAgent::Stepped(const AgentOptions& options,
       options, std::move(platform), Impl::Hosting{std::move(link), std::move(clock)})));
 }
 
-void RobotAgent::Run() {
+void RobotAgent::Run(const std::function<void()>& on_started) {
   if (impl_->stepped()) throw std::logic_error("RobotAgent::Run on a stepped agent (use Step)");
-  impl_->Run();
+  impl_->Run(on_started);
 }
 void RobotAgent::Step(double now_s) {
   if (!impl_->stepped()) throw std::logic_error("RobotAgent::Step on an agent that runs its own threads");

@@ -101,7 +101,8 @@ class HealthMonitor {
   /// lock held.
   std::string RequestRestart(const std::string& name, const std::string& by);
 
-  /// Components that are not up now, with why (e.g. "perception is down: stalled ...; restart in 0.6 s").
+  /// Components that are not up now, with why (e.g. "perception is down: stalled ...; restart in 0.6 s", or
+  /// "platform is starting" before StartAll() has brought it up).
   std::map<std::string, std::string> Down() const;
   /// Every component's health at `now`, in the order added.
   std::vector<ComponentHealth> Snapshot(SteadyTime now) const;
@@ -158,6 +159,7 @@ class HealthMonitor {
   mutable std::mutex mutex_;     // guards entries_' bookkeeping
   std::mutex transition_mutex_;  // one lifecycle transition at a time (Check and Restart)
   std::vector<Entry> entries_;
+  bool started_ = false;  // StartAll() has run (an unconfigured component before that is starting)
   SteadyTime last_check_{};
   std::thread thread_;
   std::mutex stop_mutex_;

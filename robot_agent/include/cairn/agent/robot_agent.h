@@ -4,6 +4,7 @@
 // the components and runs their threads; docs/AGENT.md maps them (and shows how to add a mode).
 #pragma once
 
+#include <functional>
 #include <memory>
 
 #include "cairn/agent/agent_options.h"
@@ -43,9 +44,11 @@ class RobotAgent {
                                              std::shared_ptr<AgentLink> link,
                                              std::shared_ptr<core::SimulatedClock> clock);
 
-  /// Control loop at 50 Hz until core::ShutdownRequested(). The robot is stopped when it returns.
+  /// Starts the components, calls `on_started` (if set; e.g. to announce readiness: commands that need a
+  /// component are refused until then), then runs the control loop at 50 Hz until core::ShutdownRequested().
+  /// The robot is stopped when it returns.
   /// @throws std::logic_error on a stepped agent.
-  void Run();
+  void Run(const std::function<void()>& on_started = {});
   /// A stepped agent's cycle: `clock` set to `now_s` (seconds since its epoch, not before its time now;
   /// cycles expected every 0.02 s), then as described at Stepped(). @throws std::logic_error on an agent that
   /// runs its own threads; std::invalid_argument for a time before the clock's.
