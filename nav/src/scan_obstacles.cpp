@@ -83,18 +83,12 @@ class ScanCells {
     }
   }
 
-  // Per cell the height above which its points are the obstacle (kNone: not lethal): above its lowest point
-  // + max_step_m when its own points span too much (a wall standing on the floor in the cell), all of them
-  // when it stands too high above a neighbour (a step's top), and above a ground neighbour's lowest point +
-  // max_step_m when its highest points rise that far over it (a riser whose face points straddle the cell
-  // border: the lower face in one cell, the upper face and the tread in the next, neither spanning a step).
-  // That ground may be up to kTopReach cells away. Cells of that last kind are only candidates (`counted`
-  // set): they are lethal if at least min_points_per_cell of their points lie above that height (counted in
-  // ObstaclesFromPoints), so one stray high return makes no step.
-  std::vector<float> ObstacleHeights(std::vector<char>* counted, ScanObstacleStats* stats) const {
+  // Lethal cells, and per lethal cell the height above which its points are the obstacle (kNone: not
+  // lethal): above its lowest point + max_step_m when its own points span too much (a wall standing on the
+  // floor in the cell), all of them when it stands too high above a neighbour (a step's top).
+  std::vector<float> ObstacleHeights(ScanObstacleStats* stats) const {
     const float step = Step();
     std::vector<float> obstacle_above(low_.size(), kNone);
-    counted->assign(low_.size(), 0);
     for (int iy = 0; iy < n_; ++iy) {
       for (int ix = 0; ix < n_; ++ix) {
         const std::size_t i = Index(ix, iy);
@@ -105,10 +99,6 @@ class ScanCells {
           obstacle_above[i] = -kNone;
         } else if (high_[i] - low_[i] > step) {
           obstacle_above[i] = low_[i] + step;
-        } else if (const float ground = LowestGround(ix, iy, kTopReach); high_[i] - ground > step) {
-          obstacle_above[i] = ground + step;
-          (*counted)[i] = 1;
-          continue;  // counted in stats once confirmed
         } else {
           continue;
         }
@@ -117,12 +107,6 @@ class ScanCells {
     }
     return obstacle_above;
   }
-
-  int min_points_per_cell() const { return options_.min_points_per_cell; }
-
-  // How far (cells) a riser's top looks for the ground under it: the lidar's lowest beam leaves the foot of a
-  // riser unseen from close by, so the cell in front of it may hold no point at all.
-  static constexpr int kTopReach = 2;
 
  private:
   std::size_t Index(int ix, int iy) const {
@@ -133,23 +117,21 @@ class ScanCells {
   // (enough points, spanning no more than a step). A wall's lowest point is not ground: the face of the wall
   // beside a stair flight reaches down to the floor under the flight, and its lowest points (seen from that
   // floor earlier, kept in the blind zone) made every tread along the wall read as a 1.6 m step.
-  bool AboveNeighbour(int ix, int iy) const { return low_[Index(ix, iy)] - LowestGround(ix, iy, 1) > Step(); }
-  // The lowest point of the cells within `reach` cells of the cell (not itself) that are ground (enough
-  // points, spanning no more than a step); kNone when none is.
-  float LowestGround(int ix, int iy, int reach) const {
-    float lowest = kNone;
-    for (int dy = -reach; dy <= reach; ++dy) {
-      for (int dx = -reach; dx <= reach; ++dx) {
+  bool AboveNeighbour(int ix, int iy) const {
+    const std::size_t i = Index(ix, iy);
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
         const int jx = ix + dx;
         const int jy = iy + dy;
         if ((dx == 0 && dy == 0) || jx < 0 || jy < 0 || jx >= n_ || jy >= n_) continue;
         const std::size_t j = Index(jx, jy);
-        if (low_[j] != kNone && count_[j] >= options_.min_points_per_cell && high_[j] - low_[j] <= Step()) {
-          lowest = std::min(lowest, low_[j]);
+        if (low_[j] != kNone && count_[j] >= options_.min_points_per_cell && high_[j] - low_[j] <= Step() &&
+            low_[i] - low_[j] > Step()) {
+          return true;
         }
       }
     }
-    return lowest;
+    return false;
   }
 
   const core::BaseState& pose_M_;
@@ -178,9 +160,7 @@ ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points
   }
   ScanCells cells(pose_M, options);
   cells.Add(points_M, &stats);
-  std::vector<char> counted;
-  const std::vector<float> obstacle_above = cells.ObstacleHeights(&counted, &stats);
-  std::vector<int> above(cells.size(), 0);  // points above the obstacle height, of the counted cells
+  const std::vector<float> obstacle_above = cells.ObstacleHeights(&stats);
   // Each lethal cell is reported at its obstacle point nearest the robot in x-y: the surface as measured.
   // Its centre lies up to half a cell (5 cm) off the surface on either side and moves with the robot's
   // position modulo a cell; in a 1.0 m doorway that decides whether a 0.6 m robot fits.
@@ -191,7 +171,6 @@ ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points
     if (cell < 0) continue;
     const std::size_t i = static_cast<std::size_t>(cell);
     if (!(p.z() > obstacle_above[i])) continue;
-    above[i] += counted[i];
     const float dx = static_cast<float>(p.x() - pose_M.x_m);
     const float dy = static_cast<float>(p.y() - pose_M.y_m);
     const float d2 = dx * dx + dy * dy;
@@ -204,10 +183,6 @@ ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points
   const double sin_yaw = std::sin(pose_M.yaw_rad);
   for (std::size_t i = 0; i < cells.size(); ++i) {
     if (nearest_d2[i] == kNone) continue;
-    if (counted[i]) {
-      if (above[i] < cells.min_points_per_cell()) continue;
-      ++stats.cells_lethal;
-    }
     const double dx = nearest[i].x();
     const double dy = nearest[i].y();
     points_B->emplace_back(static_cast<float>(cos_yaw * dx + sin_yaw * dy),

@@ -93,28 +93,6 @@ TEST_P(WheeledUpstairsTest, TheRobotIsToldTheStepItCannotClimb) {
   EXPECT_FALSE(team.ever_in_contact(0));
 }
 
-// The same in builtin:tunnels' room, as the fleet test over DDS drives it: a wheeled robot sent up the flight
-// to the platform fails at its foot naming the step, then drives back to where it started. Where the goal
-// left it, beside the first riser's corner, the way back passes that corner: it must not touch it.
-TEST(SteppedAgentTest, AWheeledRobotLeavesTheFootOfAFlightWithoutTouchingIt) {
-  AgentTeam team("builtin:tunnels", {{"whl1", {52.0, 18.0, 0.0}}});
-  std::string reason = team.Goto(0, 54.5, 23.8);
-  if (reason.empty()) {
-    const WaypointGoal upstairs = team.DriveGoal(0, 90.0);
-    EXPECT_EQ(upstairs.status, GoalStatus::kFailed);
-    reason = upstairs.reason;
-  }
-  EXPECT_NE(reason.find("step"), std::string::npos) << reason;
-  const sim::UnicycleState foot = team.truth(0);
-  std::printf("the stairs goal left it at (%.2f, %.2f): %s\n", foot.x_m, foot.y_m, reason.c_str());
-  EXPECT_FALSE(team.ever_in_contact(0)) << "on the way to the flight";
-  ASSERT_EQ(team.Goto(0, 52.0, 18.0), "");
-  const WaypointGoal back = team.DriveGoal(0, 60.0);
-  EXPECT_EQ(back.status, GoalStatus::kArrived) << back.reason;
-  EXPECT_FALSE(team.ever_in_contact(0))
-      << "on the way back from the foot at (" << foot.x_m << ", " << foot.y_m << ")";
-}
-
 INSTANTIATE_TEST_SUITE_P(SteppedAgentTest, WheeledUpstairsTest, ::testing::Values(18.9, 16.0),
                          [](const auto& info) {
                            return info.param > 18.0 ? "AtTheFoot" : "ThreeMetresShort";

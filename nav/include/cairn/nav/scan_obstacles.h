@@ -47,15 +47,12 @@ struct ScanObstacleStats {
 
 /// Lethal cells near the robot, from `points_M` (metres, map frame M; e.g. the last half second of
 /// registered scans) around the robot at `pose_M` (frame M). A cell holding at least min_points_per_cell
-/// points is lethal when its points span more than max_step_m in height, when its lowest point is more than
-/// max_step_m above the lowest point of a ground 8-neighbour (enough points, spanning at most max_step_m),
-/// or when at least min_points_per_cell of its points are more than max_step_m above the lowest point of a
-/// ground cell up to two cells away (a riser whose foot the lidar's lowest beam no longer sees from close by,
-/// or whose face points straddle a cell border: no cell spans a step). Cells with no point are not
-/// obstacles (the global planner's map and the blocked timeout cover space the sensor does not see).
-/// Output: `points_B` cleared, then one point per lethal cell, its point nearest the robot in x-y (the
-/// surface as measured, not the cell centre, which lies up to half a cell off it), in the body frame B of
-/// `pose_M`, at z = 0. Non-finite points are skipped.
+/// points is lethal when its points span more than max_step_m in height, or its lowest point is more than
+/// max_step_m above the lowest point of an 8-neighbour that holds enough points. Cells with no point are not
+/// obstacles (the global planner's map and the blocked timeout cover space the sensor does not see). Output:
+/// `points_B` cleared, then one point per lethal cell, its point nearest the robot in x-y (the surface as
+/// measured, not the cell centre, which lies up to half a cell off it), in the body frame B of `pose_M`, at z
+/// = 0. Non-finite points are skipped.
 /// @throws std::invalid_argument if `options` is invalid or `points_B` is null.
 ScanObstacleStats ObstaclesFromPoints(const std::vector<Eigen::Vector3f>& points_M,
                                       const core::BaseState& pose_M, const ScanObstacleOptions& options,
