@@ -175,7 +175,15 @@ TEST(CommandIdentity, RestartedBasestationsGotoAndStopTakeEffect) {
     ASSERT_TRUE(r["ok"]) << r;  // an arrived goal, as the old process leaves it
     ASSERT_TRUE(op1.Run("mode r1 manual")["ok"]);
     ASSERT_TRUE(op1.Run("mode r1 idle")["ok"]);
-    first_participant = observer.FreshState("r1").holder_participant();
+    first_participant =
+        observer
+            .StateWhere(
+                "r1",
+                [](const msgs::RobotState& st) {
+                  return st.holder_id() == "op1" && !st.holder_participant().empty() && st.mode() == "idle";
+                },
+                "op1 holds it in idle, its process known")
+            .holder_participant();
     EXPECT_FALSE(first_participant.empty());
     op1.Kill();
   }
@@ -592,7 +600,15 @@ TEST(CommandIdentity, AShortLivedSecondProcessWithTheHoldersIdLeavesTheHolderAli
   Base repl("op1", domain, logs);
   ASSERT_TRUE(repl.Run("request-control r1")["ok"]);
   ASSERT_TRUE(repl.Run("mode r1 manual")["ok"]);
-  const std::string repl_participant = observer.FreshState("r1").holder_participant();
+  const std::string repl_participant =
+      observer
+          .StateWhere(
+              "r1",
+              [](const msgs::RobotState& st) {
+                return st.holder_id() == "op1" && !st.holder_participant().empty() && st.mode() == "manual";
+              },
+              "op1 holds it in manual, its process known")
+          .holder_participant();
   ASSERT_FALSE(repl_participant.empty());
 
   const std::size_t from = observer.History("r1").size();

@@ -39,14 +39,11 @@ round() {
   shift
   local flags=(--link lan --subnet 10.77.0.0/24 "$@") pids=() x=10 n
   for n in r1 r2 r3; do
-    ip netns exec "${P}$n" "$AGENT" --robot-id "$n" --domain "$DOMAIN" --start "$x,20,0" "${flags[@]}" >"$LOGS/$n.log" 2>&1 &
-    pids+=($!)
+    linksim_start_agent "$LOGS/$n.log" "$n" --robot-id "$n" --domain "$DOMAIN" --start "$x,20,0" "${flags[@]}"
+    pids+=("$AGENT_PID")
     x=$((x + 6))
   done
-  for n in r1 r2 r3; do
-    for _ in $(seq 1 600); do grep -q READY "$LOGS/$n.log" && break; sleep 0.1; done
-    grep -q READY "$LOGS/$n.log" || fail "$label: $n did not start: $(tail -2 "$LOGS/$n.log")"
-  done
+  for n in r1 r2 r3; do linksim_wait_ready "$LOGS/$n.log" "$label: $n"; done
   sleep 2
   local b0 b1
   b0=$(linksim_hub_bytes "$P")

@@ -79,9 +79,9 @@ round() {
     n="r$i"
     local started
     started=$(date +%s.%N)
-    ip netns exec "${P}$n" "$AGENT" --robot-id "$n" --domain "$DOMAIN" --start "$((4 + 4 * i)),20,0" \
-      --config "$LOGS/light.yaml" "${flags[@]}" >"$LOGS/$label-$n.log" 2>&1 3>&- &  # (the pipe's end stays here)
-    PIDS[$n]=$!
+    linksim_start_agent "$LOGS/$label-$n.log" "$n" --robot-id "$n" --domain "$DOMAIN" --start "$((4 + 4 * i)),20,0" \
+      --config "$LOGS/light.yaml" "${flags[@]}"
+    PIDS[$n]=$AGENT_PID
     line=""
     for _ in $(seq 1 150); do
       line=$(grep -m1 "opA: $n announced itself" "$LOGS/$label-base.log") && break

@@ -124,6 +124,27 @@ class Observer {
     ADD_FAILURE() << "no state from " << robot;
     return {};
   }
+  // The first state of `robot` received after this call for which `want` holds; the last one received (and a
+  // failure naming `what`) if none does within `timeout`. Where a test reads what a command it just sent
+  // changed: the robot's pose stream (merged into the last whole state here) can arrive before the whole
+  // state that carries the change, on a loaded machine by a few hundred milliseconds.
+  template <typename Predicate>
+  cairn_msgs::RobotState StateWhere(const std::string& robot, Predicate want, const std::string& what,
+                                    std::chrono::milliseconds timeout = std::chrono::seconds(10)) {
+    std::size_t next = History(robot).size();
+    cairn_msgs::RobotState last;
+    const auto deadline = Clock::now() + timeout;
+    while (Clock::now() < deadline) {
+      const auto h = History(robot);
+      for (; next < h.size(); ++next) {
+        if (want(h[next])) return h[next];
+        last = h[next];
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    ADD_FAILURE() << "no state of " << robot << " where " << what << " within " << timeout.count() << " ms";
+    return last;
+  }
   core::Writer<cairn_msgs::WaypointGoalPubSubType>& goals() { return *goals_; }
 
  private:

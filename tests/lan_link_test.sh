@@ -25,11 +25,9 @@ LAN=(--link lan --subnet 10.77.0.0/24)
 # Starts r1 on its host with the given agent flags (after stopping the one running) and waits for READY.
 start_r1() {
   [ -n "${R1_PID:-}" ] && kill -TERM "$R1_PID" 2>/dev/null && wait "$R1_PID" 2>/dev/null
-  # ip netns exec execs the agent: $! is the agent's pid.
-  ip netns exec "${P}robot" "$AGENT" --robot-id r1 --domain "$DOMAIN" --start 10,20,0 "$@" >"$LOGS/r1.log" 2>&1 &
-  R1_PID=$!
-  for _ in $(seq 1 600); do grep -q READY "$LOGS/r1.log" && break; sleep 0.1; done
-  grep -q READY "$LOGS/r1.log" || fail "r1 did not start with $*: $(tail -3 "$LOGS/r1.log")"
+  linksim_start_agent "$LOGS/r1.log" robot --robot-id r1 --domain "$DOMAIN" --start 10,20,0 "$@"
+  R1_PID=$AGENT_PID
+  linksim_wait_ready "$LOGS/r1.log" "r1 with $*"
 }
 
 # 1. The link simulator.

@@ -34,16 +34,11 @@ start_robot() {
   local n="$1" x="$2"
   shift 2
   [ -n "${PIDS[$n]:-}" ] && kill -TERM "${PIDS[$n]}" 2>/dev/null && wait "${PIDS[$n]}" 2>/dev/null
-  # ip netns exec execs the agent: $! is the agent's pid (a shell function would put a subshell between).
-  ip netns exec "${P}$n" "$AGENT" --robot-id "$n" --domain "$DOMAIN" --start "$x,20,0" --config "${ROBOT_CONFIG:-$LOGS/heavy.yaml}" \
-    "$@" >"$LOGS/$n.log" 2>&1 &
-  PIDS[$n]=$!
+  linksim_start_agent "$LOGS/$n.log" "$n" --robot-id "$n" --domain "$DOMAIN" --start "$x,20,0" \
+    --config "${ROBOT_CONFIG:-$LOGS/heavy.yaml}" "$@"
+  PIDS[$n]=$AGENT_PID
 }
-wait_ready() {
-  local n="$1"
-  for _ in $(seq 1 600); do grep -q READY "$LOGS/$n.log" && return 0; sleep 0.1; done
-  fail "$n did not start: $(tail -3 "$LOGS/$n.log")"
-}
+wait_ready() { linksim_wait_ready "$LOGS/$1.log" "$1"; }
 # The basestation on its host: `base ARGS` runs one command, `base_script ARGS <FILE` a script.
 base_script() { linksim_exec "$P" base "$BASE" --base-id opA --domain "$DOMAIN" "${RADIO[@]}" "$@" 2>&1; }
 base() { base_script "$@" </dev/null; }

@@ -40,12 +40,10 @@ base() { printf '%s\n' "$@" | linksim_exec "$P" robot "$BASE" --base-id op1 --do
 # Starts r1 on the robot's computer with config $1, waits for READY; R1_PID is the agent.
 start_r1() {
   [ -n "${R1_PID:-}" ] && kill -TERM "$R1_PID" 2>/dev/null && wait "$R1_PID" 2>/dev/null
-  # ip netns exec execs the agent: $! is the agent's pid (a shell function would put a subshell between).
-  ip netns exec "${P}robot" "$AGENT" --robot-id r1 --domain "$DOMAIN" --driver ros2 --ros2-domain "$ROS2_DOMAIN" \
-    --config "$1" >"$LOGS/r1.log" 2>&1 &
-  R1_PID=$!
-  for _ in $(seq 1 600); do grep -q READY "$LOGS/r1.log" && break; sleep 0.1; done
-  grep -q READY "$LOGS/r1.log" || fail "r1 did not start with $(tr '\n' ' ' <"$1"): $(tail -3 "$LOGS/r1.log")"
+  linksim_start_agent "$LOGS/r1.log" robot --robot-id r1 --domain "$DOMAIN" --driver ros2 \
+    --ros2-domain "$ROS2_DOMAIN" --config "$1"
+  R1_PID=$AGENT_PID
+  linksim_wait_ready "$LOGS/r1.log" "r1 with $(tr '\n' ' ' <"$1")"
 }
 
 # 1. Bad interfaces.

@@ -34,6 +34,26 @@ simulation:
   lidar_points_per_beam: 180
 YAML
 }
+# Starts the agent on linksim host HOST with the given arguments, its output in LOG; AGENT_PID is the agent's
+# pid (ip netns exec execs it). LOG is emptied here, before the start: the started process opens it on its own
+# time, so a READY an earlier process left in it would otherwise pass for this one's. The agent does not
+# inherit descriptor 3 (a test's pipe to its basestation stays the test's own).
+#   linksim_start_agent LOG HOST AGENT_ARGS...
+linksim_start_agent() {
+  local log="$1" host="$2"
+  shift 2
+  : >"$log"
+  ip netns exec "${P}$host" "$AGENT" "$@" >>"$log" 2>&1 3>&- &
+  AGENT_PID=$!
+}
+# Waits up to 60 s for READY in LOG (written by linksim_start_agent); if it never comes, fails naming WHO
+# with the log's last lines and returns 1.
+linksim_wait_ready() {
+  local log="$1" who="$2"
+  for _ in $(seq 1 600); do grep -q READY "$log" && return 0; sleep 0.1; done
+  fail "$who did not start: $(tail -3 "$log")"
+  return 1
+}
 linksim_test_cleanup() {
   linksim_down "$P"
   rm -rf "$LOGS"
