@@ -1765,9 +1765,14 @@ void LocalCloud::AddScan(const std::vector<Eigen::Vector3f>& points_S, const Eig
   const Eigen::Vector3f p_WS = T_W_S.translation().cast<float>();
   const auto inv = static_cast<float>(1.0 / im.options.voxel_size_m);
   const auto max_points = static_cast<std::size_t>(im.options.max_points);
+  // A point farther from the sensor than the radius plus a voxel's diagonal lands in a voxel whose mean is
+  // beyond the radius: forgotten at once (IsLive), so it is not hashed at all. Most of a scan in a long
+  // tunnel or hall is such far points.
+  const auto far_m = static_cast<float>(im.options.radius_m + std::sqrt(3.0) * im.options.voxel_size_m);
+  const float far2 = far_m * far_m;
   im.Reserve(std::min(max_points, im.slots.size() + points_S.size()));
   for (const Eigen::Vector3f& p_S : points_S) {
-    if (!p_S.allFinite()) continue;
+    if (!p_S.allFinite() || p_S.squaredNorm() > far2) continue;
     const Eigen::Vector3f p_W = R_WS * p_S + p_WS;
     std::int64_t key = 0;
     bool inside = true;
