@@ -81,7 +81,7 @@ double SecondsToRest(Observer& observer, const std::string& robot, std::chrono::
 }
 
 // A basestation started just before its robot: the first command waits for the robot to be discovered, up to
-// --discovery-wait, however short --command-timeout is (cairn_lan_link_test at 5 % loss: a fresh basestation
+// --discovery-wait, however short --command-timeout is (cairn_networks_test at 5 % loss: a fresh basestation
 // took over 3 s to discover r1, and its request-control was refused as "unknown robot" at the 3 s timeout).
 TEST(CommandIdentity, AFirstCommandWaitsForARobotNotYetDiscoveredBeyondItsTimeout) {
   const int domain = 57;

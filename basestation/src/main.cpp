@@ -245,7 +245,7 @@ std::string DefaultWebRoot(const char* argv0) {
 constexpr double kNetworkDiscoveryS = 5.0;
 // How long a robot's state (10 Hz) may be silent before a basestation on a lan or radio link shows it lost:
 // 8 state periods, so a cut link or a dead robot shows within 1 s while 5 % random loss (8 losses in a row:
-// p = 4e-11) never does (cairn_fleet_join_test). On loopback the default stays 3 s: one machine's robots are
+// p = 4e-11) never does (bench/fleet_join.sh). On loopback the default stays 3 s: one machine's robots are
 // seen to go by their liveliness (1 s lease) and their participants leaving.
 constexpr double kNetworkLostAfterS = 0.8;
 
@@ -322,7 +322,7 @@ void CheckFleetOptions(const CLI::App& app, BaseCommandLine* cl) {
   cairn::core::CheckLinkOptions(options.link);
   cairn::core::CheckSecureFlag(options.base_id, &options.security);
   // Across hosts a lost announcement or endpoint message waits for the next one: 5 % loss took a fresh
-  // basestation past 1.5 s to know a robot (cairn_lan_link_test), so a robot it has not seen yet is given
+  // basestation past 1.5 s to know a robot (cairn_networks_test), so a robot it has not seen yet is given
   // longer before a command to it is refused as unknown.
   if (cairn::core::IsNamedNetworkLink(options.link)) {
     options.discovery_s = kNetworkDiscoveryS;

@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <utility>
 
+#include "cairn/core/health_monitor.h"
+
 namespace cairn::base {
 
 namespace {
@@ -67,7 +69,7 @@ OperatorReason ExplainReason(const std::string& robot_id, const std::string& rea
        [](const std::string& r, const std::string& d) { return r + " is not mapping: " + d; }},
       {"IsComponentUp",
        [](const std::string& r, const std::string& d) {
-         if (d.find(" is starting") != std::string::npos) {
+         if (d.find(core::HealthMonitor::kStartingSuffix) != std::string::npos) {
            return r + " is still starting its software: " + d + "; try again in a moment";
          }
          return "a part of " + r + "'s software is down and restarting by itself: " + d + " (health " + r +

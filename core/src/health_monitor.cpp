@@ -364,7 +364,7 @@ std::map<std::string, std::string> HealthMonitor::Down() const {
       down[e.component->name()] = e.component->name() + " is down (" + e.down_reason + "); restart in " +
                                   core::Fixed(std::max(0.0, SecondsBetween(now, e.restart_at)), 1) + " s";
     } else if (!started_) {
-      down[e.component->name()] = e.component->name() + " is starting";
+      down[e.component->name()] = e.component->name() + kStartingSuffix;
     } else if (e.component->state() != LifecycleState::kActive) {
       down[e.component->name()] = e.component->name() + " is " + ToString(e.component->state());
     }

@@ -187,7 +187,7 @@ class AgentDds::Impl {
 
   // The explore-claim writer and reader, made when the robot first explores (team_mutex_ held): robots read
   // one another on this topic only, and only robots that explore, so that an idle fleet's discovery stays
-  // O(robots) (every endpoint of every robot would otherwise go to every robot: cairn_fleet_join_test's ten
+  // O(robots) (every endpoint of every robot would otherwise go to every robot: bench/fleet_join.sh's ten
   // robots were seen 4.3 s after they started instead of 3 s).
   void MakeTeamEndpoints() {
     if (team_.claim_writer) return;

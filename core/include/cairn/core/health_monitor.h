@@ -101,8 +101,11 @@ class HealthMonitor {
   /// lock held.
   std::string RequestRestart(const std::string& name, const std::string& by);
 
+  /// What Down() says, after the component's name, of a component StartAll() has not brought up yet: a
+  /// peer (the operator's console) tells "still starting" from "went down" by it.
+  static constexpr const char* kStartingSuffix = " is starting";
   /// Components that are not up now, with why (e.g. "perception is down: stalled ...; restart in 0.6 s", or
-  /// "platform is starting" before StartAll() has brought it up).
+  /// "platform is starting" (kStartingSuffix) before StartAll() has brought it up).
   std::map<std::string, std::string> Down() const;
   /// Every component's health at `now`, in the order added.
   std::vector<ComponentHealth> Snapshot(SteadyTime now) const;

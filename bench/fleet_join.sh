@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Robots joining one basestation over a simulated 1 Mbit/s radio (tests/linksim: a host each), every
+# Bench: robots joining one basestation over a simulated 1 Mbit/s radio (tests/linksim: a host each), every
 # process on the radio link class, first with simple discovery (multicast announcements), then as clients of a
 # Fast DDS discovery server on the basestation's host. In each round:
 #   1. the robots start one after the other; with the server each is visible at the basestation (its
@@ -14,16 +14,17 @@
 #      figure.
 # By default it runs 5 robots with simple discovery (CAIRN_FLEET_JOIN_SIMPLE_ROBOTS: with 10, the 7th and later
 # robots are not seen at all within 15 s on 1 Mbit/s links, and the test fails: docs/PERFORMANCE.md), then 10
-# with the server (CAIRN_FLEET_JOIN_ROBOTS). CAIRN_FLEET_JOIN_ROUNDS="server" runs one round (ctest does);
+# with the server (CAIRN_FLEET_JOIN_ROBOTS). CAIRN_FLEET_JOIN_ROUNDS="server" runs one round;
 # CAIRN_FLEET_JOIN_KBIT the links' rate (default 1000). Run by hand with CAIRN_FLEET_JOIN_LINK=lan for the lan
 # link's figures (250 ms announcements).
 # The robots run a light simulation (no perception, a sparse lidar at 5 Hz) so that a dozen processes fit two
 # cores: discovery, state and liveliness do not depend on it.
-# Run by ctest inside tests/netns_run.sh; enters a private mount namespace (the hosts' names vanish with it).
-#   fleet_join_test.sh BUILD_DIR
+# Its checks fail it (exit 1) like a test's. Run it inside tests/netns_run.sh (./cairn bench does); it enters a
+# private mount namespace (the hosts' names vanish with it).
+#   tests/netns_run.sh bench/fleet_join.sh BUILD_DIR
 set -uo pipefail
-# shellcheck source=linksim/test_harness.sh
-source "$(dirname "${BASH_SOURCE[0]}")/linksim/test_harness.sh" fleet_join_test fj "$@"
+# shellcheck source=../tests/linksim/test_harness.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../tests/linksim/test_harness.sh" fleet_join fj "$@"
 DOMAIN=88
 N_SERVER="${CAIRN_FLEET_JOIN_ROBOTS:-10}"
 N_SIMPLE="${CAIRN_FLEET_JOIN_SIMPLE_ROBOTS:-5}"
@@ -203,7 +204,7 @@ wait "$server_pid" 2>/dev/null
 
 if [ "$failures" -ne 0 ]; then
   echo "--- basestation (server round)" >&2; tail -5 "$LOGS/server-base.log" >&2
-  echo "fleet_join_test: $failures check(s) failed" >&2
+  echo "fleet_join: $failures check(s) failed" >&2
   exit 1
 fi
-echo "fleet_join_test: all checks passed"
+echo "fleet_join: all checks passed"
