@@ -66,6 +66,27 @@ void VoxelGrid::SetOccupied(const Eigen::Vector3i& index, bool occupied) {
   }
 }
 
+void VoxelGrid::FreeColumns(int ix, int iy_first, int iy_last) {
+  if (iy_first > iy_last) return;
+  if (!Contains({ix, iy_first, 0}) || !Contains({ix, iy_last, 0})) {
+    std::ostringstream msg;
+    msg << "VoxelGrid::FreeColumns: columns x = " << ix << ", y = " << iy_first << ".." << iy_last
+        << " are not all inside the grid " << dims_.x() << " x " << dims_.y() << " x " << dims_.z();
+    throw std::out_of_range(msg.str());
+  }
+  // Bits [begin, end) of the run: whole words in the middle, masked words at either end.
+  const std::int64_t begin = LinearIndex({ix, iy_first, 0});
+  const std::int64_t end = LinearIndex({ix, iy_last, 0}) + dims_.z();
+  const std::int64_t first_word = begin >> 6;
+  const std::int64_t last_word = (end - 1) >> 6;
+  for (std::int64_t w = first_word; w <= last_word; ++w) {
+    std::uint64_t keep = 0;  // the bits of word w outside [begin, end)
+    if (w == first_word) keep |= (std::uint64_t{1} << (begin & 63)) - 1;
+    if (w == last_word && (end & 63) != 0) keep |= ~((std::uint64_t{1} << (end & 63)) - 1);
+    bits_[static_cast<std::size_t>(w)] &= keep;
+  }
+}
+
 bool VoxelGrid::SetOccupiedAt(const Eigen::Vector3d& p_W, bool occupied) {
   const auto index = IndexOf(p_W);
   if (!index) return false;

@@ -50,6 +50,40 @@ TEST(VoxelGrid, ForEachOccupiedVisitsExactlyTheOccupiedVoxels) {
   }
 }
 
+// FreeColumns against voxel-by-voxel clearing, on a full grid whose column runs start and end at every bit
+// offset of a 64-bit word: the runs' voxels are free afterwards, every other voxel still occupied.
+TEST(VoxelGrid, FreeColumnsFreesExactlyTheRunOfColumns) {
+  for (const int nz : {1, 7, 64, 70, 130}) {
+    for (int ix = 0; ix < 3; ++ix) {
+      for (int first = 0; first < 6; ++first) {
+        for (int last = first - 1; last < 6; ++last) {
+          VoxelGrid grid("test", Eigen::Vector3d::Zero(), 0.1, Eigen::Vector3i(3, 6, nz));
+          for (int x = 0; x < 3; ++x) {
+            for (int y = 0; y < 6; ++y) {
+              for (int z = 0; z < nz; ++z) grid.SetOccupied({x, y, z});
+            }
+          }
+          grid.FreeColumns(ix, first, last);
+          for (int x = 0; x < 3; ++x) {
+            for (int y = 0; y < 6; ++y) {
+              const bool freed = x == ix && y >= first && y <= last;
+              for (int z = 0; z < nz; ++z) {
+                ASSERT_EQ(grid.IsOccupiedIndex({x, y, z}), !freed)
+                    << "nz " << nz << " FreeColumns(" << ix << ", " << first << ", " << last << ") voxel ("
+                    << x << ", " << y << ", " << z << ")";
+              }
+            }
+          }
+        }
+      }
+    }
+  }
+  VoxelGrid grid("test", Eigen::Vector3d::Zero(), 0.1, Eigen::Vector3i(3, 6, 4));
+  EXPECT_THROW(grid.FreeColumns(3, 0, 1), std::out_of_range);
+  EXPECT_THROW(grid.FreeColumns(0, -1, 1), std::out_of_range);
+  EXPECT_THROW(grid.FreeColumns(0, 2, 6), std::out_of_range);
+}
+
 TEST(VoxelGrid, HighestOccupiedInColumnMatchesAVoxelByVoxelScan) {
   std::mt19937 random(7);
   for (const int nz : {1, 64, 70, 130}) {

@@ -570,12 +570,8 @@ std::optional<Eigen::AlignedBox2d> NavMap::ReadTile(const perception::OccupancyM
                                  .cwiseMin(last.head<2>());
   if (lo.x() > hi.x() || lo.y() > hi.y()) return std::nullopt;
   for (int ix = lo.x(); ix <= hi.x(); ++ix) {
-    for (int iy = lo.y(); iy <= hi.y(); ++iy) {
-      for (int iz = 0; iz <= last.z(); ++iz) {
-        voxels_->SetOccupied({ix, iy, iz}, false);
-        seen_free_->SetOccupied({ix, iy, iz}, false);
-      }
-    }
+    voxels_->FreeColumns(ix, lo.y(), hi.y());
+    seen_free_->FreeColumns(ix, lo.y(), hi.y());
   }
   // Voxel centres strictly inside the tile, so that a neighbouring voxel touching its face is not read.
   const Eigen::Vector3d shrink = Eigen::Vector3d::Constant(0.25 * res);

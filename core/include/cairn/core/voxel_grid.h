@@ -76,6 +76,11 @@ class VoxelGrid {
   }
   /// Marks voxel `index` occupied (or free). Throws std::out_of_range outside the grid.
   void SetOccupied(const Eigen::Vector3i& index, bool occupied = true);
+  /// Frees every voxel of the columns (ix, iy) for iy in [iy_first, iy_last], at every height. They are one
+  /// run of bits in storage order (z fastest, then y), cleared 64 at a time: clearing a 4 m x 4 m tile's
+  /// columns costs a few hundred stores instead of one checked call per voxel. Nothing happens when
+  /// iy_first > iy_last; throws std::out_of_range when a column in the range is outside the grid.
+  void FreeColumns(int ix, int iy_first, int iy_last);
   /// Marks the voxel containing `p_W` occupied; returns false (and does nothing) outside the grid.
   bool SetOccupiedAt(const Eigen::Vector3d& p_W, bool occupied = true);
   /// Number of occupied voxels.
