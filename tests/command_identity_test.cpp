@@ -67,6 +67,20 @@ OneShot RunOneShot(const std::string& base_id, int domain, const std::string& co
   return out;
 }
 
+// The process of basestation `base_id`, which holds `robot`'s lock in `mode`, as the first state that shows
+// it says (empty, with a failure, if none does within 10 s).
+std::string HolderProcess(Observer& observer, const std::string& robot, const std::string& base_id,
+                          const std::string& mode) {
+  return observer
+      .StateWhere(
+          robot,
+          [&](const msgs::RobotState& st) {
+            return st.holder_id() == base_id && !st.holder_participant().empty() && st.mode() == mode;
+          },
+          base_id + " holds it in " + mode + ", its process known")
+      .holder_participant();
+}
+
 // Waits until `robot` is at rest with a zero command in mode idle; returns the seconds it took (-1: never).
 double SecondsToRest(Observer& observer, const std::string& robot, std::chrono::milliseconds timeout) {
   const auto start = Clock::now();
@@ -175,15 +189,7 @@ TEST(CommandIdentity, RestartedBasestationsGotoAndStopTakeEffect) {
     ASSERT_TRUE(r["ok"]) << r;  // an arrived goal, as the old process leaves it
     ASSERT_TRUE(op1.Run("mode r1 manual")["ok"]);
     ASSERT_TRUE(op1.Run("mode r1 idle")["ok"]);
-    first_participant =
-        observer
-            .StateWhere(
-                "r1",
-                [](const msgs::RobotState& st) {
-                  return st.holder_id() == "op1" && !st.holder_participant().empty() && st.mode() == "idle";
-                },
-                "op1 holds it in idle, its process known")
-            .holder_participant();
+    first_participant = HolderProcess(observer, "r1", "op1", "idle");
     EXPECT_FALSE(first_participant.empty());
     op1.Kill();
   }
@@ -600,15 +606,7 @@ TEST(CommandIdentity, AShortLivedSecondProcessWithTheHoldersIdLeavesTheHolderAli
   Base repl("op1", domain, logs);
   ASSERT_TRUE(repl.Run("request-control r1")["ok"]);
   ASSERT_TRUE(repl.Run("mode r1 manual")["ok"]);
-  const std::string repl_participant =
-      observer
-          .StateWhere(
-              "r1",
-              [](const msgs::RobotState& st) {
-                return st.holder_id() == "op1" && !st.holder_participant().empty() && st.mode() == "manual";
-              },
-              "op1 holds it in manual, its process known")
-          .holder_participant();
+  const std::string repl_participant = HolderProcess(observer, "r1", "op1", "manual");
   ASSERT_FALSE(repl_participant.empty());
 
   const std::size_t from = observer.History("r1").size();
