@@ -7,4 +7,15 @@
 set -euo pipefail
 tmp="$(mktemp -d "${TMPDIR:-/tmp}/cairn-test.XXXXXX")"
 trap 'rm -rf "$tmp"' EXIT
-TEST_TMPDIR="$tmp/" unshare --net -- bash -c 'ip link set lo up && CAIRN_IN_NETNS=1 exec "$@"' cairn-netns "$@"
+status=0
+TEST_TMPDIR="$tmp/" unshare --net -- bash -c 'ip link set lo up && CAIRN_IN_NETNS=1 exec "$@"' cairn-netns "$@" ||
+  status=$?
+# With CAIRN_TEST_CPU_LOG set (./cairn test sets it), one line per run: the CPU seconds (user + system) of the
+# command and every process it waited for (`times`' second line), then the command. Where the suite's CPU goes.
+if [ -n "${CAIRN_TEST_CPU_LOG:-}" ]; then
+  times >"$tmp/times"  # in this shell: `times` in $(...) would count the subshell only
+  cpu="$(awk 'END { for (i = 1; i <= NF; ++i) { split($i, t, /[ms]/); total += t[1] * 60 + t[2] }
+                    printf "%.1f", total }' "$tmp/times")"
+  echo "$cpu $*" >>"$CAIRN_TEST_CPU_LOG"
+fi
+exit "$status"
