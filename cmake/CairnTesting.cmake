@@ -10,14 +10,17 @@ set(CAIRN_BACKGROUND_RUN ${CAIRN_BACKGROUND} ${CAIRN_NETNS_RUN})
 # without ./cairn test's resource spec.
 set(CAIRN_REAL_TIME_RUN "${CMAKE_SOURCE_DIR}/tests/real_time_run.sh" "${CMAKE_BINARY_DIR}/real-time-tests.lock")
 
-# cairn_add_test(<name> SOURCES <files>... LIBS <libs>... [TIMEOUT <s>] [LABELS <labels>]
-#                [SHARDS <suffix>=<gtest filter>...] [REAL_TIME CPU_PERCENT <percent of a core>])
+# cairn_add_test(<name> SOURCES <files>... LIBS <libs>... [TIMEOUT <s>] [LABELS <labels>] [CPU_S <s>]
+#                [SHARDS <suffix>=<gtest filter>[=<cpu s>]...] [REAL_TIME CPU_PERCENT <percent of a core>])
 # SHARDS: each pair becomes a ctest entry of its own, <name>_<suffix>, running the binary's tests that match the
 # filter; the entry <name> runs the rest. Long scenario binaries are split so that ctest can run the pieces on
 # both cores. REAL_TIME: the test runs robots on the wall clock, using CPU_PERCENT of a core (cairn_real_time_tests
-# below); any other test runs in the background (CAIRN_BACKGROUND_RUN above).
+# below); any other test runs in the background (CAIRN_BACKGROUND_RUN above). CPU_S (and a shard's third part):
+# the CPU seconds the entry takes (./cairn test's table of the most CPU, build/test-cpu.log), its ctest COST:
+# a clean clone has no timings of its own, and without them ctest would start the longest scenario tests last,
+# where they ran alone on a machine otherwise idle; longest first packs the cores.
 function(cairn_add_test name)
-  cmake_parse_arguments(ARG "REAL_TIME" "TIMEOUT;CPU_PERCENT" "SOURCES;LIBS;LABELS;SHARDS" ${ARGN})
+  cmake_parse_arguments(ARG "REAL_TIME" "TIMEOUT;CPU_PERCENT;CPU_S" "SOURCES;LIBS;LABELS;SHARDS" ${ARGN})
   if(ARG_REAL_TIME)
     set(run ${CAIRN_REAL_TIME_RUN})
   else()
@@ -36,6 +39,11 @@ function(cairn_add_test name)
     list(GET parts 1 filter)
     add_test(NAME ${name}_${suffix} COMMAND ${run} $<TARGET_FILE:${name}> --gtest_filter=${filter})
     list(APPEND tests ${name}_${suffix})
+    list(LENGTH parts n)
+    if(n GREATER 2)
+      list(GET parts 2 cpu_s)
+      set_tests_properties(${name}_${suffix} PROPERTIES COST ${cpu_s})
+    endif()
     string(APPEND rest_filter ":${filter}")
   endforeach()
   if(rest_filter)
@@ -43,6 +51,9 @@ function(cairn_add_test name)
     add_test(NAME ${name} COMMAND ${run} $<TARGET_FILE:${name}> --gtest_filter=-${rest_filter})
   else()
     add_test(NAME ${name} COMMAND ${run} $<TARGET_FILE:${name}>)
+  endif()
+  if(ARG_CPU_S)
+    set_tests_properties(${name} PROPERTIES COST ${ARG_CPU_S})
   endif()
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)

@@ -79,28 +79,25 @@ std::vector<float> ChamferToKnown(int nx, int ny, Known&& known) {
       if (known(ix, iy)) to_known[index(ix, iy)] = 0.0f;
     }
   }
+  // Each pass takes a row's terms from the row before first (independent cells: vectorized), then runs along
+  // the row (one dependent min per cell). The same minima in another order: the same distances.
   constexpr float kDiag = 1.41421356f;
+  auto from_row = [&](int iy, int from_iy) {
+    float* d = &to_known[index(0, iy)];
+    const float* o = &to_known[index(0, from_iy)];
+    for (int ix = 0; ix < nx; ++ix) d[ix] = std::min(d[ix], o[ix] + 1.0f);
+    for (int ix = 1; ix < nx; ++ix) d[ix] = std::min(d[ix], o[ix - 1] + kDiag);
+    for (int ix = 0; ix + 1 < nx; ++ix) d[ix] = std::min(d[ix], o[ix + 1] + kDiag);
+  };
   for (int iy = 0; iy < ny; ++iy) {
-    for (int ix = 0; ix < nx; ++ix) {
-      float& d = to_known[index(ix, iy)];
-      if (ix > 0) d = std::min(d, to_known[index(ix - 1, iy)] + 1.0f);
-      if (iy > 0) {
-        d = std::min(d, to_known[index(ix, iy - 1)] + 1.0f);
-        if (ix > 0) d = std::min(d, to_known[index(ix - 1, iy - 1)] + kDiag);
-        if (ix + 1 < nx) d = std::min(d, to_known[index(ix + 1, iy - 1)] + kDiag);
-      }
-    }
+    if (iy > 0) from_row(iy, iy - 1);
+    float* d = &to_known[index(0, iy)];
+    for (int ix = 1; ix < nx; ++ix) d[ix] = std::min(d[ix], d[ix - 1] + 1.0f);
   }
   for (int iy = ny - 1; iy >= 0; --iy) {
-    for (int ix = nx - 1; ix >= 0; --ix) {
-      float& d = to_known[index(ix, iy)];
-      if (ix + 1 < nx) d = std::min(d, to_known[index(ix + 1, iy)] + 1.0f);
-      if (iy + 1 < ny) {
-        d = std::min(d, to_known[index(ix, iy + 1)] + 1.0f);
-        if (ix + 1 < nx) d = std::min(d, to_known[index(ix + 1, iy + 1)] + kDiag);
-        if (ix > 0) d = std::min(d, to_known[index(ix - 1, iy + 1)] + kDiag);
-      }
-    }
+    if (iy + 1 < ny) from_row(iy, iy + 1);
+    float* d = &to_known[index(0, iy)];
+    for (int ix = nx - 2; ix >= 0; --ix) d[ix] = std::min(d[ix], d[ix + 1] + 1.0f);
   }
   return to_known;
 }

@@ -1745,6 +1745,12 @@ struct LocalCloud::Impl {
   std::vector<std::int32_t> remap;
   std::vector<std::int64_t> old_keys;
   std::vector<std::int32_t> old_slots;
+  // AddScan's points to add, with their voxel keys (kept between calls, as the buffers above).
+  struct Keyed {
+    std::int64_t key;
+    Eigen::Vector3f p_W;
+  };
+  std::vector<Keyed> batch;
 };
 
 LocalCloud::LocalCloud(const LocalCloudOptions& options) : impl_(std::make_unique<Impl>()) {
@@ -1771,6 +1777,10 @@ void LocalCloud::AddScan(const std::vector<Eigen::Vector3f>& points_S, const Eig
   const auto far_m = static_cast<float>(im.options.radius_m + std::sqrt(3.0) * im.options.voxel_size_m);
   const float far2 = far_m * far_m;
   im.Reserve(std::min(max_points, im.slots.size() + points_S.size()));
+  // Keys first, then the table in the points' order: the table place of the point kAhead on is fetched
+  // while this one is added, and its slot once that place has arrived (half-way), so the two cache misses of
+  // a point (its table place, its slot) overlap the work on the points before it instead of stalling it.
+  im.batch.clear();
   for (const Eigen::Vector3f& p_S : points_S) {
     if (!p_S.allFinite() || p_S.squaredNorm() > far2) continue;
     const Eigen::Vector3f p_W = R_WS * p_S + p_WS;
@@ -1781,7 +1791,25 @@ void LocalCloud::AddScan(const std::vector<Eigen::Vector3f>& points_S, const Eig
       inside = inside && i >= -Impl::kOffset && i < Impl::kOffset;
       key = (key << 21) | ((i + Impl::kOffset) & ((1 << 21) - 1));
     }
-    if (!inside) continue;
+    if (inside) im.batch.push_back({key, p_W});
+  }
+  constexpr std::size_t kAhead = 16;
+  const std::size_t n = im.batch.size();
+  for (std::size_t b = 0; b < n; ++b) {
+    if (b + kAhead < n) {
+      const std::size_t ahead = Impl::Hash(im.batch[b + kAhead].key) & im.mask;
+      __builtin_prefetch(&im.table_keys[ahead]);
+      __builtin_prefetch(&im.table_slots[ahead]);
+    }
+    if (b + kAhead / 2 < n) {
+      const std::int64_t half_key = im.batch[b + kAhead / 2].key;
+      const std::size_t half = Impl::Hash(half_key) & im.mask;
+      if (im.table_keys[half] == half_key) {
+        __builtin_prefetch(&im.slots[static_cast<std::size_t>(im.table_slots[half])]);
+      }
+    }
+    const std::int64_t key = im.batch[b].key;
+    const Eigen::Vector3f& p_W = im.batch[b].p_W;
     const std::size_t h = im.Find(key);
     if (im.table_keys[h] == Impl::kEmpty) {
       if (im.slots.size() >= max_points) continue;

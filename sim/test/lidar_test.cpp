@@ -330,6 +330,39 @@ TEST_F(TunnelLidarTest, NoiseFreePointsLieOnOccupiedVoxelFaces) {
   EXPECT_GT(inside_after, scan.returns * 99 / 100);
 }
 
+// A noise-free scan's ranges are CastRay()'s, bit for bit, in directions_S() order, from poses in the
+// tunnels, in the room, inside the rock, outside the grid looking in, tilted.
+TEST_F(TunnelLidarTest, ScansCastExactlyCastRaysRanges) {
+  LidarOptions options;
+  options.range_noise_stddev_m = 0.0;
+  options.min_range_m = 0.0;
+  SimulatedLidar lidar(options);
+  std::vector<Eigen::Isometry3d> poses = {Pose()};
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(30.0, 20.0, 0.5), Eigen::Vector3d(49.0, 19.0, 1.0),
+                                   Eigen::Vector3d(4.0, 20.0, -0.15), Eigen::Vector3d(-5.0, 20.0, 0.5)}) {
+    Eigen::Isometry3d T_W_S = Eigen::Isometry3d::Identity();
+    T_W_S.translation() = p;
+    T_W_S.linear() =
+        (Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()))
+            .toRotationMatrix();
+    poses.push_back(T_W_S);
+  }
+  ASSERT_TRUE(world_->IsOccupied(poses[3].translation())) << "one pose inside the rock";
+  LidarScan scan;
+  for (const Eigen::Isometry3d& T_W_S : poses) {
+    lidar.Scan(*world_, T_W_S, &scan);
+    std::vector<Eigen::Vector3f> expected;
+    for (const Eigen::Vector3d& d_S : lidar.directions_S()) {
+      const auto hit = CastRay(*world_, T_W_S.translation(), T_W_S.linear() * d_S, options.max_range_m);
+      if (hit) expected.emplace_back((hit->range_m * d_S).cast<float>());
+    }
+    ASSERT_EQ(scan.points_S.size(), expected.size()) << T_W_S.translation().transpose();
+    int differ = 0;
+    for (std::size_t i = 0; i < expected.size(); ++i) differ += scan.points_S[i] != expected[i] ? 1 : 0;
+    EXPECT_EQ(differ, 0) << T_W_S.translation().transpose();
+  }
+}
+
 TEST_F(TunnelLidarTest, RangeNoiseHasTheRequestedStatistics) {
   LidarOptions clean_options;
   clean_options.range_noise_stddev_m = 0.0;
