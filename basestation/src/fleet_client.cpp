@@ -485,6 +485,7 @@ class FleetClient::Impl {
       for (const RobotView& v : views) {
         if (v.announced && !v.lost) perception_->SyncIfIncomplete(v.robot_id);
       }
+      MakeCommandWritersFor(views);
       for (const FleetEvent& f : perception_->TakeEvents()) {
         OperatorEvent e;
         e.kind = f.kind;
@@ -616,6 +617,31 @@ class FleetClient::Impl {
            ") give it " + (given.empty() ? std::string("no robot (an observer)") : given);
   }
 
+  // Under DDS Security each robot's command topics are its own (core::CommandTopicFor). Their writers are
+  // made once the robot has announced itself, not at the first command: a command, an e-stop above all, then
+  // finds its writer made and matched instead of waiting for secure endpoint discovery. Only the commands
+  // this basestation may send that robot (the e-stop alone for another commander's robot); none for an
+  // observer.
+  void MakeCommandWritersFor(const std::vector<RobotView>& views) {
+    if (!commandable_) return;  // without security the shared writers are made at start
+    for (const RobotView& v : views) {
+      if (!v.announced || monitor_.writers_made.count(v.robot_id) > 0) continue;
+      monitor_.writers_made.insert(v.robot_id);
+      const bool all = NotPermittedReason(v.robot_id).empty();
+      const bool e_stop = NotPermittedReason(v.robot_id, true).empty();
+      for (const CommandKind& kind : kCommandKinds) {
+        if (!all && !(kind.e_stop && e_stop)) continue;
+        try {
+          kind.make(*this, v.robot_id);
+        } catch (const core::DdsError& e) {
+          spdlog::warn(
+              "basestation {}: a command writer for robot {} not made ahead ({}): made at its first command",
+              options_.base_id, v.robot_id, e.what());
+        }
+      }
+    }
+  }
+
   // Waits until the robot's readers matched this base's writers of the commands it may send that robot.
   bool WaitForCommandPath(const std::string& robot_id, double timeout_s) {
     const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
@@ -667,6 +693,8 @@ class FleetClient::Impl {
   struct Monitor {
     bool stop = false;
     std::thread thread;
+    // Under DDS Security: the robots whose command writers the monitor made (monitor thread only).
+    std::set<std::string> writers_made;
   } monitor_;
   mutable std::condition_variable cv_;
   // The robots as this basestation sees them (under mutex_): each robot's view, and which agent-info writer

@@ -74,6 +74,7 @@ std::vector<float> ChamferToKnown(int nx, int ny, Known&& known) {
     return static_cast<std::size_t>(ix) + static_cast<std::size_t>(nx) * iy;
   };
   std::vector<float> to_known(static_cast<std::size_t>(nx) * ny, std::numeric_limits<float>::infinity());
+  if (nx <= 0 || ny <= 0) return to_known;
   for (int iy = 0; iy < ny; ++iy) {
     for (int ix = 0; ix < nx; ++ix) {
       if (known(ix, iy)) to_known[index(ix, iy)] = 0.0f;
