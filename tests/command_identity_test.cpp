@@ -401,7 +401,8 @@ TEST(CommandIdentity, ARoguePeersOversizedIdAndUnknownActionAreRefused) {
   }
   ASSERT_EQ(replies.size(), 1u);
   EXPECT_EQ(replies[0].result(), msgs::COMMAND_RESULT_DENIED);
-  EXPECT_NE(replies[0].reason().find("action 99 is neither REQUEST (0) nor RELEASE (1)"), std::string::npos)
+  EXPECT_NE(replies[0].reason().find("action 99 is none of REQUEST, RELEASE, HANDOVER, DENY (0-3)"),
+            std::string::npos)
       << replies[0].reason();
   EXPECT_EQ(observer.FreshState("r1").holder_id(), "");
   odd.RequestControl("r1", 2);  // the same peer asking properly is served

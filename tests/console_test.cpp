@@ -277,6 +277,86 @@ TEST(Console, WordsEventsForgivingInputPlacesAndEStop) {
 
 // ./cairn console attaches a second operator to a running demo; the demo stops its robots when its own
 // console ends on a closed stdin (no terminal to ask on).
+// Handover between operators, each on a console of their own: op2's request for the robot op1 drives is
+// told to op1 at once, with what it may answer; op1 denies, then grants, and op2 hears each answer; the robot
+// drives on to its goal for its new holder. A request nobody answers expires, told to both; a holder hands a
+// robot over unasked.
+TEST(Console, HandoverBetweenOperatorsWithoutPolling) {
+  const int domain = 84;
+  const std::string logs = Logs("handover");
+  Observer observer(domain);
+  const std::string config = logs + "/agent.yaml";
+  std::ofstream(config) << "command_interface:\n  handover_request_timeout_s: 4.0\n";
+  ChildProcess robot({kAgent, "--robot-id", "r1", "--start", "slot:0", "--domain", std::to_string(domain),
+                      "--config", config},
+                     logs + "/r1.log");
+  ASSERT_TRUE(robot.WaitForLine("READY", 60s)) << "see " << logs;
+  auto console = [&](const std::string& base_id) {
+    return std::make_unique<PtyProcess>(std::vector<std::string>{kBase, "--base-id", base_id, "--domain",
+                                                                 std::to_string(domain), "--places",
+                                                                 WritePlaces(logs + "/places.yaml")});
+  };
+  auto op1 = console("op1");
+  auto op2 = console("op2");
+  ASSERT_TRUE(op1->WaitFor("op1> ", 10s)) << op1->output();
+  ASSERT_TRUE(op2->WaitFor("op2> ", 10s)) << op2->output();
+  op1->Drain(2s);  // discovery
+  op2->Drain(100ms);
+  op1->Type("request-control r1\r");
+  ASSERT_TRUE(op1->WaitFor("request-control r1: accepted", 10s)) << op1->SinceMark();
+  op1->Type("goto r1 junction\r");
+  ASSERT_TRUE(op1->WaitFor("goto r1: accepted", 10s)) << op1->SinceMark();
+  const msgs::RobotState driving = observer.FreshState("r1");
+  ASSERT_EQ(driving.mode(), "waypoint");
+
+  // op2 asks: refused for now, op1 is told at once what it may answer.
+  op1->Mark();
+  op2->Mark();
+  op2->Type("request-control r1\r");
+  ASSERT_TRUE(
+      op2->WaitFor("request-control r1: refused: robot r1 is locked by basestation op1: asked op1 to "
+                   "hand it over",
+                   5s))
+      << op2->SinceMark();
+  ASSERT_TRUE(op1->WaitFor("r1: op2 asks for control (held by op1): grant r1 op2 or deny r1 op2 within", 3s))
+      << op1->SinceMark();
+  op1->Type("deny r1 op2\r");
+  ASSERT_TRUE(op1->WaitFor("deny r1: accepted", 5s)) << op1->SinceMark();
+  ASSERT_TRUE(op2->WaitFor("r1: op1 denied op2's request for the lock", 3s)) << op2->SinceMark();
+
+  // Asked again and granted: op2 holds r1, which drives on to the same goal.
+  op1->Mark();
+  op2->Mark();
+  op2->Type("request-control r1\r");
+  ASSERT_TRUE(op1->WaitFor("r1: op2 asks for control", 5s)) << op1->SinceMark();
+  op1->Type("grant r1 op2\r");
+  ASSERT_TRUE(op1->WaitFor("grant r1: accepted", 5s)) << op1->SinceMark();
+  ASSERT_TRUE(op2->WaitFor("r1: op1 granted op2's request: op2 holds the lock", 3s)) << op2->SinceMark();
+  const msgs::RobotState granted = observer.FreshState("r1");
+  EXPECT_EQ(granted.holder_id(), "op2");
+  EXPECT_EQ(granted.nav_goal_id(), driving.nav_goal_id()) << "a grant keeps the robot's goal";
+  if (granted.nav_reason().find("IsLocalPlannerHealthy") == std::string::npos) {
+    EXPECT_EQ(granted.mode(), "waypoint") << "a grant keeps the robot's mode";
+  }
+
+  // op1 asks back; op2 does not answer: after 4 s both are told it expired, and op2 still holds r1.
+  op1->Mark();
+  op2->Mark();
+  op1->Type("request-control r1\r");
+  ASSERT_TRUE(op2->WaitFor("r1: op1 asks for control (held by op2)", 5s)) << op2->SinceMark();
+  ASSERT_TRUE(op1->WaitFor("r1: op1's request expired: op2 did not answer within 4 s", 8s))
+      << op1->SinceMark();
+  ASSERT_TRUE(op2->WaitFor("r1: op1's request expired", 3s)) << op2->SinceMark();
+  EXPECT_EQ(observer.FreshState("r1").holder_id(), "op2");
+
+  // Unasked: op2 hands r1 back to op1.
+  op1->Mark();
+  op2->Type("handover r1 op1\r");
+  ASSERT_TRUE(op2->WaitFor("handover r1: accepted", 5s)) << op2->SinceMark();
+  ASSERT_TRUE(op1->WaitFor("r1: op2 handed the lock over to op1", 3s)) << op1->SinceMark();
+  EXPECT_EQ(observer.FreshState("r1").holder_id(), "op1");
+}
+
 TEST(Console, SecondConsoleAttachesToARunningDemo) {
   const std::string logs = Logs("demo");
   const std::string demo_logs = logs + "/demo-state";

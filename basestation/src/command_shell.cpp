@@ -46,6 +46,9 @@ json ViewJson(const RobotView& v, const std::string& base_id) {
     j["holder_alive"] = s.holder_alive();
     j["holder_participant"] = s.holder_participant();
     j["holder_participants"] = s.holder_participants();
+    j["control_requester"] = s.control_requester_id();
+    j["control_request_left_s"] = s.control_request_left_s();
+    j["handover_outcome"] = s.handover_outcome();
     if (s.has_resumable_goal()) {
       const auto& g = s.resumable_goal_M();
       j["resumable_goal"] = {{"x_m", g.x_m()}, {"y_m", g.y_m()}};
@@ -288,6 +291,15 @@ int CommandShell::Run(const std::vector<std::string>& t) {
     return UsageError(cmd,
                       "unknown command '" + cmd + "'" + DidYouMeanText(cmd, CommandNames()) + " (try help)");
   }
+  // An option the command does not take is named as such (with the nearest one it takes), before any
+  // argument is read as something else ("TOL '--wiat' is not a finite number").
+  const std::vector<std::string> options = OptionsOf(*spec);
+  for (const std::string& word : args) {
+    if (word.size() < 3 || word.rfind("--", 0) != 0) continue;
+    if (std::find(options.begin(), options.end(), word) != options.end()) continue;
+    return UsageError(
+        cmd, "unknown option " + word + " for " + cmd + DidYouMeanText(word, options) + "; " + UsageOf(cmd));
+  }
   if (args.size() < spec->min_args || args.size() > spec->max_args) return UsageError(cmd, UsageOf(cmd));
   if (cmd == "help") {
     if (args.size() == 1) return HelpFor(args[0]);
@@ -308,6 +320,7 @@ int CommandShell::Run(const std::vector<std::string>& t) {
   if (cmd == "restart") return Restart(args);
   if (cmd == "request-control") return Control(args, true);
   if (cmd == "release") return Control(args, false);
+  if (cmd == "grant" || cmd == "deny" || cmd == "handover") return AnswerControl(cmd, args[0], args[1]);
   if (cmd == "convoy") return Convoy(args);
   if (cmd == "convoy-stop") return ConvoyStop(args);
   if (cmd == "peel") return Peel(args);
@@ -490,6 +503,10 @@ int CommandShell::Status(const std::vector<std::string>& args) {
     }
     if (s.discarded_commands() > 0)
       out_ << "; " << s.discarded_commands() << " commands from others discarded";
+    if (!s.control_requester_id().empty()) {
+      out_ << "; " << s.control_requester_id() << " asks for it ("
+           << Fixed(std::ceil(s.control_request_left_s()), 0) << " s left)";
+    }
     out_ << "\n";
     out_ << "  goal      ";
     if (s.nav_status() == msgs::NAV_STATUS_NONE) {
@@ -581,6 +598,27 @@ int CommandShell::Control(const std::vector<std::string>& args, bool request) {
   return ReportEach(request ? "request-control" : "release", args.front(), args, outcomes);
 }
 
+int CommandShell::AnswerControl(const std::string& command, const std::string& robot,
+                                const std::string& to_base_id) {
+  if (RefuseUnknown(command, robot)) return kRefused;
+  if (command == "grant" || command == "deny") {
+    // Only a request that waits can be granted or denied: say so here rather than hand the lock over unasked.
+    const auto view = client_.Robot(robot);
+    const std::string waiting = view && view->state ? view->state->control_requester_id() : "";
+    if (waiting != to_base_id) {
+      CommandOutcome o;
+      o.result = outcome::kRefused;
+      o.reason = (waiting.empty() ? "no request for " + robot + "'s lock waits"
+                                  : "the request waiting for " + robot + "'s lock is " + waiting + "'s") +
+                 (command == "grant" ? " (handover " + robot + " " + to_base_id + " gives it unasked)" : "");
+      return Report(command, robot, o);
+    }
+  }
+  return Report(command, robot,
+                command == "deny" ? client_.DenyControl(robot, to_base_id)
+                                  : client_.HandOverControl(robot, to_base_id));
+}
+
 int CommandShell::ReportEach(const std::string& command, const std::string& label,
                              const std::vector<std::string>& robots,
                              const std::vector<CommandOutcome>& outcomes, bool always_list) {
@@ -618,7 +656,20 @@ int CommandShell::Mode(const std::vector<std::string>& args) {
 }
 
 int CommandShell::Stop(const std::vector<std::string>& args) {
-  if (args[0] != "all") return Report("stop", args[0], client_.Stop(args[0]));
+  if (args.size() == 1 && args[0] != "all") return Report("stop", args[0], client_.Stop(args[0]));
+  if (args[0] != "all") {
+    // Several robots: every stop in parallel (none waits for another's round trip), one answer line each.
+    if (std::find(args.begin(), args.end(), "all") != args.end()) {
+      return UsageError("stop", "stop all takes no robot besides; " + UsageOf("stop"));
+    }
+    std::vector<CommandOutcome> outcomes(args.size());
+    std::vector<std::thread> senders;
+    for (std::size_t i = 0; i < args.size(); ++i) {
+      senders.emplace_back([&, i] { outcomes[i] = client_.Stop(args[i]); });
+    }
+    for (auto& t : senders) t.join();
+    return ReportEach("stop", args.front(), args, outcomes);
+  }
   // Each robot's stop goes out as soon as the robot is heard, all in parallel: a fleet stop must neither wait
   // for one robot's round trip before the next nor for discovery to end before the first (a one-shot
   // `cairn_base -- stop all` reached the robots only after it). Robots heard until discovery ends are stopped

@@ -1,5 +1,6 @@
 #include "command_table.h"
 
+#include <cctype>
 #include <sstream>
 #include <stdexcept>
 
@@ -68,10 +69,20 @@ const std::vector<CommandSpec>& CommandTable() {
       {"restart", "restart R COMPONENT", "restart one component of R now (the lock holder's only)", 2, 2,
        FirstArgument::kRobot, false},
       {"request-control", "request-control R [R2 ...]",
-       "ask for R's control lock (refused if another basestation holds it)", 1, kAny, FirstArgument::kRobots,
-       false},
+       "ask for R's control lock; when another basestation holds it, its operator is asked to grant or deny "
+       "it and you are told the answer (a request left unanswered expires)",
+       1, kAny, FirstArgument::kRobots, false},
       {"release", "release R [R2 ...]", "give R's control lock back (the robot stops)", 1, kAny,
        FirstArgument::kRobots, false},
+      {"grant", "grant R BASE",
+       "hand R's control lock to basestation BASE, which asked for it (R keeps its "
+       "mode and goal)",
+       2, 2, FirstArgument::kRobot, false},
+      {"deny", "deny R BASE", "refuse basestation BASE's request for R's control lock", 2, 2,
+       FirstArgument::kRobot, false},
+      {"handover", "handover R BASE",
+       "hand R's control lock to basestation BASE unasked (R keeps its mode and goal; BASE must be running)",
+       2, 2, FirstArgument::kRobot, false},
       {"mode", "mode R MODE", "switch R to idle | manual | smart_joystick (waypoint: use goto)", 2, 2,
        FirstArgument::kRobot, false},
       {"goto", "goto R POINT [TOL] [--z Z_M] [--wait [TIMEOUT_S]]",
@@ -84,7 +95,8 @@ const std::vector<CommandSpec>& CommandTable() {
        "never resumes it)",
        1, kAny, FirstArgument::kRobot, false},
       {"explore",
-       "explore R [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] [--wait [TIMEOUT_S]]",
+       "explore R [R2 ...] [--region X0,Y0,X1,Y1] [--z-range Z0,Z1] [--home-after-silence S] "
+       "[--wait [TIMEOUT_S]]",
        "R explores by itself (frontiers of its own map, in the region and height band when given) until no "
        "reachable frontier is left, then goes idle; --home-after-silence: it drives back to its start when "
        "it hears no basestation for S s; --wait prints progress until it ends (default 3600 s)",
@@ -119,10 +131,10 @@ const std::vector<CommandSpec>& CommandTable() {
        "twist is the direction the local planner follows; speeds beyond R's limits are clamped, with a "
        "notice",
        4, 5, FirstArgument::kRobot, false},
-      {"stop", "stop R|all",
+      {"stop", "stop R [R2 ...]|all",
        "stop now: zero twist, mode idle, goal cancelled; from any basestation, without the control lock (the "
        "lock stays)",
-       1, 1, FirstArgument::kRobotOrAll, false},
+       1, kAny, FirstArgument::kRobotOrAll, false},
       {"wait", "wait R arrived|idle|mode=M|online|lost [TIMEOUT_S]",
        "block until R reaches that state (default 60 s)", 2, 3, FirstArgument::kRobot, false},
       {"events", "events [N]", "the last N events (default 20)", 0, 1, FirstArgument::kNone, false},
@@ -147,6 +159,19 @@ const CommandSpec* FindCommand(const std::string& name) {
     if (spec.name == name) return &spec;
   }
   return nullptr;
+}
+
+std::vector<std::string> OptionsOf(const CommandSpec& spec) {
+  std::vector<std::string> options;
+  for (std::size_t at = spec.usage.find("--"); at != std::string::npos; at = spec.usage.find("--", at + 2)) {
+    std::size_t end = at + 2;
+    while (end < spec.usage.size() &&
+           (std::islower(static_cast<unsigned char>(spec.usage[end])) != 0 || spec.usage[end] == '-')) {
+      ++end;
+    }
+    options.push_back(spec.usage.substr(at, end - at));
+  }
+  return options;
 }
 
 std::string UsageOf(const std::string& name) {

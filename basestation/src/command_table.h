@@ -38,6 +38,9 @@ const std::vector<CommandSpec>& CommandTable();
 /// The command named `name`, or nullptr.
 const CommandSpec* FindCommand(const std::string& name);
 
+/// The options `spec` takes, as its synopsis names them ("--wait", "--z", ...), in order.
+std::vector<std::string> OptionsOf(const CommandSpec& spec);
+
 /// "usage: " and the command's synopsis; throws std::logic_error for a name not in the table (a bug).
 std::string UsageOf(const std::string& name);
 

@@ -904,6 +904,30 @@ CommandOutcome FleetClient::ReleaseControl(const std::string& robot_id) {
   });
 }
 
+CommandOutcome FleetClient::HandOverControl(const std::string& robot_id, const std::string& to_base_id) {
+  return impl_->Call(robot_id, msgs::COMMAND_KIND_CONTROL_HANDOVER, [&](uint32_t id) {
+    msgs::ControlRequest m;
+    m.robot_id(robot_id);
+    m.base_id(base_id());
+    m.request_id(id);
+    m.action(msgs::CONTROL_ACTION_HANDOVER);
+    m.target_base_id(to_base_id);
+    return impl_->CommandWriter<msgs::ControlRequestPubSubType>("cairn/control_request", robot_id).Write(m);
+  });
+}
+
+CommandOutcome FleetClient::DenyControl(const std::string& robot_id, const std::string& to_base_id) {
+  return impl_->Call(robot_id, msgs::COMMAND_KIND_CONTROL_DENY, [&](uint32_t id) {
+    msgs::ControlRequest m;
+    m.robot_id(robot_id);
+    m.base_id(base_id());
+    m.request_id(id);
+    m.action(msgs::CONTROL_ACTION_DENY);
+    m.target_base_id(to_base_id);
+    return impl_->CommandWriter<msgs::ControlRequestPubSubType>("cairn/control_request", robot_id).Write(m);
+  });
+}
+
 CommandOutcome FleetClient::Restart(const std::string& robot_id, const std::string& component) {
   return impl_->Call(robot_id, msgs::COMMAND_KIND_RESTART, [&](uint32_t id) {
     msgs::RestartRequest m;

@@ -103,6 +103,8 @@ void FleetEventDetector::ObserveMission(const std::string& r, const cairn_msgs::
 
 void FleetEventDetector::Last::SetFromState(const cairn_msgs::RobotState& state) {
   holder = state.holder_id();
+  requester = state.control_requester_id();
+  handovers = state.handovers();
   goal_id = state.nav_goal_id();
   nav_status = state.nav_status();
   stops = state.stops();
@@ -154,6 +156,8 @@ void FleetEventDetector::ObserveRobot(const RobotView& view, std::vector<Operato
   ObserveHealth(view, last, &now, events);
   if (!view.state) {
     now.holder = last.holder;
+    now.requester = last.requester;
+    now.handovers = last.handovers;
     now.goal_id = last.goal_id;
     now.nav_status = last.nav_status;
     now.stops = last.stops;
@@ -299,7 +303,25 @@ void FleetEventDetector::ObserveStopAndLock(const std::string& r, const cairn_ms
     e.other = s.stopped_by();
     events->push_back(e);
   }
-  if (now.holder == last.holder) return;
+  // A request for the lock: the holder's operator answers it (grant or deny); everyone is told.
+  if (!now.requester.empty() && now.requester != last.requester) {
+    const int left_s = static_cast<int>(std::ceil(s.control_request_left_s()));
+    OperatorEvent e = Event("control_requested", r,
+                            r + ": " + now.requester + " asks for control (held by " + now.holder +
+                                "): grant " + r + " " + now.requester + " or deny " + r + " " +
+                                now.requester + " within " + std::to_string(left_s) + " s");
+    e.other = now.requester;
+    events->push_back(e);
+  }
+  // The holder's answer, a handover unasked, or a request that expired: the robot's own words.
+  const bool handed_over = now.handovers != last.handovers && !s.handover_outcome().empty();
+  if (handed_over) {
+    OperatorEvent e = Event("control_handover", r, r + ": " + s.handover_outcome());
+    e.other = now.holder;
+    e.reason = s.handover_outcome();
+    events->push_back(e);
+  }
+  if (now.holder == last.holder || (handed_over && !now.holder.empty() && !last.holder.empty())) return;
   OperatorEvent e;
   if (last.holder.empty()) {
     e = Event("lock_granted", r, r + " control granted to " + now.holder);

@@ -164,7 +164,7 @@ const char* kCommandResponseSchema =
 
 int LogLevel(const std::string& kind) {
   if (kind == "goal_abandoned" || kind == "lost" || kind == "lock_taken" || kind == "exploration_stopped" ||
-      kind == "mission_paused")
+      kind == "mission_paused" || kind == "control_requested")
     return 3;  // WARNING
   if (kind == "stopped" || kind == "component_failed" || kind == "component_restart_failed" ||
       kind == "component_escalated")
@@ -486,6 +486,9 @@ class GuiBridge::Impl {
         r["holder"] = s.holder_id();
         r["holder_alive"] = s.holder_alive();
         r["you_hold"] = s.holder_id() == client_.base_id();
+        // A basestation waiting for the holder's answer (grant or deny), and the last answer or handover.
+        r["control_request"] = {{"from", s.control_requester_id()}, {"left_s", s.control_request_left_s()}};
+        r["handover"] = {{"count", s.handovers()}, {"outcome", s.handover_outcome()}};
         r["nav_status"] = fleet::NavStatusWord(s.nav_status());
         r["nav_reason"] = s.nav_reason();
         r["nav_goal_id"] = s.nav_goal_id();

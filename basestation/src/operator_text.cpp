@@ -109,9 +109,16 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
     return can_yield ? std::vector<std::string>{"request-control", "yield", "stop"}
                      : std::vector<std::string>{"request-control", "stop"};
   }
+  // Another basestation holds it: a request asks its operator to hand it over.
   if (holder != base_id)
-    return can_yield ? std::vector<std::string>{"yield", "stop"} : std::vector<std::string>{"stop"};
+    return can_yield ? std::vector<std::string>{"request-control", "yield", "stop"}
+                     : std::vector<std::string>{"request-control", "stop"};
   std::vector<std::string> actions;
+  // A request for the lock waits for this basestation's answer.
+  if (const std::string& asking = view.state->control_requester_id(); !asking.empty()) {
+    actions.push_back("grant " + asking);
+    actions.push_back("deny " + asking);
+  }
   std::string modes;
   bool can_teleop = false, can_goto = false, can_explore = false;
   if (view.tree) {
@@ -140,6 +147,7 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
   }
   if (can_teleop) actions.emplace_back("teleop");
   if (can_yield) actions.emplace_back("yield");
+  actions.emplace_back("handover");
   actions.emplace_back("release");
   actions.emplace_back("stop");
   return actions;

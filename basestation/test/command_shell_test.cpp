@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -61,6 +62,11 @@ TEST_F(CommandShellTest, MalformedCommandsNameTheArgumentAndSendNothing) {
   EXPECT_NE(Printed().find("unknown command 'gotoo' (did you mean goto?)"), std::string::npos);
   EXPECT_EQ(shell_.Execute("mode r1"), kUsage);
   EXPECT_NE(Printed().find("usage: mode R MODE"), std::string::npos);
+  // An option the command does not take is named as one, with the nearest it takes.
+  EXPECT_EQ(shell_.Execute("goto r1 1 2 --wiat"), kUsage);
+  EXPECT_NE(Printed().find("unknown option --wiat for goto (did you mean --wait?)"), std::string::npos);
+  EXPECT_EQ(shell_.Execute("status r1 --verbose"), kUsage);
+  EXPECT_NE(Printed().find("unknown option --verbose for status; usage: status R"), std::string::npos);
   EXPECT_TRUE(fleet_.sent().empty());
 }
 
@@ -81,6 +87,46 @@ TEST_F(CommandShellTest, WaitOnlineWaitsForTheRobotsState) {
   EXPECT_NE(shell_.Execute("wait r4 online 0"), kOk);
   fleet_.AddRobot("r4");
   EXPECT_EQ(shell_.Execute("wait r4 online 0"), kOk);
+}
+
+// The holder answers a request for its lock: grant and deny only the request that waits (a grant unasked is
+// a handover, said so), handover to anyone; nothing is sent for a refusal made here.
+TEST_F(CommandShellTest, GrantAndDenyAnswerTheRequestThatWaitsHandoverNeedsNone) {
+  EXPECT_EQ(shell_.Execute("grant r1 op2"), kRefused);
+  EXPECT_NE(
+      Printed().find("grant r1: refused: no request for r1's lock waits (handover r1 op2 gives it unasked)"),
+      std::string::npos);
+  EXPECT_TRUE(fleet_.sent().empty());
+  fleet_.Mutate("r1", [](RobotView& v) { v.state->control_requester_id("op2"); });
+  EXPECT_EQ(shell_.Execute("deny r1 op3"), kRefused);
+  EXPECT_NE(Printed().find("the request waiting for r1's lock is op2's"), std::string::npos);
+  EXPECT_EQ(shell_.Execute("grant r1 op2"), kOk);
+  EXPECT_EQ(fleet_.sent(), (Sent{"HandOverControl r1 op2"}));
+  EXPECT_NE(Printed().find("grant r1: accepted"), std::string::npos);
+  fleet_.Mutate("r2", [](RobotView& v) { v.state->control_requester_id("op3"); });
+  EXPECT_EQ(shell_.Execute("deny r2 op3"), kOk);
+  EXPECT_EQ(shell_.Execute("handover r3 op2"), kOk);
+  EXPECT_EQ(fleet_.sent(), (Sent{"HandOverControl r1 op2", "DenyControl r2 op3", "HandOverControl r3 op2"}));
+  EXPECT_EQ(shell_.Execute("handover r3"), kUsage);
+  EXPECT_NE(Printed().find("usage: handover R BASE"), std::string::npos);
+}
+
+// Several robots in one command: each gets its own command, in parallel, and its own answer line.
+TEST_F(CommandShellTest, StopAndExploreTakeSeveralRobots) {
+  EXPECT_EQ(shell_.Execute("stop r1 r3"), kOk);
+  Sent sent = fleet_.sent();
+  std::sort(sent.begin(), sent.end());
+  EXPECT_EQ(sent, (Sent{"Stop r1", "Stop r3"}));
+  const std::string printed = Printed();
+  EXPECT_NE(printed.find("stop r1: accepted"), std::string::npos) << printed;
+  EXPECT_NE(printed.find("stop r3: accepted"), std::string::npos) << printed;
+  EXPECT_EQ(shell_.Execute("stop r1 all"), kUsage);
+  EXPECT_EQ(shell_.Execute("explore r1 r2 --wait"), kUsage);
+  EXPECT_NE(Printed().find("--wait takes one robot"), std::string::npos);
+  EXPECT_EQ(shell_.Execute("explore r1 r2"), kOk);
+  const std::string explored = Printed();
+  EXPECT_NE(explored.find("explore r1: accepted"), std::string::npos) << explored;
+  EXPECT_NE(explored.find("explore r2: accepted"), std::string::npos) << explored;
 }
 
 TEST_F(CommandShellTest, StopAllStopsEveryRobot) {

@@ -32,6 +32,13 @@ TEST(CommandTable, EveryCommandOnceWithItsSynopsisAndHelp) {
   EXPECT_THROW(UsageOf("gotoo"), std::logic_error);
 }
 
+TEST(CommandTable, OptionsAreReadFromTheSynopsis) {
+  EXPECT_EQ(OptionsOf(*FindCommand("goto")), (std::vector<std::string>{"--z", "--wait"}));
+  EXPECT_EQ(OptionsOf(*FindCommand("explore")),
+            (std::vector<std::string>{"--region", "--z-range", "--home-after-silence", "--wait"}));
+  EXPECT_TRUE(OptionsOf(*FindCommand("status")).empty());
+}
+
 TEST(CommandTable, HelpListsEveryCommandWithinItsWidth) {
   const std::string help = CommandHelp(104);
   for (const CommandSpec& spec : CommandTable()) {

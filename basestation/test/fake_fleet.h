@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cmath>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <sstream>
@@ -48,6 +49,11 @@ class FakeFleet : public Fleet {
     v.announced = true;
     v.state.reset();
     v.last_seen = core::SteadyClock::now();
+  }
+  /// Changes robot `id`'s view as its next state would (`change` gets the view; the robot must be known).
+  void Mutate(const std::string& id, const std::function<void(RobotView&)>& change) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    change(robots_.at(id));
   }
   /// The next commands to `id` are refused with `reason` (the robot's words); "" accepts them again.
   void RefuseCommandsTo(const std::string& id, const std::string& reason) {
@@ -97,6 +103,16 @@ class FakeFleet : public Fleet {
   }
   CommandOutcome ReleaseControl(const std::string& robot_id) override {
     return Answer(robot_id, "ReleaseControl " + robot_id, [&](RobotView& v) { v.state->holder_id(""); });
+  }
+  CommandOutcome HandOverControl(const std::string& robot_id, const std::string& to_base_id) override {
+    return Answer(robot_id, "HandOverControl " + robot_id + " " + to_base_id, [&](RobotView& v) {
+      v.state->holder_id(to_base_id);
+      v.state->control_requester_id("");
+    });
+  }
+  CommandOutcome DenyControl(const std::string& robot_id, const std::string& to_base_id) override {
+    return Answer(robot_id, "DenyControl " + robot_id + " " + to_base_id,
+                  [&](RobotView& v) { v.state->control_requester_id(""); });
   }
   CommandOutcome RequestMode(const std::string& robot_id, const std::string& mode) override {
     return Answer(robot_id, "RequestMode " + robot_id + " " + mode,

@@ -266,6 +266,42 @@ TEST(FleetEventDetector, ChangesAfterTheFirstWholeStateAreToldEvenBeforeTheFirst
   EXPECT_EQ(Kinds(detector.Observe({r2})), (std::vector<std::string>{"back", "stopped"}));
 }
 
+// A request for a held lock is told once (with what the holder may answer), the answer once, in the robot's
+// words; a grant is told as the handover, not as a lock taken.
+TEST(FleetEventDetector, ARequestForTheLockAndItsAnswerAreToldOnce) {
+  FleetEventDetector detector;
+  RobotView r1 = Robot("r1", 0, 0);
+  r1.state->holder_id("opA");
+  detector.Observe({r1});
+  r1.state->control_requester_id("opB");
+  r1.state->control_request_left_s(29.6);
+  auto events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"control_requested"}));
+  EXPECT_EQ(events[0].message,
+            "r1: opB asks for control (held by opA): grant r1 opB or deny r1 opB within 30 s");
+  EXPECT_EQ(events[0].other, "opB");
+  r1.state->control_request_left_s(20.0);
+  EXPECT_TRUE(detector.Observe({r1}).empty()) << "a request is told once, not as its time runs down";
+
+  r1.state->control_requester_id("");
+  r1.state->holder_id("opB");
+  r1.state->handovers(1);
+  r1.state->handover_outcome("opA granted opB's request: opB holds the lock");
+  events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"control_handover"}));
+  EXPECT_EQ(events[0].message, "r1: opA granted opB's request: opB holds the lock");
+  EXPECT_EQ(events[0].other, "opB");
+
+  r1.state->control_requester_id("opC");
+  detector.Observe({r1});
+  r1.state->control_requester_id("");
+  r1.state->handovers(2);
+  r1.state->handover_outcome("opC's request expired: opB did not answer within 30 s");
+  events = detector.Observe({r1});
+  ASSERT_EQ(Kinds(events), (std::vector<std::string>{"control_handover"}));
+  EXPECT_EQ(events[0].reason, "opC's request expired: opB did not answer within 30 s");
+}
+
 TEST(FleetEventDetector, LocksStopsLossAndReturn) {
   FleetEventDetector detector;
   RobotView r1 = Robot("r1", 0, 0);

@@ -62,32 +62,39 @@ TEST(ValidActions, OfferOnlyWhatTheRobotWouldAcceptFromThisBasestation) {
   RobotView free = HeldBy("", {"idle"}, false);
   EXPECT_EQ(ValidActions(free, "op1"), (std::vector<std::string>{"request-control", "yield", "stop"}));
   RobotView other = HeldBy("opB", {"idle", "manual"}, true);
-  EXPECT_EQ(ValidActions(other, "op1"), (std::vector<std::string>{"yield", "stop"}));
+  EXPECT_EQ(ValidActions(other, "op1"), (std::vector<std::string>{"request-control", "yield", "stop"}))
+      << "a request asks the holder to hand it over";
   RobotView mine = HeldBy("op1", {"idle", "manual", "waypoint"}, true);
-  EXPECT_EQ(ValidActions(mine, "op1"), (std::vector<std::string>{"mode idle|manual", "goto", "home", "convoy",
-                                                                 "teleop", "yield", "release", "stop"}));
+  EXPECT_EQ(ValidActions(mine, "op1"),
+            (std::vector<std::string>{"mode idle|manual", "goto", "home", "convoy", "teleop", "yield",
+                                      "handover", "release", "stop"}));
   EXPECT_EQ(ValidActionsText(mine, "op1"),
-            "valid now: mode idle|manual, goto, home, convoy, teleop, yield, release, stop");
+            "valid now: mode idle|manual, goto, home, convoy, teleop, yield, handover, release, stop");
+  // Another basestation asks for it: the holder may grant or deny.
+  RobotView asked = mine;
+  asked.state->control_requester_id("op2");
+  EXPECT_EQ(ValidActions(asked, "op1").front(), "grant op2");
+  EXPECT_EQ(ValidActions(asked, "op1")[1], "deny op2");
   // Explore when the tree would take a task (a mapping robot); the explore mode itself is not a
   // `mode` action (explore sets the task).
   RobotView explorer = HeldBy("op1", {"idle", "manual", "waypoint", "explore"}, true);
   explorer.tree->explore_acceptable(true);
   EXPECT_EQ(ValidActions(explorer, "op1"),
             (std::vector<std::string>{"mode idle|manual", "goto", "home", "explore", "convoy", "teleop",
-                                      "yield", "release", "stop"}));
+                                      "yield", "handover", "release", "stop"}));
   // A convoy follower may peel off or end the convoy; convoy mode itself is set by convoy.
   RobotView follower = HeldBy("op1", {"idle", "manual", "waypoint", "convoy"}, true);
   follower.state->convoy_ahead_ids({"r0"});
   EXPECT_EQ(ValidActions(follower, "op1"),
             (std::vector<std::string>{"mode idle|manual", "goto", "home", "convoy", "peel", "convoy-stop",
-                                      "teleop", "yield", "release", "stop"}));
+                                      "teleop", "yield", "handover", "release", "stop"}));
   RobotView no_goal = HeldBy("op1", {"idle"}, false);  // e.g. the local planner is not ready
   EXPECT_EQ(ValidActions(no_goal, "op1"),
-            (std::vector<std::string>{"mode idle", "yield", "release", "stop"}));
+            (std::vector<std::string>{"mode idle", "yield", "handover", "release", "stop"}));
   // Get out of the way is never offered for a robot an operator drives (its policy would refuse).
   RobotView driven = HeldBy("opB", {"idle", "manual"}, true);
   driven.state->mode("manual");
-  EXPECT_EQ(ValidActions(driven, "op1"), (std::vector<std::string>{"stop"}));
+  EXPECT_EQ(ValidActions(driven, "op1"), (std::vector<std::string>{"request-control", "stop"}));
   mine.lost = true;
   EXPECT_EQ(ValidActions(mine, "op1"), (std::vector<std::string>{"stop"})) << "a stop is always allowed";
 }

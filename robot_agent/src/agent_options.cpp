@@ -199,7 +199,8 @@ void AgentOptions::LoadConfigFile(const std::string& path) {
                             "ros2"});  // the simulated platform's (sim::SimulatedPlatformOptions) and the ROS
                                        // 2 driver's (ros2::Ros2PlatformOptions)
   config.Section("command_interface")
-      .ReadFields({{"lock_keep_s", &lock.lock_keep_s, /*allow_infinity_in=*/true}});
+      .ReadFields({{"lock_keep_s", &lock.lock_keep_s, /*allow_infinity_in=*/true},
+                   {"handover_request_timeout_s", &lock.handover_request_timeout_s}});
   config.Section("mux").ReadFields(
       {{"teleop_timeout_s", &teleop_timeout_s}, {"waypoint_timeout_s", &waypoint_timeout_s}});
   ReadNavigation(config, this);

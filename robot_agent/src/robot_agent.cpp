@@ -276,6 +276,7 @@ class RobotAgent::Impl {
     if (in.paused_mission)
       in.mission_paused_s = std::max(0.0, NowS(time_.clock->Now()) - in.paused_mission->since_s);
     in.mission_note = modes_->missions().note();
+    in.control_request_left_s = command_->lock().PendingLeftS(time_.clock->Now());
     return in;
   }
   void SendClaim(const ExploreClaim& claim) {

@@ -88,7 +88,9 @@ struct Robot {
     c.mapping_problem = "no lidar scan for 3.5 s";
     return c;
   }
-  void Take(const CommandSender& who) { command->OnControl(ControlCommand{who, 1, false, ""}, kT0); }
+  void Take(const CommandSender& who) {
+    command->OnControl(ControlCommand{who, 1, ControlAction::kRequest, "", ""}, kT0);
+  }
   const CommandReply& last() const { return replies.back(); }
 
   StickMode* manual = nullptr;
@@ -117,7 +119,8 @@ TEST(CommandInterface, OnlyTheHoldersCommandsRunAndOthersAreToldWhoHoldsTheLock)
   EXPECT_EQ(r.last().holder_id, "opA");
   r.Take(OpB());
   EXPECT_EQ(r.last().result, CommandResult::kDenied);
-  EXPECT_EQ(r.last().reason, "robot r1 is locked by basestation opA");
+  EXPECT_EQ(r.last().reason.rfind("robot r1 is locked by basestation opA: asked opA to hand it over", 0), 0u)
+      << r.last().reason;
 
   r.command->OnMode(ModeCommand{OpB(), 7, "manual"});
   EXPECT_EQ(r.last().result, CommandResult::kDiscarded);
@@ -172,11 +175,11 @@ TEST(CommandInterface, AReleaseStopsTheRobot) {
   Robot r;
   r.Take(OpA());
   r.command->OnMode(ModeCommand{OpA(), 2, "manual"});
-  r.command->OnControl(ControlCommand{OpB(), 3, true, ""}, kT0);
+  r.command->OnControl(ControlCommand{OpB(), 3, ControlAction::kRelease, "", ""}, kT0);
   EXPECT_EQ(r.last().result, CommandResult::kDenied);
   EXPECT_EQ(r.last().reason, "only the holder releases: robot r1 is locked by basestation opA");
   EXPECT_EQ(r.modes->mode(), "manual");
-  r.command->OnControl(ControlCommand{OpA(), 3, true, ""}, kT0);
+  r.command->OnControl(ControlCommand{OpA(), 3, ControlAction::kRelease, "", ""}, kT0);
   EXPECT_EQ(r.last().result, CommandResult::kAccepted);
   EXPECT_EQ(r.last().kind, CommandKind::kControlRelease);
   EXPECT_EQ(r.modes->mode(), "idle");
@@ -184,16 +187,58 @@ TEST(CommandInterface, AReleaseStopsTheRobot) {
 
 // A control command holding a value no basestation sends (an unknown action) is refused with it, and the lock
 // is neither taken nor released.
+// A handover keeps what the robot does: the goal it drives stays, in its mode, now the new holder's; only the
+// holder hands over, and the answer is not a mission command (a paused mission is not ended by it).
+TEST(CommandInterface, AGrantHandsTheLockOverKeepingTheModeAndGoal) {
+  Robot r;
+  r.Take(OpA());
+  r.command->OnGoal(Goal(OpA(), 2));
+  ASSERT_EQ(r.planned.size(), 1u);
+  r.command->OnGoalPlanned(r.planned.back(), nav::GlobalPlan{});
+  ASSERT_EQ(r.modes->mode(), "waypoint");
+  const std::uint64_t missions = r.command->mission_commands();
+
+  r.Take(OpB());
+  ASSERT_EQ(r.last().result, CommandResult::kDenied);
+  ASSERT_TRUE(r.command->lock().pending_request().has_value());
+  r.command->OnControl(ControlCommand{OpB(), 2, ControlAction::kHandover, "", "opB"}, kT0);
+  EXPECT_EQ(r.last().kind, CommandKind::kControlHandover);
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_EQ(r.last().reason, "only the holder hands over: robot r1 is locked by basestation opA");
+  EXPECT_EQ(r.command->lock().holder_id(), "opA");
+
+  r.command->OnControl(ControlCommand{OpA(), 3, ControlAction::kHandover, "", "opB"}, kT0);
+  EXPECT_EQ(r.last().result, CommandResult::kAccepted) << r.last().reason;
+  EXPECT_EQ(r.last().holder_id, "opB");
+  EXPECT_EQ(r.modes->mode(), "waypoint") << "the goal is driven on for its new holder";
+  EXPECT_TRUE(r.has_goal);
+  EXPECT_EQ(r.command->mission_commands(), missions);
+  EXPECT_EQ(r.command->lock().handover_outcome(), "opA granted opB's request: opB holds the lock");
+
+  // The new holder commands; the old one is discarded.
+  r.command->OnMode(ModeCommand{OpA(), 4, "idle"});
+  EXPECT_EQ(r.last().result, CommandResult::kDiscarded);
+  r.command->OnMode(ModeCommand{OpB(), 3, "idle"});
+  EXPECT_EQ(r.last().result, CommandResult::kAccepted);
+
+  // A denial with no request waiting is refused, naming what is wrong.
+  r.command->OnControl(ControlCommand{OpB(), 4, ControlAction::kDeny, "", "opA"}, kT0);
+  EXPECT_EQ(r.last().kind, CommandKind::kControlDeny);
+  EXPECT_EQ(r.last().result, CommandResult::kDenied);
+  EXPECT_EQ(r.last().reason, "no request from basestation opA waits for robot r1's lock");
+}
+
 TEST(CommandInterface, AMalformedControlCommandIsRefusedNamingTheValue) {
   Robot r;
-  ControlCommand odd{OpB(), 1, false, "action 99 is neither REQUEST (0) nor RELEASE (1)"};
+  ControlCommand odd{OpB(), 1, ControlAction::kRequest,
+                     "action 99 is none of REQUEST, RELEASE, HANDOVER, DENY (0-3)", ""};
   r.command->OnControl(odd, kT0);
   EXPECT_EQ(r.last().result, CommandResult::kDenied);
-  EXPECT_EQ(r.last().reason, "refused: action 99 is neither REQUEST (0) nor RELEASE (1)");
+  EXPECT_EQ(r.last().reason, "refused: action 99 is none of REQUEST, RELEASE, HANDOVER, DENY (0-3)");
   EXPECT_EQ(r.command->lock().holder_id(), "");
   r.Take(OpA());
   odd.request_id = 2;
-  odd.release = true;
+  odd.action = ControlAction::kRelease;
   r.command->OnControl(odd, kT0);
   EXPECT_EQ(r.last().result, CommandResult::kDenied);
   EXPECT_EQ(r.command->lock().holder_id(), "opA");
@@ -281,7 +326,7 @@ TEST(CommandInterface, AGoalWhoseLockMovedWhileItWasPlannedIsDiscarded) {
   r.Take(OpA());
   r.command->OnGoal(Goal(OpA(), 6));
   ASSERT_EQ(r.planned.size(), 1u);
-  r.command->OnControl(ControlCommand{OpA(), 7, true, ""}, kT0);
+  r.command->OnControl(ControlCommand{OpA(), 7, ControlAction::kRelease, "", ""}, kT0);
   r.Take(OpB());
   r.command->OnGoalPlanned(r.planned[0], nav::GlobalPlan{});
   EXPECT_EQ(r.last().result, CommandResult::kDiscarded);

@@ -21,7 +21,10 @@ TEST(ControlLock, GrantsWhenFreeDeniesOthersNamingTheHolder) {
   const LockDecision denied = lock.Request("opB", kB, t0);
   EXPECT_FALSE(denied.accepted);
   EXPECT_EQ(denied.holder_id, "opA");
-  EXPECT_EQ(denied.reason, "robot r1 is locked by basestation opA");
+  EXPECT_EQ(
+      denied.reason,
+      "robot r1 is locked by basestation opA: asked opA to hand it over (grant r1 opB or deny r1 opB there, "
+      "within 30 s)");
   EXPECT_TRUE(lock.IsHolder("opA"));
   EXPECT_FALSE(lock.IsHolder("opB"));
   EXPECT_FALSE(lock.Request("", kB, t0).accepted);
@@ -161,6 +164,100 @@ TEST(ControlLock, FreesAfterLockKeepWhenConfigured) {
   EXPECT_TRUE(lock.Request("opB", kB, t0 + 16s).accepted);
 }
 
+// Handover between operators: a request for a held lock waits for the holder's answer. A grant hands it over
+// (the requester's process speaks for it at once), a denial ends the request, both counted and told.
+TEST(ControlLock, ARequestWaitsForTheHoldersGrantOrDenial) {
+  ControlLock lock("r1", {});
+  const auto t0 = core::SteadyClock::now();
+  lock.OnParticipantAlive("opA", kReplA);
+  ASSERT_TRUE(lock.Request("opA", kReplA, t0).accepted);
+  EXPECT_FALSE(lock.Request("opB", kB, t0).accepted);
+  ASSERT_TRUE(lock.pending_request().has_value());
+  EXPECT_EQ(lock.pending_request()->base_id, "opB");
+  EXPECT_DOUBLE_EQ(lock.PendingLeftS(t0 + 10s), 20.0);
+  EXPECT_EQ(lock.handovers(), 0u);
+
+  // Only the holder answers; a denial of someone who did not ask is refused, naming who waits.
+  EXPECT_FALSE(lock.Handover("opB", "opB").accepted);
+  EXPECT_FALSE(lock.Deny("opB", "opB").accepted);
+  const LockDecision nobody = lock.Deny("opA", "opC");
+  EXPECT_FALSE(nobody.accepted);
+  EXPECT_EQ(nobody.reason, "no request from basestation opC waits for robot r1's lock");
+
+  EXPECT_TRUE(lock.Deny("opA", "opB").accepted);
+  EXPECT_FALSE(lock.pending_request().has_value());
+  EXPECT_EQ(lock.holder_id(), "opA");
+  EXPECT_EQ(lock.handovers(), 1u);
+  EXPECT_EQ(lock.handover_outcome(), "opA denied opB's request for the lock");
+
+  EXPECT_FALSE(lock.Request("opB", kB, t0 + 1s).accepted);  // asks again
+  const LockDecision granted = lock.Handover("opA", "opB");
+  ASSERT_TRUE(granted.accepted) << granted.reason;
+  EXPECT_EQ(granted.holder_id, "opB");
+  EXPECT_TRUE(lock.IsHolder("opB"));
+  EXPECT_TRUE(lock.holder_alive());
+  EXPECT_EQ(lock.holder_participant(), kB) << "the process that asked speaks for the new holder";
+  EXPECT_FALSE(lock.pending_request().has_value());
+  EXPECT_EQ(lock.handovers(), 2u);
+  EXPECT_EQ(lock.handover_outcome(), "opA granted opB's request: opB holds the lock");
+  EXPECT_FALSE(lock.Release("opA").accepted) << "the old holder no longer holds it";
+}
+
+// One request waits at a time; a second requester is told who waits and for how long. An unanswered request
+// expires, and one whose process left is dropped.
+TEST(ControlLock, OneRequestWaitsItExpiresOrIsDroppedWhenItsBasestationLeaves) {
+  ControlLockOptions options;
+  options.handover_request_timeout_s = 10.0;
+  ControlLock lock("r1", options);
+  const auto t0 = core::SteadyClock::now();
+  const std::string kC = "01.0f.cc.cc.00.00.00.01.00.00.00.01";
+  ASSERT_TRUE(lock.Request("opA", kReplA, t0).accepted);
+  EXPECT_FALSE(lock.Request("opB", kB, t0).accepted);
+  const LockDecision second = lock.Request("opC", kC, t0 + 4s);
+  EXPECT_FALSE(second.accepted);
+  EXPECT_NE(second.reason.find("basestation opB's request waits for its answer (6 s left)"),
+            std::string::npos)
+      << second.reason;
+  EXPECT_EQ(lock.pending_request()->base_id, "opB");
+
+  EXPECT_FALSE(lock.Update(t0 + 9s));
+  EXPECT_TRUE(lock.pending_request().has_value());
+  lock.Update(t0 + 10s + 1ms);
+  EXPECT_FALSE(lock.pending_request().has_value());
+  EXPECT_EQ(lock.handover_outcome(), "opB's request expired: opA did not answer within 10 s");
+  EXPECT_EQ(lock.holder_id(), "opA");
+
+  EXPECT_FALSE(lock.Request("opC", kC, t0 + 11s).accepted);  // now it may wait
+  EXPECT_EQ(lock.pending_request()->base_id, "opC");
+  lock.OnParticipantLost(kC, t0 + 12s);
+  EXPECT_FALSE(lock.pending_request().has_value());
+  EXPECT_EQ(lock.handover_outcome(), "opC's request was dropped: its basestation left");
+  EXPECT_EQ(lock.handovers(), 2u);
+}
+
+// The holder hands the lock over unasked to a basestation that is running (announced, live), never to one
+// the robot has not heard; a release while a request waits frees the lock and says so.
+TEST(ControlLock, AHandoverUnaskedGoesOnlyToALiveBasestation) {
+  ControlLock lock("r1", {});
+  const auto t0 = core::SteadyClock::now();
+  ASSERT_TRUE(lock.Request("opA", kReplA, t0).accepted);
+  const LockDecision unknown = lock.Handover("opA", "opB");
+  EXPECT_FALSE(unknown.accepted);
+  EXPECT_NE(unknown.reason.find("no live basestation opB"), std::string::npos) << unknown.reason;
+  EXPECT_FALSE(lock.Handover("opA", "opA").accepted);
+  EXPECT_FALSE(lock.Handover("opA", "").accepted);
+  lock.OnParticipantAlive("opB", kB);
+  ASSERT_TRUE(lock.Handover("opA", "opB").accepted);
+  EXPECT_EQ(lock.holder_participant(), kB);
+  EXPECT_EQ(lock.handover_outcome(), "opA handed the lock over to opB");
+
+  EXPECT_FALSE(lock.Request("opA", kReplA, t0 + 1s).accepted);
+  ASSERT_TRUE(lock.Release("opB").accepted);
+  EXPECT_EQ(lock.handover_outcome(), "opB released the lock while opA waited: it is free");
+  EXPECT_FALSE(lock.pending_request().has_value());
+  EXPECT_TRUE(lock.Request("opA", kReplA, t0 + 2s).accepted);
+}
+
 TEST(ControlLock, CountsDiscardedAndValidatesOptions) {
   ControlLock lock("r1", {});
   lock.CountDiscarded();
@@ -173,6 +270,10 @@ TEST(ControlLock, CountsDiscardedAndValidatesOptions) {
   bad.lock_keep_s = -1;
   EXPECT_FALSE(bad.IsValid(&why));
   EXPECT_NE(why.find("lock_keep_s"), std::string::npos);
+  ControlLockOptions no_wait;
+  no_wait.handover_request_timeout_s = 0.0;
+  EXPECT_FALSE(no_wait.IsValid(&why));
+  EXPECT_EQ(why, "handover_request_timeout_s = 0.000000 must be in (0, 3600] seconds");
 }
 
 }  // namespace

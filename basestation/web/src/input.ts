@@ -15,7 +15,9 @@ export async function run(request: CommandRequest, quiet = false): Promise<Comma
   state.lastResult = result;
   if (!quiet || !result.ok) {
     const words = result.ok ? `${line}: ${result.result ?? "accepted"}` : `${line}: ${result.result ?? "failed"} — ${result.reason ?? ""}`;
-    toast(words, result.ok ? "ok" : "bad");
+    // A request for a held lock is refused for now but waits for its holder's answer: news, not a failure.
+    const waits = request.name === "request-control" && /asked \S+ to hand it over/.test(result.reason ?? "");
+    toast(words, result.ok ? "ok" : waits ? "info" : "bad");
   }
   render();
   return result;

@@ -8,7 +8,7 @@
 //   input.ts   buttons, taps, goals, convoys, driving, keys
 //   main.ts    (here) the messages from cairn_base into the state, and the start
 import { installInput, confirmGoal, proposeGoal, run, select } from "./input";
-import { kToastMaxAgeMs, render, renderEvents, renderHealth, renderRobot, seenEvents, setTab, toast } from "./panels";
+import { kToastMaxAgeMs, render, renderEvents, renderHealth, renderRequests, renderRobot, seenEvents, setTab, toast } from "./panels";
 import { $, link, params, scene, state, type EventEntry } from "./state";
 import { Topic, type CameraMessage, type CommandTableMessage, type EventMessage, type FleetMessage } from "./wire";
 
@@ -69,6 +69,7 @@ function onMessage(topic: string, message: unknown): void {
 window.setInterval(() => {
   renderHealth();
   renderRobot();
+  renderRequests();
 }, 1000);
 
 installInput();

@@ -49,6 +49,34 @@ export function render(): void {
   renderFleet();
   renderRobot();
   renderHealth();
+  renderRequests();
+}
+
+/** The requests for control locks: to this basestation's operator, when it holds a lock another asks for (with
+ *  Grant and Deny), and when it waits for another's answer. Shown over the 3D view whatever the tab. */
+export function renderRequests(): void {
+  const cards: string[] = [];
+  const left = new Map<string, string>();
+  for (const r of state.robots) {
+    const from = r.control_request?.from;
+    if (!from) continue;
+    left.set(r.id, `${Math.max(0, Math.ceil(r.control_request!.left_s))} s left`);
+    if (r.you_hold) {
+      cards.push(`<div class="request" data-request="${r.id}"><b>${from}</b> asks for control of <b>${r.id}</b> (<span class="left"></span>)
+        <button class="act" ${commandAttribute(Command.grant(r.id, from))}>Grant</button>
+        <button class="act" ${commandAttribute(Command.deny(r.id, from))}>Deny</button></div>`);
+    } else if (from === state.baseId) {
+      cards.push(`<div class="request mine" data-request="${r.id}">waiting for <b>${r.holder}</b> to answer your request for <b>${r.id}</b> (<span class="left"></span>)</div>`);
+    }
+  }
+  // The cards are rebuilt only when the requests change (their buttons stay put under a finger); the seconds
+  // left are updated in place.
+  setHtml($("requests"), cards.join(""));
+  for (const card of Array.from($("requests").querySelectorAll<HTMLElement>("[data-request]"))) {
+    const span = card.querySelector<HTMLElement>(".left");
+    const text = left.get(card.dataset.request ?? "") ?? "";
+    if (span && span.textContent !== text) span.textContent = text;
+  }
 }
 
 function renderFleet(): void {
@@ -97,7 +125,10 @@ function actionButtons(r: Robot): string {
   const button = (request: CommandRequest, label: string, style = "") =>
     b.push(`<button class="act${style ? " mode" : ""}" ${commandAttribute(request)}${style ? ` style="${style}"` : ""}>${label}</button>`);
   for (const action of r.valid_actions) {
-    if (action === "request-control") button(Command.requestControl(r.id), "Request control");
+    if (action === "request-control")
+      button(Command.requestControl(r.id), r.holder && !r.you_hold ? `Ask ${r.holder} for control` : "Request control");
+    else if (action.startsWith("grant ")) button(Command.grant(r.id, action.slice(6)), `Grant control to ${action.slice(6)}`);
+    else if (action.startsWith("deny ")) button(Command.deny(r.id, action.slice(5)), `Deny ${action.slice(5)}`);
     else if (action === "release") button(Command.release(r.id), "Release control");
     else if (action.startsWith("mode ")) {
       for (const mode of action.slice(5).split("|")) {

@@ -109,9 +109,14 @@ export interface Robot {
   pose?: Point & { yaw_rad: number };
   speed_mps: number;
   in_contact: boolean;
-  /** Action names: request-control, release, goto, teleop, explore, home, convoy, peel, yield, convoy-stop,
-   *  and "mode A|B|C" (the modes the robot's tree allows now). */
+  /** Action names: request-control, release, handover, goto, teleop, explore, home, convoy, peel, yield,
+   *  convoy-stop, "mode A|B|C" (the modes the robot's tree allows now), and "grant B" / "deny B" while
+   *  basestation B's request for the lock waits for this one's answer. */
   valid_actions: string[];
+  /** A basestation waiting for the holder to hand the lock over ("" none), and the seconds left. */
+  control_request?: { from: string; left_s: number };
+  /** The holder's last answer or handover (a grant, a denial, an expiry), counted. */
+  handover?: { count: number; outcome: string };
   max_speed_mps: number;
   max_reverse_speed_mps: number;
   max_yaw_rate_radps: number;
@@ -213,6 +218,8 @@ export interface CommandResult {
 export const Command = {
   requestControl: (robot: string): CommandRequest => ({ name: "request-control", robot }),
   release: (robot: string): CommandRequest => ({ name: "release", robot }),
+  grant: (robot: string, base: string): CommandRequest => ({ name: "grant", robot, args: [base] }),
+  deny: (robot: string, base: string): CommandRequest => ({ name: "deny", robot, args: [base] }),
   stop: (robot: string): CommandRequest => ({ name: "stop", robot }),
   stopAll: (): CommandRequest => ({ name: "stop", robot: "all" }),
   mode: (robot: string, mode: string): CommandRequest => ({ name: "mode", robot, args: [mode] }),

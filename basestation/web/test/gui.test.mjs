@@ -64,7 +64,7 @@ test("request control: the holder gets the drive actions; a second GUI sees the 
   await page2.locator('#fleet-rows tr[data-robot="r1"]').click();
   await waitFor("op2 sees op1 holding r1", async () => (await page2.locator("#robot-head").innerText()).includes("held by op1"));
   assert.match(await page2.locator('#fleet-rows tr[data-robot="r1"]').innerText(), /op1/);
-  assert.deepEqual(await page2.locator("#actions button").allInnerTexts(), ["STOP"]);
+  assert.deepEqual(await page2.locator("#actions button").allInnerTexts(), ["Ask op1 for control", "STOP"]);
   await screenshot(page2, "04_second_gui_no_drive_buttons");
 });
 
@@ -379,6 +379,49 @@ test("a robot another one's route passes offers Get out of the way; pressed, it 
     return r?.mode === "idle" && /^back at/.test(r?.yield?.reason ?? "");
   }, 60000);
   await waitFor("r1 arrived", async () => (await robotState(page1, "r1"))?.nav_status === "arrived", 60000);
+});
+
+test("handover: op2 asks op1 for r1; op1 sees the request over any tab, denies, then grants; op2 is told each answer", async () => {
+  await page2.locator('#tabs button[data-tab="fleet"]').click();
+  await page2.locator('#fleet-rows tr[data-robot="r1"]').click();
+  const ask = "Ask op1 for control";
+  await waitFor("op2's Ask op1 button", async () => (await page2.locator("#actions button").allInnerTexts()).includes(ask), 10000);
+  const before = await robotState(page1, "r1");
+  const card1 = page1.locator('#requests [data-request="r1"]');
+  const askAndSee = async () => {
+    await page2.evaluate(() => { window.cairn.state.lastResult = undefined; });
+    await page2.getByRole("button", { name: ask }).click();
+    const asked = await waitFor("op2's answer", () => page2.evaluate(() => window.cairn.state.lastResult), 10000);
+    assert.equal(asked.ok, false, JSON.stringify(asked));
+    assert.match(asked.reason, /asked op1 to hand it over/);
+    await waitFor("op1's request card", () => card1.isVisible(), 5000);
+  };
+  await page1.locator('#tabs button[data-tab="health"]').click(); // the request shows whatever the tab
+  await askAndSee();
+  assert.match(await card1.innerText(), /op2 asks for control of r1 \(\d+ s left\)/);
+  await waitFor("op2's waiting card", async () => /waiting for op1 to answer your request for r1/.test(await page2.locator("#requests").innerText()), 5000);
+  await screenshot(page1, "17_request_for_control");
+  await screenshot(page2, "18_waiting_for_the_answer");
+  const toasts = (page) => page.evaluate(() => window.cairn.state.toasts.map((t) => t.text));
+  await card1.getByRole("button", { name: "Deny" }).click();
+  await waitFor("op2 told of the denial", async () => (await toasts(page2)).includes("r1: op1 denied op2's request for the lock"), 5000)
+    .catch(async (e) => { throw new Error(`${e.message}; op2's toasts: ${JSON.stringify(await toasts(page2))}`); });
+  await waitFor("no request card left", async () =>
+    (await page1.locator("#requests .request").count()) === 0 && (await page2.locator("#requests .request").count()) === 0, 5000);
+  assert.equal((await robotState(page1, "r1")).holder, "op1");
+
+  await askAndSee();
+  await card1.getByRole("button", { name: "Grant" }).click();
+  await waitFor("op2 holds r1", async () => (await robotState(page2, "r1"))?.you_hold === true, 5000);
+  await waitFor("op2 told of the grant", async () => (await toasts(page2)).includes("r1: op1 granted op2's request: op2 holds the lock"), 5000);
+  const after = await robotState(page2, "r1");
+  assert.equal(after.mode, before.mode, "a grant keeps the robot's mode");
+  assert.equal(after.nav_goal_id, before.nav_goal_id, "and its goal");
+  await waitFor("op2's drive actions", async () => (await page2.locator("#actions button").allInnerTexts()).includes("Release control"), 5000);
+  await page1.locator('#tabs button[data-tab="fleet"]').click();
+  await page1.locator('#fleet-rows tr[data-robot="r1"]').click();
+  await waitFor("op1 offered the request now", async () => (await page1.locator("#actions button").allInnerTexts()).includes("Ask op2 for control"), 5000);
+  await screenshot(page2, "19_granted");
 });
 
 test("the pages raised no script error", () => {

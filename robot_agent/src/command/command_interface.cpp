@@ -78,7 +78,8 @@ void CommandInterface::Respond(const CommandSender& sender, uint32_t request_id,
   r.valid_modes = std::move(valid.modes);
   r.goal_acceptable = valid.goal_acceptable;
   if (result == CommandResult::kAccepted && kind != CommandKind::kControlRequest &&
-      kind != CommandKind::kRestart)
+      kind != CommandKind::kRestart && kind != CommandKind::kControlHandover &&
+      kind != CommandKind::kControlDeny)
     ++mission_commands_;
   hooks_.send(r);
   replies_.Insert(CommandKey{sender.writer, static_cast<uint32_t>(kind), request_id}, std::move(r));
@@ -95,19 +96,52 @@ bool CommandInterface::DiscardUnlessHolder(const CommandSender& sender, uint32_t
 
 void CommandInterface::OnControl(const ControlCommand& command, core::SteadyTime now) {
   const CommandSender& sender = command.sender;
-  const CommandKind kind = command.release ? CommandKind::kControlRelease : CommandKind::kControlRequest;
+  CommandKind kind = CommandKind::kControlRequest;
+  switch (command.action) {
+    case ControlAction::kRequest:
+      break;
+    case ControlAction::kRelease:
+      kind = CommandKind::kControlRelease;
+      break;
+    case ControlAction::kHandover:
+      kind = CommandKind::kControlHandover;
+      break;
+    case ControlAction::kDeny:
+      kind = CommandKind::kControlDeny;
+      break;
+  }
   if (ReplayIfDuplicate(sender, kind, command.request_id)) return;
   if (!command.malformed.empty()) {
     spdlog::warn("robot {}: control command {} from {} refused: {}", robot_id_, command.request_id,
                  sender.base_id, command.malformed);
     return Respond(sender, command.request_id, kind, CommandResult::kDenied, "refused: " + command.malformed);
   }
-  const LockDecision d = command.release ? lock_.Release(sender.base_id)
-                                         : lock_.Request(sender.base_id, sender.participant, now);
+  const uint32_t handovers_before = lock_.handovers();
+  LockDecision d;
+  switch (command.action) {
+    case ControlAction::kRequest:
+      d = lock_.Request(sender.base_id, sender.participant, now);
+      break;
+    case ControlAction::kRelease:
+      d = lock_.Release(sender.base_id);
+      break;
+    case ControlAction::kHandover:
+      d = lock_.Handover(sender.base_id, command.target_base_id);
+      break;
+    case ControlAction::kDeny:
+      d = lock_.Deny(sender.base_id, command.target_base_id);
+      break;
+  }
   if (d.accepted) {
-    spdlog::info("robot {}: control {} by {} (participant {})", robot_id_,
-                 command.release ? "released" : "granted", sender.base_id, sender.participant);
-    modes_->Recheck(hooks_.conditions());  // a release stops the robot (idle)
+    spdlog::info("robot {}: control {} by {} (participant {}){}", robot_id_,
+                 command.action == ControlAction::kRelease ? "released" : "granted", sender.base_id,
+                 sender.participant,
+                 lock_.handovers() != handovers_before ? ": " + lock_.handover_outcome() : "");
+    // A release stops the robot (idle); a handover keeps its mode and goal where the tree still allows them.
+    modes_->Recheck(hooks_.conditions());
+  } else if (command.action == ControlAction::kRequest && lock_.pending_request() &&
+             lock_.pending_request()->base_id == sender.base_id) {
+    spdlog::info("robot {}: {} asks {} for the control lock", robot_id_, sender.base_id, lock_.holder_id());
   }
   Respond(sender, command.request_id, kind, d.accepted ? CommandResult::kAccepted : CommandResult::kDenied,
           d.reason);
@@ -301,7 +335,10 @@ void CommandInterface::LoseParticipant(const std::string& participant, const std
                                        core::SteadyTime now) {
   const std::string holder = lock_.holder_id();
   const bool was_speaker = !holder.empty() && lock_.holder_participant() == participant;
+  const uint32_t handovers_before = lock_.handovers();
   lock_.OnParticipantLost(participant, now);
+  if (lock_.handovers() != handovers_before)
+    spdlog::info("robot {}: {}", robot_id_, lock_.handover_outcome());
   if (was_speaker && !lock_.holder_alive()) {
     spdlog::warn(
         "robot {}: control holder {} lost: its last process {} is gone ({}); modes that need a live "
@@ -315,9 +352,12 @@ void CommandInterface::LoseParticipant(const std::string& participant, const std
 }
 
 void CommandInterface::Update(core::SteadyTime now) {
+  const uint32_t handovers_before = lock_.handovers();
   if (lock_.Update(now)) {
     spdlog::warn("robot {}: control lock freed after {} s without its holder", robot_id_, lock_keep_s_);
   }
+  if (lock_.handovers() != handovers_before)
+    spdlog::info("robot {}: {}", robot_id_, lock_.handover_outcome());
   for (const auto& [writer, base] : bases_) {
     if (base.alive) last_base_alive_ = now;
   }

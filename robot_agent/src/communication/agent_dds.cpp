@@ -43,6 +43,10 @@ msgs::CommandKind KindOf(CommandKind kind) {
       return msgs::COMMAND_KIND_RESTART;
     case CommandKind::kConvoy:
       return msgs::COMMAND_KIND_CONVOY;
+    case CommandKind::kControlHandover:
+      return msgs::COMMAND_KIND_CONTROL_HANDOVER;
+    case CommandKind::kControlDeny:
+      return msgs::COMMAND_KIND_CONTROL_DENY;
     case CommandKind::kStop:
       break;
   }
@@ -448,12 +452,23 @@ class AgentDds::Impl {
     commands_.control = CommandReader<msgs::ControlRequestPubSubType>(
         "cairn/control_request", "cairn.command",
         [this](const msgs::ControlRequest& m, const SampleInfo& info) {
-          ControlCommand c{SenderOf(m.base_id(), info), m.request_id(),
-                           m.action() == msgs::CONTROL_ACTION_RELEASE, ""};
-          if (m.action() != msgs::CONTROL_ACTION_REQUEST && m.action() != msgs::CONTROL_ACTION_RELEASE) {
-            c.malformed = "action " + std::to_string(static_cast<int>(m.action())) + " is neither REQUEST (" +
-                          std::to_string(static_cast<int>(msgs::CONTROL_ACTION_REQUEST)) + ") nor RELEASE (" +
-                          std::to_string(static_cast<int>(msgs::CONTROL_ACTION_RELEASE)) + ")";
+          ControlCommand c{SenderOf(m.base_id(), info), m.request_id(), ControlAction::kRequest, "", ""};
+          switch (m.action()) {
+            case msgs::CONTROL_ACTION_REQUEST:
+              break;
+            case msgs::CONTROL_ACTION_RELEASE:
+              c.action = ControlAction::kRelease;
+              break;
+            case msgs::CONTROL_ACTION_HANDOVER:
+            case msgs::CONTROL_ACTION_DENY:
+              c.action =
+                  m.action() == msgs::CONTROL_ACTION_DENY ? ControlAction::kDeny : ControlAction::kHandover;
+              c.target_base_id = m.target_base_id();
+              c.malformed = core::CheckId("target_base_id", m.target_base_id());
+              break;
+            default:
+              c.malformed = "action " + std::to_string(static_cast<int>(m.action())) +
+                            " is none of REQUEST, RELEASE, HANDOVER, DENY (0-3)";
           }
           handlers_.control(c);
         });

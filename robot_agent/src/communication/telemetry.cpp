@@ -195,6 +195,10 @@ void Telemetry::PublishState(const RobotStateInputs& in) {
   m.holder_participant(lock.holder_participant());
   m.holder_participants(lock.holder_participants());
   m.discarded_commands(lock.discarded());
+  m.control_requester_id(lock.pending_request() ? lock.pending_request()->base_id : "");
+  m.control_request_left_s(in.control_request_left_s);
+  m.handovers(lock.handovers());
+  m.handover_outcome(lock.handover_outcome());
   const WaypointGoal& goal = waypoint_->goal();
   m.nav_status(NavStatusOf(goal.status));
   m.nav_reason(goal.reason);

@@ -78,6 +78,8 @@ class CommandShell {
   int Restart(const std::vector<std::string>& args);
   int HelpFor(const std::string& robot);
   int Control(const std::vector<std::string>& args, bool request);
+  // grant | deny | handover R BASE: the holder's answer to BASE's request, or a handover unasked.
+  int AnswerControl(const std::string& command, const std::string& robot, const std::string& to_base_id);
   int Mode(const std::vector<std::string>& args);
   // goto R POINT ... and home R [POINT] ... (`command`): a waypoint goal, the robot's start by default for
   // home.

@@ -73,6 +73,11 @@ class Fleet {
 
   virtual CommandOutcome RequestControl(const std::string& robot_id) = 0;
   virtual CommandOutcome ReleaseControl(const std::string& robot_id) = 0;
+  /// The holder (this basestation) gives `robot_id`'s lock to basestation `to_base_id`: a grant when `to`'s
+  /// request waits, else unasked. The robot keeps its mode and goal.
+  virtual CommandOutcome HandOverControl(const std::string& robot_id, const std::string& to_base_id) = 0;
+  /// The holder refuses the waiting request of basestation `to_base_id` for `robot_id`'s lock.
+  virtual CommandOutcome DenyControl(const std::string& robot_id, const std::string& to_base_id) = 0;
   virtual CommandOutcome RequestMode(const std::string& robot_id, const std::string& mode) = 0;
   /// `z_m`: the goal's level, the walkable surface at (x_m, y_m) nearest this height (metres, map frame);
   /// NaN = the robot's level.

@@ -66,6 +66,8 @@ class FleetClient : public Fleet {
 
   CommandOutcome RequestControl(const std::string& robot_id) override;
   CommandOutcome ReleaseControl(const std::string& robot_id) override;
+  CommandOutcome HandOverControl(const std::string& robot_id, const std::string& to_base_id) override;
+  CommandOutcome DenyControl(const std::string& robot_id, const std::string& to_base_id) override;
   CommandOutcome RequestMode(const std::string& robot_id, const std::string& mode) override;
   CommandOutcome SendWaypoint(const std::string& robot_id, double x_m, double y_m, double tolerance_m = 0.0,
                               double z_m = std::numeric_limits<double>::quiet_NaN()) override;

@@ -29,7 +29,9 @@ struct OperatorEvent {
   /// (a goal ended without arriving) | "recovering" (navigation gave up and the recovery tree runs: once when
   /// it starts and once per failed attempt) | "lost" (liveliness lapsed or state silent) | "left" (its
   /// process exited cleanly) | "back" | "over_budget" (it sends more than its stated link budget; `reason`:
-  /// the busiest topic class) | "lock_granted" | "lock_released" | "lock_taken" | "stopped" (an operator's
+  /// the busiest topic class) | "lock_granted" | "lock_released" | "lock_taken" | "control_requested"
+  /// (`other` asks the holder for the lock: grant or deny) | "control_handover" (the holder's answer, a
+  /// handover unasked, or a request that expired or was dropped: `reason`) | "stopped" (an operator's
   /// stop) | "staircase" | "proximity" | "component_failed" (a part of its agent threw or stalled and waits
   /// for its restart; `other`: the component, `reason`: why) | "component_restarted" |
   /// "component_restart_failed" | "component_escalated" (a part did not stop when asked: it is not restarted
@@ -114,6 +116,8 @@ class FleetEventDetector {
     bool over_budget = false;
     bool has_state = false;
     std::string holder;
+    std::string requester;   // RobotState::control_requester_id: who waits for the holder's answer
+    uint32_t handovers = 0;  // RobotState::handovers
     uint32_t goal_id = 0;
     cairn_msgs::NavStatus nav_status = cairn_msgs::NAV_STATUS_NONE;
     uint32_t stops = 0;

@@ -85,7 +85,8 @@ inline cairn_msgs::RobotState SlowPartOf(cairn_msgs::RobotState state) {
   state.link_usage().clear();
   state.convoy_gap_m(
       0.0);  // changes every cycle while following: it rides on the whole states that go anyway
-  state.mission_paused_s(0.0);  // grows while paused: it rides on the whole states that go anyway
+  state.mission_paused_s(0.0);        // grows while paused: it rides on the whole states that go anyway
+  state.control_request_left_s(0.0);  // shrinks while a request waits: likewise
   // NaN (the robot's level) never equals itself: compared as 0, or every state would differ from the last.
   if (std::isnan(state.resumable_goal_M().z_m())) state.resumable_goal_M().z_m(0.0);
   return state;
@@ -93,8 +94,8 @@ inline cairn_msgs::RobotState SlowPartOf(cairn_msgs::RobotState state) {
 
 /// True when `a` and `b` differ in what an operator or a script waits on: mode, mux channel, lock holder, its
 /// liveness and process, goal id and status, operator stops, exploration task and state, convoy state and
-/// order, yield state and peer. A robot sends such a change at once; the rest of
-/// the slow part (reasons, status texts, counters) may wait up to half a second.
+/// order, yield state and peer, a request for its lock and the holder's answer. A robot sends such a change
+/// at once; the rest of the slow part (reasons, status texts, counters) may wait up to half a second.
 inline bool UrgentChange(const cairn_msgs::RobotState& a, const cairn_msgs::RobotState& b) {
   return a.mode() != b.mode() || a.active_channel() != b.active_channel() || a.holder_id() != b.holder_id() ||
          a.holder_alive() != b.holder_alive() || a.holder_participant() != b.holder_participant() ||
@@ -102,7 +103,8 @@ inline bool UrgentChange(const cairn_msgs::RobotState& a, const cairn_msgs::Robo
          a.explore_task_id() != b.explore_task_id() || a.explore_state() != b.explore_state() ||
          a.mission_state() != b.mission_state() || a.convoy_state() != b.convoy_state() ||
          a.convoy_ahead_ids() != b.convoy_ahead_ids() || a.yield_state() != b.yield_state() ||
-         a.yield_peer_id() != b.yield_peer_id();
+         a.yield_peer_id() != b.yield_peer_id() || a.control_requester_id() != b.control_requester_id() ||
+         a.handovers() != b.handovers();
 }
 
 /// When a robot sends its whole state besides the 10 Hz pose: its first, after an urgent change

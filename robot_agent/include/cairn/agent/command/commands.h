@@ -33,7 +33,9 @@ enum class CommandKind : uint32_t {
   kExplore,
   kHome,
   kRestart,
-  kConvoy
+  kConvoy,
+  kControlHandover,
+  kControlDeny
 };
 /// Outcome of a command (CommandResponse.result).
 enum class CommandResult {
@@ -42,14 +44,24 @@ enum class CommandResult {
   kDiscarded,  ///< the sender does not hold the control lock: counted, not executed
 };
 
-/// request-control / release.
+/// What a control command does with the lock (ControlRequest.action).
+enum class ControlAction {
+  kRequest,   ///< request-control R: take it when free, else ask its holder (left pending)
+  kRelease,   ///< release R: give it back (the robot stops)
+  kHandover,  ///< grant R B / handover R B: the holder gives it to B, the robot's mode and goal kept
+  kDeny,      ///< deny R B: the holder refuses B's pending request
+};
+
+/// request-control / release / grant / deny / handover.
 struct ControlCommand {
   CommandSender sender;
   uint32_t request_id = 0;  ///< the writer's request id
-  bool release = false;     ///< true: release the lock; false: request it
+  ControlAction action = ControlAction::kRequest;
   /// Non-empty: the message holds a value no basestation sends (e.g. an unknown action), named with the
   /// value; the command is refused with it and nothing else is read.
   std::string malformed;
+  /// kHandover: the basestation id the lock goes to; kDeny: the one whose request is refused.
+  std::string target_base_id;
 };
 
 /// mode R MODE.

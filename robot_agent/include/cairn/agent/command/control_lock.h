@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <optional>
 #include <string>
 
 #include "cairn/core/time.h"
@@ -25,6 +26,9 @@ struct ControlLockOptions {
   /// How long the lock stays with a holder that no live process speaks for before it is freed, in seconds.
   /// Range [0, inf]; inf (the default) keeps it forever, as in the paper.
   double lock_keep_s = std::numeric_limits<double>::infinity();
+  /// How long a request for a lock another basestation holds waits for the holder's answer (hand it over or
+  /// deny it), in seconds, (0, 3600]; then it expires and both are told.
+  double handover_request_timeout_s = 30.0;
 
   /// @return false and sets `*why` (field, value, rule) when invalid.
   bool IsValid(std::string* why) const;
@@ -37,12 +41,22 @@ struct LockDecision {
   std::string holder_id;  ///< holder after the decision ("" = free)
 };
 
+/// A request for a lock another basestation holds, waiting for the holder's answer.
+struct PendingRequest {
+  std::string base_id;      ///< who asked
+  std::string participant;  ///< the process that asked: it speaks for the lock once handed over
+  core::SteadyTime asked_at{};
+};
+
 /// Control lock keyed by basestation id, with liveliness per participant (process).
 ///
 /// A request is granted when nobody holds the lock (or the requester's id already does), otherwise denied
-/// naming the holder. Only the holder's id releases. The holder is alive while some participant "speaks for"
-/// it: the participant that last sent it a command, or, when that one is lost, another live participant that
-/// announced the same id. With none left, the lock is kept for `lock_keep_s`, then freed.
+/// naming the holder and left pending: the holder hands the lock over to the requester (Handover) or denies
+/// it (Deny) within handover_request_timeout_s, or the request expires (Update). One request waits at a
+/// time; the holder may also hand the lock to any live basestation unasked. Only the holder's id releases.
+/// The holder is alive while some participant "speaks for" it: the participant that last sent it a command,
+/// or, when that one is lost, another live participant that announced the same id. With none left, the lock
+/// is kept for `lock_keep_s`, then freed.
 class ControlLock {
  public:
   ControlLock(std::string robot_id, ControlLockOptions options);
@@ -51,6 +65,12 @@ class ControlLock {
   /// speaks for the holder until it is lost).
   LockDecision Request(const std::string& base_id, const std::string& participant, core::SteadyTime now);
   LockDecision Release(const std::string& base_id);
+  /// The holder `from` gives the lock to `to` (a grant when `to`'s request waits, else unasked): accepted
+  /// when `from` holds it and a live process speaks for `to` (it announced `to`, or it sent the pending
+  /// request).
+  LockDecision Handover(const std::string& from, const std::string& to);
+  /// The holder `from` refuses the pending request of `to`.
+  LockDecision Deny(const std::string& from, const std::string& to);
 
   /// True when `base_id` holds the lock (commands from anyone else are to be discarded).
   bool IsHolder(const std::string& base_id) const { return !holder_.empty() && holder_ == base_id; }
@@ -71,8 +91,18 @@ class ControlLock {
   /// announces itself (OnParticipantAlive) or commands. "" leaves the lock free.
   void Restore(const std::string& base_id, core::SteadyTime now);
 
-  /// Frees the lock once the holder has been lost for longer than lock_keep_s. @return true if it freed it.
+  /// Frees the lock once the holder has been lost for longer than lock_keep_s, and expires a request older
+  /// than handover_request_timeout_s. @return true if it freed the lock.
   bool Update(core::SteadyTime now);
+
+  /// The request waiting for the holder's answer, if any.
+  const std::optional<PendingRequest>& pending_request() const { return pending_; }
+  /// Seconds until the pending request expires at `now` (0 with none).
+  double PendingLeftS(core::SteadyTime now) const;
+  /// Answers to requests and handovers so far: grants, unasked handovers, denials, expiries, drops.
+  uint32_t handovers() const { return handovers_; }
+  /// The last of them, for operators ("opA handed the lock over to opB", ...; "" before any).
+  const std::string& handover_outcome() const { return handover_outcome_; }
 
   /// Counts one discarded command from a non-holder.
   void CountDiscarded() { ++discarded_; }
@@ -97,6 +127,14 @@ class ControlLock {
   core::SteadyTime lost_since_{};
   std::map<std::string, std::string> live_;  // live participant -> the basestation id it announced
   uint32_t discarded_ = 0;
+  std::optional<PendingRequest> pending_;
+  uint32_t handovers_ = 0;
+  std::string handover_outcome_;
+
+  // Ends the pending request (if any) with `outcome`, counted in handovers_.
+  void EndPending(const std::string& outcome);
+  // Counts one answer or handover and keeps its text.
+  void Record(const std::string& outcome);
 };
 
 }  // namespace cairn::agent

@@ -44,6 +44,9 @@ struct RobotStateInputs {
   std::optional<PausedMission> paused_mission;
   double mission_paused_s = 0.0;
   std::string mission_note;
+  /// Seconds until the request waiting for the lock's holder expires (ControlLock::PendingLeftS); 0 with
+  /// none.
+  double control_request_left_s = 0.0;
 };
 
 /// Builds and publishes the robot's telemetry. The control-loop methods run under the agent's lock (they read
