@@ -175,8 +175,10 @@ TEST(Console, WordsEventsForgivingInputPlacesAndEStop) {
   r = opB.Run("mode r1 manual");
   EXPECT_EQ(r["result"], "refused") << r;
   EXPECT_EQ(r["condition"], "lock") << r;
-  EXPECT_EQ(r["valid_actions"], json::array({"yield", "stop"}))
-      << "a non-holder may only ask it to get out of the way (its policy decides) or stop it: " << r;
+  EXPECT_EQ(r["valid_actions"], json::array({"request-control", "yield", "stop"}))
+      << "a non-holder may only ask the holder for it, ask it to get out of the way (its policy decides) or "
+         "stop it: "
+      << r;
   r = opA.Run("help r1");
   EXPECT_NE(std::find(r["valid_actions"].begin(), r["valid_actions"].end(), "release"),
             r["valid_actions"].end())

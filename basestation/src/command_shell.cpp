@@ -46,6 +46,7 @@ json ViewJson(const RobotView& v, const std::string& base_id) {
     j["holder_alive"] = s.holder_alive();
     j["holder_participant"] = s.holder_participant();
     j["holder_participants"] = s.holder_participants();
+    j["task"] = TaskText(v, {v});
     j["control_requester"] = s.control_requester_id();
     j["control_request_left_s"] = s.control_request_left_s();
     j["handover_outcome"] = s.handover_outcome();
@@ -112,8 +113,12 @@ json EventJson(const OperatorEvent& e) {
   return j;
 }
 
+// `text` cut to `n` bytes with "..." (never inside a UTF-8 character).
 std::string Truncate(const std::string& text, std::size_t n) {
-  return text.size() <= n ? text : text.substr(0, n - 3) + "...";
+  if (text.size() <= n) return text;
+  std::size_t cut = n - 3;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
+  return text.substr(0, cut) + "...";
 }
 
 }  // namespace
@@ -348,14 +353,17 @@ int CommandShell::Run(const std::vector<std::string>& t) {
 void CommandShell::PrintRobotsTable() {
   const auto views = client_.Robots();
   std::vector<std::vector<std::string>> rows = {
-      {"ROBOT", "PLATFORM", "MODE", "HOLDER", "NAV", "LEFT", "ETA", "HEARD", "LAST REFUSAL"}};
+      {"ROBOT", "PLATFORM", "MODE", "HOLDER", "POSITION", "TASK", "LEFT", "ETA", "HEARD", "LAST REFUSAL"}};
   for (const auto& v : views) {
-    std::string mode = "?", holder = "-", nav = "-", left = "-", eta = "-", refusal = "-";
+    std::string mode = "?", holder = "-", position = "-", left = "-", eta = "-", refusal = "-";
     if (v.state) {
       const auto& s = *v.state;
       mode = s.mode();
       holder = s.holder_id().empty() ? "-" : s.holder_id() + (s.holder_alive() ? "" : " (lost)");
-      nav = fleet::NavStatusWord(s.nav_status());
+      const auto& p = s.pose_MB().position();
+      position = "(" + Fixed(p.x_m(), 1) + ", " + Fixed(p.y_m(), 1) + ")";
+      // The nearest named place within 5 m: operators say "at the junction", not coordinates.
+      if (const auto place = places_.Nearest(p.x_m(), p.y_m(), p.z_m(), 5.0)) position += " " + place->name;
       if (s.nav_status() == msgs::NAV_STATUS_ACTIVE) {
         left = Fixed(s.nav_distance_left_m(), 1) + " m";
         eta = s.nav_eta_s() >= 0 ? Fixed(s.nav_eta_s(), 0) + " s" : "?";
@@ -367,8 +375,8 @@ void CommandShell::PrintRobotsTable() {
     const std::string heard =
         v.lost ? "LOST (" + v.lost_reason + ")"
                : Fixed(core::SecondsBetween(v.last_seen, core::SteadyClock::now()), 1) + " s ago";
-    rows.push_back(
-        {v.robot_id, v.platform.empty() ? "?" : v.platform, mode, holder, nav, left, eta, heard, refusal});
+    rows.push_back({v.robot_id, v.platform.empty() ? "?" : v.platform, mode, holder, position,
+                    Truncate(TaskText(v, views), 48), left, eta, heard, refusal});
   }
   PrintTable(out_, rows);
   if (views.empty()) out_ << "(no robots discovered yet)" << std::endl;

@@ -128,7 +128,14 @@ int CommandShell::Convoy(const std::vector<std::string>& args) {
     SendConvoys(taken, std::vector<std::vector<std::string>>(taken.size()));
     return ReportEach("convoy", args[0], followers, outcomes, /*always_list=*/true);
   }
-  if (!json_) out_ << "convoy " << args[0] << ": " << Joined(args, " <- ") << std::endl;
+  if (!json_) {
+    // What happens next, before it happens: the followers close up first, the leader waits for its operator.
+    out_ << "convoy " << args[0] << ": " << Joined(args, " <- ") << "\n"
+         << "  each follower first drives to the trail of the robot ahead of it (where that robot is now), "
+            "then "
+            "follows it at its spacing; "
+         << args[0] << " stays where it is until you drive it (goto, teleop, smart_joystick)" << std::endl;
+  }
   return ReportEach("convoy", args[0], followers, outcomes, /*always_list=*/true);
 }
 
@@ -143,27 +150,56 @@ std::vector<std::pair<std::string, std::vector<std::string>>> CommandShell::Conv
   return followers;
 }
 
-int CommandShell::ConvoyStop(const std::vector<std::string>& args) {
+int CommandShell::ConvoyStop(const std::vector<std::string>& all_args) {
+  // --stop-leader: the leaders stop too (an operator stop); without it they drive on.
+  std::vector<std::string> args;
+  bool stop_leader = false;
+  for (const std::string& a : all_args) {
+    if (a == "--stop-leader") {
+      stop_leader = true;
+    } else {
+      args.push_back(a);
+    }
+  }
+  if (args.size() > 1) return UsageError("convoy-stop", UsageOf("convoy-stop"));
   const std::string leader = args.empty() ? "" : args[0];
   if (!leader.empty() && RefuseUnknown("convoy-stop", leader)) return kRefused;
   std::this_thread::sleep_until(client_.started() + std::chrono::milliseconds(1500));  // discovery
   std::vector<std::string> followers;
-  for (const auto& [robot, ahead] : ConvoyFollowers(leader)) followers.push_back(robot);
+  std::vector<std::string> leaders;
+  for (const auto& [robot, ahead] : ConvoyFollowers(leader)) {
+    followers.push_back(robot);
+    if (!ahead.empty() && std::find(leaders.begin(), leaders.end(), ahead.back()) == leaders.end()) {
+      leaders.push_back(ahead.back());
+    }
+  }
+  const std::string label = leader.empty() ? "all" : leader;
   if (followers.empty()) {
     CommandOutcome o;
     o.result = outcome::kRefused;
     o.reason = leader.empty() ? "no robot is in a convoy" : "no robot follows " + leader;
-    return Report("convoy-stop", leader.empty() ? "all" : leader, o);
+    return Report("convoy-stop", label, o);
   }
   if (const std::string why = RefuseUnlessHeld("convoy-stop", followers); !why.empty()) {
     CommandOutcome o;
     o.result = outcome::kRefused;
     o.reason = why;
-    return Report("convoy-stop", leader.empty() ? "all" : leader, o);
+    return Report("convoy-stop", label, o);
   }
-  return ReportEach("convoy-stop", leader.empty() ? "all" : leader, followers,
-                    SendConvoys(followers, std::vector<std::vector<std::string>>(followers.size())),
-                    /*always_list=*/true);
+  std::vector<std::string> robots = followers;
+  std::vector<CommandOutcome> outcomes =
+      SendConvoys(followers, std::vector<std::vector<std::string>>(followers.size()));
+  for (const std::string& l : leaders) {
+    if (stop_leader) {
+      robots.push_back(l);
+      outcomes.push_back(client_.Stop(l));
+    } else if (!json_) {
+      out_ << "convoy-stop " << label << ": " << l
+           << " keeps driving (its goal or its operator's stick): convoy-stop " << label
+           << " --stop-leader stops it too, or stop " << l << "\n";
+    }
+  }
+  return ReportEach("convoy-stop", label, robots, outcomes, /*always_list=*/true);
 }
 
 int CommandShell::Peel(const std::vector<std::string>& args) {

@@ -107,8 +107,10 @@ const std::vector<CommandSpec>& CommandTable() {
        "R1 follows LEADER, R2 follows R1, ... on the path each robot ahead drove, at the configured spacing "
        "(this basestation must hold every lock); drive the leader as usual (goto, teleop, smart_joystick)",
        2, kAny, FirstArgument::kRobots, false},
-      {"convoy-stop", "convoy-stop [LEADER]",
-       "the followers (of LEADER's convoy, or of every convoy) go idle", 0, 1, FirstArgument::kRobot, false},
+      {"convoy-stop", "convoy-stop [LEADER] [--stop-leader]",
+       "the followers (of LEADER's convoy, or of every convoy) go idle; the leader drives on unless "
+       "--stop-leader (an operator stop)",
+       0, 2, FirstArgument::kRobot, false},
       {"peel", "peel R POINT [TOL]",
        "follower R leaves its convoy for POINT; the robots behind it close up behind the robot ahead of it",
        1, kAny, FirstArgument::kRobot, true},

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "cairn/core/health_monitor.h"
+#include "cairn/fleet/robot_status.h"
 
 namespace cairn::base {
 
@@ -151,6 +152,66 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
   actions.emplace_back("release");
   actions.emplace_back("stop");
   return actions;
+}
+
+namespace {
+
+// The robots of `fleet` that follow `leader` in a convoy (its robot last in their convoy_ahead_ids).
+std::size_t FollowersOf(const std::string& leader, const std::vector<RobotView>& fleet) {
+  std::size_t n = 0;
+  for (const RobotView& other : fleet) {
+    if (other.state && !other.state->convoy_ahead_ids().empty() &&
+        other.state->convoy_ahead_ids().back() == leader) {
+      ++n;
+    }
+  }
+  return n;
+}
+
+std::string PointText(double x_m, double y_m) {
+  char text[64];
+  std::snprintf(text, sizeof(text), "(%.1f, %.1f)", x_m, y_m);
+  return text;
+}
+
+}  // namespace
+
+std::string TaskText(const RobotView& view, const std::vector<RobotView>& fleet) {
+  if (!view.state) return "?";
+  const cairn_msgs::RobotState& s = *view.state;
+  namespace yield = fleet::yield_state;
+  const std::string& peer = s.yield_peer_id();
+  if (s.mission_state() == fleet::mission_state::kPaused) {
+    return s.mission_kind() + " paused" + (s.mission_reason().empty() ? "" : ": " + s.mission_reason());
+  }
+  if (s.yield_state() == yield::kReturning) return "back after yielding to " + peer;
+  if (fleet::GivesWay(s.yield_state())) return "yielding to " + peer;
+  if (s.yield_state() == yield::kAsking) return "waiting for " + peer + " to yield";
+  if (s.yield_state() == yield::kBlocked) return "blocked by " + peer;
+  const auto& ahead = s.convoy_ahead_ids();
+  if (!ahead.empty()) {
+    const std::string place = "convoy " + std::to_string(ahead.size() + 1) + " of " +
+                              std::to_string(FollowersOf(ahead.back(), fleet) + 1) + " behind " +
+                              ahead.front();
+    const std::string& state = s.convoy_state();
+    return state == fleet::convoy_state::kFollowing || state.empty() ? place : place + ", " + state;
+  }
+  const std::size_t followers = FollowersOf(view.robot_id, fleet);
+  const std::string leads = followers > 0 ? "leads a convoy of " + std::to_string(followers + 1) : "";
+  std::string task;
+  if (s.explore_state() == fleet::explore_state::kExploring) {
+    task = "exploring: " + std::to_string(static_cast<long>(s.explored_m2())) + " m² mapped, " +
+           std::to_string(s.reachable_frontiers()) + " frontiers";
+  } else if (s.nav_status() == cairn_msgs::NAV_STATUS_ACTIVE) {
+    task = "to " + PointText(s.nav_goal_M().x_m(), s.nav_goal_M().y_m());
+  } else if (s.mode() == "manual" || s.mode() == "smart_joystick") {
+    task = "driven (" + s.mode() + ")";
+  } else if (s.mode() == "idle" && s.nav_status() == cairn_msgs::NAV_STATUS_ARRIVED) {
+    task = "arrived at " + PointText(s.nav_goal_M().x_m(), s.nav_goal_M().y_m());
+  } else {
+    task = s.mode().empty() ? "?" : s.mode();
+  }
+  return leads.empty() ? task : leads + "; " + task;
 }
 
 std::string RobotWhoseRoutePasses(const std::vector<RobotView>& fleet, const RobotView& robot,

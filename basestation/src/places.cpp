@@ -99,6 +99,19 @@ std::optional<Place> Places::Find(const std::string& name) const {
   return it->second;
 }
 
+std::optional<Place> Places::Nearest(double x_m, double y_m, double z_m, double within_m) const {
+  std::optional<Place> best;
+  double best_m = within_m;
+  for (const auto& [name, place] : places_) {
+    const double d = std::hypot(place.x_m - x_m, place.y_m - y_m);
+    if (d <= best_m && std::abs(place.z_m - z_m) <= 2.0) {
+      best = place;
+      best_m = d;
+    }
+  }
+  return best;
+}
+
 std::vector<Place> Places::All() const {
   std::vector<Place> all;
   for (const auto& [name, place] : places_) all.push_back(place);

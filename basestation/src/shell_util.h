@@ -55,18 +55,25 @@ inline std::string Dump(const nlohmann::json& j) {
 
 using core::Fixed;  // `value` with `digits` decimals
 
+/// Columns `text` takes on a terminal: its UTF-8 code points (each is one column here: "m²" is two).
+inline std::size_t ColumnsOf(const std::string& text) {
+  std::size_t n = 0;
+  for (const char c : text) n += (static_cast<unsigned char>(c) & 0xC0) != 0x80 ? 1 : 0;
+  return n;
+}
+
 /// Prints rows as columns separated by two spaces, each as wide as its widest cell.
 inline void PrintTable(std::ostream& out, const std::vector<std::vector<std::string>>& rows) {
   std::vector<std::size_t> widths;
   for (const auto& row : rows) {
     widths.resize(std::max(widths.size(), row.size()));
-    for (std::size_t c = 0; c < row.size(); ++c) widths[c] = std::max(widths[c], row[c].size());
+    for (std::size_t c = 0; c < row.size(); ++c) widths[c] = std::max(widths[c], ColumnsOf(row[c]));
   }
   for (const auto& row : rows) {
     std::string line;
     for (std::size_t c = 0; c < row.size(); ++c) {
       line += row[c];
-      if (c + 1 < row.size()) line += std::string(widths[c] - row[c].size() + 2, ' ');
+      if (c + 1 < row.size()) line += std::string(widths[c] - ColumnsOf(row[c]) + 2, ' ');
     }
     out << line << "\n";
   }

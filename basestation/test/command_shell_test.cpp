@@ -141,6 +141,20 @@ TEST_F(CommandShellTest, AConvoyTellsEachFollowerTheRobotsAheadOfIt) {
   Sent sent = fleet_.sent();
   std::sort(sent.begin(), sent.end());
   EXPECT_EQ(sent, (Sent{"SendConvoy r2 r1", "SendConvoy r3 r2 r1"}));
+  // What happens next is said before it happens.
+  EXPECT_NE(Printed().find("each follower first drives to the trail of the robot ahead of it"),
+            std::string::npos);
+
+  // convoy-stop: the followers go idle and the leader drives on, said so; --stop-leader stops it too.
+  fleet_.Mutate("r2", [](RobotView& v) { v.state->convoy_ahead_ids({"r1"}); });
+  fleet_.Mutate("r3", [](RobotView& v) { v.state->convoy_ahead_ids({"r2", "r1"}); });
+  EXPECT_EQ(shell_.Execute("convoy-stop r1"), kOk);
+  EXPECT_NE(
+      Printed().find("r1 keeps driving (its goal or its operator's stick): convoy-stop r1 --stop-leader"),
+      std::string::npos);
+  EXPECT_EQ(shell_.Execute("convoy-stop r1 --stop-leader"), kOk);
+  EXPECT_EQ(fleet_.sent().back(), "Stop r1");
+  EXPECT_NE(Printed().find("convoy-stop r1: accepted"), std::string::npos);
 }
 
 TEST_F(CommandShellTest, AConvoyOfRobotsThisBaseDoesNotHoldIsRefusedBeforeAnythingIsSent) {
@@ -179,9 +193,17 @@ TEST_F(CommandShellTest, RobotsListsEveryRobotWithItsModeAndHolder) {
   fleet_.AddRobot("r2", "manual", "op2", 4.0, 2.0);
   EXPECT_EQ(shell_.Execute("robots"), kOk);
   const std::string printed = Printed();
-  for (const char* expected : {"r1", "r2", "r3", "manual", "op2"}) {
+  for (const char* expected :
+       {"r1", "r2", "r3", "manual", "op2", "POSITION", "TASK", "(4.0, 2.0)", "driven (manual)"}) {
     EXPECT_NE(printed.find(expected), std::string::npos) << expected << " in\n" << printed;
   }
+  // A robot near a named place is said to be there.
+  EXPECT_EQ(shell_.Execute("place add dock 7.5 2"), kOk);
+  Printed();
+  EXPECT_EQ(shell_.Execute("robots"), kOk);
+  const std::string named = Printed();
+  EXPECT_NE(named.find("(7.0, 2.0) dock"), std::string::npos) << named;
+  EXPECT_EQ(named.find("(1.0, 2.0) dock"), std::string::npos) << "r1 is 6.5 m from the dock: " << named;
 }
 
 }  // namespace

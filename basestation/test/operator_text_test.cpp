@@ -99,6 +99,56 @@ TEST(ValidActions, OfferOnlyWhatTheRobotWouldAcceptFromThisBasestation) {
   EXPECT_EQ(ValidActions(mine, "op1"), (std::vector<std::string>{"stop"})) << "a stop is always allowed";
 }
 
+// What a robot is doing, in the words the robots table prints: never a stale "arrived" while it does
+// something else; a follower's place in its convoy counted from the fleet.
+TEST(TaskText, SaysWhatTheRobotDoesNow) {
+  RobotView r = HeldBy("op1", {"idle"}, true);
+  EXPECT_EQ(TaskText(r, {r}), "idle");
+  r.state->nav_status(cairn_msgs::NAV_STATUS_ARRIVED);
+  r.state->nav_goal_M().x_m(12.0);
+  r.state->nav_goal_M().y_m(4.5);
+  EXPECT_EQ(TaskText(r, {r}), "arrived at (12.0, 4.5)");
+  r.state->mode("manual");
+  EXPECT_EQ(TaskText(r, {r}), "driven (manual)") << "no stale arrival";
+  r.state->mode("waypoint");
+  r.state->nav_status(cairn_msgs::NAV_STATUS_ACTIVE);
+  EXPECT_EQ(TaskText(r, {r}), "to (12.0, 4.5)");
+  r.state->mode("explore");
+  r.state->explore_state("exploring");
+  r.state->explored_m2(64.4);
+  r.state->reachable_frontiers(12);
+  EXPECT_EQ(TaskText(r, {r}), "exploring: 64 m² mapped, 12 frontiers");
+  r.state->yield_state("moving_aside");
+  r.state->yield_peer_id("r3");
+  EXPECT_EQ(TaskText(r, {r}), "yielding to r3");
+  r.state->yield_state("asking");
+  EXPECT_EQ(TaskText(r, {r}), "waiting for r3 to yield");
+  r.state->mission_state("paused");
+  r.state->mission_kind("explore");
+  r.state->mission_reason("perception restarting");
+  EXPECT_EQ(TaskText(r, {r}), "explore paused: perception restarting");
+
+  // A convoy of three: r1 leads, r2 behind it, r3 behind r2.
+  RobotView leader = HeldBy("op1", {"idle"}, true);
+  RobotView second = HeldBy("op1", {"idle"}, true);
+  RobotView third = HeldBy("op1", {"idle"}, true);
+  second.robot_id = "r2";
+  third.robot_id = "r3";
+  second.state->mode("convoy");
+  second.state->convoy_ahead_ids({"r1"});
+  second.state->convoy_state("following");
+  third.state->mode("convoy");
+  third.state->convoy_ahead_ids({"r2", "r1"});
+  third.state->convoy_state("holding");
+  const std::vector<RobotView> fleet = {leader, second, third};
+  EXPECT_EQ(TaskText(second, fleet), "convoy 2 of 3 behind r1");
+  EXPECT_EQ(TaskText(third, fleet), "convoy 3 of 3 behind r2, holding");
+  EXPECT_EQ(TaskText(leader, fleet), "leads a convoy of 3; idle");
+  RobotView unheard;
+  unheard.robot_id = "r9";
+  EXPECT_EQ(TaskText(unheard, fleet), "?");
+}
+
 TEST(DidYouMean, FindsTyposAndPrefixes) {
   const std::vector<std::string> commands = {"goto", "status", "stop", "stairs", "snapshot"};
   EXPECT_EQ(DidYouMean("gotoo", commands), (std::vector<std::string>{"goto"}));

@@ -94,7 +94,7 @@ class CommandShell {
   int Frontiers(const std::vector<std::string>& args);
   // convoy LEADER R1 R2 ..., convoy-stop [LEADER], peel R POINT [TOL] (command_shell_convoy.cpp).
   int Convoy(const std::vector<std::string>& args);
-  int ConvoyStop(const std::vector<std::string>& args);
+  int ConvoyStop(const std::vector<std::string>& all_args);
   int Peel(const std::vector<std::string>& args);
   // yield R [for A]: R gets out of A's way (A: by default the robot whose route passes R); waits up to 5 s
   // for R's answer (its yield_state).

@@ -44,6 +44,12 @@ std::string RobotWhoseRoutePasses(const std::vector<RobotView>& fleet, const Rob
 
 std::vector<std::string> ValidActions(const RobotView& view, const std::string& base_id);
 
+/// What `view`'s robot is doing, in a few words, from its latest state and (for convoys) `fleet`'s: "to
+/// (12.0, 4.5)", "exploring: 64 m² mapped, 12 frontiers", "convoy 2 of 3 behind r1", "leads a convoy of 3",
+/// "yielding to r3", "waiting for r3 to yield", "explore paused: ...", "driven (manual)", "arrived" (only
+/// while idle after arriving), "idle". "?" before the first state.
+std::string TaskText(const RobotView& view, const std::vector<RobotView>& fleet);
+
 /// ValidActions as one line: "valid now: mode idle|manual, goto, teleop, release, stop".
 std::string ValidActionsText(const RobotView& view, const std::string& base_id);
 

@@ -33,6 +33,9 @@ class Places {
   /// Removes `name`; false if there is no such place.
   bool Remove(const std::string& name);
   std::optional<Place> Find(const std::string& name) const;
+  /// The place nearest (x_m, y_m) within `within_m` horizontally and 2 m in height (another floor is never
+  /// "near"), metres, frame map; nullopt when none is.
+  std::optional<Place> Nearest(double x_m, double y_m, double z_m, double within_m) const;
   std::vector<Place> All() const;
   std::vector<std::string> Names() const;
   const std::string& path() const { return path_; }
