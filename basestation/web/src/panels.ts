@@ -46,10 +46,27 @@ function setHtml(el: HTMLElement, html: string): void {
 
 export function render(): void {
   $("base").textContent = state.baseId ? `basestation ${state.baseId}` : "";
+  renderStops();
   renderFleet();
   renderRobot();
   renderHealth();
   renderRequests();
+}
+
+/** The header's STOP (the selected robot) and STOP ALL: any basestation may stop any robot (no lock needed). */
+function renderStops(): void {
+  const one = $("stop-selected") as HTMLButtonElement;
+  const id = state.selected;
+  const command = id ? JSON.stringify(Command.stop(id)) : "";
+  if ((one.dataset.command ?? "") !== command) {
+    if (id) one.dataset.command = command;
+    else delete one.dataset.command;
+    one.textContent = id ? `STOP ${id}` : "STOP";
+    one.disabled = !id;
+  }
+  const all = $("stop-all");
+  const stopAll = JSON.stringify(Command.stopAll());
+  if (all.dataset.command !== stopAll) all.dataset.command = stopAll;
 }
 
 /** The requests for control locks: to this basestation's operator, when it holds a lock another asks for (with
@@ -263,9 +280,15 @@ export function renderHealth(): void {
   $("health-link").textContent = `link: ${state.statusText} · received ${(link.bytesReceived / 1e6).toFixed(1)} MB · 3D: ${scene.voxelCount} voxels, ${scene.fps.toFixed(0)} fps`;
 }
 
+/** A time of day as the console prints it: 24-hour HH:MM:SS, local time. */
+export function clockText(t: Date): string {
+  const two = (n: number) => String(n).padStart(2, "0");
+  return `${two(t.getHours())}:${two(t.getMinutes())}:${two(t.getSeconds())}`;
+}
+
 export function renderEvents(): void {
   $("event-rows").innerHTML = state.events
-    .map((e) => `<li class="${e.level >= 3 ? "warn" : ""}"><time>${e.time.toLocaleTimeString()}</time> ${e.message}</li>`)
+    .map((e) => `<li class="${e.level >= 3 ? "warn" : ""}"><time>${clockText(e.time)}</time> ${e.message}</li>`)
     .join("");
 }
 

@@ -424,6 +424,36 @@ test("handover: op2 asks op1 for r1; op1 sees the request over any tab, denies, 
   await screenshot(page2, "19_granted");
 });
 
+test("STOP and STOP ALL stay on screen whatever the tab, the scroll and the window (1400x900, an 800x1280 tablet)", async () => {
+  // True when `selector` is inside the viewport and is what a tap at its centre reaches (nothing covers it).
+  const reachable = (selector) => page1.evaluate((sel) => {
+    const el = document.querySelector(sel);
+    const r = el.getBoundingClientRect();
+    if (r.width === 0 || r.left < 0 || r.top < 0 || r.right > innerWidth || r.bottom > innerHeight) return false;
+    const hit = document.elementFromPoint(r.left + r.width / 2, r.top + r.height / 2);
+    return hit === el || el.contains(hit);
+  }, selector);
+  for (const [width, height, name] of [[1400, 900, "20_stops_1400x900"], [800, 1280, "21_stops_tablet_portrait"]]) {
+    await page1.setViewportSize({ width, height });
+    for (const tab of ["fleet", "robot", "health", "events"]) {
+      await page1.locator(`#tabs button[data-tab="${tab}"]`).click();
+      await page1.evaluate(() => { document.querySelector("aside").scrollTop = 1e6; window.scrollTo(0, 1e6); });
+      for (const sel of ["#stop-selected", "#stop-all"]) {
+        assert.ok(await reachable(sel), `${sel} hidden on the ${tab} tab at ${width}x${height}`);
+      }
+    }
+    assert.match(await page1.locator("#stop-selected").innerText(), /^STOP r\d$/);
+    assert.match(await page1.locator("#event-rows time").first().innerText(), /^\d\d:\d\d:\d\d$/, "24-hour times, as the console's");
+    await screenshot(page1, name);
+  }
+  await page1.setViewportSize({ width: 1280, height: 800 });
+  await page1.evaluate(() => { window.cairn.state.lastResult = undefined; });
+  await page1.locator("#stop-all").click();
+  const stopped = await waitFor("the STOP ALL answer", () => page1.evaluate(() => window.cairn.state.lastResult), 10000);
+  assert.equal(stopped.command, "stop", JSON.stringify(stopped));
+  assert.equal(stopped.ok, true, JSON.stringify(stopped));
+});
+
 test("the pages raised no script error", () => {
   assert.deepEqual(page1.errors, [], `op1's page: ${page1.errors}\n${tail("op1")}`);
   assert.deepEqual(page2.errors, [], `op2's page: ${page2.errors}`);
