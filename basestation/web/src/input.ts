@@ -40,7 +40,7 @@ function onClick(ev: MouseEvent): void {
   const target =
       (ev.target as HTMLElement)
           .closest<HTMLElement>(
-              '[data-command],[data-goto],[data-peel],[data-convoy],[data-drive],[data-robot],[data-tab],#confirm-goto,#cancel-goto,#topdown,#ceiling');
+              '[data-command],[data-goto],[data-peel],[data-convoy],[data-drive],[data-robot],[data-tab],#confirm-goto,#cancel-goto,#topdown,#ceiling,#frame-all');
   if (!target) return;
   if (target.dataset.tab)
     setTab(target.dataset.tab);
@@ -62,6 +62,8 @@ function onClick(ev: MouseEvent): void {
     state.ceilingAuto = !state.ceilingAuto;
     target.textContent = state.ceilingAuto ? "Ceiling: cut" : "Ceiling: shown";
     if (!state.ceilingAuto) scene.setCeilingCut(Infinity);
+  } else if (target.id === "frame-all") {
+    scene.frame(state.robots.filter((r) => r.pose).map((r) => ({ x: r.pose!.x_m, y: r.pose!.y_m, z: r.pose!.z_m })));
   } else if (target.id === "topdown") {
     scene.setTopDown(!scene.isTopDown);
     target.textContent = scene.isTopDown ? "Orbit view" : "Top-down view";

@@ -203,6 +203,23 @@ export class FleetScene {
     this.ceilingPlane.constant = isFinite(z) ? z : 1e6;
   }
 
+  /** Moves the camera back along its viewing direction (top-down or orbit) until every point (map frame, m)
+   *  is in view, with a 3 m margin, centred on their bounding box. No points: nothing changes. */
+  frame(points: { x: number; y: number; z: number }[]): void {
+    if (points.length === 0) return;
+    this.invalidate();
+    const box = new THREE.Box3().setFromPoints(points.map((p) => new THREE.Vector3(p.x, p.y, p.z)));
+    const centre = box.getCenter(new THREE.Vector3());
+    const radius = box.getSize(new THREE.Vector3()).length() / 2 + 3;
+    const halfFov = THREE.MathUtils.degToRad(this.camera.fov) / 2;
+    const distance = Math.max(radius / Math.sin(halfFov), radius / Math.sin(Math.atan(Math.tan(halfFov) * this.camera.aspect)));
+    const direction = this.camera.position.clone().sub(this.controls.target).normalize();
+    this.controls.target.copy(centre);
+    this.camera.position.copy(centre).addScaledVector(direction, distance);
+    this.camera.far = Math.max(this.camera.far, distance * 4);
+    this.camera.updateProjectionMatrix();
+  }
+
   /** Centres the view on a point (map frame). */
   focus(x: number, y: number, z: number): void {
     this.invalidate();

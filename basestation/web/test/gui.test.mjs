@@ -447,6 +447,21 @@ test("STOP and STOP ALL stay on screen whatever the tab, the scroll and the wind
     await screenshot(page1, name);
   }
   await page1.setViewportSize({ width: 1280, height: 800 });
+  // Frame all: every robot in the 3D view at once.
+  await page1.locator("#frame-all").click();
+  const robotsInView = () => page1.evaluate(() => {
+    const v = document.getElementById("view").getBoundingClientRect();
+    return window.cairn.state.robots.filter((r) => r.pose).map((r) => {
+      const p = window.cairn.scene.toScreen(r.pose.x_m, r.pose.y_m, r.pose.z_m);
+      return { id: r.id, inside: p.x >= v.left && p.x <= v.right && p.y >= v.top && p.y <= v.bottom };
+    });
+  });
+  let inView;
+  await waitFor("every robot in view", async () => {
+    inView = await robotsInView();
+    return inView.length === 3 && inView.every((r) => r.inside);
+  }, 3000).catch((e) => { throw new Error(`${e.message}: ${JSON.stringify(inView)}`); });
+  await screenshot(page1, "22_frame_all");
   await page1.evaluate(() => { window.cairn.state.lastResult = undefined; });
   await page1.locator("#stop-all").click();
   const stopped = await waitFor("the STOP ALL answer", () => page1.evaluate(() => window.cairn.state.lastResult), 10000);
