@@ -882,50 +882,34 @@ std::optional<RobotView> FleetClient::WaitUntil(
   return match;
 }
 
-CommandOutcome FleetClient::RequestControl(const std::string& robot_id) {
-  return impl_->Call(robot_id, msgs::COMMAND_KIND_CONTROL_REQUEST, [&](uint32_t id) {
+CommandOutcome FleetClient::SendControl(const std::string& robot_id, msgs::CommandKind kind,
+                                        msgs::ControlAction action, const std::string& target_base_id) {
+  return impl_->Call(robot_id, kind, [&](uint32_t id) {
     msgs::ControlRequest m;
     m.robot_id(robot_id);
     m.base_id(base_id());
     m.request_id(id);
-    m.action(msgs::CONTROL_ACTION_REQUEST);
+    m.action(action);
+    m.target_base_id(target_base_id);
     return impl_->CommandWriter<msgs::ControlRequestPubSubType>("cairn/control_request", robot_id).Write(m);
   });
+}
+
+CommandOutcome FleetClient::RequestControl(const std::string& robot_id) {
+  return SendControl(robot_id, msgs::COMMAND_KIND_CONTROL_REQUEST, msgs::CONTROL_ACTION_REQUEST);
 }
 
 CommandOutcome FleetClient::ReleaseControl(const std::string& robot_id) {
-  return impl_->Call(robot_id, msgs::COMMAND_KIND_CONTROL_RELEASE, [&](uint32_t id) {
-    msgs::ControlRequest m;
-    m.robot_id(robot_id);
-    m.base_id(base_id());
-    m.request_id(id);
-    m.action(msgs::CONTROL_ACTION_RELEASE);
-    return impl_->CommandWriter<msgs::ControlRequestPubSubType>("cairn/control_request", robot_id).Write(m);
-  });
+  return SendControl(robot_id, msgs::COMMAND_KIND_CONTROL_RELEASE, msgs::CONTROL_ACTION_RELEASE);
 }
 
 CommandOutcome FleetClient::HandOverControl(const std::string& robot_id, const std::string& to_base_id) {
-  return impl_->Call(robot_id, msgs::COMMAND_KIND_CONTROL_HANDOVER, [&](uint32_t id) {
-    msgs::ControlRequest m;
-    m.robot_id(robot_id);
-    m.base_id(base_id());
-    m.request_id(id);
-    m.action(msgs::CONTROL_ACTION_HANDOVER);
-    m.target_base_id(to_base_id);
-    return impl_->CommandWriter<msgs::ControlRequestPubSubType>("cairn/control_request", robot_id).Write(m);
-  });
+  return SendControl(robot_id, msgs::COMMAND_KIND_CONTROL_HANDOVER, msgs::CONTROL_ACTION_HANDOVER,
+                     to_base_id);
 }
 
 CommandOutcome FleetClient::DenyControl(const std::string& robot_id, const std::string& to_base_id) {
-  return impl_->Call(robot_id, msgs::COMMAND_KIND_CONTROL_DENY, [&](uint32_t id) {
-    msgs::ControlRequest m;
-    m.robot_id(robot_id);
-    m.base_id(base_id());
-    m.request_id(id);
-    m.action(msgs::CONTROL_ACTION_DENY);
-    m.target_base_id(to_base_id);
-    return impl_->CommandWriter<msgs::ControlRequestPubSubType>("cairn/control_request", robot_id).Write(m);
-  });
+  return SendControl(robot_id, msgs::COMMAND_KIND_CONTROL_DENY, msgs::CONTROL_ACTION_DENY, to_base_id);
 }
 
 CommandOutcome FleetClient::Restart(const std::string& robot_id, const std::string& component) {

@@ -106,6 +106,10 @@ class FleetClient : public Fleet {
   class Impl;  ///< DDS entities and the fleet model, kept out of this header.
 
  private:
+  // One ControlRequest (`action`, to `target_base_id` for a handover or a denial) and its answer.
+  CommandOutcome SendControl(const std::string& robot_id, cairn_msgs::CommandKind kind,
+                             cairn_msgs::ControlAction action, const std::string& target_base_id = "");
+
   std::unique_ptr<Impl> impl_;
 };
 
