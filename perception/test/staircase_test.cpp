@@ -1139,6 +1139,33 @@ TEST(StaircaseRegistryTest, APartialViewFromOnTheStairsWithALowFloorMerges) {
   EXPECT_TRUE(registry.Add(other_floor, "leg2").is_new);
 }
 
+TEST(StaircaseRegistryTest, AWholeViewWithALowFloorButTheSameTopMerges) {
+  // Logged by the perception integration test (it counted the staircase twice): a legged robot at the foot
+  // saw the whole flight with its floor 8 cm low and its rise 14 mm high; the flight's top agrees to 1 cm.
+  StaircaseRegistry registry;
+  Staircase first = TunnelsStairs();
+  first.p_W_first_step = Eigen::Vector3d(50.000, 23.722, -0.004);
+  first.rise_m = 0.2001;
+  first.run_m = 0.4997;
+  first.width_m = 2.406;
+  first.confidence = 0.63;
+  Staircase low = first;
+  low.p_W_first_step = Eigen::Vector3d(49.989, 23.697, -0.085);
+  low.rise_m = 0.2142;
+  low.run_m = 0.5024;
+  low.width_m = 2.465;
+  low.confidence = 0.37;
+  EXPECT_TRUE(registry.Add(first, "leg1").is_new);
+  EXPECT_FALSE(registry.Add(low, "leg1").is_new);
+  ASSERT_EQ(registry.size(), 1u);
+  EXPECT_NEAR(registry.Entries()[0].staircase.rise_m, 0.2, 0.01);
+  EXPECT_TRUE(MatchStaircases(first, low, StaircaseRegistryOptions{}).same);
+  // The same low floor with the first view's rise ends 8 cm low: another flight.
+  Staircase lower_flight = low;
+  lower_flight.rise_m = first.rise_m;
+  EXPECT_FALSE(MatchStaircases(first, lower_flight, StaircaseRegistryOptions{}).same);
+}
+
 TEST(StaircaseRegistryTest, OppositeDirectionsAtTheSamePlaceStayApart) {
   // Detections are always described ascending (a view from the top gives the same yaw as one from the
   // foot, see SeenFromTheTopIsDescribedAscending), so opposite yaws at one place contradict each other: they

@@ -319,13 +319,15 @@ Staircase MergeStaircaseViews(const std::vector<Staircase>& views, const Stairca
 /// positions along the ascending direction differ by k runs within half a run (k counted there), and the
 /// floor heights by k rises within max_floor_difference_m when k = 0 (two views of the whole flight), within
 /// half a rise when k != 0 (one view saw only the upper or lower part: its floor is a tread, estimated from
-/// few points); and (3) their footprints (rectangles from the foot of the first riser,
-/// num_steps * run_m along the ascending direction and width_m across it, seen from above) overlap by at
-/// least min_overlap_fraction of the smaller one. If several entries qualify the one with the largest overlap
-/// wins; entries are never merged with each other. Since detections are always described ascending, a
-/// staircase seen from its top merges with the same staircase seen from its foot. Two overlapping detections
-/// with opposite directions contradict each other and are kept as separate entries so the consumer sees the
-/// conflict. A flight one floor up (more than num_steps rises higher) is another staircase.
+/// few points), or, when k = 0 with equal num_steps, floors within half a rise and the flights' tops (floor +
+/// num_steps rises) within max_floor_difference_m (one view misjudged the floor, not the flight); and (3)
+/// their footprints (rectangles from the foot of the first riser, num_steps * run_m along the ascending
+/// direction and width_m across it, seen from above) overlap by at least min_overlap_fraction of the smaller
+/// one. If several entries qualify the one with the largest overlap wins; entries are never merged with each
+/// other. Since detections are always described ascending, a staircase seen from its top merges with the same
+/// staircase seen from its foot. Two overlapping detections with opposite directions contradict each other
+/// and are kept as separate entries so the consumer sees the conflict. A flight one floor up (more than
+/// num_steps rises higher) is another staircase.
 ///
 /// Merged estimate: the detection is first re-indexed onto the entry's first riser (or the entry onto the
 /// detection's, if the detection starts lower); then weighted means with weight confidence x support_points
