@@ -359,13 +359,16 @@ test("the holder puts a convoy together by tapping its robots in order; the foll
 });
 
 test("a robot another one's route passes offers Get out of the way; pressed, it stands aside and comes back", async () => {
-  // r1 (behind r2 after the convoy) is sent through r2's position, down the main tunnel.
-  const goal = await page1.evaluate((request) => window.cairn.run(request, true), Command.goto("r1", 26, 20));
+  // r1 (near r2 after the convoy, on the main tunnel's centre line) is sent 8 m past r2, away from r1: its route
+  // passes r2 wherever the convoy left the two.
+  const [from, past] = [await robotState(page1, "r1"), await robotState(page1, "r2")];
+  const away = Math.sign(past.pose.x_m - from.pose.x_m) || 1;
+  const goal = await page1.evaluate((request) => window.cairn.run(request, true), Command.goto("r1", past.pose.x_m + 8 * away, 20));
   assert.equal(goal.ok, true, JSON.stringify(goal));
   await page1.locator('#tabs button[data-tab="fleet"]').click();
   await page1.locator('#fleet-rows tr[data-robot="r2"]').click();
   const label = "Get out of r1's way";
-  await waitFor("r2's Get out of r1's way button", async () => (await page1.locator("#actions button").allInnerTexts()).includes(label), 10000);
+  await waitFor("r2's Get out of r1's way button", async () => (await page1.locator("#actions button").allInnerTexts()).includes(label), 20000);
   await page1.evaluate(() => { window.cairn.state.lastResult = undefined; });
   await page1.getByRole("button", { name: label }).click();
   const result = await waitFor("the yield answer", () => page1.evaluate(() => window.cairn.state.lastResult), 10000);

@@ -133,8 +133,11 @@ void CommandInterface::OnControl(const ControlCommand& command, core::SteadyTime
       break;
   }
   if (d.accepted) {
-    spdlog::info("robot {}: control {} by {} (participant {}){}", robot_id_,
-                 command.action == ControlAction::kRelease ? "released" : "granted", sender.base_id,
+    const char* what = command.action == ControlAction::kRelease    ? "released"
+                       : command.action == ControlAction::kHandover ? "handed over"
+                       : command.action == ControlAction::kDeny     ? "request denied"
+                                                                    : "granted";
+    spdlog::info("robot {}: control {} by {} (participant {}){}", robot_id_, what, sender.base_id,
                  sender.participant,
                  lock_.handovers() != handovers_before ? ": " + lock_.handover_outcome() : "");
     // A release stops the robot (idle); a handover keeps its mode and goal where the tree still allows them.
