@@ -595,14 +595,9 @@ int CommandShell::HelpFor(const std::string& robot) {
 
 int CommandShell::Control(const std::vector<std::string>& args, bool request) {
   // Several robots at once (a convoy's): every request in parallel, one answer line each.
-  std::vector<CommandOutcome> outcomes(args.size());
-  std::vector<std::thread> senders;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    senders.emplace_back([&, i] {
-      outcomes[i] = request ? client_.RequestControl(args[i]) : client_.ReleaseControl(args[i]);
-    });
-  }
-  for (auto& t : senders) t.join();
+  const auto outcomes = shell::SendToEach<CommandOutcome>(args, [&](const std::string& robot, std::size_t) {
+    return request ? client_.RequestControl(robot) : client_.ReleaseControl(robot);
+  });
   return ReportEach(request ? "request-control" : "release", args.front(), args, outcomes);
 }
 
@@ -670,12 +665,8 @@ int CommandShell::Stop(const std::vector<std::string>& args) {
     if (std::find(args.begin(), args.end(), "all") != args.end()) {
       return UsageError("stop", "stop all takes no robot besides; " + UsageOf("stop"));
     }
-    std::vector<CommandOutcome> outcomes(args.size());
-    std::vector<std::thread> senders;
-    for (std::size_t i = 0; i < args.size(); ++i) {
-      senders.emplace_back([&, i] { outcomes[i] = client_.Stop(args[i]); });
-    }
-    for (auto& t : senders) t.join();
+    const auto outcomes = shell::SendToEach<CommandOutcome>(
+        args, [&](const std::string& robot, std::size_t) { return client_.Stop(robot); });
     return ReportEach("stop", args.front(), args, outcomes);
   }
   // Each robot's stop goes out as soon as the robot is heard, all in parallel: a fleet stop must neither wait

@@ -78,13 +78,9 @@ std::string CommandShell::RefuseUnlessHeld(const std::string& command,
 std::vector<CommandOutcome> CommandShell::SendConvoys(const std::vector<std::string>& followers,
                                                       const std::vector<std::vector<std::string>>& ahead) {
   // Every follower at once: one robot's round trip does not hold up the others.
-  std::vector<CommandOutcome> outcomes(followers.size());
-  std::vector<std::thread> senders;
-  for (std::size_t i = 0; i < followers.size(); ++i) {
-    senders.emplace_back([&, i] { outcomes[i] = client_.SendConvoy(followers[i], ahead[i]); });
-  }
-  for (auto& t : senders) t.join();
-  return outcomes;
+  return shell::SendToEach<CommandOutcome>(followers, [&](const std::string& robot, std::size_t i) {
+    return client_.SendConvoy(robot, ahead[i]);
+  });
 }
 
 int CommandShell::Convoy(const std::vector<std::string>& args) {

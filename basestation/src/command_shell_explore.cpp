@@ -2,7 +2,6 @@
 // [--wait [TIMEOUT_S]]` and `frontiers R` (see command_shell.h), and the exploration fields of `status`.
 #include <cmath>
 #include <limits>
-#include <thread>
 #include <vector>
 
 #include "cairn/base/command_shell.h"
@@ -149,14 +148,9 @@ int CommandShell::Explore(const std::vector<std::string>& all_args) {
   if (args.size() > 1) {
     // Several robots, each its own task with the same options (the team shares its frontiers by itself).
     if (wait) return UsageError("explore", "--wait takes one robot (explore the others first, without it)");
-    std::vector<CommandOutcome> outcomes(args.size());
-    std::vector<std::thread> senders;
-    for (std::size_t i = 0; i < args.size(); ++i) {
-      senders.emplace_back([&, i] {
-        outcomes[i] = client_.SendExplore(args[i], region_M, min_z_m, max_z_m, home_after_silence_s);
-      });
-    }
-    for (auto& t : senders) t.join();
+    const auto outcomes = shell::SendToEach<CommandOutcome>(args, [&](const std::string& robot, std::size_t) {
+      return client_.SendExplore(robot, region_M, min_z_m, max_z_m, home_after_silence_s);
+    });
     return ReportEach("explore", args.front(), args, outcomes);
   }
   const std::string& robot = args[0];

@@ -10,6 +10,7 @@
 #include <ostream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "cairn/base/fleet.h"
@@ -54,6 +55,19 @@ inline std::string Dump(const nlohmann::json& j) {
 }
 
 using core::Fixed;  // `value` with `digits` decimals
+
+/// `send(robots[i])` for every robot at once, one thread each (one robot's round trip never holds up the
+/// others); the outcomes in the order of `robots`.
+template <class Outcome, class Send>
+std::vector<Outcome> SendToEach(const std::vector<std::string>& robots, const Send& send) {
+  std::vector<Outcome> outcomes(robots.size());
+  std::vector<std::thread> senders;
+  for (std::size_t i = 0; i < robots.size(); ++i) {
+    senders.emplace_back([&, i] { outcomes[i] = send(robots[i], i); });
+  }
+  for (auto& t : senders) t.join();
+  return outcomes;
+}
 
 /// Columns `text` takes on a terminal: its UTF-8 code points (each is one column here: "m²" is two).
 inline std::size_t ColumnsOf(const std::string& text) {
