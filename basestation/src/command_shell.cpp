@@ -520,7 +520,7 @@ int CommandShell::Status(const std::vector<std::string>& args) {
     if (s.nav_status() == msgs::NAV_STATUS_NONE) {
       out_ << "none";
     } else {
-      out_ << s.nav_goal_id() << " to (" << Fixed(s.nav_goal_M().x_m(), 2) << ", "
+      out_ << ShortId(s.nav_goal_id()) << " to (" << Fixed(s.nav_goal_M().x_m(), 2) << ", "
            << Fixed(s.nav_goal_M().y_m(), 2) << "): " << fleet::NavStatusWord(s.nav_status());
       if (s.nav_status() == msgs::NAV_STATUS_ACTIVE) {
         out_ << ", " << Fixed(s.nav_distance_left_m(), 1) << " m left, ETA "
@@ -878,8 +878,7 @@ int CommandShell::WaitArrived(const std::string& command, const std::string& rob
     if (goal_id != 0 && s.nav_goal_id() != goal_id) {
       // Once our goal was seen, another id means another goto replaced it.
       if (seen_goal && s.nav_status() != msgs::NAV_STATUS_NONE) {
-        failure =
-            "goal " + std::to_string(goal_id) + " superseded by goal " + std::to_string(s.nav_goal_id());
+        failure = "goal " + ShortId(goal_id) + " superseded by goal " + ShortId(s.nav_goal_id());
       }
       return !failure.empty();
     }

@@ -67,7 +67,7 @@ json ExplorationJson(const cairn_msgs::RobotState& s) {
 
 std::string ExplorationText(const cairn_msgs::RobotState& s) {
   if (s.explore_state().empty() || s.explore_state() == fleet::explore_state::kNone) return "none";
-  std::string text = std::to_string(s.explore_task_id()) + ": " + s.explore_state() + ", " +
+  std::string text = ShortId(s.explore_task_id()) + ": " + s.explore_state() + ", " +
                      Fixed(s.explored_m2(), 0) + " m² explored, " + std::to_string(s.frontier_clusters()) +
                      " frontiers (" + std::to_string(s.reachable_frontiers()) + " reachable), " +
                      std::to_string(s.explore_targets_reached()) + " reached, " +

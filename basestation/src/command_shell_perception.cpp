@@ -180,7 +180,7 @@ int CommandShell::Path(const std::vector<std::string>& args) {
     out_ << "path " << robot << ": none (no active goal)" << std::endl;
     return kOk;
   }
-  out_ << "path " << robot << ": goal " << p.goal_id() << ", " << Fixed(p.length_m(), 1) << " m, "
+  out_ << "path " << robot << ": goal " << ShortId(p.goal_id()) << ", " << Fixed(p.length_m(), 1) << " m, "
        << p.path_M().size() << " waypoints (frame " << p.frame_id() << ", platform " << p.platform()
        << ", map version " << p.map_version() << ", " << p.replans() << " replans)" << std::endl
        << PointsText(p.path_M());

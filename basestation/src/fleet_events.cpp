@@ -83,7 +83,7 @@ void FleetEventDetector::ObserveMission(const std::string& r, const cairn_msgs::
         std::chrono::duration<double>(std::chrono::steady_clock::now() - last.explore_seen).count() / 60.0;
     OperatorEvent e =
         Event("exploration_complete", r,
-              r + " exploration " + std::to_string(now.explore_task_id) +
+              r + " exploration " + ShortId(now.explore_task_id) +
                   " complete: " + core::Fixed(s.explored_m2(), 1) + " m² in " + core::Fixed(minutes, 1) +
                   " min (as heard here), " + std::to_string(s.explore_targets_reached()) +
                   " frontiers reached, " + std::to_string(s.explore_targets_failed()) + " given up");
@@ -92,9 +92,9 @@ void FleetEventDetector::ObserveMission(const std::string& r, const cairn_msgs::
   } else if (explore_changed && (now.explore_state == fleet::explore_state::kStopped ||
                                  now.explore_state == fleet::explore_state::kFailed)) {
     const OperatorReason why = ExplainReason(r, s.explore_reason());
-    OperatorEvent e = Event("exploration_stopped", r,
-                            r + " exploration " + std::to_string(now.explore_task_id) + " " +
-                                now.explore_state + ": " + why.text);
+    OperatorEvent e =
+        Event("exploration_stopped", r,
+              r + " exploration " + ShortId(now.explore_task_id) + " " + now.explore_state + ": " + why.text);
     e.reason = why.text;
     e.condition = why.condition;
     events->push_back(e);
@@ -209,12 +209,12 @@ void FleetEventDetector::ObserveGoal(const std::string& r, const cairn_msgs::Rob
   if (goal_changed && now.nav_status == msgs::NAV_STATUS_ARRIVED) {
     events->push_back(Event("arrived", r,
                             r + " arrived at (" + core::Fixed(s.nav_goal_M().x_m(), 2) + ", " +
-                                core::Fixed(s.nav_goal_M().y_m(), 2) + ") (goal " +
-                                std::to_string(now.goal_id) + ")"));
+                                core::Fixed(s.nav_goal_M().y_m(), 2) + ") (goal " + ShortId(now.goal_id) +
+                                ")"));
   } else if (goal_changed && now.nav_status == msgs::NAV_STATUS_FAILED) {
     const OperatorReason why = ExplainReason(r, s.nav_reason());
     OperatorEvent e =
-        Event("goal_abandoned", r, r + " goal " + std::to_string(now.goal_id) + " abandoned: " + why.text);
+        Event("goal_abandoned", r, r + " goal " + ShortId(now.goal_id) + " abandoned: " + why.text);
     e.reason = why.text;
     e.condition = why.condition;
     events->push_back(e);
@@ -225,7 +225,7 @@ void FleetEventDetector::ObserveGoal(const std::string& r, const cairn_msgs::Rob
     const std::string added = now.nav_reason.rfind(last.nav_reason, 0) == 0 && !last.nav_reason.empty()
                                   ? now.nav_reason.substr(last.nav_reason.size() + 2)
                                   : now.nav_reason;
-    OperatorEvent e = Event("recovering", r, r + " goal " + std::to_string(now.goal_id) + " " + added);
+    OperatorEvent e = Event("recovering", r, r + " goal " + ShortId(now.goal_id) + " " + added);
     e.reason = added;
     events->push_back(e);
   }

@@ -4,6 +4,8 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -116,6 +118,7 @@ const char* kFleetStateSchema =
 "base_id":{"type":"string","description":"this basestation"},
 "robots":{"type":"array","items":{"type":"object","properties":{
 "id":{"type":"string"},"platform":{"type":"string"},"online":{"type":"boolean"},"lost_reason":{"type":"string"},
+"color":{"type":"string","description":"the robot's colour in every view, #rrggbb"},
 "heard_s_ago":{"type":"number","description":"seconds since its last state"},
 "link":{"type":"object","description":"its link as this basestation sees it (cairn_base links)","properties":{
 "class":{"type":"string"},"budget_kbps":{"type":"number"},"rtt_ms":{"type":"number","description":"last link-probe round trip, -1 none yet"},
@@ -174,7 +177,64 @@ int LogLevel(const std::string& kind) {
   return 2;  // INFO
 }
 
+// Robot colours: distinct on the dark 3D view and beside each other; no red (STOP, warnings). The first ones
+// stand out from the map's blue-to-green height colours; the blues and greens come last.
+constexpr std::array<std::uint32_t, RobotPalette::kSize> kRobotColors = {
+    0xff9f1c,  // orange
+    0xff70a6,  // pink
+    0xffd60a,  // yellow
+    0xc77dff,  // purple
+    0xe8e8e8,  // white
+    0xa3e048,  // lime
+    0xc8a27a,  // tan
+    0x4e9bff,  // blue
+    0x3ddc97,  // green
+    0x2ec4d6,  // cyan
+};
+
 }  // namespace
+
+int RobotPalette::SlotOf(const std::string& robot_id) {
+  const auto known = slots_.find(robot_id);
+  if (known != slots_.end()) return known->second;
+  // The preferred slot: the trailing number (r1 -> 0), else an FNV-1a hash of the name.
+  std::size_t digits = robot_id.size();
+  while (digits > 0 && std::isdigit(static_cast<unsigned char>(robot_id[digits - 1])) != 0) --digits;
+  int preferred = 0;
+  if (digits < robot_id.size() && robot_id.size() - digits <= 6) {
+    preferred = (std::stoi(robot_id.substr(digits)) + RobotPalette::kSize - 1) % RobotPalette::kSize;
+  } else {
+    std::uint32_t hash = 2166136261U;
+    for (const char c : robot_id) hash = (hash ^ static_cast<unsigned char>(c)) * 16777619U;
+    preferred = static_cast<int>(hash % RobotPalette::kSize);
+  }
+  // Taken by another robot: the next free one (all taken, the eleventh robot shares its preferred slot).
+  std::array<bool, RobotPalette::kSize> taken{};
+  for (const auto& [id, slot] : slots_) taken[static_cast<std::size_t>(slot)] = true;
+  int slot = preferred;
+  for (int k = 0; k < RobotPalette::kSize; ++k) {
+    const int candidate = (preferred + k) % RobotPalette::kSize;
+    if (!taken[static_cast<std::size_t>(candidate)]) {
+      slot = candidate;
+      break;
+    }
+  }
+  slots_.emplace(robot_id, slot);
+  return slot;
+}
+
+std::string RobotPalette::ColorOf(const std::string& robot_id) {
+  char text[8];
+  std::snprintf(text, sizeof(text), "#%06x", kRobotColors[static_cast<std::size_t>(SlotOf(robot_id))]);
+  return text;
+}
+
+void RobotPalette::RgbOf(const std::string& robot_id, double* r, double* g, double* b) {
+  const std::uint32_t c = kRobotColors[static_cast<std::size_t>(SlotOf(robot_id))];
+  *r = ((c >> 16) & 0xff) / 255.0;
+  *g = ((c >> 8) & 0xff) / 255.0;
+  *b = (c & 0xff) / 255.0;
+}
 
 void ModeColor(const std::string& mode, double* r, double* g, double* b) {
   if (mode == "idle") {
@@ -245,6 +305,7 @@ class GuiBridge::Impl {
     robots_ = channel("/robots", "foxglove.SceneUpdate", scene_schema_);
     paths_ = channel("/paths", "foxglove.SceneUpdate", scene_schema_);
     stairs_ = channel("/staircases", "foxglove.SceneUpdate", scene_schema_);
+    places_ = channel("/places", "foxglove.SceneUpdate", scene_schema_);
     map_ = channel("/fleet_map", "foxglove.SceneUpdate", scene_schema_);
     events_ = channel("/events", "foxglove.Log", schemas["foxglove.Log"].dump());
     command_table_ = channel("/cairn/commands", "cairn.CommandTable", kCommandTableSchema);
@@ -297,7 +358,7 @@ class GuiBridge::Impl {
     // The others refresh at 10 Hz; /events sends a new subscriber the events it missed (ReplayEvents), and
     // /cairn/commands the command table (it never changes).
     if (channel != map_ && channel != stairs_ && channel != paths_ && channel != events_ &&
-        channel != command_table_) {
+        channel != command_table_ && channel != places_) {
       return;
     }
     std::lock_guard<std::mutex> lock(mutex_);
@@ -435,6 +496,8 @@ class GuiBridge::Impl {
         PublishCameras(robots, ns);
         PublishEvents(ns);
         PublishStairs(ns, {});
+        if (tick % std::max(1, static_cast<int>(std::lround(options_.state_rate_hz * 2))) == 0)
+          PublishPlaces(ns, {});
         const double since_map = std::chrono::duration<double>(Clock::now() - last_map_).count();
         if (since_map >= options_.map_period_s) {
           PublishMap(ns, {});
@@ -444,6 +507,7 @@ class GuiBridge::Impl {
           if (s.channel == map_) PublishMap(ns, s.client);
           if (s.channel == stairs_) PublishStairs(ns, s.client);
           if (s.channel == paths_) PublishPaths(robots, ns, s.client);
+          if (s.channel == places_) PublishPlaces(ns, s.client);
           if (s.channel == events_) ReplayEvents(ns, s.client);
           if (s.channel == command_table_) server_->SendTo(s.client, command_table_, ns, CommandTableJson());
         }
@@ -466,6 +530,7 @@ class GuiBridge::Impl {
     for (const RobotView& v : robots) {
       json r = {
           {"id", v.robot_id}, {"platform", v.platform}, {"online", !v.lost}, {"lost_reason", v.lost_reason}};
+      r["color"] = palette_.ColorOf(v.robot_id);
       r["heard_s_ago"] = v.state ? core::SecondsBetween(v.state_received, now) : -1.0;
       r["link"] = shell::LinkFieldsJson(v.link);
       r["link"]["class"] = v.link.link;
@@ -569,12 +634,12 @@ class GuiBridge::Impl {
               {"w", s.pose_MB().orientation().w()}}}};
   }
 
-  // The robot's body in the 3D view: a box in its mode's colour, a heading arrow and a label.
-  static json RobotEntity(const RobotView& v, const cairn_msgs::RobotState& s, std::uint64_t ns) {
+  // The robot's body in the 3D view: a box in the robot's colour, a heading arrow and a label.
+  json RobotEntity(const RobotView& v, const cairn_msgs::RobotState& s, std::uint64_t ns) {
     const auto& p = s.pose_MB().position();
     const double yaw = YawOf(s.pose_MB().orientation());
     double cr = 0, cg = 0, cb = 0;
-    ModeColor(s.mode(), &cr, &cg, &cb);
+    palette_.RgbOf(v.robot_id, &cr, &cg, &cb);
     const double alpha = v.lost ? 0.35 : 1.0;
     json e = Entity("robot/" + v.robot_id, ns);
     e["cubes"].push_back(
@@ -616,26 +681,28 @@ class GuiBridge::Impl {
       if (!v.state) continue;
       json e = Entity("path/" + v.robot_id, ns);
       const auto& s = *v.state;
+      // Everything of one robot in its colour: the path solid and thick (seen at overview zoom), the local
+      // plan lighter, the trail faint.
+      double cr = 0, cg = 0, cb = 0;
+      palette_.RgbOf(v.robot_id, &cr, &cg, &cb);
       if (v.global_path && s.nav_status() == cairn_msgs::NAV_STATUS_ACTIVE &&
           !v.global_path->path_M().empty()) {
         std::vector<std::array<double, 3>> pts;
         for (const auto& p : v.global_path->path_M()) pts.push_back({p.x_m(), p.y_m(), p.z_m() + 0.1});
-        e["lines"].push_back(LineStrip(pts, 0.08, Color(0.2, 0.85, 1.0, 0.9)));
+        e["lines"].push_back(LineStrip(pts, 0.15, Color(cr, cg, cb, 0.95)));
         const auto& g = s.nav_goal_M();
         e["spheres"].push_back({{"pose", PoseJson(g.x_m(), g.y_m(), g.z_m() + 0.15, 0)},
                                 {"size", Vec3(0.3, 0.3, 0.3)},
-                                {"color", Color(0.2, 0.85, 1.0, 0.9)}});
+                                {"color", Color(cr, cg, cb, 0.95)}});
       }
       if (s.explore_has_target() && s.explore_state() == fleet::explore_state::kExploring) {
-        // The frontier the robot explores toward: a sphere on a 1 m post, in the explore mode's colour.
+        // The frontier the robot explores toward: a sphere on a 1 m post.
         const auto& t = s.explore_target_M();
-        double r = 0, g = 0, b = 0;
-        ModeColor("explore", &r, &g, &b);
-        e["lines"].push_back(LineStrip({{t.x_m(), t.y_m(), t.z_m()}, {t.x_m(), t.y_m(), t.z_m() + 1.0}}, 0.05,
-                                       Color(r, g, b, 0.9)));
+        e["lines"].push_back(LineStrip({{t.x_m(), t.y_m(), t.z_m()}, {t.x_m(), t.y_m(), t.z_m() + 1.0}}, 0.08,
+                                       Color(cr, cg, cb, 0.9)));
         e["spheres"].push_back({{"pose", PoseJson(t.x_m(), t.y_m(), t.z_m() + 1.0, 0)},
                                 {"size", Vec3(0.35, 0.35, 0.35)},
-                                {"color", Color(r, g, b, 0.95)}});
+                                {"color", Color(cr, cg, cb, 0.95)}});
       }
       if (v.local_plan && !v.local_plan->chosen_path_B().empty()) {
         const auto& lp = *v.local_plan;
@@ -646,13 +713,13 @@ class GuiBridge::Impl {
           pts.push_back({o.x_m() + std::cos(yaw) * p.x_m() - std::sin(yaw) * p.y_m(),
                          o.y_m() + std::sin(yaw) * p.x_m() + std::cos(yaw) * p.y_m(), o.z_m() + 0.12});
         }
-        e["lines"].push_back(LineStrip(pts, 0.05, Color(0.3, 1.0, 0.4, 0.9)));
+        e["lines"].push_back(LineStrip(pts, 0.08, Color(0.5 + cr / 2, 0.5 + cg / 2, 0.5 + cb / 2, 0.9)));
       }
       const auto trail = trails_.find(v.robot_id);
       if (trail != trails_.end() && trail->second.size() >= 2) {
         std::vector<std::array<double, 3>> pts;
         for (const auto& t : trail->second) pts.push_back(t.p);
-        e["lines"].push_back(LineStrip(pts, 0.04, Color(1.0, 1.0, 1.0, 0.45)));
+        e["lines"].push_back(LineStrip(pts, 0.05, Color(cr, cg, cb, 0.45)));
       }
       const std::string text = e["lines"].dump() + e["spheres"].dump();
       if (!only) {
@@ -740,6 +807,47 @@ class GuiBridge::Impl {
     for (const OperatorEvent& e : client_.RecentEvents()) {
       if (e.seq <= event_cursor_) server_->SendTo(client, events_, ns, LogPayload(e));
     }
+  }
+
+  // The named places (the places file, which other consoles also write): a post and its name each, every
+  // two seconds when the file changed, or all to `only`. A file that cannot be read keeps the last ones.
+  void PublishPlaces(std::uint64_t ns, std::optional<FoxgloveServer::ClientId> only) {
+    if (options_.places_file.empty()) return;
+    std::vector<Place> places;
+    try {
+      places = Places::Load(options_.places_file).All();
+    } catch (const std::exception& e) {
+      if (places_error_ != e.what()) spdlog::warn("GUI: places not updated: {}", e.what());
+      places_error_ = e.what();
+      return;
+    }
+    places_error_.clear();
+    json scene = {{"deletions", json::array()}, {"entities", json::array()}};
+    std::set<std::string> names;
+    for (const Place& place : places) {
+      names.insert(place.name);
+      json e = Entity("place/" + place.name, ns);
+      e["lines"].push_back(
+          LineStrip({{place.x_m, place.y_m, place.z_m}, {place.x_m, place.y_m, place.z_m + 1.5}}, 0.04,
+                    Color(0.85, 0.88, 0.92, 0.7)));
+      e["texts"].push_back({{"pose", PoseJson(place.x_m, place.y_m, place.z_m + 1.6, 0)},
+                            {"billboard", true},
+                            {"font_size", 12.0},
+                            {"scale_invariant", true},
+                            {"color", Color(0.85, 0.88, 0.92, 1)},
+                            {"text", place.name}});
+      scene["entities"].push_back(e);
+    }
+    const std::string text = scene["entities"].dump();
+    if (!only) {
+      if (text == places_sent_) return;
+      for (const std::string& name : places_shown_)
+        if (names.count(name) == 0) scene["deletions"].push_back(Deletion("place/" + name, ns));
+      places_sent_ = text;
+      places_shown_ = names;
+    }
+    if (scene["entities"].empty() && scene["deletions"].empty()) return;
+    Send(places_, ns, scene.dump(), only);
   }
 
   void PublishStairs(std::uint64_t ns, std::optional<FoxgloveServer::ClientId> only) {
@@ -931,6 +1039,7 @@ class GuiBridge::Impl {
   std::unique_ptr<FoxgloveServer> server_;
   std::string scene_schema_, image_schema_;
   std::uint32_t fleet_ = 0, tf_ = 0, robots_ = 0, paths_ = 0, stairs_ = 0, map_ = 0, events_ = 0;
+  std::uint32_t places_ = 0;
   std::uint32_t command_table_ = 0;
   std::uint32_t command_service_ = 0;
   std::ostringstream shell_out_;
@@ -940,7 +1049,11 @@ class GuiBridge::Impl {
   std::map<std::string, std::deque<TrailPoint>> trails_;
   std::map<std::string, std::string> last_paths_;
   std::string last_stairs_;
-  std::set<int> stairs_shown_;  // fleet staircase ids last sent to every subscriber
+  RobotPalette palette_;
+  std::string places_sent_;             // the places as last sent to every subscriber
+  std::set<std::string> places_shown_;  // their names
+  std::string places_error_;            // why the file was last unreadable (warned once)
+  std::set<int> stairs_shown_;          // fleet staircase ids last sent to every subscriber
   struct SentColumn {
     std::string cubes;  // the column's cubes as last sent
     Clock::time_point sent_at;

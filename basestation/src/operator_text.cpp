@@ -300,4 +300,11 @@ std::string DidYouMeanText(const std::string& word, const std::vector<std::strin
   return text + "?)";
 }
 
+std::string ShortId(std::uint32_t id) {
+  if (id < 1000) return "#" + std::to_string(id);
+  char text[8];
+  std::snprintf(text, sizeof(text), "#%03u", static_cast<unsigned>(id % 1000));
+  return text;
+}
+
 }  // namespace cairn::base

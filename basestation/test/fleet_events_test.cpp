@@ -101,7 +101,7 @@ TEST(FleetEventDetector, FirstSightIsABaselineThenEachChangeIsToldOnce) {
   r2.state->nav_goal_M().y_m(10);
   auto events = detector.Observe({r2});
   ASSERT_EQ(Kinds(events), (std::vector<std::string>{"arrived"}));
-  EXPECT_EQ(events[0].message, "r2 arrived at (30.00, 10.00) (goal 8)");
+  EXPECT_EQ(events[0].message, "r2 arrived at (30.00, 10.00) (goal #8)");
   EXPECT_TRUE(detector.Observe({r2}).empty()) << "told once";
 
   r2.state->nav_goal_id(9);
@@ -187,7 +187,7 @@ TEST(FleetEventDetector, EachRecoveryAttemptIsToldAsItFails) {
   r1.state->nav_reason("recovering after: blocked: no progress for 10.0 s");
   auto events = detector.Observe({r1});
   ASSERT_EQ(Kinds(events), (std::vector<std::string>{"recovering"}));
-  EXPECT_EQ(events[0].message, "r1 goal 3 recovering after: blocked: no progress for 10.0 s");
+  EXPECT_EQ(events[0].message, "r1 goal #3 recovering after: blocked: no progress for 10.0 s");
   EXPECT_TRUE(detector.Observe({r1}).empty()) << "told once";
   r1.state->nav_reason(
       "recovering after: blocked: no progress for 10.0 s; attempt 1 (clear the local obstacle "

@@ -159,5 +159,14 @@ TEST(DidYouMean, FindsTyposAndPrefixes) {
   EXPECT_EQ(DidYouMeanText("r9", {"r1", "r2"}), " (did you mean r1 or r2?)");
 }
 
+TEST(ShortIdTest, LastThreeDigitsOfARandomStartSmallIdsWhole) {
+  EXPECT_EQ(ShortId(482913845), "#845");
+  EXPECT_EQ(ShortId(482913846), "#846");
+  EXPECT_EQ(ShortId(482913005), "#005");
+  EXPECT_EQ(ShortId(12), "#12");
+  EXPECT_EQ(ShortId(0), "#0");
+  EXPECT_EQ(ShortId(4294967295U), "#295");
+}
+
 }  // namespace
 }  // namespace cairn::base

@@ -1,5 +1,5 @@
 // Builds the operator GUI into OUT_DIR (default ./dist): app.js (esbuild bundle of src/main.ts with three.js
-// and @foxglove/ws-protocol), wire.mjs (src/wire.ts for the tests), index.html, style.css, and foxglove-schemas.json (Foxglove's JSON schemas of the
+// and @foxglove/ws-protocol), wire.mjs and voxel_mesh.mjs (src/wire.ts and src/voxel_mesh.ts for the tests), index.html, style.css, and foxglove-schemas.json (Foxglove's JSON schemas of the
 // well-known messages cairn_base advertises, from @foxglove/schemas). Run by ./cairn build through CMake.
 import { build } from "esbuild";
 import { copyFileSync, mkdirSync, writeFileSync } from "node:fs";
@@ -21,15 +21,17 @@ await build({
   outfile: join(out, "app.js"),
   logLevel: "warning",
 });
-// The wire module alone, as an ES module for the tests (test/harness.mjs loadWire).
-await build({
-  entryPoints: [join(here, "src/wire.ts")],
-  bundle: true,
-  format: "esm",
-  target: "es2020",
-  outfile: join(out, "wire.mjs"),
-  logLevel: "warning",
-});
+// The wire module (test/harness.mjs loadWire) and the voxel mesher alone, as ES modules for the tests.
+for (const module of ["wire", "voxel_mesh"]) {
+  await build({
+    entryPoints: [join(here, `src/${module}.ts`)],
+    bundle: true,
+    format: "esm",
+    target: "es2020",
+    outfile: join(out, `${module}.mjs`),
+    logLevel: "warning",
+  });
+}
 for (const f of ["index.html", "style.css", "favicon.svg"]) copyFileSync(join(here, f), join(out, f));
 const wanted = ["SceneUpdate", "FrameTransforms", "CompressedImage", "Log", "PointCloud"];
 const table = Object.fromEntries(wanted.map((name) => [`foxglove.${name}`, schemas[name]]));

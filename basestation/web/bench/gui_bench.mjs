@@ -4,9 +4,10 @@
 //      same run: the DDS hop alone (the state's stamp -> cairn_base received it, from /fleet's received_stamp).
 //   2. bytes per second per GUI client with 3 robots driving through builtin:tunnels (maps growing, cameras,
 //      paths), per channel; baseline in the same run: a client subscribed to /fleet only (the fleet list).
-//   3. frame rate of the 3D view with 300k voxels in headless Chromium (software GL here: SwiftShader);
-//      baseline in the same run and browser: the same page with no voxels.
-// Usage (./cairn bench runs it): tests/netns_run.sh node basestation/web/bench/gui_bench.mjs [SECONDS]
+//   3. frame rate of the 3D view with 300k voxels in headless Chromium (software GL here: SwiftShader), the
+//      map's faces merged with two levels of detail; baselines in the same run and browser: the same map drawn
+//      box by box (one instanced box per voxel, as before), and the page with no voxels.
+// Usage (./cairn bench runs it): tests/netns_run.sh node basestation/web/bench/gui_bench.mjs [SECONDS] [--3d-only]
 import wsProtocol from "@foxglove/ws-protocol";
 import WebSocket from "ws";
 
@@ -14,7 +15,8 @@ import { launchBrowser, screenshot, sleep, startBase, startRobot, stopAll, waitF
 
 const { FoxgloveClient } = wsProtocol;
 const DOMAIN = 76;
-const SECONDS = Number(process.argv[2] ?? 30);
+const only3d = process.argv.includes("--3d-only");
+const SECONDS = Number(process.argv.slice(2).find((a) => !a.startsWith("--")) ?? 30);
 const decoder = new TextDecoder();
 
 function quantile(values, q) {
@@ -60,6 +62,8 @@ function command(stats, line) {
 }
 
 // ---- 1 and 2: three robots, one basestation, two clients ----------------------------------------------------
+if (!only3d) await fleetFigures();
+async function fleetFigures() {
 await Promise.all(["r1", "r2", "r3"].map((id, i) => startRobot(id, { start: `slot:${i}`, domain: DOMAIN })));
 const base = await startBase("op1", { domain: DOMAIN });
 const wsUrl = base.url.replace(/^http/, "ws");
@@ -110,6 +114,7 @@ if (!status.ok) console.log(`note: robots: ${status.reason}`);
 gui.client.close();
 listOnly.client.close();
 stopAll();
+}
 
 // ---- 3: the 3D view's frame rate, 300k voxels against none, in one browser ----------------------------------
 const browser = await launchBrowser();
@@ -120,10 +125,12 @@ const views = [
   { name: "none", voxels: 0, wholeMap: false },
   { name: "orbit", voxels: 300000, wholeMap: false }, // the default orbit view over a robot (part of the map)
   { name: "whole", voxels: 300000, wholeMap: true }, // the whole 100 x 100 m map in view, from above
+  { name: "orbit_boxes", voxels: 300000, wholeMap: false, boxes: true },
+  { name: "whole_boxes", voxels: 300000, wholeMap: true, boxes: true },
 ];
 for (const view of views) {
   const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
-  await page.goto(`${empty.url}?bench_voxels=${view.voxels}`);
+  await page.goto(`${empty.url}?bench_voxels=${view.voxels}${view.boxes ? "&bench_boxes=1" : ""}`);
   await waitFor("the voxels", () => page.evaluate((n) => window.cairn.scene.voxelCount >= n, view.voxels), 60000);
   if (view.wholeMap) {
     await page.evaluate(() => {
@@ -139,15 +146,25 @@ for (const view of views) {
   await sleep(10000);
   const frames1 = await page.evaluate(() => window.cairn.scene.framesDrawn);
   results[view.name] = (frames1 - frames0) / ((Date.now() - start) / 1000);
+  results[`${view.name}_quads`] = await page.evaluate(() => window.cairn.scene.mapQuads);
+  results[`${view.name}_drawn`] = await page.evaluate(() => {
+    const r = window.cairn.scene.renderer.info.render;
+    return `${r.calls} draw calls, ${r.triangles} triangles`;
+  });
   results.gl = await page.evaluate(() => (window.cairn.scene.softwareGl ? "software GL (SwiftShader)" : "GPU"));
   await page.evaluate(() => { window.cairn.scene.continuous = false; });
   await sleep(2000);
   await screenshot(page, `bench_3d_${view.name}`).catch((e) => console.log(`note: no screenshot of ${view.name}: ${e.message.split("\n")[0]}`));
   await page.close();
 }
-console.log(`3D view, headless Chromium, ${results.gl}, 1280x800, no voxels (baseline) ${results.none.toFixed(1)} fps; ` +
-  `300k voxels: orbit view over a robot ${results.orbit.toFixed(1)} fps (ratio ${(results.orbit / results.none).toFixed(2)}), ` +
-  `whole map from above ${results.whole.toFixed(2)} fps (ratio ${(results.whole / results.none).toFixed(3)})`);
+console.log(`3D view, headless Chromium, ${results.gl}, 1280x800, no voxels ${results.none.toFixed(1)} fps; 300k voxels ` +
+  `(merged faces: ${results.orbit_quads} rectangles; box by box: ${results.orbit_boxes_quads}):`);
+for (const [name, what] of [["orbit", "orbit view over a robot"], ["whole", "whole map from above"]]) {
+  console.log(`  ${what}: merged faces + LOD ${results[name].toFixed(1)} fps, box by box (baseline) ` +
+    `${results[`${name}_boxes`].toFixed(2)} fps, ratio ${(results[name] / results[`${name}_boxes`]).toFixed(1)}; ` +
+    `${(results[name] / results.none).toFixed(2)} of the empty view; a frame: ${results[`${name}_drawn`]} ` +
+    `(box by box ${results[`${name}_boxes_drawn`]})`);
+}
 await browser.close();
 stopAll();
 process.exit(0);

@@ -1,7 +1,7 @@
 // The operator's input: panel buttons, taps and long presses in the 3D view, a goal or a convoy put together
 // and confirmed, driving with keys or a gamepad (deadman), keyboard shortcuts. Every command goes to
 // cairn_base as a structured request (wire.ts), with the CLI's semantics and reasons.
-import { render, renderRobot, setTab, toast } from "./panels";
+import { render, renderGoalMarkers, renderRobot, setTab, toast } from "./panels";
 import { $, link, scene, selectedRobot, state } from "./state";
 import { Command, checkAgainstTable, commandText, type CommandRequest, type CommandResult } from "./wire";
 
@@ -182,6 +182,7 @@ export function proposeGoal(x: number, y: number, z?: number): void {
       (level === undefined ? '?' : ` on the level at z ${level.toFixed(2)} m?`);
   $("confirm").hidden = false;
   render();
+  renderGoalMarkers();
 }
 
 export async function confirmGoal(): Promise<void> {
@@ -197,8 +198,15 @@ export async function confirmGoal(): Promise<void> {
     return;
   }
   if (g && state.selected) {
-    if (state.goalVerb === "peel") await run(Command.peel(state.selected, round2(g.x), round2(g.y)));
-    else await run(Command.goto(state.selected, round2(g.x), round2(g.y), g.z === undefined ? undefined : round2(g.z)));
+    const robot = state.selected;
+    const groundZ = g.z ?? selectedRobot()?.pose?.z_m ?? 0;
+    // Drawn from the tap on: while the command goes out, then until the robot reaches or drops it.
+    state.sentGoals.set(robot, { x: g.x, y: g.y, z: groundZ, sentMs: Date.now() });
+    renderGoalMarkers();
+    const result = state.goalVerb === "peel" ? await run(Command.peel(robot, round2(g.x), round2(g.y)))
+      : await run(Command.goto(robot, round2(g.x), round2(g.y), g.z === undefined ? undefined : round2(g.z)));
+    if (!result.ok) state.sentGoals.delete(robot);
+    renderGoalMarkers();
   }
 }
 
@@ -208,6 +216,7 @@ function cancelGoal(): void {
   ($('confirm-goto') as HTMLButtonElement).disabled = false;
   $("confirm").hidden = true;
   startGoalPick(false);
+  renderGoalMarkers();
 }
 
 // ---- Driving: keyboard and gamepad (deadman), streamed on /cairn/teleop at 10 Hz ---------------------------

@@ -8,7 +8,7 @@
 //   input.ts   buttons, taps, goals, convoys, driving, keys
 //   main.ts    (here) the messages from cairn_base into the state, and the start
 import { installInput, confirmGoal, proposeGoal, run, select } from "./input";
-import { kToastMaxAgeMs, render, renderEvents, renderHealth, renderRequests, renderRobot, seenEvents, setTab, toast } from "./panels";
+import { kToastMaxAgeMs, render, renderGoalMarkers, renderEvents, renderHealth, renderRequests, renderRobot, seenEvents, setTab, toast } from "./panels";
 import { $, link, params, scene, state, type EventEntry } from "./state";
 import { Topic, type CameraMessage, type CommandTableMessage, type EventMessage, type FleetMessage } from "./wire";
 
@@ -32,10 +32,11 @@ function onMessage(topic: string, message: unknown): void {
     scene.setRobots(
       state.robots
         .filter((r) => r.pose)
-        .map((r) => ({ id: r.id, x: r.pose!.x_m, y: r.pose!.y_m, z: r.pose!.z_m, yaw: r.pose!.yaw_rad, mode: r.mode, holder: r.holder, online: r.online })),
+        .map((r) => ({ id: r.id, x: r.pose!.x_m, y: r.pose!.y_m, z: r.pose!.z_m, yaw: r.pose!.yaw_rad, mode: r.mode, holder: r.holder, online: r.online, color: r.color })),
     );
+    renderGoalMarkers();
     render();
-  } else if (topic === Topic.fleetMap || topic === Topic.paths || topic === Topic.staircases) {
+  } else if (topic === Topic.fleetMap || topic === Topic.paths || topic === Topic.staircases || topic === Topic.places) {
     scene.applySceneUpdate(message);
   } else if (topic === Topic.events) {
     const msg = message as EventMessage;
@@ -81,6 +82,7 @@ setTab(state.selected ? "robot" : "fleet");
 const bench = params.get("bench_voxels");
 if (bench) {
   scene.continuous = true; // the frame-rate bench: draw every frame
+  scene.map.boxesOnly = params.get("bench_boxes") === "1"; // its baseline: one instanced box per voxel
   link.onState(false, `bench: ${bench} synthetic voxels, no server`);
   scene.addSyntheticVoxels(Number(bench));
 }

@@ -1,7 +1,7 @@
 // The side panel, drawn from the state: the fleet list, the selected robot (its valid actions as buttons, its
 // navigation, exploration, convoy and yield), health (links and components), events, and notifications.
 // Action buttons carry their command as JSON (data-command: a wire.ts CommandRequest); input.ts sends it.
-import { modeColor } from "./scene";
+import { modeColor, type GoalMarker } from "./scene";
 import { $, link, scene, selectedRobot, state } from "./state";
 import { Command, type CommandRequest, type Convoy, type Exploration, type Robot, type YieldRecord } from "./wire";
 
@@ -119,7 +119,7 @@ function renderFleet(): void {
     const holder = r.holder ? (r.you_hold ? `${r.holder} (you)` : r.holder) : "free";
     setHtml(
         row,
-        `<td><span class="dot ${r.online ? 'on' : 'off'}"></span>${r.id}</td>
+        `<td><span class="swatch" style="background:${r.color}"></span>${r.id}<span class="dot ${r.online ? 'on' : 'off'}"></span></td>
       <td><span class="chip" style="background:${modeColor(r.mode)}">${r.mode || '?'}</span>${
             r.convoy?.ahead.length ? ` <span class="small">→ ${r.convoy.ahead[0]}</span>` : ''}</td>
       <td>${holder}</td><td>${r.online ? fmt(r.heard_s_ago, 1, ' s') : 'lost'}</td>`);
@@ -176,7 +176,7 @@ export function renderRobot(): void {
     return;
   }
   const holder = r.holder ? `held by <b>${r.holder}</b>${r.you_hold ? " (you)" : ""}${r.holder_alive ? "" : " (not heard)"}` : "free";
-  setHtml($("robot-head"), `<h2>${r.id} <span class="chip" style="background:${modeColor(r.mode)}">${r.mode || "?"}</span></h2>
+  setHtml($("robot-head"), `<h2><span class="swatch" style="background:${r.color}"></span>${r.id} <span class="chip" style="background:${modeColor(r.mode)}">${r.mode || "?"}</span></h2>
     <p>${r.platform} · ${holder} · ${r.online ? "online" : `<b class="bad">lost</b> ${r.lost_reason}`}</p>`);
   // In explore mode the robot drives to its frontiers itself: its last waypoint goal's status is stale.
   const nav = r.mode === 'explore' ? 'following the exploration\'s targets' :
@@ -187,7 +187,7 @@ export function renderRobot(): void {
   setHtml(
       $('robot-nav'),
       `<p>navigation: <b>${nav}</b>${
-          r.nav_reason ? `<br><span class="reason">${r.nav_reason}</span>` : ''}</p>
+          r.nav_reason ? `<br><span class="reason${r.nav_status === "failed" || r.nav_status === "active" ? " warn" : ""}">${r.nav_reason}</span>` : ''}</p>
     <p class="small">local planner: ${r.local_planner_status || '–'} · speed ${
           fmt(Math.abs(r.speed_mps), 2, ' m/s')}</p>
     ${explorationHtml(r.exploration)}${convoyHtml(r.convoy)}${yieldHtml(r.yield)}`);
@@ -208,9 +208,38 @@ function explorationHtml(e: Exploration | undefined): string {
   if (!e || !e.state || e.state === "none") return "";
   const target = e.target ? ` · target (${fmt(e.target.x_m, 1)}, ${fmt(e.target.y_m, 1)}, z ${fmt(e.target.z_m, 1)})` : "";
   const team = e.peers > 0 ? ` · ${e.peers} peer${e.peers > 1 ? "s" : ""} (${fmt(e.peer_seen_m2, 0, " m²")} seen)` : "";
-  return `<p id="exploration">exploration ${e.task_id}: <b>${e.state}</b> · ${fmt(e.explored_m2, 0, " m²")} explored ·
+  return `<p id="exploration">exploration ${shortId(e.task_id)}: <b>${e.state}</b> · ${fmt(e.explored_m2, 0, " m²")} explored ·
     ${e.frontiers} frontiers (${e.reachable_frontiers} reachable)${target}${team} · ${e.targets_reached} reached, ${e.targets_failed} given up
-    ${e.reason ? `<br><span class="reason">${e.reason}</span>` : ""}</p>`;
+    ${e.reason ? `<br><span class="reason${e.state === "failed" || e.state === "stopped" || e.state === "paused" ? " warn" : ""}">${e.reason}</span>` : ""}</p>`;
+}
+
+/** A goal or exploration id as the console prints it: "#845", its last three digits (a robot numbers them up
+ *  from a random start); "#7" under 1000. */
+export function shortId(id: number): string {
+  return id < 1000 ? `#${id}` : `#${String(id % 1000).padStart(3, "0")}`;
+}
+
+/** The goal markers of the 3D view: the goal being chosen (faint, before it is sent), and each goal sent from
+ *  this page until its robot reaches or drops it (or another goal replaces it). */
+export function renderGoalMarkers(): void {
+  const markers: GoalMarker[] = [];
+  const now = Date.now();
+  for (const [id, g] of state.sentGoals) {
+    const r = state.robots.find((x) => x.id === id);
+    // For 3 s after sending, the robot's state may not show the goal yet.
+    const fresh = now - g.sentMs < 3000;
+    const driving = r?.nav_status === "active" && !!r.goal && Math.hypot(r.goal.x_m - g.x, r.goal.y_m - g.y) < 0.3;
+    if (!r || (!fresh && !driving)) {
+      state.sentGoals.delete(id);
+      continue;
+    }
+    if (state.pendingGoal && id === state.selected) continue; // one marker per robot: the new one
+    markers.push({ robot: id, x: g.x, y: g.y, z: g.z, color: r.color, pending: false });
+  }
+  const p = state.pendingGoal;
+  const r = selectedRobot();
+  if (p && r && !state.convoyOrder) markers.push({ robot: r.id, x: p.x, y: p.y, z: p.z ?? r.pose?.z_m ?? 0, color: r.color, pending: true });
+  scene.setGoalMarkers(markers);
 }
 
 // The convoy block of the robot tab: whom it follows, how far behind along the path, the order to the leader.
@@ -222,7 +251,7 @@ function convoyHtml(c: Convoy|undefined): string {
   return `<p id="convoy">convoy: <b${bad ? ' class="bad"' : ''}>${c.state}</b> behind <b>${c.ahead[0]}</b>${
       gap}
     <br><span class="small">order: ${order} ← ${state.selected}</span>
-    ${c.reason ? `<br><span class="reason">${c.reason}</span>` : ''}</p>`;
+    ${c.reason ? `<br><span class="reason${bad ? ' warn' : ''}">${c.reason}</span>` : ''}</p>`;
 }
 
 // The yield block of the robot tab: getting out of a peer's way, or waiting for one to.
@@ -231,49 +260,72 @@ function yieldHtml(y: YieldRecord|undefined): string {
   const bad = y.state === 'refused' || y.state === 'blocked';
   return `<p id="yield">get out of the way: <b${bad ? ' class="bad"' : ''}>${
       y.state.replace(
-          '_', ' ')}</b> (${y.peer})${y.reason ? `<br><span class="reason">${y.reason}</span>` : ''}</p>`;
+          '_', ' ')}</b> (${y.peer})${y.reason ? `<br><span class="reason${bad ? ' warn' : ''}">${y.reason}</span>` : ''}</p>`;
 }
 
-// One robot's link cells: probe round trip, state samples lost (10 s), what it sends against its budget.
-function linkCells(r: Robot): string {
+// One robot's link: probe round trip, state samples lost (10 s), what it sends against its budget; each a
+// labelled cell (the panel wraps them into as many columns as fit).
+function linkCells(r: Robot): string[] {
   const l = r.link;
-  if (!l) return "<td>–</td><td>–</td><td>–</td>";
+  if (!l) return [cell("probe", "–"), cell("lost", "–"), cell("sends", "–")];
   const rtt = l.rtt_ms < 0 ? "–"
     : l.probe_wait_s > 0 ? `<b class="bad">no answer ${l.probe_wait_s.toFixed(0)} s</b>`
     : `${l.rtt_ms.toFixed(l.rtt_ms < 10 ? 1 : 0)} ms`;
-  const loss = `${l.loss_pct.toFixed(0)} %`;
   const classes = l.usage.map((u) => `${u.topic_class} ${u.sent_kbps.toFixed(0)}`).join(", ");
   const budget = l.budget_kbps > 0 ? ` / ${l.budget_kbps.toFixed(0)}` : "";
-  const sends = `<span title="${classes}">${l.sent_kbps.toFixed(0)}${budget} kbit/s</span>`;
-  return `<td>${rtt}</td><td${l.loss_pct >= 5 ? ' class="bad"' : ""}>${loss}</td><td${l.over_budget ? ' class="bad"' : ""}>${l.over_budget ? "OVER " : ""}${sends}</td>`;
+  const sends = `<span title="${classes}">${l.over_budget ? "OVER " : ""}${l.sent_kbps.toFixed(0)}${budget} kbit/s</span>`;
+  return [cell("probe", rtt, "link-probe round trip"), cell("lost", `${l.loss_pct.toFixed(0)} %`, "state samples lost over 10 s", l.loss_pct >= 5 ? "bad" : ""),
+    cell("sends", sends, "what it sends / its link budget", l.over_budget ? "bad" : "")];
+}
+
+function cell(name: string, value: string, title = "", style = ""): string {
+  return `<div${title ? ` title="${title}"` : ""}><dt>${name}</dt><dd${style ? ` class="${style}"` : ""}>${value}</dd></div>`;
 }
 
 function hasDown(r: Robot): boolean {
   return (r.components ?? []).some((c) => c.state !== "active");
 }
 
+// A control loop whose worst period lately is over 1.5 times its own (the navigation component's target rate)
+// is late: shown in the warning colour.
+function controlLate(r: Robot): boolean {
+  const nav = (r.components ?? []).find((c) => c.name === "navigation");
+  return !!nav && nav.target_rate_hz > 0 && r.control_period_max_ms > 1.5 * (1000 / nav.target_rate_hz);
+}
+
+// A rate below 90 % of its target is shown in the warning colour (slow, not down).
+function rateLow(c: { state: string; degraded: boolean; loop_rate_hz: number; target_rate_hz: number }): boolean {
+  return c.state === "active" && (c.degraded || (c.target_rate_hz > 0 && c.loop_rate_hz < 0.9 * c.target_rate_hz));
+}
+
 export function renderHealth(): void {
-  const rows = state.robots.map(
-    (r) => `<tr><td>${r.id}</td><td>${r.online ? "online" : "lost"}</td><td>${fmt(r.heard_s_ago, 1, " s")}</td>
-      ${linkCells(r)}<td>${fmt(r.control_period_max_ms, 0, " ms")}</td><td>${r.in_contact ? "CONTACT" : "–"}</td><td>${fmt(r.camera_age_s, 1, " s")}</td></tr>`,
-  );
+  // One block per robot: its name and status on a line, then labelled cells that wrap to the panel's width
+  // (no column is ever clipped, whatever the window).
+  const rows = state.robots.map((r) => {
+    const status = r.online ? "online" : '<b class="bad">lost</b>';
+    const cells = [cell("heard", fmt(r.heard_s_ago, 1, " s")), ...linkCells(r),
+      cell("loop", fmt(r.control_period_max_ms, 0, " ms"), "worst control-loop period lately", controlLate(r) ? "slow" : ""),
+      cell("contact", r.in_contact ? "CONTACT" : "–", "bumper contact", r.in_contact ? "bad" : ""),
+      cell("cam", fmt(r.camera_age_s, 1, " s"), "camera frame age")];
+    return `<div class="health-robot" data-robot-id="${r.id}"><div class="head"><span class="swatch" style="background:${r.color}"></span><b>${r.id}</b> ${status}</div>
+      <dl class="cells">${cells.join("")}</dl></div>`;
+  });
   setHtml($("health-rows"), rows.join(""));
   // Components, robot by robot (those with a part down first): a restart button where this basestation holds
   // the robot's lock (the only ones a robot accepts it from).
   const robots = [...state.robots].sort((a, b) => Number(hasDown(b)) - Number(hasDown(a)));
   setHtml($("component-rows"), robots.filter((r) => (r.components ?? []).length > 0).map((r) => {
-    const head = `<tr class="group"><td colspan="6"><b>${r.id}</b>${hasDown(r) ? ' <b class="bad">component down</b>' : ""}</td></tr>`;
+    const head = `<tr class="group"><td colspan="6"><span class="swatch" style="background:${r.color}"></span><b>${r.id}</b>${hasDown(r) ? ' <b class="bad">component down</b>' : ""}</td></tr>`;
     return head + (r.components ?? []).map((c) => {
       const stateText = c.state === "down" ? `<b class="bad">DOWN</b> ${c.restart_in_s.toFixed(0)} s`
         : c.degraded ? '<b class="slow">degraded</b>' : c.state;
-      // A rate under half its target is shown in the warning colour (slow, not down).
-      const slow = c.state === "active" && (c.degraded || c.loop_rate_hz < 0.5 * c.target_rate_hz);
       const restart = r.you_hold && r.online
         ? `<button class="restart" ${commandAttribute(Command.restart(r.id, c.name))}>restart</button>` : "";
       // The last error under the component's name (the panel is narrow): what made it fail last.
       const error = c.last_error ? `<br><span class="reason error">${c.last_error}</span>` : "";
-      return `<tr data-robot-id="${r.id}"><td>${c.name}${error}</td><td>${stateText}</td>
-        <td${slow ? ' class="slow"' : ""}>${c.loop_rate_hz.toFixed(0)}/${c.target_rate_hz.toFixed(0)}</td><td>${c.cpu_percent.toFixed(0)}</td>
+      // Long names break after an underscore, not inside a word.
+      return `<tr data-robot-id="${r.id}"><td>${c.name.replace(/_/g, "_<wbr>")}${error}</td><td>${stateText}</td>
+        <td${rateLow(c) ? ' class="slow"' : ""}>${c.loop_rate_hz.toFixed(0)}/${c.target_rate_hz.toFixed(0)}</td><td>${c.cpu_percent.toFixed(0)}</td>
         <td>${c.restarts}</td><td>${restart}</td></tr>`;
     }).join("");
   }).join(""));

@@ -1,8 +1,13 @@
-// The 3D fleet view (three.js): the fleet map's voxels as one instanced mesh per map column entity, robots with
-// heading, name, mode colour and lock holder, global paths, local plans, trails, goals and staircases drawn as
-// steps. Frame: the map frame, z up, metres.
+// The 3D fleet view (three.js): the fleet map's voxels as one instanced mesh per map column entity, robots in
+// their own colours with heading and a label (name, mode, lock holder), global paths, local plans, trails,
+// goals (also one being chosen), named places and staircases drawn as steps, a scale bar. Labels are HTML over
+// the canvas, laid out after each frame so that none prints over another. Frame: the map frame, z up, metres.
 import * as THREE from "three";
 import { OrbitControls } from "three/examples/jsm/controls/OrbitControls.js";
+import { Line2 } from "three/examples/jsm/lines/Line2.js";
+import { LineGeometry } from "three/examples/jsm/lines/LineGeometry.js";
+import { LineMaterial } from "three/examples/jsm/lines/LineMaterial.js";
+import { MapView } from "./map_view";
 
 export interface RobotPose {
   id: string;
@@ -13,6 +18,44 @@ export interface RobotPose {
   mode: string;
   holder: string;
   online: boolean;
+  color: string; // "#rrggbb", the robot's colour in every view
+}
+
+/** A goal drawn in the 3D view: one being chosen (`pending`, before it is sent) or one the robot drives to.
+ *  Map frame, m. */
+export interface GoalMarker {
+  robot: string;
+  x: number;
+  y: number;
+  z: number;
+  color: string;
+  pending: boolean;
+}
+
+/** A label over the 3D view: what it names, where it is drawn (client pixels), whether it is shown. */
+export interface LabelBox {
+  key: string;
+  kind: "robot" | "goal" | "place";
+  text: string;
+  shown: boolean;
+  left: number;
+  top: number;
+  width: number;
+  height: number;
+}
+
+// The order labels are placed in: a robot's first (never hidden, moved up out of the way), then goals (moved),
+// then places (hidden where they would cover another).
+const kLabelPriority = { robot: 0, goal: 1, place: 2 } as const;
+
+interface Label {
+  el: HTMLDivElement;
+  kind: LabelBox["kind"];
+  anchor: THREE.Vector3;
+  text: string;
+  width: number;
+  height: number;
+  box?: LabelBox;
 }
 
 const MODE_COLORS: Record<string, number> = {
@@ -30,12 +73,13 @@ export function modeColor(mode: string): string {
 type Vec3 = { x: number; y: number; z: number };
 type Rgba = { r: number; g: number; b: number; a: number };
 
+// A foxglove.Color (sRGB components in [0, 1], as Foxglove reads them) as a three.js colour.
+const sceneColor = (c: Rgba) => new THREE.Color().setRGB(c.r, c.g, c.b, THREE.SRGBColorSpace);
+
 interface RobotObject {
   group: THREE.Group;
   body: THREE.Mesh;
   ring: THREE.Mesh;
-  label: THREE.Sprite;
-  labelText: string;
 }
 
 export class FleetScene {
@@ -43,21 +87,18 @@ export class FleetScene {
   readonly scene = new THREE.Scene();
   readonly camera: THREE.PerspectiveCamera;
   readonly controls: OrbitControls;
-  private mapGroup = new THREE.Group();
-  private chunks = new Map<string, THREE.InstancedMesh>();
+  /** The map's voxels (/fleet_map). */
+  readonly map: MapView;
   private entityGroup = new THREE.Group(); // paths, staircases
   private entities = new Map<string, THREE.Object3D>();
   private robots = new Map<string, RobotObject>();
+  private goals = new Map<string, THREE.Group>();
+  private labels = new Map<string, Label>();
+  private labelLayer: HTMLDivElement;
+  private scaleBar: HTMLDivElement;
   private boxGeometry = new THREE.BoxGeometry(1, 1, 1);
   // Voxels above the ceiling cut are clipped away, so that robots inside tunnels and rooms stay in view.
   private ceilingPlane = new THREE.Plane(new THREE.Vector3(0, 0, -1), 1e6);
-  // Voxels: an unlit material on a box whose faces carry a fixed shade (top brightest, bottom never drawn), so
-  // that 300k instances cost no lighting per pixel and 5/6 of the triangles.
-  // Voxels are drawn 4 % smaller than they are (a dark seam shows the grid) but picked at their full size: a tap
-  // on a seam still meets the surface.
-  private voxelGeometry = FleetScene.shadedVoxelGeometry().scale(0.96, 0.96, 0.96);
-  private voxelPickGeometry = new THREE.BoxGeometry(1, 1, 1);
-  private voxelMaterial = new THREE.MeshBasicMaterial({ vertexColors: true, clippingPlanes: [this.ceilingPlane] });
   /** Height (metres, map frame) above which map voxels are hidden; Infinity shows all. */
   ceilingCut = Infinity;
   private raycaster = new THREE.Raycaster();
@@ -67,7 +108,6 @@ export class FleetScene {
   fps = 0;
   /** Frames drawn since the page opened. */
   framesDrawn = 0;
-  voxelCount = 0;
   selected = "";
   private centred = false;
   private dirty = true;
@@ -91,7 +131,14 @@ export class FleetScene {
     this.renderer.setPixelRatio(this.softwareGl ? 1 : Math.min(window.devicePixelRatio, 2));
     this.renderer.setClearColor(0x151a21);
     this.renderer.localClippingEnabled = true;
+    this.map = new MapView();
     container.appendChild(this.renderer.domElement);
+    this.labelLayer = document.createElement("div");
+    this.labelLayer.id = "labels";
+    this.scaleBar = document.createElement("div");
+    this.scaleBar.id = "scale-bar";
+    this.scaleBar.innerHTML = "<div></div><span></span>";
+    container.append(this.labelLayer, this.scaleBar);
     this.camera = new THREE.PerspectiveCamera(55, 1, 0.05, 2000);
     this.camera.up.set(0, 0, 1);
     this.camera.position.set(-6, -9, 12);
@@ -103,11 +150,12 @@ export class FleetScene {
     const sun = new THREE.DirectionalLight(0xffffff, 1.6);
     sun.position.set(20, -10, 40);
     this.scene.add(sun);
-    const grid = new THREE.GridHelper(200, 200, 0x2d3640, 0x232a32);
+    // A 5 m ground grid (a 1 m one is a grey haze at overview zoom and costs software GL a third of a frame).
+    const grid = new THREE.GridHelper(200, 40, 0x2d3640, 0x232a32);
     grid.rotation.x = Math.PI / 2; // the XY plane
     grid.position.z = -0.02;
     this.scene.add(grid);
-    this.scene.add(this.mapGroup, this.entityGroup);
+    this.scene.add(this.map.group, this.entityGroup);
     new ResizeObserver(() => this.resize()).observe(container);
     this.resize();
     this.controls.addEventListener("change", () => this.invalidate());
@@ -125,6 +173,8 @@ export class FleetScene {
       this.lastFrameMs = performance.now();
       this.dirty = false;
       this.renderer.render(this.scene, this.camera);
+      this.layoutLabels();
+      this.updateScaleBar();
       this.frames++;
       this.framesDrawn++;
       const now = performance.now();
@@ -136,26 +186,6 @@ export class FleetScene {
       requestAnimationFrame(loop);
     };
     requestAnimationFrame(loop);
-  }
-
-  /** A unit box (Z up) without its bottom face, each face's vertices coloured by a fixed shade. */
-  static shadedVoxelGeometry(): THREE.BufferGeometry {
-    const box = new THREE.BoxGeometry(1, 1, 1);
-    const normals = box.getAttribute("normal");
-    const shades = new Float32Array(normals.count * 3);
-    for (let i = 0; i < normals.count; i++) {
-      const nx = normals.getX(i), nz = normals.getZ(i);
-      const shade = nz > 0.5 ? 1.0 : nz < -0.5 ? 0.45 : Math.abs(nx) > 0.5 ? 0.8 : 0.66;
-      shades.set([shade, shade, shade], i * 3);
-    }
-    box.setAttribute("color", new THREE.BufferAttribute(shades, 3));
-    // BoxGeometry's faces in index order: +x, -x, +y, -y, +z, -z (6 indices each); -z (the bottom) is dropped.
-    const index = box.getIndex()!;
-    box.setIndex(new THREE.BufferAttribute((index.array as Uint16Array).slice(0, 30), 1));
-    box.clearGroups();
-    box.deleteAttribute("normal");
-    box.deleteAttribute("uv");
-    return box;
   }
 
   /** True when WebGL renders in software (the renderer string names SwiftShader, llvmpipe or software). */
@@ -201,6 +231,12 @@ export class FleetScene {
     this.invalidate();
     this.ceilingCut = z;
     this.ceilingPlane.constant = isFinite(z) ? z : 1e6;
+    this.updateClipping();
+  }
+
+  // The ceiling's clipping plane only while it cuts some voxel.
+  private updateClipping(): void {
+    this.map.setClipping(isFinite(this.ceilingCut) && this.ceilingCut < this.map.topZ ? this.ceilingPlane : undefined);
   }
 
   /** Moves the camera back along its viewing direction (top-down or orbit) until every point (map frame, m)
@@ -246,77 +282,70 @@ export class FleetScene {
         this.setEntity(e);
       }
     }
+    this.map.flush();
+    this.updateClipping();
+  }
+
+  /** Voxels in the map as drawn. */
+  get voxelCount(): number {
+    return this.map.voxelCount;
+  }
+  /** Rectangles of the map's finest level (merged faces, or 5 per voxel box by box). */
+  get mapQuads(): number {
+    return this.map.quads;
   }
 
   private clearAll(): void {
-    for (const id of [...this.chunks.keys(), ...this.entities.keys()]) this.remove(id);
+    for (const id of [...this.map.ids(), ...this.entities.keys()]) this.remove(id);
   }
 
   private remove(id: string): void {
-    const chunk = this.chunks.get(id);
-    if (chunk) {
-      this.voxelCount -= chunk.count;
-      this.mapGroup.remove(chunk);
-      chunk.dispose();
-      this.chunks.delete(id);
-    }
+    this.map.removeColumn(id);
     const obj = this.entities.get(id);
     if (obj) {
       this.entityGroup.remove(obj);
       this.entities.delete(id);
     }
+    this.removeLabel(id);
   }
 
-  /** One map column: its occupied voxels as instances of one box. */
-  setChunk(id: string, cubes: { pose: { position: Vec3 }; size: Vec3; color: Rgba }[]): void {
+  /** One map column (drawn at the next `map.flush()`). */
+  private setChunk(id: string, cubes: { pose: { position: Vec3 }; size: Vec3; color: Rgba }[]): void {
     this.invalidate();
-    this.remove(id);
-    if (cubes.length === 0) return;
-    const mesh = new THREE.InstancedMesh(this.voxelGeometry, this.voxelMaterial, cubes.length);
-    const m = new THREE.Matrix4();
-    const c = new THREE.Color();
-    cubes.forEach((cube, i) => {
-      const p = cube.pose.position;
-      m.makeScale(cube.size.x, cube.size.y, cube.size.z);
-      m.setPosition(p.x, p.y, p.z);
-      mesh.setMatrixAt(i, m);
-      c.setRGB(cube.color.r, cube.color.g, cube.color.b);
-      mesh.setColorAt(i, c);
-    });
-    mesh.instanceMatrix.needsUpdate = true;
-    if (mesh.instanceColor) mesh.instanceColor.needsUpdate = true;
-    mesh.geometry = this.voxelPickGeometry; // the bounds of the voxels' full size (culling and picking)
-    mesh.computeBoundingSphere();
-    mesh.geometry = this.voxelGeometry;
-    mesh.userData.kind = "map";
-    this.mapGroup.add(mesh);
-    this.chunks.set(id, mesh);
-    this.voxelCount += cubes.length;
-    if (!this.centred && this.robots.size === 0) {
+    this.map.setColumn(id, cubes);
+    if (cubes.length > 0 && !this.centred && this.robots.size === 0) {
       const p = cubes[0].pose.position;
       this.focus(p.x, p.y, 0);
       this.centred = true;
     }
   }
 
-  /** Paths, local plans, trails, goals (/paths) and staircases (/staircases): lines, cubes and spheres. */
+  /** Paths, local plans, trails, goals (/paths), staircases (/staircases) and named places (/places): lines
+   *  (drawn a few pixels wide whatever the zoom), cubes, spheres and texts (as labels). */
   private setEntity(e: any): void {
     this.remove(e.id);
     const group = new THREE.Group();
     for (const line of e.lines ?? []) {
-      const pts = (line.points ?? []).map((p: Vec3) => new THREE.Vector3(p.x, p.y, p.z));
+      const pts = (line.points ?? []) as Vec3[];
       if (pts.length < 2) continue;
-      const geometry = new THREE.BufferGeometry().setFromPoints(pts);
-      const material = new THREE.LineBasicMaterial({
-        color: new THREE.Color(line.color.r, line.color.g, line.color.b),
+      const geometry = new LineGeometry().setPositions(pts.flatMap((p) => [p.x, p.y, p.z]));
+      const material = new LineMaterial({
+        color: sceneColor(line.color).getHex(),
+        // The schema's thickness (m) as pixels: a path 0.15 m thick is 4.5 px, none thinner than 2 px.
+        linewidth: Math.min(6, Math.max(2, (line.thickness ?? 0.05) * 30)),
         transparent: line.color.a < 1,
         opacity: line.color.a,
+        // Drawn over the map (a path lies on the floor's voxels, and runs under a cut ceiling's walls).
+        depthTest: false,
       });
-      group.add(new THREE.Line(geometry, material));
+      const drawn = new Line2(geometry, material);
+      drawn.renderOrder = 3;
+      drawn.computeLineDistances();
+      group.add(drawn);
     }
     for (const cube of e.cubes ?? []) {
       const material = new THREE.MeshLambertMaterial({
-        color: new THREE.Color(cube.color.r, cube.color.g, cube.color.b),
+        color: sceneColor(cube.color),
         transparent: cube.color.a < 1,
         opacity: cube.color.a,
       });
@@ -331,21 +360,26 @@ export class FleetScene {
     for (const sphere of e.spheres ?? []) {
       const mesh = new THREE.Mesh(
         new THREE.SphereGeometry(0.5, 16, 12),
-        new THREE.MeshLambertMaterial({ color: new THREE.Color(sphere.color.r, sphere.color.g, sphere.color.b) }),
+        new THREE.MeshLambertMaterial({ color: sceneColor(sphere.color) }),
       );
       mesh.scale.set(sphere.size.x, sphere.size.y, sphere.size.z);
       mesh.position.set(sphere.pose.position.x, sphere.pose.position.y, sphere.pose.position.z);
       group.add(mesh);
+    }
+    const text = (e.texts ?? [])[0];
+    if (text && e.id.startsWith("place/")) {
+      const p = text.pose.position;
+      this.setLabel(e.id, "place", text.text, new THREE.Vector3(p.x, p.y, p.z));
     }
     group.userData.id = e.id;
     this.entityGroup.add(group);
     this.entities.set(e.id, group);
   }
 
-  /** Robots from /fleet: bodies (mode colour), heading, a label with name, mode and holder. */
+  /** Robots from /fleet: bodies in the robot's colour, heading, a label with name, mode and holder. */
   setRobots(poses: RobotPose[]): void {
     // A frame only when something shown changed (robots standing still cost no frame at 10 Hz).
-    const key = JSON.stringify(poses.map((r) => [r.id, r.x.toFixed(3), r.y.toFixed(3), r.z.toFixed(3), r.yaw.toFixed(3), r.mode, r.holder, r.online, r.id === this.selected]));
+    const key = JSON.stringify(poses.map((r) => [r.id, r.x.toFixed(3), r.y.toFixed(3), r.z.toFixed(3), r.yaw.toFixed(3), r.mode, r.holder, r.online, r.color, r.id === this.selected]));
     if (key !== this.robotsKey) this.invalidate();
     this.robotsKey = key;
     const seen = new Set<string>();
@@ -363,19 +397,19 @@ export class FleetScene {
       }
       obj.group.position.set(r.x, r.y, r.z);
       obj.group.rotation.z = r.yaw;
-      (obj.body.material as THREE.MeshLambertMaterial).color.set(modeColor(r.mode));
+      (obj.body.material as THREE.MeshLambertMaterial).color.set(r.color || "#9ea3ad");
       (obj.body.material as THREE.MeshLambertMaterial).opacity = r.online ? 1 : 0.35;
       obj.ring.visible = r.id === this.selected;
       const text = `${r.id} · ${r.mode || "?"} · ${r.holder ? "held by " + r.holder : "free"}${r.online ? "" : " · LOST"}`;
-      if (text !== obj.labelText) {
-        obj.labelText = text;
-        this.drawLabel(obj.label, text);
-      }
+      const label = this.setLabel(`robot/${r.id}`, "robot", text, new THREE.Vector3(r.x, r.y, r.z + 1.0));
+      label.el.style.borderLeftColor = r.color || "#9ea3ad";
+      label.el.classList.toggle("lost", !r.online);
     }
     for (const [id, obj] of this.robots) {
       if (!seen.has(id)) {
         this.scene.remove(obj.group);
         this.robots.delete(id);
+        this.removeLabel(`robot/${id}`);
       }
     }
   }
@@ -398,31 +432,151 @@ export class FleetScene {
     );
     ring.position.z = 0.03;
     ring.visible = false;
-    const label = new THREE.Sprite(new THREE.SpriteMaterial({ transparent: true, depthTest: false }));
-    label.position.z = 1.1;
-    label.renderOrder = 10;
-    group.add(body, nose, ring, label);
-    return { group, body, ring, label, labelText: "" };
+    group.add(body, nose, ring);
+    return { group, body, ring };
   }
 
-  private drawLabel(sprite: THREE.Sprite, text: string): void {
-    const canvas = document.createElement("canvas");
-    const ctx = canvas.getContext("2d")!;
-    ctx.font = "bold 30px system-ui, sans-serif";
-    const w = Math.ceil(ctx.measureText(text).width) + 24;
-    canvas.width = w;
-    canvas.height = 44;
-    ctx.font = "bold 30px system-ui, sans-serif";
-    ctx.fillStyle = "rgba(10, 14, 20, 0.78)";
-    ctx.fillRect(0, 0, w, 44);
-    ctx.fillStyle = "#ffffff";
-    ctx.fillText(text, 12, 32);
-    const material = sprite.material as THREE.SpriteMaterial;
-    material.map?.dispose();
-    material.map = new THREE.CanvasTexture(canvas);
-    material.needsUpdate = true;
-    sprite.scale.set((w / 44) * 0.45, 0.45, 1);
+  /**
+   * The goals to draw, one per robot at most: a ring on the floor and a post in the robot's colour, faint
+   * while it is being chosen (`pending`), solid once sent; with a label "r1 goal".
+   */
+  setGoalMarkers(markers: GoalMarker[]): void {
+    const key = JSON.stringify(markers);
+    if (key === this.goalsKey) return;
+    this.goalsKey = key;
+    this.invalidate();
+    for (const [robot, group] of this.goals) {
+      this.scene.remove(group);
+      this.removeLabel(`goal/${robot}`);
+    }
+    this.goals.clear();
+    for (const m of markers) {
+      const opacity = m.pending ? 0.55 : 1;
+      const material = new THREE.MeshBasicMaterial({ color: m.color, transparent: true, opacity, side: THREE.DoubleSide, depthTest: false });
+      const ring = new THREE.Mesh(new THREE.RingGeometry(0.3, 0.45, 32), material);
+      ring.position.z = 0.05;
+      const post = new THREE.Mesh(new THREE.CylinderGeometry(0.04, 0.04, 1.0, 8), material);
+      post.rotation.x = Math.PI / 2;
+      post.position.z = 0.5;
+      const flag = new THREE.Mesh(new THREE.SphereGeometry(0.12, 12, 8), material);
+      flag.position.z = 1.0;
+      const group = new THREE.Group();
+      group.add(ring, post, flag);
+      group.renderOrder = 5;
+      group.position.set(m.x, m.y, m.z);
+      this.scene.add(group);
+      this.goals.set(m.robot, group);
+      const label = this.setLabel(`goal/${m.robot}`, "goal", m.pending ? `${m.robot} goal?` : `${m.robot} goal`,
+        new THREE.Vector3(m.x, m.y, m.z + 1.2));
+      label.el.style.borderLeftColor = m.color;
+      label.el.classList.toggle("pending", m.pending);
+    }
   }
+  private goalsKey = "";
+
+  /** A robot body's colour as drawn, "#rrggbb" ("" for no such robot); for tests. */
+  robotColor(id: string): string {
+    const obj = this.robots.get(id);
+    return obj ? "#" + (obj.body.material as THREE.MeshLambertMaterial).color.getHexString() : "";
+  }
+
+  /** The colours of an entity's lines as drawn, "#rrggbb" each; for tests. */
+  lineColors(id: string): string[] {
+    const group = this.entities.get(id);
+    if (!group) return [];
+    return group.children.filter((c): c is Line2 => c instanceof Line2).map((l) => "#" + l.material.color.getHexString());
+  }
+
+  /** The goal markers drawn now, by robot (for tests). */
+  goalMarkers(): string[] {
+    return [...this.goals.keys()];
+  }
+
+  // ---- Labels ---------------------------------------------------------------------------------------------
+  private setLabel(key: string, kind: Label["kind"], text: string, anchor: THREE.Vector3): Label {
+    let label = this.labels.get(key);
+    if (!label) {
+      const el = document.createElement("div");
+      el.className = `label ${kind}`;
+      el.dataset.key = key;
+      this.labelLayer.appendChild(el);
+      label = { el, kind, anchor: anchor.clone(), text: "", width: 0, height: 0 };
+      this.labels.set(key, label);
+    }
+    label.anchor.copy(anchor);
+    if (label.text !== text) {
+      label.text = text;
+      label.el.textContent = text;
+      label.width = label.el.offsetWidth; // measured once per text, not every frame
+      label.height = label.el.offsetHeight;
+      this.invalidate();
+    }
+    return label;
+  }
+
+  private removeLabel(key: string): void {
+    const label = this.labels.get(key);
+    if (!label) return;
+    label.el.remove();
+    this.labels.delete(key);
+  }
+
+  /**
+   * Places every label over its anchor, robots first. A label that would cover one already placed is moved up
+   * above it (robots, goals) or hidden (places); one behind the camera or off the view is hidden.
+   */
+  private layoutLabels(): void {
+    const w = this.container.clientWidth, h = this.container.clientHeight;
+    const placed: { left: number; top: number; right: number; bottom: number }[] = [];
+    const overlapping = (l: number, t: number, r: number, b: number) =>
+      placed.find((p) => l < p.right + 2 && r > p.left - 2 && t < p.bottom + 2 && b > p.top - 2);
+    const order = [...this.labels.entries()].sort((a, b) => kLabelPriority[a[1].kind] - kLabelPriority[b[1].kind]);
+    const v = new THREE.Vector3();
+    for (const [key, label] of order) {
+      v.copy(label.anchor).project(this.camera);
+      let left = ((v.x + 1) / 2) * w - label.width / 2;
+      let top = ((1 - v.y) / 2) * h - label.height;
+      let shown = v.z < 1 && v.x > -1.2 && v.x < 1.2 && v.y > -1.2 && v.y < 1.2;
+      if (shown) {
+        for (let tries = 0; tries <= placed.length; tries++) {
+          const hit = overlapping(left, top, left + label.width, top + label.height);
+          if (!hit) break;
+          if (label.kind === "place") {
+            shown = false;
+            break;
+          }
+          top = hit.top - label.height - 2;
+        }
+      }
+      if (shown) placed.push({ left, top, right: left + label.width, bottom: top + label.height });
+      label.el.style.display = shown ? "" : "none";
+      if (shown) label.el.style.transform = `translate(${Math.round(left)}px, ${Math.round(top)}px)`;
+      label.box = { key, kind: label.kind, text: label.text, shown, left, top, width: label.width, height: label.height };
+    }
+  }
+
+  /** Every label as last laid out (client pixels relative to the view), for tests. */
+  labelBoxes(): LabelBox[] {
+    return [...this.labels.values()].map((l) => l.box).filter((b): b is LabelBox => b !== undefined);
+  }
+
+  /** The scale bar: a round length (1, 2 or 5 × 10^k m) about 120 px long at the depth of the view's centre. */
+  private updateScaleBar(): void {
+    const h = this.container.clientHeight;
+    const distance = this.camera.position.distanceTo(this.controls.target);
+    const metresPerPixel = (2 * distance * Math.tan(THREE.MathUtils.degToRad(this.camera.fov) / 2)) / Math.max(1, h);
+    const want = metresPerPixel * 120;
+    const power = Math.pow(10, Math.floor(Math.log10(want)));
+    const length = [5, 2, 1].map((k) => k * power).find((l) => l <= want) ?? power;
+    const bar = this.scaleBar.firstElementChild as HTMLDivElement;
+    bar.style.width = `${Math.round(length / metresPerPixel)}px`;
+    const text = length >= 1 ? `${length} m` : `${Math.round(length * 100)} cm`;
+    const span = this.scaleBar.lastElementChild as HTMLSpanElement;
+    if (span.textContent !== text) span.textContent = text;
+    this.scaleLengthM = length;
+  }
+  /** The scale bar's length as last drawn, m. */
+  scaleLengthM = 0;
 
   /**
    * What a tap at client pixel (x, y) hits: a robot id; else the top of the first visible map voxel under the
@@ -437,47 +591,13 @@ export class FleetScene {
     for (const obj of this.robots.values()) robotMeshes.push(...obj.group.children.filter((c) => c.userData.robotId));
     const hitRobot = this.raycaster.intersectObjects(robotMeshes, false)[0];
     if (hitRobot) return { robot: hitRobot.object.userData.robotId as string };
-    // Voxels above the ceiling cut are not drawn (a clipping plane, which raycasting ignores): passed over.
-    const chunks = [...this.chunks.values()];
-    for (const chunk of chunks) chunk.geometry = this.voxelPickGeometry;
-    let hits: THREE.Intersection[];
-    try {
-      hits = this.raycaster.intersectObjects(chunks, false);
-    } finally {
-      for (const chunk of chunks) chunk.geometry = this.voxelGeometry;
-    }
-    for (const hit of hits) {
-      if (hit.point.z > this.ceilingCut) continue;
-      const top = hit.face !== null && hit.face !== undefined && hit.face.normal.z > 0.5;
-      if (top && hit.instanceId !== undefined && !FleetScene.coveredAbove(hit.object as THREE.InstancedMesh, hit.instanceId)) {
-        return { point: hit.point.clone(), surface: true };
-      }
-      break;
-    }
+    const surface = this.map.pickSurface(this.raycaster, this.ceilingCut);
+    if (surface) return { point: surface, surface: true };
     // The floor under the robot's level: the ground plane through groundZ (a goal names x and y; the level is the robot's).
     const plane = new THREE.Plane(new THREE.Vector3(0, 0, 1), -groundZ);
     const point = new THREE.Vector3();
     if (this.raycaster.ray.intersectPlane(plane, point)) return { point };
     return {};
-  }
-
-  /**
-   * True when voxel `index` of a map column has another voxel right above it (within two voxel sizes): the top
-   * of a wall cut by the ceiling, not a surface to stand on.
-   */
-  private static coveredAbove(mesh: THREE.InstancedMesh, index: number): boolean {
-    const m = new THREE.Matrix4();
-    const p = new THREE.Vector3(), q = new THREE.Vector3(), size = new THREE.Vector3(), quat = new THREE.Quaternion();
-    mesh.getMatrixAt(index, m);
-    m.decompose(p, quat, size);
-    for (let i = 0; i < mesh.count; i++) {
-      if (i === index) continue;
-      mesh.getMatrixAt(i, m);
-      q.setFromMatrixPosition(m);
-      const dz = q.z - p.z;
-      if (dz > 0 && dz < 2.2 * size.z && Math.abs(q.x - p.x) < 0.5 * size.x && Math.abs(q.y - p.y) < 0.5 * size.y) return true;
-    }
-    return false;
   }
 
   /** Screen position (client pixels) of a map point, for tests and markers. */
@@ -490,7 +610,8 @@ export class FleetScene {
   /**
    * Synthetic map of `count` voxels (a benchmark of the view, no server needed), laid out as cairn_base sends a
    * real one: 0.2 m voxels in 4 x 4 m columns, a floor of 100 x 100 m (250k voxels) and the rest as 2 m walls
-   * every 10 m.
+   * every 10 m. The floor is rough as a scan's is: patches and single cells one voxel higher (a quarter of
+   * it), so that merged faces do not reduce it to a few rectangles.
    */
   addSyntheticVoxels(count: number): void {
     this.invalidate();
@@ -504,14 +625,25 @@ export class FleetScene {
       cubes.push({ pose: { position: { x: ix * res, y: iy * res, z } }, size: { x: res, y: res, z: res },
         color: { r: 0.3 + 0.3 * z, g: 0.6, b: 0.85 - 0.2 * z, a: 1 } });
     };
+    // Deterministic noise: a hash of the cell, and patches of 5 x 5 cells.
+    const hash = (x: number, y: number) => {
+      let h = (x * 374761393 + y * 668265263) | 0;
+      h = Math.imul(h ^ (h >>> 13), 1274126177);
+      return ((h ^ (h >>> 16)) >>> 0) / 4294967296;
+    };
+    const raised = (x: number, y: number) => hash(Math.floor(x / 5), Math.floor(y / 5) + 7919) < 0.15 || hash(x, y) < 0.1;
     let made = 0;
-    for (let j = 0; j < side * side && made < count; j++, made++) add(j % side, Math.floor(j / side), 0);
+    for (let j = 0; j < side * side && made < count; j++, made++) {
+      const x = j % side, y = Math.floor(j / side);
+      add(x, y, raised(x, y) ? 1 : 0);
+    }
     for (let k = 0; made < count; k++, made++) {
       const perWall = side * 10; // 500 voxels long, 10 high
       const wall = Math.floor(k / perWall), w = k % perWall;
       add((wall % 10) * 50 + 25, w % side, 1 + Math.floor(w / side) + 10 * Math.floor(wall / 10));
     }
     for (const [id, cubes] of columns) this.setChunk(id, cubes);
+    this.map.flush();
     this.focus(50, 50, 0);
   }
 

@@ -25,6 +25,14 @@ export interface PendingGoal {
   z?: number;
 }
 
+/** A goal this page sent: map frame, m; when (page clock, ms). */
+export interface SentGoal {
+  x: number;
+  y: number;
+  z: number;
+  sentMs: number;
+}
+
 /** The teleop twist being streamed, and where it comes from. */
 export interface DriveState {
   vx: number;
@@ -46,6 +54,7 @@ export const state = {
   pickingGoal: false,
   goalVerb: "goto" as "goto" | "peel", // what a picked goal is sent as
   pendingGoal: undefined as PendingGoal | undefined,
+  sentGoals: new Map<string, SentGoal>(), // goals sent from this page, by robot, drawn until reached or dropped
   convoyOrder: undefined as string[] | undefined, // a convoy being put together: the leader, then followers
   convoyNote: "",
   driving: false,

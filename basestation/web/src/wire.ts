@@ -11,6 +11,7 @@ export const Topic = {
   fleetMap: "/fleet_map", // foxglove.SceneUpdate: map voxels by chunk
   paths: "/paths", // foxglove.SceneUpdate: global paths and goals
   staircases: "/staircases", // foxglove.SceneUpdate: detected staircases
+  places: "/places", // foxglove.SceneUpdate: named places, a post and a text each
   robots: "/robots", // foxglove.SceneUpdate: robot bodies (the GUI draws its own)
   tf: "/tf", // foxglove.FrameTransforms
   teleop: "/cairn/teleop", // TeleopMessage, client -> cairn_base
@@ -91,6 +92,7 @@ export interface Point {
 export interface Robot {
   id: string;
   platform: string;
+  color: string; // "#rrggbb": the robot's colour in every view (3D body, label, paths, lists)
   online: boolean;
   lost_reason: string;
   heard_s_ago: number;
@@ -103,6 +105,7 @@ export interface Robot {
   nav_status: string;
   nav_reason: string;
   goal?: Point;
+  nav_goal_id: number;
   distance_left_m: number;
   eta_s: number;
   local_planner_status: string;

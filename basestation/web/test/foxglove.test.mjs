@@ -5,6 +5,7 @@
 // publish on /cairn/teleop moves nothing. Real processes, run by ctest inside a private network namespace.
 import assert from "node:assert/strict";
 import { spawnSync } from "node:child_process";
+import { copyFileSync, mkdirSync } from "node:fs";
 import { join } from "node:path";
 import { after, before, test } from "node:test";
 
@@ -14,7 +15,7 @@ import WebSocket from "ws";
 
 const { FoxgloveClient } = wsProtocol;
 
-import { BUILD, loadWire, startBase, startRobot, stopAll, waitFor } from "./harness.mjs";
+import { BUILD, LOGS, loadWire, startBase, startRobot, stopAll, waitFor } from "./harness.mjs";
 
 // The GUI's own wire module (src/wire.ts, built into wire.mjs): channel names and the commands it sends.
 const { Command, Topic, checkAgainstTable, commandText } = await loadWire();
@@ -30,7 +31,11 @@ const decoder = new TextDecoder();
 before(async () => {
   // Facing the room's staircase (first riser at x = 50), so that /staircases and /events have something.
   await startRobot("r1", { start: "46.5,23.75,0", domain: DOMAIN });
-  base = await startBase("op1", { domain: DOMAIN });
+  // The tunnels' named places (a copy), so that /places has something.
+  mkdirSync(LOGS, { recursive: true });
+  const places = join(LOGS, "places-tunnels.yaml");
+  copyFileSync(new URL("../../../config/places/tunnels.yaml", import.meta.url), places);
+  base = await startBase("op1", { domain: DOMAIN, places });
   const url = base.url.replace(/^http/, "ws");
   client = new FoxgloveClient({ ws: new WebSocket(url, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]) });
   client.on("advertise", (list) => list.forEach((c) => channels.set(c.id, c)));
@@ -53,6 +58,7 @@ test("the server lists every channel with a JSON schema, and the command service
     [Topic.robots]: "foxglove.SceneUpdate",
     [Topic.paths]: "foxglove.SceneUpdate",
     [Topic.staircases]: "foxglove.SceneUpdate",
+    [Topic.places]: "foxglove.SceneUpdate",
     [Topic.fleetMap]: "foxglove.SceneUpdate",
     [Topic.events]: "foxglove.Log",
     [Topic.commands]: "cairn.CommandTable",
@@ -107,6 +113,11 @@ test("a subscription to each channel delivers a message that decodes and matches
   const jpeg = Buffer.from(image.data, "base64");
   assert.deepEqual([...jpeg.subarray(0, 2)], [0xff, 0xd8], "a JPEG starts with SOI");
   assert.ok(firstMessage.get("/fleet_map").entities.some((e) => e.id.startsWith("map/") && e.cubes.length > 0));
+  // The places file's places, a labelled post each.
+  const junction = firstMessage.get("/places").entities.find((e) => e.id === "place/junction");
+  assert.ok(junction, JSON.stringify(firstMessage.get("/places").entities.map((e) => e.id)));
+  assert.equal(junction.texts[0].text, "junction");
+  assert.deepEqual(junction.lines[0].points[0], { x: 30, y: 20, z: 0 });
   assert.ok(firstMessage.get("/robots").entities.some((e) => e.id === "robot/r1"));
   const stairs = firstMessage.get("/staircases").entities;
   assert.ok(stairs.length > 0 && stairs[0].cubes.length >= 3, "a staircase drawn as steps");

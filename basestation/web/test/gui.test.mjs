@@ -2,10 +2,12 @@
 // robots in builtin:tunnels, two basestations op1 and op2 each with its GUI. Each step saves a screenshot in
 // build/test-logs/gui/gui/. Run by ctest inside a private network namespace (node --test).
 import assert from "node:assert/strict";
+import { copyFileSync, mkdirSync } from "node:fs";
+import { join } from "node:path";
 import { after, before, test } from "node:test";
 
 import {
-  launchBrowser, openGui, robotState, screenshot, sleep, startBase, startRobot, stopAll, tail, waitFor, loadWire
+  LOGS, launchBrowser, openGui, robotState, screenshot, sleep, startBase, startRobot, stopAll, tail, waitFor, loadWire
 } from "./harness.mjs";
 
 const { Command } = await loadWire(); // the GUI's own commands (src/wire.ts)
@@ -18,7 +20,11 @@ before(async () => {
     startRobot("r1", { start: "4,20,0", domain: DOMAIN }),
     startRobot("r2", { start: "slot:1", domain: DOMAIN }),
   ]);
-  op1 = await startBase("op1", { domain: DOMAIN });
+  // op1 names the tunnels' places (a copy: the GUI's `place add` would write it).
+  mkdirSync(LOGS, { recursive: true });
+  const places = join(LOGS, "places-tunnels.yaml");
+  copyFileSync(new URL("../../../config/places/tunnels.yaml", import.meta.url), places);
+  op1 = await startBase("op1", { domain: DOMAIN, places });
   op2 = await startBase("op2", { domain: DOMAIN });
   browser = await launchBrowser();
   page1 = await openGui(browser, op1.url);
@@ -37,6 +43,21 @@ test("the page lists the robots, online, with mode and holder", async () => {
   assert.match(rows[0], /r1\s+idle\s+free/);
   assert.match(rows[1], /r2\s+idle\s+free/);
   assert.equal(await page1.locator("#fleet-rows .dot.on").count(), 2);
+  // Each robot its own colour, the same in the list, on its 3D label and on its body.
+  const colours = await page1.evaluate(() => window.cairn.state.robots.map((r) => {
+    const swatch = document.querySelector(`#fleet-rows tr[data-robot="${r.id}"] .swatch`);
+    const label = document.querySelector(`#labels .label[data-key="robot/${r.id}"]`);
+    return { id: r.id, color: r.color, swatch: swatch && getComputedStyle(swatch).backgroundColor,
+      label: label && getComputedStyle(label).borderLeftColor, body: window.cairn.scene.robotColor(r.id) };
+  }));
+  const rgb = (hex) => `rgb(${parseInt(hex.slice(1, 3), 16)}, ${parseInt(hex.slice(3, 5), 16)}, ${parseInt(hex.slice(5, 7), 16)})`;
+  for (const c of colours) {
+    assert.match(c.color, /^#[0-9a-f]{6}$/, JSON.stringify(c));
+    assert.equal(c.swatch, rgb(c.color), JSON.stringify(c));
+    assert.equal(c.label, rgb(c.color), JSON.stringify(c));
+    assert.equal(c.body, c.color, JSON.stringify(c));
+  }
+  assert.equal(new Set(colours.map((c) => c.color)).size, colours.length, JSON.stringify(colours));
   await screenshot(page1, "01_fleet_list");
 });
 
@@ -78,11 +99,22 @@ test("tap a goal on the map, confirm: the robot arrives and the page shows it", 
   await page1.mouse.click(at.x, at.y);
   await waitFor("the confirm bar", () => page1.locator("#confirm").isVisible());
   assert.match(await page1.locator("#confirm-text").innerText(), /Send r1 to \(/);
+  // Before it is sent, the goal is drawn where it was tapped, faint, labelled as a question.
+  const goalLabel = page1.locator('#labels .label[data-key="goal/r1"]');
+  assert.deepEqual(await page1.evaluate(() => window.cairn.scene.goalMarkers()), ["r1"]);
+  assert.equal(await goalLabel.innerText(), "r1 goal?");
+  assert.ok(await goalLabel.isVisible());
+  await screenshot(page1, "05a_goal_before_send");
   await page1.evaluate(() => { window.cairn.state.lastResult = undefined; });
   await page1.getByRole("button", { name: "Confirm" }).click();
   const result = await waitFor("the goto answer", () => page1.evaluate(() => window.cairn.state.lastResult));
   assert.equal(result.ok, true, JSON.stringify(result));
   assert.equal(result.command, "goto");
+  await waitFor("the sent goal's label", async () => (await goalLabel.innerText()) === "r1 goal", 3000);
+  // While r1 drives: the marker stays, and the path is drawn in r1's colour.
+  const r1Colour = (await robotState(page1, "r1")).color;
+  await waitFor("r1's path in its colour", () => page1.evaluate((c) => window.cairn.scene.lineColors("path/r1").includes(c), r1Colour), 10000);
+  assert.deepEqual(await page1.evaluate(() => window.cairn.scene.goalMarkers()), ["r1"]);
   await screenshot(page1, "05_goal_sent");
   await waitFor("r1 arrived", async () => (await robotState(page1, "r1"))?.nav_status === "arrived", 60000);
   const end = await robotState(page1, "r1");
@@ -92,6 +124,9 @@ test("tap a goal on the map, confirm: the robot arrives and the page shows it", 
       throw new Error(`${e.message}; toasts: ${JSON.stringify(await page1.evaluate(() => window.cairn.state.toasts))}`);
     });
   assert.match(await page1.locator("#robot-nav").innerText(), /arrived/);
+  // Reached: the marker goes (within the 3 s a sent goal is kept for the state to show it, and a 1 s render).
+  await waitFor("the goal marker gone", async () => (await page1.evaluate(() => window.cairn.scene.goalMarkers())).length === 0, 6000);
+  assert.equal(await goalLabel.count(), 0);
   await screenshot(page1, "06_arrived");
 });
 
@@ -115,10 +150,10 @@ test("the Health tab shows each robot's link (probe round trip, states lost, wha
   // The robot tab comes back however this ends: the tests after this one drive from it.
   try {
     const row = await waitFor("r1's link in the Health tab", async () => {
-      const text = await page1.locator("#health-rows tr").first().innerText();
+      const text = await page1.locator('#health-rows [data-robot-id="r1"]').innerText();
       return /[\d.]+ ms/.test(text) && /\d+ kbit\/s/.test(text) ? text : null;
     }, 10000);
-    assert.match(row, /^r1\s+online\s+[\d.]+ s\s+[\d.]+ ms\s+\d+ %\s+\d+ kbit\/s/);
+    assert.match(row, /^r1 online\s+heard\s+[\d.]+ s\s+probe\s+[\d.]+ ms\s+lost\s+\d+ %\s+sends\s+\d+( \/ \d+)? kbit\/s\s+loop/);
     const link = (await robotState(page1, "r1")).link;
     assert.equal(link.class, "loopback");
     assert.deepEqual(link.usage.map((u) => u.topic_class), ["command", "state", "tree", "team", "map", "camera"]);
@@ -292,7 +327,7 @@ test("the holder starts an exploration from the robot tab, sees its frontiers an
     return e?.state === "exploring" && e.target && e.reachable_frontiers > 0 ? e : undefined;
   }, 30000);
   const text = await page1.locator("#exploration").innerText();
-  assert.match(text, /exploration \d+: exploring · \d+ m² explored · \d+ frontiers \(\d+ reachable\) · target \(/);
+  assert.match(text, /exploration #\d+: exploring · \d+ m² explored · \d+ frontiers \(\d+ reachable\) · target \(/);
   console.log(`FIGURE gui_explore_first_target ${JSON.stringify(exploring.target)} frontiers ${exploring.frontiers}`);
   await waitFor("r1 driving to its frontiers", async () => {
     const p = (await robotState(page1, "r1"))?.pose;
@@ -445,6 +480,19 @@ test("STOP and STOP ALL stay on screen whatever the tab, the scroll and the wind
         assert.ok(await reachable(sel), `${sel} hidden on the ${tab} tab at ${width}x${height}`);
       }
     }
+    // The Health tab fits its panel: nothing in it reaches past the panel's right edge, nothing scrolls sideways.
+    await page1.locator('#tabs button[data-tab="health"]').click();
+    const clipped = await page1.evaluate(() => {
+      const panel = document.querySelector("aside").getBoundingClientRect();
+      const out = [...document.querySelectorAll("#tab-health *")].filter((el) => {
+        const r = el.getBoundingClientRect();
+        return r.width > 0 && r.right > panel.right + 0.5;
+      }).map((el) => `${el.tagName}.${el.className} ${el.textContent.slice(0, 20)}`);
+      const aside = document.querySelector("aside");
+      return aside.scrollWidth > aside.clientWidth ? [...out, "the panel scrolls sideways"] : out;
+    });
+    assert.deepEqual(clipped, [], `clipped in the Health tab at ${width}x${height}`);
+    await screenshot(page1, `${name}_health`);
     assert.match(await page1.locator("#stop-selected").innerText(), /^STOP r\d$/);
     assert.match(await page1.locator("#event-rows time").first().innerText(), /^\d\d:\d\d:\d\d$/, "24-hour times, as the console's");
     await screenshot(page1, name);
@@ -465,6 +513,34 @@ test("STOP and STOP ALL stay on screen whatever the tab, the scroll and the wind
     return inView.length === 3 && inView.every((r) => r.inside);
   }, 3000).catch((e) => { throw new Error(`${e.message}: ${JSON.stringify(inView)}`); });
   await screenshot(page1, "22_frame_all");
+  // Zoomed out until the robots nearly meet: their labels never print over each other (moved apart), places
+  // that would cover one are left out; the scale bar names a round length.
+  await page1.evaluate(() => {
+    const { scene } = window.cairn;
+    const target = scene.controls.target;
+    scene.camera.position.sub(target).multiplyScalar(6).add(target);
+    scene.camera.far = 5000;
+    scene.camera.updateProjectionMatrix();
+    scene.invalidate();
+  });
+  await sleep(1500);
+  const boxes = await page1.evaluate(() => window.cairn.scene.labelBoxes().filter((b) => b.shown));
+  const robotsShown = boxes.filter((b) => b.kind === "robot").map((b) => b.key).sort();
+  assert.deepEqual(robotsShown, ["robot/r1", "robot/r2", "robot/r3"], JSON.stringify(boxes));
+  for (const a of boxes) {
+    for (const b of boxes) {
+      if (a === b) continue;
+      const apart = a.left + a.width <= b.left || b.left + b.width <= a.left || a.top + a.height <= b.top || b.top + b.height <= a.top;
+      assert.ok(apart, `labels overlap: ${JSON.stringify(a)} ${JSON.stringify(b)}`);
+    }
+  }
+  const places = await page1.evaluate(() => window.cairn.scene.labelBoxes().filter((b) => b.kind === "place").map((b) => b.text));
+  assert.ok(places.length >= 2, `the places file's names in the 3D view: ${places}`);
+  const scale = await page1.evaluate(() => ({ text: document.querySelector("#scale-bar span").textContent,
+    px: document.querySelector("#scale-bar div").getBoundingClientRect().width, m: window.cairn.scene.scaleLengthM }));
+  assert.match(scale.text, /^(1|2|5)0* m$/, JSON.stringify(scale));
+  assert.ok(scale.px > 45 && scale.px <= 122, JSON.stringify(scale));
+  await screenshot(page1, "22b_zoomed_out_labels");
   await page1.evaluate(() => { window.cairn.state.lastResult = undefined; });
   await page1.locator("#stop-all").click();
   const stopped = await waitFor("the STOP ALL answer", () => page1.evaluate(() => window.cairn.state.lastResult), 10000);

@@ -56,9 +56,9 @@ export async function startRobot(id, { world = "builtin:tunnels", start = "slot:
 }
 
 /** A basestation with its GUI on a free loopback port; resolves with its URL. */
-export async function startBase(baseId, { domain, port = 0 }) {
+export async function startBase(baseId, { domain, port = 0, places = "" }) {
   const child = startProcess(baseId, [join(BUILD, "basestation/cairn_base"), "--base-id", baseId, "--domain", String(domain),
-    "--gui", "--listen", `127.0.0.1:${port}`]);
+    "--gui", "--listen", `127.0.0.1:${port}`, ...(places ? ["--places", places] : [])]);
   const line = await waitFor(`${baseId} GUI line`, () => child.output().match(/^GUI (http:\/\/\S+)/m), 20000);
   return { child, url: line[1] };
 }

@@ -7,8 +7,13 @@
 //   /fleet            cairn.FleetState         every robot: pose, mode, holder, nav status, the actions valid
 //                                              now for this basestation (operator_text.h ValidActions), 10 Hz
 //   /tf               foxglove.FrameTransforms map -> ROBOT_ID for every robot, 10 Hz
-//   /robots           foxglove.SceneUpdate     robot bodies, headings and labels (mode colour, holder), 10 Hz
-//   /paths            foxglove.SceneUpdate     global paths, local plans, trails, goals, when they change
+//   /robots           foxglove.SceneUpdate     robot bodies (the robot's colour), headings and labels (mode,
+//                                              holder), 10 Hz
+//   /paths            foxglove.SceneUpdate     global paths, local plans, trails, goals in the robot's
+//   colour,
+//                                              when they change
+//   /places           foxglove.SceneUpdate     the named places (the places file) as labelled posts, when the
+//                                              file changes
 //   /staircases       foxglove.SceneUpdate     the fleet's staircases drawn as steps, when they change
 //   /fleet_map        foxglove.SceneUpdate     the merged fleet map's occupied voxels coloured by height, one
 //                                              entity per 4 x 4 m column of the map; every second only the
@@ -24,6 +29,7 @@
 //   one teleop twist, clamped to the robot's limits as the CLI's teleop command does.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <string>
 
@@ -77,6 +83,23 @@ class GuiBridge {
 
  private:
   std::unique_ptr<Impl> impl_;
+};
+
+/// One distinct colour per robot, the same in every view of one basestation (3D body, label, paths, lists),
+/// kept for the session. A robot is given the slot its trailing number names (r1 -> 0, r2 -> 1, ...), or its
+/// name's hash, or the next free slot when that one is taken; so basestations usually agree for numbered
+/// fleets. Ten colours, none of them red (red is STOP and warnings). Not thread-safe.
+class RobotPalette {
+ public:
+  static constexpr int kSize = 10;
+  /// "#rrggbb" of `robot_id`'s colour.
+  std::string ColorOf(const std::string& robot_id);
+  /// The same colour as RGB in [0, 1].
+  void RgbOf(const std::string& robot_id, double* r, double* g, double* b);
+
+ private:
+  int SlotOf(const std::string& robot_id);
+  std::map<std::string, int> slots_;
 };
 
 /// Colour of a robot mode in the GUI and the scene ("idle" grey, "manual" orange, "smart_joystick" purple,

@@ -4,6 +4,7 @@
 // Pure functions, no DDS: the CLI and (later) the GUI share them.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,11 @@ std::vector<std::string> ValidActions(const RobotView& view, const std::string& 
 /// "yielding to r3", "waiting for r3 to yield", "explore paused: ...", "driven (manual)", "arrived" (only
 /// while idle after arriving), "idle". "?" before the first state.
 std::string TaskText(const RobotView& view, const std::vector<RobotView>& fleet);
+
+/// A goal or exploration id as an operator reads it: "#845" (its last three digits; a robot numbers its goals
+/// and explorations up from a random start, so consecutive ones differ there and ids are unique for 1000 of
+/// them), "#7" for an id under 1000. The full id stays in --json output.
+std::string ShortId(std::uint32_t id);
 
 /// ValidActions as one line: "valid now: mode idle|manual, goto, teleop, release, stop".
 std::string ValidActionsText(const RobotView& view, const std::string& base_id);
