@@ -80,6 +80,13 @@ test("request control: the holder gets the drive actions; a second GUI sees the 
   const buttons = await page1.locator("#actions button").allInnerTexts();
   for (const b of ["Go to… (tap the map)", "Drive (keys / gamepad)", "Release control", "STOP"]) assert.ok(buttons.includes(b), `${b} in ${buttons}`);
   assert.ok(buttons.some((b) => b.startsWith("Mode manual")), `${buttons}`);
+  // With every action offered (the most a robot tab shows), the camera pane is still on screen unscrolled.
+  const camera = await page1.evaluate(() => {
+    document.querySelector("aside").scrollTop = 0;
+    const r = document.getElementById("camera").getBoundingClientRect();
+    return { top: r.top, bottom: r.bottom, height: innerHeight, actions: document.querySelectorAll("#actions button").length };
+  });
+  assert.ok(camera.actions >= 8 && camera.top > 0 && camera.bottom <= camera.height, JSON.stringify(camera));
   await screenshot(page1, "03_holder_actions");
 
   await page2.locator('#fleet-rows tr[data-robot="r1"]').click();
@@ -113,7 +120,11 @@ test("tap a goal on the map, confirm: the robot arrives and the page shows it", 
   await waitFor("the sent goal's label", async () => (await goalLabel.innerText()) === "r1 goal", 3000);
   // While r1 drives: the marker stays, and the path is drawn in r1's colour.
   const r1Colour = (await robotState(page1, "r1")).color;
-  await waitFor("r1's path in its colour", () => page1.evaluate((c) => window.cairn.scene.lineColors("path/r1").includes(c), r1Colour), 10000);
+  // (its global path, and its local plan or trail beside it)
+  await waitFor("r1's path in its colour", () => page1.evaluate((c) => {
+    const colours = window.cairn.scene.lineColors("path/r1");
+    return colours.length >= 2 && colours.includes(c);
+  }, r1Colour), 10000);
   assert.deepEqual(await page1.evaluate(() => window.cairn.scene.goalMarkers()), ["r1"]);
   await screenshot(page1, "05_goal_sent");
   await waitFor("r1 arrived", async () => (await robotState(page1, "r1"))?.nav_status === "arrived", 60000);
