@@ -838,7 +838,11 @@ class GuiBridge::Impl {
                             {"text", place.name}});
       scene["entities"].push_back(e);
     }
-    const std::string text = scene["entities"].dump();
+    // What changed is the places themselves (the entities also carry this period's time stamp).
+    std::string text;
+    for (const Place& place : places)
+      text += place.name + " " + std::to_string(place.x_m) + " " + std::to_string(place.y_m) + " " +
+              std::to_string(place.z_m) + "\n";
     if (!only) {
       if (text == places_sent_) return;
       for (const std::string& name : places_shown_)
