@@ -138,7 +138,8 @@ export class FleetScene {
     this.scaleBar = document.createElement("div");
     this.scaleBar.id = "scale-bar";
     this.scaleBar.innerHTML = "<div></div><span></span>";
-    container.append(this.labelLayer, this.scaleBar);
+    // First among the view's overlays: the confirm bar, requests and toasts paint over the labels.
+    container.prepend(this.labelLayer, this.scaleBar);
     this.camera = new THREE.PerspectiveCamera(55, 1, 0.05, 2000);
     this.camera.up.set(0, 0, 1);
     this.camera.position.set(-6, -9, 12);
