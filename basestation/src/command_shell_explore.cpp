@@ -2,6 +2,8 @@
 // [--wait [TIMEOUT_S]]` and `frontiers R` (see command_shell.h), and the exploration fields of `status`.
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "cairn/base/command_shell.h"
@@ -84,78 +86,99 @@ std::string ExplorationText(const cairn_msgs::RobotState& s) {
   return text;
 }
 
-int CommandShell::Explore(const std::vector<std::string>& all_args) {
+namespace {
+
+// explore's words: the robots and the options every one of them gets.
+struct ExploreArgs {
+  std::vector<std::string> robots;
   std::optional<Eigen::AlignedBox2d> region_M;
   double min_z_m = std::numeric_limits<double>::quiet_NaN();
   double max_z_m = std::numeric_limits<double>::quiet_NaN();
   bool wait = false;
   double timeout_s = 3600;
   double home_after_silence_s = 0.0;
-  std::vector<std::string> args;
-  std::string error;
+};
+
+// Reads `all_args` into `*out`; false with `*error` naming the option and the value at fault.
+bool ParseExploreArgs(const std::vector<std::string>& all_args, ExploreArgs* out, std::string* error) {
   for (std::size_t i = 0; i < all_args.size(); ++i) {
     const std::string& a = all_args[i];
     if (a == "--region" || a == "--z-range") {
       if (i + 1 >= all_args.size()) {
-        return UsageError("explore", a == "--region" ? "--region needs X0,Y0,X1,Y1 (metres, map frame)"
-                                                     : "--z-range needs Z0,Z1 (metres, map frame)");
+        *error = a == "--region" ? "--region needs X0,Y0,X1,Y1 (metres, map frame)"
+                                 : "--z-range needs Z0,Z1 (metres, map frame)";
+        return false;
       }
       if (a == "--region") {
         double v[4];
-        if (!ParseList(a, all_args[i + 1], 4, v, &error)) return UsageError("explore", error);
+        if (!ParseList(a, all_args[i + 1], 4, v, error)) return false;
         if (!(v[0] < v[2]) || !(v[1] < v[3])) {
-          return UsageError("explore",
-                            "--region '" + all_args[i + 1] + "': X0 must be below X1 and Y0 below Y1");
+          *error = "--region '" + all_args[i + 1] + "': X0 must be below X1 and Y0 below Y1";
+          return false;
         }
-        region_M = Eigen::AlignedBox2d(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]));
+        out->region_M = Eigen::AlignedBox2d(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]));
       } else {
         double v[2];
-        if (!ParseList(a, all_args[i + 1], 2, v, &error)) return UsageError("explore", error);
-        if (!(v[0] < v[1]))
-          return UsageError("explore", "--z-range '" + all_args[i + 1] + "': Z0 must be below Z1");
-        min_z_m = v[0];
-        max_z_m = v[1];
+        if (!ParseList(a, all_args[i + 1], 2, v, error)) return false;
+        if (!(v[0] < v[1])) {
+          *error = "--z-range '" + all_args[i + 1] + "': Z0 must be below Z1";
+          return false;
+        }
+        out->min_z_m = v[0];
+        out->max_z_m = v[1];
       }
       ++i;
     } else if (a == "--home-after-silence") {
       if (i + 1 >= all_args.size() ||
-          !shell::ParseNumber(all_args[i + 1], "S", &home_after_silence_s, &error) ||
-          !(home_after_silence_s > 0 && home_after_silence_s <= 86400)) {
-        return UsageError(
-            "explore", error.empty()
-                           ? "--home-after-silence needs S in (0, 86400] seconds" +
-                                 (i + 1 < all_args.size() ? ", not '" + all_args[i + 1] + "'" : std::string())
-                           : error);
+          !shell::ParseNumber(all_args[i + 1], "S", &out->home_after_silence_s, error) ||
+          !(out->home_after_silence_s > 0 && out->home_after_silence_s <= 86400)) {
+        if (error->empty()) {
+          *error = "--home-after-silence needs S in (0, 86400] seconds" +
+                   (i + 1 < all_args.size() ? ", not '" + all_args[i + 1] + "'" : std::string());
+        }
+        return false;
       }
       ++i;
     } else if (a == "--wait") {
-      wait = true;
+      out->wait = true;
       if (i + 1 < all_args.size() && all_args[i + 1].rfind("--", 0) != 0) {
-        if (!shell::ParseNumber(all_args[i + 1], "TIMEOUT_S", &timeout_s, &error) || timeout_s <= 0 ||
-            timeout_s > 86400) {
-          return UsageError(
-              "explore", error.empty() ? "TIMEOUT_S '" + all_args[i + 1] + "' must be in (0, 86400]" : error);
+        if (!shell::ParseNumber(all_args[i + 1], "TIMEOUT_S", &out->timeout_s, error) ||
+            out->timeout_s <= 0 || out->timeout_s > 86400) {
+          if (error->empty()) *error = "TIMEOUT_S '" + all_args[i + 1] + "' must be in (0, 86400]";
+          return false;
         }
         ++i;
       }
     } else if (a.rfind("--", 0) == 0) {
-      return UsageError("explore", "unknown option '" + a + "'; " + UsageOf("explore"));
+      *error = "unknown option '" + a + "'; " + UsageOf("explore");
+      return false;
     } else {
-      args.push_back(a);
+      out->robots.push_back(a);
     }
   }
+  return true;
+}
+
+}  // namespace
+
+int CommandShell::Explore(const std::vector<std::string>& all_args) {
+  ExploreArgs e;
+  std::string error;
+  if (!ParseExploreArgs(all_args, &e, &error)) return UsageError("explore", error);
+  const std::vector<std::string>& args = e.robots;
   if (args.empty()) return UsageError("explore", UsageOf("explore"));
   if (args.size() > 1) {
     // Several robots, each its own task with the same options (the team shares its frontiers by itself).
-    if (wait) return UsageError("explore", "--wait takes one robot (explore the others first, without it)");
+    if (e.wait) return UsageError("explore", "--wait takes one robot (explore the others first, without it)");
     const auto outcomes = shell::SendToEach<CommandOutcome>(args, [&](const std::string& robot, std::size_t) {
-      return client_.SendExplore(robot, region_M, min_z_m, max_z_m, home_after_silence_s);
+      return client_.SendExplore(robot, e.region_M, e.min_z_m, e.max_z_m, e.home_after_silence_s);
     });
     return ReportEach("explore", args.front(), args, outcomes);
   }
   const std::string& robot = args[0];
-  const CommandOutcome o = client_.SendExplore(robot, region_M, min_z_m, max_z_m, home_after_silence_s);
-  if (!o.ok || !wait) return Report("explore", robot, o);
+  const CommandOutcome o =
+      client_.SendExplore(robot, e.region_M, e.min_z_m, e.max_z_m, e.home_after_silence_s);
+  if (!o.ok || !e.wait) return Report("explore", robot, o);
   if (json_) {
     out_ << Dump(json{{"command", "explore"},
                       {"robot", robot},
@@ -168,7 +191,7 @@ int CommandShell::Explore(const std::vector<std::string>& all_args) {
   } else {
     Report("explore", robot, o);
   }
-  return WaitExplored(robot, o.goal_id, timeout_s);
+  return WaitExplored(robot, o.goal_id, e.timeout_s);
 }
 
 int CommandShell::WaitExplored(const std::string& robot, uint32_t task_id, double timeout_s) {

@@ -11,6 +11,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -813,6 +814,10 @@ class GuiBridge::Impl {
   // two seconds when the file changed, or all to `only`. A file that cannot be read keeps the last ones.
   void PublishPlaces(std::uint64_t ns, std::optional<FoxgloveServer::ClientId> only) {
     if (options_.places_file.empty()) return;
+    // Read again only when the file changed (or for a new subscriber, who gets all of them).
+    std::error_code no_file;
+    const auto written = std::filesystem::last_write_time(options_.places_file, no_file);
+    if (!only && !no_file && places_read_ && written == places_written_) return;
     std::vector<Place> places;
     try {
       places = Places::Load(options_.places_file).All();
@@ -822,6 +827,11 @@ class GuiBridge::Impl {
       return;
     }
     places_error_.clear();
+    if (!only) {  // what every subscriber was sent (a new subscriber's read must not hide a change from the
+                  // rest)
+      places_read_ = !no_file;
+      places_written_ = written;
+    }
     json scene = {{"deletions", json::array()}, {"entities", json::array()}};
     std::set<std::string> names;
     for (const Place& place : places) {
@@ -1057,7 +1067,9 @@ class GuiBridge::Impl {
   std::string places_sent_;             // the places as last sent to every subscriber
   std::set<std::string> places_shown_;  // their names
   std::string places_error_;            // why the file was last unreadable (warned once)
-  std::set<int> stairs_shown_;          // fleet staircase ids last sent to every subscriber
+  bool places_read_ = false;            // places_written_ is the file's time when it was last read
+  std::filesystem::file_time_type places_written_;
+  std::set<int> stairs_shown_;  // fleet staircase ids last sent to every subscriber
   struct SentColumn {
     std::string cubes;  // the column's cubes as last sent
     Clock::time_point sent_at;

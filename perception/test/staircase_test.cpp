@@ -1041,6 +1041,17 @@ Staircase TunnelsStairs() {
   return s;
 }
 
+// The tunnels' staircase as one view measured it (a logged detection): first riser's foot, rise, run, width.
+Staircase TunnelsStairsSeenAs(const Eigen::Vector3d& p_W_first_step, double rise_m, double run_m,
+                              double width_m) {
+  Staircase s = TunnelsStairs();
+  s.p_W_first_step = p_W_first_step;
+  s.rise_m = rise_m;
+  s.run_m = run_m;
+  s.width_m = width_m;
+  return s;
+}
+
 TEST(StaircaseRegistryTest, SameStairsMergeOtherStairsGetNewIds) {
   StaircaseRegistry registry;
   std::mt19937 rng(3);
@@ -1118,16 +1129,8 @@ TEST(StaircaseRegistryTest, APartialViewFromOnTheStairsWithALowFloorMerges) {
   // Logged by the perception integration test (it counted the staircase twice): the whole flight, then a
   // robot standing on it saw 3 steps from the 2nd riser, one run further, its floor 8 cm below the 1st tread.
   StaircaseRegistry registry;
-  Staircase whole = TunnelsStairs();
-  whole.p_W_first_step = Eigen::Vector3d(50.00, 23.72, -0.01);
-  whole.rise_m = 0.200;
-  whole.run_m = 0.499;
-  whole.width_m = 2.41;
-  Staircase partial = whole;
-  partial.p_W_first_step = Eigen::Vector3d(50.50, 23.73, 0.11);
-  partial.rise_m = 0.216;
-  partial.run_m = 0.500;
-  partial.width_m = 2.43;
+  const Staircase whole = TunnelsStairsSeenAs({50.00, 23.72, -0.01}, 0.200, 0.499, 2.41);
+  Staircase partial = TunnelsStairsSeenAs({50.50, 23.73, 0.11}, 0.216, 0.500, 2.43);
   partial.num_steps = 3;
   EXPECT_TRUE(registry.Add(whole, "leg1").is_new);
   EXPECT_FALSE(registry.Add(partial, "leg1").is_new);
@@ -1143,17 +1146,9 @@ TEST(StaircaseRegistryTest, AWholeViewWithALowFloorButTheSameTopMerges) {
   // Logged by the perception integration test (it counted the staircase twice): a legged robot at the foot
   // saw the whole flight with its floor 8 cm low and its rise 14 mm high; the flight's top agrees to 1 cm.
   StaircaseRegistry registry;
-  Staircase first = TunnelsStairs();
-  first.p_W_first_step = Eigen::Vector3d(50.000, 23.722, -0.004);
-  first.rise_m = 0.2001;
-  first.run_m = 0.4997;
-  first.width_m = 2.406;
+  Staircase first = TunnelsStairsSeenAs({50.000, 23.722, -0.004}, 0.2001, 0.4997, 2.406);
   first.confidence = 0.63;
-  Staircase low = first;
-  low.p_W_first_step = Eigen::Vector3d(49.989, 23.697, -0.085);
-  low.rise_m = 0.2142;
-  low.run_m = 0.5024;
-  low.width_m = 2.465;
+  Staircase low = TunnelsStairsSeenAs({49.989, 23.697, -0.085}, 0.2142, 0.5024, 2.465);
   low.confidence = 0.37;
   EXPECT_TRUE(registry.Add(first, "leg1").is_new);
   EXPECT_FALSE(registry.Add(low, "leg1").is_new);

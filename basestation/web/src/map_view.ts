@@ -64,12 +64,18 @@ export class MapView {
     }
   }
 
-  /** The top of the highest voxel, m (map frame); -Infinity for an empty map. */
+  /** The top of the highest voxel, m (map frame); -Infinity for an empty map. Recomputed only after the map
+   *  changed (it is asked at every fleet update, as the ceiling follows the robots). */
   get topZ(): number {
-    let top = -Infinity;
-    for (const c of this.columns.values()) top = Math.max(top, c.topZ);
-    return top;
+    if (this.topStale) {
+      this.top = -Infinity;
+      for (const c of this.columns.values()) this.top = Math.max(this.top, c.topZ);
+      this.topStale = false;
+    }
+    return this.top;
   }
+  private top = -Infinity;
+  private topStale = false;
 
   has(id: string): boolean {
     return this.columns.has(id);
@@ -97,10 +103,11 @@ export class MapView {
     } else {
       const boxes = this.boxes(cubes);
       this.group.add(boxes);
-      const topZ = Math.max(...cubes.map((c) => c.pose.position.z + c.size.z / 2));
+      const topZ = cubes.reduce((top, c) => Math.max(top, c.pose.position.z + c.size.z / 2), -Infinity);
       column = { block: "", topZ, boxes, voxels: cubes.length, quads: cubes.length * 5 };
     }
     this.columns.set(id, column);
+    this.topStale = true;
     this.voxelCount += column.voxels;
     this.quads += column.quads;
   }
@@ -109,6 +116,7 @@ export class MapView {
     const column = this.columns.get(id);
     if (!column) return;
     this.columns.delete(id);
+    this.topStale = true;
     this.voxelCount -= column.voxels;
     this.quads -= column.quads;
     if (column.boxes) {
@@ -151,6 +159,7 @@ export class MapView {
       lod.addLevel(meshes[2], kCoarserBeyondM);
       lod.updateMatrixWorld(true);
       lod.userData.kind = "map";
+      meshes[0].userData.block = key; // picking looks for the hit voxel in this block's columns only
       this.group.add(lod);
       block.lod = lod;
       block.fine = meshes[0];
@@ -188,8 +197,9 @@ export class MapView {
   // wall cut by the ceiling, not a surface to stand on.
   private coveredAbove(hit: THREE.Intersection): boolean {
     if (hit.object instanceof THREE.InstancedMesh) return MapView.boxCoveredAbove(hit.object, hit.instanceId);
-    for (const column of this.columns.values()) {
-      const g = column.grid;
+    const block = this.blocks.get(hit.object.userData.block as string);
+    for (const id of block?.columns ?? []) {
+      const g = this.columns.get(id)?.grid;
       if (!g) continue;
       const cell = (a: number, v: number) => Math.round((v - g.origin[a]) / g.res);
       const i = cell(0, hit.point.x), j = cell(1, hit.point.y), k = cell(2, hit.point.z - g.res / 2);
