@@ -117,9 +117,13 @@ TEST(ComponentFaults, PerceptionThatThrowsIsRestartedAloneItsModesWaitAndTheRobo
   }
   const msgs::RobotState degraded = observer.FreshState("r1");
   EXPECT_EQ(degraded.mode(), "idle");
-  EXPECT_NE(
-      ReadFile(logs + "/r1.log").find("smart_joystick no longer allowed: IsComponentUp: perception is down"),
-      std::string::npos)
+  // The mode tree may see perception between its loop's throw and the health monitor marking it down:
+  // "inactive" then, "down" after; either way the condition names perception.
+  const std::string r1_log = ReadFile(logs + "/r1.log");
+  EXPECT_TRUE(r1_log.find("smart_joystick no longer allowed: IsComponentUp: perception is down") !=
+                  std::string::npos ||
+              r1_log.find("smart_joystick no longer allowed: IsComponentUp: perception is inactive") !=
+                  std::string::npos)
       << "see " << logs << "/r1.log";
   json status = op.Run("status r1");
   EXPECT_EQ(status.dump().find("smart_joystick"), std::string::npos) << "offered while down: " << status;
