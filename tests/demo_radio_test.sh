@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # End-to-end test of `./cairn demo --link radio` and `./cairn link`: two robots and the basestation
 # each on a simulated host sharing a 1 Mbit/s radio (tools/demo.sh over tests/linksim). A headless mission
-# drives r1 to the junction and shows `links`; meanwhile this test cuts r2's link with `./cairn link r2 --loss 100`
-# (the basestation must show r2 lost) and restores it (r2 back online). Run by ctest inside tests/netns_run.sh.
+# drives r2 to the junction (r1 starts behind it at the west end: r2's way is clear, so the mission measures the
+# radio, not passing a parked robot in a tunnel) and shows `links`; then this test cuts r2's link with
+# `./cairn link r2 --loss 100` (the basestation must show r2 lost) and restores it (r2 back online). Run by ctest
+# inside tests/netns_run.sh.
 #   demo_radio_test.sh BUILD_DIR
 set -uo pipefail
 BUILD="$1"
@@ -23,13 +25,13 @@ trap cleanup EXIT
 cat >"$LOGS/mission.cairn" <<'MISSION'
 wait r1 online 20
 wait r2 online 20
-request-control r1
-goto r1 junction --wait 120
+request-control r2
+goto r2 junction --wait 180
 links
 wait r2 lost 30
 wait r2 online 30
 links r2
-release r1
+release r2
 MISSION
 
 # Bad options are refused before anything starts, naming the value.
@@ -42,7 +44,7 @@ if [ $? -eq 2 ] && grep -q "'150'" <<<"$out"; then pass "--loss 150 refused: $ou
   >"$LOGS/demo.out" 2>"$LOGS/demo.err" &
 demo_pid=$!
 # Once the mission has shown `links`, cut r2's radio; once the basestation shows r2 lost, restore it.
-for _ in $(seq 1 1800); do grep -q '"command":"links"' "$LOGS/demo.out" && break; sleep 0.1; done
+for _ in $(seq 1 2400); do grep -q '"command":"links"' "$LOGS/demo.out" && break; sleep 0.1; done
 if grep -q '"command":"links"' "$LOGS/demo.out"; then
   "$ROOT/cairn" link r2 --loss 100 || fail "./cairn link r2 --loss 100 failed"
   for _ in $(seq 1 300); do grep -q '"reason":"lost after' "$LOGS/demo.out" && break; sleep 0.1; done
