@@ -558,7 +558,11 @@ bool MapTelemetrySender::EmitDelta(std::vector<MapUpdate>* out) {
     if (occ_a != occ_b) return occ_a;
     return a.second->since < b.second->since;
   };
-  const std::size_t useful = std::min(order.size(), kMaxVoxelsPerUpdate);
+  // Only the voxels this message can hold are ordered: the count the running bytes-per-voxel estimate
+  // guesses, with room to grow when they compress better (a thin link with a large backlog sends a few
+  // hundred voxels per message; sorting the whole backlog for each cost O(backlog log backlog) a message).
+  const auto guess = static_cast<std::size_t>(static_cast<double>(limit) / bytes_per_voxel_);
+  const std::size_t useful = std::min({order.size(), kMaxVoxelsPerUpdate, 2 * guess + 64});
   std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(useful), order.end(), before);
   order.resize(useful);
   std::vector<CoarseVoxel> voxels;
@@ -566,7 +570,6 @@ bool MapTelemetrySender::EmitDelta(std::vector<MapUpdate>* out) {
   for (const auto& [key, p] : order) voxels.push_back(UnpackKey(key, p->state));
 
   std::vector<std::uint8_t> payload;
-  const auto guess = static_cast<std::size_t>(static_cast<double>(limit) / bytes_per_voxel_);
   const std::size_t n = EncodeFitting(voxels, 0, guess, limit, options_.zstd_level, &payload);
   if (n == 0) return false;
   if (n >= 16)

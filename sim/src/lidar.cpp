@@ -107,6 +107,12 @@ std::optional<RayHit> Traverse(const World& world, const Eigen::Vector3d& origin
   const auto nx = static_cast<unsigned>(dims.x());
   const auto ny = static_cast<unsigned>(dims.y());
   const auto nz = static_cast<unsigned>(dims.z());
+  // The voxel's storage index moves with it (z fastest): a step along x, y or z adds this much; the bounds
+  // test below runs before it is read.
+  const std::int64_t move_x = static_cast<std::int64_t>(step[0]) * dims.y() * dims.z();
+  const std::int64_t move_y = static_cast<std::int64_t>(step[1]) * dims.z();
+  const std::int64_t move_z = step[2];
+  std::int64_t linear = world.LinearIndex(index);
   for (;;) {
     const bool sx = tx < ty && tx < tz;
     const bool sy = !sx && ty < tz;
@@ -115,6 +121,7 @@ std::optional<RayHit> Traverse(const World& world, const Eigen::Vector3d& origin
     ix += sx ? step[0] : 0;
     iy += sy ? step[1] : 0;
     iz += sz ? step[2] : 0;
+    linear += sx ? move_x : (sy ? move_y : move_z);
     tx += sx ? t_delta[0] : 0.0;
     ty += sy ? t_delta[1] : 0.0;
     tz += sz ? t_delta[2] : 0.0;
@@ -123,9 +130,8 @@ std::optional<RayHit> Traverse(const World& world, const Eigen::Vector3d& origin
         (static_cast<unsigned>(iz) >= nz)) {
       return std::nullopt;
     }
-    const Eigen::Vector3i next(ix, iy, iz);
-    if (world.IsOccupiedIndex(next)) {
-      return FaceHit(world, origin_W, direction_W, next, sx ? 0 : (sy ? 1 : 2));
+    if (world.IsOccupiedLinear(linear)) {
+      return FaceHit(world, origin_W, direction_W, Eigen::Vector3i(ix, iy, iz), sx ? 0 : (sy ? 1 : 2));
     }
   }
 }

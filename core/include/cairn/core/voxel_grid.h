@@ -74,6 +74,12 @@ class VoxelGrid {
     const std::int64_t i = LinearIndex(index);
     return (bits_[static_cast<std::size_t>(i >> 6)] >> (i & 63)) & 1u;
   }
+  /// True if the voxel at linear storage index `linear` (LinearIndex() of an in-grid voxel) is occupied.
+  /// Unchecked: for walks that keep their own bounds (a ray's traversal steps the index by +-1, +-dims.z()
+  /// or +-dims.y() * dims.z() instead of recomputing it).
+  bool IsOccupiedLinear(std::int64_t linear) const {
+    return (bits_[static_cast<std::size_t>(linear >> 6)] >> (linear & 63)) & 1u;
+  }
   /// Marks voxel `index` occupied (or free). Throws std::out_of_range outside the grid.
   void SetOccupied(const Eigen::Vector3i& index, bool occupied = true);
   /// Frees every voxel of the columns (ix, iy) for iy in [iy_first, iy_last], at every height. They are one
