@@ -418,11 +418,23 @@ class FleetClient::Impl {
       outcome.reason = UnknownRobotReason(robot_id);
       return outcome;
     }
-    if (require_live) WaitForCommandPath(robot_id, options_.command_timeout_s);
     const std::string key = ResponseKey(robot_id, kind, outcome.request_id);
     const auto start = SteadyClock::now();
+    {
+      std::lock_guard<std::mutex> guard(mutex_);
+      awaited_.commands.insert(key);
+    }
+    if (require_live) {
+      WaitForCommandPath(robot_id, options_.command_timeout_s);
+    } else {
+      // A stop goes out at once; when this basestation has only just found a live robot (its endpoints still
+      // being matched: seconds under DDS Security on a loaded machine), the time to answer counts from the
+      // match, not from before it, when nothing could be heard. A lost or unknown robot is not waited for.
+      // The robot de-duplicates the repeats.
+      send(outcome.request_id);
+      if (SeenLive(robot_id)) WaitForCommandPath(robot_id, options_.command_timeout_s);
+    }
     std::unique_lock<std::mutex> lock(mutex_);
-    awaited_.commands.insert(key);
     const bool answered = SendUntil(
         robot_id, outcome.request_id, send, [&] { return awaited_.answers.count(key) > 0; }, &lock,
         &outcome.reason);
@@ -512,6 +524,13 @@ class FleetClient::Impl {
   // this client started (a fresh basestation on a lossy link may need longer than a command's timeout to
   // discover it; once that has passed, an unknown robot, a typo, is refused at once), a lost one up to
   // `timeout_s`.
+  // True when this basestation has heard `robot_id` and does not hold it lost, now (no waiting).
+  bool SeenLive(const std::string& robot_id) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = views_.robots.find(robot_id);
+    return it != views_.robots.end() && !WithStaleness(it->second, SteadyClock::now()).lost;
+  }
+
   bool WaitForRobot(const std::string& robot_id, double timeout_s) const {
     std::unique_lock<std::mutex> lock(mutex_);
     const auto discovered_by = created_ + std::chrono::duration_cast<SteadyClock::duration>(
