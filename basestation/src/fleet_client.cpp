@@ -520,17 +520,21 @@ class FleetClient::Impl {
     }
   }
 
+  // True when this basestation has heard `robot_id` and does not hold it lost at `now`; mutex_ held.
+  bool LiveLocked(const std::string& robot_id, core::SteadyTime now) const {
+    auto it = views_.robots.find(robot_id);
+    return it != views_.robots.end() && !WithStaleness(it->second, now).lost;
+  }
+  // LiveLocked() now, without waiting.
+  bool SeenLive(const std::string& robot_id) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return LiveLocked(robot_id, SteadyClock::now());
+  }
+
   // Waits for `robot_id` to be known and alive: a robot not heard of yet until discovery_s has passed since
   // this client started (a fresh basestation on a lossy link may need longer than a command's timeout to
   // discover it; once that has passed, an unknown robot, a typo, is refused at once), a lost one up to
   // `timeout_s`.
-  // True when this basestation has heard `robot_id` and does not hold it lost, now (no waiting).
-  bool SeenLive(const std::string& robot_id) const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    auto it = views_.robots.find(robot_id);
-    return it != views_.robots.end() && !WithStaleness(it->second, SteadyClock::now()).lost;
-  }
-
   bool WaitForRobot(const std::string& robot_id, double timeout_s) const {
     std::unique_lock<std::mutex> lock(mutex_);
     const auto discovered_by = created_ + std::chrono::duration_cast<SteadyClock::duration>(
@@ -538,10 +542,9 @@ class FleetClient::Impl {
     const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
                                                    std::chrono::duration<double>(timeout_s));
     while (true) {
-      auto it = views_.robots.find(robot_id);
       const auto now = SteadyClock::now();
-      if (it != views_.robots.end() && !WithStaleness(it->second, now).lost) return true;
-      const auto until = it == views_.robots.end() ? discovered_by : deadline;
+      if (LiveLocked(robot_id, now)) return true;
+      const auto until = views_.robots.count(robot_id) == 0 ? discovered_by : deadline;
       if (now >= until) return false;
       cv_.wait_until(lock, std::min(until, now + std::chrono::milliseconds(100)));
     }

@@ -560,7 +560,7 @@ bool MapTelemetrySender::EmitDelta(std::vector<MapUpdate>* out) {
   };
   // Only the voxels this message can hold are ordered: the count the running bytes-per-voxel estimate
   // guesses, with room to grow when they compress better (a thin link with a large backlog sends a few
-  // hundred voxels per message; sorting the whole backlog for each cost O(backlog log backlog) a message).
+  // hundred voxels per message; ordering up to 65,536 of the backlog for each was most of its cost).
   const auto guess = static_cast<std::size_t>(static_cast<double>(limit) / bytes_per_voxel_);
   const std::size_t useful = std::min({order.size(), kMaxVoxelsPerUpdate, 2 * guess + 64});
   std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(useful), order.end(), before);
