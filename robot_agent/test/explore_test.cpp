@@ -97,30 +97,20 @@ TEST(ExploreTest, TwoRobotsShareARegionWithoutSharingAFrontier) {
   EXPECT_GT(team.closest_peer_m, TouchingM()) << "the robots keep clear of each other (peers)";
 }
 
-// The whole of builtin:tunnels from its gate (robots 2 m apart): one robot that knows nothing explores until
-// 90 % of the reachable floor is in its map, with no contact (exploring to completion, and standing at rest
-// then, is the geb079 test's and the two-robot test's); three reach 90 % at least 1.8x sooner, never going
-// for the same frontier, each taking part (the team stops at 95 %).
-TEST(ExploreTest, ThreeRobotsExploreTheTunnelsAtLeast1p8TimesSoonerThanOne) {
+// The whole of builtin:tunnels from its gate, three robots 2 m apart that know nothing: 90 % of the reachable
+// floor is in their maps within 95 s of simulated time, never going for the same frontier, each taking part,
+// with no contact (the team stops at 95 %; exploring to completion, and standing at rest then, is the geb079
+// test's and the two-robot test's). One robot alone needs 170 s (2026-11-29), so 95 s is the team at least
+// 1.8x sooner than one; the ratio itself, against one robot run in the same process, is the exploration
+// bench's (build/bench/cairn_bench_explore --robots 1,3).
+TEST(ExploreTest, ThreeRobotsExploreNinetyPercentOfTheTunnelsWithin95s) {
   explore_team::TeamOptions o;
-  o.starts = {{4.0, 20.0, 0.0}};
-  o.stop_at_coverage = 0.90;  // the baseline's figure is its time to 90 %
-  const explore_team::TeamRun one = explore_team::RunTeam(o);
-  PrintTeam("one robot", one);
-  EXPECT_EQ(one.statuses[0].state, ExplorationState::kExploring) << one.statuses[0].reason;
-  EXPECT_GE(one.coverage, 0.90);
-  EXPECT_FALSE(one.contact);
-  ASSERT_GT(one.time_to_90_s, 0.0);
-
   o.starts = TunnelTeamStarts();
   o.stop_at_coverage = 0.95;  // the 90 % figure and a little beyond; the rest is the last corners
   const explore_team::TeamRun three = explore_team::RunTeam(o);
   PrintTeam("three robots", three);
   ASSERT_GT(three.time_to_90_s, 0.0);
-  const double ratio = one.time_to_90_s / three.time_to_90_s;
-  std::printf("  90 %% after %.0f s with one robot, %.0f s with three: %.2fx sooner\n", one.time_to_90_s,
-              three.time_to_90_s, ratio);
-  EXPECT_GE(ratio, 1.8);
+  EXPECT_LE(three.time_to_90_s, 95.0);
   EXPECT_EQ(three.claim_overlaps, 0);
   EXPECT_FALSE(three.contact);
   EXPECT_GT(three.closest_peer_m, TouchingM()) << "the robots keep clear of one another (peers)";
