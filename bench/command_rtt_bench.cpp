@@ -16,6 +16,7 @@
 
 #include "../tests/process.h"
 #include "cairn/base/fleet_client.h"
+#include "cairn/core/build_paths.h"
 #include "cairn/core/dds.h"
 #include "cairn/core/shutdown.h"
 #include "cairn_msgsPubSubTypes.h"
@@ -155,7 +156,7 @@ int main(int argc, char** argv) {
 
   // 2. Cairn: basestation FleetClient -> cairn_agent command interface (+ mode tree + mux) ->
   // acknowledgement.
-  const std::string agent_bin = std::string(CAIRN_BINARY_DIR) + "/robot_agent/cairn_agent";
+  const std::string agent_bin = cairn::core::BinaryDir() + "/robot_agent/cairn_agent";
   const std::string config = "/tmp/cairn_bench_agent.yaml";
   std::FILE* f = std::fopen(config.c_str(), "w");
   std::fprintf(f, "telemetry:\n  state_rate_hz: 100\n");

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "bench_util.h"
+#include "cairn/core/build_paths.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/sim/world.h"
 
@@ -105,7 +106,7 @@ double PlainAStar(const Grid2D& g, double sx, double sy, double gx, double gy, i
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string path = std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
+  std::string path = cairn::core::SourceDir() + "/data/geb079.bt";
   int repeats = 20;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeats") == 0 && i + 1 < argc) {

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "bench_util.h"
+#include "cairn/core/build_paths.h"
 #include "cairn/nav/multilevel.h"
 #include "cairn/nav/platform.h"
 #include "cairn/nav/traversability.h"
@@ -46,7 +47,7 @@ int main(int argc, char** argv) {
   }
   if (worlds.empty()) {
     worlds = {"builtin:tunnels", "builtin:building", "builtin:arena"};
-    const std::string geb079 = std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
+    const std::string geb079 = cairn::core::SourceDir() + "/data/geb079.bt";
     if (std::filesystem::exists(geb079)) worlds.push_back(geb079);
   }
   const cairn::nav::PlatformProfile profile = cairn::nav::GetPlatformProfile("wheeled");

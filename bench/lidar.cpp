@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "bench_util.h"
+#include "cairn/core/build_paths.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/camera.h"
 #include "cairn/sim/world.h"
@@ -140,11 +141,7 @@ void RunCase(const Case& c, int repeats, Totals* totals) {
 }  // namespace
 
 int main(int argc, char** argv) {
-#ifdef CAIRN_SOURCE_DIR
-  std::string geb079_path = std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
-#else
-  std::string geb079_path = "data/geb079.bt";  // Relative to the repository root.
-#endif
+  std::string geb079_path = cairn::core::SourceDir() + "/data/geb079.bt";
   int repeats = 20;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeats") == 0 && i + 1 < argc) {

@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/perception/occupancy_map.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/lidar.h"
@@ -49,13 +50,7 @@ double Ms(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
 }
 
-std::string GraphPath() {
-#ifdef CAIRN_SOURCE_DIR
-  return std::string(CAIRN_SOURCE_DIR) + "/data/spherical_scan.graph";
-#else
-  return "data/spherical_scan.graph";
-#endif
-}
+std::string GraphPath() { return cairn::core::SourceDir() + "/data/spherical_scan.graph"; }
 
 Eigen::Isometry3d Pose(double x, double y, double z, double yaw_rad) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();

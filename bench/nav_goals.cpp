@@ -30,6 +30,7 @@
 #include "cairn/agent/modes/waypoint_recovery.h"
 #include "cairn/agent/services/live_obstacles.h"
 #include "cairn/agent/services/nav_map.h"
+#include "cairn/core/build_paths.h"
 #include "cairn/nav/global_planner.h"
 #include "cairn/nav/navigation.h"
 #include "cairn/nav/sampling.h"
@@ -198,7 +199,7 @@ Outcome RunOwnMap(const std::string& world, const core::PlanarPose& start, const
                              std::make_shared<const nav::TrajectoryLibrary>(options.LibraryForPlatform()));
   agent::LiveObstacles live_obstacles(options.navigation, options.obstacle_window_s,
                                       platform.Capabilities().lidar_min_elevation_rad);
-  agent::WaypointRecovery recovery(std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml", &navigation,
+  agent::WaypointRecovery recovery(cairn::core::SourceDir() + "/config/mode_tree.xml", &navigation,
                                    agent::WaypointRecovery::Hooks{[&] { live_obstacles.Clear(); }});
   std::vector<Eigen::Vector3f> points_B;
   Outcome out;

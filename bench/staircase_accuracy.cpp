@@ -44,6 +44,7 @@
 #include <string>
 #include <vector>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/perception/staircase.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/lidar.h"
@@ -727,7 +728,7 @@ int main(int argc, char** argv) {
   std::string only;
   bool verbose = false;
   int only_view = -1;
-  std::string geb079 = std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
+  std::string geb079 = cairn::core::SourceDir() + "/data/geb079.bt";
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--only") == 0 && i + 1 < argc) {
       only = argv[++i];

@@ -27,9 +27,8 @@ function(cairn_add_test name)
     set(run ${CAIRN_BACKGROUND_RUN})
   endif()
   add_executable(${name} ${ARG_SOURCES})
-  target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main Threads::Threads)
-  target_compile_definitions(${name} PRIVATE CAIRN_SOURCE_DIR="${CMAKE_SOURCE_DIR}"
-                                             CAIRN_BINARY_DIR="${CMAKE_BINARY_DIR}")
+  # cairn_types: the build's folders (cairn/core/build_paths.h) for data, tools and the built programs.
+  target_link_libraries(${name} PRIVATE ${ARG_LIBS} cairn_types GTest::gtest GTest::gtest_main Threads::Threads)
   cairn_target_warnings(${name})
   set(tests ${name})
   set(rest_filter "")

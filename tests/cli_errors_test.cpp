@@ -10,6 +10,7 @@
 #include <iterator>
 #include <sstream>
 
+#include "cairn/core/build_paths.h"
 #include "process.h"
 
 namespace cairn {
@@ -17,8 +18,8 @@ namespace {
 
 using namespace std::chrono_literals;
 
-const std::string kAgent = std::string(CAIRN_BINARY_DIR) + "/robot_agent/cairn_agent";
-const std::string kBase = std::string(CAIRN_BINARY_DIR) + "/basestation/cairn_base";
+const std::string kAgent = cairn::core::BinaryDir() + "/robot_agent/cairn_agent";
+const std::string kBase = cairn::core::BinaryDir() + "/basestation/cairn_base";
 
 struct Outcome {
   int exit_code = -1;
@@ -112,7 +113,7 @@ TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
                 "Nope");
   // A branch naming a channel the mux does not have is refused at load, naming branch and channel
   // (it used to load, and `stop` then left the twist on).
-  std::ifstream shipped(std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml");
+  std::ifstream shipped(cairn::core::SourceDir() + "/config/mode_tree.xml");
   std::string xml((std::istreambuf_iterator<char>(shipped)), std::istreambuf_iterator<char>());
   const std::string teleop = R"(channel="teleop")";
   ASSERT_NE(xml.find(teleop), std::string::npos);
@@ -134,7 +135,7 @@ TEST(AgentCli, RefusesMissingOrCorruptWorldsAndConfigs) {
 
 // The shipped mode tree with `copies` more manual branches in front of its own.
 std::string ShippedTreeWithBranches(int copies) {
-  std::ifstream shipped(std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml");
+  std::ifstream shipped(cairn::core::SourceDir() + "/config/mode_tree.xml");
   std::string xml((std::istreambuf_iterator<char>(shipped)), std::istreambuf_iterator<char>());
   const std::string fallback = R"(<Fallback name="select_mode">)";
   std::string branches;
@@ -206,7 +207,7 @@ TEST(SecureFlag, RefusesAMissingFolderAndAMissingIdentityNamingThem) {
   const std::string keys =
       (std::filesystem::path(::testing::TempDir()) / "cli_keys").lexically_normal().string();
   std::filesystem::remove_all(keys);
-  const std::string make = std::string(CAIRN_SOURCE_DIR) + "/cairn keys " + keys + " --robots r1 2>/dev/null";
+  const std::string make = cairn::core::SourceDir() + "/cairn keys " + keys + " --robots r1 2>/dev/null";
   ASSERT_EQ(std::system(make.c_str()), 0) << make;
   ExpectRefused(RunProcess({kAgent, "--robot-id", "r9", "--world", "builtin:arena", "--domain", "72",
                             "--secure", keys}),

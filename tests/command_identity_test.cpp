@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/core/dds.h"
 #include "cairn/msgs/stamp.h"
 #include "cairn_msgsPubSubTypes.h"
@@ -33,7 +34,7 @@ namespace msgs = cairn_msgs;
 const std::string kWorld = "builtin:tunnels";
 
 std::string Logs(const std::string& test) {
-  std::string dir = std::string(CAIRN_BINARY_DIR) + "/test-logs/command_identity/" + test;
+  std::string dir = cairn::core::BinaryDir() + "/test-logs/command_identity/" + test;
   std::filesystem::create_directories(dir);
   return dir;
 }

@@ -15,6 +15,7 @@
 #include <sstream>
 #include <utility>
 
+#include "cairn/core/build_paths.h"
 #include "cairn_msgsPubSubTypes.h"
 #include "integration_util.h"
 #include "process.h"
@@ -30,7 +31,7 @@ using nlohmann::json;
 namespace msgs = cairn_msgs;
 
 std::string Logs(const std::string& test) {
-  std::string dir = std::string(CAIRN_BINARY_DIR) + "/test-logs/console/" + test;
+  std::string dir = cairn::core::BinaryDir() + "/test-logs/console/" + test;
   std::filesystem::create_directories(dir);
   return dir;
 }
@@ -57,7 +58,7 @@ std::string WritePlaces(const std::string& path) {
 // line (event lines, which may follow it, skipped).
 std::pair<int, std::string> AttachedConsole(const std::vector<std::string>& command, const std::string& log) {
   std::vector<std::string> argv = {
-      std::string(CAIRN_SOURCE_DIR) + "/cairn", "console", "--base-id", "op2", "--json", "--"};
+      cairn::core::SourceDir() + "/cairn", "console", "--base-id", "op2", "--json", "--"};
   argv.insert(argv.end(), command.begin(), command.end());
   ChildProcess console(argv, log);
   console.CloseStdin();
@@ -364,7 +365,7 @@ TEST(Console, SecondConsoleAttachesToARunningDemo) {
   const std::string demo_logs = logs + "/demo-state";
   std::filesystem::remove_all(demo_logs);
   setenv("CAIRN_DEMO_LOGS", demo_logs.c_str(), 1);
-  ChildProcess demo({"/bin/bash", std::string(CAIRN_SOURCE_DIR) + "/tools/demo.sh", CAIRN_BINARY_DIR,
+  ChildProcess demo({"/bin/bash", cairn::core::SourceDir() + "/tools/demo.sh", cairn::core::BinaryDir(),
                      "--robots", "1", "--domain", "83"},
                     logs + "/demo.log");
   ASSERT_TRUE(demo.WaitForLine("demo: another operator can attach", 90s));
@@ -389,7 +390,7 @@ TEST(Console, ThreeRobotMissionFromTheDemoConsoleWithoutPolling) {
   const std::string demo_logs = logs + "/demo-state";
   std::filesystem::remove_all(demo_logs);
   setenv("CAIRN_DEMO_LOGS", demo_logs.c_str(), 1);
-  PtyProcess demo({"/bin/bash", std::string(CAIRN_SOURCE_DIR) + "/tools/demo.sh", CAIRN_BINARY_DIR,
+  PtyProcess demo({"/bin/bash", cairn::core::SourceDir() + "/tools/demo.sh", cairn::core::BinaryDir(),
                    "--robots", "3", "--domain", "84"});
   ASSERT_TRUE(demo.WaitFor("op1> ", 120s)) << demo.output();
   demo.Drain(2s);

@@ -12,6 +12,7 @@
 #include <optional>
 #include <thread>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/nav/platform.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/sim/builtin_worlds.h"
@@ -44,7 +45,7 @@ double TrueFloorM2(double x0, double y0, double x1, double y1) {
 
 TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
   const int domain = 66;
-  const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/explore";
+  const std::string logs = cairn::core::BinaryDir() + "/test-logs/explore";
   std::filesystem::remove_all(logs);
   std::filesystem::create_directories(logs);
   Observer observer(domain);

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/core/dds.h"
 #include "cairn/nav/astar.h"
 #include "cairn/nav/sampling.h"
@@ -38,11 +39,11 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   const WorldCase& world_case = GetParam();
   std::string spec = world_case.spec;
   if (spec.rfind("builtin:", 0) != 0) {
-    spec = std::string(CAIRN_SOURCE_DIR) + "/" + spec;
+    spec = cairn::core::SourceDir() + "/" + spec;
     if (!std::filesystem::exists(spec)) GTEST_SKIP() << spec << " is absent (a checkout without data/)";
   }
   const int domain = world_case.domain;
-  const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/" + world_case.name;
+  const std::string logs = cairn::core::BinaryDir() + "/test-logs/" + world_case.name;
   std::filesystem::create_directories(logs);
   // State at 50 Hz so that the stop after teleop silence is timed to 20 ms.
   const std::string config = logs + "/agent.yaml";
@@ -251,7 +252,7 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
 // legged robot up the staircase, a wheeled one refused with the step, smart joystick at a wall.
 TEST(NavigationOverDds, StairsPathServiceAndSmartJoystick) {
   const int domain = 63;
-  const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/navigation";
+  const std::string logs = cairn::core::BinaryDir() + "/test-logs/navigation";
   std::filesystem::create_directories(logs);
   Observer observer(domain);
   ChildProcess legged({kAgent, "--robot-id", "leg1", "--platform", "legged", "--start", "48,20,0", "--domain",

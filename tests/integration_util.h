@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/core/dds.h"
 #include "cairn/msgs/robot_state.h"
 #include "cairn/msgs/stamp.h"
@@ -31,8 +32,8 @@ using ::cairn::testing::ChildProcess;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-const std::string kAgent = std::string(CAIRN_BINARY_DIR) + "/robot_agent/cairn_agent";
-const std::string kBase = std::string(CAIRN_BINARY_DIR) + "/basestation/cairn_base";
+const std::string kAgent = cairn::core::BinaryDir() + "/robot_agent/cairn_agent";
+const std::string kBase = cairn::core::BinaryDir() + "/basestation/cairn_base";
 
 using ::cairn::msgs::WallSeconds;
 
@@ -262,7 +263,7 @@ inline std::unique_ptr<ChildProcess> StartAgentIn(const std::string& world, cons
 
 // An emptied folder build/test-logs/GROUP/TEST for a test's process logs.
 inline std::string FreshLogs(const std::string& group, const std::string& test) {
-  const std::string dir = std::string(CAIRN_BINARY_DIR) + "/test-logs/" + group + "/" + test;
+  const std::string dir = cairn::core::BinaryDir() + "/test-logs/" + group + "/" + test;
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

@@ -10,6 +10,7 @@
 #include <set>
 #include <tuple>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/perception/jpeg.h"
 #include "cairn/perception/occupancy_map.h"
 #include "integration_util.h"
@@ -79,7 +80,7 @@ std::size_t Differences(const VoxelSet& a, const VoxelSet& b) {
 
 TEST(PerceptionOverDds, StaircaseSnapshotMapBudgetAndLateJoiner) {
   const int domain = 64;
-  const std::string logs = std::string(CAIRN_BINARY_DIR) + "/test-logs/perception";
+  const std::string logs = cairn::core::BinaryDir() + "/test-logs/perception";
   std::filesystem::remove_all(logs);
   std::filesystem::create_directories(logs);
   MapTap tap(domain);

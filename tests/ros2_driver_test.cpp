@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "cairn/core/build_paths.h"
 #include "integration_util.h"
 #include "process.h"
 #include "ros2_msgsPubSubTypes.h"
@@ -26,7 +27,7 @@ using namespace testing_util;
 using nlohmann::json;
 
 const std::string kEmulator =
-    std::string(CAIRN_BINARY_DIR) + "/tools/ros2_robot_emulator/cairn_ros2_robot_emulator";
+    cairn::core::BinaryDir() + "/tools/ros2_robot_emulator/cairn_ros2_robot_emulator";
 
 struct Truth {
   double t_s, x_m, y_m, yaw_rad;

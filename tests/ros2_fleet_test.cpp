@@ -10,6 +10,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/ros2/raw_cdr.h"
 #include "integration_util.h"
 #include "process.h"
@@ -21,9 +22,9 @@ using namespace std::chrono_literals;
 using namespace testing_util;
 using nlohmann::json;
 
-const std::string kEcho = std::string(CAIRN_BINARY_DIR) + "/tools/ros2_robot_emulator/cairn_ros2_echo";
-const std::string kDecode = std::string(CAIRN_SOURCE_DIR) + "/basestation/web/test/decode_ros2_cdr.mjs";
-const std::string kRos2Msgs = std::string(CAIRN_SOURCE_DIR) + "/ros2/cairn_msgs_ros2/msg";
+const std::string kEcho = cairn::core::BinaryDir() + "/tools/ros2_robot_emulator/cairn_ros2_echo";
+const std::string kDecode = cairn::core::SourceDir() + "/basestation/web/test/decode_ros2_cdr.mjs";
+const std::string kRos2Msgs = cairn::core::SourceDir() + "/ros2/cairn_msgs_ros2/msg";
 
 // The first sample of /cairn/robot_state (cairn_msgs/msg/RobotState) heard on `ros2_domain` for `robot`, as
 // raw CDR bytes (decoded below by Foxglove's reader, not by Cairn).

@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/core/dds.h"
 #include "cairn/msgs/stamp.h"
 #include "cairn_msgsPubSubTypes.h"
@@ -41,7 +42,7 @@ const std::string kWorld = "builtin:tunnels";
 std::string MakeKeys(const std::string& dir, const std::string& args) {
   std::filesystem::remove_all(dir);
   const std::string command =
-      std::string(CAIRN_SOURCE_DIR) + "/cairn keys " + dir + " " + args + " 2>" + dir + ".log";
+      cairn::core::SourceDir() + "/cairn keys " + dir + " " + args + " 2>" + dir + ".log";
   const int status = std::system(command.c_str());
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << command << " failed; see " << dir << ".log";
   return dir;

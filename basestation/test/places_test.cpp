@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/world.h"
@@ -66,7 +67,7 @@ TEST(Places, BadFilesAndNamesAreRefusedNamingTheField) {
 // The landmarks the demo ships are on free ground of their built-in world (a wheeled robot fits there).
 TEST(Places, ShippedLandmarksAreOnFreeGround) {
   for (const std::string world : {"tunnels", "arena"}) {
-    const Places places = Places::Load(std::string(CAIRN_SOURCE_DIR) + "/config/places/" + world + ".yaml");
+    const Places places = Places::Load(cairn::core::SourceDir() + "/config/places/" + world + ".yaml");
     ASSERT_FALSE(places.All().empty()) << world;
     const sim::World w = sim::MakeBuiltinWorld(world);
     const nav::TraversabilityGrid grid(w, nav::TraversabilityOptions{});

@@ -25,11 +25,8 @@
 #include <fstream>
 #include <optional>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/core/peer_input.h"
-
-#ifndef CAIRN_CONFIG_DIR
-#error "CAIRN_CONFIG_DIR must be defined by the build"
-#endif
 
 namespace cairn::core {
 
@@ -154,7 +151,7 @@ std::string Participant::participant_id() const {
 
 std::string DefaultProfilesFile() {
   if (const char* env = std::getenv("CAIRN_DDS_PROFILES"); env != nullptr && *env != '\0') return env;
-  return std::string(CAIRN_CONFIG_DIR) + "/dds_profiles.xml";
+  return ConfigDir() + "/dds_profiles.xml";
 }
 
 namespace {

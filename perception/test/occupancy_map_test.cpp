@@ -26,6 +26,8 @@
 #include <tuple>
 #include <vector>
 
+#include "cairn/core/build_paths.h"
+
 namespace cairn::perception {
 namespace {
 
@@ -34,21 +36,9 @@ constexpr double kPi = 3.14159265358979323846;
 // ---- helpers ----------------------------------------------------------------------------------------------
 
 /// Path of the real scan shared beside the repository: <repo root>/data/spherical_scan.graph.
-std::string SphericalScanPath() {
-#ifdef CAIRN_SOURCE_DIR
-  return std::string(CAIRN_SOURCE_DIR) + "/data/spherical_scan.graph";
-#else
-  return "data/spherical_scan.graph";
-#endif
-}
+std::string SphericalScanPath() { return cairn::core::SourceDir() + "/data/spherical_scan.graph"; }
 
-std::string Geb079Path() {
-#ifdef CAIRN_SOURCE_DIR
-  return std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
-#else
-  return "data/geb079.bt";
-#endif
-}
+std::string Geb079Path() { return cairn::core::SourceDir() + "/data/geb079.bt"; }
 
 bool FileExists(const std::string& path) { return std::ifstream(path).good(); }
 

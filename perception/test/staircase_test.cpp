@@ -24,6 +24,7 @@
 #include <thread>
 #include <vector>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/lidar.h"
 #include "cairn/sim/survey_scan.h"
@@ -416,13 +417,7 @@ TEST(StaircaseFalsePositiveTest, RampCurbPodiumAndTableAreNotStaircases) {
                  "clutter_no_stairs");
 }
 
-std::string Geb079Path() {
-#ifdef CAIRN_SOURCE_DIR
-  return std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
-#else
-  return "data/geb079.bt";
-#endif
-}
+std::string Geb079Path() { return cairn::core::SourceDir() + "/data/geb079.bt"; }
 
 TEST(StaircaseFalsePositiveTest, Geb079CorridorWithoutStairs) {
   const std::string path = Geb079Path();

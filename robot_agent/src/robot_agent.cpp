@@ -43,16 +43,13 @@
 #include "cairn/agent/team/yield.h"
 #include "cairn/agent/team/yield_coordination.h"
 #include "cairn/agent/team/yield_sender.h"
+#include "cairn/core/build_paths.h"
 #include "cairn/core/health_monitor.h"
 #include "cairn/core/peer_input.h"
 #include "cairn/core/range_check.h"
 #include "cairn/core/shutdown.h"
 #include "cairn/nav/navigation.h"
 #include "cairn_msgs.h"
-
-#ifndef CAIRN_CONFIG_DIR
-#error "CAIRN_CONFIG_DIR must be defined by the build"
-#endif
 
 namespace cairn::agent {
 
@@ -64,7 +61,7 @@ namespace {
 constexpr double kLoopPeriodS = 0.02;  // 50 Hz: mux staleness is acted on within 20 ms
 constexpr const char* kVersion = "0.1.0";
 
-std::string DefaultTreeFile() { return std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml"; }
+std::string DefaultTreeFile() { return core::ConfigDir() + "/mode_tree.xml"; }
 
 // The planner on the robot's own map (see NavMap), empty at start.
 std::shared_ptr<nav::GlobalPlanner> MakePlanner(const AgentOptions& options, const core::BaseState& start_M) {

@@ -14,6 +14,7 @@
 #include "cairn/agent/agent_options.h"
 #include "cairn/agent/modes/robot_modes.h"
 #include "cairn/agent/team/yield.h"
+#include "cairn/core/build_paths.h"
 
 namespace cairn::agent::mode_testing {
 
@@ -53,7 +54,7 @@ struct Robot {
     s.y_m = y_m;
     return s;
   }
-  static std::string TreeFile() { return std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml"; }
+  static std::string TreeFile() { return cairn::core::SourceDir() + "/config/mode_tree.xml"; }
 
   static AgentOptions Options(const std::string& robot_id) {
     AgentOptions o;

@@ -4,6 +4,7 @@
 
 #include <fstream>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/core/config.h"
 #include "cairn/nav/platform.h"
 
@@ -21,7 +22,7 @@ TEST(AgentOptions, DefaultsAndShippedConfigAreValid) {
   options.robot_id = "r1";
   std::string why;
   EXPECT_TRUE(options.IsValid(&why)) << why;
-  options.LoadConfigFile(std::string(CAIRN_SOURCE_DIR) + "/config/agent.yaml");
+  options.LoadConfigFile(cairn::core::SourceDir() + "/config/agent.yaml");
   EXPECT_TRUE(std::isinf(options.lock.lock_keep_s));
   EXPECT_DOUBLE_EQ(options.teleop_timeout_s, 0.5);
 }
@@ -97,7 +98,7 @@ TEST(AgentOptions, PlatformProfilesSetLimitsAndStairs) {
   EXPECT_DOUBLE_EQ(options.LibraryForPlatform().heading_range_rad,
                    options.navigation.platform.local_heading_range_rad);
   // The shipped config keeps the profile's platform values (it only comments them).
-  options.LoadConfigFile(std::string(CAIRN_SOURCE_DIR) + "/config/agent.yaml");
+  options.LoadConfigFile(cairn::core::SourceDir() + "/config/agent.yaml");
   EXPECT_GE(options.navigation.platform.traversability.max_step_m, 0.2);
   EXPECT_DOUBLE_EQ(options.navigation.platform.limits.max_speed_mps, 0.6);
   EXPECT_THROW(options.SetPlatform("hovercraft"), std::invalid_argument);

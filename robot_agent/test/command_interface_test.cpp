@@ -9,11 +9,12 @@
 #include <limits>
 
 #include "cairn/agent/modes/modes.h"
+#include "cairn/core/build_paths.h"
 
 namespace cairn::agent {
 namespace {
 
-const std::string kTree = std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml";
+const std::string kTree = cairn::core::SourceDir() + "/config/mode_tree.xml";
 const core::SteadyTime kT0 = core::SteadyTime{} + std::chrono::seconds(100);
 
 // A mode that records the sticks it gets.

@@ -11,12 +11,13 @@
 #include <memory>
 
 #include "cairn/agent/modes/modes.h"
+#include "cairn/core/build_paths.h"
 #include "mode_test_util.h"
 
 namespace cairn::agent {
 namespace {
 
-const std::string kTree = std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml";
+const std::string kTree = cairn::core::SourceDir() + "/config/mode_tree.xml";
 const core::SteadyTime kT0 = core::SteadyTime{} + std::chrono::seconds(100);
 
 core::SteadyTime At(double s) {

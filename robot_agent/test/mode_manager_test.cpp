@@ -5,12 +5,13 @@
 #include <fstream>
 #include <iterator>
 
+#include "cairn/core/build_paths.h"
 #include "mode_test_util.h"
 
 namespace cairn::agent {
 namespace {
 
-const std::string kTree = std::string(CAIRN_SOURCE_DIR) + "/config/mode_tree.xml";
+const std::string kTree = cairn::core::SourceDir() + "/config/mode_tree.xml";
 // The agent's mux channels.
 const std::vector<std::string> kChannels = {"teleop",  "smart_joystick", "waypoint",
                                             "explore", "convoy",         "yield"};

@@ -18,6 +18,7 @@
 #include "agent_team.h"
 #include "cairn/agent/modes/waypoint_recovery.h"
 #include "cairn/agent/services/planning_service.h"
+#include "cairn/core/build_paths.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/platform_profile.h"
 #include "cairn/sim/simulated_platform.h"
@@ -401,7 +402,7 @@ struct GhostRobot {
                       double stall_timeout_s = nav::NavigationOptions{}.stall_timeout_s)
       : world(std::make_shared<const sim::World>(FlatWorld(16.0, 8.0, 0.1, 2.0))),
         robot(world, "wheeled", 3.0, 4.0, 0.0, blocked_timeout_s, stall_timeout_s),
-        recovery(std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml", &robot.navigation,
+        recovery(cairn::core::ConfigDir() + "/mode_tree.xml", &robot.navigation,
                  WaypointRecovery::Hooks{[this] { ++clears; }}) {
     for (double d = -0.5; d <= 0.5 + 1e-9; d += 0.05) {
       ghost_W.emplace_back(3.45, 4.0 + d);  // front, 0.45 m ahead of the centre

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "agent_modes_fixture.h"
+#include "cairn/core/build_paths.h"
 
 namespace cairn::agent {
 namespace {
@@ -146,7 +147,7 @@ TEST(WaypointMode, AnAbandonedGoalIsNotRecovered) {
       std::vector<nav::PlatformProfile>{nav::GetPlatformProfile("wheeled")});
   nav::Navigation navigation(options, planner, mode_testing::Library());
   WaypointMode waypoint(Fixture::Options(), &navigation,
-                        std::make_unique<WaypointRecovery>(std::string(CAIRN_CONFIG_DIR) + "/mode_tree.xml",
+                        std::make_unique<WaypointRecovery>(cairn::core::ConfigDir() + "/mode_tree.xml",
                                                            &navigation, WaypointRecovery::Hooks{}));
   ASSERT_TRUE(waypoint.recovery_enabled());
   core::BaseState start;

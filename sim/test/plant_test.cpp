@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "cairn/core/build_paths.h"
 #include "cairn/nav/traversability.h"
 #include "cairn/sim/builtin_worlds.h"
 #include "cairn/sim/survey_scan.h"
@@ -191,7 +192,7 @@ TEST(PlantTest, StartsAndGoalAreOnFreeFloorWithHeadroomAndConnected) {
 }
 
 TEST(PlantTest, ShippedPlacesAreOnFreeFloorAtTheirLevel) {
-  const std::string text = ReadFile(std::string(CAIRN_SOURCE_DIR) + "/config/places/plant.yaml");
+  const std::string text = ReadFile(cairn::core::SourceDir() + "/config/places/plant.yaml");
   const std::regex line(R"((\w+): \{x_m: ([-0-9.]+), y_m: ([-0-9.]+), z_m: ([-0-9.]+)\})");
   int places = 0;
   for (auto it = std::sregex_iterator(text.begin(), text.end(), line); it != std::sregex_iterator(); ++it) {

@@ -9,6 +9,8 @@
 #include <fstream>
 #include <string>
 
+#include "cairn/core/build_paths.h"
+
 namespace cairn::sim::testing {
 
 /// A fresh directory under the gtest temp dir, created once per call.
@@ -31,13 +33,7 @@ inline std::string ReadFile(const std::string& path) {
 }
 
 /// Path of the real scan shared beside the repository: <repo root>/data/geb079.bt.
-inline std::string Geb079Path() {
-#ifdef CAIRN_SOURCE_DIR
-  return std::string(CAIRN_SOURCE_DIR) + "/data/geb079.bt";
-#else
-  return "data/geb079.bt";
-#endif
-}
+inline std::string Geb079Path() { return cairn::core::SourceDir() + "/data/geb079.bt"; }
 
 /// Predicate-formatter for EXPECT_CONTAINS: succeeds if `haystack` contains `needle`.
 inline ::testing::AssertionResult AssertContains(const char* haystack_expr, const char* needle_expr,
