@@ -184,8 +184,8 @@ TEST(Security, PermissionsSayWhoCommandsWhichRobotAndAnObserverOnlyReads) {
       MakeKeys(logs + "/keys", "--robots r1,r2 --commander opA=r1 --commander opB=r2 --observer opW");
   auto agent = StartAgent("r1", domain, logs, {"--secure", keys});
   Base op_a("opA", domain, logs, {"--secure", keys});
-  // opB's first command to r1 is an e-stop, sent while its stop writer may still be matching r1's reader under
-  // DDS Security (seconds on a loaded machine): a generous answer window.
+  // opB's first command to r1 is an e-stop, sent while its stop writer may still be matching r1's reader
+  // under DDS Security (seconds on a loaded machine): a generous answer window.
   Base op_b("opB", domain, logs, {"--secure", keys, "--command-timeout", "10"});
   Base watcher("opW", domain, logs, {"--secure", keys});
   json r = op_a.Run("wait r1 online 20", 30s);
