@@ -24,6 +24,7 @@
 
 #include "../robot_agent/test/explore_team.h"
 #include "cairn/sim/builtin_worlds.h"
+#include "cairn/sim/lidar.h"
 
 namespace {
 
@@ -31,6 +32,9 @@ using namespace cairn;
 using agent::explore_team::RunTeam;
 using agent::explore_team::TeamOptions;
 using agent::explore_team::TeamRun;
+
+// The bench's figures are the shipping lidar's (tests run a sparser one to save CPU).
+const int kShippingLidarPointsPerBeam = sim::LidarOptions{}.points_per_beam;
 
 std::vector<core::PlanarPose> Gate(const std::string& world, int robots,
                                    const std::optional<core::PlanarPose>& start) {
@@ -143,6 +147,7 @@ int main(int argc, char** argv) {
     o.platform = platform;
     o.level_bands = floors;
     o.task.region_M = region;
+    o.lidar_points_per_beam = kShippingLidarPointsPerBeam;
     if (!floors.empty())
       o.stop_at_coverage = 2.0;  // the floors are scored at the end: run until every robot ends
     const TeamRun r = RunTeam(o);
@@ -167,6 +172,7 @@ int main(int argc, char** argv) {
     o.kill_index = 1;
     o.kill_at_s = 60.0;
     o.stop_at_coverage = 0.9;
+    o.lidar_points_per_beam = kShippingLidarPointsPerBeam;
     const TeamRun r = RunTeam(o);
     Print("(r2 gone at 60 s)", teams.back(), r, baseline_90_s);
   }

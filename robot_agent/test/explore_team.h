@@ -134,6 +134,8 @@ struct TeamOptions {
   /// Height bands (metres, frame W; e.g. the floors of a building) scored at the end over the map's levels
   /// (CoverageOnLevels, from the first start's ground at z 0, in the task's region): TeamRun::level_coverage.
   std::vector<std::pair<double, double>> level_bands;
+  /// The simulated lidar's columns per beam (LidarOptions::points_per_beam); benches set the shipping 1800.
+  int lidar_points_per_beam = team_testing::AgentTeam::kLidarPointsPerBeam;
 };
 
 /// What happened.
@@ -168,8 +170,12 @@ inline TeamRun RunTeam(const TeamOptions& o) {
   std::vector<std::pair<std::string, core::PlanarPose>> starts;
   for (std::size_t i = 0; i < o.starts.size(); ++i)
     starts.emplace_back("r" + std::to_string(i + 1), o.starts[i]);
-  team_testing::AgentTeam team(o.world, starts, nav::PeerAvoidanceOptions{}.margin_m,
-                               [&](AgentOptions* options) { options->SetPlatform(o.platform); });
+  team_testing::AgentTeam team(
+      o.world, starts, nav::PeerAvoidanceOptions{}.margin_m,
+      [&](AgentOptions* options) { options->SetPlatform(o.platform); },
+      [&](sim::SimulatedPlatformOptions* sim_options) {
+        sim_options->lidar.points_per_beam = o.lidar_points_per_beam;
+      });
   for (std::size_t i = 0; i < team.size(); ++i) {
     const std::string refused = team.Explore(i, o.task);
     if (!refused.empty()) std::printf("explore refused by %s: %s\n", team.id(i).c_str(), refused.c_str());
