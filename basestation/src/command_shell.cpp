@@ -31,7 +31,8 @@ using shell::YawOf;
 namespace {
 
 // Every field of a view (`status --json`, `robots --json`): machines read these, people read the summary.
-json ViewJson(const RobotView& v, const std::string& base_id) {
+// `fleet`: every robot's view, for the task's place in a convoy.
+json ViewJson(const RobotView& v, const std::vector<RobotView>& fleet, const std::string& base_id) {
   json j = {{"robot", v.robot_id},
             {"platform", v.platform},
             {"lost", v.lost},
@@ -46,7 +47,7 @@ json ViewJson(const RobotView& v, const std::string& base_id) {
     j["holder_alive"] = s.holder_alive();
     j["holder_participant"] = s.holder_participant();
     j["holder_participants"] = s.holder_participants();
-    j["task"] = TaskText(v, {v});
+    j["task"] = TaskText(v, fleet);
     j["control_requester"] = s.control_requester_id();
     j["control_request_left_s"] = s.control_request_left_s();
     j["handover_outcome"] = s.handover_outcome();
@@ -88,6 +89,13 @@ json ViewJson(const RobotView& v, const std::string& base_id) {
   }
   j["valid_actions"] = ValidActions(v, base_id);
   return j;
+}
+
+// Every robot's ViewJson, as `robots --json` and `watch --json` list them.
+json FleetJson(const std::vector<RobotView>& fleet, const std::string& base_id) {
+  json list = json::array();
+  for (const auto& v : fleet) list.push_back(ViewJson(v, fleet, base_id));
+  return list;
 }
 
 std::string ClockText(std::chrono::system_clock::time_point t) {
@@ -386,8 +394,7 @@ int CommandShell::Robots() {
   // A fresh basestation needs a moment of discovery before its list means anything.
   std::this_thread::sleep_until(client_.started() + std::chrono::milliseconds(1500));
   if (json_) {
-    json list = json::array();
-    for (const auto& v : client_.Robots()) list.push_back(ViewJson(v, client_.base_id()));
+    const json list = FleetJson(client_.Robots(), client_.base_id());
     out_ << Dump(json{{"command", "robots"}, {"ok", true}, {"result", outcome::kAccepted}, {"robots", list}})
          << std::endl;
     return kOk;
@@ -420,8 +427,7 @@ int CommandShell::Watch(const std::vector<std::string>& args) {
   for (int n = 0; count == 0 || n < count; ++n) {
     if (in_place) out_ << "\033[H\033[2J";  // home and clear: the table is redrawn in place
     if (json_) {
-      json list = json::array();
-      for (const auto& v : client_.Robots()) list.push_back(ViewJson(v, client_.base_id()));
+      const json list = FleetJson(client_.Robots(), client_.base_id());
       out_ << Dump(json{{"command", "watch"}, {"progress", true}, {"robots", list}}) << std::endl;
     } else {
       PrintRobotsTable();
@@ -483,7 +489,7 @@ int CommandShell::Status(const std::vector<std::string>& args) {
   const auto view = FreshView(robot);
   if (!view) return kRefused;  // known a moment ago; cannot vanish (views are never removed)
   if (json_) {
-    json out = ViewJson(*view, client_.base_id());
+    json out = ViewJson(*view, client_.Robots(), client_.base_id());
     out["command"] = "status";
     out["ok"] = !view->lost;
     out["result"] = view->lost ? outcome::kFailed : outcome::kAccepted;

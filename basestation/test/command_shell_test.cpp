@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -129,6 +130,21 @@ TEST_F(CommandShellTest, StopAndExploreTakeSeveralRobots) {
   EXPECT_NE(explored.find("explore r2: accepted"), std::string::npos) << explored;
 }
 
+TEST_F(CommandShellTest, RequestControlAndReleaseTakeSeveralRobots) {
+  EXPECT_EQ(shell_.Execute("release r1 r2"), kOk);
+  const std::string released = Printed();
+  EXPECT_NE(released.find("release r1: accepted"), std::string::npos) << released;
+  EXPECT_NE(released.find("release r2: accepted"), std::string::npos) << released;
+  EXPECT_EQ(shell_.Execute("request-control r1 r2"), kOk);
+  const std::string requested = Printed();
+  EXPECT_NE(requested.find("request-control r1: accepted"), std::string::npos) << requested;
+  EXPECT_NE(requested.find("request-control r2: accepted"), std::string::npos) << requested;
+  Sent sent = fleet_.sent();
+  std::sort(sent.begin(), sent.end());
+  EXPECT_EQ(sent, (Sent{"ReleaseControl r1", "ReleaseControl r2", "RequestControl r1", "RequestControl r2"}));
+  EXPECT_EQ(fleet_.Robot("r2")->state->holder_id(), "op1");
+}
+
 TEST_F(CommandShellTest, StopAllStopsEveryRobot) {
   EXPECT_EQ(shell_.Execute("stop all"), kOk);
   Sent sent = fleet_.sent();
@@ -179,6 +195,21 @@ TEST_F(CommandShellTest, JsonAnswersCarryTheCommandRobotAndOutcome) {
   EXPECT_EQ(answer.at("robot"), "r3");
   EXPECT_EQ(answer.at("ok"), true);
   EXPECT_EQ(answer.at("result"), "accepted");
+}
+
+// `robots --json` gives each robot's task as the table does: its place counted over the whole fleet.
+TEST_F(CommandShellTest, JsonRobotsCountAConvoyOverTheFleet) {
+  fleet_.Mutate("r2", [](RobotView& v) { v.state->convoy_ahead_ids({"r1"}); });
+  fleet_.Mutate("r3", [](RobotView& v) { v.state->convoy_ahead_ids({"r2", "r1"}); });
+  std::ostringstream out;
+  CommandShell shell(fleet_, /*json=*/true, out);
+  EXPECT_EQ(shell.Execute("robots"), kOk);
+  const auto answer = nlohmann::json::parse(out.str());
+  std::map<std::string, std::string> task;
+  for (const auto& robot : answer.at("robots")) task[robot.at("robot")] = robot.at("task");
+  EXPECT_EQ(task["r1"], "leads a convoy of 3; idle");
+  EXPECT_EQ(task["r2"], "convoy 2 of 3 behind r1");
+  EXPECT_EQ(task["r3"], "convoy 3 of 3 behind r2");
 }
 
 TEST_F(CommandShellTest, EventsArePrintedAroundCommands) {

@@ -1,5 +1,5 @@
 // Builds the operator GUI into OUT_DIR (default ./dist): app.js (esbuild bundle of src/main.ts with three.js
-// and @foxglove/ws-protocol), wire.mjs and voxel_mesh.mjs (src/wire.ts and src/voxel_mesh.ts for the tests), index.html, style.css, and foxglove-schemas.json (Foxglove's JSON schemas of the
+// and @foxglove/ws-protocol), wire.mjs, voxel_mesh.mjs and health.mjs (src/wire.ts, src/voxel_mesh.ts and src/health.ts for the tests), index.html, style.css, and foxglove-schemas.json (Foxglove's JSON schemas of the
 // well-known messages cairn_base advertises, from @foxglove/schemas). Run by ./cairn build through CMake.
 import { build } from "esbuild";
 import { copyFileSync, mkdirSync, writeFileSync } from "node:fs";
@@ -21,8 +21,9 @@ await build({
   outfile: join(out, "app.js"),
   logLevel: "warning",
 });
-// The wire module (test/harness.mjs loadWire) and the voxel mesher alone, as ES modules for the tests.
-for (const module of ["wire", "voxel_mesh"]) {
+// The wire module (test/harness.mjs loadWire), the voxel mesher and the health rules alone, as ES modules for
+// the tests.
+for (const module of ["wire", "voxel_mesh", "health"]) {
   await build({
     entryPoints: [join(here, `src/${module}.ts`)],
     bundle: true,

@@ -1,6 +1,7 @@
 // The side panel, drawn from the state: the fleet list, the selected robot (its valid actions as buttons, its
 // navigation, exploration, convoy and yield), health (links and components), events, and notifications.
 // Action buttons carry their command as JSON (data-command: a wire.ts CommandRequest); input.ts sends it.
+import { controlLate, rateLow } from "./health";
 import { modeColor, type GoalMarker } from "./scene";
 import { $, link, scene, selectedRobot, state } from "./state";
 import { Command, type CommandRequest, type Convoy, type Exploration, type Robot, type YieldRecord } from "./wire";
@@ -284,18 +285,6 @@ function cell(name: string, value: string, title = "", style = ""): string {
 
 function hasDown(r: Robot): boolean {
   return (r.components ?? []).some((c) => c.state !== "active");
-}
-
-// A control loop whose worst period lately is over 1.5 times its own (the navigation component's target rate)
-// is late: shown in the warning colour.
-function controlLate(r: Robot): boolean {
-  const nav = (r.components ?? []).find((c) => c.name === "navigation");
-  return !!nav && nav.target_rate_hz > 0 && r.control_period_max_ms > 1.5 * (1000 / nav.target_rate_hz);
-}
-
-// A rate below 90 % of its target is shown in the warning colour (slow, not down).
-function rateLow(c: { state: string; degraded: boolean; loop_rate_hz: number; target_rate_hz: number }): boolean {
-  return c.state === "active" && (c.degraded || (c.target_rate_hz > 0 && c.loop_rate_hz < 0.9 * c.target_rate_hz));
 }
 
 export function renderHealth(): void {

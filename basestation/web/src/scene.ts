@@ -523,8 +523,9 @@ export class FleetScene {
   }
 
   /**
-   * Places every label over its anchor, robots first. A label that would cover one already placed is moved up
-   * above it (robots, goals) or hidden (places); one behind the camera or off the view is hidden.
+   * Places every label over its anchor, robots first, inside the view's width. A label that would cover one
+   * already placed is moved up above it (robots, goals) or hidden (places); one behind the camera or off the
+   * view is hidden.
    */
   private layoutLabels(): void {
     const w = this.container.clientWidth, h = this.container.clientHeight;
@@ -535,7 +536,8 @@ export class FleetScene {
     const v = new THREE.Vector3();
     for (const [key, label] of order) {
       v.copy(label.anchor).project(this.camera);
-      let left = ((v.x + 1) / 2) * w - label.width / 2;
+      // Kept inside the view's width: a robot at the edge keeps its whole name on screen.
+      const left = Math.max(2, Math.min(((v.x + 1) / 2) * w - label.width / 2, w - label.width - 2));
       let top = ((1 - v.y) / 2) * h - label.height;
       let shown = v.z < 1 && v.x > -1.2 && v.x < 1.2 && v.y > -1.2 && v.y < 1.2;
       if (shown) {

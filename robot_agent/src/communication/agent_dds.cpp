@@ -8,6 +8,7 @@
 #include <mutex>
 #include <set>
 #include <stdexcept>
+#include <utility>
 
 #include "cairn/core/dds.h"
 #include "cairn/core/peer_input.h"
@@ -23,6 +24,45 @@ namespace {
 CommandSender SenderOf(const std::string& base_id, const SampleInfo& info) {
   return CommandSender{base_id, core::ParticipantIdOf(info.publication_handle),
                        core::WriterIdOf(info.publication_handle)};
+}
+
+// A control request as the command interface takes it; an action out of range or a bad target id is named in
+// `malformed`, not dropped.
+ControlCommand ControlCommandFrom(const msgs::ControlRequest& m, CommandSender sender) {
+  ControlCommand c{std::move(sender), m.request_id(), ControlAction::kRequest, "", ""};
+  switch (m.action()) {
+    case msgs::CONTROL_ACTION_REQUEST:
+      break;
+    case msgs::CONTROL_ACTION_RELEASE:
+      c.action = ControlAction::kRelease;
+      break;
+    case msgs::CONTROL_ACTION_HANDOVER:
+    case msgs::CONTROL_ACTION_DENY:
+      c.action = m.action() == msgs::CONTROL_ACTION_DENY ? ControlAction::kDeny : ControlAction::kHandover;
+      c.target_base_id = m.target_base_id();
+      c.malformed = core::CheckId("target_base_id", m.target_base_id());
+      break;
+    default:
+      c.malformed = "action " + std::to_string(static_cast<int>(m.action())) +
+                    " is none of REQUEST, RELEASE, HANDOVER, DENY (0-3)";
+  }
+  return c;
+}
+
+// An exploration request as the explore mode takes it (the task is checked there: CheckExploreTask).
+ExploreCommand ExploreCommandFrom(const msgs::ExploreRequest& m, CommandSender sender) {
+  ExploreCommand c{std::move(sender), m.request_id(), m.frame_id(), {}};
+  if (m.has_region()) {
+    // Corners as sent (not sorted: CheckExploreTask refuses a box whose corners are swapped).
+    c.task.region_M = Eigen::AlignedBox2d();
+    c.task.region_M->min() << m.region_min_x_m(), m.region_min_y_m();
+    c.task.region_M->max() << m.region_max_x_m(), m.region_max_y_m();
+  }
+  // NaN on the wire = no bound.
+  if (!std::isnan(m.min_z_m())) c.task.min_z_m = m.min_z_m();
+  if (!std::isnan(m.max_z_m())) c.task.max_z_m = m.max_z_m();
+  c.task.home_after_silence_s = m.home_after_silence_s();
+  return c;
 }
 
 msgs::CommandKind KindOf(CommandKind kind) {
@@ -452,25 +492,7 @@ class AgentDds::Impl {
     commands_.control = CommandReader<msgs::ControlRequestPubSubType>(
         "cairn/control_request", "cairn.command",
         [this](const msgs::ControlRequest& m, const SampleInfo& info) {
-          ControlCommand c{SenderOf(m.base_id(), info), m.request_id(), ControlAction::kRequest, "", ""};
-          switch (m.action()) {
-            case msgs::CONTROL_ACTION_REQUEST:
-              break;
-            case msgs::CONTROL_ACTION_RELEASE:
-              c.action = ControlAction::kRelease;
-              break;
-            case msgs::CONTROL_ACTION_HANDOVER:
-            case msgs::CONTROL_ACTION_DENY:
-              c.action =
-                  m.action() == msgs::CONTROL_ACTION_DENY ? ControlAction::kDeny : ControlAction::kHandover;
-              c.target_base_id = m.target_base_id();
-              c.malformed = core::CheckId("target_base_id", m.target_base_id());
-              break;
-            default:
-              c.malformed = "action " + std::to_string(static_cast<int>(m.action())) +
-                            " is none of REQUEST, RELEASE, HANDOVER, DENY (0-3)";
-          }
-          handlers_.control(c);
+          handlers_.control(ControlCommandFrom(m, SenderOf(m.base_id(), info)));
         });
     commands_.mode = CommandReader<msgs::ModeRequestPubSubType>(
         "cairn/mode_request", "cairn.command", [this](const msgs::ModeRequest& m, const SampleInfo& info) {
@@ -484,18 +506,7 @@ class AgentDds::Impl {
     commands_.explore = CommandReader<msgs::ExploreRequestPubSubType>(
         "cairn/explore_request", "cairn.command",
         [this](const msgs::ExploreRequest& m, const SampleInfo& info) {
-          ExploreCommand c{SenderOf(m.base_id(), info), m.request_id(), m.frame_id(), {}};
-          if (m.has_region()) {
-            // Corners as sent (not sorted: CheckExploreTask refuses a box whose corners are swapped).
-            c.task.region_M = Eigen::AlignedBox2d();
-            c.task.region_M->min() << m.region_min_x_m(), m.region_min_y_m();
-            c.task.region_M->max() << m.region_max_x_m(), m.region_max_y_m();
-          }
-          // NaN on the wire = no bound.
-          if (!std::isnan(m.min_z_m())) c.task.min_z_m = m.min_z_m();
-          if (!std::isnan(m.max_z_m())) c.task.max_z_m = m.max_z_m();
-          c.task.home_after_silence_s = m.home_after_silence_s();
-          handlers_.explore(c);
+          handlers_.explore(ExploreCommandFrom(m, SenderOf(m.base_id(), info)));
         });
     commands_.home = CommandReader<msgs::HomeRequestPubSubType>(
         "cairn/home_request", "cairn.command", [this](const msgs::HomeRequest& m, const SampleInfo& info) {
