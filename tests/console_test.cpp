@@ -42,7 +42,7 @@ std::vector<std::unique_ptr<ChildProcess>> StartRobots(int count, int domain, co
     const std::string id = "r" + std::to_string(i);
     robots.push_back(std::make_unique<ChildProcess>(
         std::vector<std::string>{kAgent, "--robot-id", id, "--start", "slot:" + std::to_string(i - 1),
-                                 "--domain", std::to_string(domain)},
+                                 "--domain", std::to_string(domain), "--config", kLightLidarConfig},
         logs + "/" + id + ".log"));
   }
   for (auto& r : robots) EXPECT_TRUE(r->WaitForLine("READY", 60s)) << "see " << logs;

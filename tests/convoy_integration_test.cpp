@@ -52,7 +52,7 @@ class ConvoyFleet {
     for (std::size_t i = 0; i < kIds.size(); ++i) {
       agents_.push_back(std::make_unique<ChildProcess>(
           std::vector<std::string>{kAgent, "--robot-id", kIds[i], "--start", Fixed(kStartX[i]) + ",20,0",
-                                   "--domain", std::to_string(domain)},
+                                   "--domain", std::to_string(domain), "--config", kLightLidarConfig},
           logs_ + "/" + kIds[i] + ".log"));
     }
     for (std::size_t i = 0; i < kIds.size(); ++i) {

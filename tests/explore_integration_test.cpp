@@ -51,10 +51,10 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
   Observer observer(domain);
   Base op("opA", domain, logs);
   Base other("opB", domain, logs);
-  auto robot =
-      std::make_unique<ChildProcess>(std::vector<std::string>{kAgent, "--robot-id", "ex1", "--start",
-                                                              "4,20,0", "--domain", std::to_string(domain)},
-                                     logs + "/ex1.log");
+  auto robot = std::make_unique<ChildProcess>(
+      std::vector<std::string>{kAgent, "--robot-id", "ex1", "--start", "4,20,0", "--domain",
+                               std::to_string(domain), "--config", kLightLidarConfig},
+      logs + "/ex1.log");
   ASSERT_TRUE(robot->WaitForLine("READY", 60s)) << "see " << logs;
   ASSERT_TRUE(op.Run("wait ex1 online 5")["ok"]);
 
@@ -86,10 +86,10 @@ TEST(ExploreOverDds, ARobotExploresARegionUntilCompleteAndStandsIdle) {
 
   // A second robot, 3 m down the tunnel: the two share the region. Each tells the other what it goes for and,
   // every few seconds, the floor it has seen (cairn/explore_claim), so neither explores the other's branch.
-  auto robot2 =
-      std::make_unique<ChildProcess>(std::vector<std::string>{kAgent, "--robot-id", "ex2", "--start",
-                                                              "7,20,0", "--domain", std::to_string(domain)},
-                                     logs + "/ex2.log");
+  auto robot2 = std::make_unique<ChildProcess>(
+      std::vector<std::string>{kAgent, "--robot-id", "ex2", "--start", "7,20,0", "--domain",
+                               std::to_string(domain), "--config", kLightLidarConfig},
+      logs + "/ex2.log");
   ASSERT_TRUE(robot2->WaitForLine("READY", 60s)) << "see " << logs;
   ASSERT_TRUE(op.Run("wait ex2 online 5")["ok"]);
   ASSERT_TRUE(op.Run("request-control ex2")["ok"]);

@@ -47,7 +47,7 @@ TEST_P(FleetIntegration, ArbitrationWaypointsTeleopSilenceAndLoss) {
   std::filesystem::create_directories(logs);
   // State at 50 Hz so that the stop after teleop silence is timed to 20 ms.
   const std::string config = logs + "/agent.yaml";
-  std::ofstream(config) << "telemetry:\n  state_rate_hz: 50\n";
+  std::ofstream(config) << "telemetry:\n  state_rate_hz: 50\n" << std::ifstream(kLightLidarConfig).rdbuf();
 
   // The same traversability the agents use (their defaults) to pick a goal 10-25 m away by path.
   const sim::World world = sim::LoadWorld(spec);

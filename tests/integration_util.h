@@ -33,6 +33,8 @@ using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 const std::string kAgent = cairn::core::BinaryDir() + "/robot_agent/cairn_agent";
+// The driving robots' agent config: the simulated lidar at half its columns (the file says why).
+const std::string kLightLidarConfig = cairn::core::SourceDir() + "/tests/agent_light_lidar.yaml";
 const std::string kBase = cairn::core::BinaryDir() + "/basestation/cairn_base";
 
 using ::cairn::msgs::WallSeconds;

@@ -74,7 +74,7 @@ TEST(YieldOverDds, AParkedRobotGetsOutOfTheWayAndOneInManualRefuses) {
   for (const auto& [id, start] : robots) {
     agents.push_back(std::make_unique<ChildProcess>(
         std::vector<std::string>{kAgent, "--robot-id", id, "--world", "builtin:narrow", "--start", start,
-                                 "--domain", std::to_string(domain)},
+                                 "--domain", std::to_string(domain), "--config", kLightLidarConfig},
         logs + "/" + id + ".log"));
   }
   for (std::size_t i = 0; i < agents.size(); ++i) {
