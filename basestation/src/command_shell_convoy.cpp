@@ -300,10 +300,18 @@ int CommandShell::Yield(const std::vector<std::string>& args) {
   if (keep_clear.back() != Eigen::Vector2d(path.back().x_m(), path.back().y_m()) && keep_clear.size() < 32)
     keep_clear.emplace_back(path.back().x_m(), path.back().y_m());
   const double radius_m = other->footprint_radius_m > 0 ? other->footprint_radius_m : 0.35;
-  // The answer is the robot's yield state; the request goes again once if none came.
+  // The answer is the robot's yield state; the request goes again once if none came. A robot already clear of
+  // the route may end its yield within a cycle, before a state of it is sampled here: a yield to `passing`
+  // that ended since the request went (its reason changed) is an answer too.
+  const cairn_msgs::RobotState before = *view->state;
   auto answered = [&](const RobotView& v) {
-    return v.lost || (v.state && v.state->yield_peer_id() == passing && !v.state->yield_state().empty() &&
-                      v.state->yield_state() != fleet::yield_state::kReturning);
+    if (v.lost) return true;
+    if (!v.state || v.state->yield_peer_id() != passing) return false;
+    const std::string& state = v.state->yield_state();
+    if (!state.empty()) return state != fleet::yield_state::kReturning;
+    return !v.state->yield_reason().empty() &&
+           (v.state->yield_reason() != before.yield_reason() || before.yield_peer_id() != passing ||
+            !before.yield_state().empty());
   };
   std::optional<RobotView> answer;
   for (int attempt = 0; attempt < 2 && !answer; ++attempt) {

@@ -197,6 +197,36 @@ TEST_F(CommandShellTest, JsonAnswersCarryTheCommandRobotAndOutcome) {
   EXPECT_EQ(answer.at("result"), "accepted");
 }
 
+// A robot asked to yield that is already clear of the route ends its yield within a cycle: the ended yield is
+// its answer (not "did not answer"); a yield that ended before the request is not.
+TEST_F(CommandShellTest, AYieldThatEndedAtOnceIsAnsweredAStaleOneIsNot) {
+  fleet_.Mutate("r1", [](RobotView& v) {
+    cairn_msgs::GlobalPath path;
+    path.goal_id(7);
+    for (double x : {1.0, 4.0, 12.0}) {
+      cairn_msgs::Point p;
+      p.x_m(x);
+      p.y_m(2.0);
+      path.path_M().push_back(p);
+    }
+    v.global_path = path;
+  });
+  const std::string back = "back at (4.0, 2.0) after yielding to r1";
+  fleet_.AnswerYieldsWith([&](cairn_msgs::RobotState& s) {
+    s.yield_peer_id("r1");
+    s.yield_state("");
+    s.yield_reason(back);
+  });
+  EXPECT_EQ(shell_.Execute("yield r2 for r1"), kOk);
+  const std::string answered = Printed();
+  EXPECT_NE(answered.find("yield r2: accepted: gets out of r1's way: " + back), std::string::npos)
+      << answered;
+  // The same ended yield again: nothing shows this request was heard.
+  EXPECT_NE(shell_.Execute("yield r2 for r1"), kOk);
+  const std::string stale = Printed();
+  EXPECT_NE(stale.find("r2 did not answer within 5 s"), std::string::npos) << stale;
+}
+
 // `robots --json` gives each robot's task as the table does: its place counted over the whole fleet.
 TEST_F(CommandShellTest, JsonRobotsCountAConvoyOverTheFleet) {
   fleet_.Mutate("r2", [](RobotView& v) { v.state->convoy_ahead_ids({"r1"}); });

@@ -55,6 +55,11 @@ class FakeFleet : public Fleet {
     std::lock_guard<std::mutex> lock(mutex_);
     change(robots_.at(id));
   }
+  /// What a robot asked to yield does at once, as its next state shows it (none: it never answers).
+  void AnswerYieldsWith(std::function<void(cairn_msgs::RobotState&)> answer) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    yield_answer_ = std::move(answer);
+  }
   /// The next commands to `id` are refused with `reason` (the robot's words); "" accepts them again.
   void RefuseCommandsTo(const std::string& id, const std::string& reason) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -147,6 +152,12 @@ class FakeFleet : public Fleet {
                         const std::vector<Eigen::Vector2d>& keep_clear_M) override {
     Record("SendYield " + robot_id + " for " + passing_id + " radius=" + Num(passing_radius_m) +
            " points=" + std::to_string(keep_clear_M.size()));
+    std::function<void(cairn_msgs::RobotState&)> answer;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      answer = yield_answer_;
+    }
+    if (answer) Mutate(robot_id, [&](RobotView& v) { answer(*v.state); });
     return "";
   }
   CommandOutcome SendHome(const std::string& robot_id,
@@ -251,6 +262,7 @@ class FakeFleet : public Fleet {
   mutable std::mutex mutex_;
   std::map<std::string, RobotView> robots_;
   std::map<std::string, std::string> refusals_;
+  std::function<void(cairn_msgs::RobotState&)> yield_answer_;
   std::vector<std::string> sent_;
   std::vector<OperatorEvent> pending_events_;
   uint32_t goal_ids_ = 0;

@@ -64,8 +64,7 @@ function command(stats, line) {
 // ---- 1 and 2: three robots, one basestation, two clients ----------------------------------------------------
 if (!only3d) await fleetFigures();
 async function fleetFigures() {
-// The shipping agent config (config: ""), not the tests' lighter lidar: the figures are a real fleet's.
-await Promise.all(["r1", "r2", "r3"].map((id, i) => startRobot(id, { start: `slot:${i}`, domain: DOMAIN, config: "" })));
+await Promise.all(["r1", "r2", "r3"].map((id, i) => startRobot(id, { start: `slot:${i}`, domain: DOMAIN })));
 const base = await startBase("op1", { domain: DOMAIN });
 const wsUrl = base.url.replace(/^http/, "ws");
 const seen = new Set();

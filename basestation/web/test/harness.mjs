@@ -9,8 +9,6 @@ import { chromium } from "playwright-core";
 
 export const BUILD = process.env.CAIRN_BUILD_DIR ?? new URL("../../../build", import.meta.url).pathname;
 // One folder per test or bench file (gui, foxglove, gui_bench...): each keeps its own process logs.
-// The driving robots' agent config: the simulated lidar at half its columns (the file says why).
-const LIGHT_LIDAR_CONFIG = new URL("../../../tests/agent_light_lidar.yaml", import.meta.url).pathname;
 export const LOGS = join(BUILD, "test-logs", "gui", basename(process.argv[1] ?? "gui", ".mjs").replace(/\.test$/, ""));
 mkdirSync(LOGS, { recursive: true });
 
@@ -49,9 +47,9 @@ function startProcess(name, args) {
   return child;
 }
 
-/** A simulated robot (agent config `config`: "" for the shipping one); resolves once it printed READY. */
+/** A simulated robot (the shipping agent config, or `config`); resolves once it printed READY. */
 export async function startRobot(id, { world = "builtin:tunnels", start = "slot:0", domain, platform = "wheeled",
-  config = LIGHT_LIDAR_CONFIG }) {
+  config = "" }) {
   const child = startProcess(id, [join(BUILD, "robot_agent/cairn_agent"), "--robot-id", id, "--world", world, "--start",
     start, "--platform", platform, "--domain", String(domain), ...(config ? ["--config", config] : [])]);
   await waitFor(`${id} READY`, () => child.output().includes("READY"), 90000);
