@@ -247,7 +247,9 @@ TEST(HealthMonitor, OperatorRestartAndRefusals) {
 // asked is never run twice: the component stays down (escalated) until that loop has ended.
 class Looping : public ThreadedComponent {
  public:
-  Looping() : ThreadedComponent("looping", 100.0, 0.2) {}
+  // The shipping stop grace (2 s): a loop that stops when asked must be judged stopped even on a starved,
+  // sanitized run at nice 19 (at 0.2 s, a TSan run beside the real-time tests once judged both loops hung).
+  Looping() : ThreadedComponent("looping", 100.0, 2.0) {}
   ~Looping() override {
     release = true;
     StopLoops();
