@@ -33,6 +33,42 @@ std::string Joined(const std::vector<std::string>& ids, const char* separator) {
   return text;
 }
 
+// A passing robot's route from where it is: its position, then its global path from the point nearest it on,
+// at most 32 points in all (the IDL's bound on YieldRequest.keep_clear).
+std::vector<Eigen::Vector2d> RouteAhead(const RobotView& passing) {
+  const auto& pose = passing.state->pose_MB().position();
+  const auto& path = passing.global_path->path_M();
+  std::size_t nearest = 0;
+  double nearest_d = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    const double d = std::hypot(path[i].x_m() - pose.x_m(), path[i].y_m() - pose.y_m());
+    if (d < nearest_d) {
+      nearest_d = d;
+      nearest = i;
+    }
+  }
+  std::vector<Eigen::Vector2d> route = {{pose.x_m(), pose.y_m()}};
+  const std::size_t left = path.size() - nearest;
+  const std::size_t stride = (left + 30) / 31;
+  for (std::size_t i = nearest; i < path.size(); i += std::max<std::size_t>(stride, 1))
+    route.emplace_back(path[i].x_m(), path[i].y_m());
+  if (route.back() != Eigen::Vector2d(path.back().x_m(), path.back().y_m()) && route.size() < 32)
+    route.emplace_back(path.back().x_m(), path.back().y_m());
+  return route;
+}
+
+// Whether robot `v` answered a request to yield to `passing` sent when its state was `before`: it gives way
+// or refused, or (a robot already clear of the route ends its yield within a cycle, before a state of it is
+// sampled here) a yield to `passing` ended since the request went (its reason changed).
+bool AnswersYield(const RobotView& v, const std::string& passing, const cairn_msgs::RobotState& before) {
+  if (!v.state || v.state->yield_peer_id() != passing) return false;
+  const std::string& state = v.state->yield_state();
+  if (!state.empty()) return state != fleet::yield_state::kReturning;
+  return !v.state->yield_reason().empty() &&
+         (v.state->yield_reason() != before.yield_reason() || before.yield_peer_id() != passing ||
+          !before.yield_state().empty());
+}
+
 }  // namespace
 
 json ConvoyJson(const cairn_msgs::RobotState& s) {
@@ -280,39 +316,11 @@ int CommandShell::Yield(const std::vector<std::string>& args) {
     o.reason = passing + " has no route to keep clear (send it a goal first)";
     return Report("yield", robot, o);
   }
-  // Its route from where it is: from the path's point nearest it on, at most 32 points (the IDL's bound).
-  const auto& pose = other->state->pose_MB().position();
-  const auto& path = other->global_path->path_M();
-  std::size_t nearest = 0;
-  double nearest_d = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < path.size(); ++i) {
-    const double d = std::hypot(path[i].x_m() - pose.x_m(), path[i].y_m() - pose.y_m());
-    if (d < nearest_d) {
-      nearest_d = d;
-      nearest = i;
-    }
-  }
-  std::vector<Eigen::Vector2d> keep_clear = {{pose.x_m(), pose.y_m()}};
-  const std::size_t left = path.size() - nearest;
-  const std::size_t stride = (left + 30) / 31;
-  for (std::size_t i = nearest; i < path.size(); i += std::max<std::size_t>(stride, 1))
-    keep_clear.emplace_back(path[i].x_m(), path[i].y_m());
-  if (keep_clear.back() != Eigen::Vector2d(path.back().x_m(), path.back().y_m()) && keep_clear.size() < 32)
-    keep_clear.emplace_back(path.back().x_m(), path.back().y_m());
+  const std::vector<Eigen::Vector2d> keep_clear = RouteAhead(*other);
   const double radius_m = other->footprint_radius_m > 0 ? other->footprint_radius_m : 0.35;
-  // The answer is the robot's yield state; the request goes again once if none came. A robot already clear of
-  // the route may end its yield within a cycle, before a state of it is sampled here: a yield to `passing`
-  // that ended since the request went (its reason changed) is an answer too.
+  // The answer is the robot's yield state; the request goes again once if none came.
   const cairn_msgs::RobotState before = *view->state;
-  auto answered = [&](const RobotView& v) {
-    if (v.lost) return true;
-    if (!v.state || v.state->yield_peer_id() != passing) return false;
-    const std::string& state = v.state->yield_state();
-    if (!state.empty()) return state != fleet::yield_state::kReturning;
-    return !v.state->yield_reason().empty() &&
-           (v.state->yield_reason() != before.yield_reason() || before.yield_peer_id() != passing ||
-            !before.yield_state().empty());
-  };
+  auto answered = [&](const RobotView& v) { return v.lost || AnswersYield(v, passing, before); };
   std::optional<RobotView> answer;
   for (int attempt = 0; attempt < 2 && !answer; ++attempt) {
     if (std::string why = client_.SendYield(robot, passing, radius_m, keep_clear); !why.empty()) {

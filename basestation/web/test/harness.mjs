@@ -47,11 +47,10 @@ function startProcess(name, args) {
   return child;
 }
 
-/** A simulated robot (the shipping agent config, or `config`); resolves once it printed READY. */
-export async function startRobot(id, { world = "builtin:tunnels", start = "slot:0", domain, platform = "wheeled",
-  config = "" }) {
+/** A simulated robot; resolves once it printed READY. */
+export async function startRobot(id, { world = "builtin:tunnels", start = "slot:0", domain, platform = "wheeled" }) {
   const child = startProcess(id, [join(BUILD, "robot_agent/cairn_agent"), "--robot-id", id, "--world", world, "--start",
-    start, "--platform", platform, "--domain", String(domain), ...(config ? ["--config", config] : [])]);
+    start, "--platform", platform, "--domain", String(domain)]);
   await waitFor(`${id} READY`, () => child.output().includes("READY"), 90000);
   return child;
 }
